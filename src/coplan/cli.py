@@ -1,0 +1,182 @@
+"""The ``coplan`` command line (thin: every command calls one library entry function).
+
+Exit codes are :class:`coplan.pipeline.ExitCode`. Bad input prints the file, the key path,
+what was expected and what was found -- never a traceback (set ``COPLAN_DEBUG=1`` to see one
+for an internal error).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+os.environ.setdefault("MPLBACKEND", "Agg")  # the CLI never needs a display
+
+import typer
+from rich.console import Console
+
+from .allocate import AllocationMethod
+from .errors import CoplanError, InputError
+from .pipeline import ExitCode
+from .plan import PlannerKind
+
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    help="Plan coordinated, collision-free, jerk-limited motion for several 2R arms harvesting fruit.",
+    pretty_exceptions_enable=False,
+)
+out_console = Console()
+err_console = Console(stderr=True)
+
+
+def _fail(code: ExitCode, message: str):
+    err_console.print(f"[bold red]error[/]: {message}", markup=True, highlight=False, soft_wrap=True)
+    raise typer.Exit(int(code))
+
+
+def guarded(fn):
+    """Map coplan's errors to exit codes and clear messages (no tracebacks)."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except typer.Exit:
+            raise
+        except InputError as e:
+            err_console.print(str(e), markup=False, highlight=False, soft_wrap=True)
+            raise typer.Exit(int(ExitCode.BAD_INPUT)) from None
+        except KeyboardInterrupt:
+            err_console.print("interrupted", markup=False)
+            raise typer.Exit(int(ExitCode.INTERRUPTED)) from None
+        except CoplanError as e:
+            _fail(ExitCode.INTERNAL, str(e))
+        except Exception as e:  # noqa: BLE001 -- last-resort guard: report, never a raw traceback
+            if os.environ.get("COPLAN_DEBUG"):
+                raise
+            _fail(ExitCode.INTERNAL, f"internal error ({type(e).__name__}): {e}. Set COPLAN_DEBUG=1 for a traceback.")
+
+    return wrapper
+
+
+def _fmt(x, unit="", nd=2):
+    if x is None:
+        return "-"
+    return f"{x:.{nd}f}{unit}"
+
+
+def _resolve_problem(problem: Optional[Path]) -> Path:
+    from .problem import default_problem_path
+
+    return problem if problem is not None else default_problem_path()
+
+
+@app.command()
+@guarded
+def solve(
+    problem: Annotated[Optional[Path], typer.Argument(help="Problem YAML file (default: the shipped greenhouse row).")] = None,
+    planner: Annotated[PlannerKind, typer.Option(help="Planner to use.")] = PlannerKind.OPTIMAL,
+    allocation: Annotated[
+        Optional[AllocationMethod], typer.Option(help="Allocation method (default: the planner's own).")
+    ] = None,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-out"),
+    time_limit: Annotated[Optional[float], typer.Option(help="Optimal planner: wall-clock limit for the solve, s.")] = None,
+    animate: Annotated[bool, typer.Option("--animate", help="Also render an animation of the plan.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
+):
+    """Solve a problem, verify the plan and write plan.json (+ CSV, NPZ, verification.json)."""
+    from .pipeline import solve as run
+
+    options = None
+    if planner == PlannerKind.OPTIMAL and time_limit is not None:
+        from .optimal import OptimalOptions
+
+        options = OptimalOptions(time_limit=time_limit)
+    path = _resolve_problem(problem)
+    say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{m}[/]"))
+    res = run(path, planner=planner, allocation=allocation, out_dir=out, options=options, progress=say)
+    if animate:
+        res.files.update(_animate_files(res, out))
+    m = res.plan.metrics
+    ver = res.plan.verification or {}
+    if as_json:
+        doc = {
+            "problem": res.problem.name,
+            "planner": res.plan.planner.value,
+            "status": res.plan.status.value,
+            "exit_code": int(res.exit_code),
+            "metrics": res.plan.metrics,
+            "verification": ver,
+            "solver": res.plan.solver,
+            "files": {k: str(v) for k, v in res.files.items()},
+        }
+        out_console.print_json(json.dumps(doc, default=str))
+    else:
+        _print_summary(res)
+    raise typer.Exit(int(res.exit_code))
+
+
+def _animate_files(res, out: Path) -> dict:
+    from .viz.animate import animate_plan
+
+    path = animate_plan(res.problem, res.plan, out / "plan.gif")
+    return {"animation": path}
+
+
+def _print_summary(res) -> None:
+    m = res.plan.metrics
+    ver = res.plan.verification or {}
+    colour = "green" if res.success else "red"
+    p = out_console.print
+    p(f"[bold]{res.problem.name}[/] -- planner [bold]{res.plan.planner.value}[/], status [bold {colour}]{res.plan.status.value}[/]")
+    p(f"  fruit harvested   {m.get('harvested')}/{m.get('reachable')} reachable ({m.get('unreachable')} unreachable: {', '.join(res.plan.unreachable) or 'none'})")
+    p(f"  makespan          {_fmt(m.get('makespan'), ' s')}   (lower bound {_fmt(m.get('lower_bound'), ' s')}, ratio {_fmt(m.get('gap_to_lower_bound'), '', 3)})")
+    p(f"  cycle time/fruit  {_fmt(m.get('cycle_time'), ' s')} worst arm, {_fmt(m.get('cycle_time_mean'), ' s')} mean")
+    if ver:
+        p(
+            f"  collisions found  {ver.get('collision_count', '-')}   least clearance {_fmt(ver.get('min_clearance'), ' m', 4)}"
+            f" (certified {_fmt(ver.get('certified_clearance'), ' m', 4)}, required {_fmt(res.problem.task.clearance, ' m', 3)})"
+        )
+        if not ver.get("passed", False):
+            p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
+    solver = res.plan.solver
+    if solver.get("message"):
+        p(f"  solver            {solver.get('status', '')}: {solver['message']}")
+    t = res.timings.get("total")
+    if t is not None:
+        p(f"  solve time        {t:.2f} s")
+    for k, v in res.files.items():
+        if k in ("json", "verification", "animation", "baseline_json"):
+            p(f"  wrote             {v}")
+
+
+@app.command("problems")
+@guarded
+def list_problems():
+    """List the problem files shipped with coplan."""
+    from .problem import load_problem, shipped_problems
+
+    for path in shipped_problems():
+        p = load_problem(path)
+        out_console.print(f"{path.name:28s} {len(p.arms)} arms, {len(p.fruits):3d} fruit  {p.description}")
+    out_console.print(f"[dim]folder: {shipped_problems()[0].parent}[/]")
+
+
+# --- commands added by the verification/report and visualisation modules go below ---
+
+
+def main() -> None:
+    """Console-script entry point."""
+    try:
+        app()
+    except KeyboardInterrupt:
+        sys.exit(int(ExitCode.INTERRUPTED))
+
+
+if __name__ == "__main__":
+    main()

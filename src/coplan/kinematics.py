@@ -1,0 +1,238 @@
+"""Pure, vectorised kinematics of a planar 2R arm.
+
+Every function takes joint angles ``q`` with shape ``(..., 2)`` (``q[..., 0]`` is the
+shoulder angle theta1, ``q[..., 1]`` the elbow angle theta2, in rad) and link lengths
+``links = (l1, l2)`` in m. Positions are returned in the world frame when ``base`` is
+given, otherwise relative to the base.
+
+The forward kinematics, the Jacobian and the manipulability are written once and can be
+evaluated on NumPy arrays or on CasADi symbols (``SX``/``MX`` column vectors of length 2,
+or matrices of shape ``(T, 2)``), so the optimiser uses exactly these formulas.
+
+Conventions (as in the course's ``Robot2R``):
+    elbow = base + l1 (cos t1, sin t1)
+    tip   = elbow + l2 (cos(t1 + t2), sin(t1 + t2))
+    branch 0 ("elbow up") has t2 >= 0, branch 1 ("elbow down") has t2 <= 0.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "fk",
+    "fk_points",
+    "ik",
+    "jacobian",
+    "manipulability",
+    "singularity_proximity",
+    "in_workspace",
+    "project_to_workspace",
+    "dls_velocity",
+    "max_point_speed",
+    "wrap_angle",
+]
+
+
+def _is_casadi(x: Any) -> bool:
+    mod = type(x).__module__
+    return mod.startswith("casadi")
+
+
+def _ops(x: Any):
+    """Return (sin, cos, column-getter, hstack) for NumPy or CasADi inputs."""
+    if _is_casadi(x):
+        import casadi as ca
+
+        def col(a, i):
+            # (2,1) column vector or (T,2) matrix
+            return a[i] if a.shape[1] == 1 else a[:, i]
+
+        def stack(a, b):
+            return ca.vertcat(a, b) if a.shape[1] == 1 and a.shape[0] == 1 else ca.horzcat(a, b)
+
+        return ca.sin, ca.cos, col, stack
+    return np.sin, np.cos, (lambda a, i: a[..., i]), (lambda a, b: np.stack([a, b], axis=-1))
+
+
+def fk(q: Any, links, base=(0.0, 0.0)):
+    """Forward kinematics.
+
+    Parameters
+    ----------
+    q : array (..., 2) or CasADi (2, 1) / (T, 2)
+    links : (l1, l2)
+    base : (2,) base position in the world
+
+    Returns
+    -------
+    elbow, tip : arrays (..., 2) (CasADi: (2, 1) or (T, 2))
+    """
+    sin, cos, col, stack = _ops(q)
+    l1, l2 = float(links[0]), float(links[1])
+    t1, t2 = col(q, 0), col(q, 1)
+    ex = base[0] + l1 * cos(t1)
+    ey = base[1] + l1 * sin(t1)
+    tx = ex + l2 * cos(t1 + t2)
+    ty = ey + l2 * sin(t1 + t2)
+    return stack(ex, ey), stack(tx, ty)
+
+
+def fk_points(q: np.ndarray, links, base=(0.0, 0.0)) -> np.ndarray:
+    """Base, elbow and tip as one array of shape ``(..., 3, 2)`` (NumPy only)."""
+    q = np.asarray(q, dtype=float)
+    elbow, tip = fk(q, links, base)
+    b = np.broadcast_to(np.asarray(base, dtype=float), elbow.shape)
+    return np.stack([b, elbow, tip], axis=-2)
+
+
+def wrap_angle(a):
+    """Wrap angles into (-pi, pi]."""
+    a = np.asarray(a, dtype=float)
+    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
+    return np.where(w == -np.pi, np.pi, w)
+
+
+def ik(target, links, base=(0.0, 0.0), joint_limits=None, tol: float = 1e-9):
+    """Inverse kinematics, both elbow branches.
+
+    Parameters
+    ----------
+    target : array (..., 2) world positions
+    links : (l1, l2)
+    base : (2,)
+    joint_limits : optional array (2, 2) ``[[t1_min, t1_max], [t2_min, t2_max]]``;
+        solutions outside are marked invalid (theta1 is wrapped into (-pi, pi] first and
+        also tried shifted by +-2 pi so limits wider than pi are honoured).
+    tol : targets up to ``tol`` outside the annulus are snapped onto it.
+
+    Returns
+    -------
+    q : array (..., 2, 2) -- ``q[..., b, :]`` is branch ``b`` (0: t2 >= 0, 1: t2 <= 0);
+        NaN where invalid.
+    valid : bool array (..., 2)
+    """
+    target = np.asarray(target, dtype=float)
+    l1, l2 = float(links[0]), float(links[1])
+    p = target - np.asarray(base, dtype=float)
+    px, py = p[..., 0], p[..., 1]
+    r2 = px * px + py * py
+    r = np.sqrt(r2)
+    r_in, r_out = abs(l1 - l2), l1 + l2
+    reach = (r <= r_out + tol) & (r >= r_in - tol)
+    c2 = np.clip((r2 - l1 * l1 - l2 * l2) / (2.0 * l1 * l2), -1.0, 1.0)
+    s2 = np.sqrt(np.maximum(0.0, 1.0 - c2 * c2))
+    out = np.full(target.shape[:-1] + (2, 2), np.nan)
+    valid = np.zeros(target.shape[:-1] + (2,), dtype=bool)
+    for b, sgn in enumerate((1.0, -1.0)):
+        t2 = np.arctan2(sgn * s2, c2)
+        t1 = wrap_angle(np.arctan2(py, px) - np.arctan2(l2 * sgn * s2, l1 + l2 * c2))
+        ok = reach.copy()
+        if joint_limits is not None:
+            lim = np.asarray(joint_limits, dtype=float)
+            ok2 = (t2 >= lim[1, 0]) & (t2 <= lim[1, 1])
+            in1 = (t1 >= lim[0, 0]) & (t1 <= lim[0, 1])
+            for shift in (2.0 * np.pi, -2.0 * np.pi):
+                ts = t1 + shift
+                use = ~in1 & (ts >= lim[0, 0]) & (ts <= lim[0, 1])
+                t1 = np.where(use, ts, t1)
+                in1 = in1 | use
+            ok = ok & ok2 & in1
+        out[..., b, 0] = np.where(ok, t1, np.nan)
+        out[..., b, 1] = np.where(ok, t2, np.nan)
+        valid[..., b] = ok
+    return out, valid
+
+
+def jacobian(q: Any, links):
+    """Tip Jacobian d(tip)/dq.
+
+    NumPy: ``q`` (..., 2) -> (..., 2, 2). CasADi: ``q`` (2, 1) -> (2, 2).
+    """
+    sin, cos, col, _ = _ops(q)
+    l1, l2 = float(links[0]), float(links[1])
+    t1, t2 = col(q, 0), col(q, 1)
+    s1, c1 = sin(t1), cos(t1)
+    s12, c12 = sin(t1 + t2), cos(t1 + t2)
+    if _is_casadi(q):
+        import casadi as ca
+
+        return ca.vertcat(
+            ca.horzcat(-l1 * s1 - l2 * s12, -l2 * s12),
+            ca.horzcat(l1 * c1 + l2 * c12, l2 * c12),
+        )
+    row0 = np.stack([-l1 * s1 - l2 * s12, -l2 * s12], axis=-1)
+    row1 = np.stack([l1 * c1 + l2 * c12, l2 * c12], axis=-1)
+    return np.stack([row0, row1], axis=-2)
+
+
+def manipulability(q: Any, links):
+    """Yoshikawa manipulability |det J| = l1 l2 |sin t2|; shape (...)."""
+    sin, _, col, _ = _ops(q)
+    l1, l2 = float(links[0]), float(links[1])
+    s = sin(col(q, 1))
+    if _is_casadi(q):
+        import casadi as ca
+
+        return l1 * l2 * ca.fabs(s)
+    return l1 * l2 * np.abs(s)
+
+
+def singularity_proximity(q, links) -> np.ndarray:
+    """How close to singular, in [0, 1]: 1 at a singular pose (t2 = 0 or pi), 0 at the best one."""
+    l1, l2 = float(links[0]), float(links[1])
+    return 1.0 - np.asarray(manipulability(np.asarray(q, dtype=float), links)) / (l1 * l2)
+
+
+def in_workspace(target, links, base=(0.0, 0.0), margin: float = 0.0) -> np.ndarray:
+    """Whether targets (..., 2) lie inside the reachable annulus shrunk by ``margin``."""
+    p = np.asarray(target, dtype=float) - np.asarray(base, dtype=float)
+    r = np.hypot(p[..., 0], p[..., 1])
+    l1, l2 = float(links[0]), float(links[1])
+    return (r <= l1 + l2 - margin) & (r >= abs(l1 - l2) + margin)
+
+
+def project_to_workspace(target, links, base=(0.0, 0.0), margin: float = 0.05) -> np.ndarray:
+    """Project targets (..., 2) onto the annulus shrunk by ``margin`` (the course's rule).
+
+    A target at the base itself is sent to the inner boundary along +x.
+    """
+    target = np.asarray(target, dtype=float)
+    base = np.asarray(base, dtype=float)
+    l1, l2 = float(links[0]), float(links[1])
+    r_in, r_out = abs(l1 - l2) + margin, l1 + l2 - margin
+    d = target - base
+    r = np.hypot(d[..., 0], d[..., 1])
+    safe_r = np.where(r < 1e-10, 1.0, r)
+    direction = np.where((r < 1e-10)[..., None], np.array([1.0, 0.0]), d / safe_r[..., None])
+    new_r = np.clip(np.where(r < 1e-10, r_in, r), r_in, r_out)
+    return np.where(((r >= r_in) & (r <= r_out))[..., None], target, base + direction * new_r[..., None])
+
+
+def dls_velocity(J: np.ndarray, v_desired: np.ndarray, threshold: float = 0.05, damping: float = 0.1) -> np.ndarray:
+    """Damped-least-squares resolved-rate solver from the course.
+
+    ``qd = J^T (J J^T + lam^2 I)^-1 v`` with ``lam = damping (1 - |det J| / threshold)`` when
+    ``|det J| < threshold``, the plain inverse otherwise. ``J`` (..., 2, 2), ``v`` (..., 2).
+    Always finite, also at exactly singular poses.
+    """
+    J = np.asarray(J, dtype=float)
+    v = np.asarray(v_desired, dtype=float)
+    det = np.abs(np.linalg.det(J))
+    lam = np.where(det < threshold, damping * (1.0 - det / threshold), 0.0)
+    JJt = J @ np.swapaxes(J, -1, -2) + (lam**2)[..., None, None] * np.eye(2)
+    # where lam == 0 the pose is regular enough for the plain inverse: J^T (J J^T)^-1 = J^-1
+    y = np.linalg.solve(JJt, v[..., None])[..., 0]
+    return np.einsum("...ji,...j->...i", J, y)
+
+
+def max_point_speed(qd, links) -> np.ndarray:
+    """Upper bound on the speed of any point of the arm for joint rates ``qd`` (..., 2).
+
+    A point on link 1 moves at most l1 |qd1|; on link 2 at most l1 |qd1| + l2 |qd1 + qd2|.
+    """
+    qd = np.asarray(qd, dtype=float)
+    l1, l2 = float(links[0]), float(links[1])
+    return l1 * np.abs(qd[..., 0]) + l2 * np.abs(qd[..., 0] + qd[..., 1])

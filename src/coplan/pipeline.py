@@ -1,0 +1,156 @@
+"""The end-to-end facade: problem -> allocate -> plan -> verify -> (files).
+
+Entry point: :func:`solve` (re-exported as ``coplan.solve``). Nothing is called a success
+unless the independent verifier passed it and every reachable fruit was harvested.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field
+from enum import IntEnum
+from pathlib import Path
+
+from .allocate import AllocationMethod, allocate
+from .heuristic import plan_heuristic
+from .plan import Plan, PlannerKind, PlanStatus, compute_metrics
+from .problem import Problem, load_problem
+
+__all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
+
+
+class ExitCode(IntEnum):
+    """Process exit codes of the ``coplan`` command (documented in the README)."""
+
+    OK = 0  # verified success
+    INTERNAL = 1  # a bug: unexpected internal error
+    USAGE = 2  # bad command-line usage
+    BAD_INPUT = 3  # a problem or plan file is invalid
+    INFEASIBLE = 4  # nothing could be planned (no reachable fruit, solver proved infeasible)
+    PARTIAL = 5  # verified safe but not every reachable fruit harvested
+    UNSAFE = 6  # verification failed (collisions, limits, missed picks)
+    SOLVER_FAILED = 7  # solver hit a limit or a numerical error; best iterate kept
+    INTERRUPTED = 130  # Ctrl-C; what there was is saved
+
+
+_STATUS_EXIT = {
+    PlanStatus.SUCCESS: ExitCode.OK,
+    PlanStatus.PARTIAL: ExitCode.PARTIAL,
+    PlanStatus.UNSAFE: ExitCode.UNSAFE,
+    PlanStatus.UNVERIFIED: ExitCode.UNSAFE,
+    PlanStatus.INFEASIBLE: ExitCode.INFEASIBLE,
+    PlanStatus.FAILED: ExitCode.SOLVER_FAILED,
+    PlanStatus.INTERRUPTED: ExitCode.INTERRUPTED,
+}
+
+
+def status_exit_code(status: PlanStatus) -> ExitCode:
+    return _STATUS_EXIT[status]
+
+
+@dataclass
+class SolveResult:
+    """What :func:`solve` returns: the plan, its verification, the baseline, files written."""
+
+    problem: Problem
+    plan: Plan
+    verification: object | None
+    baseline: Plan | None = None
+    files: dict[str, Path] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def status(self) -> PlanStatus:
+        return self.plan.status
+
+    @property
+    def exit_code(self) -> ExitCode:
+        return status_exit_code(self.plan.status)
+
+    @property
+    def success(self) -> bool:
+        return self.plan.status == PlanStatus.SUCCESS
+
+
+def finalize(problem: Problem, plan: Plan, verification) -> Plan:
+    """Set the plan's status from the verifier's verdict (never upgrades a solver failure)."""
+    plan.verification = verification.summary() if verification is not None else None
+    n_reach = len(problem.reachable_ids())
+    lb = plan.metrics.get("lower_bound")
+    plan.metrics = compute_metrics(plan, n_reach) | {k: v for k, v in plan.metrics.items() if k in ("lower_bound",)}
+    if lb:
+        plan.metrics["gap_to_lower_bound"] = plan.metrics["makespan"] / lb if plan.metrics["makespan"] else None
+    if plan.status in (PlanStatus.FAILED, PlanStatus.INTERRUPTED, PlanStatus.INFEASIBLE):
+        return plan
+    if verification is None:
+        plan.status = PlanStatus.UNVERIFIED
+    elif not verification.passed:
+        plan.status = PlanStatus.UNSAFE
+    elif n_reach == 0:
+        plan.status = PlanStatus.INFEASIBLE
+    elif plan.metrics["harvested"] < n_reach:
+        plan.status = PlanStatus.PARTIAL
+    else:
+        plan.status = PlanStatus.SUCCESS
+    return plan
+
+
+def solve(
+    problem: Problem | str | Path,
+    planner: PlannerKind | str = PlannerKind.OPTIMAL,
+    allocation: AllocationMethod | str | None = None,
+    out_dir: str | Path | None = None,
+    options=None,
+    progress=None,
+) -> SolveResult:
+    """Solve a problem end to end and verify the result.
+
+    Parameters
+    ----------
+    problem : a :class:`Problem` or the path of a YAML problem file
+    planner : ``optimal`` (default) or ``heuristic``
+    allocation : ``makespan`` or ``heuristic``; default: the planner's own
+        (``heuristic`` for the baseline, ``makespan`` for the optimal planner)
+    out_dir : when given, ``plan.json`` (+ CSV, NPZ), ``verification.json`` and, for the
+        optimal planner, ``baseline.json`` are written there
+    options : :class:`coplan.optimal.OptimalOptions` for the optimal planner
+    progress : optional callable(str) receiving progress messages
+    """
+    from .verify import verify
+
+    t0 = _time.perf_counter()
+    prob = problem if isinstance(problem, Problem) else load_problem(problem)
+    planner = PlannerKind(planner)
+    say = progress or (lambda msg: None)
+    timings: dict[str, float] = {}
+    baseline = None
+    files: dict[str, Path] = {}
+    if planner == PlannerKind.HEURISTIC:
+        method = AllocationMethod(allocation or AllocationMethod.HEURISTIC)
+        ta = _time.perf_counter()
+        alloc = allocate(prob, method)
+        timings["allocation"] = _time.perf_counter() - ta
+        tp = _time.perf_counter()
+        plan = plan_heuristic(prob, alloc)
+        timings["plan"] = _time.perf_counter() - tp
+        tv = _time.perf_counter()
+        ver = verify(prob, plan)
+        timings["verify"] = _time.perf_counter() - tv
+        plan = finalize(prob, plan, ver)
+    else:
+        from .optimal import plan_optimal
+
+        method = AllocationMethod(allocation or AllocationMethod.MAKESPAN)
+        res = plan_optimal(prob, allocation=method, options=options, progress=say)
+        plan, ver, baseline = res.plan, res.verification, res.baseline
+        timings.update(res.timings)
+    plan.solver.setdefault("timings", {}).update(timings)
+    timings["total"] = _time.perf_counter() - t0
+    if out_dir is not None:
+        out = Path(out_dir)
+        if baseline is not None:
+            files.update({f"baseline_{k}": v for k, v in baseline.save(out, "baseline").items()})
+        files.update(plan.save(out, "plan"))
+        if ver is not None:
+            files["verification"] = ver.save(out / "verification.json")
+    return SolveResult(prob, plan, ver, baseline, files, timings)

@@ -1,0 +1,146 @@
+"""Rest-to-rest timing laws: the course's cubic and the jerk-limited S-curve.
+
+All functions are pure and work on plain floats / NumPy arrays.
+
+* :func:`cubic_min_time` -- shortest duration of the course's cubic ``s = 3 tau^2 - 2 tau^3``
+  that keeps every joint inside its velocity and acceleration limits
+  (peak velocity ``1.5 D / T``, peak acceleration ``6 D / T^2``).
+* :func:`scurve_time` -- time-optimal rest-to-rest duration of one joint under velocity,
+  acceleration and jerk limits (the classical 7-phase S-curve).
+* :class:`SCurve` -- a rest-to-rest move between two joint poses in which every joint runs
+  its own time-optimal S-curve, the faster ones slowed to end with the slowest: its
+  duration equals :func:`move_lower_bound`, so it is the fastest possible move.
+* :func:`move_lower_bound` -- ``max_i scurve_time(|dq_i|, v_i, a_i, j_i)``: no motion of any
+  shape between the two poses can be faster.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["cubic_min_time", "cubic_eval", "scurve_time", "SCurve", "move_lower_bound"]
+
+
+def cubic_min_time(dq, vmax, amax) -> float:
+    """Shortest cubic duration keeping ``|qd| <= vmax`` and ``|qdd| <= amax`` on every joint."""
+    d = np.abs(np.asarray(dq, dtype=float))
+    v = np.asarray(vmax, dtype=float)
+    a = np.asarray(amax, dtype=float)
+    t = np.maximum(1.5 * d / v, np.sqrt(6.0 * d / a))
+    return float(np.max(t)) if t.size else 0.0
+
+
+def cubic_eval(q0, q1, T: float, t):
+    """Course cubic from ``q0`` to ``q1`` over ``T`` seconds at times ``t`` (K,) -> (K, 2)."""
+    q0, q1 = np.asarray(q0, float), np.asarray(q1, float)
+    tau = np.clip(np.asarray(t, float) / T, 0.0, 1.0) if T > 0 else np.ones_like(np.asarray(t, float))
+    s = 3 * tau**2 - 2 * tau**3
+    return q0 + s[:, None] * (q1 - q0)
+
+
+def _phases(D: float, v: float, a: float, j: float):
+    """Durations and jerks of the 7 phases of a rest-to-rest S-curve over distance D >= 0."""
+    if D <= 0:
+        return [], []
+    # peak velocity: v if reachable, else the largest with no cruise phase
+    def accel_time(vp):
+        return vp / a + a / j if vp >= a * a / j else 2.0 * math.sqrt(vp / j)
+
+    if D >= v * accel_time(v):
+        vp = v
+    else:
+        vp = (-a / j + math.sqrt((a / j) ** 2 + 4.0 * D / a)) * a / 2.0
+        if vp < a * a / j:
+            vp = (D * math.sqrt(j) / 2.0) ** (2.0 / 3.0)
+    ap = min(a, math.sqrt(vp * j))
+    tj = ap / j
+    ta = max(0.0, vp / ap - ap / j)
+    tc = max(0.0, (D - vp * accel_time(vp)) / vp)
+    durs = [tj, ta, tj, tc, tj, ta, tj]
+    jerks = [j, 0.0, -j, 0.0, -j, 0.0, j]
+    return durs, jerks
+
+
+def scurve_time(D: float, v: float, a: float, j: float) -> float:
+    """Time-optimal rest-to-rest duration for distance ``|D|`` under limits v, a, j (> 0)."""
+    return float(sum(_phases(abs(float(D)), float(v), float(a), float(j))[0]))
+
+
+def move_lower_bound(q0, q1, vmax, amax, jmax) -> float:
+    """No motion between rest poses q0 and q1 respecting the limits is faster than this."""
+    dq = np.abs(np.asarray(q1, float) - np.asarray(q0, float))
+    return max((scurve_time(d, v, a, j) for d, v, a, j in zip(dq, vmax, amax, jmax)), default=0.0)
+
+
+def _profile(durs, jerks, t):
+    """Evaluate a 1-D rest-to-rest jerk profile (from 0) at times t: p, v, a, j arrays."""
+    t = np.asarray(t, float)
+    total = float(sum(durs))
+    t = np.clip(t, 0.0, total)
+    out = [np.zeros_like(t) for _ in range(4)]
+    p = v = acc = 0.0
+    t0 = 0.0
+    for k, (d, jk) in enumerate(zip(durs, jerks)):
+        last = k == len(durs) - 1
+        m = (t >= t0) & ((t < t0 + d) | last)
+        tau = t[m] - t0
+        out[0][m] = p + v * tau + acc * tau**2 / 2 + jk * tau**3 / 6
+        out[1][m] = v + acc * tau + jk * tau**2 / 2
+        out[2][m] = acc + jk * tau
+        out[3][m] = jk
+        p, v, acc = p + v * d + acc * d**2 / 2 + jk * d**3 / 6, v + acc * d + jk * d**2 / 2, acc + jk * d
+        t0 += d
+    return out
+
+
+@dataclass(frozen=True)
+class SCurve:
+    """Rest-to-rest joint move where every joint runs its own time-optimal S-curve.
+
+    The slowest joint sets the duration (which is therefore :func:`move_lower_bound`, the
+    fastest possible); every other joint's time-optimal profile is slowed down uniformly
+    in time to end at the same instant, which scales its velocity, acceleration and jerk
+    down by k, k^2, k^3 (k <= 1), so all limits hold and all joints start and stop together.
+    """
+
+    q0: tuple[float, float]
+    q1: tuple[float, float]
+    profiles: tuple  # per joint: (durations, jerks) over distance |q1 - q0|
+    duration: float
+
+    @classmethod
+    def between(cls, q0, q1, vmax, amax, jmax) -> "SCurve":
+        q0 = tuple(float(x) for x in q0)
+        q1 = tuple(float(x) for x in q1)
+        profs = tuple(_phases(abs(b - a), v, ac, j) for a, b, v, ac, j in zip(q0, q1, vmax, amax, jmax))
+        duration = max((float(sum(d)) for d, _ in profs), default=0.0)
+        return cls(q0, q1, profs, duration)
+
+    def derivatives(self, t):
+        """Joint (pos, vel, acc, jerk), each (K, 2), at times ``t`` (K,) from the move's start."""
+        t = np.asarray(t, float)
+        out = np.zeros((4, t.size, 2))
+        for i, (durs, jerks) in enumerate(self.profiles):
+            d = self.q1[i] - self.q0[i]
+            out[0, :, i] = self.q0[i]
+            if not durs or self.duration <= 0:
+                continue
+            Ti = float(sum(durs))
+            k = Ti / self.duration
+            p, v, a, j = _profile(durs, jerks, np.clip(t, 0, self.duration) * k)
+            sg = np.sign(d)
+            out[0, :, i] = self.q0[i] + sg * p
+            out[1, :, i] = sg * v * k
+            out[2, :, i] = sg * a * k**2
+            out[3, :, i] = sg * j * k**3
+            end = t >= self.duration
+            out[0, end, i] = self.q1[i]
+            out[1:, end, i] = 0.0
+        return out
+
+    def eval(self, t):
+        """Joint positions (K, 2) at times ``t`` (K,) measured from the start of the move."""
+        return self.derivatives(t)[0]
