@@ -1,0 +1,645 @@
+"""The joint trajectory optimisation of all arms: one CasADi NLP solved with IPOPT (MUMPS).
+
+Formulation (``build_nlp`` builds, ``solve_nlp`` solves; nothing here plans on its own):
+
+* One time grid shared by every arm, knots ``t_0 = 0 < t_1 < ... < t_K``, whose interval
+  lengths ``h_k`` are decision variables. The grid holds every step boundary of the warm
+  start, so each pick/place/hold is pinned to a knot range while its timing stays free.
+* Per arm and knot the state ``(q, qd, qdd)`` (6 numbers); per interval a constant jerk
+  (2 numbers). Integration is exact (a cubic per interval), so the continuous trajectory is
+  known between knots.
+* Bounds: joint limits; velocity (shrunk by ``jmax h_max^2 / 8``, the most a velocity can
+  overshoot its knot values inside an interval); acceleration (linear inside an interval, so
+  knot bounds are exact); jerk. Picks/places: pose fixed at the IK pose, zero velocity and
+  acceleration, for at least the dwell (sum of its ``h_k``). Start at home at rest; after its
+  last step, an arm rests at home.
+* Link separation: for chosen (knot, fraction-of-interval) points and neighbouring arm
+  pairs, a separating line per link pair -- normal angle ``theta`` and offset ``c`` as extra
+  variables -- with both capsules on opposite sides, ``clearance + margin`` apart. This is
+  exact for segments (two convex sets are this far apart iff such a line exists) and smooth.
+* Objective: the makespan ``M >= (end of each arm's last place)``, plus small terms for
+  every arm finishing early, the whole plan's length and jerk smoothness.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import signal
+import time as _time
+from dataclasses import dataclass, field
+from enum import Enum
+
+import casadi as ca
+import numpy as np
+
+from . import kinematics as kin
+from .problem import Problem
+from .schedule import ArmSchedule, StepKind
+
+__all__ = ["SolverStatus", "Grid", "ConstraintPoint", "NLP", "NLPSolution", "build_grid", "build_nlp", "solve_nlp"]
+
+
+class SolverStatus(str, Enum):
+    OPTIMAL = "optimal"
+    ACCEPTABLE = "acceptable"
+    LIMIT_REACHED = "limit_reached"
+    INFEASIBLE = "infeasible"
+    NUMERICAL_ERROR = "numerical_error"
+    INTERRUPTED = "interrupted"
+
+    @property
+    def converged(self) -> bool:
+        return self in (SolverStatus.OPTIMAL, SolverStatus.ACCEPTABLE)
+
+
+_IPOPT_STATUS = {
+    "Solve_Succeeded": SolverStatus.OPTIMAL,
+    "Solved_To_Acceptable_Level": SolverStatus.ACCEPTABLE,
+    "Feasible_Point_Found": SolverStatus.ACCEPTABLE,
+    "Maximum_Iterations_Exceeded": SolverStatus.LIMIT_REACHED,
+    "Maximum_CpuTime_Exceeded": SolverStatus.LIMIT_REACHED,
+    "Maximum_WallTime_Exceeded": SolverStatus.LIMIT_REACHED,
+    "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE,
+    "User_Requested_Stop": SolverStatus.INTERRUPTED,
+}
+
+
+def map_status(ipopt_status: str) -> SolverStatus:
+    """IPOPT's return status -> coplan's :class:`SolverStatus` (anything else: numerical error)."""
+    return _IPOPT_STATUS.get(ipopt_status, SolverStatus.NUMERICAL_ERROR)
+
+
+# ----------------------------------------------------------------------------- grid
+@dataclass(frozen=True)
+class Grid:
+    """Shared knot grid: warm-start knot times and, per arm, each step's knot range."""
+
+    t: np.ndarray  # (K+1,)
+    ranges: dict[str, list[tuple[int, int]]]  # arm -> per step (k0, k1)
+    segment: np.ndarray  # (K,) index of the union segment (between step boundaries) of each interval
+
+    @property
+    def K(self) -> int:
+        return self.t.size - 1
+
+
+def build_grid(schedules: dict[str, ArmSchedule], h_target: float = 0.06, merge_tol: float = 0.004) -> Grid:
+    """Union of every arm's step boundaries, intervals subdivided to at most ``h_target``."""
+    bounds = [0.0]
+    t_end = max((s.end for s in schedules.values()), default=0.0)
+    for s in schedules.values():
+        for st in s.steps:
+            bounds += [st.t0, st.t1]
+    bounds.append(t_end)
+    b = np.unique(np.round(np.asarray(bounds), 9))
+    reps = [b[0]]
+    for x in b[1:]:
+        if x - reps[-1] > merge_tol:
+            reps.append(x)
+    reps = np.asarray(reps)
+    knots = [reps[0]]
+    segment: list[int] = []
+    for i, (x0, x1) in enumerate(zip(reps[:-1], reps[1:])):
+        n = max(1, int(math.ceil((x1 - x0) / h_target - 1e-9)))
+        knots += list(x0 + (x1 - x0) * np.arange(1, n + 1) / n)
+        segment += [i] * n
+    knots = np.asarray(knots)
+
+    def idx(x):
+        return int(np.argmin(np.abs(knots - x)))
+
+    ranges = {name: [(idx(st.t0), idx(st.t1)) for st in s.steps] for name, s in schedules.items()}
+    return Grid(knots, ranges, np.asarray(segment, dtype=int))
+
+
+@dataclass(frozen=True)
+class ConstraintPoint:
+    """A separation constraint: at knot ``k`` + ``tau`` of its interval, arms ``ia``/``ib``, links ``s``/``u``."""
+
+    k: int
+    tau: float
+    ia: int
+    ib: int
+    s: int
+    u: int
+
+
+# ----------------------------------------------------------------------------- NLP
+@dataclass
+class NLP:
+    """A built NLP: CasADi solver plus bounds, warm start and the variable layout."""
+
+    problem: dict  # {"x", "f", "g"} CasADi SX expressions
+    options: dict  # nlpsol options (IPOPT)
+    x0: np.ndarray
+    lbx: np.ndarray
+    ubx: np.ndarray
+    lbg: np.ndarray
+    ubg: np.ndarray
+    layout: dict
+    scales: dict
+    grid: Grid
+    points: list[ConstraintPoint]
+    build_seconds: float
+    n_vars: int
+    n_cons: int
+
+
+@dataclass
+class NLPSolution:
+    status: SolverStatus
+    ipopt_status: str
+    iterations: int
+    t: np.ndarray  # (K+1,) knot times
+    X: dict[str, np.ndarray]  # arm -> (6, K+1)
+    U: dict[str, np.ndarray]  # arm -> (2, K)
+    objective: float
+    solve_seconds: float
+    max_violation: float
+    x: np.ndarray = field(repr=False, default=None)
+    lam_x: np.ndarray | None = field(repr=False, default=None)
+    lam_g: np.ndarray | None = field(repr=False, default=None)
+
+    def sample(self, times) -> dict[str, np.ndarray]:
+        """Exact joint positions at ``times`` (N,) -> arm -> (N, 2)."""
+        times = np.clip(np.asarray(times, float), 0.0, self.t[-1])
+        k = np.clip(np.searchsorted(self.t, times, side="right") - 1, 0, self.t.size - 2)
+        tau = times - self.t[k]
+        out = {}
+        for a, X in self.X.items():
+            U = self.U[a]
+            q = X[0:2, k] + X[2:4, k] * tau + X[4:6, k] * tau**2 / 2 + U[:, k] * tau**3 / 6
+            out[a] = q.T
+        return out
+
+
+def _var_state(problem: Problem, sch: ArmSchedule, grid: Grid, vmargin: np.ndarray):
+    """Bounds and warm start of one arm's (6, K+1) states and (2, K) jerks."""
+    arm = sch.arm
+    K = grid.K
+    lim = arm.limits
+    v = np.asarray(arm.max_velocity) - vmargin
+    a = np.asarray(arm.max_acceleration)
+    j = np.asarray(arm.max_jerk)
+    lo = np.vstack([lim[:, 0:1], -v[:, None], -a[:, None]]) * np.ones((1, K + 1))
+    hi = np.vstack([lim[:, 1:2], v[:, None], a[:, None]]) * np.ones((1, K + 1))
+    ulo = -j[:, None] * np.ones((1, K))
+    uhi = j[:, None] * np.ones((1, K))
+    state = sch.state(grid.t)  # (3, K+1, 2)
+    X0 = np.concatenate([state[0].T, state[1].T, state[2].T], axis=0)
+    X0 = np.clip(X0, lo, hi)
+
+    def fix(k0, k1, q):
+        rest = np.r_[np.asarray(q, float), 0.0, 0.0, 0.0, 0.0][:, None]
+        lo[:, k0 : k1 + 1] = rest
+        hi[:, k0 : k1 + 1] = rest
+        X0[:, k0 : k1 + 1] = rest
+        ulo[:, k0:k1] = 0.0
+        uhi[:, k0:k1] = 0.0
+
+    home = np.asarray(arm.home, float)
+    fix(0, 0, home)
+    dwell_ranges = []
+    ranges = grid.ranges[arm.name]
+    for st, (k0, k1) in zip(sch.steps, ranges):
+        if st.kind in (StepKind.PICK, StepKind.PLACE):
+            fix(k0, k1, st.q1)
+            dwell_ranges.append((k0, k1, st.duration))
+    k_last = ranges[-1][1] if ranges else 0
+    fix(k_last, K, home)
+    h = np.diff(grid.t)
+    U0 = np.where(h > 0, np.diff(X0[4:6], axis=1) / np.where(h > 0, h, 1.0), 0.0)
+    U0 = np.clip(U0, ulo, uhi)
+    place_ends = [k1 for st, (k0, k1) in zip(sch.steps, ranges) if st.kind == StepKind.PLACE]
+    return lo, hi, X0, ulo, uhi, U0, dwell_ranges, (max(place_ends) if place_ends else 0)
+
+
+@functools.lru_cache(maxsize=1)
+def _kernels():
+    """Small SX kernels, mapped over intervals/points inside an MX problem (fast to build)."""
+    xk, xk1 = ca.SX.sym("xk", 6), ca.SX.sym("xk1", 6)
+    u, h, sc = ca.SX.sym("u", 2), ca.SX.sym("h"), ca.SX.sym("sc", 8)
+    X, X1, U = xk * sc[0:6], xk1 * sc[0:6], u * sc[6:8]
+    res = ca.vertcat(
+        X1[0:2] - (X[0:2] + X[2:4] * h + X[4:6] * h**2 / 2 + U * h**3 / 6),
+        (X1[2:4] - (X[2:4] + X[4:6] * h + U * h**2 / 2)) / sc[2:4],
+        (X1[4:6] - (X[4:6] + U * h)) / sc[4:6],
+    )
+    dyn = ca.Function("dyn", [xk, xk1, u, h, sc], [res])
+    # separation: states of both arms at knot + tau*h, a line (theta, c) between link s of A and u of B
+    xa, xb = ca.SX.sym("xa", 6), ca.SX.sym("xb", 6)
+    ua, ub = ca.SX.sym("ua", 2), ca.SX.sym("ub", 2)
+    tau, th, c = ca.SX.sym("tau"), ca.SX.sym("th"), ca.SX.sym("c")
+    geo = ca.SX.sym("geo", 14)  # base_a(2) links_a(2) base_b(2) links_b(2) s u need_a need_b jscale_a(2)... see below
+    sca, scb = ca.SX.sym("sca", 8), ca.SX.sym("scb", 8)
+
+    def q_at(x, uu, scv):
+        Xp, Up = x * scv[0:6], uu * scv[6:8]
+        dt = tau * h
+        return Xp[0:2] + Xp[2:4] * dt + Xp[4:6] * dt**2 / 2 + Up * dt**3 / 6
+
+    def link(q, base, links, sel):
+        elbow = base + links[0] * ca.vertcat(ca.cos(q[0]), ca.sin(q[0]))
+        tip = elbow + links[1] * ca.vertcat(ca.cos(q[0] + q[1]), ca.sin(q[0] + q[1]))
+        return (1 - sel) * base + sel * elbow, (1 - sel) * elbow + sel * tip
+
+    qa, qb = q_at(xa, ua, sca), q_at(xb, ub, scb)
+    pa0, pa1 = link(qa, geo[0:2], geo[2:4], geo[8])
+    pb0, pb1 = link(qb, geo[4:6], geo[6:8], geo[9])
+    n = ca.vertcat(ca.cos(th), ca.sin(th))
+    out = ca.vertcat(
+        ca.dot(n, pa0) + c - geo[10],
+        ca.dot(n, pa1) + c - geo[10],
+        -(ca.dot(n, pb0) + c) - geo[11],
+        -(ca.dot(n, pb1) + c) - geo[11],
+    )
+    sep = ca.Function("sep", [xa, ua, xb, ub, h, tau, th, c, geo, sca, scb], [out])
+    return dyn, sep
+
+
+def build_nlp(
+    problem: Problem,
+    schedules: dict[str, ArmSchedule],
+    grid: Grid,
+    points: list[ConstraintPoint],
+    margin: float,
+    window: tuple[int, int] | None = None,
+    start: dict[str, np.ndarray] | None = None,
+    h_bounds: tuple[float, float] = (0.3, 2.0),
+    h_max: float = 0.09,
+    ipopt_options: dict | None = None,
+    warm: "NLPSolution | None" = None,
+    smooth_weight: float = 1e-2,
+) -> NLP:
+    """Build the NLP over knots ``window = (lo, hi)`` of ``grid`` (default: all).
+
+    ``start`` fixes each arm's state (6,) at knot ``lo`` (the previous window's end); when
+    ``hi < K`` the arms must reach the warm start's state at knot ``hi``, so the next window
+    can follow. The objective is the makespan in the last window and the window's duration
+    in the others.
+    """
+    t0 = _time.perf_counter()
+    dyn, sep = _kernels()
+    names = [a.name for a in problem.arms]
+    lo_k, hi_k = window if window is not None else (0, grid.K)
+    K = hi_k - lo_k
+    last = hi_k == grid.K
+    h0 = np.diff(grid.t)[lo_k:hi_k]
+    # one time scale per union segment (the intervals between two step boundaries of any
+    # arm): h_k = h0_k * eta[segment(k)]; every variable is scaled to O(1)
+    seg = grid.segment[lo_k:hi_k]
+    _, seg_of = np.unique(seg, return_inverse=True)
+    nseg = int(seg_of.max()) + 1 if K else 0
+    hmax_seg = np.array([h0[seg_of == i].max() for i in range(nseg)])
+    elo = np.full(nseg, h_bounds[0])
+    ehi = np.maximum(np.minimum(h_bounds[1], h_max / hmax_seg), elo)
+    seg_len = np.array([h0[seg_of == i].sum() for i in range(nseg)])
+    seg_end0 = np.cumsum(seg_len)
+    # knot k (a segment boundary) -> index into [0, T_0, T_1, ...]: the time at the knot
+    boundary = {0: 0}
+    for i in range(nseg):
+        boundary[int(np.flatnonzero(seg_of == i).max()) + 1] = i + 1
+    blocks = [
+        ("eta", nseg, elo, ehi, np.clip(np.ones(nseg), elo, ehi)),
+        ("T", nseg, np.zeros(nseg), np.full(nseg, np.inf), seg_end0),
+    ]
+    per_arm = {}
+    for name in names:
+        sch = schedules[name]
+        arm = problem.arm(name)
+        vmargin = np.asarray(arm.max_jerk) * h_max**2 / 8.0
+        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid, vmargin)
+        lo, hi, X0 = lo[:, lo_k : hi_k + 1], hi[:, lo_k : hi_k + 1], X0[:, lo_k : hi_k + 1]
+        ulo, uhi, U0 = ulo[:, lo_k:hi_k], uhi[:, lo_k:hi_k], U0[:, lo_k:hi_k]
+        if start is not None:
+            lo[:, 0] = hi[:, 0] = X0[:, 0] = start[name]
+        if not last:
+            lo[:, -1] = hi[:, -1] = X0[:, -1]
+        sx = np.r_[1.0, 1.0, arm.max_velocity, arm.max_acceleration][:, None]
+        su = np.asarray(arm.max_jerk, float)[:, None]
+        per_arm[name] = (lo, hi, ulo, uhi, dwells, k_end, sx, su)
+        blocks.append((f"X_{name}", 6 * (K + 1), (lo / sx).ravel("F"), (hi / sx).ravel("F"), (X0 / sx).ravel("F")))
+        blocks.append((f"U_{name}", 2 * K, (ulo / su).ravel("F"), (uhi / su).ravel("F"), (U0 / su).ravel("F")))
+    nlines = len(points)
+    th0, c0 = np.zeros(nlines), np.zeros(nlines)
+    for i, p in enumerate(points):
+        th0[i], c0[i] = _line_guess(problem, schedules, names, grid, p)
+    blocks.append(("theta", nlines, np.full(nlines, -np.inf), np.full(nlines, np.inf), th0))
+    blocks.append(("c", nlines, np.full(nlines, -np.inf), np.full(nlines, np.inf), c0))
+    blocks.append(("M", 1, np.zeros(1), np.full(1, np.inf), np.zeros(1)))
+    layout: dict = {}
+    off = 0
+    for key, n, *_ in blocks:
+        layout[key] = (off, off + n)
+        off += n
+    x = ca.MX.sym("x", off)
+
+    def var(key):
+        a_, b_ = layout[key]
+        return x[a_:b_]
+
+    eta = var("eta")
+    H = eta[[int(i) for i in seg_of]] * ca.DM(h0)
+    Tb = ca.vertcat(0, var("T"))  # time at each segment boundary (sparse chain below)
+
+    def time_at(k: int):
+        return Tb[boundary[k]]
+
+    g, lbg, ubg = [], [], []
+    g.append(var("T") - ca.vertcat(0, var("T")[:-1]) - eta * ca.DM(seg_len))
+    lbg.append(np.zeros(nseg))
+    ubg.append(np.zeros(nseg))
+    Xn, Un, SC, ends = {}, {}, {}, {}
+    smooth = 0
+    for name in names:
+        lo, hi, ulo, uhi, dwells, k_end, sx, su = per_arm[name]
+        Xn[name] = ca.reshape(var(f"X_{name}"), 6, K + 1)
+        Un[name] = ca.reshape(var(f"U_{name}"), 2, K)
+        SC[name] = np.r_[sx.ravel(), su.ravel()]
+        if lo_k < k_end <= hi_k:
+            ends[name] = k_end - lo_k
+        # intervals where the arm is pinned (both knots fixed, no jerk) need no dynamics rows:
+        # they would be identically zero and make the constraint Jacobian rank-deficient
+        pinned = np.all(lo == hi, axis=0)
+        frozen = pinned[:-1] & pinned[1:] & np.all((ulo == 0) & (uhi == 0), axis=0)
+        cols = np.flatnonzero(~frozen)
+        if cols.size:
+            # one mapped call over contiguous slices (cheap to differentiate and evaluate),
+            # then keep the rows of the intervals that are not frozen
+            res = ca.vec(dyn.map(K)(Xn[name][:, :K], Xn[name][:, 1:], Un[name], H.T, ca.DM(np.tile(SC[name][:, None], (1, K)))))
+            rows = (6 * cols[:, None] + np.arange(6)[None, :]).ravel()
+            g.append(res if rows.size == 6 * K else res[[int(r) for r in rows]])
+            lbg.append(np.zeros(rows.size))
+            ubg.append(np.zeros(rows.size))
+        for k0, k1, dwell in dwells:
+            a_, b_ = max(k0, lo_k), min(k1, hi_k)
+            if b_ > a_:  # a dwell cut by a window boundary: each part keeps its share
+                g.append(time_at(b_ - lo_k) - time_at(a_ - lo_k))
+                lbg.append([dwell * (b_ - a_) / (k1 - k0) + 1e-6])
+                ubg.append([np.inf])
+        smooth += ca.sumsqr(Un[name] * ca.repmat(ca.sqrt(H).T, 2, 1))
+    if nlines:
+        half = (problem.task.clearance + margin) / 2.0
+        kk = [p.k - lo_k for p in points]
+        kh = [min(k, K - 1) for k in kk]
+        geo = np.array([
+            [*problem.arms[p.ia].base, *problem.arms[p.ia].links, *problem.arms[p.ib].base, *problem.arms[p.ib].links,
+             p.s, p.u, problem.arms[p.ia].link_radius + half, problem.arms[p.ib].link_radius + half, 0.0, 0.0]
+            for p in points]).T
+
+        def gather(attr, which):
+            return ca.horzcat(*[getattr_arm(which(p), attr, k, khh) for p, k, khh in zip(points, kk, kh)])
+
+        def getattr_arm(ia, attr, k, khh):
+            n = names[ia]
+            return Xn[n][:, k] if attr == "X" else Un[n][:, khh]
+
+        xa = gather("X", lambda p: p.ia)
+        ua = gather("U", lambda p: p.ia)
+        xb = gather("X", lambda p: p.ib)
+        ub = gather("U", lambda p: p.ib)
+        taus = ca.DM([[p.tau for p in points]])
+        hs = H[kh].T
+        sca = ca.DM(np.stack([SC[names[p.ia]] for p in points], axis=1))
+        scb = ca.DM(np.stack([SC[names[p.ib]] for p in points], axis=1))
+        out = sep.map(nlines)(xa, ua, xb, ub, hs, taus, var("theta").T, var("c").T, ca.DM(geo), sca, scb)
+        g.append(ca.vec(out))
+        lbg.append(np.zeros(4 * nlines))
+        ubg.append(np.full(4 * nlines, np.inf))
+    # makespan epigraph over the arms whose last place lies in this window
+    M = var("M")
+    for name, ke in ends.items():
+        g.append(M - time_at(ke))
+        lbg.append([0.0])
+        ubg.append([np.inf])
+    m0 = max((float(grid.t[ke + lo_k] - grid.t[lo_k]) for ke in ends.values()), default=0.0)
+    if last:
+        finish = sum(time_at(ke) for ke in ends.values()) / max(len(ends), 1)
+        obj = M + 0.05 * finish + 0.02 * time_at(K) + smooth_weight * smooth
+    else:
+        obj = time_at(K) + 0.01 * M + smooth_weight * smooth
+    gg = ca.vertcat(*g)
+    opts = {
+        "ipopt.print_level": 0,
+        "print_time": False,
+        "ipopt.sb": "yes",
+        "ipopt.linear_solver": "mumps",
+        "ipopt.option_file_name": "",  # never read an ipopt.opt from the working directory
+        "ipopt.tol": 1e-6,
+        "ipopt.constr_viol_tol": 1e-7,
+        "ipopt.acceptable_tol": 1e-4,
+        "ipopt.acceptable_constr_viol_tol": 1e-6,
+        "ipopt.acceptable_iter": 5,
+        "ipopt.max_iter": 500,
+        "ipopt.mu_strategy": "adaptive",
+    }
+    if warm is not None:
+        opts["ipopt.mu_init"] = 1e-3
+        opts["ipopt.bound_push"] = 1e-5
+        opts["ipopt.bound_frac"] = 1e-5
+    opts.update(ipopt_options or {})
+    x0v = np.concatenate([np.asarray(b[4], float).ravel() for b in blocks])
+    x0v[layout["M"][0]] = m0
+    if warm is not None and warm.x is not None:
+        x0v = _transfer_warm(warm, layout, x0v)
+    lbx = np.concatenate([np.asarray(b[2], float).ravel() for b in blocks])
+    ubx = np.concatenate([np.asarray(b[3], float).ravel() for b in blocks])
+    nlp = NLP(
+        problem={"x": x, "f": obj, "g": gg},
+        options=opts,
+        x0=np.clip(x0v, lbx, ubx),
+        lbx=lbx,
+        ubx=ubx,
+        lbg=np.concatenate([np.asarray(v, float).ravel() for v in lbg]),
+        ubg=np.concatenate([np.asarray(v, float).ravel() for v in ubg]),
+        layout=layout,
+        scales={n: (per_arm[n][6], per_arm[n][7]) for n in names},
+        grid=grid,
+        points=list(points),
+        build_seconds=_time.perf_counter() - t0,
+        n_vars=int(off),
+        n_cons=int(gg.numel()),
+    )
+    nlp.window = (lo_k, hi_k)  # type: ignore[attr-defined]
+    return nlp
+
+
+def _transfer_warm(warm: NLPSolution, layout: dict, x0: np.ndarray) -> np.ndarray:
+    """Reuse a previous solution on the same grid (the new constraint points keep their guesses)."""
+    prev = warm.x
+    for key in ("eta",) + tuple(k for k in layout if k.startswith(("X_", "U_"))):
+        a, b = layout[key]
+        pa, pb = warm.layout[key]
+        if b - a == pb - pa:
+            x0[a:b] = prev[pa:pb]
+    for key in ("theta", "c"):
+        a, _ = layout[key]
+        pa, pb = warm.layout[key]
+        x0[a : a + (pb - pa)] = prev[pa:pb]  # old points come first, in the same order
+    a, b = layout["M"]
+    x0[a:b] = prev[warm.layout["M"][0] : warm.layout["M"][1]]
+    return x0
+
+
+def _line_guess(problem, schedules, names, grid, p: ConstraintPoint):
+    """Separating line between the two links in the warm start: normal from B towards A."""
+    from .geometry import segment_distance
+
+    k1 = min(p.k + 1, grid.K)
+    t = grid.t[p.k] + p.tau * (grid.t[k1] - grid.t[p.k])
+    qa = schedules[names[p.ia]].state(np.array([t]))[0][0]
+    qb = schedules[names[p.ib]].state(np.array([t]))[0][0]
+    A, B = problem.arms[p.ia], problem.arms[p.ib]
+    pa = kin.fk_points(qa, A.links, A.base)
+    pb = kin.fk_points(qb, B.links, B.base)
+    _, ca_, cb_ = segment_distance(pa[p.s], pa[p.s + 1], pb[p.u], pb[p.u + 1], return_points=True)
+    d = np.asarray(ca_) - np.asarray(cb_)
+    nrm = float(np.hypot(*d))
+    n = d / nrm if nrm > 1e-9 else (np.asarray(A.base) - np.asarray(B.base)) / max(1e-9, float(np.hypot(*np.subtract(A.base, B.base))))
+    mid = (np.asarray(ca_) + np.asarray(cb_)) / 2
+    return math.atan2(n[1], n[0]), -float(n @ mid)
+
+
+class _Monitor(ca.Callback):
+    """IPOPT iteration callback: keeps the best iterate, honours Ctrl-C and a wall-clock limit."""
+
+    def __init__(self, nx: int, ng: int, lbg, ubg, lbx, ubx, deadline: float | None):
+        ca.Callback.__init__(self)
+        self.nx, self.ng = nx, ng
+        self.lbg, self.ubg, self.lbx, self.ubx = lbg, ubg, lbx, ubx
+        self.deadline = deadline
+        self.best: tuple[float, float, np.ndarray] | None = None
+        self.interrupted = False
+        self.timed_out = False
+        self.iterations = 0
+        self.construct("coplan_monitor", {})
+
+    def get_n_in(self):
+        return ca.nlpsol_n_out()
+
+    def get_n_out(self):
+        return 1
+
+    def get_name_in(self, i):
+        return ca.nlpsol_out(i)
+
+    def get_name_out(self, i):
+        return "ret"
+
+    def get_sparsity_in(self, i):
+        n = ca.nlpsol_out(i)
+        if n in ("f",):
+            return ca.Sparsity.scalar()
+        if n in ("x", "lam_x"):
+            return ca.Sparsity.dense(self.nx)
+        if n in ("g", "lam_g"):
+            return ca.Sparsity.dense(self.ng)
+        return ca.Sparsity(0, 0)
+
+    def eval(self, arg):
+        self.iterations += 1
+        x = np.asarray(arg[0]).ravel()
+        f = float(arg[1])
+        gv = np.asarray(arg[2]).ravel()
+        viol = max(
+            float(np.max(np.maximum(self.lbg - gv, gv - self.ubg), initial=0.0)),
+            float(np.max(np.maximum(self.lbx - x, x - self.ubx), initial=0.0)),
+        )
+        if self.best is None or (viol, f) < (self.best[0], self.best[1]) or (viol < 1e-6 and f < self.best[1]):
+            self.best = (viol, f, x.copy())
+        if self.deadline is not None and _time.perf_counter() > self.deadline:
+            self.timed_out = True
+            return [1]
+        return [1 if self.interrupted else 0]
+
+
+def solve_nlp(nlp: NLP, names: list[str], time_limit: float | None = None, lam=None) -> NLPSolution:
+    """Solve a built NLP with IPOPT. Ctrl-C stops within an iteration; the best iterate is kept.
+
+    ``time_limit`` (s) bounds the wall-clock time (IPOPT's ``max_wall_time`` plus a check
+    in the iteration callback). ``lam`` = (lam_x, lam_g) warm-starts the multipliers.
+    """
+    t0 = _time.perf_counter()
+    deadline = t0 + time_limit if time_limit is not None else None
+    # expand the MX problem (built from mapped kernels) to SX, with every pinned variable
+    # (dwells, rests, fixed boundary states) substituted as a constant: IPOPT only sees free ones
+    free = np.flatnonzero(nlp.lbx != nlp.ubx)
+    F = ca.Function("coplan_nlp", [nlp.problem["x"]], [nlp.problem["f"], nlp.problem["g"]]).expand()
+    xf = ca.SX.sym("x", free.size)
+    xfull = ca.SX(ca.DM(nlp.lbx))
+    xfull[[int(i) for i in free]] = xf
+    f_sx, g_sx = F(xfull)
+    mon = _Monitor(free.size, nlp.lbg.size, nlp.lbg, nlp.ubg, nlp.lbx[free], nlp.ubx[free], deadline)
+    opts = dict(nlp.options)
+    opts["iteration_callback"] = mon
+    if time_limit is not None:
+        opts["ipopt.max_wall_time"] = max(float(time_limit), 1e-3)
+    solver = ca.nlpsol("coplan", "ipopt", {"x": xf, "f": f_sx, "g": g_sx}, opts)
+    args = dict(x0=nlp.x0[free], lbx=nlp.lbx[free], ubx=nlp.ubx[free], lbg=nlp.lbg, ubg=nlp.ubg)
+    if lam is not None:
+        args.update(lam_x0=lam[0][free], lam_g0=lam[1])
+    prev = signal.getsignal(signal.SIGINT)
+
+    def on_sigint(signum, frame):
+        mon.interrupted = True
+
+    installed = False
+    try:
+        signal.signal(signal.SIGINT, on_sigint)
+        installed = True
+    except ValueError:  # not the main thread: Ctrl-C cannot be caught here
+        pass
+    try:
+        res = solver.call(args)
+    finally:
+        if installed:
+            signal.signal(signal.SIGINT, prev)
+    stats = solver.stats()
+    ipopt_status = str(stats.get("return_status", "unknown"))
+    status = map_status(ipopt_status)
+    if status == SolverStatus.INTERRUPTED and not mon.interrupted:
+        status = SolverStatus.LIMIT_REACHED
+    xv = np.asarray(res["x"]).ravel()
+    g = np.asarray(res["g"]).ravel()
+    if not status.converged and mon.best is not None:
+        xv = mon.best[2]
+        g = None
+    x = nlp.lbx.copy()
+    x[free] = xv
+    return _unpack(nlp, names, x, res, g, status, ipopt_status, int(stats.get("iter_count", mon.iterations)), _time.perf_counter() - t0)
+
+
+def _unpack(nlp: NLP, names, x, res, g, status, ipopt_status, iters, seconds) -> NLPSolution:
+    L = nlp.layout
+    K = nlp.grid.K
+    lo_k, hi_k = nlp.window
+    seg = nlp.grid.segment[lo_k:hi_k]
+    _, seg_of = np.unique(seg, return_inverse=True)
+    h = x[L["eta"][0] : L["eta"][1]][seg_of] * np.diff(nlp.grid.t)[lo_k:hi_k]
+    t = np.r_[0.0, np.cumsum(h)]
+    K = hi_k - lo_k
+    X = {n: x[L[f"X_{n}"][0] : L[f"X_{n}"][1]].reshape((6, K + 1), order="F") * nlp.scales[n][0] for n in names}
+    U = {n: x[L[f"U_{n}"][0] : L[f"U_{n}"][1]].reshape((2, K), order="F") * nlp.scales[n][1] for n in names}
+    if g is None:
+        g = np.asarray(ca.Function("g", [nlp.problem["x"]], [nlp.problem["g"]])(x)).ravel()
+    viol = max(
+        float(np.max(np.maximum(nlp.lbg - g, g - nlp.ubg), initial=0.0)),
+        float(np.max(np.maximum(nlp.lbx - x, x - nlp.ubx), initial=0.0)),
+    )
+    sol = NLPSolution(
+        status=status,
+        ipopt_status=ipopt_status,
+        iterations=iters,
+        t=t,
+        X=X,
+        U=U,
+        objective=float(res["f"]),
+        solve_seconds=seconds,
+        max_violation=viol,
+        x=x,
+        lam_x=None,
+        lam_g=np.asarray(res["lam_g"]).ravel(),
+    )
+    sol.layout = L  # type: ignore[attr-defined]
+    return sol

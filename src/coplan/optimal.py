@@ -1,0 +1,346 @@
+"""The optimal planner: min-makespan allocation + joint trajectory optimisation of all arms.
+
+Entry point: :func:`plan_optimal`. Stages (each timed):
+
+1. **allocate** -- min-makespan assignment (HiGHS MILP) and sweep sequencing
+   (:mod:`coplan.allocate`), or the course's heuristic allocation when asked.
+2. **warm start** -- decoupled time-optimal S-curve schedules, conflicts removed by waiting
+   (:mod:`coplan.schedule`).
+3. **NLP** -- one CasADi/IPOPT program over all arms (:mod:`coplan.nlp`). Separation
+   constraints start at the knots where the warm start brings neighbouring links within
+   ``screen`` m of each other; after each solve the continuous trajectory is checked
+   densely and the points where it comes closer than ``clearance + margin / 2`` are added,
+   up to ``max_rounds`` solves. Long schedules are cut into receding windows of about
+   ``window`` seconds, solved in order, each starting from the state the previous one
+   reached and ending at the warm start's state, so the cost grows linearly with the row.
+4. **verify** -- the independent verifier (:mod:`coplan.verify`) certifies the plan. Only a
+   converged *and* verified plan is a success; otherwise the best iterate is returned
+   with an honest status, and the heuristic baseline is returned beside it.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import kinematics as kin
+from .allocate import Allocation, AllocationMethod, allocate
+from .geometry import segment_distance
+from .heuristic import grid as uniform_grid
+from .heuristic import plan_heuristic
+from .nlp import ConstraintPoint, Grid, NLPSolution, SolverStatus, build_grid, build_nlp, solve_nlp
+from .plan import DEFAULT_RATE, Event, EventKind, Plan, PlannerKind, PlanStatus, compute_metrics
+from .problem import Problem
+from .schedule import ArmSchedule, StepKind, decoupled_schedules, remove_conflicts
+
+__all__ = ["OptimalOptions", "OptimalResult", "plan_optimal"]
+
+
+@dataclass(frozen=True)
+class OptimalOptions:
+    """Solver options (separate from the problem).
+
+    margin : extra clearance the optimiser keeps at its constraint points (m), so that the
+        dense, certified check between them passes
+    screen : initial constraint points where the warm start's links are within this (m)
+    h_target : target knot spacing (s)
+    max_rounds : solves per window while adding constraint points
+    window : receding-window length (s of schedule); schedules shorter than 1.5 windows are
+        solved as one NLP
+    time_limit : wall-clock limit for the whole optimisation (s); None for none
+    check_rate : rate of the planner's own dense clearance check (Hz)
+    """
+
+    margin: float = 0.015
+    screen: float = 0.25
+    h_target: float = 0.06
+    max_rounds: int = 4
+    window: float = 12.0
+    time_limit: float | None = None
+    check_rate: float = 1000.0
+    ipopt: dict = field(default_factory=dict)
+
+
+@dataclass
+class OptimalResult:
+    plan: Plan
+    verification: object
+    baseline: Plan
+    baseline_verification: object
+    allocation: Allocation
+    timings: dict[str, float]
+    solver_status: SolverStatus
+
+
+# ----------------------------------------------------------------------------- screening
+def _states_at(schedules: dict[str, ArmSchedule], names, t: np.ndarray) -> dict[str, np.ndarray]:
+    return {n: schedules[n].state(t)[0] for n in names}
+
+
+def _link_pair_distances(problem: Problem, qa, qb, ia, ib) -> np.ndarray:
+    """(4, N) distances for link pairs (s, u) in order (0,0), (0,1), (1,0), (1,1)."""
+    A, B = problem.arms[ia], problem.arms[ib]
+    pa = kin.fk_points(qa, A.links, A.base)
+    pb = kin.fk_points(qb, B.links, B.base)
+    r = A.link_radius + B.link_radius
+    return np.stack([segment_distance(pa[:, s], pa[:, s + 1], pb[:, u], pb[:, u + 1]) - r for s in range(2) for u in range(2)])
+
+
+def _candidate_points(grid: Grid, lo: int, hi: int, taus=(0.0, 0.5)):
+    ks, ts = [], []
+    for k in range(lo, hi + 1):
+        for tau in taus if k < hi else (0.0,):
+            ks.append(k)
+            ts.append(tau)
+    ks = np.asarray(ks)
+    ts = np.asarray(ts)
+    k1 = np.minimum(ks + 1, grid.K)
+    return ks, ts, grid.t[ks] + ts * (grid.t[k1] - grid.t[ks])
+
+
+def screen_points(problem: Problem, schedules, grid: Grid, lo: int, hi: int, screen: float) -> list[ConstraintPoint]:
+    """Constraint points where the warm start's links come within ``clearance + screen``."""
+    names = [a.name for a in problem.arms]
+    ks, ts, times = _candidate_points(grid, lo, hi)
+    q = _states_at(schedules, names, times)
+    pts = []
+    for ia, ib in problem.neighbour_pairs():
+        d = _link_pair_distances(problem, q[names[ia]], q[names[ib]], ia, ib)
+        for li, (s, u) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
+            for i in np.flatnonzero(d[li] < problem.task.clearance + screen):
+                pts.append(ConstraintPoint(int(ks[i]), float(ts[i]), ia, ib, s, u))
+    return pts
+
+
+def refine_points(problem: Problem, sol: NLPSolution, lo: int, hi: int, rate: float, need: float, have) -> list[ConstraintPoint]:
+    """Dense check of the continuous solution; new points where it comes closer than ``need``."""
+    names = [a.name for a in problem.arms]
+    t0, t1 = sol.t[lo], sol.t[hi]
+    times = np.arange(t0, t1 + 0.5 / rate, 1.0 / rate)
+    q = sol.sample(times)
+    new: set = set()
+    for ia, ib in problem.neighbour_pairs():
+        d = _link_pair_distances(problem, q[names[ia]], q[names[ib]], ia, ib)
+        for li, (s, u) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
+            for i in np.flatnonzero(d[li] < need):
+                k = int(np.clip(np.searchsorted(sol.t, times[i], side="right") - 1, lo, hi - 1))
+                h = sol.t[k + 1] - sol.t[k]
+                tau = float(np.clip(round((times[i] - sol.t[k]) / h * 8) / 8, 0.0, 0.875)) if h > 0 else 0.0
+                p = ConstraintPoint(k, tau, ia, ib, s, u)
+                if p not in have:
+                    new.add(p)
+    return sorted(new, key=lambda p: (p.k, p.tau, p.ia, p.s, p.u))
+
+
+def min_clearance(problem: Problem, q: dict[str, np.ndarray]) -> float:
+    names = [a.name for a in problem.arms]
+    out = np.inf
+    for ia, ib in problem.neighbour_pairs():
+        out = min(out, float(_link_pair_distances(problem, q[names[ia]], q[names[ib]], ia, ib).min()))
+    return out
+
+
+# ----------------------------------------------------------------------------- windows
+def _windows(grid: Grid, window: float) -> list[tuple[int, int]]:
+    T = grid.t[-1]
+    if T <= 1.5 * window:
+        return [(0, grid.K)]
+    n = int(np.ceil(T / window))
+    cuts = [0] + [int(np.argmin(np.abs(grid.t - T * i / n))) for i in range(1, n)] + [grid.K]
+    return [(a, b) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+
+
+@dataclass
+class _Stitched:
+    """Knot times and states of all windows, joined."""
+
+    t: np.ndarray
+    X: dict[str, np.ndarray]
+    U: dict[str, np.ndarray]
+
+    def sample(self, times):
+        return NLPSolution.sample(self, times)  # same exact cubic evaluation
+
+
+def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say) -> tuple[_Stitched, dict]:
+    names = [a.name for a in problem.arms]
+    wins = _windows(grid, opts.window)
+    info = {"windows": len(wins), "rounds": [], "iterations": 0, "build": 0.0, "solve": 0.0, "points": 0,
+            "n_vars": 0, "n_cons": 0, "status": SolverStatus.OPTIMAL, "ipopt_status": "", "max_violation": 0.0}
+    need = problem.task.clearance + opts.margin / 2
+    t_parts: list[np.ndarray] = []
+    X_parts = {n: [] for n in names}
+    U_parts = {n: [] for n in names}
+    start_state = None
+    t_offset = 0.0
+    worst = SolverStatus.OPTIMAL
+    order = list(SolverStatus)
+    for wi, (lo, hi) in enumerate(wins):
+        points = screen_points(problem, schedules, grid, lo, hi, opts.screen)
+        sol = None
+        for rnd in range(opts.max_rounds):
+            remaining = None if deadline is None else max(deadline - _time.perf_counter(), 1e-3)
+            nlp = build_nlp(problem, schedules, grid, points, opts.margin, window=(lo, hi), start=start_state,
+                            ipopt_options=opts.ipopt, warm=sol)
+            sol = solve_nlp(nlp, names, time_limit=remaining, lam=None)
+            info["build"] += nlp.build_seconds
+            info["solve"] += sol.solve_seconds
+            info["iterations"] += sol.iterations
+            info["n_vars"] = max(info["n_vars"], nlp.n_vars)
+            info["n_cons"] = max(info["n_cons"], nlp.n_cons)
+            info["rounds"].append({"window": wi, "round": rnd, "points": len(points), "status": sol.status.value,
+                                   "iterations": sol.iterations, "seconds": sol.solve_seconds + nlp.build_seconds})
+            say(f"window {wi + 1}/{len(wins)} round {rnd + 1}: {len(points)} separation points, IPOPT {sol.ipopt_status} "
+                f"after {sol.iterations} iterations ({sol.solve_seconds:.2f} s)")
+            if not sol.status.converged:
+                break
+            new = refine_points(problem, sol, 0, sol.t.size - 1, opts.check_rate, need, set(points))
+            if not new:
+                break
+            points = points + new
+        info["points"] += len(points)
+        info["max_violation"] = max(info["max_violation"], sol.max_violation)
+        if order.index(sol.status) > order.index(worst):
+            worst = sol.status
+            info["ipopt_status"] = sol.ipopt_status
+        elif not info["ipopt_status"]:
+            info["ipopt_status"] = sol.ipopt_status
+        # stitch: local knot times start at 0
+        tloc = sol.t + t_offset
+        t_parts.append(tloc if wi == 0 else tloc[1:])
+        for n in names:
+            X_parts[n].append(sol.X[n] if wi == 0 else sol.X[n][:, 1:])
+            U_parts[n].append(sol.U[n])
+        t_offset = float(tloc[-1])
+        start_state = {n: sol.X[n][:, -1].copy() for n in names}
+        if not sol.status.converged:
+            break
+    info["status"] = worst
+    st = _Stitched(np.concatenate(t_parts), {n: np.hstack(X_parts[n]) for n in names}, {n: np.hstack(U_parts[n]) for n in names})
+    info["complete_windows"] = wi + 1 if sol.status.converged else wi
+    return st, info
+
+
+# ----------------------------------------------------------------------------- plans
+def _events(problem, schedules, grid: Grid, t_knots: np.ndarray, upto: int) -> list[Event]:
+    kinds = {StepKind.PICK: EventKind.PICK, StepKind.PLACE: EventKind.PLACE}
+    out = []
+    for n, sch in schedules.items():
+        for st, (k0, k1) in zip(sch.steps, grid.ranges[n]):
+            if st.kind in kinds and k1 <= upto:
+                out.append(Event(n, st.fruit, kinds[st.kind], float(t_knots[k0]), float(t_knots[k1])))
+    return sorted(out, key=lambda e: (e.t_start, e.arm))
+
+
+def _to_plan(problem, alloc, sampler, t_end, events, status, solver_info) -> Plan:
+    times = uniform_grid(t_end, DEFAULT_RATE)
+    q = sampler(times)
+    plan = Plan(
+        problem=problem.name,
+        planner=PlannerKind.OPTIMAL,
+        status=status,
+        time=times,
+        q=q,
+        events=events,
+        allocation={a: list(v) for a, v in alloc.assignment.items()},
+        unreachable=list(alloc.unreachable),
+        solver=solver_info,
+    )
+    plan.metrics = compute_metrics(plan, len(problem.reachable_ids()))
+    plan.metrics["lower_bound"] = alloc.lower_bound
+    return plan
+
+
+_FAIL_STATUS = {
+    SolverStatus.INTERRUPTED: PlanStatus.INTERRUPTED,
+    SolverStatus.INFEASIBLE: PlanStatus.FAILED,
+    SolverStatus.LIMIT_REACHED: PlanStatus.FAILED,
+    SolverStatus.NUMERICAL_ERROR: PlanStatus.FAILED,
+}
+
+
+def plan_optimal(
+    problem: Problem,
+    allocation: AllocationMethod | str = AllocationMethod.MAKESPAN,
+    options: OptimalOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> OptimalResult:
+    """Plan all arms jointly and verify. See the module docstring for the stages."""
+    from .pipeline import finalize
+    from .verify import verify
+
+    opts = options or OptimalOptions()
+    say = progress or (lambda m: None)
+    t_start = _time.perf_counter()
+    deadline = None if opts.time_limit is None else t_start + opts.time_limit
+    timings: dict[str, float] = {}
+
+    # baseline, always available
+    tb = _time.perf_counter()
+    baseline = plan_heuristic(problem)
+    base_ver = verify(problem, baseline)
+    baseline = finalize(problem, baseline, base_ver)
+    timings["baseline"] = _time.perf_counter() - tb
+
+    t0 = _time.perf_counter()
+    alloc = allocate(problem, allocation)
+    timings["allocation"] = _time.perf_counter() - t0
+    say(f"allocation ({alloc.method.value}): " + ", ".join(f"{a} {len(f)}" for a, f in alloc.assignment.items())
+        + f"; estimated makespan {alloc.estimated_makespan:.2f} s, lower bound {alloc.lower_bound:.2f} s")
+
+    t1 = _time.perf_counter()
+    sched = decoupled_schedules(problem, alloc)
+    sched, n_delays = remove_conflicts(problem, sched, opts.margin)
+    grid = build_grid(sched, opts.h_target)
+    timings["warm_start"] = _time.perf_counter() - t1
+
+    names = [a.name for a in problem.arms]
+    solver_info: dict = {"allocation": alloc.method.value, "sequence": alloc.sequence.value, "warm_start_delays": n_delays}
+    if not any(alloc.assignment.values()):
+        plan = _to_plan(problem, alloc, lambda t: {a.name: np.tile(a.home, (t.size, 1)) for a in problem.arms},
+                        0.0, [], PlanStatus.INFEASIBLE, solver_info | {"status": "infeasible", "message": "no reachable fruit"})
+        ver = verify(problem, plan)
+        return OptimalResult(finalize(problem, plan, ver), ver, baseline, base_ver, alloc, timings, SolverStatus.INFEASIBLE)
+
+    try:
+        stitched, info = _solve_windows(problem, sched, grid, opts, deadline, say)
+    except KeyboardInterrupt:  # Ctrl-C outside IPOPT's iterations: keep the warm start
+        stitched, info = None, {"status": SolverStatus.INTERRUPTED, "ipopt_status": "KeyboardInterrupt", "iterations": 0}
+    timings["build"] = info.get("build", 0.0)
+    timings["solve"] = info.get("solve", 0.0)
+    status: SolverStatus = info["status"]
+    solver_info.update(
+        status=status.value,
+        ipopt_status=info.get("ipopt_status"),
+        iterations=info.get("iterations"),
+        windows=info.get("windows"),
+        rounds=info.get("rounds"),
+        separation_points=info.get("points"),
+        n_vars=info.get("n_vars"),
+        n_cons=info.get("n_cons"),
+        max_constraint_violation=info.get("max_violation"),
+    )
+    if stitched is None:
+        # nothing optimised: the best we have is the conflict-free warm start
+        t_end = max(s.end for s in sched.values())
+        plan = _to_plan(problem, alloc, lambda t: {n: sched[n].state(t)[0] for n in names}, t_end,
+                        [e for s in sched.values() for e in s.events()], PlanStatus.INTERRUPTED,
+                        solver_info | {"message": "interrupted before the first iterate; the warm start is kept"})
+    else:
+        upto = stitched.t.size - 1
+        events = _events(problem, sched, grid, stitched.t, upto)
+        plan_status = PlanStatus.UNVERIFIED if status.converged else _FAIL_STATUS[status]
+        msg = (f"IPOPT {info.get('ipopt_status')}" if status.converged else
+               f"IPOPT stopped ({info.get('ipopt_status')}); the best iterate of window {info.get('complete_windows', 0) + 1} is kept")
+        plan = _to_plan(problem, alloc, stitched.sample, float(stitched.t[-1]), events, plan_status, solver_info | {"message": msg})
+    tv = _time.perf_counter()
+    ver = verify(problem, plan)
+    timings["verify"] = _time.perf_counter() - tv
+    plan = finalize(problem, plan, ver)
+    timings["total"] = _time.perf_counter() - t_start - timings["baseline"]
+    plan.solver["timings"] = dict(timings)
+    plan.metrics["baseline_makespan"] = baseline.metrics.get("makespan")
+    return OptimalResult(plan, ver, baseline, base_ver, alloc, timings, status)
