@@ -21,7 +21,16 @@ from .plan import Event, EventKind
 from .problem import Arm, Problem
 from .timing import SCurve
 
-__all__ = ["StepKind", "Step", "ArmSchedule", "decoupled_schedules", "remove_conflicts", "pair_distances"]
+__all__ = [
+    "StepKind",
+    "Step",
+    "ArmSchedule",
+    "ConflictError",
+    "decoupled_schedules",
+    "tuck_moves",
+    "remove_conflicts",
+    "pair_distances",
+]
 
 
 class StepKind(str, Enum):
@@ -147,6 +156,83 @@ def pair_distances(problem: Problem, qa: np.ndarray, qb: np.ndarray, ia: int, ib
     return d - a.link_radius - b.link_radius
 
 
+def _retime(arm: Arm, steps: list[Step]) -> list[Step]:
+    """Recompute start times so steps follow each other (move curves recomputed)."""
+    out, t = [], 0.0
+    for st in steps:
+        if st.kind == StepKind.MOVE:
+            st = _move(arm, t, st.q0, st.q1)
+        else:
+            st = replace(st, t0=t)
+        out.append(st)
+        t = st.t1
+    return out
+
+
+def tuck_moves(problem: Problem, schedules: dict[str, ArmSchedule], need: float, samples: int = 60) -> tuple[dict[str, ArmSchedule], int]:
+    """Reroute moves whose straight joint path would hit a neighbour resting at home.
+
+    Such a conflict cannot be removed by waiting (the neighbour may be parked there for the
+    whole plan), so the move becomes a tucked transit: fold the elbow (close to its limit, on
+    the side the move starts from), swing the shoulder, unfold. A tucked route that still
+    conflicts is kept only if it is better than the straight one. Returns the schedules and
+    the number of moves rerouted.
+    """
+    names = [a.name for a in problem.arms]
+    index = {n: i for i, n in enumerate(names)}
+    pairs = problem.neighbour_pairs()
+    out = dict(schedules)
+    count = 0
+    for n in names:
+        arm = problem.arms[index[n]]
+        homes = []
+        for ia, ib in pairs:
+            if n in (names[ia], names[ib]):
+                m = names[ib] if names[ia] == n else names[ia]
+                homes.append((index[m], np.asarray(problem.arms[index[m]].home, float)))
+        if not homes:
+            continue
+
+        def worst(path: np.ndarray) -> float:
+            d = np.inf
+            for j, qh in homes:
+                other = np.tile(qh, (path.shape[0], 1))
+                ia, ib = sorted((index[n], j))
+                qa, qb = (path, other) if ia == index[n] else (other, path)
+                d = min(d, float(pair_distances(problem, qa, qb, ia, ib).min()))
+            return d
+
+        steps: list[Step] = []
+        changed = False
+        for st in out[n].steps:
+            if st.kind != StepKind.MOVE:
+                steps.append(st)
+                continue
+            straight = st.curve.eval(np.linspace(0, st.duration, samples))
+            d_straight = worst(straight)
+            if d_straight >= need:
+                steps.append(st)
+                continue
+            lim = arm.limits
+            side = np.sign(st.q0[1]) or np.sign(st.q1[1]) or 1.0
+            fold = float(np.clip(side * (np.pi - 0.15), lim[1, 0] + 0.05, lim[1, 1] - 0.05))
+            vias = [st.q0, (st.q0[0], fold), (st.q1[0], fold), st.q1]
+            path = np.vstack([np.linspace(a, b, samples) for a, b in zip(vias[:-1], vias[1:])])
+            if worst(path) > d_straight:
+                steps += [Step(StepKind.MOVE, 0.0, 0.0, tuple(a), tuple(b)) for a, b in zip(vias[:-1], vias[1:])]
+                changed = True
+                count += 1
+            else:
+                steps.append(st)
+        if changed:
+            out[n] = ArmSchedule(arm, _retime(arm, steps))
+    return out, count
+
+
+class ConflictError(RuntimeError):
+    """Waiting alone cannot separate two arms (a resting pose blocks another arm's motion)."""
+
+
 def remove_conflicts(
     problem: Problem,
     schedules: dict[str, ArmSchedule],
@@ -154,50 +240,65 @@ def remove_conflicts(
     rate: float = 200.0,
     delay_step: float = 0.05,
     max_delays: int = 400,
+    priority: list[str] | None = None,
 ) -> tuple[dict[str, ArmSchedule], int]:
-    """Delay moves until every neighbouring pair keeps ``clearance + margin`` (sampled at ``rate``).
+    """Prioritised planning by waiting: make every neighbouring pair keep ``clearance + margin``.
 
-    At the first conflict, the arm that will finish earlier (more slack) waits ``delay_step``
-    before the move it is in (or, when it is dwelling, the other arm waits). Returns the
-    new schedules and the number of delays inserted.
+    Arms are fixed one at a time, in ``priority`` order (default: the arm that finishes last
+    first, so the critical arm is never delayed). Each later arm is checked against the arms
+    already fixed, sampled at ``rate``; at its first conflict it waits as long as that
+    conflict lasted (at least ``delay_step``) before the last move that starts at or before it (so a conflict while resting
+    at a pose delays the move that would bring it there). Raises :class:`ConflictError`
+    when an arm would have to leave home earlier than t = 0, or after ``max_delays`` waits.
+    Returns the new schedules and the number of waits inserted.
     """
     names = [a.name for a in problem.arms]
+    index = {n: i for i, n in enumerate(names)}
     need = problem.task.clearance + margin
-    pairs = problem.neighbour_pairs()
+    pairs = set(problem.neighbour_pairs())
+    order = priority or sorted(names, key=lambda n: -schedules[n].last_place)
+    fixed: list[str] = []
+    out = dict(schedules)
     n_delays = 0
-    while n_delays < max_delays:
-        t_end = max((s.end for s in schedules.values()), default=0.0)
-        t = np.arange(0.0, t_end + 1.0 / rate, 1.0 / rate)
-        q = {n: schedules[n].state(t)[0] for n in names}
-        first = None
-        for ia, ib in pairs:
-            d = pair_distances(problem, q[names[ia]], q[names[ib]], ia, ib)
-            bad = np.flatnonzero(d < need)
-            if bad.size and (first is None or t[bad[0]] < first[0]):
-                first = (t[bad[0]], ia, ib)
-        if first is None:
-            return schedules, n_delays
-        tc, ia, ib = first
-        order = sorted((names[ia], names[ib]), key=lambda n: schedules[n].last_place)
-        for n in order:  # prefer delaying the arm with more slack
-            sch = schedules[n]
-            idx = _step_at(sch, tc)
-            if idx is not None and sch.steps[idx].kind == StepKind.MOVE:
-                # wait before this move, long enough to let the other arm pass
-                schedules = dict(schedules)
-                schedules[n] = sch.shifted(idx, delay_step)
+    for n in order:
+        others = [m for m in fixed if (min(index[n], index[m]), max(index[n], index[m])) in pairs]
+        sch = out[n]
+        while others:
+            t_end = max([sch.end] + [out[m].end for m in others]) + 1.0 / rate
+            t = np.arange(0.0, t_end, 1.0 / rate)
+            qn = sch.state(t)[0]
+            first = None
+            run = 0.0
+            blocker = None
+            for m in others:
+                ia, ib = sorted((index[n], index[m]))
+                qa, qb = (qn, out[m].state(t)[0]) if ia == index[n] else (out[m].state(t)[0], qn)
+                bad = pair_distances(problem, qa, qb, ia, ib) < need
+                hit = np.flatnonzero(bad)
+                if hit.size and (first is None or t[hit[0]] < first):
+                    first = float(t[hit[0]])
+                    blocker = m
+                    clear = np.flatnonzero(~bad[hit[0]:])
+                    run = (clear[0] if clear.size else bad.size - hit[0]) / rate
+            if first is None:
                 break
-        else:
-            # both dwelling/waiting or finished: delay the move that brought the later arm here
-            n = order[0]
-            sch = schedules[n]
-            idx = _last_move_before(sch, tc)
+            if first >= out[blocker].end:
+                raise ConflictError(f"arm {n!r} runs into arm {blocker!r} parked at home at t = {first:.2f} s")
+            idx = _last_move_before(sch, first)
+            if first > sch.end:
+                raise ConflictError(f"another arm runs into arm {n!r} resting at home at t = {first:.2f} s")
             if idx is None:
-                return schedules, n_delays
-            schedules = dict(schedules)
-            schedules[n] = sch.shifted(idx, delay_step)
-        n_delays += 1
-    return schedules, n_delays
+                raise ConflictError(
+                    f"arm {n!r} is in the way of another arm at t = {first:.2f} s while resting at its start pose"
+                )
+            # wait as long as the conflict lasted (at least delay_step), then look again
+            sch = sch.shifted(idx, max(delay_step, run))
+            n_delays += 1
+            if n_delays > max_delays:
+                raise ConflictError(f"no conflict-free waiting schedule found within {max_delays} waits")
+        out[n] = sch
+        fixed.append(n)
+    return out, n_delays
 
 
 def _step_at(sch: ArmSchedule, t: float) -> int | None:
