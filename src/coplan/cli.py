@@ -170,6 +170,128 @@ def list_problems():
 # --- commands added by the verification/report and visualisation modules go below ---
 
 
+# ---- verify / compare (coplan.verify, coplan.report)
+from .verify import FclMode  # noqa: E402  (option type of `verify`; kept next to its command)
+
+
+def _print_verification(problem, ver, max_rows: int = 25) -> None:
+    """Verdict, clearances, peaks and a short table of the violations."""
+    from rich.table import Table
+
+    p = out_console.print
+    s = ver.summary()
+    verdict = "[bold green]passed[/]" if ver.passed else "[bold red]FAILED[/]"
+    p(f"[bold]{problem.name}[/] -- {ver.planner} plan of {ver.duration:.2f} s: {verdict}"
+      + ("" if ver.complete else f" [yellow](not harvested: {', '.join(ver.unharvested)})[/]"))
+    if not ver.pairs:
+        p("  least clearance   - (no two arms can touch)")
+    else:
+        p(f"  least clearance   {_fmt(s['min_clearance'], ' m', 4)} sampled, {_fmt(s['certified_clearance'], ' m', 4)} certified"
+          f" (required {_fmt(ver.required_clearance, ' m', 3)}); {s['collision_count']} collision intervals")
+    for pc in ver.pairs:
+        p(f"    {pc.key:18s} {_fmt(pc.min_clearance, ' m', 4)} at {pc.t:.3f} s (links {pc.links[0]}/{pc.links[1]}), certified {_fmt(pc.certified, ' m', 4)}")
+    for arm, pk in ver.peaks.items():
+        p(f"  peaks {arm:12s} velocity {pk['velocity']:.2f}, acceleration {pk['acceleration']:.2f}, jerk {pk['jerk']:.2f} of the limits")
+    if ver.fcl is not None:
+        agree = "agrees" if ver.fcl.agree else "[bold red]DISAGREES[/]"
+        p(f"  FCL cross-check   {agree} ({ver.fcl.samples} instants, {ver.fcl.queries} link pairs, max diff {ver.fcl.max_abs_diff:.1e} m)")
+    if ver.warnings:
+        p(f"  warnings          {len(ver.warnings)} ({', '.join(sorted({w.kind.value for w in ver.warnings}))})")
+    if not ver.violations:
+        return
+    table = Table(title=f"{len(ver.violations)} violations", title_justify="left")
+    for col in ("kind", "arms", "t (s)", "value", "limit", "detail"):
+        table.add_column(col, overflow="fold")
+    for v in ver.violations[:max_rows]:
+        span = f"{v.t:.3f}" if v.t_start is None or v.t_end is None or v.t_end - v.t_start < 1e-9 else f"{v.t_start:.3f}..{v.t_end:.3f}"
+        detail = " ".join(x for x in (f"fruit {v.fruit}" if v.fruit else "", v.message) if x)
+        table.add_row(v.kind.value, ",".join(v.arms), span, _fmt(v.value, "", 4), _fmt(v.limit, "", 4), detail)
+    out_console.print(table)
+    if len(ver.violations) > max_rows:
+        p(f"  ... and {len(ver.violations) - max_rows} more (see verification.json: --out)")
+
+
+@app.command("verify")
+@guarded
+def verify_cmd(
+    problem: Annotated[Path, typer.Argument(help="Problem YAML file.")],
+    plan: Annotated[Path, typer.Argument(help="plan.json to verify.")],
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write verification.json (a file or a folder).")] = None,
+    fcl: Annotated[FclMode, typer.Option(help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
+    as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,
+):
+    """Independently verify a plan: clearance (certified), limits, picks and places.
+
+    Exit codes: 0 passed and every reachable fruit harvested; 5 passed but fruit left;
+    6 violations found; 3 bad problem or plan file.
+    """
+    from .plan import load_plan
+    from .problem import load_problem
+    from .verify import verify as run_verify
+
+    prob = load_problem(problem)
+    ver = run_verify(prob, load_plan(plan), fcl=fcl)
+    written = ver.save(out) if out is not None else None
+    if as_json:
+        typer.echo(json.dumps(ver.to_dict(), indent=1, allow_nan=False))
+    else:
+        _print_verification(prob, ver)
+        if written is not None:
+            out_console.print(f"  wrote             {written}")
+    code = ExitCode.UNSAFE if not ver.passed else ExitCode.OK if ver.complete else ExitCode.PARTIAL
+    raise typer.Exit(int(code))
+
+
+@app.command("compare")
+@guarded
+def compare_cmd(
+    problems: Annotated[
+        Optional[Path], typer.Argument(help="Problem YAML file or folder of them (default: the shipped greenhouse row).")
+    ] = None,
+    planner: Annotated[
+        Optional[list[str]],
+        typer.Option("--planner", "-p", help="Planner to run, repeatable: heuristic, optimal or planner:allocation "
+                     "(e.g. heuristic:makespan). Default: heuristic and optimal."),
+    ] = None,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-compare"),
+    figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the comparison figures.")] = True,
+    time_limit: Annotated[Optional[float], typer.Option(help="Optimal planner: wall-clock limit per solve, s.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print compare.json's content instead of the tables.")] = False,
+):
+    """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
+
+    Exit codes: 0 the comparison ran; 3 a problem file is invalid (the others are still
+    compared); 7 a planner failed on some problem (recorded in its row).
+    """
+    from .report import DEFAULT_PLANNERS, PlannerSpec, compare, rich_tables
+
+    try:
+        specs = [PlannerSpec.parse(p) for p in (planner or DEFAULT_PLANNERS)]
+    except ValueError as e:
+        _fail(ExitCode.USAGE, f"--planner: {e}")
+    options = None
+    if time_limit is not None and any(s.planner == PlannerKind.OPTIMAL for s in specs):
+        from .optimal import OptimalOptions
+
+        options = OptimalOptions(time_limit=time_limit)
+    say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{m}[/]"))
+    cmp = compare(_resolve_problem(problems), specs, out, figures=figures, options=options, progress=say)
+    if as_json:
+        typer.echo(json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
+    else:
+        for table in rich_tables(cmp):
+            out_console.print(table)
+        for bad in cmp.bad_inputs:
+            err_console.print(bad["error"], markup=False, highlight=False)
+        for row in cmp.failed_runs:
+            err_console.print(f"{row['problem']}: {row['planner']} failed: {row['error']}", markup=False, highlight=False)
+        for note in cmp.notes:
+            err_console.print(f"note: {note}", markup=False, highlight=False)
+        out_console.print(f"wrote {cmp.files['json']} and {cmp.files['markdown']}")
+    code = ExitCode.BAD_INPUT if cmp.bad_inputs else ExitCode.SOLVER_FAILED if cmp.failed_runs else ExitCode.OK
+    raise typer.Exit(int(code))
+
+
 def main() -> None:
     """Console-script entry point."""
     try:

@@ -1,0 +1,454 @@
+"""The independent verifier: it catches what it must and passes what it should."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from coplan import kinematics as kin
+from coplan.clearance import DEFAULT_SUBSTEPS, clearance_profile, segment_distances
+from coplan.cli import app
+from coplan.errors import PlanFileError
+from coplan.heuristic import plan_heuristic
+from coplan.pipeline import ExitCode
+from coplan.plan import Event, EventKind, Piece, Plan, PlannerKind, PlanStatus, load_plan, sample_pieces
+from coplan.problem import Problem, load_problem, parse_problem, shipped_problems
+from coplan.timing import SCurve, cubic_eval
+from coplan.verify import FclMode, IntervalKind, Verification, ViolationKind, WarningKind, verify
+
+RATE = 100.0
+
+TWO_ARMS = """
+name: two-arms
+defaults:
+  links: [1.0, 0.8]
+  link_radius: 0.04
+  joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]]
+  max_velocity: [3.0, 4.0]
+  max_acceleration: [8.0, 12.0]
+  max_jerk: [80.0, 120.0]
+arms:
+  - {name: west, base: [-1.0, 0.0], bin: [-1.0, -0.5], home: [2.0, 0.6]}
+  - {name: east, base: [1.0, 0.0], bin: [1.0, -0.5], home: [0.6, 0.6]}
+fruits:
+  - {id: w1, position: [-1.9, 0.9]}
+  - {id: w2, position: [-1.2, 1.3]}
+  - {id: e1, position: [1.8, 1.0]}
+task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
+"""
+
+
+def shipped(name: str):
+    return next(p for p in shipped_problems() if p.name == name)
+
+
+@pytest.fixture(scope="module")
+def two_arms() -> Problem:
+    return parse_problem(TWO_ARMS, "two-arms")
+
+
+def _ik(problem: Problem, arm_name: str, point, branch: int | None = None) -> np.ndarray:
+    arm = problem.arm(arm_name)
+    q, valid = arm.ik(np.asarray(point, float))
+    b = branch if branch is not None else int(np.flatnonzero(valid)[0])
+    assert valid[b]
+    return q[b]
+
+
+def scurve_plan(
+    problem: Problem,
+    jobs: dict[str, list[str]],
+    offsets: dict[str, np.ndarray] | None = None,
+    pick_hold: float | None = None,
+    start: dict[str, float] | None = None,
+) -> Plan:
+    """Every arm: home -> fruit (hold) -> bin (hold) -> ... -> home with jerk-limited S-curves.
+
+    ``offsets`` moves a fruit's pick point (fruit id -> (2,) m); ``pick_hold`` holds for that long
+    at the fruit while the pick event still lasts ``pick_dwell``; ``start`` delays an arm.
+    """
+    offsets = offsets or {}
+    task = problem.task
+    timelines, events, t_end = {}, [], 0.0
+    for arm in problem.arms:
+        t = (start or {}).get(arm.name, 0.0)
+        cur = np.asarray(arm.home, float)
+        pieces: list[Piece] = []
+        q_bin = _ik(problem, arm.name, arm.bin)
+
+        def move(t, a, b):
+            s = SCurve.between(a, b, arm.max_velocity, arm.max_acceleration, arm.max_jerk)
+            pieces.append(Piece(t, t + s.duration, s.eval))
+            return t + s.duration
+
+        def hold(t, q, d):
+            pieces.append(Piece(t, t + d, lambda x, q=np.array(q): np.tile(q, (np.size(x), 1))))
+            return t + d
+
+        for fid in jobs.get(arm.name, []):
+            target = np.add(problem.fruit(fid).position, offsets.get(fid, 0.0))
+            qf = _ik(problem, arm.name, target)
+            t = move(t, cur, qf)
+            events.append(Event(arm.name, fid, EventKind.PICK, t, t + task.pick_dwell))
+            t = hold(t, qf, task.pick_dwell if pick_hold is None else pick_hold)
+            t = move(t, qf, q_bin)
+            events.append(Event(arm.name, fid, EventKind.PLACE, t, t + task.place_dwell))
+            t = hold(t, q_bin, task.place_dwell)
+            cur = q_bin
+        t = move(t, cur, arm.home)
+        timelines[arm.name] = pieces
+        t_end = max(t_end, t)
+    times = np.arange(int(math.ceil(t_end * RATE)) + 2) / RATE
+    q = {a.name: sample_pieces(timelines[a.name], a.home, times) for a in problem.arms}
+    return Plan(problem.name, PlannerKind.OPTIMAL, PlanStatus.UNVERIFIED, times, q, sorted(events, key=lambda e: e.t_start),
+                {a: list(v) for a, v in jobs.items()}, [])
+
+
+def kinds(ver: Verification) -> set[ViolationKind]:
+    return {v.kind for v in ver.violations}
+
+
+# ---------------------------------------------------------------------------- passes
+def test_hand_built_safe_plan_passes(two_arms):
+    plan = scurve_plan(two_arms, {"west": ["w1", "w2"], "east": ["e1"]})
+    ver = verify(two_arms, plan)
+    assert ver.passed, ver.violations[:5]
+    assert ver.complete and ver.unharvested == []
+    assert ver.fcl is not None and ver.fcl.agree and ver.fcl.queries > 0
+    assert ver.certified_clearance >= two_arms.task.clearance
+    assert ver.certified_clearance <= ver.min_clearance
+    s = ver.summary()
+    for key in ("passed", "collision_count", "min_clearance", "certified_clearance", "violation_count", "violation_kinds", "pairs", "peaks"):
+        assert key in s
+    assert s["pairs"].keys() == {"west-east"}
+    # the S-curves ride their limits: peaks are close to, never above, 1
+    for arm in ("west", "east"):
+        assert 0.9 < s["peaks"][arm]["jerk"] <= 1.0 + 1e-6
+        assert s["peaks"][arm]["velocity"] <= 1.0 + 1e-6
+        assert s["peaks"][arm]["acceleration"] <= 1.0 + 1e-6
+
+
+def test_scurve_moves_of_every_shape_pass_their_limits():
+    """Third differences of jerk-limited S-curves (incl. short, triangular ones) never false-alarm."""
+    problem = load_problem(shipped("single_arm.yaml"))
+    arm = problem.arms[0]
+    rng = np.random.default_rng(7)
+    pieces, t, cur = [], 0.137, np.asarray(arm.home, float)
+    for _ in range(40):
+        nxt = np.clip(cur + rng.normal(0, 1, 2) * rng.choice([0.002, 0.05, 0.4, 1.5]), -2.9, 2.9)
+        s = SCurve.between(cur, nxt, arm.max_velocity, arm.max_acceleration, arm.max_jerk)
+        pieces.append(Piece(t, t + s.duration, s.eval))
+        t += s.duration + rng.choice([0.0, 0.013, 0.2])
+        cur = nxt
+    times = np.arange(int(t * RATE) + 5) / RATE
+    plan = Plan(problem.name, PlannerKind.OPTIMAL, PlanStatus.UNVERIFIED, times,
+                {arm.name: sample_pieces(pieces, arm.home, times)}, [], {}, [])
+    ver = verify(problem, plan)
+    assert not kinds(ver) & {ViolationKind.VELOCITY, ViolationKind.ACCELERATION, ViolationKind.JERK}
+    assert ver.peaks[arm.name]["jerk"] > 0.95
+
+
+# ---------------------------------------------------------------------------- catches
+def _sweep_plan(problem: Problem, n_before: int = 5) -> tuple[Plan, int]:
+    """East holds still; west's shoulder jumps across east's forearm between samples n and n+1."""
+    east_q = np.array([2.6416, -0.3])  # forearm reaching left over west's base
+    west_a, west_b = np.array([-0.5, 0.0]), np.array([1.6, 0.0])
+    n = n_before + 1
+    times = np.arange(2 * n) / RATE
+    west = np.where((np.arange(2 * n) < n)[:, None], west_a, west_b)
+    plan = Plan(problem.name, PlannerKind.OPTIMAL, PlanStatus.UNVERIFIED, times,
+                {"west": west, "east": np.tile(east_q, (2 * n, 1))}, [], {}, [])
+    return plan, n - 1
+
+
+@pytest.mark.parametrize("substeps", [1, DEFAULT_SUBSTEPS])
+def test_collision_planted_between_two_samples_is_caught(substeps):
+    problem = parse_problem(TWO_ARMS.replace("home: [2.0, 0.6]", "home: [-0.5, 0.0]").replace("home: [0.6, 0.6]", "home: [2.6416, -0.3]"))
+    plan, n = _sweep_plan(problem)
+    # at the plan's own samples the arms are well clear ...
+    t100, d100 = clearance_profile(problem, plan, substeps=1)
+    assert d100[(0, 1)].min() > 0.4
+    # ... but west's forearm sweeps through east's between samples n and n + 1
+    ver = verify(problem, plan, substeps=substeps)
+    assert not ver.passed
+    hits = [c for c in ver.intervals if c.kind == IntervalKind.COLLISION]
+    assert hits, ver.violations
+    assert all(plan.time[n] < c.t_worst < plan.time[n + 1] for c in hits)
+    assert ver.certified_clearance < 0
+    assert ViolationKind.COLLISION in kinds(ver)
+    assert ver.fcl.agree  # FCL confirms the overlap at the worst instant
+
+
+def test_limit_violated_between_knots_is_caught():
+    """A planner's 10 Hz knots move within limits, the 100 Hz samples between them do not."""
+    problem = load_problem(shipped("single_arm.yaml"))
+    arm = problem.arms[0]
+    times = np.arange(101) / RATE
+    q1 = arm.home[0] + 0.5 * times + 0.15 * np.sin(10 * np.pi * times)  # = home + 0.5 t at every knot
+    q = np.stack([q1, np.full_like(times, arm.home[1])], axis=1)
+    knots = q[::10, 0]
+    assert np.all(np.abs(np.diff(knots)) / 0.1 <= arm.max_velocity[0])  # knot-to-knot velocity is fine
+    plan = Plan(problem.name, PlannerKind.OPTIMAL, PlanStatus.UNVERIFIED, times, {arm.name: q}, [], {}, [])
+    ver = verify(problem, plan)
+    vel = [v for v in ver.violations if v.kind == ViolationKind.VELOCITY]
+    assert vel and all(v.joint == 0 and v.arms == (arm.name,) for v in vel)
+    worst = max(vel, key=lambda v: v.amount)
+    assert worst.value == pytest.approx(0.5 + 1.5 * np.pi, rel=0.02)
+    assert not np.isclose((worst.t / 0.1) % 1.0, 0.0, atol=0.05)  # strictly between knots
+
+
+def test_acceleration_step_is_a_jerk_violation_only():
+    """The course's cubic starts with an acceleration step: velocity/acceleration fine, jerk not."""
+    problem = load_problem(shipped("single_arm.yaml"))
+    arm = problem.arms[0]
+    q0, q1 = np.asarray(arm.home), np.asarray(arm.home) + [0.8, -0.5]
+    T = 1.0
+    times = np.arange(int(T * RATE) + 21) / RATE
+    q = cubic_eval(q0, q1, T, times - 0.1)
+    plan = Plan(problem.name, PlannerKind.HEURISTIC, PlanStatus.UNVERIFIED, times, {arm.name: q}, [], {}, [])
+    ver = verify(problem, plan)
+    assert ViolationKind.JERK in kinds(ver)
+    assert not kinds(ver) & {ViolationKind.VELOCITY, ViolationKind.ACCELERATION}
+    starts = sorted(v.t for v in ver.violations if v.kind == ViolationKind.JERK)
+    assert starts[0] == pytest.approx(0.1, abs=0.03) and starts[-1] == pytest.approx(1.1, abs=0.03)
+
+
+def test_fruit_missed_by_6mm_is_caught_and_4mm_is_not(two_arms):
+    miss = scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]}, offsets={"w1": np.array([0.006, 0.0])})
+    ver = verify(two_arms, miss)
+    missed = [v for v in ver.violations if v.kind == ViolationKind.PICK_MISSED]
+    assert len(missed) == 1 and missed[0].fruit == "w1" and missed[0].arms == ("west",)
+    assert missed[0].value == pytest.approx(0.006, abs=1e-5)
+    near = scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]}, offsets={"w1": np.array([0.0, -0.004])})
+    assert verify(two_arms, near).passed
+
+
+def test_dwell_cut_short_is_caught(two_arms):
+    plan = scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]}, pick_hold=0.2)
+    ver = verify(two_arms, plan)
+    short = [v for v in ver.violations if v.kind == ViolationKind.PICK_DWELL]
+    assert sorted(v.fruit for v in short) == ["e1", "w1"]
+    # S-curves leave gently: the first few ms of the departure are still slower than 5 mm/s
+    assert all(v.value == pytest.approx(0.2, abs=0.02) and v.limit == 0.3 for v in short)
+
+
+def test_event_shorter_than_the_dwell_is_caught(two_arms):
+    plan = scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]})
+    e = plan.events[-1]
+    assert e.kind == EventKind.PLACE
+    plan.events[-1] = Event(e.arm, e.fruit, e.kind, e.t_start, e.t_start + 0.1)
+    ver = verify(two_arms, plan)
+    assert [v.kind for v in ver.violations] == [ViolationKind.PLACE_DWELL]
+
+
+def test_place_away_from_the_bin_is_caught(two_arms):
+    plan = scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]})
+    moved = parse_problem(TWO_ARMS.replace("bin: [1.0, -0.5]", "bin: [1.0, -0.51]"))  # the bin is 1 cm lower
+    ver = verify(moved, plan)
+    assert [(v.kind, v.arms, v.fruit) for v in ver.violations] == [(ViolationKind.PLACE_MISSED, ("east",), "e1")]
+    assert ver.violations[0].value == pytest.approx(0.01, abs=1e-4)
+
+
+def test_bookkeeping_violations(two_arms):
+    plan = scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]})
+    pick = next(e for e in plan.events if e.fruit == "w1" and e.kind == EventKind.PICK)
+    assert not two_arms.reach_matrix()[1, 0]  # east cannot reach w1
+    # east also "picks" w1 (a duplicate it cannot reach, and holds it: never placed), and an unknown fruit
+    plan.events.append(Event("east", "w1", EventKind.PICK, pick.t_start, pick.t_end))
+    plan.events.append(Event("east", "nope", EventKind.PICK, 0.0, 0.3))
+    ver = verify(two_arms, plan)
+    k = kinds(ver)
+    assert {ViolationKind.DUPLICATE_PICK, ViolationKind.UNKNOWN_FRUIT, ViolationKind.SEQUENCE,
+            ViolationKind.UNREACHABLE_PICK, ViolationKind.PICK_MISSED} <= k
+    dup = next(v for v in ver.violations if v.kind == ViolationKind.DUPLICATE_PICK)
+    assert dup.arms == ("east", "west") and dup.fruit == "w1"
+
+
+def test_unharvested_fruit_is_reported_not_failed(two_arms):
+    plan = scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]})
+    ver = verify(two_arms, plan)
+    assert ver.passed and not ver.complete
+    assert ver.unharvested == ["w2"]
+    assert any(w.kind == WarningKind.NOT_HARVESTED for w in ver.warnings)
+    assert ver.summary()["unharvested"] == ["w2"]
+
+
+def test_joint_limit_and_singular_pose():
+    problem = load_problem(shipped("single_arm.yaml"))
+    arm = problem.arms[0]
+    times = np.arange(50) / RATE
+    q = np.tile([arm.home[0], 0.0], (50, 1))  # stretched out: singular
+    q[20:30, 0] = 3.2  # beyond 3.1416 (a jump: limits too, we only look at the joint limit)
+    plan = Plan(problem.name, PlannerKind.OPTIMAL, PlanStatus.UNVERIFIED, times, {arm.name: q}, [], {}, [])
+    ver = verify(problem, plan)
+    jl = [v for v in ver.violations if v.kind == ViolationKind.JOINT_LIMIT]
+    assert len(jl) == 1 and jl[0].t_start == pytest.approx(0.2) and jl[0].t_end == pytest.approx(0.29)
+    assert jl[0].amount == pytest.approx(3.2 - 3.1416)
+    assert any(w.kind == WarningKind.SINGULAR for w in ver.warnings)
+
+
+def test_plan_for_other_arms_is_bad_input(two_arms):
+    plan = scurve_plan(two_arms, {"west": ["w1"]})
+    plan.q["north"] = plan.q.pop("east")
+    with pytest.raises(PlanFileError, match="north"):
+        verify(two_arms, plan)
+
+
+def test_fcl_disagreement_fails_the_plan(two_arms, monkeypatch):
+    import coplan.fclcheck as fc
+
+    real = fc.arm_link_distances
+    monkeypatch.setattr(fc, "arm_link_distances", lambda pa, pb: real(pa, pb) + 1e-4)
+    ver = verify(two_arms, scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]}))
+    assert not ver.passed and ViolationKind.CROSS_CHECK in kinds(ver)
+    assert not ver.fcl.agree and ver.summary()["fcl_agree"] is False
+
+
+# ---------------------------------------------------------------------------- shipped problems
+def test_crossing_paths_heuristic_plan_has_collision_intervals():
+    problem = load_problem(shipped("crossing_paths.yaml"))
+    plan = plan_heuristic(problem)
+    ver = verify(problem, plan)
+    s = ver.summary()
+    assert not ver.passed and s["collision_count"] >= 2
+    assert "collision" in s["violation_kinds"]
+    assert s["min_clearance"] < 0 and s["certified_clearance"] <= s["min_clearance"]
+    for c in ver.collisions:
+        assert c.arms == ("left", "right")
+        assert c.t_start <= c.t_worst <= c.t_end
+        assert 0 < c.penetration <= 0.08 + 1e-9
+    assert ver.fcl.agree and ver.fcl.samples >= len(ver.collisions)
+    # the intervals are real: the capsules overlap at each worst instant
+    for c in ver.collisions:
+        q = plan.sample([c.t_worst])
+        pts = {a.name: kin.fk_points(q[a.name][0], a.links, a.base) for a in problem.arms}
+        d = min(
+            float(segment_distances(pts["left"][i], pts["left"][i + 1], pts["right"][j], pts["right"][j + 1]))
+            for i in (0, 1) for j in (0, 1)
+        )
+        assert d - 0.08 == pytest.approx(c.least_distance, abs=1e-9)
+
+
+def test_greenhouse_heuristic_plan_verdict(tmp_path):
+    problem = load_problem(shipped("greenhouse_row.yaml"))
+    plan = plan_heuristic(problem)
+    ver = verify(problem, plan)
+    s = ver.summary()
+    assert s["collision_count"] == 0 and s["certified_clearance"] >= problem.task.clearance
+    assert s["violation_kinds"] == ["jerk"]  # cubic endpoints: acceleration steps, by design
+    assert set(s["pairs"]) == {"left-center", "center-right"}
+    path = ver.save(tmp_path)
+    doc = json.loads(path.read_text())
+    assert path.name == "verification.json" and doc["summary"]["violation_count"] == s["violation_count"]
+    assert doc["fcl"]["agree"] is True
+    plan.verification = s
+    json.dumps(plan.to_dict(), allow_nan=False)  # the summary stored in plan.json is strict JSON
+
+
+def test_certificate_bounds_a_much_denser_sampling():
+    problem = load_problem(shipped("crossing_paths.yaml"))
+    plan = plan_heuristic(problem)
+    ver = verify(problem, plan, fcl=FclMode.OFF)
+    _, dense = clearance_profile(problem, plan, substeps=200)
+    assert ver.certified_clearance <= dense[(0, 1)].min() + 1e-12
+    assert ver.min_clearance >= dense[(0, 1)].min() - 1e-12
+
+
+@pytest.mark.parametrize("name", ["crossing_paths.yaml", "greenhouse_row.yaml"])
+def test_adaptive_sampling_matches_uniform_1khz(name):
+    """The verifier densifies only where it matters; its figures equal uniform 1 kHz sampling."""
+    problem = load_problem(shipped(name))
+    plan = plan_heuristic(problem)
+    ver = verify(problem, plan, fcl=FclMode.OFF)
+    t, prof = clearance_profile(problem, plan)  # uniform, substeps=10
+    assert t.size == (plan.time.size - 1) * DEFAULT_SUBSTEPS + 1
+    for pc, ((i, j), d) in zip(ver.pairs, prof.items()):
+        assert pc.arms == (problem.arms[i].name, problem.arms[j].name)
+        assert pc.min_clearance == pytest.approx(d.min(), abs=1e-12)
+        assert pc.certified <= d.min()
+        assert pc.samples < t.size  # fewer evaluations than uniform sampling
+        n_runs = sum(1 for k in range(1, d.size) if d[k] < 0 <= d[k - 1]) + int(d[0] < 0)
+        assert sum(c.arms == pc.arms for c in ver.collisions) == n_runs
+
+
+def test_single_arm_has_no_pairs_and_saves_clean_json(tmp_path):
+    problem = load_problem(shipped("single_arm.yaml"))
+    plan = scurve_plan(problem, {"arm": ["pick"]})
+    ver = verify(problem, plan)
+    assert ver.passed and ver.complete and ver.pairs == []
+    assert math.isinf(ver.summary()["min_clearance"])
+    doc = json.loads(ver.save(tmp_path / "v.json").read_text())
+    assert doc["summary"]["min_clearance"] is None
+
+
+def test_any_arm_count_checks_every_neighbouring_pair():
+    """Four arms 1 m apart: every pair can touch (not only adjacent ones) and all are checked."""
+    arms = "\n".join(f"  - {{name: a{k}, base: [{k}.0, 0.0], bin: [{k}.0, -0.5], home: [1.5708, 0.0]}}" for k in range(4))
+    head = TWO_ARMS.split("arms:")[0]
+    text = f"{head}arms:\n{arms}\nfruits: []\ntask: {{pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}}\n"
+    problem = parse_problem(text)
+    assert len(problem.neighbour_pairs()) == 6
+    times = np.arange(3) / RATE
+    plan = Plan(problem.name, PlannerKind.OPTIMAL, PlanStatus.UNVERIFIED, times,
+                {a.name: np.tile(a.home, (3, 1)) for a in problem.arms}, [], {}, [])
+    ver = verify(problem, plan)
+    assert set(ver.summary()["pairs"]) == {f"a{i}-a{j}" for i in range(4) for j in range(i + 1, 4)}
+    assert ver.passed and ver.min_clearance == pytest.approx(1.0 - 0.08)
+    assert any(w.kind == WarningKind.SINGULAR for w in ver.warnings)  # stretched straight up
+
+
+def test_one_sample_plan(two_arms):
+    plan = Plan(two_arms.name, PlannerKind.OPTIMAL, PlanStatus.UNVERIFIED, np.zeros(1),
+                {a.name: np.array([a.home]) for a in two_arms.arms}, [], {}, [])
+    ver = verify(two_arms, plan)
+    assert ver.passed and ver.certified_clearance == ver.min_clearance > 0.05
+    assert ver.unharvested == ["w1", "w2", "e1"]
+
+
+# ---------------------------------------------------------------------------- command line
+def _write_plan(tmp_path, problem: Problem, plan: Plan) -> str:
+    return str(plan.save(tmp_path, "plan")["json"])
+
+
+def test_cli_verify_exit_codes(tmp_path, two_arms):
+    runner = CliRunner()
+    prob = tmp_path / "two.yaml"
+    prob.write_text(TWO_ARMS)
+    good = _write_plan(tmp_path / "good", two_arms, scurve_plan(two_arms, {"west": ["w1", "w2"], "east": ["e1"]}))
+    res = runner.invoke(app, ["verify", str(prob), good])
+    assert res.exit_code == ExitCode.OK, res.output
+    assert "passed" in res.output
+    partial = _write_plan(tmp_path / "partial", two_arms, scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]}))
+    assert runner.invoke(app, ["verify", str(prob), partial]).exit_code == ExitCode.PARTIAL
+    bad = _write_plan(tmp_path / "bad", two_arms, scurve_plan(two_arms, {"west": ["w1", "w2"], "east": ["e1"]}, pick_hold=0.1))
+    out = tmp_path / "report" / "verification.json"
+    res = runner.invoke(app, ["verify", str(prob), bad, "--out", str(out)])
+    assert res.exit_code == ExitCode.UNSAFE
+    assert "pick_dwell" in res.output and out.is_file()
+    res = runner.invoke(app, ["verify", str(prob), bad, "--json"])
+    assert res.exit_code == ExitCode.UNSAFE
+    doc = json.loads(res.stdout)
+    assert doc["summary"]["passed"] is False and doc["violations"]
+    junk = tmp_path / "junk.json"
+    junk.write_text("{not json")
+    assert runner.invoke(app, ["verify", str(prob), str(junk)]).exit_code == ExitCode.BAD_INPUT
+    assert runner.invoke(app, ["verify", str(tmp_path / "missing.yaml"), good]).exit_code == ExitCode.BAD_INPUT
+    # a plan of another problem (other arm names) is bad input too
+    other = load_problem(shipped("single_arm.yaml"))
+    other_plan = _write_plan(tmp_path / "other", other, scurve_plan(other, {"arm": ["pick"]}))
+    assert runner.invoke(app, ["verify", str(prob), other_plan]).exit_code == ExitCode.BAD_INPUT
+
+
+def test_cli_verify_reads_back_a_saved_heuristic_plan(tmp_path):
+    path = shipped("crossing_paths.yaml")
+    problem = load_problem(path)
+    plan_file = _write_plan(tmp_path, problem, plan_heuristic(problem))
+    ver = verify(problem, load_plan(plan_file))
+    assert ver.summary()["collision_count"] == verify(problem, plan_heuristic(problem)).summary()["collision_count"]
+    res = CliRunner().invoke(app, ["verify", str(path), plan_file])
+    assert res.exit_code == ExitCode.UNSAFE
+    assert "collision" in res.output
