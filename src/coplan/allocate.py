@@ -175,6 +175,39 @@ def _sequence(problem: Problem, arm: Arm, fruit_ids, rule: SequenceRule, bins, f
     return (first,) + tuple(f for f in by_x if f != first)
 
 
+BLOCKED_COST = 1000.0  # s: effectively forbids a blocked pair unless no other arm can take the fruit
+
+
+def _blocked(problem: Problem, a: int, bins, branches, samples: int = 24) -> bool:
+    """Whether every branch's pick pose or bin round trip hits a neighbour resting at home."""
+    from .geometry import segment_distance
+
+    arm = problem.arms[a]
+    need = problem.task.clearance
+    neighbours = [j if i == a else i for i, j in problem.neighbour_pairs() if a in (i, j)]
+    if not neighbours:
+        return False
+    s = np.linspace(0.0, 1.0, samples)[:, None]
+    for qf in branches:
+        ok = True
+        for qb in bins:
+            path = np.vstack([qb + s * (qf - qb)])
+            pa = kin.fk_points(path, arm.links, arm.base)
+            for j in neighbours:
+                other = problem.arms[j]
+                pb = kin.fk_points(np.asarray(other.home, float), other.links, other.base)
+                d = min(
+                    float(np.min(segment_distance(pa[:, u], pa[:, u + 1], pb[v], pb[v + 1])))
+                    for u in range(2)
+                    for v in range(2)
+                ) - arm.link_radius - other.link_radius
+                if d < need:
+                    ok = False
+        if ok:
+            return False
+    return True
+
+
 def _solve_minmax(cost: np.ndarray, reach: np.ndarray, time_limit: float | None, offset=None):
     """min over assignments of max_a (offset[a] + sum_f cost[a, f] x[a, f]).
 
@@ -261,6 +294,7 @@ def allocate(
     sequence: SequenceRule | str | None = None,
     time_limit: float | None = 10.0,
     territory: float = 0.0,
+    avoid_blocked: bool = False,
 ) -> Allocation:
     """Allocate and sequence every reachable fruit. Unreachable fruit are listed, not errors.
 
@@ -268,6 +302,11 @@ def allocate(
     when another arm that can reach it has its base closer: a penalty on reaching into a
     neighbour's side, which the optimal planner uses to trade a little estimated makespan
     for fewer conflicts between neighbours.
+
+    ``avoid_blocked`` (``makespan`` only): a fruit whose pick pose, or straight joint path
+    from/to the bin, would hit a neighbour resting at home is given to another arm whenever
+    one can take it (a large cost otherwise): no timing can separate such a pair while the
+    neighbour is parked, so it would force the neighbour to stay away from home.
     """
     t0 = _time.perf_counter()
     method = AllocationMethod(method)
@@ -300,6 +339,8 @@ def allocate(
             for k, j in enumerate(cols):
                 if reach[a, j]:
                     cost[a, k] = _round_trip(arm, bins, fq[problem.fruits[j].id], _sync_time) + dw
+                    if avoid_blocked and _blocked(problem, a, bins, fq[problem.fruits[j].id]):
+                        cost[a, k] += BLOCKED_COST
                     if territory > 0:
                         pos = problem.fruits[j].position
                         mine = math.dist(pos, arm.base)
@@ -308,7 +349,7 @@ def allocate(
         if cols.size:
             sub, value, dual = _solve_minmax(cost, reach[:, cols], time_limit)
             assign[cols] = sub
-            info.update(milp_makespan=value, milp_dual_bound=dual, territory=territory)
+            info.update(milp_makespan=value, milp_dual_bound=dual, territory=territory, avoid_blocked=avoid_blocked)
     assignment: dict[str, tuple[str, ...]] = {}
     estimate: dict[str, float] = {}
     fruit_q: dict[str, dict[str, np.ndarray]] = {}

@@ -275,8 +275,8 @@ def build_nlp(
     """Build the NLP over knots ``window = (lo, hi)`` of ``grid`` (default: all).
 
     ``start`` fixes each arm's state (6,) at knot ``lo`` (the previous window's end); when
-    ``hi < K`` the arms must reach the warm start's state at knot ``hi``, so the next window
-    can follow. The objective is the makespan in the last window and the window's duration
+    ``hi < K`` the arms must reach the warm start's pose at knot ``hi`` (any velocity and
+    acceleration within bounds), so the next window can follow. The objective is the makespan in the last window and the window's duration
     in the others.
     """
     t0 = _time.perf_counter()
@@ -315,7 +315,9 @@ def build_nlp(
         if start is not None:
             lo[:, 0] = hi[:, 0] = X0[:, 0] = start[name]
         if not last:
-            lo[:, -1] = hi[:, -1] = X0[:, -1]
+            # reach the warm start's pose at the window's end; velocity and acceleration stay
+            # free (pinning a mid-move state exactly over-constrains the discretised problem)
+            lo[0:2, -1] = hi[0:2, -1] = X0[0:2, -1]
         sx = np.r_[1.0, 1.0, arm.max_velocity, arm.max_acceleration][:, None]
         su = np.asarray(arm.max_jerk, float)[:, None]
         per_arm[name] = (lo, hi, ulo, uhi, dwells, k_end, sx, su)

@@ -50,6 +50,7 @@ class OptimalOptions:
     max_rounds : solves per window while adding constraint points
     window : receding-window length (s of schedule); schedules shorter than 1.5 windows are
         solved as one NLP
+    overlap : each window is solved this much (s) past its cut and kept only up to it
     time_limit : wall-clock limit for the whole optimisation (s); None for none
     check_rate : rate of the planner's own dense clearance check (Hz)
     """
@@ -59,6 +60,7 @@ class OptimalOptions:
     h_target: float = 0.06
     max_rounds: int = 4
     window: float = 12.0
+    overlap: float = 2.5
     time_limit: float | None = None
     check_rate: float = 1000.0
     ipopt: dict = field(default_factory=dict)
@@ -178,7 +180,11 @@ def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say
     t_offset = 0.0
     worst = SolverStatus.OPTIMAL
     order = list(SolverStatus)
-    for wi, (lo, hi) in enumerate(wins):
+    for wi, (lo, hi_commit) in enumerate(wins):
+        # receding horizon: solve past the cut by ``overlap`` s, keep only up to the cut, so the
+        # state handed to the next window has a feasible continuation (the part discarded)
+        hi = hi_commit if hi_commit == grid.K else int(np.searchsorted(grid.t, grid.t[hi_commit] + opts.overlap))
+        hi = min(max(hi, hi_commit), grid.K)
         points = screen_points(problem, schedules, grid, lo, hi, opts.screen)
         sol = None
         for rnd in range(opts.max_rounds):
@@ -208,14 +214,17 @@ def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say
             info["ipopt_status"] = sol.ipopt_status
         elif not info["ipopt_status"]:
             info["ipopt_status"] = sol.ipopt_status
-        # stitch: local knot times start at 0
-        tloc = sol.t + t_offset
+        # stitch the committed part (knots lo..hi_commit); local knot times start at 0
+        c = hi_commit - lo
+        if not sol.status.converged:
+            c = hi - lo  # keep everything the failed solve has, for the record
+        tloc = sol.t[: c + 1] + t_offset
         t_parts.append(tloc if wi == 0 else tloc[1:])
         for n in names:
-            X_parts[n].append(sol.X[n] if wi == 0 else sol.X[n][:, 1:])
-            U_parts[n].append(sol.U[n])
+            X_parts[n].append(sol.X[n][:, : c + 1] if wi == 0 else sol.X[n][:, 1 : c + 1])
+            U_parts[n].append(sol.U[n][:, :c])
         t_offset = float(tloc[-1])
-        start_state = {n: sol.X[n][:, -1].copy() for n in names}
+        start_state = {n: sol.X[n][:, c].copy() for n in names}
         if not sol.status.converged:
             break
     info["status"] = worst
@@ -279,8 +288,11 @@ def _choose_warm_start(problem: Problem, method: AllocationMethod, opts: Optimal
     territories = [0.0, 1.0, 3.0, 10.0] if method == AllocationMethod.MAKESPAN else [0.0]
     best = None
     tried = []
+    t_stop = _time.perf_counter() + 3.0  # the warm-start search is bounded: the NLP does the rest
     for terr in territories:
-        alloc = allocate(problem, method, territory=terr)
+        if best is not None and _time.perf_counter() > t_stop:
+            break
+        alloc = allocate(problem, method, territory=terr, avoid_blocked=method == AllocationMethod.MAKESPAN)
         if best is not None and alloc.assignment == best[0].assignment:
             continue
         base, tucked = tuck_moves(problem, decoupled_schedules(problem, alloc), problem.task.clearance + opts.margin)

@@ -263,9 +263,10 @@ def remove_conflicts(
     for n in order:
         others = [m for m in fixed if (min(index[n], index[m]), max(index[n], index[m])) in pairs]
         sch = out[n]
+        t_from = 0.0  # everything before the last shifted step is unchanged and already clear
         while others:
             t_end = max([sch.end] + [out[m].end for m in others]) + 1.0 / rate
-            t = np.arange(0.0, t_end, 1.0 / rate)
+            t = np.arange(t_from, t_end, 1.0 / rate)
             qn = sch.state(t)[0]
             first = None
             run = 0.0
@@ -292,6 +293,7 @@ def remove_conflicts(
                     f"arm {n!r} is in the way of another arm at t = {first:.2f} s while resting at its start pose"
                 )
             # wait as long as the conflict lasted (at least delay_step), then look again
+            t_from = max(0.0, sch.steps[idx].t0 - 1.0 / rate)
             sch = sch.shifted(idx, max(delay_step, run))
             n_delays += 1
             if n_delays > max_delays:
