@@ -27,16 +27,24 @@ class Issue:
 
 
 class InputError(CoplanError, ValueError):
-    """A bad input file; ``issues`` holds every problem found, ``source`` the file."""
+    """A bad input file; ``issues`` holds every problem found, ``source`` the file.
+
+    The message lists every issue, one per line (at most ``MAX_SHOWN``; ``issues`` always
+    holds them all).
+    """
 
     kind = "input"
+    MAX_SHOWN = 200
 
     def __init__(self, issues: list[Issue], source: str | None = None):
         self.issues = list(issues)
         self.source = source
         n = len(self.issues)
-        head = f"{source or self.kind}: {n} problem{'s' if n != 1 else ''} found"
-        super().__init__(head + "\n" + "\n".join("  " + i.format(source) for i in self.issues))
+        head = f"{source or '<input>'}: {n} problem{'s' if n != 1 else ''} found"
+        shown = ["  " + i.format(source) for i in self.issues[: self.MAX_SHOWN]]
+        if n > self.MAX_SHOWN:
+            shown.append(f"  ... and {n - self.MAX_SHOWN} more")
+        super().__init__(head + "\n" + "\n".join(shown))
 
 
 class ProblemError(InputError):

@@ -42,16 +42,21 @@ def _is_casadi(x: Any) -> bool:
 
 
 def _ops(x: Any):
-    """Return (sin, cos, column-getter, hstack) for NumPy or CasADi inputs."""
+    """Return (sin, cos, column-getter, hstack) for NumPy or CasADi inputs.
+
+    CasADi inputs are either one pose as a (2, 1) column or T poses as a (T, 2) matrix
+    (T = 1 included: a (1, 2) row is one pose in matrix form and gives (1, 2) results).
+    """
     if _is_casadi(x):
         import casadi as ca
 
+        column = x.shape[1] == 1
+
         def col(a, i):
-            # (2,1) column vector or (T,2) matrix
-            return a[i] if a.shape[1] == 1 else a[:, i]
+            return a[i] if column else a[:, i]
 
         def stack(a, b):
-            return ca.vertcat(a, b) if a.shape[1] == 1 and a.shape[0] == 1 else ca.horzcat(a, b)
+            return ca.vertcat(a, b) if column else ca.horzcat(a, b)
 
         return ca.sin, ca.cos, col, stack
     return np.sin, np.cos, (lambda a, i: a[..., i]), (lambda a, b: np.stack([a, b], axis=-1))
@@ -159,6 +164,8 @@ def jacobian(q: Any, links):
     if _is_casadi(q):
         import casadi as ca
 
+        if q.shape != (2, 1):
+            raise ValueError(f"jacobian on CasADi symbols expects one pose as a (2, 1) column, found shape {q.shape}")
         return ca.vertcat(
             ca.horzcat(-l1 * s1 - l2 * s12, -l2 * s12),
             ca.horzcat(l1 * c1 + l2 * c12, l2 * c12),

@@ -257,97 +257,177 @@ def load_plan(path: str | Path) -> Plan:
     """Load and check a ``plan.json`` (raises :class:`PlanFileError` listing every problem)."""
     p = Path(path)
     src = str(p)
+    if not p.exists():
+        raise PlanFileError([Issue("", "expected an existing plan file, found no file at this path")], src)
     if not p.is_file():
-        raise PlanFileError([Issue("", "file not found" if not p.exists() else "expected a file, found a directory")], src)
+        raise PlanFileError([Issue("", "expected a plan file, found a directory")], src)
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        line = getattr(e, "lineno", None)
-        raise PlanFileError([Issue("", f"not valid JSON: {e}", line)], src) from None
+    except json.JSONDecodeError as e:
+        raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno})", e.lineno)], src) from None
+    except UnicodeDecodeError as e:
+        raise PlanFileError([Issue("", f"expected UTF-8 JSON, found an undecodable byte at offset {e.start}")], src) from None
     return plan_from_dict(data, src)
 
 
+def _kind(v: Any) -> str:
+    names = {bool: "boolean", int: "number", float: "number", str: "string", list: "array", dict: "object"}
+    if v is None:
+        return "null"
+    text = repr(v)
+    return f"{names.get(type(v), type(v).__name__)} {text[:57] + '...' if len(text) > 60 else text}"
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _number_array(v: Any, path: str, bad, pair: bool) -> np.ndarray | None:
+    """``v`` as a float array of shape (N,) (``pair=False``) or (N, 2), or None after reporting
+    the first offending element with its exact key path."""
+    if not isinstance(v, list):
+        bad(path, f"expected an array of {'[t1, t2] pairs' if pair else 'numbers'}, found {_kind(v)}")
+        return None
+    for i, x in enumerate(v):
+        items = x if pair else [x]
+        if pair and not (isinstance(x, list) and len(x) == 2):
+            bad(f"{path}[{i}]", f"expected a [t1, t2] pair of numbers, found {_kind(x)}")
+            return None
+        for k, y in enumerate(items):
+            where = f"{path}[{i}][{k}]" if pair else f"{path}[{i}]"
+            if not _is_number(y):
+                bad(where, f"expected a number, found {_kind(y)}")
+                return None
+            if not math.isfinite(y):
+                bad(where, f"expected a finite number, found {y}")
+                return None
+    return np.asarray(v, dtype=float).reshape(-1, 2) if pair else np.asarray(v, dtype=float)
+
+
 def plan_from_dict(data: Any, source: str | None = None) -> Plan:
+    """Check a decoded ``plan.json`` document and build the :class:`Plan` (raises
+    :class:`PlanFileError` listing every problem, each with its key path)."""
     issues: list[Issue] = []
 
-    def bad(path, msg):
+    def bad(path: str, msg: str) -> None:
         issues.append(Issue(path, msg))
 
     if not isinstance(data, dict):
-        raise PlanFileError([Issue("", f"expected a JSON object, found {type(data).__name__}")], source)
+        raise PlanFileError([Issue("", f"expected a JSON object, found {_kind(data)}")], source)
     if data.get("format") != PLAN_FORMAT:
-        bad("format", f"expected {PLAN_FORMAT!r}, found {data.get('format')!r}")
+        bad("format", f"expected {PLAN_FORMAT!r}, found {_kind(data.get('format')) if 'format' in data else 'nothing'}")
     for key in ("problem", "planner", "status", "time", "arms", "events"):
         if key not in data:
-            bad(key, "missing required field")
+            bad(key, "expected a value, found nothing (required field)")
     if issues:
         raise PlanFileError(issues, source)
+    if not isinstance(data["problem"], str):
+        bad("problem", f"expected a string, found {_kind(data['problem'])}")
     try:
         planner = PlannerKind(data["planner"])
     except ValueError:
-        bad("planner", f"expected one of {[k.value for k in PlannerKind]}, found {data['planner']!r}")
+        bad("planner", f"expected one of {[k.value for k in PlannerKind]}, found {_kind(data['planner'])}")
         planner = PlannerKind.HEURISTIC
     try:
         status = PlanStatus(data["status"])
     except ValueError:
-        bad("status", f"expected one of {[k.value for k in PlanStatus]}, found {data['status']!r}")
+        bad("status", f"expected one of {[k.value for k in PlanStatus]}, found {_kind(data['status'])}")
         status = PlanStatus.UNVERIFIED
-    try:
-        time = np.asarray(data["time"], dtype=float)
-    except (TypeError, ValueError):
-        time = np.zeros(0)
-        bad("time", "expected a list of numbers")
-    if time.ndim != 1 or time.size < 1:
-        bad("time", f"expected a non-empty list of numbers, found shape {time.shape}")
-    elif not np.all(np.isfinite(time)):
-        bad("time", "expected finite numbers, found NaN/inf")
-    elif time.size > 1:
-        d = np.diff(time)
-        if np.any(d <= 0):
-            bad("time", "expected strictly increasing times")
-        elif np.max(np.abs(d - d.mean())) > 1e-4 * max(d.mean(), 1e-9) + 1e-6:
-            bad("time", "expected a uniform grid")
-        elif d.mean() > 0.01 + 1e-9:
-            bad("time", f"expected a grid of 100 Hz or finer, found spacing {d.mean():.4g} s")
-        if abs(time[0]) > 1e-9:
+
+    # ---- the time grid
+    time = _number_array(data["time"], "time", bad, pair=False)
+    if time is not None:
+        if time.size < 1:
+            bad("time", "expected a non-empty array of times, found an empty one")
+            time = None
+        elif time[0] != 0.0:
             bad("time[0]", f"expected 0, found {time[0]}")
+        if time is not None and time.size > 1:
+            d = np.diff(time)
+            h = (time[-1] - time[0]) / (time.size - 1)
+            if np.any(d <= 0):
+                i = int(np.argmax(d <= 0)) + 1
+                bad(f"time[{i}]", f"expected strictly increasing times, found {time[i]} after {time[i - 1]}")
+            elif np.max(np.abs(d - h)) > 1e-4 * h + 1e-6:
+                i = int(np.argmax(np.abs(d - h))) + 1
+                bad(f"time[{i}]", f"expected a uniform grid with spacing {h:.6g} s, found a step of {d[i - 1]:.6g} s")
+            elif h > 0.01 + 1e-9:
+                bad("time", f"expected a grid of 100 Hz or finer (spacing <= 0.01 s), found spacing {h:.4g} s")
+
+    # ---- joint trajectories: one [t1, t2] pair per time for every arm
     q: dict[str, np.ndarray] = {}
     arms = data["arms"]
     if not isinstance(arms, dict) or not arms:
-        bad("arms", "expected an object mapping arm names to {q: [[t1, t2], ...]}")
+        bad("arms", f"expected an object mapping arm names to {{q: [[t1, t2], ...]}}, found {_kind(arms)}")
+        arms = None
     else:
         for name, v in arms.items():
             if not isinstance(v, dict) or "q" not in v:
-                bad(f"arms.{name}", "expected an object with key 'q'")
+                bad(f"arms.{name}", f"expected an object with key 'q', found {_kind(v)}")
                 continue
-            try:
-                arr = np.asarray(v["q"], dtype=float)
-            except (TypeError, ValueError):
-                bad(f"arms.{name}.q", "expected a list of [t1, t2] pairs of numbers")
+            arr = _number_array(v["q"], f"arms.{name}.q", bad, pair=True)
+            if arr is None:
                 continue
-            if arr.ndim != 2 or arr.shape[1] != 2:
-                bad(f"arms.{name}.q", f"expected shape (N, 2), found {arr.shape}")
-            elif arr.shape[0] != time.size:
-                bad(f"arms.{name}.q", f"expected {time.size} rows (one per time), found {arr.shape[0]}")
-            elif not np.all(np.isfinite(arr)):
-                bad(f"arms.{name}.q", "expected finite numbers, found NaN/inf")
-            else:
-                q[name] = arr
-    events = []
-    if not isinstance(data["events"], list):
-        bad("events", "expected a list")
-    else:
-        for i, e in enumerate(data["events"]):
-            try:
-                ev = Event(str(e["arm"]), str(e["fruit"]), EventKind(e["kind"]), float(e["t_start"]), float(e["t_end"]))
-            except (KeyError, TypeError, ValueError) as ex:
-                bad(f"events[{i}]", f"expected {{arm, fruit, kind: pick|place, t_start, t_end}}, found {e!r} ({ex})")
+            if time is not None and arr.shape[0] != time.size:
+                bad(f"arms.{name}.q", f"expected {time.size} [t1, t2] pairs (one per time), found {arr.shape[0]}")
                 continue
-            if isinstance(arms, dict) and ev.arm not in arms:
-                bad(f"events[{i}].arm", f"unknown arm {ev.arm!r}")
-            if not ev.t_end >= ev.t_start:
-                bad(f"events[{i}]", f"expected t_end >= t_start, found {ev.t_start} > {ev.t_end}")
-            events.append(ev)
+            q[name] = arr
+
+    # ---- events
+    events: list[Event] = []
+    evs = data["events"]
+    if not isinstance(evs, list):
+        bad("events", f"expected an array of events, found {_kind(evs)}")
+        evs = []
+    for i, e in enumerate(evs):
+        where = f"events[{i}]"
+        if not isinstance(e, dict):
+            bad(where, f"expected an object {{arm, fruit, kind, t_start, t_end}}, found {_kind(e)}")
+            continue
+        ok = True
+        for key in ("arm", "fruit", "kind", "t_start", "t_end"):
+            if key not in e:
+                bad(f"{where}.{key}", "expected a value, found nothing (required field)")
+                ok = False
+        for key in set(e) - {"arm", "fruit", "kind", "t_start", "t_end"}:
+            bad(f"{where}.{key}", f"expected one of arm, fruit, kind, t_start, t_end, found unknown key {key!r}")
+            ok = False
+        if not ok:
+            continue
+        for key in ("arm", "fruit"):
+            if not isinstance(e[key], str):
+                bad(f"{where}.{key}", f"expected a string, found {_kind(e[key])}")
+                ok = False
+        if arms is not None and isinstance(e["arm"], str) and e["arm"] not in arms:
+            bad(f"{where}.arm", f"expected one of the plan's arms {list(arms)}, found {e['arm']!r}")
+            ok = False
+        if e["kind"] not in [k.value for k in EventKind]:
+            bad(f"{where}.kind", f"expected 'pick' or 'place', found {_kind(e['kind'])}")
+            ok = False
+        for key in ("t_start", "t_end"):
+            if not _is_number(e[key]) or not math.isfinite(e[key]):
+                bad(f"{where}.{key}", f"expected a finite time in s, found {_kind(e[key])}")
+                ok = False
+        if ok and not e["t_end"] >= e["t_start"]:
+            bad(f"{where}.t_end", f"expected t_end >= t_start = {e['t_start']}, found {e['t_end']}")
+            ok = False
+        if ok:
+            events.append(Event(e["arm"], e["fruit"], EventKind(e["kind"]), float(e["t_start"]), float(e["t_end"])))
+
+    # ---- optional bookkeeping
+    allocation = data.get("allocation") or {}
+    if not isinstance(allocation, dict) or not all(
+        isinstance(v, list) and all(isinstance(f, str) for f in v) for v in allocation.values()
+    ):
+        bad("allocation", f"expected an object mapping arm names to arrays of fruit ids, found {_kind(allocation)}")
+        allocation = {}
+    unreachable = data.get("unreachable") or []
+    if not isinstance(unreachable, list) or not all(isinstance(f, str) for f in unreachable):
+        bad("unreachable", f"expected an array of fruit ids, found {_kind(unreachable)}")
+        unreachable = []
+    for key in ("metrics", "solver", "verification"):
+        if data.get(key) is not None and not isinstance(data[key], dict):
+            bad(key, f"expected an object, found {_kind(data[key])}")
     if issues:
         raise PlanFileError(issues, source)
     return Plan(
@@ -357,8 +437,8 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
         time=time,
         q=q,
         events=events,
-        allocation={k: list(v) for k, v in (data.get("allocation") or {}).items()},
-        unreachable=list(data.get("unreachable") or []),
+        allocation={k: list(v) for k, v in allocation.items()},
+        unreachable=list(unreachable),
         metrics=data.get("metrics") or {},
         solver=data.get("solver") or {},
         verification=data.get("verification"),

@@ -39,6 +39,7 @@ MAX_FILE_BYTES = 4 * 1024 * 1024
 MAX_ARMS = 64
 MAX_FRUITS = 20_000
 MAX_DEPTH = 12
+MAX_NODES = 300_000  # YAML nodes (scalars + collections); 20 000 fruit take about 180 000
 
 
 def _path_str(loc) -> str:
@@ -51,10 +52,22 @@ def _path_str(loc) -> str:
     return out
 
 
+def _kind(v: Any) -> str:
+    """A YAML reader's name for the type of ``v`` plus its value, e.g. ``string 'a'``, ``null``."""
+    if v is None:
+        return "null"
+    names = {bool: "boolean", int: "integer", float: "number", str: "string", list: "list", tuple: "list", dict: "mapping"}
+    kind = names.get(type(v), type(v).__name__)
+    text = repr(v)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{kind} {text}"
+
+
 # --------------------------------------------------------------------------- raw schema
 def _number(v: Any) -> Any:
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise ValueError(f"expected a number, found {type(v).__name__} {v!r}")
+        raise ValueError(f"expected a number, found {_kind(v)}")
     if not math.isfinite(float(v)):
         raise ValueError(f"expected a finite number, found {v!r}")
     return float(v)
@@ -76,18 +89,18 @@ def _nonneg(v: Any) -> Any:
 
 def _pair_list(v: Any) -> Any:
     if not isinstance(v, (list, tuple)):
-        raise ValueError(f"expected a list of 2 items, found {type(v).__name__} {v!r}")
+        raise ValueError(f"expected a list of 2 items, found {_kind(v)}")
     if len(v) != 2:
-        raise ValueError(f"expected a list of 2 items, found {len(v)} items")
+        raise ValueError(f"expected a list of 2 items, found a list of {len(v)} items")
     return tuple(v)
 
 
 def _name(v: Any) -> Any:
     if isinstance(v, bool) or not isinstance(v, (str, int)):
-        raise ValueError(f"expected a string, found {type(v).__name__} {v!r}")
+        raise ValueError(f"expected a string, found {_kind(v)}")
     v = str(v).strip()
     if not v:
-        raise ValueError("expected a non-empty string")
+        raise ValueError("expected a non-empty string, found an empty one")
     return v
 
 
@@ -255,56 +268,158 @@ class Problem:
 
 # --------------------------------------------------------------------------- YAML
 class _LineLoader(yaml.SafeLoader):
-    """SafeLoader that refuses duplicate keys and aliases (checked on the node tree)."""
+    """SafeLoader; duplicate keys, aliases, anchors and tags are refused beforehand by
+    :func:`_scan_events` and :func:`_walk_nodes`, then the checked node tree is constructed."""
 
 
-def _walk_nodes(node, path, lines: dict, issues: list, depth: int = 0):
-    if depth > MAX_DEPTH:
-        issues.append(Issue(_path_str(path), f"nesting deeper than {MAX_DEPTH} levels", node.start_mark.line + 1))
+# libyaml's parser when PyYAML has it (it nearly always does): the same events and marks,
+# an order of magnitude faster. Only its parser/composer is used; construction is SafeLoader's.
+_FastLoader = getattr(yaml, "CSafeLoader", _LineLoader)
+
+
+# What each field expects, for "missing field" messages.
+_EXPECT = {
+    "name": "a non-empty string",
+    "arms": "a list of arms",
+    "task": "a mapping with pick_dwell, place_dwell and clearance",
+    "links": "[l1, l2]: two link lengths > 0 in m",
+    "link_radius": "a capsule radius > 0 in m",
+    "joint_limits": "[[t1_min, t1_max], [t2_min, t2_max]] in rad",
+    "max_velocity": "[v1, v2]: two joint speeds > 0 in rad/s",
+    "max_acceleration": "[a1, a2]: two joint accelerations > 0 in rad/s^2",
+    "max_jerk": "[j1, j2]: two joint jerks > 0 in rad/s^3",
+    "home": "[t1, t2]: joint angles in rad",
+    "base": "[x, y] in m",
+    "bin": "[x, y] in m",
+    "id": "a non-empty string",
+    "position": "[x, y] in m",
+    "pick_dwell": "a number >= 0 in s",
+    "place_dwell": "a number >= 0 in s",
+    "clearance": "a number >= 0 in m",
+}
+
+
+def _missing(field_name: str, where: str = "") -> str:
+    what = _EXPECT.get(str(field_name), "a value")
+    return f"expected {what}, found nothing (required field{where})"
+
+
+def _scan_events(text: str, issues: list) -> None:
+    """Walk the YAML event stream (no recursion, nothing built) tracking key paths.
+
+    Reports every alias and anchor (a few aliases can expand into gigabytes); stops at once
+    at nesting deeper than ``MAX_DEPTH`` (which would overflow the recursive composer) or
+    more than ``MAX_NODES`` values (a hostile file), so those cost no more than reading the
+    file. Issues are appended to ``issues``.
+    """
+    # frame: [kind ("map" | "seq"), path, expect_key, key, index]
+    stack: list[list] = []
+    nodes = 0
+    for ev in yaml.parse(text, Loader=_FastLoader):
+        if isinstance(ev, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            stack.pop()
+            continue
+        if not isinstance(ev, (yaml.ScalarEvent, yaml.AliasEvent, yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            continue
+        path: list = []
+        if stack:
+            f = stack[-1]
+            if f[0] == "seq":
+                path = f[1] + [f[4]]
+                f[4] += 1
+            elif f[2]:  # this node is a key
+                f[2] = False
+                f[3] = ev.value if isinstance(ev, yaml.ScalarEvent) else "?"
+                path = f[1] + [f[3]]
+            else:  # this node is the value of f[3]
+                f[2] = True
+                path = f[1] + [f[3]]
+        line = ev.start_mark.line + 1
+        nodes += 1
+        if nodes > MAX_NODES:
+            issues.append(Issue(_path_str(path), f"expected at most {MAX_NODES} YAML values in a problem file, found more", line))
+            return
+        if isinstance(ev, yaml.AliasEvent):
+            issues.append(
+                Issue(_path_str(path), f"expected a plain value, found the alias *{ev.anchor} (YAML anchors and aliases are not supported)", line)
+            )
+        elif ev.anchor is not None:
+            issues.append(
+                Issue(_path_str(path), f"expected a plain value, found the anchor &{ev.anchor} (YAML anchors and aliases are not supported)", line)
+            )
+        if isinstance(ev, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            if len(stack) >= MAX_DEPTH:
+                issues.append(Issue(_path_str(path), f"expected at most {MAX_DEPTH} levels of nesting, found more", line))
+                return
+            stack.append(["map" if isinstance(ev, yaml.MappingStartEvent) else "seq", path, True, None, 0])
+
+
+_STR_TAG = "tag:yaml.org,2002:str"
+
+
+def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = None, ctor=None) -> None:
+    """Record the line of every key path; refuse duplicate keys, non-scalar keys and tags.
+
+    Keys are compared as the values they construct to, so ``1`` and ``0x1`` (or ``yes``
+    and ``true``) are duplicates too: a dict would silently merge them.
+    """
+    ctor = ctor if ctor is not None else _LineLoader("")
+    lines[tuple(path)] = key_line if key_line is not None else node.start_mark.line + 1
+    if node.tag not in _LineLoader.yaml_constructors:
+        issues.append(
+            Issue(_path_str(path), f"expected a plain YAML value, found the tag {node.tag!r} (tags are not supported)", node.start_mark.line + 1)
+        )
         return
-    lines[tuple(path)] = node.start_mark.line + 1
     if isinstance(node, yaml.MappingNode):
-        seen: dict[str, int] = {}
+        seen: dict[Any, int] = {}
         for k, v in node.value:
-            key = k.value if isinstance(k, yaml.ScalarNode) else str(k)
+            kline = k.start_mark.line + 1
+            if not isinstance(k, yaml.ScalarNode):
+                kind = "list" if isinstance(k, yaml.SequenceNode) else "mapping"
+                issues.append(Issue(_path_str(path), f"expected string keys, found a {kind} used as a key", kline))
+                continue
+            if k.tag not in _LineLoader.yaml_constructors:
+                issues.append(Issue(_path_str(path), f"expected a plain YAML key, found the tag {k.tag!r} (tags are not supported)", kline))
+                continue
+            key = k.value if k.tag == _STR_TAG else ctor.construct_object(k)
             if key in seen:
                 issues.append(
                     Issue(
-                        _path_str(path + [key]),
-                        f"duplicate key {key!r} (first at line {seen[key]}); keys must be unique",
-                        k.start_mark.line + 1,
+                        _path_str(path + [k.value]),
+                        f"expected unique keys, found {k.value!r} again (first at line {seen[key]}); duplicate keys are never merged",
+                        kline,
                     )
                 )
-            else:
-                seen[key] = k.start_mark.line + 1
-            _walk_nodes(v, path + [key], lines, issues, depth + 1)
+                continue
+            seen[key] = kline
+            _walk_nodes(v, path + [key], lines, issues, kline, ctor)
     elif isinstance(node, yaml.SequenceNode):
         for i, v in enumerate(node.value):
-            _walk_nodes(v, path + [i], lines, issues, depth + 1)
+            _walk_nodes(v, path + [i], lines, issues, None, ctor)
 
 
 def _read_yaml(text: str, source: str | None):
+    """Parse YAML text safely; returns ``(data, lines)`` where ``lines`` maps key paths to lines."""
     lines: dict = {}
     issues: list[Issue] = []
     try:
-        for ev in yaml.parse(text, Loader=_LineLoader):
-            if isinstance(ev, yaml.AliasEvent):
-                raise ProblemError(
-                    [Issue("", "YAML anchors/aliases (*name) are not supported in problem files", ev.start_mark.line + 1)],
-                    source,
-                )
-        node = yaml.compose(text, Loader=_LineLoader)
+        _scan_events(text, issues)
+        if issues:
+            raise ProblemError(issues, source)
+        node = yaml.compose(text, Loader=_FastLoader)
+        if node is None:
+            raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty file")], source)
+        _walk_nodes(node, [], lines, issues)
+        if issues:
+            raise ProblemError(issues, source)
+        # keys are now known to be unique scalars, with no aliases or unknown tags
+        data = _LineLoader("").construct_document(node)
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         line = mark.line + 1 if mark is not None else None
         msg = getattr(e, "problem", None) or str(e)
-        raise ProblemError([Issue("", f"not valid YAML: {msg}", line)], source) from None
-    if node is None:
-        raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty file")], source)
-    _walk_nodes(node, [], lines, issues)
-    if issues:
-        raise ProblemError(issues, source)
-    data = yaml.load(text, Loader=_LineLoader)
+        context = getattr(e, "context", None)
+        raise ProblemError([Issue("", f"expected valid YAML, found a syntax error: {msg}" + (f" ({context})" if context else ""), line)], source) from None
     return data, lines
 
 
@@ -317,36 +432,53 @@ def _line(lines: dict, loc) -> int | None:
     return lines.get(())
 
 
-def _suggest(key: str, choices) -> str:
+def _suggest(key: Any, choices) -> str:
     m = difflib.get_close_matches(str(key), list(choices), n=1, cutoff=0.5)
     return f"; did you mean {m[0]!r}?" if m else f"; allowed keys: {', '.join(choices)}"
 
 
+def _user_loc(data: Any, loc: tuple, missing: bool) -> tuple:
+    """Keep only the parts of a pydantic error location that index into the user's data.
+
+    Pydantic may insert internal tags (``function-before[...]``, ``tuple[float, float]``,
+    union member names) into locations; walking the actual data drops them all. For a
+    missing field the last part (the field's name) is kept.
+    """
+    out: list = []
+    cur = data
+    for i, part in enumerate(loc):
+        if isinstance(cur, dict) and part in cur:
+            out.append(part)
+            cur = cur[part]
+        elif isinstance(cur, (list, tuple)) and isinstance(part, int) and 0 <= part < len(cur):
+            out.append(part)
+            cur = cur[part]
+        elif missing and i == len(loc) - 1 and isinstance(part, str):
+            out.append(part)
+    return tuple(out)
+
+
 def _validate(model, data, prefix: tuple, lines: dict, issues: list):
+    """Validate ``data`` against a pydantic model, turning every error into an :class:`Issue`."""
     try:
         return model.model_validate(data)
     except ValidationError as e:
         for err in e.errors():
-            loc = prefix + tuple(p for p in err["loc"] if not (isinstance(p, str) and p.startswith("function-")))
-            # pydantic appends internal tags for tuple items/annotated types; keep user-facing parts
-            loc = tuple(p for p in loc if p not in ("tuple[float, float]",))
             etype = err["type"]
+            loc = prefix + _user_loc(data, tuple(err["loc"]), etype == "missing")
+            path = _path_str(loc)
             if etype == "extra_forbidden":
                 key = loc[-1]
-                fields = [f for f in model.model_fields]
-                issues.append(Issue(_path_str(loc), f"unknown key {key!r}{_suggest(key, fields)}", _line(lines, loc)))
+                issues.append(Issue(path, f"expected a known key, found unknown key {key!r}{_suggest(key, model.model_fields)}", _line(lines, loc)))
             elif etype == "missing":
-                issues.append(Issue(_path_str(loc), "missing required field", _line(lines, loc[:-1])))
-            elif etype == "model_type":
-                found = err.get("input")
-                issues.append(
-                    Issue(_path_str(loc), f"expected a mapping, found {type(found).__name__} {found!r}", _line(lines, loc))
-                )
+                issues.append(Issue(path, _missing(loc[-1]), _line(lines, loc[:-1])))
+            elif etype in ("model_type", "model_attributes_type", "dict_type"):
+                issues.append(Issue(path, f"expected a mapping, found {_kind(err.get('input'))}", _line(lines, loc)))
             else:
                 msg = err["msg"].removeprefix("Value error, ")
                 if "found" not in msg:
-                    msg = f"{msg}; found {err.get('input')!r}"
-                issues.append(Issue(_path_str(loc), msg, _line(lines, loc)))
+                    msg = f"{msg}; found {_kind(err.get('input'))}"
+                issues.append(Issue(path, msg, _line(lines, loc)))
         return None
 
 
@@ -354,14 +486,14 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     issues: list[Issue] = []
     if not isinstance(data, dict):
         raise ProblemError(
-            [Issue("", f"expected a mapping with keys name, arms, fruits, task; found {type(data).__name__}", 1)], source
+            [Issue("", f"expected a mapping with keys name, arms, fruits, task; found {_kind(data)}", 1)], source
         )
     for k in data:
         if k not in _TOP_KEYS:
-            issues.append(Issue(str(k), f"unknown key {k!r}{_suggest(k, _TOP_KEYS)}", _line(lines, (k,))))
+            issues.append(Issue(str(k), f"expected a known key, found unknown key {k!r}{_suggest(k, _TOP_KEYS)}", _line(lines, (k,))))
     for k in ("name", "arms", "task"):
         if k not in data:
-            issues.append(Issue(k, "missing required field", 1))
+            issues.append(Issue(k, _missing(k)))
     name = data.get("name", "")
     if "name" in data:
         try:
@@ -370,18 +502,17 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
             issues.append(Issue("name", str(e), _line(lines, ("name",))))
     description = data.get("description", "") or ""
     if not isinstance(description, str):
-        issues.append(Issue("description", f"expected a string, found {type(description).__name__}", _line(lines, ("description",))))
+        issues.append(Issue("description", f"expected a string, found {_kind(description)}", _line(lines, ("description",))))
         description = ""
 
-    defaults = _ArmFields()
+    defaults: _ArmFields | None = _ArmFields()
     if data.get("defaults") is not None:
-        d = _validate(_ArmFields, data["defaults"], ("defaults",), lines, issues)
-        defaults = d if d is not None else None
+        defaults = _validate(_ArmFields, data["defaults"], ("defaults",), lines, issues)
 
     arms_raw = data.get("arms", [])
     arm_specs: list[tuple[int, _ArmSpec | None]] = []
     if not isinstance(arms_raw, list):
-        issues.append(Issue("arms", f"expected a list of arms, found {type(arms_raw).__name__}", _line(lines, ("arms",))))
+        issues.append(Issue("arms", f"expected a list of arms, found {_kind(arms_raw)}", _line(lines, ("arms",))))
         arms_raw = []
     elif "arms" in data and not arms_raw:
         issues.append(Issue("arms", "expected at least one arm, found an empty list", _line(lines, ("arms",))))
@@ -393,7 +524,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
 
     fruits_raw = data.get("fruits", []) or []
     if not isinstance(fruits_raw, list):
-        issues.append(Issue("fruits", f"expected a list of fruit, found {type(fruits_raw).__name__}", _line(lines, ("fruits",))))
+        issues.append(Issue("fruits", f"expected a list of fruit, found {_kind(fruits_raw)}", _line(lines, ("fruits",))))
         fruits_raw = []
     if len(fruits_raw) > MAX_FRUITS:
         issues.append(Issue("fruits", f"expected at most {MAX_FRUITS} fruit, found {len(fruits_raw)}", _line(lines, ("fruits",))))
@@ -406,12 +537,26 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         if t is not None:
             task = Task(**t.model_dump())
 
-    # ---- merge defaults, semantic checks per arm
+    # ---- merge defaults, semantic checks per arm. A value taken from ``defaults`` is
+    # reported at its place in ``defaults`` (once, not once per arm).
     arms: list[tuple[int, Arm]] = []
+    origins: dict[int, dict[str, tuple]] = {}
     seen_names: dict[str, int] = {}
     for i, spec in arm_specs:
-        if spec is None or defaults is None:
+        if spec is None:
             continue
+        if spec.name in seen_names:
+            issues.append(
+                Issue(
+                    _path_str(("arms", i, "name")),
+                    f"expected a unique arm name, found {spec.name!r} again (also arms[{seen_names[spec.name]}].name)",
+                    _line(lines, ("arms", i, "name")),
+                )
+            )
+        else:
+            seen_names[spec.name] = i
+        if defaults is None:
+            continue  # the defaults are broken: already reported, don't guess
         merged: dict[str, Any] = {}
         origin: dict[str, tuple] = {}
         ok = True
@@ -422,15 +567,9 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
                 v = getattr(defaults, f)
                 origin[f] = ("defaults", f)
             if v is None:
-                issues.append(Issue(_path_str(("arms", i, f)), "missing required field (set it on the arm or in defaults)", _line(lines, ("arms", i))))
+                issues.append(Issue(_path_str(("arms", i, f)), _missing(f, " on the arm or in defaults"), _line(lines, ("arms", i))))
                 ok = False
             merged[f] = v
-        if spec.name in seen_names:
-            issues.append(
-                Issue(_path_str(("arms", i, "name")), f"duplicate arm name {spec.name!r} (also arms[{seen_names[spec.name]}])", _line(lines, ("arms", i, "name")))
-            )
-        else:
-            seen_names[spec.name] = i
         if not ok:
             continue
         lim = merged["joint_limits"]
@@ -444,29 +583,37 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         home = merged["home"]
         for j in range(2):
             if not lim[j][0] <= home[j] <= lim[j][1]:
-                loc = origin["home"] + (j,)
-                issues.append(
-                    Issue(
-                        _path_str(loc) + f" (arm {spec.name!r})",
-                        f"expected home angle inside joint limits [{lim[j][0]}, {lim[j][1]}], found {home[j]}",
-                        _line(lines, loc),
+                home_loc, lim_loc = origin["home"] + (j,), origin["joint_limits"] + (j,)
+                if home_loc[0] == "defaults" and lim_loc[0] == "arms":
+                    # the default home does not fit this arm's own limits: report at the arm
+                    loc = ("arms", i, "home", j)
+                    msg = (
+                        f"expected a home angle inside this arm's joint limits [{lim[j][0]}, {lim[j][1]}] "
+                        f"({_path_str(lim_loc)}), found {home[j]} (from {_path_str(home_loc)})"
                     )
-                )
+                    line = _line(lines, lim_loc)
+                else:
+                    loc = home_loc
+                    msg = f"expected a home angle inside the joint limits [{lim[j][0]}, {lim[j][1]}] ({_path_str(lim_loc)}), found {home[j]}"
+                    line = _line(lines, home_loc)
+                issues.append(Issue(_path_str(loc), msg, line))
                 ok = False
+        if not ok:
+            continue
         arm = Arm(name=spec.name, base=spec.base, bin=spec.bin, **merged)
-        if task is not None and not arm.can_reach(arm.bin):
+        if not arm.can_reach(arm.bin):
             r = math.dist(arm.base, arm.bin)
             issues.append(
                 Issue(
                     _path_str(("arms", i, "bin")),
-                    f"bin {list(arm.bin)} cannot be reached by its arm {arm.name!r} (distance {r:.3f} m from the base; "
-                    f"reachable annulus [{arm.inner_radius:.3f}, {arm.reach:.3f}] m within joint limits)",
+                    f"expected a bin its arm {arm.name!r} can reach (IK inside joint limits), found {list(arm.bin)} "
+                    f"at {r:.3f} m from the base; the reachable annulus is [{arm.inner_radius:.3f}, {arm.reach:.3f}] m",
                     _line(lines, ("arms", i, "bin")),
                 )
             )
-            ok = False
-        if ok:
-            arms.append((i, arm))
+            continue
+        arms.append((i, arm))
+        origins[i] = origin
 
     fruits: list[Fruit] = []
     seen_ids: dict[str, int] = {}
@@ -475,7 +622,11 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
             continue
         if spec.id in seen_ids:
             issues.append(
-                Issue(_path_str(("fruits", j, "id")), f"duplicate fruit id {spec.id!r} (also fruits[{seen_ids[spec.id]}])", _line(lines, ("fruits", j, "id")))
+                Issue(
+                    _path_str(("fruits", j, "id")),
+                    f"expected a unique fruit id, found {spec.id!r} again (also fruits[{seen_ids[spec.id]}].id)",
+                    _line(lines, ("fruits", j, "id")),
+                )
             )
             continue
         seen_ids[spec.id] = j
@@ -492,17 +643,18 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
                     float(segment_distance(pa[s], pa[s + 1], pb[u], pb[u + 1])) for s in range(2) for u in range(2)
                 ) - a.link_radius - b.link_radius
                 if dmin < task.clearance:
+                    home_from = "" if origins[k]["home"][0] == "arms" else " (home from defaults.home)"
                     issues.append(
                         Issue(
                             _path_str(("arms", k, "home")),
-                            f"home poses of arms {a.name!r} and {b.name!r} are {dmin:.4f} m apart; "
-                            f"expected at least the clearance {task.clearance} m",
-                            _line(lines, ("arms", k)),
+                            f"expected home poses at least the clearance {task.clearance} m apart, found arms "
+                            f"{a.name!r} (arms[{i}]) and {b.name!r} (arms[{k}]) {dmin:.4f} m apart at home{home_from}",
+                            _line(lines, origins[k]["home"]) if home_from == "" else _line(lines, ("arms", k)),
                         )
                     )
 
     if issues:
-        raise ProblemError(issues, source)
+        raise ProblemError(_tidy(issues), source)
     return Problem(
         name=name,
         arms=tuple(a for _, a in arms),
@@ -513,10 +665,23 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     )
 
 
+def _tidy(issues: list[Issue]) -> list[Issue]:
+    """Drop exact repeats and order by line (issues without a line first, file order kept)."""
+    seen: set = set()
+    out = []
+    for it in issues:
+        key = (it.path, it.message, it.line)
+        if key not in seen:
+            seen.add(key)
+            out.append(it)
+    return sorted(out, key=lambda it: -1 if it.line is None else it.line)
+
+
 def parse_problem(text: str, source: str | None = None) -> Problem:
     """Validate YAML text and return a :class:`Problem` (raises :class:`ProblemError`)."""
-    if len(text.encode("utf-8", errors="replace")) > MAX_FILE_BYTES:
-        raise ProblemError([Issue("", f"expected a file of at most {MAX_FILE_BYTES} bytes, found {len(text)} characters")], source)
+    n = len(text.encode("utf-8", errors="replace"))
+    if n > MAX_FILE_BYTES:
+        raise ProblemError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
     data, lines = _read_yaml(text, source)
     return _build(data, lines, source)
 
@@ -526,18 +691,21 @@ def load_problem(path: str | Path) -> Problem:
     p = Path(path)
     src = str(p)
     if not p.exists():
-        raise ProblemError([Issue("", "file not found")], src)
+        raise ProblemError([Issue("", "expected an existing YAML file, found no file at this path")], src)
     if p.is_dir():
         raise ProblemError([Issue("", "expected a YAML file, found a directory")], src)
     size = p.stat().st_size
     if size > MAX_FILE_BYTES:
         raise ProblemError([Issue("", f"expected a file of at most {MAX_FILE_BYTES} bytes, found {size} bytes")], src)
     try:
-        text = p.read_text(encoding="utf-8")
-    except UnicodeDecodeError as e:
-        raise ProblemError([Issue("", f"expected UTF-8 text, found undecodable bytes at offset {e.start}")], src) from None
+        raw = p.read_bytes()
     except OSError as e:
-        raise ProblemError([Issue("", f"cannot read file: {e.strerror}")], src) from None
+        raise ProblemError([Issue("", f"expected a readable file, found an error: {e.strerror}")], src) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        raise ProblemError([Issue("", f"expected UTF-8 text, found the undecodable byte 0x{raw[e.start]:02x} at offset {e.start}", line)], src) from None
     return parse_problem(text, src)
 
 

@@ -1,0 +1,31 @@
+"""Shared fixtures for coplan's tests (helpers live in each test module, so the suite does
+not depend on how pytest imports this file)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+from coplan.problem import Problem, default_problem_path, load_problem  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def problems_dir() -> Path:
+    """The folder of the problem files shipped inside the package."""
+    return default_problem_path().parent
+
+
+@pytest.fixture(scope="session")
+def greenhouse() -> Problem:
+    """The lesson's three-arm cell (the default problem)."""
+    return load_problem(default_problem_path())
+
+
+@pytest.fixture(scope="session")
+def single_arm() -> Problem:
+    """The lesson's single-arm pick-and-place demo."""
+    return load_problem(default_problem_path().parent / "single_arm.yaml")

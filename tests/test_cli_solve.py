@@ -1,0 +1,138 @@
+"""``coplan solve`` and ``coplan problems`` end to end.
+
+Most runs use typer's in-process runner (fast); two run the installed console script in a
+subprocess to prove that bad input gives exit code 3 and no traceback for real. The
+heuristic plan may legitimately be unsafe (its cubic segments have unbounded jerk, and on
+crowded problems its arms collide), so exit codes are checked against the plan's status
+through :class:`coplan.pipeline.ExitCode`, never assumed to be 0.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.pipeline import ExitCode, status_exit_code
+from coplan.plan import EventKind, PlanStatus, load_plan
+from coplan.problem import default_problem_path, shipped_problems
+
+pytest.importorskip("coplan.verify", reason="coplan solve needs coplan.verify")
+
+ROW = re.compile(r"^  (?P<src>\S+?):(?P<line>\d+): (?P<path>\S+): expected .+, found .+$", re.M)
+DOCUMENTED = {int(c) for c in ExitCode}
+
+
+def run(*args: str):
+    return CliRunner(env={"COLUMNS": "200", "COPLAN_DEBUG": None}).invoke(app, list(args))
+
+
+def coplan_exe() -> list[str]:
+    exe = Path(sys.executable).with_name("coplan")
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "coplan.cli"]
+
+
+def bad_problem(tmp_path: Path) -> Path:
+    text = default_problem_path().read_text().replace("link_radius: 0.04", "link_radius: -0.04")
+    text = text.replace("id: f07", "id: f03")
+    p = tmp_path / "bad.yaml"
+    p.write_text(text)
+    return p
+
+
+# --------------------------------------------------------------------------- solve
+def test_solve_default_problem_writes_a_plan_that_loads(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    res = run("solve", "--planner", "heuristic", "--out", str(out))
+    assert res.exit_code in DOCUMENTED, res.output
+    plan = load_plan(out / "plan.json")
+    assert plan.problem == "greenhouse-row"
+    assert plan.status not in (PlanStatus.UNVERIFIED, PlanStatus.INFEASIBLE)
+    assert res.exit_code == int(status_exit_code(plan.status))
+    assert res.exit_code in (ExitCode.OK, ExitCode.PARTIAL, ExitCode.UNSAFE)
+    assert len(plan.events_of("right", EventKind.PICK)) == 5 and plan.unreachable == ["f01"]
+    assert (out / "verification.json").is_file()
+    # the summary names the essentials and where the files went (compared without
+    # whitespace: rich wraps long lines at 80 columns when stdout is not a terminal)
+    flat = "".join(res.stdout.split())
+    for words in ("greenhouse-row", "fruit harvested 11/11", "makespan", "cycle time/fruit", "collisions found", str(out / "plan.json")):
+        assert "".join(words.split()) in flat, res.stdout
+    assert "Traceback" not in res.output
+
+
+def test_solve_json_prints_one_document(tmp_path: Path, problems_dir: Path) -> None:
+    out = tmp_path / "a very long folder name to make sure nothing wraps the printed json document" / "out"
+    res = run("solve", str(problems_dir / "single_arm.yaml"), "--planner", "heuristic", "--out", str(out), "--json")
+    assert res.exit_code in DOCUMENTED
+    doc = json.loads(res.stdout)  # exactly one JSON document, nothing else on stdout
+    assert doc["problem"] == "single-arm" and doc["planner"] == "heuristic"
+    assert doc["exit_code"] == res.exit_code == int(status_exit_code(PlanStatus(doc["status"])))
+    assert doc["metrics"]["harvested"] == 1
+    assert Path(doc["files"]["json"]) == out / "plan.json" and load_plan(doc["files"]["json"]).problem == "single-arm"
+
+
+@pytest.mark.parametrize("name", ["dense_overlap.yaml", "five_arm_row.yaml"])
+def test_solve_shipped_coordination_problems(tmp_path: Path, problems_dir: Path, name: str) -> None:
+    res = run("solve", str(problems_dir / name), "--planner", "heuristic", "--out", str(tmp_path), "--json")
+    doc = json.loads(res.stdout)
+    assert res.exit_code == doc["exit_code"] in (ExitCode.OK, ExitCode.PARTIAL, ExitCode.UNSAFE)
+    assert doc["metrics"]["harvested"] == doc["metrics"]["reachable"] == len(load_plan(tmp_path / "plan.json").events) // 2
+
+
+def test_bad_problem_exits_3_with_key_paths(tmp_path: Path) -> None:
+    bad = bad_problem(tmp_path)
+    res = run("solve", str(bad), "--planner", "heuristic", "--out", str(tmp_path / "out"))
+    assert res.exit_code == ExitCode.BAD_INPUT == 3
+    rows = [m.groupdict() for m in ROW.finditer(res.output)]
+    assert [(r["path"], r["src"]) for r in rows] == [("defaults.link_radius", str(bad)), ("fruits[6].id", str(bad))]
+    assert "Traceback" not in res.output
+    assert not (tmp_path / "out" / "plan.json").exists()
+
+
+def test_bad_problem_in_a_real_process_has_no_traceback(tmp_path: Path) -> None:
+    bad = bad_problem(tmp_path)
+    env = {k: v for k, v in os.environ.items() if k != "COPLAN_DEBUG"} | {"COLUMNS": "200"}
+    proc = subprocess.run(
+        coplan_exe() + ["solve", str(bad), "--planner", "heuristic", "--out", str(tmp_path / "o")],
+        capture_output=True, text=True, env=env, timeout=120,
+    )
+    assert proc.returncode == 3
+    out = proc.stdout + proc.stderr
+    assert "Traceback" not in out
+    assert f"{bad}:{bad.read_text().splitlines().index('  link_radius: -0.04') + 1}: defaults.link_radius: expected a number > 0" in out
+
+
+def test_missing_problem_file_exits_3(tmp_path: Path) -> None:
+    res = run("solve", str(tmp_path / "absent.yaml"), "--planner", "heuristic", "--out", str(tmp_path / "o"))
+    assert res.exit_code == ExitCode.BAD_INPUT
+    assert f"{tmp_path / 'absent.yaml'}: <top>: expected an existing YAML file" in res.output
+    assert "Traceback" not in res.output
+
+
+def test_problem_that_is_a_directory_exits_3(tmp_path: Path) -> None:
+    res = run("solve", str(tmp_path), "--planner", "heuristic", "--out", str(tmp_path / "o"))
+    assert res.exit_code == ExitCode.BAD_INPUT and "found a directory" in res.output
+
+
+# --------------------------------------------------------------------------- problems
+def test_problems_lists_every_shipped_problem() -> None:
+    res = run("problems")
+    assert res.exit_code == 0
+    names = [p.name for p in shipped_problems()]
+    assert {"greenhouse_row.yaml", "single_arm.yaml", "dense_overlap.yaml", "five_arm_row.yaml"} <= set(names)
+    for n in names:
+        assert n in res.stdout
+    assert re.search(r"greenhouse_row\.yaml\s+3 arms,\s+12 fruit", res.stdout)
+    assert re.search(r"five_arm_row\.yaml\s+5 arms,\s+33 fruit", res.stdout)
+
+
+def test_console_script_is_installed() -> None:
+    proc = subprocess.run(coplan_exe() + ["--help"], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and "solve" in proc.stdout and "problems" in proc.stdout

@@ -1,0 +1,213 @@
+"""Plan files: ``coplan.plan/1`` JSON written, read back and replayed; bad files named precisely."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from coplan.errors import PlanFileError
+from coplan.heuristic import plan_heuristic
+from coplan.plan import PLAN_FORMAT, EventKind, Plan, PlanStatus, load_plan
+from coplan.problem import Problem
+
+ISSUE_KEYS = {"format", "problem", "planner", "status", "time", "arms", "events", "unreachable", "metrics"}
+EXTRA_KEYS = {"allocation", "solver", "verification"}  # optional fields beside the issue's
+
+
+@pytest.fixture(scope="module")
+def plan(greenhouse: Problem) -> Plan:
+    return plan_heuristic(greenhouse)
+
+
+@pytest.fixture(scope="module")
+def saved(plan: Plan, tmp_path_factory) -> dict[str, Path]:
+    return plan.save(tmp_path_factory.mktemp("plan"))
+
+
+@pytest.fixture(scope="module")
+def doc(saved: dict[str, Path]) -> dict:
+    return json.loads(saved["json"].read_text())
+
+
+# --------------------------------------------------------------------------- the written file
+def test_plan_json_has_the_issues_keys_and_format(doc: dict, greenhouse: Problem) -> None:
+    assert ISSUE_KEYS <= set(doc) and set(doc) - ISSUE_KEYS <= EXTRA_KEYS
+    assert doc["format"] == PLAN_FORMAT == "coplan.plan/1"
+    assert doc["problem"] == "greenhouse-row" and doc["planner"] == "heuristic"
+    assert doc["status"] in {s.value for s in PlanStatus}
+    assert set(doc["arms"]) == {"left", "center", "right"}
+    assert all(set(v) == {"q"} for v in doc["arms"].values())
+    assert doc["unreachable"] == ["f01"]
+    for e in doc["events"]:
+        assert set(e) == {"arm", "fruit", "kind", "t_start", "t_end"}
+        assert e["kind"] in ("pick", "place") and e["t_start"] <= e["t_end"]
+    assert len(doc["events"]) == 2 * 11
+    assert doc["allocation"]["right"] == ["f02", "f03", "f08", "f10", "f12"]
+
+
+def test_time_grid_is_uniform_100hz_from_zero_and_every_arm_has_every_sample(doc: dict) -> None:
+    t = np.array(doc["time"])
+    assert t[0] == 0.0
+    dt = np.diff(t)
+    assert np.allclose(dt, dt[0], atol=1e-9) and dt[0] <= 0.01 + 1e-12
+    for a, v in doc["arms"].items():
+        q = np.array(v["q"])
+        assert q.shape == (t.size, 2), a
+        assert np.isfinite(q).all()
+    # the grid covers every event
+    assert t[-1] >= max(e["t_end"] for e in doc["events"])
+
+
+def test_makespan_is_the_end_of_the_last_place(doc: dict) -> None:
+    last_place = max(e["t_end"] for e in doc["events"] if e["kind"] == "place")
+    assert doc["metrics"]["makespan"] == last_place
+    last_pick = max(e["t_end"] for e in doc["events"] if e["kind"] == "pick")
+    assert last_pick < last_place < doc["time"][-1]  # the arms still fly home afterwards
+
+
+def test_save_writes_csv_and_npz_beside_and_no_temporary(saved: dict[str, Path], plan: Plan) -> None:
+    assert {p.name for p in saved["json"].parent.iterdir()} == {"plan.json", "plan.csv", "plan.npz"}
+    csv = np.loadtxt(saved["csv"], delimiter=",", skiprows=1)
+    header = saved["csv"].read_text().splitlines()[0]
+    assert header == "t,left_q1,left_q2,center_q1,center_q2,right_q1,right_q2"
+    assert csv.shape == (plan.time.size, 7)
+    np.testing.assert_allclose(csv[:, 0], plan.time, atol=1e-7)
+    np.testing.assert_allclose(csv[:, 5:7], plan.q["right"], atol=1e-7)
+    npz = np.load(saved["npz"])
+    np.testing.assert_array_equal(npz["time"], plan.time)
+    np.testing.assert_array_equal(npz["q_center"], plan.q["center"])
+
+
+# --------------------------------------------------------------------------- round trip
+def test_save_load_round_trip(saved: dict[str, Path], plan: Plan) -> None:
+    back = load_plan(saved["json"])
+    assert back.problem == plan.problem and back.planner == plan.planner and back.status == plan.status
+    np.testing.assert_allclose(back.time, plan.time, atol=1e-9)
+    assert list(back.q) == list(plan.q)
+    for a in plan.q:
+        np.testing.assert_allclose(back.q[a], plan.q[a], atol=6e-8)  # 7 decimals written
+    assert back.events == plan.events  # floats are written exactly
+    assert back.allocation == plan.allocation and back.unreachable == plan.unreachable
+    assert back.metrics["makespan"] == plan.metrics["makespan"]
+    assert back.metrics["per_arm"]["left"]["fruit"] == 4
+    assert back.metrics["harvested"] == 11 and back.metrics["reachable"] == 11
+
+
+@pytest.mark.parametrize("status", list(PlanStatus))
+def test_every_status_round_trips(plan: Plan, status: PlanStatus, tmp_path: Path) -> None:
+    p = plan.with_status(status)
+    assert load_plan(p.save(tmp_path)["json"]).status == status
+
+
+def test_replay_is_linear_between_samples(saved: dict[str, Path]) -> None:
+    back = load_plan(saved["json"])
+    i = 123
+    mid = (back.time[i] + back.time[i + 1]) / 2
+    s = back.sample(np.array([back.time[i], mid, -1.0, 1e9]))
+    for a, q in back.q.items():
+        np.testing.assert_allclose(s[a][0], q[i], atol=1e-12)
+        np.testing.assert_allclose(s[a][1], (q[i] + q[i + 1]) / 2, atol=1e-12)
+        np.testing.assert_array_equal(s[a][2], q[0])  # clamped before the start
+        np.testing.assert_array_equal(s[a][3], q[-1])  # and after the end
+    assert back.dt == pytest.approx(0.01)
+
+
+def test_loaded_events_are_usable(saved: dict[str, Path]) -> None:
+    back = load_plan(saved["json"])
+    picks = back.events_of("center", EventKind.PICK)
+    assert [e.fruit for e in picks] == ["f04", "f09"]
+
+
+# --------------------------------------------------------------------------- bad files
+def _bad(tmp_path: Path, doc: dict, mutate=None, raw: str | None = None) -> PlanFileError:
+    d = copy.deepcopy(doc)
+    if mutate is not None:
+        mutate(d)
+    path = tmp_path / "bad.json"
+    path.write_text(raw if raw is not None else json.dumps(d))
+    with pytest.raises(PlanFileError) as ei:
+        load_plan(path)
+    assert str(ei.value).startswith(f"{path}: ")
+    return ei.value
+
+
+def _set(path: list, value):
+    def f(d):
+        for k in path[:-1]:
+            d = d[k]
+        d[path[-1]] = value
+    return f
+
+
+BAD = [
+    ("wrong-format", _set(["format"], "coplan.plan/2"), "format", "expected 'coplan.plan/1', found string 'coplan.plan/2'"),
+    ("no-format", lambda d: d.pop("format"), "format", "found nothing"),
+    ("missing-time", lambda d: d.pop("time"), "time", "required field"),
+    ("ragged-q", lambda d: d["arms"]["left"]["q"].__setitem__(5, [0.1]), "arms.left.q[5]", "expected a [t1, t2] pair"),
+    ("short-q", lambda d: d["arms"]["center"]["q"].pop(), "arms.center.q", "one per time"),
+    ("nan-q", lambda d: d["arms"]["right"]["q"].__setitem__(7, [float("nan"), 0.0]), "arms.right.q[7][0]", "expected a finite number, found nan"),
+    ("inf-time", lambda d: d["time"].__setitem__(4, float("inf")), "time[4]", "expected a finite number, found inf"),
+    ("string-in-q", lambda d: d["arms"]["left"]["q"].__setitem__(2, [0.1, "0.2"]), "arms.left.q[2][1]", "expected a number, found string '0.2'"),
+    ("bool-in-time", lambda d: d["time"].__setitem__(1, True), "time[1]", "found boolean True"),
+    ("non-uniform", lambda d: d["time"].__setitem__(10, d["time"][10] + 0.004), "time[10]", "expected a uniform grid with spacing 0.01 s, found a step of 0.014 s"),
+    ("not-increasing", lambda d: d["time"].__setitem__(10, d["time"][9]), "time[10]", "expected strictly increasing times"),
+    ("coarse", lambda d: d.update(time=[2 * x for x in d["time"]]), "time", "expected a grid of 100 Hz or finer"),
+    ("late-start", lambda d: d.update(time=[x + 0.5 for x in d["time"]]), "time[0]", "expected 0, found 0.5"),
+    ("empty-time", _set(["time"], []), "time", "found an empty one"),
+    ("unknown-arm", lambda d: d["events"][3].update(arm="ghost"), "events[3].arm", "expected one of the plan's arms ['left', 'center', 'right'], found 'ghost'"),
+    ("bad-kind", lambda d: d["events"][0].update(kind="grab"), "events[0].kind", "expected 'pick' or 'place', found string 'grab'"),
+    ("nan-event", lambda d: d["events"][2].update(t_start=float("nan")), "events[2].t_start", "expected a finite time"),
+    ("reversed-event", lambda d: d["events"][1].update(t_end=0.0), "events[1].t_end", "expected t_end >= t_start"),
+    ("event-missing-key", lambda d: d["events"][4].pop("fruit"), "events[4].fruit", "required field"),
+    ("event-extra-key", lambda d: d["events"][4].update(colour="red"), "events[4].colour", "unknown key 'colour'"),
+    ("event-not-object", lambda d: d["events"].__setitem__(0, 5), "events[0]", "found number 5"),
+    ("arms-empty", _set(["arms"], {}), "arms", "expected an object mapping arm names"),
+    ("arm-without-q", _set(["arms", "left"], {"qq": []}), "arms.left", "expected an object with key 'q'"),
+    ("bad-status", _set(["status"], "great"), "status", "found string 'great'"),
+    ("bad-planner", _set(["planner"], "magic"), "planner", "expected one of ['heuristic', 'optimal']"),
+    ("bad-allocation", _set(["allocation"], [1, 2]), "allocation", "found array [1, 2]"),
+    ("bad-unreachable", _set(["unreachable"], 5), "unreachable", "expected an array of fruit ids"),
+    ("bad-metrics", _set(["metrics"], [1]), "metrics", "expected an object"),
+]
+
+
+@pytest.mark.parametrize("mutate,path,fragment", [b[1:] for b in BAD], ids=[b[0] for b in BAD])
+def test_bad_plan_files_name_the_key_path(tmp_path: Path, doc: dict, mutate, path: str, fragment: str) -> None:
+    err = _bad(tmp_path, doc, mutate)
+    assert [it.path for it in err.issues] == [path], str(err)  # exactly one issue: no cascades
+    assert fragment in err.issues[0].message
+    assert err.issues[0].message.startswith("expected ")
+
+
+def test_several_bad_fields_are_all_reported(tmp_path: Path, doc: dict) -> None:
+    def mutate(d):
+        d["status"] = "great"
+        d["time"][3] += 0.004
+        d["events"][0]["arm"] = "ghost"
+        d["arms"]["right"]["q"][1] = [None, 0.0]
+
+    err = _bad(tmp_path, doc, mutate)
+    assert [it.path for it in err.issues] == ["status", "time[3]", "arms.right.q[1][0]", "events[0].arm"]
+
+
+@pytest.mark.parametrize(
+    "raw,line,fragment",
+    [('{"format": "coplan.plan/1",\n  oops}', 2, "expected JSON, found a syntax error"), ("", 1, "expected JSON"),
+     ("[1, 2]", None, "expected a JSON object, found array [1, 2]")],
+    ids=["syntax", "empty", "array"],
+)
+def test_not_a_json_object(tmp_path: Path, doc: dict, raw: str, line, fragment: str) -> None:
+    err = _bad(tmp_path, doc, raw=raw)
+    (it,) = err.issues
+    assert fragment in it.message and it.line == line
+
+
+def test_missing_file_and_directory(tmp_path: Path) -> None:
+    with pytest.raises(PlanFileError, match="found no file at this path"):
+        load_plan(tmp_path / "none.json")
+    with pytest.raises(PlanFileError, match="found a directory"):
+        load_plan(tmp_path)

@@ -1,0 +1,543 @@
+"""Problem files: every validation error names its key path (and line), all at once.
+
+Each bad file below is the shipped ``greenhouse_row.yaml`` with one targeted edit, so a
+test can only pass because of that edit. Every message must read
+``file:line: key.path: expected X, found Y`` with no pydantic internals leaking.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from coplan.errors import ProblemError
+from coplan.problem import MAX_FILE_BYTES, Problem, default_problem_path, load_problem, parse_problem, shipped_problems
+
+GREENHOUSE = default_problem_path()
+BASE = GREENHOUSE.read_text(encoding="utf-8")
+SRC = "cell.yaml"
+ISSUE_LINE = re.compile(r"^  (?P<src>[^:\n]+?)(?::(?P<line>\d+))?: (?P<path>\S+): (?P<msg>.+)$")
+
+
+def edit(text: str, old: str, new: str) -> str:
+    """Replace the first ``old`` by ``new``, failing loudly when ``old`` is absent (so a test
+    can never silently validate an unmodified file)."""
+    assert old in text, f"fixture text not found: {old!r}"
+    return text.replace(old, new, 1)
+
+
+def issue_lines(err: Exception) -> list[dict]:
+    """Parse an error message into its ``file:line: key.path: message`` rows (all must match)."""
+    rows = []
+    for ln in str(err).splitlines()[1:]:
+        if ln.startswith("  ... and "):
+            continue
+        m = ISSUE_LINE.match(ln)
+        assert m, f"issue line not in 'file:line: key.path: message' form: {ln!r}"
+        rows.append(m.groupdict())
+    return rows
+
+# default arm fields as written in greenhouse_row.yaml
+LINKS = "  links: [1.0, 0.8]\n"
+LIMITS = "joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]]"
+LEFT = "{name: left,   base: [-2.0, 0.0], bin: [-2.0, -0.5]}"
+CENTER = "{name: center, base: [0.0, 0.0],  bin: [0.0, -0.5]}"
+RIGHT = "{name: right,  base: [2.0, 0.0],  bin: [2.0, -0.5]}"
+F02 = "{id: f02, position: [3.155, 0.776]}"
+
+
+def line_of(text: str, snippet: str, nth: int = 1) -> int:
+    """1-based line of the ``nth`` line containing ``snippet``."""
+    hits = [i + 1 for i, ln in enumerate(text.splitlines()) if snippet in ln]
+    assert len(hits) >= nth, f"{snippet!r} not in text"
+    return hits[nth - 1]
+
+
+def errors_of(text: str, source: str = SRC) -> ProblemError:
+    with pytest.raises(ProblemError) as ei:
+        parse_problem(text, source)
+    return ei.value
+
+
+def only_issue(text: str):
+    """The single issue a one-edit file must produce, plus its formatted row."""
+    err = errors_of(text)
+    assert len(err.issues) == 1, str(err)
+    return err.issues[0], issue_lines(err)[0]
+
+
+LEAKS = ("function-", "tuple[", "Value error", "Input should", "NoneType", "pydantic", "model_type", "[type=")
+
+
+def assert_clean(err: ProblemError) -> None:
+    """Every message reads ``expected ..., found ...`` and shows no pydantic internals."""
+    text = str(err)
+    for leak in LEAKS:
+        assert leak not in text, f"internal detail {leak!r} leaked into: {text}"
+    for it in err.issues:
+        assert it.message.startswith("expected "), it.message
+        assert "found" in it.message, it.message
+
+
+# --------------------------------------------------------------------------- shipped files
+def test_greenhouse_row_is_the_lessons_cell(greenhouse: Problem) -> None:
+    p = greenhouse
+    assert p.name == "greenhouse-row"
+    assert [a.name for a in p.arms] == ["left", "center", "right"]
+    assert [a.base for a in p.arms] == [(-2.0, 0.0), (0.0, 0.0), (2.0, 0.0)]
+    assert [a.bin for a in p.arms] == [(-2.0, -0.5), (0.0, -0.5), (2.0, -0.5)]
+    for a in p.arms:  # defaults applied to every arm
+        assert a.links == (1.0, 0.8) and a.link_radius == 0.04
+        assert a.joint_limits == ((-3.1416, 3.1416), (-3.0416, 3.0416))
+        assert a.max_velocity == (3.0, 4.0) and a.max_acceleration == (8.0, 12.0) and a.max_jerk == (80.0, 120.0)
+        assert a.home == (1.0472, 0.7854)
+    assert (p.task.pick_dwell, p.task.place_dwell, p.task.clearance) == (0.3, 0.2, 0.05)
+    assert [f.id for f in p.fruits] == [f"f{i:02d}" for i in range(1, 13)]
+
+
+def test_greenhouse_fruit_are_the_lessons_seed_42_draws(greenhouse: Problem) -> None:
+    """f01..f12 are np.random.seed(42); x ~ U(-3.5, 3.5) then y ~ U(0.5, 1.8), to 4 decimals."""
+    rs = np.random.RandomState(42)
+    x = rs.uniform(-3.5, 3.5, 12)
+    y = rs.uniform(0.5, 1.8, 12)
+    np.testing.assert_allclose(greenhouse.fruit_positions, np.c_[x, y], atol=5.1e-5)
+
+
+def test_every_shipped_problem_loads() -> None:
+    paths = shipped_problems()
+    names = {p.name for p in paths}
+    assert {"greenhouse_row.yaml", "single_arm.yaml"} <= names
+    for path in paths:
+        prob = load_problem(path)
+        assert prob.source == str(path)
+        assert len(prob.arms) >= 1
+
+
+def test_parse_problem_equals_load_problem() -> None:
+    a = load_problem(GREENHOUSE)
+    b = parse_problem(BASE)
+    assert a == b  # ``source`` is not part of equality
+    assert b.source is None and a.source == str(GREENHOUSE)
+
+
+def test_arm_value_overrides_default() -> None:
+    text = edit(BASE, CENTER, "{name: center, base: [0.0, 0.0],  bin: [0.0, -0.5], links: [0.9, 0.9], max_jerk: [50, 60]}")
+    p = parse_problem(text)
+    assert p.arm("center").links == (0.9, 0.9) and p.arm("center").max_jerk == (50.0, 60.0)
+    assert p.arm("left").links == (1.0, 0.8) and p.arm("right").max_jerk == (80.0, 120.0)
+
+
+# --------------------------------------------------------------------------- one error per edit
+# (id, edit function, expected key path, line snippet (in the edited text) or None, message fragments)
+CASES = [
+    # unknown keys, with the closest key suggested
+    ("unknown-top", lambda t: edit(t, "name: greenhouse-row", "name: greenhouse-row\nfruit: []"), "fruit", "fruit: []",
+     ["unknown key 'fruit'", "did you mean 'fruits'?"]),
+    ("unknown-arm", lambda t: edit(t, CENTER, "{name: center, base: [0.0, 0.0],  bin: [0.0, -0.5], lnks: [1, 1]}"),
+     "arms[1].lnks", "name: center", ["unknown key 'lnks'", "did you mean 'links'?"]),
+    ("unknown-defaults", lambda t: edit(t, "link_radius: 0.04", "link_radus: 0.04"), "defaults.link_radus", "link_radus",
+     ["unknown key 'link_radus'", "did you mean 'link_radius'?"]),
+    ("unknown-task", lambda t: edit(t, "clearance: 0.05", "clearance: 0.05\n  pick_dwel: 0.3"), "task.pick_dwel", "pick_dwel:",
+     ["unknown key 'pick_dwel'", "did you mean 'pick_dwell'?"]),
+    ("unknown-fruit", lambda t: edit(t, F02, "{id: f02, position: [3.155, 0.776], colour: red}"), "fruits[1].colour", "id: f02",
+     ["unknown key 'colour'", "allowed keys: id, position"]),
+    # missing fields
+    ("missing-bin", lambda t: edit(t, CENTER, "{name: center, base: [0.0, 0.0]}"), "arms[1].bin", "name: center",
+     ["expected [x, y] in m", "found nothing", "required"]),
+    ("missing-arm-name", lambda t: edit(t, CENTER, "{base: [0.0, 0.0],  bin: [0.0, -0.5]}"), "arms[1].name",
+     "base: [0.0, 0.0],  bin", ["expected a non-empty string", "found nothing"]),
+    ("missing-task-field", lambda t: edit(t, "  place_dwell: 0.2\n", ""), "task.place_dwell", "task:",
+     ["expected a number >= 0 in s", "found nothing"]),
+    ("missing-fruit-position", lambda t: edit(t, F02, "{id: f02}"), "fruits[1].position", "id: f02", ["found nothing"]),
+    ("missing-task", lambda t: t[: t.index("task:")], "task", None, ["pick_dwell", "found nothing"]),
+    # wrong types
+    ("type-str-in-pair", lambda t: edit(t, "links: [1.0, 0.8]", 'links: [1.0, "long"]'), "defaults.links[1]", "links:",
+     ["expected a number", "found string 'long'"]),
+    ("type-scalar-for-pair", lambda t: edit(t, "link_radius: 0.04", "link_radius: [0.04]"), "defaults.link_radius",
+     "link_radius", ["expected a number", "found list [0.04]"]),
+    ("type-pair-for-scalar", lambda t: edit(t, "links: [1.0, 0.8]", "links: 1.8"), "defaults.links", "links:",
+     ["expected a list of 2 items", "found number 1.8"]),
+    ("type-three-items", lambda t: edit(t, "links: [1.0, 0.8]", "links: [1.0, 0.8, 0.5]"), "defaults.links", "links:",
+     ["expected a list of 2 items", "found a list of 3 items"]),
+    ("type-limits-flat", lambda t: edit(t, LIMITS, "joint_limits: [[-3.1416, 3.1416], 3.0]"), "defaults.joint_limits[1]",
+     "joint_limits", ["expected a list of 2 items", "found number 3.0"]),
+    ("type-bool", lambda t: edit(t, "pick_dwell: 0.3", "pick_dwell: yes"), "task.pick_dwell", "pick_dwell",
+     ["expected a number", "found boolean True"]),
+    ("type-null", lambda t: edit(t, F02, "{id: f02, position: [3.155, null]}"), "fruits[1].position[1]", "id: f02",
+     ["expected a number", "found null"]),
+    ("type-name", lambda t: edit(t, "name: greenhouse-row", "name: [greenhouse]"), "name", "name: [greenhouse]",
+     ["expected a string", "found list"]),
+    ("type-arms", lambda t: edit(t, "arms:\n", "arms: 3\nxarms:\n"), "arms", "arms: 3", ["expected a list of arms", "found integer 3"]),
+    ("type-arm-scalar", lambda t: edit(t, CENTER, "center"), "arms[1]", "- center", ["expected a mapping", "found string 'center'"]),
+    ("type-task-scalar", lambda t: t[: t.index("task:")] + "task: 5\n", "task", "task: 5", ["expected a mapping", "found integer 5"]),
+    ("type-fruit-id", lambda t: edit(t, "id: f02", "id: {a: 1}"), "fruits[1].id", "{a: 1}", ["expected a string", "found mapping"]),
+    # NaN / inf
+    ("nan", lambda t: edit(t, F02, "{id: f02, position: [.nan, 0.776]}"), "fruits[1].position[0]", "id: f02",
+     ["expected a finite number", "found nan"]),
+    ("inf", lambda t: edit(t, "max_velocity: [3.0, 4.0]", "max_velocity: [.inf, 4.0]"), "defaults.max_velocity[0]",
+     "max_velocity", ["expected a finite number", "found inf"]),
+    ("minus-inf", lambda t: edit(t, LIMITS, "joint_limits: [[-.inf, 3.1416], [-3.0416, 3.0416]]"),
+     "defaults.joint_limits[0][0]", "joint_limits", ["expected a finite number", "found -inf"]),
+    ("nan-task", lambda t: edit(t, "clearance: 0.05", "clearance: .NaN"), "task.clearance", "clearance",
+     ["expected a finite number", "found nan"]),
+    ("nan-base", lambda t: edit(t, CENTER, "{name: center, base: [.nan, 0.0],  bin: [0.0, -0.5]}"), "arms[1].base[0]",
+     "name: center", ["expected a finite number"]),
+    # non-positive lengths, radii, limits; negative dwell/clearance
+    ("zero-link", lambda t: edit(t, "links: [1.0, 0.8]", "links: [0, 0.8]"), "defaults.links[0]", "links:",
+     ["expected a number > 0", "found 0.0"]),
+    ("negative-radius", lambda t: edit(t, "link_radius: 0.04", "link_radius: -0.04"), "defaults.link_radius", "link_radius",
+     ["expected a number > 0", "found -0.04"]),
+    ("zero-velocity", lambda t: edit(t, "max_velocity: [3.0, 4.0]", "max_velocity: [3.0, 0.0]"), "defaults.max_velocity[1]",
+     "max_velocity", ["expected a number > 0"]),
+    ("negative-acceleration", lambda t: edit(t, "max_acceleration: [8.0, 12.0]", "max_acceleration: [-8.0, 12.0]"),
+     "defaults.max_acceleration[0]", "max_acceleration", ["expected a number > 0", "found -8.0"]),
+    ("zero-jerk", lambda t: edit(t, "max_jerk: [80.0, 120.0]", "max_jerk: [80.0, 0]"), "defaults.max_jerk[1]", "max_jerk",
+     ["expected a number > 0"]),
+    ("arm-negative-link", lambda t: edit(t, CENTER, "{name: center, base: [0.0, 0.0],  bin: [0.0, -0.5], links: [1.0, -0.8]}"),
+     "arms[1].links[1]", "name: center", ["expected a number > 0", "found -0.8"]),
+    ("negative-dwell", lambda t: edit(t, "place_dwell: 0.2", "place_dwell: -0.2"), "task.place_dwell", "place_dwell",
+     ["expected a number >= 0", "found -0.2"]),
+    ("negative-clearance", lambda t: edit(t, "clearance: 0.05", "clearance: -0.01"), "task.clearance", "clearance",
+     ["expected a number >= 0"]),
+    # min > max joint limits (a default is reported once, not once per arm)
+    ("limits-min-gt-max", lambda t: edit(t, LIMITS, "joint_limits: [[-3.1416, 3.1416], [3.0416, -3.0416]]"),
+     "defaults.joint_limits[1]", "joint_limits", ["expected min < max", "found min 3.0416 >= max -3.0416"]),
+    ("limits-min-eq-max", lambda t: edit(t, LIMITS, "joint_limits: [[1.0, 1.0], [-3.0416, 3.0416]]"),
+     "defaults.joint_limits[0]", "joint_limits", ["expected min < max"]),
+    ("arm-limits-min-gt-max",
+     lambda t: edit(t, RIGHT, "{name: right,  base: [2.0, 0.0],  bin: [2.0, -0.5], joint_limits: [[2, -2], [-3, 3]]}"),
+     "arms[2].joint_limits[0]", "name: right", ["expected min < max", "found min 2.0 >= max -2.0"]),
+    # home outside joint limits: in defaults, on an arm, default home vs an arm's own limits
+    ("home-out-defaults", lambda t: edit(t, "home: [1.0472, 0.7854]", "home: [1.0472, 3.5]"), "defaults.home[1]", "home:",
+     ["expected a home angle inside the joint limits [-3.0416, 3.0416]", "found 3.5"]),
+    ("home-out-arm", lambda t: edit(t, LEFT, "{name: left,   base: [-2.0, 0.0], bin: [-2.0, -0.5], home: [-3.5, 0.5]}"),
+     "arms[0].home[0]", "name: left", ["inside the joint limits [-3.1416, 3.1416]", "found -3.5"]),
+    ("home-default-vs-arm-limits",
+     lambda t: edit(t, CENTER, "{name: center, base: [0.0, 0.0],  bin: [0.0, -0.5], joint_limits: [[-1, 1], [-3, 3]]}"),
+     "arms[1].home[0]", "name: center", ["this arm's joint limits [-1.0, 1.0]", "found 1.0472 (from defaults.home[0])"]),
+    # duplicate arm names / fruit ids
+    ("duplicate-arm", lambda t: edit(t, "name: right", "name: left"), "arms[2].name", "base: [2.0, 0.0]",
+     ["expected a unique arm name", "found 'left' again", "arms[0].name"]),
+    ("duplicate-fruit", lambda t: edit(t, "id: f07", "id: f03"), "fruits[6].id", "position: [-3.0934",
+     ["expected a unique fruit id", "found 'f03' again", "fruits[2].id"]),
+    # bins no arm can reach: too far, and inside the annulus but outside the joint limits
+    ("bin-too-far", lambda t: edit(t, "bin: [0.0, -0.5]", "bin: [0.0, -2.5]"), "arms[1].bin", "name: center",
+     ["expected a bin its arm 'center' can reach", "found [0.0, -2.5] at 2.500 m"]),
+    ("bin-inside-annulus",
+     lambda t: edit(t, CENTER, "{name: center, base: [0.0, 0.0],  bin: [0.0, -0.1]}"), "arms[1].bin", "name: center",
+     ["found [0.0, -0.1] at 0.100 m", "annulus is [0.200, 1.800] m"]),
+    ("bin-outside-joint-limits",
+     lambda t: edit(t, CENTER, "{name: center, base: [0.0, 0.0],  bin: [0.0, -0.5], joint_limits: [[0, 3.1416], [-3.0416, 3.0416]]}"),
+     "arms[1].bin", "name: center", ["IK inside joint limits", "found [0.0, -0.5] at 0.500 m"]),
+    # empty arm list
+    ("empty-arms", lambda t: t[: t.index("arms:")] + "arms: []\n" + t[t.index("fruits:"):], "arms", "arms: []",
+     ["expected at least one arm", "found an empty list"]),
+    # home poses that already violate the clearance (one arm's own home; a default home at tight spacing)
+    ("home-clash-arm-home",
+     lambda t: edit(edit(t, LEFT, "{name: left,   base: [-2.0, 0.0], bin: [-2.0, -0.5], home: [0.0, 0.0]}"),
+                    CENTER, "{name: center, base: [0.0, 0.0],  bin: [0.0, -0.5], home: [3.1416, 0.0]}"),
+     "arms[1].home", "name: center", ["expected home poses at least the clearance 0.05 m apart", "'left' (arms[0]) and 'center' (arms[1])", "-0.0800 m apart"]),
+    ("home-clash-default-home",
+     lambda t: edit(edit(t, "base: [0.0, 0.0]", "base: [-1.9, 0.0]"), "bin: [0.0, -0.5]", "bin: [-1.9, -0.5]"),
+     "arms[1].home", "name: center", ["'left' (arms[0]) and 'center' (arms[1]) 0.0066 m apart", "home from defaults.home"]),
+]
+
+
+@pytest.mark.parametrize("make,path,line_snippet,fragments", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_validation_error_names_key_path_and_line(make, path, line_snippet, fragments) -> None:
+    text = make(BASE)
+    err = errors_of(text)
+    assert_clean(err)
+    paths = [it.path for it in err.issues]
+    assert path in paths, str(err)
+    it = err.issues[paths.index(path)]
+    for frag in fragments:
+        assert frag in it.message, f"{frag!r} not in {it.message!r}"
+    if line_snippet is None:
+        assert it.line is None
+    else:
+        assert it.line == line_of(text, line_snippet), str(err)
+    # the formatted row reads file:line: key.path: message
+    row = issue_lines(err)[paths.index(path)]
+    assert row["src"] == SRC and row["path"] == path
+    assert row["line"] == (None if it.line is None else str(it.line))
+
+
+@pytest.mark.parametrize(
+    "make",
+    [c[1] for c in CASES if c[0] not in ("unknown-arm", "missing-arm-name", "type-arms", "home-clash-arm-home")],
+    ids=[c[0] for c in CASES if c[0] not in ("unknown-arm", "missing-arm-name", "type-arms", "home-clash-arm-home")],
+)
+def test_one_edit_gives_exactly_one_issue(make) -> None:
+    """Errors are not repeated (e.g. once per arm for a bad default) nor cascaded."""
+    err = errors_of(make(BASE))
+    assert len(err.issues) == 1, str(err)
+
+
+def test_unknown_key_without_close_match_lists_allowed_keys() -> None:
+    text = edit(BASE, "pick_dwell: 0.3", "pick_dwell: 0.3\n  zzzz: 1")
+    it, _ = only_issue(text)
+    assert it.path == "task.zzzz"
+    assert "allowed keys: pick_dwell, place_dwell, clearance" in it.message
+
+
+def test_arm_field_missing_from_arm_and_defaults_reported_for_every_arm() -> None:
+    text = edit(BASE, LINKS, "")
+    err = errors_of(text)
+    assert_clean(err)
+    assert [it.path for it in err.issues] == ["arms[0].links", "arms[1].links", "arms[2].links"]
+    for it, snippet in zip(err.issues, ("name: left", "name: center", "name: right")):
+        assert it.line == line_of(text, snippet)
+        assert "on the arm or in defaults" in it.message
+
+
+def test_missing_fields_on_an_arm_without_defaults_are_all_listed() -> None:
+    text = "name: x\narms:\n  - {name: a, base: [0, 0], bin: [0, -0.5]}\ntask: {pick_dwell: 0, place_dwell: 0, clearance: 0}\n"
+    err = errors_of(text)
+    fields = ["links", "link_radius", "joint_limits", "max_velocity", "max_acceleration", "max_jerk", "home"]
+    assert [it.path for it in err.issues] == [f"arms[0].{f}" for f in fields]
+    assert all(it.line == 3 for it in err.issues)
+
+
+def test_unknown_key_in_arm_also_reports_the_key_it_replaced() -> None:
+    """A misspelt required key is both unknown and missing; both are said, at the arm's line."""
+    text = edit(BASE, LEFT, "{name: left,   bsae: [-2.0, 0.0], bin: [-2.0, -0.5]}")
+    err = errors_of(text)
+    by_path = {it.path: it for it in err.issues}
+    assert set(by_path) == {"arms[0].bsae", "arms[0].base"}
+    assert "did you mean 'base'?" in by_path["arms[0].bsae"].message
+    assert by_path["arms[0].base"].line == by_path["arms[0].bsae"].line == line_of(text, "name: left")
+
+
+# --------------------------------------------------------------------------- YAML-level safety
+def test_duplicate_yaml_keys_are_refused_not_merged() -> None:
+    text = edit(BASE, "  place_dwell: 0.2\n", "  place_dwell: 0.2\n  pick_dwell: 9.0\n")
+    it, _ = only_issue(text)
+    assert it.path == "task.pick_dwell"
+    assert it.line == line_of(text, "pick_dwell: 9.0")
+    assert f"first at line {line_of(text, 'pick_dwell: 0.3')}" in it.message
+
+
+def test_duplicate_keys_in_a_flow_mapping_and_at_top_level() -> None:
+    text = edit(BASE, CENTER, "{name: center, name: middle, base: [0.0, 0.0],  bin: [0.0, -0.5]}")
+    text = edit(text, "name: greenhouse-row", "name: greenhouse-row\nname: other")
+    err = errors_of(text)
+    assert [it.path for it in err.issues] == ["name", "arms[1].name"]
+    assert err.issues[0].line == line_of(text, "name: other")
+    assert all("duplicate keys are never merged" in it.message for it in err.issues)
+
+
+@pytest.mark.parametrize("first,second", [("1", "0x1"), ("yes", "true"), ("1.0", "1.00")])
+def test_keys_that_construct_to_the_same_value_are_duplicates(first: str, second: str) -> None:
+    """A dict would silently merge ``1:`` and ``0x1:`` (both the integer 1)."""
+    text = edit(BASE, "name: greenhouse-row", f"name: greenhouse-row\n{first}: a\n{second}: b")
+    err = errors_of(text)
+    dup = [it for it in err.issues if "duplicate keys are never merged" in it.message]
+    assert len(dup) == 1 and dup[0].path == second and dup[0].line == line_of(text, f"{second}: b")
+    assert f"first at line {line_of(text, f'{first}: a')}" in dup[0].message
+
+
+def test_yaml_anchors_and_aliases_are_refused() -> None:
+    text = edit(BASE, "defaults:", "defaults: &arm")
+    text = edit(text, "task:", "spare: *arm\ntask:")
+    err = errors_of(text)
+    rows = {it.path: it for it in err.issues}
+    assert set(rows) == {"defaults", "spare"}
+    assert "anchor &arm" in rows["defaults"].message and rows["defaults"].line == line_of(text, "defaults: &arm")
+    assert "alias *arm" in rows["spare"].message and rows["spare"].line == line_of(text, "spare: *arm")
+
+
+def test_billion_laughs_is_refused_before_expansion() -> None:
+    lol = "a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
+        f"{c}: &{c} [{', '.join([f'*{p}'] * 9)}]\n" for p, c in zip("abcdefgh", "bcdefghi")
+    )
+    err = errors_of(lol)
+    assert any("alias" in it.message for it in err.issues)
+
+
+def test_python_tags_are_refused_and_never_executed(tmp_path: Path) -> None:
+    marker = tmp_path / "pwned"
+    text = edit(BASE, "name: greenhouse-row", f'name: !!python/object/apply:pathlib.Path.touch [!!python/object/apply:pathlib.Path ["{marker}"]]')
+    err = errors_of(text)
+    assert err.issues[0].path == "name" and "tags are not supported" in err.issues[0].message
+    assert not marker.exists()
+
+
+def test_complex_keys_are_refused() -> None:
+    text = edit(BASE, "name: greenhouse-row", "name: greenhouse-row\n? [a, b]\n: 1")
+    it, _ = only_issue(text)
+    assert "expected string keys, found a list used as a key" in it.message and it.line == line_of(text, "? [a, b]")
+
+
+def test_yaml_syntax_error_has_a_line() -> None:
+    text = edit(BASE, "  - {id: f05", "  - {id: f05 [")
+    it, _ = only_issue(text)
+    assert it.message.startswith("expected valid YAML, found a syntax error")
+    assert it.line is not None and abs(it.line - line_of(text, "{id: f05 [")) <= 1
+
+
+def test_deep_nesting_is_refused_without_recursion_error() -> None:
+    it, _ = only_issue("[" * 100_000)
+    assert "levels of nesting" in it.message
+    it, _ = only_issue(BASE + "description: " + "[" * 30 + "]" * 30 + "\n")
+    assert it.path.startswith("description[0][0]")
+
+
+def test_huge_flat_list_stops_at_the_node_cap() -> None:
+    text = BASE[: BASE.index("fruits:")] + "fruits: [" + ",".join(["1"] * 400_000) + "]\n" + BASE[BASE.index("task:"):]
+    err = errors_of(text)
+    assert len(err.issues) == 1 and "YAML values in a problem file" in err.issues[0].message
+
+
+def test_many_bad_fruit_are_all_in_issues_but_the_message_is_capped() -> None:
+    text = BASE[: BASE.index("fruits:")] + "fruits: [" + ",".join(["1"] * 300) + "]\n" + BASE[BASE.index("task:"):]
+    err = errors_of(text)
+    assert len(err.issues) == 300
+    assert [it.path for it in err.issues[:2]] == ["fruits[0]", "fruits[1]"]
+    assert str(err).rstrip().endswith("... and 100 more")
+
+
+def test_oversize_file_and_text(tmp_path: Path) -> None:
+    big = tmp_path / "big.yaml"
+    big.write_text(BASE + "#" * (MAX_FILE_BYTES + 1))
+    with pytest.raises(ProblemError) as ei:
+        load_problem(big)
+    assert f"expected a file of at most {MAX_FILE_BYTES} bytes" in str(ei.value)
+    assert ei.value.source == str(big)
+    it, _ = only_issue("#" + "é" * (MAX_FILE_BYTES // 2))  # 2 bytes a character: counted in bytes
+    assert f"found {1 + MAX_FILE_BYTES // 2 * 2} bytes" in it.message
+
+
+def test_non_utf8_file(tmp_path: Path) -> None:
+    p = tmp_path / "latin1.yaml"
+    p.write_bytes(BASE.replace("greenhouse-row", "serre-café").encode("latin-1"))
+    with pytest.raises(ProblemError) as ei:
+        load_problem(p)
+    (it,) = ei.value.issues
+    assert "expected UTF-8 text, found the undecodable byte 0xe9" in it.message
+    assert it.line == line_of(BASE, "name: greenhouse-row")
+
+
+@pytest.mark.parametrize(
+    "text,found",
+    [("", "found an empty file"), ("   \n# just a comment\n", "found an empty file"), ("- a\n- b\n", "found list ['a', 'b']"),
+     ("42\n", "found integer 42"), ("null\n", "found null")],
+    ids=["empty", "comment-only", "list", "scalar", "null"],
+)
+def test_top_level_must_be_a_mapping(text: str, found: str) -> None:
+    it, row = only_issue(text)
+    assert it.path == "" and row["path"] == "<top>"
+    assert it.message.startswith("expected a mapping with keys name, arms, fruits, task") and found in it.message
+
+
+def test_directory_and_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(ProblemError) as ei:
+        load_problem(tmp_path)
+    assert ei.value.issues[0].message == "expected a YAML file, found a directory"
+    with pytest.raises(ProblemError) as ei:
+        load_problem(tmp_path / "absent.yaml")
+    assert "found no file at this path" in ei.value.issues[0].message
+    assert str(ei.value).startswith(str(tmp_path / "absent.yaml"))
+
+
+def test_load_problem_reports_the_file_name(tmp_path: Path) -> None:
+    p = tmp_path / "bad.yaml"
+    text = edit(BASE, "link_radius: 0.04", "link_radius: 0")
+    p.write_text(text)
+    with pytest.raises(ProblemError) as ei:
+        load_problem(p)
+    (row,) = issue_lines(ei.value)
+    assert row == {"src": str(p), "line": str(line_of(text, "link_radius")), "path": "defaults.link_radius",
+                   "msg": "expected a number > 0, found 0.0"}
+
+
+# --------------------------------------------------------------------------- all at once
+def test_several_problems_are_all_reported_at_once_in_line_order() -> None:
+    text = BASE
+    text = edit(text, "name: greenhouse-row", "name: greenhouse-row\nfruitz: []")     # unknown top key
+    text = edit(text, "link_radius: 0.04", "link_radius: -1")                         # non-positive
+    text = edit(text, "max_jerk: [80.0, 120.0]", "max_jerk: [80.0, .inf]")            # inf
+    text = edit(text, "name: right", "name: left")                                    # duplicate arm
+    text = edit(text, "{id: f04, position: [0.6906, 0.7384]}", "{id: f04, position: [0.6906]}")  # wrong length
+    text = edit(text, "id: f09", "id: f01")                                           # duplicate fruit
+    text = edit(text, "clearance: 0.05", "clearance: .nan")                           # NaN
+    err = errors_of(text)
+    assert_clean(err)
+    assert [it.path for it in err.issues] == [
+        "fruitz", "defaults.link_radius", "defaults.max_jerk[1]", "arms[2].name",
+        "fruits[3].position", "fruits[8].id", "task.clearance",
+    ]
+    lines = [it.line for it in err.issues]
+    assert lines == sorted(lines) and None not in lines
+    assert str(err).splitlines()[0] == f"{SRC}: 7 problems found"
+
+
+def test_no_source_is_shown_as_input() -> None:
+    with pytest.raises(ProblemError) as ei:
+        parse_problem(edit(BASE, "link_radius: 0.04", "link_radius: 0"))
+    assert str(ei.value).splitlines()[1].startswith("  <input>:")
+
+
+# --------------------------------------------------------------------------- not errors
+def test_unreachable_fruit_is_not_an_error(greenhouse: Problem) -> None:
+    assert greenhouse.unreachable() == ["f01"]
+    text = BASE.replace("task:", "  - {id: far, position: [10.0, 10.0]}\n  - {id: base, position: [0.0, 0.0]}\ntask:")
+    p = parse_problem(text)
+    assert p.unreachable() == ["f01", "far", "base"]
+    assert "far" not in p.reachable_ids() and len(p.reachable_ids()) == 11
+
+
+def test_reach_matrix_matches_the_lessons_ik_margin(greenhouse: Problem) -> None:
+    """f01 at (-0.8782, 1.5822) is 1.8096 m from the centre base and 1.9152 m from the left:
+    outside both reaches (1.8 m) -- the lesson's own unreachable fruit."""
+    m = greenhouse.reach_matrix()
+    assert m.shape == (3, 12) and not m[:, 0].any()
+    bases = np.array([a.base for a in greenhouse.arms])
+    r = np.linalg.norm(greenhouse.fruit_positions[None] - bases[:, None], axis=-1)
+    np.testing.assert_array_equal(m, (r <= 1.8 - 0.01) & (r >= 0.2 + 0.01))
+
+
+def test_neighbour_pairs(greenhouse: Problem) -> None:
+    # bases 2 m apart: swept discs 1.8 + 1.8 + 2 * 0.04 + 0.05 = 3.73 m > 2 m, but < 4 m for left-right
+    assert greenhouse.neighbour_pairs() == [(0, 1), (1, 2)]
+
+
+def test_zero_dwells_and_clearance_are_allowed_and_fruits_optional() -> None:
+    text = edit(edit(edit(BASE, "pick_dwell: 0.3", "pick_dwell: 0"), "place_dwell: 0.2", "place_dwell: 0"), "clearance: 0.05", "clearance: 0")
+    text = text[: text.index("fruits:")] + text[text.index("task:"):]
+    p = parse_problem(text)
+    assert p.fruits == () and p.task.clearance == 0.0 and p.unreachable() == []
+
+
+# --------------------------------------------------------------------------- immutability
+def test_problem_is_frozen(greenhouse: Problem) -> None:
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        greenhouse.name = "x"  # type: ignore[misc]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        greenhouse.arms[0].links = (2.0, 2.0)  # type: ignore[misc]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        greenhouse.task.clearance = 0.0  # type: ignore[misc]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        greenhouse.fruits[0].position = (0.0, 0.0)  # type: ignore[misc]
+    assert isinstance(greenhouse.arms, tuple) and isinstance(greenhouse.fruits, tuple)
+    assert isinstance(greenhouse.arms[0].joint_limits[0], tuple)
+    # derived arrays are fresh copies: scribbling on them changes nothing
+    greenhouse.fruit_positions[:] = 0.0
+    greenhouse.arms[0].limits[:] = 0.0
+    assert greenhouse.fruits[1].position == (3.155, 0.776) and greenhouse.arms[0].joint_limits[0] == (-3.1416, 3.1416)
+    assert hash(greenhouse) == hash(load_problem(GREENHOUSE))
+
+
+def test_lookup_helpers(greenhouse: Problem) -> None:
+    assert greenhouse.arm("right").base == (2.0, 0.0)
+    assert greenhouse.fruit("f12").position == (3.2894, 0.9763)
+    with pytest.raises(KeyError, match="arms are"):
+        greenhouse.arm("middle")
+    with pytest.raises(KeyError):
+        greenhouse.fruit("f99")
+    assert math.isclose(greenhouse.arms[0].reach, 1.8) and math.isclose(greenhouse.arms[0].inner_radius, 0.2)

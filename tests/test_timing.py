@@ -1,0 +1,211 @@
+"""Timing laws: the course's cubic and the jerk-limited S-curve, against closed forms.
+
+Closed forms of the time-optimal rest-to-rest S-curve over a distance D with limits v, a, j
+(derived from the 7-phase profile: jerk phases of a_p / j, constant-acceleration phases,
+a cruise at v_p):
+
+* cruise at v, acceleration a reached (v >= a^2 / j):   T = D / v + v / a + a / j,
+  valid for D >= v (v / a + a / j);
+* cruise at v, a never reached (v < a^2 / j):           T = D / v + 2 sqrt(v / j),
+  valid for D >= 2 v sqrt(v / j);
+* no cruise, a reached (peak speed v_p from v_p^2 / a + v_p a / j = D):
+                                                         T = a / j + sqrt(a^2 / j^2 + 4 D / a),
+  valid for 2 a^3 / j^2 <= D;
+* no cruise, a not reached (pure jerk, four phases):     T = (32 D / j)^(1/3).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from coplan.timing import SCurve, cubic_eval, cubic_min_time, move_lower_bound, scurve_time
+
+V, A, J = 3.0, 8.0, 80.0  # the greenhouse arm's shoulder limits
+
+
+# --------------------------------------------------------------------------- cubic
+@pytest.mark.parametrize(
+    "dq,T,binding,kind",
+    [
+        # joint 0 acceleration-bound: sqrt(6 * 2 / 8) > 1.5 * 2 / 3
+        ((2.0, 0.1), math.sqrt(6 * 2.0 / 8.0), 0, "acc"),
+        # joint 1 acceleration-bound: sqrt(6 * 3 / 12) = 1.2247 > 1.5 * 3 / 4 = 1.125
+        ((0.5, -3.0), math.sqrt(6 * 3.0 / 12.0), 1, "acc"),
+        # joint 0 velocity-bound: 1.5 * 4 / 3 = 2 > sqrt(6 * 4 / 8) = 1.732
+        ((-4.0, 0.0), 2.0, 0, "vel"),
+        # joint 1 velocity-bound: 1.5 * 6 / 4 = 2.25 > sqrt(6 * 6 / 12) = 1.732
+        ((1.0, 6.0), 2.25, 1, "vel"),
+    ],
+)
+def test_cubic_min_time_analytic(dq, T, binding, kind) -> None:
+    vmax, amax = (3.0, 4.0), (8.0, 12.0)
+    got = cubic_min_time(dq, vmax, amax)
+    assert got == pytest.approx(T, rel=1e-12)
+    # peak velocity 1.5 D / T and peak acceleration 6 D / T^2, from dense samples
+    t = np.linspace(0.0, T, 20001)
+    q = cubic_eval((0.0, 0.0), dq, T, t)
+    dt = t[1] - t[0]
+    vel = np.gradient(q, dt, axis=0)
+    acc = np.diff(q, 2, axis=0) / dt**2
+    d = np.abs(np.asarray(dq))
+    np.testing.assert_allclose(np.abs(vel).max(axis=0), 1.5 * d / T, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(np.abs(acc).max(axis=0), 6 * d / T**2, rtol=1e-3, atol=1e-9)
+    limit = vmax[binding] if kind == "vel" else amax[binding]
+    peak = (1.5 * d / T if kind == "vel" else 6 * d / T**2)[binding]
+    assert peak == pytest.approx(limit, rel=1e-12)  # the binding joint hits its limit exactly
+    other = 1 - binding
+    assert 1.5 * d[other] / T <= vmax[other] + 1e-12 and 6 * d[other] / T**2 <= amax[other] + 1e-12
+    assert 1.5 * d[binding] / T <= vmax[binding] + 1e-12 and 6 * d[binding] / T**2 <= amax[binding] + 1e-12
+
+
+def test_cubic_eval_is_the_lessons_profile() -> None:
+    """q0 + (3 tau^2 - 2 tau^3)(q1 - q0), held at q1 after T (the lesson's ``cubic_trajectory``)."""
+    q0, q1, T = np.array([0.2, -1.0]), np.array([1.4, 0.5]), 1.7
+    t = np.array([0.0, 0.25 * T, 0.5 * T, T, 2 * T])
+    tau = np.clip(t / T, 0, 1)
+    ref = q0 + (3 * tau**2 - 2 * tau**3)[:, None] * (q1 - q0)
+    np.testing.assert_allclose(cubic_eval(q0, q1, T, t), ref, atol=1e-15)
+    np.testing.assert_allclose(cubic_eval(q0, q1, T, t)[2], (q0 + q1) / 2)
+
+
+def test_cubic_zero_move() -> None:
+    assert cubic_min_time((0.0, 0.0), (3.0, 4.0), (8.0, 12.0)) == 0.0
+
+
+# --------------------------------------------------------------------------- S-curve closed forms
+@pytest.mark.parametrize(
+    "D,expected,regime",
+    [
+        (2.0, 2.0 / V + V / A + A / J, "cruise"),  # 1.141666...
+        (V * (V / A + A / J), 2 * (V / A + A / J), "cruise edge"),  # D = 1.425, T = 0.95
+        (0.5, A / J + math.sqrt((A / J) ** 2 + 4 * 0.5 / A), "no cruise"),  # 0.609902
+        (2 * A**3 / J**2, 4 * A / J, "a just reached"),  # D = 0.16, T = 0.4
+        (0.1, (32 * 0.1 / J) ** (1 / 3), "tiny"),  # 0.341995
+        (1e-6, (32e-6 / J) ** (1 / 3), "tiny"),
+    ],
+)
+def test_scurve_time_reference_values(D, expected, regime) -> None:
+    assert scurve_time(D, V, A, J) == pytest.approx(expected, rel=1e-12)
+    assert scurve_time(-D, V, A, J) == scurve_time(D, V, A, J)  # direction does not matter
+
+
+def test_scurve_time_printed_numbers() -> None:
+    assert scurve_time(2.0, V, A, J) == pytest.approx(1.1416666666666667, rel=1e-12)
+    assert scurve_time(0.5, V, A, J) == pytest.approx(0.6099019513592785, rel=1e-12)
+    assert scurve_time(0.16, V, A, J) == pytest.approx(0.4, rel=1e-12)
+    assert scurve_time(0.1, V, A, J) == pytest.approx(0.3419951893353394, rel=1e-12)
+    assert scurve_time(0.0, V, A, J) == 0.0
+
+
+def test_scurve_time_when_acceleration_limit_is_never_reached() -> None:
+    """v < a^2 / j (1 < 8^2 / 20): the cruise formula uses 2 sqrt(v / j), short moves are pure jerk."""
+    v, a, j = 1.0, 8.0, 20.0
+    edge = 2 * v * math.sqrt(v / j)
+    assert scurve_time(1.0, v, a, j) == pytest.approx(1.0 / v + 2 * math.sqrt(v / j), rel=1e-12)
+    assert scurve_time(edge, v, a, j) == pytest.approx(2 * edge / v, rel=1e-9)
+    assert scurve_time(0.2, v, a, j) == pytest.approx((32 * 0.2 / j) ** (1 / 3), rel=1e-12)
+
+
+def test_scurve_time_is_continuous_and_increasing() -> None:
+    D = np.linspace(0.0, 4.0, 4001)
+    T = np.array([scurve_time(d, V, A, J) for d in D])
+    assert (np.diff(T) > 0).all()
+    # no jump where the regime changes: a reached at D = 2 a^3 / j^2, cruise from v (v/a + a/j)
+    for edge in (2 * A**3 / J**2, V * (V / A + A / J)):
+        below, above = scurve_time(edge * (1 - 1e-10), V, A, J), scurve_time(edge * (1 + 1e-10), V, A, J)
+        assert 0 < above - below < 1e-8
+
+
+def test_scurve_is_never_slower_than_needed_but_never_beats_the_trapezoid() -> None:
+    """Cross-check with two other timing laws: with jerk unlimited the S-curve becomes the
+    time-optimal trapezoid (D / v + v / a or 2 sqrt(D / a)); the lesson's cubic keeps the same
+    v and a limits, so it can never be faster than that trapezoid."""
+    for D in np.linspace(0.01, 5.0, 60):
+        trapezoid = D / V + V / A if D >= V * V / A else 2 * math.sqrt(D / A)
+        assert scurve_time(D, V, A, 1e12) == pytest.approx(trapezoid, rel=1e-5)
+        assert scurve_time(D, V, A, J) >= trapezoid - 1e-12
+        assert cubic_min_time([D], [V], [A]) >= trapezoid - 1e-12
+
+
+# --------------------------------------------------------------------------- SCurve moves
+LIM = st.tuples(st.floats(0.5, 5.0), st.floats(1.0, 20.0), st.floats(5.0, 200.0))
+POSE = st.tuples(st.floats(-3.0, 3.0), st.floats(-3.0, 3.0))
+
+
+def sample(move: SCurve, n: int = 6001):
+    t = np.linspace(0.0, move.duration, n)
+    return t, move.derivatives(t)
+
+
+@settings(max_examples=40, deadline=None)
+@given(q0=POSE, q1=POSE, l0=LIM, l1=LIM)
+def test_scurve_move_respects_limits_and_ends_at_rest(q0, q1, l0, l1) -> None:
+    vmax, amax, jmax = (l0[0], l1[0]), (l0[1], l1[1]), (l0[2], l1[2])
+    move = SCurve.between(q0, q1, vmax, amax, jmax)
+    assert move.duration == pytest.approx(move_lower_bound(q0, q1, vmax, amax, jmax), rel=1e-12)
+    assert move.duration == max(scurve_time(b - a, *lim) for a, b, lim in zip(q0, q1, (l0, l1)))
+    if move.duration == 0.0:
+        return
+    t, (p, v, a, j) = sample(move)
+    tol = 1 + 1e-9
+    assert (np.abs(v) <= np.asarray(vmax) * tol).all()
+    assert (np.abs(a) <= np.asarray(amax) * tol).all()
+    assert (np.abs(j) <= np.asarray(jmax) * tol).all()
+    # starts at q0 and ends exactly at q1, at rest
+    np.testing.assert_array_equal(p[-1], q1)
+    np.testing.assert_array_equal(v[-1], [0.0, 0.0])
+    np.testing.assert_array_equal(a[-1], [0.0, 0.0])
+    np.testing.assert_allclose(p[0], q0, atol=1e-15)
+    np.testing.assert_allclose(v[0], 0.0, atol=1e-15)
+    # the profile just before the end already agrees with q1 (no jump onto the end pose)
+    np.testing.assert_allclose(move.eval(np.array([move.duration * (1 - 1e-9)]))[0], q1, atol=1e-6)
+    # monotone, no overshoot: every joint stays between q0 and q1
+    lo, hi = np.minimum(q0, q1), np.maximum(q0, q1)
+    assert (p >= lo - 1e-12).all() and (p <= hi + 1e-12).all()
+    # derivatives are consistent with each other (trapezoid integration)
+    dt = t[1] - t[0]
+    np.testing.assert_allclose(np.cumsum((v[1:] + v[:-1]) / 2, axis=0) * dt, p[1:] - p[0], atol=1e-4)
+    np.testing.assert_allclose(np.cumsum((a[1:] + a[:-1]) / 2, axis=0) * dt, v[1:] - v[0], atol=2e-3)
+    assert (move.eval(t + move.duration) == np.asarray(q1)).all()  # held after the end
+
+
+def test_scurve_slowest_joint_is_bang_bang() -> None:
+    """Time-optimality witness: on the joint that sets the duration, at every instant one limit
+    is active (|jerk| = j, or |acc| = a with zero jerk, or |vel| = v during the cruise)."""
+    q0, q1 = (-1.0, 0.3), (1.5, -0.2)  # joint 0 moves 2.5 rad: cruise regime
+    move = SCurve.between(q0, q1, (3.0, 4.0), (8.0, 12.0), (80.0, 120.0))
+    assert move.duration == pytest.approx(2.5 / 3 + 3 / 8 + 8 / 80, rel=1e-12)
+    t, (p, v, a, j) = sample(move, 4001)
+    t, v, a, j = t[1:-1], v[1:-1, 0], a[1:-1, 0], j[1:-1, 0]
+    active = np.isclose(np.abs(j), 80.0) | np.isclose(np.abs(a), 8.0) | np.isclose(np.abs(v), 3.0)
+    assert active.all()
+    assert np.isclose(np.abs(v), 3.0).any() and np.isclose(np.abs(a), 8.0).any()
+    # peaks hit the limits exactly
+    assert np.abs(v).max() == pytest.approx(3.0, rel=1e-9)
+    assert np.abs(a).max() == pytest.approx(8.0, rel=1e-9)
+
+
+def test_scurve_faster_joint_is_slowed_to_finish_together() -> None:
+    move = SCurve.between((0.0, 0.0), (2.0, 0.2), (3.0, 4.0), (8.0, 12.0), (80.0, 120.0))
+    assert move.duration == pytest.approx(scurve_time(2.0, 3.0, 8.0, 80.0), rel=1e-12)
+    t, (p, v, a, j) = sample(move)
+    moving = np.abs(v) > 1e-9
+    # both joints move over the same interval: neither finishes early and waits
+    first = [t[moving[:, i]].min() for i in range(2)]
+    last = [t[moving[:, i]].max() for i in range(2)]
+    assert max(first) < 0.01 and min(last) > move.duration - 0.01
+    # joint 1's own optimal time is much shorter: it is slowed, staying well inside its limits
+    assert scurve_time(0.2, 4.0, 12.0, 120.0) < 0.6 * move.duration
+    assert np.abs(v[:, 1]).max() < 4.0 and np.abs(a[:, 1]).max() < 12.0
+
+
+def test_scurve_zero_move() -> None:
+    move = SCurve.between((0.5, -0.5), (0.5, -0.5), (3.0, 4.0), (8.0, 12.0), (80.0, 120.0))
+    assert move.duration == 0.0
+    np.testing.assert_array_equal(move.eval(np.array([0.0, 1.0])), [[0.5, -0.5], [0.5, -0.5]])
+    assert move_lower_bound((0.5, -0.5), (0.5, -0.5), (3.0, 4.0), (8.0, 12.0), (80.0, 120.0)) == 0.0
