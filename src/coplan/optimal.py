@@ -34,7 +34,15 @@ from .heuristic import plan_heuristic
 from .nlp import ConstraintPoint, Grid, NLPSolution, SolverStatus, build_grid, build_nlp, solve_nlp
 from .plan import DEFAULT_RATE, Event, EventKind, Plan, PlannerKind, PlanStatus, compute_metrics
 from .problem import Problem
-from .schedule import ArmSchedule, ConflictError, StepKind, decoupled_schedules, remove_conflicts, tuck_moves
+from .schedule import (
+    ArmSchedule,
+    ConflictError,
+    StepKind,
+    add_return_home,
+    decoupled_schedules,
+    remove_conflicts,
+    tuck_moves,
+)
 
 __all__ = ["OptimalOptions", "OptimalResult", "plan_optimal"]
 
@@ -51,6 +59,8 @@ class OptimalOptions:
     window : receding-window length (s of schedule); schedules shorter than 1.5 windows are
         solved as one NLP
     overlap : each window is solved this much (s) past its cut and kept only up to it
+    window_time_limit : wall-clock cap of each IPOPT solve (s), so a struggling solve ends
+    warm_start_budget : wall-clock budget of the search for a conflict-free warm start (s)
     time_limit : wall-clock limit for the whole optimisation (s); None for none
     check_rate : rate of the planner's own dense clearance check (Hz)
     """
@@ -58,10 +68,12 @@ class OptimalOptions:
     margin: float = 0.015
     screen: float = 0.25
     h_target: float = 0.06
-    max_rounds: int = 4
+    max_rounds: int = 6
     window: float = 12.0
     overlap: float = 2.5
     time_limit: float | None = None
+    window_time_limit: float = 30.0
+    warm_start_budget: float = 4.0
     check_rate: float = 1000.0
     ipopt: dict = field(default_factory=dict)
 
@@ -130,10 +142,15 @@ def refine_points(problem: Problem, sol: NLPSolution, lo: int, hi: int, rate: fl
             for i in np.flatnonzero(d[li] < need):
                 k = int(np.clip(np.searchsorted(sol.t, times[i], side="right") - 1, lo, hi - 1))
                 h = sol.t[k + 1] - sol.t[k]
-                tau = float(np.clip(round((times[i] - sol.t[k]) / h * 8) / 8, 0.0, 0.875)) if h > 0 else 0.0
-                p = ConstraintPoint(k, tau, ia, ib, s, u)
-                if p not in have:
-                    new.add(p)
+                eighth = int(np.floor((times[i] - sol.t[k]) / h * 8)) if h > 0 else 0
+                # the two sub-interval points around the dip (eighths of the interval)
+                for e in (eighth, eighth + 1):
+                    kk, ee = (k + 1, 0) if e >= 8 else (k, max(e, 0))
+                    if kk > hi:
+                        continue
+                    p = ConstraintPoint(kk, ee / 8.0, ia, ib, s, u)
+                    if p not in have:
+                        new.add(p)
     return sorted(new, key=lambda p: (p.k, p.tau, p.ia, p.s, p.u))
 
 
@@ -146,12 +163,31 @@ def min_clearance(problem: Problem, q: dict[str, np.ndarray]) -> float:
 
 
 # ----------------------------------------------------------------------------- windows
-def _windows(grid: Grid, window: float) -> list[tuple[int, int]]:
+def _windows(grid: Grid, window: float, schedules: dict[str, ArmSchedule] | None = None) -> list[tuple[int, int]]:
+    """Cut the grid into windows of about ``window`` s.
+
+    Each cut is the knot nearest the target time (within a quarter window) that lies inside
+    no arm's pick or place, so every dwell is solved whole within one window.
+    """
     T = grid.t[-1]
     if T <= 1.5 * window:
         return [(0, grid.K)]
     n = int(np.ceil(T / window))
-    cuts = [0] + [int(np.argmin(np.abs(grid.t - T * i / n))) for i in range(1, n)] + [grid.K]
+    inside_dwell = np.zeros(grid.K + 1, bool)
+    if schedules is not None:
+        for name, sch in schedules.items():
+            for st, (k0, k1) in zip(sch.steps, grid.ranges[name]):
+                if st.kind in (StepKind.PICK, StepKind.PLACE):
+                    inside_dwell[k0 + 1 : k1] = True
+    cuts = [0]
+    for i in range(1, n):
+        target = T * i / n
+        cand = np.flatnonzero((np.abs(grid.t - target) <= 0.25 * window) & ~inside_dwell)
+        cand = cand[(cand > cuts[-1]) & (cand < grid.K)]
+        if cand.size == 0:
+            continue
+        cuts.append(int(cand[np.argmin(np.abs(grid.t[cand] - target))]))
+    cuts.append(grid.K)
     return [(a, b) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
 
 
@@ -169,7 +205,7 @@ class _Stitched:
 
 def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say) -> tuple[_Stitched, dict]:
     names = [a.name for a in problem.arms]
-    wins = _windows(grid, opts.window)
+    wins = _windows(grid, opts.window, schedules)
     info = {"windows": len(wins), "rounds": [], "iterations": 0, "build": 0.0, "solve": 0.0, "points": 0,
             "n_vars": 0, "n_cons": 0, "status": SolverStatus.OPTIMAL, "ipopt_status": "", "max_violation": 0.0}
     need = problem.task.clearance + opts.margin / 2
@@ -188,7 +224,9 @@ def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say
         points = screen_points(problem, schedules, grid, lo, hi, opts.screen)
         sol = None
         for rnd in range(opts.max_rounds):
-            remaining = None if deadline is None else max(deadline - _time.perf_counter(), 1e-3)
+            remaining = opts.window_time_limit
+            if deadline is not None:
+                remaining = min(remaining, max(deadline - _time.perf_counter(), 1e-3))
             nlp = build_nlp(problem, schedules, grid, points, opts.margin, window=(lo, hi), start=start_state,
                             ipopt_options=opts.ipopt, warm=sol)
             sol = solve_nlp(nlp, names, time_limit=remaining, lam=None)
@@ -281,38 +319,53 @@ def _choose_warm_start(problem: Problem, method: AllocationMethod, opts: Optimal
     """Allocation + conflict-free waiting schedule, the fastest of a few candidates.
 
     The min-makespan assignment comes first; when waiting for neighbours costs it more than
-    2 % over its estimate, the same MILP with a territory penalty (1, 3, 10 s for reaching
-    into a neighbour's side) is tried too, and the candidate whose conflict-free warm start
-    places its last fruit first is kept. The heuristic method uses the course's allocation.
+    2 % over that assignment's estimate, the same MILP is tried with a territory penalty
+    (1, 3, 10 s for reaching into a neighbour's side) and/or with blocked pairs avoided (see
+    :func:`coplan.allocate.allocate`), within a 3 s budget, and the candidate whose
+    conflict-free warm start places its last fruit first is kept. The heuristic method uses
+    the course's allocation only.
     """
-    territories = [0.0, 1.0, 3.0, 10.0] if method == AllocationMethod.MAKESPAN else [0.0]
+    if method == AllocationMethod.MAKESPAN:
+        variants = [(t, b) for t in (0.0, 1.0, 3.0, 10.0) for b in (False, True)]
+    else:
+        variants = [(0.0, False)]
     best = None
     tried = []
-    t_stop = _time.perf_counter() + 3.0  # the warm-start search is bounded: the NLP does the rest
-    for terr in territories:
-        if best is not None and _time.perf_counter() > t_stop:
+    seen = []
+    reference = None  # the plain min-makespan estimate: no candidate can beat it by waiting
+    t_stop = _time.perf_counter() + opts.warm_start_budget  # bounded: the NLP does the rest
+    for terr, avoid in variants:
+        if _time.perf_counter() > t_stop:
             break
-        alloc = allocate(problem, method, territory=terr, avoid_blocked=method == AllocationMethod.MAKESPAN)
-        if best is not None and alloc.assignment == best[0].assignment:
+        alloc = allocate(problem, method, territory=terr, avoid_blocked=avoid)
+        reference = alloc.estimated_makespan if reference is None else reference
+        if alloc.assignment in seen:
             continue
-        base, tucked = tuck_moves(problem, decoupled_schedules(problem, alloc), problem.task.clearance + opts.margin)
+        seen.append(alloc.assignment)
+        need = problem.task.clearance + opts.margin
+        base, _ = tuck_moves(problem, decoupled_schedules(problem, alloc, return_home=False), need)
         found = None
+        reason = ""
         for order in _priority_orders(base):
             try:
-                found = remove_conflicts(problem, base, opts.margin, priority=order)
+                work, n1 = remove_conflicts(problem, base, opts.margin, priority=order, deadline=t_stop)
+                full, _ = tuck_moves(problem, add_return_home(problem, work), need)
+                full, n2 = remove_conflicts(problem, full, opts.margin, priority=order, deadline=t_stop)
+                found = (full, n1 + n2)
                 break
             except ConflictError as e:
                 reason = str(e)
         if found is None:
-            tried.append({"territory": terr, "feasible": False, "reason": reason})
+            tried.append({"territory": terr, "avoid_blocked": avoid, "feasible": False, "reason": reason})
             say(f"allocation candidate (territory {terr:g} s): {reason}")
             continue
         sched, n = found
         span = max((s.last_place for s in sched.values()), default=0.0)
-        tried.append({"territory": terr, "feasible": True, "estimate": alloc.estimated_makespan, "warm_makespan": span, "waits": n})
+        tried.append({"territory": terr, "avoid_blocked": avoid, "feasible": True, "estimate": alloc.estimated_makespan,
+                      "warm_makespan": span, "waits": n})
         if best is None or span < best[3] - 1e-9:
             best = (alloc, sched, n, span)
-        if span <= 1.02 * alloc.estimated_makespan + 1e-6:
+        if span <= 1.02 * reference + 1e-6:
             break
     if best is None:
         # no candidate can be separated by waiting: keep the first and let the NLP deform paths

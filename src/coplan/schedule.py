@@ -9,6 +9,7 @@ slack waits) until no two neighbouring arms come closer than the clearance plus 
 
 from __future__ import annotations
 
+import time as _time
 from dataclasses import dataclass, field, replace
 from enum import Enum
 
@@ -27,6 +28,7 @@ __all__ = [
     "ArmSchedule",
     "ConflictError",
     "decoupled_schedules",
+    "add_return_home",
     "tuck_moves",
     "remove_conflicts",
     "pair_distances",
@@ -117,11 +119,14 @@ def _move(arm: Arm, t0: float, q0, q1, derate: float = 1.0) -> Step:
     return Step(StepKind.MOVE, t0, c.duration, tuple(map(float, q0)), tuple(map(float, q1)), curve=c)
 
 
-def decoupled_schedules(problem: Problem, alloc: Allocation, derate: float = 1.0) -> dict[str, ArmSchedule]:
-    """Fastest schedule of each arm alone: home -> (fruit, pick, bin, place)* -> home.
+def decoupled_schedules(
+    problem: Problem, alloc: Allocation, derate: float = 1.0, return_home: bool = True
+) -> dict[str, ArmSchedule]:
+    """Fastest schedule of each arm alone: home -> (fruit, pick, bin, place)* [-> home].
 
     ``derate`` < 1 scales every velocity, acceleration and jerk limit down (a warm start
-    strictly inside the limits, which an optimiser can then tighten).
+    strictly inside the limits, which an optimiser can then tighten). Without
+    ``return_home`` each arm ends resting over its bin (see :func:`add_return_home`).
     """
     out = {}
     for arm in problem.arms:
@@ -138,9 +143,29 @@ def decoupled_schedules(problem: Problem, alloc: Allocation, derate: float = 1.0
                 steps.append(Step(kind, t, dwell, target, target, fruit=fid))
                 t += dwell
                 cur = target
-        if steps:
+        if steps and return_home:
             steps.append(_move(arm, t, cur, arm.home, derate))
         out[arm.name] = ArmSchedule(arm, steps)
+    return out
+
+
+def add_return_home(problem: Problem, schedules: dict[str, ArmSchedule]) -> dict[str, ArmSchedule]:
+    """Park every arm over its bin until the cell's last place, then move it home.
+
+    An arm that finishes early and waits at home can stand in a neighbour's way (home poses
+    reach up into the shared space); over the bin it is out of the way. The return moves
+    then start together and :func:`remove_conflicts` staggers them where needed.
+    """
+    t_all = max((s.last_place for s in schedules.values()), default=0.0)
+    out = {}
+    for name, sch in schedules.items():
+        steps = list(sch.steps)
+        if steps:
+            q = steps[-1].q1
+            if t_all > sch.end + 1e-9:
+                steps.append(Step(StepKind.WAIT, sch.end, t_all - sch.end, q, q))
+            steps.append(_move(sch.arm, max(t_all, sch.end), q, sch.arm.home))
+        out[name] = ArmSchedule(sch.arm, steps)
     return out
 
 
@@ -241,15 +266,19 @@ def remove_conflicts(
     delay_step: float = 0.05,
     max_delays: int = 400,
     priority: list[str] | None = None,
+    deadline: float | None = None,
 ) -> tuple[dict[str, ArmSchedule], int]:
     """Prioritised planning by waiting: make every neighbouring pair keep ``clearance + margin``.
 
     Arms are fixed one at a time, in ``priority`` order (default: the arm that finishes last
     first, so the critical arm is never delayed). Each later arm is checked against the arms
-    already fixed, sampled at ``rate``; at its first conflict it waits as long as that
-    conflict lasted (at least ``delay_step``) before the last move that starts at or before it (so a conflict while resting
-    at a pose delays the move that would bring it there). Raises :class:`ConflictError`
-    when an arm would have to leave home earlier than t = 0, or after ``max_delays`` waits.
+    already fixed, sampled at ``rate``; at its first conflict it waits (until the blocking
+    arm ends the step it is in, at most 1 s, at least as long as the conflict lasts and
+    ``delay_step``) before the last move that starts at or before it (so a conflict while resting
+    at a pose delays the move that would bring it there). An arm in the way while still at
+    its start pose first clears out to its bin. Raises :class:`ConflictError` when waiting
+    cannot help (a parked arm is in the way), after ``max_delays`` waits, or at ``deadline``
+    (a ``time.perf_counter()`` value).
     Returns the new schedules and the number of waits inserted.
     """
     names = [a.name for a in problem.arms]
@@ -263,6 +292,7 @@ def remove_conflicts(
     for n in order:
         others = [m for m in fixed if (min(index[n], index[m]), max(index[n], index[m])) in pairs]
         sch = out[n]
+        cleared = False
         t_from = 0.0  # everything before the last shifted step is unchanged and already clear
         while others:
             t_end = max([sch.end] + [out[m].end for m in others]) + 1.0 / rate
@@ -283,24 +313,52 @@ def remove_conflicts(
                     run = (clear[0] if clear.size else bad.size - hit[0]) / rate
             if first is None:
                 break
+            if deadline is not None and _time.perf_counter() > deadline:
+                raise ConflictError("time budget for removing conflicts by waiting is used up")
             if first >= out[blocker].end:
-                raise ConflictError(f"arm {n!r} runs into arm {blocker!r} parked at home at t = {first:.2f} s")
+                raise ConflictError(f"arm {n!r} runs into arm {blocker!r} parked at the end of its schedule at t = {first:.2f} s")
             idx = _last_move_before(sch, first)
             if first > sch.end:
-                raise ConflictError(f"another arm runs into arm {n!r} resting at home at t = {first:.2f} s")
+                raise ConflictError(f"another arm runs into arm {n!r} parked at the end of its schedule at t = {first:.2f} s")
             if idx is None:
-                raise ConflictError(
-                    f"arm {n!r} is in the way of another arm at t = {first:.2f} s while resting at its start pose"
-                )
-            # wait as long as the conflict lasted (at least delay_step), then look again
+                if cleared or not sch.steps:
+                    raise ConflictError(
+                        f"arm {n!r} is in the way of another arm at t = {first:.2f} s while resting at its start pose"
+                    )
+                # blocked at home before its first move: clear out to the bin first
+                sch = _clear_out(sch)
+                cleared = True
+                t_from = 0.0
+                n_delays += 1
+                continue
+            # wait until the blocking arm has finished the step it is in (at most 1 s), at least
+            # as long as the conflict lasted and delay_step; then look again
+            b_idx = _step_at(out[blocker], first)
+            b_rest = out[blocker].steps[b_idx].t1 - first if b_idx is not None else 0.0
             t_from = max(0.0, sch.steps[idx].t0 - 1.0 / rate)
-            sch = sch.shifted(idx, max(delay_step, run))
+            sch = sch.shifted(idx, max(delay_step, run, min(b_rest, 1.0)))
             n_delays += 1
             if n_delays > max_delays:
                 raise ConflictError(f"no conflict-free waiting schedule found within {max_delays} waits")
         out[n] = sch
         fixed.append(n)
     return out, n_delays
+
+
+def _clear_out(sch: ArmSchedule) -> ArmSchedule:
+    """Start with a move from home to the bin (the first place pose), then go on from there."""
+    places = [s for s in sch.steps if s.kind == StepKind.PLACE]
+    if not places:
+        return sch
+    qb = places[0].q1
+    steps = [Step(StepKind.MOVE, 0.0, 0.0, sch.steps[0].q0, qb)]
+    first = sch.steps[0]
+    if first.kind == StepKind.MOVE:
+        steps.append(Step(StepKind.MOVE, 0.0, 0.0, qb, first.q1))
+        steps += sch.steps[1:]
+    else:
+        steps += sch.steps
+    return ArmSchedule(sch.arm, _retime(sch.arm, steps))
 
 
 def _step_at(sch: ArmSchedule, t: float) -> int | None:
