@@ -30,8 +30,8 @@ app = typer.Typer(
     help="Plan coordinated, collision-free, jerk-limited motion for several 2R arms harvesting fruit.",
     pretty_exceptions_enable=False,
 )
-out_console = Console()
-err_console = Console(stderr=True)
+out_console = Console(soft_wrap=True)
+err_console = Console(stderr=True, soft_wrap=True)
 
 
 def _fail(code: ExitCode, message: str):
@@ -147,9 +147,12 @@ def _print_summary(res) -> None:
     solver = res.plan.solver
     if solver.get("message"):
         p(f"  solver            {solver.get('status', '')}: {solver['message']}")
-    t = res.timings.get("total")
-    if t is not None:
-        p(f"  solve time        {t:.2f} s")
+    tm = res.plan.solver.get("timings", {})
+    parts = [k for k in ("allocation", "build", "solve", "plan", "verify") if k in tm]
+    if parts:
+        planned = sum(tm[k] for k in parts)
+        split = ", ".join(f"{k} {tm[k]:.2f}" for k in parts)
+        p(f"  solve time        {planned:.2f} s ({split}; whole command {res.timings.get('total', planned):.2f} s)")
     for k, v in res.files.items():
         if k in ("json", "verification", "animation", "baseline_json"):
             p(f"  wrote             {v}")

@@ -1,0 +1,251 @@
+"""The optimal planner: allocation against brute force, statuses, honesty, and cross-checks
+with the independent verifier."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import signal
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import coplan
+from coplan import nlp as nlp_mod
+from coplan.allocate import AllocationMethod, _solve_minmax, allocate, lower_bound
+from coplan.cli import app
+from coplan.generate import random_problem, to_yaml
+from coplan.nlp import SolverStatus, map_status
+from coplan.optimal import OptimalOptions, plan_optimal
+from coplan.pipeline import ExitCode, finalize, solve
+from coplan.plan import PlanStatus, load_plan
+from coplan.problem import default_problem_path, load_problem, parse_problem
+from coplan.verify import verify
+
+
+@pytest.fixture(scope="module")
+def greenhouse():
+    return load_problem(default_problem_path())
+
+
+@pytest.fixture(scope="module")
+def greenhouse_result(greenhouse):
+    return plan_optimal(greenhouse)
+
+
+# ----------------------------------------------------------------------------- allocation
+def _brute_minmax(cost, reach, offset):
+    A, F = cost.shape
+    best = np.inf
+    for assign in itertools.product(range(A), repeat=F):
+        if not all(reach[a, f] for f, a in enumerate(assign)):
+            continue
+        loads = [offset[a] + sum(cost[a, f] for f in range(F) if assign[f] == a) if a in assign else 0.0 for a in range(A)]
+        best = min(best, max(loads))
+    return best
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_minmax_assignment_matches_brute_force(seed):
+    rng = np.random.default_rng(seed)
+    A, F = rng.integers(2, 4), rng.integers(3, 7)
+    cost = rng.uniform(1.0, 5.0, (A, F))
+    reach = rng.random((A, F)) < 0.8
+    reach[rng.integers(0, A, F), np.arange(F)] = True  # every fruit reachable by someone
+    offset = -rng.uniform(0.0, 0.8, A) if seed % 2 else np.zeros(A)
+    assign, value, dual = _solve_minmax(cost, reach, None, offset)
+    assert value == pytest.approx(_brute_minmax(cost, reach, offset), abs=1e-6)
+    assert dual <= value + 1e-9
+    assert all(reach[a, f] for f, a in enumerate(assign))
+
+
+def test_minmax_single_arm_and_forced_fruit():
+    cost = np.array([[1.0, 2.0, 3.0], [9.0, 9.0, 9.0]])
+    reach = np.array([[True, True, False], [True, True, True]])
+    assign, value, _ = _solve_minmax(cost, reach, None)
+    assert assign[2] == 1  # only arm 1 can take the third fruit
+    assert value == pytest.approx(9.0)
+
+
+def test_makespan_allocation_beats_heuristic_estimate_and_respects_reach(greenhouse):
+    heur = allocate(greenhouse, AllocationMethod.HEURISTIC)
+    opt = allocate(greenhouse, AllocationMethod.MAKESPAN)
+    reach = greenhouse.reach_matrix()
+    names = [a.name for a in greenhouse.arms]
+    for a, fids in opt.assignment.items():
+        for fid in fids:
+            j = [f.id for f in greenhouse.fruits].index(fid)
+            assert reach[names.index(a), j]
+    assert sorted(f for fs in opt.assignment.values() for f in fs) == sorted(greenhouse.reachable_ids())
+    assert opt.estimated_makespan < heur.estimated_makespan
+    assert opt.lower_bound <= opt.estimated_makespan + 1e-9
+    # the left arm alone must harvest f05, f06, f07, f11: the bound says why 3.0 s/fruit is out of reach
+    assert set(opt.assignment["left"]) == {"f05", "f06", "f07", "f11"}
+    assert opt.lower_bound / 4 > 3.0
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_lower_bound_below_every_estimate(seed):
+    prob = parse_problem(to_yaml(random_problem(seed)), f"random-{seed}")
+    lb = lower_bound(prob)
+    for method in AllocationMethod:
+        assert lb <= allocate(prob, method).estimated_makespan + 1e-9
+
+
+# ----------------------------------------------------------------------------- statuses
+@pytest.mark.parametrize(
+    "ipopt, ours",
+    [
+        ("Solve_Succeeded", SolverStatus.OPTIMAL),
+        ("Solved_To_Acceptable_Level", SolverStatus.ACCEPTABLE),
+        ("Maximum_Iterations_Exceeded", SolverStatus.LIMIT_REACHED),
+        ("Maximum_WallTime_Exceeded", SolverStatus.LIMIT_REACHED),
+        ("Maximum_CpuTime_Exceeded", SolverStatus.LIMIT_REACHED),
+        ("Infeasible_Problem_Detected", SolverStatus.INFEASIBLE),
+        ("User_Requested_Stop", SolverStatus.INTERRUPTED),
+        ("Restoration_Failed", SolverStatus.NUMERICAL_ERROR),
+        ("Invalid_Number_Detected", SolverStatus.NUMERICAL_ERROR),
+        ("Error_In_Step_Computation", SolverStatus.NUMERICAL_ERROR),
+    ],
+)
+def test_ipopt_status_mapping(ipopt, ours):
+    assert map_status(ipopt) == ours
+    assert ours.converged == (ours in (SolverStatus.OPTIMAL, SolverStatus.ACCEPTABLE))
+
+
+# ----------------------------------------------------------------------------- the greenhouse row
+def test_greenhouse_success_is_verified_and_meets_targets(greenhouse, greenhouse_result):
+    res = greenhouse_result
+    plan = res.plan
+    assert plan.status == PlanStatus.SUCCESS
+    assert res.verification.passed
+    m = plan.metrics
+    assert m["harvested"] == m["reachable"] == 11
+    assert plan.unreachable == ["f01"]
+    assert m["makespan"] <= 0.65 * res.baseline.metrics["makespan"]
+    assert m["lower_bound"] <= m["makespan"] <= 1.10 * m["lower_bound"]
+    summary = res.verification.summary()
+    assert summary["collision_count"] == 0 and summary["violation_count"] == 0
+    assert summary["certified_clearance"] >= greenhouse.task.clearance
+    for arm, peaks in summary["peaks"].items():
+        for kind in ("velocity", "acceleration", "jerk"):
+            assert peaks[kind] <= 1.0 + 1e-6, (arm, kind, peaks[kind])
+
+
+def test_optimiser_clearance_agrees_with_verifier(greenhouse, greenhouse_result):
+    from coplan.optimal import min_clearance
+
+    plan = greenhouse_result.plan
+    ours = min_clearance(greenhouse, plan.sample(np.arange(0.0, plan.duration, 0.001)))
+    theirs = greenhouse_result.verification.summary()["min_clearance"]
+    assert ours == pytest.approx(theirs, abs=2e-3)
+
+
+def test_events_are_real_picks(greenhouse, greenhouse_result):
+    from coplan import kinematics as kin
+
+    plan = greenhouse_result.plan
+    for e in plan.events:
+        arm = greenhouse.arm(e.arm)
+        target = greenhouse.fruit(e.fruit).position if e.kind.value == "pick" else arm.bin
+        mid = plan.sample([(e.t_start + e.t_end) / 2])[e.arm]
+        tip = kin.fk(mid, arm.links, arm.base)[1][0]
+        assert np.hypot(*(tip - np.asarray(target))) < 1e-3
+        min_dwell = greenhouse.task.pick_dwell if e.kind.value == "pick" else greenhouse.task.place_dwell
+        assert e.t_end - e.t_start >= min_dwell - 1e-9
+
+
+# ----------------------------------------------------------------------------- honesty
+def test_unverified_plan_is_never_a_success(greenhouse, greenhouse_result, monkeypatch):
+    """If the independent check fails, the converged plan is UNSAFE, not a success."""
+    real = greenhouse_result.verification
+
+    class Failing:
+        passed = False
+
+        def summary(self):
+            return real.summary() | {"passed": False, "violation_count": 1, "violation_kinds": ["collision"]}
+
+    plan = greenhouse_result.plan
+    plan2 = type(plan)(**{**plan.__dict__, "status": PlanStatus.UNVERIFIED, "metrics": dict(plan.metrics)})
+    assert finalize(greenhouse, plan2, Failing()).status == PlanStatus.UNSAFE
+    plan3 = type(plan)(**{**plan.__dict__, "status": PlanStatus.UNVERIFIED, "metrics": dict(plan.metrics)})
+    assert finalize(greenhouse, plan3, None).status == PlanStatus.UNVERIFIED
+
+
+def test_failed_solver_keeps_best_iterate_and_baseline(tmp_path, greenhouse):
+    res = solve(greenhouse, planner="optimal", out_dir=tmp_path, options=OptimalOptions(time_limit=0.02))
+    assert res.plan.status == PlanStatus.FAILED
+    assert res.exit_code == ExitCode.SOLVER_FAILED
+    assert res.plan.solver["status"] == SolverStatus.LIMIT_REACHED.value
+    saved = load_plan(tmp_path / "plan.json")
+    assert saved.status == PlanStatus.FAILED and saved.planner.value == "optimal"
+    base = load_plan(tmp_path / "baseline.json")
+    assert base.planner.value == "heuristic" and base.metrics["harvested"] == 11
+    assert (tmp_path / "verification.json").exists()
+
+
+def test_ctrl_c_stops_within_an_iteration(greenhouse, monkeypatch):
+    """A real SIGINT during IPOPT's iterations stops the solve; the plan says interrupted."""
+    original = nlp_mod._Monitor.eval
+    state = {"n": 0}
+
+    def eval_with_sigint(self, arg):
+        state["n"] += 1
+        if state["n"] == 3:
+            signal.raise_signal(signal.SIGINT)  # what Ctrl-C does, delivered mid-solve
+        return original(self, arg)
+
+    monkeypatch.setattr(nlp_mod._Monitor, "eval", eval_with_sigint)
+    res = plan_optimal(greenhouse)
+    assert res.solver_status == SolverStatus.INTERRUPTED
+    assert res.plan.status == PlanStatus.INTERRUPTED
+    assert res.plan.solver["iterations"] <= 5
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handler restored
+
+
+def test_ipopt_opt_in_working_directory_is_ignored(tmp_path, monkeypatch):
+    (tmp_path / "ipopt.opt").write_text("max_iter 1\nprint_level 12\n")
+    monkeypatch.chdir(tmp_path)
+    prob = load_problem(default_problem_path().with_name("single_arm.yaml"))
+    res = plan_optimal(prob)
+    assert res.plan.status == PlanStatus.SUCCESS
+    assert res.plan.solver["iterations"] > 1
+
+
+# ----------------------------------------------------------------------------- layouts not tuned for
+@pytest.mark.parametrize("seed", [3, 5, 8])
+def test_random_layouts_success_implies_verified(seed, tmp_path):
+    prob = parse_problem(to_yaml(random_problem(seed)), f"random-{seed}")
+    res = solve(prob, planner="optimal", out_dir=tmp_path, options=OptimalOptions(time_limit=30))
+    if res.plan.status == PlanStatus.SUCCESS:
+        assert res.verification.passed
+        again = verify(prob, load_plan(tmp_path / "plan.json"))  # from disk, independently
+        assert again.passed
+        assert res.plan.metrics["harvested"] == len(prob.reachable_ids())
+    else:
+        assert res.exit_code != ExitCode.OK
+
+
+# ----------------------------------------------------------------------------- CLI
+def test_cli_solve_default_is_optimal_and_succeeds(tmp_path):
+    r = CliRunner().invoke(app, ["solve", "--out", str(tmp_path), "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert doc["planner"] == "optimal" and doc["status"] == "success"
+    assert load_plan(tmp_path / "plan.json").status == PlanStatus.SUCCESS
+
+
+def test_cli_time_limit_reports_failure(tmp_path):
+    r = CliRunner().invoke(app, ["solve", "--out", str(tmp_path), "--time-limit", "0.02"])
+    assert r.exit_code == int(ExitCode.SOLVER_FAILED), r.output
+    assert (tmp_path / "plan.json").exists() and (tmp_path / "baseline.json").exists()
+
+
+def test_heuristic_allocation_option_with_optimal_planner(greenhouse):
+    res = plan_optimal(greenhouse, allocation="heuristic")
+    assert res.allocation.method == AllocationMethod.HEURISTIC
+    assert {a: len(f) for a, f in res.allocation.assignment.items()} == {"left": 4, "center": 2, "right": 5}
+    if res.plan.status == PlanStatus.SUCCESS:
+        assert res.verification.passed
