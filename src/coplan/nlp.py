@@ -380,7 +380,7 @@ def build_nlp(
                 g.append(time_at(b_ - lo_k) - time_at(a_ - lo_k))
                 lbg.append([dwell * (b_ - a_) / (k1 - k0) + 1e-6])
                 ubg.append([np.inf])
-        smooth += ca.sumsqr(Un[name] * ca.repmat(ca.sqrt(H).T, 2, 1))
+        smooth += ca.sumsqr(Un[name]) * float(np.mean(h0))
     if nlines:
         half = (problem.task.clearance + margin) / 2.0
         kk = [p.k - lo_k for p in points]
