@@ -122,9 +122,15 @@ def solve(
 
 
 def _animate_files(res, out: Path) -> dict:
-    from .viz.animate import animate_plan
+    """Render the animation after the plan files are on disk; a rendering failure only warns,
+    so the plan's own exit code stands."""
+    from .viz.animate import RenderError, animate_plan
 
-    path = animate_plan(res.problem, res.plan, out / "plan.gif")
+    try:
+        path = animate_plan(res.problem, res.plan, out / "plan.gif")
+    except RenderError as e:
+        err_console.print(f"[yellow]warning[/]: animation not rendered: {e} (the plan files are written)")
+        return {}
     return {"animation": path}
 
 
@@ -293,6 +299,116 @@ def compare_cmd(
         out_console.print(f"wrote {cmp.files['json']} and {cmp.files['markdown']}")
     code = ExitCode.BAD_INPUT if cmp.bad_inputs else ExitCode.SOLVER_FAILED if cmp.failed_runs else ExitCode.OK
     raise typer.Exit(int(code))
+
+
+# ---- plot / animate (coplan.viz)
+from enum import Enum  # noqa: E402
+
+
+class PlotKind(str, Enum):
+    GANTT = "gantt"
+    CLEARANCE = "clearance"
+    JOINTS = "joints"
+    WORKSPACE = "workspace"
+
+
+def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
+    """Load a plan.json and its problem: --problem, else the shipped problem of that name."""
+    from .plan import load_plan
+    from .problem import load_problem, shipped_problems
+
+    plan = load_plan(plan_path)
+    if problem is not None:
+        prob = load_problem(problem)
+        if prob.name != plan.problem:
+            err_console.print(f"[yellow]note[/]: {plan_path} says it is a plan of {plan.problem!r}; {problem} is {prob.name!r}")
+    else:
+        shipped = [load_problem(p) for p in shipped_problems()]
+        prob = next((p for p in shipped if p.name == plan.problem), None)
+        if prob is None:
+            _fail(
+                ExitCode.USAGE,
+                f"{plan_path} is a plan of problem {plan.problem!r}, which is not a shipped problem "
+                f"({', '.join(p.name for p in shipped)}); give its YAML file with --problem FILE",
+            )
+    missing = [a.name for a in prob.arms if a.name not in plan.q]
+    if missing:
+        _fail(
+            ExitCode.BAD_INPUT,
+            f"{plan_path} does not fit problem {prob.name!r}: no trajectory for arm(s) {', '.join(missing)} "
+            f"(the plan has {', '.join(plan.q)})",
+        )
+    return prob, plan
+
+
+@app.command("plot")
+@guarded
+def plot_cmd(
+    plan: Annotated[Path, typer.Argument(help="plan.json to draw (for --kind workspace also a problem YAML).")],
+    kind: Annotated[PlotKind, typer.Option("--kind", "-k", help="Which figure.")] = PlotKind.GANTT,
+    problem: Annotated[
+        Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML (default: the shipped problem it names).")
+    ] = None,
+    out: Annotated[
+        Optional[Path], typer.Option("--out", "-o", help="Image file; the suffix sets the format (default: <plan>_<kind>.png).")
+    ] = None,
+    arm: Annotated[Optional[str], typer.Option(help="joints/workspace: draw only this arm.")] = None,
+    dpi: Annotated[int, typer.Option(min=30, max=600, help="Resolution of raster images.")] = 120,
+):
+    """Draw a figure of a plan: schedule Gantt, clearance, joint motion vs limits, or workspace map."""
+    from .viz import plots
+
+    if kind == PlotKind.WORKSPACE and plan.suffix.lower() in (".yaml", ".yml"):
+        from .problem import load_problem
+
+        prob, pl = load_problem(plan), None
+    else:
+        prob, pl = _plan_with_problem(plan, problem)
+    if arm is not None and arm not in [a.name for a in prob.arms]:
+        _fail(ExitCode.USAGE, f"--arm: no arm named {arm!r}; arms are {', '.join(a.name for a in prob.arms)}")
+    if kind == PlotKind.GANTT:
+        fig = plots.plot_gantt(prob, {pl.planner.value: pl})
+    elif kind == PlotKind.CLEARANCE:
+        fig = plots.plot_clearance(prob, {pl.planner.value: pl})
+    elif kind == PlotKind.JOINTS:
+        fig = plots.plot_joints(prob, pl, arms=None if arm is None else [arm])
+    else:
+        fig = plots.plot_workspace(prob, arm)
+    target = out if out is not None else plan.with_name(f"{plan.stem}_{kind.value}.png")
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(target, dpi=dpi)
+    except ValueError as e:  # unknown format
+        _fail(ExitCode.USAGE, f"--out {target}: {e} (use .png, .svg or .pdf)")
+    except OSError as e:
+        _fail(ExitCode.BAD_INPUT, f"cannot write {target}: {e.strerror or e}")
+    out_console.print(f"wrote {target}")
+
+
+@app.command("animate")
+@guarded
+def animate_cmd(
+    plan: Annotated[Path, typer.Argument(help="plan.json to animate.")],
+    problem: Annotated[
+        Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML (default: the shipped problem it names).")
+    ] = None,
+    out: Annotated[
+        Optional[Path], typer.Option("--out", "-o", help="Output .gif (default, next to the plan) or .mp4 (needs ffmpeg).")
+    ] = None,
+    speed: Annotated[float, typer.Option(min=0.01, max=100.0, help="Playback speed: 1 = real time, 2 = twice as fast.")] = 1.0,
+    fps: Annotated[float, typer.Option(min=1.0, max=60.0, help="Frames per second of the animation.")] = 10.0,
+    dpi: Annotated[int, typer.Option(min=30, max=300, help="Resolution (80: a 720 px wide GIF).")] = 80,
+):
+    """Render a plan as an animation: arms, fruit, bins, phases, clearance alarms (GIF; MP4 with ffmpeg)."""
+    from .viz.animate import animate_plan
+
+    prob, pl = _plan_with_problem(plan, problem)
+    target = out if out is not None else plan.with_suffix(".gif")
+    path = animate_plan(
+        prob, pl, target, speed=speed, fps=fps, dpi=dpi,
+        notify=lambda m: err_console.print(f"[yellow]note[/]: {m}", highlight=False, soft_wrap=True),
+    )
+    out_console.print(f"wrote {path}")
 
 
 def main() -> None:

@@ -1,0 +1,81 @@
+"""The notebooks in ``notebooks/`` run top to bottom on a fresh kernel, headless.
+
+The kernel is this interpreter (a kernelspec written to a temporary folder and found via
+``JUPYTER_PATH``), so the notebooks import the coplan under test, whether it is installed
+editable or not. The optimal solves in ``compare_schedules`` are capped at a few seconds
+each (``COPLAN_NOTEBOOK_TIME_LIMIT``): a capped solve is reported with its honest status,
+so the notebook still runs through.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+nbformat = pytest.importorskip("nbformat")
+nbclient = pytest.importorskip("nbclient")
+pytest.importorskip("ipykernel")
+
+NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"
+NAMES = ["compare_schedules.ipynb", "workspace_analysis.ipynb"]
+KERNEL = "coplan-test-python"
+
+
+@pytest.fixture
+def kernel(tmp_path, monkeypatch) -> str:
+    spec = tmp_path / "jupyter" / "kernels" / KERNEL
+    spec.mkdir(parents=True)
+    (spec / "kernel.json").write_text(json.dumps({
+        "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
+        "display_name": f"coplan tests ({sys.executable})",
+        "language": "python",
+    }))
+    monkeypatch.setenv("JUPYTER_PATH", str(tmp_path / "jupyter"))
+    monkeypatch.setenv("MPLBACKEND", "Agg")
+    monkeypatch.setenv("COPLAN_NOTEBOOK_TIME_LIMIT", "6")
+    monkeypatch.setenv("PYDEVD_DISABLE_FILE_VALIDATION", "1")
+    return KERNEL
+
+
+def _outputs(nb, kind: str) -> list:
+    return [o for c in nb.cells if c.cell_type == "code" for o in c.outputs if kind in o.get("data", {})]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_notebook_is_stored_clean_and_uses_public_api(name):
+    nb = nbformat.read(NOTEBOOKS / name, as_version=4)
+    nbformat.validate(nb)
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert code and all(not c.outputs and c.execution_count is None for c in code), "store notebooks without outputs"
+    src = "\n".join(c.source for c in code)
+    assert not re.search(r"from coplan[\w.]* import [^\n]*\b_\w", src), "private names imported"
+    assert "plt.show()" not in src or "import matplotlib.pyplot" in src
+    assert any(c.cell_type == "markdown" for c in nb.cells)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_notebook_runs_top_to_bottom(name, kernel, tmp_path):
+    nb = nbformat.read(NOTEBOOKS / name, as_version=4)
+    client = nbclient.NotebookClient(
+        nb, kernel_name=kernel, timeout=240, resources={"metadata": {"path": str(tmp_path)}}, allow_errors=False,
+    )
+    client.execute()
+    errors = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs if o.output_type == "error"]
+    assert not errors
+    pngs = _outputs(nb, "image/png")
+    tables = [o["data"]["text/markdown"] for o in _outputs(nb, "text/markdown") if o["data"]["text/markdown"].startswith("|")]
+    if name == "compare_schedules.ipynb":
+        assert len(pngs) >= 6  # Gantt, clearance, joints x2, other problems
+        assert _outputs(nb, "image/gif"), "the inline animation"
+        from coplan.problem import load_problem, shipped_problems
+
+        for path in shipped_problems():
+            assert load_problem(path).name in tables[0]
+        assert "| heuristic |" in tables[0] and "| optimal |" in tables[0]
+    else:
+        assert len(pngs) >= 5  # single arm, cell, spacing chart, two spacings
+        assert any(t.startswith("| spacing (m)") for t in tables)

@@ -1,0 +1,329 @@
+"""Plots, animation and the ``plot`` / ``animate`` commands (coplan.viz).
+
+Plans come from the heuristic planner (milliseconds); nothing here needs the optimiser.
+Figures are inspected through their artists (axes, labels, legend entries), the GIF through
+Pillow (frames, size, playback time).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.colors import to_rgb
+from matplotlib.figure import Figure
+from PIL import Image
+from typer.testing import CliRunner
+
+from coplan import parse_problem
+from coplan.cli import app
+from coplan.generate import row_problem, to_yaml
+from coplan.heuristic import plan_heuristic
+from coplan.plan import EventKind
+from coplan.viz import animate as anim_mod
+from coplan.viz.animate import RenderError, animate_plan, frame_times, render_frame
+from coplan.viz.plots import plot_clearance, plot_gantt, plot_joints, plot_workspace, save_comparison_figures
+from coplan.viz.style import ALERT_COLOR, FRUIT_COLOR, arm_colors
+from coplan.viz.timeline import fruit_states, joint_derivatives, pair_clearance, schedule
+
+
+def run(*args: str):
+    return CliRunner(env={"COLUMNS": "200", "COPLAN_DEBUG": None}).invoke(app, list(args))
+
+
+def legend_texts(fig: Figure) -> list[str]:
+    out = []
+    for leg in list(fig.legends) + [ax.get_legend() for ax in fig.axes if ax.get_legend() is not None]:
+        out += [t.get_text() for t in leg.get_texts()]
+    return out
+
+
+@pytest.fixture(scope="module")
+def hplan(greenhouse):
+    return plan_heuristic(greenhouse)
+
+
+@pytest.fixture(scope="module")
+def crowded():
+    """Three arms 1.2 m apart: the uncoordinated heuristic collides."""
+    p = parse_problem(to_yaml(row_problem(3, 12, spacing=1.2, seed=7, reachable_only=True)))
+    return p, plan_heuristic(p)
+
+
+@pytest.fixture(scope="module")
+def saved(tmp_path_factory, greenhouse, single_arm):
+    """plan.json files on disk, as the CLI reads them."""
+    d = tmp_path_factory.mktemp("plans")
+    plan_heuristic(greenhouse).save(d / "gh")
+    plan_heuristic(single_arm).save(d / "one")
+    return {"greenhouse": d / "gh" / "plan.json", "single": d / "one" / "plan.json"}
+
+
+# --------------------------------------------------------------------------- no matplotlib at import
+def test_import_coplan_and_viz_modules_do_not_import_matplotlib():
+    code = (
+        "import sys, coplan, coplan.viz, coplan.viz.plots, coplan.viz.animate, coplan.viz.timeline; "
+        "print('matplotlib' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+# --------------------------------------------------------------------------- palette and data
+def test_arm_colours_are_stable_distinct_and_never_red(greenhouse, hplan):
+    c = arm_colors(greenhouse)
+    assert list(c) == [a.name for a in greenhouse.arms]
+    assert c == arm_colors(hplan) == arm_colors([a.name for a in greenhouse.arms])
+    assert len(set(c.values())) == len(c)
+    for col in c.values():
+        r, g, b = to_rgb(col)
+        assert not (r > 0.7 and g < 0.3 and b < 0.3), col  # red means fruit / violation
+    assert to_rgb(FRUIT_COLOR)[0] > 0.8 and to_rgb(ALERT_COLOR)[0] > 0.8
+
+
+def test_schedule_covers_the_plan_and_labels_every_event(greenhouse, hplan):
+    segs = schedule(hplan)
+    for arm in greenhouse.arms:
+        s = segs[arm.name]
+        assert s[0].t0 == pytest.approx(0.0) and s[-1].t1 == pytest.approx(hplan.duration)
+        assert all(a.t1 == pytest.approx(b.t0) for a, b in zip(s, s[1:]))
+        assert {x.phase for x in s} <= {"moving", "picking", "placing", "idle"}
+        picked = [x.fruit for x in s if x.phase == "picking"]
+        assert picked == [e.fruit for e in hplan.events_of(arm.name, EventKind.PICK)]
+    # the centre arm finishes early in the course's allocation and then idles
+    assert segs["center"][-1].phase == "idle"
+
+
+def test_fruit_states_follow_pick_and_place(greenhouse, hplan):
+    e = hplan.events_of("left", EventKind.PICK)[0]
+    pl = next(x for x in hplan.events_of("left", EventKind.PLACE) if x.fruit == e.fruit)
+    assert fruit_states(greenhouse, hplan, 0.0)[e.fruit] == ("ripe", None)
+    assert fruit_states(greenhouse, hplan, (e.t_start + e.t_end) / 2)[e.fruit] == ("picking", "left")
+    assert fruit_states(greenhouse, hplan, (e.t_end + pl.t_start) / 2)[e.fruit] == ("carried", "left")
+    assert fruit_states(greenhouse, hplan, pl.t_end + 0.01)[e.fruit] == ("binned", "left")
+    assert fruit_states(greenhouse, hplan, hplan.duration)["f01"] == ("ripe", None)  # unreachable
+
+
+def test_clearance_dense_and_sampled_agree(greenhouse, hplan, crowded):
+    t_d, dense = pair_clearance(greenhouse, hplan)
+    t_s, samp = pair_clearance(greenhouse, hplan, dense=False)
+    assert set(dense) == set(samp) == {("left", "center"), ("center", "right")}
+    assert t_s.size == hplan.time.size and t_d.size >= t_s.size
+    for k in dense:
+        assert dense[k].min() <= samp[k].min() + 1e-9
+        assert dense[k].min() == pytest.approx(samp[k].min(), abs=0.01)
+    p, plan = crowded
+    assert min(d.min() for d in pair_clearance(p, plan)[1].values()) < 0  # it collides
+
+
+def test_joint_derivatives_are_finite_differences(hplan):
+    d = joint_derivatives(hplan, "left")
+    t, v = d["velocity"]
+    q = hplan.q["left"]
+    assert np.allclose(v[3 : 3 + q.shape[0] - 1], np.diff(q, axis=0) / hplan.dt)
+    assert d["jerk"][1].shape[1] == 2 and np.all(np.isfinite(d["jerk"][1]))
+
+
+# --------------------------------------------------------------------------- plots
+def test_gantt_stacks_plans_with_arms_phases_and_fruit_ids(greenhouse, hplan):
+    fig = plot_gantt(greenhouse, {"heuristic": hplan, "again": hplan})
+    assert isinstance(fig, Figure) and len(fig.axes) == 2
+    for ax in fig.axes:
+        assert [t.get_text() for t in ax.get_yticklabels()] == [a.name for a in greenhouse.arms]
+        assert ax.get_title(loc="left").split(":")[0] in ("heuristic", "again")
+        texts = {t.get_text() for t in ax.texts}
+        assert {"f02", "f05", "f09"} <= texts and not ({"f01"} & texts)
+    assert fig.axes[-1].get_xlabel() == "time (s)"
+    labels = " ".join(legend_texts(fig))
+    for phase in ("moving", "picking", "placing", "idle"):
+        assert phase in labels
+    colours = arm_colors(greenhouse)
+    for tick in fig.axes[0].get_yticklabels():
+        assert to_rgb(tick.get_color()) == to_rgb(colours[tick.get_text()])
+
+
+def test_clearance_plot_draws_every_pair_and_the_requirement(greenhouse, hplan, crowded):
+    fig = plot_clearance(greenhouse, hplan)
+    (ax,) = fig.axes
+    assert ax.get_ylabel() == "clearance (m)" and ax.get_xlabel() == "time (s)"
+    labels = legend_texts(fig)
+    assert "left – center" in labels and "center – right" in labels
+    assert f"required clearance {greenhouse.task.clearance:g} m" in labels
+    assert any(np.allclose(line.get_ydata(), greenhouse.task.clearance) for line in ax.get_lines())
+    p, plan = crowded
+    fig = plot_clearance(p, {"crowded": plan})
+    assert any(c.__class__.__name__ in ("PolyCollection", "FillBetweenPolyCollection") for c in fig.axes[0].collections)
+
+
+def test_joint_plot_has_four_quantities_two_joints_and_limits(greenhouse, hplan):
+    fig = plot_joints(greenhouse, hplan)
+    assert len(fig.axes) == 8
+    ylabels = [ax.get_ylabel() for ax in fig.axes if ax.get_ylabel()]
+    assert ylabels == ["position\n(rad)", "velocity\n(rad/s)", "acceleration\n(rad/s²)", "jerk\n(rad/s³)"]
+    labels = legend_texts(fig)
+    assert [a.name for a in greenhouse.arms] == labels[:3] and "limit (±)" in labels
+    jerk_ax = fig.axes[6]
+    assert any("OVER LIMIT" in t.get_text() for t in jerk_ax.texts)  # the cubic's jerk spikes
+    one = plot_joints(greenhouse, hplan, arms=["right"])
+    assert legend_texts(one)[:1] == ["right"]
+    with pytest.raises(ValueError):
+        plot_joints(greenhouse, hplan, arms=["nobody"])
+
+
+def test_workspace_map_cell_and_single_arm(greenhouse):
+    fig = plot_workspace(greenhouse, resolution=120)
+    ax = fig.axes[0]
+    assert len(ax.images) == 1 and ax.get_xlabel() == "x (m)" and ax.get_ylabel() == "y (m)"
+    labels = legend_texts(fig)
+    assert {"left", "center", "right", "90% safety ring", "overlap (≥ 2 arms reach)", "fruit no arm can reach"} <= set(labels)
+    assert "3 fruit shared, 1 unreachable" in ax.get_title()
+    assert "manipulability" in fig.axes[1].get_ylabel()  # the colour bar
+    one = plot_workspace(greenhouse, "center", resolution=80)
+    assert "arm center" in one.axes[0].get_title() and "overlap (≥ 2 arms reach)" not in legend_texts(one)
+
+
+def test_save_comparison_figures_writes_pngs(tmp_path, greenhouse, hplan):
+    paths = save_comparison_figures(greenhouse, {"heuristic": hplan, "optimal": hplan}, tmp_path / "figs")
+    assert [p.name for p in paths] == ["schedule_gantt.png", "clearance.png", "joints_heuristic.png", "joints_optimal.png"]
+    for p in paths:
+        with Image.open(p) as im:
+            assert im.format == "PNG" and im.size[0] > 600
+
+
+# --------------------------------------------------------------------------- animation
+def test_frame_times_play_in_real_time_times_speed():
+    t = frame_times(2.0, speed=1.0, fps=10, hold_end=1.0)
+    assert t[0] == 0 and np.allclose(np.diff(t[:21]), 0.1) and len(t) == 21 + 10 and t[-1] == 2.0
+    assert len(frame_times(2.0, speed=2.0, fps=10, hold_end=0)) == 11
+    assert frame_times(2.05, 1.0, 10, 0)[-1] == 2.05  # the final pose is always shown
+    with pytest.raises(ValueError):
+        frame_times(1.0, speed=0)
+
+
+def test_animate_plan_writes_a_real_time_gif(tmp_path, single_arm):
+    plan = plan_heuristic(single_arm)
+    out = animate_plan(single_arm, plan, tmp_path / "a" / "one.gif", fps=10, dpi=50, width=6)
+    assert out == tmp_path / "a" / "one.gif" and out.exists()
+    assert not list(out.parent.glob("*.partial*"))
+    with Image.open(out) as im:
+        assert im.format == "GIF" and im.size == (300, pytest.approx(im.size[1]))
+        n, total = im.n_frames, 0
+        for k in range(n):
+            im.seek(k)
+            total += im.info["duration"]
+    expected = len(frame_times(plan.duration, 1.0, 10, 1.0))
+    assert 10 <= n <= expected  # identical frames (the hold at the end) are merged
+    assert total == pytest.approx(expected * 100, abs=1)  # real time: 100 ms per frame
+
+
+def test_mp4_without_ffmpeg_falls_back_to_gif_with_a_message(tmp_path, single_arm, monkeypatch):
+    monkeypatch.setattr(anim_mod, "ffmpeg_available", lambda: False)
+    said = []
+    out = animate_plan(single_arm, plan_heuristic(single_arm), tmp_path / "one.mp4", dpi=40, width=5, notify=said.append)
+    assert out == tmp_path / "one.gif" and out.exists()
+    assert len(said) == 1 and "ffmpeg" in said[0] and "GIF" in said[0]
+
+
+def test_rendering_errors_are_clear(tmp_path, greenhouse, single_arm):
+    with pytest.raises(RenderError, match="no trajectory for arm"):
+        animate_plan(greenhouse, plan_heuristic(single_arm), tmp_path / "x.gif")
+    with pytest.raises(RenderError, match="speed"):
+        animate_plan(single_arm, plan_heuristic(single_arm), tmp_path / "x.gif", speed=-1)
+
+
+def test_frame_shows_phases_counts_and_collisions(greenhouse, hplan, crowded):
+    fig = render_frame(greenhouse, hplan, 1.0, dpi=50)
+    texts = [t.get_text() for t in fig.texts]
+    assert any(t.startswith("t =") for t in texts) and "all pairs clear" in texts
+    assert any("picking f05" in t and "harvested 0/4" in t for t in texts)
+    p, plan = crowded
+    t, prof = pair_clearance(p, plan)
+    worst = min(prof, key=lambda k: prof[k].min())
+    fig = render_frame(p, plan, float(t[np.argmin(prof[worst])]), dpi=50)
+    assert any(x.get_text().startswith("COLLISION") for x in fig.texts)
+    reds = [ln for ln in fig.axes[0].get_lines() if ln.get_color() == ALERT_COLOR]
+    assert len(reds) >= 2  # both arms of the pair
+
+
+# --------------------------------------------------------------------------- CLI
+@pytest.mark.parametrize("kind", ["gantt", "clearance", "joints", "workspace"])
+def test_cli_plot_each_kind(tmp_path, saved, kind):
+    out = tmp_path / f"{kind}.png"
+    r = run("plot", str(saved["greenhouse"]), "--kind", kind, "--out", str(out))
+    assert r.exit_code == 0, r.output
+    with Image.open(out) as im:
+        assert im.format == "PNG"
+
+
+def test_cli_plot_defaults_and_errors(tmp_path, saved, greenhouse):
+    r = run("plot", str(saved["single"]))  # default kind gantt, default file next to the plan
+    assert r.exit_code == 0, r.output
+    assert (saved["single"].parent / "plan_gantt.png").exists()
+    r = run("plot", str(greenhouse.source), "--kind", "workspace", "--arm", "left", "--out", str(tmp_path / "w.svg"))
+    assert r.exit_code == 0 and (tmp_path / "w.svg").read_text().lstrip().startswith("<?xml")
+    assert run("plot", str(tmp_path / "missing.json")).exit_code == 3
+    assert run("plot", str(saved["greenhouse"]), "--kind", "joints", "--arm", "nobody").exit_code == 2
+    assert run("plot", str(saved["greenhouse"]), "--out", str(tmp_path / "x.nope")).exit_code == 2
+    assert run("plot", str(saved["greenhouse"]), "--kind", "pie").exit_code == 2
+
+
+def test_cli_animate_and_problem_lookup(tmp_path, saved, greenhouse):
+    r = run("animate", str(saved["single"]), "--dpi", "40", "--fps", "5")
+    assert r.exit_code == 0, r.output
+    assert (saved["single"].parent / "plan.gif").exists()
+    # a plan whose problem is not shipped: a clear message, then --problem makes it work
+    doc = json.loads(saved["greenhouse"].read_text())
+    doc["problem"] = "somewhere-else"
+    odd = tmp_path / "odd.json"
+    odd.write_text(json.dumps(doc))
+    r = run("animate", str(odd))
+    assert r.exit_code == 2 and "somewhere-else" in r.output and "--problem" in r.output
+    r = run("animate", str(odd), "--problem", str(greenhouse.source), "--out", str(tmp_path / "odd.gif"), "--speed", "4", "--dpi", "40")
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "odd.gif").exists()
+    r = run("animate", str(odd), "--problem", str(Path(greenhouse.source).with_name("single_arm.yaml")))
+    assert r.exit_code == 3 and "no trajectory for arm" in r.output
+    assert run("animate", str(saved["single"]), "--speed", "0").exit_code == 2
+
+
+def test_gif_frames_equal_full_renders(problems_dir):
+    """The GIF writer redraws only what changed; its frames must equal full redraws."""
+    from coplan import load_problem
+    from coplan.viz.animate import _blit_gif_writer, build_animation
+
+    p = load_problem(problems_dir / "crossing_paths.yaml")  # the heuristic collides: status colours change
+    plan = plan_heuristic(p)
+    fast = build_animation(p, plan, dpi=40, width=6)
+    writer = _blit_gif_writer(10, fast.scene)
+    writer.setup(fast.scene.fig, "unused.gif", 40)
+    for t in fast.frame_times:
+        fast.scene.update(t)
+        writer.grab_frame()
+    full = build_animation(p, plan, dpi=40, width=6)
+    texts = set()
+    for k, t in enumerate(full.frame_times):
+        full.scene.update(t)
+        texts.add(full.scene.status_text.get_text().split(":")[0])
+        if k % 9:
+            continue
+        full.scene.fig.canvas.draw()
+        rgb = np.asarray(full.scene.fig.canvas.buffer_rgba())[..., :3].copy()
+        ref = Image.fromarray(rgb).quantize(palette=writer._pal, dither=Image.Dither.NONE)
+        assert np.array_equal(np.asarray(writer._frames[k]), np.asarray(ref)), f"frame {k} at t = {t:.2f} s"
+    assert any(x.startswith("COLLISION") for x in texts) and any(x.startswith("all pairs clear") for x in texts)
+
+
+def test_gif_fps_is_rounded_to_whole_centiseconds_and_long_plans_speed_up(tmp_path, single_arm):
+    plan = plan_heuristic(single_arm)
+    said = []
+    out = animate_plan(single_arm, plan, tmp_path / "a.gif", fps=12, dpi=30, width=4, notify=said.append)
+    with Image.open(out) as im:
+        assert im.info["duration"] == 80  # 12.5 fps
+    assert any("12.5 fps" in m for m in said)
+    said.clear()
+    animate_plan(single_arm, plan, tmp_path / "b.gif", fps=10, dpi=30, width=4, max_frames=20, notify=said.append)
+    assert len(said) == 1 and "instead of ×1" in said[0]
