@@ -219,7 +219,7 @@ def compute_metrics(plan: Plan, n_reachable: int) -> dict[str, Any]:
             "fruit": n,
             "last_place": last,
             "cycle_time": last / n if n else None,
-            "idle_fraction": (1.0 - busy / makespan) if makespan > 0 else None,
+            "idle_fraction": min(1.0, max(0.0, 1.0 - busy / makespan)) if makespan > 0 else None,
         }
     cycles = [v["cycle_time"] for v in per_arm.values() if v["cycle_time"] is not None]
     harvested = len(places)
@@ -236,20 +236,22 @@ def compute_metrics(plan: Plan, n_reachable: int) -> dict[str, Any]:
 
 
 def _busy_time(plan: Plan, arm: str) -> float:
-    """Seconds, up to the makespan's end, during which the arm moves or dwells."""
+    """Seconds, up to the arm's last place, during which it moves or dwells.
+
+    Each sampling interval counts once: busy when the joints change over it or its midpoint
+    lies inside one of the arm's events.
+    """
     q = plan.q[arm]
-    if q.shape[0] < 2:
-        return 0.0
-    moving = np.any(np.abs(np.diff(q, axis=0)) > 1e-9, axis=1)
-    busy = np.zeros(plan.time.size, bool)
-    busy[1:] |= moving
-    busy[:-1] |= moving
-    for e in plan.events_of(arm):
-        busy |= (plan.time >= e.t_start) & (plan.time <= e.t_end)
     places = plan.events_of(arm, EventKind.PLACE)
-    end = max((e.t_end for e in places), default=0.0)
-    busy &= plan.time <= max(end, 0.0) if places else np.zeros_like(busy)
-    return float(busy.sum() * plan.dt)
+    if q.shape[0] < 2 or not places:
+        return 0.0
+    end = max(e.t_end for e in places)
+    mid = (plan.time[:-1] + plan.time[1:]) / 2
+    busy = np.any(np.abs(np.diff(q, axis=0)) > 1e-9, axis=1)
+    for e in plan.events_of(arm):
+        busy |= (mid >= e.t_start) & (mid <= e.t_end)
+    busy &= mid <= end
+    return float(min(busy.sum() * plan.dt, end))
 
 
 # ---------------------------------------------------------------------- loading
