@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -38,10 +38,9 @@ from .schedule import (
     ArmSchedule,
     ConflictError,
     StepKind,
-    add_return_home,
+    choose_branches,
+    coordinate,
     decoupled_schedules,
-    remove_conflicts,
-    tuck_moves,
 )
 
 __all__ = ["OptimalOptions", "OptimalResult", "plan_optimal"]
@@ -241,7 +240,9 @@ def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say
                 f"after {sol.iterations} iterations ({sol.solve_seconds:.2f} s)")
             if not sol.status.converged:
                 break
-            new = refine_points(problem, sol, 0, sol.t.size - 1, opts.check_rate, need, set(points))
+            # the solution's knots are local to the window: compare and return in global indices
+            local = {replace(p, k=p.k - lo) for p in points}
+            new = [replace(p, k=p.k + lo) for p in refine_points(problem, sol, 0, sol.t.size - 1, opts.check_rate, need, local)]
             if not new:
                 break
             points = points + new
@@ -301,78 +302,127 @@ def _to_plan(problem, alloc, sampler, t_end, events, status, solver_info) -> Pla
     return plan
 
 
-def _priority_orders(base: dict[str, ArmSchedule], limit: int = 6) -> list[list[str]]:
-    """Priority orders to try: busiest arm first, then its reverse, then every other order (up to ``limit``)."""
+def _priority_orders(base: dict[str, ArmSchedule], limit: int = 2) -> list[list[str]]:
+    """Priority orders to try (ties and yields in :func:`coplan.schedule.coordinate`): the arm
+    that finishes last first, then the reverse, then other orders (up to ``limit``)."""
     import itertools
 
     names = sorted(base, key=lambda n: -base[n].last_place)
+    if len(names) < 2:
+        return [names]
     orders = [names, names[::-1]]
     for perm in itertools.permutations(names):
         if len(orders) >= limit:
             break
         if list(perm) not in orders:
             orders.append(list(perm))
-    return orders[:limit] if len(names) > 1 else [names]
+    return orders[:limit]
+
+
+def _warm_variants(problem: Problem, alloc: Allocation, need: float):
+    """Schedules to coordinate for one allocation, most promising first: elbow branches chosen
+    to keep out of the neighbours' way (:func:`coplan.schedule.choose_branches`), then the
+    allocation's own (fastest) branches, when they differ. (Moves that would box a neighbour
+    in are rerouted by the coordinator itself.)"""
+    seen = []
+    for label, al in (("branches", None), ("fastest", alloc)):
+        al = choose_branches(problem, alloc, need) if al is None else al
+        base = decoupled_schedules(problem, al)
+        key = [(n, [(st.kind, st.q1) for st in s.steps]) for n, s in base.items()]
+        if key in seen:
+            continue
+        seen.append(key)
+        yield label, base
 
 
 def _choose_warm_start(problem: Problem, method: AllocationMethod, opts: OptimalOptions, say):
-    """Allocation + conflict-free waiting schedule, the fastest of a few candidates.
+    """Allocation + conflict-free coordinated schedule: the fastest of a few candidates.
 
-    The min-makespan assignment comes first; when waiting for neighbours costs it more than
-    2 % over that assignment's estimate, the same MILP is tried with a territory penalty
+    Allocations: the min-makespan assignment, then the same MILP with a territory penalty
     (1, 3, 10 s for reaching into a neighbour's side) and/or with blocked pairs avoided (see
-    :func:`coplan.allocate.allocate`), within a 3 s budget, and the candidate whose
-    conflict-free warm start places its last fruit first is kept. The heuristic method uses
-    the course's allocation only.
+    :func:`coplan.allocate.allocate`); the heuristic method uses the course's allocation only.
+    For each, schedules from :func:`_warm_variants`, each coordinated
+    (:func:`coplan.schedule.coordinate`: legs booked in time, deadlocks broken by yields)
+    under the orders of :func:`_priority_orders`. The search goes breadth first -- the most
+    promising variant of every allocation, then the others -- and skips an allocation whose
+    own estimate (its arms' fastest decoupled finish, which no warm start from it can beat)
+    is no better than the best warm start found, and goes deeper only into allocations whose
+    first attempt came within 15 % of the best. Each attempt gets at most a third of
+    ``warm_start_budget``, so one hard candidate cannot use it all. The search stops at a
+    warm start within 2 % of the plain min-makespan estimate, or when the budget is spent;
+    the warm start that places its last fruit first is kept.
     """
     if method == AllocationMethod.MAKESPAN:
         variants = [(t, b) for t in (0.0, 1.0, 3.0, 10.0) for b in (False, True)]
     else:
         variants = [(0.0, False)]
-    best = None
-    tried = []
-    seen = []
-    reference = None  # the plain min-makespan estimate: no candidate can beat it by waiting
+    need = problem.task.clearance + opts.margin
     t_stop = _time.perf_counter() + opts.warm_start_budget  # bounded: the NLP does the rest
+    per_try = opts.warm_start_budget / 3.0
+    best = None
+    tried: list[dict] = []
+    allocs: list[tuple] = []  # (territory, avoid, allocation, its remaining attempts, its first warm makespan)
+    seen = []
+
+    def attempts(alloc):
+        for kind, base in _warm_variants(problem, alloc, need):
+            for order in _priority_orders(base):
+                yield kind, base, order
+
+    def good_enough():
+        return best is not None and best[3] <= 1.02 * reference + 1e-6
+
+    def attempt(terr, avoid, alloc, kind, base, order):
+        nonlocal best
+        now = _time.perf_counter()
+        entry = {"territory": terr, "avoid_blocked": avoid, "schedules": kind, "priority": order,
+                 "estimate": alloc.estimated_makespan}
+        try:
+            sched, n, extra = coordinate(problem, base, opts.margin, priority=order, deadline=min(t_stop, now + per_try))
+        except ConflictError as e:
+            tried.append(entry | {"feasible": False, "reason": str(e), "seconds": _time.perf_counter() - now})
+            say(f"warm start candidate (territory {terr:g} s, {kind}): {e}")
+            return np.inf
+        span = max((s.last_place for s in sched.values()), default=0.0)
+        tried.append(entry | {"feasible": True, "warm_makespan": span, "waits": n, "yields": extra,
+                              "seconds": _time.perf_counter() - now})
+        if best is None or span < best[3] - 1e-9:
+            best = (alloc, sched, n, span)
+        return span
+
+    reference = None  # the plain min-makespan estimate: no candidate can beat it by waiting
+    # breadth first: the first attempt of every allocation
     for terr, avoid in variants:
-        if _time.perf_counter() > t_stop:
+        if good_enough() or _time.perf_counter() > t_stop:
             break
         alloc = allocate(problem, method, territory=terr, avoid_blocked=avoid)
         reference = alloc.estimated_makespan if reference is None else reference
         if alloc.assignment in seen:
             continue
         seen.append(alloc.assignment)
-        need = problem.task.clearance + opts.margin
-        base, _ = tuck_moves(problem, decoupled_schedules(problem, alloc, return_home=False), need)
-        found = None
-        reason = ""
-        for order in _priority_orders(base):
-            try:
-                work, n1 = remove_conflicts(problem, base, opts.margin, priority=order, deadline=t_stop)
-                full, _ = tuck_moves(problem, add_return_home(problem, work), need)
-                full, n2 = remove_conflicts(problem, full, opts.margin, priority=order, deadline=t_stop)
-                found = (full, n1 + n2)
-                break
-            except ConflictError as e:
-                reason = str(e)
-        if found is None:
-            tried.append({"territory": terr, "avoid_blocked": avoid, "feasible": False, "reason": reason})
-            say(f"allocation candidate (territory {terr:g} s): {reason}")
+        if best is not None and alloc.estimated_makespan >= best[3] - 1e-9:
             continue
-        sched, n = found
-        span = max((s.last_place for s in sched.values()), default=0.0)
-        tried.append({"territory": terr, "avoid_blocked": avoid, "feasible": True, "estimate": alloc.estimated_makespan,
-                      "warm_makespan": span, "waits": n})
-        if best is None or span < best[3] - 1e-9:
-            best = (alloc, sched, n, span)
-        if span <= 1.02 * reference + 1e-6:
-            break
+        it = attempts(alloc)
+        first = next(it, None)
+        if first is not None:
+            allocs.append((terr, avoid, alloc, it, attempt(terr, avoid, alloc, *first)))
+    # then the remaining attempts, allocation by allocation, for allocations whose first
+    # attempt came within 15 % of the best (the other variants rarely gain more than that)
+    for terr, avoid, alloc, it, first_span in allocs:
+        if best is not None and first_span > 1.15 * best[3]:
+            continue
+        for kind, base, order in it:
+            if good_enough() or _time.perf_counter() > t_stop:
+                break
+            if best is not None and alloc.estimated_makespan >= best[3] - 1e-9:
+                break
+            attempt(terr, avoid, alloc, kind, base, order)
     if best is None:
-        # no candidate can be separated by waiting: keep the first and let the NLP deform paths
+        # no candidate could be coordinated: keep the first and let the NLP deform paths
         alloc = allocate(problem, method)
         sched = decoupled_schedules(problem, alloc)
         best = (alloc, sched, 0, max((s.last_place for s in sched.values()), default=0.0))
-        say("no conflict-free waiting schedule found; the optimiser starts from the colliding decoupled plan")
+        say("no conflict-free warm start found; the optimiser starts from the colliding decoupled plan")
     alloc, sched, n, span = best
     say(f"allocation ({alloc.method.value}, territory {alloc.info.get('territory', 0):g} s): "
         + ", ".join(f"{a} {len(f)}" for a, f in alloc.assignment.items())
