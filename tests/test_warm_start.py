@@ -18,16 +18,9 @@ from coplan.geometry import segment_distance
 from coplan.optimal import OptimalOptions, _choose_warm_start
 from coplan.plan import DEFAULT_RATE, Event, EventKind, Plan, PlannerKind, PlanStatus, compute_metrics
 from coplan.problem import Problem, load_problem, parse_problem
-from coplan.schedule import (
-    ConflictError,
-    StepKind,
-    choose_branches,
-    coordinate,
-    decoupled_schedules,
-    pair_distances,
-    remove_conflicts,
-    route_moves,
-)
+from coplan.coordinate import coordinate, remove_conflicts
+from coplan.routing import choose_branches, route_moves
+from coplan.schedule import ConflictError, StepKind, decoupled_schedules, pair_distances
 from coplan.timing import SCurve
 from coplan.verify import verify
 

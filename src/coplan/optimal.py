@@ -34,14 +34,9 @@ from .heuristic import plan_heuristic
 from .nlp import ConstraintPoint, Grid, NLPSolution, SolverStatus, build_grid, build_nlp, solve_nlp
 from .plan import DEFAULT_RATE, Event, EventKind, Plan, PlannerKind, PlanStatus, compute_metrics
 from .problem import Problem
-from .schedule import (
-    ArmSchedule,
-    ConflictError,
-    StepKind,
-    choose_branches,
-    coordinate,
-    decoupled_schedules,
-)
+from .coordinate import coordinate
+from .routing import choose_branches
+from .schedule import ArmSchedule, ConflictError, StepKind, decoupled_schedules
 
 __all__ = ["OptimalOptions", "OptimalResult", "plan_optimal"]
 
@@ -303,7 +298,7 @@ def _to_plan(problem, alloc, sampler, t_end, events, status, solver_info) -> Pla
 
 
 def _priority_orders(base: dict[str, ArmSchedule], limit: int = 2) -> list[list[str]]:
-    """Priority orders to try (ties and yields in :func:`coplan.schedule.coordinate`): the arm
+    """Priority orders to try (ties and yields in :func:`coplan.coordinate.coordinate`): the arm
     that finishes last first, then the reverse, then other orders (up to ``limit``)."""
     import itertools
 
@@ -321,7 +316,7 @@ def _priority_orders(base: dict[str, ArmSchedule], limit: int = 2) -> list[list[
 
 def _warm_variants(problem: Problem, alloc: Allocation, need: float):
     """Schedules to coordinate for one allocation, most promising first: elbow branches chosen
-    to keep out of the neighbours' way (:func:`coplan.schedule.choose_branches`), then the
+    to keep out of the neighbours' way (:func:`coplan.routing.choose_branches`), then the
     allocation's own (fastest) branches, when they differ. (Moves that would box a neighbour
     in are rerouted by the coordinator itself.)"""
     seen = []
@@ -342,7 +337,7 @@ def _choose_warm_start(problem: Problem, method: AllocationMethod, opts: Optimal
     (1, 3, 10 s for reaching into a neighbour's side) and/or with blocked pairs avoided (see
     :func:`coplan.allocate.allocate`); the heuristic method uses the course's allocation only.
     For each, schedules from :func:`_warm_variants`, each coordinated
-    (:func:`coplan.schedule.coordinate`: legs booked in time, deadlocks broken by yields)
+    (:func:`coplan.coordinate.coordinate`: legs booked in time, deadlocks broken by yields)
     under the orders of :func:`_priority_orders`. The search goes breadth first -- the most
     promising variant of every allocation, then the others -- and skips an allocation whose
     own estimate (its arms' fastest decoupled finish, which no warm start from it can beat)

@@ -1,0 +1,489 @@
+"""Coordination for the warm start: all arms together, leg by leg (see :mod:`coplan.schedule`).
+
+:func:`coordinate` books each leg (a move and its pick or place) at the earliest time at which it
+and resting at its target afterwards keep every neighbour ``clearance + margin`` away from
+everything already booked; deadlocks are broken by rule. :func:`remove_conflicts` is its older name.
+"""
+
+from __future__ import annotations
+
+import bisect
+import time as _time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .problem import Arm, Problem
+from .routing import (
+    _Geometry,
+    _same,
+)
+from .schedule import (
+    _curve_eval,
+    _steps_positions,
+    ArmSchedule,
+    ConflictError,
+    Step,
+    StepKind,
+    _merge_waits,
+    _move,
+)
+
+__all__ = ["coordinate", "remove_conflicts"]
+
+
+@dataclass
+class _Leg:
+    """One unit of an arm's work: a move to ``target`` (then an optional pick/place dwell)."""
+
+    target: tuple[float, float]
+    kind: StepKind | None = None  # PICK / PLACE after the move, or None
+    dwell: float = 0.0
+    fruit: str | None = None
+    point: tuple[float, float] | None = None  # world point of a pick/place (for the other IK branch)
+    home: bool = False  # the final move home
+
+
+def _legs_of(problem: Problem, sch: ArmSchedule) -> list[_Leg]:
+    """An arm's schedule as legs (waits dropped); it ends with a move home if it has any."""
+    arm = sch.arm
+    fruit_pos = {f.id: tuple(map(float, f.position)) for f in problem.fruits}
+    legs: list[_Leg] = []
+    for st in sch.steps:
+        if st.kind == StepKind.MOVE:
+            legs.append(_Leg(tuple(map(float, st.q1))))
+        elif st.kind in (StepKind.PICK, StepKind.PLACE):
+            point = fruit_pos[st.fruit] if st.kind == StepKind.PICK else tuple(map(float, arm.bin))
+            leg = _Leg(tuple(map(float, st.q1)), st.kind, st.duration, st.fruit, point)
+            if legs and legs[-1].kind is None and _same(legs[-1].target, leg.target):
+                legs[-1].kind, legs[-1].dwell, legs[-1].fruit, legs[-1].point = leg.kind, leg.dwell, leg.fruit, leg.point
+            else:  # a dwell right where the arm already is
+                legs.append(leg)
+    home = tuple(map(float, arm.home))
+    if legs and legs[-1].kind is None and _same(legs[-1].target, home):
+        legs[-1].home = True
+    elif legs:
+        legs.append(_Leg(home, home=True))
+    return legs
+
+
+class _Track:
+    """One arm in :func:`coordinate`: its committed steps, its pose after them, its remaining legs."""
+
+    def __init__(self, arm: Arm, index: int, rank: int, legs: list[_Leg], tables: dict):
+        self.arm, self.index, self.rank = arm, index, rank
+        self.tables = tables  # the run's curve tables
+        self.home = tuple(map(float, arm.home))
+        self.steps: list[Step] = []
+        self.t0s: list[float] = []
+        self.end = 0.0  # committed until here; rests at ``pose`` afterwards until its next commitment
+        self.pose = self.home
+        self.todo = legs
+        self.ready = 0.0  # when it next tries to start its next leg
+        self.stuck: int | None = None  # the arm whose rest pose blocks its next leg (cleared when that one moves)
+        self.blocker: tuple | None = None  # (arm, its pose) that first rest-blocked the next leg
+        self.deferred = False  # finished, waiting for home to be out of the neighbours' way
+        self.parked = False
+
+    @property
+    def working(self) -> bool:
+        return any(not leg.home for leg in self.todo)
+
+    def positions(self, T: np.ndarray) -> np.ndarray:
+        """Joint positions (K, 2) at sorted times ``T``; resting at ``pose`` after ``end``."""
+        out = np.empty((T.size, 2))
+        out[:] = self.pose
+        i = max(0, bisect.bisect_right(self.t0s, float(T[0])) - 1)
+        for s in self.steps[i:]:
+            if s.t0 > T[-1]:
+                break
+            lo, hi = np.searchsorted(T, [s.t0, s.t1])
+            if hi <= lo:
+                continue
+            out[lo:hi] = _curve_eval(s.curve, T[lo:hi] - s.t0, self.tables) if s.kind == StepKind.MOVE and s.curve is not None else s.q1
+        return out
+
+    def commit(self, t: float, steps: list[Step]) -> None:
+        new = steps
+        if t > self.end + 1e-9:
+            new = [Step(StepKind.WAIT, self.end, t - self.end, self.pose, self.pose)] + steps
+        for s in new:
+            self.steps.append(s)
+            self.t0s.append(s.t0)
+        if steps:
+            self.end = steps[-1].t1
+            self.pose = tuple(map(float, steps[-1].q1))
+
+
+
+
+
+
+
+
+class _Coordinator(_Geometry):
+    """State of :func:`coordinate` (see there for the rules)."""
+
+    def __init__(self, problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float, quantum: float,
+                 priority: list[str] | None, deadline: float | None, max_yields: int | None, horizon: float | None):
+        super().__init__(problem, problem.task.clearance + margin)
+        names = [a.name for a in problem.arms]
+        self.rate, self.quantum, self.deadline = rate, quantum, deadline
+        order = priority or sorted(names, key=lambda n: -schedules[n].last_place)
+        rank = {n: i for i, n in enumerate(order)}
+        self.tables: dict = {}
+        self.tracks = [_Track(a, i, rank.get(a.name, len(order) + i), _legs_of(problem, schedules[a.name]), self.tables)
+                       for i, a in enumerate(problem.arms)]
+        self.max_yields = 6 * len(self.tracks) + 6 if max_yields is None else max_yields
+        work = sum(schedules[n].end for n in names)
+        self.horizon = 3.0 * work + 30.0 if horizon is None else horizon
+        self.yields = 0
+        self.parks = 0
+        self.log = None  # debugging: a callable taking a message
+        self._remaining: dict[int, tuple] = {}
+        self._moves: dict[tuple, list[Step]] = {}
+        self._yielded: set = set()
+
+    # ---- static views of the remaining work
+    def remaining(self, j: int) -> np.ndarray:
+        """Joint samples of arm j's remaining work legs (from where it rests; home move excluded)."""
+        tr = self.tracks[j]
+        key = (len(tr.todo), tr.pose)
+        hit = self._remaining.get(j)
+        if hit is not None and hit[0] == key:
+            return hit[1]
+        pts, q = [np.asarray(tr.pose, float)[None]], tr.pose
+        for leg in tr.todo:
+            if leg.home:
+                break
+            pts.append(self.vias_path(j, q, self.route(j, q, leg.target), dt=0.03))
+            q = leg.target
+        out = np.vstack(pts)
+        self._remaining[j] = (key, out)
+        return out
+
+    def leg_samples(self, tr: _Track, leg: _Leg) -> np.ndarray:
+        """Arm ``tr``'s poses along ``leg`` from where it rests (at ``rate``), target included."""
+        steps = self.leg_steps(tr, leg, 0.0)
+        if not steps:
+            return np.asarray(tr.pose, float)[None]
+        T = np.append(np.arange(0.0, steps[-1].t1, 1.0 / self.rate), steps[-1].t1)
+        return _steps_positions(steps, T, self.tables)
+
+    # ---- timing
+    def leg_steps(self, tr: _Track, leg: _Leg, t: float) -> list[Step]:
+        """The leg's move(s) from where the arm rests, starting at ``t``, then its dwell."""
+        steps: list[Step] = []
+        if not _same(tr.pose, leg.target):
+            key = (tr.index, tr.pose, leg.target)
+            moves = self._moves.get(key)
+            if moves is None:  # routed from where the arm rests (see _Geometry.route), from t = 0
+                moves, q, t0 = [], tr.pose, 0.0
+                for v in self.route(tr.index, tr.pose, leg.target):
+                    moves.append(_move(tr.arm, t0, q, v))
+                    t0, q = moves[-1].t1, v
+                self._moves[key] = moves
+            steps = [replace(m, t0=m.t0 + t) for m in moves]
+            t = steps[-1].t1
+        if leg.kind is not None:
+            steps.append(Step(leg.kind, t, leg.dwell, leg.target, leg.target, fruit=leg.fruit))
+        return steps
+
+    def conflict(self, tr: _Track, steps: list[Step], t: float):
+        """First conflict of ``steps`` (from ``t``, resting after) with the neighbours' commitments.
+
+        Returns None, or ``(tc, j, late)``: the first time too close, the neighbour, and (when
+        that first conflict comes after the arm has arrived) the last time before that
+        neighbour's commitments end at which the resting arm is too close -- to jump past a
+        neighbour passing through the target.
+        """
+        nb = [self.tracks[j] for j in self.nbrs[tr.index]]
+        if not nb:
+            return None
+        t_stop = max([steps[-1].t1] + [o.end for o in nb])
+        n = int(np.floor((t_stop - t) * self.rate + 1e-9)) + 2  # the last sample: everyone at rest
+        T = t + np.arange(n) / self.rate
+        qa = _steps_positions(steps, T, self.tables)
+        arrive = next((s.t1 for s in reversed(steps) if s.kind == StepKind.MOVE), t)
+        best = None
+        for o in nb:
+            bad = self.close(tr.index, qa, o.index, o.positions(T))
+            hit = np.flatnonzero(bad)
+            if hit.size and (best is None or T[hit[0]] < best[0]):
+                late = T[hit[(T[hit] >= arrive) & (T[hit] < o.end)]]
+                best = (float(T[hit[0]]), o.index, float(late.max()) if late.size and T[hit[0]] >= arrive else None)
+        return best
+
+    def earliest(self, tr: _Track, leg: _Leg, t: float) -> tuple[float | None, int | None]:
+        """Earliest start, ``t`` or at least ``quantum`` later, at which ``leg`` is clear of the
+        neighbours' commitments: ``(start, None)``; or ``(None, j)`` when neighbour j's rest
+        pose after its commitments is in the way (then no start helps)."""
+        s = t
+        while True:
+            steps = self.leg_steps(tr, leg, s)
+            if not steps:
+                return s, None
+            hit = self.conflict(tr, steps, s)
+            if hit is None:
+                return s, None
+            tc, j, late = hit
+            if tc >= self.tracks[j].end:
+                return None, j
+            step = self.quantum
+            if late is not None:
+                arrive = next((st.t1 for st in reversed(steps) if st.kind == StepKind.MOVE), s)
+                step = max(step, late - arrive + 1.0 / self.rate)
+            s += step
+
+    # ---- deadlocks
+    def is_stuck(self, j: int, waiting: int) -> bool:
+        """Whether arm j will not move unless someone yields (finished, deferred or in a blocking cycle)."""
+        seen = {waiting}
+        x = self.tracks[j]
+        while True:
+            if not x.todo or x.deferred:
+                return True
+            if x.stuck is None:
+                return False
+            if x.index in seen:
+                return True
+            seen.add(x.index)
+            x = self.tracks[x.stuck]
+
+    def yield_pose(self, y: _Track, x: _Track) -> np.ndarray | None:
+        """Where arm y should go so that arm x's next leg is clear of it.
+
+        Hard: clear of x's next leg (sampled at ``rate``, target included), and y's way there
+        clear of where its neighbours rest. Soft: fewest conflicts with the neighbours'
+        remaining work, then the quickest move.
+        """
+        cand = self.stows(y.index)
+        cand = cand[[not _same(c, y.pose) for c in cand]]
+        ok = self.static_hits(y.index, cand, x.index, self.leg_samples(x, x.todo[0])) == 0 if x.todo else np.ones(len(cand), bool)
+        soft = np.zeros(len(cand))
+        frac = np.linspace(0.0, 1.0, 16)[None, :, None]
+        ways = np.asarray(y.pose, float) + frac * (cand[:, None, :] - np.asarray(y.pose, float))  # (C, 16, 2)
+        for j in self.nbrs[y.index]:
+            o = self.tracks[j]
+            ok &= ~self.close(y.index, ways, j, np.asarray(o.pose, float)).any(axis=1)
+            rem = self.remaining(j)
+            soft += self.static_hits(y.index, cand, j, rem) / len(rem)
+        if not ok.any():
+            return None
+        time = np.array([_move(y.arm, 0.0, y.pose, c).duration for c in cand])
+        return cand[int(np.argmin(np.where(ok, 10.0 * soft + time, np.inf)))]
+
+    def do_yield(self, y: _Track, x: _Track, t: float) -> bool:
+        """Send arm y out of arm x's way (a yield move first in its list); False if it cannot."""
+        key = (y.index, x.index, len(x.todo), x.pose, y.pose)
+        if key in self._yielded:
+            return False
+        pose = self.yield_pose(y, x)
+        if self.log:
+            self.log(f"{t:7.2f} {y.arm.name} yields to {x.arm.name}: {None if pose is None else np.round(pose, 2)} from {np.round(y.pose, 2)}")
+        if pose is None:
+            return False
+        self._yielded.add(key)
+        if not y.todo or not y.todo[-1].home:
+            y.todo.append(_Leg(y.home, home=True))
+        y.todo.insert(0, _Leg(tuple(map(float, pose))))
+        y.stuck, y.deferred = None, False
+        y.ready = max(y.end, t)
+        self.yields += 1
+        return True
+
+    def other_branch(self, tr: _Track, leg: _Leg) -> _Leg | None:
+        """The same pick/place with the other elbow branch, if valid and not into a pose a
+        neighbour keeps coming back to (its places, its home); else None."""
+        if leg.point is None:
+            return None
+        margin = self.problem.task.reach_margin if leg.kind == StepKind.PICK else 0.0
+        q, valid = tr.arm.ik(np.asarray(leg.point, float), margin)
+        for b in range(2):
+            if valid[b] and not _same(q[b], leg.target, 1e-6):
+                for j in self.nbrs[tr.index]:
+                    o = self.tracks[j]
+                    rests = [lg.target for lg in o.todo if lg.kind == StepKind.PLACE or lg.home] + [o.home]
+                    if self.static_hits(tr.index, q[b], j, np.asarray(rests, float))[0]:
+                        return None
+                return replace(leg, target=tuple(map(float, q[b])))
+        return None
+
+    def route_time(self, i: int, q0, q1) -> float:
+        """Duration of arm i's (routed) move from q0 to q1."""
+        out, q = 0.0, q0
+        for v in self.route(i, q0, q1):
+            out += _move(self.problem.arms[i], 0.0, q, v).duration
+            q = v
+        return out
+
+    def detour(self, tr: _Track, leg: _Leg, alt: _Leg) -> float:
+        """Extra time of doing ``alt`` instead of ``leg`` (into the target and on to the next one)."""
+        nxt = tr.todo[1].target if len(tr.todo) > 1 else None
+
+        def via(target):
+            t = self.route_time(tr.index, tr.pose, target)
+            return t + (self.route_time(tr.index, target, nxt) if nxt is not None else 0.0)
+
+        return via(alt.target) - via(leg.target)
+
+    # ---- finishing
+    def home_blocks(self, tr: _Track) -> bool:
+        """Whether home is in the way of a neighbour's remaining work."""
+        return any(self.static_hits(tr.index, np.asarray(tr.home, float), j, self.remaining(j))[0] > 0
+                   for j in self.nbrs[tr.index] if self.tracks[j].working)
+
+    def park_pose(self, tr: _Track) -> np.ndarray | None:
+        """Where a finished arm waits until home is out of the way: where it is if that is clear
+        of the neighbours' remaining work, else the clearest candidate -- counting the
+        neighbours' remaining work, where they rest now and their homes (None: stay)."""
+        cand = np.vstack([np.asarray(tr.pose, float)[None], self.stows(tr.index)])
+        hits = np.zeros(len(cand))
+        for j in self.nbrs[tr.index]:
+            o = self.tracks[j]
+            hits += self.static_hits(tr.index, cand, j, np.vstack([self.remaining(j), np.asarray(o.home, float)[None]]))
+        if hits[0] == 0:
+            return None
+        time = np.array([_move(tr.arm, 0.0, tr.pose, c).duration for c in cand])
+        best = int(np.argmin(hits * 10.0 + time))
+        return None if best == 0 else cand[best]
+
+    # ---- main loop
+    def commit(self, tr: _Track, steps: list[Step], start: float) -> None:
+        if steps:
+            tr.commit(start, steps)
+        tr.todo.pop(0)
+        tr.ready = max(tr.end, start)
+        tr.stuck = None
+        tr.blocker = None
+        for j in self.nbrs[tr.index]:
+            if self.tracks[j].stuck == tr.index:
+                self.tracks[j].stuck = None
+
+    def run(self) -> dict[str, ArmSchedule]:
+        q = self.quantum
+        while True:
+            active = [tr for tr in self.tracks if tr.todo]
+            if not active:
+                break
+            tr = min(active, key=lambda r: (r.ready, r.rank))
+            t = tr.ready
+            if self.deadline is not None and _time.perf_counter() > self.deadline:
+                raise ConflictError("time budget for coordinating the arms is used up")
+            if t > self.horizon:
+                raise ConflictError(f"no conflict-free schedule found within {self.horizon:.0f} s of plan time")
+            leg = tr.todo[0]
+            if leg.home and not _same(tr.pose, tr.home) and self.home_blocks(tr):
+                if not tr.parked:
+                    tr.parked = True
+                    park = self.park_pose(tr)
+                    if park is not None:
+                        tr.todo.insert(0, _Leg(tuple(map(float, park))))
+                        self.parks += 1
+                        continue
+                tr.deferred = True
+                nxt = [self.tracks[j].ready for j in self.nbrs[tr.index] if self.tracks[j].working]
+                tr.ready = max(t + q, min(nxt, default=t + q))
+                continue
+            tr.deferred = False
+            start, j = self.earliest(tr, leg, t)
+            if start is not None:
+                self.commit(tr, self.leg_steps(tr, leg, start), start)
+                continue
+            # a neighbour rests in the way until it moves again
+            o = self.tracks[j]
+            if self.log:
+                self.log(f"{t:7.2f} {tr.arm.name} rest-blocked by {o.arm.name} (its end {o.end:.2f}) leg to {np.round(leg.target, 2)}")
+            tr.stuck = j
+            # the neighbour will move by itself: wait for it, but only once -- if its next rest
+            # pose is in the way again, it is a busy neighbour starving this arm: resolve now
+            again = tr.blocker is not None and tr.blocker[0] == j and not _same(tr.blocker[1], o.pose)
+            tr.blocker = (j, o.pose) if tr.blocker is None or tr.blocker[0] != j else tr.blocker
+            if not again and not self.is_stuck(j, tr.index):
+                tr.ready = max(t + q, o.ready)
+                continue
+            # deadlock: the other branch of this pick/place if it costs little, else someone
+            # gets out of the way (the neighbour if it is finished or has the lower priority;
+            # else this arm, so that the neighbour's next leg can go), else the other branch
+            # whatever it costs
+            alt = self.other_branch(tr, leg)
+            alt_start = self.earliest(tr, alt, t)[0] if alt is not None else None
+            if alt_start is not None and self.detour(tr, leg, alt) <= 0.5:
+                tr.todo[0] = alt
+                self.commit(tr, self.leg_steps(tr, alt, alt_start), alt_start)
+                continue
+            first, second = (o, tr) if (not o.working or o.rank > tr.rank) else (tr, o)
+            if self.yields < self.max_yields and (self.do_yield(first, second, t)
+                                                  or (o.working and self.do_yield(second, first, t))):
+                if tr.todo and tr.todo[0] is leg:
+                    tr.ready = max(t + q, o.ready)
+                continue
+            if alt_start is not None:
+                tr.todo[0] = alt
+                self.commit(tr, self.leg_steps(tr, alt, alt_start), alt_start)
+                continue
+            if self.yields >= self.max_yields:
+                raise ConflictError(f"arms {tr.arm.name!r} and {o.arm.name!r} keep blocking each other ({self.yields} yields)")
+            raise ConflictError(f"arm {o.arm.name!r} rests in the way of arm {tr.arm.name!r} at t = {t:.2f} s "
+                                "and neither can get out of the other's way")
+        return {tr.arm.name: ArmSchedule(tr.arm, _merge_waits(tr.steps)) for tr in self.tracks}
+
+
+def coordinate(
+    problem: Problem,
+    schedules: dict[str, ArmSchedule],
+    margin: float,
+    rate: float = 200.0,
+    quantum: float = 0.05,
+    priority: list[str] | None = None,
+    deadline: float | None = None,
+    max_yields: int | None = None,
+    horizon: float | None = None,
+) -> tuple[dict[str, ArmSchedule], int, int]:
+    """Coordinate all arms leg by leg; every neighbouring pair keeps ``clearance + margin``.
+
+    Each arm's work is a list of legs (a move, then its pick or place). The arm whose next
+    leg is due first (ties: ``priority`` order, default the arm that finishes last first)
+    books it at the earliest start -- now, or at least ``quantum`` s later -- at which the
+    leg, and resting at its target afterwards, is clear (sampled at ``rate``) of every
+    neighbour's booked motion and of where that neighbour rests after it. A booking is never
+    revised and every later booking is checked against it, so the result is conflict-free at
+    ``rate`` by construction; booking ahead (not only "go if clear now") means an arm with a
+    long move cannot be starved by a busy neighbour.
+
+    Deadlocks are broken by rule, not by search: an arm blocked by a neighbour that rests in
+    its way and will not move by itself (finished, waiting to go home, or blocked in a cycle)
+    first tries the other elbow branch of its pick/place (if that costs at most 0.5 s more,
+    counting the move on from there); else the neighbour (a finished one, or the
+    lower-priority one of a blocking pair) yields to the candidate rest pose -- home, over
+    its bin, folded-elbow poses -- that clears the blocked leg, reachable without
+    touching an arm at rest, with the fewest conflicts with the neighbours' remaining work.
+    A finished arm goes home once home is clear of the neighbours' remaining work; until
+    then it waits where it is, or (if that is in the way) at the clearest candidate pose.
+    Moves from a pose the plan did not foresee are routed by :meth:`_Geometry.route`.
+
+    Raises :class:`ConflictError` after ``max_yields`` yields, past ``horizon`` s of plan
+    time or at ``deadline`` (``time.perf_counter()``). Returns the schedules (each ending at
+    home), the number of waits and the number of yield/park moves added.
+    """
+    c = _Coordinator(problem, schedules, margin, rate, quantum, priority, deadline, max_yields, horizon)
+    out = c.run()
+    waits = sum(1 for s in out.values() for st in s.steps if st.kind == StepKind.WAIT)
+    return out, waits, c.yields + c.parks
+
+
+def remove_conflicts(
+    problem: Problem,
+    schedules: dict[str, ArmSchedule],
+    margin: float,
+    rate: float = 200.0,
+    delay_step: float = 0.05,
+    priority: list[str] | None = None,
+    deadline: float | None = None,
+) -> tuple[dict[str, ArmSchedule], int]:
+    """The older name of :func:`coordinate` (``delay_step`` is its ``quantum``).
+
+    Returns the conflict-free schedules and the number of waits plus yield/park moves added.
+    """
+    out, waits, extra = coordinate(problem, schedules, margin, rate=rate, quantum=delay_step, priority=priority, deadline=deadline)
+    return out, waits + extra
