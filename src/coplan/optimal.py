@@ -66,7 +66,7 @@ class OptimalOptions:
     window: float = 12.0
     overlap: float = 2.5
     time_limit: float | None = None
-    window_time_limit: float = 30.0
+    window_time_limit: float = 15.0
     warm_start_budget: float = 4.0
     check_rate: float = 1000.0
     ipopt: dict = field(default_factory=dict)
@@ -224,6 +224,17 @@ def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say
             nlp = build_nlp(problem, schedules, grid, points, opts.margin, window=(lo, hi), start=start_state,
                             ipopt_options=opts.ipopt, warm=sol)
             sol = solve_nlp(nlp, names, time_limit=remaining, lam=None)
+            if not sol.status.converged and sol.status != SolverStatus.INTERRUPTED:
+                # one retry with the monotone barrier strategy, which rescues some solves on
+                # which the adaptive one stalls (slow or failed iterations)
+                say(f"window {wi + 1}/{len(wins)} round {rnd + 1}: IPOPT {sol.ipopt_status}; retrying with a monotone barrier")
+                remaining = opts.window_time_limit
+                if deadline is not None:
+                    remaining = min(remaining, max(deadline - _time.perf_counter(), 1e-3))
+                nlp.options = dict(nlp.options) | {"ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-2}
+                info["solve"] += sol.solve_seconds
+                info["iterations"] += sol.iterations
+                sol = solve_nlp(nlp, names, time_limit=remaining, lam=None)
             info["build"] += nlp.build_seconds
             info["solve"] += sol.solve_seconds
             info["iterations"] += sol.iterations
