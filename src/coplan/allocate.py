@@ -295,6 +295,7 @@ def allocate(
     time_limit: float | None = 10.0,
     territory: float = 0.0,
     avoid_blocked: bool = False,
+    bound: float | None = None,
 ) -> Allocation:
     """Allocate and sequence every reachable fruit. Unreachable fruit are listed, not errors.
 
@@ -307,6 +308,9 @@ def allocate(
     from/to the bin, would hit a neighbour resting at home is given to another arm whenever
     one can take it (a large cost otherwise): no timing can separate such a pair while the
     neighbour is parked, so it would force the neighbour to stay away from home.
+
+    ``bound``: the makespan lower bound, when the caller has already computed it
+    (:func:`lower_bound` depends only on the problem); computed here otherwise.
     """
     t0 = _time.perf_counter()
     method = AllocationMethod(method)
@@ -363,7 +367,7 @@ def allocate(
         estimate[arm.name] = t_end
         fruit_q[arm.name] = dict(zip(seq, fs))
         place_q[arm.name] = dict(zip(seq, ps))
-    lb = lower_bound(problem, reach)
+    lb = lower_bound(problem, reach) if bound is None else bound
     return Allocation(
         method=method,
         sequence=sequence,

@@ -158,8 +158,6 @@ class NLPSolution:
     solve_seconds: float
     max_violation: float
     x: np.ndarray = field(repr=False, default=None)
-    lam_x: np.ndarray | None = field(repr=False, default=None)
-    lam_g: np.ndarray | None = field(repr=False, default=None)
 
     def sample(self, times) -> dict[str, np.ndarray]:
         """Exact joint positions at ``times`` (N,) -> arm -> (N, 2)."""
@@ -513,7 +511,6 @@ class _Monitor(ca.Callback):
         self.deadline = deadline
         self.best: tuple[float, float, np.ndarray] | None = None
         self.interrupted = False
-        self.timed_out = False
         self.iterations = 0
         self.construct("coplan_monitor", {})
 
@@ -551,16 +548,15 @@ class _Monitor(ca.Callback):
         if self.best is None or (viol, f) < (self.best[0], self.best[1]) or (viol < 1e-6 and f < self.best[1]):
             self.best = (viol, f, x.copy())
         if self.deadline is not None and _time.perf_counter() > self.deadline:
-            self.timed_out = True
             return [1]
         return [1 if self.interrupted else 0]
 
 
-def solve_nlp(nlp: NLP, names: list[str], time_limit: float | None = None, lam=None) -> NLPSolution:
+def solve_nlp(nlp: NLP, names: list[str], time_limit: float | None = None) -> NLPSolution:
     """Solve a built NLP with IPOPT. Ctrl-C stops within an iteration; the best iterate is kept.
 
     ``time_limit`` (s) bounds the wall-clock time (IPOPT's ``max_wall_time`` plus a check
-    in the iteration callback). ``lam`` = (lam_x, lam_g) warm-starts the multipliers.
+    in the iteration callback).
     """
     t0 = _time.perf_counter()
     deadline = t0 + time_limit if time_limit is not None else None
@@ -579,8 +575,6 @@ def solve_nlp(nlp: NLP, names: list[str], time_limit: float | None = None, lam=N
         opts["ipopt.max_wall_time"] = max(float(time_limit), 1e-3)
     solver = ca.nlpsol("coplan", "ipopt", {"x": xf, "f": f_sx, "g": g_sx}, opts)
     args = dict(x0=nlp.x0[free], lbx=nlp.lbx[free], ubx=nlp.ubx[free], lbg=nlp.lbg, ubg=nlp.ubg)
-    if lam is not None:
-        args.update(lam_x0=lam[0][free], lam_g0=lam[1])
     prev = signal.getsignal(signal.SIGINT)
 
     def on_sigint(signum, frame):
@@ -640,8 +634,6 @@ def _unpack(nlp: NLP, names, x, res, g, status, ipopt_status, iters, seconds) ->
         solve_seconds=seconds,
         max_violation=viol,
         x=x,
-        lam_x=None,
-        lam_g=np.asarray(res["lam_g"]).ravel(),
     )
     sol.layout = L  # type: ignore[attr-defined]
     return sol

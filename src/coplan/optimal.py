@@ -27,7 +27,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import kinematics as kin
-from .allocate import Allocation, AllocationMethod, allocate
+from .allocate import Allocation, AllocationMethod, allocate, lower_bound
 from .geometry import segment_distance
 from .heuristic import grid as uniform_grid
 from .heuristic import plan_heuristic
@@ -223,7 +223,7 @@ def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say
                 remaining = min(remaining, max(deadline - _time.perf_counter(), 1e-3))
             nlp = build_nlp(problem, schedules, grid, points, opts.margin, window=(lo, hi), start=start_state,
                             ipopt_options=opts.ipopt, warm=sol)
-            sol = solve_nlp(nlp, names, time_limit=remaining, lam=None)
+            sol = solve_nlp(nlp, names, time_limit=remaining)
             if not sol.status.converged and sol.status != SolverStatus.INTERRUPTED:
                 # one retry with the monotone barrier strategy, which rescues some solves on
                 # which the adaptive one stalls (slow or failed iterations)
@@ -234,7 +234,7 @@ def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say
                 nlp.options = dict(nlp.options) | {"ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-2}
                 info["solve"] += sol.solve_seconds
                 info["iterations"] += sol.iterations
-                sol = solve_nlp(nlp, names, time_limit=remaining, lam=None)
+                sol = solve_nlp(nlp, names, time_limit=remaining)
             info["build"] += nlp.build_seconds
             info["solve"] += sol.solve_seconds
             info["iterations"] += sol.iterations
@@ -396,12 +396,13 @@ def _choose_warm_start(problem: Problem, method: AllocationMethod, opts: Optimal
             best = (alloc, sched, n, span)
         return span
 
+    bound = lower_bound(problem)  # depends only on the problem: one MILP for every candidate
     reference = None  # the plain min-makespan estimate: no candidate can beat it by waiting
     # breadth first: the first attempt of every allocation
     for terr, avoid in variants:
         if good_enough() or _time.perf_counter() > t_stop:
             break
-        alloc = allocate(problem, method, territory=terr, avoid_blocked=avoid)
+        alloc = allocate(problem, method, territory=terr, avoid_blocked=avoid, bound=bound)
         reference = alloc.estimated_makespan if reference is None else reference
         if alloc.assignment in seen:
             continue
@@ -425,7 +426,7 @@ def _choose_warm_start(problem: Problem, method: AllocationMethod, opts: Optimal
             attempt(terr, avoid, alloc, kind, base, order)
     if best is None:
         # no candidate could be coordinated: keep the first and let the NLP deform paths
-        alloc = allocate(problem, method)
+        alloc = allocate(problem, method, bound=bound)
         sched = decoupled_schedules(problem, alloc)
         best = (alloc, sched, 0, max((s.last_place for s in sched.values()), default=0.0))
         say("no conflict-free warm start found; the optimiser starts from the colliding decoupled plan")

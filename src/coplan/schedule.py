@@ -104,16 +104,6 @@ class ArmSchedule:
         kinds = {StepKind.PICK: EventKind.PICK, StepKind.PLACE: EventKind.PLACE}
         return [Event(self.arm.name, s.fruit, kinds[s.kind], s.t0, s.t1) for s in self.steps if s.kind in kinds]
 
-    def shifted(self, index: int, delay: float) -> "ArmSchedule":
-        """Insert a wait of ``delay`` s before step ``index`` (later steps move later)."""
-        steps = list(self.steps[:index])
-        t0 = self.steps[index].t0
-        q = self.steps[index].q0
-        steps.append(Step(StepKind.WAIT, t0, delay, q, q))
-        for s in self.steps[index:]:
-            steps.append(replace(s, t0=s.t0 + delay))
-        return ArmSchedule(self.arm, _merge_waits(steps))
-
 
 def _merge_waits(steps: list[Step]) -> list[Step]:
     out: list[Step] = []
@@ -125,19 +115,17 @@ def _merge_waits(steps: list[Step]) -> list[Step]:
     return out
 
 
-def _move(arm: Arm, t0: float, q0, q1, derate: float = 1.0) -> Step:
-    f = np.array([derate, derate])
-    c = SCurve.between(q0, q1, np.asarray(arm.max_velocity) * f, np.asarray(arm.max_acceleration) * f, np.asarray(arm.max_jerk) * f)
+def _move(arm: Arm, t0: float, q0, q1) -> Step:
+    c = SCurve.between(q0, q1, arm.max_velocity, arm.max_acceleration, arm.max_jerk)
     return Step(StepKind.MOVE, t0, c.duration, tuple(map(float, q0)), tuple(map(float, q1)), curve=c)
 
 
 def decoupled_schedules(
-    problem: Problem, alloc: Allocation, derate: float = 1.0, return_home: bool = True
+    problem: Problem, alloc: Allocation, return_home: bool = True
 ) -> dict[str, ArmSchedule]:
     """Fastest schedule of each arm alone: home -> (fruit, pick, bin, place)* [-> home].
 
-    ``derate`` < 1 scales every velocity, acceleration and jerk limit down (a warm start
-    strictly inside the limits, which an optimiser can then tighten). Without
+    Without
     ``return_home`` each arm ends resting over its bin (:func:`coordinate` adds the move home).
     """
     out = {}
@@ -149,14 +137,14 @@ def decoupled_schedules(
             qf = tuple(map(float, alloc.fruit_q[arm.name][fid]))
             qb = tuple(map(float, alloc.place_q[arm.name][fid]))
             for target, kind, dwell in ((qf, StepKind.PICK, problem.task.pick_dwell), (qb, StepKind.PLACE, problem.task.place_dwell)):
-                mv = _move(arm, t, cur, target, derate)
+                mv = _move(arm, t, cur, target)
                 steps.append(mv)
                 t = mv.t1
                 steps.append(Step(kind, t, dwell, target, target, fruit=fid))
                 t += dwell
                 cur = target
         if steps and return_home:
-            steps.append(_move(arm, t, cur, arm.home, derate))
+            steps.append(_move(arm, t, cur, arm.home))
         out[arm.name] = ArmSchedule(arm, steps)
     return out
 
