@@ -269,6 +269,7 @@ def build_nlp(
     ipopt_options: dict | None = None,
     warm: "NLPSolution | None" = None,
     smooth_weight: float = 1e-2,
+    carry: "NLPSolution | None" = None,
 ) -> NLP:
     """Build the NLP over knots ``window = (lo, hi)`` of ``grid`` (default: all).
 
@@ -276,6 +277,12 @@ def build_nlp(
     ``hi < K`` the arms must reach the warm start's pose at knot ``hi`` (any velocity and
     acceleration within bounds), so the next window can follow. The objective is the makespan in the last window and the window's duration
     in the others.
+
+    Initial guess: ``warm`` (a solution of this same window, fewer points) is reused whole;
+    otherwise ``carry`` (the previous window's solution, which runs past this window's start)
+    supplies the states, jerks and time scales where the two windows overlap -- it satisfies
+    every constraint there, so IPOPT starts feasible on the overlap -- and the warm-start
+    schedules the rest. Separating lines are always guessed from the warm-start schedules.
     """
     t0 = _time.perf_counter()
     dyn, sep = _kernels()
@@ -321,10 +328,35 @@ def build_nlp(
         per_arm[name] = (lo, hi, ulo, uhi, dwells, k_end, sx, su)
         blocks.append((f"X_{name}", 6 * (K + 1), (lo / sx).ravel("F"), (hi / sx).ravel("F"), (X0 / sx).ravel("F")))
         blocks.append((f"U_{name}", 2 * K, (ulo / su).ravel("F"), (uhi / su).ravel("F"), (U0 / su).ravel("F")))
+    n_ov = 0  # knots (from lo) where the previous window's solution is the guess
+    if carry is not None and warm is None:
+        lo_p, hi_p = carry.window
+        n_ov = max(0, min(hi_k, hi_p) - lo_k + 1) if lo_p <= lo_k else 0
+    if n_ov >= 2:
+        off_p = lo_k - carry.window[0]
+        for b in blocks:
+            if b[0].startswith("X_"):
+                name = b[0][2:]
+                sx, su = per_arm[name][6], per_arm[name][7]
+                X0s = b[4].reshape((6, K + 1), order="F")
+                X0s[:, :n_ov] = carry.X[name][:, off_p : off_p + n_ov] / sx
+                b4u = next(bb for bb in blocks if bb[0] == f"U_{name}")[4].reshape((2, K), order="F")
+                b4u[:, : n_ov - 1] = carry.U[name][:, off_p : off_p + n_ov - 1] / su
+        # time scales of the segments the two windows share
+        ratio = np.diff(carry.t)[off_p : off_p + n_ov - 1] / h0[: n_ov - 1]
+        eta0 = blocks[0][4]
+        for i in range(nseg):
+            ks = np.flatnonzero(seg_of[: n_ov - 1] == i)
+            if ks.size:
+                eta0[i] = float(np.clip(np.median(ratio[ks]), elo[i], ehi[i]))
+        blocks[1] = ("T", nseg, blocks[1][2], blocks[1][3], np.cumsum(eta0 * seg_len))
     nlines = len(points)
     th0, c0 = np.zeros(nlines), np.zeros(nlines)
     for i, p in enumerate(points):
-        th0[i], c0[i] = _line_guess(problem, schedules, names, grid, p)
+        # from the conflict-free warm-start schedules even when a solution is at hand: where a
+        # solution dips below the clearance its links may cross, and a line guessed from
+        # crossing links can put them on the wrong sides (IPOPT then reports infeasibility)
+        th0[i], c0[i] = _line_guess(problem, _schedule_poses(schedules, names, grid, p), p)
     blocks.append(("theta", nlines, np.full(nlines, -np.inf), np.full(nlines, np.inf), th0))
     blocks.append(("c", nlines, np.full(nlines, -np.inf), np.full(nlines, np.inf), c0))
     blocks.append(("M", 1, np.zeros(1), np.full(1, np.inf), np.zeros(1)))
@@ -482,14 +514,18 @@ def _transfer_warm(warm: NLPSolution, layout: dict, x0: np.ndarray) -> np.ndarra
     return x0
 
 
-def _line_guess(problem, schedules, names, grid, p: ConstraintPoint):
-    """Separating line between the two links in the warm start: normal from B towards A."""
-    from .geometry import segment_distance
-
+def _schedule_poses(schedules, names, grid: Grid, p: ConstraintPoint):
+    """Both arms' poses (2,), (2,) at point ``p`` in the warm-start schedules."""
     k1 = min(p.k + 1, grid.K)
     t = grid.t[p.k] + p.tau * (grid.t[k1] - grid.t[p.k])
-    qa = schedules[names[p.ia]].state(np.array([t]))[0][0]
-    qb = schedules[names[p.ib]].state(np.array([t]))[0][0]
+    return schedules[names[p.ia]].state(np.array([t]))[0][0], schedules[names[p.ib]].state(np.array([t]))[0][0]
+
+
+def _line_guess(problem, poses, p: ConstraintPoint):
+    """Separating line between the two links at ``poses`` (qa, qb): normal from B towards A."""
+    from .geometry import segment_distance
+
+    qa, qb = poses
     A, B = problem.arms[p.ia], problem.arms[p.ib]
     pa = kin.fk_points(qa, A.links, A.base)
     pb = kin.fk_points(qb, B.links, B.base)
@@ -636,4 +672,5 @@ def _unpack(nlp: NLP, names, x, res, g, status, ipopt_status, iters, seconds) ->
         x=x,
     )
     sol.layout = L  # type: ignore[attr-defined]
+    sol.window = (lo_k, hi_k)  # type: ignore[attr-defined]
     return sol

@@ -12,7 +12,9 @@ Entry point: :func:`plan_optimal`. Stages (each timed):
    densely and the points where it comes closer than ``clearance + margin / 2`` are added,
    up to ``max_rounds`` solves. Long schedules are cut into receding windows of about
    ``window`` seconds, solved in order, each starting from the state the previous one
-   reached and ending at the warm start's state, so the cost grows linearly with the row.
+   committed and ending at the warm start's pose, so the cost grows linearly with the row
+   (see :func:`_cut_allowed`, :func:`_choose_commit`). A window that fails is solved again
+   with its timing held near the warm start's (``_LADDER``).
 4. **verify** -- the independent verifier (:mod:`coplan.verify`) certifies the plan. Only a
    converged *and* verified plan is a success; otherwise the best iterate is returned
    with an honest status, and the heuristic baseline is returned beside it.
@@ -48,8 +50,11 @@ class OptimalOptions:
     margin : extra clearance the optimiser keeps at its constraint points (m), so that the
         dense, certified check between them passes
     screen : initial constraint points where the warm start's links are within this (m)
+    screen_shift : ... also when one arm of a pair runs up to this much (s) earlier or later
     h_target : target knot spacing (s)
     max_rounds : solves per window while adding constraint points
+    band : when the dense check finds a dip, points are also added wherever links come within
+        ``band`` (m) of the refinement threshold
     window : receding-window length (s of schedule); schedules shorter than 1.5 windows are
         solved as one NLP
     overlap : each window is solved this much (s) past its cut and kept only up to it
@@ -63,6 +68,8 @@ class OptimalOptions:
     screen: float = 0.25
     h_target: float = 0.06
     max_rounds: int = 6
+    band: float = 0.03
+    screen_shift: float = 0.0
     window: float = 12.0
     overlap: float = 2.5
     time_limit: float | None = None
@@ -109,31 +116,48 @@ def _candidate_points(grid: Grid, lo: int, hi: int, taus=(0.0, 0.5)):
     return ks, ts, grid.t[ks] + ts * (grid.t[k1] - grid.t[ks])
 
 
-def screen_points(problem: Problem, schedules, grid: Grid, lo: int, hi: int, screen: float) -> list[ConstraintPoint]:
-    """Constraint points where the warm start's links come within ``clearance + screen``."""
+def screen_points(problem: Problem, schedules, grid: Grid, lo: int, hi: int, screen: float,
+                  shift: float = 0.0) -> list[ConstraintPoint]:
+    """Constraint points where the warm start's links come within ``clearance + screen``, also
+    when one arm of the pair runs up to ``shift`` s earlier or later than the other (the
+    optimiser retimes the arms, so a near miss in the warm start can become a contact
+    elsewhere in time)."""
     names = [a.name for a in problem.arms]
     ks, ts, times = _candidate_points(grid, lo, hi)
     q = _states_at(schedules, names, times)
+    shifts = np.linspace(-shift, shift, 2 * int(np.ceil(shift / 0.05)) + 1) if shift > 0 else np.zeros(1)
+    t_end = grid.t[-1]
     pts = []
     for ia, ib in problem.neighbour_pairs():
-        d = _link_pair_distances(problem, q[names[ia]], q[names[ib]], ia, ib)
+        d = np.full((4, times.size), np.inf)
+        for sh in shifts:
+            qb = schedules[names[ib]].state(np.clip(times + sh, 0.0, t_end))[0] if sh else q[names[ib]]
+            d = np.minimum(d, _link_pair_distances(problem, q[names[ia]], qb, ia, ib))
         for li, (s, u) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
             for i in np.flatnonzero(d[li] < problem.task.clearance + screen):
                 pts.append(ConstraintPoint(int(ks[i]), float(ts[i]), ia, ib, s, u))
     return pts
 
 
-def refine_points(problem: Problem, sol: NLPSolution, lo: int, hi: int, rate: float, need: float, have) -> list[ConstraintPoint]:
-    """Dense check of the continuous solution; new points where it comes closer than ``need``."""
+def refine_points(problem: Problem, sol: NLPSolution, lo: int, hi: int, rate: float, need: float, have,
+                  band: float = 0.0) -> list[ConstraintPoint]:
+    """Dense check of the continuous solution; new points where it comes closer than ``need``.
+
+    When it does anywhere, points are also added wherever a link pair comes within
+    ``need + band`` (where the next solve would most likely push the dip to), so the
+    refinement does not chase one dip at a time."""
     names = [a.name for a in problem.arms]
     t0, t1 = sol.t[lo], sol.t[hi]
     times = np.arange(t0, t1 + 0.5 / rate, 1.0 / rate)
     q = sol.sample(times)
     new: set = set()
-    for ia, ib in problem.neighbour_pairs():
-        d = _link_pair_distances(problem, q[names[ia]], q[names[ib]], ia, ib)
+    pairs = problem.neighbour_pairs()
+    dists = [_link_pair_distances(problem, q[names[ia]], q[names[ib]], ia, ib) for ia, ib in pairs]
+    if not any((d < need).any() for d in dists):
+        return []
+    for (ia, ib), d in zip(pairs, dists):
         for li, (s, u) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
-            for i in np.flatnonzero(d[li] < need):
+            for i in np.flatnonzero(d[li] < need + band):
                 k = int(np.clip(np.searchsorted(sol.t, times[i], side="right") - 1, lo, hi - 1))
                 h = sol.t[k + 1] - sol.t[k]
                 eighth = int(np.floor((times[i] - sol.t[k]) / h * 8)) if h > 0 else 0
@@ -157,32 +181,78 @@ def min_clearance(problem: Problem, q: dict[str, np.ndarray]) -> float:
 
 
 # ----------------------------------------------------------------------------- windows
-def _windows(grid: Grid, window: float, schedules: dict[str, ArmSchedule] | None = None) -> list[tuple[int, int]]:
-    """Cut the grid into windows of about ``window`` s.
+_PIN_GAP = 3  # intervals kept between a window's cut and the next knot where an arm is pinned at rest
 
-    Each cut is the knot nearest the target time (within a quarter window) that lies inside
-    no arm's pick or place, so every dwell is solved whole within one window.
+
+def _cut_allowed(grid: Grid, schedules: dict[str, ArmSchedule] | None) -> np.ndarray:
+    """(K+1,) bool: knots where a window may be cut.
+
+    Not inside any arm's pick or place (every dwell is solved whole within one window) and
+    not one of the ``_PIN_GAP`` knots just before an arm comes to rest (a dwell, or home at
+    the end): the next window pins every arm's full state at its cut, and a moving arm
+    pinned again at rest one or two intervals later leaves more equations than unknowns
+    there -- a rank-deficient constraint Jacobian on which IPOPT's factorisations stall.
     """
+    ok = np.ones(grid.K + 1, bool)
+    ok[[0, grid.K]] = False
+    if schedules is not None:
+        for name, sch in schedules.items():
+            ranges = grid.ranges[name]
+            rests = [(k0, k1) for st, (k0, k1) in zip(sch.steps, ranges) if st.kind in (StepKind.PICK, StepKind.PLACE)]
+            if ranges:
+                rests.append((ranges[-1][1], grid.K))  # home at rest after the last step
+            for k0, k1 in rests:
+                ok[max(k0 - _PIN_GAP, 0) : k0] = False
+                ok[k0 + 1 : k1] = False
+    return ok
+
+
+def _windows(grid: Grid, window: float, schedules: dict[str, ArmSchedule] | None = None) -> list[tuple[int, int]]:
+    """Planned windows of about ``window`` s: each cut is the allowed knot
+    (:func:`_cut_allowed`) nearest its target time, within a quarter window of it."""
     T = grid.t[-1]
     if T <= 1.5 * window:
         return [(0, grid.K)]
     n = int(np.ceil(T / window))
-    inside_dwell = np.zeros(grid.K + 1, bool)
-    if schedules is not None:
-        for name, sch in schedules.items():
-            for st, (k0, k1) in zip(sch.steps, grid.ranges[name]):
-                if st.kind in (StepKind.PICK, StepKind.PLACE):
-                    inside_dwell[k0 + 1 : k1] = True
+    allowed = _cut_allowed(grid, schedules)
     cuts = [0]
     for i in range(1, n):
         target = T * i / n
-        cand = np.flatnonzero((np.abs(grid.t - target) <= 0.25 * window) & ~inside_dwell)
+        cand = np.flatnonzero((np.abs(grid.t - target) <= 0.25 * window) & allowed)
         cand = cand[(cand > cuts[-1]) & (cand < grid.K)]
         if cand.size == 0:
             continue
         cuts.append(int(cand[np.argmin(np.abs(grid.t[cand] - target))]))
     cuts.append(grid.K)
     return [(a, b) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
+
+
+def _choose_commit(problem: Problem, sol: NLPSolution, grid: Grid, lo: int, hi: int, planned: int,
+                   allowed: np.ndarray, slack: float) -> int:
+    """The knot at which to commit a window's solution and start the next window.
+
+    Among the allowed knots within ``slack`` s of the planned cut (and at least one interval
+    inside the solved window), the one nearest the plan where every arm's velocity and
+    acceleration are at most 85 % of their limits; else the least saturated one (nearest on ties). A cut
+    where a time-optimal move sits on its acceleration limit pins a state from which only a
+    bang-bang continuation is feasible: many bounds active at once, unbounded multipliers,
+    and IPOPT stalls on the next window."""
+    t_pl = grid.t[planned]
+    cand = np.flatnonzero(allowed & (np.abs(grid.t - t_pl) <= slack))
+    cand = cand[(cand > lo) & (cand < hi - _PIN_GAP)]
+    if cand.size == 0:
+        return planned
+    score = np.zeros(cand.size)
+    for arm in problem.arms:
+        X = sol.X[arm.name][:, cand - lo]
+        v = np.abs(X[2:4]) / np.asarray(arm.max_velocity)[:, None]
+        a = np.abs(X[4:6]) / np.asarray(arm.max_acceleration)[:, None]
+        score = np.maximum(score, np.max(np.vstack([v, a]), axis=0))
+    calm = score <= 0.85
+    if calm.any():
+        c = cand[calm]
+        return int(c[np.argmin(np.abs(grid.t[c] - t_pl))])
+    return int(cand[np.lexsort((np.abs(grid.t[cand] - t_pl), score))[0]])  # least saturated, then nearest
 
 
 @dataclass
@@ -197,61 +267,95 @@ class _Stitched:
         return NLPSolution.sample(self, times)  # same exact cubic evaluation
 
 
+# Time-scale bounds of the successive attempts at a window. The first lets the optimiser
+# retime freely (each knot interval 0.3-2x its warm-start length); when that fails -- IPOPT
+# does not converge, or the dense check still finds the links too close after
+# ``max_rounds`` -- the window is solved again with the timing held near the warm start's:
+# first within -15 %/+10 %, then only slower (1-1.1x). The warm start is conflict-free with a
+# margin, so near its timing the screened separation points cover every contact that can
+# arise; the last attempt gives up most of the speed-up for a plan that holds.
+_LADDER = (
+    ("free timing", (0.3, 2.0)),
+    ("timing held within -15/+10 % of the warm start", (0.85, 1.1)),
+    ("the warm start's timing (only slower, up to +10 %)", (1.0, 1.1)),
+)
+
+
+def _solve_rounds(problem, schedules, grid, opts: OptimalOptions, window, points, start_state, prev_sol, h_bounds,
+                  deadline, info, tag, wi, attempt, say):
+    """Solve one window, adding separation points from the dense check, up to ``max_rounds``.
+
+    Returns ``(solution, points, clean)``; ``clean`` is True when IPOPT converged and the
+    dense check of the last solution found nothing closer than the refinement threshold."""
+    names = [a.name for a in problem.arms]
+    lo, hi = window
+    need = problem.task.clearance + opts.margin / 2
+    sol = None
+    for rnd in range(opts.max_rounds):
+        remaining = opts.window_time_limit
+        if deadline is not None:
+            remaining = min(remaining, max(deadline - _time.perf_counter(), 1e-3))
+        nlp = build_nlp(problem, schedules, grid, points, opts.margin, window=(lo, hi), start=start_state,
+                        ipopt_options=opts.ipopt, warm=sol, carry=prev_sol, h_bounds=h_bounds)
+        sol = solve_nlp(nlp, names, time_limit=remaining)
+        info["build"] += nlp.build_seconds
+        info["solve"] += sol.solve_seconds
+        info["iterations"] += sol.iterations
+        info["n_vars"] = max(info["n_vars"], nlp.n_vars)
+        info["n_cons"] = max(info["n_cons"], nlp.n_cons)
+        info["rounds"].append({"window": wi, "attempt": attempt, "round": rnd, "points": len(points), "status": sol.status.value,
+                               "iterations": sol.iterations, "seconds": sol.solve_seconds + nlp.build_seconds})
+        say(f"{tag} round {rnd + 1}: {len(points)} separation points, IPOPT {sol.ipopt_status} "
+            f"after {sol.iterations} iterations ({sol.solve_seconds:.2f} s)")
+        if not sol.status.converged:
+            return sol, points, False
+        # the solution's knots are local to the window: compare and return in global indices
+        local = {replace(p, k=p.k - lo) for p in points}
+        new = [replace(p, k=p.k + lo) for p in refine_points(problem, sol, 0, sol.t.size - 1, opts.check_rate, need, local, opts.band)]
+        if not new:
+            return sol, points, True
+        points = points + new
+    return sol, points, False
+
+
 def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say) -> tuple[_Stitched, dict]:
     names = [a.name for a in problem.arms]
     wins = _windows(grid, opts.window, schedules)
+    allowed = _cut_allowed(grid, schedules)
     info = {"windows": len(wins), "rounds": [], "iterations": 0, "build": 0.0, "solve": 0.0, "points": 0,
             "n_vars": 0, "n_cons": 0, "status": SolverStatus.OPTIMAL, "ipopt_status": "", "max_violation": 0.0}
-    need = problem.task.clearance + opts.margin / 2
     t_parts: list[np.ndarray] = []
     X_parts = {n: [] for n in names}
     U_parts = {n: [] for n in names}
     start_state = None
+    prev_sol = None  # the previous window's solution (it runs past this window's start)
+    carried: list[ConstraintPoint] = []
     t_offset = 0.0
     worst = SolverStatus.OPTIMAL
     order = list(SolverStatus)
-    for wi, (lo, hi_commit) in enumerate(wins):
-        # receding horizon: solve past the cut by ``overlap`` s, keep only up to the cut, so the
-        # state handed to the next window has a feasible continuation (the part discarded)
-        hi = hi_commit if hi_commit == grid.K else int(np.searchsorted(grid.t, grid.t[hi_commit] + opts.overlap))
-        hi = min(max(hi, hi_commit), grid.K)
-        points = screen_points(problem, schedules, grid, lo, hi, opts.screen)
-        sol = None
-        for rnd in range(opts.max_rounds):
-            remaining = opts.window_time_limit
-            if deadline is not None:
-                remaining = min(remaining, max(deadline - _time.perf_counter(), 1e-3))
-            nlp = build_nlp(problem, schedules, grid, points, opts.margin, window=(lo, hi), start=start_state,
-                            ipopt_options=opts.ipopt, warm=sol)
-            sol = solve_nlp(nlp, names, time_limit=remaining)
-            if not sol.status.converged and sol.status != SolverStatus.INTERRUPTED:
-                # one retry with the monotone barrier strategy, which rescues some solves on
-                # which the adaptive one stalls (slow or failed iterations)
-                say(f"window {wi + 1}/{len(wins)} round {rnd + 1}: IPOPT {sol.ipopt_status}; retrying with a monotone barrier")
-                remaining = opts.window_time_limit
-                if deadline is not None:
-                    remaining = min(remaining, max(deadline - _time.perf_counter(), 1e-3))
-                nlp.options = dict(nlp.options) | {"ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-2}
-                info["solve"] += sol.solve_seconds
-                info["iterations"] += sol.iterations
-                sol = solve_nlp(nlp, names, time_limit=remaining)
-            info["build"] += nlp.build_seconds
-            info["solve"] += sol.solve_seconds
-            info["iterations"] += sol.iterations
-            info["n_vars"] = max(info["n_vars"], nlp.n_vars)
-            info["n_cons"] = max(info["n_cons"], nlp.n_cons)
-            info["rounds"].append({"window": wi, "round": rnd, "points": len(points), "status": sol.status.value,
-                                   "iterations": sol.iterations, "seconds": sol.solve_seconds + nlp.build_seconds})
-            say(f"window {wi + 1}/{len(wins)} round {rnd + 1}: {len(points)} separation points, IPOPT {sol.ipopt_status} "
-                f"after {sol.iterations} iterations ({sol.solve_seconds:.2f} s)")
-            if not sol.status.converged:
+    lo = 0
+    for wi, (_, planned) in enumerate(wins):
+        # receding horizon: solve past the planned cut by ``overlap`` s, keep only up to the
+        # commit knot chosen near it, so the state handed to the next window has a feasible
+        # continuation (the part discarded)
+        hi = planned if planned == grid.K else int(np.searchsorted(grid.t, grid.t[planned] + opts.overlap))
+        hi = min(max(hi, planned), grid.K)
+        points = screen_points(problem, schedules, grid, lo, hi, opts.screen, opts.screen_shift)
+        # the points the previous window needed where the two overlap are needed here too
+        have = set(points)
+        points += [p for p in carried if lo <= p.k <= hi and p not in have]
+        sol, points, clean, label = None, points, False, ""
+        for attempt, (label, h_bounds) in enumerate(_LADDER):
+            if attempt and deadline is not None and _time.perf_counter() > deadline:
                 break
-            # the solution's knots are local to the window: compare and return in global indices
-            local = {replace(p, k=p.k - lo) for p in points}
-            new = [replace(p, k=p.k + lo) for p in refine_points(problem, sol, 0, sol.t.size - 1, opts.check_rate, need, local)]
-            if not new:
+            if attempt:
+                say(f"window {wi + 1}/{len(wins)}: {'IPOPT ' + sol.ipopt_status if not sol.status.converged else 'clearance not met after ' + str(opts.max_rounds) + ' rounds'}"
+                    f"; solving again with {label}")
+            sol, points, clean = _solve_rounds(problem, schedules, grid, opts, (lo, hi), points, start_state, prev_sol,
+                                               h_bounds, deadline, info, f"window {wi + 1}/{len(wins)}", wi, attempt, say)
+            if clean or sol.status == SolverStatus.INTERRUPTED:
                 break
-            points = points + new
+        info.setdefault("window_stages", []).append(label)
         info["points"] += len(points)
         info["max_violation"] = max(info["max_violation"], sol.max_violation)
         if order.index(sol.status) > order.index(worst):
@@ -259,6 +363,8 @@ def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say
             info["ipopt_status"] = sol.ipopt_status
         elif not info["ipopt_status"]:
             info["ipopt_status"] = sol.ipopt_status
+        hi_commit = grid.K if planned == grid.K else _choose_commit(
+            problem, sol, grid, lo, hi, planned, allowed, slack=max(0.0, min(1.0, opts.overlap - 1.0)))
         # stitch the committed part (knots lo..hi_commit); local knot times start at 0
         c = hi_commit - lo
         if not sol.status.converged:
@@ -270,6 +376,8 @@ def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say
             U_parts[n].append(sol.U[n][:, :c])
         t_offset = float(tloc[-1])
         start_state = {n: sol.X[n][:, c].copy() for n in names}
+        prev_sol, carried = sol, points
+        lo = hi_commit
         if not sol.status.converged:
             break
     info["status"] = worst
@@ -495,6 +603,7 @@ def plan_optimal(
         iterations=info.get("iterations"),
         windows=info.get("windows"),
         rounds=info.get("rounds"),
+        window_timing=info.get("window_stages"),
         separation_points=info.get("points"),
         n_vars=info.get("n_vars"),
         n_cons=info.get("n_cons"),

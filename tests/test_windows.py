@@ -1,0 +1,113 @@
+"""Receding windows of the optimal planner: where windows are cut, where a solution is
+committed, and the fallback attempts when a window cannot be solved with free timing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from coplan import optimal as optimal_mod
+from coplan.allocate import allocate
+from coplan.nlp import Grid, NLPSolution, SolverStatus, build_grid
+from coplan.optimal import OptimalOptions, _choose_commit, _cut_allowed, _windows, plan_optimal
+from coplan.plan import PlanStatus
+from coplan.problem import default_problem_path, load_problem
+from coplan.schedule import StepKind, decoupled_schedules
+from coplan.verify import verify
+
+
+@pytest.fixture(scope="module")
+def greenhouse():
+    return load_problem(default_problem_path())
+
+
+@pytest.fixture(scope="module")
+def sched_grid(greenhouse):
+    sched = decoupled_schedules(greenhouse, allocate(greenhouse))
+    return sched, build_grid(sched, 0.06)
+
+
+def test_cuts_avoid_dwells_and_the_knots_just_before_a_rest(sched_grid):
+    sched, grid = sched_grid
+    ok = _cut_allowed(grid, sched)
+    assert not ok[0] and not ok[grid.K]
+    n_rests = 0
+    for name, s in sched.items():
+        ranges = grid.ranges[name]
+        rests = [r for st, r in zip(s.steps, ranges) if st.kind in (StepKind.PICK, StepKind.PLACE)]
+        rests.append((ranges[-1][1], grid.K))
+        for k0, k1 in rests:
+            n_rests += 1
+            assert not ok[max(k0 - optimal_mod._PIN_GAP, 0) : k0].any(), (name, k0)
+            assert not ok[k0 + 1 : k1].any(), (name, k0, k1)
+    assert n_rests > 20
+    assert ok.sum() > grid.K // 4  # plenty of places left to cut
+
+
+def test_planned_windows_cover_the_grid_at_allowed_cuts(sched_grid):
+    sched, grid = sched_grid
+    ok = _cut_allowed(grid, sched)
+    wins = _windows(grid, 4.0, sched)
+    assert len(wins) >= 3
+    assert wins[0][0] == 0 and wins[-1][1] == grid.K
+    for (a, b), (c, _) in zip(wins[:-1], wins[1:]):
+        assert b == c and ok[b] and b > a
+    assert _windows(grid, 100.0, sched) == [(0, grid.K)]
+
+
+def _fake_solution(problem, t, qd_scale):
+    """A solution on knots ``t`` whose velocities are ``qd_scale`` (K+1,) of each arm's limit."""
+    X = {}
+    for arm in problem.arms:
+        x = np.zeros((6, t.size))
+        x[2:4] = np.asarray(arm.max_velocity)[:, None] * qd_scale[None, :]
+        X[arm.name] = x
+    U = {a.name: np.zeros((2, t.size - 1)) for a in problem.arms}
+    return NLPSolution(SolverStatus.OPTIMAL, "Solve_Succeeded", 1, t, X, U, 0.0, 0.0, 0.0)
+
+
+def test_commit_prefers_the_nearest_knot_where_no_arm_is_near_its_limits(greenhouse):
+    t = np.linspace(0.0, 10.0, 201)
+    grid = Grid(t, {}, np.zeros(200, int))
+    allowed = np.ones(201, bool)
+    scale = np.full(201, 0.99)  # saturated everywhere ...
+    scale[[90, 130]] = 0.5  # ... but at two knots
+    sol = _fake_solution(greenhouse, t, scale)
+    # the planned cut (knot 100, 5.0 s) is saturated: the calm knot within the slack wins
+    assert _choose_commit(greenhouse, sol, grid, 0, 200, 100, allowed, slack=1.0) == 90
+    allowed[90] = False
+    assert _choose_commit(greenhouse, sol, grid, 0, 200, 100, allowed, slack=1.0) == 100  # 130 is out of reach: all equally saturated, the nearest
+    scale[:] = 0.2  # calm everywhere: the planned cut itself
+    sol = _fake_solution(greenhouse, t, scale)
+    assert _choose_commit(greenhouse, sol, grid, 0, 200, 100, allowed, slack=1.0) == 100
+
+
+def test_windowed_solve_agrees_with_one_nlp_and_is_verified(greenhouse):
+    """The same problem cut into ~5 s receding windows: verified, all fruit, and a makespan
+    close to the single-NLP one (the windows only lose some look-ahead)."""
+    one = plan_optimal(greenhouse)
+    win = plan_optimal(greenhouse, options=OptimalOptions(window=5.0, overlap=2.0))
+    assert win.plan.solver["windows"] >= 2
+    assert win.plan.status == PlanStatus.SUCCESS and verify(greenhouse, win.plan).passed
+    assert win.plan.metrics["harvested"] == 11
+    assert win.plan.metrics["makespan"] <= 1.05 * one.plan.metrics["makespan"]
+    # the stitched trajectory is continuous: no jump in any joint between 100 Hz samples
+    # larger than the joint-speed limit allows
+    for arm in greenhouse.arms:
+        dq = np.abs(np.diff(win.plan.q[arm.name], axis=0))
+        assert (dq <= np.asarray(arm.max_velocity) * 0.01 + 1e-6).all()
+
+
+def test_a_window_that_fails_with_free_timing_is_solved_again_near_the_warm_start(greenhouse, monkeypatch):
+    """First attempt made impossible (every interval at most 0.31x its warm-start length is
+    faster than the joint limits allow): IPOPT fails, the window is solved again with the
+    timing held near the warm start, and that plan is verified."""
+    ladder = (("impossible timing", (0.3, 0.31)),) + optimal_mod._LADDER[1:]
+    monkeypatch.setattr(optimal_mod, "_LADDER", ladder)
+    res = plan_optimal(greenhouse)
+    rounds = res.plan.solver["rounds"]
+    assert rounds[0]["attempt"] == 0 and rounds[0]["status"] not in ("optimal", "acceptable")
+    assert any(r["attempt"] == 1 for r in rounds)
+    assert res.plan.solver["window_timing"] == [optimal_mod._LADDER[1][0]]
+    assert res.plan.status == PlanStatus.SUCCESS and res.verification.passed
+    assert res.plan.metrics["makespan"] < res.baseline.metrics["makespan"]
