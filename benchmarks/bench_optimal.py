@@ -21,7 +21,6 @@ import argparse
 import statistics
 import sys
 import time
-from pathlib import Path
 
 import coplan
 from coplan.generate import row_problem

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from coplan import kinematics as kin
-from coplan.allocate import AllocationMethod, allocate
+from coplan.allocation import AllocationMethod, allocate
 from coplan.generate import row_problem, to_yaml
 from coplan.heuristic import plan_heuristic
 from coplan.plan import EventKind, Plan, PlannerKind, PlanStatus

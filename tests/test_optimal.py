@@ -11,9 +11,8 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-import coplan
-from coplan import nlp as nlp_mod
-from coplan.allocate import AllocationMethod, _solve_minmax, allocate, lower_bound
+from coplan import nlp_solve as nlp_mod
+from coplan.allocation import AllocationMethod, _solve_minmax, allocate, lower_bound
 from coplan.cli import app
 from coplan.generate import random_problem, to_yaml
 from coplan.nlp import SolverStatus, map_status

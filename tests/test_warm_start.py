@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from coplan import kinematics as kin
-from coplan.allocate import AllocationMethod, allocate
+from coplan.allocation import AllocationMethod, allocate
 from coplan.geometry import segment_distance
 from coplan.optimal import OptimalOptions, _choose_warm_start
-from coplan.plan import DEFAULT_RATE, Event, EventKind, Plan, PlannerKind, PlanStatus, compute_metrics
+from coplan.plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics
 from coplan.problem import Problem, load_problem, parse_problem
 from coplan.coordinate import coordinate, remove_conflicts
 from coplan.routing import choose_branches, route_moves

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from coplan import optimal as optimal_mod
-from coplan.allocate import allocate
+from coplan.allocation import allocate
 from coplan.nlp import Grid, NLPSolution, SolverStatus, build_grid
 from coplan.optimal import OptimalOptions, _choose_commit, _cut_allowed, _windows, plan_optimal
 from coplan.plan import PlanStatus
@@ -102,7 +102,7 @@ def test_a_window_that_fails_with_free_timing_is_solved_again_near_the_warm_star
     """First attempt made impossible (every interval at most 0.31x its warm-start length is
     faster than the joint limits allow): IPOPT fails, the window is solved again with the
     timing held near the warm start, and that plan is verified."""
-    ladder = (("impossible timing", (0.3, 0.31)),) + optimal_mod._LADDER[1:]
+    ladder = (("impossible timing", (0.3, 0.31), 1.0),) + optimal_mod._LADDER[1:]
     monkeypatch.setattr(optimal_mod, "_LADDER", ladder)
     res = plan_optimal(greenhouse)
     rounds = res.plan.solver["rounds"]

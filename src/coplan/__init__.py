@@ -7,7 +7,7 @@ Pipeline: ``problem -> allocate -> plan -> verify -> report``. The quickest way 
     result.plan.metrics["makespan"], result.status
 """
 
-from .allocate import Allocation, AllocationMethod, SequenceRule, allocate
+from .allocation import Allocation, AllocationMethod, SequenceRule, allocate
 from .errors import CoplanError, InputError, PlanFileError, ProblemError
 from .plan import EventKind, Plan, PlannerKind, PlanStatus, load_plan
 from .pipeline import ExitCode, SolveResult, solve

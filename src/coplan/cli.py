@@ -19,7 +19,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the CLI never needs a display
 import typer
 from rich.console import Console
 
-from .allocate import AllocationMethod
+from .allocation import AllocationMethod
 from .errors import CoplanError, InputError
 from .pipeline import ExitCode
 from .plan import PlannerKind
@@ -102,7 +102,6 @@ def solve(
     res = run(path, planner=planner, allocation=allocation, out_dir=out, options=options, progress=say)
     if animate:
         res.files.update(_animate_files(res, out))
-    m = res.plan.metrics
     ver = res.plan.verification or {}
     if as_json:
         doc = {

@@ -15,7 +15,7 @@ import time as _time
 
 import numpy as np
 
-from .allocate import Allocation, AllocationMethod, allocate
+from .allocation import Allocation, AllocationMethod, allocate
 from .plan import DEFAULT_RATE, Event, EventKind, Piece, Plan, PlannerKind, PlanStatus, compute_metrics, sample_pieces
 from .problem import Arm, Problem
 from .timing import cubic_eval, cubic_min_time

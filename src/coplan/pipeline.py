@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from enum import IntEnum
 from pathlib import Path
 
-from .allocate import AllocationMethod, allocate
+from .allocation import AllocationMethod, allocate
 from .heuristic import plan_heuristic
 from .plan import Plan, PlannerKind, PlanStatus, compute_metrics
 from .problem import Problem, load_problem

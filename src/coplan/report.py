@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .allocate import AllocationMethod, lower_bound
+from .allocation import AllocationMethod, lower_bound
 from .errors import CoplanError, Issue, ProblemError
 from .plan import Plan, PlannerKind
 from .problem import Problem, load_problem

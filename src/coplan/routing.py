@@ -12,7 +12,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .allocate import Allocation
+from .allocation import Allocation
 from .problem import Arm, Problem
 from .schedule import (
     _CurveTable,

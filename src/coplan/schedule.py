@@ -32,7 +32,7 @@ from enum import Enum
 
 import numpy as np
 
-from .allocate import Allocation
+from .allocation import Allocation
 from .plan import Event, EventKind
 from .problem import Arm, Problem
 from .timing import SCurve
