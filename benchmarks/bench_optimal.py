@@ -13,6 +13,7 @@ is not included). Each figure is the median of ``--repeat`` runs.
     python benchmarks/bench_optimal.py                 # everything
     python benchmarks/bench_optimal.py --rows           # only the row-length sweep
     python benchmarks/bench_optimal.py --problems greenhouse_row --repeat 5
+    python benchmarks/bench_optimal.py --rows --sizes 10 --random 30   # + random layouts
 """
 
 from __future__ import annotations
@@ -85,12 +86,44 @@ def table_rows(sizes: list[int], repeat: int) -> None:
         )
 
 
+def table_random(n: int, time_limit: float) -> None:
+    """Random layouts the planner was not tuned for (``coplan.generate.random_problem``)."""
+    from coplan.generate import random_problem
+    from coplan.optimal import OptimalOptions
+    from coplan.verify import verify
+
+    head = (f"{'seed':>4s} {'arms':>4s} {'fruit':>7s} {'base mk':>8s} {'opt mk':>8s} {'ratio':>6s} {'total s':>8s}  "
+            f"{'status':9s} windows (timing of each)")
+    print(head)
+    print("-" * len(head))
+    ok, ratios, times = 0, [], []
+    for seed in range(n):
+        prob = parse_problem(to_yaml(random_problem(seed)), f"random-{seed}")
+        res = plan_optimal(prob, options=OptimalOptions(time_limit=time_limit))
+        m, b = res.plan.metrics, res.baseline.metrics
+        success = res.plan.status.value == "success"
+        if success:
+            assert verify(prob, res.plan).passed  # a success is always an independently verified plan
+            ok += 1
+            ratios.append(m["makespan"] / b["makespan"])
+        times.append(res.timings["total"])
+        stages = res.plan.solver.get("window_timing") or []
+        print(f"{seed:>4d} {len(prob.arms):>4d} {m['harvested']:>3d}/{m['reachable']:<3d} {_fmt(b.get('makespan')):>8s} "
+              f"{_fmt(m.get('makespan')):>8s} {_fmt(m['makespan'] / b['makespan'] if b.get('makespan') else None, 3):>6s} "
+              f"{res.timings['total']:8.1f}  {res.plan.status.value:9s} {len(stages)} ({', '.join(stages)})")
+    print(f"success (IPOPT converged and verified, every reachable fruit): {ok}/{n}; "
+          f"median makespan ratio to the baseline {statistics.median(ratios) if ratios else float('nan'):.3f}; "
+          f"median total {statistics.median(times):.1f} s, max {max(times):.1f} s")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--problems", nargs="*", help="shipped problem names (default: all)")
     ap.add_argument("--rows", action="store_true", help="only the row-length sweep")
     ap.add_argument("--sizes", nargs="*", type=int, default=[10, 20, 50, 100])
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--random", type=int, default=0, metavar="N", help="also random layouts, seeds 0..N-1 (one run each)")
+    ap.add_argument("--random-time-limit", type=float, default=120.0, help="time limit per random layout (s)")
     args = ap.parse_args(argv)
     print(f"coplan {coplan.__version__}, python {sys.version.split()[0]}")
     if not args.rows:
@@ -99,6 +132,9 @@ def main(argv=None) -> int:
     if args.rows or not args.problems:
         print("\nRow length sweep: 3 arms 2 m apart, fruit uniform along the row (times: median of", args.repeat, "runs)")
         table_rows(args.sizes, max(1, min(args.repeat, 2)))
+    if args.random:
+        print(f"\nRandom layouts (2-5 arms, spacing, links, limits, fruit all drawn from the seed), time limit {args.random_time_limit:g} s")
+        table_random(args.random, args.random_time_limit)
     return 0
 
 

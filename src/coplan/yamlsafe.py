@@ -1,0 +1,177 @@
+"""Safe YAML reading for problem files, with the line of every key path.
+
+What :func:`_read_yaml` guarantees, before anything is constructed:
+
+- libyaml's parser/composer (PyYAML's ``CSafeLoader`` when available), SafeLoader's
+  construction; no tags (so no Python objects), no anchors, no aliases;
+- duplicate keys refused (compared as constructed values, so ``1`` and ``0x1`` clash),
+  as are non-scalar keys;
+- caps: ``MAX_FILE_BYTES`` of text (checked by the caller before reading), ``MAX_DEPTH``
+  levels of nesting and ``MAX_NODES`` values (both checked on the event stream, so a
+  hostile file costs no more than reading it);
+- a ``lines`` map from every key path (``("arms", 1, "links")``) to its line;
+  :func:`_line` gives the line of a path or of its nearest recorded ancestor.
+
+Every problem is raised as :class:`~coplan.errors.ProblemError`. This module must not
+import :mod:`coplan.problem` (which imports it).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import yaml
+
+from .errors import Issue, ProblemError
+
+MAX_FILE_BYTES = 4 * 1024 * 1024
+MAX_DEPTH = 12
+MAX_NODES = 300_000  # YAML nodes (scalars + collections); 20 000 fruit take about 180 000
+
+
+def _path_str(loc) -> str:
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
+
+
+class _LineLoader(yaml.SafeLoader):
+    """SafeLoader; duplicate keys, aliases, anchors and tags are refused beforehand by
+    :func:`_scan_events` and :func:`_walk_nodes`, then the checked node tree is constructed."""
+
+
+# libyaml's parser when PyYAML has it (it nearly always does): the same events and marks,
+# an order of magnitude faster. Only its parser/composer is used; construction is SafeLoader's.
+_FastLoader = getattr(yaml, "CSafeLoader", _LineLoader)
+
+
+def _scan_events(text: str, issues: list) -> None:
+    """Walk the YAML event stream (no recursion, nothing built) tracking key paths.
+
+    Reports every alias and anchor (a few aliases can expand into gigabytes); stops at once
+    at nesting deeper than ``MAX_DEPTH`` (which would overflow the recursive composer) or
+    more than ``MAX_NODES`` values (a hostile file), so those cost no more than reading the
+    file. Issues are appended to ``issues``.
+    """
+    # frame: [kind ("map" | "seq"), path, expect_key, key, index]
+    stack: list[list] = []
+    nodes = 0
+    for ev in yaml.parse(text, Loader=_FastLoader):
+        if isinstance(ev, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            stack.pop()
+            continue
+        if not isinstance(ev, (yaml.ScalarEvent, yaml.AliasEvent, yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            continue
+        path: list = []
+        if stack:
+            f = stack[-1]
+            if f[0] == "seq":
+                path = f[1] + [f[4]]
+                f[4] += 1
+            elif f[2]:  # this node is a key
+                f[2] = False
+                f[3] = ev.value if isinstance(ev, yaml.ScalarEvent) else "?"
+                path = f[1] + [f[3]]
+            else:  # this node is the value of f[3]
+                f[2] = True
+                path = f[1] + [f[3]]
+        line = ev.start_mark.line + 1
+        nodes += 1
+        if nodes > MAX_NODES:
+            issues.append(Issue(_path_str(path), f"expected at most {MAX_NODES} YAML values in a problem file, found more", line))
+            return
+        if isinstance(ev, yaml.AliasEvent):
+            issues.append(
+                Issue(_path_str(path), f"expected a plain value, found the alias *{ev.anchor} (YAML anchors and aliases are not supported)", line)
+            )
+        elif ev.anchor is not None:
+            issues.append(
+                Issue(_path_str(path), f"expected a plain value, found the anchor &{ev.anchor} (YAML anchors and aliases are not supported)", line)
+            )
+        if isinstance(ev, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            if len(stack) >= MAX_DEPTH:
+                issues.append(Issue(_path_str(path), f"expected at most {MAX_DEPTH} levels of nesting, found more", line))
+                return
+            stack.append(["map" if isinstance(ev, yaml.MappingStartEvent) else "seq", path, True, None, 0])
+
+
+_STR_TAG = "tag:yaml.org,2002:str"
+
+
+def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = None, ctor=None) -> None:
+    """Record the line of every key path; refuse duplicate keys, non-scalar keys and tags.
+
+    Keys are compared as the values they construct to, so ``1`` and ``0x1`` (or ``yes``
+    and ``true``) are duplicates too: a dict would silently merge them.
+    """
+    ctor = ctor if ctor is not None else _LineLoader("")
+    lines[tuple(path)] = key_line if key_line is not None else node.start_mark.line + 1
+    if node.tag not in _LineLoader.yaml_constructors:
+        issues.append(
+            Issue(_path_str(path), f"expected a plain YAML value, found the tag {node.tag!r} (tags are not supported)", node.start_mark.line + 1)
+        )
+        return
+    if isinstance(node, yaml.MappingNode):
+        seen: dict[Any, int] = {}
+        for k, v in node.value:
+            kline = k.start_mark.line + 1
+            if not isinstance(k, yaml.ScalarNode):
+                kind = "list" if isinstance(k, yaml.SequenceNode) else "mapping"
+                issues.append(Issue(_path_str(path), f"expected string keys, found a {kind} used as a key", kline))
+                continue
+            if k.tag not in _LineLoader.yaml_constructors:
+                issues.append(Issue(_path_str(path), f"expected a plain YAML key, found the tag {k.tag!r} (tags are not supported)", kline))
+                continue
+            key = k.value if k.tag == _STR_TAG else ctor.construct_object(k)
+            if key in seen:
+                issues.append(
+                    Issue(
+                        _path_str(path + [k.value]),
+                        f"expected unique keys, found {k.value!r} again (first at line {seen[key]}); duplicate keys are never merged",
+                        kline,
+                    )
+                )
+                continue
+            seen[key] = kline
+            _walk_nodes(v, path + [key], lines, issues, kline, ctor)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, v in enumerate(node.value):
+            _walk_nodes(v, path + [i], lines, issues, None, ctor)
+
+
+def _read_yaml(text: str, source: str | None):
+    """Parse YAML text safely; returns ``(data, lines)`` where ``lines`` maps key paths to lines."""
+    lines: dict = {}
+    issues: list[Issue] = []
+    try:
+        _scan_events(text, issues)
+        if issues:
+            raise ProblemError(issues, source)
+        node = yaml.compose(text, Loader=_FastLoader)
+        if node is None:
+            raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty file")], source)
+        _walk_nodes(node, [], lines, issues)
+        if issues:
+            raise ProblemError(issues, source)
+        # keys are now known to be unique scalars, with no aliases or unknown tags
+        data = _LineLoader("").construct_document(node)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        line = mark.line + 1 if mark is not None else None
+        msg = getattr(e, "problem", None) or str(e)
+        context = getattr(e, "context", None)
+        raise ProblemError([Issue("", f"expected valid YAML, found a syntax error: {msg}" + (f" ({context})" if context else ""), line)], source) from None
+    return data, lines
+
+
+def _line(lines: dict, loc) -> int | None:
+    loc = tuple(loc)
+    while loc:
+        if loc in lines:
+            return lines[loc]
+        loc = loc[:-1]
+    return lines.get(())
