@@ -102,7 +102,7 @@ def test_a_window_that_fails_with_free_timing_is_solved_again_near_the_warm_star
     """First attempt made impossible (every interval at most 0.31x its warm-start length is
     faster than the joint limits allow): IPOPT fails, the window is solved again with the
     timing held near the warm start, and that plan is verified."""
-    ladder = (("impossible timing", (0.3, 0.31), 1.0),) + optimal_mod._LADDER[1:]
+    ladder = (("impossible timing", (0.3, 0.31), 1.0, 0.0),) + optimal_mod._LADDER[1:]
     monkeypatch.setattr(optimal_mod, "_LADDER", ladder)
     res = plan_optimal(greenhouse)
     rounds = res.plan.solver["rounds"]
@@ -111,3 +111,11 @@ def test_a_window_that_fails_with_free_timing_is_solved_again_near_the_warm_star
     assert res.plan.solver["window_timing"] == [optimal_mod._LADDER[1][0]]
     assert res.plan.status == PlanStatus.SUCCESS and res.verification.passed
     assert res.plan.metrics["makespan"] < res.baseline.metrics["makespan"]
+
+
+def test_time_shifted_screening_finds_a_superset_of_points(greenhouse, sched_grid):
+    """Screening with one arm of each pair shifted in time can only add points."""
+    sched, grid = sched_grid
+    plain = set(optimal_mod.screen_points(greenhouse, sched, grid, 0, grid.K, 0.25))
+    shifted = set(optimal_mod.screen_points(greenhouse, sched, grid, 0, grid.K, 0.25, shift=0.4))
+    assert plain and plain <= shifted and len(shifted) > len(plain)

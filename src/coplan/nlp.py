@@ -271,6 +271,7 @@ def build_nlp(
     warm: "NLPSolution | None" = None,
     smooth_weight: float = 1e-2,
     carry: "NLPSolution | None" = None,
+    track: float = 0.0,
 ) -> NLP:
     """Build the NLP over knots ``window = (lo, hi)`` of ``grid`` (default: all).
 
@@ -284,6 +285,11 @@ def build_nlp(
     supplies the states, jerks and time scales where the two windows overlap -- it satisfies
     every constraint there, so IPOPT starts feasible on the overlap -- and the warm-start
     schedules the rest. Separating lines are always guessed from the warm-start schedules.
+
+    ``track`` > 0 adds ``track * sum_k h0_k |q_k - q_warm(t_k)|^2`` to the objective: every arm
+    stays near the warm start's pose *at each knot*. All arms share the knots, so the arms
+    keep the warm start's (conflict-free) relative progress while the time scales still
+    shorten or stretch the intervals.
     """
     t0 = _time.perf_counter()
     dyn, sep = _kernels()
@@ -329,6 +335,7 @@ def build_nlp(
         per_arm[name] = (lo, hi, ulo, uhi, dwells, k_end, sx, su)
         blocks.append((f"X_{name}", 6 * (K + 1), (lo / sx).ravel("F"), (hi / sx).ravel("F"), (X0 / sx).ravel("F")))
         blocks.append((f"U_{name}", 2 * K, (ulo / su).ravel("F"), (uhi / su).ravel("F"), (U0 / su).ravel("F")))
+    q_warm = {b[0][2:]: b[4].reshape((6, K + 1), order="F")[0:2].copy() for b in blocks if b[0].startswith("X_")}
     n_ov = 0  # knots (from lo) where the previous window's solution is the guess
     if carry is not None and warm is None:
         lo_p, hi_p = carry.window
@@ -384,7 +391,7 @@ def build_nlp(
     lbg.append(np.zeros(nseg))
     ubg.append(np.zeros(nseg))
     Xn, Un, SC, ends = {}, {}, {}, {}
-    smooth = 0
+    smooth, tracking = 0, 0
     for name in names:
         lo, hi, ulo, uhi, dwells, k_end, sx, su = per_arm[name]
         Xn[name] = ca.reshape(var(f"X_{name}"), 6, K + 1)
@@ -412,6 +419,9 @@ def build_nlp(
                 lbg.append([dwell * (b_ - a_) / (k1 - k0) + 1e-6])
                 ubg.append([np.inf])
         smooth += ca.sumsqr(Un[name]) * float(np.mean(h0))
+        if track > 0:
+            dq = Xn[name][0:2, :] - ca.DM(q_warm[name])
+            tracking += ca.sum2(ca.sum1(dq * dq) * ca.DM(np.r_[h0, 0.0][None, :]))
     if nlines:
         half = (problem.task.clearance + margin) / 2.0
         kk = [p.k - lo_k for p in points]
@@ -449,9 +459,9 @@ def build_nlp(
     m0 = max((float(grid.t[ke + lo_k] - grid.t[lo_k]) for ke in ends.values()), default=0.0)
     if last:
         finish = sum(time_at(ke) for ke in ends.values()) / max(len(ends), 1)
-        obj = M + 0.05 * finish + 0.02 * time_at(K) + smooth_weight * smooth
+        obj = M + 0.05 * finish + 0.02 * time_at(K) + smooth_weight * smooth + track * tracking
     else:
-        obj = time_at(K) + 0.01 * M + smooth_weight * smooth
+        obj = time_at(K) + 0.01 * M + smooth_weight * smooth + track * tracking
     gg = ca.vertcat(*g)
     opts = {
         "ipopt.print_level": 0,

@@ -279,14 +279,16 @@ class _Stitched:
 # keep a smaller margin (the third element scales ``margin``): the warm start keeps exactly
 # ``clearance + margin``, which its S-curves, not quite representable on the knot grid, can
 # only just meet. The verifier still certifies the full clearance.
+# The fourth element is the weight that keeps every arm near the warm start's pose at each
+# knot (``build_nlp(track=...)``): the arms then keep the warm start's relative progress.
 _LADDER = (
-    ("free timing", (0.3, 2.0), 1.0),
-    ("timing held within -15/+10 % of the warm start", (0.85, 1.1), 0.6),
-    ("the warm start's timing (only slower, up to +10 %)", (1.0, 1.1), 0.4),
+    ("free timing", (0.3, 2.0), 1.0, 0.0),
+    ("timing held within -15/+10 % of the warm start", (0.85, 1.1), 0.6, 10.0),
+    ("the warm start's timing (only slower, up to +10 %)", (1.0, 1.1), 0.4, 100.0),
 )
 
 
-def _solve_rounds(problem, schedules, grid, opts: OptimalOptions, window, points, start_state, prev_sol, h_bounds,
+def _solve_rounds(problem, schedules, grid, opts: OptimalOptions, window, points, start_state, prev_sol, timing,
                   deadline, info, tag, wi, attempt, say):
     """Solve one window, adding separation points from the dense check, up to ``max_rounds``.
 
@@ -294,6 +296,7 @@ def _solve_rounds(problem, schedules, grid, opts: OptimalOptions, window, points
     dense check of the last solution found nothing closer than the refinement threshold."""
     names = [a.name for a in problem.arms]
     lo, hi = window
+    (h_bounds, track) = timing
     need = problem.task.clearance + opts.margin / 2
     sol = None
     for rnd in range(opts.max_rounds):
@@ -301,7 +304,7 @@ def _solve_rounds(problem, schedules, grid, opts: OptimalOptions, window, points
         if deadline is not None:
             remaining = min(remaining, max(deadline - _time.perf_counter(), 1e-3))
         nlp = build_nlp(problem, schedules, grid, points, opts.margin, window=(lo, hi), start=start_state,
-                        ipopt_options=opts.ipopt, warm=sol, carry=prev_sol, h_bounds=h_bounds)
+                        ipopt_options=opts.ipopt, warm=sol, carry=prev_sol, h_bounds=h_bounds, track=track)
         sol = solve_nlp(nlp, names, time_limit=remaining)
         info["build"] += nlp.build_seconds
         info["solve"] += sol.solve_seconds
@@ -350,14 +353,14 @@ def _solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say
         have = set(points)
         points += [p for p in carried if lo <= p.k <= hi and p not in have]
         sol, first, clean, label = None, points, False, ""
-        for attempt, (label, h_bounds, mscale) in enumerate(_LADDER):
+        for attempt, (label, h_bounds, mscale, track) in enumerate(_LADDER):
             if attempt and deadline is not None and _time.perf_counter() > deadline:
                 break
             if attempt:
                 say(f"window {wi + 1}/{len(wins)}: {'IPOPT ' + sol.ipopt_status if not sol.status.converged else 'clearance not met after ' + str(opts.max_rounds) + ' rounds'}"
                     f"; solving again with {label}")
             sol, points, clean = _solve_rounds(problem, schedules, grid, replace(opts, margin=opts.margin * mscale), (lo, hi),
-                                               first, start_state, prev_sol, h_bounds, deadline, info,
+                                               first, start_state, prev_sol, (h_bounds, track), deadline, info,
                                                f"window {wi + 1}/{len(wins)}", wi, attempt, say)
             if clean or sol.status == SolverStatus.INTERRUPTED:
                 break
