@@ -133,7 +133,7 @@ def test_greenhouse_success_is_verified_and_meets_targets(greenhouse, greenhouse
 
 
 def test_optimiser_clearance_agrees_with_verifier(greenhouse, greenhouse_result):
-    from coplan.optimal import min_clearance
+    from coplan.windows import min_clearance
 
     plan = greenhouse_result.plan
     ours = min_clearance(greenhouse, plan.sample(np.arange(0.0, plan.duration, 0.001)))

@@ -6,10 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from coplan import optimal as optimal_mod
+from coplan import windows as windows_mod
 from coplan.allocation import allocate
 from coplan.nlp import Grid, NLPSolution, SolverStatus, build_grid
-from coplan.optimal import OptimalOptions, _choose_commit, _cut_allowed, _windows, plan_optimal
+from coplan.optimal import OptimalOptions, plan_optimal
+from coplan.windows import _choose_commit, _cut_allowed, _windows
 from coplan.plan import PlanStatus
 from coplan.problem import default_problem_path, load_problem
 from coplan.schedule import StepKind, decoupled_schedules
@@ -38,7 +39,7 @@ def test_cuts_avoid_dwells_and_the_knots_just_before_a_rest(sched_grid):
         rests.append((ranges[-1][1], grid.K))
         for k0, k1 in rests:
             n_rests += 1
-            assert not ok[max(k0 - optimal_mod._PIN_GAP, 0) : k0].any(), (name, k0)
+            assert not ok[max(k0 - windows_mod._PIN_GAP, 0) : k0].any(), (name, k0)
             assert not ok[k0 + 1 : k1].any(), (name, k0, k1)
     assert n_rests > 20
     assert ok.sum() > grid.K // 4  # plenty of places left to cut
@@ -102,13 +103,13 @@ def test_a_window_that_fails_with_free_timing_is_solved_again_near_the_warm_star
     """First attempt made impossible (every interval at most 0.31x its warm-start length is
     faster than the joint limits allow): IPOPT fails, the window is solved again with the
     timing held near the warm start, and that plan is verified."""
-    ladder = (("impossible timing", (0.3, 0.31), 1.0, 0.0),) + optimal_mod._LADDER[1:]
-    monkeypatch.setattr(optimal_mod, "_LADDER", ladder)
+    ladder = (("impossible timing", (0.3, 0.31), 1.0, 0.0),) + windows_mod._LADDER[1:]
+    monkeypatch.setattr(windows_mod, "_LADDER", ladder)
     res = plan_optimal(greenhouse)
     rounds = res.plan.solver["rounds"]
     assert rounds[0]["attempt"] == 0 and rounds[0]["status"] not in ("optimal", "acceptable")
     assert any(r["attempt"] == 1 for r in rounds)
-    assert res.plan.solver["window_timing"] == [optimal_mod._LADDER[1][0]]
+    assert res.plan.solver["window_timing"] == [windows_mod._LADDER[1][0]]
     assert res.plan.status == PlanStatus.SUCCESS and res.verification.passed
     assert res.plan.metrics["makespan"] < res.baseline.metrics["makespan"]
 
@@ -116,6 +117,6 @@ def test_a_window_that_fails_with_free_timing_is_solved_again_near_the_warm_star
 def test_time_shifted_screening_finds_a_superset_of_points(greenhouse, sched_grid):
     """Screening with one arm of each pair shifted in time can only add points."""
     sched, grid = sched_grid
-    plain = set(optimal_mod.screen_points(greenhouse, sched, grid, 0, grid.K, 0.25))
-    shifted = set(optimal_mod.screen_points(greenhouse, sched, grid, 0, grid.K, 0.25, shift=0.4))
+    plain = set(windows_mod.screen_points(greenhouse, sched, grid, 0, grid.K, 0.25))
+    shifted = set(windows_mod.screen_points(greenhouse, sched, grid, 0, grid.K, 0.25, shift=0.4))
     assert plain and plain <= shifted and len(shifted) > len(plain)
