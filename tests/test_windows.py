@@ -120,3 +120,44 @@ def test_time_shifted_screening_finds_a_superset_of_points(greenhouse, sched_gri
     plain = set(windows_mod.screen_points(greenhouse, sched, grid, 0, grid.K, 0.25))
     shifted = set(windows_mod.screen_points(greenhouse, sched, grid, 0, grid.K, 0.25, shift=0.4))
     assert plain and plain <= shifted and len(shifted) > len(plain)
+
+
+def test_an_unclean_schedule_is_solved_again_near_the_warm_start_from_the_first_window(greenhouse, monkeypatch):
+    from coplan import optimal as optimal_mod
+
+    levels = []
+    original = optimal_mod.solve_windows
+
+    def first_unclean(*args, **kwargs):
+        st, info = original(*args, **kwargs)
+        levels.append(args[-1] if len(args) > 6 else kwargs.get("level", 0))
+        if levels[-1] == 0:
+            info["clean"] = False  # as if a window had ended too close after every attempt
+        return st, info
+
+    monkeypatch.setattr(optimal_mod, "solve_windows", first_unclean)
+    res = plan_optimal(greenhouse)
+    assert levels == [0, 1]
+    assert res.plan.solver["restarted"] is True
+    assert res.plan.solver["window_timing"] == [windows_mod._LADDER[1][0]]
+    assert res.plan.status == PlanStatus.SUCCESS and res.verification.passed
+
+
+def test_knot_bounds_leave_room_for_overshoot_between_knots_but_not_past_held_poses(greenhouse, sched_grid):
+    from coplan.nlp import build_nlp
+
+    sched, grid = sched_grid
+    nlp = build_nlp(greenhouse, sched, grid, [], 0.015)
+    h_max = 0.09
+    for arm in greenhouse.arms:
+        a, b = nlp.layout[f"X_{arm.name}"]
+        lo = nlp.lbx[a:b].reshape((6, -1), order="F")
+        hi = nlp.ubx[a:b].reshape((6, -1), order="F")
+        free = lo[0] < hi[0]
+        pm = np.asarray(arm.max_acceleration) * h_max**2 / 8
+        held = np.array([arm.home] + [st.q1 for st in sched[arm.name].steps if st.kind in (StepKind.PICK, StepKind.PLACE)])
+        for j in range(2):
+            want_lo = min(arm.limits[j, 0] + pm[j], held[:, j].min())
+            want_hi = max(arm.limits[j, 1] - pm[j], held[:, j].max())
+            assert np.allclose(lo[j, free], want_lo) and np.allclose(hi[j, free], want_hi)
+            assert want_lo > arm.limits[j, 0] - 1e-12 and want_hi < arm.limits[j, 1] + 1e-12

@@ -8,8 +8,8 @@ Formulation (``build_nlp`` builds, ``solve_nlp`` solves; nothing here plans on i
 * Per arm and knot the state ``(q, qd, qdd)`` (6 numbers); per interval a constant jerk
   (2 numbers). Integration is exact (a cubic per interval), so the continuous trajectory is
   known between knots.
-* Bounds: joint limits; velocity (shrunk by ``jmax h_max^2 / 8``, the most a velocity can
-  overshoot its knot values inside an interval); acceleration (linear inside an interval, so
+* Bounds: joint limits (shrunk by ``amax h_max^2 / 8``) and velocity (by ``jmax h_max^2 / 8``),
+  the most either can overshoot its knot values inside an interval; acceleration (linear inside an interval, so
   knot bounds are exact); jerk. Picks/places: pose fixed at the IK pose, zero velocity and
   acceleration, for at least the dwell (sum of its ``h_k``). Start at home at rest; after its
   last step, an arm rests at home.
@@ -173,14 +173,19 @@ class NLPSolution:
         return out
 
 
-def _var_state(problem: Problem, sch: ArmSchedule, grid: Grid, vmargin: np.ndarray):
-    """Bounds and warm start of one arm's (6, K+1) states and (2, K) jerks."""
+def _var_state(problem: Problem, sch: ArmSchedule, grid: Grid, vmargin: np.ndarray, pmargin: np.ndarray):
+    """Bounds and warm start of one arm's (6, K+1) states and (2, K) jerks.
+
+    Knot bounds are shrunk by what can happen between knots: velocity by ``vmargin``, joint
+    positions by ``pmargin`` (but never past a pose the arm must hold: home, picks, places)."""
     arm = sch.arm
     K = grid.K
-    lim = arm.limits
+    held = np.array([arm.home] + [st.q1 for st in sch.steps if st.kind in (StepKind.PICK, StepKind.PLACE)], float)
+    lim = np.column_stack([np.minimum(arm.limits[:, 0] + pmargin, held.min(axis=0)),
+                           np.maximum(arm.limits[:, 1] - pmargin, held.max(axis=0))])
     v = np.asarray(arm.max_velocity) - vmargin
     a = np.asarray(arm.max_acceleration)
-    j = np.asarray(arm.max_jerk)
+    j = np.asarray(arm.max_jerk) * (1.0 - 1e-5)  # IPOPT may relax bounds by its tolerances: stay inside
     lo = np.vstack([lim[:, 0:1], -v[:, None], -a[:, None]]) * np.ones((1, K + 1))
     hi = np.vstack([lim[:, 1:2], v[:, None], a[:, None]]) * np.ones((1, K + 1))
     ulo = -j[:, None] * np.ones((1, K))
@@ -320,8 +325,11 @@ def build_nlp(
     for name in names:
         sch = schedules[name]
         arm = problem.arm(name)
+        # between knots a velocity can exceed its knot values by at most jmax h^2 / 8, a joint
+        # position by amax h^2 / 8 (the bound on a function's rise above its chord)
         vmargin = np.asarray(arm.max_jerk) * h_max**2 / 8.0
-        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid, vmargin)
+        pmargin = np.asarray(arm.max_acceleration) * h_max**2 / 8.0
+        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid, vmargin, pmargin)
         lo, hi, X0 = lo[:, lo_k : hi_k + 1], hi[:, lo_k : hi_k + 1], X0[:, lo_k : hi_k + 1]
         ulo, uhi, U0 = ulo[:, lo_k:hi_k], uhi[:, lo_k:hi_k], U0[:, lo_k:hi_k]
         if start is not None:

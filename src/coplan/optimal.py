@@ -37,7 +37,7 @@ from .problem import Problem
 from .coordinate import coordinate
 from .routing import choose_branches
 from .schedule import ArmSchedule, ConflictError, StepKind, decoupled_schedules
-from .windows import solve_windows
+from .windows import _LADDER, solve_windows
 
 __all__ = ["OptimalOptions", "OptimalResult", "plan_optimal"]
 
@@ -294,11 +294,22 @@ def plan_optimal(
         return OptimalResult(finalize(problem, plan, ver), ver, baseline, base_ver, alloc, timings, SolverStatus.INFEASIBLE)
 
     try:
-        stitched, info = solve_windows(problem, sched, grid, opts, deadline, say)
+        # a window solved near the warm start after free-timing windows before it starts from a
+        # state those left; when any window could not be solved cleanly, the whole schedule is
+        # solved again with every window near the warm start from the first
+        for level in range(len(_LADDER) - 1):
+            stitched, info = solve_windows(problem, sched, grid, opts, deadline, say, level)
+            info["level"] = level
+            if info.get("clean") or info["status"] == SolverStatus.INTERRUPTED or (
+                    deadline is not None and _time.perf_counter() > deadline):
+                break
+            if level + 2 < len(_LADDER):
+                say(f"a window could not be solved cleanly: solving every window again with {_LADDER[level + 1][0]}")
+                timings["discarded_solve"] = timings.get("discarded_solve", 0.0) + info["build"] + info["solve"]
     except KeyboardInterrupt:  # Ctrl-C outside IPOPT's iterations: keep the warm start
         stitched, info = None, {"status": SolverStatus.INTERRUPTED, "ipopt_status": "KeyboardInterrupt", "iterations": 0}
     timings["build"] = info.get("build", 0.0)
-    timings["solve"] = info.get("solve", 0.0)
+    timings["solve"] = info.get("solve", 0.0) + timings.pop("discarded_solve", 0.0)  # every solve counts
     status: SolverStatus = info["status"]
     solver_info.update(
         status=status.value,
@@ -307,6 +318,7 @@ def plan_optimal(
         windows=info.get("windows"),
         rounds=info.get("rounds"),
         window_timing=info.get("window_stages"),
+        restarted=bool(info.get("level", 0)),
         separation_points=info.get("points"),
         n_vars=info.get("n_vars"),
         n_cons=info.get("n_cons"),

@@ -265,7 +265,10 @@ def _solve_rounds(problem, schedules, grid, opts: OptimalOptions, window, points
     return sol, points, False
 
 
-def solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say) -> tuple[_Stitched, dict]:
+def solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say, level: int = 0) -> tuple[_Stitched, dict]:
+    """Solve the receding windows in order; each window tries ``_LADDER[level:]`` in turn.
+
+    ``info["clean"]`` says whether every window ended converged with its dense check clean."""
     names = [a.name for a in problem.arms]
     wins = _windows(grid, opts.window, schedules)
     allowed = _cut_allowed(grid, schedules)
@@ -292,10 +295,10 @@ def solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say)
         have = set(points)
         points += [p for p in carried if lo <= p.k <= hi and p not in have]
         sol, first, clean, label = None, points, False, ""
-        for attempt, (label, h_bounds, mscale, track) in enumerate(_LADDER):
-            if attempt and deadline is not None and _time.perf_counter() > deadline:
+        for attempt, (label, h_bounds, mscale, track) in enumerate(_LADDER[level:], start=level):
+            if attempt > level and deadline is not None and _time.perf_counter() > deadline:
                 break
-            if attempt:
+            if attempt > level:
                 say(f"window {wi + 1}/{len(wins)}: {'IPOPT ' + sol.ipopt_status if not sol.status.converged else 'clearance not met after ' + str(opts.max_rounds) + ' rounds'}"
                     f"; solving again with {label}")
             sol, points, clean = _solve_rounds(problem, schedules, grid, replace(opts, margin=opts.margin * mscale), (lo, hi),
@@ -304,6 +307,7 @@ def solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say)
             if clean or sol.status == SolverStatus.INTERRUPTED:
                 break
         info.setdefault("window_stages", []).append(label)
+        info["clean"] = info.get("clean", True) and clean
         info["points"] += len(points)
         info["max_violation"] = max(info["max_violation"], sol.max_violation)
         if order.index(sol.status) > order.index(worst):
