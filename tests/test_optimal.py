@@ -227,6 +227,17 @@ def test_random_layouts_success_implies_verified(seed, tmp_path):
         assert res.exit_code != ExitCode.OK
 
 
+@pytest.mark.parametrize("seed", [5, 12])
+def test_random_layouts_are_solved_faster_than_the_baseline(seed):
+    """Layouts nobody tuned for (4 and 5 arms): a verified plan, every fruit, faster than the baseline."""
+    prob = parse_problem(to_yaml(random_problem(seed)), f"random-{seed}")
+    res = plan_optimal(prob)
+    assert res.plan.status == PlanStatus.SUCCESS
+    assert verify(prob, res.plan).passed
+    assert res.plan.metrics["harvested"] == len(prob.reachable_ids())
+    assert res.plan.metrics["makespan"] < res.baseline.metrics["makespan"]
+
+
 # ----------------------------------------------------------------------------- CLI
 def test_cli_solve_default_is_optimal_and_succeeds(tmp_path):
     r = CliRunner().invoke(app, ["solve", "--out", str(tmp_path), "--json"])
