@@ -340,14 +340,18 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
     return prob, plan
 
 
+# the problem a plan belongs to, for the commands that read a plan.json
+PlanProblemOption = Annotated[
+    Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML (default: the shipped problem it names).")
+]
+
+
 @app.command("plot")
 @guarded
 def plot_cmd(
     plan: Annotated[Path, typer.Argument(help="plan.json to draw (for --kind workspace also a problem YAML).")],
     kind: Annotated[PlotKind, typer.Option("--kind", "-k", help="Which figure.")] = PlotKind.GANTT,
-    problem: Annotated[
-        Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML (default: the shipped problem it names).")
-    ] = None,
+    problem: PlanProblemOption = None,
     out: Annotated[
         Optional[Path], typer.Option("--out", "-o", help="Image file; the suffix sets the format (default: <plan>_<kind>.png).")
     ] = None,
@@ -388,9 +392,7 @@ def plot_cmd(
 @guarded
 def animate_cmd(
     plan: Annotated[Path, typer.Argument(help="plan.json to animate.")],
-    problem: Annotated[
-        Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML (default: the shipped problem it names).")
-    ] = None,
+    problem: PlanProblemOption = None,
     out: Annotated[
         Optional[Path], typer.Option("--out", "-o", help="Output .gif (default, next to the plan) or .mp4 (needs ffmpeg).")
     ] = None,

@@ -53,6 +53,7 @@ from .errors import Issue, PlanFileError
 from .fclcheck import cross_check
 from .geometry import segment_distance
 from .plan import DEFAULT_RATE, EventKind, Plan
+from . import verdict as _verdict
 from .problem import Problem
 from .verdict import (
     ContactInterval,
@@ -67,20 +68,7 @@ from .verdict import (
     WarningKind,
 )
 
-__all__ = [
-    "FclMode",
-    "ViolationKind",
-    "WarningKind",
-    "IntervalKind",
-    "VerifyOptions",
-    "Violation",
-    "Finding",
-    "ContactInterval",
-    "PairClearance",
-    "Verification",
-    "verify",
-    "clearance_profile",
-]
+__all__ = [*_verdict.__all__, "verify", "clearance_profile"]  # the result types are re-exported from here
 
 
 # --------------------------------------------------------------------------- input checks
