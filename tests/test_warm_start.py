@@ -18,7 +18,7 @@ from coplan.geometry import segment_distance
 from coplan.optimal import OptimalOptions, _choose_warm_start
 from coplan.plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics
 from coplan.problem import Problem, load_problem, parse_problem
-from coplan.coordinate import coordinate, remove_conflicts
+from coplan.coordinate import coordinate
 from coplan.routing import choose_branches, route_moves
 from coplan.schedule import ConflictError, StepKind, decoupled_schedules, pair_distances
 from coplan.timing import SCurve
@@ -109,11 +109,11 @@ def test_coordinate_is_conflict_free_on_shipped_problems(problems_dir, name):
     assert max(s.last_place for s in out.values()) >= max(s.last_place for s in base.values()) - 1e-9
 
 
-def test_remove_conflicts_is_the_same_rule(problems_dir):
+def test_coordination_resolves_the_heuristic_allocation_of_crossing_paths(problems_dir):
     p = _load(problems_dir, "crossing_paths")
     base = decoupled_schedules(p, allocate(p, AllocationMethod.HEURISTIC))
-    out, n = remove_conflicts(p, base, MARGIN)
-    assert n >= 1
+    out, waits, extra = coordinate(p, base, MARGIN)
+    assert waits + extra >= 1
     assert _min_clearance(p, out) >= p.task.clearance + MARGIN / 2
 
 

@@ -2,7 +2,7 @@
 
 :func:`coordinate` books each leg (a move and its pick or place) at the earliest time at which it
 and resting at its target afterwards keep every neighbour ``clearance + margin`` away from
-everything already booked; deadlocks are broken by rule. :func:`remove_conflicts` is its older name.
+everything already booked; deadlocks are broken by rule.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from .schedule import (
     _move,
 )
 
-__all__ = ["coordinate", "remove_conflicts"]
+__all__ = ["coordinate"]
 
 
 @dataclass
@@ -470,20 +470,3 @@ def coordinate(
     out = c.run()
     waits = sum(1 for s in out.values() for st in s.steps if st.kind == StepKind.WAIT)
     return out, waits, c.yields + c.parks
-
-
-def remove_conflicts(
-    problem: Problem,
-    schedules: dict[str, ArmSchedule],
-    margin: float,
-    rate: float = 200.0,
-    delay_step: float = 0.05,
-    priority: list[str] | None = None,
-    deadline: float | None = None,
-) -> tuple[dict[str, ArmSchedule], int]:
-    """The older name of :func:`coordinate` (``delay_step`` is its ``quantum``).
-
-    Returns the conflict-free schedules and the number of waits plus yield/park moves added.
-    """
-    out, waits, extra = coordinate(problem, schedules, margin, rate=rate, quantum=delay_step, priority=priority, deadline=deadline)
-    return out, waits + extra

@@ -21,8 +21,7 @@ The warm start is built in four steps, each a rule that can be stated and checke
    are broken by rule: the other elbow branch, else a yield move to a clear rest pose.
    Finished arms go home once home is out of the neighbours' remaining work.
 
-Steps 2 and 3 live in :mod:`coplan.routing`, step 4 in :mod:`coplan.coordinate`
-(:func:`coplan.coordinate.remove_conflicts` is its older name).
+Steps 2 and 3 live in :mod:`coplan.routing`, step 4 in :mod:`coplan.coordinate`.
 """
 
 from __future__ import annotations
