@@ -330,6 +330,16 @@ def _validate(model, data, prefix: tuple, lines: dict, issues: list):
         return None
 
 
+def _check_unique(seen: dict[str, int], value: str, loc: tuple, what: str, lines: dict, issues: list) -> bool:
+    """Record ``value`` at list index ``loc[1]``; on a repeat, report it (naming the first) and return False."""
+    if value in seen:
+        issues.append(Issue(_path_str(loc), f"expected a unique {what}, found {value!r} again "
+                                            f"(also {loc[0]}[{seen[value]}].{loc[2]})", _line(lines, loc)))
+        return False
+    seen[value] = loc[1]
+    return True
+
+
 def _build(data: Any, lines: dict, source: str | None) -> Problem:
     issues: list[Issue] = []
     if not isinstance(data, dict):
@@ -393,16 +403,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     for i, spec in arm_specs:
         if spec is None:
             continue
-        if spec.name in seen_names:
-            issues.append(
-                Issue(
-                    _path_str(("arms", i, "name")),
-                    f"expected a unique arm name, found {spec.name!r} again (also arms[{seen_names[spec.name]}].name)",
-                    _line(lines, ("arms", i, "name")),
-                )
-            )
-        else:
-            seen_names[spec.name] = i
+        _check_unique(seen_names, spec.name, ("arms", i, "name"), "arm name", lines, issues)
         if defaults is None:
             continue  # the defaults are broken: already reported, don't guess
         merged: dict[str, Any] = {}
@@ -468,16 +469,8 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     for j, spec in fruit_specs:
         if spec is None:
             continue
-        if spec.id in seen_ids:
-            issues.append(
-                Issue(
-                    _path_str(("fruits", j, "id")),
-                    f"expected a unique fruit id, found {spec.id!r} again (also fruits[{seen_ids[spec.id]}].id)",
-                    _line(lines, ("fruits", j, "id")),
-                )
-            )
+        if not _check_unique(seen_ids, spec.id, ("fruits", j, "id"), "fruit id", lines, issues):
             continue
-        seen_ids[spec.id] = j
         fruits.append(Fruit(id=spec.id, position=spec.position))
 
     # ---- home poses must already respect the clearance
