@@ -123,7 +123,11 @@ def test_greenhouse_success_is_verified_and_meets_targets(greenhouse, greenhouse
     assert m["harvested"] == m["reachable"] == 11
     assert plan.unreachable == ["f01"]
     assert m["makespan"] <= 0.65 * res.baseline.metrics["makespan"]
-    assert m["lower_bound"] <= m["makespan"] <= 1.10 * m["lower_bound"]
+    # the left arm's best order alone takes exactly the lower bound: proven optimal
+    assert m["makespan"] == pytest.approx(12.883, abs=1e-3)
+    assert m["makespan"] <= m["lower_bound"] + 1e-3 and m["optimality"] == "proven"
+    assert plan.solver["stopped_by"] == "proven_optimal"
+    assert m["coordinated_makespan"] >= m["makespan"] and m["time_to_first_verified"] <= m["time_of_last_improvement"]
     summary = res.verification.summary()
     assert summary["collision_count"] == 0 and summary["violation_count"] == 0
     assert summary["certified_clearance"] >= greenhouse.task.clearance
@@ -173,11 +177,23 @@ def test_unverified_plan_is_never_a_success(greenhouse, greenhouse_result, monke
     assert finalize(greenhouse, plan3, None).status == PlanStatus.UNVERIFIED
 
 
-def test_failed_solver_keeps_best_iterate_and_baseline(tmp_path, greenhouse):
-    res = solve(greenhouse, planner="optimal", out_dir=tmp_path, options=OptimalOptions(time_limit=0.02))
+def test_failed_solver_keeps_best_iterate_and_baseline(tmp_path, greenhouse, monkeypatch):
+    """Nothing can be coordinated (forced) and IPOPT gets 3 iterations: the planner says it
+    failed, keeps its best iterate and writes the baseline beside it."""
+    from coplan import coordinated as coord_mod
+    from coplan.schedule import ConflictError
+
+    def deadlock(*args, **kwargs):
+        raise ConflictError("forced deadlock")
+
+    monkeypatch.setattr(coord_mod, "coordinate", deadlock)
+    monkeypatch.setattr(coord_mod, "clear", lambda *args: False)
+    monkeypatch.setattr(coord_mod, "_fallback", lambda *args: None)
+    res = solve(greenhouse, planner="optimal", out_dir=tmp_path, options=OptimalOptions(ipopt={"ipopt.max_iter": 3}))
     assert res.plan.status == PlanStatus.FAILED
     assert res.exit_code == ExitCode.SOLVER_FAILED
-    assert res.plan.solver["status"] == SolverStatus.LIMIT_REACHED.value
+    assert res.plan.solver["nlp"]["status"] == SolverStatus.LIMIT_REACHED.value
+    assert "no verified plan" in res.plan.solver["message"]
     saved = load_plan(tmp_path / "plan.json")
     assert saved.status == PlanStatus.FAILED and saved.planner.value == "optimal"
     base = load_plan(tmp_path / "baseline.json")
@@ -185,8 +201,14 @@ def test_failed_solver_keeps_best_iterate_and_baseline(tmp_path, greenhouse):
     assert (tmp_path / "verification.json").exists()
 
 
-def test_ctrl_c_stops_within_an_iteration(greenhouse, monkeypatch):
-    """A real SIGINT during IPOPT's iterations stops the solve; the plan says interrupted."""
+@pytest.fixture(scope="module")
+def crossing():
+    return load_problem(default_problem_path().with_name("crossing_paths.yaml"))
+
+
+def test_ctrl_c_during_the_nlp_keeps_the_verified_incumbent(crossing, monkeypatch):
+    """A real SIGINT during IPOPT's iterations stops the solve; the verified coordinated
+    incumbent is returned and the plan says interrupted."""
     original = nlp_mod._Monitor.eval
     state = {"n": 0}
 
@@ -197,20 +219,88 @@ def test_ctrl_c_stops_within_an_iteration(greenhouse, monkeypatch):
         return original(self, arg)
 
     monkeypatch.setattr(nlp_mod._Monitor, "eval", eval_with_sigint)
-    res = plan_optimal(greenhouse)
+    res = plan_optimal(crossing, options=OptimalOptions(search_evaluations=0))
     assert res.solver_status == SolverStatus.INTERRUPTED
     assert res.plan.status == PlanStatus.INTERRUPTED
-    assert res.plan.solver["iterations"] <= 5
+    assert res.plan.solver["stopped_by"] == "interrupted"
+    assert res.plan.solver["nlp"]["iterations"] <= 5
+    assert res.verification.passed and verify(crossing, res.plan).passed  # the incumbent, verified
+    assert res.plan.metrics["makespan"] == pytest.approx(res.coordinated.metrics["makespan"], abs=1e-9)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handler restored
 
 
-def test_ipopt_opt_in_working_directory_is_ignored(tmp_path, monkeypatch):
+def test_ctrl_c_during_the_search_saves_the_incumbent(tmp_path, monkeypatch):
+    """Ctrl-C while the search runs: the best verified plan so far is saved, exit 130."""
+    from coplan import search as search_mod
+
+    prob = load_problem(default_problem_path().with_name("five_arm_row.yaml"))
+    real, calls = search_mod.coordinate, {"n": 0}
+
+    def interrupting(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 12:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(search_mod, "coordinate", interrupting)
+    res = solve(prob, planner="optimal", out_dir=tmp_path)
+    assert res.exit_code == ExitCode.INTERRUPTED and res.plan.status == PlanStatus.INTERRUPTED
+    assert res.plan.solver["search"]["stopped_by"] == "interrupted"
+    saved = load_plan(tmp_path / "plan.json")
+    assert verify(prob, saved).passed and saved.metrics["harvested"] == len(prob.reachable_ids())
+    assert saved.metrics["makespan"] <= res.plan.metrics["coordinated_makespan"] + 1e-9
+
+
+class _Clock:
+    """perf_counter that jumps ahead by ``jump`` s once :meth:`fire` is called."""
+
+    def __init__(self, jump: float):
+        import time
+
+        self.real, self.jump, self.offset = time.perf_counter, jump, 0.0
+
+    def perf_counter(self) -> float:
+        return self.real() + self.offset
+
+    def fire(self) -> None:
+        self.offset = self.jump
+
+
+def test_time_limit_mid_improvement_returns_the_verified_incumbent(monkeypatch):
+    """The clock limit passes right after the search's first improvement: the planner stops
+    there and returns that verified incumbent as a success, the limit recorded."""
+    from coplan import optimal as optimal_mod
+    from coplan import search as search_mod
+
+    prob = load_problem(default_problem_path().with_name("five_arm_row.yaml"))
+    clock = _Clock(jump=10_000.0)
+    monkeypatch.setattr(search_mod, "_time", clock)
+    monkeypatch.setattr(optimal_mod, "_time", clock)
+    offer = optimal_mod._Incumbent.offer
+
+    def offer_then_time_passes(self, plan, ver, source, cand=None):
+        ok = offer(self, plan, ver, source, cand)
+        if ok and source == "search":
+            clock.fire()
+        return ok
+
+    monkeypatch.setattr(optimal_mod._Incumbent, "offer", offer_then_time_passes)
+    res = plan_optimal(prob, options=OptimalOptions(time_limit=5_000.0))
+    assert res.plan.status == PlanStatus.SUCCESS and verify(prob, res.plan).passed
+    assert res.plan.solver["stopped_by"] == "time_limit"
+    hist = res.plan.solver["incumbents"]
+    assert [h["source"] for h in hist] == ["coordinated", "search"]
+    assert res.plan.metrics["makespan"] == pytest.approx(hist[-1]["makespan"])
+    assert res.plan.metrics["makespan"] < res.plan.metrics["coordinated_makespan"]
+    assert res.plan.solver["nlp"] is None  # nothing ran after the limit
+
+
+def test_ipopt_opt_in_working_directory_is_ignored(tmp_path, monkeypatch, crossing):
     (tmp_path / "ipopt.opt").write_text("max_iter 1\nprint_level 12\n")
     monkeypatch.chdir(tmp_path)
-    prob = load_problem(default_problem_path().with_name("single_arm.yaml"))
-    res = plan_optimal(prob)
+    res = plan_optimal(crossing, options=OptimalOptions(search_evaluations=0))
     assert res.plan.status == PlanStatus.SUCCESS
-    assert res.plan.solver["iterations"] > 1
+    assert res.plan.solver["nlp"]["iterations"] > 1
 
 
 # ----------------------------------------------------------------------------- layouts not tuned for
@@ -247,10 +337,14 @@ def test_cli_solve_default_is_optimal_and_succeeds(tmp_path):
     assert load_plan(tmp_path / "plan.json").status == PlanStatus.SUCCESS
 
 
-def test_cli_time_limit_reports_failure(tmp_path):
+def test_cli_time_limit_returns_a_verified_plan(tmp_path):
+    """Even a tiny clock limit ends with the first verified plan (the coordinated one): exit 0."""
     r = CliRunner().invoke(app, ["solve", "--out", str(tmp_path), "--time-limit", "0.02"])
-    assert r.exit_code == int(ExitCode.SOLVER_FAILED), r.output
-    assert (tmp_path / "plan.json").exists() and (tmp_path / "baseline.json").exists()
+    assert r.exit_code == int(ExitCode.OK), r.output
+    saved = load_plan(tmp_path / "plan.json")
+    assert saved.solver["stopped_by"] in ("time_limit", "proven_optimal")
+    assert saved.solver["options"]["time_limit"] == 0.02
+    assert (tmp_path / "baseline.json").exists()
 
 
 def test_heuristic_allocation_option_with_optimal_planner(greenhouse):

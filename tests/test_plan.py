@@ -168,7 +168,7 @@ BAD = [
     ("arms-empty", _set(["arms"], {}), "arms", "expected an object mapping arm names"),
     ("arm-without-q", _set(["arms", "left"], {"qq": []}), "arms.left", "expected an object with key 'q'"),
     ("bad-status", _set(["status"], "great"), "status", "found string 'great'"),
-    ("bad-planner", _set(["planner"], "magic"), "planner", "expected one of ['heuristic', 'optimal']"),
+    ("bad-planner", _set(["planner"], "magic"), "planner", "expected one of ['heuristic', 'coordinated', 'optimal']"),
     ("bad-allocation", _set(["allocation"], [1, 2]), "allocation", "found array [1, 2]"),
     ("bad-unreachable", _set(["unreachable"], 5), "unreachable", "expected an array of fruit ids"),
     ("bad-metrics", _set(["metrics"], [1]), "metrics", "expected an object"),

@@ -9,7 +9,9 @@ import pytest
 from coplan import windows as windows_mod
 from coplan.allocation import allocate
 from coplan.nlp import Grid, NLPSolution, SolverStatus, build_grid
-from coplan.optimal import OptimalOptions, plan_optimal
+from coplan.allocation import AllocationMethod
+from coplan.coordinated import CoordinatedOptions, find_coordinated
+from coplan.optimal import OptimalOptions, nlp_plan
 from coplan.windows import _choose_commit, _cut_allowed, _windows
 from coplan.plan import PlanStatus
 from coplan.problem import default_problem_path, load_problem
@@ -20,6 +22,12 @@ from coplan.verify import verify
 @pytest.fixture(scope="module")
 def greenhouse():
     return load_problem(default_problem_path())
+
+
+@pytest.fixture(scope="module")
+def coordinated(greenhouse):
+    best, _, _ = find_coordinated(greenhouse, AllocationMethod.MAKESPAN, CoordinatedOptions(), lambda m: None)
+    return best
 
 
 @pytest.fixture(scope="module")
@@ -83,35 +91,36 @@ def test_commit_prefers_the_nearest_knot_where_no_arm_is_near_its_limits(greenho
     assert _choose_commit(greenhouse, sol, grid, 0, 200, 100, allowed, slack=1.0) == 100
 
 
-def test_windowed_solve_agrees_with_one_nlp_and_is_verified(greenhouse):
+def test_windowed_solve_agrees_with_one_nlp_and_is_verified(greenhouse, coordinated):
     """The same problem cut into ~5 s receding windows: verified, all fruit, and a makespan
     close to the single-NLP one (the windows only lose some look-ahead)."""
-    one = plan_optimal(greenhouse)
-    win = plan_optimal(greenhouse, options=OptimalOptions(window=5.0, overlap=2.0))
-    assert win.plan.solver["windows"] >= 2
-    assert win.plan.status == PlanStatus.SUCCESS and verify(greenhouse, win.plan).passed
-    assert win.plan.metrics["harvested"] == 11
-    assert win.plan.metrics["makespan"] <= 1.05 * one.plan.metrics["makespan"]
+    c = coordinated
+    one, one_info, _ = nlp_plan(greenhouse, c.alloc, c.schedules)
+    win, info, _ = nlp_plan(greenhouse, c.alloc, c.schedules, OptimalOptions(window=5.0, overlap=2.0))
+    assert one_info["windows"] == 1 and info["windows"] >= 2
+    assert win.status == PlanStatus.UNVERIFIED and verify(greenhouse, win).passed
+    assert win.metrics["harvested"] == 11
+    assert win.metrics["makespan"] <= 1.05 * one.metrics["makespan"]
     # the stitched trajectory is continuous: no jump in any joint between 100 Hz samples
     # larger than the joint-speed limit allows
     for arm in greenhouse.arms:
-        dq = np.abs(np.diff(win.plan.q[arm.name], axis=0))
+        dq = np.abs(np.diff(win.q[arm.name], axis=0))
         assert (dq <= np.asarray(arm.max_velocity) * 0.01 + 1e-6).all()
 
 
-def test_a_window_that_fails_with_free_timing_is_solved_again_near_the_warm_start(greenhouse, monkeypatch):
+def test_a_window_that_fails_with_free_timing_is_solved_again_near_the_warm_start(greenhouse, coordinated, monkeypatch):
     """First attempt made impossible (every interval at most 0.31x its warm-start length is
     faster than the joint limits allow): IPOPT fails, the window is solved again with the
     timing held near the warm start, and that plan is verified."""
-    ladder = (("impossible timing", (0.3, 0.31), 1.0, 0.0),) + windows_mod._LADDER[1:]
-    monkeypatch.setattr(windows_mod, "_LADDER", ladder)
-    res = plan_optimal(greenhouse)
-    rounds = res.plan.solver["rounds"]
+    ladder = (("impossible timing", (0.3, 0.31), 1.0, 0.0),) + windows_mod.LADDER[1:]
+    monkeypatch.setattr(windows_mod, "LADDER", ladder)
+    plan, info, _ = nlp_plan(greenhouse, coordinated.alloc, coordinated.schedules)
+    rounds = info["rounds"]
     assert rounds[0]["attempt"] == 0 and rounds[0]["status"] not in ("optimal", "acceptable")
     assert any(r["attempt"] == 1 for r in rounds)
-    assert res.plan.solver["window_timing"] == [windows_mod._LADDER[1][0]]
-    assert res.plan.status == PlanStatus.SUCCESS and res.verification.passed
-    assert res.plan.metrics["makespan"] < res.baseline.metrics["makespan"]
+    assert info["window_timing"] == [windows_mod.LADDER[1][0]]
+    assert plan.status == PlanStatus.UNVERIFIED and verify(greenhouse, plan).passed
+    assert plan.metrics["harvested"] == 11
 
 
 def test_time_shifted_screening_finds_a_superset_of_points(greenhouse, sched_grid):
@@ -122,7 +131,7 @@ def test_time_shifted_screening_finds_a_superset_of_points(greenhouse, sched_gri
     assert plain and plain <= shifted and len(shifted) > len(plain)
 
 
-def test_an_unclean_schedule_is_solved_again_near_the_warm_start_from_the_first_window(greenhouse, monkeypatch):
+def test_an_unclean_schedule_is_solved_again_near_the_warm_start_from_the_first_window(greenhouse, coordinated, monkeypatch):
     from coplan import optimal as optimal_mod
 
     levels = []
@@ -136,11 +145,11 @@ def test_an_unclean_schedule_is_solved_again_near_the_warm_start_from_the_first_
         return st, info
 
     monkeypatch.setattr(optimal_mod, "solve_windows", first_unclean)
-    res = plan_optimal(greenhouse)
+    plan, info, _ = nlp_plan(greenhouse, coordinated.alloc, coordinated.schedules)
     assert levels == [0, 1]
-    assert res.plan.solver["restarted"] is True
-    assert res.plan.solver["window_timing"] == [windows_mod._LADDER[1][0]]
-    assert res.plan.status == PlanStatus.SUCCESS and res.verification.passed
+    assert info["restarted"] is True
+    assert info["window_timing"] == [windows_mod.LADDER[1][0]]
+    assert plan.status == PlanStatus.UNVERIFIED and verify(greenhouse, plan).passed
 
 
 def test_knot_bounds_leave_room_for_overshoot_between_knots_but_not_past_held_poses(greenhouse, sched_grid):

@@ -85,7 +85,9 @@ def solve(
         Optional[AllocationMethod], typer.Option(help="Allocation method (default: the planner's own).")
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-out"),
-    time_limit: Annotated[Optional[float], typer.Option(help="Optimal planner: wall-clock limit for the solve, s.")] = None,
+    time_limit: Annotated[Optional[float], typer.Option(
+        help="Wall-clock limit, s: the optimal planner returns its verified incumbent at the limit "
+             "(by default it stops on a work budget, so the plan does not depend on the machine).")] = None,
     animate: Annotated[bool, typer.Option("--animate", help="Also render an animation of the plan.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
 ):
@@ -93,7 +95,7 @@ def solve(
     from .pipeline import solve as run
 
     options = None
-    if planner == PlannerKind.OPTIMAL and time_limit is not None:
+    if planner != PlannerKind.HEURISTIC and time_limit is not None:
         from .optimal import OptimalOptions
 
         options = OptimalOptions(time_limit=time_limit)
@@ -141,6 +143,13 @@ def _print_summary(res) -> None:
     p(f"[bold]{res.problem.name}[/] -- planner [bold]{res.plan.planner.value}[/], status [bold {colour}]{res.plan.status.value}[/]")
     p(f"  fruit harvested   {m.get('harvested')}/{m.get('reachable')} reachable ({m.get('unreachable')} unreachable: {', '.join(res.plan.unreachable) or 'none'})")
     p(f"  makespan          {_fmt(m.get('makespan'), ' s')}   (lower bound {_fmt(m.get('lower_bound'), ' s')}, ratio {_fmt(m.get('gap_to_lower_bound'), '', 3)})")
+    if m.get("optimality") == "proven":
+        p("  optimality        [bold green]proven[/]: the makespan meets the lower bound")
+    if m.get("coordinated_makespan") is not None:
+        p(f"  coordinated plan  {_fmt(m.get('coordinated_makespan'), ' s')}   (improved by {_fmt(100 * (m.get('improvement_over_coordinated') or 0.0), ' %', 1)};"
+          f" first verified plan at {_fmt(m.get('time_to_first_verified'), ' s')}, last improvement at {_fmt(m.get('time_of_last_improvement'), ' s')})")
+    if m.get("baseline_makespan") is not None:
+        p(f"  heuristic plan    {_fmt(m.get('baseline_makespan'), ' s')}   (the course's baseline, baseline.json)")
     p(f"  cycle time/fruit  {_fmt(m.get('cycle_time'), ' s')} worst arm, {_fmt(m.get('cycle_time_mean'), ' s')} mean")
     if ver:
         p(
@@ -153,7 +162,7 @@ def _print_summary(res) -> None:
     if solver.get("message"):
         p(f"  solver            {solver.get('status', '')}: {solver['message']}")
     tm = res.plan.solver.get("timings", {})
-    parts = [k for k in ("allocation", "build", "solve", "plan", "verify") if k in tm]
+    parts = [k for k in ("allocation", "coordinated", "search", "polish", "plan", "verify") if k in tm]
     if parts:
         planned = sum(tm[k] for k in parts)
         split = ", ".join(f"{k} {tm[k]:.2f}" for k in parts)
@@ -258,8 +267,8 @@ def compare_cmd(
     ] = None,
     planner: Annotated[
         Optional[list[str]],
-        typer.Option("--planner", "-p", help="Planner to run, repeatable: heuristic, optimal or planner:allocation "
-                     "(e.g. heuristic:makespan). Default: heuristic and optimal."),
+        typer.Option("--planner", "-p", help="Planner to run, repeatable: heuristic, coordinated, optimal or planner:allocation "
+                     "(e.g. heuristic:makespan). Default: heuristic, coordinated and optimal."),
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-compare"),
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the comparison figures.")] = True,
@@ -278,7 +287,7 @@ def compare_cmd(
     except ValueError as e:
         _fail(ExitCode.USAGE, f"--planner: {e}")
     options = None
-    if time_limit is not None and any(s.planner == PlannerKind.OPTIMAL for s in specs):
+    if time_limit is not None and any(s.planner != PlannerKind.HEURISTIC for s in specs):
         from .optimal import OptimalOptions
 
         options = OptimalOptions(time_limit=time_limit)

@@ -125,8 +125,15 @@ class _Coordinator(_Geometry):
     """State of :func:`coordinate` (see there for the rules)."""
 
     def __init__(self, problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float, quantum: float,
-                 priority: list[str] | None, deadline: float | None, max_yields: int | None, horizon: float | None):
+                 priority: list[str] | None, deadline: float | None, max_yields: int | None, horizon: float | None,
+                 max_checks: int | None = None, cache: dict | None = None):
         super().__init__(problem, problem.task.clearance + margin)
+        if cache is not None:  # routes, rest poses and moves depend only on the problem and ``need``
+            shared = cache.setdefault((id(problem), self.need), ({}, {}, {}))
+            self._stows, self._routes, self._moves = shared
+        else:
+            self._moves = {}
+        self.max_checks, self.checks = max_checks, 0
         names = [a.name for a in problem.arms]
         self.rate, self.quantum, self.deadline = rate, quantum, deadline
         order = priority or sorted(names, key=lambda n: -schedules[n].last_place)
@@ -141,7 +148,6 @@ class _Coordinator(_Geometry):
         self.parks = 0
         self.log = None  # debugging: a callable taking a message
         self._remaining: dict[int, tuple] = {}
-        self._moves: dict[tuple, list[Step]] = {}
         self._yielded: set = set()
 
     # ---- static views of the remaining work
@@ -200,6 +206,9 @@ class _Coordinator(_Geometry):
         nb = [self.tracks[j] for j in self.nbrs[tr.index]]
         if not nb:
             return None
+        self.checks += 1
+        if self.max_checks is not None and self.checks > self.max_checks:
+            raise ConflictError(f"work budget for coordinating the arms is used up ({self.max_checks} checks)")
         t_stop = max([steps[-1].t1] + [o.end for o in nb])
         n = int(np.floor((t_stop - t) * self.rate + 1e-9)) + 2  # the last sample: everyone at rest
         T = t + np.arange(n) / self.rate
@@ -439,6 +448,8 @@ def coordinate(
     deadline: float | None = None,
     max_yields: int | None = None,
     horizon: float | None = None,
+    max_checks: int | None = None,
+    cache: dict | None = None,
 ) -> tuple[dict[str, ArmSchedule], int, int]:
     """Coordinate all arms leg by leg; every neighbouring pair keeps ``clearance + margin``.
 
@@ -463,10 +474,13 @@ def coordinate(
     Moves from a pose the plan did not foresee are routed by :meth:`_Geometry.route`.
 
     Raises :class:`ConflictError` after ``max_yields`` yields, past ``horizon`` s of plan
-    time or at ``deadline`` (``time.perf_counter()``). Returns the schedules (each ending at
-    home), the number of waits and the number of yield/park moves added.
+    time, after ``max_checks`` conflict checks (a work budget: the same on any machine) or at
+    ``deadline`` (``time.perf_counter()``; only for an explicit clock limit). ``cache`` (a
+    dict the caller keeps) shares routes, rest poses and moves between runs on one problem.
+    Returns the schedules (each ending at home), the number of waits and the number of
+    yield/park moves added.
     """
-    c = _Coordinator(problem, schedules, margin, rate, quantum, priority, deadline, max_yields, horizon)
+    c = _Coordinator(problem, schedules, margin, rate, quantum, priority, deadline, max_yields, horizon, max_checks, cache)
     out = c.run()
     waits = sum(1 for s in out.values() for st in s.steps if st.kind == StepKind.WAIT)
     return out, waits, c.yields + c.parks

@@ -1,23 +1,25 @@
-"""The optimal planner: min-makespan allocation + joint trajectory optimisation of all arms.
+"""The anytime optimal planner: the coordinated plan, improved by search and joint optimisation.
 
-Entry point: :func:`plan_optimal`. Stages (each timed):
+Entry point: :func:`plan_optimal`. It keeps an **incumbent**: a verified plan. Every later
+candidate replaces it only if the independent verifier passes it, it harvests at least as
+much, and it is faster. So the optimal planner never returns a plan slower than the
+coordinated one, and whenever it stops -- at its work budget, at an explicit
+``time_limit``, on Ctrl-C, or because the incumbent meets the lower bound (then it is
+*proven optimal*) -- it has a verified plan to return.
 
-1. **allocate** -- min-makespan assignment (HiGHS MILP) and sweep sequencing
-   (:mod:`coplan.allocation`), or the course's heuristic allocation when asked.
-2. **warm start** -- decoupled time-optimal S-curve schedules, conflicts removed by waiting
-   (:mod:`coplan.schedule`).
-3. **NLP** -- one CasADi/IPOPT program over all arms (:mod:`coplan.nlp`). Separation
-   constraints start at the knots where the warm start brings neighbouring links within
-   ``screen`` m of each other; after each solve the continuous trajectory is checked
-   densely and the points where it comes closer than ``clearance + margin / 2`` are added,
-   up to ``max_rounds`` solves. Long schedules are cut into receding windows of about
-   ``window`` seconds, solved in order, each starting from the state the previous one
-   committed and ending at the warm start's pose, so the cost grows linearly with the row
-   (see :func:`_cut_allowed`, :func:`_choose_commit`). A window that fails is solved again
-   with its timing held near the warm start's (``_LADDER``).
-4. **verify** -- the independent verifier (:mod:`coplan.verify`) certifies the plan. Only a
-   converged *and* verified plan is a success; otherwise the best iterate is returned
-   with an honest status, and the heuristic baseline is returned beside it.
+1. **coordinated** (:func:`coplan.coordinated.plan_coordinated`): allocation, time-optimal
+   S-curve moves, conflict-free coordination; verified, it is the first incumbent.
+2. **search** (:func:`coplan.search.improve`): large-neighbourhood search over allocation,
+   order, elbow branches and priorities with the coordinator as evaluator; each new best is
+   verified and offered to the incumbent.
+3. **polish** (:func:`coplan.windows.solve_windows`): one CasADi/IPOPT program over all
+   arms from the incumbent's schedules, where it still waits (receding windows on long
+   rows); its plan is verified and offered like any other. When no coordinated plan could
+   be verified at all, this is the planner's last resort and its status is reported
+   honestly (best iterate kept, baseline beside it).
+
+Every default budget is work (coordinator checks, evaluations, IPOPT iterations), so the
+same input gives the same plan on any machine and under any load.
 """
 
 from __future__ import annotations
@@ -28,42 +30,53 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .allocation import Allocation, AllocationMethod, allocate, lower_bound
-from .heuristic import grid as uniform_grid
+from .allocation import Allocation, AllocationMethod
+from .coordinated import Coordinated, CoordinatedOptions, make_plan, plan_coordinated, schedules_plan
 from .heuristic import plan_heuristic
 from .nlp import Grid, SolverStatus, build_grid
-from .plan import DEFAULT_RATE, Event, EventKind, Plan, PlannerKind, PlanStatus, compute_metrics
+from .plan import Event, EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem import Problem
-from .coordinate import coordinate
-from .routing import choose_branches
-from .schedule import ArmSchedule, ConflictError, StepKind, decoupled_schedules
-from .windows import _LADDER, solve_windows
+from .schedule import ArmSchedule, StepKind, decoupled_schedules
+from .search import SearchOptions, StopReason, improve
+from .windows import LADDER, solve_windows
 
-__all__ = ["OptimalOptions", "OptimalResult", "plan_optimal"]
+__all__ = ["OptimalOptions", "OptimalResult", "plan_optimal", "nlp_plan"]
 
 
 @dataclass(frozen=True)
 class OptimalOptions:
     """Solver options (separate from the problem).
 
-    margin : extra clearance the optimiser keeps at its constraint points (m), so that the
-        dense, certified check between them passes
-    screen : initial constraint points where the warm start's links are within this (m)
+    margin : extra clearance the planners keep (m), so that the dense, certified check passes
+    coordination_checks : work budget of the coordinated planner's candidate search
+    search_evaluations : work budget of the search (coordinator runs); 0 turns it off
+    search_patience : the search stops after this many evaluations without a new best
+    seed : seed of the search's moves
+    polish : run the joint NLP from the incumbent when it still waits
+    tolerance : a makespan this close to the lower bound (s) is proven optimal
+    screen : initial NLP constraint points where the schedule's links are within this (m)
     screen_shift : ... also when one arm of a pair runs up to this much (s) earlier or later
     h_target : target knot spacing (s)
-    max_rounds : solves per window while adding constraint points
+    max_rounds : NLP solves per window while adding constraint points
     band : when the dense check finds a dip, points are also added wherever links come within
         ``band`` (m) of the refinement threshold
     window : receding-window length (s of schedule); schedules shorter than 1.5 windows are
         solved as one NLP
     overlap : each window is solved this much (s) past its cut and kept only up to it
-    window_time_limit : wall-clock cap of each IPOPT solve (s), so a struggling solve ends
-    warm_start_budget : wall-clock budget of the search for a conflict-free warm start (s)
-    time_limit : wall-clock limit for the whole optimisation (s); None for none
+    window_time_limit : optional wall-clock cap of each IPOPT solve (s); by default IPOPT's
+        iteration cap bounds it (the same on any machine)
+    time_limit : wall-clock limit for the whole planner (s); None for none. At the limit the
+        incumbent is returned.
     check_rate : rate of the planner's own dense clearance check (Hz)
     """
 
     margin: float = 0.015
+    coordination_checks: int = 3000
+    search_evaluations: int = 400
+    search_patience: int = 150
+    seed: int = 0
+    polish: bool = True
+    tolerance: float = 1e-3
     screen: float = 0.25
     h_target: float = 0.06
     max_rounds: int = 6
@@ -72,8 +85,7 @@ class OptimalOptions:
     window: float = 12.0
     overlap: float = 2.5
     time_limit: float | None = None
-    window_time_limit: float = 15.0
-    warm_start_budget: float = 4.0
+    window_time_limit: float | None = None
     check_rate: float = 1000.0
     ipopt: dict = field(default_factory=dict)
 
@@ -87,10 +99,11 @@ class OptimalResult:
     allocation: Allocation
     timings: dict[str, float]
     solver_status: SolverStatus
+    coordinated: Plan | None = None
 
 
-# ----------------------------------------------------------------------------- plans
-def _events(problem, schedules, grid: Grid, t_knots: np.ndarray, upto: int) -> list[Event]:
+# ----------------------------------------------------------------------------- the NLP
+def _events(schedules: dict[str, ArmSchedule], grid: Grid, t_knots: np.ndarray, upto: int) -> list[Event]:
     kinds = {StepKind.PICK: EventKind.PICK, StepKind.PLACE: EventKind.PLACE}
     out = []
     for n, sch in schedules.items():
@@ -98,154 +111,6 @@ def _events(problem, schedules, grid: Grid, t_knots: np.ndarray, upto: int) -> l
             if st.kind in kinds and k1 <= upto:
                 out.append(Event(n, st.fruit, kinds[st.kind], float(t_knots[k0]), float(t_knots[k1])))
     return sorted(out, key=lambda e: (e.t_start, e.arm))
-
-
-def _to_plan(problem, alloc, sampler, t_end, events, status, solver_info) -> Plan:
-    times = uniform_grid(t_end, DEFAULT_RATE)
-    q = sampler(times)
-    plan = Plan(
-        problem=problem.name,
-        planner=PlannerKind.OPTIMAL,
-        status=status,
-        time=times,
-        q=q,
-        events=events,
-        allocation={a: list(v) for a, v in alloc.assignment.items()},
-        unreachable=list(alloc.unreachable),
-        solver=solver_info,
-    )
-    plan.metrics = compute_metrics(plan, len(problem.reachable_ids()))
-    plan.metrics["lower_bound"] = alloc.lower_bound
-    return plan
-
-
-def _priority_orders(base: dict[str, ArmSchedule], limit: int = 2) -> list[list[str]]:
-    """Priority orders to try (ties and yields in :func:`coplan.coordinate.coordinate`): the arm
-    that finishes last first, then the reverse, then other orders (up to ``limit``)."""
-    import itertools
-
-    names = sorted(base, key=lambda n: -base[n].last_place)
-    if len(names) < 2:
-        return [names]
-    orders = [names, names[::-1]]
-    for perm in itertools.permutations(names):
-        if len(orders) >= limit:
-            break
-        if list(perm) not in orders:
-            orders.append(list(perm))
-    return orders[:limit]
-
-
-def _warm_variants(problem: Problem, alloc: Allocation, need: float):
-    """Schedules to coordinate for one allocation, most promising first: elbow branches chosen
-    to keep out of the neighbours' way (:func:`coplan.routing.choose_branches`), then the
-    allocation's own (fastest) branches, when they differ. (Moves that would box a neighbour
-    in are rerouted by the coordinator itself.)"""
-    seen = []
-    for label, al in (("branches", None), ("fastest", alloc)):
-        al = choose_branches(problem, alloc, need) if al is None else al
-        base = decoupled_schedules(problem, al)
-        key = [(n, [(st.kind, st.q1) for st in s.steps]) for n, s in base.items()]
-        if key in seen:
-            continue
-        seen.append(key)
-        yield label, base
-
-
-def _choose_warm_start(problem: Problem, method: AllocationMethod, opts: OptimalOptions, say):
-    """Allocation + conflict-free coordinated schedule: the fastest of a few candidates.
-
-    Allocations: the min-makespan assignment, then the same MILP with a territory penalty
-    (1, 3, 10 s for reaching into a neighbour's side) and/or with blocked pairs avoided (see
-    :func:`coplan.allocation.allocate`); the heuristic method uses the course's allocation only.
-    For each, schedules from :func:`_warm_variants`, each coordinated
-    (:func:`coplan.coordinate.coordinate`: legs booked in time, deadlocks broken by yields)
-    under the orders of :func:`_priority_orders`. The search goes breadth first -- the most
-    promising variant of every allocation, then the others -- and skips an allocation whose
-    own estimate (its arms' fastest decoupled finish, which no warm start from it can beat)
-    is no better than the best warm start found, and goes deeper only into allocations whose
-    first attempt came within 15 % of the best. Each attempt gets at most a third of
-    ``warm_start_budget``, so one hard candidate cannot use it all. The search stops at a
-    warm start within 2 % of the plain min-makespan estimate, or when the budget is spent;
-    the warm start that places its last fruit first is kept.
-    """
-    if method == AllocationMethod.MAKESPAN:
-        variants = [(t, b) for t in (0.0, 1.0, 3.0, 10.0) for b in (False, True)]
-    else:
-        variants = [(0.0, False)]
-    need = problem.task.clearance + opts.margin
-    t_stop = _time.perf_counter() + opts.warm_start_budget  # bounded: the NLP does the rest
-    per_try = opts.warm_start_budget / 3.0
-    best = None
-    tried: list[dict] = []
-    allocs: list[tuple] = []  # (territory, avoid, allocation, its remaining attempts, its first warm makespan)
-    seen = []
-
-    def attempts(alloc):
-        for kind, base in _warm_variants(problem, alloc, need):
-            for order in _priority_orders(base):
-                yield kind, base, order
-
-    def good_enough():
-        return best is not None and best[3] <= 1.02 * reference + 1e-6
-
-    def attempt(terr, avoid, alloc, kind, base, order):
-        nonlocal best
-        now = _time.perf_counter()
-        entry = {"territory": terr, "avoid_blocked": avoid, "schedules": kind, "priority": order,
-                 "estimate": alloc.estimated_makespan}
-        try:
-            sched, n, extra = coordinate(problem, base, opts.margin, priority=order, deadline=min(t_stop, now + per_try))
-        except ConflictError as e:
-            tried.append(entry | {"feasible": False, "reason": str(e), "seconds": _time.perf_counter() - now})
-            say(f"warm start candidate (territory {terr:g} s, {kind}): {e}")
-            return np.inf
-        span = max((s.last_place for s in sched.values()), default=0.0)
-        tried.append(entry | {"feasible": True, "warm_makespan": span, "waits": n, "yields": extra,
-                              "seconds": _time.perf_counter() - now})
-        if best is None or span < best[3] - 1e-9:
-            best = (alloc, sched, n, span)
-        return span
-
-    bound = lower_bound(problem)  # depends only on the problem: one MILP for every candidate
-    reference = None  # the plain min-makespan estimate: no candidate can beat it by waiting
-    # breadth first: the first attempt of every allocation
-    for terr, avoid in variants:
-        if good_enough() or _time.perf_counter() > t_stop:
-            break
-        alloc = allocate(problem, method, territory=terr, avoid_blocked=avoid, bound=bound)
-        reference = alloc.estimated_makespan if reference is None else reference
-        if alloc.assignment in seen:
-            continue
-        seen.append(alloc.assignment)
-        if best is not None and alloc.estimated_makespan >= best[3] - 1e-9:
-            continue
-        it = attempts(alloc)
-        first = next(it, None)
-        if first is not None:
-            allocs.append((terr, avoid, alloc, it, attempt(terr, avoid, alloc, *first)))
-    # then the remaining attempts, allocation by allocation, for allocations whose first
-    # attempt came within 15 % of the best (the other variants rarely gain more than that)
-    for terr, avoid, alloc, it, first_span in allocs:
-        if best is not None and first_span > 1.15 * best[3]:
-            continue
-        for kind, base, order in it:
-            if good_enough() or _time.perf_counter() > t_stop:
-                break
-            if best is not None and alloc.estimated_makespan >= best[3] - 1e-9:
-                break
-            attempt(terr, avoid, alloc, kind, base, order)
-    if best is None:
-        # no candidate could be coordinated: keep the first and let the NLP deform paths
-        alloc = allocate(problem, method, bound=bound)
-        sched = decoupled_schedules(problem, alloc)
-        best = (alloc, sched, 0, max((s.last_place for s in sched.values()), default=0.0))
-        say("no conflict-free warm start found; the optimiser starts from the colliding decoupled plan")
-    alloc, sched, n, span = best
-    say(f"allocation ({alloc.method.value}, territory {alloc.info.get('territory', 0):g} s): "
-        + ", ".join(f"{a} {len(f)}" for a, f in alloc.assignment.items())
-        + f"; warm start {span:.2f} s ({n} waits), lower bound {alloc.lower_bound:.2f} s")
-    return alloc, sched, n, tried
 
 
 _FAIL_STATUS = {
@@ -256,62 +121,29 @@ _FAIL_STATUS = {
 }
 
 
-def plan_optimal(
-    problem: Problem,
-    allocation: AllocationMethod | str = AllocationMethod.MAKESPAN,
-    options: OptimalOptions | None = None,
-    progress: Callable[[str], None] | None = None,
-) -> OptimalResult:
-    """Plan all arms jointly and verify. See the module docstring for the stages."""
-    from .pipeline import finalize
-    from .verify import verify
+def nlp_plan(problem: Problem, alloc: Allocation, sched: dict[str, ArmSchedule], opts: OptimalOptions | None = None,
+             deadline: float | None = None, say: Callable[[str], None] | None = None):
+    """The joint NLP over all arms from ``sched`` (receding windows); returns ``(plan, info)``.
 
-    opts = options or OptimalOptions()
-    say = progress or (lambda m: None)
-    t_start = _time.perf_counter()
-    deadline = None if opts.time_limit is None else t_start + opts.time_limit
-    timings: dict[str, float] = {}
-
-    # baseline, always available
-    tb = _time.perf_counter()
-    baseline = plan_heuristic(problem)
-    base_ver = verify(problem, baseline)
-    baseline = finalize(problem, baseline, base_ver)
-    timings["baseline"] = _time.perf_counter() - tb
-
-    t0 = _time.perf_counter()
-    alloc, sched, n_delays, tried = _choose_warm_start(problem, AllocationMethod(allocation), opts, say)
+    The plan is unverified (or failed/interrupted with the best iterate kept)."""
+    opts = opts or OptimalOptions()
+    say = say or (lambda m: None)
     grid = build_grid(sched, opts.h_target)
-    timings["allocation"] = _time.perf_counter() - t0
-
-    names = [a.name for a in problem.arms]
-    solver_info: dict = {"allocation": alloc.method.value, "sequence": alloc.sequence.value, "warm_start_delays": n_delays,
-                         "territory": alloc.info.get("territory"), "candidates": tried}
-    if not any(alloc.assignment.values()):
-        plan = _to_plan(problem, alloc, lambda t: {a.name: np.tile(a.home, (t.size, 1)) for a in problem.arms},
-                        0.0, [], PlanStatus.INFEASIBLE, solver_info | {"status": "infeasible", "message": "no reachable fruit"})
-        ver = verify(problem, plan)
-        return OptimalResult(finalize(problem, plan, ver), ver, baseline, base_ver, alloc, timings, SolverStatus.INFEASIBLE)
-
-    try:
-        # a window solved near the warm start after free-timing windows before it starts from a
-        # state those left; when any window could not be solved cleanly, the whole schedule is
-        # solved again with every window near the warm start from the first
-        for level in range(len(_LADDER) - 1):
-            stitched, info = solve_windows(problem, sched, grid, opts, deadline, say, level)
-            info["level"] = level
-            if info.get("clean") or info["status"] == SolverStatus.INTERRUPTED or (
-                    deadline is not None and _time.perf_counter() > deadline):
-                break
-            if level + 2 < len(_LADDER):
-                say(f"a window could not be solved cleanly: solving every window again with {_LADDER[level + 1][0]}")
-                timings["discarded_solve"] = timings.get("discarded_solve", 0.0) + info["build"] + info["solve"]
-    except KeyboardInterrupt:  # Ctrl-C outside IPOPT's iterations: keep the warm start
-        stitched, info = None, {"status": SolverStatus.INTERRUPTED, "ipopt_status": "KeyboardInterrupt", "iterations": 0}
-    timings["build"] = info.get("build", 0.0)
-    timings["solve"] = info.get("solve", 0.0) + timings.pop("discarded_solve", 0.0)  # every solve counts
+    # a window solved near the start's timing after free-timing windows before it starts from a
+    # state those left; when any window could not be solved cleanly, the whole schedule is
+    # solved again with every window near the start from the first
+    discarded = 0.0
+    for level in range(len(LADDER) - 1):
+        stitched, info = solve_windows(problem, sched, grid, opts, deadline, say, level)
+        info["level"] = level
+        if info.get("clean") or info["status"] == SolverStatus.INTERRUPTED or (
+                deadline is not None and _time.perf_counter() > deadline):
+            break
+        if level + 2 < len(LADDER):
+            say(f"a window could not be solved cleanly: solving every window again with {LADDER[level + 1][0]}")
+            discarded += info["build"] + info["solve"]
     status: SolverStatus = info["status"]
-    solver_info.update(
+    nlp_info = dict(
         status=status.value,
         ipopt_status=info.get("ipopt_status"),
         iterations=info.get("iterations"),
@@ -323,25 +155,207 @@ def plan_optimal(
         n_vars=info.get("n_vars"),
         n_cons=info.get("n_cons"),
         max_constraint_violation=info.get("max_violation"),
+        seconds=info.get("build", 0.0) + info.get("solve", 0.0) + discarded,
     )
-    if stitched is None:
-        # nothing optimised: the best we have is the conflict-free warm start
-        t_end = max(s.end for s in sched.values())
-        plan = _to_plan(problem, alloc, lambda t: {n: sched[n].state(t)[0] for n in names}, t_end,
-                        [e for s in sched.values() for e in s.events()], PlanStatus.INTERRUPTED,
-                        solver_info | {"message": "interrupted before the first iterate; the warm start is kept"})
-    else:
-        upto = stitched.t.size - 1
-        events = _events(problem, sched, grid, stitched.t, upto)
-        plan_status = PlanStatus.UNVERIFIED if status.converged else _FAIL_STATUS[status]
-        msg = (f"IPOPT {info.get('ipopt_status')}" if status.converged else
-               f"IPOPT stopped ({info.get('ipopt_status')}); the best iterate of window {info.get('complete_windows', 0) + 1} is kept")
-        plan = _to_plan(problem, alloc, stitched.sample, float(stitched.t[-1]), events, plan_status, solver_info | {"message": msg})
-    tv = _time.perf_counter()
-    ver = verify(problem, plan)
-    timings["verify"] = _time.perf_counter() - tv
-    plan = finalize(problem, plan, ver)
+    events = _events(sched, grid, stitched.t, stitched.t.size - 1)
+    plan_status = PlanStatus.UNVERIFIED if status.converged else _FAIL_STATUS[status]
+    msg = (f"IPOPT {info.get('ipopt_status')}" if status.converged else
+           f"IPOPT stopped ({info.get('ipopt_status')}); the best iterate of window {info.get('complete_windows', 0) + 1} is kept")
+    plan = make_plan(problem, alloc, stitched.sample, float(stitched.t[-1]), events, plan_status,
+                     {"nlp": nlp_info, "message": msg}, PlannerKind.OPTIMAL)
+    return plan, nlp_info, status
+
+
+# ----------------------------------------------------------------------------- the incumbent
+class _Incumbent:
+    """The best verified plan so far (see the module docstring for the acceptance rule)."""
+
+    def __init__(self, problem: Problem, t_start: float, say):
+        self.problem, self.t_start, self.say = problem, t_start, say
+        self.n_reach = len(problem.reachable_ids())
+        self.plan: Plan | None = None
+        self.verification = None
+        self.candidate: Coordinated | None = None
+        self.source = None
+        self.first_at = None
+        self.improved_at = None
+        self.history: list[dict] = []
+
+    @property
+    def makespan(self) -> float:
+        return self.plan.metrics["makespan"] if self.plan is not None else np.inf
+
+    def offer(self, plan: Plan, verification, source: str, candidate: Coordinated | None = None) -> bool:
+        plan = finalize_plan(plan, verification, self.n_reach)
+        if plan.status not in (PlanStatus.SUCCESS, PlanStatus.PARTIAL):
+            return False
+        if self.plan is not None:
+            got, have = plan.metrics["harvested"], self.plan.metrics["harvested"]
+            if got < have or (got == have and plan.metrics["makespan"] >= self.makespan - 1e-9):
+                return False
+        now = _time.perf_counter() - self.t_start
+        self.first_at = now if self.first_at is None else self.first_at
+        self.improved_at = now
+        self.plan, self.verification, self.source = plan, verification, source
+        self.candidate = candidate if candidate is not None else self.candidate
+        self.history.append({"t": now, "makespan": self.makespan, "source": source})
+        lb = plan.metrics.get("lower_bound") or 0.0
+        gap = f", {self.makespan / lb - 1:+.2%} over the lower bound {lb:.3f} s" if lb else ""
+        self.say(f"incumbent {self.makespan:.3f} s ({source}){gap}")
+        return True
+
+
+def plan_optimal(
+    problem: Problem,
+    allocation: AllocationMethod | str = AllocationMethod.MAKESPAN,
+    options: OptimalOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> OptimalResult:
+    """Plan all arms, anytime: coordinated plan, then search, then joint NLP; verified."""
+    from .verify import verify
+
+    opts = options or OptimalOptions()
+    say = progress or (lambda m: None)
+    t_start = _time.perf_counter()
+    deadline = None if opts.time_limit is None else t_start + opts.time_limit
+    timings: dict[str, float] = {}
+    n_reach = len(problem.reachable_ids())
+
+    # baseline, always available
+    tb = _time.perf_counter()
+    baseline = plan_heuristic(problem)
+    base_ver = verify(problem, baseline)
+    baseline = finalize_plan(baseline, base_ver, n_reach)
+    timings["baseline"] = _time.perf_counter() - tb
+
+    t0 = _time.perf_counter()
+    inc = _Incumbent(problem, t0, say)
+    cache: dict = {}  # routes and moves shared by every coordinator run
+    copts = CoordinatedOptions(margin=opts.margin, budget_checks=opts.coordination_checks, time_limit=opts.time_limit)
+    interrupted = False
+    stop = StopReason.BUDGET
+    search_info = nlp_info = None
+    coord_plan = None
+    try:
+        coord = plan_coordinated(problem, allocation, copts, say, cache)
+        timings["coordinated"] = _time.perf_counter() - t0
+        coord_plan = coord.plan
+        cand = coord.candidate
+        alloc = cand.alloc if cand is not None else None
+        if cand is not None:
+            inc.offer(schedules_plan(problem, cand.alloc, cand.schedules, PlannerKind.OPTIMAL, {}), coord.verification,
+                      "coordinated", cand)
+        bound = coord.plan.metrics.get("lower_bound") or 0.0
+
+        def proven() -> bool:
+            return inc.plan is not None and inc.plan.status == PlanStatus.SUCCESS and inc.makespan <= bound + opts.tolerance
+
+        # search: allocation, order, branches, priorities with the coordinator as evaluator
+        if inc.candidate is not None and not proven() and opts.search_evaluations > 0 and not inc.candidate.fallback:
+            ts = _time.perf_counter()
+
+            def on_improve(c: Coordinated) -> None:
+                p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
+                inc.offer(p, verify(problem, p), "search", c)
+
+            sopts = SearchOptions(evaluations=opts.search_evaluations, patience=opts.search_patience, seed=opts.seed,
+                                  tolerance=opts.tolerance,
+                                  fixed_assignment=AllocationMethod(allocation) != AllocationMethod.MAKESPAN)
+            _, stats = improve(problem, inc.candidate, bound, opts.margin, sopts, on_improve, deadline, cache)
+            search_info = stats.summary()
+            timings["search"] = _time.perf_counter() - ts
+            stop = stats.stop
+            interrupted = stats.stop == StopReason.INTERRUPTED
+        # polish: the joint NLP from the incumbent's schedules, where it still waits; or, when
+        # nothing could be verified, the last resort from whatever schedules there are
+        within = deadline is None or _time.perf_counter() < deadline
+        src = inc.candidate or cand
+        if src is None and n_reach:  # nothing coordinated: the NLP starts from the decoupled plan
+            from .allocation import allocate
+
+            a0 = allocate(problem, allocation)
+            src = Coordinated(a0, decoupled_schedules(problem, a0), a0.estimated_makespan)
+            say("no conflict-free coordination found; the joint NLP starts from the decoupled (colliding) plan")
+        waits = src is not None and any(st.kind == StepKind.WAIT for s in src.schedules.values() for st in s.steps)
+        if not interrupted and within and src is not None and not proven() and (
+                inc.plan is None or (opts.polish and waits)):
+            tp = _time.perf_counter()
+            plan, nlp_info, nlp_status = nlp_plan(problem, src.alloc, src.schedules, opts, deadline, say)
+            timings["polish"] = _time.perf_counter() - tp
+            interrupted = nlp_status == SolverStatus.INTERRUPTED
+            if plan.status == PlanStatus.UNVERIFIED:
+                ver = verify(problem, plan)
+                accepted = inc.offer(plan, ver, "joint NLP")
+                nlp_info["accepted"] = accepted
+                if not accepted and inc.plan is not None:
+                    say(f"joint NLP: {plan.metrics['makespan']:.3f} s, not better than the incumbent; kept the incumbent")
+            if inc.plan is None:  # nothing verified at all: report the NLP's plan honestly
+                ver = verify(problem, plan)
+                plan = finalize_plan(plan, ver, n_reach)
+                inc.plan, inc.verification, inc.source = plan, ver, "joint NLP (unverified)"
+        if proven():
+            stop = StopReason.PROVEN_OPTIMAL
+        elif deadline is not None and _time.perf_counter() >= deadline:
+            stop = StopReason.TIME_LIMIT
+    except KeyboardInterrupt:
+        interrupted = True
+    if interrupted:
+        stop = StopReason.INTERRUPTED
+    if inc.plan is None:  # interrupted before anything, or nothing could be planned
+        if coord_plan is not None:
+            inc.plan, inc.verification = coord_plan, None
+        else:
+            from .allocation import allocate
+
+            alloc0 = allocate(problem, allocation)
+            inc.plan = make_plan(problem, alloc0, lambda t: {a.name: np.tile(a.home, (t.size, 1)) for a in problem.arms},
+                                 0.0, [], PlanStatus.INTERRUPTED, {"message": "interrupted before the first plan"},
+                                 PlannerKind.OPTIMAL)
+        inc.verification = inc.verification or verify(problem, inc.plan)
+    plan = inc.plan
+    plan.planner = PlannerKind.OPTIMAL
+    if interrupted:
+        plan.status = PlanStatus.INTERRUPTED
+    plan = finalize_plan(plan, inc.verification, n_reach)
+    coord_mk = coord_plan.metrics.get("makespan") if coord_plan is not None and coord_plan.status == PlanStatus.SUCCESS else None
+    lb = plan.metrics.get("lower_bound")
+    mk = plan.metrics.get("makespan") or 0.0
+    verified = plan.verification is not None and plan.verification.get("passed")
+    plan.metrics.update(
+        coordinated_makespan=coord_mk,
+        improvement_over_coordinated=(1.0 - mk / coord_mk) if coord_mk else None,
+        optimality="proven" if (verified and lb and mk <= lb + opts.tolerance) else "not proven",
+        baseline_makespan=baseline.metrics.get("makespan"),
+        time_to_first_verified=inc.first_at,
+        time_of_last_improvement=inc.improved_at,
+    )
     timings["total"] = _time.perf_counter() - t_start - timings["baseline"]
-    plan.solver["timings"] = dict(timings)
-    plan.metrics["baseline_makespan"] = baseline.metrics.get("makespan")
-    return OptimalResult(plan, ver, baseline, base_ver, alloc, timings, status)
+    plan.solver = {
+        "status": plan.status.value,
+        "message": _message(inc, stop),
+        "stopped_by": stop.value,
+        "incumbent_from": inc.source,
+        "incumbents": inc.history,
+        "allocation": AllocationMethod(allocation).value,
+        "coordinated": coord_plan.solver if coord_plan is not None else None,
+        "search": search_info,
+        "nlp": nlp_info,
+        "options": {k: v for k, v in opts.__dict__.items() if k != "ipopt"} | {"ipopt": dict(opts.ipopt)},
+        "timings": dict(timings),
+    }
+    alloc_out = inc.candidate.alloc if inc.candidate is not None else None
+    status = SolverStatus.INTERRUPTED if interrupted else SolverStatus.OPTIMAL if verified else SolverStatus.NUMERICAL_ERROR
+    return OptimalResult(plan, inc.verification, baseline, base_ver, alloc_out, timings, status, coord_plan)
+
+
+def _message(inc: _Incumbent, stop: StopReason) -> str:
+    if inc.source is None or inc.source.endswith("(unverified)"):
+        return "no verified plan was found; the best the solver had is kept"
+    words = {
+        StopReason.PROVEN_OPTIMAL: "the plan meets the lower bound: proven optimal",
+        StopReason.BUDGET: "the work budget is spent",
+        StopReason.STALLED: "the search stopped improving",
+        StopReason.TIME_LIMIT: "the time limit was reached; the verified incumbent is returned",
+        StopReason.INTERRUPTED: "interrupted; the verified incumbent is saved",
+    }
+    return f"{words[stop]} (incumbent from the {inc.source})"

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from .allocation import AllocationMethod, allocate
 from .heuristic import plan_heuristic
-from .plan import Plan, PlannerKind, PlanStatus, compute_metrics
+from .plan import Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem import Problem, load_problem
 
 __all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
@@ -74,25 +74,7 @@ class SolveResult:
 
 def finalize(problem: Problem, plan: Plan, verification) -> Plan:
     """Set the plan's status from the verifier's verdict (never upgrades a solver failure)."""
-    plan.verification = verification.summary() if verification is not None else None
-    n_reach = len(problem.reachable_ids())
-    lb = plan.metrics.get("lower_bound")
-    plan.metrics = compute_metrics(plan, n_reach) | {k: v for k, v in plan.metrics.items() if k in ("lower_bound",)}
-    if lb:
-        plan.metrics["gap_to_lower_bound"] = plan.metrics["makespan"] / lb if plan.metrics["makespan"] else None
-    if plan.status in (PlanStatus.FAILED, PlanStatus.INTERRUPTED, PlanStatus.INFEASIBLE):
-        return plan
-    if verification is None:
-        plan.status = PlanStatus.UNVERIFIED
-    elif not verification.passed:
-        plan.status = PlanStatus.UNSAFE
-    elif n_reach == 0:
-        plan.status = PlanStatus.INFEASIBLE
-    elif plan.metrics["harvested"] < n_reach:
-        plan.status = PlanStatus.PARTIAL
-    else:
-        plan.status = PlanStatus.SUCCESS
-    return plan
+    return finalize_plan(plan, verification, len(problem.reachable_ids()))
 
 
 def solve(
@@ -108,12 +90,15 @@ def solve(
     Parameters
     ----------
     problem : a :class:`Problem` or the path of a YAML problem file
-    planner : ``optimal`` (default) or ``heuristic``
+    planner : ``optimal`` (default, anytime: never slower than ``coordinated``),
+        ``coordinated`` (fast: no NLP) or ``heuristic`` (the course's baseline)
     allocation : ``makespan`` or ``heuristic``; default: the planner's own
-        (``heuristic`` for the baseline, ``makespan`` for the optimal planner)
+        (``heuristic`` for the baseline, ``makespan`` for the others)
     out_dir : when given, ``plan.json`` (+ CSV, NPZ), ``verification.json`` and, for the
         optimal planner, ``baseline.json`` are written there
-    options : :class:`coplan.optimal.OptimalOptions` for the optimal planner
+    options : :class:`coplan.optimal.OptimalOptions` for the optimal planner,
+        :class:`coplan.coordinated.CoordinatedOptions` for the coordinated one (an
+        ``OptimalOptions`` lends it its margin, budget and time limit)
     progress : optional callable(str) receiving progress messages
     """
     from .verify import verify
@@ -137,6 +122,16 @@ def solve(
         ver = verify(prob, plan)
         timings["verify"] = _time.perf_counter() - tv
         plan = finalize(prob, plan, ver)
+    elif planner == PlannerKind.COORDINATED:
+        from .coordinated import CoordinatedOptions, plan_coordinated
+
+        method = AllocationMethod(allocation or AllocationMethod.MAKESPAN)
+        copts = options if isinstance(options, CoordinatedOptions) else CoordinatedOptions(
+            margin=options.margin, budget_checks=options.coordination_checks, time_limit=options.time_limit
+        ) if options is not None else None
+        res = plan_coordinated(prob, allocation=method, options=copts, progress=say)
+        plan, ver = res.plan, res.verification
+        timings.update(res.timings)
     else:
         from .optimal import plan_optimal
 

@@ -30,6 +30,7 @@ __all__ = [
     "Plan",
     "sample_pieces",
     "compute_metrics",
+    "finalize_plan",
     "load_plan",
 ]
 
@@ -38,8 +39,9 @@ DEFAULT_RATE = 100.0  # Hz
 
 
 class PlannerKind(str, Enum):
-    HEURISTIC = "heuristic"
-    OPTIMAL = "optimal"
+    HEURISTIC = "heuristic"  # the course's nearest-arm allocation + cubic splines (the baseline)
+    COORDINATED = "coordinated"  # min-makespan allocation, S-curve moves, conflict-free coordination
+    OPTIMAL = "optimal"  # anytime: the coordinated plan improved by search and joint optimisation
 
 
 class PlanStatus(str, Enum):
@@ -233,6 +235,35 @@ def compute_metrics(plan: Plan, n_reachable: int) -> dict[str, Any]:
         "throughput": harvested / makespan if makespan > 0 else 0.0,
         "per_arm": per_arm,
     }
+
+
+def finalize_plan(plan: Plan, verification, n_reachable: int) -> Plan:
+    """Set the plan's metrics and status from the verifier's verdict (never upgrades a solver
+    failure or an interruption). ``verification`` is the verifier's result (or None)."""
+    plan.verification = verification.summary() if verification is not None else None
+    keep = {k: v for k, v in plan.metrics.items() if k in _KEPT_METRICS}
+    plan.metrics = compute_metrics(plan, n_reachable) | keep
+    lb = plan.metrics.get("lower_bound")
+    if lb:
+        plan.metrics["gap_to_lower_bound"] = plan.metrics["makespan"] / lb if plan.metrics["makespan"] else None
+    if plan.status in (PlanStatus.FAILED, PlanStatus.INTERRUPTED, PlanStatus.INFEASIBLE):
+        return plan
+    if verification is None:
+        plan.status = PlanStatus.UNVERIFIED
+    elif not verification.passed:
+        plan.status = PlanStatus.UNSAFE
+    elif n_reachable == 0:
+        plan.status = PlanStatus.INFEASIBLE
+    elif plan.metrics["harvested"] < n_reachable:
+        plan.status = PlanStatus.PARTIAL
+    else:
+        plan.status = PlanStatus.SUCCESS
+    return plan
+
+
+# metrics a planner sets itself (kept when the metrics are recomputed)
+_KEPT_METRICS = ("lower_bound", "optimality", "coordinated_makespan", "improvement_over_coordinated",
+                 "baseline_makespan", "time_to_first_verified", "time_of_last_improvement")
 
 
 def _busy_time(plan: Plan, arm: str) -> float:

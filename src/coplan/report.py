@@ -34,7 +34,7 @@ from .problem import Problem, load_problem
 
 __all__ = ["PlannerSpec", "DEFAULT_PLANNERS", "Comparison", "compare", "run_row", "aggregate", "to_markdown", "rich_tables"]
 
-DEFAULT_PLANNERS = ("heuristic", "optimal")
+DEFAULT_PLANNERS = ("heuristic", "coordinated", "optimal")
 
 
 @dataclass(frozen=True)
@@ -148,6 +148,8 @@ def run_row(problem: Problem, spec: PlannerSpec, plan: Plan, summary: dict[str, 
         "verify_time": timings.get("verify"),
         "lower_bound": lb,
         "makespan_ratio": _ratio(m.get("makespan"), lb),
+        "optimality": m.get("optimality") or ("proven" if summary.get("passed") and lb and m.get("makespan") is not None
+                                              and m["makespan"] <= lb + 1e-3 else "not proven"),
     }
 
 
@@ -176,9 +178,9 @@ def compare(
     Parameters
     ----------
     source : a problem file, a folder of problem files, or a list of files
-    planners : planner specs, e.g. ``("heuristic", "optimal")`` or ``("heuristic", "heuristic:makespan")``
+    planners : planner specs, e.g. ``("heuristic", "coordinated", "optimal")`` or ``("heuristic", "heuristic:makespan")``
     figures : also draw :func:`coplan.viz.plots.save_comparison_figures` per problem
-    options : :class:`coplan.optimal.OptimalOptions` for the optimal planner
+    options : :class:`coplan.optimal.OptimalOptions` for the optimal and coordinated planners
 
     A single bad problem file raises :class:`ProblemError`; in a folder it is recorded (in
     ``problems[*].error``) and the rest are compared. A planner that fails (a coplan error,
@@ -211,7 +213,7 @@ def compare(
                              "reachable": len(problem.reachable_ids()), "error": None})
         for spec in specs:
             say(f"{problem.name}: solving with {spec.label}")
-            kw = {"options": options} if spec.planner == PlannerKind.OPTIMAL else {}
+            kw = {"options": options} if spec.planner != PlannerKind.HEURISTIC else {}
             try:
                 res = solve(problem, planner=spec.planner, allocation=spec.allocation, out_dir=out / stem / spec.folder,
                             progress=say, **kw)
@@ -344,6 +346,7 @@ _FIGURES: list[tuple[str, str, Callable[[dict], str]]] = [
     ("planning time (s)", "planning_time", lambda r: _f(r.get("planning_time"), 3)),
     ("makespan lower bound (s)", "lower_bound", lambda r: _f(r.get("lower_bound"))),
     ("makespan / lower bound", "makespan_ratio", lambda r: _f(r.get("makespan_ratio"), 3)),
+    ("optimality", "optimality", lambda r: r.get("optimality") or "-"),
 ]
 
 

@@ -45,9 +45,11 @@ def _stow_poses(arm: Arm, n_shoulder: int = 12) -> np.ndarray:
     for s in np.linspace(-np.pi, np.pi, n_shoulder, endpoint=False):
         s = float(np.clip(s, lim[0, 0], lim[0, 1]))
         cands += [np.array([s, f]) for f in folds]
-    out = []
-    for c in cands:
-        if not any(np.allclose(c, o) for o in out):
+    out, seen = [], set()
+    for c in cands:  # first occurrence of each pose (to 1e-7 rad)
+        key = tuple(np.round(c, 7))
+        if key not in seen:
+            seen.add(key)
             out.append(c)
     return np.array(out)
 

@@ -5,7 +5,7 @@ are screened from the warm start (:func:`screen_points`) and refined from a dens
 each solution (:func:`refine_points`); cuts avoid dwells and the knots just before a rest
 (:func:`_cut_allowed`); each window commits where no arm is saturated (:func:`_choose_commit`)
 and hands its state, solution and points to the next; a window that cannot be solved with
-free timing is solved again near the warm start's timing (``_LADDER``).
+free timing is solved again near the warm start's timing (``LADDER``).
 """
 
 from __future__ import annotations
@@ -220,7 +220,7 @@ class _Stitched:
 # only just meet. The verifier still certifies the full clearance.
 # The fourth element is the weight that keeps every arm near the warm start's pose at each
 # knot (``build_nlp(track=...)``): the arms then keep the warm start's relative progress.
-_LADDER = (
+LADDER = (
     ("free timing", (0.3, 2.0), 1.0, 0.0),
     ("timing held within -15/+10 % of the warm start", (0.85, 1.1), 0.6, 10.0),
     ("the warm start's timing (only slower, up to +10 %)", (1.0, 1.1), 0.4, 100.0),
@@ -239,9 +239,10 @@ def _solve_rounds(problem, schedules, grid, opts: OptimalOptions, window, points
     need = problem.task.clearance + opts.margin / 2
     sol = None
     for rnd in range(opts.max_rounds):
-        remaining = opts.window_time_limit
+        remaining = opts.window_time_limit  # None by default: IPOPT's iteration cap bounds the work
         if deadline is not None:
-            remaining = min(remaining, max(deadline - _time.perf_counter(), 1e-3))
+            left = max(deadline - _time.perf_counter(), 1e-3)
+            remaining = left if remaining is None else min(remaining, left)
         nlp = build_nlp(problem, schedules, grid, points, opts.margin, window=(lo, hi), start=start_state,
                         ipopt_options=opts.ipopt, warm=sol, carry=prev_sol, h_bounds=h_bounds, track=track)
         sol = solve_nlp(nlp, names, time_limit=remaining)
@@ -266,7 +267,7 @@ def _solve_rounds(problem, schedules, grid, opts: OptimalOptions, window, points
 
 
 def solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say, level: int = 0) -> tuple[_Stitched, dict]:
-    """Solve the receding windows in order; each window tries ``_LADDER[level:]`` in turn.
+    """Solve the receding windows in order; each window tries ``LADDER[level:]`` in turn.
 
     ``info["clean"]`` says whether every window ended converged with its dense check clean."""
     names = [a.name for a in problem.arms]
@@ -295,7 +296,7 @@ def solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say,
         have = set(points)
         points += [p for p in carried if lo <= p.k <= hi and p not in have]
         sol, first, clean, label = None, points, False, ""
-        for attempt, (label, h_bounds, mscale, track) in enumerate(_LADDER[level:], start=level):
+        for attempt, (label, h_bounds, mscale, track) in enumerate(LADDER[level:], start=level):
             if attempt > level and deadline is not None and _time.perf_counter() > deadline:
                 break
             if attempt > level:

@@ -1,0 +1,306 @@
+"""Large-neighbourhood search over allocation, order, elbow branches and priorities, with the
+fast coordinator as its evaluator (used by the anytime optimal planner, :mod:`coplan.optimal`).
+
+Entry point: :func:`improve`. A state is which arm takes which fruit in which order, which
+elbow-branch rule builds the poses, and the arms' priority order. A move changes one of them:
+
+* ``first``    -- put one of an arm's fruit first (the only trip that starts from home),
+* ``relocate`` -- give one fruit to another arm that reaches it (at its x-sorted place),
+* ``swap``     -- exchange two fruit between two arms that reach both,
+* ``exchange`` / ``reverse`` -- reorder within an arm (two fruit; the whole sweep),
+* ``variant``  -- elbow branches chosen for speed or for keeping out of the neighbours' way,
+* ``priority`` -- which arm goes first when two want the same space.
+
+Moves mostly touch the critical arm (the one placing last). Each candidate is first bounded
+from below by its arms' decoupled finish times (the per-arm dynamic programme over elbow
+branches, cached per sequence): one that cannot beat the current state is rejected without
+coordinating. The others are coordinated (:func:`coplan.coordinate.coordinate`, sharing one
+cache of routes and moves) and kept when their makespan is lower, or equal with less total
+work. After ``stall`` evaluations without progress the search restarts from the best state
+with a few random moves (an iterated local search).
+
+Every budget is work -- coordinator runs, proposals -- and the random moves come from a seeded
+generator, so the same problem and options give the same plan on any machine and under any
+load. Only an explicit ``deadline`` depends on the clock. It stops at once when the makespan
+meets the lower bound (``tolerance``): the plan is then proven optimal.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from enum import Enum
+
+import numpy as np
+
+from .allocation import Allocation, arm_configs, choose_branches as fastest_branches
+from .coordinate import coordinate
+from .coordinated import Coordinated, makespan_of
+from .problem import Problem
+from .routing import choose_branches as clear_branches
+from .schedule import ConflictError, decoupled_schedules
+
+__all__ = ["SearchOptions", "SearchStats", "StopReason", "improve"]
+
+
+class StopReason(str, Enum):
+    PROVEN_OPTIMAL = "proven_optimal"  # the makespan meets the lower bound
+    BUDGET = "budget"  # the work budget (evaluations) is spent
+    STALLED = "stalled"  # no improvement within ``patience`` evaluations
+    TIME_LIMIT = "time_limit"  # the explicit clock limit
+    INTERRUPTED = "interrupted"  # Ctrl-C
+
+
+@dataclass(frozen=True)
+class SearchOptions:
+    """Work budget and rules of :func:`improve`.
+
+    evaluations : coordinator runs (the work budget)
+    patience : stop after this many evaluations without a new best
+    stall : restart from the best state (with ``kick`` random moves) after this many
+        evaluations without progress of the current state
+    attempt_checks : work cap of one coordinator run (conflict checks)
+    seed : seed of the move generator
+    fixed_assignment : keep which arm takes which fruit (order, branches and priorities
+        still change); used when the caller asked for a given allocation method
+    tolerance : a makespan this close to the lower bound (s) is optimal
+    """
+
+    evaluations: int = 400
+    patience: int = 200
+    stall: int = 25
+    kick: int = 2
+    attempt_checks: int = 600
+    seed: int = 0
+    fixed_assignment: bool = False
+    tolerance: float = 1e-3
+
+
+@dataclass
+class SearchStats:
+    evaluations: int = 0
+    proposals: int = 0
+    pruned: int = 0
+    failed: int = 0
+    improvements: int = 0
+    restarts: int = 0
+    stop: StopReason = StopReason.BUDGET
+    moves: dict | None = None  # move kind -> [tried, improved]
+
+    def summary(self) -> dict:
+        return {"evaluations": self.evaluations, "proposals": self.proposals, "pruned_by_bound": self.pruned,
+                "coordination_failed": self.failed, "improvements": self.improvements, "restarts": self.restarts,
+                "stopped_by": self.stop.value, "moves": self.moves}
+
+
+@dataclass(frozen=True)
+class _State:
+    assign: tuple[tuple[str, ...], ...]  # per arm (problem order), fruit in harvesting order
+    variant: str  # "branches" | "fastest"
+    order: tuple[str, ...]  # priority
+
+
+_MOVES = ("first", "relocate", "swap", "exchange", "reverse", "variant", "priority")
+_WEIGHTS = np.array([3.0, 4.0, 3.0, 1.5, 0.5, 0.5, 0.75])
+
+
+class _Search:
+    def __init__(self, problem: Problem, start: Coordinated, margin: float, opts: SearchOptions, cache: dict):
+        self.problem, self.margin, self.opts, self.cache = problem, margin, opts, cache
+        self.names = [a.name for a in problem.arms]
+        self.cfg = [arm_configs(problem, arm) for arm in problem.arms]
+        self.pos = {f.id: f.position for f in problem.fruits}
+        self.reach = {f.id: [i for i in range(len(self.names)) if f.id in self.cfg[i][1]] for f in problem.fruits}
+        self.start_alloc = start.alloc
+        self.rng = np.random.default_rng(opts.seed)
+        self._dp: dict = {}
+        self.stats = SearchStats(moves={m: [0, 0] for m in _MOVES})
+        w = _WEIGHTS * [not (opts.fixed_assignment and m in ("relocate", "swap")) for m in _MOVES]
+        self.weights = w / w.sum()
+
+    def state_of(self, c: Coordinated) -> _State:
+        order = tuple(c.order) if c.order else tuple(self.names)
+        variant = c.variant if c.variant in ("branches", "fastest") else "branches"
+        return _State(tuple(tuple(c.alloc.assignment[n]) for n in self.names), variant, order)
+
+    # ---- evaluation
+    def dp(self, i: int, seq: tuple[str, ...]):
+        key = (i, seq)
+        hit = self._dp.get(key)
+        if hit is None:
+            bins, fq = self.cfg[i]
+            hit = fastest_branches(self.problem, self.problem.arms[i], seq, bins, fq) if seq else ([], [], 0.0)
+            self._dp[key] = hit
+        return hit
+
+    def estimate(self, s: _State) -> float:
+        return max((self.dp(i, seq)[2] for i, seq in enumerate(s.assign)), default=0.0)
+
+    def evaluate(self, s: _State) -> Coordinated | None:
+        fruit_q, place_q, est = {}, {}, {}
+        for i, seq in enumerate(s.assign):
+            fs, ps, t = self.dp(i, seq)
+            n = self.names[i]
+            fruit_q[n], place_q[n], est[n] = dict(zip(seq, fs)), dict(zip(seq, ps)), t
+        al = replace(self.start_alloc, assignment=dict(zip(self.names, s.assign)), fruit_q=fruit_q, place_q=place_q,
+                     estimate=est)
+        if s.variant == "branches":
+            al = clear_branches(self.problem, al, self.problem.task.clearance + self.margin)
+        base = decoupled_schedules(self.problem, al)
+        self.stats.evaluations += 1
+        try:
+            sched, waits, _ = coordinate(self.problem, base, self.margin, priority=list(s.order),
+                                         max_checks=self.opts.attempt_checks, cache=self.cache)
+        except ConflictError:
+            self.stats.failed += 1
+            return None
+        return Coordinated(al, sched, makespan_of(sched), list(s.order), s.variant, waits)
+
+    # ---- moves
+    def critical(self, c: Coordinated) -> int:
+        last = [c.schedules[n].last_place for n in self.names]
+        if self.rng.random() < 0.7:
+            return int(np.argmax(last))
+        busy = [i for i, seq in enumerate(c.alloc.assignment[n] for n in self.names) if seq]
+        return int(self.rng.choice(busy)) if busy else 0
+
+    def insert_sorted(self, seq: list[str], f: str) -> list[str]:
+        x = self.pos[f][0]
+        k = next((k for k, g in enumerate(seq) if self.pos[g][0] > x), len(seq))
+        return seq[:k] + [f] + seq[k:]
+
+    def propose(self, s: _State, c: int) -> tuple[str, _State] | None:
+        kind = str(self.rng.choice(_MOVES, p=self.weights))
+        assign = [list(seq) for seq in s.assign]
+        mine = assign[c]
+        rng = self.rng
+        if kind == "variant":
+            return kind, replace(s, variant="fastest" if s.variant == "branches" else "branches")
+        if kind == "priority":
+            if len(s.order) < 2:
+                return None
+            i, j = rng.choice(len(s.order), 2, replace=False)
+            order = list(s.order)
+            order[i], order[j] = order[j], order[i]
+            return kind, replace(s, order=tuple(order))
+        if not mine:
+            return None
+        f = mine[int(rng.integers(len(mine)))]
+        if kind == "first":
+            if mine[0] == f:
+                return None
+            assign[c] = [f] + [g for g in mine if g != f]
+        elif kind == "reverse":
+            if len(mine) < 2:
+                return None
+            assign[c] = mine[::-1]
+        elif kind == "exchange":
+            if len(mine) < 2:
+                return None
+            i, j = rng.choice(len(mine), 2, replace=False)
+            mine[i], mine[j] = mine[j], mine[i]
+        elif kind == "relocate":
+            others = [b for b in self.reach[f] if b != c]
+            if not others:
+                return None
+            b = int(rng.choice(others))
+            assign[c] = [g for g in mine if g != f]
+            assign[b] = self.insert_sorted(assign[b], f)
+        else:  # swap
+            pairs = [(b, g) for b in self.reach[f] if b != c for g in assign[b] if c in self.reach[g]]
+            if not pairs:
+                return None
+            b, g = pairs[int(rng.integers(len(pairs)))]
+            assign[c] = [g if h == f else h for h in mine]
+            assign[b] = [f if h == g else h for h in assign[b]]
+        return kind, replace(s, assign=tuple(tuple(seq) for seq in assign))
+
+
+def _better(a: Coordinated, b: Coordinated) -> bool:
+    """Whether ``a`` beats ``b``: a lower makespan, or the same with less total work."""
+    if a.makespan < b.makespan - 1e-9:
+        return True
+    return abs(a.makespan - b.makespan) <= 1e-9 and a.total < b.total - 1e-9
+
+
+def improve(
+    problem: Problem,
+    start: Coordinated,
+    bound: float,
+    margin: float,
+    options: SearchOptions | None = None,
+    on_improve: Callable[[Coordinated], None] | None = None,
+    deadline: float | None = None,
+    cache: dict | None = None,
+) -> tuple[Coordinated, SearchStats]:
+    """Improve a coordinated candidate by large-neighbourhood search (see the module docstring).
+
+    ``on_improve`` is called with every new best (lower makespan). Returns the best candidate
+    and the search's statistics (``stats.stop`` says what ended it). Ctrl-C ends the search
+    with what it has (``StopReason.INTERRUPTED``).
+    """
+    opts = options or SearchOptions()
+    srch = _Search(problem, start, margin, opts, {} if cache is None else cache)
+    st = srch.stats
+    best = cur = start
+    s_cur = srch.state_of(start)
+    seen = {s_cur}
+    since_best = since_cur = 0
+    max_proposals = 50 * opts.evaluations + 100
+    try:
+        while True:
+            if best.makespan <= bound + opts.tolerance:
+                st.stop = StopReason.PROVEN_OPTIMAL
+                break
+            if st.evaluations >= opts.evaluations or st.proposals >= max_proposals:
+                st.stop = StopReason.BUDGET
+                break
+            if since_best >= opts.patience:
+                st.stop = StopReason.STALLED
+                break
+            if deadline is not None and _time.perf_counter() > deadline:
+                st.stop = StopReason.TIME_LIMIT
+                break
+            if since_cur >= opts.stall:  # restart from the best with a kick
+                st.restarts += 1
+                cur, s_cur, since_cur = best, srch.state_of(best), 0
+                for _ in range(opts.kick):
+                    mv = srch.propose(s_cur, srch.critical(cur))
+                    if mv is not None:
+                        s_cur = mv[1]
+                trial = srch.evaluate(s_cur) if srch.estimate(s_cur) < best.makespan + 2.0 else None
+                if trial is not None:
+                    cur = trial
+                else:
+                    s_cur = srch.state_of(best)
+                continue
+            st.proposals += 1
+            mv = srch.propose(s_cur, srch.critical(cur))
+            if mv is None:
+                continue
+            kind, s_new = mv
+            if s_new in seen:
+                continue
+            seen.add(s_new)
+            if srch.estimate(s_new) > cur.makespan + 1e-9:
+                st.pruned += 1
+                continue
+            st.moves[kind][0] += 1
+            cand = srch.evaluate(s_new)
+            since_best += 1
+            since_cur += 1
+            if cand is None or not _better(cand, cur):
+                continue
+            cur, s_cur, since_cur = cand, s_new, 0
+            if cand.makespan < best.makespan - 1e-9:
+                best, since_best = cand, 0
+                st.improvements += 1
+                st.moves[kind][1] += 1
+                if on_improve is not None:
+                    on_improve(best)
+            elif _better(cand, best):
+                best = cand
+    except KeyboardInterrupt:
+        st.stop = StopReason.INTERRUPTED
+    return best, st
