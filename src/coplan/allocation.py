@@ -18,10 +18,12 @@ without any change to travel time (every cycle starts and ends at the bin, so th
 changes the first move from home). ``file`` keeps file order; ``shortest`` puts the fruit
 closest in time to home first and sorts the rest by x.
 
-The makespan lower bound (:attr:`Allocation.lower_bound`) is the optimum of the same
-assignment problem with per-fruit costs no plan can beat: per joint time-optimal moves
-(the slowest joint alone), the cheaper of coming from home or from the bin, the best IK
-branches. It is valid for any allocation, sequence and trajectory.
+The makespan lower bound (:attr:`Allocation.lower_bound`, :func:`lower_bound`,
+:func:`bound_details`) relaxes the problem to arms that never wait for each other: each arm
+goes home -> its first fruit -> bin, then bin -> fruit -> bin, with per-joint time-optimal
+moves (the slowest joint alone), the best IK branches and both dwells. The min over
+assignments and first fruits of the slowest arm's time is a MILP (HiGHS); its dual bound
+is valid for any allocation, sequence and trajectory.
 """
 
 from __future__ import annotations
@@ -33,13 +35,15 @@ from enum import Enum
 
 import numpy as np
 from scipy.optimize import Bounds, LinearConstraint, milp
+from scipy.sparse import coo_array
 
 from . import kinematics as kin
 from .errors import CoplanError
 from .problem import Arm, Problem
 from .timing import SCurve, move_lower_bound
 
-__all__ = ["AllocationMethod", "SequenceRule", "Allocation", "allocate", "arm_configs", "lower_bound"]
+__all__ = ["AllocationMethod", "SequenceRule", "Allocation", "allocate", "arm_configs", "lower_bound", "bound_details",
+           "LowerBound", "bound_allocation", "screened_reach"]
 
 
 class AllocationMethod(str, Enum):
@@ -103,29 +107,40 @@ def _lb_time(arm: Arm, q0, q1) -> float:
     return move_lower_bound(q0, q1, arm.max_velocity, arm.max_acceleration, arm.max_jerk)
 
 
-def _branches(arm: Arm, point, margin: float) -> list[np.ndarray]:
-    q, valid = arm.ik(np.asarray(point, float), margin)
-    return [q[b] for b in range(2) if valid[b]]
-
-
-def arm_configs(problem: Problem, arm: Arm, prefer_elbow_up: bool = False):
+def arm_configs(problem: Problem, arm: Arm, prefer_elbow_up: bool = False, screen: bool = True):
     """IK branches an arm can use: over its bin, and at every fruit it can reach.
 
-    Returns ``(bin_branches, {fruit_id: [branches]})`` (lists of (2,) joint poses). With
+    Returns ``(bin_branches, {fruit_id: [branches]})`` (lists of (2,) joint poses). Only
+    branches the static feasibility screen leaves usable (:func:`coplan.screen.screened`;
+    ``screen=False``: every valid IK branch, as the course does): an arm that can never reach
+    its bin gets ``([], {})`` and takes no fruit. With
     ``prefer_elbow_up`` (the course's IK) only the elbow-up branch is kept where it is valid.
     """
+    from .screen import screened
+
+    scr = screened(problem)
     margin = problem.task.reach_margin
-    bins = _branches(arm, arm.bin, 0.0)
+    q, valid = arm.ik(np.asarray(arm.bin, float), 0.0)
+    bins = [q[b] for b in range(2) if valid[b] and (not screen or b in scr.bin_branches.get(arm.name, []))]
     if not bins:
-        raise AllocationError(f"arm {arm.name!r} cannot reach its bin")
+        return [], {}
     if prefer_elbow_up:
         bins = bins[:1]
     fruit_q: dict[str, list[np.ndarray]] = {}
-    for f in problem.fruits:
-        br = _branches(arm, f.position, margin)
+    q, valid = arm.ik(problem.fruit_positions, margin)  # every fruit at once
+    for f, qs, ok in zip(problem.fruits, q, valid):
+        usable = scr.fruit_branches.get((arm.name, f.id), []) if screen else (0, 1)
+        br = [qs[b] for b in range(2) if ok[b] and b in usable]
         if br:
             fruit_q[f.id] = br[:1] if prefer_elbow_up else br
     return bins, fruit_q
+
+
+def screened_reach(problem: Problem) -> np.ndarray:
+    """(A, F) bool: which arm can harvest which fruit, after the static feasibility screen."""
+    from .screen import screened
+
+    return screened(problem).reach
 
 
 def _round_trip(arm: Arm, bins, branches, timer) -> float:
@@ -208,84 +223,166 @@ def _blocked(problem: Problem, a: int, bins, branches, samples: int = 24) -> boo
     return True
 
 
-def _solve_minmax(cost: np.ndarray, reach: np.ndarray, time_limit: float | None, offset=None):
-    """min over assignments of max_a (offset[a] + sum_f cost[a, f] x[a, f]).
+def _first_candidates(pairs: np.ndarray, saving: np.ndarray, only: np.ndarray):
+    """(pairs given a first-fruit binary y, pairs g forcing sum y >= x[g], arms always used), exact:
+    an arm that alone reaches some fruit always harvests it, so y is needed only below its least
+    saving m among those (and on that fruit), with sum y = 1. Otherwise y is needed where the
+    saving (P,) is < 0 or, if some is > 0, everywhere: positive g force a first fruit."""
+    ys, force, always = [], [], set()
+    for a in np.unique(pairs[:, 0]):
+        idx = np.flatnonzero(pairs[:, 0] == a)
+        s, own = saving[idx], only[pairs[idx, 1]]
+        if own.any():
+            k = int(np.argmin(np.where(own, s, np.inf)))
+            ys += [*idx[s < s[k]], idx[k]]
+            always.add(a)
+        else:
+            ys += list(idx if (s > 0).any() else idx[s < 0])
+            force += list(idx[s > 0])
+    return np.array(ys, int), np.array(force, int), always
 
-    Returns (assign (F,), value, dual bound). ``offset`` (A,) <= 0 applies to used arms.
+
+def _minmax_milp(cost, reach, time_limit, offset=None, saving=None, tie_break=True):
+    """min t: each fruit to one arm that reaches it, t >= offset[a] + sum_f cost[a, f] x[a, f]
+    (+ saving[a, f] y[a, f], y: the arm's first fruit, see :func:`_first_candidates`).
+
+    ``tie_break`` adds a tiny total-work term (allocation). Returns (scipy result, arm per
+    fruit (F,) or -1, HiGHS's dual bound or nan).
     """
     A, F = cost.shape
     offset = np.zeros(A) if offset is None else np.asarray(offset, float)
     pairs = np.argwhere(reach)  # (P, 2) rows (a, f)
     P = len(pairs)
-    n = P + 1
+    ys, force, always = np.zeros(0, int), np.zeros(0, int), set()
+    if saving is not None:
+        ys, force, always = _first_candidates(pairs, saving[reach], reach.sum(axis=0) == 1)
+    n = P + len(ys) + 1
     c = np.zeros(n)
     c[-1] = 1.0
-    c[:P] = 1e-4 * cost[pairs[:, 0], pairs[:, 1]] / max(F, 1)
-    rows, lo, hi = [], [], []
+    if tie_break:
+        c[:P] = 1e-4 * cost[pairs[:, 0], pairs[:, 1]] / max(F, 1)
+    ents, lo, hi = [], [], []  # (row, column, value), row bounds
+
+    def row(cols, vals, lb, ub):
+        ents.extend((len(lo), j, v) for j, v in zip(cols, np.broadcast_to(vals, len(cols))))
+        lo.append(lb)
+        hi.append(ub)
+
     for f in range(F):
-        r = np.zeros(n)
-        r[:P][pairs[:, 1] == f] = 1.0
-        rows.append(r)
-        lo.append(1.0)
-        hi.append(1.0)
+        row(np.flatnonzero(pairs[:, 1] == f), 1.0, 1.0, 1.0)
     for a in range(A):
-        r = np.zeros(n)
-        m = pairs[:, 0] == a
-        r[:P][m] = cost[a, pairs[m, 1]]
-        r[-1] = -1.0
-        rows.append(r)
-        lo.append(-np.inf)
-        hi.append(-offset[a])
-    integrality = np.ones(n)
-    integrality[-1] = 0
-    opts = {"disp": False, "mip_rel_gap": 1e-6}
-    if time_limit is not None:
-        opts["time_limit"] = float(time_limit)
+        m, my = np.flatnonzero(pairs[:, 0] == a), P + np.flatnonzero(pairs[ys, 0] == a)
+        sv = saving[a, pairs[ys[my - P], 1]] if my.size else []
+        row(np.r_[m, my, n - 1], np.r_[cost[a, pairs[m, 1]], sv, -1.0], -np.inf, -offset[a])
+        if my.size:  # at most one first fruit (exactly one if the arm is always used)
+            row(my, 1.0, 1.0 if a in always else -np.inf, 1.0)
+            for g in force[pairs[force, 0] == a]:
+                row(np.r_[my, g], np.r_[np.ones(my.size), -1.0], 0.0, np.inf)
+    for q, p in enumerate(ys):  # y[a, f] <= x[a, f]
+        row([P + q, p], [1.0, -1.0], -np.inf, 0.0)
+    r, j, v = np.array(ents, float).reshape(-1, 3).T
+    mat = coo_array((v, (r.astype(int), j.astype(int))), shape=(len(lo), n)).tocsr()
+    opts = {"disp": False, "mip_rel_gap": 1e-6} | ({} if time_limit is None else {"time_limit": float(time_limit)})
     res = milp(
         c,
-        constraints=LinearConstraint(np.array(rows), lo, hi),
-        integrality=integrality,
-        bounds=Bounds(np.zeros(n), np.r_[np.ones(P), np.inf]),
+        constraints=LinearConstraint(mat, lo, hi),
+        integrality=np.r_[np.ones(n - 1), 0.0],
+        bounds=Bounds(np.zeros(n), np.r_[np.ones(n - 1), np.inf]),
         options=opts,
     )
+    assign = np.full(F, -1)
+    if res.x is not None:
+        x = res.x[:P] > 0.5
+        assign[pairs[x, 1]] = pairs[x, 0]
+    dual = getattr(res, "mip_dual_bound", None)
+    return res, assign, float(dual) if dual is not None and np.isfinite(dual) else np.nan
+
+
+def _solve_minmax(cost: np.ndarray, reach: np.ndarray, time_limit: float | None, offset=None, tie_break: bool = True):
+    """min over assignments of max_a (offset[a] + sum_f cost[a, f] x[a, f]).
+
+    Returns (assign (F,), value, dual bound). ``offset`` (A,) <= 0 applies to used arms.
+    Without ``tie_break`` the objective is the makespan alone, so the dual bound bounds it.
+    """
+    A = cost.shape[0]
+    offset = np.zeros(A) if offset is None else np.asarray(offset, float)
+    res, assign, dual = _minmax_milp(cost, reach, time_limit, offset, tie_break=tie_break)
     if res.x is None:
         raise AllocationError(f"assignment MILP failed: {res.message}")
-    x = res.x[:P] > 0.5
-    assign = np.full(F, -1)
-    assign[pairs[x, 1]] = pairs[x, 0]
     value = float(max(offset[a] + cost[a, assign == a].sum() if (assign == a).any() else 0.0 for a in range(A)))
-    dual = getattr(res, "mip_dual_bound", None)
-    dual = float(dual) if dual is not None and np.isfinite(dual) else value
-    return assign, value, min(dual, value)
+    return assign, value, min(value, dual) if np.isfinite(dual) else value
+
+
+@dataclass(frozen=True)
+class LowerBound:
+    """:func:`bound_details`: ``value`` the bound (s), HiGHS's dual bound (the MILP's optimum once
+    ``proven``: status 0, no gap left); ``primal`` its incumbent's makespan (nan if none);
+    ``first_fruit`` arm -> the fruit the incumbent approaches from home (None: an idle arm);
+    ``assignment`` arm -> the incumbent's fruit, its first fruit first and the rest by x (a
+    plan that runs it without waiting meets the bound: see :func:`bound_allocation`)."""
+
+    value: float
+    proven: bool
+    dual_bound: float
+    primal: float
+    first_fruit: dict[str, str | None]
+    seconds: float
+    assignment: dict[str, tuple[str, ...]] = field(default_factory=dict)
+
+
+def bound_details(problem: Problem, reach: np.ndarray | None = None, time_limit: float | None = 5.0) -> LowerBound:
+    """Makespan lower bound valid for every plan, with the MILP's details.
+
+    A one-arm-at-a-time relaxation: each arm goes home -> first fruit -> bin, then bin ->
+    fruit -> bin for the rest, every move per-joint time-optimal (the slowest joint alone,
+    best IK branches and bin poses), plus both dwells per fruit; arms never wait for each
+    other. The min over assignments and first fruits of the slowest arm's time is solved as
+    a MILP (HiGHS); its dual bound is taken, so a time-limited solve stays a valid bound.
+    """
+    t0 = _time.perf_counter()
+    reach = screened_reach(problem) if reach is None else reach
+    names = [arm.name for arm in problem.arms]
+    cols = np.flatnonzero(reach.any(axis=0))
+    if cols.size == 0:
+        return LowerBound(0.0, True, 0.0, 0.0, dict.fromkeys(names), _time.perf_counter() - t0, {n: () for n in names})
+    dw = problem.task.pick_dwell + problem.task.place_dwell
+    A = len(problem.arms)
+    cost, saving = np.zeros((A, cols.size)), np.zeros((A, cols.size))
+    for a, arm in enumerate(problem.arms):
+        bins, fq = arm_configs(problem, arm)
+        home = np.asarray(arm.home, float)
+        for k, j in enumerate(cols):
+            if reach[a, j]:  # _round_trip and _first_trip at once (lower-bound moves are symmetric)
+                br = fq[problem.fruits[j].id]
+                leg = [min(_lb_time(arm, qb, qf) for qb in bins) for qf in br]
+                cost[a, k] = 2.0 * min(leg) + dw
+                saving[a, k] = min(_lb_time(arm, home, qf) + t for qf, t in zip(br, leg)) - 2.0 * min(leg)
+    sub = reach[:, cols]
+    res, assign, dual = _minmax_milp(cost, sub, time_limit, saving=saving, tie_break=False)
+    first, primal = dict.fromkeys(names), np.nan if res.x is None else 0.0
+    for a in range(A):  # the incumbent's makespan; an arm's first fruit has its least saving
+        mine = np.flatnonzero(assign == a)
+        if mine.size:
+            k = mine[np.argmin(saving[a, mine])]
+            first[names[a]] = problem.fruits[cols[k]].id
+            primal = max(primal, cost[a, mine].sum() + saving[a, k])
+    if not np.isfinite(dual):  # stopped before any dual bound: the costliest fruit, or the mean arm
+        most = np.where(sub, cost + np.minimum(saving, 0.0), np.inf).min(axis=0).max()
+        mean = (np.where(sub, cost, np.inf).min(axis=0).sum() + np.minimum(saving, 0.0).min(axis=1).sum()) / A
+        dual = float(max(most, mean))
+    proven = res.status == 0 and primal - dual <= 1e-6 * max(1.0, primal)  # False if primal is nan
+    value = min(dual, primal) if np.isfinite(primal) else dual
+    pos = {f.id: f.position for f in problem.fruits}
+    assignment = {}
+    for a, n in enumerate(names):
+        ids = sorted((problem.fruits[cols[k]].id for k in np.flatnonzero(assign == a)), key=lambda f: (pos[f][0], pos[f][1]))
+        assignment[n] = tuple(([first[n]] if first[n] else []) + [f for f in ids if f != first[n]])
+    return LowerBound(float(value), bool(proven), float(dual), float(primal), first, _time.perf_counter() - t0, assignment)
 
 
 def lower_bound(problem: Problem, reach: np.ndarray | None = None, time_limit: float | None = 5.0) -> float:
-    """Makespan lower bound valid for every plan.
-
-    Each fruit costs at least its cheapest bin -> fruit -> bin round trip with per-joint
-    time-optimal moves (best IK branches) plus both dwells; one fruit per arm may instead be
-    approached from home, which an arm-wide offset min(0, min_f first(f) - round(f)) covers.
-    The min-max assignment of these costs (solved exactly, its dual bound taken) bounds the
-    makespan of any allocation, sequence and trajectory from below.
-    """
-    reach = problem.reach_matrix() if reach is None else reach
-    cols = np.flatnonzero(reach.any(axis=0))
-    if cols.size == 0:
-        return 0.0
-    dw = problem.task.pick_dwell + problem.task.place_dwell
-    A = len(problem.arms)
-    cost = np.zeros((A, cols.size))
-    offset = np.zeros(A)
-    for a, arm in enumerate(problem.arms):
-        bins, fq = arm_configs(problem, arm)
-        for k, j in enumerate(cols):
-            fid = problem.fruits[j].id
-            if reach[a, j]:
-                rt = _round_trip(arm, bins, fq[fid], _lb_time)
-                cost[a, k] = rt + dw
-                offset[a] = min(offset[a], _first_trip(arm, bins, fq[fid], _lb_time) - rt)
-    _, _, dual = _solve_minmax(cost, reach[:, cols], time_limit, offset)
-    return dual
+    """Makespan lower bound valid for every plan: :attr:`LowerBound.value` of :func:`bound_details`."""
+    return bound_details(problem, reach, time_limit).value
 
 
 def allocate(
@@ -317,9 +414,9 @@ def allocate(
     if sequence is None:
         sequence = SequenceRule.FILE if method == AllocationMethod.HEURISTIC else SequenceRule.SWEEP
     sequence = SequenceRule(sequence)
-    reach = problem.reach_matrix()
-    elbow_up = method == AllocationMethod.HEURISTIC
-    cfg = [arm_configs(problem, arm, prefer_elbow_up=elbow_up) for arm in problem.arms]
+    course = method == AllocationMethod.HEURISTIC  # the course's rule knows nothing of the screen
+    reach = problem.reach_matrix() if course else screened_reach(problem)
+    cfg = [arm_configs(problem, arm, prefer_elbow_up=course, screen=not course) for arm in problem.arms]
     F = len(problem.fruits)
     assign = np.full(F, -1)
     info: dict = {}
@@ -354,30 +451,51 @@ def allocate(
             sub, value, dual = _solve_minmax(cost, reach[:, cols], time_limit)
             assign[cols] = sub
             info.update(milp_makespan=value, milp_dual_bound=dual, territory=territory, avoid_blocked=avoid_blocked)
+    seqs = {}
+    for a, arm in enumerate(problem.arms):
+        ids = [problem.fruits[j].id for j in np.flatnonzero(assign == a)]
+        seqs[arm.name] = _sequence(problem, arm, ids, sequence, *cfg[a])
+    unreachable = tuple(f.id for j, f in enumerate(problem.fruits) if not reach[:, j].any())
+    lb = float(lower_bound(problem) if bound is None else bound)
+    return _build(problem, method, sequence, seqs, cfg, unreachable, lb, t0, info)
+
+
+def _build(problem: Problem, method, sequence, seqs: dict[str, tuple[str, ...]], cfg, unreachable, lb: float, t0: float,
+           info: dict) -> Allocation:
+    """An :class:`Allocation` of given sequences: IK branches by :func:`choose_branches`."""
     assignment: dict[str, tuple[str, ...]] = {}
     estimate: dict[str, float] = {}
     fruit_q: dict[str, dict[str, np.ndarray]] = {}
     place_q: dict[str, dict[str, np.ndarray]] = {}
     for a, arm in enumerate(problem.arms):
-        bins, fq = cfg[a]
-        ids = [problem.fruits[j].id for j in np.flatnonzero(assign == a)]
-        seq = _sequence(problem, arm, ids, sequence, bins, fq)
-        fs, ps, t_end = choose_branches(problem, arm, seq, bins, fq)
+        seq = tuple(seqs.get(arm.name, ()))
+        fs, ps, t_end = choose_branches(problem, arm, seq, *cfg[a]) if seq else ([], [], 0.0)
         assignment[arm.name] = seq
         estimate[arm.name] = t_end
         fruit_q[arm.name] = dict(zip(seq, fs))
         place_q[arm.name] = dict(zip(seq, ps))
-    lb = lower_bound(problem, reach) if bound is None else bound
     return Allocation(
         method=method,
         sequence=sequence,
         assignment=assignment,
-        unreachable=tuple(f.id for j, f in enumerate(problem.fruits) if not reach[:, j].any()),
+        unreachable=unreachable,
         fruit_q=fruit_q,
         place_q=place_q,
-        bin_q={arm.name: cfg[a][0][0] for a, arm in enumerate(problem.arms)},
+        bin_q={arm.name: cfg[a][0][0] if cfg[a][0] else np.asarray(arm.home, float) for a, arm in enumerate(problem.arms)},
         estimate=estimate,
         lower_bound=lb,
         seconds=_time.perf_counter() - t0,
         info=info,
     )
+
+
+def bound_allocation(problem: Problem, details: LowerBound | None = None) -> Allocation:
+    """The lower bound's own assignment as an allocation: each arm's first fruit as the bound
+    chose it, the rest swept by x, fastest IK branches. Run without waiting, it meets the bound."""
+    t0 = _time.perf_counter()
+    details = details or bound_details(problem)
+    reach = screened_reach(problem)
+    cfg = [arm_configs(problem, arm) for arm in problem.arms]
+    unreachable = tuple(f.id for j, f in enumerate(problem.fruits) if not reach[:, j].any())
+    return _build(problem, AllocationMethod.MAKESPAN, SequenceRule.SHORTEST, details.assignment, cfg, unreachable,
+                  details.value, t0, {"bound_allocation": True})

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .allocation import Allocation, AllocationMethod, allocate, lower_bound
+from .allocation import Allocation, AllocationMethod, allocate, bound_allocation, bound_details
 from .coordinate import coordinate
 from .heuristic import grid as uniform_grid
 from .plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics, finalize_plan
@@ -166,8 +166,8 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
                      cache: dict | None = None, deadline: float | None = None) -> tuple[Coordinated | None, list[dict], float]:
     """The fastest conflict-free coordinated candidate of a few allocations (see the module
     docstring). Returns ``(candidate or None, attempts tried, lower bound)``."""
-    if method == AllocationMethod.MAKESPAN:
-        variants = [(t, b) for t in (0.0, 1.0, 3.0, 10.0) for b in (False, True)]
+    if method == AllocationMethod.MAKESPAN:  # None: the lower bound's own assignment
+        variants = [(None, False)] + [(t, b) for t in (0.0, 1.0, 3.0, 10.0) for b in (False, True)]
     else:
         variants = [(0.0, False)]
     need = problem.task.clearance + opts.margin
@@ -177,7 +177,8 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
     tried: list[dict] = []
     allocs: list[tuple] = []  # (territory, avoid, allocation, its remaining attempts, its first makespan)
     seen = []
-    bound = lower_bound(problem)  # depends only on the problem: one MILP for every candidate
+    details = bound_details(problem)  # depends only on the problem: one MILP for every candidate
+    bound = details.value
     reference = None  # the plain min-makespan estimate: no candidate can beat it by waiting
 
     def attempts(alloc):
@@ -197,12 +198,13 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
         base = decoupled_schedules(problem, alloc)
         if clear(problem, base, need):
             span = makespan_of(base)
-            tried.append({"territory": 0.0, "schedules": "decoupled", "feasible": True, "makespan": span, "waits": 0})
+            tried.append({"allocation": "bound" if alloc.info.get("bound_allocation") else "milp", "schedules": "decoupled",
+                          "feasible": True, "makespan": span, "waits": 0})
             best = Coordinated(alloc, base, span, [], "fastest", 0)
 
     def attempt(terr, avoid, label, al, base, order):
         nonlocal best, left
-        entry = {"territory": terr, "avoid_blocked": avoid, "schedules": label, "priority": order,
+        entry = {"allocation": "bound" if terr is None else "milp", "territory": terr, "avoid_blocked": avoid, "schedules": label, "priority": order,
                  "estimate": al.estimated_makespan}
         checks = min(opts.attempt_checks, left)
         try:
@@ -211,7 +213,7 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
         except ConflictError as e:
             left -= checks
             tried.append(entry | {"feasible": False, "reason": str(e)})
-            say(f"coordination candidate (territory {terr:g} s, {label}): {e}")
+            say(f"coordination candidate ({entry['allocation']}, territory {terr or 0:g} s, {label}): {e}")
             return np.inf
         left -= 1  # every attempt costs at least one unit, so the search always ends
         span = makespan_of(sched)
@@ -223,7 +225,10 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
     for terr, avoid in variants:  # breadth first: the first attempt of every allocation
         if good_enough() or out_of_work():
             break
-        alloc = allocate(problem, method, territory=terr, avoid_blocked=avoid, bound=bound)
+        if terr is None:
+            alloc = bound_allocation(problem, details)
+        else:
+            alloc = allocate(problem, method, territory=terr, avoid_blocked=avoid, bound=bound)
         if reference is None:
             reference = alloc.estimated_makespan
             decoupled(alloc)

@@ -241,7 +241,6 @@ def plan_optimal(
         timings["coordinated"] = _time.perf_counter() - t0
         coord_plan = coord.plan
         cand = coord.candidate
-        alloc = cand.alloc if cand is not None else None
         if cand is not None:
             inc.offer(schedules_plan(problem, cand.alloc, cand.schedules, PlannerKind.OPTIMAL, {}), coord.verification,
                       "coordinated", cand)

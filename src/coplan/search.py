@@ -8,6 +8,7 @@ elbow-branch rule builds the poses, and the arms' priority order. A move changes
 * ``relocate`` -- give one fruit to another arm that reaches it (at its x-sorted place),
 * ``swap``     -- exchange two fruit between two arms that reach both,
 * ``exchange`` / ``reverse`` -- reorder within an arm (two fruit; the whole sweep),
+* ``flip``     -- force the other elbow branch at one fruit (or release a forced one),
 * ``variant``  -- elbow branches chosen for speed or for keeping out of the neighbours' way,
 * ``priority`` -- which arm goes first when two want the same space.
 
@@ -34,7 +35,7 @@ from enum import Enum
 
 import numpy as np
 
-from .allocation import Allocation, arm_configs, choose_branches as fastest_branches
+from .allocation import arm_configs, choose_branches as fastest_branches
 from .coordinate import coordinate
 from .coordinated import Coordinated, makespan_of
 from .problem import Problem
@@ -99,10 +100,14 @@ class _State:
     assign: tuple[tuple[str, ...], ...]  # per arm (problem order), fruit in harvesting order
     variant: str  # "branches" | "fastest"
     order: tuple[str, ...]  # priority
+    forced: frozenset = frozenset()  # (arm index, fruit id, branch index): elbow branch forced at a fruit
+
+    def forced_of(self, i: int) -> tuple:
+        return tuple(sorted((f, b) for a, f, b in self.forced if a == i))
 
 
-_MOVES = ("first", "relocate", "swap", "exchange", "reverse", "variant", "priority")
-_WEIGHTS = np.array([3.0, 4.0, 3.0, 1.5, 0.5, 0.5, 0.75])
+_MOVES = ("first", "relocate", "swap", "exchange", "reverse", "flip", "variant", "priority")
+_WEIGHTS = np.array([3.0, 4.0, 3.0, 1.0, 0.5, 2.0, 0.5, 0.5])
 
 
 class _Search:
@@ -125,28 +130,34 @@ class _Search:
         return _State(tuple(tuple(c.alloc.assignment[n]) for n in self.names), variant, order)
 
     # ---- evaluation
-    def dp(self, i: int, seq: tuple[str, ...]):
-        key = (i, seq)
+    def dp(self, i: int, seq: tuple[str, ...], forced: tuple = ()):
+        """The arm's fastest branches along ``seq`` (some fruit's branch forced): ``(fruit poses,
+        place poses, finish)``, cached."""
+        key = (i, seq, forced)
         hit = self._dp.get(key)
         if hit is None:
             bins, fq = self.cfg[i]
+            if forced:
+                fq = fq | {f: [fq[f][b]] for f, b in forced}
             hit = fastest_branches(self.problem, self.problem.arms[i], seq, bins, fq) if seq else ([], [], 0.0)
             self._dp[key] = hit
         return hit
 
     def estimate(self, s: _State) -> float:
-        return max((self.dp(i, seq)[2] for i, seq in enumerate(s.assign)), default=0.0)
+        return max((self.dp(i, seq, s.forced_of(i))[2] for i, seq in enumerate(s.assign)), default=0.0)
 
     def evaluate(self, s: _State) -> Coordinated | None:
         fruit_q, place_q, est = {}, {}, {}
         for i, seq in enumerate(s.assign):
-            fs, ps, t = self.dp(i, seq)
+            fs, ps, t = self.dp(i, seq, s.forced_of(i))
             n = self.names[i]
             fruit_q[n], place_q[n], est[n] = dict(zip(seq, fs)), dict(zip(seq, ps)), t
         al = replace(self.start_alloc, assignment=dict(zip(self.names, s.assign)), fruit_q=fruit_q, place_q=place_q,
                      estimate=est)
         if s.variant == "branches":
             al = clear_branches(self.problem, al, self.problem.task.clearance + self.margin)
+            for i, f, b in s.forced:  # a forced branch stands
+                al.fruit_q[self.names[i]][f] = self.cfg[i][1][f][b]
         base = decoupled_schedules(self.problem, al)
         self.stats.evaluations += 1
         try:
@@ -187,6 +198,17 @@ class _Search:
         if not mine:
             return None
         f = mine[int(rng.integers(len(mine)))]
+        forced = s.forced
+        if kind == "flip":
+            branches = self.cfg[c][1][f]
+            hit = [x for x in forced if x[0] == c and x[1] == f]
+            if hit:
+                return kind, replace(s, forced=forced - set(hit))
+            if len(branches) < 2:
+                return None
+            now = self.dp(c, s.assign[c], s.forced_of(c))[0][s.assign[c].index(f)]
+            b = 1 if np.allclose(now, branches[0]) else 0
+            return kind, replace(s, forced=forced | {(c, f, b)})
         if kind == "first":
             if mine[0] == f:
                 return None
@@ -207,6 +229,7 @@ class _Search:
             b = int(rng.choice(others))
             assign[c] = [g for g in mine if g != f]
             assign[b] = self.insert_sorted(assign[b], f)
+            forced = frozenset(x for x in forced if x[1] != f)
         else:  # swap
             pairs = [(b, g) for b in self.reach[f] if b != c for g in assign[b] if c in self.reach[g]]
             if not pairs:
@@ -214,7 +237,8 @@ class _Search:
             b, g = pairs[int(rng.integers(len(pairs)))]
             assign[c] = [g if h == f else h for h in mine]
             assign[b] = [f if h == g else h for h in assign[b]]
-        return kind, replace(s, assign=tuple(tuple(seq) for seq in assign))
+            forced = frozenset(x for x in forced if x[1] not in (f, g))
+        return kind, replace(s, assign=tuple(tuple(seq) for seq in assign), forced=forced)
 
 
 def _better(a: Coordinated, b: Coordinated) -> bool:
@@ -246,7 +270,7 @@ def improve(
     best = cur = start
     s_cur = srch.state_of(start)
     seen = {s_cur}
-    since_best = since_cur = 0
+    since_best = since_cur = idle = 0
     max_proposals = 50 * opts.evaluations + 100
     try:
         while True:
@@ -256,7 +280,7 @@ def improve(
             if st.evaluations >= opts.evaluations or st.proposals >= max_proposals:
                 st.stop = StopReason.BUDGET
                 break
-            if since_best >= opts.patience:
+            if since_best >= opts.patience or idle >= 500:  # no progress, or no new state left to try
                 st.stop = StopReason.STALLED
                 break
             if deadline is not None and _time.perf_counter() > deadline:
@@ -276,6 +300,7 @@ def improve(
                     s_cur = srch.state_of(best)
                 continue
             st.proposals += 1
+            idle += 1
             mv = srch.propose(s_cur, srch.critical(cur))
             if mv is None:
                 continue
@@ -286,6 +311,7 @@ def improve(
             if srch.estimate(s_new) > cur.makespan + 1e-9:
                 st.pruned += 1
                 continue
+            idle = 0
             st.moves[kind][0] += 1
             cand = srch.evaluate(s_new)
             since_best += 1
