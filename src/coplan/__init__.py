@@ -7,11 +7,28 @@ Pipeline: ``problem -> allocate -> plan -> verify -> report``. The quickest way 
     result.plan.metrics["makespan"], result.status
 """
 
-from .allocation import Allocation, AllocationMethod, SequenceRule, allocate
-from .errors import CoplanError, InputError, PlanFileError, ProblemError
-from .plan import EventKind, Plan, PlannerKind, PlanStatus, load_plan
-from .pipeline import ExitCode, SolveResult, solve
-from .problem import Arm, Fruit, Problem, Task, default_problem_path, load_problem, parse_problem, shipped_problems
+from .kinds import AllocationMethod, EventKind, ExitCode, PlannerKind, PlanStatus, SequenceRule
+
+# the rest is imported on first use (PEP 562), so `import coplan` and `coplan --help` stay quick
+_LAZY = {
+    "Allocation": "allocation", "allocate": "allocation",
+    "CoplanError": "errors", "InputError": "errors", "PlanFileError": "errors", "ProblemError": "errors",
+    "Plan": "plan", "load_plan": "plan",
+    "SolveResult": "pipeline", "solve": "pipeline",
+    "Arm": "problem", "Fruit": "problem", "Problem": "problem", "Task": "problem", "default_problem_path": "problem",
+    "load_problem": "problem", "parse_problem": "problem", "shipped_problems": "problem",
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __version__ = "0.1.0"
 

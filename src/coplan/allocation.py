@@ -31,30 +31,17 @@ from __future__ import annotations
 import math
 import time as _time
 from dataclasses import dataclass, field
-from enum import Enum
 
 import numpy as np
-from scipy.optimize import Bounds, LinearConstraint, milp
-from scipy.sparse import coo_array
 
 from . import kinematics as kin
 from .errors import CoplanError
+from .kinds import AllocationMethod, SequenceRule
 from .problem import Arm, Problem
 from .timing import SCurve, move_lower_bound
 
 __all__ = ["AllocationMethod", "SequenceRule", "Allocation", "allocate", "arm_configs", "lower_bound", "bound_details",
            "LowerBound", "bound_allocation", "screened_reach"]
-
-
-class AllocationMethod(str, Enum):
-    HEURISTIC = "heuristic"
-    MAKESPAN = "makespan"
-
-
-class SequenceRule(str, Enum):
-    FILE = "file"
-    SWEEP = "sweep"
-    SHORTEST = "shortest"
 
 
 class AllocationError(CoplanError):
@@ -249,6 +236,9 @@ def _minmax_milp(cost, reach, time_limit, offset=None, saving=None, tie_break=Tr
     ``tie_break`` adds a tiny total-work term (allocation). Returns (scipy result, arm per
     fruit (F,) or -1, HiGHS's dual bound or nan).
     """
+    from scipy.optimize import Bounds, LinearConstraint, milp  # imported here: `coplan --help` stays quick
+    from scipy.sparse import coo_array
+
     A, F = cost.shape
     offset = np.zeros(A) if offset is None else np.asarray(offset, float)
     pairs = np.argwhere(reach)  # (P, 2) rows (a, f)

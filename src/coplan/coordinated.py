@@ -303,7 +303,9 @@ def plan_coordinated(
     best, tried, bound = find_coordinated(problem, AllocationMethod(allocation), opts, say, cache, deadline)
     timings = {"allocation": _time.perf_counter() - t0}
     n_reach = len(problem.reachable_ids())
-    info = {"allocation": AllocationMethod(allocation).value, "candidates": tried}
+    from .screen import screened
+
+    info = {"allocation": AllocationMethod(allocation).value, "candidates": tried, "screen": screened(problem).summary()}
     if best is None:
         alloc = allocate(problem, allocation, bound=bound)
         status = PlanStatus.INFEASIBLE if n_reach == 0 else PlanStatus.FAILED

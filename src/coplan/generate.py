@@ -12,6 +12,9 @@ Every generated problem validates with :func:`coplan.problem.parse_problem`.
 * :func:`random_problem` -- 2-5 arms with random spacing (1.2-2.4 m), link lengths, joint,
   velocity, acceleration and jerk limits, home pose, bins and fruit count; draws again
   (deterministically) until the problem validates.
+* :func:`cell_problem` -- a harder, less regular distribution: 2-5 arms with each gap drawn
+  on its own (1.0-2.6 m), every arm its own link lengths and limits, bins off-centre,
+  4-30 fruit; tight gaps lock arms or leave fruit only one arm can take.
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ import numpy as np
 
 from . import kinematics as kin
 
-__all__ = ["row_problem", "overlap_problem", "random_problem", "to_yaml", "LESSON_DEFAULTS", "LESSON_TASK"]
+__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "to_yaml", "LESSON_DEFAULTS", "LESSON_TASK"]
 
 #: The arm of the course's cell (``greenhouse_row.yaml``): every field of ``defaults``.
 LESSON_DEFAULTS: dict[str, Any] = {
@@ -208,20 +211,72 @@ def random_problem(
     repeated, deterministically, until the problem validates (e.g. home poses that respect
     the clearance at tight spacing); raises ``RuntimeError`` after ``max_tries``.
     """
+    return _valid_draw(_draw_random, "random_problem", seed, n_arms, n_fruits, max_tries)
+
+
+def cell_problem(seed: int, n_arms: int | None = None, n_fruits: int | None = None, max_tries: int = 200) -> dict[str, Any]:
+    """A random cell unlike :func:`random_problem`'s: 2-5 arms (or ``n_arms``), each gap drawn on
+    its own from 1.0-2.6 m, every arm its own link lengths (reach 1.4-2.1 m) and velocity,
+    acceleration and jerk limits, bins off-centre (up to 0.4 m to either side), 4-30 fruit (or
+    ``n_fruits``) anywhere over the row. Redrawn (deterministically) until it validates."""
+    return _valid_draw(_draw_cell, "cell_problem", seed, n_arms, n_fruits, max_tries)
+
+
+def _valid_draw(draw, what: str, seed: int, n_arms, n_fruits, max_tries: int) -> dict[str, Any]:
     from .errors import ProblemError
     from .problem import parse_problem
 
     rng = np.random.default_rng(seed)
     last: Exception | None = None
     for _ in range(max_tries):
-        d = _draw_random(rng, seed, n_arms, n_fruits)
+        d = draw(rng, seed, n_arms, n_fruits)
         try:
             parse_problem(to_yaml(d))
         except ProblemError as e:  # rare: redraw from the same stream
             last = e
             continue
         return d
-    raise RuntimeError(f"random_problem(seed={seed}): no valid problem in {max_tries} draws; last: {last}")
+    raise RuntimeError(f"{what}(seed={seed}): no valid problem in {max_tries} draws; last: {last}")
+
+
+def _draw_cell(rng: np.random.Generator, seed: int, n_arms: int | None, n_fruits: int | None) -> dict[str, Any]:
+    A = int(n_arms) if n_arms is not None else int(rng.integers(2, 6))
+    gaps = [_r4(rng.uniform(1.0, 2.6)) for _ in range(A - 1)]
+    xs = np.concatenate([[0.0], np.cumsum(gaps)]) if gaps else np.zeros(1)
+    xs = [_r4(x - xs[-1] / 2) for x in xs]
+    q1 = _r4(rng.uniform(2.8, 3.1416))
+    q2 = _r4(rng.uniform(2.8, 3.0416))
+    defaults = {
+        "link_radius": _r4(rng.uniform(0.03, 0.05)),
+        "joint_limits": [[-q1, q1], [-q2, q2]],
+        "home": [_r4(rng.uniform(1.0, 1.5)), _r4(rng.uniform(-0.4, 0.5))],
+    }
+    arms: list[dict[str, Any]] = []
+    reaches = []
+    for i, bx in enumerate(xs):
+        l1 = _r4(rng.uniform(0.8, 1.15))
+        l2 = _r4(rng.uniform(0.6, min(0.95, 2.1 - l1)))
+        inner, outer = abs(l1 - l2), l1 + l2
+        depth = _r4(rng.uniform(inner + 0.15, min(outer - 0.1, inner + 0.6)))
+        arms.append({
+            "name": f"r{i + 1}", "base": [bx, 0.0], "links": [l1, l2],
+            "bin": [_r4(bx + rng.uniform(-0.4, 0.4)), -depth],
+            "max_velocity": [_r4(rng.uniform(2.0, 3.5)), _r4(rng.uniform(2.5, 4.5))],
+            "max_acceleration": [_r4(rng.uniform(6.0, 14.0)), _r4(rng.uniform(8.0, 16.0))],
+            "max_jerk": [_r4(rng.uniform(60.0, 150.0)), _r4(rng.uniform(80.0, 160.0))],
+        })
+        reaches.append(outer)
+    F = int(n_fruits) if n_fruits is not None else int(rng.integers(4, 31))
+    reach = min(reaches)
+    lo, hi = xs[0] - 0.8 * reach, xs[-1] + 0.8 * reach
+    pts = [(_r4(rng.uniform(lo, hi)), _r4(rng.uniform(0.25 * reach, 0.95 * reach))) for _ in range(F)]
+    task = {
+        "pick_dwell": _r4(rng.uniform(0.15, 0.4)),
+        "place_dwell": _r4(rng.uniform(0.1, 0.3)),
+        "clearance": _r4(rng.uniform(0.03, 0.08)),
+    }
+    desc = f"Random cell (seed {seed}): {A} arms, gaps {', '.join(f'{g:g}' for g in gaps) or '-'} m, {F} fruit."
+    return _assemble(f"cell-{seed}", desc, defaults, arms, pts, task)
 
 
 def _draw_random(rng: np.random.Generator, seed: int, n_arms: int | None, n_fruits: int | None) -> dict[str, Any]:

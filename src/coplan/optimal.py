@@ -37,6 +37,7 @@ from .nlp import Grid, SolverStatus, build_grid
 from .plan import Event, EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem import Problem
 from .schedule import ArmSchedule, StepKind, decoupled_schedules
+from .screen import screened
 from .search import SearchOptions, StopReason, improve
 from .windows import LADDER, solve_windows
 
@@ -325,6 +326,7 @@ def plan_optimal(
         improvement_over_coordinated=(1.0 - mk / coord_mk) if coord_mk else None,
         optimality="proven" if (verified and lb and mk <= lb + opts.tolerance) else "not proven",
         baseline_makespan=baseline.metrics.get("makespan"),
+        baseline_status=baseline.status.value,
         time_to_first_verified=inc.first_at,
         time_of_last_improvement=inc.improved_at,
     )
@@ -336,6 +338,7 @@ def plan_optimal(
         "incumbent_from": inc.source,
         "incumbents": inc.history,
         "allocation": AllocationMethod(allocation).value,
+        "screen": screened(problem).summary(),
         "coordinated": coord_plan.solver if coord_plan is not None else None,
         "search": search_info,
         "nlp": nlp_info,

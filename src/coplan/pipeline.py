@@ -8,29 +8,15 @@ from __future__ import annotations
 
 import time as _time
 from dataclasses import dataclass, field
-from enum import IntEnum
 from pathlib import Path
 
 from .allocation import AllocationMethod, allocate
+from .kinds import ExitCode
 from .heuristic import plan_heuristic
 from .plan import Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem import Problem, load_problem
 
 __all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
-
-
-class ExitCode(IntEnum):
-    """Process exit codes of the ``coplan`` command (documented in the README)."""
-
-    OK = 0  # verified success
-    INTERNAL = 1  # a bug: unexpected internal error
-    USAGE = 2  # bad command-line usage
-    BAD_INPUT = 3  # a problem or plan file is invalid
-    INFEASIBLE = 4  # nothing could be planned (no reachable fruit, solver proved infeasible)
-    PARTIAL = 5  # verified safe but not every reachable fruit harvested
-    UNSAFE = 6  # verification failed (collisions, limits, missed picks)
-    SOLVER_FAILED = 7  # solver hit a limit or a numerical error; best iterate kept
-    INTERRUPTED = 130  # Ctrl-C; what there was is saved
 
 
 _STATUS_EXIT = {

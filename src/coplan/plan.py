@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from .errors import Issue, PlanFileError
+from .kinds import EventKind, PlannerKind, PlanStatus
 
 __all__ = [
     "PLAN_FORMAT",
@@ -36,29 +37,6 @@ __all__ = [
 
 PLAN_FORMAT = "coplan.plan/1"
 DEFAULT_RATE = 100.0  # Hz
-
-
-class PlannerKind(str, Enum):
-    HEURISTIC = "heuristic"  # the course's nearest-arm allocation + cubic splines (the baseline)
-    COORDINATED = "coordinated"  # min-makespan allocation, S-curve moves, conflict-free coordination
-    OPTIMAL = "optimal"  # anytime: the coordinated plan improved by search and joint optimisation
-
-
-class PlanStatus(str, Enum):
-    """Overall verdict of a plan. Only ``SUCCESS`` means verified and complete."""
-
-    SUCCESS = "success"  # every reachable fruit harvested, verification passed
-    PARTIAL = "partial"  # verified safe, but not every reachable fruit harvested
-    UNSAFE = "unsafe"  # verification found violations (collisions, limits, missed picks)
-    UNVERIFIED = "unverified"  # not yet verified
-    INFEASIBLE = "infeasible"  # nothing could be planned
-    FAILED = "failed"  # the solver failed; the plan is the best it had
-    INTERRUPTED = "interrupted"  # stopped by the user; the plan is the best it had
-
-
-class EventKind(str, Enum):
-    PICK = "pick"
-    PLACE = "place"
 
 
 @dataclass(frozen=True)
@@ -263,7 +241,7 @@ def finalize_plan(plan: Plan, verification, n_reachable: int) -> Plan:
 
 # metrics a planner sets itself (kept when the metrics are recomputed)
 _KEPT_METRICS = ("lower_bound", "optimality", "coordinated_makespan", "improvement_over_coordinated",
-                 "baseline_makespan", "time_to_first_verified", "time_of_last_improvement")
+                 "baseline_makespan", "baseline_status", "time_to_first_verified", "time_of_last_improvement")
 
 
 def _busy_time(plan: Plan, arm: str) -> float:

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from .clearance import DEFAULT_SUBSTEPS
+from .kinds import FclMode
 from .fclcheck import FCL_TOLERANCE, FclReport
 
 __all__ = [
@@ -32,12 +33,6 @@ __all__ = [
     "PairClearance",
     "Verification",
 ]
-
-
-class FclMode(str, Enum):
-    OFF = "off"  # no cross-check (inner loops only; never for a final verdict)
-    CRITICAL = "critical"  # closest instants, interval worst points, seeded random instants
-    FULL = "full"  # every sample the verifier evaluated, every pair (slow: ~0.1 ms per link pair)
 
 
 class ViolationKind(str, Enum):
