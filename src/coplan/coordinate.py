@@ -450,6 +450,7 @@ def coordinate(
     horizon: float | None = None,
     max_checks: int | None = None,
     cache: dict | None = None,
+    work: dict | None = None,
 ) -> tuple[dict[str, ArmSchedule], int, int]:
     """Coordinate all arms leg by leg; every neighbouring pair keeps ``clearance + margin``.
 
@@ -476,11 +477,16 @@ def coordinate(
     Raises :class:`ConflictError` after ``max_yields`` yields, past ``horizon`` s of plan
     time, after ``max_checks`` conflict checks (a work budget: the same on any machine) or at
     ``deadline`` (``time.perf_counter()``; only for an explicit clock limit). ``cache`` (a
-    dict the caller keeps) shares routes, rest poses and moves between runs on one problem.
+    dict the caller keeps) shares routes, rest poses and moves between runs on one problem;
+    ``work`` (a dict), when given, has its ``"checks"`` entry increased by the checks made.
     Returns the schedules (each ending at home), the number of waits and the number of
     yield/park moves added.
     """
     c = _Coordinator(problem, schedules, margin, rate, quantum, priority, deadline, max_yields, horizon, max_checks, cache)
-    out = c.run()
+    try:
+        out = c.run()
+    finally:
+        if work is not None:
+            work["checks"] = work.get("checks", 0) + c.checks
     waits = sum(1 for s in out.values() for st in s.steps if st.kind == StepKind.WAIT)
     return out, waits, c.yields + c.parks

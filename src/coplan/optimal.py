@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -50,10 +50,14 @@ class OptimalOptions:
 
     margin : extra clearance the planners keep (m), so that the dense, certified check passes
     coordination_checks : work budget of the coordinated planner's candidate search
-    search_evaluations : work budget of the search (coordinator runs); 0 turns it off
+    search_work : work budget of the search (conflict checks over all its coordinator runs;
+        roughly 250-400 a second on one core of the 2-core benchmark machine); 0 turns the search off
+    search_evaluations : cap on the search's coordinator runs
     search_patience : the search stops after this many evaluations without a new best
     seed : seed of the search's moves
     polish : run the joint NLP from the incumbent when it still waits
+    polish_iterations : IPOPT iteration cap of each polishing solve (unless ``ipopt`` sets
+        ``ipopt.max_iter``)
     tolerance : a makespan this close to the lower bound (s) is proven optimal
     screen : initial NLP constraint points where the schedule's links are within this (m)
     screen_shift : ... also when one arm of a pair runs up to this much (s) earlier or later
@@ -73,10 +77,12 @@ class OptimalOptions:
 
     margin: float = 0.015
     coordination_checks: int = 3000
+    search_work: int = 8_000
     search_evaluations: int = 400
     search_patience: int = 150
     seed: int = 0
     polish: bool = True
+    polish_iterations: int = 200
     tolerance: float = 1e-3
     screen: float = 0.25
     h_target: float = 0.06
@@ -251,14 +257,15 @@ def plan_optimal(
             return inc.plan is not None and inc.plan.status == PlanStatus.SUCCESS and inc.makespan <= bound + opts.tolerance
 
         # search: allocation, order, branches, priorities with the coordinator as evaluator
-        if inc.candidate is not None and not proven() and opts.search_evaluations > 0 and not inc.candidate.fallback:
+        if inc.candidate is not None and not proven() and opts.search_work > 0 and opts.search_evaluations > 0 \
+                and not inc.candidate.fallback:
             ts = _time.perf_counter()
 
             def on_improve(c: Coordinated) -> None:
                 p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
                 inc.offer(p, verify(problem, p), "search", c)
 
-            sopts = SearchOptions(evaluations=opts.search_evaluations, patience=opts.search_patience, seed=opts.seed,
+            sopts = SearchOptions(evaluations=opts.search_evaluations, work=opts.search_work, patience=opts.search_patience, seed=opts.seed,
                                   tolerance=opts.tolerance,
                                   fixed_assignment=AllocationMethod(allocation) != AllocationMethod.MAKESPAN)
             _, stats = improve(problem, inc.candidate, bound, opts.margin, sopts, on_improve, deadline, cache)
@@ -280,7 +287,8 @@ def plan_optimal(
         if not interrupted and within and src is not None and not proven() and (
                 inc.plan is None or (opts.polish and waits)):
             tp = _time.perf_counter()
-            plan, nlp_info, nlp_status = nlp_plan(problem, src.alloc, src.schedules, opts, deadline, say)
+            popts = replace(opts, ipopt={"ipopt.max_iter": opts.polish_iterations} | dict(opts.ipopt)) if inc.plan else opts
+            plan, nlp_info, nlp_status = nlp_plan(problem, src.alloc, src.schedules, popts, deadline, say)
             timings["polish"] = _time.perf_counter() - tp
             interrupted = nlp_status == SolverStatus.INTERRUPTED
             if plan.status == PlanStatus.UNVERIFIED:

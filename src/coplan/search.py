@@ -57,7 +57,9 @@ class StopReason(str, Enum):
 class SearchOptions:
     """Work budget and rules of :func:`improve`.
 
-    evaluations : coordinator runs (the work budget)
+    evaluations : coordinator runs (a cap)
+    work : conflict checks over all coordinator runs (the work budget: proportional to
+        time on a given machine, and the same on every machine)
     patience : stop after this many evaluations without a new best
     stall : restart from the best state (with ``kick`` random moves) after this many
         evaluations without progress of the current state
@@ -69,6 +71,7 @@ class SearchOptions:
     """
 
     evaluations: int = 400
+    work: int = 8_000
     patience: int = 200
     stall: int = 25
     kick: int = 2
@@ -81,6 +84,7 @@ class SearchOptions:
 @dataclass
 class SearchStats:
     evaluations: int = 0
+    checks: int = 0
     proposals: int = 0
     pruned: int = 0
     failed: int = 0
@@ -90,7 +94,7 @@ class SearchStats:
     moves: dict | None = None  # move kind -> [tried, improved]
 
     def summary(self) -> dict:
-        return {"evaluations": self.evaluations, "proposals": self.proposals, "pruned_by_bound": self.pruned,
+        return {"evaluations": self.evaluations, "checks": self.checks, "proposals": self.proposals, "pruned_by_bound": self.pruned,
                 "coordination_failed": self.failed, "improvements": self.improvements, "restarts": self.restarts,
                 "stopped_by": self.stop.value, "moves": self.moves}
 
@@ -160,12 +164,15 @@ class _Search:
                 al.fruit_q[self.names[i]][f] = self.cfg[i][1][f][b]
         base = decoupled_schedules(self.problem, al)
         self.stats.evaluations += 1
+        work: dict = {}
         try:
             sched, waits, _ = coordinate(self.problem, base, self.margin, priority=list(s.order),
-                                         max_checks=self.opts.attempt_checks, cache=self.cache)
+                                         max_checks=self.opts.attempt_checks, cache=self.cache, work=work)
         except ConflictError:
+            self.stats.checks += work.get("checks", 0)
             self.stats.failed += 1
             return None
+        self.stats.checks += work.get("checks", 0)
         return Coordinated(al, sched, makespan_of(sched), list(s.order), s.variant, waits)
 
     # ---- moves
@@ -277,7 +284,7 @@ def improve(
             if best.makespan <= bound + opts.tolerance:
                 st.stop = StopReason.PROVEN_OPTIMAL
                 break
-            if st.evaluations >= opts.evaluations or st.proposals >= max_proposals:
+            if st.evaluations >= opts.evaluations or st.checks >= opts.work or st.proposals >= max_proposals:
                 st.stop = StopReason.BUDGET
                 break
             if since_best >= opts.patience or idle >= 500:  # no progress, or no new state left to try

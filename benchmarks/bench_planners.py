@@ -1,0 +1,185 @@
+"""The three planners side by side: lower bound, heuristic, coordinated, optimal -- one run.
+
+Prints (and with ``--out`` writes as Markdown) every figure the README quotes:
+
+1. **Problems**: every shipped problem and three long rows (``row_problem(5, 25 | 100, seed=11)``,
+   ``row_problem(3, 100, seed=11)``, reachable fruit only). Per planner the makespan and the
+   solve time (in-process, imports excluded; the optimal planner's time includes its own
+   coordinated stage); for the optimal planner also the time to its first verified plan and
+   of its last improvement, makespan / lower bound, whether it is proven optimal, and what
+   stopped it. Every plan is checked again here with ``coplan.verify.verify``: a plan that
+   does not pass is marked ``UNSAFE`` in the table, whatever its planner said.
+2. **Random layouts**: ``coplan.generate.random_problem(0..N-1)`` and ``cell_problem(0..M-1)``
+   (a second, harder distribution: gaps 1.0-2.6 m), coordinated and optimal planners at their
+   default settings, run in ``--workers`` processes: verified success among layouts with
+   reachable fruit, failures, "never slower than coordinated" (tolerance 1 ms), and the median
+   makespan improvement over the coordinated plan on the interference-heavy ones (least gap
+   between neighbouring bases <= 1.6 m).
+
+Every budget is work, not seconds, so the makespans do not depend on the machine or its load;
+the times do (2-core machine; the random layouts run two at a time).
+
+    python benchmarks/bench_planners.py --out benchmarks/results.md
+    python benchmarks/bench_planners.py --quick           # shipped problems only, no random layouts
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+import coplan
+from coplan.allocation import bound_details
+from coplan.generate import cell_problem, random_problem, row_problem, to_yaml
+from coplan.problem import load_problem, parse_problem, shipped_problems
+from coplan.verify import verify
+
+TOL = 1e-3  # s: "never slower" and "proven optimal" tolerance
+
+
+def _fmt(x, nd=2, unit=""):
+    return "-" if x is None else f"{x:.{nd}f}{unit}"
+
+
+def _problems(quick: bool):
+    out = [(p.stem, load_problem(p)) for p in shipped_problems()]
+    if not quick:
+        for arms, n in ((5, 25), (5, 100), (3, 100)):
+            name = f"row_problem({arms}, {n}, seed=11)"
+            out.append((name, parse_problem(to_yaml(row_problem(arms, n, seed=11, reachable_only=True)), name)))
+    return out
+
+
+def _run(problem, planner: str) -> dict:
+    t0 = time.perf_counter()
+    res = coplan.solve(problem, planner=planner)
+    wall = time.perf_counter() - t0
+    plan = res.plan
+    again = verify(problem, plan)  # independently, whatever the planner reported
+    m = plan.metrics
+    return {
+        "makespan": m.get("makespan"), "harvested": m.get("harvested"), "reachable": m.get("reachable"),
+        "status": plan.status.value, "verified": bool(again.passed), "seconds": wall,
+        "first": m.get("time_to_first_verified"), "last": m.get("time_of_last_improvement"),
+        "optimality": m.get("optimality"), "stopped_by": plan.solver.get("stopped_by"),
+        "coordinated": m.get("coordinated_makespan"),
+    }
+
+
+def table_problems(quick: bool) -> list[str]:
+    head = ("| problem | fruit | lower bound | heuristic | coordinated | optimal | optimal / bound | vs coordinated "
+            "| first verified | last improvement | stopped by |")
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for name, prob in _problems(quick):
+        lb = bound_details(prob)
+        r = {k: _run(prob, k) for k in ("heuristic", "coordinated", "optimal")}
+
+        def cell(k):
+            x = r[k]
+            tag = "" if x["verified"] else " UNSAFE"
+            return f"{_fmt(x['makespan'])} s ({_fmt(x['seconds'])} s){tag}"
+
+        o, c = r["optimal"], r["coordinated"]
+        ratio = o["makespan"] / lb.value if lb.value else None
+        proven = " **proven optimal**" if o["optimality"] == "proven" else ""
+        lines.append(
+            f"| {name} | {o['harvested']}/{o['reachable']} | {_fmt(lb.value, 3)} s | {cell('heuristic')} | {cell('coordinated')} "
+            f"| {cell('optimal')} | {_fmt(ratio, 4)}{proven} | {_fmt(o['makespan'] / c['makespan'] if c['makespan'] else None, 3)} "
+            f"| {_fmt(o['first'])} s | {_fmt(o['last'])} s | {o['stopped_by']} |")
+        print(lines[-1], flush=True)
+    return lines
+
+
+def _layout(args) -> dict:
+    kind, seed = args
+    d = random_problem(seed) if kind == "random" else cell_problem(seed)
+    prob = parse_problem(to_yaml(d), f"{kind}-{seed}")
+    xs = sorted(a.base[0] for a in prob.arms)
+    gap = min(np.diff(xs)) if len(xs) > 1 else np.inf
+    row = {"kind": kind, "seed": seed, "arms": len(prob.arms), "fruit": len(prob.fruits),
+           "reachable": len(prob.reachable_ids()), "gap": float(gap)}
+    for planner in ("coordinated", "optimal"):
+        t0 = time.perf_counter()
+        try:
+            res = coplan.solve(prob, planner=planner)
+        except Exception as e:  # noqa: BLE001 -- a crash is a row of the table, not the end of the sweep
+            row[planner] = {"status": "error", "error": f"{type(e).__name__}: {e}"}
+            continue
+        ok = verify(prob, res.plan).passed
+        row[planner] = {"status": res.plan.status.value, "verified": bool(ok), "makespan": res.plan.metrics.get("makespan"),
+                        "harvested": res.plan.metrics.get("harvested"), "seconds": time.perf_counter() - t0,
+                        "lower_bound": res.plan.metrics.get("lower_bound")}
+    return row
+
+
+def table_random(n_random: int, n_cells: int, workers: int) -> list[str]:
+    jobs = [("random", s) for s in range(n_random)] + [("cell", s) for s in range(n_cells)]
+    with ProcessPoolExecutor(max_workers=workers) as ex:
+        rows = list(ex.map(_layout, jobs))
+    out = []
+    for kind, label in (("random", "random_problem"), ("cell", "cell_problem"), (None, "all")):
+        mine = [r for r in rows if kind is None or r["kind"] == kind]
+        if not mine:
+            continue
+        with_fruit = [r for r in mine if r["reachable"]]
+        succ = {p: sum(r[p].get("status") == "success" and r[p].get("verified") for r in with_fruit) for p in ("coordinated", "optimal")}
+        partial = sum(r["optimal"].get("status") == "partial" and r["optimal"].get("verified") for r in with_fruit)
+        failed = [f"{r['kind']}-{r['seed']}" for r in with_fruit if r["optimal"].get("status") in ("failed", "error", "unsafe", "unverified")]
+        worse = [f"{r['kind']}-{r['seed']}" for r in mine
+                 if r["coordinated"].get("verified") and r["optimal"].get("makespan") is not None
+                 and r["optimal"]["makespan"] > r["coordinated"]["makespan"] + TOL]
+        lost = [f"{r['kind']}-{r['seed']}" for r in mine
+                if r["coordinated"].get("verified") and r["coordinated"].get("status") == "success"
+                and r["optimal"].get("status") != "success"]
+        tight = [r for r in with_fruit if r["gap"] <= 1.6 and r["coordinated"].get("makespan") and r["optimal"].get("makespan")]
+        gain = [1 - r["optimal"]["makespan"] / r["coordinated"]["makespan"] for r in tight]
+        lbr = [r["optimal"]["makespan"] / r["optimal"]["lower_bound"] for r in with_fruit
+               if r["optimal"].get("makespan") and r["optimal"].get("lower_bound")]
+        secs = [r["optimal"]["seconds"] for r in mine if "seconds" in r["optimal"]]
+        out.append(
+            f"| {label} | {len(mine)} ({len(with_fruit)} with reachable fruit) | {succ['optimal']}/{len(with_fruit)} "
+            f"({100 * succ['optimal'] / max(1, len(with_fruit)):.1f} %), partial {partial} | {succ['coordinated']}/{len(with_fruit)} "
+            f"| {len(failed)} {'(' + ', '.join(failed[:6]) + ')' if failed else ''} | {len(worse)} | {len(lost)} "
+            f"| {len(tight)}: {_fmt(100 * statistics.median(gain) if gain else None, 1)} % "
+            f"| {_fmt(statistics.median(lbr) if lbr else None, 3)} | {_fmt(statistics.median(secs) if secs else None, 1)} s, "
+            f"max {_fmt(max(secs) if secs else None, 1)} s |")
+        print(out[-1], flush=True)
+    head = ["| layouts | count | optimal: verified success | coordinated: verified success | optimal failed/unsafe "
+            "| slower than coordinated | success lost vs coordinated | gap <= 1.6 m: median gain over coordinated "
+            "| median makespan / bound | optimal solve time: median, max |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
+    return head + out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="shipped problems only, no rows, no random layouts")
+    ap.add_argument("--random", type=int, default=100, metavar="N", help="random_problem seeds 0..N-1")
+    ap.add_argument("--cells", type=int, default=100, metavar="M", help="cell_problem seeds 0..M-1")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--out", help="also write the tables as Markdown to this file")
+    args = ap.parse_args(argv)
+    t0 = time.perf_counter()
+    head = f"coplan {coplan.__version__}, python {sys.version.split()[0]}, {time.strftime('%Y-%m-%d')}"
+    print(head)
+    parts = [f"<!-- {head}: python benchmarks/bench_planners.py {' '.join(argv or sys.argv[1:])} -->", "",
+             "Makespan (solve time); every plan checked again with `coplan.verify.verify`.", ""]
+    parts += table_problems(args.quick)
+    if not args.quick and (args.random or args.cells):
+        parts += ["", f"Random layouts at the default settings ({args.workers} at a time):", ""]
+        parts += table_random(args.random, args.cells, args.workers)
+    parts += ["", f"Whole run: {time.perf_counter() - t0:.0f} s."]
+    if args.out:
+        with open(args.out, "w") as fh:
+            fh.write("\n".join(parts) + "\n")
+    print(parts[-1])
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

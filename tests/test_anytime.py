@@ -1,0 +1,120 @@
+"""The coordinated planner and the anytime optimal planner: never slower than the coordinated
+plan, verified incumbents, determinism, the screen and ``coplan check`` on the command line."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.coordinated import plan_coordinated
+from coplan.generate import cell_problem, random_problem, to_yaml
+from coplan.optimal import OptimalOptions, plan_optimal
+from coplan.pipeline import ExitCode, solve
+from coplan.plan import PlannerKind, PlanStatus, load_plan
+from coplan.problem import default_problem_path, load_problem, parse_problem
+from coplan.verify import verify
+
+SMALL = OptimalOptions(search_work=1500, polish=False)  # a short search: these tests check behaviour
+
+
+def _shipped(name: str):
+    return load_problem(default_problem_path().with_name(f"{name}.yaml"))
+
+
+@pytest.mark.parametrize("kind, seed", [("cell", 1), ("cell", 3), ("cell", 7), ("random", 5), ("random", 9)])
+def test_optimal_is_never_slower_than_the_coordinated_plan(kind, seed):
+    d = cell_problem(seed) if kind == "cell" else random_problem(seed)
+    prob = parse_problem(to_yaml(d), f"{kind}-{seed}")
+    res = plan_optimal(prob, options=SMALL)
+    coord = res.coordinated
+    assert coord is not None and coord.planner == PlannerKind.COORDINATED
+    assert verify(prob, coord).passed  # the coordinated plan is a verified plan of its own
+    plan = res.plan
+    assert plan.planner == PlannerKind.OPTIMAL and verify(prob, plan).passed
+    assert plan.metrics["harvested"] >= coord.metrics["harvested"]
+    assert plan.metrics["makespan"] <= coord.metrics["makespan"] + 1e-3
+    assert plan.metrics["makespan"] >= plan.metrics["lower_bound"] - 1e-6  # never faster than the bound
+    hist = plan.solver["incumbents"]
+    assert hist[0]["source"] == "coordinated"
+    assert all(b["makespan"] < a["makespan"] for a, b in zip(hist, hist[1:]))  # each incumbent strictly faster
+
+
+def test_the_polishing_nlp_is_kept_only_when_verified_and_faster():
+    prob = _shipped("crossing_paths")
+    res = plan_optimal(prob, options=OptimalOptions(search_work=0))
+    nlp = res.plan.solver["nlp"]
+    assert nlp is not None and "accepted" in nlp
+    assert res.plan.metrics["makespan"] <= res.coordinated.metrics["makespan"] + 1e-9
+    assert res.plan.solver["incumbent_from"] == ("joint NLP" if nlp["accepted"] else "coordinated")
+    assert verify(prob, res.plan).passed
+
+
+def test_same_input_same_plan():
+    prob = _shipped("locked_arms")
+    a, b = plan_optimal(prob, options=SMALL), plan_optimal(prob, options=SMALL)
+    assert a.plan.metrics["makespan"] == b.plan.metrics["makespan"]
+    assert a.plan.allocation == b.plan.allocation
+    for arm in a.plan.q:
+        np.testing.assert_array_equal(a.plan.q[arm], b.plan.q[arm])
+
+
+def test_locked_arms_are_screened_out_and_the_rest_harvested():
+    prob = _shipped("locked_arms")
+    res = plan_coordinated(prob)
+    assert res.plan.status == PlanStatus.SUCCESS and res.verification.passed
+    assert res.plan.metrics["harvested"] == 3 and res.plan.unreachable == ["p003"]
+    assert res.plan.allocation["r1"] == [] and res.plan.allocation["r3"] == []
+    screen = res.plan.solver["screen"]
+    assert screen["locked"] == ["r1", "r3"]
+    assert "link 1 would cross r2's base" in screen["reasons"]["r1"]
+
+
+def test_coordinated_planner_from_the_command_line(tmp_path):
+    r = CliRunner().invoke(app, ["solve", "--planner", "coordinated", "--out", str(tmp_path)])
+    assert r.exit_code == int(ExitCode.OK), r.output
+    plan = load_plan(tmp_path / "plan.json")
+    assert plan.planner == PlannerKind.COORDINATED and plan.status == PlanStatus.SUCCESS
+    assert verify(load_problem(default_problem_path()), plan).passed
+
+
+def test_greenhouse_is_proven_optimal_from_the_command_line(tmp_path):
+    r = CliRunner().invoke(app, ["solve", "--out", str(tmp_path), "--json"])
+    assert r.exit_code == int(ExitCode.OK), r.output
+    doc = json.loads(r.output)
+    m = doc["metrics"]
+    assert m["optimality"] == "proven" and m["makespan"] == pytest.approx(12.883, abs=1e-3)
+    assert m["coordinated_makespan"] >= m["makespan"] and m["time_to_first_verified"] is not None
+    assert doc["solver"]["stopped_by"] == "proven_optimal"
+    assert load_plan(tmp_path / "plan.json").metrics["optimality"] == "proven"
+
+
+def test_check_reports_the_screen_the_bound_and_the_baseline():
+    r = CliRunner().invoke(app, ["check", str(default_problem_path().with_name("locked_arms.yaml")), "--json"])
+    assert r.exit_code == int(ExitCode.OK), r.output
+    doc = json.loads(r.output)
+    assert doc["screen"]["locked"] == ["r1", "r3"] and doc["harvestable"] == doc["reachable"] == 3
+    assert doc["lower_bound"]["proven"] and doc["lower_bound"]["value"] > 6.0
+    assert doc["heuristic_verified"] is False  # the course's plan drives r1 across r2's base
+    r = CliRunner().invoke(app, ["check"])
+    assert r.exit_code == 0 and "lower bound        12.883 s" in r.output
+
+
+def test_check_refuses_a_bad_file_with_a_clear_error(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\narms: 3\n")
+    r = CliRunner().invoke(app, ["check", str(bad)])
+    assert r.exit_code == int(ExitCode.BAD_INPUT)
+    assert "Traceback" not in r.output and "arms" in r.output
+
+
+def test_the_command_line_loads_no_numerical_library_for_help():
+    code = ("import sys, coplan.cli\n"
+            "print(sorted(m for m in ('numpy', 'scipy', 'casadi', 'fcl', 'matplotlib', 'pydantic') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
