@@ -307,7 +307,7 @@ def test_ipopt_opt_in_working_directory_is_ignored(tmp_path, monkeypatch, crossi
 @pytest.mark.parametrize("seed", [3, 5, 8])
 def test_random_layouts_success_implies_verified(seed, tmp_path):
     prob = parse_problem(to_yaml(random_problem(seed)), f"random-{seed}")
-    res = solve(prob, planner="optimal", out_dir=tmp_path, options=OptimalOptions(time_limit=30))
+    res = solve(prob, planner="optimal", out_dir=tmp_path, options=OptimalOptions(search_work=1500, polish=False))
     if res.plan.status == PlanStatus.SUCCESS:
         assert res.verification.passed
         again = verify(prob, load_plan(tmp_path / "plan.json"))  # from disk, independently
@@ -321,7 +321,7 @@ def test_random_layouts_success_implies_verified(seed, tmp_path):
 def test_random_layouts_are_solved_faster_than_the_baseline(seed):
     """Layouts nobody tuned for (4 and 5 arms): a verified plan, every fruit, faster than the baseline."""
     prob = parse_problem(to_yaml(random_problem(seed)), f"random-{seed}")
-    res = plan_optimal(prob)
+    res = plan_optimal(prob, options=OptimalOptions(search_work=2000))
     assert res.plan.status == PlanStatus.SUCCESS
     assert verify(prob, res.plan).passed
     assert res.plan.metrics["harvested"] == len(prob.reachable_ids())
