@@ -58,6 +58,7 @@ class OptimalOptions:
     polish : run the joint NLP from the incumbent when it still waits
     polish_iterations : IPOPT iteration cap of each polishing solve (unless ``ipopt`` sets
         ``ipopt.max_iter``)
+    polish_rounds : refinement rounds of each polishing window (``max_rounds`` for the last resort)
     tolerance : a makespan this close to the lower bound (s) is proven optimal
     screen : initial NLP constraint points where the schedule's links are within this (m)
     screen_shift : ... also when one arm of a pair runs up to this much (s) earlier or later
@@ -77,12 +78,13 @@ class OptimalOptions:
 
     margin: float = 0.015
     coordination_checks: int = 3000
-    search_work: int = 8_000
+    search_work: int = 6_000
     search_evaluations: int = 400
-    search_patience: int = 150
+    search_patience: int = 60
     seed: int = 0
     polish: bool = True
     polish_iterations: int = 200
+    polish_rounds: int = 3
     tolerance: float = 1e-3
     screen: float = 0.25
     h_target: float = 0.06
@@ -287,7 +289,8 @@ def plan_optimal(
         if not interrupted and within and src is not None and not proven() and (
                 inc.plan is None or (opts.polish and waits)):
             tp = _time.perf_counter()
-            popts = replace(opts, ipopt={"ipopt.max_iter": opts.polish_iterations} | dict(opts.ipopt)) if inc.plan else opts
+            popts = replace(opts, ipopt={"ipopt.max_iter": opts.polish_iterations} | dict(opts.ipopt),
+                            max_rounds=min(opts.max_rounds, opts.polish_rounds)) if inc.plan else opts
             plan, nlp_info, nlp_status = nlp_plan(problem, src.alloc, src.schedules, popts, deadline, say)
             timings["polish"] = _time.perf_counter() - tp
             interrupted = nlp_status == SolverStatus.INTERRUPTED

@@ -72,7 +72,7 @@ class SearchOptions:
 
     evaluations: int = 400
     work: int = 8_000
-    patience: int = 200
+    patience: int = 60
     stall: int = 25
     kick: int = 2
     attempt_checks: int = 600
