@@ -118,3 +118,56 @@ def test_the_command_line_loads_no_numerical_library_for_help():
             "print(sorted(m for m in ('numpy', 'scipy', 'casadi', 'fcl', 'matplotlib', 'pydantic') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def _squeezed(seed: int):
+    """random_problem(seed) with its bases squeezed 0.9-1.4 m apart: arms lock (None if invalid)."""
+    from coplan.errors import ProblemError
+
+    d = random_problem(seed, n_fruits=10)
+    sp = float(np.random.default_rng(1000 + seed).uniform(0.9, 1.4))
+    n = len(d["arms"])
+    for i, a in enumerate(d["arms"]):
+        x = round((i - (n - 1) / 2) * sp, 4)
+        a["base"], a["bin"] = [x, 0.0], [x, a["bin"][1]]
+    for f in d["fruits"]:
+        f["position"][0] = round(f["position"][0] * sp / 1.8, 4)
+    try:
+        return parse_problem(to_yaml(d), f"squeezed-{seed}")
+    except ProblemError:
+        return None
+
+
+@pytest.mark.parametrize("seed", [0, 2, 4, 6])
+def test_layouts_with_locked_arms_end_verified_with_a_reason_for_every_fruit_left(seed):
+    from coplan.screen import screen
+
+    prob = _squeezed(seed)
+    if prob is None:
+        pytest.skip("this squeeze puts a home pose inside a neighbour's clearance (rejected as invalid input)")
+    scr = screen(prob)
+    res = plan_coordinated(prob)
+    assert res.plan.status in (PlanStatus.SUCCESS, PlanStatus.PARTIAL), res.plan.solver.get("message")
+    assert verify(prob, res.plan).passed
+    picked = {e.fruit for e in res.plan.events if e.kind.value == "place"}
+    left_out = res.plan.solver.get("left_out") or {}
+    for fid in prob.reachable_ids():
+        if fid not in picked:  # every fruit left has a reason: the screen's, or why it could not be scheduled
+            assert fid in scr.reasons or fid in left_out, fid
+    for arm in scr.locked:
+        assert res.plan.allocation[arm] == []
+
+
+def test_at_least_one_squeezed_layout_has_a_locked_arm():
+    from coplan.screen import screen
+
+    assert any(p is not None and screen(p).locked for p in map(_squeezed, [0, 2, 4, 6]))
+
+
+def test_plan_json_records_the_bound_and_whether_it_is_proven(tmp_path):
+    res = solve(_shipped("crossing_paths"), planner="coordinated", out_dir=tmp_path)
+    saved = load_plan(tmp_path / "plan.json")
+    lb = saved.solver["lower_bound"]
+    assert lb["proven"] is True and lb["value"] == pytest.approx(5.6642, abs=1e-3)
+    assert lb["dual_bound"] == pytest.approx(lb["value"], abs=1e-6)
+    assert saved.metrics["lower_bound"] == pytest.approx(lb["value"]) and res.plan.metrics["makespan"] >= lb["value"]

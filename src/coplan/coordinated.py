@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .allocation import Allocation, AllocationMethod, allocate, bound_allocation, bound_details
+from .allocation import Allocation, AllocationMethod, LowerBound, allocate, bound_allocation, bound_details
 from .coordinate import coordinate
 from .heuristic import grid as uniform_grid
 from .plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics, finalize_plan
@@ -79,6 +79,7 @@ class Coordinated:
     variant: str = "branches"
     waits: int = 0
     fallback: bool = False
+    left_out: dict = field(default_factory=dict)  # fruit -> why it could not be scheduled
 
     @property
     def total(self) -> float:
@@ -163,9 +164,9 @@ def warm_variants(problem: Problem, alloc: Allocation, need: float):
 
 
 def find_coordinated(problem: Problem, method: AllocationMethod, opts: CoordinatedOptions, say: Callable[[str], None],
-                     cache: dict | None = None, deadline: float | None = None) -> tuple[Coordinated | None, list[dict], float]:
+                     cache: dict | None = None, deadline: float | None = None) -> tuple[Coordinated | None, list[dict], LowerBound]:
     """The fastest conflict-free coordinated candidate of a few allocations (see the module
-    docstring). Returns ``(candidate or None, attempts tried, lower bound)``."""
+    docstring). Returns ``(candidate or None, attempts tried, the lower bound's details)``."""
     if method == AllocationMethod.MAKESPAN:  # None: the lower bound's own assignment
         variants = [(None, False)] + [(t, b) for t in (0.0, 1.0, 3.0, 10.0) for b in (False, True)]
     else:
@@ -249,7 +250,7 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
             attempt(terr, avoid, label, al, base, order)
     if best is None:
         best = _fallback(problem, method, opts, bound, say, tried)
-    return best, tried, bound
+    return best, tried, details
 
 
 def clear(problem: Problem, schedules: dict[str, ArmSchedule], need: float, rate: float = 200.0) -> bool:
@@ -265,20 +266,33 @@ def clear(problem: Problem, schedules: dict[str, ArmSchedule], need: float, rate
 
 
 def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
-    """The arms take turns (:func:`coplan.serial.serial_schedules`) when coordination deadlocks."""
+    """The arms take turns (:func:`coplan.serial.serial_schedules`) when coordination deadlocks.
+
+    When even that cannot schedule some fruit (its pick leaves a neighbour nowhere to go), that
+    fruit is left out, with the reason, and the rest is planned again: a partial plan, never a
+    failure, while any fruit can be harvested."""
+    from dataclasses import replace
+
     from .serial import serial_schedules
 
     alloc = allocate(problem, method, bound=bound)
-    try:
-        sched = serial_schedules(problem, decoupled_schedules(problem, alloc), opts.margin)
-    except ConflictError as e:
-        tried.append({"fallback": "serial", "feasible": False, "reason": str(e)})
-        say(f"no conflict-free coordination found, and taking turns failed: {e}")
-        return None
+    left_out: dict[str, str] = {}
+    while True:
+        try:
+            sched = serial_schedules(problem, decoupled_schedules(problem, alloc), opts.margin)
+            break
+        except ConflictError as e:
+            tried.append({"fallback": "serial", "feasible": False, "reason": str(e), "fruit": e.fruit})
+            if e.fruit is None or e.fruit in left_out:
+                say(f"no conflict-free coordination found, and taking turns failed: {e}")
+                return None
+            left_out[e.fruit] = str(e)
+            say(f"taking turns: {e.fruit} is left out ({e})")
+            alloc = replace(alloc, assignment={a: tuple(f for f in fs if f != e.fruit) for a, fs in alloc.assignment.items()})
     span = makespan_of(sched)
-    tried.append({"fallback": "serial", "feasible": True, "makespan": span})
+    tried.append({"fallback": "serial", "feasible": True, "makespan": span, "left_out": left_out})
     say(f"leg-by-leg coordination deadlocked on every candidate: the arms take turns ({span:.2f} s)")
-    return Coordinated(alloc, sched, span, [], "serial", 0, fallback=True)
+    return Coordinated(alloc, sched, span, [], "serial", 0, fallback=True, left_out=left_out)
 
 
 def describe(c: Coordinated) -> str:
@@ -300,14 +314,16 @@ def plan_coordinated(
     say = progress or (lambda m: None)
     t0 = _time.perf_counter()
     deadline = None if opts.time_limit is None else t0 + opts.time_limit
-    best, tried, bound = find_coordinated(problem, AllocationMethod(allocation), opts, say, cache, deadline)
+    best, tried, bound = find_coordinated(problem, AllocationMethod(allocation), opts, say, cache, deadline)  # bound: LowerBound
     timings = {"allocation": _time.perf_counter() - t0}
     n_reach = len(problem.reachable_ids())
     from .screen import screened
 
-    info = {"allocation": AllocationMethod(allocation).value, "candidates": tried, "screen": screened(problem).summary()}
+    info = {"allocation": AllocationMethod(allocation).value, "candidates": tried, "screen": screened(problem).summary(),
+            "lower_bound": {"value": bound.value, "proven": bound.proven, "dual_bound": bound.dual_bound,
+                            "milp_seconds": bound.seconds}}
     if best is None:
-        alloc = allocate(problem, allocation, bound=bound)
+        alloc = allocate(problem, allocation, bound=bound.value)
         status = PlanStatus.INFEASIBLE if n_reach == 0 else PlanStatus.FAILED
         msg = "no reachable fruit" if n_reach == 0 else "no conflict-free coordination found; the arms stay home"
         plan = make_plan(problem, alloc, lambda t: {a.name: np.tile(a.home, (t.size, 1)) for a in problem.arms}, 0.0,
@@ -315,7 +331,7 @@ def plan_coordinated(
     else:
         say("coordinated: " + describe(best))
         info |= {"status": "ok", "priority": best.order, "schedules": best.variant, "waits": best.waits,
-                 "fallback": "serial" if best.fallback else None,
+                 "fallback": "serial" if best.fallback else None, "left_out": best.left_out,
                  "territory": best.alloc.info.get("territory"), "sequence": best.alloc.sequence.value}
         plan = schedules_plan(problem, best.alloc, best.schedules, PlannerKind.COORDINATED, info)
     tv = _time.perf_counter()

@@ -350,6 +350,7 @@ def plan_optimal(
         "incumbents": inc.history,
         "allocation": AllocationMethod(allocation).value,
         "screen": screened(problem).summary(),
+        "lower_bound": coord_plan.solver.get("lower_bound") if coord_plan is not None else None,
         "coordinated": coord_plan.solver if coord_plan is not None else None,
         "search": search_info,
         "nlp": nlp_info,

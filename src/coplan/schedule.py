@@ -247,7 +247,14 @@ def _retime(arm: Arm, steps: list[Step]) -> list[Step]:
 
 
 class ConflictError(RuntimeError):
-    """No conflict-free coordination was found (arms that keep blocking each other, or out of time)."""
+    """No conflict-free coordination was found (arms that keep blocking each other, or out of time).
+
+    ``arm`` and ``fruit``, when known, name the work that could not be scheduled (so a caller
+    can leave that fruit out, with this error as the reason, and plan the rest)."""
+
+    def __init__(self, message: str, arm: str | None = None, fruit: str | None = None):
+        super().__init__(message)
+        self.arm, self.fruit = arm, fruit
 
 
 class _CurveTable:

@@ -1,35 +1,33 @@
 """Serial fallback for the warm start: arms take turns where they would get in each other's way.
 
 :func:`coplan.coordinate.coordinate` can deadlock on dense layouts. :func:`serial_schedules`
-keeps every pick and place of its input (same fruit, pose and dwell) and succeeds whenever each
-arm's work can be done while its neighbours wait at candidate rest poses clear of it
-(:meth:`coplan.routing._Geometry.stows`: home, over the bin, folded poses). Rules:
+keeps every pick and place of its input (same fruit, pose, dwell and order) and succeeds when
+each arm's work can be done while its neighbours wait at candidate rest poses clear of it
+(:meth:`coplan.routing._Geometry.stows`, or their own pick, place and home poses).
 
-* **Booking.** Arms book their legs (a leg: a move and its pick or place) one at a time, in time
-  order; the arm idle longest first. A leg is booked at the earliest start (every ``quantum`` s
-  while the neighbours are booked) at which it, and resting at its target afterwards, keeps
-  ``clearance + margin`` from every neighbour's bookings and from where that neighbour rests
-  after them. Bookings are never revised and each is checked against all earlier ones, so the
-  result is conflict-free. A move that would leave a neighbour no clear rest pose at all
-  (typically across its base) becomes a tucked transit (:meth:`_Geometry.route`).
-* **Turns.** When no arm is moving and none can book (arms resting in each other's way), the
-  waiting arm with the most picks left takes a turn: each neighbour resting in the way of the
-  turn's work goes, one after another, to a candidate rest pose clear of all of it (one or two
-  moves, each clear of where every neighbour rests), and the neighbours' later legs must keep
-  clear of the turn's work until its last leg is booked. A turn is the arm's whole remaining
-  work if possible, else its current fruit cycle, else its next leg -- so with two arms, one
-  works while the other waits folded out of its way. Turn work is checked statically (every
-  pose against every pose), so the turn's arm can always book its next leg: every turn adds at
-  least one leg and the loop ends.
-* **Sampling.** Static tests use moves sampled so densely that no point of an arm moves more
-  than ``s = margin / 2`` between samples (S-curve joint speeds are at most twice the mean) and
-  keep ``clearance + margin + s``; timed tests sample both arms together so finely that they
-  move at most ``s`` between samples. Between samples clearance stays above
-  ``clearance + margin / 2``. Static tests bound blocks of samples by balls first and test
-  exactly only where the balls come near; timed tests screen all starts at ``rate`` first.
+* **Booking.** Arms book their legs (a move and its pick or place) one at a time in time order,
+  the longest idle first, each at the earliest start (every ``quantum`` s while neighbours are
+  booked) at which the leg, and resting at its target after it, keeps ``clearance + margin``
+  from every neighbour's bookings and where it rests after them. Bookings are never revised
+  and each is checked against all earlier ones: the result is conflict-free. A move leaving a
+  neighbour no clear rest pose (typically across its base) becomes a tucked transit
+  (:meth:`_Geometry.route`).
+* **Turns.** An arm that cannot book while its neighbours rest and cannot book either takes a
+  turn: each neighbour in the way of the turn's work parks (after a resting neighbour of its
+  own has moved aside, if need be) at a candidate pose clear of all of it, by one or two
+  moves clear of where the others rest; until the turn's last leg is booked its neighbours
+  book only legs clear of the work. A turn is the arm's whole remaining work if possible (one
+  arm works while the other waits folded), else its fruit cycle, else its next leg. Turn work
+  is checked statically (every pose against every pose), so the arm can book its next leg
+  after the parks: every turn adds a leg, and the loop ends.
+* **Sampling.** Timed tests sample both arms so that together they move at most ``s = margin /
+  2`` between samples (after screening all starts at ``rate``); static tests sample moves so
+  that an arm moves at most ``s / 4`` (S-curve joint speeds are at most twice the mean), keep
+  half the gaps more and test exactly only where balls bounding blocks of samples come near.
+  Clearance stays above ``clearance + margin / 2`` between samples.
 
-Three turn policies are run (whole work first / fruit cycles first / legs only) when any turn
-was needed, and the schedule placing its last fruit first is kept.
+Three turn policies (whole work, fruit cycle or leg first) are run if any turn was needed;
+the schedule placing its last fruit first is kept.
 """
 
 from __future__ import annotations
@@ -61,8 +59,7 @@ class _Leg:
 
 def _legs(sch: ArmSchedule) -> list[_Leg]:
     """An arm's schedule as legs (waits dropped), always ending with a move home."""
-    home = tuple(map(float, sch.arm.home))
-    legs: list[_Leg] = []
+    home, legs = tuple(map(float, sch.arm.home)), []
     for st in sch.steps:
         q = tuple(map(float, st.q1))
         if st.kind == StepKind.MOVE:
@@ -80,21 +77,19 @@ def _legs(sch: ArmSchedule) -> list[_Leg]:
 
 
 class _Sweep:
-    """Poses of one arm in path order, in blocks of ``block`` consecutive samples (and coarse
-    blocks of 16 of those), each bounded by a ball: its middle pose and the furthest any point
-    of the arm gets from it within the block. ``block=1``: separate poses, not a path."""
+    """Poses of one arm in path order, in blocks of ``block`` samples (and coarse blocks of 16
+    blocks), each bounded by a ball: its middle pose and the furthest any point of the arm gets
+    from it in the block. ``block=1``: separate poses, not a path."""
 
     def __init__(self, arm, q, block: int = 16):
         self.q, self.block, self.ratio = np.atleast_2d(np.asarray(q, float)), block, 16 if block > 1 else 1
         d = np.abs(np.diff(self.q, axis=0)) @ np.array([arm.links[0] + arm.links[1], arm.links[1]])
         self.gap = float(d.max()) if d.size and block > 1 else 0.0  # most any point moves between samples
-        cum = np.concatenate([[0.0], np.cumsum(d)])
-        self.levels = []
+        cum, n, self.levels = np.concatenate([[0.0], np.cumsum(d)]), len(self.q), []
         for size in (block, block * self.ratio):
-            starts = np.arange(0, len(self.q), size)
-            ends = np.minimum(starts + size, len(self.q)) - 1
-            mid = np.minimum(starts + size // 2, ends)
-            self.levels.append((starts, self.q[mid], np.maximum(cum[mid] - cum[starts], cum[ends] - cum[mid])))
+            s = np.arange(0, n, size)
+            e, m = np.minimum(s + size, n) - 1, np.minimum(s + size // 2, n - 1)
+            self.levels.append((s, self.q[m], np.maximum(cum[m] - cum[s], cum[e] - cum[m])))
 
 
 @dataclass
@@ -113,93 +108,89 @@ class _Serial(_Geometry):
     def __init__(self, problem: Problem, margin: float, rate: float, min_wait: float, quantum: float):
         super().__init__(problem, problem.task.clearance + margin)
         self.rate, self.min_wait, self.quantum = rate, min_wait, quantum
-        self.step = max(margin, 0.004) / 2.0  # timed tests: the two arms move at most this between samples
+        self.step = max(margin, 0.004) / 2.0  # timed tests: both arms together move at most this between samples
         self.fine = self.step / 4.0  # static tests: an arm moves at most this between samples
         self.speed = [(a.links[0] + a.links[1]) * a.max_velocity[0] + a.links[1] * a.max_velocity[1] for a in problem.arms]
         self.tables, self._units, self._paths, self._tests = {}, {}, {}, {}
 
-    # ---- static geometry
+    # ---- static tests
     def hits(self, i: int, A: _Sweep, j: int, B: _Sweep, first: bool = False) -> np.ndarray:
-        """Per block of A: whether some pose in it comes within ``need`` of some pose of B (plus
-        half the sample gaps of both, so that the paths between the samples keep ``need``)."""
+        """Per block of A: whether a pose in it comes within ``need`` of a pose of B (plus half
+        of both sample gaps, so the paths between samples keep ``need``); ``first``: any."""
         a, b = self.problem.arms[i], self.problem.arms[j]
         radii, need = a.link_radius + b.link_radius, self.need + (A.gap + B.gap) / 2
+        (sa0, qa0, ra0), (sa1, qa1, ra1), (sb0, qb0, rb0), (sb1, qb1, rb1) = A.levels + B.levels
+        out = np.zeros(len(sa0), bool)
 
-        def slack(level, ia, ib):  # clearance of the balls' middles less need and both radii
-            (_, qa, ra), (_, qb, rb) = A.levels[level], B.levels[level]
-            return _points_clearance(_arm_points(a, qa[ia]), _arm_points(b, qb[ib]), radii) - need - ra[ia] - rb[ib]
+        def slack(qa, qb, ra, rb):  # clearance of the middle poses, less need and both radii
+            return _points_clearance(_arm_points(a, qa), _arm_points(b, qb), radii) - need - ra - rb
 
-        ia, ib = (x.ravel() for x in np.meshgrid(np.arange(len(A.levels[1][0])), np.arange(len(B.levels[1][0])), indexing="ij"))
-        s = slack(1, ia, ib)
-        na, nb = len(A.levels[0][0]), len(B.levels[0][0])
-        if first and (s + A.levels[1][2][ia] + B.levels[1][2][ib] < 0).any():  # two middle poses meet
-            return np.ones(na, bool)
-        keep = s < 0
-        ia = (ia[keep, None, None] * A.ratio + np.arange(A.ratio)[None, :, None] + 0 * np.arange(B.ratio)).ravel()
-        ib = (ib[keep, None, None] * B.ratio + np.arange(B.ratio)[None, None, :] + 0 * np.arange(A.ratio)[:, None]).ravel()
-        ia, ib = ia[(ia < na) & (ib < nb)], ib[(ia < na) & (ib < nb)]
-        out = np.zeros(na, bool)
-        s = slack(0, ia, ib)
-        out[ia[s + A.levels[0][2][ia] + B.levels[0][2][ib] < 0]] = True  # the middle poses themselves
-        if first and out.any():
-            return out
-        ia, ib, s = ia[(s < 0) & ~out[ia]], ib[(s < 0) & ~out[ia]], s[(s < 0) & ~out[ia]]
-        o = np.argsort(s, kind="stable")  # likeliest first
+        ia, ib = (x.ravel() for x in np.meshgrid(np.arange(len(sa1)), np.arange(len(sb1)), indexing="ij"))
+        s = slack(qa1[ia], qb1[ib], ra1[ia], rb1[ib])
+        if first and (s + ra1[ia] + rb1[ib] < 0).any():
+            return ~out
+        ia = (ia[s < 0, None, None] * A.ratio + np.arange(A.ratio)[:, None] + 0 * np.arange(B.ratio)).ravel()
+        ib = (ib[s < 0, None, None] * B.ratio + np.arange(B.ratio) + 0 * np.arange(A.ratio)[:, None]).ravel()
+        ia, ib = ia[(ia < len(sa0)) & (ib < len(sb0))], ib[(ia < len(sa0)) & (ib < len(sb0))]
+        s = slack(qa0[ia], qb0[ib], ra0[ia], rb0[ib])
+        out[ia[s + ra0[ia] + rb0[ib] < 0]] = True  # the middle poses themselves
+        o = np.flatnonzero((s < 0) & ~out[ia])
+        o = o[np.argsort(s[o], kind="stable")]  # the likeliest first
         ia, ib, per = ia[o], ib[o], max(1, 20000 // (A.block * B.block))
         for c in range(0, ia.size, per):
             if first and out.any():
                 break
             keep = ~out[ia[c:c + per]]
-            sa, sb = ia[c:c + per][keep], ib[c:c + per][keep]
-            ka = np.minimum(A.levels[0][0][sa, None] + np.arange(A.block), len(A.q) - 1)
-            kb = np.minimum(B.levels[0][0][sb, None] + np.arange(B.block), len(B.q) - 1)
-            pa, pb = _arm_points(a, A.q[ka][:, :, None]), _arm_points(b, B.q[kb][:, None, :])
-            out[sa[_points_too_close(pa, pb, radii, need).any(axis=(1, 2))]] = True
+            ka = np.minimum(sa0[ia[c:c + per][keep], None] + np.arange(A.block), len(A.q) - 1)
+            kb = np.minimum(sb0[ib[c:c + per][keep], None] + np.arange(B.block), len(B.q) - 1)
+            bad = _points_too_close(_arm_points(a, A.q[ka][:, :, None]), _arm_points(b, B.q[kb][:, None, :]), radii, need)
+            out[ia[c:c + per][keep][bad.any(axis=(1, 2))]] = True
         return out
 
     def clear(self, i: int, A: _Sweep, j: int, B: _Sweep) -> bool:
         key = (id(A), id(B), i, j)
-        if key not in self._tests:  # (the sweeps are kept with the answer, so ids stay unique)
+        if key not in self._tests:  # (the sweeps are kept with the answer: their ids stay unique)
             self._tests[key] = (A, B, not self.hits(i, A, j, B, first=True).any())
         return self._tests[key][2]
 
     def boxed_in(self, i: int, samples: np.ndarray) -> int:
-        """Neighbours of arm i with no candidate rest pose clear of ``samples`` (used by
-        :meth:`_Geometry.route`; the same rule with this module's test)."""
+        """Neighbours of arm i left no candidate rest pose clear of ``samples`` (also used by
+        :meth:`_Geometry.route`, whose samples are sparser: no slack for their gaps, as there)."""
         sw = _Sweep(self.problem.arms[i], samples)
-        sw.gap = min(sw.gap, self.fine)  # (route's own samples are sparser: as routing.py, no slack for them)
-        return sum(1 for j in self.nbrs[i] if self.hits(j, self.stow_sweep(j), i, sw).all())
+        sw.gap = min(sw.gap, self.fine)
+        return sum(1 for j in self.nbrs[i] if self.hits(j, self.cands(j, own=False), i, sw).all())
 
-    def stow_sweep(self, j: int) -> _Sweep:
-        if ("stows", j) not in self._paths:
-            self._paths[("stows", j)] = _Sweep(self.problem.arms[j], self.stows(j), block=1)
-        return self._paths[("stows", j)]
-
-    def move_samples(self, i: int, mv: Step) -> np.ndarray:
-        arm = self.problem.arms[i]
-        dq = np.abs(np.subtract(mv.q1, mv.q0))
-        disp = (arm.links[0] + arm.links[1]) * dq[0] + arm.links[1] * dq[1]
-        n = int(max(np.ceil(mv.duration * self.rate), np.ceil(2.0 * disp / self.fine))) + 1
-        return _CurveTable(mv.curve).eval(np.linspace(0.0, mv.duration, n))
+    def cands(self, j: int, own: bool = True) -> _Sweep:
+        """Arm j's candidate rest poses: the stows (and its remaining pick, place and home poses)."""
+        extra = [lg.target for lg in self.tracks[j].legs] if own else []
+        key = ("cands", j, tuple(extra))
+        if key not in self._paths:
+            self._paths[key] = _Sweep(self.problem.arms[j], np.vstack([self.stows(j)] + [np.asarray(extra, float)] * bool(extra)), 1)
+        return self._paths[key]
 
     def unit(self, i: int, q0: tuple, target: tuple, routed: bool = True) -> tuple[list[Step], np.ndarray]:
-        """Moves (from t = 0; none if there already) from q0 to target and their samples: one
+        """Moves (from t = 0; none if there already) from q0 to target, and their samples: one
         S-curve, or (``routed``) a tucked transit if that one boxes a neighbour in."""
         key = (i, q0, target, routed)
         if key not in self._units:
             arm, moves, pts, q = self.problem.arms[i], [], [np.asarray([q0], float)], q0
             vias = [] if _same(q0, target) else [target]
-            if vias and routed and self.boxed_in(i, self.move_samples(i, _move(arm, 0.0, q0, target))):
+            if vias and routed and self.boxed_in(i, self.samples(i, _move(arm, 0.0, q0, target))):
                 vias = self.route(i, q0, target)
             for v in vias:
                 moves.append(_move(arm, moves[-1].t1 if moves else 0.0, q, v))
-                pts.append(self.move_samples(i, moves[-1]))
+                pts.append(self.samples(i, moves[-1]))
                 q = v
             self._units[key] = (moves, np.vstack(pts))
         return self._units[key]
 
+    def samples(self, i: int, mv: Step) -> np.ndarray:
+        (l1, l2), dq = self.problem.arms[i].links, np.abs(np.subtract(mv.q1, mv.q0))
+        n = int(max(np.ceil(mv.duration * self.rate), np.ceil(2.0 * ((l1 + l2) * dq[0] + l2 * dq[1]) / self.fine))) + 1
+        return _CurveTable(mv.curve).eval(np.linspace(0.0, mv.duration, n))
+
     def sweep(self, i: int, q0: tuple, targets: list[tuple], routed: bool = True) -> _Sweep:
-        """Arm i from q0 through ``targets`` (just resting at q0 if none)."""
+        """Arm i from q0 through ``targets`` (resting at q0 if none)."""
         key = (i, q0, tuple(targets), routed)
         if key not in self._paths:
             pts, q = [np.asarray([q0], float)], q0
@@ -215,33 +206,47 @@ class _Serial(_Geometry):
         self.tracks = [_Track(i, _legs(schedules[a.name]), tuple(map(float, a.home))) for i, a in enumerate(arms)]
         self.steps: list[list[Step]] = [[] for _ in arms]
         self.t0s: list[list[float]] = [[] for _ in arms]
-        t, self.turns, limit = 0.0, 0, 2 * sum(len(tr.legs) for tr in self.tracks) + 10
+        t, self.turns, limit, self._failed = 0.0, 0, 2 * sum(len(tr.legs) for tr in self.tracks) + 10, set()
         while any(tr.legs for tr in self.tracks):
             moved = True
-            while moved:
-                moved = False
-                idle = [tr for tr in self.tracks if tr.legs and tr.free <= t + 1e-9]
-                for tr in sorted(idle, key=lambda r: (r.claim is None, r.free, -r.picks(), r.index)):
-                    if (t <= tr.free + 1e-9 or t >= tr.free + self.min_wait - 1e-9) and self.book(tr, t):
-                        moved = True
+            while moved:  # everyone idle and due books, the longest idle first
+                idle = sorted((tr for tr in self.tracks if tr.legs and self.due(tr, t)), key=lambda r: (r.claim is None, r.free, -r.picks(), r.index))
+                moved = any([self.book(tr, t) for tr in idle])
+            if not any(tr.legs for tr in self.tracks):
+                break
             nxt = [tr.free for tr in self.tracks if tr.free > t + 1e-9]
             nxt += [tr.free + self.min_wait for tr in self.tracks if tr.legs and tr.free + self.min_wait > t + 1e-9]
-            if nxt:
-                t = min(nxt)
-            elif any(tr.legs for tr in self.tracks):
-                self.turns += 1
+            # stuck: cannot book, its neighbours rest and cannot book either, no turn under way near
+            stuck = [x for x in self.tracks if x.legs and self.due(x, t) and all(
+                self.tracks[k].free <= t + 1e-9 and (not self.tracks[k].legs or self.due(self.tracks[k], t)) for k in self.nbrs[x.index])
+                and not any(self.tracks[k].claim for k in self.ball(x.index, 2))]
+            if not nxt:  # nothing will move by itself
+                for tr in self.tracks:
+                    tr.claim = None
+                stuck = [tr for tr in self.tracks if tr.legs]
+            if stuck and self.turn(t, scopes, stuck, must=not nxt):
                 if self.turns > limit:
                     raise ConflictError(f"no serial schedule: more than {limit} turns")
-                t = self.turn(t, scopes)
+                continue
+            t = min(nxt)
         return {a.name: ArmSchedule(a, _merge_waits(self.steps[i])) for i, a in enumerate(arms)}
+
+    def due(self, tr: _Track, t: float) -> bool:
+        """Idle at t and not within ``min_wait`` of its last step (no sliver waits)."""
+        return tr.free <= t + 1e-9 and (t <= tr.free + 1e-9 or t >= tr.free + self.min_wait - 1e-9)
+
+    def ball(self, i: int, r: int) -> set[int]:
+        out = {i}
+        for _ in range(r):
+            out |= {k for j in out for k in self.nbrs[j]}
+        return out
 
     def book(self, tr: _Track, t: float) -> bool:
         """Book tr's next leg at its earliest clear start from t on; False if there is none."""
         leg = tr.legs[0]
         moves, _ = self.unit(tr.index, tr.pose, leg.target)
         if moves or leg.kind is not None:  # (else there already: nothing to do)
-            sw = self.sweep(tr.index, tr.pose, [leg.target])
-            nb = [self.tracks[j] for j in self.nbrs[tr.index]]
+            sw, nb = self.sweep(tr.index, tr.pose, [leg.target]), [self.tracks[j] for j in self.nbrs[tr.index]]
             if any(o.claim is not None and not self.clear(tr.index, sw, o.index, o.claim[0]) for o in nb):
                 return False
             steps = self.earliest(tr, t, moves, leg, nb)
@@ -257,28 +262,24 @@ class _Serial(_Geometry):
     def earliest(self, tr: _Track, t: float, moves: list[Step], leg: _Leg, nb: list[_Track]) -> list[Step] | None:
         """The leg's steps at the earliest clear start, or None: starts ``quantum`` apart up to
         the end of the neighbours' bookings, screened in batches at ``rate``, then checked densely."""
-        h = 1.0 / self.rate
-        steps0 = self.leg_steps(moves, leg, 0.0)
+        h, steps0 = 1.0 / self.rate, self.leg_steps(moves, leg, 0.0)
         last, q = int(np.ceil((max([t] + [o.free for o in nb]) - t) / h - 1e-9)), max(1, round(self.quantum / h))
-        ks = [0] + [k for k in list(range(q, last, q)) + [last] if k and t + k * h >= tr.free + self.min_wait]
+        k0 = int(np.ceil((tr.free + self.min_wait - t) / h - 1e-9))  # no sliver waits
+        ks = [0] * self.due(tr, t) + [k for k in list(range(q, last, q)) + [max(last, k0, 1)] if k >= k0 and k > 0]
         M = int(np.ceil(steps0[-1].t1 / h)) + 1
-        mine = _steps_positions(steps0, np.arange(M + 1) * h, self.tables)  # at the target from M on
-        theirs, tail = {}, {}
+        mine, theirs, tail = _steps_positions(steps0, np.arange(M + 1) * h, self.tables), {}, {}  # at the target from M on
         for c0 in range(0, len(ks), 8):
             kc = np.asarray(ks[c0:c0 + 8])
             ok = np.ones(kc.size, bool)
-            for o in nb:
-                j = o.index
+            for j in (o.index for o in nb):
                 if j not in theirs:
-                    theirs[j] = self.positions(j, t + np.arange(max(ks[-1] + M, int(np.ceil((o.free - t) / h))) + 2) * h)
-                    bad = self.close(tr.index, mine[M], j, theirs[j])  # resting at the target meets j
+                    theirs[j] = self.positions(j, t + np.arange(max(ks[-1] + M, int(np.ceil((self.tracks[j].free - t) / h))) + 2) * h)
+                    bad = self.close(tr.index, mine[M], j, theirs[j])  # resting at the target meets j from here on
                     tail[j] = np.append(np.logical_or.accumulate(bad[::-1])[::-1], False)
                 ok &= ~tail[j][np.minimum(kc + M, len(theirs[j]))]
                 c, m = np.repeat(np.flatnonzero(ok), M), np.tile(np.arange(M), int(ok.sum()))
                 if c.size:
                     ok[c[self.close(tr.index, mine[m], j, theirs[j][kc[c] + m])]] = False
-                if not ok.any():
-                    break
             for c in np.flatnonzero(ok):
                 steps = self.leg_steps(moves, leg, t + int(kc[c]) * h)
                 if all(self.timed_clear(tr.index, steps, o.index) for o in nb):
@@ -286,8 +287,7 @@ class _Serial(_Geometry):
         return None
 
     def timed_clear(self, i: int, steps: list[Step], j: int) -> bool:
-        """Arm i doing ``steps`` (resting after) keeps clear of arm j's bookings, sampled so
-        finely that the two together move at most ``step`` between samples."""
+        """Arm i doing ``steps`` (resting after) keeps clear of arm j's bookings (dense samples)."""
         t, stop = steps[0].t0, max(steps[-1].t1, self.tracks[j].free)
         dt = min(1.0 / self.rate, 2.0 * self.step / (self.speed[i] + self.speed[j]))
         T = np.linspace(t, stop, int(np.ceil((stop - t) / dt)) + 2)
@@ -297,8 +297,7 @@ class _Serial(_Geometry):
         """Arm j's booked positions at sorted times ``T`` (resting after its last step)."""
         if not self.steps[j]:
             return np.tile(np.asarray(self.tracks[j].pose, float), (T.size, 1))
-        k = max(0, bisect.bisect_right(self.t0s[j], float(T[0])) - 1)
-        return _steps_positions(self.steps[j][k:], T, self.tables)
+        return _steps_positions(self.steps[j][max(0, bisect.bisect_right(self.t0s[j], float(T[0])) - 1):], T, self.tables)
 
     @staticmethod
     def leg_steps(moves: list[Step], leg: _Leg, t: float) -> list[Step]:
@@ -306,9 +305,7 @@ class _Serial(_Geometry):
         for mv in moves:
             out.append(replace(mv, t0=t))
             t += mv.duration
-        if leg.kind is not None:
-            out.append(Step(leg.kind, t, leg.dwell, leg.target, leg.target, fruit=leg.fruit))
-        return out
+        return out + ([Step(leg.kind, t, leg.dwell, leg.target, leg.target, fruit=leg.fruit)] if leg.kind else [])
 
     def commit(self, tr: _Track, steps: list[Step]) -> None:
         if steps[0].t0 > tr.free + 1e-9:
@@ -329,71 +326,65 @@ class _Serial(_Geometry):
                 break
         return legs or tr.legs[:1]
 
-    def turn(self, t: float, scopes: tuple[str, ...]) -> float:
-        """No arm is moving and none can book: the first waiting arm that can have a turn gets
-        one -- its neighbours park out of its way, after it has backed off to a candidate rest
-        pose itself if it must. Returns when the parks are done."""
-        for tr in self.tracks:
-            tr.claim = None
-        waiting = sorted((tr for tr in self.tracks if tr.legs), key=lambda r: (-r.picks(), r.index))
+    def turn(self, t: float, scopes: tuple[str, ...], stuck: list[_Track], must: bool) -> bool:
+        """The first stuck arm that can have a turn gets one, its parks booked from t in order.
+        False if none can (ConflictError if ``must``: nothing else will move)."""
         for scope in scopes:
-            reason = None  # the finest scope's first failure is reported
-            for x in waiting:
-                poses = {o.index: o.pose for o in self.tracks}
-                cand = [tuple(map(float, c)) for c in self.candidates(x.index)]
-                cand.sort(key=lambda c: _move(self.problem.arms[x.index], 0.0, x.pose, c).duration)
-                backs = [c for c in cand if not _same(c, x.pose) and self.free(x.index, x.pose, c, poses)][:6]
-                for back in [None] + backs:
-                    plan, work, why = self.plan_turn(x, scope, back)
-                    reason = reason or why
-                    if plan is None:
-                        continue
-                    for j, vias in plan:  # one after another, everyone else resting
-                        o, q, moves = self.tracks[j], self.tracks[j].pose, []
-                        for v in vias:
-                            moves += self.unit(j, q, v, routed=False)[0]
-                            q = v
-                        start = max(t, o.free + (self.min_wait if t > o.free + 1e-9 else 0.0))
-                        self.commit(o, self.leg_steps(moves, _Leg(vias[-1]), start))
-                        t = o.free
-                        if j != x.index and (not o.legs or not o.legs[-1].home):
-                            o.legs.append(_Leg(tuple(map(float, self.problem.arms[j].home)), home=True))
-                    x.claim = [work, len(self.scope_legs(x, scope))]
-                    return t
-        raise ConflictError(f"no serial schedule: {reason or 'the arms block each other'}")
+            reason = blocked = None  # the finest scope's first failure is reported
+            for x in sorted(stuck, key=lambda r: (-r.picks(), r.index)):
+                key = (scope, x.index) + tuple((self.tracks[k].pose, len(self.tracks[k].legs)) for k in sorted(self.ball(x.index, 3)))
+                if key in self._failed and not must:  # (nothing near it has changed since it last could not)
+                    continue
+                plan, work, why = self.plan_turn(x, scope, t)
+                if reason is None and why:
+                    reason, blocked = why, x
+                if plan is None:
+                    self._failed.add(key)
+                    continue
+                self.turns += 1
+                for j, vias in plan:  # (each clear, at the latest, once the others rest)
+                    o, q, moves = self.tracks[j], self.tracks[j].pose, []
+                    for v in vias:
+                        moves += self.unit(j, q, v, routed=False)[0]
+                        q = v
+                    steps = self.earliest(o, t, moves, _Leg(vias[-1]), [self.tracks[k] for k in self.nbrs[j]])
+                    if steps is None:
+                        raise ConflictError(f"no serial schedule: arm {self.problem.arms[j].name!r} cannot park")
+                    self.commit(o, steps)
+                    if not o.legs or not o.legs[-1].home:
+                        o.legs.append(_Leg(tuple(map(float, self.problem.arms[j].home)), home=True))
+                x.claim = [work, len(self.scope_legs(x, scope))]
+                return True
+        if must:
+            fruit = next((lg.fruit for lg in blocked.legs if lg.fruit), None) if blocked is not None else None
+            raise ConflictError(f"no serial schedule: {reason or 'the arms block each other'}",
+                                arm=self.problem.arms[blocked.index].name if blocked is not None else None, fruit=fruit)
+        return False
 
-    def plan_turn(self, x: _Track, scope: str, back: tuple | None) -> tuple[list | None, _Sweep, str]:
-        """Moves ``[(arm, vias)]`` giving arm x a turn (x backing off to ``back`` first, if
-        given), the turn's work, and why not if there are none."""
-        legs = self.scope_legs(x, scope)
-        poses = {o.index: o.pose for o in self.tracks}
-        poses[x.index] = x.pose if back is None else back
-        work = self.sweep(x.index, poses[x.index], [lg.target for lg in legs])
-        plan = [] if back is None else [(x.index, [back])]
+    def plan_turn(self, x: _Track, scope: str, t: float) -> tuple[list | None, _Sweep, str]:
+        """Parks ``[(arm, vias)]`` giving arm x a turn, the turn's work, and why not if none."""
+        legs, poses = self.scope_legs(x, scope), {o.index: o.pose for o in self.tracks}
+        work, plan = self.sweep(x.index, x.pose, [lg.target for lg in legs]), []
         for j in self.nbrs[x.index]:
             if self.clear(j, self.sweep(j, poses[j], []), x.index, work):
                 continue
-            done = {x.index, j} | {k for k, _ in plan}
-            # j parks; else first another neighbour of j parks out of its way (a few tries each)
-            tries = [(None, None)] + [(k, vk) for k in self.nbrs[j] if k not in done
+            done = {x.index, j} | {k for k, _ in plan}  # j parks; else a resting neighbour of j first moves aside
+            tries = [(None, None)] + [(k, vk) for k in self.nbrs[j] if k not in done and self.tracks[k].free <= t + 1e-9
                                       for vk in itertools.islice(self.parks(k, x.index, work, poses), 4)]
             for k, vk in tries:
-                trial = dict(poses) if k is None else {**poses, k: vk[-1]}
+                trial = poses if k is None else {**poses, k: vk[-1]}
                 vias = next(self.parks(j, x.index, work, trial), None)
                 if vias is not None:
                     break
             if vias is None:
                 what = f"{legs[0].kind.value} of {legs[0].fruit}" if legs[0].kind else "move"
-                return None, work, (f"arm {self.problem.arms[j].name!r} cannot get out of the way of the {what} by arm "
-                                    f"{self.problem.arms[x.index].name!r}: no candidate rest pose clear of it is reachable")
+                why = ("none of its candidate rest poses is clear of it" if self.hits(j, self.cands(j), x.index, work).all()
+                       else "it cannot reach a clear rest pose without touching a neighbour")
+                return None, work, (f"arm {self.problem.arms[j].name!r} cannot get out of the way of the {what} "
+                                    f"by arm {self.problem.arms[x.index].name!r}: {why}")
             plan += ([] if k is None else [(k, vk)]) + [(j, vias)]
             poses = {**trial, j: vias[-1]}
         return plan, work, ""
-
-    def candidates(self, j: int) -> np.ndarray:
-        """Arm j's candidate rest poses: the stows, then its own remaining picks, places and home."""
-        own = [lg.target for lg in self.tracks[j].legs]
-        return np.vstack([self.stows(j)] + ([np.asarray(own, float)] if own else []))
 
     def free(self, j: int, q0: tuple, q1: tuple, poses: dict) -> bool:
         """Whether arm j's straight move q0 -> q1 keeps clear of where its neighbours rest."""
@@ -402,50 +393,40 @@ class _Serial(_Geometry):
 
     def parks(self, j: int, x: int, work: _Sweep, poses: dict):
         """Vias taking arm j to a candidate rest pose clear of arm x's ``work`` and of where the
-        other arms rest (one or two moves, each clear of where they rest), from which its next
-        leg boxes no neighbour in; poses in the way of the fewest neighbours' remaining work
-        first, then the quickest."""
-        cand, cur = self.candidates(j), poses[j]
-        stow = _Sweep(self.problem.arms[j], cand, block=1)
-        ok = ~self.hits(j, stow, x, work) if x in self.nbrs[j] else np.ones(len(cand), bool)
-        soft = np.zeros(len(cand))
+        others rest (one or two moves clear of where they rest), from which its next leg boxes no
+        neighbour in; poses in the way of the fewest neighbours' remaining work first, then the
+        quickest."""
+        cand, cur = self.cands(j), poses[j]
+        ok = ~self.hits(j, cand, x, work) if x in self.nbrs[j] else np.ones(len(cand.q), bool)
+        soft = np.zeros(len(cand.q))
         for k in self.nbrs[j]:
-            if k != x:
-                ok &= ~self.hits(j, stow, k, self.sweep(k, poses[k], []))
+            ok &= ~self.hits(j, cand, k, self.sweep(k, poses[k], [])) if k != x else True
             rem = [lg.target for lg in self.scope_legs(self.tracks[k], "work")] if self.tracks[k].legs else []
-            soft += self.hits(j, stow, k, self.sweep(k, poses[k], rem))
-        time = np.array([_move(self.problem.arms[j], 0.0, cur, c).duration for c in cand])
-        order = [tuple(map(float, cand[c])) for c in np.lexsort((time, soft)) if ok[c]]
+            soft += self.hits(j, cand, k, self.sweep(k, poses[k], rem))
+        time = np.array([_move(self.problem.arms[j], 0.0, cur, c).duration for c in cand.q])
+        order = [tuple(map(float, cand.q[c])) for c in np.lexsort((time, soft)) if ok[c]]
         nxt = self.tracks[j].legs[0].target if self.tracks[j].legs else tuple(map(float, self.problem.arms[j].home))
 
         def fine(q0, q1) -> bool:
             return not _same(q0, q1) and self.free(j, q0, q1, poses) and not self.boxed_in(j, self.unit(j, q1, nxt)[1])
 
         yield from ([c] for c in order if fine(cur, c))
-        mids = [m for m in (tuple(map(float, cand[c])) for c in np.argsort(time)) if not _same(m, cur) and self.free(j, cur, m, poses)]
+        mids = [m for m in (tuple(map(float, cand.q[c])) for c in np.argsort(time)) if not _same(m, cur) and self.free(j, cur, m, poses)]
         yield from ([m, c] for m in mids[:8] for c in order if fine(m, c))
 
 
-def serial_schedules(
-    problem: Problem,
-    schedules: dict[str, ArmSchedule],
-    margin: float,
-    rate: float = 200.0,
-    min_wait: float = 0.05,
-    quantum: float = 0.05,
-) -> dict[str, ArmSchedule]:
+def serial_schedules(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float = 200.0,
+                     min_wait: float = 0.05, quantum: float = 0.05) -> dict[str, ArmSchedule]:
     """Conflict-free schedules doing the work of ``schedules`` (e.g. from
-    :func:`coplan.schedule.decoupled_schedules`): the same picks and places (fruit, pose, dwell)
-    in the same order, each arm's steps contiguous from t = 0 at home, S-curve moves from the
-    previous pose, waits (``WAIT`` steps) at least ``min_wait`` s, every arm ending at home.
-    Neighbouring arms keep ``clearance + margin`` at the samples, ``clearance + margin / 2``
-    everywhere. Arms take turns where they would get in each other's way (module docstring).
+    :func:`coplan.schedule.decoupled_schedules`): the same picks and places (fruit, pose, dwell,
+    order), each arm's steps contiguous from t = 0 at home, S-curve moves from the previous pose,
+    ``WAIT`` steps of at least ``min_wait`` s, every arm ending at home. Neighbours keep
+    ``clearance + margin`` at the samples (``clearance + margin / 2`` between them).
 
-    Raises :class:`~coplan.schedule.ConflictError` naming the arms and the reason when some leg
-    cannot run with a neighbour at any of its candidate rest poses (or cannot get there).
+    Raises :class:`~coplan.schedule.ConflictError`, naming the arms and the reason, when a leg
+    cannot run with a neighbour at any candidate rest pose (or the neighbour cannot get there).
     """
-    geo = _Serial(problem, margin, rate, min_wait, quantum)
-    best, err = None, None
+    geo, best, err = _Serial(problem, margin, rate, min_wait, quantum), None, None
     for scopes in _POLICIES:
         try:
             out = geo.run(schedules, scopes)
@@ -453,8 +434,7 @@ def serial_schedules(
             err = err or e
             continue
         key = (max((s.last_place for s in out.values()), default=0.0), max((s.end for s in out.values()), default=0.0))
-        if best is None or key < best[0]:
-            best = (key, out)
+        best = (key, out) if best is None or key < best[0] else best
         if not geo.turns:  # no turn was needed: the policies would not differ
             break
     if best is None:
