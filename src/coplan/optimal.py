@@ -209,7 +209,7 @@ class _Incumbent:
         self.candidate = candidate if candidate is not None else self.candidate
         self.history.append({"t": now, "makespan": self.makespan, "source": source})
         lb = plan.metrics.get("lower_bound") or 0.0
-        gap = f", {self.makespan / lb - 1:+.2%} over the lower bound {lb:.3f} s" if lb else ""
+        gap = f", {max(self.makespan / lb - 1, 0.0):.2%} over the lower bound {lb:.3f} s" if lb else ""
         self.say(f"incumbent {self.makespan:.3f} s ({source}){gap}")
         return True
 
@@ -372,4 +372,5 @@ def _message(inc: _Incumbent, stop: StopReason) -> str:
         StopReason.TIME_LIMIT: "the time limit was reached; the verified incumbent is returned",
         StopReason.INTERRUPTED: "interrupted; the verified incumbent is saved",
     }
-    return f"{words[stop]} (incumbent from the {inc.source})"
+    source = {"coordinated": "the coordinated plan", "search": "the search", "joint NLP": "the joint NLP"}.get(inc.source, inc.source)
+    return f"{words[stop]} (incumbent from {source})"
