@@ -105,6 +105,16 @@ def test_coordinate_deadlocks_on_the_tight_layout():
     pytest.skip("coordinate() no longer deadlocks on this layout")
 
 
+def test_turns_resolve_a_layout_that_needs_the_arm_itself_to_back_off():
+    # 1.15 m apart, 27 fruit: the only turn that works starts with the arm whose turn it is
+    # moving to a candidate pose first (from where it stands its pick sweeps every rest pose of
+    # its neighbour)
+    p = tight_problem(seed=27, n_fruits=27, spacing=1.15)
+    alloc = allocate(p)
+    base = decoupled_schedules(p, alloc)
+    assert not _check(p, alloc, base, serial_schedules(p, base, MARGIN)).unharvested
+
+
 def test_serial_resolves_the_tight_layout():
     p = tight_problem()
     alloc = allocate(p)
@@ -117,14 +127,16 @@ def test_serial_resolves_the_tight_layout():
 
 
 # --------------------------------------------------------------------------- shipped problems
-@pytest.mark.parametrize("name", ["greenhouse_row", "crossing_paths", "five_arm_row", "dense_overlap", "single_arm"])
+@pytest.mark.parametrize("name", ["greenhouse_row", "crossing_paths", "five_arm_row", "dense_overlap", "single_arm", "locked_arms"])
 def test_shipped_problems(problems_dir, name):
+    if not (problems_dir / f"{name}.yaml").exists():
+        pytest.skip(f"{name}.yaml is not shipped")
     p = load_problem(problems_dir / f"{name}.yaml")
     alloc = allocate(p)
     base = decoupled_schedules(p, alloc)
     out = serial_schedules(p, base, MARGIN)
-    ver = _check(p, alloc, base, out)
-    assert not ver.unharvested
+    ver = _check(p, alloc, base, out)  # every allocated fruit (locked_arms: the screen leaves some out)
+    assert name == "locked_arms" or not ver.unharvested
     if name in ("greenhouse_row", "single_arm"):  # no arm in another's way: nothing is delayed
         assert _span(out) == pytest.approx(_span(base), abs=1e-9)
 
@@ -168,5 +180,6 @@ def test_conflict_error_names_the_arms_when_no_rest_pose_helps():
     alloc = SimpleNamespace(assignment={"a": ("f1",), "b": ()}, fruit_q={"a": {"f1": qf[int(np.argmax(vf))]}},
                             place_q={"a": {"f1": qb[int(np.argmax(vb))]}})
     base = decoupled_schedules(p, alloc)
-    with pytest.raises(ConflictError, match=r"arm 'b' .* arm 'a'"):
+    with pytest.raises(ConflictError, match=r"arm 'b' .* arm 'a'") as e:
         serial_schedules(p, base, MARGIN)
+    assert (e.value.arm, e.value.fruit) == ("a", "f1")  # the work that cannot be scheduled

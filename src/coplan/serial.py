@@ -12,14 +12,14 @@ each arm's work can be done while its neighbours wait at candidate rest poses cl
   and each is checked against all earlier ones: the result is conflict-free. A move leaving a
   neighbour no clear rest pose (typically across its base) becomes a tucked transit
   (:meth:`_Geometry.route`).
-* **Turns.** An arm that cannot book while its neighbours rest and cannot book either takes a
-  turn: each neighbour in the way of the turn's work parks (after a resting neighbour of its
-  own has moved aside, if need be) at a candidate pose clear of all of it, by one or two
-  moves clear of where the others rest; until the turn's last leg is booked its neighbours
-  book only legs clear of the work. A turn is the arm's whole remaining work if possible (one
-  arm works while the other waits folded), else its fruit cycle, else its next leg. Turn work
-  is checked statically (every pose against every pose), so the arm can book its next leg
-  after the parks: every turn adds a leg, and the loop ends.
+* **Turns.** An arm that cannot book while a neighbour that cannot book either rests in its way
+  takes a turn: each neighbour in the way of the turn's work parks (after a neighbour of its
+  own has moved aside, or the arm itself has backed off, if need be) at a candidate pose clear
+  of all of it, by one or two moves clear of where the others rest; until the turn's last leg
+  is booked its neighbours book only legs clear of the work. A turn is the arm's whole
+  remaining work if possible (one arm works while the other waits folded), else its fruit
+  cycle, else its next leg. Turn work is checked statically (every pose against every pose),
+  so the arm can book its next leg after the parks: every turn adds a leg, and the loop ends.
 * **Sampling.** Timed tests sample both arms so that together they move at most ``s = margin /
   2`` between samples (after screening all starts at ``rate``); static tests sample moves so
   that an arm moves at most ``s / 4`` (S-curve joint speeds are at most twice the mean), keep
@@ -206,7 +206,7 @@ class _Serial(_Geometry):
         self.tracks = [_Track(i, _legs(schedules[a.name]), tuple(map(float, a.home))) for i, a in enumerate(arms)]
         self.steps: list[list[Step]] = [[] for _ in arms]
         self.t0s: list[list[float]] = [[] for _ in arms]
-        t, self.turns, limit, self._failed = 0.0, 0, 2 * sum(len(tr.legs) for tr in self.tracks) + 10, set()
+        t, self.turns, limit, self._failed = 0.0, 0, 4 * sum(len(tr.legs) for tr in self.tracks) + 20, set()
         while any(tr.legs for tr in self.tracks):
             moved = True
             while moved:  # everyone idle and due books, the longest idle first
@@ -216,10 +216,10 @@ class _Serial(_Geometry):
                 break
             nxt = [tr.free for tr in self.tracks if tr.free > t + 1e-9]
             nxt += [tr.free + self.min_wait for tr in self.tracks if tr.legs and tr.free + self.min_wait > t + 1e-9]
-            # stuck: cannot book, its neighbours rest and cannot book either, no turn under way near
-            stuck = [x for x in self.tracks if x.legs and self.due(x, t) and all(
-                self.tracks[k].free <= t + 1e-9 and (not self.tracks[k].legs or self.due(self.tracks[k], t)) for k in self.nbrs[x.index])
-                and not any(self.tracks[k].claim for k in self.ball(x.index, 2))]
+            # stuck: cannot book, a neighbour that cannot book either rests in the way, no turn under way near
+            stuck = [x for x in self.tracks if x.legs and self.due(x, t) and not any(self.tracks[k].claim for k in self.ball(x.index, 3))
+                     and any(o.free <= t + 1e-9 and (not o.legs or self.due(o, t)) and not self.clear(o.index, self.sweep(
+                         o.index, o.pose, []), x.index, self.sweep(x.index, x.pose, [x.legs[0].target])) for o in self.nbr_tracks(x))]
             if not nxt:  # nothing will move by itself
                 for tr in self.tracks:
                     tr.claim = None
@@ -234,6 +234,9 @@ class _Serial(_Geometry):
     def due(self, tr: _Track, t: float) -> bool:
         """Idle at t and not within ``min_wait`` of its last step (no sliver waits)."""
         return tr.free <= t + 1e-9 and (t <= tr.free + 1e-9 or t >= tr.free + self.min_wait - 1e-9)
+
+    def nbr_tracks(self, tr: _Track) -> list[_Track]:
+        return [self.tracks[j] for j in self.nbrs[tr.index]]
 
     def ball(self, i: int, r: int) -> set[int]:
         out = {i}
@@ -335,9 +338,15 @@ class _Serial(_Geometry):
                 key = (scope, x.index) + tuple((self.tracks[k].pose, len(self.tracks[k].legs)) for k in sorted(self.ball(x.index, 3)))
                 if key in self._failed and not must:  # (nothing near it has changed since it last could not)
                     continue
-                plan, work, why = self.plan_turn(x, scope, t)
-                if reason is None and why:
-                    reason, blocked = why, x
+                poses = {o.index: o.pose for o in self.tracks}  # (the busy ones: after their bookings)
+                order = sorted(map(tuple, self.cands(x.index).q.tolist()), key=lambda c: _move(self.problem.arms[x.index], 0.0, x.pose, c).duration)
+                backs = (c for c in order if not _same(c, x.pose) and self.free(x.index, x.pose, c, poses))
+                for back in itertools.chain([None], itertools.islice(backs, 6)):  # else x first backs off
+                    plan, work, why = self.plan_turn(x, scope, back)
+                    if reason is None and why:
+                        reason, blocked = why, x
+                    if plan is not None:
+                        break
                 if plan is None:
                     self._failed.add(key)
                     continue
@@ -361,15 +370,17 @@ class _Serial(_Geometry):
                                 arm=self.problem.arms[blocked.index].name if blocked is not None else None, fruit=fruit)
         return False
 
-    def plan_turn(self, x: _Track, scope: str, t: float) -> tuple[list | None, _Sweep, str]:
-        """Parks ``[(arm, vias)]`` giving arm x a turn, the turn's work, and why not if none."""
+    def plan_turn(self, x: _Track, scope: str, back: tuple | None) -> tuple[list | None, _Sweep, str]:
+        """Parks ``[(arm, vias)]`` giving arm x a turn (x first backing off to ``back``, if
+        given), the turn's work, and why not if there are none."""
         legs, poses = self.scope_legs(x, scope), {o.index: o.pose for o in self.tracks}
-        work, plan = self.sweep(x.index, x.pose, [lg.target for lg in legs]), []
+        poses[x.index], plan = x.pose if back is None else back, [] if back is None else [(x.index, [back])]
+        work = self.sweep(x.index, poses[x.index], [lg.target for lg in legs])
         for j in self.nbrs[x.index]:
             if self.clear(j, self.sweep(j, poses[j], []), x.index, work):
                 continue
             done = {x.index, j} | {k for k, _ in plan}  # j parks; else a resting neighbour of j first moves aside
-            tries = [(None, None)] + [(k, vk) for k in self.nbrs[j] if k not in done and self.tracks[k].free <= t + 1e-9
+            tries = [(None, None)] + [(k, vk) for k in self.nbrs[j] if k not in done
                                       for vk in itertools.islice(self.parks(k, x.index, work, poses), 4)]
             for k, vk in tries:
                 trial = poses if k is None else {**poses, k: vk[-1]}
