@@ -29,7 +29,7 @@ import argparse
 import statistics
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import numpy as np
 
@@ -119,8 +119,16 @@ def _layout(args) -> dict:
 
 def table_random(n_random: int, n_cells: int, workers: int) -> list[str]:
     jobs = [("random", s) for s in range(n_random)] + [("cell", s) for s in range(n_cells)]
-    with ProcessPoolExecutor(max_workers=workers) as ex:
-        rows = list(ex.map(_layout, jobs))
+    rows = []
+    with ProcessPoolExecutor(max_workers=workers) as ex:  # each layout's row printed as it finishes
+        for fut in as_completed([ex.submit(_layout, job) for job in jobs]):
+            r = fut.result()
+            rows.append(r)
+            c, o = r["coordinated"], r["optimal"]
+            print(f"  {r['kind']}-{r['seed']}: {r['arms']} arms, {r['reachable']} reachable, gap {r['gap']:.2f} m; "
+                  f"coordinated {c.get('status')} {_fmt(c.get('makespan'))}; optimal {o.get('status')} "
+                  f"{_fmt(o.get('makespan'))} ({_fmt(o.get('seconds'), 1)} s)", flush=True)
+    rows.sort(key=lambda r: (r["kind"], r["seed"]))
     out = []
     for kind, label in (("random", "random_problem"), ("cell", "cell_problem"), (None, "all")):
         mine = [r for r in rows if kind is None or r["kind"] == kind]
