@@ -19,6 +19,7 @@ from coplan.pipeline import ExitCode, solve
 from coplan.plan import PlannerKind, PlanStatus, load_plan
 from coplan.problem import default_problem_path, load_problem, parse_problem
 from coplan.verify import verify
+from layouts import squeezed
 
 SMALL = OptimalOptions(search_work=1500, polish=False)  # a short search: these tests check behaviour
 
@@ -122,20 +123,7 @@ def test_the_command_line_loads_no_numerical_library_for_help():
 
 def _squeezed(seed: int):
     """random_problem(seed) with its bases squeezed 0.9-1.4 m apart: arms lock (None if invalid)."""
-    from coplan.errors import ProblemError
-
-    d = random_problem(seed, n_fruits=10)
-    sp = float(np.random.default_rng(1000 + seed).uniform(0.9, 1.4))
-    n = len(d["arms"])
-    for i, a in enumerate(d["arms"]):
-        x = round((i - (n - 1) / 2) * sp, 4)
-        a["base"], a["bin"] = [x, 0.0], [x, a["bin"][1]]
-    for f in d["fruits"]:
-        f["position"][0] = round(f["position"][0] * sp / 1.8, 4)
-    try:
-        return parse_problem(to_yaml(d), f"squeezed-{seed}")
-    except ProblemError:
-        return None
+    return squeezed(seed, n_fruits=10, name=f"squeezed-{seed}")
 
 
 @pytest.mark.parametrize("seed", [0, 2, 4, 6])

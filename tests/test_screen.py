@@ -14,6 +14,7 @@ from coplan.generate import random_problem, to_yaml
 from coplan.heuristic import plan_heuristic
 from coplan.problem import Arm, Fruit, Problem, Task, load_problem, parse_problem, shipped_problems
 from coplan.screen import screen
+from layouts import squeezed
 
 LOCKED = next(p for p in shipped_problems() if p.name == "locked_arms.yaml")
 
@@ -251,20 +252,7 @@ def test_q1_range_and_poses_match_brute_force(seed: int) -> None:
 # --------------------------------------------------------------------------- never too strict
 def _tight(seed: int) -> Problem | None:
     """random_problem(seed) squeezed to bases 0.9-1.4 m apart (about half its arms lock)."""
-    from coplan.errors import ProblemError
-
-    d = random_problem(seed, n_fruits=12)
-    sp = float(np.random.default_rng(1000 + seed).uniform(0.9, 1.4))
-    n = len(d["arms"])
-    for i, a in enumerate(d["arms"]):
-        x = round((i - (n - 1) / 2) * sp, 4)
-        a["base"], a["bin"] = [x, 0.0], [x, a["bin"][1]]
-    for f in d["fruits"]:
-        f["position"][0] = round(f["position"][0] * sp / 1.8, 4)
-    try:
-        return parse_problem(to_yaml(d))
-    except ProblemError:  # a home pose too close to a neighbour's
-        return None
+    return squeezed(seed, n_fruits=12)
 
 
 @pytest.mark.parametrize("tight", [False, True], ids=["random", "tight"])
