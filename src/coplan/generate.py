@@ -239,6 +239,12 @@ def _valid_draw(draw, what: str, seed: int, n_arms, n_fruits, max_tries: int) ->
     raise RuntimeError(f"{what}(seed={seed}): no valid problem in {max_tries} draws; last: {last}")
 
 
+def _fruit_over_row(rng: np.random.Generator, x_first: float, x_last: float, reach: float, n: int) -> list:
+    """``n`` fruit uniform over the row (0.8 ``reach`` past the end bases) at 0.25-0.95 ``reach`` high."""
+    lo, hi = x_first - 0.8 * reach, x_last + 0.8 * reach
+    return [(_r4(rng.uniform(lo, hi)), _r4(rng.uniform(0.25 * reach, 0.95 * reach))) for _ in range(n)]
+
+
 def _draw_cell(rng: np.random.Generator, seed: int, n_arms: int | None, n_fruits: int | None) -> dict[str, Any]:
     A = int(n_arms) if n_arms is not None else int(rng.integers(2, 6))
     gaps = [_r4(rng.uniform(1.0, 2.6)) for _ in range(A - 1)]
@@ -267,9 +273,7 @@ def _draw_cell(rng: np.random.Generator, seed: int, n_arms: int | None, n_fruits
         })
         reaches.append(outer)
     F = int(n_fruits) if n_fruits is not None else int(rng.integers(4, 31))
-    reach = min(reaches)
-    lo, hi = xs[0] - 0.8 * reach, xs[-1] + 0.8 * reach
-    pts = [(_r4(rng.uniform(lo, hi)), _r4(rng.uniform(0.25 * reach, 0.95 * reach))) for _ in range(F)]
+    pts = _fruit_over_row(rng, xs[0], xs[-1], min(reaches), F)
     task = {
         "pick_dwell": _r4(rng.uniform(0.15, 0.4)),
         "place_dwell": _r4(rng.uniform(0.1, 0.3)),
@@ -310,9 +314,7 @@ def _draw_random(rng: np.random.Generator, seed: int, n_arms: int | None, n_frui
         arms.append(entry)
         reaches.append(outer)
     F = int(n_fruits) if n_fruits is not None else int(rng.integers(3 * A, 8 * A + 1))
-    reach = min(reaches)
-    lo, hi = bases[0] - 0.8 * reach, bases[-1] + 0.8 * reach
-    pts = [(_r4(rng.uniform(lo, hi)), _r4(rng.uniform(0.25 * reach, 0.95 * reach))) for _ in range(F)]
+    pts = _fruit_over_row(rng, bases[0], bases[-1], min(reaches), F)
     task = {
         "pick_dwell": _r4(rng.uniform(0.1, 0.5)),
         "place_dwell": _r4(rng.uniform(0.1, 0.4)),
