@@ -24,3 +24,24 @@ def squeezed(seed: int, n_fruits: int, name: str | None = None) -> Problem | Non
         return parse_problem(to_yaml(d), name)
     except ProblemError:
         return None
+
+
+# f1 sits 0.1 m above b's base: only a reaches it, and a's tip there is within the clearance
+# of b's shoulder whatever pose b takes -- no plan can pick it
+IMPOSSIBLE = """
+name: impossible
+defaults:
+  links: [1.0, 0.8]
+  link_radius: 0.04
+  joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]]
+  max_velocity: [3.0, 4.0]
+  max_acceleration: [8.0, 12.0]
+  max_jerk: [80.0, 120.0]
+  home: [1.5708, 0.5]
+arms:
+  - {name: a, base: [0.0, 0.0], bin: [0.0, -0.5]}
+  - {name: b, base: [1.0, 0.0], bin: [1.0, -0.5]}
+fruits:
+  - {id: f1, position: [1.0, 0.1]}
+task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
+"""

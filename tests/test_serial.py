@@ -23,6 +23,7 @@ from coplan.schedule import ConflictError, StepKind, decoupled_schedules
 from coplan.serial import serial_schedules
 from coplan.timing import SCurve
 from coplan.verify import verify
+from layouts import IMPOSSIBLE
 
 MARGIN = 0.015
 
@@ -151,25 +152,6 @@ def test_random_problems(seed):
 
 
 # --------------------------------------------------------------------------- when nothing can work
-IMPOSSIBLE = """
-name: impossible
-defaults:
-  links: [1.0, 0.8]
-  link_radius: 0.04
-  joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]]
-  max_velocity: [3.0, 4.0]
-  max_acceleration: [8.0, 12.0]
-  max_jerk: [80.0, 120.0]
-  home: [1.5708, 0.5]
-arms:
-  - {name: a, base: [0.0, 0.0], bin: [0.0, -0.5]}
-  - {name: b, base: [1.0, 0.0], bin: [1.0, -0.5]}
-fruits:
-  - {id: f1, position: [1.0, 0.1]}
-task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
-"""
-
-
 def test_conflict_error_names_the_arms_when_no_rest_pose_helps():
     # f1 is 0.1 m above b's base: a's tip there is too close to b's shoulder whatever b does.
     # (An allocation may well refuse this fruit; the schedule is made by hand to force it.)

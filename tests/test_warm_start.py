@@ -16,6 +16,7 @@ from coplan import kinematics as kin
 from coplan.allocation import AllocationMethod, allocate
 from coplan.geometry import segment_distance
 from coplan.screen import screen
+from layouts import IMPOSSIBLE
 from coplan.coordinated import CoordinatedOptions, find_coordinated
 from coplan.plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics
 from coplan.problem import Problem, load_problem, parse_problem
@@ -186,23 +187,6 @@ def test_waiting_is_inserted_when_paths_cross(problems_dir):
     _check_well_formed(p, base, out)
 
 
-IMPOSSIBLE = """
-name: impossible
-defaults:
-  links: [1.0, 0.8]
-  link_radius: 0.04
-  joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]]
-  max_velocity: [3.0, 4.0]
-  max_acceleration: [8.0, 12.0]
-  max_jerk: [80.0, 120.0]
-  home: [1.5708, 0.5]
-arms:
-  - {name: a, base: [0.0, 0.0], bin: [0.0, -0.5]}
-  - {name: b, base: [1.0, 0.0], bin: [1.0, -0.5]}
-fruits:
-  - {id: f1, position: [1.0, 0.1]}
-task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
-"""
 
 
 def test_conflict_error_not_a_hang_when_no_timing_can_separate():
