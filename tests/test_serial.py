@@ -152,6 +152,8 @@ def test_random_problems(seed):
 
 
 # --------------------------------------------------------------------------- when nothing can work
+
+
 def test_conflict_error_names_the_arms_when_no_rest_pose_helps():
     # f1 is 0.1 m above b's base: a's tip there is too close to b's shoulder whatever b does.
     # (An allocation may well refuse this fruit; the schedule is made by hand to force it.)

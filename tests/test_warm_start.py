@@ -187,8 +187,6 @@ def test_waiting_is_inserted_when_paths_cross(problems_dir):
     _check_well_formed(p, base, out)
 
 
-
-
 def test_conflict_error_not_a_hang_when_no_timing_can_separate():
     # f1 sits 0.1 m above b's base: only a reaches it, and a's tip there is within the
     # clearance of b's shoulder whatever pose b takes -- no wait, yield or route helps
