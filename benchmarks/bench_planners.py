@@ -21,15 +21,19 @@ the times do (2-core machine; the random layouts run two at a time).
 
     python benchmarks/bench_planners.py --out benchmarks/results.md
     python benchmarks/bench_planners.py --quick           # shipped problems only, no random layouts
+    python benchmarks/bench_planners.py --random-only --rows benchmarks/rows.jsonl   # resumable sweep
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
+import subprocess
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
 
 import numpy as np
 
@@ -117,13 +121,46 @@ def _layout(args) -> dict:
     return row
 
 
-def table_random(n_random: int, n_cells: int, workers: int) -> list[str]:
+def _commit() -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                             cwd=Path(__file__).resolve().parent, check=True)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
+                               text=True, cwd=Path(__file__).resolve().parent, check=True).stdout.strip()
+        return out.stdout.strip() + ("+dirty" if dirty else "")
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def _done_rows(path: str | None, commit: str) -> dict:
+    """Rows already finished by an earlier run of the same commit (``--rows``): resume, lose nothing."""
+    if not path or not Path(path).exists():
+        return {}
+    done = {}
+    for line in Path(path).read_text().splitlines():
+        if line.strip():
+            r = json.loads(line)
+            if r.get("commit") == commit:
+                done[(r["kind"], r["seed"])] = r
+    return done
+
+
+def table_random(n_random: int, n_cells: int, workers: int, rows_file: str | None = None) -> list[str]:
+    commit = _commit()
     jobs = [("random", s) for s in range(n_random)] + [("cell", s) for s in range(n_cells)]
-    rows = []
+    done = _done_rows(rows_file, commit) if "dirty" not in commit else {}
+    rows = [done[j] for j in jobs if j in done]
+    if rows:
+        print(f"  {len(rows)} layouts already done by an earlier run of {commit} ({rows_file})", flush=True)
+    todo = [j for j in jobs if j not in done]
     with ProcessPoolExecutor(max_workers=workers) as ex:  # each layout's row printed as it finishes
-        for fut in as_completed([ex.submit(_layout, job) for job in jobs]):
+        for fut in as_completed([ex.submit(_layout, job) for job in todo]):
             r = fut.result()
+            r["commit"] = commit
             rows.append(r)
+            if rows_file:
+                with open(rows_file, "a") as fh:
+                    fh.write(json.dumps(r) + "\n")
             c, o = r["coordinated"], r["optimal"]
             print(f"  {r['kind']}-{r['seed']}: {r['arms']} arms, {r['reachable']} reachable, gap {r['gap']:.2f} m; "
                   f"coordinated {c.get('status')} {_fmt(c.get('makespan'))}; optimal {o.get('status')} "
@@ -170,6 +207,9 @@ def main(argv=None) -> int:
     ap.add_argument("--random", type=int, default=100, metavar="N", help="random_problem seeds 0..N-1")
     ap.add_argument("--cells", type=int, default=100, metavar="M", help="cell_problem seeds 0..M-1")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--random-only", action="store_true", help="skip the problem table, run the random layouts only")
+    ap.add_argument("--rows", metavar="FILE", help="append each random layout's row to this JSON-lines file and skip "
+                    "rows an earlier run of the same (clean) commit already finished")
     ap.add_argument("--out", help="also write the tables as Markdown to this file")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
@@ -177,10 +217,11 @@ def main(argv=None) -> int:
     print(head)
     parts = [f"<!-- {head}: python benchmarks/bench_planners.py {' '.join(argv or sys.argv[1:])} -->", "",
              "Makespan (solve time); every plan checked again with `coplan.verify.verify`.", ""]
-    parts += table_problems(args.quick)
+    if not args.random_only:
+        parts += table_problems(args.quick)
     if not args.quick and (args.random or args.cells):
         parts += ["", f"Random layouts at the default settings ({args.workers} at a time):", ""]
-        parts += table_random(args.random, args.cells, args.workers)
+        parts += table_random(args.random, args.cells, args.workers, args.rows)
     parts += ["", f"Whole run: {time.perf_counter() - t0:.0f} s."]
     if args.out:
         with open(args.out, "w") as fh:
