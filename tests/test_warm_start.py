@@ -133,6 +133,29 @@ def test_choose_branches_keeps_the_work_and_reaches_the_targets(problems_dir):
             assert np.allclose(tip, arm.bin, atol=1e-9)
 
 
+@pytest.mark.parametrize("name", ["dense_overlap", "five_arm_row"])
+def test_choose_branches_memo_gives_the_same_branches(problems_dir, name):
+    """The search shares one memo of move-vs-pose hits over many calls: with it, every call
+    (the first, which fills it, and later ones over other allocations) chooses exactly the
+    branches a call without it chooses."""
+    from dataclasses import replace
+
+    p = _load(problems_dir, name)
+    need = p.task.clearance + MARGIN
+    alloc = allocate(p)
+    names = [a.name for a in p.arms]
+    rng = np.random.default_rng(5)
+    shuffled = replace(alloc, assignment={n: tuple(rng.permutation(alloc.assignment[n])) for n in names})
+    memo: dict = {}
+    for al in (alloc, shuffled, alloc):
+        ref, fast = choose_branches(p, al, need), choose_branches(p, al, need, memo=memo)
+        for n in names:
+            for f in al.assignment[n]:
+                assert np.array_equal(ref.fruit_q[n][f], fast.fruit_q[n][f])
+                assert np.array_equal(ref.place_q[n][f], fast.place_q[n][f])
+    assert memo
+
+
 def test_route_moves_keeps_endpoints(problems_dir):
     p = _load(problems_dir, "dense_overlap")
     base = decoupled_schedules(p, allocate(p))

@@ -121,6 +121,33 @@ class _Track:
 
 
 
+class _Window:
+    """Arm points for one :meth:`_Coordinator.earliest` search on the grid ``t0 + k / rate``: the
+    leg's (relative to its start: the same at every trial start) and each neighbour's
+    (absolute), each computed once and grown as needed."""
+
+    def __init__(self, c: _Coordinator, tr: _Track, steps0: list[Step], t0: float):
+        self.c, self.tr, self.steps0, self.t0 = c, tr, steps0, t0
+        self._own: tuple | None = None
+        self._nb: dict[int, tuple] = {}
+
+    def own(self, n: int) -> tuple:
+        if self._own is None or self._own[0].size < n:
+            m = max(n, 2 * (0 if self._own is None else self._own[0].size))
+            T = np.arange(m) / self.c.rate
+            self._own = self.c.points(self.tr.index, _steps_positions(self.steps0, T, self.c.tables))
+        return tuple(x[:n] for x in self._own)
+
+    def neighbour(self, o: _Track, t: float, n: int) -> tuple:
+        k0 = int(round((t - self.t0) * self.c.rate))
+        have = self._nb.get(o.index)
+        if have is None or have[0].size < k0 + n:
+            m = max(k0 + n, 2 * (0 if have is None else have[0].size))
+            have = self.c.points(o.index, o.positions(self.t0 + np.arange(m) / self.c.rate))
+            self._nb[o.index] = have
+        return tuple(x[k0:k0 + n] for x in have)
+
+
 class _Coordinator(_Geometry):
     """State of :func:`coordinate` (see there for the rules)."""
 
@@ -195,13 +222,14 @@ class _Coordinator(_Geometry):
             steps.append(Step(leg.kind, t, leg.dwell, leg.target, leg.target, fruit=leg.fruit))
         return steps
 
-    def conflict(self, tr: _Track, steps: list[Step], t: float):
+    def conflict(self, tr: _Track, steps: list[Step], t: float, window: _Window | None = None):
         """First conflict of ``steps`` (from ``t``, resting after) with the neighbours' commitments.
 
         Returns None, or ``(tc, j, late)``: the first time too close, the neighbour, and (when
         that first conflict comes after the arm has arrived) the last time before that
         neighbour's commitments end at which the resting arm is too close -- to jump past a
-        neighbour passing through the target.
+        neighbour passing through the target. ``window`` (from :meth:`earliest`) holds the
+        leg's and the neighbours' points on the grid ``t`` lies on.
         """
         nb = [self.tracks[j] for j in self.nbrs[tr.index]]
         if not nb:
@@ -212,11 +240,13 @@ class _Coordinator(_Geometry):
         t_stop = max([steps[-1].t1] + [o.end for o in nb])
         n = int(np.floor((t_stop - t) * self.rate + 1e-9)) + 2  # the last sample: everyone at rest
         T = t + np.arange(n) / self.rate
-        qa = _steps_positions(steps, T, self.tables)
+        if window is None:
+            window = _Window(self, tr, steps, t)
+        pa = window.own(n)
         arrive = next((s.t1 for s in reversed(steps) if s.kind == StepKind.MOVE), t)
         best = None
         for o in nb:
-            bad = self.close(tr.index, qa, o.index, o.positions(T))
+            bad = self.close_points(tr.index, pa, o.index, window.neighbour(o, t, n))
             hit = np.flatnonzero(bad)
             if hit.size and (best is None or T[hit[0]] < best[0]):
                 late = T[hit[(T[hit] >= arrive) & (T[hit] < o.end)]]
@@ -224,25 +254,32 @@ class _Coordinator(_Geometry):
         return best
 
     def earliest(self, tr: _Track, leg: _Leg, t: float) -> tuple[float | None, int | None]:
-        """Earliest start, ``t`` or at least ``quantum`` later, at which ``leg`` is clear of the
-        neighbours' commitments: ``(start, None)``; or ``(None, j)`` when neighbour j's rest
-        pose after its commitments is in the way (then no start helps)."""
-        s = t
+        """Earliest start, ``t`` or a whole number of samples at least ``quantum`` later, at which
+        ``leg`` is clear of the neighbours' commitments: ``(start, None)``; or ``(None, j)`` when
+        neighbour j's rest pose after its commitments is in the way (then no start helps).
+
+        Every trial start lies on the grid ``t + k / rate``, so the leg's points (the same at
+        every start) and the neighbours' points are computed once per call and sliced."""
+        k, q = 0, max(1, int(np.ceil(self.quantum * self.rate - 1e-9)))
+        window = None
         while True:
+            s = t + k / self.rate
             steps = self.leg_steps(tr, leg, s)
             if not steps:
                 return s, None
-            hit = self.conflict(tr, steps, s)
+            if window is None:
+                window = _Window(self, tr, self.leg_steps(tr, leg, 0.0), t)
+            hit = self.conflict(tr, steps, s, window)
             if hit is None:
                 return s, None
             tc, j, late = hit
             if tc >= self.tracks[j].end:
                 return None, j
-            step = self.quantum
+            step = q
             if late is not None:
                 arrive = next((st.t1 for st in reversed(steps) if st.kind == StepKind.MOVE), s)
-                step = max(step, late - arrive + 1.0 / self.rate)
-            s += step
+                step = max(step, int(np.ceil((late - arrive) * self.rate - 1e-9)) + 1)
+            k += step
 
     # ---- deadlocks
     def is_stuck(self, j: int, waiting: int) -> bool:

@@ -54,6 +54,8 @@ class OptimalOptions:
         roughly 250-400 a second on one core of the 2-core benchmark machine); 0 turns the search off
     search_evaluations : cap on the search's coordinator runs
     search_patience : the search stops after this many evaluations without a new best
+    search_temperature : the search accepts a slower state with probability exp(-dt / T), T
+        falling linearly from this (s) to 0 over ``search_work`` (annealing); 0 for pure descent
     seed : seed of the search's moves
     polish : run the joint NLP from the incumbent when it still waits
     polish_iterations : IPOPT iteration cap of each polishing solve (unless ``ipopt`` sets
@@ -78,9 +80,10 @@ class OptimalOptions:
 
     margin: float = 0.015
     coordination_checks: int = 3000
-    search_work: int = 6_000
-    search_evaluations: int = 400
-    search_patience: int = 60
+    search_work: int = 30_000
+    search_evaluations: int = 2_000
+    search_patience: int = 200
+    search_temperature: float = 0.3
     seed: int = 0
     polish: bool = True
     polish_iterations: int = 200
@@ -268,6 +271,7 @@ def plan_optimal(
                 inc.offer(p, verify(problem, p), "search", c)
 
             sopts = SearchOptions(evaluations=opts.search_evaluations, work=opts.search_work, patience=opts.search_patience, seed=opts.seed,
+                                  temperature=opts.search_temperature,
                                   tolerance=opts.tolerance,
                                   fixed_assignment=AllocationMethod(allocation) != AllocationMethod.MAKESPAN)
             _, stats = improve(problem, inc.candidate, bound, opts.margin, sopts, on_improve, deadline, cache)

@@ -72,6 +72,15 @@ class _Geometry:
         a, b = self.problem.arms[i], self.problem.arms[j]
         return _points_too_close(_arm_points(a, qi), _arm_points(b, qj), a.link_radius + b.link_radius, self.need)
 
+    def points(self, i: int, q: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Arm i's base, elbow and tip coordinates at poses q (..., 2), for :meth:`close_points`."""
+        return _arm_points(self.problem.arms[i], q)
+
+    def close_points(self, i: int, pi: tuple, j: int, pj: tuple) -> np.ndarray:
+        """:meth:`close` on points from :meth:`points` (computed once, compared many times)."""
+        r = self.problem.arms[i].link_radius + self.problem.arms[j].link_radius
+        return _points_too_close(pi, pj, r, self.need)
+
     def static_hits(self, i: int, poses: np.ndarray, j: int, samples: np.ndarray) -> np.ndarray:
         """For each of arm i's poses (C, 2): how many of arm j's samples (M, 2) come too close."""
         poses, samples = np.atleast_2d(np.asarray(poses, float)), np.atleast_2d(np.asarray(samples, float))
@@ -201,7 +210,8 @@ def route_moves(problem: Problem, schedules: dict[str, ArmSchedule], need: float
     return out, count
 
 
-def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: float = 0.5, passes: int = 2) -> Allocation:
+def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: float = 0.5, passes: int = 2,
+                    memo: dict | None = None) -> Allocation:
     """Elbow branches at every pick and place chosen to keep out of the neighbours' way.
 
     The allocation picks each pose's elbow branch for speed alone. But every arm returns to
@@ -212,8 +222,13 @@ def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: fl
     plus ``weight`` s per neighbour pose it would hit (the neighbours' current place poses
     and homes; a tucked transit is not assumed). Arms in order, ``passes`` times, so each
     sees its neighbours' updated place poses. Assignment and sequence are unchanged.
+
+    ``memo`` (a dict the caller keeps, for one problem and one ``need``) remembers which
+    move hits which neighbour pose, so repeated calls over similar allocations (the search's
+    evaluations) test each move against each pose once.
     """
     geo = _Geometry(problem, need)
+    memo = {} if memo is None else memo
     arms = problem.arms
     margin = problem.task.reach_margin
     fruit_pos = {f.id: np.asarray(f.position, float) for f in problem.fruits}
@@ -233,14 +248,14 @@ def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: fl
                     if not any(_same(q, u, 1e-6) for u in uniq):
                         uniq.append(q)
                 avoid[j] = np.asarray(uniq)
+            avoid_keys = {j: [_key(q) for q in v] for j, v in avoid.items()}
             cache: dict = {}
 
             def cost(q0, q1):
-                key = (tuple(np.round(q0, 9)), tuple(np.round(q1, 9)))
+                key = (_key(q0), _key(q1))
                 if key not in cache:
-                    path = geo.path(q0, q1, step=0.08)
-                    hits = sum(int((geo.static_hits(j, avoid[j], i, path) > 0).sum()) for j in avoid)
-                    cache[key] = _move(arm, 0.0, q0, q1).duration + weight * hits
+                    cache[key] = _move_seconds(arm, i, q0, q1, key, memo) + weight * _hits(geo, i, q0, q1, key, avoid,
+                                                                                            avoid_keys, memo)
                 return cache[key]
 
             qb, vb = arm.ik(np.asarray(arm.bin, float))
@@ -264,3 +279,31 @@ def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: fl
             fruit_q[arm.name] = {f: q.copy() for f, q in zip(seq, best[1])}
             place_q[arm.name] = {f: q.copy() for f, q in zip(seq, best[2])}
     return replace(alloc, fruit_q=fruit_q, place_q=place_q)
+
+
+def _key(q) -> tuple[float, float]:
+    return tuple(np.round(np.asarray(q, float), 9))
+
+
+def _move_seconds(arm, i: int, q0, q1, key: tuple, memo: dict) -> float:
+    k = ("move", i) + key
+    if k not in memo:
+        memo[k] = _move(arm, 0.0, q0, q1).duration
+    return memo[k]
+
+
+def _hits(geo: _Geometry, i: int, q0, q1, key: tuple, avoid: dict, avoid_keys: dict, memo: dict) -> int:
+    """How many of the neighbours' ``avoid`` poses arm i's straight joint path q0 -> q1 comes too
+    close to; each (move, pose) pair is tested once per ``memo``."""
+    n, path = 0, None
+    for j, poses in avoid.items():
+        keys = [("hit", i) + key + (j,) + kp for kp in avoid_keys[j]]
+        todo = [m for m, k in enumerate(keys) if k not in memo]
+        if todo:
+            if path is None:
+                path = geo.path(q0, q1, step=0.08)
+            hit = geo.static_hits(j, poses[todo], i, path) > 0
+            for m, h in zip(todo, hit):
+                memo[keys[m]] = bool(h)
+        n += sum(memo[k] for k in keys)
+    return n

@@ -5,9 +5,11 @@ Entry point: :func:`improve`. A state is which arm takes which fruit in which or
 elbow-branch rule builds the poses, and the arms' priority order. A move changes one of them:
 
 * ``first``    -- put one of an arm's fruit first (the only trip that starts from home),
-* ``relocate`` -- give one fruit to another arm that reaches it (at its x-sorted place),
+* ``relocate`` -- give one fruit to another arm that reaches it (where that arm's decoupled
+  finish is earliest),
 * ``swap``     -- exchange two fruit between two arms that reach both,
-* ``exchange`` / ``reverse`` -- reorder within an arm (two fruit; the whole sweep),
+* ``exchange`` / ``move`` / ``twoopt`` / ``reverse`` -- reorder within an arm (swap two fruit;
+  move one to another place; reverse a stretch; reverse the whole sweep),
 * ``flip``     -- force the other elbow branch at one fruit (or release a forced one),
 * ``variant``  -- elbow branches chosen for speed or for keeping out of the neighbours' way,
 * ``priority`` -- which arm goes first when two want the same space.
@@ -68,6 +70,9 @@ class SearchOptions:
     fixed_assignment : keep which arm takes which fruit (order, branches and priorities
         still change); used when the caller asked for a given allocation method
     tolerance : a makespan this close to the lower bound (s) is optimal
+    temperature : accept a slower state with probability exp(-(its makespan - current) / T),
+        T falling linearly from ``temperature`` (s) to 0 as the work budget is spent (simulated
+        annealing, seeded like the moves); the best state is kept whatever is accepted
     """
 
     evaluations: int = 400
@@ -79,6 +84,7 @@ class SearchOptions:
     seed: int = 0
     fixed_assignment: bool = False
     tolerance: float = 1e-3
+    temperature: float = 0.0
 
 
 @dataclass
@@ -110,8 +116,8 @@ class _State:
         return tuple(sorted((f, b) for a, f, b in self.forced if a == i))
 
 
-_MOVES = ("first", "relocate", "swap", "exchange", "reverse", "flip", "variant", "priority")
-_WEIGHTS = np.array([3.0, 4.0, 3.0, 1.0, 0.5, 2.0, 0.5, 0.5])
+_MOVES = ("first", "relocate", "swap", "exchange", "move", "twoopt", "reverse", "flip", "variant", "priority")
+_WEIGHTS = np.array([3.0, 4.0, 3.0, 1.0, 1.5, 1.0, 0.5, 2.0, 0.5, 0.5])
 
 
 class _Search:
@@ -159,7 +165,8 @@ class _Search:
         al = replace(self.start_alloc, assignment=dict(zip(self.names, s.assign)), fruit_q=fruit_q, place_q=place_q,
                      estimate=est)
         if s.variant == "branches":
-            al = clear_branches(self.problem, al, self.problem.task.clearance + self.margin)
+            al = clear_branches(self.problem, al, self.problem.task.clearance + self.margin,
+                                 memo=self.cache.setdefault("branch_hits", {}))
             for i, f, b in s.forced:  # a forced branch stands
                 al.fruit_q[self.names[i]][f] = self.cfg[i][1][f][b]
         base = decoupled_schedules(self.problem, al)
@@ -187,6 +194,19 @@ class _Search:
         x = self.pos[f][0]
         k = next((k for k, g in enumerate(seq) if self.pos[g][0] > x), len(seq))
         return seq[:k] + [f] + seq[k:]
+
+    def insert_best(self, b: int, seq: list[str], f: str, forced: tuple) -> list[str]:
+        """``seq`` with ``f`` inserted where arm b's decoupled finish is earliest (ties: the
+        x-sorted place)."""
+        ref = self.insert_sorted(seq, f)
+        best, t_best = ref, self.dp(b, tuple(ref), forced)[2]
+        for k in range(len(seq) + 1):
+            trial = seq[:k] + [f] + seq[k:]
+            if trial != ref:
+                t = self.dp(b, tuple(trial), forced)[2]
+                if t < t_best - 1e-9:
+                    best, t_best = trial, t
+        return best
 
     def propose(self, s: _State, c: int) -> tuple[str, _State] | None:
         kind = str(self.rng.choice(_MOVES, p=self.weights))
@@ -229,14 +249,29 @@ class _Search:
                 return None
             i, j = rng.choice(len(mine), 2, replace=False)
             mine[i], mine[j] = mine[j], mine[i]
+        elif kind == "move":  # one fruit to another place in the same arm's order
+            if len(mine) < 2:
+                return None
+            rest = [g for g in mine if g != f]
+            k = int(rng.integers(len(rest) + 1))
+            if rest[:k] + [f] + rest[k:] == mine:
+                return None
+            assign[c] = rest[:k] + [f] + rest[k:]
+        elif kind == "twoopt":  # reverse a stretch of the order
+            if len(mine) < 3:
+                return None
+            i, j = sorted(rng.choice(len(mine) + 1, 2, replace=False))
+            if j - i < 2:
+                return None
+            assign[c] = mine[:i] + mine[i:j][::-1] + mine[j:]
         elif kind == "relocate":
             others = [b for b in self.reach[f] if b != c]
             if not others:
                 return None
             b = int(rng.choice(others))
             assign[c] = [g for g in mine if g != f]
-            assign[b] = self.insert_sorted(assign[b], f)
             forced = frozenset(x for x in forced if x[1] != f)
+            assign[b] = self.insert_best(b, assign[b], f, tuple(sorted((g, k) for a, g, k in forced if a == b)))
         else:  # swap
             pairs = [(b, g) for b in self.reach[f] if b != c for g in assign[b] if c in self.reach[g]]
             if not pairs:
@@ -323,7 +358,14 @@ def improve(
             cand = srch.evaluate(s_new)
             since_best += 1
             since_cur += 1
-            if cand is None or not _better(cand, cur):
+            if cand is None:
+                continue
+            if not _better(cand, cur):
+                temp = opts.temperature * max(0.0, 1.0 - st.checks / max(1, opts.work))
+                worse = cand.makespan - cur.makespan
+                if temp <= 0 or worse <= 1e-9 or srch.rng.random() >= np.exp(-worse / temp):
+                    continue
+                cur, s_cur = cand, s_new  # accepted uphill (annealing): the best stays
                 continue
             cur, s_cur, since_cur = cand, s_new, 0
             if cand.makespan < best.makespan - 1e-9:
