@@ -32,6 +32,26 @@ out_console = Console(soft_wrap=True)
 err_console = Console(stderr=True, soft_wrap=True)
 
 
+def _version(value: bool) -> None:
+    if value:
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            v = version("coplan")
+        except PackageNotFoundError:
+            v = "unknown (not installed)"
+        typer.echo(f"coplan {v}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def main(
+    show_version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
+                                               help="Print coplan's version and exit.")] = False,
+) -> None:
+    """Plan coordinated, collision-free, jerk-limited motion for several 2R arms harvesting fruit."""
+
+
 def _fail(code: ExitCode, message: str):
     err_console.print(f"[bold red]error[/]: {message}", markup=True, highlight=False, soft_wrap=True)
     raise typer.Exit(int(code))
@@ -60,6 +80,31 @@ def guarded(fn):
             _fail(ExitCode.INTERNAL, f"internal error ({type(e).__name__}): {e}. Set COPLAN_DEBUG=1 for a traceback.")
 
     return wrapper
+
+
+def _strict_json(doc) -> str:
+    """Strict JSON (RFC 8259): a non-finite number (e.g. no clearance at all: infinity) is null."""
+    from .plan import jsonable
+
+    return json.dumps(jsonable(doc), default=str, allow_nan=False)
+
+
+def _check_time_limit(time_limit: Optional[float]) -> None:
+    if time_limit is not None and not time_limit > 0:
+        _fail(ExitCode.USAGE, f"--time-limit: expected a positive number of seconds, found {time_limit}")
+
+
+def _check_out_dir(out: Path) -> None:
+    """Before any work: ``out`` must be a folder coplan can create or write into."""
+    if out.exists() and not out.is_dir():
+        _fail(ExitCode.USAGE, f"--out {out}: expected a folder, found a file")
+    probe = out
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        _fail(ExitCode.USAGE, f"--out {out}: expected a folder, found the file {probe} in its path")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        _fail(ExitCode.USAGE, f"--out {out}: expected a folder coplan may write to, found {probe} not writable")
 
 
 def _fmt(x, unit="", nd=2):
@@ -92,6 +137,8 @@ def solve(
     """Solve a problem, verify the plan and write plan.json (+ CSV, NPZ, verification.json)."""
     from .pipeline import solve as run
 
+    _check_time_limit(time_limit)
+    _check_out_dir(out)
     options = None
     if planner != PlannerKind.HEURISTIC and time_limit is not None:
         from .optimal import OptimalOptions
@@ -113,7 +160,7 @@ def solve(
     if as_json:
         doc = {
             "problem": res.problem.name,
-            "planner": res.plan.planner.value,
+            "planner": res.plan.planner_name,
             "status": res.plan.status.value,
             "exit_code": int(res.exit_code),
             "metrics": res.plan.metrics,
@@ -121,7 +168,7 @@ def solve(
             "solver": res.plan.solver,
             "files": {k: str(v) for k, v in res.files.items()},
         }
-        out_console.print_json(json.dumps(doc, default=str))
+        out_console.print_json(_strict_json(doc))
     else:
         _print_summary(res)
     raise typer.Exit(int(res.exit_code))
@@ -145,7 +192,7 @@ def _print_summary(res) -> None:
     ver = res.plan.verification or {}
     colour = "green" if res.success else "red"
     p = out_console.print
-    p(f"[bold]{res.problem.name}[/] -- planner [bold]{res.plan.planner.value}[/], status [bold {colour}]{res.plan.status.value}[/]")
+    p(f"[bold]{res.problem.name}[/] -- planner [bold]{res.plan.planner_name}[/], status [bold {colour}]{res.plan.status.value}[/]")
     p(f"  fruit harvested   {m.get('harvested')}/{m.get('reachable')} reachable ({m.get('unreachable')} unreachable: {', '.join(res.plan.unreachable) or 'none'})")
     p(f"  makespan          {_fmt(m.get('makespan'), ' s')}   (lower bound {_fmt(m.get('lower_bound'), ' s')}, ratio {_fmt(m.get('gap_to_lower_bound'), '', 3)})")
     if m.get("optimality") == "proven":
@@ -227,7 +274,7 @@ def check(
         "heuristic_violations": base_ver.get("violation_kinds"),
     }
     if as_json:
-        out_console.print_json(json.dumps(doc, default=str))
+        out_console.print_json(_strict_json(doc))
     else:
         p = out_console.print
         p(f"[bold]{prob.name}[/] ({path}): {len(prob.arms)} arms, {len(prob.fruits)} fruit, "
@@ -302,6 +349,8 @@ def verify_cmd(
     from .problem import load_problem
     from .verify import verify as run_verify
 
+    if out is not None and (out.resolve() == plan.resolve() or (out.is_dir() and (out / "verification.json").resolve() == plan.resolve())):
+        _fail(ExitCode.USAGE, f"--out {out} is the plan being verified; give another file or folder")
     prob = load_problem(problem)
     ver = run_verify(prob, load_plan(plan), fcl=fcl)
     written = ver.save(out) if out is not None else None
@@ -342,6 +391,8 @@ def compare_cmd(
         specs = [PlannerSpec.parse(p) for p in (planner or DEFAULT_PLANNERS)]
     except ValueError as e:
         _fail(ExitCode.USAGE, f"--planner: {e}")
+    _check_time_limit(time_limit)
+    _check_out_dir(out)
     options = None
     if time_limit is not None and any(s.planner != PlannerKind.HEURISTIC for s in specs):
         from .optimal import OptimalOptions
@@ -435,9 +486,9 @@ def plot_cmd(
     if arm is not None and arm not in [a.name for a in prob.arms]:
         _fail(ExitCode.USAGE, f"--arm: no arm named {arm!r}; arms are {', '.join(a.name for a in prob.arms)}")
     if kind == PlotKind.GANTT:
-        fig = plots.plot_gantt(prob, {pl.planner.value: pl})
+        fig = plots.plot_gantt(prob, {pl.planner_name: pl})
     elif kind == PlotKind.CLEARANCE:
-        fig = plots.plot_clearance(prob, {pl.planner.value: pl})
+        fig = plots.plot_clearance(prob, {pl.planner_name: pl})
     elif kind == PlotKind.JOINTS:
         fig = plots.plot_joints(prob, pl, arms=None if arm is None else [arm])
     else:

@@ -23,6 +23,7 @@ from .kinds import EventKind, PlannerKind, PlanStatus
 __all__ = [
     "PLAN_FORMAT",
     "DEFAULT_RATE",
+    "jsonable",
     "PlannerKind",
     "PlanStatus",
     "EventKind",
@@ -91,7 +92,7 @@ class Plan:
     """
 
     problem: str
-    planner: PlannerKind
+    planner: PlannerKind | str  # a plan from elsewhere keeps its planner's own name
     status: PlanStatus
     time: np.ndarray
     q: dict[str, np.ndarray]
@@ -110,6 +111,12 @@ class Plan:
     @property
     def duration(self) -> float:
         return float(self.time[-1]) if self.time.size else 0.0
+
+    @property
+    def planner_name(self) -> str:
+        """The planner's name: one of coplan's (:class:`PlannerKind`) or, for a plan made
+        elsewhere, the name its file gives."""
+        return self.planner.value if isinstance(self.planner, PlannerKind) else str(self.planner)
 
     @property
     def arm_names(self) -> list[str]:
@@ -131,16 +138,16 @@ class Plan:
         return {
             "format": PLAN_FORMAT,
             "problem": self.problem,
-            "planner": self.planner.value,
+            "planner": self.planner_name,
             "status": self.status.value,
-            "time": [round(float(x), 6) for x in self.time],
-            "arms": {a: {"q": np.round(q, 7).tolist()} for a, q in self.q.items()},
+            "time": jsonable(np.round(self.time, 6)),
+            "arms": {a: {"q": jsonable(np.round(q, 7))} for a, q in self.q.items()},
             "events": [e.to_dict() for e in self.events],
             "allocation": self.allocation,
             "unreachable": list(self.unreachable),
-            "metrics": _jsonable(self.metrics),
-            "solver": _jsonable(self.solver),
-            "verification": _jsonable(self.verification),
+            "metrics": jsonable(self.metrics),
+            "solver": jsonable(self.solver),
+            "verification": jsonable(self.verification),
         }
 
     def save(self, out_dir: str | Path, stem: str = "plan") -> dict[str, Path]:
@@ -153,7 +160,7 @@ class Plan:
         out.mkdir(parents=True, exist_ok=True)
         paths = {"json": out / f"{stem}.json", "csv": out / f"{stem}.csv", "npz": out / f"{stem}.npz"}
         tmp = paths["json"].with_suffix(".json.tmp")
-        tmp.write_text(json.dumps(self.to_dict(), indent=None, separators=(",", ":")))
+        tmp.write_text(json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
         tmp.replace(paths["json"])
         cols = [self.time[:, None]] + [self.q[a] for a in self.q]
         header = "t," + ",".join(f"{a}_q1,{a}_q2" for a in self.q)
@@ -162,15 +169,17 @@ class Plan:
         return paths
 
 
-def _jsonable(x):
+def jsonable(x):
+    """``x`` with plain JSON types only: enums as their values, arrays as lists, NumPy scalars
+    as Python ones, and a non-finite float (which strict JSON cannot hold) as None."""
     if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
+        return {str(k): jsonable(v) for k, v in x.items()}
     if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
+        return [jsonable(v) for v in x]
     if isinstance(x, Enum):
         return x.value
     if isinstance(x, np.ndarray):
-        return _jsonable(x.tolist())
+        return jsonable(x.tolist())
     if isinstance(x, (np.floating, float)):
         v = float(x)
         return v if math.isfinite(v) else None
@@ -327,22 +336,24 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
         raise PlanFileError([Issue("", f"expected a JSON object, found {_kind(data)}")], source)
     if data.get("format") != PLAN_FORMAT:
         bad("format", f"expected {PLAN_FORMAT!r}, found {_kind(data.get('format')) if 'format' in data else 'nothing'}")
-    for key in ("problem", "planner", "status", "time", "arms", "events"):
+    for key in ("problem", "time", "arms", "events"):
         if key not in data:
             bad(key, "expected a value, found nothing (required field)")
     if issues:
         raise PlanFileError(issues, source)
     if not isinstance(data["problem"], str):
         bad("problem", f"expected a string, found {_kind(data['problem'])}")
+    # any planner may have made the plan: coplan's own names become PlannerKind, others are kept
+    planner: PlannerKind | str = data.get("planner", "external")
+    if not isinstance(planner, str) or not planner.strip():
+        bad("planner", f"expected the planner's name (a non-empty string), found {_kind(planner)}")
+        planner = "external"
+    elif planner in {k.value for k in PlannerKind}:
+        planner = PlannerKind(planner)
+    # the file's own status is only what its writer claimed: the verdict is the verifier's
     try:
-        planner = PlannerKind(data["planner"])
+        status = PlanStatus(data.get("status", PlanStatus.UNVERIFIED.value))
     except ValueError:
-        bad("planner", f"expected one of {[k.value for k in PlannerKind]}, found {_kind(data['planner'])}")
-        planner = PlannerKind.HEURISTIC
-    try:
-        status = PlanStatus(data["status"])
-    except ValueError:
-        bad("status", f"expected one of {[k.value for k in PlanStatus]}, found {_kind(data['status'])}")
         status = PlanStatus.UNVERIFIED
 
     # ---- the time grid

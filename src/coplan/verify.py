@@ -317,7 +317,7 @@ def verify(problem: Problem, plan: Plan, options: VerifyOptions | None = None, *
     opts = replace(options or VerifyOptions(), **overrides)
     opts = replace(opts, fcl=FclMode(opts.fcl))
     _check_inputs(problem, plan)
-    ver = Verification(plan.problem, getattr(plan.planner, "value", str(plan.planner)), plan.duration, problem.task.clearance, opts)
+    ver = Verification(plan.problem, plan.planner_name, plan.duration, problem.task.clearance, opts)
     if plan.problem != problem.name:
         ver.warnings.append(Finding(WarningKind.PROBLEM_NAME, (), None, message=f"plan is for {plan.problem!r}, problem is {problem.name!r}"))
     t0 = _time.perf_counter()

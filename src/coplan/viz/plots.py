@@ -47,7 +47,7 @@ def _figure(figsize, **kw):
 
 def _as_plans(plans) -> dict[str, Plan]:
     if isinstance(plans, Plan):
-        return {plans.planner.value: plans}
+        return {plans.planner_name: plans}
     if isinstance(plans, Mapping):
         if not plans:
             raise ValueError("expected at least one plan, found none")
@@ -299,7 +299,7 @@ def plot_joints(problem: Problem, plan: Plan, *, arms: list[str] | None = None, 
     handles = [Line2D([], [], color=colors[n], label=n) for n in names]
     handles.append(Line2D([], [], color=LIMIT_COLOR, linestyle="--", label="limit (±)"))
     fig.legend(handles=handles, loc="outside lower center", ncol=len(handles), fontsize=8, frameon=False)
-    fig.suptitle(f"{problem.name}: joint motion vs limits ({plan_title(label or plan.planner.value, plan)})", fontsize=11)
+    fig.suptitle(f"{problem.name}: joint motion vs limits ({plan_title(label or plan.planner_name, plan)})", fontsize=11)
     return fig
 
 

@@ -1,0 +1,127 @@
+"""Issue-10 behaviour: plans from anywhere are judged, outputs are checked before solving,
+JSON is strict, options are validated -- each checked through the CLI a user runs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.heuristic import plan_heuristic
+from coplan.kinds import ExitCode, PlannerKind, PlanStatus
+from coplan.plan import load_plan
+from coplan.problem import load_problem
+
+
+def run(*args: str):
+    return CliRunner(env={"COLUMNS": "200", "COPLAN_DEBUG": None}).invoke(app, list(args))
+
+
+@pytest.fixture(scope="module")
+def single(problems_dir: Path):
+    return load_problem(problems_dir / "single_arm.yaml")
+
+
+def _external_plan(single, tmp_path: Path, **changes) -> Path:
+    """A coplan plan rewritten as another tool would hand it over: its own planner name, its
+    own (or no) status."""
+    plan = plan_heuristic(single)
+    paths = plan.save(tmp_path / "src")
+    doc = json.loads(paths["json"].read_text())
+    for k, v in changes.items():
+        if v is None:
+            doc.pop(k, None)
+        else:
+            doc[k] = v
+    out = tmp_path / "external.json"
+    out.write_text(json.dumps(doc))
+    return out
+
+
+@pytest.mark.parametrize("changes", [{"planner": "my-own-planner", "status": None},
+                                     {"planner": "ros-moveit", "status": "success"},
+                                     {"planner": None, "status": "whatever-it-claims"}],
+                         ids=["no-status", "claims-success", "no-planner"])
+def test_verify_judges_a_plan_from_any_planner(single, tmp_path: Path, problems_dir: Path, changes) -> None:
+    path = _external_plan(single, tmp_path, **changes)
+    plan = load_plan(path)
+    assert plan.planner_name == (changes["planner"] or "external")
+    assert plan.status in (PlanStatus.UNVERIFIED, PlanStatus.SUCCESS)
+    res = run("verify", str(problems_dir / "single_arm.yaml"), str(path), "--out", str(tmp_path / "ver.json"))
+    # the verifier's verdict, not the file's claim: the course's cubic splines break the jerk limit
+    assert res.exit_code == int(ExitCode.UNSAFE), res.output
+    assert "internal error" not in res.output and "expected one of" not in res.output
+
+
+def test_coplan_planner_names_stay_kinds(single, tmp_path: Path) -> None:
+    plan = load_plan(_external_plan(single, tmp_path))
+    assert plan.planner is PlannerKind.HEURISTIC and plan.planner_name == "heuristic"
+
+
+def test_verify_out_never_overwrites_the_plan(single, tmp_path: Path, problems_dir: Path) -> None:
+    path = _external_plan(single, tmp_path)
+    before = path.read_bytes()
+    res = run("verify", str(problems_dir / "single_arm.yaml"), str(path), "--out", str(path))
+    assert res.exit_code == int(ExitCode.USAGE), res.output
+    assert "the plan being verified" in res.output
+    assert path.read_bytes() == before
+
+
+def test_version() -> None:
+    from importlib.metadata import version
+
+    res = run("--version")
+    assert res.exit_code == 0 and res.output.strip() == f"coplan {version('coplan')}"
+
+
+def test_json_stdout_and_plan_file_are_strict_json(tmp_path: Path, problems_dir: Path) -> None:
+    """A single arm has no neighbour: its least clearance is infinite, printed as null."""
+    res = run("solve", str(problems_dir / "single_arm.yaml"), "--planner", "coordinated", "--json", "--out", str(tmp_path))
+    assert res.exit_code == 0, res.output
+
+    def refuse(token):
+        raise AssertionError(f"non-standard JSON token {token}")
+
+    doc = json.loads(res.output, parse_constant=refuse)
+    assert doc["verification"]["min_clearance"] is None
+    json.loads((tmp_path / "plan.json").read_text(), parse_constant=refuse)
+
+
+@pytest.mark.parametrize("limit", ["0", "-1", "nan"])
+def test_time_limit_must_be_positive(tmp_path: Path, problems_dir: Path, limit: str) -> None:
+    for cmd in ("solve", "compare"):
+        res = run(cmd, str(problems_dir / "single_arm.yaml"), "--time-limit", limit, "--out", str(tmp_path / cmd))
+        assert res.exit_code == int(ExitCode.USAGE), res.output
+        assert "--time-limit: expected a positive number of seconds" in res.output
+        assert not (tmp_path / cmd).exists()  # refused before any work
+
+
+def test_out_is_checked_before_solving(tmp_path: Path, problems_dir: Path) -> None:
+    a_file = tmp_path / "taken"
+    a_file.write_text("mine")
+    for out, fragment in ((a_file, "expected a folder, found a file"),
+                          (a_file / "sub", f"found the file {a_file} in its path")):
+        res = run("solve", str(problems_dir / "single_arm.yaml"), "--out", str(out))
+        assert res.exit_code == int(ExitCode.USAGE), res.output
+        assert fragment in res.output
+    assert a_file.read_text() == "mine"
+    # a missing parent is simply created
+    res = run("solve", str(problems_dir / "single_arm.yaml"), "--planner", "coordinated", "--out", str(tmp_path / "a" / "b"))
+    assert res.exit_code == 0 and (tmp_path / "a" / "b" / "plan.json").exists()
+
+
+def test_unwritable_out_is_refused(tmp_path: Path, problems_dir: Path, monkeypatch) -> None:
+    """(This machine runs tests as root, who may write anywhere: the permission answer is
+    simulated where the CLI asks for it.)"""
+    import coplan.cli
+
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    monkeypatch.setattr(coplan.cli.os, "access", lambda path, mode: Path(path) != locked)
+    res = run("solve", str(problems_dir / "single_arm.yaml"), "--out", str(locked / "run"))
+    assert res.exit_code == int(ExitCode.USAGE), res.output
+    assert f"found {locked} not writable" in res.output
+    assert not (locked / "run").exists()
