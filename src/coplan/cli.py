@@ -45,7 +45,7 @@ def _version(value: bool) -> None:
 
 
 @app.callback()
-def main(
+def root(
     show_version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
                                                help="Print coplan's version and exit.")] = False,
 ) -> None:
