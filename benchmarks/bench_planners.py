@@ -121,13 +121,17 @@ def _layout(args) -> dict:
     return row
 
 
+def _git(*args: str) -> str:
+    return subprocess.run(["git", *args], capture_output=True, text=True, cwd=Path(__file__).resolve().parent,
+                          check=True).stdout.strip()
+
+
 def _commit() -> str:
+    """The code a row was measured on: the git tree of ``src/`` (so a commit that changes only
+    documentation keeps the rows), ``+dirty`` if ``src/`` has uncommitted changes."""
     try:
-        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
-                             cwd=Path(__file__).resolve().parent, check=True)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
-                               text=True, cwd=Path(__file__).resolve().parent, check=True).stdout.strip()
-        return out.stdout.strip() + ("+dirty" if dirty else "")
+        tree = _git("rev-parse", "--short", "HEAD:src")
+        return tree + ("+dirty" if _git("status", "--porcelain", "--untracked-files=no", "--", "../src") else "")
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
 
@@ -145,14 +149,16 @@ def _done_rows(path: str | None, commit: str) -> dict:
     return done
 
 
-def table_random(n_random: int, n_cells: int, workers: int, rows_file: str | None = None) -> list[str]:
-    commit = _commit()
-    jobs = [("random", s) for s in range(n_random)] + [("cell", s) for s in range(n_cells)]
+def table_random(n_random: int, n_cells: int, workers: int, rows_file: str | None = None,
+                 summary_only: bool = False, commit: str | None = None) -> list[str]:
+    commit = commit or _commit()
+    jobs = [(k, s) for s in range(max(n_random, n_cells)) for k, n in (("random", n_random), ("cell", n_cells)) if s < n]
+    # interleaved, so that a sweep stopped part-way covers both distributions
     done = _done_rows(rows_file, commit) if "dirty" not in commit else {}
     rows = [done[j] for j in jobs if j in done]
     if rows:
         print(f"  {len(rows)} layouts already done by an earlier run of {commit} ({rows_file})", flush=True)
-    todo = [j for j in jobs if j not in done]
+    todo = [] if summary_only else [j for j in jobs if j not in done]
     with ProcessPoolExecutor(max_workers=workers) as ex:  # each layout's row printed as it finishes
         for fut in as_completed([ex.submit(_layout, job) for job in todo]):
             r = fut.result()
@@ -210,6 +216,9 @@ def main(argv=None) -> int:
     ap.add_argument("--random-only", action="store_true", help="skip the problem table, run the random layouts only")
     ap.add_argument("--rows", metavar="FILE", help="append each random layout's row to this JSON-lines file and skip "
                     "rows an earlier run of the same (clean) commit already finished")
+    ap.add_argument("--summary-only", action="store_true", help="with --rows: summarise the rows already in the file "
+                    "(of --commit, default this one), run nothing")
+    ap.add_argument("--commit", help="with --summary-only: the code (git tree of src/, as in the rows) to summarise")
     ap.add_argument("--out", help="also write the tables as Markdown to this file")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
@@ -221,7 +230,7 @@ def main(argv=None) -> int:
         parts += table_problems(args.quick)
     if not args.quick and (args.random or args.cells):
         parts += ["", f"Random layouts at the default settings ({args.workers} at a time):", ""]
-        parts += table_random(args.random, args.cells, args.workers, args.rows)
+        parts += table_random(args.random, args.cells, args.workers, args.rows, args.summary_only, args.commit)
     parts += ["", f"Whole run: {time.perf_counter() - t0:.0f} s."]
     if args.out:
         with open(args.out, "w") as fh:
