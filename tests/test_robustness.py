@@ -125,3 +125,54 @@ def test_unwritable_out_is_refused(tmp_path: Path, problems_dir: Path, monkeypat
     assert res.exit_code == int(ExitCode.USAGE), res.output
     assert f"found {locked} not writable" in res.output
     assert not (locked / "run").exists()
+
+
+def test_names_with_markup_and_escape_sequences_are_printed_safely(tmp_path: Path, problems_dir: Path) -> None:
+    """Strings from a problem file are untrusted: Rich markup in them is shown as written (no
+    crash), and an escape sequence never reaches the terminal."""
+    text = (problems_dir / "crossing_paths.yaml").read_text()
+    import yaml
+
+    doc = yaml.safe_load(text)
+    doc["name"] = "row [/] [bold]x\x1b[31m"
+    doc["arms"][0]["name"] = "a[/]"
+    doc["fruits"][0]["id"] = "f[red]1"
+    bad = tmp_path / "hostile.yaml"
+    bad.write_text(yaml.safe_dump(doc, allow_unicode=True))
+    for args in (("solve", str(bad), "--planner", "heuristic", "--out", str(tmp_path / "o")),
+                 ("check", str(bad)),
+                 ("verify", str(bad), str(tmp_path / "o" / "plan.json")),
+                 ("compare", str(bad), "-p", "heuristic", "--no-figures", "--out", str(tmp_path / "c"))):
+        res = run(*args)
+        assert "internal error" not in res.output and res.exception is None or isinstance(res.exception, SystemExit), res.output
+        assert res.exit_code in (0, int(ExitCode.PARTIAL), int(ExitCode.UNSAFE)), (args, res.output)
+        assert "\x1b" not in res.output, args
+        if args[0] in ("solve", "check", "verify"):
+            assert "row [/] [bold]x" in res.output, res.output
+
+
+def test_sigterm_saves_the_incumbent_and_exits_143(tmp_path: Path, problems_dir: Path) -> None:
+    """A job scheduler stops coplan with SIGTERM: handled like Ctrl-C (the verified incumbent is
+    saved), exit code 143. Sent once the first incumbent is announced, in a real process."""
+    import signal
+    import subprocess
+    import sys
+
+    exe = Path(sys.executable).with_name("coplan")
+    cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "coplan.cli"]
+    proc = subprocess.Popen(cmd + ["solve", str(problems_dir / "dense_overlap.yaml"), "--out", str(tmp_path)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        for line in proc.stderr:
+            if line.startswith("incumbent"):
+                proc.send_signal(signal.SIGTERM)
+                break
+        out, err = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == int(ExitCode.TERMINATED), out + err
+    assert "Traceback" not in err
+    plan = load_plan(tmp_path / "plan.json")
+    assert plan.status == PlanStatus.INTERRUPTED and plan.metrics["harvested"] == 15
+    assert json.loads((tmp_path / "verification.json").read_text())["summary"]["passed"] is True

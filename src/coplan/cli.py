@@ -107,6 +107,15 @@ def _check_out_dir(out: Path) -> None:
         _fail(ExitCode.USAGE, f"--out {out}: expected a folder coplan may write to, found {probe} not writable")
 
 
+def _s(x) -> str:
+    """An untrusted string (a name, id or message from a file) safe for the terminal: Rich markup
+    escaped, control characters (escape sequences) shown as ``\\x..`` codes."""
+    from rich.markup import escape
+
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(x))
+    return escape(text)
+
+
 def _fmt(x, unit="", nd=2):
     if x is None:
         return "-"
@@ -145,7 +154,7 @@ def solve(
 
         options = OptimalOptions(time_limit=time_limit)
     path = _resolve_problem(problem)
-    say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{m}[/]", highlight=False))
+    say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]", highlight=False))
     if not as_json and planner != PlannerKind.HEURISTIC:
         from .problem import load_problem
         from .screen import screened
@@ -182,7 +191,7 @@ def _animate_files(res, out: Path) -> dict:
     try:
         path = animate_plan(res.problem, res.plan, out / "plan.gif")
     except RenderError as e:
-        err_console.print(f"[yellow]warning[/]: animation not rendered: {e} (the plan files are written)")
+        err_console.print(f"[yellow]warning[/]: animation not rendered: {_s(e)} (the plan files are written)")
         return {}
     return {"animation": path}
 
@@ -192,8 +201,8 @@ def _print_summary(res) -> None:
     ver = res.plan.verification or {}
     colour = "green" if res.success else "red"
     p = out_console.print
-    p(f"[bold]{res.problem.name}[/] -- planner [bold]{res.plan.planner_name}[/], status [bold {colour}]{res.plan.status.value}[/]")
-    p(f"  fruit harvested   {m.get('harvested')}/{m.get('reachable')} reachable ({m.get('unreachable')} unreachable: {', '.join(res.plan.unreachable) or 'none'})")
+    p(f"[bold]{_s(res.problem.name)}[/] -- planner [bold]{_s(res.plan.planner_name)}[/], status [bold {colour}]{res.plan.status.value}[/]")
+    p(f"  fruit harvested   {m.get('harvested')}/{m.get('reachable')} reachable ({m.get('unreachable')} unreachable: {_s(', '.join(res.plan.unreachable)) or 'none'})")
     p(f"  makespan          {_fmt(m.get('makespan'), ' s')}   (lower bound {_fmt(m.get('lower_bound'), ' s')}, ratio {_fmt(m.get('gap_to_lower_bound'), '', 3)})")
     if m.get("optimality") == "proven":
         p("  optimality        [bold green]proven[/]: the makespan meets the lower bound")
@@ -212,7 +221,7 @@ def _print_summary(res) -> None:
             p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
     solver = res.plan.solver
     if solver.get("message"):
-        p(f"  solver            {solver.get('status', '')}: {solver['message']}")
+        p(f"  solver            {_s(solver.get('status', ''))}: {_s(solver['message'])}")
     tm = res.plan.solver.get("timings", {})
     parts = [k for k in ("allocation", "coordinated", "search", "polish", "plan", "verify") if k in tm]
     if parts:
@@ -221,7 +230,7 @@ def _print_summary(res) -> None:
         p(f"  solve time        {planned:.2f} s ({split}; whole command {res.timings.get('total', planned):.2f} s)")
     for k, v in res.files.items():
         if k in ("json", "verification", "animation", "baseline_json"):
-            p(f"  wrote             {v}")
+            p(f"  wrote             {_s(v)}")
 
 
 @app.command("problems")
@@ -232,7 +241,7 @@ def list_problems():
 
     for path in shipped_problems():
         p = load_problem(path)
-        out_console.print(f"{path.name:28s} {len(p.arms)} arms, {len(p.fruits):3d} fruit  {p.description}")
+        out_console.print(f"{_s(path.name):28s} {len(p.arms)} arms, {len(p.fruits):3d} fruit  {_s(p.description)}")
     out_console.print(f"[dim]folder: {shipped_problems()[0].parent}[/]")
 
 
@@ -277,7 +286,7 @@ def check(
         out_console.print_json(_strict_json(doc))
     else:
         p = out_console.print
-        p(f"[bold]{prob.name}[/] ({path}): {len(prob.arms)} arms, {len(prob.fruits)} fruit, "
+        p(f"[bold]{_s(prob.name)}[/] ({_s(path)}): {len(prob.arms)} arms, {len(prob.fruits)} fruit, "
           f"{n_reach} within some arm's reach, {harvestable} harvestable")
         for line in scr.lines():
             p(line, markup=False, highlight=False)
@@ -301,17 +310,17 @@ def _print_verification(problem, ver, max_rows: int = 25) -> None:
     p = out_console.print
     s = ver.summary()
     verdict = "[bold green]passed[/]" if ver.passed else "[bold red]FAILED[/]"
-    p(f"[bold]{problem.name}[/] -- {ver.planner} plan of {ver.duration:.2f} s: {verdict}"
-      + ("" if ver.complete else f" [yellow](not harvested: {', '.join(ver.unharvested)})[/]"))
+    p(f"[bold]{_s(problem.name)}[/] -- {_s(ver.planner)} plan of {ver.duration:.2f} s: {verdict}"
+      + ("" if ver.complete else f" [yellow](not harvested: {_s(', '.join(ver.unharvested))})[/]"))
     if not ver.pairs:
         p("  least clearance   - (no two arms can touch)")
     else:
         p(f"  least clearance   {_fmt(s['min_clearance'], ' m', 4)} sampled, {_fmt(s['certified_clearance'], ' m', 4)} certified"
           f" (required {_fmt(ver.required_clearance, ' m', 3)}); {s['collision_count']} collision intervals")
     for pc in ver.pairs:
-        p(f"    {pc.key:18s} {_fmt(pc.min_clearance, ' m', 4)} at {pc.t:.3f} s (links {pc.links[0]}/{pc.links[1]}), certified {_fmt(pc.certified, ' m', 4)}")
+        p(f"    {_s(pc.key):18s} {_fmt(pc.min_clearance, ' m', 4)} at {pc.t:.3f} s (links {pc.links[0]}/{pc.links[1]}), certified {_fmt(pc.certified, ' m', 4)}")
     for arm, pk in ver.peaks.items():
-        p(f"  peaks {arm:12s} velocity {pk['velocity']:.2f}, acceleration {pk['acceleration']:.2f}, jerk {pk['jerk']:.2f} of the limits")
+        p(f"  peaks {_s(arm):12s} velocity {pk['velocity']:.2f}, acceleration {pk['acceleration']:.2f}, jerk {pk['jerk']:.2f} of the limits")
     if ver.fcl is not None:
         agree = "agrees" if ver.fcl.agree else "[bold red]DISAGREES[/]"
         p(f"  FCL cross-check   {agree} ({ver.fcl.samples} instants, {ver.fcl.queries} link pairs, max diff {ver.fcl.max_abs_diff:.1e} m)")
@@ -325,7 +334,7 @@ def _print_verification(problem, ver, max_rows: int = 25) -> None:
     for v in ver.violations[:max_rows]:
         span = f"{v.t:.3f}" if v.t_start is None or v.t_end is None or v.t_end - v.t_start < 1e-9 else f"{v.t_start:.3f}..{v.t_end:.3f}"
         detail = " ".join(x for x in (f"fruit {v.fruit}" if v.fruit else "", v.message) if x)
-        table.add_row(v.kind.value, ",".join(v.arms), span, _fmt(v.value, "", 4), _fmt(v.limit, "", 4), detail)
+        table.add_row(v.kind.value, _s(",".join(v.arms)), span, _fmt(v.value, "", 4), _fmt(v.limit, "", 4), _s(detail))
     out_console.print(table)
     if len(ver.violations) > max_rows:
         p(f"  ... and {len(ver.violations) - max_rows} more (see verification.json: --out)")
@@ -359,7 +368,7 @@ def verify_cmd(
     else:
         _print_verification(prob, ver)
         if written is not None:
-            out_console.print(f"  wrote             {written}")
+            out_console.print(f"  wrote             {_s(written)}")
     code = ExitCode.UNSAFE if not ver.passed else ExitCode.OK if ver.complete else ExitCode.PARTIAL
     raise typer.Exit(int(code))
 
@@ -398,7 +407,7 @@ def compare_cmd(
         from .optimal import OptimalOptions
 
         options = OptimalOptions(time_limit=time_limit)
-    say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{m}[/]"))
+    say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]"))
     cmp = compare(_resolve_problem(problems), specs, out, figures=figures, options=options, progress=say)
     if as_json:
         typer.echo(json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
@@ -411,7 +420,7 @@ def compare_cmd(
             err_console.print(f"{row['problem']}: {row['planner']} failed: {row['error']}", markup=False, highlight=False)
         for note in cmp.notes:
             err_console.print(f"note: {note}", markup=False, highlight=False)
-        out_console.print(f"wrote {cmp.files['json']} and {cmp.files['markdown']}")
+        out_console.print(f"wrote {_s(cmp.files['json'])} and {_s(cmp.files['markdown'])}")
     code = ExitCode.BAD_INPUT if cmp.bad_inputs else ExitCode.SOLVER_FAILED if cmp.failed_runs else ExitCode.OK
     raise typer.Exit(int(code))
 
@@ -436,7 +445,7 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
     if problem is not None:
         prob = load_problem(problem)
         if prob.name != plan.problem:
-            err_console.print(f"[yellow]note[/]: {plan_path} says it is a plan of {plan.problem!r}; {problem} is {prob.name!r}")
+            err_console.print(f"[yellow]note[/]: {_s(plan_path)} says it is a plan of {_s(repr(plan.problem))}; {_s(problem)} is {_s(repr(prob.name))}")
     else:
         shipped = [load_problem(p) for p in shipped_problems()]
         prob = next((p for p in shipped if p.name == plan.problem), None)
@@ -501,7 +510,7 @@ def plot_cmd(
         _fail(ExitCode.USAGE, f"--out {target}: {e} (use .png, .svg or .pdf)")
     except OSError as e:
         _fail(ExitCode.BAD_INPUT, f"cannot write {target}: {e.strerror or e}")
-    out_console.print(f"wrote {target}")
+    out_console.print(f"wrote {_s(target)}")
 
 
 @app.command("animate")
@@ -523,17 +532,34 @@ def animate_cmd(
     target = out if out is not None else plan.with_suffix(".gif")
     path = animate_plan(
         prob, pl, target, speed=speed, fps=fps, dpi=dpi,
-        notify=lambda m: err_console.print(f"[yellow]note[/]: {m}", highlight=False, soft_wrap=True),
+        notify=lambda m: err_console.print(f"[yellow]note[/]: {_s(m)}", highlight=False, soft_wrap=True),
     )
-    out_console.print(f"wrote {path}")
+    out_console.print(f"wrote {_s(path)}")
 
 
 def main() -> None:
-    """Console-script entry point."""
+    """Console-script entry point. SIGTERM is handled like Ctrl-C (the planners save what they
+    have), then exits with 143 instead of 130."""
+    import signal
+
+    terminated: list[int] = []
+
+    def on_term(signum, frame):
+        if not terminated:
+            terminated.append(signum)
+            err_console.print("terminated (SIGTERM): saving what there is", markup=False)
+        raise KeyboardInterrupt
+
+    if hasattr(signal, "SIGTERM"):
+        signal.signal(signal.SIGTERM, on_term)
     try:
         app()
     except KeyboardInterrupt:
-        sys.exit(int(ExitCode.INTERRUPTED))
+        sys.exit(int(ExitCode.TERMINATED if terminated else ExitCode.INTERRUPTED))
+    except SystemExit as e:
+        if terminated and e.code in (int(ExitCode.INTERRUPTED), int(ExitCode.OK)):
+            sys.exit(int(ExitCode.TERMINATED))
+        raise
 
 
 if __name__ == "__main__":

@@ -58,6 +58,7 @@ class ExitCode(IntEnum):
     UNSAFE = 6  # verification failed (collisions, limits, missed picks)
     SOLVER_FAILED = 7  # solver hit a limit or a numerical error; best iterate kept
     INTERRUPTED = 130  # Ctrl-C; what there was is saved
+    TERMINATED = 143  # SIGTERM (e.g. a job scheduler's stop): handled like Ctrl-C, what there was is saved
 
 
 class FclMode(str, Enum):

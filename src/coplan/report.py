@@ -428,17 +428,21 @@ def to_markdown(cmp: Comparison, out_dir: Path | None = None) -> str:
 def rich_tables(cmp: Comparison) -> list:
     """Rich tables for the terminal: one per problem, and the aggregate for several problems."""
     from rich.table import Table
+    from rich.text import Text
+
+    def plain(x) -> Text:  # names from problem files: never markup, control characters as codes
+        return Text("".join(c if c.isprintable() else repr(c)[1:-1] for c in str(x)))
 
     tables = []
     for p in cmp.problems:
         if p.get("error"):
             continue
         header, body = problem_table(cmp, p["name"])
-        t = Table(title=p["name"], title_justify="left")
+        t = Table(title=plain(p["name"]), title_justify="left")
         for h in header:
             t.add_column(h, overflow="fold")
         for row in body:
-            t.add_row(*row)
+            t.add_row(*(plain(c) for c in row))
         tables.append(t)
     if sum(1 for p in cmp.problems if p.get("name")) > 1:
         header, body = _aggregate_table(cmp)
@@ -446,6 +450,6 @@ def rich_tables(cmp: Comparison) -> list:
         for h in header:
             t.add_column(h, overflow="fold")
         for row in body:
-            t.add_row(*row)
+            t.add_row(*(plain(c) for c in row))
         tables.append(t)
     return tables
