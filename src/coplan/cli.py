@@ -116,6 +116,24 @@ def _s(x) -> str:
     return escape(text)
 
 
+def _solver_options(path: Optional[Path], time_limit: Optional[float], applies: bool):
+    """OptimalOptions from ``--options`` (validated; bad values exit 3 with the key and line)
+    and ``--time-limit`` (which wins); None when neither is given."""
+    if path is None and time_limit is None:
+        return None
+    if not applies:
+        if path is not None:
+            _fail(ExitCode.USAGE, "--options: the heuristic planner has no solver options")
+        return None
+    from dataclasses import replace
+
+    from .optimal import OptimalOptions
+    from .options import load_options
+
+    opts = load_options(path) if path is not None else OptimalOptions()
+    return replace(opts, time_limit=time_limit) if time_limit is not None else opts
+
+
 def _fmt(x, unit="", nd=2):
     if x is None:
         return "-"
@@ -140,6 +158,9 @@ def solve(
     time_limit: Annotated[Optional[float], typer.Option(
         help="Wall-clock limit, s: the optimal planner returns its verified incumbent at the limit "
              "(by default it stops on a work budget, so the plan does not depend on the machine).")] = None,
+    options_file: Annotated[Optional[Path], typer.Option(
+        "--options", help="Solver options (YAML): any field of coplan.optimal.OptimalOptions, e.g. "
+                          "search_work: 60000 (recorded in plan.json).")] = None,
     animate: Annotated[bool, typer.Option("--animate", help="Also render an animation of the plan.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
 ):
@@ -148,11 +169,7 @@ def solve(
 
     _check_time_limit(time_limit)
     _check_out_dir(out)
-    options = None
-    if planner != PlannerKind.HEURISTIC and time_limit is not None:
-        from .optimal import OptimalOptions
-
-        options = OptimalOptions(time_limit=time_limit)
+    options = _solver_options(options_file, time_limit, planner != PlannerKind.HEURISTIC)
     path = _resolve_problem(problem)
     say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]", highlight=False))
     if not as_json and planner != PlannerKind.HEURISTIC:
@@ -387,6 +404,8 @@ def compare_cmd(
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-compare"),
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the comparison figures.")] = True,
     time_limit: Annotated[Optional[float], typer.Option(help="Optimal planner: wall-clock limit per solve, s.")] = None,
+    options_file: Annotated[Optional[Path], typer.Option(
+        "--options", help="Solver options (YAML) for the coordinated and optimal planners.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print compare.json's content instead of the tables.")] = False,
 ):
     """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
@@ -402,11 +421,7 @@ def compare_cmd(
         _fail(ExitCode.USAGE, f"--planner: {e}")
     _check_time_limit(time_limit)
     _check_out_dir(out)
-    options = None
-    if time_limit is not None and any(s.planner != PlannerKind.HEURISTIC for s in specs):
-        from .optimal import OptimalOptions
-
-        options = OptimalOptions(time_limit=time_limit)
+    options = _solver_options(options_file, time_limit, any(s.planner != PlannerKind.HEURISTIC for s in specs))
     say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]"))
     cmp = compare(_resolve_problem(problems), specs, out, figures=figures, options=options, progress=say)
     if as_json:

@@ -175,3 +175,8 @@ def _line(lines: dict, loc) -> int | None:
             return lines[loc]
         loc = loc[:-1]
     return lines.get(())
+
+
+# public names for the other input files (solver options) that share these checks
+read_yaml = _read_yaml
+line_of = _line

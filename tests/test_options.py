@@ -1,0 +1,83 @@
+"""Solver options from a file (``--options``): validated like problem files, recorded in plan.json."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, fields
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.kinds import ExitCode
+from coplan.optimal import OptimalOptions
+from coplan.options import OptionsError, load_options, parse_options
+
+
+def run(*args: str):
+    return CliRunner(env={"COLUMNS": "200", "COPLAN_DEBUG": None}).invoke(app, list(args))
+
+
+def test_every_field_round_trips_through_yaml() -> None:
+    """Every OptimalOptions field can be set from a file (values different from the defaults)."""
+    import yaml
+
+    d = OptimalOptions()
+    changed = {}
+    for f in fields(OptimalOptions):
+        v = getattr(d, f.name)
+        changed[f.name] = (not v if isinstance(v, bool) else v + 3 if isinstance(v, int) else v * 2 + 0.5
+                           if isinstance(v, float) else 7.5 if v is None else {"ipopt.max_iter": 50})
+    back = parse_options(yaml.safe_dump(changed), "all.yaml")
+    assert asdict(back) == changed
+
+
+def test_empty_file_is_the_defaults(tmp_path: Path) -> None:
+    (tmp_path / "o.yaml").write_text("# nothing\n")
+    assert load_options(tmp_path / "o.yaml") == OptimalOptions()
+
+
+BAD = [
+    ("search_wrok: 5\n", "search_wrok", "did you mean 'search_work'?"),
+    ("search_work: -1\n", "search_work", "expected a non-negative integer, found number -1"),
+    ("search_work: 2.5\n", "search_work", "expected a non-negative integer, found number 2.5"),
+    ("polish: yes please\n", "polish", "expected true or false, found string 'yes please'"),
+    ("margin: .inf\n", "margin", "expected a non-negative number, found number inf"),
+    ("time_limit: 0\n", "time_limit", "expected a positive number or null, found number 0"),
+    ("window: true\n", "window", "expected a positive number, found boolean True"),
+    ("ipopt: 5\n", "ipopt", "expected a mapping of IPOPT settings"),
+    ("ipopt: {ipopt.tol: [1]}\n", "ipopt", "expected setting: number or string"),
+]
+
+
+@pytest.mark.parametrize("text,key,fragment", BAD, ids=[b[1] + str(i) for i, b in enumerate(BAD)])
+def test_bad_options_name_file_line_and_key(tmp_path: Path, text: str, key: str, fragment: str) -> None:
+    path = tmp_path / "opts.yaml"
+    path.write_text("# solver options\n" + text)
+    with pytest.raises(OptionsError) as ei:
+        load_options(path)
+    (it,) = ei.value.issues
+    assert it.path == key and it.line == 2 and fragment in it.message
+    assert it.message.startswith("expected ")
+    # and through the CLI: exit 3, the same message, nothing solved
+    res = run("solve", "--options", str(path), "--out", str(tmp_path / "out"))
+    assert res.exit_code == int(ExitCode.BAD_INPUT) and f"{path}:2: {key}: " in res.output
+    assert not (tmp_path / "out" / "plan.json").exists()
+
+
+def test_options_reach_the_planner_and_plan_json(tmp_path: Path, problems_dir: Path) -> None:
+    opts = tmp_path / "opts.yaml"
+    opts.write_text("search_work: 300\nsearch_temperature: 0.0\npolish: false\nseed: 4\n")
+    res = run("solve", str(problems_dir / "crossing_paths.yaml"), "--options", str(opts), "--out", str(tmp_path / "o"))
+    assert res.exit_code == 0, res.output
+    used = json.loads((tmp_path / "o" / "plan.json").read_text())["solver"]["options"]
+    assert (used["search_work"], used["search_temperature"], used["polish"], used["seed"]) == (300, 0.0, False, 4)
+    assert json.loads((tmp_path / "o" / "plan.json").read_text())["solver"]["search"]["checks"] <= 300 + 600
+
+
+def test_options_with_the_heuristic_is_a_usage_error(tmp_path: Path) -> None:
+    opts = tmp_path / "opts.yaml"
+    opts.write_text("seed: 1\n")
+    res = run("solve", "--planner", "heuristic", "--options", str(opts), "--out", str(tmp_path / "o"))
+    assert res.exit_code == int(ExitCode.USAGE) and "the heuristic planner has no solver options" in res.output
