@@ -176,3 +176,10 @@ def test_sigterm_saves_the_incumbent_and_exits_143(tmp_path: Path, problems_dir:
     plan = load_plan(tmp_path / "plan.json")
     assert plan.status == PlanStatus.INTERRUPTED and plan.metrics["harvested"] == 15
     assert json.loads((tmp_path / "verification.json").read_text())["summary"]["passed"] is True
+
+
+def test_summary_lists_every_file_written(tmp_path: Path, problems_dir: Path) -> None:
+    res = run("solve", str(problems_dir / "single_arm.yaml"), "--planner", "coordinated", "--out", str(tmp_path))
+    assert res.exit_code == 0, res.output
+    written = {Path(line.split("wrote", 1)[1].strip()).name for line in res.output.splitlines() if line.strip().startswith("wrote")}
+    assert written == {p.name for p in tmp_path.iterdir()} >= {"plan.json", "plan.csv", "plan.npz", "verification.json"}

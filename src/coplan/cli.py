@@ -245,9 +245,8 @@ def _print_summary(res) -> None:
         planned = sum(tm[k] for k in parts)
         split = ", ".join(f"{k} {tm[k]:.2f}" for k in parts)
         p(f"  solve time        {planned:.2f} s ({split}; whole command {res.timings.get('total', planned):.2f} s)")
-    for k, v in res.files.items():
-        if k in ("json", "verification", "animation", "baseline_json"):
-            p(f"  wrote             {_s(v)}")
+    for k, v in res.files.items():  # every file written: plan (JSON, CSV, NPZ), verification, baseline, animation
+        p(f"  wrote             {_s(v)}")
 
 
 @app.command("problems")
