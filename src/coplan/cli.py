@@ -19,7 +19,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the CLI never needs a display
 import typer
 from rich.console import Console
 
-from .errors import CoplanError, InputError
+from .errors import CoplanError, InputError, printable
 from .kinds import AllocationMethod, ExitCode, FclMode, PlannerKind
 
 app = typer.Typer(
@@ -112,8 +112,7 @@ def _s(x) -> str:
     escaped, control characters (escape sequences) shown as ``\\x..`` codes."""
     from rich.markup import escape
 
-    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(x))
-    return escape(text)
+    return escape(printable(x))
 
 
 def _solver_options(path: Optional[Path], time_limit: Optional[float], applies: bool):

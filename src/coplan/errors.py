@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Issue", "InputError", "ProblemError", "PlanFileError", "CoplanError"]
+__all__ = ["Issue", "InputError", "ProblemError", "PlanFileError", "CoplanError", "printable"]
 
 
 class CoplanError(Exception):
@@ -53,3 +53,9 @@ class ProblemError(InputError):
 
 class PlanFileError(InputError):
     kind = "plan"
+
+
+def printable(text) -> str:
+    """Untrusted text (a name, id or message from an input file) with every control character
+    (escape sequences included) shown as its ``\\x..`` code, so it cannot drive a terminal."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))

@@ -24,7 +24,7 @@ from typing import Any
 
 from .errors import InputError, Issue, ProblemError
 from .optimal import OptimalOptions
-from .yamlsafe import MAX_FILE_BYTES, read_yaml, line_of
+from .yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 
 __all__ = ["OptionsError", "load_options", "parse_options"]
 
@@ -111,18 +111,4 @@ def parse_options(text: str, source: str | None = None, base: OptimalOptions | N
 
 def load_options(path: str | Path, base: OptimalOptions | None = None) -> OptimalOptions:
     """Load and validate an options file (raises :class:`OptionsError`)."""
-    p = Path(path)
-    src = str(p)
-    if not p.exists():
-        raise OptionsError([Issue("", "expected an existing YAML file, found no file at this path")], src)
-    if p.is_dir():
-        raise OptionsError([Issue("", "expected a YAML file, found a directory")], src)
-    if p.stat().st_size > MAX_FILE_BYTES:
-        raise OptionsError([Issue("", f"expected a file of at most {MAX_FILE_BYTES} bytes, found {p.stat().st_size} bytes")], src)
-    try:
-        text = p.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise OptionsError([Issue("", f"expected UTF-8 text, found an undecodable byte at offset {e.start}")], src) from None
-    except OSError as e:
-        raise OptionsError([Issue("", f"expected a readable file, found an error: {e.strerror}")], src) from None
-    return parse_options(text, src, base)
+    return parse_options(read_input_text(path, OptionsError), str(Path(path)), base)

@@ -20,7 +20,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 from . import kinematics as kin
 from .errors import Issue, ProblemError
 from .geometry import segment_distance
-from .yamlsafe import MAX_FILE_BYTES, _line, _path_str, _read_yaml
+from .yamlsafe import MAX_FILE_BYTES, _line, _path_str, _read_yaml, read_input_text
 
 __all__ = [
     "Arm",
@@ -529,25 +529,7 @@ def parse_problem(text: str, source: str | None = None) -> Problem:
 
 def load_problem(path: str | Path) -> Problem:
     """Load and validate a problem file (raises :class:`ProblemError`, never a bare traceback)."""
-    p = Path(path)
-    src = str(p)
-    if not p.exists():
-        raise ProblemError([Issue("", "expected an existing YAML file, found no file at this path")], src)
-    if p.is_dir():
-        raise ProblemError([Issue("", "expected a YAML file, found a directory")], src)
-    size = p.stat().st_size
-    if size > MAX_FILE_BYTES:
-        raise ProblemError([Issue("", f"expected a file of at most {MAX_FILE_BYTES} bytes, found {size} bytes")], src)
-    try:
-        raw = p.read_bytes()
-    except OSError as e:
-        raise ProblemError([Issue("", f"expected a readable file, found an error: {e.strerror}")], src) from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as e:
-        line = raw[: e.start].count(b"\n") + 1
-        raise ProblemError([Issue("", f"expected UTF-8 text, found the undecodable byte 0x{raw[e.start]:02x} at offset {e.start}", line)], src) from None
-    return parse_problem(text, src)
+    return parse_problem(read_input_text(path, ProblemError), str(Path(path)))
 
 
 def _problems_dir() -> Path:

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from .allocation import AllocationMethod, lower_bound
-from .errors import CoplanError, Issue, ProblemError
+from .errors import CoplanError, Issue, ProblemError, printable
 from .plan import Plan, PlannerKind
 from .problem import Problem, load_problem
 
@@ -431,7 +431,7 @@ def rich_tables(cmp: Comparison) -> list:
     from rich.text import Text
 
     def plain(x) -> Text:  # names from problem files: never markup, control characters as codes
-        return Text("".join(c if c.isprintable() else repr(c)[1:-1] for c in str(x)))
+        return Text(printable(x))
 
     tables = []
     for p in cmp.problems:

@@ -18,11 +18,12 @@ import :mod:`coplan.problem` (which imports it).
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import yaml
 
-from .errors import Issue, ProblemError
+from .errors import InputError, Issue, ProblemError
 
 MAX_FILE_BYTES = 4 * 1024 * 1024
 MAX_DEPTH = 12
@@ -175,6 +176,31 @@ def _line(lines: dict, loc) -> int | None:
             return lines[loc]
         loc = loc[:-1]
     return lines.get(())
+
+
+def read_input_text(path, error: type[InputError]) -> str:
+    """The UTF-8 text of an input file, or ``error`` (a :class:`~coplan.errors.InputError`
+    subclass) saying why not: missing, a directory, over ``MAX_FILE_BYTES``, unreadable, not
+    UTF-8 (with the line of the first bad byte)."""
+    p = Path(path)
+    src = str(p)
+    if not p.exists():
+        raise error([Issue("", "expected an existing YAML file, found no file at this path")], src)
+    if p.is_dir():
+        raise error([Issue("", "expected a YAML file, found a directory")], src)
+    size = p.stat().st_size
+    if size > MAX_FILE_BYTES:
+        raise error([Issue("", f"expected a file of at most {MAX_FILE_BYTES} bytes, found {size} bytes")], src)
+    try:
+        raw = p.read_bytes()
+    except OSError as e:
+        raise error([Issue("", f"expected a readable file, found an error: {e.strerror}")], src) from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        raise error([Issue("", f"expected UTF-8 text, found the undecodable byte 0x{raw[e.start]:02x} at offset {e.start}", line)],
+                    src) from None
 
 
 # public names for the other input files (solver options) that share these checks
