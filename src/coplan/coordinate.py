@@ -222,14 +222,14 @@ class _Coordinator(_Geometry):
             steps.append(Step(leg.kind, t, leg.dwell, leg.target, leg.target, fruit=leg.fruit))
         return steps
 
-    def conflict(self, tr: _Track, steps: list[Step], t: float, window: _Window | None = None):
+    def conflict(self, tr: _Track, steps: list[Step], t: float, window: _Window):
         """First conflict of ``steps`` (from ``t``, resting after) with the neighbours' commitments.
 
         Returns None, or ``(tc, j, late)``: the first time too close, the neighbour, and (when
         that first conflict comes after the arm has arrived) the last time before that
         neighbour's commitments end at which the resting arm is too close -- to jump past a
         neighbour passing through the target. ``window`` (from :meth:`earliest`) holds the
-        leg's and the neighbours' points on the grid ``t`` lies on.
+        leg's points (relative to its start ``t``) and the neighbours' on the grid ``t`` lies on.
         """
         nb = [self.tracks[j] for j in self.nbrs[tr.index]]
         if not nb:
@@ -240,8 +240,6 @@ class _Coordinator(_Geometry):
         t_stop = max([steps[-1].t1] + [o.end for o in nb])
         n = int(np.floor((t_stop - t) * self.rate + 1e-9)) + 2  # the last sample: everyone at rest
         T = t + np.arange(n) / self.rate
-        if window is None:
-            window = _Window(self, tr, steps, t)
         pa = window.own(n)
         arrive = next((s.t1 for s in reversed(steps) if s.kind == StepKind.MOVE), t)
         best = None

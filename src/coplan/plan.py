@@ -179,6 +179,8 @@ def jsonable(x):
     if isinstance(x, Enum):
         return x.value
     if isinstance(x, np.ndarray):
+        if x.dtype.kind in "iub" or (x.dtype.kind == "f" and np.isfinite(x).all()):
+            return x.tolist()  # the common case (time grids, joint samples): no element-wise walk
         return jsonable(x.tolist())
     if isinstance(x, (np.floating, float)):
         v = float(x)
