@@ -47,13 +47,49 @@ def test_optimal_is_never_slower_than_the_coordinated_plan(kind, seed):
 
 
 def test_the_polishing_nlp_is_kept_only_when_verified_and_faster():
+    """crossing_paths: the search tries every allocation, order and elbow branch (the best the
+    coordinator can do is 6.469 s, with one arm waiting for the other); the joint NLP then
+    moves both arms at once where the coordinated plan waits, and beats it, verified."""
+    prob = _shipped("crossing_paths")
+    res = plan_optimal(prob)
+    plan = res.plan
+    assert plan.solver["search"]["stopped_by"] == "exhausted"
+    searched = [h["makespan"] for h in plan.solver["incumbents"] if h["source"] == "search"]
+    assert searched and searched[-1] == pytest.approx(6.4687, abs=1e-3)
+    nlp = plan.solver["nlp"]
+    assert nlp["accepted"] is True and plan.solver["incumbent_from"] == "joint NLP"
+    assert plan.metrics["makespan"] < searched[-1] - 0.1
+    assert verify(prob, plan).passed
+
+
+def test_the_nlp_is_skipped_where_it_cannot_finish_sooner():
+    """The coordinated crossing_paths plan: the arm that places last never waits and moves
+    straight between its poses, so the NLP (same poses, same order) has nothing to gain."""
+    from coplan.optimal import retimable
+
     prob = _shipped("crossing_paths")
     res = plan_optimal(prob, options=OptimalOptions(search_work=0))
-    nlp = res.plan.solver["nlp"]
-    assert nlp is not None and "accepted" in nlp
-    assert res.plan.metrics["makespan"] <= res.coordinated.metrics["makespan"] + 1e-9
-    assert res.plan.solver["incumbent_from"] == ("joint NLP" if nlp["accepted"] else "coordinated")
-    assert verify(prob, res.plan).passed
+    assert res.plan.solver["nlp"] is None
+    assert res.plan.solver["incumbent_from"] == "coordinated"
+    from coplan.coordinated import CoordinatedOptions
+
+    cand = plan_coordinated(prob, "makespan", CoordinatedOptions(), lambda m: None).candidate
+    assert not retimable(cand.schedules)
+    last = max(cand.schedules.values(), key=lambda s: s.last_place)
+    others = [s for s in cand.schedules.values() if s is not last]
+    assert any(st.kind.value == "wait" for s in others for st in s.steps)  # only another arm waits
+    # make the last arm wait: now there is something to retime
+    from dataclasses import replace as _replace
+
+    from coplan.schedule import Step, StepKind
+
+    steps = list(last.steps)
+    k = next(i for i, st in enumerate(steps) if st.kind == StepKind.MOVE)
+    d = 0.2
+    wait = Step(StepKind.WAIT, steps[k].t0, d, steps[k].q0, steps[k].q0)
+    shifted = [_replace(st, t0=st.t0 + d) for st in steps[k:]]
+    waited = {n: (_replace(s, steps=steps[:k] + [wait] + shifted) if s is last else s) for n, s in cand.schedules.items()}
+    assert retimable(waited)
 
 
 def test_same_input_same_plan():
@@ -159,3 +195,27 @@ def test_plan_json_records_the_bound_and_whether_it_is_proven(tmp_path):
     assert lb["proven"] is True and lb["value"] == pytest.approx(5.6642, abs=1e-3)
     assert lb["dual_bound"] == pytest.approx(lb["value"], abs=1e-6)
     assert saved.metrics["lower_bound"] == pytest.approx(lb["value"]) and res.plan.metrics["makespan"] >= lb["value"]
+
+
+def test_exhaustive_search_agrees_with_trying_every_state():
+    """Branch and bound over a small state space (cheapest estimate first, stopping where the
+    estimate cannot beat the best) finds the same makespan as coordinating every state."""
+    from coplan.coordinated import CoordinatedOptions
+    from coplan.search import SearchOptions, StopReason, _Search, improve
+
+    text = default_problem_path().with_name("crossing_paths.yaml").read_text()
+    text = text.replace("  - {id: a2, position: [0.75, 0.40]}\n", "").replace("  - {id: b2, position: [-0.75, 0.40]}\n", "")
+    prob = parse_problem(text, "crossing-2")
+    assert len(prob.fruits) == 2
+    start = plan_coordinated(prob, "makespan", CoordinatedOptions(), lambda m: None).candidate
+    opts = SearchOptions(evaluations=10_000, work=10**7, attempt_checks=3000)
+    best, stats = improve(prob, start, 0.0, 0.015, opts)
+    assert stats.stop == StopReason.EXHAUSTED
+    every = _Search(prob, start, 0.015, opts, {})
+    space = every.space(every.state_of(start), opts.exhaustive)
+    assert space is not None and len(space) == 6 * 4 * 2 * 2  # orders x branches x variants x priorities
+    made = [(est, every.evaluate(s)) for est, s in space]
+    made = [(est, c.makespan) for est, c in made if c is not None]
+    assert all(est <= m + 1e-9 for est, m in made)  # the estimate is a lower bound
+    assert best.makespan == pytest.approx(min([m for _, m in made] + [start.makespan]), abs=1e-9)
+    assert stats.evaluations < len(space)  # the bound spared most of them

@@ -209,3 +209,31 @@ def test_scurve_zero_move() -> None:
     assert move.duration == 0.0
     np.testing.assert_array_equal(move.eval(np.array([0.0, 1.0])), [[0.5, -0.5], [0.5, -0.5]])
     assert move_lower_bound((0.5, -0.5), (0.5, -0.5), (3.0, 4.0), (8.0, 12.0), (80.0, 120.0)) == 0.0
+
+
+@settings(max_examples=40, deadline=None)
+@given(q0=POSE, q1=POSE, l0=LIM, l1=LIM)
+def test_jerk_is_constant_between_switch_times(q0, q1, l0, l1) -> None:
+    """Between two switch times every joint's jerk is constant (what lets a grid with a knot
+    at each switch represent the move exactly), and there is no more than 6 per joint."""
+    move = SCurve.between(q0, q1, (l0[0], l1[0]), (l0[1], l1[1]), (l0[2], l1[2]))
+    sw = move.switch_times()
+    assert sw.size <= 12 and (np.diff(sw) > 0).all()
+    if move.duration == 0.0:
+        assert sw.size == 0
+        return
+    assert (sw > 0).all() and (sw < move.duration).all()
+    edges = np.r_[0.0, sw, move.duration]
+    for a, b in zip(edges[:-1], edges[1:]):
+        if b - a < 1e-7:
+            continue
+        t = a + (b - a) * np.array([1e-3, 0.25, 0.5, 0.75, 1 - 1e-3])
+        j = move.derivatives(t)[3]
+        np.testing.assert_allclose(j, np.broadcast_to(j[2], j.shape), rtol=1e-9, atol=1e-9)
+    # ... and it does change at each switch (of some joint)
+    eps = 1e-7
+    for s in sw:
+        if min(s - edges[edges < s].max(), edges[edges > s].min() - s) < 10 * eps:
+            continue
+        j = move.derivatives(np.array([s - eps, s + eps]))[3]
+        assert np.abs(j[1] - j[0]).max() > 0.0

@@ -85,13 +85,21 @@ class Grid:
         return self.t.size - 1
 
 
-def build_grid(schedules: dict[str, ArmSchedule], h_target: float = 0.06, merge_tol: float = 0.004) -> Grid:
-    """Union of every arm's step boundaries, intervals subdivided to at most ``h_target``."""
+def build_grid(schedules: dict[str, ArmSchedule], h_target: float = 0.06, merge_tol: float = 1e-7,
+               switches: bool = True) -> Grid:
+    """Union of every arm's step boundaries, intervals subdivided to at most ``h_target``.
+
+    With ``switches`` the grid also has a knot at every jerk switch of every move (each
+    joint's S-curve phases), and knots closer than ``merge_tol`` are merged: constant jerk
+    per interval then represents the schedules exactly, so they are a feasible point of the
+    NLP (up to the separation constraints' sampling)."""
     bounds = [0.0]
     t_end = max((s.end for s in schedules.values()), default=0.0)
     for s in schedules.values():
         for st in s.steps:
             bounds += [st.t0, st.t1]
+            if switches and st.kind == StepKind.MOVE and st.curve is not None:
+                bounds += list(st.t0 + st.curve.switch_times())
     bounds.append(t_end)
     b = np.unique(np.round(np.asarray(bounds), 9))
     reps = [b[0]]
@@ -231,6 +239,15 @@ def _kernels():
         (X1[4:6] - (X[4:6] + U * h)) / sc[4:6],
     )
     dyn = ca.Function("dyn", [xk, xk1, u, h, sc], [res])
+    # Bezier control points of the interval's velocity (quadratic: one inner point) and joint
+    # position (cubic: two inner points); a polynomial stays inside the hull of its control
+    # points, so bounding them bounds the motion between knots (exactly where an extremum
+    # falls on a knot, as every extremum of an S-curve does on a grid with its switches)
+    hull = ca.Function("hull", [xk, xk1, h, sc], [ca.vertcat(
+        (X[2:4] + X[4:6] * h / 2) / sc[2:4],
+        X[0:2] + X[2:4] * h / 3,
+        X1[0:2] - X1[2:4] * h / 3,
+    )])
     # separation: states of both arms at knot + tau*h, a line (theta, c) between link s of A and u of B
     xa, xb = ca.SX.sym("xa", 6), ca.SX.sym("xb", 6)
     ua, ub = ca.SX.sym("ua", 2), ca.SX.sym("ub", 2)
@@ -259,7 +276,7 @@ def _kernels():
         -(ca.dot(n, pb1) + c) - geo[11],
     )
     sep = ca.Function("sep", [xa, ua, xb, ub, h, tau, th, c, geo, sca, scb], [out])
-    return dyn, sep
+    return dyn, sep, hull
 
 
 def build_nlp(
@@ -297,7 +314,7 @@ def build_nlp(
     shorten or stretch the intervals.
     """
     t0 = _time.perf_counter()
-    dyn, sep = _kernels()
+    dyn, sep, hull = _kernels()
     names = [a.name for a in problem.arms]
     lo_k, hi_k = window if window is not None else (0, grid.K)
     K = hi_k - lo_k
@@ -325,11 +342,9 @@ def build_nlp(
     for name in names:
         sch = schedules[name]
         arm = problem.arm(name)
-        # between knots a velocity can exceed its knot values by at most jmax h^2 / 8, a joint
-        # position by amax h^2 / 8 (the bound on a function's rise above its chord)
-        vmargin = np.asarray(arm.max_jerk) * h_max**2 / 8.0
-        pmargin = np.asarray(arm.max_acceleration) * h_max**2 / 8.0
-        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid, vmargin, pmargin)
+        # knot bounds are the limits themselves: between knots, velocity and position are
+        # bounded by their Bezier control points (the ``hull`` rows below)
+        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid, np.zeros(2), np.zeros(2))
         lo, hi, X0 = lo[:, lo_k : hi_k + 1], hi[:, lo_k : hi_k + 1], X0[:, lo_k : hi_k + 1]
         ulo, uhi, U0 = ulo[:, lo_k:hi_k], uhi[:, lo_k:hi_k], U0[:, lo_k:hi_k]
         if start is not None:
@@ -420,6 +435,13 @@ def build_nlp(
             g.append(res if rows.size == 6 * K else res[[int(r) for r in rows]])
             lbg.append(np.zeros(rows.size))
             ubg.append(np.zeros(rows.size))
+            arm = problem.arm(name)
+            plo = np.minimum(arm.limits[:, 0], lo[0:2].min(axis=1))
+            phi = np.maximum(arm.limits[:, 1], hi[0:2].max(axis=1))
+            hres = ca.vec(hull.map(K)(Xn[name][:, :K], Xn[name][:, 1:], H.T, ca.DM(np.tile(SC[name][:, None], (1, K)))))
+            g.append(hres if rows.size == 6 * K else hres[[int(r) for r in rows]])
+            lbg.append(np.tile(np.r_[-1.0, -1.0, plo, plo], cols.size))
+            ubg.append(np.tile(np.r_[1.0, 1.0, phi, phi], cols.size))
         for k0, k1, dwell in dwells:
             a_, b_ = max(k0, lo_k), min(k1, hi_k)
             if b_ > a_:  # a dwell cut by a window boundary: each part keeps its share

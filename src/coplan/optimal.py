@@ -39,7 +39,7 @@ from .problem import Problem
 from .schedule import ArmSchedule, StepKind, decoupled_schedules
 from .screen import screened
 from .search import SearchOptions, StopReason, improve
-from .windows import LADDER, solve_windows
+from .windows import LADDER, solve_windows, window_count
 
 __all__ = ["OptimalOptions", "OptimalResult", "plan_optimal", "nlp_plan"]
 
@@ -58,8 +58,11 @@ class OptimalOptions:
         falling linearly from this (s) to 0 over ``search_work`` (annealing); 0 for pure descent
     seed : seed of the search's moves
     polish : run the joint NLP from the incumbent when it still waits
-    polish_iterations : IPOPT iteration cap of each polishing solve (unless ``ipopt`` sets
-        ``ipopt.max_iter``)
+    polish_iterations : IPOPT iterations the whole polish may spend (every round, window and
+        retry; checked before each solve, and each solve is capped at 200 unless ``ipopt`` sets
+        ``ipopt.max_iter``); when they are spent, the last solution is offered to the verifier
+    polish_windows : polish only schedules the NLP solves in at most this many receding windows
+        (on longer ones the windows' cuts pin the timing and the polish has not paid)
     polish_rounds : refinement rounds of each polishing window (``max_rounds`` for the last resort)
     tolerance : a makespan this close to the lower bound (s) is proven optimal
     screen : initial NLP constraint points where the schedule's links are within this (m)
@@ -86,8 +89,9 @@ class OptimalOptions:
     search_temperature: float = 0.3
     seed: int = 0
     polish: bool = True
-    polish_iterations: int = 200
-    polish_rounds: int = 3
+    polish_iterations: int = 400
+    polish_rounds: int = 5
+    polish_windows: int = 1
     tolerance: float = 1e-3
     screen: float = 0.25
     h_target: float = 0.06
@@ -134,8 +138,10 @@ _FAIL_STATUS = {
 
 
 def nlp_plan(problem: Problem, alloc: Allocation, sched: dict[str, ArmSchedule], opts: OptimalOptions | None = None,
-             deadline: float | None = None, say: Callable[[str], None] | None = None):
+             deadline: float | None = None, say: Callable[[str], None] | None = None, iterations: int | None = None):
     """The joint NLP over all arms from ``sched`` (receding windows); returns ``(plan, info)``.
+
+    ``iterations``: a budget of IPOPT iterations over every solve (None: none).
 
     The plan is unverified (or failed/interrupted with the best iterate kept)."""
     opts = opts or OptimalOptions()
@@ -145,10 +151,15 @@ def nlp_plan(problem: Problem, alloc: Allocation, sched: dict[str, ArmSchedule],
     # state those left; when any window could not be solved cleanly, the whole schedule is
     # solved again with every window near the start from the first
     discarded = 0.0
+    spent = 0
     for level in range(len(LADDER) - 1):
-        stitched, info = solve_windows(problem, sched, grid, opts, deadline, say, level)
+        left = None if iterations is None else iterations - spent
+        if level and left is not None and left <= 0:
+            break
+        stitched, info = solve_windows(problem, sched, grid, opts, deadline, say, level, left)
+        spent += info["iterations"]
         info["level"] = level
-        if info.get("clean") or info["status"] == SolverStatus.INTERRUPTED or (
+        if info.get("clean") or info["status"] == SolverStatus.INTERRUPTED or info.get("budget_spent") or (
                 deadline is not None and _time.perf_counter() > deadline):
             break
         if level + 2 < len(LADDER):
@@ -289,15 +300,27 @@ def plan_optimal(
             a0 = allocate(problem, allocation)
             src = Coordinated(a0, decoupled_schedules(problem, a0), a0.estimated_makespan)
             say("no conflict-free coordination found; the joint NLP starts from the decoupled (colliding) plan")
-        waits = src is not None and any(st.kind == StepKind.WAIT for s in src.schedules.values() for st in s.steps)
+        slack = src is not None and retimable(src.schedules)
+        if src is not None and inc.plan is not None and opts.polish and not proven():
+            if not slack:
+                say("joint NLP skipped: the arm that places last never waits and moves straight between its poses, "
+                    "so no retiming of the same poses and order can finish it sooner")
+            else:
+                n_win = window_count(build_grid(src.schedules, opts.h_target), opts.window, src.schedules)
+                if n_win > opts.polish_windows:
+                    slack = False
+                    say(f"joint NLP skipped: the schedule needs {n_win} receding windows (polish_windows is {opts.polish_windows})")
         if not interrupted and within and src is not None and not proven() and (
-                inc.plan is None or (opts.polish and waits)):
+                inc.plan is None or (opts.polish and slack)):
             tp = _time.perf_counter()
-            popts = replace(opts, ipopt={"ipopt.max_iter": opts.polish_iterations} | dict(opts.ipopt),
+            popts = replace(opts, ipopt={"ipopt.max_iter": 200} | dict(opts.ipopt),
                             max_rounds=min(opts.max_rounds, opts.polish_rounds)) if inc.plan else opts
-            plan, nlp_info, nlp_status = nlp_plan(problem, src.alloc, src.schedules, popts, deadline, say)
+            plan, nlp_info, nlp_status = nlp_plan(problem, src.alloc, src.schedules, popts, deadline, say,
+                                                  opts.polish_iterations if inc.plan else None)
             timings["polish"] = _time.perf_counter() - tp
             interrupted = nlp_status == SolverStatus.INTERRUPTED
+            if plan.status != PlanStatus.UNVERIFIED and inc.plan is not None:
+                say(f"joint NLP: {plan.solver.get('message', 'no solution')}; kept the incumbent")
             if plan.status == PlanStatus.UNVERIFIED:
                 ver = verify(problem, plan)
                 accepted = inc.offer(plan, ver, "joint NLP")
@@ -366,6 +389,26 @@ def plan_optimal(
     return OptimalResult(plan, inc.verification, baseline, base_ver, alloc_out, timings, status, coord_plan)
 
 
+def retimable(schedules: dict[str, ArmSchedule], tol: float = 1e-6) -> bool:
+    """Whether the joint NLP could finish these schedules sooner.
+
+    The NLP keeps every pick and place pose and each arm's order, and every arm comes to
+    rest at them; between two rest poses no motion is faster than the per-joint S-curve the
+    schedules already use. So an arm that places last, never waits and moves straight from
+    pose to pose (no tucked transit through via poses) is already as fast as these poses
+    allow: only a wait or a via on some last-placing arm leaves the NLP anything to gain."""
+    end = max((s.last_place for s in schedules.values()), default=0.0)
+    for s in schedules.values():
+        if s.last_place < end - tol:
+            continue
+        steps = [st for st in s.steps if st.t1 <= s.last_place + tol]
+        if any(st.kind == StepKind.WAIT for st in steps):
+            return True
+        if any(a.kind == b.kind == StepKind.MOVE for a, b in zip(steps, steps[1:])):
+            return True
+    return False
+
+
 def _message(inc: _Incumbent, stop: StopReason) -> str:
     if inc.source is None or inc.source.endswith("(unverified)"):
         return "no verified plan was found; the best the solver had is kept"
@@ -373,6 +416,7 @@ def _message(inc: _Incumbent, stop: StopReason) -> str:
         StopReason.PROVEN_OPTIMAL: "the plan meets the lower bound: proven optimal",
         StopReason.BUDGET: "the work budget is spent",
         StopReason.STALLED: "the search stopped improving",
+        StopReason.EXHAUSTED: "every allocation, order and elbow branch was tried",
         StopReason.TIME_LIMIT: "the time limit was reached; the verified incumbent is returned",
         StopReason.INTERRUPTED: "interrupted; the verified incumbent is saved",
     }

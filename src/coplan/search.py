@@ -22,6 +22,10 @@ cache of routes and moves) and kept when their makespan is lower, or equal with 
 work. After ``stall`` evaluations without progress the search restarts from the best state
 with a few random moves (an iterated local search).
 
+When the whole state space is small (a few fruit), it is searched exhaustively instead: every
+state, cheapest estimate first, until the estimate alone cannot beat the best -- a branch and
+bound whose result is the best plan the coordinator can make (``StopReason.EXHAUSTED``).
+
 Every budget is work -- coordinator runs, proposals -- and the random moves come from a seeded
 generator, so the same problem and options give the same plan on any machine and under any
 load. Only an explicit ``deadline`` depends on the clock. It stops at once when the makespan
@@ -30,6 +34,7 @@ meets the lower bound (``tolerance``): the plan is then proven optimal.
 
 from __future__ import annotations
 
+import math
 import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -53,6 +58,7 @@ class StopReason(str, Enum):
     STALLED = "stalled"  # no improvement within ``patience`` evaluations
     TIME_LIMIT = "time_limit"  # the explicit clock limit
     INTERRUPTED = "interrupted"  # Ctrl-C
+    EXHAUSTED = "exhausted"  # every state was tried or bounded out: the coordinator's best
 
 
 @dataclass(frozen=True)
@@ -70,6 +76,11 @@ class SearchOptions:
     fixed_assignment : keep which arm takes which fruit (order, branches and priorities
         still change); used when the caller asked for a given allocation method
     tolerance : a makespan this close to the lower bound (s) is optimal
+    exhaustive : when the whole state space (allocations x orders x elbow branches x variants x
+        priorities) has at most this many states, and at most half of ``evaluations`` of them
+        have an estimate below the start's makespan, try those instead, cheapest estimate
+        first, until the estimate alone cannot beat the best (branch and bound): the result
+        is then the best plan the coordinator can make; 0 turns this off
     temperature : accept a slower state with probability exp(-(its makespan - current) / T),
         T falling linearly from ``temperature`` (s) to 0 as the work budget is spent (simulated
         annealing, seeded like the moves); the best state is kept whatever is accepted
@@ -85,6 +96,7 @@ class SearchOptions:
     fixed_assignment: bool = False
     tolerance: float = 1e-3
     temperature: float = 0.0
+    exhaustive: int = 20_000
 
 
 @dataclass
@@ -181,6 +193,34 @@ class _Search:
             return None
         self.stats.checks += work.get("checks", 0)
         return Coordinated(al, sched, makespan_of(sched), list(s.order), s.variant, waits)
+
+    def space(self, start: _State, cap: int) -> list[tuple[float, _State]] | None:
+        """Every state (allocation, orders, forced elbow branches, variant, priority), with its
+        estimate, cheapest first; None when there are more than ``cap`` of them."""
+        import itertools
+
+        fruits = [f for seq in start.assign for f in seq]
+        if self.opts.fixed_assignment:
+            owners = [[next(i for i, seq in enumerate(start.assign) if f in seq)] for f in fruits]
+        else:
+            owners = [self.reach[f] for f in fruits]
+        priorities = list(itertools.permutations(start.order))
+        per = 2 * len(priorities)
+        out: list[tuple[float, _State]] = []
+        for split in itertools.product(*owners):
+            groups = [[f for f, a in zip(fruits, split) if a == i] for i in range(len(self.names))]
+            n_orders = int(np.prod([math.factorial(len(g)) for g in groups]))
+            n_branch = int(np.prod([len(self.cfg[a][1][f]) for f, a in zip(fruits, split)]))
+            if len(out) + n_orders * n_branch * per > cap:
+                return None
+            for orders in itertools.product(*[itertools.permutations(g) for g in groups]):
+                assign = tuple(tuple(o) for o in orders)
+                for fb in itertools.product(*[range(len(self.cfg[a][1][f])) for f, a in zip(fruits, split)]):
+                    forced = frozenset((a, f, b) for f, a, b in zip(fruits, split, fb))
+                    est = self.estimate(_State(assign, start.variant, start.order, forced))
+                    out += [(est, _State(assign, v, o, forced)) for v in ("branches", "fastest") for o in priorities]
+        out.sort(key=lambda x: x[0])  # stable: ties keep the enumeration's order
+        return out
 
     # ---- moves
     def critical(self, c: Coordinated) -> int:
@@ -314,7 +354,13 @@ def improve(
     seen = {s_cur}
     since_best = since_cur = idle = 0
     max_proposals = 50 * opts.evaluations + 100
+    space = srch.space(s_cur, opts.exhaustive) if opts.exhaustive > 0 and best.makespan > bound + opts.tolerance else None
+    if space is not None and sum(est < best.makespan - 1e-9 for est, _ in space) > opts.evaluations // 2:
+        space = None  # branch and bound might not finish within half the budget: search instead
     try:
+        if space is not None:
+            best = _exhaust(srch, space, best, bound, seen, on_improve, deadline)
+            return best, st
         while True:
             if best.makespan <= bound + opts.tolerance:
                 st.stop = StopReason.PROVEN_OPTIMAL
@@ -379,3 +425,32 @@ def improve(
     except KeyboardInterrupt:
         st.stop = StopReason.INTERRUPTED
     return best, st
+
+
+def _exhaust(srch: _Search, space, best: Coordinated, bound: float, seen: set, on_improve, deadline) -> Coordinated:
+    """Branch and bound over the whole (small) state space, cheapest estimate first."""
+    st, opts = srch.stats, srch.opts
+    st.stop = StopReason.EXHAUSTED
+    for est, s in space:
+        if best.makespan <= bound + opts.tolerance:
+            st.stop = StopReason.PROVEN_OPTIMAL
+            break
+        if est >= best.makespan - 1e-9:  # nothing left can beat the best
+            break
+        if st.evaluations >= opts.evaluations or st.checks >= opts.work:
+            st.stop = StopReason.BUDGET
+            break
+        if deadline is not None and _time.perf_counter() > deadline:
+            st.stop = StopReason.TIME_LIMIT
+            break
+        if s in seen:
+            continue
+        seen.add(s)
+        st.proposals += 1
+        cand = srch.evaluate(s)
+        if cand is not None and cand.makespan < best.makespan - 1e-9:
+            best = cand
+            st.improvements += 1
+            if on_improve is not None:
+                on_improve(best)
+    return best

@@ -141,6 +141,26 @@ class SCurve:
             out[1:, end, i] = 0.0
         return out
 
+    def switch_times(self) -> np.ndarray:
+        """Times (from the move's start) where some joint's jerk changes, in (0, duration): (S,).
+
+        Between two of them (and the ends) every joint's jerk is constant, so a grid with a
+        knot at each represents the move exactly with constant jerk per interval."""
+        out = []
+        for durs, jerks in self.profiles:
+            if not durs or self.duration <= 0:
+                continue
+            k = float(sum(durs)) / self.duration
+            t, prev = 0.0, None
+            for d, j in zip(durs, jerks):
+                if d <= 0.0:
+                    continue
+                if prev is not None and j != prev:
+                    out.append(t / k)
+                t, prev = t + d, j
+        t = np.unique(np.asarray(out, float))
+        return t[(t > 1e-9) & (t < self.duration - 1e-9)]
+
     def eval(self, t):
         """Joint positions (K, 2) at times ``t`` (K,) measured from the start of the move."""
         return self.derivatives(t)[0]

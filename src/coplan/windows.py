@@ -26,7 +26,7 @@ from .schedule import ArmSchedule, StepKind
 if TYPE_CHECKING:
     from .optimal import OptimalOptions
 
-__all__ = ["screen_points", "refine_points", "solve_windows"]
+__all__ = ["screen_points", "refine_points", "solve_windows", "window_count"]
 
 
 # ----------------------------------------------------------------------------- screening
@@ -167,6 +167,11 @@ def _windows(grid: Grid, window: float, schedules: dict[str, ArmSchedule] | None
     return [(a, b) for a, b in zip(cuts[:-1], cuts[1:]) if b > a]
 
 
+def window_count(grid: Grid, window: float, schedules: dict[str, ArmSchedule] | None = None) -> int:
+    """How many receding windows :func:`solve_windows` cuts this grid into."""
+    return len(_windows(grid, window, schedules))
+
+
 def _choose_commit(problem: Problem, sol: NLPSolution, grid: Grid, lo: int, hi: int, planned: int,
                    allowed: np.ndarray, slack: float) -> int:
     """The knot at which to commit a window's solution and start the next window.
@@ -228,11 +233,14 @@ LADDER = (
 
 
 def _solve_rounds(problem, schedules, grid, opts: OptimalOptions, window, points, start_state, prev_sol, timing,
-                  deadline, info, tag, wi, attempt, say):
+                  deadline, info, tag, wi, attempt, say, iterations=None):
     """Solve one window, adding separation points from the dense check, up to ``max_rounds``.
 
     Returns ``(solution, points, clean)``; ``clean`` is True when IPOPT converged and the
-    dense check of the last solution found nothing closer than the refinement threshold."""
+    dense check of the last solution found nothing closer than the refinement threshold.
+    ``iterations``: IPOPT iterations the whole :func:`solve_windows` may spend (``info``
+    counts them; checked before each solve, so a solve started is finished); when they are
+    spent, ``info["budget_spent"]`` is set and the last solution is returned as it is."""
     names = [a.name for a in problem.arms]
     lo, hi = window
     (h_bounds, track) = timing
@@ -243,6 +251,9 @@ def _solve_rounds(problem, schedules, grid, opts: OptimalOptions, window, points
         if deadline is not None:
             left = max(deadline - _time.perf_counter(), 1e-3)
             remaining = left if remaining is None else min(remaining, left)
+        if iterations is not None and info["iterations"] >= iterations:  # the budget is checked between solves
+            info["budget_spent"] = True
+            return sol, points, False
         nlp = build_nlp(problem, schedules, grid, points, opts.margin, window=(lo, hi), start=start_state,
                         ipopt_options=opts.ipopt, warm=sol, carry=prev_sol, h_bounds=h_bounds, track=track)
         sol = solve_nlp(nlp, names, time_limit=remaining)
@@ -266,8 +277,12 @@ def _solve_rounds(problem, schedules, grid, opts: OptimalOptions, window, points
     return sol, points, False
 
 
-def solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say, level: int = 0) -> tuple[_Stitched, dict]:
+def solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say, level: int = 0,
+                  iterations: int | None = None) -> tuple[_Stitched, dict]:
     """Solve the receding windows in order; each window tries ``LADDER[level:]`` in turn.
+
+    ``iterations``: a budget of IPOPT iterations over every solve; when it is spent, the
+    windows solved so far and the last solution are returned (``info["budget_spent"]``).
 
     ``info["clean"]`` says whether every window ended converged with its dense check clean."""
     names = [a.name for a in problem.arms]
@@ -304,9 +319,13 @@ def solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say,
                     f"; solving again with {label}")
             sol, points, clean = _solve_rounds(problem, schedules, grid, replace(opts, margin=opts.margin * mscale), (lo, hi),
                                                first, start_state, prev_sol, (h_bounds, track), deadline, info,
-                                               f"window {wi + 1}/{len(wins)}", wi, attempt, say)
-            if clean or sol.status == SolverStatus.INTERRUPTED:
+                                               f"window {wi + 1}/{len(wins)}", wi, attempt, say, iterations)
+            if sol is None or clean or sol.status == SolverStatus.INTERRUPTED or info.get("budget_spent"):
                 break
+        if sol is None:  # the budget was spent before this window's first solve
+            worst = SolverStatus.LIMIT_REACHED
+            info["ipopt_status"] = "iteration budget spent"
+            break
         info.setdefault("window_stages", []).append(label)
         info["clean"] = info.get("clean", True) and clean
         info["points"] += len(points)
@@ -333,7 +352,11 @@ def solve_windows(problem, schedules, grid, opts: OptimalOptions, deadline, say,
         lo = hi_commit
         if not sol.status.converged:
             break
+        if info.get("budget_spent") and wi < len(wins) - 1:  # the rest of the schedule is not solved
+            worst = SolverStatus.LIMIT_REACHED
+            info["ipopt_status"] = "iteration budget spent"
+            break
     info["status"] = worst
     st = _Stitched(np.concatenate(t_parts), {n: np.hstack(X_parts[n]) for n in names}, {n: np.hstack(U_parts[n]) for n in names})
-    info["complete_windows"] = wi + 1 if sol.status.converged else wi
+    info["complete_windows"] = wi + 1 if sol is not None and sol.status.converged else wi
     return st, info
