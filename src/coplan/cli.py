@@ -74,6 +74,9 @@ def guarded(fn):
             raise typer.Exit(int(ExitCode.INTERRUPTED)) from None
         except CoplanError as e:
             _fail(ExitCode.INTERNAL, str(e))
+        except OSError as e:  # disk full, permissions: the path and the reason, nothing half-written left
+            where = f": {e.filename}" if e.filename else ""
+            _fail(ExitCode.IO_ERROR, f"{e.strerror or e}{where} (nothing of this run was left half-written)")
         except Exception as e:  # noqa: BLE001 -- last-resort guard: report, never a raw traceback
             if os.environ.get("COPLAN_DEBUG"):
                 raise
@@ -192,6 +195,7 @@ def solve(
             "verification": ver,
             "solver": res.plan.solver,
             "files": {k: str(v) for k, v in res.files.items()},
+            "previous_run": str(res.previous) if res.previous is not None else None,
         }
         out_console.print_json(_strict_json(doc))
     else:
@@ -246,6 +250,8 @@ def _print_summary(res) -> None:
         p(f"  solve time        {planned:.2f} s ({split}; whole command {res.timings.get('total', planned):.2f} s)")
     for k, v in res.files.items():  # every file written: plan (JSON, CSV, NPZ), verification, baseline, animation
         p(f"  wrote             {_s(v)}")
+    if res.previous is not None:
+        p(f"  previous run      kept in {_s(res.previous)}")
 
 
 @app.command("problems")

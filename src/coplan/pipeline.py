@@ -12,6 +12,7 @@ from pathlib import Path
 
 from .allocation import AllocationMethod, allocate
 from .kinds import ExitCode
+from .output import RunFolder
 from .heuristic import plan_heuristic
 from .plan import Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem import Problem, load_problem
@@ -44,6 +45,7 @@ class SolveResult:
     baseline: Plan | None = None
     files: dict[str, Path] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
+    previous: Path | None = None  # where the previous run in the output folder was kept
 
     @property
     def status(self) -> PlanStatus:
@@ -127,11 +129,16 @@ def solve(
         timings.update(res.timings)
     plan.solver.setdefault("timings", {}).update(timings)
     timings["total"] = _time.perf_counter() - t0
+    previous = None
     if out_dir is not None:
-        out = Path(out_dir)
-        if baseline is not None:
-            files.update({f"baseline_{k}": v for k, v in baseline.save(out, "baseline").items()})
-        files.update(plan.save(out, "plan"))
-        if ver is not None:
-            files["verification"] = ver.save(out / "verification.json")
-    return SolveResult(prob, plan, ver, baseline, files, timings)
+        # the whole set is staged and renamed into place (coplan.output): never a mix of runs
+        folder = RunFolder(Path(out_dir))
+        with folder as stage:
+            if baseline is not None:
+                files.update({f"baseline_{k}": v for k, v in baseline.save(stage, "baseline").items()})
+            files.update(plan.save(stage, "plan"))
+            if ver is not None:
+                files["verification"] = ver.save(stage / "verification.json")
+        files = {k: folder.path(v) for k, v in files.items()}
+        previous = folder.previous
+    return SolveResult(prob, plan, ver, baseline, files, timings, previous)

@@ -1,0 +1,86 @@
+"""One run's files written as a unit (used by :func:`coplan.pipeline.solve`).
+
+A run's files (plan.json/.csv/.npz, baseline.*, verification.json) are written into a fresh
+folder beside the target, named uniquely per process (``.<name>.<random>.partial``), and
+only when every file is complete is that folder renamed into place. So a crash, ``kill -9``
+or a full disk never leaves one run's plan.json beside another's CSV: the target holds a
+whole run or is untouched, and a failed write removes its partial folder.
+
+The previous run is kept: a target folder that holds only coplan's files is renamed to
+``<name>.previous`` first (replacing an older one). A target that also holds other files is
+not moved: the new files replace the same names in it one by one (each rename atomic).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["MARKER", "RunFolder", "is_run_folder"]
+
+MARKER = ".coplan-run"  # written into every run folder
+_OURS = ("plan.", "baseline.", "verification.json", MARKER)
+
+
+def is_run_folder(path: Path) -> bool:
+    """Whether ``path`` is a folder holding nothing but files a coplan run writes."""
+    if not path.is_dir():
+        return False
+    names = [p.name for p in path.iterdir()]
+    return bool(names) and all(p.startswith(_OURS) and not (path / p).is_dir() for p in names)
+
+
+@dataclass
+class RunFolder:
+    """``with RunFolder(out) as stage:`` write into ``stage``; on a clean exit the files move to
+    ``out`` (see the module docstring), on an exception they are removed."""
+
+    out: Path
+    stage: Path | None = None
+    previous: Path | None = None  # where the previous run was kept, if it was moved
+
+    def __post_init__(self):
+        self.out = Path(self.out)
+
+    def __enter__(self) -> Path:
+        self.out.parent.mkdir(parents=True, exist_ok=True)
+        self.stage = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", suffix=".partial", dir=self.out.parent))
+        (self.stage / MARKER).write_text("files of one coplan run\n")
+        return self.stage
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc_type is not None:
+            shutil.rmtree(self.stage, ignore_errors=True)
+            return False
+        try:
+            self._commit()
+        except BaseException:
+            shutil.rmtree(self.stage, ignore_errors=True)
+            raise
+        return False
+
+    def path(self, staged: Path) -> Path:
+        """Where a file written into the stage ends up."""
+        return self.out / Path(staged).name
+
+    def _commit(self) -> None:
+        out, stage = self.out, self.stage
+        if out.is_dir() and not any(out.iterdir()):
+            out.rmdir()
+        elif is_run_folder(out):
+            prev = out.with_name(out.name + ".previous")
+            if prev.is_dir():
+                shutil.rmtree(prev)
+            elif prev.exists():
+                prev.unlink()
+            out.rename(prev)
+            self.previous = prev
+        elif out.exists():  # a folder with the user's own files in it: replace file by file
+            for f in sorted(stage.iterdir()):
+                os.replace(f, out / f.name)
+            stage.rmdir()
+            return
+        stage.rename(out)

@@ -1,0 +1,82 @@
+"""A run's files are written as a unit: staged beside the target and renamed into place; the
+previous run is kept; a failure leaves neither a partial folder nor a mix of two runs."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from coplan.output import MARKER, RunFolder, is_run_folder
+from coplan.pipeline import solve
+from coplan.problem import default_problem_path
+
+
+def _single():
+    return default_problem_path().with_name("single_arm.yaml")
+
+
+def test_a_second_run_keeps_the_first_as_previous(tmp_path):
+    out = tmp_path / "run"
+    first = solve(_single(), planner="heuristic", out_dir=out)
+    assert first.previous is None and is_run_folder(out) and (out / MARKER).exists()
+    stamp = json.loads((out / "plan.json").read_text())["planner"]
+    second = solve(_single(), planner="coordinated", out_dir=out)
+    assert second.previous == tmp_path / "run.previous"
+    assert json.loads((second.previous / "plan.json").read_text())["planner"] == stamp == "heuristic"
+    assert json.loads((out / "plan.json").read_text())["planner"] == "coordinated"
+    assert all(p.parent == out and p.exists() for p in second.files.values())
+    third = solve(_single(), planner="coordinated", out_dir=out)  # only one previous run is kept
+    assert json.loads((third.previous / "plan.json").read_text())["planner"] == "coordinated"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run", "run.previous"]  # no partial folder left
+
+
+def test_a_failed_write_leaves_the_previous_run_whole_and_no_partial_folder(tmp_path, monkeypatch):
+    out = tmp_path / "run"
+    solve(_single(), planner="heuristic", out_dir=out)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    from coplan import verdict
+
+    def disk_full(self, path):
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(verdict.Verification, "save", disk_full)
+    with pytest.raises(OSError):
+        solve(_single(), planner="coordinated", out_dir=out)
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # untouched: the old run, whole
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def test_a_folder_with_the_users_own_files_is_not_moved(tmp_path):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("keep me")
+    res = solve(_single(), planner="heuristic", out_dir=out)
+    assert res.previous is None and (out / "notes.txt").read_text() == "keep me"
+    assert (out / "plan.json").exists() and not is_run_folder(out)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine"]
+
+
+def test_staging_folders_are_unique_per_writer(tmp_path):
+    a, b = RunFolder(tmp_path / "x"), RunFolder(tmp_path / "x")
+    sa, sb = a.__enter__(), b.__enter__()
+    assert sa != sb and sa.parent == sb.parent == tmp_path
+    a.__exit__(None, None, None)
+    b.__exit__(None, None, None)  # the second commit finds the first run and keeps it as previous
+    assert is_run_folder(tmp_path / "x") and b.previous == tmp_path / "x.previous"
+
+
+def test_a_full_disk_is_reported_with_the_path_and_its_own_exit_code(tmp_path, monkeypatch):
+    from typer.testing import CliRunner
+
+    from coplan import verdict
+    from coplan.cli import app
+
+    def disk_full(self, path):
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(verdict.Verification, "save", disk_full)
+    r = CliRunner().invoke(app, ["solve", str(_single()), "--planner", "heuristic", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 8
+    assert "No space left on device" in r.output and "verification.json" in r.output
+    assert "Traceback" not in r.output and list(tmp_path.iterdir()) == []
