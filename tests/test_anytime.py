@@ -219,3 +219,21 @@ def test_exhaustive_search_agrees_with_trying_every_state():
     assert all(est <= m + 1e-9 for est, m in made)  # the estimate is a lower bound
     assert best.makespan == pytest.approx(min([m for _, m in made] + [start.makespan]), abs=1e-9)
     assert stats.evaluations < len(space)  # the bound spared most of them
+
+
+def test_a_large_state_space_is_not_enumerated():
+    """100 fruit on five arms: far more states than the exhaustive cap. The counts are exact
+    integers: (20!)^5 orders wrapped around in 64-bit arithmetic once, looked small, and the
+    enumeration that followed filled the memory."""
+    from coplan.allocation import allocate
+    from coplan.coordinated import Coordinated
+    from coplan.generate import row_problem
+    from coplan.search import SearchOptions, _Search
+
+    prob = parse_problem(to_yaml(row_problem(5, 100, seed=11, reachable_only=True)), "row")
+    alloc = allocate(prob)
+    assert max(len(v) for v in alloc.assignment.values()) >= 20
+    start = Coordinated(alloc, {}, alloc.estimated_makespan)
+    srch = _Search(prob, start, 0.015, SearchOptions(), {})
+    assert srch.space(srch.state_of(start), 20_000) is None
+    assert srch._dp == {}  # refused before estimating a single state

@@ -209,8 +209,9 @@ class _Search:
         out: list[tuple[float, _State]] = []
         for split in itertools.product(*owners):
             groups = [[f for f, a in zip(fruits, split) if a == i] for i in range(len(self.names))]
-            n_orders = int(np.prod([math.factorial(len(g)) for g in groups]))
-            n_branch = int(np.prod([len(self.cfg[a][1][f]) for f, a in zip(fruits, split)]))
+            # exact integers: these counts overflow any fixed-width type on a long row
+            n_orders = math.prod(math.factorial(len(g)) for g in groups)
+            n_branch = math.prod(len(self.cfg[a][1][f]) for f, a in zip(fruits, split))
             if len(out) + n_orders * n_branch * per > cap:
                 return None
             for orders in itertools.product(*[itertools.permutations(g) for g in groups]):
