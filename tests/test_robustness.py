@@ -182,4 +182,7 @@ def test_summary_lists_every_file_written(tmp_path: Path, problems_dir: Path) ->
     res = run("solve", str(problems_dir / "single_arm.yaml"), "--planner", "coordinated", "--out", str(tmp_path))
     assert res.exit_code == 0, res.output
     written = {Path(line.split("wrote", 1)[1].strip()).name for line in res.output.splitlines() if line.strip().startswith("wrote")}
-    assert written == {p.name for p in tmp_path.iterdir()} >= {"plan.json", "plan.csv", "plan.npz", "verification.json"}
+    from coplan.output import MARKER  # the hidden marker of a run folder is not a result file
+
+    assert written == {p.name for p in tmp_path.iterdir() if p.name != MARKER} >= {"plan.json", "plan.csv", "plan.npz", "verification.json"}
+    assert (tmp_path / MARKER).exists()
