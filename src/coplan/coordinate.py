@@ -29,11 +29,11 @@ from .schedule import (
     _move,
 )
 
-__all__ = ["coordinate"]
+__all__ = ["coordinate", "Leg", "legs_of"]
 
 
 @dataclass
-class _Leg:
+class Leg:
     """One unit of an arm's work: a move to ``target`` (then an optional pick/place dwell)."""
 
     target: tuple[float, float]
@@ -44,17 +44,18 @@ class _Leg:
     home: bool = False  # the final move home
 
 
-def _legs_of(problem: Problem, sch: ArmSchedule) -> list[_Leg]:
-    """An arm's schedule as legs (waits dropped); it ends with a move home if it has any."""
+def legs_of(problem: Problem, sch: ArmSchedule, always_home: bool = False) -> list[Leg]:
+    """An arm's schedule as legs (waits dropped); it ends with a move home if it has any legs
+    (``always_home``: even if it has none). Also the serial fallback's (:mod:`coplan.serial`)."""
     arm = sch.arm
     fruit_pos = {f.id: tuple(map(float, f.position)) for f in problem.fruits}
-    legs: list[_Leg] = []
+    legs: list[Leg] = []
     for st in sch.steps:
         if st.kind == StepKind.MOVE:
-            legs.append(_Leg(tuple(map(float, st.q1))))
+            legs.append(Leg(tuple(map(float, st.q1))))
         elif st.kind in (StepKind.PICK, StepKind.PLACE):
             point = fruit_pos[st.fruit] if st.kind == StepKind.PICK else tuple(map(float, arm.bin))
-            leg = _Leg(tuple(map(float, st.q1)), st.kind, st.duration, st.fruit, point)
+            leg = Leg(tuple(map(float, st.q1)), st.kind, st.duration, st.fruit, point)
             if legs and legs[-1].kind is None and _same(legs[-1].target, leg.target):
                 legs[-1].kind, legs[-1].dwell, legs[-1].fruit, legs[-1].point = leg.kind, leg.dwell, leg.fruit, leg.point
             else:  # a dwell right where the arm already is
@@ -62,15 +63,15 @@ def _legs_of(problem: Problem, sch: ArmSchedule) -> list[_Leg]:
     home = tuple(map(float, arm.home))
     if legs and legs[-1].kind is None and _same(legs[-1].target, home):
         legs[-1].home = True
-    elif legs:
-        legs.append(_Leg(home, home=True))
+    elif legs or always_home:
+        legs.append(Leg(home, home=True))
     return legs
 
 
 class _Track:
     """One arm in :func:`coordinate`: its committed steps, its pose after them, its remaining legs."""
 
-    def __init__(self, arm: Arm, index: int, rank: int, legs: list[_Leg], tables: dict):
+    def __init__(self, arm: Arm, index: int, rank: int, legs: list[Leg], tables: dict):
         self.arm, self.index, self.rank = arm, index, rank
         self.tables = tables  # the run's curve tables
         self.home = tuple(map(float, arm.home))
@@ -166,7 +167,7 @@ class _Coordinator(_Geometry):
         order = priority or sorted(names, key=lambda n: -schedules[n].last_place)
         rank = {n: i for i, n in enumerate(order)}
         self.tables: dict = {}
-        self.tracks = [_Track(a, i, rank.get(a.name, len(order) + i), _legs_of(problem, schedules[a.name]), self.tables)
+        self.tracks = [_Track(a, i, rank.get(a.name, len(order) + i), legs_of(problem, schedules[a.name]), self.tables)
                        for i, a in enumerate(problem.arms)]
         self.max_yields = 6 * len(self.tracks) + 6 if max_yields is None else max_yields
         work = sum(schedules[n].end for n in names)
@@ -195,7 +196,7 @@ class _Coordinator(_Geometry):
         self._remaining[j] = (key, out)
         return out
 
-    def leg_samples(self, tr: _Track, leg: _Leg) -> np.ndarray:
+    def leg_samples(self, tr: _Track, leg: Leg) -> np.ndarray:
         """Arm ``tr``'s poses along ``leg`` from where it rests (at ``rate``), target included."""
         steps = self.leg_steps(tr, leg, 0.0)
         if not steps:
@@ -204,7 +205,7 @@ class _Coordinator(_Geometry):
         return _steps_positions(steps, T, self.tables)
 
     # ---- timing
-    def leg_steps(self, tr: _Track, leg: _Leg, t: float) -> list[Step]:
+    def leg_steps(self, tr: _Track, leg: Leg, t: float) -> list[Step]:
         """The leg's move(s) from where the arm rests, starting at ``t``, then its dwell."""
         steps: list[Step] = []
         if not _same(tr.pose, leg.target):
@@ -251,7 +252,7 @@ class _Coordinator(_Geometry):
                 best = (float(T[hit[0]]), o.index, float(late.max()) if late.size and T[hit[0]] >= arrive else None)
         return best
 
-    def earliest(self, tr: _Track, leg: _Leg, t: float) -> tuple[float | None, int | None]:
+    def earliest(self, tr: _Track, leg: Leg, t: float) -> tuple[float | None, int | None]:
         """Earliest start, ``t`` or a whole number of samples at least ``quantum`` later, at which
         ``leg`` is clear of the neighbours' commitments: ``(start, None)``; or ``(None, j)`` when
         neighbour j's rest pose after its commitments is in the way (then no start helps).
@@ -329,14 +330,14 @@ class _Coordinator(_Geometry):
             return False
         self._yielded.add(key)
         if not y.todo or not y.todo[-1].home:
-            y.todo.append(_Leg(y.home, home=True))
-        y.todo.insert(0, _Leg(tuple(map(float, pose))))
+            y.todo.append(Leg(y.home, home=True))
+        y.todo.insert(0, Leg(tuple(map(float, pose))))
         y.stuck, y.deferred = None, False
         y.ready = max(y.end, t)
         self.yields += 1
         return True
 
-    def other_branch(self, tr: _Track, leg: _Leg) -> _Leg | None:
+    def other_branch(self, tr: _Track, leg: Leg) -> Leg | None:
         """The same pick/place with the other elbow branch, if valid and not into a pose a
         neighbour keeps coming back to (its places, its home); else None."""
         if leg.point is None:
@@ -361,7 +362,7 @@ class _Coordinator(_Geometry):
             q = v
         return out
 
-    def detour(self, tr: _Track, leg: _Leg, alt: _Leg) -> float:
+    def detour(self, tr: _Track, leg: Leg, alt: Leg) -> float:
         """Extra time of doing ``alt`` instead of ``leg`` (into the target and on to the next one)."""
         nxt = tr.todo[1].target if len(tr.todo) > 1 else None
 
@@ -422,7 +423,7 @@ class _Coordinator(_Geometry):
                     tr.parked = True
                     park = self.park_pose(tr)
                     if park is not None:
-                        tr.todo.insert(0, _Leg(tuple(map(float, park))))
+                        tr.todo.insert(0, Leg(tuple(map(float, park))))
                         self.parks += 1
                         continue
                 tr.deferred = True

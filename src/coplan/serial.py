@@ -38,6 +38,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .coordinate import Leg, legs_of
 from .problem import Problem
 from .routing import _Geometry, _same
 from .schedule import (ArmSchedule, ConflictError, Step, StepKind, _arm_points, _CurveTable, _merge_waits, _move,
@@ -46,34 +47,6 @@ from .schedule import (ArmSchedule, ConflictError, Step, StepKind, _arm_points, 
 __all__ = ["serial_schedules"]
 
 _POLICIES = (("work", "cycle", "leg"), ("cycle", "leg"), ("leg",))
-
-
-@dataclass
-class _Leg:
-    target: tuple[float, float]
-    kind: StepKind | None = None  # PICK / PLACE after the move, or None
-    dwell: float = 0.0
-    fruit: str | None = None
-    home: bool = False
-
-
-def _legs(sch: ArmSchedule) -> list[_Leg]:
-    """An arm's schedule as legs (waits dropped), always ending with a move home."""
-    home, legs = tuple(map(float, sch.arm.home)), []
-    for st in sch.steps:
-        q = tuple(map(float, st.q1))
-        if st.kind == StepKind.MOVE:
-            legs.append(_Leg(q))
-        elif st.kind in (StepKind.PICK, StepKind.PLACE):
-            if legs and legs[-1].kind is None and _same(legs[-1].target, q):
-                legs[-1].kind, legs[-1].dwell, legs[-1].fruit = st.kind, st.duration, st.fruit
-            else:
-                legs.append(_Leg(q, st.kind, st.duration, st.fruit))
-    if legs and legs[-1].kind is None and _same(legs[-1].target, home):
-        legs[-1].home = True
-    else:
-        legs.append(_Leg(home, home=True))
-    return legs
 
 
 class _Sweep:
@@ -95,7 +68,7 @@ class _Sweep:
 @dataclass
 class _Track:
     index: int
-    legs: list[_Leg]
+    legs: list[Leg]
     pose: tuple[float, float]
     free: float = 0.0  # booked until here, resting at ``pose`` after
     claim: list | None = None  # [sweep of its turn's work, legs of it not yet booked]
@@ -203,7 +176,7 @@ class _Serial(_Geometry):
     # ---- booking
     def run(self, schedules: dict[str, ArmSchedule], scopes: tuple[str, ...]) -> dict[str, ArmSchedule]:
         arms = self.problem.arms
-        self.tracks = [_Track(i, _legs(schedules[a.name]), tuple(map(float, a.home))) for i, a in enumerate(arms)]
+        self.tracks = [_Track(i, legs_of(self.problem, schedules[a.name], always_home=True), tuple(map(float, a.home))) for i, a in enumerate(arms)]
         self.steps: list[list[Step]] = [[] for _ in arms]
         self.t0s: list[list[float]] = [[] for _ in arms]
         t, self.turns, limit, self._failed = 0.0, 0, 4 * sum(len(tr.legs) for tr in self.tracks) + 20, set()
@@ -262,7 +235,7 @@ class _Serial(_Geometry):
             tr.claim = tr.claim if tr.claim[1] > 0 else None
         return True
 
-    def earliest(self, tr: _Track, t: float, moves: list[Step], leg: _Leg, nb: list[_Track]) -> list[Step] | None:
+    def earliest(self, tr: _Track, t: float, moves: list[Step], leg: Leg, nb: list[_Track]) -> list[Step] | None:
         """The leg's steps at the earliest clear start, or None: starts ``quantum`` apart up to
         the end of the neighbours' bookings, screened in batches at ``rate``, then checked densely."""
         h, steps0 = 1.0 / self.rate, self.leg_steps(moves, leg, 0.0)
@@ -303,7 +276,7 @@ class _Serial(_Geometry):
         return _steps_positions(self.steps[j][max(0, bisect.bisect_right(self.t0s[j], float(T[0])) - 1):], T, self.tables)
 
     @staticmethod
-    def leg_steps(moves: list[Step], leg: _Leg, t: float) -> list[Step]:
+    def leg_steps(moves: list[Step], leg: Leg, t: float) -> list[Step]:
         out = []
         for mv in moves:
             out.append(replace(mv, t0=t))
@@ -319,7 +292,7 @@ class _Serial(_Geometry):
 
     # ---- turns
     @staticmethod
-    def scope_legs(tr: _Track, scope: str) -> list[_Leg]:
+    def scope_legs(tr: _Track, scope: str) -> list[Leg]:
         legs = []
         for lg in tr.legs:
             if lg.home or (scope == "leg" and legs):
@@ -356,12 +329,12 @@ class _Serial(_Geometry):
                     for v in vias:
                         moves += self.unit(j, q, v, routed=False)[0]
                         q = v
-                    steps = self.earliest(o, t, moves, _Leg(vias[-1]), [self.tracks[k] for k in self.nbrs[j]])
+                    steps = self.earliest(o, t, moves, Leg(vias[-1]), [self.tracks[k] for k in self.nbrs[j]])
                     if steps is None:
                         raise ConflictError(f"no serial schedule: arm {self.problem.arms[j].name!r} cannot park")
                     self.commit(o, steps)
                     if not o.legs or not o.legs[-1].home:
-                        o.legs.append(_Leg(tuple(map(float, self.problem.arms[j].home)), home=True))
+                        o.legs.append(Leg(tuple(map(float, self.problem.arms[j].home)), home=True))
                 x.claim = [work, len(self.scope_legs(x, scope))]
                 return True
         if must:
