@@ -4,13 +4,16 @@ Formulation (``build_nlp`` builds, ``solve_nlp`` solves; nothing here plans on i
 
 * One time grid shared by every arm, knots ``t_0 = 0 < t_1 < ... < t_K``, whose interval
   lengths ``h_k`` are decision variables. The grid holds every step boundary of the warm
-  start, so each pick/place/hold is pinned to a knot range while its timing stays free.
+  start, so each pick/place/hold is pinned to a knot range while its timing stays free, and
+  every jerk switch of its S-curves, so constant jerk per interval represents it exactly.
 * Per arm and knot the state ``(q, qd, qdd)`` (6 numbers); per interval a constant jerk
   (2 numbers). Integration is exact (a cubic per interval), so the continuous trajectory is
   known between knots.
-* Bounds: joint limits (shrunk by ``amax h_max^2 / 8``) and velocity (by ``jmax h_max^2 / 8``),
-  the most either can overshoot its knot values inside an interval; acceleration (linear inside an interval, so
-  knot bounds are exact); jerk. Picks/places: pose fixed at the IK pose, zero velocity and
+* Bounds: joint limits and velocity at the knots, and between knots on the Bezier control
+  points of each interval's position (cubic) and velocity (quadratic), which bound the
+  polynomial (exactly where its extremum falls on a knot, as every S-curve extremum does on
+  this grid); acceleration (linear inside an interval, so knot bounds are exact); jerk. The
+  warm start is therefore a feasible point. Picks/places: pose fixed at the IK pose, zero velocity and
   acceleration, for at least the dwell (sum of its ``h_k``). Start at home at rest; after its
   last step, an arm rests at home.
 * Link separation: for chosen (knot, fraction-of-interval) points and neighbouring arm
@@ -181,17 +184,16 @@ class NLPSolution:
         return out
 
 
-def _var_state(problem: Problem, sch: ArmSchedule, grid: Grid, vmargin: np.ndarray, pmargin: np.ndarray):
+def _var_state(problem: Problem, sch: ArmSchedule, grid: Grid):
     """Bounds and warm start of one arm's (6, K+1) states and (2, K) jerks.
 
-    Knot bounds are shrunk by what can happen between knots: velocity by ``vmargin``, joint
-    positions by ``pmargin`` (but never past a pose the arm must hold: home, picks, places)."""
+    Knot bounds are the limits themselves (widened only to a pose the arm must hold: home,
+    picks, places); between knots the ``hull`` rows of :func:`build_nlp` bound the motion."""
     arm = sch.arm
     K = grid.K
     held = np.array([arm.home] + [st.q1 for st in sch.steps if st.kind in (StepKind.PICK, StepKind.PLACE)], float)
-    lim = np.column_stack([np.minimum(arm.limits[:, 0] + pmargin, held.min(axis=0)),
-                           np.maximum(arm.limits[:, 1] - pmargin, held.max(axis=0))])
-    v = np.asarray(arm.max_velocity) - vmargin
+    lim = np.column_stack([np.minimum(arm.limits[:, 0], held.min(axis=0)), np.maximum(arm.limits[:, 1], held.max(axis=0))])
+    v = np.asarray(arm.max_velocity)
     a = np.asarray(arm.max_acceleration)
     j = np.asarray(arm.max_jerk) * (1.0 - 1e-5)  # IPOPT may relax bounds by its tolerances: stay inside
     lo = np.vstack([lim[:, 0:1], -v[:, None], -a[:, None]]) * np.ones((1, K + 1))
@@ -344,7 +346,7 @@ def build_nlp(
         arm = problem.arm(name)
         # knot bounds are the limits themselves: between knots, velocity and position are
         # bounded by their Bezier control points (the ``hull`` rows below)
-        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid, np.zeros(2), np.zeros(2))
+        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid)
         lo, hi, X0 = lo[:, lo_k : hi_k + 1], hi[:, lo_k : hi_k + 1], X0[:, lo_k : hi_k + 1]
         ulo, uhi, U0 = ulo[:, lo_k:hi_k], uhi[:, lo_k:hi_k], U0[:, lo_k:hi_k]
         if start is not None:

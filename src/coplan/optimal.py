@@ -138,15 +138,17 @@ _FAIL_STATUS = {
 
 
 def nlp_plan(problem: Problem, alloc: Allocation, sched: dict[str, ArmSchedule], opts: OptimalOptions | None = None,
-             deadline: float | None = None, say: Callable[[str], None] | None = None, iterations: int | None = None):
+             deadline: float | None = None, say: Callable[[str], None] | None = None, iterations: int | None = None,
+             grid: Grid | None = None):
     """The joint NLP over all arms from ``sched`` (receding windows); returns ``(plan, info)``.
 
-    ``iterations``: a budget of IPOPT iterations over every solve (None: none).
+    ``iterations``: a budget of IPOPT iterations over every solve (None: none). ``grid``: the
+    knot grid of ``sched`` when the caller has built it already.
 
     The plan is unverified (or failed/interrupted with the best iterate kept)."""
     opts = opts or OptimalOptions()
     say = say or (lambda m: None)
-    grid = build_grid(sched, opts.h_target)
+    grid = grid if grid is not None else build_grid(sched, opts.h_target)
     # a window solved near the start's timing after free-timing windows before it starts from a
     # state those left; when any window could not be solved cleanly, the whole schedule is
     # solved again with every window near the start from the first
@@ -301,12 +303,14 @@ def plan_optimal(
             src = Coordinated(a0, decoupled_schedules(problem, a0), a0.estimated_makespan)
             say("no conflict-free coordination found; the joint NLP starts from the decoupled (colliding) plan")
         slack = src is not None and retimable(src.schedules)
+        grid = None
         if src is not None and inc.plan is not None and opts.polish and not proven():
             if not slack:
                 say("joint NLP skipped: the arm that places last never waits and moves straight between its poses, "
                     "so no retiming of the same poses and order can finish it sooner")
             else:
-                n_win = window_count(build_grid(src.schedules, opts.h_target), opts.window, src.schedules)
+                grid = build_grid(src.schedules, opts.h_target)
+                n_win = window_count(grid, opts.window, src.schedules)
                 if n_win > opts.polish_windows:
                     slack = False
                     say(f"joint NLP skipped: the schedule needs {n_win} receding windows (polish_windows is {opts.polish_windows})")
@@ -316,7 +320,7 @@ def plan_optimal(
             popts = replace(opts, ipopt={"ipopt.max_iter": 200} | dict(opts.ipopt),
                             max_rounds=min(opts.max_rounds, opts.polish_rounds)) if inc.plan else opts
             plan, nlp_info, nlp_status = nlp_plan(problem, src.alloc, src.schedules, popts, deadline, say,
-                                                  opts.polish_iterations if inc.plan else None)
+                                                  opts.polish_iterations if inc.plan else None, grid)
             timings["polish"] = _time.perf_counter() - tp
             interrupted = nlp_status == SolverStatus.INTERRUPTED
             if plan.status != PlanStatus.UNVERIFIED and inc.plan is not None:
