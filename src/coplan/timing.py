@@ -41,6 +41,9 @@ def cubic_eval(q0, q1, T: float, t):
     return q0 + s[:, None] * (q1 - q0)
 
 
+_NEGLIGIBLE = 1e-12  # s: a phase shorter than this is round-off
+
+
 def _phases(D: float, v: float, a: float, j: float):
     """Durations and jerks of the 7 phases of a rest-to-rest S-curve over distance D >= 0."""
     if D <= 0:
@@ -59,6 +62,9 @@ def _phases(D: float, v: float, a: float, j: float):
     tj = ap / j
     ta = max(0.0, vp / ap - ap / j)
     tc = max(0.0, (D - vp * accel_time(vp)) / vp)
+    # a constant-acceleration or cruise phase left by round-off (~1e-16 s) is no phase: it would
+    # be reported as two jerk switches around a jerk that never changes
+    ta, tc = (x if x > _NEGLIGIBLE else 0.0 for x in (ta, tc))
     durs = [tj, ta, tj, tc, tj, ta, tj]
     jerks = [j, 0.0, -j, 0.0, -j, 0.0, j]
     return durs, jerks
@@ -142,15 +148,23 @@ class SCurve:
         return out
 
     def switch_times(self) -> np.ndarray:
-        """Times (from the move's start) where some joint's jerk changes, in (0, duration): (S,).
+        """Phase boundaries of every joint, from the move's start, in (0, duration): (S,).
 
+        These are the times where some joint's jerk changes, and the time where each joint
+        reaches its peak velocity (acceleration back to zero: the end of its accelerating
+        half, also when it has no cruise phase and its jerk stays -j across that instant).
         Between two of them (and the ends) every joint's jerk is constant, so a grid with a
-        knot at each represents the move exactly with constant jerk per interval."""
+        knot at each represents the move exactly with constant jerk per interval, and the
+        accelerating and decelerating halves of each move are separate segments."""
         out = []
         for durs, jerks in self.profiles:
             if not durs or self.duration <= 0:
                 continue
             k = float(sum(durs)) / self.duration
+            if max(abs(j) for j in jerks) * k**3 < _NEGLIGIBLE:
+                continue  # a joint slowed this much (it barely moves) has no jerk worth a knot
+            ends = np.cumsum(durs)
+            out.append(ends[2] / k)  # peak velocity: the accelerating half ends
             t, prev = 0.0, None
             for d, j in zip(durs, jerks):
                 if d <= 0.0:
@@ -158,7 +172,7 @@ class SCurve:
                 if prev is not None and j != prev:
                     out.append(t / k)
                 t, prev = t + d, j
-        t = np.unique(np.asarray(out, float))
+        t = np.unique(np.round(np.asarray(out, float), 12))
         return t[(t > 1e-9) & (t < self.duration - 1e-9)]
 
     def eval(self, t):
