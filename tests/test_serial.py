@@ -20,7 +20,7 @@ from coplan.generate import LESSON_DEFAULTS, LESSON_TASK, random_problem, to_yam
 from coplan.plan import DEFAULT_RATE, Plan, PlannerKind, PlanStatus, compute_metrics
 from coplan.problem import Problem, load_problem, parse_problem
 from coplan.schedule import ConflictError, StepKind, decoupled_schedules
-from coplan.serial import serial_schedules
+from coplan.serial import BudgetSpent, serial_schedules
 from coplan.timing import SCurve
 from coplan.verify import verify
 from layouts import IMPOSSIBLE
@@ -167,3 +167,52 @@ def test_conflict_error_names_the_arms_when_no_rest_pose_helps():
     with pytest.raises(ConflictError, match=r"arm 'b' .* arm 'a'") as e:
         serial_schedules(p, base, MARGIN)
     assert (e.value.arm, e.value.fruit) == ("a", "f1")  # the work that cannot be scheduled
+
+
+# --------------------------------------------------------------------------- the work budget
+def test_taking_turns_stops_at_its_work_budget_and_names_the_work_it_gave_up():
+    """The tight layout needs about 2 million pose-pair tests: with 1000 the fallback stops at
+    once; with a million it stops while looking for a turn, and names the arm and the fruit
+    whose turn it was looking for; it counts what it spent either way."""
+    p = tight_problem()
+    base = decoupled_schedules(p, allocate(p))
+    for budget in (1000, 1_000_000):
+        work: dict = {}
+        with pytest.raises(BudgetSpent, match="work budget") as e:
+            serial_schedules(p, base, MARGIN, max_pairs=budget, work=work)
+        assert budget < work["pairs"] < budget + 50_000  # stopped within one block of tests of the budget
+    assert e.value.arm in ("a", "b") and e.value.fruit in {f.id for f in p.fruits}
+    # with a budget it does not reach, the same schedule as with none
+    full: dict = {}
+    a = serial_schedules(p, base, MARGIN, work=full)
+    b = serial_schedules(p, base, MARGIN, max_pairs=full["pairs"] + 1)
+    assert _span(a) == _span(b)
+
+
+def test_a_spent_budget_leaves_fruit_out_with_the_reason_never_hangs():
+    """When coordination deadlocks (forced here by a coordination budget of one check) and
+    taking turns runs out of work, the coordinated planner leaves out the fruit it was fitting
+    in, with the reason, and plans the rest: a verified partial plan; once the fallback's whole
+    budget is spent, no plan -- never an endless search. The tight layout needs ~2 million
+    pose-pair tests in one attempt (a quarter of the budget)."""
+    from coplan.coordinated import CoordinatedOptions, plan_coordinated
+
+    p = tight_problem()
+
+    def run(pairs):
+        res = plan_coordinated(p, options=CoordinatedOptions(budget_checks=1, attempt_checks=1, serial_pairs=pairs))
+        return res, [t for t in res.tried if t.get("fallback") == "serial"]
+
+    res, fell = run(8_000_000)  # 2 million per attempt: enough
+    assert [t["feasible"] for t in fell] == [True] and res.plan.status.value == "success"
+    assert res.plan.metrics["harvested"] == 25 and res.verification.passed
+
+    res, fell = run(4_000_000)  # 1 million per attempt: three fruit given up, the rest planned
+    assert [t["feasible"] for t in fell] == [False, False, False, True]
+    left = res.candidate.left_out
+    assert len(left) == 3 and all("work budget (1,000,000 pose-pair tests)" in why for why in left.values())
+    assert res.plan.status.value == "partial" and res.verification.passed
+    assert res.plan.metrics["harvested"] == 22 and set(res.plan.solver["left_out"]) == set(left)
+
+    res, fell = run(400_000)  # the whole budget spent in the first attempt: no plan, at once
+    assert res.candidate is None and fell[-1]["pairs"] <= 400_000 + 50_000

@@ -51,6 +51,12 @@ __all__ = [
 ]
 
 
+# Work budget of the fallback in which the arms take turns, in pose-pair tests (1-4 million a
+# second on one core): every random_problem(0..9) and shipped problem needs at most 9 million.
+# One attempt may spend a quarter of it; each further attempt leaves out one more fruit.
+SERIAL_PAIRS = 160_000_000
+
+
 @dataclass(frozen=True)
 class CoordinatedOptions:
     """Options of the coordinated planner (separate from the problem).
@@ -59,12 +65,16 @@ class CoordinatedOptions:
     attempt_checks : work cap of one coordination attempt (conflict checks), so one hard
         candidate cannot use the whole budget
     budget_checks : work budget of the whole candidate search (conflict checks)
+    serial_pairs : work budget of the fallback in which the arms take turns (pose-pair
+        tests over all its attempts), so that no layout holds the planner for hours; one
+        attempt may spend a quarter of it
     time_limit : optional wall-clock limit (s); the plan then depends on the machine
     """
 
     margin: float = 0.015
     attempt_checks: int = 600
     budget_checks: int = 3000
+    serial_pairs: int = SERIAL_PAIRS
     time_limit: float | None = None
 
 
@@ -268,29 +278,34 @@ def clear(problem: Problem, schedules: dict[str, ArmSchedule], need: float, rate
 def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
     """The arms take turns (:func:`coplan.serial.serial_schedules`) when coordination deadlocks.
 
-    When even that cannot schedule some fruit (its pick leaves a neighbour nowhere to go), that
-    fruit is left out, with the reason, and the rest is planned again: a partial plan, never a
-    failure, while any fruit can be harvested."""
+    When even that cannot schedule some fruit (its pick leaves a neighbour nowhere to go, or no
+    turn for it is found within one attempt's work budget), that fruit is left out, with the
+    reason, and the rest is planned again: a partial plan, never a failure, while any fruit can
+    be harvested and the fallback's whole work budget (``opts.serial_pairs``) lasts."""
     from dataclasses import replace
 
     from .serial import serial_schedules
 
     alloc = allocate(problem, method, bound=bound)
     left_out: dict[str, str] = {}
+    work: dict = {}
     while True:
         try:
-            sched = serial_schedules(problem, decoupled_schedules(problem, alloc), opts.margin)
+            sched = serial_schedules(problem, decoupled_schedules(problem, alloc), opts.margin,
+                                     max_pairs=min(opts.serial_pairs // 4, opts.serial_pairs - work.get("pairs", 0)), work=work)
             break
         except ConflictError as e:
-            tried.append({"fallback": "serial", "feasible": False, "reason": str(e), "fruit": e.fruit})
-            if e.fruit is None or e.fruit in left_out:
+            tried.append({"fallback": "serial", "feasible": False, "reason": str(e), "fruit": e.fruit,
+                          "pairs": work.get("pairs", 0)})
+            if e.fruit is None or e.fruit in left_out or work.get("pairs", 0) >= opts.serial_pairs:
                 say(f"no conflict-free coordination found, and taking turns failed: {e}")
                 return None
             left_out[e.fruit] = str(e)
             say(f"taking turns: {e.fruit} is left out ({e})")
             alloc = replace(alloc, assignment={a: tuple(f for f in fs if f != e.fruit) for a, fs in alloc.assignment.items()})
     span = makespan_of(sched)
-    tried.append({"fallback": "serial", "feasible": True, "makespan": span, "left_out": left_out})
+    tried.append({"fallback": "serial", "feasible": True, "makespan": span, "left_out": left_out,
+                  "pairs": work.get("pairs", 0)})
     say(f"leg-by-leg coordination deadlocked on every candidate: the arms take turns ({span:.2f} s)")
     return Coordinated(alloc, sched, span, [], "serial", 0, fallback=True, left_out=left_out)
 

@@ -44,7 +44,7 @@ from .routing import _Geometry, _same
 from .schedule import (ArmSchedule, ConflictError, Step, StepKind, _arm_points, _CurveTable, _merge_waits, _move,
                        _points_clearance, _points_too_close, _steps_positions)
 
-__all__ = ["serial_schedules"]
+__all__ = ["BudgetSpent", "serial_schedules"]
 
 _POLICIES = (("work", "cycle", "leg"), ("cycle", "leg"), ("leg",))
 
@@ -77,6 +77,10 @@ class _Track:
         return sum(1 for lg in self.legs if lg.kind == StepKind.PICK)
 
 
+class BudgetSpent(ConflictError):
+    """Taking turns spent its work budget (``fruit``: the work it was trying to fit in)."""
+
+
 class _Serial(_Geometry):
     def __init__(self, problem: Problem, margin: float, rate: float, min_wait: float, quantum: float):
         super().__init__(problem, problem.task.clearance + margin)
@@ -85,6 +89,14 @@ class _Serial(_Geometry):
         self.fine = self.step / 4.0  # static tests: an arm moves at most this between samples
         self.speed = [(a.links[0] + a.links[1]) * a.max_velocity[0] + a.links[1] * a.max_velocity[1] for a in problem.arms]
         self.tables, self._units, self._paths, self._tests = {}, {}, {}, {}
+        self.pairs, self.max_pairs = 0, None  # work: pose pairs tested (``max_pairs``: the budget)
+
+    def spend(self, n: int) -> None:
+        """Count ``n`` pose-pair tests; past the budget, taking turns gives up (a work budget,
+        the same on any machine, so one hard layout cannot hold the planner for hours)."""
+        self.pairs += int(n)
+        if self.max_pairs is not None and self.pairs > self.max_pairs:
+            raise BudgetSpent(f"taking turns found no schedule within its work budget ({self.max_pairs:,} pose-pair tests)")
 
     # ---- static tests
     def hits(self, i: int, A: _Sweep, j: int, B: _Sweep, first: bool = False) -> np.ndarray:
@@ -99,12 +111,14 @@ class _Serial(_Geometry):
             return _points_clearance(_arm_points(a, qa), _arm_points(b, qb), radii) - need - ra - rb
 
         ia, ib = (x.ravel() for x in np.meshgrid(np.arange(len(sa1)), np.arange(len(sb1)), indexing="ij"))
+        self.spend(ia.size)
         s = slack(qa1[ia], qb1[ib], ra1[ia], rb1[ib])
         if first and (s + ra1[ia] + rb1[ib] < 0).any():
             return ~out
         ia = (ia[s < 0, None, None] * A.ratio + np.arange(A.ratio)[:, None] + 0 * np.arange(B.ratio)).ravel()
         ib = (ib[s < 0, None, None] * B.ratio + np.arange(B.ratio) + 0 * np.arange(A.ratio)[:, None]).ravel()
         ia, ib = ia[(ia < len(sa0)) & (ib < len(sb0))], ib[(ia < len(sa0)) & (ib < len(sb0))]
+        self.spend(ia.size)
         s = slack(qa0[ia], qb0[ib], ra0[ia], rb0[ib])
         out[ia[s + ra0[ia] + rb0[ib] < 0]] = True  # the middle poses themselves
         o = np.flatnonzero((s < 0) & ~out[ia])
@@ -116,6 +130,7 @@ class _Serial(_Geometry):
             keep = ~out[ia[c:c + per]]
             ka = np.minimum(sa0[ia[c:c + per][keep], None] + np.arange(A.block), len(A.q) - 1)
             kb = np.minimum(sb0[ib[c:c + per][keep], None] + np.arange(B.block), len(B.q) - 1)
+            self.spend(ka.size * B.block)
             bad = _points_too_close(_arm_points(a, A.q[ka][:, :, None]), _arm_points(b, B.q[kb][:, None, :]), radii, need)
             out[ia[c:c + per][keep][bad.any(axis=(1, 2))]] = True
         return out
@@ -314,12 +329,16 @@ class _Serial(_Geometry):
                 poses = {o.index: o.pose for o in self.tracks}  # (the busy ones: after their bookings)
                 order = sorted(map(tuple, self.cands(x.index).q.tolist()), key=lambda c: _move(self.problem.arms[x.index], 0.0, x.pose, c).duration)
                 backs = (c for c in order if not _same(c, x.pose) and self.free(x.index, x.pose, c, poses))
-                for back in itertools.chain([None], itertools.islice(backs, 6)):  # else x first backs off
-                    plan, work, why = self.plan_turn(x, scope, back)
-                    if reason is None and why:
-                        reason, blocked = why, x
-                    if plan is not None:
-                        break
+                try:
+                    for back in itertools.chain([None], itertools.islice(backs, 6)):  # else x first backs off
+                        plan, work, why = self.plan_turn(x, scope, back)
+                        if reason is None and why:
+                            reason, blocked = why, x
+                        if plan is not None:
+                            break
+                except BudgetSpent as e:  # the turn being searched for names the work given up
+                    raise BudgetSpent(str(e), arm=self.problem.arms[x.index].name,
+                                      fruit=next((lg.fruit for lg in x.legs if lg.fruit), None)) from None
                 if plan is None:
                     self._failed.add(key)
                     continue
@@ -400,7 +419,8 @@ class _Serial(_Geometry):
 
 
 def serial_schedules(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float = 200.0,
-                     min_wait: float = 0.05, quantum: float = 0.05) -> dict[str, ArmSchedule]:
+                     min_wait: float = 0.05, quantum: float = 0.05, max_pairs: int | None = None,
+                     work: dict | None = None) -> dict[str, ArmSchedule]:
     """Conflict-free schedules doing the work of ``schedules`` (e.g. from
     :func:`coplan.schedule.decoupled_schedules`): the same picks and places (fruit, pose, dwell,
     order), each arm's steps contiguous from t = 0 at home, S-curve moves from the previous pose,
@@ -408,19 +428,29 @@ def serial_schedules(problem: Problem, schedules: dict[str, ArmSchedule], margin
     ``clearance + margin`` at the samples (``clearance + margin / 2`` between them).
 
     Raises :class:`~coplan.schedule.ConflictError`, naming the arms and the reason, when a leg
-    cannot run with a neighbour at any candidate rest pose (or the neighbour cannot get there).
+    cannot run with a neighbour at any candidate rest pose (or the neighbour cannot get there),
+    or when more than ``max_pairs`` pose pairs have been tested (the work budget; ``work``, a
+    dict, has its ``"pairs"`` entry increased by the pairs tested).
     """
     geo, best, err = _Serial(problem, margin, rate, min_wait, quantum), None, None
-    for scopes in _POLICIES:
-        try:
-            out = geo.run(schedules, scopes)
-        except ConflictError as e:
-            err = err or e
-            continue
-        key = (max((s.last_place for s in out.values()), default=0.0), max((s.end for s in out.values()), default=0.0))
-        best = (key, out) if best is None or key < best[0] else best
-        if not geo.turns:  # no turn was needed: the policies would not differ
-            break
+    geo.max_pairs = max_pairs  # over all policies
+    try:
+        for scopes in _POLICIES:
+            try:
+                out = geo.run(schedules, scopes)
+            except BudgetSpent as e:
+                err = e  # no other policy gets to run
+                break
+            except ConflictError as e:
+                err = err or e
+                continue
+            key = (max((s.last_place for s in out.values()), default=0.0), max((s.end for s in out.values()), default=0.0))
+            best = (key, out) if best is None or key < best[0] else best
+            if not geo.turns:  # no turn was needed: the policies would not differ
+                break
+    finally:
+        if work is not None:
+            work["pairs"] = work.get("pairs", 0) + geo.pairs
     if best is None:
         raise err
     return best[1]
