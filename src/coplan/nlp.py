@@ -405,14 +405,14 @@ def build_nlp(
         return x[a_:b_]
 
     eta = var("eta")
-    H = eta[[int(i) for i in seg_of]] * ca.DM(h0)
+    H = _take(eta, seg_of) * ca.DM(h0)
     Tb = ca.vertcat(0, var("T"))  # time at each segment boundary (sparse chain below)
 
     def time_at(k: int):
         return Tb[boundary[k]]
 
     g, lbg, ubg = [], [], []
-    g.append(var("T") - ca.vertcat(0, var("T")[:-1]) - eta * ca.DM(seg_len))
+    g.append(var("T") - Tb[:nseg] - eta * ca.DM(seg_len))  # (not T[:-1]: 1x0 when nseg is 1)
     lbg.append(np.zeros(nseg))
     ubg.append(np.zeros(nseg))
     Xn, Un, SC, ends = {}, {}, {}, {}
@@ -475,7 +475,7 @@ def build_nlp(
         xb = gather("X", lambda p: p.ib)
         ub = gather("U", lambda p: p.ib)
         taus = ca.DM([[p.tau for p in points]])
-        hs = H[kh].T
+        hs = _take(H, kh).T
         sca = ca.DM(np.stack([SC[names[p.ia]] for p in points], axis=1))
         scb = ca.DM(np.stack([SC[names[p.ib]] for p in points], axis=1))
         out = sep.map(nlines)(xa, ua, xb, ub, hs, taus, var("theta").T, var("c").T, ca.DM(geo), sca, scb)
@@ -538,6 +538,16 @@ def build_nlp(
     )
     nlp.window = (lo_k, hi_k)  # type: ignore[attr-defined]
     return nlp
+
+
+def _take(col, idx):
+    """``col[idx]`` as a column of ``len(idx)`` entries, always.
+
+    CasADi returns a *row* when a 1x1 expression is indexed with a list (it is a row and a
+    column at once), so a window with a single time-scale segment (``eta`` is 1x1) or a single
+    interval (``H`` is 1x1) would otherwise build mismatched shapes."""
+    idx = [int(i) for i in idx]
+    return ca.reshape(col[idx], len(idx), 1)
 
 
 def _transfer_warm(warm: NLPSolution, layout: dict, x0: np.ndarray) -> np.ndarray:

@@ -116,6 +116,8 @@ class OptimalResult:
     timings: dict[str, float]
     solver_status: SolverStatus
     coordinated: Plan | None = None
+    error: str | None = None  # an internal error that stopped the planner (what it had is kept)
+    error_trace: str | None = None
 
 
 # ----------------------------------------------------------------------------- the NLP
@@ -261,6 +263,7 @@ def plan_optimal(
     stop = StopReason.BUDGET
     search_info = nlp_info = None
     coord_plan = None
+    error = error_trace = None
     try:
         coord = plan_coordinated(problem, allocation, copts, say, cache)
         timings["coordinated"] = _time.perf_counter() - t0
@@ -314,7 +317,7 @@ def plan_optimal(
                 if n_win > opts.polish_windows:
                     slack = False
                     say(f"joint NLP skipped: the schedule needs {n_win} receding windows (polish_windows is {opts.polish_windows})")
-        if not interrupted and within and src is not None and not proven() and (
+        if not interrupted and within and src is not None and n_reach and not proven() and (
                 inc.plan is None or (opts.polish and slack)):
             tp = _time.perf_counter()
             popts = replace(opts, ipopt={"ipopt.max_iter": 200} | dict(opts.ipopt),
@@ -341,6 +344,11 @@ def plan_optimal(
             stop = StopReason.TIME_LIMIT
     except KeyboardInterrupt:
         interrupted = True
+    except Exception as e:  # noqa: BLE001 -- a bug in a stage: keep what was computed before it, report it
+        import traceback
+
+        error, error_trace = f"{type(e).__name__}: {e}", traceback.format_exc()
+        say(f"internal error ({error}); keeping what was computed before it")
     if interrupted:
         stop = StopReason.INTERRUPTED
     if inc.plan is None:  # interrupted before anything, or nothing could be planned
@@ -351,8 +359,8 @@ def plan_optimal(
 
             alloc0 = allocate(problem, allocation)
             inc.plan = make_plan(problem, alloc0, lambda t: {a.name: np.tile(a.home, (t.size, 1)) for a in problem.arms},
-                                 0.0, [], PlanStatus.INTERRUPTED, {"message": "interrupted before the first plan"},
-                                 PlannerKind.OPTIMAL)
+                                 0.0, [], PlanStatus.FAILED if error else PlanStatus.INTERRUPTED,
+                                 {"message": "stopped before the first plan"}, PlannerKind.OPTIMAL)
         inc.verification = inc.verification or verify(problem, inc.plan)
     plan = inc.plan
     plan.planner = PlannerKind.OPTIMAL
@@ -388,9 +396,14 @@ def plan_optimal(
         "options": {k: v for k, v in opts.__dict__.items() if k != "ipopt"} | {"ipopt": dict(opts.ipopt)},
         "timings": dict(timings),
     }
+    if error:
+        kept = f"the verified incumbent from the {inc.source} stage ({mk:.3f} s)" if verified and inc.source \
+            else "no verified plan (the arms stay at home)"
+        plan.solver.update(internal_error=error, stopped_by="internal_error",
+                           message=f"internal error ({error}); kept {kept} and the baseline")
     alloc_out = inc.candidate.alloc if inc.candidate is not None else None
     status = SolverStatus.INTERRUPTED if interrupted else SolverStatus.OPTIMAL if verified else SolverStatus.NUMERICAL_ERROR
-    return OptimalResult(plan, inc.verification, baseline, base_ver, alloc_out, timings, status, coord_plan)
+    return OptimalResult(plan, inc.verification, baseline, base_ver, alloc_out, timings, status, coord_plan, error, error_trace)
 
 
 def retimable(schedules: dict[str, ArmSchedule], tol: float = 1e-6) -> bool:

@@ -46,6 +46,8 @@ class SolveResult:
     files: dict[str, Path] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
     previous: Path | None = None  # where the previous run in the output folder was kept
+    error: str | None = None  # an internal error stopped the planner; what it had computed is kept
+    error_trace: str | None = None  # its traceback (shown with COPLAN_DEBUG=1)
 
     @property
     def status(self) -> PlanStatus:
@@ -53,7 +55,9 @@ class SolveResult:
 
     @property
     def exit_code(self) -> ExitCode:
-        return status_exit_code(self.plan.status)
+        """The plan's exit code; ``INTERNAL`` (1) when an internal error stopped the planner, even
+        though the plan kept from before it (and its files) may be verified."""
+        return ExitCode.INTERNAL if self.error else status_exit_code(self.plan.status)
 
     @property
     def success(self) -> bool:
@@ -97,6 +101,7 @@ def solve(
     say = progress or (lambda msg: None)
     timings: dict[str, float] = {}
     baseline = None
+    error = error_trace = None
     files: dict[str, Path] = {}
     if planner == PlannerKind.HEURISTIC:
         method = AllocationMethod(allocation or AllocationMethod.HEURISTIC)
@@ -126,6 +131,7 @@ def solve(
         method = AllocationMethod(allocation or AllocationMethod.MAKESPAN)
         res = plan_optimal(prob, allocation=method, options=options, progress=say)
         plan, ver, baseline = res.plan, res.verification, res.baseline
+        error, error_trace = res.error, res.error_trace
         timings.update(res.timings)
     plan.solver.setdefault("timings", {}).update(timings)
     timings["total"] = _time.perf_counter() - t0
@@ -141,4 +147,4 @@ def solve(
                 files["verification"] = ver.save(stage / "verification.json")
         files = {k: folder.path(v) for k, v in files.items()}
         previous = folder.previous
-    return SolveResult(prob, plan, ver, baseline, files, timings, previous)
+    return SolveResult(prob, plan, ver, baseline, files, timings, previous, error, error_trace)

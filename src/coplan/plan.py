@@ -34,10 +34,15 @@ __all__ = [
     "compute_metrics",
     "finalize_plan",
     "load_plan",
+    "time_grid_issues",
+    "MAX_PLAN_BYTES",
 ]
 
 PLAN_FORMAT = "coplan.plan/1"
 DEFAULT_RATE = 100.0  # Hz
+# Plan files (JSON or CSV) larger than this are refused before they are read: about 2 h of
+# three arms at 100 Hz. (A 100 MB plan used to take 27 s and 1.5 GB before any check.)
+MAX_PLAN_BYTES = 64 * 1024 * 1024
 
 
 @dataclass(frozen=True)
@@ -162,9 +167,10 @@ class Plan:
         tmp = paths["json"].with_suffix(".json.tmp")
         tmp.write_text(json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
         tmp.replace(paths["json"])
+        from .plancsv import csv_header  # (imports this module)
+
         cols = [self.time[:, None]] + [self.q[a] for a in self.q]
-        header = "t," + ",".join(f"{a}_q1,{a}_q2" for a in self.q)
-        np.savetxt(paths["csv"], np.hstack(cols), delimiter=",", header=header, comments="", fmt="%.7f")
+        np.savetxt(paths["csv"], np.hstack(cols), delimiter=",", header=csv_header(self.q), comments="", fmt="%.7f")
         np.savez_compressed(paths["npz"], time=self.time, **{f"q_{a}": q for a, q in self.q.items()})
         return paths
 
@@ -276,13 +282,23 @@ def _busy_time(plan: Plan, arm: str) -> float:
 
 # ---------------------------------------------------------------------- loading
 def load_plan(path: str | Path) -> Plan:
-    """Load and check a ``plan.json`` (raises :class:`PlanFileError` listing every problem)."""
+    """Load and check a ``plan.json``, or the ``plan.csv`` replay coplan writes beside it (joint
+    samples only: no events, see :mod:`coplan.plancsv`). Raises :class:`PlanFileError` listing
+    every problem; a file over :data:`MAX_PLAN_BYTES` is refused before it is read."""
     p = Path(path)
     src = str(p)
     if not p.exists():
         raise PlanFileError([Issue("", "expected an existing plan file, found no file at this path")], src)
     if not p.is_file():
         raise PlanFileError([Issue("", "expected a plan file, found a directory")], src)
+    size = p.stat().st_size
+    if size > MAX_PLAN_BYTES:
+        raise PlanFileError([Issue("", f"expected a plan file of at most {MAX_PLAN_BYTES} bytes ({MAX_PLAN_BYTES >> 20} MiB, "
+                                       f"about 2 h of three arms at 100 Hz), found {size} bytes; it was not read")], src)
+    if p.suffix.lower() == ".csv":
+        from .plancsv import plan_from_csv  # (imports this module)
+
+        return plan_from_csv(p.read_bytes(), src)
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
     except json.JSONDecodeError as e:
@@ -326,6 +342,28 @@ def _number_array(v: Any, path: str, bad, pair: bool) -> np.ndarray | None:
     return np.asarray(v, dtype=float).reshape(-1, 2) if pair else np.asarray(v, dtype=float)
 
 
+def time_grid_issues(time: np.ndarray) -> list[tuple[int | None, str]]:
+    """``(sample index or None, message)`` for what is wrong with a plan's time grid: it must be
+    non-empty, start at 0, increase strictly and uniformly, at 100 Hz or finer."""
+    if time.size < 1:
+        return [(None, "expected a non-empty array of times, found an empty one")]
+    out: list[tuple[int | None, str]] = []
+    if time[0] != 0.0:
+        out.append((0, f"expected 0, found {time[0]}"))
+    if time.size > 1:
+        d = np.diff(time)
+        h = (time[-1] - time[0]) / (time.size - 1)
+        if np.any(d <= 0):
+            i = int(np.argmax(d <= 0)) + 1
+            out.append((i, f"expected strictly increasing times, found {time[i]} after {time[i - 1]}"))
+        elif np.max(np.abs(d - h)) > 1e-4 * h + 1e-6:
+            i = int(np.argmax(np.abs(d - h))) + 1
+            out.append((i, f"expected a uniform grid with spacing {h:.6g} s, found a step of {d[i - 1]:.6g} s"))
+        elif h > 0.01 + 1e-9:
+            out.append((None, f"expected a grid of 100 Hz or finer (spacing <= 0.01 s), found spacing {h:.4g} s"))
+    return out
+
+
 def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     """Check a decoded ``plan.json`` document and build the :class:`Plan` (raises
     :class:`PlanFileError` listing every problem, each with its key path)."""
@@ -361,22 +399,11 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     # ---- the time grid
     time = _number_array(data["time"], "time", bad, pair=False)
     if time is not None:
+        grid_issues = time_grid_issues(time)
+        for i, msg in grid_issues:
+            bad("time" if i is None else f"time[{i}]", msg)
         if time.size < 1:
-            bad("time", "expected a non-empty array of times, found an empty one")
             time = None
-        elif time[0] != 0.0:
-            bad("time[0]", f"expected 0, found {time[0]}")
-        if time is not None and time.size > 1:
-            d = np.diff(time)
-            h = (time[-1] - time[0]) / (time.size - 1)
-            if np.any(d <= 0):
-                i = int(np.argmax(d <= 0)) + 1
-                bad(f"time[{i}]", f"expected strictly increasing times, found {time[i]} after {time[i - 1]}")
-            elif np.max(np.abs(d - h)) > 1e-4 * h + 1e-6:
-                i = int(np.argmax(np.abs(d - h))) + 1
-                bad(f"time[{i}]", f"expected a uniform grid with spacing {h:.6g} s, found a step of {d[i - 1]:.6g} s")
-            elif h > 0.01 + 1e-9:
-                bad("time", f"expected a grid of 100 Hz or finer (spacing <= 0.01 s), found spacing {h:.4g} s")
 
     # ---- joint trajectories: one [t1, t2] pair per time for every arm
     q: dict[str, np.ndarray] = {}

@@ -18,6 +18,7 @@ import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
 from . import kinematics as kin
+from . import plausible
 from .errors import Issue, ProblemError
 from .geometry import segment_distance
 from .yamlsafe import MAX_FILE_BYTES, _line, _path_str, _read_yaml, read_input_text
@@ -340,6 +341,13 @@ def _check_unique(seen: dict[str, int], value: str, loc: tuple, what: str, lines
     return True
 
 
+def _implausible(field_name: str, value, loc: tuple, lines: dict, issues: list) -> bool:
+    """Report every element of ``value`` outside :data:`coplan.plausible.BOUNDS`; True if any."""
+    bad = plausible.field_issues(field_name, value, loc)
+    issues.extend(Issue(_path_str(where), msg, _line(lines, where)) for where, msg in bad)
+    return bool(bad)
+
+
 def _build(data: Any, lines: dict, source: str | None) -> Problem:
     issues: list[Issue] = []
     if not isinstance(data, dict):
@@ -392,7 +400,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     task = None
     if "task" in data:
         t = _validate(_TaskSpec, data["task"], ("task",), lines, issues)
-        if t is not None:
+        if t is not None and not any([_implausible(f, v, ("task", f), lines, issues) for f, v in t.model_dump().items()]):
             task = Task(**t.model_dump())
 
     # ---- merge defaults, semantic checks per arm. A value taken from ``defaults`` is
@@ -420,6 +428,10 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
                 ok = False
             merged[f] = v
         if not ok:
+            continue
+        # far outside any real cell (degrees for radians, 1e308, 1e-9): refused before any arithmetic
+        fields = [("base", spec.base, ("arms", i, "base")), ("bin", spec.bin, ("arms", i, "bin"))]
+        if any([_implausible(f, v, loc, lines, issues) for f, v, loc in fields + [(f, merged[f], origin[f]) for f in merged]]):
             continue
         lim = merged["joint_limits"]
         for j in range(2):
@@ -471,6 +483,8 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
             continue
         if not _check_unique(seen_ids, spec.id, ("fruits", j, "id"), "fruit id", lines, issues):
             continue
+        if _implausible("position", spec.position, ("fruits", j, "position"), lines, issues):
+            continue
         fruits.append(Fruit(id=spec.id, position=spec.position))
 
     # ---- home poses must already respect the clearance
@@ -496,7 +510,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
 
     if issues:
         raise ProblemError(_tidy(issues), source)
-    return Problem(
+    problem = Problem(
         name=name,
         arms=tuple(a for _, a in arms),
         fruits=tuple(fruits),
@@ -504,6 +518,11 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         description=description,
         source=source,
     )
+    # a plan too long for its 100 Hz grid is refused up front, from a lower bound on its length
+    too_long = plausible.duration_issues(problem)
+    if too_long:
+        raise ProblemError([Issue(_path_str(loc), msg, _line(lines, loc)) for loc, msg in too_long], source)
+    return problem
 
 
 def _tidy(issues: list[Issue]) -> list[Issue]:
@@ -523,8 +542,14 @@ def parse_problem(text: str, source: str | None = None) -> Problem:
     n = len(text.encode("utf-8", errors="replace"))
     if n > MAX_FILE_BYTES:
         raise ProblemError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
-    data, lines = _read_yaml(text, source)
+    data, lines = _read_yaml(text, source, keep_text=_is_text_path)
     return _build(data, lines, source)
+
+
+def _is_text_path(path: tuple) -> bool:
+    """Key paths of names and ids: kept exactly as written (``id: no`` is the id ``'no'``, not
+    false; ``id: 012`` is ``'012'``, not 10)."""
+    return path in (("name",), ("description",)) or (len(path) == 3 and (path[0], path[2]) in (("arms", "name"), ("fruits", "id")))
 
 
 def load_problem(path: str | Path) -> Problem:

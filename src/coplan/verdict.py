@@ -63,6 +63,7 @@ class WarningKind(str, Enum):
     SINGULAR = "singular"  # manipulability below task.singularity_threshold
     NOT_HARVESTED = "not_harvested"  # a reachable fruit is not picked and placed (the plan is partial)
     PROBLEM_NAME = "problem_name"  # the plan names another problem
+    EVENTS_INFERRED = "events_inferred"  # the plan declares no events: they were inferred from its motion
 
 
 class IntervalKind(str, Enum):
@@ -87,6 +88,8 @@ class VerifyOptions:
     q_resolution : resolution of the stored joint angles (plan.json rounds to 1e-7 rad);
         sets the finite-difference tolerances together with ``rel_tolerance``
     joint_tolerance : allowed excess over a joint limit
+    infer_events : when a plan declares no events, infer them from its motion
+        (:mod:`coplan.infer`) and say so; otherwise nothing counts as harvested
     """
 
     substeps: int = DEFAULT_SUBSTEPS
@@ -103,6 +106,7 @@ class VerifyOptions:
     q_resolution: float = 1e-7
     rel_tolerance: float = 1e-6
     joint_tolerance: float = 1e-7
+    infer_events: bool = True
 
 
 @dataclass(frozen=True)
@@ -195,6 +199,7 @@ class Verification:
     unharvested: list[str] = field(default_factory=list)
     fcl: FclReport | None = None
     timings: dict[str, float] = field(default_factory=dict)
+    inferred_events: list | None = None  # the events inferred from the motion, when the plan declared none
 
     @property
     def passed(self) -> bool:
@@ -230,6 +235,7 @@ class Verification:
             "violation_kinds": sorted({v.kind.value for v in self.violations}),
             "warning_count": len(self.warnings),
             "unharvested": list(self.unharvested),
+            "events_inferred": self.inferred_events is not None,
             "pairs": {p.key: {"min_clearance": p.min_clearance, "t": p.t, "certified": p.certified} for p in self.pairs},
             "peaks": self.peaks,
             "fcl_agree": None if self.fcl is None else self.fcl.agree,
@@ -249,6 +255,7 @@ class Verification:
             "violations": [_asdict(v) for v in self.violations],
             "warnings": [_asdict(w) for w in self.warnings],
             "fcl": None if self.fcl is None else self.fcl.to_dict(),
+            "inferred_events": None if self.inferred_events is None else [e.to_dict() for e in self.inferred_events],
             "timings": self.timings,
         }
         return _json(doc)

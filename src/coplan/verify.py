@@ -33,6 +33,10 @@ What "passes" means (every check below, with the default :class:`VerifyOptions`)
   (default one sample period: the grid cannot place a hold's ends more finely). Every
   fruit is picked at most once, only by an arm that can reach it, picks and places
   alternate.
+* **inferred events** -- a plan that declares no events (``events: []``, or a ``plan.csv``)
+  has them inferred from its motion (:mod:`coplan.infer`: tip on target and still for the
+  dwell over a fruit, then over the arm's bin), says so (warning ``events_inferred``,
+  ``Verification.inferred_events``) and is then checked as if it had declared them.
 * **completeness** is reported (``complete``, ``unharvested``) but is not a failure: a
   verified plan that leaves fruit is *partial*, not unsafe.
 * **warnings** -- poses with manipulability below ``task.singularity_threshold``.
@@ -52,6 +56,7 @@ from .clearance import ArmMotion, arm_motions, certify_pair, clearance_profile, 
 from .errors import Issue, PlanFileError
 from .fclcheck import cross_check
 from .geometry import segment_distance
+from .infer import infer_events
 from .plan import DEFAULT_RATE, EventKind, Plan
 from . import verdict as _verdict
 from .problem import Problem
@@ -186,14 +191,22 @@ def _check_limits(problem: Problem, motions: list[ArmMotion], time: np.ndarray, 
             ((ViolationKind.VELOCITY, arm.max_velocity), (ViolationKind.ACCELERATION, arm.max_acceleration),
              (ViolationKind.JERK, arm.max_jerk)), start=1,
         ):
-            diff = np.abs(np.diff(pad, n=k, axis=0)) / dt**k
-            tc = 0.5 * (tp[:-k] + tp[k:])
+            signed = np.diff(pad, n=k, axis=0) / dt**k
+            diff = np.abs(signed)
+            # the stencil's centre; a window reaching into the rest before/after the plan is
+            # reported at the plan's start/end, never at a negative time
+            centre = 0.5 * (tp[:-k] + tp[k:])
+            tc = np.clip(centre, 0.0, t[-1])
             lim_k = np.asarray(limits, float)
             peaks[kind.value] = float(np.max(diff / lim_k)) if diff.size else 0.0
             tol = opts.rel_tolerance * lim_k + 2.0 ** (k - 1) * opts.q_resolution / dt**k
             for jn in (0, 1):
                 for a, b in runs(diff[:, jn] > lim_k[jn] + tol[jn]):
                     w = a + int(np.argmax(diff[a : b + 1, jn]))
+                    if kind == ViolationKind.JERK and b - a < _STEP_SAMPLES:
+                        ver.violations.append(_acceleration_step(arm.name, jn, signed[a : b + 1, jn], centre[a : b + 1], dt,
+                                                                 lim_k[jn], t[-1]))
+                        continue
                     ver.violations.append(
                         Violation(kind, (arm.name,), float(tc[w]), float(diff[w, jn] - lim_k[jn]), float(diff[w, jn]), float(lim_k[jn]),
                                   float(tc[a]), float(tc[b]), joint=jn,
@@ -207,6 +220,31 @@ def _check_limits(problem: Problem, motions: list[ArmMotion], time: np.ndarray, 
                 Finding(WarningKind.SINGULAR, (arm.name,), float(t[w]), float(manip[w]), problem.task.singularity_threshold,
                         float(t[a]), float(t[b]), message="near-singular pose (manipulability below the threshold)")
             )
+
+
+# A jerk violation no longer than a third difference's stencil (3 intervals) is one jump of the
+# acceleration between samples: its third differences / dt^3 are jump / dt (a grid artefact),
+# so it is reported as the jump itself.
+_STEP_SAMPLES = 3
+
+
+def _acceleration_step(arm: str, jn: int, jerk: np.ndarray, tc: np.ndarray, dt: float, jmax: float, t_end: float) -> Violation:
+    """A run of third differences (``jerk``, rad/s^3, at stencil centres ``tc``) that is one
+    acceleration discontinuity: its size (rad/s^2) at its time (the run's centre weighted by
+    |jerk|, inside [0, t_end]), against the most a jerk-limited motion could change it.
+
+    The run's jerk x dt sums to the change between two second differences / dt^2, weighted
+    means of the acceleration whose centres lie ``span`` = run length x dt apart; any motion
+    within the jerk limit changes that by at most jmax x span."""
+    jump = float(np.sum(jerk) * dt)
+    w = np.abs(jerk)
+    t = float(np.clip(np.sum(tc * w) / np.sum(w), 0.0, t_end))
+    span = jerk.size * dt
+    allowed = jmax * span
+    t0, t1 = (float(x) for x in np.clip(tc[[0, -1]], 0.0, t_end))
+    return Violation(ViolationKind.JERK, (arm,), t, abs(jump) - allowed, abs(jump), allowed, t0, t1, joint=jn,
+                     message=f"joint {jn + 1}: acceleration discontinuity of {jump:+.3f} rad/s^2 (unbounded jerk; within "
+                             f"{span:.3f} s the jerk limit {jmax:g} rad/s^3 allows {allowed:.3f} rad/s^2)")
 
 
 # --------------------------------------------------------------------------- events
@@ -318,10 +356,18 @@ def verify(problem: Problem, plan: Plan, options: VerifyOptions | None = None, *
     opts = replace(opts, fcl=FclMode(opts.fcl))
     _check_inputs(problem, plan)
     ver = Verification(plan.problem, plan.planner_name, plan.duration, problem.task.clearance, opts)
-    if plan.problem != problem.name:
+    if plan.problem and plan.problem != problem.name:  # (a plan.csv names no problem)
         ver.warnings.append(Finding(WarningKind.PROBLEM_NAME, (), None, message=f"plan is for {plan.problem!r}, problem is {problem.name!r}"))
     t0 = _time.perf_counter()
     motions = arm_motions(problem, plan)
+    if not plan.events and opts.infer_events:
+        plan = replace(plan, events=infer_events(problem, plan, motions, opts))
+        ver.inferred_events = list(plan.events)
+        n_pick = sum(e.kind == EventKind.PICK for e in plan.events)
+        ver.warnings.append(Finding(WarningKind.EVENTS_INFERRED, (), None, message=(
+            f"the plan declares no events: {n_pick} pick{'s' if n_pick != 1 else ''} and {len(plan.events) - n_pick} "
+            f"place{'s' if len(plan.events) - n_pick != 1 else ''} were inferred from its motion (tip within "
+            f"{opts.position_tolerance * 1000:.0f} mm and still for the dwell over a fruit, then over the arm's bin)")))
     samples = _check_clearance(problem, plan, motions, opts, ver)
     t1 = _time.perf_counter()
     if opts.fcl != FclMode.OFF:

@@ -10,7 +10,10 @@ What :func:`_read_yaml` guarantees, before anything is constructed:
   levels of nesting and ``MAX_NODES`` values (both checked on the event stream, so a
   hostile file costs no more than reading it);
 - a ``lines`` map from every key path (``("arms", 1, "links")``) to its line;
-  :func:`_line` gives the line of a path or of its nearest recorded ancestor.
+  :func:`_line` gives the line of a path or of its nearest recorded ancestor;
+- ``keep_text``: at the key paths it selects (names, ids), a plain scalar is kept as the text
+  written, never coerced by YAML 1.1's implicit types (``no`` -> false, ``0x10`` -> 16,
+  ``012`` -> 10, ``1_000`` -> 1000, ``12:30`` -> 750); only ``null``/``~``/empty stays null.
 
 Every problem is raised as :class:`~coplan.errors.ProblemError`. This module must not
 import :mod:`coplan.problem` (which imports it).
@@ -101,16 +104,22 @@ def _scan_events(text: str, issues: list) -> None:
 
 
 _STR_TAG = "tag:yaml.org,2002:str"
+_NULL_TAG = "tag:yaml.org,2002:null"
 
 
-def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = None, ctor=None) -> None:
+def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = None, ctor=None, keep_text=None) -> None:
     """Record the line of every key path; refuse duplicate keys, non-scalar keys and tags.
 
     Keys are compared as the values they construct to, so ``1`` and ``0x1`` (or ``yes``
-    and ``true``) are duplicates too: a dict would silently merge them.
+    and ``true``) are duplicates too: a dict would silently merge them. A plain scalar at a
+    path ``keep_text(path)`` selects is retagged as a string: it constructs to its text as written.
     """
     ctor = ctor if ctor is not None else _LineLoader("")
     lines[tuple(path)] = key_line if key_line is not None else node.start_mark.line + 1
+    # plain style: None from PyYAML's composer, '' from libyaml's (quoted scalars are strings already)
+    if keep_text is not None and isinstance(node, yaml.ScalarNode) and not node.style \
+            and node.tag not in (_STR_TAG, _NULL_TAG) and node.tag in _LineLoader.yaml_constructors and keep_text(tuple(path)):
+        node.tag = _STR_TAG
     if node.tag not in _LineLoader.yaml_constructors:
         issues.append(
             Issue(_path_str(path), f"expected a plain YAML value, found the tag {node.tag!r} (tags are not supported)", node.start_mark.line + 1)
@@ -138,14 +147,17 @@ def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = No
                 )
                 continue
             seen[key] = kline
-            _walk_nodes(v, path + [key], lines, issues, kline, ctor)
+            _walk_nodes(v, path + [key], lines, issues, kline, ctor, keep_text)
     elif isinstance(node, yaml.SequenceNode):
         for i, v in enumerate(node.value):
-            _walk_nodes(v, path + [i], lines, issues, None, ctor)
+            _walk_nodes(v, path + [i], lines, issues, None, ctor, keep_text)
 
 
-def _read_yaml(text: str, source: str | None):
-    """Parse YAML text safely; returns ``(data, lines)`` where ``lines`` maps key paths to lines."""
+def _read_yaml(text: str, source: str | None, keep_text=None):
+    """Parse YAML text safely; returns ``(data, lines)`` where ``lines`` maps key paths to lines.
+
+    ``keep_text``: optional predicate on key paths (tuples) whose plain scalars are kept as
+    the text written (strings), see the module docstring."""
     lines: dict = {}
     issues: list[Issue] = []
     try:
@@ -155,7 +167,7 @@ def _read_yaml(text: str, source: str | None):
         node = yaml.compose(text, Loader=_FastLoader)
         if node is None:
             raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty file")], source)
-        _walk_nodes(node, [], lines, issues)
+        _walk_nodes(node, [], lines, issues, keep_text=keep_text)
         if issues:
             raise ProblemError(issues, source)
         # keys are now known to be unique scalars, with no aliases or unknown tags

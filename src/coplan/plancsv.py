@@ -1,0 +1,118 @@
+"""``plan.csv``: the replay table coplan writes beside ``plan.json``, and reads back.
+
+One header row, ``t,<arm>_q1,<arm>_q2,...`` (written with the :mod:`csv` module, so an arm
+name with a comma, a quote or a line break is quoted and survives), then one row per sample:
+the time (s) and each arm's two joint angles (rad), seven decimals. The table holds the
+motion only -- no events, allocation or metrics -- so a plan read from it has no events and
+the verifier infers them from the motion (:mod:`coplan.infer`).
+
+Errors are :class:`~coplan.errors.PlanFileError` issues with the file's line.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections.abc import Iterable
+
+import numpy as np
+
+from .errors import Issue, PlanFileError
+from .plan import Plan, PlanStatus, time_grid_issues
+
+__all__ = ["csv_header", "plan_from_csv", "CSV_PLANNER"]
+
+CSV_PLANNER = "unknown (plan.csv)"  # a CSV replay does not say which planner made it
+
+
+def csv_header(arm_names: Iterable[str]) -> str:
+    """The header row (no line end): ``t`` and ``<arm>_q1``, ``<arm>_q2`` per arm, CSV-quoted."""
+    buf = io.StringIO()
+    # (the line end is what makes the writer quote a name holding \r or \n: then dropped)
+    csv.writer(buf, lineterminator="\r\n").writerow(["t"] + [f"{a}_q{k}" for a in arm_names for k in (1, 2)])
+    return buf.getvalue().removesuffix("\r\n")
+
+
+def _arm_names(header: list[str]) -> tuple[list[str], str | None]:
+    """Arm names from a header row, or the reason it is not one."""
+    expect = "a header row 't,<arm>_q1,<arm>_q2,...'"
+    if not header or header[0].strip() != "t":
+        return [], f"expected {expect}, found first column {header[0] if header else ''!r}"
+    cols = header[1:]
+    if not cols or len(cols) % 2:
+        return [], f"expected {expect} (two columns per arm), found {len(cols)} column{'s' if len(cols) != 1 else ''} after t"
+    names = []
+    for a, b in zip(cols[0::2], cols[1::2]):
+        if not (a.endswith("_q1") and b.endswith("_q2") and a[:-3] == b[:-3] and a[:-3]):
+            return [], f"expected a pair '<arm>_q1,<arm>_q2', found {a!r}, {b!r}"
+        names.append(a[:-3])
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        return [], f"expected each arm once, found {dup[0]!r} more than once"
+    return names, None
+
+
+def plan_from_csv(raw: bytes, source: str | None = None) -> Plan:
+    """Check a ``plan.csv`` (bytes of the file) and build its :class:`Plan` (no events)."""
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        raise PlanFileError([Issue("", f"expected UTF-8 CSV text, found the undecodable byte 0x{raw[e.start]:02x}", line)], source) from None
+    buf = io.StringIO(text, newline="")
+    reader = csv.reader(buf)  # it reads the stream line by line: after the header, ``buf`` holds the body
+    try:
+        header = next(reader, [])
+    except csv.Error as e:
+        raise PlanFileError([Issue("", f"expected a CSV header row, found a syntax error: {e}", 1)], source) from None
+    names, why = _arm_names(header)
+    if why:
+        raise PlanFileError([Issue("", why, 1)], source)
+    first = reader.line_num + 1  # the header may span lines (a quoted name with a line break)
+    body = buf.read().splitlines()
+    width = 1 + 2 * len(names)
+    rows = np.empty((len(body), width))
+    lines = np.zeros(len(body), dtype=int)  # the file line of each row
+    issues: list[Issue] = []
+    n = 0
+    for k, line in enumerate(body):
+        if not line.strip():
+            continue
+        cells = line.split(",")
+        where = first + k
+        if len(cells) != width:
+            issues.append(Issue("", f"expected {width} values (t and two angles for each of {len(names)} arm"
+                                    f"{'s' if len(names) != 1 else ''}), found {len(cells)}", where))
+        else:
+            try:
+                rows[n] = [float(c) for c in cells]
+            except ValueError:
+                bad = next(c for c in cells if not _is_float(c))
+                issues.append(Issue("", f"expected numbers, found {bad.strip()[:40]!r}", where))
+            else:
+                if not all(math.isfinite(x) for x in rows[n]):
+                    issues.append(Issue("", "expected finite numbers, found " + ", ".join(c.strip() for c in cells if not math.isfinite(float(c)))[:60],
+                                        where))
+                lines[n] = where
+                n += 1
+        if len(issues) >= 20:  # a file that is not a plan: the first problems say enough
+            break
+    if issues:
+        raise PlanFileError(issues, source)
+    rows = rows[:n]
+    time = rows[:, 0]
+    grid = time_grid_issues(time)
+    if grid:
+        raise PlanFileError([Issue("t", msg, None if i is None else int(lines[i])) for i, msg in grid], source)
+    q = {a: rows[:, 1 + 2 * i: 3 + 2 * i].copy() for i, a in enumerate(names)}
+    return Plan(problem="", planner=CSV_PLANNER, status=PlanStatus.UNVERIFIED, time=time, q=q, events=[],
+                allocation={}, unreachable=[])
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

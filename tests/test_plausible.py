@@ -1,0 +1,148 @@
+"""Plausibility (issue 10): values far outside any real cell are bad input with the reason,
+never a MemoryError, an overflow warning or hours of compute."""
+
+from __future__ import annotations
+
+import math
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from coplan.allocation import lower_bound
+from coplan.cli import app
+from coplan.heuristic import plan_heuristic
+from coplan.plan import MAX_PLAN_BYTES
+from coplan.plausible import BOUNDS, BYTES_PER_SAMPLE, MAX_PLAN_SECONDS, max_plan_seconds, move_times, plan_duration_bound
+from coplan.problem import ProblemError, default_problem_path, load_problem, parse_problem
+from coplan.timing import cubic_min_time, scurve_time
+
+PROBLEMS = default_problem_path().parent
+SINGLE = (PROBLEMS / "single_arm.yaml").read_text()
+
+
+def _issues(text: str) -> list:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # an overflow warning would be a failure
+        with pytest.raises(ProblemError) as e:
+            parse_problem(text, "p.yaml")
+    return e.value.issues
+
+
+def test_angles_in_degrees_are_refused_with_a_hint() -> None:
+    text = SINGLE.replace("joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]]", "joint_limits: [[-180, 180], [-175, 175]]")
+    text = text.replace("home: [0.7854, 0.7854]", "home: [45, 45]")
+    issues = _issues(text)
+    by_path = {i.path: i for i in issues}
+    assert set(by_path) == {f"arms[0].joint_limits[{j}][{k}]" for j in range(2) for k in range(2)} | {"arms[0].home[0]", "arms[0].home[1]"}
+    lim = by_path["arms[0].joint_limits[0][1]"]
+    assert lim.line == 11
+    assert "expected a joint angle within [-6.28319, 6.28319] rad" in lim.message and "found 180" in lim.message
+    assert "it looks like degrees: 180 deg is 3.1416 rad" in lim.message
+    assert "45 deg is 0.7854 rad" in by_path["arms[0].home[0]"].message
+
+
+@pytest.mark.parametrize("old, new, path, found", [
+    ("max_velocity: [3.0, 4.0]", "max_velocity: [1.0e-9, 4.0]", "arms[0].max_velocity[0]", "found 1e-09"),
+    ("max_velocity: [3.0, 4.0]", "max_velocity: [3.0, 1.0e+308]", "arms[0].max_velocity[1]", "found 1e+308"),
+    ("max_acceleration: [8.0, 12.0]", "max_acceleration: [1.0e-9, 12.0]", "arms[0].max_acceleration[0]", "found 1e-09"),
+    ("max_jerk: [80.0, 120.0]", "max_jerk: [80.0, 1.0e+308]", "arms[0].max_jerk[1]", "found 1e+308"),
+    ("links: [1.0, 0.8]", "links: [1.0e+308, 0.8]", "arms[0].links[0]", "found 1e+308"),
+    ("base: [0.0, 0.0]", "base: [-1.0e+308, 0.0]", "arms[0].base[0]", "found -1e+308"),
+    ("bin: [-0.5, 1.0]", "bin: [-0.5, 1.0e+308]", "arms[0].bin[1]", "found 1e+308"),
+    ("position: [1.2, 0.8]", "position: [1.0e+308, 0.8]", "fruits[0].position[0]", "found 1e+308"),
+    ("pick_dwell: 0.3", "pick_dwell: 172800", "task.pick_dwell", "found 172800 (dwells are in s)"),
+    ("place_dwell: 0.2", "place_dwell: 1.0e+300", "task.place_dwell", "found 1e+300"),
+    ("clearance: 0.05", "clearance: 1.0e+300", "task.clearance", "found 1e+300"),
+])
+def test_absurd_values_are_refused_with_key_path_line_and_bound(old: str, new: str, path: str, found: str) -> None:
+    assert old in SINGLE
+    text = SINGLE.replace(old, new)
+    issues = _issues(text)
+    assert [i.path for i in issues] == [path]
+    line = next(n for n, s in enumerate(text.splitlines(), 1) if new in s)
+    assert issues[0].line == line
+    assert found in issues[0].message and "the plausible range" in issues[0].message
+
+
+def test_a_value_from_defaults_is_reported_once_at_defaults() -> None:
+    text = (PROBLEMS / "greenhouse_row.yaml").read_text().replace("max_jerk: [80.0, 120.0]", "max_jerk: [80.0, 1.0e-9]")
+    issues = _issues(text)
+    assert [i.path for i in issues] == ["defaults.max_jerk[1]"]
+
+
+def test_the_bounds_hold_every_shipped_problem() -> None:
+    for path in PROBLEMS.glob("*.yaml"):
+        p = load_problem(path)
+        for a in p.arms:
+            for f in ("links", "max_velocity", "max_acceleration", "max_jerk"):
+                assert all(BOUNDS[f].holds(x) for x in getattr(a, f)), (path, f)
+
+
+def test_a_baseline_too_long_for_its_grid_is_refused_up_front() -> None:
+    text = (PROBLEMS / "five_arm_row.yaml").read_text().replace("max_velocity: [3.0, 4.0]", "max_velocity: [0.001, 0.001]")
+    issues = _issues(text)  # (this file used to run its 38 h baseline: 2 minutes and gigabytes)
+    assert len(issues) == 1 and issues[0].path == "arms[0]"
+    msg = issues[0].message
+    assert msg.startswith("expected a problem whose plan fits in 1.4 h (plans are sampled at 100 Hz; with 5 arms, longer "
+                          "plans make files over 64 MiB), found one whose baseline")
+    assert re.search(r"lasts at least (\d+\.\d) h", msg) and float(re.search(r"lasts at least (\d+\.\d) h", msg)[1]) > 12
+    assert "max_velocity [0.001, 0.001] rad/s" in msg
+    # slow but sane joints (the issue's 0.01 rad/s single arm: a 455 s baseline) stay accepted
+    slow = SINGLE.replace("max_velocity: [3.0, 4.0]", "max_velocity: [0.01, 0.01]")
+    assert parse_problem(slow).arms[0].max_velocity == (0.01, 0.01)
+
+
+def test_cli_check_exits_3_on_implausible_input(tmp_path: Path) -> None:
+    p = tmp_path / "deg.yaml"
+    p.write_text(SINGLE.replace("home: [0.7854, 0.7854]", "home: [45, 45]"))
+    res = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["check", str(p)])
+    assert res.exit_code == 3
+    assert f"{p}:15: arms[0].home[0]: expected a joint angle within" in res.output
+    assert "Traceback" not in res.output
+
+
+# --------------------------------------------------------------------------- the duration bound
+def test_move_time_bound_is_below_the_time_optimal_move_and_tight_in_each_regime() -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        d, v, a, j = rng.uniform(0.01, 3.0), rng.uniform(0.1, 5), rng.uniform(0.1, 20), rng.uniform(1, 200)
+        assert move_times(np.array([d, 0.0]), (v, 1), (a, 1), (j, 1)) <= scurve_time(d, v, a, j) + 1e-9
+        assert move_times(np.array([d, 0.0]), (v, 1), (a, 1), (j, 1), cubic=True) == pytest.approx(
+            cubic_min_time([d, 0.0], (v, 1), (a, 1)))
+    # each limit alone: the bound is the exact time
+    assert move_times(np.array([2.0, 0.0]), (0.01, 1), (1e9, 1), (1e12, 1)) == pytest.approx(scurve_time(2.0, 0.01, 1e9, 1e12), rel=1e-3)
+    assert move_times(np.array([2.0, 0.0]), (1e9, 1), (0.5, 1), (1e12, 1)) == pytest.approx(scurve_time(2.0, 1e9, 0.5, 1e12), rel=1e-3)
+    assert move_times(np.array([2.0, 0.0]), (1e9, 1), (1e9, 1), (3.0, 1)) == pytest.approx(scurve_time(2.0, 1e9, 1e9, 3.0), rel=1e-6)
+
+
+def test_duration_bounds_are_lower_bounds_on_the_shipped_problems() -> None:
+    for path in sorted(PROBLEMS.glob("*.yaml")):
+        p = load_problem(path)
+        any_plan = plan_duration_bound(p)
+        assert 0 < any_plan.seconds <= lower_bound(p) + 1e-6, path  # the MILP's bound on the makespan
+        base = plan_duration_bound(p, baseline=True)
+        assert any_plan.seconds <= base.seconds <= plan_heuristic(p).time[-1] + 1e-6, path
+    # one arm, one fruit: the baseline's length is exactly home -> fruit -> bin -> home + dwells
+    slow = parse_problem(SINGLE.replace("max_velocity: [3.0, 4.0]", "max_velocity: [0.01, 0.01]"))
+    assert plan_duration_bound(slow, baseline=True).seconds == pytest.approx(plan_heuristic(slow).time[-1], abs=0.011)
+    assert MAX_PLAN_SECONDS == 12 * 3600 and math.isfinite(plan_duration_bound(slow).seconds)
+
+
+def test_the_longest_plan_allowed_fits_the_plan_file_cap(tmp_path: Path) -> None:
+    # coplan must be able to read back every plan it makes: the per-sample size model is an
+    # upper estimate of real plan files (JSON and CSV), so the longest plan allowed fits the cap
+    for path in ("single_arm.yaml", "greenhouse_row.yaml"):
+        p = load_problem(PROBLEMS / path)
+        files = plan_heuristic(p).save(tmp_path / path, "plan")
+        n = plan_heuristic(p).time.size
+        for kind in ("json", "csv"):
+            assert files[kind].stat().st_size / n <= BYTES_PER_SAMPLE[0] + BYTES_PER_SAMPLE[1] * len(p.arms)
+    for arms in (1, 3, 64):
+        samples = max_plan_seconds(arms) * 100
+        assert samples * (BYTES_PER_SAMPLE[0] + BYTES_PER_SAMPLE[1] * arms) <= MAX_PLAN_BYTES * (1 + 1e-12)
+    assert max_plan_seconds(1) == pytest.approx(MAX_PLAN_BYTES / 34 / 100)
+    assert max_plan_seconds(3) < max_plan_seconds(1) < MAX_PLAN_SECONDS

@@ -1,0 +1,127 @@
+"""Untrusted strings and plan files (issue 10): ids and names kept exactly as written (no YAML
+1.1 coercion), CSV quoting of names, the plan-file size cap, ``plan.csv`` read back."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from coplan.errors import PlanFileError, ProblemError
+from coplan.heuristic import plan_heuristic
+from coplan.plan import MAX_PLAN_BYTES, load_plan
+from coplan.plancsv import CSV_PLANNER, csv_header
+from coplan.problem import default_problem_path, parse_problem
+
+PROBLEMS = default_problem_path().parent
+SINGLE = (PROBLEMS / "single_arm.yaml").read_text()
+
+
+def _with_ids(arm_name: str, problem_name: str, ids: list[str]) -> str:
+    text = SINGLE.replace("name: single-arm", f"name: {problem_name}").replace("  - name: arm", f"  - name: {arm_name}")
+    fruits = "".join(f"  - {{id: {fid}, position: [1.2, {0.8 - 0.05 * k:.2f}]}}\n" for k, fid in enumerate(ids))
+    return text.replace("  - {id: pick, position: [1.2, 0.8]}\n", fruits)
+
+
+# YAML 1.1 would read these as false, 16, 10 (octal), 1000, 750 (sexagesimal), a date, true
+COERCED = ["no", "0x10", "012", "1_000", "12:30", "2024-01-01", "on", "1e3", "1.50", "+7"]
+
+
+def test_ids_and_names_are_kept_exactly_as_written() -> None:
+    p = parse_problem(_with_ids("yes", "off", COERCED))
+    assert p.name == "off"
+    assert [a.name for a in p.arms] == ["yes"]
+    assert [f.id for f in p.fruits] == COERCED
+
+
+def test_ids_that_only_coercion_made_equal_are_distinct_and_real_repeats_still_clash() -> None:
+    # 0x10 and 16 were both the integer 16 (reported as a duplicate); as written they differ
+    p = parse_problem(_with_ids("arm", "p", ["0x10", "16", "1.0", "1.00"]))
+    assert [f.id for f in p.fruits] == ["0x10", "16", "1.0", "1.00"]
+    with pytest.raises(ProblemError) as e:
+        parse_problem(_with_ids("arm", "p", ["no", "'no'"]))
+    assert [i.path for i in e.value.issues] == ["fruits[1].id"]
+    assert "expected a unique fruit id, found 'no' again" in e.value.issues[0].message
+
+
+def test_a_null_id_is_still_refused() -> None:
+    with pytest.raises(ProblemError) as e:
+        parse_problem(_with_ids("arm", "p", ["~"]))
+    assert e.value.issues[0].path == "fruits[0].id" and "found null" in e.value.issues[0].message
+
+
+def test_numbers_elsewhere_are_still_numbers() -> None:
+    # keeping text is only for names and ids: a number written as 0x1 is still refused where a
+    # float is expected only if it is not a number; links etc. are unaffected
+    p = parse_problem(_with_ids("no", "p", ["f"]))
+    assert p.arms[0].links == (1.0, 0.8) and p.task.pick_dwell == 0.3
+
+
+# --------------------------------------------------------------------------- CSV
+NASTY = ['a,b', 'say "hi"', "two\nlines", "car\rriage", "plain"]
+
+
+def test_csv_header_quotes_names_and_round_trips() -> None:
+    header = csv_header(NASTY)
+    assert '"a,b_q1"' in header and '"say ""hi""_q1"' in header
+    row = next(csv.reader(header.splitlines(keepends=True)))
+    assert row == ["t"] + [f"{n}_q{k}" for n in NASTY for k in (1, 2)]
+
+
+def test_plan_csv_with_hostile_arm_names_loads_back(tmp_path: Path, single_arm) -> None:
+    plan = plan_heuristic(single_arm)
+    q = plan.q["arm"]
+    plan.q = {n: q + 0.01 * i for i, n in enumerate(NASTY)}
+    paths = plan.save(tmp_path, "plan")
+    back = load_plan(paths["csv"])
+    assert list(back.q) == NASTY
+    assert back.planner_name == CSV_PLANNER and back.events == [] and back.problem == ""
+    np.testing.assert_allclose(back.time, plan.time, atol=1e-7)
+    for n in NASTY:
+        np.testing.assert_allclose(back.q[n], plan.q[n], atol=1e-7)
+    # the JSON beside it holds the same names
+    assert list(json.loads(paths["json"].read_text())["arms"]) == NASTY
+
+
+@pytest.mark.parametrize("body, line, words", [
+    ("x,arm_q1,arm_q2\n0,1,2\n", 1, "expected a header row 't,<arm>_q1,<arm>_q2,...', found first column 'x'"),
+    ("t,arm_q1\n0,1\n", 1, "two columns per arm"),
+    ("t,arm_q1,other_q2\n0,1,2\n", 1, "expected a pair '<arm>_q1,<arm>_q2', found 'arm_q1', 'other_q2'"),
+    ("t,arm_q1,arm_q2\n0,1,2\n0.01,1,2,3\n", 3, "expected 3 values (t and two angles for each of 1 arm), found 4"),
+    ("t,arm_q1,arm_q2\n0,1,2\n0.01,1,abc\n", 3, "expected numbers, found 'abc'"),
+    ("t,arm_q1,arm_q2\n0,1,2\n0.01,1,nan\n", 3, "expected finite numbers, found nan"),
+    ("t,arm_q1,arm_q2\n0,1,2\n0.01,1,2\n0.03,1,2\n", 3, "expected a uniform grid with spacing 0.015 s, found a step of 0.01 s"),
+    ("t,arm_q1,arm_q2\n0,1,2\n0.05,1,2\n", None, "expected a grid of 100 Hz or finer"),
+])
+def test_bad_plan_csv_is_refused_with_its_line(tmp_path: Path, body: str, line, words: str) -> None:
+    p = tmp_path / "plan.csv"
+    p.write_text(body)
+    with pytest.raises(PlanFileError) as e:
+        load_plan(p)
+    it = e.value.issues[0]
+    assert it.line == line and words in it.message, it
+
+
+def test_plan_files_over_the_cap_are_refused_before_reading(tmp_path: Path, monkeypatch) -> None:
+    def no_reading(*args, **kwargs):
+        raise AssertionError("an oversized plan file was read")
+
+    for name in ("big.json", "big.csv"):
+        p = tmp_path / name
+        with open(p, "wb") as f:  # a sparse file: no disk used
+            f.truncate(MAX_PLAN_BYTES + 1)
+        with monkeypatch.context() as m:
+            m.setattr(Path, "read_text", no_reading)
+            m.setattr(Path, "read_bytes", no_reading)
+            with pytest.raises(PlanFileError) as e:
+                load_plan(p)
+        msg = e.value.issues[0].message
+        assert f"expected a plan file of at most {MAX_PLAN_BYTES} bytes" in msg and f"found {MAX_PLAN_BYTES + 1} bytes" in msg
+    small = tmp_path / "ok.json"
+    small.write_text("{}")
+    with pytest.raises(PlanFileError) as e:  # under the cap: read and checked as before
+        load_plan(small)
+    assert "bytes" not in str(e.value)

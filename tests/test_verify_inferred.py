@@ -1,0 +1,156 @@
+"""The verifier judges plans from anywhere (issue 10): events inferred from the motion when a
+plan declares none, coplan's own ``plan.csv``, acceleration discontinuities reported as such,
+and the same exit code from ``solve`` and ``verify`` when no fruit is reachable."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import coplan
+from coplan.cli import app
+from coplan.kinds import EventKind, ExitCode
+from coplan.plan import Plan, PlannerKind, PlanStatus, load_plan
+from coplan.problem import default_problem_path, load_problem
+from coplan.timing import cubic_eval
+from coplan.verify import ViolationKind, WarningKind, verify
+
+PROBLEMS = default_problem_path().parent
+
+
+def run(*args: str):
+    return CliRunner(env={"COLUMNS": "200", "COPLAN_DEBUG": None}).invoke(app, list(args))
+
+
+@pytest.fixture(scope="module")
+def solved(tmp_path_factory):
+    """greenhouse_row solved by the coordinated planner, on disk."""
+    out = tmp_path_factory.mktemp("gh") / "out"
+    res = coplan.solve(default_problem_path(), planner="coordinated", out_dir=out)
+    assert res.status == PlanStatus.SUCCESS
+    return res.problem, load_plan(out / "plan.json"), out
+
+
+def test_stripped_events_are_inferred_with_the_same_verdict(solved) -> None:
+    problem, plan, _ = solved
+    declared = verify(problem, plan)
+    assert declared.inferred_events is None and declared.summary()["events_inferred"] is False
+    stripped = verify(problem, replace(plan, events=[]))
+    assert stripped.passed == declared.passed is True
+    assert stripped.unharvested == declared.unharvested == []
+    assert stripped.summary()["events_inferred"] is True
+    flagged = [w for w in stripped.warnings if w.kind == WarningKind.EVENTS_INFERRED]
+    assert len(flagged) == 1 and "11 picks and 11 places were inferred from its motion" in flagged[0].message
+    # every declared event lies inside the inferred one of the same arm, fruit and kind
+    inferred = {(e.arm, e.fruit, e.kind): e for e in stripped.inferred_events}
+    assert len(inferred) == len(plan.events) == 22
+    for e in plan.events:
+        got = inferred[(e.arm, e.fruit, e.kind)]
+        assert got.t_start <= e.t_start + 1e-9 and e.t_end <= got.t_end + 1e-9
+    doc = stripped.to_dict()
+    assert len(doc["inferred_events"]) == 22 and doc["summary"]["events_inferred"] is True
+
+
+def _hold_off_target(problem, plan: Plan, offset: float) -> tuple[Plan, str]:
+    """The plan with its first pick held ``offset`` m beside the fruit (same elbow branch)."""
+    e = next(e for e in plan.events if e.kind == EventKind.PICK)
+    arm = problem.arm(e.arm)
+    fruit = np.asarray(problem.fruit(e.fruit).position, float)
+    n = np.flatnonzero((plan.time >= e.t_start - 1e-9) & (plan.time <= e.t_end + 1e-9))
+    q_now = plan.q[e.arm][n[len(n) // 2]]
+    qs, ok = arm.ik(fruit + [offset, 0.0])
+    b = int(np.nanargmin(np.where(ok, np.abs(qs - q_now).sum(axis=1), np.nan)))
+    q = {a: v.copy() for a, v in plan.q.items()}
+    q[e.arm][n] = qs[b]
+    return replace(plan, q=q, events=[]), e.fruit
+
+
+def test_a_tip_that_stops_6_mm_off_a_fruit_is_not_counted_and_4_mm_is(solved) -> None:
+    problem, plan, _ = solved
+    off, fid = _hold_off_target(problem, plan, 0.006)
+    ver = verify(problem, off)
+    assert fid in ver.unharvested and ver.unharvested == [fid]
+    assert fid not in {e.fruit for e in ver.inferred_events}
+    near, fid = _hold_off_target(problem, plan, 0.004)
+    ver = verify(problem, near)
+    assert ver.unharvested == [] and fid in {e.fruit for e in ver.inferred_events if e.kind == EventKind.PICK}
+
+
+def test_a_hold_shorter_than_the_dwell_is_not_a_pick(solved) -> None:
+    problem, plan, _ = solved
+    # the plan holds each fruit for about 0.3 s: a problem asking 0.4 s gets no pick at all
+    longer = replace(problem, task=replace(problem.task, pick_dwell=problem.task.pick_dwell + 0.1))
+    ver = verify(longer, replace(plan, events=[]))
+    assert not [e for e in ver.inferred_events if e.kind == EventKind.PICK]
+    assert len(ver.unharvested) == 11
+
+
+def test_cli_verifies_its_own_plan_csv_and_an_external_plan_without_events(solved, tmp_path: Path) -> None:
+    _, plan, out = solved
+    res = run("verify", str(default_problem_path()), str(out / "plan.csv"))
+    assert res.exit_code == 0, res.output
+    assert "passed" in res.output and "events inferred" in res.output and "11 picks and 11 places" in res.output
+    doc = json.loads((out / "plan.json").read_text())
+    doc.update(events=[], planner="my-tool")
+    doc.pop("status")
+    ext = tmp_path / "external.json"
+    ext.write_text(json.dumps(doc))
+    res = run("verify", str(default_problem_path()), str(ext), "--json")
+    assert res.exit_code == 0, res.output
+    v = json.loads(res.stdout)
+    assert v["planner"] == "my-tool" and v["summary"]["events_inferred"] is True and v["summary"]["unharvested"] == []
+
+
+# --------------------------------------------------------------------------- acceleration steps
+@pytest.mark.parametrize("rate", [100.0, 200.0])
+def test_cubic_acceleration_steps_are_reported_by_size_and_time(single_arm, rate: float) -> None:
+    arm = single_arm.arms[0]
+    dq = np.array([0.8, -0.5])
+    T, t0 = 1.0, 0.1
+    times = np.arange(int((T + 0.3) * rate) + 1) / rate
+    q = cubic_eval(np.asarray(arm.home), np.asarray(arm.home) + dq, T, times - t0)
+    plan = Plan(single_arm.name, PlannerKind.HEURISTIC, PlanStatus.UNVERIFIED, times, {arm.name: q}, [], {}, [])
+    ver = verify(single_arm, plan)
+    steps = [v for v in ver.violations if v.kind == ViolationKind.JERK]
+    assert steps and all("acceleration discontinuity" in v.message for v in steps)
+    assert {v.kind for v in ver.violations} == {ViolationKind.JERK}
+    # the cubic's acceleration jumps by 6 dq / T^2 at its start and its end, on each joint; the
+    # samples measure it one step inside the cubic, where its jerk 12 dq / T^3 took dt off it
+    a0 = 6 * np.abs(dq) / T**2 - 12 * np.abs(dq) / T**3 / rate
+    for jn in (0, 1):
+        js = sorted((v for v in steps if v.joint == jn), key=lambda v: v.t)
+        assert len(js) == 2
+        for v, t_step in zip(js, (t0, t0 + T)):
+            assert v.value == pytest.approx(a0[jn], rel=1e-6)  # rad/s^2, not a grid-dependent 'jerk'
+            assert v.t == pytest.approx(t_step, abs=1.0 / rate)
+            assert v.limit == pytest.approx(arm.max_jerk[jn] * (v.t_end - v.t_start + 1.0 / rate))
+
+
+def test_heuristic_plan_steps_at_the_start_are_at_time_zero_never_negative(greenhouse) -> None:
+    from coplan.heuristic import plan_heuristic
+
+    ver = verify(greenhouse, plan_heuristic(greenhouse))
+    assert ver.violations and all(v.t >= 0 and (v.t_start is None or v.t_start >= 0) for v in ver.violations)
+    first = [v for v in ver.violations if v.t == 0.0]
+    assert first and all("acceleration discontinuity" in v.message for v in first)
+    assert all(v.value < 50 for v in ver.violations if v.kind == ViolationKind.JERK)  # rad/s^2, not 594.9 "rad/s^3"
+
+
+# --------------------------------------------------------------------------- zero fruit
+@pytest.mark.parametrize("fruits", ["fruits: []\n", "fruits:\n  - {id: far, position: [9.0, 9.0]}\n"])
+def test_zero_reachable_fruit_same_exit_code_from_solve_and_verify(tmp_path: Path, fruits: str) -> None:
+    text = default_problem_path().read_text()
+    text = text[: text.index("fruits:")] + fruits + text[text.index("task:"):]
+    prob = tmp_path / "p.yaml"
+    prob.write_text(text)
+    for planner in ("heuristic", "optimal"):
+        out = tmp_path / planner
+        res = run("solve", str(prob), "--planner", planner, "--out", str(out))
+        assert res.exit_code == ExitCode.INFEASIBLE, res.output
+        res = run("verify", str(prob), str(out / "plan.json"))
+        assert res.exit_code == ExitCode.INFEASIBLE, res.output
