@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Issue", "InputError", "ProblemError", "PlanFileError", "CoplanError", "printable"]
+__all__ = ["Issue", "InputError", "ProblemError", "PlanFileError", "CoplanError", "printable", "plural"]
 
 
 class CoplanError(Exception):
@@ -53,6 +53,11 @@ class ProblemError(InputError):
 
 class PlanFileError(InputError):
     kind = "plan"
+
+
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """``n`` and ``word`` agreeing in number: ``plural(1, "arm") == "1 arm"``, ``plural(3, "arm") == "3 arms"``."""
+    return f"{n} {word if n == 1 else (many or word + 's')}"
 
 
 def printable(text) -> str:

@@ -22,13 +22,14 @@ import json
 import math
 import os
 import statistics
+import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from .allocation import AllocationMethod, lower_bound
-from .errors import CoplanError, Issue, ProblemError, printable
+from .errors import Issue, ProblemError, plural, printable
 from .plan import Plan, PlannerKind
 from .problem import Problem, load_problem
 
@@ -183,11 +184,15 @@ def compare(
     options : :class:`coplan.optimal.OptimalOptions` for the optimal and coordinated planners
 
     A single bad problem file raises :class:`ProblemError`; in a folder it is recorded (in
-    ``problems[*].error``) and the rest are compared. A planner that fails (a coplan error,
-    a missing module, a solver runtime error) is recorded in its row's ``error``.
-    """
-    from .pipeline import solve
+    ``problems[*].error``) and the rest are compared. A planner that fails in any way (a coplan
+    error, a missing module, a bug) is recorded in its row's ``error`` and the run goes on.
 
+    Nothing finished is lost: with several problems, each problem's own ``compare.json`` /
+    ``compare.md`` go into ``OUT/<problem>/`` as soon as it finishes, and the report in ``OUT``
+    is rewritten with every problem finished so far. Ctrl-C (``KeyboardInterrupt``, or a planner
+    returning an interrupted plan) stops the run: the report then covers the problems that
+    finished (a note names the one interrupted), and the interruption is raised again.
+    """
     specs = [PlannerSpec.parse(p) for p in planners]
     if not specs:
         raise ValueError("expected at least one planner")
@@ -197,56 +202,99 @@ def compare(
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     cmp = Comparison(planners=[s.label for s in specs])
-    for path in files:
+    for k, path in enumerate(files):
         try:
-            problem = load_problem(path)
-        except ProblemError as e:
-            if single:
-                raise
-            cmp.problems.append({"file": str(path), "name": None, "error": str(e)})
-            say(f"skipping {path.name}: invalid problem file")
-            continue
-        stem = path.stem
-        lb_cache: list[float] = []
-        plans: dict[str, Plan] = {}
-        cmp.problems.append({"file": str(path), "name": problem.name, "arms": len(problem.arms), "fruit": len(problem.fruits),
-                             "reachable": len(problem.reachable_ids()), "error": None})
-        for spec in specs:
-            say(f"{problem.name}: solving with {spec.label}")
-            kw = {"options": options} if spec.planner != PlannerKind.HEURISTIC else {}
-            try:
-                res = solve(problem, planner=spec.planner, allocation=spec.allocation, out_dir=out / stem / spec.folder,
-                            progress=say, **kw)
-            except (CoplanError, ImportError, RuntimeError) as e:
-                cmp.rows.append({"problem": problem.name, "planner": spec.label, "status": None, "error": f"{type(e).__name__}: {e}"})
-                say(f"{problem.name}: {spec.label} failed: {e}")
-                continue
-            ver = res.verification
-            if ver is None:
-                from .verify import verify
+            entry, rows, plans = _compare_problem(path, specs, out, options, say, single)
+            problem = entry.pop("_problem", None)
+            if figures and plans:
+                _figures(problem, plans, out / path.stem, cmp)
+        except KeyboardInterrupt:
+            cmp.notes.append(f"interrupted while comparing {path.name}: this report covers the {len(cmp.problems)} of "
+                             f"{len(files)} problem files that finished")
+            _write_report(cmp, specs, out)
+            raise
+        cmp.problems.append(entry)
+        cmp.rows += rows
+        if not single:
+            mine = Comparison(planners=cmp.planners, problems=[entry], rows=rows, notes=[])
+            _write_report(mine, specs, out / path.stem, figures_from=cmp)
+            cmp.files[f"{path.stem}/compare.json"] = mine.files["json"]
+        _write_report(cmp, specs, out)
+        say(f"{k + 1} of {len(files)} problem files compared; report written to {out / 'compare.json'}")
+    return cmp
 
-                ver = verify(problem, res.plan)
-            if res.plan.metrics.get("lower_bound") is None and not lb_cache:
-                lb_cache.append(lower_bound(problem))
-            intervals = [{"arms": list(c.arms), "t_start": c.t_start, "t_end": c.t_end, "penetration": c.penetration}
-                         for c in ver.collisions]
-            row = run_row(problem, spec, res.plan, ver.summary(), intervals, res.timings, lb_cache[0] if lb_cache else None)
-            row["files"] = {k: str(v) for k, v in res.files.items() if k in ("json", "verification")}
-            cmp.rows.append(row)
-            plans[spec.label] = res.plan
-        if figures and plans:
-            _figures(problem, plans, out / stem, cmp)
+
+def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, say, single: bool):
+    """One problem file with every planner: its ``problems`` entry, its rows and its plans.
+    Any failure becomes a recorded error; only an interruption escapes."""
+    from .kinds import PlanStatus
+    from .pipeline import solve
+
+    try:
+        problem = load_problem(path)
+    except ProblemError as e:
+        if single:
+            raise
+        say(f"skipping {path.name}: invalid problem file")
+        return {"file": str(path), "name": None, "error": str(e)}, [], {}
+    except Exception as e:  # noqa: BLE001 -- any failure reading one file is that file's row; the run goes on
+        if single:
+            raise
+        say(f"skipping {path.name}: {type(e).__name__}: {e}")
+        return {"file": str(path), "name": None, "error": f"{type(e).__name__}: {e}"}, [], {}
+    entry = {"file": str(path), "name": problem.name, "arms": len(problem.arms), "fruit": len(problem.fruits),
+             "reachable": len(problem.reachable_ids()), "error": None, "_problem": problem}
+    rows: list[dict[str, Any]] = []
+    plans: dict[str, Plan] = {}
+    lb_cache: list[float] = []
+    for spec in specs:
+        say(f"{problem.name}: solving with {spec.label}")
+        kw = {"options": options} if spec.planner != PlannerKind.HEURISTIC else {}
+        try:
+            res = solve(problem, planner=spec.planner, allocation=spec.allocation, out_dir=out / path.stem / spec.folder,
+                        progress=say, **kw)
+            if res.plan.status == PlanStatus.INTERRUPTED:
+                raise KeyboardInterrupt
+            row = _row_of(problem, spec, res, lb_cache)
+        except Exception as e:  # noqa: BLE001 -- a planner failing in any way (even a bug) is a row; the run goes on
+            rows.append({"problem": problem.name, "planner": spec.label, "status": None, "error": f"{type(e).__name__}: {e}"})
+            say(f"{problem.name}: {spec.label} failed: {e}")
+            continue
+        rows.append(row)
+        plans[spec.label] = res.plan
+    return entry, rows, plans
+
+
+def _row_of(problem: Problem, spec: PlannerSpec, res, lb_cache: list[float]) -> dict[str, Any]:
+    ver = res.verification
+    if ver is None:
+        from .verify import verify
+
+        ver = verify(problem, res.plan)
+    if res.plan.metrics.get("lower_bound") is None and not lb_cache:
+        lb_cache.append(lower_bound(problem))
+    intervals = [{"arms": list(c.arms), "t_start": c.t_start, "t_end": c.t_end, "penetration": c.penetration}
+                 for c in ver.collisions]
+    row = run_row(problem, spec, res.plan, ver.summary(), intervals, res.timings, lb_cache[0] if lb_cache else None)
+    row["files"] = {k: str(v) for k, v in res.files.items() if k in ("json", "verification")}
+    return row
+
+
+def _write_report(cmp: Comparison, specs: list[PlannerSpec], out: Path, figures_from: Comparison | None = None) -> None:
+    """Relative makespans, aggregates, then ``compare.json`` and ``compare.md`` in ``out``."""
     base = specs[0].label
     for row in cmp.rows:
         ref = next((r for r in cmp.rows if r["problem"] == row["problem"] and r["planner"] == base and not r.get("error")), None)
         if not row.get("error") and ref is not None:
             row["makespan_vs_" + base.replace(":", "_")] = _ratio(row["makespan"], ref["makespan"])
     cmp.aggregate = aggregate(cmp.rows, cmp.planners)
+    if figures_from is not None:  # a problem's own report shows its figures too
+        cmp.files.update({k: v for k, v in figures_from.files.items() if k.startswith(f"{out.name}/") and k.endswith(".png")})
+    out.mkdir(parents=True, exist_ok=True)
     json_path, md_path = out / "compare.json", out / "compare.md"
     cmp.files.update(json=str(json_path), markdown=str(md_path))
     _write(json_path, json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
     _write(md_path, to_markdown(cmp, out))
-    return cmp
 
 
 def _figures(problem: Problem, plans: dict[str, Plan], folder: Path, cmp: Comparison) -> None:
@@ -255,14 +303,25 @@ def _figures(problem: Problem, plans: dict[str, Plan], folder: Path, cmp: Compar
     except ImportError as e:
         cmp.notes.append(f"figures skipped: {e}")
         return
-    for p in save_comparison_figures(problem, plans, folder):
+    try:
+        saved = save_comparison_figures(problem, plans, folder)
+    except Exception as e:  # noqa: BLE001 -- a figure failing never loses the comparison itself
+        cmp.notes.append(f"figures of {problem.name} not drawn: {type(e).__name__}: {e}")
+        return
+    for p in saved:
         cmp.files[f"{folder.name}/{Path(p).name}"] = str(p)
 
 
 def _write(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    """Write ``text`` to ``path`` atomically (a temporary name unique per writer, then a rename)."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 # --------------------------------------------------------------------------- aggregation
@@ -405,7 +464,7 @@ def to_markdown(cmp: Comparison, out_dir: Path | None = None) -> str:
         if p.get("error"):
             parts += [f"## {p['file']}", "", "Invalid problem file:", "", "```", p["error"], "```", ""]
             continue
-        parts += [f"## {p['name']}", "", f"{p['arms']} arms, {p['fruit']} fruit ({p['reachable']} reachable). Source: `{p['file']}`", ""]
+        parts += [f"## {p['name']}", "", f"{plural(p['arms'], 'arm')}, {p['fruit']} fruit ({p['reachable']} reachable). Source: `{p['file']}`", ""]
         parts += [_md_table(*problem_table(cmp, p["name"])), ""]
         for r in cmp.rows:
             if r["problem"] == p["name"] and r.get("collision_intervals"):

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import kinematics as kin
+from .errors import plural
 from .problem import Arm, Problem
 
 __all__ = ["Screen", "screen", "TIP_TOLERANCE"]
@@ -93,7 +94,7 @@ class Screen:
     def lines(self) -> list[str]:
         """What a command line prints."""
         out = [
-            f"screen: {len(self.locked)} of {len(self.arms)} arms locked"
+            f"screen: {len(self.locked)} of {plural(len(self.arms), 'arm')} locked"
             + (f" ({', '.join(self.locked)})" if self.locked else "")
             + f", {len(self.unharvestable)} of {len(self.fruits)} fruit unharvestable"
             + (f" ({', '.join(self.unharvestable)})" if self.unharvestable else "")

@@ -1,7 +1,7 @@
 """The plan animation: every arm, its fruit and its bin, played back headless.
 
-* :func:`animate_plan` -- render a plan to a GIF (Pillow, the default) or an MP4 (when
-  ffmpeg is installed; otherwise a clear message and a GIF). Used by ``coplan animate`` and
+* :func:`animate_plan` -- render a plan to a GIF (Pillow, the default) or an MP4 (ffmpeg:
+  the system's, else the ``imageio-ffmpeg`` wheel's; without either a clear message and a GIF). Used by ``coplan animate`` and
   ``coplan solve --animate``.
 * :func:`build_animation` -- the ``matplotlib.animation.FuncAnimation`` itself (e.g. for
   ``anim.to_jshtml()`` in a notebook).
@@ -18,7 +18,9 @@ Playback is real time times ``speed``; frames are subsampled to ``fps``.
 from __future__ import annotations
 
 import math
+import os
 import shutil
+import tempfile
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -26,16 +28,23 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CoplanError
+from ..kinds import ExitCode
 from ..plan import EventKind, Plan
 from ..problem import Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors, pair_label
 from .timeline import arm_points, fruit_states, harvested_count, pair_clearance, phase_at, schedule
 
-__all__ = ["RenderError", "RenderWarning", "animate_plan", "build_animation", "render_frame", "frame_times", "ffmpeg_available"]
+__all__ = ["RenderError", "OverwriteRefused", "RenderWarning", "animate_plan", "build_animation", "render_frame", "frame_times", "ffmpeg_available"]
 
 
 class RenderError(CoplanError):
     """The animation could not be rendered (the plan itself is unaffected)."""
+
+
+class OverwriteRefused(RenderError):
+    """The animation would replace a file the user did not name (a usage error: exit code 2)."""
+
+    exit_code = ExitCode.USAGE
 
 
 class RenderWarning(UserWarning):
@@ -43,13 +52,33 @@ class RenderWarning(UserWarning):
 
 
 def ffmpeg_available() -> bool:
-    """Whether matplotlib can write MP4 (an ``ffmpeg`` executable is found)."""
+    """Whether matplotlib can write MP4: an ``ffmpeg`` executable is found, the system's or else
+    the one the ``imageio-ffmpeg`` wheel ships (then ``animation.ffmpeg_path`` is pointed at it)."""
     try:
         from matplotlib import animation
 
+        _use_bundled_ffmpeg()
         return bool(animation.writers.is_available("ffmpeg")) and shutil.which(_ffmpeg_path()) is not None
     except Exception:  # noqa: BLE001 -- any doubt means no
         return False
+
+
+def _use_bundled_ffmpeg() -> None:
+    """Without an ``ffmpeg`` on the PATH (or where ``animation.ffmpeg_path`` says), use the
+    binary of the ``imageio-ffmpeg`` wheel, a dependency of coplan."""
+    import matplotlib
+
+    if shutil.which(_ffmpeg_path()) is not None:
+        return
+    try:
+        import imageio_ffmpeg
+    except ImportError:
+        return
+    try:
+        exe = imageio_ffmpeg.get_ffmpeg_exe()
+    except RuntimeError:  # the wheel has no binary for this platform
+        return
+    matplotlib.rcParams["animation.ffmpeg_path"] = exe
 
 
 def _ffmpeg_path() -> str:
@@ -426,10 +455,13 @@ def animate_plan(
 
     ``.gif`` (or any suffix other than ``.mp4``): an animated GIF through Pillow, ``fps``
     rounded so that the frame delay is whole centiseconds (10, 20, 25, 50 fps are exact).
-    ``.mp4``: through ffmpeg when it is installed, otherwise ``notify`` gets a clear message
-    and a GIF is written next to it (``.gif`` suffix) instead. Plans longer than ``max_frames`` frames
-    play faster (with a message) so rendering stays quick. Any rendering failure raises
-    :class:`RenderError` with the reason; nothing else is touched.
+    ``.mp4``: through ffmpeg (the system's, else the ``imageio-ffmpeg`` wheel's); when there is
+    none, ``notify`` gets a clear message and a GIF is written next to it (``.gif`` suffix)
+    instead -- but never over an existing file (the user did not name it): then
+    :class:`RenderError`. Plans longer than ``max_frames`` frames play faster (with a message)
+    so rendering stays quick. Frames go to a uniquely named hidden ``*.partial*`` file beside the
+    target, renamed into place when complete; any failure, Ctrl-C included, removes it. Any
+    rendering failure raises :class:`RenderError` with the reason; nothing else is touched.
     """
     from matplotlib.animation import FFMpegWriter
 
@@ -442,6 +474,9 @@ def animate_plan(
     mp4 = out.suffix.lower() == ".mp4"
     if mp4 and not ffmpeg_available():
         gif = out.with_suffix(".gif")
+        if gif.exists():
+            raise OverwriteRefused(f"no ffmpeg, so no MP4 can be written, and the GIF instead would replace {gif}, "
+                              f"which you did not name: not overwritten (install ffmpeg, or give --out {gif} to replace it)")
         say(f"ffmpeg is not installed, so no MP4 can be written; writing a GIF instead: {gif} (install ffmpeg for MP4)")
         out, mp4 = gif, False
     if not mp4:  # GIF delays are whole centiseconds: keep playback exactly real time x speed
@@ -454,15 +489,22 @@ def animate_plan(
         new_speed = math.ceil(speed * n / max_frames * 10) / 10
         say(f"the plan lasts {plan.duration:.1f} s: playing it at ×{new_speed:g} instead of ×{speed:g} to stay within {max_frames} frames")
         speed = new_speed
+    tmp: Path | None = None
     try:
         out.parent.mkdir(parents=True, exist_ok=True)
         anim = build_animation(problem, plan, speed=speed, fps=fps, dpi=dpi, width=width)
         writer = FFMpegWriter(fps=fps, bitrate=1800) if mp4 else _blit_gif_writer(fps, anim.scene)
-        tmp = out.with_name(out.stem + ".partial" + out.suffix)
+        fd, name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".partial" + out.suffix, dir=out.parent)
+        os.close(fd)
+        tmp = Path(name)
         anim.save(str(tmp), writer=writer, dpi=dpi)
         tmp.replace(out)
+        tmp = None
     except RenderError:
         raise
     except Exception as e:  # noqa: BLE001 -- turn any backend/encoder failure into one clear message
         raise RenderError(f"could not render the animation to {out}: {type(e).__name__}: {e}") from e
+    finally:  # a failure or Ctrl-C: no partial file is left behind
+        if tmp is not None:
+            tmp.unlink(missing_ok=True)
     return out

@@ -1,0 +1,155 @@
+"""JSON Schemas of coplan's file formats: problem files (YAML) and plan files (``plan.json``).
+
+The schemas are exported from the pydantic models below (:func:`json_schema`) and shipped as
+package data (``coplan/schemas/problem.schema.json``, ``plan.schema.json``; :func:`shipped_path`);
+a test keeps the shipped files equal to what the models export, and validates every shipped
+problem and a solved ``plan.json`` against them. ``coplan schema problem|plan`` prints one.
+
+A schema tells editors and other tools the shape of a file: keys, types, units, required
+fields. It is a necessary condition only: coplan's own loaders check more (joint limits
+min < max, unique names, a uniform time grid, plausible values, geometry) and say where.
+The problem models mirror :mod:`coplan.problem`'s validation models field for field (a test
+cross-checks the two on seeded mutations of the shipped problems).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from .kinds import EventKind, SchemaKind
+from .plan import PLAN_FORMAT
+from .problem import MAX_ARMS, MAX_FRUITS
+
+__all__ = ["json_schema", "schema_text", "shipped_path", "SCHEMA_DIR", "ProblemFile", "PlanFile"]
+
+SCHEMA_DIR = Path(__file__).with_name("schemas")
+_ID = "https://coplan.invalid/schemas/"  # a stable identifier, not a download location
+
+Pos = Annotated[float, Field(gt=0)]
+NonNeg = Annotated[float, Field(ge=0)]
+Name = Annotated[str, Field(min_length=1)]
+Point = Annotated[list[float], Field(min_length=2, max_length=2)]
+PosPair = Annotated[list[Pos], Field(min_length=2, max_length=2)]
+Limits = Annotated[list[Point], Field(min_length=2, max_length=2)]
+
+
+class _Closed(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class ArmFields(_Closed):
+    """Arm fields an arm may set, or take from ``defaults``."""
+
+    links: PosPair | None = Field(None, description="[l1, l2]: two link lengths > 0, m")
+    link_radius: Pos | None = Field(None, description="links are capsules of this radius, m")
+    joint_limits: Limits | None = Field(None, description="[[t1_min, t1_max], [t2_min, t2_max]], rad")
+    max_velocity: PosPair | None = Field(None, description="[v1, v2]: joint speed limits, rad/s")
+    max_acceleration: PosPair | None = Field(None, description="[a1, a2]: joint acceleration limits, rad/s^2")
+    max_jerk: PosPair | None = Field(None, description="[j1, j2]: joint jerk limits, rad/s^3")
+    home: Point | None = Field(None, description="[t1, t2]: joint angles at start and end, rad")
+
+
+class ArmSpec(ArmFields):
+    """One arm: its name, base and bin, and any arm field not taken from ``defaults``."""
+
+    name: Name = Field(description="unique arm name")
+    base: Point = Field(description="[x, y] of the shoulder joint, m")
+    bin: Point = Field(description="[x, y] where the arm places its fruit, m")
+
+
+class FruitSpec(_Closed):
+    id: Name = Field(description="unique fruit id")
+    position: Point = Field(description="[x, y], m")
+
+
+class TaskSpec(_Closed):
+    pick_dwell: NonNeg = Field(description="s the tip must stay still on a fruit")
+    place_dwell: NonNeg = Field(description="s the tip must stay still over the bin")
+    clearance: NonNeg = Field(description="m, least distance between capsules of two different arms")
+    reach_margin: NonNeg = Field(0.01, description="m: a fruit this close to the workspace boundary counts as unreachable")
+    singularity_threshold: NonNeg = Field(0.05, description="|det J| below this is reported as near-singular")
+
+
+class ProblemFile(_Closed):
+    """A coplan problem file (YAML; SI units). Every arm field must be given on the arm or in ``defaults``."""
+
+    model_config = ConfigDict(extra="forbid", title="coplan problem")
+
+    name: Name = Field(description="the problem's name")
+    description: str = Field("", description="free text")
+    defaults: ArmFields | None = Field(None, description="arm fields used by every arm that does not set them")
+    arms: list[ArmSpec] = Field(min_length=1, max_length=MAX_ARMS)
+    fruits: list[FruitSpec] = Field(default_factory=list, max_length=MAX_FRUITS)
+    task: TaskSpec
+
+
+class EventSpec(_Closed):
+    arm: str
+    fruit: str
+    kind: EventKind = Field(description="pick: the tip still on the fruit; place: still over the arm's bin")
+    t_start: float = Field(description="s")
+    t_end: float = Field(description="s, >= t_start")
+
+
+class ArmTrajectory(BaseModel):
+    q: list[Point] = Field(description="one [t1, t2] pair (rad) per time of the grid")
+
+
+class PlanFile(BaseModel):
+    """A coplan plan file (``plan.json``): every arm's joints on one uniform grid (100 Hz or
+    finer, from 0), linear between samples, and the pick/place events."""
+
+    model_config = ConfigDict(extra="allow", title="coplan plan")
+
+    format: Literal["coplan.plan/1"]
+    problem: str = Field(description="the name of the problem the plan is for")
+    planner: Name = Field("external", description="the planner's name (any; coplan's: heuristic, coordinated, optimal)")
+    status: str | None = Field(None, description="what the writer claimed; ignored when verifying (the verdict is the verifier's)")
+    time: list[float] = Field(min_length=1, description="uniform grid of times from 0, s")
+    arms: dict[str, ArmTrajectory] = Field(min_length=1, description="arm name -> its joint angles")
+    events: list[EventSpec]
+    allocation: dict[str, list[str]] = Field(default_factory=dict, description="arm name -> fruit ids in harvesting order")
+    unreachable: list[str] = Field(default_factory=list, description="fruit no arm can reach")
+    metrics: dict[str, Any] | None = None
+    solver: dict[str, Any] | None = None
+    verification: dict[str, Any] | None = None
+
+
+assert PLAN_FORMAT == "coplan.plan/1", "PlanFile.format must name the format plan.py writes"
+
+_MODELS = {SchemaKind.PROBLEM: ProblemFile, SchemaKind.PLAN: PlanFile}
+
+
+def json_schema(kind: SchemaKind | str) -> dict[str, Any]:
+    """The JSON Schema (draft 2020-12) of a file format, as the models export it."""
+    kind = SchemaKind(kind)
+    schema = _MODELS[kind].model_json_schema()
+    return {"$schema": "https://json-schema.org/draft/2020-12/schema", "$id": f"{_ID}{kind.value}.schema.json", **schema}
+
+
+def schema_text(kind: SchemaKind | str) -> str:
+    """The schema as the shipped file holds it (indented JSON, a final newline)."""
+    return json.dumps(json_schema(kind), indent=2, ensure_ascii=False) + "\n"
+
+
+def shipped_path(kind: SchemaKind | str) -> Path:
+    return SCHEMA_DIR / f"{SchemaKind(kind).value}.schema.json"
+
+
+def write_shipped() -> list[Path]:
+    """Regenerate the shipped schema files (``python -m coplan.schema``)."""
+    SCHEMA_DIR.mkdir(exist_ok=True)
+    out = []
+    for kind in SchemaKind:
+        shipped_path(kind).write_text(schema_text(kind))
+        out.append(shipped_path(kind))
+    return out
+
+
+if __name__ == "__main__":
+    for p in write_shipped():
+        print(f"wrote {p}")

@@ -1,0 +1,86 @@
+"""`coplan animate` never leaves a partial file, never overwrites a file the user did not name,
+and writes MP4 without a system ffmpeg (the imageio-ffmpeg wheel's binary)."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from coplan.heuristic import plan_heuristic
+from coplan.viz import animate as anim_mod
+from coplan.viz.animate import RenderError, animate_plan, ffmpeg_available
+
+
+def leftovers(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir() if "partial" in p.name)
+
+
+def test_ctrl_c_while_writing_leaves_no_partial_file_and_the_old_file_whole(tmp_path, single_arm, monkeypatch):
+    target = tmp_path / "one.gif"
+    target.write_bytes(b"the previous animation")
+
+    def interrupted_save(self, fp, *args, **kwargs):
+        Path(fp).write_bytes(b"GIF89a half written")  # the encoder had started
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Image.Image, "save", interrupted_save)
+    with pytest.raises(KeyboardInterrupt):
+        animate_plan(single_arm, plan_heuristic(single_arm), target, fps=5, dpi=30, width=4)
+    assert leftovers(tmp_path) == []
+    assert target.read_bytes() == b"the previous animation"
+
+
+def test_any_failure_leaves_no_partial_file(tmp_path, single_arm, monkeypatch):
+    def broken_save(self, fp, *args, **kwargs):
+        Path(fp).write_bytes(b"GIF89a")
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(Image.Image, "save", broken_save)
+    with pytest.raises(RenderError, match="No space left"):
+        animate_plan(single_arm, plan_heuristic(single_arm), tmp_path / "one.gif", fps=5, dpi=30, width=4)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_mp4_fallback_never_overwrites_a_gif_the_user_did_not_name(tmp_path, single_arm, monkeypatch):
+    monkeypatch.setattr(anim_mod, "ffmpeg_available", lambda: False)
+    mine = tmp_path / "one.gif"
+    mine.write_bytes(b"my own gif")
+    with pytest.raises(RenderError, match="not overwritten"):
+        animate_plan(single_arm, plan_heuristic(single_arm), tmp_path / "one.mp4", dpi=30, width=4, notify=lambda m: None)
+    assert mine.read_bytes() == b"my own gif"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["one.gif"]
+
+
+def test_mp4_without_a_system_ffmpeg_uses_the_wheels_binary(tmp_path, single_arm, monkeypatch):
+    import imageio_ffmpeg
+    import matplotlib
+
+    monkeypatch.setenv("PATH", str(tmp_path / "empty-bin"))  # no system ffmpeg, whatever the machine has
+    monkeypatch.setitem(matplotlib.rcParams, "animation.ffmpeg_path", "ffmpeg")
+    assert shutil.which("ffmpeg") is None
+    assert ffmpeg_available()
+    assert matplotlib.rcParams["animation.ffmpeg_path"] == imageio_ffmpeg.get_ffmpeg_exe()
+    said: list[str] = []
+    out = animate_plan(single_arm, plan_heuristic(single_arm), tmp_path / "one.mp4", fps=5, dpi=30, width=4, notify=said.append)
+    assert out == tmp_path / "one.mp4" and said == []
+    head = out.read_bytes()[:12]
+    assert head[4:8] == b"ftyp"  # an ISO media (MP4) file
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["one.mp4"]
+
+
+def test_cli_refuses_the_fallback_over_an_existing_gif_as_a_usage_error(tmp_path, single_arm, monkeypatch):
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+    from coplan.kinds import ExitCode
+
+    monkeypatch.setattr(anim_mod, "ffmpeg_available", lambda: False)
+    plan = plan_heuristic(single_arm).save(tmp_path)["json"]
+    (tmp_path / "movie.gif").write_bytes(b"mine")
+    res = CliRunner().invoke(app, ["animate", str(plan), "--problem", str(single_arm.source), "--out",
+                                   str(tmp_path / "movie.mp4"), "--dpi", "30"])
+    assert res.exit_code == ExitCode.USAGE, res.output
+    assert "not overwritten" in res.stderr and (tmp_path / "movie.gif").read_bytes() == b"mine"

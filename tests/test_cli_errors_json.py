@@ -1,0 +1,168 @@
+"""`--json` on any failure prints one JSON error document on stdout (solve, check, verify,
+compare); flags take no value in --help; plurals; a closed stdout pipe is no error."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.errors import plural
+from coplan.heuristic import plan_heuristic
+from coplan.kinds import ExitCode
+
+BAD = """name: bad
+arms:
+  - {name: a, base: [0.0, 0.0], bin: [0.0, -0.5], links: [1.0, abc], link_radius: 0.04,
+     joint_limits: [[-3.0, 3.0], [-3.0, 3.0]], max_velocity: [3.0, 4.0], max_acceleration: [8.0, 12.0],
+     max_jerk: [80.0, 120.0], home: [1.0, 0.7]}
+fruits:
+  - {id: f1, position: [0.5, 1.2]}
+task:
+  pick_dwell: -0.3
+  place_dwell: 0.2
+  clearance: 0.05
+"""
+EXPECTED_ERRORS = [
+    {"path": "arms[0].links[1]", "line": 3, "expected": "a number", "found": "string 'abc'"},
+    {"path": "task.pick_dwell", "line": 9, "expected": "a number >= 0", "found": "-0.3"},
+]
+
+
+def run(*args: str):
+    return CliRunner(env={"COLUMNS": "200", "COPLAN_DEBUG": None}).invoke(app, list(args))
+
+
+def coplan_cmd() -> list[str]:
+    exe = Path(sys.executable).with_name("coplan")
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "coplan.cli"]
+
+
+def one_document(res) -> dict:
+    doc = json.loads(res.stdout)  # the whole of stdout is one JSON document
+    assert doc["format"] == "coplan.error/1" and doc["exit_code"] == res.exit_code
+    return doc
+
+
+@pytest.fixture
+def bad_problem(tmp_path: Path) -> Path:
+    p = tmp_path / "bad.yaml"
+    p.write_text(BAD)
+    return p
+
+
+@pytest.fixture
+def good_plan(tmp_path: Path, single_arm) -> Path:
+    return plan_heuristic(single_arm).save(tmp_path / "plan")["json"]
+
+
+@pytest.mark.parametrize("command", ["solve", "check", "verify", "compare"])
+def test_bad_problem_with_json_prints_every_error_as_one_document(command, bad_problem, good_plan, tmp_path):
+    args = {"solve": ["solve", str(bad_problem), "--out", str(tmp_path / "o")],
+            "check": ["check", str(bad_problem)],
+            "verify": ["verify", str(bad_problem), str(good_plan)],
+            "compare": ["compare", str(bad_problem), "--out", str(tmp_path / "c"), "--no-figures"]}[command]
+    res = run(*args, "--json")
+    assert res.exit_code == ExitCode.BAD_INPUT
+    doc = one_document(res)
+    assert doc["command"] == command and doc["error"] == "bad_input"
+    got = [{k: e[k] for k in ("path", "line", "expected", "found")} for e in doc["errors"]]
+    assert got == EXPECTED_ERRORS
+    assert all(e["file"] == str(bad_problem) for e in doc["errors"])
+
+
+def test_bad_plan_file_with_json(single_arm, tmp_path):
+    plan = tmp_path / "plan.json"
+    plan.write_text('{"format": "coplan.plan/1",\n "t": [0, 0.01]\n oops')
+    res = run("verify", str(single_arm.source), str(plan), "--json")
+    assert res.exit_code == ExitCode.BAD_INPUT
+    doc = one_document(res)
+    (err,) = doc["errors"]
+    assert err["file"] == str(plan) and err["line"] == 3 and err["expected"] == "JSON"
+    assert err["found"].startswith("a syntax error")
+
+
+def test_usage_error_inside_a_command_with_json(single_arm, tmp_path):
+    res = run("solve", str(single_arm.source), "--time-limit", "-1", "--out", str(tmp_path), "--json")
+    assert res.exit_code == ExitCode.USAGE
+    doc = one_document(res)
+    assert doc["error"] == "usage" and "--time-limit" in doc["errors"][0]["message"]
+    assert "--time-limit" in res.stderr  # the human message is still on stderr
+
+
+def test_internal_error_with_json_is_a_document_not_a_traceback(single_arm, tmp_path, monkeypatch):
+    import coplan.pipeline
+
+    def broken(*a, **k):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(coplan.pipeline, "solve", broken)
+    res = run("solve", str(single_arm.source), "--planner", "heuristic", "--out", str(tmp_path), "--json")
+    assert res.exit_code == ExitCode.INTERNAL
+    doc = one_document(res)
+    assert doc["error"] == "internal" and "ZeroDivisionError" in doc["message"]
+
+
+def test_framework_usage_error_with_json_in_a_real_process(tmp_path):
+    proc = subprocess.run(coplan_cmd() + ["solve", "--planner", "fastest", "--json", "--out", str(tmp_path / "o")],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == ExitCode.USAGE
+    doc = json.loads(proc.stdout)
+    assert doc["exit_code"] == 2 and doc["command"] == "solve" and "--planner" in doc["message"]
+    assert "Traceback" not in proc.stderr and not (tmp_path / "o").exists()
+
+
+# ---- smaller things
+
+
+@pytest.mark.parametrize("command", [[], ["solve"], ["verify"], ["check"], ["compare"], ["animate"]])
+def test_flags_are_shown_without_a_value_in_help(command):
+    res = run(*command, "--help")
+    assert res.exit_code == 0
+    assert "<bool>" not in res.stdout
+    assert "--help" in res.stdout
+
+
+def test_plural():
+    assert [plural(n, "arm") for n in (0, 1, 2)] == ["0 arms", "1 arm", "2 arms"]
+    assert plural(1, "fruit", "fruit") == "1 fruit"
+
+
+def test_one_arm_is_not_one_arms(single_arm, tmp_path):
+    res = run("check", str(single_arm.source))
+    assert res.exit_code == 0
+    assert "1 arm," in res.stdout and "0 of 1 arm locked" in res.stdout and "1 arms" not in res.stdout
+    res = run("problems")
+    line = next(x for x in res.stdout.splitlines() if x.startswith("single_arm.yaml"))
+    assert " 1 arm, " in line
+    plan = plan_heuristic(single_arm).save(tmp_path / "p")["json"]
+    res = run("verify", str(single_arm.source), str(plan))
+    assert "1 violations" not in res.stdout and "1 collision intervals" not in res.stdout
+
+
+def _closed_pipe(args: list[str]) -> subprocess.CompletedProcess:
+    """Run coplan with a stdout pipe whose reader is gone before coplan writes (``| head -c 0``)."""
+    proc = subprocess.Popen(coplan_cmd() + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc.stdout.close()  # the reader exits at once: every write to stdout meets a broken pipe
+    err = proc.stderr.read()
+    proc.wait(timeout=300)
+    return subprocess.CompletedProcess(args, proc.returncode, "", err)
+
+
+def test_a_closed_pipe_keeps_the_commands_exit_code_and_prints_no_traceback(tmp_path, problems_dir, single_arm):
+    p = _closed_pipe(["problems"])
+    assert p.returncode == 0 and p.stderr == ""
+    p = _closed_pipe(["solve", str(problems_dir / "single_arm.yaml"), "--planner", "coordinated", "--json",
+                      "--out", str(tmp_path / "o")])
+    assert p.returncode == 0, p.stderr
+    assert "Traceback" not in p.stderr and "Broken pipe" not in p.stderr and "Exception ignored" not in p.stderr
+    assert (tmp_path / "o" / "plan.json").exists()
+    unsafe = plan_heuristic(single_arm).save(tmp_path / "h")["json"]  # the course's cubic: over the jerk limit
+    for json_flag in ([], ["--json"]):  # Rich's console and typer's echo
+        p = _closed_pipe(["verify", str(single_arm.source), str(unsafe), *json_flag])
+        assert p.returncode == ExitCode.UNSAFE and p.stderr == ""

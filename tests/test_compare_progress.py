@@ -1,0 +1,115 @@
+"""`coplan compare FOLDER` loses nothing: each problem's report is written as it finishes, Ctrl-C
+leaves the finished problems' files and the aggregate of what finished, and a planner failing in
+any way (even a bug) is a row while the run goes on."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+import coplan.pipeline as pipeline
+from coplan.cli import app
+from coplan.kinds import ExitCode
+from coplan.report import compare
+
+PLANNERS = ["heuristic", "heuristic:makespan"]
+
+
+@pytest.fixture
+def folder(tmp_path: Path, problems_dir: Path) -> Path:
+    """Three one-arm problems (a, b, c), quick to solve with the heuristic planners."""
+    src = (problems_dir / "single_arm.yaml").read_text()
+    assert src.count("\nname: single-arm\n") == 1
+    d = tmp_path / "problems"
+    d.mkdir()
+    for name in ("a", "b", "c"):
+        (d / f"{name}.yaml").write_text(src.replace("\nname: single-arm\n", f"\nname: problem-{name}\n"))
+    return d
+
+
+def interrupt_on(name: str, monkeypatch):
+    real = pipeline.solve
+
+    def solve(problem, **kw):
+        if problem.name == name:
+            raise KeyboardInterrupt
+        return real(problem, **kw)
+
+    monkeypatch.setattr(pipeline, "solve", solve)
+
+
+def test_ctrl_c_keeps_every_finished_problem_and_their_aggregate(folder, tmp_path, monkeypatch):
+    interrupt_on("problem-c", monkeypatch)
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        compare(folder, PLANNERS, out, figures=False)
+    doc = json.loads((out / "compare.json").read_text())
+    assert [p["name"] for p in doc["problems"]] == ["problem-a", "problem-b"]
+    assert [(r["problem"], r["planner"]) for r in doc["rows"]] == [(p, s) for p in ("problem-a", "problem-b") for s in PLANNERS]
+    assert doc["aggregate"]["heuristic"]["runs"] == 2
+    assert any("interrupted while comparing c.yaml" in n for n in doc["notes"])
+    assert "interrupted while comparing c.yaml" in (out / "compare.md").read_text()
+    for stem in ("a", "b"):  # each finished problem's own report
+        mine = json.loads((out / stem / "compare.json").read_text())
+        assert [p["name"] for p in mine["problems"]] == [f"problem-{stem}"] and len(mine["rows"]) == 2
+        assert (out / stem / "heuristic" / "plan.json").exists()
+    assert not (out / "c" / "compare.json").exists()
+
+
+def test_ctrl_c_in_the_cli_exits_130_with_the_report_of_what_finished(folder, tmp_path, monkeypatch):
+    interrupt_on("problem-b", monkeypatch)
+    res = CliRunner().invoke(app, ["compare", str(folder), "-p", "heuristic", "--no-figures", "-o", str(tmp_path / "o")])
+    assert res.exit_code == ExitCode.INTERRUPTED, res.output
+    doc = json.loads((tmp_path / "o" / "compare.json").read_text())
+    assert [p["name"] for p in doc["problems"]] == ["problem-a"] and doc["rows"][0]["status"]
+
+
+def test_an_interrupted_plan_stops_the_comparison(folder, tmp_path, monkeypatch):
+    """The optimal planner turns Ctrl-C into an interrupted (saved) plan: compare stops there too."""
+    from coplan.kinds import PlanStatus
+
+    real = pipeline.solve
+
+    def solve(problem, **kw):
+        res = real(problem, **kw)
+        if problem.name == "problem-b":
+            res.plan.status = PlanStatus.INTERRUPTED
+        return res
+
+    monkeypatch.setattr(pipeline, "solve", solve)
+    with pytest.raises(KeyboardInterrupt):
+        compare(folder, ["heuristic"], tmp_path / "o", figures=False)
+    doc = json.loads((tmp_path / "o" / "compare.json").read_text())
+    assert [p["name"] for p in doc["problems"]] == ["problem-a"]
+
+
+def test_a_planner_bug_is_a_row_and_the_run_goes_on(folder, tmp_path, monkeypatch):
+    real = pipeline.solve
+
+    def buggy(problem, **kw):
+        if problem.name == "problem-a" and kw.get("allocation") is not None:
+            raise ZeroDivisionError("division by zero in a planner")
+        return real(problem, **kw)
+
+    monkeypatch.setattr(pipeline, "solve", buggy)
+    res = CliRunner().invoke(app, ["compare", str(folder), "-p", "heuristic", "-p", "heuristic:makespan", "--no-figures",
+                                   "-o", str(tmp_path / "o")])
+    assert res.exit_code == ExitCode.SOLVER_FAILED, res.output
+    doc = json.loads((tmp_path / "o" / "compare.json").read_text())
+    assert len(doc["problems"]) == 3 and len(doc["rows"]) == 6
+    bad = [r for r in doc["rows"] if r["error"]]
+    assert [(r["problem"], r["planner"], r["error"]) for r in bad] == [
+        ("problem-a", "heuristic:makespan", "ZeroDivisionError: division by zero in a planner")]
+    assert doc["aggregate"]["heuristic:makespan"]["errors"] == 1 and doc["aggregate"]["heuristic:makespan"]["runs"] == 3
+
+
+def test_an_unreadable_problem_file_is_a_row(folder, tmp_path):
+    (folder / "d.yaml").write_bytes(b"\xff\xfe not utf-8")
+    (folder / "e.yaml").mkdir()  # a folder named like a problem file
+    cmp = compare(folder, ["heuristic"], tmp_path / "o", figures=False)
+    errors = {Path(p["file"]).name: p["error"] for p in cmp.problems if p["error"]}
+    assert set(errors) == {"d.yaml", "e.yaml"}
+    assert len([r for r in cmp.rows if not r.get("error")]) == 3

@@ -1,0 +1,94 @@
+"""JSON Schemas of the problem and plan formats: shipped files equal what the models export,
+shipped problems and a solved plan.json validate, and the problem schema agrees with the
+loader on seeded mutations."""
+
+from __future__ import annotations
+
+import copy
+import json
+import random
+
+import jsonschema
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.errors import ProblemError
+from coplan.kinds import SchemaKind
+from coplan.problem import parse_problem, shipped_problems
+from coplan.schema import json_schema, schema_text, shipped_path
+
+
+def validator(kind: SchemaKind) -> jsonschema.Draft202012Validator:
+    schema = json.loads(shipped_path(kind).read_text())
+    jsonschema.Draft202012Validator.check_schema(schema)
+    return jsonschema.Draft202012Validator(schema)
+
+
+@pytest.mark.parametrize("kind", list(SchemaKind))
+def test_shipped_schema_files_equal_what_the_models_export(kind):
+    assert shipped_path(kind).read_text() == schema_text(kind), "regenerate with: python -m coplan.schema"
+    assert json.loads(shipped_path(kind).read_text()) == json_schema(kind)
+
+
+@pytest.mark.parametrize("path", shipped_problems(), ids=lambda p: p.stem)
+def test_shipped_problems_validate(path):
+    errors = [e.message for e in validator(SchemaKind.PROBLEM).iter_errors(yaml.safe_load(path.read_text()))]
+    assert errors == []
+
+
+def test_a_solved_plan_validates(tmp_path, problems_dir):
+    res = CliRunner().invoke(app, ["solve", str(problems_dir / "crossing_paths.yaml"), "--planner", "coordinated",
+                                   "--out", str(tmp_path)])
+    assert res.exit_code == 0, res.output
+    doc = json.loads((tmp_path / "plan.json").read_text())
+    v = validator(SchemaKind.PLAN)
+    assert [e.message for e in v.iter_errors(doc)] == []
+    broken = copy.deepcopy(doc)
+    broken["events"][0]["kind"] = "grab"
+    del broken["time"]
+    assert {e.validator for e in v.iter_errors(broken)} == {"enum", "required"}
+
+
+def _mutations(doc: dict, rng: random.Random):
+    """Edits that make a problem file invalid, each with where it applies."""
+    arm = rng.randrange(len(doc["arms"]))
+    fruit = rng.randrange(len(doc["fruits"])) if doc.get("fruits") else None
+    yield "drop name", lambda d: d.pop("name")
+    yield "drop task", lambda d: d.pop("task")
+    yield "drop arm base", lambda d: d["arms"][arm].pop("base")
+    yield "unknown top key", lambda d: d.__setitem__("optoins", {})
+    yield "unknown arm key", lambda d: d["arms"][arm].__setitem__("speed", 1.0)
+    yield "unknown task key", lambda d: d["task"].__setitem__("dwell", 1.0)
+    yield "negative dwell", lambda d: d["task"].__setitem__("pick_dwell", -rng.uniform(0.01, 5))
+    yield "three-number base", lambda d: d["arms"][arm].__setitem__("base", [0.0, 0.0, 0.0])
+    yield "text as a number", lambda d: d["task"].__setitem__("clearance", "five cm")
+    yield "no arms", lambda d: d.__setitem__("arms", [])
+    if fruit is not None:
+        yield "fruit without position", lambda d: d["fruits"][fruit].pop("position")
+        yield "empty fruit id", lambda d: d["fruits"][fruit].__setitem__("id", "")
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_problem_schema_and_the_loader_agree_on_mutations(seed):
+    """Cross-check of the two: every mutation is refused by both, the originals accepted by both."""
+    rng = random.Random(seed)
+    v = validator(SchemaKind.PROBLEM)
+    for path in shipped_problems():
+        doc = yaml.safe_load(path.read_text())
+        parse_problem(yaml.safe_dump(doc))
+        assert v.is_valid(doc)
+        for what, edit in _mutations(doc, rng):
+            bad = copy.deepcopy(doc)
+            edit(bad)
+            assert not v.is_valid(bad), (path.name, what)
+            with pytest.raises(ProblemError):
+                parse_problem(yaml.safe_dump(bad))
+
+
+@pytest.mark.parametrize("kind", ["problem", "plan"])
+def test_cli_schema_prints_the_shipped_file(kind):
+    res = CliRunner().invoke(app, ["schema", kind])
+    assert res.exit_code == 0 and res.stdout == shipped_path(kind).read_text()
+    assert CliRunner().invoke(app, ["schema", "options"]).exit_code == 2
