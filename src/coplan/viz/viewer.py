@@ -1,0 +1,420 @@
+"""The interactive plan viewer: one self-contained HTML page per plan (or per pair of plans).
+
+Entry points: :func:`render_html` (the page as a string), :func:`write_html` (to a file),
+:func:`view` (the same page inline in Jupyter: an object with ``_repr_html_``). Used by
+``coplan view PLAN`` and ``coplan solve --html``.
+
+The page needs nothing outside itself: the script, the style sheet and the data are inline
+and a Content-Security-Policy forbids every network request, so it works offline and from an
+e-mail attachment. What it embeds (JSON in a ``<script type="application/json">`` element,
+numeric arrays as base64 little-endian binary; :func:`read_viewer_data` decodes it back):
+
+* the cell: bases, links (capsule radius), joint limits, bins, fruit, required clearance,
+  unreachable fruit with the screen's reason (:mod:`coplan.screen`), a manipulability grid
+  (:func:`coplan.viz.plots.workspace_maps`);
+* per plan: a display track of every arm's joint angles at ``display_rate`` (float32: what
+  the picture and the tip trails are drawn from), the plan's own grid of joint angles at
+  plan.json's resolution (1e-7 rad, as int32 steps) for the readouts (joint values and the
+  replay velocities a hover shows: what :meth:`Plan.sample` gives for the stored plan), the events, the phases of :func:`coplan.viz.timeline.schedule`
+  with what each wait is for, the clearance of every neighbouring pair
+  (:func:`coplan.clearance.clearance_profile`, 1 kHz, reduced to the least value per display
+  sample so no dip is lost) and the verdict of :func:`coplan.verify.verify` with every
+  violation.
+
+The page reads ``#t=4.25`` from its address on load and writes it back as the slider moves.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import re
+import webbrowser
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import Issue, PlanFileError
+from ..kinds import EventKind
+from ..plan import Plan, jsonable, load_plan
+from ..problem import Problem
+from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors
+from .timeline import Segment, schedule
+
+__all__ = [
+    "DISPLAY_RATE",
+    "VIEWER_FORMAT",
+    "viewer_data",
+    "render_html",
+    "write_html",
+    "write_view",
+    "read_viewer_data",
+    "decode_array",
+    "problem_of",
+    "PlanView",
+    "view",
+]
+
+VIEWER_FORMAT = "coplan.viewer/1"
+DISPLAY_RATE = 50.0  # Hz: the picture's frame grid (the readouts use the plan's own grid)
+MAX_DISPLAY_SAMPLES = 20_000  # per plan: a longer plan is drawn at a lower rate
+Q_RESOLUTION = 1e-7  # rad: plan.json stores joint angles rounded to this; the readouts' data keeps exactly that
+MANIP_RESOLUTION = 160  # columns of the manipulability grid
+_DATA_ID = "coplan-data"
+_MARKER = re.compile(r"/\*@(CSS|JS)@\*/|@@(TITLE|DATA)@@")
+_DATA_RE = re.compile(r'<script type="application/json" id="coplan-data">(.*?)</script>', re.S)
+
+
+# --------------------------------------------------------------------------- arrays
+def _encode(a: np.ndarray, dtype: str) -> dict:
+    """A numeric array as ``{dtype, shape, b64}`` (little-endian; JS typed arrays read it)."""
+    arr = np.ascontiguousarray(np.asarray(a, dtype=np.dtype(dtype).newbyteorder("<")))
+    return {"dtype": dtype.lstrip("<"), "shape": list(arr.shape), "b64": base64.b64encode(arr.tobytes()).decode("ascii")}
+
+
+def decode_array(entry: dict) -> np.ndarray:
+    """The array an embedded ``{dtype, shape, b64}`` entry holds."""
+    raw = base64.b64decode(entry["b64"])
+    return np.frombuffer(raw, dtype=np.dtype(entry["dtype"]).newbyteorder("<")).reshape(entry["shape"])
+
+
+# --------------------------------------------------------------------------- the problem
+def problem_of(plan: Plan) -> Problem:
+    """The shipped problem a plan names (raises :class:`PlanFileError` when there is none)."""
+    from ..problem import load_problem, shipped_problems
+
+    shipped = [load_problem(p) for p in shipped_problems()]
+    found = next((p for p in shipped if p.name == plan.problem), None)
+    if found is None:
+        raise PlanFileError([Issue("problem", f"expected the name of a shipped problem ({', '.join(p.name for p in shipped)}), "
+                                              f"found {plan.problem!r}: pass the problem itself")])
+    return found
+
+
+def _check_fits(problem: Problem, plan: Plan, what: str) -> None:
+    missing = [a.name for a in problem.arms if a.name not in plan.q]
+    if missing:
+        raise PlanFileError([Issue("arms", f"expected a trajectory for every arm of problem {problem.name!r} "
+                                           f"({', '.join(a.name for a in problem.arms)}), found none for {', '.join(missing)}")], what)
+
+
+def _view_box(problem: Problem, plans: list[Plan]) -> list[float]:
+    """World rectangle drawn: bases, bins, fruit and wherever the plans' links go (capsules)."""
+    from .. import kinematics as kin
+
+    pts = [np.asarray(a.base, float) for a in problem.arms] + [np.asarray(a.bin, float) for a in problem.arms]
+    if problem.fruits:
+        pts += list(problem.fruit_positions)
+    pad = max((a.link_radius for a in problem.arms), default=0.0)
+    for p in plans:
+        times = np.linspace(0.0, p.duration, max(2, min(2000, p.time.size)))
+        q = p.sample(times)
+        for a in problem.arms:
+            xy = kin.fk_points(q[a.name], a.links, a.base).reshape(-1, 2)
+            pts += [xy.min(axis=0) - pad, xy.max(axis=0) + pad]
+    lo, hi = np.min(pts, axis=0) - 0.2, np.max(pts, axis=0) + 0.2
+    return [float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])]
+
+
+def _problem_data(problem: Problem, plans: list[Plan]) -> dict:
+    from ..screen import screened
+    from .plots import workspace_maps
+
+    colors = arm_colors(problem)
+    scr = screened(problem)
+    reach = problem.reach_matrix()
+    fruits = []
+    for k, f in enumerate(problem.fruits):
+        entry = {"id": f.id, "pos": list(f.position), "reach": [a.name for i, a in enumerate(problem.arms) if scr.reach[i, k]]}
+        if f.id in scr.unharvestable:
+            default = "out of every arm's reach" if not reach[:, k].any() else "no arm can pick it (screen)"
+            entry["unreachable"] = scr.reasons.get(f.id, default)
+        fruits.append(entry)
+    xs, ys, best, _ = workspace_maps(problem, resolution=MANIP_RESOLUTION)
+    top = float(np.nanmax(best)) if np.isfinite(best).any() else 1.0
+    grid = np.where(np.isfinite(best), 1 + np.round(254 * np.nan_to_num(best) / max(top, 1e-12)), 0).astype(np.uint8)
+    return {
+        "name": problem.name,
+        "description": problem.description,
+        "arms": [
+            {"name": a.name, "base": list(a.base), "bin": list(a.bin), "links": list(a.links), "radius": a.link_radius,
+             "limits": [list(r) for r in a.joint_limits], "max_velocity": list(a.max_velocity), "home": list(a.home),
+             "color": colors[a.name], "locked": a.name in scr.locked, "locked_reason": scr.reasons.get(a.name)}
+            for a in problem.arms
+        ],
+        "fruits": fruits,
+        "task": {"clearance": problem.task.clearance, "pick_dwell": problem.task.pick_dwell, "place_dwell": problem.task.place_dwell},
+        "pairs": [[problem.arms[i].name, problem.arms[j].name] for i, j in problem.neighbour_pairs()],
+        "view": _view_box(problem, plans),
+        "manip": {"grid": _encode(grid, "u1"), "x": [float(xs[0]), float(xs[-1])], "y": [float(ys[0]), float(ys[-1])], "max": top},
+        "colors": {"fruit": FRUIT_COLOR, "alert": ALERT_COLOR},
+    }
+
+
+# --------------------------------------------------------------------------- one plan
+def _waits(plan: Plan, segs: dict[str, list[Segment]], pairs: list[tuple[str, str]]) -> dict[str, list[dict]]:
+    """For every idle stretch: what the arm does next (the plan's events say this) and, when a
+    neighbour's own phase changes as the wait ends, that neighbour and its phase (a reading
+    of the timeline: the plan does not store why the planner made the arm wait)."""
+    held: dict[str, list[tuple[float, float, str]]] = {}
+    for e in plan.events:
+        if e.kind == EventKind.PICK:
+            place = next((p for p in plan.events if p.kind == EventKind.PLACE and p.fruit == e.fruit and p.arm == e.arm), None)
+            held.setdefault(e.arm, []).append((e.t_end, place.t_start if place else plan.duration, e.fruit))
+    neighbours = {a: [b for p in pairs for b in p if a in p and b != a] for a in segs}
+    out: dict[str, list[dict]] = {}
+    for arm, ss in segs.items():
+        notes = []
+        for k, s in enumerate(ss):
+            if s.phase != "idle":
+                continue
+            nxt = next((x for x in ss[k + 1:] if x.phase != "idle"), None)
+            carrying = next((f for t0, t1, f in held.get(arm, []) if t0 <= s.t0 + 1e-9 and s.t1 <= t1 + 1e-9), None)
+            if nxt is None:
+                purpose = "done: every task finished"
+            elif carrying is not None:
+                purpose = f"holding {carrying}, before carrying it to the bin"
+            elif nxt.phase == "moving" and nxt.fruit is not None:
+                purpose = f"before going to pick {nxt.fruit}"
+            elif nxt.phase == "moving":
+                purpose = "before going home"
+            else:
+                purpose = f"before {nxt.phase} {nxt.fruit or ''}".strip()
+            note = {"t0": s.t0, "t1": s.t1, "for": purpose}
+            if nxt is not None:
+                best = None
+                for b in neighbours.get(arm, []):
+                    for o in segs[b]:
+                        if abs(o.t1 - s.t1) <= 0.05 + 1e-9 and o.phase != "idle" and o.t0 < s.t1:
+                            if best is None or abs(o.t1 - s.t1) < abs(best[1].t1 - s.t1):
+                                best = (b, o)
+                if best is not None:
+                    b, o = best
+                    what = f"{o.phase} {o.fruit}" if o.fruit else o.phase
+                    note["until"] = {"arm": b, "phase": o.phase, "fruit": o.fruit, "t": o.t1,
+                                     "text": f"ends as {b} finishes {what} (at {o.t1:.2f} s)"}
+            notes.append(note)
+        out[arm] = notes
+    return out
+
+
+def _display_times(plan: Plan, rate: float) -> tuple[np.ndarray, float]:
+    rate = min(rate, MAX_DISPLAY_SAMPLES / max(plan.duration, 1e-9))
+    n = int(np.floor(plan.duration * rate + 1e-9)) + 1
+    return np.arange(n) / rate, rate
+
+
+def _clearance(problem: Problem, plan: Plan, times: np.ndarray, rate: float) -> list[dict]:
+    """Per neighbouring pair: the least clearance within half a display step of each display time."""
+    from ..clearance import clearance_profile
+
+    pairs = problem.neighbour_pairs()
+    if not pairs:
+        return []
+    t, prof = clearance_profile(problem, plan, pairs=pairs)
+    idx = np.clip(np.round(t * rate).astype(int), 0, times.size - 1)
+    out = []
+    for (i, j), d in prof.items():
+        low = np.full(times.size, np.inf)
+        np.minimum.at(low, idx, d)
+        low[~np.isfinite(low)] = np.interp(times, t, d)[~np.isfinite(low)]
+        out.append({"arms": [problem.arms[i].name, problem.arms[j].name], "d": _encode(low, "<f4")})
+    return out
+
+
+def _violations(ver) -> list[dict]:
+    keys = ("t", "t_start", "t_end", "value", "limit", "amount", "joint", "fruit", "message")
+    return [{"kind": v.kind.value, "arms": list(v.arms)} | {k: getattr(v, k) for k in keys} for v in ver.violations]
+
+
+def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: float | None) -> dict:
+    names = [a.name for a in problem.arms]
+    times, rate = _display_times(plan, rate)
+    samples = plan.sample(times)
+    track = np.stack([samples[a] for a in names], axis=0)  # (A, K, 2)
+    exact = np.stack([np.asarray(plan.q[a], float) for a in names], axis=0)  # (A, N, 2)
+    steps = np.round(exact / Q_RESOLUTION)
+    if np.abs(steps).max(initial=0.0) < 2**31 - 1:  # plan.json's own resolution, as int32 steps
+        exact_entry = {"scale": Q_RESOLUTION, "q": _encode(steps, "<i4")}
+    else:
+        exact_entry = {"scale": 1.0, "q": _encode(exact, "<f8")}
+    segs = schedule(plan)
+    pairs = [tuple(p) for p in ([problem.arms[i].name, problem.arms[j].name] for i, j in problem.neighbour_pairs())]
+    m = plan.metrics or {}
+    pair_stats = [{"arms": list(p.arms), "min": p.min_clearance, "t": p.t, "certified": p.certified} for p in ver.pairs]
+    return {
+        "planner": plan.planner_name,
+        "status": plan.status.value,
+        "duration": plan.duration,
+        "makespan": m.get("makespan", max((e.t_end for e in plan.events if e.kind == EventKind.PLACE), default=0.0)),
+        "lower_bound": m.get("lower_bound") if m.get("lower_bound") is not None else lower_bound,
+        "harvested": m.get("harvested"),
+        "reachable": m.get("reachable"),
+        "display": {"rate": rate, "n": int(times.size), "q": _encode(track, "<f4")},
+        "exact": {"dt": plan.dt, "n": int(plan.time.size)} | exact_entry,
+        "events": [e.to_dict() for e in sorted(plan.events, key=lambda e: (e.t_start, e.arm))],
+        "allocation": plan.allocation,
+        "unreachable": list(plan.unreachable),
+        "segments": {a: [{"phase": s.phase, "t0": s.t0, "t1": s.t1, "fruit": s.fruit} for s in segs.get(a, [])] for a in names},
+        "waits": _waits(plan, segs, pairs),
+        "clearance": _clearance(problem, plan, times, rate),
+        "verdict": {
+            "passed": ver.passed,
+            "complete": ver.complete,
+            "unharvested": list(ver.unharvested),
+            "violation_count": len(ver.violations),
+            "violation_kinds": sorted({v.kind.value for v in ver.violations}),
+            "min_clearance": ver.min_clearance,
+            "certified_clearance": ver.certified_clearance,
+            "required_clearance": ver.required_clearance,
+            "pairs": pair_stats,
+            "warnings": len(ver.warnings),
+        },
+        "violations": _violations(ver),
+    }
+
+
+def viewer_data(problem: Problem, plans: list[Plan], verifications: list | None = None, *,
+                display_rate: float = DISPLAY_RATE) -> dict:
+    """Everything the page shows, JSON-able (see the module docstring). ``verifications``
+    (one per plan, or None to run :func:`coplan.verify.verify`) are the verdicts shown."""
+    from ..verify import verify
+
+    if not plans:
+        raise ValueError("viewer_data needs at least one plan")
+    if not display_rate > 0:
+        raise ValueError(f"display_rate: expected a positive rate in Hz, found {display_rate}")
+    for k, p in enumerate(plans):
+        _check_fits(problem, p, f"plan {k + 1} ({p.planner_name})")
+    vers = list(verifications) if verifications is not None else [None] * len(plans)
+    vers = [v if v is not None else verify(problem, p) for p, v in zip(plans, vers)]
+    bound = next((p.metrics.get("lower_bound") for p in plans if (p.metrics or {}).get("lower_bound") is not None), None)
+    if bound is None and problem.reachable_ids():
+        from ..allocation import bound_details
+
+        bound = bound_details(problem).value
+    return {
+        "format": VIEWER_FORMAT,
+        "problem": _problem_data(problem, plans),
+        "plans": [_plan_data(problem, p, v, display_rate, bound) for p, v in zip(plans, vers)],
+        "lower_bound": bound,
+    }
+
+
+# --------------------------------------------------------------------------- the page
+def _asset(name: str) -> str:
+    return (resources.files("coplan.viz") / "viewer_assets" / name).read_text(encoding="utf-8")
+
+
+def _script_json(doc: Any) -> str:
+    """JSON safe inside a ``<script>`` element: no ``<``, ``>`` or ``&`` can end or open a tag."""
+    text = json.dumps(jsonable(doc), separators=(",", ":"), allow_nan=False)
+    return text.replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
+
+
+def render_html(problem: Problem, plan: Plan, compare: Plan | None = None, *, verification=None,
+                compare_verification=None, display_rate: float = DISPLAY_RATE, title: str | None = None) -> str:
+    """The viewer page of ``plan`` (and, side by side on one clock, ``compare``) as one
+    self-contained HTML document. Verdicts are computed unless given."""
+    if compare is not None and compare.problem != plan.problem:
+        raise PlanFileError([Issue("problem", f"expected a plan of the same problem {plan.problem!r} to compare with, "
+                                              f"found a plan of {compare.problem!r}")], "--compare")
+    plans = [plan] if compare is None else [plan, compare]
+    vers = [verification] if compare is None else [verification, compare_verification]
+    data = viewer_data(problem, plans, vers, display_rate=display_rate)
+    heading = title or f"{problem.name}: " + " vs ".join(p.planner_name for p in plans)
+    parts = {"CSS": _asset("viewer.css"), "JS": _asset("viewer.js"), "TITLE": html.escape(heading), "DATA": _script_json(data)}
+    return _MARKER.sub(lambda m: parts[m.group(1) or m.group(2)], _asset("viewer.html"))
+
+
+def write_html(path: str | Path, problem: Problem, plan: Plan, compare: Plan | None = None, **kwargs) -> Path:
+    """Write the page of :func:`render_html` to ``path`` (via a temporary name, so a crash
+    never leaves half a page); returns the path."""
+    p = Path(path)
+    page = render_html(problem, plan, compare, **kwargs)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.with_name(p.name + ".tmp")
+    tmp.write_text(page, encoding="utf-8")
+    tmp.replace(p)
+    return p
+
+
+def write_view(problem: Problem, plan: Plan, compare: Plan | None, out: str | Path, open_browser: bool = False) -> Path:
+    """``coplan view``: write the page to ``out`` (an ``.html`` file) and optionally open it."""
+    p = Path(out)
+    if p.is_dir():
+        raise PlanFileError([Issue("--out", f"expected an .html file to write, found the folder {p}")], str(p))
+    if p.suffix.lower() not in (".html", ".htm"):
+        raise PlanFileError([Issue("--out", f"expected a file name ending in .html, found {p.name!r}")], str(p))
+    written = write_html(p, problem, plan, compare)
+    if open_browser:
+        webbrowser.open(written.resolve().as_uri())
+    return written
+
+
+def read_viewer_data(page: str) -> dict:
+    """The data embedded in a viewer page (arrays still encoded: see :func:`decode_array`)."""
+    m = _DATA_RE.search(page)
+    if m is None:
+        raise ValueError("not a coplan viewer page: no embedded data element")
+    return json.loads(m.group(1))
+
+
+# --------------------------------------------------------------------------- notebooks
+@dataclass
+class PlanView:
+    """A viewer page for notebooks: displays inline (an iframe holding the whole page)."""
+
+    page: str
+    height: int = 900
+
+    def _repr_html_(self) -> str:
+        return (f'<iframe srcdoc="{html.escape(self.page, quote=True)}" style="width:100%;height:{int(self.height)}px;'
+                'border:1px solid #ddd" sandbox="allow-scripts" title="coplan plan viewer"></iframe>')
+
+    def save(self, path: str | Path) -> Path:
+        p = Path(path)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(self.page, encoding="utf-8")
+        return p
+
+    def open(self, path: str | Path) -> Path:
+        """Save the page and open it in the default browser."""
+        p = self.save(path).resolve()
+        webbrowser.open(p.as_uri())
+        return p
+
+
+def _as_plan(obj, what: str):
+    """(plan, problem or None, verification or None) from a Plan, a SolveResult or a plan.json path."""
+    if isinstance(obj, Plan):
+        return obj, None, None
+    if isinstance(obj, (str, Path)):
+        return load_plan(obj), None, None
+    if hasattr(obj, "plan") and isinstance(obj.plan, Plan):  # a SolveResult
+        return obj.plan, getattr(obj, "problem", None), getattr(obj, "verification", None)
+    raise TypeError(f"{what}: expected a Plan, a SolveResult or a path to a plan.json, found {type(obj).__name__}")
+
+
+def view(plan, problem: Problem | str | Path | None = None, compare=None, *, height: int = 900,
+         display_rate: float = DISPLAY_RATE) -> PlanView:
+    """The interactive viewer of a plan, for a notebook cell (``coplan.view(result)``).
+
+    ``plan`` and ``compare`` may be a :class:`Plan`, a :class:`~coplan.pipeline.SolveResult`
+    or a path to a ``plan.json``; ``problem`` defaults to the result's own problem or the
+    shipped problem the plan names.
+    """
+    from ..problem import load_problem
+
+    pl, prob, ver = _as_plan(plan, "plan")
+    if isinstance(problem, (str, Path)):
+        problem = load_problem(problem)
+    prob = problem or prob or problem_of(pl)
+    other, cver = (None, None) if compare is None else _as_plan(compare, "compare")[::2]
+    page = render_html(prob, pl, other, verification=ver if problem is None else None,
+                       compare_verification=cver, display_rate=display_rate)
+    return PlanView(page, height)

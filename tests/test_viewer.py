@@ -1,0 +1,347 @@
+"""The interactive plan viewer (``coplan view``, ``solve --html``, ``coplan.view``).
+
+Fast checks of the page and its embedded data in Python, then a real browser: the Debian
+Chromium driven by Playwright's Python API (never Playwright's own browser download). Without
+a browser these browser tests are skipped locally; with CI=true a missing browser fails them.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import coplan
+from coplan.cli import app
+from coplan.kinds import EventKind
+from coplan.problem import load_problem, shipped_problems
+from coplan.verify import verify
+from coplan.viz import arm_colors
+from coplan.viz.viewer import decode_array, read_viewer_data, render_html, view, write_html
+
+PROBLEMS = Path(shipped_problems()[0]).parent
+GREENHOUSE = PROBLEMS / "greenhouse_row.yaml"
+CROSSING = PROBLEMS / "crossing_paths.yaml"
+CHROMIUM = os.environ.get("COPLAN_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"  # env: another build
+ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+        "--disable-sync", "--no-first-run"]
+SVG_NAMESPACE = "http://www.w3.org/2000/svg"  # an XML namespace name in the script, never fetched
+
+
+@pytest.fixture(scope="module")
+def greenhouse():
+    prob = load_problem(GREENHOUSE)
+    coord = coplan.solve(prob, planner="coordinated")
+    heur = coplan.solve(prob, planner="heuristic")
+    return prob, coord, heur
+
+
+@pytest.fixture(scope="module")
+def planted(greenhouse):
+    """The coordinated plan with one joint-limit violation planted at t = 6.0 s (center, joint 2)."""
+    prob, coord, _ = greenhouse
+    plan = copy.deepcopy(coord.plan)
+    k = int(round(6.0 / plan.dt))
+    plan.q["center"][k, 1] = prob.arm("center").joint_limits[1][1] + 0.2
+    ver = verify(prob, plan)
+    limit = [v for v in ver.violations if v.kind.value == "joint_limit"]
+    assert len(limit) == 1 and limit[0].t == pytest.approx(6.0)
+    return prob, plan, ver
+
+
+# --------------------------------------------------------------------------- the page itself
+def test_greenhouse_page_is_small_self_contained_and_offline(greenhouse):
+    prob, coord, heur = greenhouse
+    page = render_html(prob, heur.plan, coord.plan)
+    assert len(page.encode()) < 3_000_000
+    assert "default-src 'none'" in page  # the browser itself refuses any network request
+    urls = set(re.findall(r"https?://[^\s\"'<>)]+", page))
+    assert urls <= {SVG_NAMESPACE}, urls
+    assert not re.search(r"\b(src|href)\s*=\s*[\"']?(https?:)?//", page)
+    assert "@import" not in page and "url(http" not in page
+    assert page.count("<script") == 2 and page.count("</script>") == 2
+
+
+def test_embedded_data_round_trips(greenhouse):
+    prob, coord, _ = greenhouse
+    data = read_viewer_data(render_html(prob, coord.plan, verification=coord.verification))
+    assert data["format"] == "coplan.viewer/1"
+    d = data["plans"][0]
+    names = [a.name for a in prob.arms]
+    exact = decode_array(d["exact"]["q"])
+    assert exact.dtype == np.int32 and exact.shape == (3, coord.plan.time.size, 2) and d["exact"]["scale"] == 1e-7
+    for i, a in enumerate(names):  # the readouts' data: plan.json's values, to its 1e-7 rad
+        np.testing.assert_array_equal(exact[i], np.round(coord.plan.q[a] / 1e-7))
+        np.testing.assert_allclose(exact[i] * 1e-7, coord.plan.q[a], rtol=0, atol=5.1e-8)
+    track = decode_array(d["display"]["q"])
+    times = np.arange(d["display"]["n"]) / d["display"]["rate"]
+    assert d["display"]["rate"] == 50.0 and times[-1] <= coord.plan.duration < times[-1] + 0.02
+    ref = coord.plan.sample(times)
+    for i, a in enumerate(names):
+        np.testing.assert_allclose(track[i], ref[a], atol=1e-6)  # float32 of Plan.sample
+    assert [(e["arm"], e["fruit"], e["kind"], e["t_start"]) for e in d["events"]] == sorted(
+        [(e.arm, e.fruit, e.kind.value, e.t_start) for e in coord.plan.events], key=lambda r: (r[3], r[0]))
+    # the clearance: least per display step of the verifier's own 1 kHz profile
+    for c, pair in zip(d["clearance"], coord.verification.pairs):
+        assert c["arms"] == list(pair.arms)
+        assert float(decode_array(c["d"]).min()) == pytest.approx(pair.min_clearance, abs=2e-4)
+    assert d["verdict"]["passed"] and d["violations"] == []
+    assert d["lower_bound"] == pytest.approx(coord.plan.metrics["lower_bound"])
+    fruit = {f["id"]: f for f in data["problem"]["fruits"]}
+    assert fruit["f01"]["unreachable"] == "f01: out of every arm's reach"  # the screen's sentence
+    assert all("unreachable" not in f for k, f in fruit.items() if k != "f01")
+
+
+def test_every_violation_is_embedded(greenhouse, planted):
+    prob, _, heur = greenhouse
+    d = read_viewer_data(render_html(prob, heur.plan))["plans"][0]
+    ver = verify(prob, heur.plan)
+    assert not ver.passed and d["verdict"]["violation_count"] == len(ver.violations) == len(d["violations"])
+    assert {v["kind"] for v in d["violations"]} == {v.kind.value for v in ver.violations}
+    _, plan, pver = planted
+    vs = read_viewer_data(render_html(prob, plan, verification=pver))["plans"][0]["violations"]
+    assert [v for v in vs if v["kind"] == "joint_limit"][0]["arms"] == ["center"]
+
+
+def test_waits_say_what_they_are_for():
+    prob = load_problem(CROSSING)
+    res = coplan.solve(prob, planner="coordinated")
+    d = read_viewer_data(render_html(prob, res.plan, verification=res.verification))["plans"][0]
+    for arm, segs in d["segments"].items():
+        idle = [(s["t0"], s["t1"]) for s in segs if s["phase"] == "idle"]
+        assert [(w["t0"], w["t1"]) for w in d["waits"][arm]] == idle  # every wait is explained
+    notes = [w for ws in d["waits"].values() for w in ws]
+    assert any(w["for"].startswith(("before going to pick", "holding")) for w in notes)
+    last = {arm: ws[-1] for arm, ws in d["waits"].items() if ws and ws[-1]["t1"] == pytest.approx(res.plan.duration)}
+    assert all(w["for"].startswith("done") for w in last.values())
+
+
+def test_untrusted_names_cannot_break_out_of_the_page(greenhouse):
+    prob, coord, _ = greenhouse
+    plan = copy.deepcopy(coord.plan)
+    plan.planner = "</script><script>alert(1)</script>&amp;"
+    page = render_html(prob, plan, verification=coord.verification)
+    assert "alert(1)</script>" not in page and page.count("</script>") == 2
+    assert read_viewer_data(page)["plans"][0]["planner"] == plan.planner
+
+
+def test_compare_needs_a_plan_of_the_same_problem(greenhouse):
+    prob, coord, _ = greenhouse
+    other = coplan.solve(load_problem(CROSSING), planner="heuristic").plan
+    with pytest.raises(coplan.PlanFileError, match="same problem"):
+        render_html(prob, coord.plan, other)
+
+
+def test_notebook_view_is_an_inline_page(greenhouse):
+    prob, coord, heur = greenhouse
+    v = coplan.view(coord, compare=heur)
+    frame = v._repr_html_()
+    assert frame.startswith("<iframe srcdoc=") and "&lt;script" in frame and "<script" not in frame
+    data = read_viewer_data(v.page)
+    assert [p["planner"] for p in data["plans"]] == ["coordinated", "heuristic"]
+
+
+def test_cli_view_and_solve_html(tmp_path):
+    runner = CliRunner(env={"COLUMNS": "200", "COPLAN_DEBUG": None})
+    out = tmp_path / "run"
+    res = runner.invoke(app, ["solve", str(GREENHOUSE), "--planner", "coordinated", "--out", str(out), "--html"])
+    assert res.exit_code == 0, res.output
+    assert (out / "plan.html").is_file() and f"wrote             {out / 'plan.html'}" in res.output
+    assert read_viewer_data((out / "plan.html").read_text())["plans"][0]["planner"] == "coordinated"
+    heur = tmp_path / "heur"
+    runner.invoke(app, ["solve", str(GREENHOUSE), "--planner", "heuristic", "--out", str(heur)])
+    res = runner.invoke(app, ["view", str(heur / "plan.json"), "--compare", str(out / "plan.json"), "--out", str(tmp_path / "v.html")])
+    assert res.exit_code == 0, res.output
+    data = read_viewer_data((tmp_path / "v.html").read_text())
+    assert [p["planner"] for p in data["plans"]] == ["heuristic", "coordinated"]
+    res = runner.invoke(app, ["view", str(heur / "plan.json")])
+    assert res.exit_code == 0 and (heur / "plan.html").is_file()
+    res = runner.invoke(app, ["view", str(heur / "plan.json"), "--out", str(tmp_path / "v.txt")])
+    assert res.exit_code == 3 and ".html" in res.output and "Traceback" not in res.output
+
+
+# --------------------------------------------------------------------------- in a real browser
+@pytest.fixture(scope="module")
+def browser():
+    missing = None
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        missing = "Playwright is not installed (pip install playwright)"
+    if missing is None and not Path(CHROMIUM).exists():
+        missing = f"no Chromium at {CHROMIUM} (apt-get install chromium)"
+    if missing is not None:
+        if os.environ.get("CI") == "true":
+            pytest.fail(f"CI=true and the browser tests cannot run: {missing}")
+        pytest.skip(missing)
+    with sync_playwright() as pw:
+        b = pw.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        yield b
+        b.close()
+
+
+@pytest.fixture(scope="module")
+def pages(greenhouse, planted, tmp_path_factory):
+    prob, coord, heur = greenhouse
+    folder = tmp_path_factory.mktemp("viewer")
+    _, plan, pver = planted
+    return {
+        "coord": write_html(folder / "coord.html", prob, coord.plan, verification=coord.verification),
+        "heur": write_html(folder / "heur.html", prob, heur.plan, verification=heur.verification),
+        "planted": write_html(folder / "planted.html", prob, plan, verification=pver),
+        "compare": write_html(folder / "compare.html", prob, coord.plan, heur.plan),
+    }
+
+
+def _open(browser, path: Path, fragment: str = ""):
+    page = browser.new_page(viewport={"width": 1200, "height": 900})
+    log = {"errors": [], "requests": []}
+    page.on("console", lambda m: log["errors"].append(m.text) if m.type in ("error", "warning") else None)
+    page.on("pageerror", lambda e: log["errors"].append(str(e)))
+    page.on("request", lambda r: log["requests"].append(r.url))
+    page.goto(path.as_uri() + fragment)
+    page.wait_for_function("window.coplanViewer !== undefined")
+    return page, log
+
+
+def test_page_loads_without_errors_or_network(browser, pages, greenhouse):
+    prob, _, heur = greenhouse
+    for key in ("coord", "heur", "compare"):
+        page, log = _open(browser, pages[key])
+        page.wait_for_timeout(300)
+        assert log["errors"] == [], log["errors"]
+        assert log["requests"] == [pages[key].as_uri()], log["requests"]
+        if key == "heur":  # every violation the verifier reports is on the timeline
+            ver = heur.verification
+            assert page.locator("svg.timeline .violation").count() == sum(len(v.arms) for v in ver.violations) > 0
+            assert "FAILED verification" in page.locator(".panel h3").inner_text()
+        page.close()
+
+
+def _pixel(page, x, y):
+    return page.evaluate("""([x, y]) => { const c = document.querySelector('canvas.cell'), r = c.getBoundingClientRect();
+        const k = c.width / r.width, d = c.getContext('2d').getImageData(Math.round((x - r.left) * k), Math.round((y - r.top) * k), 1, 1).data;
+        return [d[0], d[1], d[2]]; }""", [x, y])
+
+
+def test_arms_are_drawn_where_the_plan_puts_them(browser, pages, greenhouse):
+    prob, coord, _ = greenhouse
+    arm = prob.arm("center")
+    colour = np.array([int(h, 16) for h in re.findall("..", arm_colors(prob)["center"][1:])])
+    shots, mids = [], []
+    for t in (1.0, 5.0):
+        page, _ = _open(browser, pages["coord"], f"#t={t}")
+        assert page.evaluate("coplanViewer.time()") == pytest.approx(t)
+        q = coord.plan.sample([t])["center"][0]
+        elbow = np.add(arm.base, arm.links[0] * np.array([np.cos(q[0]), np.sin(q[0])]))
+        mid = (np.asarray(arm.base) + elbow) / 2
+        x, y = page.evaluate("([x, y]) => coplanViewer.clientPoint(0, x, y)", mid.tolist())
+        px = np.array(_pixel(page, x, y))
+        assert np.abs(px - colour).max() < 40, (t, px, colour)  # the link's core line, in the arm's colour
+        mids.append((x, y))
+        shots.append(page.locator("canvas.cell").screenshot())
+        page.close()
+    assert np.hypot(mids[0][0] - mids[1][0], mids[0][1] - mids[1][1]) > 20
+    assert shots[0] != shots[1]
+
+
+def test_play_advances_the_time_and_the_address(browser, pages):
+    page, log = _open(browser, pages["coord"], "#t=2")
+    page.click("#play")
+    page.wait_for_timeout(800)
+    t = page.evaluate("coplanViewer.time()")
+    assert 2.2 < t < 4.0 and page.evaluate("coplanViewer.playing()")
+    page.click("#play")
+    t = page.evaluate("coplanViewer.time()")
+    assert re.search(r"#t=([0-9.]+)$", page.url) and float(page.url.rsplit("=", 1)[1]) == pytest.approx(t, abs=1e-3)
+    page.locator("#time").fill("7.5")
+    assert page.evaluate("coplanViewer.time()") == pytest.approx(7.5) and page.url.endswith("#t=7.5")
+    page.select_option("#speed", "8")  # 8x: the clock runs eight times faster than real time
+    page.click("#play")
+    page.wait_for_timeout(400)
+    page.click("#play")
+    assert page.evaluate("coplanViewer.time()") > 7.5 + 8 * 0.2
+    assert log["errors"] == []
+    page.close()
+
+
+def test_layers_change_the_picture(browser, pages):
+    page, log = _open(browser, pages["coord"], "#t=2")
+    cell = page.locator("canvas.cell")
+    plain = cell.screenshot()
+    for layer in ("#layer-manip", "#layer-reach"):
+        page.locator(layer).check()
+        shot = cell.screenshot()
+        assert shot != plain, layer
+        page.locator(layer).uncheck()
+        assert cell.screenshot() == plain
+    assert log["errors"] == []
+    page.close()
+
+
+def test_a_planted_violation_is_on_the_timeline_and_a_click_goes_there(browser, pages):
+    page, log = _open(browser, pages["planted"])
+    marker = page.locator('svg.timeline .violation[data-kind="joint_limit"]')
+    assert marker.count() == 1
+    marker.locator("path").click()
+    assert page.evaluate("coplanViewer.time()") == pytest.approx(6.0)
+    assert float(page.locator("#time").input_value()) == pytest.approx(6.0)
+    assert page.url.endswith("#t=6")
+    marker.locator("path").hover()
+    assert "joint_limit" in page.locator("#tip").inner_text()
+    assert log["errors"] == []
+    page.close()
+
+
+def test_hover_shows_a_fruits_facts(browser, pages, greenhouse):
+    prob, coord, _ = greenhouse
+    pick = min((e for e in coord.plan.events if e.kind == EventKind.PICK), key=lambda e: e.t_start)
+    place = next(e for e in coord.plan.events if e.kind == EventKind.PLACE and e.fruit == pick.fruit)
+    page, _ = _open(browser, pages["coord"], "#t=0")
+    x, y = page.evaluate("([x, y]) => coplanViewer.clientPoint(0, x, y)", list(prob.fruit(pick.fruit).position))
+    page.mouse.move(x, y)
+    tip = page.locator("#tip")
+    tip.wait_for(state="visible")
+    text = tip.inner_text()
+    assert f"fruit {pick.fruit}" in text and f"arm: {pick.arm}" in text
+    assert f"pick {pick.t_start:.2f}\u2013{pick.t_end:.2f} s" in text and f"place {place.t_start:.2f}\u2013{place.t_end:.2f} s" in text
+    # an arm: its phase, joint values and replay velocities at the current time
+    t = 5.003
+    page.evaluate(f"coplanViewer.setTime({t})")
+    arm = prob.arm("center")
+    k = int(np.floor(t / coord.plan.dt))
+    q = coord.plan.sample([t])["center"][0]
+    qd = (coord.plan.q["center"][k + 1] - coord.plan.q["center"][k]) / coord.plan.dt
+    assert np.abs(qd).max() > 0.05  # the arm moves then
+    elbow = np.add(arm.base, arm.links[0] * np.array([np.cos(q[0]), np.sin(q[0])]))
+    x, y = page.evaluate("([x, y]) => coplanViewer.clientPoint(0, x, y)", ((np.asarray(arm.base) + 2 * elbow) / 3).tolist())
+    page.mouse.move(x, y)
+    page.wait_for_function("document.getElementById('tip').textContent.includes('arm center')")
+    text = tip.inner_text()
+    assert f"q1 = {q[0]:.4f} rad" in text and f"q2 = {q[1]:.4f} rad" in text
+    assert f"q\u03071 = {qd[0]:.3f} rad/s" in text and f"q\u03072 = {qd[1]:.3f} rad/s" in text
+    # an unreachable fruit says why
+    x, y = page.evaluate("([x, y]) => coplanViewer.clientPoint(0, x, y)", list(prob.fruit("f01").position))
+    page.mouse.move(x, y)
+    assert "unreachable: " in tip.inner_text()
+    page.close()
+
+
+def test_compare_view_shows_two_cells_on_one_clock(browser, pages, greenhouse):
+    _, coord, heur = greenhouse
+    page, log = _open(browser, pages["compare"], "#t=3")
+    assert page.locator("canvas.cell").count() == 2 and page.locator("section.panel").count() == 2
+    head = page.locator("#summary").inner_text()
+    assert f"{coord.plan.metrics['makespan']:.3f} s" in head and f"{heur.plan.metrics['makespan']:.3f} s" in head
+    assert f"lower bound {coord.plan.metrics['lower_bound']:.3f} s" in head
+    assert float(page.locator("#time").get_attribute("max")) == pytest.approx(max(coord.plan.duration, heur.plan.duration))
+    a, b = (page.locator("canvas.cell").nth(k).screenshot() for k in range(2))
+    assert a != b  # two plans, two pictures at the same instant
+    assert log["errors"] == []
+    page.close()
