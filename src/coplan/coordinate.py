@@ -154,7 +154,7 @@ class _Coordinator(_Geometry):
 
     def __init__(self, problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float, quantum: float,
                  priority: list[str] | None, deadline: float | None, max_yields: int | None, horizon: float | None,
-                 max_checks: int | None = None, cache: dict | None = None):
+                 max_checks: int | None = None, cache: dict | None = None, committed: dict | None = None):
         super().__init__(problem, problem.task.clearance + margin)
         if cache is not None:  # routes, rest poses and moves depend only on the problem and ``need``
             shared = cache.setdefault((id(problem), self.need), ({}, {}, {}))
@@ -169,6 +169,12 @@ class _Coordinator(_Geometry):
         self.tables: dict = {}
         self.tracks = [_Track(a, i, rank.get(a.name, len(order) + i), legs_of(problem, schedules[a.name]), self.tables)
                        for i, a in enumerate(problem.arms)]
+        for tr in self.tracks:  # motion already committed (live re-planning): booked first, the legs follow it
+            pre = (committed or {}).get(tr.arm.name)
+            if pre:
+                tr.end, tr.pose = pre[0].t0, tuple(map(float, pre[0].q0))
+                tr.commit(pre[0].t0, list(pre))
+                tr.ready = tr.end
         self.max_yields = 6 * len(self.tracks) + 6 if max_yields is None else max_yields
         work = sum(schedules[n].end for n in names)
         self.horizon = 3.0 * work + 30.0 if horizon is None else horizon
@@ -487,6 +493,7 @@ def coordinate(
     max_checks: int | None = None,
     cache: dict | None = None,
     work: dict | None = None,
+    committed: dict | None = None,
 ) -> tuple[dict[str, ArmSchedule], int, int]:
     """Coordinate all arms leg by leg; every neighbouring pair keeps ``clearance + margin``.
 
@@ -515,10 +522,14 @@ def coordinate(
     ``deadline`` (``time.perf_counter()``; only for an explicit clock limit). ``cache`` (a
     dict the caller keeps) shares routes, rest poses and moves between runs on one problem;
     ``work`` (a dict), when given, has its ``"checks"`` entry increased by the checks made.
+    ``committed`` (arm -> steps, for live re-planning): motion each arm is already committed to
+    (ending at rest); its legs are booked after it, against every arm's committed motion, and
+    the returned schedules begin with it.
     Returns the schedules (each ending at home), the number of waits and the number of
     yield/park moves added.
     """
-    c = _Coordinator(problem, schedules, margin, rate, quantum, priority, deadline, max_yields, horizon, max_checks, cache)
+    c = _Coordinator(problem, schedules, margin, rate, quantum, priority, deadline, max_yields, horizon, max_checks, cache,
+                     committed)
     try:
         out = c.run()
     finally:

@@ -306,7 +306,11 @@ class _CurveTable:
 
 def _curve_eval(curve: SCurve, t: np.ndarray, tables: dict) -> np.ndarray:
     """Positions of ``curve`` at times ``t`` from its start, tabulated in ``tables`` (a
-    per-run cache keyed by the curve's id; the curve is kept with its table)."""
+    per-run cache keyed by the curve's id; the curve is kept with its table). Any other curve
+    object (e.g. :class:`coplan.live.motion.Approach`, a re-planned approach from a moving state)
+    evaluates itself with its ``eval(t)``."""
+    if not isinstance(curve, SCurve):
+        return curve.eval(t)
     hit = tables.get(id(curve))
     if hit is None or hit[0] is not curve:
         hit = (curve, _CurveTable(curve))

@@ -1,0 +1,298 @@
+"""Vision feeds: what the camera reports, as a YAML file validated like problem files.
+
+A feed (format ``coplan.feed/1``) is a list of detection events::
+
+    format: coplan.feed/1
+    problem: greenhouse-row          # optional: the problem it was made for (a warning if not)
+    close_range: {distance: 0.1, sigma: 0.001}   # optional: when the gripper camera refines
+    detections:
+      - {t: 0.0, id: d001, position: [0.69, 0.74], sigma: 0.01, fruit: f04}
+      - {t: 0.4, id: d002, position: [0.70, 1.29], sigma: 0.01, fruit: f09, after: f04}
+      - {t: 3.1, id: d003, position: [1.02, 1.51], sigma: 0.01, fruit: null}   # a false positive
+
+``t`` is when the detection arrives (s; with ``after``: s after that fruit's pick ends -- it was
+hidden behind it); ``sigma`` the standard deviation of each coordinate (m); ``fruit`` (optional,
+for simulation) which true fruit it is, ``null`` for a false detection. ``close_range``: when a
+gripper's tip comes within ``distance`` (m) of its target, a refined measurement with standard
+deviation ``sigma`` arrives.
+
+:func:`make_feed` generates seeded feeds from a problem: a share known at t = 0, the rest
+arriving at random times or after a neighbouring fruit is picked, Gaussian noise, false
+positives and duplicate detections.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError, Issue, ProblemError
+from ..problem import Problem
+from ..yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
+
+__all__ = ["FEED_FORMAT", "Detection", "Feed", "FeedError", "parse_feed", "load_feed", "make_feed", "feed_yaml",
+           "DEFAULT_CLOSE_DISTANCE", "DEFAULT_CLOSE_SIGMA"]
+
+FEED_FORMAT = "coplan.feed/1"
+DEFAULT_CLOSE_DISTANCE = 0.10  # m: the gripper camera sees the fruit from here
+DEFAULT_CLOSE_SIGMA = 0.001  # m
+_ROW_KEYS = ("t", "id", "position", "sigma", "fruit", "after")
+_TOP_KEYS = ("format", "problem", "close_range", "detections")
+
+
+class FeedError(InputError):
+    kind = "feed"
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One detection event: when it arrives, its id, the measured position and its noise."""
+
+    t: float
+    id: str
+    position: tuple[float, float]
+    sigma: float
+    fruit: str | None = None  # the true fruit (simulation only); None: a false detection / unknown
+    after: str | None = None  # arrives t s after this true fruit's pick ends (simulation only)
+    line: int | None = field(default=None, compare=False)
+
+    def to_dict(self) -> dict:
+        out = {"t": round(self.t, 4), "id": self.id, "position": [round(self.position[0], 5), round(self.position[1], 5)],
+               "sigma": self.sigma, "fruit": self.fruit}
+        if self.after is not None:
+            out["after"] = self.after
+        return out
+
+
+@dataclass(frozen=True)
+class Feed:
+    detections: tuple[Detection, ...]
+    close_distance: float = DEFAULT_CLOSE_DISTANCE
+    close_sigma: float = DEFAULT_CLOSE_SIGMA
+    problem: str | None = None
+    source: str | None = None
+
+    def check_against(self, problem: Problem) -> None:
+        """Raise :class:`FeedError` if a row names a fruit the problem does not have."""
+        ids = {f.id for f in problem.fruits}
+        issues = []
+        for i, d in enumerate(self.detections):
+            for key in ("fruit", "after"):
+                v = getattr(d, key)
+                if v is not None and v not in ids:
+                    issues.append(Issue(f"detections[{i}].{key}", f"expected a fruit id of problem {problem.name!r}, "
+                                                                    f"found {v!r}", d.line))
+        if issues:
+            raise FeedError(issues, self.source)
+
+
+def _kind(v: Any) -> str:
+    if v is None:
+        return "null"
+    if isinstance(v, bool):
+        return f"boolean {v}"
+    if isinstance(v, (int, float)):
+        return f"number {v}"
+    if isinstance(v, str):
+        return f"string {v!r}"
+    if isinstance(v, dict):
+        return "a mapping"
+    if isinstance(v, list):
+        return f"a list of {len(v)}"
+    return type(v).__name__
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def parse_feed(text: str, source: str | None = None) -> Feed:
+    """A :class:`Feed` from YAML text; every problem at once as :class:`FeedError`."""
+    n = len(text.encode("utf-8", errors="replace"))
+    if n > MAX_FILE_BYTES:
+        raise FeedError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
+    try:
+        data, lines = read_yaml(text, source)
+    except ProblemError as e:  # the YAML itself: the same checks as for problem files
+        raise FeedError(e.issues, source) from None
+    issues: list[Issue] = []
+
+    def bad(loc: tuple, msg: str) -> None:
+        path = ""
+        for part in loc:
+            path += f"[{part}]" if isinstance(part, int) else ("." if path else "") + str(part)
+        issues.append(Issue(path, msg, line_of(lines, loc)))
+
+    if not isinstance(data, dict):
+        raise FeedError([Issue("", f"expected a mapping with key 'detections', found {_kind(data)}", line_of(lines, ()))], source)
+    for key in data:
+        if key not in _TOP_KEYS:
+            bad((key,), f"expected one of {', '.join(_TOP_KEYS)}, found unknown key {key!r}")
+    if "format" in data and data["format"] != FEED_FORMAT:
+        bad(("format",), f"expected {FEED_FORMAT!r}, found {_kind(data['format'])}")
+    problem = data.get("problem")
+    if problem is not None and not isinstance(problem, str):
+        bad(("problem",), f"expected the problem's name (a string), found {_kind(problem)}")
+        problem = None
+    dist, sig = DEFAULT_CLOSE_DISTANCE, DEFAULT_CLOSE_SIGMA
+    cr = data.get("close_range")
+    if cr is not None:
+        if not isinstance(cr, dict):
+            bad(("close_range",), f"expected a mapping {{distance, sigma}}, found {_kind(cr)}")
+        else:
+            for key, v in cr.items():
+                if key not in ("distance", "sigma"):
+                    bad(("close_range", key), f"expected distance or sigma, found unknown key {key!r}")
+                elif not _number(v) or v <= 0:
+                    bad(("close_range", key), f"expected a positive number (m), found {_kind(v)}")
+            dist = cr.get("distance", dist) if _number(cr.get("distance", dist)) else dist
+            sig = cr.get("sigma", sig) if _number(cr.get("sigma", sig)) else sig
+    rows = data.get("detections")
+    out: list[Detection] = []
+    if "detections" not in data:
+        bad(("detections",), "expected a list of detections, found nothing (required field)")
+        rows = []
+    elif not isinstance(rows, list):
+        bad(("detections",), f"expected a list of detections, found {_kind(rows)}")
+        rows = []
+    seen: dict[str, int] = {}
+    for i, row in enumerate(rows):
+        loc = ("detections", i)
+        if not isinstance(row, dict):
+            bad(loc, f"expected a mapping {{t, id, position, sigma[, fruit, after]}}, found {_kind(row)}")
+            continue
+        ok = True
+        for key in row:
+            if key not in _ROW_KEYS:
+                bad(loc + (key,), f"expected one of {', '.join(_ROW_KEYS)}, found unknown key {key!r}")
+                ok = False
+        for key in ("t", "id", "position", "sigma"):
+            if key not in row:
+                bad(loc + (key,), "expected a value, found nothing (required field)")
+                ok = False
+        if not ok:
+            continue
+        t, rid, pos, sigma = row["t"], row["id"], row["position"], row["sigma"]
+        if not _number(t) or t < 0:
+            bad(loc + ("t",), f"expected a time >= 0 (s), found {_kind(t)}")
+            ok = False
+        if not isinstance(rid, str) or not rid.strip():
+            bad(loc + ("id",), f"expected a non-empty string, found {_kind(rid)}")
+            ok = False
+        elif rid in seen:
+            bad(loc + ("id",), f"expected a unique id, found {rid!r} again (first in detections[{seen[rid]}])")
+            ok = False
+        else:
+            seen[rid] = i
+        if not isinstance(pos, list) or len(pos) != 2 or not all(_number(x) for x in pos):
+            bad(loc + ("position",), f"expected [x, y] (two finite numbers, m), found {_kind(pos)}")
+            ok = False
+        if not _number(sigma) or sigma <= 0:
+            bad(loc + ("sigma",), f"expected a positive number (m), found {_kind(sigma)}")
+            ok = False
+        for key in ("fruit", "after"):
+            v = row.get(key)
+            if v is not None and (not isinstance(v, str) or not v.strip()):
+                bad(loc + (key,), f"expected a fruit id (string) or null, found {_kind(v)}")
+                ok = False
+        if ok:
+            out.append(Detection(float(t), rid, (float(pos[0]), float(pos[1])), float(sigma), row.get("fruit"),
+                                 row.get("after"), line_of(lines, loc)))
+    if issues:
+        raise FeedError(issues, source)
+    return Feed(tuple(out), float(dist), float(sig), problem, source)
+
+
+def load_feed(path: str | Path) -> Feed:
+    """Load and validate a feed file (raises :class:`FeedError`)."""
+    return parse_feed(read_input_text(path, FeedError), str(Path(path)))
+
+
+def make_feed(problem: Problem, known: float = 0.5, sigma: float = 0.01, false_rate: float = 0.0,
+              duplicate_rate: float = 0.0, seed: int = 0, reveal_by: float | None = None, after_pick: float = 0.25,
+              close_distance: float = DEFAULT_CLOSE_DISTANCE, close_sigma: float = DEFAULT_CLOSE_SIGMA) -> Feed:
+    """A seeded feed for ``problem``: the detections a camera might report.
+
+    A share ``known`` of the fruit is detected at t = 0; of the rest, a share ``after_pick`` is
+    hidden behind a neighbouring fruit (within 0.35 m, detected at t = 0 or at a time) and
+    detected 0-0.5 s after that one is picked, the others at uniform times in
+    ``(0, reveal_by]`` (default: half the problem's makespan lower bound). Every measurement has
+    Gaussian noise ``sigma`` per coordinate. Each true detection is followed, with probability
+    ``duplicate_rate``, by a second one of the same fruit 0.2-3 s later (fresh noise), and
+    with probability ``false_rate`` by a false detection at a random reachable point at least
+    0.1 m from every fruit.
+    """
+    if not 0.0 <= known <= 1.0 or not 0.0 <= false_rate <= 1.0 or not 0.0 <= duplicate_rate <= 1.0:
+        raise ValueError("known, false_rate and duplicate_rate must lie in [0, 1]")
+    if not sigma > 0:
+        raise ValueError("sigma must be positive")
+    rng = np.random.default_rng(seed)
+    fruits = list(problem.fruits)
+    order = rng.permutation(len(fruits))
+    n_known = int(round(known * len(fruits)))
+    if reveal_by is None:  # only late fruit and false detections need it
+        from ..allocation import lower_bound
+
+        late = n_known < len(fruits) or false_rate > 0
+        reveal_by = 0.5 * lower_bound(problem) if late and problem.fruits else 1.0
+    reveal_by = max(float(reveal_by), 1e-3)
+    truth: list[tuple[float, str, str | None]] = []  # (t, fruit, after)
+    visible: list[int] = []
+    for k, j in enumerate(order):
+        f = fruits[j]
+        if k < n_known:
+            truth.append((0.0, f.id, None))
+            visible.append(j)
+            continue
+        near = [i for i in visible if math.dist(fruits[i].position, f.position) < 0.35]
+        if near and rng.random() < after_pick:
+            occluder = fruits[min(near, key=lambda i: math.dist(fruits[i].position, f.position))]
+            truth.append((float(rng.uniform(0.0, 0.5)), f.id, occluder.id))
+        else:
+            truth.append((float(rng.uniform(0.0, reveal_by)), f.id, None))
+            visible.append(j)
+    pos = {f.id: np.asarray(f.position, float) for f in fruits}
+    rows: list[tuple[float, str | None, str | None, np.ndarray]] = []
+    for t, fid, after in truth:
+        rows.append((t, fid, after, pos[fid] + rng.normal(0.0, sigma, 2)))
+        if rng.random() < duplicate_rate:
+            rows.append((t + float(rng.uniform(0.2, 3.0)), fid, after, pos[fid] + rng.normal(0.0, sigma, 2)))
+        if rng.random() < false_rate:
+            p = _false_point(problem, rng)
+            if p is not None:
+                rows.append((float(rng.uniform(0.0, reveal_by)), None, None, p))
+    rows.sort(key=lambda r: (r[2] is not None, r[0]))
+    width = max(3, len(str(len(rows))))
+    dets = tuple(Detection(round(t, 4), f"d{k + 1:0{width}d}", (round(float(p[0]), 5), round(float(p[1]), 5)), float(sigma), fid, after)
+                 for k, (t, fid, after, p) in enumerate(rows))
+    return Feed(dets, float(close_distance), float(close_sigma), problem.name)
+
+
+def _false_point(problem: Problem, rng: np.random.Generator) -> np.ndarray | None:
+    """A random point some arm can reach, at least 0.1 m from every fruit (None after 200 tries)."""
+    pts = problem.fruit_positions
+    lo = pts.min(axis=0) - 0.2 if len(pts) else np.array([-1.0, 0.5])
+    hi = pts.max(axis=0) + 0.2 if len(pts) else np.array([1.0, 1.5])
+    for _ in range(200):
+        p = rng.uniform(lo, hi)
+        if (len(pts) == 0 or np.min(np.hypot(*(pts - p).T)) >= 0.1) and any(
+                a.can_reach(p, problem.task.reach_margin) for a in problem.arms):
+            return p
+    return None
+
+
+def feed_yaml(feed: Feed) -> str:
+    """The feed as YAML text (one detection per line), readable by :func:`parse_feed`."""
+    import yaml
+
+    head = {"format": FEED_FORMAT, "problem": feed.problem,
+            "close_range": {"distance": feed.close_distance, "sigma": feed.close_sigma}}
+    text = yaml.safe_dump(head, sort_keys=False, default_flow_style=None)
+    text += "detections:\n"
+    for d in feed.detections:
+        text += "  - " + yaml.safe_dump(d.to_dict(), sort_keys=False, default_flow_style=True, width=400).strip() + "\n"
+    return text

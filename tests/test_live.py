@@ -1,0 +1,362 @@
+"""Live cell (issue 12): vision feeds, online re-planning, close-range corrections, the simulated run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.kinds import ExitCode, ReplanCause, TrackState
+from coplan.live.cell import LiveCell
+from coplan.live.feed import Detection, Feed, FeedError, feed_yaml, load_feed, make_feed, parse_feed
+from coplan.live.motion import Approach, move_step, split_at
+from coplan.live.sim import simulate
+from coplan.plan import load_plan
+from coplan.schedule import Step, StepKind
+from coplan.verify import verify
+
+
+def run(*args: str):
+    return CliRunner(env={"COLUMNS": "200", "COPLAN_DEBUG": None}).invoke(app, list(args))
+
+
+# ----------------------------------------------------------------------------- feeds
+BAD_FEED = """\
+format: coplan.feed/1
+detections:
+  - {t: 0.0, id: d1, position: [0.7, 0.74], sigma: 0.01, fruit: f04}
+  - {t: 0.5, id: d2, position: [0.7, 0.74], sigma: -1}
+  - {t: -2, id: d3, position: [0.7], sigma: 0.01}
+  - {t: 1.0, id: d1, position: [0.1, 0.2], sigma: 0.01, colour: red}
+  - {id: d5, position: [0.1, 0.2], sigma: 0.01}
+  - just a string
+"""
+
+
+def test_bad_feed_rows_give_key_path_errors_with_lines() -> None:
+    with pytest.raises(FeedError) as e:
+        parse_feed(BAD_FEED, "bad.yaml")
+    got = {(i.path, i.line) for i in e.value.issues}
+    assert ("detections[1].sigma", 4) in got
+    assert ("detections[2].t", 5) in got and ("detections[2].position", 5) in got
+    assert ("detections[3].colour", 6) in got
+    assert ("detections[4].t", 7) in got
+    assert ("detections[5]", 8) in got
+    text = str(e.value)
+    assert "bad.yaml:4: detections[1].sigma: expected a positive number (m), found number -1" in text
+    assert "expected [x, y] (two finite numbers, m), found a list of 1" in text
+    assert "expected a value, found nothing (required field)" in text
+
+
+def test_duplicate_ids_and_unknown_fruit_are_reported(greenhouse) -> None:
+    with pytest.raises(FeedError) as e:
+        parse_feed("detections:\n  - {t: 0, id: a, position: [0, 1], sigma: 0.01}\n"
+                   "  - {t: 1, id: a, position: [0, 1], sigma: 0.01}\n", "dup.yaml")
+    assert [i.path for i in e.value.issues] == ["detections[1].id"]
+    assert "found 'a' again (first in detections[0])" in str(e.value)
+    feed = parse_feed("detections:\n  - {t: 0, id: a, position: [0, 1], sigma: 0.01, fruit: nope, after: f01}\n", "f.yaml")
+    with pytest.raises(FeedError) as e:
+        feed.check_against(greenhouse)
+    assert [i.path for i in e.value.issues] == ["detections[0].fruit"]
+
+
+def test_cli_run_with_a_bad_feed_exits_3_with_the_key_path(tmp_path: Path, problems_dir: Path) -> None:
+    (tmp_path / "bad.yaml").write_text(BAD_FEED)
+    r = run("run", str(problems_dir / "greenhouse_row.yaml"), "--feed", str(tmp_path / "bad.yaml"), "--out", str(tmp_path / "o"))
+    assert r.exit_code == ExitCode.BAD_INPUT
+    assert "detections[1].sigma" in r.output and "Traceback" not in r.output
+
+
+def test_generated_feed_is_seeded_and_round_trips(greenhouse) -> None:
+    a = make_feed(greenhouse, known=0.5, sigma=0.01, false_rate=0.3, duplicate_rate=0.3, seed=7, reveal_by=5.0)
+    b = make_feed(greenhouse, known=0.5, sigma=0.01, false_rate=0.3, duplicate_rate=0.3, seed=7, reveal_by=5.0)
+    c = make_feed(greenhouse, known=0.5, sigma=0.01, false_rate=0.3, duplicate_rate=0.3, seed=8, reveal_by=5.0)
+    assert a == b and a != c
+    assert parse_feed(feed_yaml(a)).detections == a.detections
+    true = [d for d in a.detections if d.fruit is not None]
+    first = {}
+    for d in true:
+        first.setdefault(d.fruit, d)
+    assert set(first) == {f.id for f in greenhouse.fruits}  # every fruit is detected
+    assert sum(d.t == 0.0 and d.after is None for d in first.values()) == 6  # half known at t = 0
+    assert all(d.t <= 5.0 + 3.0 for d in a.detections if d.after is None)  # duplicates come <= 3 s later
+    pos = greenhouse.fruit_positions
+    for d in a.detections:
+        if d.fruit is None:  # false positives: reachable, at least 0.1 m from every fruit
+            assert np.min(np.hypot(*(pos - d.position).T)) >= 0.1
+            assert any(arm.can_reach(d.position, greenhouse.task.reach_margin) for arm in greenhouse.arms)
+    assert any(d.fruit is None for d in a.detections) and len(true) > len(greenhouse.fruits)
+
+
+def test_generated_noise_has_the_requested_sigma(greenhouse) -> None:
+    feed = make_feed(greenhouse, known=1.0, sigma=0.02, duplicate_rate=1.0, seed=3)
+    truth = {f.id: np.asarray(f.position) for f in greenhouse.fruits}
+    err = np.array([np.subtract(d.position, truth[d.fruit]) for d in feed.detections]).ravel()
+    assert len(err) == 48 and 0.014 < float(np.std(err)) < 0.027
+
+
+# ----------------------------------------------------------------------------- motion pieces
+def test_approach_from_a_moving_state_meets_limits_and_ends_at_rest(greenhouse) -> None:
+    arm = greenhouse.arms[1]
+    rng = np.random.default_rng(0)
+    for _ in range(10):
+        mv = move_step(arm, 0.0, arm.home, np.asarray(arm.home) + rng.uniform(-1.0, 1.0, 2))
+        ts = rng.uniform(0.2, 0.9) * mv.duration
+        st = mv.curve.derivatives(np.array([ts]))
+        target = np.asarray(mv.q1) + rng.uniform(-0.03, 0.03, 2)
+        ap = Approach(arm, st[0, 0], st[1, 0], st[2, 0], target)
+        d = ap.derivatives(np.linspace(0.0, ap.duration, 400))
+        assert np.allclose(d[:, 0], st[:3, 0], atol=1e-9)  # starts at the exact state
+        end = ap.derivatives(np.array([ap.duration - 1e-12, ap.duration]))
+        assert np.allclose(end[0], target, atol=1e-9) and np.allclose(end[1:], 0.0, atol=1e-6)
+        assert np.all(np.abs(d[1]) <= np.asarray(arm.max_velocity) + 1e-9)
+        assert np.all(np.abs(d[2]) <= np.asarray(arm.max_acceleration) + 1e-9)
+        jerk = np.diff(d[2], axis=0) / np.diff(np.linspace(0.0, ap.duration, 400))[:, None]
+        assert np.all(np.abs(jerk) <= np.asarray(arm.max_jerk) * (1 + 1e-6))
+
+
+def test_split_at_cuts_at_the_next_rest_instant(greenhouse) -> None:
+    arm = greenhouse.arms[0]
+    home, q = tuple(arm.home), (0.5, 0.5)
+    mv = move_step(arm, 1.0, home, q)
+    steps = [Step(StepKind.WAIT, 0.0, 1.0, home, home), mv, Step(StepKind.PICK, mv.t1, 0.3, q, q, fruit="x"),
+             move_step(arm, mv.t1 + 0.3, q, home)]
+    hist, kept, rest = split_at(steps, 0.2, 0.5, home)  # waiting: the wait is cut at the horizon
+    assert hist == [] and kept[-1].kind == StepKind.WAIT and kept[-1].t1 == pytest.approx(0.5)
+    assert rest[0].t0 == pytest.approx(0.5) and rest[1] is mv
+    hist, kept, rest = split_at(steps, 1.1, 1.2, home)  # in the move into a pick: up to the pick's end
+    assert kept[-1].kind == StepKind.PICK and rest == steps[3:] and hist == steps[:1]
+    end = steps[-1].t1
+    hist, kept, rest = split_at(steps, end + 1.0, end + 1.1, home)  # all done: rest where it is
+    assert hist == steps and rest == [] and kept[0].t0 == pytest.approx(end) and kept[0].q1 == steps[-1].q1
+    assert kept[0].t1 == pytest.approx(end + 1.1)
+
+
+# ----------------------------------------------------------------------------- the planner object
+def _cell(greenhouse, ids=("f04", "f06", "f08", "f09"), sigma=0.001) -> LiveCell:
+    cell = LiveCell(greenhouse)
+    cell.observe(0.0, [Detection(0.0, f, greenhouse.fruit(f).position, sigma, f) for f in ids])
+    return cell
+
+
+def _continuous(cell: LiveCell) -> None:
+    """Every step boundary of every arm: position, velocity and acceleration equal left and right."""
+    for name, steps in cell.steps.items():
+        for a, b in zip(steps, steps[1:]):
+            assert b.t0 == pytest.approx(a.t1, abs=1e-9), (name, a, b)
+            left = a.curve.derivatives(np.array([a.duration]))[:3, 0] if a.kind == StepKind.MOVE else \
+                np.array([a.q1, (0, 0), (0, 0)])
+            right = b.curve.derivatives(np.array([0.0]))[:3, 0] if b.kind == StepKind.MOVE else np.array([b.q0, (0, 0), (0, 0)])
+            assert np.allclose(left, right, atol=1e-7), (name, a.t1, left, right)
+
+
+def test_two_detections_of_one_fruit_are_merged(greenhouse) -> None:
+    cell = LiveCell(greenhouse)
+    p = np.asarray(greenhouse.fruit("f09").position)
+    cell.observe(0.0, [Detection(0.0, "a", tuple(p + [0.004, 0.0]), 0.01), Detection(0.0, "b", tuple(p - [0.004, 0.0]), 0.02),
+                       Detection(0.0, "c", tuple(p + [0.0, 0.2]), 0.01)])
+    assert set(cell.tracks) == {"a", "c"}
+    a = cell.tracks["a"]
+    assert a.detections == ["a", "b"]
+    # inverse-variance weighted mean: (4 * (+4 mm) + 1 * (-4 mm)) / 5 = +2.4 mm
+    assert a.position == pytest.approx(p + [0.0024, 0.0], abs=1e-12)
+    assert a.sigma == pytest.approx(1.0 / np.sqrt(1 / 0.01**2 + 1 / 0.02**2))
+    assert sum(s.kind == StepKind.PICK for st in cell.steps.values() for s in st) == 2
+
+
+def test_a_detection_during_a_dwell_keeps_the_dwell_and_continuity(greenhouse) -> None:
+    cell = _cell(greenhouse)
+    arm, pick = next((n, s) for n, st in cell.steps.items() for s in st if s.kind == StepKind.PICK)
+    before = {n: list(st) for n, st in cell.steps.items()}
+    now = pick.t0 + 0.1  # mid-dwell
+    rep = cell.observe(now, [Detection(now, "late", greenhouse.fruit("f10").position, 0.001, "f10")])
+    assert rep.ok and rep.added == ["late"] and cell.tracks["late"].state == TrackState.PLANNED
+    assert pick in cell.steps[arm]  # the dwell under way is kept whole
+    assert pick in cell.committed_motion(now)[arm] and cell.commit[arm] == pytest.approx(rep.commit_until[arm])
+    assert rep.commit_until[arm] >= pick.t1 - 1e-9
+    t = np.linspace(0.0, now + 0.1, 300)
+    for n in cell.steps:  # everything before the horizon is unchanged
+        from coplan.schedule import ArmSchedule
+
+        old = ArmSchedule(greenhouse.arm(n), before[n]).state(t)
+        new = ArmSchedule(greenhouse.arm(n), cell.steps[n]).state(t)
+        assert np.allclose(old, new, atol=1e-12)
+    _continuous(cell)
+
+
+def test_a_false_positive_is_dropped_at_close_range(greenhouse) -> None:
+    cell = _cell(greenhouse, ids=("f04",))
+    cell.observe(0.0, [Detection(0.0, "ghost", (1.0, 1.2), 0.01, None)])
+    assert cell.tracks["ghost"].state == TrackState.PLANNED
+    # approach the ghost: the close-range look finds nothing
+    while True:
+        cr = cell.next_close_range(cell.replans[-1].t)
+        if cr.track == "ghost":
+            break
+        cell.refine(cr.t, cr.track, greenhouse.fruit(cr.track).position, 0.001)
+    rep = cell.refine(cr.t, "ghost", None, 0.001)
+    assert rep.ok and rep.dropped == ["ghost"] and cell.tracks["ghost"].state == TrackState.DROPPED
+    assert not any(s.fruit == "ghost" for st in cell.steps.values() for s in st)  # no pick, no place
+    _continuous(cell)
+
+
+def test_an_unreachable_detection_is_reported(greenhouse) -> None:
+    cell = _cell(greenhouse, ids=("f04",))
+    rep = cell.observe(0.5, [Detection(0.5, "far", (0.0, 5.0), 0.01)])
+    assert rep.unreachable == ["far"] and cell.tracks["far"].state == TrackState.UNREACHABLE
+
+
+# ----------------------------------------------------------------------------- the simulated run
+@pytest.fixture(scope="module")
+def live_run(request):
+    """The greenhouse cell, half the fruit known at t = 0, 10 mm noise, false and duplicate
+    detections; every re-plan's plan recorded (to check what was committed stays)."""
+    from coplan.problem import load_problem
+
+    problem = load_problem(Path(__file__).parents[1] / "problems" / "greenhouse_row.yaml")
+    feed = make_feed(problem, known=0.5, sigma=0.01, false_rate=0.15, duplicate_rate=0.3, seed=11)
+    snaps = []
+    done = LiveCell._done
+
+    def spy(self, rep, t_start):
+        out = done(self, rep, t_start)
+        snaps.append((rep, {n: list(st) for n, st in self.steps.items()}))
+        return out
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(LiveCell, "_done", spy)
+    try:
+        result = simulate(problem, feed, seed=11)
+    finally:
+        mp.undo()
+    return problem, feed, result, snaps[1:]  # the first is the warm-up's
+
+
+def test_the_whole_executed_plan_is_verified(live_run, tmp_path: Path) -> None:
+    problem, feed, result, _ = live_run
+    m = result.run["metrics"]
+    assert result.verification.passed and m["verified"]
+    result.plan.save(tmp_path)
+    again = verify(problem, load_plan(tmp_path / "plan.json"))  # the file as written, independently
+    assert again.passed and again.complete
+    assert m["pick_success_rate"] == 1.0 and m["harvested"] == len(problem.reachable_ids()) == 11
+    assert m["false_detections"] >= 1 and m["false_picks_avoided"] == m["false_detections"] and m["false_picks"] == 0
+    assert m["duplicates_merged"] + m["duplicates_dropped_at_close_range"] >= 1
+    assert result.run["fruit"]["f01"]["why"] == "out of every arm's reach (true position)"
+    assert m["omniscient_makespan"] == pytest.approx(12.8828, abs=1e-3)
+    assert m["throughput_loss"] == pytest.approx(1.0 - m["throughput"] / m["omniscient_throughput"])
+    assert len(result.run["replans"]) == m["replans"] and all(r["ok"] for r in result.run["replans"])
+    assert m["replans_failed"] == 0 and m["latency_median"] <= m["latency_p95"] <= m["latency_max"]
+
+
+def test_continuity_at_every_replan_boundary(live_run) -> None:
+    from coplan.schedule import ArmSchedule
+
+    problem, _, result, snaps = live_run
+    assert len(snaps) >= 10 and {r.cause for r, _ in snaps} >= {ReplanCause.DETECTIONS, ReplanCause.CLOSE_RANGE}
+    for (rep_a, plan_a), (rep_b, plan_b) in zip(snaps, snaps[1:]):
+        for n in plan_a:
+            arm = problem.arm(n)
+            # what was committed at the earlier re-plan is what the later one kept (up to its own time)
+            upto = rep_a.commit_until.get(n, rep_a.t)  # a close-range correction changes its approach from 10 ms on
+            upto = min(upto, rep_b.t + 0.01) if rep_b.corrected == n else max(upto, rep_b.t)
+            t = np.linspace(0.0, upto, 400)
+            assert np.allclose(ArmSchedule(arm, plan_a[n]).state(t), ArmSchedule(arm, plan_b[n]).state(t), atol=1e-9), (n, rep_b.t)
+    cell = result.cell
+    _continuous(cell)
+    assert any(isinstance(s.curve, Approach) for st in cell.steps.values() for s in st)  # corrections were spliced in
+
+
+def test_cli_feed_and_run_write_a_verified_run(tmp_path: Path, problems_dir: Path) -> None:
+    prob = str(problems_dir / "greenhouse_row.yaml")
+    r = run("feed", prob, "--out", str(tmp_path / "feed.yaml"), "--known", "0.5", "--sigma", "0.01",
+            "--false-rate", "0.1", "--duplicate-rate", "0.2", "--seed", "4")
+    assert r.exit_code == 0, r.output
+    feed = load_feed(tmp_path / "feed.yaml")
+    assert isinstance(feed, Feed) and feed.problem == "greenhouse-row"
+    r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "live"), "--json")
+    assert r.exit_code == ExitCode.OK, r.output
+    metrics = json.loads(r.stdout.strip().splitlines()[-1])
+    assert metrics["verified"] and metrics["pick_success_rate"] == 1.0
+    doc = json.loads((tmp_path / "live" / "run.json").read_text())
+    assert {"detections", "replans", "fruit", "metrics", "tracks"} <= set(doc)
+    assert all({"t", "latency", "cause", "added", "dropped", "reassigned"} <= set(r) for r in doc["replans"])
+    from coplan.problem import load_problem
+
+    assert verify(load_problem(prob), load_plan(tmp_path / "live" / "plan.json")).passed
+
+
+def test_the_live_animation_renders(live_run, tmp_path: Path) -> None:
+    from PIL import Image
+
+    from coplan.live.animate import animate_live
+
+    problem, _, result, _ = live_run
+    assert len(result.paths) == len(result.cell.replans) and result.paths[0][0] == 0.0
+    out = animate_live(problem, result, tmp_path / "live.gif", speed=10.0, fps=2.0, dpi=30)
+    with Image.open(out) as im:
+        assert im.n_frames >= int(result.plan.duration / 5.0)
+
+
+def test_a_fruit_hidden_behind_another_is_revealed_after_that_pick(greenhouse) -> None:
+    feed = parse_feed("detections:\n"
+                      "  - {t: 0.0, id: a, position: [0.6906, 0.7384], sigma: 0.005, fruit: f04}\n"
+                      "  - {t: 0.2, id: b, position: [0.7078, 1.2954], sigma: 0.005, fruit: f09, after: f04}\n"
+                      "  - {t: 0.0, id: c, position: [3.0, 5.0], sigma: 0.005, fruit: null, after: f10}\n", "hidden.yaml")
+    r = simulate(greenhouse, feed, omniscient=False)
+    picks = {e.fruit: e for e in r.plan.events if e.kind.value == "pick"}
+    uncovered = [e for e in r.run["events"] if e["event"] == "uncovered"]
+    assert [e["behind"] for e in uncovered] == ["f04"] and uncovered[0]["t"] == pytest.approx(picks["f04"].t_end)
+    arrived = next(e["t"] for e in r.run["events"] if e["event"] == "detections" and "b" in e["detections"])
+    assert arrived == pytest.approx(picks["f04"].t_end + 0.2)
+    assert set(picks) == {"f04", "f09"} and r.verification.passed
+    assert r.run["fruit"]["f09"]["harvested"] and "never detected" in r.run["fruit"]["f10"]["why"]
+    assert r.run["detections"][2]["track"] is None  # behind a fruit never picked: never seen
+
+
+def test_without_a_clock_budget_the_run_is_the_same_every_time(greenhouse) -> None:
+    from dataclasses import replace
+
+    from coplan.live.cell import LiveOptions
+
+    six = replace(greenhouse, fruits=greenhouse.fruits[2:8])
+    feed = make_feed(six, known=0.5, sigma=0.01, false_rate=0.3, duplicate_rate=0.3, seed=5, reveal_by=3.0)
+    a = simulate(six, feed, LiveOptions(budget=None), seed=2, omniscient=False)
+    b = simulate(six, feed, LiveOptions(budget=None), seed=2, omniscient=False)
+    assert np.array_equal(a.plan.time, b.plan.time) and all(np.array_equal(a.plan.q[n], b.plan.q[n]) for n in a.plan.q)
+    assert [r["tried"] for r in a.run["replans"]] == [r["tried"] for r in b.run["replans"]]
+    assert a.verification.passed and a.run["metrics"]["pick_success_rate"] == 1.0
+
+
+def test_two_fruit_merged_from_afar_are_told_apart_at_close_range(greenhouse) -> None:
+    from dataclasses import replace
+
+    from coplan.problem import Fruit
+
+    f04 = greenhouse.fruit("f04")
+    twin = Fruit("twin", (f04.position[0] + 0.02, f04.position[1] + 0.01))
+    prob = replace(greenhouse, fruits=(f04, twin, greenhouse.fruit("f09")))
+    feed = parse_feed("detections:\n"
+                      f"  - {{t: 0.0, id: a, position: [{f04.position[0] + 0.005}, {f04.position[1]}], sigma: 0.01, fruit: f04}}\n"
+                      f"  - {{t: 0.0, id: b, position: [{twin.position[0] - 0.005}, {twin.position[1]}], sigma: 0.01, fruit: twin}}\n"
+                      "  - {t: 0.0, id: c, position: [0.7078, 1.2954], sigma: 0.01, fruit: f09}\n", "twins.yaml")
+    r = simulate(prob, feed, omniscient=False)
+    assert r.cell.tracks["a"].detections == ["a", "b"]  # one track from afar
+    assert any(e["event"] == "told apart" for e in r.run["events"])
+    assert all(o["harvested"] for o in r.run["fruit"].values()) and r.verification.passed
+
+
+def test_a_fruit_seen_where_one_was_already_picked_is_looked_at_again(greenhouse) -> None:
+    cell = _cell(greenhouse, ids=("f04",))
+    pick = next(s for s in cell.steps["center"] + cell.steps["right"] + cell.steps["left"] if s.kind == StepKind.PICK)
+    cell.observe(pick.t0 - 0.5, [])  # the pick is committed
+    assert cell.tracks["f04"].pick_end == pytest.approx(pick.t1)
+    p = greenhouse.fruit("f04").position
+    before = cell.observe(pick.t1 - 0.05, [Detection(pick.t1 - 0.05, "dup", p, 0.01)])  # a duplicate: merged
+    assert before.added == [] and "dup" in cell.tracks["f04"].detections
+    after = cell.observe(pick.t1 + 0.05, [Detection(pick.t1 + 0.05, "new", p, 0.01)])  # after the pick: a new track
+    assert after.added == ["new"] and cell.tracks["new"].state == TrackState.PLANNED
