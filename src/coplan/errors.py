@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-__all__ = ["Issue", "InputError", "ProblemError", "PlanFileError", "CoplanError", "printable", "plural"]
+__all__ = ["Issue", "InputError", "ProblemError", "PlanFileError", "CoplanError", "printable", "plural", "found",
+           "finite_number"]
 
 
 class CoplanError(Exception):
@@ -64,3 +66,26 @@ def printable(text) -> str:
     """Untrusted text (a name, id or message from an input file) with every control character
     (escape sequences included) shown as its ``\\x..`` code, so it cannot drive a terminal."""
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
+def found(v, list_length: bool = False) -> str:
+    """How a message names a value it found in a YAML file: ``null``, ``boolean true``,
+    ``number 3``, ``string 'x'``, ``a mapping``, ``a list`` (``a list of 3`` with ``list_length``)."""
+    if v is None:
+        return "null"
+    if isinstance(v, bool):
+        return f"boolean {v}"
+    if isinstance(v, (int, float)):
+        return f"number {v}"
+    if isinstance(v, str):
+        return f"string {v!r}"
+    if isinstance(v, dict):
+        return "a mapping"
+    if isinstance(v, list):
+        return f"a list of {len(v)}" if list_length else "a list"
+    return type(v).__name__
+
+
+def finite_number(v) -> bool:
+    """Whether a value read from YAML is a finite int or float (not a boolean)."""
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)

@@ -22,7 +22,7 @@ from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
-from .errors import InputError, Issue, ProblemError
+from .errors import InputError, Issue, ProblemError, found
 from .optimal import OptimalOptions
 from .yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 
@@ -36,43 +36,27 @@ class OptionsError(InputError):
     kind = "options"
 
 
-def _kind(v: Any) -> str:
-    if v is None:
-        return "null"
-    if isinstance(v, bool):
-        return f"boolean {v}"
-    if isinstance(v, (int, float)):
-        return f"number {v}"
-    if isinstance(v, str):
-        return f"string {v!r}"
-    if isinstance(v, dict):
-        return "a mapping"
-    if isinstance(v, list):
-        return "a list"
-    return type(v).__name__
-
-
 def _check(name: str, kind: str, v: Any) -> str | None:
     """The message for a bad value of field ``name`` (type ``kind``), or None if it is good."""
     low = 0 if name not in _POSITIVE else None
     bound = "a positive" if low is None else "a non-negative"
     if kind == "bool":
-        return None if isinstance(v, bool) else f"expected true or false, found {_kind(v)}"
+        return None if isinstance(v, bool) else f"expected true or false, found {found(v)}"
     if kind == "dict":
         if not isinstance(v, dict):
-            return f"expected a mapping of IPOPT settings (e.g. ipopt.max_iter: 500), found {_kind(v)}"
+            return f"expected a mapping of IPOPT settings (e.g. ipopt.max_iter: 500), found {found(v)}"
         for k, x in v.items():
             if not isinstance(k, str) or isinstance(x, (dict, list)) or x is None:
-                return f"expected setting: number or string, found {k!r}: {_kind(x)}"
+                return f"expected setting: number or string, found {k!r}: {found(x)}"
         return None
     nullable = kind.endswith("| None")
     if nullable and v is None:
         return None
     want = f"expected {bound} {'integer' if kind == 'int' else 'number'}{' or null' if nullable else ''}"
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        return f"{want}, found {_kind(v)}"
+        return f"{want}, found {found(v)}"
     if (kind == "int" and not float(v).is_integer()) or not math.isfinite(v) or v < 0 or (low is None and v <= 0):
-        return f"{want}, found {_kind(v)}"
+        return f"{want}, found {found(v)}"
     return None
 
 
@@ -88,7 +72,7 @@ def parse_options(text: str, source: str | None = None, base: OptimalOptions | N
     except ProblemError as e:  # the YAML itself: the same checks as for problem files
         raise OptionsError(e.issues, source) from None
     if not isinstance(data, dict):
-        raise OptionsError([Issue("", f"expected a mapping of option names to values, found {_kind(data)}", line_of(lines, ()))],
+        raise OptionsError([Issue("", f"expected a mapping of option names to values, found {found(data)}", line_of(lines, ()))],
                            source)
     kinds = {f.name: str(f.type) for f in fields(OptimalOptions)}
     issues, values = [], {}

@@ -14,7 +14,7 @@ from typing import Annotated, Optional
 import typer
 from rich.console import Console
 
-from ..errors import printable
+from ..clisummary import safe as _safe
 from ..kinds import ExitCode, PlanStatus
 
 __all__ = ["feed_cmd", "run_cmd"]
@@ -26,12 +26,6 @@ _err = Console(stderr=True, soft_wrap=True)
 def _usage(message: str):
     _err.print(f"[bold red]error[/]: {message}", markup=True, highlight=False)
     raise typer.Exit(int(ExitCode.USAGE))
-
-
-def _safe(x) -> str:
-    from rich.markup import escape
-
-    return escape(printable(x))
 
 
 def _writable_folder(out: Path, what: str) -> None:

@@ -26,11 +26,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, Issue, ProblemError
+from ..errors import InputError, Issue, ProblemError, finite_number, found
 from ..problem import Problem
 from ..yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 
@@ -90,26 +89,6 @@ class Feed:
             raise FeedError(issues, self.source)
 
 
-def _kind(v: Any) -> str:
-    if v is None:
-        return "null"
-    if isinstance(v, bool):
-        return f"boolean {v}"
-    if isinstance(v, (int, float)):
-        return f"number {v}"
-    if isinstance(v, str):
-        return f"string {v!r}"
-    if isinstance(v, dict):
-        return "a mapping"
-    if isinstance(v, list):
-        return f"a list of {len(v)}"
-    return type(v).__name__
-
-
-def _number(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
-
 def parse_feed(text: str, source: str | None = None) -> Feed:
     """A :class:`Feed` from YAML text; every problem at once as :class:`FeedError`."""
     n = len(text.encode("utf-8", errors="replace"))
@@ -128,42 +107,42 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
         issues.append(Issue(path, msg, line_of(lines, loc)))
 
     if not isinstance(data, dict):
-        raise FeedError([Issue("", f"expected a mapping with key 'detections', found {_kind(data)}", line_of(lines, ()))], source)
+        raise FeedError([Issue("", f"expected a mapping with key 'detections', found {found(data, list_length=True)}", line_of(lines, ()))], source)
     for key in data:
         if key not in _TOP_KEYS:
             bad((key,), f"expected one of {', '.join(_TOP_KEYS)}, found unknown key {key!r}")
     if "format" in data and data["format"] != FEED_FORMAT:
-        bad(("format",), f"expected {FEED_FORMAT!r}, found {_kind(data['format'])}")
+        bad(("format",), f"expected {FEED_FORMAT!r}, found {found(data['format'], list_length=True)}")
     problem = data.get("problem")
     if problem is not None and not isinstance(problem, str):
-        bad(("problem",), f"expected the problem's name (a string), found {_kind(problem)}")
+        bad(("problem",), f"expected the problem's name (a string), found {found(problem, list_length=True)}")
         problem = None
     dist, sig = DEFAULT_CLOSE_DISTANCE, DEFAULT_CLOSE_SIGMA
     cr = data.get("close_range")
     if cr is not None:
         if not isinstance(cr, dict):
-            bad(("close_range",), f"expected a mapping {{distance, sigma}}, found {_kind(cr)}")
+            bad(("close_range",), f"expected a mapping {{distance, sigma}}, found {found(cr, list_length=True)}")
         else:
             for key, v in cr.items():
                 if key not in ("distance", "sigma"):
                     bad(("close_range", key), f"expected distance or sigma, found unknown key {key!r}")
-                elif not _number(v) or v <= 0:
-                    bad(("close_range", key), f"expected a positive number (m), found {_kind(v)}")
-            dist = cr.get("distance", dist) if _number(cr.get("distance", dist)) else dist
-            sig = cr.get("sigma", sig) if _number(cr.get("sigma", sig)) else sig
+                elif not finite_number(v) or v <= 0:
+                    bad(("close_range", key), f"expected a positive number (m), found {found(v, list_length=True)}")
+            dist = cr.get("distance", dist) if finite_number(cr.get("distance", dist)) else dist
+            sig = cr.get("sigma", sig) if finite_number(cr.get("sigma", sig)) else sig
     rows = data.get("detections")
     out: list[Detection] = []
     if "detections" not in data:
         bad(("detections",), "expected a list of detections, found nothing (required field)")
         rows = []
     elif not isinstance(rows, list):
-        bad(("detections",), f"expected a list of detections, found {_kind(rows)}")
+        bad(("detections",), f"expected a list of detections, found {found(rows, list_length=True)}")
         rows = []
     seen: dict[str, int] = {}
     for i, row in enumerate(rows):
         loc = ("detections", i)
         if not isinstance(row, dict):
-            bad(loc, f"expected a mapping {{t, id, position, sigma[, fruit, after]}}, found {_kind(row)}")
+            bad(loc, f"expected a mapping {{t, id, position, sigma[, fruit, after]}}, found {found(row, list_length=True)}")
             continue
         ok = True
         for key in row:
@@ -177,27 +156,27 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
         if not ok:
             continue
         t, rid, pos, sigma = row["t"], row["id"], row["position"], row["sigma"]
-        if not _number(t) or t < 0:
-            bad(loc + ("t",), f"expected a time >= 0 (s), found {_kind(t)}")
+        if not finite_number(t) or t < 0:
+            bad(loc + ("t",), f"expected a time >= 0 (s), found {found(t, list_length=True)}")
             ok = False
         if not isinstance(rid, str) or not rid.strip():
-            bad(loc + ("id",), f"expected a non-empty string, found {_kind(rid)}")
+            bad(loc + ("id",), f"expected a non-empty string, found {found(rid, list_length=True)}")
             ok = False
         elif rid in seen:
             bad(loc + ("id",), f"expected a unique id, found {rid!r} again (first in detections[{seen[rid]}])")
             ok = False
         else:
             seen[rid] = i
-        if not isinstance(pos, list) or len(pos) != 2 or not all(_number(x) for x in pos):
-            bad(loc + ("position",), f"expected [x, y] (two finite numbers, m), found {_kind(pos)}")
+        if not isinstance(pos, list) or len(pos) != 2 or not all(finite_number(x) for x in pos):
+            bad(loc + ("position",), f"expected [x, y] (two finite numbers, m), found {found(pos, list_length=True)}")
             ok = False
-        if not _number(sigma) or sigma <= 0:
-            bad(loc + ("sigma",), f"expected a positive number (m), found {_kind(sigma)}")
+        if not finite_number(sigma) or sigma <= 0:
+            bad(loc + ("sigma",), f"expected a positive number (m), found {found(sigma, list_length=True)}")
             ok = False
         for key in ("fruit", "after"):
             v = row.get(key)
             if v is not None and (not isinstance(v, str) or not v.strip()):
-                bad(loc + (key,), f"expected a fruit id (string) or null, found {_kind(v)}")
+                bad(loc + (key,), f"expected a fruit id (string) or null, found {found(v, list_length=True)}")
                 ok = False
         if ok:
             out.append(Detection(float(t), rid, (float(pos[0]), float(pos[1])), float(sigma), row.get("fruit"),
