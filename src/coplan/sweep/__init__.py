@@ -1,0 +1,11 @@
+"""Design sweeps: many problems solved on Dask, one table row per problem.
+
+* :mod:`coplan.sweep.spec` -- the sweep file (validated with key paths and lines) and its
+  expansion into concrete problems (:func:`load_sweep`, :class:`SweepSpec`, :class:`SweepItem`);
+* :mod:`coplan.sweep.run` -- :func:`run_sweep`: a ``LocalCluster`` of worker processes (one
+  thread each) or an existing scheduler; retries, time limits, resume by key;
+* :mod:`coplan.sweep.table` -- the row schema, the row journal and the Parquet/CSV table;
+* :mod:`coplan.sweep.report` -- :func:`sweep_report`: counts, medians, worst cases, figures.
+
+This package's ``__init__`` imports nothing heavy (``coplan --help`` stays light).
+"""

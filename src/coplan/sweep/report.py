@@ -1,0 +1,253 @@
+"""``coplan sweep-report``: what a sweep's table says, in numbers and figures.
+
+Counts by status and exit class, the success rate among problems with reachable fruit,
+medians and worst cases, the three planners side by side where computed, and the figures a
+designer looks at (matplotlib, Agg, imported lazily; never ``plt.show()``):
+
+* ``throughput.png`` -- throughput (fruit/min) against base spacing, one panel per arm count,
+  one line per fruit density (median over seeds);
+* ``ratio.png`` -- distribution of makespan / lower bound;
+* ``solve_time.png`` -- distribution of solve times;
+* ``pareto.png`` -- arms (cost) against throughput: every design (median over seeds) and the
+  Pareto front of each fruit density (no design with as few arms is faster).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..kinds import RowStatus
+from .table import read_table
+
+__all__ = ["SweepReport", "sweep_report", "summarise", "pareto_front", "designs", "fronts", "counts_as_with_fruit"]
+
+_MEDIANS = ("makespan", "ratio", "throughput", "throughput_per_m", "cycle_worst", "cycle_mean", "certified_clearance", "solve_time")
+
+
+@dataclass
+class SweepReport:
+    summary: dict[str, Any]
+    text: str
+    files: dict[str, Path] = field(default_factory=dict)
+
+
+def _median(xs: list[float]) -> float | None:
+    xs = sorted(x for x in xs if x is not None and math.isfinite(x))
+    if not xs:
+        return None
+    n = len(xs)
+    return xs[n // 2] if n % 2 else 0.5 * (xs[n // 2 - 1] + xs[n // 2])
+
+
+def designs(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Successful rows grouped by design (arms, spacing, density, links; seeds pooled): the
+    median throughput and makespan of each design and how many seeds it has."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in rows:
+        if r["status"] != RowStatus.SUCCESS.value or r["throughput"] is None:
+            continue
+        dens = json.loads(r["params"] or "{}").get("density")  # a design parameter only when the sweep set it
+        sp = round(r["spacing"], 6) if r["spacing"] is not None else None
+        k = (r["n_arms"], sp, dens, r["link_1"], r["link_2"], r["planner"])
+        groups.setdefault(k, []).append(r)
+    out = []
+    for (arms, sp, dens, l1, l2, planner), rs in sorted(groups.items(), key=lambda kv: tuple(str(x) for x in kv[0])):
+        out.append({"n_arms": arms, "spacing": sp, "density": dens, "link_1": l1, "link_2": l2, "planner": planner, "seeds": len(rs),
+                    "throughput": _median([r["throughput"] for r in rs]),
+                    "throughput_per_m": _median([r["throughput_per_m"] for r in rs]),
+                    "makespan": _median([r["makespan"] for r in rs])})
+    return out
+
+
+def pareto_front(points: list[tuple[float, float]]) -> list[int]:
+    """Indices of the points (cost, value) no other point dominates (cost <= and value >=, one
+    strictly), sorted by cost."""
+    order = sorted(range(len(points)), key=lambda i: (points[i][0], -points[i][1]))
+    front, best = [], -math.inf
+    for i in order:
+        if points[i][1] > best:
+            front.append(i)
+            best = points[i][1]
+    return front
+
+
+def counts_as_with_fruit(row: dict[str, Any]) -> bool:
+    """Whether a row counts among "problems with reachable fruit" for the success rate: its
+    reachable count is positive, or unknown because the solve itself failed (error, timeout,
+    lost: counted against the rate, never hidden from it). A bad input has no fruit to count."""
+    if row["reachable"] is not None:
+        return row["reachable"] > 0
+    return row["status"] in (RowStatus.ERROR.value, RowStatus.TIMEOUT.value, RowStatus.LOST.value)
+
+
+def fronts(des: list[dict[str, Any]]) -> dict[float | None, list[dict[str, Any]]]:
+    """The Pareto front of arms (cost) against median throughput, one per fruit density (the
+    crop is given; spacing and arm count are the design), each sorted by arm count."""
+    out: dict[float | None, list[dict[str, Any]]] = {}
+    for dn in sorted({d["density"] for d in des}, key=lambda x: (x is None, x or 0.0)):
+        group = [d for d in des if d["density"] == dn]
+        out[dn] = [group[i] for i in pareto_front([(float(d["n_arms"]), float(d["throughput"])) for d in group])]
+    return out
+
+
+def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The report's numbers (``report.json``)."""
+    counts: dict[str, int] = {}
+    classes: dict[str, int] = {}
+    for r in rows:
+        counts[r["status"]] = counts.get(r["status"], 0) + 1
+        classes[r["exit_class"]] = classes.get(r["exit_class"], 0) + 1
+    ok = [r for r in rows if r["status"] == RowStatus.SUCCESS.value]
+    with_fruit = [r for r in rows if counts_as_with_fruit(r)]
+    ok_fruit = [r for r in with_fruit if r["status"] == RowStatus.SUCCESS.value]
+    unverified_success = [r["key"] for r in ok if not r["verified"]]
+    med = {k: _median([r[k] for r in ok]) for k in _MEDIANS}
+
+    def worst(col: str, high: bool, n: int = 5) -> list[dict]:
+        rs = [r for r in ok if r[col] is not None]
+        rs.sort(key=lambda r: r[col], reverse=high)
+        return [{"key": r["key"], "name": r["name"], "seed": r["seed"], col: r[col]} for r in rs[:n]]
+
+    def gain(a: str, b: str) -> float | None:
+        xs = [r[a] / r[b] for r in ok if r[a] and r[b]]
+        return _median(xs)
+
+    failures = [{"key": r["key"], "name": r["name"], "seed": r["seed"], "status": r["status"], "exit_class": r["exit_class"],
+                 "message": (r["message"] or "")[:300]} for r in rows if r["status"] != RowStatus.SUCCESS.value]
+    return {
+        "rows": len(rows), "counts": counts, "exit_classes": classes,
+        "with_reachable_fruit": len(with_fruit), "success_with_reachable_fruit": len(ok_fruit),
+        "success_rate": len(ok_fruit) / len(with_fruit) if with_fruit else None,
+        "success_but_not_verified": unverified_success,
+        "medians": med,
+        "median_heuristic_over_plan": gain("heuristic_makespan", "makespan"),
+        "median_coordinated_over_plan": gain("coordinated_makespan", "makespan"),
+        "worst": {"ratio": worst("ratio", True), "solve_time": worst("solve_time", True),
+                  "certified_clearance": worst("certified_clearance", False), "throughput": worst("throughput", False)},
+        "failures": failures,
+    }
+
+
+def _fmt(x, nd=3) -> str:
+    return "-" if x is None else f"{x:.{nd}f}" if isinstance(x, float) else str(x)
+
+
+def _text(s: dict[str, Any], title: str) -> str:
+    lines = [f"# Sweep report: {title}", "", f"{s['rows']} rows; by status: " + ", ".join(f"{k} {v}" for k, v in sorted(s["counts"].items())),
+             "exit classes: " + ", ".join(f"{k} {v}" for k, v in sorted(s["exit_classes"].items()))]
+    if s["success_rate"] is not None:
+        lines.append(f"success among problems with reachable fruit: {s['success_with_reachable_fruit']}/{s['with_reachable_fruit']}"
+                     f" ({100 * s['success_rate']:.1f} %)")
+    lines.append(f"rows called success whose plan was not verified: {len(s['success_but_not_verified'])}")
+    lines += ["", "## Medians (successful rows)", "", "| figure | median |", "|---|---|"]
+    lines += [f"| {k} | {_fmt(v)} |" for k, v in s["medians"].items()]
+    if s["median_coordinated_over_plan"] is not None or s["median_heuristic_over_plan"] is not None:
+        lines += ["", f"planners side by side: median coordinated / plan makespan {_fmt(s['median_coordinated_over_plan'])},"
+                      f" heuristic / plan {_fmt(s['median_heuristic_over_plan'])}"]
+    lines += ["", "## Worst cases", ""]
+    for col, rs in s["worst"].items():
+        if rs:
+            lines.append(f"- {col}: " + "; ".join(f"{r['name']} (seed {r['seed']}, key {r['key']}) {_fmt(r[col])}" for r in rs))
+    if s["failures"]:
+        lines += ["", f"## Rows that are not a success ({len(s['failures'])})", "", "| key | problem | seed | status | exit class | message |",
+                  "|---|---|---|---|---|---|"]
+        for f in s["failures"][:200]:
+            msg = " ".join((f["message"] or "").split()).replace("|", "/")
+            lines.append(f"| {f['key']} | {f['name']} | {f['seed']} | {f['status']} | {f['exit_class']} | {msg} |")
+        if len(s["failures"]) > 200:
+            lines.append(f"| ... | {len(s['failures']) - 200} more in report.json | | | | |")
+    return "\n".join(lines) + "\n"
+
+
+def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files: dict[str, Path] = {}
+    ok = [r for r in rows if r["status"] == RowStatus.SUCCESS.value]
+    des = designs(rows)
+    arms = sorted({d["n_arms"] for d in des if d["spacing"] is not None})
+    if arms:
+        fig, axes = plt.subplots(1, len(arms), figsize=(3.6 * len(arms), 3.4), sharey=True, squeeze=False)
+        for ax, a in zip(axes[0], arms):
+            dens = sorted({d["density"] for d in des if d["n_arms"] == a}, key=lambda x: (x is None, x or 0))
+            for dn in dens:
+                pts = sorted((d["spacing"], d["throughput"]) for d in des if d["n_arms"] == a and d["density"] == dn)
+                ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", ms=3, label=f"{dn:g}/m" if dn is not None else "?")
+            ax.set_title(f"{a} arms")
+            ax.set_xlabel("base spacing, m")
+            ax.grid(alpha=0.3)
+        axes[0][0].set_ylabel("throughput, fruit/min (median over seeds)")
+        axes[0][-1].legend(title="fruit density", fontsize=7)
+        fig.tight_layout()
+        files["throughput"] = out / "throughput.png"
+        fig.savefig(files["throughput"], dpi=110)
+        plt.close(fig)
+    for col, name, label in (("ratio", "ratio", "makespan / lower bound"), ("solve_time", "solve_time", "solve time, s")):
+        xs = [r[col] for r in (ok if col == "ratio" else rows) if r[col] is not None]
+        if not xs:
+            continue
+        fig, ax = plt.subplots(figsize=(5, 3.4))
+        ax.hist(xs, bins=min(40, max(5, len(xs) // 3)), color="tab:blue", alpha=0.8)
+        ax.set_xlabel(label)
+        ax.set_ylabel("problems")
+        ax.set_title(f"{label} ({len(xs)} problems, median {_median(xs):.3g})")
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        files[name] = out / f"{name}.png"
+        fig.savefig(files[name], dpi=110)
+        plt.close(fig)
+    if des:
+        pts = [(float(d["n_arms"]), float(d["throughput"])) for d in des]
+        fig, ax = plt.subplots(figsize=(5.5, 3.8))
+        ax.scatter([p[0] for p in pts], [p[1] for p in pts], s=10, alpha=0.35, color="grey", label="designs (median over seeds)")
+        by_density = fronts(des)
+        for dn, front in by_density.items():
+            fp = [(float(d["n_arms"]), float(d["throughput"])) for d in front]
+            line = ax.step([p[0] for p in fp], [p[1] for p in fp], "-", where="post",
+                           label=f"Pareto front, {dn:g} fruit/m" if dn is not None else "Pareto front")[0]
+            ax.scatter([p[0] for p in fp], [p[1] for p in fp], s=18, color=line.get_color())
+            for d, p in zip(front, fp):
+                if d["spacing"] is not None and len(by_density) == 1:  # several fronts: spacings in report.md
+                    ax.annotate(f"{d['spacing']:g} m", p, fontsize=7, xytext=(3, 3), textcoords="offset points")
+        ax.set_xticks(sorted({int(p[0]) for p in pts}))
+        ax.set_xlabel("arms (cost)")
+        ax.set_ylabel("throughput, fruit/min")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        files["pareto"] = out / "pareto.png"
+        fig.savefig(files["pareto"], dpi=110)
+        plt.close(fig)
+    return files
+
+
+def sweep_report(folder: str | Path, out: str | Path | None = None, figures: bool = True) -> SweepReport:
+    """Read a sweep's table and write ``report.md``, ``report.json`` (and the figures) to ``out``
+    (default ``<folder>/report``)."""
+    folder = Path(folder)
+    rows = read_table(folder).to_pylist()
+    base = folder if folder.is_dir() else folder.parent
+    out = Path(out) if out is not None else base / "report"
+    out.mkdir(parents=True, exist_ok=True)
+    s = summarise(rows)
+    s["designs"] = designs(rows)
+    s["pareto_front"] = [d for front in fronts(s["designs"]).values() for d in front]
+    title = ", ".join(sorted({r["sweep"] for r in rows if r["sweep"]})) or str(folder)
+    text = _text(s, title)
+    if s["pareto_front"]:
+        text += "\n## Pareto front: arms against throughput\n\n| arms | spacing, m | density, /m | fruit/min | seeds |\n|---|---|---|---|---|\n"
+        text += "".join(f"| {d['n_arms']} | {_fmt(d['spacing'])} | {_fmt(d['density'])} | {_fmt(d['throughput'], 2)} | {d['seeds']} |\n"
+                        for d in s["pareto_front"])
+    files = {"markdown": out / "report.md", "json": out / "report.json"}
+    files["markdown"].write_text(text)
+    files["json"].write_text(json.dumps(s, indent=1, default=str, allow_nan=False))
+    if figures and rows:
+        files.update(_figures(rows, out))
+    return SweepReport(s, text, files)

@@ -1,0 +1,354 @@
+"""Run a sweep on Dask: one task per problem, one table row per task, resume by key.
+
+:func:`run_sweep` starts a ``LocalCluster`` of worker *processes* with one thread each (CasADi
+is not thread-safe) or connects to an existing scheduler (``--scheduler tcp://host:8786``).
+Each problem is one task running :func:`solve_item` in a worker: it never raises -- a bad
+problem is a row with exit class "bad input", an internal error a row with its message.
+
+Time limits: the planner gets the sweep's ``time_limit`` as its clock limit (the anytime
+planner then returns its verified incumbent); a watchdog thread in the worker stops the whole
+worker process should the solve not return (a hung native call) within ``hard_limit(time_limit)``
+seconds of CPU (or four times that of wall-clock time), after leaving a marker so the retried
+task writes a "timeout" row at once.
+
+Worker deaths: the scheduler re-runs a task whose worker died (``retries`` extra attempts:
+Dask's ``distributed.scheduler.allowed-failures``, set for the local cluster); a task whose
+workers died on every attempt is a row with status "lost" (re-run on resume).
+
+Resume: a row is journaled (:class:`coplan.sweep.table.RowJournal`) as soon as it arrives;
+a re-run of the same sweep into the same folder skips every key already there.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import threading
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from ..kinds import ExitCode, PlannerKind, RowStatus
+from ..errors import Issue
+from .spec import SweepError, SweepItem, SweepSpec
+from .table import RowJournal, read_rows, write_table
+
+__all__ = ["SweepOutcome", "run_sweep", "solve_item", "hard_limit", "exit_class", "Watchdog", "SNAPSHOT_SECONDS", "default_workers"]
+
+SNAPSHOT_SECONDS = 5.0  # how often results.parquet is rewritten while the sweep runs
+STATE = ".sweep-state"
+
+
+def hard_limit(time_limit: float) -> float:
+    """CPU seconds after which the watchdog stops a worker whose solve has not returned (four
+    times as many wall-clock seconds also stop it)."""
+    return 1.5 * time_limit + 30.0
+
+
+def exit_class(code: ExitCode) -> str:
+    """``ExitCode.BAD_INPUT`` -> ``"bad input"``."""
+    return code.name.lower().replace("_", " ")
+
+
+@dataclass
+class SweepOutcome:
+    """What :func:`run_sweep` did: rows written now, rows skipped (already done), counts by status."""
+
+    out: Path
+    total: int
+    skipped: int
+    done: int = 0
+    counts: dict[str, int] = field(default_factory=dict)
+    files: dict[str, Path] = field(default_factory=dict)
+    elapsed: float = 0.0
+    workers: int = 0
+    interrupted: bool = False
+
+
+# ---------------------------------------------------------------------- in the worker
+def _worker_name() -> str:
+    try:
+        from distributed import get_worker
+
+        return str(get_worker().name)
+    except (ImportError, ValueError):  # not inside a Dask worker (a direct call)
+        return f"pid{os.getpid()}"
+
+
+def _base_row(item: SweepItem) -> dict[str, Any]:
+    p = item.params
+    return {
+        "key": item.key, "index": item.index, "source": item.source, "planner": item.planner,
+        "params": json.dumps(p, sort_keys=True, default=str), "options": json.dumps(item.options, sort_keys=True, default=str),
+        "seed": p.get("seed"), "density": p.get("density"), "time_limit": item.time_limit, "worker": _worker_name(),
+    }
+
+
+def _fail_row(row: dict[str, Any], status: RowStatus, code: ExitCode, message: str) -> dict[str, Any]:
+    row.update(status=status.value, exit_code=int(code), exit_class=exit_class(code), message=message, finished=time.time())
+    return row
+
+
+def _problem_columns(problem, item: SweepItem) -> dict[str, Any]:
+    xs = sorted(a.base[0] for a in problem.arms)
+    n = len(xs)
+    spacing = (xs[-1] - xs[0]) / (n - 1) if n > 1 else None
+    a0 = problem.arms[0]
+    length = item.row_length
+    if length is None:
+        length = n * spacing if spacing else 2.0 * a0.reach
+    out = {"name": problem.name, "n_arms": n, "n_fruits": len(problem.fruits), "spacing": spacing, "row_length": length,
+           "link_1": a0.links[0], "link_2": a0.links[1], "link_radius": a0.link_radius}
+    if item.params.get("density") is None and length:
+        out["density"] = len(problem.fruits) / length
+    return out
+
+
+def _result_columns(res, row: dict[str, Any]) -> dict[str, Any]:
+    m, ver, planner = res.plan.metrics, res.plan.verification or {}, res.plan.planner_name
+    makespan, harvested = m.get("makespan"), m.get("harvested") or 0
+    per_min = 60.0 * harvested / makespan if makespan else None
+    out = {
+        "status": res.status.value, "exit_code": int(res.exit_code), "exit_class": exit_class(res.exit_code),
+        "reachable": m.get("reachable"), "harvested": m.get("harvested"), "makespan": makespan,
+        "lower_bound": m.get("lower_bound"), "ratio": m.get("gap_to_lower_bound"), "optimality": m.get("optimality"),
+        "coordinated_makespan": m.get("coordinated_makespan"), "heuristic_makespan": m.get("baseline_makespan"),
+        "heuristic_status": m.get("baseline_status"), "cycle_worst": m.get("cycle_time"), "cycle_mean": m.get("cycle_time_mean"),
+        "throughput": per_min, "throughput_per_m": per_min / row["row_length"] if per_min and row.get("row_length") else None,
+        "certified_clearance": ver.get("certified_clearance"), "required_clearance": ver.get("required_clearance"),
+        "verified": ver.get("passed"), "solve_time": res.timings.get("total"),
+        "message": None if res.success else (res.plan.solver.get("message") or _why(res)),
+    }
+    if planner == PlannerKind.COORDINATED.value and out["coordinated_makespan"] is None:
+        out["coordinated_makespan"] = makespan
+    if planner == PlannerKind.HEURISTIC.value:
+        out["heuristic_makespan"], out["heuristic_status"] = makespan, res.status.value
+    return out
+
+
+def _why(res) -> str:
+    ver = res.plan.verification or {}
+    kinds = ", ".join(ver.get("violation_kinds", []))
+    m = res.plan.metrics
+    return f"{res.status.value}: {m.get('harvested')}/{m.get('reachable')} fruit harvested" + (f"; violations: {kinds}" if kinds else "")
+
+
+class Watchdog:
+    """Stops this worker process when the solve has used ``seconds`` of CPU time, or
+    ``wall_factor`` x ``seconds`` of wall-clock time, without returning; leaves a marker first.
+
+    CPU time, not the clock, is the main measure: on a shared machine (or under ``nice``) a
+    solve that is merely starved of CPU is not hung; a native call spinning forever uses CPU,
+    one blocked forever is caught by the wall-clock bound.
+    """
+
+    POLL = 0.25  # s between checks
+
+    def __init__(self, seconds: float, marker: Path | None, wall_factor: float = 4.0):
+        self.marker, self.seconds, self.wall = marker, float(seconds), float(seconds) * wall_factor
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._watch, name="coplan-sweep-watchdog", daemon=True)
+
+    def _watch(self) -> None:
+        cpu0, wall0 = time.process_time(), time.monotonic()
+        while not self._stop.wait(min(self.POLL, self.seconds)):
+            if time.process_time() - cpu0 > self.seconds or time.monotonic() - wall0 > self.wall:
+                self._expire()
+
+    def _expire(self) -> None:
+        if self.marker is not None:
+            try:
+                self.marker.parent.mkdir(parents=True, exist_ok=True)
+                self.marker.write_text(str(time.time()))
+            except OSError:  # no shared folder (a remote cluster): the task ends as "lost"
+                pass
+        os._exit(int(ExitCode.SOLVER_FAILED))
+
+    def __enter__(self):
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        return False
+
+
+def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = False) -> tuple[dict[str, Any], dict | None]:
+    """Solve one sweep problem in this process: ``(row, plan dict or None)``. Never raises for a
+    bad problem or a solver error: the row carries the status, exit class and message."""
+    import yaml
+
+    from ..errors import CoplanError, InputError
+    from ..options import parse_options
+    from ..pipeline import solve
+    from ..problem import parse_problem
+
+    row = _base_row(item)
+    if item.error is not None:
+        return _fail_row(row, RowStatus.BAD_INPUT, ExitCode.BAD_INPUT, item.error), None
+    marker = Path(state_dir) / "timeouts" / item.key if state_dir else None
+    if marker is not None and marker.exists():
+        return _fail_row(row, RowStatus.TIMEOUT, ExitCode.SOLVER_FAILED,
+                         f"the solve did not return within the hard limit ({hard_limit(item.time_limit):g} s of CPU, "
+                         f"{4 * hard_limit(item.time_limit):g} s of wall-clock time); worker stopped"), None
+    t0 = time.perf_counter()
+    plan = None
+    try:
+        with Watchdog(hard_limit(item.time_limit), marker):
+            problem = parse_problem(item.problem_text or "", item.source)
+            row.update(_problem_columns(problem, item))
+            options = None
+            if item.planner != PlannerKind.HEURISTIC.value:
+                options = parse_options(yaml.safe_dump(dict(item.options, time_limit=item.time_limit)), "sweep options")
+            res = solve(problem, planner=item.planner, options=options)
+        row.update(_result_columns(res, row))
+        plan = res.plan.to_dict() if keep_plan else None
+    except InputError as e:
+        _fail_row(row, RowStatus.BAD_INPUT, ExitCode.BAD_INPUT, str(e))
+    except CoplanError as e:
+        _fail_row(row, RowStatus.ERROR, ExitCode.INTERNAL, f"{type(e).__name__}: {e}")
+    except Exception as e:  # noqa: BLE001 -- one problem's bug is a row with its message, never the end of the sweep
+        _fail_row(row, RowStatus.ERROR, ExitCode.INTERNAL, f"internal error ({type(e).__name__}): {e}")
+    if row.get("solve_time") is None:
+        row["solve_time"] = time.perf_counter() - t0
+    row["finished"] = time.time()
+    return row, plan
+
+
+# ---------------------------------------------------------------------- the driver
+def _lost_row(item: SweepItem, sweep: str, attempts: int, err: BaseException) -> dict[str, Any]:
+    row = _base_row(item)
+    row.update(sweep=sweep, worker=None)
+    return _fail_row(row, RowStatus.LOST, ExitCode.INTERNAL,
+                     f"the worker process died on all {attempts} attempts ({type(err).__name__}: {err})")
+
+
+def _write_json(path: Path, doc: dict) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(json.dumps(doc, indent=2, default=str))
+    os.replace(tmp, path)
+
+
+def _client(workers: int, scheduler: str | None, retries: int):
+    import dask
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        return Client(scheduler, timeout="20s"), None
+    with dask.config.set({"distributed.scheduler.allowed-failures": retries}), warnings.catch_warnings():
+        # the scheduler's HTTP routes move to a free port when another cluster holds 8787: not news
+        warnings.filterwarnings("ignore", message=r"Port \d+ is already in use", category=UserWarning)
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                               silence_logs=logging.CRITICAL)
+        return Client(cluster), cluster
+
+
+def default_workers() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def run_sweep(
+    spec: SweepSpec,
+    out: str | Path,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    planner: PlannerKind | str | None = None,
+    time_limit: float | None = None,
+    csv: bool = False,
+    keep_plans: bool = False,
+    on_row: Callable[[dict, SweepOutcome], None] | None = None,
+    on_start: Callable[[SweepOutcome], None] | None = None,
+    task: Callable = solve_item,
+) -> SweepOutcome:
+    """Run ``spec`` into the folder ``out`` (``rows.jsonl``, ``results.parquet``, ``sweep.json``;
+    ``results.csv`` with ``csv``; with ``keep_plans`` every plan and its problem as
+    ``plans/<key>.json`` and ``plans/<key>.yaml``, for ``coplan verify``).
+
+    Rows already in ``out`` (same key) are skipped. ``on_start(outcome)`` is called once the
+    work is known, ``on_row(row, outcome)`` after each row is journaled. ``task`` is the
+    function run per problem (:func:`solve_item`; tests wrap it). Ctrl-C stops the sweep:
+    every finished row is kept, the table written, and ``KeyboardInterrupt`` re-raised.
+    """
+    t0 = time.perf_counter()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    meta = out / "sweep.json"
+    other = json.loads(meta.read_text()).get("name") if meta.exists() else spec.name
+    if other != spec.name:
+        raise SweepError([Issue("name", f"expected the output folder of sweep {spec.name!r} or a new folder, found {out} "
+                                        f"holding sweep {other!r}; choose another --out")], spec.source)
+    items = spec.items(planner, time_limit)
+    previous = {r["key"]: r for r in read_rows(out)}
+    done = {k for k, r in previous.items() if r["status"] != RowStatus.LOST.value}
+    todo = [it for it in items if it.key not in done]
+    n_workers = workers or default_workers()
+    outcome = SweepOutcome(out=out, total=len(items), skipped=len(items) - len(todo), workers=n_workers)
+    for it in items:
+        if it.key in done:
+            s = previous[it.key]["status"]
+            outcome.counts[s] = outcome.counts.get(s, 0) + 1
+    state = out / STATE
+    state.mkdir(exist_ok=True)
+    _write_json(out / "sweep.json", {
+        "name": spec.name, "source": spec.source, "base": spec.base.value, "mode": spec.mode.value,
+        "problems": len(items), "already_done": outcome.skipped, "planner": (PlannerKind(planner).value if planner else spec.planner.value),
+        "time_limit": time_limit if time_limit is not None else spec.time_limit, "retries": spec.retries,
+        "vary": {k: v for k, v in spec.vary.items()}, "fixed": spec.fixed, "options": spec.options,
+        "scheduler": scheduler or f"LocalCluster({n_workers} worker processes x 1 thread)", "started": time.time(),
+    })
+    if on_start is not None:
+        on_start(outcome)
+    journal = RowJournal(out)
+    if keep_plans:
+        (out / "plans").mkdir(exist_ok=True)
+    client = cluster = None
+    try:
+        if todo:
+            from distributed import as_completed
+
+            client, cluster = _client(n_workers, scheduler, spec.retries)
+            by_key = {}
+            futures = []
+            for it in todo:
+                f = client.submit(task, it, str(state.resolve()), keep_plans, key=f"coplan-sweep-{spec.name}-{it.key}", pure=False)
+                by_key[f.key] = it
+                futures.append(f)
+            last = time.monotonic()
+            for fut in as_completed(futures):
+                it = by_key[fut.key]
+                plan = None
+                try:
+                    row, plan = fut.result()
+                except Exception as e:  # noqa: BLE001 -- KilledWorker (every attempt died) or a scheduler error: a row
+                    row = _lost_row(it, spec.name, spec.retries + 1, e)
+                row["sweep"] = spec.name
+                journal.append(row)
+                if plan is not None:  # coplan verify plans/<key>.yaml plans/<key>.json checks it again
+                    (out / "plans" / f"{it.key}.yaml").write_text(it.problem_text or "")
+                    _write_json(out / "plans" / f"{it.key}.json", plan)
+                fut.release()
+                outcome.done += 1
+                outcome.counts[row["status"]] = outcome.counts.get(row["status"], 0) + 1
+                if on_row is not None:
+                    on_row(row, outcome)
+                if time.monotonic() - last > SNAPSHOT_SECONDS:
+                    write_table(out, csv=csv)
+                    last = time.monotonic()
+    except KeyboardInterrupt:
+        outcome.interrupted = True
+        raise
+    finally:
+        journal.close()
+        outcome.files = write_table(out, csv=csv)
+        outcome.elapsed = time.perf_counter() - t0
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    return outcome

@@ -1,0 +1,537 @@
+"""The sweep file: what to solve, validated like problem files, and its expansion into problems.
+
+A sweep file (YAML)::
+
+    name: spacing-arms-density
+    base: row                 # row | overlap | random | cell | files
+    fixed:                    # parameters every problem gets
+      links: [1.0, 0.8]
+    vary:                     # parameters to vary: a list of values or a range
+      spacing: {from: 1.2, to: 2.6, step: 0.2}
+      n_arms: [2, 3, 4, 5]
+      density: [0.8, 1.2, 1.6]          # fruit per metre of row
+      seed: {from: 0, to: 4}
+      options.search_work: [5000, 20000]  # any solver option, as options.<name>
+    mode: grid                # grid (every combination) | random (``samples`` draws, seeded; repeats dropped)
+    planner: optimal          # heuristic | coordinated | optimal (can be varied too)
+    options: {polish: false}  # solver options (coplan.optimal.OptimalOptions fields)
+    time_limit: 60            # per problem, s (the planner's clock limit; a hard stop later)
+    retries: 2                # extra attempts when a worker process dies
+
+``base: files`` takes ``problems:`` -- a file, a folder or a glob (or a list of them),
+relative to the sweep file. Every mistake is reported at once as ``file:line: key.path:
+expected X, found Y`` (:class:`SweepError`); a generated problem that turns out invalid is not
+a sweep-file error but a row with exit class "bad input".
+"""
+
+from __future__ import annotations
+
+import glob
+import hashlib
+import itertools
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError, Issue, ProblemError, finite_number, found
+from ..kinds import PlannerKind, SweepBase, SweepMode
+from ..yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
+
+__all__ = ["SweepError", "SweepItem", "SweepSpec", "load_sweep", "parse_sweep", "PARAMETERS", "MAX_ITEMS"]
+
+MAX_ITEMS = 200_000  # problems one sweep may expand to
+MAX_VALUES = 10_000  # values one range may expand to
+
+
+class SweepError(InputError):
+    kind = "sweep"
+
+
+# parameter -> (kind, bases it applies to, what it is)
+_ROWS = (SweepBase.ROW, SweepBase.OVERLAP)
+_GEN = (SweepBase.ROW, SweepBase.OVERLAP, SweepBase.RANDOM, SweepBase.CELL)
+_ALL = tuple(SweepBase)
+PARAMETERS: dict[str, tuple[str, tuple, str]] = {
+    "n_arms": ("count1", _GEN, "number of arms"),
+    "n_fruits": ("count0", _GEN, "number of fruit (instead of density)"),
+    "density": ("positive", _ROWS, "fruit per metre of row"),
+    "spacing": ("positive", _ROWS, "distance between neighbouring bases, m"),
+    "seed": ("count0", _GEN, "seed of the generator"),
+    "links": ("pair", (SweepBase.ROW,), "link lengths, m (a pair, or one number for both)"),
+    "link_radius": ("positive", (SweepBase.ROW,), "capsule radius of the links, m"),
+    "max_velocity": ("pair", (SweepBase.ROW,), "joint velocity limits, rad/s"),
+    "max_acceleration": ("pair", (SweepBase.ROW,), "joint acceleration limits, rad/s^2"),
+    "max_jerk": ("pair", (SweepBase.ROW,), "joint jerk limits, rad/s^3"),
+    "y_range": ("box", _ROWS, "fruit box: lowest and highest fruit, m"),
+    "x_pad": ("nonneg", (SweepBase.ROW,), "fruit box: how far past the end bases fruit grow, m (default spacing/2)"),
+    "zone_halfwidth": ("positive", (SweepBase.OVERLAP,), "half width of the shared zones, m"),
+    "bin_offset": ("number", _ROWS, "bin height below the base, m"),
+    "reachable_only": ("bool", (SweepBase.ROW,), "redraw fruit no arm can reach (default true)"),
+    "pick_dwell": ("nonneg", _ROWS, "dwell at each fruit, s"),
+    "place_dwell": ("nonneg", _ROWS, "dwell at the bin, s"),
+    "clearance": ("positive", _ROWS, "required clearance between links, m"),
+    "planner": ("planner", _ALL, "heuristic | coordinated | optimal"),
+}
+_TOP = {"name", "description", "base", "problems", "fixed", "vary", "mode", "samples", "seed", "planner",
+        "options", "time_limit", "retries"}
+_TASK_KEYS = ("pick_dwell", "place_dwell", "clearance")
+
+
+@dataclass(frozen=True)
+class SweepItem:
+    """One problem of a sweep: the parameters that made it, its YAML text and how to solve it."""
+
+    index: int
+    key: str  # hash of problem text + planner + options + time limit
+    params: dict[str, Any]
+    planner: str
+    options: dict[str, Any]
+    time_limit: float
+    source: str  # the problem file, or the generator that made the problem
+    problem_text: str | None = None
+    row_length: float | None = None  # m of row the problem covers, when the generator knows it
+    error: str | None = None  # the problem could not be made or read: a "bad input" row
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    name: str
+    base: SweepBase
+    mode: SweepMode
+    fixed: dict[str, Any]
+    vary: dict[str, list | dict]  # lists of values, or (random mode) ranges to draw from
+    planner: PlannerKind
+    options: dict[str, Any]
+    time_limit: float
+    retries: int
+    samples: int | None = None
+    seed: int = 0
+    problems: tuple[str, ...] = ()  # base files: the resolved problem files
+    source: str | None = None
+    description: str = ""
+    sizes: dict[str, int] = field(default_factory=dict)
+
+    def items(self, planner: PlannerKind | str | None = None, time_limit: float | None = None) -> list[SweepItem]:
+        """The concrete problems (duplicates, by key, dropped); ``planner`` / ``time_limit``
+        replace the file's (the command line's ``--planner`` and ``--time-limit``)."""
+        combos = self._combinations()
+        out: list[SweepItem] = []
+        seen: set[str] = set()
+        limit = float(time_limit) if time_limit is not None else self.time_limit
+        for params in combos:
+            if planner is not None:
+                params["planner"] = PlannerKind(planner).value
+            for item in self._make(len(out), params, limit):
+                if item.key not in seen:
+                    seen.add(item.key)
+                    out.append(item)
+        return out
+
+    # ------------------------------------------------------------------ expansion
+    def _combinations(self) -> list[dict[str, Any]]:
+        names = list(self.vary)
+        if self.mode == SweepMode.GRID:
+            lists = [self.vary[n] for n in names]
+            return [dict(self.fixed, **dict(zip(names, combo))) for combo in itertools.product(*lists)]
+        import numpy as np
+
+        rng = np.random.default_rng(self.seed)
+        out = []
+        for _ in range(self.samples or 0):
+            p = dict(self.fixed)
+            for n in names:
+                p[n] = _draw(rng, self.vary[n], _kind_of(n))
+            out.append(p)
+        return out
+
+    def _make(self, index: int, params: dict[str, Any], limit: float) -> list[SweepItem]:
+        planner = str(params.pop("planner", self.planner.value))
+        options = dict(self.options)
+        for k in [k for k in params if k.startswith("options.")]:
+            options[k.removeprefix("options.")] = params.pop(k)
+        shown = dict(params, **{f"options.{k}": v for k, v in options.items() if k not in self.options})
+        if self.base == SweepBase.FILES:
+            items = []
+            for i, path in enumerate(self.problems):
+                try:
+                    text, error = read_input_text(path, ProblemError), None
+                except ProblemError as e:
+                    text, error = None, str(e)
+                items.append(self._item(index + i, dict(shown, problem=path), planner, options, limit, path, text, None, error))
+            return items
+        text, row_length, error, source = None, None, None, f"{self.base.value} generator"
+        try:
+            text, row_length, source = _generate(self.base, params)
+        except (ValueError, RuntimeError, TypeError) as e:  # the generator refused these values
+            error = f"could not generate the problem ({', '.join(f'{k}={v}' for k, v in params.items())}): {e}"
+        return [self._item(index, shown, planner, options, limit, source, text, row_length, error)]
+
+    def _item(self, index, params, planner, options, limit, source, text, row_length, error) -> SweepItem:
+        blob = json.dumps({"problem": text if text is not None else f"{source}|{error}", "planner": planner,
+                           "options": options, "time_limit": limit}, sort_keys=True, default=str)
+        key = hashlib.sha256(blob.encode()).hexdigest()[:16]
+        return SweepItem(index, key, params, planner, options, limit, source, text, row_length, error)
+
+
+def _kind_of(name: str) -> str:
+    return "option" if name.startswith("options.") else PARAMETERS[name][0]
+
+
+def _draw(rng, values: list | dict, kind: str):
+    if isinstance(values, list):
+        return values[int(rng.integers(0, len(values)))]
+    lo, hi, step = values["from"], values["to"], values.get("step")
+    if step is not None:
+        n = int(math.floor((hi - lo) / step + 1e-9))
+        return _tidy(lo + step * int(rng.integers(0, n + 1)), kind)
+    if kind in ("count0", "count1") or (kind == "option" and isinstance(lo, int) and isinstance(hi, int)):
+        return int(rng.integers(lo, hi + 1))
+    return round(float(rng.uniform(lo, hi)), 6)
+
+
+def _tidy(x: float, kind: str):
+    if kind in ("count0", "count1"):
+        return int(round(x))
+    x = round(float(x), 9)
+    return int(x) if kind == "option" and x.is_integer() else x
+
+
+def _pair(v) -> tuple[float, float]:
+    return (float(v), float(v)) if isinstance(v, (int, float)) else (float(v[0]), float(v[1]))
+
+
+def _generate(base: SweepBase, p: dict[str, Any]) -> tuple[str, float | None, str]:
+    """(problem YAML, row length in m or None, source description) for one parameter set."""
+    from .. import generate as gen
+
+    task = dict(gen.LESSON_TASK, **{k: float(p[k]) for k in _TASK_KEYS if k in p})
+    if base in (SweepBase.RANDOM, SweepBase.CELL):
+        fn = gen.random_problem if base == SweepBase.RANDOM else gen.cell_problem
+        d = fn(int(p.get("seed", 0)), n_arms=p.get("n_arms"), n_fruits=p.get("n_fruits"))
+        return gen.to_yaml(d), None, f"{fn.__name__}(seed={int(p.get('seed', 0))})"
+    n_arms, spacing, seed = int(p.get("n_arms", 3)), float(p.get("spacing", 2.0)), int(p.get("seed", 0))
+    if base == SweepBase.ROW:
+        x_pad = float(p.get("x_pad", spacing / 2.0))
+        length = (n_arms - 1) * spacing + 2.0 * x_pad
+    else:
+        length = n_arms * spacing
+    n_fruits = int(p["n_fruits"]) if "n_fruits" in p else int(round(float(p.get("density", 1.0)) * length))
+    kw: dict[str, Any] = {}
+    if "y_range" in p:
+        kw["y_range"] = _pair(p["y_range"])
+    if "bin_offset" in p:
+        kw["bin_offset"] = float(p["bin_offset"])
+    name = f"{base.value}-{n_arms}arms-{spacing:g}m-{n_fruits}fruit-seed{seed}"
+    if base == SweepBase.ROW:
+        for k in ("links", "max_velocity", "max_acceleration", "max_jerk"):
+            if k in p:
+                kw[k] = _pair(p[k])
+        if "link_radius" in p:
+            kw["link_radius"] = float(p["link_radius"])
+        links = kw.get("links", (1.0, 0.8))
+        y_lo = kw.get("y_range", (0.5, 1.8))[0]
+        reachable_only = bool(p.get("reachable_only", True))
+        if reachable_only and y_lo >= links[0] + links[1] - 0.02:
+            raise ValueError(f"no fruit box point is within reach: y_range starts at {y_lo:g} m, reach {links[0] + links[1]:g} m")
+        d = gen.row_problem(n_arms, n_fruits, spacing=spacing, seed=seed, x_pad=x_pad, reachable_only=reachable_only,
+                            task=task, name=name, **kw)
+    else:
+        if "zone_halfwidth" in p:
+            kw["zone_halfwidth"] = float(p["zone_halfwidth"])
+        d = gen.overlap_problem(n_arms, n_fruits, spacing=spacing, seed=seed, name=name, **kw)
+        d["task"] = task
+    return gen.to_yaml(d), round(length, 6), f"{base.value}_problem"
+
+
+# ---------------------------------------------------------------------- validation
+def _check_value(kind: str, v: Any) -> str | None:
+    """Why ``v`` is not a good value of a parameter of ``kind`` (None when it is)."""
+    if kind in ("count0", "count1"):
+        low = 1 if kind == "count1" else 0
+        ok = finite_number(v) and float(v).is_integer() and v >= low
+        return None if ok else f"expected an integer >= {low}, found {found(v)}"
+    if kind == "positive":
+        return None if finite_number(v) and v > 0 else f"expected a positive number, found {found(v)}"
+    if kind == "nonneg":
+        return None if finite_number(v) and v >= 0 else f"expected a non-negative number, found {found(v)}"
+    if kind == "number":
+        return None if finite_number(v) else f"expected a number, found {found(v)}"
+    if kind == "bool":
+        return None if isinstance(v, bool) else f"expected true or false, found {found(v)}"
+    if kind == "planner":
+        ok = isinstance(v, str) and v in {p.value for p in PlannerKind}
+        return None if ok else f"expected one of {', '.join(p.value for p in PlannerKind)}, found {found(v)}"
+    if kind == "pair":
+        if finite_number(v) and v > 0:
+            return None
+        ok = isinstance(v, list) and len(v) == 2 and all(finite_number(x) and x > 0 for x in v)
+        return None if ok else f"expected a positive number or a pair of them [a, b], found {found(v)}"
+    if kind == "box":
+        ok = isinstance(v, list) and len(v) == 2 and all(finite_number(x) for x in v) and v[0] < v[1]
+        return None if ok else f"expected a pair [low, high] with low < high, found {found(v) if not isinstance(v, list) else v}"
+    return None
+
+
+def _check_option(name: str, v: Any) -> str | None:
+    """Validate one solver option value with coplan.options (the same checks as --options)."""
+    import yaml
+
+    from ..options import OptionsError, parse_options
+
+    try:
+        parse_options(yaml.safe_dump({name: v}))
+    except OptionsError as e:
+        return "; ".join(i.message for i in e.issues)
+    return None
+
+
+def _range_values(r: dict, kind: str, loc: tuple, lines: dict, issues: list, keep_range: bool) -> list | dict | None:
+    where = line_of(lines, loc)
+    path = _path(loc)
+    extra = set(r) - {"from", "to", "step", "count"}
+    if extra:
+        issues.append(Issue(path, f"expected a range {{from, to, step or count}}, found unknown key {sorted(extra)[0]!r}", where))
+        return None
+    if "from" not in r or "to" not in r:
+        issues.append(Issue(path, "expected a range with both 'from' and 'to'", where))
+        return None
+    lo, hi, step, count = r["from"], r["to"], r.get("step"), r.get("count")
+    if not (finite_number(lo) and finite_number(hi)) or lo > hi:
+        issues.append(Issue(path, f"expected numbers with from <= to, found from {found(lo)}, to {found(hi)}", where))
+        return None
+    if step is not None and count is not None:
+        issues.append(Issue(path, "expected either 'step' or 'count', found both", where))
+        return None
+    if step is not None and not (finite_number(step) and step > 0):
+        issues.append(Issue(_path(loc + ("step",)), f"expected a positive number, found {found(step)}", line_of(lines, loc + ("step",))))
+        return None
+    if count is not None and not (finite_number(count) and float(count).is_integer() and count >= 1):
+        issues.append(Issue(_path(loc + ("count",)), f"expected an integer >= 1, found {found(count)}", line_of(lines, loc + ("count",))))
+        return None
+    integer = kind in ("count0", "count1")
+    if integer and not all(float(x).is_integer() for x in (lo, hi) + ((step,) if step is not None else ())):
+        issues.append(Issue(path, f"expected whole numbers for this integer parameter, found from {lo}, to {hi}"
+                                  + (f", step {step}" if step is not None else ""), where))
+        return None
+    if count is None and step is None:
+        if keep_range and not integer:
+            values = None
+        elif integer or (kind == "option" and isinstance(lo, int) and isinstance(hi, int)):
+            step = 1
+        else:
+            issues.append(Issue(path, "expected 'step' or 'count' for a range of real numbers in a grid sweep", where))
+            return None
+    if step is not None:
+        n = int(math.floor((hi - lo) / step + 1e-9)) + 1
+        if n > MAX_VALUES:
+            issues.append(Issue(path, f"expected at most {MAX_VALUES} values, found a range of {n}", where))
+            return None
+        values = [_tidy(lo + i * step, kind) for i in range(n)]
+    elif count is not None:
+        n = int(count)
+        if n > MAX_VALUES:
+            issues.append(Issue(path, f"expected at most {MAX_VALUES} values, found count {n}", where))
+            return None
+        values = [_tidy(lo + (hi - lo) * i / (n - 1), kind) if n > 1 else _tidy(lo, kind) for i in range(n)]
+    bad = [x for x in (values or [lo, hi]) if _check_value(kind, x)]
+    if bad:
+        issues.append(Issue(path, f"range: {_check_value(kind, bad[0])}", where))
+        return None
+    if keep_range:
+        return {"from": lo, "to": hi, **({"step": step} if step is not None else {})}
+    return values
+
+
+def _path(loc) -> str:
+    out = ""
+    for part in loc:
+        out += f"[{part}]" if isinstance(part, int) else ("." if out else "") + str(part)
+    return out
+
+
+def _param_ok(name: str, base: SweepBase, loc: tuple, lines: dict, issues: list) -> bool:
+    import difflib
+
+    if name.startswith("options."):
+        return True
+    if name not in PARAMETERS:
+        near = difflib.get_close_matches(name, list(PARAMETERS) + ["options.search_work"], n=1, cutoff=0.5)
+        hint = f"; did you mean {near[0]!r}?" if near else f"; known: {', '.join(PARAMETERS)}, options.<name>"
+        issues.append(Issue(_path(loc), f"expected a sweep parameter, found unknown parameter {name!r}{hint}", line_of(lines, loc)))
+        return False
+    if base not in PARAMETERS[name][1]:
+        allowed = ", ".join(b.value for b in PARAMETERS[name][1])
+        issues.append(Issue(_path(loc), f"expected a parameter of base {base.value!r}, found {name!r} ({PARAMETERS[name][2]}), "
+                                        f"which only applies to base {allowed}", line_of(lines, loc)))
+        return False
+    return True
+
+
+def _one(name: str, v: Any, loc: tuple, lines: dict, issues: list) -> bool:
+    kind = _kind_of(name)
+    msg = _check_option(name.removeprefix("options."), v) if kind == "option" else _check_value(kind, v)
+    if msg:
+        issues.append(Issue(_path(loc), msg, line_of(lines, loc)))
+    return msg is None
+
+
+def _resolve_problems(pats: Any, here: Path, lines: dict, issues: list) -> tuple[str, ...]:
+    pats_list = pats if isinstance(pats, list) else [pats]
+    found: list[str] = []
+    for i, pat in enumerate(pats_list):
+        loc = ("problems", i) if isinstance(pats, list) else ("problems",)
+        if not isinstance(pat, str) or not pat:
+            issues.append(Issue(_path(loc), f"expected a file, folder or glob, found {found(pat)}", line_of(lines, loc)))
+            continue
+        p = Path(pat) if Path(pat).is_absolute() else here / pat
+        if p.is_dir():
+            hits = sorted(str(q) for q in p.iterdir() if q.suffix in (".yaml", ".yml") and q.is_file())
+        elif p.is_file():
+            hits = [str(p)]
+        else:
+            hits = sorted(q for q in glob.glob(str(p), recursive=True) if Path(q).is_file())
+        if not hits:
+            issues.append(Issue(_path(loc), f"expected at least one problem file, found none matching {pat!r} (relative to {here})",
+                                line_of(lines, loc)))
+        found += [h for h in hits if h not in found]
+    return tuple(found)
+
+
+def parse_sweep(text: str, source: str | None = None, here: Path | None = None) -> SweepSpec:
+    """Validate a sweep file's text (raises :class:`SweepError` listing every problem)."""
+    n = len(text.encode("utf-8", errors="replace"))
+    if n > MAX_FILE_BYTES:
+        raise SweepError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
+    try:
+        data, lines = read_yaml(text, source)
+    except ProblemError as e:
+        raise SweepError(e.issues, source) from None
+    if not isinstance(data, dict):
+        raise SweepError([Issue("", f"expected a mapping with keys base, vary, planner, ...; found {found(data)}", line_of(lines, ()))],
+                         source)
+    issues: list[Issue] = []
+    import difflib
+
+    for k in data:
+        if k not in _TOP:
+            near = difflib.get_close_matches(str(k), sorted(_TOP), n=1, cutoff=0.5)
+            hint = f"; did you mean {near[0]!r}?" if near else f"; allowed keys: {', '.join(sorted(_TOP))}"
+            issues.append(Issue(str(k), f"expected a known key, found unknown key {k!r}{hint}", line_of(lines, (k,))))
+
+    def get(key, kind, default):
+        v = data.get(key, default)
+        if key in data:
+            msg = _check_value(kind, v) if kind != "str" else (None if isinstance(v, str) and v.strip() else
+                                                              f"expected a non-empty string, found {found(v)}")
+            if msg:
+                issues.append(Issue(key, msg, line_of(lines, (key,))))
+                return default
+        return v
+
+    stem = Path(source).stem if source else "sweep"
+    name = get("name", "str", stem)
+    description = get("description", "str", "")
+    base = SweepBase.FILES if "problems" in data and "base" not in data else None
+    if "base" in data:
+        b = data["base"]
+        if b not in {x.value for x in SweepBase}:
+            issues.append(Issue("base", f"expected one of {', '.join(x.value for x in SweepBase)}, found {found(b)}", line_of(lines, ("base",))))
+        else:
+            base = SweepBase(b)
+    elif base is None:
+        issues.append(Issue("base", f"expected a base: one of {', '.join(x.value for x in SweepBase)} "
+                                    "(or 'problems:' for problem files), found none", line_of(lines, ())))
+    mode_v = data.get("mode", SweepMode.GRID.value)
+    mode = SweepMode.GRID
+    if mode_v not in {m.value for m in SweepMode}:
+        issues.append(Issue("mode", f"expected one of {', '.join(m.value for m in SweepMode)}, found {found(mode_v)}", line_of(lines, ("mode",))))
+    else:
+        mode = SweepMode(mode_v)
+    samples = get("samples", "count1", None)
+    if mode == SweepMode.RANDOM and samples is None and "samples" not in data:
+        issues.append(Issue("samples", "expected 'samples' (how many problems to draw) with mode: random", line_of(lines, ("mode",))))
+    seed = int(get("seed", "count0", 0))
+    planner = PlannerKind(get("planner", "planner", PlannerKind.OPTIMAL.value))
+    time_limit = float(get("time_limit", "positive", 120.0))
+    retries = int(get("retries", "count0", 2))
+    problems: tuple[str, ...] = ()
+    here = here if here is not None else (Path(source).parent if source else Path.cwd())
+    if base == SweepBase.FILES:
+        if "problems" not in data:
+            issues.append(Issue("problems", "expected 'problems': a file, folder or glob (base: files)", line_of(lines, ("base",))))
+        else:
+            problems = _resolve_problems(data["problems"], here, lines, issues)
+    elif "problems" in data and base is not None:
+        issues.append(Issue("problems", f"expected no 'problems' with base {base.value!r} (they are generated)", line_of(lines, ("problems",))))
+    options: dict[str, Any] = {}
+    if "options" in data:
+        if not isinstance(data["options"], dict):
+            issues.append(Issue("options", f"expected a mapping of solver options, found {found(data['options'])}", line_of(lines, ("options",))))
+        else:
+            for k, v in data["options"].items():
+                if _one(f"options.{k}", v, ("options", k), lines, issues):
+                    options[str(k)] = v
+    fixed: dict[str, Any] = {}
+    vary: dict[str, list | dict] = {}
+    for section in ("fixed", "vary"):
+        sec = data.get(section, {})
+        if sec is None or not isinstance(sec, dict):
+            issues.append(Issue(section, f"expected a mapping of parameter names to values, found {found(sec)}", line_of(lines, (section,))))
+            continue
+        for k, v in sec.items():
+            k = str(k)
+            loc = (section, k)
+            if base is None or not _param_ok(k, base, loc, lines, issues):
+                continue
+            if section == "fixed":
+                if _one(k, v, loc, lines, issues):
+                    fixed[k] = v
+                continue
+            if isinstance(v, dict):
+                vals = _range_values(v, _kind_of(k), loc, lines, issues, keep_range=mode == SweepMode.RANDOM)
+                if vals is not None:
+                    vary[k] = vals
+            elif isinstance(v, list) and v:
+                if all(_one(k, x, loc + (i,), lines, issues) for i, x in enumerate(v)):
+                    vary[k] = list(v)
+            else:
+                issues.append(Issue(_path(loc), f"expected a non-empty list of values or a range {{from, to, step}}, found {found(v)}",
+                                    line_of(lines, loc)))
+            if k in fixed:
+                issues.append(Issue(_path(loc), f"expected each parameter once, found {k!r} both fixed and varied", line_of(lines, loc)))
+    both = {"n_fruits", "density"} & (set(fixed) | set(vary))
+    if len(both) == 2:
+        issues.append(Issue("vary" if "density" in vary else "fixed", "expected either n_fruits or density, found both",
+                            line_of(lines, ("vary" if "density" in vary else "fixed", "density"))))
+    arm_counts = vary.get("n_arms", [fixed.get("n_arms")])
+    if base == SweepBase.OVERLAP and (1 in arm_counts if isinstance(arm_counts, list) else arm_counts["from"] < 2):
+        sec = "vary" if "n_arms" in vary else "fixed"
+        issues.append(Issue(f"{sec}.n_arms", "expected at least 2 arms for base overlap, found 1", line_of(lines, (sec, "n_arms"))))
+    sizes = {k: len(v) for k, v in vary.items() if isinstance(v, list)}
+    total = math.prod(sizes.values()) if mode == SweepMode.GRID else (samples or 0)
+    if base == SweepBase.FILES:
+        total *= max(1, len(problems))
+    if total > MAX_ITEMS:
+        issues.append(Issue("vary", f"expected at most {MAX_ITEMS} problems, found {total} combinations", line_of(lines, ("vary",))))
+    if issues:
+        raise SweepError(sorted(issues, key=lambda i: -1 if i.line is None else i.line), source)
+    return SweepSpec(name=str(name), base=base, mode=mode, fixed=fixed, vary=vary, planner=planner, options=options,
+                     time_limit=time_limit, retries=retries, samples=samples, seed=seed, problems=problems,
+                     source=source, description=str(description or ""), sizes=sizes)
+
+
+def load_sweep(path: str | Path) -> SweepSpec:
+    """Load and validate a sweep file (raises :class:`SweepError`, never a bare traceback).
+
+    A folder of problem files, or a glob of them (``'problems/*.yaml'``), is a sweep too: every
+    file solved with the default planner and time limit."""
+    p = Path(path)
+    if p.is_dir() or (not p.exists() and glob.has_magic(str(path))):
+        name = (p if p.is_dir() else p.parent).resolve().name or "problems"
+        try:
+            return parse_sweep(f"name: {json.dumps(name)}\nproblems: {json.dumps(str(path))}\n", str(path), Path.cwd())
+        except SweepError as e:  # no file of its own: no line numbers
+            raise SweepError([Issue("", i.message) for i in e.issues], str(path)) from None
+    return parse_sweep(read_input_text(p, SweepError), str(p), p.parent)

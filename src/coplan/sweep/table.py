@@ -1,0 +1,187 @@
+"""The sweep table: one row per problem, a journal that loses nothing, Parquet (and CSV) snapshots.
+
+Every finished row is appended at once to ``rows.jsonl`` in the output folder (one JSON object
+a line, flushed and fsync'd): that journal is what a re-run reads to skip the rows already
+done, so a crash or Ctrl-C loses at most the problems still being solved. ``results.parquet``
+(and ``results.csv`` on request) is a snapshot of the journal, rewritten atomically (temporary
+name, then rename) every few seconds while the sweep runs and at its end, so it is always a
+complete, readable file. A torn last line of the journal (a crash mid-write) is ignored.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+__all__ = ["COLUMNS", "JOURNAL", "PARQUET", "CSV", "RowJournal", "normalise", "read_rows", "read_table", "write_table", "schema"]
+
+JOURNAL = "rows.jsonl"
+PARQUET = "results.parquet"
+CSV = "results.csv"
+
+# column -> (Arrow type name, meaning); every row has every column (null where not computed)
+COLUMNS: dict[str, tuple[str, str]] = {
+    "key": ("string", "hash of the problem text + planner + options + time limit"),
+    "sweep": ("string", "the sweep's name"),
+    "index": ("int64", "position in the sweep"),
+    "name": ("string", "the problem's name"),
+    "source": ("string", "problem file or generator"),
+    "params": ("string", "the varied and fixed parameters, JSON"),
+    "seed": ("int64", "generator seed (parameter)"),
+    "density": ("float64", "fruit per metre of row (parameter, else fruit / row length)"),
+    "n_arms": ("int64", "arms in the problem"),
+    "n_fruits": ("int64", "fruit in the problem"),
+    "spacing": ("float64", "mean distance between neighbouring bases, m"),
+    "row_length": ("float64", "m of row the cell covers (arms x spacing unless the generator says)"),
+    "link_1": ("float64", "first link of the first arm, m"),
+    "link_2": ("float64", "second link of the first arm, m"),
+    "link_radius": ("float64", "link radius of the first arm, m"),
+    "planner": ("string", "heuristic | coordinated | optimal"),
+    "options": ("string", "solver options given, JSON"),
+    "time_limit": ("float64", "per-problem time limit, s"),
+    "status": ("string", "plan status, or bad input / error / timeout / lost"),
+    "exit_class": ("string", "the exit class coplan solve would give (ok, bad input, partial, ...)"),
+    "exit_code": ("int64", "the exit code coplan solve would give"),
+    "reachable": ("int64", "fruit within some arm's reach (screened)"),
+    "harvested": ("int64", "fruit harvested"),
+    "makespan": ("float64", "time of the last place, s"),
+    "lower_bound": ("float64", "no plan can be faster, s"),
+    "ratio": ("float64", "makespan / lower bound"),
+    "optimality": ("string", "proven | not proven (optimal planner)"),
+    "coordinated_makespan": ("float64", "coordinated planner's makespan, s"),
+    "heuristic_makespan": ("float64", "the course's heuristic planner's makespan, s"),
+    "heuristic_status": ("string", "the heuristic plan's status"),
+    "cycle_worst": ("float64", "worst arm's time per fruit, s"),
+    "cycle_mean": ("float64", "mean time per fruit over arms, s"),
+    "throughput": ("float64", "fruit per minute"),
+    "throughput_per_m": ("float64", "fruit per minute per metre of row"),
+    "certified_clearance": ("float64", "least certified clearance between links, m"),
+    "required_clearance": ("float64", "clearance the task requires (+ margin), m"),
+    "verified": ("bool", "the independent verifier passed the plan"),
+    "solve_time": ("float64", "wall-clock time of the solve, s"),
+    "worker": ("string", "the worker that solved it"),
+    "message": ("string", "why it failed (or the solver's message)"),
+    "finished": ("float64", "UNIX time the row was written"),
+}
+
+
+def schema():
+    import pyarrow as pa
+
+    types = {"string": pa.string(), "int64": pa.int64(), "float64": pa.float64(), "bool": pa.bool_()}
+    return pa.schema([(k, types[t]) for k, (t, _) in COLUMNS.items()])
+
+
+def _clean(v: Any, kind: str) -> Any:
+    if v is None:
+        return None
+    if kind == "float64":
+        x = float(v)
+        return x if math.isfinite(x) else None
+    if kind == "int64":
+        return int(v)
+    if kind == "bool":
+        return bool(v)
+    return str(v)
+
+
+def normalise(row: dict[str, Any]) -> dict[str, Any]:
+    """A row with exactly the table's columns, in order, each value of its column's type."""
+    return {k: _clean(row.get(k), t) for k, (t, _) in COLUMNS.items()}
+
+
+class RowJournal:
+    """Append-only ``rows.jsonl``: one row per line, flushed and fsync'd as it is written."""
+
+    def __init__(self, folder: str | Path):
+        self.path = Path(folder) / JOURNAL
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._fh = None
+
+    def append(self, row: dict[str, Any]) -> None:
+        if self._fh is None:
+            self._repair()
+            self._fh = open(self.path, "a", encoding="utf-8")
+        self._fh.write(json.dumps(normalise(row), allow_nan=False) + "\n")
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+
+    def _repair(self) -> None:
+        """Cut a torn last line (a crash mid-write) so the next row starts on its own line."""
+        if not self.path.exists():
+            return
+        data = self.path.read_bytes()
+        if data and not data.endswith(b"\n"):
+            keep = data.rfind(b"\n") + 1
+            with open(self.path, "r+b") as fh:
+                fh.truncate(keep)
+
+    def close(self) -> None:
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+
+
+def read_rows(folder: str | Path) -> list[dict[str, Any]]:
+    """Every complete row in the journal, the last row of each key winning."""
+    path = Path(folder) / JOURNAL
+    if not path.exists():
+        return []
+    rows: dict[str, dict] = {}
+    with open(path, encoding="utf-8") as fh:
+        for line in fh:
+            if not line.endswith("\n"):
+                break  # a torn last line: that row was not finished
+            try:
+                row = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            if isinstance(row, dict) and isinstance(row.get("key"), str):
+                rows[row["key"]] = normalise(row)
+    return sorted(rows.values(), key=lambda r: (r["sweep"] or "", r["index"] if r["index"] is not None else 0))
+
+
+def _atomic(path: Path, write) -> Path:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def write_table(folder: str | Path, rows: list[dict[str, Any]] | None = None, csv: bool = False) -> dict[str, Path]:
+    """Write ``results.parquet`` (and ``results.csv``) from ``rows`` (default: the journal)."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    folder = Path(folder)
+    rows = read_rows(folder) if rows is None else [normalise(r) for r in rows]
+    table = pa.Table.from_pylist(rows, schema=schema())
+    out = {"parquet": _atomic(folder / PARQUET, lambda p: pq.write_table(table, p))}
+    if csv:
+        out["csv"] = _atomic(folder / CSV, lambda p: pacsv.write_csv(table, p))
+    return out
+
+
+def read_table(folder_or_file: str | Path):
+    """The sweep table as a ``pyarrow.Table``: ``results.parquet`` of a folder (or the file
+    given); when the folder has only a journal (a sweep still running), the journal's rows."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    p = Path(folder_or_file)
+    if p.is_file():
+        return pq.read_table(p)
+    rows = read_rows(p)
+    if (p / PARQUET).exists():
+        t = pq.read_table(p / PARQUET)
+        if t.num_rows >= len(rows):
+            return t
+    return pa.Table.from_pylist(rows, schema=schema())

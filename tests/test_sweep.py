@@ -1,0 +1,392 @@
+"""Design sweeps (``coplan.sweep``): the sweep file, Dask runs, resume, worker deaths, the table
+and the report.
+
+Sweeps here use the coordinated planner on small rows (a fraction of a second each), so the
+cost is mostly starting local clusters (a few seconds each).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+pytest.importorskip("distributed")
+pytest.importorskip("pyarrow")
+
+from coplan.cli import app  # noqa: E402
+from coplan.kinds import ExitCode, RowStatus, SweepBase, SweepMode  # noqa: E402
+from coplan.sweep.report import pareto_front, sweep_report  # noqa: E402
+from coplan.sweep.run import run_sweep, solve_item  # noqa: E402
+from coplan.sweep.spec import SweepError, SweepItem, load_sweep, parse_sweep  # noqa: E402
+from coplan.sweep.table import COLUMNS, JOURNAL, read_rows, read_table  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+SMALL = ROOT / "sweeps" / "small.yaml"
+
+TINY = """\
+name: tiny
+base: row
+fixed: {n_arms: 2, spacing: 2.0, seed: 3}
+vary:
+  n_fruits: [2, 3, 4]
+planner: coordinated
+time_limit: 60
+"""
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sweep") / "small"
+    seen: list[dict] = []
+    res = run_sweep(load_sweep(SMALL), out, workers=2, on_row=lambda row, o: seen.append(dict(row)))
+    return out, res, seen
+
+
+# ---------------------------------------------------------------------- runs
+def test_small_sweep_on_a_two_worker_local_cluster(small_run):
+    out, res, seen = small_run
+    assert (res.total, res.skipped, res.done, res.workers) == (6, 0, 6, 2)
+    rows = read_table(out).to_pylist()
+    assert len(rows) == 6 and len({r["key"] for r in rows}) == 6
+    assert list(read_table(out).schema.names) == list(COLUMNS)
+    assert {(r["n_arms"], r["spacing"]) for r in rows} == {(a, s) for a in (2, 3) for s in (1.6, 2.0, 2.4)}
+    for r in rows:
+        assert r["status"] == RowStatus.SUCCESS.value and r["exit_class"] == "ok" and r["exit_code"] == 0 and r["verified"]
+        assert r["n_fruits"] == round(1.0 * r["n_arms"] * r["spacing"])  # density 1/m over arms x spacing of row
+        assert r["row_length"] == pytest.approx(r["n_arms"] * r["spacing"])
+        assert r["throughput"] == pytest.approx(60.0 * r["harvested"] / r["makespan"])
+        assert r["throughput_per_m"] == pytest.approx(r["throughput"] / r["row_length"])
+        assert r["ratio"] == pytest.approx(r["makespan"] / r["lower_bound"]) and r["ratio"] >= 1 - 1e-9
+        assert r["coordinated_makespan"] == r["makespan"]  # the coordinated planner: its own figure
+        assert r["certified_clearance"] >= r["required_clearance"] - 1e-12
+        assert r["sweep"] == "small" and json.loads(r["params"])["density"] == 1.0
+    assert sorted(r["key"] for r in seen) == sorted(r["key"] for r in rows)  # a row per task, as it finished
+
+
+def test_a_row_matches_solving_the_same_problem_directly(small_run):
+    from coplan import solve
+    from coplan.generate import row_problem, to_yaml
+    from coplan.problem import parse_problem
+
+    out, _, _ = small_run
+    row = next(r for r in read_rows(out) if r["n_arms"] == 3 and r["spacing"] == 2.0)
+    prob = parse_problem(to_yaml(row_problem(3, 6, spacing=2.0, seed=0, x_pad=1.0, reachable_only=True)))
+    res = solve(prob, planner="coordinated")
+    assert row["makespan"] == pytest.approx(res.plan.metrics["makespan"], rel=1e-9)
+    assert row["lower_bound"] == pytest.approx(res.plan.metrics["lower_bound"], rel=1e-9)
+
+
+def test_resume_skips_finished_rows_and_survives_a_torn_line(small_run, tmp_path):
+    src, _, _ = small_run
+    out = tmp_path / "resume"
+    shutil.copytree(src, out)
+    lines = (out / JOURNAL).read_text().splitlines(keepends=True)
+    kept, dropped = lines[:4], [json.loads(ln)["key"] for ln in lines[4:]]
+    (out / JOURNAL).write_text("".join(kept) + lines[4][:40])  # a crash in the middle of writing row 5
+    solved: list[str] = []
+    res = run_sweep(load_sweep(SMALL), out, workers=1, on_row=lambda row, o: solved.append(row["key"]))
+    assert (res.skipped, res.done) == (4, 2) and sorted(solved) == sorted(dropped)
+    assert len(read_rows(out)) == 6 and read_table(out).num_rows == 6
+    again = run_sweep(load_sweep(SMALL), out, workers=1)  # all done: no cluster, nothing solved
+    assert (again.skipped, again.done, again.counts) == (6, 0, {"success": 6})
+
+
+def test_a_killed_worker_process_is_replaced_and_its_task_retried(tmp_path):
+    marker = tmp_path / "killed-once"
+
+    def dies_once(item, state_dir, keep_plan):
+        if item.index == 1 and not marker.exists():
+            marker.write_text(str(os.getpid()))
+            os.kill(os.getpid(), 9)  # the worker process dies in the middle of the sweep
+        return solve_item(item, state_dir, keep_plan)
+
+    spec = parse_sweep(TINY, "tiny.yaml")
+    res = run_sweep(spec, tmp_path / "out", workers=2, task=dies_once)
+    rows = read_rows(tmp_path / "out")
+    assert marker.exists(), "the task never killed its worker"
+    assert res.done == 3 and len(rows) == 3 and {r["status"] for r in rows} == {RowStatus.SUCCESS.value}
+    assert sorted(r["n_fruits"] for r in rows) == [2, 3, 4]
+    victim = next(r for r in rows if r["index"] == 1)
+    assert victim["worker"] is not None and victim["makespan"] > 0
+
+
+def test_bad_problems_are_rows_with_exit_class_bad_input(tmp_path, problems_dir):
+    good = tmp_path / "p" / "a_good.yaml"
+    good.parent.mkdir()
+    shutil.copy(problems_dir / "single_arm.yaml", good)
+    (tmp_path / "p" / "b_bad.yaml").write_text("name: broken\narms:\n  - {name: a, base: [0, 0], links: [1.0, -0.5]}\n")
+    (tmp_path / "p" / "c_not_utf8.yaml").write_bytes(b"name: \xff\n")
+    (tmp_path / "files.yaml").write_text("problems: p\nplanner: coordinated\ntime_limit: 30\n")
+    res = run_sweep(load_sweep(tmp_path / "files.yaml"), tmp_path / "out", workers=1, keep_plans=True)
+    rows = {Path(json.loads(r["params"])["problem"]).name: r for r in read_rows(tmp_path / "out")}
+    assert res.done == 3 and set(rows) == {"a_good.yaml", "b_bad.yaml", "c_not_utf8.yaml"}
+    assert rows["a_good.yaml"]["status"] == "success"
+    saved = tmp_path / "out" / "plans" / rows["a_good.yaml"]["key"]
+    r = CliRunner().invoke(app, ["verify", str(saved.with_suffix(".yaml")), str(saved.with_suffix(".json"))])
+    assert r.exit_code == 0, r.output  # the kept plan passes coplan verify on its own
+    assert sorted(p.name for p in saved.parent.iterdir()) == [saved.name + ".json", saved.name + ".yaml"]
+    for name in ("b_bad.yaml", "c_not_utf8.yaml"):
+        r = rows[name]
+        assert (r["status"], r["exit_class"], r["exit_code"]) == ("bad input", "bad input", int(ExitCode.BAD_INPUT))
+        assert name in r["message"]
+    assert "links" in rows["b_bad.yaml"]["message"] and "UTF-8" in rows["c_not_utf8.yaml"]["message"]
+
+
+def test_solve_item_turns_errors_into_rows_without_a_cluster():
+    item = SweepItem(0, "k", {"seed": 1}, "coordinated", {}, 30.0, "gen", "name: x\narms: 3\n")
+    row, plan = solve_item(item)
+    assert row["status"] == "bad input" and "arms" in row["message"] and plan is None
+    gen_err = SweepItem(1, "k2", {}, "coordinated", {}, 30.0, "gen", None, None, "could not generate the problem: no")
+    assert solve_item(gen_err)[0]["exit_class"] == "bad input"
+
+
+def test_the_watchdog_stops_a_hung_worker_and_the_retry_writes_a_timeout_row(tmp_path):
+    code = textwrap.dedent(f"""
+        import time
+        from pathlib import Path
+        from coplan.sweep.run import Watchdog
+        with Watchdog(0.3, Path({str(tmp_path / 'timeouts' / 'k')!r})):
+            time.sleep(30)
+    """)
+    p = subprocess.run([sys.executable, "-c", code], timeout=60)  # blocked: the wall-clock bound (4 x 0.3 s)
+    assert p.returncode == int(ExitCode.SOLVER_FAILED) and (tmp_path / "timeouts" / "k").exists()
+    spin = textwrap.dedent(f"""
+        import time
+        from pathlib import Path
+        from coplan.sweep.run import Watchdog
+        t0 = time.monotonic()
+        with Watchdog(0.5, Path({str(tmp_path / 'timeouts' / 'spin')!r}), wall_factor=1000):
+            while time.monotonic() - t0 < 60:
+                pass
+    """)
+    p = subprocess.run([sys.executable, "-c", spin], timeout=90)  # spinning: the CPU bound
+    assert p.returncode == int(ExitCode.SOLVER_FAILED) and (tmp_path / "timeouts" / "spin").exists()
+    calm = "from coplan.sweep.run import Watchdog\nwith Watchdog(5.0, None):\n    sum(range(10))\nprint('returned')"
+    assert subprocess.run([sys.executable, "-c", calm], capture_output=True, text=True, timeout=60).stdout.strip() == "returned"
+    item = SweepItem(0, "k", {}, "coordinated", {}, 30.0, "gen", "name: x\n")
+    row, _ = solve_item(item, str(tmp_path))
+    assert row["status"] == RowStatus.TIMEOUT.value and row["exit_class"] == "solver failed"
+
+
+# ---------------------------------------------------------------------- the sweep file
+def test_grid_expansion_density_and_keys():
+    spec = load_sweep(SMALL)
+    items = spec.items()
+    assert spec.base == SweepBase.ROW and spec.mode == SweepMode.GRID and len(items) == 6
+    assert [it.params["spacing"] for it in items[:3]] == [1.6, 2.0, 2.4]
+    assert items == spec.items()  # deterministic
+    other = spec.items(planner="optimal")
+    assert {it.key for it in other}.isdisjoint({it.key for it in items})  # the key covers the planner
+    assert {it.key for it in spec.items(time_limit=5)}.isdisjoint({it.key for it in items})
+
+
+def test_random_mode_draws_seeded_values_within_ranges():
+    text = textwrap.dedent("""
+        base: row
+        mode: random
+        samples: 40
+        seed: 7
+        vary:
+          n_arms: {from: 2, to: 5}
+          spacing: {from: 1.2, to: 2.6}
+          density: [0.5, 1.0]
+          options.search_work: {from: 1000, to: 3000, step: 1000}
+    """)
+    a, b = parse_sweep(text, "r.yaml").items(), parse_sweep(text, "r.yaml").items()
+    assert [i.key for i in a] == [i.key for i in b] and 30 <= len(a) <= 40
+    assert {i.params["n_arms"] for i in a} == {2, 3, 4, 5}
+    assert all(1.2 <= i.params["spacing"] <= 2.6 for i in a) and {i.params["density"] for i in a} == {0.5, 1.0}
+    assert {i.options["search_work"] for i in a} == {1000, 2000, 3000}
+    assert parse_sweep(text.replace("seed: 7", "seed: 8"), "r.yaml").items()[0].key != a[0].key
+
+
+def test_the_shipped_sweeps_validate():
+    specs = {p.name: load_sweep(p) for p in sorted((ROOT / "sweeps").glob("*.yaml"))}
+    assert len(specs["small.yaml"].items()) == 6
+    assert len(specs["spacing_arms_density.yaml"].items()) == 8 * 4 * 3 * 5
+    big = specs["random1000.yaml"]  # (generating its 1000 problems takes seconds: sizes only)
+    assert big.base == SweepBase.RANDOM and big.sizes == {"seed": 1000} and big.vary["seed"] == list(range(1000))
+
+
+BAD = """\
+name: bad
+base: row
+fixed:
+  link_radius: -0.1
+vary:
+  spacng: [1.5, 2.0]
+  n_arms: [2, 0]
+  density: {from: 2.0, to: 1.0, step: 0.5}
+  seed: {from: 0, to: 4.5}
+  options.search_work: [-5]
+options: {polish: maybe}
+planner: fastest
+retries: -1
+"""
+
+
+def test_sweep_file_errors_name_the_key_path_and_line():
+    with pytest.raises(SweepError) as e:
+        parse_sweep(BAD, "bad.yaml")
+    got = {i.path: (i.line, i.message) for i in e.value.issues}
+    assert got["fixed.link_radius"][0] == 4 and "positive" in got["fixed.link_radius"][1]
+    assert got["vary.spacng"][0] == 6 and "did you mean 'spacing'" in got["vary.spacng"][1]
+    assert got["vary.n_arms[1]"] == (7, "expected an integer >= 1, found number 0")
+    assert got["vary.density"][0] == 8 and "from <= to" in got["vary.density"][1]
+    assert got["vary.seed"][0] == 9 and "whole numbers" in got["vary.seed"][1]
+    assert got["vary.options.search_work[0]"][0] == 10
+    assert got["options.polish"][0] == 11 and "true or false" in got["options.polish"][1]
+    assert got["planner"][0] == 12 and "coordinated" in got["planner"][1]
+    assert got["retries"][0] == 13
+    assert "bad.yaml:6: vary.spacng: expected a sweep parameter" in str(e.value)
+
+
+@pytest.mark.parametrize("text, path, words", [
+    ("base: random\nvary: {spacing: [1.0]}\n", "vary.spacing", "only applies to base row, overlap"),
+    ("base: row\nfixed: {n_fruits: 3}\nvary: {density: [1.0]}\n", "vary", "either n_fruits or density"),
+    ("base: row\nmode: random\n", "samples", "mode: random"),
+    ("base: row\nvary: {spacing: {from: 1, to: 2}}\n", "vary.spacing", "'step' or 'count'"),
+    ("problems: nowhere/*.yaml\n", "problems", "found none matching"),
+    ("base: row\nvary: {y_range: [[1.0, 0.5]]}\n", "vary.y_range[0]", "low < high"),
+    ("base: row\nbase_: x\n", "base_", "did you mean 'base'"),
+    ("- 1\n", "", "expected a mapping"),
+    ("base: row\nvary: {n_arms: &a [1]}\n", "vary.n_arms", "anchor"),
+])
+def test_sweep_file_errors(text, path, words, tmp_path):
+    with pytest.raises(SweepError) as e:
+        parse_sweep(text, "s.yaml", tmp_path)
+    assert any(i.path == path and words in i.message for i in e.value.issues), e.value.issues
+
+
+def test_the_sweep_command_reports_a_bad_file_with_exit_code_3(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(BAD)
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(bad), "--out", str(tmp_path / "o")])
+    assert r.exit_code == int(ExitCode.BAD_INPUT)
+    assert f"{bad}:7: vary.n_arms[1]: expected an integer >= 1, found number 0" in r.output
+    assert "Traceback" not in r.output and not (tmp_path / "o").exists()
+    r = CliRunner().invoke(app, ["sweep", str(SMALL), "--workers", "2", "--scheduler", "tcp://x:1"])
+    assert r.exit_code == int(ExitCode.USAGE)
+
+
+# ---------------------------------------------------------------------- report
+def test_pareto_front():
+    pts = [(2, 10.0), (3, 9.0), (3, 12.0), (4, 12.0), (5, 15.0), (2, 8.0)]
+    assert pareto_front(pts) == [0, 2, 4]
+
+
+def test_sweep_report_counts_medians_and_figures(small_run, tmp_path):
+    out, _, _ = small_run
+    rep = sweep_report(out, tmp_path / "rep")
+    s = rep.summary
+    assert s["rows"] == 6 and s["counts"] == {"success": 6} and s["success_rate"] == 1.0
+    rows = read_rows(out)
+    tp = sorted(r["throughput"] for r in rows)
+    assert s["medians"]["throughput"] == pytest.approx((tp[2] + tp[3]) / 2)
+    best = max(rows, key=lambda r: r["throughput"])
+    assert max(d["throughput"] for d in s["pareto_front"]) == pytest.approx(best["throughput"])
+    for k in ("markdown", "json", "throughput", "ratio", "solve_time", "pareto"):
+        assert rep.files[k].exists() and rep.files[k].stat().st_size > 0
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep-report", str(out), "--out", str(tmp_path / "r2"), "--no-figures"])
+    assert r.exit_code == 0 and "success 6" in r.output and (tmp_path / "r2" / "report.md").exists()
+
+
+def test_every_generated_base_expands_to_valid_problems_or_a_bad_input_item():
+    from coplan.problem import parse_problem
+
+    over = parse_sweep("base: overlap\nfixed: {spacing: 1.5, density: 2.0}\nvary: {n_arms: [2, 3]}\n", "o.yaml").items()
+    assert [len(parse_problem(i.problem_text).fruits) for i in over] == [6, 9]  # round(2 /m x arms x 1.5 m)
+    cell = parse_sweep("base: cell\nvary: {seed: [0, 1], n_arms: [3]}\n", "c.yaml").items()
+    assert [len(parse_problem(i.problem_text).arms) for i in cell] == [3, 3] and cell[0].row_length is None
+    rnd = parse_sweep("base: random\nvary: {seed: [5]}\n", "r.yaml").items()[0]
+    from coplan.generate import random_problem, to_yaml
+
+    assert rnd.problem_text == to_yaml(random_problem(5)) and rnd.source == "random_problem(seed=5)"
+    tiny_arm = parse_sweep("base: row\nfixed: {n_arms: 2, links: [0.3, 0.2]}\n", "t.yaml").items()[0]
+    assert tiny_arm.problem_text is None and "within reach" in tiny_arm.error
+    row, _ = solve_item(tiny_arm)
+    assert (row["status"], row["exit_code"]) == ("bad input", int(ExitCode.BAD_INPUT))
+    limits = parse_sweep("base: row\nfixed: {n_arms: 2, n_fruits: 2}\nvary: {max_velocity: [2.0, [1.0, 1.5]]}\n", "l.yaml").items()
+    assert [parse_problem(i.problem_text).arms[0].max_velocity for i in limits] == [(2.0, 2.0), (1.0, 1.5)]
+
+
+def test_an_output_folder_of_another_sweep_is_refused(small_run):
+    out, _, _ = small_run
+    with pytest.raises(SweepError, match="holding sweep 'small'"):
+        run_sweep(parse_sweep(TINY, "tiny.yaml"), out, workers=1)
+    assert len(read_rows(out)) == 6
+
+
+def test_the_command_line_loads_neither_dask_nor_pyarrow():
+    code = ("import sys, coplan.cli\n"
+            "print(sorted(m for m in ('dask', 'distributed', 'pyarrow', 'numpy', 'yaml') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() in ("[]", "['yaml']")
+
+
+def test_success_rate_counts_failed_solves_against_it():
+    from coplan.sweep.report import summarise
+    from coplan.sweep.table import normalise
+
+    base = {"exit_class": "ok", "verified": True}
+    rows = [normalise(dict(base, key=f"k{i}", status="success", reachable=5)) for i in range(7)]
+    rows += [normalise(dict(base, key="n", status="infeasible", reachable=0, exit_class="infeasible")),
+             normalise(dict(base, key="b", status="bad input", exit_class="bad input")),
+             normalise(dict(base, key="t", status="timeout", exit_class="solver failed")),
+             normalise(dict(base, key="p", status="partial", reachable=4, exit_class="partial"))]
+    s = summarise(rows)
+    assert (s["success_with_reachable_fruit"], s["with_reachable_fruit"]) == (7, 9)  # timeout and partial count
+    assert s["counts"] == {"success": 7, "infeasible": 1, "bad input": 1, "timeout": 1, "partial": 1}
+    assert {f["key"] for f in s["failures"]} == {"n", "b", "t", "p"}
+
+
+def test_a_hung_solve_is_stopped_and_its_row_says_timeout(tmp_path):
+    from coplan.sweep.run import Watchdog
+
+    def hangs(item, state_dir, keep_plan):
+        marker = Path(state_dir) / "timeouts" / item.key
+        if item.index == 0 and not marker.exists():
+            with Watchdog(0.5, marker):  # the hard limit, shortened: stops this worker process
+                import time
+
+                time.sleep(60)
+        return solve_item(item, state_dir, keep_plan)
+
+    res = run_sweep(parse_sweep(TINY, "tiny.yaml"), tmp_path / "out", workers=2, task=hangs)
+    rows = {r["index"]: r for r in read_rows(tmp_path / "out")}
+    assert res.done == 3 and rows[0]["status"] == RowStatus.TIMEOUT.value and rows[0]["exit_class"] == "solver failed"
+    assert "hard limit" in rows[0]["message"] and {rows[1]["status"], rows[2]["status"]} == {"success"}
+
+
+def test_a_folder_or_glob_of_problem_files_is_a_sweep(problems_dir):
+    folder = load_sweep(problems_dir)
+    assert folder.base == SweepBase.FILES and len(folder.items()) == len(list(problems_dir.glob("*.yaml")))
+    some = load_sweep(str(problems_dir / "*_arm*.yaml"))
+    assert sorted(Path(i.source).name for i in some.items()) == sorted(p.name for p in problems_dir.glob("*_arm*.yaml"))
+    with pytest.raises(SweepError, match="found none matching"):
+        load_sweep(str(problems_dir / "nothing-*.yaml"))
+
+
+def test_the_sweep_command_end_to_end(tmp_path):
+    spec = tmp_path / "tiny.yaml"
+    spec.write_text(TINY)
+    out = tmp_path / "o"
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(out), "--workers", "1", "--csv"])
+    assert r.exit_code == 0, r.output
+    assert "3 problems (3 solved now, 0 already done)" in r.output and "success 3" in r.output
+    header = (out / "results.csv").read_text().splitlines()[0]
+    assert header.replace('"', "").split(",") == list(COLUMNS)
+    assert len((out / "results.csv").read_text().splitlines()) == 4
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(out), "--planner", "heuristic"])
+    assert r.exit_code == 0 and "3 problems (3 solved now, 0 already done)" in r.output  # another planner: other keys
+    rows = read_rows(out)
+    assert len(rows) == 6 and sorted(r["planner"] for r in rows) == ["coordinated"] * 3 + ["heuristic"] * 3
+    assert all(r["heuristic_makespan"] == r["makespan"] for r in rows if r["planner"] == "heuristic")
