@@ -17,6 +17,7 @@ _LAZY = {
     "SolveResult": "pipeline", "solve": "pipeline",
     "Arm": "problem", "Fruit": "problem", "Problem": "problem", "Task": "problem", "default_problem_path": "problem",
     "load_problem": "problem", "parse_problem": "problem", "shipped_problems": "problem",
+    "view": "viz.viewer",
 }
 
 
@@ -57,4 +58,5 @@ __all__ = [
     "parse_problem",
     "shipped_problems",
     "solve",
+    "view",
 ]

@@ -10,7 +10,6 @@ from __future__ import annotations
 import functools
 import json
 import os
-import sys
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -19,10 +18,16 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the CLI never needs a display
 import typer
 from rich.console import Console
 
-from .errors import CoplanError, InputError, printable
+from . import clijson
+from .clisummary import fmt as _fmt
+from .clisummary import print_summary, print_verification
+from .clisummary import safe as _s
+from .clitext import FlagsGroup, run_console
+from .errors import InputError, plural
 from .kinds import AllocationMethod, ExitCode, FclMode, PlannerKind
 
 app = typer.Typer(
+    cls=FlagsGroup,  # flags shown without a <bool> value in --help
     add_completion=False,
     no_args_is_help=True,
     help="Plan coordinated, collision-free, jerk-limited motion for several 2R arms harvesting fruit.",
@@ -53,12 +58,12 @@ def root(
 
 
 def _fail(code: ExitCode, message: str):
-    err_console.print(f"[bold red]error[/]: {message}", markup=True, highlight=False, soft_wrap=True)
-    raise typer.Exit(int(code))
+    raise clijson.Failure(code, message)
 
 
 def guarded(fn):
-    """Map coplan's errors to exit codes and clear messages (no tracebacks)."""
+    """Map every failure to its exit code and a clear message (no tracebacks); with ``--json``
+    also one JSON document on stdout (:mod:`coplan.clijson`)."""
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
@@ -66,21 +71,17 @@ def guarded(fn):
             return fn(*args, **kwargs)
         except typer.Exit:
             raise
-        except InputError as e:
-            err_console.print(str(e), markup=False, highlight=False, soft_wrap=True)
-            raise typer.Exit(int(ExitCode.BAD_INPUT)) from None
-        except KeyboardInterrupt:
-            err_console.print("interrupted", markup=False)
-            raise typer.Exit(int(ExitCode.INTERRUPTED)) from None
-        except CoplanError as e:
-            _fail(ExitCode.INTERNAL, str(e))
-        except OSError as e:  # disk full, permissions: the path and the reason, nothing half-written left
-            where = f": {e.filename}" if e.filename else ""
-            _fail(ExitCode.IO_ERROR, f"{e.strerror or e}{where} (nothing of this run was left half-written)")
-        except Exception as e:  # noqa: BLE001 -- last-resort guard: report, never a raw traceback
-            if os.environ.get("COPLAN_DEBUG"):
+        except (Exception, KeyboardInterrupt) as e:  # noqa: BLE001 -- last-resort guard: report, never a raw traceback
+            code, message = clijson.failure_of(e)
+            if code == ExitCode.INTERNAL and not isinstance(e, clijson.Failure) and os.environ.get("COPLAN_DEBUG"):
                 raise
-            _fail(ExitCode.INTERNAL, f"internal error ({type(e).__name__}): {e}. Set COPLAN_DEBUG=1 for a traceback.")
+            if isinstance(e, (InputError, KeyboardInterrupt)):
+                err_console.print(message, markup=False, highlight=False, soft_wrap=True)
+            else:
+                err_console.print(f"[bold red]error[/]: {_s(message)}", highlight=False, soft_wrap=True)
+            if kwargs.get("as_json"):
+                typer.echo(clijson.dumps(clijson.error_document(fn.__name__.removesuffix("_cmd"), code, message, e)))
+            raise typer.Exit(int(code)) from None
 
     return wrapper
 
@@ -110,14 +111,6 @@ def _check_out_dir(out: Path) -> None:
         _fail(ExitCode.USAGE, f"--out {out}: expected a folder coplan may write to, found {probe} not writable")
 
 
-def _s(x) -> str:
-    """An untrusted string (a name, id or message from a file) safe for the terminal: Rich markup
-    escaped, control characters (escape sequences) shown as ``\\x..`` codes."""
-    from rich.markup import escape
-
-    return escape(printable(x))
-
-
 def _solver_options(path: Optional[Path], time_limit: Optional[float], applies: bool):
     """OptimalOptions from ``--options`` (validated; bad values exit 3 with the key and line)
     and ``--time-limit`` (which wins); None when neither is given."""
@@ -134,12 +127,6 @@ def _solver_options(path: Optional[Path], time_limit: Optional[float], applies: 
 
     opts = load_options(path) if path is not None else OptimalOptions()
     return replace(opts, time_limit=time_limit) if time_limit is not None else opts
-
-
-def _fmt(x, unit="", nd=2):
-    if x is None:
-        return "-"
-    return f"{x:.{nd}f}{unit}"
 
 
 def _resolve_problem(problem: Optional[Path]) -> Path:
@@ -164,6 +151,7 @@ def solve(
         "--options", help="Solver options (YAML): any field of coplan.optimal.OptimalOptions, e.g. "
                           "search_work: 60000 (recorded in plan.json).")] = None,
     animate: Annotated[bool, typer.Option("--animate", help="Also render an animation of the plan.")] = False,
+    html: Annotated[bool, typer.Option("--html", help="Also write plan.html: the interactive viewer of the plan (one self-contained page).")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
 ):
     """Solve a problem, verify the plan and write plan.json (+ CSV, NPZ, verification.json)."""
@@ -184,6 +172,10 @@ def solve(
     res = run(path, planner=planner, allocation=allocation, out_dir=out, options=options, progress=say)
     if animate:
         res.files.update(_animate_files(res, out))
+    if html:  # like the animation: written beside plan.json once the run's files are in place
+        from .viz.viewer import write_html
+
+        res.files["viewer"] = write_html(out / "plan.html", res.problem, res.plan, verification=res.verification)
     ver = res.plan.verification or {}
     if as_json:
         doc = {
@@ -199,7 +191,13 @@ def solve(
         }
         out_console.print_json(_strict_json(doc))
     else:
-        _print_summary(res)
+        print_summary(out_console, res)
+    if res.error:  # a bug stopped the planner: what it had computed is on disk; exit 1 (res.exit_code)
+        debug = os.environ.get("COPLAN_DEBUG")
+        err_console.print(f"[bold red]error[/]: {_s(res.plan.solver.get('message'))}; files in {_s(out)}."
+                          + ("" if debug else " Set COPLAN_DEBUG=1 for a traceback."), highlight=False, soft_wrap=True)
+        if debug:
+            err_console.print(res.error_trace, markup=False, highlight=False)
     raise typer.Exit(int(res.exit_code))
 
 
@@ -216,44 +214,6 @@ def _animate_files(res, out: Path) -> dict:
     return {"animation": path}
 
 
-def _print_summary(res) -> None:
-    m = res.plan.metrics
-    ver = res.plan.verification or {}
-    colour = "green" if res.success else "red"
-    p = out_console.print
-    p(f"[bold]{_s(res.problem.name)}[/] -- planner [bold]{_s(res.plan.planner_name)}[/], status [bold {colour}]{res.plan.status.value}[/]")
-    p(f"  fruit harvested   {m.get('harvested')}/{m.get('reachable')} reachable ({m.get('unreachable')} unreachable: {_s(', '.join(res.plan.unreachable)) or 'none'})")
-    p(f"  makespan          {_fmt(m.get('makespan'), ' s')}   (lower bound {_fmt(m.get('lower_bound'), ' s')}, ratio {_fmt(m.get('gap_to_lower_bound'), '', 3)})")
-    if m.get("optimality") == "proven":
-        p("  optimality        [bold green]proven[/]: the makespan meets the lower bound")
-    if m.get("coordinated_makespan") is not None:
-        p(f"  coordinated plan  {_fmt(m.get('coordinated_makespan'), ' s')}   (improved by {_fmt(100 * (m.get('improvement_over_coordinated') or 0.0), ' %', 1)};"
-          f" first verified plan at {_fmt(m.get('time_to_first_verified'), ' s')}, last improvement at {_fmt(m.get('time_of_last_improvement'), ' s')})")
-    if m.get("baseline_makespan") is not None:
-        p(f"  heuristic plan    {_fmt(m.get('baseline_makespan'), ' s')}   (the course's baseline, {m.get('baseline_status', '?')}; baseline.json)")
-    p(f"  cycle time/fruit  {_fmt(m.get('cycle_time'), ' s')} worst arm, {_fmt(m.get('cycle_time_mean'), ' s')} mean")
-    if ver:
-        p(
-            f"  collisions found  {ver.get('collision_count', '-')}   least clearance {_fmt(ver.get('min_clearance'), ' m', 4)}"
-            f" (certified {_fmt(ver.get('certified_clearance'), ' m', 4)}, required {_fmt(res.problem.task.clearance, ' m', 3)})"
-        )
-        if not ver.get("passed", False):
-            p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
-    solver = res.plan.solver
-    if solver.get("message"):
-        p(f"  solver            {_s(solver.get('status', ''))}: {_s(solver['message'])}")
-    tm = res.plan.solver.get("timings", {})
-    parts = [k for k in ("allocation", "coordinated", "search", "polish", "plan", "verify") if k in tm]
-    if parts:
-        planned = sum(tm[k] for k in parts)
-        split = ", ".join(f"{k} {tm[k]:.2f}" for k in parts)
-        p(f"  solve time        {planned:.2f} s ({split}; whole command {res.timings.get('total', planned):.2f} s)")
-    for k, v in res.files.items():  # every file written: plan (JSON, CSV, NPZ), verification, baseline, animation
-        p(f"  wrote             {_s(v)}")
-    if res.previous is not None:
-        p(f"  previous run      kept in {_s(res.previous)}")
-
-
 @app.command("problems")
 @guarded
 def list_problems():
@@ -262,7 +222,7 @@ def list_problems():
 
     for path in shipped_problems():
         p = load_problem(path)
-        out_console.print(f"{_s(path.name):28s} {len(p.arms)} arms, {len(p.fruits):3d} fruit  {_s(p.description)}")
+        out_console.print(f"{_s(path.name):28s} {plural(len(p.arms), 'arm') + ',':8s} {len(p.fruits):3d} fruit  {_s(p.description)}")
     out_console.print(f"[dim]folder: {shipped_problems()[0].parent}[/]")
 
 
@@ -307,7 +267,7 @@ def check(
         out_console.print_json(_strict_json(doc))
     else:
         p = out_console.print
-        p(f"[bold]{_s(prob.name)}[/] ({_s(path)}): {len(prob.arms)} arms, {len(prob.fruits)} fruit, "
+        p(f"[bold]{_s(prob.name)}[/] ({_s(path)}): {plural(len(prob.arms), 'arm')}, {len(prob.fruits)} fruit, "
           f"{n_reach} within some arm's reach, {harvestable} harvestable")
         for line in scr.lines():
             p(line, markup=False, highlight=False)
@@ -324,48 +284,11 @@ def check(
 # ---- verify / compare (coplan.verify, coplan.report)
 
 
-def _print_verification(problem, ver, max_rows: int = 25) -> None:
-    """Verdict, clearances, peaks and a short table of the violations."""
-    from rich.table import Table
-
-    p = out_console.print
-    s = ver.summary()
-    verdict = "[bold green]passed[/]" if ver.passed else "[bold red]FAILED[/]"
-    p(f"[bold]{_s(problem.name)}[/] -- {_s(ver.planner)} plan of {ver.duration:.2f} s: {verdict}"
-      + ("" if ver.complete else f" [yellow](not harvested: {_s(', '.join(ver.unharvested))})[/]"))
-    if not ver.pairs:
-        p("  least clearance   - (no two arms can touch)")
-    else:
-        p(f"  least clearance   {_fmt(s['min_clearance'], ' m', 4)} sampled, {_fmt(s['certified_clearance'], ' m', 4)} certified"
-          f" (required {_fmt(ver.required_clearance, ' m', 3)}); {s['collision_count']} collision intervals")
-    for pc in ver.pairs:
-        p(f"    {_s(pc.key):18s} {_fmt(pc.min_clearance, ' m', 4)} at {pc.t:.3f} s (links {pc.links[0]}/{pc.links[1]}), certified {_fmt(pc.certified, ' m', 4)}")
-    for arm, pk in ver.peaks.items():
-        p(f"  peaks {_s(arm):12s} velocity {pk['velocity']:.2f}, acceleration {pk['acceleration']:.2f}, jerk {pk['jerk']:.2f} of the limits")
-    if ver.fcl is not None:
-        agree = "agrees" if ver.fcl.agree else "[bold red]DISAGREES[/]"
-        p(f"  FCL cross-check   {agree} ({ver.fcl.samples} instants, {ver.fcl.queries} link pairs, max diff {ver.fcl.max_abs_diff:.1e} m)")
-    if ver.warnings:
-        p(f"  warnings          {len(ver.warnings)} ({', '.join(sorted({w.kind.value for w in ver.warnings}))})")
-    if not ver.violations:
-        return
-    table = Table(title=f"{len(ver.violations)} violations", title_justify="left")
-    for col in ("kind", "arms", "t (s)", "value", "limit", "detail"):
-        table.add_column(col, overflow="fold")
-    for v in ver.violations[:max_rows]:
-        span = f"{v.t:.3f}" if v.t_start is None or v.t_end is None or v.t_end - v.t_start < 1e-9 else f"{v.t_start:.3f}..{v.t_end:.3f}"
-        detail = " ".join(x for x in (f"fruit {v.fruit}" if v.fruit else "", v.message) if x)
-        table.add_row(v.kind.value, _s(",".join(v.arms)), span, _fmt(v.value, "", 4), _fmt(v.limit, "", 4), _s(detail))
-    out_console.print(table)
-    if len(ver.violations) > max_rows:
-        p(f"  ... and {len(ver.violations) - max_rows} more (see verification.json: --out)")
-
-
 @app.command("verify")
 @guarded
 def verify_cmd(
     problem: Annotated[Path, typer.Argument(help="Problem YAML file.")],
-    plan: Annotated[Path, typer.Argument(help="plan.json to verify.")],
+    plan: Annotated[Path, typer.Argument(help="Plan to verify: plan.json, or the plan.csv replay coplan writes (no events: they are inferred).")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write verification.json (a file or a folder).")] = None,
     fcl: Annotated[FclMode, typer.Option(help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
     as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,
@@ -373,7 +296,8 @@ def verify_cmd(
     """Independently verify a plan: clearance (certified), limits, picks and places.
 
     Exit codes: 0 passed and every reachable fruit harvested; 5 passed but fruit left;
-    6 violations found; 3 bad problem or plan file.
+    4 passed but the problem has no reachable fruit (as solve); 6 violations found; 3 bad
+    problem or plan file.
     """
     from .plan import load_plan
     from .problem import load_problem
@@ -387,10 +311,12 @@ def verify_cmd(
     if as_json:
         typer.echo(json.dumps(ver.to_dict(), indent=1, allow_nan=False))
     else:
-        _print_verification(prob, ver)
+        print_verification(out_console, prob, ver)
         if written is not None:
             out_console.print(f"  wrote             {_s(written)}")
-    code = ExitCode.UNSAFE if not ver.passed else ExitCode.OK if ver.complete else ExitCode.PARTIAL
+    # no reachable fruit: infeasible (4), as `solve` says of the same problem
+    code = ExitCode.UNSAFE if not ver.passed else ExitCode.INFEASIBLE if not prob.reachable_ids() \
+        else ExitCode.OK if ver.complete else ExitCode.PARTIAL
     raise typer.Exit(int(code))
 
 
@@ -538,13 +464,13 @@ def animate_cmd(
     plan: Annotated[Path, typer.Argument(help="plan.json to animate.")],
     problem: PlanProblemOption = None,
     out: Annotated[
-        Optional[Path], typer.Option("--out", "-o", help="Output .gif (default, next to the plan) or .mp4 (needs ffmpeg).")
+        Optional[Path], typer.Option("--out", "-o", help="Output .gif (default, next to the plan) or .mp4.")
     ] = None,
     speed: Annotated[float, typer.Option(min=0.01, max=100.0, help="Playback speed: 1 = real time, 2 = twice as fast.")] = 1.0,
     fps: Annotated[float, typer.Option(min=1.0, max=60.0, help="Frames per second of the animation.")] = 10.0,
     dpi: Annotated[int, typer.Option(min=30, max=300, help="Resolution (80: a 720 px wide GIF).")] = 80,
 ):
-    """Render a plan as an animation: arms, fruit, bins, phases, clearance alarms (GIF; MP4 with ffmpeg)."""
+    """Render a plan as an animation: arms, fruit, bins, phases, clearance alarms (GIF or MP4)."""
     from .viz.animate import animate_plan
 
     prob, pl = _plan_with_problem(plan, problem)
@@ -556,29 +482,48 @@ def animate_cmd(
     out_console.print(f"wrote {_s(path)}")
 
 
+@app.command("view")
+@guarded
+def view_cmd(
+    plan: Annotated[Path, typer.Argument(help="plan.json to view.")],
+    problem: PlanProblemOption = None,
+    compare: Annotated[Optional[Path], typer.Option("--compare", help="A second plan.json of the same problem, side by side on one clock.")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="HTML file (default: the plan's name with .html, next to it).")] = None,
+    open_page: Annotated[bool, typer.Option("--open", help="Open the page in the default browser.")] = False,
+):
+    """Write the interactive viewer of a plan: one self-contained HTML page (works offline) to scrub, play, hover, jump to violations."""
+    from .viz.viewer import write_view
+
+    prob, pl = _plan_with_problem(plan, problem)
+    other = _plan_with_problem(compare, problem)[1] if compare is not None else None
+    out_console.print(f"wrote {_s(write_view(prob, pl, other, out if out is not None else plan.with_suffix('.html'), open_page))}")
+
+
+# design sweeps on Dask (bodies in coplan.sweep.command; light to import)
+from .sweep.command import sweep_cmd, sweep_report_cmd  # noqa: E402
+
+app.command("sweep")(guarded(sweep_cmd))
+app.command("sweep-report")(guarded(sweep_report_cmd))
+
+
+# plan export for controllers, file-format schemas (bodies in coplan.clifiles; light to import)
+from .clifiles import export_cmd, schema_cmd  # noqa: E402
+
+app.command("export")(guarded(export_cmd))
+app.command("schema")(guarded(schema_cmd))
+
+
+# live cell: vision feeds and the simulated run (bodies in coplan.live.command; light to import)
+from .live.command import feed_cmd, run_cmd  # noqa: E402
+
+app.command("feed")(guarded(feed_cmd))
+app.command("run")(guarded(run_cmd))
+
+
 def main() -> None:
-    """Console-script entry point. SIGTERM is handled like Ctrl-C (the planners save what they
-    have), then exits with 143 instead of 130."""
-    import signal
-
-    terminated: list[int] = []
-
-    def on_term(signum, frame):
-        if not terminated:
-            terminated.append(signum)
-            err_console.print("terminated (SIGTERM): saving what there is", markup=False)
-        raise KeyboardInterrupt
-
-    if hasattr(signal, "SIGTERM"):
-        signal.signal(signal.SIGTERM, on_term)
-    try:
-        app()
-    except KeyboardInterrupt:
-        sys.exit(int(ExitCode.TERMINATED if terminated else ExitCode.INTERRUPTED))
-    except SystemExit as e:
-        if terminated and e.code in (int(ExitCode.INTERRUPTED), int(ExitCode.OK)):
-            sys.exit(int(ExitCode.TERMINATED))
-        raise
+    """Console-script entry point (:func:`coplan.clitext.run_console`): SIGTERM is handled like
+    Ctrl-C and exits 143; a reader closing stdout is no error; with ``--json`` usage errors are JSON."""
+    run_console(app, err_console)
 
 
 if __name__ == "__main__":

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from enum import Enum, IntEnum
 
-__all__ = ["AllocationMethod", "SequenceRule", "PlannerKind", "PlanStatus", "EventKind", "ExitCode", "FclMode"]
+__all__ = ["AllocationMethod", "SequenceRule", "PlannerKind", "PlanStatus", "EventKind", "ExitCode", "FclMode",
+           "SweepBase", "SweepMode", "RowStatus", "TrackState", "ReplanCause", "ExportFormat", "SchemaKind"]
 
 
 class AllocationMethod(str, Enum):
@@ -66,3 +67,65 @@ class FclMode(str, Enum):
     OFF = "off"  # no cross-check (inner loops only; never for a final verdict)
     CRITICAL = "critical"  # closest instants, interval worst points, seeded random instants
     FULL = "full"  # every sample the verifier evaluated, every pair (slow: ~0.1 ms per link pair)
+
+
+class SweepBase(str, Enum):
+    """What a design sweep's problems are made from (``coplan.sweep.spec``)."""
+
+    ROW = "row"  # coplan.generate.row_problem: a straight row of identical arms
+    OVERLAP = "overlap"  # coplan.generate.overlap_problem: every fruit in a shared zone
+    RANDOM = "random"  # coplan.generate.random_problem(seed)
+    CELL = "cell"  # coplan.generate.cell_problem(seed)
+    FILES = "files"  # problem files: a file, a folder or a glob
+
+
+class SweepMode(str, Enum):
+    GRID = "grid"  # every combination of the varied values
+    RANDOM = "random"  # ``samples`` combinations drawn with the sweep's seed
+
+
+class RowStatus(str, Enum):
+    """Status of one row of a sweep table: a plan's status, or why there is no plan."""
+
+    SUCCESS = "success"
+    PARTIAL = "partial"
+    UNSAFE = "unsafe"
+    UNVERIFIED = "unverified"
+    INFEASIBLE = "infeasible"
+    FAILED = "failed"
+    INTERRUPTED = "interrupted"
+    BAD_INPUT = "bad input"  # the problem (file or generated) is invalid
+    ERROR = "error"  # an internal error while solving (the message says which)
+    TIMEOUT = "timeout"  # the hard per-task time limit stopped the worker
+    LOST = "lost"  # the worker died on every attempt (crash, out of memory)
+
+
+class TrackState(str, Enum):
+    """What the live planner (:mod:`coplan.live`) knows of one believed fruit (merged detections)."""
+
+    PENDING = "pending"  # detected, not (yet) in the plan
+    PLANNED = "planned"  # in the plan, not yet committed
+    COMMITTED = "committed"  # its pick is in motion the arms are committed to
+    DROPPED = "dropped"  # nothing found there at close range (a false or duplicate detection)
+    UNREACHABLE = "unreachable"  # no arm can harvest it where it was measured
+
+
+class ReplanCause(str, Enum):
+    DETECTIONS = "detections"  # new detections arrived
+    CLOSE_RANGE = "close-range"  # a refined measurement at close range
+    IDLE = "idle"  # retry: the plan ended with detected fruit left over
+
+
+class ExportFormat(str, Enum):
+    """``coplan export --format``: what a joint controller is handed (:mod:`coplan.export`)."""
+
+    CSV = "csv"  # one file, a row per time, every arm's q, qd, qdd
+    JSON = "json"  # per arm a ROS 2 trajectory_msgs/JointTrajectory
+    YAML = "yaml"  # the same as YAML
+
+
+class SchemaKind(str, Enum):
+    """``coplan schema``: the file formats coplan ships a JSON Schema for (:mod:`coplan.schemas`)."""
+
+    PROBLEM = "problem"
+    PLAN = "plan"
