@@ -98,19 +98,6 @@ def _check_time_limit(time_limit: Optional[float]) -> None:
         _fail(ExitCode.USAGE, f"--time-limit: expected a positive number of seconds, found {time_limit}")
 
 
-def _check_out_dir(out: Path) -> None:
-    """Before any work: ``out`` must be a folder coplan can create or write into."""
-    if out.exists() and not out.is_dir():
-        _fail(ExitCode.USAGE, f"--out {out}: expected a folder, found a file")
-    probe = out
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir():
-        _fail(ExitCode.USAGE, f"--out {out}: expected a folder, found the file {probe} in its path")
-    if not os.access(probe, os.W_OK | os.X_OK):
-        _fail(ExitCode.USAGE, f"--out {out}: expected a folder coplan may write to, found {probe} not writable")
-
-
 def _solver_options(path: Optional[Path], time_limit: Optional[float], applies: bool):
     """OptimalOptions from ``--options`` (validated; bad values exit 3 with the key and line)
     and ``--time-limit`` (which wins); None when neither is given."""
@@ -158,7 +145,7 @@ def solve(
     from .pipeline import solve as run
 
     _check_time_limit(time_limit)
-    _check_out_dir(out)
+    clijson.check_out_dir(out)
     options = _solver_options(options_file, time_limit, planner != PlannerKind.HEURISTIC)
     path = _resolve_problem(problem)
     say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]", highlight=False))
@@ -350,7 +337,7 @@ def compare_cmd(
     except ValueError as e:
         _fail(ExitCode.USAGE, f"--planner: {e}")
     _check_time_limit(time_limit)
-    _check_out_dir(out)
+    clijson.check_out_dir(out)
     options = _solver_options(options_file, time_limit, any(s.planner != PlannerKind.HEURISTIC for s in specs))
     say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]"))
     cmp = compare(_resolve_problem(problems), specs, out, figures=figures, options=options, progress=say)

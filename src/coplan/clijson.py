@@ -25,7 +25,7 @@ from typing import Any
 from .errors import CoplanError, InputError, Issue
 from .kinds import ExitCode
 
-__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED"]
+__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "usage", "check_out_dir"]
 
 # set by the console entry point when SIGTERM arrived: an interruption then exits 143, not 130
 TERMINATED: list[int] = []
@@ -49,6 +49,24 @@ class Failure(CoplanError):
         super().__init__(message)
         self.code = ExitCode(code)
         self.message = message
+
+
+def usage(message: str):
+    """Refuse the command line: exit 2 (bad usage) with ``message``."""
+    raise Failure(ExitCode.USAGE, message)
+
+
+def check_out_dir(out, what: str = "--out") -> None:
+    """Before any work: ``out`` (a Path) must be a folder coplan can create or write into."""
+    if out.exists() and not out.is_dir():
+        usage(f"{what} {out}: expected a folder, found a file")
+    probe = out
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        usage(f"{what} {out}: expected a folder, found the file {probe} in its path")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        usage(f"{what} {out}: expected a folder coplan may write to, found {probe} not writable")
 
 
 def failure_of(exc: BaseException) -> tuple[ExitCode, str]:

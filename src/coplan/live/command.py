@@ -7,13 +7,13 @@ NumPy, the planners and matplotlib are imported inside the commands.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 from rich.console import Console
 
+from ..clijson import check_out_dir, usage
 from ..clisummary import safe as _safe
 from ..kinds import ExitCode, PlanStatus
 
@@ -21,21 +21,6 @@ __all__ = ["feed_cmd", "run_cmd"]
 
 _out = Console(soft_wrap=True)
 _err = Console(stderr=True, soft_wrap=True)
-
-
-def _usage(message: str):
-    _err.print(f"[bold red]error[/]: {message}", markup=True, highlight=False)
-    raise typer.Exit(int(ExitCode.USAGE))
-
-
-def _writable_folder(out: Path, what: str) -> None:
-    if out.exists() and not out.is_dir():
-        _usage(f"{what} {out}: expected a folder, found a file")
-    probe = out
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
-        _usage(f"{what} {out}: expected a folder coplan may write to, found {probe} not writable")
 
 
 def feed_cmd(
@@ -62,7 +47,7 @@ def feed_cmd(
     from .feed import feed_yaml, make_feed
 
     if out.exists() and out.is_dir():
-        _usage(f"--out {out}: expected a file name, found a folder")
+        usage(f"--out {out}: expected a file name, found a folder")
     prob = load_problem(problem)
     feed = make_feed(prob, known, sigma, false_rate, duplicate_rate, seed, reveal_by, after_pick, close_distance, close_sigma)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -94,7 +79,7 @@ def run_cmd(
     from .feed import load_feed
     from .sim import simulate
 
-    _writable_folder(out, "--out")
+    check_out_dir(out, "--out")
     prob = load_problem(problem)
     fd = load_feed(feed)
     if fd.problem is not None and fd.problem != prob.name:

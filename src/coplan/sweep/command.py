@@ -6,7 +6,6 @@ Dask, pyarrow, NumPy and matplotlib are imported inside the commands.
 
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
 from typing import Annotated, Optional
@@ -14,9 +13,10 @@ from typing import Annotated, Optional
 import typer
 from rich.console import Console
 
+from ..clijson import check_out_dir, usage
 from ..clisummary import safe as _safe
 from ..errors import printable
-from ..kinds import ExitCode, PlannerKind
+from ..kinds import PlannerKind
 
 __all__ = ["sweep_cmd", "sweep_report_cmd"]
 
@@ -24,26 +24,11 @@ _out = Console(soft_wrap=True)
 _err = Console(stderr=True, soft_wrap=True)
 
 
-def _usage(message: str):
-    _err.print(f"[bold red]error[/]: {message}", markup=True, highlight=False)
-    raise typer.Exit(int(ExitCode.USAGE))
-
-
 def _counts_text(counts: dict[str, int]) -> str:
     order = ["success", "partial", "unsafe", "infeasible", "failed", "bad input", "error", "timeout", "lost"]
     keys = sorted(counts, key=lambda k: order.index(k) if k in order else len(order))
     colour = {"success": "green", "partial": "yellow"}
     return "  ".join(f"[{colour.get(k, 'red')}]{_safe(k)} {counts[k]}[/]" for k in keys) or "[dim]starting workers[/]"
-
-
-def _writable_folder(out: Path, what: str) -> None:
-    if out.exists() and not out.is_dir():
-        _usage(f"{what} {out}: expected a folder, found a file")
-    probe = out
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir() or not os.access(probe, os.W_OK | os.X_OK):
-        _usage(f"{what} {out}: expected a folder coplan may write to, found {probe} not writable")
 
 
 def sweep_cmd(
@@ -66,12 +51,12 @@ def sweep_cmd(
     from .spec import load_sweep
 
     if time_limit is not None and not time_limit > 0:
-        _usage(f"--time-limit: expected a positive number of seconds, found {time_limit}")
+        usage(f"--time-limit: expected a positive number of seconds, found {time_limit}")
     if workers is not None and scheduler is not None:
-        _usage("--workers: expected either --workers (a local cluster) or --scheduler (an existing one), found both")
+        usage("--workers: expected either --workers (a local cluster) or --scheduler (an existing one), found both")
     sw = load_sweep(spec)  # SweepError (an InputError): file:line: key.path messages, exit 3
     folder = out if out is not None else Path("coplan-sweep") / (re.sub(r"[^\w.-]+", "_", sw.name).strip("._") or "sweep")
-    _writable_folder(folder, "--out")
+    check_out_dir(folder, "--out")
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     from .run import run_sweep
@@ -98,7 +83,7 @@ def sweep_cmd(
         raise
     except OSError as e:
         if "connect" in str(e).lower() or isinstance(e, (ConnectionError, TimeoutError)):
-            _usage(f"--scheduler {scheduler}: could not connect ({e})")
+            usage(f"--scheduler {scheduler}: could not connect ({e})")
         raise
     rate = 60.0 * res.done / res.elapsed if res.elapsed > 0 else 0.0
     _out.print(f"[bold]{_safe(sw.name)}[/]: {res.total} problems ({res.done} solved now, {res.skipped} already done) "
@@ -119,9 +104,9 @@ def sweep_report_cmd(
     from .report import sweep_report
 
     if not folder.exists():
-        _usage(f"{folder}: expected a sweep output folder, found nothing at this path")
+        usage(f"{folder}: expected a sweep output folder, found nothing at this path")
     target = out if out is not None else (folder if folder.is_dir() else folder.parent) / "report"
-    _writable_folder(target, "--out")
+    check_out_dir(target, "--out")
     rep = sweep_report(folder, target, figures=figures)
     _out.print("\n".join(printable(line) for line in rep.text.splitlines()), markup=False, highlight=False)
     for v in rep.files.values():
