@@ -288,6 +288,12 @@ def test_cli_feed_and_run_write_a_verified_run(tmp_path: Path, problems_dir: Pat
     from coplan.problem import load_problem
 
     assert verify(load_problem(prob), load_plan(tmp_path / "live" / "plan.json")).passed
+    # a second run into the same folder keeps the first one whole, as `coplan solve` does
+    first = (tmp_path / "live" / "run.json").read_bytes()
+    r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "live"), "--json")
+    assert r.exit_code == ExitCode.OK, r.output
+    assert (tmp_path / "live.previous" / "run.json").read_bytes() == first
+    assert (tmp_path / "live.previous" / "plan.json").exists() and (tmp_path / "live" / "run.json").exists()
 
 
 def test_the_live_animation_renders(live_run, tmp_path: Path) -> None:

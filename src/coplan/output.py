@@ -22,7 +22,7 @@ from pathlib import Path
 __all__ = ["MARKER", "RunFolder", "is_run_folder"]
 
 MARKER = ".coplan-run"  # written into every run folder
-_OURS = ("plan.", "baseline.", "verification.json", MARKER)
+_OURS = ("plan.", "baseline.", "verification.json", "run.json", "live.gif", MARKER)  # solve and live runs
 
 
 def is_run_folder(path: Path) -> bool:
