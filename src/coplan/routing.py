@@ -249,6 +249,16 @@ def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: fl
                         uniq.append(q)
                 avoid[j] = np.asarray(uniq)
             avoid_keys = {j: [_key(q) for q in v] for j, v in avoid.items()}
+            # the arm's programme depends only on its sequence, its poses handed in and the
+            # neighbours' poses to avoid: a repeated one (the search changes one or two arms
+            # at a time) is looked up, not solved again
+            dp_key = ("dp", i, weight, dw, tuple(seq), tuple(_key(fruit_q[arm.name][f]) for f in seq),
+                      tuple((j, tuple(k)) for j, k in avoid_keys.items()))
+            hit = memo.get(dp_key)
+            if hit is not None:
+                fruit_q[arm.name] = {f: q.copy() for f, q in zip(seq, hit[0])}
+                place_q[arm.name] = {f: q.copy() for f, q in zip(seq, hit[1])}
+                continue
             cache: dict = {}
 
             def cost(q0, q1):
@@ -276,6 +286,7 @@ def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: fl
                                 new[b] = (c2, fs + [f], ps + [qbin])
                 states = new
             best = min(states.items(), key=lambda kv: kv[1][0] + cost(bins[kv[0]], home))[1]
+            memo[dp_key] = (best[1], best[2])
             fruit_q[arm.name] = {f: q.copy() for f, q in zip(seq, best[1])}
             place_q[arm.name] = {f: q.copy() for f, q in zip(seq, best[2])}
     return replace(alloc, fruit_q=fruit_q, place_q=place_q)
