@@ -214,5 +214,36 @@ def test_a_spent_budget_leaves_fruit_out_with_the_reason_never_hangs():
     assert res.plan.status.value == "partial" and res.verification.passed
     assert res.plan.metrics["harvested"] == 22 and set(res.plan.solver["left_out"]) == set(left)
 
-    res, fell = run(400_000)  # the whole budget spent in the first attempt: no plan, at once
-    assert res.candidate is None and fell[-1]["pairs"] <= 400_000 + 50_000
+    res, fell = run(400_000)  # the whole budget spent in the first attempt: the last resort, at once
+    assert fell[-1]["pairs"] <= 400_000 + 50_000
+    last = res.candidate
+    assert last.variant == "one_at_a_time" and res.plan.solver["fallback"] == "one_at_a_time"
+    assert res.plan.status.value == "partial" and res.verification.passed
+    assert res.plan.metrics["harvested"] + len(last.left_out) == 25
+    assert all("one arm working at a time" in why for why in last.left_out.values())
+
+
+def test_one_arm_at_a_time_is_the_sum_of_the_arms_alone_and_verified():
+    """The last resort: each arm's fastest decoupled work in turn while the others rest. On
+    greenhouse_row (arms far apart) nothing is left out, the plan passes the verifier, and the
+    makespan is, analytically, the sum of the arms' own schedules (each ending over its bin)
+    but for the last arm, which counts to its last place."""
+    import itertools
+
+    from coplan.coordinated import one_at_a_time
+    from coplan.problem import default_problem_path
+
+    p = load_problem(default_problem_path())
+    al = allocate(p, "makespan")
+    res = one_at_a_time(p, al, margin=0.015)
+    assert res.left_out == {} and res.fallback
+    alone = decoupled_schedules(p, al, return_home=False)
+    busy = [a.name for a in p.arms if al.assignment[a.name]]
+    expect = sum(alone[n].end for n in busy[:-1]) + alone[busy[-1]].last_place
+    assert res.makespan == pytest.approx(expect, abs=1e-9)
+    plan = _plan(p, res.alloc, res.schedules)
+    assert verify(p, plan).passed and plan.metrics["harvested"] == len(p.reachable_ids())
+    # one arm at a time: no two arms move at once
+    moving = [[(s.t0, s.t1) for s in res.schedules[n].steps if s.kind.value != "wait"] for n in busy]
+    for a, b in itertools.combinations(moving, 2):
+        assert all(e1 <= s2 + 1e-9 or e2 <= s1 + 1e-9 for s1, e1 in a for s2, e2 in b)

@@ -17,7 +17,10 @@ planner (:mod:`coplan.optimal`), whose incumbent starts as this planner's verifi
    under any load; only an explicit ``time_limit`` depends on the clock.
 4. **Fallback**: when no candidate can be coordinated (leg-by-leg booking deadlocks), the
    arms take turns (:func:`coplan.serial.serial_schedules`): a neighbour parks clear of the
-   zone while an arm works.
+   zone while an arm works. When taking turns spends its work budget too, the last resort
+   (:func:`one_at_a_time`): one arm works at a time while the others rest, leaving out (with
+   the reason) any fruit whose cycle comes too close to a resting neighbour -- so every
+   problem gets a plan, at worst partial.
 """
 
 from __future__ import annotations
@@ -29,13 +32,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .allocation import Allocation, AllocationMethod, LowerBound, allocate, bound_allocation, bound_details
+from .allocation import (Allocation, AllocationMethod, LowerBound, allocate, arm_configs, bound_allocation, bound_details,
+                         choose_branches as fastest_branches)
 from .coordinate import coordinate
 from .heuristic import grid as uniform_grid
 from .plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics, finalize_plan
 from .problem import Problem
 from .routing import choose_branches
-from .schedule import ArmSchedule, ConflictError, decoupled_schedules, pair_distances
+from .schedule import ArmSchedule, ConflictError, Step, StepKind, decoupled_schedules, pair_distances
 
 __all__ = [
     "CoordinatedOptions",
@@ -48,6 +52,7 @@ __all__ = [
     "warm_variants",
     "priority_orders",
     "makespan_of",
+    "one_at_a_time",
 ]
 
 
@@ -299,7 +304,7 @@ def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
                           "pairs": work.get("pairs", 0)})
             if e.fruit is None or e.fruit in left_out or work.get("pairs", 0) >= opts.serial_pairs:
                 say(f"no conflict-free coordination found, and taking turns failed: {e}")
-                return None
+                return one_at_a_time(problem, allocate(problem, method, bound=bound), opts.margin, say, tried)
             left_out[e.fruit] = str(e)
             say(f"taking turns: {e.fruit} is left out ({e})")
             alloc = replace(alloc, assignment={a: tuple(f for f in fs if f != e.fruit) for a, fs in alloc.assignment.items()})
@@ -308,6 +313,88 @@ def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
                   "pairs": work.get("pairs", 0)})
     say(f"leg-by-leg coordination deadlocked on every candidate: the arms take turns ({span:.2f} s)")
     return Coordinated(alloc, sched, span, [], "serial", 0, fallback=True, left_out=left_out)
+
+
+def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Callable[[str], None] | None = None,
+                  tried: list | None = None, rate: float = 1000.0) -> Coordinated:
+    """The last resort, which always gives a conflict-free plan: one arm works at a time while
+    every other arm rests (at home, or where it finished), in the arms' order.
+
+    Each arm does its allocated work, fastest decoupled schedule, without going home at the
+    end. A fruit whose cycle (the move to it, the pick, the move to the bin, the place) comes
+    within ``clearance + margin`` of a neighbour resting is left out with that reason, and the
+    arm's schedule is made again; so is the last fruit when only the arm's start is in the way.
+    Checked densely: at ``rate`` the links move less than ``margin / 2`` between samples.
+    """
+    from dataclasses import replace
+
+    need = problem.task.clearance + margin
+    nbrs = {i: [j for p in problem.neighbour_pairs() if i in p for j in p if j != i] for i in range(len(problem.arms))}
+    rest = {a.name: tuple(float(x) for x in a.home) for a in problem.arms}
+    left_out: dict[str, str] = {}
+    out: dict[str, ArmSchedule] = {}
+    assignment: dict[str, tuple[str, ...]] = {}
+    t_start = 0.0
+    fruit_q = {a: dict(v) for a, v in alloc.fruit_q.items()}
+    place_q = {a: dict(v) for a, v in alloc.place_q.items()}
+    x_of = {f.id: f.position[0] for f in problem.fruits}
+    for i, arm in enumerate(problem.arms):
+        seq = list(alloc.assignment.get(arm.name, ()))
+        bins, fq = arm_configs(problem, arm)
+        extra = [f for f in left_out if f in fq and bins]  # fruit an earlier arm had to leave: this one may take them
+        if extra:
+            seq = sorted(seq + extra, key=lambda f: x_of[f])
+            fs, ps, _ = fastest_branches(problem, arm, seq, bins, fq)
+            fruit_q[arm.name] = dict(zip(seq, fs))
+            place_q[arm.name] = dict(zip(seq, ps))
+            for f in extra:
+                del left_out[f]
+
+        def first_hit(sch: ArmSchedule) -> tuple[float, str] | None:
+            t = np.append(np.arange(0.0, sch.end, 1.0 / rate), sch.end)
+            q = sch.state(t)[0]
+            hit = None
+            for j in nbrs[i]:
+                other = problem.arms[j]
+                d = pair_distances(problem, q, np.asarray(rest[other.name], float)[None, :], i, j)
+                bad = np.flatnonzero(d < need)
+                if bad.size and (hit is None or t[bad[0]] < hit[0]):
+                    hit = (float(t[bad[0]]), other.name)
+            return hit
+
+        while True:
+            solo = replace(alloc, assignment={a.name: tuple(seq) if a.name == arm.name else () for a in problem.arms},
+                           fruit_q=fruit_q, place_q=place_q)
+            sch = decoupled_schedules(problem, solo, return_home=False)[arm.name]
+            hit = first_hit(sch)
+            if hit is not None and seq and hit[0] > sch.last_place:  # only resting over the bin is in the way
+                home_sch = decoupled_schedules(problem, solo, return_home=True)[arm.name]
+                if first_hit(home_sch) is None:
+                    sch, hit = home_sch, None
+            if hit is None or not seq:
+                break
+            # the fruit whose cycle is under way then: the next pick or place at or after it
+            nxt = next((s.fruit for s in sch.steps if s.fruit is not None and s.t1 >= hit[0]), seq[-1])
+            seq.remove(nxt)
+            left_out[nxt] = (f"with one arm working at a time, arm {arm.name!r} comes within {need:g} m of arm "
+                             f"{hit[1]!r} resting while it harvests this fruit")
+        assignment[arm.name] = tuple(seq)
+        if not seq:
+            out[arm.name] = ArmSchedule(arm, [])
+            continue
+        home = tuple(float(x) for x in arm.home)
+        steps = [Step(StepKind.WAIT, 0.0, t_start, home, home)] if t_start > 0 else []
+        steps += [replace(s, t0=s.t0 + t_start) for s in sch.steps]
+        out[arm.name] = ArmSchedule(arm, steps)
+        t_start += sch.end
+        rest[arm.name] = tuple(float(x) for x in sch.steps[-1].q1)
+    al = replace(alloc, assignment=assignment, fruit_q=fruit_q, place_q=place_q)
+    span = makespan_of(out)
+    if tried is not None:
+        tried.append({"fallback": "one_at_a_time", "feasible": True, "makespan": span, "left_out": left_out})
+    if say is not None:
+        say(f"one arm at a time, the others resting: {span:.2f} s, {len(left_out)} fruit left out")
+    return Coordinated(al, out, span, [], "one_at_a_time", 0, fallback=True, left_out=left_out)
 
 
 def describe(c: Coordinated) -> str:
@@ -346,7 +433,7 @@ def plan_coordinated(
     else:
         say("coordinated: " + describe(best))
         info |= {"status": "ok", "priority": best.order, "schedules": best.variant, "waits": best.waits,
-                 "fallback": "serial" if best.fallback else None, "left_out": best.left_out,
+                 "fallback": best.variant if best.fallback else None, "left_out": best.left_out,
                  "territory": best.alloc.info.get("territory"), "sequence": best.alloc.sequence.value}
         plan = schedules_plan(problem, best.alloc, best.schedules, PlannerKind.COORDINATED, info)
     tv = _time.perf_counter()
