@@ -312,7 +312,12 @@ def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
     tried.append({"fallback": "serial", "feasible": True, "makespan": span, "left_out": left_out,
                   "pairs": work.get("pairs", 0)})
     say(f"leg-by-leg coordination deadlocked on every candidate: the arms take turns ({span:.2f} s)")
-    return Coordinated(alloc, sched, span, [], "serial", 0, fallback=True, left_out=left_out)
+    turns = Coordinated(alloc, sched, span, [], "serial", 0, fallback=True, left_out=left_out)
+    if left_out:  # the last resort may harvest what taking turns left out
+        alone = one_at_a_time(problem, allocate(problem, method, bound=bound), opts.margin, say, tried)
+        if len(alone.left_out) < len(left_out):
+            return alone
+    return turns
 
 
 def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Callable[[str], None] | None = None,
