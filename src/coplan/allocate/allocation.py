@@ -34,11 +34,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import kinematics as kin
-from .errors import CoplanError
-from .kinds import AllocationMethod, SequenceRule
-from .problem import Arm, Problem
-from .timing import SCurve, move_lower_bound
+from ..kinematics import arm as kin
+from ..errors import CoplanError
+from ..kinds import AllocationMethod, SequenceRule
+from ..problem.model import Arm, Problem
+from ..kinematics.timing import SCurve, move_lower_bound
 
 __all__ = ["AllocationMethod", "SequenceRule", "Allocation", "allocate", "arm_configs", "lower_bound", "bound_details",
            "LowerBound", "bound_allocation", "screened_reach"]
@@ -98,7 +98,7 @@ def arm_configs(problem: Problem, arm: Arm, prefer_elbow_up: bool = False, scree
     """IK branches an arm can use: over its bin, and at every fruit it can reach.
 
     Returns ``(bin_branches, {fruit_id: [branches]})`` (lists of (2,) joint poses). Only
-    branches the static feasibility screen leaves usable (:func:`coplan.screen.screened`;
+    branches the static feasibility screen leaves usable (:func:`coplan.allocate.screen.screened`;
     ``screen=False``: every valid IK branch, as the course does): an arm that can never reach
     its bin gets ``([], {})`` and takes no fruit. With
     ``prefer_elbow_up`` (the course's IK) only the elbow-up branch is kept where it is valid.
@@ -182,7 +182,7 @@ BLOCKED_COST = 1000.0  # s: effectively forbids a blocked pair unless no other a
 
 def _blocked(problem: Problem, a: int, bins, branches, samples: int = 24) -> bool:
     """Whether every branch's pick pose or bin round trip hits a neighbour resting at home."""
-    from .geometry import segment_distance
+    from ..kinematics.geometry import segment_distance
 
     arm = problem.arms[a]
     need = problem.task.clearance

@@ -41,9 +41,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import kinematics as kin
-from .errors import plural
-from .problem import Arm, Problem
+from ..kinematics import arm as kin
+from ..errors import plural
+from ..problem.model import Arm, Problem
 
 __all__ = ["Screen", "screen", "TIP_TOLERANCE"]
 

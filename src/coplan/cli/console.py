@@ -82,13 +82,13 @@ def run_console(app, err_console) -> None:
     planners save what they have), then exits with 143 instead of 130. stdout is a
     :class:`PipeSafeStdout`: a reader closing it (``| head``) is no error, the command finishes
     and exits with its own code. With ``--json`` on the command line, a usage error found before
-    the command ran is also printed as the JSON error document (:mod:`coplan.clijson`)."""
+    the command ran is also printed as the JSON error document (:mod:`coplan.cli.failures`)."""
     import signal
 
-    from . import clijson
-    from .kinds import ExitCode
+    from . import failures
+    from ..kinds import ExitCode
 
-    terminated = clijson.TERMINATED
+    terminated = failures.TERMINATED
 
     def on_term(signum, frame):
         if not terminated:
@@ -101,7 +101,7 @@ def run_console(app, err_console) -> None:
     sys.stdout = PipeSafeStdout(sys.stdout)
     try:
         if "--json" in sys.argv[1:]:
-            sys.exit(clijson.run_with_json_usage_errors(app))
+            sys.exit(failures.run_with_json_usage_errors(app))
         app()
     except KeyboardInterrupt:
         sys.exit(int(ExitCode.TERMINATED if terminated else ExitCode.INTERRUPTED))

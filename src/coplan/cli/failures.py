@@ -22,8 +22,8 @@ import os
 import re
 from typing import Any
 
-from .errors import CoplanError, InputError, Issue
-from .kinds import ExitCode
+from ..errors import CoplanError, InputError, Issue
+from ..kinds import ExitCode
 
 __all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "usage", "check_out_dir"]
 

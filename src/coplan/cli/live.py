@@ -13,8 +13,8 @@ from typing import Annotated, Optional
 import typer
 from rich.console import Console
 
-from ..clijson import check_out_dir, usage
-from ..clisummary import safe as _safe
+from .failures import check_out_dir, usage
+from .summary import safe as _safe
 from ..kinds import ExitCode, PlanStatus
 
 __all__ = ["feed_cmd", "run_cmd"]
@@ -43,8 +43,8 @@ def feed_cmd(
                                                   help="The gripper camera measures when the tip is this close, m.")] = 0.1,
 ):
     """Generate a seeded vision feed for a problem: late fruit, noise, false and duplicate detections."""
-    from ..problem import load_problem
-    from .feed import feed_yaml, make_feed
+    from ..problem.model import load_problem
+    from ..live.feed import feed_yaml, make_feed
 
     if out.exists() and out.is_dir():
         usage(f"--out {out}: expected a file name, found a folder")
@@ -74,10 +74,10 @@ def run_cmd(
     """Simulate the cell live: re-plan as detections arrive, verify what was executed, compare with the omniscient plan."""
     from ..output import RunFolder
     from ..plan import jsonable
-    from ..problem import load_problem
-    from .cell import LiveOptions
-    from .feed import load_feed
-    from .sim import simulate
+    from ..problem.model import load_problem
+    from ..live.cell import LiveOptions
+    from ..live.feed import load_feed
+    from ..live.sim import simulate
 
     check_out_dir(out, "--out")
     prob = load_problem(problem)
@@ -92,7 +92,7 @@ def run_cmd(
         (stage / "verification.json").write_text(json.dumps(jsonable(result.verification.summary()), indent=1))
         (stage / "run.json").write_text(json.dumps(jsonable(result.run), indent=1, allow_nan=False))
         if animate:
-            from .animate import animate_live
+            from ..live.animate import animate_live
 
             animate_live(prob, result, stage / "live.gif")
     m = result.run["metrics"]

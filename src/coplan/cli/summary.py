@@ -3,7 +3,7 @@ strings escaped). Light to import: rich only, like :mod:`coplan.cli`."""
 
 from __future__ import annotations
 
-from .errors import plural, printable
+from ..errors import plural, printable
 
 __all__ = ["fmt", "print_summary", "print_verification", "safe"]
 

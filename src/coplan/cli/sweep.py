@@ -13,8 +13,8 @@ from typing import Annotated, Optional
 import typer
 from rich.console import Console
 
-from ..clijson import check_out_dir, usage
-from ..clisummary import safe as _safe
+from .failures import check_out_dir, usage
+from .summary import safe as _safe
 from ..errors import printable
 from ..kinds import PlannerKind
 
@@ -48,7 +48,7 @@ def sweep_cmd(
                                              "(for coplan verify).")] = False,
 ):
     """Solve every problem of a design sweep on Dask; one table row per problem (results.parquet)."""
-    from .spec import load_sweep
+    from ..sweep.spec import load_sweep
 
     if time_limit is not None and not time_limit > 0:
         usage(f"--time-limit: expected a positive number of seconds, found {time_limit}")
@@ -59,7 +59,7 @@ def sweep_cmd(
     check_out_dir(folder, "--out")
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-    from .run import run_sweep
+    from ..sweep.run import run_sweep
 
     progress = Progress(TextColumn("[bold]{task.fields[name]}[/]"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                         TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.description}"), console=_err, transient=False)
@@ -101,7 +101,7 @@ def sweep_report_cmd(
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the figures.")] = True,
 ):
     """Summarise a sweep: counts by status, medians, worst cases and the designer's figures."""
-    from .report import sweep_report
+    from ..sweep.report import sweep_report
 
     if not folder.exists():
         usage(f"{folder}: expected a sweep output folder, found nothing at this path")

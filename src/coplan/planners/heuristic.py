@@ -15,10 +15,10 @@ import time as _time
 
 import numpy as np
 
-from .allocation import Allocation, AllocationMethod, allocate
-from .plan import DEFAULT_RATE, Event, EventKind, Piece, Plan, PlannerKind, PlanStatus, compute_metrics, sample_pieces
-from .problem import Arm, Problem
-from .timing import cubic_eval, cubic_min_time
+from ..allocate.allocation import Allocation, AllocationMethod, allocate
+from ..plan import DEFAULT_RATE, Event, EventKind, Piece, Plan, PlannerKind, PlanStatus, compute_metrics, sample_pieces
+from ..problem.model import Arm, Problem
+from ..kinematics.timing import cubic_eval, cubic_min_time
 
 __all__ = ["plan_heuristic", "build_timeline", "grid"]
 

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from . import kinematics as kin
+from ..kinematics import arm as kin
 
 __all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "to_yaml", "LESSON_DEFAULTS", "LESSON_TASK"]
 
@@ -223,8 +223,8 @@ def cell_problem(seed: int, n_arms: int | None = None, n_fruits: int | None = No
 
 
 def _valid_draw(draw, what: str, seed: int, n_arms, n_fruits, max_tries: int) -> dict[str, Any]:
-    from .errors import ProblemError
-    from .problem import parse_problem
+    from ..errors import ProblemError
+    from .model import parse_problem
 
     rng = np.random.default_rng(seed)
     last: Exception | None = None

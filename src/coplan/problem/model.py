@@ -17,11 +17,11 @@ from typing import Annotated, Any
 import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
-from . import kinematics as kin
+from ..kinematics import arm as kin
 from . import plausible
-from .errors import Issue, ProblemError
-from .geometry import segment_distance
-from .yamlsafe import MAX_FILE_BYTES, _line, _path_str, _read_yaml, read_input_text
+from ..errors import Issue, ProblemError
+from ..kinematics.geometry import segment_distance
+from .yamlsafe import MAX_FILE_BYTES, line_of, path_str, read_yaml, read_input_text
 
 __all__ = [
     "Arm",
@@ -315,27 +315,27 @@ def _validate(model, data, prefix: tuple, lines: dict, issues: list):
         for err in e.errors():
             etype = err["type"]
             loc = prefix + _user_loc(data, tuple(err["loc"]), etype == "missing")
-            path = _path_str(loc)
+            path = path_str(loc)
             if etype == "extra_forbidden":
                 key = loc[-1]
-                issues.append(Issue(path, f"expected a known key, found unknown key {key!r}{_suggest(key, model.model_fields)}", _line(lines, loc)))
+                issues.append(Issue(path, f"expected a known key, found unknown key {key!r}{_suggest(key, model.model_fields)}", line_of(lines, loc)))
             elif etype == "missing":
-                issues.append(Issue(path, _missing(loc[-1]), _line(lines, loc[:-1])))
+                issues.append(Issue(path, _missing(loc[-1]), line_of(lines, loc[:-1])))
             elif etype in ("model_type", "model_attributes_type", "dict_type"):
-                issues.append(Issue(path, f"expected a mapping, found {_kind(err.get('input'))}", _line(lines, loc)))
+                issues.append(Issue(path, f"expected a mapping, found {_kind(err.get('input'))}", line_of(lines, loc)))
             else:
                 msg = err["msg"].removeprefix("Value error, ")
                 if "found" not in msg:
                     msg = f"{msg}; found {_kind(err.get('input'))}"
-                issues.append(Issue(path, msg, _line(lines, loc)))
+                issues.append(Issue(path, msg, line_of(lines, loc)))
         return None
 
 
 def _check_unique(seen: dict[str, int], value: str, loc: tuple, what: str, lines: dict, issues: list) -> bool:
     """Record ``value`` at list index ``loc[1]``; on a repeat, report it (naming the first) and return False."""
     if value in seen:
-        issues.append(Issue(_path_str(loc), f"expected a unique {what}, found {value!r} again "
-                                            f"(also {loc[0]}[{seen[value]}].{loc[2]})", _line(lines, loc)))
+        issues.append(Issue(path_str(loc), f"expected a unique {what}, found {value!r} again "
+                                            f"(also {loc[0]}[{seen[value]}].{loc[2]})", line_of(lines, loc)))
         return False
     seen[value] = loc[1]
     return True
@@ -344,7 +344,7 @@ def _check_unique(seen: dict[str, int], value: str, loc: tuple, what: str, lines
 def _implausible(field_name: str, value, loc: tuple, lines: dict, issues: list) -> bool:
     """Report every element of ``value`` outside :data:`coplan.plausible.BOUNDS`; True if any."""
     bad = plausible.field_issues(field_name, value, loc)
-    issues.extend(Issue(_path_str(where), msg, _line(lines, where)) for where, msg in bad)
+    issues.extend(Issue(path_str(where), msg, line_of(lines, where)) for where, msg in bad)
     return bool(bad)
 
 
@@ -356,7 +356,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         )
     for k in data:
         if k not in _TOP_KEYS:
-            issues.append(Issue(str(k), f"expected a known key, found unknown key {k!r}{_suggest(k, _TOP_KEYS)}", _line(lines, (k,))))
+            issues.append(Issue(str(k), f"expected a known key, found unknown key {k!r}{_suggest(k, _TOP_KEYS)}", line_of(lines, (k,))))
     for k in ("name", "arms", "task"):
         if k not in data:
             issues.append(Issue(k, _missing(k)))
@@ -365,10 +365,10 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         try:
             name = _name(data["name"])
         except ValueError as e:
-            issues.append(Issue("name", str(e), _line(lines, ("name",))))
+            issues.append(Issue("name", str(e), line_of(lines, ("name",))))
     description = data.get("description", "") or ""
     if not isinstance(description, str):
-        issues.append(Issue("description", f"expected a string, found {_kind(description)}", _line(lines, ("description",))))
+        issues.append(Issue("description", f"expected a string, found {_kind(description)}", line_of(lines, ("description",))))
         description = ""
 
     defaults: _ArmFields | None = _ArmFields()
@@ -378,22 +378,22 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     arms_raw = data.get("arms", [])
     arm_specs: list[tuple[int, _ArmSpec | None]] = []
     if not isinstance(arms_raw, list):
-        issues.append(Issue("arms", f"expected a list of arms, found {_kind(arms_raw)}", _line(lines, ("arms",))))
+        issues.append(Issue("arms", f"expected a list of arms, found {_kind(arms_raw)}", line_of(lines, ("arms",))))
         arms_raw = []
     elif "arms" in data and not arms_raw:
-        issues.append(Issue("arms", "expected at least one arm, found an empty list", _line(lines, ("arms",))))
+        issues.append(Issue("arms", "expected at least one arm, found an empty list", line_of(lines, ("arms",))))
     if len(arms_raw) > MAX_ARMS:
-        issues.append(Issue("arms", f"expected at most {MAX_ARMS} arms, found {len(arms_raw)}", _line(lines, ("arms",))))
+        issues.append(Issue("arms", f"expected at most {MAX_ARMS} arms, found {len(arms_raw)}", line_of(lines, ("arms",))))
         arms_raw = arms_raw[:MAX_ARMS]
     for i, a in enumerate(arms_raw):
         arm_specs.append((i, _validate(_ArmSpec, a, ("arms", i), lines, issues)))
 
     fruits_raw = data.get("fruits", []) or []
     if not isinstance(fruits_raw, list):
-        issues.append(Issue("fruits", f"expected a list of fruit, found {_kind(fruits_raw)}", _line(lines, ("fruits",))))
+        issues.append(Issue("fruits", f"expected a list of fruit, found {_kind(fruits_raw)}", line_of(lines, ("fruits",))))
         fruits_raw = []
     if len(fruits_raw) > MAX_FRUITS:
-        issues.append(Issue("fruits", f"expected at most {MAX_FRUITS} fruit, found {len(fruits_raw)}", _line(lines, ("fruits",))))
+        issues.append(Issue("fruits", f"expected at most {MAX_FRUITS} fruit, found {len(fruits_raw)}", line_of(lines, ("fruits",))))
         fruits_raw = fruits_raw[:MAX_FRUITS]
     fruit_specs = [(j, _validate(_FruitSpec, f, ("fruits", j), lines, issues)) for j, f in enumerate(fruits_raw)]
 
@@ -424,7 +424,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
                 v = getattr(defaults, f)
                 origin[f] = ("defaults", f)
             if v is None:
-                issues.append(Issue(_path_str(("arms", i, f)), _missing(f, " on the arm or in defaults"), _line(lines, ("arms", i))))
+                issues.append(Issue(path_str(("arms", i, f)), _missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
                 ok = False
             merged[f] = v
         if not ok:
@@ -437,7 +437,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         for j in range(2):
             if lim[j][0] >= lim[j][1]:
                 loc = origin["joint_limits"] + (j,)
-                issues.append(Issue(_path_str(loc), f"expected min < max, found min {lim[j][0]} >= max {lim[j][1]}", _line(lines, loc)))
+                issues.append(Issue(path_str(loc), f"expected min < max, found min {lim[j][0]} >= max {lim[j][1]}", line_of(lines, loc)))
                 ok = False
         if not ok:
             continue
@@ -450,14 +450,14 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
                     loc = ("arms", i, "home", j)
                     msg = (
                         f"expected a home angle inside this arm's joint limits [{lim[j][0]}, {lim[j][1]}] "
-                        f"({_path_str(lim_loc)}), found {home[j]} (from {_path_str(home_loc)})"
+                        f"({path_str(lim_loc)}), found {home[j]} (from {path_str(home_loc)})"
                     )
-                    line = _line(lines, lim_loc)
+                    line = line_of(lines, lim_loc)
                 else:
                     loc = home_loc
-                    msg = f"expected a home angle inside the joint limits [{lim[j][0]}, {lim[j][1]}] ({_path_str(lim_loc)}), found {home[j]}"
-                    line = _line(lines, home_loc)
-                issues.append(Issue(_path_str(loc), msg, line))
+                    msg = f"expected a home angle inside the joint limits [{lim[j][0]}, {lim[j][1]}] ({path_str(lim_loc)}), found {home[j]}"
+                    line = line_of(lines, home_loc)
+                issues.append(Issue(path_str(loc), msg, line))
                 ok = False
         if not ok:
             continue
@@ -466,10 +466,10 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
             r = math.dist(arm.base, arm.bin)
             issues.append(
                 Issue(
-                    _path_str(("arms", i, "bin")),
+                    path_str(("arms", i, "bin")),
                     f"expected a bin its arm {arm.name!r} can reach (IK inside joint limits), found {list(arm.bin)} "
                     f"at {r:.3f} m from the base; the reachable annulus is [{arm.inner_radius:.3f}, {arm.reach:.3f}] m",
-                    _line(lines, ("arms", i, "bin")),
+                    line_of(lines, ("arms", i, "bin")),
                 )
             )
             continue
@@ -501,10 +501,10 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
                     home_from = "" if origins[k]["home"][0] == "arms" else " (home from defaults.home)"
                     issues.append(
                         Issue(
-                            _path_str(("arms", k, "home")),
+                            path_str(("arms", k, "home")),
                             f"expected home poses at least the clearance {task.clearance} m apart, found arms "
                             f"{a.name!r} (arms[{i}]) and {b.name!r} (arms[{k}]) {dmin:.4f} m apart at home{home_from}",
-                            _line(lines, origins[k]["home"]) if home_from == "" else _line(lines, ("arms", k)),
+                            line_of(lines, origins[k]["home"]) if home_from == "" else line_of(lines, ("arms", k)),
                         )
                     )
 
@@ -521,7 +521,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     # a plan too long for its 100 Hz grid is refused up front, from a lower bound on its length
     too_long = plausible.duration_issues(problem)
     if too_long:
-        raise ProblemError([Issue(_path_str(loc), msg, _line(lines, loc)) for loc, msg in too_long], source)
+        raise ProblemError([Issue(path_str(loc), msg, line_of(lines, loc)) for loc, msg in too_long], source)
     return problem
 
 
@@ -542,7 +542,7 @@ def parse_problem(text: str, source: str | None = None) -> Problem:
     n = len(text.encode("utf-8", errors="replace"))
     if n > MAX_FILE_BYTES:
         raise ProblemError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
-    data, lines = _read_yaml(text, source, keep_text=_is_text_path)
+    data, lines = read_yaml(text, source, keep_text=_is_text_path)
     return _build(data, lines, source)
 
 

@@ -14,20 +14,20 @@ of a plan: every plan is sampled on a 100 Hz grid, so a problem whose plan would
 is refused before anything is planned; so is one whose plan file would be too large to read
 back (:data:`coplan.plan.MAX_PLAN_BYTES`, at ``BYTES_PER_SAMPLE``), so the longest plan
 allowed is shorter with more arms (5.5 h for one arm, 2.3 h for three, 7 min for 64).
+
+The functions taking a ``problem`` are called by :mod:`coplan.problem.model` with its
+:class:`~coplan.problem.Problem` (they use its ``arms``, ``task``, ``fruits``,
+``fruit_positions`` and ``reach_matrix()``); this module does not import that one.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .plan import DEFAULT_RATE, MAX_PLAN_BYTES
-
-if TYPE_CHECKING:
-    from .problem import Problem
+from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES
 
 __all__ = ["Bound", "BOUNDS", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
            "duration_issues"]
@@ -125,7 +125,7 @@ def move_times(dq: np.ndarray, v, a, j, cubic: bool = False) -> np.ndarray:
 
     Default: a lower bound for any motion, per joint ``max(D/v, 2 sqrt(D/a), (32 D/j)^(1/3))``
     (the velocity, acceleration and jerk limits each alone). ``cubic``: the course's cubic
-    (:func:`coplan.timing.cubic_min_time`), ``max(1.5 D/v, sqrt(6 D/a))``."""
+    (:func:`coplan.kinematics.timing.cubic_min_time`), ``max(1.5 D/v, sqrt(6 D/a))``."""
     d = np.abs(dq)
     v, a, j = (np.asarray(x, float) for x in (v, a, j))
     if cubic:
@@ -147,9 +147,9 @@ class DurationBound:
     fruit_seconds: float = 0.0
 
 
-def plan_duration_bound(problem: "Problem", baseline: bool = False) -> DurationBound:
+def plan_duration_bound(problem, baseline: bool = False) -> DurationBound:
     """A lower bound on the makespan of any plan of ``problem`` (``baseline``: of the course's
-    baseline, :func:`coplan.heuristic.plan_heuristic`, which every solve computes).
+    baseline, :func:`coplan.planners.heuristic.plan_heuristic`, which every solve computes).
 
     Every harvested fruit costs its arm at least a move to it (from the bin or from home), the
     pick dwell, a move back to the bin and the place dwell, on its cheapest arm and elbow
@@ -185,7 +185,7 @@ def _hours(s: float) -> str:
     return f"{s:.0f} s" if s < 3600 else f"{s / 3600:.1f} h"
 
 
-def duration_issues(problem: "Problem") -> list[tuple[tuple, str]]:
+def duration_issues(problem) -> list[tuple[tuple, str]]:
     """``(key path, message)`` when even a lower bound on the length of the baseline plan
     (which every solve computes first) exceeds :data:`MAX_PLAN_SECONDS` (the 100 Hz grid of
     such a plan is absurd); else nothing."""

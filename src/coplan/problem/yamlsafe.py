@@ -1,6 +1,6 @@
 """Safe YAML reading for problem files, with the line of every key path.
 
-What :func:`_read_yaml` guarantees, before anything is constructed:
+What :func:`read_yaml` guarantees, before anything is constructed:
 
 - libyaml's parser/composer (PyYAML's ``CSafeLoader`` when available), SafeLoader's
   construction; no tags (so no Python objects), no anchors, no aliases;
@@ -10,13 +10,13 @@ What :func:`_read_yaml` guarantees, before anything is constructed:
   levels of nesting and ``MAX_NODES`` values (both checked on the event stream, so a
   hostile file costs no more than reading it);
 - a ``lines`` map from every key path (``("arms", 1, "links")``) to its line;
-  :func:`_line` gives the line of a path or of its nearest recorded ancestor;
+  :func:`line_of` gives the line of a path or of its nearest recorded ancestor;
 - ``keep_text``: at the key paths it selects (names, ids), a plain scalar is kept as the text
   written, never coerced by YAML 1.1's implicit types (``no`` -> false, ``0x10`` -> 16,
   ``012`` -> 10, ``1_000`` -> 1000, ``12:30`` -> 750); only ``null``/``~``/empty stays null.
 
 Every problem is raised as :class:`~coplan.errors.ProblemError`. This module must not
-import :mod:`coplan.problem` (which imports it).
+import :mod:`coplan.problem.model` (which imports it).
 """
 
 from __future__ import annotations
@@ -26,14 +26,15 @@ from typing import Any
 
 import yaml
 
-from .errors import InputError, Issue, ProblemError
+from ..errors import InputError, Issue, ProblemError
 
 MAX_FILE_BYTES = 4 * 1024 * 1024
 MAX_DEPTH = 12
 MAX_NODES = 300_000  # YAML nodes (scalars + collections); 20 000 fruit take about 180 000
 
 
-def _path_str(loc) -> str:
+def path_str(loc) -> str:
+    """A key path as written in messages: ``("arms", 0, "links")`` -> ``arms[0].links``."""
     out = ""
     for part in loc:
         if isinstance(part, int):
@@ -86,19 +87,19 @@ def _scan_events(text: str, issues: list) -> None:
         line = ev.start_mark.line + 1
         nodes += 1
         if nodes > MAX_NODES:
-            issues.append(Issue(_path_str(path), f"expected at most {MAX_NODES} YAML values in a problem file, found more", line))
+            issues.append(Issue(path_str(path), f"expected at most {MAX_NODES} YAML values in a problem file, found more", line))
             return
         if isinstance(ev, yaml.AliasEvent):
             issues.append(
-                Issue(_path_str(path), f"expected a plain value, found the alias *{ev.anchor} (YAML anchors and aliases are not supported)", line)
+                Issue(path_str(path), f"expected a plain value, found the alias *{ev.anchor} (YAML anchors and aliases are not supported)", line)
             )
         elif ev.anchor is not None:
             issues.append(
-                Issue(_path_str(path), f"expected a plain value, found the anchor &{ev.anchor} (YAML anchors and aliases are not supported)", line)
+                Issue(path_str(path), f"expected a plain value, found the anchor &{ev.anchor} (YAML anchors and aliases are not supported)", line)
             )
         if isinstance(ev, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
             if len(stack) >= MAX_DEPTH:
-                issues.append(Issue(_path_str(path), f"expected at most {MAX_DEPTH} levels of nesting, found more", line))
+                issues.append(Issue(path_str(path), f"expected at most {MAX_DEPTH} levels of nesting, found more", line))
                 return
             stack.append(["map" if isinstance(ev, yaml.MappingStartEvent) else "seq", path, True, None, 0])
 
@@ -122,7 +123,7 @@ def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = No
         node.tag = _STR_TAG
     if node.tag not in _LineLoader.yaml_constructors:
         issues.append(
-            Issue(_path_str(path), f"expected a plain YAML value, found the tag {node.tag!r} (tags are not supported)", node.start_mark.line + 1)
+            Issue(path_str(path), f"expected a plain YAML value, found the tag {node.tag!r} (tags are not supported)", node.start_mark.line + 1)
         )
         return
     if isinstance(node, yaml.MappingNode):
@@ -131,16 +132,16 @@ def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = No
             kline = k.start_mark.line + 1
             if not isinstance(k, yaml.ScalarNode):
                 kind = "list" if isinstance(k, yaml.SequenceNode) else "mapping"
-                issues.append(Issue(_path_str(path), f"expected string keys, found a {kind} used as a key", kline))
+                issues.append(Issue(path_str(path), f"expected string keys, found a {kind} used as a key", kline))
                 continue
             if k.tag not in _LineLoader.yaml_constructors:
-                issues.append(Issue(_path_str(path), f"expected a plain YAML key, found the tag {k.tag!r} (tags are not supported)", kline))
+                issues.append(Issue(path_str(path), f"expected a plain YAML key, found the tag {k.tag!r} (tags are not supported)", kline))
                 continue
             key = k.value if k.tag == _STR_TAG else ctor.construct_object(k)
             if key in seen:
                 issues.append(
                     Issue(
-                        _path_str(path + [k.value]),
+                        path_str(path + [k.value]),
                         f"expected unique keys, found {k.value!r} again (first at line {seen[key]}); duplicate keys are never merged",
                         kline,
                     )
@@ -153,7 +154,7 @@ def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = No
             _walk_nodes(v, path + [i], lines, issues, None, ctor, keep_text)
 
 
-def _read_yaml(text: str, source: str | None, keep_text=None):
+def read_yaml(text: str, source: str | None, keep_text=None):
     """Parse YAML text safely; returns ``(data, lines)`` where ``lines`` maps key paths to lines.
 
     ``keep_text``: optional predicate on key paths (tuples) whose plain scalars are kept as
@@ -181,7 +182,9 @@ def _read_yaml(text: str, source: str | None, keep_text=None):
     return data, lines
 
 
-def _line(lines: dict, loc) -> int | None:
+def line_of(lines: dict, loc) -> int | None:
+    """The line of key path ``loc`` in ``lines`` (from :func:`read_yaml`), or of its nearest
+    recorded ancestor; None when not even the document has one."""
     loc = tuple(loc)
     while loc:
         if loc in lines:
@@ -213,8 +216,3 @@ def read_input_text(path, error: type[InputError]) -> str:
         line = raw[: e.start].count(b"\n") + 1
         raise error([Issue("", f"expected UTF-8 text, found the undecodable byte 0x{raw[e.start]:02x} at offset {e.start}", line)],
                     src) from None
-
-
-# public names for the other input files (solver options) that share these checks
-read_yaml = _read_yaml
-line_of = _line

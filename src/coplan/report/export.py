@@ -16,7 +16,7 @@ ends (the arms start and end still, as the verifier assumes), and differentiates
 the positions are the plan's own at every grid time, the velocities and accelerations are the
 exact derivatives of the exported positions (a controller integrating them stays on the plan),
 and for a coordinated plan's time-optimal S-curve move they agree with the analytic profile
-(:meth:`coplan.timing.SCurve.derivatives`) to about 1e-3 rad/s and 1.5 % of the acceleration
+(:meth:`coplan.kinematics.timing.SCurve.derivatives`) to about 1e-3 rad/s and 1.5 % of the acceleration
 limit (jerk switches fall between samples; tested). For the same reason the exported
 accelerations can exceed a joint's acceleration limit slightly where the plan runs at it
 (measured on the coordinated plans of the shipped problems at 1 kHz: at most 1.1 % over the
@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .kinds import ExportFormat
-from .plan import Plan
+from ..kinds import ExportFormat
+from ..plan import Plan
 
 __all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "MAX_POINTS", "MAX_RATE"]
 
@@ -175,29 +175,3 @@ def export_plan(plan: Plan, rate: float, fmt: ExportFormat | str, out: str | Pat
         _atomic_write(path, text)
         written.append(path)
     return written
-
-
-def export_command(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | None) -> list[Path]:
-    """``coplan export``: load the plan, check the rate and where to write (usage errors exit 2
-    before anything is written), export. Default ``out``: beside the plan,
-    ``<plan>_<rate>hz.csv`` or the folder ``<plan>_<rate>hz/``."""
-    from .clijson import Failure
-    from .kinds import ExitCode
-    from .plan import load_plan
-
-    fmt = ExportFormat(fmt)
-    plan = load_plan(plan_path)
-    try:
-        check_rate(rate, plan.duration)
-    except ValueError as e:
-        raise Failure(ExitCode.USAGE, f"--rate: {e}") from None
-    if out is None:
-        stem = plan_path.with_name(f"{plan_path.stem}_{rate:g}hz")
-        out = stem.with_suffix(".csv") if fmt == ExportFormat.CSV else stem
-    if fmt == ExportFormat.CSV and out.is_dir():
-        raise Failure(ExitCode.USAGE, f"--out {out}: expected a CSV file name, found a folder")
-    if fmt != ExportFormat.CSV and out.exists() and not out.is_dir():
-        raise Failure(ExitCode.USAGE, f"--out {out}: expected a folder (one {fmt.value} file per arm), found a file")
-    if out.resolve() == plan_path.resolve():
-        raise Failure(ExitCode.USAGE, f"--out {out} is the plan being exported; give another file")
-    return export_plan(plan, rate, fmt, out)

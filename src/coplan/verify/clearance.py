@@ -23,7 +23,7 @@ them cannot hold a dense sample below the clearance or the least distance: those
 densified at all (same figures as uniform 1 kHz sampling, several times faster).
 
 This module shares no code with the planners' constraints; FCL cross-checks it
-(:mod:`coplan.fclcheck`).
+(:mod:`coplan.verify.fclcheck`).
 """
 
 from __future__ import annotations
@@ -32,9 +32,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import kinematics as kin
-from .plan import Plan
-from .problem import Problem
+from ..kinematics import arm as kin
+from ..plan import Plan
+from ..problem.model import Problem
 
 __all__ = [
     "DEFAULT_SUBSTEPS",

@@ -1,4 +1,4 @@
-"""Independent cross-check of the NumPy clearance (:mod:`coplan.clearance`) with FCL.
+"""Independent cross-check of the NumPy clearance (:mod:`coplan.verify.clearance`) with FCL.
 
 Each link becomes an ``fcl.Capsule`` (FCL capsules are 3-D and lie along their local z axis,
 centred on the origin): the transform rotates z onto the link direction in the xy plane and

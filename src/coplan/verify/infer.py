@@ -19,10 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import kinematics as kin
+from ..kinematics import arm as kin
 from .clearance import ArmMotion, runs
-from .plan import Event, EventKind, Plan
-from .problem import Problem
+from ..plan import Event, EventKind, Plan
+from ..problem.model import Problem
 from .verdict import VerifyOptions
 
 __all__ = ["infer_events"]
@@ -52,7 +52,7 @@ def _holds(m: ArmMotion, tip: np.ndarray, time: np.ndarray, still: np.ndarray, t
 def infer_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: VerifyOptions | None = None) -> list[Event]:
     """Pick and place events of ``plan`` inferred from its motion (module docstring); sorted by time.
 
-    ``motions`` are the replayed arms (:func:`coplan.clearance.arm_motions`, problem order)."""
+    ``motions`` are the replayed arms (:func:`coplan.verify.clearance.arm_motions`, problem order)."""
     opts = opts or VerifyOptions()
     time = np.asarray(plan.time, float)
     if time.size < 2:

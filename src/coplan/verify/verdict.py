@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .clearance import DEFAULT_SUBSTEPS
-from .kinds import FclMode
+from ..kinds import FclMode
 from .fclcheck import FCL_TOLERANCE, FclReport
 
 __all__ = [
@@ -89,7 +89,7 @@ class VerifyOptions:
         sets the finite-difference tolerances together with ``rel_tolerance``
     joint_tolerance : allowed excess over a joint limit
     infer_events : when a plan declares no events, infer them from its motion
-        (:mod:`coplan.infer`) and say so; otherwise nothing counts as harvested
+        (:mod:`coplan.verify.infer`) and say so; otherwise nothing counts as harvested
     """
 
     substeps: int = DEFAULT_SUBSTEPS

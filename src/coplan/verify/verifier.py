@@ -1,9 +1,9 @@
 """Independent verification of a plan (``coplan verify PROBLEM PLAN``).
 
 Entry point: :func:`verify` returns a :class:`Verification`. It shares no code with the
-planners' constraints: the clearance comes from :mod:`coplan.clearance` (exact NumPy capsule
+planners' constraints: the clearance comes from :mod:`coplan.verify.clearance` (exact NumPy capsule
 distances on the replayed plan, with a certificate for the gaps between samples), cross-checked
-with FCL by :mod:`coplan.fclcheck`; limits, picks and places are checked here.
+with FCL by :mod:`coplan.verify.fclcheck`; limits, picks and places are checked here.
 
 What "passes" means (every check below, with the default :class:`VerifyOptions`):
 
@@ -12,7 +12,7 @@ What "passes" means (every check below, with the default :class:`VerifyOptions`)
   lower sample: same figures, less work); a sample below 0 is a collision, below
   ``task.clearance`` a clearance breach (both reported as intervals: start, end, worst
   distance, links). Gaps between samples are certified with the Lipschitz bound of
-  :mod:`coplan.clearance` (refined where needed); an interval that stays uncertified is a
+  :mod:`coplan.verify.clearance` (refined where needed); an interval that stays uncertified is a
   violation. Both the raw sampled and the certified least clearance are reported.
 * **cross-check** -- at each pair's closest instant, the worst instant of every
   interval and ``fcl_samples`` seeded random instants per pair (or every evaluated sample
@@ -34,7 +34,7 @@ What "passes" means (every check below, with the default :class:`VerifyOptions`)
   fruit is picked at most once, only by an arm that can reach it, picks and places
   alternate.
 * **inferred events** -- a plan that declares no events (``events: []``, or a ``plan.csv``)
-  has them inferred from its motion (:mod:`coplan.infer`: tip on target and still for the
+  has them inferred from its motion (:mod:`coplan.verify.infer`: tip on target and still for the
   dwell over a fruit, then over the arm's bin), says so (warning ``events_inferred``,
   ``Verification.inferred_events``) and is then checked as if it had declared them.
 * **completeness** is reported (``complete``, ``unharvested``) but is not a failure: a
@@ -51,15 +51,15 @@ from typing import Any
 
 import numpy as np
 
-from . import kinematics as kin
+from ..kinematics import arm as kin
 from .clearance import ArmMotion, arm_motions, certify_pair, clearance_profile, runs
-from .errors import Issue, PlanFileError
+from ..errors import Issue, PlanFileError
 from .fclcheck import cross_check
-from .geometry import segment_distance
+from ..kinematics.geometry import segment_distance
 from .infer import infer_events
-from .plan import DEFAULT_RATE, EventKind, Plan
+from ..plan import DEFAULT_RATE, EventKind, Plan
 from . import verdict as _verdict
-from .problem import Problem
+from ..problem.model import Problem
 from .verdict import (
     ContactInterval,
     FclMode,

@@ -1,4 +1,4 @@
-"""Coordination for the warm start: all arms together, leg by leg (see :mod:`coplan.schedule`).
+"""Coordination for the warm start: all arms together, leg by leg (see :mod:`coplan.planners.coordinated.schedule`).
 
 :func:`coordinate` books each leg (a move and its pick or place) at the earliest time at which it
 and resting at its target afterwards keep every neighbour ``clearance + margin`` away from
@@ -13,20 +13,20 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .problem import Arm, Problem
+from ...problem.model import Arm, Problem
 from .routing import (
-    _Geometry,
-    _same,
+    ArmGeometry,
+    same_pose,
 )
 from .schedule import (
-    _curve_eval,
-    _steps_positions,
+    curve_eval,
+    steps_positions,
     ArmSchedule,
     ConflictError,
     Step,
     StepKind,
-    _merge_waits,
-    _move,
+    merge_waits,
+    scurve_move,
 )
 
 __all__ = ["coordinate", "Leg", "legs_of"]
@@ -46,7 +46,7 @@ class Leg:
 
 def legs_of(problem: Problem, sch: ArmSchedule, always_home: bool = False) -> list[Leg]:
     """An arm's schedule as legs (waits dropped); it ends with a move home if it has any legs
-    (``always_home``: even if it has none). Also the serial fallback's (:mod:`coplan.serial`)."""
+    (``always_home``: even if it has none). Also the serial fallback's (:mod:`coplan.planners.coordinated.serial`)."""
     arm = sch.arm
     fruit_pos = {f.id: tuple(map(float, f.position)) for f in problem.fruits}
     legs: list[Leg] = []
@@ -56,12 +56,12 @@ def legs_of(problem: Problem, sch: ArmSchedule, always_home: bool = False) -> li
         elif st.kind in (StepKind.PICK, StepKind.PLACE):
             point = fruit_pos[st.fruit] if st.kind == StepKind.PICK else tuple(map(float, arm.bin))
             leg = Leg(tuple(map(float, st.q1)), st.kind, st.duration, st.fruit, point)
-            if legs and legs[-1].kind is None and _same(legs[-1].target, leg.target):
+            if legs and legs[-1].kind is None and same_pose(legs[-1].target, leg.target):
                 legs[-1].kind, legs[-1].dwell, legs[-1].fruit, legs[-1].point = leg.kind, leg.dwell, leg.fruit, leg.point
             else:  # a dwell right where the arm already is
                 legs.append(leg)
     home = tuple(map(float, arm.home))
-    if legs and legs[-1].kind is None and _same(legs[-1].target, home):
+    if legs and legs[-1].kind is None and same_pose(legs[-1].target, home):
         legs[-1].home = True
     elif legs or always_home:
         legs.append(Leg(home, home=True))
@@ -101,7 +101,7 @@ class _Track:
             lo, hi = np.searchsorted(T, [s.t0, s.t1])
             if hi <= lo:
                 continue
-            out[lo:hi] = _curve_eval(s.curve, T[lo:hi] - s.t0, self.tables) if s.kind == StepKind.MOVE and s.curve is not None else s.q1
+            out[lo:hi] = curve_eval(s.curve, T[lo:hi] - s.t0, self.tables) if s.kind == StepKind.MOVE and s.curve is not None else s.q1
         return out
 
     def commit(self, t: float, steps: list[Step]) -> None:
@@ -136,7 +136,7 @@ class _Window:
         if self._own is None or self._own[0].size < n:
             m = max(n, 2 * (0 if self._own is None else self._own[0].size))
             T = np.arange(m) / self.c.rate
-            self._own = self.c.points(self.tr.index, _steps_positions(self.steps0, T, self.c.tables))
+            self._own = self.c.points(self.tr.index, steps_positions(self.steps0, T, self.c.tables))
         return tuple(x[:n] for x in self._own)
 
     def neighbour(self, o: _Track, t: float, n: int) -> tuple:
@@ -149,7 +149,7 @@ class _Window:
         return tuple(x[k0:k0 + n] for x in have)
 
 
-class _Coordinator(_Geometry):
+class _Coordinator(ArmGeometry):
     """State of :func:`coordinate` (see there for the rules)."""
 
     def __init__(self, problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float, quantum: float,
@@ -208,19 +208,19 @@ class _Coordinator(_Geometry):
         if not steps:
             return np.asarray(tr.pose, float)[None]
         T = np.append(np.arange(0.0, steps[-1].t1, 1.0 / self.rate), steps[-1].t1)
-        return _steps_positions(steps, T, self.tables)
+        return steps_positions(steps, T, self.tables)
 
     # ---- timing
     def leg_steps(self, tr: _Track, leg: Leg, t: float) -> list[Step]:
         """The leg's move(s) from where the arm rests, starting at ``t``, then its dwell."""
         steps: list[Step] = []
-        if not _same(tr.pose, leg.target):
+        if not same_pose(tr.pose, leg.target):
             key = (tr.index, tr.pose, leg.target)
             moves = self._moves.get(key)
-            if moves is None:  # routed from where the arm rests (see _Geometry.route), from t = 0
+            if moves is None:  # routed from where the arm rests (see ArmGeometry.route), from t = 0
                 moves, q, t0 = [], tr.pose, 0.0
                 for v in self.route(tr.index, tr.pose, leg.target):
-                    moves.append(_move(tr.arm, t0, q, v))
+                    moves.append(scurve_move(tr.arm, t0, q, v))
                     t0, q = moves[-1].t1, v
                 self._moves[key] = moves
             steps = [replace(m, t0=m.t0 + t) for m in moves]
@@ -309,7 +309,7 @@ class _Coordinator(_Geometry):
         remaining work, then the quickest move.
         """
         cand = self.stows(y.index)
-        cand = cand[[not _same(c, y.pose) for c in cand]]
+        cand = cand[[not same_pose(c, y.pose) for c in cand]]
         ok = self.static_hits(y.index, cand, x.index, self.leg_samples(x, x.todo[0])) == 0 if x.todo else np.ones(len(cand), bool)
         soft = np.zeros(len(cand))
         frac = np.linspace(0.0, 1.0, 16)[None, :, None]
@@ -321,7 +321,7 @@ class _Coordinator(_Geometry):
             soft += self.static_hits(y.index, cand, j, rem) / len(rem)
         if not ok.any():
             return None
-        time = np.array([_move(y.arm, 0.0, y.pose, c).duration for c in cand])
+        time = np.array([scurve_move(y.arm, 0.0, y.pose, c).duration for c in cand])
         return cand[int(np.argmin(np.where(ok, 10.0 * soft + time, np.inf)))]
 
     def do_yield(self, y: _Track, x: _Track, t: float) -> bool:
@@ -351,7 +351,7 @@ class _Coordinator(_Geometry):
         margin = self.problem.task.reach_margin if leg.kind == StepKind.PICK else 0.0
         q, valid = tr.arm.ik(np.asarray(leg.point, float), margin)
         for b in range(2):
-            if valid[b] and not _same(q[b], leg.target, 1e-6):
+            if valid[b] and not same_pose(q[b], leg.target, 1e-6):
                 for j in self.nbrs[tr.index]:
                     o = self.tracks[j]
                     rests = [lg.target for lg in o.todo if lg.kind == StepKind.PLACE or lg.home] + [o.home]
@@ -364,7 +364,7 @@ class _Coordinator(_Geometry):
         """Duration of arm i's (routed) move from q0 to q1."""
         out, q = 0.0, q0
         for v in self.route(i, q0, q1):
-            out += _move(self.problem.arms[i], 0.0, q, v).duration
+            out += scurve_move(self.problem.arms[i], 0.0, q, v).duration
             q = v
         return out
 
@@ -395,7 +395,7 @@ class _Coordinator(_Geometry):
             hits += self.static_hits(tr.index, cand, j, np.vstack([self.remaining(j), np.asarray(o.home, float)[None]]))
         if hits[0] == 0:
             return None
-        time = np.array([_move(tr.arm, 0.0, tr.pose, c).duration for c in cand])
+        time = np.array([scurve_move(tr.arm, 0.0, tr.pose, c).duration for c in cand])
         best = int(np.argmin(hits * 10.0 + time))
         return None if best == 0 else cand[best]
 
@@ -424,7 +424,7 @@ class _Coordinator(_Geometry):
             if t > self.horizon:
                 raise ConflictError(f"no conflict-free schedule found within {self.horizon:.0f} s of plan time")
             leg = tr.todo[0]
-            if leg.home and not _same(tr.pose, tr.home) and self.home_blocks(tr):
+            if leg.home and not same_pose(tr.pose, tr.home) and self.home_blocks(tr):
                 if not tr.parked:
                     tr.parked = True
                     park = self.park_pose(tr)
@@ -448,7 +448,7 @@ class _Coordinator(_Geometry):
             tr.stuck = j
             # the neighbour will move by itself: wait for it, but only once -- if its next rest
             # pose is in the way again, it is a busy neighbour starving this arm: resolve now
-            again = tr.blocker is not None and tr.blocker[0] == j and not _same(tr.blocker[1], o.pose)
+            again = tr.blocker is not None and tr.blocker[0] == j and not same_pose(tr.blocker[1], o.pose)
             tr.blocker = (j, o.pose) if tr.blocker is None or tr.blocker[0] != j else tr.blocker
             if not again and not self.is_stuck(j, tr.index):
                 tr.ready = max(t + q, o.ready)
@@ -477,7 +477,7 @@ class _Coordinator(_Geometry):
                 raise ConflictError(f"arms {tr.arm.name!r} and {o.arm.name!r} keep blocking each other ({self.yields} yields)")
             raise ConflictError(f"arm {o.arm.name!r} rests in the way of arm {tr.arm.name!r} at t = {t:.2f} s "
                                 "and neither can get out of the other's way")
-        return {tr.arm.name: ArmSchedule(tr.arm, _merge_waits(tr.steps)) for tr in self.tracks}
+        return {tr.arm.name: ArmSchedule(tr.arm, merge_waits(tr.steps)) for tr in self.tracks}
 
 
 def coordinate(
@@ -515,7 +515,7 @@ def coordinate(
     touching an arm at rest, with the fewest conflicts with the neighbours' remaining work.
     A finished arm goes home once home is clear of the neighbours' remaining work; until
     then it waits where it is, or (if that is in the way) at the clearest candidate pose.
-    Moves from a pose the plan did not foresee are routed by :meth:`_Geometry.route`.
+    Moves from a pose the plan did not foresee are routed by :meth:`ArmGeometry.route`.
 
     Raises :class:`ConflictError` after ``max_yields`` yields, past ``horizon`` s of plan
     time, after ``max_checks`` conflict checks (a work budget: the same on any machine) or at

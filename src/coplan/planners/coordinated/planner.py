@@ -4,19 +4,19 @@ conflict-free coordination by waiting -- no NLP. Fast, and verified like every p
 Entry point: :func:`plan_coordinated`. It is also the first stage of the anytime optimal
 planner (:mod:`coplan.optimal`), whose incumbent starts as this planner's verified plan.
 
-1. **Allocations** (:func:`coplan.allocation.allocate`): the min-makespan assignment, then the
+1. **Allocations** (:func:`coplan.allocate.allocation.allocate`): the min-makespan assignment, then the
    same MILP with a territory penalty (1, 3, 10 s for reaching into a neighbour's side)
    and/or with blocked pairs avoided; the heuristic method uses the course's allocation only.
 2. **Schedules** (:func:`warm_variants`): each arm's fastest decoupled schedule with elbow
    branches chosen to keep out of the neighbours' way, then with the fastest branches.
-3. **Coordination** (:func:`coplan.coordinate.coordinate`) under a few priority orders.
+3. **Coordination** (:func:`coplan.planners.coordinated.coordinate.coordinate`) under a few priority orders.
    The search goes breadth first (the most promising variant of every allocation, then the
    others) and skips an allocation whose own decoupled estimate (which no coordination can
    beat) is no better than the best found. Every budget here is *work* (conflict checks,
    attempts), never seconds, so the same problem gives the same plan on any machine and
    under any load; only an explicit ``time_limit`` depends on the clock.
 4. **Fallback**: when no candidate can be coordinated (leg-by-leg booking deadlocks), the
-   arms take turns (:func:`coplan.serial.serial_schedules`): a neighbour parks clear of the
+   arms take turns (:func:`coplan.planners.coordinated.serial.serial_schedules`): a neighbour parks clear of the
    zone while an arm works.
 """
 
@@ -29,11 +29,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .allocation import Allocation, AllocationMethod, LowerBound, allocate, bound_allocation, bound_details
+from ...allocate.allocation import Allocation, AllocationMethod, LowerBound, allocate, bound_allocation, bound_details
 from .coordinate import coordinate
-from .heuristic import grid as uniform_grid
-from .plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics, finalize_plan
-from .problem import Problem
+from ..heuristic import grid as uniform_grid
+from ...plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics, finalize_plan
+from ...problem.model import Problem
 from .routing import choose_branches
 from .schedule import ArmSchedule, ConflictError, decoupled_schedules, pair_distances
 
@@ -160,7 +160,7 @@ def priority_orders(base: dict[str, ArmSchedule], limit: int = 2) -> list[list[s
 def warm_variants(problem: Problem, alloc: Allocation, need: float):
     """``(label, allocation, schedules)`` to coordinate for one allocation, most promising
     first: elbow branches chosen to keep out of the neighbours' way
-    (:func:`coplan.routing.choose_branches`), then the allocation's own (fastest) branches,
+    (:func:`coplan.planners.coordinated.routing.choose_branches`), then the allocation's own (fastest) branches,
     when they differ."""
     seen = []
     for label, al in (("branches", None), ("fastest", alloc)):
@@ -276,7 +276,7 @@ def clear(problem: Problem, schedules: dict[str, ArmSchedule], need: float, rate
 
 
 def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
-    """The arms take turns (:func:`coplan.serial.serial_schedules`) when coordination deadlocks.
+    """The arms take turns (:func:`coplan.planners.coordinated.serial.serial_schedules`) when coordination deadlocks.
 
     When even that cannot schedule some fruit (its pick leaves a neighbour nowhere to go, or no
     turn for it is found within one attempt's work budget), that fruit is left out, with the
@@ -323,7 +323,7 @@ def plan_coordinated(
     cache: dict | None = None,
 ) -> CoordinatedResult:
     """Allocate, schedule time-optimal S-curve moves, coordinate conflict-free; verify."""
-    from .verify import verify
+    from ...verify.verifier import verify
 
     opts = options or CoordinatedOptions()
     say = progress or (lambda m: None)
@@ -332,7 +332,7 @@ def plan_coordinated(
     best, tried, bound = find_coordinated(problem, AllocationMethod(allocation), opts, say, cache, deadline)  # bound: LowerBound
     timings = {"allocation": _time.perf_counter() - t0}
     n_reach = len(problem.reachable_ids())
-    from .screen import screened
+    from ...allocate.screen import screened
 
     info = {"allocation": AllocationMethod(allocation).value, "candidates": tried, "screen": screened(problem).summary(),
             "lower_bound": {"value": bound.value, "proven": bound.proven, "dual_bound": bound.dual_bound,

@@ -3,7 +3,7 @@
 :func:`route_moves` turns a move that sweeps where a neighbour cannot be out of the way into a
 tucked transit (fold the elbow, swing the shoulder, unfold); :func:`choose_branches` picks the
 elbow branch at every pick and place, charging moves for the neighbours' places and homes they
-sweep through. See :mod:`coplan.schedule` for the whole warm start.
+sweep through. See :mod:`coplan.planners.coordinated.schedule` for the whole warm start.
 """
 
 from __future__ import annotations
@@ -12,24 +12,25 @@ from dataclasses import replace
 
 import numpy as np
 
-from .allocation import Allocation
-from .problem import Arm, Problem
+from ...allocate.allocation import Allocation
+from ...problem.model import Arm, Problem
 from .schedule import (
-    _CurveTable,
+    CurveTable,
     ArmSchedule,
     Step,
     StepKind,
-    _arm_points,
-    _move,
-    _points_too_close,
-    _retime,
+    arm_points,
+    scurve_move,
+    points_too_close,
+    retime,
 )
 
-__all__ = ["route_moves", "choose_branches"]
+__all__ = ["route_moves", "choose_branches", "ArmGeometry", "same_pose"]
 
 
 # ----------------------------------------------------------------------------- coordination
-def _same(p, q, tol: float = 1e-9) -> bool:
+def same_pose(p, q, tol: float = 1e-9) -> bool:
+    """Whether joint poses ``p`` and ``q`` agree to ``tol`` (rad) in both joints."""
     return abs(p[0] - q[0]) <= tol and abs(p[1] - q[1]) <= tol
 
 
@@ -54,7 +55,7 @@ def _stow_poses(arm: Arm, n_shoulder: int = 12) -> np.ndarray:
     return np.array(out)
 
 
-class _Geometry:
+class ArmGeometry:
     """Static (time-free) clearance tests between neighbouring arms, and move routing."""
 
     def __init__(self, problem: Problem, need: float):
@@ -70,16 +71,16 @@ class _Geometry:
     def close(self, i: int, qi: np.ndarray, j: int, qj: np.ndarray) -> np.ndarray:
         """Whether arm i at poses qi and arm j at poses qj (broadcast) are closer than ``need``."""
         a, b = self.problem.arms[i], self.problem.arms[j]
-        return _points_too_close(_arm_points(a, qi), _arm_points(b, qj), a.link_radius + b.link_radius, self.need)
+        return points_too_close(arm_points(a, qi), arm_points(b, qj), a.link_radius + b.link_radius, self.need)
 
     def points(self, i: int, q: np.ndarray) -> tuple[np.ndarray, ...]:
         """Arm i's base, elbow and tip coordinates at poses q (..., 2), for :meth:`close_points`."""
-        return _arm_points(self.problem.arms[i], q)
+        return arm_points(self.problem.arms[i], q)
 
     def close_points(self, i: int, pi: tuple, j: int, pj: tuple) -> np.ndarray:
         """:meth:`close` on points from :meth:`points` (computed once, compared many times)."""
         r = self.problem.arms[i].link_radius + self.problem.arms[j].link_radius
-        return _points_too_close(pi, pj, r, self.need)
+        return points_too_close(pi, pj, r, self.need)
 
     def static_hits(self, i: int, poses: np.ndarray, j: int, samples: np.ndarray) -> np.ndarray:
         """For each of arm i's poses (C, 2): how many of arm j's samples (M, 2) come too close."""
@@ -98,11 +99,11 @@ class _Geometry:
     def move_path(self, i: int, q0, q1, dt: float = 0.01) -> np.ndarray:
         """Arm i's poses along its time-optimal S-curve move from q0 to q1, every ``dt`` s (the
         joints' profiles differ in shape, so the path is not quite straight in joint space)."""
-        mv = _move(self.problem.arms[i], 0.0, q0, q1)
+        mv = scurve_move(self.problem.arms[i], 0.0, q0, q1)
         if mv.duration <= 0:
             return np.atleast_2d(np.asarray(q1, float))
         t = np.append(np.arange(0.0, mv.duration, dt), mv.duration)
-        return _CurveTable(mv.curve).eval(t)
+        return CurveTable(mv.curve).eval(t)
 
     def vias_path(self, i: int, q0, vias, dt: float = 0.01) -> np.ndarray:
         """Arm i's poses along S-curve moves from q0 through ``vias`` (every ``dt`` s)."""
@@ -145,7 +146,7 @@ class _Geometry:
             return self._routes[key]
         q0t, q1t = tuple(map(float, q0)), tuple(map(float, q1))
         out = [q1t]
-        if self.nbrs[i] and not _same(q0t, q1t):
+        if self.nbrs[i] and not same_pose(q0t, q1t):
             worst = self.boxed_in(i, self.move_path(i, q0t, q1t))
             if worst:
                 out = self._tucked(i, q0t, q1t, worst) or out
@@ -165,12 +166,12 @@ class _Geometry:
             for vias in shapes:
                 clean, q = [], q0
                 for v in vias:
-                    if not _same(v, q):
+                    if not same_pose(v, q):
                         clean.append(v)
                         q = v
                 dur, q = 0.0, q0
                 for v in clean:
-                    dur += _move(arm, 0.0, q, v).duration
+                    dur += scurve_move(arm, 0.0, q, v).duration
                     q = v
                 variants.append((dur, clean))
         variants.sort(key=lambda v: v[0])
@@ -185,11 +186,11 @@ class _Geometry:
 
 
 def route_moves(problem: Problem, schedules: dict[str, ArmSchedule], need: float) -> tuple[dict[str, ArmSchedule], int]:
-    """Replace every move that boxes a neighbour in by a tucked transit (see :meth:`_Geometry.route`).
+    """Replace every move that boxes a neighbour in by a tucked transit (see :meth:`ArmGeometry.route`).
 
     Returns the schedules (retimed) and the number of moves rerouted.
     """
-    geo = _Geometry(problem, need)
+    geo = ArmGeometry(problem, need)
     out, count = {}, 0
     for i, arm in enumerate(problem.arms):
         sch = schedules[arm.name]
@@ -206,7 +207,7 @@ def route_moves(problem: Problem, schedules: dict[str, ArmSchedule], need: float
                 count += 1
             else:
                 steps.append(st)
-        out[arm.name] = ArmSchedule(arm, _retime(arm, steps)) if changed else sch
+        out[arm.name] = ArmSchedule(arm, retime(arm, steps)) if changed else sch
     return out, count
 
 
@@ -227,7 +228,7 @@ def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: fl
     move hits which neighbour pose, so repeated calls over similar allocations (the search's
     evaluations) test each move against each pose once.
     """
-    geo = _Geometry(problem, need)
+    geo = ArmGeometry(problem, need)
     memo = {} if memo is None else memo
     arms = problem.arms
     margin = problem.task.reach_margin
@@ -245,7 +246,7 @@ def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: fl
                 poses = [np.asarray(arms[j].home, float)] + [np.asarray(q, float) for q in place_q[arms[j].name].values()]
                 uniq: list[np.ndarray] = []
                 for q in poses:
-                    if not any(_same(q, u, 1e-6) for u in uniq):
+                    if not any(same_pose(q, u, 1e-6) for u in uniq):
                         uniq.append(q)
                 avoid[j] = np.asarray(uniq)
             avoid_keys = {j: [_key(q) for q in v] for j, v in avoid.items()}
@@ -288,11 +289,11 @@ def _key(q) -> tuple[float, float]:
 def _move_seconds(arm, i: int, q0, q1, key: tuple, memo: dict) -> float:
     k = ("move", i) + key
     if k not in memo:
-        memo[k] = _move(arm, 0.0, q0, q1).duration
+        memo[k] = scurve_move(arm, 0.0, q0, q1).duration
     return memo[k]
 
 
-def _hits(geo: _Geometry, i: int, q0, q1, key: tuple, avoid: dict, avoid_keys: dict, memo: dict) -> int:
+def _hits(geo: ArmGeometry, i: int, q0, q1, key: tuple, avoid: dict, avoid_keys: dict, memo: dict) -> int:
     """How many of the neighbours' ``avoid`` poses arm i's straight joint path q0 -> q1 comes too
     close to; each (move, pose) pair is tested once per ``memo``."""
     n, path = 0, None

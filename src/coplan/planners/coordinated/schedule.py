@@ -21,7 +21,7 @@ The warm start is built in four steps, each a rule that can be stated and checke
    are broken by rule: the other elbow branch, else a yield move to a clear rest pose.
    Finished arms go home once home is out of the neighbours' remaining work.
 
-Steps 2 and 3 live in :mod:`coplan.routing`, step 4 in :mod:`coplan.coordinate`.
+Steps 2 and 3 live in :mod:`coplan.planners.coordinated.routing`, step 4 in :mod:`coplan.planners.coordinated.coordinate`.
 """
 
 from __future__ import annotations
@@ -31,10 +31,10 @@ from enum import Enum
 
 import numpy as np
 
-from .allocation import Allocation
-from .plan import Event, EventKind
-from .problem import Arm, Problem
-from .timing import SCurve
+from ...allocate.allocation import Allocation
+from ...plan import Event, EventKind
+from ...problem.model import Arm, Problem
+from ...kinematics.timing import SCurve
 
 __all__ = [
     "StepKind",
@@ -43,6 +43,16 @@ __all__ = [
     "ConflictError",
     "decoupled_schedules",
     "pair_distances",
+    # the building blocks routing, coordinate and serial share
+    "CurveTable",
+    "arm_points",
+    "curve_eval",
+    "merge_waits",
+    "points_clearance",
+    "points_too_close",
+    "retime",
+    "scurve_move",
+    "steps_positions",
 ]
 
 
@@ -104,7 +114,8 @@ class ArmSchedule:
         return [Event(self.arm.name, s.fruit, kinds[s.kind], s.t0, s.t1) for s in self.steps if s.kind in kinds]
 
 
-def _merge_waits(steps: list[Step]) -> list[Step]:
+def merge_waits(steps: list[Step]) -> list[Step]:
+    """``steps`` with every run of consecutive waits merged into one wait."""
     out: list[Step] = []
     for s in steps:
         if out and s.kind == StepKind.WAIT and out[-1].kind == StepKind.WAIT:
@@ -114,7 +125,9 @@ def _merge_waits(steps: list[Step]) -> list[Step]:
     return out
 
 
-def _move(arm: Arm, t0: float, q0, q1) -> Step:
+def scurve_move(arm: Arm, t0: float, q0, q1) -> Step:
+    """The rest-to-rest move of ``arm`` from ``q0`` to ``q1`` starting at ``t0``: a per-joint
+    time-optimal S-curve within the arm's limits."""
     c = SCurve.between(q0, q1, arm.max_velocity, arm.max_acceleration, arm.max_jerk)
     return Step(StepKind.MOVE, t0, c.duration, tuple(map(float, q0)), tuple(map(float, q1)), curve=c)
 
@@ -136,19 +149,19 @@ def decoupled_schedules(
             qf = tuple(map(float, alloc.fruit_q[arm.name][fid]))
             qb = tuple(map(float, alloc.place_q[arm.name][fid]))
             for target, kind, dwell in ((qf, StepKind.PICK, problem.task.pick_dwell), (qb, StepKind.PLACE, problem.task.place_dwell)):
-                mv = _move(arm, t, cur, target)
+                mv = scurve_move(arm, t, cur, target)
                 steps.append(mv)
                 t = mv.t1
                 steps.append(Step(kind, t, dwell, target, target, fruit=fid))
                 t += dwell
                 cur = target
         if steps and return_home:
-            steps.append(_move(arm, t, cur, arm.home))
+            steps.append(scurve_move(arm, t, cur, arm.home))
         out[arm.name] = ArmSchedule(arm, steps)
     return out
 
 
-def _arm_points(arm: Arm, q) -> tuple[np.ndarray, ...]:
+def arm_points(arm: Arm, q) -> tuple[np.ndarray, ...]:
     """Base, elbow and tip coordinates ``(bx, by, ex, ey, tx, ty)`` of joint samples q (..., 2)."""
     q = np.asarray(q, float)
     t1, t12 = q[..., 0], q[..., 0] + q[..., 1]
@@ -172,7 +185,7 @@ def _ps2(px, py, ax, ay, ux, uy, uu):
 
 def _seg_dist(ax, ay, bx, by, cx, cy, dx, dy):
     """Exact distance between segments a-b and c-d, component arrays (broadcast); the same
-    rule as :func:`coplan.geometry.segment_distance` (zero when they cross, else the least
+    rule as :func:`coplan.kinematics.geometry.segment_distance` (zero when they cross, else the least
     endpoint-to-segment distance), written out on components for speed."""
     ux, uy = bx - ax, by - ay
     vx, vy = dx - cx, dy - cy
@@ -187,8 +200,8 @@ def _seg_dist(ax, ay, bx, by, cx, cy, dx, dy):
     return np.where((d1 * d2 < 0) & (d3 * d4 < 0), 0.0, np.sqrt(d))
 
 
-def _points_clearance(pa: tuple, pb: tuple, radii: float) -> np.ndarray:
-    """Least capsule clearance between two arms given by :func:`_arm_points` (broadcast)."""
+def points_clearance(pa: tuple, pb: tuple, radii: float) -> np.ndarray:
+    """Least capsule clearance between two arms given by :func:`arm_points` (broadcast)."""
     d = None
     for s in range(2):
         for u in range(2):
@@ -198,10 +211,10 @@ def _points_clearance(pa: tuple, pb: tuple, radii: float) -> np.ndarray:
     return d - radii
 
 
-def _points_too_close(pa: tuple, pb: tuple, radii: float, need: float) -> np.ndarray:
-    """Whether two arms given by :func:`_arm_points` are closer than ``need`` (broadcast).
+def points_too_close(pa: tuple, pb: tuple, radii: float, need: float) -> np.ndarray:
+    """Whether two arms given by :func:`arm_points` are closer than ``need`` (broadcast).
 
-    The same exact test as ``_points_clearance(...) < need``, with a cheap screen first: two
+    The same exact test as ``points_clearance(...) < need``, with a cheap screen first: two
     links whose midpoints are further apart than their half lengths plus ``radii + need``
     cannot be too close, so the exact distance is computed only for the others.
     """
@@ -230,15 +243,15 @@ def _points_too_close(pa: tuple, pb: tuple, radii: float, need: float) -> np.nda
 def pair_distances(problem: Problem, qa: np.ndarray, qb: np.ndarray, ia: int, ib: int) -> np.ndarray:
     """Least capsule distance between arms ia and ib for joint samples (K, 2) each -> (K,)."""
     a, b = problem.arms[ia], problem.arms[ib]
-    return _points_clearance(_arm_points(a, qa), _arm_points(b, qb), a.link_radius + b.link_radius)
+    return points_clearance(arm_points(a, qa), arm_points(b, qb), a.link_radius + b.link_radius)
 
 
-def _retime(arm: Arm, steps: list[Step]) -> list[Step]:
+def retime(arm: Arm, steps: list[Step]) -> list[Step]:
     """Recompute start times so steps follow each other (move curves recomputed)."""
     out, t = [], 0.0
     for st in steps:
         if st.kind == StepKind.MOVE:
-            st = _move(arm, t, st.q0, st.q1)
+            st = scurve_move(arm, t, st.q0, st.q1)
         else:
             st = replace(st, t0=t)
         out.append(st)
@@ -257,8 +270,8 @@ class ConflictError(RuntimeError):
         self.arm, self.fruit = arm, fruit
 
 
-class _CurveTable:
-    """Exact, vectorised evaluation of an :class:`~coplan.timing.SCurve`'s positions.
+class CurveTable:
+    """Exact, vectorised evaluation of an :class:`~coplan.kinematics.timing.SCurve`'s positions.
 
     The same piecewise-cubic formulas as :meth:`SCurve.derivatives` (per joint: each phase's
     start state accumulated in the same order), tabulated once per move, so evaluating a
@@ -304,7 +317,7 @@ class _CurveTable:
         return out
 
 
-def _curve_eval(curve: SCurve, t: np.ndarray, tables: dict) -> np.ndarray:
+def curve_eval(curve: SCurve, t: np.ndarray, tables: dict) -> np.ndarray:
     """Positions of ``curve`` at times ``t`` from its start, tabulated in ``tables`` (a
     per-run cache keyed by the curve's id; the curve is kept with its table). Any other curve
     object (e.g. :class:`coplan.live.motion.Approach`, a re-planned approach from a moving state)
@@ -313,12 +326,12 @@ def _curve_eval(curve: SCurve, t: np.ndarray, tables: dict) -> np.ndarray:
         return curve.eval(t)
     hit = tables.get(id(curve))
     if hit is None or hit[0] is not curve:
-        hit = (curve, _CurveTable(curve))
+        hit = (curve, CurveTable(curve))
         tables[id(curve)] = hit
     return hit[1].eval(t)
 
 
-def _steps_positions(steps: list[Step], T: np.ndarray, tables: dict) -> np.ndarray:
+def steps_positions(steps: list[Step], T: np.ndarray, tables: dict) -> np.ndarray:
     """Positions of consecutive ``steps`` at sorted times ``T`` (at rest after the last)."""
     out = np.empty((T.size, 2))
     out[:] = steps[-1].q1
@@ -326,5 +339,5 @@ def _steps_positions(steps: list[Step], T: np.ndarray, tables: dict) -> np.ndarr
     for s in steps:
         lo, hi = np.searchsorted(T, [s.t0, s.t1])
         if hi > lo:
-            out[lo:hi] = _curve_eval(s.curve, T[lo:hi] - s.t0, tables) if s.kind == StepKind.MOVE else s.q1
+            out[lo:hi] = curve_eval(s.curve, T[lo:hi] - s.t0, tables) if s.kind == StepKind.MOVE else s.q1
     return out

@@ -1,9 +1,9 @@
 """Serial fallback for the warm start: arms take turns where they would get in each other's way.
 
-:func:`coplan.coordinate.coordinate` can deadlock on dense layouts. :func:`serial_schedules`
+:func:`coplan.planners.coordinated.coordinate.coordinate` can deadlock on dense layouts. :func:`serial_schedules`
 keeps every pick and place of its input (same fruit, pose, dwell and order) and succeeds when
 each arm's work can be done while its neighbours wait at candidate rest poses clear of it
-(:meth:`coplan.routing._Geometry.stows`, or their own pick, place and home poses).
+(:meth:`coplan.planners.coordinated.routing.ArmGeometry.stows`, or their own pick, place and home poses).
 
 * **Booking.** Arms book their legs (a move and its pick or place) one at a time in time order,
   the longest idle first, each at the earliest start (every ``quantum`` s while neighbours are
@@ -11,7 +11,7 @@ each arm's work can be done while its neighbours wait at candidate rest poses cl
   from every neighbour's bookings and where it rests after them. Bookings are never revised
   and each is checked against all earlier ones: the result is conflict-free. A move leaving a
   neighbour no clear rest pose (typically across its base) becomes a tucked transit
-  (:meth:`_Geometry.route`).
+  (:meth:`ArmGeometry.route`).
 * **Turns.** An arm that cannot book while a neighbour that cannot book either rests in its way
   takes a turn: each neighbour in the way of the turn's work parks (after a neighbour of its
   own has moved aside, or the arm itself has backed off, if need be) at a candidate pose clear
@@ -39,10 +39,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .coordinate import Leg, legs_of
-from .problem import Problem
-from .routing import _Geometry, _same
-from .schedule import (ArmSchedule, ConflictError, Step, StepKind, _arm_points, _CurveTable, _merge_waits, _move,
-                       _points_clearance, _points_too_close, _steps_positions)
+from ...problem.model import Problem
+from .routing import ArmGeometry, same_pose
+from .schedule import (ArmSchedule, ConflictError, Step, StepKind, arm_points, CurveTable, merge_waits, scurve_move,
+                       points_clearance, points_too_close, steps_positions)
 
 __all__ = ["BudgetSpent", "serial_schedules"]
 
@@ -81,7 +81,7 @@ class BudgetSpent(ConflictError):
     """Taking turns spent its work budget (``fruit``: the work it was trying to fit in)."""
 
 
-class _Serial(_Geometry):
+class _Serial(ArmGeometry):
     def __init__(self, problem: Problem, margin: float, rate: float, min_wait: float, quantum: float):
         super().__init__(problem, problem.task.clearance + margin)
         self.rate, self.min_wait, self.quantum = rate, min_wait, quantum
@@ -108,7 +108,7 @@ class _Serial(_Geometry):
         out = np.zeros(len(sa0), bool)
 
         def slack(qa, qb, ra, rb):  # clearance of the middle poses, less need and both radii
-            return _points_clearance(_arm_points(a, qa), _arm_points(b, qb), radii) - need - ra - rb
+            return points_clearance(arm_points(a, qa), arm_points(b, qb), radii) - need - ra - rb
 
         ia, ib = (x.ravel() for x in np.meshgrid(np.arange(len(sa1)), np.arange(len(sb1)), indexing="ij"))
         self.spend(ia.size)
@@ -131,7 +131,7 @@ class _Serial(_Geometry):
             ka = np.minimum(sa0[ia[c:c + per][keep], None] + np.arange(A.block), len(A.q) - 1)
             kb = np.minimum(sb0[ib[c:c + per][keep], None] + np.arange(B.block), len(B.q) - 1)
             self.spend(ka.size * B.block)
-            bad = _points_too_close(_arm_points(a, A.q[ka][:, :, None]), _arm_points(b, B.q[kb][:, None, :]), radii, need)
+            bad = points_too_close(arm_points(a, A.q[ka][:, :, None]), arm_points(b, B.q[kb][:, None, :]), radii, need)
             out[ia[c:c + per][keep][bad.any(axis=(1, 2))]] = True
         return out
 
@@ -143,7 +143,7 @@ class _Serial(_Geometry):
 
     def boxed_in(self, i: int, samples: np.ndarray) -> int:
         """Neighbours of arm i left no candidate rest pose clear of ``samples`` (also used by
-        :meth:`_Geometry.route`, whose samples are sparser: no slack for their gaps, as there)."""
+        :meth:`ArmGeometry.route`, whose samples are sparser: no slack for their gaps, as there)."""
         sw = _Sweep(self.problem.arms[i], samples)
         sw.gap = min(sw.gap, self.fine)
         return sum(1 for j in self.nbrs[i] if self.hits(j, self.cands(j, own=False), i, sw).all())
@@ -162,11 +162,11 @@ class _Serial(_Geometry):
         key = (i, q0, target, routed)
         if key not in self._units:
             arm, moves, pts, q = self.problem.arms[i], [], [np.asarray([q0], float)], q0
-            vias = [] if _same(q0, target) else [target]
-            if vias and routed and self.boxed_in(i, self.samples(i, _move(arm, 0.0, q0, target))):
+            vias = [] if same_pose(q0, target) else [target]
+            if vias and routed and self.boxed_in(i, self.samples(i, scurve_move(arm, 0.0, q0, target))):
                 vias = self.route(i, q0, target)
             for v in vias:
-                moves.append(_move(arm, moves[-1].t1 if moves else 0.0, q, v))
+                moves.append(scurve_move(arm, moves[-1].t1 if moves else 0.0, q, v))
                 pts.append(self.samples(i, moves[-1]))
                 q = v
             self._units[key] = (moves, np.vstack(pts))
@@ -175,7 +175,7 @@ class _Serial(_Geometry):
     def samples(self, i: int, mv: Step) -> np.ndarray:
         (l1, l2), dq = self.problem.arms[i].links, np.abs(np.subtract(mv.q1, mv.q0))
         n = int(max(np.ceil(mv.duration * self.rate), np.ceil(2.0 * ((l1 + l2) * dq[0] + l2 * dq[1]) / self.fine))) + 1
-        return _CurveTable(mv.curve).eval(np.linspace(0.0, mv.duration, n))
+        return CurveTable(mv.curve).eval(np.linspace(0.0, mv.duration, n))
 
     def sweep(self, i: int, q0: tuple, targets: list[tuple], routed: bool = True) -> _Sweep:
         """Arm i from q0 through ``targets`` (resting at q0 if none)."""
@@ -217,7 +217,7 @@ class _Serial(_Geometry):
                     raise ConflictError(f"no serial schedule: more than {limit} turns")
                 continue
             t = min(nxt)
-        return {a.name: ArmSchedule(a, _merge_waits(self.steps[i])) for i, a in enumerate(arms)}
+        return {a.name: ArmSchedule(a, merge_waits(self.steps[i])) for i, a in enumerate(arms)}
 
     def due(self, tr: _Track, t: float) -> bool:
         """Idle at t and not within ``min_wait`` of its last step (no sliver waits)."""
@@ -258,7 +258,7 @@ class _Serial(_Geometry):
         k0 = int(np.ceil((tr.free + self.min_wait - t) / h - 1e-9))  # no sliver waits
         ks = [0] * self.due(tr, t) + [k for k in list(range(q, last, q)) + [max(last, k0, 1)] if k >= k0 and k > 0]
         M = int(np.ceil(steps0[-1].t1 / h)) + 1
-        mine, theirs, tail = _steps_positions(steps0, np.arange(M + 1) * h, self.tables), {}, {}  # at the target from M on
+        mine, theirs, tail = steps_positions(steps0, np.arange(M + 1) * h, self.tables), {}, {}  # at the target from M on
         for c0 in range(0, len(ks), 8):
             kc = np.asarray(ks[c0:c0 + 8])
             ok = np.ones(kc.size, bool)
@@ -282,13 +282,13 @@ class _Serial(_Geometry):
         t, stop = steps[0].t0, max(steps[-1].t1, self.tracks[j].free)
         dt = min(1.0 / self.rate, 2.0 * self.step / (self.speed[i] + self.speed[j]))
         T = np.linspace(t, stop, int(np.ceil((stop - t) / dt)) + 2)
-        return not self.close(i, _steps_positions(steps, T, self.tables), j, self.positions(j, T)).any()
+        return not self.close(i, steps_positions(steps, T, self.tables), j, self.positions(j, T)).any()
 
     def positions(self, j: int, T: np.ndarray) -> np.ndarray:
         """Arm j's booked positions at sorted times ``T`` (resting after its last step)."""
         if not self.steps[j]:
             return np.tile(np.asarray(self.tracks[j].pose, float), (T.size, 1))
-        return _steps_positions(self.steps[j][max(0, bisect.bisect_right(self.t0s[j], float(T[0])) - 1):], T, self.tables)
+        return steps_positions(self.steps[j][max(0, bisect.bisect_right(self.t0s[j], float(T[0])) - 1):], T, self.tables)
 
     @staticmethod
     def leg_steps(moves: list[Step], leg: Leg, t: float) -> list[Step]:
@@ -327,8 +327,8 @@ class _Serial(_Geometry):
                 if key in self._failed and not must:  # (nothing near it has changed since it last could not)
                     continue
                 poses = {o.index: o.pose for o in self.tracks}  # (the busy ones: after their bookings)
-                order = sorted(map(tuple, self.cands(x.index).q.tolist()), key=lambda c: _move(self.problem.arms[x.index], 0.0, x.pose, c).duration)
-                backs = (c for c in order if not _same(c, x.pose) and self.free(x.index, x.pose, c, poses))
+                order = sorted(map(tuple, self.cands(x.index).q.tolist()), key=lambda c: scurve_move(self.problem.arms[x.index], 0.0, x.pose, c).duration)
+                backs = (c for c in order if not same_pose(c, x.pose) and self.free(x.index, x.pose, c, poses))
                 try:
                     for back in itertools.chain([None], itertools.islice(backs, 6)):  # else x first backs off
                         plan, work, why = self.plan_turn(x, scope, back)
@@ -406,15 +406,15 @@ class _Serial(_Geometry):
             ok &= ~self.hits(j, cand, k, self.sweep(k, poses[k], [])) if k != x else True
             rem = [lg.target for lg in self.scope_legs(self.tracks[k], "work")] if self.tracks[k].legs else []
             soft += self.hits(j, cand, k, self.sweep(k, poses[k], rem))
-        time = np.array([_move(self.problem.arms[j], 0.0, cur, c).duration for c in cand.q])
+        time = np.array([scurve_move(self.problem.arms[j], 0.0, cur, c).duration for c in cand.q])
         order = [tuple(map(float, cand.q[c])) for c in np.lexsort((time, soft)) if ok[c]]
         nxt = self.tracks[j].legs[0].target if self.tracks[j].legs else tuple(map(float, self.problem.arms[j].home))
 
         def fine(q0, q1) -> bool:
-            return not _same(q0, q1) and self.free(j, q0, q1, poses) and not self.boxed_in(j, self.unit(j, q1, nxt)[1])
+            return not same_pose(q0, q1) and self.free(j, q0, q1, poses) and not self.boxed_in(j, self.unit(j, q1, nxt)[1])
 
         yield from ([c] for c in order if fine(cur, c))
-        mids = [m for m in (tuple(map(float, cand.q[c])) for c in np.argsort(time)) if not _same(m, cur) and self.free(j, cur, m, poses)]
+        mids = [m for m in (tuple(map(float, cand.q[c])) for c in np.argsort(time)) if not same_pose(m, cur) and self.free(j, cur, m, poses)]
         yield from ([m, c] for m in mids[:8] for c in order if fine(m, c))
 
 
@@ -422,12 +422,12 @@ def serial_schedules(problem: Problem, schedules: dict[str, ArmSchedule], margin
                      min_wait: float = 0.05, quantum: float = 0.05, max_pairs: int | None = None,
                      work: dict | None = None) -> dict[str, ArmSchedule]:
     """Conflict-free schedules doing the work of ``schedules`` (e.g. from
-    :func:`coplan.schedule.decoupled_schedules`): the same picks and places (fruit, pose, dwell,
+    :func:`coplan.planners.coordinated.schedule.decoupled_schedules`): the same picks and places (fruit, pose, dwell,
     order), each arm's steps contiguous from t = 0 at home, S-curve moves from the previous pose,
     ``WAIT`` steps of at least ``min_wait`` s, every arm ending at home. Neighbours keep
     ``clearance + margin`` at the samples (``clearance + margin / 2`` between them).
 
-    Raises :class:`~coplan.schedule.ConflictError`, naming the arms and the reason, when a leg
+    Raises :class:`~coplan.planners.coordinated.schedule.ConflictError`, naming the arms and the reason, when a leg
     cannot run with a neighbour at any candidate rest pose (or the neighbour cannot get there),
     or when more than ``max_pairs`` pose pairs have been tested (the work budget; ``work``, a
     dict, has its ``"pairs"`` entry increased by the pairs tested).

@@ -23,7 +23,7 @@ Formulation (``build_nlp`` builds, ``solve_nlp`` solves; nothing here plans on i
 * Objective: the makespan ``M >= (end of each arm's last place)``, plus small terms for
   every arm finishing early, the whole plan's length and jerk smoothness.
 
-Solving (IPOPT, the best iterate, Ctrl-C, time limits) is in :mod:`coplan.nlp_solve`.
+Solving (IPOPT, the best iterate, Ctrl-C, time limits) is in :mod:`coplan.planners.optimal.nlp_solve`.
 """
 
 from __future__ import annotations
@@ -37,9 +37,9 @@ from enum import Enum
 import casadi as ca
 import numpy as np
 
-from . import kinematics as kin
-from .problem import Problem
-from .schedule import ArmSchedule, StepKind
+from ...kinematics import arm as kin
+from ...problem.model import Problem
+from ..coordinated.schedule import ArmSchedule, StepKind
 
 __all__ = ["SolverStatus", "Grid", "ConstraintPoint", "NLP", "NLPSolution", "build_grid", "build_nlp", "map_status"]
 
@@ -576,7 +576,7 @@ def _schedule_poses(schedules, names, grid: Grid, p: ConstraintPoint):
 
 def _line_guess(problem, poses, p: ConstraintPoint):
     """Separating line between the two links at ``poses`` (qa, qb): normal from B towards A."""
-    from .geometry import segment_distance
+    from ...kinematics.geometry import segment_distance
 
     qa, qb = poses
     A, B = problem.arms[p.ia], problem.arms[p.ib]

@@ -1,8 +1,9 @@
-"""Solver options from a YAML file (``coplan solve --options FILE``), validated like problem files.
+"""The optimal planner's options (:class:`OptimalOptions`), also from a YAML file
+(``coplan solve --options FILE``), validated like problem files.
 
-Every field of :class:`coplan.optimal.OptimalOptions` may be set; keys left out keep their
-defaults. The coordinated planner takes its margin, budget (``coordination_checks``) and time
-limit from the same file. ``ipopt`` is a mapping of IPOPT settings passed through to CasADi
+Every field of :class:`OptimalOptions` (documented path: ``coplan.optimal.OptimalOptions``) may
+be set; keys left out keep their defaults. The coordinated planner takes its margin, budget
+(``coordination_checks``) and time limit from the same file. ``ipopt`` is a mapping of IPOPT settings passed through to CasADi
 (e.g. ``ipopt.max_iter: 500``). Example::
 
     search_work: 60000        # more search than the default
@@ -18,15 +19,76 @@ from __future__ import annotations
 
 import difflib
 import math
-from dataclasses import fields, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from .errors import InputError, Issue, ProblemError, found
-from .optimal import OptimalOptions
-from .yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
+from ...errors import InputError, Issue, ProblemError, found
+from ...problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 
-__all__ = ["OptionsError", "load_options", "parse_options"]
+__all__ = ["OptimalOptions", "OptionsError", "load_options", "parse_options"]
+
+@dataclass(frozen=True)
+class OptimalOptions:
+    """Solver options (separate from the problem).
+
+    margin : extra clearance the planners keep (m), so that the dense, certified check passes
+    coordination_checks : work budget of the coordinated planner's candidate search
+    search_work : work budget of the search (conflict checks over all its coordinator runs;
+        roughly 250-400 a second on one core of the 2-core benchmark machine); 0 turns the search off
+    search_evaluations : cap on the search's coordinator runs
+    search_patience : the search stops after this many evaluations without a new best
+    search_temperature : the search accepts a slower state with probability exp(-dt / T), T
+        falling linearly from this (s) to 0 over ``search_work`` (annealing); 0 for pure descent
+    seed : seed of the search's moves
+    polish : run the joint NLP from the incumbent when it still waits
+    polish_iterations : IPOPT iterations the whole polish may spend (every round, window and
+        retry; checked before each solve, and each solve is capped at 200 unless ``ipopt`` sets
+        ``ipopt.max_iter``); when they are spent, the last solution is offered to the verifier
+    polish_windows : polish only schedules the NLP solves in at most this many receding windows
+        (on longer ones the windows' cuts pin the timing and the polish has not paid)
+    polish_rounds : refinement rounds of each polishing window (``max_rounds`` for the last resort)
+    tolerance : a makespan this close to the lower bound (s) is proven optimal
+    screen : initial NLP constraint points where the schedule's links are within this (m)
+    screen_shift : ... also when one arm of a pair runs up to this much (s) earlier or later
+    h_target : target knot spacing (s)
+    max_rounds : NLP solves per window while adding constraint points
+    band : when the dense check finds a dip, points are also added wherever links come within
+        ``band`` (m) of the refinement threshold
+    window : receding-window length (s of schedule); schedules shorter than 1.5 windows are
+        solved as one NLP
+    overlap : each window is solved this much (s) past its cut and kept only up to it
+    window_time_limit : optional wall-clock cap of each IPOPT solve (s); by default IPOPT's
+        iteration cap bounds it (the same on any machine)
+    time_limit : wall-clock limit for the whole planner (s); None for none. At the limit the
+        incumbent is returned.
+    check_rate : rate of the planner's own dense clearance check (Hz)
+    """
+
+    margin: float = 0.015
+    coordination_checks: int = 3000
+    search_work: int = 30_000
+    search_evaluations: int = 2_000
+    search_patience: int = 200
+    search_temperature: float = 0.3
+    seed: int = 0
+    polish: bool = True
+    polish_iterations: int = 400
+    polish_rounds: int = 5
+    polish_windows: int = 1
+    tolerance: float = 1e-3
+    screen: float = 0.25
+    h_target: float = 0.06
+    max_rounds: int = 6
+    band: float = 0.03
+    screen_shift: float = 0.0
+    window: float = 12.0
+    overlap: float = 2.5
+    time_limit: float | None = None
+    window_time_limit: float | None = None
+    check_rate: float = 1000.0
+    ipopt: dict = field(default_factory=dict)
+
 
 # fields that must be > 0 (the others of their type must be >= 0)
 _POSITIVE = {"h_target", "window", "check_rate", "time_limit", "window_time_limit"}

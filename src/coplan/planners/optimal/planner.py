@@ -7,12 +7,12 @@ coordinated one, and whenever it stops -- at its work budget, at an explicit
 ``time_limit``, on Ctrl-C, or because the incumbent meets the lower bound (then it is
 *proven optimal*) -- it has a verified plan to return.
 
-1. **coordinated** (:func:`coplan.coordinated.plan_coordinated`): allocation, time-optimal
+1. **coordinated** (:func:`coplan.planners.coordinated.planner.plan_coordinated`): allocation, time-optimal
    S-curve moves, conflict-free coordination; verified, it is the first incumbent.
-2. **search** (:func:`coplan.search.improve`): large-neighbourhood search over allocation,
+2. **search** (:func:`coplan.planners.optimal.search.improve`): large-neighbourhood search over allocation,
    order, elbow branches and priorities with the coordinator as evaluator; each new best is
    verified and offered to the incumbent.
-3. **polish** (:func:`coplan.windows.solve_windows`): one CasADi/IPOPT program over all
+3. **polish** (:func:`coplan.planners.optimal.windows.solve_windows`): one CasADi/IPOPT program over all
    arms from the incumbent's schedules, where it still waits (receding windows on long
    rows); its plan is verified and offered like any other. When no coordinated plan could
    be verified at all, this is the planner's last resort and its status is reported
@@ -26,84 +26,23 @@ from __future__ import annotations
 
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .allocation import Allocation, AllocationMethod
-from .coordinated import Coordinated, CoordinatedOptions, make_plan, plan_coordinated, schedules_plan
-from .heuristic import plan_heuristic
+from ...allocate.allocation import Allocation, AllocationMethod
+from ..coordinated.planner import Coordinated, CoordinatedOptions, make_plan, plan_coordinated, schedules_plan
+from ..heuristic import plan_heuristic
 from .nlp import Grid, SolverStatus, build_grid
-from .plan import Event, EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
-from .problem import Problem
-from .schedule import ArmSchedule, StepKind, decoupled_schedules
-from .screen import screened
+from ...plan import Event, EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
+from ...problem.model import Problem
+from ..coordinated.schedule import ArmSchedule, StepKind, decoupled_schedules
+from ...allocate.screen import screened
 from .search import SearchOptions, StopReason, improve
+from .options import OptimalOptions
 from .windows import LADDER, solve_windows, window_count
 
-__all__ = ["OptimalOptions", "OptimalResult", "plan_optimal", "nlp_plan"]
-
-
-@dataclass(frozen=True)
-class OptimalOptions:
-    """Solver options (separate from the problem).
-
-    margin : extra clearance the planners keep (m), so that the dense, certified check passes
-    coordination_checks : work budget of the coordinated planner's candidate search
-    search_work : work budget of the search (conflict checks over all its coordinator runs;
-        roughly 250-400 a second on one core of the 2-core benchmark machine); 0 turns the search off
-    search_evaluations : cap on the search's coordinator runs
-    search_patience : the search stops after this many evaluations without a new best
-    search_temperature : the search accepts a slower state with probability exp(-dt / T), T
-        falling linearly from this (s) to 0 over ``search_work`` (annealing); 0 for pure descent
-    seed : seed of the search's moves
-    polish : run the joint NLP from the incumbent when it still waits
-    polish_iterations : IPOPT iterations the whole polish may spend (every round, window and
-        retry; checked before each solve, and each solve is capped at 200 unless ``ipopt`` sets
-        ``ipopt.max_iter``); when they are spent, the last solution is offered to the verifier
-    polish_windows : polish only schedules the NLP solves in at most this many receding windows
-        (on longer ones the windows' cuts pin the timing and the polish has not paid)
-    polish_rounds : refinement rounds of each polishing window (``max_rounds`` for the last resort)
-    tolerance : a makespan this close to the lower bound (s) is proven optimal
-    screen : initial NLP constraint points where the schedule's links are within this (m)
-    screen_shift : ... also when one arm of a pair runs up to this much (s) earlier or later
-    h_target : target knot spacing (s)
-    max_rounds : NLP solves per window while adding constraint points
-    band : when the dense check finds a dip, points are also added wherever links come within
-        ``band`` (m) of the refinement threshold
-    window : receding-window length (s of schedule); schedules shorter than 1.5 windows are
-        solved as one NLP
-    overlap : each window is solved this much (s) past its cut and kept only up to it
-    window_time_limit : optional wall-clock cap of each IPOPT solve (s); by default IPOPT's
-        iteration cap bounds it (the same on any machine)
-    time_limit : wall-clock limit for the whole planner (s); None for none. At the limit the
-        incumbent is returned.
-    check_rate : rate of the planner's own dense clearance check (Hz)
-    """
-
-    margin: float = 0.015
-    coordination_checks: int = 3000
-    search_work: int = 30_000
-    search_evaluations: int = 2_000
-    search_patience: int = 200
-    search_temperature: float = 0.3
-    seed: int = 0
-    polish: bool = True
-    polish_iterations: int = 400
-    polish_rounds: int = 5
-    polish_windows: int = 1
-    tolerance: float = 1e-3
-    screen: float = 0.25
-    h_target: float = 0.06
-    max_rounds: int = 6
-    band: float = 0.03
-    screen_shift: float = 0.0
-    window: float = 12.0
-    overlap: float = 2.5
-    time_limit: float | None = None
-    window_time_limit: float | None = None
-    check_rate: float = 1000.0
-    ipopt: dict = field(default_factory=dict)
+__all__ = ["OptimalOptions", "OptimalResult", "plan_optimal", "nlp_plan"]  # OptimalOptions: from .options
 
 
 @dataclass
@@ -239,7 +178,7 @@ def plan_optimal(
     progress: Callable[[str], None] | None = None,
 ) -> OptimalResult:
     """Plan all arms, anytime: coordinated plan, then search, then joint NLP; verified."""
-    from .verify import verify
+    from ...verify.verifier import verify
 
     opts = options or OptimalOptions()
     say = progress or (lambda m: None)
@@ -300,7 +239,7 @@ def plan_optimal(
         within = deadline is None or _time.perf_counter() < deadline
         src = inc.candidate or cand
         if src is None and n_reach:  # nothing coordinated: the NLP starts from the decoupled plan
-            from .allocation import allocate
+            from ...allocate.allocation import allocate
 
             a0 = allocate(problem, allocation)
             src = Coordinated(a0, decoupled_schedules(problem, a0), a0.estimated_makespan)
@@ -355,7 +294,7 @@ def plan_optimal(
         if coord_plan is not None:
             inc.plan, inc.verification = coord_plan, None
         else:
-            from .allocation import allocate
+            from ...allocate.allocation import allocate
 
             alloc0 = allocate(problem, allocation)
             inc.plan = make_plan(problem, alloc0, lambda t: {a.name: np.tile(a.home, (t.size, 1)) for a in problem.arms},

@@ -42,12 +42,12 @@ from enum import Enum
 
 import numpy as np
 
-from .allocation import arm_configs, choose_branches as fastest_branches
-from .coordinate import coordinate
-from .coordinated import Coordinated, makespan_of
-from .problem import Problem
-from .routing import choose_branches as clear_branches
-from .schedule import ConflictError, decoupled_schedules
+from ...allocate.allocation import arm_configs, choose_branches as fastest_branches
+from ..coordinated.coordinate import coordinate
+from ..coordinated.planner import Coordinated, makespan_of
+from ...problem.model import Problem
+from ..coordinated.routing import choose_branches as clear_branches
+from ..coordinated.schedule import ConflictError, decoupled_schedules
 
 __all__ = ["SearchOptions", "SearchStats", "StopReason", "improve"]
 

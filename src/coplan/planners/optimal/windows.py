@@ -1,6 +1,6 @@
 """Receding windows of the optimal planner: separation points, cuts, commits, and fallbacks.
 
-:func:`solve_windows` solves the NLP of :mod:`coplan.nlp` window by window: separation points
+:func:`solve_windows` solves the NLP of :mod:`coplan.planners.optimal.nlp` window by window: separation points
 are screened from the warm start (:func:`screen_points`) and refined from a dense check of
 each solution (:func:`refine_points`); cuts avoid dwells and the knots just before a rest
 (:func:`_cut_allowed`); each window commits where no arm is saturated (:func:`_choose_commit`)
@@ -12,19 +12,17 @@ from __future__ import annotations
 
 import time as _time
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import kinematics as kin
-from .geometry import segment_distance
+from ...kinematics import arm as kin
+from ...kinematics.geometry import segment_distance
 from .nlp import ConstraintPoint, Grid, NLPSolution, SolverStatus, build_nlp
 from .nlp_solve import solve_nlp
-from .problem import Problem
-from .schedule import ArmSchedule, StepKind
+from .options import OptimalOptions
+from ...problem.model import Problem
+from ..coordinated.schedule import ArmSchedule, StepKind
 
-if TYPE_CHECKING:
-    from .optimal import OptimalOptions
 
 __all__ = ["screen_points", "refine_points", "solve_windows", "window_count"]
 

@@ -18,13 +18,13 @@ os.environ.setdefault("MPLBACKEND", "Agg")  # the CLI never needs a display
 import typer
 from rich.console import Console
 
-from . import clijson
-from .clisummary import fmt as _fmt
-from .clisummary import print_summary, print_verification
-from .clisummary import safe as _s
-from .clitext import FlagsGroup, run_console
-from .errors import InputError, plural
-from .kinds import AllocationMethod, ExitCode, FclMode, PlannerKind
+from . import failures
+from .summary import fmt as _fmt
+from .summary import print_summary, print_verification
+from .summary import safe as _s
+from .console import FlagsGroup, run_console
+from ..errors import InputError, plural
+from ..kinds import AllocationMethod, ExitCode, FclMode, PlannerKind
 
 app = typer.Typer(
     cls=FlagsGroup,  # flags shown without a <bool> value in --help
@@ -58,12 +58,12 @@ def root(
 
 
 def _fail(code: ExitCode, message: str):
-    raise clijson.Failure(code, message)
+    raise failures.Failure(code, message)
 
 
 def guarded(fn):
     """Map every failure to its exit code and a clear message (no tracebacks); with ``--json``
-    also one JSON document on stdout (:mod:`coplan.clijson`)."""
+    also one JSON document on stdout (:mod:`coplan.cli.failures`)."""
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
@@ -72,15 +72,15 @@ def guarded(fn):
         except typer.Exit:
             raise
         except (Exception, KeyboardInterrupt) as e:  # noqa: BLE001 -- last-resort guard: report, never a raw traceback
-            code, message = clijson.failure_of(e)
-            if code == ExitCode.INTERNAL and not isinstance(e, clijson.Failure) and os.environ.get("COPLAN_DEBUG"):
+            code, message = failures.failure_of(e)
+            if code == ExitCode.INTERNAL and not isinstance(e, failures.Failure) and os.environ.get("COPLAN_DEBUG"):
                 raise
             if isinstance(e, (InputError, KeyboardInterrupt)):
                 err_console.print(message, markup=False, highlight=False, soft_wrap=True)
             else:
                 err_console.print(f"[bold red]error[/]: {_s(message)}", highlight=False, soft_wrap=True)
             if kwargs.get("as_json"):
-                typer.echo(clijson.dumps(clijson.error_document(fn.__name__.removesuffix("_cmd"), code, message, e)))
+                typer.echo(failures.dumps(failures.error_document(fn.__name__.removesuffix("_cmd"), code, message, e)))
             raise typer.Exit(int(code)) from None
 
     return wrapper
@@ -88,7 +88,7 @@ def guarded(fn):
 
 def _strict_json(doc) -> str:
     """Strict JSON (RFC 8259): a non-finite number (e.g. no clearance at all: infinity) is null."""
-    from .plan import jsonable
+    from ..plan import jsonable
 
     return json.dumps(jsonable(doc), default=str, allow_nan=False)
 
@@ -109,15 +109,15 @@ def _solver_options(path: Optional[Path], time_limit: Optional[float], applies: 
         return None
     from dataclasses import replace
 
-    from .optimal import OptimalOptions
-    from .options import load_options
+    from ..planners.optimal.planner import OptimalOptions
+    from ..planners.optimal.options import load_options
 
     opts = load_options(path) if path is not None else OptimalOptions()
     return replace(opts, time_limit=time_limit) if time_limit is not None else opts
 
 
 def _resolve_problem(problem: Optional[Path]) -> Path:
-    from .problem import default_problem_path
+    from ..problem.model import default_problem_path
 
     return problem if problem is not None else default_problem_path()
 
@@ -142,16 +142,16 @@ def solve(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
 ):
     """Solve a problem, verify the plan and write plan.json (+ CSV, NPZ, verification.json)."""
-    from .pipeline import solve as run
+    from ..pipeline import solve as run
 
     _check_time_limit(time_limit)
-    clijson.check_out_dir(out)
+    failures.check_out_dir(out)
     options = _solver_options(options_file, time_limit, planner != PlannerKind.HEURISTIC)
     path = _resolve_problem(problem)
     say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]", highlight=False))
     if not as_json and planner != PlannerKind.HEURISTIC:
-        from .problem import load_problem
-        from .screen import screened
+        from ..problem.model import load_problem
+        from ..allocate.screen import screened
 
         path = load_problem(path)  # the screen's verdict, before solving
         for line in screened(path).lines():
@@ -160,7 +160,7 @@ def solve(
     if animate:
         res.files.update(_animate_files(res, out))
     if html:  # like the animation: written beside plan.json once the run's files are in place
-        from .viz.viewer import write_html
+        from ..viz.viewer import write_html
 
         res.files["viewer"] = write_html(out / "plan.html", res.problem, res.plan, verification=res.verification)
     ver = res.plan.verification or {}
@@ -191,7 +191,7 @@ def solve(
 def _animate_files(res, out: Path) -> dict:
     """Render the animation after the plan files are on disk; a rendering failure only warns,
     so the plan's own exit code stands."""
-    from .viz.animate import RenderError, animate_plan
+    from ..viz.animate import RenderError, animate_plan
 
     try:
         path = animate_plan(res.problem, res.plan, out / "plan.gif")
@@ -205,7 +205,7 @@ def _animate_files(res, out: Path) -> dict:
 @guarded
 def list_problems():
     """List the problem files shipped with coplan."""
-    from .problem import load_problem, shipped_problems
+    from ..problem.model import load_problem, shipped_problems
 
     for path in shipped_problems():
         p = load_problem(path)
@@ -222,11 +222,11 @@ def check(
     """Validate a problem and say, without solving, what its geometry allows: locked arms,
     harvestable fruit per arm (and why the others are not), the makespan lower bound and the
     heuristic baseline's makespan. Exit 0 when every reachable fruit can be harvested."""
-    from .allocation import bound_details
-    from .heuristic import plan_heuristic
-    from .problem import load_problem
-    from .screen import screened
-    from .verify import verify
+    from ..allocate.allocation import bound_details
+    from ..planners.heuristic import plan_heuristic
+    from ..problem.model import load_problem
+    from ..allocate.screen import screened
+    from ..verify.verifier import verify
 
     path = _resolve_problem(problem)
     prob = load_problem(path)
@@ -286,9 +286,9 @@ def verify_cmd(
     4 passed but the problem has no reachable fruit (as solve); 6 violations found; 3 bad
     problem or plan file.
     """
-    from .plan import load_plan
-    from .problem import load_problem
-    from .verify import verify as run_verify
+    from ..plan import load_plan
+    from ..problem.model import load_problem
+    from ..verify.verifier import verify as run_verify
 
     if out is not None and (out.resolve() == plan.resolve() or (out.is_dir() and (out / "verification.json").resolve() == plan.resolve())):
         _fail(ExitCode.USAGE, f"--out {out} is the plan being verified; give another file or folder")
@@ -330,14 +330,14 @@ def compare_cmd(
     Exit codes: 0 the comparison ran; 3 a problem file is invalid (the others are still
     compared); 7 a planner failed on some problem (recorded in its row).
     """
-    from .report import DEFAULT_PLANNERS, PlannerSpec, compare, rich_tables
+    from ..report.comparison import DEFAULT_PLANNERS, PlannerSpec, compare, rich_tables
 
     try:
         specs = [PlannerSpec.parse(p) for p in (planner or DEFAULT_PLANNERS)]
     except ValueError as e:
         _fail(ExitCode.USAGE, f"--planner: {e}")
     _check_time_limit(time_limit)
-    clijson.check_out_dir(out)
+    failures.check_out_dir(out)
     options = _solver_options(options_file, time_limit, any(s.planner != PlannerKind.HEURISTIC for s in specs))
     say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]"))
     cmp = compare(_resolve_problem(problems), specs, out, figures=figures, options=options, progress=say)
@@ -370,8 +370,8 @@ class PlotKind(str, Enum):
 
 def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
     """Load a plan.json and its problem: --problem, else the shipped problem of that name."""
-    from .plan import load_plan
-    from .problem import load_problem, shipped_problems
+    from ..plan import load_plan
+    from ..problem.model import load_problem, shipped_problems
 
     plan = load_plan(plan_path)
     if problem is not None:
@@ -416,10 +416,10 @@ def plot_cmd(
     dpi: Annotated[int, typer.Option(min=30, max=600, help="Resolution of raster images.")] = 120,
 ):
     """Draw a figure of a plan: schedule Gantt, clearance, joint motion vs limits, or workspace map."""
-    from .viz import plots
+    from ..viz import plots
 
     if kind == PlotKind.WORKSPACE and plan.suffix.lower() in (".yaml", ".yml"):
-        from .problem import load_problem
+        from ..problem.model import load_problem
 
         prob, pl = load_problem(plan), None
     else:
@@ -458,7 +458,7 @@ def animate_cmd(
     dpi: Annotated[int, typer.Option(min=30, max=300, help="Resolution (80: a 720 px wide GIF).")] = 80,
 ):
     """Render a plan as an animation: arms, fruit, bins, phases, clearance alarms (GIF or MP4)."""
-    from .viz.animate import animate_plan
+    from ..viz.animate import animate_plan
 
     prob, pl = _plan_with_problem(plan, problem)
     target = out if out is not None else plan.with_suffix(".gif")
@@ -479,7 +479,7 @@ def view_cmd(
     open_page: Annotated[bool, typer.Option("--open", help="Open the page in the default browser.")] = False,
 ):
     """Write the interactive viewer of a plan: one self-contained HTML page (works offline) to scrub, play, hover, jump to violations."""
-    from .viz.viewer import write_view
+    from ..viz.viewer import write_view
 
     prob, pl = _plan_with_problem(plan, problem)
     other = _plan_with_problem(compare, problem)[1] if compare is not None else None
@@ -487,28 +487,28 @@ def view_cmd(
 
 
 # design sweeps on Dask (bodies in coplan.sweep.command; light to import)
-from .sweep.command import sweep_cmd, sweep_report_cmd  # noqa: E402
+from .sweep import sweep_cmd, sweep_report_cmd  # noqa: E402
 
 app.command("sweep")(guarded(sweep_cmd))
 app.command("sweep-report")(guarded(sweep_report_cmd))
 
 
-# plan export for controllers, file-format schemas (bodies in coplan.clifiles; light to import)
-from .clifiles import export_cmd, schema_cmd  # noqa: E402
+# plan export for controllers, file-format schemas (bodies in coplan.cli.files; light to import)
+from .files import export_cmd, schema_cmd  # noqa: E402
 
 app.command("export")(guarded(export_cmd))
 app.command("schema")(guarded(schema_cmd))
 
 
 # live cell: vision feeds and the simulated run (bodies in coplan.live.command; light to import)
-from .live.command import feed_cmd, run_cmd  # noqa: E402
+from .live import feed_cmd, run_cmd  # noqa: E402
 
 app.command("feed")(guarded(feed_cmd))
 app.command("run")(guarded(run_cmd))
 
 
 def main() -> None:
-    """Console-script entry point (:func:`coplan.clitext.run_console`): SIGTERM is handled like
+    """Console-script entry point (:func:`coplan.cli.console.run_console`): SIGTERM is handled like
     Ctrl-C and exits 143; a reader closing stdout is no error; with ``--json`` usage errors are JSON."""
     run_console(app, err_console)
 

@@ -28,10 +28,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .allocation import AllocationMethod, lower_bound
-from .errors import Issue, ProblemError, plural, printable
-from .plan import Plan, PlannerKind
-from .problem import Problem, load_problem
+from ..allocate.allocation import AllocationMethod, lower_bound
+from ..errors import Issue, ProblemError, plural, printable
+from ..plan import Plan, PlannerKind
+from ..problem.model import Problem, load_problem
 
 __all__ = ["PlannerSpec", "DEFAULT_PLANNERS", "Comparison", "compare", "run_row", "aggregate", "to_markdown", "rich_tables"]
 
@@ -227,8 +227,8 @@ def compare(
 def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, say, single: bool):
     """One problem file with every planner: its ``problems`` entry, its rows and its plans.
     Any failure becomes a recorded error; only an interruption escapes."""
-    from .kinds import PlanStatus
-    from .pipeline import solve
+    from ..kinds import PlanStatus
+    from ..pipeline import solve
 
     try:
         problem = load_problem(path)
@@ -268,7 +268,7 @@ def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, s
 def _row_of(problem: Problem, spec: PlannerSpec, res, lb_cache: list[float]) -> dict[str, Any]:
     ver = res.verification
     if ver is None:
-        from .verify import verify
+        from ..verify.verifier import verify
 
         ver = verify(problem, res.plan)
     if res.plan.metrics.get("lower_bound") is None and not lb_cache:
@@ -299,7 +299,7 @@ def _write_report(cmp: Comparison, specs: list[PlannerSpec], out: Path, figures_
 
 def _figures(problem: Problem, plans: dict[str, Plan], folder: Path, cmp: Comparison) -> None:
     try:
-        from .viz.plots import save_comparison_figures
+        from ..viz.plots import save_comparison_figures
     except ImportError as e:
         cmp.notes.append(f"figures skipped: {e}")
         return

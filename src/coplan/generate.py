@@ -1,0 +1,19 @@
+"""``coplan.generate``: the documented path of the problem generators (README:
+``coplan.generate`` makes rows and random layouts: ``row_problem``, ``random_problem``,
+``cell_problem``, ``to_yaml``).
+
+Only a re-export: the code is in :mod:`coplan.problem.generate`. Nothing inside coplan
+imports this module.
+"""
+
+from .problem.generate import (
+    LESSON_DEFAULTS,
+    LESSON_TASK,
+    cell_problem,
+    overlap_problem,
+    random_problem,
+    row_problem,
+    to_yaml,
+)
+
+__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "to_yaml", "LESSON_DEFAULTS", "LESSON_TASK"]

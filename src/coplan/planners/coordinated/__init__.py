@@ -1,0 +1,13 @@
+"""The coordinated planner: decoupled S-curve schedules, coordinated conflict-free.
+
+- :mod:`.schedule`: each arm's fastest schedule alone (``ArmSchedule``, ``Step``), fast exact
+  link clearances of sampled poses
+- :mod:`.routing`: elbow branches that keep out of the neighbours' poses; tucked transits
+- :mod:`.coordinate`: all arms leg by leg, each leg booked at its earliest clear time
+- :mod:`.serial`: the fallback when booking deadlocks: the arms take turns
+- :mod:`.planner`: :func:`plan_coordinated`: candidates, budget, verification
+"""
+
+from .planner import CoordinatedOptions, CoordinatedResult, find_coordinated, plan_coordinated
+
+__all__ = ["CoordinatedOptions", "CoordinatedResult", "find_coordinated", "plan_coordinated"]
