@@ -20,12 +20,12 @@ from .arm import (
     singularity_proximity,
     wrap_angle,
 )
-from .geometry import capsule_distance, segment_distance
+from .geometry import capsule_distance, segment_distance, segment_distance_xy
 from .timing import SCurve, cubic_eval, cubic_min_time, move_lower_bound, scurve_time
 
 __all__ = [
     "fk", "fk_points", "ik", "jacobian", "manipulability", "singularity_proximity", "in_workspace",
     "project_to_workspace", "dls_velocity", "max_point_speed", "wrap_angle",
-    "segment_distance", "capsule_distance",
+    "segment_distance", "segment_distance_xy", "capsule_distance",
     "SCurve", "cubic_eval", "cubic_min_time", "move_lower_bound", "scurve_time",
 ]

@@ -34,6 +34,7 @@ import numpy as np
 from ...allocate.allocation import Allocation
 from ...plan import Event, EventKind
 from ...problem.model import Arm, Problem
+from ...kinematics.geometry import segment_distance_xy
 from ...kinematics.timing import SCurve
 
 __all__ = [
@@ -175,37 +176,12 @@ def arm_points(arm: Arm, q) -> tuple[np.ndarray, ...]:
     return bx, by, ex, ey, tx, ty
 
 
-def _ps2(px, py, ax, ay, ux, uy, uu):
-    """Squared distance from points p to segments a + s u, s in [0, 1] (uu = |u|^2)."""
-    t = np.clip(((px - ax) * ux + (py - ay) * uy) / uu, 0.0, 1.0)
-    dx = px - ax - t * ux
-    dy = py - ay - t * uy
-    return dx * dx + dy * dy
-
-
-def _seg_dist(ax, ay, bx, by, cx, cy, dx, dy):
-    """Exact distance between segments a-b and c-d, component arrays (broadcast); the same
-    rule as :func:`coplan.kinematics.geometry.segment_distance` (zero when they cross, else the least
-    endpoint-to-segment distance), written out on components for speed."""
-    ux, uy = bx - ax, by - ay
-    vx, vy = dx - cx, dy - cy
-    uu = np.maximum(ux * ux + uy * uy, 1e-300)
-    vv = np.maximum(vx * vx + vy * vy, 1e-300)
-    d = np.minimum(np.minimum(_ps2(ax, ay, cx, cy, vx, vy, vv), _ps2(bx, by, cx, cy, vx, vy, vv)),
-                   np.minimum(_ps2(cx, cy, ax, ay, ux, uy, uu), _ps2(dx, dy, ax, ay, ux, uy, uu)))
-    d1 = ux * (cy - ay) - uy * (cx - ax)
-    d2 = ux * (dy - ay) - uy * (dx - ax)
-    d3 = vx * (ay - cy) - vy * (ax - cx)
-    d4 = vx * (by - cy) - vy * (bx - cx)
-    return np.where((d1 * d2 < 0) & (d3 * d4 < 0), 0.0, np.sqrt(d))
-
-
 def points_clearance(pa: tuple, pb: tuple, radii: float) -> np.ndarray:
     """Least capsule clearance between two arms given by :func:`arm_points` (broadcast)."""
     d = None
     for s in range(2):
         for u in range(2):
-            x = _seg_dist(pa[2 * s], pa[2 * s + 1], pa[2 * s + 2], pa[2 * s + 3],
+            x = segment_distance_xy(pa[2 * s], pa[2 * s + 1], pa[2 * s + 2], pa[2 * s + 3],
                           pb[2 * u], pb[2 * u + 1], pb[2 * u + 2], pb[2 * u + 3])
             d = x if d is None else np.minimum(d, x)
     return d - radii
@@ -235,7 +211,7 @@ def points_too_close(pa: tuple, pb: tuple, radii: float, need: float) -> np.ndar
             near &= ~out
             idx = np.flatnonzero(near)
             if idx.size:
-                d = _seg_dist(ax[idx], ay[idx], bx[idx], by[idx], cx[idx], cy[idx], dx[idx], dy[idx])
+                d = segment_distance_xy(ax[idx], ay[idx], bx[idx], by[idx], cx[idx], cy[idx], dx[idx], dy[idx])
                 out[idx[d - radii < need]] = True
     return out.reshape(shape)
 
