@@ -150,7 +150,14 @@ class _Window:
 
 
 class _Coordinator(ArmGeometry):
-    """State of :func:`coordinate` (see there for the rules)."""
+    """State of :func:`coordinate` (see there for the rules).
+
+    Its parts, in the order :meth:`run` uses them: static views of the remaining work
+    (:meth:`remaining`, :meth:`leg_samples`); timing (:meth:`leg_steps`, :meth:`conflict`,
+    :meth:`earliest`); deadlocks (:meth:`is_stuck`, :meth:`yield_pose`, :meth:`do_yield`,
+    :meth:`other_branch`, :meth:`detour`, :meth:`home_blocks`, :meth:`park_pose`); the main
+    loop (:meth:`run` and its steps, :meth:`commit`).
+    """
 
     def __init__(self, problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float, quantum: float,
                  priority: list[str] | None, deadline: float | None, max_yields: int | None, horizon: float | None,
@@ -412,72 +419,101 @@ class _Coordinator(ArmGeometry):
                 self.tracks[j].stuck = None
 
     def run(self) -> dict[str, ArmSchedule]:
-        q = self.quantum
+        """Book every arm's legs, the arm whose next leg is due first at each turn (the rules:
+        :func:`coordinate`); the steps: :meth:`next_track`, :meth:`check_limits`,
+        :meth:`park_or_defer` (a finished arm whose way home is blocked), :meth:`earliest`
+        and :meth:`commit` (the leg booked), :meth:`wait_or_resolve` (a neighbour rests in the
+        way) and :meth:`break_deadlock`."""
         while True:
-            active = [tr for tr in self.tracks if tr.todo]
-            if not active:
+            tr = self.next_track()
+            if tr is None:
                 break
-            tr = min(active, key=lambda r: (r.ready, r.rank))
             t = tr.ready
-            if self.deadline is not None and _time.perf_counter() > self.deadline:
-                raise ConflictError("time budget for coordinating the arms is used up")
-            if t > self.horizon:
-                raise ConflictError(f"no conflict-free schedule found within {self.horizon:.0f} s of plan time")
+            self.check_limits(t)
             leg = tr.todo[0]
             if leg.home and not same_pose(tr.pose, tr.home) and self.home_blocks(tr):
-                if not tr.parked:
-                    tr.parked = True
-                    park = self.park_pose(tr)
-                    if park is not None:
-                        tr.todo.insert(0, Leg(tuple(map(float, park))))
-                        self.parks += 1
-                        continue
-                tr.deferred = True
-                nxt = [self.tracks[j].ready for j in self.nbrs[tr.index] if self.tracks[j].working]
-                tr.ready = max(t + q, min(nxt, default=t + q))
+                self.park_or_defer(tr, t)
                 continue
             tr.deferred = False
             start, j = self.earliest(tr, leg, t)
             if start is not None:
                 self.commit(tr, self.leg_steps(tr, leg, start), start)
                 continue
-            # a neighbour rests in the way until it moves again
-            o = self.tracks[j]
-            if self.log:
-                self.log(f"{t:7.2f} {tr.arm.name} rest-blocked by {o.arm.name} (its end {o.end:.2f}) leg to {np.round(leg.target, 2)}")
-            tr.stuck = j
-            # the neighbour will move by itself: wait for it, but only once -- if its next rest
-            # pose is in the way again, it is a busy neighbour starving this arm: resolve now
-            again = tr.blocker is not None and tr.blocker[0] == j and not same_pose(tr.blocker[1], o.pose)
-            tr.blocker = (j, o.pose) if tr.blocker is None or tr.blocker[0] != j else tr.blocker
-            if not again and not self.is_stuck(j, tr.index):
-                tr.ready = max(t + q, o.ready)
-                continue
-            # deadlock: the other branch of this pick/place if it costs little, else someone
-            # gets out of the way (the neighbour if it is finished or has the lower priority;
-            # else this arm, so that the neighbour's next leg can go), else the other branch
-            # whatever it costs
-            alt = self.other_branch(tr, leg)
-            alt_start = self.earliest(tr, alt, t)[0] if alt is not None else None
-            if alt_start is not None and self.detour(tr, leg, alt) <= 0.5:
-                tr.todo[0] = alt
-                self.commit(tr, self.leg_steps(tr, alt, alt_start), alt_start)
-                continue
-            first, second = (o, tr) if (not o.working or o.rank > tr.rank) else (tr, o)
-            if self.yields < self.max_yields and (self.do_yield(first, second, t)
-                                                  or (o.working and self.do_yield(second, first, t))):
-                if tr.todo and tr.todo[0] is leg:
-                    tr.ready = max(t + q, o.ready)
-                continue
-            if alt_start is not None:
-                tr.todo[0] = alt
-                self.commit(tr, self.leg_steps(tr, alt, alt_start), alt_start)
-                continue
-            if self.yields >= self.max_yields:
-                raise ConflictError(f"arms {tr.arm.name!r} and {o.arm.name!r} keep blocking each other ({self.yields} yields)")
-            raise ConflictError(f"arm {o.arm.name!r} rests in the way of arm {tr.arm.name!r} at t = {t:.2f} s "
-                                "and neither can get out of the other's way")
+            self.wait_or_resolve(tr, leg, t, self.tracks[j])
         return {tr.arm.name: ArmSchedule(tr.arm, merge_waits(tr.steps)) for tr in self.tracks}
+
+    def next_track(self) -> _Track | None:
+        """The arm whose next leg is due first (ties: priority rank); None when all are done."""
+        active = [tr for tr in self.tracks if tr.todo]
+        if not active:
+            return None
+        return min(active, key=lambda r: (r.ready, r.rank))
+
+    def check_limits(self, t: float) -> None:
+        """:class:`ConflictError` past the clock deadline or the plan-time horizon."""
+        if self.deadline is not None and _time.perf_counter() > self.deadline:
+            raise ConflictError("time budget for coordinating the arms is used up")
+        if t > self.horizon:
+            raise ConflictError(f"no conflict-free schedule found within {self.horizon:.0f} s of plan time")
+
+    def park_or_defer(self, tr: _Track, t: float) -> None:
+        """A finished arm whose home is in the neighbours' remaining work: once, a park leg to
+        the clearest candidate pose; else it waits until a working neighbour is due."""
+        q = self.quantum
+        if not tr.parked:
+            tr.parked = True
+            park = self.park_pose(tr)
+            if park is not None:
+                tr.todo.insert(0, Leg(tuple(map(float, park))))
+                self.parks += 1
+                return
+        tr.deferred = True
+        nxt = [self.tracks[j].ready for j in self.nbrs[tr.index] if self.tracks[j].working]
+        tr.ready = max(t + q, min(nxt, default=t + q))
+
+    def wait_or_resolve(self, tr: _Track, leg: Leg, t: float, o: _Track) -> None:
+        """Neighbour ``o`` rests in the way of ``leg`` until it moves again: wait for it if it
+        will move by itself (only once for the same neighbour and pose), else break the deadlock."""
+        q = self.quantum
+        j = o.index
+        if self.log:
+            self.log(f"{t:7.2f} {tr.arm.name} rest-blocked by {o.arm.name} (its end {o.end:.2f}) leg to {np.round(leg.target, 2)}")
+        tr.stuck = j
+        # the neighbour will move by itself: wait for it, but only once -- if its next rest
+        # pose is in the way again, it is a busy neighbour starving this arm: resolve now
+        again = tr.blocker is not None and tr.blocker[0] == j and not same_pose(tr.blocker[1], o.pose)
+        tr.blocker = (j, o.pose) if tr.blocker is None or tr.blocker[0] != j else tr.blocker
+        if not again and not self.is_stuck(j, tr.index):
+            tr.ready = max(t + q, o.ready)
+            return
+        self.break_deadlock(tr, leg, t, o)
+
+    def break_deadlock(self, tr: _Track, leg: Leg, t: float, o: _Track) -> None:
+        """The other branch of this pick/place if it costs little, else someone gets out of the
+        way (the neighbour if it is finished or has the lower priority; else this arm, so that
+        the neighbour's next leg can go), else the other branch whatever it costs; else
+        :class:`ConflictError`."""
+        q = self.quantum
+        alt = self.other_branch(tr, leg)
+        alt_start = self.earliest(tr, alt, t)[0] if alt is not None else None
+        if alt_start is not None and self.detour(tr, leg, alt) <= 0.5:
+            tr.todo[0] = alt
+            self.commit(tr, self.leg_steps(tr, alt, alt_start), alt_start)
+            return
+        first, second = (o, tr) if (not o.working or o.rank > tr.rank) else (tr, o)
+        if self.yields < self.max_yields and (self.do_yield(first, second, t)
+                                              or (o.working and self.do_yield(second, first, t))):
+            if tr.todo and tr.todo[0] is leg:
+                tr.ready = max(t + q, o.ready)
+            return
+        if alt_start is not None:
+            tr.todo[0] = alt
+            self.commit(tr, self.leg_steps(tr, alt, alt_start), alt_start)
+            return
+        if self.yields >= self.max_yields:
+            raise ConflictError(f"arms {tr.arm.name!r} and {o.arm.name!r} keep blocking each other ({self.yields} yields)")
+        raise ConflictError(f"arm {o.arm.name!r} rests in the way of arm {tr.arm.name!r} at t = {t:.2f} s "
+                            "and neither can get out of the other's way")
 
 
 def coordinate(

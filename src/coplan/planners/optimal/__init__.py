@@ -3,7 +3,8 @@
 - :mod:`.options`: :class:`OptimalOptions` and its YAML file (``--options FILE``)
 - :mod:`.planner`: :func:`plan_optimal`: coordinated -> search -> polish, the incumbent rule
 - :mod:`.search`: large-neighbourhood search with the coordinator as evaluator
-- :mod:`.nlp`, :mod:`.nlp_solve`: the CasADi program over all arms, solved by IPOPT
+- :mod:`.nlp`, :mod:`.nlp_data`, :mod:`.nlp_solve`: the CasADi program over all arms (its knot
+  grid and data), solved by IPOPT
 - :mod:`.windows`: refinement rounds and receding windows around the NLP
 """
 

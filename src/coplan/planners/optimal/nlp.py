@@ -31,8 +31,7 @@ from __future__ import annotations
 import functools
 import math
 import time as _time
-from dataclasses import dataclass, field
-from enum import Enum
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -40,148 +39,9 @@ import numpy as np
 from ...kinematics import arm as kin
 from ...problem.model import Problem
 from ..coordinated.schedule import ArmSchedule, StepKind
+from .nlp_data import NLP, ConstraintPoint, Grid, NLPSolution, SolverStatus, build_grid, map_status
 
-__all__ = ["SolverStatus", "Grid", "ConstraintPoint", "NLP", "NLPSolution", "build_grid", "build_nlp", "map_status"]
-
-
-class SolverStatus(str, Enum):
-    OPTIMAL = "optimal"
-    ACCEPTABLE = "acceptable"
-    LIMIT_REACHED = "limit_reached"
-    INFEASIBLE = "infeasible"
-    NUMERICAL_ERROR = "numerical_error"
-    INTERRUPTED = "interrupted"
-
-    @property
-    def converged(self) -> bool:
-        return self in (SolverStatus.OPTIMAL, SolverStatus.ACCEPTABLE)
-
-
-_IPOPT_STATUS = {
-    "Solve_Succeeded": SolverStatus.OPTIMAL,
-    "Solved_To_Acceptable_Level": SolverStatus.ACCEPTABLE,
-    "Feasible_Point_Found": SolverStatus.ACCEPTABLE,
-    "Maximum_Iterations_Exceeded": SolverStatus.LIMIT_REACHED,
-    "Maximum_CpuTime_Exceeded": SolverStatus.LIMIT_REACHED,
-    "Maximum_WallTime_Exceeded": SolverStatus.LIMIT_REACHED,
-    "Infeasible_Problem_Detected": SolverStatus.INFEASIBLE,
-    "User_Requested_Stop": SolverStatus.INTERRUPTED,
-}
-
-
-def map_status(ipopt_status: str) -> SolverStatus:
-    """IPOPT's return status -> coplan's :class:`SolverStatus` (anything else: numerical error)."""
-    return _IPOPT_STATUS.get(ipopt_status, SolverStatus.NUMERICAL_ERROR)
-
-
-# ----------------------------------------------------------------------------- grid
-@dataclass(frozen=True)
-class Grid:
-    """Shared knot grid: warm-start knot times and, per arm, each step's knot range."""
-
-    t: np.ndarray  # (K+1,)
-    ranges: dict[str, list[tuple[int, int]]]  # arm -> per step (k0, k1)
-    segment: np.ndarray  # (K,) index of the union segment (between step boundaries) of each interval
-
-    @property
-    def K(self) -> int:
-        return self.t.size - 1
-
-
-def build_grid(schedules: dict[str, ArmSchedule], h_target: float = 0.06, merge_tol: float = 1e-7,
-               switches: bool = True) -> Grid:
-    """Union of every arm's step boundaries, intervals subdivided to at most ``h_target``.
-
-    With ``switches`` the grid also has a knot at every jerk switch of every move (each
-    joint's S-curve phases), and knots closer than ``merge_tol`` are merged: constant jerk
-    per interval then represents the schedules exactly, so they are a feasible point of the
-    NLP (up to the separation constraints' sampling)."""
-    bounds = [0.0]
-    t_end = max((s.end for s in schedules.values()), default=0.0)
-    for s in schedules.values():
-        for st in s.steps:
-            bounds += [st.t0, st.t1]
-            if switches and st.kind == StepKind.MOVE and st.curve is not None:
-                bounds += list(st.t0 + st.curve.switch_times())
-    bounds.append(t_end)
-    b = np.unique(np.round(np.asarray(bounds), 9))
-    reps = [b[0]]
-    for x in b[1:]:
-        if x - reps[-1] > merge_tol:
-            reps.append(x)
-    reps = np.asarray(reps)
-    knots = [reps[0]]
-    segment: list[int] = []
-    for i, (x0, x1) in enumerate(zip(reps[:-1], reps[1:])):
-        n = max(1, int(math.ceil((x1 - x0) / h_target - 1e-9)))
-        knots += list(x0 + (x1 - x0) * np.arange(1, n + 1) / n)
-        segment += [i] * n
-    knots = np.asarray(knots)
-
-    def idx(x):
-        return int(np.argmin(np.abs(knots - x)))
-
-    ranges = {name: [(idx(st.t0), idx(st.t1)) for st in s.steps] for name, s in schedules.items()}
-    return Grid(knots, ranges, np.asarray(segment, dtype=int))
-
-
-@dataclass(frozen=True)
-class ConstraintPoint:
-    """A separation constraint: at knot ``k`` + ``tau`` of its interval, arms ``ia``/``ib``, links ``s``/``u``."""
-
-    k: int
-    tau: float
-    ia: int
-    ib: int
-    s: int
-    u: int
-
-
-# ----------------------------------------------------------------------------- NLP
-@dataclass
-class NLP:
-    """A built NLP: CasADi solver plus bounds, warm start and the variable layout."""
-
-    problem: dict  # {"x", "f", "g"} CasADi SX expressions
-    options: dict  # nlpsol options (IPOPT)
-    x0: np.ndarray
-    lbx: np.ndarray
-    ubx: np.ndarray
-    lbg: np.ndarray
-    ubg: np.ndarray
-    layout: dict
-    scales: dict
-    grid: Grid
-    points: list[ConstraintPoint]
-    build_seconds: float
-    n_vars: int
-    n_cons: int
-
-
-@dataclass
-class NLPSolution:
-    status: SolverStatus
-    ipopt_status: str
-    iterations: int
-    t: np.ndarray  # (K+1,) knot times
-    X: dict[str, np.ndarray]  # arm -> (6, K+1)
-    U: dict[str, np.ndarray]  # arm -> (2, K)
-    objective: float
-    solve_seconds: float
-    max_violation: float
-    x: np.ndarray = field(repr=False, default=None)
-
-    def sample(self, times) -> dict[str, np.ndarray]:
-        """Exact joint positions at ``times`` (N,) -> arm -> (N, 2)."""
-        times = np.clip(np.asarray(times, float), 0.0, self.t[-1])
-        k = np.clip(np.searchsorted(self.t, times, side="right") - 1, 0, self.t.size - 2)
-        tau = times - self.t[k]
-        out = {}
-        for a, X in self.X.items():
-            U = self.U[a]
-            q = X[0:2, k] + X[2:4, k] * tau + X[4:6, k] * tau**2 / 2 + U[:, k] * tau**3 / 6
-            out[a] = q.T
-        return out
+__all__ = ["SolverStatus", "Grid", "ConstraintPoint", "NLP", "NLPSolution", "build_grid", "build_nlp", "map_status"]  # data: .nlp_data
 
 
 def _var_state(problem: Problem, sch: ArmSchedule, grid: Grid):
@@ -281,6 +141,220 @@ def _kernels():
     return dyn, sep, hull
 
 
+@dataclass
+class _Segments:
+    """The time scales of one window: one per union segment (the intervals between two step
+    boundaries of any arm), ``h_k = h0_k * eta[seg_of[k]]``."""
+
+    h0: np.ndarray  # (K,) the grid's interval lengths in the window
+    seg_of: np.ndarray  # (K,) segment of each interval
+    n: int
+    elo: np.ndarray  # bounds of each segment's scale
+    ehi: np.ndarray
+    length: np.ndarray  # each segment's length on the grid (s)
+    boundary: dict  # knot (a segment boundary) -> index into [0, T_0, T_1, ...]
+
+
+def _segments(grid: Grid, lo_k: int, hi_k: int, h_bounds: tuple[float, float], h_max: float) -> _Segments:
+    """Step 1 of :func:`build_nlp`: the window's time-scale segments and their bounds."""
+    K = hi_k - lo_k
+    h0 = np.diff(grid.t)[lo_k:hi_k]
+    seg = grid.segment[lo_k:hi_k]
+    _, seg_of = np.unique(seg, return_inverse=True)
+    nseg = int(seg_of.max()) + 1 if K else 0
+    hmax_seg = np.array([h0[seg_of == i].max() for i in range(nseg)])
+    elo = np.full(nseg, h_bounds[0])
+    ehi = np.maximum(np.minimum(h_bounds[1], h_max / hmax_seg), elo)
+    seg_len = np.array([h0[seg_of == i].sum() for i in range(nseg)])
+    boundary = {0: 0}
+    for i in range(nseg):
+        boundary[int(np.flatnonzero(seg_of == i).max()) + 1] = i + 1
+    return _Segments(h0, seg_of, nseg, elo, ehi, seg_len, boundary)
+
+
+def _arm_blocks(problem: Problem, schedules, grid: Grid, window: tuple[int, int], last: bool, start, blocks: list) -> dict:
+    """Step 2: each arm's state and jerk variables (scaled to O(1)) appended to ``blocks``
+    as ``(key, size, lower, upper, guess)``; returns each arm's bounds and scales."""
+    lo_k, hi_k = window
+    K = hi_k - lo_k
+    per_arm = {}
+    for name in [a.name for a in problem.arms]:
+        sch = schedules[name]
+        arm = problem.arm(name)
+        # knot bounds are the limits themselves: between knots, velocity and position are
+        # bounded by their Bezier control points (the ``hull`` rows below)
+        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid)
+        lo, hi, X0 = lo[:, lo_k : hi_k + 1], hi[:, lo_k : hi_k + 1], X0[:, lo_k : hi_k + 1]
+        ulo, uhi, U0 = ulo[:, lo_k:hi_k], uhi[:, lo_k:hi_k], U0[:, lo_k:hi_k]
+        if start is not None:
+            lo[:, 0] = hi[:, 0] = X0[:, 0] = start[name]
+        if not last:
+            # reach the warm start's pose at the window's end; velocity and acceleration stay
+            # free (pinning a mid-move state exactly over-constrains the discretised problem)
+            lo[0:2, -1] = hi[0:2, -1] = X0[0:2, -1]
+        sx = np.r_[1.0, 1.0, arm.max_velocity, arm.max_acceleration][:, None]
+        su = np.asarray(arm.max_jerk, float)[:, None]
+        per_arm[name] = (lo, hi, ulo, uhi, dwells, k_end, sx, su)
+        blocks.append((f"X_{name}", 6 * (K + 1), (lo / sx).ravel("F"), (hi / sx).ravel("F"), (X0 / sx).ravel("F")))
+        blocks.append((f"U_{name}", 2 * K, (ulo / su).ravel("F"), (uhi / su).ravel("F"), (U0 / su).ravel("F")))
+    return per_arm
+
+
+def _guess_from_carry(blocks: list, per_arm: dict, carry: "NLPSolution", window: tuple[int, int], sg: _Segments) -> None:
+    """Step 3: where the previous window's solution overlaps this window, it is the guess of
+    the states, jerks and time scales (it meets every constraint there)."""
+    lo_k, hi_k = window
+    K = hi_k - lo_k
+    lo_p, hi_p = carry.window
+    n_ov = max(0, min(hi_k, hi_p) - lo_k + 1) if lo_p <= lo_k else 0  # knots (from lo) it covers
+    if n_ov < 2:
+        return
+    off_p = lo_k - carry.window[0]
+    for b in blocks:
+        if b[0].startswith("X_"):
+            name = b[0][2:]
+            sx, su = per_arm[name][6], per_arm[name][7]
+            X0s = b[4].reshape((6, K + 1), order="F")
+            X0s[:, :n_ov] = carry.X[name][:, off_p : off_p + n_ov] / sx
+            b4u = next(bb for bb in blocks if bb[0] == f"U_{name}")[4].reshape((2, K), order="F")
+            b4u[:, : n_ov - 1] = carry.U[name][:, off_p : off_p + n_ov - 1] / su
+    # time scales of the segments the two windows share
+    ratio = np.diff(carry.t)[off_p : off_p + n_ov - 1] / sg.h0[: n_ov - 1]
+    eta0 = blocks[0][4]
+    for i in range(sg.n):
+        ks = np.flatnonzero(sg.seg_of[: n_ov - 1] == i)
+        if ks.size:
+            eta0[i] = float(np.clip(np.median(ratio[ks]), sg.elo[i], sg.ehi[i]))
+    blocks[1] = ("T", sg.n, blocks[1][2], blocks[1][3], np.cumsum(eta0 * sg.length))
+
+
+class _Vars:
+    """The decision vector ``x`` and its named slices (``layout``), with the knot times."""
+
+    def __init__(self, blocks: list, sg: _Segments):
+        self.layout: dict = {}
+        off = 0
+        for key, n, *_ in blocks:
+            self.layout[key] = (off, off + n)
+            off += n
+        self.size = off
+        self.x = ca.MX.sym("x", off)
+        self.sg = sg
+        self.eta = self.var("eta")
+        self.H = _take(self.eta, sg.seg_of) * ca.DM(sg.h0)
+        self.Tb = ca.vertcat(0, self.var("T"))  # time at each segment boundary (sparse chain)
+
+    def var(self, key):
+        a_, b_ = self.layout[key]
+        return self.x[a_:b_]
+
+    def time_at(self, k: int):
+        return self.Tb[self.sg.boundary[k]]
+
+
+def _arm_rows(problem: Problem, name: str, arm_vars: tuple, v: _Vars, window: tuple[int, int], kernels, q_warm, track: float, rows: list):
+    """Step 5: one arm's dynamics, hull and dwell rows appended to ``rows`` (``(g, lbg, ubg)``);
+    returns the arm's state and jerk matrices, scales, last-place knot (or None) and its
+    smoothness and tracking terms."""
+    dyn, hull = kernels
+    lo_k, hi_k = window
+    K = hi_k - lo_k
+    g, lbg, ubg = rows
+    lo, hi, ulo, uhi, dwells, k_end, sx, su = arm_vars
+    Xn = ca.reshape(v.var(f"X_{name}"), 6, K + 1)
+    Un = ca.reshape(v.var(f"U_{name}"), 2, K)
+    SC = np.r_[sx.ravel(), su.ravel()]
+    end = k_end - lo_k if lo_k < k_end <= hi_k else None
+    # intervals where the arm is pinned (both knots fixed, no jerk) need no dynamics rows:
+    # they would be identically zero and make the constraint Jacobian rank-deficient
+    pinned = np.all(lo == hi, axis=0)
+    frozen = pinned[:-1] & pinned[1:] & np.all((ulo == 0) & (uhi == 0), axis=0)
+    cols = np.flatnonzero(~frozen)
+    if cols.size:
+        # one mapped call over contiguous slices (cheap to differentiate and evaluate),
+        # then keep the rows of the intervals that are not frozen
+        res = ca.vec(dyn.map(K)(Xn[:, :K], Xn[:, 1:], Un, v.H.T, ca.DM(np.tile(SC[:, None], (1, K)))))
+        rws = (6 * cols[:, None] + np.arange(6)[None, :]).ravel()
+        g.append(res if rws.size == 6 * K else res[[int(r) for r in rws]])
+        lbg.append(np.zeros(rws.size))
+        ubg.append(np.zeros(rws.size))
+        arm = problem.arm(name)
+        plo = np.minimum(arm.limits[:, 0], lo[0:2].min(axis=1))
+        phi = np.maximum(arm.limits[:, 1], hi[0:2].max(axis=1))
+        hres = ca.vec(hull.map(K)(Xn[:, :K], Xn[:, 1:], v.H.T, ca.DM(np.tile(SC[:, None], (1, K)))))
+        g.append(hres if rws.size == 6 * K else hres[[int(r) for r in rws]])
+        lbg.append(np.tile(np.r_[-1.0, -1.0, plo, plo], cols.size))
+        ubg.append(np.tile(np.r_[1.0, 1.0, phi, phi], cols.size))
+    for k0, k1, dwell in dwells:
+        a_, b_ = max(k0, lo_k), min(k1, hi_k)
+        if b_ > a_:  # a dwell cut by a window boundary: each part keeps its share
+            g.append(v.time_at(b_ - lo_k) - v.time_at(a_ - lo_k))
+            lbg.append([dwell * (b_ - a_) / (k1 - k0) + 1e-6])
+            ubg.append([np.inf])
+    smooth = ca.sumsqr(Un) * float(np.mean(v.sg.h0))
+    tracking = 0
+    if track > 0:
+        dq = Xn[0:2, :] - ca.DM(q_warm)
+        tracking = ca.sum2(ca.sum1(dq * dq) * ca.DM(np.r_[v.sg.h0, 0.0][None, :]))
+    return Xn, Un, SC, end, smooth, tracking
+
+
+def _separation_rows(problem: Problem, points: list[ConstraintPoint], margin: float, lo_k: int, K: int, names, Xn, Un, SC,
+                     v: _Vars, sep, rows: list) -> None:
+    """Step 6: at every constraint point, both links on opposite sides of their separating
+    line, ``clearance + margin`` apart (rows appended to ``rows``)."""
+    g, lbg, ubg = rows
+    nlines = len(points)
+    half = (problem.task.clearance + margin) / 2.0
+    kk = [p.k - lo_k for p in points]
+    kh = [min(k, K - 1) for k in kk]
+    geo = np.array([
+        [*problem.arms[p.ia].base, *problem.arms[p.ia].links, *problem.arms[p.ib].base, *problem.arms[p.ib].links,
+         p.s, p.u, problem.arms[p.ia].link_radius + half, problem.arms[p.ib].link_radius + half, 0.0, 0.0]
+        for p in points]).T
+
+    def gather(attr, which):
+        return ca.horzcat(*[(Xn[names[which(p)]][:, k] if attr == "X" else Un[names[which(p)]][:, khh])
+                            for p, k, khh in zip(points, kk, kh)])
+
+    xa = gather("X", lambda p: p.ia)
+    ua = gather("U", lambda p: p.ia)
+    xb = gather("X", lambda p: p.ib)
+    ub = gather("U", lambda p: p.ib)
+    taus = ca.DM([[p.tau for p in points]])
+    hs = _take(v.H, kh).T
+    sca = ca.DM(np.stack([SC[names[p.ia]] for p in points], axis=1))
+    scb = ca.DM(np.stack([SC[names[p.ib]] for p in points], axis=1))
+    out = sep.map(nlines)(xa, ua, xb, ub, hs, taus, v.var("theta").T, v.var("c").T, ca.DM(geo), sca, scb)
+    g.append(ca.vec(out))
+    lbg.append(np.zeros(4 * nlines))
+    ubg.append(np.full(4 * nlines, np.inf))
+
+
+def _ipopt_options(warm, ipopt_options: dict | None) -> dict:
+    """Step 8: IPOPT's settings (MUMPS, never an ``ipopt.opt``; a warm start pushes less)."""
+    opts = {
+        "ipopt.print_level": 0,
+        "print_time": False,
+        "ipopt.sb": "yes",
+        "ipopt.linear_solver": "mumps",
+        "ipopt.option_file_name": "",  # never read an ipopt.opt from the working directory
+        "ipopt.tol": 1e-6,
+        "ipopt.constr_viol_tol": 1e-7,
+        "ipopt.acceptable_tol": 1e-4,
+        "ipopt.acceptable_constr_viol_tol": 1e-6,
+        "ipopt.acceptable_iter": 5,
+        "ipopt.max_iter": 500,
+        "ipopt.mu_strategy": "adaptive",
+    }
+    if warm is not None:
+        opts["ipopt.mu_init"] = 1e-3
+        opts["ipopt.bound_push"] = 1e-5
+        opts["ipopt.bound_frac"] = 1e-5
+    opts.update(ipopt_options or {})
+    return opts
+
+
 def build_nlp(
     problem: Problem,
     schedules: dict[str, ArmSchedule],
@@ -301,8 +375,8 @@ def build_nlp(
 
     ``start`` fixes each arm's state (6,) at knot ``lo`` (the previous window's end); when
     ``hi < K`` the arms must reach the warm start's pose at knot ``hi`` (any velocity and
-    acceleration within bounds), so the next window can follow. The objective is the makespan in the last window and the window's duration
-    in the others.
+    acceleration within bounds), so the next window can follow. The objective is the makespan
+    in the last window and the window's duration in the others.
 
     Initial guess: ``warm`` (a solution of this same window, fewer points) is reused whole;
     otherwise ``carry`` (the previous window's solution, which runs past this window's start)
@@ -314,6 +388,11 @@ def build_nlp(
     stays near the warm start's pose *at each knot*. All arms share the knots, so the arms
     keep the warm start's (conflict-free) relative progress while the time scales still
     shorten or stretch the intervals.
+
+    Steps: time-scale segments (:func:`_segments`), the arms' variables (:func:`_arm_blocks`),
+    the guess from the previous window (:func:`_guess_from_carry`), separating lines, the
+    decision vector (:class:`_Vars`), each arm's rows (:func:`_arm_rows`), the separation rows
+    (:func:`_separation_rows`), the makespan and objective, IPOPT's settings.
     """
     t0 = _time.perf_counter()
     dyn, sep, hull = _kernels()
@@ -321,219 +400,78 @@ def build_nlp(
     lo_k, hi_k = window if window is not None else (0, grid.K)
     K = hi_k - lo_k
     last = hi_k == grid.K
-    h0 = np.diff(grid.t)[lo_k:hi_k]
-    # one time scale per union segment (the intervals between two step boundaries of any
-    # arm): h_k = h0_k * eta[segment(k)]; every variable is scaled to O(1)
-    seg = grid.segment[lo_k:hi_k]
-    _, seg_of = np.unique(seg, return_inverse=True)
-    nseg = int(seg_of.max()) + 1 if K else 0
-    hmax_seg = np.array([h0[seg_of == i].max() for i in range(nseg)])
-    elo = np.full(nseg, h_bounds[0])
-    ehi = np.maximum(np.minimum(h_bounds[1], h_max / hmax_seg), elo)
-    seg_len = np.array([h0[seg_of == i].sum() for i in range(nseg)])
-    seg_end0 = np.cumsum(seg_len)
-    # knot k (a segment boundary) -> index into [0, T_0, T_1, ...]: the time at the knot
-    boundary = {0: 0}
-    for i in range(nseg):
-        boundary[int(np.flatnonzero(seg_of == i).max()) + 1] = i + 1
+    sg = _segments(grid, lo_k, hi_k, h_bounds, h_max)
     blocks = [
-        ("eta", nseg, elo, ehi, np.clip(np.ones(nseg), elo, ehi)),
-        ("T", nseg, np.zeros(nseg), np.full(nseg, np.inf), seg_end0),
+        ("eta", sg.n, sg.elo, sg.ehi, np.clip(np.ones(sg.n), sg.elo, sg.ehi)),
+        ("T", sg.n, np.zeros(sg.n), np.full(sg.n, np.inf), np.cumsum(sg.length)),
     ]
-    per_arm = {}
-    for name in names:
-        sch = schedules[name]
-        arm = problem.arm(name)
-        # knot bounds are the limits themselves: between knots, velocity and position are
-        # bounded by their Bezier control points (the ``hull`` rows below)
-        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid)
-        lo, hi, X0 = lo[:, lo_k : hi_k + 1], hi[:, lo_k : hi_k + 1], X0[:, lo_k : hi_k + 1]
-        ulo, uhi, U0 = ulo[:, lo_k:hi_k], uhi[:, lo_k:hi_k], U0[:, lo_k:hi_k]
-        if start is not None:
-            lo[:, 0] = hi[:, 0] = X0[:, 0] = start[name]
-        if not last:
-            # reach the warm start's pose at the window's end; velocity and acceleration stay
-            # free (pinning a mid-move state exactly over-constrains the discretised problem)
-            lo[0:2, -1] = hi[0:2, -1] = X0[0:2, -1]
-        sx = np.r_[1.0, 1.0, arm.max_velocity, arm.max_acceleration][:, None]
-        su = np.asarray(arm.max_jerk, float)[:, None]
-        per_arm[name] = (lo, hi, ulo, uhi, dwells, k_end, sx, su)
-        blocks.append((f"X_{name}", 6 * (K + 1), (lo / sx).ravel("F"), (hi / sx).ravel("F"), (X0 / sx).ravel("F")))
-        blocks.append((f"U_{name}", 2 * K, (ulo / su).ravel("F"), (uhi / su).ravel("F"), (U0 / su).ravel("F")))
+    per_arm = _arm_blocks(problem, schedules, grid, (lo_k, hi_k), last, start, blocks)
     q_warm = {b[0][2:]: b[4].reshape((6, K + 1), order="F")[0:2].copy() for b in blocks if b[0].startswith("X_")}
-    n_ov = 0  # knots (from lo) where the previous window's solution is the guess
     if carry is not None and warm is None:
-        lo_p, hi_p = carry.window
-        n_ov = max(0, min(hi_k, hi_p) - lo_k + 1) if lo_p <= lo_k else 0
-    if n_ov >= 2:
-        off_p = lo_k - carry.window[0]
-        for b in blocks:
-            if b[0].startswith("X_"):
-                name = b[0][2:]
-                sx, su = per_arm[name][6], per_arm[name][7]
-                X0s = b[4].reshape((6, K + 1), order="F")
-                X0s[:, :n_ov] = carry.X[name][:, off_p : off_p + n_ov] / sx
-                b4u = next(bb for bb in blocks if bb[0] == f"U_{name}")[4].reshape((2, K), order="F")
-                b4u[:, : n_ov - 1] = carry.U[name][:, off_p : off_p + n_ov - 1] / su
-        # time scales of the segments the two windows share
-        ratio = np.diff(carry.t)[off_p : off_p + n_ov - 1] / h0[: n_ov - 1]
-        eta0 = blocks[0][4]
-        for i in range(nseg):
-            ks = np.flatnonzero(seg_of[: n_ov - 1] == i)
-            if ks.size:
-                eta0[i] = float(np.clip(np.median(ratio[ks]), elo[i], ehi[i]))
-        blocks[1] = ("T", nseg, blocks[1][2], blocks[1][3], np.cumsum(eta0 * seg_len))
+        _guess_from_carry(blocks, per_arm, carry, (lo_k, hi_k), sg)
+    # step 4: separating lines, guessed from the conflict-free warm-start schedules even when a
+    # solution is at hand: where a solution dips below the clearance its links may cross, and a
+    # line guessed from crossing links can put them on the wrong sides (IPOPT then reports
+    # infeasibility)
     nlines = len(points)
     th0, c0 = np.zeros(nlines), np.zeros(nlines)
     for i, p in enumerate(points):
-        # from the conflict-free warm-start schedules even when a solution is at hand: where a
-        # solution dips below the clearance its links may cross, and a line guessed from
-        # crossing links can put them on the wrong sides (IPOPT then reports infeasibility)
         th0[i], c0[i] = _line_guess(problem, _schedule_poses(schedules, names, grid, p), p)
     blocks.append(("theta", nlines, np.full(nlines, -np.inf), np.full(nlines, np.inf), th0))
     blocks.append(("c", nlines, np.full(nlines, -np.inf), np.full(nlines, np.inf), c0))
     blocks.append(("M", 1, np.zeros(1), np.full(1, np.inf), np.zeros(1)))
-    layout: dict = {}
-    off = 0
-    for key, n, *_ in blocks:
-        layout[key] = (off, off + n)
-        off += n
-    x = ca.MX.sym("x", off)
+    v = _Vars(blocks, sg)
 
-    def var(key):
-        a_, b_ = layout[key]
-        return x[a_:b_]
-
-    eta = var("eta")
-    H = _take(eta, seg_of) * ca.DM(h0)
-    Tb = ca.vertcat(0, var("T"))  # time at each segment boundary (sparse chain below)
-
-    def time_at(k: int):
-        return Tb[boundary[k]]
-
-    g, lbg, ubg = [], [], []
-    g.append(var("T") - Tb[:nseg] - eta * ca.DM(seg_len))  # (not T[:-1]: 1x0 when nseg is 1)
-    lbg.append(np.zeros(nseg))
-    ubg.append(np.zeros(nseg))
+    rows: list = [[], [], []]  # g, lbg, ubg
+    rows[0].append(v.var("T") - v.Tb[: sg.n] - v.eta * ca.DM(sg.length))  # (not T[:-1]: 1x0 when nseg is 1)
+    rows[1].append(np.zeros(sg.n))
+    rows[2].append(np.zeros(sg.n))
     Xn, Un, SC, ends = {}, {}, {}, {}
     smooth, tracking = 0, 0
     for name in names:
-        lo, hi, ulo, uhi, dwells, k_end, sx, su = per_arm[name]
-        Xn[name] = ca.reshape(var(f"X_{name}"), 6, K + 1)
-        Un[name] = ca.reshape(var(f"U_{name}"), 2, K)
-        SC[name] = np.r_[sx.ravel(), su.ravel()]
-        if lo_k < k_end <= hi_k:
-            ends[name] = k_end - lo_k
-        # intervals where the arm is pinned (both knots fixed, no jerk) need no dynamics rows:
-        # they would be identically zero and make the constraint Jacobian rank-deficient
-        pinned = np.all(lo == hi, axis=0)
-        frozen = pinned[:-1] & pinned[1:] & np.all((ulo == 0) & (uhi == 0), axis=0)
-        cols = np.flatnonzero(~frozen)
-        if cols.size:
-            # one mapped call over contiguous slices (cheap to differentiate and evaluate),
-            # then keep the rows of the intervals that are not frozen
-            res = ca.vec(dyn.map(K)(Xn[name][:, :K], Xn[name][:, 1:], Un[name], H.T, ca.DM(np.tile(SC[name][:, None], (1, K)))))
-            rows = (6 * cols[:, None] + np.arange(6)[None, :]).ravel()
-            g.append(res if rows.size == 6 * K else res[[int(r) for r in rows]])
-            lbg.append(np.zeros(rows.size))
-            ubg.append(np.zeros(rows.size))
-            arm = problem.arm(name)
-            plo = np.minimum(arm.limits[:, 0], lo[0:2].min(axis=1))
-            phi = np.maximum(arm.limits[:, 1], hi[0:2].max(axis=1))
-            hres = ca.vec(hull.map(K)(Xn[name][:, :K], Xn[name][:, 1:], H.T, ca.DM(np.tile(SC[name][:, None], (1, K)))))
-            g.append(hres if rows.size == 6 * K else hres[[int(r) for r in rows]])
-            lbg.append(np.tile(np.r_[-1.0, -1.0, plo, plo], cols.size))
-            ubg.append(np.tile(np.r_[1.0, 1.0, phi, phi], cols.size))
-        for k0, k1, dwell in dwells:
-            a_, b_ = max(k0, lo_k), min(k1, hi_k)
-            if b_ > a_:  # a dwell cut by a window boundary: each part keeps its share
-                g.append(time_at(b_ - lo_k) - time_at(a_ - lo_k))
-                lbg.append([dwell * (b_ - a_) / (k1 - k0) + 1e-6])
-                ubg.append([np.inf])
-        smooth += ca.sumsqr(Un[name]) * float(np.mean(h0))
+        Xn[name], Un[name], SC[name], end, s_, t_ = _arm_rows(problem, name, per_arm[name], v, (lo_k, hi_k), (dyn, hull),
+                                                              q_warm[name], track, rows)
+        if end is not None:
+            ends[name] = end
+        smooth += s_
         if track > 0:
-            dq = Xn[name][0:2, :] - ca.DM(q_warm[name])
-            tracking += ca.sum2(ca.sum1(dq * dq) * ca.DM(np.r_[h0, 0.0][None, :]))
+            tracking += t_
     if nlines:
-        half = (problem.task.clearance + margin) / 2.0
-        kk = [p.k - lo_k for p in points]
-        kh = [min(k, K - 1) for k in kk]
-        geo = np.array([
-            [*problem.arms[p.ia].base, *problem.arms[p.ia].links, *problem.arms[p.ib].base, *problem.arms[p.ib].links,
-             p.s, p.u, problem.arms[p.ia].link_radius + half, problem.arms[p.ib].link_radius + half, 0.0, 0.0]
-            for p in points]).T
-
-        def gather(attr, which):
-            return ca.horzcat(*[getattr_arm(which(p), attr, k, khh) for p, k, khh in zip(points, kk, kh)])
-
-        def getattr_arm(ia, attr, k, khh):
-            n = names[ia]
-            return Xn[n][:, k] if attr == "X" else Un[n][:, khh]
-
-        xa = gather("X", lambda p: p.ia)
-        ua = gather("U", lambda p: p.ia)
-        xb = gather("X", lambda p: p.ib)
-        ub = gather("U", lambda p: p.ib)
-        taus = ca.DM([[p.tau for p in points]])
-        hs = _take(H, kh).T
-        sca = ca.DM(np.stack([SC[names[p.ia]] for p in points], axis=1))
-        scb = ca.DM(np.stack([SC[names[p.ib]] for p in points], axis=1))
-        out = sep.map(nlines)(xa, ua, xb, ub, hs, taus, var("theta").T, var("c").T, ca.DM(geo), sca, scb)
-        g.append(ca.vec(out))
-        lbg.append(np.zeros(4 * nlines))
-        ubg.append(np.full(4 * nlines, np.inf))
-    # makespan epigraph over the arms whose last place lies in this window
-    M = var("M")
+        _separation_rows(problem, points, margin, lo_k, K, names, Xn, Un, SC, v, sep, rows)
+    # step 7: makespan epigraph over the arms whose last place lies in this window; objective
+    g, lbg, ubg = rows
+    M = v.var("M")
     for name, ke in ends.items():
-        g.append(M - time_at(ke))
+        g.append(M - v.time_at(ke))
         lbg.append([0.0])
         ubg.append([np.inf])
     m0 = max((float(grid.t[ke + lo_k] - grid.t[lo_k]) for ke in ends.values()), default=0.0)
     if last:
-        finish = sum(time_at(ke) for ke in ends.values()) / max(len(ends), 1)
-        obj = M + 0.05 * finish + 0.02 * time_at(K) + smooth_weight * smooth + track * tracking
+        finish = sum(v.time_at(ke) for ke in ends.values()) / max(len(ends), 1)
+        obj = M + 0.05 * finish + 0.02 * v.time_at(K) + smooth_weight * smooth + track * tracking
     else:
-        obj = time_at(K) + 0.01 * M + smooth_weight * smooth + track * tracking
+        obj = v.time_at(K) + 0.01 * M + smooth_weight * smooth + track * tracking
     gg = ca.vertcat(*g)
-    opts = {
-        "ipopt.print_level": 0,
-        "print_time": False,
-        "ipopt.sb": "yes",
-        "ipopt.linear_solver": "mumps",
-        "ipopt.option_file_name": "",  # never read an ipopt.opt from the working directory
-        "ipopt.tol": 1e-6,
-        "ipopt.constr_viol_tol": 1e-7,
-        "ipopt.acceptable_tol": 1e-4,
-        "ipopt.acceptable_constr_viol_tol": 1e-6,
-        "ipopt.acceptable_iter": 5,
-        "ipopt.max_iter": 500,
-        "ipopt.mu_strategy": "adaptive",
-    }
-    if warm is not None:
-        opts["ipopt.mu_init"] = 1e-3
-        opts["ipopt.bound_push"] = 1e-5
-        opts["ipopt.bound_frac"] = 1e-5
-    opts.update(ipopt_options or {})
     x0v = np.concatenate([np.asarray(b[4], float).ravel() for b in blocks])
-    x0v[layout["M"][0]] = m0
+    x0v[v.layout["M"][0]] = m0
     if warm is not None and warm.x is not None:
-        x0v = _transfer_warm(warm, layout, x0v)
+        x0v = _transfer_warm(warm, v.layout, x0v)
     lbx = np.concatenate([np.asarray(b[2], float).ravel() for b in blocks])
     ubx = np.concatenate([np.asarray(b[3], float).ravel() for b in blocks])
     nlp = NLP(
-        problem={"x": x, "f": obj, "g": gg},
-        options=opts,
+        problem={"x": v.x, "f": obj, "g": gg},
+        options=_ipopt_options(warm, ipopt_options),
         x0=np.clip(x0v, lbx, ubx),
         lbx=lbx,
         ubx=ubx,
-        lbg=np.concatenate([np.asarray(v, float).ravel() for v in lbg]),
-        ubg=np.concatenate([np.asarray(v, float).ravel() for v in ubg]),
-        layout=layout,
+        lbg=np.concatenate([np.asarray(val, float).ravel() for val in lbg]),
+        ubg=np.concatenate([np.asarray(val, float).ravel() for val in ubg]),
+        layout=v.layout,
         scales={n: (per_arm[n][6], per_arm[n][7]) for n in names},
         grid=grid,
         points=list(points),
         build_seconds=_time.perf_counter() - t0,
-        n_vars=int(off),
+        n_vars=int(v.size),
         n_cons=int(gg.numel()),
     )
     nlp.window = (lo_k, hi_k)  # type: ignore[attr-defined]

@@ -1,9 +1,9 @@
-"""Solving a built :class:`coplan.planners.optimal.nlp.NLP` with IPOPT (MUMPS).
+"""Solving a built :class:`coplan.planners.optimal.nlp_data.NLP` with IPOPT (MUMPS).
 
 :func:`solve_nlp` expands the problem to SX with every pinned variable substituted, so IPOPT
 only sees the free ones; an iteration callback (:class:`_Monitor`) keeps the best iterate,
 honours Ctrl-C (within an iteration) and a wall-clock limit; IPOPT's return status is mapped
-to :class:`coplan.planners.optimal.nlp.SolverStatus`. IPOPT never reads an ``ipopt.opt`` file (the options
+to :class:`~coplan.planners.optimal.nlp_data.SolverStatus`. IPOPT never reads an ``ipopt.opt`` file (the options
 set ``option_file_name`` to empty).
 """
 
@@ -15,7 +15,7 @@ import time as _time
 import casadi as ca
 import numpy as np
 
-from .nlp import NLP, NLPSolution, SolverStatus, map_status
+from .nlp_data import NLP, NLPSolution, SolverStatus, map_status
 
 __all__ = ["solve_nlp"]
 

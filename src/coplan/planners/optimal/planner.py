@@ -33,7 +33,7 @@ import numpy as np
 from ...allocate.allocation import Allocation, AllocationMethod
 from ..coordinated.planner import Coordinated, CoordinatedOptions, make_plan, plan_coordinated, schedules_plan
 from ..heuristic import plan_heuristic
-from .nlp import Grid, SolverStatus, build_grid
+from .nlp_data import Grid, SolverStatus, build_grid
 from ...plan import Event, EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from ...problem.model import Problem
 from ..coordinated.schedule import ArmSchedule, StepKind, decoupled_schedules

@@ -17,7 +17,8 @@ import numpy as np
 
 from ...kinematics import arm as kin
 from ...kinematics.geometry import segment_distance
-from .nlp import ConstraintPoint, Grid, NLPSolution, SolverStatus, build_nlp
+from .nlp import build_nlp
+from .nlp_data import ConstraintPoint, Grid, NLPSolution, SolverStatus
 from .nlp_solve import solve_nlp
 from .options import OptimalOptions
 from ...problem.model import Problem
