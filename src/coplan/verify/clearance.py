@@ -22,8 +22,11 @@ the micrometre. The same bound, applied to the plan's own intervals first, tells
 them cannot hold a dense sample below the clearance or the least distance: those are not
 densified at all (same figures as uniform 1 kHz sampling, several times faster).
 
-This module shares no code with the planners' constraints; FCL cross-checks it
-(:mod:`coplan.verify.fclcheck`).
+Independent on purpose: this module shares no code with the planners. Its segment distance
+(:func:`segment_distances`) is its own, written apart from the planners' one implementation
+(:mod:`coplan.kinematics.geometry`), so that an error in either cannot hide in both; FCL
+cross-checks it (:mod:`coplan.verify.fclcheck`). Keep it that way: do not replace it by the
+planners' function.
 """
 
 from __future__ import annotations

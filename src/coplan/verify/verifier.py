@@ -3,7 +3,10 @@
 Entry point: :func:`verify` returns a :class:`Verification`. It shares no code with the
 planners' constraints: the clearance comes from :mod:`coplan.verify.clearance` (exact NumPy capsule
 distances on the replayed plan, with a certificate for the gaps between samples), cross-checked
-with FCL by :mod:`coplan.verify.fclcheck`; limits, picks and places are checked here.
+with FCL by :mod:`coplan.verify.fclcheck`; limits, picks and places are checked here. (Only the
+witness points it reports -- where on two links the closest approach lies -- come from
+:func:`coplan.kinematics.geometry.segment_distance`; every distance in the verdict is the
+verifier's own.)
 
 What "passes" means (every check below, with the default :class:`VerifyOptions`):
 
