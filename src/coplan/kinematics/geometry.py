@@ -19,8 +19,7 @@ __all__ = ["segment_distance", "segment_distance_xy", "capsule_distance"]
 
 def _point_segment(px, py, ax, ay, ux, uy, uu_safe):
     """Squared distance from points p to segments a + s u, s in [0, 1], and the closest points:
-    ``(d2, cx, cy)``, coordinate arrays (broadcast). ``uu_safe``: |u|^2, or 1 where u = 0
-    (then the numerator is 0 too: the segment is its point a)."""
+    ``(d2, cx, cy)``, coordinate arrays (broadcast). ``uu_safe``: |u|^2, kept above 0."""
     t = np.clip(((px - ax) * ux + (py - ay) * uy) / uu_safe, 0.0, 1.0)
     cx = ax + t * ux
     cy = ay + t * uy
@@ -44,8 +43,10 @@ def _candidates(ax, ay, bx, by, cx, cy, dx, dy):
     vx, vy = dx - cx, dy - cy
     uu = ux * ux + uy * uy
     vv = vx * vx + vy * vy
-    uu = np.where(uu > 0, uu, 1.0)
-    vv = np.where(vv > 0, vv, 1.0)
+    # (a zero-length segment is its first point: the numerator is 0 too; one shorter than
+    # 1e-150 m counts as that point)
+    uu = np.maximum(uu, 1e-300)
+    vv = np.maximum(vv, 1e-300)
     cand = (_point_segment(ax, ay, cx, cy, vx, vy, vv), _point_segment(bx, by, cx, cy, vx, vy, vv),
             _point_segment(cx, cy, ax, ay, ux, uy, uu), _point_segment(dx, dy, ax, ay, ux, uy, uu))
     return cand, _crossing(ax, ay, ux, uy, cx, cy, vx, vy, bx, by, dx, dy), (ux, uy, vx, vy)
