@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from coplan.coordinated import plan_coordinated
+from coplan.planners.coordinated import plan_coordinated
 from coplan.generate import row_problem, to_yaml
 from coplan.live.cell import LiveOptions
 from coplan.live.feed import make_feed

@@ -41,10 +41,10 @@ from pathlib import Path
 import numpy as np
 
 import coplan
-from coplan.allocation import bound_details
+from coplan.allocate import bound_details
 from coplan.generate import cell_problem, random_problem, row_problem, to_yaml
 from coplan.problem import load_problem, parse_problem, shipped_problems
-from coplan.screen import screened
+from coplan.allocate.screen import screened
 from coplan.verify import verify
 
 TOL = 1e-3  # s: "never slower" and "proven optimal" tolerance

@@ -18,10 +18,10 @@ import sys
 import time
 from pathlib import Path
 
-from coplan.allocation import bound_details
+from coplan.allocate import bound_details
 from coplan.generate import row_problem, to_yaml
 from coplan.problem import load_problem, parse_problem, shipped_problems
-from coplan.screen import screen
+from coplan.allocate.screen import screen
 
 
 def _median_time(fn, repeat: int) -> float:

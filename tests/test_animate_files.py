@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from coplan.heuristic import plan_heuristic
+from coplan.planners.heuristic import plan_heuristic
 from coplan.viz import animate as anim_mod
 from coplan.viz.animate import RenderError, animate_plan, ffmpeg_available
 

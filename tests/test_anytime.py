@@ -12,9 +12,9 @@ import pytest
 from typer.testing import CliRunner
 
 from coplan.cli import app
-from coplan.coordinated import plan_coordinated
+from coplan.planners.coordinated import plan_coordinated
 from coplan.generate import cell_problem, random_problem, to_yaml
-from coplan.optimal import OptimalOptions, plan_optimal
+from coplan.planners.optimal import OptimalOptions, plan_optimal
 from coplan.pipeline import ExitCode, solve
 from coplan.plan import PlannerKind, PlanStatus, load_plan
 from coplan.problem import default_problem_path, load_problem, parse_problem
@@ -65,13 +65,13 @@ def test_the_polishing_nlp_is_kept_only_when_verified_and_faster():
 def test_the_nlp_is_skipped_where_it_cannot_finish_sooner():
     """The coordinated crossing_paths plan: the arm that places last never waits and moves
     straight between its poses, so the NLP (same poses, same order) has nothing to gain."""
-    from coplan.optimal import retimable
+    from coplan.planners.optimal.planner import retimable
 
     prob = _shipped("crossing_paths")
     res = plan_optimal(prob, options=OptimalOptions(search_work=0))
     assert res.plan.solver["nlp"] is None
     assert res.plan.solver["incumbent_from"] == "coordinated"
-    from coplan.coordinated import CoordinatedOptions
+    from coplan.planners.coordinated import CoordinatedOptions
 
     cand = plan_coordinated(prob, "makespan", CoordinatedOptions(), lambda m: None).candidate
     assert not retimable(cand.schedules)
@@ -81,7 +81,7 @@ def test_the_nlp_is_skipped_where_it_cannot_finish_sooner():
     # make the last arm wait: now there is something to retime
     from dataclasses import replace as _replace
 
-    from coplan.schedule import Step, StepKind
+    from coplan.planners.coordinated.schedule import Step, StepKind
 
     steps = list(last.steps)
     k = next(i for i, st in enumerate(steps) if st.kind == StepKind.MOVE)
@@ -164,7 +164,7 @@ def _squeezed(seed: int):
 
 @pytest.mark.parametrize("seed", [0, 2, 4, 6])
 def test_layouts_with_locked_arms_end_verified_with_a_reason_for_every_fruit_left(seed):
-    from coplan.screen import screen
+    from coplan.allocate.screen import screen
 
     prob = _squeezed(seed)
     if prob is None:
@@ -183,7 +183,7 @@ def test_layouts_with_locked_arms_end_verified_with_a_reason_for_every_fruit_lef
 
 
 def test_at_least_one_squeezed_layout_has_a_locked_arm():
-    from coplan.screen import screen
+    from coplan.allocate.screen import screen
 
     assert any(p is not None and screen(p).locked for p in map(_squeezed, [0, 2, 4, 6]))
 
@@ -200,8 +200,8 @@ def test_plan_json_records_the_bound_and_whether_it_is_proven(tmp_path):
 def test_exhaustive_search_agrees_with_trying_every_state():
     """Branch and bound over a small state space (cheapest estimate first, stopping where the
     estimate cannot beat the best) finds the same makespan as coordinating every state."""
-    from coplan.coordinated import CoordinatedOptions
-    from coplan.search import SearchOptions, StopReason, _Search, improve
+    from coplan.planners.coordinated import CoordinatedOptions
+    from coplan.planners.optimal.search import SearchOptions, StopReason, _Search, improve
 
     text = default_problem_path().with_name("crossing_paths.yaml").read_text()
     text = text.replace("  - {id: a2, position: [0.75, 0.40]}\n", "").replace("  - {id: b2, position: [-0.75, 0.40]}\n", "")
@@ -225,10 +225,10 @@ def test_a_large_state_space_is_not_enumerated():
     """100 fruit on five arms: far more states than the exhaustive cap. The counts are exact
     integers: (20!)^5 orders wrapped around in 64-bit arithmetic once, looked small, and the
     enumeration that followed filled the memory."""
-    from coplan.allocation import allocate
-    from coplan.coordinated import Coordinated
+    from coplan.allocate import allocate
+    from coplan.planners.coordinated.planner import Coordinated
     from coplan.generate import row_problem
-    from coplan.search import SearchOptions, _Search
+    from coplan.planners.optimal.search import SearchOptions, _Search
 
     prob = parse_problem(to_yaml(row_problem(5, 100, seed=11, reachable_only=True)), "row")
     alloc = allocate(prob)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import coplan
-from coplan.allocation import (
+from coplan.allocate.allocation import (
     LowerBound,
     _first_trip,
     _lb_time,

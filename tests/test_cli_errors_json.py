@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from coplan.cli import app
 from coplan.errors import plural
-from coplan.heuristic import plan_heuristic
+from coplan.planners.heuristic import plan_heuristic
 from coplan.kinds import ExitCode
 
 BAD = """name: bad

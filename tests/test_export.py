@@ -13,11 +13,11 @@ import yaml
 from typer.testing import CliRunner
 
 from coplan.cli import app
-from coplan.coordinated import plan_coordinated
-from coplan.export import export_plan, safe_names, trajectory
+from coplan.planners.coordinated import plan_coordinated
+from coplan.report.export import export_plan, safe_names, trajectory
 from coplan.kinds import EventKind, ExitCode
 from coplan.plan import load_plan
-from coplan.timing import SCurve
+from coplan.kinematics import SCurve
 
 
 def run(*args: str):

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from coplan import kinematics as kin
-from coplan.clearance import ArmMotion, arm_link_distances, segment_distances
-from coplan.fclcheck import FCL_TOLERANCE, cross_check, fcl_capsule_distance
-from coplan.geometry import segment_distance
+from coplan.verify.clearance import ArmMotion, arm_link_distances, segment_distances
+from coplan.verify.fclcheck import FCL_TOLERANCE, cross_check, fcl_capsule_distance
+from coplan.kinematics import segment_distance
 
 N = 800  # per family; 6 families -> 4800 pairs
 

@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from coplan import kinematics as kin
-from coplan.geometry import capsule_distance
+from coplan.kinematics import capsule_distance
 from coplan.generate import LESSON_DEFAULTS, LESSON_TASK, overlap_problem, random_problem, row_problem, to_yaml
 from coplan.problem import Problem, load_problem, parse_problem
 

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from coplan import kinematics as kin
-from coplan.allocation import AllocationMethod, allocate
+from coplan.allocate.allocation import AllocationMethod, allocate
 from coplan.generate import row_problem, to_yaml
-from coplan.heuristic import plan_heuristic
+from coplan.planners.heuristic import plan_heuristic
 from coplan.plan import EventKind, Plan, PlannerKind, PlanStatus
 from coplan.problem import Problem, parse_problem
-from coplan.timing import cubic_min_time
+from coplan.kinematics import cubic_min_time
 
 
 # --------------------------------------------------------------------------- the lesson, re-implemented

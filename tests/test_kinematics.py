@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from coplan import kinematics as kin
-from coplan.geometry import capsule_distance, segment_distance
+from coplan.kinematics import capsule_distance, segment_distance
 
 SETTINGS = settings(max_examples=60, deadline=None)
 LINK = st.floats(0.2, 2.0)

@@ -16,7 +16,7 @@ from coplan.live.feed import Detection, Feed, FeedError, feed_yaml, load_feed, m
 from coplan.live.motion import Approach, move_step, split_at
 from coplan.live.sim import simulate
 from coplan.plan import load_plan
-from coplan.schedule import Step, StepKind
+from coplan.planners.coordinated.schedule import Step, StepKind
 from coplan.verify import verify
 
 
@@ -180,7 +180,7 @@ def test_a_detection_during_a_dwell_keeps_the_dwell_and_continuity(greenhouse) -
     assert rep.commit_until[arm] >= pick.t1 - 1e-9
     t = np.linspace(0.0, now + 0.1, 300)
     for n in cell.steps:  # everything before the horizon is unchanged
-        from coplan.schedule import ArmSchedule
+        from coplan.planners.coordinated.schedule import ArmSchedule
 
         old = ArmSchedule(greenhouse.arm(n), before[n]).state(t)
         new = ArmSchedule(greenhouse.arm(n), cell.steps[n]).state(t)
@@ -254,7 +254,7 @@ def test_the_whole_executed_plan_is_verified(live_run, tmp_path: Path) -> None:
 
 
 def test_continuity_at_every_replan_boundary(live_run) -> None:
-    from coplan.schedule import ArmSchedule
+    from coplan.planners.coordinated.schedule import ArmSchedule
 
     problem, _, result, snaps = live_run
     assert len(snaps) >= 10 and {r.cause for r, _ in snaps} >= {ReplanCause.DETECTIONS, ReplanCause.CLOSE_RANGE}

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from coplan import nlp_solve as nlp_mod
-from coplan.allocation import AllocationMethod, _solve_minmax, allocate, lower_bound
+from coplan.planners.optimal import nlp_solve as nlp_mod
+from coplan.allocate.allocation import AllocationMethod, _solve_minmax, allocate, lower_bound
 from coplan.cli import app
 from coplan.generate import random_problem, to_yaml
-from coplan.nlp import SolverStatus, map_status
-from coplan.optimal import OptimalOptions, plan_optimal
+from coplan.planners.optimal.nlp import SolverStatus, map_status
+from coplan.planners.optimal import OptimalOptions, plan_optimal
 from coplan.pipeline import ExitCode, finalize, solve
 from coplan.plan import PlanStatus, load_plan
 from coplan.problem import default_problem_path, load_problem, parse_problem
@@ -137,7 +137,7 @@ def test_greenhouse_success_is_verified_and_meets_targets(greenhouse, greenhouse
 
 
 def test_optimiser_clearance_agrees_with_verifier(greenhouse, greenhouse_result):
-    from coplan.windows import min_clearance
+    from coplan.planners.optimal.windows import min_clearance
 
     plan = greenhouse_result.plan
     ours = min_clearance(greenhouse, plan.sample(np.arange(0.0, plan.duration, 0.001)))
@@ -180,8 +180,8 @@ def test_unverified_plan_is_never_a_success(greenhouse, greenhouse_result, monke
 def test_failed_solver_keeps_best_iterate_and_baseline(tmp_path, greenhouse, monkeypatch):
     """Nothing can be coordinated (forced) and IPOPT gets 3 iterations: the planner says it
     failed, keeps its best iterate and writes the baseline beside it."""
-    from coplan import coordinated as coord_mod
-    from coplan.schedule import ConflictError
+    from coplan.planners.coordinated import planner as coord_mod
+    from coplan.planners.coordinated.schedule import ConflictError
 
     def deadlock(*args, **kwargs):
         raise ConflictError("forced deadlock")
@@ -233,7 +233,7 @@ def test_ctrl_c_during_the_nlp_keeps_the_verified_incumbent(crossing, monkeypatc
 
 def test_ctrl_c_during_the_search_saves_the_incumbent(tmp_path, monkeypatch):
     """Ctrl-C while the search runs: the best verified plan so far is saved, exit 130."""
-    from coplan import search as search_mod
+    from coplan.planners.optimal import search as search_mod
 
     prob = load_problem(default_problem_path().with_name("five_arm_row.yaml"))
     real, calls = search_mod.coordinate, {"n": 0}
@@ -271,8 +271,8 @@ class _Clock:
 def test_time_limit_mid_improvement_returns_the_verified_incumbent(monkeypatch):
     """The clock limit passes right after the search's first improvement: the planner stops
     there and returns that verified incumbent as a success, the limit recorded."""
-    from coplan import optimal as optimal_mod
-    from coplan import search as search_mod
+    from coplan.planners.optimal import planner as optimal_mod
+    from coplan.planners.optimal import search as search_mod
 
     prob = load_problem(default_problem_path().with_name("five_arm_row.yaml"))
     clock = _Clock(jump=10_000.0)
@@ -300,8 +300,8 @@ def test_time_limit_mid_improvement_returns_the_verified_incumbent(monkeypatch):
 def test_ipopt_opt_in_working_directory_is_ignored(tmp_path, monkeypatch, crossing):
     (tmp_path / "ipopt.opt").write_text("max_iter 1\nprint_level 12\n")
     monkeypatch.chdir(tmp_path)
-    from coplan.coordinated import CoordinatedOptions, plan_coordinated
-    from coplan.optimal import nlp_plan
+    from coplan.planners.coordinated import CoordinatedOptions, plan_coordinated
+    from coplan.planners.optimal.planner import nlp_plan
 
     cand = plan_coordinated(crossing, "makespan", CoordinatedOptions(), lambda m: None).candidate
     plan, info, status = nlp_plan(crossing, cand.alloc, cand.schedules)

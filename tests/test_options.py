@@ -11,8 +11,8 @@ from typer.testing import CliRunner
 
 from coplan.cli import app
 from coplan.kinds import ExitCode
-from coplan.optimal import OptimalOptions
-from coplan.options import OptionsError, load_options, parse_options
+from coplan.planners.optimal import OptimalOptions
+from coplan.planners.optimal import OptionsError, load_options, parse_options
 
 
 def run(*args: str):

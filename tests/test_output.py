@@ -35,7 +35,7 @@ def test_a_failed_write_leaves_the_previous_run_whole_and_no_partial_folder(tmp_
     out = tmp_path / "run"
     solve(_single(), planner="heuristic", out_dir=out)
     before = {p.name: p.read_bytes() for p in out.iterdir()}
-    from coplan import verdict
+    from coplan.verify import verdict
 
     def disk_full(self, path):
         raise OSError(28, "No space left on device", str(path))
@@ -69,7 +69,7 @@ def test_staging_folders_are_unique_per_writer(tmp_path):
 def test_a_full_disk_is_reported_with_the_path_and_its_own_exit_code(tmp_path, monkeypatch):
     from typer.testing import CliRunner
 
-    from coplan import verdict
+    from coplan.verify import verdict
     from coplan.cli import app
 
     def disk_full(self, path):

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from coplan.errors import PlanFileError
-from coplan.heuristic import plan_heuristic
+from coplan.planners.heuristic import plan_heuristic
 from coplan.plan import PLAN_FORMAT, EventKind, Plan, PlanStatus, load_plan
 from coplan.problem import Problem
 

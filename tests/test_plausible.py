@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from coplan.allocation import lower_bound
+from coplan.allocate import lower_bound
 from coplan.cli import app
-from coplan.heuristic import plan_heuristic
+from coplan.planners.heuristic import plan_heuristic
 from coplan.plan import MAX_PLAN_BYTES
 from coplan.plausible import BOUNDS, BYTES_PER_SAMPLE, MAX_PLAN_SECONDS, max_plan_seconds, move_times, plan_duration_bound
-from coplan.problem import ProblemError, default_problem_path, load_problem, parse_problem
-from coplan.timing import cubic_min_time, scurve_time
+from coplan.problem.model import ProblemError, default_problem_path, load_problem, parse_problem
+from coplan.kinematics import cubic_min_time, scurve_time
 
 PROBLEMS = default_problem_path().parent
 SINGLE = (PROBLEMS / "single_arm.yaml").read_text()

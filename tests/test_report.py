@@ -12,7 +12,7 @@ from coplan.cli import app
 from coplan.errors import CoplanError, ProblemError
 from coplan.pipeline import ExitCode
 from coplan.problem import load_problem, shipped_problems
-from coplan.report import PlannerSpec, compare
+from coplan.report.comparison import PlannerSpec, compare
 from coplan.verify import verify
 
 PLANNERS = ["heuristic", "heuristic:makespan"]  # both allocations of the baseline: fast, and always available

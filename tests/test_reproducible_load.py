@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from coplan import solve
-from coplan.optimal import OptimalOptions
+from coplan.planners.optimal import OptimalOptions
 
 WALL_CLOCK = {"timings", "time_to_first_verified", "time_of_last_improvement", "milp_seconds"}
 

@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from coplan.cli import app
-from coplan.heuristic import plan_heuristic
+from coplan.planners.heuristic import plan_heuristic
 from coplan.kinds import ExitCode, PlannerKind, PlanStatus
 from coplan.plan import load_plan
 from coplan.problem import load_problem
@@ -116,11 +116,11 @@ def test_out_is_checked_before_solving(tmp_path: Path, problems_dir: Path) -> No
 def test_unwritable_out_is_refused(tmp_path: Path, problems_dir: Path, monkeypatch) -> None:
     """(This machine runs tests as root, who may write anywhere: the permission answer is
     simulated where the CLI asks for it.)"""
-    import coplan.cli
+    import coplan.cli.commands
 
     locked = tmp_path / "locked"
     locked.mkdir()
-    monkeypatch.setattr(coplan.cli.os, "access", lambda path, mode: Path(path) != locked)
+    monkeypatch.setattr(coplan.cli.commands.os, "access", lambda path, mode: Path(path) != locked)
     res = run("solve", str(problems_dir / "single_arm.yaml"), "--out", str(locked / "run"))
     assert res.exit_code == int(ExitCode.USAGE), res.output
     assert f"found {locked} not writable" in res.output

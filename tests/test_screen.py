@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from coplan.generate import random_problem, to_yaml
-from coplan.heuristic import plan_heuristic
+from coplan.planners.heuristic import plan_heuristic
 from coplan.problem import Arm, Fruit, Problem, Task, load_problem, parse_problem, shipped_problems
-from coplan.screen import screen
+from coplan.allocate.screen import screen
 from layouts import squeezed
 
 LOCKED = next(p for p in shipped_problems() if p.name == "locked_arms.yaml")

@@ -14,14 +14,14 @@ import numpy as np
 import pytest
 
 from coplan import kinematics as kin
-from coplan.allocation import allocate
-from coplan.coordinate import coordinate
+from coplan.allocate import allocate
+from coplan.planners.coordinated.coordinate import coordinate
 from coplan.generate import LESSON_DEFAULTS, LESSON_TASK, random_problem, to_yaml
 from coplan.plan import DEFAULT_RATE, Plan, PlannerKind, PlanStatus, compute_metrics
 from coplan.problem import Problem, load_problem, parse_problem
-from coplan.schedule import ConflictError, StepKind, decoupled_schedules
-from coplan.serial import BudgetSpent, serial_schedules
-from coplan.timing import SCurve
+from coplan.planners.coordinated.schedule import ConflictError, StepKind, decoupled_schedules
+from coplan.planners.coordinated.serial import BudgetSpent, serial_schedules
+from coplan.kinematics import SCurve
 from coplan.verify import verify
 from layouts import IMPOSSIBLE
 
@@ -195,7 +195,7 @@ def test_a_spent_budget_leaves_fruit_out_with_the_reason_never_hangs():
     in, with the reason, and plans the rest: a verified partial plan; once the fallback's whole
     budget is spent, no plan -- never an endless search. The tight layout needs ~2 million
     pose-pair tests in one attempt (a quarter of the budget)."""
-    from coplan.coordinated import CoordinatedOptions, plan_coordinated
+    from coplan.planners.coordinated import CoordinatedOptions, plan_coordinated
 
     p = tight_problem()
 
@@ -230,7 +230,7 @@ def test_one_arm_at_a_time_is_the_sum_of_the_arms_alone_and_verified():
     but for the last arm, which counts to its last place."""
     import itertools
 
-    from coplan.coordinated import one_at_a_time
+    from coplan.planners.coordinated.planner import one_at_a_time
     from coplan.problem import default_problem_path
 
     p = load_problem(default_problem_path())

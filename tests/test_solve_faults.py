@@ -13,13 +13,13 @@ import pytest
 from typer.testing import CliRunner
 
 import coplan
-import coplan.optimal as optimal_mod
+import coplan.planners.optimal.planner as optimal_mod
 from coplan.cli import app
-from coplan.coordinated import plan_coordinated
+from coplan.planners.coordinated import plan_coordinated
 from coplan.kinds import ExitCode, PlanStatus
-from coplan.nlp import ConstraintPoint, build_grid, build_nlp
-from coplan.nlp_solve import solve_nlp
-from coplan.optimal import OptimalOptions, nlp_plan
+from coplan.planners.optimal.nlp import ConstraintPoint, build_grid, build_nlp
+from coplan.planners.optimal.nlp_solve import solve_nlp
+from coplan.planners.optimal.planner import OptimalOptions, nlp_plan
 from coplan.plan import load_plan
 from coplan.problem import default_problem_path, load_problem
 

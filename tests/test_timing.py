@@ -23,7 +23,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from coplan.timing import SCurve, cubic_eval, cubic_min_time, move_lower_bound, scurve_time
+from coplan.kinematics import SCurve, cubic_eval, cubic_min_time, move_lower_bound, scurve_time
 
 V, A, J = 3.0, 8.0, 80.0  # the greenhouse arm's shoulder limits
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from coplan.errors import PlanFileError, ProblemError
-from coplan.heuristic import plan_heuristic
+from coplan.planners.heuristic import plan_heuristic
 from coplan.plan import MAX_PLAN_BYTES, load_plan
 from coplan.plancsv import CSV_PLANNER, csv_header
 from coplan.problem import default_problem_path, parse_problem

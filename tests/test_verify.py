@@ -10,15 +10,15 @@ import pytest
 from typer.testing import CliRunner
 
 from coplan import kinematics as kin
-from coplan.clearance import DEFAULT_SUBSTEPS, clearance_profile, segment_distances
+from coplan.verify.clearance import DEFAULT_SUBSTEPS, clearance_profile, segment_distances
 from coplan.cli import app
 from coplan.errors import PlanFileError
-from coplan.heuristic import plan_heuristic
+from coplan.planners.heuristic import plan_heuristic
 from coplan.pipeline import ExitCode
 from coplan.plan import Event, EventKind, Piece, Plan, PlannerKind, PlanStatus, load_plan, sample_pieces
 from coplan.problem import Problem, load_problem, parse_problem, shipped_problems
-from coplan.timing import SCurve, cubic_eval
-from coplan.verify import FclMode, IntervalKind, Verification, ViolationKind, WarningKind, verify
+from coplan.kinematics import SCurve, cubic_eval
+from coplan.verify.verifier import FclMode, IntervalKind, Verification, ViolationKind, WarningKind, verify
 
 RATE = 100.0
 
@@ -299,7 +299,7 @@ def test_plan_for_other_arms_is_bad_input(two_arms):
 
 
 def test_fcl_disagreement_fails_the_plan(two_arms, monkeypatch):
-    import coplan.fclcheck as fc
+    import coplan.verify.fclcheck as fc
 
     real = fc.arm_link_distances
     monkeypatch.setattr(fc, "arm_link_distances", lambda pa, pb: real(pa, pb) + 1e-4)

@@ -17,8 +17,8 @@ from coplan.cli import app
 from coplan.kinds import EventKind, ExitCode
 from coplan.plan import Plan, PlannerKind, PlanStatus, load_plan
 from coplan.problem import default_problem_path, load_problem
-from coplan.timing import cubic_eval
-from coplan.verify import ViolationKind, WarningKind, verify
+from coplan.kinematics import cubic_eval
+from coplan.verify.verifier import ViolationKind, WarningKind, verify
 
 PROBLEMS = default_problem_path().parent
 
@@ -132,7 +132,7 @@ def test_cubic_acceleration_steps_are_reported_by_size_and_time(single_arm, rate
 
 
 def test_heuristic_plan_steps_at_the_start_are_at_time_zero_never_negative(greenhouse) -> None:
-    from coplan.heuristic import plan_heuristic
+    from coplan.planners.heuristic import plan_heuristic
 
     ver = verify(greenhouse, plan_heuristic(greenhouse))
     assert ver.violations and all(v.t >= 0 and (v.t_start is None or v.t_start >= 0) for v in ver.violations)

@@ -22,7 +22,7 @@ from typer.testing import CliRunner
 from coplan import parse_problem
 from coplan.cli import app
 from coplan.generate import row_problem, to_yaml
-from coplan.heuristic import plan_heuristic
+from coplan.planners.heuristic import plan_heuristic
 from coplan.plan import EventKind
 from coplan.viz import animate as anim_mod
 from coplan.viz.animate import RenderError, animate_plan, frame_times, render_frame

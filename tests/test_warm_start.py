@@ -13,17 +13,17 @@ import numpy as np
 import pytest
 
 from coplan import kinematics as kin
-from coplan.allocation import AllocationMethod, allocate
-from coplan.geometry import segment_distance
-from coplan.screen import screen
+from coplan.allocate.allocation import AllocationMethod, allocate
+from coplan.kinematics import segment_distance
+from coplan.allocate.screen import screen
 from layouts import IMPOSSIBLE
-from coplan.coordinated import CoordinatedOptions, find_coordinated
+from coplan.planners.coordinated import CoordinatedOptions, find_coordinated
 from coplan.plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics
 from coplan.problem import Problem, load_problem, parse_problem
-from coplan.coordinate import coordinate
-from coplan.routing import choose_branches, route_moves
-from coplan.schedule import ConflictError, StepKind, decoupled_schedules, pair_distances
-from coplan.timing import SCurve
+from coplan.planners.coordinated.coordinate import coordinate
+from coplan.planners.coordinated.routing import choose_branches, route_moves
+from coplan.planners.coordinated.schedule import ConflictError, StepKind, decoupled_schedules, pair_distances
+from coplan.kinematics import SCurve
 from coplan.verify import verify
 
 MARGIN = 0.015
@@ -85,14 +85,14 @@ def test_pair_distances_match_segment_geometry(problems_dir):
 
 
 def test_tabulated_scurve_is_exact():
-    from coplan.schedule import _CurveTable
+    from coplan.planners.coordinated.schedule import CurveTable
 
     rng = np.random.default_rng(0)
     for _ in range(50):
         q0, q1 = rng.uniform(-3, 3, 2), rng.uniform(-3, 3, 2)
         c = SCurve.between(q0, q1, (3.0, 4.0), (8.0, 12.0), (80.0, 120.0))
         t = np.linspace(-0.1, c.duration + 0.1, 301)
-        np.testing.assert_allclose(_CurveTable(c).eval(t), c.eval(t), atol=1e-12)
+        np.testing.assert_allclose(CurveTable(c).eval(t), c.eval(t), atol=1e-12)
 
 
 # --------------------------------------------------------------------------- shipped problems

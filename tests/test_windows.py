@@ -6,16 +6,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from coplan import windows as windows_mod
-from coplan.allocation import allocate
-from coplan.nlp import Grid, NLPSolution, SolverStatus, build_grid
-from coplan.allocation import AllocationMethod
-from coplan.coordinated import CoordinatedOptions, find_coordinated
-from coplan.optimal import OptimalOptions, nlp_plan
-from coplan.windows import _choose_commit, _cut_allowed, _windows
+from coplan.planners.optimal import windows as windows_mod
+from coplan.allocate import allocate
+from coplan.planners.optimal.nlp import Grid, NLPSolution, SolverStatus, build_grid
+from coplan.allocate.allocation import AllocationMethod
+from coplan.planners.coordinated import CoordinatedOptions, find_coordinated
+from coplan.planners.optimal.planner import OptimalOptions, nlp_plan
+from coplan.planners.optimal.windows import _choose_commit, _cut_allowed, _windows
 from coplan.plan import PlanStatus
 from coplan.problem import default_problem_path, load_problem
-from coplan.schedule import StepKind, decoupled_schedules
+from coplan.planners.coordinated.schedule import StepKind, decoupled_schedules
 from coplan.verify import verify
 
 
@@ -132,7 +132,7 @@ def test_time_shifted_screening_finds_a_superset_of_points(greenhouse, sched_gri
 
 
 def test_an_unclean_schedule_is_solved_again_near_the_warm_start_from_the_first_window(greenhouse, coordinated, monkeypatch):
-    from coplan import optimal as optimal_mod
+    from coplan.planners.optimal import planner as optimal_mod
 
     levels = []
     original = optimal_mod.solve_windows
@@ -157,7 +157,7 @@ def test_knot_bounds_are_the_limits_and_the_hull_rows_bound_between_knots(greenh
     Bezier control points are bounded, so a solution's dense samples keep the limits too."""
     import casadi as ca
 
-    from coplan.nlp import build_nlp
+    from coplan.planners.optimal.nlp import build_nlp
 
     sched, grid = sched_grid
     nlp = build_nlp(greenhouse, sched, grid, [], 0.015)
@@ -183,7 +183,7 @@ def test_the_coordinated_schedules_are_a_feasible_point_of_the_nlp(greenhouse, c
     starts feasible, and polishing cannot have to slow down to become feasible)."""
     import casadi as ca
 
-    from coplan.nlp import build_nlp
+    from coplan.planners.optimal.nlp import build_nlp
 
     sched = coordinated.schedules
     grid = build_grid(sched, 0.06)

@@ -11,12 +11,12 @@ from .kinds import AllocationMethod, EventKind, ExitCode, PlannerKind, PlanStatu
 
 # the rest is imported on first use (PEP 562), so `import coplan` and `coplan --help` stay quick
 _LAZY = {
-    "Allocation": "allocation", "allocate": "allocation",
+    "Allocation": "allocate.allocation", "allocate": "allocate.allocation",
     "CoplanError": "errors", "InputError": "errors", "PlanFileError": "errors", "ProblemError": "errors",
     "Plan": "plan", "load_plan": "plan",
     "SolveResult": "pipeline", "solve": "pipeline",
-    "Arm": "problem", "Fruit": "problem", "Problem": "problem", "Task": "problem", "default_problem_path": "problem",
-    "load_problem": "problem", "parse_problem": "problem", "shipped_problems": "problem",
+    "Arm": "problem.model", "Fruit": "problem.model", "Problem": "problem.model", "Task": "problem.model", "default_problem_path": "problem.model",
+    "load_problem": "problem.model", "parse_problem": "problem.model", "shipped_problems": "problem.model",
     "view": "viz.viewer",
 }
 

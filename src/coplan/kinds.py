@@ -1,8 +1,8 @@
 """The enumerations every stage and the command line share (no heavy imports: ``coplan --help``
 and ``coplan check`` load only this, the CLI framework and what they use).
 
-Each is re-exported by the module that owns the concept (``coplan.allocation.AllocationMethod``,
-``coplan.plan.PlannerKind``, ``coplan.pipeline.ExitCode``, ``coplan.verdict.FclMode``, ...).
+Each is re-exported by the module that owns the concept (``coplan.allocate.allocation.AllocationMethod``,
+``coplan.plan.PlannerKind``, ``coplan.pipeline.ExitCode``, ``coplan.verify.verdict.FclMode``, ...).
 """
 
 from __future__ import annotations
@@ -117,7 +117,7 @@ class ReplanCause(str, Enum):
 
 
 class ExportFormat(str, Enum):
-    """``coplan export --format``: what a joint controller is handed (:mod:`coplan.export`)."""
+    """``coplan export --format``: what a joint controller is handed (:mod:`coplan.report.export`)."""
 
     CSV = "csv"  # one file, a row per time, every arm's q, qd, qdd
     JSON = "json"  # per arm a ROS 2 trajectory_msgs/JointTrajectory

@@ -10,12 +10,12 @@ import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .allocation import AllocationMethod, allocate
+from .allocate.allocation import AllocationMethod, allocate
 from .kinds import ExitCode
 from .output import RunFolder
-from .heuristic import plan_heuristic
+from .planners.heuristic import plan_heuristic
 from .plan import Plan, PlannerKind, PlanStatus, finalize_plan
-from .problem import Problem, load_problem
+from .problem.model import Problem, load_problem
 
 __all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
 
@@ -89,11 +89,11 @@ def solve(
     out_dir : when given, ``plan.json`` (+ CSV, NPZ), ``verification.json`` and, for the
         optimal planner, ``baseline.json`` are written there
     options : :class:`coplan.optimal.OptimalOptions` for the optimal planner,
-        :class:`coplan.coordinated.CoordinatedOptions` for the coordinated one (an
+        :class:`coplan.planners.coordinated.planner.CoordinatedOptions` for the coordinated one (an
         ``OptimalOptions`` lends it its margin, budget and time limit)
     progress : optional callable(str) receiving progress messages
     """
-    from .verify import verify
+    from .verify.verifier import verify
 
     t0 = _time.perf_counter()
     prob = problem if isinstance(problem, Problem) else load_problem(problem)
@@ -116,7 +116,7 @@ def solve(
         timings["verify"] = _time.perf_counter() - tv
         plan = finalize(prob, plan, ver)
     elif planner == PlannerKind.COORDINATED:
-        from .coordinated import CoordinatedOptions, plan_coordinated
+        from .planners.coordinated.planner import CoordinatedOptions, plan_coordinated
 
         method = AllocationMethod(allocation or AllocationMethod.MAKESPAN)
         copts = options if isinstance(options, CoordinatedOptions) else CoordinatedOptions(
@@ -126,7 +126,7 @@ def solve(
         plan, ver = res.plan, res.verification
         timings.update(res.timings)
     else:
-        from .optimal import plan_optimal
+        from .planners.optimal.planner import plan_optimal
 
         method = AllocationMethod(allocation or AllocationMethod.MAKESPAN)
         res = plan_optimal(prob, allocation=method, options=options, progress=say)

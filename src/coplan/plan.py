@@ -19,6 +19,7 @@ import numpy as np
 
 from .errors import Issue, PlanFileError
 from .kinds import EventKind, PlannerKind, PlanStatus
+from .plancsv import CSV_PLANNER, csv_header, read_csv_samples
 
 __all__ = [
     "PLAN_FORMAT",
@@ -167,7 +168,6 @@ class Plan:
         tmp = paths["json"].with_suffix(".json.tmp")
         tmp.write_text(json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
         tmp.replace(paths["json"])
-        from .plancsv import csv_header  # (imports this module)
 
         cols = [self.time[:, None]] + [self.q[a] for a in self.q]
         np.savetxt(paths["csv"], np.hstack(cols), delimiter=",", header=csv_header(self.q), comments="", fmt="%.7f")
@@ -296,9 +296,7 @@ def load_plan(path: str | Path) -> Plan:
         raise PlanFileError([Issue("", f"expected a plan file of at most {MAX_PLAN_BYTES} bytes ({MAX_PLAN_BYTES >> 20} MiB, "
                                        f"about 2 h of three arms at 100 Hz), found {size} bytes; it was not read")], src)
     if p.suffix.lower() == ".csv":
-        from .plancsv import plan_from_csv  # (imports this module)
-
-        return plan_from_csv(p.read_bytes(), src)
+        return _plan_from_csv(p.read_bytes(), src)
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
     except json.JSONDecodeError as e:
@@ -362,6 +360,16 @@ def time_grid_issues(time: np.ndarray) -> list[tuple[int | None, str]]:
         elif h > 0.01 + 1e-9:
             out.append((None, f"expected a grid of 100 Hz or finer (spacing <= 0.01 s), found spacing {h:.4g} s"))
     return out
+
+
+def _plan_from_csv(raw: bytes, source: str | None) -> Plan:
+    """The :class:`Plan` of a ``plan.csv`` (no events), its time grid checked."""
+    time, q, lines = read_csv_samples(raw, source)
+    grid = time_grid_issues(time)
+    if grid:
+        raise PlanFileError([Issue("t", msg, None if i is None else int(lines[i])) for i, msg in grid], source)
+    return Plan(problem="", planner=CSV_PLANNER, status=PlanStatus.UNVERIFIED, time=time, q=q, events=[],
+                allocation={}, unreachable=[])
 
 
 def plan_from_dict(data: Any, source: str | None = None) -> Plan:

@@ -4,8 +4,9 @@ One header row, ``t,<arm>_q1,<arm>_q2,...`` (written with the :mod:`csv` module,
 name with a comma, a quote or a line break is quoted and survives), then one row per sample:
 the time (s) and each arm's two joint angles (rad), seven decimals. The table holds the
 motion only -- no events, allocation or metrics -- so a plan read from it has no events and
-the verifier infers them from the motion (:mod:`coplan.infer`).
+the verifier infers them from the motion (:mod:`coplan.verify.infer`).
 
+This module reads and writes the table only; :func:`coplan.plan.load_plan` builds the plan.
 Errors are :class:`~coplan.errors.PlanFileError` issues with the file's line.
 """
 
@@ -19,9 +20,8 @@ from collections.abc import Iterable
 import numpy as np
 
 from .errors import Issue, PlanFileError
-from .plan import Plan, PlanStatus, time_grid_issues
 
-__all__ = ["csv_header", "plan_from_csv", "CSV_PLANNER"]
+__all__ = ["csv_header", "read_csv_samples", "CSV_PLANNER"]
 
 CSV_PLANNER = "unknown (plan.csv)"  # a CSV replay does not say which planner made it
 
@@ -53,8 +53,10 @@ def _arm_names(header: list[str]) -> tuple[list[str], str | None]:
     return names, None
 
 
-def plan_from_csv(raw: bytes, source: str | None = None) -> Plan:
-    """Check a ``plan.csv`` (bytes of the file) and build its :class:`Plan` (no events)."""
+def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
+    """Read a ``plan.csv`` (bytes of the file): ``(time, q, lines)`` -- the times (N,), each arm's
+    joint angles (N, 2) and the file line of each sample (N,), for errors about the time grid,
+    which :func:`coplan.plan.load_plan` checks when it builds the :class:`~coplan.plan.Plan`."""
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as e:
@@ -101,13 +103,8 @@ def plan_from_csv(raw: bytes, source: str | None = None) -> Plan:
     if issues:
         raise PlanFileError(issues, source)
     rows = rows[:n]
-    time = rows[:, 0]
-    grid = time_grid_issues(time)
-    if grid:
-        raise PlanFileError([Issue("t", msg, None if i is None else int(lines[i])) for i, msg in grid], source)
     q = {a: rows[:, 1 + 2 * i: 3 + 2 * i].copy() for i, a in enumerate(names)}
-    return Plan(problem="", planner=CSV_PLANNER, status=PlanStatus.UNVERIFIED, time=time, q=q, events=[],
-                allocation={}, unreachable=[])
+    return rows[:, 0], q, lines[:n]
 
 
 def _is_float(text: str) -> bool:

@@ -22,7 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from .kinds import EventKind, SchemaKind
 from .plan import PLAN_FORMAT
-from .problem import MAX_ARMS, MAX_FRUITS
+from .problem.model import MAX_ARMS, MAX_FRUITS
 
 __all__ = ["json_schema", "schema_text", "shipped_path", "SCHEMA_DIR", "ProblemFile", "PlanFile"]
 

@@ -5,7 +5,8 @@
   cell (detections and the current time in, committed motion out).
 - :mod:`coplan.live.motion`: cutting a plan at a rest instant; re-planned approaches (Ruckig).
 - :mod:`coplan.live.sim`: the simulated cell (``coplan run``): executed plan, verification, run.json.
-- :mod:`coplan.live.command`: the ``coplan feed`` and ``coplan run`` commands.
+
+The ``coplan feed`` and ``coplan run`` commands are in :mod:`coplan.cli.live`.
 
 This package's ``__init__`` imports nothing (``coplan --help`` stays light): import from the
 modules.

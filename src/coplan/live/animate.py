@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..kinds import TrackState
-from ..problem import Problem
+from ..problem.model import Problem
 
 __all__ = ["animate_live"]
 

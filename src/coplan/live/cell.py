@@ -14,7 +14,7 @@ stops waiting at the horizon. The committed motions are checked against each oth
 resting after its own); where one would rest in a neighbour's committed path, its commitment
 is extended by its next planned leg (the old plan was clear, so this ends). The rest of the
 work -- the fruit an arm holds goes to its bin first, then every other believed fruit -- is
-coordinated leg by leg after the committed motion (:func:`coplan.coordinate.coordinate` with
+coordinated leg by leg after the committed motion (:func:`coplan.planners.coordinated.coordinate.coordinate` with
 ``committed``). Candidates, in order: the current plan's own (its order, poses and priority;
 each new fruit given to the arm that would finish it first), then the min-makespan MILP's and
 the lower bound's allocations; the first gives a plan at once, the others are tried while the
@@ -42,8 +42,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..kinds import ReplanCause, TrackState
-from ..problem import Fruit, Problem
-from ..schedule import ArmSchedule, ConflictError, Step, StepKind, pair_distances
+from ..problem.model import Fruit, Problem
+from ..planners.coordinated.schedule import ArmSchedule, ConflictError, Step, StepKind, pair_distances
 from .feed import DEFAULT_CLOSE_DISTANCE, Detection
 from .motion import Approach, ApproachError, as_wait, move_step, split_at, truncate_move
 
@@ -151,7 +151,7 @@ class LiveCell:
     def warm_up(self) -> float:
         """Plan once on a throw-away copy (one fruit at the first arm's home tip), so the first
         real re-plan does not pay for imports and solver start-up. Returns the seconds spent."""
-        from ..kinematics import fk
+        from ..kinematics.arm import fk
 
         t0 = _time.perf_counter()
         arm = self.problem.arms[0]
@@ -222,7 +222,7 @@ class LiveCell:
     def next_close_range(self, after: float) -> CloseRange | None:
         """The first time after ``after`` at which a tip comes within ``close_distance`` of the
         estimate of a fruit it approaches (not yet refined)."""
-        from ..kinematics import fk
+        from ..kinematics.arm import fk
 
         best = None
         for arm in self.problem.arms:
@@ -343,9 +343,9 @@ class LiveCell:
 
     def _replan(self, now: float, cause: ReplanCause, forced: dict | None = None, note: str = "",
                 dropped: list[str] | None = None, t_start: float | None = None) -> Replan:
-        from ..allocation import screened_reach
-        from ..coordinate import coordinate
-        from ..coordinated import priority_orders
+        from ..allocate.allocation import screened_reach
+        from ..planners.coordinated.coordinate import coordinate
+        from ..planners.coordinated.planner import priority_orders
 
         t_start = _time.perf_counter() if t_start is None else t_start  # latency: from the measurement's arrival
         prob, opts = self.problem, self.options
@@ -454,7 +454,7 @@ class LiveCell:
         """Work lists to coordinate, ``(label, {arm: [(fruit, pick pose, place pose)]})``, made
         when asked for: the current plan's own (its order and poses; each new fruit appended to
         the arm that would finish it first), then the min-makespan MILP's and the lower bound's."""
-        from ..allocation import AllocationMethod, allocate, arm_configs, bound_allocation
+        from ..allocate.allocation import AllocationMethod, allocate, arm_configs, bound_allocation
 
         ids = [f.id for f in believed.fruits]
         keep: dict[str, list] = {a.name: [] for a in self.problem.arms}

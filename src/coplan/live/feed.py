@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, Issue, ProblemError, finite_number, found
-from ..problem import Problem
-from ..yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
+from ..problem.model import Problem
+from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 
 __all__ = ["FEED_FORMAT", "Detection", "Feed", "FeedError", "parse_feed", "load_feed", "make_feed", "feed_yaml",
            "DEFAULT_CLOSE_DISTANCE", "DEFAULT_CLOSE_SIGMA"]
@@ -214,7 +214,7 @@ def make_feed(problem: Problem, known: float = 0.5, sigma: float = 0.01, false_r
     order = rng.permutation(len(fruits))
     n_known = int(round(known * len(fruits)))
     if reveal_by is None:  # only late fruit and false detections need it
-        from ..allocation import lower_bound
+        from ..allocate.allocation import lower_bound
 
         late = n_known < len(fruits) or false_rate > 0
         reveal_by = 0.5 * lower_bound(problem) if late and problem.fruits else 1.0

@@ -17,9 +17,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..problem import Arm
-from ..schedule import Step, StepKind
-from ..timing import SCurve
+from ..problem.model import Arm
+from ..planners.coordinated.schedule import Step, StepKind
+from ..kinematics.timing import SCurve
 
 __all__ = ["Approach", "ApproachError", "move_step", "split_at", "truncate_move", "step_state", "as_wait"]
 
@@ -32,7 +32,7 @@ class Approach:
     """A move from a moving state ``(q0, v0, a0)`` to rest at ``q1``: time-optimal under the
     arm's per-joint velocity, acceleration and jerk limits (Ruckig, joints synchronised).
 
-    It has the interface of :class:`coplan.timing.SCurve` that schedules use
+    It has the interface of :class:`coplan.kinematics.timing.SCurve` that schedules use
     (``q0``, ``q1``, ``duration``, ``derivatives(t)``, ``eval(t)``).
     """
 

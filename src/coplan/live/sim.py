@@ -20,8 +20,8 @@ import numpy as np
 
 from ..kinds import EventKind, PlanStatus, TrackState
 from ..plan import DEFAULT_RATE, Event, Plan, compute_metrics, finalize_plan
-from ..problem import Problem
-from ..schedule import ArmSchedule, StepKind
+from ..problem.model import Problem
+from ..planners.coordinated.schedule import ArmSchedule, StepKind
 from .cell import LiveCell, LiveOptions
 from .feed import Detection, Feed
 
@@ -48,7 +48,7 @@ def _percentile(x: list[float], p: float) -> float | None:
 def simulate(problem: Problem, feed: Feed, options: LiveOptions | None = None, seed: int = 0,
              omniscient: bool = True, max_events: int = 5000) -> LiveRun:
     """Run the live cell on ``feed`` against the true ``problem``; verify what was executed."""
-    from ..verify import verify
+    from ..verify.verifier import verify
 
     feed.check_against(problem)
     opts = replace(options or LiveOptions(), close_distance=feed.close_distance)
@@ -143,7 +143,7 @@ def simulate(problem: Problem, feed: Feed, options: LiveOptions | None = None, s
 
 
 def _tips(cell: LiveCell, name: str, t: np.ndarray) -> np.ndarray:
-    from ..kinematics import fk
+    from ..kinematics.arm import fk
 
     arm = cell.problem.arm(name)
     st = cell.steps[name]
@@ -153,7 +153,7 @@ def _tips(cell: LiveCell, name: str, t: np.ndarray) -> np.ndarray:
 
 
 def _executed_plan(problem: Problem, cell: LiveCell, track_truth: dict) -> tuple[Plan, list[str]]:
-    from ..heuristic import grid as uniform_grid
+    from ..planners.heuristic import grid as uniform_grid
 
     sch = cell.schedules()
     times = uniform_grid(cell.end, DEFAULT_RATE)
@@ -177,8 +177,8 @@ def _executed_plan(problem: Problem, cell: LiveCell, track_truth: dict) -> tuple
 
 
 def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, omniscient, verify, warm) -> LiveRun:
-    from ..coordinated import plan_coordinated
-    from ..verdict import ViolationKind
+    from ..planners.coordinated.planner import plan_coordinated
+    from ..verify.verdict import ViolationKind
 
     plan, unknown = _executed_plan(problem, cell, track_truth)
     n_reach = len(problem.reachable_ids())

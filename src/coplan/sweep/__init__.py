@@ -7,5 +7,6 @@
 * :mod:`coplan.sweep.table` -- the row schema, the row journal and the Parquet/CSV table;
 * :mod:`coplan.sweep.report` -- :func:`sweep_report`: counts, medians, worst cases, figures.
 
+The ``coplan sweep`` and ``coplan sweep-report`` commands are in :mod:`coplan.cli.sweep`.
 This package's ``__init__`` imports nothing heavy (``coplan --help`` stays light).
 """

@@ -182,9 +182,9 @@ def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = 
     import yaml
 
     from ..errors import CoplanError, InputError
-    from ..options import parse_options
+    from ..planners.optimal.options import parse_options
     from ..pipeline import solve
-    from ..problem import parse_problem
+    from ..problem.model import parse_problem
 
     row = _base_row(item)
     if item.error is not None:

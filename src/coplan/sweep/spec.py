@@ -37,7 +37,7 @@ from typing import Any
 
 from ..errors import InputError, Issue, ProblemError, finite_number, found
 from ..kinds import PlannerKind, SweepBase, SweepMode
-from ..yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
+from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 
 __all__ = ["SweepError", "SweepItem", "SweepSpec", "load_sweep", "parse_sweep", "PARAMETERS", "MAX_ITEMS"]
 
@@ -204,7 +204,7 @@ def _pair(v) -> tuple[float, float]:
 
 def _generate(base: SweepBase, p: dict[str, Any]) -> tuple[str, float | None, str]:
     """(problem YAML, row length in m or None, source description) for one parameter set."""
-    from .. import generate as gen
+    from ..problem import generate as gen
 
     task = dict(gen.LESSON_TASK, **{k: float(p[k]) for k in _TASK_KEYS if k in p})
     if base in (SweepBase.RANDOM, SweepBase.CELL):
@@ -275,10 +275,10 @@ def _check_value(kind: str, v: Any) -> str | None:
 
 
 def _check_option(name: str, v: Any) -> str | None:
-    """Validate one solver option value with coplan.options (the same checks as --options)."""
+    """Validate one solver option value with coplan.planners.optimal.options (the same checks as --options)."""
     import yaml
 
-    from ..options import OptionsError, parse_options
+    from ..planners.optimal.options import OptionsError, parse_options
 
     try:
         parse_options(yaml.safe_dump({name: v}))

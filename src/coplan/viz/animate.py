@@ -30,7 +30,7 @@ import numpy as np
 from ..errors import CoplanError
 from ..kinds import ExitCode
 from ..plan import EventKind, Plan
-from ..problem import Problem
+from ..problem.model import Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors, pair_label
 from .timeline import arm_points, fruit_states, harvested_count, pair_clearance, phase_at, schedule
 
@@ -367,7 +367,7 @@ class _Scene:
         return self.artists
 
     def _fk(self, arm, q) -> np.ndarray:
-        from .. import kinematics as kin
+        from ..kinematics import arm as kin
 
         return kin.fk_points(np.asarray(q, float), arm.links, arm.base)
 

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..plan import EventKind, Plan
-from ..problem import Problem
+from ..problem.model import Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, LIMIT_COLOR, arm_colors, pair_label
 from .timeline import joint_derivatives, limit_tolerance, pair_clearance, schedule
 
@@ -325,7 +325,7 @@ def _workspace_grid(problem: Problem, arms, resolution: int):
 def workspace_maps(problem: Problem, arms=None, resolution: int = 300):
     """Grids for the workspace map: ``(xs, ys, manip (ny, nx) best |det J| over arms, NaN where
     unreachable, count (ny, nx) how many arms reach each point)``. Reach honours joint limits."""
-    from .. import kinematics as kin
+    from ..kinematics import arm as kin
 
     arms = list(problem.arms) if arms is None else list(arms)
     xs, ys, P = _workspace_grid(problem, arms, resolution)

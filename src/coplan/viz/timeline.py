@@ -13,10 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import kinematics as kin
-from ..geometry import segment_distance
+from ..kinematics import arm as kin
+from ..kinematics.geometry import segment_distance
 from ..plan import EventKind, Plan
-from ..problem import Problem
+from ..problem.model import Problem
 
 __all__ = [
     "Segment",
@@ -121,14 +121,14 @@ def pair_clearance(
 
     Returns ``(times, {(arm_a, arm_b): (K,) clearance in m})`` for ``problem.neighbour_pairs()``
     (or the given index pairs). With ``times=None`` and ``dense=True`` this is the
-    verifier's own profile (:func:`coplan.clearance.clearance_profile`, 10 points per plan
+    verifier's own profile (:func:`coplan.verify.clearance.clearance_profile`, 10 points per plan
     interval), so the plots show the numbers the verification reports; otherwise the
     clearance at the plan's samples (or at ``times``).
     """
     pairs = problem.neighbour_pairs() if pairs is None else list(pairs)
     if times is None and dense:
         try:
-            from ..clearance import clearance_profile
+            from ..verify.clearance import clearance_profile
         except ImportError:  # the verifier's module is optional here
             clearance_profile = None
         if clearance_profile is not None:
@@ -172,7 +172,7 @@ def limit_tolerance(limit, order: int, dt: float):
     """The verifier's allowance over a velocity (1), acceleration (2) or jerk (3) limit:
     relative tolerance plus the effect of plan.json's rounding of the joint angles."""
     try:
-        from ..verdict import VerifyOptions
+        from ..verify.verdict import VerifyOptions
 
         rel, qres = VerifyOptions.rel_tolerance, VerifyOptions.q_resolution
     except (ImportError, AttributeError):

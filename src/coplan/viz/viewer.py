@@ -10,14 +10,14 @@ e-mail attachment. What it embeds (JSON in a ``<script type="application/json">`
 numeric arrays as base64 little-endian binary; :func:`read_viewer_data` decodes it back):
 
 * the cell: bases, links (capsule radius), joint limits, bins, fruit, required clearance,
-  unreachable fruit with the screen's reason (:mod:`coplan.screen`), a manipulability grid
+  unreachable fruit with the screen's reason (:mod:`coplan.allocate.screen`), a manipulability grid
   (:func:`coplan.viz.plots.workspace_maps`);
 * per plan: a display track of every arm's joint angles at ``display_rate`` (float32: what
   the picture and the tip trails are drawn from), the plan's own grid of joint angles at
   plan.json's resolution (1e-7 rad, as int32 steps) for the readouts (joint values and the
   replay velocities a hover shows: what :meth:`Plan.sample` gives for the stored plan), the events, the phases of :func:`coplan.viz.timeline.schedule`
   with what each wait is for, the clearance of every neighbouring pair
-  (:func:`coplan.clearance.clearance_profile`, 1 kHz, reduced to the least value per display
+  (:func:`coplan.verify.clearance.clearance_profile`, 1 kHz, reduced to the least value per display
   sample so no dip is lost) and the verdict of :func:`coplan.verify.verify` with every
   violation.
 
@@ -41,7 +41,7 @@ import numpy as np
 from ..errors import Issue, PlanFileError
 from ..kinds import EventKind
 from ..plan import Plan, jsonable, load_plan
-from ..problem import Problem
+from ..problem.model import Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors
 from .timeline import Segment, schedule
 
@@ -85,7 +85,7 @@ def decode_array(entry: dict) -> np.ndarray:
 # --------------------------------------------------------------------------- the problem
 def problem_of(plan: Plan) -> Problem:
     """The shipped problem a plan names (raises :class:`PlanFileError` when there is none)."""
-    from ..problem import load_problem, shipped_problems
+    from ..problem.model import load_problem, shipped_problems
 
     shipped = [load_problem(p) for p in shipped_problems()]
     found = next((p for p in shipped if p.name == plan.problem), None)
@@ -104,7 +104,7 @@ def _check_fits(problem: Problem, plan: Plan, what: str) -> None:
 
 def _view_box(problem: Problem, plans: list[Plan]) -> list[float]:
     """World rectangle drawn: bases, bins, fruit and wherever the plans' links go (capsules)."""
-    from .. import kinematics as kin
+    from ..kinematics import arm as kin
 
     pts = [np.asarray(a.base, float) for a in problem.arms] + [np.asarray(a.bin, float) for a in problem.arms]
     if problem.fruits:
@@ -121,7 +121,7 @@ def _view_box(problem: Problem, plans: list[Plan]) -> list[float]:
 
 
 def _problem_data(problem: Problem, plans: list[Plan]) -> dict:
-    from ..screen import screened
+    from ..allocate.screen import screened
     from .plots import workspace_maps
 
     colors = arm_colors(problem)
@@ -210,7 +210,7 @@ def _display_times(plan: Plan, rate: float) -> tuple[np.ndarray, float]:
 
 def _clearance(problem: Problem, plan: Plan, times: np.ndarray, rate: float) -> list[dict]:
     """Per neighbouring pair: the least clearance within half a display step of each display time."""
-    from ..clearance import clearance_profile
+    from ..verify.clearance import clearance_profile
 
     pairs = problem.neighbour_pairs()
     if not pairs:
@@ -282,7 +282,7 @@ def viewer_data(problem: Problem, plans: list[Plan], verifications: list | None 
                 display_rate: float = DISPLAY_RATE) -> dict:
     """Everything the page shows, JSON-able (see the module docstring). ``verifications``
     (one per plan, or None to run :func:`coplan.verify.verify`) are the verdicts shown."""
-    from ..verify import verify
+    from ..verify.verifier import verify
 
     if not plans:
         raise ValueError("viewer_data needs at least one plan")
@@ -294,7 +294,7 @@ def viewer_data(problem: Problem, plans: list[Plan], verifications: list | None 
     vers = [v if v is not None else verify(problem, p) for p, v in zip(plans, vers)]
     bound = next((p.metrics.get("lower_bound") for p in plans if (p.metrics or {}).get("lower_bound") is not None), None)
     if bound is None and problem.reachable_ids():
-        from ..allocation import bound_details
+        from ..allocate.allocation import bound_details
 
         bound = bound_details(problem).value
     return {
@@ -408,7 +408,7 @@ def view(plan, problem: Problem | str | Path | None = None, compare=None, *, hei
     or a path to a ``plan.json``; ``problem`` defaults to the result's own problem or the
     shipped problem the plan names.
     """
-    from ..problem import load_problem
+    from ..problem.model import load_problem
 
     pl, prob, ver = _as_plan(plan, "plan")
     if isinstance(problem, (str, Path)):

@@ -1,0 +1,5 @@
+"""``python -m coplan.cli``: the ``coplan`` command."""
+
+from .commands import main
+
+main()

@@ -1,0 +1,517 @@
+"""The ``coplan`` command line (thin: every command calls one library entry function).
+
+Exit codes are :class:`coplan.pipeline.ExitCode`. Bad input prints the file, the key path,
+what was expected and what was found -- never a traceback (set ``COPLAN_DEBUG=1`` to see one
+for an internal error).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+from pathlib import Path
+from typing import Annotated, Optional
+
+os.environ.setdefault("MPLBACKEND", "Agg")  # the CLI never needs a display
+
+import typer
+from rich.console import Console
+
+from . import failures
+from .summary import fmt as _fmt
+from .summary import print_summary, print_verification
+from .summary import safe as _s
+from .console import FlagsGroup, run_console
+from ..errors import InputError, plural
+from ..kinds import AllocationMethod, ExitCode, FclMode, PlannerKind
+
+app = typer.Typer(
+    cls=FlagsGroup,  # flags shown without a <bool> value in --help
+    add_completion=False,
+    no_args_is_help=True,
+    help="Plan coordinated, collision-free, jerk-limited motion for several 2R arms harvesting fruit.",
+    pretty_exceptions_enable=False,
+)
+out_console = Console(soft_wrap=True)
+err_console = Console(stderr=True, soft_wrap=True)
+
+
+def _version(value: bool) -> None:
+    if value:
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            v = version("coplan")
+        except PackageNotFoundError:
+            v = "unknown (not installed)"
+        typer.echo(f"coplan {v}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def root(
+    show_version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
+                                               help="Print coplan's version and exit.")] = False,
+) -> None:
+    """Plan coordinated, collision-free, jerk-limited motion for several 2R arms harvesting fruit."""
+
+
+def _fail(code: ExitCode, message: str):
+    raise failures.Failure(code, message)
+
+
+def guarded(fn):
+    """Map every failure to its exit code and a clear message (no tracebacks); with ``--json``
+    also one JSON document on stdout (:mod:`coplan.cli.failures`)."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except typer.Exit:
+            raise
+        except (Exception, KeyboardInterrupt) as e:  # noqa: BLE001 -- last-resort guard: report, never a raw traceback
+            code, message = failures.failure_of(e)
+            if code == ExitCode.INTERNAL and not isinstance(e, failures.Failure) and os.environ.get("COPLAN_DEBUG"):
+                raise
+            if isinstance(e, (InputError, KeyboardInterrupt)):
+                err_console.print(message, markup=False, highlight=False, soft_wrap=True)
+            else:
+                err_console.print(f"[bold red]error[/]: {_s(message)}", highlight=False, soft_wrap=True)
+            if kwargs.get("as_json"):
+                typer.echo(failures.dumps(failures.error_document(fn.__name__.removesuffix("_cmd"), code, message, e)))
+            raise typer.Exit(int(code)) from None
+
+    return wrapper
+
+
+def _strict_json(doc) -> str:
+    """Strict JSON (RFC 8259): a non-finite number (e.g. no clearance at all: infinity) is null."""
+    from ..plan import jsonable
+
+    return json.dumps(jsonable(doc), default=str, allow_nan=False)
+
+
+def _check_time_limit(time_limit: Optional[float]) -> None:
+    if time_limit is not None and not time_limit > 0:
+        _fail(ExitCode.USAGE, f"--time-limit: expected a positive number of seconds, found {time_limit}")
+
+
+def _solver_options(path: Optional[Path], time_limit: Optional[float], applies: bool):
+    """OptimalOptions from ``--options`` (validated; bad values exit 3 with the key and line)
+    and ``--time-limit`` (which wins); None when neither is given."""
+    if path is None and time_limit is None:
+        return None
+    if not applies:
+        if path is not None:
+            _fail(ExitCode.USAGE, "--options: the heuristic planner has no solver options")
+        return None
+    from dataclasses import replace
+
+    from ..planners.optimal.planner import OptimalOptions
+    from ..planners.optimal.options import load_options
+
+    opts = load_options(path) if path is not None else OptimalOptions()
+    return replace(opts, time_limit=time_limit) if time_limit is not None else opts
+
+
+def _resolve_problem(problem: Optional[Path]) -> Path:
+    from ..problem.model import default_problem_path
+
+    return problem if problem is not None else default_problem_path()
+
+
+@app.command()
+@guarded
+def solve(
+    problem: Annotated[Optional[Path], typer.Argument(help="Problem YAML file (default: the shipped greenhouse row).")] = None,
+    planner: Annotated[PlannerKind, typer.Option(help="Planner to use.")] = PlannerKind.OPTIMAL,
+    allocation: Annotated[
+        Optional[AllocationMethod], typer.Option(help="Allocation method (default: the planner's own).")
+    ] = None,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-out"),
+    time_limit: Annotated[Optional[float], typer.Option(
+        help="Wall-clock limit, s: the optimal planner returns its verified incumbent at the limit "
+             "(by default it stops on a work budget, so the plan does not depend on the machine).")] = None,
+    options_file: Annotated[Optional[Path], typer.Option(
+        "--options", help="Solver options (YAML): any field of coplan.optimal.OptimalOptions, e.g. "
+                          "search_work: 60000 (recorded in plan.json).")] = None,
+    animate: Annotated[bool, typer.Option("--animate", help="Also render an animation of the plan.")] = False,
+    html: Annotated[bool, typer.Option("--html", help="Also write plan.html: the interactive viewer of the plan (one self-contained page).")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
+):
+    """Solve a problem, verify the plan and write plan.json (+ CSV, NPZ, verification.json)."""
+    from ..pipeline import solve as run
+
+    _check_time_limit(time_limit)
+    failures.check_out_dir(out)
+    options = _solver_options(options_file, time_limit, planner != PlannerKind.HEURISTIC)
+    path = _resolve_problem(problem)
+    say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]", highlight=False))
+    if not as_json and planner != PlannerKind.HEURISTIC:
+        from ..problem.model import load_problem
+        from ..allocate.screen import screened
+
+        path = load_problem(path)  # the screen's verdict, before solving
+        for line in screened(path).lines():
+            err_console.print(line, markup=False, highlight=False)
+    res = run(path, planner=planner, allocation=allocation, out_dir=out, options=options, progress=say)
+    if animate:
+        res.files.update(_animate_files(res, out))
+    if html:  # like the animation: written beside plan.json once the run's files are in place
+        from ..viz.viewer import write_html
+
+        res.files["viewer"] = write_html(out / "plan.html", res.problem, res.plan, verification=res.verification)
+    ver = res.plan.verification or {}
+    if as_json:
+        doc = {
+            "problem": res.problem.name,
+            "planner": res.plan.planner_name,
+            "status": res.plan.status.value,
+            "exit_code": int(res.exit_code),
+            "metrics": res.plan.metrics,
+            "verification": ver,
+            "solver": res.plan.solver,
+            "files": {k: str(v) for k, v in res.files.items()},
+            "previous_run": str(res.previous) if res.previous is not None else None,
+        }
+        out_console.print_json(_strict_json(doc))
+    else:
+        print_summary(out_console, res)
+    if res.error:  # a bug stopped the planner: what it had computed is on disk; exit 1 (res.exit_code)
+        debug = os.environ.get("COPLAN_DEBUG")
+        err_console.print(f"[bold red]error[/]: {_s(res.plan.solver.get('message'))}; files in {_s(out)}."
+                          + ("" if debug else " Set COPLAN_DEBUG=1 for a traceback."), highlight=False, soft_wrap=True)
+        if debug:
+            err_console.print(res.error_trace, markup=False, highlight=False)
+    raise typer.Exit(int(res.exit_code))
+
+
+def _animate_files(res, out: Path) -> dict:
+    """Render the animation after the plan files are on disk; a rendering failure only warns,
+    so the plan's own exit code stands."""
+    from ..viz.animate import RenderError, animate_plan
+
+    try:
+        path = animate_plan(res.problem, res.plan, out / "plan.gif")
+    except RenderError as e:
+        err_console.print(f"[yellow]warning[/]: animation not rendered: {_s(e)} (the plan files are written)")
+        return {}
+    return {"animation": path}
+
+
+@app.command("problems")
+@guarded
+def list_problems():
+    """List the problem files shipped with coplan."""
+    from ..problem.model import load_problem, shipped_problems
+
+    for path in shipped_problems():
+        p = load_problem(path)
+        out_console.print(f"{_s(path.name):28s} {plural(len(p.arms), 'arm') + ',':8s} {len(p.fruits):3d} fruit  {_s(p.description)}")
+    out_console.print(f"[dim]folder: {shipped_problems()[0].parent}[/]")
+
+
+@app.command()
+@guarded
+def check(
+    problem: Annotated[Optional[Path], typer.Argument(help="Problem YAML file (default: the shipped greenhouse row).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
+):
+    """Validate a problem and say, without solving, what its geometry allows: locked arms,
+    harvestable fruit per arm (and why the others are not), the makespan lower bound and the
+    heuristic baseline's makespan. Exit 0 when every reachable fruit can be harvested."""
+    from ..allocate.allocation import bound_details
+    from ..planners.heuristic import plan_heuristic
+    from ..problem.model import load_problem
+    from ..allocate.screen import screened
+    from ..verify.verifier import verify
+
+    path = _resolve_problem(problem)
+    prob = load_problem(path)
+    scr = screened(prob)
+    bd = bound_details(prob)
+    base = plan_heuristic(prob)
+    base_ver = verify(prob, base).summary()
+    n_reach = len(prob.reachable_ids())
+    harvestable = int(scr.reach.any(axis=0).sum())
+    doc = {
+        "problem": prob.name,
+        "file": str(path),
+        "arms": len(prob.arms),
+        "fruit": len(prob.fruits),
+        "reachable": n_reach,
+        "harvestable": harvestable,
+        "screen": scr.summary(),
+        "lower_bound": {"value": bd.value, "proven": bd.proven, "dual_bound": bd.dual_bound,
+                        "assignment": {a: list(v) for a, v in bd.assignment.items()}},
+        "heuristic_makespan": base.metrics.get("makespan"),
+        "heuristic_verified": bool(base_ver.get("passed")),
+        "heuristic_violations": base_ver.get("violation_kinds"),
+    }
+    if as_json:
+        out_console.print_json(_strict_json(doc))
+    else:
+        p = out_console.print
+        p(f"[bold]{_s(prob.name)}[/] ({_s(path)}): {plural(len(prob.arms), 'arm')}, {len(prob.fruits)} fruit, "
+          f"{n_reach} within some arm's reach, {harvestable} harvestable")
+        for line in scr.lines():
+            p(line, markup=False, highlight=False)
+        proof = "proven optimum of the relaxation" if bd.proven else f"MILP stopped: dual bound {bd.dual_bound:.3f} s"
+        p(f"lower bound        {bd.value:.3f} s ({proof}); no plan can be faster")
+        verdict = "verified" if doc["heuristic_verified"] else f"unsafe: {', '.join(doc['heuristic_violations'] or [])}"
+        p(f"heuristic baseline {_fmt(doc['heuristic_makespan'], ' s', 3)} (the course's planner; {verdict})")
+    raise typer.Exit(int(ExitCode.OK if harvestable == n_reach else ExitCode.PARTIAL))
+
+
+# --- commands added by the verification/report and visualisation modules go below ---
+
+
+# ---- verify / compare (coplan.verify, coplan.report)
+
+
+@app.command("verify")
+@guarded
+def verify_cmd(
+    problem: Annotated[Path, typer.Argument(help="Problem YAML file.")],
+    plan: Annotated[Path, typer.Argument(help="Plan to verify: plan.json, or the plan.csv replay coplan writes (no events: they are inferred).")],
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write verification.json (a file or a folder).")] = None,
+    fcl: Annotated[FclMode, typer.Option(help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
+    as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,
+):
+    """Independently verify a plan: clearance (certified), limits, picks and places.
+
+    Exit codes: 0 passed and every reachable fruit harvested; 5 passed but fruit left;
+    4 passed but the problem has no reachable fruit (as solve); 6 violations found; 3 bad
+    problem or plan file.
+    """
+    from ..plan import load_plan
+    from ..problem.model import load_problem
+    from ..verify.verifier import verify as run_verify
+
+    if out is not None and (out.resolve() == plan.resolve() or (out.is_dir() and (out / "verification.json").resolve() == plan.resolve())):
+        _fail(ExitCode.USAGE, f"--out {out} is the plan being verified; give another file or folder")
+    prob = load_problem(problem)
+    ver = run_verify(prob, load_plan(plan), fcl=fcl)
+    written = ver.save(out) if out is not None else None
+    if as_json:
+        typer.echo(json.dumps(ver.to_dict(), indent=1, allow_nan=False))
+    else:
+        print_verification(out_console, prob, ver)
+        if written is not None:
+            out_console.print(f"  wrote             {_s(written)}")
+    # no reachable fruit: infeasible (4), as `solve` says of the same problem
+    code = ExitCode.UNSAFE if not ver.passed else ExitCode.INFEASIBLE if not prob.reachable_ids() \
+        else ExitCode.OK if ver.complete else ExitCode.PARTIAL
+    raise typer.Exit(int(code))
+
+
+@app.command("compare")
+@guarded
+def compare_cmd(
+    problems: Annotated[
+        Optional[Path], typer.Argument(help="Problem YAML file or folder of them (default: the shipped greenhouse row).")
+    ] = None,
+    planner: Annotated[
+        Optional[list[str]],
+        typer.Option("--planner", "-p", help="Planner to run, repeatable: heuristic, coordinated, optimal or planner:allocation "
+                     "(e.g. heuristic:makespan). Default: heuristic, coordinated and optimal."),
+    ] = None,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-compare"),
+    figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the comparison figures.")] = True,
+    time_limit: Annotated[Optional[float], typer.Option(help="Optimal planner: wall-clock limit per solve, s.")] = None,
+    options_file: Annotated[Optional[Path], typer.Option(
+        "--options", help="Solver options (YAML) for the coordinated and optimal planners.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print compare.json's content instead of the tables.")] = False,
+):
+    """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
+
+    Exit codes: 0 the comparison ran; 3 a problem file is invalid (the others are still
+    compared); 7 a planner failed on some problem (recorded in its row).
+    """
+    from ..report.comparison import DEFAULT_PLANNERS, PlannerSpec, compare, rich_tables
+
+    try:
+        specs = [PlannerSpec.parse(p) for p in (planner or DEFAULT_PLANNERS)]
+    except ValueError as e:
+        _fail(ExitCode.USAGE, f"--planner: {e}")
+    _check_time_limit(time_limit)
+    failures.check_out_dir(out)
+    options = _solver_options(options_file, time_limit, any(s.planner != PlannerKind.HEURISTIC for s in specs))
+    say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]"))
+    cmp = compare(_resolve_problem(problems), specs, out, figures=figures, options=options, progress=say)
+    if as_json:
+        typer.echo(json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
+    else:
+        for table in rich_tables(cmp):
+            out_console.print(table)
+        for bad in cmp.bad_inputs:
+            err_console.print(bad["error"], markup=False, highlight=False)
+        for row in cmp.failed_runs:
+            err_console.print(f"{row['problem']}: {row['planner']} failed: {row['error']}", markup=False, highlight=False)
+        for note in cmp.notes:
+            err_console.print(f"note: {note}", markup=False, highlight=False)
+        out_console.print(f"wrote {_s(cmp.files['json'])} and {_s(cmp.files['markdown'])}")
+    code = ExitCode.BAD_INPUT if cmp.bad_inputs else ExitCode.SOLVER_FAILED if cmp.failed_runs else ExitCode.OK
+    raise typer.Exit(int(code))
+
+
+# ---- plot / animate (coplan.viz)
+from enum import Enum  # noqa: E402
+
+
+class PlotKind(str, Enum):
+    GANTT = "gantt"
+    CLEARANCE = "clearance"
+    JOINTS = "joints"
+    WORKSPACE = "workspace"
+
+
+def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
+    """Load a plan.json and its problem: --problem, else the shipped problem of that name."""
+    from ..plan import load_plan
+    from ..problem.model import load_problem, shipped_problems
+
+    plan = load_plan(plan_path)
+    if problem is not None:
+        prob = load_problem(problem)
+        if prob.name != plan.problem:
+            err_console.print(f"[yellow]note[/]: {_s(plan_path)} says it is a plan of {_s(repr(plan.problem))}; {_s(problem)} is {_s(repr(prob.name))}")
+    else:
+        shipped = [load_problem(p) for p in shipped_problems()]
+        prob = next((p for p in shipped if p.name == plan.problem), None)
+        if prob is None:
+            _fail(
+                ExitCode.USAGE,
+                f"{plan_path} is a plan of problem {plan.problem!r}, which is not a shipped problem "
+                f"({', '.join(p.name for p in shipped)}); give its YAML file with --problem FILE",
+            )
+    missing = [a.name for a in prob.arms if a.name not in plan.q]
+    if missing:
+        _fail(
+            ExitCode.BAD_INPUT,
+            f"{plan_path} does not fit problem {prob.name!r}: no trajectory for arm(s) {', '.join(missing)} "
+            f"(the plan has {', '.join(plan.q)})",
+        )
+    return prob, plan
+
+
+# the problem a plan belongs to, for the commands that read a plan.json
+PlanProblemOption = Annotated[
+    Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML (default: the shipped problem it names).")
+]
+
+
+@app.command("plot")
+@guarded
+def plot_cmd(
+    plan: Annotated[Path, typer.Argument(help="plan.json to draw (for --kind workspace also a problem YAML).")],
+    kind: Annotated[PlotKind, typer.Option("--kind", "-k", help="Which figure.")] = PlotKind.GANTT,
+    problem: PlanProblemOption = None,
+    out: Annotated[
+        Optional[Path], typer.Option("--out", "-o", help="Image file; the suffix sets the format (default: <plan>_<kind>.png).")
+    ] = None,
+    arm: Annotated[Optional[str], typer.Option(help="joints/workspace: draw only this arm.")] = None,
+    dpi: Annotated[int, typer.Option(min=30, max=600, help="Resolution of raster images.")] = 120,
+):
+    """Draw a figure of a plan: schedule Gantt, clearance, joint motion vs limits, or workspace map."""
+    from ..viz import plots
+
+    if kind == PlotKind.WORKSPACE and plan.suffix.lower() in (".yaml", ".yml"):
+        from ..problem.model import load_problem
+
+        prob, pl = load_problem(plan), None
+    else:
+        prob, pl = _plan_with_problem(plan, problem)
+    if arm is not None and arm not in [a.name for a in prob.arms]:
+        _fail(ExitCode.USAGE, f"--arm: no arm named {arm!r}; arms are {', '.join(a.name for a in prob.arms)}")
+    if kind == PlotKind.GANTT:
+        fig = plots.plot_gantt(prob, {pl.planner_name: pl})
+    elif kind == PlotKind.CLEARANCE:
+        fig = plots.plot_clearance(prob, {pl.planner_name: pl})
+    elif kind == PlotKind.JOINTS:
+        fig = plots.plot_joints(prob, pl, arms=None if arm is None else [arm])
+    else:
+        fig = plots.plot_workspace(prob, arm)
+    target = out if out is not None else plan.with_name(f"{plan.stem}_{kind.value}.png")
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(target, dpi=dpi)
+    except ValueError as e:  # unknown format
+        _fail(ExitCode.USAGE, f"--out {target}: {e} (use .png, .svg or .pdf)")
+    except OSError as e:
+        _fail(ExitCode.BAD_INPUT, f"cannot write {target}: {e.strerror or e}")
+    out_console.print(f"wrote {_s(target)}")
+
+
+@app.command("animate")
+@guarded
+def animate_cmd(
+    plan: Annotated[Path, typer.Argument(help="plan.json to animate.")],
+    problem: PlanProblemOption = None,
+    out: Annotated[
+        Optional[Path], typer.Option("--out", "-o", help="Output .gif (default, next to the plan) or .mp4.")
+    ] = None,
+    speed: Annotated[float, typer.Option(min=0.01, max=100.0, help="Playback speed: 1 = real time, 2 = twice as fast.")] = 1.0,
+    fps: Annotated[float, typer.Option(min=1.0, max=60.0, help="Frames per second of the animation.")] = 10.0,
+    dpi: Annotated[int, typer.Option(min=30, max=300, help="Resolution (80: a 720 px wide GIF).")] = 80,
+):
+    """Render a plan as an animation: arms, fruit, bins, phases, clearance alarms (GIF or MP4)."""
+    from ..viz.animate import animate_plan
+
+    prob, pl = _plan_with_problem(plan, problem)
+    target = out if out is not None else plan.with_suffix(".gif")
+    path = animate_plan(
+        prob, pl, target, speed=speed, fps=fps, dpi=dpi,
+        notify=lambda m: err_console.print(f"[yellow]note[/]: {_s(m)}", highlight=False, soft_wrap=True),
+    )
+    out_console.print(f"wrote {_s(path)}")
+
+
+@app.command("view")
+@guarded
+def view_cmd(
+    plan: Annotated[Path, typer.Argument(help="plan.json to view.")],
+    problem: PlanProblemOption = None,
+    compare: Annotated[Optional[Path], typer.Option("--compare", help="A second plan.json of the same problem, side by side on one clock.")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="HTML file (default: the plan's name with .html, next to it).")] = None,
+    open_page: Annotated[bool, typer.Option("--open", help="Open the page in the default browser.")] = False,
+):
+    """Write the interactive viewer of a plan: one self-contained HTML page (works offline) to scrub, play, hover, jump to violations."""
+    from ..viz.viewer import write_view
+
+    prob, pl = _plan_with_problem(plan, problem)
+    other = _plan_with_problem(compare, problem)[1] if compare is not None else None
+    out_console.print(f"wrote {_s(write_view(prob, pl, other, out if out is not None else plan.with_suffix('.html'), open_page))}")
+
+
+# design sweeps on Dask (bodies in coplan.sweep.command; light to import)
+from .sweep import sweep_cmd, sweep_report_cmd  # noqa: E402
+
+app.command("sweep")(guarded(sweep_cmd))
+app.command("sweep-report")(guarded(sweep_report_cmd))
+
+
+# plan export for controllers, file-format schemas (bodies in coplan.cli.files; light to import)
+from .files import export_cmd, schema_cmd  # noqa: E402
+
+app.command("export")(guarded(export_cmd))
+app.command("schema")(guarded(schema_cmd))
+
+
+# live cell: vision feeds and the simulated run (bodies in coplan.live.command; light to import)
+from .live import feed_cmd, run_cmd  # noqa: E402
+
+app.command("feed")(guarded(feed_cmd))
+app.command("run")(guarded(run_cmd))
+
+
+def main() -> None:
+    """Console-script entry point (:func:`coplan.cli.console.run_console`): SIGTERM is handled like
+    Ctrl-C and exits 143; a reader closing stdout is no error; with ``--json`` usage errors are JSON."""
+    run_console(app, err_console)
+
+
+if __name__ == "__main__":
+    main()

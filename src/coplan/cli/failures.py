@@ -1,0 +1,147 @@
+"""What the command line reports when a command fails: the exit code and message of every kind of
+failure, and (with ``--json``) one JSON document on stdout describing it.
+
+The document (``"format": "coplan.error/1"``)::
+
+    {"format": "coplan.error/1", "command": "solve", "exit_code": 3, "error": "bad_input",
+     "message": "problems/x.yaml: 2 problems found ...",
+     "errors": [{"file": "problems/x.yaml", "path": "arms[0].links", "line": 7,
+                 "expected": "a list of 2 numbers", "found": "a string 'abc'",
+                 "message": "expected a list of 2 numbers, found a string 'abc'"}]}
+
+``errors`` lists every issue of a bad input file (``path`` is the key path, ``line`` the line
+in the file, ``expected``/``found`` split from the message when it has that form, else null);
+for other failures it holds one entry with the message. Light: imports only coplan's enums and errors.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+from typing import Any
+
+from ..errors import CoplanError, InputError, Issue
+from ..kinds import ExitCode
+
+__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "usage", "check_out_dir"]
+
+# set by the console entry point when SIGTERM arrived: an interruption then exits 143, not 130
+TERMINATED: list[int] = []
+
+_KIND = {
+    ExitCode.USAGE: "usage",
+    ExitCode.BAD_INPUT: "bad_input",
+    ExitCode.INTERNAL: "internal",
+    ExitCode.IO_ERROR: "io_error",
+    ExitCode.INTERRUPTED: "interrupted",
+    ExitCode.TERMINATED: "terminated",
+}
+_EXPECTED_FOUND = re.compile(r"^expected (?P<expected>.+?)[,;] found (?P<found>.+)$", re.DOTALL)
+
+
+class Failure(CoplanError):
+    """A command refusing to go on (bad usage, a plan that does not fit its problem, ...): the
+    exit code and the message the user sees."""
+
+    def __init__(self, code: ExitCode, message: str):
+        super().__init__(message)
+        self.code = ExitCode(code)
+        self.message = message
+
+
+def usage(message: str):
+    """Refuse the command line: exit 2 (bad usage) with ``message``."""
+    raise Failure(ExitCode.USAGE, message)
+
+
+def check_out_dir(out, what: str = "--out") -> None:
+    """Before any work: ``out`` (a Path) must be a folder coplan can create or write into."""
+    if out.exists() and not out.is_dir():
+        usage(f"{what} {out}: expected a folder, found a file")
+    probe = out
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        usage(f"{what} {out}: expected a folder, found the file {probe} in its path")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        usage(f"{what} {out}: expected a folder coplan may write to, found {probe} not writable")
+
+
+def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
+    """The exit code and message of any exception a command raised."""
+    if isinstance(exc, Failure):
+        return exc.code, exc.message
+    if isinstance(exc, InputError):
+        return ExitCode.BAD_INPUT, str(exc)
+    if isinstance(exc, KeyboardInterrupt):
+        return (ExitCode.TERMINATED, "terminated (SIGTERM)") if TERMINATED else (ExitCode.INTERRUPTED, "interrupted")
+    if isinstance(exc, CoplanError):  # an error class may name its own exit code
+        return ExitCode(getattr(exc, "exit_code", ExitCode.INTERNAL)), str(exc)
+    if isinstance(exc, OSError):  # disk full, permissions: the path and the reason, nothing half-written left
+        where = f": {exc.filename}" if exc.filename else ""
+        return ExitCode.IO_ERROR, f"{exc.strerror or exc}{where} (nothing of this run was left half-written)"
+    return ExitCode.INTERNAL, f"internal error ({type(exc).__name__}): {exc}. Set COPLAN_DEBUG=1 for a traceback."
+
+
+def issue_dict(issue: Issue, source: str | None) -> dict[str, Any]:
+    """One issue of a bad input file as JSON: file, key path, line, expected, found, message."""
+    m = _EXPECTED_FOUND.match(issue.message)
+    return {
+        "file": source,
+        "path": issue.path,
+        "line": issue.line,
+        "expected": m["expected"] if m else None,
+        "found": m["found"] if m else None,
+        "message": issue.message,
+    }
+
+
+def error_document(command: str, code: ExitCode, message: str, exc: BaseException | None = None) -> dict[str, Any]:
+    """The ``--json`` document of a failed command (see the module docstring)."""
+    code = ExitCode(code)
+    if isinstance(exc, InputError):
+        errors = [issue_dict(i, exc.source) for i in exc.issues]
+    else:
+        filename = getattr(exc, "filename", None) if isinstance(exc, OSError) else None
+        errors = [{"file": os.fspath(filename) if filename is not None else None, "path": None, "line": None,
+                   "expected": None, "found": None, "message": message}]
+    return {"format": "coplan.error/1", "command": command, "exit_code": int(code),
+            "error": _KIND.get(code, code.name.lower()), "message": message, "errors": errors}
+
+
+def _finite(x):
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {str(k): _finite(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_finite(v) for v in x]
+    return x
+
+
+def dumps(doc: dict[str, Any]) -> str:
+    """Strict JSON (no NaN/Infinity tokens), one document."""
+    return json.dumps(_finite(doc), indent=1, default=str, allow_nan=False)
+
+
+def run_with_json_usage_errors(app) -> int:
+    """Run the typer ``app`` (argv from ``sys.argv``) so that a usage error found before any
+    command ran (an unknown option, a bad value) is printed as usual on stderr and as the JSON
+    error document on stdout; returns the exit code. Used when ``--json`` is on the command line."""
+    import typer
+
+    try:
+        rv = app(standalone_mode=False)
+    except typer.TyperException as e:  # the framework's usage errors (its vendored click's UsageError)
+        from typer import rich_utils
+
+        rich_utils.rich_format_error(e)
+        ctx = getattr(e, "ctx", None)
+        command = ctx.command.name if ctx is not None and ctx.command is not None else None
+        typer.echo(dumps(error_document(command or "coplan", ExitCode.USAGE, e.format_message())))
+        return int(getattr(e, "exit_code", ExitCode.USAGE))
+    except typer.Abort:
+        return int(ExitCode.INTERRUPTED)
+    return rv if isinstance(rv, int) else 0

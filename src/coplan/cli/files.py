@@ -1,0 +1,61 @@
+"""The ``coplan export`` and ``coplan schema`` commands (registered in :mod:`coplan.cli`; light to
+import: the heavy work is imported inside each command)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+
+from ..errors import printable
+from ..kinds import ExitCode, ExportFormat, SchemaKind
+from .failures import Failure
+
+__all__ = ["export_cmd", "schema_cmd"]
+
+_out = Console(soft_wrap=True)
+
+
+def export_cmd(
+    plan: Annotated[Path, typer.Argument(help="plan.json to export.")],
+    rate: Annotated[float, typer.Option(help="Points per second, Hz.")] = 100.0,
+    fmt: Annotated[ExportFormat, typer.Option("--format", "-f", help="csv: one file, every arm; json, yaml: a ROS 2 "
+                                              "trajectory_msgs/JointTrajectory per arm, in a folder.")] = ExportFormat.CSV,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="CSV file, or folder (default: beside the plan).")] = None,
+):
+    """Export a plan for a joint controller: positions, velocities and accelerations per joint at a chosen rate."""
+    for path in _export(plan, rate, fmt, out):
+        _out.print(f"wrote {escape(printable(path))}")
+
+
+def schema_cmd(kind: Annotated[SchemaKind, typer.Argument(help="Which file format.")]):
+    """Print the JSON Schema of problem files or plan files (shipped as coplan/schemas/*.schema.json)."""
+    typer.echo((Path(__file__).parents[1] / "schemas" / f"{kind.value}.schema.json").read_text(), nl=False)
+
+
+def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | None) -> list[Path]:
+    """``coplan export``: load the plan, check the rate and where to write (usage errors exit 2
+    before anything is written), export. Default ``out``: beside the plan,
+    ``<plan>_<rate>hz.csv`` or the folder ``<plan>_<rate>hz/``."""
+    from ..plan import load_plan
+    from ..report.export import check_rate, export_plan
+
+    fmt = ExportFormat(fmt)
+    plan = load_plan(plan_path)
+    try:
+        check_rate(rate, plan.duration)
+    except ValueError as e:
+        raise Failure(ExitCode.USAGE, f"--rate: {e}") from None
+    if out is None:
+        stem = plan_path.with_name(f"{plan_path.stem}_{rate:g}hz")
+        out = stem.with_suffix(".csv") if fmt == ExportFormat.CSV else stem
+    if fmt == ExportFormat.CSV and out.is_dir():
+        raise Failure(ExitCode.USAGE, f"--out {out}: expected a CSV file name, found a folder")
+    if fmt != ExportFormat.CSV and out.exists() and not out.is_dir():
+        raise Failure(ExitCode.USAGE, f"--out {out}: expected a folder (one {fmt.value} file per arm), found a file")
+    if out.resolve() == plan_path.resolve():
+        raise Failure(ExitCode.USAGE, f"--out {out} is the plan being exported; give another file")
+    return export_plan(plan, rate, fmt, out)

@@ -1,0 +1,115 @@
+"""The ``coplan feed`` and ``coplan run`` commands (registered in :mod:`coplan.cli`).
+
+Imports only typer, rich and the enums at module level: ``import coplan.cli`` stays light;
+NumPy, the planners and matplotlib are imported inside the commands.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+
+from .failures import check_out_dir, usage
+from .summary import safe as _safe
+from ..kinds import ExitCode, PlanStatus
+
+__all__ = ["feed_cmd", "run_cmd"]
+
+_out = Console(soft_wrap=True)
+_err = Console(stderr=True, soft_wrap=True)
+
+
+def feed_cmd(
+    problem: Annotated[Path, typer.Argument(help="Problem file (YAML) with the true fruit.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Feed file to write (YAML).")],
+    known: Annotated[float, typer.Option(min=0.0, max=1.0, help="Share of the fruit detected at t = 0.")] = 0.5,
+    sigma: Annotated[float, typer.Option(min=1e-6, max=1.0, help="Detection noise: standard deviation per coordinate, m.")] = 0.01,
+    false_rate: Annotated[float, typer.Option("--false-rate", min=0.0, max=1.0,
+                                              help="Chance that a detection comes with a false one.")] = 0.0,
+    duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", min=0.0, max=1.0,
+                                                  help="Chance that a fruit is detected a second time.")] = 0.0,
+    seed: Annotated[int, typer.Option(min=0, help="Random seed (the same seed gives the same feed).")] = 0,
+    reveal_by: Annotated[Optional[float], typer.Option("--reveal-by", min=0.001, help="Late fruit arrive by this time, s "
+                                                       "(default: half the makespan lower bound).")] = None,
+    after_pick: Annotated[float, typer.Option("--after-pick", min=0.0, max=1.0,
+                                              help="Share of the late fruit hidden behind a neighbour until it is picked.")] = 0.25,
+    close_sigma: Annotated[float, typer.Option("--close-sigma", min=1e-6, max=0.1,
+                                               help="Close-range (gripper camera) noise, m.")] = 0.001,
+    close_distance: Annotated[float, typer.Option("--close-distance", min=0.005, max=1.0,
+                                                  help="The gripper camera measures when the tip is this close, m.")] = 0.1,
+):
+    """Generate a seeded vision feed for a problem: late fruit, noise, false and duplicate detections."""
+    from ..problem.model import load_problem
+    from ..live.feed import feed_yaml, make_feed
+
+    if out.exists() and out.is_dir():
+        usage(f"--out {out}: expected a file name, found a folder")
+    prob = load_problem(problem)
+    feed = make_feed(prob, known, sigma, false_rate, duplicate_rate, seed, reveal_by, after_pick, close_distance, close_sigma)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.name + ".tmp")
+    tmp.write_text(feed_yaml(feed), encoding="utf-8")
+    tmp.replace(out)
+    n_false = sum(d.fruit is None for d in feed.detections)
+    n_late = sum(d.t > 0 or d.after is not None for d in feed.detections)
+    _out.print(f"wrote {_safe(out)}: {len(feed.detections)} detections of {len(prob.fruits)} fruit "
+               f"({n_late} after t = 0, {n_false} false), sigma {sigma * 1000:g} mm, seed {seed}", highlight=False)
+
+
+def run_cmd(
+    problem: Annotated[Path, typer.Argument(help="Problem file (YAML) with the true fruit positions.")],
+    feed: Annotated[Path, typer.Option("--feed", "-f", help="Feed file (YAML): what the camera reports.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-live"),
+    animate: Annotated[bool, typer.Option("--animate", help="Also write live.gif: fruit appearing, re-plans, misses.")] = False,
+    seed: Annotated[int, typer.Option(min=0, help="Seed of the simulated close-range measurements.")] = 0,
+    horizon: Annotated[float, typer.Option(min=0.0, max=10.0, help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
+    all_candidates: Annotated[bool, typer.Option("--all-candidates", help="Every re-plan tries every candidate plan, "
+                                                 "not only those its 50 ms budget allows: the same run on any machine.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the metrics as JSON.")] = False,
+):
+    """Simulate the cell live: re-plan as detections arrive, verify what was executed, compare with the omniscient plan."""
+    from ..output import RunFolder
+    from ..plan import jsonable
+    from ..problem.model import load_problem
+    from ..live.cell import LiveOptions
+    from ..live.feed import load_feed
+    from ..live.sim import simulate
+
+    check_out_dir(out, "--out")
+    prob = load_problem(problem)
+    fd = load_feed(feed)
+    if fd.problem is not None and fd.problem != prob.name:
+        _err.print(f"[yellow]note[/]: the feed was made for problem {_safe(fd.problem)!r}, this is {_safe(prob.name)!r}",
+                   highlight=False)
+    opts = LiveOptions(horizon=horizon, budget=None) if all_candidates else LiveOptions(horizon=horizon)
+    result = simulate(prob, fd, opts, seed=seed)
+    with RunFolder(out) as stage:
+        result.plan.save(stage)
+        (stage / "verification.json").write_text(json.dumps(jsonable(result.verification.summary()), indent=1))
+        (stage / "run.json").write_text(json.dumps(jsonable(result.run), indent=1, allow_nan=False))
+        if animate:
+            from ..live.animate import animate_live
+
+            animate_live(prob, result, stage / "live.gif")
+    m = result.run["metrics"]
+    if as_json:
+        typer.echo(json.dumps(jsonable(m), allow_nan=False))
+    else:
+        lat = m["latency_p95"]
+        _out.print(
+            f"{_safe(prob.name)} live: {m['harvested']} of {m['reachable']} reachable fruit harvested, makespan "
+            f"{m['makespan']:.3f} s (omniscient {m['omniscient_makespan']:.3f} s, throughput loss "
+            f"{100 * (m['throughput_loss'] or 0):.1f} %)\n"
+            f"{m['replans']} re-plans, latency median {1000 * (m['latency_median'] or 0):.1f} ms, p95 "
+            f"{1000 * (lat or 0):.1f} ms, max {1000 * (m['latency_max'] or 0):.1f} ms; false picks avoided "
+            f"{m['false_picks_avoided']} of {m['false_detections']}; unreachable detections "
+            f"{len(m['unreachable_detections'])}\n"
+            f"executed plan {result.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
+            f"wrote {_safe(out)}/plan.json, run.json", highlight=False)
+    status = result.plan.status
+    code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
+    raise typer.Exit(int(code))

@@ -1,0 +1,102 @@
+"""What the command line prints of a solve and of a verification (rich text, untrusted
+strings escaped). Light to import: rich only, like :mod:`coplan.cli`."""
+
+from __future__ import annotations
+
+from ..errors import plural, printable
+
+__all__ = ["fmt", "print_summary", "print_verification", "safe"]
+
+
+def safe(x) -> str:
+    """An untrusted string (a name, id or message from a file) safe for the terminal: Rich markup
+    escaped, control characters (escape sequences) shown as ``\\x..`` codes."""
+    from rich.markup import escape
+
+    return escape(printable(x))
+
+
+def fmt(x, unit="", nd=2) -> str:
+    """A number with ``nd`` decimals and its unit; ``-`` for none."""
+    if x is None:
+        return "-"
+    return f"{x:.{nd}f}{unit}"
+
+
+def print_summary(console, res) -> None:
+    """The summary ``coplan solve`` prints of a :class:`coplan.pipeline.SolveResult`."""
+    m = res.plan.metrics
+    ver = res.plan.verification or {}
+    colour = "green" if res.success else "red"
+    p = console.print
+    p(f"[bold]{safe(res.problem.name)}[/] -- planner [bold]{safe(res.plan.planner_name)}[/], status [bold {colour}]{res.plan.status.value}[/]")
+    p(f"  fruit harvested   {m.get('harvested')}/{m.get('reachable')} reachable ({m.get('unreachable')} unreachable: {safe(', '.join(res.plan.unreachable)) or 'none'})")
+    p(f"  makespan          {fmt(m.get('makespan'), ' s')}   (lower bound {fmt(m.get('lower_bound'), ' s')}, ratio {fmt(m.get('gap_to_lower_bound'), '', 3)})")
+    if m.get("optimality") == "proven":
+        p("  optimality        [bold green]proven[/]: the makespan meets the lower bound")
+    if m.get("coordinated_makespan") is not None:
+        p(f"  coordinated plan  {fmt(m.get('coordinated_makespan'), ' s')}   (improved by {fmt(100 * (m.get('improvement_over_coordinated') or 0.0), ' %', 1)};"
+          f" first verified plan at {fmt(m.get('time_to_first_verified'), ' s')}, last improvement at {fmt(m.get('time_of_last_improvement'), ' s')})")
+    if m.get("baseline_makespan") is not None:
+        p(f"  heuristic plan    {fmt(m.get('baseline_makespan'), ' s')}   (the course's baseline, {m.get('baseline_status', '?')}; baseline.json)")
+    p(f"  cycle time/fruit  {fmt(m.get('cycle_time'), ' s')} worst arm, {fmt(m.get('cycle_time_mean'), ' s')} mean")
+    if ver:
+        p(
+            f"  collisions found  {ver.get('collision_count', '-')}   least clearance {fmt(ver.get('min_clearance'), ' m', 4)}"
+            f" (certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})"
+        )
+        if not ver.get("passed", False):
+            p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
+    solver = res.plan.solver
+    if solver.get("message"):
+        p(f"  solver            {safe(solver.get('status', ''))}: {safe(solver['message'])}")
+    tm = res.plan.solver.get("timings", {})
+    parts = [k for k in ("allocation", "coordinated", "search", "polish", "plan", "verify") if k in tm]
+    if parts:
+        planned = sum(tm[k] for k in parts)
+        split = ", ".join(f"{k} {tm[k]:.2f}" for k in parts)
+        p(f"  solve time        {planned:.2f} s ({split}; whole command {res.timings.get('total', planned):.2f} s)")
+    for k, v in res.files.items():  # every file written: plan (JSON, CSV, NPZ), verification, baseline, animation
+        p(f"  wrote             {safe(v)}")
+    if res.previous is not None:
+        p(f"  previous run      kept in {safe(res.previous)}")
+
+
+def print_verification(console, problem, ver, max_rows: int = 25) -> None:
+    """Verdict, clearances, peaks and a short table of the violations."""
+    from rich.table import Table
+
+    p = console.print
+    s = ver.summary()
+    verdict = "[bold green]passed[/]" if ver.passed else "[bold red]FAILED[/]"
+    p(f"[bold]{safe(problem.name)}[/] -- {safe(ver.planner)} plan of {ver.duration:.2f} s: {verdict}"
+      + ("" if ver.complete else f" [yellow](not harvested: {safe(', '.join(ver.unharvested))})[/]"))
+    for w in ver.warnings:
+        if w.kind.value == "events_inferred":  # harvesting judged from events the verifier inferred: say so
+            p(f"  [yellow]events inferred[/]   {safe(w.message.removeprefix('the plan declares no events: '))}")
+    if not ver.pairs:
+        p("  least clearance   - (no two arms can touch)")
+    else:
+        p(f"  least clearance   {fmt(s['min_clearance'], ' m', 4)} sampled, {fmt(s['certified_clearance'], ' m', 4)} certified"
+          f" (required {fmt(ver.required_clearance, ' m', 3)}); {plural(s['collision_count'], 'collision interval')}")
+    for pc in ver.pairs:
+        p(f"    {safe(pc.key):18s} {fmt(pc.min_clearance, ' m', 4)} at {pc.t:.3f} s (links {pc.links[0]}/{pc.links[1]}), certified {fmt(pc.certified, ' m', 4)}")
+    for arm, pk in ver.peaks.items():
+        p(f"  peaks {safe(arm):12s} velocity {pk['velocity']:.2f}, acceleration {pk['acceleration']:.2f}, jerk {pk['jerk']:.2f} of the limits")
+    if ver.fcl is not None:
+        agree = "agrees" if ver.fcl.agree else "[bold red]DISAGREES[/]"
+        p(f"  FCL cross-check   {agree} ({ver.fcl.samples} instants, {ver.fcl.queries} link pairs, max diff {ver.fcl.max_abs_diff:.1e} m)")
+    if ver.warnings:
+        p(f"  warnings          {len(ver.warnings)} ({', '.join(sorted({w.kind.value for w in ver.warnings}))})")
+    if not ver.violations:
+        return
+    table = Table(title=plural(len(ver.violations), "violation"), title_justify="left")
+    for col in ("kind", "arms", "t (s)", "value", "limit", "detail"):
+        table.add_column(col, overflow="fold")
+    for v in ver.violations[:max_rows]:
+        span = f"{v.t:.3f}" if v.t_start is None or v.t_end is None or v.t_end - v.t_start < 1e-9 else f"{v.t_start:.3f}..{v.t_end:.3f}"
+        detail = " ".join(x for x in (f"fruit {v.fruit}" if v.fruit else "", v.message) if x)
+        table.add_row(v.kind.value, safe(",".join(v.arms)), span, fmt(v.value, "", 4), fmt(v.limit, "", 4), safe(detail))
+    console.print(table)
+    if len(ver.violations) > max_rows:
+        p(f"  ... and {len(ver.violations) - max_rows} more (see verification.json: --out)")

@@ -1,0 +1,113 @@
+"""The ``coplan sweep`` and ``coplan sweep-report`` commands (registered in :mod:`coplan.cli`).
+
+Imports only typer, rich and the enums at module level: ``import coplan.cli`` stays light;
+Dask, pyarrow, NumPy and matplotlib are imported inside the commands.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+
+from .failures import check_out_dir, usage
+from .summary import safe as _safe
+from ..errors import printable
+from ..kinds import PlannerKind
+
+__all__ = ["sweep_cmd", "sweep_report_cmd"]
+
+_out = Console(soft_wrap=True)
+_err = Console(stderr=True, soft_wrap=True)
+
+
+def _counts_text(counts: dict[str, int]) -> str:
+    order = ["success", "partial", "unsafe", "infeasible", "failed", "bad input", "error", "timeout", "lost"]
+    keys = sorted(counts, key=lambda k: order.index(k) if k in order else len(order))
+    colour = {"success": "green", "partial": "yellow"}
+    return "  ".join(f"[{colour.get(k, 'red')}]{_safe(k)} {counts[k]}[/]" for k in keys) or "[dim]starting workers[/]"
+
+
+def sweep_cmd(
+    spec: Annotated[Path, typer.Argument(help="Sweep file (YAML): a base, the parameters to vary, planner and options; "
+                                          "or a folder or glob of problem files.")],
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Output folder (default: coplan-sweep/<sweep name>). "
+                                                "A re-run into the same folder skips the rows already done.")] = None,
+    workers: Annotated[Optional[int], typer.Option(min=1, max=1024, help="Worker processes of the local cluster "
+                                                   "(default: one per core; one thread each).")] = None,
+    scheduler: Annotated[Optional[str], typer.Option(help="Use an existing Dask cluster at this address "
+                                                     "(e.g. tcp://host:8786) instead of a local one.")] = None,
+    planner: Annotated[Optional[PlannerKind], typer.Option(help="Planner for every problem (replaces the file's).")] = None,
+    time_limit: Annotated[Optional[float], typer.Option(help="Per-problem time limit, s (replaces the file's; "
+                                                        "default 120).")] = None,
+    csv: Annotated[bool, typer.Option("--csv", help="Also write results.csv.")] = False,
+    keep_plans: Annotated[bool, typer.Option("--keep-plans", help="Also write every plan as plans/<key>.json "
+                                             "(for coplan verify).")] = False,
+):
+    """Solve every problem of a design sweep on Dask; one table row per problem (results.parquet)."""
+    from ..sweep.spec import load_sweep
+
+    if time_limit is not None and not time_limit > 0:
+        usage(f"--time-limit: expected a positive number of seconds, found {time_limit}")
+    if workers is not None and scheduler is not None:
+        usage("--workers: expected either --workers (a local cluster) or --scheduler (an existing one), found both")
+    sw = load_sweep(spec)  # SweepError (an InputError): file:line: key.path messages, exit 3
+    folder = out if out is not None else Path("coplan-sweep") / (re.sub(r"[^\w.-]+", "_", sw.name).strip("._") or "sweep")
+    check_out_dir(folder, "--out")
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+    from ..sweep.run import run_sweep
+
+    progress = Progress(TextColumn("[bold]{task.fields[name]}[/]"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                        TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.description}"), console=_err, transient=False)
+    state: dict = {}
+
+    def on_start(o):
+        _err.print(f"sweep [bold]{_safe(sw.name)}[/]: {o.total} problems, {o.skipped} already done in {_safe(folder)}; "
+                   f"{_safe(scheduler) if scheduler else f'{o.workers} local worker processes'}", highlight=False)
+        state["task"] = progress.add_task(_counts_text(o.counts), total=o.total - o.skipped, name=sw.name)
+
+    def on_row(row, o):
+        progress.update(state["task"], advance=1, description=_counts_text(o.counts))
+
+    try:
+        with progress:
+            res = run_sweep(sw, folder, workers=workers, scheduler=scheduler, planner=planner, time_limit=time_limit,
+                            csv=csv, keep_plans=keep_plans, on_row=on_row, on_start=on_start)
+    except KeyboardInterrupt:
+        _err.print(f"interrupted: every finished row is kept in {_safe(folder)}; run the same command again to resume",
+                   highlight=False)
+        raise
+    except OSError as e:
+        if "connect" in str(e).lower() or isinstance(e, (ConnectionError, TimeoutError)):
+            usage(f"--scheduler {scheduler}: could not connect ({e})")
+        raise
+    rate = 60.0 * res.done / res.elapsed if res.elapsed > 0 else 0.0
+    _out.print(f"[bold]{_safe(sw.name)}[/]: {res.total} problems ({res.done} solved now, {res.skipped} already done) "
+               f"in {res.elapsed:.1f} s ({rate:.1f} problems/min)", highlight=False)
+    _out.print("  " + (_counts_text(res.counts) if res.counts else "nothing to do"), highlight=False)
+    for k, v in res.files.items():
+        _out.print(f"  wrote {_safe(v)}", highlight=False)
+    _out.print(f"  next: coplan sweep-report {_safe(folder)}", highlight=False)
+
+
+def sweep_report_cmd(
+    folder: Annotated[Path, typer.Argument(help="A sweep's output folder (or its results.parquet).")],
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Where to write report.md and the figures "
+                                                "(default: <folder>/report).")] = None,
+    figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the figures.")] = True,
+):
+    """Summarise a sweep: counts by status, medians, worst cases and the designer's figures."""
+    from ..sweep.report import sweep_report
+
+    if not folder.exists():
+        usage(f"{folder}: expected a sweep output folder, found nothing at this path")
+    target = out if out is not None else (folder if folder.is_dir() else folder.parent) / "report"
+    check_out_dir(target, "--out")
+    rep = sweep_report(folder, target, figures=figures)
+    _out.print("\n".join(printable(line) for line in rep.text.splitlines()), markup=False, highlight=False)
+    for v in rep.files.values():
+        _out.print(f"wrote {_safe(v)}", highlight=False)

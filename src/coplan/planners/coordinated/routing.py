@@ -1,0 +1,321 @@
+"""Routing for the warm start: rest poses, tucked transits and elbow branches.
+
+:func:`route_moves` turns a move that sweeps where a neighbour cannot be out of the way into a
+tucked transit (fold the elbow, swing the shoulder, unfold); :func:`choose_branches` picks the
+elbow branch at every pick and place, charging moves for the neighbours' places and homes they
+sweep through. See :mod:`coplan.planners.coordinated.schedule` for the whole warm start.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ...allocate.allocation import Allocation
+from ...problem.model import Arm, Problem
+from .schedule import (
+    CurveTable,
+    ArmSchedule,
+    Step,
+    StepKind,
+    arm_points,
+    scurve_move,
+    points_too_close,
+    retime,
+)
+
+__all__ = ["route_moves", "choose_branches", "ArmGeometry", "same_pose"]
+
+
+# ----------------------------------------------------------------------------- coordination
+def same_pose(p, q, tol: float = 1e-9) -> bool:
+    """Whether joint poses ``p`` and ``q`` agree to ``tol`` (rad) in both joints."""
+    return abs(p[0] - q[0]) <= tol and abs(p[1] - q[1]) <= tol
+
+
+def _stow_poses(arm: Arm, n_shoulder: int = 12) -> np.ndarray:
+    """Candidate rest poses of an arm: home, over its bin (both branches), folded-elbow poses
+    around the shoulder (and straight ones)."""
+    lim = arm.limits
+    cands = [np.asarray(arm.home, float)]
+    q, valid = arm.ik(np.asarray(arm.bin, float))
+    cands += [q[b] for b in range(2) if valid[b]]
+    # the elbow folded as far as its limits allow (either side), or straight
+    folds = sorted({float(np.clip(f, lim[1, 0] + 0.05, lim[1, 1] - 0.05)) for f in (np.pi - 0.25, -(np.pi - 0.25), 0.0)})
+    for s in np.linspace(-np.pi, np.pi, n_shoulder, endpoint=False):
+        s = float(np.clip(s, lim[0, 0], lim[0, 1]))
+        cands += [np.array([s, f]) for f in folds]
+    out, seen = [], set()
+    for c in cands:  # first occurrence of each pose (to 1e-7 rad)
+        key = tuple(np.round(c, 7))
+        if key not in seen:
+            seen.add(key)
+            out.append(c)
+    return np.array(out)
+
+
+class ArmGeometry:
+    """Static (time-free) clearance tests between neighbouring arms, and move routing."""
+
+    def __init__(self, problem: Problem, need: float):
+        self.problem = problem
+        self.need = need
+        self.nbrs: list[list[int]] = [[] for _ in problem.arms]
+        for i, j in problem.neighbour_pairs():
+            self.nbrs[i].append(j)
+            self.nbrs[j].append(i)
+        self._stows: dict[int, np.ndarray] = {}
+        self._routes: dict[tuple, list[tuple[float, float]]] = {}
+
+    def close(self, i: int, qi: np.ndarray, j: int, qj: np.ndarray) -> np.ndarray:
+        """Whether arm i at poses qi and arm j at poses qj (broadcast) are closer than ``need``."""
+        a, b = self.problem.arms[i], self.problem.arms[j]
+        return points_too_close(arm_points(a, qi), arm_points(b, qj), a.link_radius + b.link_radius, self.need)
+
+    def points(self, i: int, q: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Arm i's base, elbow and tip coordinates at poses q (..., 2), for :meth:`close_points`."""
+        return arm_points(self.problem.arms[i], q)
+
+    def close_points(self, i: int, pi: tuple, j: int, pj: tuple) -> np.ndarray:
+        """:meth:`close` on points from :meth:`points` (computed once, compared many times)."""
+        r = self.problem.arms[i].link_radius + self.problem.arms[j].link_radius
+        return points_too_close(pi, pj, r, self.need)
+
+    def static_hits(self, i: int, poses: np.ndarray, j: int, samples: np.ndarray) -> np.ndarray:
+        """For each of arm i's poses (C, 2): how many of arm j's samples (M, 2) come too close."""
+        poses, samples = np.atleast_2d(np.asarray(poses, float)), np.atleast_2d(np.asarray(samples, float))
+        if samples.size == 0 or poses.size == 0:
+            return np.zeros(len(poses), int)
+        return self.close(i, poses[:, None, :], j, samples[None, :, :]).sum(axis=1)
+
+    @staticmethod
+    def path(q0, q1, step: float = 0.04) -> np.ndarray:
+        """Straight joint-space samples from q0 to q1, at most ``step`` rad apart."""
+        q0, q1 = np.asarray(q0, float), np.asarray(q1, float)
+        n = max(2, int(np.ceil(np.abs(q1 - q0).max() / step)) + 1)
+        return q0 + np.linspace(0.0, 1.0, n)[:, None] * (q1 - q0)
+
+    def move_path(self, i: int, q0, q1, dt: float = 0.01) -> np.ndarray:
+        """Arm i's poses along its time-optimal S-curve move from q0 to q1, every ``dt`` s (the
+        joints' profiles differ in shape, so the path is not quite straight in joint space)."""
+        mv = scurve_move(self.problem.arms[i], 0.0, q0, q1)
+        if mv.duration <= 0:
+            return np.atleast_2d(np.asarray(q1, float))
+        t = np.append(np.arange(0.0, mv.duration, dt), mv.duration)
+        return CurveTable(mv.curve).eval(t)
+
+    def vias_path(self, i: int, q0, vias, dt: float = 0.01) -> np.ndarray:
+        """Arm i's poses along S-curve moves from q0 through ``vias`` (every ``dt`` s)."""
+        pts, q = [], q0
+        for v in vias:
+            pts.append(self.move_path(i, q, v, dt))
+            q = v
+        return np.vstack(pts) if pts else np.atleast_2d(np.asarray(q0, float))
+
+    def stows(self, i: int) -> np.ndarray:
+        if i not in self._stows:
+            self._stows[i] = _stow_poses(self.problem.arms[i])
+        return self._stows[i]
+
+    def boxed_in(self, i: int, samples: np.ndarray) -> int:
+        """How many neighbours of arm i have no candidate rest pose clear of arm i's ``samples``."""
+        n = 0
+        for j in self.nbrs[i]:
+            cand = self.stows(j)
+            # home and over the bin first: usually one of them is clear
+            if (self.static_hits(j, cand[:3], i, samples) > 0).all() and (self.static_hits(j, cand[3:], i, samples) > 0).all():
+                n += 1
+        return n
+
+    def route(self, i: int, q0, q1) -> list[tuple[float, float]]:
+        """Via poses (ending at q1) for a move of arm i from q0.
+
+        Straight in joint space, unless the straight move sweeps where some neighbour cannot
+        be out of the way at any of its candidate rest poses (typically across the
+        neighbour's base: no waiting or yielding can let it run). Then a tucked transit:
+        fold the elbow (as far as its limits allow, on either side), swing the shoulder,
+        unfold -- folding where the move starts and unfolding where it ends, or else swinging
+        first (elbow as it is) to a shoulder angle from which the fold sweeps clear, or
+        unfolding at such an angle and swinging last. Variants are tried from the fastest;
+        the first that boxes no neighbour in is used, else the one boxing in the fewest if
+        that is fewer than the straight move.
+        """
+        key = (i, tuple(np.round(q0, 9)), tuple(np.round(q1, 9)))
+        if key in self._routes:
+            return self._routes[key]
+        q0t, q1t = tuple(map(float, q0)), tuple(map(float, q1))
+        out = [q1t]
+        if self.nbrs[i] and not same_pose(q0t, q1t):
+            worst = self.boxed_in(i, self.move_path(i, q0t, q1t))
+            if worst:
+                out = self._tucked(i, q0t, q1t, worst) or out
+        self._routes[key] = out
+        return out
+
+    def _tucked(self, i: int, q0: tuple, q1: tuple, worst: int) -> list[tuple[float, float]] | None:
+        arm = self.problem.arms[i]
+        lim = arm.limits
+        grid = [float(x) for x in np.linspace(lim[0, 0], lim[0, 1], 13)]
+        variants = []
+        for side in (1.0, -1.0):
+            f = float(np.clip(side * (np.pi - 0.15), lim[1, 0] + 0.05, lim[1, 1] - 0.05))
+            shapes = [[(q0[0], f), (q1[0], f), q1]]
+            shapes += [[(s, q0[1]), (s, f), (q1[0], f), q1] for s in grid]  # swing first, fold at s
+            shapes += [[(q0[0], f), (s, f), (s, q1[1]), q1] for s in grid]  # unfold at s, swing last
+            for vias in shapes:
+                clean, q = [], q0
+                for v in vias:
+                    if not same_pose(v, q):
+                        clean.append(v)
+                        q = v
+                dur, q = 0.0, q0
+                for v in clean:
+                    dur += scurve_move(arm, 0.0, q, v).duration
+                    q = v
+                variants.append((dur, clean))
+        variants.sort(key=lambda v: v[0])
+        best = None
+        for dur, vias in variants:
+            n = self.boxed_in(i, self.vias_path(i, q0, vias))
+            if n == 0:
+                return vias
+            if best is None or n < best[0]:
+                best = (n, vias)
+        return best[1] if best is not None and best[0] < worst else None
+
+
+def route_moves(problem: Problem, schedules: dict[str, ArmSchedule], need: float) -> tuple[dict[str, ArmSchedule], int]:
+    """Replace every move that boxes a neighbour in by a tucked transit (see :meth:`ArmGeometry.route`).
+
+    Returns the schedules (retimed) and the number of moves rerouted.
+    """
+    geo = ArmGeometry(problem, need)
+    out, count = {}, 0
+    for i, arm in enumerate(problem.arms):
+        sch = schedules[arm.name]
+        steps: list[Step] = []
+        changed = False
+        for st in sch.steps:
+            vias = geo.route(i, st.q0, st.q1) if st.kind == StepKind.MOVE else [st.q1]
+            if st.kind == StepKind.MOVE and len(vias) > 1:
+                q = st.q0
+                for v in vias:
+                    steps.append(Step(StepKind.MOVE, 0.0, 0.0, tuple(q), tuple(v)))
+                    q = v
+                changed = True
+                count += 1
+            else:
+                steps.append(st)
+        out[arm.name] = ArmSchedule(arm, retime(arm, steps)) if changed else sch
+    return out, count
+
+
+def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: float = 0.5, passes: int = 2,
+                    memo: dict | None = None) -> Allocation:
+    """Elbow branches at every pick and place chosen to keep out of the neighbours' way.
+
+    The allocation picks each pose's elbow branch for speed alone. But every arm returns to
+    its bin after each fruit, so a move that sweeps through a neighbour's place pose (or
+    its home), or a pick/place pose that overlaps one, makes the pair queue: a wait per
+    cycle. Here each arm's branches come from the same dynamic programme over its sequence
+    (home -> fruit -> bin -> ... -> home), with each move costing its time-optimal duration
+    plus ``weight`` s per neighbour pose it would hit (the neighbours' current place poses
+    and homes; a tucked transit is not assumed). Arms in order, ``passes`` times, so each
+    sees its neighbours' updated place poses. Assignment and sequence are unchanged.
+
+    ``memo`` (a dict the caller keeps, for one problem and one ``need``) remembers which
+    move hits which neighbour pose, so repeated calls over similar allocations (the search's
+    evaluations) test each move against each pose once.
+    """
+    geo = ArmGeometry(problem, need)
+    memo = {} if memo is None else memo
+    arms = problem.arms
+    margin = problem.task.reach_margin
+    fruit_pos = {f.id: np.asarray(f.position, float) for f in problem.fruits}
+    fruit_q = {a: dict(v) for a, v in alloc.fruit_q.items()}
+    place_q = {a: dict(v) for a, v in alloc.place_q.items()}
+    dw = problem.task.pick_dwell + problem.task.place_dwell
+    for _ in range(passes):
+        for i, arm in enumerate(arms):
+            seq = alloc.assignment[arm.name]
+            if not seq or not geo.nbrs[i]:
+                continue
+            avoid = {}
+            for j in geo.nbrs[i]:
+                poses = [np.asarray(arms[j].home, float)] + [np.asarray(q, float) for q in place_q[arms[j].name].values()]
+                uniq: list[np.ndarray] = []
+                for q in poses:
+                    if not any(same_pose(q, u, 1e-6) for u in uniq):
+                        uniq.append(q)
+                avoid[j] = np.asarray(uniq)
+            avoid_keys = {j: [_key(q) for q in v] for j, v in avoid.items()}
+            # the arm's programme depends only on its sequence, its poses handed in and the
+            # neighbours' poses to avoid: a repeated one (the search changes one or two arms
+            # at a time) is looked up, not solved again
+            dp_key = ("dp", i, weight, dw, tuple(seq), tuple(_key(fruit_q[arm.name][f]) for f in seq),
+                      tuple((j, tuple(k)) for j, k in avoid_keys.items()))
+            hit = memo.get(dp_key)
+            if hit is not None:
+                fruit_q[arm.name] = {f: q.copy() for f, q in zip(seq, hit[0])}
+                place_q[arm.name] = {f: q.copy() for f, q in zip(seq, hit[1])}
+                continue
+            cache: dict = {}
+
+            def cost(q0, q1):
+                key = (_key(q0), _key(q1))
+                if key not in cache:
+                    cache[key] = _move_seconds(arm, i, q0, q1, key, memo) + weight * _hits(geo, i, q0, q1, key, avoid,
+                                                                                            avoid_keys, memo)
+                return cache[key]
+
+            qb, vb = arm.ik(np.asarray(arm.bin, float))
+            bins = [qb[b] for b in range(2) if vb[b]]
+            home = np.asarray(arm.home, float)
+            states: dict = {None: (0.0, [], [])}
+            for fid in seq:
+                qf, vf = arm.ik(fruit_pos[fid], margin)
+                fbr = [qf[b] for b in range(2) if vf[b]] or [np.asarray(fruit_q[arm.name][fid], float)]
+                new: dict = {}
+                for prev, (c0, fs, ps) in states.items():
+                    start = home if prev is None else bins[prev]
+                    for f in fbr:
+                        c1 = c0 + cost(start, f)
+                        for b, qbin in enumerate(bins):
+                            c2 = c1 + cost(f, qbin) + dw
+                            if b not in new or c2 < new[b][0]:
+                                new[b] = (c2, fs + [f], ps + [qbin])
+                states = new
+            best = min(states.items(), key=lambda kv: kv[1][0] + cost(bins[kv[0]], home))[1]
+            memo[dp_key] = (best[1], best[2])
+            fruit_q[arm.name] = {f: q.copy() for f, q in zip(seq, best[1])}
+            place_q[arm.name] = {f: q.copy() for f, q in zip(seq, best[2])}
+    return replace(alloc, fruit_q=fruit_q, place_q=place_q)
+
+
+def _key(q) -> tuple[float, float]:
+    return tuple(np.round(np.asarray(q, float), 9))
+
+
+def _move_seconds(arm, i: int, q0, q1, key: tuple, memo: dict) -> float:
+    k = ("move", i) + key
+    if k not in memo:
+        memo[k] = scurve_move(arm, 0.0, q0, q1).duration
+    return memo[k]
+
+
+def _hits(geo: ArmGeometry, i: int, q0, q1, key: tuple, avoid: dict, avoid_keys: dict, memo: dict) -> int:
+    """How many of the neighbours' ``avoid`` poses arm i's straight joint path q0 -> q1 comes too
+    close to; each (move, pose) pair is tested once per ``memo``."""
+    n, path = 0, None
+    for j, poses in avoid.items():
+        keys = [("hit", i) + key + (j,) + kp for kp in avoid_keys[j]]
+        todo = [m for m, k in enumerate(keys) if k not in memo]
+        if todo:
+            if path is None:
+                path = geo.path(q0, q1, step=0.08)
+            hit = geo.static_hits(j, poses[todo], i, path) > 0
+            for m, h in zip(todo, hit):
+                memo[keys[m]] = bool(h)
+        n += sum(memo[k] for k in keys)
+    return n

@@ -1,0 +1,14 @@
+"""The anytime optimal planner: a verified incumbent, improved by search and a joint NLP.
+
+- :mod:`.options`: :class:`OptimalOptions` and its YAML file (``--options FILE``)
+- :mod:`.planner`: :func:`plan_optimal`: coordinated -> search -> polish, the incumbent rule
+- :mod:`.search`: large-neighbourhood search with the coordinator as evaluator
+- :mod:`.nlp`, :mod:`.nlp_data`, :mod:`.nlp_solve`: the CasADi program over all arms (its knot
+  grid and data), solved by IPOPT
+- :mod:`.windows`: refinement rounds and receding windows around the NLP
+"""
+
+from .options import OptimalOptions, OptionsError, load_options, parse_options
+from .planner import OptimalResult, plan_optimal
+
+__all__ = ["OptimalOptions", "OptimalResult", "OptionsError", "load_options", "parse_options", "plan_optimal"]

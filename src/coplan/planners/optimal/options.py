@@ -1,0 +1,160 @@
+"""The optimal planner's options (:class:`OptimalOptions`), also from a YAML file
+(``coplan solve --options FILE``), validated like problem files.
+
+Every field of :class:`OptimalOptions` (documented path: ``coplan.optimal.OptimalOptions``) may
+be set; keys left out keep their defaults. The coordinated planner takes its margin, budget
+(``coordination_checks``) and time limit from the same file. ``ipopt`` is a mapping of IPOPT settings passed through to CasADi
+(e.g. ``ipopt.max_iter: 500``). Example::
+
+    search_work: 60000        # more search than the default
+    search_temperature: 0.5
+    polish: false
+    ipopt: {ipopt.tol: 1.0e-7}
+
+Bad values raise :class:`OptionsError` naming the file, line and key, what was expected and what
+was found ("did you mean" for a misspelt key) -- never a traceback.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from ...errors import InputError, Issue, ProblemError, found
+from ...problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
+
+__all__ = ["OptimalOptions", "OptionsError", "load_options", "parse_options"]
+
+@dataclass(frozen=True)
+class OptimalOptions:
+    """Solver options (separate from the problem).
+
+    margin : extra clearance the planners keep (m), so that the dense, certified check passes
+    coordination_checks : work budget of the coordinated planner's candidate search
+    search_work : work budget of the search (conflict checks over all its coordinator runs;
+        roughly 250-400 a second on one core of the 2-core benchmark machine); 0 turns the search off
+    search_evaluations : cap on the search's coordinator runs
+    search_patience : the search stops after this many evaluations without a new best
+    search_temperature : the search accepts a slower state with probability exp(-dt / T), T
+        falling linearly from this (s) to 0 over ``search_work`` (annealing); 0 for pure descent
+    seed : seed of the search's moves
+    polish : run the joint NLP from the incumbent when it still waits
+    polish_iterations : IPOPT iterations the whole polish may spend (every round, window and
+        retry; checked before each solve, and each solve is capped at 200 unless ``ipopt`` sets
+        ``ipopt.max_iter``); when they are spent, the last solution is offered to the verifier
+    polish_windows : polish only schedules the NLP solves in at most this many receding windows
+        (on longer ones the windows' cuts pin the timing and the polish has not paid)
+    polish_rounds : refinement rounds of each polishing window (``max_rounds`` for the last resort)
+    tolerance : a makespan this close to the lower bound (s) is proven optimal
+    screen : initial NLP constraint points where the schedule's links are within this (m)
+    screen_shift : ... also when one arm of a pair runs up to this much (s) earlier or later
+    h_target : target knot spacing (s)
+    max_rounds : NLP solves per window while adding constraint points
+    band : when the dense check finds a dip, points are also added wherever links come within
+        ``band`` (m) of the refinement threshold
+    window : receding-window length (s of schedule); schedules shorter than 1.5 windows are
+        solved as one NLP
+    overlap : each window is solved this much (s) past its cut and kept only up to it
+    window_time_limit : optional wall-clock cap of each IPOPT solve (s); by default IPOPT's
+        iteration cap bounds it (the same on any machine)
+    time_limit : wall-clock limit for the whole planner (s); None for none. At the limit the
+        incumbent is returned.
+    check_rate : rate of the planner's own dense clearance check (Hz)
+    """
+
+    margin: float = 0.015
+    coordination_checks: int = 3000
+    search_work: int = 30_000
+    search_evaluations: int = 2_000
+    search_patience: int = 200
+    search_temperature: float = 0.3
+    seed: int = 0
+    polish: bool = True
+    polish_iterations: int = 400
+    polish_rounds: int = 5
+    polish_windows: int = 1
+    tolerance: float = 1e-3
+    screen: float = 0.25
+    h_target: float = 0.06
+    max_rounds: int = 6
+    band: float = 0.03
+    screen_shift: float = 0.0
+    window: float = 12.0
+    overlap: float = 2.5
+    time_limit: float | None = None
+    window_time_limit: float | None = None
+    check_rate: float = 1000.0
+    ipopt: dict = field(default_factory=dict)
+
+
+# fields that must be > 0 (the others of their type must be >= 0)
+_POSITIVE = {"h_target", "window", "check_rate", "time_limit", "window_time_limit"}
+
+
+class OptionsError(InputError):
+    kind = "options"
+
+
+def _check(name: str, kind: str, v: Any) -> str | None:
+    """The message for a bad value of field ``name`` (type ``kind``), or None if it is good."""
+    low = 0 if name not in _POSITIVE else None
+    bound = "a positive" if low is None else "a non-negative"
+    if kind == "bool":
+        return None if isinstance(v, bool) else f"expected true or false, found {found(v)}"
+    if kind == "dict":
+        if not isinstance(v, dict):
+            return f"expected a mapping of IPOPT settings (e.g. ipopt.max_iter: 500), found {found(v)}"
+        for k, x in v.items():
+            if not isinstance(k, str) or isinstance(x, (dict, list)) or x is None:
+                return f"expected setting: number or string, found {k!r}: {found(x)}"
+        return None
+    nullable = kind.endswith("| None")
+    if nullable and v is None:
+        return None
+    want = f"expected {bound} {'integer' if kind == 'int' else 'number'}{' or null' if nullable else ''}"
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return f"{want}, found {found(v)}"
+    if (kind == "int" and not float(v).is_integer()) or not math.isfinite(v) or v < 0 or (low is None and v <= 0):
+        return f"{want}, found {found(v)}"
+    return None
+
+
+def parse_options(text: str, source: str | None = None, base: OptimalOptions | None = None) -> OptimalOptions:
+    """Options from YAML text (the keys given replace ``base``'s, default the defaults)."""
+    n = len(text.encode("utf-8", errors="replace"))
+    if n > MAX_FILE_BYTES:
+        raise OptionsError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
+    if all(not ln.strip() or ln.lstrip().startswith("#") for ln in text.splitlines()):
+        return base or OptimalOptions()  # nothing but comments: the defaults
+    try:
+        data, lines = read_yaml(text, source)
+    except ProblemError as e:  # the YAML itself: the same checks as for problem files
+        raise OptionsError(e.issues, source) from None
+    if not isinstance(data, dict):
+        raise OptionsError([Issue("", f"expected a mapping of option names to values, found {found(data)}", line_of(lines, ()))],
+                           source)
+    kinds = {f.name: str(f.type) for f in fields(OptimalOptions)}
+    issues, values = [], {}
+    for key, v in data.items():
+        if key not in kinds:
+            near = difflib.get_close_matches(str(key), list(kinds), n=1, cutoff=0.5)
+            hint = f"; did you mean {near[0]!r}?" if near else f"; allowed keys: {', '.join(kinds)}"
+            issues.append(Issue(str(key), f"expected a known option, found unknown key {key!r}{hint}", line_of(lines, (key,))))
+            continue
+        msg = _check(key, kinds[key], v)
+        if msg is not None:
+            issues.append(Issue(str(key), msg, line_of(lines, (key,))))
+            continue
+        values[key] = (int(v) if kinds[key] == "int" else float(v) if kinds[key].startswith("float") and v is not None
+                       else dict(v) if kinds[key] == "dict" else v)
+    if issues:
+        raise OptionsError(issues, source)
+    return replace(base or OptimalOptions(), **values)
+
+
+def load_options(path: str | Path, base: OptimalOptions | None = None) -> OptimalOptions:
+    """Load and validate an options file (raises :class:`OptionsError`)."""
+    return parse_options(read_input_text(path, OptionsError), str(Path(path)), base)

@@ -1,0 +1,380 @@
+"""The anytime optimal planner: the coordinated plan, improved by search and joint optimisation.
+
+Entry point: :func:`plan_optimal`. It keeps an **incumbent**: a verified plan. Every later
+candidate replaces it only if the independent verifier passes it, it harvests at least as
+much, and it is faster. So the optimal planner never returns a plan slower than the
+coordinated one, and whenever it stops -- at its work budget, at an explicit
+``time_limit``, on Ctrl-C, or because the incumbent meets the lower bound (then it is
+*proven optimal*) -- it has a verified plan to return.
+
+1. **coordinated** (:func:`coplan.planners.coordinated.planner.plan_coordinated`): allocation, time-optimal
+   S-curve moves, conflict-free coordination; verified, it is the first incumbent.
+2. **search** (:func:`coplan.planners.optimal.search.improve`): large-neighbourhood search over allocation,
+   order, elbow branches and priorities with the coordinator as evaluator; each new best is
+   verified and offered to the incumbent.
+3. **polish** (:func:`coplan.planners.optimal.windows.solve_windows`): one CasADi/IPOPT program over all
+   arms from the incumbent's schedules, where it still waits (receding windows on long
+   rows); its plan is verified and offered like any other. When no coordinated plan could
+   be verified at all, this is the planner's last resort and its status is reported
+   honestly (best iterate kept, baseline beside it).
+
+Every default budget is work (coordinator checks, evaluations, IPOPT iterations), so the
+same input gives the same plan on any machine and under any load.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ...allocate.allocation import Allocation, AllocationMethod
+from ..coordinated.planner import Coordinated, CoordinatedOptions, make_plan, plan_coordinated, schedules_plan
+from ..heuristic import plan_heuristic
+from .nlp_data import Grid, SolverStatus, build_grid
+from ...plan import Event, EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
+from ...problem.model import Problem
+from ..coordinated.schedule import ArmSchedule, StepKind, decoupled_schedules
+from ...allocate.screen import screened
+from .search import SearchOptions, StopReason, improve
+from .options import OptimalOptions
+from .windows import LADDER, solve_windows, window_count
+
+__all__ = ["OptimalOptions", "OptimalResult", "plan_optimal", "nlp_plan"]  # OptimalOptions: from .options
+
+
+@dataclass
+class OptimalResult:
+    plan: Plan
+    verification: object
+    baseline: Plan
+    baseline_verification: object
+    allocation: Allocation
+    timings: dict[str, float]
+    solver_status: SolverStatus
+    coordinated: Plan | None = None
+    error: str | None = None  # an internal error that stopped the planner (what it had is kept)
+    error_trace: str | None = None
+
+
+# ----------------------------------------------------------------------------- the NLP
+def _events(schedules: dict[str, ArmSchedule], grid: Grid, t_knots: np.ndarray, upto: int) -> list[Event]:
+    kinds = {StepKind.PICK: EventKind.PICK, StepKind.PLACE: EventKind.PLACE}
+    out = []
+    for n, sch in schedules.items():
+        for st, (k0, k1) in zip(sch.steps, grid.ranges[n]):
+            if st.kind in kinds and k1 <= upto:
+                out.append(Event(n, st.fruit, kinds[st.kind], float(t_knots[k0]), float(t_knots[k1])))
+    return sorted(out, key=lambda e: (e.t_start, e.arm))
+
+
+_FAIL_STATUS = {
+    SolverStatus.INTERRUPTED: PlanStatus.INTERRUPTED,
+    SolverStatus.INFEASIBLE: PlanStatus.FAILED,
+    SolverStatus.LIMIT_REACHED: PlanStatus.FAILED,
+    SolverStatus.NUMERICAL_ERROR: PlanStatus.FAILED,
+}
+
+
+def nlp_plan(problem: Problem, alloc: Allocation, sched: dict[str, ArmSchedule], opts: OptimalOptions | None = None,
+             deadline: float | None = None, say: Callable[[str], None] | None = None, iterations: int | None = None,
+             grid: Grid | None = None):
+    """The joint NLP over all arms from ``sched`` (receding windows); returns ``(plan, info)``.
+
+    ``iterations``: a budget of IPOPT iterations over every solve (None: none). ``grid``: the
+    knot grid of ``sched`` when the caller has built it already.
+
+    The plan is unverified (or failed/interrupted with the best iterate kept)."""
+    opts = opts or OptimalOptions()
+    say = say or (lambda m: None)
+    grid = grid if grid is not None else build_grid(sched, opts.h_target)
+    # a window solved near the start's timing after free-timing windows before it starts from a
+    # state those left; when any window could not be solved cleanly, the whole schedule is
+    # solved again with every window near the start from the first
+    discarded = 0.0
+    spent = 0
+    for level in range(len(LADDER) - 1):
+        left = None if iterations is None else iterations - spent
+        if level and left is not None and left <= 0:
+            break
+        stitched, info = solve_windows(problem, sched, grid, opts, deadline, say, level, left)
+        spent += info["iterations"]
+        info["level"] = level
+        if info.get("clean") or info["status"] == SolverStatus.INTERRUPTED or info.get("budget_spent") or (
+                deadline is not None and _time.perf_counter() > deadline):
+            break
+        if level + 2 < len(LADDER):
+            say(f"a window could not be solved cleanly: solving every window again with {LADDER[level + 1][0]}")
+            discarded += info["build"] + info["solve"]
+    status: SolverStatus = info["status"]
+    nlp_info = dict(
+        status=status.value,
+        ipopt_status=info.get("ipopt_status"),
+        iterations=info.get("iterations"),
+        windows=info.get("windows"),
+        rounds=info.get("rounds"),
+        window_timing=info.get("window_stages"),
+        restarted=bool(info.get("level", 0)),
+        separation_points=info.get("points"),
+        n_vars=info.get("n_vars"),
+        n_cons=info.get("n_cons"),
+        max_constraint_violation=info.get("max_violation"),
+        seconds=info.get("build", 0.0) + info.get("solve", 0.0) + discarded,
+    )
+    events = _events(sched, grid, stitched.t, stitched.t.size - 1)
+    plan_status = PlanStatus.UNVERIFIED if status.converged else _FAIL_STATUS[status]
+    msg = (f"IPOPT {info.get('ipopt_status')}" if status.converged else
+           f"IPOPT stopped ({info.get('ipopt_status')}); the best iterate of window {info.get('complete_windows', 0) + 1} is kept")
+    plan = make_plan(problem, alloc, stitched.sample, float(stitched.t[-1]), events, plan_status,
+                     {"nlp": nlp_info, "message": msg}, PlannerKind.OPTIMAL)
+    return plan, nlp_info, status
+
+
+# ----------------------------------------------------------------------------- the incumbent
+class _Incumbent:
+    """The best verified plan so far (see the module docstring for the acceptance rule)."""
+
+    def __init__(self, problem: Problem, t_start: float, say):
+        self.problem, self.t_start, self.say = problem, t_start, say
+        self.n_reach = len(problem.reachable_ids())
+        self.plan: Plan | None = None
+        self.verification = None
+        self.candidate: Coordinated | None = None
+        self.source = None
+        self.first_at = None
+        self.improved_at = None
+        self.history: list[dict] = []
+
+    @property
+    def makespan(self) -> float:
+        return self.plan.metrics["makespan"] if self.plan is not None else np.inf
+
+    def offer(self, plan: Plan, verification, source: str, candidate: Coordinated | None = None) -> bool:
+        plan = finalize_plan(plan, verification, self.n_reach)
+        if plan.status not in (PlanStatus.SUCCESS, PlanStatus.PARTIAL):
+            return False
+        if self.plan is not None:
+            got, have = plan.metrics["harvested"], self.plan.metrics["harvested"]
+            if got < have or (got == have and plan.metrics["makespan"] >= self.makespan - 1e-9):
+                return False
+        now = _time.perf_counter() - self.t_start
+        self.first_at = now if self.first_at is None else self.first_at
+        self.improved_at = now
+        self.plan, self.verification, self.source = plan, verification, source
+        self.candidate = candidate if candidate is not None else self.candidate
+        self.history.append({"t": now, "makespan": self.makespan, "source": source})
+        lb = plan.metrics.get("lower_bound") or 0.0
+        gap = f", {max(self.makespan / lb - 1, 0.0):.2%} over the lower bound {lb:.3f} s" if lb else ""
+        self.say(f"incumbent {self.makespan:.3f} s ({source}){gap}")
+        return True
+
+
+def plan_optimal(
+    problem: Problem,
+    allocation: AllocationMethod | str = AllocationMethod.MAKESPAN,
+    options: OptimalOptions | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> OptimalResult:
+    """Plan all arms, anytime: coordinated plan, then search, then joint NLP; verified."""
+    from ...verify.verifier import verify
+
+    opts = options or OptimalOptions()
+    say = progress or (lambda m: None)
+    t_start = _time.perf_counter()
+    deadline = None if opts.time_limit is None else t_start + opts.time_limit
+    timings: dict[str, float] = {}
+    n_reach = len(problem.reachable_ids())
+
+    # baseline, always available
+    tb = _time.perf_counter()
+    baseline = plan_heuristic(problem)
+    base_ver = verify(problem, baseline)
+    baseline = finalize_plan(baseline, base_ver, n_reach)
+    timings["baseline"] = _time.perf_counter() - tb
+
+    t0 = _time.perf_counter()
+    inc = _Incumbent(problem, t0, say)
+    cache: dict = {}  # routes and moves shared by every coordinator run
+    copts = CoordinatedOptions(margin=opts.margin, budget_checks=opts.coordination_checks, time_limit=opts.time_limit)
+    interrupted = False
+    stop = StopReason.BUDGET
+    search_info = nlp_info = None
+    coord_plan = None
+    error = error_trace = None
+    try:
+        coord = plan_coordinated(problem, allocation, copts, say, cache)
+        timings["coordinated"] = _time.perf_counter() - t0
+        coord_plan = coord.plan
+        cand = coord.candidate
+        if cand is not None:
+            inc.offer(schedules_plan(problem, cand.alloc, cand.schedules, PlannerKind.OPTIMAL, {}), coord.verification,
+                      "coordinated", cand)
+        bound = coord.plan.metrics.get("lower_bound") or 0.0
+
+        def proven() -> bool:
+            return inc.plan is not None and inc.plan.status == PlanStatus.SUCCESS and inc.makespan <= bound + opts.tolerance
+
+        # search: allocation, order, branches, priorities with the coordinator as evaluator
+        if inc.candidate is not None and not proven() and opts.search_work > 0 and opts.search_evaluations > 0 \
+                and not inc.candidate.fallback:
+            ts = _time.perf_counter()
+
+            def on_improve(c: Coordinated) -> None:
+                p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
+                inc.offer(p, verify(problem, p), "search", c)
+
+            sopts = SearchOptions(evaluations=opts.search_evaluations, work=opts.search_work, patience=opts.search_patience, seed=opts.seed,
+                                  temperature=opts.search_temperature,
+                                  tolerance=opts.tolerance,
+                                  fixed_assignment=AllocationMethod(allocation) != AllocationMethod.MAKESPAN)
+            _, stats = improve(problem, inc.candidate, bound, opts.margin, sopts, on_improve, deadline, cache)
+            search_info = stats.summary()
+            timings["search"] = _time.perf_counter() - ts
+            stop = stats.stop
+            interrupted = stats.stop == StopReason.INTERRUPTED
+        # polish: the joint NLP from the incumbent's schedules, where it still waits; or, when
+        # nothing could be verified, the last resort from whatever schedules there are
+        within = deadline is None or _time.perf_counter() < deadline
+        src = inc.candidate or cand
+        if src is None and n_reach:  # nothing coordinated: the NLP starts from the decoupled plan
+            from ...allocate.allocation import allocate
+
+            a0 = allocate(problem, allocation)
+            src = Coordinated(a0, decoupled_schedules(problem, a0), a0.estimated_makespan)
+            say("no conflict-free coordination found; the joint NLP starts from the decoupled (colliding) plan")
+        slack = src is not None and retimable(src.schedules)
+        grid = None
+        if src is not None and inc.plan is not None and opts.polish and not proven():
+            if not slack:
+                say("joint NLP skipped: the arm that places last never waits and moves straight between its poses, "
+                    "so no retiming of the same poses and order can finish it sooner")
+            else:
+                grid = build_grid(src.schedules, opts.h_target)
+                n_win = window_count(grid, opts.window, src.schedules)
+                if n_win > opts.polish_windows:
+                    slack = False
+                    say(f"joint NLP skipped: the schedule needs {n_win} receding windows (polish_windows is {opts.polish_windows})")
+        if not interrupted and within and src is not None and n_reach and not proven() and (
+                inc.plan is None or (opts.polish and slack)):
+            tp = _time.perf_counter()
+            popts = replace(opts, ipopt={"ipopt.max_iter": 200} | dict(opts.ipopt),
+                            max_rounds=min(opts.max_rounds, opts.polish_rounds)) if inc.plan else opts
+            plan, nlp_info, nlp_status = nlp_plan(problem, src.alloc, src.schedules, popts, deadline, say,
+                                                  opts.polish_iterations if inc.plan else None, grid)
+            timings["polish"] = _time.perf_counter() - tp
+            interrupted = nlp_status == SolverStatus.INTERRUPTED
+            if plan.status != PlanStatus.UNVERIFIED and inc.plan is not None:
+                say(f"joint NLP: {plan.solver.get('message', 'no solution')}; kept the incumbent")
+            if plan.status == PlanStatus.UNVERIFIED:
+                ver = verify(problem, plan)
+                accepted = inc.offer(plan, ver, "joint NLP")
+                nlp_info["accepted"] = accepted
+                if not accepted and inc.plan is not None:
+                    say(f"joint NLP: {plan.metrics['makespan']:.3f} s, not better than the incumbent; kept the incumbent")
+            if inc.plan is None:  # nothing verified at all: report the NLP's plan honestly
+                ver = verify(problem, plan)
+                plan = finalize_plan(plan, ver, n_reach)
+                inc.plan, inc.verification, inc.source = plan, ver, "joint NLP (unverified)"
+        if proven():
+            stop = StopReason.PROVEN_OPTIMAL
+        elif deadline is not None and _time.perf_counter() >= deadline:
+            stop = StopReason.TIME_LIMIT
+    except KeyboardInterrupt:
+        interrupted = True
+    except Exception as e:  # noqa: BLE001 -- a bug in a stage: keep what was computed before it, report it
+        import traceback
+
+        error, error_trace = f"{type(e).__name__}: {e}", traceback.format_exc()
+        say(f"internal error ({error}); keeping what was computed before it")
+    if interrupted:
+        stop = StopReason.INTERRUPTED
+    if inc.plan is None:  # interrupted before anything, or nothing could be planned
+        if coord_plan is not None:
+            inc.plan, inc.verification = coord_plan, None
+        else:
+            from ...allocate.allocation import allocate
+
+            alloc0 = allocate(problem, allocation)
+            inc.plan = make_plan(problem, alloc0, lambda t: {a.name: np.tile(a.home, (t.size, 1)) for a in problem.arms},
+                                 0.0, [], PlanStatus.FAILED if error else PlanStatus.INTERRUPTED,
+                                 {"message": "stopped before the first plan"}, PlannerKind.OPTIMAL)
+        inc.verification = inc.verification or verify(problem, inc.plan)
+    plan = inc.plan
+    plan.planner = PlannerKind.OPTIMAL
+    if interrupted:
+        plan.status = PlanStatus.INTERRUPTED
+    plan = finalize_plan(plan, inc.verification, n_reach)
+    coord_mk = coord_plan.metrics.get("makespan") if coord_plan is not None and coord_plan.status == PlanStatus.SUCCESS else None
+    lb = plan.metrics.get("lower_bound")
+    mk = plan.metrics.get("makespan") or 0.0
+    verified = plan.verification is not None and plan.verification.get("passed")
+    plan.metrics.update(
+        coordinated_makespan=coord_mk,
+        improvement_over_coordinated=(1.0 - mk / coord_mk) if coord_mk else None,
+        optimality="proven" if (verified and lb and mk <= lb + opts.tolerance) else "not proven",
+        baseline_makespan=baseline.metrics.get("makespan"),
+        baseline_status=baseline.status.value,
+        time_to_first_verified=inc.first_at,
+        time_of_last_improvement=inc.improved_at,
+    )
+    timings["total"] = _time.perf_counter() - t_start - timings["baseline"]
+    plan.solver = {
+        "status": plan.status.value,
+        "message": _message(inc, stop),
+        "stopped_by": stop.value,
+        "incumbent_from": inc.source,
+        "incumbents": inc.history,
+        "allocation": AllocationMethod(allocation).value,
+        "screen": screened(problem).summary(),
+        "lower_bound": coord_plan.solver.get("lower_bound") if coord_plan is not None else None,
+        "coordinated": coord_plan.solver if coord_plan is not None else None,
+        "search": search_info,
+        "nlp": nlp_info,
+        "options": {k: v for k, v in opts.__dict__.items() if k != "ipopt"} | {"ipopt": dict(opts.ipopt)},
+        "timings": dict(timings),
+    }
+    if error:
+        kept = f"the verified incumbent from the {inc.source} stage ({mk:.3f} s)" if verified and inc.source \
+            else "no verified plan (the arms stay at home)"
+        plan.solver.update(internal_error=error, stopped_by="internal_error",
+                           message=f"internal error ({error}); kept {kept} and the baseline")
+    alloc_out = inc.candidate.alloc if inc.candidate is not None else None
+    status = SolverStatus.INTERRUPTED if interrupted else SolverStatus.OPTIMAL if verified else SolverStatus.NUMERICAL_ERROR
+    return OptimalResult(plan, inc.verification, baseline, base_ver, alloc_out, timings, status, coord_plan, error, error_trace)
+
+
+def retimable(schedules: dict[str, ArmSchedule], tol: float = 1e-6) -> bool:
+    """Whether the joint NLP could finish these schedules sooner.
+
+    The NLP keeps every pick and place pose and each arm's order, and every arm comes to
+    rest at them; between two rest poses no motion is faster than the per-joint S-curve the
+    schedules already use. So an arm that places last, never waits and moves straight from
+    pose to pose (no tucked transit through via poses) is already as fast as these poses
+    allow: only a wait or a via on some last-placing arm leaves the NLP anything to gain."""
+    end = max((s.last_place for s in schedules.values()), default=0.0)
+    for s in schedules.values():
+        if s.last_place < end - tol:
+            continue
+        steps = [st for st in s.steps if st.t1 <= s.last_place + tol]
+        if any(st.kind == StepKind.WAIT for st in steps):
+            return True
+        if any(a.kind == b.kind == StepKind.MOVE for a, b in zip(steps, steps[1:])):
+            return True
+    return False
+
+
+def _message(inc: _Incumbent, stop: StopReason) -> str:
+    if inc.source is None or inc.source.endswith("(unverified)"):
+        return "no verified plan was found; the best the solver had is kept"
+    words = {
+        StopReason.PROVEN_OPTIMAL: "the plan meets the lower bound: proven optimal",
+        StopReason.BUDGET: "the work budget is spent",
+        StopReason.STALLED: "the search stopped improving",
+        StopReason.EXHAUSTED: "every allocation, order and elbow branch was tried",
+        StopReason.TIME_LIMIT: "the time limit was reached; the verified incumbent is returned",
+        StopReason.INTERRUPTED: "interrupted; the verified incumbent is saved",
+    }
+    source = {"coordinated": "the coordinated plan", "search": "the search", "joint NLP": "the joint NLP"}.get(inc.source, inc.source)
+    return f"{words[stop]} (incumbent from {source})"

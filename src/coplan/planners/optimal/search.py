@@ -1,0 +1,457 @@
+"""Large-neighbourhood search over allocation, order, elbow branches and priorities, with the
+fast coordinator as its evaluator (used by the anytime optimal planner, :mod:`coplan.optimal`).
+
+Entry point: :func:`improve`. A state is which arm takes which fruit in which order, which
+elbow-branch rule builds the poses, and the arms' priority order. A move changes one of them:
+
+* ``first``    -- put one of an arm's fruit first (the only trip that starts from home),
+* ``relocate`` -- give one fruit to another arm that reaches it (where that arm's decoupled
+  finish is earliest),
+* ``swap``     -- exchange two fruit between two arms that reach both,
+* ``exchange`` / ``move`` / ``twoopt`` / ``reverse`` -- reorder within an arm (swap two fruit;
+  move one to another place; reverse a stretch; reverse the whole sweep),
+* ``flip``     -- force the other elbow branch at one fruit (or release a forced one),
+* ``variant``  -- elbow branches chosen for speed or for keeping out of the neighbours' way,
+* ``priority`` -- which arm goes first when two want the same space.
+
+Moves mostly touch the critical arm (the one placing last). Each candidate is first bounded
+from below by its arms' decoupled finish times (the per-arm dynamic programme over elbow
+branches, cached per sequence): one that cannot beat the current state is rejected without
+coordinating. The others are coordinated (:func:`coplan.coordinate.coordinate`, sharing one
+cache of routes and moves) and kept when their makespan is lower, or equal with less total
+work. After ``stall`` evaluations without progress the search restarts from the best state
+with a few random moves (an iterated local search).
+
+When the whole state space is small (a few fruit), it is searched exhaustively instead: every
+state, cheapest estimate first, until the estimate alone cannot beat the best -- a branch and
+bound whose result is the best plan the coordinator can make (``StopReason.EXHAUSTED``).
+
+Every budget is work -- coordinator runs, proposals -- and the random moves come from a seeded
+generator, so the same problem and options give the same plan on any machine and under any
+load. Only an explicit ``deadline`` depends on the clock. It stops at once when the makespan
+meets the lower bound (``tolerance``): the plan is then proven optimal.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from enum import Enum
+
+import numpy as np
+
+from ...allocate.allocation import arm_configs, choose_branches as fastest_branches
+from ..coordinated.coordinate import coordinate
+from ..coordinated.planner import Coordinated, makespan_of
+from ...problem.model import Problem
+from ..coordinated.routing import choose_branches as clear_branches
+from ..coordinated.schedule import ConflictError, decoupled_schedules
+
+__all__ = ["SearchOptions", "SearchStats", "StopReason", "improve"]
+
+
+class StopReason(str, Enum):
+    PROVEN_OPTIMAL = "proven_optimal"  # the makespan meets the lower bound
+    BUDGET = "budget"  # the work budget (evaluations) is spent
+    STALLED = "stalled"  # no improvement within ``patience`` evaluations
+    TIME_LIMIT = "time_limit"  # the explicit clock limit
+    INTERRUPTED = "interrupted"  # Ctrl-C
+    EXHAUSTED = "exhausted"  # every state was tried or bounded out: the coordinator's best
+
+
+@dataclass(frozen=True)
+class SearchOptions:
+    """Work budget and rules of :func:`improve`.
+
+    evaluations : coordinator runs (a cap)
+    work : conflict checks over all coordinator runs (the work budget: proportional to
+        time on a given machine, and the same on every machine)
+    patience : stop after this many evaluations without a new best
+    stall : restart from the best state (with ``kick`` random moves) after this many
+        evaluations without progress of the current state
+    attempt_checks : work cap of one coordinator run (conflict checks)
+    seed : seed of the move generator
+    fixed_assignment : keep which arm takes which fruit (order, branches and priorities
+        still change); used when the caller asked for a given allocation method
+    tolerance : a makespan this close to the lower bound (s) is optimal
+    exhaustive : when the whole state space (allocations x orders x elbow branches x variants x
+        priorities) has at most this many states, and at most half of ``evaluations`` of them
+        have an estimate below the start's makespan, try those instead, cheapest estimate
+        first, until the estimate alone cannot beat the best (branch and bound): the result
+        is then the best plan the coordinator can make; 0 turns this off
+    temperature : accept a slower state with probability exp(-(its makespan - current) / T),
+        T falling linearly from ``temperature`` (s) to 0 as the work budget is spent (simulated
+        annealing, seeded like the moves); the best state is kept whatever is accepted
+    """
+
+    evaluations: int = 400
+    work: int = 8_000
+    patience: int = 60
+    stall: int = 25
+    kick: int = 2
+    attempt_checks: int = 600
+    seed: int = 0
+    fixed_assignment: bool = False
+    tolerance: float = 1e-3
+    temperature: float = 0.0
+    exhaustive: int = 20_000
+
+
+@dataclass
+class SearchStats:
+    evaluations: int = 0
+    checks: int = 0
+    proposals: int = 0
+    pruned: int = 0
+    failed: int = 0
+    improvements: int = 0
+    restarts: int = 0
+    stop: StopReason = StopReason.BUDGET
+    moves: dict | None = None  # move kind -> [tried, improved]
+
+    def summary(self) -> dict:
+        return {"evaluations": self.evaluations, "checks": self.checks, "proposals": self.proposals, "pruned_by_bound": self.pruned,
+                "coordination_failed": self.failed, "improvements": self.improvements, "restarts": self.restarts,
+                "stopped_by": self.stop.value, "moves": self.moves}
+
+
+@dataclass(frozen=True)
+class _State:
+    assign: tuple[tuple[str, ...], ...]  # per arm (problem order), fruit in harvesting order
+    variant: str  # "branches" | "fastest"
+    order: tuple[str, ...]  # priority
+    forced: frozenset = frozenset()  # (arm index, fruit id, branch index): elbow branch forced at a fruit
+
+    def forced_of(self, i: int) -> tuple:
+        return tuple(sorted((f, b) for a, f, b in self.forced if a == i))
+
+
+_MOVES = ("first", "relocate", "swap", "exchange", "move", "twoopt", "reverse", "flip", "variant", "priority")
+_WEIGHTS = np.array([3.0, 4.0, 3.0, 1.0, 1.5, 1.0, 0.5, 2.0, 0.5, 0.5])
+
+
+class _Search:
+    def __init__(self, problem: Problem, start: Coordinated, margin: float, opts: SearchOptions, cache: dict):
+        self.problem, self.margin, self.opts, self.cache = problem, margin, opts, cache
+        self.names = [a.name for a in problem.arms]
+        self.cfg = [arm_configs(problem, arm) for arm in problem.arms]
+        self.pos = {f.id: f.position for f in problem.fruits}
+        self.reach = {f.id: [i for i in range(len(self.names)) if f.id in self.cfg[i][1]] for f in problem.fruits}
+        self.start_alloc = start.alloc
+        self.rng = np.random.default_rng(opts.seed)
+        self._dp: dict = {}
+        self.stats = SearchStats(moves={m: [0, 0] for m in _MOVES})
+        w = _WEIGHTS * [not (opts.fixed_assignment and m in ("relocate", "swap")) for m in _MOVES]
+        self.weights = w / w.sum()
+
+    def state_of(self, c: Coordinated) -> _State:
+        order = tuple(c.order) if c.order else tuple(self.names)
+        variant = c.variant if c.variant in ("branches", "fastest") else "branches"
+        return _State(tuple(tuple(c.alloc.assignment[n]) for n in self.names), variant, order)
+
+    # ---- evaluation
+    def dp(self, i: int, seq: tuple[str, ...], forced: tuple = ()):
+        """The arm's fastest branches along ``seq`` (some fruit's branch forced): ``(fruit poses,
+        place poses, finish)``, cached."""
+        key = (i, seq, forced)
+        hit = self._dp.get(key)
+        if hit is None:
+            bins, fq = self.cfg[i]
+            if forced:
+                fq = fq | {f: [fq[f][b]] for f, b in forced}
+            hit = fastest_branches(self.problem, self.problem.arms[i], seq, bins, fq) if seq else ([], [], 0.0)
+            self._dp[key] = hit
+        return hit
+
+    def estimate(self, s: _State) -> float:
+        return max((self.dp(i, seq, s.forced_of(i))[2] for i, seq in enumerate(s.assign)), default=0.0)
+
+    def evaluate(self, s: _State) -> Coordinated | None:
+        fruit_q, place_q, est = {}, {}, {}
+        for i, seq in enumerate(s.assign):
+            fs, ps, t = self.dp(i, seq, s.forced_of(i))
+            n = self.names[i]
+            fruit_q[n], place_q[n], est[n] = dict(zip(seq, fs)), dict(zip(seq, ps)), t
+        al = replace(self.start_alloc, assignment=dict(zip(self.names, s.assign)), fruit_q=fruit_q, place_q=place_q,
+                     estimate=est)
+        if s.variant == "branches":
+            al = clear_branches(self.problem, al, self.problem.task.clearance + self.margin,
+                                 memo=self.cache.setdefault("branch_hits", {}))
+            for i, f, b in s.forced:  # a forced branch stands
+                al.fruit_q[self.names[i]][f] = self.cfg[i][1][f][b]
+        base = decoupled_schedules(self.problem, al)
+        self.stats.evaluations += 1
+        work: dict = {}
+        try:
+            sched, waits, _ = coordinate(self.problem, base, self.margin, priority=list(s.order),
+                                         max_checks=self.opts.attempt_checks, cache=self.cache, work=work)
+        except ConflictError:
+            self.stats.checks += work.get("checks", 0)
+            self.stats.failed += 1
+            return None
+        self.stats.checks += work.get("checks", 0)
+        return Coordinated(al, sched, makespan_of(sched), list(s.order), s.variant, waits)
+
+    def space(self, start: _State, cap: int) -> list[tuple[float, _State]] | None:
+        """Every state (allocation, orders, forced elbow branches, variant, priority), with its
+        estimate, cheapest first; None when there are more than ``cap`` of them."""
+        import itertools
+
+        fruits = [f for seq in start.assign for f in seq]
+        if self.opts.fixed_assignment:
+            owners = [[next(i for i, seq in enumerate(start.assign) if f in seq)] for f in fruits]
+        else:
+            owners = [self.reach[f] for f in fruits]
+        priorities = list(itertools.permutations(start.order))
+        per = 2 * len(priorities)
+        out: list[tuple[float, _State]] = []
+        for split in itertools.product(*owners):
+            groups = [[f for f, a in zip(fruits, split) if a == i] for i in range(len(self.names))]
+            # exact integers: these counts overflow any fixed-width type on a long row
+            n_orders = math.prod(math.factorial(len(g)) for g in groups)
+            n_branch = math.prod(len(self.cfg[a][1][f]) for f, a in zip(fruits, split))
+            if len(out) + n_orders * n_branch * per > cap:
+                return None
+            for orders in itertools.product(*[itertools.permutations(g) for g in groups]):
+                assign = tuple(tuple(o) for o in orders)
+                for fb in itertools.product(*[range(len(self.cfg[a][1][f])) for f, a in zip(fruits, split)]):
+                    forced = frozenset((a, f, b) for f, a, b in zip(fruits, split, fb))
+                    est = self.estimate(_State(assign, start.variant, start.order, forced))
+                    out += [(est, _State(assign, v, o, forced)) for v in ("branches", "fastest") for o in priorities]
+        out.sort(key=lambda x: x[0])  # stable: ties keep the enumeration's order
+        return out
+
+    # ---- moves
+    def critical(self, c: Coordinated) -> int:
+        last = [c.schedules[n].last_place for n in self.names]
+        if self.rng.random() < 0.7:
+            return int(np.argmax(last))
+        busy = [i for i, seq in enumerate(c.alloc.assignment[n] for n in self.names) if seq]
+        return int(self.rng.choice(busy)) if busy else 0
+
+    def insert_sorted(self, seq: list[str], f: str) -> list[str]:
+        x = self.pos[f][0]
+        k = next((k for k, g in enumerate(seq) if self.pos[g][0] > x), len(seq))
+        return seq[:k] + [f] + seq[k:]
+
+    def insert_best(self, b: int, seq: list[str], f: str, forced: tuple) -> list[str]:
+        """``seq`` with ``f`` inserted where arm b's decoupled finish is earliest (ties: the
+        x-sorted place)."""
+        ref = self.insert_sorted(seq, f)
+        best, t_best = ref, self.dp(b, tuple(ref), forced)[2]
+        for k in range(len(seq) + 1):
+            trial = seq[:k] + [f] + seq[k:]
+            if trial != ref:
+                t = self.dp(b, tuple(trial), forced)[2]
+                if t < t_best - 1e-9:
+                    best, t_best = trial, t
+        return best
+
+    def propose(self, s: _State, c: int) -> tuple[str, _State] | None:
+        kind = str(self.rng.choice(_MOVES, p=self.weights))
+        assign = [list(seq) for seq in s.assign]
+        mine = assign[c]
+        rng = self.rng
+        if kind == "variant":
+            return kind, replace(s, variant="fastest" if s.variant == "branches" else "branches")
+        if kind == "priority":
+            if len(s.order) < 2:
+                return None
+            i, j = rng.choice(len(s.order), 2, replace=False)
+            order = list(s.order)
+            order[i], order[j] = order[j], order[i]
+            return kind, replace(s, order=tuple(order))
+        if not mine:
+            return None
+        f = mine[int(rng.integers(len(mine)))]
+        forced = s.forced
+        if kind == "flip":
+            branches = self.cfg[c][1][f]
+            hit = [x for x in forced if x[0] == c and x[1] == f]
+            if hit:
+                return kind, replace(s, forced=forced - set(hit))
+            if len(branches) < 2:
+                return None
+            now = self.dp(c, s.assign[c], s.forced_of(c))[0][s.assign[c].index(f)]
+            b = 1 if np.allclose(now, branches[0]) else 0
+            return kind, replace(s, forced=forced | {(c, f, b)})
+        if kind == "first":
+            if mine[0] == f:
+                return None
+            assign[c] = [f] + [g for g in mine if g != f]
+        elif kind == "reverse":
+            if len(mine) < 2:
+                return None
+            assign[c] = mine[::-1]
+        elif kind == "exchange":
+            if len(mine) < 2:
+                return None
+            i, j = rng.choice(len(mine), 2, replace=False)
+            mine[i], mine[j] = mine[j], mine[i]
+        elif kind == "move":  # one fruit to another place in the same arm's order
+            if len(mine) < 2:
+                return None
+            rest = [g for g in mine if g != f]
+            k = int(rng.integers(len(rest) + 1))
+            if rest[:k] + [f] + rest[k:] == mine:
+                return None
+            assign[c] = rest[:k] + [f] + rest[k:]
+        elif kind == "twoopt":  # reverse a stretch of the order
+            if len(mine) < 3:
+                return None
+            i, j = sorted(rng.choice(len(mine) + 1, 2, replace=False))
+            if j - i < 2:
+                return None
+            assign[c] = mine[:i] + mine[i:j][::-1] + mine[j:]
+        elif kind == "relocate":
+            others = [b for b in self.reach[f] if b != c]
+            if not others:
+                return None
+            b = int(rng.choice(others))
+            assign[c] = [g for g in mine if g != f]
+            forced = frozenset(x for x in forced if x[1] != f)
+            assign[b] = self.insert_best(b, assign[b], f, tuple(sorted((g, k) for a, g, k in forced if a == b)))
+        else:  # swap
+            pairs = [(b, g) for b in self.reach[f] if b != c for g in assign[b] if c in self.reach[g]]
+            if not pairs:
+                return None
+            b, g = pairs[int(rng.integers(len(pairs)))]
+            assign[c] = [g if h == f else h for h in mine]
+            assign[b] = [f if h == g else h for h in assign[b]]
+            forced = frozenset(x for x in forced if x[1] not in (f, g))
+        return kind, replace(s, assign=tuple(tuple(seq) for seq in assign), forced=forced)
+
+
+def _better(a: Coordinated, b: Coordinated) -> bool:
+    """Whether ``a`` beats ``b``: a lower makespan, or the same with less total work."""
+    if a.makespan < b.makespan - 1e-9:
+        return True
+    return abs(a.makespan - b.makespan) <= 1e-9 and a.total < b.total - 1e-9
+
+
+def improve(
+    problem: Problem,
+    start: Coordinated,
+    bound: float,
+    margin: float,
+    options: SearchOptions | None = None,
+    on_improve: Callable[[Coordinated], None] | None = None,
+    deadline: float | None = None,
+    cache: dict | None = None,
+) -> tuple[Coordinated, SearchStats]:
+    """Improve a coordinated candidate by large-neighbourhood search (see the module docstring).
+
+    ``on_improve`` is called with every new best (lower makespan). Returns the best candidate
+    and the search's statistics (``stats.stop`` says what ended it). Ctrl-C ends the search
+    with what it has (``StopReason.INTERRUPTED``).
+    """
+    opts = options or SearchOptions()
+    srch = _Search(problem, start, margin, opts, {} if cache is None else cache)
+    st = srch.stats
+    best = cur = start
+    s_cur = srch.state_of(start)
+    seen = {s_cur}
+    since_best = since_cur = idle = 0
+    max_proposals = 50 * opts.evaluations + 100
+    space = srch.space(s_cur, opts.exhaustive) if opts.exhaustive > 0 and best.makespan > bound + opts.tolerance else None
+    if space is not None and sum(est < best.makespan - 1e-9 for est, _ in space) > opts.evaluations // 2:
+        space = None  # branch and bound might not finish within half the budget: search instead
+    try:
+        if space is not None:
+            best = _exhaust(srch, space, best, bound, seen, on_improve, deadline)
+            return best, st
+        while True:
+            if best.makespan <= bound + opts.tolerance:
+                st.stop = StopReason.PROVEN_OPTIMAL
+                break
+            if st.evaluations >= opts.evaluations or st.checks >= opts.work or st.proposals >= max_proposals:
+                st.stop = StopReason.BUDGET
+                break
+            if since_best >= opts.patience or idle >= 500:  # no progress, or no new state left to try
+                st.stop = StopReason.STALLED
+                break
+            if deadline is not None and _time.perf_counter() > deadline:
+                st.stop = StopReason.TIME_LIMIT
+                break
+            if since_cur >= opts.stall:  # restart from the best with a kick
+                st.restarts += 1
+                cur, s_cur, since_cur = best, srch.state_of(best), 0
+                for _ in range(opts.kick):
+                    mv = srch.propose(s_cur, srch.critical(cur))
+                    if mv is not None:
+                        s_cur = mv[1]
+                trial = srch.evaluate(s_cur) if srch.estimate(s_cur) < best.makespan + 2.0 else None
+                if trial is not None:
+                    cur = trial
+                else:
+                    s_cur = srch.state_of(best)
+                continue
+            st.proposals += 1
+            idle += 1
+            mv = srch.propose(s_cur, srch.critical(cur))
+            if mv is None:
+                continue
+            kind, s_new = mv
+            if s_new in seen:
+                continue
+            seen.add(s_new)
+            if srch.estimate(s_new) > cur.makespan + 1e-9:
+                st.pruned += 1
+                continue
+            idle = 0
+            st.moves[kind][0] += 1
+            cand = srch.evaluate(s_new)
+            since_best += 1
+            since_cur += 1
+            if cand is None:
+                continue
+            if not _better(cand, cur):
+                temp = opts.temperature * max(0.0, 1.0 - st.checks / max(1, opts.work))
+                worse = cand.makespan - cur.makespan
+                if temp <= 0 or worse <= 1e-9 or srch.rng.random() >= np.exp(-worse / temp):
+                    continue
+                cur, s_cur = cand, s_new  # accepted uphill (annealing): the best stays
+                continue
+            cur, s_cur, since_cur = cand, s_new, 0
+            if cand.makespan < best.makespan - 1e-9:
+                best, since_best = cand, 0
+                st.improvements += 1
+                st.moves[kind][1] += 1
+                if on_improve is not None:
+                    on_improve(best)
+            elif _better(cand, best):
+                best = cand
+    except KeyboardInterrupt:
+        st.stop = StopReason.INTERRUPTED
+    return best, st
+
+
+def _exhaust(srch: _Search, space, best: Coordinated, bound: float, seen: set, on_improve, deadline) -> Coordinated:
+    """Branch and bound over the whole (small) state space, cheapest estimate first."""
+    st, opts = srch.stats, srch.opts
+    st.stop = StopReason.EXHAUSTED
+    for est, s in space:
+        if best.makespan <= bound + opts.tolerance:
+            st.stop = StopReason.PROVEN_OPTIMAL
+            break
+        if est >= best.makespan - 1e-9:  # nothing left can beat the best
+            break
+        if st.evaluations >= opts.evaluations or st.checks >= opts.work:
+            st.stop = StopReason.BUDGET
+            break
+        if deadline is not None and _time.perf_counter() > deadline:
+            st.stop = StopReason.TIME_LIMIT
+            break
+        if s in seen:
+            continue
+        seen.add(s)
+        st.proposals += 1
+        cand = srch.evaluate(s)
+        if cand is not None and cand.makespan < best.makespan - 1e-9:
+            best = cand
+            st.improvements += 1
+            if on_improve is not None:
+                on_improve(best)
+    return best

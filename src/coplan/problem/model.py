@@ -1,0 +1,573 @@
+"""Problem files: safe YAML loading, validation with key paths and lines, the immutable Problem.
+
+Entry point: :func:`load_problem` (a file) or :func:`parse_problem` (text). Both return a
+validated, frozen :class:`Problem` or raise :class:`ProblemError`, which lists *every*
+problem found, each with its key path (``arms[1].links[0]``), the line where possible,
+what was expected and what was found.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+
+from ..kinematics import arm as kin
+from . import plausible
+from ..errors import Issue, ProblemError
+from ..kinematics.geometry import segment_distance
+from .yamlsafe import MAX_FILE_BYTES, line_of, path_str, read_yaml, read_input_text
+
+__all__ = [
+    "Arm",
+    "Fruit",
+    "Task",
+    "Problem",
+    "ProblemError",
+    "Issue",
+    "load_problem",
+    "parse_problem",
+    "default_problem_path",
+    "shipped_problems",
+]
+
+MAX_ARMS = 64
+MAX_FRUITS = 20_000
+
+
+def _kind(v: Any) -> str:
+    """A YAML reader's name for the type of ``v`` plus its value, e.g. ``string 'a'``, ``null``."""
+    if v is None:
+        return "null"
+    names = {bool: "boolean", int: "integer", float: "number", str: "string", list: "list", tuple: "list", dict: "mapping"}
+    kind = names.get(type(v), type(v).__name__)
+    text = repr(v)
+    if len(text) > 60:
+        text = text[:57] + "..."
+    return f"{kind} {text}"
+
+
+# --------------------------------------------------------------------------- raw schema
+def _number(v: Any) -> Any:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ValueError(f"expected a number, found {_kind(v)}")
+    if not math.isfinite(float(v)):
+        raise ValueError(f"expected a finite number, found {v!r}")
+    return float(v)
+
+
+def _positive(v: Any) -> Any:
+    v = _number(v)
+    if v <= 0:
+        raise ValueError(f"expected a number > 0, found {v!r}")
+    return v
+
+
+def _nonneg(v: Any) -> Any:
+    v = _number(v)
+    if v < 0:
+        raise ValueError(f"expected a number >= 0, found {v!r}")
+    return v
+
+
+def _pair_list(v: Any) -> Any:
+    if not isinstance(v, (list, tuple)):
+        raise ValueError(f"expected a list of 2 items, found {_kind(v)}")
+    if len(v) != 2:
+        raise ValueError(f"expected a list of 2 items, found a list of {len(v)} items")
+    return tuple(v)
+
+
+def _name(v: Any) -> Any:
+    if isinstance(v, bool) or not isinstance(v, (str, int)):
+        raise ValueError(f"expected a string, found {_kind(v)}")
+    v = str(v).strip()
+    if not v:
+        raise ValueError("expected a non-empty string, found an empty one")
+    return v
+
+
+Num = Annotated[float, BeforeValidator(_number)]
+Pos = Annotated[float, BeforeValidator(_positive)]
+NonNeg = Annotated[float, BeforeValidator(_nonneg)]
+Name = Annotated[str, BeforeValidator(_name)]
+Point = Annotated[tuple[Num, Num], BeforeValidator(_pair_list)]
+PosPair = Annotated[tuple[Pos, Pos], BeforeValidator(_pair_list)]
+Limits = Annotated[tuple[Point, Point], BeforeValidator(_pair_list)]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class _ArmFields(_Strict):
+    links: PosPair | None = None
+    link_radius: Pos | None = None
+    joint_limits: Limits | None = None
+    max_velocity: PosPair | None = None
+    max_acceleration: PosPair | None = None
+    max_jerk: PosPair | None = None
+    home: Point | None = None
+
+
+class _ArmSpec(_ArmFields):
+    name: Name
+    base: Point
+    bin: Point
+
+
+class _FruitSpec(_Strict):
+    id: Name
+    position: Point
+
+
+class _TaskSpec(_Strict):
+    pick_dwell: NonNeg
+    place_dwell: NonNeg
+    clearance: NonNeg
+    reach_margin: NonNeg = Field(default=0.01)
+    singularity_threshold: NonNeg = Field(default=0.05)
+
+
+_TOP_KEYS = ("name", "description", "defaults", "arms", "fruits", "task")
+_ARM_REQUIRED = tuple(_ArmFields.model_fields)
+
+
+# What each field expects, for "missing field" messages.
+_EXPECT = {
+    "name": "a non-empty string",
+    "arms": "a list of arms",
+    "task": "a mapping with pick_dwell, place_dwell and clearance",
+    "links": "[l1, l2]: two link lengths > 0 in m",
+    "link_radius": "a capsule radius > 0 in m",
+    "joint_limits": "[[t1_min, t1_max], [t2_min, t2_max]] in rad",
+    "max_velocity": "[v1, v2]: two joint speeds > 0 in rad/s",
+    "max_acceleration": "[a1, a2]: two joint accelerations > 0 in rad/s^2",
+    "max_jerk": "[j1, j2]: two joint jerks > 0 in rad/s^3",
+    "home": "[t1, t2]: joint angles in rad",
+    "base": "[x, y] in m",
+    "bin": "[x, y] in m",
+    "id": "a non-empty string",
+    "position": "[x, y] in m",
+    "pick_dwell": "a number >= 0 in s",
+    "place_dwell": "a number >= 0 in s",
+    "clearance": "a number >= 0 in m",
+}
+
+
+def _missing(field_name: str, where: str = "") -> str:
+    what = _EXPECT.get(str(field_name), "a value")
+    return f"expected {what}, found nothing (required field{where})"
+
+
+# --------------------------------------------------------------------------- data objects
+@dataclass(frozen=True)
+class Arm:
+    """One 2R arm, fully specified (defaults already applied). SI units."""
+
+    name: str
+    base: tuple[float, float]
+    bin: tuple[float, float]
+    links: tuple[float, float]
+    link_radius: float
+    joint_limits: tuple[tuple[float, float], tuple[float, float]]
+    max_velocity: tuple[float, float]
+    max_acceleration: tuple[float, float]
+    max_jerk: tuple[float, float]
+    home: tuple[float, float]
+
+    @property
+    def reach(self) -> float:
+        return self.links[0] + self.links[1]
+
+    @property
+    def inner_radius(self) -> float:
+        return abs(self.links[0] - self.links[1])
+
+    @property
+    def limits(self) -> np.ndarray:
+        """Joint limits as a (2, 2) array ``[[min1, max1], [min2, max2]]``."""
+        return np.array(self.joint_limits, dtype=float)
+
+    def ik(self, point, margin: float = 0.0):
+        """IK of a world point, both branches, inside joint limits and the annulus shrunk by ``margin``.
+
+        Returns ``q`` (..., 2, 2) with NaN where invalid and ``valid`` (..., 2).
+        """
+        q, valid = kin.ik(point, self.links, self.base, self.limits)
+        if margin > 0:
+            inside = kin.in_workspace(point, self.links, self.base, margin)
+            valid = valid & inside[..., None]
+            q = np.where(valid[..., None], q, np.nan)
+        return q, valid
+
+    def can_reach(self, point, margin: float = 0.0) -> bool:
+        return bool(np.any(self.ik(point, margin)[1]))
+
+
+@dataclass(frozen=True)
+class Fruit:
+    id: str
+    position: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Task:
+    pick_dwell: float
+    place_dwell: float
+    clearance: float
+    reach_margin: float = 0.01
+    singularity_threshold: float = 0.05
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A validated, immutable harvesting problem."""
+
+    name: str
+    arms: tuple[Arm, ...]
+    fruits: tuple[Fruit, ...]
+    task: Task
+    description: str = ""
+    source: str | None = field(default=None, compare=False)
+
+    def arm(self, name: str) -> Arm:
+        for a in self.arms:
+            if a.name == name:
+                return a
+        raise KeyError(f"no arm named {name!r}; arms are {[a.name for a in self.arms]}")
+
+    def fruit(self, fid: str) -> Fruit:
+        for f in self.fruits:
+            if f.id == fid:
+                return f
+        raise KeyError(f"no fruit with id {fid!r}")
+
+    @property
+    def fruit_positions(self) -> np.ndarray:
+        """(F, 2) array of fruit positions in file order."""
+        return np.array([f.position for f in self.fruits], dtype=float).reshape(-1, 2)
+
+    def reach_matrix(self) -> np.ndarray:
+        """(A, F) bool: arm a can reach fruit f (IK inside joint limits, ``reach_margin`` kept)."""
+        pts = self.fruit_positions
+        return np.array([a.ik(pts, self.task.reach_margin)[1].any(axis=-1) for a in self.arms]).reshape(
+            len(self.arms), len(self.fruits)
+        )
+
+    def unreachable(self) -> list[str]:
+        """Ids of fruit that no arm can reach (left out of every plan)."""
+        m = self.reach_matrix()
+        return [f.id for j, f in enumerate(self.fruits) if not m[:, j].any()]
+
+    def reachable_ids(self) -> list[str]:
+        m = self.reach_matrix()
+        return [f.id for j, f in enumerate(self.fruits) if m[:, j].any()]
+
+    def neighbour_pairs(self) -> list[tuple[int, int]]:
+        """Index pairs of arms whose swept discs (reach + radius + clearance) can touch."""
+        out = []
+        for i, a in enumerate(self.arms):
+            for j in range(i + 1, len(self.arms)):
+                b = self.arms[j]
+                d = math.dist(a.base, b.base)
+                if d < a.reach + b.reach + a.link_radius + b.link_radius + self.task.clearance:
+                    out.append((i, j))
+        return out
+
+
+def _suggest(key: Any, choices) -> str:
+    m = difflib.get_close_matches(str(key), list(choices), n=1, cutoff=0.5)
+    return f"; did you mean {m[0]!r}?" if m else f"; allowed keys: {', '.join(choices)}"
+
+
+def _user_loc(data: Any, loc: tuple, missing: bool) -> tuple:
+    """Keep only the parts of a pydantic error location that index into the user's data.
+
+    Pydantic may insert internal tags (``function-before[...]``, ``tuple[float, float]``,
+    union member names) into locations; walking the actual data drops them all. For a
+    missing field the last part (the field's name) is kept.
+    """
+    out: list = []
+    cur = data
+    for i, part in enumerate(loc):
+        if isinstance(cur, dict) and part in cur:
+            out.append(part)
+            cur = cur[part]
+        elif isinstance(cur, (list, tuple)) and isinstance(part, int) and 0 <= part < len(cur):
+            out.append(part)
+            cur = cur[part]
+        elif missing and i == len(loc) - 1 and isinstance(part, str):
+            out.append(part)
+    return tuple(out)
+
+
+def _validate(model, data, prefix: tuple, lines: dict, issues: list):
+    """Validate ``data`` against a pydantic model, turning every error into an :class:`Issue`."""
+    try:
+        return model.model_validate(data)
+    except ValidationError as e:
+        for err in e.errors():
+            etype = err["type"]
+            loc = prefix + _user_loc(data, tuple(err["loc"]), etype == "missing")
+            path = path_str(loc)
+            if etype == "extra_forbidden":
+                key = loc[-1]
+                issues.append(Issue(path, f"expected a known key, found unknown key {key!r}{_suggest(key, model.model_fields)}", line_of(lines, loc)))
+            elif etype == "missing":
+                issues.append(Issue(path, _missing(loc[-1]), line_of(lines, loc[:-1])))
+            elif etype in ("model_type", "model_attributes_type", "dict_type"):
+                issues.append(Issue(path, f"expected a mapping, found {_kind(err.get('input'))}", line_of(lines, loc)))
+            else:
+                msg = err["msg"].removeprefix("Value error, ")
+                if "found" not in msg:
+                    msg = f"{msg}; found {_kind(err.get('input'))}"
+                issues.append(Issue(path, msg, line_of(lines, loc)))
+        return None
+
+
+def _check_unique(seen: dict[str, int], value: str, loc: tuple, what: str, lines: dict, issues: list) -> bool:
+    """Record ``value`` at list index ``loc[1]``; on a repeat, report it (naming the first) and return False."""
+    if value in seen:
+        issues.append(Issue(path_str(loc), f"expected a unique {what}, found {value!r} again "
+                                            f"(also {loc[0]}[{seen[value]}].{loc[2]})", line_of(lines, loc)))
+        return False
+    seen[value] = loc[1]
+    return True
+
+
+def _implausible(field_name: str, value, loc: tuple, lines: dict, issues: list) -> bool:
+    """Report every element of ``value`` outside :data:`coplan.plausible.BOUNDS`; True if any."""
+    bad = plausible.field_issues(field_name, value, loc)
+    issues.extend(Issue(path_str(where), msg, line_of(lines, where)) for where, msg in bad)
+    return bool(bad)
+
+
+def _build(data: Any, lines: dict, source: str | None) -> Problem:
+    issues: list[Issue] = []
+    if not isinstance(data, dict):
+        raise ProblemError(
+            [Issue("", f"expected a mapping with keys name, arms, fruits, task; found {_kind(data)}", 1)], source
+        )
+    for k in data:
+        if k not in _TOP_KEYS:
+            issues.append(Issue(str(k), f"expected a known key, found unknown key {k!r}{_suggest(k, _TOP_KEYS)}", line_of(lines, (k,))))
+    for k in ("name", "arms", "task"):
+        if k not in data:
+            issues.append(Issue(k, _missing(k)))
+    name = data.get("name", "")
+    if "name" in data:
+        try:
+            name = _name(data["name"])
+        except ValueError as e:
+            issues.append(Issue("name", str(e), line_of(lines, ("name",))))
+    description = data.get("description", "") or ""
+    if not isinstance(description, str):
+        issues.append(Issue("description", f"expected a string, found {_kind(description)}", line_of(lines, ("description",))))
+        description = ""
+
+    defaults: _ArmFields | None = _ArmFields()
+    if data.get("defaults") is not None:
+        defaults = _validate(_ArmFields, data["defaults"], ("defaults",), lines, issues)
+
+    arms_raw = data.get("arms", [])
+    arm_specs: list[tuple[int, _ArmSpec | None]] = []
+    if not isinstance(arms_raw, list):
+        issues.append(Issue("arms", f"expected a list of arms, found {_kind(arms_raw)}", line_of(lines, ("arms",))))
+        arms_raw = []
+    elif "arms" in data and not arms_raw:
+        issues.append(Issue("arms", "expected at least one arm, found an empty list", line_of(lines, ("arms",))))
+    if len(arms_raw) > MAX_ARMS:
+        issues.append(Issue("arms", f"expected at most {MAX_ARMS} arms, found {len(arms_raw)}", line_of(lines, ("arms",))))
+        arms_raw = arms_raw[:MAX_ARMS]
+    for i, a in enumerate(arms_raw):
+        arm_specs.append((i, _validate(_ArmSpec, a, ("arms", i), lines, issues)))
+
+    fruits_raw = data.get("fruits", []) or []
+    if not isinstance(fruits_raw, list):
+        issues.append(Issue("fruits", f"expected a list of fruit, found {_kind(fruits_raw)}", line_of(lines, ("fruits",))))
+        fruits_raw = []
+    if len(fruits_raw) > MAX_FRUITS:
+        issues.append(Issue("fruits", f"expected at most {MAX_FRUITS} fruit, found {len(fruits_raw)}", line_of(lines, ("fruits",))))
+        fruits_raw = fruits_raw[:MAX_FRUITS]
+    fruit_specs = [(j, _validate(_FruitSpec, f, ("fruits", j), lines, issues)) for j, f in enumerate(fruits_raw)]
+
+    task = None
+    if "task" in data:
+        t = _validate(_TaskSpec, data["task"], ("task",), lines, issues)
+        if t is not None and not any([_implausible(f, v, ("task", f), lines, issues) for f, v in t.model_dump().items()]):
+            task = Task(**t.model_dump())
+
+    # ---- merge defaults, semantic checks per arm. A value taken from ``defaults`` is
+    # reported at its place in ``defaults`` (once, not once per arm).
+    arms: list[tuple[int, Arm]] = []
+    origins: dict[int, dict[str, tuple]] = {}
+    seen_names: dict[str, int] = {}
+    for i, spec in arm_specs:
+        if spec is None:
+            continue
+        _check_unique(seen_names, spec.name, ("arms", i, "name"), "arm name", lines, issues)
+        if defaults is None:
+            continue  # the defaults are broken: already reported, don't guess
+        merged: dict[str, Any] = {}
+        origin: dict[str, tuple] = {}
+        ok = True
+        for f in _ARM_REQUIRED:
+            v = getattr(spec, f)
+            origin[f] = ("arms", i, f)
+            if v is None:
+                v = getattr(defaults, f)
+                origin[f] = ("defaults", f)
+            if v is None:
+                issues.append(Issue(path_str(("arms", i, f)), _missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
+                ok = False
+            merged[f] = v
+        if not ok:
+            continue
+        # far outside any real cell (degrees for radians, 1e308, 1e-9): refused before any arithmetic
+        fields = [("base", spec.base, ("arms", i, "base")), ("bin", spec.bin, ("arms", i, "bin"))]
+        if any([_implausible(f, v, loc, lines, issues) for f, v, loc in fields + [(f, merged[f], origin[f]) for f in merged]]):
+            continue
+        lim = merged["joint_limits"]
+        for j in range(2):
+            if lim[j][0] >= lim[j][1]:
+                loc = origin["joint_limits"] + (j,)
+                issues.append(Issue(path_str(loc), f"expected min < max, found min {lim[j][0]} >= max {lim[j][1]}", line_of(lines, loc)))
+                ok = False
+        if not ok:
+            continue
+        home = merged["home"]
+        for j in range(2):
+            if not lim[j][0] <= home[j] <= lim[j][1]:
+                home_loc, lim_loc = origin["home"] + (j,), origin["joint_limits"] + (j,)
+                if home_loc[0] == "defaults" and lim_loc[0] == "arms":
+                    # the default home does not fit this arm's own limits: report at the arm
+                    loc = ("arms", i, "home", j)
+                    msg = (
+                        f"expected a home angle inside this arm's joint limits [{lim[j][0]}, {lim[j][1]}] "
+                        f"({path_str(lim_loc)}), found {home[j]} (from {path_str(home_loc)})"
+                    )
+                    line = line_of(lines, lim_loc)
+                else:
+                    loc = home_loc
+                    msg = f"expected a home angle inside the joint limits [{lim[j][0]}, {lim[j][1]}] ({path_str(lim_loc)}), found {home[j]}"
+                    line = line_of(lines, home_loc)
+                issues.append(Issue(path_str(loc), msg, line))
+                ok = False
+        if not ok:
+            continue
+        arm = Arm(name=spec.name, base=spec.base, bin=spec.bin, **merged)
+        if not arm.can_reach(arm.bin):
+            r = math.dist(arm.base, arm.bin)
+            issues.append(
+                Issue(
+                    path_str(("arms", i, "bin")),
+                    f"expected a bin its arm {arm.name!r} can reach (IK inside joint limits), found {list(arm.bin)} "
+                    f"at {r:.3f} m from the base; the reachable annulus is [{arm.inner_radius:.3f}, {arm.reach:.3f}] m",
+                    line_of(lines, ("arms", i, "bin")),
+                )
+            )
+            continue
+        arms.append((i, arm))
+        origins[i] = origin
+
+    fruits: list[Fruit] = []
+    seen_ids: dict[str, int] = {}
+    for j, spec in fruit_specs:
+        if spec is None:
+            continue
+        if not _check_unique(seen_ids, spec.id, ("fruits", j, "id"), "fruit id", lines, issues):
+            continue
+        if _implausible("position", spec.position, ("fruits", j, "position"), lines, issues):
+            continue
+        fruits.append(Fruit(id=spec.id, position=spec.position))
+
+    # ---- home poses must already respect the clearance
+    if task is not None:
+        for x in range(len(arms)):
+            for y in range(x + 1, len(arms)):
+                (i, a), (k, b) = arms[x], arms[y]
+                pa = kin.fk_points(np.array(a.home), a.links, a.base)
+                pb = kin.fk_points(np.array(b.home), b.links, b.base)
+                dmin = min(
+                    float(segment_distance(pa[s], pa[s + 1], pb[u], pb[u + 1])) for s in range(2) for u in range(2)
+                ) - a.link_radius - b.link_radius
+                if dmin < task.clearance:
+                    home_from = "" if origins[k]["home"][0] == "arms" else " (home from defaults.home)"
+                    issues.append(
+                        Issue(
+                            path_str(("arms", k, "home")),
+                            f"expected home poses at least the clearance {task.clearance} m apart, found arms "
+                            f"{a.name!r} (arms[{i}]) and {b.name!r} (arms[{k}]) {dmin:.4f} m apart at home{home_from}",
+                            line_of(lines, origins[k]["home"]) if home_from == "" else line_of(lines, ("arms", k)),
+                        )
+                    )
+
+    if issues:
+        raise ProblemError(_tidy(issues), source)
+    problem = Problem(
+        name=name,
+        arms=tuple(a for _, a in arms),
+        fruits=tuple(fruits),
+        task=task,
+        description=description,
+        source=source,
+    )
+    # a plan too long for its 100 Hz grid is refused up front, from a lower bound on its length
+    too_long = plausible.duration_issues(problem)
+    if too_long:
+        raise ProblemError([Issue(path_str(loc), msg, line_of(lines, loc)) for loc, msg in too_long], source)
+    return problem
+
+
+def _tidy(issues: list[Issue]) -> list[Issue]:
+    """Drop exact repeats and order by line (issues without a line first, file order kept)."""
+    seen: set = set()
+    out = []
+    for it in issues:
+        key = (it.path, it.message, it.line)
+        if key not in seen:
+            seen.add(key)
+            out.append(it)
+    return sorted(out, key=lambda it: -1 if it.line is None else it.line)
+
+
+def parse_problem(text: str, source: str | None = None) -> Problem:
+    """Validate YAML text and return a :class:`Problem` (raises :class:`ProblemError`)."""
+    n = len(text.encode("utf-8", errors="replace"))
+    if n > MAX_FILE_BYTES:
+        raise ProblemError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
+    data, lines = read_yaml(text, source, keep_text=_is_text_path)
+    return _build(data, lines, source)
+
+
+def _is_text_path(path: tuple) -> bool:
+    """Key paths of names and ids: kept exactly as written (``id: no`` is the id ``'no'``, not
+    false; ``id: 012`` is ``'012'``, not 10)."""
+    return path in (("name",), ("description",)) or (len(path) == 3 and (path[0], path[2]) in (("arms", "name"), ("fruits", "id")))
+
+
+def load_problem(path: str | Path) -> Problem:
+    """Load and validate a problem file (raises :class:`ProblemError`, never a bare traceback)."""
+    return parse_problem(read_input_text(path, ProblemError), str(Path(path)))
+
+
+def _problems_dir() -> Path:
+    from importlib.resources import files
+
+    return Path(str(files("coplan") / "problems"))
+
+
+def default_problem_path() -> Path:
+    """Path of the shipped default problem (``greenhouse_row.yaml``)."""
+    return _problems_dir() / "greenhouse_row.yaml"
+
+
+def shipped_problems() -> list[Path]:
+    """All problem files shipped inside the package, sorted by name."""
+    return sorted(_problems_dir().glob("*.yaml"))

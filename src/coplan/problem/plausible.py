@@ -1,0 +1,207 @@
+"""Plausibility of a problem: values far outside any real harvesting cell are bad input.
+
+A problem file can be valid YAML with every number finite and positive and still describe
+no real cell: joint limits of ``[-180, 180]`` (degrees where radians are meant), a joint speed
+of ``1e-9`` rad/s (one move would take years), a dwell of days, a fruit at ``1e308`` m. Such
+values used to end in a MemoryError, an overflow warning or hours of compute; they are now
+refused when the file is loaded, each with its key path, line, the bound and the value found.
+
+``BOUNDS`` is the table of what coplan accepts, per field (SI units). The bounds are
+deliberately wide -- orders of magnitude around real arms -- so that they only catch units
+mistakes and nonsense, never an unusual but real cell. ``MAX_PLAN_SECONDS`` caps the length
+of a plan: every plan is sampled on a 100 Hz grid, so a problem whose plan would be longer
+(estimated up front by :func:`plan_duration_bound`, a lower bound computed from the limits)
+is refused before anything is planned; so is one whose plan file would be too large to read
+back (:data:`coplan.plan.MAX_PLAN_BYTES`, at ``BYTES_PER_SAMPLE``), so the longest plan
+allowed is shorter with more arms (5.5 h for one arm, 2.3 h for three, 7 min for 64).
+
+The functions taking a ``problem`` are called by :mod:`coplan.problem.model` with its
+:class:`~coplan.problem.Problem` (they use its ``arms``, ``task``, ``fruits``,
+``fruit_positions`` and ``reach_matrix()``); this module does not import that one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES
+
+__all__ = ["Bound", "BOUNDS", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
+           "duration_issues"]
+
+TAU = 2.0 * math.pi
+
+
+@dataclass(frozen=True)
+class Bound:
+    """The closed range ``[low, high]`` a value must lie in, its unit and what it is."""
+
+    low: float
+    high: float
+    unit: str
+    what: str
+
+    def holds(self, x: float) -> bool:
+        return self.low <= x <= self.high
+
+
+_COORD = Bound(-1000.0, 1000.0, "m", "a coordinate")
+_ANGLE = Bound(-TAU, TAU, "rad", "a joint angle")
+
+#: What a value of each problem field must lie in (per element for pairs and limits).
+BOUNDS: dict[str, Bound] = {
+    "links": Bound(1e-3, 100.0, "m", "a link length"),
+    "link_radius": Bound(1e-4, 5.0, "m", "a link radius"),
+    "joint_limits": _ANGLE,
+    "home": _ANGLE,
+    "max_velocity": Bound(1e-3, 1e3, "rad/s", "a joint velocity limit"),
+    "max_acceleration": Bound(1e-3, 1e5, "rad/s^2", "a joint acceleration limit"),
+    "max_jerk": Bound(1e-3, 1e7, "rad/s^3", "a joint jerk limit"),
+    "base": _COORD,
+    "bin": _COORD,
+    "position": _COORD,
+    "pick_dwell": Bound(0.0, 3600.0, "s", "a dwell"),
+    "place_dwell": Bound(0.0, 3600.0, "s", "a dwell"),
+    "clearance": Bound(0.0, 10.0, "m", "a clearance"),
+    "reach_margin": Bound(0.0, 10.0, "m", "a reach margin"),
+}
+
+#: The longest plan coplan makes (s): plans are sampled at ``SAMPLE_RATE``, so 12 h is
+#: 4.3 million samples per arm.
+MAX_PLAN_SECONDS = 12 * 3600.0
+SAMPLE_RATE = DEFAULT_RATE
+#: Bytes of a plan file per sample, an upper estimate for plan.json and plan.csv: the time
+#: (``1234.56,``) and, per arm, two angles of seven decimals (``[-1.2345678,0.1234567],``).
+BYTES_PER_SAMPLE = (10, 24)  # (time, per arm): the widest values they can take
+
+
+def max_plan_seconds(n_arms: int) -> float:
+    """The longest plan (s) of ``n_arms`` arms coplan makes: :data:`MAX_PLAN_SECONDS`, or less
+    where its file would not fit :data:`coplan.plan.MAX_PLAN_BYTES`."""
+    per_sample = BYTES_PER_SAMPLE[0] + BYTES_PER_SAMPLE[1] * max(n_arms, 1)
+    return min(MAX_PLAN_SECONDS, MAX_PLAN_BYTES / per_sample / SAMPLE_RATE)
+
+
+def _leaves(value, loc: tuple):
+    if isinstance(value, (tuple, list)):
+        for i, v in enumerate(value):
+            yield from _leaves(v, loc + (i,))
+    else:
+        yield loc, float(value)
+
+
+def _hint(field: str, b: Bound, x: float) -> str:
+    if b is _ANGLE and abs(x) <= 360.0 + 1e-9:
+        return f" (it looks like degrees: {x:g} deg is {math.radians(x):.4f} rad; angles are in rad)"
+    if b.unit.startswith("rad/s") and x < b.low:
+        return " (a joint this slow would take days for one move)"
+    if b is _COORD or field == "links":
+        return " (a cell of this size is not a harvesting cell; coordinates are in m)"
+    if b.unit == "s":
+        return " (dwells are in s)"
+    return ""
+
+
+def field_issues(field: str, value, loc: tuple) -> list[tuple[tuple, str]]:
+    """``(key path, message)`` for every element of ``value`` (a number, pair or pair of pairs
+    of field ``field``, at key path ``loc``) outside its :data:`BOUNDS` entry."""
+    b = BOUNDS.get(field)
+    if b is None or value is None:
+        return []
+    out = []
+    for where, x in _leaves(value, loc):
+        if not b.holds(x):
+            out.append((where, f"expected {b.what} within [{b.low:g}, {b.high:g}] {b.unit} (the plausible range, "
+                               f"coplan.plausible.BOUNDS), found {x:g}{_hint(field, b, x)}"))
+    return out
+
+
+def move_times(dq: np.ndarray, v, a, j, cubic: bool = False) -> np.ndarray:
+    """Rest-to-rest move times over joint displacements ``dq`` (..., 2), the slower joint; NaN
+    (no pose) gives inf.
+
+    Default: a lower bound for any motion, per joint ``max(D/v, 2 sqrt(D/a), (32 D/j)^(1/3))``
+    (the velocity, acceleration and jerk limits each alone). ``cubic``: the course's cubic
+    (:func:`coplan.kinematics.timing.cubic_min_time`), ``max(1.5 D/v, sqrt(6 D/a))``."""
+    d = np.abs(dq)
+    v, a, j = (np.asarray(x, float) for x in (v, a, j))
+    if cubic:
+        t = np.maximum(1.5 * d / v, np.sqrt(6.0 * d / a))
+    else:
+        t = np.maximum(np.maximum(d / v, 2.0 * np.sqrt(d / a)), np.cbrt(32.0 * d / j))
+    t = np.where(np.isnan(t), np.inf, t)
+    return t.max(axis=-1)
+
+
+@dataclass(frozen=True)
+class DurationBound:
+    """A lower bound on the makespan of any plan (s); the fruit that costs most even on its
+    cheapest arm (indices; -1 when no fruit is reachable) and that cost (s)."""
+
+    seconds: float
+    arm: int = -1
+    fruit: int = -1
+    fruit_seconds: float = 0.0
+
+
+def plan_duration_bound(problem, baseline: bool = False) -> DurationBound:
+    """A lower bound on the makespan of any plan of ``problem`` (``baseline``: of the course's
+    baseline, :func:`coplan.planners.heuristic.plan_heuristic`, which every solve computes).
+
+    Every harvested fruit costs its arm at least a move to it (from the bin or from home), the
+    pick dwell, a move back to the bin and the place dwell, on its cheapest arm and elbow
+    branches; the plan is at least as long as the dearest fruit and as the total shared evenly
+    by all arms. The baseline moves each fruit home -> fruit -> bin -> home with cubics.
+    Cheap (vectorised IK of every arm and fruit), so it runs when a file is loaded.
+    """
+    task = problem.task
+    pts = problem.fruit_positions
+    if not len(pts):
+        return DurationBound(0.0)
+    cost = np.full((len(problem.arms), len(pts)), np.inf)
+    for i, arm in enumerate(problem.arms):
+        qf, _ = arm.ik(pts, task.reach_margin)  # (F, 2 branches, 2)
+        qb, _ = arm.ik(np.asarray(arm.bin, float))  # (2, 2)
+        lim = (arm.max_velocity, arm.max_acceleration, arm.max_jerk)
+        home = np.asarray(arm.home, float)[None]
+        srcs = home if baseline else np.concatenate([qb, home], axis=0)  # (bin branches,) home
+        t_in = move_times(qf[:, :, None, :] - srcs[None, None], *lim, cubic=baseline).min(axis=(1, 2))
+        t_out = move_times(qf[:, :, None, :] - qb[None, None], *lim, cubic=baseline).min(axis=(1, 2))
+        t_home = move_times(qb - home, *lim, cubic=True).min() if baseline else 0.0
+        cost[i] = t_in + t_out + t_home + task.pick_dwell + task.place_dwell
+    best = cost.min(axis=0)
+    ok = np.isfinite(best)
+    if not ok.any():
+        return DurationBound(0.0)
+    f = int(np.argmax(np.where(ok, best, -np.inf)))
+    seconds = max(float(best[f]), float(best[ok].sum()) / len(problem.arms))
+    return DurationBound(seconds, int(np.argmin(cost[:, f])), f, float(best[f]))
+
+
+def _hours(s: float) -> str:
+    return f"{s:.0f} s" if s < 3600 else f"{s / 3600:.1f} h"
+
+
+def duration_issues(problem) -> list[tuple[tuple, str]]:
+    """``(key path, message)`` when even a lower bound on the length of the baseline plan
+    (which every solve computes first) exceeds :data:`MAX_PLAN_SECONDS` (the 100 Hz grid of
+    such a plan is absurd); else nothing."""
+    b = plan_duration_bound(problem, baseline=True)
+    limit = max_plan_seconds(len(problem.arms))
+    if b.seconds <= limit:
+        return []
+    arm = problem.arms[b.arm]
+    n_reach = int(problem.reach_matrix().any(axis=0).sum())
+    return [(("arms", b.arm), (
+        f"expected a problem whose plan fits in {_hours(limit)} (plans are sampled at {SAMPLE_RATE:g} Hz; "
+        f"{'12 h' if limit == MAX_PLAN_SECONDS else f'with {len(problem.arms)} arms, longer plans make files over {MAX_PLAN_BYTES >> 20} MiB'}), "
+        f"found one whose baseline plan (the course's planner, which every solve computes) lasts at least "
+        f"{_hours(b.seconds)}, estimated from the limits before planning: {n_reach} reachable fruit; fruit "
+        f"{problem.fruits[b.fruit].id!r} alone takes at least {_hours(b.fruit_seconds)} "
+        f"on its fastest arm {arm.name!r} (max_velocity {list(arm.max_velocity)} rad/s, max_acceleration "
+        f"{list(arm.max_acceleration)} rad/s^2, max_jerk {list(arm.max_jerk)} rad/s^3; pick_dwell "
+        f"{problem.task.pick_dwell:g} s, place_dwell {problem.task.place_dwell:g} s)"
+    ))]

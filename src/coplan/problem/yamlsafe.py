@@ -1,0 +1,218 @@
+"""Safe YAML reading for problem files, with the line of every key path.
+
+What :func:`read_yaml` guarantees, before anything is constructed:
+
+- libyaml's parser/composer (PyYAML's ``CSafeLoader`` when available), SafeLoader's
+  construction; no tags (so no Python objects), no anchors, no aliases;
+- duplicate keys refused (compared as constructed values, so ``1`` and ``0x1`` clash),
+  as are non-scalar keys;
+- caps: ``MAX_FILE_BYTES`` of text (checked by the caller before reading), ``MAX_DEPTH``
+  levels of nesting and ``MAX_NODES`` values (both checked on the event stream, so a
+  hostile file costs no more than reading it);
+- a ``lines`` map from every key path (``("arms", 1, "links")``) to its line;
+  :func:`line_of` gives the line of a path or of its nearest recorded ancestor;
+- ``keep_text``: at the key paths it selects (names, ids), a plain scalar is kept as the text
+  written, never coerced by YAML 1.1's implicit types (``no`` -> false, ``0x10`` -> 16,
+  ``012`` -> 10, ``1_000`` -> 1000, ``12:30`` -> 750); only ``null``/``~``/empty stays null.
+
+Every problem is raised as :class:`~coplan.errors.ProblemError`. This module must not
+import :mod:`coplan.problem.model` (which imports it).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from ..errors import InputError, Issue, ProblemError
+
+MAX_FILE_BYTES = 4 * 1024 * 1024
+MAX_DEPTH = 12
+MAX_NODES = 300_000  # YAML nodes (scalars + collections); 20 000 fruit take about 180 000
+
+
+def path_str(loc) -> str:
+    """A key path as written in messages: ``("arms", 0, "links")`` -> ``arms[0].links``."""
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out
+
+
+class _LineLoader(yaml.SafeLoader):
+    """SafeLoader; duplicate keys, aliases, anchors and tags are refused beforehand by
+    :func:`_scan_events` and :func:`_walk_nodes`, then the checked node tree is constructed."""
+
+
+# libyaml's parser when PyYAML has it (it nearly always does): the same events and marks,
+# an order of magnitude faster. Only its parser/composer is used; construction is SafeLoader's.
+_FastLoader = getattr(yaml, "CSafeLoader", _LineLoader)
+
+
+def _scan_events(text: str, issues: list) -> None:
+    """Walk the YAML event stream (no recursion, nothing built) tracking key paths.
+
+    Reports every alias and anchor (a few aliases can expand into gigabytes); stops at once
+    at nesting deeper than ``MAX_DEPTH`` (which would overflow the recursive composer) or
+    more than ``MAX_NODES`` values (a hostile file), so those cost no more than reading the
+    file. Issues are appended to ``issues``.
+    """
+    # frame: [kind ("map" | "seq"), path, expect_key, key, index]
+    stack: list[list] = []
+    nodes = 0
+    for ev in yaml.parse(text, Loader=_FastLoader):
+        if isinstance(ev, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            stack.pop()
+            continue
+        if not isinstance(ev, (yaml.ScalarEvent, yaml.AliasEvent, yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            continue
+        path: list = []
+        if stack:
+            f = stack[-1]
+            if f[0] == "seq":
+                path = f[1] + [f[4]]
+                f[4] += 1
+            elif f[2]:  # this node is a key
+                f[2] = False
+                f[3] = ev.value if isinstance(ev, yaml.ScalarEvent) else "?"
+                path = f[1] + [f[3]]
+            else:  # this node is the value of f[3]
+                f[2] = True
+                path = f[1] + [f[3]]
+        line = ev.start_mark.line + 1
+        nodes += 1
+        if nodes > MAX_NODES:
+            issues.append(Issue(path_str(path), f"expected at most {MAX_NODES} YAML values in a problem file, found more", line))
+            return
+        if isinstance(ev, yaml.AliasEvent):
+            issues.append(
+                Issue(path_str(path), f"expected a plain value, found the alias *{ev.anchor} (YAML anchors and aliases are not supported)", line)
+            )
+        elif ev.anchor is not None:
+            issues.append(
+                Issue(path_str(path), f"expected a plain value, found the anchor &{ev.anchor} (YAML anchors and aliases are not supported)", line)
+            )
+        if isinstance(ev, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            if len(stack) >= MAX_DEPTH:
+                issues.append(Issue(path_str(path), f"expected at most {MAX_DEPTH} levels of nesting, found more", line))
+                return
+            stack.append(["map" if isinstance(ev, yaml.MappingStartEvent) else "seq", path, True, None, 0])
+
+
+_STR_TAG = "tag:yaml.org,2002:str"
+_NULL_TAG = "tag:yaml.org,2002:null"
+
+
+def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = None, ctor=None, keep_text=None) -> None:
+    """Record the line of every key path; refuse duplicate keys, non-scalar keys and tags.
+
+    Keys are compared as the values they construct to, so ``1`` and ``0x1`` (or ``yes``
+    and ``true``) are duplicates too: a dict would silently merge them. A plain scalar at a
+    path ``keep_text(path)`` selects is retagged as a string: it constructs to its text as written.
+    """
+    ctor = ctor if ctor is not None else _LineLoader("")
+    lines[tuple(path)] = key_line if key_line is not None else node.start_mark.line + 1
+    # plain style: None from PyYAML's composer, '' from libyaml's (quoted scalars are strings already)
+    if keep_text is not None and isinstance(node, yaml.ScalarNode) and not node.style \
+            and node.tag not in (_STR_TAG, _NULL_TAG) and node.tag in _LineLoader.yaml_constructors and keep_text(tuple(path)):
+        node.tag = _STR_TAG
+    if node.tag not in _LineLoader.yaml_constructors:
+        issues.append(
+            Issue(path_str(path), f"expected a plain YAML value, found the tag {node.tag!r} (tags are not supported)", node.start_mark.line + 1)
+        )
+        return
+    if isinstance(node, yaml.MappingNode):
+        seen: dict[Any, int] = {}
+        for k, v in node.value:
+            kline = k.start_mark.line + 1
+            if not isinstance(k, yaml.ScalarNode):
+                kind = "list" if isinstance(k, yaml.SequenceNode) else "mapping"
+                issues.append(Issue(path_str(path), f"expected string keys, found a {kind} used as a key", kline))
+                continue
+            if k.tag not in _LineLoader.yaml_constructors:
+                issues.append(Issue(path_str(path), f"expected a plain YAML key, found the tag {k.tag!r} (tags are not supported)", kline))
+                continue
+            key = k.value if k.tag == _STR_TAG else ctor.construct_object(k)
+            if key in seen:
+                issues.append(
+                    Issue(
+                        path_str(path + [k.value]),
+                        f"expected unique keys, found {k.value!r} again (first at line {seen[key]}); duplicate keys are never merged",
+                        kline,
+                    )
+                )
+                continue
+            seen[key] = kline
+            _walk_nodes(v, path + [key], lines, issues, kline, ctor, keep_text)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, v in enumerate(node.value):
+            _walk_nodes(v, path + [i], lines, issues, None, ctor, keep_text)
+
+
+def read_yaml(text: str, source: str | None, keep_text=None):
+    """Parse YAML text safely; returns ``(data, lines)`` where ``lines`` maps key paths to lines.
+
+    ``keep_text``: optional predicate on key paths (tuples) whose plain scalars are kept as
+    the text written (strings), see the module docstring."""
+    lines: dict = {}
+    issues: list[Issue] = []
+    try:
+        _scan_events(text, issues)
+        if issues:
+            raise ProblemError(issues, source)
+        node = yaml.compose(text, Loader=_FastLoader)
+        if node is None:
+            raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty file")], source)
+        _walk_nodes(node, [], lines, issues, keep_text=keep_text)
+        if issues:
+            raise ProblemError(issues, source)
+        # keys are now known to be unique scalars, with no aliases or unknown tags
+        data = _LineLoader("").construct_document(node)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        line = mark.line + 1 if mark is not None else None
+        msg = getattr(e, "problem", None) or str(e)
+        context = getattr(e, "context", None)
+        raise ProblemError([Issue("", f"expected valid YAML, found a syntax error: {msg}" + (f" ({context})" if context else ""), line)], source) from None
+    return data, lines
+
+
+def line_of(lines: dict, loc) -> int | None:
+    """The line of key path ``loc`` in ``lines`` (from :func:`read_yaml`), or of its nearest
+    recorded ancestor; None when not even the document has one."""
+    loc = tuple(loc)
+    while loc:
+        if loc in lines:
+            return lines[loc]
+        loc = loc[:-1]
+    return lines.get(())
+
+
+def read_input_text(path, error: type[InputError]) -> str:
+    """The UTF-8 text of an input file, or ``error`` (a :class:`~coplan.errors.InputError`
+    subclass) saying why not: missing, a directory, over ``MAX_FILE_BYTES``, unreadable, not
+    UTF-8 (with the line of the first bad byte)."""
+    p = Path(path)
+    src = str(p)
+    if not p.exists():
+        raise error([Issue("", "expected an existing YAML file, found no file at this path")], src)
+    if p.is_dir():
+        raise error([Issue("", "expected a YAML file, found a directory")], src)
+    size = p.stat().st_size
+    if size > MAX_FILE_BYTES:
+        raise error([Issue("", f"expected a file of at most {MAX_FILE_BYTES} bytes, found {size} bytes")], src)
+    try:
+        raw = p.read_bytes()
+    except OSError as e:
+        raise error([Issue("", f"expected a readable file, found an error: {e.strerror}")], src) from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        raise error([Issue("", f"expected UTF-8 text, found the undecodable byte 0x{raw[e.start]:02x} at offset {e.start}", line)],
+                    src) from None

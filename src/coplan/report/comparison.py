@@ -1,0 +1,514 @@
+"""Side-by-side comparison of planners (``coplan compare PROBLEM|FOLDER``).
+
+Entry point: :func:`compare`. For every problem (one file, or every ``*.yaml`` in a folder)
+and every planner spec (``heuristic``, ``optimal``, or ``planner:allocation`` such as
+``heuristic:makespan``), it solves with :func:`coplan.pipeline.solve` (which verifies the
+plan with :func:`coplan.verify.verify`), collects the figures below, and writes
+``compare.json`` and ``compare.md`` (plus each run's ``plan.json``/``verification.json`` in
+``OUT/<problem>/<planner>/`` and, with ``figures=True``, the comparison figures in
+``OUT/<problem>/``).
+
+Figures per run: status and verdict; fruit harvested / reachable / unreachable; makespan;
+cycle time per fruit (worst arm and mean); throughput (fruit/s); each arm's fruit count and
+idle fraction; least clearance (sampled and certified) and collision intervals; peak
+velocity / acceleration / jerk as fractions of the limits; planning time (wall-clock of the
+whole solve, verification included); the makespan's lower bound and ratio to it. With
+several problems the report aggregates per planner: counts, medians and worst cases.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import statistics
+import tempfile
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..allocate.allocation import AllocationMethod, lower_bound
+from ..errors import Issue, ProblemError, plural, printable
+from ..plan import Plan, PlannerKind
+from ..problem.model import Problem, load_problem
+
+__all__ = ["PlannerSpec", "DEFAULT_PLANNERS", "Comparison", "compare", "run_row", "aggregate", "to_markdown", "rich_tables"]
+
+DEFAULT_PLANNERS = ("heuristic", "coordinated", "optimal")
+
+
+@dataclass(frozen=True)
+class PlannerSpec:
+    """A planner and optionally its allocation method; written ``planner[:allocation]``."""
+
+    planner: PlannerKind
+    allocation: AllocationMethod | None = None
+
+    @classmethod
+    def parse(cls, text: "str | PlannerSpec") -> "PlannerSpec":
+        if isinstance(text, PlannerSpec):
+            return text
+        name, _, alloc = str(text).strip().partition(":")
+        try:
+            return cls(PlannerKind(name), AllocationMethod(alloc) if alloc else None)
+        except ValueError:
+            raise ValueError(
+                f"expected planner[:allocation] with planner in {[k.value for k in PlannerKind]} and allocation in "
+                f"{[m.value for m in AllocationMethod]}, found {text!r}"
+            ) from None
+
+    @property
+    def label(self) -> str:
+        return self.planner.value + (f":{self.allocation.value}" if self.allocation else "")
+
+    @property
+    def folder(self) -> str:
+        return self.label.replace(":", "-")
+
+
+@dataclass
+class Comparison:
+    """Everything :func:`compare` found: one row per (problem, planner), aggregates, files."""
+
+    planners: list[str]
+    problems: list[dict[str, Any]] = field(default_factory=list)
+    rows: list[dict[str, Any]] = field(default_factory=list)
+    aggregate: dict[str, Any] = field(default_factory=dict)
+    files: dict[str, str] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def bad_inputs(self) -> list[dict[str, Any]]:
+        return [p for p in self.problems if p.get("error")]
+
+    @property
+    def failed_runs(self) -> list[dict[str, Any]]:
+        return [r for r in self.rows if r.get("error")]
+
+    def to_dict(self) -> dict[str, Any]:
+        return _json(
+            {"format": "coplan.compare/1", "planners": self.planners, "problems": self.problems, "rows": self.rows,
+             "aggregate": self.aggregate, "files": self.files, "notes": self.notes}
+        )
+
+
+def _json(x):
+    if isinstance(x, dict):
+        return {str(k): _json(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_json(v) for v in x]
+    if isinstance(x, float):
+        return x if math.isfinite(x) else None
+    return x
+
+
+def _ratio(a: float | None, b: float | None) -> float | None:
+    return a / b if a is not None and b and b > 0 else None
+
+
+def run_row(problem: Problem, spec: PlannerSpec, plan: Plan, summary: dict[str, Any], intervals: list[dict], timings: dict,
+            lb: float | None) -> dict[str, Any]:
+    """The comparison figures of one verified plan (a flat, JSON-able dict)."""
+    m = plan.metrics
+    peaks = summary.get("peaks") or {}
+
+    def peak(kind: str) -> float | None:
+        vals = [p[kind] for p in peaks.values() if p.get(kind) is not None]
+        return max(vals) if vals else None
+
+    lb = m.get("lower_bound") or lb
+    return {
+        "problem": problem.name,
+        "planner": spec.label,
+        "status": plan.status.value,
+        "passed": bool(summary.get("passed")),
+        "complete": bool(summary.get("complete")),
+        "error": None,
+        "harvested": m.get("harvested"),
+        "reachable": m.get("reachable"),
+        "unreachable": m.get("unreachable"),
+        "makespan": m.get("makespan"),
+        "cycle_time_worst": m.get("cycle_time"),
+        "cycle_time_mean": m.get("cycle_time_mean"),
+        "throughput": m.get("throughput"),
+        "per_arm": {a: {"fruit": v.get("fruit"), "idle_fraction": v.get("idle_fraction"), "cycle_time": v.get("cycle_time")}
+                    for a, v in (m.get("per_arm") or {}).items()},
+        "min_clearance": summary.get("min_clearance"),
+        "certified_clearance": summary.get("certified_clearance"),
+        "required_clearance": problem.task.clearance,
+        "collision_count": summary.get("collision_count"),
+        "collision_intervals": intervals,
+        "violation_count": summary.get("violation_count"),
+        "violation_kinds": summary.get("violation_kinds"),
+        "peak_velocity": peak("velocity"),
+        "peak_acceleration": peak("acceleration"),
+        "peak_jerk": peak("jerk"),
+        "peaks": peaks,
+        "planning_time": timings.get("total"),
+        "verify_time": timings.get("verify"),
+        "lower_bound": lb,
+        "makespan_ratio": _ratio(m.get("makespan"), lb),
+        "optimality": m.get("optimality") or ("proven" if summary.get("passed") and lb and m.get("makespan") is not None
+                                              and m["makespan"] <= lb + 1e-3 else "not proven"),
+    }
+
+
+def _problem_files(source: str | Path | Sequence[str | Path]) -> list[Path]:
+    if isinstance(source, (str, Path)):
+        p = Path(source)
+        if p.is_dir():
+            files = sorted([*p.glob("*.yaml"), *p.glob("*.yml")])
+            if not files:
+                raise ProblemError([Issue("", "expected a problem file or a folder of *.yaml problem files, found no *.yaml files")], str(p))
+            return files
+        return [p]
+    return [Path(s) for s in source]
+
+
+def compare(
+    source: str | Path | Sequence[str | Path],
+    planners: Iterable[str | PlannerSpec] = DEFAULT_PLANNERS,
+    out_dir: str | Path = "coplan-compare",
+    figures: bool = True,
+    options=None,
+    progress: Callable[[str], None] | None = None,
+) -> Comparison:
+    """Solve every problem with every planner, verify, and write ``compare.json``/``compare.md``.
+
+    Parameters
+    ----------
+    source : a problem file, a folder of problem files, or a list of files
+    planners : planner specs, e.g. ``("heuristic", "coordinated", "optimal")`` or ``("heuristic", "heuristic:makespan")``
+    figures : also draw :func:`coplan.viz.plots.save_comparison_figures` per problem
+    options : :class:`coplan.optimal.OptimalOptions` for the optimal and coordinated planners
+
+    A single bad problem file raises :class:`ProblemError`; in a folder it is recorded (in
+    ``problems[*].error``) and the rest are compared. A planner that fails in any way (a coplan
+    error, a missing module, a bug) is recorded in its row's ``error`` and the run goes on.
+
+    Nothing finished is lost: with several problems, each problem's own ``compare.json`` /
+    ``compare.md`` go into ``OUT/<problem>/`` as soon as it finishes, and the report in ``OUT``
+    is rewritten with every problem finished so far. Ctrl-C (``KeyboardInterrupt``, or a planner
+    returning an interrupted plan) stops the run: the report then covers the problems that
+    finished (a note names the one interrupted), and the interruption is raised again.
+    """
+    specs = [PlannerSpec.parse(p) for p in planners]
+    if not specs:
+        raise ValueError("expected at least one planner")
+    files = _problem_files(source)
+    single = isinstance(source, (str, Path)) and not Path(source).is_dir()
+    say = progress or (lambda msg: None)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    cmp = Comparison(planners=[s.label for s in specs])
+    for k, path in enumerate(files):
+        try:
+            entry, rows, plans = _compare_problem(path, specs, out, options, say, single)
+            problem = entry.pop("_problem", None)
+            if figures and plans:
+                _figures(problem, plans, out / path.stem, cmp)
+        except KeyboardInterrupt:
+            cmp.notes.append(f"interrupted while comparing {path.name}: this report covers the {len(cmp.problems)} of "
+                             f"{len(files)} problem files that finished")
+            _write_report(cmp, specs, out)
+            raise
+        cmp.problems.append(entry)
+        cmp.rows += rows
+        if not single:
+            mine = Comparison(planners=cmp.planners, problems=[entry], rows=rows, notes=[])
+            _write_report(mine, specs, out / path.stem, figures_from=cmp)
+            cmp.files[f"{path.stem}/compare.json"] = mine.files["json"]
+        _write_report(cmp, specs, out)
+        say(f"{k + 1} of {len(files)} problem files compared; report written to {out / 'compare.json'}")
+    return cmp
+
+
+def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, say, single: bool):
+    """One problem file with every planner: its ``problems`` entry, its rows and its plans.
+    Any failure becomes a recorded error; only an interruption escapes."""
+    from ..kinds import PlanStatus
+    from ..pipeline import solve
+
+    try:
+        problem = load_problem(path)
+    except ProblemError as e:
+        if single:
+            raise
+        say(f"skipping {path.name}: invalid problem file")
+        return {"file": str(path), "name": None, "error": str(e)}, [], {}
+    except Exception as e:  # noqa: BLE001 -- any failure reading one file is that file's row; the run goes on
+        if single:
+            raise
+        say(f"skipping {path.name}: {type(e).__name__}: {e}")
+        return {"file": str(path), "name": None, "error": f"{type(e).__name__}: {e}"}, [], {}
+    entry = {"file": str(path), "name": problem.name, "arms": len(problem.arms), "fruit": len(problem.fruits),
+             "reachable": len(problem.reachable_ids()), "error": None, "_problem": problem}
+    rows: list[dict[str, Any]] = []
+    plans: dict[str, Plan] = {}
+    lb_cache: list[float] = []
+    for spec in specs:
+        say(f"{problem.name}: solving with {spec.label}")
+        kw = {"options": options} if spec.planner != PlannerKind.HEURISTIC else {}
+        try:
+            res = solve(problem, planner=spec.planner, allocation=spec.allocation, out_dir=out / path.stem / spec.folder,
+                        progress=say, **kw)
+            if res.plan.status == PlanStatus.INTERRUPTED:
+                raise KeyboardInterrupt
+            row = _row_of(problem, spec, res, lb_cache)
+        except Exception as e:  # noqa: BLE001 -- a planner failing in any way (even a bug) is a row; the run goes on
+            rows.append({"problem": problem.name, "planner": spec.label, "status": None, "error": f"{type(e).__name__}: {e}"})
+            say(f"{problem.name}: {spec.label} failed: {e}")
+            continue
+        rows.append(row)
+        plans[spec.label] = res.plan
+    return entry, rows, plans
+
+
+def _row_of(problem: Problem, spec: PlannerSpec, res, lb_cache: list[float]) -> dict[str, Any]:
+    ver = res.verification
+    if ver is None:
+        from ..verify.verifier import verify
+
+        ver = verify(problem, res.plan)
+    if res.plan.metrics.get("lower_bound") is None and not lb_cache:
+        lb_cache.append(lower_bound(problem))
+    intervals = [{"arms": list(c.arms), "t_start": c.t_start, "t_end": c.t_end, "penetration": c.penetration}
+                 for c in ver.collisions]
+    row = run_row(problem, spec, res.plan, ver.summary(), intervals, res.timings, lb_cache[0] if lb_cache else None)
+    row["files"] = {k: str(v) for k, v in res.files.items() if k in ("json", "verification")}
+    return row
+
+
+def _write_report(cmp: Comparison, specs: list[PlannerSpec], out: Path, figures_from: Comparison | None = None) -> None:
+    """Relative makespans, aggregates, then ``compare.json`` and ``compare.md`` in ``out``."""
+    base = specs[0].label
+    for row in cmp.rows:
+        ref = next((r for r in cmp.rows if r["problem"] == row["problem"] and r["planner"] == base and not r.get("error")), None)
+        if not row.get("error") and ref is not None:
+            row["makespan_vs_" + base.replace(":", "_")] = _ratio(row["makespan"], ref["makespan"])
+    cmp.aggregate = aggregate(cmp.rows, cmp.planners)
+    if figures_from is not None:  # a problem's own report shows its figures too
+        cmp.files.update({k: v for k, v in figures_from.files.items() if k.startswith(f"{out.name}/") and k.endswith(".png")})
+    out.mkdir(parents=True, exist_ok=True)
+    json_path, md_path = out / "compare.json", out / "compare.md"
+    cmp.files.update(json=str(json_path), markdown=str(md_path))
+    _write(json_path, json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
+    _write(md_path, to_markdown(cmp, out))
+
+
+def _figures(problem: Problem, plans: dict[str, Plan], folder: Path, cmp: Comparison) -> None:
+    try:
+        from ..viz.plots import save_comparison_figures
+    except ImportError as e:
+        cmp.notes.append(f"figures skipped: {e}")
+        return
+    try:
+        saved = save_comparison_figures(problem, plans, folder)
+    except Exception as e:  # noqa: BLE001 -- a figure failing never loses the comparison itself
+        cmp.notes.append(f"figures of {problem.name} not drawn: {type(e).__name__}: {e}")
+        return
+    for p in saved:
+        cmp.files[f"{folder.name}/{Path(p).name}"] = str(p)
+
+
+def _write(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically (a temporary name unique per writer, then a rename)."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+# --------------------------------------------------------------------------- aggregation
+_MEDIANS = ("makespan", "makespan_ratio", "throughput", "cycle_time_worst", "min_clearance", "certified_clearance",
+            "peak_jerk", "planning_time")
+
+
+def _median(vals: list) -> float | None:
+    v = [x for x in vals if isinstance(x, (int, float)) and math.isfinite(x)]
+    return statistics.median(v) if v else None
+
+
+def _worst(rows: list[dict], key: str, highest: bool) -> dict | None:
+    ok = [r for r in rows if isinstance(r.get(key), (int, float)) and math.isfinite(r[key])]
+    if not ok:
+        return None
+    r = (max if highest else min)(ok, key=lambda r: r[key])
+    return {"problem": r["problem"], "value": r[key]}
+
+
+def aggregate(rows: list[dict], planners: list[str]) -> dict[str, Any]:
+    """Per planner: counts, medians and worst cases over every problem it ran on."""
+    out: dict[str, Any] = {}
+    for label in planners:
+        mine = [r for r in rows if r["planner"] == label]
+        ok = [r for r in mine if not r.get("error")]
+        statuses: dict[str, int] = {}
+        for r in ok:
+            statuses[r["status"]] = statuses.get(r["status"], 0) + 1
+        rel = [k for k in (ok[0] if ok else {}) if k.startswith("makespan_vs_")]
+        out[label] = {
+            "runs": len(mine),
+            "errors": len(mine) - len(ok),
+            "passed": sum(r["passed"] for r in ok),
+            "complete": sum(r["passed"] and r["complete"] for r in ok),
+            "collision_free": sum(r["collision_count"] == 0 for r in ok),
+            "statuses": statuses,
+            "fruit_harvested": sum(r["harvested"] or 0 for r in ok),
+            "fruit_reachable": sum(r["reachable"] or 0 for r in ok),
+            "median": {k: _median([r.get(k) for r in ok]) for k in _MEDIANS + tuple(rel)},
+            "worst": {
+                "makespan_ratio": _worst(ok, "makespan_ratio", True),
+                "min_clearance": _worst(ok, "min_clearance", False),
+                "collision_count": _worst(ok, "collision_count", True),
+                "peak_jerk": _worst(ok, "peak_jerk", True),
+                "planning_time": _worst(ok, "planning_time", True),
+            },
+        }
+    return out
+
+
+# --------------------------------------------------------------------------- rendering
+def _f(x, nd: int = 2, unit: str = "") -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    if isinstance(x, bool):
+        return "yes" if x else "no"
+    if isinstance(x, int):
+        return str(x)
+    return f"{x:.{nd}f}{unit}"
+
+
+_FIGURES: list[tuple[str, str, Callable[[dict], str]]] = [
+    ("status", "status", lambda r: r.get("status") or "error"),
+    ("verified safe", "passed", lambda r: _f(r.get("passed"))),
+    ("fruit harvested / reachable / unreachable", "harvested",
+     lambda r: f"{_f(r.get('harvested'))} / {_f(r.get('reachable'))} / {_f(r.get('unreachable'))}"),
+    ("makespan (s)", "makespan", lambda r: _f(r.get("makespan"))),
+    ("cycle time per fruit, worst arm (s)", "cycle_time_worst", lambda r: _f(r.get("cycle_time_worst"))),
+    ("cycle time per fruit, mean (s)", "cycle_time_mean", lambda r: _f(r.get("cycle_time_mean"))),
+    ("throughput (fruit/s)", "throughput", lambda r: _f(r.get("throughput"), 3)),
+    ("fruit per arm", "per_arm", lambda r: ", ".join(f"{a} {_f(v['fruit'])}" for a, v in (r.get("per_arm") or {}).items())),
+    ("idle fraction per arm", "per_arm", lambda r: ", ".join(f"{a} {_f(v['idle_fraction'])}" for a, v in (r.get("per_arm") or {}).items())),
+    ("least clearance (m)", "min_clearance", lambda r: _f(r.get("min_clearance"), 4)),
+    ("certified clearance (m)", "certified_clearance", lambda r: _f(r.get("certified_clearance"), 4)),
+    ("collision intervals", "collision_count", lambda r: _f(r.get("collision_count"))),
+    ("peak velocity / limit", "peak_velocity", lambda r: _f(r.get("peak_velocity"))),
+    ("peak acceleration / limit", "peak_acceleration", lambda r: _f(r.get("peak_acceleration"))),
+    ("peak jerk / limit", "peak_jerk", lambda r: _f(r.get("peak_jerk"))),
+    ("violations", "violation_kinds", lambda r: f"{_f(r.get('violation_count'))} ({', '.join(r.get('violation_kinds') or []) or 'none'})"),
+    ("planning time (s)", "planning_time", lambda r: _f(r.get("planning_time"), 3)),
+    ("makespan lower bound (s)", "lower_bound", lambda r: _f(r.get("lower_bound"))),
+    ("makespan / lower bound", "makespan_ratio", lambda r: _f(r.get("makespan_ratio"), 3)),
+    ("optimality", "optimality", lambda r: r.get("optimality") or "-"),
+]
+
+
+def problem_table(cmp: Comparison, problem: str) -> tuple[list[str], list[list[str]]]:
+    """Header and rows (figure x planner) for one problem."""
+    rows = {r["planner"]: r for r in cmp.rows if r["problem"] == problem}
+    header = ["figure"] + [p for p in cmp.planners if p in rows]
+    body = []
+    for title, _, fmt in _FIGURES:
+        body.append([title] + [(rows[p]["error"] if rows[p].get("error") and title == "status" else fmt(rows[p])) for p in header[1:]])
+    return header, body
+
+
+def _aggregate_table(cmp: Comparison) -> tuple[list[str], list[list[str]]]:
+    header = ["figure"] + cmp.planners
+    agg = cmp.aggregate
+
+    def w(label, key, nd=2):
+        x = agg[label]["worst"][key]
+        return "-" if x is None else f"{_f(x['value'], nd)} ({x['problem']})"
+
+    spec = [
+        ("runs (errors)", lambda a, l: f"{a['runs']} ({a['errors']})"),
+        ("verified safe", lambda a, l: str(a["passed"])),
+        ("safe and complete", lambda a, l: str(a["complete"])),
+        ("collision-free", lambda a, l: str(a["collision_free"])),
+        ("fruit harvested / reachable", lambda a, l: f"{a['fruit_harvested']} / {a['fruit_reachable']}"),
+        ("median makespan (s)", lambda a, l: _f(a["median"]["makespan"])),
+        ("median makespan / lower bound", lambda a, l: _f(a["median"]["makespan_ratio"], 3)),
+        ("median throughput (fruit/s)", lambda a, l: _f(a["median"]["throughput"], 3)),
+        ("median least clearance (m)", lambda a, l: _f(a["median"]["min_clearance"], 4)),
+        ("median planning time (s)", lambda a, l: _f(a["median"]["planning_time"], 3)),
+        ("worst makespan / lower bound", lambda a, l: w(l, "makespan_ratio", 3)),
+        ("worst least clearance (m)", lambda a, l: w(l, "min_clearance", 4)),
+        ("most collision intervals", lambda a, l: w(l, "collision_count", 0)),
+        ("worst peak jerk / limit", lambda a, l: w(l, "peak_jerk")),
+        ("slowest planning (s)", lambda a, l: w(l, "planning_time", 3)),
+    ]
+    return header, [[title] + [fn(agg[p], p) for p in cmp.planners] for title, fn in spec]
+
+
+def _md_table(header: list[str], body: list[list[str]]) -> str:
+    esc = [[c.replace("|", "\\|") for c in row] for row in [header] + body]
+    lines = ["| " + " | ".join(esc[0]) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(r) + " |" for r in esc[1:]]
+    return "\n".join(lines)
+
+
+def to_markdown(cmp: Comparison, out_dir: Path | None = None) -> str:
+    """The report as Markdown: one table per problem, collision intervals, figures, aggregates."""
+    parts = [f"# coplan comparison: {' vs '.join(cmp.planners)}", ""]
+    names = [p["name"] for p in cmp.problems if p.get("name")]
+    if len(names) > 1:
+        parts += [f"## Aggregate over {len(names)} problems", "", _md_table(*_aggregate_table(cmp)), ""]
+    for p in cmp.problems:
+        if p.get("error"):
+            parts += [f"## {p['file']}", "", "Invalid problem file:", "", "```", p["error"], "```", ""]
+            continue
+        parts += [f"## {p['name']}", "", f"{plural(p['arms'], 'arm')}, {p['fruit']} fruit ({p['reachable']} reachable). Source: `{p['file']}`", ""]
+        parts += [_md_table(*problem_table(cmp, p["name"])), ""]
+        for r in cmp.rows:
+            if r["problem"] == p["name"] and r.get("collision_intervals"):
+                parts.append(f"Collision intervals of **{r['planner']}**:")
+                parts.append("")
+                parts += [f"- {'/'.join(c['arms'])}: {c['t_start']:.3f}-{c['t_end']:.3f} s, penetration {c['penetration'] * 1000:.1f} mm"
+                          for c in r["collision_intervals"]]
+                parts.append("")
+        figs = [v for k, v in cmp.files.items() if k.endswith(".png") and Path(v).parent.name == Path(p["file"]).stem]
+        for f in figs:
+            rel = os.path.relpath(f, out_dir) if out_dir is not None else f
+            parts.append(f"![{Path(f).stem}]({rel})")
+        if figs:
+            parts.append("")
+    if cmp.notes:
+        parts += ["## Notes", ""] + [f"- {n}" for n in cmp.notes] + [""]
+    return "\n".join(parts)
+
+
+def rich_tables(cmp: Comparison) -> list:
+    """Rich tables for the terminal: one per problem, and the aggregate for several problems."""
+    from rich.table import Table
+    from rich.text import Text
+
+    def plain(x) -> Text:  # names from problem files: never markup, control characters as codes
+        return Text(printable(x))
+
+    tables = []
+    for p in cmp.problems:
+        if p.get("error"):
+            continue
+        header, body = problem_table(cmp, p["name"])
+        t = Table(title=plain(p["name"]), title_justify="left")
+        for h in header:
+            t.add_column(h, overflow="fold")
+        for row in body:
+            t.add_row(*(plain(c) for c in row))
+        tables.append(t)
+    if sum(1 for p in cmp.problems if p.get("name")) > 1:
+        header, body = _aggregate_table(cmp)
+        t = Table(title="aggregate", title_justify="left")
+        for h in header:
+            t.add_column(h, overflow="fold")
+        for row in body:
+            t.add_row(*(plain(c) for c in row))
+        tables.append(t)
+    return tables

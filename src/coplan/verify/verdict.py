@@ -1,0 +1,292 @@
+"""The verifier's data objects: options, findings and the :class:`Verification` verdict.
+
+Produced by :func:`coplan.verify.verify` (and re-exported there); see that module for what
+each check means. ``Verification.summary()`` is the small dict stored in ``plan.json``,
+``Verification.save()`` writes ``verification.json`` with everything.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field, fields
+from enum import Enum
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .clearance import DEFAULT_SUBSTEPS
+from ..kinds import FclMode
+from .fclcheck import FCL_TOLERANCE, FclReport
+
+__all__ = [
+    "FclMode",
+    "ViolationKind",
+    "WarningKind",
+    "IntervalKind",
+    "VerifyOptions",
+    "Violation",
+    "Finding",
+    "ContactInterval",
+    "PairClearance",
+    "Verification",
+]
+
+
+class ViolationKind(str, Enum):
+    """What failed; any violation fails the plan."""
+
+    COLLISION = "collision"  # capsules of two arms overlap (an interval)
+    CLEARANCE = "clearance"  # closer than task.clearance (an interval without overlap)
+    UNCERTIFIED = "uncertified"  # samples clear, but the gap between them cannot be certified
+    CROSS_CHECK = "cross_check"  # FCL and the NumPy distances disagree: the verifier itself is suspect
+    JOINT_LIMIT = "joint_limit"
+    VELOCITY = "velocity"
+    ACCELERATION = "acceleration"
+    JERK = "jerk"
+    PICK_MISSED = "pick_missed"  # tip never within position_tolerance of the fruit during the pick
+    PICK_DWELL = "pick_dwell"  # on the fruit, but not still for pick_dwell
+    PLACE_MISSED = "place_missed"
+    PLACE_DWELL = "place_dwell"
+    DUPLICATE_PICK = "duplicate_pick"
+    UNREACHABLE_PICK = "unreachable_pick"  # the arm cannot reach that fruit (problem.reach_matrix())
+    UNKNOWN_FRUIT = "unknown_fruit"
+    SEQUENCE = "sequence"  # overlapping events, a place without its pick, a pick never placed
+    EVENT = "event"  # an event of an unknown arm or outside the plan's time span
+
+
+class WarningKind(str, Enum):
+    """Listed, never a failure."""
+
+    SINGULAR = "singular"  # manipulability below task.singularity_threshold
+    NOT_HARVESTED = "not_harvested"  # a reachable fruit is not picked and placed (the plan is partial)
+    PROBLEM_NAME = "problem_name"  # the plan names another problem
+    EVENTS_INFERRED = "events_inferred"  # the plan declares no events: they were inferred from its motion
+
+
+class IntervalKind(str, Enum):
+    COLLISION = "collision"  # capsules overlap (distance < 0)
+    CLEARANCE = "clearance"  # 0 <= distance < task.clearance
+
+
+@dataclass(frozen=True)
+class VerifyOptions:
+    """Settings of :func:`coplan.verify.verify` (units: m, s, rad).
+
+    Attributes
+    ----------
+    substeps : dense clearance samples per plan interval (10: 1 kHz on a 100 Hz plan)
+    refine_levels, refine_factor : how often / how finely uncertified gaps are subdivided
+    fcl : FCL cross-check mode; ``fcl_samples`` seeded random instants per pair (``seed``)
+        on top of the critical ones, of which at most ``fcl_max_intervals`` interval worst
+        points per pair; ``fcl_tolerance`` is the allowed disagreement
+    position_tolerance : tip to fruit / bin during an event (5 mm)
+    still_speed : "still" means no point of the arm faster than this (5 mm/s)
+    dwell_tolerance : allowed shortfall of a dwell; None = one plan sample period
+    q_resolution : resolution of the stored joint angles (plan.json rounds to 1e-7 rad);
+        sets the finite-difference tolerances together with ``rel_tolerance``
+    joint_tolerance : allowed excess over a joint limit
+    infer_events : when a plan declares no events, infer them from its motion
+        (:mod:`coplan.verify.infer`) and say so; otherwise nothing counts as harvested
+    """
+
+    substeps: int = DEFAULT_SUBSTEPS
+    refine_levels: int = 2
+    refine_factor: int = 10
+    fcl: FclMode = FclMode.CRITICAL
+    fcl_samples: int = 32
+    fcl_max_intervals: int = 200
+    seed: int = 0
+    fcl_tolerance: float = FCL_TOLERANCE
+    position_tolerance: float = 0.005
+    still_speed: float = 0.005
+    dwell_tolerance: float | None = None
+    q_resolution: float = 1e-7
+    rel_tolerance: float = 1e-6
+    joint_tolerance: float = 1e-7
+    infer_events: bool = True
+
+
+@dataclass(frozen=True)
+class Violation:
+    """One failed check: ``value`` measured against ``limit``; ``amount`` is by how much."""
+
+    kind: ViolationKind
+    arms: tuple[str, ...]
+    t: float
+    amount: float
+    value: float | None = None
+    limit: float | None = None
+    t_start: float | None = None
+    t_end: float | None = None
+    joint: int | None = None
+    fruit: str | None = None
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class Finding:
+    """A warning: listed, never a failure."""
+
+    kind: WarningKind
+    arms: tuple[str, ...]
+    t: float | None
+    value: float | None = None
+    limit: float | None = None
+    t_start: float | None = None
+    t_end: float | None = None
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class ContactInterval:
+    """A maximal run of samples in collision (or inside the clearance) for one arm pair.
+
+    ``least_distance`` < 0 is a penetration of ``-least_distance``; ``links`` (link of the
+    first arm, link of the second) and ``points`` ((2, 2): the closest point on each) are at
+    ``t_worst``.
+    """
+
+    kind: IntervalKind
+    arms: tuple[str, str]
+    t_start: float
+    t_end: float
+    t_worst: float
+    least_distance: float
+    links: tuple[int, int]
+    points: tuple[tuple[float, float], tuple[float, float]]
+
+    @property
+    def penetration(self) -> float:
+        return max(0.0, -self.least_distance)
+
+
+@dataclass(frozen=True)
+class PairClearance:
+    """Least sampled and certified clearance of one arm pair (m), when and where."""
+
+    arms: tuple[str, str]
+    min_clearance: float
+    t: float
+    links: tuple[int, int]
+    points: tuple[tuple[float, float], tuple[float, float]]
+    certified: float
+    t_certified: float
+    samples: int
+    refined: int
+
+    @property
+    def key(self) -> str:
+        return f"{self.arms[0]}-{self.arms[1]}"
+
+
+@dataclass
+class Verification:
+    """The verdict on one plan; ``summary()`` goes into ``plan.json``, ``save()`` writes the rest."""
+
+    problem: str
+    planner: str
+    duration: float
+    required_clearance: float
+    options: VerifyOptions
+    pairs: list[PairClearance] = field(default_factory=list)
+    intervals: list[ContactInterval] = field(default_factory=list)
+    violations: list[Violation] = field(default_factory=list)
+    warnings: list[Finding] = field(default_factory=list)
+    peaks: dict[str, dict[str, float]] = field(default_factory=dict)
+    unharvested: list[str] = field(default_factory=list)
+    fcl: FclReport | None = None
+    timings: dict[str, float] = field(default_factory=dict)
+    inferred_events: list | None = None  # the events inferred from the motion, when the plan declared none
+
+    @property
+    def passed(self) -> bool:
+        return not self.violations
+
+    @property
+    def complete(self) -> bool:
+        return not self.unharvested
+
+    @property
+    def collisions(self) -> list[ContactInterval]:
+        return [c for c in self.intervals if c.kind == IntervalKind.COLLISION]
+
+    @property
+    def min_clearance(self) -> float:
+        return min((p.min_clearance for p in self.pairs), default=math.inf)
+
+    @property
+    def certified_clearance(self) -> float:
+        return min((p.certified for p in self.pairs), default=math.inf)
+
+    def summary(self) -> dict[str, Any]:
+        """Small JSON-able verdict (stored in ``plan.json``). Clearances are ``inf`` without pairs."""
+        return {
+            "passed": self.passed,
+            "complete": self.complete,
+            "collision_count": len(self.collisions),
+            "clearance_breach_count": sum(c.kind == IntervalKind.CLEARANCE for c in self.intervals),
+            "min_clearance": self.min_clearance,
+            "certified_clearance": self.certified_clearance,
+            "required_clearance": self.required_clearance,
+            "violation_count": len(self.violations),
+            "violation_kinds": sorted({v.kind.value for v in self.violations}),
+            "warning_count": len(self.warnings),
+            "unharvested": list(self.unharvested),
+            "events_inferred": self.inferred_events is not None,
+            "pairs": {p.key: {"min_clearance": p.min_clearance, "t": p.t, "certified": p.certified} for p in self.pairs},
+            "peaks": self.peaks,
+            "fcl_agree": None if self.fcl is None else self.fcl.agree,
+        }
+
+    def to_dict(self) -> dict[str, Any]:
+        """Everything, JSON-able (non-finite numbers become ``null``)."""
+        doc = {
+            "format": "coplan.verification/1",
+            "problem": self.problem,
+            "planner": self.planner,
+            "duration": self.duration,
+            "summary": self.summary(),
+            "options": {f.name: getattr(self.options, f.name) for f in fields(self.options)},
+            "pairs": [_asdict(p) | {"key": p.key} for p in self.pairs],
+            "intervals": [_asdict(c) | {"penetration": c.penetration} for c in self.intervals],
+            "violations": [_asdict(v) for v in self.violations],
+            "warnings": [_asdict(w) for w in self.warnings],
+            "fcl": None if self.fcl is None else self.fcl.to_dict(),
+            "inferred_events": None if self.inferred_events is None else [e.to_dict() for e in self.inferred_events],
+            "timings": self.timings,
+        }
+        return _json(doc)
+
+    def save(self, path: str | Path) -> Path:
+        """Write ``verification.json`` (``path`` may be a folder); returns the file written."""
+        p = Path(path)
+        if p.is_dir() or p.suffix != ".json":
+            p = p / "verification.json"
+        p.parent.mkdir(parents=True, exist_ok=True)
+        tmp = p.with_name(p.name + ".tmp")
+        tmp.write_text(json.dumps(self.to_dict(), indent=1, allow_nan=False))
+        os.replace(tmp, p)
+        return p
+
+
+def _asdict(obj) -> dict:
+    return {f.name: getattr(obj, f.name) for f in fields(obj)}
+
+
+def _json(x):
+    if isinstance(x, dict):
+        return {str(k): _json(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple, np.ndarray)):
+        return [_json(v) for v in x]
+    if isinstance(x, Enum):
+        return x.value
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    return x

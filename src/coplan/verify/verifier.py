@@ -1,0 +1,387 @@
+"""Independent verification of a plan (``coplan verify PROBLEM PLAN``).
+
+Entry point: :func:`verify` returns a :class:`Verification`. It shares no code with the
+planners' constraints: the clearance comes from :mod:`coplan.verify.clearance` (exact NumPy capsule
+distances on the replayed plan, with a certificate for the gaps between samples), cross-checked
+with FCL by :mod:`coplan.verify.fclcheck`; limits, picks and places are checked here. (Only the
+witness points it reports -- where on two links the closest approach lies -- come from
+:func:`coplan.kinematics.geometry.segment_distance`; every distance in the verdict is the
+verifier's own.)
+
+What "passes" means (every check below, with the default :class:`VerifyOptions`):
+
+* **clearance** -- arms that can touch (``problem.neighbour_pairs()``) are sampled at 1 kHz
+  on the linear replay (only where the 100 Hz certificate does not already rule out a
+  lower sample: same figures, less work); a sample below 0 is a collision, below
+  ``task.clearance`` a clearance breach (both reported as intervals: start, end, worst
+  distance, links). Gaps between samples are certified with the Lipschitz bound of
+  :mod:`coplan.verify.clearance` (refined where needed); an interval that stays uncertified is a
+  violation. Both the raw sampled and the certified least clearance are reported.
+* **cross-check** -- at each pair's closest instant, the worst instant of every
+  interval and ``fcl_samples`` seeded random instants per pair (or every evaluated sample
+  with ``fcl="full"``), FCL must agree within 1e-6 m on every link pair's distance (penetration
+  depths included) and on the overlap verdict.
+* **limits** -- joint limits at every sample (convex between samples). Velocity: forward
+  differences of the 100 Hz samples (the replay velocity itself). Acceleration and jerk:
+  second and third differences. The k-th difference divided by ``dt^k`` is a weighted mean
+  (B-spline weights >= 0, summing to 1) of the k-th derivative of *any* C^(k-1) trajectory
+  through the samples over the k intervals it spans, so a within-limits S-curve (jerk
+  steps, continuous acceleration) never fails, and a failure proves every such trajectory
+  breaks the limit in that window. Arms are at rest before and after the plan. Tolerance:
+  ``rel_tolerance * limit + 2^(k-1) q_resolution / dt^k`` (the rounding of ``plan.json``
+  to 1e-7 rad: 1e-5 rad/s, 2e-3 rad/s^2, 0.4 rad/s^3 at 100 Hz).
+* **picks and places** -- during each event the tip is within ``position_tolerance``
+  (5 mm) of its fruit (of the arm's bin for a place) and *still* (every point of the arm
+  slower than ``still_speed``, 5 mm/s) for at least the dwell, less ``dwell_tolerance``
+  (default one sample period: the grid cannot place a hold's ends more finely). Every
+  fruit is picked at most once, only by an arm that can reach it, picks and places
+  alternate.
+* **inferred events** -- a plan that declares no events (``events: []``, or a ``plan.csv``)
+  has them inferred from its motion (:mod:`coplan.verify.infer`: tip on target and still for the
+  dwell over a fruit, then over the arm's bin), says so (warning ``events_inferred``,
+  ``Verification.inferred_events``) and is then checked as if it had declared them.
+* **completeness** is reported (``complete``, ``unharvested``) but is not a failure: a
+  verified plan that leaves fruit is *partial*, not unsafe.
+* **warnings** -- poses with manipulability below ``task.singularity_threshold``.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+
+from ..kinematics import arm as kin
+from .clearance import ArmMotion, arm_motions, certify_pair, clearance_profile, runs
+from ..errors import Issue, PlanFileError
+from .fclcheck import cross_check
+from ..kinematics.geometry import segment_distance
+from .infer import infer_events
+from ..plan import DEFAULT_RATE, EventKind, Plan
+from . import verdict as _verdict
+from ..problem.model import Problem
+from .verdict import (
+    ContactInterval,
+    FclMode,
+    Finding,
+    IntervalKind,
+    PairClearance,
+    Verification,
+    VerifyOptions,
+    Violation,
+    ViolationKind,
+    WarningKind,
+)
+
+__all__ = [*_verdict.__all__, "verify", "clearance_profile"]  # the result types are re-exported from here
+
+
+# --------------------------------------------------------------------------- input checks
+def _check_inputs(problem: Problem, plan: Plan) -> None:
+    issues: list[Issue] = []
+    names = [a.name for a in problem.arms]
+    missing = [n for n in names if n not in plan.q]
+    extra = [n for n in plan.q if n not in names]
+    if missing or extra:
+        issues.append(Issue("arms", f"expected the problem's arms {names}, found {list(plan.q)} (missing {missing}, unknown {extra})"))
+    t = np.asarray(plan.time, float)
+    if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)):
+        issues.append(Issue("time", "expected a non-empty list of finite times"))
+    elif t.size > 1:
+        d = np.diff(t)
+        if np.any(d <= 0) or np.max(np.abs(d - d.mean())) > 1e-4 * d.mean() + 1e-6:
+            issues.append(Issue("time", "expected a strictly increasing uniform grid"))
+    for n in names:
+        q = plan.q.get(n)
+        if q is not None and (np.shape(q) != (t.size, 2) or not np.all(np.isfinite(q))):
+            issues.append(Issue(f"arms.{n}.q", f"expected {t.size} finite rows of 2 angles, found shape {np.shape(q)}"))
+    if issues:
+        raise PlanFileError(issues, f"plan for problem {plan.problem!r}")
+
+
+# --------------------------------------------------------------------------- clearance
+def _where(motions: list[ArmMotion], i: int, j: int, seg: int, frac: float, link: int):
+    la, lb = divmod(int(link), 2)
+    pa = motions[i].points(np.array([seg]), np.array([frac]))[0]
+    pb = motions[j].points(np.array([seg]), np.array([frac]))[0]
+    _, ca, cb = segment_distance(pa[la], pa[la + 1], pb[lb], pb[lb + 1], return_points=True)
+    return (la, lb), (tuple(map(float, ca)), tuple(map(float, cb)))
+
+
+def _check_clearance(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: VerifyOptions, ver: Verification):
+    """Clearance, intervals and certificate for every neighbouring pair; returns FCL instants."""
+    clear = problem.task.clearance
+    rng = np.random.default_rng(opts.seed)
+    fcl_samples: list[tuple[int, int, int, float, float]] = []
+    for i, j in problem.neighbour_pairs():
+        ps = certify_pair(motions, i, j, plan, clear, opts.substeps, opts.refine_levels, opts.refine_factor)
+        arms = (motions[i].name, motions[j].name)
+        k = int(np.argmin(ps.d))
+        links, pts = _where(motions, i, j, ps.seg[k], ps.frac[k], ps.link[k])
+        kb = int(np.argmin(ps.bound)) if ps.bound.size else k
+        ver.pairs.append(
+            PairClearance(arms, float(ps.d[k]), float(ps.t[k]), links, pts, ps.certified, float(ps.t[kb]), ps.t.size, ps.refined)
+        )
+        critical = [k]
+        found = 0
+        for kind, mask in ((IntervalKind.COLLISION, ps.d < 0), (IntervalKind.CLEARANCE, ps.d < clear)):
+            for a, b in runs(mask):
+                if kind == IntervalKind.CLEARANCE and np.any(ps.d[a : b + 1] < 0):
+                    continue
+                w = a + int(np.argmin(ps.d[a : b + 1]))
+                found += 1
+                if found <= opts.fcl_max_intervals:
+                    critical.append(w)
+                links_w, pts_w = _where(motions, i, j, ps.seg[w], ps.frac[w], ps.link[w])
+                ci = ContactInterval(kind, arms, float(ps.t[a]), float(ps.t[b]), float(ps.t[w]), float(ps.d[w]), links_w, pts_w)
+                ver.intervals.append(ci)
+                vk = ViolationKind.COLLISION if kind == IntervalKind.COLLISION else ViolationKind.CLEARANCE
+                ver.violations.append(
+                    Violation(
+                        vk, arms, ci.t_worst, clear - ci.least_distance if vk == ViolationKind.CLEARANCE else ci.penetration,
+                        ci.least_distance, 0.0 if vk == ViolationKind.COLLISION else clear, ci.t_start, ci.t_end,
+                        message=f"links {links_w[0]}/{links_w[1]} {'overlap by' if ci.least_distance < 0 else 'at'} "
+                        f"{abs(ci.least_distance) * 1000:.1f} mm",
+                    )
+                )
+        bad = ps.uncertified(clear)
+        if bad.size:
+            for a, b in runs(np.isin(np.arange(ps.bound.size), bad)):
+                w = a + int(np.argmin(ps.bound[a : b + 1]))
+                critical.append(w)
+                ver.violations.append(
+                    Violation(
+                        ViolationKind.UNCERTIFIED, arms, float(ps.t[w]), clear - float(ps.bound[w]), float(ps.bound[w]), clear,
+                        float(ps.t[a]), float(ps.t[b + 1]),
+                        message="samples clear the clearance but the gap between them cannot be certified",
+                    )
+                )
+        if opts.fcl == FclMode.FULL:
+            chosen = np.arange(ps.t.size)
+        else:
+            extra = rng.choice(ps.t.size, size=min(opts.fcl_samples, ps.t.size), replace=False)
+            chosen = np.unique(np.concatenate([np.asarray(critical, int), extra]))
+        fcl_samples += [(i, j, int(ps.seg[c]), float(ps.frac[c]), float(ps.t[c])) for c in chosen]
+    ver.intervals.sort(key=lambda c: (c.t_start, c.arms))
+    return fcl_samples
+
+
+# --------------------------------------------------------------------------- limits
+def _check_limits(problem: Problem, motions: list[ArmMotion], time: np.ndarray, opts: VerifyOptions, ver: Verification):
+    """Joint limits, finite-difference velocity/acceleration/jerk (module docstring), singular poses."""
+    dt = float(time[1] - time[0]) if time.size > 1 else 1.0 / DEFAULT_RATE
+    for arm, m in zip(problem.arms, motions):
+        q = m.q
+        lim = arm.limits
+        t = time
+        for jn in (0, 1):
+            lo, hi = lim[jn]
+            excess = np.maximum(lo - q[:, jn], q[:, jn] - hi)
+            for a, b in runs(excess > opts.joint_tolerance):
+                w = a + int(np.argmax(excess[a : b + 1]))
+                bound = lo if q[w, jn] < lo else hi
+                ver.violations.append(
+                    Violation(ViolationKind.JOINT_LIMIT, (arm.name,), float(t[w]), float(excess[w]), float(q[w, jn]), float(bound),
+                              float(t[a]), float(t[b]), joint=jn, message=f"joint {jn + 1} outside [{lo}, {hi}] rad")
+                )
+        pad = np.concatenate([np.repeat(q[:1], 3, axis=0), q, np.repeat(q[-1:], 3, axis=0)])
+        tp = (np.arange(len(pad)) - 3) * dt
+        peaks: dict[str, float] = {}
+        for k, (kind, limits) in enumerate(
+            ((ViolationKind.VELOCITY, arm.max_velocity), (ViolationKind.ACCELERATION, arm.max_acceleration),
+             (ViolationKind.JERK, arm.max_jerk)), start=1,
+        ):
+            signed = np.diff(pad, n=k, axis=0) / dt**k
+            diff = np.abs(signed)
+            # the stencil's centre; a window reaching into the rest before/after the plan is
+            # reported at the plan's start/end, never at a negative time
+            centre = 0.5 * (tp[:-k] + tp[k:])
+            tc = np.clip(centre, 0.0, t[-1])
+            lim_k = np.asarray(limits, float)
+            peaks[kind.value] = float(np.max(diff / lim_k)) if diff.size else 0.0
+            tol = opts.rel_tolerance * lim_k + 2.0 ** (k - 1) * opts.q_resolution / dt**k
+            for jn in (0, 1):
+                for a, b in runs(diff[:, jn] > lim_k[jn] + tol[jn]):
+                    w = a + int(np.argmax(diff[a : b + 1, jn]))
+                    if kind == ViolationKind.JERK and b - a < _STEP_SAMPLES:
+                        ver.violations.append(_acceleration_step(arm.name, jn, signed[a : b + 1, jn], centre[a : b + 1], dt,
+                                                                 lim_k[jn], t[-1]))
+                        continue
+                    ver.violations.append(
+                        Violation(kind, (arm.name,), float(tc[w]), float(diff[w, jn] - lim_k[jn]), float(diff[w, jn]), float(lim_k[jn]),
+                                  float(tc[a]), float(tc[b]), joint=jn,
+                                  message=f"joint {jn + 1} at {diff[w, jn] / lim_k[jn]:.2f} x the {kind.value} limit")
+                    )
+        ver.peaks[arm.name] = peaks
+        manip = kin.manipulability(q, arm.links)
+        for a, b in runs(manip < problem.task.singularity_threshold):
+            w = a + int(np.argmin(manip[a : b + 1]))
+            ver.warnings.append(
+                Finding(WarningKind.SINGULAR, (arm.name,), float(t[w]), float(manip[w]), problem.task.singularity_threshold,
+                        float(t[a]), float(t[b]), message="near-singular pose (manipulability below the threshold)")
+            )
+
+
+# A jerk violation no longer than a third difference's stencil (3 intervals) is one jump of the
+# acceleration between samples: its third differences / dt^3 are jump / dt (a grid artefact),
+# so it is reported as the jump itself.
+_STEP_SAMPLES = 3
+
+
+def _acceleration_step(arm: str, jn: int, jerk: np.ndarray, tc: np.ndarray, dt: float, jmax: float, t_end: float) -> Violation:
+    """A run of third differences (``jerk``, rad/s^3, at stencil centres ``tc``) that is one
+    acceleration discontinuity: its size (rad/s^2) at its time (the run's centre weighted by
+    |jerk|, inside [0, t_end]), against the most a jerk-limited motion could change it.
+
+    The run's jerk x dt sums to the change between two second differences / dt^2, weighted
+    means of the acceleration whose centres lie ``span`` = run length x dt apart; any motion
+    within the jerk limit changes that by at most jmax x span."""
+    jump = float(np.sum(jerk) * dt)
+    w = np.abs(jerk)
+    t = float(np.clip(np.sum(tc * w) / np.sum(w), 0.0, t_end))
+    span = jerk.size * dt
+    allowed = jmax * span
+    t0, t1 = (float(x) for x in np.clip(tc[[0, -1]], 0.0, t_end))
+    return Violation(ViolationKind.JERK, (arm,), t, abs(jump) - allowed, abs(jump), allowed, t0, t1, joint=jn,
+                     message=f"joint {jn + 1}: acceleration discontinuity of {jump:+.3f} rad/s^2 (unbounded jerk; within "
+                             f"{span:.3f} s the jerk limit {jmax:g} rad/s^3 allows {allowed:.3f} rad/s^2)")
+
+
+# --------------------------------------------------------------------------- events
+def _hold(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, ts: float, te: float, opts: VerifyOptions):
+    """Least tip distance during [ts, te] and the longest still-on-target time inside it."""
+    dist = np.hypot(*(tip - np.asarray(target, float)).T)
+    if time.size < 2:
+        return float(dist[0]), 0.0
+    dt = time[1] - time[0]
+    lo = max(0, int(np.searchsorted(time, ts, side="right")) - 1)
+    hi = min(time.size - 1, int(np.searchsorted(time, te, side="left")))
+    if hi <= lo:
+        hi = min(lo + 1, time.size - 1)
+    n = np.arange(lo, hi)
+    overlap = np.clip(np.minimum(time[n + 1], te) - np.maximum(time[n], ts), 0.0, None)
+    # the tip stays within (d0 + d1 + V dt) / 2 of the target over the whole interval
+    good = ((dist[n] + dist[n + 1] + m.speed[n] * dt) / 2 <= opts.position_tolerance) & (m.speed[n] <= opts.still_speed)
+    best = max((float(overlap[a : b + 1].sum()) for a, b in runs(good & (overlap > 0))), default=0.0)
+    inside = dist[lo : hi + 1]
+    return float(inside.min()), best
+
+
+def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: VerifyOptions, ver: Verification):
+    """Picks and places on target and still for their dwell, bookkeeping, completeness."""
+    reach = problem.reach_matrix()
+    arm_index = {a.name: k for k, a in enumerate(problem.arms)}
+    fruit_index = {f.id: k for k, f in enumerate(problem.fruits)}
+    tips = {m.name: kin.fk(m.q, m.links, m.base)[1] for m in motions}
+    dwell_tol = plan.dt if opts.dwell_tolerance is None else opts.dwell_tolerance
+    eps = 1e-9
+    picks: dict[str, list[str]] = {}
+    placed: set[str] = set()
+    for e in plan.events:
+        if e.arm not in arm_index:
+            ver.violations.append(Violation(ViolationKind.EVENT, (e.arm,), e.t_start, 0.0, fruit=e.fruit, message="unknown arm"))
+            continue
+        if e.fruit not in fruit_index:
+            ver.violations.append(Violation(ViolationKind.UNKNOWN_FRUIT, (e.arm,), e.t_start, 0.0, fruit=e.fruit,
+                                            message=f"{e.kind.value} of a fruit the problem does not have"))
+            continue
+        if e.t_start < -eps or e.t_end > plan.duration + eps or e.t_end < e.t_start:
+            ver.violations.append(Violation(ViolationKind.EVENT, (e.arm,), e.t_start, 0.0, t_start=e.t_start, t_end=e.t_end,
+                                            fruit=e.fruit, message=f"event outside the plan [0, {plan.duration}] s"))
+            continue
+        arm = problem.arms[arm_index[e.arm]]
+        if e.kind == EventKind.PICK:
+            picks.setdefault(e.fruit, []).append(e.arm)
+            if not reach[arm_index[e.arm], fruit_index[e.fruit]]:
+                ver.violations.append(Violation(ViolationKind.UNREACHABLE_PICK, (e.arm,), e.t_start, 0.0, fruit=e.fruit,
+                                                message="arm picks a fruit it cannot reach"))
+            target, dwell = problem.fruits[fruit_index[e.fruit]].position, problem.task.pick_dwell
+            missed, short = ViolationKind.PICK_MISSED, ViolationKind.PICK_DWELL
+        else:
+            placed.add(e.fruit)
+            target, dwell = arm.bin, problem.task.place_dwell
+            missed, short = ViolationKind.PLACE_MISSED, ViolationKind.PLACE_DWELL
+        m = motions[arm_index[e.arm]]
+        least, held = _hold(m, tips[e.arm], plan.time, target, e.t_start, e.t_end, opts)
+        if least > opts.position_tolerance:
+            ver.violations.append(Violation(missed, (e.arm,), e.t_start, least - opts.position_tolerance, least,
+                                            opts.position_tolerance, e.t_start, e.t_end, fruit=e.fruit,
+                                            message=f"tip never within {opts.position_tolerance * 1000:.0f} mm (closest {least * 1000:.1f} mm)"))
+        elif held < dwell - dwell_tol - eps:
+            ver.violations.append(Violation(short, (e.arm,), e.t_start, dwell - held, held, dwell, e.t_start, e.t_end, fruit=e.fruit,
+                                            message=f"still on target for {held:.3f} s, dwell is {dwell} s"))
+    for fid, who in picks.items():
+        if len(who) > 1:
+            ver.violations.append(Violation(ViolationKind.DUPLICATE_PICK, tuple(sorted(set(who))), 0.0, float(len(who) - 1),
+                                            float(len(who)), 1.0, fruit=fid, message=f"picked {len(who)} times"))
+    _check_sequence(plan, ver)
+    ver.unharvested = [f for f in problem.reachable_ids() if f not in picks or f not in placed]
+    for f in ver.unharvested:
+        ver.warnings.append(Finding(WarningKind.NOT_HARVESTED, (), None, message=f"reachable fruit {f} is not harvested"))
+
+
+def _check_sequence(plan: Plan, ver: Verification) -> None:
+    """Per arm: events do not overlap, picks and places alternate, every pick is placed."""
+    for arm in plan.q:
+        holding: str | None = None
+        last_end = -math.inf
+        for e in sorted(plan.events_of(arm), key=lambda e: (e.t_start, e.kind != EventKind.PICK)):
+            if e.t_start < last_end - 1e-9:
+                ver.violations.append(Violation(ViolationKind.SEQUENCE, (arm,), e.t_start, last_end - e.t_start, fruit=e.fruit,
+                                                message="event starts before the previous one ends"))
+            last_end = max(last_end, e.t_end)
+            if e.kind == EventKind.PICK:
+                if holding is not None:
+                    ver.violations.append(Violation(ViolationKind.SEQUENCE, (arm,), e.t_start, 0.0, fruit=e.fruit,
+                                                    message=f"picks {e.fruit} while still holding {holding}"))
+                holding = e.fruit
+            else:
+                if holding != e.fruit:
+                    ver.violations.append(Violation(ViolationKind.SEQUENCE, (arm,), e.t_start, 0.0, fruit=e.fruit,
+                                                    message=f"places {e.fruit} without holding it"))
+                holding = None
+        if holding is not None:
+            ver.violations.append(Violation(ViolationKind.SEQUENCE, (arm,), plan.duration, 0.0, fruit=holding,
+                                            message=f"{holding} is picked but never placed"))
+
+
+# --------------------------------------------------------------------------- entry point
+def verify(problem: Problem, plan: Plan, options: VerifyOptions | None = None, **overrides: Any) -> Verification:
+    """Verify ``plan`` against ``problem``; keyword overrides replace :class:`VerifyOptions` fields.
+
+    Raises :class:`PlanFileError` when the plan does not fit the problem (other arms, a
+    non-uniform grid, wrong shapes). Every other finding is in the returned object.
+    """
+    opts = replace(options or VerifyOptions(), **overrides)
+    opts = replace(opts, fcl=FclMode(opts.fcl))
+    _check_inputs(problem, plan)
+    ver = Verification(plan.problem, plan.planner_name, plan.duration, problem.task.clearance, opts)
+    if plan.problem and plan.problem != problem.name:  # (a plan.csv names no problem)
+        ver.warnings.append(Finding(WarningKind.PROBLEM_NAME, (), None, message=f"plan is for {plan.problem!r}, problem is {problem.name!r}"))
+    t0 = _time.perf_counter()
+    motions = arm_motions(problem, plan)
+    if not plan.events and opts.infer_events:
+        plan = replace(plan, events=infer_events(problem, plan, motions, opts))
+        ver.inferred_events = list(plan.events)
+        n_pick = sum(e.kind == EventKind.PICK for e in plan.events)
+        ver.warnings.append(Finding(WarningKind.EVENTS_INFERRED, (), None, message=(
+            f"the plan declares no events: {n_pick} pick{'s' if n_pick != 1 else ''} and {len(plan.events) - n_pick} "
+            f"place{'s' if len(plan.events) - n_pick != 1 else ''} were inferred from its motion (tip within "
+            f"{opts.position_tolerance * 1000:.0f} mm and still for the dwell over a fruit, then over the arm's bin)")))
+    samples = _check_clearance(problem, plan, motions, opts, ver)
+    t1 = _time.perf_counter()
+    if opts.fcl != FclMode.OFF:
+        ver.fcl = cross_check(motions, samples, opts.fcl.value, opts.fcl_tolerance)
+        for d in ver.fcl.disagreements:
+            ver.violations.append(Violation(ViolationKind.CROSS_CHECK, d.arms, d.t, abs(d.fcl - d.numpy), d.fcl, d.numpy,
+                                            message=f"FCL and NumPy disagree ({d.kind.value}) on links {d.links}"))
+    t2 = _time.perf_counter()
+    _check_limits(problem, motions, np.asarray(plan.time, float), opts, ver)
+    _check_events(problem, plan, motions, opts, ver)
+    t3 = _time.perf_counter()
+    ver.timings = {"clearance": t1 - t0, "fcl": t2 - t1, "limits_events": t3 - t2, "total": t3 - t0}
+    ver.violations.sort(key=lambda v: (v.t, v.kind.value))
+    return ver

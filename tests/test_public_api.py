@@ -1,0 +1,110 @@
+"""Every public name the README shows users exists where the README says it is.
+
+The names are read from the README itself: in its Python code blocks every ``coplan.<...>``
+name and every ``from coplan... import ...`` line; in its prose every code span that names a
+``coplan.<...>`` Python path (file-format names such as ``coplan.plan/1`` are not paths).
+The package's ``__all__`` is checked too, and ``python -m coplan.schema``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+from pathlib import Path
+
+import pytest
+
+import coplan
+
+README = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+PY_BLOCKS = re.findall(r"```python\n(.*?)```", README, re.S)
+DOTTED = re.compile(r"\bcoplan(?:\.[A-Za-z_]\w*)+(?![\w/])")
+
+
+def _code_names() -> set[str]:
+    names = set()
+    for block in PY_BLOCKS:
+        for line in block.splitlines():
+            code = line.split("#", 1)[0]
+            m = re.match(r"\s*from\s+(coplan[\w.]*)\s+import\s+(.+)", code)
+            if m:
+                names |= {f"{m.group(1)}.{n.split(' as ')[0].strip()}" for n in m.group(2).strip("() ").split(",") if n.strip()}
+                continue
+            names |= set(DOTTED.findall(code))
+    return names
+
+
+def _prose_names() -> set[str]:
+    prose = re.sub(r"```.*?```", "", README, flags=re.S)
+    names = set()
+    for span in re.findall(r"`([^`\n]+)`", prose):
+        for n in DOTTED.findall(span):
+            if not re.search(re.escape(n) + r"/", span):
+                names.add(n)
+    return names
+
+
+def _resolve(dotted: str):
+    """Import the longest module prefix of ``dotted`` and take the rest as attributes."""
+    parts = dotted.split(".")
+    for cut in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:cut]))
+        except ModuleNotFoundError:
+            continue
+        for attr in parts[cut:]:
+            obj = getattr(obj, attr)
+        return obj
+    raise ModuleNotFoundError(dotted)
+
+
+CODE_NAMES = sorted(_code_names())
+PROSE_NAMES = sorted(_prose_names())
+
+
+def test_the_readme_names_what_it_is_known_to_name():
+    """The parser finds the names (a README rewrite that loses them fails here, not silently)."""
+    found = set(CODE_NAMES) | set(PROSE_NAMES)
+    for name in ("coplan.solve", "coplan.load_plan", "coplan.view", "coplan.optimal.OptimalOptions",
+                 "coplan.live.cell.LiveCell", "coplan.plausible.BOUNDS", "coplan.verify.verify"):
+        assert name in found, name
+    assert not any("/" in n for n in found)
+
+
+@pytest.mark.parametrize("name", CODE_NAMES)
+def test_every_name_in_the_readmes_code_exists(name):
+    assert _resolve(name) is not None
+
+
+@pytest.mark.parametrize("name", PROSE_NAMES)
+def test_every_python_path_in_the_readmes_prose_exists(name):
+    assert _resolve(name) is not None
+
+
+@pytest.mark.parametrize("name", coplan.__all__)
+def test_every_name_in_coplans_all_exists(name):
+    assert getattr(coplan, name) is not None
+
+
+def test_the_documented_entry_points_are_the_real_ones():
+    from coplan.planners.optimal import OptimalOptions
+    from coplan.problem.generate import row_problem
+    from coplan.problem.plausible import BOUNDS
+    from coplan.verify.verifier import verify
+
+    assert coplan.optimal.OptimalOptions is OptimalOptions
+    assert coplan.generate.row_problem is row_problem
+    assert coplan.plausible.BOUNDS is BOUNDS
+    assert coplan.verify.verify is verify
+    assert callable(coplan.solve) and callable(coplan.load_problem) and callable(coplan.load_plan)
+
+
+def test_python_m_coplan_schema_is_a_runnable_module():
+    """``python -m coplan.schema`` (regenerates the shipped schemas; not run here, it writes the
+    package's files): a module, not a package, with its ``__main__`` block."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("coplan.schema")
+    assert spec is not None and spec.origin.endswith("schema.py") and spec.submodule_search_locations is None
+    assert 'if __name__ == "__main__":' in Path(spec.origin).read_text(encoding="utf-8")
+    assert callable(importlib.import_module("coplan.schema").write_shipped)
