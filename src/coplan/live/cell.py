@@ -43,6 +43,7 @@ import numpy as np
 
 from ..kinds import ReplanCause, TrackState
 from ..problem.model import Fruit, Problem
+from ..planners.coordinated.planner import CoordinatedOptions
 from ..planners.coordinated.schedule import ArmSchedule, ConflictError, Step, StepKind, pair_distances
 from .feed import DEFAULT_CLOSE_DISTANCE, Detection
 from .motion import Approach, ApproachError, as_wait, move_step, split_at, truncate_move
@@ -68,8 +69,8 @@ class LiveOptions:
 
     horizon: float = 0.1
     gate: float = 0.03
-    margin: float = 0.015
-    max_checks: int = 600
+    margin: float = CoordinatedOptions.margin
+    max_checks: int = CoordinatedOptions.attempt_checks
     close_distance: float = DEFAULT_CLOSE_DISTANCE
     correction_delay: float = 0.01
     budget: float | None = 0.05
