@@ -206,8 +206,22 @@ def _open(browser, path: Path, fragment: str = ""):
     page.on("pageerror", lambda e: log["errors"].append(str(e)))
     page.on("request", lambda r: log["requests"].append(r.url))
     page.goto(path.as_uri() + fragment)
-    page.wait_for_function("window.coplanViewer !== undefined")
+    _wait_until(page, "window.coplanViewer !== undefined")
     return page, log
+
+
+def _wait_until(page, expression: str, timeout: float = 15.0) -> None:
+    """Poll ``expression`` in the page until it is true. Not ``page.wait_for_function``: when
+    its first check is false it polls by compiling the predicate inside the page, which the
+    viewer's content-security policy (no eval) refuses with an EvalError. ``page.evaluate``
+    runs through the debugging protocol, outside the page's policy."""
+    import time
+
+    end = time.monotonic() + timeout
+    while not page.evaluate(expression):
+        if time.monotonic() > end:
+            raise AssertionError(f"the page never made {expression!r} true within {timeout:g} s")
+        page.wait_for_timeout(20)
 
 
 def test_page_loads_without_errors_or_network(browser, pages, greenhouse):
@@ -322,7 +336,7 @@ def test_hover_shows_a_fruits_facts(browser, pages, greenhouse):
     elbow = np.add(arm.base, arm.links[0] * np.array([np.cos(q[0]), np.sin(q[0])]))
     x, y = page.evaluate("([x, y]) => coplanViewer.clientPoint(0, x, y)", ((np.asarray(arm.base) + 2 * elbow) / 3).tolist())
     page.mouse.move(x, y)
-    page.wait_for_function("document.getElementById('tip').textContent.includes('arm center')")
+    _wait_until(page, "document.getElementById('tip').textContent.includes('arm center')")
     text = tip.inner_text()
     assert f"q1 = {q[0]:.4f} rad" in text and f"q2 = {q[1]:.4f} rad" in text
     assert f"q\u03071 = {qd[0]:.3f} rad/s" in text and f"q\u03072 = {qd[1]:.3f} rad/s" in text
@@ -330,6 +344,27 @@ def test_hover_shows_a_fruits_facts(browser, pages, greenhouse):
     x, y = page.evaluate("([x, y]) => coplanViewer.clientPoint(0, x, y)", list(prob.fruit("f01").position))
     page.mouse.move(x, y)
     assert "unreachable: " in tip.inner_text()
+    page.close()
+
+
+def test_a_resting_pointer_s_tip_follows_the_clock(browser, pages, greenhouse):
+    """The tip is worked out again from every new drawing: with the pointer left on a moving
+    arm, changing the time (keys, playback, setTime) shows the joints at the new time -- not
+    what was under the pointer before (which also made the hover test fail now and then: a
+    mouse move arriving before the next frame found the arm where it had been)."""
+    prob, coord, _ = greenhouse
+    page, _ = _open(browser, pages["coord"], "#t=5.003")
+    arm = prob.arm("center")
+    q = coord.plan.sample([5.003])["center"][0]
+    elbow = np.add(arm.base, arm.links[0] * np.array([np.cos(q[0]), np.sin(q[0])]))
+    x, y = page.evaluate("([x, y]) => coplanViewer.clientPoint(0, x, y)", ((np.asarray(arm.base) + 2 * elbow) / 3).tolist())
+    page.mouse.move(x, y)
+    _wait_until(page, "document.getElementById('tip').textContent.includes('arm center')")
+    t2 = 5.013  # the arm moves by a few mrad: the pointer stays on its first link
+    q2 = coord.plan.sample([t2])["center"][0]
+    assert abs(q2[0] - q[0]) > 1e-3
+    page.evaluate(f"coplanViewer.setTime({t2})")  # no mouse event
+    _wait_until(page, f"document.getElementById('tip').textContent.includes('q1 = {q2[0]:.4f} rad')")
     page.close()
 
 

@@ -215,8 +215,9 @@
     this.ctx = this.canvas.getContext("2d");
     this.hits = [];
     const self = this;
-    this.canvas.addEventListener("mousemove", function (ev) { self.hover(ev); });
-    this.canvas.addEventListener("mouseleave", hideTip);
+    this.pointer = null;  // the last mouse event over the canvas: the tip follows the drawing
+    this.canvas.addEventListener("mousemove", function (ev) { self.pointer = ev; self.hover(ev); });
+    this.canvas.addEventListener("mouseleave", function () { self.pointer = null; hideTip(); });
   }
   Cell.prototype.layout = function () {
     const v = P.view, vx = v[2] - v[0], vy = v[3] - v[1];
@@ -573,7 +574,9 @@
     dirty = true;
   }
   function draw() {
-    cells.forEach(function (c) { c.draw(T); });
+    // a pointer resting on a cell gets its tip again from the new drawing (the hit areas move
+    // with the arms: without this a tip showed what was under the pointer before the change)
+    cells.forEach(function (c) { c.draw(T); if (c.pointer) c.hover(c.pointer); });
     panels.forEach(function (p) { p.update(T); });
   }
   function frame(now) {
