@@ -247,3 +247,29 @@ def test_one_arm_at_a_time_is_the_sum_of_the_arms_alone_and_verified():
     moving = [[(s.t0, s.t1) for s in res.schedules[n].steps if s.kind.value != "wait"] for n in busy]
     for a, b in itertools.combinations(moving, 2):
         assert all(e1 <= s2 + 1e-9 or e2 <= s1 + 1e-9 for s1, e1 in a for s2, e2 in b)
+
+
+def test_the_summary_says_which_fruit_were_left_out_and_why():
+    """A plan leaving fruit out (here the last resort on the tight layout) carries each one's
+    reason in ``solver.left_out``, and ``coplan solve``'s summary prints them (the first five,
+    then how many more)."""
+    import io
+
+    from rich.console import Console
+
+    from coplan.cli.summary import print_summary
+    from coplan.pipeline import solve
+    from coplan.planners.coordinated import CoordinatedOptions, plan_coordinated
+
+    p = tight_problem()
+    res = plan_coordinated(p, options=CoordinatedOptions(budget_checks=1, attempt_checks=1, serial_pairs=400_000))
+    left = res.plan.solver["left_out"]
+    assert len(left) == 20 and res.plan.status.value == "partial"
+    out = solve(p, planner="coordinated")  # a SolveResult to print; its plan is swapped for the partial one
+    out.plan = res.plan
+    buf = io.StringIO()
+    print_summary(Console(file=buf, width=200), out)
+    text = buf.getvalue()
+    assert "left out          20 fruit:" in text and "... and 15 more (plan.json: solver.left_out)" in text
+    first = next(iter(left))
+    assert f"{first}" in text and "one arm working at a time" in text

@@ -50,6 +50,13 @@ def print_summary(console, res) -> None:
     solver = res.plan.solver
     if solver.get("message"):
         p(f"  solver            {safe(solver.get('status', ''))}: {safe(solver['message'])}")
+    left = solver.get("left_out") or {}
+    if left:  # fruit the planner could not fit in, and why (all of them in plan.json: solver.left_out)
+        p(f"  left out          {plural(len(left), 'fruit', 'fruit')}:")
+        for fid, why in list(left.items())[:5]:
+            p(f"    {safe(fid):14s}{safe(why)}")
+        if len(left) > 5:
+            p(f"    ... and {len(left) - 5} more (plan.json: solver.left_out)")
     tm = res.plan.solver.get("timings", {})
     parts = [k for k in ("allocation", "coordinated", "search", "polish", "plan", "verify") if k in tm]
     if parts:

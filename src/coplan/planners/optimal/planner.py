@@ -326,6 +326,8 @@ def plan_optimal(
         "stopped_by": stop.value,
         "incumbent_from": inc.source,
         "incumbents": inc.history,
+        # fruit the incumbent's coordination could not fit in, each with the reason
+        "left_out": dict(inc.candidate.left_out) if inc.candidate is not None else {},
         "allocation": AllocationMethod(allocation).value,
         "screen": screened(problem).summary(),
         "lower_bound": coord_plan.solver.get("lower_bound") if coord_plan is not None else None,
