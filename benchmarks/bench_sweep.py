@@ -8,7 +8,7 @@
    process per problem: the same problems solved (a) each in its own ``python -c`` process
    (imports, CasADi kernels, HiGHS start each time) and (b) one after another in one warm
    process (what a Dask worker does), and the import time alone. (The optimal planner's CasADi
-   kernels are also built once per process: ``coplan.nlp`` caches them.)
+   kernels are also built once per process: ``coplan.planners.optimal.nlp`` caches them.)
 
     python benchmarks/bench_sweep.py [--problems 16] [--reuse 6] [--planner coordinated]
 
