@@ -329,12 +329,14 @@ def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Calla
     end. A fruit whose cycle (the move to it, the pick, the move to the bin, the place) comes
     within ``clearance + margin`` of a neighbour resting is left out with that reason, and the
     arm's schedule is made again; so is the last fruit when only the arm's start is in the way.
-    Checked densely: at ``rate`` the links move less than ``margin / 2`` between samples.
+    Checked densely: each arm is sampled at least at ``rate`` and often enough that no point of
+    it moves more than ``margin / 2`` between samples (at its joint velocity limits).
     """
     from dataclasses import replace
 
     need = problem.task.clearance + margin
-    nbrs = {i: [j for p in problem.neighbour_pairs() if i in p for j in p if j != i] for i in range(len(problem.arms))}
+    pairs = problem.neighbour_pairs()
+    nbrs = {i: [j for p in pairs if i in p for j in p if j != i] for i in range(len(problem.arms))}
     rest = {a.name: tuple(float(x) for x in a.home) for a in problem.arms}
     left_out: dict[str, str] = {}
     out: dict[str, ArmSchedule] = {}
@@ -355,8 +357,12 @@ def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Calla
             for f in extra:
                 del left_out[f]
 
+        l1, l2 = arm.links
+        speed = (l1 + l2) * arm.max_velocity[0] + l2 * arm.max_velocity[1]  # fastest any point of the arm moves
+        arm_rate = max(rate, 2.0 * speed / margin) if margin > 0 else rate
+
         def first_hit(sch: ArmSchedule) -> tuple[float, str] | None:
-            t = np.append(np.arange(0.0, sch.end, 1.0 / rate), sch.end)
+            t = np.append(np.arange(0.0, sch.end, 1.0 / arm_rate), sch.end)
             q = sch.state(t)[0]
             hit = None
             for j in nbrs[i]:
