@@ -181,12 +181,18 @@ def _sequence(problem: Problem, arm: Arm, fruit_ids, rule: SequenceRule, bins, f
 BLOCKED_COST = 1000.0  # s: effectively forbids a blocked pair unless no other arm can take the fruit
 
 
-@functools.lru_cache(maxsize=4096)
-def _blocked_fruit(problem: Problem, a: int, fid: str) -> bool:
-    """:func:`_blocked` for arm a at fruit ``fid`` (its screened branches), remembered: the
-    coordinated planner allocates several times with ``avoid_blocked``."""
-    bins, fq = arm_configs(problem, problem.arms[a])
-    return _blocked(problem, a, bins, fq[fid])
+@functools.lru_cache(maxsize=64)
+def _blocked_memo(problem: Problem, a: int) -> dict[str, bool]:
+    """Arm a's :func:`_blocked` results by fruit id, kept per problem: the coordinated planner
+    allocates several times with ``avoid_blocked`` and the same screened branches."""
+    return {}
+
+
+def _blocked_fruit(problem: Problem, a: int, fid: str, bins, branches) -> bool:
+    memo = _blocked_memo(problem, a)
+    if fid not in memo:
+        memo[fid] = _blocked(problem, a, bins, branches)
+    return memo[fid]
 
 
 def _blocked(problem: Problem, a: int, bins, branches, samples: int = 24) -> bool:
@@ -439,7 +445,7 @@ def allocate(
             for k, j in enumerate(cols):
                 if reach[a, j]:
                     cost[a, k] = _round_trip(arm, bins, fq[problem.fruits[j].id], _sync_time) + dw
-                    if avoid_blocked and _blocked_fruit(problem, a, problem.fruits[j].id):
+                    if avoid_blocked and _blocked_fruit(problem, a, problem.fruits[j].id, bins, fq[problem.fruits[j].id]):
                         cost[a, k] += BLOCKED_COST
                     if territory > 0:
                         pos = problem.fruits[j].position

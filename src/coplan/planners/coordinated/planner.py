@@ -291,7 +291,7 @@ def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
 
     from .serial import serial_schedules
 
-    alloc = allocate(problem, method, bound=bound)
+    full = alloc = allocate(problem, method, bound=bound)
     left_out: dict[str, str] = {}
     work: dict = {}
     while True:
@@ -304,7 +304,7 @@ def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
                           "pairs": work.get("pairs", 0)})
             if e.fruit is None or e.fruit in left_out or work.get("pairs", 0) >= opts.serial_pairs:
                 say(f"no conflict-free coordination found, and taking turns failed: {e}")
-                return one_at_a_time(problem, allocate(problem, method, bound=bound), opts.margin, say, tried)
+                return one_at_a_time(problem, full, opts.margin, say, tried)
             left_out[e.fruit] = str(e)
             say(f"taking turns: {e.fruit} is left out ({e})")
             alloc = replace(alloc, assignment={a: tuple(f for f in fs if f != e.fruit) for a, fs in alloc.assignment.items()})
@@ -314,7 +314,7 @@ def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
     say(f"leg-by-leg coordination deadlocked on every candidate: the arms take turns ({span:.2f} s)")
     turns = Coordinated(alloc, sched, span, [], "serial", 0, fallback=True, left_out=left_out)
     if left_out:  # the last resort may harvest what taking turns left out
-        alone = one_at_a_time(problem, allocate(problem, method, bound=bound), opts.margin, say, tried)
+        alone = one_at_a_time(problem, full, opts.margin, say, tried)
         if len(alone.left_out) < len(left_out):
             return alone
     return turns
