@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import bisect
 import time as _time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 
@@ -28,44 +28,10 @@ from .schedule import (
     merge_waits,
     scurve_move,
 )
+from .legs import Leg, legs_of
+from .trace import Trace, Turn, resume_point
 
-__all__ = ["coordinate", "Leg", "legs_of"]
-
-
-@dataclass
-class Leg:
-    """One unit of an arm's work: a move to ``target`` (then an optional pick/place dwell)."""
-
-    target: tuple[float, float]
-    kind: StepKind | None = None  # PICK / PLACE after the move, or None
-    dwell: float = 0.0
-    fruit: str | None = None
-    point: tuple[float, float] | None = None  # world point of a pick/place (for the other IK branch)
-    home: bool = False  # the final move home
-
-
-def legs_of(problem: Problem, sch: ArmSchedule, always_home: bool = False) -> list[Leg]:
-    """An arm's schedule as legs (waits dropped); it ends with a move home if it has any legs
-    (``always_home``: even if it has none). Also the serial fallback's (:mod:`coplan.planners.coordinated.serial`)."""
-    arm = sch.arm
-    fruit_pos = {f.id: tuple(map(float, f.position)) for f in problem.fruits}
-    legs: list[Leg] = []
-    for st in sch.steps:
-        if st.kind == StepKind.MOVE:
-            legs.append(Leg(tuple(map(float, st.q1))))
-        elif st.kind in (StepKind.PICK, StepKind.PLACE):
-            point = fruit_pos[st.fruit] if st.kind == StepKind.PICK else tuple(map(float, arm.bin))
-            leg = Leg(tuple(map(float, st.q1)), st.kind, st.duration, st.fruit, point)
-            if legs and legs[-1].kind is None and same_pose(legs[-1].target, leg.target):
-                legs[-1].kind, legs[-1].dwell, legs[-1].fruit, legs[-1].point = leg.kind, leg.dwell, leg.fruit, leg.point
-            else:  # a dwell right where the arm already is
-                legs.append(leg)
-    home = tuple(map(float, arm.home))
-    if legs and legs[-1].kind is None and same_pose(legs[-1].target, home):
-        legs[-1].home = True
-    elif legs or always_home:
-        legs.append(Leg(home, home=True))
-    return legs
+__all__ = ["coordinate"]
 
 
 class _Track:
@@ -116,27 +82,28 @@ class _Track:
             self.pose = tuple(map(float, steps[-1].q1))
 
 
-
-
-
-
-
-
 class _Window:
     """Arm points for one :meth:`_Coordinator.earliest` search on the grid ``t0 + k / rate``: the
     leg's (relative to its start: the same at every trial start) and each neighbour's
     (absolute), each computed once and grown as needed."""
 
-    def __init__(self, c: _Coordinator, tr: _Track, steps0: list[Step], t0: float):
-        self.c, self.tr, self.steps0, self.t0 = c, tr, steps0, t0
+    def __init__(self, c: _Coordinator, tr: _Track, leg: Leg, t0: float):
+        self.c, self.tr, self.t0 = c, tr, t0
+        self.key = (tr.index, tr.pose, leg.target, leg.kind, leg.dwell)  # what the leg's points depend on
+        self.leg = leg
         self._own: tuple | None = None
         self._nb: dict[int, tuple] = {}
 
     def own(self, n: int) -> tuple:
         if self._own is None or self._own[0].size < n:
-            m = max(n, 2 * (0 if self._own is None else self._own[0].size))
-            T = np.arange(m) / self.c.rate
-            self._own = self.c.points(self.tr.index, steps_positions(self.steps0, T, self.c.tables))
+            hit = self.c.own_points.get(self.key)  # shared by the runs on one problem
+            if hit is None or hit[0].size < n:
+                m = max(n, 2 * (0 if hit is None else hit[0].size))
+                T = np.arange(m) / self.c.rate
+                steps0 = self.c.leg_steps(self.tr, self.leg, 0.0)
+                hit = self.c.points(self.tr.index, steps_positions(steps0, T, self.c.tables))
+                self.c.own_points[self.key] = hit
+            self._own = hit
         return tuple(x[:n] for x in self._own)
 
     def neighbour(self, o: _Track, t: float, n: int) -> tuple:
@@ -163,17 +130,21 @@ class _Coordinator(ArmGeometry):
                  priority: list[str] | None, deadline: float | None, max_yields: int | None, horizon: float | None,
                  max_checks: int | None = None, cache: dict | None = None, committed: dict | None = None):
         super().__init__(problem, problem.task.clearance + margin)
-        if cache is not None:  # routes, rest poses and moves depend only on the problem and ``need``
+        self.tables: dict = {}
+        self.rate = rate
+        if cache is not None:  # routes, rest poses, moves and their curve tables depend only on the problem and ``need``
             shared = cache.setdefault((id(problem), self.need), ({}, {}, {}))
             self._stows, self._routes, self._moves = shared
+            self.tables = cache.setdefault("curve_tables", {})
+            self.own_points = cache.setdefault(("own_points", id(problem), self.need, rate), {})
         else:
+            self.own_points = {}
             self._moves = {}
         self.max_checks, self.checks = max_checks, 0
         names = [a.name for a in problem.arms]
         self.rate, self.quantum, self.deadline = rate, quantum, deadline
         order = priority or sorted(names, key=lambda n: -schedules[n].last_place)
         rank = {n: i for i, n in enumerate(order)}
-        self.tables: dict = {}
         self.tracks = [_Track(a, i, rank.get(a.name, len(order) + i), legs_of(problem, schedules[a.name]), self.tables)
                        for i, a in enumerate(problem.arms)]
         for tr in self.tracks:  # motion already committed (live re-planning): booked first, the legs follow it
@@ -190,6 +161,49 @@ class _Coordinator(ArmGeometry):
         self.log = None  # debugging: a callable taking a message
         self._remaining: dict[int, tuple] = {}
         self._yielded: set = set()
+        self.trace: Trace | None = None
+        self.resumed_checks = self.resumed_turns = 0
+
+    # ---- recording and resuming (see :mod:`.trace`)
+    def start_trace(self, trace: Trace | None, resume) -> None:
+        """Record this run in ``trace``; continue the run of ``resume`` (a trace, or several: the
+        one that lets it start latest) where this one's legs first matter (the same result as
+        running from scratch)."""
+        key = (tuple(tr.rank for tr in self.tracks), self.need, self.rate, self.quantum)
+        legs = [tuple(tr.todo) for tr in self.tracks]
+        if trace is not None:
+            trace.key, trace.legs, trace.turns, trace.barrier, trace.steps = key, legs, [], None, []
+            self.trace = trace
+        e = 0
+        for r in ([resume] if isinstance(resume, Trace) else resume or []):
+            k = resume_point(r, key, legs, self.horizon)
+            if k > e:
+                e, resume = k, r
+        if e <= 0:
+            return
+        turn = resume.turns[e]
+        for tr, (n, end, pose, done, ready, stuck, blocker), steps in zip(self.tracks, turn.tracks, resume.steps):
+            tr.steps = list(steps[:n])
+            tr.t0s = [s.t0 for s in tr.steps]
+            tr.end, tr.pose, tr.ready, tr.stuck, tr.blocker = end, pose, ready, stuck, blocker
+            del tr.todo[:done]
+        self.checks = self.resumed_checks = turn.checks
+        self.resumed_turns = e
+        if trace is not None:
+            trace.turns = resume.turns[:e]
+
+    def record_turn(self, tr: _Track, t: float) -> None:
+        tc = self.trace
+        if tc is None or tc.barrier is not None:
+            return
+        tc.turns.append(Turn(self.checks, t, tr.index, tuple(
+            (len(x.steps), x.end, x.pose, len(tc.legs[x.index]) - len(x.todo), x.ready, x.stuck, x.blocker)
+            for x in self.tracks)))
+
+    def barrier(self) -> None:
+        """This turn reads neighbours' remaining work: no later run resumes past it."""
+        if self.trace is not None and self.trace.barrier is None:
+            self.trace.barrier = max(0, len(self.trace.turns) - 1)
 
     # ---- static views of the remaining work
     def remaining(self, j: int) -> np.ndarray:
@@ -280,7 +294,7 @@ class _Coordinator(ArmGeometry):
             if not steps:
                 return s, None
             if window is None:
-                window = _Window(self, tr, self.leg_steps(tr, leg, 0.0), t)
+                window = _Window(self, tr, leg, t)
             hit = self.conflict(tr, steps, s, window)
             if hit is None:
                 return s, None
@@ -429,17 +443,22 @@ class _Coordinator(ArmGeometry):
             if tr is None:
                 break
             t = tr.ready
+            self.record_turn(tr, t)
             self.check_limits(t)
             leg = tr.todo[0]
-            if leg.home and not same_pose(tr.pose, tr.home) and self.home_blocks(tr):
-                self.park_or_defer(tr, t)
-                continue
+            if leg.home and not same_pose(tr.pose, tr.home):
+                self.barrier()
+                if self.home_blocks(tr):
+                    self.park_or_defer(tr, t)
+                    continue
             tr.deferred = False
             start, j = self.earliest(tr, leg, t)
             if start is not None:
                 self.commit(tr, self.leg_steps(tr, leg, start), start)
                 continue
             self.wait_or_resolve(tr, leg, t, self.tracks[j])
+        if self.trace is not None:
+            self.trace.steps = [tr.steps for tr in self.tracks]
         return {tr.arm.name: ArmSchedule(tr.arm, merge_waits(tr.steps)) for tr in self.tracks}
 
     def next_track(self) -> _Track | None:
@@ -493,6 +512,7 @@ class _Coordinator(ArmGeometry):
         way (the neighbour if it is finished or has the lower priority; else this arm, so that
         the neighbour's next leg can go), else the other branch whatever it costs; else
         :class:`ConflictError`."""
+        self.barrier()
         q = self.quantum
         alt = self.other_branch(tr, leg)
         alt_start = self.earliest(tr, alt, t)[0] if alt is not None else None
@@ -530,6 +550,8 @@ def coordinate(
     cache: dict | None = None,
     work: dict | None = None,
     committed: dict | None = None,
+    trace: Trace | None = None,
+    resume: Trace | list[Trace] | None = None,
 ) -> tuple[dict[str, ArmSchedule], int, int]:
     """Coordinate all arms leg by leg; every neighbouring pair keeps ``clearance + margin``.
 
@@ -561,15 +583,24 @@ def coordinate(
     ``committed`` (arm -> steps, for live re-planning): motion each arm is already committed to
     (ending at rest); its legs are booked after it, against every arm's committed motion, and
     the returned schedules begin with it.
+    ``trace`` (a :class:`~.trace.Trace`), when given, records this run; ``resume``, a trace of an
+    earlier run on the same problem (or several: the best is used), lets this run start where
+    its legs first matter (the result
+    is the same as from scratch; ``work`` counts only the checks this run makes, and its
+    ``"resumed_turns"`` the turns taken over). Neither is used
+    with ``committed``.
     Returns the schedules (each ending at home), the number of waits and the number of
     yield/park moves added.
     """
     c = _Coordinator(problem, schedules, margin, rate, quantum, priority, deadline, max_yields, horizon, max_checks, cache,
                      committed)
+    if not committed and (trace is not None or resume is not None):
+        c.start_trace(trace, resume)
     try:
         out = c.run()
     finally:
         if work is not None:
-            work["checks"] = work.get("checks", 0) + c.checks
+            work["checks"] = work.get("checks", 0) + c.checks - c.resumed_checks
+            work["resumed_turns"] = work.get("resumed_turns", 0) + c.resumed_turns
     waits = sum(1 for s in out.values() for st in s.steps if st.kind == StepKind.WAIT)
     return out, waits, c.yields + c.parks

@@ -194,25 +194,25 @@ def points_too_close(pa: tuple, pb: tuple, radii: float, need: float) -> np.ndar
     links whose midpoints are further apart than their half lengths plus ``radii + need``
     cannot be too close, so the exact distance is computed only for the others.
     """
-    pa = np.broadcast_arrays(*pa, *pb)
-    pa, pb = pa[:6], pa[6:]
-    shape = pa[0].shape
-    pa = [x.ravel() for x in pa]
-    pb = [x.ravel() for x in pb]
-    out = np.zeros(pa[0].size, bool)
-    for s in range(2):
-        ax, ay, bx, by = pa[2 * s], pa[2 * s + 1], pa[2 * s + 2], pa[2 * s + 3]
-        mx, my = (ax + bx) / 2, (ay + by) / 2
-        ha = np.hypot(bx - ax, by - ay) / 2
-        for u in range(2):
-            cx, cy, dx, dy = pb[2 * u], pb[2 * u + 1], pb[2 * u + 2], pb[2 * u + 3]
-            hb = np.hypot(dx - cx, dy - cy) / 2
-            near = np.hypot(mx - (cx + dx) / 2, my - (cy + dy) / 2) - ha - hb < need + radii
-            near &= ~out
-            idx = np.flatnonzero(near)
-            if idx.size:
-                d = segment_distance_xy(ax[idx], ay[idx], bx[idx], by[idx], cx[idx], cy[idx], dx[idx], dy[idx])
-                out[idx[d - radii < need]] = True
+    if all(isinstance(x, np.ndarray) and x.ndim == 1 for x in (*pa, *pb)) and len({x.size for x in (*pa, *pb)}) == 1:
+        shape = pa[0].shape  # the coordinator's case: samples side by side, nothing to broadcast
+        A, B = np.stack(pa), np.stack(pb)
+    else:
+        xs = np.broadcast_arrays(*pa, *pb)
+        shape = xs[0].shape
+        A, B = np.stack([x.ravel() for x in xs[:6]]), np.stack([x.ravel() for x in xs[6:]])
+    out = np.zeros(A.shape[1], bool)
+    # rows (2, N): each arm's two links, start and end coordinates
+    ax, ay, bx, by = A[0:4:2], A[1:4:2], A[2:6:2], A[3:6:2]
+    cx, cy, dx, dy = B[0:4:2], B[1:4:2], B[2:6:2], B[3:6:2]
+    ha = np.hypot(bx - ax, by - ay) / 2
+    hb = np.hypot(dx - cx, dy - cy) / 2
+    mx, my = (ax + bx) / 2, (ay + by) / 2
+    gap = np.hypot(mx[:, None] - ((cx + dx) / 2)[None], my[:, None] - ((cy + dy) / 2)[None]) - ha[:, None] - hb[None]
+    s, u, k = np.nonzero(gap < need + radii)  # link s of a and link u of b may be too close at sample k
+    if k.size:
+        d = segment_distance_xy(ax[s, k], ay[s, k], bx[s, k], by[s, k], cx[u, k], cy[u, k], dx[u, k], dy[u, k])
+        out[k[d - radii < need]] = True
     return out.reshape(shape)
 
 
@@ -285,8 +285,9 @@ class CurveTable:
                 out[:, i] = self.q0[i]
                 continue
             starts, P, V, A, J, Ti, k, sg = jt
-            tau = np.clip(np.clip(t, 0.0, self.duration) * k, 0.0, Ti)
-            idx = np.clip(np.searchsorted(starts, tau, side="right") - 1, 0, len(starts) - 1)
+            # np.minimum/np.maximum: the same values as np.clip, without its overhead on short arrays
+            tau = np.minimum(np.maximum(np.minimum(np.maximum(t, 0.0), self.duration) * k, 0.0), Ti)
+            idx = np.minimum(np.maximum(np.searchsorted(starts, tau, side="right") - 1, 0), len(starts) - 1)
             dt = tau - starts[idx]
             out[:, i] = self.q0[i] + sg * (P[idx] + V[idx] * dt + A[idx] * dt**2 / 2 + J[idx] * dt**3 / 6)
         out[t >= self.duration] = self.q1

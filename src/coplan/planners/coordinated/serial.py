@@ -38,7 +38,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .coordinate import Leg, legs_of
+from .legs import Leg, legs_of
 from ...problem.model import Problem
 from .routing import ArmGeometry, same_pose
 from .schedule import (ArmSchedule, ConflictError, Step, StepKind, arm_points, CurveTable, merge_waits, scurve_move,

@@ -48,6 +48,7 @@ from ..coordinated.planner import Coordinated, makespan_of
 from ...problem.model import Problem
 from ..coordinated.routing import choose_branches as clear_branches
 from ..coordinated.schedule import ConflictError, decoupled_schedules
+from ..coordinated.trace import Trace
 
 __all__ = ["SearchOptions", "SearchStats", "StopReason", "improve"]
 
@@ -142,6 +143,7 @@ class _Search:
         self.start_alloc = start.alloc
         self.rng = np.random.default_rng(opts.seed)
         self._dp: dict = {}
+        self.traces: dict[_State, Trace] = {}  # recent coordinator runs, to resume from (see coordinate)
         self.stats = SearchStats(moves={m: [0, 0] for m in _MOVES})
         w = _WEIGHTS * [not (opts.fixed_assignment and m in ("relocate", "swap")) for m in _MOVES]
         self.weights = w / w.sum()
@@ -169,6 +171,8 @@ class _Search:
         return max((self.dp(i, seq, s.forced_of(i))[2] for i, seq in enumerate(s.assign)), default=0.0)
 
     def evaluate(self, s: _State) -> Coordinated | None:
+        """Coordinate state ``s`` (continuing the recent run whose legs agree longest with
+        its own, see :mod:`coplan.planners.coordinated.trace`); None when coordination fails."""
         fruit_q, place_q, est = {}, {}, {}
         for i, seq in enumerate(s.assign):
             fs, ps, t = self.dp(i, seq, s.forced_of(i))
@@ -184,14 +188,19 @@ class _Search:
         base = decoupled_schedules(self.problem, al)
         self.stats.evaluations += 1
         work: dict = {}
+        trace = Trace()
         try:
             sched, waits, _ = coordinate(self.problem, base, self.margin, priority=list(s.order),
-                                         max_checks=self.opts.attempt_checks, cache=self.cache, work=work)
+                                         max_checks=self.opts.attempt_checks, cache=self.cache, work=work,
+                                         trace=trace, resume=list(self.traces.values())[::-1])
         except ConflictError:
             self.stats.checks += work.get("checks", 0)
             self.stats.failed += 1
             return None
         self.stats.checks += work.get("checks", 0)
+        self.traces[s] = trace
+        if len(self.traces) > 8:  # the oldest goes
+            del self.traces[next(iter(self.traces))]
         return Coordinated(al, sched, makespan_of(sched), list(s.order), s.variant, waits)
 
     def space(self, start: _State, cap: int) -> list[tuple[float, _State]] | None:
