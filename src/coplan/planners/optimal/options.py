@@ -37,7 +37,10 @@ class OptimalOptions:
     search_work : work budget of the search (conflict checks over all its coordinator runs;
         roughly 250-400 a second on one core of the 2-core benchmark machine); 0 turns the search off
     search_evaluations : cap on the search's coordinator runs
-    search_patience : the search stops after this many evaluations without a new best
+    search_patience : after this many evaluations without a new best the search starts afresh
+        from the coordinated plan (its random moves going on elsewhere)
+    search_starts : such fresh starts before the search stops for lack of progress (it stops
+        earlier when ``search_work`` is spent)
     search_temperature : the search accepts a slower state with probability exp(-dt / T), T
         falling linearly from this (s) to 0 over ``search_work`` (annealing); 0 for pure descent
     seed : seed of the search's moves
@@ -69,7 +72,8 @@ class OptimalOptions:
     coordination_checks: int = 3000
     search_work: int = 30_000
     search_evaluations: int = 2_000
-    search_patience: int = 200
+    search_patience: int = 100
+    search_starts: int = 3
     search_temperature: float = 0.3
     seed: int = 0
     polish: bool = True

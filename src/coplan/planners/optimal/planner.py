@@ -225,7 +225,8 @@ def plan_optimal(
                 p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
                 inc.offer(p, verify(problem, p), "search", c)
 
-            sopts = SearchOptions(evaluations=opts.search_evaluations, work=opts.search_work, patience=opts.search_patience, seed=opts.seed,
+            sopts = SearchOptions(evaluations=opts.search_evaluations, work=opts.search_work, patience=opts.search_patience, starts=opts.search_starts,
+                                  seed=opts.seed,
                                   temperature=opts.search_temperature,
                                   tolerance=opts.tolerance,
                                   fixed_assignment=AllocationMethod(allocation) != AllocationMethod.MAKESPAN)

@@ -69,7 +69,10 @@ class SearchOptions:
     evaluations : coordinator runs (a cap)
     work : conflict checks over all coordinator runs (the work budget: proportional to
         time on a given machine, and the same on every machine)
-    patience : stop after this many evaluations without a new best
+    patience : after this many evaluations without a new best, start afresh from the start
+        state (the moves' random stream goes on, so the new start explores elsewhere); stop
+        after ``starts`` such fresh starts
+    starts : fresh starts before the search stops for lack of progress
     stall : restart from the best state (with ``kick`` random moves) after this many
         evaluations without progress of the current state
     attempt_checks : work cap of one coordinator run (conflict checks)
@@ -90,6 +93,7 @@ class SearchOptions:
     evaluations: int = 400
     work: int = 8_000
     patience: int = 60
+    starts: int = 0
     stall: int = 25
     kick: int = 2
     attempt_checks: int = 600
@@ -109,12 +113,14 @@ class SearchStats:
     failed: int = 0
     improvements: int = 0
     restarts: int = 0
+    restarts_fresh: int = 0
     stop: StopReason = StopReason.BUDGET
     moves: dict | None = None  # move kind -> [tried, improved]
 
     def summary(self) -> dict:
         return {"evaluations": self.evaluations, "checks": self.checks, "proposals": self.proposals, "pruned_by_bound": self.pruned,
                 "coordination_failed": self.failed, "improvements": self.improvements, "restarts": self.restarts,
+                "fresh_starts": self.restarts_fresh,
                 "stopped_by": self.stop.value, "moves": self.moves}
 
 
@@ -378,9 +384,14 @@ def improve(
             if st.evaluations >= opts.evaluations or st.checks >= opts.work or st.proposals >= max_proposals:
                 st.stop = StopReason.BUDGET
                 break
-            if since_best >= opts.patience or idle >= 500:  # no progress, or no new state left to try
-                st.stop = StopReason.STALLED
+            if idle >= 500 or (since_best >= opts.patience and st.restarts_fresh >= opts.starts):
+                st.stop = StopReason.STALLED  # no progress, or no new state left to try
                 break
+            if since_best >= opts.patience:  # a fresh start
+                st.restarts_fresh += 1
+                since_best = since_cur = 0
+                cur, s_cur = start, srch.state_of(start)
+                continue
             if deadline is not None and _time.perf_counter() > deadline:
                 st.stop = StopReason.TIME_LIMIT
                 break
