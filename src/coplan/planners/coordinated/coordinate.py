@@ -169,7 +169,7 @@ class _Coordinator(ArmGeometry):
         """Record this run in ``trace``; continue the run of ``resume`` (a trace, or several: the
         one that lets it start latest) where this one's legs first matter (the same result as
         running from scratch)."""
-        key = (tuple(tr.rank for tr in self.tracks), self.need, self.rate, self.quantum)
+        key = (tuple(tr.rank for tr in self.tracks), self.need, self.rate, self.quantum, self.max_checks, self.max_yields)
         legs = [tuple(tr.todo) for tr in self.tracks]
         if trace is not None:
             trace.key, trace.legs, trace.turns, trace.barrier, trace.steps = key, legs, [], None, []
@@ -586,8 +586,9 @@ def coordinate(
     ``trace`` (a :class:`~.trace.Trace`), when given, records this run; ``resume``, a trace of an
     earlier run on the same problem (or several: the best is used), lets this run start where
     its legs first matter (the result
-    is the same as from scratch; ``work`` counts only the checks this run makes, and its
-    ``"resumed_turns"`` the turns taken over). Neither is used
+    is the same as from scratch; ``work["checks"]`` still counts the checks as from scratch, so
+    a work budget buys the same runs, only sooner; ``work["checks_made"]`` counts those really
+    made and ``work["resumed_turns"]`` the turns taken over). Neither is used
     with ``committed``.
     Returns the schedules (each ending at home), the number of waits and the number of
     yield/park moves added.
@@ -600,7 +601,8 @@ def coordinate(
         out = c.run()
     finally:
         if work is not None:
-            work["checks"] = work.get("checks", 0) + c.checks - c.resumed_checks
+            work["checks"] = work.get("checks", 0) + c.checks  # as from scratch: resuming changes no budget
+            work["checks_made"] = work.get("checks_made", 0) + c.checks - c.resumed_checks
             work["resumed_turns"] = work.get("resumed_turns", 0) + c.resumed_turns
     waits = sum(1 for s in out.values() for st in s.steps if st.kind == StepKind.WAIT)
     return out, waits, c.yields + c.parks

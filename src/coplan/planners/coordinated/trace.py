@@ -43,7 +43,7 @@ class Trace:
     """One run's record (filled by the coordinator when given one).
 
     key : what must be equal for a run to resume from this one (priority ranks, clearance,
-        sampling rate, quantum)
+        sampling rate, quantum, work cap, yield cap)
     legs : per arm, the legs it was given (tuples of :class:`~.legs.Leg`)
     turns : one :class:`Turn` per turn up to and including the first barrier
     barrier : index of the first barrier turn (None: the run had none)

@@ -72,7 +72,7 @@ class OptimalOptions:
     coordination_checks: int = 3000
     search_work: int = 30_000
     search_evaluations: int = 2_000
-    search_patience: int = 100
+    search_patience: int = 200
     search_starts: int = 3
     search_temperature: float = 0.3
     seed: int = 0

@@ -107,7 +107,8 @@ class SearchOptions:
 @dataclass
 class SearchStats:
     evaluations: int = 0
-    checks: int = 0
+    checks: int = 0  # conflict checks as if every run started from scratch (the work budget)
+    checks_made: int = 0  # the checks really made (runs resume recent ones, see coordinated.trace)
     proposals: int = 0
     pruned: int = 0
     failed: int = 0
@@ -118,7 +119,7 @@ class SearchStats:
     moves: dict | None = None  # move kind -> [tried, improved]
 
     def summary(self) -> dict:
-        return {"evaluations": self.evaluations, "checks": self.checks, "proposals": self.proposals, "pruned_by_bound": self.pruned,
+        return {"evaluations": self.evaluations, "checks": self.checks, "checks_made": self.checks_made, "proposals": self.proposals, "pruned_by_bound": self.pruned,
                 "coordination_failed": self.failed, "improvements": self.improvements, "restarts": self.restarts,
                 "fresh_starts": self.restarts_fresh,
                 "stopped_by": self.stop.value, "moves": self.moves}
@@ -201,9 +202,11 @@ class _Search:
                                          trace=trace, resume=list(self.traces.values())[::-1])
         except ConflictError:
             self.stats.checks += work.get("checks", 0)
+            self.stats.checks_made += work.get("checks_made", 0)
             self.stats.failed += 1
             return None
         self.stats.checks += work.get("checks", 0)
+        self.stats.checks_made += work.get("checks_made", 0)
         self.traces[s] = trace
         if len(self.traces) > 8:  # the oldest goes
             del self.traces[next(iter(self.traces))]
