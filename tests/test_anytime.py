@@ -237,3 +237,39 @@ def test_a_large_state_space_is_not_enumerated():
     srch = _Search(prob, start, 0.015, SearchOptions(), {})
     assert srch.space(srch.state_of(start), 20_000) is None
     assert srch._dp == {}  # refused before estimating a single state
+
+
+def _row_start():
+    from coplan.planners.coordinated import CoordinatedOptions
+    from coplan.generate import row_problem
+
+    prob = parse_problem(to_yaml(row_problem(4, 24, seed=3, reachable_only=True)), "row-4-24")
+    return prob, plan_coordinated(prob, "makespan", CoordinatedOptions(), lambda m: None).candidate
+
+
+def test_resuming_recent_runs_changes_neither_the_search_nor_its_work(monkeypatch):
+    """The search's coordinator runs resume recent ones (coordinated.trace): the same states,
+    the same plans and the same work count as running each from scratch -- only fewer checks made."""
+    import coplan.planners.coordinated.coordinate as coordinate_module
+    from coplan.planners.optimal.search import SearchOptions, improve
+
+    prob, start = _row_start()
+    opts = SearchOptions(evaluations=60, work=10**7, patience=10**6, temperature=0.3, exhaustive=0)
+    best, stats = improve(prob, start, 0.0, 0.015, opts)
+    monkeypatch.setattr(coordinate_module, "resume_point", lambda *a, **k: 0)  # every run from scratch
+    best0, stats0 = improve(prob, start, 0.0, 0.015, opts)
+    assert stats.evaluations == stats0.evaluations == 60
+    assert best.makespan == best0.makespan and stats.checks == stats0.checks
+    assert stats.moves == stats0.moves and stats.improvements == stats0.improvements
+    assert stats0.checks_made == stats0.checks and stats.checks_made < 0.9 * stats.checks
+
+
+def test_a_stalled_search_starts_afresh_then_stops():
+    from coplan.planners.optimal.search import SearchOptions, StopReason, improve
+
+    prob, start = _row_start()
+    opts = SearchOptions(evaluations=10_000, work=10**7, patience=4, starts=2, stall=1000, exhaustive=0)
+    best, stats = improve(prob, start, 0.0, 0.015, opts)
+    assert stats.stop == StopReason.STALLED and stats.restarts_fresh == 2
+    assert best.makespan <= start.makespan + 1e-9
+    assert stats.summary()["fresh_starts"] == 2
