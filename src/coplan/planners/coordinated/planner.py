@@ -28,18 +28,19 @@ from __future__ import annotations
 import itertools
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from ...allocate.allocation import (Allocation, AllocationMethod, LowerBound, allocate, arm_configs, bound_allocation,
-                                   bound_details, choose_branches as fastest_branches)
+from ...allocate.allocation import Allocation, AllocationMethod, LowerBound, allocate, bound_allocation, bound_details
 from .coordinate import coordinate
 from ..heuristic import grid as uniform_grid
 from ...plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics, finalize_plan
 from ...problem.model import Problem
+from .alone import one_at_a_time
+from .candidate import Coordinated, makespan_of
 from .routing import choose_branches
-from .schedule import ArmSchedule, ConflictError, Step, StepKind, decoupled_schedules, pair_distances
+from .schedule import ArmSchedule, ConflictError, decoupled_schedules, pair_distances
 
 __all__ = [
     "CoordinatedOptions",
@@ -84,35 +85,12 @@ class CoordinatedOptions:
 
 
 @dataclass
-class Coordinated:
-    """One coordinated candidate: allocation, conflict-free schedules, priority order used."""
-
-    alloc: Allocation
-    schedules: dict[str, ArmSchedule]
-    makespan: float
-    order: list[str] = field(default_factory=list)
-    variant: str = "branches"
-    waits: int = 0
-    fallback: bool = False
-    left_out: dict = field(default_factory=dict)  # fruit -> why it could not be scheduled
-
-    @property
-    def total(self) -> float:
-        """Sum of the arms' last places (the search's tie-breaker)."""
-        return float(sum(s.last_place for s in self.schedules.values()))
-
-
-@dataclass
 class CoordinatedResult:
     plan: Plan
     verification: object
     candidate: Coordinated | None
     timings: dict[str, float]
     tried: list[dict]
-
-
-def makespan_of(schedules: dict[str, ArmSchedule]) -> float:
-    return max((s.last_place for s in schedules.values()), default=0.0)
 
 
 # ----------------------------------------------------------------------------- plans
@@ -318,94 +296,6 @@ def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
         if len(alone.left_out) < len(left_out):
             return alone
     return turns
-
-
-def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Callable[[str], None] | None = None,
-                  tried: list | None = None, rate: float = 1000.0) -> Coordinated:
-    """The last resort, which always gives a conflict-free plan: one arm works at a time while
-    every other arm rests (at home, or where it finished), in the arms' order.
-
-    Each arm does its allocated work, fastest decoupled schedule, without going home at the
-    end. A fruit whose cycle (the move to it, the pick, the move to the bin, the place) comes
-    within ``clearance + margin`` of a neighbour resting is left out with that reason, and the
-    arm's schedule is made again; so is the last fruit when only the arm's start is in the way.
-    Checked densely: each arm is sampled at least at ``rate`` and often enough that no point of
-    it moves more than ``margin / 2`` between samples (at its joint velocity limits).
-    """
-    from dataclasses import replace
-
-    need = problem.task.clearance + margin
-    pairs = problem.neighbour_pairs()
-    nbrs = {i: [j for p in pairs if i in p for j in p if j != i] for i in range(len(problem.arms))}
-    rest = {a.name: tuple(float(x) for x in a.home) for a in problem.arms}
-    left_out: dict[str, str] = {}
-    out: dict[str, ArmSchedule] = {}
-    assignment: dict[str, tuple[str, ...]] = {}
-    t_start = 0.0
-    fruit_q = {a: dict(v) for a, v in alloc.fruit_q.items()}
-    place_q = {a: dict(v) for a, v in alloc.place_q.items()}
-    x_of = {f.id: f.position[0] for f in problem.fruits}
-    for i, arm in enumerate(problem.arms):
-        seq = list(alloc.assignment.get(arm.name, ()))
-        bins, fq = arm_configs(problem, arm)
-        extra = [f for f in left_out if f in fq and bins]  # fruit an earlier arm had to leave: this one may take them
-        if extra:
-            seq = sorted(seq + extra, key=lambda f: x_of[f])
-            fs, ps, _ = fastest_branches(problem, arm, seq, bins, fq)
-            fruit_q[arm.name] = dict(zip(seq, fs))
-            place_q[arm.name] = dict(zip(seq, ps))
-            for f in extra:
-                del left_out[f]
-
-        l1, l2 = arm.links
-        speed = (l1 + l2) * arm.max_velocity[0] + l2 * arm.max_velocity[1]  # fastest any point of the arm moves
-        arm_rate = max(rate, 2.0 * speed / margin) if margin > 0 else rate
-
-        def first_hit(sch: ArmSchedule) -> tuple[float, str] | None:
-            t = np.append(np.arange(0.0, sch.end, 1.0 / arm_rate), sch.end)
-            q = sch.state(t)[0]
-            hit = None
-            for j in nbrs[i]:
-                other = problem.arms[j]
-                d = pair_distances(problem, q, np.asarray(rest[other.name], float)[None, :], i, j)
-                bad = np.flatnonzero(d < need)
-                if bad.size and (hit is None or t[bad[0]] < hit[0]):
-                    hit = (float(t[bad[0]]), other.name)
-            return hit
-
-        while True:
-            solo = replace(alloc, assignment={a.name: tuple(seq) if a.name == arm.name else () for a in problem.arms},
-                           fruit_q=fruit_q, place_q=place_q)
-            sch = decoupled_schedules(problem, solo, return_home=False)[arm.name]
-            hit = first_hit(sch)
-            if hit is not None and seq and hit[0] > sch.last_place:  # only resting over the bin is in the way
-                home_sch = decoupled_schedules(problem, solo, return_home=True)[arm.name]
-                if first_hit(home_sch) is None:
-                    sch, hit = home_sch, None
-            if hit is None or not seq:
-                break
-            # the fruit whose cycle is under way then: the next pick or place at or after it
-            nxt = next((s.fruit for s in sch.steps if s.fruit is not None and s.t1 >= hit[0]), seq[-1])
-            seq.remove(nxt)
-            left_out[nxt] = (f"with one arm working at a time, arm {arm.name!r} comes within {need:g} m of arm "
-                             f"{hit[1]!r} resting while it harvests this fruit")
-        assignment[arm.name] = tuple(seq)
-        if not seq:
-            out[arm.name] = ArmSchedule(arm, [])
-            continue
-        home = tuple(float(x) for x in arm.home)
-        steps = [Step(StepKind.WAIT, 0.0, t_start, home, home)] if t_start > 0 else []
-        steps += [replace(s, t0=s.t0 + t_start) for s in sch.steps]
-        out[arm.name] = ArmSchedule(arm, steps)
-        t_start += sch.end
-        rest[arm.name] = tuple(float(x) for x in sch.steps[-1].q1)
-    al = replace(alloc, assignment=assignment, fruit_q=fruit_q, place_q=place_q)
-    span = makespan_of(out)
-    if tried is not None:
-        tried.append({"fallback": "one_at_a_time", "feasible": True, "makespan": span, "left_out": left_out})
-    if say is not None:
-        say(f"one arm at a time, the others resting: {span:.2f} s, {len(left_out)} fruit left out")
-    return Coordinated(al, out, span, [], "one_at_a_time", 0, fallback=True, left_out=left_out)
 
 
 def describe(c: Coordinated) -> str:
