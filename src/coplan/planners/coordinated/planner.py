@@ -18,8 +18,9 @@ planner (:mod:`coplan.optimal`), whose incumbent starts as this planner's verifi
 4. **Fallback**: when no candidate can be coordinated (leg-by-leg booking deadlocks), the
    arms take turns (:func:`coplan.planners.coordinated.serial.serial_schedules`): a neighbour
    parks clear of the zone while an arm works. When taking turns spends its work budget too,
-   the last resort (:func:`one_at_a_time`): one arm works at a time while the others rest,
-   leaving out (with the reason) any fruit whose cycle comes too close to a resting neighbour
+   the last resort (:func:`coplan.planners.coordinated.alone.one_at_a_time`): one arm works at
+   a time while the others rest, moving a resting neighbour out of the way where it must, and
+   leaving out (with the reason) any fruit whose cycle no rest pose of that neighbour clears
    -- so every problem gets a plan, at worst partial.
 """
 
