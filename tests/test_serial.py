@@ -257,8 +257,8 @@ def test_one_arm_at_a_time_is_the_sum_of_the_arms_alone_and_verified():
 
 
 def test_the_summary_says_which_fruit_were_left_out_and_why():
-    """A plan leaving fruit out (here the last resort on the tight layout, with a 0.2 m margin
-    that leaves its neighbours no rest pose clear of most cycles) carries each one's reason in
+    """A plan leaving fruit out (here the last resort on the tight layout, with a 0.2 m margin:
+    0.1 m kept at the samples, which leaves the neighbours no rest pose clear of most cycles) carries each one's reason in
     ``solver.left_out``, and ``coplan solve``'s summary prints them (the first five, then how
     many more)."""
     import io
@@ -284,3 +284,24 @@ def test_the_summary_says_which_fruit_were_left_out_and_why():
     assert "left out          15 fruit:" in text and "... and 10 more (plan.json: solver.left_out)" in text
     first = next(iter(left))
     assert f"{first}" in text and "one arm working at a time" in text
+
+
+@pytest.mark.parametrize("name, seed", [("cell", 106), ("random", 127), ("cell", 141)])
+def test_the_last_resort_harvests_what_waiting_could_not(name, seed):
+    """Layouts where leg-by-leg coordination deadlocks on every candidate (arms 1.06-1.21 m
+    apart): one arm at a time, resting neighbours moved out of the way, harvests every fruit the
+    screen does not prove unharvestable, and the independent verifier passes the plan."""
+    from coplan.allocate.screen import screened
+    from coplan.generate import cell_problem, random_problem, to_yaml
+    from coplan.planners.coordinated.alone import one_at_a_time
+    from coplan.problem import parse_problem
+
+    gen = cell_problem if name == "cell" else random_problem
+    p = parse_problem(to_yaml(gen(seed)), f"{name}-{seed}")
+    res = one_at_a_time(p, allocate(p, "makespan"), margin=0.015)
+    assert res.left_out == {}
+    plan = _plan(p, res.alloc, res.schedules)
+    ver = verify(p, plan)
+    assert ver.passed
+    harvestable = set(p.reachable_ids()) - set(screened(p).unharvestable)
+    assert plan.metrics["harvested"] == len(harvestable) > 0

@@ -16,7 +16,7 @@ import numpy as np
 from ...allocate.allocation import Allocation, arm_configs, choose_branches as fastest_branches
 from ...problem.model import Problem
 from .candidate import Coordinated, makespan_of
-from .routing import ArmGeometry
+from .routing import ArmGeometry, stow_poses
 from .schedule import ArmSchedule, Step, StepKind, decoupled_schedules, pair_distances, scurve_move
 
 __all__ = ["one_at_a_time"]
@@ -26,8 +26,11 @@ class _Alone:
     """The arms' timelines and where each one rests, as the arms take their turns."""
 
     def __init__(self, problem: Problem, margin: float, rate: float):
-        self.problem, self.need = problem, problem.task.clearance + margin
+        # nothing moves but one arm, sampled so finely that no point of it moves more than
+        # margin / 4 between samples: half the margin at the samples keeps a quarter between them
+        self.problem, self.need = problem, problem.task.clearance + margin / 2
         self.geo = ArmGeometry(problem, self.need)
+        self.stows: dict[int, np.ndarray] = {}
         self.nbrs = self.geo.nbrs
         self.rest = [tuple(float(x) for x in a.home) for a in problem.arms]
         self.timeline: list[list[Step]] = [[] for _ in problem.arms]
@@ -36,7 +39,7 @@ class _Alone:
         for arm in problem.arms:
             l1, l2 = arm.links
             speed = (l1 + l2) * arm.max_velocity[0] + l2 * arm.max_velocity[1]  # fastest any point of the arm moves
-            self.rates.append(max(rate, 2.0 * speed / margin) if margin > 0 else rate)
+            self.rates.append(max(rate, 4.0 * speed / margin) if margin > 0 else rate)
 
     def samples(self, i: int, steps: list[Step]) -> np.ndarray:
         """Arm i's poses along ``steps`` (times from their first start), densely (see :func:`one_at_a_time`)."""
@@ -64,7 +67,9 @@ class _Alone:
         it, reached (and, if ``back_to`` is given, left again towards ``back_to`` once arm i
         rests at ``home_at``) without touching an arm at rest. The one clear of most of arm i's
         ``later`` work, then the quickest move. Returns ``(pose, move)`` or None."""
-        cand = self.geo.stows(j)
+        if j not in self.stows:  # twice as many shoulder angles as the coordinator's: nothing else is moving
+            self.stows[j] = stow_poses(self.problem.arms[j], n_shoulder=24)
+        cand = self.stows[j]
         cand = cand[self.geo.static_hits(j, cand, i, cycle) == 0]
         if not len(cand):
             return None
@@ -147,14 +152,15 @@ def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Calla
 
     Each arm does its allocated work, fastest decoupled schedule, cycle by cycle (move to the
     fruit, pick, move to the bin, place), without going home at the end. When a cycle comes
-    within ``clearance + margin`` of a neighbour resting, the neighbour first moves (alone) to
+    within ``clearance + margin / 2`` of a neighbour resting, the neighbour first moves (alone) to
     a candidate rest pose clear of that cycle -- home, over its bin, folded-elbow poses --
     reached without touching an arm at rest; a neighbour that still has its own work to do
     must also be able to go home again once this arm is done, and does so then. When no such
     pose exists the fruit is left out with the reason and the arm's schedule is made again;
     a fruit an earlier arm had to leave is offered to the next arm that reaches it.
     Checked densely: each arm is sampled at least at ``rate`` and often enough that no point of
-    it moves more than ``margin / 2`` between samples (at its joint velocity limits).
+    it moves more than ``margin / 4`` between samples (at its joint velocity limits), so the
+    clearance between samples is at least ``clearance + margin / 4``.
     """
     st = _Alone(problem, margin, rate)
     left_out: dict[str, str] = {}

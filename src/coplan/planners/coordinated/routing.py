@@ -34,7 +34,7 @@ def same_pose(p, q, tol: float = 1e-9) -> bool:
     return abs(p[0] - q[0]) <= tol and abs(p[1] - q[1]) <= tol
 
 
-def _stow_poses(arm: Arm, n_shoulder: int = 12) -> np.ndarray:
+def stow_poses(arm: Arm, n_shoulder: int = 12) -> np.ndarray:
     """Candidate rest poses of an arm: home, over its bin (both branches), folded-elbow poses
     around the shoulder (and straight ones)."""
     lim = arm.limits
@@ -115,7 +115,7 @@ class ArmGeometry:
 
     def stows(self, i: int) -> np.ndarray:
         if i not in self._stows:
-            self._stows[i] = _stow_poses(self.problem.arms[i])
+            self._stows[i] = stow_poses(self.problem.arms[i])
         return self._stows[i]
 
     def boxed_in(self, i: int, samples: np.ndarray) -> int:
