@@ -178,6 +178,9 @@ def read_yaml(text: str, source: str | None, keep_text=None):
         line = mark.line + 1 if mark is not None else None
         msg = getattr(e, "problem", None) or str(e)
         context = getattr(e, "context", None)
+        if "nesting depth" in str(msg):  # PyYAML >= 6.0.4 stops deep nesting itself, before the event scan can
+            raise ProblemError([Issue("", f"expected at most {MAX_DEPTH} levels of nesting, found more (YAML: {msg})", line)],
+                               source) from None
         raise ProblemError([Issue("", f"expected valid YAML, found a syntax error: {msg}" + (f" ({context})" if context else ""), line)], source) from None
     return data, lines
 
