@@ -270,6 +270,6 @@ def test_a_stalled_search_starts_afresh_then_stops():
     prob, start = _row_start()
     opts = SearchOptions(evaluations=10_000, work=10**7, patience=4, starts=2, stall=1000, exhaustive=0)
     best, stats = improve(prob, start, 0.0, 0.015, opts)
-    assert stats.stop == StopReason.STALLED and stats.restarts_fresh == 2
+    assert stats.stop == StopReason.STALLED and stats.fresh_starts == 2
     assert best.makespan <= start.makespan + 1e-9
     assert stats.summary()["fresh_starts"] == 2

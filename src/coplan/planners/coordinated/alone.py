@@ -188,7 +188,7 @@ def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Calla
             cycles = _cycles(decoupled_schedules(problem, solo, return_home=False)[arm.name])
             samples = [st.samples(i, c) for c in cycles]
             home_at = tuple(float(x) for x in cycles[-1][-1].q1) if cycles else st.rest[i]
-            away: dict[int, tuple] = {}  # neighbour -> where it rested before it moved out of the way
+            away: dict[int, tuple] = {}  # neighbour -> (where it rested before it moved out of the way, cycle)
             blocked = None
             for k in range(len(cycles)):
                 cyc, q = cycles[k], samples[k]
@@ -202,18 +202,20 @@ def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Calla
                     got = st.stow(i, j, q, later, back, home_at)
                     if got is None:
                         break
-                    away.setdefault(j, st.rest[j])
+                    away.setdefault(j, (st.rest[j], k))
                     st.book(j, [got[1]])
                 if st.first_hit(i, q) is not None:
                     blocked = (k, st.first_hit(i, q))
                     break
                 st.book(i, cyc)
+            for j, (before, k) in away.items() if blocked is None else ():
+                if j > i:  # an arm still to work goes back where it rested (its own work starts there)
+                    mv = st.clear_move(j, st.rest[j], before, st.rest)
+                    if mv is None:
+                        blocked = (k, j)  # it cannot: the cycle that sent it away is left out
+                        break
+                    st.book(j, [mv])
             if blocked is None:
-                for j, before in away.items():  # an arm still to work goes back where it rested
-                    if j > i:
-                        mv = st.clear_move(j, st.rest[j], before, st.rest)
-                        if mv is not None:
-                            st.book(j, [mv])
                 moved += len(away)
                 break
             k, j = blocked

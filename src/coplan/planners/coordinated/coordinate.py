@@ -131,7 +131,6 @@ class _Coordinator(ArmGeometry):
                  max_checks: int | None = None, cache: dict | None = None, committed: dict | None = None):
         super().__init__(problem, problem.task.clearance + margin)
         self.tables: dict = {}
-        self.rate = rate
         if cache is not None:  # routes, rest poses, moves and their curve tables depend only on the problem and ``need``
             shared = cache.setdefault((id(problem), self.need), ({}, {}, {}))
             self._stows, self._routes, self._moves = shared

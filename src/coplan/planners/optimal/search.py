@@ -56,7 +56,7 @@ __all__ = ["SearchOptions", "SearchStats", "StopReason", "improve"]
 class StopReason(str, Enum):
     PROVEN_OPTIMAL = "proven_optimal"  # the makespan meets the lower bound
     BUDGET = "budget"  # the work budget (evaluations) is spent
-    STALLED = "stalled"  # no improvement within ``patience`` evaluations
+    STALLED = "stalled"  # no improvement within ``patience`` evaluations, after ``starts`` fresh starts
     TIME_LIMIT = "time_limit"  # the explicit clock limit
     INTERRUPTED = "interrupted"  # Ctrl-C
     EXHAUSTED = "exhausted"  # every state was tried or bounded out: the coordinator's best
@@ -114,14 +114,14 @@ class SearchStats:
     failed: int = 0
     improvements: int = 0
     restarts: int = 0
-    restarts_fresh: int = 0
+    fresh_starts: int = 0
     stop: StopReason = StopReason.BUDGET
     moves: dict | None = None  # move kind -> [tried, improved]
 
     def summary(self) -> dict:
-        return {"evaluations": self.evaluations, "checks": self.checks, "checks_made": self.checks_made, "proposals": self.proposals, "pruned_by_bound": self.pruned,
-                "coordination_failed": self.failed, "improvements": self.improvements, "restarts": self.restarts,
-                "fresh_starts": self.restarts_fresh,
+        return {"evaluations": self.evaluations, "checks": self.checks, "checks_made": self.checks_made,
+                "proposals": self.proposals, "pruned_by_bound": self.pruned, "coordination_failed": self.failed,
+                "improvements": self.improvements, "restarts": self.restarts, "fresh_starts": self.fresh_starts,
                 "stopped_by": self.stop.value, "moves": self.moves}
 
 
@@ -387,11 +387,11 @@ def improve(
             if st.evaluations >= opts.evaluations or st.checks >= opts.work or st.proposals >= max_proposals:
                 st.stop = StopReason.BUDGET
                 break
-            if idle >= 500 or (since_best >= opts.patience and st.restarts_fresh >= opts.starts):
+            if idle >= 500 or (since_best >= opts.patience and st.fresh_starts >= opts.starts):
                 st.stop = StopReason.STALLED  # no progress, or no new state left to try
                 break
             if since_best >= opts.patience:  # a fresh start
-                st.restarts_fresh += 1
+                st.fresh_starts += 1
                 since_best = since_cur = 0
                 cur, s_cur = start, srch.state_of(start)
                 continue
