@@ -122,10 +122,7 @@ class SCurve:
     def between(cls, q0, q1, vmax, amax, jmax) -> "SCurve":
         """The time-optimal synchronised move from rest at q0 to rest at q1 (remembered: the
         planners ask for the same moves many times; an SCurve is immutable)."""
-        args = tuple(tuple(float(x) for x in v) for v in (q0, q1, vmax, amax, jmax))
-        if cls is not SCurve:
-            return _between(cls, *args)
-        return _between_cached(*args)
+        return _between(*(tuple(float(x) for x in v) for v in (q0, q1, vmax, amax, jmax)))
 
     def derivatives(self, t):
         """Joint (pos, vel, acc, jerk), each (K, 2), at times ``t`` (K,) from the move's start."""
@@ -182,12 +179,8 @@ class SCurve:
         return self.derivatives(t)[0]
 
 
-def _between(cls, q0, q1, vmax, amax, jmax) -> SCurve:
+@functools.lru_cache(maxsize=1 << 16)
+def _between(q0, q1, vmax, amax, jmax) -> SCurve:
     profs = tuple(_phases(abs(b - a), v, ac, j) for a, b, v, ac, j in zip(q0, q1, vmax, amax, jmax))
     duration = max((float(sum(d)) for d, _ in profs), default=0.0)
-    return cls(q0, q1, profs, duration)
-
-
-@functools.lru_cache(maxsize=1 << 16)
-def _between_cached(q0, q1, vmax, amax, jmax) -> SCurve:
-    return _between(SCurve, q0, q1, vmax, amax, jmax)
+    return SCurve(q0, q1, profs, duration)

@@ -192,10 +192,12 @@ def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Calla
             blocked = None
             for k in range(len(cycles)):
                 cyc, q = cycles[k], samples[k]
-                if st.first_hit(i, q) is not None and (alt := st.routed(i, cyc)) is not None:
+                j = st.first_hit(i, q)
+                if j is not None and (alt := st.routed(i, cyc)) is not None:
                     cycles[k], samples[k] = cyc, q = alt  # moves tucked around the neighbours where they must be
+                    j = st.first_hit(i, q)
                 tries = 0
-                while (j := st.first_hit(i, q)) is not None and tries < len(st.nbrs[i]) + 1:
+                while j is not None and tries < len(st.nbrs[i]) + 1:
                     tries += 1
                     later = np.vstack(samples[k + 1:]) if k + 1 < len(samples) else np.empty((0, 2))
                     back = start[2][j] if j > i else None  # an arm still to work must get home again
@@ -204,8 +206,9 @@ def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Calla
                         break
                     away.setdefault(j, (st.rest[j], k))
                     st.book(j, [got[1]])
-                if st.first_hit(i, q) is not None:
-                    blocked = (k, st.first_hit(i, q))
+                    j = st.first_hit(i, q)
+                if j is not None:
+                    blocked = (k, j)
                     break
                 st.book(i, cyc)
             for j, (before, k) in away.items() if blocked is None else ():

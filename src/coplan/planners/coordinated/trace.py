@@ -56,10 +56,6 @@ class Trace:
     barrier: int | None = None
     steps: list = field(default_factory=list)
 
-    @property
-    def recording(self) -> bool:
-        return self.barrier is None
-
 
 def _first_difference(old: tuple, new: tuple) -> int | None:
     """Index of the first leg that differs (the shorter length if one is a prefix of the other);
@@ -86,6 +82,6 @@ def resume_point(trace: Trace, key: tuple, legs: list, horizon: float) -> int:
             k = turn.done(j)
             if k > d or (k == d == shortest):  # a changed leg was booked, or which arms have legs left differs
                 return e
-            if turn.arm == j and k >= d:  # this turn reads a changed leg
+            if turn.arm == j and k == d:  # this turn reads a changed leg
                 return e
     return last
