@@ -14,20 +14,8 @@ from dataclasses import replace
 import numpy as np
 
 from ...problem.model import Arm, Problem
-from .routing import (
-    ArmGeometry,
-    same_pose,
-)
-from .schedule import (
-    curve_eval,
-    steps_positions,
-    ArmSchedule,
-    ConflictError,
-    Step,
-    StepKind,
-    merge_waits,
-    scurve_move,
-)
+from .routing import ArmGeometry, same_pose
+from .schedule import ArmSchedule, ConflictError, Step, StepKind, curve_eval, merge_waits, scurve_move, steps_positions
 from .legs import Leg, legs_of
 from .trace import Trace, Turn, resume_point
 
@@ -582,15 +570,12 @@ def coordinate(
     ``committed`` (arm -> steps, for live re-planning): motion each arm is already committed to
     (ending at rest); its legs are booked after it, against every arm's committed motion, and
     the returned schedules begin with it.
-    ``trace`` (a :class:`~.trace.Trace`), when given, records this run; ``resume``, a trace of an
-    earlier run on the same problem (or several: the best is used), lets this run start where
-    its legs first matter (the result
-    is the same as from scratch; ``work["checks"]`` still counts the checks as from scratch, so
-    a work budget buys the same runs, only sooner; ``work["checks_made"]`` counts those really
-    made and ``work["resumed_turns"]`` the turns taken over). Neither is used
-    with ``committed``.
-    Returns the schedules (each ending at home), the number of waits and the number of
-    yield/park moves added.
+    ``trace`` (a :class:`~.trace.Trace`) records this run; ``resume``, earlier runs' traces on
+    the same problem (the best is used), lets it start where its legs first differ -- with the
+    result from scratch; ``work["checks"]`` still counts as from scratch (a budget buys the
+    same runs, sooner), ``work["checks_made"]`` the checks made, ``work["resumed_turns"]`` the
+    turns taken over. Neither with ``committed``. Returns the schedules (each ending at home),
+    the number of waits and the number of yield/park moves added.
     """
     c = _Coordinator(problem, schedules, margin, rate, quantum, priority, deadline, max_yields, horizon, max_checks, cache,
                      committed)
