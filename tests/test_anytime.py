@@ -201,7 +201,7 @@ def test_exhaustive_search_agrees_with_trying_every_state():
     """Branch and bound over a small state space (cheapest estimate first, stopping where the
     estimate cannot beat the best) finds the same makespan as coordinating every state."""
     from coplan.planners.coordinated import CoordinatedOptions
-    from coplan.planners.optimal.search import SearchOptions, StopReason, _Search, improve
+    from coplan.planners.optimal.search import BranchRule, SearchOptions, StopReason, _Search, improve
 
     text = default_problem_path().with_name("crossing_paths.yaml").read_text()
     text = text.replace("  - {id: a2, position: [0.75, 0.40]}\n", "").replace("  - {id: b2, position: [-0.75, 0.40]}\n", "")
@@ -213,7 +213,8 @@ def test_exhaustive_search_agrees_with_trying_every_state():
     assert stats.stop == StopReason.EXHAUSTED
     every = _Search(prob, start, 0.015, opts, {})
     space = every.space(every.state_of(start), opts.exhaustive)
-    assert space is not None and len(space) == 6 * 4 * 2 * 2  # orders x branches x variants x priorities
+    # orders x branches x branch rules x priorities
+    assert space is not None and len(space) == 6 * 4 * len(BranchRule) * 2 and len(BranchRule) == 5
     made = [(est, every.evaluate(s)) for est, s in space]
     made = [(est, c.makespan) for est, c in made if c is not None]
     assert all(est <= m + 1e-9 for est, m in made)  # the estimate is a lower bound

@@ -29,7 +29,7 @@ def without_wall_clock(x):
 
 
 def solve_into(out: Path, problems_dir: Path) -> dict:
-    options = OptimalOptions(search_work=5000, polish=False)  # the search finds one improvement
+    options = OptimalOptions(search_work=12_000, polish=False)  # the search finds one improvement
     res = solve(problems_dir / "crossing_paths.yaml", planner="optimal", options=options, out_dir=out)
     assert res.plan.verification["passed"]
     return json.loads((out / "plan.json").read_text())

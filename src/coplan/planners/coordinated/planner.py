@@ -92,6 +92,7 @@ class CoordinatedResult:
     candidate: Coordinated | None
     timings: dict[str, float]
     tried: list[dict]
+    bound: LowerBound | None = None  # the lower bound's details (its own allocation too)
 
 
 # ----------------------------------------------------------------------------- plans
@@ -344,4 +345,4 @@ def plan_coordinated(
     plan = finalize_plan(plan, ver, n_reach)
     timings["total"] = _time.perf_counter() - t0
     plan.solver["timings"] = dict(timings)
-    return CoordinatedResult(plan, ver, best, timings, tried)
+    return CoordinatedResult(plan, ver, best, timings, tried, bound)

@@ -6,7 +6,7 @@ be set; keys left out keep their defaults. The coordinated planner takes its mar
 (``coordination_checks``) and time limit from the same file. ``ipopt`` is a mapping of IPOPT settings passed through to CasADi
 (e.g. ``ipopt.max_iter: 500``). Example::
 
-    search_work: 60000        # more search than the default
+    search_work: 200000       # more search than the default
     search_temperature: 0.5
     polish: false
     ipopt: {ipopt.tol: 1.0e-7}
@@ -37,8 +37,9 @@ class OptimalOptions:
     search_work : work budget of the search (conflict checks over all its coordinator runs;
         roughly 250-400 a second on one core of the 2-core benchmark machine); 0 turns the search off
     search_evaluations : cap on the search's coordinator runs
-    search_patience : after this many evaluations without a new best the search starts afresh
-        from the coordinated plan (its random moves going on elsewhere)
+    search_patience : after this many evaluations without improving on its start's best the
+        search starts afresh, alternately from the lower bound's own allocation (held for that
+        start) and from the coordinated plan (its random moves going on elsewhere)
     search_starts : such fresh starts before the search stops for lack of progress (it stops
         earlier when ``search_work`` is spent)
     search_temperature : the search accepts a slower state with probability exp(-dt / T), T
@@ -70,8 +71,8 @@ class OptimalOptions:
 
     margin: float = 0.015
     coordination_checks: int = 3000
-    search_work: int = 30_000
-    search_evaluations: int = 2_000
+    search_work: int = 100_000
+    search_evaluations: int = 5_000
     search_patience: int = 200
     search_starts: int = 3
     search_temperature: float = 0.3

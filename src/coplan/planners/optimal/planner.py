@@ -230,7 +230,8 @@ def plan_optimal(
                                   temperature=opts.search_temperature,
                                   tolerance=opts.tolerance,
                                   fixed_assignment=AllocationMethod(allocation) != AllocationMethod.MAKESPAN)
-            _, stats = improve(problem, inc.candidate, bound, opts.margin, sopts, on_improve, deadline, cache)
+            anchor = coord.bound.assignment if coord.bound is not None else None
+            _, stats = improve(problem, inc.candidate, bound, opts.margin, sopts, on_improve, deadline, cache, anchor)
             search_info = stats.summary()
             timings["search"] = _time.perf_counter() - ts
             stop = stats.stop

@@ -11,7 +11,8 @@ elbow-branch rule builds the poses, and the arms' priority order. A move changes
 * ``exchange`` / ``move`` / ``twoopt`` / ``reverse`` -- reorder within an arm (swap two fruit;
   move one to another place; reverse a stretch; reverse the whole sweep),
 * ``flip``     -- force the other elbow branch at one fruit (or release a forced one),
-* ``variant``  -- elbow branches chosen for speed or for keeping out of the neighbours' way,
+* ``variant``  -- the :class:`BranchRule`: elbow branches chosen for speed, or for keeping out
+  of the neighbours' way at one of a few prices per pose in their way,
 * ``priority`` -- which arm goes first when two want the same space.
 
 Moves mostly touch the critical arm (the one placing last). Each candidate is first bounded
@@ -20,7 +21,10 @@ branches, cached per sequence): one that cannot beat the current state is reject
 coordinating. The others are coordinated (:func:`coplan.coordinate.coordinate`, sharing one
 cache of routes and moves) and kept when their makespan is lower, or equal with less total
 work. After ``stall`` evaluations without progress the search restarts from the best state
-with a few random moves (an iterated local search).
+with a few random moves (an iterated local search). After ``patience`` evaluations without a
+new best it starts afresh, alternately from an *anchor* (the lower bound's own allocation,
+each arm's fruit in their fastest order, which arm takes which fruit held for that start)
+and from the start state.
 
 When the whole state space is small (a few fruit), it is searched exhaustively instead: every
 state, cheapest estimate first, until the estimate alone cannot beat the best -- a branch and
@@ -50,7 +54,29 @@ from ..coordinated.routing import choose_branches as clear_branches
 from ..coordinated.schedule import ConflictError, decoupled_schedules
 from ..coordinated.trace import Trace
 
-__all__ = ["SearchOptions", "SearchStats", "StopReason", "improve"]
+__all__ = ["BranchRule", "SearchOptions", "SearchStats", "StopReason", "improve"]
+
+
+class BranchRule(str, Enum):
+    """How a state's elbow branches are chosen from its allocation and orders: the fastest
+    (each arm's dynamic programme alone), or keeping out of the neighbours' way with each
+    move charged a price (s) per neighbour pose it would hit
+    (:func:`coplan.planners.coordinated.routing.choose_branches`). ``BRANCHES`` (0.5 s) is the
+    coordinated planner's rule; the search also tries lighter and heavier prices."""
+
+    FASTEST = "fastest"
+    AVOID_LIGHT = "avoid-0.1"
+    AVOID_SOME = "avoid-0.25"
+    BRANCHES = "branches"
+    AVOID_HEAVY = "avoid-1.0"
+
+    @property
+    def price(self) -> float:
+        return _PRICE[self]
+
+
+_PRICE = {BranchRule.FASTEST: 0.0, BranchRule.AVOID_LIGHT: 0.1, BranchRule.AVOID_SOME: 0.25, BranchRule.BRANCHES: 0.5,
+          BranchRule.AVOID_HEAVY: 1.0}
 
 
 class StopReason(str, Enum):
@@ -115,6 +141,7 @@ class SearchStats:
     improvements: int = 0
     restarts: int = 0
     fresh_starts: int = 0
+    anchored: int = 0  # starts from the anchor (the first one included)
     stop: StopReason = StopReason.BUDGET
     moves: dict | None = None  # move kind -> [tried, improved]
 
@@ -122,13 +149,14 @@ class SearchStats:
         return {"evaluations": self.evaluations, "checks": self.checks, "checks_made": self.checks_made,
                 "proposals": self.proposals, "pruned_by_bound": self.pruned, "coordination_failed": self.failed,
                 "improvements": self.improvements, "restarts": self.restarts, "fresh_starts": self.fresh_starts,
+                "anchored": self.anchored,
                 "stopped_by": self.stop.value, "moves": self.moves}
 
 
 @dataclass(frozen=True)
 class _State:
     assign: tuple[tuple[str, ...], ...]  # per arm (problem order), fruit in harvesting order
-    variant: str  # "branches" | "fastest"
+    variant: BranchRule
     order: tuple[str, ...]  # priority
     forced: frozenset = frozenset()  # (arm index, fruit id, branch index): elbow branch forced at a fruit
 
@@ -148,17 +176,42 @@ class _Search:
         self.pos = {f.id: f.position for f in problem.fruits}
         self.reach = {f.id: [i for i in range(len(self.names)) if f.id in self.cfg[i][1]] for f in problem.fruits}
         self.start_alloc = start.alloc
+        self.start = start
         self.rng = np.random.default_rng(opts.seed)
         self._dp: dict = {}
         self.traces: dict[_State, Trace] = {}  # recent coordinator runs, to resume from (see coordinate)
         self.stats = SearchStats(moves={m: [0, 0] for m in _MOVES})
-        w = _WEIGHTS * [not (opts.fixed_assignment and m in ("relocate", "swap")) for m in _MOVES]
+        self.hold(opts.fixed_assignment)
+
+    def hold(self, assignment: bool) -> None:
+        """Whether moves keep which arm takes which fruit (no relocate, no swap)."""
+        w = _WEIGHTS * [not (assignment and m in ("relocate", "swap")) for m in _MOVES]
         self.weights = w / w.sum()
 
     def state_of(self, c: Coordinated) -> _State:
         order = tuple(c.order) if c.order else tuple(self.names)
-        variant = c.variant if c.variant in ("branches", "fastest") else "branches"
+        variant = BranchRule(c.variant) if c.variant in set(BranchRule) else BranchRule.BRANCHES
         return _State(tuple(tuple(c.alloc.assignment[n]) for n in self.names), variant, order)
+
+    def anchor(self, assignment: dict[str, tuple[str, ...]], order: tuple[str, ...]) -> _State | None:
+        """The state of ``assignment`` (arm -> fruit) with each arm's fruit in its fastest order
+        (every order up to 6 fruit; else each fruit inserted where it finishes earliest), or
+        None when it does not cover the start state's fruit."""
+        import itertools
+
+        if sorted(f for n in self.names for f in assignment.get(n, ())) != sorted(f for seq in self.start.alloc.assignment.values() for f in seq):
+            return None
+        seqs = []
+        for i, n in enumerate(self.names):
+            fr = tuple(assignment.get(n, ()))
+            if len(fr) <= 6:
+                seqs.append(min(itertools.permutations(fr), key=lambda p: self.dp(i, tuple(p))[2]) if fr else ())
+            else:
+                seq: list[str] = []
+                for f in fr:
+                    seq = self.insert_best(i, seq, f, ())
+                seqs.append(tuple(seq))
+        return _State(tuple(seqs), BranchRule.BRANCHES, order)
 
     # ---- evaluation
     def dp(self, i: int, seq: tuple[str, ...], forced: tuple = ()):
@@ -187,8 +240,8 @@ class _Search:
             fruit_q[n], place_q[n], est[n] = dict(zip(seq, fs)), dict(zip(seq, ps)), t
         al = replace(self.start_alloc, assignment=dict(zip(self.names, s.assign)), fruit_q=fruit_q, place_q=place_q,
                      estimate=est)
-        if s.variant == "branches":
-            al = clear_branches(self.problem, al, self.problem.task.clearance + self.margin,
+        if s.variant != BranchRule.FASTEST:
+            al = clear_branches(self.problem, al, self.problem.task.clearance + self.margin, weight=s.variant.price,
                                  memo=self.cache.setdefault("branch_hits", {}))
             for i, f, b in s.forced:  # a forced branch stands
                 al.fruit_q[self.names[i]][f] = self.cfg[i][1][f][b]
@@ -210,7 +263,7 @@ class _Search:
         self.traces[s] = trace
         if len(self.traces) > 8:  # the oldest goes
             del self.traces[next(iter(self.traces))]
-        return Coordinated(al, sched, makespan_of(sched), list(s.order), s.variant, waits)
+        return Coordinated(al, sched, makespan_of(sched), list(s.order), s.variant.value, waits)
 
     def space(self, start: _State, cap: int) -> list[tuple[float, _State]] | None:
         """Every state (allocation, orders, forced elbow branches, variant, priority), with its
@@ -223,7 +276,7 @@ class _Search:
         else:
             owners = [self.reach[f] for f in fruits]
         priorities = list(itertools.permutations(start.order))
-        per = 2 * len(priorities)
+        per = len(BranchRule) * len(priorities)
         out: list[tuple[float, _State]] = []
         for split in itertools.product(*owners):
             groups = [[f for f, a in zip(fruits, split) if a == i] for i in range(len(self.names))]
@@ -237,7 +290,7 @@ class _Search:
                 for fb in itertools.product(*[range(len(self.cfg[a][1][f])) for f, a in zip(fruits, split)]):
                     forced = frozenset((a, f, b) for f, a, b in zip(fruits, split, fb))
                     est = self.estimate(_State(assign, start.variant, start.order, forced))
-                    out += [(est, _State(assign, v, o, forced)) for v in ("branches", "fastest") for o in priorities]
+                    out += [(est, _State(assign, v, o, forced)) for v in BranchRule for o in priorities]
         out.sort(key=lambda x: x[0])  # stable: ties keep the enumeration's order
         return out
 
@@ -273,7 +326,8 @@ class _Search:
         mine = assign[c]
         rng = self.rng
         if kind == "variant":
-            return kind, replace(s, variant="fastest" if s.variant == "branches" else "branches")
+            others = [v for v in BranchRule if v != s.variant]
+            return kind, replace(s, variant=others[int(rng.integers(len(others)))])
         if kind == "priority":
             if len(s.order) < 2:
                 return None
@@ -358,17 +412,20 @@ def improve(
     on_improve: Callable[[Coordinated], None] | None = None,
     deadline: float | None = None,
     cache: dict | None = None,
+    anchor: dict[str, tuple[str, ...]] | None = None,
 ) -> tuple[Coordinated, SearchStats]:
     """Improve a coordinated candidate by large-neighbourhood search (see the module docstring).
 
-    ``on_improve`` is called with every new best (lower makespan). Returns the best candidate
-    and the search's statistics (``stats.stop`` says what ended it). Ctrl-C ends the search
-    with what it has (``StopReason.INTERRUPTED``).
+    ``on_improve`` is called with every new best (lower makespan). ``anchor`` (arm -> fruit,
+    e.g. the lower bound's allocation): where every other fresh start begins, its assignment
+    held for that start (none with ``fixed_assignment``). Returns the best candidate and the
+    search's statistics (``stats.stop`` says what ended it). Ctrl-C ends the search with what
+    it has (``StopReason.INTERRUPTED``).
     """
     opts = options or SearchOptions()
     srch = _Search(problem, start, margin, opts, {} if cache is None else cache)
     st = srch.stats
-    best = cur = start
+    best = cur = pbest = start  # pbest: the best of this start (the patience counts from it)
     s_cur = srch.state_of(start)
     seen = {s_cur}
     since_best = since_cur = idle = 0
@@ -380,6 +437,25 @@ def improve(
         if space is not None:
             best = _exhaust(srch, space, best, bound, seen, on_improve, deadline)
             return best, st
+        # the anchor: where every other fresh start begins -- and the first, when it beats the start
+        a_state = a_cand = None
+        a_turn = 1  # fresh starts with this parity begin at the anchor
+        if anchor is not None and not opts.fixed_assignment and best.makespan > bound + opts.tolerance:
+            a_state = srch.anchor(anchor, s_cur.order)
+            a_cand = srch.evaluate(a_state) if a_state is not None and a_state != s_cur else None
+            if a_cand is None:
+                a_state = None
+            else:
+                seen.add(a_state)
+            if a_cand is not None and a_cand.makespan < best.makespan - 1e-9:
+                a_turn = 0
+                st.anchored = 1
+                cur, s_cur, pbest = a_cand, a_state, a_cand
+                srch.hold(True)
+                best = a_cand
+                st.improvements += 1
+                if on_improve is not None:
+                    on_improve(best)
         while True:
             if best.makespan <= bound + opts.tolerance:
                 st.stop = StopReason.PROVEN_OPTIMAL
@@ -390,17 +466,23 @@ def improve(
             if idle >= 500 or (since_best >= opts.patience and st.fresh_starts >= opts.starts):
                 st.stop = StopReason.STALLED  # no progress, or no new state left to try
                 break
-            if since_best >= opts.patience:  # a fresh start
+            if since_best >= opts.patience:  # a fresh start: from the anchor (held) or the start
                 st.fresh_starts += 1
                 since_best = since_cur = 0
                 cur, s_cur = start, srch.state_of(start)
+                srch.hold(opts.fixed_assignment)
+                if a_state is not None and st.fresh_starts % 2 == a_turn:
+                    st.anchored += 1
+                    cur, s_cur = a_cand, a_state
+                    srch.hold(True)
+                pbest = cur
                 continue
             if deadline is not None and _time.perf_counter() > deadline:
                 st.stop = StopReason.TIME_LIMIT
                 break
             if since_cur >= opts.stall:  # restart from the best with a kick
                 st.restarts += 1
-                cur, s_cur, since_cur = best, srch.state_of(best), 0
+                cur, s_cur, since_cur = pbest, srch.state_of(pbest), 0
                 for _ in range(opts.kick):
                     mv = srch.propose(s_cur, srch.critical(cur))
                     if mv is not None:
@@ -438,8 +520,12 @@ def improve(
                 cur, s_cur = cand, s_new  # accepted uphill (annealing): the best stays
                 continue
             cur, s_cur, since_cur = cand, s_new, 0
+            if cand.makespan < pbest.makespan - 1e-9:
+                pbest, since_best = cand, 0
+            elif _better(cand, pbest):
+                pbest = cand
             if cand.makespan < best.makespan - 1e-9:
-                best, since_best = cand, 0
+                best = cand
                 st.improvements += 1
                 st.moves[kind][1] += 1
                 if on_improve is not None:

@@ -1,0 +1,90 @@
+"""The search's elbow-branch rules and its anchor (the lower bound's own allocation): every
+rule's plan is verified, the anchor holds the bound's fruit in their fastest orders (checked
+against every permutation), and the search begins and restarts there as documented."""
+
+from __future__ import annotations
+
+import itertools
+
+import pytest
+
+from coplan.allocate import bound_details
+from coplan.planners.coordinated import CoordinatedOptions, plan_coordinated
+from coplan.planners.coordinated.planner import schedules_plan
+from coplan.planners.optimal import OptimalOptions, plan_optimal
+from coplan.planners.optimal.search import BranchRule, SearchOptions, _Search, improve
+from coplan.plan import PlannerKind
+from coplan.problem import default_problem_path, load_problem
+from coplan.verify import verify
+
+MARGIN = 0.015
+
+
+@pytest.fixture(scope="module")
+def dense():
+    prob = load_problem(default_problem_path().with_name("dense_overlap.yaml"))
+    cache: dict = {}
+    start = plan_coordinated(prob, "makespan", CoordinatedOptions(margin=MARGIN), lambda m: None, cache).candidate
+    return prob, start, bound_details(prob), cache
+
+
+def test_the_anchor_is_the_bound_allocation_in_each_arms_fastest_order(dense):
+    prob, start, lb, cache = dense
+    srch = _Search(prob, start, MARGIN, SearchOptions(), cache)
+    s = srch.anchor(lb.assignment, tuple(srch.names))
+    assert s is not None and s.variant == BranchRule.BRANCHES
+    for i, n in enumerate(srch.names):
+        assert sorted(s.assign[i]) == sorted(lb.assignment[n])
+        every = min(srch.dp(i, p)[2] for p in itertools.permutations(lb.assignment[n]))
+        assert srch.dp(i, s.assign[i])[2] == pytest.approx(every, abs=1e-12)
+    # the slowest arm alone in its fastest order is the lower bound itself
+    assert srch.estimate(s) == pytest.approx(lb.value, abs=1e-9)
+    other = dict(lb.assignment)
+    other["left"] = other["left"][1:]  # a fruit missing: not an anchor for this start
+    assert srch.anchor(other, tuple(srch.names)) is None
+
+
+def test_every_branch_rule_makes_a_verified_plan(dense):
+    prob, start, lb, cache = dense
+    srch = _Search(prob, start, MARGIN, SearchOptions(), cache)
+    s0 = srch.anchor(lb.assignment, tuple(srch.names))
+    made = 0
+    for rule in BranchRule:
+        c = srch.evaluate(type(s0)(s0.assign, rule, s0.order))
+        if c is None:
+            continue
+        made += 1
+        assert c.variant == rule.value and srch.state_of(c).variant == rule  # the label round-trips
+        assert c.makespan >= lb.value - 1e-9
+        plan = schedules_plan(prob, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
+        assert verify(prob, plan).passed
+    assert made >= 4
+
+
+def test_the_search_begins_at_the_anchor_when_it_is_faster_and_holds_its_allocation(dense):
+    prob, start, lb, cache = dense
+    opts = SearchOptions(evaluations=30, work=10**7, patience=10**6, exhaustive=0)
+    best, stats = improve(prob, start, lb.value, MARGIN, opts, cache=cache, anchor=lb.assignment)
+    assert stats.anchored == 1 and stats.improvements >= 1
+    assert best.makespan < start.makespan
+    for n, fruit in lb.assignment.items():  # held: orders, branches and priorities only
+        assert sorted(best.alloc.assignment[n]) == sorted(fruit)
+
+
+def test_fresh_starts_alternate_between_the_anchor_and_the_start(dense):
+    prob, start, lb, cache = dense
+    opts = SearchOptions(evaluations=10_000, work=10**7, patience=3, starts=3, stall=1000, exhaustive=0)
+    best, stats = improve(prob, start, lb.value, MARGIN, opts, cache=cache, anchor=lb.assignment)
+    assert stats.fresh_starts == 3
+    assert stats.anchored == 2  # the first start and the second fresh one
+    assert stats.summary()["anchored"] == 2
+    assert best.makespan <= start.makespan + 1e-9
+
+
+def test_the_optimal_planner_searches_from_the_bounds_allocation(dense):
+    prob = dense[0]
+    res = plan_optimal(prob, options=OptimalOptions(search_work=3000, polish=False))
+    search = res.plan.solver["search"]
+    assert search["anchored"] >= 1
+    assert verify(prob, res.plan).passed
+    assert res.plan.metrics["makespan"] <= res.coordinated.metrics["makespan"] + 1e-3
