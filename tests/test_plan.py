@@ -195,7 +195,7 @@ def test_several_bad_fields_are_all_reported(tmp_path: Path, doc: dict) -> None:
 
 @pytest.mark.parametrize(
     "raw,line,fragment",
-    [('{"format": "coplan.plan/1",\n  oops}', 2, "expected JSON, found a syntax error"), ("", 1, "expected JSON"),
+    [('{"format": "coplan.plan/1",\n  oops}', 2, "expected JSON, found a syntax error"), ("", None, "expected a JSON plan (an object with keys format, problem, time, arms, events), found an empty file"),
      ("[1, 2]", None, "expected a JSON object, found array [1, 2]")],
     ids=["syntax", "empty", "array"],
 )

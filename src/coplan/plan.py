@@ -298,7 +298,11 @@ def load_plan(path: str | Path) -> Plan:
     if p.suffix.lower() == ".csv":
         return _plan_from_csv(p.read_bytes(), src)
     try:
-        data = json.loads(p.read_text(encoding="utf-8"))
+        text = p.read_text(encoding="utf-8")
+        if not text.strip():
+            raise PlanFileError([Issue("", "expected a JSON plan (an object with keys format, problem, time, arms, events), "
+                                           "found an empty file")], src)
+        data = json.loads(text)
     except json.JSONDecodeError as e:
         raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno})", e.lineno)], src) from None
     except UnicodeDecodeError as e:

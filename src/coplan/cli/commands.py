@@ -221,7 +221,8 @@ def check(
 ):
     """Validate a problem and say, without solving, what its geometry allows: locked arms,
     harvestable fruit per arm (and why the others are not), the makespan lower bound and the
-    heuristic baseline's makespan. Exit 0 when every reachable fruit can be harvested."""
+    heuristic baseline's makespan. Exit 0 when every reachable fruit can be harvested, 5 when
+    some cannot, 4 when no fruit is harvestable at all (nothing to plan, as solve)."""
     from ..allocate.allocation import bound_details
     from ..planners.heuristic import plan_heuristic
     from ..problem.model import load_problem
@@ -258,10 +259,15 @@ def check(
           f"{n_reach} within some arm's reach, {harvestable} harvestable")
         for line in scr.lines():
             p(line, markup=False, highlight=False)
-        proof = "proven optimum of the relaxation" if bd.proven else f"MILP stopped: dual bound {bd.dual_bound:.3f} s"
-        p(f"lower bound        {bd.value:.3f} s ({proof}); no plan can be faster")
-        verdict = "verified" if doc["heuristic_verified"] else f"unsafe: {', '.join(doc['heuristic_violations'] or [])}"
-        p(f"heuristic baseline {_fmt(doc['heuristic_makespan'], ' s', 3)} (the course's planner; {verdict})")
+        if harvestable == 0:
+            p("nothing to plan: no fruit can be harvested by any arm (solve would exit 4, infeasible)")
+        else:
+            proof = "proven optimum of the relaxation" if bd.proven else f"MILP stopped: dual bound {bd.dual_bound:.3f} s"
+            p(f"lower bound        {bd.value:.3f} s ({proof}); no plan can be faster")
+            verdict = "verified" if doc["heuristic_verified"] else f"unsafe: {', '.join(doc['heuristic_violations'] or [])}"
+            p(f"heuristic baseline {_fmt(doc['heuristic_makespan'], ' s', 3)} (the course's planner; {verdict})")
+    if harvestable == 0:
+        raise typer.Exit(int(ExitCode.INFEASIBLE))
     raise typer.Exit(int(ExitCode.OK if harvestable == n_reach else ExitCode.PARTIAL))
 
 
@@ -292,8 +298,15 @@ def verify_cmd(
 
     if out is not None and (out.resolve() == plan.resolve() or (out.is_dir() and (out / "verification.json").resolve() == plan.resolve())):
         _fail(ExitCode.USAGE, f"--out {out} is the plan being verified; give another file or folder")
+    from ..plan import PlanFileError
+
     prob = load_problem(problem)
-    ver = run_verify(prob, load_plan(plan), fcl=fcl)
+    try:
+        ver = run_verify(prob, load_plan(plan), fcl=fcl)
+    except PlanFileError as e:
+        if e.source is not None and e.source.startswith("plan for problem"):  # the plan does not fit the problem
+            raise PlanFileError(e.issues, f"{plan} (a {e.source}, checked against {problem})") from None
+        raise
     written = ver.save(out) if out is not None else None
     if as_json:
         typer.echo(json.dumps(ver.to_dict(), indent=1, allow_nan=False))

@@ -108,6 +108,9 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
 
     if not isinstance(data, dict):
         raise FeedError([Issue("", f"expected a mapping with key 'detections', found {found(data, list_length=True)}", line_of(lines, ()))], source)
+    if "detections" not in data and {"arms", "fruits"} <= set(data):
+        raise FeedError([Issue("", "expected a feed file (format coplan.feed/1, key 'detections'), found a problem file "
+                                   "(keys arms, fruits); were the problem and the feed swapped?", line_of(lines, ()))], source)
     for key in data:
         if key not in _TOP_KEYS:
             bad((key,), f"expected one of {', '.join(_TOP_KEYS)}, found unknown key {key!r}")

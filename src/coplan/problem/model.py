@@ -354,6 +354,11 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         raise ProblemError(
             [Issue("", f"expected a mapping with keys name, arms, fruits, task; found {_kind(data)}", 1)], source
         )
+    fmt = data.get("format")
+    if isinstance(fmt, str) and fmt.startswith("coplan."):  # a problem file has no format: a plan, feed, ... file
+        kind = fmt.split(".", 1)[1].split("/", 1)[0]
+        raise ProblemError([Issue("", f"expected a problem file (keys name, arms, fruits, task), found a coplan {kind} file "
+                                      f"(format {fmt!r}); were the arguments swapped?", line_of(lines, ("format",)))], source)
     for k in data:
         if k not in _TOP_KEYS:
             issues.append(Issue(str(k), f"expected a known key, found unknown key {k!r}{_suggest(k, _TOP_KEYS)}", line_of(lines, (k,))))

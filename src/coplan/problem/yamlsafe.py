@@ -181,6 +181,10 @@ def read_yaml(text: str, source: str | None, keep_text=None):
         if "nesting depth" in str(msg):  # PyYAML >= 6.0.4 stops deep nesting itself, before the event scan can
             raise ProblemError([Issue("", f"expected at most {MAX_DEPTH} levels of nesting, found more (YAML: {msg})", line)],
                                source) from None
+        if mark is not None and "cannot start any token" in str(msg) and text.splitlines()[mark.line:mark.line + 1] \
+                and text.splitlines()[mark.line][mark.column:mark.column + 1] == "\t":
+            raise ProblemError([Issue("", f"expected spaces for indentation, found a tab character at column {mark.column + 1} "
+                                          "(YAML does not allow tabs there)", line)], source) from None
         raise ProblemError([Issue("", f"expected valid YAML, found a syntax error: {msg}" + (f" ({context})" if context else ""), line)], source) from None
     return data, lines
 

@@ -1,0 +1,90 @@
+"""Files given in the wrong place: a plan or feed where a problem is expected (and the other
+way round), a plan checked against another problem, an empty plan, a tab in YAML -- each one
+clear sentence with the file, never a list of unknown keys or a parser's raw words."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.errors import PlanFileError, ProblemError
+from coplan.live.feed import FeedError, load_feed
+from coplan.plan import load_plan
+from coplan.problem import default_problem_path, load_problem, parse_problem
+
+PROBLEMS = default_problem_path().parent
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def crossing_plan(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("crossing")
+    r = runner.invoke(app, ["solve", str(PROBLEMS / "crossing_paths.yaml"), "--planner", "coordinated", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    return out / "plan.json"
+
+
+def test_a_plan_given_as_the_problem_says_the_arguments_look_swapped(crossing_plan):
+    with pytest.raises(ProblemError) as e:
+        load_problem(crossing_plan)
+    assert len(e.value.issues) == 1  # one sentence, not one unknown key per plan field
+    msg = str(e.value)
+    assert str(crossing_plan) in msg and "found a coplan plan file (format 'coplan.plan/1')" in msg and "swapped" in msg
+    r = runner.invoke(app, ["verify", str(crossing_plan), str(PROBLEMS / "crossing_paths.yaml")])
+    assert r.exit_code == 3 and "swapped" in r.output and "Traceback" not in r.output
+
+
+def test_a_problem_given_as_the_feed_says_so():
+    with pytest.raises(FeedError) as e:
+        load_feed(PROBLEMS / "crossing_paths.yaml")
+    assert len(e.value.issues) == 1 and "found a problem file" in str(e.value) and "swapped" in str(e.value)
+
+
+def test_a_plan_checked_against_another_problem_names_both_files(crossing_plan):
+    r = runner.invoke(app, ["verify", str(PROBLEMS / "greenhouse_row.yaml"), str(crossing_plan)])
+    assert r.exit_code == 3
+    assert str(crossing_plan) in r.output and "greenhouse_row.yaml" in r.output
+    assert "expected the problem's arms ['left', 'center', 'right'], found ['left', 'right']" in r.output
+
+
+def test_an_empty_plan_file_is_called_empty(tmp_path):
+    p = tmp_path / "plan.json"
+    p.write_text("  \n")
+    with pytest.raises(PlanFileError) as e:
+        load_plan(p)
+    assert "found an empty file" in str(e.value) and str(p) in str(e.value)
+
+
+def test_a_tab_in_yaml_is_named_with_its_line_and_column():
+    text = (PROBLEMS / "single_arm.yaml").read_text()
+    lines = text.splitlines()
+    k = next(i for i, s in enumerate(lines) if s.startswith("  - "))
+    lines[k] = "\t" + lines[k][2:]
+    with pytest.raises(ProblemError) as e:
+        parse_problem("\n".join(lines) + "\n", "tabbed.yaml")
+    (issue,) = e.value.issues
+    assert issue.line == k + 1 and "found a tab character at column 1" in issue.message
+
+
+def test_json_that_is_a_problem_still_loads(tmp_path):
+    """A problem written as JSON (valid YAML) has no ``format`` key: it is not mistaken for a plan."""
+    import yaml
+
+    data = yaml.safe_load((PROBLEMS / "single_arm.yaml").read_text())
+    p = tmp_path / "single.json"
+    p.write_text(json.dumps(data))
+    assert load_problem(p).name == "single-arm"
+
+
+def test_check_says_there_is_nothing_to_plan_when_no_fruit_is_harvestable(tmp_path):
+    text = (PROBLEMS / "single_arm.yaml").read_text().replace("position: [1.2, 0.8]", "position: [50.0, 50.0]")
+    p = tmp_path / "far.yaml"
+    p.write_text(text)
+    r = runner.invoke(app, ["check", str(p)])
+    assert r.exit_code == 4 and "nothing to plan" in r.output and "no plan can be faster" not in r.output
+    r = runner.invoke(app, ["solve", str(p), "--out", str(tmp_path / "out")])
+    assert r.exit_code == 4  # as check said
