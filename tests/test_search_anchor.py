@@ -88,3 +88,17 @@ def test_the_optimal_planner_searches_from_the_bounds_allocation(dense):
     assert search["anchored"] >= 1
     assert verify(prob, res.plan).passed
     assert res.plan.metrics["makespan"] <= res.coordinated.metrics["makespan"] + 1e-3
+
+
+def test_annealing_stops_after_its_cooling_work():
+    """The temperature falls to 0 over the first ``cooling`` checks: with none, the search is
+    the pure descent, move for move (the same random stream: no acceptance draws are made)."""
+    from test_anytime import _row_start
+
+    prob, start = _row_start()
+    base = dict(evaluations=40, work=10**7, patience=10**6, exhaustive=0)
+    hot, s_hot = improve(prob, start, 0.0, MARGIN, SearchOptions(temperature=0.3, cooling=0, **base))
+    cold, s_cold = improve(prob, start, 0.0, MARGIN, SearchOptions(temperature=0.0, **base))
+    assert hot.makespan == cold.makespan and s_hot.moves == s_cold.moves and s_hot.checks == s_cold.checks
+    warm, s_warm = improve(prob, start, 0.0, MARGIN, SearchOptions(temperature=0.3, **base))
+    assert s_warm.moves != s_cold.moves or s_warm.checks != s_cold.checks  # annealing does change the walk

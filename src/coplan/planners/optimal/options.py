@@ -43,7 +43,8 @@ class OptimalOptions:
     search_starts : such fresh starts before the search stops for lack of progress (it stops
         earlier when ``search_work`` is spent)
     search_temperature : the search accepts a slower state with probability exp(-dt / T), T
-        falling linearly from this (s) to 0 over ``search_work`` (annealing); 0 for pure descent
+        falling linearly from this (s) to 0 over the first 30000 checks of ``search_work``
+        (annealing; the rest is descent and fresh starts); 0 for pure descent
     seed : seed of the search's moves
     polish : run the joint NLP from the incumbent when it still waits
     polish_iterations : IPOPT iterations the whole polish may spend (every round, window and

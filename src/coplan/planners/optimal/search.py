@@ -112,8 +112,11 @@ class SearchOptions:
         first, until the estimate alone cannot beat the best (branch and bound): the result
         is then the best plan the coordinator can make; 0 turns this off
     temperature : accept a slower state with probability exp(-(its makespan - current) / T),
-        T falling linearly from ``temperature`` (s) to 0 as the work budget is spent (simulated
-        annealing, seeded like the moves); the best state is kept whatever is accepted
+        T falling linearly from ``temperature`` (s) to 0 as the first ``cooling`` checks of the
+        work budget are spent (simulated annealing, seeded like the moves); the best state is
+        kept whatever is accepted
+    cooling : work (checks) over which the temperature falls to 0 (at most ``work``); a larger
+        budget then buys more descent and fresh starts, not a longer random walk
     """
 
     evaluations: int = 400
@@ -127,6 +130,7 @@ class SearchOptions:
     fixed_assignment: bool = False
     tolerance: float = 1e-3
     temperature: float = 0.0
+    cooling: int = 30_000
     exhaustive: int = 20_000
 
 
@@ -513,7 +517,7 @@ def improve(
             if cand is None:
                 continue
             if not _better(cand, cur):
-                temp = opts.temperature * max(0.0, 1.0 - st.checks / max(1, opts.work))
+                temp = opts.temperature * max(0.0, 1.0 - st.checks / max(1, min(opts.work, opts.cooling)))
                 worse = cand.makespan - cur.makespan
                 if temp <= 0 or worse <= 1e-9 or srch.rng.random() >= np.exp(-worse / temp):
                     continue
