@@ -46,6 +46,10 @@ class OptimalOptions:
         falling linearly from this (s) to 0 over the first 30000 checks of ``search_work``
         (annealing; the rest is descent and fresh starts); 0 for pure descent
     seed : seed of the search's moves
+    retime : retime the coordinated plan and the search's best with CP-SAT (the same moves,
+        every start chosen together instead of leg by leg); kept only when verified and faster
+    retime_work : CP-SAT's deterministic time limit per retiming (its own work unit, about
+        seconds on one core; the same result on any machine)
     polish : run the joint NLP from the incumbent when it still waits
     polish_iterations : IPOPT iterations the whole polish may spend (every round, window and
         retry; checked before each solve, and each solve is capped at 200 unless ``ipopt`` sets
@@ -78,6 +82,8 @@ class OptimalOptions:
     search_starts: int = 3
     search_temperature: float = 0.3
     seed: int = 0
+    retime: bool = True
+    retime_work: float = 5.0
     polish: bool = True
     polish_iterations: int = 400
     polish_rounds: int = 5
@@ -97,7 +103,7 @@ class OptimalOptions:
 
 
 # fields that must be > 0 (the others of their type must be >= 0)
-_POSITIVE = {"h_target", "window", "check_rate", "time_limit", "window_time_limit"}
+_POSITIVE = {"h_target", "window", "check_rate", "time_limit", "window_time_limit", "retime_work"}
 
 
 class OptionsError(InputError):

@@ -12,6 +12,10 @@ coordinated one, and whenever it stops -- at its work budget, at an explicit
 2. **search** (:func:`coplan.planners.optimal.search.improve`): large-neighbourhood search over allocation,
    order, elbow branches and priorities with the coordinator as evaluator; each new best is
    verified and offered to the incumbent.
+   Before the search and after it, the incumbent's moves are **retimed**
+   (:func:`coplan.planners.optimal.retime.retime`): the same moves, picks and places, every
+   start chosen together by CP-SAT instead of leg by leg; a retimed plan is verified and
+   offered like any other.
 3. **polish** (:func:`coplan.planners.optimal.windows.solve_windows`): one CasADi/IPOPT program over all
    arms from the incumbent's schedules, where it still waits (receding windows on long
    rows); its plan is verified and offered like any other. When no coordinated plan could
@@ -201,6 +205,7 @@ def plan_optimal(
     interrupted = False
     stop = StopReason.BUDGET
     search_info = nlp_info = None
+    retime_info: list[dict] = []
     coord_plan = None
     error = error_trace = None
     try:
@@ -216,9 +221,30 @@ def plan_optimal(
         def proven() -> bool:
             return inc.plan is not None and inc.plan.status == PlanStatus.SUCCESS and inc.makespan <= bound + opts.tolerance
 
+        def retimed(c: Coordinated, of: str) -> None:
+            """The retimed ``c`` offered to the incumbent (when retiming is on and can still gain)."""
+            if not opts.retime or c is None or c.fallback or proven() or (deadline is not None and _time.perf_counter() > deadline):
+                return
+            from .retime import retime
+
+            tr = _time.perf_counter()
+            r = retime(problem, c.schedules, opts.margin, work=opts.retime_work, tables=cache.setdefault("curve_tables", {}))
+            entry = {"of": of, "status": r.status, "makespan_before": c.makespan, "makespan": r.makespan,
+                     "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
+            if r.schedules is not None and r.makespan < min(c.makespan, inc.makespan) - 1e-9:
+                waits = sum(1 for sch in r.schedules.values() for st in sch.steps if st.kind == StepKind.WAIT)
+                rc = replace(c, schedules=r.schedules, makespan=r.makespan, waits=waits)
+                p = schedules_plan(problem, rc.alloc, rc.schedules, PlannerKind.OPTIMAL, {})
+                entry["accepted"] = inc.offer(p, verify(problem, p), "retime", rc)
+            retime_info.append(entry)
+            timings["retime"] = timings.get("retime", 0.0) + entry["wall_seconds"]
+
+        start = inc.candidate
+        retimed(start, "coordinated")
+
         # search: allocation, order, branches, priorities with the coordinator as evaluator
-        if inc.candidate is not None and not proven() and opts.search_work > 0 and opts.search_evaluations > 0 \
-                and not inc.candidate.fallback:
+        if start is not None and not proven() and opts.search_work > 0 and opts.search_evaluations > 0 \
+                and not start.fallback:
             ts = _time.perf_counter()
 
             def on_improve(c: Coordinated) -> None:
@@ -231,11 +257,13 @@ def plan_optimal(
                                   tolerance=opts.tolerance,
                                   fixed_assignment=AllocationMethod(allocation) != AllocationMethod.MAKESPAN)
             anchor = coord.bound.assignment if coord.bound is not None else None
-            _, stats = improve(problem, inc.candidate, bound, opts.margin, sopts, on_improve, deadline, cache, anchor)
+            found, stats = improve(problem, start, bound, opts.margin, sopts, on_improve, deadline, cache, anchor)
             search_info = stats.summary()
             timings["search"] = _time.perf_counter() - ts
             stop = stats.stop
             interrupted = stats.stop == StopReason.INTERRUPTED
+            if not interrupted and found is not start:
+                retimed(found, "search")
         # polish: the joint NLP from the incumbent's schedules, where it still waits; or, when
         # nothing could be verified, the last resort from whatever schedules there are
         within = deadline is None or _time.perf_counter() < deadline
@@ -335,6 +363,7 @@ def plan_optimal(
         "lower_bound": coord_plan.solver.get("lower_bound") if coord_plan is not None else None,
         "coordinated": coord_plan.solver if coord_plan is not None else None,
         "search": search_info,
+        "retime": retime_info,
         "nlp": nlp_info,
         "options": {k: v for k, v in opts.__dict__.items() if k != "ipopt"} | {"ipopt": dict(opts.ipopt)},
         "timings": dict(timings),

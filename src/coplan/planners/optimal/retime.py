@@ -1,0 +1,250 @@
+"""Retiming by constraint programming: a coordinated plan's moves, picks and places kept, all
+their start times chosen together (OR-Tools CP-SAT) instead of leg by leg.
+
+Entry point: :func:`retime`. The coordinator books each leg at the earliest time at which it is
+clear of what is already booked, and never revises a booking: a greedy that is exact for one
+leg but can leave an arm waiting where an earlier neighbour could have waited a little instead.
+Here every wait is free at once:
+
+* **Data**: each arm's moves in order (its rest-to-rest S-curves, as they are), each followed by
+  its pick or place dwell, and between two moves an arm *rests* at its pose for as long as it
+  must (at least the dwell). The start of every move is an integer variable (ms).
+* **Constraints**, for every pair of arms that can touch (:meth:`Problem.neighbour_pairs`), all
+  sampled at ``rate`` with the coordinator's ``clearance + margin``:
+
+  - two moves: the start offsets at which some pair of their samples comes too close are
+    forbidden (padded by ``pad`` samples), the rest allowed -- one domain constraint per pair;
+  - a move and a rest pose of the other arm: the stretch of the move that comes too close to
+    the pose must lie wholly before or after the other arm rests there;
+  - two rest poses too close: the two rests do not overlap in time.
+
+* **Objective**: the makespan (the last place of every arm), then the sum of the arms' ends.
+
+The solver runs single-threaded with a deterministic time limit (``work``), from the
+coordinator's own times as a hint, so the same input gives the same plan on any machine. Its
+sampled constraints are not a certificate: the optimal planner keeps a retimed plan only if
+the independent verifier passes it and it is faster.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ...problem.model import Problem
+from ..coordinated.schedule import ArmSchedule, Step, StepKind, arm_points, curve_eval, points_too_close
+
+__all__ = ["RetimeResult", "retime"]
+
+_MS = 1000  # time unit of the model: 1 ms
+
+
+@dataclass
+class _Move:
+    step: Step
+    dwell: list[Step]  # the pick/place steps right after the move
+    T: np.ndarray  # sample times from the move's start
+    pts: tuple  # arm_points at T
+
+    @property
+    def dur(self) -> int:
+        return int(np.ceil(self.step.duration * _MS - 1e-6))
+
+    @property
+    def hold(self) -> int:
+        return int(np.ceil(sum(s.duration for s in self.dwell) * _MS - 1e-6))
+
+
+@dataclass
+class RetimeResult:
+    """What :func:`retime` found: ``schedules`` (None when the model has no solution or the
+    plan's shape is not one it retimes), the solver's status name and its makespan bound (s)."""
+
+    schedules: dict[str, ArmSchedule] | None
+    status: str
+    makespan: float | None
+    bound: float | None
+    constraints: int
+
+
+def _moves(problem: Problem, sch: ArmSchedule, rate: float, tables: dict) -> tuple[list[_Move], int | None] | None:
+    """The arm's moves with their dwells, and the index of the move its last place follows;
+    None when a dwell comes before any move (a shape this model does not retime)."""
+    out: list[_Move] = []
+    last_place = None
+    for st in sch.steps:
+        if st.kind == StepKind.WAIT:
+            continue
+        if st.kind == StepKind.MOVE:
+            T = np.append(np.arange(0.0, st.duration, 1.0 / rate), st.duration)
+            out.append(_Move(st, [], T, arm_points(sch.arm, curve_eval(st.curve, T, tables))))
+            continue
+        if not out:
+            return None
+        out[-1].dwell.append(st)
+        if st.kind == StepKind.PLACE:
+            last_place = len(out) - 1
+    return out, last_place
+
+
+def _allowed(forbidden: np.ndarray, pad: int, horizon: int) -> list[list[int]]:
+    """The complement in [-horizon, horizon] of the union of [x - pad, x + pad] over ``forbidden`` (sorted ints)."""
+    out, cur = [], -horizon
+    lo = hi = None
+    for x in forbidden:
+        if lo is None:
+            lo, hi = x - pad, x + pad
+        elif x - pad <= hi + 1:
+            hi = x + pad
+        else:
+            if lo - 1 >= cur:
+                out.append([cur, lo - 1])
+            cur, lo, hi = hi + 1, x - pad, x + pad
+    if lo is not None:
+        if lo - 1 >= cur:
+            out.append([cur, lo - 1])
+        cur = hi + 1
+    if cur <= horizon:
+        out.append([cur, horizon])
+    return out
+
+
+def _box(pts: tuple) -> np.ndarray:
+    xs, ys = np.concatenate(pts[0::2]), np.concatenate(pts[1::2])
+    return np.array([xs.min(), ys.min(), xs.max(), ys.max()])
+
+
+def _apart(a: np.ndarray, b: np.ndarray, gap: float) -> bool:
+    return bool(a[0] > b[2] + gap or b[0] > a[2] + gap or a[1] > b[3] + gap or b[1] > a[3] + gap)
+
+
+def _meetings(xa: _Move, xb: _Move, radii: float, need: float) -> np.ndarray:
+    """Sorted start offsets (ms, s_b - s_a) at which some sample of ``xa`` comes within
+    ``need`` of one of ``xb`` (each other's links, capsules of ``radii``)."""
+    na, nb = xa.T.size, xb.T.size
+    p, q = np.repeat(np.arange(na), nb), np.tile(np.arange(nb), na)  # every pair, side by side
+    close = points_too_close(tuple(x[p] for x in xa.pts), tuple(x[q] for x in xb.pts), radii, need)
+    return np.unique(np.round((xa.T[p[close]] - xb.T[q[close]]) * _MS).astype(int))
+
+
+def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float = 100.0, pad: int = 1,
+           work: float = 5.0, tables: dict | None = None) -> RetimeResult:
+    """Choose every move's start together (see the module docstring). ``schedules``: a
+    coordinated plan's (waits anywhere, each arm's moves rest to rest); ``margin`` as the
+    coordinator's; ``pad``: forbidden start offsets widened by this many samples either way;
+    ``work``: CP-SAT's deterministic time limit. The returned schedules have the same steps
+    in the same order, only other waits."""
+    from ortools.sat.python import cp_model
+
+    tables = {} if tables is None else tables
+    arms = problem.arms
+    need = problem.task.clearance + margin
+    per = []
+    for a in arms:
+        got = _moves(problem, schedules[a.name], rate, tables)
+        if got is None:
+            return RetimeResult(None, "not retimed: a dwell before any move", None, None, 0)
+        per.append(got)
+    span = max((s.end for s in schedules.values()), default=0.0)
+    horizon = int(np.ceil(2.0 * span * _MS)) + 10 * _MS
+    m = cp_model.CpModel()
+    S = [[m.NewIntVar(0, horizon, f"s{i}_{k}") for k in range(len(mv))] for i, (mv, _) in enumerate(per)]
+    for i, (mv, _) in enumerate(per):
+        for k in range(len(mv) - 1):
+            m.Add(S[i][k + 1] >= S[i][k] + mv[k].dur + mv[k].hold)
+    M = m.NewIntVar(0, horizon, "makespan")
+    ends = []
+    for i, (mv, lp) in enumerate(per):
+        if lp is not None:
+            m.Add(M >= S[i][lp] + mv[lp].dur + mv[lp].hold)
+        if mv:
+            ends.append(S[i][-1] + mv[-1].dur + mv[-1].hold)
+
+    def rests(i):  # (pose, start expr, end expr or None: for ever)
+        mv, _ = per[i]
+        out = [(np.asarray(arms[i].home, float), 0, S[i][0] if mv else None)]
+        for k, x in enumerate(mv):
+            out.append((np.asarray(x.step.q1, float), S[i][k] + x.dur, S[i][k + 1] if k + 1 < len(mv) else None))
+        return out
+
+    step = int(round(_MS / rate))
+    n = 0
+    for i, j in problem.neighbour_pairs():
+        radii = arms[i].link_radius + arms[j].link_radius
+        boxes = [[_box(x.pts) for x in per[a][0]] for a in (i, j)]
+        for ka, xa in enumerate(per[i][0]):  # move against move
+            for kb, xb in enumerate(per[j][0]):
+                if _apart(boxes[0][ka], boxes[1][kb], need + radii):
+                    continue
+                forbid = _meetings(xa, xb, radii, need)  # s_b - s_a at which they meet
+                if forbid.size == 0:
+                    continue
+                m.AddLinearExpressionInDomain(S[j][kb] - S[i][ka], cp_model.Domain.FromIntervals(_allowed(forbid, pad * step, horizon)))
+                n += 1
+        for x, y in ((i, j), (j, i)):  # a move against the other arm's rests
+            ry = rests(y)
+            poses = np.array([r[0] for r in ry])  # (R, 2)
+            pp = arm_points(arms[y], poses)
+            for k, xm in enumerate(per[x][0]):
+                K, R = xm.T.size, len(ry)
+                u, v = np.repeat(np.arange(K), R), np.tile(np.arange(R), K)
+                close = points_too_close(tuple(a[u] for a in xm.pts), tuple(b[v] for b in pp), radii, need).reshape(K, R)
+                for r in np.flatnonzero(close.any(axis=0)):
+                    _, r0, r1 = ry[r]
+                    hit = xm.T[close[:, r]]
+                    c0 = int(np.floor(hit.min() * _MS)) - pad * step
+                    c1 = int(np.ceil(hit.max() * _MS)) + pad * step
+                    n += 1
+                    if r1 is None:  # the other arm rests there from r0 on: this stretch before it
+                        m.Add(S[x][k] + c1 <= r0)
+                        continue
+                    before = m.NewBoolVar("")
+                    m.Add(S[x][k] + c1 <= r0).OnlyEnforceIf(before)
+                    m.Add(S[x][k] + c0 >= r1).OnlyEnforceIf(before.Not())
+        for pa, a0, a1 in rests(i):  # rest against rest
+            ppa = arm_points(arms[i], pa[None])
+            for pb, b0, b1 in rests(j):
+                if not points_too_close(ppa, arm_points(arms[j], pb[None]), radii, need).any():
+                    continue
+                n += 1
+                if a1 is None and b1 is None:
+                    return RetimeResult(None, "not retimed: two final rest poses too close", None, None, n)
+                if a1 is None:
+                    m.Add(b1 <= a0)
+                elif b1 is None:
+                    m.Add(a1 <= b0)
+                else:
+                    first = m.NewBoolVar("")
+                    m.Add(a1 <= b0).OnlyEnforceIf(first)
+                    m.Add(b1 <= a0).OnlyEnforceIf(first.Not())
+    m.Minimize(M * (len(ends) * horizon + 1) + sum(ends))
+    for i, (mv, _) in enumerate(per):  # the coordinator's own times: a hint
+        for k, x in enumerate(mv):
+            m.AddHint(S[i][k], int(round(x.step.t0 * _MS)))
+    solver = cp_model.CpSolver()
+    solver.parameters.num_workers = 1  # single-threaded and a deterministic limit: the same plan anywhere
+    solver.parameters.max_deterministic_time = work
+    solver.parameters.random_seed = 0
+    status = solver.Solve(m)
+    name = solver.StatusName(status)
+    if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
+        return RetimeResult(None, name, None, None, n)
+    out = {}
+    for i, a in enumerate(arms):
+        mv, _ = per[i]
+        steps: list[Step] = []
+        t, pose = 0.0, tuple(map(float, a.home))
+        for k, x in enumerate(mv):
+            s0 = solver.Value(S[i][k]) / _MS
+            if s0 > t + 1e-12:
+                steps.append(Step(StepKind.WAIT, t, s0 - t, pose, pose))
+            steps.append(replace(x.step, t0=s0))
+            t = s0 + x.step.duration
+            for d in x.dwell:
+                steps.append(replace(d, t0=t))
+                t += d.duration
+            pose = tuple(map(float, x.step.q1))
+        out[a.name] = ArmSchedule(a, steps)
+    best = max((s.last_place for s in out.values()), default=0.0)
+    return RetimeResult(out, name, best, solver.BestObjectiveBound() / (len(ends) * horizon + 1) / _MS, n)
