@@ -301,12 +301,11 @@ def verify_cmd(
     from ..plan import PlanFileError
 
     prob = load_problem(problem)
+    loaded = load_plan(plan)
     try:
-        ver = run_verify(prob, load_plan(plan), fcl=fcl)
-    except PlanFileError as e:
-        if e.source is not None and e.source.startswith("plan for problem"):  # the plan does not fit the problem
-            raise PlanFileError(e.issues, f"{plan} (a {e.source}, checked against {problem})") from None
-        raise
+        ver = run_verify(prob, loaded, fcl=fcl)
+    except PlanFileError as e:  # a well-formed plan that does not fit this problem: name both files
+        raise PlanFileError(e.issues, f"{plan} (a {e.source}, checked against {problem})") from None
     written = ver.save(out) if out is not None else None
     if as_json:
         typer.echo(json.dumps(ver.to_dict(), indent=1, allow_nan=False))

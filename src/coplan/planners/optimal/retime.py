@@ -59,16 +59,16 @@ class _Move:
 @dataclass
 class RetimeResult:
     """What :func:`retime` found: ``schedules`` (None when the model has no solution or the
-    plan's shape is not one it retimes), the solver's status name and its makespan bound (s)."""
+    plan's shape is not one it retimes), the solver's status name, the retimed makespan (s)
+    and how many pair constraints the model had."""
 
     schedules: dict[str, ArmSchedule] | None
     status: str
     makespan: float | None
-    bound: float | None
     constraints: int
 
 
-def _moves(problem: Problem, sch: ArmSchedule, rate: float, tables: dict) -> tuple[list[_Move], int | None] | None:
+def _moves(sch: ArmSchedule, rate: float, tables: dict) -> tuple[list[_Move], int | None] | None:
     """The arm's moves with their dwells, and the index of the move its last place follows;
     None when a dwell comes before any move (a shape this model does not retime)."""
     out: list[_Move] = []
@@ -142,9 +142,9 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
     need = problem.task.clearance + margin
     per = []
     for a in arms:
-        got = _moves(problem, schedules[a.name], rate, tables)
+        got = _moves(schedules[a.name], rate, tables)
         if got is None:
-            return RetimeResult(None, "not retimed: a dwell before any move", None, None, 0)
+            return RetimeResult(None, "not retimed: a dwell before any move", None, 0)
         per.append(got)
     span = max((s.end for s in schedules.values()), default=0.0)
     horizon = int(np.ceil(2.0 * span * _MS)) + 10 * _MS
@@ -209,7 +209,7 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
                     continue
                 n += 1
                 if a1 is None and b1 is None:
-                    return RetimeResult(None, "not retimed: two final rest poses too close", None, None, n)
+                    return RetimeResult(None, "not retimed: two final rest poses too close", None, n)
                 if a1 is None:
                     m.Add(b1 <= a0)
                 elif b1 is None:
@@ -229,7 +229,7 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
     status = solver.Solve(m)
     name = solver.StatusName(status)
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
-        return RetimeResult(None, name, None, None, n)
+        return RetimeResult(None, name, None, n)
     out = {}
     for i, a in enumerate(arms):
         mv, _ = per[i]
@@ -246,5 +246,4 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
                 t += d.duration
             pose = tuple(map(float, x.step.q1))
         out[a.name] = ArmSchedule(a, steps)
-    best = max((s.last_place for s in out.values()), default=0.0)
-    return RetimeResult(out, name, best, solver.BestObjectiveBound() / (len(ends) * horizon + 1) / _MS, n)
+    return RetimeResult(out, name, max((s.last_place for s in out.values()), default=0.0), n)

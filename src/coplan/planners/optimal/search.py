@@ -38,6 +38,7 @@ meets the lower bound (``tolerance``): the plan is then proven optimal.
 
 from __future__ import annotations
 
+import itertools
 import math
 import time as _time
 from collections.abc import Callable
@@ -179,7 +180,6 @@ class _Search:
         self.cfg = [arm_configs(problem, arm) for arm in problem.arms]
         self.pos = {f.id: f.position for f in problem.fruits}
         self.reach = {f.id: [i for i in range(len(self.names)) if f.id in self.cfg[i][1]] for f in problem.fruits}
-        self.start_alloc = start.alloc
         self.start = start
         self.rng = np.random.default_rng(opts.seed)
         self._dp: dict = {}
@@ -201,9 +201,8 @@ class _Search:
         """The state of ``assignment`` (arm -> fruit) with each arm's fruit in its fastest order
         (every order up to 6 fruit; else each fruit inserted where it finishes earliest), or
         None when it does not cover the start state's fruit."""
-        import itertools
-
-        if sorted(f for n in self.names for f in assignment.get(n, ())) != sorted(f for seq in self.start.alloc.assignment.values() for f in seq):
+        given = sorted(f for n in self.names for f in assignment.get(n, ()))
+        if given != sorted(f for seq in self.start.alloc.assignment.values() for f in seq):
             return None
         seqs = []
         for i, n in enumerate(self.names):
@@ -242,7 +241,7 @@ class _Search:
             fs, ps, t = self.dp(i, seq, s.forced_of(i))
             n = self.names[i]
             fruit_q[n], place_q[n], est[n] = dict(zip(seq, fs)), dict(zip(seq, ps)), t
-        al = replace(self.start_alloc, assignment=dict(zip(self.names, s.assign)), fruit_q=fruit_q, place_q=place_q,
+        al = replace(self.start.alloc, assignment=dict(zip(self.names, s.assign)), fruit_q=fruit_q, place_q=place_q,
                      estimate=est)
         if s.variant != BranchRule.FASTEST:
             al = clear_branches(self.problem, al, self.problem.task.clearance + self.margin, weight=s.variant.price,
@@ -272,8 +271,6 @@ class _Search:
     def space(self, start: _State, cap: int) -> list[tuple[float, _State]] | None:
         """Every state (allocation, orders, forced elbow branches, variant, priority), with its
         estimate, cheapest first; None when there are more than ``cap`` of them."""
-        import itertools
-
         fruits = [f for seq in start.assign for f in seq]
         if self.opts.fixed_assignment:
             owners = [[next(i for i, seq in enumerate(start.assign) if f in seq)] for f in fruits]
