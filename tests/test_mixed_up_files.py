@@ -88,3 +88,13 @@ def test_check_says_there_is_nothing_to_plan_when_no_fruit_is_harvestable(tmp_pa
     assert r.exit_code == 4 and "nothing to plan" in r.output and "no plan can be faster" not in r.output
     r = runner.invoke(app, ["solve", str(p), "--out", str(tmp_path / "out")])
     assert r.exit_code == 4  # as check said
+
+
+def test_verify_tells_the_makespan_from_the_plans_length(crossing_plan):
+    """The plan goes on after the last place (the arms' way home): verify says both, so its
+    length is not mistaken for the makespan solve reported."""
+    r = runner.invoke(app, ["verify", str(PROBLEMS / "crossing_paths.yaml"), str(crossing_plan)])
+    assert r.exit_code == 0
+    plan = json.loads(crossing_plan.read_text())
+    assert f"(makespan {plan['metrics']['makespan']:.2f} s: the last place)" in r.output
+    assert f"plan of {plan['time'][-1]:.2f} s" in r.output and plan["time"][-1] > plan["metrics"]["makespan"] + 1.0

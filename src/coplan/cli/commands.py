@@ -310,7 +310,11 @@ def verify_cmd(
     if as_json:
         typer.echo(json.dumps(ver.to_dict(), indent=1, allow_nan=False))
     else:
-        print_verification(out_console, prob, ver)
+        from ..plan import EventKind
+
+        events = loaded.events or ver.inferred_events or []
+        places = [e.t_end for e in events if e.kind == EventKind.PLACE]
+        print_verification(out_console, prob, ver, makespan=max(places) if places else None)
         if written is not None:
             out_console.print(f"  wrote             {_s(written)}")
     # no reachable fruit: infeasible (4), as `solve` says of the same problem

@@ -69,14 +69,16 @@ def print_summary(console, res) -> None:
         p(f"  previous run      kept in {safe(res.previous)}")
 
 
-def print_verification(console, problem, ver, max_rows: int = 25) -> None:
-    """Verdict, clearances, peaks and a short table of the violations."""
+def print_verification(console, problem, ver, max_rows: int = 25, makespan: float | None = None) -> None:
+    """Verdict, clearances, peaks and a short table of the violations. ``makespan``: the plan's
+    last place (s), told apart from its length (the plan goes on, e.g. with the arms' way home)."""
     from rich.table import Table
 
     p = console.print
     s = ver.summary()
     verdict = "[bold green]passed[/]" if ver.passed else "[bold red]FAILED[/]"
-    p(f"[bold]{safe(problem.name)}[/] -- {safe(ver.planner)} plan of {ver.duration:.2f} s: {verdict}"
+    span = "" if makespan is None else f" (makespan {makespan:.2f} s: the last place)"
+    p(f"[bold]{safe(problem.name)}[/] -- {safe(ver.planner)} plan of {ver.duration:.2f} s{span}: {verdict}"
       + ("" if ver.complete else f" [yellow](not harvested: {safe(', '.join(ver.unharvested))})[/]"))
     for w in ver.warnings:
         if w.kind.value == "events_inferred":  # harvesting judged from events the verifier inferred: say so
