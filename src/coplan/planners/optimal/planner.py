@@ -221,6 +221,11 @@ def plan_optimal(
         def proven() -> bool:
             return inc.plan is not None and inc.plan.status == PlanStatus.SUCCESS and inc.makespan <= bound + opts.tolerance
 
+        def offer(c: Coordinated, source: str) -> bool:
+            """A candidate's plan, verified, offered to the incumbent."""
+            p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
+            return inc.offer(p, verify(problem, p), source, c)
+
         def retimed(c: Coordinated, of: str) -> None:
             """The retimed ``c`` offered to the incumbent (when retiming is on and can still gain)."""
             if not opts.retime or c is None or c.fallback or proven() or (deadline is not None and _time.perf_counter() > deadline):
@@ -233,9 +238,7 @@ def plan_optimal(
                      "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
             if r.schedules is not None and r.makespan < min(c.makespan, inc.makespan) - 1e-9:
                 waits = sum(1 for sch in r.schedules.values() for st in sch.steps if st.kind == StepKind.WAIT)
-                rc = replace(c, schedules=r.schedules, makespan=r.makespan, waits=waits)
-                p = schedules_plan(problem, rc.alloc, rc.schedules, PlannerKind.OPTIMAL, {})
-                entry["accepted"] = inc.offer(p, verify(problem, p), "retime", rc)
+                entry["accepted"] = offer(replace(c, schedules=r.schedules, makespan=r.makespan, waits=waits), "retime")
             retime_info.append(entry)
             timings["retime"] = timings.get("retime", 0.0) + entry["wall_seconds"]
 
@@ -248,8 +251,7 @@ def plan_optimal(
             ts = _time.perf_counter()
 
             def on_improve(c: Coordinated) -> None:
-                p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
-                inc.offer(p, verify(problem, p), "search", c)
+                offer(c, "search")
 
             sopts = SearchOptions(evaluations=opts.search_evaluations, work=opts.search_work, patience=opts.search_patience, starts=opts.search_starts,
                                   seed=opts.seed,
