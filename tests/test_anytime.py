@@ -203,7 +203,7 @@ def test_exhaustive_search_agrees_with_trying_every_state():
     """Branch and bound over a small state space (cheapest estimate first, stopping where the
     estimate cannot beat the best) finds the same makespan as coordinating every state."""
     from coplan.planners.coordinated import CoordinatedOptions
-    from coplan.planners.optimal.search import BranchRule, SearchOptions, StopReason, _Search, improve
+    from coplan.planners.optimal.search import BranchRule, SearchOptions, StopReason, Neighbourhood, improve
 
     text = default_problem_path().with_name("crossing_paths.yaml").read_text()
     text = text.replace("  - {id: a2, position: [0.75, 0.40]}\n", "").replace("  - {id: b2, position: [-0.75, 0.40]}\n", "")
@@ -213,7 +213,7 @@ def test_exhaustive_search_agrees_with_trying_every_state():
     opts = SearchOptions(evaluations=10_000, work=10**7, attempt_checks=3000)
     best, stats = improve(prob, start, 0.0, 0.015, opts)
     assert stats.stop == StopReason.EXHAUSTED
-    every = _Search(prob, start, 0.015, opts, {})
+    every = Neighbourhood(prob, start, 0.015, opts, {})
     space = every.space(every.state_of(start), opts.exhaustive)
     # orders x branches x branch rules x priorities
     assert space is not None and len(space) == 6 * 4 * len(BranchRule) * 2 and len(BranchRule) == 5
@@ -231,13 +231,13 @@ def test_a_large_state_space_is_not_enumerated():
     from coplan.allocate import allocate
     from coplan.planners.coordinated.planner import Coordinated
     from coplan.generate import row_problem
-    from coplan.planners.optimal.search import SearchOptions, _Search
+    from coplan.planners.optimal.search import SearchOptions, Neighbourhood
 
     prob = parse_problem(to_yaml(row_problem(5, 100, seed=11, reachable_only=True)), "row")
     alloc = allocate(prob)
     assert max(len(v) for v in alloc.assignment.values()) >= 20
     start = Coordinated(alloc, {}, alloc.estimated_makespan)
-    srch = _Search(prob, start, 0.015, SearchOptions(), {})
+    srch = Neighbourhood(prob, start, 0.015, SearchOptions(), {})
     assert srch.space(srch.state_of(start), 20_000) is None
     assert srch._dp == {}  # refused before estimating a single state
 

@@ -12,7 +12,7 @@ from coplan.allocate import bound_details
 from coplan.planners.coordinated import CoordinatedOptions, plan_coordinated
 from coplan.planners.coordinated.planner import schedules_plan
 from coplan.planners.optimal import OptimalOptions, plan_optimal
-from coplan.planners.optimal.search import BranchRule, SearchOptions, _Search, improve
+from coplan.planners.optimal.search import BranchRule, SearchOptions, Neighbourhood, improve
 from coplan.plan import PlannerKind
 from coplan.problem import default_problem_path, load_problem
 from coplan.verify import verify
@@ -30,7 +30,7 @@ def dense():
 
 def test_the_anchor_is_the_bound_allocation_in_each_arms_fastest_order(dense):
     prob, start, lb, cache = dense
-    srch = _Search(prob, start, MARGIN, SearchOptions(), cache)
+    srch = Neighbourhood(prob, start, MARGIN, SearchOptions(), cache)
     s = srch.anchor(lb.assignment, tuple(srch.names))
     assert s is not None and s.variant == BranchRule.BRANCHES
     for i, n in enumerate(srch.names):
@@ -46,7 +46,7 @@ def test_the_anchor_is_the_bound_allocation_in_each_arms_fastest_order(dense):
 
 def test_every_branch_rule_makes_a_verified_plan(dense):
     prob, start, lb, cache = dense
-    srch = _Search(prob, start, MARGIN, SearchOptions(), cache)
+    srch = Neighbourhood(prob, start, MARGIN, SearchOptions(), cache)
     s0 = srch.anchor(lb.assignment, tuple(srch.names))
     made = 0
     for rule in BranchRule:

@@ -50,6 +50,11 @@ class OptimalOptions:
         every start chosen together instead of leg by leg); kept only when verified and faster
     retime_work : CP-SAT's deterministic time limit per retiming (its own work unit, about
         seconds on one core; the same result on any machine)
+    refine_retimes : after the search, go on from its best with the same moves, each neighbour
+        ranked by its retimed makespan (:mod:`coplan.planners.optimal.refine`); this many
+        retimings at most; 0 turns it off (then the search's best alone is retimed)
+    refine_fruit : refine only problems with at most this many fruit to plan (each retiming
+        of a long row takes seconds)
     polish : run the joint NLP from the incumbent when it still waits
     polish_iterations : IPOPT iterations the whole polish may spend (every round, window and
         retry; checked before each solve, and each solve is capped at 200 unless ``ipopt`` sets
@@ -84,6 +89,8 @@ class OptimalOptions:
     seed: int = 0
     retime: bool = True
     retime_work: float = 5.0
+    refine_retimes: int = 100
+    refine_fruit: int = 40
     polish: bool = True
     polish_iterations: int = 400
     polish_rounds: int = 5

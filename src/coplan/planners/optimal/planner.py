@@ -42,7 +42,7 @@ from ...plan import Event, EventKind, Plan, PlannerKind, PlanStatus, finalize_pl
 from ...problem.model import Problem
 from ..coordinated.schedule import ArmSchedule, StepKind, decoupled_schedules
 from ...allocate.screen import screened
-from .search import SearchOptions, StopReason, improve
+from .search import Neighbourhood, SearchOptions, StopReason, improve
 from .options import OptimalOptions
 from .windows import LADDER, solve_windows, window_count
 
@@ -204,7 +204,7 @@ def plan_optimal(
     copts = CoordinatedOptions(margin=opts.margin, budget_checks=opts.coordination_checks, time_limit=opts.time_limit)
     interrupted = False
     stop = StopReason.BUDGET
-    search_info = nlp_info = None
+    search_info = nlp_info = refine_info = None
     retime_info: list[dict] = []
     coord_plan = None
     error = error_trace = None
@@ -233,7 +233,8 @@ def plan_optimal(
             from .retime import retime
 
             tr = _time.perf_counter()
-            r = retime(problem, c.schedules, opts.margin, work=opts.retime_work, tables=cache.setdefault("curve_tables", {}))
+            r = retime(problem, c.schedules, opts.margin, work=opts.retime_work, tables=cache.setdefault("curve_tables", {}),
+                       memo=cache.setdefault("meetings", {}))
             entry = {"of": of, "status": r.status, "makespan_before": c.makespan, "makespan": r.makespan,
                      "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
             if r.schedules is not None and r.makespan < min(c.makespan, inc.makespan) - 1e-9:
@@ -259,12 +260,35 @@ def plan_optimal(
                                   tolerance=opts.tolerance,
                                   fixed_assignment=AllocationMethod(allocation) != AllocationMethod.MAKESPAN)
             anchor = coord.bound.assignment if coord.bound is not None else None
-            found, stats = improve(problem, start, bound, opts.margin, sopts, on_improve, deadline, cache, anchor)
+            hood = Neighbourhood(problem, start, opts.margin, sopts, cache)
+            found, stats = improve(problem, start, bound, opts.margin, sopts, on_improve, deadline, cache, anchor, hood)
             search_info = stats.summary()
             timings["search"] = _time.perf_counter() - ts
             stop = stats.stop
             interrupted = stats.stop == StopReason.INTERRUPTED
-            if not interrupted and found is not start:
+            n_fruit = sum(len(seq) for seq in found.alloc.assignment.values())
+            refining = opts.retime and opts.refine_retimes > 0 and n_fruit <= opts.refine_fruit
+            if not interrupted and refining and not proven() and stats.best_state is not None and (
+                    deadline is None or _time.perf_counter() < deadline):
+                from .refine import RefineOptions, refine
+
+                tr = _time.perf_counter()
+
+                def offer_refined(c: Coordinated) -> bool:
+                    p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
+                    ver = verify(problem, p)
+                    inc.offer(p, ver, "refine", c)
+                    return bool(ver.passed)
+
+                ropts = RefineOptions(retimes=opts.refine_retimes, work=opts.retime_work, tolerance=opts.tolerance)
+                _, rstats = refine(problem, hood, stats.best_state, found, bound, opts.margin, ropts, offer_refined,
+                                   deadline, cache.setdefault("curve_tables", {}), cache.setdefault("meetings", {}),
+                                   stats.local_bests)
+                refine_info = rstats.summary()
+                timings["refine"] = _time.perf_counter() - tr
+                stop = rstats.stop
+                interrupted = rstats.stop == StopReason.INTERRUPTED
+            elif not interrupted and found is not start:
                 retimed(found, "search")
         # polish: the joint NLP from the incumbent's schedules, where it still waits; or, when
         # nothing could be verified, the last resort from whatever schedules there are
@@ -303,8 +327,11 @@ def plan_optimal(
                 ver = verify(problem, plan)
                 accepted = inc.offer(plan, ver, "joint NLP")
                 nlp_info["accepted"] = accepted
+                nlp_info["verified"] = bool(ver.passed)
                 if not accepted and inc.plan is not None:
-                    say(f"joint NLP: {plan.metrics['makespan']:.3f} s, not better than the incumbent; kept the incumbent")
+                    why = "not better than the incumbent" if ver.passed else \
+                        f"refused by the verifier ({len(ver.violations)} violation{'s' * (len(ver.violations) != 1)})"
+                    say(f"joint NLP: {plan.metrics['makespan']:.3f} s, {why}; kept the incumbent")
             if inc.plan is None:  # nothing verified at all: report the NLP's plan honestly
                 ver = verify(problem, plan)
                 plan = finalize_plan(plan, ver, n_reach)
@@ -365,6 +392,7 @@ def plan_optimal(
         "lower_bound": coord_plan.solver.get("lower_bound") if coord_plan is not None else None,
         "coordinated": coord_plan.solver if coord_plan is not None else None,
         "search": search_info,
+        "refine": refine_info,
         "retime": retime_info,
         "nlp": nlp_info,
         "options": {k: v for k, v in opts.__dict__.items() if k != "ipopt"} | {"ipopt": dict(opts.ipopt)},
@@ -411,5 +439,6 @@ def _message(inc: _Incumbent, stop: StopReason) -> str:
         StopReason.TIME_LIMIT: "the time limit was reached; the verified incumbent is returned",
         StopReason.INTERRUPTED: "interrupted; the verified incumbent is saved",
     }
-    source = {"coordinated": "the coordinated plan", "search": "the search", "joint NLP": "the joint NLP"}.get(inc.source, inc.source)
+    source = {"coordinated": "the coordinated plan", "search": "the search", "refine": "the refinement",
+              "joint NLP": "the joint NLP"}.get(inc.source, inc.source)
     return f"{words[stop]} (incumbent from {source})"

@@ -129,15 +129,18 @@ def _meetings(xa: _Move, xb: _Move, radii: float, need: float) -> np.ndarray:
 
 
 def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float = 100.0, pad: int = 1,
-           work: float = 5.0, tables: dict | None = None) -> RetimeResult:
+           work: float = 5.0, tables: dict | None = None, memo: dict | None = None) -> RetimeResult:
     """Choose every move's start together (see the module docstring). ``schedules``: a
     coordinated plan's (waits anywhere, each arm's moves rest to rest); ``margin`` as the
     coordinator's; ``pad``: forbidden start offsets widened by this many samples either way;
-    ``work``: CP-SAT's deterministic time limit. The returned schedules have the same steps
-    in the same order, only other waits."""
+    ``work``: CP-SAT's deterministic time limit; ``memo``: the forbidden offsets of move pairs
+    already met (kept between calls on the same problem, e.g. by a search that retimes many
+    plans sharing most of their moves). The returned schedules have the same steps in the same
+    order, only other waits."""
     from ortools.sat.python import cp_model
 
     tables = {} if tables is None else tables
+    memo = {} if memo is None else memo
     arms = problem.arms
     need = problem.task.clearance + margin
     per = []
@@ -177,7 +180,11 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
             for kb, xb in enumerate(per[j][0]):
                 if _apart(boxes[0][ka], boxes[1][kb], need + radii):
                     continue
-                forbid = _meetings(xa, xb, radii, need)  # s_b - s_a at which they meet
+                key = (i, j, xa.step.q0, xa.step.q1, xa.step.duration, xb.step.q0, xb.step.q1, xb.step.duration,
+                       rate, need)
+                forbid = memo.get(key)
+                if forbid is None:
+                    forbid = memo[key] = _meetings(xa, xb, radii, need)  # s_b - s_a at which they meet
                 if forbid.size == 0:
                     continue
                 m.AddLinearExpressionInDomain(S[j][kb] - S[i][ka], cp_model.Domain.FromIntervals(_allowed(forbid, pad * step, horizon)))

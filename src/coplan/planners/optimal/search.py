@@ -42,7 +42,7 @@ import itertools
 import math
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import numpy as np
@@ -55,7 +55,7 @@ from ..coordinated.routing import choose_branches as clear_branches
 from ..coordinated.schedule import ConflictError, decoupled_schedules
 from ..coordinated.trace import Trace
 
-__all__ = ["BranchRule", "SearchOptions", "SearchStats", "StopReason", "improve"]
+__all__ = ["BranchRule", "Neighbourhood", "SearchOptions", "SearchStats", "State", "StopReason", "improve"]
 
 
 class BranchRule(str, Enum):
@@ -149,6 +149,8 @@ class SearchStats:
     anchored: int = 0  # starts from the anchor (the first one included)
     stop: StopReason = StopReason.BUDGET
     moves: dict | None = None  # move kind -> [tried, improved]
+    best_state: State | None = None  # the state of the best candidate (where a refinement goes on from)
+    local_bests: list = field(default_factory=list)  # (candidate, state): the best of each start, in turn
 
     def summary(self) -> dict:
         return {"evaluations": self.evaluations, "checks": self.checks, "checks_made": self.checks_made,
@@ -159,7 +161,10 @@ class SearchStats:
 
 
 @dataclass(frozen=True)
-class _State:
+class State:
+    """One point of the search space: which arm takes which fruit in which order, the elbow
+    branch rule, the arms' priority order and any elbow branches forced at single fruit."""
+
     assign: tuple[tuple[str, ...], ...]  # per arm (problem order), fruit in harvesting order
     variant: BranchRule
     order: tuple[str, ...]  # priority
@@ -173,7 +178,11 @@ _MOVES = ("first", "relocate", "swap", "exchange", "move", "twoopt", "reverse", 
 _WEIGHTS = np.array([3.0, 4.0, 3.0, 1.0, 1.5, 1.0, 0.5, 2.0, 0.5, 0.5])
 
 
-class _Search:
+class Neighbourhood:
+    """The search space around a coordinated ``start``: :meth:`propose` a random move from a
+    :class:`State`, :meth:`estimate` its decoupled bound, :meth:`evaluate` it with the
+    coordinator (sharing ``cache``). Its random stream is seeded by ``opts.seed``."""
+
     def __init__(self, problem: Problem, start: Coordinated, margin: float, opts: SearchOptions, cache: dict):
         self.problem, self.margin, self.opts, self.cache = problem, margin, opts, cache
         self.names = [a.name for a in problem.arms]
@@ -183,7 +192,7 @@ class _Search:
         self.start = start
         self.rng = np.random.default_rng(opts.seed)
         self._dp: dict = {}
-        self.traces: dict[_State, Trace] = {}  # recent coordinator runs, to resume from (see coordinate)
+        self.traces: dict[State, Trace] = {}  # recent coordinator runs, to resume from (see coordinate)
         self.stats = SearchStats(moves={m: [0, 0] for m in _MOVES})
         self.hold(opts.fixed_assignment)
 
@@ -192,12 +201,12 @@ class _Search:
         w = _WEIGHTS * [not (assignment and m in ("relocate", "swap")) for m in _MOVES]
         self.weights = w / w.sum()
 
-    def state_of(self, c: Coordinated) -> _State:
+    def state_of(self, c: Coordinated) -> State:
         order = tuple(c.order) if c.order else tuple(self.names)
         variant = BranchRule(c.variant) if c.variant in set(BranchRule) else BranchRule.BRANCHES
-        return _State(tuple(tuple(c.alloc.assignment[n]) for n in self.names), variant, order)
+        return State(tuple(tuple(c.alloc.assignment[n]) for n in self.names), variant, order)
 
-    def anchor(self, assignment: dict[str, tuple[str, ...]], order: tuple[str, ...]) -> _State | None:
+    def anchor(self, assignment: dict[str, tuple[str, ...]], order: tuple[str, ...]) -> State | None:
         """The state of ``assignment`` (arm -> fruit) with each arm's fruit in its fastest order
         (every order up to 6 fruit; else each fruit inserted where it finishes earliest), or
         None when it does not cover the start state's fruit."""
@@ -214,7 +223,7 @@ class _Search:
                 for f in fr:
                     seq = self.insert_best(i, seq, f, ())
                 seqs.append(tuple(seq))
-        return _State(tuple(seqs), BranchRule.BRANCHES, order)
+        return State(tuple(seqs), BranchRule.BRANCHES, order)
 
     # ---- evaluation
     def dp(self, i: int, seq: tuple[str, ...], forced: tuple = ()):
@@ -230,10 +239,10 @@ class _Search:
             self._dp[key] = hit
         return hit
 
-    def estimate(self, s: _State) -> float:
+    def estimate(self, s: State) -> float:
         return max((self.dp(i, seq, s.forced_of(i))[2] for i, seq in enumerate(s.assign)), default=0.0)
 
-    def evaluate(self, s: _State) -> Coordinated | None:
+    def evaluate(self, s: State) -> Coordinated | None:
         """Coordinate state ``s`` (continuing the recent run whose legs agree longest with
         its own, see :mod:`coplan.planners.coordinated.trace`); None when coordination fails."""
         fruit_q, place_q, est = {}, {}, {}
@@ -268,7 +277,7 @@ class _Search:
             del self.traces[next(iter(self.traces))]
         return Coordinated(al, sched, makespan_of(sched), list(s.order), s.variant.value, waits)
 
-    def space(self, start: _State, cap: int) -> list[tuple[float, _State]] | None:
+    def space(self, start: State, cap: int) -> list[tuple[float, State]] | None:
         """Every state (allocation, orders, forced elbow branches, variant, priority), with its
         estimate, cheapest first; None when there are more than ``cap`` of them."""
         fruits = [f for seq in start.assign for f in seq]
@@ -278,7 +287,7 @@ class _Search:
             owners = [self.reach[f] for f in fruits]
         priorities = list(itertools.permutations(start.order))
         per = len(BranchRule) * len(priorities)
-        out: list[tuple[float, _State]] = []
+        out: list[tuple[float, State]] = []
         for split in itertools.product(*owners):
             groups = [[f for f, a in zip(fruits, split) if a == i] for i in range(len(self.names))]
             # exact integers: these counts overflow any fixed-width type on a long row
@@ -290,8 +299,8 @@ class _Search:
                 assign = tuple(tuple(o) for o in orders)
                 for fb in itertools.product(*[range(len(self.cfg[a][1][f])) for f, a in zip(fruits, split)]):
                     forced = frozenset((a, f, b) for f, a, b in zip(fruits, split, fb))
-                    est = self.estimate(_State(assign, start.variant, start.order, forced))
-                    out += [(est, _State(assign, v, o, forced)) for v in BranchRule for o in priorities]
+                    est = self.estimate(State(assign, start.variant, start.order, forced))
+                    out += [(est, State(assign, v, o, forced)) for v in BranchRule for o in priorities]
         out.sort(key=lambda x: x[0])  # stable: ties keep the enumeration's order
         return out
 
@@ -321,7 +330,7 @@ class _Search:
                     best, t_best = trial, t
         return best
 
-    def propose(self, s: _State, c: int) -> tuple[str, _State] | None:
+    def propose(self, s: State, c: int) -> tuple[str, State] | None:
         kind = str(self.rng.choice(_MOVES, p=self.weights))
         assign = [list(seq) for seq in s.assign]
         mine = assign[c]
@@ -414,20 +423,23 @@ def improve(
     deadline: float | None = None,
     cache: dict | None = None,
     anchor: dict[str, tuple[str, ...]] | None = None,
+    hood: Neighbourhood | None = None,
 ) -> tuple[Coordinated, SearchStats]:
     """Improve a coordinated candidate by large-neighbourhood search (see the module docstring).
 
     ``on_improve`` is called with every new best (lower makespan). ``anchor`` (arm -> fruit,
     e.g. the lower bound's allocation): where every other fresh start begins, its assignment
     held for that start (none with ``fixed_assignment``). Returns the best candidate and the
-    search's statistics (``stats.stop`` says what ended it). Ctrl-C ends the search with what
-    it has (``StopReason.INTERRUPTED``).
+    search's statistics (``stats.stop`` says what ended it; ``stats.best_state`` is the best
+    candidate's state). Ctrl-C ends the search with what it has (``StopReason.INTERRUPTED``).
+    ``hood``: the neighbourhood to search (made from the other arguments when None; pass one
+    to go on from it afterwards, e.g. :func:`coplan.planners.optimal.refine.refine`).
     """
     opts = options or SearchOptions()
-    srch = _Search(problem, start, margin, opts, {} if cache is None else cache)
+    srch = hood if hood is not None else Neighbourhood(problem, start, margin, opts, {} if cache is None else cache)
     st = srch.stats
     best = cur = pbest = start  # pbest: the best of this start (the patience counts from it)
-    s_cur = srch.state_of(start)
+    s_cur = s_pbest = st.best_state = srch.state_of(start)
     seen = {s_cur}
     since_best = since_cur = idle = 0
     max_proposals = 50 * opts.evaluations + 100
@@ -451,9 +463,9 @@ def improve(
             if a_cand is not None and a_cand.makespan < best.makespan - 1e-9:
                 a_turn = 0
                 st.anchored = 1
-                cur, s_cur, pbest = a_cand, a_state, a_cand
+                cur, s_cur, pbest, s_pbest = a_cand, a_state, a_cand, a_state
                 srch.hold(True)
-                best = a_cand
+                best, st.best_state = a_cand, a_state
                 st.improvements += 1
                 if on_improve is not None:
                     on_improve(best)
@@ -468,6 +480,7 @@ def improve(
                 st.stop = StopReason.STALLED  # no progress, or no new state left to try
                 break
             if since_best >= opts.patience:  # a fresh start: from the anchor (held) or the start
+                st.local_bests.append((pbest, s_pbest))
                 st.fresh_starts += 1
                 since_best = since_cur = 0
                 cur, s_cur = start, srch.state_of(start)
@@ -476,7 +489,7 @@ def improve(
                     st.anchored += 1
                     cur, s_cur = a_cand, a_state
                     srch.hold(True)
-                pbest = cur
+                pbest, s_pbest = cur, s_cur
                 continue
             if deadline is not None and _time.perf_counter() > deadline:
                 st.stop = StopReason.TIME_LIMIT
@@ -522,23 +535,25 @@ def improve(
                 continue
             cur, s_cur, since_cur = cand, s_new, 0
             if cand.makespan < pbest.makespan - 1e-9:
-                pbest, since_best = cand, 0
+                pbest, s_pbest, since_best = cand, s_new, 0
             elif _better(cand, pbest):
-                pbest = cand
+                pbest, s_pbest = cand, s_new
             if cand.makespan < best.makespan - 1e-9:
-                best = cand
+                best, st.best_state = cand, s_new
                 st.improvements += 1
                 st.moves[kind][1] += 1
                 if on_improve is not None:
                     on_improve(best)
             elif _better(cand, best):
-                best = cand
+                best, st.best_state = cand, s_new
     except KeyboardInterrupt:
         st.stop = StopReason.INTERRUPTED
+    if space is None:
+        st.local_bests.append((pbest, s_pbest))
     return best, st
 
 
-def _exhaust(srch: _Search, space, best: Coordinated, bound: float, seen: set, on_improve, deadline) -> Coordinated:
+def _exhaust(srch: Neighbourhood, space, best: Coordinated, bound: float, seen: set, on_improve, deadline) -> Coordinated:
     """Branch and bound over the whole (small) state space, cheapest estimate first."""
     st, opts = srch.stats, srch.opts
     st.stop = StopReason.EXHAUSTED
@@ -560,7 +575,7 @@ def _exhaust(srch: _Search, space, best: Coordinated, bound: float, seen: set, o
         st.proposals += 1
         cand = srch.evaluate(s)
         if cand is not None and cand.makespan < best.makespan - 1e-9:
-            best = cand
+            best, st.best_state = cand, s
             st.improvements += 1
             if on_improve is not None:
                 on_improve(best)
