@@ -53,7 +53,7 @@ def test_the_polishing_nlp_is_kept_only_when_verified_and_faster():
     default the CP-SAT retiming gets there first, see test_retiming_beats_the_plain_search_on_crossing_paths;
     here it is off, so the NLP's own acceptance is what is tested.)"""
     prob = _shipped("crossing_paths")
-    res = plan_optimal(prob, options=OptimalOptions(retime=False))
+    res = plan_optimal(prob, options=OptimalOptions(retime=False, polish=True))
     plan = res.plan
     assert plan.solver["search"]["stopped_by"] == "exhausted"
     searched = [h["makespan"] for h in plan.solver["incumbents"] if h["source"] == "search"]

@@ -219,14 +219,14 @@ def test_ctrl_c_during_the_nlp_keeps_the_verified_incumbent(crossing, monkeypatc
         return original(self, arg)
 
     monkeypatch.setattr(nlp_mod._Monitor, "eval", eval_with_sigint)
-    res = plan_optimal(crossing)  # the search's best, retimed, still waits: the NLP runs on it
+    res = plan_optimal(crossing, options=OptimalOptions(polish=True))  # the refined best still waits: the NLP runs on it
     assert res.solver_status == SolverStatus.INTERRUPTED
     assert res.plan.status == PlanStatus.INTERRUPTED
     assert res.plan.solver["stopped_by"] == "interrupted"
     assert res.plan.solver["nlp"]["iterations"] <= 5
     assert res.verification.passed and verify(crossing, res.plan).passed  # the incumbent, verified
     before = [h for h in res.plan.solver["incumbents"] if h["source"] != "joint NLP"]
-    assert res.plan.solver["incumbent_from"] == "retime"
+    assert res.plan.solver["incumbent_from"] == "refine"
     assert res.plan.metrics["makespan"] == pytest.approx(before[-1]["makespan"], abs=1e-9)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handler restored
 

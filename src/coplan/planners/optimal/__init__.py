@@ -1,8 +1,10 @@
-"""The anytime optimal planner: a verified incumbent, improved by search and a joint NLP.
+"""The anytime optimal planner: a verified incumbent, improved by search, retiming and a joint NLP.
 
 - :mod:`.options`: :class:`OptimalOptions` and its YAML file (``--options FILE``)
-- :mod:`.planner`: :func:`plan_optimal`: coordinated -> search -> polish, the incumbent rule
+- :mod:`.planner`: :func:`plan_optimal`: coordinated -> retime -> search -> refine (-> polish), the incumbent rule
 - :mod:`.search`: large-neighbourhood search with the coordinator as evaluator
+- :mod:`.retime`: CP-SAT retiming (a plan's moves kept, every start chosen together)
+- :mod:`.refine`: the search's neighbourhood again, each neighbour ranked by its retimed makespan
 - :mod:`.nlp`, :mod:`.nlp_data`, :mod:`.nlp_solve`: the CasADi program over all arms (its knot
   grid and data), solved by IPOPT
 - :mod:`.windows`: refinement rounds and receding windows around the NLP

@@ -12,15 +12,19 @@ coordinated one, and whenever it stops -- at its work budget, at an explicit
 2. **search** (:func:`coplan.planners.optimal.search.improve`): large-neighbourhood search over allocation,
    order, elbow branches and priorities with the coordinator as evaluator; each new best is
    verified and offered to the incumbent.
-   Before the search and after it, the incumbent's moves are **retimed**
+   Before the search, the coordinated plan's moves are **retimed**
    (:func:`coplan.planners.optimal.retime.retime`): the same moves, picks and places, every
    start chosen together by CP-SAT instead of leg by leg; a retimed plan is verified and
    offered like any other.
-3. **polish** (:func:`coplan.planners.optimal.windows.solve_windows`): one CasADi/IPOPT program over all
-   arms from the incumbent's schedules, where it still waits (receding windows on long
-   rows); its plan is verified and offered like any other. When no coordinated plan could
-   be verified at all, this is the planner's last resort and its status is reported
-   honestly (best iterate kept, baseline beside it).
+3. **refine** (:func:`coplan.planners.optimal.refine.refine`): the search's neighbourhood
+   again from its best (and its other local bests), each neighbour retimed and ranked by its
+   retimed makespan; each new best verified and offered. Without it (``refine_retimes: 0``,
+   or more than ``refine_fruit`` fruit) the search's best alone is retimed.
+4. **polish** (:func:`coplan.planners.optimal.windows.solve_windows`, with ``polish: true``):
+   one CasADi/IPOPT program over all arms from the incumbent's schedules, where it still waits
+   (receding windows on long rows); its plan is verified and offered like any other. When no
+   coordinated plan could be verified at all, this is the planner's last resort (whatever
+   ``polish`` says) and its status is reported honestly (best iterate kept, baseline beside it).
 
 Every default budget is work (coordinator checks, evaluations, IPOPT iterations), so the
 same input gives the same plan on any machine and under any load.
@@ -181,7 +185,8 @@ def plan_optimal(
     options: OptimalOptions | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> OptimalResult:
-    """Plan all arms, anytime: coordinated plan, then search, then joint NLP; verified."""
+    """Plan all arms, anytime: coordinated plan, retime, search, refine (then the joint NLP
+    with ``polish``, or as the last resort); every incumbent verified."""
     from ...verify.verifier import verify
 
     opts = options or OptimalOptions()
