@@ -183,8 +183,7 @@ def refine(
                         s_cur = mv[1] if mv is not None else s_cur
                     kicked = hood.evaluate(s_cur) if s_cur != s_best else None
                     st.kicks += 1
-                    if kicked is None:
-                        since = tried = 0
+                    if kicked is None:  # kick again
                         st.proposals += 1
                         continue
                     cur = kicked
