@@ -109,3 +109,29 @@ def test_retiming_beats_the_plain_search_on_crossing_paths():
     assert res.plan.solver["incumbent_from"] == "refine"  # the refinement retimes the search's best first
     assert res.plan.solver["refine"]["start_makespan"] == pytest.approx(res.plan.metrics["makespan"], abs=1e-6)
     assert res.plan.metrics["makespan"] < 6.469 - 0.2 and verify(prob, res.plan).passed
+
+
+def test_the_screened_meetings_are_exactly_the_brute_force_ones(dense):
+    """Every start offset at which two moves meet, with the bounding-box screen, against every
+    pair of samples tested exactly (the screen only skips pairs that cannot be too close)."""
+    from coplan.planners.coordinated.schedule import points_too_close
+    from coplan.planners.optimal.retime import _meetings, _moves
+
+    prob, coord = dense
+    arms = prob.arms
+    tables: dict = {}
+    need = prob.task.clearance + MARGIN
+    compared = met = 0
+    for i, j in prob.neighbour_pairs():
+        radii = arms[i].link_radius + arms[j].link_radius
+        for xa in _moves(coord.schedules[arms[i].name], 100.0, tables)[0]:
+            for xb in _moves(coord.schedules[arms[j].name], 100.0, tables)[0]:
+                na, nb = xa.T.size, xb.T.size
+                p, q = np.repeat(np.arange(na), nb), np.tile(np.arange(nb), na)
+                close = points_too_close(tuple(x[p] for x in xa.pts), tuple(x[q] for x in xb.pts), radii, need)
+                brute = np.unique(np.round((xa.T[p[close]] - xb.T[q[close]]) * 1000).astype(int))
+                got = _meetings(xa, xb, radii, need)
+                assert np.array_equal(got, brute)
+                compared += 1
+                met += bool(brute.size)
+    assert compared > 100 and met > 10  # both kinds of pair were compared

@@ -119,11 +119,26 @@ def _apart(a: np.ndarray, b: np.ndarray, gap: float) -> bool:
     return bool(a[0] > b[2] + gap or b[0] > a[2] + gap or a[1] > b[3] + gap or b[1] > a[3] + gap)
 
 
+def _sample_boxes(pts: tuple) -> tuple[np.ndarray, ...]:
+    """Per sample, the bounding box ``(x0, y0, x1, y1)`` of an arm given by ``arm_points``."""
+    xs, ys = np.stack(pts[0::2]), np.stack(pts[1::2])
+    return xs.min(axis=0), ys.min(axis=0), xs.max(axis=0), ys.max(axis=0)
+
+
 def _meetings(xa: _Move, xb: _Move, radii: float, need: float) -> np.ndarray:
     """Sorted start offsets (ms, s_b - s_a) at which some sample of ``xa`` comes within
     ``need`` of one of ``xb`` (each other's links, capsules of ``radii``)."""
-    na, nb = xa.T.size, xb.T.size
-    p, q = np.repeat(np.arange(na), nb), np.tile(np.arange(nb), na)  # every pair, side by side
+    # screen first: two samples whose arms' bounding boxes are further apart than radii + need
+    # (along x or y) cannot be too close; only the other pairs are tested exactly (this also
+    # keeps the temporaries small: na x nb pairs of link coordinates, allocated on every call,
+    # had made a long row's retiming twice as slow in a process that had planned before)
+    g = radii + need
+    (ax0, ay0, ax1, ay1), (bx0, by0, bx1, by1) = _sample_boxes(xa.pts), _sample_boxes(xb.pts)
+    near = ((ax0[:, None] <= bx1[None] + g) & (bx0[None] <= ax1[:, None] + g)
+            & (ay0[:, None] <= by1[None] + g) & (by0[None] <= ay1[:, None] + g))
+    p, q = np.nonzero(near)
+    if p.size == 0:
+        return np.zeros(0, int)
     close = points_too_close(tuple(x[p] for x in xa.pts), tuple(x[q] for x in xb.pts), radii, need)
     return np.unique(np.round((xa.T[p[close]] - xb.T[q[close]]) * _MS).astype(int))
 
