@@ -65,7 +65,7 @@ def test_refinement_beats_the_search_and_every_best_is_verified(dense):
     assert st.retimes == 40 and st.stop == StopReason.BUDGET
     assert offered and all(ok for _, ok in offered)  # the sampled model agrees with the certified check
     ms = [m for m, _ in offered]
-    assert ms == sorted(ms, reverse=True)  # only ever better
+    assert all(b < a for a, b in zip(ms, ms[1:]))  # only ever strictly better
     assert got.makespan == pytest.approx(ms[-1])
     assert got.makespan < best.makespan - 0.1  # measured: about 16.4 -> 15.3 s after this short search
     assert got.makespan >= bound - 1e-9
@@ -88,9 +88,16 @@ def test_refinement_is_deterministic(dense):
 def test_a_refused_candidate_is_dropped_and_the_start_is_returned(dense):
     prob, _, _, _, bound = dense
     hood, state, best = _fresh(dense)
-    got, st = refine(prob, hood, state, best, bound, MARGIN, RefineOptions(retimes=8), offer=lambda c: False)
-    assert got is best
-    assert st.improvements == 0 and st.failed >= 1
+    asked = []
+
+    def refuse(c):
+        asked.append(c.makespan)
+        return False
+
+    got, st = refine(prob, hood, state, best, bound, MARGIN, RefineOptions(retimes=8), offer=refuse)
+    assert asked and all(m < best.makespan for m in asked)  # better candidates were offered ...
+    assert got is best and st.improvements == 0  # ... and every one refused was dropped
+    assert st.failed >= len(asked)
 
 
 def test_it_stops_at_once_when_the_start_meets_the_bound(dense):
@@ -102,16 +109,23 @@ def test_it_stops_at_once_when_the_start_meets_the_bound(dense):
 
 
 def test_the_shared_offsets_memo_changes_nothing(dense):
-    prob, _, _, best, _ = dense
+    """Several different plans (the search's best and its neighbours: other allocations, orders
+    and branches) retimed through one shared memo, each against a retiming with none."""
+    prob, _, state, best, _ = dense
+    hood, _, _ = _fresh(dense)
+    plans = [best]
+    while len(plans) < 6:
+        mv = hood.propose(state, len(plans) % len(prob.arms))
+        c = hood.evaluate(mv[1]) if mv is not None else None
+        if c is not None:
+            plans.append(c)
     memo: dict = {}
-    a = retime(prob, best.schedules, MARGIN, memo=memo)
-    assert memo  # every move pair that can meet
-    b = retime(prob, best.schedules, MARGIN, memo=memo)  # from the memo
-    c = retime(prob, best.schedules, MARGIN)
-    assert a.makespan == b.makespan == c.makespan
-    for n in a.schedules:
-        assert [s.t0 for s in a.schedules[n].steps] == [s.t0 for s in b.schedules[n].steps] == \
-            [s.t0 for s in c.schedules[n].steps]
+    for c in plans:
+        shared, alone = retime(prob, c.schedules, MARGIN, memo=memo), retime(prob, c.schedules, MARGIN)
+        assert shared.makespan == alone.makespan
+        for n in shared.schedules:
+            assert [s.t0 for s in shared.schedules[n].steps] == [s.t0 for s in alone.schedules[n].steps]
+    assert memo  # every move pair that can meet, shared between the plans
 
 
 def test_the_planner_reports_the_refinement_and_can_turn_it_off():
@@ -134,7 +148,53 @@ def test_other_local_bests_are_refined_lowest_estimate_first_and_then_the_best_k
     hood, state, best = _fresh(dense)
     others = [(c, s) for c, s in hood.stats.local_bests if s != state]
     assert others  # the short search had a fresh start
+    begun = []
+    orig = hood.propose
+
+    def propose(s, c):  # the state each start's first proposal comes from
+        if not begun or begun[-1] is not s:
+            begun.append(s)
+        return orig(s, c)
+
+    hood.propose = propose
     got, st = refine(prob, hood, state, best, bound, MARGIN, RefineOptions(retimes=60, patience=3), more=others)
     assert st.starts == 1 + len({s for _, s in others})
+    firsts = [s for s in dict.fromkeys(begun) if s == state or any(s == o for _, o in others)]
+    assert firsts[0] == state  # the search's best first ...
+    est = [hood.estimate(s) for s in firsts[1:]]
+    assert est == sorted(est)  # ... then the other local bests, lowest estimate first
     assert st.kicks >= 1 and st.retimes == 60
     assert got.makespan <= best.makespan
+
+
+def test_ctrl_c_during_the_refinement_keeps_the_verified_incumbent(monkeypatch):
+    """A KeyboardInterrupt from inside a retiming (where the refinement spends its time) ends
+    the planner with the verified incumbent, and CP-SAT never takes Ctrl-C for itself."""
+    import coplan.planners.optimal.refine as refine_mod
+    from ortools.sat.python import cp_model
+
+    prob = load_problem(default_problem_path().with_name("dense_overlap.yaml"))
+    calls = []
+    real = refine_mod.retime
+
+    def interrupted_retime(*a, **k):
+        calls.append(1)
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        return real(*a, **k)
+
+    catches = []
+    real_solve = cp_model.CpSolver.Solve
+
+    def solve(self, *a, **k):
+        catches.append(self.parameters.catch_sigint_signal)
+        return real_solve(self, *a, **k)
+
+    monkeypatch.setattr(refine_mod, "retime", interrupted_retime)
+    monkeypatch.setattr(cp_model.CpSolver, "Solve", solve)
+    res = plan_optimal(prob, options=OptimalOptions(search_work=6000, search_evaluations=200))
+    assert len(calls) == 4
+    assert res.plan.solver["refine"]["stopped_by"] == "interrupted"
+    assert res.plan.status.value == "interrupted" and res.plan.solver["stopped_by"] == "interrupted"
+    assert res.verification.passed and verify(prob, res.plan).passed
+    assert catches and not any(catches)  # Ctrl-C stays Python's (the planner saves the incumbent)

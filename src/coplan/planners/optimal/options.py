@@ -47,7 +47,8 @@ class OptimalOptions:
         (annealing; the rest is descent and fresh starts); 0 for pure descent
     seed : seed of the search's moves
     retime : retime the coordinated plan and the search's best with CP-SAT (the same moves,
-        every start chosen together instead of leg by leg); kept only when verified and faster
+        every start chosen together instead of leg by leg); kept only when verified and faster;
+        false also turns the refinement off
     retime_work : CP-SAT's deterministic time limit per retiming (its own work unit, about
         seconds on one core; the same result on any machine)
     refine_retimes : after the search, go on from its best with the same moves, each neighbour

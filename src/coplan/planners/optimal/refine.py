@@ -16,7 +16,7 @@ makespan:
 * otherwise it is retimed, and becomes the current state when faster, or when slower with
   probability exp(-worse / ``temperature``) (annealing at a fixed temperature);
 * a new best is offered (``offer``: the caller verifies it); one the caller refuses is
-  dropped as if it could not be retimed;
+  dropped: it becomes neither the best nor the current state;
 * after ``patience`` retimings without improving on the best of the start in use (or 500
   proposals without one worth retiming) it goes on from the next start: the other local bests
   the search left (its fresh starts' bests,
@@ -82,7 +82,7 @@ class RefineStats:
     proposals: int = 0
     evaluations: int = 0  # neighbours coordinated
     pruned: int = 0  # skipped: the estimate cannot beat the best
-    beyond_slack: int = 0  # skipped: coordinated more than ``slack`` above the best
+    beyond_slack: int = 0  # skipped: coordinated more than ``slack`` above the current state
     failed: int = 0  # not coordinated, not retimed, or refused by the caller
     improvements: int = 0
     starts: int = 0  # local bests refined from (the search's best first)
@@ -115,7 +115,9 @@ def refine(
     module docstring), then, each time ``patience`` retimings bring no new best of the start
     in use, each of ``more`` (other local bests, e.g. ``SearchStats.local_bests``) in turn,
     lowest decoupled estimate first (the most room for coordination), then fastest.
-    ``offer`` is called with every new best (retimed schedules) and says whether it is kept;
+    ``offer`` is called with every new best (retimed schedules) and says whether it passed the
+    caller's check (the planner verifies it; a refused one is dropped), the refinement keeping
+    its own best;
     ``tables``/``memo``: S-curve tables and forbidden offsets shared with other retimings.
     Returns the best candidate (``start`` when nothing beat it) and the statistics; Ctrl-C ends
     it with what it has."""
@@ -177,12 +179,16 @@ def refine(
                     cur, s_cur = starts[k]
                     st.starts += 1
                 else:  # every start used: the best, kicked by a few random moves
+                    if opts.kick <= 0 or st.kicks >= 20 * (st.improvements + 1):
+                        st.stop = StopReason.STALLED  # no kicks, or kicks that lead nowhere
+                        break
                     s_cur = s_best
                     for _ in range(opts.kick):
                         mv = hood.propose(s_cur, int(hood.rng.integers(len(s_cur.assign))))
                         s_cur = mv[1] if mv is not None else s_cur
                     kicked = hood.evaluate(s_cur) if s_cur != s_best else None
                     st.kicks += 1
+                    st.evaluations += s_cur != s_best
                     if kicked is None:  # kick again
                         st.proposals += 1
                         continue

@@ -248,6 +248,10 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
     solver.parameters.num_workers = 1  # single-threaded and a deterministic limit: the same plan anywhere
     solver.parameters.max_deterministic_time = work
     solver.parameters.random_seed = 0
+    # Ctrl-C is the planner's (it saves the incumbent): CP-SAT's own SIGINT handler would end
+    # the solve as if at its limit, swallow the key and leave SIGINT at its default (a second
+    # Ctrl-C would then kill the process without saving anything)
+    solver.parameters.catch_sigint_signal = False
     status = solver.Solve(m)
     name = solver.StatusName(status)
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
