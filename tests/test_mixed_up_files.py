@@ -98,3 +98,17 @@ def test_verify_tells_the_makespan_from_the_plans_length(crossing_plan):
     plan = json.loads(crossing_plan.read_text())
     assert f"(makespan {plan['metrics']['makespan']:.2f} s: the last place)" in r.output
     assert f"plan of {plan['time'][-1]:.2f} s" in r.output and plan["time"][-1] > plan["metrics"]["makespan"] + 1.0
+
+
+def test_a_shipped_problem_named_without_its_path_gets_its_path(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # no such file here
+    for given in ("dense_overlap", "dense_overlap.yaml"):
+        with pytest.raises(ProblemError) as e:
+            load_problem(given)
+        msg = str(e.value)
+        assert msg.startswith(f"{given}:") and str(PROBLEMS / "dense_overlap.yaml") in msg and "coplan problems" in msg
+    r = runner.invoke(app, ["solve", "dense_overlap"])
+    assert r.exit_code == 3 and str(PROBLEMS / "dense_overlap.yaml") in r.output and "Traceback" not in r.output
+    with pytest.raises(ProblemError) as e:  # any other missing file: the plain message
+        load_problem("no_such_cell.yaml")
+    assert "shipped" not in str(e.value) and "found no file at this path" in str(e.value)

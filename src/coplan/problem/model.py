@@ -558,8 +558,19 @@ def _is_text_path(path: tuple) -> bool:
 
 
 def load_problem(path: str | Path) -> Problem:
-    """Load and validate a problem file (raises :class:`ProblemError`, never a bare traceback)."""
-    return parse_problem(read_input_text(path, ProblemError), str(Path(path)))
+    """Load and validate a problem file (raises :class:`ProblemError`, never a bare traceback).
+
+    A missing file named like a shipped problem (``dense_overlap``, ``dense_overlap.yaml``)
+    gets an error that gives the shipped file's path."""
+    p = Path(path)
+    if not p.exists():
+        name = p.name[:-5] if p.name.endswith(".yaml") else p.name
+        shipped = {s.stem: s for s in shipped_problems()}
+        if name in shipped:
+            raise ProblemError([Issue("", f"expected an existing YAML file, found no file at this path; "
+                                          f"{name!r} is a shipped problem, its file is {shipped[name]} "
+                                          f"('coplan problems' lists them all)")], str(p))
+    return parse_problem(read_input_text(path, ProblemError), str(p))
 
 
 def _problems_dir() -> Path:
