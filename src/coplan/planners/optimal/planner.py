@@ -235,7 +235,7 @@ def plan_optimal(
             """The retimed ``c`` offered to the incumbent (when retiming is on and can still gain)."""
             if not opts.retime or c is None or c.fallback or proven() or (deadline is not None and _time.perf_counter() > deadline):
                 return
-            from .retime import retime
+            from .retime import retime, retimed_candidate
 
             tr = _time.perf_counter()
             r = retime(problem, c.schedules, opts.margin, work=opts.retime_work, tables=cache.setdefault("curve_tables", {}),
@@ -243,8 +243,7 @@ def plan_optimal(
             entry = {"of": of, "status": r.status, "makespan_before": c.makespan, "makespan": r.makespan,
                      "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
             if r.schedules is not None and r.makespan < min(c.makespan, inc.makespan) - 1e-9:
-                waits = sum(1 for sch in r.schedules.values() for st in sch.steps if st.kind == StepKind.WAIT)
-                entry["accepted"] = offer(replace(c, schedules=r.schedules, makespan=r.makespan, waits=waits), "retime")
+                entry["accepted"] = offer(retimed_candidate(c, r), "retime")
             retime_info.append(entry)
             timings["retime"] = timings.get("retime", 0.0) + entry["wall_seconds"]
 

@@ -38,14 +38,13 @@ from __future__ import annotations
 
 import time as _time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..coordinated.candidate import Coordinated
-from ..coordinated.schedule import StepKind
 from ...problem.model import Problem
-from .retime import retime
+from .retime import retime, retimed_candidate
 from .search import Neighbourhood, State, StopReason
 
 __all__ = ["RefineOptions", "RefineStats", "refine"]
@@ -138,8 +137,7 @@ def refine(
         r = retime(problem, c.schedules, margin, work=opts.work, tables=tables, memo=memo)
         if r.schedules is None:
             return None
-        waits = sum(1 for sch in r.schedules.values() for s in sch.steps if s.kind == StepKind.WAIT)
-        return replace(c, schedules=r.schedules, makespan=r.makespan, waits=waits)
+        return retimed_candidate(c, r)
 
     best, s_best = start, state
 

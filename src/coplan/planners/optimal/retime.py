@@ -33,9 +33,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ...problem.model import Problem
+from ..coordinated.candidate import Coordinated
 from ..coordinated.schedule import ArmSchedule, Step, StepKind, arm_points, curve_eval, points_too_close
 
-__all__ = ["RetimeResult", "retime"]
+__all__ = ["RetimeResult", "retime", "retimed_candidate"]
 
 _MS = 1000  # time unit of the model: 1 ms
 
@@ -66,6 +67,12 @@ class RetimeResult:
     status: str
     makespan: float | None
     constraints: int
+
+
+def retimed_candidate(c: Coordinated, r: RetimeResult) -> Coordinated:
+    """Candidate ``c`` with the schedules ``r`` retimed from it (makespan and waits updated)."""
+    waits = sum(1 for sch in r.schedules.values() for st in sch.steps if st.kind == StepKind.WAIT)
+    return replace(c, schedules=r.schedules, makespan=r.makespan, waits=waits)
 
 
 def _moves(sch: ArmSchedule, rate: float, tables: dict) -> tuple[list[_Move], int | None] | None:
