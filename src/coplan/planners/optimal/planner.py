@@ -226,10 +226,14 @@ def plan_optimal(
         def proven() -> bool:
             return inc.plan is not None and inc.plan.status == PlanStatus.SUCCESS and inc.makespan <= bound + opts.tolerance
 
-        def offer(c: Coordinated, source: str) -> bool:
-            """A candidate's plan, verified, offered to the incumbent."""
+        def checked(c: Coordinated) -> tuple[Plan, object]:
+            """A candidate's plan and its verification."""
             p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
-            return inc.offer(p, verify(problem, p), source, c)
+            return p, verify(problem, p)
+
+        def offer(c: Coordinated, source: str) -> bool:
+            """A candidate's plan, verified, offered to the incumbent; whether it was kept."""
+            return inc.offer(*checked(c), source, c)
 
         def retimed(c: Coordinated, of: str) -> None:
             """The retimed ``c`` offered to the incumbent (when retiming is on and can still gain)."""
@@ -279,8 +283,9 @@ def plan_optimal(
                 tr = _time.perf_counter()
 
                 def offer_refined(c: Coordinated) -> bool:
-                    p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
-                    ver = verify(problem, p)
+                    """Offered like any other; the refinement drops what the verifier refuses
+                    (and keeps its own best, which may trail the incumbent)."""
+                    p, ver = checked(c)
                     inc.offer(p, ver, "refine", c)
                     return bool(ver.passed)
 
