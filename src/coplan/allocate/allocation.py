@@ -40,6 +40,7 @@ from ..errors import CoplanError
 from ..kinds import AllocationMethod, SequenceRule
 from ..problem.model import Arm, Problem
 from ..kinematics.timing import SCurve, move_lower_bound
+from ..ties import TIE, TIME_QUANTUM, first_min, quantised
 
 __all__ = ["AllocationMethod", "SequenceRule", "Allocation", "allocate", "arm_configs", "lower_bound", "bound_details",
            "LowerBound", "bound_allocation", "screened_reach"]
@@ -158,10 +159,10 @@ def choose_branches(problem: Problem, arm: Arm, seq, bins, fq):
                 t_f = t + _sync_time(arm, start, qf)
                 for b, qb in enumerate(bins):
                     tt = t_f + _sync_time(arm, qf, qb) + dw
-                    if b not in new or tt < new[b][0]:
+                    if b not in new or tt < new[b][0] - TIE:  # ties: the first branch, on any CPU
                         new[b] = (tt, fs + [qf], ps + [qb])
         states = new
-    best = min(states.values(), key=lambda v: v[0])
+    best = first_min(states.values(), key=lambda v: v[0])
     return best[1], best[2], best[0]
 
 
@@ -174,7 +175,7 @@ def _sequence(problem: Problem, arm: Arm, fruit_ids, rule: SequenceRule, bins, f
     by_x = sorted(ids, key=lambda f: (pos[f][0], pos[f][1]))
     if rule == SequenceRule.SWEEP:
         return tuple(by_x)
-    first = min(ids, key=lambda f: _first_trip(arm, bins, fq[f], _sync_time) - _round_trip(arm, bins, fq[f], _sync_time))
+    first = first_min(ids, key=lambda f: _first_trip(arm, bins, fq[f], _sync_time) - _round_trip(arm, bins, fq[f], _sync_time))
     return (first,) + tuple(f for f in by_x if f != first)
 
 
@@ -244,18 +245,32 @@ def _first_candidates(pairs: np.ndarray, saving: np.ndarray, only: np.ndarray):
     return np.array(ys, int), np.array(force, int), always
 
 
-def _minmax_milp(cost, reach, time_limit, offset=None, saving=None, tie_break=True):
+# MILP time coefficients are :func:`coplan.ties.quantised` (whole microseconds, rounded down):
+# fed the last bits of move times, which differ between CPUs, HiGHS returned another of a
+# min-max MILP's many optima on another machine.
+
+#: Branch-and-bound nodes a MILP may spend: a deterministic limit (the clock limit, seconds, is
+#: only a safety net). 300 random layouts of the benchmark need at most 822.
+MILP_NODES = 5_000
+#: The MILPs' clock limit (s): a safety net behind :data:`MILP_NODES`, which binds first.
+MILP_SECONDS = 60.0
+
+
+def _minmax_milp(cost, reach, time_limit, offset=None, saving=None, tie_break=True, least_work=False):
     """min t: each fruit to one arm that reaches it, t >= offset[a] + sum_f cost[a, f] x[a, f]
     (+ saving[a, f] y[a, f], y: the arm's first fruit, see :func:`_first_candidates`).
 
-    ``tie_break`` adds a tiny total-work term (allocation). Returns (scipy result, arm per
-    fruit (F,) or -1, HiGHS's dual bound or nan).
+    Every time is :func:`quantised` first. ``tie_break`` adds a tiny total-work term
+    (allocation); ``least_work`` instead solves a second MILP: the least total work among the
+    optima of the first (the bound: its dual bound stays the first's). Returns (scipy result, arm per fruit (F,) or -1, HiGHS's dual bound or nan).
     """
     from scipy.optimize import Bounds, LinearConstraint, milp  # imported here: `coplan --help` stays quick
     from scipy.sparse import coo_array
 
     A, F = cost.shape
-    offset = np.zeros(A) if offset is None else np.asarray(offset, float)
+    cost = quantised(cost)
+    saving = None if saving is None else quantised(saving)
+    offset = np.zeros(A) if offset is None else quantised(offset)
     pairs = np.argwhere(reach)  # (P, 2) rows (a, f)
     P = len(pairs)
     ys, force, always = np.zeros(0, int), np.zeros(0, int), set()
@@ -287,7 +302,8 @@ def _minmax_milp(cost, reach, time_limit, offset=None, saving=None, tie_break=Tr
         row([P + q, p], [1.0, -1.0], -np.inf, 0.0)
     r, j, v = np.array(ents, float).reshape(-1, 3).T
     mat = coo_array((v, (r.astype(int), j.astype(int))), shape=(len(lo), n)).tocsr()
-    opts = {"disp": False, "mip_rel_gap": 1e-6} | ({} if time_limit is None else {"time_limit": float(time_limit)})
+    opts = {"disp": False, "mip_rel_gap": 1e-6, "node_limit": MILP_NODES} | (
+        {} if time_limit is None else {"time_limit": float(time_limit)})
     res = milp(
         c,
         constraints=LinearConstraint(mat, lo, hi),
@@ -295,9 +311,19 @@ def _minmax_milp(cost, reach, time_limit, offset=None, saving=None, tie_break=Tr
         bounds=Bounds(np.zeros(n), np.r_[np.ones(n - 1), np.inf]),
         options=opts,
     )
+    x_best = res.x
+    if least_work and res.x is not None and res.status == 0:
+        # among the optima, the least total work: a canonical choice, and the most efficient one
+        work = np.zeros(n)
+        work[:P] = cost[pairs[:, 0], pairs[:, 1]]
+        work[P:n - 1] = saving[pairs[ys, 0], pairs[ys, 1]] if len(ys) else []
+        second = milp(work, constraints=LinearConstraint(mat, lo, hi), integrality=np.r_[np.ones(n - 1), 0.0],
+                      bounds=Bounds(np.zeros(n), np.r_[np.ones(n - 1), res.x[-1] + 0.5 * TIME_QUANTUM]), options=opts)
+        if second.x is not None:  # else (its node limit) the first optimum stands
+            x_best = second.x
     assign = np.full(F, -1)
-    if res.x is not None:
-        x = res.x[:P] > 0.5
+    if x_best is not None:
+        x = x_best[:P] > 0.5
         assign[pairs[x, 1]] = pairs[x, 0]
     dual = getattr(res, "mip_dual_bound", None)
     return res, assign, float(dual) if dual is not None and np.isfinite(dual) else np.nan
@@ -335,14 +361,16 @@ class LowerBound:
     assignment: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
 
-def bound_details(problem: Problem, reach: np.ndarray | None = None, time_limit: float | None = 5.0) -> LowerBound:
+def bound_details(problem: Problem, reach: np.ndarray | None = None, time_limit: float | None = MILP_SECONDS) -> LowerBound:
     """Makespan lower bound valid for every plan, with the MILP's details.
 
     A one-arm-at-a-time relaxation: each arm goes home -> first fruit -> bin, then bin ->
     fruit -> bin for the rest, every move per-joint time-optimal (the slowest joint alone,
     best IK branches and bin poses), plus both dwells per fruit; arms never wait for each
     other. The min over assignments and first fruits of the slowest arm's time is solved as
-    a MILP (HiGHS); its dual bound is taken, so a time-limited solve stays a valid bound.
+    a MILP (HiGHS) on :func:`quantised` times; its dual bound is taken, so a solve stopped at
+    :data:`MILP_NODES` stays a valid bound. Among its optima, the one with the least total work
+    gives :attr:`LowerBound.assignment`.
     """
     t0 = _time.perf_counter()
     reach = screened_reach(problem) if reach is None else reach
@@ -363,7 +391,8 @@ def bound_details(problem: Problem, reach: np.ndarray | None = None, time_limit:
                 cost[a, k] = 2.0 * min(leg) + dw
                 saving[a, k] = min(_lb_time(arm, home, qf) + t for qf, t in zip(br, leg)) - 2.0 * min(leg)
     sub = reach[:, cols]
-    res, assign, dual = _minmax_milp(cost, sub, time_limit, saving=saving, tie_break=False)
+    cost, saving = quantised(cost), quantised(saving)  # what the MILP sees (a bound still)
+    res, assign, dual = _minmax_milp(cost, sub, time_limit, saving=saving, tie_break=False, least_work=True)
     first, primal = dict.fromkeys(names), np.nan if res.x is None else 0.0
     for a in range(A):  # the incumbent's makespan; an arm's first fruit has its least saving
         mine = np.flatnonzero(assign == a)
@@ -385,7 +414,7 @@ def bound_details(problem: Problem, reach: np.ndarray | None = None, time_limit:
     return LowerBound(float(value), bool(proven), float(dual), float(primal), first, _time.perf_counter() - t0, assignment)
 
 
-def lower_bound(problem: Problem, reach: np.ndarray | None = None, time_limit: float | None = 5.0) -> float:
+def lower_bound(problem: Problem, reach: np.ndarray | None = None, time_limit: float | None = MILP_SECONDS) -> float:
     """Makespan lower bound valid for every plan: :attr:`LowerBound.value` of :func:`bound_details`."""
     return bound_details(problem, reach, time_limit).value
 
@@ -394,7 +423,7 @@ def allocate(
     problem: Problem,
     method: AllocationMethod | str = AllocationMethod.MAKESPAN,
     sequence: SequenceRule | str | None = None,
-    time_limit: float | None = 10.0,
+    time_limit: float | None = MILP_SECONDS,
     territory: float = 0.0,
     avoid_blocked: bool = False,
     bound: float | None = None,

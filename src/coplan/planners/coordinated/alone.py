@@ -18,6 +18,7 @@ from ...problem.model import Problem
 from .candidate import Coordinated, makespan_of
 from .routing import ArmGeometry, stow_poses
 from .schedule import ArmSchedule, Step, StepKind, decoupled_schedules, pair_distances, scurve_move
+from ...ties import quantised
 
 __all__ = ["one_at_a_time"]
 
@@ -90,7 +91,7 @@ class _Alone:
                 break
         if not found:
             return None
-        _, _, c, mv = min(found, key=lambda x: (x[0], x[1]))
+        _, _, c, mv = min(found, key=lambda x: (x[0], float(quantised(x[1]))))  # ties: the first found, on any CPU
         return c, mv
 
     def routed(self, i: int, cycle: list[Step]) -> tuple[list[Step], np.ndarray] | None:

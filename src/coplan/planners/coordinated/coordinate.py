@@ -14,6 +14,7 @@ from dataclasses import replace
 import numpy as np
 
 from ...problem.model import Arm, Problem
+from ...ties import TIE, first_min_index, quantised
 from .routing import ArmGeometry, same_pose
 from .schedule import ArmSchedule, ConflictError, Step, StepKind, curve_eval, merge_waits, scurve_move, steps_positions
 from .legs import Leg, legs_of
@@ -130,7 +131,7 @@ class _Coordinator(ArmGeometry):
         self.max_checks, self.checks = max_checks, 0
         names = [a.name for a in problem.arms]
         self.rate, self.quantum, self.deadline = rate, quantum, deadline
-        order = priority or sorted(names, key=lambda n: -schedules[n].last_place)
+        order = priority or sorted(names, key=lambda n: -float(quantised(schedules[n].last_place)))
         rank = {n: i for i, n in enumerate(order)}
         self.tracks = [_Track(a, i, rank.get(a.name, len(order) + i), legs_of(problem, schedules[a.name]), self.tables)
                        for i, a in enumerate(problem.arms)]
@@ -330,7 +331,7 @@ class _Coordinator(ArmGeometry):
         if not ok.any():
             return None
         time = np.array([scurve_move(y.arm, 0.0, y.pose, c).duration for c in cand])
-        return cand[int(np.argmin(np.where(ok, 10.0 * soft + time, np.inf)))]
+        return cand[first_min_index(np.where(ok, 10.0 * soft + time, np.inf))]
 
     def do_yield(self, y: _Track, x: _Track, t: float) -> bool:
         """Send arm y out of arm x's way (a yield move first in its list); False if it cannot."""
@@ -404,7 +405,7 @@ class _Coordinator(ArmGeometry):
         if hits[0] == 0:
             return None
         time = np.array([scurve_move(tr.arm, 0.0, tr.pose, c).duration for c in cand])
-        best = int(np.argmin(hits * 10.0 + time))
+        best = first_min_index(hits * 10.0 + time)
         return None if best == 0 else cand[best]
 
     # ---- main loop
@@ -453,7 +454,8 @@ class _Coordinator(ArmGeometry):
         active = [tr for tr in self.tracks if tr.todo]
         if not active:
             return None
-        return min(active, key=lambda r: (r.ready, r.rank))
+        due = min(r.ready for r in active)  # times equal but for the last bits are equal: the rank decides on any CPU
+        return min((r for r in active if r.ready <= due + TIE), key=lambda r: r.rank)
 
     def check_limits(self, t: float) -> None:
         """:class:`ConflictError` past the clock deadline or the plan-time horizon."""

@@ -38,6 +38,7 @@ from .coordinate import coordinate
 from ..heuristic import grid as uniform_grid
 from ...plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics, finalize_plan
 from ...problem.model import Problem
+from ...ties import quantised
 from .alone import one_at_a_time
 from .candidate import Coordinated, makespan_of
 from .routing import choose_branches
@@ -130,7 +131,7 @@ def schedules_plan(problem: Problem, alloc: Allocation, schedules: dict[str, Arm
 def priority_orders(base: dict[str, ArmSchedule], limit: int = 2) -> list[list[str]]:
     """Priority orders to try: the arm that finishes last first, then the reverse, then other
     orders (up to ``limit``)."""
-    names = sorted(base, key=lambda n: -base[n].last_place)
+    names = sorted(base, key=lambda n: -float(quantised(base[n].last_place)))  # stable: ties keep arm order
     if len(names) < 2:
         return [names]
     orders = [names, names[::-1]]

@@ -14,6 +14,7 @@ import numpy as np
 
 from ...allocate.allocation import Allocation
 from ...problem.model import Arm, Problem
+from ...ties import TIE, first_min, quantised
 from .schedule import (
     CurveTable,
     ArmSchedule,
@@ -174,7 +175,7 @@ class ArmGeometry:
                     dur += scurve_move(arm, 0.0, q, v).duration
                     q = v
                 variants.append((dur, clean))
-        variants.sort(key=lambda v: v[0])
+        variants.sort(key=lambda v: float(quantised(v[0])))  # stable: equal durations keep their order on any CPU
         best = None
         for dur, vias in variants:
             n = self.boxed_in(i, self.vias_path(i, q0, vias))
@@ -283,10 +284,10 @@ def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: fl
                         c1 = c0 + cost(start, f)
                         for b, qbin in enumerate(bins):
                             c2 = c1 + cost(f, qbin) + dw
-                            if b not in new or c2 < new[b][0]:
+                            if b not in new or c2 < new[b][0] - TIE:
                                 new[b] = (c2, fs + [f], ps + [qbin])
                 states = new
-            best = min(states.items(), key=lambda kv: kv[1][0] + cost(bins[kv[0]], home))[1]
+            best = first_min(states.items(), key=lambda kv: kv[1][0] + cost(bins[kv[0]], home))[1]
             memo[dp_key] = (best[1], best[2])
             fruit_q[arm.name] = {f: q.copy() for f, q in zip(seq, best[1])}
             place_q[arm.name] = {f: q.copy() for f, q in zip(seq, best[2])}

@@ -43,6 +43,7 @@ from ...problem.model import Problem
 from .routing import ArmGeometry, same_pose
 from .schedule import (ArmSchedule, ConflictError, Step, StepKind, arm_points, CurveTable, merge_waits, scurve_move,
                        points_clearance, points_too_close, steps_positions)
+from ...ties import quantised
 
 __all__ = ["BudgetSpent", "serial_schedules"]
 
@@ -198,7 +199,7 @@ class _Serial(ArmGeometry):
         while any(tr.legs for tr in self.tracks):
             moved = True
             while moved:  # everyone idle and due books, the longest idle first
-                idle = sorted((tr for tr in self.tracks if tr.legs and self.due(tr, t)), key=lambda r: (r.claim is None, r.free, -r.picks(), r.index))
+                idle = sorted((tr for tr in self.tracks if tr.legs and self.due(tr, t)), key=lambda r: (r.claim is None, float(quantised(r.free)), -r.picks(), r.index))
                 moved = any([self.book(tr, t) for tr in idle])
             if not any(tr.legs for tr in self.tracks):
                 break
@@ -327,7 +328,7 @@ class _Serial(ArmGeometry):
                 if key in self._failed and not must:  # (nothing near it has changed since it last could not)
                     continue
                 poses = {o.index: o.pose for o in self.tracks}  # (the busy ones: after their bookings)
-                order = sorted(map(tuple, self.cands(x.index).q.tolist()), key=lambda c: scurve_move(self.problem.arms[x.index], 0.0, x.pose, c).duration)
+                order = sorted(map(tuple, self.cands(x.index).q.tolist()), key=lambda c: float(quantised(scurve_move(self.problem.arms[x.index], 0.0, x.pose, c).duration)))
                 backs = (c for c in order if not same_pose(c, x.pose) and self.free(x.index, x.pose, c, poses))
                 try:
                     for back in itertools.chain([None], itertools.islice(backs, 6)):  # else x first backs off
@@ -406,7 +407,7 @@ class _Serial(ArmGeometry):
             ok &= ~self.hits(j, cand, k, self.sweep(k, poses[k], [])) if k != x else True
             rem = [lg.target for lg in self.scope_legs(self.tracks[k], "work")] if self.tracks[k].legs else []
             soft += self.hits(j, cand, k, self.sweep(k, poses[k], rem))
-        time = np.array([scurve_move(self.problem.arms[j], 0.0, cur, c).duration for c in cand.q])
+        time = quantised([scurve_move(self.problem.arms[j], 0.0, cur, c).duration for c in cand.q])  # ties: stable, any CPU
         order = [tuple(map(float, cand.q[c])) for c in np.lexsort((time, soft)) if ok[c]]
         nxt = self.tracks[j].legs[0].target if self.tracks[j].legs else tuple(map(float, self.problem.arms[j].home))
 
@@ -414,7 +415,7 @@ class _Serial(ArmGeometry):
             return not same_pose(q0, q1) and self.free(j, q0, q1, poses) and not self.boxed_in(j, self.unit(j, q1, nxt)[1])
 
         yield from ([c] for c in order if fine(cur, c))
-        mids = [m for m in (tuple(map(float, cand.q[c])) for c in np.argsort(time)) if not same_pose(m, cur) and self.free(j, cur, m, poses)]
+        mids = [m for m in (tuple(map(float, cand.q[c])) for c in np.argsort(time, kind="stable")) if not same_pose(m, cur) and self.free(j, cur, m, poses)]
         yield from ([m, c] for m in mids[:8] for c in order if fine(m, c))
 
 
@@ -444,7 +445,7 @@ def serial_schedules(problem: Problem, schedules: dict[str, ArmSchedule], margin
             except ConflictError as e:
                 err = err or e
                 continue
-            key = (max((s.last_place for s in out.values()), default=0.0), max((s.end for s in out.values()), default=0.0))
+            key = tuple(float(quantised(max((getattr(s, k) for s in out.values()), default=0.0))) for k in ("last_place", "end"))
             best = (key, out) if best is None or key < best[0] else best
             if not geo.turns:  # no turn was needed: the policies would not differ
                 break

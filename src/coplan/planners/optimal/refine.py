@@ -46,6 +46,7 @@ from ..coordinated.candidate import Coordinated
 from ...problem.model import Problem
 from .retime import retime, retimed_candidate
 from .search import Neighbourhood, State, StopReason
+from ...ties import TIE, quantised
 
 __all__ = ["RefineOptions", "RefineStats", "refine"]
 
@@ -127,7 +128,7 @@ def refine(
     offer = offer or (lambda c: True)
     hood.hold(hood.opts.fixed_assignment)
     starts, seen = [(start, state)], {state}
-    for c, s in sorted(more, key=lambda x: (hood.estimate(x[1]), x[0].makespan)):
+    for c, s in sorted(more, key=lambda x: (float(quantised(hood.estimate(x[1]))), float(quantised(x[0].makespan)))):
         if s not in seen:
             starts.append((c, s))
             seen.add(s)
@@ -220,7 +221,7 @@ def refine(
                 continue
             got = retimed(cand)
             tried, since = 0, since + 1
-            if got is None or cand.makespan < got.makespan:  # the coordinator's own timing is better
+            if got is None or cand.makespan < got.makespan - TIE:  # the coordinator's own timing is better
                 got = cand
             if got.makespan < best.makespan - 1e-9 and not better(got, s_new):
                 continue

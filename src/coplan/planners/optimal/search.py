@@ -54,6 +54,7 @@ from ...problem.model import Problem
 from ..coordinated.routing import choose_branches as clear_branches
 from ..coordinated.schedule import ConflictError, decoupled_schedules
 from ..coordinated.trace import Trace
+from ...ties import first_max_index, first_min, quantised
 
 __all__ = ["BranchRule", "Neighbourhood", "SearchOptions", "SearchStats", "State", "StopReason", "improve"]
 
@@ -147,6 +148,7 @@ class SearchStats:
     restarts: int = 0
     fresh_starts: int = 0
     anchored: int = 0  # starts from the anchor (the first one included)
+    anchor_makespan: float | None = None  # the anchor coordinated (None: no anchor, or it could not be)
     stop: StopReason = StopReason.BUDGET
     moves: dict | None = None  # move kind -> [tried, improved]
     best_state: State | None = None  # the state of the best candidate (where a refinement goes on from)
@@ -156,7 +158,7 @@ class SearchStats:
         return {"evaluations": self.evaluations, "checks": self.checks, "checks_made": self.checks_made,
                 "proposals": self.proposals, "pruned_by_bound": self.pruned, "coordination_failed": self.failed,
                 "improvements": self.improvements, "restarts": self.restarts, "fresh_starts": self.fresh_starts,
-                "anchored": self.anchored,
+                "anchored": self.anchored, "anchor_makespan": self.anchor_makespan,
                 "stopped_by": self.stop.value, "moves": self.moves}
 
 
@@ -217,7 +219,7 @@ class Neighbourhood:
         for i, n in enumerate(self.names):
             fr = tuple(assignment.get(n, ()))
             if len(fr) <= 6:
-                seqs.append(min(itertools.permutations(fr), key=lambda p: self.dp(i, tuple(p))[2]) if fr else ())
+                seqs.append(first_min(itertools.permutations(fr), key=lambda p: self.dp(i, tuple(p))[2]) if fr else ())
             else:
                 seq: list[str] = []
                 for f in fr:
@@ -301,14 +303,14 @@ class Neighbourhood:
                     forced = frozenset((a, f, b) for f, a, b in zip(fruits, split, fb))
                     est = self.estimate(State(assign, start.variant, start.order, forced))
                     out += [(est, State(assign, v, o, forced)) for v in BranchRule for o in priorities]
-        out.sort(key=lambda x: x[0])  # stable: ties keep the enumeration's order
+        out.sort(key=lambda x: float(quantised(x[0])))  # stable: ties keep the enumeration's order on any CPU
         return out
 
     # ---- moves
     def critical(self, c: Coordinated) -> int:
         last = [c.schedules[n].last_place for n in self.names]
         if self.rng.random() < 0.7:
-            return int(np.argmax(last))
+            return first_max_index(last)
         busy = [i for i, seq in enumerate(c.alloc.assignment[n] for n in self.names) if seq]
         return int(self.rng.choice(busy)) if busy else 0
 
@@ -460,6 +462,7 @@ def improve(
                 a_state = None
             else:
                 seen.add(a_state)
+                st.anchor_makespan = a_cand.makespan
             if a_cand is not None and a_cand.makespan < best.makespan - 1e-9:
                 a_turn = 0
                 st.anchored = 1

@@ -1,0 +1,87 @@
+"""How far a long run is: the ticks a progress display draws.
+
+Every long entry point (``solve``, ``plan_optimal``, ``compare``, ``animate_plan``,
+``simulate``) takes ``progress``: a callable that receives lines of text (``progress("...")``),
+as it always has -- ``print`` will do. A progress *display* also wants to know how far the
+run is; it says so by having a ``tick`` method as well (a :class:`Reporter`), which then
+receives :class:`Tick` objects: the stage, the share of that stage's work budget done, and
+for a planner the incumbent makespan and the lower bound. A plain callable receives no ticks,
+so a script printing every message gets no flood of them.
+
+Import-free (the CLI's progress bars live in :mod:`coplan.cli.console`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+__all__ = ["Tick", "Reporter", "speaker", "ticker"]
+
+
+@dataclass(frozen=True)
+class Tick:
+    """Where a long run is.
+
+    stage : what it is doing ("search", "refine", "frames", "runs", ...)
+    done, total : work done and the stage's budget, in ``unit`` (``total`` None: unknown)
+    unit : what ``done`` counts ("checks", "retimings", "frames", ...)
+    incumbent : a planner's best verified makespan so far (s), if any
+    bound : the makespan lower bound (s), if known
+    note : a short free text (the problem and planner of a comparison run, say)
+    """
+
+    stage: str
+    done: float = 0.0
+    total: float | None = None
+    unit: str = ""
+    incumbent: float | None = None
+    bound: float | None = None
+    note: str = ""
+
+    @property
+    def share(self) -> float | None:
+        """The share of the stage's budget done (0..1), None when the budget is unknown."""
+        if not self.total:
+            return None
+        return min(1.0, max(0.0, self.done / self.total))
+
+    @property
+    def gap(self) -> float | None:
+        """The incumbent's excess over the bound (0.037 = 3.7 %), None when either is unknown."""
+        if self.incumbent is None or not self.bound:
+            return None
+        return max(0.0, self.incumbent / self.bound - 1.0)
+
+    def text(self) -> str:
+        """One line: the stage, its share, the incumbent and its gap."""
+        parts = [self.stage]
+        if self.share is not None:
+            parts.append(f"{self.share:.0%} of its budget")
+        if self.incumbent is not None:
+            gap = f", {self.gap:.1%} over the bound {self.bound:.3f} s" if self.gap is not None else ""
+            parts.append(f"incumbent {self.incumbent:.3f} s{gap}")
+        if self.note:
+            parts.append(self.note)
+        return ": ".join(parts[:1]) + (" -- " + ", ".join(parts[1:]) if len(parts) > 1 else "")
+
+
+@runtime_checkable
+class Reporter(Protocol):
+    """A progress callable that also draws :class:`Tick` objects."""
+
+    def __call__(self, message: str) -> None: ...
+
+    def tick(self, tick: Tick) -> None: ...
+
+
+def speaker(progress: Callable[[str], None] | None) -> Callable[[str], None]:
+    """``progress`` itself, or a callable that drops every message."""
+    return progress if progress is not None else (lambda message: None)
+
+
+def ticker(progress) -> Callable[[Tick], None]:
+    """``progress.tick`` when ``progress`` is a :class:`Reporter`, else a callable that drops ticks."""
+    tick = getattr(progress, "tick", None)
+    return tick if callable(tick) else (lambda t: None)
