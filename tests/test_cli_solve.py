@@ -62,7 +62,7 @@ def test_solve_default_problem_writes_a_plan_that_loads(tmp_path: Path) -> None:
     # the summary names the essentials and where the files went (compared without
     # whitespace: rich wraps long lines at 80 columns when stdout is not a terminal)
     flat = "".join(res.stdout.split())
-    for words in ("greenhouse-row", "fruit harvested 11/11", "makespan", "cycle time/fruit", "collisions found", str(out / "plan.json")):
+    for words in ("greenhouse-row", "fruit 11 harvested of 11 harvestable", "makespan", "cycle time/fruit", "collisions found", str(out / "plan.json")):
         assert "".join(words.split()) in flat, res.stdout
     assert "Traceback" not in res.output
 

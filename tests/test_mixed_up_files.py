@@ -107,8 +107,11 @@ def test_a_shipped_problem_named_without_its_path_gets_its_path(tmp_path, monkey
             load_problem(given)
         msg = str(e.value)
         assert msg.startswith(f"{given}:") and str(PROBLEMS / "dense_overlap.yaml") in msg and "coplan problems" in msg
-    r = runner.invoke(app, ["solve", "dense_overlap"])
-    assert r.exit_code == 3 and str(PROBLEMS / "dense_overlap.yaml") in r.output and "Traceback" not in r.output
+    # the command line takes a shipped problem's bare name for that problem (and says which file)
+    r = runner.invoke(app, ["check", "dense_overlap"])
+    assert r.exit_code == 0 and str(PROBLEMS / "dense_overlap.yaml") in r.output and "Traceback" not in r.output
+    r = runner.invoke(app, ["check", "elsewhere/dense_overlap.yaml"])  # a path is a path: no such file
+    assert r.exit_code == 3 and str(PROBLEMS / "dense_overlap.yaml") in r.output
     with pytest.raises(ProblemError) as e:  # any other missing file: the plain message
         load_problem("no_such_cell.yaml")
     assert "shipped" not in str(e.value) and "found no file at this path" in str(e.value)

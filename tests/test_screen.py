@@ -83,12 +83,13 @@ def test_locked_arms_verdict() -> None:
         r = s.reasons[arm]
         assert r.startswith(f"{arm} cannot reach its bin") and f"cross {blocker}'s base" in r
         assert "joint limit q1 <= 3.1416 blocks the way round" in r
-    assert s.reasons["p003"] == "p003: out of every arm's reach"
+    assert s.reasons["p003"].startswith("p003: out of every arm's reach: ")
+    assert "beyond its outer reach" in s.reasons["p003"] and "reach_margin" in s.reasons["p003"]
     assert set(s.reasons) == {"r1", "r3", "p003"}
     summary = json.loads(json.dumps(s.summary()))
     assert summary["locked"] == ["r1", "r3"] and summary["arms"]["r2"]["fruit"] == ["p002", "p004"]
     lines = s.lines()
-    assert lines[0] == "screen: 2 of 4 arms locked (r1, r3), 1 of 4 fruit unharvestable (p003)"
+    assert lines[0] == "screen: 2 of 4 arms locked (r1, r3); 3 of 4 fruit harvestable, 1 not (p003)"
     assert any("r1 cannot reach its bin" in ln for ln in lines)
 
 
@@ -162,7 +163,7 @@ def test_home_inside_a_neighbours_clearance_gives_an_empty_range() -> None:
     assert s.q1_range["left"] is None and not s.arm_ok["left"] and s.bin_branches["left"] == []
     assert "already within the clearance of right's base at home" in s.reasons["left"]
     assert s.summary()["arms"]["left"]["q1_range"] is None
-    assert "q1 range empty" in "\n".join(s.lines())
+    assert "  left: LOCKED: takes no fruit; its shoulder cannot move from home without hitting a neighbour" in s.lines()
 
 
 def test_limits_wider_than_a_turn_open_the_way_round() -> None:

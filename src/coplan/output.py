@@ -19,10 +19,35 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["MARKER", "RunFolder", "is_run_folder"]
+__all__ = ["MARKER", "RunFolder", "is_run_folder", "usual_mode", "atomic_text"]
 
 MARKER = ".coplan-run"  # written into every run folder
 _OURS = ("plan.", "baseline.", "verification.json", "run.json", "live.gif", MARKER)  # solve and live runs
+
+
+def usual_mode(folder: bool = False) -> int:
+    """The permissions a file (or folder) the user creates gets: 0666 (0777) less the umask.
+
+    ``tempfile.mkstemp``/``mkdtemp`` create 0600/0700 on purpose; a run's files, renamed into
+    place from there, should look like any other file the user writes."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return (0o777 if folder else 0o666) & ~mask
+
+
+def atomic_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` whole or not at all: a temporary file unique per writer
+    beside it, then a rename; the file gets :func:`usual_mode`."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", newline="") as f:
+            f.write(text)
+        os.chmod(tmp, usual_mode())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def is_run_folder(path: Path) -> bool:
@@ -48,6 +73,7 @@ class RunFolder:
     def __enter__(self) -> Path:
         self.out.parent.mkdir(parents=True, exist_ok=True)
         self.stage = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", suffix=".partial", dir=self.out.parent))
+        self.stage.chmod(usual_mode(folder=True))  # mkdtemp's 0700 is for the staging, not the run
         (self.stage / MARKER).write_text("files of one coplan run\n")
         return self.stage
 

@@ -69,6 +69,21 @@ def finalize(problem: Problem, plan: Plan, verification) -> Plan:
     return finalize_plan(plan, verification, len(problem.reachable_ids()))
 
 
+def fruit_counts(problem: Problem, scr, plan: Plan) -> dict:
+    """One vocabulary for every command and file: of the problem's ``fruit``, ``reachable``
+    (within some arm's reach, ``reach_margin`` kept), ``harvestable`` (reachable and not ruled
+    out by the screen), ``harvested``; ``fruit_ids``: the ids of those ``unreachable``,
+    ``screened_out`` (reachable, not harvestable) and ``left_out`` (harvestable, not harvested),
+    each one's reason in the screen (``coplan check``) or ``plan.solver.left_out``."""
+    reach = set(problem.reachable_ids())
+    can = {f.id for j, f in enumerate(problem.fruits) if scr.reach[:, j].any()}
+    picked = {e.fruit for e in plan.events if e.kind.value == "place"}
+    return {"fruit": len(problem.fruits), "reachable": len(reach), "harvestable": len(can),
+            "fruit_ids": {"unreachable": [f.id for f in problem.fruits if f.id not in reach],
+                          "screened_out": [f.id for f in problem.fruits if f.id in reach and f.id not in can],
+                          "left_out": [f.id for f in problem.fruits if f.id in can and f.id not in picked]}}
+
+
 def solve(
     problem: Problem | str | Path,
     planner: PlannerKind | str = PlannerKind.OPTIMAL,
@@ -134,6 +149,13 @@ def solve(
         error, error_trace = res.error, res.error_trace
         timings.update(res.timings)
     plan.solver.setdefault("timings", {}).update(timings)
+    from .allocate.screen import screened
+
+    scr = screened(prob)
+    for p in (plan, baseline):  # the problem file they come from: plot, animate and view find it again
+        if p is not None:
+            p.problem_file = prob.file_record()
+            p.metrics.update(fruit_counts(prob, scr, p))
     timings["total"] = _time.perf_counter() - t0
     previous = None
     if out_dir is not None:

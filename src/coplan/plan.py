@@ -108,6 +108,7 @@ class Plan:
     metrics: dict[str, Any] = field(default_factory=dict)
     solver: dict[str, Any] = field(default_factory=dict)
     verification: dict[str, Any] | None = None
+    problem_file: dict[str, str] | None = None  # {"path", "sha256"}: the problem file it was planned from
 
     # ------------------------------------------------------------------ queries
     @property
@@ -154,7 +155,7 @@ class Plan:
             "metrics": jsonable(self.metrics),
             "solver": jsonable(self.solver),
             "verification": jsonable(self.verification),
-        }
+        } | ({"problem_file": dict(self.problem_file)} if self.problem_file else {})
 
     def save(self, out_dir: str | Path, stem: str = "plan") -> dict[str, Path]:
         """Write ``plan.json`` plus ``plan.csv`` (one row per time) and ``plan.npz``.
@@ -258,7 +259,8 @@ def finalize_plan(plan: Plan, verification, n_reachable: int) -> Plan:
 
 # metrics a planner sets itself (kept when the metrics are recomputed)
 _KEPT_METRICS = ("lower_bound", "optimality", "coordinated_makespan", "improvement_over_coordinated",
-                 "baseline_makespan", "baseline_status", "time_to_first_verified", "time_of_last_improvement")
+                 "baseline_makespan", "baseline_status", "time_to_first_verified", "time_of_last_improvement",
+                 "fruit", "harvestable", "fruit_ids")
 
 
 def _busy_time(plan: Plan, arm: str) -> float:
@@ -491,6 +493,10 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     for key in ("metrics", "solver", "verification"):
         if data.get(key) is not None and not isinstance(data[key], dict):
             bad(key, f"expected an object, found {_kind(data[key])}")
+    record = data.get("problem_file")
+    if record is not None and not (isinstance(record, dict) and all(isinstance(record.get(k), str) for k in ("path", "sha256"))):
+        bad("problem_file", f"expected an object {{path, sha256}} (strings), found {_kind(record)}")
+        record = None
     if issues:
         raise PlanFileError(issues, source)
     return Plan(
@@ -505,4 +511,5 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
         metrics=data.get("metrics") or {},
         solver=data.get("solver") or {},
         verification=data.get("verification"),
+        problem_file={"path": record["path"], "sha256": record["sha256"]} if record else None,
     )

@@ -14,10 +14,10 @@ Import-free (the CLI's progress bars live in :mod:`coplan.cli.console`).
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol, runtime_checkable
 
-__all__ = ["Tick", "Reporter", "speaker", "ticker"]
+__all__ = ["Tick", "Reporter", "speaker", "ticker", "nested"]
 
 
 @dataclass(frozen=True)
@@ -30,6 +30,7 @@ class Tick:
     incumbent : a planner's best verified makespan so far (s), if any
     bound : the makespan lower bound (s), if known
     note : a short free text (the problem and planner of a comparison run, say)
+    level : 0 for a run's own stages, 1 for a run inside another (a solve inside ``compare``)
     """
 
     stage: str
@@ -39,6 +40,7 @@ class Tick:
     incumbent: float | None = None
     bound: float | None = None
     note: str = ""
+    level: int = 0
 
     @property
     def share(self) -> float | None:
@@ -85,3 +87,19 @@ def ticker(progress) -> Callable[[Tick], None]:
     """``progress.tick`` when ``progress`` is a :class:`Reporter`, else a callable that drops ticks."""
     tick = getattr(progress, "tick", None)
     return tick if callable(tick) else (lambda t: None)
+
+
+class _Nested:
+    def __init__(self, outer: Reporter):
+        self.outer = outer
+
+    def __call__(self, message: str) -> None:
+        self.outer(message)
+
+    def tick(self, t: Tick) -> None:
+        self.outer.tick(replace(t, level=t.level + 1))
+
+
+def nested(progress):
+    """``progress`` for a run inside another: the same messages, its ticks one level down."""
+    return _Nested(progress) if isinstance(progress, Reporter) else progress

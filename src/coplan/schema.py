@@ -99,6 +99,11 @@ class ArmTrajectory(BaseModel):
     q: list[Point] = Field(description="one [t1, t2] pair (rad) per time of the grid")
 
 
+class ProblemFileRecord(_Closed):
+    path: str = Field(description="absolute path of the problem YAML when the plan was written")
+    sha256: str = Field(description="sha256 of that file's text: a file changed since is not taken for it")
+
+
 class PlanFile(BaseModel):
     """A coplan plan file (``plan.json``): every arm's joints on one uniform grid (100 Hz or
     finer, from 0), linear between samples, and the pick/place events."""
@@ -117,6 +122,8 @@ class PlanFile(BaseModel):
     metrics: dict[str, Any] | None = None
     solver: dict[str, Any] | None = None
     verification: dict[str, Any] | None = None
+    problem_file: ProblemFileRecord | None = Field(
+        None, description="the problem file the plan was made from (the plot, animate and view commands find it there)")
 
 
 assert PLAN_FORMAT == "coplan.plan/1", "PlanFile.format must name the format plan.py writes"

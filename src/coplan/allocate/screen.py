@@ -92,18 +92,22 @@ class Screen:
         }
 
     def lines(self) -> list[str]:
-        """What a command line prints."""
+        """What a command line prints (coplan's vocabulary: reachable, harvestable, screened out)."""
+        n = len(self.fruits)
+        harvestable = int(self.reach.any(axis=0).sum())
         out = [
             f"screen: {len(self.locked)} of {plural(len(self.arms), 'arm')} locked"
             + (f" ({', '.join(self.locked)})" if self.locked else "")
-            + f", {len(self.unharvestable)} of {len(self.fruits)} fruit unharvestable"
-            + (f" ({', '.join(self.unharvestable)})" if self.unharvestable else "")
+            + f"; {harvestable} of {plural(n, 'fruit', 'fruit')} harvestable"
+            + (f", {n - harvestable} not ({', '.join(self.unharvestable)})" if self.unharvestable else "")
         ]
         for i, a in enumerate(self.arms):
             rng = self.q1_range[a]
-            span = "q1 range empty" if rng is None else f"q1 in [{rng[0]:.4f}, {rng[1]:.4f}]"
-            state = "LOCKED" if not self.arm_ok[a] else f"{int(self.reach[i].sum())} fruit"
-            out.append(f"  {a}: {span}, {state}")
+            span = ("its shoulder cannot move from home without hitting a neighbour" if rng is None else
+                    f"shoulder q1 free in [{rng[0]:.4f}, {rng[1]:.4f}] rad" if rng[1] - rng[0] < 2 * math.pi - 1e-6
+                    else "shoulder q1 free all round")
+            state = "LOCKED: takes no fruit" if not self.arm_ok[a] else f"{plural(int(self.reach[i].sum()), 'fruit', 'fruit')} it can harvest"
+            out.append(f"  {a}: {state}; {span}")
         out += [f"  - {r}" for r in self.reasons.values()]
         return out
 
@@ -239,6 +243,37 @@ def _join(names: list[str]) -> str:
 _SCREENS: "weakref.WeakKeyDictionary[Problem, Screen]" = weakref.WeakKeyDictionary()
 
 
+def reach_reason(problem: Problem, point) -> str:
+    """Why no arm reaches ``point``, from the arm it misses by least: beyond the outer reach,
+    inside the inner one (the folded arm), on either boundary (which ``reach_margin`` keeps
+    clear of, told apart from a point just beyond it), or out of the joint limits."""
+    m = problem.task.reach_margin
+    best = None
+    for arm in problem.arms:
+        d = math.dist(point, arm.base)
+        R, r = arm.reach, arm.inner_radius
+        if d > R - m:
+            miss, side, edge = d - (R - m), "outer", R
+        elif d < r + m:
+            miss, side, edge = (r + m) - d, "inner", r
+        else:
+            miss, side, edge = 0.0, "limits", R
+        if best is None or miss < best[0]:
+            best = (miss, side, edge, d, arm.name)
+    _, side, edge, d, name = best
+    if side == "limits":
+        return f"within {name}'s reach ({d:.3f} m from its base), but no elbow branch there is within its joint limits"
+    where = "outer reach (l1 + l2)" if side == "outer" else "inner reach (|l1 - l2|, the arm folded)"
+    if abs(d - edge) <= 1e-9:
+        return (f"exactly on {name}'s {where} boundary, {edge:.4g} m from its base; coplan keeps task.reach_margin "
+                f"({m:g} m) inside it, away from the singular stretched/folded pose")
+    if (side == "outer" and d < edge) or (side == "inner" and d > edge):
+        return (f"{d:.4f} m from {name}'s base: within its {where} of {edge:.4g} m, but by less than "
+                f"task.reach_margin ({m:g} m)")
+    return (f"{d:.3f} m from {name}'s base, {'beyond' if side == 'outer' else 'inside'} its {where} of {edge:.4g} m"
+            + (f" (task.reach_margin {m:g} m)" if m else ""))
+
+
 def screened(problem: Problem) -> Screen:
     """:func:`screen` with the default tolerance, computed once per problem (problems are immutable)."""
     hit = _SCREENS.get(problem)
@@ -290,7 +325,7 @@ def screen(problem: Problem, tip_tolerance: float = TIP_TOLERANCE) -> Screen:
             continue
         who = [i for i in range(A) if base_reach[i, j]]
         if not who:
-            fruit_reasons[f.id] = f"{f.id}: out of every arm's reach"
+            fruit_reasons[f.id] = f"{f.id}: out of every arm's reach: {reach_reason(problem, pts[j])}"
             continue
         names = [arms[i].name for i in who]
         if len(who) > 1 and not any(arm_ok[a] for a in names):

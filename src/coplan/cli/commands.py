@@ -19,10 +19,11 @@ import typer
 from rich.console import Console
 
 from . import failures
+from .failures import resolve_problem
 from .summary import fmt as _fmt
 from .summary import print_summary, print_verification
 from .summary import safe as _s
-from .console import FlagsGroup, run_console
+from .console import FlagsGroup, ProgressDisplay, run_console
 from ..errors import InputError, plural
 from ..kinds import AllocationMethod, ExitCode, FclMode, PlannerKind
 
@@ -117,9 +118,7 @@ def _solver_options(path: Optional[Path], time_limit: Optional[float], applies: 
 
 
 def _resolve_problem(problem: Optional[Path]) -> Path:
-    from ..problem.model import default_problem_path
-
-    return problem if problem is not None else default_problem_path()
+    return resolve_problem(problem, lambda m: err_console.print(f"[dim]{_s(m)}[/]", highlight=False))
 
 
 @app.command()
@@ -148,7 +147,6 @@ def solve(
     failures.check_out_dir(out)
     options = _solver_options(options_file, time_limit, planner != PlannerKind.HEURISTIC)
     path = _resolve_problem(problem)
-    say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]", highlight=False))
     if not as_json and planner != PlannerKind.HEURISTIC:
         from ..problem.model import load_problem
         from ..allocate.screen import screened
@@ -156,9 +154,10 @@ def solve(
         path = load_problem(path)  # the screen's verdict, before solving
         for line in screened(path).lines():
             err_console.print(line, markup=False, highlight=False)
-    res = run(path, planner=planner, allocation=allocation, out_dir=out, options=options, progress=say)
-    if animate:
-        res.files.update(_animate_files(res, out))
+    with ProgressDisplay(err_console, quiet=as_json, hint=_budget_hint(planner, time_limit)) as say:
+        res = run(path, planner=planner, allocation=allocation, out_dir=out, options=options, progress=say)
+        if animate:
+            res.files.update(_animate_files(res, out, say))
     if html:  # like the animation: written beside plan.json once the run's files are in place
         from ..viz.viewer import write_html
 
@@ -188,13 +187,21 @@ def solve(
     raise typer.Exit(int(res.exit_code))
 
 
-def _animate_files(res, out: Path) -> dict:
+def _budget_hint(planner: PlannerKind, time_limit: Optional[float]) -> Optional[str]:
+    """Shown once a long optimal solve has run a while without a clock limit."""
+    if planner != PlannerKind.OPTIMAL or time_limit is not None:
+        return None
+    return ("the optimal planner stops on its work budget (so the plan is the same on any machine); "
+            "--time-limit S returns its verified incumbent after S s, and Ctrl-C keeps it too")
+
+
+def _animate_files(res, out: Path, say=None) -> dict:
     """Render the animation after the plan files are on disk; a rendering failure only warns,
     so the plan's own exit code stands."""
     from ..viz.animate import RenderError, animate_plan
 
     try:
-        path = animate_plan(res.problem, res.plan, out / "plan.gif")
+        path = animate_plan(res.problem, res.plan, out / "plan.gif", progress=say)
     except RenderError as e:
         err_console.print(f"[yellow]warning[/]: animation not rendered: {_s(e)} (the plan files are written)")
         return {}
@@ -255,8 +262,8 @@ def check(
         out_console.print_json(_strict_json(doc))
     else:
         p = out_console.print
-        p(f"[bold]{_s(prob.name)}[/] ({_s(path)}): {plural(len(prob.arms), 'arm')}, {len(prob.fruits)} fruit, "
-          f"{n_reach} within some arm's reach, {harvestable} harvestable")
+        p(f"[bold]{_s(prob.name)}[/] ({_s(path)}): {plural(len(prob.arms), 'arm')}, {len(prob.fruits)} fruit: "
+          f"{n_reach} reachable, {harvestable} harvestable")
         for line in scr.lines():
             p(line, markup=False, highlight=False)
         if harvestable == 0:
@@ -265,7 +272,10 @@ def check(
             proof = "proven optimum of the relaxation" if bd.proven else f"MILP stopped: dual bound {bd.dual_bound:.3f} s"
             p(f"lower bound        {bd.value:.3f} s ({proof}); no plan can be faster")
             verdict = "verified" if doc["heuristic_verified"] else f"unsafe: {', '.join(doc['heuristic_violations'] or [])}"
-            p(f"heuristic baseline {_fmt(doc['heuristic_makespan'], ' s', 3)} (the course's planner; {verdict})")
+            hm = doc["heuristic_makespan"]
+            if not doc["heuristic_verified"] and hm is not None and hm < bd.value:
+                verdict += "; below the lower bound only because it breaks these limits"
+            p(f"heuristic baseline {_fmt(hm, ' s', 3)} (the course's planner; {verdict})")
     if harvestable == 0:
         raise typer.Exit(int(ExitCode.INFEASIBLE))
     raise typer.Exit(int(ExitCode.OK if harvestable == n_reach else ExitCode.PARTIAL))
@@ -300,7 +310,7 @@ def verify_cmd(
         _fail(ExitCode.USAGE, f"--out {out} is the plan being verified; give another file or folder")
     from ..plan import PlanFileError
 
-    prob = load_problem(problem)
+    prob = load_problem(_resolve_problem(problem))
     loaded = load_plan(plan)
     try:
         ver = run_verify(prob, loaded, fcl=fcl)
@@ -355,8 +365,9 @@ def compare_cmd(
     _check_time_limit(time_limit)
     failures.check_out_dir(out)
     options = _solver_options(options_file, time_limit, any(s.planner != PlannerKind.HEURISTIC for s in specs))
-    say = (lambda m: None) if as_json else (lambda m: err_console.print(f"[dim]{_s(m)}[/]"))
-    cmp = compare(_resolve_problem(problems), specs, out, figures=figures, options=options, progress=say)
+    hint = _budget_hint(PlannerKind.OPTIMAL, time_limit) if any(s.planner == PlannerKind.OPTIMAL for s in specs) else None
+    with ProgressDisplay(err_console, quiet=as_json, hint=hint) as say:
+        cmp = compare(_resolve_problem(problems), specs, out, figures=figures, options=options, progress=say)
     if as_json:
         typer.echo(json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
     else:
@@ -385,23 +396,32 @@ class PlotKind(str, Enum):
 
 
 def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
-    """Load a plan.json and its problem: --problem, else the shipped problem of that name."""
+    """Load a plan.json and its problem: --problem; else the problem file the plan records
+    (``problem_file``: its path, and its digest, so a file changed since is not taken for it);
+    else the shipped problem of the plan's name."""
     from ..plan import load_plan
     from ..problem.model import load_problem, shipped_problems
 
     plan = load_plan(plan_path)
+    record = plan.problem_file
     if problem is not None:
-        prob = load_problem(problem)
+        prob = load_problem(_resolve_problem(problem))
         if prob.name != plan.problem:
             err_console.print(f"[yellow]note[/]: {_s(plan_path)} says it is a plan of {_s(repr(plan.problem))}; {_s(problem)} is {_s(repr(prob.name))}")
+    elif record is not None and Path(record["path"]).is_file():
+        prob = load_problem(record["path"])
+        if prob.digest != record["sha256"]:
+            _fail(ExitCode.USAGE, f"{plan_path} was planned from {record['path']}, which has changed since (its sha256 "
+                                  f"differs); give the problem with --problem FILE to use it anyway")
     else:
         shipped = [load_problem(p) for p in shipped_problems()]
         prob = next((p for p in shipped if p.name == plan.problem), None)
         if prob is None:
+            where = f"it was planned from {record['path']}, which is gone, and " if record is not None else ""
             _fail(
                 ExitCode.USAGE,
-                f"{plan_path} is a plan of problem {plan.problem!r}, which is not a shipped problem "
-                f"({', '.join(p.name for p in shipped)}); give its YAML file with --problem FILE",
+                f"{plan_path} is a plan of problem {plan.problem!r}; {where}that is not a shipped problem "
+                f"({', '.join(p.name for p in shipped)}): give its YAML file with --problem FILE",
             )
     missing = [a.name for a in prob.arms if a.name not in plan.q]
     if missing:
@@ -437,7 +457,7 @@ def plot_cmd(
     if kind == PlotKind.WORKSPACE and plan.suffix.lower() in (".yaml", ".yml"):
         from ..problem.model import load_problem
 
-        prob, pl = load_problem(plan), None
+        prob, pl = load_problem(_resolve_problem(plan)), None
     else:
         prob, pl = _plan_with_problem(plan, problem)
     if arm is not None and arm not in [a.name for a in prob.arms]:
@@ -478,10 +498,12 @@ def animate_cmd(
 
     prob, pl = _plan_with_problem(plan, problem)
     target = out if out is not None else plan.with_suffix(".gif")
-    path = animate_plan(
-        prob, pl, target, speed=speed, fps=fps, dpi=dpi,
-        notify=lambda m: err_console.print(f"[yellow]note[/]: {_s(m)}", highlight=False, soft_wrap=True),
-    )
+    with ProgressDisplay(err_console) as bars:
+        path = animate_plan(
+            prob, pl, target, speed=speed, fps=fps, dpi=dpi,
+            notify=lambda m: err_console.print(f"[yellow]note[/]: {_s(m)}", highlight=False, soft_wrap=True),
+            progress=bars,
+        )
     out_console.print(f"wrote {_s(path)}")
 
 

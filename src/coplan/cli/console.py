@@ -3,6 +3,7 @@
 * :class:`FlagsGroup` -- the ``typer`` group class that shows flags (``--json``, ``--animate``,
   ``--help``) as taking no value in ``--help`` (typer 0.29's rich help prints ``<bool>`` after them).
 * :func:`run_console` -- the console entry point's body (signals, pipes, ``--json`` usage errors).
+* :class:`ProgressDisplay` -- progress lines and, on a terminal, rich progress bars on stderr.
 * :class:`PipeSafeStdout` -- stdout that survives a reader closing the pipe (``coplan problems |
   head -1``): the first ``BrokenPipeError`` sends fd 1 to ``/dev/null`` and every later write is
   dropped, so the command finishes its work and exits with its own code, with no traceback and no
@@ -16,7 +17,7 @@ import sys
 
 from typer.core import TyperGroup, TyperOption
 
-__all__ = ["FlagsGroup", "PipeSafeStdout", "run_console"]
+__all__ = ["FlagsGroup", "PipeSafeStdout", "ProgressDisplay", "run_console"]
 
 
 def _flags_take_no_value(params) -> None:
@@ -109,3 +110,69 @@ def run_console(app, err_console) -> None:
         if terminated and e.code in (int(ExitCode.INTERRUPTED), int(ExitCode.OK)):
             sys.exit(int(ExitCode.TERMINATED))
         raise
+
+
+class ProgressDisplay:
+    """The CLI's progress: a :class:`coplan.progress.Reporter`.
+
+    Lines of text go to stderr (dim), as they always did. On a terminal, ticks also draw rich
+    progress bars on stderr -- one per level (a comparison's runs, and the stage of the solve
+    inside it): the stage, the share of its work budget, elapsed time, and for a planner the
+    incumbent and its gap to the lower bound. Not on a terminal (a log, a pipe, CI), no bars
+    are drawn; under ``--json`` (``quiet``) nothing at all. ``hint``: a line printed once when a
+    run has taken ``hint_after`` seconds (e.g. that ``--time-limit`` exists)."""
+
+    def __init__(self, console, quiet: bool = False, hint: str | None = None, hint_after: float = 10.0):
+        import time
+
+        self.console, self.quiet, self.hint, self.hint_after = console, quiet, hint, hint_after
+        self.bars = None if quiet or not console.is_terminal else self._bars()
+        self.tasks: dict[int, int] = {}
+        self.t0 = time.monotonic()
+        self._clock = time.monotonic
+
+    def _bars(self):
+        from rich.progress import BarColumn, Progress, SpinnerColumn, TaskProgressColumn, TextColumn, TimeElapsedColumn
+
+        return Progress(SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
+                        TimeElapsedColumn(), TextColumn("{task.fields[status]}"), console=self.console, transient=True)
+
+    def __enter__(self) -> "ProgressDisplay":
+        if self.bars is not None:
+            self.bars.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.bars is not None:
+            self.bars.stop()
+
+    def __call__(self, message: str) -> None:
+        if self.quiet:
+            return
+        from .summary import safe
+
+        self.console.print(f"[dim]{safe(message)}[/]", highlight=False)
+
+    def tick(self, t) -> None:
+        if self.quiet:
+            return
+        if self.hint and self._clock() - self.t0 > self.hint_after:
+            self.console.print(f"[dim]note: {self.hint}[/]", highlight=False)
+            self.hint = None
+        if self.bars is None:
+            return
+        from .summary import safe
+
+        status = ""
+        if t.incumbent is not None:
+            gap = f" ({t.gap:.1%} over the bound)" if t.gap is not None else ""
+            status = f"incumbent {t.incumbent:.3f} s{gap}"
+        elif t.note:
+            status = safe(t.note)
+        desc = safe(t.stage) + (f" [dim]{safe(t.unit)}[/]" if t.unit and t.total else "")
+        total = None if t.total is None else float(t.total)
+        if t.level not in self.tasks:
+            self.tasks[t.level] = self.bars.add_task(desc, total=total, status=status)
+        for level in [k for k in self.tasks if k > t.level]:  # an outer step ends the inner run's bar
+            self.bars.remove_task(self.tasks.pop(level))
+        self.bars.update(self.tasks[t.level], description=desc, total=total, completed=float(t.done), status=status)

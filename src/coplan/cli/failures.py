@@ -69,6 +69,26 @@ def check_out_dir(out, what: str = "--out") -> None:
         usage(f"{what} {out}: expected a folder coplan may write to, found {probe} not writable")
 
 
+def resolve_problem(problem, note=lambda message: None):
+    """The problem file an argument names: the shipped default when none is given; a shipped
+    problem's bare name (``dense_overlap``, ``dense_overlap.yaml``) when no such file is here
+    (``note`` is told which file that is); else the path as given."""
+    from pathlib import Path
+
+    from ..problem.model import default_problem_path, shipped_problems
+
+    if problem is None:
+        return default_problem_path()
+    problem = Path(problem)
+    if not problem.exists() and problem.parent == Path("."):
+        stem = problem.name[:-5] if problem.name.endswith(".yaml") else problem.name
+        hit = next((p for p in shipped_problems() if p.stem == stem), None)
+        if hit is not None:
+            note(f"{problem}: the shipped problem {hit}")
+            return hit
+    return problem
+
+
 def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
     """The exit code and message of any exception a command raised."""
     if isinstance(exc, Failure):

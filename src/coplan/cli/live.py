@@ -13,7 +13,8 @@ from typing import Annotated, Optional
 import typer
 from rich.console import Console
 
-from .failures import check_out_dir, usage
+from .console import ProgressDisplay
+from .failures import check_out_dir, resolve_problem, usage
 from .summary import safe as _safe
 from ..kinds import ExitCode, PlanStatus
 
@@ -48,7 +49,7 @@ def feed_cmd(
 
     if out.exists() and out.is_dir():
         usage(f"--out {out}: expected a file name, found a folder")
-    prob = load_problem(problem)
+    prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
     feed = make_feed(prob, known, sigma, false_rate, duplicate_rate, seed, reveal_by, after_pick, close_distance, close_sigma)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".tmp")
@@ -80,13 +81,14 @@ def run_cmd(
     from ..live.sim import simulate
 
     check_out_dir(out, "--out")
-    prob = load_problem(problem)
+    prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
     fd = load_feed(feed)
     if fd.problem is not None and fd.problem != prob.name:
         _err.print(f"[yellow]note[/]: the feed was made for problem {_safe(fd.problem)!r}, this is {_safe(prob.name)!r}",
                    highlight=False)
     opts = LiveOptions(horizon=horizon, budget=None) if all_candidates else LiveOptions(horizon=horizon)
-    result = simulate(prob, fd, opts, seed=seed)
+    with ProgressDisplay(_err, quiet=as_json) as bars:
+        result = simulate(prob, fd, opts, seed=seed, progress=bars)
     with RunFolder(out) as stage:
         result.plan.save(stage)
         (stage / "verification.json").write_text(json.dumps(jsonable(result.verification.summary()), indent=1))

@@ -3,9 +3,11 @@ strings escaped). Light to import: rich only, like :mod:`coplan.cli`."""
 
 from __future__ import annotations
 
+import math
+
 from ..errors import plural, printable
 
-__all__ = ["fmt", "print_summary", "print_verification", "safe"]
+__all__ = ["fmt", "fruit_line", "print_summary", "print_verification", "safe"]
 
 
 def safe(x) -> str:
@@ -23,6 +25,23 @@ def fmt(x, unit="", nd=2) -> str:
     return f"{x:.{nd}f}{unit}"
 
 
+def fruit_line(m: dict) -> str:
+    """The fruit of a plan in coplan's one vocabulary: harvested of harvestable; of all fruit,
+    the unreachable, screened-out and left-out ones by id."""
+    ids = m.get("fruit_ids") or {}
+    head = f"{m.get('harvested')} harvested of {m.get('harvestable', m.get('reachable'))} harvestable"
+    parts = []
+    for key, words in (("unreachable", "unreachable"), ("screened_out", "screened out"), ("left_out", "left out")):
+        got = ids.get(key) or []
+        if got:
+            shown = ", ".join(safe(f) for f in got[:6]) + (f", ... {len(got) - 6} more" if len(got) > 6 else "")
+            parts.append(f"{len(got)} {words} ({shown})")
+    total = m.get("fruit")
+    if total is None:
+        return head
+    return head + (f"; of {total} fruit " + ", ".join(parts) if parts else f" (all {total} fruit)")
+
+
 def print_summary(console, res) -> None:
     """The summary ``coplan solve`` prints of a :class:`coplan.pipeline.SolveResult`."""
     m = res.plan.metrics
@@ -30,10 +49,12 @@ def print_summary(console, res) -> None:
     colour = "green" if res.success else "red"
     p = console.print
     p(f"[bold]{safe(res.problem.name)}[/] -- planner [bold]{safe(res.plan.planner_name)}[/], status [bold {colour}]{res.plan.status.value}[/]")
-    p(f"  fruit harvested   {m.get('harvested')}/{m.get('reachable')} reachable ({m.get('unreachable')} unreachable: {safe(', '.join(res.plan.unreachable)) or 'none'})")
+    p(f"  fruit             {fruit_line(m)}")
     p(f"  makespan          {fmt(m.get('makespan'), ' s')}   (lower bound {fmt(m.get('lower_bound'), ' s')}, ratio {fmt(m.get('gap_to_lower_bound'), '', 3)})")
     if m.get("optimality") == "proven":
-        p("  optimality        [bold green]proven[/]: the makespan meets the lower bound")
+        whole = m.get("harvestable", 0) >= m.get("fruit", 0)
+        p("  optimality        [bold green]proven[/]: the makespan meets the lower bound" +
+          ("" if whole else f" (for the {m.get('harvestable')} harvestable fruit: no plan can harvest the others)"))
     if m.get("coordinated_makespan") is not None:
         p(f"  coordinated plan  {fmt(m.get('coordinated_makespan'), ' s')}   (improved by {fmt(100 * (m.get('improvement_over_coordinated') or 0.0), ' %', 1)};"
           f" first verified plan at {fmt(m.get('time_to_first_verified'), ' s')}, last improvement at {fmt(m.get('time_of_last_improvement'), ' s')})")
@@ -41,10 +62,12 @@ def print_summary(console, res) -> None:
         p(f"  heuristic plan    {fmt(m.get('baseline_makespan'), ' s')}   (the course's baseline, {m.get('baseline_status', '?')}; baseline.json)")
     p(f"  cycle time/fruit  {fmt(m.get('cycle_time'), ' s')} worst arm, {fmt(m.get('cycle_time_mean'), ' s')} mean")
     if ver:
-        p(
-            f"  collisions found  {ver.get('collision_count', '-')}   least clearance {fmt(ver.get('min_clearance'), ' m', 4)}"
-            f" (certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})"
-        )
+        least = ver.get("min_clearance")
+        if least is None or not math.isfinite(least):  # one arm, or arms too far apart ever to touch
+            p(f"  collisions found  {ver.get('collision_count', '-')}   least clearance - (no two arms can touch)")
+        else:
+            p(f"  collisions found  {ver.get('collision_count', '-')}   least clearance {fmt(least, ' m', 4)}"
+              f" (certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})")
         if not ver.get("passed", False):
             p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
     solver = res.plan.solver
@@ -67,6 +90,16 @@ def print_summary(console, res) -> None:
         p(f"  wrote             {safe(v)}")
     if res.previous is not None:
         p(f"  previous run      kept in {safe(res.previous)}")
+
+
+#: What each verifier warning means, for the report (none of them fails a plan).
+WARNING_WORDS = {
+    "singular": "an arm passes near a singular pose: manipulability below task.singularity_threshold, "
+                "where small joint errors move the tip a lot",
+    "not_harvested": "a reachable fruit is not picked and placed: the plan is partial",
+    "problem_name": "the plan names another problem",
+    "events_inferred": "the plan declares no events; they were inferred from its motion",
+}
 
 
 def print_verification(console, problem, ver, max_rows: int = 25, makespan: float | None = None) -> None:
@@ -96,7 +129,9 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
         agree = "agrees" if ver.fcl.agree else "[bold red]DISAGREES[/]"
         p(f"  FCL cross-check   {agree} ({ver.fcl.samples} instants, {ver.fcl.queries} link pairs, max diff {ver.fcl.max_abs_diff:.1e} m)")
     if ver.warnings:
-        p(f"  warnings          {len(ver.warnings)} ({', '.join(sorted({w.kind.value for w in ver.warnings}))})")
+        kinds = sorted({w.kind.value for w in ver.warnings})
+        p(f"  warnings          {len(ver.warnings)}, which do not fail the plan: "
+          + "; ".join(f"{k} ({WARNING_WORDS.get(k, k)})" for k in kinds))
     if not ver.violations:
         return
     table = Table(title=plural(len(ver.violations), "violation"), title_justify="left")

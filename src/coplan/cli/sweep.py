@@ -13,6 +13,7 @@ from typing import Annotated, Optional
 import typer
 from rich.console import Console
 
+from ..errors import plural
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
 from ..errors import printable
@@ -67,7 +68,7 @@ def sweep_cmd(
 
     def on_start(o):
         _err.print(f"sweep [bold]{_safe(sw.name)}[/]: {o.total} problems, {o.skipped} already done in {_safe(folder)}; "
-                   f"{_safe(scheduler) if scheduler else f'{o.workers} local worker processes'}", highlight=False)
+                   f"{_safe(scheduler) if scheduler else plural(o.workers, 'local worker process', 'local worker processes')}", highlight=False)
         state["task"] = progress.add_task(_counts_text(o.counts), total=o.total - o.skipped, name=sw.name)
 
     def on_row(row, o):

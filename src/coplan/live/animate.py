@@ -17,6 +17,7 @@ import numpy as np
 
 from ..kinds import TrackState
 from ..problem.model import Problem
+from ..output import usual_mode
 
 __all__ = ["animate_live"]
 
@@ -76,7 +77,7 @@ def animate_live(problem: Problem, result, out_path: str | Path, *, speed: float
     tmp = Path(name)
     try:
         anim.save(str(tmp), writer=PillowWriter(fps=fps), dpi=dpi)
-        os.chmod(tmp, 0o644)
+        os.chmod(tmp, usual_mode())
         tmp.replace(out)
     finally:
         tmp.unlink(missing_ok=True)

@@ -22,6 +22,7 @@ from ..kinds import EventKind, PlanStatus, TrackState
 from ..plan import DEFAULT_RATE, Event, Plan, compute_metrics, finalize_plan
 from ..problem.model import Problem
 from ..planners.coordinated.schedule import ArmSchedule, StepKind
+from ..progress import Tick, ticker
 from .cell import LiveCell, LiveOptions
 from .feed import Detection, Feed
 
@@ -46,8 +47,10 @@ def _percentile(x: list[float], p: float) -> float | None:
 
 
 def simulate(problem: Problem, feed: Feed, options: LiveOptions | None = None, seed: int = 0,
-             omniscient: bool = True, max_events: int = 5000) -> LiveRun:
-    """Run the live cell on ``feed`` against the true ``problem``; verify what was executed."""
+             omniscient: bool = True, max_events: int = 5000, progress=None) -> LiveRun:
+    """Run the live cell on ``feed`` against the true ``problem``; verify what was executed.
+    ``progress``: a :class:`coplan.progress.Reporter` receives a tick per event (detections
+    taken in so far)."""
     from ..verify.verifier import verify
 
     feed.check_against(problem)
@@ -68,7 +71,9 @@ def simulate(problem: Problem, feed: Feed, options: LiveOptions | None = None, s
     log: list[dict] = []
     now, k, idle_tried = 0.0, 0, None
     paths: list = []
+    tick = ticker(progress)
     for _ in range(max_events):
+        tick(Tick("live run", k, max(1, len(queue)), "detections", note=f"t = {now:.1f} s, {len(cell.replans)} re-plans"))
         if len(cell.replans) > len(paths):  # the plan as it stood after each re-plan (for the animation)
             t = np.linspace(now, now + 4.0, 41)
             paths += [(now, {n: _tips(cell, n, t) for n in cell.steps})] * (len(cell.replans) - len(paths))

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import difflib
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -235,6 +235,14 @@ class Problem:
     task: Task
     description: str = ""
     source: str | None = field(default=None, compare=False)
+    digest: str | None = field(default=None, compare=False)  # sha256 of the YAML text it was read from
+
+    def file_record(self) -> dict[str, str] | None:
+        """Where the problem was read from, for a plan to name it: ``{"path": absolute path,
+        "sha256": the text's digest}``; None when it did not come from a file."""
+        if self.source is None or self.digest is None or not Path(self.source).is_file():
+            return None
+        return {"path": str(Path(self.source).resolve()), "sha256": self.digest}
 
     def arm(self, name: str) -> Arm:
         for a in self.arms:
@@ -548,7 +556,14 @@ def parse_problem(text: str, source: str | None = None) -> Problem:
     if n > MAX_FILE_BYTES:
         raise ProblemError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
     data, lines = read_yaml(text, source, keep_text=_is_text_path)
-    return _build(data, lines, source)
+    return replace(_build(data, lines, source), digest=text_digest(text))
+
+
+def text_digest(text: str) -> str:
+    """The sha256 of a problem's YAML text (what a plan records to find its problem again)."""
+    import hashlib
+
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 def _is_text_path(path: tuple) -> bool:

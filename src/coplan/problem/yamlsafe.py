@@ -21,6 +21,7 @@ import :mod:`coplan.problem.model` (which imports it).
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -49,9 +50,20 @@ class _LineLoader(yaml.SafeLoader):
     :func:`_scan_events` and :func:`_walk_nodes`, then the checked node tree is constructed."""
 
 
-# libyaml's parser when PyYAML has it (it nearly always does): the same events and marks,
-# an order of magnitude faster. Only its parser/composer is used; construction is SafeLoader's.
-_FastLoader = getattr(yaml, "CSafeLoader", _LineLoader)
+class _FastLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):
+    """libyaml's parser when PyYAML has it (it nearly always does): the same events and marks,
+    an order of magnitude faster. Only its parser/composer is used; construction is SafeLoader's.
+
+    Its resolver also reads numbers in scientific notation without a dot (``8e1``, ``1e-3``,
+    ``1e308``) as numbers, as YAML 1.2 and every other tool do; YAML 1.1's float rule wants
+    ``8.0e+1`` and would make them strings."""
+
+
+_FastLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
 
 
 def _scan_events(text: str, issues: list) -> None:

@@ -22,7 +22,6 @@ import json
 import math
 import os
 import statistics
-import tempfile
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,6 +31,8 @@ from ..allocate.allocation import AllocationMethod, lower_bound
 from ..errors import Issue, ProblemError, plural, printable
 from ..plan import Plan, PlannerKind
 from ..problem.model import Problem, load_problem
+from ..output import atomic_text
+from ..progress import Tick, nested, speaker, ticker
 
 __all__ = ["PlannerSpec", "DEFAULT_PLANNERS", "Comparison", "compare", "run_row", "aggregate", "to_markdown", "rich_tables"]
 
@@ -198,15 +199,21 @@ def compare(
         raise ValueError("expected at least one planner")
     files = _problem_files(source)
     single = isinstance(source, (str, Path)) and not Path(source).is_dir()
-    say = progress or (lambda msg: None)
+    say = speaker(progress)
+    tick = ticker(progress)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     cmp = Comparison(planners=[s.label for s in specs])
+    runs = len(files) * len(specs)
     for k, path in enumerate(files):
+        def ran(j: int, what: str) -> None:
+            tick(Tick("compare", k * len(specs) + j, runs, "runs", note=f"{path.stem}: {what}"))
+
         try:
-            entry, rows, plans = _compare_problem(path, specs, out, options, say, single)
+            entry, rows, plans = _compare_problem(path, specs, out, options, say, single, ran, nested(progress))
             problem = entry.pop("_problem", None)
             if figures and plans:
+                ran(len(specs), "figures")
                 _figures(problem, plans, out / path.stem, cmp)
         except KeyboardInterrupt:
             cmp.notes.append(f"interrupted while comparing {path.name}: this report covers the {len(cmp.problems)} of "
@@ -224,7 +231,8 @@ def compare(
     return cmp
 
 
-def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, say, single: bool):
+def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, say, single: bool,
+                     ran=lambda j, what: None, inner=None):
     """One problem file with every planner: its ``problems`` entry, its rows and its plans.
     Any failure becomes a recorded error; only an interruption escapes."""
     from ..kinds import PlanStatus
@@ -247,12 +255,13 @@ def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, s
     rows: list[dict[str, Any]] = []
     plans: dict[str, Plan] = {}
     lb_cache: list[float] = []
-    for spec in specs:
+    for j, spec in enumerate(specs):
+        ran(j, spec.label)
         say(f"{problem.name}: solving with {spec.label}")
         kw = {"options": options} if spec.planner != PlannerKind.HEURISTIC else {}
         try:
             res = solve(problem, planner=spec.planner, allocation=spec.allocation, out_dir=out / path.stem / spec.folder,
-                        progress=say, **kw)
+                        progress=inner if inner is not None else say, **kw)
             if res.plan.status == PlanStatus.INTERRUPTED:
                 raise KeyboardInterrupt
             row = _row_of(problem, spec, res, lb_cache)
@@ -293,8 +302,8 @@ def _write_report(cmp: Comparison, specs: list[PlannerSpec], out: Path, figures_
     out.mkdir(parents=True, exist_ok=True)
     json_path, md_path = out / "compare.json", out / "compare.md"
     cmp.files.update(json=str(json_path), markdown=str(md_path))
-    _write(json_path, json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
-    _write(md_path, to_markdown(cmp, out))
+    atomic_text(json_path, json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
+    atomic_text(md_path, to_markdown(cmp, out))
 
 
 def _figures(problem: Problem, plans: dict[str, Plan], folder: Path, cmp: Comparison) -> None:
@@ -310,18 +319,6 @@ def _figures(problem: Problem, plans: dict[str, Plan], folder: Path, cmp: Compar
         return
     for p in saved:
         cmp.files[f"{folder.name}/{Path(p).name}"] = str(p)
-
-
-def _write(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (a temporary name unique per writer, then a rename)."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 # --------------------------------------------------------------------------- aggregation

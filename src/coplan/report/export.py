@@ -30,9 +30,7 @@ import csv
 import io
 import json
 import math
-import os
 import re
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -40,6 +38,7 @@ import numpy as np
 
 from ..kinds import ExportFormat
 from ..plan import Plan
+from ..output import atomic_text
 
 __all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "MAX_POINTS", "MAX_RATE"]
 
@@ -111,17 +110,6 @@ def safe_names(names: list[str]) -> dict[str, str]:
     return out
 
 
-def _atomic_write(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", newline="") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def csv_text(traj: Trajectory) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -158,7 +146,7 @@ def export_plan(plan: Plan, rate: float, fmt: ExportFormat | str, out: str | Pat
     out = Path(out)
     if fmt == ExportFormat.CSV:
         out.parent.mkdir(parents=True, exist_ok=True)
-        _atomic_write(out, csv_text(traj))
+        atomic_text(out, csv_text(traj))
         return [out]
     out.mkdir(parents=True, exist_ok=True)
     names = safe_names(list(traj.q))
@@ -172,6 +160,6 @@ def export_plan(plan: Plan, rate: float, fmt: ExportFormat | str, out: str | Pat
 
             text = yaml.dump(msg, Dumper=getattr(yaml, "CSafeDumper", yaml.SafeDumper), sort_keys=False, default_flow_style=None)
         path = out / f"{names[arm]}.{fmt.value}"
-        _atomic_write(path, text)
+        atomic_text(path, text)
         written.append(path)
     return written

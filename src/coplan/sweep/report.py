@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ..kinds import RowStatus
-from .table import read_table
+from .table import COLUMNS, read_table
 
 __all__ = ["SweepReport", "sweep_report", "summarise", "pareto_front", "designs", "fronts", "counts_as_with_fruit"]
 
@@ -143,8 +143,8 @@ def _text(s: dict[str, Any], title: str) -> str:
         lines.append(f"success among problems with reachable fruit: {s['success_with_reachable_fruit']}/{s['with_reachable_fruit']}"
                      f" ({100 * s['success_rate']:.1f} %)")
     lines.append(f"rows called success whose plan was not verified: {len(s['success_but_not_verified'])}")
-    lines += ["", "## Medians (successful rows)", "", "| figure | median |", "|---|---|"]
-    lines += [f"| {k} | {_fmt(v)} |" for k, v in s["medians"].items()]
+    lines += ["", "## Medians (successful rows)", "", "| figure | median | what, unit |", "|---|---|---|"]
+    lines += [f"| {k} | {_fmt(v)} | {COLUMNS.get(k, ('', ''))[1]} |" for k, v in s["medians"].items()]
     if s["median_coordinated_over_plan"] is not None or s["median_heuristic_over_plan"] is not None:
         lines += ["", f"planners side by side: median coordinated / plan makespan {_fmt(s['median_coordinated_over_plan'])},"
                       f" heuristic / plan {_fmt(s['median_heuristic_over_plan'])}"]

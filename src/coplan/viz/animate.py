@@ -33,6 +33,8 @@ from ..plan import EventKind, Plan
 from ..problem.model import Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors, pair_label
 from .timeline import arm_points, fruit_states, harvested_count, pair_clearance, phase_at, schedule
+from ..progress import Tick, ticker
+from ..output import usual_mode
 
 __all__ = ["RenderError", "OverwriteRefused", "RenderWarning", "animate_plan", "build_animation", "render_frame", "frame_times", "ffmpeg_available"]
 
@@ -450,6 +452,7 @@ def animate_plan(
     width: float = 9.0,
     max_frames: int = 1500,
     notify: Callable[[str], None] | None = None,
+    progress=None,
 ) -> Path:
     """Render the plan to ``out_path`` and return the path actually written.
 
@@ -462,6 +465,9 @@ def animate_plan(
     so rendering stays quick. Frames go to a uniquely named hidden ``*.partial*`` file beside the
     target, renamed into place when complete; any failure, Ctrl-C included, removes it. Any
     rendering failure raises :class:`RenderError` with the reason; nothing else is touched.
+    The file gets the user's usual permissions (as any file they write, not ``mkstemp``'s 0600).
+    ``progress``: a :class:`coplan.progress.Reporter` receives a :class:`coplan.progress.Tick`
+    per frame written.
     """
     from matplotlib.animation import FFMpegWriter
 
@@ -497,7 +503,10 @@ def animate_plan(
         fd, name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".partial" + out.suffix, dir=out.parent)
         os.close(fd)
         tmp = Path(name)
-        anim.save(str(tmp), writer=writer, dpi=dpi)
+        tick = ticker(progress)
+        anim.save(str(tmp), writer=writer, dpi=dpi,
+                  progress_callback=lambda i, total: tick(Tick("frames", i + 1, total, "frames", note=out.name)))
+        tmp.chmod(usual_mode())
         tmp.replace(out)
         tmp = None
     except RenderError:

@@ -122,11 +122,12 @@ def plot_gantt(problem: Problem, plans: Plan | Mapping[str, Plan], *, title: str
         ax.set_axisbelow(True)
     axes[-1].set_xlabel("time (s)")
     axes[-1].set_xlim(0, t_max * 1.02 + 0.1)
+    swatch = colors[names[0]]  # the bars' own colours (each arm's), not a grey that reads as idle
     handles = [
-        Patch(facecolor="#777777", alpha=0.35, label="moving"),
-        Patch(facecolor="#777777", edgecolor="black", linewidth=0.6, label="picking (fruit id above)"),
-        Patch(facecolor="#777777", edgecolor="black", hatch="////", linewidth=0.6, label="placing in bin"),
-        Patch(facecolor=_IDLE, label="idle"),
+        Patch(facecolor=swatch, alpha=0.35, linewidth=0, label="moving (the arm's colour, light)"),
+        Patch(facecolor=swatch, edgecolor="black", linewidth=0.6, label="picking (fruit id above)"),
+        Patch(facecolor=swatch, edgecolor="black", hatch="////", linewidth=0.6, label="placing in bin"),
+        Patch(facecolor=_IDLE, label="idle (thin grey)"),
     ]
     fig.legend(handles=handles, loc="outside lower center", ncol=4, fontsize=8, frameon=False)
     fig.suptitle(title or f"{problem.name}: schedule per arm (bar colour = arm)", fontsize=11)
@@ -347,8 +348,10 @@ def plot_workspace(problem: Problem, arm: str | None = None, *, resolution: int 
     Heat map of the manipulability |det J| over the reachable annulus (joint limits
     honoured), the inner and outer boundaries and the 90% safety ring. With ``arm=None`` the
     whole cell: every arm's boundaries in its colour, zones reachable by two or more arms
-    hatched, bins, and each fruit drawn as a disc split among the arms that can reach it
-    (a cross when none can). With ``arm="name"``: that arm alone.
+    hatched, bins, and each fruit drawn as a disc split among the arms that can harvest it
+    (a cross when none can). Arms the screen locks (they can never reach their bin) are drawn
+    dashed and labelled, and the fruit only they could pick shown as screened out: what makes a
+    plan partial. With ``arm="name"``: that arm alone.
     """
     from matplotlib.colors import LinearSegmentedColormap
     from matplotlib.lines import Line2D
@@ -376,28 +379,37 @@ def plot_workspace(problem: Problem, arm: str | None = None, *, resolution: int 
     if np.isfinite(manip).any() and np.nanmin(manip) < thr:
         ax.contour(xs, ys, np.nan_to_num(manip, nan=np.inf), levels=[thr], colors=[ALERT_COLOR], linewidths=0.7, linestyles="-")
     th = np.linspace(0, 2 * np.pi, 361)
+    from ..allocate.screen import screened
+
+    scr = screened(problem)
     for a in arms:
         c = colors[a.name]
         bx, by = a.base
-        ax.plot(bx + a.reach * np.cos(th), by + a.reach * np.sin(th), color=c, linewidth=1.8)
+        locked = not scr.arm_ok[a.name]
+        ax.plot(bx + a.reach * np.cos(th), by + a.reach * np.sin(th), color=c, linewidth=1.8,
+                linestyle=(0, (6, 3)) if locked else "-")
         if a.inner_radius > 0.01:
             ax.plot(bx + a.inner_radius * np.cos(th), by + a.inner_radius * np.sin(th), color=c, linewidth=1.3, linestyle="--")
         ax.plot(bx + 0.9 * a.reach * np.cos(th), by + 0.9 * a.reach * np.sin(th), color=c, linewidth=1.2, linestyle=":")
         ax.plot(bx, by, "^", color=c, markeredgecolor="black", markersize=11, zorder=5)
         ax.add_patch(Rectangle((a.bin[0] - 0.12, a.bin[1] - 0.1), 0.24, 0.2, facecolor=c, alpha=0.6, edgecolor="black", linewidth=0.8, zorder=4))
         ax.annotate(
-            a.name, (a.bin[0], a.bin[1] - 0.1), xytext=(0, -3), textcoords="offset points", ha="center", va="top",
+            a.name + (" (locked)" if locked else ""), (a.bin[0], a.bin[1] - 0.1), xytext=(0, -3),
+            textcoords="offset points", ha="center", va="top",
             color=c, fontweight="bold", fontsize=9, zorder=6, bbox=dict(facecolor="white", alpha=0.8, edgecolor="none", pad=1),
         )
-    n_shared = n_none = 0
+    n_shared = n_none = n_left = 0
     if show_fruit and problem.fruits:
         reach = problem.reach_matrix()
         idx = [problem.arms.index(a) for a in arms]
         rdisc = 0.075 * max(1.0, span[0] / 8)
         for k, f in enumerate(problem.fruits):
-            who = [problem.arms[i].name for i in idx if reach[i, k]]
+            who = [problem.arms[i].name for i in idx if scr.reach[i, k]]
             x, y = f.position
-            if not who:
+            if not who and any(reach[i, k] for i in idx):  # only locked arms (or blocked poses) reach it
+                n_left += 1
+                ax.add_patch(Wedge((x, y), rdisc, 0, 360, facecolor="white", edgecolor=ALERT_COLOR, linewidth=1.6, zorder=6))
+            elif not who:
                 n_none += 1
                 ax.plot(x, y, "x", color=FRUIT_COLOR, markersize=8, markeredgewidth=2, zorder=6)
             else:
@@ -419,6 +431,11 @@ def plot_workspace(problem: Problem, arm: str | None = None, *, resolution: int 
         handles.append(Patch(facecolor="white", edgecolor="black", hatch="//", label="overlap (≥ 2 arms reach)"))
     if show_fruit and problem.fruits:
         handles.append(Line2D([], [], marker="o", color="none", markerfacecolor="#999999", markeredgecolor="black", label="fruit (split by arms that reach it)"))
+        if n_left:
+            handles.append(Line2D([], [], marker="o", color="none", markerfacecolor="white", markeredgecolor=ALERT_COLOR,
+                                  markeredgewidth=1.6, label="fruit screened out (only locked arms or blocked poses reach it)"))
+        if any(not scr.arm_ok[a.name] for a in arms):
+            handles.append(Line2D([], [], color="black", linewidth=1.6, linestyle=(0, (6, 3)), label="locked arm (never reaches its bin): its reach"))
         if n_none:
             handles.append(
                 Line2D([], [], marker="x", color=FRUIT_COLOR, linestyle="none", markeredgewidth=2,

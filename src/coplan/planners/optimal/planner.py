@@ -44,6 +44,7 @@ from ..heuristic import plan_heuristic
 from .nlp_data import Grid, SolverStatus, build_grid
 from ...plan import Event, EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from ...problem.model import Problem
+from ...progress import Tick, speaker, ticker
 from ..coordinated.schedule import ArmSchedule, StepKind, decoupled_schedules
 from ...allocate.screen import screened
 from .search import Neighbourhood, SearchOptions, StopReason, improve
@@ -190,7 +191,8 @@ def plan_optimal(
     from ...verify.verifier import verify
 
     opts = options or OptimalOptions()
-    say = progress or (lambda m: None)
+    say = speaker(progress)
+    tick = ticker(progress)
     t_start = _time.perf_counter()
     deadline = None if opts.time_limit is None else t_start + opts.time_limit
     timings: dict[str, float] = {}
@@ -205,6 +207,14 @@ def plan_optimal(
 
     t0 = _time.perf_counter()
     inc = _Incumbent(problem, t0, say)
+    n_harvestable = int(screened(problem).reach.any(axis=0).sum())
+
+    def everything_harvestable(p: Plan | None) -> bool:
+        """A verified plan that harvests every fruit the screen allows: the bound is about
+        exactly those, so meeting it proves the plan optimal (a partial plan too, whose other
+        fruit no plan can harvest)."""
+        return p is not None and p.status in (PlanStatus.SUCCESS, PlanStatus.PARTIAL) \
+            and p.metrics.get("harvested", 0) >= n_harvestable
     cache: dict = {}  # routes and moves shared by every coordinator run
     copts = CoordinatedOptions(margin=opts.margin, budget_checks=opts.coordination_checks, time_limit=opts.time_limit)
     interrupted = False
@@ -213,7 +223,18 @@ def plan_optimal(
     retime_info: list[dict] = []
     coord_plan = None
     error = error_trace = None
+    bound = 0.0
+
+    def stage(name: str, unit: str = "") -> Callable[[float], None]:
+        """A tick for stage ``name`` now, and a callable that ticks its share later."""
+        def at(share: float | None) -> None:
+            tick(Tick(name, share or 0.0, None if share is None else 1.0, unit, inc.makespan if inc.plan else None,
+                      bound or None))
+        at(None if not unit else 0.0)
+        return at
+
     try:
+        stage("coordinated")
         coord = plan_coordinated(problem, allocation, copts, say, cache)
         timings["coordinated"] = _time.perf_counter() - t0
         coord_plan = coord.plan
@@ -224,7 +245,7 @@ def plan_optimal(
         bound = coord.plan.metrics.get("lower_bound") or 0.0
 
         def proven() -> bool:
-            return inc.plan is not None and inc.plan.status == PlanStatus.SUCCESS and inc.makespan <= bound + opts.tolerance
+            return everything_harvestable(inc.plan) and inc.makespan <= bound + opts.tolerance
 
         def checked(c: Coordinated) -> tuple[Plan, object]:
             """A candidate's plan and its verification."""
@@ -241,6 +262,7 @@ def plan_optimal(
                 return
             from .retime import retime, retimed_candidate
 
+            stage("retime")
             tr = _time.perf_counter()
             r = retime(problem, c.schedules, opts.margin, work=opts.retime_work, tables=cache.setdefault("curve_tables", {}),
                        memo=cache.setdefault("meetings", {}))
@@ -269,7 +291,8 @@ def plan_optimal(
                                   fixed_assignment=AllocationMethod(allocation) != AllocationMethod.MAKESPAN)
             anchor = coord.bound.assignment if coord.bound is not None else None
             hood = Neighbourhood(problem, start, opts.margin, sopts, cache)
-            found, stats = improve(problem, start, bound, opts.margin, sopts, on_improve, deadline, cache, anchor, hood)
+            found, stats = improve(problem, start, bound, opts.margin, sopts, on_improve, deadline, cache, anchor, hood,
+                                   stage("search", "of its work budget"))
             search_info = stats.summary()
             timings["search"] = _time.perf_counter() - ts
             stop = stats.stop
@@ -292,7 +315,7 @@ def plan_optimal(
                 ropts = RefineOptions(retimes=opts.refine_retimes, work=opts.retime_work, tolerance=opts.tolerance)
                 _, rstats = refine(problem, hood, stats.best_state, found, bound, opts.margin, ropts, offer_refined,
                                    deadline, cache.setdefault("curve_tables", {}), cache.setdefault("meetings", {}),
-                                   stats.local_bests)
+                                   stats.local_bests, stage("refine", "of its retimings"))
                 refine_info = rstats.summary()
                 timings["refine"] = _time.perf_counter() - tr
                 stop = rstats.stop
@@ -323,6 +346,7 @@ def plan_optimal(
                     say(f"joint NLP skipped: the schedule needs {n_win} receding windows (polish_windows is {opts.polish_windows})")
         if not interrupted and within and src is not None and n_reach and not proven() and (
                 inc.plan is None or (opts.polish and slack)):
+            stage("joint NLP")
             tp = _time.perf_counter()
             popts = replace(opts, ipopt={"ipopt.max_iter": 200} | dict(opts.ipopt),
                             max_rounds=min(opts.max_rounds, opts.polish_rounds)) if inc.plan else opts
@@ -381,7 +405,7 @@ def plan_optimal(
     plan.metrics.update(
         coordinated_makespan=coord_mk,
         improvement_over_coordinated=(1.0 - mk / coord_mk) if coord_mk else None,
-        optimality="proven" if (verified and lb and mk <= lb + opts.tolerance) else "not proven",
+        optimality="proven" if (verified and lb and mk <= lb + opts.tolerance and everything_harvestable(plan)) else "not proven",
         baseline_makespan=baseline.metrics.get("makespan"),
         baseline_status=baseline.status.value,
         time_to_first_verified=inc.first_at,

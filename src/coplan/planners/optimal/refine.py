@@ -110,6 +110,7 @@ def refine(
     tables: dict | None = None,
     memo: dict | None = None,
     more: Sequence[tuple[Coordinated, State]] = (),
+    tick: Callable[[float], None] | None = None,
 ) -> tuple[Coordinated, RefineStats]:
     """Refine ``start`` (whose state in ``hood`` is ``state``) by retimed local search (see the
     module docstring), then, each time ``patience`` retimings bring no new best of the start
@@ -117,7 +118,7 @@ def refine(
     lowest decoupled estimate first (the most room for coordination), then fastest.
     ``offer`` is called with every new best (retimed schedules) and says whether it passed the
     caller's check (the planner verifies it; a refused one is dropped), the refinement keeping
-    its own best;
+    its own best; ``tick`` receives the share of the budget (retimings) spent, before each;
     ``tables``/``memo``: S-curve tables and forbidden offsets shared with other retimings.
     Returns the best candidate (``start`` when nothing beat it) and the statistics; Ctrl-C ends
     it with what it has."""
@@ -135,6 +136,8 @@ def refine(
 
     def retimed(c: Coordinated) -> Coordinated | None:
         st.retimes += 1
+        if tick is not None:
+            tick(st.retimes / max(1, opts.retimes))
         r = retime(problem, c.schedules, margin, work=opts.work, tables=tables, memo=memo)
         if r.schedules is None:
             return None

@@ -426,6 +426,7 @@ def improve(
     cache: dict | None = None,
     anchor: dict[str, tuple[str, ...]] | None = None,
     hood: Neighbourhood | None = None,
+    tick: Callable[[float], None] | None = None,
 ) -> tuple[Coordinated, SearchStats]:
     """Improve a coordinated candidate by large-neighbourhood search (see the module docstring).
 
@@ -436,6 +437,8 @@ def improve(
     candidate's state). Ctrl-C ends the search with what it has (``StopReason.INTERRUPTED``).
     ``hood``: the neighbourhood to search (made from the other arguments when None; pass one
     to go on from it afterwards, e.g. :func:`coplan.planners.optimal.refine.refine`).
+    ``tick`` receives the share of the budget spent (the larger of work and evaluations) after
+    every evaluation.
     """
     opts = options or SearchOptions()
     srch = hood if hood is not None else Neighbourhood(problem, start, margin, opts, {} if cache is None else cache)
@@ -450,7 +453,7 @@ def improve(
         space = None  # branch and bound might not finish within half the budget: search instead
     try:
         if space is not None:
-            best = _exhaust(srch, space, best, bound, seen, on_improve, deadline)
+            best = _exhaust(srch, space, best, bound, seen, on_improve, deadline, tick)
             return best, st
         # the anchor: where every other fresh start begins -- and the first, when it beats the start
         a_state = a_cand = None
@@ -525,6 +528,8 @@ def improve(
             idle = 0
             st.moves[kind][0] += 1
             cand = srch.evaluate(s_new)
+            if tick is not None:
+                tick(max(st.checks / max(1, opts.work), st.evaluations / max(1, opts.evaluations)))
             since_best += 1
             since_cur += 1
             if cand is None:
@@ -556,7 +561,7 @@ def improve(
     return best, st
 
 
-def _exhaust(srch: Neighbourhood, space, best: Coordinated, bound: float, seen: set, on_improve, deadline) -> Coordinated:
+def _exhaust(srch: Neighbourhood, space, best: Coordinated, bound: float, seen: set, on_improve, deadline, tick=None) -> Coordinated:
     """Branch and bound over the whole (small) state space, cheapest estimate first."""
     st, opts = srch.stats, srch.opts
     st.stop = StopReason.EXHAUSTED
@@ -577,6 +582,8 @@ def _exhaust(srch: Neighbourhood, space, best: Coordinated, bound: float, seen: 
         seen.add(s)
         st.proposals += 1
         cand = srch.evaluate(s)
+        if tick is not None:
+            tick(max(st.checks / max(1, opts.work), st.evaluations / max(1, opts.evaluations)))
         if cand is not None and cand.makespan < best.makespan - 1e-9:
             best, st.best_state = cand, s
             st.improvements += 1
