@@ -16,7 +16,9 @@ import pytest
 
 import coplan
 
-README = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+ROOT = Path(__file__).resolve().parents[1]
+# the README and the user docs it links to (docs/usage.md, docs/benchmarks.md)
+README = "\n".join((ROOT / f).read_text(encoding="utf-8") for f in ("README.md", "docs/usage.md", "docs/benchmarks.md"))
 PY_BLOCKS = re.findall(r"```python\n(.*?)```", README, re.S)
 DOTTED = re.compile(r"\bcoplan(?:\.[A-Za-z_]\w*)+(?![\w/])")
 

@@ -21,7 +21,15 @@ _LAZY = {
 }
 
 
+# documented submodules, reachable as attributes before anything imported them (``coplan.generate.row_problem``)
+_SUBMODULES = ("generate", "optimal", "plausible", "verify")
+
+
 def __getattr__(name: str):
+    if name in _SUBMODULES:
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
     if name in _LAZY:
         import importlib
 
