@@ -176,6 +176,11 @@ def test_no_module_imports_another_modules_private_name():
     ("coplan.verify", "coplan.pipeline"),
     ("coplan.pipeline", "coplan.cli"),
     ("coplan.report", "coplan.cli"),
+    ("coplan.planners", "coplan.row"),
+    ("coplan.verify", "coplan.row"),
+    ("coplan.allocate", "coplan.row"),
+    ("coplan.row", "coplan.pipeline"),
+    ("coplan.row", "coplan.cli"),
 ])
 def test_dependencies_point_one_way(low, high):
     """Nothing in a lower stage imports a higher one (the CLI is on top, kinematics at the bottom)."""

@@ -1,6 +1,6 @@
 """``coplan.generate``: the documented path of the problem generators (README:
 ``coplan.generate`` makes rows and random layouts: ``row_problem``, ``random_problem``,
-``cell_problem``, ``to_yaml``).
+``cell_problem``, ``gantry_row`` (a row on a mobile gantry), ``to_yaml``).
 
 Only a re-export: the code is in :mod:`coplan.problem.generate`. Nothing inside coplan
 imports this module.
@@ -8,12 +8,15 @@ imports this module.
 
 from .problem.generate import (
     LESSON_DEFAULTS,
+    LESSON_GANTRY,
     LESSON_TASK,
     cell_problem,
+    gantry_row,
     overlap_problem,
     random_problem,
     row_problem,
     to_yaml,
 )
 
-__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "to_yaml", "LESSON_DEFAULTS", "LESSON_TASK"]
+__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "LESSON_DEFAULTS",
+           "LESSON_TASK", "LESSON_GANTRY"]

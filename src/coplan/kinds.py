@@ -30,6 +30,14 @@ class PlannerKind(str, Enum):
     OPTIMAL = "optimal"  # anytime: the coordinated plan improved by search and joint optimisation
 
 
+class StopRule(str, Enum):
+    """Where a row's carriage stops (:mod:`coplan.row.stops`)."""
+
+    OPTIMISED = "optimised"  # stops and their fruit chosen together with the arms (receding windows, CP-SAT)
+    FIXED = "fixed"  # a stop every carriage span (a camera-frame rule)
+    FEWEST = "fewest"  # the fewest stops that serve every fruit (greedy stabbing)
+
+
 class PlanStatus(str, Enum):
     """Overall verdict of a plan. Only ``SUCCESS`` means verified and complete."""
 

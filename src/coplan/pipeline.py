@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .allocate.allocation import AllocationMethod, allocate
-from .kinds import ExitCode
+from .kinds import ExitCode, StopRule
 from .output import RunFolder
 from .planners.heuristic import plan_heuristic
 from .plan import Plan, PlannerKind, PlanStatus, finalize_plan
@@ -48,6 +48,7 @@ class SolveResult:
     previous: Path | None = None  # where the previous run in the output folder was kept
     error: str | None = None  # an internal error stopped the planner; what it had computed is kept
     error_trace: str | None = None  # its traceback (shown with COPLAN_DEBUG=1)
+    row: object | None = None  # a row's :class:`coplan.row.plan.RowResult` (stops, cells, reach)
 
     @property
     def status(self) -> PlanStatus:
@@ -69,6 +70,45 @@ def finalize(problem: Problem, plan: Plan, verification) -> Plan:
     return finalize_plan(plan, verification, len(problem.reachable_ids()))
 
 
+def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None) -> tuple[dict[str, Path], Path | None]:
+    """The run's files, staged and renamed into place (:mod:`coplan.output`)."""
+    files: dict[str, Path] = {}
+    folder = RunFolder(Path(out_dir))
+    with folder as stage:
+        if baseline is not None:
+            files.update({f"baseline_{k}": v for k, v in baseline.save(stage, "baseline").items()})
+        files.update(plan.save(stage, "plan"))
+        if ver is not None:
+            files["verification"] = ver.save(stage / "verification.json")
+    return {k: folder.path(v) for k, v in files.items()}, folder.previous
+
+
+def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: float) -> SolveResult:
+    """A row: stops, each stop's cell, the row plan verified in the row frame (:mod:`coplan.row`)."""
+    from dataclasses import replace
+
+    from .row.bound import row_bounds
+    from .row.metrics import row_metrics
+    from .row.plan import RowOptions, plan_row
+
+    cell_planner = PlannerKind(planner or PlannerKind.COORDINATED)
+    if cell_planner == PlannerKind.HEURISTIC:
+        raise ValueError("planner: the course's heuristic plans a stationary cell, not a row; use coordinated or optimal")
+    opts = options if isinstance(options, RowOptions) else RowOptions()
+    opts = replace(opts, planner=cell_planner, stops=StopRule(stops or opts.stops))
+    res = plan_row(prob, opts, progress)
+    bounds = row_bounds(prob)
+    plan = res.plan
+    plan.metrics["row"] = row_metrics(prob, res, bounds)
+    plan.metrics["lower_bound"] = bounds.any_plan
+    plan.problem_file = prob.file_record()
+    timings = dict(res.timings) | {"bounds": bounds.seconds}
+    plan.solver["timings"] = dict(timings)
+    files, previous = _write(out_dir, plan, res.verification) if out_dir is not None else ({}, None)
+    timings["total"] = _time.perf_counter() - t0
+    return SolveResult(prob, plan, res.verification, None, files, timings, previous, row=res)
+
+
 def fruit_counts(problem: Problem, scr, plan: Plan) -> dict:
     """One vocabulary for every command and file: of the problem's ``fruit``, ``reachable``
     (within some arm's reach, ``reach_margin`` kept), ``harvestable`` (reachable and not ruled
@@ -86,11 +126,12 @@ def fruit_counts(problem: Problem, scr, plan: Plan) -> dict:
 
 def solve(
     problem: Problem | str | Path,
-    planner: PlannerKind | str = PlannerKind.OPTIMAL,
+    planner: PlannerKind | str | None = None,
     allocation: AllocationMethod | str | None = None,
     out_dir: str | Path | None = None,
     options=None,
     progress=None,
+    stops: StopRule | str | None = None,
 ) -> SolveResult:
     """Solve a problem end to end and verify the result.
 
@@ -107,12 +148,20 @@ def solve(
         :class:`coplan.planners.coordinated.planner.CoordinatedOptions` for the coordinated one (an
         ``OptimalOptions`` lends it its margin, budget and time limit)
     progress : optional callable(str) receiving progress messages
+    stops : a row (a problem with a gantry): the stop rule (``optimised`` by default, ``fixed``,
+        ``fewest``); ``planner`` is then the cell planner at each stop (``coordinated`` by
+        default: planning keeps ahead of the carriage; ``optimal`` gives each stop a search
+        budget) and ``options`` may be :class:`coplan.row.plan.RowOptions`
     """
     from .verify.verifier import verify
 
     t0 = _time.perf_counter()
     prob = problem if isinstance(problem, Problem) else load_problem(problem)
-    planner = PlannerKind(planner)
+    if prob.gantry is not None:
+        return _solve_row(prob, planner, out_dir, options, progress, stops, t0)
+    if stops is not None:
+        raise ValueError(f"stops: {prob.name!r} is a stationary cell (no gantry); a stop rule applies to a row")
+    planner = PlannerKind(planner or PlannerKind.OPTIMAL)
     say = progress or (lambda msg: None)
     timings: dict[str, float] = {}
     baseline = None
@@ -158,15 +207,6 @@ def solve(
             p.metrics.update(fruit_counts(prob, scr, p))
     timings["total"] = _time.perf_counter() - t0
     previous = None
-    if out_dir is not None:
-        # the whole set is staged and renamed into place (coplan.output): never a mix of runs
-        folder = RunFolder(Path(out_dir))
-        with folder as stage:
-            if baseline is not None:
-                files.update({f"baseline_{k}": v for k, v in baseline.save(stage, "baseline").items()})
-            files.update(plan.save(stage, "plan"))
-            if ver is not None:
-                files["verification"] = ver.save(stage / "verification.json")
-        files = {k: folder.path(v) for k, v in files.items()}
-        previous = folder.previous
+    if out_dir is not None:  # the whole set is staged and renamed into place (coplan.output): never a mix of runs
+        files, previous = _write(out_dir, plan, ver, baseline)
     return SolveResult(prob, plan, ver, baseline, files, timings, previous, error, error_trace)

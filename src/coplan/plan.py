@@ -109,6 +109,7 @@ class Plan:
     solver: dict[str, Any] = field(default_factory=dict)
     verification: dict[str, Any] | None = None
     problem_file: dict[str, str] | None = None  # {"path", "sha256"}: the problem file it was planned from
+    gantry_x: np.ndarray | None = None  # (N,) a row plan's carriage position on the time grid, m (None: a cell)
 
     # ------------------------------------------------------------------ queries
     @property
@@ -155,7 +156,8 @@ class Plan:
             "metrics": jsonable(self.metrics),
             "solver": jsonable(self.solver),
             "verification": jsonable(self.verification),
-        } | ({"problem_file": dict(self.problem_file)} if self.problem_file else {})
+        } | ({"problem_file": dict(self.problem_file)} if self.problem_file else {}) | (
+            {"gantry": {"x": jsonable(np.round(self.gantry_x, 7))}} if self.gantry_x is not None else {})
 
     def save(self, out_dir: str | Path, stem: str = "plan") -> dict[str, Path]:
         """Write ``plan.json`` plus ``plan.csv`` (one row per time) and ``plan.npz``.
@@ -260,7 +262,7 @@ def finalize_plan(plan: Plan, verification, n_reachable: int) -> Plan:
 # metrics a planner sets itself (kept when the metrics are recomputed)
 _KEPT_METRICS = ("lower_bound", "optimality", "coordinated_makespan", "improvement_over_coordinated",
                  "baseline_makespan", "baseline_status", "time_to_first_verified", "time_of_last_improvement",
-                 "fruit", "harvestable", "fruit_ids")
+                 "fruit", "harvestable", "fruit_ids", "row")
 
 
 def _busy_time(plan: Plan, arm: str) -> float:
@@ -493,6 +495,16 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     for key in ("metrics", "solver", "verification"):
         if data.get(key) is not None and not isinstance(data[key], dict):
             bad(key, f"expected an object, found {_kind(data[key])}")
+    gantry_x = None
+    if data.get("gantry") is not None:  # a row plan: the carriage's position on the same grid
+        g = data["gantry"]
+        if not isinstance(g, dict) or "x" not in g:
+            bad("gantry", f"expected an object {{x: [one carriage position per time]}}, found {_kind(g)}")
+        else:
+            gantry_x = _number_array(g["x"], "gantry.x", bad, pair=False)
+            if gantry_x is not None and time is not None and gantry_x.size != time.size:
+                bad("gantry.x", f"expected {time.size} positions (one per time), found {gantry_x.size}")
+                gantry_x = None
     record = data.get("problem_file")
     if record is not None and not (isinstance(record, dict) and all(isinstance(record.get(k), str) for k in ("path", "sha256"))):
         bad("problem_file", f"expected an object {{path, sha256}} (strings), found {_kind(record)}")
@@ -512,4 +524,5 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
         solver=data.get("solver") or {},
         verification=data.get("verification"),
         problem_file={"path": record["path"], "sha256": record["sha256"]} if record else None,
+        gantry_x=gantry_x,
     )

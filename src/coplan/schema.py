@@ -74,6 +74,17 @@ class TaskSpec(_Closed):
     singularity_threshold: NonNeg = Field(0.05, description="|det J| below this is reported as near-singular")
 
 
+class GantrySpec(_Closed):
+    """A row's carriage: with it, bases and bins are relative to the carriage and fruit in row coordinates."""
+
+    start: float = Field(description="x of the carriage origin at t = 0, m")
+    end: float = Field(description="end of the row, m (> start; the carriage never goes past it)")
+    max_velocity: float = Field(gt=0, description="carriage speed limit, m/s")
+    max_acceleration: float = Field(gt=0, description="carriage acceleration limit, m/s^2")
+    max_jerk: float = Field(gt=0, description="carriage jerk limit, m/s^3")
+    settle: float = Field(0.0, ge=0, description="s at rest after a move before an arm may pick")
+
+
 class ProblemFile(_Closed):
     """A coplan problem file (YAML; SI units). Every arm field must be given on the arm or in ``defaults``."""
 
@@ -85,6 +96,7 @@ class ProblemFile(_Closed):
     arms: list[ArmSpec] = Field(min_length=1, max_length=MAX_ARMS)
     fruits: list[FruitSpec] = Field(default_factory=list, max_length=MAX_FRUITS)
     task: TaskSpec
+    gantry: GantrySpec | None = Field(None, description="a mobile gantry: the problem is a row (bases and bins on the carriage)")
 
 
 class EventSpec(_Closed):
@@ -97,6 +109,10 @@ class EventSpec(_Closed):
 
 class ArmTrajectory(BaseModel):
     q: list[Point] = Field(description="one [t1, t2] pair (rad) per time of the grid")
+
+
+class GantryTrajectory(_Closed):
+    x: list[float] = Field(description="the carriage origin's x at every time of the grid, m (linear between samples)")
 
 
 class ProblemFileRecord(_Closed):
@@ -122,6 +138,7 @@ class PlanFile(BaseModel):
     metrics: dict[str, Any] | None = None
     solver: dict[str, Any] | None = None
     verification: dict[str, Any] | None = None
+    gantry: GantryTrajectory | None = Field(None, description="a row plan: the carriage's position on the same grid")
     problem_file: ProblemFileRecord | None = Field(
         None, description="the problem file the plan was made from (the plot, animate and view commands find it there)")
 

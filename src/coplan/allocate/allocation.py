@@ -43,7 +43,7 @@ from ..kinematics.timing import SCurve, move_lower_bound
 from ..ties import TIE, TIME_QUANTUM, first_min, quantised
 
 __all__ = ["AllocationMethod", "SequenceRule", "Allocation", "allocate", "arm_configs", "lower_bound", "bound_details",
-           "LowerBound", "bound_allocation", "screened_reach"]
+           "LowerBound", "bound_allocation", "screened_reach", "min_max_bound"]
 
 
 class AllocationError(CoplanError):
@@ -256,7 +256,7 @@ MILP_NODES = 5_000
 MILP_SECONDS = 60.0
 
 
-def _minmax_milp(cost, reach, time_limit, offset=None, saving=None, tie_break=True, least_work=False):
+def _minmax_milp(cost, reach, time_limit, offset=None, saving=None, tie_break=True, least_work=False, relax=False):
     """min t: each fruit to one arm that reaches it, t >= offset[a] + sum_f cost[a, f] x[a, f]
     (+ saving[a, f] y[a, f], y: the arm's first fruit, see :func:`_first_candidates`).
 
@@ -307,7 +307,7 @@ def _minmax_milp(cost, reach, time_limit, offset=None, saving=None, tie_break=Tr
     res = milp(
         c,
         constraints=LinearConstraint(mat, lo, hi),
-        integrality=np.r_[np.ones(n - 1), 0.0],
+        integrality=np.zeros(n) if relax else np.r_[np.ones(n - 1), 0.0],
         bounds=Bounds(np.zeros(n), np.r_[np.ones(n - 1), np.inf]),
         options=opts,
     )
@@ -325,7 +325,7 @@ def _minmax_milp(cost, reach, time_limit, offset=None, saving=None, tie_break=Tr
     if x_best is not None:
         x = x_best[:P] > 0.5
         assign[pairs[x, 1]] = pairs[x, 0]
-    dual = getattr(res, "mip_dual_bound", None)
+    dual = res.fun if relax and res.status == 0 else getattr(res, "mip_dual_bound", None)
     return res, assign, float(dual) if dual is not None and np.isfinite(dual) else np.nan
 
 
@@ -342,6 +342,23 @@ def _solve_minmax(cost: np.ndarray, reach: np.ndarray, time_limit: float | None,
         raise AllocationError(f"assignment MILP failed: {res.message}")
     value = float(max(offset[a] + cost[a, assign == a].sum() if (assign == a).any() else 0.0 for a in range(A)))
     return assign, value, min(value, dual) if np.isfinite(dual) else value
+
+
+def min_max_bound(cost: np.ndarray, reach: np.ndarray, time_limit: float | None = MILP_SECONDS, relax: bool = False) -> float:
+    """A lower bound on min over assignments (each fruit f to one arm a with ``reach[a, f]``) of
+    the busiest arm's total ``cost`` (A, F): the MILP's dual bound (times :func:`quantised`, so
+    rounded down), valid even when the MILP stops at its node limit; with ``relax`` the optimum
+    of its LP relaxation (fractional assignments: fast on thousands of fruit, a little lower).
+    0 with no fruit."""
+    if cost.size == 0 or not reach.any():
+        return 0.0
+    cols = np.flatnonzero(reach.any(axis=0))
+    res, assign, dual = _minmax_milp(np.asarray(cost, float)[:, cols], reach[:, cols], time_limit, tie_break=False,
+                                     relax=relax)
+    if np.isfinite(dual):
+        return float(dual) - (1e-6 if relax else 0.0)  # (an LP optimum is exact to HiGHS's tolerance)
+    sub = np.where(reach[:, cols], quantised(cost[:, cols]), np.inf)  # stopped before any dual bound
+    return float(max(sub.min(axis=0).max(), sub.min(axis=0).sum() / cost.shape[0]))
 
 
 @dataclass(frozen=True)

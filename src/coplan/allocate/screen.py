@@ -45,7 +45,7 @@ from ..kinematics import arm as kin
 from ..errors import plural
 from ..problem.model import Arm, Problem
 
-__all__ = ["Screen", "screen", "TIP_TOLERANCE"]
+__all__ = ["Screen", "screen", "screened", "usable_picks", "reach_reason", "TIP_TOLERANCE"]
 
 #: The verifier's default pick/place position tolerance (``VerifyOptions.position_tolerance``).
 TIP_TOLERANCE = 0.005
@@ -272,6 +272,26 @@ def reach_reason(problem: Problem, point) -> str:
                 f"task.reach_margin ({m:g} m)")
     return (f"{d:.3f} m from {name}'s base, {'beyond' if side == 'outer' else 'inside'} its {where} of {edge:.4g} m"
             + (f" (task.reach_margin {m:g} m)" if m else ""))
+
+
+def usable_picks(problem: Problem, points, tip_tolerance: float = TIP_TOLERANCE) -> np.ndarray:
+    """``(A, N, 2)`` bool: which IK branch of which arm can pick at each of ``points`` (N, 2)
+    under the screen's rules -- the annulus less ``task.reach_margin``, joint limits, the
+    shoulder's free sweep from home past the neighbours' bases, link 2 clear of them -- all
+    False for an arm that can never reach its bin. Vectorised over the points (no Fruit objects):
+    the row's screen asks it of every carriage position at once."""
+    pts = np.asarray(points, float).reshape(-1, 2)
+    clear = problem.task.clearance
+    out = np.zeros((len(problem.arms), pts.shape[0], 2), dtype=bool)
+    for i, arm in enumerate(problem.arms):
+        need = {o.name: clear + arm.link_radius + o.link_radius for o in problem.arms}
+        sw = _sweep(problem, arm, need)
+        _, bin_use, _, _ = _poses(problem, arm, np.asarray([arm.bin], float), 0.0, sw, need, tip_tolerance)
+        if not bin_use[0].any() or pts.shape[0] == 0:
+            continue
+        v0, use, _, _ = _poses(problem, arm, pts, problem.task.reach_margin, sw, need, tip_tolerance)
+        out[i] = use
+    return out
 
 
 def screened(problem: Problem) -> Screen:

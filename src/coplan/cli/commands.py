@@ -25,7 +25,7 @@ from .summary import print_summary, print_verification
 from .summary import safe as _s
 from .console import FlagsGroup, ProgressDisplay, run_console
 from ..errors import InputError, plural
-from ..kinds import AllocationMethod, ExitCode, FclMode, PlannerKind
+from ..kinds import AllocationMethod, ExitCode, FclMode, PlannerKind, StopRule
 
 app = typer.Typer(
     cls=FlagsGroup,  # flags shown without a <bool> value in --help
@@ -125,7 +125,10 @@ def _resolve_problem(problem: Optional[Path]) -> Path:
 @guarded
 def solve(
     problem: Annotated[Optional[Path], typer.Argument(help="Problem YAML file (default: the shipped greenhouse row).")] = None,
-    planner: Annotated[PlannerKind, typer.Option(help="Planner to use.")] = PlannerKind.OPTIMAL,
+    planner: Annotated[Optional[PlannerKind], typer.Option(
+        help="Planner to use (default optimal; for a row, the cell planner at each stop: default coordinated).")] = None,
+    stops: Annotated[Optional[StopRule], typer.Option(
+        help="A row (a problem with a gantry): where the carriage stops (default optimised).")] = None,
     allocation: Annotated[
         Optional[AllocationMethod], typer.Option(help="Allocation method (default: the planner's own).")
     ] = None,
@@ -143,19 +146,35 @@ def solve(
     """Solve a problem, verify the plan and write plan.json (+ CSV, NPZ, verification.json)."""
     from ..pipeline import solve as run
 
+    from ..problem.model import load_problem
+
     _check_time_limit(time_limit)
     failures.check_out_dir(out)
+    path = load_problem(_resolve_problem(problem))
+    if path.gantry is not None:  # a row: the stop rule and the cell planner at each stop
+        if planner == PlannerKind.HEURISTIC or allocation is not None or options_file is not None or time_limit is not None:
+            _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): --planner coordinated|optimal and --stops apply; "
+                                  "--allocation, --options and --time-limit are for a stationary cell")
+        with ProgressDisplay(err_console, quiet=as_json) as say:
+            res = run(path, planner=planner, out_dir=out, progress=say, stops=stops)
+        return _report_solve(res, out, animate, html, as_json)
+    if stops is not None:
+        _fail(ExitCode.USAGE, f"--stops: {path.name} is a stationary cell (no gantry section); a stop rule applies to a row")
+    planner = planner or PlannerKind.OPTIMAL
     options = _solver_options(options_file, time_limit, planner != PlannerKind.HEURISTIC)
-    path = _resolve_problem(problem)
     if not as_json and planner != PlannerKind.HEURISTIC:
-        from ..problem.model import load_problem
         from ..allocate.screen import screened
 
-        path = load_problem(path)  # the screen's verdict, before solving
-        for line in screened(path).lines():
+        for line in screened(path).lines():  # the screen's verdict, before solving
             err_console.print(line, markup=False, highlight=False)
     with ProgressDisplay(err_console, quiet=as_json, hint=_budget_hint(planner, time_limit)) as say:
         res = run(path, planner=planner, allocation=allocation, out_dir=out, options=options, progress=say)
+    return _report_solve(res, out, animate, html, as_json)
+
+
+def _report_solve(res, out: Path, animate: bool, html: bool, as_json: bool):
+    """What ``coplan solve`` does once the plan is on disk: animation, viewer, summary, exit code."""
+    with ProgressDisplay(err_console, quiet=as_json) as say:
         if animate:
             res.files.update(_animate_files(res, out, say))
     if html:  # like the animation: written beside plan.json once the run's files are in place
@@ -212,12 +231,13 @@ def _animate_files(res, out: Path, say=None) -> dict:
 @guarded
 def list_problems():
     """List the problem files shipped with coplan."""
-    from ..problem.model import load_problem, shipped_problems
+    from ..problem.model import load_problem, shipped_problems, shipped_rows
 
-    for path in shipped_problems():
+    for path in shipped_problems() + shipped_rows():
         p = load_problem(path)
-        out_console.print(f"{_s(path.name):28s} {plural(len(p.arms), 'arm') + ',':8s} {len(p.fruits):3d} fruit  {_s(p.description)}")
-    out_console.print(f"[dim]folder: {shipped_problems()[0].parent}[/]")
+        kind = "" if p.gantry is None else f"row {p.gantry.length:g} m, "
+        out_console.print(f"{_s(path.name):28s} {kind}{plural(len(p.arms), 'arm') + ',':8s} {len(p.fruits):3d} fruit  {_s(p.description)}")
+    out_console.print(f"[dim]folder: {shipped_problems()[0].parent} (rows in rows/)[/]")
 
 
 @app.command()
@@ -238,6 +258,10 @@ def check(
 
     path = _resolve_problem(problem)
     prob = load_problem(path)
+    if prob.gantry is not None:
+        from .row import check_row
+
+        raise typer.Exit(int(check_row(prob, path, as_json, out_console)))
     scr = screened(prob)
     bd = bound_details(prob)
     base = plan_heuristic(prob)

@@ -75,14 +75,14 @@ def resolve_problem(problem, note=lambda message: None):
     (``note`` is told which file that is); else the path as given."""
     from pathlib import Path
 
-    from ..problem.model import default_problem_path, shipped_problems
+    from ..problem.model import default_problem_path, shipped_problems, shipped_rows
 
     if problem is None:
         return default_problem_path()
     problem = Path(problem)
     if not problem.exists() and problem.parent == Path("."):
         stem = problem.name[:-5] if problem.name.endswith(".yaml") else problem.name
-        hit = next((p for p in shipped_problems() if p.stem == stem), None)
+        hit = next((p for p in shipped_problems() + shipped_rows() if p.stem == stem), None)
         if hit is not None:
             note(f"{problem}: the shipped problem {hit}")
             return hit

@@ -7,7 +7,7 @@ import math
 
 from ..errors import plural, printable
 
-__all__ = ["fmt", "fruit_line", "print_summary", "print_verification", "safe"]
+__all__ = ["fmt", "fruit_line", "print_row_summary", "print_summary", "print_verification", "safe"]
 
 
 def safe(x) -> str:
@@ -42,8 +42,53 @@ def fruit_line(m: dict) -> str:
     return head + (f"; of {total} fruit " + ", ".join(parts) if parts else f" (all {total} fruit)")
 
 
+def print_row_summary(console, res) -> None:
+    """The summary of a row (:class:`coplan.pipeline.SolveResult` with ``row``)."""
+    m = res.plan.metrics
+    r = m.get("row") or {}
+    ver = res.plan.verification or {}
+    solver = (res.plan.solver or {}).get("row", {})
+    colour = "green" if res.success else "red"
+    p = console.print
+    p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, stops {safe(solver.get('rule'))}, "
+      f"cell planner {safe(solver.get('cell_planner'))}, status [bold {colour}]{res.plan.status.value}[/]")
+    out = r.get("screened_out") or {}
+    p(f"  fruit             {r.get('harvested')} harvested of {r.get('harvestable')} harvestable "
+      f"({fmt(100 * (r.get('share_harvested') or 0), ' %', 1)}); of {r.get('fruit')} fruit {len(out)} no stop can reach")
+    for fid, why in list(out.items())[:3]:
+        p(f"    {safe(why)}")
+    if len(out) > 3:
+        p(f"    ... and {len(out) - 3} more (plan.json: metrics.row.screened_out)")
+    p(f"  fruit per hour    {r.get('fruit_per_hour', 0):.0f} (per arm: "
+      + ", ".join(f"{safe(a)} {v:.0f}" for a, v in (r.get("fruit_per_hour_per_arm") or {}).items()) + ")")
+    lb = r.get("lower_bound") or {}
+    p(f"  row time          {fmt(r.get('row_time'), ' s')}   ({fmt(r.get('time_per_metre'), ' s/m')}; lower bound "
+      f"{fmt(lb.get('any_plan'), ' s')} for any plan, ratio {fmt(r.get('ratio_any_plan_bound'), '', 3)}; "
+      f"{fmt(lb.get('stop_and_go'), ' s')} stop-and-go, ratio {fmt(r.get('ratio_stop_and_go_bound'), '', 3)})")
+    p(f"  stops             {r.get('stops')}, {fmt(r.get('mean_time_per_stop'), ' s')} each on average; carriage moving "
+      f"{fmt(100 * r.get('carriage_moving_share', 0), ' %', 1)} of the row time, some arm picking {fmt(100 * r.get('picking_share', 0), ' %', 1)}")
+    for a, causes in (r.get("idle_share") or {}).items():
+        p(f"  idle {safe(a):12s} " + ", ".join(f"{k.replace('_', ' ')} {100 * v:.1f} %" for k, v in causes.items()))
+    least = ver.get("min_clearance")
+    if least is not None and math.isfinite(least):
+        p(f"  collisions found  {ver.get('collision_count', '-')}   least clearance {fmt(least, ' m', 4)} "
+          f"(certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})")
+    if not ver.get("passed", False):
+        p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
+    first = r.get("first_motion_seconds")
+    p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
+      f"of the row time; first stop known after {fmt(first, ' s')}; the slowest stop took {fmt(r.get('slowest_stop_seconds'), ' s')} "
+      f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({'kept ahead of the carriage' if r.get('kept_ahead') else 'LATE'})")
+    for k, v in res.files.items():
+        p(f"  wrote             {safe(v)}")
+    if res.previous is not None:
+        p(f"  previous run      kept in {safe(res.previous)}")
+
+
 def print_summary(console, res) -> None:
     """The summary ``coplan solve`` prints of a :class:`coplan.pipeline.SolveResult`."""
+    if getattr(res, "row", None) is not None:
+        return print_row_summary(console, res)
     m = res.plan.metrics
     ver = res.plan.verification or {}
     colour = "green" if res.success else "red"

@@ -12,6 +12,8 @@ All functions are pure and work on plain floats / NumPy arrays.
   duration equals :func:`move_lower_bound`, so it is the fastest possible move.
 * :func:`move_lower_bound` -- ``max_i scurve_time(|dq_i|, v_i, a_i, j_i)``: no motion of any
   shape between the two poses can be faster.
+* :func:`scurve_times` -- :func:`scurve_time` over an array of distances at once.
+* :class:`Move1D` -- one axis's time-optimal rest-to-rest move (a gantry's carriage).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["cubic_min_time", "cubic_eval", "scurve_time", "SCurve", "move_lower_bound"]
+__all__ = ["cubic_min_time", "cubic_eval", "scurve_time", "scurve_times", "SCurve", "Move1D", "move_lower_bound"]
 
 
 def cubic_min_time(dq, vmax, amax) -> float:
@@ -184,3 +186,60 @@ def _between(q0, q1, vmax, amax, jmax) -> SCurve:
     profs = tuple(_phases(abs(b - a), v, ac, j) for a, b, v, ac, j in zip(q0, q1, vmax, amax, jmax))
     duration = max((float(sum(d)) for d, _ in profs), default=0.0)
     return SCurve(q0, q1, profs, duration)
+
+
+def scurve_times(D, v: float, a: float, j: float) -> np.ndarray:
+    """:func:`scurve_time` for an array of distances ``D`` (any shape) at once: the same
+    closed form, vectorised (equal to the scalar one to rounding)."""
+    D = np.abs(np.asarray(D, float))
+    v, a, j = float(v), float(a), float(j)
+
+    def accel_time(vp):
+        return np.where(vp >= a * a / j, vp / a + a / j, 2.0 * np.sqrt(np.maximum(vp, 0.0) / j))
+
+    full = D >= v * float(accel_time(np.array(v)))
+    vp_a = (-a / j + np.sqrt((a / j) ** 2 + 4.0 * D / a)) * a / 2.0
+    vp_j = np.cbrt((D * math.sqrt(j) / 2.0) ** 2)
+    vp = np.where(full, v, np.where(vp_a < a * a / j, vp_j, vp_a))
+    ap = np.minimum(a, np.sqrt(vp * j))
+    tj = ap / j
+    ta = np.maximum(0.0, vp / np.where(ap > 0, ap, 1.0) - ap / j)
+    tc = np.maximum(0.0, (D - vp * accel_time(vp)) / np.where(vp > 0, vp, 1.0))
+    ta = np.where(ta > _NEGLIGIBLE, ta, 0.0)
+    tc = np.where(tc > _NEGLIGIBLE, tc, 0.0)
+    return np.where(D > 0, 4.0 * tj + 2.0 * ta + tc, 0.0)
+
+
+@dataclass(frozen=True)
+class Move1D:
+    """A time-optimal jerk-limited rest-to-rest move of one axis (the gantry's carriage) from
+    ``x0`` to ``x1`` under limits ``v``, ``a``, ``j``: :meth:`state` gives position, velocity,
+    acceleration at times from its start."""
+
+    x0: float
+    x1: float
+    durs: tuple
+    jerks: tuple
+
+    @classmethod
+    def between(cls, x0: float, x1: float, v: float, a: float, j: float) -> "Move1D":
+        durs, jerks = _phases(abs(float(x1) - float(x0)), float(v), float(a), float(j))
+        return cls(float(x0), float(x1), tuple(durs), tuple(jerks))
+
+    @property
+    def duration(self) -> float:
+        return float(sum(self.durs))
+
+    def state(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Position, velocity and acceleration (each like ``t``) at times ``t`` from the start;
+        at rest at ``x0`` before and at ``x1`` after."""
+        t = np.asarray(t, float)
+        if not self.durs:
+            return np.full(t.shape, self.x0), np.zeros(t.shape), np.zeros(t.shape)
+        p, v, a, _ = _profile(self.durs, self.jerks, np.clip(t, 0.0, self.duration).ravel())
+        s = 1.0 if self.x1 >= self.x0 else -1.0
+        end = (t >= self.duration).ravel()
+        p = np.where(end, abs(self.x1 - self.x0), p)
+        v = np.where(end, 0.0, v)
+        a = np.where(end, 0.0, a)
+        return (self.x0 + s * p).reshape(t.shape), (s * v).reshape(t.shape), (s * a).reshape(t.shape)

@@ -6,6 +6,8 @@
 - :mod:`.plausible`: the documented plausible range of every field (``BOUNDS``) and the
   longest plan coplan writes
 - :mod:`.generate`: generated rows and random layouts (sweeps, tests)
+- :mod:`.gantry`: a row's mobile gantry (``Gantry``, ``cell_at``: the cell at a carriage position)
+- :mod:`.spec`: the raw schema of a problem file (pydantic validators and models)
 """
 
 from .model import (
@@ -17,6 +19,8 @@ from .model import (
     load_problem,
     parse_problem,
     shipped_problems,
+    shipped_rows,
 )
 
-__all__ = ["Arm", "Fruit", "Problem", "Task", "default_problem_path", "load_problem", "parse_problem", "shipped_problems"]
+__all__ = ["Arm", "Fruit", "Problem", "Task", "default_problem_path", "load_problem", "parse_problem", "shipped_problems",
+           "shipped_rows"]

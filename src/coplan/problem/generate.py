@@ -12,6 +12,9 @@ Every generated problem validates with :func:`coplan.problem.parse_problem`.
 * :func:`random_problem` -- 2-5 arms with random spacing (1.2-2.4 m), link lengths, joint,
   velocity, acceleration and jerk limits, home pose, bins and fruit count; draws again
   (deterministically) until the problem validates.
+* :func:`gantry_row` -- a greenhouse *row*: the lesson's arms on a mobile gantry (a
+  ``gantry`` section: bases and bins on the carriage) and fruit along ``length`` m of row at
+  ``density`` fruit per metre, uniform or clustered in trusses.
 * :func:`cell_problem` -- a harder, less regular distribution: 2-5 arms with each gap drawn
   on its own (1.0-2.6 m), every arm its own link lengths and limits, bins off-centre,
   4-30 fruit; tight gaps lock arms or leave fruit only one arm can take.
@@ -29,7 +32,8 @@ import numpy as np
 
 from ..kinematics import arm as kin
 
-__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "to_yaml", "LESSON_DEFAULTS", "LESSON_TASK"]
+__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "LESSON_DEFAULTS",
+           "LESSON_TASK", "LESSON_GANTRY"]
 
 #: The arm of the course's cell (``greenhouse_row.yaml``): every field of ``defaults``.
 LESSON_DEFAULTS: dict[str, Any] = {
@@ -220,6 +224,63 @@ def cell_problem(seed: int, n_arms: int | None = None, n_fruits: int | None = No
     acceleration and jerk limits, bins off-centre (up to 0.4 m to either side), 4-30 fruit (or
     ``n_fruits``) anywhere over the row. Redrawn (deterministically) until it validates."""
     return _valid_draw(_draw_cell, "cell_problem", seed, n_arms, n_fruits, max_tries)
+
+
+#: The gantry of the generated rows: a greenhouse pipe-rail carriage's limits.
+LESSON_GANTRY: dict[str, float] = {"max_velocity": 0.5, "max_acceleration": 0.5, "max_jerk": 5.0}
+
+
+def gantry_row(
+    length: float = 50.0,
+    n_arms: int = 3,
+    density: float = 6.0,
+    seed: int = 0,
+    spacing: float = 2.0,
+    trusses: bool = True,
+    y_range: tuple[float, float] = (0.5, 1.5),
+    gantry: dict[str, float] | None = None,
+    name: str | None = None,
+) -> dict[str, Any]:
+    """A row of ``length`` m harvested by ``n_arms`` of the lesson's arms on a gantry.
+
+    The carriage carries the arms ``spacing`` m apart, centred on its origin, each bin 0.5 m
+    below its base; it runs from ``start`` 0 to ``end`` = ``length`` with the limits of
+    :data:`LESSON_GANTRY` (or ``gantry``). About ``density`` fruit per metre (Poisson count,
+    seeded) lie along x in [0, ``length``] at heights in ``y_range``: uniform, or with
+    ``trusses`` in clusters (a truss every 0.25-0.45 m, its fruit within 6 cm of it and 12 cm
+    of its height), as strawberries hang. Positions rounded to 4 decimals, ids ``f0001``... by x.
+    Deterministic in its arguments.
+    """
+    if length <= 0 or n_arms < 1 or density < 0:
+        raise ValueError(f"expected length > 0, n_arms >= 1 and density >= 0, found {length}, {n_arms}, {density}")
+    rng = np.random.default_rng(seed)
+    n = int(rng.poisson(density * length))
+    if trusses and n:
+        pos, xs = [], []
+        x = float(rng.uniform(0.0, 0.3))
+        while x < length:
+            xs.append(x)
+            x += float(rng.uniform(0.25, 0.45))
+        xs = np.asarray(xs)
+        heights = rng.uniform(y_range[0] + 0.12, y_range[1] - 0.12, xs.size)
+        which = rng.integers(0, xs.size, n)
+        px = np.clip(xs[which] + rng.uniform(-0.06, 0.06, n), 0.0, length)
+        py = np.clip(heights[which] + rng.uniform(-0.12, 0.12, n), *y_range)
+        pts = sorted(zip(px, py))
+    else:
+        pts = sorted(zip(rng.uniform(0.0, length, n), rng.uniform(*y_range, n)))
+    bases = _bases(n_arms, spacing)
+    g = {"start": 0.0, "end": _r4(length)} | (gantry or LESSON_GANTRY)
+    d = _assemble(
+        name or f"row-{length:g}m-{n_arms}arms-{density:g}perm-seed{seed}",
+        f"{n_arms} of the lesson's arms {spacing:g} m apart on a gantry along a {length:g} m row, about {density:g} "
+        f"fruit per metre ({'in trusses' if trusses else 'uniform'}, seed {seed}).",
+        dict(LESSON_DEFAULTS), _arm_entries(bases, -0.5, None), [(_r4(x), _r4(y)) for x, y in pts], LESSON_TASK)
+    width = max(4, len(str(len(pts))))
+    for i, f in enumerate(d["fruits"], 1):
+        f["id"] = f"f{i:0{width}d}"
+    d["gantry"] = g
+    return d
 
 
 def _valid_draw(draw, what: str, seed: int, n_arms, n_fruits, max_tries: int) -> dict[str, Any]:

@@ -12,15 +12,18 @@ import difflib
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+from pydantic import ValidationError
 
 from ..kinematics import arm as kin
 from . import plausible
 from ..errors import Issue, ProblemError
 from ..kinematics.geometry import segment_distance
+from .gantry import Gantry, carriage_extent, parse_gantry
+from .spec import (ARM_REQUIRED, TOP_KEYS, ArmFieldsSpec, ArmSpec, FruitSpec, TaskSpec, kind_of, missing,
+                   name_value)
 from .yamlsafe import MAX_FILE_BYTES, line_of, path_str, read_yaml, read_input_text
 
 __all__ = [
@@ -34,135 +37,11 @@ __all__ = [
     "parse_problem",
     "default_problem_path",
     "shipped_problems",
+    "shipped_rows",
 ]
 
 MAX_ARMS = 64
 MAX_FRUITS = 20_000
-
-
-def _kind(v: Any) -> str:
-    """A YAML reader's name for the type of ``v`` plus its value, e.g. ``string 'a'``, ``null``."""
-    if v is None:
-        return "null"
-    names = {bool: "boolean", int: "integer", float: "number", str: "string", list: "list", tuple: "list", dict: "mapping"}
-    kind = names.get(type(v), type(v).__name__)
-    text = repr(v)
-    if len(text) > 60:
-        text = text[:57] + "..."
-    return f"{kind} {text}"
-
-
-# --------------------------------------------------------------------------- raw schema
-def _number(v: Any) -> Any:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise ValueError(f"expected a number, found {_kind(v)}")
-    if not math.isfinite(float(v)):
-        raise ValueError(f"expected a finite number, found {v!r}")
-    return float(v)
-
-
-def _positive(v: Any) -> Any:
-    v = _number(v)
-    if v <= 0:
-        raise ValueError(f"expected a number > 0, found {v!r}")
-    return v
-
-
-def _nonneg(v: Any) -> Any:
-    v = _number(v)
-    if v < 0:
-        raise ValueError(f"expected a number >= 0, found {v!r}")
-    return v
-
-
-def _pair_list(v: Any) -> Any:
-    if not isinstance(v, (list, tuple)):
-        raise ValueError(f"expected a list of 2 items, found {_kind(v)}")
-    if len(v) != 2:
-        raise ValueError(f"expected a list of 2 items, found a list of {len(v)} items")
-    return tuple(v)
-
-
-def _name(v: Any) -> Any:
-    if isinstance(v, bool) or not isinstance(v, (str, int)):
-        raise ValueError(f"expected a string, found {_kind(v)}")
-    v = str(v).strip()
-    if not v:
-        raise ValueError("expected a non-empty string, found an empty one")
-    return v
-
-
-Num = Annotated[float, BeforeValidator(_number)]
-Pos = Annotated[float, BeforeValidator(_positive)]
-NonNeg = Annotated[float, BeforeValidator(_nonneg)]
-Name = Annotated[str, BeforeValidator(_name)]
-Point = Annotated[tuple[Num, Num], BeforeValidator(_pair_list)]
-PosPair = Annotated[tuple[Pos, Pos], BeforeValidator(_pair_list)]
-Limits = Annotated[tuple[Point, Point], BeforeValidator(_pair_list)]
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class _ArmFields(_Strict):
-    links: PosPair | None = None
-    link_radius: Pos | None = None
-    joint_limits: Limits | None = None
-    max_velocity: PosPair | None = None
-    max_acceleration: PosPair | None = None
-    max_jerk: PosPair | None = None
-    home: Point | None = None
-
-
-class _ArmSpec(_ArmFields):
-    name: Name
-    base: Point
-    bin: Point
-
-
-class _FruitSpec(_Strict):
-    id: Name
-    position: Point
-
-
-class _TaskSpec(_Strict):
-    pick_dwell: NonNeg
-    place_dwell: NonNeg
-    clearance: NonNeg
-    reach_margin: NonNeg = Field(default=0.01)
-    singularity_threshold: NonNeg = Field(default=0.05)
-
-
-_TOP_KEYS = ("name", "description", "defaults", "arms", "fruits", "task")
-_ARM_REQUIRED = tuple(_ArmFields.model_fields)
-
-
-# What each field expects, for "missing field" messages.
-_EXPECT = {
-    "name": "a non-empty string",
-    "arms": "a list of arms",
-    "task": "a mapping with pick_dwell, place_dwell and clearance",
-    "links": "[l1, l2]: two link lengths > 0 in m",
-    "link_radius": "a capsule radius > 0 in m",
-    "joint_limits": "[[t1_min, t1_max], [t2_min, t2_max]] in rad",
-    "max_velocity": "[v1, v2]: two joint speeds > 0 in rad/s",
-    "max_acceleration": "[a1, a2]: two joint accelerations > 0 in rad/s^2",
-    "max_jerk": "[j1, j2]: two joint jerks > 0 in rad/s^3",
-    "home": "[t1, t2]: joint angles in rad",
-    "base": "[x, y] in m",
-    "bin": "[x, y] in m",
-    "id": "a non-empty string",
-    "position": "[x, y] in m",
-    "pick_dwell": "a number >= 0 in s",
-    "place_dwell": "a number >= 0 in s",
-    "clearance": "a number >= 0 in m",
-}
-
-
-def _missing(field_name: str, where: str = "") -> str:
-    what = _EXPECT.get(str(field_name), "a value")
-    return f"expected {what}, found nothing (required field{where})"
 
 
 # --------------------------------------------------------------------------- data objects
@@ -236,6 +115,7 @@ class Problem:
     description: str = ""
     source: str | None = field(default=None, compare=False)
     digest: str | None = field(default=None, compare=False)  # sha256 of the YAML text it was read from
+    gantry: Gantry | None = None  # a row: bases and bins relative to the carriage, fruit in row coordinates
 
     def file_record(self) -> dict[str, str] | None:
         """Where the problem was read from, for a plan to name it: ``{"path": absolute path,
@@ -328,13 +208,13 @@ def _validate(model, data, prefix: tuple, lines: dict, issues: list):
                 key = loc[-1]
                 issues.append(Issue(path, f"expected a known key, found unknown key {key!r}{_suggest(key, model.model_fields)}", line_of(lines, loc)))
             elif etype == "missing":
-                issues.append(Issue(path, _missing(loc[-1]), line_of(lines, loc[:-1])))
+                issues.append(Issue(path, missing(loc[-1]), line_of(lines, loc[:-1])))
             elif etype in ("model_type", "model_attributes_type", "dict_type"):
-                issues.append(Issue(path, f"expected a mapping, found {_kind(err.get('input'))}", line_of(lines, loc)))
+                issues.append(Issue(path, f"expected a mapping, found {kind_of(err.get('input'))}", line_of(lines, loc)))
             else:
                 msg = err["msg"].removeprefix("Value error, ")
                 if "found" not in msg:
-                    msg = f"{msg}; found {_kind(err.get('input'))}"
+                    msg = f"{msg}; found {kind_of(err.get('input'))}"
                 issues.append(Issue(path, msg, line_of(lines, loc)))
         return None
 
@@ -360,7 +240,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     issues: list[Issue] = []
     if not isinstance(data, dict):
         raise ProblemError(
-            [Issue("", f"expected a mapping with keys name, arms, fruits, task; found {_kind(data)}", 1)], source
+            [Issue("", f"expected a mapping with keys name, arms, fruits, task; found {kind_of(data)}", 1)], source
         )
     fmt = data.get("format")
     if isinstance(fmt, str) and fmt.startswith("coplan."):  # a problem file has no format: a plan, feed, ... file
@@ -368,30 +248,30 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         raise ProblemError([Issue("", f"expected a problem file (keys name, arms, fruits, task), found a coplan {kind} file "
                                       f"(format {fmt!r}); were the arguments swapped?", line_of(lines, ("format",)))], source)
     for k in data:
-        if k not in _TOP_KEYS:
-            issues.append(Issue(str(k), f"expected a known key, found unknown key {k!r}{_suggest(k, _TOP_KEYS)}", line_of(lines, (k,))))
+        if k not in TOP_KEYS:
+            issues.append(Issue(str(k), f"expected a known key, found unknown key {k!r}{_suggest(k, TOP_KEYS)}", line_of(lines, (k,))))
     for k in ("name", "arms", "task"):
         if k not in data:
-            issues.append(Issue(k, _missing(k)))
+            issues.append(Issue(k, missing(k)))
     name = data.get("name", "")
     if "name" in data:
         try:
-            name = _name(data["name"])
+            name = name_value(data["name"])
         except ValueError as e:
             issues.append(Issue("name", str(e), line_of(lines, ("name",))))
     description = data.get("description", "") or ""
     if not isinstance(description, str):
-        issues.append(Issue("description", f"expected a string, found {_kind(description)}", line_of(lines, ("description",))))
+        issues.append(Issue("description", f"expected a string, found {kind_of(description)}", line_of(lines, ("description",))))
         description = ""
 
-    defaults: _ArmFields | None = _ArmFields()
+    defaults: ArmFieldsSpec | None = ArmFieldsSpec()
     if data.get("defaults") is not None:
-        defaults = _validate(_ArmFields, data["defaults"], ("defaults",), lines, issues)
+        defaults = _validate(ArmFieldsSpec, data["defaults"], ("defaults",), lines, issues)
 
     arms_raw = data.get("arms", [])
-    arm_specs: list[tuple[int, _ArmSpec | None]] = []
+    arm_specs: list[tuple[int, ArmSpec | None]] = []
     if not isinstance(arms_raw, list):
-        issues.append(Issue("arms", f"expected a list of arms, found {_kind(arms_raw)}", line_of(lines, ("arms",))))
+        issues.append(Issue("arms", f"expected a list of arms, found {kind_of(arms_raw)}", line_of(lines, ("arms",))))
         arms_raw = []
     elif "arms" in data and not arms_raw:
         issues.append(Issue("arms", "expected at least one arm, found an empty list", line_of(lines, ("arms",))))
@@ -399,20 +279,20 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         issues.append(Issue("arms", f"expected at most {MAX_ARMS} arms, found {len(arms_raw)}", line_of(lines, ("arms",))))
         arms_raw = arms_raw[:MAX_ARMS]
     for i, a in enumerate(arms_raw):
-        arm_specs.append((i, _validate(_ArmSpec, a, ("arms", i), lines, issues)))
+        arm_specs.append((i, _validate(ArmSpec, a, ("arms", i), lines, issues)))
 
     fruits_raw = data.get("fruits", []) or []
     if not isinstance(fruits_raw, list):
-        issues.append(Issue("fruits", f"expected a list of fruit, found {_kind(fruits_raw)}", line_of(lines, ("fruits",))))
+        issues.append(Issue("fruits", f"expected a list of fruit, found {kind_of(fruits_raw)}", line_of(lines, ("fruits",))))
         fruits_raw = []
     if len(fruits_raw) > MAX_FRUITS:
         issues.append(Issue("fruits", f"expected at most {MAX_FRUITS} fruit, found {len(fruits_raw)}", line_of(lines, ("fruits",))))
         fruits_raw = fruits_raw[:MAX_FRUITS]
-    fruit_specs = [(j, _validate(_FruitSpec, f, ("fruits", j), lines, issues)) for j, f in enumerate(fruits_raw)]
+    fruit_specs = [(j, _validate(FruitSpec, f, ("fruits", j), lines, issues)) for j, f in enumerate(fruits_raw)]
 
     task = None
     if "task" in data:
-        t = _validate(_TaskSpec, data["task"], ("task",), lines, issues)
+        t = _validate(TaskSpec, data["task"], ("task",), lines, issues)
         if t is not None and not any([_implausible(f, v, ("task", f), lines, issues) for f, v in t.model_dump().items()]):
             task = Task(**t.model_dump())
 
@@ -430,14 +310,14 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         merged: dict[str, Any] = {}
         origin: dict[str, tuple] = {}
         ok = True
-        for f in _ARM_REQUIRED:
+        for f in ARM_REQUIRED:
             v = getattr(spec, f)
             origin[f] = ("arms", i, f)
             if v is None:
                 v = getattr(defaults, f)
                 origin[f] = ("defaults", f)
             if v is None:
-                issues.append(Issue(path_str(("arms", i, f)), _missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
+                issues.append(Issue(path_str(("arms", i, f)), missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
                 ok = False
             merged[f] = v
         if not ok:
@@ -521,6 +401,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
                         )
                     )
 
+    gantry = parse_gantry(data["gantry"], lines, issues) if "gantry" in data else None
     if issues:
         raise ProblemError(_tidy(issues), source)
     problem = Problem(
@@ -530,7 +411,16 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         task=task,
         description=description,
         source=source,
+        gantry=gantry,
     )
+    if gantry is not None:  # a fruit beyond what any arm reaches from anywhere on the rail is not of this row
+        lo, hi = carriage_extent(problem)
+        far = [Issue(path_str(("fruits", j, "position", 0)), f"expected a fruit on this row: x within [{lo:g}, {hi:g}] m, "
+                     f"what some arm reaches from the rail [{gantry.start:g}, {gantry.end:g}] m; found x = {f.position[0]:g}",
+                     line_of(lines, ("fruits", j, "position"))) for j, f in enumerate(fruits) if not lo <= f.position[0] <= hi]
+        if far:
+            raise ProblemError(far, source)
+        return problem  # a row's plan length is bounded by the row planner (its cells are checked as they are made)
     # a plan too long for its 100 Hz grid is refused up front, from a lower bound on its length
     too_long = plausible.duration_issues(problem)
     if too_long:
@@ -600,5 +490,10 @@ def default_problem_path() -> Path:
 
 
 def shipped_problems() -> list[Path]:
-    """All problem files shipped inside the package, sorted by name."""
+    """All problem files (stationary cells) shipped inside the package, sorted by name."""
     return sorted(_problems_dir().glob("*.yaml"))
+
+
+def shipped_rows() -> list[Path]:
+    """The shipped rows (problems with a gantry: ``problems/rows/``), sorted by name."""
+    return sorted((_problems_dir() / "rows").glob("*.yaml"))

@@ -150,21 +150,37 @@ class ArmMotion:
     q: np.ndarray
     qd: np.ndarray
     speed: np.ndarray
+    shift: np.ndarray | None = None  # (N,) a row plan: the carriage's x, the base moves with it (linear between samples)
+    shift_rate: np.ndarray | None = None  # (N - 1,) the carriage's speed in each interval, m/s
 
     def points(self, seg: np.ndarray, frac: np.ndarray) -> np.ndarray:
-        """Base, elbow, tip (K, 3, 2) at fraction ``frac`` (K,) of plan intervals ``seg`` (K,)."""
-        q = self.q[seg] + frac[:, None] * (self.q[np.minimum(seg + 1, len(self.q) - 1)] - self.q[seg])
-        return kin.fk_points(q, self.links, self.base)
+        """Base, elbow, tip (K, 3, 2) in the row frame at fraction ``frac`` (K,) of plan intervals ``seg`` (K,)."""
+        nxt = np.minimum(seg + 1, len(self.q) - 1)
+        q = self.q[seg] + frac[:, None] * (self.q[nxt] - self.q[seg])
+        pts = kin.fk_points(q, self.links, self.base)
+        if self.shift is not None:
+            pts[..., 0] += (self.shift[seg] + frac * (self.shift[nxt] - self.shift[seg]))[:, None]
+        return pts
+
+    def tips(self) -> np.ndarray:
+        """The tip (N, 2) at every sample, in the row frame."""
+        tip = kin.fk(self.q, self.links, self.base)[1]
+        if self.shift is not None:
+            tip = tip + np.c_[self.shift, np.zeros_like(self.shift)]
+        return tip
 
 
 def arm_motions(problem: Problem, plan: Plan) -> list[ArmMotion]:
     """The replayed motion of every arm of ``problem`` (in problem order) from ``plan``."""
     dt = plan.dt
     out = []
+    shift = None if plan.gantry_x is None else np.asarray(plan.gantry_x, float)
+    rate = None if shift is None else (np.diff(shift) / dt if shift.size > 1 else np.zeros(0))
     for arm in problem.arms:
         q = np.asarray(plan.q[arm.name], dtype=float)
         qd = np.diff(q, axis=0) / dt if len(q) > 1 else np.zeros((0, 2))
-        out.append(ArmMotion(arm.name, arm.links, arm.base, arm.link_radius, q, qd, kin.max_point_speed(qd, arm.links)))
+        out.append(ArmMotion(arm.name, arm.links, arm.base, arm.link_radius, q, qd, kin.max_point_speed(qd, arm.links),
+                             shift, rate))
     return out
 
 
@@ -262,6 +278,10 @@ def _bounds(ma: ArmMotion, mb: ArmMotion, t, seg, d) -> np.ndarray:
     if t.size < 2:
         return np.zeros(0)
     lip = ma.speed[seg[:-1]] + mb.speed[seg[:-1]]
+    if ma.shift_rate is not None or mb.shift_rate is not None:  # the carriages' own motion: zero for one carriage
+        ra = ma.shift_rate[seg[:-1]] if ma.shift_rate is not None else 0.0
+        rb = mb.shift_rate[seg[:-1]] if mb.shift_rate is not None else 0.0
+        lip = lip + np.abs(ra - rb)
     h = np.diff(t)
     env = 0.5 * (d[:-1] + d[1:] - lip * h)
     return np.minimum(env, np.minimum(d[:-1], d[1:]))

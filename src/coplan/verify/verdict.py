@@ -55,6 +55,7 @@ class ViolationKind(str, Enum):
     UNKNOWN_FRUIT = "unknown_fruit"
     SEQUENCE = "sequence"  # overlapping events, a place without its pick, a pick never placed
     EVENT = "event"  # an event of an unknown arm or outside the plan's time span
+    CARRIAGE = "carriage"  # a row plan's carriage: off the rail, not starting at rest at start, over a limit
 
 
 class WarningKind(str, Enum):
@@ -88,6 +89,7 @@ class VerifyOptions:
     q_resolution : resolution of the stored joint angles (plan.json rounds to 1e-7 rad);
         sets the finite-difference tolerances together with ``rel_tolerance``
     joint_tolerance : allowed excess over a joint limit
+    carriage_tolerance : a row plan's carriage may miss ``gantry.start`` / overrun the rail by this
     infer_events : when a plan declares no events, infer them from its motion
         (:mod:`coplan.verify.infer`) and say so; otherwise nothing counts as harvested
     """
@@ -107,6 +109,7 @@ class VerifyOptions:
     rel_tolerance: float = 1e-6
     joint_tolerance: float = 1e-7
     infer_events: bool = True
+    carriage_tolerance: float = 1e-6  # m: a row plan's carriage start and rail ends
 
 
 @dataclass(frozen=True)

@@ -60,6 +60,7 @@ from ..errors import Issue, PlanFileError
 from .fclcheck import cross_check
 from ..kinematics.geometry import segment_distance
 from .infer import infer_events
+from .row import carriage_speed, check_carriage, check_row_inputs, row_reachable_ids
 from ..plan import DEFAULT_RATE, EventKind, Plan
 from . import verdict as _verdict
 from ..problem.model import Problem
@@ -251,8 +252,12 @@ def _acceleration_step(arm: str, jn: int, jerk: np.ndarray, tc: np.ndarray, dt: 
 
 
 # --------------------------------------------------------------------------- events
-def _hold(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, ts: float, te: float, opts: VerifyOptions):
-    """Least tip distance during [ts, te] and the longest still-on-target time inside it."""
+def _hold(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, ts: float, te: float, opts: VerifyOptions,
+          frame_speed: np.ndarray | None = None):
+    """Least tip distance during [ts, te] and the longest still-on-target time inside it.
+
+    ``target``: a point, or one per sample (N, 2) (a bin riding on a carriage); ``frame_speed``
+    (N - 1,): the speed the arm's frame adds to its points (a carriage, for a pick in the row frame)."""
     dist = np.hypot(*(tip - np.asarray(target, float)).T)
     if time.size < 2:
         return float(dist[0]), 0.0
@@ -263,8 +268,9 @@ def _hold(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, ts: float, te
         hi = min(lo + 1, time.size - 1)
     n = np.arange(lo, hi)
     overlap = np.clip(np.minimum(time[n + 1], te) - np.maximum(time[n], ts), 0.0, None)
+    speed = m.speed[n] if frame_speed is None else m.speed[n] + frame_speed[n]
     # the tip stays within (d0 + d1 + V dt) / 2 of the target over the whole interval
-    good = ((dist[n] + dist[n + 1] + m.speed[n] * dt) / 2 <= opts.position_tolerance) & (m.speed[n] <= opts.still_speed)
+    good = ((dist[n] + dist[n + 1] + speed * dt) / 2 <= opts.position_tolerance) & (speed <= opts.still_speed)
     best = max((float(overlap[a : b + 1].sum()) for a, b in runs(good & (overlap > 0))), default=0.0)
     inside = dist[lo : hi + 1]
     return float(inside.min()), best
@@ -272,10 +278,13 @@ def _hold(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, ts: float, te
 
 def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: VerifyOptions, ver: Verification):
     """Picks and places on target and still for their dwell, bookkeeping, completeness."""
-    reach = problem.reach_matrix()
+    row = problem.gantry is not None  # picks in the row frame (the carriage moving), places over the bin it carries
+    reach = None if row else problem.reach_matrix()
     arm_index = {a.name: k for k, a in enumerate(problem.arms)}
     fruit_index = {f.id: k for k, f in enumerate(problem.fruits)}
-    tips = {m.name: kin.fk(m.q, m.links, m.base)[1] for m in motions}
+    tips = {m.name: m.tips() for m in motions}
+    shift = None if not row else np.c_[np.asarray(plan.gantry_x, float), np.zeros(plan.time.size)]
+    moving = carriage_speed(plan) if row else None
     dwell_tol = plan.dt if opts.dwell_tolerance is None else opts.dwell_tolerance
     eps = 1e-9
     picks: dict[str, list[str]] = {}
@@ -295,17 +304,19 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
         arm = problem.arms[arm_index[e.arm]]
         if e.kind == EventKind.PICK:
             picks.setdefault(e.fruit, []).append(e.arm)
-            if not reach[arm_index[e.arm], fruit_index[e.fruit]]:
+            if reach is not None and not reach[arm_index[e.arm], fruit_index[e.fruit]]:
                 ver.violations.append(Violation(ViolationKind.UNREACHABLE_PICK, (e.arm,), e.t_start, 0.0, fruit=e.fruit,
                                                 message="arm picks a fruit it cannot reach"))
             target, dwell = problem.fruits[fruit_index[e.fruit]].position, problem.task.pick_dwell
             missed, short = ViolationKind.PICK_MISSED, ViolationKind.PICK_DWELL
+            frame = moving  # a fruit stays where it is: the tip must be still in the row frame
         else:
             placed.add(e.fruit)
-            target, dwell = arm.bin, problem.task.place_dwell
+            target, dwell = arm.bin if shift is None else np.asarray(arm.bin, float) + shift, problem.task.place_dwell
             missed, short = ViolationKind.PLACE_MISSED, ViolationKind.PLACE_DWELL
+            frame = None  # the bin rides with the carriage: still relative to it
         m = motions[arm_index[e.arm]]
-        least, held = _hold(m, tips[e.arm], plan.time, target, e.t_start, e.t_end, opts)
+        least, held = _hold(m, tips[e.arm], plan.time, target, e.t_start, e.t_end, opts, frame)
         if least > opts.position_tolerance:
             ver.violations.append(Violation(missed, (e.arm,), e.t_start, least - opts.position_tolerance, least,
                                             opts.position_tolerance, e.t_start, e.t_end, fruit=e.fruit,
@@ -318,7 +329,8 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
             ver.violations.append(Violation(ViolationKind.DUPLICATE_PICK, tuple(sorted(set(who))), 0.0, float(len(who) - 1),
                                             float(len(who)), 1.0, fruit=fid, message=f"picked {len(who)} times"))
     _check_sequence(plan, ver)
-    ver.unharvested = [f for f in problem.reachable_ids() if f not in picks or f not in placed]
+    reachable = row_reachable_ids(problem) if row else problem.reachable_ids()
+    ver.unharvested = [f for f in reachable if f not in picks or f not in placed]
     for f in ver.unharvested:
         ver.warnings.append(Finding(WarningKind.NOT_HARVESTED, (), None, message=f"reachable fruit {f} is not harvested"))
 
@@ -358,12 +370,13 @@ def verify(problem: Problem, plan: Plan, options: VerifyOptions | None = None, *
     opts = replace(options or VerifyOptions(), **overrides)
     opts = replace(opts, fcl=FclMode(opts.fcl))
     _check_inputs(problem, plan)
+    check_row_inputs(problem, plan)
     ver = Verification(plan.problem, plan.planner_name, plan.duration, problem.task.clearance, opts)
     if plan.problem and plan.problem != problem.name:  # (a plan.csv names no problem)
         ver.warnings.append(Finding(WarningKind.PROBLEM_NAME, (), None, message=f"plan is for {plan.problem!r}, problem is {problem.name!r}"))
     t0 = _time.perf_counter()
     motions = arm_motions(problem, plan)
-    if not plan.events and opts.infer_events:
+    if not plan.events and opts.infer_events and problem.gantry is None:  # (a row plan declares its events)
         plan = replace(plan, events=infer_events(problem, plan, motions, opts))
         ver.inferred_events = list(plan.events)
         n_pick = sum(e.kind == EventKind.PICK for e in plan.events)
@@ -380,6 +393,8 @@ def verify(problem: Problem, plan: Plan, options: VerifyOptions | None = None, *
                                             message=f"FCL and NumPy disagree ({d.kind.value}) on links {d.links}"))
     t2 = _time.perf_counter()
     _check_limits(problem, motions, np.asarray(plan.time, float), opts, ver)
+    if problem.gantry is not None:
+        check_carriage(problem, plan, opts, ver)
     _check_events(problem, plan, motions, opts, ver)
     t3 = _time.perf_counter()
     ver.timings = {"clearance": t1 - t0, "fcl": t2 - t1, "limits_events": t3 - t2, "total": t3 - t0}

@@ -1,0 +1,132 @@
+"""Whole rows on a mobile gantry: the stop rules side by side, and planning at scale -- one run.
+
+1. **Stop rules** on the shipped 50 m rows (``problems/rows/``): fixed stride, fewest stops and
+   optimised, each planned with the coordinated cell planner at every stop and verified in the
+   row frame. Per rule: stops, row time (the last fruit placed), fruit per hour, share of the
+   harvestable fruit harvested, row time / the lower bound for any plan and for stop-and-go,
+   planning time and its share of the row time, when the first stop was known, and whether
+   every stop's cell was planned before the carriage needed it. Then the optimised rule's
+   fruit per hour against the better of the two baselines.
+2. **Scale**: rows of 25, 50, 100 and 200 m, 6 arms, 10 fruit per metre (``gantry_row``), the
+   optimised rule, each in a fresh process: planning time and its share of the row time,
+   planning time per metre, peak memory (the process's maximum resident set), and the plan file
+   written, read back and checked by ``coplan verify`` in another process (its wall time).
+
+Every ratio is measured in this run, on this machine. Every plan is verified.
+
+    python benchmarks/bench_rows.py                 # both parts
+    python benchmarks/bench_rows.py --rules-only    # the stop rules only
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def _rules(files: list[Path]) -> list[str]:
+    from coplan.kinds import StopRule
+    from coplan.problem import load_problem
+    from coplan.row.bound import row_bounds
+    from coplan.row.metrics import row_metrics
+    from coplan.row.plan import RowOptions, plan_row
+
+    out = ["| row | fruit | rule | stops | row time | fruit / h | harvested | / bound (any plan) | / bound (stop-and-go) "
+           "| planning | planning / row time | first stop known | kept ahead | verified |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    gains = []
+    for f in files:
+        prob = load_problem(f)
+        b = row_bounds(prob)
+        per = {}
+        for rule in (StopRule.FIXED, StopRule.FEWEST, StopRule.OPTIMISED):
+            res = plan_row(prob, RowOptions(stops=rule))
+            m = row_metrics(prob, res, b)
+            per[rule] = m
+            out.append(f"| {f.stem} | {len(prob.fruits)} | {rule.value} | {m['stops']} | {m['row_time']:.1f} s | "
+                       f"{m['fruit_per_hour']:.0f} | {100 * m['share_harvested']:.1f} % | {m['ratio_any_plan_bound']:.3f} | "
+                       f"{m['ratio_stop_and_go_bound']:.3f} | {m['planning_time']:.2f} s | "
+                       f"{100 * m['planning_over_row_time']:.2f} % | {m['first_motion_seconds']:.2f} s | "
+                       f"{'yes' if m['kept_ahead'] else 'no'} ({m['least_slack_seconds']:.1f} s) | "
+                       f"{'yes' if res.verification.passed else 'NO'} |")
+            print(out[-1], flush=True)
+        base = max(per[StopRule.FIXED]["fruit_per_hour"], per[StopRule.FEWEST]["fruit_per_hour"])
+        gains.append((f.stem, per[StopRule.OPTIMISED]["fruit_per_hour"] / base - 1.0,
+                      per[StopRule.OPTIMISED]["stops"], per[StopRule.FIXED]["stops"]))
+    out.append("")
+    out += [f"{name}: optimised {100 * g:+.1f} % fruit per hour against the better baseline; {s} stops "
+            f"(fixed stride {sf})" for name, g, s, sf in gains]
+    return out
+
+
+_CHILD = r"""
+import json, resource, sys, time
+from pathlib import Path
+from coplan.generate import gantry_row, to_yaml
+from coplan.problem import parse_problem
+from coplan.pipeline import solve
+length = float(sys.argv[1]); out = Path(sys.argv[2])
+text = to_yaml(gantry_row(length=length, n_arms=6, density=10.0, seed=11))
+(out / "row.yaml").write_text(text)
+prob = parse_problem(text, str(out / "row.yaml"))
+t = time.perf_counter()
+res = solve(prob, out_dir=out / "run")
+m = res.plan.metrics["row"]
+print(json.dumps({"fruit": len(prob.fruits), "harvested": m["harvested"], "harvestable": m["harvestable"],
+                  "row_time": m["row_time"], "planning": m["planning_time"], "first": m["first_motion_seconds"],
+                  "kept_ahead": m["kept_ahead"], "slack": m["least_slack_seconds"], "verified": bool(res.verification.passed),
+                  "ratio": m["ratio_any_plan_bound"], "wall": time.perf_counter() - t,
+                  "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+                  "plan_mb": (out / "run" / "plan.json").stat().st_size / 2**20}))
+"""
+
+
+def _scale(lengths: list[float]) -> list[str]:
+    out = ["| row | fruit | planning | row time | planning / row time | planning per metre | first stop known "
+           "| kept ahead | peak memory | plan.json | coplan verify (read back) | verified |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for L in lengths:
+        with tempfile.TemporaryDirectory() as d:
+            r = subprocess.run([sys.executable, "-c", _CHILD, str(L), d], capture_output=True, text=True)
+            if r.returncode != 0:
+                out.append(f"| {L:g} m | failed: {r.stderr.strip().splitlines()[-1] if r.stderr else r.returncode} |")
+                print(out[-1], flush=True)
+                continue
+            m = json.loads(r.stdout.strip().splitlines()[-1])
+            t = time.perf_counter()
+            v = subprocess.run([sys.executable, "-m", "coplan.cli", "verify", str(Path(d) / "row.yaml"),
+                                str(Path(d) / "run" / "plan.json")], capture_output=True, text=True)
+            tv = time.perf_counter() - t
+            out.append(f"| {L:g} m, 6 arms | {m['fruit']} | {m['planning']:.1f} s | {m['row_time']:.0f} s | "
+                       f"{100 * m['planning'] / m['row_time']:.2f} % | {m['planning'] / L:.3f} s/m | {m['first']:.2f} s | "
+                       f"{'yes' if m['kept_ahead'] else 'no'} ({m['slack']:.1f} s) | {m['peak_mb']:.0f} MB | "
+                       f"{m['plan_mb']:.1f} MB | {tv:.1f} s, exit {v.returncode} | {'yes' if m['verified'] else 'NO'} |")
+            print(out[-1], flush=True)
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rules-only", action="store_true")
+    ap.add_argument("--scale-only", action="store_true")
+    ap.add_argument("--lengths", default="25,50,100,200")
+    args = ap.parse_args()
+    from coplan.problem import shipped_rows
+
+    t0 = time.perf_counter()
+    lines = []
+    if not args.scale_only:
+        lines += _rules(shipped_rows()) + [""]
+    if not args.rules_only:
+        lines += _scale([float(x) for x in args.lengths.split(",")])
+    print("\n" + "\n".join(lines))
+    print(f"\nWhole run: {time.perf_counter() - t0:.0f} s.")
+
+
+if __name__ == "__main__":
+    main()

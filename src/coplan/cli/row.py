@@ -1,0 +1,56 @@
+"""The command line's row parts (a problem with a gantry): ``coplan check`` of a row. Light to
+import: the row stage is imported inside each function."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ..errors import plural
+from ..kinds import ExitCode
+from .summary import safe
+
+__all__ = ["check_row"]
+
+
+def strict_json(doc) -> str:
+    from ..plan import jsonable
+
+    return json.dumps(jsonable(doc), default=str, allow_nan=False)
+
+
+def check_row(prob, path: Path, as_json: bool, out_console) -> ExitCode:
+    """``coplan check`` of a row: which fruit some carriage position serves (and why not), the
+    carriage span, the stop rules' stop counts and the row's lower bounds."""
+    from ..row.bound import row_bounds
+    from ..row.reach import row_reach
+    from ..row.stops import carriage_span, fewest_stops, fixed_stops
+
+    g = prob.gantry
+    reach = row_reach(prob)
+    b = row_bounds(prob)
+    doc = {"problem": prob.name, "file": str(path), "arms": len(prob.arms), "fruit": len(prob.fruits),
+           "row": {"start": g.start, "end": g.end, "length": g.length},
+           "harvestable": len(reach.cover), "not_harvestable": dict(reach.reasons),
+           "carriage_span": carriage_span(reach) if reach.cover else None,
+           "stops": {"fewest": len(fewest_stops(reach)), "fixed": len(fixed_stops(reach))},
+           "lower_bound": b.to_dict()}
+    if as_json:
+        out_console.print_json(strict_json(doc))
+    else:
+        p = out_console.print
+        p(f"[bold]{safe(prob.name)}[/] ({safe(path)}): a row of {g.length:g} m ([{g.start:g}, {g.end:g}]), "
+          f"{plural(len(prob.arms), 'arm')} on the carriage, {len(prob.fruits)} fruit: {len(reach.cover)} harvestable "
+          f"from some carriage position, {len(reach.reasons)} not")
+        for why in list(reach.reasons.values())[:10]:
+            p(f"  - {safe(why)}", highlight=False)
+        if len(reach.reasons) > 10:
+            p(f"  ... and {len(reach.reasons) - 10} more (--json lists them all)")
+        if reach.cover:
+            p(f"carriage span      {doc['carriage_span']:.2f} m (a fruit stays within the arms' reach over this much rail, "
+              f"median); stops: {doc['stops']['fewest']} at the fewest, {doc['stops']['fixed']} at a fixed stride")
+        p(f"lower bound        {b.any_plan:.2f} s for any plan (the busiest arm's cycles {b.work:.2f} s; the carriage "
+          f"reaching {b.reach_to:.2f} m {b.travel:.2f} s); {b.stop_and_go:.2f} s picking only at rest")
+    if not reach.cover:
+        return ExitCode.INFEASIBLE
+    return ExitCode.OK if not reach.reasons else ExitCode.PARTIAL

@@ -1,0 +1,147 @@
+"""The mobile gantry of a row problem: the carriage that carries the arms along the row.
+
+A problem file with a ``gantry`` section is a *row*: ``arms[].base`` and ``arms[].bin`` are
+then relative to the carriage's origin (the bins ride with it) and ``fruits[].position`` is in
+row (world) coordinates; the carriage moves along x, between ``start`` and ``end``, with
+jerk-limited motion. Without a gantry a problem is a stationary cell, as before (a cell is a
+row whose carriage never moves).
+
+* :class:`Gantry` -- the validated section (frozen, SI units).
+* :func:`parse_gantry` -- validate the section's raw data; issues with key path and line.
+* :func:`cell_at` -- the stationary cell the carriage makes at position ``x``: a plain
+  :class:`~coplan.problem.model.Problem` with the bases and bins where the carriage puts them
+  and the fruit given, which every cell planner plans as it stands.
+* :func:`carriage_extent` -- the x range of row positions some arm could reach from some
+  carriage position in ``[start, end]`` (a fruit outside it is outside the rail: bad input).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+from ..errors import Issue
+from .yamlsafe import line_of, path_str
+
+# (``Problem`` in the annotations below is coplan.problem.model.Problem, which imports this module)
+
+__all__ = ["Gantry", "parse_gantry", "cell_at", "carriage_extent", "GANTRY_KEYS"]
+
+#: The keys of a ``gantry`` section: required ones first.
+GANTRY_KEYS = ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle")
+_REQUIRED = GANTRY_KEYS[:5]
+_EXPECT = {
+    "start": "the x of the carriage origin at t = 0, in m",
+    "end": "the x of the end of the row, in m (the carriage never goes past it)",
+    "max_velocity": "the carriage's speed limit > 0, in m/s",
+    "max_acceleration": "the carriage's acceleration limit > 0, in m/s^2",
+    "max_jerk": "the carriage's jerk limit > 0, in m/s^3",
+    "settle": "a time >= 0, in s, the carriage stays at rest after stopping before a pick",
+}
+#: The plausible range of each number (what a greenhouse gantry can be), for clear errors.
+BOUNDS = {
+    "start": (-10_000.0, 10_000.0),
+    "end": (-10_000.0, 10_000.0),
+    "max_velocity": (1e-3, 10.0),
+    "max_acceleration": (1e-3, 100.0),
+    "max_jerk": (1e-3, 10_000.0),
+    "settle": (0.0, 60.0),
+}
+
+
+@dataclass(frozen=True)
+class Gantry:
+    """The carriage of a row: its travel ``[start, end]`` (m) and its limits (SI units).
+
+    ``settle`` (s): how long the carriage stays at rest after a move before an arm may pick
+    (vibration dies out); 0 by default."""
+
+    start: float
+    end: float
+    max_velocity: float
+    max_acceleration: float
+    max_jerk: float
+    settle: float = 0.0
+
+    @property
+    def length(self) -> float:
+        """The row's length, m (the carriage's travel)."""
+        return self.end - self.start
+
+
+def _number(v: Any) -> float | None:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return None
+    return float(v)
+
+
+def _kind(v: Any) -> str:
+    if v is None:
+        return "nothing"
+    names = {bool: "boolean", int: "number", float: "number", str: "string", list: "list", dict: "mapping"}
+    return f"{names.get(type(v), type(v).__name__)} {v!r}"
+
+
+def parse_gantry(data: Any, lines: dict, issues: list[Issue]) -> Gantry | None:
+    """The :class:`Gantry` of a ``gantry`` section, or None after appending every issue
+    (key path ``gantry.<key>``, its line, what was expected and what was found)."""
+    if not isinstance(data, dict):
+        issues.append(Issue("gantry", f"expected a mapping with keys {', '.join(_REQUIRED)}, found {_kind(data)}",
+                            line_of(lines, ("gantry",))))
+        return None
+    ok = True
+    values: dict[str, float] = {}
+    for k in data:
+        if k not in GANTRY_KEYS:
+            issues.append(Issue(path_str(("gantry", k)), f"expected one of {', '.join(GANTRY_KEYS)}, found unknown key {k!r}",
+                                line_of(lines, ("gantry", k))))
+            ok = False
+    for k in GANTRY_KEYS:
+        loc = ("gantry", k)
+        if k not in data:
+            if k in _REQUIRED:
+                issues.append(Issue(path_str(loc), f"expected {_EXPECT[k]}, found nothing (required field)", line_of(lines, ("gantry",))))
+                ok = False
+            continue
+        v = _number(data[k])
+        if v is None or v != v or v in (float("inf"), float("-inf")):
+            issues.append(Issue(path_str(loc), f"expected {_EXPECT[k]}, found {_kind(data[k])}", line_of(lines, loc)))
+            ok = False
+            continue
+        lo, hi = BOUNDS[k]
+        if k.startswith("max_") and v <= 0:
+            issues.append(Issue(path_str(loc), f"expected {_EXPECT[k]}, found {v:g}", line_of(lines, loc)))
+            ok = False
+        elif not lo <= v <= hi:
+            issues.append(Issue(path_str(loc), f"expected {_EXPECT[k]} within the plausible range [{lo:g}, {hi:g}], found {v:g}",
+                                line_of(lines, loc)))
+            ok = False
+        values[k] = v
+    if ok and not values["start"] < values["end"]:
+        issues.append(Issue("gantry.end", f"expected the end of the row past its start ({values['start']:g} m), "
+                                          f"found {values['end']:g}", line_of(lines, ("gantry", "end"))))
+        ok = False
+    return Gantry(**values) if ok else None
+
+
+def carriage_extent(problem: "Problem") -> tuple[float, float]:
+    """Row x that some arm reaches from some carriage position in ``[start, end]`` (the rail's
+    reach); a fruit outside is on no stretch of this row."""
+    g = problem.gantry
+    lo = min(a.base[0] - a.reach for a in problem.arms)
+    hi = max(a.base[0] + a.reach for a in problem.arms)
+    return g.start + lo, g.end + hi
+
+
+def cell_at(problem: "Problem", x: float, fruit_ids=None, name: str | None = None) -> "Problem":
+    """The stationary cell the carriage makes at ``x``: bases and bins shifted by ``(x, 0)``,
+    the fruit ``fruit_ids`` (all when None) in row coordinates, no gantry. Every cell planner,
+    the screen and the verifier take it as it stands."""
+    arms = tuple(replace(a, base=(a.base[0] + x, a.base[1]), bin=(a.bin[0] + x, a.bin[1])) for a in problem.arms)
+    if fruit_ids is None:
+        fruits = problem.fruits
+    else:
+        keep = set(fruit_ids)
+        fruits = tuple(f for f in problem.fruits if f.id in keep)
+    return replace(problem, arms=arms, fruits=fruits, gantry=None, name=name or f"{problem.name}@{x:.3f}",
+                   source=None, digest=None)

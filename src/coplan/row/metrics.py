@@ -1,0 +1,113 @@
+"""What a grower and an engineer judge a row plan by.
+
+:func:`row_metrics` -> a JSON-ready dict (``plan.json``'s ``metrics.row``, the summary, ``--json``):
+
+* **fruit per hour** over the row (harvested / row time), and per arm;
+* **share harvested** of the harvestable fruit (and of all fruit), with the fruit screened out
+  and the reason for each;
+* **row time** (the last fruit placed), per metre of row, the **stops** and the mean time the
+  carriage stands at one, the **carriage moving share** and the **picking share** (some arm
+  holding still on a fruit) of the row time;
+* **idle share by cause** per arm: ``carriage`` (home while the carriage moves), ``no_fruit``
+  (home at a stop where it has nothing within reach), ``others`` (done at a stop, home, while the
+  other arms finish), ``coordination`` (within its work, holding still for a neighbour: neither
+  moving nor dwelling);
+* **ratios** to the row's lower bounds (:mod:`coplan.row.bound`);
+* **real time**: planning time / row time, when the first stop was known (the carriage's first
+  motion can start) and, stop by stop, whether its cell was planned before the carriage needed
+  it -- the least slack (s; negative: late) and the slowest stop's planning time.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..plan import EventKind, Plan
+from ..problem.model import Problem
+
+__all__ = ["row_metrics"]
+
+
+def _home(problem: Problem, plan: Plan, tol: float = 1e-6) -> dict[str, np.ndarray]:
+    return {a.name: np.all(np.abs(plan.q[a.name] - np.asarray(a.home, float)) <= tol, axis=1) for a in problem.arms}
+
+
+def row_metrics(problem: Problem, result, bounds=None) -> dict:
+    """The row metrics of a :class:`coplan.row.plan.RowResult` (module docstring)."""
+    plan: Plan = result.plan
+    g = problem.gantry
+    m = plan.metrics
+    span = float(m.get("makespan") or 0.0)
+    harvested = int(m.get("harvested") or 0)
+    harvestable = len(result.reach.cover)
+    per_h = 3600.0 / span if span > 0 else 0.0
+    t = plan.time
+    n = t.size
+    dt = plan.dt
+    upto = t <= span + 1e-9
+    x = np.asarray(plan.gantry_x, float)
+    moving = np.zeros(n, dtype=bool)
+    moving[1:] |= np.abs(np.diff(x)) > 1e-9
+    moving[:-1] |= np.abs(np.diff(x)) > 1e-9
+    picking = np.zeros(n, dtype=bool)
+    for e in plan.events:
+        if e.kind == EventKind.PICK:
+            picking[int(round(e.t_start / dt)):int(round(e.t_end / dt)) + 1] = True
+    home = _home(problem, plan)
+    stop_of = np.full(n, -1)
+    for i, sp in enumerate(result.stops):
+        a0, a1 = int(round(sp.start / dt)), int(round(sp.start / dt)) + sp.plan.time.size
+        stop_of[a0:min(a1, n)] = i
+    idle: dict[str, dict[str, float]] = {}
+    for a in problem.arms:
+        q = plan.q[a.name]
+        still = np.r_[np.all(np.abs(np.diff(q, axis=0)) <= 1e-9, axis=1), True]
+        dwelling = np.zeros(n, dtype=bool)
+        for e in plan.events:
+            if e.arm == a.name:
+                dwelling[int(round(e.t_start / dt)):int(round(e.t_end / dt)) + 1] = True
+        has = {i for i, sp in enumerate(result.stops) if sp.plan.allocation.get(a.name)}
+        at_stop_without = np.isin(stop_of, [i for i in range(len(result.stops)) if i not in has])
+        h = home[a.name] & upto
+        causes = {
+            "carriage": h & moving,
+            "no_fruit": h & ~moving & at_stop_without,
+            "others": h & ~moving & ~at_stop_without,
+            "coordination": ~home[a.name] & still & ~dwelling & upto,
+        }
+        idle[a.name] = {k: float(v.sum() * dt / span) if span > 0 else 0.0 for k, v in causes.items()}
+    counts = {a.name: sum(1 for e in plan.events if e.arm == a.name and e.kind == EventKind.PLACE) for a in problem.arms}
+    stands = [sp.depart - sp.arrive for sp in result.stops]
+    planning = float(result.timings.get("planning", 0.0))
+    first = result.info.get("first_stop_seconds")
+    slack = [first + sp.start - sp.ready for sp in result.stops] if first is not None else []
+    out = {
+        "fruit": len(problem.fruits),
+        "harvestable": harvestable,
+        "harvested": harvested,
+        "share_harvested": harvested / harvestable if harvestable else None,
+        "share_of_all_fruit": harvested / len(problem.fruits) if problem.fruits else None,
+        "screened_out": dict(result.reach.reasons),
+        "row_time": span,
+        "row_length": g.length,
+        "time_per_metre": span / g.length,
+        "fruit_per_hour": harvested * per_h,
+        "fruit_per_hour_per_arm": {k: v * per_h for k, v in counts.items()},
+        "stops": len(result.stops),
+        "stop_positions": [round(sp.stop.x, 4) for sp in result.stops],
+        "mean_time_per_stop": float(np.mean(stands)) if stands else 0.0,
+        "carriage_moving_share": float((moving & upto).sum() * dt / span) if span > 0 else 0.0,
+        "picking_share": float((picking & upto).sum() * dt / span) if span > 0 else 0.0,
+        "idle_share": idle,
+        "planning_time": planning,
+        "planning_over_row_time": planning / span if span > 0 else None,
+        "first_motion_seconds": first,
+        "slowest_stop_seconds": max((sp.seconds for sp in result.stops), default=0.0),
+        "least_slack_seconds": min(slack) if slack else None,
+        "kept_ahead": bool(slack) and min(slack) >= 0.0,
+    }
+    if bounds is not None:
+        out["lower_bound"] = bounds.to_dict()
+        out["ratio_any_plan_bound"] = span / bounds.any_plan if bounds.any_plan > 0 else None
+        out["ratio_stop_and_go_bound"] = span / bounds.stop_and_go if bounds.stop_and_go > 0 else None
+    return out

@@ -1,0 +1,202 @@
+"""Plan a whole row: where the carriage stops, each stop's cell, one verified row plan.
+
+Entry point: :func:`plan_row` -> :class:`RowResult`.
+
+1. **Screen the row** (:func:`coplan.row.reach.row_reach`): from which carriage positions each
+   arm can harvest each fruit; a fruit no position serves is left out with the reason.
+2. **Stops** (:mod:`coplan.row.stops`): ``optimised`` (receding windows, CP-SAT), ``fixed``
+   (a stop every carriage span) or ``fewest``; each stop's fruit.
+3. **Cells**: each stop is a stationary cell (:func:`coplan.problem.gantry.cell_at`) planned by
+   the cell planner (``coordinated``, or ``optimal`` with a per-stop budget): every arm from
+   home back to home, verified as a cell. Stops are planned as the stop rule commits them
+   (receding horizon), so the carriage's first move can start before the rest is planned.
+4. **Assembly**: one time grid. The carriage moves between stops with time-optimal
+   jerk-limited moves; it leaves a stop once that stop's last pick is over (the arms place and
+   go home while it moves: the bins ride with it, and arms on one carriage keep their distances
+   whatever it does), and the next stop's cell starts early enough that its first pick comes
+   just after the carriage has arrived and settled. No pick ever happens while the carriage moves.
+5. **Verify** the row plan independently in the row frame (:func:`coplan.verify.verify`).
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..kinds import PlannerKind, PlanStatus, StopRule
+from ..kinematics.timing import Move1D
+from ..plan import DEFAULT_RATE, Event, EventKind, Plan, compute_metrics, finalize_plan
+from ..problem.gantry import cell_at
+from ..problem.model import Problem
+from ..progress import Tick, speaker, ticker
+from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
+from .stops import Stop, StopWindow, fewest_stops, fixed_stops, optimised_stops
+
+__all__ = ["RowOptions", "RowResult", "StopPlan", "plan_row", "assemble"]
+
+
+@dataclass(frozen=True)
+class RowOptions:
+    """How to plan a row (separate from the problem).
+
+    stops : the stop rule (:class:`coplan.kinds.StopRule`)
+    planner : the cell planner at each stop (``coordinated`` or ``optimal``)
+    resolution : spacing of the candidate carriage positions, m
+    window : the optimised rule's receding window
+    cell_search_work : the optimal cell planner's search budget per stop (work, not seconds)
+    """
+
+    stops: StopRule = StopRule.OPTIMISED
+    planner: PlannerKind = PlannerKind.COORDINATED
+    resolution: float = DEFAULT_RESOLUTION
+    window: StopWindow = field(default_factory=StopWindow)
+    cell_search_work: int = 3000
+
+
+@dataclass
+class StopPlan:
+    """One stop: where, its fruit, its verified cell plan and when the row plan runs it."""
+
+    stop: Stop
+    plan: Plan
+    start: float = 0.0  # s: when its cell plan starts in the row plan
+    arrive: float = 0.0  # s: when the carriage comes to rest there
+    depart: float = 0.0  # s: when the carriage leaves (its last pick is over)
+    ready: float = 0.0  # s after the call: when its cell plan was ready (wall clock)
+    seconds: float = 0.0  # wall time its cell took to plan
+
+
+@dataclass
+class RowResult:
+    plan: Plan
+    verification: object
+    stops: list[StopPlan]
+    reach: RowReach
+    timings: dict[str, float]
+    info: dict
+
+
+def _cell_plan(problem: Problem, stop: Stop, opts: RowOptions) -> Plan:
+    cell = cell_at(problem, stop.x, stop.fruit)
+    if opts.planner == PlannerKind.OPTIMAL:
+        from ..planners.optimal import OptimalOptions, plan_optimal
+
+        return plan_optimal(cell, options=OptimalOptions(search_work=opts.cell_search_work, refine_retimes=20)).plan
+    from ..planners.coordinated import plan_coordinated
+
+    return plan_coordinated(cell).plan
+
+
+def plan_row(problem: Problem, options: RowOptions | None = None, progress: Callable[[str], None] | None = None) -> RowResult:
+    """Plan ``problem`` (a row: it has a gantry) end to end and verify it (module docstring)."""
+    from ..verify.verifier import verify
+
+    if problem.gantry is None:
+        raise ValueError(f"{problem.name!r} has no gantry: plan it as a cell")
+    opts = options or RowOptions()
+    say, tick = speaker(progress), ticker(progress)
+    t0 = _time.perf_counter()
+    timings: dict[str, float] = {}
+    reach = row_reach(problem, opts.resolution)
+    timings["reach"] = _time.perf_counter() - t0
+    planned: list[StopPlan] = []
+    n_fruit = len(reach.cover)
+    first_stop_at: list[float] = []
+
+    def on_stop(s: Stop) -> None:
+        if not first_stop_at:
+            first_stop_at.append(_time.perf_counter() - t0)
+        tc = _time.perf_counter()
+        p = _cell_plan(problem, s, opts)
+        planned.append(StopPlan(s, p, ready=_time.perf_counter() - t0, seconds=_time.perf_counter() - tc))
+        done = sum(len(sp.stop.fruit) for sp in planned)
+        tick(Tick("row", done, n_fruit, "fruit", note=f"stop {len(planned)} at {s.x:.2f} m"))
+
+    ts = _time.perf_counter()
+    info: dict = {"rule": StopRule(opts.stops).value, "cell_planner": PlannerKind(opts.planner).value}
+    rule = StopRule(opts.stops)
+    if rule == StopRule.OPTIMISED:
+        _, info["stops_solver"] = optimised_stops(problem, reach, opts.window, on_stop)
+    else:
+        for s in (fixed_stops(reach) if rule == StopRule.FIXED else fewest_stops(reach)):
+            on_stop(s)
+    planned.sort(key=lambda sp: sp.stop.k)
+    timings["stops_and_cells"] = _time.perf_counter() - ts
+    timings["cells"] = sum(sp.seconds for sp in planned)
+    ta = _time.perf_counter()
+    plan = assemble(problem, planned, PlannerKind(opts.planner))
+    timings["assemble"] = _time.perf_counter() - ta
+    timings["planning"] = _time.perf_counter() - t0
+    tv = _time.perf_counter()
+    ver = verify(problem, plan)
+    timings["verify"] = _time.perf_counter() - tv
+    plan = finalize_plan(plan, ver, n_fruit)
+    info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
+    info["left_out"] = dict(reach.reasons)
+    for sp in planned:  # fruit a stop's cell planner could not fit in
+        for f, why in (sp.plan.solver.get("left_out") or {}).items():
+            info["left_out"][f] = f"at the stop at {sp.stop.x:.2f} m: {why}"
+    plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
+    say(f"row: {len(planned)} stops ({rule.value}), {plan.metrics.get('harvested')} fruit, "
+        f"makespan {plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
+    return RowResult(plan, ver, planned, reach, timings, info)
+
+
+def _first_last_pick(p: Plan) -> tuple[float, float]:
+    picks = [e for e in p.events if e.kind == EventKind.PICK]
+    if not picks:
+        return 0.0, 0.0
+    return min(e.t_start for e in picks), max(e.t_end for e in picks)
+
+
+def assemble(problem: Problem, stops: list[StopPlan], planner: PlannerKind = PlannerKind.COORDINATED,
+             rate: float = DEFAULT_RATE) -> Plan:
+    """One row plan of the stops' cell plans (module docstring, step 4); sets each stop's times."""
+    g = problem.gantry
+    dt = 1.0 / rate
+
+    def up(t: float) -> int:  # the first grid index at or after t
+        return int(math.ceil(t * rate - 1e-6))
+
+    x, moves = g.start, []  # (start index, Move1D)
+    free, carriage_free = 0, 0  # grid index: arms all home again / the carriage may leave
+    for sp in stops:
+        mv = Move1D.between(x, sp.stop.x, g.max_velocity, g.max_acceleration, g.max_jerk)
+        depart = carriage_free
+        arrive = depart * dt + mv.duration
+        fp, lp = _first_last_pick(sp.plan)
+        start = max(free, up(arrive + g.settle - fp))
+        if mv.duration > 0:
+            moves.append((depart, mv))
+        sp.start, sp.arrive, sp.depart = start * dt, arrive, (start + up(lp)) * dt
+        carriage_free = start + up(lp)
+        free = start + sp.plan.time.size - 1
+        x = sp.stop.x
+    n = max([free, carriage_free] + [i + up(mv.duration) for i, mv in moves]) + 1
+    time = np.arange(n) / rate
+    q = {a.name: np.tile(np.asarray(a.home, float), (n, 1)) for a in problem.arms}
+    events: list[Event] = []
+    for sp in stops:
+        i0 = int(round(sp.start * rate))
+        k = sp.plan.time.size
+        for a in problem.arms:
+            q[a.name][i0:i0 + k] = sp.plan.q[a.name]
+        events += [Event(e.arm, e.fruit, e.kind, e.t_start + i0 * dt, e.t_end + i0 * dt) for e in sp.plan.events]
+    gx = np.full(n, g.start)
+    for i, mv in moves:
+        gx[i:] = mv.x1
+        seg = np.arange(i, min(n, i + up(mv.duration) + 1))
+        gx[seg] = mv.state((seg - i) * dt)[0]
+    events.sort(key=lambda e: (e.t_start, e.arm))
+    allocation: dict[str, list[str]] = {a.name: [] for a in problem.arms}
+    for sp in stops:
+        for a, fs in sp.plan.allocation.items():
+            allocation[a] += list(fs)
+    plan = Plan(problem=problem.name, planner=planner, status=PlanStatus.UNVERIFIED, time=time, q=q, events=events,
+                allocation=allocation, unreachable=[], gantry_x=gx)
+    plan.metrics = compute_metrics(plan, sum(len(sp.stop.fruit) for sp in stops))
+    return plan

@@ -1,0 +1,115 @@
+"""Where the carriage can stand to harvest each fruit: the row's screen.
+
+For each fruit and arm, the carriage positions (on a grid of ``resolution`` m along the rail)
+from which that arm can harvest that fruit under the cell screen's rules
+(:func:`coplan.allocate.screen.usable_picks`: the reach annulus less ``task.reach_margin``,
+joint limits, the shoulder's free sweep past the neighbours' bases, link 2 clear of them; an
+arm that can never reach its bin harvests nothing). The arms' geometry relative to each other
+is fixed on the carriage, so this is one cell's screen evaluated at shifted fruit: a fruit at
+row x seen from carriage position c sits at x - c in the carriage frame.
+
+Entry point: :func:`row_reach` -> :class:`RowReach`. A fruit no grid position serves gets a
+sentence saying why (:attr:`RowReach.reasons`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..allocate.screen import screened, usable_picks
+from ..problem.gantry import cell_at
+from ..problem.model import Problem
+
+__all__ = ["RowReach", "row_reach", "DEFAULT_RESOLUTION"]
+
+#: Spacing of the candidate carriage positions, m.
+DEFAULT_RESOLUTION = 0.05
+
+
+@dataclass
+class RowReach:
+    """Candidate carriage positions and, per fruit, which arms harvest it from which.
+
+    grid : (K,) carriage positions from ``gantry.start`` to ``gantry.end``
+    cover : fruit id -> (A, K) bool (only fruit some position serves)
+    reasons : fruit id -> why no position serves it
+    """
+
+    problem: Problem
+    grid: np.ndarray
+    cover: dict[str, np.ndarray] = field(default_factory=dict)
+    reasons: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def resolution(self) -> float:
+        return float(self.grid[1] - self.grid[0]) if self.grid.size > 1 else 0.0
+
+    def stops_of(self, fid: str) -> np.ndarray:
+        """Grid indices from which some arm harvests ``fid`` (sorted)."""
+        return np.flatnonzero(self.cover[fid].any(axis=0))
+
+    def span(self, fid: str) -> tuple[int, int]:
+        """First and last grid index serving ``fid``."""
+        k = self.stops_of(fid)
+        return int(k[0]), int(k[-1])
+
+    def harvestable(self) -> list[str]:
+        """Fruit some carriage position serves, in file order."""
+        return [f.id for f in self.problem.fruits if f.id in self.cover]
+
+    def at(self, k: int) -> list[str]:
+        """Fruit some arm harvests with the carriage at grid index ``k``, in file order."""
+        return [f.id for f in self.problem.fruits if f.id in self.cover and self.cover[f.id][:, k].any()]
+
+
+def row_reach(problem: Problem, resolution: float = DEFAULT_RESOLUTION, fruit_ids=None) -> RowReach:
+    """Screen every fruit (or ``fruit_ids``) against every carriage position of the grid."""
+    g = problem.gantry
+    n = max(1, int(math.floor(g.length / resolution + 1e-9)))
+    grid = g.start + resolution * np.arange(n + 1)
+    if grid[-1] < g.end - 1e-9:
+        grid = np.append(grid, g.end)
+    out = RowReach(problem, grid)
+    cell = cell_at(problem, 0.0, ())  # the carriage frame: bases and bins as written
+    reach = np.array([a.reach for a in problem.arms])
+    bx = np.array([a.base[0] for a in problem.arms])
+    keep = None if fruit_ids is None else set(fruit_ids)
+    fruits = [f for f in problem.fruits if keep is None or f.id in keep]
+    if not fruits:
+        return out
+    # carriage positions within reach of each fruit: |x_f - c - bx_a| <= reach_a
+    xs = np.array([f.position[0] for f in fruits])
+    lo = np.searchsorted(grid, xs[:, None] - bx[None, :] - reach[None, :] - 1e-9)  # (F, A)
+    hi = np.searchsorted(grid, xs[:, None] - bx[None, :] + reach[None, :] + 1e-9, side="right")
+    rows, cols, pts = [], [], []
+    for j, f in enumerate(fruits):
+        k0, k1 = int(lo[j].min()), int(hi[j].max())
+        ks = np.arange(k0, k1)
+        rows.append(np.full(ks.size, j))
+        cols.append(ks)
+        pts.append(np.c_[f.position[0] - grid[ks], np.full(ks.size, f.position[1])])
+    rows, cols, pts = np.concatenate(rows), np.concatenate(cols), np.concatenate(pts)
+    ok = usable_picks(cell, pts).any(axis=-1)  # (A, N)
+    cover = np.zeros((len(fruits), len(problem.arms), grid.size), dtype=bool)
+    for a in range(len(problem.arms)):
+        cover[rows, a, cols] = ok[a]
+    for j, f in enumerate(fruits):
+        if cover[j].any():
+            out.cover[f.id] = cover[j]
+        else:
+            out.reasons[f.id] = _why(problem, f)
+    return out
+
+
+def _why(problem: Problem, f) -> str:
+    """Why no carriage position serves fruit ``f``: the screen's sentence with the carriage
+    where the fruit comes nearest above some arm's base (on the rail)."""
+    g = problem.gantry
+    c = min(((abs(f.position[0] - min(max(f.position[0] - a.base[0], g.start), g.end) - a.base[0]),
+              min(max(f.position[0] - a.base[0], g.start), g.end)) for a in problem.arms))[1]
+    why = screened(cell_at(problem, c, (f.id,))).reasons.get(f.id, f"{f.id}: blocked")
+    return (f"{f.id}: no carriage position on the rail [{g.start:g}, {g.end:g}] m lets an arm harvest it; "
+            f"with the carriage at {c:.2f} m, {why.split(': ', 1)[1]}")

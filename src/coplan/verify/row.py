@@ -1,0 +1,113 @@
+"""The verifier's row frame: what a plan on a mobile gantry must also satisfy.
+
+A row plan (``plan.gantry_x``: the carriage's x on the plan's own time grid) is checked in
+the row's (world) frame: the bases are where the carriage puts them, ``base + (x(t), 0)``.
+
+* **carriage** -- at rest at ``gantry.start`` at t = 0 and at rest at the end of the plan;
+  always within ``[start, end]``; velocity, acceleration and jerk within the gantry's limits
+  (forward, second and third differences of the samples, with the joints' tolerances: see
+  :mod:`coplan.verify.verifier`).
+* **clearance** -- as for a cell, in the row frame (:class:`~coplan.verify.clearance.ArmMotion`
+  with the carriage's shift); between samples the certificate adds the carriages' relative
+  speed to the arms' own point speeds: zero for arms on one carriage, which move together.
+* **picks** -- the tip within tolerance of the fruit *in row coordinates* and still there (its
+  speed in the row frame, the carriage's included, below ``still_speed``) for the dwell.
+* **places** -- over the arm's bin, which rides with the carriage: checked in the carriage's frame.
+* **reach** -- which fruit some arm could pick from some carriage position on the rail (joint
+  limits, the annulus less ``task.reach_margin``), on a 1 cm grid of positions: the fruit a
+  complete plan harvests. Computed here, independently of the planners' screen.
+
+Nothing here comes from :mod:`coplan.row` or the planners.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import Issue, PlanFileError
+from ..plan import Plan
+from ..problem.model import Problem
+from .clearance import runs
+from .verdict import Verification, Violation, ViolationKind
+
+__all__ = ["check_row_inputs", "check_carriage", "row_reachable_ids", "carriage_speed"]
+
+REACH_STEP = 0.01  # m between the carriage positions :func:`row_reachable_ids` tries
+
+
+def check_row_inputs(problem: Problem, plan: Plan) -> None:
+    """A row problem needs a row plan (and a cell problem a cell plan)."""
+    n = np.asarray(plan.time).size
+    if problem.gantry is not None and plan.gantry_x is None:
+        raise PlanFileError([Issue("gantry", "expected a row plan (gantry.x: the carriage's position at every time), "
+                                             "found a plan without a carriage; the problem has a gantry")],
+                            f"plan for problem {plan.problem!r}")
+    if problem.gantry is None and plan.gantry_x is not None:
+        raise PlanFileError([Issue("gantry", "expected a plan of a stationary cell, found a row plan (gantry.x); the problem "
+                                             "has no gantry")], f"plan for problem {plan.problem!r}")
+    if plan.gantry_x is not None and (np.shape(plan.gantry_x) != (n,) or not np.all(np.isfinite(plan.gantry_x))):
+        raise PlanFileError([Issue("gantry.x", f"expected {n} finite positions, found shape {np.shape(plan.gantry_x)}")],
+                            f"plan for problem {plan.problem!r}")
+
+
+def carriage_speed(plan: Plan) -> np.ndarray:
+    """(N - 1,) |carriage speed| in each interval (0 for a cell plan)."""
+    if plan.gantry_x is None or plan.time.size < 2:
+        return np.zeros(max(0, plan.time.size - 1))
+    return np.abs(np.diff(np.asarray(plan.gantry_x, float))) / plan.dt
+
+
+def check_carriage(problem: Problem, plan: Plan, opts, ver: Verification) -> None:
+    """The carriage's start, travel range, rest at the end and limits (module docstring)."""
+    g = problem.gantry
+    x = np.asarray(plan.gantry_x, float)
+    t = np.asarray(plan.time, float)
+    tol = opts.carriage_tolerance
+    if abs(x[0] - g.start) > tol:
+        ver.violations.append(Violation(ViolationKind.CARRIAGE, ("carriage",), 0.0, abs(x[0] - g.start), float(x[0]),
+                                        g.start, message=f"the carriage starts at x = {x[0]:.4f} m, not at gantry.start"))
+    out = np.maximum(g.start - x, x - g.end)
+    for a, b in runs(out > tol):
+        w = a + int(np.argmax(out[a:b + 1]))
+        ver.violations.append(Violation(ViolationKind.CARRIAGE, ("carriage",), float(t[w]), float(out[w]), float(x[w]),
+                                        g.end if x[w] > g.end else g.start, float(t[a]), float(t[b]),
+                                        message=f"the carriage at x = {x[w]:.4f} m, off the rail [{g.start:g}, {g.end:g}]"))
+    if t.size < 2:
+        return
+    dt = float(t[1] - t[0])
+    pad = np.concatenate([np.repeat(x[:1], 3), x, np.repeat(x[-1:], 3)])  # at rest before and after the plan
+    tp = (np.arange(pad.size) - 3) * dt
+    res = 1e-7  # plan.json rounds positions to 1e-7 m
+    for k, (what, limit) in enumerate((("velocity", g.max_velocity), ("acceleration", g.max_acceleration),
+                                       ("jerk", g.max_jerk)), start=1):
+        diff = np.abs(np.diff(pad, n=k)) / dt ** k
+        centre = np.clip(0.5 * (tp[:-k] + tp[k:]), 0.0, t[-1])
+        bound = limit * (1.0 + opts.rel_tolerance) + 2.0 ** (k - 1) * res / dt ** k
+        ver.peaks.setdefault("carriage", {})[what] = float(diff.max() / limit) if diff.size else 0.0
+        for a, b in runs(diff > bound):
+            w = a + int(np.argmax(diff[a:b + 1]))
+            ver.violations.append(Violation(ViolationKind.CARRIAGE, ("carriage",), float(centre[w]), float(diff[w] - limit),
+                                            float(diff[w]), float(limit), float(centre[a]), float(centre[b]),
+                                            message=f"carriage {what} at {diff[w] / limit:.2f} x its limit"))
+
+
+def row_reachable_ids(problem: Problem) -> list[str]:
+    """Fruit some arm can pick from some carriage position on the rail (module docstring)."""
+    g = problem.gantry
+    cs = np.arange(g.start, g.end + REACH_STEP / 2, REACH_STEP)
+    m = problem.task.reach_margin
+    out = []
+    for f in problem.fruits:
+        fx, fy = f.position
+        ok = False
+        for arm in problem.arms:
+            near = cs[np.abs(fx - cs - arm.base[0]) <= arm.reach]
+            if near.size == 0:
+                continue
+            pts = np.c_[fx - near, np.full(near.size, fy)]
+            if arm.ik(pts, m)[1].any():
+                ok = True
+                break
+        if ok:
+            out.append(f.id)
+    return out

@@ -1,0 +1,283 @@
+"""A whole greenhouse row on a mobile gantry: row files, the row's screen, the stop rules, the
+row plan verified in the row frame, its lower bounds and metrics, the command line.
+
+Rows here are short (10-14 m) so that the suite stays quick; the benchmark
+(``benchmarks/bench_rows.py``) runs the shipped 50 m rows."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.errors import PlanFileError, ProblemError
+from coplan.generate import gantry_row, to_yaml
+from coplan.kinematics.timing import Move1D, scurve_time, scurve_times
+from coplan.kinds import StopRule
+from coplan.plan import EventKind, load_plan
+from coplan.problem import load_problem, parse_problem, shipped_rows
+from coplan.problem.gantry import cell_at
+from coplan.row.bound import cycle_bounds, row_bounds
+from coplan.row.plan import RowOptions, plan_row
+from coplan.row.reach import row_reach
+from coplan.row.stops import fewest_stops, fixed_stops, round_trips
+from coplan.verify import verify
+from coplan.verify.verdict import ViolationKind
+
+
+def _row(length=12.0, density=4.0, seed=5, **kw):
+    return parse_problem(to_yaml(gantry_row(length=length, density=density, seed=seed, **kw)))
+
+
+@pytest.fixture(scope="module")
+def row():
+    return _row()
+
+
+@pytest.fixture(scope="module")
+def planned(row):
+    return {rule: plan_row(row, RowOptions(stops=rule)) for rule in StopRule}
+
+
+# --------------------------------------------------------------------------- files
+def test_the_shipped_rows_load_with_their_gantry():
+    names = {p.stem for p in shipped_rows()}
+    assert {"course_row", "sparse_row", "dense_row", "six_arm_row"} <= names
+    for p in shipped_rows():
+        prob = load_problem(p)
+        assert prob.gantry is not None and prob.gantry.length == 50.0
+        assert len(prob.fruits) >= 50 and all(0.0 <= f.position[0] <= 50.0 for f in prob.fruits)
+
+
+def _with(text: str, **gantry) -> str:
+    d = yaml.safe_load(text)
+    d["gantry"].update(gantry)
+    return to_yaml(d)
+
+
+@pytest.mark.parametrize("change, path, words", [
+    (dict(start=60.0), "gantry.end", "past its start"),
+    (dict(max_velocity=0.0), "gantry.max_velocity", "speed limit > 0"),
+    (dict(max_jerk=".nan"), "gantry.max_jerk", "found"),
+    (dict(max_acceleration="fast"), "gantry.max_acceleration", "string 'fast'"),
+    (dict(speed=1.0), "gantry.speed", "unknown key"),
+])
+def test_bad_gantry_sections_are_refused_with_the_key_path_and_line(change, path, words):
+    text = _with(to_yaml(gantry_row(length=10.0, density=2.0)), **change)
+    if change.get("max_jerk") == ".nan":
+        text = text.replace("max_jerk: '.nan'", "max_jerk: .nan")
+    with pytest.raises(ProblemError) as e:
+        parse_problem(text, "row.yaml")
+    issue = next(i for i in e.value.issues if i.path == path)
+    assert words in issue.message and issue.line is not None
+    assert text.splitlines()[issue.line - 1].strip().startswith(path.split(".")[-1]) or path == "gantry.speed"
+
+
+def test_a_fruit_outside_the_rail_is_refused():
+    d = gantry_row(length=10.0, density=2.0)
+    d["fruits"][0]["position"] = [40.0, 1.0]
+    with pytest.raises(ProblemError) as e:
+        parse_problem(to_yaml(d), "row.yaml")
+    issue = e.value.issues[0]
+    assert issue.path == "fruits[0].position[0]" and "on this row" in issue.message and "40" in issue.message
+
+
+def test_a_bad_row_file_writes_nothing(tmp_path):
+    f = tmp_path / "row.yaml"
+    f.write_text(_with(to_yaml(gantry_row(length=10.0, density=2.0)), max_velocity=0))
+    r = CliRunner().invoke(app, ["solve", str(f), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 3 and "gantry.max_velocity" in r.output and not (tmp_path / "o").exists()
+
+
+# --------------------------------------------------------------------------- the row's screen
+def test_the_rows_screen_agrees_with_the_cell_screen_at_each_position(row):
+    from coplan.allocate.screen import screened
+
+    reach = row_reach(row)
+    rng = np.random.default_rng(0)
+    for k in rng.choice(reach.grid.size, 6, replace=False):
+        cell = cell_at(row, float(reach.grid[k]))
+        scr = screened(cell)
+        for j, f in enumerate(cell.fruits):
+            want = scr.reach[:, j]
+            got = reach.cover[f.id][:, k] if f.id in reach.cover else np.zeros(len(row.arms), bool)
+            assert np.array_equal(want, got), (f.id, k)
+
+
+def test_a_fruit_no_stop_can_reach_is_left_out_with_its_reason():
+    d = gantry_row(length=10.0, density=2.0)
+    d["fruits"].append({"id": "high", "position": [5.0, 1.95]})  # above every arm's reach at any position
+    prob = parse_problem(to_yaml(d))
+    res = plan_row(prob, RowOptions(stops=StopRule.FEWEST))
+    assert "high" in res.reach.reasons and "high" not in res.reach.cover
+    assert "reach" in res.reach.reasons["high"]
+    assert res.verification.passed and res.plan.status.value == "success"  # every harvestable fruit harvested
+    assert res.info["left_out"]["high"] == res.reach.reasons["high"]
+
+
+# --------------------------------------------------------------------------- stop rules
+@pytest.mark.parametrize("rule", list(StopRule))
+def test_every_harvestable_fruit_goes_to_exactly_one_stop_that_serves_it(row, planned, rule):
+    res = planned[rule]
+    seen = [f for sp in res.stops for f in sp.stop.fruit]
+    assert sorted(seen) == sorted(res.reach.cover) and len(seen) == len(set(seen))
+    for sp in res.stops:
+        for f in sp.stop.fruit:
+            assert res.reach.cover[f][:, sp.stop.k].any()
+    xs = [sp.stop.x for sp in res.stops]
+    assert xs == sorted(xs) and len(set(xs)) == len(xs)
+
+
+def test_the_fewest_stops_are_no_more_than_any_other_rules(planned):
+    n = {rule: len(res.stops) for rule, res in planned.items()}
+    assert n[StopRule.FEWEST] <= n[StopRule.FIXED]
+    reach = planned[StopRule.FEWEST].reach
+    # a lower bound on any stop set: fruit whose serving spans are pairwise disjoint need a stop each
+    spans = sorted((reach.span(f)[1], reach.span(f)[0]) for f in reach.cover)
+    disjoint, end = 0, -1
+    for hi, lo in spans:
+        if lo > end:
+            disjoint, end = disjoint + 1, hi
+    assert n[StopRule.FEWEST] == disjoint == len(fewest_stops(reach))
+
+
+# --------------------------------------------------------------------------- the row plan
+@pytest.mark.parametrize("rule", list(StopRule))
+def test_the_row_plan_is_verified_and_harvests_every_harvestable_fruit(planned, rule):
+    res = planned[rule]
+    assert res.verification.passed, [v.message for v in res.verification.violations[:5]]
+    assert res.plan.status.value == "success" and res.plan.metrics["harvested"] == len(res.reach.cover)
+
+
+def test_no_pick_happens_while_the_carriage_moves_and_it_stays_on_the_rail(row, planned):
+    plan = planned[StopRule.OPTIMISED].plan
+    x, dt = plan.gantry_x, plan.dt
+    g = row.gantry
+    assert x[0] == g.start and g.start - 1e-9 <= x.min() and x.max() <= g.end + 1e-9
+    for e in plan.events:
+        if e.kind == EventKind.PICK:
+            seg = x[int(round(e.t_start / dt)):int(round(e.t_end / dt)) + 1]
+            assert np.ptp(seg) == 0.0
+    # the tip is over the fruit in row coordinates, independently of the verifier
+    arms = {a.name: a for a in row.arms}
+    for e in plan.events[:20]:
+        if e.kind == EventKind.PICK:
+            i = int(round(0.5 * (e.t_start + e.t_end) / dt))
+            a = arms[e.arm]
+            tip = a.fk(plan.q[a.name][i]) if hasattr(a, "fk") else None
+            from coplan.kinematics import arm as kin
+
+            tip = kin.fk(plan.q[a.name][i], a.links, (a.base[0] + x[i], a.base[1]))[1]
+            assert math.dist(tip, row.fruit(e.fruit).position) < 1e-3
+
+
+def test_the_verifier_catches_a_pick_on_the_move_a_fast_carriage_and_a_wrong_start(row, planned):
+    plan = planned[StopRule.FEWEST].plan
+    x = plan.gantry_x.copy()
+    pick = next(e for e in plan.events if e.kind == EventKind.PICK)
+    i0, i1 = int(round(pick.t_start / plan.dt)), int(round(pick.t_end / plan.dt))
+    moved = x.copy()
+    moved[i0:] += np.minimum(np.arange(moved.size - i0) * 0.004, 0.05)  # creeping on at 0.4 m/s during the pick
+    v = verify(row, replace(plan, gantry_x=moved))
+    kinds = {k.kind for k in v.violations}
+    assert ViolationKind.PICK_DWELL in kinds or ViolationKind.PICK_MISSED in kinds
+    jump = x.copy()
+    jump[i1 + 1:] += 0.05  # a 5 cm step between two samples: 5 m/s
+    assert ViolationKind.CARRIAGE in {k.kind for k in verify(row, replace(plan, gantry_x=jump)).violations}
+    assert ViolationKind.CARRIAGE in {k.kind for k in verify(row, replace(plan, gantry_x=x + 0.01)).violations}
+    with pytest.raises(PlanFileError):
+        verify(row, replace(plan, gantry_x=None))
+    with pytest.raises(PlanFileError):  # a row plan is not a plan of a cell
+        verify(cell_at(row, 0.0), plan)
+
+
+def test_clearance_is_the_same_in_the_row_frame_and_on_the_carriage(row, planned):
+    """Arms on one carriage keep their distances whatever it does: the row-frame verdict equals
+    the carriage-frame one (the plan's joints, the carriage left out), sample for sample."""
+    plan = planned[StopRule.FEWEST].plan
+    here = verify(row, plan)
+    still = verify(cell_at(row, 0.0), replace(plan, gantry_x=None, events=[]), infer_events=False)
+    assert here.summary()["min_clearance"] == pytest.approx(still.summary()["min_clearance"], abs=1e-9)
+    assert here.summary()["certified_clearance"] == pytest.approx(still.summary()["certified_clearance"], abs=1e-9)
+
+
+# --------------------------------------------------------------------------- bounds, metrics
+def test_the_cycle_bound_is_below_every_sampled_cycle(row):
+    cost, reach_any, _ = cycle_bounds(row)
+    reach = row_reach(row, 0.01)
+    c = round_trips(row, reach, list(reach.cover), np.arange(reach.grid.size))
+    idx = {f.id: j for j, f in enumerate(row.fruits)}
+    gaps = [v - cost[a, idx[f]] for (f, k, a), v in c.items()]
+    assert min(gaps) >= -1e-9  # a bound over every position, not only the sampled ones
+    best: dict = {}
+    for (f, k, a), v in c.items():
+        best[(f, a)] = min(best.get((f, a), np.inf), v - cost[a, idx[f]])
+    assert np.median(list(best.values())) < 0.1  # and close to the best sampled position (1 cm apart)
+    assert all(reach_any[a, idx[f]] for (f, k, a) in c)
+
+
+def test_no_plan_beats_the_bounds(row, planned):
+    b = row_bounds(row)
+    assert 0 < b.work <= b.any_plan <= b.stop_and_go
+    for res in planned.values():
+        assert res.plan.metrics["makespan"] >= b.stop_and_go - 1e-9
+
+
+def test_row_metrics_add_up(row, planned):
+    from coplan.row.metrics import row_metrics
+
+    res = planned[StopRule.FIXED]
+    m = row_metrics(row, res, row_bounds(row))
+    assert m["fruit_per_hour"] == pytest.approx(m["harvested"] / m["row_time"] * 3600)
+    assert sum(m["fruit_per_hour_per_arm"].values()) == pytest.approx(m["fruit_per_hour"])
+    assert m["time_per_metre"] == pytest.approx(m["row_time"] / row.gantry.length)
+    assert m["stops"] == len(res.stops) and 0 < m["carriage_moving_share"] < 1 and 0 < m["picking_share"] < 1
+    for causes in m["idle_share"].values():
+        assert 0 <= sum(causes.values()) < 1
+    assert m["ratio_any_plan_bound"] >= 1.0 and m["share_harvested"] == 1.0
+    assert m["first_motion_seconds"] is not None and m["planning_over_row_time"] > 0
+
+
+# --------------------------------------------------------------------------- the carriage's moves
+def test_carriage_moves_are_time_optimal_s_curves_within_the_limits():
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        x0, x1 = rng.uniform(-5, 5, 2)
+        v, a, j = rng.uniform(0.2, 1.0), rng.uniform(0.2, 1.0), rng.uniform(1.0, 10.0)
+        mv = Move1D.between(x0, x1, v, a, j)
+        assert mv.duration == pytest.approx(scurve_time(abs(x1 - x0), v, a, j), abs=1e-12)
+        t = np.linspace(0.0, mv.duration, 2001)
+        p, vel, acc = mv.state(t)
+        assert p[0] == pytest.approx(x0) and p[-1] == pytest.approx(x1) and abs(vel[-1]) < 1e-9
+        assert np.max(np.abs(vel)) <= v * (1 + 1e-9) and np.max(np.abs(acc)) <= a * (1 + 1e-9)
+        assert np.allclose(np.gradient(p, t), vel, atol=2e-3 * max(v, 1.0))
+    d = rng.uniform(0, 3, 500)
+    assert np.allclose(scurve_times(d, 0.5, 0.5, 5.0), [scurve_time(x, 0.5, 0.5, 5.0) for x in d], atol=1e-12)
+
+
+# --------------------------------------------------------------------------- command line
+def test_coplan_solve_verify_and_check_a_row(tmp_path):
+    f = tmp_path / "row.yaml"
+    f.write_text(to_yaml(gantry_row(length=10.0, density=3.0, seed=2)))
+    run = CliRunner(env={"COLUMNS": "200"}).invoke
+    r = run(app, ["solve", str(f), "--stops", "fewest", "--out", str(tmp_path / "o"), "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    row = doc["metrics"]["row"]
+    assert row["stops"] >= 1 and row["share_harvested"] == 1.0 and doc["solver"]["row"]["rule"] == "fewest"
+    plan = load_plan(tmp_path / "o" / "plan.json")
+    assert plan.gantry_x is not None and plan.gantry_x.size == plan.time.size
+    r = run(app, ["verify", str(f), str(tmp_path / "o" / "plan.json")])
+    assert r.exit_code == 0 and "passed" in r.output and "carriage" in r.output
+    r = run(app, ["check", str(f)])
+    assert r.exit_code == 0 and "harvestable from some carriage position" in r.output
+    r = run(app, ["solve", str(f), "--planner", "heuristic", "--out", str(tmp_path / "h")])
+    assert r.exit_code == 2 and "row" in r.output
+    r = run(app, ["solve", "greenhouse_row", "--stops", "fixed", "--out", str(tmp_path / "c")])
+    assert r.exit_code == 2 and "stationary cell" in r.output
