@@ -229,11 +229,16 @@ class _Scene:
         self.n_alloc = {a.name: len(plan.allocation.get(a.name, [])) or len(plan.events_of(a.name, EventKind.PLACE)) for a in self.arms}
         self.prev_t = -1.0
 
+        # a row is drawn from the carriage (the camera rides on it): the arms stay, the row passes by
+        self.shift = None if plan.gantry_x is None else np.asarray(plan.gantry_x, float)
         lo = np.min([np.subtract(a.base, a.reach) for a in self.arms], axis=0)
         hi = np.max([np.add(a.base, a.reach) for a in self.arms], axis=0)
-        if problem.fruits:
+        if problem.fruits and self.shift is None:
             lo = np.minimum(lo, problem.fruit_positions.min(axis=0))
             hi = np.maximum(hi, problem.fruit_positions.max(axis=0))
+        elif problem.fruits:
+            lo[1] = min(lo[1], problem.fruit_positions[:, 1].min())
+            hi[1] = max(hi[1], problem.fruit_positions[:, 1].max())
         for a in self.arms:
             lo = np.minimum(lo, np.subtract(a.bin, 0.3))
             hi = np.maximum(hi, np.add(a.bin, 0.3))
@@ -261,11 +266,15 @@ class _Scene:
             ax.add_patch(Annulus(a.base, a.reach, a.reach - a.inner_radius, facecolor="none", edgecolor=c, alpha=0.45, linestyle="--", linewidth=0.8))
             ax.add_patch(Rectangle((a.bin[0] - 0.15, a.bin[1] - 0.12), 0.3, 0.24, facecolor=c, alpha=0.25, edgecolor=c, linewidth=1.5, zorder=2))
             ax.plot(*a.base, marker="s", color="#444444", markersize=8, zorder=3)
-        reach = problem.reach_matrix() if problem.fruits else np.zeros((len(self.arms), 0), bool)
         self.fruit_ids = [f.id for f in problem.fruits]
         self.fruit_pos = problem.fruit_positions
-        self.reachable = reach.any(axis=0) if reach.size else np.zeros(len(self.fruit_ids), bool)
-        for k, f in enumerate(problem.fruits):
+        if self.shift is not None:  # a row: what was harvestable is what the plan's screen left (its metrics)
+            out = ((plan.metrics or {}).get("row") or {}).get("screened_out") or {}
+            self.reachable = np.array([f not in out for f in self.fruit_ids], bool)
+        else:
+            reach = problem.reach_matrix() if problem.fruits else np.zeros((len(self.arms), 0), bool)
+            self.reachable = reach.any(axis=0) if reach.size else np.zeros(len(self.fruit_ids), bool)
+        for k, f in enumerate(problem.fruits if self.shift is None else ()):  # (a row's fruit move: no fixed labels)
             ax.annotate(f.id, f.position, xytext=(4, 4), textcoords="offset points", fontsize=6, color="#777777", zorder=2)
             if not self.reachable[k]:
                 ax.plot(*f.position, "x", color="#777777", markersize=6, markeredgewidth=1.5, zorder=3)
@@ -352,7 +361,8 @@ class _Scene:
         self._update_fruit(t, pose)
         total = sum(harvested_count(plan, a.name, t) for a in self.arms)
         self.time_text.set_text(f"t = {t:6.2f} s / {plan.duration:.2f} s")
-        self.info_text.set_text(f"×{self.speed:g}   in bins {total}/{int(self.reachable.sum())} reachable fruit")
+        carriage = "" if self.shift is None else f"   carriage at {float(np.interp(t, plan.time, self.shift)):.2f} m"
+        self.info_text.set_text(f"×{self.speed:g}   in bins {total}/{int(self.reachable.sum())} reachable fruit{carriage}")
         if worst is not None:
             a, b, d = worst
             if self.first_violation is None:
@@ -378,6 +388,8 @@ class _Scene:
             return
         states = fruit_states(self.problem, self.plan, t)
         pos = self.fruit_pos.copy()
+        if self.shift is not None:  # seen from the carriage
+            pos[:, 0] -= float(np.interp(t, self.plan.time, self.shift))
         sizes = np.full(len(self.fruit_ids), 42.0)
         alpha = np.ones(len(self.fruit_ids))
         in_bin: dict[str, int] = {}

@@ -103,11 +103,19 @@ def _check_fits(problem: Problem, plan: Plan, what: str) -> None:
 
 
 def _view_box(problem: Problem, plans: list[Plan]) -> list[float]:
-    """World rectangle drawn: bases, bins, fruit and wherever the plans' links go (capsules)."""
+    """World rectangle drawn: bases, bins, fruit and wherever the plans' links go (capsules).
+    A row's is in the carriage's frame (the page moves it with the carriage): the arms' reach
+    and the fruit's heights."""
     from ..kinematics import arm as kin
 
     pts = [np.asarray(a.base, float) for a in problem.arms] + [np.asarray(a.bin, float) for a in problem.arms]
-    if problem.fruits:
+    if problem.gantry is not None:
+        pts += [np.asarray([a.base[0] - a.reach, a.base[1]], float) for a in problem.arms]
+        pts += [np.asarray([a.base[0] + a.reach, a.base[1]], float) for a in problem.arms]
+        if problem.fruits:
+            ys = problem.fruit_positions[:, 1]
+            pts += [np.asarray([problem.arms[0].base[0], ys.min()]), np.asarray([problem.arms[0].base[0], ys.max()])]
+    elif problem.fruits:
         pts += list(problem.fruit_positions)
     pad = max((a.link_radius for a in problem.arms), default=0.0)
     for p in plans:
@@ -125,16 +133,26 @@ def _problem_data(problem: Problem, plans: list[Plan]) -> dict:
     from .plots import workspace_maps
 
     colors = arm_colors(problem)
-    scr = screened(problem)
-    reach = problem.reach_matrix()
+    scr = screened(problem if problem.gantry is None else _carriage_cell(problem))
     fruits = []
-    for k, f in enumerate(problem.fruits):
-        entry = {"id": f.id, "pos": list(f.position), "reach": [a.name for i, a in enumerate(problem.arms) if scr.reach[i, k]]}
-        if f.id in scr.unharvestable:
-            default = "out of every arm's reach" if not reach[:, k].any() else "no arm can pick it (screen)"
-            entry["unreachable"] = scr.reasons.get(f.id, default)
-        fruits.append(entry)
-    xs, ys, best, _ = workspace_maps(problem, resolution=MANIP_RESOLUTION)
+    if problem.gantry is None:
+        reach = problem.reach_matrix()
+        for k, f in enumerate(problem.fruits):
+            entry = {"id": f.id, "pos": list(f.position), "reach": [a.name for i, a in enumerate(problem.arms) if scr.reach[i, k]]}
+            if f.id in scr.unharvestable:
+                default = "out of every arm's reach" if not reach[:, k].any() else "no arm can pick it (screen)"
+                entry["unreachable"] = scr.reasons.get(f.id, default)
+            fruits.append(entry)
+    else:  # a row: who may take a fruit depends on where the carriage stands; the plans say who did
+        out = {}
+        for p in plans:
+            out.update(((p.metrics or {}).get("row") or {}).get("screened_out") or {})
+        for f in problem.fruits:
+            entry = {"id": f.id, "pos": list(f.position), "reach": sorted({e.arm for p in plans for e in p.events if e.fruit == f.id})}
+            if f.id in out:
+                entry["unreachable"] = out[f.id]
+            fruits.append(entry)
+    xs, ys, best, _ = workspace_maps(problem if problem.gantry is None else _carriage_cell(problem), resolution=MANIP_RESOLUTION)
     top = float(np.nanmax(best)) if np.isfinite(best).any() else 1.0
     grid = np.where(np.isfinite(best), 1 + np.round(254 * np.nan_to_num(best) / max(top, 1e-12)), 0).astype(np.uint8)
     return {
@@ -152,7 +170,34 @@ def _problem_data(problem: Problem, plans: list[Plan]) -> dict:
         "view": _view_box(problem, plans),
         "manip": {"grid": _encode(grid, "u1"), "x": [float(xs[0]), float(xs[-1])], "y": [float(ys[0]), float(ys[-1])], "max": top},
         "colors": {"fruit": FRUIT_COLOR, "alert": ALERT_COLOR},
-    }
+    } | ({"row": _row_data(problem, plans)} if problem.gantry is not None else {})
+
+
+def _carriage_cell(problem: Problem) -> Problem:
+    """A row's arms on the carriage at its origin, no fruit: the frame the page draws them in."""
+    from ..problem.gantry import cell_at
+
+    return cell_at(problem, 0.0, ())
+
+
+def _row_data(problem: Problem, plans: list[Plan]) -> dict:
+    """What the row strip draws: the rail, the arms' reach along it, each plan's stops."""
+    g = problem.gantry
+    lo = min(a.base[0] - a.reach for a in problem.arms)
+    hi = max(a.base[0] + a.reach for a in problem.arms)
+    stops = []
+    for p in plans:
+        x = np.asarray(p.gantry_x, float)
+        mine = []
+        for e in p.events:
+            if e.kind == EventKind.PICK:
+                k = min(int(round(e.t_start / p.dt)), x.size - 1)
+                if mine and abs(mine[-1]["x"] - x[k]) <= 1e-6:
+                    mine[-1]["fruit"].append(e.fruit)
+                else:
+                    mine.append({"x": float(x[k]), "fruit": [e.fruit]})
+        stops.append(sorted(mine, key=lambda s: s["x"]))
+    return {"start": g.start, "end": g.end, "reach": [lo, hi], "stops": stops}
 
 
 # --------------------------------------------------------------------------- one plan
@@ -255,6 +300,7 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
         "harvested": m.get("harvested"),
         "reachable": m.get("reachable"),
         "display": {"rate": rate, "n": int(times.size), "q": _encode(track, "<f4")},
+        "gantry": None if plan.gantry_x is None else _encode(np.interp(times, plan.time, plan.gantry_x), "<f4"),
         "exact": {"dt": plan.dt, "n": int(plan.time.size)} | exact_entry,
         "events": [e.to_dict() for e in sorted(plan.events, key=lambda e: (e.t_start, e.arm))],
         "allocation": plan.allocation,

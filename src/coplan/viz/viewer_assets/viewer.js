@@ -46,8 +46,9 @@
     const a = rgb(h1), b = rgb(h2);
     return "#" + [0, 1, 2].map(function (i) { return Math.round((a[i] + b[i]) / 2).toString(16).padStart(2, "0"); }).join("");
   }
-  function fk(arm, q) {
-    const b = arm.base, l = arm.links;
+  // a row's arms ride on the carriage: their base is shifted by its x (sh; 0 for a cell)
+  function fk(arm, q, sh) {
+    const b = [arm.base[0] + (sh || 0), arm.base[1]], l = arm.links;
     const ex = b[0] + l[0] * Math.cos(q[0]), ey = b[1] + l[0] * Math.sin(q[0]);
     return [[b[0], b[1]], [ex, ey], [ex + l[1] * Math.cos(q[0] + q[1]), ey + l[1] * Math.sin(q[0] + q[1])]];
   }
@@ -63,6 +64,7 @@
     pl.index = k;
     pl.track = decode(p.display.q);
     pl.exactQ = Float64Array.from(decode(p.exact.q), function (v) { return v * p.exact.scale; });
+    pl.gx = p.gantry ? decode(p.gantry) : null;
     pl.K = p.display.n;
     pl.N = p.exact.n;
     pl.clear = p.clearance.map(function (c) { return { arms: c.arms, d: decode(c.d), color: blend(ARMS[ARM[c.arms[0]]].color, ARMS[ARM[c.arms[1]]].color) }; });
@@ -89,6 +91,13 @@
     const i = clamp(Math.floor(f), 0, K - 1), j = Math.min(i + 1, K - 1), w = clamp(f - i, 0, 1);
     const o = a * K * 2;
     return [pl.track[o + 2 * i] * (1 - w) + pl.track[o + 2 * j] * w, pl.track[o + 2 * i + 1] * (1 - w) + pl.track[o + 2 * j + 1] * w];
+  }
+  // a row plan's carriage x at time t (0 for a cell)
+  function gxAt(pl, t) {
+    if (!pl.gx) return 0;
+    const K = pl.gx.length, f = clamp(t, 0, pl.duration) * pl.display.rate;
+    const i = clamp(Math.floor(f), 0, K - 1), j = Math.min(i + 1, K - 1), w = clamp(f - i, 0, 1);
+    return pl.gx[i] * (1 - w) + pl.gx[j] * w;
   }
   // the replay (Plan.sample): linear between the plan's own samples; velocity of the interval
   function qExact(pl, a, t) {
@@ -210,6 +219,10 @@
 
   function Cell(pl, box) {
     this.pl = pl;
+    if (P.row) {  // a row: the whole row as a strip, and the carriage's position against time
+      this.strip = el("canvas", { class: "rowstrip", "data-plan": String(pl.index) });
+      box.appendChild(this.strip);
+    }
     this.canvas = el("canvas", { class: "cell", "data-plan": String(pl.index) });
     box.appendChild(this.canvas);
     this.ctx = this.canvas.getContext("2d");
@@ -230,23 +243,70 @@
     this.s = Math.min(W / vx, H / vy);
     this.ox = (W - vx * this.s) / 2; this.oy = (H - vy * this.s) / 2;
   };
+  // the row strip: every fruit along the rail (ringed in the colour of the arm that takes it,
+  // filled once placed), each stop (a tick), the carriage's reach now (a band) and, below, the
+  // carriage's x against time (time downwards) with the clock as a line
+  Cell.prototype.drawStrip = function (t) {
+    const R = P.row, c = this.strip, pl = this.pl;
+    const W = Math.max(200, c.clientWidth), H = 150, dpr = window.devicePixelRatio || 1;
+    if (c.width !== Math.round(W * dpr)) { c.width = Math.round(W * dpr); c.height = Math.round(H * dpr); c.style.height = H + "px"; }
+    const ctx = c.getContext("2d");
+    ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
+    ctx.clearRect(0, 0, W, H);
+    const x0 = R.start + R.reach[0], x1 = R.end + R.reach[1], pad = 8;
+    const X = function (x) { return pad + (x - x0) / (x1 - x0) * (W - 2 * pad); };
+    const ys = P.fruits.map(function (f) { return f.pos[1]; });
+    const yl = Math.min.apply(null, ys.concat([0])), yh = Math.max.apply(null, ys.concat([1]));
+    const Y = function (y) { return 8 + (yh - y) / Math.max(1e-9, yh - yl) * 44; };
+    const sh = gxAt(pl, t);
+    ctx.fillStyle = "rgba(60,120,200,0.12)";
+    ctx.fillRect(X(sh + R.reach[0]), 2, X(sh + R.reach[1]) - X(sh + R.reach[0]), 54);
+    ctx.strokeStyle = "#333"; ctx.lineWidth = 1;
+    ctx.beginPath(); ctx.moveTo(X(R.start), 60); ctx.lineTo(X(R.end), 60); ctx.stroke();
+    (R.stops[pl.index] || []).forEach(function (st, i) {
+      ctx.strokeStyle = "#555"; ctx.beginPath(); ctx.moveTo(X(st.x), 56); ctx.lineTo(X(st.x), 64); ctx.stroke();
+    });
+    P.fruits.forEach(function (f) {
+      const fact = pl.fruit[f.id], st = fruitState(pl, f, fact, t);
+      const col = fact.arm !== null ? ARMS[ARM[fact.arm]].color : "#999999";
+      ctx.beginPath(); ctx.arc(X(f.pos[0]), Y(f.pos[1]), 2.5, 0, 2 * Math.PI);
+      ctx.fillStyle = st.state === "placed" ? col : "#fff"; ctx.fill();
+      ctx.strokeStyle = st.state === "unreachable" ? "#999" : col; ctx.lineWidth = 1; ctx.stroke();
+    });
+    ctx.fillStyle = "#333"; ctx.beginPath();
+    ctx.moveTo(X(sh), 60); ctx.lineTo(X(sh) - 5, 68); ctx.lineTo(X(sh) + 5, 68); ctx.fill();
+    // the carriage's x against time
+    const top = 74, h = H - top - 4, n = pl.gx ? pl.gx.length : 0;
+    ctx.strokeStyle = "#2a6"; ctx.lineWidth = 1.5; ctx.beginPath();
+    for (let i = 0; i < n; i += Math.max(1, Math.floor(n / 600))) {
+      const tt = i / pl.display.rate, px = X(pl.gx[i]), py = top + tt / T_END * h;
+      if (i === 0) ctx.moveTo(px, py); else ctx.lineTo(px, py);
+    }
+    ctx.stroke();
+    ctx.strokeStyle = "rgba(0,0,0,0.35)"; ctx.beginPath(); ctx.moveTo(pad, top + t / T_END * h); ctx.lineTo(W - pad, top + t / T_END * h); ctx.stroke();
+    ctx.fillStyle = "#333"; ctx.font = "11px system-ui, sans-serif"; ctx.textAlign = "left";
+    ctx.fillText("row " + num(R.start, 1) + "–" + num(R.end, 1) + " m; carriage at " + num(sh, 2) + " m; " +
+                 (R.stops[pl.index] || []).length + " stops (ticks); below: carriage x against time", pad, H - 4);
+  };
   Cell.prototype.px = function (x, y) {
-    const v = P.view;
-    return [this.ox + (x - v[0]) * this.s, this.oy + (v[3] - y) * this.s];
+    const v = P.view;  // a row's view box is the carriage's: it follows the carriage (this.shift)
+    return [this.ox + (x - v[0] - (this.shift || 0)) * this.s, this.oy + (v[3] - y) * this.s];
   };
   Cell.prototype.draw = function (t) {
     const ctx = this.ctx, pl = this.pl, s = this.s, self = this;
+    const sh = gxAt(pl, t);
+    this.shift = sh;
     ctx.setTransform(this.dpr, 0, 0, this.dpr, 0, 0);
     ctx.clearRect(0, 0, this.W, this.H);
     this.hits = [];
     if (layers.manip) {
-      const m = P.manip, a = this.px(m.x[0], m.y[1]), b = this.px(m.x[1], m.y[0]);
+      const m = P.manip, a = this.px(m.x[0] + sh, m.y[1]), b = this.px(m.x[1] + sh, m.y[0]);
       ctx.imageSmoothingEnabled = true;
       ctx.drawImage(manipImage, a[0], a[1], b[0] - a[0], b[1] - a[1]);
     }
     if (layers.reach) {
       ARMS.forEach(function (a) {
-        const c = self.px(a.base[0], a.base[1]);
+        const c = self.px(a.base[0] + sh, a.base[1]);
         ctx.setLineDash([5, 4]); ctx.strokeStyle = rgba(a.color, 0.7); ctx.lineWidth = 1;
         [a.links[0] + a.links[1], Math.abs(a.links[0] - a.links[1])].forEach(function (r) {
           if (r <= 0) return;
@@ -258,18 +318,19 @@
     // bins
     const bin = 0.22 * s;
     ARMS.forEach(function (a) {
-      const c = self.px(a.bin[0], a.bin[1]);
+      const c = self.px(a.bin[0] + sh, a.bin[1]);
       ctx.fillStyle = rgba(a.color, 0.12); ctx.strokeStyle = a.color; ctx.lineWidth = 1.5;
       ctx.fillRect(c[0] - bin / 2, c[1] - bin / 2, bin, bin); ctx.strokeRect(c[0] - bin / 2, c[1] - bin / 2, bin, bin);
     });
     // poses
-    const poses = ARMS.map(function (a, i) { return fk(a, qTrack(pl, i, t)); });
+    const poses = ARMS.map(function (a, i) { return fk(a, qTrack(pl, i, t), sh); });
     // trails
     if (layers.trails) {
       const r = pl.display.rate, i1 = Math.floor(clamp(t, 0, pl.duration) * r), i0 = Math.max(0, Math.floor((t - TRAIL) * r));
       ARMS.forEach(function (a, k) {
         for (let i = i0; i < i1; i++) {
-          const p0 = self.px.apply(self, fk(a, qTrack(pl, k, i / r))[2]), p1 = self.px.apply(self, fk(a, qTrack(pl, k, (i + 1) / r))[2]);
+          const p0 = self.px.apply(self, fk(a, qTrack(pl, k, i / r), gxAt(pl, i / r))[2]);
+          const p1 = self.px.apply(self, fk(a, qTrack(pl, k, (i + 1) / r), gxAt(pl, (i + 1) / r))[2]);
           ctx.strokeStyle = rgba(a.color, 0.1 + 0.7 * (i - i0) / Math.max(1, i1 - i0)); ctx.lineWidth = 2;
           ctx.beginPath(); ctx.moveTo(p0[0], p0[1]); ctx.lineTo(p1[0], p1[1]); ctx.stroke();
         }
@@ -289,7 +350,7 @@
         if (st.state === "carried" || st.state === "placing") { p = self.px.apply(self, poses[ARM[fact.arm]][2]); r = fr * 0.8; }
         if (st.state === "placed") {
           const order = pl.binOrder[fact.place.arm] || [], k = order.indexOf(f.id), b = ARMS[ARM[fact.place.arm]].bin;
-          const c = self.px(b[0], b[1]), per = 3, step = bin / (per + 1);
+          const c = self.px(b[0] + sh, b[1]), per = 3, step = bin / (per + 1);
           p = [c[0] - bin / 2 + step * (1 + (k % per)), c[1] + bin / 2 - step * (1 + Math.floor(k / per) % per)];
           r = Math.min(fr * 0.6, step * 0.45);
         }
@@ -327,7 +388,8 @@
       ctx.fillText((Object.values(alarm).indexOf("collision") >= 0 ? "COLLISION: " : "CLEARANCE BREACH: ") + names.join(", "), 8, 18);
     }
     ctx.fillStyle = "#333"; ctx.font = "12px system-ui, sans-serif"; ctx.textAlign = "right";
-    ctx.fillText("t = " + t.toFixed(2) + " s", this.W - 8, 16);
+    ctx.fillText("t = " + t.toFixed(2) + " s" + (pl.gx ? ", carriage at " + sh.toFixed(2) + " m" : ""), this.W - 8, 16);
+    if (this.strip) this.drawStrip(t);
   };
   Cell.prototype.hover = function (ev) {
     const r = this.canvas.getBoundingClientRect(), x = ev.clientX - r.left, y = ev.clientY - r.top, pl = this.pl;
@@ -350,7 +412,7 @@
         segDist(x, y, h.pts[1][0], h.pts[1][1], h.pts[2][0], h.pts[2][1])) <= h.r;
     })[0];
     if (arm) {
-      const a = ARMS[arm.arm], ex = qExact(pl, arm.arm, T), tipP = fk(a, ex.q)[2];
+      const a = ARMS[arm.arm], ex = qExact(pl, arm.arm, T), tipP = fk(a, ex.q, gxAt(pl, T))[2];
       const deg = function (r) { return num(r * 180 / Math.PI, 1) + "\u00B0"; };
       const pct = function (v, j) { return Math.round(100 * Math.abs(v) / a.max_velocity[j]) + " % of the limit"; };
       const done = (pl.binOrder[a.name] || []).filter(function (fid) { return pl.fruit[fid].place.t_end <= T; }).length;
@@ -622,6 +684,7 @@
     time: function () { return T; },
     setTime: function (t) { setPlaying(false); setTime(t); },
     playing: function () { return playing; },
+    carriage: function (plan) { return gxAt(PLANS[plan], T); },
     clientPoint: function (plan, x, y) {
       const c = cells[plan], r = c.canvas.getBoundingClientRect(), p = c.px(x, y);
       return [r.left + p[0], r.top + p[1]];
