@@ -21,7 +21,7 @@ nbclient = pytest.importorskip("nbclient")
 pytest.importorskip("ipykernel")
 
 NOTEBOOKS = Path(__file__).resolve().parents[1] / "notebooks"
-NAMES = ["compare_schedules.ipynb", "workspace_analysis.ipynb", "design_sweep.ipynb"]
+NAMES = ["compare_schedules.ipynb", "workspace_analysis.ipynb", "design_sweep.ipynb", "row_analysis.ipynb"]
 KERNEL = "coplan-test-python"
 
 
@@ -70,7 +70,7 @@ def test_notebook_runs_top_to_bottom(name, kernel, tmp_path):
     pngs = _outputs(nb, "image/png")
     tables = [o["data"]["text/markdown"] for o in _outputs(nb, "text/markdown") if o["data"]["text/markdown"].startswith("|")]
     viewers = [o["data"]["text/html"] for o in _outputs(nb, "text/html") if 'title="coplan plan viewer"' in o["data"]["text/html"]]
-    if name in ("compare_schedules.ipynb", "workspace_analysis.ipynb"):  # the notebooks that use coplan.view
+    if name in ("compare_schedules.ipynb", "workspace_analysis.ipynb", "row_analysis.ipynb"):  # the notebooks that use coplan.view
         assert len(viewers) == 1 and viewers[0].startswith("<iframe srcdoc="), "coplan.view renders inline"
     if name == "compare_schedules.ipynb":
         assert len(pngs) >= 6  # Gantt, clearance, joints x2, other problems
@@ -80,6 +80,9 @@ def test_notebook_runs_top_to_bottom(name, kernel, tmp_path):
         for path in shipped_problems():
             assert load_problem(path).name in tables[0]
         assert "| heuristic |" in tables[0] and "| optimal |" in tables[0]
+    elif name == "row_analysis.ipynb":
+        assert len(pngs) >= 3  # stops along the row, idle by cause, fruit per hour per arm
+        assert any(t.startswith("| rule | stops |") and "| optimised |" in t and "| fewest |" in t for t in tables)
     elif name == "design_sweep.ipynb":
         assert len(pngs) >= 3  # throughput vs spacing, ratio distribution, Pareto front
         assert any(t.startswith("| n_arms |") for t in tables) and any(t.startswith("| arms | density") for t in tables)

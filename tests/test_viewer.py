@@ -380,3 +380,38 @@ def test_compare_view_shows_two_cells_on_one_clock(browser, pages, greenhouse):
     assert a != b  # two plans, two pictures at the same instant
     assert log["errors"] == []
     page.close()
+
+
+# --------------------------------------------------------------------------- a row
+@pytest.fixture(scope="module")
+def row_page(tmp_path_factory):
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+
+    prob = parse_problem(to_yaml(gantry_row(length=12.0, density=3.0, seed=3)))
+    res = coplan.solve(prob, stops="fewest")
+    return prob, res, write_html(tmp_path_factory.mktemp("row") / "row.html", prob, res.plan, verification=res.verification)
+
+
+def test_the_row_view_follows_the_carriage(browser, row_page):
+    """The cell is drawn where the carriage is: at a time the carriage moves, the page's carriage
+    equals the plan's and an arm's link is drawn at its base shifted by it; the strip of the whole
+    row is there; nothing is fetched."""
+    prob, res, path = row_page
+    plan = res.plan
+    moving = np.flatnonzero(np.abs(np.diff(plan.gantry_x)) > 1e-9)
+    t = float(plan.time[moving[len(moving) // 2]])
+    page, log = _open(browser, path, f"#t={t}")
+    x = float(np.interp(t, plan.time, plan.gantry_x))
+    assert page.evaluate("coplanViewer.carriage(0)") == pytest.approx(x, abs=0.02)
+    assert page.locator("canvas.rowstrip").count() == 1 and page.locator("canvas.rowstrip").bounding_box()["height"] > 100
+    arm = prob.arms[1]
+    q = plan.sample([t])[arm.name][0]
+    base = np.array([arm.base[0] + x, arm.base[1]])
+    elbow = base + arm.links[0] * np.array([np.cos(q[0]), np.sin(q[0])])
+    cx, cy = page.evaluate("([x, y]) => coplanViewer.clientPoint(0, x, y)", ((base + elbow) / 2).tolist())
+    colour = np.array([int(h, 16) for h in re.findall("..", arm_colors(prob)[arm.name][1:])])
+    assert np.abs(np.array(_pixel(page, cx, cy)) - colour).max() < 40
+    assert log["errors"] == []
+    assert len(log["requests"]) == 1 and log["requests"][0].startswith(path.as_uri())  # the page itself, nothing else
+    page.close()

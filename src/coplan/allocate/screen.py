@@ -195,8 +195,8 @@ def _poses(problem: Problem, arm: Arm, targets: np.ndarray, margin: float, sw: _
     elbow, tip = kin.fk(np.nan_to_num(q), arm.links, arm.base)
     hit = np.full(valid0.shape, "", dtype=object)
     for other in problem.arms:
-        if other is arm:
-            continue
+        if other is arm or math.dist(arm.base, other.base) > arm.reach + need[other.name] + _EPS:
+            continue  # (a base beyond the arm's reach plus the clearance is never within it)
         bad = _point_segment(np.asarray(other.base, float), elbow, tip) < need[other.name] - _EPS
         ok &= ~bad
         first = bad[:, 0] & (hit == "")
@@ -274,16 +274,19 @@ def reach_reason(problem: Problem, point) -> str:
             + (f" (task.reach_margin {m:g} m)" if m else ""))
 
 
-def usable_picks(problem: Problem, points, tip_tolerance: float = TIP_TOLERANCE) -> np.ndarray:
+def usable_picks(problem: Problem, points, tip_tolerance: float = TIP_TOLERANCE, arms=None) -> np.ndarray:
     """``(A, N, 2)`` bool: which IK branch of which arm can pick at each of ``points`` (N, 2)
     under the screen's rules -- the annulus less ``task.reach_margin``, joint limits, the
     shoulder's free sweep from home past the neighbours' bases, link 2 clear of them -- all
     False for an arm that can never reach its bin. Vectorised over the points (no Fruit objects):
-    the row's screen asks it of every carriage position at once."""
+    the row's screen asks it of every carriage position at once. ``arms``: only these arm
+    indices (the others' rows stay False)."""
     pts = np.asarray(points, float).reshape(-1, 2)
     clear = problem.task.clearance
     out = np.zeros((len(problem.arms), pts.shape[0], 2), dtype=bool)
     for i, arm in enumerate(problem.arms):
+        if arms is not None and i not in arms:
+            continue
         need = {o.name: clear + arm.link_radius + o.link_radius for o in problem.arms}
         sw = _sweep(problem, arm, need)
         _, bin_use, _, _ = _poses(problem, arm, np.asarray([arm.bin], float), 0.0, sw, need, tip_tolerance)

@@ -382,6 +382,15 @@ def compare_cmd(
     """
     from ..report.comparison import DEFAULT_PLANNERS, PlannerSpec, compare, rich_tables
 
+    source = _resolve_problem(problems)
+    if source.is_file():
+        from ..problem.model import load_problem
+
+        prob = load_problem(source)
+        if prob.gantry is not None:  # a row: its stop rules side by side
+            from .row import compare_row
+
+            raise typer.Exit(int(compare_row(prob, planner, out, as_json, out_console, err_console)))
     try:
         specs = [PlannerSpec.parse(p) for p in (planner or DEFAULT_PLANNERS)]
     except ValueError as e:
@@ -391,7 +400,7 @@ def compare_cmd(
     options = _solver_options(options_file, time_limit, any(s.planner != PlannerKind.HEURISTIC for s in specs))
     hint = _budget_hint(PlannerKind.OPTIMAL, time_limit) if any(s.planner == PlannerKind.OPTIMAL for s in specs) else None
     with ProgressDisplay(err_console, quiet=as_json, hint=hint) as say:
-        cmp = compare(_resolve_problem(problems), specs, out, figures=figures, options=options, progress=say)
+        cmp = compare(source, specs, out, figures=figures, options=options, progress=say)
     if as_json:
         typer.echo(json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
     else:

@@ -10,7 +10,7 @@ from ..errors import plural
 from ..kinds import ExitCode
 from .summary import safe
 
-__all__ = ["check_row"]
+__all__ = ["check_row", "compare_row"]
 
 
 def strict_json(doc) -> str:
@@ -54,3 +54,32 @@ def check_row(prob, path: Path, as_json: bool, out_console) -> ExitCode:
     if not reach.cover:
         return ExitCode.INFEASIBLE
     return ExitCode.OK if not reach.reasons else ExitCode.PARTIAL
+
+
+def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_console) -> ExitCode:
+    """``coplan compare ROW.yaml``: the stop rules side by side (:func:`coplan.report.rows.compare_rows`)."""
+    from rich.table import Table
+
+    from ..kinds import PlannerKind
+    from ..report.rows import ROW_COLUMNS, cell_text, compare_rows
+    from .console import ProgressDisplay
+
+    cell = None
+    if planner:
+        if len(planner) > 1 or planner[0] not in ("coordinated", "optimal"):
+            err_console.print("--planner: a row takes one cell planner: coordinated or optimal", markup=False)
+            return ExitCode.USAGE
+        cell = PlannerKind(planner[0])
+    with ProgressDisplay(err_console, quiet=as_json) as say:
+        cmp = compare_rows(prob, out, planner=cell, progress=say)
+    if as_json:
+        out_console.print(strict_json(cmp.to_dict()), markup=False, highlight=False)
+    else:
+        table = Table(title=f"{prob.name}: stop rules side by side", title_justify="left")
+        for _, head in ROW_COLUMNS:
+            table.add_column(head)
+        for r in cmp.rows:
+            table.add_row(*(cell_text(k, r.get(k)) for k, _ in ROW_COLUMNS))
+        out_console.print(table)
+        out_console.print(f"wrote {safe(cmp.files['json'])} and {safe(cmp.files['markdown'])}")
+    return ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE

@@ -101,10 +101,12 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     say, tick = speaker(progress), ticker(progress)
     t0 = _time.perf_counter()
     timings: dict[str, float] = {}
-    reach = row_reach(problem, opts.resolution)
+    rule = StopRule(opts.stops)
+    # the optimised rule screens the row stretch by stretch, as its windows advance (the carriage
+    # can start before the far end is screened); the other rules need the whole row first
+    reach = row_reach(problem, opts.resolution, lazy=rule == StopRule.OPTIMISED)
     timings["reach"] = _time.perf_counter() - t0
     planned: list[StopPlan] = []
-    n_fruit = len(reach.cover)
     first_stop_at: list[float] = []
 
     def on_stop(s: Stop) -> None:
@@ -114,11 +116,10 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         p = _cell_plan(problem, s, opts)
         planned.append(StopPlan(s, p, ready=_time.perf_counter() - t0, seconds=_time.perf_counter() - tc))
         done = sum(len(sp.stop.fruit) for sp in planned)
-        tick(Tick("row", done, n_fruit, "fruit", note=f"stop {len(planned)} at {s.x:.2f} m"))
+        tick(Tick("row", s.x - problem.gantry.start, problem.gantry.length, "m of rail", note=f"stop {len(planned)}: {done} fruit planned"))
 
     ts = _time.perf_counter()
-    info: dict = {"rule": StopRule(opts.stops).value, "cell_planner": PlannerKind(opts.planner).value}
-    rule = StopRule(opts.stops)
+    info: dict = {"rule": rule.value, "cell_planner": PlannerKind(opts.planner).value}
     if rule == StopRule.OPTIMISED:
         _, info["stops_solver"] = optimised_stops(problem, reach, opts.window, on_stop)
     else:
@@ -134,7 +135,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     tv = _time.perf_counter()
     ver = verify(problem, plan)
     timings["verify"] = _time.perf_counter() - tv
-    plan = finalize_plan(plan, ver, n_fruit)
+    plan = finalize_plan(plan, ver, len(reach.cover))
     info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
     info["left_out"] = dict(reach.reasons)
     for sp in planned:  # fruit a stop's cell planner could not fit in

@@ -42,6 +42,21 @@ class RowReach:
     grid: np.ndarray
     cover: dict[str, np.ndarray] = field(default_factory=dict)
     reasons: dict[str, str] = field(default_factory=dict)
+    done_to: float = -math.inf  # fruit up to this row x have been screened (a lazy reach grows as it is asked)
+
+    def ensure(self, x: float = math.inf) -> list[str]:
+        """Screen every fruit up to row position ``x`` not screened yet; returns the newly
+        harvestable ones (file order). A receding planner asks for the next stretch only."""
+        if x <= self.done_to:
+            return []
+        new = [f.id for f in self.problem.fruits if self.done_to < f.position[0] <= x]
+        self.done_to = x
+        if not new:
+            return []
+        more = row_reach(self.problem, self.resolution, new)
+        self.cover.update(more.cover)
+        self.reasons.update(more.reasons)
+        return [f for f in new if f in more.cover]
 
     @property
     def resolution(self) -> float:
@@ -65,14 +80,17 @@ class RowReach:
         return [f.id for f in self.problem.fruits if f.id in self.cover and self.cover[f.id][:, k].any()]
 
 
-def row_reach(problem: Problem, resolution: float = DEFAULT_RESOLUTION, fruit_ids=None) -> RowReach:
-    """Screen every fruit (or ``fruit_ids``) against every carriage position of the grid."""
+def row_reach(problem: Problem, resolution: float = DEFAULT_RESOLUTION, fruit_ids=None, lazy: bool = False) -> RowReach:
+    """Screen every fruit (or ``fruit_ids``) against every carriage position of the grid; with
+    ``lazy`` none yet (:meth:`RowReach.ensure` screens them stretch by stretch)."""
     g = problem.gantry
     n = max(1, int(math.floor(g.length / resolution + 1e-9)))
     grid = g.start + resolution * np.arange(n + 1)
     if grid[-1] < g.end - 1e-9:
         grid = np.append(grid, g.end)
-    out = RowReach(problem, grid)
+    out = RowReach(problem, grid, done_to=math.inf if not lazy else -math.inf)
+    if lazy:
+        return out
     cell = cell_at(problem, 0.0, ())  # the carriage frame: bases and bins as written
     reach = np.array([a.reach for a in problem.arms])
     bx = np.array([a.base[0] for a in problem.arms])
@@ -84,18 +102,16 @@ def row_reach(problem: Problem, resolution: float = DEFAULT_RESOLUTION, fruit_id
     xs = np.array([f.position[0] for f in fruits])
     lo = np.searchsorted(grid, xs[:, None] - bx[None, :] - reach[None, :] - 1e-9)  # (F, A)
     hi = np.searchsorted(grid, xs[:, None] - bx[None, :] + reach[None, :] + 1e-9, side="right")
-    rows, cols, pts = [], [], []
-    for j, f in enumerate(fruits):
-        k0, k1 = int(lo[j].min()), int(hi[j].max())
-        ks = np.arange(k0, k1)
-        rows.append(np.full(ks.size, j))
-        cols.append(ks)
-        pts.append(np.c_[f.position[0] - grid[ks], np.full(ks.size, f.position[1])])
-    rows, cols, pts = np.concatenate(rows), np.concatenate(cols), np.concatenate(pts)
-    ok = usable_picks(cell, pts).any(axis=-1)  # (A, N)
     cover = np.zeros((len(fruits), len(problem.arms), grid.size), dtype=bool)
-    for a in range(len(problem.arms)):
-        cover[rows, a, cols] = ok[a]
+    for a in range(len(problem.arms)):  # per arm, only the positions within its reach of each fruit
+        n_k = hi[:, a] - lo[:, a]
+        if n_k.max(initial=0) <= 0:
+            continue
+        rows = np.repeat(np.arange(len(fruits)), np.maximum(n_k, 0))
+        cols = np.concatenate([np.arange(l, h) for l, h in zip(lo[:, a], hi[:, a])])
+        pts = np.c_[xs[rows] - grid[cols], np.array([f.position[1] for f in fruits])[rows]]
+        ok = usable_picks(cell, pts, arms=(a,))[a].any(axis=-1)
+        cover[rows, a, cols] = ok
     for j, f in enumerate(fruits):
         if cover[j].any():
             out.cover[f.id] = cover[j]

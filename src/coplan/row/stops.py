@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kinematics.timing import scurve_time, scurve_times
+from ..kinematics.timing import Move1D, scurve_time, scurve_times
 from ..problem.model import Problem
 from ..ties import quantised
 from .reach import RowReach
@@ -165,139 +165,161 @@ def arm_overheads(problem: Problem) -> list[float]:
 
 @dataclass(frozen=True)
 class StopWindow:
-    """The receding window of the optimised rule: ``length`` m of rail per MILP, ``keep`` m of
-    it committed (then the next window starts at the last stop kept), candidate positions every
-    ``step`` grid points, and CP-SAT's deterministic time limit per window (``work``)."""
+    """The optimised rule's receding segments: ``spans`` carriage spans of rail per segment;
+    the strides tried, as ``fractions`` of a carriage span."""
 
-    length: float = 12.0
-    keep: float = 6.0
-    step: int = 4
-    work: float = 0.5  # CP-SAT's deterministic time limit per window
+    spans: float = 3.0
+    fractions: tuple = tuple(round(0.3 + 0.05 * i, 2) for i in range(15))
+
+
+def _cell_time(options: list[tuple[str, list[tuple[float, int]]]], over: list[float], A: int) -> tuple[float, dict]:
+    """A stop's cell time estimate: its fruit given to arms greedily (fewest options and dearest
+    first, each to the arm it delays least), the busiest arm's round trips plus its way out and
+    home. Returns (estimate, fruit -> arm)."""
+    load = np.zeros(A)
+    used = np.zeros(A, dtype=bool)
+    arm_of = {}
+    for f, opts in sorted(options, key=lambda o: (len(o[1]), -min(c for c, _ in o[1]))):
+        c, a = min(opts, key=lambda ca: (max(load[ca[1]] + ca[0], load.max()), ca[0], ca[1]))
+        load[a] += c
+        used[a] = True
+        arm_of[f] = a
+    return (max(load[a] + over[a] for a in range(A) if used[a]) if used.any() else 0.0), arm_of
+
+
+def _segment(problem, reach, cost, fruit, ks, over, x_from, overlap):
+    """Assign ``fruit`` to stops ``ks`` and arms there, and estimate the time: the carriage's
+    moves from ``x_from`` (less what the arms' way home and out overlaps) and each stop's cell
+    (its busiest arm: round trips plus its way out and home). Fruit with the fewest options
+    first, each where it lengthens its stop's cell least (then where its cycle is cheapest): a
+    balance across stops and arms. A fruit no stop serves is not taken. Returns (seconds, stops,
+    fruit taken)."""
+    g = problem.gantry
+    A = len(problem.arms)
+    load = {k: np.zeros(A) for k in ks}
+    used = {k: np.zeros(A, dtype=bool) for k in ks}
+    at: dict[int, list] = {k: [] for k in ks}
+    opts = []
+    for f in fruit:
+        o = [(cost[(f, k, a)], k, a) for k in ks for a in range(A) if (f, k, a) in cost]
+        if o:
+            opts.append((f, o))
+    taken = []
+    for f, o in sorted(opts, key=lambda x: (len(x[1]), -min(c for c, _, _ in x[1]), x[0])):
+        def delta(cka):
+            c, k, a = cka
+            new = load[k][a] + c + (0.0 if used[k][a] else over[a])
+            return (max(new, load[k].max()) - load[k].max(), c, k, a)
+        c, k, a = min(o, key=delta)
+        load[k][a] += c + (0.0 if used[k][a] else over[a])
+        used[k][a] = True
+        at[k].append(f)
+        taken.append(f)
+    total, x = 0.0, x_from
+    stops = []
+    for k in ks:
+        if not at[k]:
+            continue
+        xk = float(reach.grid[k])
+        mv = Move1D.between(x, xk, g.max_velocity, g.max_acceleration, g.max_jerk).duration
+        total += float(load[k].max()) + mv - min(mv, overlap)
+        order = {fid: i for i, fid in enumerate(fruit)}
+        stops.append(Stop(k, xk, tuple(sorted(at[k], key=order.__getitem__))))
+        x = xk
+    return total, stops, taken
 
 
 def optimised_stops(problem: Problem, reach: RowReach, window: StopWindow | None = None, on_stop=None) -> tuple[list[Stop], dict]:
-    """The optimised rule over the whole row, window by window (see the module docstring).
+    """The optimised rule, segment by segment along the rail (see the module docstring).
 
-    ``on_stop(stop)`` is called with every stop as soon as its window commits it (a caller
-    plans it while the next window is solved). Returns the stops and the MILP's report."""
+    In each segment (``window.spans`` carriage spans of rail from the last stop kept), every
+    stride in ``window.fractions`` of a carriage span is tried, continuing from that stop; each
+    fruit goes to the stop of its cheapest cycle among those that serve it, and the stride whose
+    estimated time per fruit taken is least wins (a fruit no stop of the segment serves before
+    its window closes gets a stop of its own). The segment's stops are kept but the last, where
+    the next segment starts. ``on_stop(stop)`` is called with every stop as soon as it is kept
+    (a caller plans it while the next segment is solved). Returns the stops and a report."""
     w = window or StopWindow()
     res = reach.resolution
-    todo = [f for f in reach.harvestable()]
-    spans = {f: reach.span(f) for f in todo}
-    pos = 0  # grid index the carriage has reached
-    stops: list[Stop] = []
-    info = {"windows": 0, "milp_seconds": [], "status": [], "binaries": []}
-    tau = stop_cost(problem)
+    g = problem.gantry
+    reach.ensure(reach.grid[0] + max(a.base[0] + a.reach for a in problem.arms) + 10.0)  # (lazy: the first stretch)
+    todo = reach.harvestable()
+    if not todo:
+        reach.ensure(math.inf)
+        todo = reach.harvestable()
+    if not todo:
+        return [], {"segments": 0}
+    span_m = carriage_span(reach)
+    step_of = {fr: max(1, int(round(span_m * fr / res))) for fr in w.fractions}
+    seg_len = int(round(w.spans * span_m / res))
     over = arm_overheads(problem)
-    while todo:
-        lo = max(pos, min(spans[f][0] for f in todo))
-        hi = lo + int(round(w.length / res))
-        keep_to = lo + int(round(w.keep / res))
+    overlap = max(over)  # the arms' way home and out that a carriage move can overlap (an estimate)
+    ahead = max(a.base[0] + a.reach for a in problem.arms)
+    spans = {f: reach.span(f) for f in todo}
+    stops: list[Stop] = []
+    info: dict = {"segments": 0, "strides": [], "seconds": []}
+    x_now, k_last = g.start, None
+    import time
+
+    while True:
+        first = min(spans[f][1] for f in todo) if todo else None
+        lo = k_last if k_last is not None else first  # the segment starts at the last stop kept (else the first fruit's last chance)
+        new = reach.ensure(float(reach.grid[min(lo + seg_len, reach.grid.size - 1)]) + ahead) if lo is not None else reach.ensure(math.inf)
+        todo += new
+        spans.update({f: reach.span(f) for f in new})
+        if not todo:
+            if reach.done_to == math.inf:
+                break
+            reach.ensure(math.inf)
+            continue
+        t0 = time.perf_counter()
+        if lo is None:
+            lo = min(spans[f][1] for f in todo)
+        hi = lo + seg_len
         inside = [f for f in todo if spans[f][0] <= hi]
-        cand = np.arange(lo, min(hi, reach.grid.size - 1) + 1, w.step)
-        # a fruit's last serving position, if inside the window, must be a candidate: no fruit is lost
-        must = sorted({spans[f][1] for f in inside if spans[f][1] <= hi})
-        cand = np.unique(np.concatenate([cand, np.asarray(must, int)])).astype(int)
-        hint = [s for s in fewest_stops(reach, inside) if s.k <= hi]
-        cand = np.unique(np.concatenate([cand, np.asarray([s.k for s in hint], int)])).astype(int)
-        chosen, status, secs, nbin = _solve_window(problem, reach, inside, cand, hi, tau, over, w, hint)
-        info["windows"] += 1
-        info["milp_seconds"].append(secs)
-        info["status"].append(status)
-        info["binaries"].append(nbin)
-        committed = [s for s in chosen if s.k <= keep_to] or chosen[:1]
-        if not committed:  # nothing chosen (every fruit may wait): the fewest-stops rule for the first
-            committed = fewest_stops(reach, inside)[:1]
-        for s in committed:
+        ks_all = sorted({k for fr in w.fractions for k in _stride(lo, step_of[fr], hi, reach.grid.size, k_last is None)})
+        cost = round_trips(problem, reach, inside, np.asarray(ks_all, int))
+        best = None
+        for fr in w.fractions:
+            ks = _stride(lo, step_of[fr], hi, reach.grid.size, k_last is None)
+            must = [f for f in inside if spans[f][1] < (ks[-1] if ks else lo)]  # its last chance comes before the lookahead stop
+            est, st, taken = _segment(problem, reach, cost, inside, ks, over, x_now, overlap)
+            missed = [f for f in must if f not in set(taken)]
+            if missed:  # no stop of this stride serves them before their window closes: a stop of its own each
+                extra = fewest_stops(reach, missed)
+                cost.update(round_trips(problem, reach, missed, np.asarray([s.k for s in extra], int)))
+                ks = sorted(set(ks) | {s.k for s in extra})
+                est, st, taken = _segment(problem, reach, cost, inside, ks, over, x_now, overlap)
+            per = est / max(1, len(taken))
+            if best is None or per < best[0] - 1e-9:
+                best = (per, fr, st)
+        _, fr, st = best
+        keep = st[:-1] if len(st) > 1 and (reach.done_to < math.inf or any(spans[f][1] > st[-1].k for f in todo)) else st
+        keep = [s for s in keep if s.fruit] or st[:1] or fewest_stops(reach, inside)[:1]  # (always a stop: the row advances)
+        for s in keep:
             stops.append(s)
             if on_stop is not None:
                 on_stop(s)
-        done = {f for s in committed for f in s.fruit}
+        done = {f for s in keep for f in s.fruit}
         todo = [f for f in todo if f not in done]
-        pos = committed[-1].k + 1
-        late = [f for f in todo if spans[f][1] < pos]  # passed without being served: a stop of its own
+        k_last, x_now = keep[-1].k, keep[-1].x
+        late = [f for f in todo if spans[f][1] <= k_last]  # passed without a stop (kept stops did not take it)
         for s in fewest_stops(reach, late):
             stops.append(s)
             if on_stop is not None:
                 on_stop(s)
         todo = [f for f in todo if f not in set(late)]
+        info["segments"] += 1
+        info["strides"].append(round(fr * span_m, 3))
+        info["seconds"].append(time.perf_counter() - t0)
+        if not todo and reach.done_to == math.inf:
+            break
     stops.sort(key=lambda s: s.k)
     return stops, info
 
 
-def _solve_window(problem, reach, fruit, cand, hi, tau, over, w, hint=None):
-    """One window's model, solved by CP-SAT (single-threaded, deterministic time limit
-    ``w.work``), from ``hint`` (stops) when given. Returns (stops chosen, status, seconds, booleans)."""
-    import time
-
-    from ortools.sat.python import cp_model
-
-    t0 = time.perf_counter()
-    cost = round_trips(problem, reach, fruit, cand)
-    A = len(problem.arms)
-    ms = lambda v: int(math.floor(1000.0 * float(quantised(v)) + 1e-6))  # whole ms (rounded down)
-    m = cp_model.CpModel()
-    spans = {f: reach.span(f) for f in fruit}
-    x = {key: m.NewBoolVar("") for key in sorted(cost)}
-    y = {int(k): m.NewBoolVar("") for k in cand}
-    u = {(int(k), a): m.NewBoolVar("") for k in cand for a in range(A)}
-    horizon = sum(ms(v) for v in cost.values()) + A * sum(ms(o) for o in over) + 1
-    T = {int(k): m.NewIntVar(0, horizon, "") for k in cand}
-    wait = {f: m.NewBoolVar("") for f in fruit if spans[f][1] > hi}
-    cheapest: dict[str, float] = {}
-    for (f, k, a), v in cost.items():
-        cheapest[f] = min(cheapest.get(f, math.inf), v)
-    by_fruit: dict[str, list] = {}
-    load: dict[tuple[int, int], list] = {}
-    for (f, k, a), var in x.items():
-        by_fruit.setdefault(f, []).append(var)
-        load.setdefault((k, a), []).append((var, ms(cost[(f, k, a)])))
-        m.AddImplication(var, u[(k, a)])
-    for f in fruit:
-        vs = by_fruit.get(f, []) + ([wait[f]] if f in wait else [])
-        if vs:
-            m.AddExactlyOne(vs)
-    for (k, a), items in load.items():
-        m.AddImplication(u[(k, a)], y[k])
-        m.Add(T[k] >= sum(c * v for v, c in items) + ms(over[a]) * u[(k, a)])
-    m.Minimize(sum(T.values()) + ms(tau) * sum(y.values()) + sum(ms(cheapest.get(f, 0.0)) * v for f, v in wait.items()))
-    if hint:  # a complete feasible solution: each fruit at its hint stop, on its cheapest arm there
-        on = {s.k for s in hint if s.k in y}
-        pick = {}
-        for s in hint:
-            if s.k not in on:
-                continue
-            for f in s.fruit:
-                arms = [(cost[(f, s.k, a)], a) for a in range(A) if (f, s.k, a) in cost]
-                if arms and f not in pick:
-                    pick[f] = (s.k, min(arms)[1])
-        loads: dict[tuple[int, int], int] = {}
-        for key, var in x.items():
-            chosen = pick.get(key[0]) == (key[1], key[2])
-            m.AddHint(var, chosen)
-            if chosen:
-                loads[(key[1], key[2])] = loads.get((key[1], key[2]), 0) + ms(cost[key])
-        for (k, a), var in u.items():
-            m.AddHint(var, (k, a) in loads)
-        for k, var in y.items():
-            m.AddHint(var, k in on and any((k, a) in loads for a in range(A)))
-            m.AddHint(T[k], max((loads[(k, a)] + ms(over[a]) for a in range(A) if (k, a) in loads), default=0))
-        for f, var in wait.items():
-            m.AddHint(var, f not in pick)
-    solver = cp_model.CpSolver()
-    solver.parameters.num_workers = 1  # single-threaded and a deterministic limit: the same stops anywhere
-    solver.parameters.max_deterministic_time = w.work
-    solver.parameters.random_seed = 0
-    solver.parameters.catch_sigint_signal = False
-    st = solver.Solve(m)
-    secs = time.perf_counter() - t0
-    nb = len(x) + len(y) + len(u) + len(wait)
-    if st not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
-        return [], solver.StatusName(st).lower(), secs, nb
-    at: dict[int, list[str]] = {}
-    for (f, k, a), var in x.items():
-        if solver.Value(var):
-            at.setdefault(k, []).append(f)
-    order = {f.id: i for i, f in enumerate(problem.fruits)}
-    stops = [Stop(k, float(reach.grid[k]), tuple(sorted(fs, key=order.__getitem__))) for k, fs in sorted(at.items())]
-    return stops, solver.StatusName(st).lower(), secs, nb
+def _stride(lo: int, step: int, hi: int, n: int, first: bool) -> list[int]:
+    """Grid indices of a stride from ``lo`` (included on the first segment, else the last stop
+    kept, so excluded) to one past ``hi`` (the lookahead stop)."""
+    ks = list(range(lo if first else lo + step, hi + step + 1, step))
+    return [k for k in ks if k < n] or [min(lo, n - 1)]

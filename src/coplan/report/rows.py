@@ -1,0 +1,87 @@
+"""A row's stop rules side by side (``coplan compare ROW.yaml``).
+
+Entry point: :func:`compare_rows` -> :class:`RowComparison`: the row planned with each stop
+rule (fixed stride, fewest stops, optimised; the same cell planner at every stop), each plan
+verified in the row frame and written to ``<out>/<rule>/``; ``compare.json`` and
+``compare.md`` with, per rule, the stops, the row time, fruit per hour, the share of the
+harvestable fruit harvested, the ratios to the row's lower bounds and the planning time.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..kinds import PlannerKind, StopRule
+from ..output import atomic_text
+from ..plan import jsonable
+from ..problem.model import Problem
+from ..progress import Tick, nested, speaker, ticker
+
+__all__ = ["RowComparison", "compare_rows", "ROW_COLUMNS", "cell_text", "to_markdown"]
+
+#: (key, heading) of the comparison's table.
+ROW_COLUMNS = (("rule", "stop rule"), ("stops", "stops"), ("row_time", "row time, s"), ("fruit_per_hour", "fruit / h"),
+               ("share_harvested", "harvested"), ("ratio_any_plan_bound", "/ bound (any plan)"),
+               ("ratio_stop_and_go_bound", "/ bound (stop-and-go)"), ("planning_time", "planning, s"), ("verified", "verified"))
+
+
+@dataclass
+class RowComparison:
+    problem: str
+    rows: list[dict] = field(default_factory=list)
+    files: dict[str, str] = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"format": "coplan.compare-rows/1", "problem": self.problem, "rows": self.rows}
+
+
+def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), planner: PlannerKind | str | None = None,
+                 progress=None) -> RowComparison:
+    """Plan ``problem`` (a row) with each of ``rules``; write each run and the comparison."""
+    from ..pipeline import solve
+
+    say, tick = speaker(progress), ticker(progress)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    cmp = RowComparison(problem.name)
+    rules = [StopRule(r) for r in rules]
+    for i, rule in enumerate(rules):
+        tick(Tick("compare", i, len(rules), "stop rules", note=rule.value))
+        say(f"{problem.name}: stops {rule.value}")
+        res = solve(problem, planner=planner, out_dir=out / rule.value, progress=nested(progress), stops=rule)
+        m = res.plan.metrics.get("row") or {}
+        cmp.rows.append({"rule": rule.value, "stops": m.get("stops"), "row_time": m.get("row_time"),
+                         "fruit_per_hour": m.get("fruit_per_hour"), "share_harvested": m.get("share_harvested"),
+                         "ratio_any_plan_bound": m.get("ratio_any_plan_bound"),
+                         "ratio_stop_and_go_bound": m.get("ratio_stop_and_go_bound"),
+                         "planning_time": m.get("planning_time"), "first_motion_seconds": m.get("first_motion_seconds"),
+                         "kept_ahead": m.get("kept_ahead"), "verified": bool(res.verification.passed),
+                         "status": res.plan.status.value, "plan": str(res.files.get("json", ""))})
+    best = max((r["fruit_per_hour"] or 0.0 for r in cmp.rows), default=0.0)
+    for r in cmp.rows:
+        r["fruit_per_hour_vs_best"] = (r["fruit_per_hour"] or 0.0) / best if best else None
+    cmp.files = {"json": str(out / "compare.json"), "markdown": str(out / "compare.md")}
+    atomic_text(out / "compare.json", json.dumps(jsonable(cmp.to_dict()), indent=1, allow_nan=False))
+    atomic_text(out / "compare.md", to_markdown(cmp))
+    return cmp
+
+
+def cell_text(key: str, v) -> str:
+    if v is None:
+        return "-"
+    if key == "share_harvested":
+        return f"{100 * v:.1f} %"
+    if key == "verified":
+        return "yes" if v else "NO"
+    if isinstance(v, float):
+        return f"{v:.3f}" if key.startswith("ratio") else f"{v:.1f}" if key != "planning_time" else f"{v:.2f}"
+    return str(v)
+
+
+def to_markdown(cmp: RowComparison) -> str:
+    lines = [f"# {cmp.problem}: stop rules side by side", "",
+             "| " + " | ".join(h for _, h in ROW_COLUMNS) + " |", "|" + "---|" * len(ROW_COLUMNS)]
+    lines += ["| " + " | ".join(cell_text(k, r.get(k)) for k, _ in ROW_COLUMNS) + " |" for r in cmp.rows]
+    return "\n".join(lines) + "\n"
