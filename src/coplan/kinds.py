@@ -33,7 +33,7 @@ class PlannerKind(str, Enum):
 class StopRule(str, Enum):
     """Where a row's carriage stops (:mod:`coplan.row.stops`)."""
 
-    OPTIMISED = "optimised"  # stops and their fruit chosen together with the arms (receding windows, CP-SAT)
+    OPTIMISED = "optimised"  # stops and their fruit chosen with the arms (receding segments, strides priced by the arms' cycles)
     FIXED = "fixed"  # a stop every carriage span (a camera-frame rule)
     FEWEST = "fewest"  # the fewest stops that serve every fruit (greedy stabbing)
 

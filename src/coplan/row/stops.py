@@ -7,16 +7,21 @@
 * ``fewest`` (:func:`fewest_stops`) -- the fewest stops that serve every fruit: greedy
   interval stabbing (at the last position that still serves the fruit whose window closes
   first), exact for fruit whose serving positions are intervals.
-* ``optimised`` (:func:`optimised_stops`) -- a MILP (HiGHS) over a receding window of the rail:
-  which candidate positions to stop at and which arm harvests which fruit there, minimising
-  the window's time: each stop's cell time (at least every arm's bin -> fruit -> bin round
-  trips and dwells at that position, time-optimal moves, plus its way out and home) plus the
-  carriage's cost per stop (its braking and starting, beyond cruising). A fruit whose serving
-  positions go on past the window may wait for a later window at the price of its cheapest
-  round trip. The window's first stops are kept, and the next window starts there.
+* ``optimised`` (:func:`optimised_stops`) -- chosen with the arms, segment by segment along
+  the rail (a receding horizon: the carriage starts once the first segment is decided). In each
+  segment strides of 0.3 to 1 carriage span are tried from the last stop kept; the segment's
+  fruit go to stops and arms by a balance (fewest options first, each where it lengthens its
+  stop's cell least: :func:`_segment`) priced by a cell-time estimate -- per-joint time-optimal
+  bin -> fruit -> bin round trips with both dwells at that carriage position
+  (:func:`round_trips`), each used arm's way out of home and back, the carriage's moves less
+  what they overlap -- and the stride with the least estimated time per fruit wins. Why not a
+  solver over all stops at once: a HiGHS MILP of one 12 m window (stops x fruit x arms, 1,400-
+  7,000 binaries) ran into its 20-30 s limits without closing its gap, and CP-SAT within half
+  a second returned the fewest-stops hint it was given; a row planner must stay ahead of the
+  carriage, so the search is over strides, each priced in milliseconds.
 
 Each rule returns :class:`Stop` objects in carriage order; which arm takes which fruit at a
-stop is the cell planner's to decide (the MILP's arm choice only prices the stop).
+stop is the cell planner's to decide (the rules' arm choice only prices the stop).
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kinematics.timing import Move1D, scurve_time, scurve_times
+from ..kinematics.timing import Move1D, scurve_times
 from ..problem.model import Problem
 from ..ties import quantised
 from .reach import RowReach
@@ -143,14 +148,6 @@ def _lb(arm, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
     return np.maximum(*(scurve_times(d[:, i], arm.max_velocity[i], arm.max_acceleration[i], arm.max_jerk[i]) for i in range(2)))
 
 
-def stop_cost(problem: Problem) -> float:
-    """What a stop costs the carriage beyond cruising past it, s: braking to rest and starting
-    again (the rest-to-rest S-curve over a long move, less the same distance at full speed)."""
-    g = problem.gantry
-    d = 10.0 * max(g.max_velocity ** 2 / g.max_acceleration, g.max_velocity * g.max_acceleration / g.max_jerk, 1.0)
-    return scurve_time(d, g.max_velocity, g.max_acceleration, g.max_jerk) - d / g.max_velocity + g.settle
-
-
 def arm_overheads(problem: Problem) -> list[float]:
     """Per arm, what a stop adds beyond its round trips: leaving home and coming back to it
     (the time-optimal home -> bin move, twice: a lower-bound estimate)."""
@@ -180,7 +177,7 @@ def _cell_time(options: list[tuple[str, list[tuple[float, int]]]], over: list[fl
     used = np.zeros(A, dtype=bool)
     arm_of = {}
     for f, opts in sorted(options, key=lambda o: (len(o[1]), -min(c for c, _ in o[1]))):
-        c, a = min(opts, key=lambda ca: (max(load[ca[1]] + ca[0], load.max()), ca[0], ca[1]))
+        c, a = min(opts, key=lambda ca: (float(quantised(max(load[ca[1]] + ca[0], load.max()))), float(quantised(ca[0])), ca[1]))
         load[a] += c
         used[a] = True
         arm_of[f] = a
@@ -206,10 +203,10 @@ def _segment(problem, reach, cost, fruit, ks, over, x_from, overlap):
             opts.append((f, o))
     taken = []
     for f, o in sorted(opts, key=lambda x: (len(x[1]), -min(c for c, _, _ in x[1]), x[0])):
-        def delta(cka):
+        def delta(cka):  # (whole microseconds: a tie is decided by the stop and arm order on any CPU)
             c, k, a = cka
             new = load[k][a] + c + (0.0 if used[k][a] else over[a])
-            return (max(new, load[k].max()) - load[k].max(), c, k, a)
+            return (float(quantised(max(new, load[k].max()) - load[k].max())), float(quantised(c)), k, a)
         c, k, a = min(o, key=delta)
         load[k][a] += c + (0.0 if used[k][a] else over[a])
         used[k][a] = True
