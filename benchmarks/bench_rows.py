@@ -7,7 +7,7 @@
    planning time and its share of the row time, when the first stop was known, and whether
    every stop's cell was planned before the carriage needed it. Then the optimised rule's
    fruit per hour against the better of the two baselines.
-2. **Scale**: rows of 25, 50, 100 and 200 m, 6 arms, 10 fruit per metre (``gantry_row``), the
+2. **Scale**: rows of 25, 50, 100 and 200 m, 6 arms, 10.5 fruit per metre (``gantry_row``), the
    optimised rule, each in a fresh process: planning time and its share of the row time,
    planning time per metre, peak memory (the process's maximum resident set), and the plan file
    written, read back and checked by ``coplan verify`` in another process (its wall time).
@@ -71,7 +71,7 @@ from coplan.generate import gantry_row, to_yaml
 from coplan.problem import parse_problem
 from coplan.pipeline import solve
 length = float(sys.argv[1]); out = Path(sys.argv[2])
-text = to_yaml(gantry_row(length=length, n_arms=6, density=10.0, seed=11))
+text = to_yaml(gantry_row(length=length, n_arms=6, density=10.5, seed=11))
 (out / "row.yaml").write_text(text)
 prob = parse_problem(text, str(out / "row.yaml"))
 t = time.perf_counter()

@@ -93,6 +93,7 @@ def _cell_plan(problem: Problem, stop: Stop, opts: RowOptions) -> Plan:
 
 def plan_row(problem: Problem, options: RowOptions | None = None, progress: Callable[[str], None] | None = None) -> RowResult:
     """Plan ``problem`` (a row: it has a gantry) end to end and verify it (module docstring)."""
+    from ..verify.row import row_reachable_ids
     from ..verify.verifier import verify
 
     if problem.gantry is None:
@@ -135,7 +136,9 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     tv = _time.perf_counter()
     ver = verify(problem, plan)
     timings["verify"] = _time.perf_counter() - tv
-    plan = finalize_plan(plan, ver, len(reach.cover))
+    # as for a cell: success when every fruit some carriage position reaches is harvested (the
+    # verifier's own count); a fruit only a locked arm or a blocked pose reaches makes it partial
+    plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
     info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
     info["left_out"] = dict(reach.reasons)
     for sp in planned:  # fruit a stop's cell planner could not fit in

@@ -261,7 +261,8 @@ def optimised_stops(problem: Problem, reach: RowReach, window: StopWindow | None
     while True:
         first = min(spans[f][1] for f in todo) if todo else None
         lo = k_last if k_last is not None else first  # the segment starts at the last stop kept (else the first fruit's last chance)
-        new = reach.ensure(float(reach.grid[min(lo + seg_len, reach.grid.size - 1)]) + ahead) if lo is not None else reach.ensure(math.inf)
+        length = seg_len if k_last is not None else max(1, seg_len // 2)  # the first segment is short: the carriage starts sooner
+        new = reach.ensure(float(reach.grid[min(lo + length, reach.grid.size - 1)]) + ahead) if lo is not None else reach.ensure(math.inf)
         todo += new
         spans.update({f: reach.span(f) for f in new})
         if not todo:
@@ -272,7 +273,7 @@ def optimised_stops(problem: Problem, reach: RowReach, window: StopWindow | None
         t0 = time.perf_counter()
         if lo is None:
             lo = min(spans[f][1] for f in todo)
-        hi = lo + seg_len
+        hi = lo + length
         inside = [f for f in todo if spans[f][0] <= hi]
         ks_all = sorted({k for fr in w.fractions for k in _stride(lo, step_of[fr], hi, reach.grid.size, k_last is None)})
         cost = round_trips(problem, reach, inside, np.asarray(ks_all, int))
