@@ -97,7 +97,7 @@ def print_summary(console, res) -> None:
     p(f"  fruit             {fruit_line(m)}")
     p(f"  makespan          {fmt(m.get('makespan'), ' s')}   (lower bound {fmt(m.get('lower_bound'), ' s')}, ratio {fmt(m.get('gap_to_lower_bound'), '', 3)})")
     if m.get("optimality") == "proven":
-        whole = m.get("harvestable", 0) >= m.get("fruit", 0)
+        whole = m.get("harvestable", 0) >= m.get("reachable", 0)  # (unreachable fruit need no words here)
         p("  optimality        [bold green]proven[/]: the makespan meets the lower bound" +
           ("" if whole else f" (for the {m.get('harvestable')} harvestable fruit: no plan can harvest the others)"))
     if m.get("coordinated_makespan") is not None:
