@@ -281,3 +281,15 @@ def test_coplan_solve_verify_and_check_a_row(tmp_path):
     assert r.exit_code == 2 and "row" in r.output
     r = run(app, ["solve", "greenhouse_row", "--stops", "fixed", "--out", str(tmp_path / "c")])
     assert r.exit_code == 2 and "stationary cell" in r.output
+
+
+def test_a_long_stretch_without_fruit_is_crossed():
+    """Fruit at both ends of a 40 m row and none between: every rule plans it, verified."""
+    d = gantry_row(length=40.0, density=0.0)
+    d["fruits"] = [{"id": f"a{i}", "position": [1.0 + 0.4 * i, 1.0]} for i in range(4)] + \
+                  [{"id": f"b{i}", "position": [37.0 + 0.4 * i, 1.1]} for i in range(4)]
+    prob = parse_problem(to_yaml(d))
+    for rule in StopRule:
+        res = plan_row(prob, RowOptions(stops=rule))
+        assert res.verification.passed and res.plan.metrics["harvested"] == 8, rule
+        assert res.plan.gantry_x.max() > 30.0

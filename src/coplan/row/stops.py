@@ -268,18 +268,25 @@ def optimised_stops(problem: Problem, reach: RowReach, window: StopWindow | None
         if not todo:
             if reach.done_to == math.inf:
                 break
-            reach.ensure(math.inf)
+            new = reach.ensure(math.inf)  # nothing near: screen the rest of the row
+            todo += new
+            spans.update({f: reach.span(f) for f in new})
             continue
         t0 = time.perf_counter()
         if lo is None:
             lo = min(spans[f][1] for f in todo)
         hi = lo + length
         inside = [f for f in todo if spans[f][0] <= hi]
-        ks_all = sorted({k for fr in w.fractions for k in _stride(lo, step_of[fr], hi, reach.grid.size, k_last is None)})
+        fresh = k_last is None  # the stride starts at lo itself (else lo is the last stop kept)
+        if not inside:  # a stretch of row without fruit: the next segment starts at the next fruit's last chance
+            lo, fresh = min(spans[f][1] for f in todo), True
+            hi = lo + length
+            inside = [f for f in todo if spans[f][0] <= hi]
+        ks_all = sorted({k for fr in w.fractions for k in _stride(lo, step_of[fr], hi, reach.grid.size, fresh)})
         cost = round_trips(problem, reach, inside, np.asarray(ks_all, int))
         best = None
         for fr in w.fractions:
-            ks = _stride(lo, step_of[fr], hi, reach.grid.size, k_last is None)
+            ks = _stride(lo, step_of[fr], hi, reach.grid.size, fresh)
             must = [f for f in inside if spans[f][1] < (ks[-1] if ks else lo)]  # its last chance comes before the lookahead stop
             est, st, taken = _segment(problem, reach, cost, inside, ks, over, x_now, overlap)
             missed = [f for f in must if f not in set(taken)]
