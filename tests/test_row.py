@@ -293,3 +293,20 @@ def test_a_long_stretch_without_fruit_is_crossed():
         res = plan_row(prob, RowOptions(stops=rule))
         assert res.verification.passed and res.plan.metrics["harvested"] == 8, rule
         assert res.plan.gantry_x.max() > 30.0
+
+
+def test_a_row_plan_exports_its_carriage_and_the_live_cell_refuses_a_row(tmp_path, planned, row):
+    from coplan.report.export import export_plan, trajectory
+
+    plan = planned[StopRule.FEWEST].plan
+    traj = trajectory(plan, 100.0)
+    x, v, a = traj.carriage
+    assert np.allclose(x, np.interp(traj.time, plan.time, plan.gantry_x), atol=1e-6)
+    assert np.max(np.abs(v)) <= row.gantry.max_velocity * 1.02
+    paths = export_plan(plan, 50.0, "json", tmp_path / "ros")
+    car = json.loads((tmp_path / "ros" / "carriage.json").read_text())
+    assert car["joint_names"] == ["carriage_x"] and len(paths) == len(row.arms) + 1
+    f = tmp_path / "row.yaml"
+    f.write_text(to_yaml(gantry_row(length=10.0, density=2.0)))
+    r = CliRunner().invoke(app, ["feed", str(f), "--out", str(tmp_path / "feed.yaml")])
+    assert r.exit_code == 2 and "is a row" in r.output

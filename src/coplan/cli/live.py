@@ -50,6 +50,8 @@ def feed_cmd(
     if out.exists() and out.is_dir():
         usage(f"--out {out}: expected a file name, found a folder")
     prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
+    if prob.gantry is not None:
+        usage(f"{prob.name} is a row (it has a gantry): the live cell runs a stationary cell; plan a row with 'coplan solve'")
     feed = make_feed(prob, known, sigma, false_rate, duplicate_rate, seed, reveal_by, after_pick, close_distance, close_sigma)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.name + ".tmp")
@@ -82,6 +84,8 @@ def run_cmd(
 
     check_out_dir(out, "--out")
     prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
+    if prob.gantry is not None:
+        usage(f"{prob.name} is a row (it has a gantry): the live cell runs a stationary cell; plan a row with 'coplan solve'")
     fd = load_feed(feed)
     if fd.problem is not None and fd.problem != prob.name:
         _err.print(f"[yellow]note[/]: the feed was made for problem {_safe(fd.problem)!r}, this is {_safe(prob.name)!r}",

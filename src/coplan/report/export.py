@@ -55,6 +55,7 @@ class Trajectory:
     qd: dict[str, np.ndarray]
     qdd: dict[str, np.ndarray]
     rate: float
+    carriage: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # a row plan: the carriage's (x, v, a) at ``time``
 
 
 def _times(duration: float, rate: float) -> np.ndarray:
@@ -90,7 +91,15 @@ def trajectory(plan: Plan, rate: float) -> Trajectory:
         rest = ((1, np.zeros(2)), (1, np.zeros(2)))
         spline = CubicSpline(plan.time, samples, axis=0, bc_type=rest)
         q[arm], qd[arm], qdd[arm] = spline(t), spline(t, 1), spline(t, 2)
-    return Trajectory(t, q, qd, qdd, float(rate))
+    carriage = None
+    if plan.gantry_x is not None:  # a row: the carriage is one more (prismatic) axis, derived the same way
+        x = np.asarray(plan.gantry_x, float)
+        if plan.time.size < 2:
+            carriage = (np.full(t.size, x[0]), np.zeros(t.size), np.zeros(t.size))
+        else:
+            cs = CubicSpline(plan.time, x, bc_type=((1, 0.0), (1, 0.0)))
+            carriage = (cs(t), cs(t, 1), cs(t, 2))
+    return Trajectory(t, q, qd, qdd, float(rate), carriage)
 
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.-]+")
@@ -114,8 +123,11 @@ def csv_text(traj: Trajectory) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     arms = list(traj.q)
-    w.writerow(["t"] + [f"{a}_{c}" for a in arms for c in ("q1", "q2", "qd1", "qd2", "qdd1", "qdd2")])
+    w.writerow(["t"] + [f"{a}_{c}" for a in arms for c in ("q1", "q2", "qd1", "qd2", "qdd1", "qdd2")]
+               + (["carriage_x", "carriage_v", "carriage_a"] if traj.carriage is not None else []))
     cols = [traj.time[:, None]] + [np.hstack([traj.q[a], traj.qd[a], traj.qdd[a]]) for a in arms]
+    if traj.carriage is not None:
+        cols.append(np.column_stack(traj.carriage))
     for row in np.hstack(cols):
         w.writerow([f"{row[0]:.6f}"] + [f"{x:.9g}" for x in row[1:]])
     return buf.getvalue()
@@ -137,6 +149,17 @@ def joint_trajectory(traj: Trajectory, arm: str, joint_prefix: str, frame_id: st
             "joint_names": [f"{joint_prefix}_joint1", f"{joint_prefix}_joint2"], "points": points}
 
 
+def carriage_trajectory(traj: Trajectory, name: str = "carriage", frame_id: str = "") -> dict:
+    """A row plan's carriage as a ROS 2 ``JointTrajectory`` of one prismatic joint (m, m/s, m/s^2)."""
+    x, v, a = traj.carriage
+    points = []
+    for k, t in enumerate(traj.time):
+        ns = int(round(float(t) * 1e9))
+        points.append({"positions": [float(x[k])], "velocities": [float(v[k])], "accelerations": [float(a[k])], "effort": [],
+                       "time_from_start": {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}})
+    return {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": frame_id}, "joint_names": [f"{name}_x"], "points": points}
+
+
 def export_plan(plan: Plan, rate: float, fmt: ExportFormat | str, out: str | Path) -> list[Path]:
     """Write the plan at ``rate`` Hz: ``csv`` to the file ``out``; ``json``/``yaml`` one file per
     arm (``<arm>.json``) into the folder ``out``. Each file is written whole or not at all.
@@ -149,10 +172,10 @@ def export_plan(plan: Plan, rate: float, fmt: ExportFormat | str, out: str | Pat
         atomic_text(out, csv_text(traj))
         return [out]
     out.mkdir(parents=True, exist_ok=True)
-    names = safe_names(list(traj.q))
+    names = safe_names(list(traj.q) + (["carriage"] if traj.carriage is not None else []))
     written = []
-    for arm in traj.q:
-        msg = joint_trajectory(traj, arm, names[arm])
+    for arm in list(traj.q) + (["carriage"] if traj.carriage is not None else []):
+        msg = joint_trajectory(traj, arm, names[arm]) if arm in traj.q else carriage_trajectory(traj, names[arm])
         if fmt == ExportFormat.JSON:
             text = json.dumps(msg, indent=None, separators=(",", ":"), allow_nan=False)
         else:
