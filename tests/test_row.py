@@ -223,10 +223,17 @@ def test_the_cycle_bound_is_below_every_sampled_cycle(row):
 
 
 def test_no_plan_beats_the_bounds(row, planned):
+    """No plan beats the any-plan bound; coplan's stop-and-go plans beat the stop-by-stop bound
+    (no cell work during a move) by at most the time their carriage moves while an arm works."""
+    from coplan.row.metrics import row_metrics
+
     b = row_bounds(row)
-    assert 0 < b.work <= b.any_plan <= b.stop_and_go
+    assert 0 < b.work <= b.any_plan <= b.stop_and_go and b.stop_and_go == pytest.approx(max(b.any_plan, b.moves + b.work))
     for res in planned.values():
-        assert res.plan.metrics["makespan"] >= b.stop_and_go - 1e-9
+        m = row_metrics(row, res, b)
+        assert m["row_time"] >= b.any_plan - 1e-9
+        assert m["row_time"] >= b.stop_and_go - m["overlap_seconds"] - 1e-9
+        assert 0 < m["overlap_seconds"] < m["row_time"]
 
 
 def test_row_metrics_add_up(row, planned):

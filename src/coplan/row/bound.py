@@ -20,12 +20,16 @@ Entry point: :func:`row_bounds` -> :class:`RowBounds`.
   can be faster: an arm's cycles never overlap.
 * **Travel bound**: the carriage must get to where the last fruit can be reached from, at its
   speed limit at best, and that fruit must then still be picked and placed.
-* **Stop-and-go bound**: for plans that pick only while the carriage stands still: the carriage's
+* **Stop-and-go bound**: for plans that work stop by stop -- the carriage moves, stops, the arms
+  do that stop's work, the carriage moves on -- with no cell work overlapping a move. Their
   moves, each at rest at both ends, take at least one rest-to-rest move over the same distance
-  (a time-optimal move is never slower than a chain of stops); and no pick dwell can overlap a
-  move, so the busiest arm's pick dwells come on top. The larger of this and the any-plan bound.
+  (a time-optimal move is never slower than a chain of stops), and their stops' cells at least
+  the busiest arm's cycles (each stop's cell lasts at least its busiest arm's cycles there, and
+  those sum to at least the work bound). coplan's own row plans let the arms place and go home,
+  and come out to the next stop's first fruit, while the carriage moves: they can be faster than
+  this bound by that overlap, which ``metrics.row.overlap_seconds`` reports.
 
-``any_plan`` = max(work, travel); ``stop_and_go`` = max(any_plan, moves + dwells).
+``any_plan`` = max(work, travel); ``stop_and_go`` = max(any_plan, moves + work).
 """
 
 from __future__ import annotations
@@ -54,7 +58,6 @@ class RowBounds:
     work: float
     travel: float
     moves: float
-    dwells: float
     reach_to: float  # m: the carriage must get at least this far
     fruit: int  # fruit the bounds count (reachable from some carriage position)
     seconds: float
@@ -148,13 +151,12 @@ def row_bounds(problem: Problem, step: float = 0.05) -> RowBounds:
     ok = reach.any(axis=0)
     n = int(ok.sum())
     if n == 0:
-        return RowBounds(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, g.start, 0, _time.perf_counter() - t0)
+        return RowBounds(0.0, 0.0, 0.0, 0.0, 0.0, g.start, 0, _time.perf_counter() - t0)
     work = min_max_bound(np.where(reach, cost, 0.0), reach, relax=True)
     far = float(max(reach_from[ok].max(), g.start))
     dist = far - g.start
     travel = dist / g.max_velocity + problem.task.pick_dwell + problem.task.place_dwell
     moves = Move1D.between(g.start, far, g.max_velocity, g.max_acceleration, g.max_jerk).duration
-    dwells = min_max_bound(np.where(reach, problem.task.pick_dwell, 0.0), reach, relax=True)
     any_plan = max(work, travel)
-    return RowBounds(float(any_plan), float(max(any_plan, moves + dwells + problem.task.place_dwell)), float(work),
-                     float(travel), float(moves), float(dwells), far, n, _time.perf_counter() - t0)
+    return RowBounds(float(any_plan), float(max(any_plan, moves + work)), float(work), float(travel), float(moves), far, n,
+                     _time.perf_counter() - t0)

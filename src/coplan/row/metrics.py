@@ -12,7 +12,9 @@
   (home at a stop where it has nothing within reach), ``others`` (done at a stop, home, while the
   other arms finish), ``coordination`` (within its work, holding still for a neighbour: neither
   moving nor dwelling);
-* **ratios** to the row's lower bounds (:mod:`coplan.row.bound`);
+* **ratios** to the row's lower bounds (:mod:`coplan.row.bound`), and ``overlap_seconds``: how
+  long the carriage moves while some arm works (places, goes home, comes out), which the
+  stop-and-go bound's model excludes;
 * **real time**: planning time / row time, when the first stop was known (the carriage's first
   motion can start) and, stop by stop, whether its cell was planned before the carriage needed
   it -- the least slack (s; negative: late) and the slowest stop's planning time.
@@ -76,6 +78,9 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
             "coordination": ~home[a.name] & still & ~dwelling & upto,
         }
         idle[a.name] = {k: float(v.sum() * dt / span) if span > 0 else 0.0 for k, v in causes.items()}
+    away = np.zeros(n, dtype=bool)  # some arm away from home
+    for a in problem.arms:
+        away |= ~home[a.name]
     counts = {a.name: sum(1 for e in plan.events if e.arm == a.name and e.kind == EventKind.PLACE) for a in problem.arms}
     stands = [sp.depart - sp.arrive for sp in result.stops]
     planning = float(result.timings.get("planning", 0.0))
@@ -98,6 +103,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         "mean_time_per_stop": float(np.mean(stands)) if stands else 0.0,
         "carriage_moving_share": float((moving & upto).sum() * dt / span) if span > 0 else 0.0,
         "picking_share": float((picking & upto).sum() * dt / span) if span > 0 else 0.0,
+        "overlap_seconds": float((moving & away & upto).sum() * dt),  # the carriage moving while an arm works
         "idle_share": idle,
         "planning_time": planning,
         "planning_over_row_time": planning / span if span > 0 else None,
