@@ -64,7 +64,7 @@ def print_row_summary(console, res) -> None:
     lb = r.get("lower_bound") or {}
     p(f"  row time          {fmt(r.get('row_time'), ' s')}   ({fmt(r.get('time_per_metre'), ' s/m')}; lower bound "
       f"{fmt(lb.get('any_plan'), ' s')} for any plan, ratio {fmt(r.get('ratio_any_plan_bound'), '', 3)}; "
-      f"{fmt(lb.get('stop_and_go'), ' s')} stop-and-go, ratio {fmt(r.get('ratio_stop_and_go_bound'), '', 3)})")
+      f"{fmt(lb.get('stop_and_go'), ' s')} stop by stop, ratio {fmt(r.get('ratio_stop_and_go_bound'), '', 3)})")
     p(f"  stops             {r.get('stops')}, {fmt(r.get('mean_time_per_stop'), ' s')} each on average; carriage moving "
       f"{fmt(100 * r.get('carriage_moving_share', 0), ' %', 1)} of the row time, some arm picking {fmt(100 * r.get('picking_share', 0), ' %', 1)}")
     for a, causes in (r.get("idle_share") or {}).items():
