@@ -291,7 +291,8 @@ def test_time_limit_mid_improvement_returns_the_verified_incumbent(monkeypatch):
     assert res.plan.status == PlanStatus.SUCCESS and verify(prob, res.plan).passed
     assert res.plan.solver["stopped_by"] == "time_limit"
     hist = res.plan.solver["incumbents"]
-    assert [h["source"] for h in hist] == ["coordinated", "search"]
+    # (the coordinator's first candidate is offered at once, its best one after: "coordinated" may come twice)
+    assert [k for k, _ in itertools.groupby(h["source"] for h in hist)] == ["coordinated", "search"]
     assert res.plan.metrics["makespan"] == pytest.approx(hist[-1]["makespan"])
     assert res.plan.metrics["makespan"] < res.plan.metrics["coordinated_makespan"]
     assert res.plan.solver["nlp"] is None  # nothing ran after the limit

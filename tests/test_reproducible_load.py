@@ -4,6 +4,8 @@ while busy-loop processes compete for every core gives identical plan files, wal
 
 from __future__ import annotations
 
+import itertools
+
 import json
 import os
 import subprocess
@@ -37,7 +39,8 @@ def solve_into(out: Path, problems_dir: Path) -> dict:
 
 def test_the_same_plan_under_a_cpu_hog(tmp_path, problems_dir):
     quiet = solve_into(tmp_path / "quiet", problems_dir)
-    assert [i["source"] for i in quiet["solver"]["incumbents"]] == ["coordinated", "search", "refine"]  # each ran and won
+    stages = [k for k, _ in itertools.groupby(i["source"] for i in quiet["solver"]["incumbents"])]
+    assert stages == ["coordinated", "search", "refine"]  # each ran and won
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 2)]
     try:
         busy = solve_into(tmp_path / "busy", problems_dir)

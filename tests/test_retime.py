@@ -4,6 +4,8 @@ greedy times, step for step against the plan it retimes, and the planner's accep
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -74,7 +76,7 @@ def test_the_optimal_planner_keeps_a_retimed_plan_only_when_it_is_verified_and_f
     prob, coord = dense
     quick = OptimalOptions(search_work=0, polish=False)
     res = plan_optimal(prob, options=quick)
-    assert [h["source"] for h in res.plan.solver["incumbents"]] == ["coordinated", "retime"]
+    assert [k for k, _ in itertools.groupby(h["source"] for h in res.plan.solver["incumbents"])] == ["coordinated", "retime"]
     assert res.plan.metrics["makespan"] < res.coordinated.metrics["makespan"] and verify(prob, res.plan).passed
     assert res.plan.solver["retime"][0]["accepted"] is True
     off = plan_optimal(prob, options=OptimalOptions(search_work=0, polish=False, retime=False))
@@ -96,7 +98,7 @@ def test_the_optimal_planner_keeps_a_retimed_plan_only_when_it_is_verified_and_f
 
     monkeypatch.setattr(retime_module, "retime", reckless)
     bad = plan_optimal(prob, options=quick)
-    assert [h["source"] for h in bad.plan.solver["incumbents"]] == ["coordinated"]  # refused by the verifier
+    assert {h["source"] for h in bad.plan.solver["incumbents"]} == {"coordinated"}  # refused by the verifier
     assert bad.plan.solver["retime"][0]["accepted"] is False
     assert bad.plan.metrics["makespan"] == pytest.approx(bad.coordinated.metrics["makespan"])
 

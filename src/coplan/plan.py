@@ -262,7 +262,7 @@ def finalize_plan(plan: Plan, verification, n_reachable: int) -> Plan:
 # metrics a planner sets itself (kept when the metrics are recomputed)
 _KEPT_METRICS = ("lower_bound", "optimality", "coordinated_makespan", "improvement_over_coordinated",
                  "baseline_makespan", "baseline_status", "time_to_first_verified", "time_of_last_improvement",
-                 "fruit", "harvestable", "fruit_ids", "row")
+                 "fruit", "harvestable", "fruit_ids", "row", "time_to_ratio")
 
 
 def _busy_time(plan: Plan, arm: str) -> float:

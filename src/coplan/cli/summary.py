@@ -103,6 +103,9 @@ def print_summary(console, res) -> None:
     if m.get("coordinated_makespan") is not None:
         p(f"  coordinated plan  {fmt(m.get('coordinated_makespan'), ' s')}   (improved by {fmt(100 * (m.get('improvement_over_coordinated') or 0.0), ' %', 1)};"
           f" first verified plan at {fmt(m.get('time_to_first_verified'), ' s')}, last improvement at {fmt(m.get('time_of_last_improvement'), ' s')})")
+        reached = [f"{r} x at {t:.2f} s" for r, t in (m.get("time_to_ratio") or {}).items() if t is not None]
+        if reached:
+            p(f"  bound reached     within " + ", ".join(reached) + " (of the lower bound, since the planner started)")
     if m.get("baseline_makespan") is not None:
         p(f"  heuristic plan    {fmt(m.get('baseline_makespan'), ' s')}   (the course's baseline, {m.get('baseline_status', '?')}; baseline.json)")
     p(f"  cycle time/fruit  {fmt(m.get('cycle_time'), ' s')} worst arm, {fmt(m.get('cycle_time_mean'), ' s')} mean")

@@ -160,9 +160,12 @@ def warm_variants(problem: Problem, alloc: Allocation, need: float):
 
 
 def find_coordinated(problem: Problem, method: AllocationMethod, opts: CoordinatedOptions, say: Callable[[str], None],
-                     cache: dict | None = None, deadline: float | None = None) -> tuple[Coordinated | None, list[dict], LowerBound]:
+                     cache: dict | None = None, deadline: float | None = None,
+                     on_feasible: Callable[[Coordinated], None] | None = None) -> tuple[Coordinated | None, list[dict], LowerBound]:
     """The fastest conflict-free coordinated candidate of a few allocations (see the module
-    docstring). Returns ``(candidate or None, attempts tried, the lower bound's details)``."""
+    docstring). Returns ``(candidate or None, attempts tried, the lower bound's details)``.
+    ``on_feasible`` is called with each new best candidate as soon as it is found (an anytime
+    caller verifies the first one and has a plan long before every candidate is tried)."""
     if method == AllocationMethod.MAKESPAN:  # None: the lower bound's own assignment
         variants = [(None, False)] + [(t, b) for t in (0.0, 1.0, 3.0, 10.0) for b in (False, True)]
     else:
@@ -198,6 +201,8 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
             tried.append({"allocation": "bound" if alloc.info.get("bound_allocation") else "milp", "schedules": "decoupled",
                           "feasible": True, "makespan": span, "waits": 0})
             best = Coordinated(alloc, base, span, [], "fastest", 0)
+            if on_feasible is not None:
+                on_feasible(best)
 
     def attempt(terr, avoid, label, al, base, order):
         nonlocal best, left
@@ -217,6 +222,8 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
         tried.append(entry | {"feasible": True, "makespan": span, "waits": n, "yields": extra})
         if best is None or span < best.makespan - 1e-9:
             best = Coordinated(al, sched, span, list(order), label, n)
+            if on_feasible is not None:
+                on_feasible(best)
         return span
 
     for terr, avoid in variants:  # breadth first: the first attempt of every allocation
@@ -312,15 +319,18 @@ def plan_coordinated(
     options: CoordinatedOptions | None = None,
     progress: Callable[[str], None] | None = None,
     cache: dict | None = None,
+    on_feasible: Callable[[Coordinated], None] | None = None,
 ) -> CoordinatedResult:
-    """Allocate, schedule time-optimal S-curve moves, coordinate conflict-free; verify."""
+    """Allocate, schedule time-optimal S-curve moves, coordinate conflict-free; verify.
+    ``on_feasible``: see :func:`find_coordinated`."""
     from ...verify.verifier import verify
 
     opts = options or CoordinatedOptions()
     say = progress or (lambda m: None)
     t0 = _time.perf_counter()
     deadline = None if opts.time_limit is None else t0 + opts.time_limit
-    best, tried, bound = find_coordinated(problem, AllocationMethod(allocation), opts, say, cache, deadline)  # bound: LowerBound
+    best, tried, bound = find_coordinated(problem, AllocationMethod(allocation), opts, say, cache, deadline,
+                                          on_feasible)  # bound: LowerBound
     timings = {"allocation": _time.perf_counter() - t0}
     n_reach = len(problem.reachable_ids())
     from ...allocate.screen import screened

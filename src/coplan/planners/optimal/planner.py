@@ -233,9 +233,16 @@ def plan_optimal(
         at(None if not unit else 0.0)
         return at
 
+    def first_feasible(c: Coordinated) -> None:
+        """The coordinator's first conflict-free candidate, verified and offered at once: a
+        verified plan long before every candidate is tried (the best one is offered after)."""
+        if inc.plan is None and not c.fallback:
+            p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
+            inc.offer(p, verify(problem, p), "coordinated", c)
+
     try:
         stage("coordinated")
-        coord = plan_coordinated(problem, allocation, copts, say, cache)
+        coord = plan_coordinated(problem, allocation, copts, say, cache, on_feasible=first_feasible)
         timings["coordinated"] = _time.perf_counter() - t0
         coord_plan = coord.plan
         cand = coord.candidate
@@ -410,6 +417,7 @@ def plan_optimal(
         baseline_status=baseline.status.value,
         time_to_first_verified=inc.first_at,
         time_of_last_improvement=inc.improved_at,
+        time_to_ratio=time_to_ratio(inc.history, lb),
     )
     timings["total"] = _time.perf_counter() - t_start - timings["baseline"]
     plan.solver = {
@@ -439,6 +447,16 @@ def plan_optimal(
     alloc_out = inc.candidate.alloc if inc.candidate is not None else None
     status = SolverStatus.INTERRUPTED if interrupted else SolverStatus.OPTIMAL if verified else SolverStatus.NUMERICAL_ERROR
     return OptimalResult(plan, inc.verification, baseline, base_ver, alloc_out, timings, status, coord_plan, error, error_trace)
+
+
+def time_to_ratio(history: list[dict], bound: float | None, ratios=(1.05, 1.02, 1.01)) -> dict[str, float | None]:
+    """When (s after the planner started) the incumbent first came within each ratio of the
+    lower bound (from the incumbent history); None where it never did."""
+    out: dict[str, float | None] = {}
+    for r in ratios:
+        hit = next((h["t"] for h in history if bound and h["makespan"] <= r * bound + 1e-9), None)
+        out[f"{r:.2f}"] = hit
+    return out
 
 
 def retimable(schedules: dict[str, ArmSchedule], tol: float = 1e-6) -> bool:
