@@ -203,7 +203,7 @@ def test_a_spent_budget_leaves_fruit_out_with_the_reason_never_hangs():
     p = tight_problem()
 
     def run(pairs):
-        res = plan_coordinated(p, options=CoordinatedOptions(budget_checks=1, attempt_checks=1, serial_pairs=pairs))
+        res = plan_coordinated(p, options=CoordinatedOptions(budget_checks=1, attempt_checks=1, checks_per_fruit=0, serial_pairs=pairs))
         return res, [t for t in res.tried if t.get("fallback") == "serial"]
 
     res, fell = run(8_000_000)  # 2 million per attempt: enough

@@ -99,6 +99,23 @@ def _check_time_limit(time_limit: Optional[float]) -> None:
         _fail(ExitCode.USAGE, f"--time-limit: expected a positive number of seconds, found {time_limit}")
 
 
+def _check_workers(workers: Optional[str]) -> Optional[int]:
+    """``--workers``: a whole number >= 1, or auto (this machine's cores, at most 8); None if not given."""
+    if workers is None:
+        return None
+    if workers.strip().lower() == "auto":
+        from ..planners.optimal.portfolio import default_workers
+
+        return default_workers()
+    try:
+        n = int(workers)
+    except ValueError:
+        n = 0
+    if n < 1:
+        _fail(ExitCode.USAGE, f"--workers: expected a whole number of processes >= 1 or auto, found {workers!r}")
+    return n
+
+
 def _solver_options(path: Optional[Path], time_limit: Optional[float], applies: bool):
     """OptimalOptions from ``--options`` (validated; bad values exit 3 with the key and line)
     and ``--time-limit`` (which wins); None when neither is given."""
@@ -139,6 +156,9 @@ def solve(
     options_file: Annotated[Optional[Path], typer.Option(
         "--options", help="Solver options (YAML): any field of coplan.optimal.OptimalOptions, e.g. "
                           "search_work: 60000 (recorded in plan.json).")] = None,
+    workers: Annotated[Optional[str], typer.Option(
+        help="Processes the optimal planner's search runs in: a number, or auto (this machine's cores, "
+             "at most 8). Default 1: the plan then does not depend on the machine; the same N gives the same plan.")] = None,
     animate: Annotated[bool, typer.Option("--animate", help="Also render an animation of the plan.")] = False,
     html: Annotated[bool, typer.Option("--html", help="Also write plan.html: the interactive viewer of the plan (one self-contained page).")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
@@ -149,12 +169,14 @@ def solve(
     from ..problem.model import load_problem
 
     _check_time_limit(time_limit)
+    n_workers = _check_workers(workers)
     failures.check_out_dir(out)
     path = load_problem(_resolve_problem(problem))
     if path.gantry is not None:  # a row: the stop rule and the cell planner at each stop
-        if planner == PlannerKind.HEURISTIC or allocation is not None or options_file is not None or time_limit is not None:
+        if planner == PlannerKind.HEURISTIC or allocation is not None or options_file is not None or time_limit is not None \
+                or workers is not None:
             _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): --planner coordinated|optimal and --stops apply; "
-                                  "--allocation, --options and --time-limit are for a stationary cell")
+                                  "--allocation, --options, --time-limit and --workers are for a stationary cell")
         with ProgressDisplay(err_console, quiet=as_json) as say:
             res = run(path, planner=planner, out_dir=out, progress=say, stops=stops)
         return _report_solve(res, out, animate, html, as_json)
@@ -162,6 +184,15 @@ def solve(
         _fail(ExitCode.USAGE, f"--stops: {path.name} is a stationary cell (no gantry section); a stop rule applies to a row")
     planner = planner or PlannerKind.OPTIMAL
     options = _solver_options(options_file, time_limit, planner != PlannerKind.HEURISTIC)
+    if n_workers is not None:
+        if planner != PlannerKind.OPTIMAL:
+            _fail(ExitCode.USAGE, f"--workers: the {planner.value} planner has no search to run in parallel; "
+                                  "it applies to --planner optimal")
+        from dataclasses import replace
+
+        from ..planners.optimal.planner import OptimalOptions
+
+        options = replace(options or OptimalOptions(), workers=n_workers)
     if not as_json and planner != PlannerKind.HEURISTIC:
         from ..allocate.screen import screened
 

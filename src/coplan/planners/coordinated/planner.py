@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...allocate.allocation import Allocation, AllocationMethod, LowerBound, allocate, bound_allocation, bound_details
-from .coordinate import coordinate
+from .coordinate import attempt_checks, coordinate
 from ..heuristic import grid as uniform_grid
 from ...plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics, finalize_plan
 from ...problem.model import Problem
@@ -71,7 +71,10 @@ class CoordinatedOptions:
 
     margin : extra clearance (m) kept between neighbours' capsules while coordinating
     attempt_checks : work cap of one coordination attempt (conflict checks), so one hard
-        candidate cannot use the whole budget
+        candidate cannot use the whole budget -- or ``checks_per_fruit`` per fruit, if more
+        (:func:`~coplan.planners.coordinated.coordinate.attempt_checks`)
+    checks_per_fruit : the cap's growth with the row (8: from 75 fruit on); when it sets the
+        cap, the budget is at least five attempts' caps
     budget_checks : work budget of the whole candidate search (conflict checks)
     serial_pairs : work budget of the fallback in which the arms take turns (pose-pair
         tests over all its attempts), so that no layout holds the planner for hours; one
@@ -81,6 +84,7 @@ class CoordinatedOptions:
 
     margin: float = 0.015
     attempt_checks: int = 600
+    checks_per_fruit: int = 8
     budget_checks: int = 3000
     serial_pairs: int = SERIAL_PAIRS
     time_limit: float | None = None
@@ -172,7 +176,8 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
         variants = [(0.0, False)]
     need = problem.task.clearance + opts.margin
     cache = {} if cache is None else cache
-    left = opts.budget_checks
+    per_attempt = attempt_checks(problem, opts.attempt_checks, opts.checks_per_fruit)
+    left = opts.budget_checks if per_attempt == opts.attempt_checks else max(opts.budget_checks, 5 * per_attempt)
     best: Coordinated | None = None
     tried: list[dict] = []
     allocs: list[tuple] = []  # (territory, avoid, allocation, its remaining attempts, its first makespan)
@@ -208,7 +213,7 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
         nonlocal best, left
         entry = {"allocation": "bound" if terr is None else "milp", "territory": terr, "avoid_blocked": avoid, "schedules": label, "priority": order,
                  "estimate": al.estimated_makespan}
-        checks = min(opts.attempt_checks, left)
+        checks = min(per_attempt, left)
         try:
             sched, n, extra = coordinate(problem, base, opts.margin, priority=order, max_checks=checks, cache=cache,
                                          deadline=deadline if best is not None else None)

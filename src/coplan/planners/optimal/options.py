@@ -46,6 +46,11 @@ class OptimalOptions:
         falling linearly from this (s) to 0 over the first 30000 checks of ``search_work``
         (annealing; the rest is descent and fresh starts); 0 for pure descent
     seed : seed of the search's moves
+    workers : processes the search runs in (:mod:`coplan.planners.optimal.portfolio`): worker
+        w searches with seed ``seed + w``, each with the whole ``search_work``, and the best
+        wins (least makespan, then least work, then lowest index), so the same input, options
+        and workers give the same plan. 1 (the default) is the search in this process: the plan
+        then depends on nothing about the machine, not even its number of cores
     retime : retime the coordinated plan and the search's best with CP-SAT (the same moves,
         every start chosen together instead of leg by leg); kept only when verified and faster;
         false also turns the refinement off
@@ -93,6 +98,7 @@ class OptimalOptions:
     search_starts: int = 3
     search_temperature: float = 0.3
     seed: int = 0
+    workers: int = 1
     retime: bool = True
     retime_work: float = 5.0
     refine_retimes: int = 100
@@ -116,7 +122,7 @@ class OptimalOptions:
 
 
 # fields that must be > 0 (the others of their type must be >= 0)
-_POSITIVE = {"h_target", "window", "check_rate", "time_limit", "window_time_limit", "retime_work"}
+_POSITIVE = {"workers", "h_target", "window", "check_rate", "time_limit", "window_time_limit", "retime_work"}
 
 
 class OptionsError(InputError):

@@ -153,6 +153,7 @@ class _Incumbent:
         self.candidate: Coordinated | None = None
         self.source = None
         self.first_at = None
+        self.first_wall = None  # the wall clock (s since the epoch) at the first verified plan
         self.improved_at = None
         self.history: list[dict] = []
 
@@ -160,16 +161,25 @@ class _Incumbent:
     def makespan(self) -> float:
         return self.plan.metrics["makespan"] if self.plan is not None else np.inf
 
-    def offer(self, plan: Plan, verification, source: str, candidate: Coordinated | None = None) -> bool:
+    def offer(self, plan: Plan, verification, source: str, candidate: Coordinated | None = None,
+              ties: bool = False) -> bool:
+        """Keep ``plan`` if verified, harvesting as much and faster (with ``ties``: or as fast,
+        so that a parallel search's winner replaces an equal best that happened to arrive first)."""
         plan = finalize_plan(plan, verification, self.n_reach)
         if plan.status not in (PlanStatus.SUCCESS, PlanStatus.PARTIAL):
             return False
         if self.plan is not None:
             got, have = plan.metrics["harvested"], self.plan.metrics["harvested"]
-            if got < have or (got == have and plan.metrics["makespan"] >= self.makespan - 1e-9):
+            slower = plan.metrics["makespan"] > self.makespan + 1e-9 if ties else plan.metrics["makespan"] >= self.makespan - 1e-9
+            if got < have or (got == have and slower):
                 return False
+            if ties and got == have and plan.metrics["makespan"] >= self.makespan - 1e-9:  # an equal plan: swapped in quietly
+                self.plan, self.verification, self.source = plan, verification, source
+                self.candidate = candidate if candidate is not None else self.candidate
+                return True
         now = _time.perf_counter() - self.t_start
-        self.first_at = now if self.first_at is None else self.first_at
+        if self.first_at is None:
+            self.first_at, self.first_wall = now, _time.time()
         self.improved_at = now
         self.plan, self.verification, self.source = plan, verification, source
         self.candidate = candidate if candidate is not None else self.candidate
@@ -216,7 +226,10 @@ def plan_optimal(
         return p is not None and p.status in (PlanStatus.SUCCESS, PlanStatus.PARTIAL) \
             and p.metrics.get("harvested", 0) >= n_harvestable
     cache: dict = {}  # routes and moves shared by every coordinator run
-    copts = CoordinatedOptions(margin=opts.margin, budget_checks=opts.coordination_checks, time_limit=opts.time_limit)
+    # under a clock limit the coordinated stage's later candidates get at most a third of it
+    # (its first always completes: there must be a plan); the rest is the search's and retiming's
+    copts = CoordinatedOptions(margin=opts.margin, budget_checks=opts.coordination_checks,
+                               time_limit=None if opts.time_limit is None else opts.time_limit / 3)
     interrupted = False
     stop = StopReason.BUDGET
     search_info = nlp_info = refine_info = None
@@ -272,7 +285,7 @@ def plan_optimal(
             stage("retime")
             tr = _time.perf_counter()
             r = retime(problem, c.schedules, opts.margin, work=opts.retime_work, tables=cache.setdefault("curve_tables", {}),
-                       memo=cache.setdefault("meetings", {}))
+                       memo=cache.setdefault("meetings", {}), deadline=deadline)
             entry = {"of": of, "status": r.status, "makespan_before": c.makespan, "makespan": r.makespan,
                      "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
             if r.schedules is not None and r.makespan < min(c.makespan, inc.makespan) - 1e-9:
@@ -298,9 +311,20 @@ def plan_optimal(
                                   fixed_assignment=AllocationMethod(allocation) != AllocationMethod.MAKESPAN)
             anchor = coord.bound.assignment if coord.bound is not None else None
             hood = Neighbourhood(problem, start, opts.margin, sopts, cache)
-            found, stats = improve(problem, start, bound, opts.margin, sopts, on_improve, deadline, cache, anchor, hood,
-                                   stage("search", "of its work budget"))
+            if opts.workers > 1:  # a portfolio of seeded searches in parallel processes
+                from .portfolio import search_portfolio
+
+                port = search_portfolio(problem, start, bound, opts.margin, sopts, opts.workers, on_improve, deadline,
+                                        anchor, stage("search", f"of its work budget (slowest of {opts.workers} workers)"))
+                found, stats = port.best, port.stats
+                if found is not start:  # the winner, whichever worker's best arrived first at an equal makespan
+                    inc.offer(*checked(found), "search", found, ties=True)
+            else:
+                found, stats = improve(problem, start, bound, opts.margin, sopts, on_improve, deadline, cache, anchor, hood,
+                                       stage("search", "of its work budget"))
             search_info = stats.summary()
+            if opts.workers > 1:
+                search_info["workers"] = port.workers
             timings["search"] = _time.perf_counter() - ts
             stop = stats.stop
             interrupted = stats.stop == StopReason.INTERRUPTED
@@ -426,6 +450,7 @@ def plan_optimal(
         "stopped_by": stop.value,
         "incumbent_from": inc.source,
         "incumbents": inc.history,
+        "first_verified_wall_time": inc.first_wall,  # s since the epoch: when a caller outside could have had a plan
         # fruit the incumbent's coordination could not fit in, each with the reason
         "left_out": dict(inc.candidate.left_out) if inc.candidate is not None else {},
         "allocation": AllocationMethod(allocation).value,

@@ -138,7 +138,7 @@ def refine(
         st.retimes += 1
         if tick is not None:
             tick(st.retimes / max(1, opts.retimes))
-        r = retime(problem, c.schedules, margin, work=opts.work, tables=tables, memo=memo)
+        r = retime(problem, c.schedules, margin, work=opts.work, tables=tables, memo=memo, deadline=deadline)
         if r.schedules is None:
             return None
         return retimed_candidate(c, r)

@@ -151,14 +151,18 @@ def _meetings(xa: _Move, xb: _Move, radii: float, need: float) -> np.ndarray:
 
 
 def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float = 100.0, pad: int = 1,
-           work: float = 5.0, tables: dict | None = None, memo: dict | None = None) -> RetimeResult:
+           work: float = 5.0, tables: dict | None = None, memo: dict | None = None,
+           deadline: float | None = None) -> RetimeResult:
     """Choose every move's start together (see the module docstring). ``schedules``: a
     coordinated plan's (waits anywhere, each arm's moves rest to rest); ``margin`` as the
     coordinator's; ``pad``: forbidden start offsets widened by this many samples either way;
     ``work``: CP-SAT's deterministic time limit; ``memo``: the forbidden offsets of move pairs
     already met (kept between calls on the same problem, e.g. by a search that retimes many
     plans sharing most of their moves). The returned schedules have the same steps in the same
-    order, only other waits."""
+    order, only other waits. ``deadline`` (``time.perf_counter()`` seconds; an explicit time
+    limit): building the model stops there, and CP-SAT stops there too."""
+    import time as _time
+
     from ortools.sat.python import cp_model
 
     tables = {} if tables is None else tables
@@ -199,6 +203,8 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
         radii = arms[i].link_radius + arms[j].link_radius
         boxes = [[_box(x.pts) for x in per[a][0]] for a in (i, j)]
         for ka, xa in enumerate(per[i][0]):  # move against move
+            if deadline is not None and _time.perf_counter() > deadline:
+                return RetimeResult(None, "not retimed: the time limit came while building the model", None, n)
             for kb, xb in enumerate(per[j][0]):
                 if _apart(boxes[0][ka], boxes[1][kb], need + radii):
                     continue
@@ -254,6 +260,11 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
     solver = cp_model.CpSolver()
     solver.parameters.num_workers = 1  # single-threaded and a deterministic limit: the same plan anywhere
     solver.parameters.max_deterministic_time = work
+    if deadline is not None:
+        left = deadline - _time.perf_counter()
+        if left <= 0:
+            return RetimeResult(None, "not retimed: the time limit came while building the model", None, n)
+        solver.parameters.max_time_in_seconds = left
     solver.parameters.random_seed = 0
     # Ctrl-C is the planner's (it saves the incumbent): CP-SAT's own SIGINT handler would end
     # the solve as if at its limit, swallow the key and leave SIGINT at its default (a second

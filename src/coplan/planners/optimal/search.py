@@ -48,7 +48,7 @@ from enum import Enum
 import numpy as np
 
 from ...allocate.allocation import arm_configs, choose_branches as fastest_branches
-from ..coordinated.coordinate import coordinate
+from ..coordinated.coordinate import attempt_checks, coordinate
 from ..coordinated.planner import Coordinated, makespan_of
 from ...problem.model import Problem
 from ..coordinated.routing import choose_branches as clear_branches
@@ -103,7 +103,8 @@ class SearchOptions:
     starts : fresh starts before the search stops for lack of progress
     stall : restart from the best state (with ``kick`` random moves) after this many
         evaluations without progress of the current state
-    attempt_checks : work cap of one coordinator run (conflict checks)
+    attempt_checks : work cap of one coordinator run (conflict checks), or ``checks_per_fruit``
+        per fruit if more (:func:`~coplan.planners.coordinated.coordinate.attempt_checks`)
     seed : seed of the move generator
     fixed_assignment : keep which arm takes which fruit (order, branches and priorities
         still change); used when the caller asked for a given allocation method
@@ -128,6 +129,7 @@ class SearchOptions:
     stall: int = 25
     kick: int = 2
     attempt_checks: int = 600
+    checks_per_fruit: int = 8
     seed: int = 0
     fixed_assignment: bool = False
     tolerance: float = 1e-3
@@ -265,7 +267,8 @@ class Neighbourhood:
         trace = Trace()
         try:
             sched, waits, _ = coordinate(self.problem, base, self.margin, priority=list(s.order),
-                                         max_checks=self.opts.attempt_checks, cache=self.cache, work=work,
+                                         max_checks=attempt_checks(self.problem, self.opts.attempt_checks, self.opts.checks_per_fruit),
+                                         cache=self.cache, work=work,
                                          trace=trace, resume=list(self.traces.values())[::-1])
         except ConflictError:
             self.stats.checks += work.get("checks", 0)

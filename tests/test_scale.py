@@ -1,0 +1,105 @@
+"""Planning at scale: the search on several processes (same input and N, same plan; worker 0 is
+the one-process search), coordinator runs whose work cap grows with the row, and a clock limit
+that the retiming keeps."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.generate import cell_problem, row_problem, to_yaml
+from coplan.planners.coordinated import CoordinatedOptions, plan_coordinated
+from coplan.planners.coordinated.coordinate import CHECKS_PER_FRUIT, attempt_checks
+from coplan.planners.optimal import OptimalOptions, plan_optimal
+from coplan.planners.optimal.options import OptionsError, parse_options
+from coplan.planners.optimal.portfolio import default_workers
+from coplan.planners.optimal.retime import retime
+from coplan.pipeline import ExitCode
+from coplan.problem import default_problem_path, load_problem, parse_problem
+from coplan.verify import verify
+
+SEARCH = dict(search_work=4000, retime=False)  # a short search, nothing after it that could mask it
+
+
+@pytest.fixture(scope="module")
+def row24():
+    return parse_problem(to_yaml(row_problem(3, 24, seed=2, spacing=1.6, reachable_only=True)), "row-3x24")
+
+
+def _events(plan):
+    return [(e.arm, e.kind, e.fruit, e.t_start, e.t_end) for e in plan.events]
+
+
+@pytest.fixture(scope="module")
+def portfolio_runs(row24):
+    one = plan_optimal(row24, options=OptimalOptions(**SEARCH))
+    two = [plan_optimal(row24, options=OptimalOptions(workers=2, **SEARCH)) for _ in range(2)]
+    return one, two
+
+
+def test_the_same_input_and_workers_give_the_same_plan(portfolio_runs):
+    _, (a, b) = portfolio_runs
+    assert a.plan.metrics["makespan"] == b.plan.metrics["makespan"]
+    assert _events(a.plan) == _events(b.plan)
+    assert a.plan.solver["search"]["workers"] == b.plan.solver["search"]["workers"]
+
+
+def test_worker_zero_is_the_one_process_search_and_the_best_worker_wins(row24, portfolio_runs):
+    one, (two, _) = portfolio_runs
+    workers = two.plan.solver["search"]["workers"]
+    assert [w["seed"] for w in workers] == [0, 1]
+    # worker 0 searched exactly as the search does in one process (same seed, budget, start)
+    # (no retiming, so no refinement: the one-process plan is its search's best)
+    assert workers[0]["makespan"] == pytest.approx(one.plan.metrics["makespan"], abs=1e-9)
+    assert workers[0]["evaluations"] == one.plan.solver["search"]["evaluations"]
+    assert workers[0]["checks"] == one.plan.solver["search"]["checks"]
+    # the plan is the best worker's, verified; never slower than one process
+    best = min(w["makespan"] for w in workers)
+    assert two.plan.metrics["makespan"] == pytest.approx(best, abs=1e-9)
+    assert two.plan.metrics["makespan"] <= one.plan.metrics["makespan"] + 1e-9
+    assert verify(row24, two.plan).passed
+    assert two.plan.solver["options"]["workers"] == 2
+
+
+def test_workers_are_validated_in_options_files_and_on_the_command_line(tmp_path):
+    with pytest.raises(OptionsError, match="workers.*expected a positive integer"):
+        parse_options("workers: 0\n", "opts.yaml")
+    assert parse_options("workers: 3\n").workers == 3
+    runner = CliRunner()
+    prob = str(default_problem_path())
+    for bad in ("0", "-2", "two"):
+        r = runner.invoke(app, ["solve", prob, "--workers", bad, "-o", str(tmp_path / "x")])
+        assert r.exit_code == ExitCode.USAGE and "--workers: expected a whole number" in r.output
+    r = runner.invoke(app, ["solve", prob, "--planner", "coordinated", "--workers", "2", "-o", str(tmp_path / "y")])
+    assert r.exit_code == ExitCode.USAGE and "applies to --planner optimal" in r.output
+    assert 1 <= default_workers() <= 8
+
+
+def test_a_coordinator_run_may_spend_more_checks_on_a_longer_row():
+    small = load_problem(default_problem_path())
+    assert attempt_checks(small, 600) == 600  # shipped cells: the option, as before
+    big = parse_problem(to_yaml(row_problem(5, 200, seed=5, reachable_only=True)))
+    assert attempt_checks(big, 600) == CHECKS_PER_FRUIT * 200
+    res = plan_coordinated(big, "makespan", CoordinatedOptions(budget_checks=1))
+    assert res.tried[0]["allocation"] == "bound" and res.tried[0]["feasible"]  # the bound's own allocation, booked
+    assert res.candidate is not None and not res.candidate.fallback
+    assert verify(big, res.plan).passed and res.plan.metrics["harvested"] == 200
+    assert res.plan.metrics["makespan"] <= 1.10 * res.plan.metrics["lower_bound"]
+    # under the old fixed cap of 600 checks that first attempt runs out of work
+    old = plan_coordinated(big, "makespan", CoordinatedOptions(budget_checks=600, checks_per_fruit=0))
+    assert not old.tried[0]["feasible"] and "work budget" in old.tried[0]["reason"]
+    assert res.plan.metrics["makespan"] <= old.plan.metrics["makespan"] + 1e-9
+
+
+def test_retiming_stops_at_the_clock_limit():
+    prob = parse_problem(to_yaml(cell_problem(7)))
+    co = plan_coordinated(prob, "makespan", CoordinatedOptions())
+    t = time.perf_counter()
+    r = retime(prob, co.candidate.schedules, 0.015, deadline=time.perf_counter() - 1.0)
+    assert r.schedules is None and "time limit" in r.status
+    assert time.perf_counter() - t < 1.0
+    ok = retime(prob, co.candidate.schedules, 0.015, deadline=time.perf_counter() + 60.0)
+    assert ok.schedules is not None  # a deadline far off changes nothing
