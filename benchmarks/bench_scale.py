@@ -81,6 +81,8 @@ def _command(args: list[str], tmp: Path) -> dict:
 
 def _solve(row: Path, out: Path, tmp: Path, *extra: str) -> dict:
     r = _command(["solve", str(row), "-o", str(out), "--json", *extra], tmp)
+    if not (out / "plan.json").exists():  # the command died (killed, out of memory): say so, go on
+        raise RuntimeError(f"coplan solve {' '.join(extra)} wrote no plan (exit {r['code']}): {r['stderr'][-300:]}")
     plan = json.loads((out / "plan.json").read_text())
     m, s = plan["metrics"], plan["solver"]
     first = s.get("first_verified_wall_time")
@@ -103,7 +105,13 @@ def _limits(rows, folder: Path, tmp: Path) -> list[str]:
     for arms, fruit, limit in rows:
         row = _row_file(folder, arms, fruit)
         for w in (1, 2):
-            r = _solve(row, tmp / f"out_{arms}x{fruit}_w{w}", tmp, "--time-limit", str(limit), "--workers", str(w))
+            try:
+                r = _solve(row, tmp / f"out_{arms}x{fruit}_w{w}", tmp, "--time-limit", str(limit), "--workers", str(w))
+            except RuntimeError as e:
+                lines.append(f"| {arms} x {fruit} | {fruit} | - | {w} | {limit:g} s | FAILED: {e} |")
+                print(lines[-1], flush=True)
+                pairs[(arms, fruit, w)] = {"to": {}}
+                continue
             pairs[(arms, fruit, w)] = r
             to = r["to"]
             ok = r["verified"] and r["harvested"] == fruit and r["code"] == 0

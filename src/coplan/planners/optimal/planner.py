@@ -285,7 +285,8 @@ def plan_optimal(
             stage("retime")
             tr = _time.perf_counter()
             r = retime(problem, c.schedules, opts.margin, work=opts.retime_work, tables=cache.setdefault("curve_tables", {}),
-                       memo=cache.setdefault("meetings", {}), deadline=deadline)
+                       memo=cache.setdefault("meetings", {}),
+                       deadline=None if deadline is None else tr + (deadline - tr) / 2)  # (under a clock limit: half what is left)
             entry = {"of": of, "status": r.status, "makespan_before": c.makespan, "makespan": r.makespan,
                      "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
             if r.schedules is not None and r.makespan < min(c.makespan, inc.makespan) - 1e-9:

@@ -198,6 +198,7 @@ class Neighbourhood:
         self._dp: dict = {}
         self.traces: dict[State, Trace] = {}  # recent coordinator runs, to resume from (see coordinate)
         self.stats = SearchStats(moves={m: [0, 0] for m in _MOVES})
+        self.deadline: float | None = None  # an explicit clock limit: a coordinator run stops there too
         self.hold(opts.fixed_assignment)
 
     def hold(self, assignment: bool) -> None:
@@ -268,7 +269,7 @@ class Neighbourhood:
         try:
             sched, waits, _ = coordinate(self.problem, base, self.margin, priority=list(s.order),
                                          max_checks=attempt_checks(self.problem, self.opts.attempt_checks, self.opts.checks_per_fruit),
-                                         cache=self.cache, work=work,
+                                         cache=self.cache, work=work, deadline=self.deadline,
                                          trace=trace, resume=list(self.traces.values())[::-1])
         except ConflictError:
             self.stats.checks += work.get("checks", 0)
@@ -290,8 +291,10 @@ class Neighbourhood:
             owners = [[next(i for i, seq in enumerate(start.assign) if f in seq)] for f in fruits]
         else:
             owners = [self.reach[f] for f in fruits]
+        per = len(BranchRule) * math.factorial(len(start.order))  # counted before any list is made:
+        if per > cap:  # 12 arms have 479 million priority orders
+            return None
         priorities = list(itertools.permutations(start.order))
-        per = len(BranchRule) * len(priorities)
         out: list[tuple[float, State]] = []
         for split in itertools.product(*owners):
             groups = [[f for f, a in zip(fruits, split) if a == i] for i in range(len(self.names))]
@@ -445,6 +448,7 @@ def improve(
     """
     opts = options or SearchOptions()
     srch = hood if hood is not None else Neighbourhood(problem, start, margin, opts, {} if cache is None else cache)
+    srch.deadline = deadline
     st = srch.stats
     best = cur = pbest = start  # pbest: the best of this start (the patience counts from it)
     s_cur = s_pbest = st.best_state = srch.state_of(start)
