@@ -101,6 +101,7 @@ def _limits(rows, folder: Path, tmp: Path) -> list[str]:
     lines = ["| row | fruit | lower bound | workers | limit | first verified plan (whole command) | makespan / bound "
              "| to 1.05 x | to 1.02 x | to 1.01 x | whole command | peak memory | verified, every fruit |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    print("\n".join(lines), flush=True)
     pairs = {}
     for arms, fruit, limit in rows:
         row = _row_file(folder, arms, fruit)
@@ -133,6 +134,7 @@ def _limits(rows, folder: Path, tmp: Path) -> list[str]:
 def _defaults(rows, folder: Path, tmp: Path) -> list[str]:
     lines = ["", "| row | heuristic command | optimal command, default budget | more than the heuristic | makespan / bound | verified |",
              "|---|---|---|---|---|---|"]
+    print("\n".join(lines), flush=True)
     for arms, fruit in rows:
         row = _row_file(folder, arms, fruit)
         h = _command(["solve", str(row), "-o", str(tmp / f"h_{arms}x{fruit}"), "--planner", "heuristic", "--json"], tmp)
@@ -157,8 +159,9 @@ def _split(sizes, folder: Path) -> list[str]:
              "leg-by-leg coordination": ("coordinate.py", "coordinate"),
              "taking turns (fallback)": ("planner.py", "_fallback"),
              "verification": ("verifier.py", "verify")}
-    lines = ["", "| row | fruit | coordinated stage | per fruit | first verified (in process) | "
-             + " | ".join(parts) + " |", "|---|---|---|---|---|" + "---|" * len(parts)]
+    lines = ["", "| row | fruit | coordinated stage | per fruit | its first candidate | first candidate per fruit | "
+             + " | ".join(parts) + " |", "|---|---|---|---|---|---|" + "---|" * len(parts)]
+    print("\n".join(lines), flush=True)
     for arms, fruit in sizes:
         problem = load_problem(_row_file(folder, arms, fruit))
         first = []
@@ -173,7 +176,7 @@ def _split(sizes, folder: Path) -> list[str]:
         cum = {name: sum(v[3] for (f, _, fn), v in st.items() if f.endswith(file) and fn == func)
                for name, (file, func) in parts.items()}
         lines.append(f"| {arms} x {fruit} | {fruit} | {total:.2f} s | {1e3 * total / fruit:.1f} ms | "
-                     f"{_fmt(first[0] if first else None, 2, ' s')} | "
+                     f"{_fmt(first[0] if first else None, 2, ' s')} | {_fmt(1e3 * first[0] / fruit if first else None, 1, ' ms')} | "
                      + " | ".join(f"{100 * cum[n] / total:.0f} %" for n in parts) + " |")
         print(lines[-1], flush=True)
     lines.append("(profiled: the times include cProfile's overhead; the shares are what matters)")

@@ -103,3 +103,12 @@ def test_retiming_stops_at_the_clock_limit():
     assert time.perf_counter() - t < 1.0
     ok = retime(prob, co.candidate.schedules, 0.015, deadline=time.perf_counter() + 60.0)
     assert ok.schedules is not None  # a deadline far off changes nothing
+
+
+def test_a_sweep_keeps_one_process_per_problem():
+    from coplan.sweep.spec import SweepError, parse_sweep
+
+    text = "name: s\nbase: row\nfixed: {n_arms: 2, spacing: 2.0, seed: 3}\nvary:\n  n_fruits: [2, 3]\noptions: {workers: %s}\n"
+    with pytest.raises(SweepError, match=r"options.workers.*expected 1 \(a sweep runs each problem in one process"):
+        parse_sweep(text % 2, "s.yaml")
+    assert len(parse_sweep(text % 1, "s.yaml").items()) == 2

@@ -280,6 +280,8 @@ def _check_option(name: str, v: Any) -> str | None:
 
     from ..planners.optimal.options import OptionsError, parse_options
 
+    if name == "workers" and v != 1:  # a sweep's parallelism is its Dask workers, one process per problem
+        return f"expected 1 (a sweep runs each problem in one process; its Dask workers are the parallelism), found {found(v)}"
     try:
         parse_options(yaml.safe_dump({name: v}))
     except OptionsError as e:

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import time as _time
 from collections.abc import Callable
+from time import time as _epoch  # the wall clock, for callers outside (not a budget)
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -179,7 +180,7 @@ class _Incumbent:
                 return True
         now = _time.perf_counter() - self.t_start
         if self.first_at is None:
-            self.first_at, self.first_wall = now, _time.time()
+            self.first_at, self.first_wall = now, _epoch()
         self.improved_at = now
         self.plan, self.verification, self.source = plan, verification, source
         self.candidate = candidate if candidate is not None else self.candidate
