@@ -8,7 +8,8 @@ coordinated one, and whenever it stops -- at its work budget, at an explicit
 *proven optimal*) -- it has a verified plan to return.
 
 1. **coordinated** (:func:`coplan.planners.coordinated.planner.plan_coordinated`): allocation, time-optimal
-   S-curve moves, conflict-free coordination; verified, it is the first incumbent.
+   S-curve moves, conflict-free coordination; verified, it is the first incumbent. The course's
+   heuristic baseline (always returned beside the plan) is made right after that first plan.
 2. **search** (:func:`coplan.planners.optimal.search.improve`): large-neighbourhood search over allocation,
    order, elbow branches and priorities with the coordinator as evaluator; each new best is
    verified and offered to the incumbent.
