@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 from coplan.cli import app
 from coplan.generate import cell_problem, row_problem, to_yaml
 from coplan.planners.coordinated import CoordinatedOptions, plan_coordinated
-from coplan.planners.coordinated.coordinate import CHECKS_PER_FRUIT, attempt_checks
+from coplan.planners.coordinated.budget import CHECKS_PER_FRUIT, attempt_checks
 from coplan.planners.optimal import OptimalOptions, plan_optimal
 from coplan.planners.optimal.options import OptionsError, parse_options
 from coplan.planners.optimal.portfolio import default_workers

@@ -34,7 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...allocate.allocation import Allocation, AllocationMethod, LowerBound, allocate, bound_allocation, bound_details
-from .coordinate import attempt_checks, coordinate
+from .budget import attempt_checks
+from .coordinate import coordinate
 from ..heuristic import grid as uniform_grid
 from ...plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_metrics, finalize_plan
 from ...problem.model import Problem
@@ -72,7 +73,7 @@ class CoordinatedOptions:
     margin : extra clearance (m) kept between neighbours' capsules while coordinating
     attempt_checks : work cap of one coordination attempt (conflict checks), so one hard
         candidate cannot use the whole budget -- or ``checks_per_fruit`` per fruit, if more
-        (:func:`~coplan.planners.coordinated.coordinate.attempt_checks`)
+        (:func:`~coplan.planners.coordinated.budget.attempt_checks`)
     checks_per_fruit : the cap's growth with the row (8: from 75 fruit on); when it sets the
         cap, the budget is at least five attempts' caps
     budget_checks : work budget of the whole candidate search (conflict checks)

@@ -48,7 +48,8 @@ from enum import Enum
 import numpy as np
 
 from ...allocate.allocation import arm_configs, choose_branches as fastest_branches
-from ..coordinated.coordinate import attempt_checks, coordinate
+from ..coordinated.budget import attempt_checks
+from ..coordinated.coordinate import coordinate
 from ..coordinated.planner import Coordinated, makespan_of
 from ...problem.model import Problem
 from ..coordinated.routing import choose_branches as clear_branches
@@ -104,7 +105,7 @@ class SearchOptions:
     stall : restart from the best state (with ``kick`` random moves) after this many
         evaluations without progress of the current state
     attempt_checks : work cap of one coordinator run (conflict checks), or ``checks_per_fruit``
-        per fruit if more (:func:`~coplan.planners.coordinated.coordinate.attempt_checks`)
+        per fruit if more (:func:`~coplan.planners.coordinated.budget.attempt_checks`)
     seed : seed of the move generator
     fixed_assignment : keep which arm takes which fruit (order, branches and priorities
         still change); used when the caller asked for a given allocation method
