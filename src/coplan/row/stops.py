@@ -30,13 +30,14 @@ stop is the cell planner's to decide (the rules' arm choice only prices the stop
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..kinematics.timing import Move1D, scurve_times
 from ..problem.model import Problem
-from ..ties import TIME_QUANTUM, quantised
+from ..ties import quantised
 from .reach import RowReach
 
 __all__ = ["Stop", "fixed_stops", "fewest_stops", "optimised_stops", "carriage_span", "round_trips", "StopWindow"]
@@ -156,7 +157,7 @@ def arm_overheads(problem: Problem) -> list[float]:
         qb, vb = arm.ik(np.asarray(arm.bin, float), 0.0)
         home = np.asarray(arm.home, float)
         t = min((float(_lb(arm, home, qb[b][None, :])[0]) for b in range(2) if vb[b]), default=0.0)
-        out.append(math.floor(2.0 * t / TIME_QUANTUM) * TIME_QUANTUM)
+        out.append(float(quantised(2.0 * t)))
     return out
 
 
@@ -168,21 +169,6 @@ class StopWindow:
     spans: float = 4.0
     fractions: tuple = tuple(round(0.3 + 0.05 * i, 2) for i in range(15))
     polish: int = 600
-
-
-def _cell_time(options: list[tuple[str, list[tuple[float, int]]]], over: list[float], A: int) -> tuple[float, dict]:
-    """A stop's cell time estimate: its fruit given to arms greedily (fewest options and dearest
-    first, each to the arm it delays least), the busiest arm's round trips plus its way out and
-    home. Returns (estimate, fruit -> arm)."""
-    load = np.zeros(A)
-    used = np.zeros(A, dtype=bool)
-    arm_of = {}
-    for f, opts in sorted(options, key=lambda o: (len(o[1]), -min(c for c, _ in o[1]))):
-        c, a = min(opts, key=lambda ca: (float(quantised(max(load[ca[1]] + ca[0], load.max()))), float(quantised(ca[0])), ca[1]))
-        load[a] += c
-        used[a] = True
-        arm_of[f] = a
-    return (max(load[a] + over[a] for a in range(A) if used[a]) if used.any() else 0.0), arm_of
 
 
 class _Costs:
@@ -199,8 +185,9 @@ class _Costs:
         need = sorted(set(int(k) for k in ks) - self.priced)
         if not need:
             return
-        for (f, k, a), t in round_trips(self.problem, self.reach, self.fruit, np.asarray(need, int)).items():
-            self.by_fruit.setdefault(f, {}).setdefault(k, []).append((math.floor(t / TIME_QUANTUM) * TIME_QUANTUM, a))
+        trips = round_trips(self.problem, self.reach, self.fruit, np.asarray(need, int))
+        for (f, k, a), t in zip(trips, quantised(list(trips.values())).tolist()):
+            self.by_fruit.setdefault(f, {}).setdefault(k, []).append((t, a))
         self.priced |= set(need)
 
 
@@ -260,7 +247,7 @@ def _move_time(g, x0: float, x1: float) -> float:
     t = _MOVES.get((d, g.max_velocity, g.max_acceleration, g.max_jerk))
     if t is None:
         t = Move1D.between(0.0, d, g.max_velocity, g.max_acceleration, g.max_jerk).duration
-        t = _MOVES[(d, g.max_velocity, g.max_acceleration, g.max_jerk)] = math.floor(t / TIME_QUANTUM) * TIME_QUANTUM
+        t = _MOVES[(d, g.max_velocity, g.max_acceleration, g.max_jerk)] = float(quantised(t))
     return t
 
 
@@ -297,8 +284,6 @@ def optimised_stops(problem: Problem, reach: RowReach, window: StopWindow | None
     stops: list[Stop] = []
     info: dict = {"segments": 0, "strides": [], "seconds": []}
     x_now, k_last = g.start, None
-    import time
-
     while True:
         first = min(spans[f][1] for f in todo) if todo else None
         lo = k_last if k_last is not None else first  # the segment starts at the last stop kept (else the first fruit's last chance)

@@ -170,21 +170,21 @@ class _Incumbent:
         plan = finalize_plan(plan, verification, self.n_reach)
         if plan.status not in (PlanStatus.SUCCESS, PlanStatus.PARTIAL):
             return False
+        equal = False  # as much, as fast: kept only with ``ties``, and quietly (not an improvement)
         if self.plan is not None:
             got, have = plan.metrics["harvested"], self.plan.metrics["harvested"]
-            slower = plan.metrics["makespan"] > self.makespan + 1e-9 if ties else plan.metrics["makespan"] >= self.makespan - 1e-9
-            if got < have or (got == have and slower):
+            mk = plan.metrics["makespan"]
+            equal = got == have and mk >= self.makespan - 1e-9
+            if got < have or (equal and not (ties and mk <= self.makespan + 1e-9)):
                 return False
-            if ties and got == have and plan.metrics["makespan"] >= self.makespan - 1e-9:  # an equal plan: swapped in quietly
-                self.plan, self.verification, self.source = plan, verification, source
-                self.candidate = candidate if candidate is not None else self.candidate
-                return True
+        self.plan, self.verification, self.source = plan, verification, source
+        self.candidate = candidate if candidate is not None else self.candidate
+        if equal:
+            return True
         now = _time.perf_counter() - self.t_start
         if self.first_at is None:
             self.first_at, self.first_wall = now, _epoch()
         self.improved_at = now
-        self.plan, self.verification, self.source = plan, verification, source
-        self.candidate = candidate if candidate is not None else self.candidate
         self.history.append({"t": now, "makespan": self.makespan, "source": source})
         lb = plan.metrics.get("lower_bound") or 0.0
         gap = f", {max(self.makespan / lb - 1, 0.0):.2%} over the lower bound {lb:.3f} s" if lb else ""
@@ -209,8 +209,6 @@ def plan_optimal(
     deadline = None if opts.time_limit is None else t_start + opts.time_limit
     timings: dict[str, float] = {}
     n_reach = len(problem.reachable_ids())
-
-
     base: list = []  # the course's baseline and its verification, always beside the plan
 
     def make_baseline() -> None:

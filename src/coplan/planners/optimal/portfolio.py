@@ -148,8 +148,7 @@ def search_portfolio(problem: Problem, start: Coordinated, bound: float, margin:
                           "evaluations": stats.evaluations, "checks": stats.checks, "stop": stats.stop.value})
     if not finished:
         stats = SearchStats()
-        stats.stop = StopReason.INTERRUPTED if not errors or any(e == "interrupted" for e in errors.values()) \
-            else StopReason.BUDGET
+        stats.stop = StopReason.INTERRUPTED if len(errors) < workers else StopReason.BUDGET  # (all failed: their errors are in the summaries)
         return PortfolioResult(start, stats, summaries)
     win = min(finished, key=lambda x: (round(x[0], 9), round(x[1], 9), x[2]))[2]  # (makespan, work, index): no arrival order
     best, stats = results[win]

@@ -150,6 +150,9 @@ def _meetings(xa: _Move, xb: _Move, radii: float, need: float) -> np.ndarray:
     return np.unique(np.round((xa.T[p[close]] - xb.T[q[close]]) * _MS).astype(int))
 
 
+_LATE = "not retimed: the time limit came while building the model"
+
+
 def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float = 100.0, pad: int = 1,
            work: float = 5.0, tables: dict | None = None, memo: dict | None = None,
            deadline: float | None = None) -> RetimeResult:
@@ -204,7 +207,7 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
         boxes = [[_box(x.pts) for x in per[a][0]] for a in (i, j)]
         for ka, xa in enumerate(per[i][0]):  # move against move
             if deadline is not None and _time.perf_counter() > deadline:
-                return RetimeResult(None, "not retimed: the time limit came while building the model", None, n)
+                return RetimeResult(None, _LATE, None, n)
             for kb, xb in enumerate(per[j][0]):
                 if _apart(boxes[0][ka], boxes[1][kb], need + radii):
                     continue
@@ -263,7 +266,7 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
     if deadline is not None:
         left = deadline - _time.perf_counter()
         if left <= 0:
-            return RetimeResult(None, "not retimed: the time limit came while building the model", None, n)
+            return RetimeResult(None, _LATE, None, n)
         solver.parameters.max_time_in_seconds = left
     solver.parameters.random_seed = 0
     # Ctrl-C is the planner's (it saves the incumbent): CP-SAT's own SIGINT handler would end
