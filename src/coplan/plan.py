@@ -33,6 +33,7 @@ __all__ = [
     "Plan",
     "sample_pieces",
     "compute_metrics",
+    "jerk_figures",
     "finalize_plan",
     "load_plan",
     "time_grid_issues",
@@ -202,7 +203,8 @@ def jsonable(x):
 
 
 def compute_metrics(plan: Plan, n_reachable: int) -> dict[str, Any]:
-    """Makespan, cycle times, throughput and per-arm figures from a plan's events.
+    """Makespan, cycle times, throughput and per-arm figures (fruit, cycle time, idle share,
+    RMS and peak jerk) from a plan's events and samples.
 
     ``makespan`` is the end of the last place event. An arm's cycle time is its last place
     time divided by its fruit count; ``cycle_time`` is the worst arm's.
@@ -221,6 +223,8 @@ def compute_metrics(plan: Plan, n_reachable: int) -> dict[str, Any]:
             "cycle_time": last / n if n else None,
             "idle_fraction": min(1.0, max(0.0, 1.0 - busy / makespan)) if makespan > 0 else None,
         }
+    for a, jf in jerk_figures(plan).items():
+        per_arm[a].update(jf)
     cycles = [v["cycle_time"] for v in per_arm.values() if v["cycle_time"] is not None]
     harvested = len(places)
     return {
@@ -235,12 +239,29 @@ def compute_metrics(plan: Plan, n_reachable: int) -> dict[str, Any]:
     }
 
 
+def jerk_figures(plan: Plan) -> dict[str, dict[str, float]]:
+    """Per arm, the RMS and peak joint jerk (rad/s^3) of the replayed plan: third differences
+    of the samples over ``dt^3`` (each a weighted mean of the jerk of any smooth trajectory
+    through the samples, as the verifier reads them), RMS over both joints and the whole plan."""
+    out: dict[str, dict[str, float]] = {}
+    for a, q in plan.q.items():
+        if q.shape[0] < 4:
+            out[a] = {"rms_jerk": 0.0, "peak_jerk": 0.0}
+            continue
+        j = np.diff(np.asarray(q, float), n=3, axis=0) / plan.dt**3
+        out[a] = {"rms_jerk": float(np.sqrt(np.mean(np.sum(j * j, axis=1)))), "peak_jerk": float(np.max(np.abs(j)))}
+    return out
+
+
 def finalize_plan(plan: Plan, verification, n_reachable: int) -> Plan:
     """Set the plan's metrics and status from the verifier's verdict (never upgrades a solver
     failure or an interruption). ``verification`` is the verifier's result (or None)."""
     plan.verification = verification.summary() if verification is not None else None
     keep = {k: v for k, v in plan.metrics.items() if k in _KEPT_METRICS}
     plan.metrics = compute_metrics(plan, n_reachable) | keep
+    if verification is not None:  # least certified clearance less the required, overall and per neighbouring pair
+        plan.metrics["margin"] = verification.margin
+        plan.metrics["margin_per_pair"] = {p.key: p.certified - verification.required_clearance for p in verification.pairs}
     lb = plan.metrics.get("lower_bound")
     if lb:
         plan.metrics["gap_to_lower_bound"] = plan.metrics["makespan"] / lb if plan.metrics["makespan"] else None

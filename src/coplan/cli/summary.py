@@ -116,6 +116,21 @@ def print_summary(console, res) -> None:
         else:
             p(f"  collisions found  {ver.get('collision_count', '-')}   least clearance {fmt(least, ' m', 4)}"
               f" (certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})")
+            pairs = ver.get("pairs") or {}
+            margin = ver.get("margin")
+            if margin is not None and math.isfinite(margin):
+                p(f"  margin            {1000 * margin:.1f} mm certified beyond the clearance (per pair: "
+                  + ", ".join(f"{safe(k)} {1000 * v['margin']:.1f} mm" for k, v in pairs.items() if v.get("margin") is not None) + ")")
+            wid = (res.plan.solver or {}).get("widen") or {}
+            if wid.get("accepted"):
+                p(f"  widened           margin {1000 * wid['margin_before']:.1f} -> {1000 * wid['margin']:.1f} mm at the same makespan "
+                  f"({fmt(wid.get('seconds'), ' s', 2)}; option widen)")
+            elif wid.get("reason"):
+                p(f"  not widened       {safe(wid['reason'])}")
+        per = m.get("per_arm") or {}
+        if any("rms_jerk" in v for v in per.values()):
+            p("  jerk RMS / peak   " + ", ".join(f"{safe(a)} {v['rms_jerk']:.0f} / {v['peak_jerk']:.0f}" for a, v in per.items()
+                                             if "rms_jerk" in v) + " rad/s^3")
         if not ver.get("passed", False):
             p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
     solver = res.plan.solver

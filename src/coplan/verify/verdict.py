@@ -224,6 +224,11 @@ class Verification:
     def certified_clearance(self) -> float:
         return min((p.certified for p in self.pairs), default=math.inf)
 
+    @property
+    def margin(self) -> float:
+        """The certified margin: least certified clearance less the required one (m; inf without pairs)."""
+        return self.certified_clearance - self.required_clearance
+
     def summary(self) -> dict[str, Any]:
         """Small JSON-able verdict (stored in ``plan.json``). Clearances are ``inf`` without pairs."""
         return {
@@ -234,12 +239,14 @@ class Verification:
             "min_clearance": self.min_clearance,
             "certified_clearance": self.certified_clearance,
             "required_clearance": self.required_clearance,
+            "margin": self.margin,
             "violation_count": len(self.violations),
             "violation_kinds": sorted({v.kind.value for v in self.violations}),
             "warning_count": len(self.warnings),
             "unharvested": list(self.unharvested),
             "events_inferred": self.inferred_events is not None,
-            "pairs": {p.key: {"min_clearance": p.min_clearance, "t": p.t, "certified": p.certified} for p in self.pairs},
+            "pairs": {p.key: {"min_clearance": p.min_clearance, "t": p.t, "certified": p.certified,
+                              "margin": p.certified - self.required_clearance} for p in self.pairs},
             "peaks": self.peaks,
             "fcl_agree": None if self.fcl is None else self.fcl.agree,
         }

@@ -290,7 +290,8 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
     segs = schedule(plan)
     pairs = [tuple(p) for p in ([problem.arms[i].name, problem.arms[j].name] for i, j in problem.neighbour_pairs())]
     m = plan.metrics or {}
-    pair_stats = [{"arms": list(p.arms), "min": p.min_clearance, "t": p.t, "certified": p.certified} for p in ver.pairs]
+    pair_stats = [{"arms": list(p.arms), "min": p.min_clearance, "t": p.t, "certified": p.certified,
+                   "margin": p.certified - ver.required_clearance} for p in ver.pairs]
     return {
         "planner": plan.planner_name,
         "status": plan.status.value,
@@ -317,7 +318,9 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
             "min_clearance": ver.min_clearance,
             "certified_clearance": ver.certified_clearance,
             "required_clearance": ver.required_clearance,
+            "margin": ver.margin,
             "pairs": pair_stats,
+            "jerk": {a: {"rms": v.get("rms_jerk"), "peak": v.get("peak_jerk")} for a, v in (m.get("per_arm") or {}).items()},
             "warnings": len(ver.warnings),
         },
         "violations": _violations(ver),

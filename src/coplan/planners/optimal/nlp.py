@@ -39,7 +39,7 @@ import numpy as np
 from ...kinematics import arm as kin
 from ...problem.model import Problem
 from ..coordinated.schedule import ArmSchedule, StepKind
-from .nlp_data import NLP, ConstraintPoint, Grid, NLPSolution, SolverStatus, build_grid, map_status
+from .nlp_data import NLP, ConstraintPoint, Grid, NLPSolution, SolverStatus, WidenGoal, build_grid, map_status
 
 __all__ = ["SolverStatus", "Grid", "ConstraintPoint", "NLP", "NLPSolution", "build_grid", "build_nlp", "map_status"]  # data: .nlp_data
 
@@ -300,9 +300,10 @@ def _arm_rows(problem: Problem, name: str, arm_vars: tuple, v: _Vars, window: tu
 
 
 def _separation_rows(problem: Problem, points: list[ConstraintPoint], margin: float, lo_k: int, K: int, names, Xn, Un, SC,
-                     v: _Vars, sep, rows: list) -> None:
+                     v: _Vars, sep, rows: list, slack=None) -> None:
     """Step 6: at every constraint point, both links on opposite sides of their separating
-    line, ``clearance + margin`` apart (rows appended to ``rows``)."""
+    line, ``clearance + margin`` apart (``+ slack``, a variable, when widening; rows appended
+    to ``rows``)."""
     g, lbg, ubg = rows
     nlines = len(points)
     half = (problem.task.clearance + margin) / 2.0
@@ -325,8 +326,8 @@ def _separation_rows(problem: Problem, points: list[ConstraintPoint], margin: fl
     hs = _take(v.H, kh).T
     sca = ca.DM(np.stack([SC[names[p.ia]] for p in points], axis=1))
     scb = ca.DM(np.stack([SC[names[p.ib]] for p in points], axis=1))
-    out = sep.map(nlines)(xa, ua, xb, ub, hs, taus, v.var("theta").T, v.var("c").T, ca.DM(geo), sca, scb)
-    g.append(ca.vec(out))
+    out = ca.vec(sep.map(nlines)(xa, ua, xb, ub, hs, taus, v.var("theta").T, v.var("c").T, ca.DM(geo), sca, scb))
+    g.append(out if slack is None else out - slack / 2)  # each link keeps half the extra room from the line
     lbg.append(np.zeros(4 * nlines))
     ubg.append(np.full(4 * nlines, np.inf))
 
@@ -370,6 +371,7 @@ def build_nlp(
     smooth_weight: float = 1e-2,
     carry: "NLPSolution | None" = None,
     track: float = 0.0,
+    widen: WidenGoal | None = None,
 ) -> NLP:
     """Build the NLP over knots ``window = (lo, hi)`` of ``grid`` (default: all).
 
@@ -388,6 +390,10 @@ def build_nlp(
     stays near the warm start's pose *at each knot*. All arms share the knots, so the arms
     keep the warm start's (conflict-free) relative progress while the time scales still
     shorten or stretch the intervals.
+
+    ``widen`` (:class:`WidenGoal`, one window over the whole grid) replaces the makespan
+    objective: the plan's makespan and end are held, and the least room between neighbours
+    beyond ``clearance + margin`` (a variable) is maximised, then the jerk integral minimised.
 
     Steps: time-scale segments (:func:`_segments`), the arms' variables (:func:`_arm_blocks`),
     the guess from the previous window (:func:`_guess_from_carry`), separating lines, the
@@ -415,11 +421,15 @@ def build_nlp(
     # infeasibility)
     nlines = len(points)
     th0, c0 = np.zeros(nlines), np.zeros(nlines)
+    poses = _schedule_poses(schedules, names, grid, points)
     for i, p in enumerate(points):
-        th0[i], c0[i] = _line_guess(problem, _schedule_poses(schedules, names, grid, p), p)
+        th0[i], c0[i] = _line_guess(problem, (poses[names[p.ia]][i], poses[names[p.ib]][i]), p)
     blocks.append(("theta", nlines, np.full(nlines, -np.inf), np.full(nlines, np.inf), th0))
     blocks.append(("c", nlines, np.full(nlines, -np.inf), np.full(nlines, np.inf), c0))
     blocks.append(("M", 1, np.zeros(1), np.full(1, np.inf), np.zeros(1)))
+    if widen is not None:
+        blocks.append(("S", 1, np.array([widen.floor]), np.array([widen.cap]),
+                       np.array([min(max(widen.guess, widen.floor), widen.cap)])))
     v = _Vars(blocks, sg)
 
     rows: list = [[], [], []]  # g, lbg, ubg
@@ -437,7 +447,8 @@ def build_nlp(
         if track > 0:
             tracking += t_
     if nlines:
-        _separation_rows(problem, points, margin, lo_k, K, names, Xn, Un, SC, v, sep, rows)
+        _separation_rows(problem, points, margin, lo_k, K, names, Xn, Un, SC, v, sep, rows,
+                         None if widen is None else v.var("S"))
     # step 7: makespan epigraph over the arms whose last place lies in this window; objective
     g, lbg, ubg = rows
     M = v.var("M")
@@ -446,7 +457,16 @@ def build_nlp(
         lbg.append([0.0])
         ubg.append([np.inf])
     m0 = max((float(grid.t[ke + lo_k] - grid.t[lo_k]) for ke in ends.values()), default=0.0)
-    if last:
+    if widen is not None:  # the makespan and the end held; room first, then gentleness
+        g.append(M)
+        lbg.append([0.0])
+        ubg.append([widen.makespan])
+        g.append(v.time_at(K))
+        lbg.append([0.0])
+        ubg.append([widen.end])
+        jerk = sum(ca.sum2(ca.sum1(Un[n] * Un[n]) * v.H.T) for n in names)
+        obj = -widen.weight * v.var("S") + jerk + track * tracking
+    elif last:
         finish = sum(v.time_at(ke) for ke in ends.values()) / max(len(ends), 1)
         obj = M + 0.05 * finish + 0.02 * v.time_at(K) + smooth_weight * smooth + track * tracking
     else:
@@ -456,6 +476,8 @@ def build_nlp(
     x0v[v.layout["M"][0]] = m0
     if warm is not None and warm.x is not None:
         x0v = _transfer_warm(warm, v.layout, x0v)
+    if widen is not None:  # a start whose last bits do not depend on the CPU (IPOPT then takes the same steps)
+        x0v = np.round(x0v, 9)
     lbx = np.concatenate([np.asarray(b[2], float).ravel() for b in blocks])
     ubx = np.concatenate([np.asarray(b[3], float).ravel() for b in blocks])
     nlp = NLP(
@@ -505,11 +527,17 @@ def _transfer_warm(warm: NLPSolution, layout: dict, x0: np.ndarray) -> np.ndarra
     return x0
 
 
-def _schedule_poses(schedules, names, grid: Grid, p: ConstraintPoint):
-    """Both arms' poses (2,), (2,) at point ``p`` in the warm-start schedules."""
-    k1 = min(p.k + 1, grid.K)
-    t = grid.t[p.k] + p.tau * (grid.t[k1] - grid.t[p.k])
-    return schedules[names[p.ia]].state(np.array([t]))[0][0], schedules[names[p.ib]].state(np.array([t]))[0][0]
+def _schedule_poses(schedules, names, grid: Grid, points: list[ConstraintPoint]) -> dict[str, np.ndarray]:
+    """Every arm's poses (P, 2) at the times of ``points`` in the warm-start schedules (one
+    vectorised evaluation per arm)."""
+    if not points:
+        return {n: np.zeros((0, 2)) for n in names}
+    k = np.array([p.k for p in points])
+    tau = np.array([p.tau for p in points])
+    k1 = np.minimum(k + 1, grid.K)
+    t = grid.t[k] + tau * (grid.t[k1] - grid.t[k])
+    used = {names[p.ia] for p in points} | {names[p.ib] for p in points}
+    return {n: schedules[n].state(t)[0] for n in names if n in used}
 
 
 def _line_guess(problem, poses, p: ConstraintPoint):

@@ -12,8 +12,10 @@ from enum import Enum
 import numpy as np
 
 from ..coordinated.schedule import ArmSchedule, StepKind
+from ...plan import Event, EventKind
 
-__all__ = ["SolverStatus", "Grid", "ConstraintPoint", "NLP", "NLPSolution", "build_grid", "map_status"]
+__all__ = ["SolverStatus", "Grid", "ConstraintPoint", "WidenGoal", "NLP", "NLPSolution", "build_grid", "knot_events",
+           "map_status"]
 
 
 class SolverStatus(str, Enum):
@@ -107,6 +109,35 @@ class ConstraintPoint:
     ib: int
     s: int
     u: int
+
+
+def knot_events(schedules: dict[str, ArmSchedule], grid: Grid, t_knots: np.ndarray, upto: int | None = None) -> list[Event]:
+    """The picks and places of ``schedules`` at the knot times ``t_knots`` of a solution on
+    ``grid`` (each step keeps its knot range; steps ending after knot ``upto`` are left out)."""
+    upto = grid.K if upto is None else upto
+    kinds = {StepKind.PICK: EventKind.PICK, StepKind.PLACE: EventKind.PLACE}
+    out = []
+    for n, sch in schedules.items():
+        for st, (k0, k1) in zip(sch.steps, grid.ranges[n]):
+            if st.kind in kinds and k1 <= upto:
+                out.append(Event(n, st.fruit, kinds[st.kind], float(t_knots[k0]), float(t_knots[k1])))
+    return sorted(out, key=lambda e: (e.t_start, e.arm))
+
+
+@dataclass(frozen=True)
+class WidenGoal:
+    """The widening objective of :func:`coplan.planners.optimal.nlp.build_nlp`: every
+    separation row keeps ``clearance + S`` with ``S`` a variable in ``[floor, cap]`` (m); no
+    arm places after ``makespan`` and the plan ends by ``end`` (s); the objective is
+    ``-weight * S`` plus the jerk integral ``sum_k h_k |u_k / jmax|^2`` (``weight`` 0: the jerk
+    alone, with ``S >= floor`` holding the room already won)."""
+
+    makespan: float
+    end: float
+    floor: float
+    cap: float
+    guess: float
+    weight: float
 
 
 # ----------------------------------------------------------------------------- NLP

@@ -73,6 +73,16 @@ class OptimalOptions:
     polish_windows : polish only schedules the NLP solves in at most this many receding windows
         (on longer ones the windows' cuts pin the timing and the polish has not paid)
     polish_rounds : refinement rounds of each polishing window (``max_rounds`` for the last resort)
+    widen : the widening stage (:mod:`coplan.planners.optimal.widen`), last: one joint
+        CasADi/IPOPT program over all arms at the incumbent's makespan, the order of events
+        across arms kept, that widens the least room between neighbours (beyond the required
+        clearance), then smooths the jerk; kept only when verified, no slower and with a
+        certified margin no smaller. (Not ``margin``, the coordinator's planning buffer.)
+    widen_goal : plans whose certified margin (least certified clearance less the required)
+        is already this much (m) are left as they are
+    widen_cap : the most extra room (m) the widening asks for
+    widen_iterations : IPOPT iterations the widening may spend over all its solves
+    widen_knots : plans whose knot grid is longer are not widened (one program over the whole plan)
     tolerance : a makespan this close to the lower bound (s) is proven optimal
     screen : initial NLP constraint points where the schedule's links are within this (m)
     screen_shift : ... also when one arm of a pair runs up to this much (s) earlier or later
@@ -107,6 +117,11 @@ class OptimalOptions:
     polish_iterations: int = 400
     polish_rounds: int = 5
     polish_windows: int = 1
+    widen: bool = True
+    widen_goal: float = 0.05
+    widen_cap: float = 0.10
+    widen_iterations: int = 300
+    widen_knots: int = 600
     tolerance: float = 1e-3
     screen: float = 0.25
     h_target: float = 0.06

@@ -26,6 +26,10 @@ coordinated one, and whenever it stops -- at its work budget, at an explicit
    (receding windows on long rows); its plan is verified and offered like any other. When no
    coordinated plan could be verified at all, this is the planner's last resort (whatever
    ``polish`` says) and its status is reported honestly (best iterate kept, baseline beside it).
+5. **widen** (:func:`coplan.planners.optimal.widen.widen`, ``widen: true`` by default): when the
+   incumbent keeps less than ``widen_goal`` beyond the clearance, one CasADi/IPOPT program over
+   all arms at its makespan and order of events widens the least room between neighbours and
+   smooths the jerk; kept when verified, as fast and with a certified margin no smaller.
 
 Every default budget is work (coordinator checks, evaluations, IPOPT iterations), so the
 same input gives the same plan on any machine and under any load.
@@ -43,7 +47,7 @@ import numpy as np
 from ...allocate.allocation import Allocation, AllocationMethod
 from ..coordinated.planner import Coordinated, CoordinatedOptions, make_plan, plan_coordinated, schedules_plan
 from ..heuristic import plan_heuristic
-from .nlp_data import Grid, SolverStatus, build_grid
+from .nlp_data import Grid, SolverStatus, build_grid, knot_events
 from ...plan import Event, EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from ...problem.model import Problem
 from ...progress import Tick, speaker, ticker
@@ -71,16 +75,6 @@ class OptimalResult:
 
 
 # ----------------------------------------------------------------------------- the NLP
-def _events(schedules: dict[str, ArmSchedule], grid: Grid, t_knots: np.ndarray, upto: int) -> list[Event]:
-    kinds = {StepKind.PICK: EventKind.PICK, StepKind.PLACE: EventKind.PLACE}
-    out = []
-    for n, sch in schedules.items():
-        for st, (k0, k1) in zip(sch.steps, grid.ranges[n]):
-            if st.kind in kinds and k1 <= upto:
-                out.append(Event(n, st.fruit, kinds[st.kind], float(t_knots[k0]), float(t_knots[k1])))
-    return sorted(out, key=lambda e: (e.t_start, e.arm))
-
-
 _FAIL_STATUS = {
     SolverStatus.INTERRUPTED: PlanStatus.INTERRUPTED,
     SolverStatus.INFEASIBLE: PlanStatus.FAILED,
@@ -134,7 +128,7 @@ def nlp_plan(problem: Problem, alloc: Allocation, sched: dict[str, ArmSchedule],
         max_constraint_violation=info.get("max_violation"),
         seconds=info.get("build", 0.0) + info.get("solve", 0.0) + discarded,
     )
-    events = _events(sched, grid, stitched.t, stitched.t.size - 1)
+    events = knot_events(sched, grid, stitched.t, stitched.t.size - 1)
     plan_status = PlanStatus.UNVERIFIED if status.converged else _FAIL_STATUS[status]
     msg = (f"IPOPT {info.get('ipopt_status')}" if status.converged else
            f"IPOPT stopped ({info.get('ipopt_status')}); the best iterate of window {info.get('complete_windows', 0) + 1} is kept")
@@ -237,7 +231,7 @@ def plan_optimal(
                                time_limit=None if opts.time_limit is None else opts.time_limit / 3)
     interrupted = False
     stop = StopReason.BUDGET
-    search_info = nlp_info = refine_info = None
+    search_info = nlp_info = refine_info = widen_info = None
     retime_info: list[dict] = []
     coord_plan = None
     error = error_trace = None
@@ -408,6 +402,13 @@ def plan_optimal(
                 ver = verify(problem, plan)
                 plan = finalize_plan(plan, ver, n_reach)
                 inc.plan, inc.verification, inc.source = plan, ver, "joint NLP (unverified)"
+        if opts.widen and not interrupted and inc.plan is not None and inc.candidate is not None \
+                and inc.source != "joint NLP" and (
+                deadline is None or _time.perf_counter() < deadline):
+            stage("widen")
+            tw = _time.perf_counter()
+            widen_info = widened(problem, inc, opts, deadline, say)
+            timings["widen"] = _time.perf_counter() - tw
         if proven():
             stop = StopReason.PROVEN_OPTIMAL
         elif deadline is not None and _time.perf_counter() >= deadline:
@@ -472,6 +473,7 @@ def plan_optimal(
         "refine": refine_info,
         "retime": retime_info,
         "nlp": nlp_info,
+        "widen": widen_info,
         "options": {k: v for k, v in opts.__dict__.items() if k != "ipopt"} | {"ipopt": dict(opts.ipopt)},
         "timings": dict(timings),
     }
@@ -483,6 +485,54 @@ def plan_optimal(
     alloc_out = inc.candidate.alloc if inc.candidate is not None else None
     status = SolverStatus.INTERRUPTED if interrupted else SolverStatus.OPTIMAL if verified else SolverStatus.NUMERICAL_ERROR
     return OptimalResult(plan, inc.verification, baseline, base_ver, alloc_out, timings, status, coord_plan, error, error_trace)
+
+
+def widened(problem: Problem, inc: _Incumbent, opts: OptimalOptions, deadline: float | None, say) -> dict:
+    """The widening stage on the incumbent's schedules; the widened plan replaces the incumbent
+    when it is verified, harvests as much, is no slower and its certified margin is no smaller.
+    Returns the stage's report (plan.json ``solver.widen``)."""
+    from ...verify.verifier import verify
+    from .widen import WidenOptions, widen
+
+    wopts = WidenOptions(cap=opts.widen_cap, iterations=opts.widen_iterations, max_knots=opts.widen_knots,
+                         h_target=opts.h_target)
+    before = inc.plan
+    margin0 = before.verification["certified_clearance"] - problem.task.clearance
+    if margin0 >= opts.widen_goal:
+        info = {"status": "skipped", "accepted": False, "margin_before": margin0, "makespan_before": inc.makespan,
+                "reason": f"the plan keeps {1000 * margin0:.1f} mm beyond the clearance already "
+                          f"(widen_goal is {1000 * opts.widen_goal:.0f} mm)"}
+        return info
+    res = widen(problem, inc.candidate.alloc, inc.candidate.schedules, inc.makespan, wopts, deadline, say)
+    info = dict(res.info)
+    info.update(accepted=False, margin_before=margin0, makespan_before=inc.makespan)
+    if res.plan is None:
+        say(f"widen: {info.get('reason', info['status'])}; kept the incumbent")
+        return info
+    ver = verify(problem, res.plan)
+    plan = finalize_plan(res.plan, ver, inc.n_reach)
+    for k in ("lower_bound",):
+        if k in before.metrics:
+            plan.metrics[k] = before.metrics[k]
+    margin = ver.certified_clearance - problem.task.clearance if ver.passed else None
+    info.update(verified=bool(ver.passed), margin=margin, makespan=plan.metrics["makespan"])
+    why = None
+    if not ver.passed:
+        why = f"refused by the verifier ({len(ver.violations)} violation{'s' * (len(ver.violations) != 1)})"
+    elif plan.metrics["harvested"] < before.metrics["harvested"]:
+        why = "it harvests less"
+    elif plan.metrics["makespan"] > inc.makespan + 1e-9:
+        why = f"slower ({plan.metrics['makespan']:.4f} s against {inc.makespan:.4f} s)"
+    elif margin < margin0:
+        why = f"its certified margin {1000 * margin:.1f} mm is smaller than {1000 * margin0:.1f} mm"
+    if why is not None:
+        say(f"widen: {why}; kept the incumbent")
+        info["reason"] = why
+        return info
+    inc.plan, inc.verification = plan, ver
+    info["accepted"] = True
+    say(f"widen: certified margin {1000 * margin0:.1f} -> {1000 * margin:.1f} mm at {plan.metrics['makespan']:.4f} s")
+    return info
 
 
 def time_to_ratio(history: list[dict], bound: float | None, ratios=(1.05, 1.02, 1.01)) -> dict[str, float | None]:

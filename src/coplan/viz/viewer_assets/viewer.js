@@ -442,7 +442,7 @@
     box.appendChild(h);
     box.appendChild(el("div", { class: "facts" }, "fruit harvested " + (pl.harvested === null || pl.harvested === undefined ? "\u2013" : pl.harvested) + "/" +
       (pl.reachable === null || pl.reachable === undefined ? "\u2013" : pl.reachable) + (v.unharvested.length ? " (not harvested: " + v.unharvested.join(", ") + ")" : "") +
-      "; least clearance " + num(v.min_clearance, 4) + " m (certified " + num(v.certified_clearance, 4) + " m, required " + num(v.required_clearance, 3) + " m)"));
+      "; least clearance " + num(v.min_clearance, 4) + " m (certified " + num(v.certified_clearance, 4) + " m, required " + num(v.required_clearance, 3) + " m; margin " + (v.margin == null ? "-" : num(1000 * v.margin, 1) + " mm") + ")" + (v.jerk ? "; RMS / peak jerk " + Object.keys(v.jerk).map(function (a) { return a + " " + num(v.jerk[a].rms, 0) + " / " + num(v.jerk[a].peak, 0); }).join(", ") + " rad/s\u00b3" : "")));
     this.tl = sv("svg", { class: "timeline", "data-plan": String(pl.index) });
     this.cl = sv("svg", { class: "clearance", "data-plan": String(pl.index) });
     box.appendChild(this.tl);
@@ -552,7 +552,7 @@
     pl.verdict.pairs.forEach(function (p) {
       const c = pl.clear.find(function (q) { return q.arms[0] === p.arms[0] && q.arms[1] === p.arms[1]; });
       const sw = el("span", { class: "sw", style: "background:" + (c ? c.color : "#999") });
-      const a = el("a", { href: "#", "data-t": String(p.t) }, p.arms.join("\u2013") + ": least " + num(p.min, 4) + " m at " + num(p.t, 2) + " s (certified " + num(p.certified, 4) + ")");
+      const a = el("a", { href: "#", "data-t": String(p.t) }, p.arms.join("\u2013") + ": least " + num(p.min, 4) + " m at " + num(p.t, 2) + " s (certified " + num(p.certified, 4) + ", margin " + (p.margin == null ? "-" : num(1000 * p.margin, 1) + " mm") + ")");
       a.addEventListener("click", function (ev) { ev.preventDefault(); setPlaying(false); setTime(p.t); });
       self.legend.appendChild(sw); self.legend.appendChild(a);
     });

@@ -1,0 +1,240 @@
+"""The widening stage: the same makespan with more room between neighbours and gentler motion.
+
+Entry point: :func:`widen`. From a verified plan's schedules (each arm's moves, picks and
+places, all on one knot grid that keeps every event's order across arms), one CasADi/IPOPT
+program over all arms (:func:`coplan.planners.optimal.nlp.build_nlp` with a
+:class:`~coplan.planners.optimal.nlp_data.WidenGoal`):
+
+maximise ``S``, the least distance between neighbouring links beyond the required clearance
+at every separation point (a max-min slack, capped at ``cap``), with the plan's makespan and
+end held (no arm places later, the plan ends no later); with what is left free, minimise the
+jerk integral ``sum_k h_k |u_k / jmax|^2`` over every arm (one objective: the room weighted
+far above the jerk). Where both arms of a pair hold poses every plan must hold (picks, places,
+home, a locked arm), the distance is a constant: it caps ``S`` and, when it leaves no room to
+win, the program only smooths.
+
+Separation points are added where a dense check of the solution comes closer than the room it
+claims, and the program solved again (``rounds``). The motion is piecewise-constant jerk
+integrated exactly; position and velocity between knots are bounded through their Bezier
+control points and acceleration is linear per interval, so the limits hold for the continuous
+trajectory, not only at the knots: the starting plan is a feasible point (up to its tucked
+transits, which the knot grid represents only approximately).
+
+The result is only a candidate: :func:`coplan.planners.optimal.planner.plan_optimal` keeps it
+when the independent verifier passes it, it harvests as much, is no slower, and its certified
+margin is no smaller. IPOPT's work is capped in iterations (the same plan on any machine).
+"""
+
+from __future__ import annotations
+
+import time as _time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ...allocate.allocation import Allocation
+from ...plan import Plan, PlannerKind, PlanStatus
+from ...problem.model import Problem
+from ...ties import quantised
+from ..coordinated.planner import make_plan
+from ..coordinated.schedule import ArmSchedule, StepKind
+from .nlp import build_nlp
+from .nlp_data import ConstraintPoint, SolverStatus, WidenGoal, build_grid, knot_events
+from .nlp_solve import solve_nlp
+from .windows import min_clearance, refine_points, screen_points
+
+__all__ = ["WidenOptions", "WidenResult", "widen", "held_room", "pinned_knots"]
+
+
+@dataclass(frozen=True)
+class WidenOptions:
+    """The widening stage's settings (from :class:`~coplan.planners.optimal.options.OptimalOptions`).
+
+    cap : the most extra room (m) asked for beyond the required clearance
+    iterations : IPOPT iterations over every solve of both phases (checked before each solve)
+    rounds : solves per phase while separation points are added
+    max_knots : plans whose knot grid is longer are left as they are (one program over the
+        whole plan; a long row's would take minutes)
+    h_bounds : each knot interval may shrink or stretch within these factors of the plan's
+    h_target : knot spacing (s)
+    screen, shift : separation points where the start's links come within ``cap + screen`` (m),
+        also with one arm ``shift`` s earlier or later
+    track : weight keeping every arm near the start's pose at each knot (so that the motion far
+        from any separation point stays where the start had it)
+    give : a solution whose dense check (1 kHz) finds at least ``1 - give`` of the room it
+        claims at its points is kept; else points are added where it dips and it is solved again
+    least : less extra room than this (m) to win: the program only smooths (the room held)
+    feasible : an iterate at IPOPT's iteration cap is kept when no constraint is violated by
+        more than this (the verifier then judges it)
+    """
+
+    cap: float = 0.10
+    iterations: int = 300
+    rounds: int = 3
+    max_knots: int = 600
+    h_bounds: tuple[float, float] = (0.7, 1.5)
+    h_target: float = 0.06
+    screen: float = 0.05
+    shift: float = 0.0
+    track: float = 10.0
+    give: float = 0.15
+    least: float = 0.002
+    feasible: float = 1e-6
+    ipopt: dict = field(default_factory=dict)
+
+
+@dataclass
+class WidenResult:
+    """What the widening produced: ``plan`` (unverified; None when it was skipped or IPOPT
+    failed) and a JSON-able ``info`` (status, room, jerk, iterations, seconds, the reason)."""
+
+    plan: Plan | None
+    info: dict
+
+
+def _weight(cap: float) -> float:
+    """The weight of the room (m) against the jerk integral: at the default cap, 1 mm of room
+    is worth 100 s of one joint at full jerk, so the room comes first and the jerk is
+    smoothed with what is left free."""
+    return 1e4 / max(cap, 1e-3)
+
+
+def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], goal: WidenGoal, opts: WidenOptions,
+            budget: list[int], deadline: float | None, say):
+    """Solve the program, adding points where a dense check of its solution comes closer than
+    the room it claims (less ``give``), up to ``rounds`` times; ``(solution or None, points, rounds)``."""
+    names = [a.name for a in problem.arms]
+    sol = None
+    rounds = []
+    for rnd in range(opts.rounds):
+        if budget[0] <= 0 or (deadline is not None and _time.perf_counter() > deadline):
+            break
+        ipopt = {"ipopt.max_iter": int(budget[0])} | dict(opts.ipopt)
+        nlp = build_nlp(problem, schedules, grid, points, 0.0, h_bounds=opts.h_bounds, h_max=np.inf,
+                        ipopt_options=ipopt, warm=sol, widen=goal, track=opts.track)
+        left = None if deadline is None else max(deadline - _time.perf_counter(), 1e-3)
+        new = solve_nlp(nlp, names, time_limit=left)
+        budget[0] -= new.iterations
+        s_val = float(new.x[nlp.layout["S"][0]])
+        rounds.append({"round": rnd, "points": len(points), "status": new.status.value,
+                       "iterations": new.iterations, "room": s_val,
+                       "seconds": nlp.build_seconds + new.solve_seconds})
+        say(f"widen round {rnd + 1}: {len(points)} separation points, IPOPT {new.ipopt_status} after "
+            f"{new.iterations} iterations, room {1000 * s_val:.1f} mm")
+        # IPOPT at its iteration cap may hold a feasible point that is not yet optimal: it is
+        # kept (the verifier judges it); an infeasible or failed one is not
+        if not (new.status.converged or (new.status == SolverStatus.LIMIT_REACHED and new.max_violation <= opts.feasible)):
+            break
+        sol = new
+        sol.room = s_val  # type: ignore[attr-defined]
+        dense = sol.sample(np.arange(0.0, sol.t[-1], 1e-3))
+        sol.dense_room = rounds[-1]["dense_room"] = min_clearance(problem, dense) - problem.task.clearance  # type: ignore[attr-defined]
+        if sol.dense_room >= (1.0 - opts.give) * s_val or not new.status.converged:  # the room it claims at its points holds between them, nearly
+            break
+        need = problem.task.clearance + max(s_val - 5e-4, 0.0)
+        added = refine_points(problem, sol, 0, sol.t.size - 1, 1000.0, need, set(points), band=0.01)
+        if not added:
+            break
+        points = points + added
+    return sol, points, rounds
+
+
+def pinned_knots(schedules: dict[str, ArmSchedule], grid) -> dict[str, np.ndarray]:
+    """Per arm, (K+1,) bool: knots at which every plan on this grid holds the arm still at a
+    pose it cannot change (home at the start and after its last step, every pick and place)."""
+    out = {}
+    for n, sch in schedules.items():
+        m = np.zeros(grid.K + 1, bool)
+        m[0] = True
+        ranges = grid.ranges[n]
+        for st, (k0, k1) in zip(sch.steps, ranges):
+            if st.kind in (StepKind.PICK, StepKind.PLACE):
+                m[k0 : k1 + 1] = True
+        m[(ranges[-1][1] if ranges else 0):] = True
+        out[n] = m
+    return out
+
+
+def held_room(problem: Problem, schedules: dict[str, ArmSchedule], grid, points: list[ConstraintPoint]):
+    """Split ``points`` into those the NLP can move and those where both arms are held at fixed
+    poses (the distance there is a constant); returns ``(free points, least room at the held
+    ones (m, inf if none), the held point with it)``. No plan on this grid has more room than
+    the held points allow."""
+    names = [a.name for a in problem.arms]
+    pin = pinned_knots(schedules, grid)
+
+    def held(n, p):
+        m = pin[n]
+        return bool(m[p.k] and (p.tau == 0.0 or m[min(p.k + 1, grid.K)]))
+
+    free, fixed = [], []
+    for p in points:
+        (fixed if held(names[p.ia], p) and held(names[p.ib], p) else free).append(p)
+    if not fixed:
+        return free, np.inf, None
+    k = np.array([p.k for p in fixed])
+    t = grid.t[k] + np.array([p.tau for p in fixed]) * (grid.t[np.minimum(k + 1, grid.K)] - grid.t[k])
+    d = np.array([_pair_distance(problem, schedules, names, p, ti) for p, ti in zip(fixed, t)]) - problem.task.clearance
+    i = int(np.argmin(d))
+    return free, float(d[i]), fixed[i]
+
+
+def _pair_distance(problem, schedules, names, p: ConstraintPoint, t: float) -> float:
+    from ...kinematics import arm as kin
+    from ...kinematics.geometry import segment_distance
+
+    A, B = problem.arms[p.ia], problem.arms[p.ib]
+    pa = kin.fk_points(schedules[names[p.ia]].state(np.array([t]))[0][0], A.links, A.base)
+    pb = kin.fk_points(schedules[names[p.ib]].state(np.array([t]))[0][0], B.links, B.base)
+    return float(segment_distance(pa[p.s], pa[p.s + 1], pb[p.u], pb[p.u + 1])) - A.link_radius - B.link_radius
+
+
+def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule], makespan: float,
+          options: WidenOptions | None = None, deadline: float | None = None,
+          say: Callable[[str], None] | None = None) -> WidenResult:
+    """More room and gentler motion for ``schedules`` at their makespan; see the module docstring."""
+    opts = options or WidenOptions()
+    say = say or (lambda m: None)
+    t0 = _time.perf_counter()
+    info: dict = {"status": "skipped", "rounds": [], "iterations": 0}
+    if len(problem.arms) < 2 or not problem.neighbour_pairs():
+        info["reason"] = "no neighbouring arms: nothing to widen"
+        return WidenResult(None, info)
+    grid = build_grid(schedules, opts.h_target)
+    info["knots"] = grid.K + 1
+    if grid.K + 1 > opts.max_knots:
+        info["reason"] = f"the plan needs {grid.K + 1} knots (widen_knots is {opts.max_knots})"
+        return WidenResult(None, info)
+    end = float(grid.t[-1])
+    q0 = {n: s.state(np.arange(0.0, end, 1e-3))[0] for n, s in schedules.items()}
+    room0 = min_clearance(problem, q0) - problem.task.clearance
+    points = screen_points(problem, schedules, grid, 0, grid.K, opts.cap + opts.screen, opts.shift)
+    points, held, where = held_room(problem, schedules, grid, points)
+    cap = min(opts.cap, held)
+    info["room_held"] = None if where is None else held
+    budget = [opts.iterations]
+    goal = WidenGoal(makespan=float(quantised(makespan)), end=float(quantised(end)) + 1e-6, floor=0.0, cap=cap,
+                     guess=round(max(room0, 0.0), 6),
+                     weight=_weight(opts.cap))
+    if cap <= room0 + opts.least:  # no room to win: the jerk alone, the room held
+        names = [a.name for a in problem.arms]
+        info["room_note"] = (f"the least room ({1000 * room0:.1f} mm) is at widen_cap ({1000 * opts.cap:.0f} mm) already"
+                             if where is None or held >= opts.cap else
+                             f"the least room ({1000 * room0:.1f} mm) is set by poses every plan on these events holds "
+                             f"({names[where.ia]} and {names[where.ib]} at t = {grid.t[where.k]:.2f} s: {1000 * held:.1f} mm)")
+        say(f"widen: {info['room_note']}; smoothing only")
+        budget[0] = min(budget[0], opts.iterations // 3)  # the lesser goal gets a third of the work
+        goal = replace(goal, floor=round(max(min(room0, cap) - 5e-4, 0.0), 6), cap=round(max(cap, room0), 6), weight=0.0)
+    sol, points, info["rounds"] = _rounds(problem, schedules, grid, points, goal, opts, budget, deadline, say)
+    if sol is None:
+        info.update(status="failed", reason="IPOPT did not converge",
+                    iterations=sum(r["iterations"] for r in info["rounds"]), seconds=_time.perf_counter() - t0)
+        return WidenResult(None, info)
+    room = sol.room  # type: ignore[attr-defined]
+    events = knot_events(schedules, grid, sol.t)
+    plan = make_plan(problem, alloc, sol.sample, float(sol.t[-1]), events, PlanStatus.UNVERIFIED,
+                     {"message": "widened"}, PlannerKind.OPTIMAL)
+    info.update(status="solved", room_before=room0, room=room, dense_room=sol.dense_room,  # type: ignore[attr-defined]
+                points=len(points), iterations=sum(r["iterations"] for r in info["rounds"]), seconds=_time.perf_counter() - t0)
+    return WidenResult(plan, info)
