@@ -271,14 +271,16 @@ class _Clock:
 def test_time_limit_mid_improvement_returns_the_verified_incumbent(monkeypatch):
     """The clock limit passes right after the search's first improvement: the planner stops
     there and returns that verified incumbent as a success, the limit recorded."""
+    from coplan.planners.optimal import incumbent as incumbent_mod
     from coplan.planners.optimal import planner as optimal_mod
     from coplan.planners.optimal import search as search_mod
+    from coplan.planners.optimal import stages as stages_mod
 
     prob = load_problem(default_problem_path().with_name("five_arm_row.yaml"))
     clock = _Clock(jump=10_000.0)
-    monkeypatch.setattr(search_mod, "_time", clock)
-    monkeypatch.setattr(optimal_mod, "_time", clock)
-    offer = optimal_mod._Incumbent.offer
+    for mod in (search_mod, optimal_mod, stages_mod, incumbent_mod):
+        monkeypatch.setattr(mod, "_time", clock)
+    offer = incumbent_mod.Incumbent.offer
 
     def offer_then_time_passes(self, plan, ver, source, cand=None):
         ok = offer(self, plan, ver, source, cand)
@@ -286,7 +288,7 @@ def test_time_limit_mid_improvement_returns_the_verified_incumbent(monkeypatch):
             clock.fire()
         return ok
 
-    monkeypatch.setattr(optimal_mod._Incumbent, "offer", offer_then_time_passes)
+    monkeypatch.setattr(incumbent_mod.Incumbent, "offer", offer_then_time_passes)
     res = plan_optimal(prob, options=OptimalOptions(time_limit=5_000.0))
     assert res.plan.status == PlanStatus.SUCCESS and verify(prob, res.plan).passed
     assert res.plan.solver["stopped_by"] == "time_limit"
@@ -295,7 +297,7 @@ def test_time_limit_mid_improvement_returns_the_verified_incumbent(monkeypatch):
     assert [k for k, _ in itertools.groupby(h["source"] for h in hist)] == ["coordinated", "search"]
     assert res.plan.metrics["makespan"] == pytest.approx(hist[-1]["makespan"])
     assert res.plan.metrics["makespan"] < res.plan.metrics["coordinated_makespan"]
-    assert res.plan.solver["nlp"] is None  # nothing ran after the limit
+    assert res.plan.solver["nlp"] is None and res.plan.solver["widen"] is None  # nothing ran after the limit
 
 
 def test_ipopt_opt_in_working_directory_is_ignored(tmp_path, monkeypatch, crossing):

@@ -109,7 +109,7 @@ def test_fresh_starts_alternate_between_the_anchor_and_the_start(dense):
 def test_the_optimal_planner_searches_from_the_bounds_allocation(dense, monkeypatch):
     """The planner hands the search the lower bound's own assignment as its anchor (whichever
     optimum the MILP returned), and the search's report says where it began."""
-    import coplan.planners.optimal.planner as planner_mod
+    import coplan.planners.optimal.stages as planner_mod  # (where the stages call the search)
 
     prob, _, lb, _ = dense
     anchors, starts = [], []

@@ -13,7 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 import coplan
-import coplan.planners.optimal.planner as optimal_mod
+import coplan.planners.optimal.stages as optimal_mod  # (where the stages call the coordinator and the search)
 from coplan.cli import app
 from coplan.planners.coordinated import plan_coordinated
 from coplan.kinds import ExitCode, PlanStatus

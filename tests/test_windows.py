@@ -132,7 +132,7 @@ def test_time_shifted_screening_finds_a_superset_of_points(greenhouse, sched_gri
 
 
 def test_an_unclean_schedule_is_solved_again_near_the_warm_start_from_the_first_window(greenhouse, coordinated, monkeypatch):
-    from coplan.planners.optimal import planner as optimal_mod
+    from coplan.planners.optimal import stages as optimal_mod  # (where nlp_plan solves its windows)
 
     levels = []
     original = optimal_mod.solve_windows

@@ -259,9 +259,10 @@ def finalize_plan(plan: Plan, verification, n_reachable: int) -> Plan:
     plan.verification = verification.summary() if verification is not None else None
     keep = {k: v for k, v in plan.metrics.items() if k in _KEPT_METRICS}
     plan.metrics = compute_metrics(plan, n_reachable) | keep
-    if verification is not None:  # least certified clearance less the required, overall and per neighbouring pair
-        plan.metrics["margin"] = verification.margin
-        plan.metrics["margin_per_pair"] = {p.key: p.certified - verification.required_clearance for p in verification.pairs}
+    summary = plan.verification or {}
+    if "margin" in summary:  # least certified clearance less the required, overall and per neighbouring pair
+        plan.metrics["margin"] = summary["margin"]
+        plan.metrics["margin_per_pair"] = {k: v.get("margin") for k, v in (summary.get("pairs") or {}).items()}
     lb = plan.metrics.get("lower_bound")
     if lb:
         plan.metrics["gap_to_lower_bound"] = plan.metrics["makespan"] / lb if plan.metrics["makespan"] else None

@@ -405,8 +405,16 @@ def compare_cmd(
     options_file: Annotated[Optional[Path], typer.Option(
         "--options", help="Solver options (YAML) for the coordinated and optimal planners.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print compare.json's content instead of the tables.")] = False,
+    clearance_sweep: Annotated[bool, typer.Option(
+        "--clearance-sweep", help="Instead: the makespan against the clearance asked for (the problem's, +10, +25, +50, "
+        "+100 mm; --extra to choose), one planner (the first --planner, default optimal), every plan verified.")] = False,
+    extra: Annotated[Optional[list[float]], typer.Option(
+        "--extra", help="With --clearance-sweep: an extra clearance in mm, repeatable.")] = None,
 ):
     """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
+
+    With ``--clearance-sweep``: one problem file planned at its clearance plus each extra
+    (clearance.json, clearance.md, clearance_cost.png).
 
     Exit codes: 0 the comparison ran; 3 a problem file is invalid (the others are still
     compared); 7 a planner failed on some problem (recorded in its row).
@@ -414,6 +422,10 @@ def compare_cmd(
     from ..report.comparison import DEFAULT_PLANNERS, PlannerSpec, compare, rich_tables
 
     source = _resolve_problem(problems)
+    if clearance_sweep:
+        raise typer.Exit(int(_clearance_sweep(source, planner, extra, out, figures, time_limit, options_file, as_json)))
+    if extra:
+        _fail(ExitCode.USAGE, "--extra: only with --clearance-sweep")
     if source.is_file():
         from ..problem.model import load_problem
 
@@ -446,6 +458,27 @@ def compare_cmd(
         out_console.print(f"wrote {_s(cmp.files['json'])} and {_s(cmp.files['markdown'])}")
     code = ExitCode.BAD_INPUT if cmp.bad_inputs else ExitCode.SOLVER_FAILED if cmp.failed_runs else ExitCode.OK
     raise typer.Exit(int(code))
+
+
+def _clearance_sweep(source: Path, planner, extra, out: Path, figures: bool, time_limit, options_file, as_json: bool) -> ExitCode:
+    """``coplan compare PROBLEM --clearance-sweep``: its inputs checked here, run by :mod:`.clearance`."""
+    from .clearance import run_clearance_sweep
+
+    if not source.is_file():
+        _fail(ExitCode.USAGE, f"--clearance-sweep: expected one problem file, found the folder {_s(source)}")
+    if planner and len(planner) > 1:
+        _fail(ExitCode.USAGE, f"--clearance-sweep: expected at most one --planner, found {len(planner)}")
+    if extra and any(not (0 <= e <= 1000) for e in extra):
+        _fail(ExitCode.USAGE, f"--extra: expected extra clearances from 0 to 1000 mm, found {extra}")
+    try:
+        kind = PlannerKind(planner[0].split(":")[0]) if planner else PlannerKind.OPTIMAL
+    except ValueError:
+        _fail(ExitCode.USAGE, f"--planner: expected heuristic, coordinated or optimal, found {planner[0]!r}")
+    _check_time_limit(time_limit)
+    failures.check_out_dir(out)
+    options = _solver_options(options_file, time_limit, kind != PlannerKind.HEURISTIC)
+    hint = _budget_hint(kind, time_limit) if kind == PlannerKind.OPTIMAL else None
+    return run_clearance_sweep(source, kind, extra, out, figures, options, hint, as_json, out_console, err_console)
 
 
 # ---- plot / animate (coplan.viz)

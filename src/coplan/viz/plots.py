@@ -28,6 +28,7 @@ from .timeline import joint_derivatives, limit_tolerance, pair_clearance, schedu
 
 __all__ = [
     "plot_gantt",
+    "plot_clearance_cost",
     "plot_clearance",
     "plot_joints",
     "plot_workspace",
@@ -457,6 +458,32 @@ def plot_workspace(problem: Problem, arm: str | None = None, *, resolution: int 
 
 
 # --------------------------------------------------------------------------- files
+def plot_clearance_cost(rows: list[dict], *, title: str | None = None):
+    """Makespan (s) against the clearance asked for (m), from :func:`coplan.report.clearance.clearance_cost`'s
+    rows; an unverified plan is drawn hollow, a clearance the geometry cannot give is marked on the axis."""
+    fig = _figure((6.4, 3.6))
+    ax = fig.add_subplot()
+    ok = [r for r in rows if r.get("makespan")]
+    x = [r["clearance"] for r in ok]
+    y = [r["makespan"] for r in ok]
+    ax.plot(x, y, "-", color="#1f77b4", lw=1.5)
+    for r in ok:
+        ax.plot(r["clearance"], r["makespan"], "o", color="#1f77b4", mfc="#1f77b4" if r.get("verified") else "white", ms=7)
+        fewer = r.get("harvested") is not None and r.get("reachable") and r["harvested"] < r["reachable"]
+        label = f"+{r['extra_mm']:g} mm" + (f"\n{r['harvested']}/{r['reachable']} fruit" if fewer else "")
+        ax.annotate(label, (r["clearance"], r["makespan"]), textcoords="offset points", xytext=(4, 6), fontsize=8)
+    for r in rows:
+        if r.get("error"):
+            ax.axvline(r["clearance"], color="#d62728", ls=":", lw=1)
+            ax.annotate("impossible", (r["clearance"], ax.get_ylim()[0]), rotation=90, fontsize=8, color="#d62728",
+                        xytext=(3, 4), textcoords="offset points")
+    ax.set_xlabel("clearance asked for (m)")
+    ax.set_ylabel("makespan (s)")
+    ax.grid(alpha=0.3)
+    ax.set_title(title or "makespan against the clearance asked for", fontsize=10)
+    return fig
+
+
 def save_comparison_figures(problem: Problem, plans: Mapping[str, Plan], out_dir: Path, *, dpi: int = 110) -> list[Path]:
     """Write the comparison figures of several plans of one problem as PNGs; return the paths.
 

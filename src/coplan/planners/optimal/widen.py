@@ -119,7 +119,7 @@ def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], go
         s_val = float(new.x[nlp.layout["S"][0]])
         rounds.append({"round": rnd, "points": len(points), "status": new.status.value,
                        "iterations": new.iterations, "room": s_val,
-                       "seconds": nlp.build_seconds + new.solve_seconds})
+                       "wall_seconds": nlp.build_seconds + new.solve_seconds})
         say(f"widen round {rnd + 1}: {len(points)} separation points, IPOPT {new.ipopt_status} after "
             f"{new.iterations} iterations, room {1000 * s_val:.1f} mm")
         # IPOPT at its iteration cap may hold a feasible point that is not yet optimal: it is
@@ -229,12 +229,12 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     sol, points, info["rounds"] = _rounds(problem, schedules, grid, points, goal, opts, budget, deadline, say)
     if sol is None:
         info.update(status="failed", reason="IPOPT did not converge",
-                    iterations=sum(r["iterations"] for r in info["rounds"]), seconds=_time.perf_counter() - t0)
+                    iterations=sum(r["iterations"] for r in info["rounds"]), wall_seconds=_time.perf_counter() - t0)
         return WidenResult(None, info)
     room = sol.room  # type: ignore[attr-defined]
     events = knot_events(schedules, grid, sol.t)
     plan = make_plan(problem, alloc, sol.sample, float(sol.t[-1]), events, PlanStatus.UNVERIFIED,
                      {"message": "widened"}, PlannerKind.OPTIMAL)
     info.update(status="solved", room_before=room0, room=room, dense_room=sol.dense_room,  # type: ignore[attr-defined]
-                points=len(points), iterations=sum(r["iterations"] for r in info["rounds"]), seconds=_time.perf_counter() - t0)
+                points=len(points), iterations=sum(r["iterations"] for r in info["rounds"]), wall_seconds=_time.perf_counter() - t0)
     return WidenResult(plan, info)

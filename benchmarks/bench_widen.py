@@ -1,0 +1,145 @@
+"""The widening stage's figures -- the targets of issue 30 ("the same makespan with the widest
+clearance margin and the gentlest motion").
+
+For every shipped cell problem and ``--layouts`` interference-heavy random layouts
+(``coplan.generate.overlap_problem``: 2-3 lesson arms 1.3-1.6 m apart, every fruit in a zone two
+neighbours share), one default ``coplan solve`` (optimal planner, widening on), the plan written
+and verified again from its file as ``coplan verify`` does; from the widening stage's report in
+plan.json (``solver.widen``):
+
+* makespan before and after (the incumbent the stage started from, and the plan returned), and
+  whether the optimality proof survived;
+* certified margin (least certified clearance less the required) before and after;
+* RMS jerk (mean over the arms) before and after;
+* the time the stage added, against the rest of the same solve.
+
+Then the makespan against the clearance asked for (the problem's, +10, +25, +50, +100 mm) on
+crossing_paths and dense_overlap, every plan verified (``coplan compare --clearance-sweep``).
+
+    python benchmarks/bench_widen.py [--layouts 30] [--no-sweep]
+
+One run on one machine: every ratio is against a figure measured in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from coplan.generate import overlap_problem, to_yaml
+from coplan.pipeline import solve
+from coplan.plan import load_plan
+from coplan.problem import load_problem, parse_problem, shipped_problems
+from coplan.report.clearance import EXTRAS_MM, clearance_cost
+from coplan.verify import verify
+
+
+def layouts(n: int):
+    """``n`` interference-heavy layouts: 2 or 3 arms, 1.3-1.6 m apart, 3 fruit per arm in shared zones."""
+    out = []
+    for seed in range(n):
+        arms = 2 + seed % 2
+        spacing = 1.3 + 0.3 * ((seed * 7) % 10) / 9
+        d = overlap_problem(n_arms=arms, n_fruits=3 * arms, spacing=round(spacing, 3), seed=100 + seed,
+                            name=f"overlap-{arms}x{3 * arms}-s{seed}")
+        out.append(parse_problem(to_yaml(d), d["name"]))
+    return out
+
+
+def run(problem, folder: Path) -> dict:
+    t = time.perf_counter()
+    res = solve(problem, out_dir=folder)
+    wall = time.perf_counter() - t
+    plan = load_plan(folder / "plan.json")  # as `coplan verify` reads it
+    ver = verify(problem, plan)
+    m = res.plan.metrics
+    w = res.plan.solver.get("widen") or {}
+    timings = res.plan.solver.get("timings") or {}
+    added = timings.get("widen", 0.0)
+    mean = lambda d: float(np.mean([v for v in (d or {}).values() if v is not None])) if d else None  # noqa: E731
+    jerk_after = mean({a: v.get("rms_jerk") for a, v in m.get("per_arm", {}).items()})
+    jerk_before = mean(w.get("rms_jerk_before")) if w else jerk_after
+    margin_after = ver.margin if ver.pairs else None
+    margin_before = w.get("margin_before", margin_after)
+    return {
+        "problem": problem.name, "arms": len(problem.arms), "fruit": len(problem.fruits),
+        "makespan_before": w.get("makespan_before", m["makespan"]), "makespan": m["makespan"],
+        "optimality": m.get("optimality"), "margin_before": margin_before, "margin": margin_after,
+        "jerk_before": jerk_before, "jerk": jerk_after, "widen_s": added, "rest_s": timings.get("total", wall) - added,
+        "wall": wall, "verified": bool(ver.passed), "accepted": bool(w.get("accepted")),
+        "note": "widened" if w.get("accepted") else (w.get("reason") or w.get("status") or "no neighbours"),
+    }
+
+
+def mm(x):
+    return "-" if x is None or not np.isfinite(x) else f"{1000 * x:.1f}"
+
+
+def table(rows: list[dict]) -> None:
+    print("| problem | arms x fruit | makespan before -> after (s) | optimality | certified margin before -> after (mm) "
+          "| RMS jerk before -> after (rad/s^3) | widening (s) / rest of the solve (s) | verified | stage |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        jb, ja = r["jerk_before"], r["jerk"]
+        print(f"| {r['problem']} | {r['arms']} x {r['fruit']} | {r['makespan_before']:.4f} -> {r['makespan']:.4f} | "
+              f"{r['optimality']} | {mm(r['margin_before'])} -> {mm(r['margin'])} | {jb:.1f} -> {ja:.1f} "
+              f"({100 * (ja / jb - 1):+.0f} %) | {r['widen_s']:.2f} / {r['rest_s']:.2f} "
+              f"({100 * r['widen_s'] / max(r['rest_s'], 1e-9):.0f} %) | {'yes' if r['verified'] else 'NO'} | {r['note']} |")
+
+
+def verdicts(rows: list[dict], label: str) -> None:
+    held = all(abs(r["makespan"] - r["makespan_before"]) <= 1e-3 for r in rows)
+    room = [r for r in rows if r["margin_before"] is not None and np.isfinite(r["margin_before"])]
+    ok = [r for r in room if r["margin"] >= min(2 * r["margin_before"], 0.05) - 1e-9 or r["margin"] >= 0.05]
+    ratios = [r["jerk"] / r["jerk_before"] for r in rows if r["jerk_before"]]
+    widened = [r["jerk"] / r["jerk_before"] for r in rows if r["accepted"]]
+    print(f"\n{label}: makespan held within 1 ms on every problem: {held}; certified margin doubled or >= 50 mm on "
+          f"{len(ok)} of {len(room)}; median RMS jerk ratio {statistics.median(ratios):.3f} over all"
+          + (f", {statistics.median(widened):.3f} over the {len(widened)} widened" if widened else "")
+          + f"; every plan verified: {all(r['verified'] for r in rows)}; the stage added at most "
+          f"{max(100 * r['widen_s'] / max(r['rest_s'], 1e-9) for r in rows):.0f} % "
+          f"({max(r['widen_s'] for r in rows):.2f} s)")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--layouts", type=int, default=30)
+    ap.add_argument("--no-sweep", action="store_true")
+    args = ap.parse_args()
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        shipped = [load_problem(p) for p in shipped_problems()]
+        shipped = [p for p in shipped if p.gantry is None]
+        rows = [run(p, tmp / p.name) for p in shipped]
+        print("## Shipped problems (default solve)\n")
+        table(rows)
+        verdicts(rows, "shipped")
+        lay = [run(p, tmp / p.name) for p in layouts(args.layouts)]
+        print(f"\n## {len(lay)} interference-heavy random layouts (default solve)\n")
+        table(lay)
+        verdicts(lay, "layouts")
+        if not args.no_sweep:
+            for stem in ("crossing_paths", "dense_overlap"):
+                path = next(p for p in shipped_problems() if p.stem == stem)
+                cost = clearance_cost(path, tmp / f"sweep-{stem}", EXTRAS_MM, "optimal", figures=False)
+                print(f"\n## {cost.problem}: makespan against the clearance asked for (optimal planner)\n")
+                print("| clearance (m) | makespan (s) | x the problem's | certified margin (mm) | harvested | verified |")
+                print("|---|---|---|---|---|---|")
+                for r in cost.rows:
+                    if r.get("error"):
+                        print(f"| {r['clearance']:.3f} | impossible: {r['error']} | - | - | - | - |")
+                        continue
+                    ratio = "-" if r.get("ratio") is None else f"{r['ratio']:.3f}"
+                    print(f"| {r['clearance']:.3f} (+{r['extra_mm']:g} mm) | {r['makespan']:.3f} | {ratio} | "
+                          f"{r['margin_mm']:.1f} | {r['harvested']}/{r['reachable']} | {'yes' if r['verified'] else 'NO'} |")
+    print(f"\n(one run, {time.perf_counter() - t0:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,463 @@
+"""The optimal planner's stages, run in turn over one incumbent (:data:`STAGES`).
+
+Each stage is a function of one :class:`Run` (the problem, the options, the incumbent, the
+shared caches, the clock and every stage's report) that improves the incumbent or leaves it:
+
+========== ==================================================================================
+coordinated the coordinated planner's candidates; the first verified one is the incumbent
+retime      the coordinated plan's moves, every start chosen together by CP-SAT
+search      large-neighbourhood search over allocation, order, branches, priorities
+refine      the search's neighbourhood again, each neighbour retimed (or the search's best retimed)
+polish      the joint NLP where the incumbent still waits (``polish``); the last resort when
+            nothing could be verified
+widen       one joint NLP at the incumbent's makespan: more room between neighbours, less jerk
+========== ==================================================================================
+
+Adding or reordering a stage is one line of :data:`STAGES`. Each stage's report goes to
+plan.json (``solver.<stage>``) and its wall time to ``solver.timings``; ``solver.stages``
+lists what each stage did.
+"""
+
+from __future__ import annotations
+
+import time as _time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ...allocate.allocation import AllocationMethod
+from ...allocate.screen import screened
+from ...plan import Plan, PlannerKind, PlanStatus, finalize_plan
+from ...problem.model import Problem
+from ...progress import Tick
+from ..coordinated.planner import Coordinated, CoordinatedOptions, make_plan, plan_coordinated, schedules_plan
+from ..coordinated.schedule import ArmSchedule, StepKind, decoupled_schedules
+from ..heuristic import plan_heuristic
+from .incumbent import Incumbent
+from .nlp_data import Grid, SolverStatus, build_grid, knot_events
+from .options import OptimalOptions
+from .search import Neighbourhood, SearchOptions, StopReason, improve
+from .windows import LADDER, solve_windows, window_count
+
+__all__ = ["Run", "STAGES", "nlp_plan", "retimable", "widened"]
+
+
+@dataclass
+class Run:
+    """One optimal-planner run: what every stage reads and writes."""
+
+    problem: Problem
+    allocation: AllocationMethod | str
+    opts: OptimalOptions
+    say: Callable[[str], None]
+    tick: Callable[[Tick], None]
+    t_start: float
+    inc: Incumbent
+    deadline: float | None = None
+    cache: dict = field(default_factory=dict)  # routes and moves shared by every coordinator run
+    timings: dict = field(default_factory=dict)
+    base: list = field(default_factory=list)  # the course's baseline and its verification
+    reports: dict = field(default_factory=lambda: {"search": None, "refine": None, "retime": [], "nlp": None,
+                                                   "widen": None})
+    log: list = field(default_factory=list)  # per stage: name, seconds, what it did
+    coord: object = None  # the coordinated planner's result
+    coord_plan: Plan | None = None
+    cand: Coordinated | None = None  # the coordinated planner's best candidate
+    start: Coordinated | None = None  # where the search starts
+    found: Coordinated | None = None  # the search's best
+    stats: object = None
+    hood: Neighbourhood | None = None
+    bound: float = 0.0
+    interrupted: bool = False
+    stop: StopReason = StopReason.BUDGET
+
+    def __post_init__(self):
+        self.n_reach = len(self.problem.reachable_ids())
+        self.n_harvestable = int(screened(self.problem).reach.any(axis=0).sum())
+
+    # ---------------------------------------------------------------- helpers for the stages
+    def in_time(self) -> bool:
+        return self.deadline is None or _time.perf_counter() < self.deadline
+
+    def everything_harvestable(self, p: Plan | None) -> bool:
+        """A verified plan that harvests every fruit the screen allows: the bound is about
+        exactly those, so meeting it proves the plan optimal (a partial plan too, whose other
+        fruit no plan can harvest)."""
+        return p is not None and p.status in (PlanStatus.SUCCESS, PlanStatus.PARTIAL) \
+            and p.metrics.get("harvested", 0) >= self.n_harvestable
+
+    def proven(self) -> bool:
+        return self.everything_harvestable(self.inc.plan) and self.inc.makespan <= self.bound + self.opts.tolerance
+
+    def make_baseline(self) -> None:
+        """The baseline, made once the first verified plan is in hand (so that the first plan
+        does not wait for it: 0.4-2.6 s on rows of 100-600 fruit), else at the end."""
+        from ...verify.verifier import verify
+
+        tb = _time.perf_counter()
+        b = plan_heuristic(self.problem)
+        v = verify(self.problem, b)
+        self.base.extend([finalize_plan(b, v, self.n_reach), v])
+        self.timings["baseline"] = _time.perf_counter() - tb
+
+    def stage(self, name: str, unit: str = "") -> Callable[[float], None]:
+        """A tick for stage ``name`` now, and a callable that ticks its share later."""
+        def at(share: float | None) -> None:
+            self.tick(Tick(name, share or 0.0, None if share is None else 1.0, unit,
+                           self.inc.makespan if self.inc.plan else None, self.bound or None))
+        at(None if not unit else 0.0)
+        return at
+
+    def checked(self, c: Coordinated) -> tuple[Plan, object]:
+        """A candidate's plan and its verification."""
+        from ...verify.verifier import verify
+
+        p = schedules_plan(self.problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
+        return p, verify(self.problem, p)
+
+    def offer(self, c: Coordinated, source: str) -> bool:
+        """A candidate's plan, verified, offered to the incumbent; whether it was kept."""
+        return self.inc.offer(*self.checked(c), source, c)
+
+    def retimed(self, c: Coordinated | None, of: str) -> bool:
+        """The retimed ``c`` offered to the incumbent (when retiming is on and can still gain);
+        whether a retiming ran."""
+        if not self.opts.retime or c is None or c.fallback or self.proven() or not self.in_time():
+            return False
+        from .retime import retime, retimed_candidate
+
+        self.stage("retime")
+        tr = _time.perf_counter()
+        r = retime(self.problem, c.schedules, self.opts.margin, work=self.opts.retime_work,
+                   tables=self.cache.setdefault("curve_tables", {}), memo=self.cache.setdefault("meetings", {}),
+                   deadline=None if self.deadline is None else tr + (self.deadline - tr) / 2)  # (under a limit: half what is left)
+        entry = {"of": of, "status": r.status, "makespan_before": c.makespan, "makespan": r.makespan,
+                 "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
+        if r.schedules is not None and r.makespan < min(c.makespan, self.inc.makespan) - 1e-9:
+            entry["accepted"] = self.offer(retimed_candidate(c, r), "retime")
+        self.reports["retime"].append(entry)
+        self.timings["retime"] = self.timings.get("retime", 0.0) + entry["wall_seconds"]
+        return True
+
+
+# ----------------------------------------------------------------------------- the stages
+def coordinated(run: Run) -> str:
+    """The coordinated planner; its first conflict-free candidate is verified and offered at
+    once (a verified plan long before every candidate is tried), its best one after."""
+    from ...verify.verifier import verify
+
+    problem, opts, inc = run.problem, run.opts, run.inc
+
+    def first_feasible(c: Coordinated) -> None:
+        if inc.plan is None and not c.fallback:
+            p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
+            inc.offer(p, verify(problem, p), "coordinated", c)
+            if not run.base:
+                run.make_baseline()
+
+    # under a clock limit the coordinated stage's later candidates get at most a third of it
+    # (its first always completes: there must be a plan); the rest is the search's and retiming's
+    copts = CoordinatedOptions(margin=opts.margin, budget_checks=opts.coordination_checks,
+                               time_limit=None if opts.time_limit is None else opts.time_limit / 3)
+    run.stage("coordinated")
+    t0 = _time.perf_counter()
+    run.coord = coord = plan_coordinated(problem, run.allocation, copts, run.say, run.cache, on_feasible=first_feasible)
+    run.timings["coordinated"] = _time.perf_counter() - t0 - run.timings.get("baseline", 0.0)  # (the baseline is made inside it)
+    run.coord_plan = coord.plan
+    run.cand = cand = coord.candidate
+    if cand is not None:
+        inc.offer(schedules_plan(problem, cand.alloc, cand.schedules, PlannerKind.OPTIMAL, {}), coord.verification,
+                  "coordinated", cand)
+    run.bound = coord.plan.metrics.get("lower_bound") or 0.0
+    run.start = inc.candidate
+    return "planned" if cand is not None else "no conflict-free candidate"
+
+
+def retime_coordinated(run: Run) -> str:
+    """The coordinated plan's moves retimed together."""
+    return "ran" if run.retimed(run.start, "coordinated") else "skipped"
+
+
+def search(run: Run) -> str:
+    """Allocation, order, branches, priorities with the coordinator as evaluator (in
+    ``workers`` processes when asked)."""
+    start, opts = run.start, run.opts
+    if start is None or run.proven() or opts.search_work <= 0 or opts.search_evaluations <= 0 or start.fallback:
+        return "skipped"
+    ts = _time.perf_counter()
+    sopts = SearchOptions(evaluations=opts.search_evaluations, work=opts.search_work, patience=opts.search_patience,
+                          starts=opts.search_starts, seed=opts.seed, temperature=opts.search_temperature,
+                          tolerance=opts.tolerance,
+                          fixed_assignment=AllocationMethod(run.allocation) != AllocationMethod.MAKESPAN)
+    anchor = run.coord.bound.assignment if run.coord.bound is not None else None
+    run.hood = Neighbourhood(run.problem, start, opts.margin, sopts, run.cache)
+
+    def on_improve(c: Coordinated) -> None:
+        run.offer(c, "search")
+
+    if opts.workers > 1:  # a portfolio of seeded searches in parallel processes
+        from .portfolio import search_portfolio
+
+        port = search_portfolio(run.problem, start, run.bound, opts.margin, sopts, opts.workers, on_improve, run.deadline,
+                                anchor, run.stage("search", f"of its work budget (slowest of {opts.workers} workers)"))
+        found, stats = port.best, port.stats
+        if found is not start:  # the winner, whichever worker's best arrived first at an equal makespan
+            run.inc.offer(*run.checked(found), "search", found, ties=True)
+    else:
+        found, stats = improve(run.problem, start, run.bound, opts.margin, sopts, on_improve, run.deadline, run.cache,
+                               anchor, run.hood, run.stage("search", "of its work budget"))
+    run.reports["search"] = stats.summary()
+    if opts.workers > 1:
+        run.reports["search"]["workers"] = port.workers
+    run.timings["search"] = _time.perf_counter() - ts
+    run.found, run.stats, run.stop = found, stats, stats.stop
+    run.interrupted = stats.stop == StopReason.INTERRUPTED
+    return stats.stop.value
+
+
+def refine(run: Run) -> str:
+    """The search's neighbourhood again from its best, each neighbour retimed; on problems
+    too long to refine (or with ``refine_retimes: 0``) the search's best alone is retimed."""
+    found, stats, opts = run.found, run.stats, run.opts
+    if found is None or run.interrupted:
+        return "skipped"
+    n_fruit = sum(len(seq) for seq in found.alloc.assignment.values())
+    refining = opts.retime and opts.refine_retimes > 0 and n_fruit <= opts.refine_fruit
+    if not (refining and not run.proven() and stats.best_state is not None and run.in_time()):
+        if found is run.start:
+            return "skipped"
+        return "retimed the search's best" if run.retimed(found, "search") else "skipped"
+    from .refine import RefineOptions, refine as refine_search
+
+    tr = _time.perf_counter()
+
+    def offer_refined(c: Coordinated) -> bool:
+        """Offered like any other; the refinement drops what the verifier refuses (and keeps
+        its own best, which may trail the incumbent)."""
+        p, ver = run.checked(c)
+        run.inc.offer(p, ver, "refine", c)
+        return bool(ver.passed)
+
+    ropts = RefineOptions(retimes=opts.refine_retimes, work=opts.retime_work, tolerance=opts.tolerance)
+    _, rstats = refine_search(run.problem, run.hood, stats.best_state, found, run.bound, opts.margin, ropts, offer_refined,
+                              run.deadline, run.cache.setdefault("curve_tables", {}), run.cache.setdefault("meetings", {}),
+                              stats.local_bests, run.stage("refine", "of its retimings"))
+    run.reports["refine"] = rstats.summary()
+    run.timings["refine"] = _time.perf_counter() - tr
+    run.stop = rstats.stop
+    run.interrupted = rstats.stop == StopReason.INTERRUPTED
+    return rstats.stop.value
+
+
+def polish(run: Run) -> str:
+    """The joint NLP from the incumbent's schedules, where it still waits (``polish``); or,
+    when nothing could be verified, the last resort from whatever schedules there are."""
+    from ...verify.verifier import verify
+
+    problem, opts, inc, say = run.problem, run.opts, run.inc, run.say
+    within = run.in_time()
+    src = inc.candidate or run.cand
+    if src is None and run.n_reach:  # nothing coordinated: the NLP starts from the decoupled plan
+        from ...allocate.allocation import allocate
+
+        a0 = allocate(problem, run.allocation)
+        src = Coordinated(a0, decoupled_schedules(problem, a0), a0.estimated_makespan)
+        say("no conflict-free coordination found; the joint NLP starts from the decoupled (colliding) plan")
+    slack = src is not None and retimable(src.schedules)
+    grid = None
+    if src is not None and inc.plan is not None and opts.polish and not run.proven():
+        if not slack:
+            say("joint NLP skipped: the arm that places last never waits and moves straight between its poses, "
+                "so no retiming of the same poses and order can finish it sooner")
+        else:
+            grid = build_grid(src.schedules, opts.h_target)
+            n_win = window_count(grid, opts.window, src.schedules)
+            if n_win > opts.polish_windows:
+                slack = False
+                say(f"joint NLP skipped: the schedule needs {n_win} receding windows (polish_windows is {opts.polish_windows})")
+    if run.interrupted or not within or src is None or not run.n_reach or run.proven() or not (
+            inc.plan is None or (opts.polish and slack)):
+        return "skipped"
+    run.stage("joint NLP")
+    tp = _time.perf_counter()
+    popts = replace(opts, ipopt={"ipopt.max_iter": 200} | dict(opts.ipopt),
+                    max_rounds=min(opts.max_rounds, opts.polish_rounds)) if inc.plan else opts
+    plan, nlp_info, nlp_status = nlp_plan(problem, src.alloc, src.schedules, popts, run.deadline, say,
+                                          opts.polish_iterations if inc.plan else None, grid)
+    run.reports["nlp"] = nlp_info
+    run.timings["polish"] = _time.perf_counter() - tp
+    run.interrupted = nlp_status == SolverStatus.INTERRUPTED
+    if plan.status != PlanStatus.UNVERIFIED and inc.plan is not None:
+        say(f"joint NLP: {plan.solver.get('message', 'no solution')}; kept the incumbent")
+    if plan.status == PlanStatus.UNVERIFIED:
+        ver = verify(problem, plan)
+        accepted = inc.offer(plan, ver, "joint NLP")
+        nlp_info["accepted"] = accepted
+        nlp_info["verified"] = bool(ver.passed)
+        if not accepted and inc.plan is not None:
+            why = "not better than the incumbent" if ver.passed else \
+                f"refused by the verifier ({len(ver.violations)} violation{'s' * (len(ver.violations) != 1)})"
+            say(f"joint NLP: {plan.metrics['makespan']:.3f} s, {why}; kept the incumbent")
+    if inc.plan is None:  # nothing verified at all: report the NLP's plan honestly
+        ver = verify(problem, plan)
+        plan = finalize_plan(plan, ver, run.n_reach)
+        inc.plan, inc.verification, inc.source = plan, ver, "joint NLP (unverified)"
+    return "accepted" if nlp_info.get("accepted") else "ran"
+
+
+def widen(run: Run) -> str:
+    """More room between neighbours and less jerk at the incumbent's makespan (``widen``)."""
+    inc = run.inc
+    if not run.opts.widen or run.interrupted or inc.plan is None or inc.candidate is None \
+            or inc.source == "joint NLP" or not run.in_time():
+        return "skipped"
+    run.stage("widen")
+    tw = _time.perf_counter()
+    run.reports["widen"] = widened(run.problem, inc, run.opts, run.deadline, run.say)
+    run.timings["widen"] = _time.perf_counter() - tw
+    return "accepted" if run.reports["widen"]["accepted"] else run.reports["widen"]["status"]
+
+
+#: The optimal planner's flow: (name, stage), run in this order over one incumbent.
+STAGES: tuple[tuple[str, Callable[[Run], str]], ...] = (
+    ("coordinated", coordinated),
+    ("retime", retime_coordinated),
+    ("search", search),
+    ("refine", refine),
+    ("polish", polish),
+    ("widen", widen),
+)
+
+
+# ----------------------------------------------------------------------------- the joint NLP
+_FAIL_STATUS = {
+    SolverStatus.INTERRUPTED: PlanStatus.INTERRUPTED,
+    SolverStatus.INFEASIBLE: PlanStatus.FAILED,
+    SolverStatus.LIMIT_REACHED: PlanStatus.FAILED,
+    SolverStatus.NUMERICAL_ERROR: PlanStatus.FAILED,
+}
+
+
+def nlp_plan(problem: Problem, alloc, sched: dict[str, ArmSchedule], opts: OptimalOptions | None = None,
+             deadline: float | None = None, say: Callable[[str], None] | None = None, iterations: int | None = None,
+             grid: Grid | None = None):
+    """The joint NLP over all arms from ``sched`` (receding windows); returns ``(plan, info, status)``.
+
+    ``iterations``: a budget of IPOPT iterations over every solve (None: none). ``grid``: the
+    knot grid of ``sched`` when the caller has built it already.
+
+    The plan is unverified (or failed/interrupted with the best iterate kept)."""
+    opts = opts or OptimalOptions()
+    say = say or (lambda m: None)
+    grid = grid if grid is not None else build_grid(sched, opts.h_target)
+    # a window solved near the start's timing after free-timing windows before it starts from a
+    # state those left; when any window could not be solved cleanly, the whole schedule is
+    # solved again with every window near the start from the first
+    discarded = 0.0
+    spent = 0
+    for level in range(len(LADDER) - 1):
+        left = None if iterations is None else iterations - spent
+        if level and left is not None and left <= 0:
+            break
+        stitched, info = solve_windows(problem, sched, grid, opts, deadline, say, level, left)
+        spent += info["iterations"]
+        info["level"] = level
+        if info.get("clean") or info["status"] == SolverStatus.INTERRUPTED or info.get("budget_spent") or (
+                deadline is not None and _time.perf_counter() > deadline):
+            break
+        if level + 2 < len(LADDER):
+            say(f"a window could not be solved cleanly: solving every window again with {LADDER[level + 1][0]}")
+            discarded += info["build"] + info["solve"]
+    status: SolverStatus = info["status"]
+    nlp_info = dict(
+        status=status.value,
+        ipopt_status=info.get("ipopt_status"),
+        iterations=info.get("iterations"),
+        windows=info.get("windows"),
+        rounds=info.get("rounds"),
+        window_timing=info.get("window_stages"),
+        restarted=bool(info.get("level", 0)),
+        separation_points=info.get("points"),
+        n_vars=info.get("n_vars"),
+        n_cons=info.get("n_cons"),
+        max_constraint_violation=info.get("max_violation"),
+        seconds=info.get("build", 0.0) + info.get("solve", 0.0) + discarded,
+    )
+    events = knot_events(sched, grid, stitched.t, stitched.t.size - 1)
+    plan_status = PlanStatus.UNVERIFIED if status.converged else _FAIL_STATUS[status]
+    msg = (f"IPOPT {info.get('ipopt_status')}" if status.converged else
+           f"IPOPT stopped ({info.get('ipopt_status')}); the best iterate of window {info.get('complete_windows', 0) + 1} is kept")
+    plan = make_plan(problem, alloc, stitched.sample, float(stitched.t[-1]), events, plan_status,
+                     {"nlp": nlp_info, "message": msg}, PlannerKind.OPTIMAL)
+    return plan, nlp_info, status
+
+
+def retimable(schedules: dict[str, ArmSchedule], tol: float = 1e-6) -> bool:
+    """Whether the joint NLP could finish these schedules sooner.
+
+    The NLP keeps every pick and place pose and each arm's order, and every arm comes to
+    rest at them; between two rest poses no motion is faster than the per-joint S-curve the
+    schedules already use. So an arm that places last, never waits and moves straight from
+    pose to pose (no tucked transit through via poses) is already as fast as these poses
+    allow: only a wait or a via on some last-placing arm leaves the NLP anything to gain."""
+    end = max((s.last_place for s in schedules.values()), default=0.0)
+    for s in schedules.values():
+        if s.last_place < end - tol:
+            continue
+        steps = [st for st in s.steps if st.t1 <= s.last_place + tol]
+        if any(st.kind == StepKind.WAIT for st in steps):
+            return True
+        if any(a.kind == b.kind == StepKind.MOVE for a, b in zip(steps, steps[1:])):
+            return True
+    return False
+
+
+# ----------------------------------------------------------------------------- widening
+def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: float | None, say) -> dict:
+    """The widening stage on the incumbent's schedules; the widened plan replaces the incumbent
+    when it is verified, harvests as much, is no slower and its certified margin is no smaller.
+    Returns the stage's report (plan.json ``solver.widen``)."""
+    from ...verify.verifier import verify
+    from .widen import WidenOptions, widen as widen_schedules
+
+    wopts = WidenOptions(cap=opts.widen_cap, iterations=opts.widen_iterations, max_knots=opts.widen_knots,
+                         h_target=opts.h_target)
+    before = inc.plan
+    margin0 = before.verification["certified_clearance"] - problem.task.clearance
+    jerk0 = {a: v.get("rms_jerk") for a, v in before.metrics.get("per_arm", {}).items()}
+    if margin0 >= opts.widen_goal:
+        return {"status": "skipped", "accepted": False, "margin_before": margin0, "makespan_before": inc.makespan,
+                "rms_jerk_before": jerk0,
+                "reason": f"the plan keeps {1000 * margin0:.1f} mm beyond the clearance already "
+                          f"(widen_goal is {1000 * opts.widen_goal:.0f} mm)"}
+    res = widen_schedules(problem, inc.candidate.alloc, inc.candidate.schedules, inc.makespan, wopts, deadline, say)
+    info = dict(res.info)
+    info.update(accepted=False, margin_before=margin0, makespan_before=inc.makespan, rms_jerk_before=jerk0)
+    if res.plan is None:
+        say(f"widen: {info.get('reason', info['status'])}; kept the incumbent")
+        return info
+    ver = verify(problem, res.plan)
+    plan = finalize_plan(res.plan, ver, inc.n_reach)
+    if "lower_bound" in before.metrics:
+        plan.metrics["lower_bound"] = before.metrics["lower_bound"]
+    margin = ver.certified_clearance - problem.task.clearance if ver.passed else None
+    info.update(verified=bool(ver.passed), margin=margin, makespan=plan.metrics["makespan"],
+                rms_jerk={a: v.get("rms_jerk") for a, v in plan.metrics.get("per_arm", {}).items()})
+    why = None
+    if not ver.passed:
+        why = f"refused by the verifier ({len(ver.violations)} violation{'s' * (len(ver.violations) != 1)})"
+    elif plan.metrics["harvested"] < before.metrics["harvested"]:
+        why = "it harvests less"
+    elif plan.metrics["makespan"] > inc.makespan + 1e-9:
+        why = f"slower ({plan.metrics['makespan']:.4f} s against {inc.makespan:.4f} s)"
+    elif margin < margin0:
+        why = f"its certified margin {1000 * margin:.1f} mm is smaller than {1000 * margin0:.1f} mm"
+    if why is not None:
+        say(f"widen: {why}; kept the incumbent")
+        info["reason"] = why
+        return info
+    inc.replace(plan, ver)
+    info["accepted"] = True
+    say(f"widen: certified margin {1000 * margin0:.1f} -> {1000 * margin:.1f} mm at {plan.metrics['makespan']:.4f} s")
+    return info

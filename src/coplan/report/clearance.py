@@ -1,0 +1,131 @@
+"""What each centimetre costs: a cell's makespan against the clearance asked for.
+
+Entry point: :func:`clearance_cost` (``coplan compare PROBLEM --clearance-sweep``). The problem
+file is planned again with its ``task.clearance`` raised by each extra (default the problem's
+own, +10, +25, +50 and +100 mm), each with the same planner and options, each plan verified
+against the raised clearance; ``clearance.json``, ``clearance.md`` and ``clearance_cost.png``
+(makespan against clearance) go to the output folder, each plan to ``plus_<mm>mm/``.
+
+A clearance the problem's fixed geometry cannot give (the home poses closer than it) is not a
+plan: its row says so (the validation error) and the sweep goes on.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import ProblemError
+from ..output import atomic_text
+from ..plan import jsonable
+from ..problem.generate import to_yaml
+from ..problem.model import load_problem, parse_problem
+from ..problem.yamlsafe import read_yaml
+from ..progress import Tick, nested, speaker, ticker
+
+__all__ = ["EXTRAS_MM", "COLUMNS", "ClearanceCost", "clearance_cost", "cell", "to_markdown"]
+
+#: The extra clearance (mm) asked for by default: the problem's own, then +1, +2.5, +5 and +10 cm.
+EXTRAS_MM: tuple[float, ...] = (0.0, 10.0, 25.0, 50.0, 100.0)
+
+COLUMNS = (("extra_mm", "extra, mm"), ("clearance", "clearance, m"), ("makespan", "makespan, s"),
+            ("ratio", "x problem's"), ("margin_mm", "certified margin, mm"), ("harvested", "harvested"),
+            ("verified", "verified"), ("planning_time", "planning, s"))
+
+
+@dataclass
+class ClearanceCost:
+    """The sweep's rows (one per extra clearance) and the files written."""
+
+    problem: str
+    planner: str
+    rows: list[dict] = field(default_factory=list)
+    files: dict[str, str] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"format": "coplan.clearance-cost/1", "problem": self.problem, "planner": self.planner,
+                "rows": jsonable(self.rows)}
+
+
+def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, planner=None, options=None,
+                   figures: bool = True, progress=None) -> ClearanceCost:
+    """Plan the problem file ``path`` at its clearance plus each of ``extras_mm``; see the module docstring."""
+    from ..pipeline import solve
+
+    say, tick = speaker(progress), ticker(progress)
+    path = Path(path)
+    base = load_problem(path)  # a bad file fails here, with its own error
+    data, _ = read_yaml(path.read_text(encoding="utf-8"), str(path))
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    extras = sorted({float(e) for e in extras_mm})
+    res0_makespan = res0_harvested = None
+    cost = ClearanceCost(base.name, str(getattr(planner, "value", planner) or "optimal"))
+    for i, extra in enumerate(extras):
+        clearance = round(base.task.clearance + extra / 1000.0, 6)
+        tick(Tick("clearance", i, len(extras), "clearances", note=f"+{extra:g} mm"))
+        say(f"{base.name}: clearance {clearance:.3f} m (+{extra:g} mm)")
+        d = copy.deepcopy(data)
+        d.setdefault("task", {})["clearance"] = clearance
+        row: dict[str, Any] = {"extra_mm": extra, "clearance": clearance}
+        try:
+            prob = parse_problem(to_yaml(d), f"{path} with task.clearance {clearance:g}")
+        except ProblemError as e:
+            row.update(error=str(e).splitlines()[-1].strip() or str(e), verified=False)
+            cost.rows.append(row)
+            continue
+        res = solve(prob, planner=planner, options=options, out_dir=out / f"plus_{extra:g}mm", progress=nested(progress))
+        m, ver = res.plan.metrics, res.verification
+        mk = m.get("makespan")
+        if extra == 0.0:
+            res0_makespan, res0_harvested = mk, m.get("harvested")
+        same_fruit = m.get("harvested") == res0_harvested  # (a ratio over fewer fruit would flatter)
+        row.update(makespan=mk, ratio=(mk / res0_makespan) if (mk and res0_makespan and same_fruit) else None,
+                   margin_mm=None if ver is None or not ver.pairs else 1000 * ver.margin,
+                   harvested=m.get("harvested"), reachable=m.get("reachable"), status=res.plan.status.value,
+                   verified=bool(ver is not None and ver.passed),
+                   planning_time=(res.plan.solver.get("timings") or {}).get("total"))
+        cost.rows.append(row)
+    tick(Tick("clearance", len(extras), len(extras), "clearances"))
+    atomic_text(out / "clearance.json", json.dumps(cost.to_dict(), indent=1, allow_nan=False))
+    atomic_text(out / "clearance.md", to_markdown(cost))
+    cost.files.update(json=str(out / "clearance.json"), markdown=str(out / "clearance.md"))
+    if figures and any(r.get("makespan") for r in cost.rows):
+        from ..viz.plots import plot_clearance_cost
+
+        fig = plot_clearance_cost(cost.rows, title=f"{base.name}: makespan against the clearance asked for")
+        fig.savefig(out / "clearance_cost.png", dpi=110)
+        cost.files["figure"] = str(out / "clearance_cost.png")
+    return cost
+
+
+def cell(row: dict, key: str) -> str:
+    """One table cell."""
+    v = row.get(key)
+    if key == "makespan" and row.get("error"):
+        return f"impossible: {row['error']}"
+    if v is None:
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if key == "harvested":
+        return f"{v} / {row.get('reachable')}"
+    if key in ("ratio",):
+        return f"{v:.3f}"
+    if key in ("clearance",):
+        return f"{v:.3f}"
+    if key in ("extra_mm", "margin_mm"):
+        return f"{v:.1f}" if key == "margin_mm" else f"+{v:g}"
+    return f"{v:.2f}" if isinstance(v, float) else str(v)
+
+
+def to_markdown(cost: ClearanceCost) -> str:
+    head = [h for _, h in COLUMNS]
+    lines = [f"# {cost.problem}: makespan against the clearance asked for ({cost.planner} planner)", "",
+             "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in cost.rows:
+        lines.append("| " + " | ".join(cell(r, k) for k, _ in COLUMNS) + " |")
+    return "\n".join(lines) + "\n"

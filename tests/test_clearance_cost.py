@@ -1,0 +1,46 @@
+"""``coplan compare PROBLEM --clearance-sweep``: the makespan against the clearance asked for."""
+
+from __future__ import annotations
+
+import json
+
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.problem import shipped_problems
+from coplan.report.clearance import clearance_cost
+
+
+def _path(stem):
+    return next(p for p in shipped_problems() if p.stem == stem)
+
+
+def test_more_clearance_never_plans_with_less_and_an_impossible_one_says_why(tmp_path):
+    cost = clearance_cost(_path("crossing_paths"), tmp_path, (0, 25, 5000), "coordinated", figures=True)
+    rows = {r["extra_mm"]: r for r in cost.rows}
+    assert rows[0.0]["clearance"] == 0.05 and rows[25.0]["clearance"] == 0.075
+    for extra in (0.0, 25.0):
+        r = rows[extra]
+        assert r["verified"] and r["harvested"] == r["reachable"] == 4
+        assert r["margin_mm"] >= 0.0  # certified against the raised clearance
+    assert rows[0.0]["ratio"] == 1.0
+    assert "home" in rows[5000.0]["error"] and rows[5000.0]["verified"] is False
+    doc = json.loads((tmp_path / "clearance.json").read_text())
+    assert doc["format"] == "coplan.clearance-cost/1" and len(doc["rows"]) == 3
+    assert "| +25 | 0.075 |" in (tmp_path / "clearance.md").read_text()
+    assert (tmp_path / "clearance_cost.png").stat().st_size > 1000
+    assert (tmp_path / "plus_25mm" / "plan.json").exists()
+
+
+def test_the_command_line_sweep_and_its_usage_errors(tmp_path):
+    runner = CliRunner()
+    r = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--clearance-sweep", "-p", "coordinated",
+                            "--extra", "0", "--extra", "10", "-o", str(tmp_path / "out"), "--no-figures", "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout[r.stdout.index("{"):])
+    assert [row["extra_mm"] for row in doc["rows"]] == [0.0, 10.0]
+    bad = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--extra", "10", "-o", str(tmp_path / "b")])
+    assert bad.exit_code == 2 and "--clearance-sweep" in bad.output
+    neg = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--clearance-sweep", "--extra", "-5",
+                              "-o", str(tmp_path / "c")])
+    assert neg.exit_code == 2 and "0 to 1000 mm" in neg.output
