@@ -16,7 +16,14 @@ plan.json (``solver.widen``):
 Then the makespan against the clearance asked for (the problem's, +10, +25, +50, +100 mm) on
 crossing_paths and dense_overlap, every plan verified (``coplan compare --clearance-sweep``).
 
-    python benchmarks/bench_widen.py [--layouts 30] [--no-sweep]
+Last (``--live``), a proxy for the live cell, which re-plans in 50 ms with the coordinator and so
+cannot run a widening program of 1-5 s: on seeded live runs of the same layouts (10 and 20 mm
+vision noise, every fruit detected late or early, ``coplan.live.sim.simulate`` with no clock budget),
+the close-range corrections accepted and refused -- refused because the corrected approach is not
+clear of the neighbours -- when the live planner keeps the default 15 mm of planning room, and
+when it keeps 50 mm (the room the widening stage gives offline plans).
+
+    python benchmarks/bench_widen.py [--layouts 30] [--no-sweep] [--live N]
 
 One run on one machine: every ratio is against a figure measured in the same run.
 """
@@ -106,10 +113,42 @@ def verdicts(rows: list[dict], label: str) -> None:
           f"({max(r['widen_s'] for r in rows):.2f} s)")
 
 
+def live_proxy(n: int) -> None:
+    """Close-range corrections accepted / refused (not clear of the neighbours / otherwise) in
+    seeded live runs, with 15 mm and 50 mm of planning room (see the module docstring)."""
+    from coplan.live.cell import LiveOptions
+    from coplan.live.feed import make_feed
+    from coplan.live.sim import simulate
+
+    print("\n## Live cell (proxy): close-range corrections with 15 mm and 50 mm of planning room\n")
+    print("| vision noise | planning room | runs | corrections accepted | refused: not clear of a neighbour "
+          "| refused: other | fruit harvested / true | collisions (verifier) |")
+    print("|---|---|---|---|---|---|---|---|")
+    probs = layouts(n)
+    for sigma in (0.010, 0.020):
+        for room in (0.015, 0.050):
+            acc = clear = other = picked = true = bad = 0
+            for k, prob in enumerate(probs):
+                feed = make_feed(prob, known=0.5, sigma=sigma, seed=k)
+                run = simulate(prob, feed, LiveOptions(margin=room, budget=None), seed=k)
+                for r in run.cell.replans:
+                    if r.corrected:
+                        acc += 1
+                    elif "planned again:" in r.note:
+                        clear += "not clear of the neighbours" in r.note
+                        other += "not clear of the neighbours" not in r.note
+                picked += run.plan.metrics.get("harvested", 0)
+                true += len(prob.fruits)
+                bad += int(not run.verification.passed)
+            print(f"| {1000 * sigma:.0f} mm | {1000 * room:.0f} mm | {len(probs)} | {acc} | {clear} | {other} | "
+                  f"{picked} / {true} | {bad} runs failed verification |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--layouts", type=int, default=30)
     ap.add_argument("--no-sweep", action="store_true")
+    ap.add_argument("--live", type=int, default=0, help="live proxy runs per setting (0: none)")
     args = ap.parse_args()
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
@@ -138,6 +177,8 @@ def main() -> None:
                     ratio = "-" if r.get("ratio") is None else f"{r['ratio']:.3f}"
                     print(f"| {r['clearance']:.3f} (+{r['extra_mm']:g} mm) | {r['makespan']:.3f} | {ratio} | "
                           f"{r['margin_mm']:.1f} | {r['harvested']}/{r['reachable']} | {'yes' if r['verified'] else 'NO'} |")
+    if args.live:
+        live_proxy(args.live)
     print(f"\n(one run, {time.perf_counter() - t0:.0f} s)")
 
 

@@ -237,7 +237,43 @@ def _implausible(field_name: str, value, loc: tuple, lines: dict, issues: list) 
 
 
 def _build(data: Any, lines: dict, source: str | None) -> Problem:
+    """A validated :class:`Problem` from parsed YAML, or :class:`ProblemError` with every issue.
+
+    Steps: the top level (:func:`_top_level`), the arm, fruit and task specs (:func:`_specs`),
+    each arm merged with ``defaults`` and checked (:func:`_arm`), the fruit (:func:`_fruits`),
+    home poses against the clearance (:func:`_home_issues`), the gantry, then what the whole
+    problem must satisfy (:func:`_whole`)."""
     issues: list[Issue] = []
+    name, description = _top_level(data, lines, source, issues)
+    defaults, arm_specs, fruit_specs, task = _specs(data, lines, issues)
+    arms: list[tuple[int, Arm]] = []
+    origins: dict[int, dict[str, tuple]] = {}
+    seen_names: dict[str, int] = {}
+    for i, spec in arm_specs:
+        if spec is None:
+            continue
+        _check_unique(seen_names, spec.name, ("arms", i, "name"), "arm name", lines, issues)
+        if defaults is None:
+            continue  # the defaults are broken: already reported, don't guess
+        built = _arm(i, spec, defaults, lines, issues)
+        if built is not None:
+            arms.append((i, built[0]))
+            origins[i] = built[1]
+    fruits = _fruits(fruit_specs, lines, issues)
+    if task is not None:
+        issues += _home_issues(arms, origins, task, lines)
+    gantry = parse_gantry(data["gantry"], lines, issues) if "gantry" in data else None
+    if issues:
+        raise ProblemError(_tidy(issues), source)
+    problem = Problem(name=name, arms=tuple(a for _, a in arms), fruits=tuple(fruits), task=task,
+                      description=description, source=source, gantry=gantry)
+    _whole(problem, fruits, lines, source)
+    return problem
+
+
+def _top_level(data: Any, lines: dict, source: str | None, issues: list) -> tuple[str, str]:
+    """The document is a problem (a mapping, not another coplan file), its keys are known and
+    present; returns its name and description."""
     if not isinstance(data, dict):
         raise ProblemError(
             [Issue("", f"expected a mapping with keys name, arms, fruits, task; found {kind_of(data)}", 1)], source
@@ -263,13 +299,17 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     if not isinstance(description, str):
         issues.append(Issue("description", f"expected a string, found {kind_of(description)}", line_of(lines, ("description",))))
         description = ""
+    return name, description
 
+
+def _specs(data: dict, lines: dict, issues: list):
+    """The ``defaults``, arm, fruit and task sections, each validated on its own (a list too
+    long is cut at its cap, the excess reported); returns ``(defaults, arm specs, fruit specs,
+    task)`` with None for what failed."""
     defaults: ArmFieldsSpec | None = ArmFieldsSpec()
     if data.get("defaults") is not None:
         defaults = _validate(ArmFieldsSpec, data["defaults"], ("defaults",), lines, issues)
-
     arms_raw = data.get("arms", [])
-    arm_specs: list[tuple[int, ArmSpec | None]] = []
     if not isinstance(arms_raw, list):
         issues.append(Issue("arms", f"expected a list of arms, found {kind_of(arms_raw)}", line_of(lines, ("arms",))))
         arms_raw = []
@@ -278,9 +318,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     if len(arms_raw) > MAX_ARMS:
         issues.append(Issue("arms", f"expected at most {MAX_ARMS} arms, found {len(arms_raw)}", line_of(lines, ("arms",))))
         arms_raw = arms_raw[:MAX_ARMS]
-    for i, a in enumerate(arms_raw):
-        arm_specs.append((i, _validate(ArmSpec, a, ("arms", i), lines, issues)))
-
+    arm_specs = [(i, _validate(ArmSpec, a, ("arms", i), lines, issues)) for i, a in enumerate(arms_raw)]
     fruits_raw = data.get("fruits", []) or []
     if not isinstance(fruits_raw, list):
         issues.append(Issue("fruits", f"expected a list of fruit, found {kind_of(fruits_raw)}", line_of(lines, ("fruits",))))
@@ -289,86 +327,82 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         issues.append(Issue("fruits", f"expected at most {MAX_FRUITS} fruit, found {len(fruits_raw)}", line_of(lines, ("fruits",))))
         fruits_raw = fruits_raw[:MAX_FRUITS]
     fruit_specs = [(j, _validate(FruitSpec, f, ("fruits", j), lines, issues)) for j, f in enumerate(fruits_raw)]
-
     task = None
     if "task" in data:
         t = _validate(TaskSpec, data["task"], ("task",), lines, issues)
         if t is not None and not any([_implausible(f, v, ("task", f), lines, issues) for f, v in t.model_dump().items()]):
             task = Task(**t.model_dump())
+    return defaults, arm_specs, fruit_specs, task
 
-    # ---- merge defaults, semantic checks per arm. A value taken from ``defaults`` is
-    # reported at its place in ``defaults`` (once, not once per arm).
-    arms: list[tuple[int, Arm]] = []
-    origins: dict[int, dict[str, tuple]] = {}
-    seen_names: dict[str, int] = {}
-    for i, spec in arm_specs:
-        if spec is None:
-            continue
-        _check_unique(seen_names, spec.name, ("arms", i, "name"), "arm name", lines, issues)
-        if defaults is None:
-            continue  # the defaults are broken: already reported, don't guess
-        merged: dict[str, Any] = {}
-        origin: dict[str, tuple] = {}
-        ok = True
-        for f in ARM_REQUIRED:
-            v = getattr(spec, f)
-            origin[f] = ("arms", i, f)
-            if v is None:
-                v = getattr(defaults, f)
-                origin[f] = ("defaults", f)
-            if v is None:
-                issues.append(Issue(path_str(("arms", i, f)), missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
-                ok = False
-            merged[f] = v
-        if not ok:
-            continue
-        # far outside any real cell (degrees for radians, 1e308, 1e-9): refused before any arithmetic
-        fields = [("base", spec.base, ("arms", i, "base")), ("bin", spec.bin, ("arms", i, "bin"))]
-        if any([_implausible(f, v, loc, lines, issues) for f, v, loc in fields + [(f, merged[f], origin[f]) for f in merged]]):
-            continue
-        lim = merged["joint_limits"]
-        for j in range(2):
-            if lim[j][0] >= lim[j][1]:
-                loc = origin["joint_limits"] + (j,)
-                issues.append(Issue(path_str(loc), f"expected min < max, found min {lim[j][0]} >= max {lim[j][1]}", line_of(lines, loc)))
-                ok = False
-        if not ok:
-            continue
-        home = merged["home"]
-        for j in range(2):
-            if not lim[j][0] <= home[j] <= lim[j][1]:
-                home_loc, lim_loc = origin["home"] + (j,), origin["joint_limits"] + (j,)
-                if home_loc[0] == "defaults" and lim_loc[0] == "arms":
-                    # the default home does not fit this arm's own limits: report at the arm
-                    loc = ("arms", i, "home", j)
-                    msg = (
-                        f"expected a home angle inside this arm's joint limits [{lim[j][0]}, {lim[j][1]}] "
-                        f"({path_str(lim_loc)}), found {home[j]} (from {path_str(home_loc)})"
-                    )
-                    line = line_of(lines, lim_loc)
-                else:
-                    loc = home_loc
-                    msg = f"expected a home angle inside the joint limits [{lim[j][0]}, {lim[j][1]}] ({path_str(lim_loc)}), found {home[j]}"
-                    line = line_of(lines, home_loc)
-                issues.append(Issue(path_str(loc), msg, line))
-                ok = False
-        if not ok:
-            continue
-        arm = Arm(name=spec.name, base=spec.base, bin=spec.bin, **merged)
-        if not arm.can_reach(arm.bin):
-            r = math.dist(arm.base, arm.bin)
-            issues.append(
-                Issue(
-                    path_str(("arms", i, "bin")),
-                    f"expected a bin its arm {arm.name!r} can reach (IK inside joint limits), found {list(arm.bin)} "
-                    f"at {r:.3f} m from the base; the reachable annulus is [{arm.inner_radius:.3f}, {arm.reach:.3f}] m",
-                    line_of(lines, ("arms", i, "bin")),
+
+def _arm(i: int, spec: ArmSpec, defaults: ArmFieldsSpec, lines: dict, issues: list) -> tuple[Arm, dict] | None:
+    """Arm ``i`` merged with ``defaults`` and checked (plausible values, joint limits, home
+    inside them, a bin it reaches); ``(arm, where each field came from)`` or None. A value taken
+    from ``defaults`` is reported at its place in ``defaults`` (once, not once per arm)."""
+    merged: dict[str, Any] = {}
+    origin: dict[str, tuple] = {}
+    ok = True
+    for f in ARM_REQUIRED:
+        v = getattr(spec, f)
+        origin[f] = ("arms", i, f)
+        if v is None:
+            v = getattr(defaults, f)
+            origin[f] = ("defaults", f)
+        if v is None:
+            issues.append(Issue(path_str(("arms", i, f)), missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
+            ok = False
+        merged[f] = v
+    if not ok:
+        return None
+    # far outside any real cell (degrees for radians, 1e308, 1e-9): refused before any arithmetic
+    fields = [("base", spec.base, ("arms", i, "base")), ("bin", spec.bin, ("arms", i, "bin"))]
+    if any([_implausible(f, v, loc, lines, issues) for f, v, loc in fields + [(f, merged[f], origin[f]) for f in merged]]):
+        return None
+    lim = merged["joint_limits"]
+    for j in range(2):
+        if lim[j][0] >= lim[j][1]:
+            loc = origin["joint_limits"] + (j,)
+            issues.append(Issue(path_str(loc), f"expected min < max, found min {lim[j][0]} >= max {lim[j][1]}", line_of(lines, loc)))
+            ok = False
+    if not ok:
+        return None
+    home = merged["home"]
+    for j in range(2):
+        if not lim[j][0] <= home[j] <= lim[j][1]:
+            home_loc, lim_loc = origin["home"] + (j,), origin["joint_limits"] + (j,)
+            if home_loc[0] == "defaults" and lim_loc[0] == "arms":
+                # the default home does not fit this arm's own limits: report at the arm
+                loc = ("arms", i, "home", j)
+                msg = (
+                    f"expected a home angle inside this arm's joint limits [{lim[j][0]}, {lim[j][1]}] "
+                    f"({path_str(lim_loc)}), found {home[j]} (from {path_str(home_loc)})"
                 )
+                line = line_of(lines, lim_loc)
+            else:
+                loc = home_loc
+                msg = f"expected a home angle inside the joint limits [{lim[j][0]}, {lim[j][1]}] ({path_str(lim_loc)}), found {home[j]}"
+                line = line_of(lines, home_loc)
+            issues.append(Issue(path_str(loc), msg, line))
+            ok = False
+    if not ok:
+        return None
+    arm = Arm(name=spec.name, base=spec.base, bin=spec.bin, **merged)
+    if not arm.can_reach(arm.bin):
+        r = math.dist(arm.base, arm.bin)
+        issues.append(
+            Issue(
+                path_str(("arms", i, "bin")),
+                f"expected a bin its arm {arm.name!r} can reach (IK inside joint limits), found {list(arm.bin)} "
+                f"at {r:.3f} m from the base; the reachable annulus is [{arm.inner_radius:.3f}, {arm.reach:.3f}] m",
+                line_of(lines, ("arms", i, "bin")),
             )
-            continue
-        arms.append((i, arm))
-        origins[i] = origin
+        )
+        return None
+    return arm, origin
 
+
+def _fruits(fruit_specs: list, lines: dict, issues: list) -> list[Fruit]:
+    """The fruit with unique ids and plausible positions."""
     fruits: list[Fruit] = []
     seen_ids: dict[str, int] = {}
     for j, spec in fruit_specs:
@@ -379,40 +413,38 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         if _implausible("position", spec.position, ("fruits", j, "position"), lines, issues):
             continue
         fruits.append(Fruit(id=spec.id, position=spec.position))
+    return fruits
 
-    # ---- home poses must already respect the clearance
-    if task is not None:
-        for x in range(len(arms)):
-            for y in range(x + 1, len(arms)):
-                (i, a), (k, b) = arms[x], arms[y]
-                pa = kin.fk_points(np.array(a.home), a.links, a.base)
-                pb = kin.fk_points(np.array(b.home), b.links, b.base)
-                dmin = min(
-                    float(segment_distance(pa[s], pa[s + 1], pb[u], pb[u + 1])) for s in range(2) for u in range(2)
-                ) - a.link_radius - b.link_radius
-                if dmin < task.clearance:
-                    home_from = "" if origins[k]["home"][0] == "arms" else " (home from defaults.home)"
-                    issues.append(
-                        Issue(
-                            path_str(("arms", k, "home")),
-                            f"expected home poses at least the clearance {task.clearance} m apart, found arms "
-                            f"{a.name!r} (arms[{i}]) and {b.name!r} (arms[{k}]) {dmin:.4f} m apart at home{home_from}",
-                            line_of(lines, origins[k]["home"]) if home_from == "" else line_of(lines, ("arms", k)),
-                        )
+
+def _home_issues(arms: list[tuple[int, Arm]], origins: dict, task: Task, lines: dict) -> list[Issue]:
+    """Home poses must already respect the clearance: one issue per pair that does not."""
+    out = []
+    for x in range(len(arms)):
+        for y in range(x + 1, len(arms)):
+            (i, a), (k, b) = arms[x], arms[y]
+            pa = kin.fk_points(np.array(a.home), a.links, a.base)
+            pb = kin.fk_points(np.array(b.home), b.links, b.base)
+            dmin = min(
+                float(segment_distance(pa[s], pa[s + 1], pb[u], pb[u + 1])) for s in range(2) for u in range(2)
+            ) - a.link_radius - b.link_radius
+            if dmin < task.clearance:
+                home_from = "" if origins[k]["home"][0] == "arms" else " (home from defaults.home)"
+                out.append(
+                    Issue(
+                        path_str(("arms", k, "home")),
+                        f"expected home poses at least the clearance {task.clearance} m apart, found arms "
+                        f"{a.name!r} (arms[{i}]) and {b.name!r} (arms[{k}]) {dmin:.4f} m apart at home{home_from}",
+                        line_of(lines, origins[k]["home"]) if home_from == "" else line_of(lines, ("arms", k)),
                     )
+                )
+    return out
 
-    gantry = parse_gantry(data["gantry"], lines, issues) if "gantry" in data else None
-    if issues:
-        raise ProblemError(_tidy(issues), source)
-    problem = Problem(
-        name=name,
-        arms=tuple(a for _, a in arms),
-        fruits=tuple(fruits),
-        task=task,
-        description=description,
-        source=source,
-        gantry=gantry,
-    )
+
+def _whole(problem: Problem, fruits: list[Fruit], lines: dict, source: str | None) -> None:
+    """What the whole problem must satisfy: on a row, every fruit within what some arm reaches
+    from the rail; in a cell, a plan short enough for its 100 Hz grid (a lower bound on its
+    length, refused up front)."""
+    gantry = problem.gantry
     if gantry is not None:  # a fruit beyond what any arm reaches from anywhere on the rail is not of this row
         lo, hi = carriage_extent(problem)
         far = [Issue(path_str(("fruits", j, "position", 0)), f"expected a fruit on this row: x within [{lo:g}, {hi:g}] m, "
@@ -420,12 +452,10 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
                      line_of(lines, ("fruits", j, "position"))) for j, f in enumerate(fruits) if not lo <= f.position[0] <= hi]
         if far:
             raise ProblemError(far, source)
-        return problem  # a row's plan length is bounded by the row planner (its cells are checked as they are made)
-    # a plan too long for its 100 Hz grid is refused up front, from a lower bound on its length
+        return  # a row's plan length is bounded by the row planner (its cells are checked as they are made)
     too_long = plausible.duration_issues(problem)
     if too_long:
         raise ProblemError([Issue(path_str(loc), msg, line_of(lines, loc)) for loc, msg in too_long], source)
-    return problem
 
 
 def _tidy(issues: list[Issue]) -> list[Issue]:
