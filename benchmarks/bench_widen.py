@@ -79,7 +79,8 @@ def run(problem, folder: Path) -> dict:
         "optimality": m.get("optimality"), "margin_before": margin_before, "margin": margin_after,
         "jerk_before": jerk_before, "jerk": jerk_after, "widen_s": added, "rest_s": timings.get("total", wall) - added,
         "wall": wall, "verified": bool(ver.passed), "accepted": bool(w.get("accepted")),
-        "note": "widened" if w.get("accepted") else (w.get("reason") or w.get("status") or "no neighbours"),
+        "note": ("widened" if w.get("accepted") else (w.get("reason") or w.get("status") or "no neighbours"))
+        + (f" ({w['room_note']})" if w.get("room_note") else ""),
     }
 
 

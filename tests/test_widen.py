@@ -116,3 +116,33 @@ def test_widening_options_are_validated():
         parse_options("widen_cap: -1")
     with pytest.raises(OptionsError, match="widen"):
         parse_options("widen: 3")
+
+
+def test_exact_dynamics_closes_the_integration_with_the_least_change():
+    """IPOPT meets the dynamics to its tolerance; the projection makes them exact (a replay
+    without jumps at the knots), keeps every held pose, and moves the rest by about the residual."""
+    from coplan.planners.optimal.nlp_data import NLPSolution, SolverStatus
+    from coplan.planners.optimal.widen import exact_dynamics
+
+    prob = _shipped("crossing_paths")
+    cand = plan_coordinated(prob).candidate
+    grid = build_grid(cand.schedules)
+    rng = np.random.default_rng(4)
+    pin = pinned_knots(cand.schedules, grid)
+    X, U = {}, {}
+    for n, sch in cand.schedules.items():
+        st = sch.state(grid.t)  # (3, K+1, 2)
+        noise = rng.normal(0, 1e-6, (6, grid.K + 1)) * ~pin[n]  # (the NLP's held knots are bounds: exact)
+        X[n] = np.concatenate([st[0].T, st[1].T, st[2].T]) + noise
+        U[n] = np.diff(st[2].T, axis=1) / np.diff(grid.t)
+    sol = NLPSolution(SolverStatus.ACCEPTABLE, "", 0, grid.t.copy(), X, U, 0.0, 0.0, 0.0)
+    out = exact_dynamics(sol, pin)
+    h = np.diff(grid.t)
+    for n in X:
+        Xn, Un = out.X[n], out.U[n]
+        q1 = Xn[0:2, :-1] + Xn[2:4, :-1] * h + Xn[4:6, :-1] * h**2 / 2 + Un * h**3 / 6
+        assert np.max(np.abs(q1 - Xn[0:2, 1:])) < 1e-10
+        assert np.max(np.abs(Xn[2:4, :-1] + Xn[4:6, :-1] * h + Un * h**2 / 2 - Xn[2:4, 1:])) < 1e-9
+        assert np.max(np.abs(Xn[2:6, pin[n]])) < 1e-12  # at rest where held
+        assert np.array_equal(Xn[0:2, pin[n]], X[n][0:2, pin[n]])  # at the held pose, exactly
+        assert np.max(np.abs(Xn - X[n])) < 1e-3

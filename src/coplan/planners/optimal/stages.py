@@ -426,6 +426,9 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     before = inc.plan
     margin0 = before.verification["certified_clearance"] - problem.task.clearance
     jerk0 = {a: v.get("rms_jerk") for a, v in before.metrics.get("per_arm", {}).items()}
+    if not problem.neighbour_pairs():
+        return {"status": "skipped", "accepted": False, "margin_before": None, "makespan_before": inc.makespan,
+                "rms_jerk_before": jerk0, "reason": "no two arms can touch: nothing to widen"}
     if margin0 >= opts.widen_goal:
         return {"status": "skipped", "accepted": False, "margin_before": margin0, "makespan_before": inc.makespan,
                 "rms_jerk_before": jerk0,

@@ -40,7 +40,7 @@ from ...ties import quantised
 from ..coordinated.planner import make_plan
 from ..coordinated.schedule import ArmSchedule, StepKind
 from .nlp import build_nlp
-from .nlp_data import ConstraintPoint, SolverStatus, WidenGoal, build_grid, knot_events
+from .nlp_data import ConstraintPoint, NLPSolution, SolverStatus, WidenGoal, build_grid, knot_events
 from .nlp_solve import solve_nlp
 from .windows import min_clearance, refine_points, screen_points
 
@@ -81,6 +81,7 @@ class WidenOptions:
     give: float = 0.15
     least: float = 0.002
     feasible: float = 1e-6
+    weight: float | None = None
     ipopt: dict = field(default_factory=dict)
 
 
@@ -101,7 +102,7 @@ def _weight(cap: float) -> float:
 
 
 def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], goal: WidenGoal, opts: WidenOptions,
-            budget: list[int], deadline: float | None, say):
+            budget: list[int], deadline: float | None, say, h_bounds: tuple[float, float]):
     """Solve the program, adding points where a dense check of its solution comes closer than
     the room it claims (less ``give``), up to ``rounds`` times; ``(solution or None, points, rounds)``."""
     names = [a.name for a in problem.arms]
@@ -111,13 +112,13 @@ def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], go
         if budget[0] <= 0 or (deadline is not None and _time.perf_counter() > deadline):
             break
         ipopt = {"ipopt.max_iter": int(budget[0])} | dict(opts.ipopt)
-        nlp = build_nlp(problem, schedules, grid, points, 0.0, h_bounds=opts.h_bounds, h_max=np.inf,
+        nlp = build_nlp(problem, schedules, grid, points, 0.0, h_bounds=h_bounds, h_max=np.inf,
                         ipopt_options=ipopt, warm=sol, widen=goal, track=opts.track)
         left = None if deadline is None else max(deadline - _time.perf_counter(), 1e-3)
         new = solve_nlp(nlp, names, time_limit=left)
         budget[0] -= new.iterations
         s_val = float(new.x[nlp.layout["S"][0]])
-        rounds.append({"round": rnd, "points": len(points), "status": new.status.value,
+        rounds.append({"timing": "free" if h_bounds[0] < h_bounds[1] else "held", "round": rnd, "points": len(points), "status": new.status.value,
                        "iterations": new.iterations, "room": s_val,
                        "wall_seconds": nlp.build_seconds + new.solve_seconds})
         say(f"widen round {rnd + 1}: {len(points)} separation points, IPOPT {new.ipopt_status} after "
@@ -190,6 +191,62 @@ def _pair_distance(problem, schedules, names, p: ConstraintPoint, t: float) -> f
     return float(segment_distance(pa[p.s], pa[p.s + 1], pb[p.u], pb[p.u + 1])) - A.link_radius - B.link_radius
 
 
+def exact_dynamics(sol: NLPSolution, pinned: dict[str, np.ndarray]) -> NLPSolution:
+    """``sol`` with its states and jerks moved (least change) so that the knot-to-knot
+    integration holds exactly and every pinned knot keeps its pose at rest.
+
+    IPOPT meets the dynamics to its tolerance (1e-7 and, stopped at "acceptable", more); the
+    replayed plan then jumps by that much at every knot, which a second difference over 10 ms
+    turns into 1e-3-1e-2 rad/s^2 the verifier rightly refuses. With the knot times fixed the
+    dynamics are linear in the states and jerks, so the nearest exact trajectory is one sparse
+    least-squares solve per arm and joint (minimum-norm correction, SciPy's LSQR)."""
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import lsqr
+
+    h = np.diff(sol.t)
+    K = h.size
+    X = {n: x.copy() for n, x in sol.X.items()}
+    U = {n: u.copy() for n, u in sol.U.items()}
+    for n in X:
+        pin = pinned[n]
+        for j in range(2):
+            # unknowns: q_k, v_k, a_k (k = 0..K), u_k (k < K) -> index 3k + {0,1,2}, 3(K+1) + k
+            nz = 3 * (K + 1) + K
+            z0 = np.concatenate([np.stack([X[n][j], X[n][2 + j], X[n][4 + j]], axis=1).ravel(), U[n][j]])
+            rows, cols, vals, rhs = [], [], [], []
+            r = 0
+            for k in range(K):
+                hk = h[k]
+                q0, v0, a0, q1, v1, a1, uk = 3 * k, 3 * k + 1, 3 * k + 2, 3 * k + 3, 3 * k + 4, 3 * k + 5, 3 * (K + 1) + k
+                for c, v in ((q1, 1.0), (q0, -1.0), (v0, -hk), (a0, -hk**2 / 2), (uk, -hk**3 / 6)):
+                    rows.append(r), cols.append(c), vals.append(v)
+                for c, v in ((v1, 1.0), (v0, -1.0), (a0, -hk), (uk, -hk**2 / 2)):
+                    rows.append(r + 1), cols.append(c), vals.append(v)
+                for c, v in ((a1, 1.0), (a0, -1.0), (uk, -hk)):
+                    rows.append(r + 2), cols.append(c), vals.append(v)
+                rhs += [0.0, 0.0, 0.0]
+                r += 3
+            for k in np.flatnonzero(pin):  # held poses stay exactly where they are, at rest
+                for c, v in ((3 * k, z0[3 * k]), (3 * k + 1, 0.0), (3 * k + 2, 0.0)):
+                    rows.append(r), cols.append(c), vals.append(1.0)
+                    rhs.append(v)
+                    r += 1
+            A = sp.csr_matrix((vals, (rows, cols)), shape=(r, nz))
+            res = np.asarray(rhs) - A @ z0
+            dz = lsqr(A, res, atol=1e-15, btol=1e-15, iter_lim=20 * nz)[0]
+            z = z0 + dz
+            held = np.flatnonzero(pin)
+            z[3 * held], z[3 * held + 1], z[3 * held + 2] = z0[3 * held], 0.0, 0.0  # exactly (LSQR: to 1e-15)
+            st = z[: 3 * (K + 1)].reshape(K + 1, 3)
+            X[n][j], X[n][2 + j], X[n][4 + j] = st[:, 0], st[:, 1], st[:, 2]
+            U[n][j] = z[3 * (K + 1):]
+    out = replace(sol, X=X, U=U)
+    for attr in ("layout", "window", "room", "dense_room"):
+        if hasattr(sol, attr):
+            setattr(out, attr, getattr(sol, attr))
+    return out
+
+
 def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule], makespan: float,
           options: WidenOptions | None = None, deadline: float | None = None,
           say: Callable[[str], None] | None = None) -> WidenResult:
@@ -214,9 +271,10 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     cap = min(opts.cap, held)
     info["room_held"] = None if where is None else held
     budget = [opts.iterations]
-    goal = WidenGoal(makespan=float(quantised(makespan)), end=float(quantised(end)) + 1e-6, floor=0.0, cap=cap,
+    # held a microsecond inside the incumbent's (IPOPT meets constraints to its tolerance, ~1e-7)
+    goal = WidenGoal(makespan=float(quantised(makespan)) - 1e-6, end=float(quantised(end)), floor=0.0, cap=cap,
                      guess=round(max(room0, 0.0), 6),
-                     weight=_weight(opts.cap))
+                     weight=opts.weight if opts.weight is not None else _weight(opts.cap))
     if cap <= room0 + opts.least:  # no room to win: the jerk alone, the room held
         names = [a.name for a in problem.arms]
         info["room_note"] = (f"the least room ({1000 * room0:.1f} mm) is at widen_cap ({1000 * opts.cap:.0f} mm) already"
@@ -224,17 +282,31 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
                              f"the least room ({1000 * room0:.1f} mm) is set by poses every plan on these events holds "
                              f"({names[where.ia]} and {names[where.ib]} at t = {grid.t[where.k]:.2f} s: {1000 * held:.1f} mm)")
         say(f"widen: {info['room_note']}; smoothing only")
-        budget[0] = min(budget[0], opts.iterations // 3)  # the lesser goal gets a third of the work
+        budget[0] = min(budget[0], 2 * (opts.iterations // 3))  # the lesser goal gets less work
         goal = replace(goal, floor=round(max(min(room0, cap) - 5e-4, 0.0), 6), cap=round(max(cap, room0), 6), weight=0.0)
-    sol, points, info["rounds"] = _rounds(problem, schedules, grid, points, goal, opts, budget, deadline, say)
+    # free timing first (each knot interval within h_bounds of its length, the makespan held);
+    # if IPOPT cannot settle that, the same program with every knot time held: the events then
+    # keep their times exactly (half the iterations each)
+    total = budget[0]
+    info["rounds"] = []
+    sol = None
+    for attempt, h_bounds in enumerate((opts.h_bounds, (1.0, 1.0))):
+        budget[0] = total // 2 if attempt == 0 else total - sum(r["iterations"] for r in info["rounds"])
+        sol, used, rounds = _rounds(problem, schedules, grid, points, goal, opts, budget, deadline, say, h_bounds)
+        info["rounds"] += rounds
+        if sol is not None:
+            break
+        if attempt == 0:
+            say("widen: IPOPT did not settle with free timing; solving again with every knot time held")
     if sol is None:
         info.update(status="failed", reason="IPOPT did not converge",
                     iterations=sum(r["iterations"] for r in info["rounds"]), wall_seconds=_time.perf_counter() - t0)
         return WidenResult(None, info)
     room = sol.room  # type: ignore[attr-defined]
+    sol = exact_dynamics(sol, pinned_knots(schedules, grid))
     events = knot_events(schedules, grid, sol.t)
     plan = make_plan(problem, alloc, sol.sample, float(sol.t[-1]), events, PlanStatus.UNVERIFIED,
                      {"message": "widened"}, PlannerKind.OPTIMAL)
     info.update(status="solved", room_before=room0, room=room, dense_room=sol.dense_room,  # type: ignore[attr-defined]
-                points=len(points), iterations=sum(r["iterations"] for r in info["rounds"]), wall_seconds=_time.perf_counter() - t0)
+                points=len(used), iterations=sum(r["iterations"] for r in info["rounds"]), wall_seconds=_time.perf_counter() - t0)
     return WidenResult(plan, info)
