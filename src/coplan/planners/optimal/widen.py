@@ -131,7 +131,8 @@ def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], go
         sol.room = s_val  # type: ignore[attr-defined]
         dense = sol.sample(np.arange(0.0, sol.t[-1], 1e-3))
         sol.dense_room = rounds[-1]["dense_room"] = min_clearance(problem, dense) - problem.task.clearance  # type: ignore[attr-defined]
-        if sol.dense_room >= (1.0 - opts.give) * s_val or not new.status.converged:  # the room it claims at its points holds between them, nearly
+        # kept: its dense check finds nearly the room it claims, and no less than the start had
+        if sol.dense_room >= max((1.0 - opts.give) * s_val, goal.guess) or not new.status.converged:  # the room it claims at its points holds between them, nearly
             break
         need = problem.task.clearance + max(s_val - 5e-4, 0.0)
         added = refine_points(problem, sol, 0, sol.t.size - 1, 1000.0, need, set(points), band=0.01)
@@ -283,7 +284,7 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
                              f"({names[where.ia]} and {names[where.ib]} at t = {grid.t[where.k]:.2f} s: {1000 * held:.1f} mm)")
         say(f"widen: {info['room_note']}; smoothing only")
         budget[0] = min(budget[0], 2 * (opts.iterations // 3))  # the lesser goal gets less work
-        goal = replace(goal, floor=round(max(min(room0, cap) - 5e-4, 0.0), 6), cap=round(max(cap, room0), 6), weight=0.0)
+        goal = replace(goal, floor=round(max(room0, 0.0), 6), cap=round(max(cap, room0) + 1e-3, 6), weight=0.0)
     # free timing first (each knot interval within h_bounds of its length, the makespan held);
     # if IPOPT cannot settle that, the same program with every knot time held: the events then
     # keep their times exactly (half the iterations each)
