@@ -66,7 +66,8 @@ class WidenOptions:
         claims at its points is kept; else points are added where it dips and it is solved again
     least : less extra room than this (m) to win: the program only smooths (the room held)
     feasible : an iterate at IPOPT's iteration cap is kept when no constraint is violated by
-        more than this (the verifier then judges it)
+        more than this (IPOPT's own tolerance) and it has all the room the start had (the
+        verifier then judges it)
     """
 
     cap: float = 0.10
@@ -80,7 +81,7 @@ class WidenOptions:
     track: float = 10.0
     give: float = 0.15
     least: float = 0.002
-    feasible: float = 1e-6
+    feasible: float = 1e-7
     weight: float | None = None
     ipopt: dict = field(default_factory=dict)
 
@@ -127,12 +128,16 @@ def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], go
         # kept (the verifier judges it); an infeasible or failed one is not
         if not (new.status.converged or (new.status == SolverStatus.LIMIT_REACHED and new.max_violation <= opts.feasible)):
             break
+        dense = new.sample(np.arange(0.0, new.t[-1], 1e-3))
+        new.room, new.dense_room = s_val, min_clearance(problem, dense) - problem.task.clearance  # type: ignore[attr-defined]
+        rounds[-1]["dense_room"] = new.dense_room
+        if not new.status.converged:  # at the cap: kept only with all the room the start had
+            if new.dense_room >= goal.guess - 1e-4:
+                sol = new
+            break
         sol = new
-        sol.room = s_val  # type: ignore[attr-defined]
-        dense = sol.sample(np.arange(0.0, sol.t[-1], 1e-3))
-        sol.dense_room = rounds[-1]["dense_room"] = min_clearance(problem, dense) - problem.task.clearance  # type: ignore[attr-defined]
         # kept: its dense check finds nearly the room it claims, and no less than the start had
-        if sol.dense_room >= max((1.0 - opts.give) * s_val, goal.guess) or not new.status.converged:  # the room it claims at its points holds between them, nearly
+        if sol.dense_room >= max((1.0 - opts.give) * s_val, goal.guess):
             break
         need = problem.task.clearance + max(s_val - 5e-4, 0.0)
         added = refine_points(problem, sol, 0, sol.t.size - 1, 1000.0, need, set(points), band=0.01)
