@@ -109,7 +109,8 @@ def test_retiming_beats_the_plain_search_on_crossing_paths():
     prob = load_problem(default_problem_path().with_name("crossing_paths.yaml"))
     res = plan_optimal(prob, options=OptimalOptions(polish=False))
     assert res.plan.solver["incumbent_from"] == "refine"  # the refinement retimes the search's best first
-    assert res.plan.solver["refine"]["start_makespan"] == pytest.approx(res.plan.metrics["makespan"], abs=1e-6)
+    # (the widening stage after it keeps that makespan, held a few microseconds inside it)
+    assert res.plan.solver["refine"]["start_makespan"] == pytest.approx(res.plan.metrics["makespan"], abs=1e-5)
     assert res.plan.metrics["makespan"] < 6.469 - 0.2 and verify(prob, res.plan).passed
 
 
