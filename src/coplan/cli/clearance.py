@@ -6,11 +6,33 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..kinds import ExitCode
+from ..kinds import ExitCode, PlannerKind
+from . import failures
+from .checks import budget_hint, check_time_limit, fail, solver_options
 from .console import ProgressDisplay
 from .summary import safe
 
-__all__ = ["run_clearance_sweep"]
+__all__ = ["clearance_sweep", "run_clearance_sweep"]
+
+
+def clearance_sweep(source: Path, planner, extra, out: Path, figures: bool, time_limit, options_file, as_json: bool,
+                    out_console, err_console) -> ExitCode:
+    """``coplan compare PROBLEM --clearance-sweep``: its inputs checked, then the sweep run."""
+    if not source.is_file():
+        fail(ExitCode.USAGE, f"--clearance-sweep: expected one problem file, found the folder {safe(source)}")
+    if planner and len(planner) > 1:
+        fail(ExitCode.USAGE, f"--clearance-sweep: expected at most one --planner, found {len(planner)}")
+    if extra and any(not (0 <= e <= 1000) for e in extra):
+        fail(ExitCode.USAGE, f"--extra: expected extra clearances from 0 to 1000 mm, found {extra}")
+    try:
+        kind = PlannerKind(planner[0].split(":")[0]) if planner else PlannerKind.OPTIMAL
+    except ValueError:
+        fail(ExitCode.USAGE, f"--planner: expected heuristic, coordinated or optimal, found {planner[0]!r}")
+    check_time_limit(time_limit)
+    failures.check_out_dir(out)
+    options = solver_options(options_file, time_limit, kind != PlannerKind.HEURISTIC)
+    hint = budget_hint(kind, time_limit) if kind == PlannerKind.OPTIMAL else None
+    return run_clearance_sweep(source, kind, extra, out, figures, options, hint, as_json, out_console, err_console)
 
 
 def run_clearance_sweep(source: Path, kind, extra, out: Path, figures: bool, options, hint, as_json: bool,

@@ -19,6 +19,8 @@ import typer
 from rich.console import Console
 
 from . import failures
+from .checks import budget_hint as _budget_hint, check_time_limit as _check_time_limit, check_workers as _check_workers
+from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
 from .summary import fmt as _fmt
 from .summary import print_summary, print_verification
@@ -58,10 +60,6 @@ def root(
     """Plan coordinated, collision-free, jerk-limited motion for several 2R arms harvesting fruit."""
 
 
-def _fail(code: ExitCode, message: str):
-    raise failures.Failure(code, message)
-
-
 def guarded(fn):
     """Map every failure to its exit code and a clear message (no tracebacks); with ``--json``
     also one JSON document on stdout (:mod:`coplan.cli.failures`)."""
@@ -85,53 +83,6 @@ def guarded(fn):
             raise typer.Exit(int(code)) from None
 
     return wrapper
-
-
-def _strict_json(doc) -> str:
-    """Strict JSON (RFC 8259): a non-finite number (e.g. no clearance at all: infinity) is null."""
-    from ..plan import jsonable
-
-    return json.dumps(jsonable(doc), default=str, allow_nan=False)
-
-
-def _check_time_limit(time_limit: Optional[float]) -> None:
-    if time_limit is not None and not time_limit > 0:
-        _fail(ExitCode.USAGE, f"--time-limit: expected a positive number of seconds, found {time_limit}")
-
-
-def _check_workers(workers: Optional[str]) -> Optional[int]:
-    """``--workers``: a whole number >= 1, or auto (this machine's cores, at most 8); None if not given."""
-    if workers is None:
-        return None
-    if workers.strip().lower() == "auto":
-        from ..planners.optimal.portfolio import default_workers
-
-        return default_workers()
-    try:
-        n = int(workers)
-    except ValueError:
-        n = 0
-    if n < 1:
-        _fail(ExitCode.USAGE, f"--workers: expected a whole number of processes >= 1 or auto, found {workers!r}")
-    return n
-
-
-def _solver_options(path: Optional[Path], time_limit: Optional[float], applies: bool):
-    """OptimalOptions from ``--options`` (validated; bad values exit 3 with the key and line)
-    and ``--time-limit`` (which wins); None when neither is given."""
-    if path is None and time_limit is None:
-        return None
-    if not applies:
-        if path is not None:
-            _fail(ExitCode.USAGE, "--options: the heuristic planner has no solver options")
-        return None
-    from dataclasses import replace
-
-    from ..planners.optimal.planner import OptimalOptions
-    from ..planners.optimal.options import load_options
-
-    opts = load_options(path) if path is not None else OptimalOptions()
-    return replace(opts, time_limit=time_limit) if time_limit is not None else opts
 
 
 def _resolve_problem(problem: Optional[Path]) -> Path:
@@ -235,14 +186,6 @@ def _report_solve(res, out: Path, animate: bool, html: bool, as_json: bool):
         if debug:
             err_console.print(res.error_trace, markup=False, highlight=False)
     raise typer.Exit(int(res.exit_code))
-
-
-def _budget_hint(planner: PlannerKind, time_limit: Optional[float]) -> Optional[str]:
-    """Shown once a long optimal solve has run a while without a clock limit."""
-    if planner != PlannerKind.OPTIMAL or time_limit is not None:
-        return None
-    return ("the optimal planner stops on its work budget (so the plan is the same on any machine); "
-            "--time-limit S returns its verified incumbent after S s, and Ctrl-C keeps it too")
 
 
 def _animate_files(res, out: Path, say=None) -> dict:
@@ -423,7 +366,10 @@ def compare_cmd(
 
     source = _resolve_problem(problems)
     if clearance_sweep:
-        raise typer.Exit(int(_clearance_sweep(source, planner, extra, out, figures, time_limit, options_file, as_json)))
+        from .clearance import clearance_sweep
+
+        raise typer.Exit(int(clearance_sweep(source, planner, extra, out, figures, time_limit, options_file, as_json,
+                                             out_console, err_console)))
     if extra:
         _fail(ExitCode.USAGE, "--extra: only with --clearance-sweep")
     if source.is_file():
@@ -458,27 +404,6 @@ def compare_cmd(
         out_console.print(f"wrote {_s(cmp.files['json'])} and {_s(cmp.files['markdown'])}")
     code = ExitCode.BAD_INPUT if cmp.bad_inputs else ExitCode.SOLVER_FAILED if cmp.failed_runs else ExitCode.OK
     raise typer.Exit(int(code))
-
-
-def _clearance_sweep(source: Path, planner, extra, out: Path, figures: bool, time_limit, options_file, as_json: bool) -> ExitCode:
-    """``coplan compare PROBLEM --clearance-sweep``: its inputs checked here, run by :mod:`.clearance`."""
-    from .clearance import run_clearance_sweep
-
-    if not source.is_file():
-        _fail(ExitCode.USAGE, f"--clearance-sweep: expected one problem file, found the folder {_s(source)}")
-    if planner and len(planner) > 1:
-        _fail(ExitCode.USAGE, f"--clearance-sweep: expected at most one --planner, found {len(planner)}")
-    if extra and any(not (0 <= e <= 1000) for e in extra):
-        _fail(ExitCode.USAGE, f"--extra: expected extra clearances from 0 to 1000 mm, found {extra}")
-    try:
-        kind = PlannerKind(planner[0].split(":")[0]) if planner else PlannerKind.OPTIMAL
-    except ValueError:
-        _fail(ExitCode.USAGE, f"--planner: expected heuristic, coordinated or optimal, found {planner[0]!r}")
-    _check_time_limit(time_limit)
-    failures.check_out_dir(out)
-    options = _solver_options(options_file, time_limit, kind != PlannerKind.HEURISTIC)
-    hint = _budget_hint(kind, time_limit) if kind == PlannerKind.OPTIMAL else None
-    return run_clearance_sweep(source, kind, extra, out, figures, options, hint, as_json, out_console, err_console)
 
 
 # ---- plot / animate (coplan.viz)

@@ -1,0 +1,72 @@
+"""Checks and helpers the commands share: a usage failure, --time-limit, --workers and
+--options, the budget hint and strict JSON (public, so that each command's module can use them)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+from . import failures
+from ..kinds import ExitCode, PlannerKind
+
+__all__ = ["fail", "strict_json", "check_time_limit", "check_workers", "solver_options", "budget_hint"]
+
+
+def fail(code: ExitCode, message: str):
+    raise failures.Failure(code, message)
+
+
+def strict_json(doc) -> str:
+    """Strict JSON (RFC 8259): a non-finite number (e.g. no clearance at all: infinity) is null."""
+    from ..plan import jsonable
+
+    return json.dumps(jsonable(doc), default=str, allow_nan=False)
+
+
+def check_time_limit(time_limit: Optional[float]) -> None:
+    if time_limit is not None and not time_limit > 0:
+        fail(ExitCode.USAGE, f"--time-limit: expected a positive number of seconds, found {time_limit}")
+
+
+def check_workers(workers: Optional[str]) -> Optional[int]:
+    """``--workers``: a whole number >= 1, or auto (this machine's cores, at most 8); None if not given."""
+    if workers is None:
+        return None
+    if workers.strip().lower() == "auto":
+        from ..planners.optimal.portfolio import default_workers
+
+        return default_workers()
+    try:
+        n = int(workers)
+    except ValueError:
+        n = 0
+    if n < 1:
+        fail(ExitCode.USAGE, f"--workers: expected a whole number of processes >= 1 or auto, found {workers!r}")
+    return n
+
+
+def solver_options(path: Optional[Path], time_limit: Optional[float], applies: bool):
+    """OptimalOptions from ``--options`` (validated; bad values exit 3 with the key and line)
+    and ``--time-limit`` (which wins); None when neither is given."""
+    if path is None and time_limit is None:
+        return None
+    if not applies:
+        if path is not None:
+            fail(ExitCode.USAGE, "--options: the heuristic planner has no solver options")
+        return None
+    from dataclasses import replace
+
+    from ..planners.optimal.planner import OptimalOptions
+    from ..planners.optimal.options import load_options
+
+    opts = load_options(path) if path is not None else OptimalOptions()
+    return replace(opts, time_limit=time_limit) if time_limit is not None else opts
+
+
+def budget_hint(planner: PlannerKind, time_limit: Optional[float]) -> Optional[str]:
+    """Shown once a long optimal solve has run a while without a clock limit."""
+    if planner != PlannerKind.OPTIMAL or time_limit is not None:
+        return None
+    return ("the optimal planner stops on its work budget (so the plan is the same on any machine); "
+            "--time-limit S returns its verified incumbent after S s, and Ctrl-C keeps it too")
