@@ -424,7 +424,7 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     wopts = WidenOptions(cap=opts.widen_cap, iterations=opts.widen_iterations, max_knots=opts.widen_knots,
                          h_target=opts.h_target)
     before = inc.plan
-    margin0 = before.verification["certified_clearance"] - problem.task.clearance
+    margin0 = before.verification["margin"]
     jerk0 = {a: v.get("rms_jerk") for a, v in before.metrics.get("per_arm", {}).items()}
     if not problem.neighbour_pairs():
         return {"status": "skipped", "accepted": False, "margin_before": None, "makespan_before": inc.makespan,
@@ -444,7 +444,7 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     plan = finalize_plan(res.plan, ver, inc.n_reach)
     if "lower_bound" in before.metrics:
         plan.metrics["lower_bound"] = before.metrics["lower_bound"]
-    margin = ver.certified_clearance - problem.task.clearance if ver.passed else None
+    margin = ver.margin if ver.passed else None
     info.update(verified=bool(ver.passed), margin=margin, makespan=plan.metrics["makespan"],
                 rms_jerk={a: v.get("rms_jerk") for a, v in plan.metrics.get("per_arm", {}).items()})
     why = None

@@ -42,7 +42,7 @@ from ..coordinated.schedule import ArmSchedule, StepKind
 from .nlp import build_nlp
 from .nlp_data import ConstraintPoint, NLPSolution, SolverStatus, WidenGoal, build_grid, knot_events
 from .nlp_solve import solve_nlp
-from .windows import min_clearance, refine_points, screen_points
+from .windows import link_pair_distances, min_clearance, refine_points, screen_points
 
 __all__ = ["WidenOptions", "WidenResult", "widen", "held_room", "pinned_knots"]
 
@@ -182,19 +182,13 @@ def held_room(problem: Problem, schedules: dict[str, ArmSchedule], grid, points:
         return free, np.inf, None
     k = np.array([p.k for p in fixed])
     t = grid.t[k] + np.array([p.tau for p in fixed]) * (grid.t[np.minimum(k + 1, grid.K)] - grid.t[k])
-    d = np.array([_pair_distance(problem, schedules, names, p, ti) for p, ti in zip(fixed, t)]) - problem.task.clearance
+    d = np.empty(len(fixed))
+    for i, (p, ti) in enumerate(zip(fixed, t)):
+        qa, qb = (schedules[names[x]].state(np.array([ti]))[0] for x in (p.ia, p.ib))
+        d[i] = link_pair_distances(problem, qa, qb, p.ia, p.ib)[2 * p.s + p.u, 0]  # (rows: link pairs s, u)
+    d -= problem.task.clearance
     i = int(np.argmin(d))
     return free, float(d[i]), fixed[i]
-
-
-def _pair_distance(problem, schedules, names, p: ConstraintPoint, t: float) -> float:
-    from ...kinematics import arm as kin
-    from ...kinematics.geometry import segment_distance
-
-    A, B = problem.arms[p.ia], problem.arms[p.ib]
-    pa = kin.fk_points(schedules[names[p.ia]].state(np.array([t]))[0][0], A.links, A.base)
-    pb = kin.fk_points(schedules[names[p.ib]].state(np.array([t]))[0][0], B.links, B.base)
-    return float(segment_distance(pa[p.s], pa[p.s + 1], pb[p.u], pb[p.u + 1])) - A.link_radius - B.link_radius
 
 
 def exact_dynamics(sol: NLPSolution, pinned: dict[str, np.ndarray]) -> NLPSolution:
@@ -213,35 +207,33 @@ def exact_dynamics(sol: NLPSolution, pinned: dict[str, np.ndarray]) -> NLPSoluti
     K = h.size
     X = {n: x.copy() for n, x in sol.X.items()}
     U = {n: u.copy() for n, u in sol.U.items()}
+    nz = 3 * (K + 1) + K  # unknowns: q_k, v_k, a_k (k = 0..K) at 3k + {0,1,2}, u_k (k < K) at 3(K+1) + k
     for n in X:
         pin = pinned[n]
+        held = np.flatnonzero(pin)
+        rows, cols, vals = [], [], []
+        r = 0
+        for k in range(K):  # the knot-to-knot integration (the same rows for both joints)
+            hk = h[k]
+            q0, v0, a0, q1, v1, a1, uk = 3 * k, 3 * k + 1, 3 * k + 2, 3 * k + 3, 3 * k + 4, 3 * k + 5, 3 * (K + 1) + k
+            for c, v in ((q1, 1.0), (q0, -1.0), (v0, -hk), (a0, -hk**2 / 2), (uk, -hk**3 / 6)):
+                rows.append(r), cols.append(c), vals.append(v)
+            for c, v in ((v1, 1.0), (v0, -1.0), (a0, -hk), (uk, -hk**2 / 2)):
+                rows.append(r + 1), cols.append(c), vals.append(v)
+            for c, v in ((a1, 1.0), (a0, -1.0), (uk, -hk)):
+                rows.append(r + 2), cols.append(c), vals.append(v)
+            r += 3
+        for k in held:  # held poses stay exactly where they are, at rest
+            for c in (3 * k, 3 * k + 1, 3 * k + 2):
+                rows.append(r), cols.append(c), vals.append(1.0)
+                r += 1
+        A = sp.csr_matrix((vals, (rows, cols)), shape=(r, nz))
         for j in range(2):
-            # unknowns: q_k, v_k, a_k (k = 0..K), u_k (k < K) -> index 3k + {0,1,2}, 3(K+1) + k
-            nz = 3 * (K + 1) + K
             z0 = np.concatenate([np.stack([X[n][j], X[n][2 + j], X[n][4 + j]], axis=1).ravel(), U[n][j]])
-            rows, cols, vals, rhs = [], [], [], []
-            r = 0
-            for k in range(K):
-                hk = h[k]
-                q0, v0, a0, q1, v1, a1, uk = 3 * k, 3 * k + 1, 3 * k + 2, 3 * k + 3, 3 * k + 4, 3 * k + 5, 3 * (K + 1) + k
-                for c, v in ((q1, 1.0), (q0, -1.0), (v0, -hk), (a0, -hk**2 / 2), (uk, -hk**3 / 6)):
-                    rows.append(r), cols.append(c), vals.append(v)
-                for c, v in ((v1, 1.0), (v0, -1.0), (a0, -hk), (uk, -hk**2 / 2)):
-                    rows.append(r + 1), cols.append(c), vals.append(v)
-                for c, v in ((a1, 1.0), (a0, -1.0), (uk, -hk)):
-                    rows.append(r + 2), cols.append(c), vals.append(v)
-                rhs += [0.0, 0.0, 0.0]
-                r += 3
-            for k in np.flatnonzero(pin):  # held poses stay exactly where they are, at rest
-                for c, v in ((3 * k, z0[3 * k]), (3 * k + 1, 0.0), (3 * k + 2, 0.0)):
-                    rows.append(r), cols.append(c), vals.append(1.0)
-                    rhs.append(v)
-                    r += 1
-            A = sp.csr_matrix((vals, (rows, cols)), shape=(r, nz))
-            res = np.asarray(rhs) - A @ z0
-            dz = lsqr(A, res, atol=1e-15, btol=1e-15, iter_lim=20 * nz)[0]
+            rhs = np.zeros(r)
+            rhs[3 * K::3] = z0[3 * held]  # the held poses' rows: (q, v, a) = (pose, 0, 0)
+            dz = lsqr(A, rhs - A @ z0, atol=1e-15, btol=1e-15, iter_lim=20 * nz)[0]
             z = z0 + dz
-            held = np.flatnonzero(pin)
             z[3 * held], z[3 * held + 1], z[3 * held + 2] = z0[3 * held], 0.0, 0.0  # exactly (LSQR: to 1e-15)
             st = z[: 3 * (K + 1)].reshape(K + 1, 3)
             X[n][j], X[n][2 + j], X[n][4 + j] = st[:, 0], st[:, 1], st[:, 2]
@@ -261,7 +253,7 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     say = say or (lambda m: None)
     t0 = _time.perf_counter()
     info: dict = {"status": "skipped", "rounds": [], "iterations": 0}
-    if len(problem.arms) < 2 or not problem.neighbour_pairs():
+    if not problem.neighbour_pairs():
         info["reason"] = "no neighbouring arms: nothing to widen"
         return WidenResult(None, info)
     grid = build_grid(schedules, opts.h_target)
@@ -274,7 +266,7 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     room0 = min_clearance(problem, q0) - problem.task.clearance
     points = screen_points(problem, schedules, grid, 0, grid.K, opts.cap + opts.screen, opts.shift)
     points, held, where = held_room(problem, schedules, grid, points)
-    cap = min(opts.cap, held)
+    cap = round(min(opts.cap, held), 6)  # (a distance from sin/cos: whole micrometres, the same on any CPU)
     info["room_held"] = None if where is None else held
     budget = [opts.iterations]
     # held a microsecond inside the incumbent's (IPOPT meets constraints to its tolerance, ~1e-7)
@@ -294,7 +286,6 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     # if IPOPT cannot settle that, the same program with every knot time held: the events then
     # keep their times exactly (half the iterations each)
     total = budget[0]
-    info["rounds"] = []
     sol = None
     for attempt, h_bounds in enumerate((opts.h_bounds, (1.0, 1.0))):
         budget[0] = total // 2 if attempt == 0 else total - sum(r["iterations"] for r in info["rounds"])

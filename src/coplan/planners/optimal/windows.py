@@ -25,7 +25,7 @@ from ...problem.model import Problem
 from ..coordinated.schedule import ArmSchedule, StepKind
 
 
-__all__ = ["screen_points", "refine_points", "solve_windows", "window_count"]
+__all__ = ["screen_points", "refine_points", "solve_windows", "window_count", "link_pair_distances", "min_clearance"]
 
 
 # ----------------------------------------------------------------------------- screening
@@ -33,7 +33,7 @@ def _states_at(schedules: dict[str, ArmSchedule], names, t: np.ndarray) -> dict[
     return {n: schedules[n].state(t)[0] for n in names}
 
 
-def _link_pair_distances(problem: Problem, qa, qb, ia, ib) -> np.ndarray:
+def link_pair_distances(problem: Problem, qa, qb, ia, ib) -> np.ndarray:
     """(4, N) distances for link pairs (s, u) in order (0,0), (0,1), (1,0), (1,1)."""
     A, B = problem.arms[ia], problem.arms[ib]
     pa = kin.fk_points(qa, A.links, A.base)
@@ -70,7 +70,7 @@ def screen_points(problem: Problem, schedules, grid: Grid, lo: int, hi: int, scr
         d = np.full((4, times.size), np.inf)
         for sh in shifts:
             qb = schedules[names[ib]].state(np.clip(times + sh, 0.0, t_end))[0] if sh else q[names[ib]]
-            d = np.minimum(d, _link_pair_distances(problem, q[names[ia]], qb, ia, ib))
+            d = np.minimum(d, link_pair_distances(problem, q[names[ia]], qb, ia, ib))
         for li, (s, u) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
             for i in np.flatnonzero(d[li] < problem.task.clearance + screen):
                 pts.append(ConstraintPoint(int(ks[i]), float(ts[i]), ia, ib, s, u))
@@ -90,7 +90,7 @@ def refine_points(problem: Problem, sol: NLPSolution, lo: int, hi: int, rate: fl
     q = sol.sample(times)
     new: set = set()
     pairs = problem.neighbour_pairs()
-    dists = [_link_pair_distances(problem, q[names[ia]], q[names[ib]], ia, ib) for ia, ib in pairs]
+    dists = [link_pair_distances(problem, q[names[ia]], q[names[ib]], ia, ib) for ia, ib in pairs]
     if not any((d < need).any() for d in dists):
         return []
     for (ia, ib), d in zip(pairs, dists):
@@ -115,7 +115,7 @@ def min_clearance(problem: Problem, q: dict[str, np.ndarray]) -> float:
     names = [a.name for a in problem.arms]
     out = np.inf
     for ia, ib in problem.neighbour_pairs():
-        out = min(out, float(_link_pair_distances(problem, q[names[ia]], q[names[ib]], ia, ib).min()))
+        out = min(out, float(link_pair_distances(problem, q[names[ia]], q[names[ib]], ia, ib).min()))
     return out
 
 
