@@ -113,13 +113,10 @@ def cell(row: dict, key: str) -> str:
         return "yes" if v else "no"
     if key == "harvested":
         return f"{v} / {row.get('reachable')}"
-    if key in ("ratio",):
-        return f"{v:.3f}"
-    if key in ("clearance",):
-        return f"{v:.3f}"
-    if key in ("extra_mm", "margin_mm"):
-        return f"{v:.1f}" if key == "margin_mm" else f"+{v:g}"
-    return f"{v:.2f}" if isinstance(v, float) else str(v)
+    if key == "extra_mm":
+        return f"+{v:g}"
+    digits = {"ratio": 3, "clearance": 3, "margin_mm": 1}.get(key, 2)
+    return f"{v:.{digits}f}" if isinstance(v, float) else str(v)
 
 
 def to_markdown(cost: ClearanceCost) -> str:
