@@ -10,7 +10,8 @@ from __future__ import annotations
 from enum import Enum, IntEnum
 
 __all__ = ["AllocationMethod", "SequenceRule", "PlannerKind", "PlanStatus", "EventKind", "ExitCode", "FclMode",
-           "SweepBase", "SweepMode", "RowStatus", "TrackState", "ReplanCause", "ExportFormat", "SchemaKind"]
+           "SweepBase", "SweepMode", "RowStatus", "TrackState", "ReplanCause", "ExportFormat", "SchemaKind",
+           "StopRule", "GantryMode", "AssignRule", "SpeedProfile"]
 
 
 class AllocationMethod(str, Enum):
@@ -36,6 +37,27 @@ class StopRule(str, Enum):
     OPTIMISED = "optimised"  # stops and their fruit chosen with the arms (receding segments, strides priced by the arms' cycles)
     FIXED = "fixed"  # a stop every carriage span (a camera-frame rule)
     FEWEST = "fewest"  # the fewest stops that serve every fruit (greedy stabbing)
+
+
+class GantryMode(str, Enum):
+    """How a row's carriage moves (:mod:`coplan.row`)."""
+
+    STOP_AND_GO = "stop-and-go"  # the carriage stops; each stop is a stationary cell (the stop rule chooses where)
+    CONTINUOUS = "continuous"  # the carriage keeps moving; arms pick within time windows (row.continuous)
+
+
+class AssignRule(str, Enum):
+    """How continuous mode assigns and orders fruit to arms within their windows."""
+
+    GREEDY = "greedy"  # earliest deadline first (interval scheduling's greedy; the baseline)
+    CPSAT = "cpsat"  # OR-Tools CP-SAT over optional intervals, seeded by the greedy
+
+
+class SpeedProfile(str, Enum):
+    """How continuous mode's carriage speed varies along the row (:mod:`coplan.row.cruise`)."""
+
+    CONSTANT = "constant"  # one cruising speed for the whole row
+    DENSITY = "density"  # a speed per metre of rail, slower where the fruit need more of the arms' time
 
 
 class PlanStatus(str, Enum):

@@ -10,8 +10,12 @@ the row's (world) frame: the bases are where the carriage puts them, ``base + (x
 * **clearance** -- as for a cell, in the row frame (:class:`~coplan.verify.clearance.ArmMotion`
   with the carriage's shift); between samples the certificate adds the carriages' relative
   speed to the arms' own point speeds: zero for arms on one carriage, which move together.
-* **picks** -- the tip within tolerance of the fruit *in row coordinates* and still there (its
-  speed in the row frame, the carriage's included, below ``still_speed``) for the dwell.
+* **picks** -- the tip within tolerance of the fruit *in row coordinates* and still there for the
+  dwell: its speed in the row frame, the carriage's included, below ``still_speed``, bounded on
+  the linear replay (joints and carriage linear between samples) by the mean row-frame tip
+  velocity over each interval plus the most the arm's own tip velocity can turn within it. A
+  pick may happen with the carriage at rest (stop and go) or moving, the joints carrying the tip
+  along with the fruit (on the move).
 * **places** -- over the arm's bin, which rides with the carriage: checked in the carriage's frame.
 * **reach** -- which fruit some arm could pick from some carriage position on the rail (joint
   limits, the annulus less ``task.reach_margin``), on a 1 cm grid of positions: the fruit a

@@ -32,7 +32,8 @@ What "passes" means (every check below, with the default :class:`VerifyOptions`)
   to 1e-7 rad: 1e-5 rad/s, 2e-3 rad/s^2, 0.4 rad/s^3 at 100 Hz).
 * **picks and places** -- during each event the tip is within ``position_tolerance``
   (5 mm) of its fruit (of the arm's bin for a place) and *still* (every point of the arm
-  slower than ``still_speed``, 5 mm/s) for at least the dwell, less ``dwell_tolerance``
+  slower than ``still_speed``, 5 mm/s; in a row, a pick's tip slower than that in the row
+  frame: see :mod:`coplan.verify.row`) for at least the dwell, less ``dwell_tolerance``
   (default one sample period: the grid cannot place a hold's ends more finely). Every
   fruit is picked at most once, only by an arm that can reach it, picks and places
   alternate.
@@ -60,7 +61,7 @@ from ..errors import Issue, PlanFileError
 from .fclcheck import cross_check
 from ..kinematics.geometry import segment_distance
 from .infer import infer_events
-from .row import carriage_speed, check_carriage, check_row_inputs, row_reachable_ids
+from .row import check_carriage, check_row_inputs, row_reachable_ids
 from ..plan import DEFAULT_RATE, EventKind, Plan
 from . import verdict as _verdict
 from ..problem.model import Problem
@@ -253,11 +254,13 @@ def _acceleration_step(arm: str, jn: int, jerk: np.ndarray, tc: np.ndarray, dt: 
 
 # --------------------------------------------------------------------------- events
 def _hold(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, ts: float, te: float, opts: VerifyOptions,
-          frame_speed: np.ndarray | None = None):
+          row_frame: bool = False):
     """Least tip distance during [ts, te] and the longest still-on-target time inside it.
 
-    ``target``: a point, or one per sample (N, 2) (a bin riding on a carriage); ``frame_speed``
-    (N - 1,): the speed the arm's frame adds to its points (a carriage, for a pick in the row frame)."""
+    ``target``: a point, or one per sample (N, 2) (a bin riding on a carriage); ``row_frame``:
+    a pick in a row: the tip (in the row frame, carriage included) must then be
+    still in the row frame, its speed bounded on the linear replay (the carriage may move while the
+    joints carry the tip along: a pick on the move)."""
     dist = np.hypot(*(tip - np.asarray(target, float)).T)
     if time.size < 2:
         return float(dist[0]), 0.0
@@ -268,9 +271,20 @@ def _hold(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, ts: float, te
         hi = min(lo + 1, time.size - 1)
     n = np.arange(lo, hi)
     overlap = np.clip(np.minimum(time[n + 1], te) - np.maximum(time[n], ts), 0.0, None)
-    speed = m.speed[n] if frame_speed is None else m.speed[n] + frame_speed[n]
+    if not row_frame:
+        speed = still = m.speed[n]
+    else:
+        # in the row frame, on the linear replay (joints and carriage linear between samples): the
+        # tip moves by its row-frame displacement over the interval (``still``: the tip's motion
+        # from sample to sample, what a pick on a moving carriage must keep below still_speed), and
+        # its velocity J(q) qd turns within the interval by at most the tip's acceleration at
+        # constant joint rates, l1 w1^2 + l2 (w1 + w2)^2, times dt / 2: a bound on its speed
+        # anywhere inside, for the position check
+        w1, w12 = m.qd[n, 0], m.qd[n, 0] + m.qd[n, 1]
+        still = np.hypot(*(tip[n + 1] - tip[n]).T) / dt
+        speed = still + (m.links[0] * w1 ** 2 + m.links[1] * w12 ** 2) * dt / 2
     # the tip stays within (d0 + d1 + V dt) / 2 of the target over the whole interval
-    good = ((dist[n] + dist[n + 1] + speed * dt) / 2 <= opts.position_tolerance) & (speed <= opts.still_speed)
+    good = ((dist[n] + dist[n + 1] + speed * dt) / 2 <= opts.position_tolerance) & (still <= opts.still_speed)
     best = max((float(overlap[a : b + 1].sum()) for a, b in runs(good & (overlap > 0))), default=0.0)
     inside = dist[lo : hi + 1]
     return float(inside.min()), best
@@ -284,7 +298,6 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
     fruit_index = {f.id: k for k, f in enumerate(problem.fruits)}
     tips = {m.name: m.tips() for m in motions}
     shift = None if not row else np.c_[np.asarray(plan.gantry_x, float), np.zeros(plan.time.size)]
-    moving = carriage_speed(plan) if row else None
     dwell_tol = plan.dt if opts.dwell_tolerance is None else opts.dwell_tolerance
     eps = 1e-9
     picks: dict[str, list[str]] = {}
@@ -309,12 +322,12 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
                                                 message="arm picks a fruit it cannot reach"))
             target, dwell = problem.fruits[fruit_index[e.fruit]].position, problem.task.pick_dwell
             missed, short = ViolationKind.PICK_MISSED, ViolationKind.PICK_DWELL
-            frame = moving  # a fruit stays where it is: the tip must be still in the row frame
+            frame = row  # a fruit stays where it is: the tip must be still in the row frame
         else:
             placed.add(e.fruit)
             target, dwell = arm.bin if shift is None else np.asarray(arm.bin, float) + shift, problem.task.place_dwell
             missed, short = ViolationKind.PLACE_MISSED, ViolationKind.PLACE_DWELL
-            frame = None  # the bin rides with the carriage: still relative to it
+            frame = False  # the bin rides with the carriage: still relative to it
         m = motions[arm_index[e.arm]]
         least, held = _hold(m, tips[e.arm], plan.time, target, e.t_start, e.t_end, opts, frame)
         if least > opts.position_tolerance:

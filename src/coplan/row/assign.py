@@ -1,0 +1,126 @@
+"""Which arm picks which fruit, and in which order, within the pick windows: OR-Tools CP-SAT.
+
+One optional interval per fruit and window (an arm, a run of carriage positions serving it): its
+pick starts inside the window, and the interval covers the whole cycle around it -- the move
+from the bin, the pick, the move back and the place, each move priced at its rest-to-rest
+time-optimal duration at the window's middle (the moves' share of the limits:
+:data:`coplan.row.track.LIMIT_SHARE`). An arm's intervals never overlap; a fruit is picked at
+most once. Objective: the most fruit, then the earliest end of the last cycle. The greedy's
+bookings are the hint, so CP-SAT starts from the baseline.
+
+The geometry between neighbours is not in the model: its order goes back to
+:func:`coplan.row.booking.run_policy`, which books each arm's fruit in that order, each cycle
+clear of the neighbours (later if it must), and leaves to the greedy whatever no longer fits.
+Single-threaded with a deterministic work limit: the same plan on any machine.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..kinematics.timing import move_lower_bound
+from ..plan import EventKind
+from ..problem.model import Problem
+from .booking import Booker
+from .cruise import Cruise
+from .reach import RowReach
+from .track import LIMIT_SHARE, track
+
+__all__ = ["cpsat_order", "CPSAT_WORK"]
+
+_UNIT = 100  # model time units per second (10 ms)
+#: CP-SAT's deterministic work limit (its "deterministic seconds"; the same on any machine).
+CPSAT_WORK = 5.0
+
+
+def _cycle_parts(problem: Problem, booker: Booker, cruise: Cruise, fid: str, w) -> tuple[float, float] | None:
+    """(approach, return) seconds of a cycle of arm ``w.arm`` on ``fid`` at the window's middle."""
+    arm = problem.arms[w.arm]
+    hi = w.hi if math.isfinite(w.hi) else w.lo + 1.0
+    t = 0.5 * (w.lo + hi)
+    xy = booker.fruit_xy[fid]
+    c = float(cruise.x(np.array([t]))[0])
+    brs = booker.branches(w.arm, fid, c, c)
+    if not brs:
+        return None
+    lim = [np.asarray(x, float) * LIMIT_SHARE for x in (arm.max_velocity, arm.max_acceleration, arm.max_jerk)]
+    qb = booker.bin_q[w.arm]
+    best = None
+    for b in brs:
+        qf = track(arm, xy, cruise, np.array([t]), b)[0]
+        if not np.all(np.isfinite(qf)):
+            continue
+        d = move_lower_bound(qb, qf, *lim)
+        if best is None or d < best:
+            best = d
+    return None if best is None else (best, best)
+
+
+def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruise,
+                work: float = CPSAT_WORK) -> tuple[dict[int, list[str]] | None, dict]:
+    """Each arm's fruit in CP-SAT's order (module docstring), or None; and a report."""
+    from ortools.sat.python import cp_model
+
+    dwell, place = problem.task.pick_dwell, problem.task.place_dwell
+    horizon_s = max((e.t_end for e in greedy.events), default=cruise.duration) + 60.0
+    H = int(math.ceil(horizon_s * _UNIT))
+    m = cp_model.CpModel()
+    per_arm: dict[int, list] = {i: [] for i in range(len(problem.arms))}
+    per_fruit: dict[str, list] = {}
+    items = []
+    for fid, ws in greedy.windows.items():
+        for w in ws:
+            parts = _cycle_parts(problem, greedy, cruise, fid, w)
+            if parts is None:
+                continue
+            app, ret = (int(math.ceil(x * _UNIT)) for x in parts)
+            lo = max(app, int(math.ceil(w.lo * _UNIT)))
+            hi = min(H, int(math.floor(w.hi * _UNIT)) if math.isfinite(w.hi) else H)
+            if hi < lo:
+                continue
+            on = m.NewBoolVar("")
+            p = m.NewIntVar(lo, hi, "")
+            dur = app + int(math.ceil((dwell + place) * _UNIT)) + ret
+            s = m.NewIntVar(lo - app, hi - app, "")
+            e = m.NewIntVar(lo - app + dur, hi - app + dur, "")
+            m.Add(s == p - app)
+            iv = m.NewOptionalIntervalVar(s, dur, e, on, "")
+            per_arm[w.arm].append(iv)
+            per_fruit.setdefault(fid, []).append(on)
+            items.append((fid, w.arm, on, p, e))
+    if not items:
+        return None, {"status": "EMPTY"}
+    for ivs in per_arm.values():
+        m.AddNoOverlap(ivs)
+    for ons in per_fruit.values():
+        m.AddAtMostOne(ons)
+    last = m.NewIntVar(0, H + 10 * _UNIT * 60, "")
+    for fid, a, on, p, e in items:
+        m.Add(last >= e).OnlyEnforceIf(on)
+    count = sum(on for _, _, on, _, _ in items)
+    m.Maximize(count * (H + 10 * _UNIT * 60 + 1) - last)
+    index = {a.name: i for i, a in enumerate(problem.arms)}
+    booked = {(e.fruit, index[e.arm]): e.t_start for e in greedy.events if e.kind == EventKind.PICK}
+    for fid, a, on, p, e in items:
+        t = booked.get((fid, a))
+        m.AddHint(on, t is not None)
+        if t is not None:
+            m.AddHint(p, int(round(t * _UNIT)))
+    solver = cp_model.CpSolver()
+    solver.parameters.num_workers = 1  # single-threaded and a deterministic limit: the same plan anywhere
+    solver.parameters.max_deterministic_time = work
+    solver.parameters.random_seed = 0
+    solver.parameters.catch_sigint_signal = False
+    status = solver.Solve(m)
+    name = solver.StatusName(status)
+    report = {"status": name, "intervals": len(items), "work": work}
+    if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
+        return None, report
+    chosen: dict[int, list[tuple[int, str]]] = {i: [] for i in range(len(problem.arms))}
+    for fid, a, on, p, e in items:
+        if solver.Value(on):
+            chosen[a].append((solver.Value(p), fid))
+    report["fruit"] = int(sum(len(v) for v in chosen.values()))
+    return {a: [f for _, f in sorted(v)] for a, v in chosen.items()}, report

@@ -1,0 +1,381 @@
+"""Book harvest cycles for arms on a moving carriage, one at a time, never closer than allowed.
+
+A :class:`Booker` holds every arm's motion sampled on the plan's grid up to the time the arm is
+free again (at rest over its bin, or home). A **cycle** of arm ``a`` on fruit ``f`` is: wait at
+rest, a time-optimal move (:class:`coplan.row.track.Leg`) that arrives on the fruit with the
+carriage's motion matched, the pick (the tip held over the fruit in row coordinates:
+:func:`coplan.row.track.track`), a move to rest over the bin, the place. :meth:`Booker.book`
+finds the earliest pick time inside the fruit's window at which the whole cycle keeps
+``clearance + margin`` from every neighbour's booked motion -- and, past a neighbour's booked
+end, from its resting pose, which is where it stays until it books its next cycle (checked
+then against this one), so every pair of cycles is checked by whichever is booked later.
+
+The **policy** (:func:`run_policy`) decides which arm books what, in time order: the arm free
+first takes, among the fruit it can still reach, the one whose window closes first (earliest
+deadline; interval scheduling's greedy), or follows a given order per arm (the CP-SAT
+assignment of :mod:`coplan.row.assign`).
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..allocate.screen import usable_picks
+from ..plan import Event, EventKind
+from ..planners.coordinated.schedule import arm_points, points_too_close
+from ..problem.gantry import cell_at
+from ..problem.model import Problem
+from .cruise import Cruise, Window
+from .track import Leg, LegError, track, track_state
+
+__all__ = ["Booker", "Cycle", "run_policy"]
+
+_RETRY = 0.1  # s: a cycle that would come too close to a neighbour is tried again this much later
+_PATIENCE = 30.0  # s: the longest an arm waits for a clear cycle on one fruit
+_TRIES = 6  # fixed-point rounds: arrival time <-> where the fruit is then
+
+
+@dataclass
+class Cycle:
+    """One booked harvest: indices on the grid and the events."""
+
+    arm: int
+    fruit: str
+    k0: int  # first sample of the cycle (the arm free, at rest)
+    q: np.ndarray  # (K, 2) samples k0 .. k0 + K - 1
+    events: list[Event]
+
+
+@dataclass
+class ArmState:
+    q: np.ndarray  # (capacity, 2) samples booked so far
+    k_free: int = 0  # booked up to and including this sample; at rest there
+    done: bool = False
+    fruit: list[str] = field(default_factory=list)
+
+
+class Booker:
+    """Every arm's booked motion (module docstring)."""
+
+    def __init__(self, problem: Problem, cruise: Cruise, windows: dict[str, list[Window]], rate: float, margin: float,
+                 step: float = 0.05):
+        self.problem, self.cruise, self.windows, self.rate = problem, cruise, windows, rate
+        self.dt = 1.0 / rate
+        self.cell = cell_at(problem, 0.0, ())  # the carriage frame
+        self.need = problem.task.clearance + margin
+        self.n_pick = int(math.ceil(problem.task.pick_dwell * rate - 1e-9))
+        self.n_place = int(math.ceil(problem.task.place_dwell * rate - 1e-9))
+        self.arms = [ArmState(np.tile(np.asarray(a.home, float), (1024, 1))) for a in problem.arms]
+        self.events: list[Event] = []
+        self.bin_q = [self._bin_pose(i) for i in range(len(problem.arms))]
+        pairs = problem.neighbour_pairs()
+        self.neighbours = [[j for p in pairs for j in p if i in p and j != i] for i in range(len(problem.arms))]
+        self.fruit_xy = {f.id: tuple(map(float, f.position)) for f in problem.fruits}
+        self.checks = 0
+        self._use: dict[tuple[int, str], tuple[float, np.ndarray]] = {}
+        self.step = step  # m: the row screen's grid, on which a pick's elbow branch is screened
+
+    # ------------------------------------------------------------------ poses
+    def _bin_pose(self, i: int) -> np.ndarray:
+        arm = self.cell.arms[i]
+        q, valid = arm.ik(np.asarray(arm.bin, float))
+        use = usable_picks(replace_reach_margin(self.cell), np.asarray([arm.bin], float), arms=(i,))[i][0]
+        ok = [b for b in (0, 1) if valid[b] and use[b]] or [b for b in (0, 1) if valid[b]]
+        if not ok:
+            raise ValueError(f"{arm.name} cannot reach its bin")
+        home = np.asarray(arm.home, float)
+        return min((q[b] for b in ok), key=lambda qb: float(np.max(np.abs(qb - home))))
+
+    def branches(self, i: int, fid: str, c0: float, c1: float) -> list[int]:
+        """Elbow branches of arm ``i`` usable on fruit ``fid`` with the carriage anywhere in
+        ``[c0, c1]``: the screen's rules on a 5 cm grid of carriage positions covering it
+        (computed once per arm and fruit, over the arm's whole reach of the fruit)."""
+        key = (i, fid)
+        if key not in self._use:
+            x, y = self.fruit_xy[fid]
+            arm = self.problem.arms[i]
+            g = self.problem.gantry
+            # on the row screen's grid (positions g.start + k step), so a window's ends are grid points
+            lo = g.start + self.step * max(0, math.floor((x - arm.base[0] - arm.reach - g.start) / self.step) - 1)
+            cs = lo + self.step * np.arange(int(math.ceil((x - arm.base[0] + arm.reach - lo) / self.step)) + 2)
+            self._use[key] = (lo, usable_picks(self.cell, np.c_[x - cs, np.full(cs.size, y)], arms=(i,))[i])
+        lo, use = self._use[key]
+        k0 = int(math.floor((c0 - lo) / self.step + 1e-9))
+        k1 = int(math.ceil((c1 - lo) / self.step - 1e-9))
+        if k0 < 0 or k1 >= use.shape[0]:
+            return []
+        return [b for b in (0, 1) if use[k0:k1 + 1, b].all()]
+
+    # ------------------------------------------------------------------ time
+    def up(self, t: float) -> int:
+        """The first grid index at or after ``t``."""
+        return int(math.ceil(t * self.rate - 1e-6))
+
+    def free_time(self, i: int) -> float:
+        return self.arms[i].k_free * self.dt
+
+    def pose_at(self, i: int, k0: int, k1: int) -> np.ndarray:
+        """(k1 - k0, 2) arm ``i``'s booked samples, its resting pose past its booked end."""
+        st = self.arms[i]
+        out = np.empty((k1 - k0, 2))
+        m = max(0, min(k1, st.k_free + 1) - k0)
+        if m:
+            out[:m] = st.q[k0:k0 + m]
+        out[m:] = st.q[st.k_free]
+        return out
+
+    def _clear(self, i: int, k0: int, q: np.ndarray) -> bool:
+        a = self.problem.arms[i]
+        pa = arm_points(a, q)
+        for j in self.neighbours[i]:
+            b = self.problem.arms[j]
+            self.checks += q.shape[0]
+            if points_too_close(pa, arm_points(b, self.pose_at(j, k0, k0 + q.shape[0])), a.link_radius + b.link_radius,
+                                self.need).any():
+                return False
+        return True
+
+    def _track_within(self, i: int, q: np.ndarray) -> bool:
+        """A pick's tracking motion within the arm's velocity and acceleration limits (finite
+        differences on the grid, with a little room for the moves that join it)."""
+        arm = self.problem.arms[i]
+        if not np.all(np.isfinite(q)):
+            return False
+        v = np.abs(np.diff(q, axis=0)) / self.dt
+        a = np.abs(np.diff(q, n=2, axis=0)) / self.dt ** 2
+        j = np.abs(np.diff(q, n=3, axis=0)) / self.dt ** 3
+        return bool(np.all(v <= 0.95 * np.asarray(arm.max_velocity)) and np.all(a <= 0.9 * np.asarray(arm.max_acceleration))
+                    and np.all(j <= 0.5 * np.asarray(arm.max_jerk)))
+
+    def _smooth(self, i: int, q: np.ndarray) -> bool:
+        """The whole cycle's samples within the arm's limits by finite differences (the seams
+        between moves and a pick's tracking included), a little inside them."""
+        arm = self.problem.arms[i]
+        pad = np.vstack([q[:1], q[:1], q, q[-1:], q[-1:]])  # at rest before and after
+        for k, lim in ((1, arm.max_velocity), (2, arm.max_acceleration), (3, arm.max_jerk)):
+            if np.any(np.abs(np.diff(pad, n=k, axis=0)) / self.dt ** k > 0.98 * np.asarray(lim)):
+                return False
+        return True
+
+    def _within_limits(self, i: int, q: np.ndarray) -> bool:
+        lim = self.problem.arms[i].limits
+        return bool(np.all(np.isfinite(q)) and np.all(q >= lim[:, 0] - 1e-9) and np.all(q <= lim[:, 1] + 1e-9))
+
+    # ------------------------------------------------------------------ cycles
+    def plan_cycle(self, i: int, fid: str, w: Window, t_from: float) -> Cycle | None:
+        """The earliest clear cycle of arm ``i`` on ``fid`` in window ``w`` starting at rest at
+        ``t_from`` or later (None when none fits the window)."""
+        arm = self.problem.arms[i]
+        st = self.arms[i]
+        k0 = st.k_free
+        q0 = st.q[k0].copy()
+        rest = np.array([q0, np.zeros(2), np.zeros(2)])
+        k_from = max(k0, self.up(t_from))
+        xy = self.fruit_xy[fid]
+        qb = self.bin_q[i]
+        t_p = max(w.lo, k_from * self.dt)
+        t_last = min(w.hi, k_from * self.dt + _PATIENCE)
+        leg1 = None
+        while True:
+            k_p = self.up(t_p)
+            for _ in range(_TRIES):
+                t_p = k_p * self.dt
+                if t_p > t_last + 1e-9:
+                    return None
+                c0, c1 = (float(v) for v in self.cruise.x(np.array([t_p, t_p + self.n_pick * self.dt])))
+                brs = self.branches(i, fid, c0, c1)
+                if not brs:
+                    k_p += max(1, self.up(_RETRY))
+                    continue
+                best = None
+                for b in brs:
+                    target = track_state(arm, xy, self.cruise, t_p, b)
+                    try:
+                        leg = Leg(arm, rest, target)
+                    except LegError:
+                        continue
+                    if best is None or leg.duration < best[1].duration:
+                        best = (b, leg, target)
+                if best is None:
+                    k_p += max(1, self.up(_RETRY))
+                    continue
+                b, leg1, target = best
+                if t_p - leg1.duration >= k_from * self.dt - 1e-9:
+                    break
+                k_p = max(k_p + 1, self.up(k_from * self.dt + leg1.duration))
+            else:
+                return None
+            cyc = self._assemble(i, fid, k0, q0, k_p, b, leg1, qb)
+            if cyc is not None and self._clear(i, k0, cyc.q):
+                return cyc
+            t_p = k_p * self.dt + _RETRY
+
+    def _assemble(self, i: int, fid: str, k0: int, q0: np.ndarray, k_p: int, b: int, leg1: Leg, qb: np.ndarray) -> Cycle | None:
+        arm = self.problem.arms[i]
+        dt = self.dt
+        xy = self.fruit_xy[fid]
+        t_p = k_p * dt
+        t_pe = (k_p + self.n_pick) * dt
+        end_state = track_state(arm, xy, self.cruise, t_pe, b)
+        try:
+            leg2 = Leg(arm, end_state, np.array([qb, np.zeros(2), np.zeros(2)]))
+        except LegError:
+            return None
+        k_pl = self.up(t_pe + leg2.duration)
+        k_end = k_pl + self.n_place
+        ts = np.arange(k0, k_end + 1) * dt
+        q = np.empty((ts.size, 2))
+        s1 = t_p - leg1.duration
+        pre = ts < t_p - 1e-9
+        wait = pre & (ts < s1)
+        q[wait] = q0
+        mv = pre & ~wait
+        if mv.any():
+            q[mv] = leg1.sample(ts[mv] - s1)
+        pk = slice(k_p - k0, k_p + self.n_pick - k0 + 1)
+        qt = track(arm, xy, self.cruise, ts[pk], b)
+        # IK gives principal angles: a pick that carries a joint across +-pi is continuous in
+        # fact, and then beyond its limits (refused below), never a jump of 2 pi
+        q[pk] = np.unwrap(qt, axis=0) if np.all(np.isfinite(qt)) else qt
+        if not self._track_within(i, q[pk]):
+            return None
+        back = slice(k_p + self.n_pick + 1 - k0, k_pl - k0)
+        if back.stop > back.start:
+            q[back] = leg2.sample(ts[back] - t_pe)
+        q[k_pl - k0:] = qb
+        if not self._within_limits(i, q) or not self._smooth(i, q):
+            return None
+        ev = [Event(arm.name, fid, EventKind.PICK, t_p, t_pe), Event(arm.name, fid, EventKind.PLACE, k_pl * dt, k_end * dt)]
+        return Cycle(i, fid, k0, q, ev)
+
+    def commit(self, cyc: Cycle) -> None:
+        st = self.arms[cyc.arm]
+        k1 = cyc.k0 + cyc.q.shape[0]
+        if k1 > st.q.shape[0]:
+            grow = np.tile(st.q[-1], (max(k1, 2 * st.q.shape[0]) - st.q.shape[0], 1))
+            st.q = np.vstack([st.q, grow])
+        st.q[cyc.k0:k1] = cyc.q
+        st.q[k1:] = cyc.q[-1]
+        st.k_free = k1 - 1
+        if cyc.fruit:
+            st.fruit.append(cyc.fruit)
+        self.events += cyc.events
+
+    def wait(self, i: int, seconds: float) -> None:
+        """Arm ``i`` rests where it is ``seconds`` longer."""
+        st = self.arms[i]
+        k1 = st.k_free + max(1, self.up(seconds))
+        if k1 >= st.q.shape[0]:
+            st.q = np.vstack([st.q, np.tile(st.q[-1], (max(k1 + 1, 2 * st.q.shape[0]) - st.q.shape[0], 1))])
+        st.q[st.k_free:] = st.q[st.k_free]
+        st.k_free = k1
+
+    def go_home(self, i: int, not_before: float = 0.0) -> bool:
+        """Book arm ``i``'s move home (rest to rest), the earliest clear start; False if none
+        within a minute of waiting."""
+        arm = self.problem.arms[i]
+        st = self.arms[i]
+        q0 = st.q[st.k_free].copy()
+        home = np.asarray(arm.home, float)
+        if np.allclose(q0, home, atol=1e-12):
+            st.done = True
+            return True
+        leg = Leg(arm, np.array([q0, np.zeros(2), np.zeros(2)]), np.array([home, np.zeros(2), np.zeros(2)]))
+        k_s = max(st.k_free, self.up(not_before))
+        for _ in range(int(60.0 / _RETRY)):
+            n = self.up(leg.duration)
+            ts = np.arange(st.k_free, k_s + n + 1) * self.dt
+            q = np.where((ts < k_s * self.dt)[:, None], q0, leg.sample(np.maximum(ts - k_s * self.dt, 0.0)))
+            q[-1] = home
+            if self._clear(i, st.k_free, q):
+                self.commit(Cycle(i, "", st.k_free, q, []))
+                st.done = True
+                return True
+            k_s += self.up(_RETRY)
+        return False
+
+
+def replace_reach_margin(problem: Problem) -> Problem:
+    """The problem with no reach margin (a bin is not a fruit: only the annulus counts)."""
+    from dataclasses import replace
+
+    return replace(problem, task=replace(problem.task, reach_margin=0.0))
+
+
+def run_policy(booker: Booker, order: dict[int, list[str]] | None = None) -> dict[str, str]:
+    """Book cycles in time order (module docstring); returns fruit left out -> why. ``order``:
+    each arm's fruit in turn (any it cannot fit are left to the greedy afterwards)."""
+    windows = booker.windows
+    taken: set[str] = set()
+    arms = booker.problem.arms
+    by_arm: dict[int, list[tuple[str, Window]]] = {i: [] for i in range(len(arms))}
+    for fid, ws in windows.items():
+        for w in ws:
+            by_arm[w.arm].append((fid, w))
+    n_arms_of = {fid: len({w.arm for w in ws}) for fid, ws in windows.items()}
+    horizon = booker.cruise.duration + _PATIENCE + 10.0 * len(windows)  # a guard, never reached by a plan that progresses
+    queue = [(0.0, i) for i in range(len(arms))]
+    heapq.heapify(queue)
+    pending = {i: list((order or {}).get(i, [])) for i in range(len(arms))}
+    while queue:
+        _, i = heapq.heappop(queue)
+        now = booker.free_time(i)
+        if now > horizon:  # nothing fits any more: the rest is left out
+            booker.go_home(i)
+            continue
+        cands = [(fid, w) for fid, w in by_arm[i] if fid not in taken and w.hi >= now]
+        if not cands:
+            booker.go_home(i)
+            continue
+        first = None
+        while pending[i] and first is None:
+            fid = pending[i][0]
+            hit = [c for c in cands if c[0] == fid]
+            if hit:
+                first = hit
+            else:
+                pending[i].pop(0)
+        if first is not None:
+            tries = first
+        else:
+            ready = [c for c in cands if c[1].lo <= now + 2.0]  # within reach soon
+            pool = ready or cands
+            pool.sort(key=lambda c: (c[1].hi, n_arms_of[c[0]], c[1].lo, c[0]))
+            tries = pool[:4]
+        booked = False
+        for fid, w in tries:
+            cyc = booker.plan_cycle(i, fid, w, now)
+            if cyc is not None:
+                booker.commit(cyc)
+                taken.add(fid)
+                if pending[i] and pending[i][0] == fid:
+                    pending[i].pop(0)
+                booked = True
+                break
+        if not booked:
+            if first is not None:
+                pending[i].pop(0)  # the given order's next fruit does not fit: the greedy may take it
+            else:
+                soonest = min((c[1].lo for c in cands if c[1].lo > now), default=now + _RETRY)
+                booker.wait(i, max(_RETRY, min(soonest - now - 1.0, 1.0)))
+        heapq.heappush(queue, (booker.free_time(i), i))
+    return {fid: _why_left(booker, fid) for fid in windows if fid not in taken}
+
+
+def _why_left(booker: Booker, fid: str) -> str:
+    ws = booker.windows[fid]
+    if not ws:
+        return f"{fid}: the carriage never stands where an arm can pick it at this speed"
+    w = max(ws, key=lambda w: (min(w.hi, 1e9), w.arm))
+    arm = booker.problem.arms[w.arm].name
+    if not math.isfinite(w.hi):
+        return f"{fid}: {arm} could still reach it, but no clear cycle was found"
+    doing = "waiting for a neighbour"
+    for e in booker.events:
+        if e.arm == arm and e.t_start <= w.hi <= e.t_end + 1.5:
+            doing = f"{'picking' if e.kind == EventKind.PICK else 'placing'} {e.fruit}"
+    return f"{fid}: passed {arm}'s reach at t = {w.hi:.1f} s while {arm} was {doing}"

@@ -1,0 +1,272 @@
+"""Pick on the move: the carriage never stops for a pick; each arm picks within its time windows.
+
+Entry points: :func:`plan_continuous` (one cruising speed) and :func:`plan_moving` (the speed
+chosen by :func:`speed_search`) -> :class:`coplan.row.plan.RowResult` (no stops).
+
+1. **Screen the row** (:func:`coplan.row.reach.row_reach`, as for stop-and-go).
+2. **The carriage** (:class:`coplan.row.cruise.Cruise`): one jerk-limited move from
+   ``gantry.start`` at the cruising speed, to rest where the last fruit comes within reach.
+3. **Windows** (:func:`coplan.row.cruise.pick_windows`): when each arm can start each pick.
+4. **Assignment and order**: the interval-scheduling greedy (earliest deadline first, the
+   baseline) and, with ``assign=cpsat``, OR-Tools CP-SAT over optional intervals per fruit and
+   arm (:mod:`coplan.row.assign`), seeded by the greedy; the better verified plan is kept.
+5. **Motion** (:mod:`coplan.row.booking`): cycles booked in time order, each the earliest that
+   keeps the clearance (plus ``margin``) from the neighbours; the tip held over the fruit in row
+   coordinates for the dwell.
+6. **Verify** in the row frame (:func:`coplan.verify.verify`), as every plan.
+
+A fruit no window allows is left out with the reason ("passed arm2's reach at t = 41.2 s while
+arm2 was placing f0117").
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kinds import AssignRule, PlannerKind, PlanStatus, SpeedProfile
+from ..plan import DEFAULT_RATE, Plan, compute_metrics, finalize_plan
+from ..problem.model import Problem
+from ..progress import speaker
+from .booking import Booker, run_policy
+from .cruise import Cruise, cruise_end, demand_stretches, pick_windows
+from .plan import RowResult
+from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
+
+__all__ = ["MovingOptions", "plan_continuous", "plan_moving", "speed_search", "SpeedPoint", "make_cruise"]
+
+#: The slowest a shaped cruise goes, m/s (a stretch whose fruit ask for more waits a little there).
+MIN_SPEED = 0.01
+
+
+def make_cruise(problem: Problem, reach: RowReach, profile: SpeedProfile, level: float, demand=None) -> Cruise:
+    """The carriage's motion at ``level``: a constant cruise at ``level`` m/s, or a density
+    profile whose speed on each metre of rail is ``level * n_arms / demand`` (within
+    [MIN_SPEED, the gantry's limit]; ``demand``: :func:`coplan.row.cruise.demand_stretches`)."""
+    x1 = cruise_end(problem, reach)
+    if SpeedProfile(profile) == SpeedProfile.CONSTANT:
+        return Cruise.of(problem, level, x1)
+    demand = demand if demand is not None else demand_stretches(problem, reach, x1)
+    vmax = problem.gantry.max_velocity
+    n = len(problem.arms)
+    return Cruise.shaped(problem, [(x, float(min(vmax, max(MIN_SPEED, level * n / d)) if d > 0 else vmax)) for x, d in demand], x1)
+
+
+def level_cap(problem: Problem, reach: RowReach, profile: SpeedProfile, demand=None) -> float:
+    """The level past which nothing changes: the gantry's limit (constant), or the pace at which
+    every stretch runs at it (density)."""
+    vmax = problem.gantry.max_velocity
+    if SpeedProfile(profile) == SpeedProfile.CONSTANT:
+        return vmax
+    demand = demand if demand is not None else demand_stretches(problem, reach, cruise_end(problem, reach))
+    return vmax * max((d for _, d in demand), default=1.0) / len(problem.arms)
+
+
+@dataclass(frozen=True)
+class MovingOptions:
+    """How to plan a row on the move (separate from the problem).
+
+    profile : ``density`` (a speed per metre of rail, slower where fruit are dense) or ``constant``
+    level : the cruising speed (m/s) of a constant profile, the pace of a density profile (the
+        arms' share of time the carriage gives each stretch's fruit, :func:`make_cruise`);
+        None: chosen by :func:`speed_search`
+    assign : ``greedy`` (earliest deadline first) or ``cpsat`` (CP-SAT, seeded by the greedy)
+    margin : kept beyond the problem's clearance when booking cycles, m
+    resolution : spacing of the candidate carriage positions of the row's screen, m
+    search_rounds : full plans the speed search may try (each verified)
+    """
+
+    profile: SpeedProfile = SpeedProfile.DENSITY
+    level: float | None = None
+    assign: AssignRule = AssignRule.CPSAT
+    margin: float = 0.02
+    resolution: float = DEFAULT_RESOLUTION
+    search_rounds: int = 8
+    rate: float = DEFAULT_RATE
+
+
+@dataclass(frozen=True)
+class SpeedPoint:
+    """One full plan of the speed search: its speed and figures (each plan verified)."""
+
+    level: float
+    mean_speed: float
+    harvested: int
+    harvestable: int
+    row_time: float
+    fruit_per_hour: float
+    verified: bool
+    seconds: float
+
+    @property
+    def complete(self) -> bool:
+        return self.verified and self.harvested >= self.harvestable
+
+    def to_dict(self) -> dict:
+        return {"level": self.level, "mean_speed": self.mean_speed, "harvested": self.harvested, "harvestable": self.harvestable,
+                "share_harvested": self.harvested / self.harvestable if self.harvestable else None,
+                "row_time": self.row_time, "fruit_per_hour": self.fruit_per_hour, "verified": self.verified,
+                "seconds": self.seconds}
+
+
+def _book(problem: Problem, reach: RowReach, cruise: Cruise, opts: MovingOptions, order=None) -> tuple[Booker, dict]:
+    windows = pick_windows(problem, reach, cruise, problem.task.pick_dwell)
+    booker = Booker(problem, cruise, windows, opts.rate, opts.margin, reach.resolution)
+    left = run_policy(booker, order)
+    return booker, left
+
+
+def _assemble(problem: Problem, booker: Booker, cruise: Cruise) -> Plan:
+    rate = booker.rate
+    n = max(max(st.k_free for st in booker.arms), booker.up(cruise.duration)) + 1
+    time = np.arange(n) / rate
+    q = {a.name: booker.pose_at(i, 0, n) for i, a in enumerate(problem.arms)}
+    events = sorted(booker.events, key=lambda e: (e.t_start, e.arm))
+    allocation = {a.name: list(booker.arms[i].fruit) for i, a in enumerate(problem.arms)}
+    plan = Plan(problem=problem.name, planner=PlannerKind.COORDINATED, status=PlanStatus.UNVERIFIED, time=time, q=q,
+                events=events, allocation=allocation, unreachable=[], gantry_x=np.asarray(cruise.x(time), float))
+    plan.metrics = compute_metrics(plan, sum(len(v) for v in allocation.values()))
+    return plan
+
+
+def plan_continuous(problem: Problem, level: float, options: MovingOptions | None = None, reach: RowReach | None = None,
+                    progress: Callable[[str], None] | None = None, demand=None) -> RowResult:
+    """Plan ``problem`` (a row) with the carriage at ``level`` (:func:`make_cruise`) and verify it."""
+    from ..verify.row import row_reachable_ids
+    from ..verify.verifier import verify
+
+    if problem.gantry is None:
+        raise ValueError(f"{problem.name!r} has no gantry: plan it as a cell")
+    opts = options or MovingOptions()
+    say = speaker(progress)
+    t0 = _time.perf_counter()
+    timings: dict[str, float] = {}
+    reach = reach if reach is not None else row_reach(problem, opts.resolution)
+    timings["reach"] = _time.perf_counter() - t0
+    cruise = make_cruise(problem, reach, opts.profile, level, demand)
+    ts = _time.perf_counter()
+    booker, left = _book(problem, reach, cruise, opts)
+    info: dict = {"mode": "continuous", "profile": SpeedProfile(opts.profile).value, "level": level,
+                  "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.GREEDY.value,
+                  "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration}
+    if AssignRule(opts.assign) == AssignRule.CPSAT and left:
+        from .assign import cpsat_order
+
+        order, info["cpsat"] = cpsat_order(problem, booker, reach, cruise)
+        if order is not None:
+            b2, left2 = _book(problem, reach, cruise, opts, order)
+            if (len(left2), _end(b2)) < (len(left), _end(booker)):
+                booker, left, info["assign"] = b2, left2, AssignRule.CPSAT.value
+    timings["schedule"] = _time.perf_counter() - ts
+    plan = _assemble(problem, booker, cruise)
+    timings["planning"] = _time.perf_counter() - t0
+    tv = _time.perf_counter()
+    ver = verify(problem, plan)
+    timings["verify"] = _time.perf_counter() - tv
+    plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
+    info["left_out"] = dict(reach.reasons) | left
+    info["first_stop_seconds"] = None
+    plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
+    say(f"row on the move ({info['profile']}, {cruise.mean_speed:.3f} m/s on average): {plan.metrics.get('harvested')} fruit, "
+        f"makespan {plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
+    return RowResult(plan, ver, [], reach, timings, info)
+
+
+def _end(b: Booker) -> int:
+    return max((e.t_end for e in b.events), default=0.0)
+
+
+def _point(res: RowResult, seconds: float) -> SpeedPoint:
+    m = res.plan.metrics
+    span = float(m.get("makespan") or 0.0)
+    got = int(m.get("harvested") or 0)
+    return SpeedPoint(float(res.info["level"]), float(res.info["mean_speed"]), got, len(res.reach.cover), span, got * 3600.0 / span if span > 0 else 0.0,
+                      bool(res.verification.passed), seconds)
+
+
+def speed_search(problem: Problem, options: MovingOptions | None = None, reach: RowReach | None = None,
+                 levels=None, progress: Callable[[str], None] | None = None) -> tuple[RowResult, list[SpeedPoint]]:
+    """The level (speed, or pace) that maximises fruit per hour while harvesting every
+    harvestable fruit (each candidate a full, verified plan), and the curve of the levels tried.
+
+    Fruit per hour rises with the level as long as every fruit is still harvested, so the search
+    brackets the fastest complete level: it starts where the carriage would take as long as the
+    busiest arm's work (constant: the row's work bound, no faster plan harvests everything) or
+    gives each stretch exactly its fruit's cheapest cycles (density: pace 1), halves it until a
+    plan is complete (grows it by half while complete), then bisects between the fastest
+    complete and the slowest incomplete level, to 2 %. With ``levels`` it plans exactly those
+    (the curve) and returns the best. The winner: complete and verified first, then the most
+    fruit per hour."""
+    from .bound import row_bounds
+
+    opts = options or MovingOptions()
+    reach = reach if reach is not None else row_reach(problem, opts.resolution)
+    g = problem.gantry
+    x1 = cruise_end(problem, reach)
+    profile = SpeedProfile(opts.profile)
+    demand = demand_stretches(problem, reach, x1) if profile == SpeedProfile.DENSITY else None
+    cap = level_cap(problem, reach, profile, demand)
+    tried: dict[float, tuple[RowResult, SpeedPoint]] = {}
+
+    def run(v: float) -> SpeedPoint:
+        v = round(float(min(cap, max(v, 1e-3))), 4)
+        if v not in tried:
+            t = _time.perf_counter()
+            res = plan_continuous(problem, v, opts, reach, progress, demand)
+            tried[v] = (res, _point(res, _time.perf_counter() - t))
+        return tried[v][1]
+
+    if levels is not None:
+        for v in levels:
+            run(v)
+    else:
+        if profile == SpeedProfile.CONSTANT:
+            v = max(x1 - g.start, 0.05) / max(row_bounds(problem).work, 1e-3)
+        else:
+            v = 1.0
+        v = min(v, cap)
+        ok_v, bad_v = None, None
+        for _ in range(opts.search_rounds):
+            p = run(v)
+            if p.complete:
+                ok_v = v if ok_v is None else max(ok_v, v)
+            else:
+                bad_v = v if bad_v is None else min(bad_v, v)
+            if ok_v is None:
+                v = v / 2.0
+            elif bad_v is None:
+                if v >= cap:
+                    break
+                v = min(cap, v * 1.5)
+            else:
+                if bad_v - ok_v <= 0.02 * ok_v:
+                    break
+                v = 0.5 * (ok_v + bad_v)
+    pts = sorted((p for _, p in tried.values()), key=lambda p: p.level)
+    best = max(tried, key=lambda v: (tried[v][1].complete, tried[v][1].verified, tried[v][1].harvested,
+                                     tried[v][1].fruit_per_hour))
+    return tried[best][0], pts
+
+
+def plan_moving(problem: Problem, options: MovingOptions | None = None,
+                progress: Callable[[str], None] | None = None) -> RowResult:
+    """A row on the move: at ``options.level``, or at the level :func:`speed_search` chooses
+    (its curve in ``plan.solver['row']['speed_curve']``); planning time covers the search."""
+    opts = options or MovingOptions()
+    t0 = _time.perf_counter()
+    reach = row_reach(problem, opts.resolution)
+    if opts.level is not None:
+        res = plan_continuous(problem, opts.level, opts, reach, progress)
+        curve = [_point(res, res.timings["planning"])]
+    else:
+        res, curve = speed_search(problem, opts, reach, progress=progress)
+    total = _time.perf_counter() - t0
+    res.info["speed_curve"] = [p.to_dict() for p in curve]
+    res.timings["planning"] = total  # the whole search, verification of every candidate included
+    res.plan.solver["timings"] = dict(res.timings)
+    res.plan.solver["row"] = res.info
+    return res

@@ -1,0 +1,252 @@
+"""The carriage at a cruising speed, and each fruit's pick windows: when each arm can pick it.
+
+Continuous mode (:mod:`coplan.row.continuous`) keeps the carriage moving: from rest at
+``gantry.start`` it ramps to a cruising speed -- one for the row, or one per stretch of rail --
+within the gantry's acceleration and jerk limits, and comes to rest at ``x1`` (:class:`Cruise`).
+
+A fruit at row ``x`` seen from carriage position ``c`` sits at ``x - c`` in the carriage frame,
+so the row's screen (:func:`coplan.row.reach.row_reach`: from which carriage positions each arm
+harvests each fruit, on a grid) becomes, through the carriage's motion ``c(t)``, a set of
+**pick windows**: the times at which an arm can *start* a pick such that the carriage stays in
+a run of serving positions for the whole dwell (the arm's tip holds still over the fruit in row
+coordinates while the joints follow the carriage). Entry points: :class:`Cruise` and
+:func:`pick_windows` -> ``{fruit: [Window]}``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kinematics.timing import Move1D
+from ..problem.model import Problem
+from .reach import RowReach
+
+__all__ = ["Cruise", "Window", "pick_windows", "cruise_end", "demand_stretches", "STRETCH"]
+
+#: Length of rail with one speed in a shaped cruise, m.
+STRETCH = 1.0
+
+
+def _ramp(v0: float, v1: float, a: float, j: float) -> list[tuple[float, float]]:
+    """Phases ``(duration, jerk)`` of the fastest jerk-limited change of speed from ``v0`` to
+    ``v1`` starting and ending at zero acceleration (a symmetric S ramp: its mean speed is
+    ``(v0 + v1) / 2``)."""
+    dv = v1 - v0
+    if abs(dv) < 1e-12:
+        return []
+    s = 1.0 if dv > 0 else -1.0
+    if abs(dv) >= a * a / j:
+        return [(a / j, s * j), (abs(dv) / a - a / j, 0.0), (a / j, -s * j)]
+    tj = math.sqrt(abs(dv) / j)
+    return [(tj, s * j), (tj, -s * j)]
+
+
+def _ramp_time(v0: float, v1: float, a: float, j: float) -> float:
+    return sum(d for d, _ in _ramp(v0, v1, a, j))
+
+
+@dataclass(frozen=True)
+class Cruise:
+    """The carriage from ``x0`` (at rest at t = 0) to rest at ``x1``: a chain of constant-jerk
+    phases (each ``(t, x, v, a, j)`` at its start), within the gantry's limits.
+
+    ``speed`` is the top cruising speed; :meth:`of` cruises at one speed, :meth:`shaped` at a
+    speed per stretch of rail (slower where the fruit are dense). Changes of speed are S ramps
+    (jerk-limited, acceleration from zero back to zero)."""
+
+    x0: float
+    x1: float
+    speed: float
+    phases: tuple  # ((t, x, v, a, j), ...) and a final rest phase
+
+    @classmethod
+    def of(cls, problem: Problem, speed: float, x1: float) -> "Cruise":
+        """At one cruising ``speed`` from ``gantry.start`` to rest at ``x1``."""
+        return cls.shaped(problem, [(math.inf, speed)], x1)
+
+    @classmethod
+    def shaped(cls, problem: Problem, stretches, x1: float) -> "Cruise":
+        """``stretches``: ``[(x_end, speed), ...]`` in rail order: cruise at ``speed`` until the
+        carriage reaches ``x_end`` (the next stretch's speed is reached by a ramp that starts
+        there), the last until it must slow down to come to rest at ``x1``."""
+        g = problem.gantry
+        a, j = g.max_acceleration, g.max_jerk
+        x1 = min(max(float(x1), g.start), g.end)
+        for _, v in stretches:
+            if not 0.0 < v <= g.max_velocity * (1 + 1e-12):
+                raise ValueError(f"speed: expected a cruising speed in (0, {g.max_velocity:g}] m/s (the gantry's "
+                                 f"limit), found {v:g}")
+        out: list[tuple[float, float, float, float, float]] = []
+        t, x, v, acc = 0.0, g.start, 0.0, 0.0
+
+        def run(dur: float, jerk: float) -> None:
+            nonlocal t, x, v, acc
+            if dur <= 0:
+                return
+            out.append((t, x, v, acc, jerk))
+            x += v * dur + acc * dur ** 2 / 2 + jerk * dur ** 3 / 6
+            v += acc * dur + jerk * dur ** 2 / 2
+            acc += jerk * dur
+            t += dur
+
+        def ramp_to(v1: float) -> None:
+            nonlocal acc
+            for d, jk in _ramp(v, v1, a, j):
+                run(d, jk)
+            acc = 0.0
+
+        top = max(v for _, v in stretches)
+        for k, (x_end, vk) in enumerate(stretches):
+            # the stop must begin where a ramp from this speed to rest ends exactly at x1
+            stop_at = x1 - vk * _ramp_time(vk, 0.0, a, j) / 2
+            if x + (v + vk) * _ramp_time(v, vk, a, j) / 2 > stop_at:
+                break  # no room to reach this speed before stopping
+            ramp_to(vk)
+            v = vk
+            end = min(x_end, stop_at)
+            if end > x:
+                run((end - x) / vk, 0.0)
+            if x >= stop_at - 1e-12:
+                break
+        # come to rest at x1: the fastest stop from v, after cruising at v to where it must begin
+        if v > 0:
+            stop_at = x1 - v * _ramp_time(v, 0.0, a, j) / 2
+            if stop_at > x + 1e-12:
+                run((stop_at - x) / v, 0.0)
+            ramp_to(0.0)
+        elif x1 > x + 1e-12:  # never got going (a rail too short for any stretch): one rest-to-rest move
+            mv = Move1D.between(x, x1, top, a, j)
+            for d, jk in zip(mv.durs, mv.jerks):
+                run(d, jk)
+        out.append((t, x1, 0.0, 0.0, 0.0))  # at rest (x is x1 up to rounding)
+        return cls(g.start, x1, float(top), tuple(out))
+
+    @property
+    def duration(self) -> float:
+        """When the carriage comes to rest at ``x1``, s."""
+        return float(self.phases[-1][0])
+
+    @functools.cached_property
+    def _table(self) -> np.ndarray:
+        return np.array(self.phases, float)
+
+    def state(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Position, velocity and acceleration of the carriage at times ``t`` (any shape); at
+        rest at ``x0`` before 0 and at ``x1`` after :attr:`duration`."""
+        t = np.asarray(t, float)
+        tab = self._table
+        tf = np.clip(t.ravel(), 0.0, self.duration)
+        k = np.clip(np.searchsorted(tab[:, 0], tf, side="right") - 1, 0, len(tab) - 1)
+        t0, x0, v0, a0, j0 = tab[k].T
+        d = tf - t0
+        x = x0 + v0 * d + a0 * d ** 2 / 2 + j0 * d ** 3 / 6
+        v = v0 + a0 * d + j0 * d ** 2 / 2
+        acc = a0 + j0 * d
+        rest = tf >= self.duration
+        x, v, acc = np.where(rest, self.x1, x), np.where(rest, 0.0, v), np.where(rest, 0.0, acc)
+        return x.reshape(t.shape), v.reshape(t.shape), acc.reshape(t.shape)
+
+    def x(self, t) -> np.ndarray:
+        return self.state(t)[0]
+
+    def time_at(self, x) -> np.ndarray:
+        """The first time the carriage is at ``x`` (``x0 <= x <= x1``); 0 before ``x0``, inf
+        beyond ``x1``. Bisection on the monotone motion, to 10 microseconds."""
+        x = np.atleast_1d(np.asarray(x, float))
+        lo, hi = np.zeros(x.shape), np.full(x.shape, self.duration)
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            before = self.x(mid) < x
+            lo, hi = np.where(before, mid, lo), np.where(before, hi, mid)
+            if float(np.max(hi - lo, initial=0.0)) < 1e-5:
+                break
+        out = np.where(x <= self.x0 + 1e-12, 0.0, hi)
+        return np.where(x > self.x1 + 1e-9, math.inf, out)
+
+    @property
+    def mean_speed(self) -> float:
+        """The carriage's distance over its time in motion, m/s."""
+        return (self.x1 - self.x0) / self.duration if self.duration > 0 else 0.0
+
+
+@dataclass(frozen=True)
+class Window:
+    """Arm ``arm`` (index) can start picking the fruit at any time in ``[lo, hi]`` (s): the
+    carriage stays within ``[c_lo, c_hi]``, a run of serving positions, for the whole dwell."""
+
+    arm: int
+    lo: float
+    hi: float
+    c_lo: float
+    c_hi: float
+
+
+def cruise_end(problem: Problem, reach: RowReach) -> float:
+    """Where the carriage comes to rest: the furthest first serving position of any fruit
+    (past it every fruit can still be picked with the carriage at rest), on the rail."""
+    g = problem.gantry
+    firsts = [float(reach.grid[reach.span(f)[0]]) for f in reach.harvestable()]
+    return min(g.end, max(firsts, default=g.start))
+
+
+def _runs(ok: np.ndarray) -> list[tuple[int, int]]:
+    """Index runs ``[a, b]`` of True in a 1-D bool array."""
+    d = np.diff(np.r_[0, ok.astype(np.int8), 0])
+    starts, ends = np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1
+    return list(zip(starts.tolist(), ends.tolist()))
+
+
+def pick_windows(problem: Problem, reach: RowReach, cruise: Cruise, dwell: float) -> dict[str, list[Window]]:
+    """Each harvestable fruit's pick windows, one per arm and run of serving positions (module
+    docstring), in arm order (a fruit may have none at this motion)."""
+    grid = reach.grid
+    runs = []  # (fid, arm, c_lo, c_hi)
+    for fid in reach.harvestable():
+        cov = reach.cover[fid]
+        for a in range(cov.shape[0]):
+            for i, j in _runs(cov[a]):
+                c_lo, c_hi = float(grid[i]), float(grid[j])
+                if c_hi < cruise.x0 - 1e-9 or c_lo > cruise.x1 + 1e-9:
+                    continue  # the carriage never passes there
+                runs.append((fid, a, c_lo, c_hi))
+    t_lo = cruise.time_at(np.array([max(r[2], cruise.x0) for r in runs]))  # all at once: one vectorised bisection
+    t_hi = cruise.time_at(np.array([r[3] for r in runs]))
+    out: dict[str, list[Window]] = {fid: [] for fid in reach.harvestable()}
+    for (fid, a, c_lo, c_hi), lo, hi in zip(runs, t_lo.tolist(), t_hi.tolist()):
+        # past x1 the carriage rests inside the run: no end to the window
+        hi = math.inf if c_hi >= cruise.x1 - 1e-9 else hi - dwell
+        if hi >= lo:
+            out[fid].append(Window(a, lo, hi, c_lo, c_hi))
+    return out
+
+
+def demand_stretches(problem: Problem, reach: RowReach, x1: float, stretch: float = STRETCH) -> list[tuple[float, float]]:
+    """``[(x_end, demand), ...]``: the arms' time the fruit ask of each stretch of rail (s per m).
+
+    Each fruit asks for its cheapest harvest cycle (:func:`coplan.row.bound.cycle_bounds`: the
+    least over arms and carriage positions), spread evenly over the carriage positions from
+    which some arm serves it. A carriage that spends ``demand / n_arms`` per metre of a stretch
+    gives the arms, working side by side, as much time as its fruit need (if they balanced
+    perfectly): :meth:`Cruise.shaped` speeds are ``pace * n_arms / demand``."""
+    from .bound import cycle_bounds
+
+    g = problem.gantry
+    edges = np.arange(g.start, x1 + stretch, stretch)
+    edges[-1] = max(edges[-1], x1)
+    need = np.zeros(edges.size - 1)
+    cost = cycle_bounds(problem)[0]
+    col = {f.id: k for k, f in enumerate(problem.fruits)}
+    for fid in reach.harvestable():
+        c = cost[:, col[fid]]
+        c = float(np.min(c[np.isfinite(c)])) if np.isfinite(c).any() else 0.0
+        lo, hi = (float(reach.grid[k]) for k in reach.span(fid))
+        hi = max(hi, lo + 1e-6)
+        share = np.clip(np.minimum(edges[1:], hi) - np.maximum(edges[:-1], lo), 0.0, None) / (hi - lo)
+        if share.sum() <= 0:  # served only beyond x1 (the carriage rests there): the last stretch
+            share[-1] = 1.0
+        need += c * share / share.sum()
+    return [(float(e), float(d) / stretch) for e, d in zip(edges[1:], need)]

@@ -1,0 +1,106 @@
+"""One arm's motion while the carriage moves: holding the tip over a fruit, and the moves between.
+
+* **Tracking** (:func:`track`): during a pick the tip holds still over the fruit in row
+  coordinates, so in the carriage frame it follows ``(x_f - c(t), y_f)``; the joints are that
+  point's inverse kinematics on one elbow branch. Its velocity and acceleration at the ends
+  come from the carriage's exact state (chain rule through the arm's Jacobian), so the moves
+  into and out of a pick join it with continuous position, velocity and acceleration.
+* **Moves** (:class:`Leg`): time-optimal jerk-limited per-joint trajectories (Ruckig, joints
+  synchronised) from a state to a state -- rest at the bin to the moving pick state, the moving
+  state at the pick's end to rest over the bin -- within the arm's velocity, acceleration and
+  jerk limits.
+
+Everything is sampled on the plan's grid (``k / rate``); shapes are ``(K, 2)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..kinematics import arm as kin
+from ..problem.model import Arm
+from .cruise import Cruise
+
+__all__ = ["Leg", "LegError", "track", "track_state"]
+
+
+#: Share of each joint limit the moves use (the rest is room for the pick's tracking at the seams).
+LIMIT_SHARE = 0.9
+
+
+class LegError(RuntimeError):
+    """Ruckig could not compute a move."""
+
+
+def _ik(arm: Arm, pts: np.ndarray, branch: int) -> np.ndarray:
+    q, valid = arm.ik(pts)
+    out = q[..., branch, :]
+    return np.where(valid[..., branch, None], out, np.nan)
+
+
+def track(arm: Arm, fruit: tuple[float, float], cruise: Cruise, t: np.ndarray, branch: int) -> np.ndarray:
+    """(K, 2) joint poses holding the tip over row point ``fruit`` at times ``t`` (NaN where
+    the branch has no solution)."""
+    c = cruise.x(np.asarray(t, float))
+    pts = np.stack([fruit[0] - c, np.full(c.shape, fruit[1])], axis=-1)
+    return _ik(arm, pts, branch)
+
+
+def track_state(arm: Arm, fruit: tuple[float, float], cruise: Cruise, t: float, branch: int) -> np.ndarray:
+    """(3, 2): joint position, velocity and acceleration of :func:`track` at time ``t``.
+
+    With the tip's carriage-frame point ``p(t) = (x_f - c(t), y_f)``: ``J qd = pd`` and
+    ``J qdd = pdd - Jd qd``, where ``pd = (-c', 0)``, ``pdd = (-c'', 0)``."""
+    q = track(arm, fruit, cruise, np.array([t]), branch)[0]
+    _, cv, ca = cruise.state(np.array([t]))
+    J = kin.jacobian(q, arm.links)
+    pd = np.array([-float(cv[0]), 0.0])
+    pdd = np.array([-float(ca[0]), 0.0])
+    qd = np.linalg.solve(J, pd)
+    # d/dt J for the 2R arm: differentiate J along qd numerically (exact to O(h^2), h tiny)
+    h = 1e-6
+    Jd = (kin.jacobian(q + h * qd, arm.links) - kin.jacobian(q - h * qd, arm.links)) / (2 * h)
+    qdd = np.linalg.solve(J, pdd - Jd @ qd)
+    return np.array([q, qd, qdd])
+
+
+class Leg:
+    """A move from state ``start`` (3, 2) to state ``end`` (3, 2), time-optimal under the arm's
+    per-joint limits (Ruckig). ``duration`` in s; :meth:`sample` gives the poses."""
+
+    def __init__(self, arm: Arm, start: np.ndarray, end: np.ndarray):
+        from ruckig import InputParameter, Result, Ruckig, Trajectory
+
+        inp = InputParameter(2)
+        inp.current_position, inp.current_velocity, inp.current_acceleration = (list(map(float, r)) for r in start)
+        inp.target_position, inp.target_velocity, inp.target_acceleration = (list(map(float, r)) for r in end)
+        # a little below the limits: a move joins a pick's tracking motion, whose own (small)
+        # acceleration and jerk add to the move's at the seam
+        inp.max_velocity = [LIMIT_SHARE * v for v in arm.max_velocity]
+        inp.max_acceleration = [LIMIT_SHARE * a for a in arm.max_acceleration]
+        inp.max_jerk = [LIMIT_SHARE * j for j in arm.max_jerk]
+        from ruckig import RuckigError
+
+        traj = Trajectory(2)
+        try:
+            result = Ruckig(2).calculate(inp, traj)
+        except RuckigError as exc:  # e.g. a target state beyond the limits
+            raise LegError(str(exc).strip()) from exc
+        if result not in (Result.Working, Result.Finished):
+            raise LegError(f"ruckig: {result}")
+        self.trajectory = traj
+        self.end = np.asarray(end, float)
+        self.duration = float(traj.duration)
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """(K, 2) poses at times ``t`` from the leg's start (at its end state's pose after)."""
+        t = np.asarray(t, float)
+        out = np.empty((t.size, 2))
+        for k, tk in enumerate(t):
+            if tk >= self.duration:
+                # past the end: extrapolate the end state (only used within one sample of it)
+                dtk = tk - self.duration
+                out[k] = self.end[0] + self.end[1] * dtk + 0.5 * self.end[2] * dtk * dtk
+            else:
+                out[k] = self.trajectory.at_time(max(float(tk), 0.0))[0]
+        return out
