@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .allocate.allocation import AllocationMethod, allocate
-from .kinds import ExitCode, StopRule
+from .kinds import ExitCode, GantryMode, StopRule
 from .output import RunFolder
 from .planners.heuristic import plan_heuristic
 from .plan import Plan, PlannerKind, PlanStatus, finalize_plan
@@ -83,20 +83,31 @@ def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None) -> tuple[dict
     return {k: folder.path(v) for k, v in files.items()}, folder.previous
 
 
-def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: float) -> SolveResult:
-    """A row: stops, each stop's cell, the row plan verified in the row frame (:mod:`coplan.row`)."""
+def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: float, gantry=None) -> SolveResult:
+    """A row: stop and go (stops, each stop's cell) or on the move (:mod:`coplan.row.continuous`),
+    the row plan verified in the row frame (:mod:`coplan.row`)."""
     from dataclasses import replace
 
     from .row.bound import row_bounds
+    from .row.continuous import MovingOptions, plan_moving
     from .row.metrics import row_metrics
     from .row.plan import RowOptions, plan_row
 
-    cell_planner = PlannerKind(planner or PlannerKind.COORDINATED)
-    if cell_planner == PlannerKind.HEURISTIC:
-        raise ValueError("planner: the course's heuristic plans a stationary cell, not a row; use coordinated or optimal")
-    opts = options if isinstance(options, RowOptions) else RowOptions()
-    opts = replace(opts, planner=cell_planner, stops=StopRule(stops or opts.stops))
-    res = plan_row(prob, opts, progress)
+    mode = GantryMode(gantry or (GantryMode.CONTINUOUS if isinstance(options, MovingOptions) else GantryMode.STOP_AND_GO))
+    if mode == GantryMode.CONTINUOUS:
+        if stops is not None:
+            raise ValueError("stops: on the move (gantry continuous) the carriage does not stop; a stop rule applies to stop and go")
+        if planner is not None and PlannerKind(planner) != PlannerKind.COORDINATED:
+            raise ValueError("planner: on the move the arms are planned by the row's own booking of coordinated, "
+                             "time-optimal moves; the cell planners apply to stop and go")
+        res = plan_moving(prob, options if isinstance(options, MovingOptions) else MovingOptions(), progress)
+    else:
+        cell_planner = PlannerKind(planner or PlannerKind.COORDINATED)
+        if cell_planner == PlannerKind.HEURISTIC:
+            raise ValueError("planner: the course's heuristic plans a stationary cell, not a row; use coordinated or optimal")
+        opts = options if isinstance(options, RowOptions) else RowOptions()
+        opts = replace(opts, planner=cell_planner, stops=StopRule(stops or opts.stops))
+        res = plan_row(prob, opts, progress)
     bounds = row_bounds(prob)
     plan = res.plan
     plan.metrics["row"] = row_metrics(prob, res, bounds)
@@ -132,6 +143,7 @@ def solve(
     options=None,
     progress=None,
     stops: StopRule | str | None = None,
+    gantry: GantryMode | str | None = None,
 ) -> SolveResult:
     """Solve a problem end to end and verify the result.
 
@@ -152,13 +164,17 @@ def solve(
         ``fewest``); ``planner`` is then the cell planner at each stop (``coordinated`` by
         default: planning keeps ahead of the carriage; ``optimal`` gives each stop a search
         budget) and ``options`` may be :class:`coplan.row.plan.RowOptions`
+    gantry : a row: ``stop-and-go`` (default) or ``continuous`` (pick on the move: ``options`` may
+        be :class:`coplan.row.continuous.MovingOptions`; the speed is searched unless it gives one)
     """
     from .verify.verifier import verify
 
     t0 = _time.perf_counter()
     prob = problem if isinstance(problem, Problem) else load_problem(problem)
     if prob.gantry is not None:
-        return _solve_row(prob, planner, out_dir, options, progress, stops, t0)
+        return _solve_row(prob, planner, out_dir, options, progress, stops, t0, gantry)
+    if gantry is not None:
+        raise ValueError(f"gantry: {prob.name!r} is a stationary cell (no gantry section)")
     if stops is not None:
         raise ValueError(f"stops: {prob.name!r} is a stationary cell (no gantry); a stop rule applies to a row")
     planner = PlannerKind(planner or PlannerKind.OPTIMAL)

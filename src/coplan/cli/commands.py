@@ -27,7 +27,7 @@ from .summary import print_summary, print_verification
 from .summary import safe as _s
 from .console import FlagsGroup, ProgressDisplay, run_console
 from ..errors import InputError, plural
-from ..kinds import AllocationMethod, ExitCode, FclMode, PlannerKind, StopRule
+from ..kinds import AllocationMethod, ExitCode, FclMode, GantryMode, PlannerKind, SpeedProfile, StopRule
 
 app = typer.Typer(
     cls=FlagsGroup,  # flags shown without a <bool> value in --help
@@ -85,6 +85,28 @@ def guarded(fn):
     return wrapper
 
 
+def _moving_options(problem, gantry, speed, stops, planner):
+    """The row-on-the-move options of ``coplan solve``, or None for stop and go (usage checked)."""
+    if gantry != GantryMode.CONTINUOUS:
+        if speed is not None:
+            _fail(ExitCode.USAGE, "--speed: a cruising speed applies on the move (--gantry continuous)")
+        return None
+    if stops is not None:
+        _fail(ExitCode.USAGE, "--stops: on the move (--gantry continuous) the carriage does not stop")
+    if planner is not None and planner != PlannerKind.COORDINATED:
+        _fail(ExitCode.USAGE, "--planner: on the move the row books its own coordinated moves; the cell planners "
+                              "apply to stop and go")
+    from ..row.continuous import MovingOptions
+
+    if speed is None:
+        return MovingOptions()
+    vmax = problem.gantry.max_velocity
+    if not (speed == speed and 0.0 < speed <= vmax):
+        _fail(ExitCode.USAGE, f"--speed: expected a cruising speed in (0, {vmax:g}] m/s (gantry.max_velocity of "
+                              f"{problem.name!r}), found {speed:g}")
+    return MovingOptions(profile=SpeedProfile.CONSTANT, level=speed)
+
+
 def _resolve_problem(problem: Optional[Path]) -> Path:
     return resolve_problem(problem, lambda m: err_console.print(f"[dim]{_s(m)}[/]", highlight=False))
 
@@ -97,6 +119,10 @@ def solve(
         help="Planner to use (default optimal; for a row, the cell planner at each stop: default coordinated).")] = None,
     stops: Annotated[Optional[StopRule], typer.Option(
         help="A row (a problem with a gantry): where the carriage stops (default optimised).")] = None,
+    gantry: Annotated[Optional[GantryMode], typer.Option(
+        help="A row: stop-and-go (default) or continuous (pick on the move, the speed searched).")] = None,
+    speed: Annotated[Optional[float], typer.Option(
+        help="A row on the move: one cruising speed, m/s (default: the speed search, a speed per metre of rail).")] = None,
     allocation: Annotated[
         Optional[AllocationMethod], typer.Option(help="Allocation method (default: the planner's own).")
     ] = None,
@@ -123,14 +149,17 @@ def solve(
     n_workers = _check_workers(workers)
     failures.check_out_dir(out)
     path = load_problem(_resolve_problem(problem))
-    if path.gantry is not None:  # a row: the stop rule and the cell planner at each stop
+    if path.gantry is not None:  # a row: the stop rule and the cell planner at each stop, or on the move
         if planner == PlannerKind.HEURISTIC or allocation is not None or options_file is not None or time_limit is not None \
                 or workers is not None:
-            _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): --planner coordinated|optimal and --stops apply; "
-                                  "--allocation, --options, --time-limit and --workers are for a stationary cell")
+            _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): --gantry, --planner coordinated|optimal, --stops "
+                                  "and --speed apply; --allocation, --options, --time-limit and --workers are for a stationary cell")
+        moving = _moving_options(path, gantry, speed, stops, planner)
         with ProgressDisplay(err_console, quiet=as_json) as say:
-            res = run(path, planner=planner, out_dir=out, progress=say, stops=stops)
+            res = run(path, planner=planner, out_dir=out, progress=say, stops=stops, gantry=gantry, options=moving)
         return _report_solve(res, out, animate, html, as_json)
+    if gantry is not None or speed is not None:
+        _fail(ExitCode.USAGE, f"--gantry/--speed: {path.name} is a stationary cell (no gantry section); they apply to a row")
     if stops is not None:
         _fail(ExitCode.USAGE, f"--stops: {path.name} is a stationary cell (no gantry section); a stop rule applies to a row")
     planner = planner or PlannerKind.OPTIMAL

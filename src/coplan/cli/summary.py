@@ -50,11 +50,15 @@ def print_row_summary(console, res) -> None:
     solver = (res.plan.solver or {}).get("row", {})
     colour = "green" if res.success else "red"
     p = console.print
-    p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, stops {safe(solver.get('rule'))}, "
-      f"cell planner {safe(solver.get('cell_planner'))}, status [bold {colour}]{res.plan.status.value}[/]")
+    moving = r.get("mode") == "continuous"
+    how = (f"on the move ({safe(r.get('profile'))} speed profile, {fmt(r.get('mean_speed'), ' m/s', 3)} on average, "
+           f"top {fmt(r.get('top_speed'), ' m/s', 3)})" if moving else
+           f"stops {safe(solver.get('rule'))}, cell planner {safe(solver.get('cell_planner'))}")
+    p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, {how}, "
+      f"status [bold {colour}]{res.plan.status.value}[/]")
     out = r.get("screened_out") or {}
     p(f"  fruit             {r.get('harvested')} harvested of {r.get('harvestable')} harvestable "
-      f"({fmt(100 * (r.get('share_harvested') or 0), ' %', 1)}); of {r.get('fruit')} fruit {len(out)} no stop can reach")
+      f"({fmt(100 * (r.get('share_harvested') or 0), ' %', 1)}); of {r.get('fruit')} fruit {len(out)} no carriage position can reach")
     for fid, why in list(out.items())[:3]:
         p(f"    {safe(why)}")
     if len(out) > 3:
@@ -65,8 +69,12 @@ def print_row_summary(console, res) -> None:
     p(f"  row time          {fmt(r.get('row_time'), ' s')}   ({fmt(r.get('time_per_metre'), ' s/m')}; lower bound "
       f"{fmt(lb.get('any_plan'), ' s')} for any plan, ratio {fmt(r.get('ratio_any_plan_bound'), '', 3)}; "
       f"{fmt(lb.get('stop_and_go'), ' s')} stop by stop, ratio {fmt(r.get('ratio_stop_and_go_bound'), '', 3)})")
-    p(f"  stops             {r.get('stops')}, {fmt(r.get('mean_time_per_stop'), ' s')} each on average; carriage moving "
-      f"{fmt(100 * r.get('carriage_moving_share', 0), ' %', 1)} of the row time, some arm picking {fmt(100 * r.get('picking_share', 0), ' %', 1)}")
+    shares = (f"carriage moving {fmt(100 * r.get('carriage_moving_share', 0), ' %', 1)} of the row time, some arm picking "
+              f"{fmt(100 * r.get('picking_share', 0), ' %', 1)}")
+    if moving:
+        p(f"  carriage          never stops for a pick; {shares}")
+    else:
+        p(f"  stops             {r.get('stops')}, {fmt(r.get('mean_time_per_stop'), ' s')} each on average; {shares}")
     for a, causes in (r.get("idle_share") or {}).items():
         p(f"  idle {safe(a):12s} " + ", ".join(f"{k.replace('_', ' ')} {100 * v:.1f} %" for k, v in causes.items()))
     least = ver.get("min_clearance")
@@ -76,9 +84,13 @@ def print_row_summary(console, res) -> None:
     if not ver.get("passed", False):
         p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
     first = r.get("first_motion_seconds")
-    p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
+    if moving:
+        p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
+          f"of the row time ({r.get('plans_tried')} full plans tried by the speed search, each verified)")
+    else:
+        p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
       f"of the row time; first stop known after {fmt(first, ' s')}; the slowest stop took {fmt(r.get('slowest_stop_seconds'), ' s')} "
-      f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({'kept ahead of the carriage' if r.get('kept_ahead') else 'LATE'})")
+          f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({'kept ahead of the carriage' if r.get('kept_ahead') else 'LATE'})")
     for k, v in res.files.items():
         p(f"  wrote             {safe(v)}")
     if res.previous is not None:

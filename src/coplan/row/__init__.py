@@ -1,8 +1,12 @@
-"""The row stage: a mobile gantry's carriage along a greenhouse row, stop by stop.
+"""The row stage: a mobile gantry's carriage along a greenhouse row, stop by stop or on the move.
 
 * :mod:`coplan.row.reach` -- :func:`row_reach`: from which carriage positions each arm harvests each fruit.
 * :mod:`coplan.row.stops` -- the stop rules (optimised, fixed stride, fewest stops).
 * :mod:`coplan.row.plan` -- :func:`plan_row`: stops, each stop's cell, one verified row plan.
+* :mod:`coplan.row.continuous` -- :func:`plan_moving`: pick on the move (the carriage never stops;
+  :mod:`~coplan.row.cruise` its motion and the pick windows, :mod:`~coplan.row.track` the tip held
+  over a moving fruit, :mod:`~coplan.row.booking` cycles booked clear of the neighbours,
+  :mod:`~coplan.row.assign` CP-SAT's assignment and order), the speed searched.
 * :mod:`coplan.row.bound` -- the row's lower bounds.
 * :mod:`coplan.row.metrics` -- fruit per hour, share harvested, idle by cause, real-time figures.
 """

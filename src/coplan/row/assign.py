@@ -58,12 +58,32 @@ def _cycle_parts(problem: Problem, booker: Booker, cruise: Cruise, fid: str, w) 
     return None if best is None else (best, best)
 
 
+def _calibration(problem: Problem, greedy: Booker, cruise: Cruise) -> float:
+    """How much longer the greedy's real moves took than the model's estimates (median of its
+    cycles, at least 1): the moves arrive on a moving fruit, wait for neighbours, and come back
+    from wherever the pick ended."""
+    index = {a.name: i for i, a in enumerate(problem.arms)}
+    picks = {(e.arm, e.fruit): e for e in greedy.events if e.kind == EventKind.PICK}
+    ratios = []
+    for e in greedy.events:
+        if e.kind != EventKind.PLACE or (e.arm, e.fruit) not in picks:
+            continue
+        pk = picks[(e.arm, e.fruit)]
+        i = index[e.arm]
+        w = next((w for w in greedy.windows[e.fruit] if w.arm == i and w.lo - 1e-9 <= pk.t_start <= w.hi + 1e-9), None)
+        parts = None if w is None else _cycle_parts(problem, greedy, cruise, e.fruit, w)
+        if parts and parts[1] > 0:
+            ratios.append((e.t_start - pk.t_end) / parts[1])
+    return max(1.0, float(np.median(ratios))) if ratios else 1.0
+
+
 def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruise,
                 work: float = CPSAT_WORK) -> tuple[dict[int, list[str]] | None, dict]:
     """Each arm's fruit in CP-SAT's order (module docstring), or None; and a report."""
     from ortools.sat.python import cp_model
 
     dwell, place = problem.task.pick_dwell, problem.task.place_dwell
+    scale = _calibration(problem, greedy, cruise)
     horizon_s = max((e.t_end for e in greedy.events), default=cruise.duration) + 60.0
     H = int(math.ceil(horizon_s * _UNIT))
     m = cp_model.CpModel()
@@ -75,7 +95,7 @@ def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruis
             parts = _cycle_parts(problem, greedy, cruise, fid, w)
             if parts is None:
                 continue
-            app, ret = (int(math.ceil(x * _UNIT)) for x in parts)
+            app, ret = (int(math.ceil(x * scale * _UNIT)) for x in parts)
             lo = max(app, int(math.ceil(w.lo * _UNIT)))
             hi = min(H, int(math.floor(w.hi * _UNIT)) if math.isfinite(w.hi) else H)
             if hi < lo:
@@ -115,7 +135,7 @@ def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruis
     solver.parameters.catch_sigint_signal = False
     status = solver.Solve(m)
     name = solver.StatusName(status)
-    report = {"status": name, "intervals": len(items), "work": work}
+    report = {"status": name, "intervals": len(items), "work": work, "calibration": scale}
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
         return None, report
     chosen: dict[int, list[tuple[int, str]]] = {i: [] for i in range(len(problem.arms))}

@@ -35,7 +35,7 @@ from .track import Leg, LegError, track, track_state
 __all__ = ["Booker", "Cycle", "run_policy"]
 
 _RETRY = 0.1  # s: a cycle that would come too close to a neighbour is tried again this much later
-_PATIENCE = 30.0  # s: the longest an arm waits for a clear cycle on one fruit
+_PATIENCE = 5.0  # s: the longest an arm waits for a clear cycle on one fruit
 _TRIES = 6  # fixed-point rounds: arrival time <-> where the fruit is then
 
 

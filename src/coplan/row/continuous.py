@@ -24,21 +24,25 @@ from __future__ import annotations
 import math
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..kinds import AssignRule, PlannerKind, PlanStatus, SpeedProfile
-from ..plan import DEFAULT_RATE, Plan, compute_metrics, finalize_plan
+from ..plan import DEFAULT_RATE, EventKind, Plan, compute_metrics, finalize_plan
 from ..problem.model import Problem
 from ..progress import speaker
 from .booking import Booker, run_policy
-from .cruise import Cruise, cruise_end, demand_stretches, pick_windows
+from .cruise import STRETCH, Cruise, cruise_end, demand_stretches, pick_windows
 from .plan import RowResult
 from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
 
 __all__ = ["MovingOptions", "plan_continuous", "plan_moving", "speed_search", "SpeedPoint", "make_cruise"]
 
+#: A refinement round raises a missed fruit's stretches' demand by this factor ...
+REFINE_BUMP = 1.25
+#: ... and pushes the level of a complete plan up by this one.
+REFINE_PUSH = 1.06
 #: The slowest a shaped cruise goes, m/s (a stretch whose fruit ask for more waits a little there).
 MIN_SPEED = 0.01
 
@@ -78,6 +82,7 @@ class MovingOptions:
     margin : kept beyond the problem's clearance when booking cycles, m
     resolution : spacing of the candidate carriage positions of the row's screen, m
     search_rounds : full plans the speed search may try (each verified)
+    refine_rounds : full plans that then slow the carriage only where fruit were missed (density)
     """
 
     profile: SpeedProfile = SpeedProfile.DENSITY
@@ -86,6 +91,7 @@ class MovingOptions:
     margin: float = 0.02
     resolution: float = DEFAULT_RESOLUTION
     search_rounds: int = 8
+    refine_rounds: int = 4
     rate: float = DEFAULT_RATE
 
 
@@ -101,6 +107,8 @@ class SpeedPoint:
     fruit_per_hour: float
     verified: bool
     seconds: float
+    refined: bool = False  # a density profile slowed where fruit were missed (:func:`_refine`)
+    assign: str = AssignRule.GREEDY.value  # whose order the arms followed
 
     @property
     def complete(self) -> bool:
@@ -110,7 +118,8 @@ class SpeedPoint:
         return {"level": self.level, "mean_speed": self.mean_speed, "harvested": self.harvested, "harvestable": self.harvestable,
                 "share_harvested": self.harvested / self.harvestable if self.harvestable else None,
                 "row_time": self.row_time, "fruit_per_hour": self.fruit_per_hour, "verified": self.verified,
-                "seconds": self.seconds}
+                "seconds": self.seconds, "refined": self.refined,
+                "assign": self.assign}
 
 
 def _book(problem: Problem, reach: RowReach, cruise: Cruise, opts: MovingOptions, order=None) -> tuple[Booker, dict]:
@@ -198,7 +207,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     busiest arm's work (constant: the row's work bound, no faster plan harvests everything) or
     gives each stretch exactly its fruit's cheapest cycles (density: pace 1), halves it until a
     plan is complete (grows it by half while complete), then bisects between the fastest
-    complete and the slowest incomplete level, to 2 %. With ``levels`` it plans exactly those
+    complete and the slowest incomplete level, to 3 %. With ``levels`` it plans exactly those
     (the curve) and returns the best. The winner: complete and verified first, then the most
     fruit per hour."""
     from .bound import row_bounds
@@ -210,13 +219,14 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     profile = SpeedProfile(opts.profile)
     demand = demand_stretches(problem, reach, x1) if profile == SpeedProfile.DENSITY else None
     cap = level_cap(problem, reach, profile, demand)
-    tried: dict[float, tuple[RowResult, SpeedPoint]] = {}
+    tried: dict = {}
+    greedy = replace(opts, assign=AssignRule.GREEDY)  # the search's plans: CP-SAT only once, at its end
 
     def run(v: float) -> SpeedPoint:
         v = round(float(min(cap, max(v, 1e-3))), 4)
         if v not in tried:
             t = _time.perf_counter()
-            res = plan_continuous(problem, v, opts, reach, progress, demand)
+            res = plan_continuous(problem, v, greedy, reach, progress, demand)
             tried[v] = (res, _point(res, _time.perf_counter() - t))
         return tried[v][1]
 
@@ -243,13 +253,44 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                     break
                 v = min(cap, v * 1.5)
             else:
-                if bad_v - ok_v <= 0.02 * ok_v:
+                if bad_v - ok_v <= 0.03 * ok_v:
                     break
                 v = 0.5 * (ok_v + bad_v)
-    pts = sorted((p for _, p in tried.values()), key=lambda p: p.level)
+        if demand is not None and bad_v is not None:
+            _refine(problem, greedy, reach, demand, bad_v, tried, progress)
+        if AssignRule(opts.assign) == AssignRule.CPSAT and bad_v is not None:
+            # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
+            t = _time.perf_counter()
+            res = plan_continuous(problem, bad_v, opts, reach, progress, demand)
+            tried[(bad_v, "cpsat")] = (res, replace(_point(res, _time.perf_counter() - t), assign=res.info["assign"]))
+    pts = [p for _, p in tried.values()]
     best = max(tried, key=lambda v: (tried[v][1].complete, tried[v][1].verified, tried[v][1].harvested,
                                      tried[v][1].fruit_per_hour))
     return tried[best][0], pts
+
+
+def _refine(problem: Problem, opts: MovingOptions, reach: RowReach, demand, level: float, tried: dict,
+            progress) -> None:
+    """Slow down only where fruit were missed: from the slowest incomplete level, each round
+    raises the demand of the stretches from which a missed fruit is served by ``REFINE_BUMP``
+    and plans again; a complete plan pushes the level up by ``REFINE_PUSH``. Every round a full,
+    verified plan (added to ``tried``, keyed apart from the plain levels)."""
+    d = list(demand)
+    v = level
+    for r in range(opts.refine_rounds):
+        t = _time.perf_counter()
+        res = plan_continuous(problem, v, opts, reach, progress, d)
+        p = replace(_point(res, _time.perf_counter() - t), refined=True)
+        tried[(v, r)] = (res, p)
+        if p.complete:
+            v *= REFINE_PUSH
+            continue
+        got = {e.fruit for e in res.plan.events if e.kind == EventKind.PLACE}
+        for fid in reach.harvestable():
+            if fid in got:
+                continue
+            lo, hi = (float(reach.grid[k]) for k in reach.span(fid))
+            d = [(x, dk * REFINE_BUMP if x > lo and x - STRETCH < hi else dk) for x, dk in d]
 
 
 def plan_moving(problem: Problem, options: MovingOptions | None = None,

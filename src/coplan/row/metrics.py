@@ -15,6 +15,8 @@
 * **ratios** to the row's lower bounds (:mod:`coplan.row.bound`), and ``overlap_seconds``: how
   long the carriage moves while some arm works (places, goes home, comes out), which the
   stop-and-go bound's model excludes;
+* **on the move** (``mode`` continuous): the speed profile, the carriage's mean and top speed,
+  how many full plans the speed search tried;
 * **real time**: planning time / row time, when the first stop was known (the carriage's first
   motion can start) and, stop by stop, whether its cell was planned before the carriage needed
   it -- the least slack (s; negative: late) and the slowest stop's planning time.
@@ -112,6 +114,11 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         "least_slack_seconds": min(slack) if slack else None,
         "kept_ahead": bool(slack) and min(slack) >= 0.0,
     }
+    out["mode"] = result.info.get("mode", "stop-and-go")
+    if out["mode"] == "continuous":  # no stops: the carriage's speeds instead, and no stop to keep ahead of
+        out.update({"profile": result.info.get("profile"), "mean_speed": result.info.get("mean_speed"),
+                    "top_speed": result.info.get("top_speed"), "plans_tried": len(result.info.get("speed_curve") or []),
+                    "kept_ahead": None, "least_slack_seconds": None})
     if bounds is not None:
         out["lower_bound"] = bounds.to_dict()
         out["ratio_any_plan_bound"] = span / bounds.any_plan if bounds.any_plan > 0 else None

@@ -1,0 +1,260 @@
+"""Pick on the move (issue 29): the carriage's cruise, pick windows, tracking, booking, the
+speed search, the verifier's row-frame pick check and the CLI.
+
+Reference values are analytic (the constant cruise is the time-optimal rest-to-rest move;
+tracking derivatives against finite differences); every plan is cross-checked by the
+independent verifier and by direct geometry (the tip over the fruit in row coordinates while
+the carriage moves)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from coplan.cli import app
+from coplan.generate import gantry_row, to_yaml
+from coplan.kinematics import arm as kin
+from coplan.kinematics.timing import Move1D
+from coplan.kinds import AssignRule, GantryMode, SpeedProfile
+from coplan.pipeline import solve
+from coplan.plan import EventKind, load_plan
+from coplan.problem import parse_problem
+from coplan.row.continuous import MovingOptions, make_cruise, plan_continuous, speed_search
+from coplan.row.cruise import Cruise, cruise_end, demand_stretches, pick_windows
+from coplan.row.reach import row_reach
+from coplan.row.track import track, track_state
+from coplan.verify import verify
+from coplan.verify.verdict import ViolationKind
+
+
+def _row(length=10.0, density=3.0, seed=7, **kw):
+    return parse_problem(to_yaml(gantry_row(length=length, density=density, seed=seed, **kw)))
+
+
+@pytest.fixture(scope="module")
+def row():
+    return _row()
+
+
+@pytest.fixture(scope="module")
+def reach(row):
+    return row_reach(row)
+
+
+@pytest.fixture(scope="module")
+def moving(row, reach):
+    """One plan on the move at a constant 0.1 m/s (slow enough to harvest everything)."""
+    return plan_continuous(row, 0.1, MovingOptions(profile=SpeedProfile.CONSTANT, assign=AssignRule.GREEDY), reach)
+
+
+# ---------------------------------------------------------------------------- the carriage
+def test_a_constant_cruise_is_the_time_optimal_rest_to_rest_move(row):
+    g = row.gantry
+    c = Cruise.of(row, 0.3, 8.0)
+    ref = Move1D.between(g.start, 8.0, 0.3, g.max_acceleration, g.max_jerk)
+    t = np.linspace(-1.0, ref.duration + 1.0, 4001)
+    for a, b in zip(c.state(t), ref.state(t)):
+        assert np.allclose(a, b, atol=1e-9)
+    assert c.duration == pytest.approx(ref.duration, abs=1e-9)
+
+
+def test_a_shaped_cruise_keeps_the_gantry_limits_and_ends_at_rest():
+    p = _row(length=20.0)
+    g = p.gantry
+    rng = np.random.default_rng(3)
+    edges = np.cumsum(rng.uniform(0.5, 3.0, 8))
+    stretches = [(float(x), float(v)) for x, v in zip(edges, rng.uniform(0.02, g.max_velocity, 8))]
+    c = Cruise.shaped(p, stretches, 18.0)
+    dt = 1e-3
+    t = np.arange(0.0, c.duration + 0.5, dt)
+    x, v, a = c.state(t)
+    assert x[0] == g.start and x[-1] == pytest.approx(18.0, abs=1e-9) and v[-1] == 0.0
+    assert np.all(np.diff(x) >= -1e-12)  # never backwards
+    assert v.max() <= g.max_velocity + 1e-9
+    assert np.abs(a).max() <= g.max_acceleration + 1e-9
+    assert np.abs(np.diff(a) / dt).max() <= g.max_jerk * (1 + 1e-6)
+    # velocity is the derivative of position, acceleration of velocity
+    assert np.abs(np.diff(x) / dt - 0.5 * (v[1:] + v[:-1])).max() < 1e-5
+    xs = rng.uniform(g.start, 18.0, 50)
+    assert np.abs(c.x(c.time_at(xs)) - xs).max() < 1e-4
+
+
+def test_the_density_profile_runs_each_metre_at_its_fruit_s_pace(row, reach):
+    from coplan.row.continuous import MIN_SPEED
+
+    x1 = cruise_end(row, reach)
+    demand = demand_stretches(row, reach, x1)
+    level, n = 0.5, len(row.arms)
+    c = make_cruise(row, reach, SpeedProfile.DENSITY, level, demand)
+    vmax = row.gantry.max_velocity
+    checked = 0
+    for x_end, d in demand[1:-2]:  # away from the start and the stop
+        want = vmax if d <= 0 else min(vmax, max(MIN_SPEED, level * n / d))
+        v = float(c.state(c.time_at(x_end - 0.5))[1][0])  # mid-stretch: any ramp into it is over
+        assert v == pytest.approx(want, rel=1e-6, abs=1e-9)
+        checked += 1
+    assert checked >= 3
+    assert len({round(v, 6) for v in (min(vmax, level * n / d) for _, d in demand if d > 0)}) > 1  # it does vary
+
+
+# ---------------------------------------------------------------------------- windows and tracking
+def test_every_pick_window_keeps_the_carriage_in_a_serving_run(row, reach):
+    c = Cruise.of(row, 0.2, cruise_end(row, reach))
+    dwell = row.task.pick_dwell
+    wins = pick_windows(row, reach, c, dwell)
+    rng = np.random.default_rng(0)
+    n = 0
+    for fid, ws in wins.items():
+        for w in ws:
+            hi = w.hi if math.isfinite(w.hi) else w.lo + 5.0
+            for t in rng.uniform(w.lo, hi, 3):
+                x0, x1 = c.x(np.array([t, t + dwell]))
+                assert w.c_lo - 1e-6 <= x0 <= x1 <= w.c_hi + 1e-6
+                assert reach.cover[fid][w.arm][np.searchsorted(reach.grid, w.c_lo)]
+                n += 1
+    assert n > 0
+
+
+def test_tracking_holds_the_tip_over_the_fruit_in_row_coordinates(row, reach):
+    c = Cruise.of(row, 0.25, cruise_end(row, reach))
+    arm = row.arms[1]
+    fid, ws = next((f, ws) for f, ws in pick_windows(row, reach, c, row.task.pick_dwell).items()
+                   if any(w.arm == 1 and math.isfinite(w.hi) for w in ws))
+    w = next(w for w in ws if w.arm == 1)
+    xy = next(f.position for f in row.fruits if f.id == fid)
+    t = np.linspace(w.lo, w.lo + row.task.pick_dwell, 31)
+    for b in (0, 1):
+        q = track(arm, xy, c, t, b)
+        if not np.all(np.isfinite(q)):
+            continue
+        _, tip = kin.fk(q, arm.links, arm.base)
+        row_tip = tip + np.c_[c.x(t), np.zeros(t.size)]
+        assert np.abs(row_tip - np.asarray(xy)).max() < 1e-9
+        # the state's velocity and acceleration are the track's derivatives (central differences)
+        tm, h = float(t[10]), 1e-4
+        s = track_state(arm, xy, c, tm, b)
+        qm, q0, qp = track(arm, xy, c, np.array([tm - h, tm, tm + h]), b)
+        assert np.allclose(s[0], q0, atol=1e-12)
+        assert np.allclose(s[1], (qp - qm) / (2 * h), atol=1e-6)
+        assert np.allclose(s[2], (qp - 2 * q0 + qm) / h ** 2, atol=1e-3)
+
+
+# ---------------------------------------------------------------------------- plans
+def test_a_plan_on_the_move_is_verified_and_picks_while_the_carriage_moves(row, moving):
+    res = moving
+    assert res.verification.passed, [v.message for v in res.verification.violations[:5]]
+    assert not res.verification.unharvested
+    plan = res.plan
+    assert plan.status.value == "success"
+    # an independent run of the verifier on the same plan agrees
+    assert verify(row, plan).passed
+    x = np.asarray(plan.gantry_x)
+    dt = plan.dt
+    fruit = {f.id: np.asarray(f.position) for f in row.fruits}
+    arms = {a.name: a for a in row.arms}
+    moving_picks = 0
+    picks = [e for e in plan.events if e.kind == EventKind.PICK]
+    for e in picks:
+        k = np.arange(int(round(e.t_start / dt)), int(round(e.t_end / dt)) + 1)
+        a = arms[e.arm]
+        _, tip = kin.fk(plan.q[e.arm][k], a.links, a.base)
+        assert np.abs(tip + np.c_[x[k], np.zeros(k.size)] - fruit[e.fruit]).max() < 1e-6
+        if abs(x[k[-1]] - x[k[0]]) > 0.5 * 0.1 * (e.t_end - e.t_start):
+            moving_picks += 1
+    assert picks and moving_picks >= 0.8 * len(picks)  # the carriage never stopped for them
+    assert res.info["mode"] == "continuous" and res.stops == []
+
+
+def test_a_pick_the_arm_does_not_carry_along_is_refused(row, moving):
+    plan = moving.plan
+    e = next(e for e in plan.events if e.kind == EventKind.PICK and e.t_start > 2.0)
+    k0, k1 = int(round(e.t_start / plan.dt)), int(round(e.t_end / plan.dt))
+    q = {n: v.copy() for n, v in plan.q.items()}
+    q[e.arm][k0:k1 + 1] = q[e.arm][k0]  # the joints freeze: the carriage carries the tip off the fruit
+    bad = type(plan)(**{**plan.__dict__, "q": q})
+    ver = verify(row, bad)
+    assert any(v.kind in (ViolationKind.PICK_DWELL, ViolationKind.PICK_MISSED) and v.fruit == e.fruit for v in ver.violations)
+
+
+def test_too_fast_a_carriage_leaves_fruit_out_with_the_reason(row, reach):
+    res = plan_continuous(row, row.gantry.max_velocity, MovingOptions(profile=SpeedProfile.CONSTANT,
+                                                                       assign=AssignRule.GREEDY), reach)
+    assert res.verification.passed  # what it does harvest is still safe
+    missed = [f for f in reach.harvestable() if f in res.info["left_out"]]
+    assert missed, "at the gantry's top speed every fruit was harvested: the test row is too sparse"
+    assert all("reach" in res.info["left_out"][f] for f in missed)
+    assert any("passed" in res.info["left_out"][f] and " at t = " in res.info["left_out"][f] for f in missed)
+
+
+def test_the_same_input_gives_the_same_plan(row, reach, moving):
+    again = plan_continuous(row, 0.1, MovingOptions(profile=SpeedProfile.CONSTANT, assign=AssignRule.GREEDY), reach)
+    assert [(e.arm, e.fruit, e.t_start) for e in again.plan.events] == [(e.arm, e.fruit, e.t_start) for e in moving.plan.events]
+    for n in again.plan.q:
+        assert np.array_equal(again.plan.q[n], moving.plan.q[n])
+
+
+def test_the_speed_search_keeps_the_best_complete_verified_plan(row, reach):
+    best, curve = speed_search(row, MovingOptions(search_rounds=5, refine_rounds=2), reach)
+    assert curve and all(p.verified for p in curve)
+    complete = [p for p in curve if p.complete]
+    assert complete, "no speed harvested every fruit"
+    m = best.plan.metrics
+    assert m["harvested"] == len(reach.cover) and best.verification.passed
+    fph = m["harvested"] * 3600.0 / m["makespan"]
+    assert fph >= max(p.fruit_per_hour for p in complete) - 1e-6
+    # a faster carriage never came back with every fruit and more per hour
+    assert all(not (p.complete and p.fruit_per_hour > fph + 1e-6) for p in curve)
+
+
+def test_cpsat_order_is_kept_only_when_it_does_better(row, reach):
+    greedy = plan_continuous(row, 0.45, MovingOptions(profile=SpeedProfile.CONSTANT, assign=AssignRule.GREEDY), reach)
+    both = plan_continuous(row, 0.45, MovingOptions(profile=SpeedProfile.CONSTANT, assign=AssignRule.CPSAT), reach)
+    assert both.verification.passed
+    g, b = greedy.plan.metrics, both.plan.metrics
+    assert (b["harvested"], -b["makespan"]) >= (g["harvested"], -g["makespan"])
+    assert greedy.info["left_out"].keys() - set(reach.reasons), "the greedy harvested everything: CP-SAT never ran"
+    assert both.info["cpsat"]["status"] in ("OPTIMAL", "FEASIBLE") and both.info["cpsat"]["intervals"] > 0
+    assert both.info["assign"] in (AssignRule.GREEDY.value, AssignRule.CPSAT.value)
+
+
+# ---------------------------------------------------------------------------- the pipeline and the CLI
+def test_solve_on_the_move_writes_a_plan_that_verify_accepts(tmp_path, row):
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=10.0, density=3.0, seed=7)))
+    res = CliRunner().invoke(app, ["solve", str(path), "--gantry", "continuous", "--speed", "0.1", "-o", str(tmp_path / "out"),
+                                   "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.output)
+    assert doc["status"] == "success"
+    plan = load_plan(tmp_path / "out" / "plan.json")
+    assert plan.solver["row"]["mode"] == "continuous" and plan.metrics["row"]["mode"] == "continuous"
+    assert verify(row, plan).passed
+    res = CliRunner().invoke(app, ["verify", str(path), str(tmp_path / "out" / "plan.json")])
+    assert res.exit_code == 0, res.output
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--gantry", "continuous", "--speed", "3"], "--speed: expected a cruising speed in (0, 0.5] m/s"),
+    (["--gantry", "continuous", "--stops", "fixed"], "--stops: on the move"),
+    (["--gantry", "continuous", "--planner", "optimal"], "--planner: on the move"),
+    (["--speed", "0.2"], "--speed: a cruising speed applies on the move"),
+])
+def test_solve_on_the_move_refuses_options_that_do_not_apply(tmp_path, args, words):
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=10.0, density=3.0, seed=7)))
+    res = CliRunner().invoke(app, ["solve", str(path), *args, "-o", str(tmp_path / "out")])
+    assert res.exit_code == 2, res.output
+    assert words in res.output.replace("\n", " ")
+    assert "Traceback" not in res.output
+
+
+def test_a_cell_refuses_the_gantry_mode():
+    from coplan.problem import load_problem, shipped_problems
+
+    cell = load_problem(next(p for p in shipped_problems() if "crossing" in str(p)))
+    with pytest.raises(ValueError, match="stationary cell"):
+        solve(cell, gantry=GantryMode.CONTINUOUS)
