@@ -34,7 +34,8 @@ from .track import Leg, LegError, track, track_state
 
 __all__ = ["Booker", "Cycle", "run_policy"]
 
-_RETRY = 0.1  # s: a cycle that would come too close to a neighbour is tried again this much later
+_RETRY = 0.1  # s: a cycle that would come too close to a neighbour is tried again this much later ...
+_RETRY_GROWTH = 1.5  # ... and each further try that much later again
 _PATIENCE = 5.0  # s: the longest an arm waits for a clear cycle on one fruit
 _TRIES = 6  # fixed-point rounds: arrival time <-> where the fruit is then
 
@@ -180,6 +181,7 @@ class Booker:
         t_p = max(w.lo, k_from * self.dt)
         t_last = min(w.hi, k_from * self.dt + _PATIENCE)
         leg1 = None
+        retry = _RETRY
         while True:
             k_p = self.up(t_p)
             for _ in range(_TRIES):
@@ -212,7 +214,9 @@ class Booker:
             cyc = self._assemble(i, fid, k0, q0, k_p, b, leg1, qb)
             if cyc is not None and self._clear(i, k0, cyc.q):
                 return cyc
-            t_p = k_p * self.dt + _RETRY
+            # later, by steps that grow (a neighbour in the way for long is not probed every 0.1 s)
+            t_p = k_p * self.dt + retry
+            retry *= _RETRY_GROWTH
 
     def _assemble(self, i: int, fid: str, k0: int, q0: np.ndarray, k_p: int, b: int, leg1: Leg, qb: np.ndarray) -> Cycle | None:
         arm = self.problem.arms[i]

@@ -90,8 +90,8 @@ class MovingOptions:
     assign: AssignRule = AssignRule.CPSAT
     margin: float = 0.02
     resolution: float = DEFAULT_RESOLUTION
-    search_rounds: int = 8
-    refine_rounds: int = 4
+    search_rounds: int = 7
+    refine_rounds: int = 2
     rate: float = DEFAULT_RATE
 
 
@@ -207,7 +207,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     busiest arm's work (constant: the row's work bound, no faster plan harvests everything) or
     gives each stretch exactly its fruit's cheapest cycles (density: pace 1), halves it until a
     plan is complete (grows it by half while complete), then bisects between the fastest
-    complete and the slowest incomplete level, to 3 %. With ``levels`` it plans exactly those
+    complete and the slowest incomplete level, to 5 %. With ``levels`` it plans exactly those
     (the curve) and returns the best. The winner: complete and verified first, then the most
     fruit per hour."""
     from .bound import row_bounds
@@ -253,7 +253,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                     break
                 v = min(cap, v * 1.5)
             else:
-                if bad_v - ok_v <= 0.03 * ok_v:
+                if bad_v - ok_v <= 0.05 * ok_v:
                     break
                 v = 0.5 * (ok_v + bad_v)
         if demand is not None and bad_v is not None:

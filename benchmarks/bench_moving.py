@@ -1,0 +1,133 @@
+"""Stop and go against pick on the move, on the same rows -- one run.
+
+1. **Head to head** on the shipped 50 m rows (``problems/rows/``) and on generated 20 m rows
+   (``coplan.generate.gantry_row``, seed 11) at 2, 8 and 20 fruit per metre with 3 and 6 arms:
+   the stop rules fixed stride, fewest stops and optimised (the coordinated cell planner at
+   every stop), and continuous (``--gantry continuous``: the speed search over a density
+   profile). Per row and mode: row time (the last fruit placed), fruit per hour, share of the
+   harvestable fruit harvested, row time / the row's lower bound valid for any motion (no stop
+   assumed: :func:`coplan.row.bound.row_bounds`), planning time and its share of the row time,
+   and the verdict of ``coplan verify`` run on the written plan file in another process. Then,
+   per row, which mode wins and by how much (fruit per hour against the better of the others).
+2. **Speed curve** of continuous mode on one row: fruit per hour and share harvested against
+   the carriage's mean speed, every full plan the speed search tried (each verified).
+
+Every ratio is measured in this run, on this machine. Every plan is verified.
+
+    python benchmarks/bench_moving.py               # both parts
+    python benchmarks/bench_moving.py --quick       # the generated rows at 8 fruit per metre only
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+MODES = ("fixed", "fewest", "optimised", "continuous")
+
+
+def _rows(quick: bool) -> list[tuple[str, object, str]]:
+    """(name, problem, its YAML text) of every benchmark row."""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import load_problem, parse_problem, shipped_rows
+
+    out = [] if quick else [(p.stem, load_problem(p), p.read_text()) for p in shipped_rows()]
+    for n_arms in (3, 6):
+        for density in ((8.0,) if quick else (2.0, 8.0, 20.0)):
+            text = to_yaml(gantry_row(length=20.0, n_arms=n_arms, density=density, seed=11))
+            out.append((f"gen {n_arms} arms {density:g}/m", parse_problem(text), text))
+    return out
+
+
+def _plan(prob, mode: str):
+    from coplan.kinds import StopRule
+    from coplan.row.continuous import plan_moving
+    from coplan.row.plan import RowOptions, plan_row
+
+    if mode == "continuous":
+        return plan_moving(prob)
+    return plan_row(prob, RowOptions(stops=StopRule(mode)))
+
+
+def _cli_verify(text: str, plan, folder: Path) -> bool:
+    """``coplan verify`` on the written problem and plan file, in another process."""
+    folder.mkdir(parents=True, exist_ok=True)
+    pfile = folder / "problem.yaml"
+    pfile.write_text(text)
+    files = plan.save(folder, "plan")
+    r = subprocess.run([sys.executable, "-m", "coplan.cli", "verify", str(pfile), str(files["json"])],
+                       capture_output=True, text=True)
+    return r.returncode == 0
+
+
+def head_to_head(quick: bool) -> None:
+    from coplan.row.bound import row_bounds
+    from coplan.row.metrics import row_metrics
+
+    print("| row | fruit | mode | row time | fruit / h | harvested | / bound (any motion) | planning | planning / row time | "
+          "mean speed | coplan verify |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    wins = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, prob, text in _rows(quick):
+            b = row_bounds(prob)
+            per = {}
+            for mode in MODES:
+                res = _plan(prob, mode)
+                m = row_metrics(prob, res, b)
+                ok = res.verification.passed and _cli_verify(text, res.plan, Path(tmp) / name.replace(" ", "_") / mode)
+                per[mode] = (m, ok)
+                speed = f"{m['mean_speed']:.3f} m/s" if mode == "continuous" else "-"
+                print(f"| {name} | {len(prob.fruits)} | {mode} | {m['row_time']:.1f} s | {m['fruit_per_hour']:.0f} | "
+                      f"{100 * (m['share_harvested'] or 0):.1f} % | {m['ratio_any_plan_bound']:.3f} | {m['planning_time']:.2f} s | "
+                      f"{100 * m['planning_over_row_time']:.2f} % | {speed} | {'yes' if ok else 'NO'} |", flush=True)
+            complete = {k: v for k, v in per.items() if v[1] and (v[0]["share_harvested"] or 0) >= 1.0 - 1e-9}
+            pool = complete or per
+            best = max(pool, key=lambda k: pool[k][0]["fruit_per_hour"])
+            others = [pool[k][0]["fruit_per_hour"] for k in pool if k != best]
+            gain = 100 * (pool[best][0]["fruit_per_hour"] / max(others) - 1) if others else 0.0
+            sg = max((pool[k][0]["fruit_per_hour"] for k in pool if k != "continuous"), default=None)
+            cont = pool.get("continuous")
+            vs = (f"; continuous {100 * (cont[0]['fruit_per_hour'] / sg - 1):+.1f} % against the best stop rule"
+                  if cont and sg else "")
+            wins.append(f"- {name}: {best} wins, {gain:+.1f} % fruit per hour against the next mode; "
+                        f"{pool[best][0]['ratio_any_plan_bound']:.3f} x the bound for any motion{vs}")
+    print()
+    print("\n".join(wins))
+
+
+def speed_curve(name: str = "sparse_row") -> None:
+    from coplan.problem import load_problem, shipped_rows
+    from coplan.row.continuous import plan_moving
+
+    prob = load_problem(next(p for p in shipped_rows() if p.stem == name))
+    t = time.perf_counter()
+    res = plan_moving(prob)
+    took = time.perf_counter() - t
+    print(f"\nSpeed curve of {name} on the move ({took:.1f} s, {len(res.info['speed_curve'])} full plans, each verified):\n")
+    print("| pace | mean speed | fruit / h | harvested | row time | slowed where missed | order | verified |")
+    print("|---|---|---|---|---|---|---|---|")
+    for p in sorted(res.info["speed_curve"], key=lambda p: p["mean_speed"]):
+        print(f"| {p['level']:.3f} | {p['mean_speed']:.3f} m/s | {p['fruit_per_hour']:.0f} | {100 * p['share_harvested']:.1f} % | "
+              f"{p['row_time']:.1f} s | {'yes' if p['refined'] else 'no'} | {p['assign']} | {'yes' if p['verified'] else 'NO'} |")
+    print(f"\nchosen: pace {res.info['level']:.3f}, {res.info['mean_speed']:.3f} m/s on average, "
+          f"{res.plan.metrics['harvested']} fruit in {res.plan.metrics['makespan']:.1f} s")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="the generated rows at 8 fruit per metre only, no curve")
+    args = ap.parse_args()
+    t = time.perf_counter()
+    head_to_head(args.quick)
+    if not args.quick:
+        speed_curve()
+    print(f"\n(one run, {time.perf_counter() - t:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()
