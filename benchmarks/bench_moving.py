@@ -11,11 +11,16 @@
    per row, which mode wins and by how much (fruit per hour against the better of the others).
 2. **Speed curve** of continuous mode on one row: fruit per hour and share harvested against
    the carriage's mean speed, every full plan the speed search tried (each verified).
+3. **Arms curve**: fruit per hour against the number of arms (1 to 12, 2 m apart) on one
+   generated 30 m row at 12 fruit per metre, stop and go (optimised stops) and on the move, run
+   as a ``coplan sweep`` (``base: gantry``) on a 2-worker Dask LocalCluster; the figure
+   ``docs/arms_curve.png`` with the line a perfectly linear speed-up from one arm would follow.
 
 Every ratio is measured in this run, on this machine. Every plan is verified.
 
     python benchmarks/bench_moving.py               # both parts
     python benchmarks/bench_moving.py --quick       # the generated rows at 8 fruit per metre only
+    python benchmarks/bench_moving.py --arms-only   # the arms curve only
 """
 
 from __future__ import annotations
@@ -118,14 +123,77 @@ def speed_curve(name: str = "sparse_row") -> None:
           f"{res.plan.metrics['harvested']} fruit in {res.plan.metrics['makespan']:.1f} s")
 
 
+ARMS_SWEEP = """name: arms-curve
+base: gantry
+fixed: {length: 30.0, density: 12.0, seed: 5, spacing: 2.0}
+vary:
+  n_arms: {from: 1, to: 12}
+  gantry: [stop-and-go, continuous]
+planner: coordinated
+time_limit: 900
+"""
+
+
+def arms_curve(figure: Path) -> None:
+    import pyarrow.parquet as pq
+
+    with tempfile.TemporaryDirectory() as tmp:
+        spec = Path(tmp) / "arms.yaml"
+        spec.write_text(ARMS_SWEEP)
+        t = time.perf_counter()
+        r = subprocess.run([sys.executable, "-m", "coplan.cli", "sweep", str(spec), "--workers", "2", "-o", str(Path(tmp) / "out")],
+                           capture_output=True, text=True)
+        took = time.perf_counter() - t
+        if r.returncode != 0:
+            print(r.stdout[-2000:], r.stderr[-2000:])
+            raise SystemExit(f"coplan sweep failed ({r.returncode})")
+        rows = pq.read_table(Path(tmp) / "out" / "results.parquet").to_pylist()
+    print(f"\nArms curve (coplan sweep on a 2-worker Dask LocalCluster, {len(rows)} rows in {took:.0f} s; a 30 m row, "
+          f"12 fruit per metre, seed 5):\n")
+    print("| arms | fruit | mode | fruit / h | per arm | x one arm | harvested | / bound (any motion) | verified |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    rows.sort(key=lambda r: (r["gantry"], r["n_arms"]))
+    one = {r["gantry"]: r["fruit_per_hour"] for r in rows if r["n_arms"] == 1}
+    for r in rows:
+        fph = r["fruit_per_hour"] or 0.0
+        print(f"| {r['n_arms']} | {r['n_fruits']} | {r['gantry']} | {fph:.0f} | {fph / r['n_arms']:.0f} | "
+              f"{fph / one[r['gantry']]:.2f} | {100 * (r['share_harvested'] or 0):.1f} % | {r['ratio'] or float('nan'):.3f} | "
+              f"{'yes' if r['verified'] else 'NO'} |")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.0), dpi=110)
+    for mode, style in (("stop-and-go", "o-"), ("continuous", "s-")):
+        pts = [(r["n_arms"], r["fruit_per_hour"]) for r in rows if r["gantry"] == mode]
+        ax.plot(*zip(*pts), style, label=mode)
+    n = sorted({r["n_arms"] for r in rows})
+    best_one = max(one.values())
+    ax.plot(n, [best_one * k for k in n], ":", color="grey", label="linear from one arm")
+    ax.set_xlabel("arms on the carriage (2 m apart)")
+    ax.set_ylabel("fruit per hour")
+    ax.set_title("30 m row, 12 fruit/m: fruit per hour against arms")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(figure)
+    print(f"\nwrote {figure}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="the generated rows at 8 fruit per metre only, no curve")
+    ap.add_argument("--quick", action="store_true", help="the generated rows at 8 fruit per metre only, no curves")
+    ap.add_argument("--arms-only", action="store_true", help="the arms curve only")
+    ap.add_argument("--figure", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "arms_curve.png")
     args = ap.parse_args()
     t = time.perf_counter()
-    head_to_head(args.quick)
-    if not args.quick:
+    if not args.arms_only:
+        head_to_head(args.quick)
+    if not args.quick and not args.arms_only:
         speed_curve()
+    if not args.quick:
+        arms_curve(args.figure)
     print(f"\n(one run, {time.perf_counter() - t:.0f} s)")
 
 

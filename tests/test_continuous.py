@@ -258,3 +258,44 @@ def test_a_cell_refuses_the_gantry_mode():
     cell = load_problem(next(p for p in shipped_problems() if "crossing" in str(p)))
     with pytest.raises(ValueError, match="stationary cell"):
         solve(cell, gantry=GantryMode.CONTINUOUS)
+
+
+# ---------------------------------------------------------------------------- sweeps of rows
+GANTRY_SWEEP = """
+name: arms
+base: gantry
+fixed: {length: 8.0, density: 4.0, seed: 3, gantry: continuous}
+vary:
+  n_arms: [1, 2]
+planner: coordinated
+"""
+
+
+def test_a_gantry_sweep_makes_rows_and_solves_them_on_the_move():
+    from coplan.sweep.run import solve_item
+    from coplan.sweep.spec import parse_sweep
+
+    items = parse_sweep(GANTRY_SWEEP, "arms.yaml").items()
+    assert [it.params["n_arms"] for it in items] == [1, 2]
+    assert all(it.row_length == 8.0 and "gantry:" in it.problem_text for it in items)
+    rows = [solve_item(it)[0] for it in items]
+    for r, it in zip(rows, items):
+        assert r["status"] == "success" and r["verified"], r["message"]
+        assert r["gantry"] == "continuous" and r["share_harvested"] == 1.0
+        assert r["fruit_per_hour"] == pytest.approx(3600.0 * r["harvested"] / r["makespan"])
+        assert r["mean_speed"] > 0 and r["ratio"] >= 1.0
+    # the same row, planned the same way directly
+    direct = solve(parse_problem(items[1].problem_text), gantry=GantryMode.CONTINUOUS).plan.metrics
+    assert rows[1]["makespan"] == pytest.approx(direct["makespan"])
+
+
+@pytest.mark.parametrize("text, words", [
+    (GANTRY_SWEEP.replace("gantry: continuous", "gantry: rolling"), "fixed.gantry: expected one of stop-and-go, continuous"),
+    (GANTRY_SWEEP.replace("base: gantry", "base: row"), "fixed.length: expected a parameter of base 'row'"),
+])
+def test_gantry_sweep_file_errors_name_the_key(text, words):
+    from coplan.sweep.spec import SweepError, parse_sweep
+
+    with pytest.raises(SweepError) as e:
+        parse_sweep(text, "arms.yaml")
+    assert words in str(e.value)

@@ -107,6 +107,7 @@ class SweepBase(str, Enum):
     RANDOM = "random"  # coplan.generate.random_problem(seed)
     CELL = "cell"  # coplan.generate.cell_problem(seed)
     FILES = "files"  # problem files: a file, a folder or a glob
+    GANTRY = "gantry"  # coplan.generate.gantry_row: a row harvested from a mobile gantry (stop and go or on the move)
 
 
 class SweepMode(str, Enum):

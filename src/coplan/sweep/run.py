@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from ..kinds import ExitCode, PlannerKind, RowStatus
+from ..kinds import ExitCode, GantryMode, PlannerKind, RowStatus
 from ..errors import Issue
 from .spec import SweepError, SweepItem, SweepSpec
 from .table import RowJournal, read_rows, write_table
@@ -122,6 +122,10 @@ def _result_columns(res, row: dict[str, Any]) -> dict[str, Any]:
         "verified": ver.get("passed"), "solve_time": res.timings.get("total"),
         "message": None if res.success else (res.plan.solver.get("message") or _why(res)),
     }
+    r = m.get("row")
+    if r:  # a row on a gantry: what a grower judges
+        out.update({"gantry": r.get("mode"), "fruit_per_hour": r.get("fruit_per_hour"), "share_harvested": r.get("share_harvested"),
+                    "mean_speed": r.get("mean_speed"), "ratio": r.get("ratio_any_plan_bound")})
     if planner == PlannerKind.COORDINATED.value and out["coordinated_makespan"] is None:
         out["coordinated_makespan"] = makespan
     if planner == PlannerKind.HEURISTIC.value:
@@ -201,9 +205,13 @@ def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = 
             problem = parse_problem(item.problem_text or "", item.source)
             row.update(_problem_columns(problem, item))
             options = None
-            if item.planner != PlannerKind.HEURISTIC.value:
-                options = parse_options(yaml.safe_dump(dict(item.options, time_limit=item.time_limit)), "sweep options")
-            res = solve(problem, planner=item.planner, options=options)
+            if problem.gantry is not None:  # a row: the cell planner at each stop, or on the move (no cell planner)
+                mode = GantryMode(item.params.get("gantry", GantryMode.STOP_AND_GO.value))
+                res = solve(problem, planner=None if mode == GantryMode.CONTINUOUS else item.planner, gantry=mode)
+            else:
+                if item.planner != PlannerKind.HEURISTIC.value:
+                    options = parse_options(yaml.safe_dump(dict(item.options, time_limit=item.time_limit)), "sweep options")
+                res = solve(problem, planner=item.planner, options=options)
         row.update(_result_columns(res, row))
         plan = res.plan.to_dict() if keep_plan else None
     except InputError as e:

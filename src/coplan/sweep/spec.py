@@ -3,7 +3,7 @@
 A sweep file (YAML)::
 
     name: spacing-arms-density
-    base: row                 # row | overlap | random | cell | files
+    base: row                 # row | overlap | random | cell | files | gantry
     fixed:                    # parameters every problem gets
       links: [1.0, 0.8]
     vary:                     # parameters to vary: a list of values or a range
@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError, Issue, ProblemError, finite_number, found
-from ..kinds import PlannerKind, SweepBase, SweepMode
+from ..kinds import GantryMode, PlannerKind, SweepBase, SweepMode
 from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 
 __all__ = ["SweepError", "SweepItem", "SweepSpec", "load_sweep", "parse_sweep", "PARAMETERS", "MAX_ITEMS"]
@@ -51,13 +51,17 @@ class SweepError(InputError):
 
 # parameter -> (kind, bases it applies to, what it is)
 _ROWS = (SweepBase.ROW, SweepBase.OVERLAP)
-_GEN = (SweepBase.ROW, SweepBase.OVERLAP, SweepBase.RANDOM, SweepBase.CELL)
+_GEN = (SweepBase.ROW, SweepBase.OVERLAP, SweepBase.RANDOM, SweepBase.CELL, SweepBase.GANTRY)
+_GANTRY = (SweepBase.GANTRY,)
 _ALL = tuple(SweepBase)
 PARAMETERS: dict[str, tuple[str, tuple, str]] = {
     "n_arms": ("count1", _GEN, "number of arms"),
-    "n_fruits": ("count0", _GEN, "number of fruit (instead of density)"),
-    "density": ("positive", _ROWS, "fruit per metre of row"),
-    "spacing": ("positive", _ROWS, "distance between neighbouring bases, m"),
+    "n_fruits": ("count0", _GEN[:4], "number of fruit (instead of density)"),
+    "density": ("positive", _ROWS + _GANTRY, "fruit per metre of row"),
+    "spacing": ("positive", _ROWS + _GANTRY, "distance between neighbouring bases, m"),
+    "length": ("positive", _GANTRY, "length of the row the gantry travels, m"),
+    "trusses": ("bool", _GANTRY, "fruit hang in trusses (default true) or uniformly"),
+    "gantry": ("gantry", _GANTRY, "stop-and-go | continuous"),
     "seed": ("count0", _GEN, "seed of the generator"),
     "links": ("pair", (SweepBase.ROW,), "link lengths, m (a pair, or one number for both)"),
     "link_radius": ("positive", (SweepBase.ROW,), "capsule radius of the links, m"),
@@ -69,9 +73,9 @@ PARAMETERS: dict[str, tuple[str, tuple, str]] = {
     "zone_halfwidth": ("positive", (SweepBase.OVERLAP,), "half width of the shared zones, m"),
     "bin_offset": ("number", _ROWS, "bin height below the base, m"),
     "reachable_only": ("bool", (SweepBase.ROW,), "redraw fruit no arm can reach (default true)"),
-    "pick_dwell": ("nonneg", _ROWS, "dwell at each fruit, s"),
-    "place_dwell": ("nonneg", _ROWS, "dwell at the bin, s"),
-    "clearance": ("positive", _ROWS, "required clearance between links, m"),
+    "pick_dwell": ("nonneg", _ROWS + _GANTRY, "dwell at each fruit, s"),
+    "place_dwell": ("nonneg", _ROWS + _GANTRY, "dwell at the bin, s"),
+    "clearance": ("positive", _ROWS + _GANTRY, "required clearance between links, m"),
     "planner": ("planner", _ALL, "heuristic | coordinated | optimal"),
 }
 _TOP = {"name", "description", "base", "problems", "fixed", "vary", "mode", "samples", "seed", "planner",
@@ -212,6 +216,12 @@ def _generate(base: SweepBase, p: dict[str, Any]) -> tuple[str, float | None, st
         d = fn(int(p.get("seed", 0)), n_arms=p.get("n_arms"), n_fruits=p.get("n_fruits"))
         return gen.to_yaml(d), None, f"{fn.__name__}(seed={int(p.get('seed', 0))})"
     n_arms, spacing, seed = int(p.get("n_arms", 3)), float(p.get("spacing", 2.0)), int(p.get("seed", 0))
+    if base == SweepBase.GANTRY:
+        length = float(p.get("length", 20.0))
+        d = gen.gantry_row(length=length, n_arms=n_arms, density=float(p.get("density", 6.0)), seed=seed, spacing=spacing,
+                           trusses=bool(p.get("trusses", True)))
+        d["task"] = dict(d["task"], **{k: float(p[k]) for k in _TASK_KEYS if k in p})
+        return gen.to_yaml(d), round(length, 6), "gantry_row"
     if base == SweepBase.ROW:
         x_pad = float(p.get("x_pad", spacing / 2.0))
         length = (n_arms - 1) * spacing + 2.0 * x_pad
@@ -260,6 +270,9 @@ def _check_value(kind: str, v: Any) -> str | None:
         return None if finite_number(v) else f"expected a number, found {found(v)}"
     if kind == "bool":
         return None if isinstance(v, bool) else f"expected true or false, found {found(v)}"
+    if kind == "gantry":
+        ok = isinstance(v, str) and v in {m.value for m in GantryMode}
+        return None if ok else f"expected one of {', '.join(m.value for m in GantryMode)}, found {found(v)}"
     if kind == "planner":
         ok = isinstance(v, str) and v in {p.value for p in PlannerKind}
         return None if ok else f"expected one of {', '.join(p.value for p in PlannerKind)}, found {found(v)}"
