@@ -299,3 +299,52 @@ def test_gantry_sweep_file_errors_name_the_key(text, words):
     with pytest.raises(SweepError) as e:
         parse_sweep(text, "arms.yaml")
     assert words in str(e.value)
+
+
+# ---------------------------------------------------------------------------- a live row
+def test_the_row_camera_reports_fruit_as_they_come_into_view(row):
+    from coplan.row.live import LiveRowOptions, row_detections
+
+    opts = LiveRowOptions(speed=0.2, look_ahead=1.5, sigma=0.01, false_rate=0.1, duplicate_rate=0.2, seed=4)
+    c = Cruise.of(row, 0.2, row.gantry.end)
+    dets = row_detections(row, c, opts)
+    truth = {f.id: f.position for f in row.fruits}
+    real = [d for d in dets if d.truth is not None]
+    assert {d.truth for d in real} == set(truth)  # every fruit reported, some twice
+    assert len(real) > len(truth) and sum(d.truth is None for d in dets) == round(0.1 * len(truth))
+    err = np.array([np.subtract(d.position, truth[d.truth]) for d in real])
+    assert 0.005 < err.std() < 0.015  # the noise asked for
+    front = max(a.base[0] for a in row.arms)
+    for d in real:  # reported when the fruit comes within the look-ahead of the front arm, not before
+        x = truth[d.truth][0]
+        assert float(c.x(np.array([d.t]))[0]) + front + 1.5 >= x - 1e-3 or d.t == 0.0
+    assert dets == row_detections(row, c, opts)  # seeded
+
+
+def test_a_live_row_harvests_what_the_offline_plan_harvests_verified_against_the_truth(row):
+    from coplan.row.live import LiveRowOptions, run_live_row
+
+    res = run_live_row(row, LiveRowOptions(speed=0.15, seed=2))
+    m = res.metrics
+    assert res.verification.passed and m["verified"]
+    # nothing the offline plan (full knowledge) harvests is left
+    ref = {e.fruit for e in res.offline.plan.events if e.kind == EventKind.PLACE}
+    got = {e.fruit for e in res.plan.events if e.kind == EventKind.PLACE}
+    assert ref <= got and m["of_offline"] == 1.0
+    # every event names a true fruit; false reports cost probes, not picks
+    assert {e.fruit for e in res.plan.events} <= {f.id for f in row.fruits}
+    assert m["probes"] >= m["false_reports"] > 0
+    assert m["kept_ahead"] and m["decision_max_seconds"] < m["shortest_cycle_seconds"]
+    assert all(v == "harvested" for k, v in res.outcome.items() if k in got)
+
+
+def test_coplan_run_on_a_row_writes_a_verified_run(tmp_path):
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=10.0, density=3.0, seed=7)))
+    res = CliRunner().invoke(app, ["run", str(path), "--speed", "0.15", "--seed", "1", "-o", str(tmp_path / "live")])
+    assert res.exit_code == 0, res.output
+    doc = json.loads((tmp_path / "live" / "run.json").read_text())
+    assert doc["metrics"]["verified"] and doc["metrics"]["of_offline"] == 1.0 and doc["detections"]
+    assert verify(parse_problem(path.read_text()), load_plan(tmp_path / "live" / "plan.json")).passed
+    bad = CliRunner().invoke(app, ["run", str(path), "-o", str(tmp_path / "x")])
+    assert bad.exit_code == 2 and "--speed: expected" in bad.output and "Traceback" not in bad.output

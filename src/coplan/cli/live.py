@@ -65,8 +65,17 @@ def feed_cmd(
 
 def run_cmd(
     problem: Annotated[Path, typer.Argument(help="Problem file (YAML) with the true fruit positions.")],
-    feed: Annotated[Path, typer.Option("--feed", "-f", help="Feed file (YAML): what the camera reports.")],
+    feed: Annotated[Optional[Path], typer.Option("--feed", "-f", help="Feed file (YAML): what the camera reports "
+                                                 "(a cell; a row's camera is simulated from the options below).")] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-live"),
+    speed: Annotated[Optional[float], typer.Option(help="A row: the carriage's cruising speed, m/s (picks on the move).")] = None,
+    look_ahead: Annotated[float, typer.Option("--look-ahead", min=0.0, max=100.0,
+                                              help="A row: how far ahead of the front arm's base the camera sees, m.")] = 1.5,
+    sigma: Annotated[float, typer.Option(min=0.0, max=1.0, help="A row: detection noise per coordinate, m.")] = 0.01,
+    false_rate: Annotated[float, typer.Option("--false-rate", min=0.0, max=1.0,
+                                              help="A row: false reports, as a share of the fruit.")] = 0.05,
+    duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", min=0.0, max=1.0,
+                                                  help="A row: share of fruit reported twice.")] = 0.02,
     animate: Annotated[bool, typer.Option("--animate", help="Also write live.gif: fruit appearing, re-plans, misses.")] = False,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the simulated close-range measurements.")] = 0,
     horizon: Annotated[float, typer.Option(min=0.0, max=10.0, help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
@@ -85,7 +94,10 @@ def run_cmd(
     check_out_dir(out, "--out")
     prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
     if prob.gantry is not None:
-        usage(f"{prob.name} is a row (it has a gantry): the live cell runs a stationary cell; plan a row with 'coplan solve'")
+        return _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json)
+    if feed is None or speed is not None:
+        usage(f"{prob.name} is a stationary cell: give its camera's reports with --feed FEED (coplan feed makes one); "
+              "--speed applies to a row")
     fd = load_feed(feed)
     if fd.problem is not None and fd.problem != prob.name:
         _err.print(f"[yellow]note[/]: the feed was made for problem {_safe(fd.problem)!r}, this is {_safe(prob.name)!r}",
@@ -117,5 +129,46 @@ def run_cmd(
             f"executed plan {result.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
             f"wrote {_safe(out)}/plan.json, run.json", highlight=False)
     status = result.plan.status
+    code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
+    raise typer.Exit(int(code))
+
+
+def _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json):
+    """``coplan run ROW``: the row live on the move (:mod:`coplan.row.live`)."""
+    from ..output import RunFolder
+    from ..plan import jsonable
+    from ..row.live import LiveRowOptions, run_live_row
+
+    if feed is not None:
+        usage(f"--feed: {prob.name} is a row: its camera is simulated (--look-ahead, --sigma, --false-rate, "
+              "--duplicate-rate, --seed); feed files describe a stationary cell's camera")
+    vmax = prob.gantry.max_velocity
+    if speed is None or not (speed == speed and 0.0 < speed <= vmax):
+        usage(f"--speed: expected the carriage's cruising speed in (0, {vmax:g}] m/s (gantry.max_velocity), found "
+              f"{'nothing' if speed is None else f'{speed:g}'}")
+    opts = LiveRowOptions(speed=speed, look_ahead=look_ahead, sigma=sigma, false_rate=false_rate,
+                          duplicate_rate=duplicate_rate, seed=seed)
+    res = run_live_row(prob, opts)
+    doc = {"format": "coplan.run/1", "problem": prob.name, "mode": "row on the move", "options": opts.__dict__,
+           "detections": [{"id": d.id, "position": list(d.position), "t": d.t, "fruit": d.truth} for d in res.detections],
+           "outcome": res.outcome, "metrics": res.metrics}
+    with RunFolder(out) as stage:
+        res.plan.save(stage)
+        (stage / "verification.json").write_text(json.dumps(jsonable(res.verification.summary()), indent=1))
+        (stage / "run.json").write_text(json.dumps(jsonable(doc), indent=1, allow_nan=False))
+    m = res.metrics
+    if as_json:
+        typer.echo(json.dumps(jsonable(m), allow_nan=False))
+    else:
+        _out.print(
+            f"{_safe(prob.name)} live on the move at {speed:g} m/s (camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
+            f"{m['false_reports']} false reports): {m['harvested']} fruit harvested, {100 * (m['of_offline'] or 0):.1f} % of "
+            f"what the offline plan (full knowledge) harvests; row time {m['row_time']:.1f} s = {m['row_time_ratio']:.3f} x "
+            f"the offline plan's\n{m['decisions']} decisions, slowest {1000 * m['decision_max_seconds']:.1f} ms against a "
+            f"shortest cycle of {m['shortest_cycle_seconds'] or 0:.2f} s ({'kept ahead' if m['kept_ahead'] else 'LATE'}); "
+            f"{m['probes']} probes of false or repeated reports\n"
+            f"executed plan {res.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
+            f"wrote {_safe(out)}/plan.json, run.json", highlight=False)
+    status = res.plan.status
     code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
     raise typer.Exit(int(code))

@@ -310,9 +310,14 @@ def replace_reach_margin(problem: Problem) -> Problem:
     return replace(problem, task=replace(problem.task, reach_margin=0.0))
 
 
-def run_policy(booker: Booker, order: dict[int, list[str]] | None = None) -> dict[str, str]:
+def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=None, on_book=None) -> dict[str, str]:
     """Book cycles in time order (module docstring); returns fruit left out -> why. ``order``:
-    each arm's fruit in turn (any it cannot fit are left to the greedy afterwards)."""
+    each arm's fruit in turn (any it cannot fit are left to the greedy afterwards).
+
+    A live row (:mod:`coplan.row.live`): ``seen`` (fruit id -> the time the camera first reports
+    it) keeps every decision to the fruit seen by then -- an arm with nothing seen yet waits for
+    the next report -- and ``on_book(arm, fruit, now)`` may veto a fruit at the moment it is chosen
+    (returns False: dropped, e.g. a detection already harvested under another id)."""
     windows = booker.windows
     taken: set[str] = set()
     arms = booker.problem.arms
@@ -332,6 +337,13 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None) -> dic
             booker.go_home(i)
             continue
         cands = [(fid, w) for fid, w in by_arm[i] if fid not in taken and w.hi >= now]
+        if seen is not None:
+            later = [seen[f] for f, w in cands if seen[f] > now and w.hi >= seen[f]]
+            cands = [(f, w) for f, w in cands if seen[f] <= now]
+            if not cands and later:  # nothing in view yet: wait for the camera's next report
+                booker.wait(i, max(booker.dt, min(later) - now))
+                heapq.heappush(queue, (booker.free_time(i), i))
+                continue
         if not cands:
             booker.go_home(i)
             continue
@@ -352,6 +364,9 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None) -> dic
             tries = pool[:4]
         booked = False
         for fid, w in tries:
+            if on_book is not None and not on_book(i, fid, now):
+                taken.add(fid)  # vetoed for good (not harvested: left out with the veto's reason)
+                continue
             cyc = booker.plan_cycle(i, fid, w, now)
             if cyc is not None:
                 booker.commit(cyc)

@@ -37,7 +37,7 @@ from .cruise import STRETCH, Cruise, cruise_end, demand_stretches, pick_windows
 from .plan import RowResult
 from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
 
-__all__ = ["MovingOptions", "plan_continuous", "plan_moving", "speed_search", "SpeedPoint", "make_cruise"]
+__all__ = ["MovingOptions", "assemble_moving", "plan_continuous", "plan_moving", "speed_search", "SpeedPoint", "make_cruise"]
 
 #: A refinement round raises a missed fruit's stretches' demand by this factor ...
 REFINE_BUMP = 1.25
@@ -129,7 +129,8 @@ def _book(problem: Problem, reach: RowReach, cruise: Cruise, opts: MovingOptions
     return booker, left
 
 
-def _assemble(problem: Problem, booker: Booker, cruise: Cruise) -> Plan:
+def assemble_moving(problem: Problem, booker: Booker, cruise: Cruise) -> Plan:
+    """One row plan of every arm's booked motion and the carriage's, on the 100 Hz grid."""
     rate = booker.rate
     n = max(max(st.k_free for st in booker.arms), booker.up(cruise.duration)) + 1
     time = np.arange(n) / rate
@@ -171,7 +172,7 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
             if (len(left2), _end(b2)) < (len(left), _end(booker)):
                 booker, left, info["assign"] = b2, left2, AssignRule.CPSAT.value
     timings["schedule"] = _time.perf_counter() - ts
-    plan = _assemble(problem, booker, cruise)
+    plan = assemble_moving(problem, booker, cruise)
     timings["planning"] = _time.perf_counter() - t0
     tv = _time.perf_counter()
     ver = verify(problem, plan)
