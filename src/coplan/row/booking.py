@@ -70,6 +70,7 @@ class Booker:
         self.need = problem.task.clearance + margin
         self.n_pick = int(math.ceil(problem.task.pick_dwell * rate - 1e-9))
         self.n_place = int(math.ceil(problem.task.place_dwell * rate - 1e-9))
+        self.probes: set[str] = set()  # fruit whose cycle is a probe: the arm comes, finds nothing, goes back (no dwells)
         self.arms = [ArmState(np.tile(np.asarray(a.home, float), (1024, 1))) for a in problem.arms]
         self.events: list[Event] = []
         self.bin_q = [self._bin_pose(i) for i in range(len(problem.arms))]
@@ -188,7 +189,7 @@ class Booker:
                 t_p = k_p * self.dt
                 if t_p > t_last + 1e-9:
                     return None
-                c0, c1 = (float(v) for v in self.cruise.x(np.array([t_p, t_p + self.n_pick * self.dt])))
+                c0, c1 = (float(v) for v in self.cruise.x(np.array([t_p, t_p + self._dwells(fid)[0] * self.dt])))
                 brs = self.branches(i, fid, c0, c1)
                 if not brs:
                     k_p += max(1, self.up(_RETRY))
@@ -218,19 +219,24 @@ class Booker:
             t_p = k_p * self.dt + retry
             retry *= _RETRY_GROWTH
 
+    def _dwells(self, fid: str) -> tuple[int, int]:
+        """Samples of the pick and the place dwell of a cycle on ``fid`` (none for a probe)."""
+        return (0, 0) if fid in self.probes else (self.n_pick, self.n_place)
+
     def _assemble(self, i: int, fid: str, k0: int, q0: np.ndarray, k_p: int, b: int, leg1: Leg, qb: np.ndarray) -> Cycle | None:
         arm = self.problem.arms[i]
         dt = self.dt
+        n_pick, n_place = self._dwells(fid)
         xy = self.fruit_xy[fid]
         t_p = k_p * dt
-        t_pe = (k_p + self.n_pick) * dt
+        t_pe = (k_p + n_pick) * dt
         end_state = track_state(arm, xy, self.cruise, t_pe, b)
         try:
             leg2 = Leg(arm, end_state, np.array([qb, np.zeros(2), np.zeros(2)]))
         except LegError:
             return None
         k_pl = self.up(t_pe + leg2.duration)
-        k_end = k_pl + self.n_place
+        k_end = k_pl + n_place
         ts = np.arange(k0, k_end + 1) * dt
         q = np.empty((ts.size, 2))
         s1 = t_p - leg1.duration
@@ -240,20 +246,21 @@ class Booker:
         mv = pre & ~wait
         if mv.any():
             q[mv] = leg1.sample(ts[mv] - s1)
-        pk = slice(k_p - k0, k_p + self.n_pick - k0 + 1)
+        pk = slice(k_p - k0, k_p + n_pick - k0 + 1)
         qt = track(arm, xy, self.cruise, ts[pk], b)
         # IK gives principal angles: a pick that carries a joint across +-pi is continuous in
         # fact, and then beyond its limits (refused below), never a jump of 2 pi
         q[pk] = np.unwrap(qt, axis=0) if np.all(np.isfinite(qt)) else qt
         if not self._track_within(i, q[pk]):
             return None
-        back = slice(k_p + self.n_pick + 1 - k0, k_pl - k0)
+        back = slice(k_p + n_pick + 1 - k0, k_pl - k0)
         if back.stop > back.start:
             q[back] = leg2.sample(ts[back] - t_pe)
         q[k_pl - k0:] = qb
         if not self._within_limits(i, q) or not self._smooth(i, q):
             return None
-        ev = [Event(arm.name, fid, EventKind.PICK, t_p, t_pe), Event(arm.name, fid, EventKind.PLACE, k_pl * dt, k_end * dt)]
+        ev = [] if fid in self.probes else [Event(arm.name, fid, EventKind.PICK, t_p, t_pe),
+                                            Event(arm.name, fid, EventKind.PLACE, k_pl * dt, k_end * dt)]
         return Cycle(i, fid, k0, q, ev)
 
     def commit(self, cyc: Cycle) -> None:

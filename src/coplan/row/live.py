@@ -13,8 +13,8 @@ Entry point: :func:`run_live_row` -> :class:`LiveRow`.
   made by then (reports within ``merge`` of an earlier one may be taken for the same fruit;
   off by default: a second report of a picked fruit costs a probe instead); as the arm approaches, its close-range sensor measures the fruit
   (``close_sigma``), and the cycle is planned on that measurement. A false report costs a
-  probe: the arm goes there, finds nothing, and returns (its cycle carries no events); so does a
-  second report of a fruit already picked.
+  probe: the arm goes there, finds nothing at close range, and returns without dwelling (its
+  cycle carries no events); so does a second report of a fruit already taken.
 * **Verified against the truth**: the executed motion is one ordinary row plan whose events
   name the true fruit, verified by :func:`coplan.verify.verify` against the true problem.
 * **Reference**: the offline plan at the same speed with full knowledge (every true fruit at its
@@ -141,7 +141,12 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
                 outcome.setdefault(f"report {did}", f"merged with {other} (within {opts.merge * 1000:g} mm)")
                 return False
         known.append((did, d.position))
-        if d.truth is not None:  # the close-range sensor measures the fruit as the arm comes
+        claimed = {by_id[e.fruit].truth for e in booker.events}
+        if d.truth is None or d.truth in claimed:
+            # the close-range sensor finds nothing there (a false report, or a fruit already taken):
+            # the arm comes, looks and goes back -- a probe, no dwells
+            booker.probes.add(did)
+        else:  # it measures the fruit as the arm comes
             tx, ty = truth_xy[d.truth]
             booker.fruit_xy[did] = (tx + rng.normal(0, opts.close_sigma), ty + rng.normal(0, opts.close_sigma))
         return True
@@ -160,16 +165,16 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
     planning = _time.perf_counter() - t0
     # false reports were probes: the motion stays, the events go; the rest name the true fruit
     # and a second report of a fruit already picked was a probe too: the arm found nothing there
-    events, probes, picked_by = [], [], {}
+    events, picked_by = [], {}
+    probes = sorted(booker.probes)
     for e in sorted(booker.events, key=lambda e: (e.t_start, e.arm)):
         d = by_id[e.fruit]
-        if d.truth is None or picked_by.setdefault(d.truth, e.fruit) != e.fruit:
-            probes.append(e.fruit)
-            continue
+        if picked_by.setdefault(d.truth, e.fruit) != e.fruit:  # never: a taken fruit's report is a probe
+            raise RuntimeError(f"fruit {d.truth} booked twice ({picked_by[d.truth]}, {e.fruit})")
         events.append(Event(e.arm, d.truth, e.kind, e.t_start, e.t_end))
     booker.events = events
     for st in booker.arms:
-        st.fruit = [by_id[f].truth for f in st.fruit if f not in probes]
+        st.fruit = [by_id[f].truth for f in st.fruit if f not in booker.probes]
     plan = assemble_moving(problem, booker, cruise)
     ver = verify(problem, plan)
     plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
