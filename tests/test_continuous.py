@@ -348,3 +348,23 @@ def test_coplan_run_on_a_row_writes_a_verified_run(tmp_path):
     assert verify(parse_problem(path.read_text()), load_plan(tmp_path / "live" / "plan.json")).passed
     bad = CliRunner().invoke(app, ["run", str(path), "-o", str(tmp_path / "x")])
     assert bad.exit_code == 2 and "--speed: expected" in bad.output and "Traceback" not in bad.output
+
+
+def test_faults_on_a_live_row_degrade_it_safely_and_are_replayable(row):
+    from coplan.row.live import LiveRowOptions, RowFaults, run_live_row
+
+    opts = LiveRowOptions(speed=0.15, seed=5, faults=RowFaults(arm_stop=True, camera_dark=3.0, false_burst=20, late_replan=2.0))
+    res = run_live_row(row, opts)
+    m = res.metrics
+    assert res.verification.passed  # no collision, no limit broken, every pick on its true fruit
+    f = m["faults"]
+    stopped = f["arm_stop"]["arm"]
+    # the stopped arm books nothing after the fault: no event of it starts after its stop
+    assert all(e.t_start <= f["arm_stop"]["t"] + 10.0 for e in res.plan.events if e.arm == stopped)
+    late = [e for e in res.plan.events if e.arm == stopped and e.t_start > f["arm_stop"]["t"]]
+    assert len(late) <= 2  # at most the pick and place of the cycle under way
+    assert m["false_reports"] >= 20 and m["probes"] >= 20
+    assert f["late_replan"]["decided_at"] >= f["late_replan"]["t"]
+    again = run_live_row(row, opts)  # replayable from the seed
+    assert again.metrics["faults"] == f and [(e.arm, e.fruit, e.t_start) for e in again.plan.events] == \
+        [(e.arm, e.fruit, e.t_start) for e in res.plan.events]

@@ -76,6 +76,14 @@ def run_cmd(
                                               help="A row: false reports, as a share of the fruit.")] = 0.05,
     duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", min=0.0, max=1.0,
                                                   help="A row: share of fruit reported twice.")] = 0.02,
+    arm_stop: Annotated[bool, typer.Option("--arm-stop", help="A row: one arm (drawn from --seed) reports a controller "
+                                           "fault at a drawn time: it finishes its motion and stays, an obstacle.")] = False,
+    camera_dark: Annotated[float, typer.Option("--camera-dark", min=0.0, max=3600.0,
+                                               help="A row: seconds the camera reports nothing, at a drawn time.")] = 0.0,
+    false_burst: Annotated[int, typer.Option("--false-burst", min=0, max=100000,
+                                             help="A row: false reports at one drawn instant, within the camera's view.")] = 0,
+    late_replan: Annotated[float, typer.Option("--late-replan", min=0.0, max=3600.0,
+                                               help="A row: seconds one decision (at a drawn time) runs late.")] = 0.0,
     animate: Annotated[bool, typer.Option("--animate", help="Also write live.gif: fruit appearing, re-plans, misses.")] = False,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the simulated close-range measurements.")] = 0,
     horizon: Annotated[float, typer.Option(min=0.0, max=10.0, help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
@@ -94,7 +102,10 @@ def run_cmd(
     check_out_dir(out, "--out")
     prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
     if prob.gantry is not None:
-        return _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json)
+        from ..row.live import RowFaults
+
+        faults = RowFaults(arm_stop, camera_dark, false_burst, late_replan)
+        return _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults)
     if feed is None or speed is not None:
         usage(f"{prob.name} is a stationary cell: give its camera's reports with --feed FEED (coplan feed makes one); "
               "--speed applies to a row")
@@ -133,7 +144,7 @@ def run_cmd(
     raise typer.Exit(int(code))
 
 
-def _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json):
+def _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults):
     """``coplan run ROW``: the row live on the move (:mod:`coplan.row.live`)."""
     from ..output import RunFolder
     from ..plan import jsonable
@@ -147,9 +158,10 @@ def _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_ra
         usage(f"--speed: expected the carriage's cruising speed in (0, {vmax:g}] m/s (gantry.max_velocity), found "
               f"{'nothing' if speed is None else f'{speed:g}'}")
     opts = LiveRowOptions(speed=speed, look_ahead=look_ahead, sigma=sigma, false_rate=false_rate,
-                          duplicate_rate=duplicate_rate, seed=seed)
+                          duplicate_rate=duplicate_rate, seed=seed, faults=faults)
     res = run_live_row(prob, opts)
-    doc = {"format": "coplan.run/1", "problem": prob.name, "mode": "row on the move", "options": opts.__dict__,
+    doc = {"format": "coplan.run/1", "problem": prob.name, "mode": "row on the move",
+           "options": {k: v for k, v in opts.__dict__.items() if k != "faults"} | {"faults": faults.__dict__},
            "detections": [{"id": d.id, "position": list(d.position), "t": d.t, "fruit": d.truth} for d in res.detections],
            "outcome": res.outcome, "metrics": res.metrics}
     with RunFolder(out) as stage:
@@ -167,6 +179,8 @@ def _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_ra
             f"the offline plan's\n{m['decisions']} decisions, slowest {1000 * m['decision_max_seconds']:.1f} ms against a "
             f"shortest cycle of {m['shortest_cycle_seconds'] or 0:.2f} s ({'kept ahead' if m['kept_ahead'] else 'LATE'}); "
             f"{m['probes']} probes of false or repeated reports\n"
+            + (f"faults: {_safe(json.dumps(m['faults']))}; missed though a working arm could still reach them: "
+               f"{len(m['missed_reachable_by_a_working_arm'])}\n" if m["faults"] else "") +
             f"executed plan {res.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
             f"wrote {_safe(out)}/plan.json, run.json", highlight=False)
     status = res.plan.status

@@ -317,16 +317,27 @@ def replace_reach_margin(problem: Problem) -> Problem:
     return replace(problem, task=replace(problem.task, reach_margin=0.0))
 
 
-def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=None, on_book=None) -> dict[str, str]:
+def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=None, on_book=None,
+               halt: dict[int, float] | None = None, delay=None, until: float | None = None,
+               taken: set[str] | None = None) -> dict[str, str]:
     """Book cycles in time order (module docstring); returns fruit left out -> why. ``order``:
     each arm's fruit in turn (any it cannot fit are left to the greedy afterwards).
 
     A live row (:mod:`coplan.row.live`): ``seen`` (fruit id -> the time the camera first reports
     it) keeps every decision to the fruit seen by then -- an arm with nothing seen yet waits for
     the next report -- and ``on_book(arm, fruit, now)`` may veto a fruit at the moment it is chosen
-    (returns False: dropped, e.g. a detection already harvested under another id)."""
+    (returns False: dropped, e.g. a detection already harvested under another id).
+
+    Faults: ``halt`` (arm index -> time of a controller fault): the arm finishes the motion in
+    progress and, from its next rest, books nothing more -- an obstacle where it rests; its fruit
+    are left to the neighbours. ``delay(arm, now)`` -> seconds a decision runs late: the arm
+    rests that much longer before the cycle it decides.
+
+    In phases: ``until`` stops deciding at that time (each arm left free at or after it, at rest);
+    ``taken`` (fruit already booked) carries over to the next phase, whose booker may have a new
+    carriage motion from then on."""
     windows = booker.windows
-    taken: set[str] = set()
+    taken = taken if taken is not None else set()
     arms = booker.problem.arms
     by_arm: dict[int, list[tuple[str, Window]]] = {i: [] for i in range(len(arms))}
     for fid, ws in windows.items():
@@ -340,6 +351,16 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
     while queue:
         _, i = heapq.heappop(queue)
         now = booker.free_time(i)
+        if halt is not None and i in halt and now >= halt[i]:
+            booker.arms[i].done = True  # stopped: it stays where it rests
+            continue
+        late = delay(i, now) if delay is not None else 0.0
+        if late > 0:
+            booker.wait(i, late)
+            heapq.heappush(queue, (booker.free_time(i), i))
+            continue
+        if until is not None and now >= until:
+            continue  # the next phase decides from here
         if now > horizon:  # nothing fits any more: the rest is left out
             booker.go_home(i)
             continue

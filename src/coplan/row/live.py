@@ -40,7 +40,32 @@ from .continuous import MovingOptions, assemble_moving, plan_continuous
 from .cruise import Cruise, pick_windows
 from .reach import row_reach
 
-__all__ = ["LiveRowOptions", "RowDetection", "LiveRow", "row_detections", "run_live_row"]
+#: After an arm stops, the carriage runs at this share of the working arms' share of its speed.
+STOP_SLOWDOWN = 0.75
+
+__all__ = ["LiveRowOptions", "RowFaults", "RowDetection", "LiveRow", "row_detections", "run_live_row"]
+
+
+@dataclass(frozen=True)
+class RowFaults:
+    """Things that go wrong during a live row, each at a time drawn from the run's seed (between
+    20 % and 80 % of the carriage's run), so that a run can be replayed.
+
+    arm_stop : one arm (drawn) reports a controller fault: it finishes the motion in progress and
+        stays where it then rests, an obstacle; its fruit go to the neighbours that reach them
+    camera_dark : s the camera reports nothing; what it would have seen is reported when it is back
+    false_burst : false reports at one instant, all within the camera's view
+    late_replan : s one decision (the first at or after its time) runs late; the arm waits
+    """
+
+    arm_stop: bool = False
+    camera_dark: float = 0.0
+    false_burst: int = 0
+    late_replan: float = 0.0
+
+    @property
+    def any(self) -> bool:
+        return self.arm_stop or self.camera_dark > 0 or self.false_burst > 0 or self.late_replan > 0
 
 
 @dataclass(frozen=True)
@@ -58,6 +83,7 @@ class LiveRowOptions:
     # two noisy reports of one)
     seed: int = 0
     margin: float = 0.02  # m beyond the clearance, as for the offline plan
+    faults: RowFaults = field(default_factory=RowFaults)
 
 
 @dataclass(frozen=True)
@@ -121,6 +147,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
     # the carriage does not know where the last fruit is: it cruises to the end of the rail
     cruise = Cruise.of(problem, opts.speed, g.end)
     dets = row_detections(problem, cruise, opts)
+    dets, halt, delay, fault_log = _faults(problem, cruise, opts, dets)
     rng = np.random.default_rng(opts.seed + 1)
     truth_xy = {f.id: f.position for f in problem.fruits}
     seen_problem = replace(problem, fruits=tuple(Fruit(d.id, d.position) for d in dets), name=f"{problem.name} (as seen)",
@@ -161,7 +188,25 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
         return out
 
     booker.plan_cycle = timed
-    left = run_policy(booker, seen=seen, on_book=on_book)
+    if halt:
+        # an arm stops: from then on the carriage slows to what the working arms can keep up with,
+        # its ramp starting once every pick booked before the fault is over (the carriage's motion
+        # up to there is unchanged, so every booked cycle stays exact)
+        taken: set[str] = set()
+        t_f = min(halt.values())
+        run_policy(booker, seen=seen, on_book=on_book, halt=halt, delay=delay, until=t_f, taken=taken)
+        t_s = max([t_f] + [e.t_end for e in booker.events if e.kind == EventKind.PICK])
+        x_s = float(cruise.x(np.array([t_s]))[0])
+        n = len(problem.arms)
+        slow = opts.speed * STOP_SLOWDOWN * (n - len(halt)) / n
+        if slow > 0 and x_s < cruise.x1 - 1e-6:
+            cruise = Cruise.shaped(problem, [(x_s, opts.speed), (math.inf, slow)], g.end)
+            booker.cruise = cruise
+            booker.windows = windows = pick_windows(seen_problem, reach, cruise, problem.task.pick_dwell)
+            fault_log["arm_stop"].update({"carriage_slows_at": round(t_s, 3), "to_speed": slow})
+        left = run_policy(booker, seen=seen, on_book=on_book, halt=halt, delay=delay, taken=taken)
+    else:
+        left = run_policy(booker, seen=seen, on_book=on_book, halt=halt, delay=delay)
     planning = _time.perf_counter() - t0
     # false reports were probes: the motion stays, the events go; the rest name the true fruit
     # and a second report of a fruit already picked was a probe too: the arm found nothing there
@@ -187,6 +232,12 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
     for did, why in left.items():
         if by_id[did].truth is not None and by_id[did].truth not in got:
             outcome[by_id[did].truth] = f"missed: {why}"
+    working = [a for a in range(len(problem.arms)) if a not in halt]
+    stopped_at = min(halt.values(), default=math.inf)
+    missed_reachable = sorted({by_id[d].truth for d, ws in windows.items() if by_id[d].truth is not None
+                               and by_id[d].truth not in got
+                               and any(w.arm in working and w.hi >= min(stopped_at, w.hi) and w.hi >= seen[d]
+                                       and (w.hi >= stopped_at or not halt) for w in ws)})
     span = float(plan.metrics.get("makespan") or 0.0)
     ref_span = float(offline.plan.metrics.get("makespan") or 0.0)
     cycles = [e.t_end - p.t_start for p, e in zip(_picks(booker_events(events)), _places(booker_events(events)))]
@@ -200,6 +251,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
         "decision_mean_seconds": float(np.mean(walls)) if walls else 0.0,
         "shortest_cycle_seconds": min(cycles, default=None), "planning_seconds": planning,
         "kept_ahead": bool(walls) and (not cycles or max(walls) < min(cycles)),
+        "faults": fault_log, "missed_reachable_by_a_working_arm": missed_reachable,
         "verified": ver.passed, "speed": opts.speed, "look_ahead": opts.look_ahead, "sigma": opts.sigma,
         "false_rate": opts.false_rate, "seed": opts.seed,
     }
@@ -219,3 +271,50 @@ def _picks(events: list[Event]) -> list[Event]:
 
 def _places(events: list[Event]) -> list[Event]:
     return [e for e in events if e.kind == EventKind.PLACE]
+
+
+def _faults(problem: Problem, cruise: Cruise, opts: LiveRowOptions, dets: list[RowDetection]):
+    """Apply :class:`RowFaults` (module docstring): the reports changed, the arm halts, the late
+    decision, and a log of what happened when."""
+    f = opts.faults
+    halt: dict[int, float] = {}
+    log: dict = {}
+    if not f.any:
+        return dets, halt, None, log
+    rng = np.random.default_rng(opts.seed + 7919)
+    T = cruise.duration
+
+    def when() -> float:
+        return round(float(rng.uniform(0.2, 0.8) * T), 2)
+
+    if f.arm_stop:
+        a, t = int(rng.integers(len(problem.arms))), when()
+        halt[a] = t
+        log["arm_stop"] = {"arm": problem.arms[a].name, "t": t}
+    if f.camera_dark > 0:
+        t = when()
+        dets = [replace(d, t=t + f.camera_dark) if t <= d.t < t + f.camera_dark else d for d in dets]
+        log["camera_dark"] = {"t": t, "seconds": f.camera_dark}
+    if f.false_burst > 0:
+        t = when()
+        front = max(a.base[0] for a in problem.arms)
+        c = float(cruise.x(np.array([t]))[0])
+        ys = [fr.position[1] for fr in problem.fruits] or [1.0]
+        width = max(4, len(str(len(dets) + f.false_burst)))
+        dets = dets + [RowDetection(f"b{k + 1:0{width}d}", (round(float(rng.uniform(c + front, c + front + opts.look_ahead)), 6),
+                                                            round(float(rng.uniform(min(ys), max(ys))), 6)), t, None)
+                       for k in range(f.false_burst)]
+        log["false_burst"] = {"t": t, "reports": f.false_burst}
+    delay = None
+    if f.late_replan > 0:
+        t, fired = when(), []
+
+        def delay(arm: int, now: float) -> float:
+            if fired or now < t:
+                return 0.0
+            fired.append((arm, now))
+            log["late_replan"]["arm"], log["late_replan"]["decided_at"] = problem.arms[arm].name, now
+            return f.late_replan
+
+        log["late_replan"] = {"t": t, "seconds": f.late_replan}
+    return sorted(dets, key=lambda d: (d.t, d.id)), halt, delay, log
