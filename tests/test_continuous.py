@@ -368,3 +368,15 @@ def test_faults_on_a_live_row_degrade_it_safely_and_are_replayable(row):
     again = run_live_row(row, opts)  # replayable from the seed
     assert again.metrics["faults"] == f and [(e.arm, e.fruit, e.t_start) for e in again.plan.events] == \
         [(e.arm, e.fruit, e.t_start) for e in res.plan.events]
+
+
+def test_gantry_auto_keeps_the_better_verified_mode(row):
+    res = solve(row, gantry=GantryMode.AUTO)
+    auto = res.plan.solver["row"]["auto"]
+    chosen, other = auto["chosen"], ({"stop-and-go", "continuous"} - {auto["chosen"]}).pop()
+    assert res.verification.passed and auto[chosen]["verified"]
+    assert (auto[chosen]["harvested"], auto[chosen]["fruit_per_hour"]) >= (auto[other]["harvested"], auto[other]["fruit_per_hour"]) \
+        or not auto[other]["verified"]
+    assert res.plan.metrics["row"]["mode"] == chosen
+    m = res.plan.metrics
+    assert auto[chosen]["fruit_per_hour"] == pytest.approx(3600.0 * m["harvested"] / m["makespan"])

@@ -44,6 +44,7 @@ class GantryMode(str, Enum):
 
     STOP_AND_GO = "stop-and-go"  # the carriage stops; each stop is a stationary cell (the stop rule chooses where)
     CONTINUOUS = "continuous"  # the carriage keeps moving; arms pick within time windows (row.continuous)
+    AUTO = "auto"  # both planned and verified; the one with more fruit, then more fruit per hour, is kept
 
 
 class AssignRule(str, Enum):

@@ -83,6 +83,30 @@ def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None) -> tuple[dict
     return {k: folder.path(v) for k, v in files.items()}, folder.previous
 
 
+def _better_mode(stopping, moving):
+    """``--gantry auto``: the row plan (both verified) with more fruit harvested, then more fruit
+    per hour; both modes' figures in ``solver.row.auto``, the planning time of both."""
+    def key(r):
+        m = r.plan.metrics
+        span = m.get("makespan") or 0.0
+        return (bool(r.verification.passed), m.get("harvested") or 0, (m.get("harvested") or 0) / span if span else 0.0)
+
+    def figures(r):
+        m = r.plan.metrics
+        span = m.get("makespan") or 0.0
+        return {"harvested": m.get("harvested"), "row_time": span, "verified": bool(r.verification.passed),
+                "fruit_per_hour": 3600.0 * (m.get("harvested") or 0) / span if span else 0.0,
+                "planning_time": r.timings.get("planning")}
+
+    best = moving if key(moving) > key(stopping) else stopping
+    both = {GantryMode.STOP_AND_GO.value: figures(stopping), GantryMode.CONTINUOUS.value: figures(moving),
+            "chosen": GantryMode.CONTINUOUS.value if best is moving else GantryMode.STOP_AND_GO.value}
+    best.info["auto"] = both
+    best.plan.solver["row"]["auto"] = both
+    best.timings["planning"] = (stopping.timings.get("planning") or 0.0) + (moving.timings.get("planning") or 0.0)
+    return best
+
+
 def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: float, gantry=None) -> SolveResult:
     """A row: stop and go (stops, each stop's cell) or on the move (:mod:`coplan.row.continuous`),
     the row plan verified in the row frame (:mod:`coplan.row`)."""
@@ -94,20 +118,24 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     from .row.plan import RowOptions, plan_row
 
     mode = GantryMode(gantry or (GantryMode.CONTINUOUS if isinstance(options, MovingOptions) else GantryMode.STOP_AND_GO))
-    if mode == GantryMode.CONTINUOUS:
-        if stops is not None:
+    if mode != GantryMode.STOP_AND_GO:
+        if stops is not None and mode == GantryMode.CONTINUOUS:
             raise ValueError("stops: on the move (gantry continuous) the carriage does not stop; a stop rule applies to stop and go")
-        if planner is not None and PlannerKind(planner) != PlannerKind.COORDINATED:
+        if planner is not None and PlannerKind(planner) != PlannerKind.COORDINATED and mode == GantryMode.CONTINUOUS:
             raise ValueError("planner: on the move the arms are planned by the row's own booking of coordinated, "
                              "time-optimal moves; the cell planners apply to stop and go")
-        res = plan_moving(prob, options if isinstance(options, MovingOptions) else MovingOptions(), progress)
-    else:
+        moving = plan_moving(prob, options if isinstance(options, MovingOptions) else MovingOptions(), progress)
+    if mode != GantryMode.CONTINUOUS:
         cell_planner = PlannerKind(planner or PlannerKind.COORDINATED)
         if cell_planner == PlannerKind.HEURISTIC:
             raise ValueError("planner: the course's heuristic plans a stationary cell, not a row; use coordinated or optimal")
         opts = options if isinstance(options, RowOptions) else RowOptions()
         opts = replace(opts, planner=cell_planner, stops=StopRule(stops or opts.stops))
-        res = plan_row(prob, opts, progress)
+        stopping = plan_row(prob, opts, progress)
+    if mode == GantryMode.AUTO:
+        res = _better_mode(stopping, moving)
+    else:
+        res = moving if mode == GantryMode.CONTINUOUS else stopping
     bounds = row_bounds(prob)
     plan = res.plan
     plan.metrics["row"] = row_metrics(prob, res, bounds)
@@ -164,8 +192,9 @@ def solve(
         ``fewest``); ``planner`` is then the cell planner at each stop (``coordinated`` by
         default: planning keeps ahead of the carriage; ``optimal`` gives each stop a search
         budget) and ``options`` may be :class:`coplan.row.plan.RowOptions`
-    gantry : a row: ``stop-and-go`` (default) or ``continuous`` (pick on the move: ``options`` may
+    gantry : a row: ``stop-and-go`` (default), ``continuous`` (pick on the move: ``options`` may
         be :class:`coplan.row.continuous.MovingOptions`; the speed is searched unless it gives one)
+        or ``auto`` (both, each verified: the one with more fruit, then more fruit per hour)
     """
     from .verify.verifier import verify
 

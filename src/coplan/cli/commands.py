@@ -87,13 +87,13 @@ def guarded(fn):
 
 def _moving_options(problem, gantry, speed, stops, planner):
     """The row-on-the-move options of ``coplan solve``, or None for stop and go (usage checked)."""
-    if gantry != GantryMode.CONTINUOUS:
+    if gantry not in (GantryMode.CONTINUOUS, GantryMode.AUTO):
         if speed is not None:
-            _fail(ExitCode.USAGE, "--speed: a cruising speed applies on the move (--gantry continuous)")
+            _fail(ExitCode.USAGE, "--speed: a cruising speed applies on the move (--gantry continuous or auto)")
         return None
-    if stops is not None:
+    if stops is not None and gantry == GantryMode.CONTINUOUS:
         _fail(ExitCode.USAGE, "--stops: on the move (--gantry continuous) the carriage does not stop")
-    if planner is not None and planner != PlannerKind.COORDINATED:
+    if planner is not None and planner != PlannerKind.COORDINATED and gantry == GantryMode.CONTINUOUS:
         _fail(ExitCode.USAGE, "--planner: on the move the row books its own coordinated moves; the cell planners "
                               "apply to stop and go")
     from ..row.continuous import MovingOptions
@@ -120,7 +120,8 @@ def solve(
     stops: Annotated[Optional[StopRule], typer.Option(
         help="A row (a problem with a gantry): where the carriage stops (default optimised).")] = None,
     gantry: Annotated[Optional[GantryMode], typer.Option(
-        help="A row: stop-and-go (default) or continuous (pick on the move, the speed searched).")] = None,
+        help="A row: stop-and-go (default), continuous (pick on the move, the speed searched) or auto "
+             "(both, each verified; the better kept).")] = None,
     speed: Annotated[Optional[float], typer.Option(
         help="A row on the move: one cruising speed, m/s (default: the speed search, a speed per metre of rail).")] = None,
     allocation: Annotated[

@@ -56,6 +56,12 @@ def print_row_summary(console, res) -> None:
            f"stops {safe(solver.get('rule'))}, cell planner {safe(solver.get('cell_planner'))}")
     p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, {how}, "
       f"status [bold {colour}]{res.plan.status.value}[/]")
+    auto = solver.get("auto")
+    if auto:
+        other = next(k for k in auto if k not in ("chosen", auto["chosen"]))
+        p(f"  gantry auto       {safe(auto['chosen'])} kept: {auto[auto['chosen']]['fruit_per_hour']:.0f} fruit/h against "
+          f"{auto[other]['fruit_per_hour']:.0f} {safe(other)} ({auto[other]['harvested']} fruit, "
+          f"{'verified' if auto[other]['verified'] else 'NOT verified'})")
     out = r.get("screened_out") or {}
     p(f"  fruit             {r.get('harvested')} harvested of {r.get('harvestable')} harvestable "
       f"({fmt(100 * (r.get('share_harvested') or 0), ' %', 1)}); of {r.get('fruit')} fruit {len(out)} no carriage position can reach")
