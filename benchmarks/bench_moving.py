@@ -3,14 +3,15 @@
 1. **Head to head** on the shipped 50 m rows (``problems/rows/``) and on generated 20 m rows
    (``coplan.generate.gantry_row``, seed 11) at 2, 8 and 20 fruit per metre with 3 and 6 arms:
    the stop rules fixed stride, fewest stops and optimised (the coordinated cell planner at
-   every stop), and continuous (``--gantry continuous``: the speed search over a density
-   profile). Per row and mode: row time (the last fruit placed), fruit per hour, share of the
+   every stop), and continuous (``--gantry continuous --workers 2``: the speed search over a
+   density profile, two levels planned side by side). Per row and mode: row time (the last fruit placed), fruit per hour, share of the
    harvestable fruit harvested, row time / the row's lower bound valid for any motion (no stop
    assumed: :func:`coplan.row.bound.row_bounds`), planning time and its share of the row time,
    and the verdict of ``coplan verify`` run on the written plan file in another process. Then,
    per row, which mode wins and by how much (fruit per hour against the better of the others).
 2. **Speed curve** of continuous mode on one row: fruit per hour and share harvested against
-   the carriage's mean speed, every full plan the speed search tried (each verified).
+   the carriage's speed -- one constant speed every 0.05 m/s, and every full plan the density
+   profile's speed search tried (each verified).
 3. **Arms curve**: fruit per hour against the number of arms (1 to 12, 2 m apart) on one
    generated 30 m row at 12 fruit per metre, stop and go (optimised stops) and on the move, run
    as a ``coplan sweep`` (``base: gantry``) on a 2-worker Dask LocalCluster; the figure
@@ -46,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 MODES = ("fixed", "fewest", "optimised", "continuous")
+WORKERS = 2  # processes of continuous mode's speed search (coplan solve --workers 2); the stop rules use one
 
 
 def _rows(quick: bool) -> list[tuple[str, object, str]]:
@@ -67,7 +69,9 @@ def _plan(prob, mode: str):
     from coplan.row.plan import RowOptions, plan_row
 
     if mode == "continuous":
-        return plan_moving(prob)
+        from coplan.row.continuous import MovingOptions
+
+        return plan_moving(prob, MovingOptions(workers=WORKERS))  # the speed search on both cores
     return plan_row(prob, RowOptions(stops=StopRule(mode)))
 
 
@@ -124,21 +128,30 @@ def head_to_head(quick: bool) -> None:
 
 
 def speed_curve(name: str = "sparse_row") -> None:
+    from coplan.kinds import SpeedProfile
     from coplan.problem import load_problem, shipped_rows
-    from coplan.row.continuous import plan_moving
+    from coplan.row.continuous import MovingOptions, plan_moving, speed_search
 
     prob = load_problem(next(p for p in shipped_rows() if p.stem == name))
     t = time.perf_counter()
-    res = plan_moving(prob)
+    _, grid = speed_search(prob, MovingOptions(profile=SpeedProfile.CONSTANT, workers=WORKERS),
+                           levels=[0.05 * k for k in range(1, 11)])
+    res = plan_moving(prob, MovingOptions(workers=WORKERS))
     took = time.perf_counter() - t
-    print(f"\nSpeed curve of {name} on the move ({took:.1f} s, {len(res.info['speed_curve'])} full plans, each verified):\n")
-    print("| pace | mean speed | fruit / h | harvested | row time | slowed where missed | order | verified |")
-    print("|---|---|---|---|---|---|---|---|")
-    for p in sorted(res.info["speed_curve"], key=lambda p: p["mean_speed"]):
-        print(f"| {p['level']:.3f} | {p['mean_speed']:.3f} m/s | {p['fruit_per_hour']:.0f} | {100 * p['share_harvested']:.1f} % | "
+    print(f"\nSpeed curve of {name} on the move ({took:.1f} s): one constant speed for the row, every 0.05 m/s, then the "
+          f"speed search over a density profile ({len(res.info['speed_curve'])} full plans); every plan verified:\n")
+    print("| profile | pace | mean speed | fruit / h | harvested | row time | slowed where missed | order | verified |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    rows = [("constant", p.to_dict()) for p in grid] + [("density", p) for p in res.info["speed_curve"]]
+    for prof, p in sorted(rows, key=lambda r: (r[0], r[1]["mean_speed"])):
+        pace = "-" if prof == "constant" else f"{p['level']:.3f}"
+        print(f"| {prof} | {pace} | {p['mean_speed']:.3f} m/s | {p['fruit_per_hour']:.0f} | {100 * p['share_harvested']:.1f} % | "
               f"{p['row_time']:.1f} s | {'yes' if p['refined'] else 'no'} | {p['assign']} | {'yes' if p['verified'] else 'NO'} |")
-    print(f"\nchosen: pace {res.info['level']:.3f}, {res.info['mean_speed']:.3f} m/s on average, "
-          f"{res.plan.metrics['harvested']} fruit in {res.plan.metrics['makespan']:.1f} s")
+    best_c = max((p.to_dict() for p in grid if p.complete), key=lambda p: p["fruit_per_hour"], default=None)
+    print(f"\nchosen (density): pace {res.info['level']:.3f}, {res.info['mean_speed']:.3f} m/s on average, "
+          f"{res.plan.metrics['harvested']} fruit in {res.plan.metrics['makespan']:.1f} s"
+          + (f"; the best constant speed harvesting every fruit: {best_c['mean_speed']:.3f} m/s, {best_c['row_time']:.1f} s"
+             if best_c else ""))
 
 
 ARMS_SWEEP = """name: arms-curve

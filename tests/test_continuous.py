@@ -380,3 +380,11 @@ def test_gantry_auto_keeps_the_better_verified_mode(row):
     assert res.plan.metrics["row"]["mode"] == chosen
     m = res.plan.metrics
     assert auto[chosen]["fruit_per_hour"] == pytest.approx(3600.0 * m["harvested"] / m["makespan"])
+
+
+def test_the_speed_search_on_two_workers_gives_the_same_plan_each_time(row, reach):
+    one = speed_search(row, MovingOptions(search_rounds=4, refine_rounds=1, workers=2), reach)[0]
+    two = speed_search(row, MovingOptions(search_rounds=4, refine_rounds=1, workers=2), reach)[0]
+    assert one.verification.passed and two.verification.passed
+    assert [(e.arm, e.fruit, e.t_start) for e in one.plan.events] == [(e.arm, e.fruit, e.t_start) for e in two.plan.events]
+    assert one.info["level"] == two.info["level"]

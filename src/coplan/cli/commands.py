@@ -135,8 +135,9 @@ def solve(
         "--options", help="Solver options (YAML): any field of coplan.optimal.OptimalOptions, e.g. "
                           "search_work: 60000 (recorded in plan.json).")] = None,
     workers: Annotated[Optional[str], typer.Option(
-        help="Processes the optimal planner's search runs in: a number, or auto (this machine's cores, "
-             "at most 8). Default 1: the plan then does not depend on the machine; the same N gives the same plan.")] = None,
+        help="Processes the optimal planner's search (or, on the move, the speed search) runs in: a number, or auto "
+             "(this machine's cores, at most 8). Default 1: the plan then does not depend on the machine; the same N "
+             "gives the same plan.")] = None,
     animate: Annotated[bool, typer.Option("--animate", help="Also render an animation of the plan.")] = False,
     html: Annotated[bool, typer.Option("--html", help="Also write plan.html: the interactive viewer of the plan (one self-contained page).")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
@@ -151,11 +152,17 @@ def solve(
     failures.check_out_dir(out)
     path = load_problem(_resolve_problem(problem))
     if path.gantry is not None:  # a row: the stop rule and the cell planner at each stop, or on the move
+        on_the_move = gantry in (GantryMode.CONTINUOUS, GantryMode.AUTO)
         if planner == PlannerKind.HEURISTIC or allocation is not None or options_file is not None or time_limit is not None \
-                or workers is not None:
-            _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): --gantry, --planner coordinated|optimal, --stops "
-                                  "and --speed apply; --allocation, --options, --time-limit and --workers are for a stationary cell")
+                or (workers is not None and not on_the_move):
+            _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): --gantry, --planner coordinated|optimal, --stops, "
+                                  "--speed and (on the move) --workers apply; --allocation, --options and --time-limit are for "
+                                  "a stationary cell")
         moving = _moving_options(path, gantry, speed, stops, planner)
+        if moving is not None and workers is not None:
+            from dataclasses import replace as _replace
+
+            moving = _replace(moving, workers=n_workers)
         with ProgressDisplay(err_console, quiet=as_json) as say:
             res = run(path, planner=planner, out_dir=out, progress=say, stops=stops, gantry=gantry, options=moving)
         return _report_solve(res, out, animate, html, as_json)

@@ -83,6 +83,7 @@ class MovingOptions:
     resolution : spacing of the candidate carriage positions of the row's screen, m
     search_rounds : full plans the speed search may try (each verified)
     refine_rounds : full plans that then slow the carriage only where fruit were missed (density)
+    workers : processes the speed search plans in (levels tried side by side); 1: all here
     """
 
     profile: SpeedProfile = SpeedProfile.DENSITY
@@ -92,6 +93,7 @@ class MovingOptions:
     resolution: float = DEFAULT_RESOLUTION
     search_rounds: int = 7
     refine_rounds: int = 2
+    workers: int = 1
     rate: float = DEFAULT_RATE
 
 
@@ -222,56 +224,61 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     cap = level_cap(problem, reach, profile, demand)
     tried: dict = {}
     greedy = replace(opts, assign=AssignRule.GREEDY)  # the search's plans: CP-SAT only once, at its end
+    with _Runner(problem, reach, demand, max(1, int(opts.workers)), progress) as runner:
 
-    def run(v: float) -> SpeedPoint:
-        v = round(float(min(cap, max(v, 1e-3))), 4)
-        if v not in tried:
-            t = _time.perf_counter()
-            res = plan_continuous(problem, v, greedy, reach, progress, demand)
-            tried[v] = (res, _point(res, _time.perf_counter() - t))
-        return tried[v][1]
+        def run_many(vs, o=greedy, d=None, key=None) -> list[SpeedPoint]:
+            vs = [round(float(min(cap, max(v, 1e-3))), 4) for v in vs]
+            todo = [v for v in dict.fromkeys(vs) if (key or v) not in tried]
+            for v, (res, secs) in zip(todo, runner.map(todo, o, d)):
+                tried[key or v] = (res, _point(res, secs))
+            return [tried[key or v][1] for v in vs]
 
-    if levels is not None:
-        for v in levels:
-            run(v)
-    else:
-        if profile == SpeedProfile.CONSTANT:
-            v = max(x1 - g.start, 0.05) / max(row_bounds(problem).work, 1e-3)
+        if levels is not None:
+            run_many(list(levels))
         else:
-            v = 1.0
-        v = min(v, cap)
-        ok_v, bad_v = None, None
-        for _ in range(opts.search_rounds):
-            p = run(v)
-            if p.complete:
-                ok_v = v if ok_v is None else max(ok_v, v)
+            if profile == SpeedProfile.CONSTANT:
+                v = max(x1 - g.start, 0.05) / max(row_bounds(problem).work, 1e-3)
             else:
-                bad_v = v if bad_v is None else min(bad_v, v)
-            if ok_v is None:
-                v = v / 2.0
-            elif bad_v is None:
-                if v >= cap:
-                    break
-                v = min(cap, v * 1.5)
-            else:
-                if bad_v - ok_v <= 0.05 * ok_v:
-                    break
-                v = 0.5 * (ok_v + bad_v)
-        if demand is not None and bad_v is not None:
-            _refine(problem, greedy, reach, demand, bad_v, tried, progress)
-        if AssignRule(opts.assign) == AssignRule.CPSAT and bad_v is not None:
-            # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
-            t = _time.perf_counter()
-            res = plan_continuous(problem, bad_v, opts, reach, progress, demand)
-            tried[(bad_v, "cpsat")] = (res, replace(_point(res, _time.perf_counter() - t), assign=res.info["assign"]))
+                v = 1.0
+            v = min(v, cap)
+            ok_v, bad_v = None, None
+            w = runner.workers
+            for _ in range(int(math.ceil(opts.search_rounds / w))):
+                # w levels at once: down by halves / up by half again until bracketed, then w points inside
+                if ok_v is None and bad_v is None:
+                    batch = [v / 2.0 ** k for k in range(w)]
+                elif ok_v is None:
+                    batch = [bad_v / 2.0 ** (k + 1) for k in range(w)]
+                elif bad_v is None:
+                    if ok_v >= cap:
+                        break
+                    batch = [min(cap, ok_v * 1.5 ** (k + 1)) for k in range(w)]
+                else:
+                    if bad_v - ok_v <= 0.05 * ok_v:
+                        break
+                    batch = [ok_v + (bad_v - ok_v) * (k + 1) / (w + 1) for k in range(w)]
+                for p in run_many(batch):
+                    if p.complete:
+                        ok_v = p.level if ok_v is None else max(ok_v, p.level)
+                    else:
+                        bad_v = p.level if bad_v is None else min(bad_v, p.level)
+                if ok_v is not None and bad_v is not None and bad_v < ok_v:
+                    bad_v = None  # an incomplete plan below a complete one: not a bracket; go on up
+            if AssignRule(opts.assign) == AssignRule.CPSAT and bad_v is not None:
+                # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
+                # (alongside the refinement when there is a second worker)
+                runner.submit(bad_v, opts, None, key=(bad_v, "cpsat"))
+            if demand is not None and bad_v is not None:
+                _refine(reach, demand, bad_v, tried, runner, greedy)
+            for key, (res, secs) in runner.collect():
+                tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"]))
     pts = [p for _, p in tried.values()]
     best = max(tried, key=lambda v: (tried[v][1].complete, tried[v][1].verified, tried[v][1].harvested,
                                      tried[v][1].fruit_per_hour))
     return tried[best][0], pts
 
 
-def _refine(problem: Problem, opts: MovingOptions, reach: RowReach, demand, level: float, tried: dict,
-            progress) -> None:
+def _refine(reach: RowReach, demand, level: float, tried: dict, runner: "_Runner", opts: MovingOptions) -> None:
     """Slow down only where fruit were missed: from the slowest incomplete level, each round
     raises the demand of the stretches from which a missed fruit is served by ``REFINE_BUMP``
     and plans again; a complete plan pushes the level up by ``REFINE_PUSH``. Every round a full,
@@ -279,9 +286,8 @@ def _refine(problem: Problem, opts: MovingOptions, reach: RowReach, demand, leve
     d = list(demand)
     v = level
     for r in range(opts.refine_rounds):
-        t = _time.perf_counter()
-        res = plan_continuous(problem, v, opts, reach, progress, d)
-        p = replace(_point(res, _time.perf_counter() - t), refined=True)
+        [(res, secs)] = runner.map([v], opts, d)
+        p = replace(_point(res, secs), refined=True)
         tried[(v, r)] = (res, p)
         if p.complete:
             v *= REFINE_PUSH
@@ -292,6 +298,65 @@ def _refine(problem: Problem, opts: MovingOptions, reach: RowReach, demand, leve
                 continue
             lo, hi = (float(reach.grid[k]) for k in reach.span(fid))
             d = [(x, dk * REFINE_BUMP if x > lo and x - STRETCH < hi else dk) for x, dk in d]
+
+
+def _plan_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand) -> tuple[RowResult, float]:
+    """One full plan in a worker process (module-level: it is pickled to the worker)."""
+    t = _time.perf_counter()
+    res = plan_continuous(problem, level, opts, reach, None, demand)
+    return res, _time.perf_counter() - t
+
+
+class _Runner:
+    """Full plans of the speed search, here (one worker) or in ``workers`` processes (the same
+    plans as here, each deterministic in its inputs: the same input and N give the same plan)."""
+
+    def __init__(self, problem: Problem, reach: RowReach, demand, workers: int, progress):
+        self.problem, self.reach, self.demand, self.workers, self.progress = problem, reach, demand, workers, progress
+        self.pool = None
+        self.pending: list = []
+
+    def __enter__(self) -> "_Runner":
+        if self.workers > 1:
+            import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor
+
+            import sys
+
+            # as the optimal planner's portfolio: fork on Linux (no re-import), spawn elsewhere
+            ctx = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+            self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+
+    def _demand(self, d):
+        return self.demand if d is None else d
+
+    def map(self, levels: list[float], opts: MovingOptions, demand=None) -> list[tuple[RowResult, float]]:
+        if self.pool is None:
+            out = []
+            for v in levels:
+                t = _time.perf_counter()
+                out.append((plan_continuous(self.problem, v, opts, self.reach, self.progress, self._demand(demand)),
+                            _time.perf_counter() - t))
+            return out
+        futures = [self.pool.submit(_plan_job, self.problem, v, opts, self.reach, self._demand(demand)) for v in levels]
+        return [f.result() for f in futures]
+
+    def submit(self, level: float, opts: MovingOptions, demand=None, key=None) -> None:
+        """A plan to collect later (:meth:`collect`): in the background with a second worker."""
+        if self.pool is None:
+            self.pending.append((key, self.map([level], opts, demand)[0]))
+        else:
+            self.pending.append((key, self.pool.submit(_plan_job, self.problem, level, opts, self.reach, self._demand(demand))))
+
+    def collect(self) -> list:
+        out = [(k, f if isinstance(f, tuple) else f.result()) for k, f in self.pending]
+        self.pending = []
+        return out
 
 
 def plan_moving(problem: Problem, options: MovingOptions | None = None,
