@@ -388,3 +388,21 @@ def test_the_speed_search_on_two_workers_gives_the_same_plan_each_time(row, reac
     assert one.verification.passed and two.verification.passed
     assert [(e.arm, e.fruit, e.t_start) for e in one.plan.events] == [(e.arm, e.fruit, e.t_start) for e in two.plan.events]
     assert one.info["level"] == two.info["level"]
+
+
+def test_a_new_resting_pose_is_checked_against_what_the_neighbours_booked_beyond_it():
+    """Regression (found by the verifier in the benchmark): arm2 went home while arm3's booked
+    return from a pick still swept past arm2's home pose; the move home was checked only over its
+    own span. Every sampled pose pair now keeps the booking's clearance."""
+    from coplan.planners.coordinated.schedule import arm_points, points_clearance
+    from coplan.problem import load_problem, shipped_rows
+    from coplan.row.live import LiveRowOptions, run_live_row
+
+    p = load_problem(next(x for x in shipped_rows() if x.stem == "sparse_row"))
+    res = run_live_row(p, LiveRowOptions(speed=0.379, seed=1))
+    assert res.verification.passed
+    need = p.task.clearance + LiveRowOptions().margin
+    for i, j in p.neighbour_pairs():
+        a, b = p.arms[i], p.arms[j]
+        d = points_clearance(arm_points(a, res.plan.q[a.name]), arm_points(b, res.plan.q[b.name]), a.link_radius + b.link_radius)
+        assert d.min() >= need - 1e-9

@@ -131,7 +131,15 @@ class Booker:
         return out
 
     def _clear(self, i: int, k0: int, q: np.ndarray) -> bool:
+        """Arm ``i``'s motion ``q`` from sample ``k0`` keeps ``need`` from every neighbour -- and so
+        does the pose it then rests at, against whatever a neighbour has booked beyond it (that
+        motion was checked against this arm's *previous* resting pose: a new one, home after the
+        bin or the bin after home, must be checked again)."""
         a = self.problem.arms[i]
+        k1 = k0 + q.shape[0]
+        reach = max([k1] + [self.arms[j].k_free + 1 for j in self.neighbours[i]])
+        if reach > k1:
+            q = np.vstack([q, np.repeat(q[-1:], reach - k1, axis=0)])
         pa = arm_points(a, q)
         for j in self.neighbours[i]:
             b = self.problem.arms[j]
