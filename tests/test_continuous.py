@@ -406,3 +406,14 @@ def test_a_new_resting_pose_is_checked_against_what_the_neighbours_booked_beyond
         a, b = p.arms[i], p.arms[j]
         d = points_clearance(arm_points(a, res.plan.q[a.name]), arm_points(b, res.plan.q[b.name]), a.link_radius + b.link_radius)
         assert d.min() >= need - 1e-9
+
+
+def test_a_gantry_sweep_keeps_both_modes_of_the_same_row():
+    from coplan.sweep.spec import parse_sweep
+
+    text = ("name: modes\nbase: gantry\nfixed: {length: 8.0, density: 4.0, seed: 3}\n"
+            "vary:\n  n_arms: [1, 2]\n  gantry: [stop-and-go, continuous]\nplanner: coordinated\n")
+    items = parse_sweep(text, "arms.yaml").items()
+    assert sorted((it.params["n_arms"], it.params["gantry"]) for it in items) == \
+        [(1, "continuous"), (1, "stop-and-go"), (2, "continuous"), (2, "stop-and-go")]
+    assert len({it.key for it in items}) == 4

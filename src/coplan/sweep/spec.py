@@ -173,8 +173,11 @@ class SweepSpec:
         return [self._item(index, shown, planner, options, limit, source, text, row_length, error)]
 
     def _item(self, index, params, planner, options, limit, source, text, row_length, error) -> SweepItem:
-        blob = json.dumps({"problem": text if text is not None else f"{source}|{error}", "planner": planner,
-                           "options": options, "time_limit": limit}, sort_keys=True, default=str)
+        how = {"problem": text if text is not None else f"{source}|{error}", "planner": planner, "options": options,
+               "time_limit": limit}
+        if "gantry" in params:  # the same row stop and go or on the move: two problems to solve
+            how["gantry"] = params["gantry"]
+        blob = json.dumps(how, sort_keys=True, default=str)
         key = hashlib.sha256(blob.encode()).hexdigest()[:16]
         return SweepItem(index, key, params, planner, options, limit, source, text, row_length, error)
 
