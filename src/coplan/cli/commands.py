@@ -22,12 +22,13 @@ from . import failures
 from .checks import budget_hint as _budget_hint, check_time_limit as _check_time_limit, check_workers as _check_workers
 from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
+from .row import moving_options
 from .summary import fmt as _fmt
 from .summary import print_summary, print_verification
 from .summary import safe as _s
 from .console import FlagsGroup, ProgressDisplay, run_console
 from ..errors import InputError, plural
-from ..kinds import AllocationMethod, ExitCode, FclMode, GantryMode, PlannerKind, SpeedProfile, StopRule
+from ..kinds import AllocationMethod, ExitCode, FclMode, GantryMode, PlannerKind, StopRule
 
 app = typer.Typer(
     cls=FlagsGroup,  # flags shown without a <bool> value in --help
@@ -85,28 +86,6 @@ def guarded(fn):
     return wrapper
 
 
-def _moving_options(problem, gantry, speed, stops, planner):
-    """The row-on-the-move options of ``coplan solve``, or None for stop and go (usage checked)."""
-    if gantry not in (GantryMode.CONTINUOUS, GantryMode.AUTO):
-        if speed is not None:
-            _fail(ExitCode.USAGE, "--speed: a cruising speed applies on the move (--gantry continuous or auto)")
-        return None
-    if stops is not None and gantry == GantryMode.CONTINUOUS:
-        _fail(ExitCode.USAGE, "--stops: on the move (--gantry continuous) the carriage does not stop")
-    if planner is not None and planner != PlannerKind.COORDINATED and gantry == GantryMode.CONTINUOUS:
-        _fail(ExitCode.USAGE, "--planner: on the move the row books its own coordinated moves; the cell planners "
-                              "apply to stop and go")
-    from ..row.continuous import MovingOptions
-
-    if speed is None:
-        return MovingOptions()
-    vmax = problem.gantry.max_velocity
-    if not (speed == speed and 0.0 < speed <= vmax):
-        _fail(ExitCode.USAGE, f"--speed: expected a cruising speed in (0, {vmax:g}] m/s (gantry.max_velocity of "
-                              f"{problem.name!r}), found {speed:g}")
-    return MovingOptions(profile=SpeedProfile.CONSTANT, level=speed)
-
-
 def _resolve_problem(problem: Optional[Path]) -> Path:
     return resolve_problem(problem, lambda m: err_console.print(f"[dim]{_s(m)}[/]", highlight=False))
 
@@ -158,7 +137,7 @@ def solve(
             _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): --gantry, --planner coordinated|optimal, --stops, "
                                   "--speed and (on the move) --workers apply; --allocation, --options and --time-limit are for "
                                   "a stationary cell")
-        moving = _moving_options(path, gantry, speed, stops, planner)
+        moving = moving_options(path, gantry, speed, stops, planner)
         if moving is not None and workers is not None:
             from dataclasses import replace as _replace
 

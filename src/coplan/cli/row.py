@@ -7,7 +7,8 @@ import json
 from pathlib import Path
 
 from ..errors import plural
-from ..kinds import ExitCode
+from ..kinds import ExitCode, GantryMode, PlannerKind, SpeedProfile
+from .checks import fail
 from .summary import safe
 
 __all__ = ["check_row", "compare_row"]
@@ -84,3 +85,25 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
         out_console.print(table)
         out_console.print(f"wrote {safe(cmp.files['json'])} and {safe(cmp.files['markdown'])}")
     return ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
+
+
+def moving_options(problem, gantry, speed, stops, planner):
+    """The row-on-the-move options of ``coplan solve``, or None for stop and go (usage checked)."""
+    if gantry not in (GantryMode.CONTINUOUS, GantryMode.AUTO):
+        if speed is not None:
+            fail(ExitCode.USAGE, "--speed: a cruising speed applies on the move (--gantry continuous or auto)")
+        return None
+    if stops is not None and gantry == GantryMode.CONTINUOUS:
+        fail(ExitCode.USAGE, "--stops: on the move (--gantry continuous) the carriage does not stop")
+    if planner is not None and planner != PlannerKind.COORDINATED and gantry == GantryMode.CONTINUOUS:
+        fail(ExitCode.USAGE, "--planner: on the move the row books its own coordinated moves; the cell planners "
+                              "apply to stop and go")
+    from ..row.continuous import MovingOptions
+
+    if speed is None:
+        return MovingOptions()
+    vmax = problem.gantry.max_velocity
+    if not (speed == speed and 0.0 < speed <= vmax):
+        fail(ExitCode.USAGE, f"--speed: expected a cruising speed in (0, {vmax:g}] m/s (gantry.max_velocity of "
+                              f"{problem.name!r}), found {speed:g}")
+    return MovingOptions(profile=SpeedProfile.CONSTANT, level=speed)
