@@ -418,15 +418,18 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 soonest = min((c[1].lo for c in cands if c[1].lo > now), default=now + _RETRY)
                 booker.wait(i, max(_RETRY, min(soonest - now - 1.0, 1.0)))
         heapq.heappush(queue, (booker.free_time(i), i))
-    return {fid: _why_left(booker, fid) for fid in windows if fid not in taken}
+    return {fid: _why_left(booker, fid, halt or {}) for fid in windows if fid not in taken}
 
 
-def _why_left(booker: Booker, fid: str) -> str:
+def _why_left(booker: Booker, fid: str, halt: dict[int, float]) -> str:
     ws = booker.windows[fid]
     if not ws:
         return f"{fid}: the carriage never stands where an arm can pick it at this speed"
-    w = max(ws, key=lambda w: (min(w.hi, 1e9), w.arm))
+    # the working arm whose window closed last (a stopped arm's only if no working arm had one)
+    w = max(ws, key=lambda w: (w.arm not in halt, min(w.hi, 1e9), w.arm))
     arm = booker.problem.arms[w.arm].name
+    if w.arm in halt:
+        return f"{fid}: only {arm} could reach it, and {arm} stopped at t = {halt[w.arm]:.1f} s"
     if not math.isfinite(w.hi):
         return f"{fid}: {arm} could still reach it, but no clear cycle was found"
     doing = "waiting for a neighbour"

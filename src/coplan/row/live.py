@@ -41,7 +41,7 @@ from .cruise import Cruise, pick_windows
 from .reach import row_reach
 
 #: After an arm stops, the carriage runs at this share of the working arms' share of its speed.
-STOP_SLOWDOWN = 0.75
+STOP_SLOWDOWN = 0.5
 
 __all__ = ["LiveRowOptions", "RowFaults", "RowDetection", "LiveRow", "row_detections", "run_live_row"]
 
@@ -234,10 +234,12 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
             outcome[by_id[did].truth] = f"missed: {why}"
     working = [a for a in range(len(problem.arms)) if a not in halt]
     stopped_at = min(halt.values(), default=math.inf)
+    # missed though a working arm could still reach it: a window of a working arm open after the
+    # stop (and after the report) with a pick pose clear of the stopped arm where it rests
     missed_reachable = sorted({by_id[d].truth for d, ws in windows.items() if by_id[d].truth is not None
                                and by_id[d].truth not in got
-                               and any(w.arm in working and w.hi >= min(stopped_at, w.hi) and w.hi >= seen[d]
-                                       and (w.hi >= stopped_at or not halt) for w in ws)})
+                               and any(w.arm in working and w.hi >= seen[d] and (w.hi >= stopped_at or not halt)
+                                       and _clear_of_stopped(booker, w, truth_xy[by_id[d].truth], halt) for w in ws)})
     span = float(plan.metrics.get("makespan") or 0.0)
     ref_span = float(offline.plan.metrics.get("makespan") or 0.0)
     cycles = [e.t_end - p.t_start for p, e in zip(_picks(booker_events(events)), _places(booker_events(events)))]
@@ -318,3 +320,26 @@ def _faults(problem: Problem, cruise: Cruise, opts: LiveRowOptions, dets: list[R
 
         log["late_replan"] = {"t": t, "seconds": f.late_replan}
     return sorted(dets, key=lambda d: (d.t, d.id)), halt, delay, log
+
+
+def _clear_of_stopped(booker: Booker, w, xy, halt: dict[int, float]) -> bool:
+    """Whether arm ``w.arm`` has a pick pose on the fruit at ``xy`` (row frame), with the carriage
+    somewhere in the window's run, that keeps the clearance from every stopped arm where it rests
+    (the screen knows nothing of a stopped arm; a pose blocked by one is no longer reachable)."""
+    from ..planners.coordinated.schedule import arm_points, points_too_close
+
+    if not halt:
+        return True
+    problem = booker.problem
+    arm = problem.arms[w.arm]
+    for c in np.linspace(w.c_lo, w.c_hi, 9):
+        q, valid = arm.ik(np.array([xy[0] - c, xy[1]]))
+        for b in (0, 1):
+            if not valid[b]:
+                continue
+            pa = arm_points(arm, q[b])
+            if all(not points_too_close(pa, arm_points(problem.arms[j], booker.arms[j].q[booker.arms[j].k_free]),
+                                        arm.link_radius + problem.arms[j].link_radius, problem.task.clearance).any()
+                   for j in halt):
+                return True
+    return False
