@@ -285,13 +285,17 @@ def _refine(reach: RowReach, demand, level: float, tried: dict, runner: "_Runner
     verified plan (added to ``tried``, keyed apart from the plain levels)."""
     d = list(demand)
     v = level
-    for r in range(opts.refine_rounds):
-        [(res, secs)] = runner.map([v], opts, d)
-        p = replace(_point(res, secs), refined=True)
-        tried[(v, r)] = (res, p)
-        if p.complete:
-            v *= REFINE_PUSH
-            continue
+    res = tried[level][0]  # the plan at that level already says which fruit were missed
+    for r in range(opts.refine_rounds + 1):
+        if r > 0:
+            [(res, secs)] = runner.map([v], opts, d)
+            p = replace(_point(res, secs), refined=True)
+            tried[(v, r)] = (res, p)
+            if p.complete:
+                v *= REFINE_PUSH
+                continue
+            if r == opts.refine_rounds:
+                break
         got = {e.fruit for e in res.plan.events if e.kind == EventKind.PLACE}
         for fid in reach.harvestable():
             if fid in got:
