@@ -147,6 +147,7 @@ def run_cmd(
 def _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults):
     """``coplan run ROW``: the row live on the move (:mod:`coplan.row.live`)."""
     from ..output import RunFolder
+    from ..pipeline import status_exit_code
     from ..plan import jsonable
     from ..row.live import LiveRowOptions, run_live_row
 
@@ -183,6 +184,4 @@ def _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_ra
                f"{len(m['missed_reachable_by_a_working_arm'])}\n" if m["faults"] else "") +
             f"executed plan {res.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
             f"wrote {_safe(out)}/plan.json, run.json", highlight=False)
-    status = res.plan.status
-    code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
-    raise typer.Exit(int(code))
+    raise typer.Exit(int(status_exit_code(res.plan.status)))

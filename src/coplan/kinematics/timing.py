@@ -14,6 +14,9 @@ All functions are pure and work on plain floats / NumPy arrays.
   shape between the two poses can be faster.
 * :func:`scurve_times` -- :func:`scurve_time` over an array of distances at once.
 * :class:`Move1D` -- one axis's time-optimal rest-to-rest move (a gantry's carriage).
+* :func:`ruckig_move` -- the time-optimal jerk-limited move between two full states (position,
+  velocity, acceleration per joint), joints synchronised (Ruckig): the moves that start or end
+  in motion (a live re-planned approach, a pick on a moving carriage).
 """
 
 from __future__ import annotations
@@ -24,7 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["cubic_min_time", "cubic_eval", "scurve_time", "scurve_times", "SCurve", "Move1D", "move_lower_bound"]
+__all__ = ["cubic_min_time", "cubic_eval", "scurve_time", "scurve_times", "SCurve", "Move1D", "move_lower_bound",
+           "MoveError", "ruckig_move"]
 
 
 def cubic_min_time(dq, vmax, amax) -> float:
@@ -243,3 +247,29 @@ class Move1D:
         v = np.where(end, 0.0, v)
         a = np.where(end, 0.0, a)
         return (self.x0 + s * p).reshape(t.shape), (s * v).reshape(t.shape), (s * a).reshape(t.shape)
+
+
+class MoveError(RuntimeError):
+    """Ruckig could not compute a move (e.g. a target state beyond the limits)."""
+
+
+def ruckig_move(start, end, vmax, amax, jmax):
+    """The time-optimal move from state ``start`` to state ``end`` (each (3, n): position,
+    velocity, acceleration per joint) under per-joint limits, joints synchronised: a
+    ``ruckig.Trajectory`` (``duration``, ``at_time(t) -> (p, v, a)``). Raises :class:`MoveError`."""
+    from ruckig import InputParameter, Result, Ruckig, RuckigError, Trajectory
+
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    n = start.shape[1]
+    inp = InputParameter(n)
+    inp.current_position, inp.current_velocity, inp.current_acceleration = (list(map(float, r)) for r in start)
+    inp.target_position, inp.target_velocity, inp.target_acceleration = (list(map(float, r)) for r in end)
+    inp.max_velocity, inp.max_acceleration, inp.max_jerk = (list(map(float, x)) for x in (vmax, amax, jmax))
+    traj = Trajectory(n)
+    try:
+        result = Ruckig(n).calculate(inp, traj)
+    except RuckigError as exc:
+        raise MoveError(f"ruckig: {str(exc).strip()}") from exc
+    if result not in (Result.Working, Result.Finished):
+        raise MoveError(f"ruckig: {result}")
+    return traj

@@ -19,40 +19,27 @@ import numpy as np
 
 from ..problem.model import Arm
 from ..planners.coordinated.schedule import Step, StepKind
-from ..kinematics.timing import SCurve
+from ..kinematics.timing import MoveError, SCurve, ruckig_move
 
 __all__ = ["Approach", "ApproachError", "move_step", "split_at", "truncate_move", "step_state", "as_wait"]
 
 
-class ApproachError(RuntimeError):
-    """Ruckig could not compute the re-planned approach."""
+#: Ruckig could not compute the re-planned approach.
+ApproachError = MoveError
 
 
 class Approach:
     """A move from a moving state ``(q0, v0, a0)`` to rest at ``q1``: time-optimal under the
-    arm's per-joint velocity, acceleration and jerk limits (Ruckig, joints synchronised).
+    arm's per-joint velocity, acceleration and jerk limits (Ruckig, joints synchronised:
+    :func:`coplan.kinematics.timing.ruckig_move`).
 
     It has the interface of :class:`coplan.kinematics.timing.SCurve` that schedules use
     (``q0``, ``q1``, ``duration``, ``derivatives(t)``, ``eval(t)``).
     """
 
     def __init__(self, arm: Arm, q0, v0, a0, q1):
-        from ruckig import InputParameter, Result, Ruckig, Trajectory
-
-        inp = InputParameter(2)
-        inp.current_position = [float(x) for x in q0]
-        inp.current_velocity = [float(x) for x in v0]
-        inp.current_acceleration = [float(x) for x in a0]
-        inp.target_position = [float(x) for x in q1]
-        inp.target_velocity = [0.0, 0.0]
-        inp.target_acceleration = [0.0, 0.0]
-        inp.max_velocity = list(arm.max_velocity)
-        inp.max_acceleration = list(arm.max_acceleration)
-        inp.max_jerk = list(arm.max_jerk)
-        traj = Trajectory(2)
-        result = Ruckig(2).calculate(inp, traj)
-        if result not in (Result.Working, Result.Finished):
-            raise ApproachError(f"ruckig: {result}")
+        traj = ruckig_move([q0, v0, a0], [q1, (0.0, 0.0), (0.0, 0.0)], arm.max_velocity, arm.max_acceleration,
+                           arm.max_jerk)
         self.trajectory = traj
         self.q0 = tuple(float(x) for x in q0)
         self.q1 = tuple(float(x) for x in q1)

@@ -37,8 +37,9 @@ CPSAT_WORK = 0.5
 CPSAT_SIZE = 800
 
 
-def _cycle_parts(problem: Problem, booker: Booker, cruise: Cruise, fid: str, w) -> tuple[float, float] | None:
-    """(approach, return) seconds of a cycle of arm ``w.arm`` on ``fid`` at the window's middle."""
+def _move_estimate(problem: Problem, booker: Booker, cruise: Cruise, fid: str, w) -> float | None:
+    """Seconds of the move between the bin and ``fid`` (either way: rest to rest, the same bound)
+    for arm ``w.arm`` at the window's middle; None when no branch serves it there."""
     arm = problem.arms[w.arm]
     hi = w.hi if math.isfinite(w.hi) else w.lo + 1.0
     t = 0.5 * (w.lo + hi)
@@ -57,7 +58,7 @@ def _cycle_parts(problem: Problem, booker: Booker, cruise: Cruise, fid: str, w) 
         d = move_lower_bound(qb, qf, *lim)
         if best is None or d < best:
             best = d
-    return None if best is None else (best, best)
+    return best
 
 
 def _calibration(problem: Problem, greedy: Booker, cruise: Cruise) -> float:
@@ -73,9 +74,9 @@ def _calibration(problem: Problem, greedy: Booker, cruise: Cruise) -> float:
         pk = picks[(e.arm, e.fruit)]
         i = index[e.arm]
         w = next((w for w in greedy.windows[e.fruit] if w.arm == i and w.lo - 1e-9 <= pk.t_start <= w.hi + 1e-9), None)
-        parts = None if w is None else _cycle_parts(problem, greedy, cruise, e.fruit, w)
-        if parts and parts[1] > 0:
-            ratios.append((e.t_start - pk.t_end) / parts[1])
+        move = None if w is None else _move_estimate(problem, greedy, cruise, e.fruit, w)
+        if move:
+            ratios.append((e.t_start - pk.t_end) / move)
     return max(1.0, float(np.median(ratios))) if ratios else 1.0
 
 
@@ -94,10 +95,10 @@ def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruis
     items = []
     for fid, ws in greedy.windows.items():
         for w in ws:
-            parts = _cycle_parts(problem, greedy, cruise, fid, w)
-            if parts is None:
+            move = _move_estimate(problem, greedy, cruise, fid, w)
+            if move is None:
                 continue
-            app, ret = (int(math.ceil(x * scale * _UNIT)) for x in parts)
+            app = ret = int(math.ceil(move * scale * _UNIT))
             lo = max(app, int(math.ceil(w.lo * _UNIT)))
             hi = min(H, int(math.floor(w.hi * _UNIT)) if math.isfinite(w.hi) else H)
             if hi < lo:

@@ -36,6 +36,10 @@ __all__ = ["Booker", "Cycle", "run_policy"]
 
 _RETRY = 0.1  # s: a cycle that would come too close to a neighbour is tried again this much later ...
 _RETRY_GROWTH = 1.5  # ... and each further try that much later again
+#: Shares of the joint limits a pick's tracking may use alone (room for the moves that join it) ...
+_TRACK_SHARES = (0.95, 0.9, 0.5)
+#: ... and a whole cycle, seams included, by finite differences (a little inside the limits).
+_CYCLE_SHARES = (0.98, 0.98, 0.98)
 _PATIENCE = 5.0  # s: the longest an arm waits for a clear cycle on one fruit
 _TRIES = 6  # fixed-point rounds: arrival time <-> where the fruit is then
 
@@ -149,25 +153,16 @@ class Booker:
                 return False
         return True
 
-    def _track_within(self, i: int, q: np.ndarray) -> bool:
-        """A pick's tracking motion within the arm's velocity and acceleration limits (finite
-        differences on the grid, with a little room for the moves that join it)."""
-        arm = self.problem.arms[i]
+    def _differences_within(self, i: int, q: np.ndarray, shares: tuple[float, float, float], at_rest: bool = False) -> bool:
+        """``q``'s finite differences on the grid -- velocity, acceleration, jerk -- within
+        ``shares`` of arm ``i``'s limits (``at_rest``: the arm at rest before and after ``q``)."""
         if not np.all(np.isfinite(q)):
             return False
-        v = np.abs(np.diff(q, axis=0)) / self.dt
-        a = np.abs(np.diff(q, n=2, axis=0)) / self.dt ** 2
-        j = np.abs(np.diff(q, n=3, axis=0)) / self.dt ** 3
-        return bool(np.all(v <= 0.95 * np.asarray(arm.max_velocity)) and np.all(a <= 0.9 * np.asarray(arm.max_acceleration))
-                    and np.all(j <= 0.5 * np.asarray(arm.max_jerk)))
-
-    def _smooth(self, i: int, q: np.ndarray) -> bool:
-        """The whole cycle's samples within the arm's limits by finite differences (the seams
-        between moves and a pick's tracking included), a little inside them."""
         arm = self.problem.arms[i]
-        pad = np.vstack([q[:1], q[:1], q, q[-1:], q[-1:]])  # at rest before and after
-        for k, lim in ((1, arm.max_velocity), (2, arm.max_acceleration), (3, arm.max_jerk)):
-            if np.any(np.abs(np.diff(pad, n=k, axis=0)) / self.dt ** k > 0.98 * np.asarray(lim)):
+        if at_rest:
+            q = np.vstack([q[:1], q[:1], q, q[-1:], q[-1:]])
+        for k, (lim, share) in enumerate(zip((arm.max_velocity, arm.max_acceleration, arm.max_jerk), shares), start=1):
+            if np.any(np.abs(np.diff(q, n=k, axis=0)) / self.dt ** k > share * np.asarray(lim)):
                 return False
         return True
 
@@ -259,13 +254,13 @@ class Booker:
         # IK gives principal angles: a pick that carries a joint across +-pi is continuous in
         # fact, and then beyond its limits (refused below), never a jump of 2 pi
         q[pk] = np.unwrap(qt, axis=0) if np.all(np.isfinite(qt)) else qt
-        if not self._track_within(i, q[pk]):
+        if not self._differences_within(i, q[pk], _TRACK_SHARES):
             return None
         back = slice(k_p + n_pick + 1 - k0, k_pl - k0)
         if back.stop > back.start:
             q[back] = leg2.sample(ts[back] - t_pe)
         q[k_pl - k0:] = qb
-        if not self._within_limits(i, q) or not self._smooth(i, q):
+        if not self._within_limits(i, q) or not self._differences_within(i, q, _CYCLE_SHARES, at_rest=True):
             return None
         ev = [] if fid in self.probes else [Event(arm.name, fid, EventKind.PICK, t_p, t_pe),
                                             Event(arm.name, fid, EventKind.PLACE, k_pl * dt, k_end * dt)]

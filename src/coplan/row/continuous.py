@@ -124,8 +124,10 @@ class SpeedPoint:
                 "assign": self.assign}
 
 
-def _book(problem: Problem, reach: RowReach, cruise: Cruise, opts: MovingOptions, order=None) -> tuple[Booker, dict]:
-    windows = pick_windows(problem, reach, cruise, problem.task.pick_dwell)
+def _book(problem: Problem, reach: RowReach, cruise: Cruise, opts: MovingOptions, order=None,
+          windows=None) -> tuple[Booker, dict]:
+    if windows is None:
+        windows = pick_windows(problem, reach, cruise, problem.task.pick_dwell)
     booker = Booker(problem, cruise, windows, opts.rate, opts.margin, reach.resolution)
     left = run_policy(booker, order)
     return booker, left
@@ -170,7 +172,7 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
 
         order, info["cpsat"] = cpsat_order(problem, booker, reach, cruise)
         if order is not None:
-            b2, left2 = _book(problem, reach, cruise, opts, order)
+            b2, left2 = _book(problem, reach, cruise, opts, order, booker.windows)
             if (len(left2), _end(b2)) < (len(left), _end(booker)):
                 booker, left, info["assign"] = b2, left2, AssignRule.CPSAT.value
     timings["schedule"] = _time.perf_counter() - ts
@@ -188,7 +190,7 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
     return RowResult(plan, ver, [], reach, timings, info)
 
 
-def _end(b: Booker) -> int:
+def _end(b: Booker) -> float:
     return max((e.t_end for e in b.events), default=0.0)
 
 
@@ -226,12 +228,12 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     greedy = replace(opts, assign=AssignRule.GREEDY)  # the search's plans: CP-SAT only once, at its end
     with _Runner(problem, reach, demand, max(1, int(opts.workers)), progress) as runner:
 
-        def run_many(vs, o=greedy, d=None, key=None) -> list[SpeedPoint]:
+        def run_many(vs) -> list[SpeedPoint]:
             vs = [round(float(min(cap, max(v, 1e-3))), 4) for v in vs]
-            todo = [v for v in dict.fromkeys(vs) if (key or v) not in tried]
-            for v, (res, secs) in zip(todo, runner.map(todo, o, d)):
-                tried[key or v] = (res, _point(res, secs))
-            return [tried[key or v][1] for v in vs]
+            todo = [v for v in dict.fromkeys(vs) if v not in tried]
+            for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
+                tried[v] = (res, _point(res, secs))
+            return [tried[v][1] for v in vs]
 
         if levels is not None:
             run_many(list(levels))

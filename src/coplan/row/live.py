@@ -208,10 +208,8 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
     else:
         left = run_policy(booker, seen=seen, on_book=on_book, halt=halt, delay=delay)
     planning = _time.perf_counter() - t0
-    # false reports were probes: the motion stays, the events go; the rest name the true fruit
-    # and a second report of a fruit already picked was a probe too: the arm found nothing there
+    # the events name the true fruit (a probe's cycle has none: the arm found nothing there)
     events, picked_by = [], {}
-    probes = sorted(booker.probes)
     for e in sorted(booker.events, key=lambda e: (e.t_start, e.arm)):
         d = by_id[e.fruit]
         if picked_by.setdefault(d.truth, e.fruit) != e.fruit:  # never: a taken fruit's report is a probe
@@ -242,12 +240,13 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
                                        and _clear_of_stopped(booker, w, truth_xy[by_id[d].truth], halt) for w in ws)})
     span = float(plan.metrics.get("makespan") or 0.0)
     ref_span = float(offline.plan.metrics.get("makespan") or 0.0)
-    cycles = [e.t_end - p.t_start for p, e in zip(_picks(booker_events(events)), _places(booker_events(events)))]
+    pick_start = {(e.arm, e.fruit): e.t_start for e in events if e.kind == EventKind.PICK}
+    cycles = [e.t_end - pick_start[(e.arm, e.fruit)] for e in events if e.kind == EventKind.PLACE]
     metrics = {
         "harvested": len(got), "offline_harvested": len(ref), "of_offline": len(got & ref) / len(ref) if ref else None,
         "harvested_not_offline": len(got - ref), "row_time": span, "offline_row_time": ref_span,
         "row_time_ratio": span / ref_span if ref_span > 0 else None,
-        "reports": len(dets), "false_reports": sum(d.truth is None for d in dets), "probes": len(set(probes)),
+        "reports": len(dets), "false_reports": sum(d.truth is None for d in dets), "probes": len(booker.probes),
         "merged": sum(1 for k in outcome if k.startswith("report ")),
         "decisions": len(walls), "decision_max_seconds": max(walls, default=0.0),
         "decision_mean_seconds": float(np.mean(walls)) if walls else 0.0,
@@ -261,18 +260,6 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
                                                         "left_out": {k: v for k, v in outcome.items() if v != "harvested"}},
                    "live": metrics}
     return LiveRow(plan, ver, offline, dets, outcome, metrics)
-
-
-def booker_events(events: list[Event]) -> list[Event]:
-    return sorted(events, key=lambda e: (e.arm, e.t_start))
-
-
-def _picks(events: list[Event]) -> list[Event]:
-    return [e for e in events if e.kind == EventKind.PICK]
-
-
-def _places(events: list[Event]) -> list[Event]:
-    return [e for e in events if e.kind == EventKind.PLACE]
 
 
 def _faults(problem: Problem, cruise: Cruise, opts: LiveRowOptions, dets: list[RowDetection]):

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..kinematics import arm as kin
+from ..kinematics.timing import MoveError, ruckig_move
 from ..problem.model import Arm
 from .cruise import Cruise
 
@@ -28,8 +29,8 @@ __all__ = ["Leg", "LegError", "track", "track_state"]
 LIMIT_SHARE = 0.9
 
 
-class LegError(RuntimeError):
-    """Ruckig could not compute a move."""
+#: Ruckig could not compute a move.
+LegError = MoveError
 
 
 def _ik(arm: Arm, pts: np.ndarray, branch: int) -> np.ndarray:
@@ -66,31 +67,16 @@ def track_state(arm: Arm, fruit: tuple[float, float], cruise: Cruise, t: float, 
 
 class Leg:
     """A move from state ``start`` (3, 2) to state ``end`` (3, 2), time-optimal under the arm's
-    per-joint limits (Ruckig). ``duration`` in s; :meth:`sample` gives the poses."""
+    per-joint limits (:func:`coplan.kinematics.timing.ruckig_move`). ``duration`` in s;
+    :meth:`sample` gives the poses."""
 
     def __init__(self, arm: Arm, start: np.ndarray, end: np.ndarray):
-        from ruckig import InputParameter, Result, Ruckig, Trajectory
-
-        inp = InputParameter(2)
-        inp.current_position, inp.current_velocity, inp.current_acceleration = (list(map(float, r)) for r in start)
-        inp.target_position, inp.target_velocity, inp.target_acceleration = (list(map(float, r)) for r in end)
         # a little below the limits: a move joins a pick's tracking motion, whose own (small)
         # acceleration and jerk add to the move's at the seam
-        inp.max_velocity = [LIMIT_SHARE * v for v in arm.max_velocity]
-        inp.max_acceleration = [LIMIT_SHARE * a for a in arm.max_acceleration]
-        inp.max_jerk = [LIMIT_SHARE * j for j in arm.max_jerk]
-        from ruckig import RuckigError
-
-        traj = Trajectory(2)
-        try:
-            result = Ruckig(2).calculate(inp, traj)
-        except RuckigError as exc:  # e.g. a target state beyond the limits
-            raise LegError(str(exc).strip()) from exc
-        if result not in (Result.Working, Result.Finished):
-            raise LegError(f"ruckig: {result}")
-        self.trajectory = traj
+        lim = [[LIMIT_SHARE * x for x in v] for v in (arm.max_velocity, arm.max_acceleration, arm.max_jerk)]
+        self.trajectory = ruckig_move(start, end, *lim)
         self.end = np.asarray(end, float)
-        self.duration = float(traj.duration)
+        self.duration = float(self.trajectory.duration)
 
     def sample(self, t: np.ndarray) -> np.ndarray:
         """(K, 2) poses at times ``t`` from the leg's start (at its end state's pose after)."""

@@ -34,7 +34,7 @@ from ..problem.model import Problem
 from .clearance import runs
 from .verdict import Verification, Violation, ViolationKind
 
-__all__ = ["check_row_inputs", "check_carriage", "row_reachable_ids", "carriage_speed"]
+__all__ = ["check_row_inputs", "check_carriage", "row_reachable_ids"]
 
 REACH_STEP = 0.01  # m between the carriage positions :func:`row_reachable_ids` tries
 
@@ -52,13 +52,6 @@ def check_row_inputs(problem: Problem, plan: Plan) -> None:
     if plan.gantry_x is not None and (np.shape(plan.gantry_x) != (n,) or not np.all(np.isfinite(plan.gantry_x))):
         raise PlanFileError([Issue("gantry.x", f"expected {n} finite positions, found shape {np.shape(plan.gantry_x)}")],
                             f"plan for problem {plan.problem!r}")
-
-
-def carriage_speed(plan: Plan) -> np.ndarray:
-    """(N - 1,) |carriage speed| in each interval (0 for a cell plan)."""
-    if plan.gantry_x is None or plan.time.size < 2:
-        return np.zeros(max(0, plan.time.size - 1))
-    return np.abs(np.diff(np.asarray(plan.gantry_x, float))) / plan.dt
 
 
 def check_carriage(problem: Problem, plan: Plan, opts, ver: Verification) -> None:
