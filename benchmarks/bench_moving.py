@@ -16,15 +16,18 @@
    generated 30 m row at 12 fruit per metre, stop and go (optimised stops) and on the move, run
    as a ``coplan sweep`` (``base: gantry``) on a 2-worker Dask LocalCluster; the figure
    ``docs/arms_curve.png`` with the line a perfectly linear speed-up from one arm would follow.
-4. **Live rows** (``coplan run ROW --speed V``): each shipped row at the mean speed continuous
-   mode chose for it in part 1 (constant here), a camera 1.5 m ahead, 10 mm noise, 5 % false and
-   2 % repeated reports, seeds 0-2: the share of what the offline plan (full knowledge, same
-   speed) harvests, row time against it, and the slowest decision against the shortest cycle.
-5. **Faults**: 50 seeded live rows (generated 12 m rows, 3 arms, 6 fruit per metre, seeds 0-49,
-   0.1 m/s), each with one arm stopping, a 3 s camera outage, a burst of 50 false reports and a
-   decision 2 s late, every one through ``coplan run`` in its own process: collisions and limit
-   violations in the executed plans (``coplan verify`` on the files), fruit missed though a
-   working arm could still reach them, and whether every run's files read back whole.
+4. **Live rows**, both modes: on the move (``coplan run ROW --speed V``) at the mean speed
+   continuous mode chose for the row in part 1 (constant here), and stop and go (``coplan run
+   ROW --gantry stop-and-go``); each shipped row, a camera 1.5 m ahead, 10 mm noise, 5 % false
+   and 2 % repeated reports, seeds 0-2: the share of what the offline plan in the same mode (full
+   knowledge; on the move at the same speed, stop and go the optimised-stops row planner)
+   harvests, row time against it, and the slowest decision against the shortest cycle.
+5. **Faults**, both modes: 50 seeded live rows each (generated 12 m rows, 3 arms, 6 fruit per
+   metre, seeds 0-49; on the move at 0.1 m/s), each with one arm stopping, a 3 s camera outage,
+   a burst of 50 false reports and a decision 2 s late, every one through ``coplan run`` in its
+   own process: collisions and limit violations in the executed plans (``coplan verify`` on the
+   files), fruit missed though a working arm could still reach them, and whether every run's
+   files read back whole.
 
 Every ratio is measured in this run, on this machine. Every plan is verified.
 
@@ -216,35 +219,48 @@ def live_rows(seeds=(0, 1, 2)) -> None:
     from coplan.problem import load_problem, shipped_rows
     from coplan.row.live import LiveRowOptions, run_live_row
 
-    print("\nLive rows on the move (camera 1.5 m ahead, 10 mm noise, 5 % false and 2 % repeated reports; the offline "
-          "plan at the same constant speed knows every fruit):\n")
-    print("| row | speed | seed | harvested | of the offline plan's | row time / offline | slowest decision | shortest cycle | "
-          "probes | verified |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    from coplan.kinds import GantryMode
+
+    print("\nLive rows (camera 1.5 m ahead, 10 mm noise, 5 % false and 2 % repeated reports; the offline plan in the "
+          "same mode knows every fruit: on the move at the same constant speed, stop and go the optimised-stops row "
+          "planner):\n")
+    print("| row | mode | seed | harvested | of the offline plan's | row time / offline | stops | slowest decision | "
+          "shortest cycle | probes | verified |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for path in shipped_rows():
         prob = load_problem(path)
         v = round(SPEEDS.get(path.stem) or 0.1, 3)
-        for seed in seeds:
-            r = run_live_row(prob, LiveRowOptions(speed=v, seed=seed))
-            m = r.metrics
-            print(f"| {path.stem} | {v:.3f} m/s | {seed} | {m['harvested']} | {100 * m['of_offline']:.1f} % | "
-                  f"{m['row_time_ratio']:.3f} | {1000 * m['decision_max_seconds']:.1f} ms | {m['shortest_cycle_seconds']:.2f} s | "
-                  f"{m['probes']} | {'yes' if m['verified'] else 'NO'} |", flush=True)
+        for mode in (GantryMode.CONTINUOUS, GantryMode.STOP_AND_GO):
+            for seed in seeds:
+                r = run_live_row(prob, LiveRowOptions(speed=v, seed=seed, mode=mode))
+                m = r.metrics
+                label = f"on the move {v:.3f} m/s" if mode == GantryMode.CONTINUOUS else "stop and go"
+                print(f"| {path.stem} | {label} | {seed} | {m['harvested']} | {100 * m['of_offline']:.1f} % | "
+                      f"{m['row_time_ratio']:.3f} | {m['stops'] if m['stops'] is not None else '-'} | "
+                      f"{1000 * m['decision_max_seconds']:.1f} ms | {m['shortest_cycle_seconds']:.2f} s | "
+                      f"{m['probes']} | {'yes' if m['verified'] else 'NO'} |", flush=True)
 
 
 def faults(n: int = 50) -> None:
+    for mode in ("continuous", "stop-and-go"):
+        fault_runs(mode, n)
+
+
+def fault_runs(mode: str, n: int) -> None:
     import json
 
     from coplan.generate import gantry_row, to_yaml
 
-    bad_files, unsafe, missed, harvested, offline, took = 0, 0, [], 0, 0, []
+    how = ["--speed", "0.1"] if mode == "continuous" else ["--gantry", "stop-and-go"]
+
+    bad_files, unsafe, missed, harvested, offline, took, holds, waits, nothing = 0, 0, [], 0, 0, [], [], 0, 0
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(n):
             path = Path(tmp) / f"row{seed}.yaml"
             path.write_text(to_yaml(gantry_row(length=12.0, n_arms=3, density=6.0, seed=seed)))
             out = Path(tmp) / f"run{seed}"
             t = time.perf_counter()
-            subprocess.run([sys.executable, "-m", "coplan.cli", "run", str(path), "--speed", "0.1", "--seed", str(seed),
+            subprocess.run([sys.executable, "-m", "coplan.cli", "run", str(path), *how, "--seed", str(seed),
                             "--arm-stop", "--camera-dark", "3", "--false-burst", "50", "--late-replan", "2", "-o", str(out),
                             "--json"], capture_output=True, text=True)
             took.append(time.perf_counter() - t)
@@ -262,13 +278,20 @@ def faults(n: int = 50) -> None:
             missed.append(len(m["missed_reachable_by_a_working_arm"]))
             harvested += m["harvested"]
             offline += m["offline_harvested"]
-    print(f"\nFaults over {n} seeded live rows (12 m, 3 arms, 6 fruit/m, 0.1 m/s; one arm stops, a 3 s camera outage, "
+            dark = m["faults"].get("camera_dark", {})
+            holds += [dark["hold_seconds"]] if "hold_seconds" in dark else []
+            waits += "carriage_waits_at" in dark
+            nothing += m["grasps_on_nothing"]
+    print(f"\nFaults over {n} seeded live rows, {'on the move at 0.1 m/s' if mode == 'continuous' else 'stop and go'} "
+          f"(12 m, 3 arms, 6 fruit/m; one arm stops, a 3 s camera outage, "
           f"50 false reports at once, a decision 2 s late; each a coplan run in its own process, median {np.median(took):.1f} s):\n")
     print(f"- executed plans coplan verify refuses (collisions, limits, picks off their fruit): {unsafe} of {n - bad_files}")
     print(f"- runs whose files did not read back whole: {bad_files} of {n}")
     print(f"- fruit harvested: {harvested}, {100 * harvested / max(offline, 1):.1f} % of what the fault-free offline plans harvest")
     print(f"- fruit missed though a working arm could still reach them: {sum(missed)} in total, in {sum(1 for x in missed if x)} "
           f"of {len(missed)} runs (at most {max(missed, default=0)} in one)")
+    print(f"- camera outage: the carriage held in {len(holds)} runs (median {np.median(holds) if holds else 0:.2f} s), "
+          f"waited at a stop for the camera in {waits}; grasps that closed on nothing (close-range error > 5 mm): {nothing}")
 
 
 def main() -> None:

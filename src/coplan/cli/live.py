@@ -16,7 +16,7 @@ from rich.console import Console
 from .console import ProgressDisplay
 from .failures import check_out_dir, resolve_problem, usage
 from .summary import safe as _safe
-from ..kinds import ExitCode, PlanStatus
+from ..kinds import ExitCode, GantryMode, PlanStatus
 
 __all__ = ["feed_cmd", "run_cmd"]
 
@@ -69,6 +69,9 @@ def run_cmd(
                                                  "(a cell; a row's camera is simulated from the options below).")] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-live"),
     speed: Annotated[Optional[float], typer.Option(help="A row: the carriage's cruising speed, m/s (picks on the move).")] = None,
+    gantry: Annotated[Optional[GantryMode], typer.Option(
+        help="A row: continuous (picks on the move, at --speed; the default) or stop-and-go (stops chosen as fruit come "
+             "into view).")] = None,
     look_ahead: Annotated[float, typer.Option("--look-ahead", min=0.0, max=100.0,
                                               help="A row: how far ahead of the front arm's base the camera sees, m.")] = 1.5,
     sigma: Annotated[float, typer.Option(min=0.0, max=1.0, help="A row: detection noise per coordinate, m.")] = 0.01,
@@ -105,10 +108,10 @@ def run_cmd(
         from ..row.live import RowFaults
 
         faults = RowFaults(arm_stop, camera_dark, false_burst, late_replan)
-        return _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults)
-    if feed is None or speed is not None:
+        return _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults)
+    if feed is None or speed is not None or gantry is not None:
         usage(f"{prob.name} is a stationary cell: give its camera's reports with --feed FEED (coplan feed makes one); "
-              "--speed applies to a row")
+              "--speed and --gantry apply to a row")
     fd = load_feed(feed)
     if fd.problem is not None and fd.problem != prob.name:
         _err.print(f"[yellow]note[/]: the feed was made for problem {_safe(fd.problem)!r}, this is {_safe(prob.name)!r}",
@@ -144,8 +147,8 @@ def run_cmd(
     raise typer.Exit(int(code))
 
 
-def _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults):
-    """``coplan run ROW``: the row live on the move (:mod:`coplan.row.live`)."""
+def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults):
+    """``coplan run ROW``: the row live, on the move or stop and go (:mod:`coplan.row.live`)."""
     from ..output import RunFolder
     from ..pipeline import status_exit_code
     from ..plan import jsonable
@@ -154,15 +157,25 @@ def _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_ra
     if feed is not None:
         usage(f"--feed: {prob.name} is a row: its camera is simulated (--look-ahead, --sigma, --false-rate, "
               "--duplicate-rate, --seed); feed files describe a stationary cell's camera")
+    mode = GantryMode(gantry or GantryMode.CONTINUOUS)
     vmax = prob.gantry.max_velocity
-    if speed is None or not (speed == speed and 0.0 < speed <= vmax):
+    if mode == GantryMode.AUTO:
+        usage("--gantry: expected continuous or stop-and-go for a live row (a live planner runs one mode), found auto")
+    if mode == GantryMode.STOP_AND_GO:
+        if speed is not None:
+            usage("--speed: applies on the move (--gantry continuous); stop and go, the carriage hops between stops at "
+                  "the gantry's limits")
+        speed = 0.1  # unused
+    elif speed is None or not (speed == speed and 0.0 < speed <= vmax):
         usage(f"--speed: expected the carriage's cruising speed in (0, {vmax:g}] m/s (gantry.max_velocity), found "
-              f"{'nothing' if speed is None else f'{speed:g}'}")
+              f"{'nothing' if speed is None else f'{speed:g}'} (or --gantry stop-and-go)")
     opts = LiveRowOptions(speed=speed, look_ahead=look_ahead, sigma=sigma, false_rate=false_rate,
-                          duplicate_rate=duplicate_rate, seed=seed, faults=faults)
+                          duplicate_rate=duplicate_rate, seed=seed, faults=faults, mode=mode)
     res = run_live_row(prob, opts)
-    doc = {"format": "coplan.run/1", "problem": prob.name, "mode": "row on the move",
-           "options": {k: v for k, v in opts.__dict__.items() if k != "faults"} | {"faults": faults.__dict__},
+    doc = {"format": "coplan.run/1", "problem": prob.name,
+           "mode": "row on the move" if mode == GantryMode.CONTINUOUS else "row stop and go",
+           "options": {k: (v.value if k == "mode" else v) for k, v in opts.__dict__.items() if k != "faults"}
+           | {"faults": faults.__dict__},
            "detections": [{"id": d.id, "position": list(d.position), "t": d.t, "fruit": d.truth} for d in res.detections],
            "outcome": res.outcome, "metrics": res.metrics}
     with RunFolder(out) as stage:
@@ -174,7 +187,9 @@ def _run_row(prob, out, feed, speed, look_ahead, sigma, false_rate, duplicate_ra
         typer.echo(json.dumps(jsonable(m), allow_nan=False))
     else:
         _out.print(
-            f"{_safe(prob.name)} live on the move at {speed:g} m/s (camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
+            f"{_safe(prob.name)} live "
+            + (f"on the move at {speed:g} m/s" if mode == GantryMode.CONTINUOUS else f"stop and go ({m['stops']} stops)") +
+            f" (camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
             f"{m['false_reports']} false reports): {m['harvested']} fruit harvested, {100 * (m['of_offline'] or 0):.1f} % of "
             f"what the offline plan (full knowledge) harvests; row time {m['row_time']:.1f} s = {m['row_time_ratio']:.3f} x "
             f"the offline plan's\n{m['decisions']} decisions, slowest {1000 * m['decision_max_seconds']:.1f} ms against a "

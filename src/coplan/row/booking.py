@@ -32,7 +32,7 @@ from ..problem.model import Problem
 from .cruise import Cruise, Window
 from .track import Leg, LegError, track, track_state
 
-__all__ = ["Booker", "Cycle", "run_policy"]
+__all__ = ["Booker", "Cycle", "run_policy", "why_left"]
 
 _RETRY = 0.1  # s: a cycle that would come too close to a neighbour is tried again this much later ...
 _RETRY_GROWTH = 1.5  # ... and each further try that much later again
@@ -322,7 +322,7 @@ def replace_reach_margin(problem: Problem) -> Problem:
 
 def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=None, on_book=None,
                halt: dict[int, float] | None = None, delay=None, until: float | None = None,
-               taken: set[str] | None = None) -> dict[str, str]:
+               taken: set[str] | None = None, home_when_idle: bool = True, make_way: bool = False) -> dict[str, str]:
     """Book cycles in time order (module docstring); returns fruit left out -> why. ``order``:
     each arm's fruit in turn (any it cannot fit are left to the greedy afterwards).
 
@@ -338,7 +338,11 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
 
     In phases: ``until`` stops deciding at that time (each arm left free at or after it, at rest);
     ``taken`` (fruit already booked) carries over to the next phase, whose booker may have a new
-    carriage motion from then on."""
+    carriage motion from then on; ``home_when_idle=False`` leaves an arm with nothing (more) to
+    book at rest where it is (a stop-and-go stage: the next stop brings new fruit) instead of
+    sending it home; ``make_way=True`` sends an arm that finds no clear cycle home before it
+    tries again (with the carriage at rest, two arms each resting where the other would pick
+    would otherwise wait for each other for good)."""
     windows = booker.windows
     taken = taken if taken is not None else set()
     arms = booker.problem.arms
@@ -376,7 +380,8 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 heapq.heappush(queue, (booker.free_time(i), i))
                 continue
         if not cands:
-            booker.go_home(i)
+            if home_when_idle:
+                booker.go_home(i)
             continue
         first = None
         while pending[i] and first is None:
@@ -407,16 +412,25 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 booked = True
                 break
         if not booked:
+            if now >= booker.cruise.duration:  # the carriage at rest for good: a fruit no branch reaches
+                # from there (its close-range measurement moved it off the run's edge) never will be
+                x1 = booker.cruise.x1
+                gone = {(fid, w.arm) for fid, w in tries if not booker.branches(i, fid, x1, x1)}
+                by_arm[i] = [(fid, w) for fid, w in by_arm[i] if (fid, w.arm) not in gone]
             if first is not None:
                 pending[i].pop(0)  # the given order's next fruit does not fit: the greedy may take it
+            elif make_way and not np.allclose(booker.arms[i].q[booker.arms[i].k_free], arms[i].home, atol=1e-9) \
+                    and booker.go_home(i):
+                pass
             else:
                 soonest = min((c[1].lo for c in cands if c[1].lo > now), default=now + _RETRY)
                 booker.wait(i, max(_RETRY, min(soonest - now - 1.0, 1.0)))
         heapq.heappush(queue, (booker.free_time(i), i))
-    return {fid: _why_left(booker, fid, halt or {}) for fid in windows if fid not in taken}
+    return {fid: why_left(booker, fid, halt or {}) for fid in windows if fid not in taken}
 
 
-def _why_left(booker: Booker, fid: str, halt: dict[int, float]) -> str:
+def why_left(booker: Booker, fid: str, halt: dict[int, float]) -> str:
+    """Why ``fid`` was not booked, from its windows on the booker's carriage motion."""
     ws = booker.windows[fid]
     if not ws:
         return f"{fid}: the carriage never stands where an arm can pick it at this speed"

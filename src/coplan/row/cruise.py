@@ -25,7 +25,7 @@ from ..kinematics.timing import Move1D
 from ..problem.model import Problem
 from .reach import RowReach
 
-__all__ = ["Cruise", "Window", "pick_windows", "cruise_end", "demand_stretches", "STRETCH"]
+__all__ = ["Cruise", "Window", "pick_windows", "cruise_end", "demand_stretches", "ramp_time", "STRETCH"]
 
 #: Length of rail with one speed in a shaped cruise, m.
 STRETCH = 1.0
@@ -45,7 +45,8 @@ def _ramp(v0: float, v1: float, a: float, j: float) -> list[tuple[float, float]]
     return [(tj, s * j), (tj, -s * j)]
 
 
-def _ramp_time(v0: float, v1: float, a: float, j: float) -> float:
+def ramp_time(v0: float, v1: float, a: float, j: float) -> float:
+    """How long :func:`_ramp` takes, s."""
     return sum(d for d, _ in _ramp(v0, v1, a, j))
 
 
@@ -70,13 +71,16 @@ class Cruise:
 
     @classmethod
     def shaped(cls, problem: Problem, stretches, x1: float) -> "Cruise":
-        """``stretches``: ``[(x_end, speed), ...]`` in rail order: cruise at ``speed`` until the
-        carriage reaches ``x_end`` (the next stretch's speed is reached by a ramp that starts
-        there), the last until it must slow down to come to rest at ``x1``."""
+        """``stretches``: ``[(x_end, speed), ...]`` or ``(x_end, speed, hold)`` in rail order:
+        cruise at ``speed`` until the carriage reaches ``x_end`` (the next stretch's speed is
+        reached by a ramp that starts there), the last until it must slow down to come to rest
+        at ``x1``. A ``hold`` (s) > 0: at ``x_end`` the carriage ramps down to rest, waits that
+        long, and ramps up to the next stretch's speed."""
         g = problem.gantry
         a, j = g.max_acceleration, g.max_jerk
         x1 = min(max(float(x1), g.start), g.end)
-        for _, v in stretches:
+        stretches = [(float(s[0]), float(s[1]), float(s[2]) if len(s) > 2 else 0.0) for s in stretches]
+        for _, v, _ in stretches:
             if not 0.0 < v <= g.max_velocity * (1 + 1e-12):
                 raise ValueError(f"speed: expected a cruising speed in (0, {g.max_velocity:g}] m/s (the gantry's "
                                  f"limit), found {v:g}")
@@ -99,11 +103,11 @@ class Cruise:
                 run(d, jk)
             acc = 0.0
 
-        top = max(v for _, v in stretches)
-        for k, (x_end, vk) in enumerate(stretches):
+        top = max(v for _, v, _ in stretches)
+        for k, (x_end, vk, hold) in enumerate(stretches):
             # the stop must begin where a ramp from this speed to rest ends exactly at x1
-            stop_at = x1 - vk * _ramp_time(vk, 0.0, a, j) / 2
-            if x + (v + vk) * _ramp_time(v, vk, a, j) / 2 > stop_at:
+            stop_at = x1 - vk * ramp_time(vk, 0.0, a, j) / 2
+            if x + (v + vk) * ramp_time(v, vk, a, j) / 2 > stop_at:
                 break  # no room to reach this speed before stopping
             ramp_to(vk)
             v = vk
@@ -112,9 +116,13 @@ class Cruise:
                 run((end - x) / vk, 0.0)
             if x >= stop_at - 1e-12:
                 break
+            if hold > 0:  # come to rest here (the ramp ends before stop_at: it is shorter than the final stop's)
+                ramp_to(0.0)
+                v = 0.0
+                run(hold, 0.0)
         # come to rest at x1: the fastest stop from v, after cruising at v to where it must begin
         if v > 0:
-            stop_at = x1 - v * _ramp_time(v, 0.0, a, j) / 2
+            stop_at = x1 - v * ramp_time(v, 0.0, a, j) / 2
             if stop_at > x + 1e-12:
                 run((stop_at - x) / v, 0.0)
             ramp_to(0.0)
@@ -124,6 +132,33 @@ class Cruise:
                 run(d, jk)
         out.append((t, x1, 0.0, 0.0, 0.0))  # at rest (x is x1 up to rounding)
         return cls(g.start, x1, float(top), tuple(out))
+
+    @classmethod
+    def hops(cls, problem: Problem, legs) -> "Cruise":
+        """Stop and go: ``legs`` ``[(t_depart, x_to), ...]`` in time order; the carriage rests at
+        ``gantry.start`` until the first departure, then each leg is a time-optimal jerk-limited
+        rest-to-rest move (at the gantry's limits) to ``x_to``, where it rests until the next
+        departure (no earlier than its arrival) -- and after the last, for good."""
+        g = problem.gantry
+        out: list[tuple[float, float, float, float, float]] = []
+        t, x = 0.0, g.start
+        for t_dep, x_to in legs:
+            x_to = min(max(float(x_to), g.start), g.end)
+            if x_to < x - 1e-9:
+                raise ValueError(f"a hop back along the rail: from {x:g} to {x_to:g} m")
+            t_dep = max(t, float(t_dep))
+            if t_dep > t:
+                out.append((t, x, 0.0, 0.0, 0.0))
+            t = t_dep
+            mv = Move1D.between(x, x_to, g.max_velocity, g.max_acceleration, g.max_jerk)
+            for d, jk in zip(mv.durs, mv.jerks):
+                if d > 0:
+                    p, v, acc = (float(u[0]) for u in mv.state(np.array([t - t_dep])))
+                    out.append((t, p, v, acc, jk))
+                    t += d
+            x = x_to
+        out.append((t, x, 0.0, 0.0, 0.0))
+        return cls(g.start, x, float(g.max_velocity), tuple(out))
 
     @property
     def duration(self) -> float:
