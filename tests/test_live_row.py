@@ -162,3 +162,19 @@ def test_coplan_run_stop_and_go_writes_a_verified_run_and_refuses_what_does_not_
                         (["--gantry", "auto"], "--gantry: expected continuous or stop-and-go")):
         bad = CliRunner().invoke(app, ["run", str(path), *args, "-o", str(tmp_path / "x")])
         assert bad.exit_code == 2 and words in bad.output and "Traceback" not in bad.output
+
+
+def test_on_the_move_the_carriage_holds_rather_than_pass_fruit_no_arm_can_book():
+    # a fast carriage on a sparse row: some fruit would pass the rear arm while it is busy
+    row = parse_problem(to_yaml(gantry_row(length=20.0, density=2.0, seed=11)))
+    held = run_live_row(row, LiveRowOptions(speed=0.4, seed=1))
+    free = run_live_row(row, LiveRowOptions(speed=0.4, seed=1, hold_for_fruit=False))
+    assert held.verification.passed and free.verification.passed
+    holds = held.plan.solver["row"]["holds"]
+    assert free.plan.solver["row"]["holds"] == [] and free.metrics["holds_for_fruit"] == 0
+    assert holds and held.metrics["holds_for_fruit"] == len(holds)
+    p = held.plan
+    for h in holds:  # at rest where it says, for as long as it says (after a jerk-limited stop)
+        at = (p.time >= h["t"]) & (p.time <= h["t"] + 1.0 + h["seconds"])
+        assert np.ptp(p.gantry_x[at]) > 0 and np.count_nonzero(np.diff(p.gantry_x[at]) == 0) * 0.01 >= h["seconds"] - 0.02
+    assert held.metrics["harvested"] > free.metrics["harvested"]  # the fruit it held for were picked

@@ -30,7 +30,7 @@ from ..planners.coordinated.schedule import arm_points, points_too_close
 from ..problem.gantry import cell_at
 from ..problem.model import Problem
 from .cruise import Cruise, Window
-from .track import Leg, LegError, track, track_state
+from .track import LIMIT_SHARE, Leg, LegError, track, track_state
 
 __all__ = ["Booker", "Cycle", "run_policy", "why_left"]
 
@@ -42,6 +42,7 @@ _TRACK_SHARES = (0.95, 0.9, 0.5)
 _CYCLE_SHARES = (0.98, 0.98, 0.98)
 _PATIENCE = 5.0  # s: the longest an arm waits for a clear cycle on one fruit
 _TRIES = 6  # fixed-point rounds: arrival time <-> where the fruit is then
+_GIVE_UP = 3  # decisions without a clear cycle on one fruit, the carriage at rest for good, before an arm leaves it
 
 
 @dataclass
@@ -84,6 +85,7 @@ class Booker:
         self.checks = 0
         self._use: dict[tuple[int, str], tuple[float, np.ndarray]] = {}
         self.step = step  # m: the row screen's grid, on which a pick's elbow branch is screened
+        self.leg_share = LIMIT_SHARE  # of the joint limits a move uses (AT_REST_SHARE: every pick at rest)
 
     # ------------------------------------------------------------------ poses
     def _bin_pose(self, i: int) -> np.ndarray:
@@ -201,7 +203,7 @@ class Booker:
                 for b in brs:
                     target = track_state(arm, xy, self.cruise, t_p, b)
                     try:
-                        leg = Leg(arm, rest, target)
+                        leg = Leg(arm, rest, target, self.leg_share)
                     except LegError:
                         continue
                     if best is None or leg.duration < best[1].duration:
@@ -235,7 +237,7 @@ class Booker:
         t_pe = (k_p + n_pick) * dt
         end_state = track_state(arm, xy, self.cruise, t_pe, b)
         try:
-            leg2 = Leg(arm, end_state, np.array([qb, np.zeros(2), np.zeros(2)]))
+            leg2 = Leg(arm, end_state, np.array([qb, np.zeros(2), np.zeros(2)]), self.leg_share)
         except LegError:
             return None
         k_pl = self.up(t_pe + leg2.duration)
@@ -298,7 +300,7 @@ class Booker:
         if np.allclose(q0, home, atol=1e-12):
             st.done = True
             return True
-        leg = Leg(arm, np.array([q0, np.zeros(2), np.zeros(2)]), np.array([home, np.zeros(2), np.zeros(2)]))
+        leg = Leg(arm, np.array([q0, np.zeros(2), np.zeros(2)]), np.array([home, np.zeros(2), np.zeros(2)]), self.leg_share)
         k_s = max(st.k_free, self.up(not_before))
         for _ in range(int(60.0 / _RETRY)):
             n = self.up(leg.duration)
@@ -355,6 +357,7 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
     queue = [(0.0, i) for i in range(len(arms))]
     heapq.heapify(queue)
     pending = {i: list((order or {}).get(i, [])) for i in range(len(arms))}
+    failed: dict[tuple[int, str], int] = {}
     while queue:
         _, i = heapq.heappop(queue)
         now = booker.free_time(i)
@@ -413,9 +416,14 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 break
         if not booked:
             if now >= booker.cruise.duration:  # the carriage at rest for good: a fruit no branch reaches
-                # from there (its close-range measurement moved it off the run's edge) never will be
+                # from there (its close-range measurement moved it off the run's edge) never will be,
+                # and one that found no clear cycle _GIVE_UP times (each up to _PATIENCE of waiting)
+                # is left to the next stop
                 x1 = booker.cruise.x1
-                gone = {(fid, w.arm) for fid, w in tries if not booker.branches(i, fid, x1, x1)}
+                for fid, w in tries:
+                    failed[(i, fid)] = failed.get((i, fid), 0) + 1
+                gone = {(fid, w.arm) for fid, w in tries
+                        if failed[(i, fid)] >= _GIVE_UP or not booker.branches(i, fid, x1, x1)}
                 by_arm[i] = [(fid, w) for fid, w in by_arm[i] if (fid, w.arm) not in gone]
             if first is not None:
                 pending[i].pop(0)  # the given order's next fruit does not fit: the greedy may take it

@@ -18,12 +18,16 @@ Entry point: :func:`run_live_row` -> :class:`LiveRow`, in either gantry mode.
   grasp aimed farther than the pick tolerance from the true fruit (a close-range error of
   several sigma) closes on nothing: the cycle is executed, the fruit stays and is reported missed.
 * **On the move** (``mode=continuous``): the carriage cruises at a constant ``speed`` (a live
-  planner cannot shape its speed to fruit it has not seen).
-* **Stop and go** (``mode=stop-and-go``): the carriage stops, the arms pick every fruit seen
-  that they can reach from there (picks only with the carriage at rest), and once the last pick
-  is over it hops -- a time-optimal jerk-limited move -- to the next stop: the fewest-stops
-  rule over the fruit seen and not yet taken (the first place where one of them is about to
-  leave every arm's reach), never beyond what the camera has seen (it passes no fruit unseen).
+  planner cannot shape its speed to fruit it has not seen), and holds rather than pass a
+  reported fruit no working arm can still book (``hold_for_fruit``: every ``CHECK`` s, an
+  earliest-deadline-first schedule of the fruit whose windows close soon, at estimated cycles).
+* **Stop and go** (``mode=stop-and-go``): the carriage stops (the first stop and every next one
+  as far as it can go: no farther than the first place where a fruit reported and not taken
+  would leave every arm's reach, nor than puts the rear arm's base under the edge of what the
+  camera has seen, so it passes no fruit unseen); the arms pick, with the carriage at rest, the
+  fruit the next stop could not serve and those it shares with the next stop where they
+  lengthen the two stops least (:func:`_stop_share`), each arm's balanced; once the last pick
+  is over the carriage hops -- a time-optimal jerk-limited move -- while the arms place.
 * **Verified against the truth**: the executed motion is one ordinary row plan whose events
   name the true fruit, verified by :func:`coplan.verify.verify` against the true problem.
 * **Reference**: the offline plan with full knowledge (every true fruit at its true position
@@ -45,89 +49,28 @@ import numpy as np
 
 from ..allocate.screen import TIP_TOLERANCE
 from ..kinds import AssignRule, GantryMode, SpeedProfile
-from ..kinematics.timing import Move1D
 from ..plan import DEFAULT_RATE, Event, EventKind, finalize_plan
 from ..problem.model import Fruit, Problem
 from .booking import Booker, run_policy, why_left
 from .continuous import MovingOptions, assemble_moving, plan_continuous
 from .cruise import Cruise, ramp_time, pick_windows
 from .reach import row_reach
+from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
+                      row_detections, row_reports)
+from .track import AT_REST_SHARE
 
 #: After an arm stops, the carriage runs at this share of the working arms' share of its speed.
 STOP_SLOWDOWN = 0.5
 #: Stop and go: a stop's picks may start up to this long per fruit in reach (and one more) after it arrives, s.
 STOP_PATIENCE = 10.0
+#: On the move, holding for fruit: the planner looks every CHECK s at the fruit whose windows close
+#: within LOOK s; one no working arm is free to reach (REACH_TIME s) before its window closes holds the
+#: carriage HOLD_PER_FRUIT s per such fruit per working arm (at least HOLD_MIN s).
+CHECK, LOOK, REACH_TIME, HOLD_PER_FRUIT, HOLD_MIN = 0.5, 8.0, 1.5, 3.0, 1.5
 
+# the camera and the faults live in .sensing; re-exported here, where a live row is run
 __all__ = ["LiveRowOptions", "RowFaults", "RowDetection", "LiveRow", "row_reports", "report_times", "row_detections",
            "run_live_row"]
-
-
-@dataclass(frozen=True)
-class RowFaults:
-    """Things that go wrong during a live row, each at a time drawn from the run's seed (between
-    20 % and 80 % of the carriage's run; stop and go: of the offline plan's row time), so that a
-    run can be replayed.
-
-    arm_stop : one arm (drawn) reports a controller fault: it finishes the motion in progress and
-        stays where it then rests, an obstacle; its fruit go to the neighbours that reach them
-    camera_dark : s the camera reports nothing; what it would have seen is reported when it is
-        back. The carriage does not pass what it has not seen: on the move it comes to rest (once
-        the picks booked before are over) and holds until the camera is back; stop and go, it
-        hops no further than the camera saw before it went dark
-    false_burst : false reports at one instant, all within the camera's view (stop and go: at the
-        first stop reached at or after that instant)
-    late_replan : s one decision (the first at or after its time) runs late; the arm waits
-    """
-
-    arm_stop: bool = False
-    camera_dark: float = 0.0
-    false_burst: int = 0
-    late_replan: float = 0.0
-
-    @property
-    def any(self) -> bool:
-        return self.arm_stop or self.camera_dark > 0 or self.false_burst > 0 or self.late_replan > 0
-
-
-@dataclass(frozen=True)
-class LiveRowOptions:
-    """The camera and the live planner (separate from the problem)."""
-
-    speed: float = 0.1  # m/s, the carriage's cruising speed (on the move)
-    look_ahead: float = 1.5  # m ahead of the front arm's base the camera sees
-    sigma: float = 0.01  # m, detection noise per coordinate
-    false_rate: float = 0.05  # false reports, as a share of the fruit
-    duplicate_rate: float = 0.02  # fruit reported twice
-    close_sigma: float = 0.001  # m, the close-range measurement's noise per coordinate
-    merge: float = 0.0  # m: a report this close to an earlier one is the same fruit (0: none merged; a
-    # second report of a picked fruit then costs a probe -- in trusses, distinct fruit lie closer than
-    # two noisy reports of one)
-    seed: int = 0
-    margin: float = 0.02  # m beyond the clearance, as for the offline plan
-    faults: RowFaults = field(default_factory=RowFaults)
-    mode: GantryMode = GantryMode.CONTINUOUS  # continuous or stop-and-go
-
-
-@dataclass(frozen=True)
-class RowDetection:
-    """One camera report: ``id``, where it says, when, and the true fruit (None: false)."""
-
-    id: str
-    position: tuple[float, float]
-    t: float
-    truth: str | None
-
-
-@dataclass(frozen=True)
-class RowReport:
-    """A report before its time is known: the camera makes it ``lag`` s after the carriage first
-    reaches ``at_x`` (a false burst: at time ``lag``, ``at_x`` None)."""
-
-    id: str
-    position: tuple[float, float]
-    at_x: float | None
-    lag: float
-    truth: str | None
 
 
 @dataclass
@@ -138,53 +81,6 @@ class LiveRow:
     detections: list[RowDetection]
     outcome: dict[str, str]  # true fruit id -> harvested | missed (why)
     metrics: dict = field(default_factory=dict)
-
-
-def _front(problem: Problem) -> float:
-    return max(a.base[0] for a in problem.arms)
-
-
-def row_reports(problem: Problem, opts: LiveRowOptions) -> list[RowReport]:
-    """The camera's reports over the whole row (module docstring), in the order it makes them."""
-    rng = np.random.default_rng(opts.seed)
-    front = _front(problem)
-    raw = []
-    for f in problem.fruits:
-        x, y = f.position
-        at = x - front - opts.look_ahead
-        raw.append(((x + rng.normal(0, opts.sigma), y + rng.normal(0, opts.sigma)), at, 0.0, f.id))
-        if rng.random() < opts.duplicate_rate:
-            raw.append(((x + rng.normal(0, opts.sigma), y + rng.normal(0, opts.sigma)), at, 0.5, f.id))
-    if problem.fruits:
-        ys = np.array([f.position[1] for f in problem.fruits])
-        g = problem.gantry
-        for _ in range(int(round(opts.false_rate * len(problem.fruits)))):
-            x, y = rng.uniform(g.start, g.end), rng.uniform(ys.min(), ys.max())
-            raw.append(((x, y), x - front - opts.look_ahead, 0.0, None))
-    raw.sort(key=lambda r: (r[1], r[2], r[0][0]))
-    width = max(4, len(str(len(raw))))
-    return [RowReport(f"d{k + 1:0{width}d}", (round(float(p[0]), 6), round(float(p[1]), 6)), float(at), lag, truth)
-            for k, (p, at, lag, truth) in enumerate(raw)]
-
-
-def report_times(reports: list[RowReport], cruise: Cruise, dark: tuple[float, float] | None = None) -> dict[str, float]:
-    """When the camera makes each report on this carriage motion (inf: not on it); ``dark``
-    ``(t, seconds)``: what it would report then is reported when it is back."""
-    moving = [r for r in reports if r.at_x is not None]
-    ts = cruise.time_at(np.array([r.at_x for r in moving])) if moving else np.zeros(0)
-    out = {r.id: float(t) + r.lag for r, t in zip(moving, ts)}
-    out |= {r.id: r.lag for r in reports if r.at_x is None}
-    if dark is not None:
-        t0, t1 = dark[0], dark[0] + dark[1]
-        out = {k: (t1 if t0 <= t < t1 else t) for k, t in out.items()}
-    return out
-
-
-def row_detections(problem: Problem, cruise: Cruise, opts: LiveRowOptions) -> list[RowDetection]:
-    """The camera's reports with their times on ``cruise``, in time order."""
-    times = report_times(row_reports(problem, opts), cruise)
-    return sorted((RowDetection(r.id, r.position, max(0.0, times[r.id]), r.truth) for r in row_reports(problem, opts)),
-                  key=lambda d: (d.t, d.id))
 
 
 class _Run:
@@ -207,6 +103,7 @@ class _Run:
         self.misses: dict[str, str] = {}  # report -> why the grasp closed on nothing
         self.measured: set[str] = set()
         self.taken: set[str] = set()
+        self.holds: list[dict] = []  # on the move: where the carriage held for fruit
         orig = self.booker.plan_cycle
 
         def timed(*a, **k):  # every decision's wall time (a decision is one or more cycle attempts)
@@ -288,7 +185,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
                                                                      margin=opts.margin), None, progress)
         # the carriage does not know where the last fruit is: it cruises to the end of the rail
         cruise = Cruise.of(problem, opts.speed, g.end)
-        faults = _Faults(problem, opts, cruise.duration, cruise)
+        faults = FaultDraws(problem, opts, cruise.duration, cruise)
         run = _Run(problem, opts, reports + faults.burst, cruise)
         t0 = _time.perf_counter()
         left, cruise, stops = _on_the_move(run, faults, cruise), run.booker.cruise, None
@@ -296,7 +193,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
         from .plan import RowOptions, plan_row
 
         offline = plan_row(problem, RowOptions(), progress)
-        faults = _Faults(problem, opts, float(offline.plan.metrics.get("makespan") or 0.0), None)
+        faults = FaultDraws(problem, opts, float(offline.plan.metrics.get("makespan") or 0.0), None)
         run = _Run(problem, opts, reports, Cruise.hops(problem, []))
         t0 = _time.perf_counter()
         left, stops = _stop_and_go(run, faults)
@@ -305,67 +202,12 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
     return _finish(problem, opts, run, faults, left, cruise, offline, planning, stops)
 
 
-class _Faults:
-    """The faults' draws (:class:`RowFaults`) and a log of what happened when, and what it cost."""
-
-    def __init__(self, problem: Problem, opts: LiveRowOptions, T: float, cruise: Cruise | None):
-        f = opts.faults
-        self.halt: dict[int, float] = {}
-        self.log: dict = {}
-        self.delay = None
-        self.burst: list[RowReport] = []
-        self.burst_at: float | None = None
-        self.dark: tuple[float, float] | None = None
-        if not f.any:
-            return
-        rng = np.random.default_rng(opts.seed + 7919)
-
-        def when() -> float:
-            return round(float(rng.uniform(0.2, 0.8) * T), 2)
-
-        if f.arm_stop:
-            a, t = int(rng.integers(len(problem.arms))), when()
-            self.halt[a] = t
-            self.log["arm_stop"] = {"arm": problem.arms[a].name, "t": t}
-        if f.camera_dark > 0:
-            t = when()
-            self.dark = (t, float(f.camera_dark))
-            self.log["camera_dark"] = {"t": t, "seconds": f.camera_dark}
-        if f.false_burst > 0:
-            t = when()
-            self.burst_at = t
-            self._rng_burst = rng.uniform(0.0, 1.0, (f.false_burst, 2))
-            self._width = max(4, len(str(f.false_burst)))
-            self.log["false_burst"] = {"t": t, "reports": f.false_burst}
-            if cruise is not None:
-                self.burst = self.burst_reports(problem, opts, float(cruise.x(np.array([t]))[0]), t)
-        if f.late_replan > 0:
-            t, fired = when(), []
-            log = self.log
-
-            def delay(arm: int, now: float) -> float:
-                if fired or now < t:
-                    return 0.0
-                fired.append((arm, now))
-                log["late_replan"]["arm"], log["late_replan"]["decided_at"] = problem.arms[arm].name, now
-                return f.late_replan
-
-            self.delay = delay
-            self.log["late_replan"] = {"t": t, "seconds": f.late_replan}
-
-    def burst_reports(self, problem: Problem, opts: LiveRowOptions, c: float, t: float) -> list[RowReport]:
-        """The burst's false reports, within the camera's view with the carriage at ``c``, at ``t``."""
-        front = _front(problem)
-        ys = [fr.position[1] for fr in problem.fruits] or [1.0]
-        y0, y1 = min(ys), max(ys)
-        return [RowReport(f"b{k + 1:0{self._width}d}", (round(c + front + u * opts.look_ahead, 6), round(y0 + v * (y1 - y0), 6)),
-                          None, t, None) for k, (u, v) in enumerate(self._rng_burst)]
-
-
-def _on_the_move(run: _Run, faults: _Faults, cruise: Cruise) -> dict[str, str]:
-    """The row on the move: booked in phases, the carriage's motion changed at each fault that
-    changes it (an arm stop: slower; the camera dark: a hold), always once every pick booked
-    before is over, so that every booked cycle stays exact."""
+def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str]:
+    """The row on the move: booked in phases of ``CHECK`` s, the carriage's motion changed at each
+    fault that changes it (an arm stop: slower; the camera dark: a hold) and, with
+    ``hold_for_fruit``, held wherever a reported fruit would otherwise pass every working arm
+    unbooked -- always once every pick booked before is over, so that every booked cycle stays
+    exact."""
     problem, opts, g = run.problem, run.opts, run.problem.gantry
     run.dark = faults.dark
     run.set_cruise(cruise)
@@ -373,52 +215,148 @@ def _on_the_move(run: _Run, faults: _Faults, cruise: Cruise) -> dict[str, str]:
     changes = sorted([(t, "arm_stop") for t in halt.values()] + ([(faults.dark[0], "camera_dark")] if faults.dark else []))
     stretches: list[tuple] = [(math.inf, opts.speed)]
     n = len(problem.arms)
-    booker_dt = run.booker.dt
-    for t_c, kind in changes:
-        run.policy(halt=halt, delay=delay, until=t_c)
+    holds: list[dict] = []
+
+    def change(kind: str, t_c: float, risk: list[str] | None = None) -> None:
+        nonlocal cruise, stretches
         t_s = max([t_c] + run.pick_ends())
         v = stretches[-1][1]
-        # a change begins at cruising speed: past any ramp under way (or the carriage is stopping anyway)
+        # a change begins at cruising speed: past any ramp or hold under way (or the carriage is stopping anyway)
         while t_s < cruise.duration and abs(float(cruise.state(np.array([t_s]))[1][0]) - v) > 1e-9:
-            t_s += booker_dt
+            t_s += run.booker.dt
         x_s = float(cruise.x(np.array([t_s]))[0])
         if x_s >= cruise.x1 - 1e-6 or t_s >= cruise.duration:
-            continue
+            return
+        stop = ramp_time(v, 0.0, g.max_acceleration, g.max_jerk)
         if kind == "arm_stop":
             slow = opts.speed * STOP_SLOWDOWN * (n - len(halt)) / n
             if slow <= 0:
-                continue
+                return
             stretches = stretches[:-1] + [(x_s, v), (math.inf, slow)]
             faults.log["arm_stop"].update({"carriage_slows_at": round(t_s, 3), "to_speed": slow})
-        else:
-            back = faults.dark[0] + faults.dark[1]
-            hold = back - (t_s + ramp_time(v, 0.0, g.max_acceleration, g.max_jerk))
+        elif kind == "camera_dark":
+            hold = faults.dark[0] + faults.dark[1] - (t_s + stop)
             if hold <= 0:
                 faults.log["camera_dark"]["carriage"] = "kept moving: the camera was back before it could come to rest"
-                continue
+                return
             stretches = stretches[:-1] + [(x_s, v, hold), (math.inf, v)]
             faults.log["camera_dark"].update({"carriage_holds_from": round(t_s, 3), "hold_seconds": round(hold, 3)})
+        else:  # fruit about to pass every working arm unbooked
+            if t_s + stop >= max(hi for _, hi in risk):
+                return  # too late to help any of them
+            working = n - sum(1 for t in halt.values() if t <= t_c)
+            hold = max(HOLD_MIN, HOLD_PER_FRUIT * len(risk) / max(working, 1))
+            stretches = stretches[:-1] + [(x_s, v, hold), (math.inf, v)]
+            holds.append({"t": round(t_s, 3), "x": round(x_s, 4), "seconds": round(hold, 3), "for": [f for f, _ in risk]})
         new = Cruise.shaped(problem, stretches, g.end)
         ts = np.linspace(0.0, t_s, 2001)
         if float(np.max(np.abs(new.x(ts) - cruise.x(ts)))) > 1e-9:  # never: the change begins after t_s
             raise RuntimeError(f"the carriage's motion changed before t = {t_s:.2f} s")
         cruise = new
         run.set_cruise(cruise, since=t_s)
+
+    def at_risk(t_c: float) -> list[tuple[str, float]]:
+        """Reported fruit not taken whose working arms' windows all close within ``LOOK`` s and
+        that an earliest-deadline-first schedule of them over those arms, from when each is
+        free, with every cycle estimated at ``REACH_TIME`` out and ``REACH_TIME`` plus both
+        dwells back, cannot fit before their windows close."""
+        working = {a for a in range(n) if a not in halt or halt[a] > t_c}
+        avail = {a: max(t_c, run.booker.free_time(a)) for a in working}
+        back = REACH_TIME + problem.task.pick_dwell + problem.task.place_dwell
+        soon = []
+        for f, ws in run.booker.windows.items():
+            if f in run.taken or run.seen[f] > t_c:
+                continue
+            wk = [w for w in ws if w.arm in working and w.hi >= t_c]
+            if wk and max(w.hi for w in wk) <= t_c + LOOK:
+                soon.append((max(w.hi for w in wk), f, wk))
+        out = []
+        for hi, f, wk in sorted(soon, key=lambda s: (s[0], s[1])):
+            starts = [(max(avail[w.arm], w.lo - REACH_TIME) + REACH_TIME, w.arm) for w in wk
+                      if max(avail[w.arm], w.lo - REACH_TIME) + REACH_TIME <= w.hi]
+            if starts:
+                t_p, a = min(starts)
+                avail[a] = t_p + back
+            else:
+                out.append((f, hi))
+        return out
+
+    t_c = 0.0
+    while True:
+        t_next = min([t_c + CHECK if opts.hold_for_fruit else math.inf] + [t for t, _ in changes[:1]])
+        if t_next >= cruise.duration:
+            break  # coming to rest for good: nothing more to change
+        run.policy(halt=halt, delay=delay, until=t_next)
+        t_c = t_next
+        while changes and changes[0][0] <= t_c:
+            change(changes.pop(0)[1], t_c)
+        if opts.hold_for_fruit:
+            risk = at_risk(t_c)
+            if risk:
+                change("fruit", t_c, risk)
+    run.holds = holds
     return run.policy(halt=halt, delay=delay)
 
 
-def _stop_and_go(run: _Run, faults: _Faults) -> tuple[dict[str, str], list[dict]]:
-    """The row stop by stop (module docstring): book every fruit seen that the arms reach from
-    this stop, then hop to the next once the last pick is over."""
+def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[dict]]:
+    """The row stop by stop (module docstring): book this stop's share of the fruit reported,
+    then hop to the next once the last pick is over."""
     problem, opts, g = run.problem, run.opts, run.problem.gantry
     reach, grid = run.reach, run.reach.grid
-    front, rear = _front(problem), min(a.base[0] for a in problem.arms)
+    front, rear = front_base(problem), min(a.base[0] for a in problem.arms)
     far = g.end + max(a.base[0] + a.reach for a in problem.arms)  # no arm reaches a fruit beyond this
     run.dark = faults.dark
     legs: list[tuple[float, float]] = []
     inset = int(math.ceil(2.0 * opts.sigma / reach.resolution - 1e-9))
+    run.booker.leg_share = AT_REST_SHARE  # every pick with the carriage at rest: no tracking seam to allow for
     k, t_arr = 0, 0.0
     stops: list[dict] = []
+
+    def edge_at(t: float) -> float:
+        """How far along the row the camera has seen by ``t``: its view then (or when it went dark)."""
+        t_view = t if faults.dark is None or not faults.dark[0] <= t < sum(faults.dark) else faults.dark[0]
+        return float(run.booker.cruise.x(np.array([t_view]))[0]) + front + opts.look_ahead
+
+    def cap_at(t: float) -> int:
+        """The farthest stop (grid index) a hop decided at ``t`` may reach: an unseen fruit lies
+        at or beyond the edge, and the rear arm serves it at least until the carriage puts that
+        arm's base under it, so a hop up to there passes none."""
+        return min(grid.size - 1, int(math.floor((edge_at(t) - rear - g.start) / reach.resolution + 1e-9)))
+
+    def next_stop(k: int, t_dep: float, here: bool = False) -> tuple[int, float]:
+        """Where to hop from grid index ``k`` leaving at ``t_dep`` (``k``: nowhere), and when:
+        no farther than the first place where a fruit reported by then, not taken, would leave
+        every arm's reach (``here``: the carriage may also stay), nor than :func:`cap_at`."""
+        while True:
+            cap, edge = cap_at(t_dep), edge_at(t_dep)
+            working = [a for a in range(len(problem.arms)) if a not in faults.halt or faults.halt[a] > t_dep]
+            ends = []
+            for f, t in run.seen.items():
+                if t > t_dep or f in run.taken or f not in reach.cover:
+                    continue
+                ks = np.flatnonzero(reach.cover[f][working].any(axis=0))  # (a stopped arm serves nothing)
+                ahead = ks[ks >= k] if here else ks[ks > k]
+                if ahead.size:
+                    gaps = np.flatnonzero(np.diff(ahead) > 1)
+                    run_end = int(ahead[gaps[0]] if gaps.size else ahead[-1])
+                    # inside the run's end by two sigma of the camera's noise (the close-range
+                    # measurement may move the fruit by that much), if the run is that long
+                    ends.append(run_end if run_end == grid.size - 1 else max(int(ahead[0]), run_end - inset))
+            if k >= grid.size - 1 or (not ends and edge >= far):
+                return k, t_dep  # the end of the rail, or nothing left anywhere ahead
+            if min(ends + [cap]) > k or here:
+                return min(ends + [cap]), t_dep
+            if faults.dark is not None and t_dep < sum(faults.dark):
+                faults.log["camera_dark"]["carriage_waits_at"] = round(float(grid[k]), 3)
+                t_dep = sum(faults.dark)  # nothing seen ahead: wait for the camera
+            else:
+                return k + 1, t_dep
+
+    # the first stop, from what the camera sees at the start
+    k, _ = next_stop(0, 0.0, here=True)
+    if k > 0:
+        legs.append((0.0, float(grid[k])))
+        t_arr = Cruise.hops(problem, legs).duration
     while True:
         if faults.burst_at is not None and not faults.burst and faults.burst_at <= t_arr:
             faults.burst = faults.burst_reports(problem, opts, float(grid[k]), t_arr)
@@ -432,40 +370,17 @@ def _stop_and_go(run: _Run, faults: _Faults) -> tuple[dict[str, str], list[dict]
         until = t_arr + STOP_PATIENCE * (1 + sum(bool(ws) for ws in here.values()))
         run.booker.windows = {f: [replace(w, lo=max(w.lo, t_arr), hi=min(w.hi, until)) for w in ws] for f, ws in here.items()}
         before = len(run.booker.events)
-        run.policy(halt=faults.halt, delay=faults.delay, make_way=True)
+        # this stop takes what the carriage would pass before it can next stop -- as far as the
+        # camera lets it go now -- and what the arms can add in the time those take
+        todo = [f for f, t in run.seen.items() if t <= t_arr and f not in run.taken]
+        stopped = {a for a, t in faults.halt.items() if t <= t_arr}  # (the planner learns of a fault when it happens)
+        order, keep = _stop_share(run.seen_problem, reach, run.booker.windows, todo, k, cap_at(t_arr), stopped)
+        run.booker.windows = {f: ws for f, ws in run.booker.windows.items() if f in keep}
+        run.policy(order=order, halt=faults.halt, delay=faults.delay, make_way=True)
         picks = [e for e in run.booker.events[before:] if e.kind == EventKind.PICK]
         t_dep = max([t_arr] + [e.t_end for e in picks])
         stops.append({"x": round(float(grid[k]), 4), "arrive": round(t_arr, 3), "depart": round(t_dep, 3), "picks": len(picks)})
-        nxt = None
-        while nxt is None:
-            # what the camera has seen by the departure: up to its view then (or when it went dark)
-            t_view = t_dep if faults.dark is None or not faults.dark[0] <= t_dep < sum(faults.dark) else faults.dark[0]
-            edge = float(run.booker.cruise.x(np.array([t_view]))[0]) + front + opts.look_ahead
-            # an unseen fruit lies at or beyond the edge: the rear arm serves it at least until the
-            # carriage puts that arm's base under it, so a hop up to there passes none
-            cap = min(grid.size - 1, int(math.floor((edge - rear - g.start) / reach.resolution + 1e-9)))
-            ends = []
-            for f, t in run.seen.items():
-                if t > t_dep or f in run.taken or f not in reach.cover:
-                    continue
-                ks = reach.stops_of(f)
-                ahead = ks[ks > k]
-                if ahead.size:
-                    gaps = np.flatnonzero(np.diff(ahead) > 1)
-                    run_end = int(ahead[gaps[0]] if gaps.size else ahead[-1])
-                    # inside the run's end by two sigma of the camera's noise (the close-range
-                    # measurement may move the fruit by that much), if the run is that long
-                    ends.append(max(int(ahead[0]), run_end - inset))
-            if k >= grid.size - 1 or (not ends and edge >= far):
-                nxt = k  # the end of the rail, or nothing left anywhere ahead
-            elif min(ends + [cap]) > k:
-                todo = [f for f, t in run.seen.items() if t <= t_dep and f not in run.taken and f in reach.cover]
-                nxt = _next_stop(run.seen_problem, reach, todo, k, min(ends + [cap]), set(faults.halt))
-            elif faults.dark is not None and t_dep < sum(faults.dark):
-                faults.log["camera_dark"]["carriage_waits_at"] = round(float(grid[k]), 3)
-                t_dep = sum(faults.dark)  # nothing seen ahead: wait for the camera
-            else:
-                nxt = k + 1
+        nxt, t_dep = next_stop(k, t_dep)
         if nxt == k:
             break
         legs.append((t_dep, float(grid[nxt])))
@@ -480,34 +395,56 @@ def _stop_and_go(run: _Run, faults: _Faults) -> tuple[dict[str, str], list[dict]
     return left, stops
 
 
-def _next_stop(problem: Problem, reach, todo: list[str], k: int, k_max: int, stopped: set[int]) -> int:
-    """The next stop in ``(k, k_max]`` (grid indices; none beyond ``k_max`` passes a fruit): the
-    least estimated time per fruit -- the hop (time-optimal) and the stop's busiest arm, the
-    fruit it serves balanced over the working arms (fewest options first, each where it
-    lengthens the stop least) at their time-optimal bin -> fruit -> bin round trips
-    (:func:`coplan.row.stops.round_trips`). With nothing to harvest on the way, ``k_max``."""
+def _stop_share(problem: Problem, reach, windows: dict, todo: list[str], k: int, k_plan: int, stopped: set[int]):
+    """What the stop at grid index ``k`` harvests, and each working arm's fruit there in row
+    order, against the next stop the camera allows now (``k_plan``; ``todo``: the fruit reported
+    and not taken). Every fruit no carriage position from ``k_plan`` on serves (it would be
+    passed) is harvested here; a fruit both stops serve goes where it lengthens the two stops
+    together least (each stop as long as its busiest arm, by time-optimal bin -> fruit -> bin
+    round trips; fewest options first, ties to this stop); the fruit only the next one serves
+    load it from the start. Returns (order, kept fruit)."""
     from .stops import round_trips
 
-    g = problem.gantry
-    ks = np.arange(k + 1, k_max + 1)
-    trips = round_trips(problem, reach, todo, ks) if todo else {}
-    by_k: dict[int, dict[str, list[tuple[float, int]]]] = {}
-    for (f, kk, a), c in trips.items():
-        if a not in stopped:
-            by_k.setdefault(kk, {}).setdefault(f, []).append((c, a))
-    x0 = float(reach.grid[k])
-    best = (math.inf, k_max)
-    for kk, fr in by_k.items():
-        load = [0.0] * len(problem.arms)
-        for f, opts in sorted(fr.items(), key=lambda it: (len(it[1]), it[0])):
-            c, a = min(opts, key=lambda o: (max(load[o[1]] + o[0], max(load)), o[0], o[1]))
-            load[a] += c
-        hop = Move1D.between(x0, float(reach.grid[kk]), g.max_velocity, g.max_acceleration, g.max_jerk).duration
-        best = min(best, ((hop + max(load)) / len(fr), -kk))
-    return -best[1] if math.isfinite(best[0]) else k_max
+    here = [f for f, ws in windows.items() if any(w.arm not in stopped for w in ws)]
+    allowed = {f: {w.arm for w in windows[f]} - stopped for f in here}
+    now: dict[str, list[tuple[float, int]]] = {}
+    for (f, _, a), c in (round_trips(problem, reach, here, np.array([k])) if here else {}).items():
+        if a in allowed[f]:
+            now.setdefault(f, []).append((c, a))
+    later: dict[str, list[tuple[float, int]]] = {}
+    if k_plan > k:
+        for (f, _, a), c in round_trips(problem, reach, [f for f in todo if f in reach.cover], np.array([k_plan])).items():
+            if a not in stopped:
+                later.setdefault(f, []).append((c, a))
+    working = [a for a in range(len(problem.arms)) if a not in stopped]
+    last = {f: int(np.flatnonzero(reach.cover[f][working].any(axis=0))[-1]) for f in now}
+    load = {0: [0.0] * len(problem.arms), 1: [0.0] * len(problem.arms)}  # this stop, the next
+    order: dict[int, list[str]] = {}
+
+    def put(f: str, o: list[tuple[float, int, int]]) -> None:
+        def cost(c: float, a: int, s: int) -> tuple:
+            grown = max(max(load[s]), load[s][a] + c) - max(load[s])
+            return grown, c, s, a
+        _, c, s, a = min(cost(*x) for x in o)
+        load[s][a] += c
+        if s == 0:
+            order.setdefault(a, []).append(f)
+
+    for f, o in sorted(later.items(), key=lambda it: (len(it[1]), it[0])):
+        if f not in now:
+            put(f, [(c, a, 1) for c, a in o])
+    both = sorted(now, key=lambda f: (last[f] >= k_plan > k and f in later, len(now[f]) + len(later.get(f, [])), f))
+    for f in both:
+        o = [(c, a, 0) for c, a in now[f]]
+        if last[f] >= k_plan > k:
+            o += [(c, a, 1) for c, a in later.get(f, [])]
+        put(f, o)
+    x = {f.id: f.position[0] for f in problem.fruits}
+    keep = {f for fs in order.values() for f in fs} | (set(windows) - set(here))  # (a stopped arm's: not booked)
+    return {a: sorted(fs, key=lambda f: (x[f], f)) for a, fs in order.items()}, keep
 
 
-def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: _Faults, left: dict[str, str], cruise: Cruise,
+def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraws, left: dict[str, str], cruise: Cruise,
             offline, planning: float, stops: list[dict] | None) -> LiveRow:
     """The executed plan (events on the true fruit), verified against the truth, and the metrics."""
     from ..verify.row import row_reachable_ids
@@ -568,6 +505,7 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: _Faults, 
         "shortest_cycle_seconds": min(cycles, default=None), "planning_seconds": planning,
         "kept_ahead": bool(walls) and (not cycles or max(walls) < min(cycles)),
         "faults": faults.log, "missed_reachable_by_a_working_arm": missed_reachable,
+        "holds_for_fruit": len(run.holds), "hold_seconds": round(sum(h["seconds"] for h in run.holds), 3),
         "verified": ver.passed, "speed": opts.speed if mode == GantryMode.CONTINUOUS else None,
         "stops": len(stops) if stops is not None else None, "look_ahead": opts.look_ahead, "sigma": opts.sigma,
         "false_rate": opts.false_rate, "seed": opts.seed,
@@ -575,6 +513,7 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: _Faults, 
     row = {"mode": f"{mode.value}-live", "left_out": {k: v for k, v in outcome.items() if v != "harvested"}}
     if mode == GantryMode.CONTINUOUS:
         row["speed"] = opts.speed
+        row["holds"] = run.holds
     else:
         row["stops"] = stops
     plan.solver = {"status": plan.status.value, "row": row, "live": metrics}

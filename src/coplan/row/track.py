@@ -22,11 +22,13 @@ from ..kinematics.timing import MoveError, ruckig_move
 from ..problem.model import Arm
 from .cruise import Cruise
 
-__all__ = ["Leg", "LegError", "track", "track_state"]
+__all__ = ["Leg", "LegError", "track", "track_state", "LIMIT_SHARE", "AT_REST_SHARE"]
 
 
 #: Share of each joint limit the moves use (the rest is room for the pick's tracking at the seams).
 LIMIT_SHARE = 0.9
+#: ... and when every pick is made with the carriage at rest (stop and go: no tracking motion to join).
+AT_REST_SHARE = 0.97
 
 
 #: Ruckig could not compute a move.
@@ -70,10 +72,10 @@ class Leg:
     per-joint limits (:func:`coplan.kinematics.timing.ruckig_move`). ``duration`` in s;
     :meth:`sample` gives the poses."""
 
-    def __init__(self, arm: Arm, start: np.ndarray, end: np.ndarray):
-        # a little below the limits: a move joins a pick's tracking motion, whose own (small)
-        # acceleration and jerk add to the move's at the seam
-        lim = [[LIMIT_SHARE * x for x in v] for v in (arm.max_velocity, arm.max_acceleration, arm.max_jerk)]
+    def __init__(self, arm: Arm, start: np.ndarray, end: np.ndarray, share: float = LIMIT_SHARE):
+        # a little below the limits (``share``): a move joins a pick's tracking motion, whose own
+        # (small) acceleration and jerk add to the move's at the seam
+        lim = [[share * x for x in v] for v in (arm.max_velocity, arm.max_acceleration, arm.max_jerk)]
         self.trajectory = ruckig_move(start, end, *lim)
         self.end = np.asarray(end, float)
         self.duration = float(self.trajectory.duration)

@@ -1,0 +1,197 @@
+"""What a live row is told and what goes wrong: the simulated camera's reports and the faults.
+
+* :func:`row_reports` -- the camera's reports over the whole row (seeded): each fruit when the
+  carriage brings it within ``look_ahead`` m ahead of the front arm's base, with Gaussian noise,
+  false and repeated reports; :func:`report_times` -- when each is made, on the carriage's
+  motion as it is decided (a camera outage delays what it would have seen until it is back).
+* :class:`RowFaults` (the options) and :class:`FaultDraws` (their seeded times, and a log of
+  what happened and what it cost).
+
+Used by :mod:`coplan.row.live`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..kinds import GantryMode
+from ..problem.model import Problem
+from .cruise import Cruise
+
+__all__ = ["RowFaults", "LiveRowOptions", "RowDetection", "RowReport", "FaultDraws", "front_base", "row_reports",
+           "report_times", "row_detections"]
+
+
+@dataclass(frozen=True)
+class RowFaults:
+    """Things that go wrong during a live row, each at a time drawn from the run's seed (between
+    20 % and 80 % of the carriage's run; stop and go: of the offline plan's row time), so that a
+    run can be replayed.
+
+    arm_stop : one arm (drawn) reports a controller fault: it finishes the motion in progress and
+        stays where it then rests, an obstacle; its fruit go to the neighbours that reach them
+    camera_dark : s the camera reports nothing; what it would have seen is reported when it is
+        back. The carriage does not pass what it has not seen: on the move it comes to rest (once
+        the picks booked before are over) and holds until the camera is back; stop and go, it
+        hops no further than the camera saw before it went dark
+    false_burst : false reports at one instant, all within the camera's view (stop and go: at the
+        first stop reached at or after that instant)
+    late_replan : s one decision (the first at or after its time) runs late; the arm waits
+    """
+
+    arm_stop: bool = False
+    camera_dark: float = 0.0
+    false_burst: int = 0
+    late_replan: float = 0.0
+
+    @property
+    def any(self) -> bool:
+        return self.arm_stop or self.camera_dark > 0 or self.false_burst > 0 or self.late_replan > 0
+
+
+@dataclass(frozen=True)
+class LiveRowOptions:
+    """The camera and the live planner (separate from the problem)."""
+
+    speed: float = 0.1  # m/s, the carriage's cruising speed (on the move)
+    look_ahead: float = 1.5  # m ahead of the front arm's base the camera sees
+    sigma: float = 0.01  # m, detection noise per coordinate
+    false_rate: float = 0.05  # false reports, as a share of the fruit
+    duplicate_rate: float = 0.02  # fruit reported twice
+    close_sigma: float = 0.001  # m, the close-range measurement's noise per coordinate
+    merge: float = 0.0  # m: a report this close to an earlier one is the same fruit (0: none merged; a
+    # second report of a picked fruit then costs a probe -- in trusses, distinct fruit lie closer than
+    # two noisy reports of one)
+    seed: int = 0
+    margin: float = 0.02  # m beyond the clearance, as for the offline plan
+    faults: RowFaults = field(default_factory=RowFaults)
+    mode: GantryMode = GantryMode.CONTINUOUS  # continuous or stop-and-go
+    hold_for_fruit: bool = True  # on the move: hold rather than pass a reported fruit no working arm can still book
+
+
+@dataclass(frozen=True)
+class RowDetection:
+    """One camera report: ``id``, where it says, when, and the true fruit (None: false)."""
+
+    id: str
+    position: tuple[float, float]
+    t: float
+    truth: str | None
+
+
+@dataclass(frozen=True)
+class RowReport:
+    """A report before its time is known: the camera makes it ``lag`` s after the carriage first
+    reaches ``at_x`` (a false burst: at time ``lag``, ``at_x`` None)."""
+
+    id: str
+    position: tuple[float, float]
+    at_x: float | None
+    lag: float
+    truth: str | None
+
+
+def front_base(problem: Problem) -> float:
+    return max(a.base[0] for a in problem.arms)
+
+
+def row_reports(problem: Problem, opts: LiveRowOptions) -> list[RowReport]:
+    """The camera's reports over the whole row (module docstring), in the order it makes them."""
+    rng = np.random.default_rng(opts.seed)
+    front = front_base(problem)
+    raw = []
+    for f in problem.fruits:
+        x, y = f.position
+        at = x - front - opts.look_ahead
+        raw.append(((x + rng.normal(0, opts.sigma), y + rng.normal(0, opts.sigma)), at, 0.0, f.id))
+        if rng.random() < opts.duplicate_rate:
+            raw.append(((x + rng.normal(0, opts.sigma), y + rng.normal(0, opts.sigma)), at, 0.5, f.id))
+    if problem.fruits:
+        ys = np.array([f.position[1] for f in problem.fruits])
+        g = problem.gantry
+        for _ in range(int(round(opts.false_rate * len(problem.fruits)))):
+            x, y = rng.uniform(g.start, g.end), rng.uniform(ys.min(), ys.max())
+            raw.append(((x, y), x - front - opts.look_ahead, 0.0, None))
+    raw.sort(key=lambda r: (r[1], r[2], r[0][0]))
+    width = max(4, len(str(len(raw))))
+    return [RowReport(f"d{k + 1:0{width}d}", (round(float(p[0]), 6), round(float(p[1]), 6)), float(at), lag, truth)
+            for k, (p, at, lag, truth) in enumerate(raw)]
+
+
+def report_times(reports: list[RowReport], cruise: Cruise, dark: tuple[float, float] | None = None) -> dict[str, float]:
+    """When the camera makes each report on this carriage motion (inf: not on it); ``dark``
+    ``(t, seconds)``: what it would report then is reported when it is back."""
+    moving = [r for r in reports if r.at_x is not None]
+    ts = cruise.time_at(np.array([r.at_x for r in moving])) if moving else np.zeros(0)
+    out = {r.id: float(t) + r.lag for r, t in zip(moving, ts)}
+    out |= {r.id: r.lag for r in reports if r.at_x is None}
+    if dark is not None:
+        t0, t1 = dark[0], dark[0] + dark[1]
+        out = {k: (t1 if t0 <= t < t1 else t) for k, t in out.items()}
+    return out
+
+
+def row_detections(problem: Problem, cruise: Cruise, opts: LiveRowOptions) -> list[RowDetection]:
+    """The camera's reports with their times on ``cruise``, in time order."""
+    times = report_times(row_reports(problem, opts), cruise)
+    return sorted((RowDetection(r.id, r.position, max(0.0, times[r.id]), r.truth) for r in row_reports(problem, opts)),
+                  key=lambda d: (d.t, d.id))
+
+
+class FaultDraws:
+    """The faults' draws (:class:`RowFaults`) and a log of what happened when, and what it cost."""
+
+    def __init__(self, problem: Problem, opts: LiveRowOptions, T: float, cruise: Cruise | None):
+        f = opts.faults
+        self.halt: dict[int, float] = {}
+        self.log: dict = {}
+        self.delay = None
+        self.burst: list[RowReport] = []
+        self.burst_at: float | None = None
+        self.dark: tuple[float, float] | None = None
+        if not f.any:
+            return
+        rng = np.random.default_rng(opts.seed + 7919)
+
+        def when() -> float:
+            return round(float(rng.uniform(0.2, 0.8) * T), 2)
+
+        if f.arm_stop:
+            a, t = int(rng.integers(len(problem.arms))), when()
+            self.halt[a] = t
+            self.log["arm_stop"] = {"arm": problem.arms[a].name, "t": t}
+        if f.camera_dark > 0:
+            t = when()
+            self.dark = (t, float(f.camera_dark))
+            self.log["camera_dark"] = {"t": t, "seconds": f.camera_dark}
+        if f.false_burst > 0:
+            t = when()
+            self.burst_at = t
+            self._rng_burst = rng.uniform(0.0, 1.0, (f.false_burst, 2))
+            self._width = max(4, len(str(f.false_burst)))
+            self.log["false_burst"] = {"t": t, "reports": f.false_burst}
+            if cruise is not None:
+                self.burst = self.burst_reports(problem, opts, float(cruise.x(np.array([t]))[0]), t)
+        if f.late_replan > 0:
+            t, fired = when(), []
+            log = self.log
+
+            def delay(arm: int, now: float) -> float:
+                if fired or now < t:
+                    return 0.0
+                fired.append((arm, now))
+                log["late_replan"]["arm"], log["late_replan"]["decided_at"] = problem.arms[arm].name, now
+                return f.late_replan
+
+            self.delay = delay
+            self.log["late_replan"] = {"t": t, "seconds": f.late_replan}
+
+    def burst_reports(self, problem: Problem, opts: LiveRowOptions, c: float, t: float) -> list[RowReport]:
+        """The burst's false reports, within the camera's view with the carriage at ``c``, at ``t``."""
+        front = front_base(problem)
+        ys = [fr.position[1] for fr in problem.fruits] or [1.0]
+        y0, y1 = min(ys), max(ys)
+        return [RowReport(f"b{k + 1:0{self._width}d}", (round(c + front + u * opts.look_ahead, 6), round(y0 + v * (y1 - y0), 6)),
+                          None, t, None) for k, (u, v) in enumerate(self._rng_burst)]
