@@ -15,9 +15,10 @@ Everything is sampled on the plan's grid (``k / rate``); shapes are ``(K, 2)``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from ..kinematics import arm as kin
 from ..kinematics.timing import MoveError, ruckig_move
 from ..problem.model import Arm
 from .cruise import Cruise
@@ -54,16 +55,30 @@ def track_state(arm: Arm, fruit: tuple[float, float], cruise: Cruise, t: float, 
 
     With the tip's carriage-frame point ``p(t) = (x_f - c(t), y_f)``: ``J qd = pd`` and
     ``J qdd = pdd - Jd qd``, where ``pd = (-c', 0)``, ``pdd = (-c'', 0)``."""
-    q = track(arm, fruit, cruise, np.array([t]), branch)[0]
-    _, cv, ca = cruise.state(np.array([t]))
-    J = kin.jacobian(q, arm.links)
-    pd = np.array([-float(cv[0]), 0.0])
-    pdd = np.array([-float(ca[0]), 0.0])
-    qd = np.linalg.solve(J, pd)
-    # d/dt J for the 2R arm: differentiate J along qd numerically (exact to O(h^2), h tiny)
-    h = 1e-6
-    Jd = (kin.jacobian(q + h * qd, arm.links) - kin.jacobian(q - h * qd, arm.links)) / (2 * h)
-    qdd = np.linalg.solve(J, pdd - Jd @ qd)
+    c, cv, ca = (float(u[0]) for u in cruise.state(np.array([t])))
+    q = _ik(arm, np.array([[fruit[0] - c, fruit[1]]]), branch)[0]
+    if not np.all(np.isfinite(q)):
+        return np.array([q, q, q])
+    l1, l2 = float(arm.links[0]), float(arm.links[1])
+    t1, t12 = float(q[0]), float(q[0] + q[1])
+    s1, c1, s12, c12 = math.sin(t1), math.cos(t1), math.sin(t12), math.cos(t12)
+    # J = [[a, b], [d, e]] (kinematics.arm.jacobian), solved by Cramer's rule (2 x 2)
+    ja, jb, jd, je = -l1 * s1 - l2 * s12, -l2 * s12, l1 * c1 + l2 * c12, l2 * c12
+    det = ja * je - jb * jd
+    if abs(det) < 1e-12:  # at a singular pose no joint rates hold the tip
+        return np.full((3, 2), np.nan)
+
+    def solve(r0: float, r1: float) -> np.ndarray:
+        return np.array([(r0 * je - jb * r1) / det, (ja * r1 - jd * r0) / det])
+
+    qd = solve(-cv, 0.0)
+    w1, w12 = float(qd[0]), float(qd[0] + qd[1])
+    # d/dt J along qd, exactly: the derivative of each entry
+    jad = -l1 * c1 * w1 - l2 * c12 * w12
+    jbd = -l2 * c12 * w12
+    jdd = -l1 * s1 * w1 - l2 * s12 * w12
+    jed = -l2 * s12 * w12
+    qdd = solve(-ca - (jad * qd[0] + jbd * qd[1]), -(jdd * qd[0] + jed * qd[1]))
     return np.array([q, qd, qdd])
 
 
