@@ -117,6 +117,10 @@ def test_faults_stop_and_go_degrade_safely_and_are_replayable(row):
     stopped = f["arm_stop"]["arm"]
     assert len([e for e in res.plan.events if e.arm == stopped and e.t_start > f["arm_stop"]["t"]]) <= 2
     assert m["false_reports"] >= 20 and "at_stop_x" in f["false_burst"]
+    # once an arm is an obstacle the hops are no longer than what the camera sees ahead of the front arm
+    stops = res.plan.solver["row"]["stops"]
+    after = [(a, b) for a, b in zip(stops, stops[1:]) if a["depart"] >= f["arm_stop"]["t"]]
+    assert after and all(b["x"] <= a["x"] + opts.look_ahead + 1e-9 for a, b in after)
     assert f["late_replan"]["decided_at"] >= f["late_replan"]["t"]
     again = run_live_row(row, opts)
     assert again.metrics["faults"] == f and [(e.arm, e.fruit, e.t_start) for e in again.plan.events] == \

@@ -320,8 +320,11 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
     def cap_at(t: float) -> int:
         """The farthest stop (grid index) a hop decided at ``t`` may reach: an unseen fruit lies
         at or beyond the edge, and the rear arm serves it at least until the carriage puts that
-        arm's base under it, so a hop up to there passes none."""
-        return min(grid.size - 1, int(math.floor((edge_at(t) - rear - g.start) / reach.resolution + 1e-9)))
+        arm's base under it, so a hop up to there passes none. Once an arm has stopped, an
+        obstacle, the arms beside it may not reach what the screen says: the front arm's base
+        then, the camera's look-ahead."""
+        base = rear if all(t_h > t for t_h in faults.halt.values()) else front
+        return min(grid.size - 1, int(math.floor((edge_at(t) - base - g.start) / reach.resolution + 1e-9)))
 
     def next_stop(k: int, t_dep: float, here: bool = False) -> tuple[int, float]:
         """Where to hop from grid index ``k`` leaving at ``t_dep`` (``k``: nowhere), and when:
