@@ -324,7 +324,7 @@ def replace_reach_margin(problem: Problem) -> Problem:
 
 def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=None, on_book=None,
                halt: dict[int, float] | None = None, delay=None, until: float | None = None,
-               taken: set[str] | None = None, home_when_idle: bool = True, make_way: bool = False) -> dict[str, str]:
+               taken: set[str] | None = None, make_way: bool = False) -> dict[str, str]:
     """Book cycles in time order (module docstring); returns fruit left out -> why. ``order``:
     each arm's fruit in turn (any it cannot fit are left to the greedy afterwards).
 
@@ -340,11 +340,9 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
 
     In phases: ``until`` stops deciding at that time (each arm left free at or after it, at rest);
     ``taken`` (fruit already booked) carries over to the next phase, whose booker may have a new
-    carriage motion from then on; ``home_when_idle=False`` leaves an arm with nothing (more) to
-    book at rest where it is (a stop-and-go stage: the next stop brings new fruit) instead of
-    sending it home; ``make_way=True`` sends an arm that finds no clear cycle home before it
-    tries again (with the carriage at rest, two arms each resting where the other would pick
-    would otherwise wait for each other for good)."""
+    carriage motion from then on; ``make_way=True`` sends an arm that finds no clear cycle home
+    before it tries again (with the carriage at rest, two arms each resting where the other
+    would pick would otherwise wait for each other for good)."""
     windows = booker.windows
     taken = taken if taken is not None else set()
     arms = booker.problem.arms
@@ -383,8 +381,7 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 heapq.heappush(queue, (booker.free_time(i), i))
                 continue
         if not cands:
-            if home_when_idle:
-                booker.go_home(i)
+            booker.go_home(i)
             continue
         first = None
         while pending[i] and first is None:
@@ -425,12 +422,10 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 gone = {(fid, w.arm) for fid, w in tries
                         if failed[(i, fid)] >= _GIVE_UP or not booker.branches(i, fid, x1, x1)}
                 by_arm[i] = [(fid, w) for fid, w in by_arm[i] if (fid, w.arm) not in gone]
+            at_home = np.allclose(booker.arms[i].q[booker.arms[i].k_free], arms[i].home, atol=1e-9)
             if first is not None:
                 pending[i].pop(0)  # the given order's next fruit does not fit: the greedy may take it
-            elif make_way and not np.allclose(booker.arms[i].q[booker.arms[i].k_free], arms[i].home, atol=1e-9) \
-                    and booker.go_home(i):
-                pass
-            else:
+            elif not (make_way and not at_home and booker.go_home(i)):  # (home: out of the way, it tries again)
                 soonest = min((c[1].lo for c in cands if c[1].lo > now), default=now + _RETRY)
                 booker.wait(i, max(_RETRY, min(soonest - now - 1.0, 1.0)))
         heapq.heappush(queue, (booker.free_time(i), i))
