@@ -182,3 +182,13 @@ def test_on_the_move_the_carriage_holds_rather_than_pass_fruit_no_arm_can_book()
         at = (p.time >= h["t"]) & (p.time <= h["t"] + 1.0 + h["seconds"])
         assert np.ptp(p.gantry_x[at]) > 0 and np.count_nonzero(np.diff(p.gantry_x[at]) == 0) * 0.01 >= h["seconds"] - 0.02
     assert held.metrics["harvested"] > free.metrics["harvested"]  # the fruit it held for were picked
+
+
+@pytest.mark.parametrize("args", [["--gantry", "stop-and-go"], ["--speed", "0.3"]])
+def test_coplan_run_on_a_row_without_fruit_says_so(tmp_path, args):
+    path = tmp_path / "empty.yaml"
+    path.write_text(to_yaml(gantry_row(length=6.0, n_arms=2, density=0.0, seed=2)))
+    res = CliRunner().invoke(app, ["run", str(path), *args, "-o", str(tmp_path / "live")])
+    assert "Traceback" not in res.output and "internal error" not in res.output
+    assert "0 fruit harvested, nothing for the offline plan" in res.output and "(kept ahead)" in res.output
+    assert json.loads((tmp_path / "live" / "run.json").read_text())["metrics"]["verified"]

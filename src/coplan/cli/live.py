@@ -186,17 +186,20 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
     if as_json:
         typer.echo(json.dumps(jsonable(m), allow_nan=False))
     else:
+        how = f"on the move at {speed:g} m/s" if mode == GantryMode.CONTINUOUS else f"stop and go ({m['stops']} stops)"
+        share = ("nothing for the offline plan (full knowledge) to harvest" if m["of_offline"] is None else
+                 f"{100 * m['of_offline']:.1f} % of what the offline plan (full knowledge) harvests")
+        ratio = "" if m["row_time_ratio"] is None else f" = {m['row_time_ratio']:.3f} x the offline plan's"
+        cycle = ("no cycle" if m["shortest_cycle_seconds"] is None else
+                 f"a shortest cycle of {m['shortest_cycle_seconds']:.2f} s")
+        faults_line = (f"faults: {_safe(json.dumps(m['faults']))}; missed though a working arm could still reach them: "
+                       f"{len(m['missed_reachable_by_a_working_arm'])}\n" if m["faults"] else "")
         _out.print(
-            f"{_safe(prob.name)} live "
-            + (f"on the move at {speed:g} m/s" if mode == GantryMode.CONTINUOUS else f"stop and go ({m['stops']} stops)") +
-            f" (camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
-            f"{m['false_reports']} false reports): {m['harvested']} fruit harvested, {100 * (m['of_offline'] or 0):.1f} % of "
-            f"what the offline plan (full knowledge) harvests; row time {m['row_time']:.1f} s = {m['row_time_ratio']:.3f} x "
-            f"the offline plan's\n{m['decisions']} decisions, slowest {1000 * m['decision_max_seconds']:.1f} ms against a "
-            f"shortest cycle of {m['shortest_cycle_seconds'] or 0:.2f} s ({'kept ahead' if m['kept_ahead'] else 'LATE'}); "
-            f"{m['probes']} probes of false or repeated reports\n"
-            + (f"faults: {_safe(json.dumps(m['faults']))}; missed though a working arm could still reach them: "
-               f"{len(m['missed_reachable_by_a_working_arm'])}\n" if m["faults"] else "") +
-            f"executed plan {res.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
-            f"wrote {_safe(out)}/plan.json, run.json", highlight=False)
+            f"{_safe(prob.name)} live {how} (camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
+            f"{m['false_reports']} false reports): {m['harvested']} fruit harvested, {share}; row time "
+            f"{m['row_time']:.1f} s{ratio}\n{m['decisions']} decisions, slowest {1000 * m['decision_max_seconds']:.1f} ms "
+            f"against {cycle} ({'kept ahead' if m['kept_ahead'] else 'LATE'}); {m['probes']} probes of false or repeated "
+            f"reports\n{faults_line}executed plan {res.plan.status.value} "
+            f"({'verified' if m['verified'] else 'verification FAILED'}); wrote {_safe(out)}/plan.json, run.json",
+            highlight=False)
     raise typer.Exit(int(status_exit_code(res.plan.status)))

@@ -506,7 +506,7 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraw
         "decisions": len(walls), "decision_max_seconds": max(walls, default=0.0),
         "decision_mean_seconds": float(np.mean(walls)) if walls else 0.0,
         "shortest_cycle_seconds": min(cycles, default=None), "planning_seconds": planning,
-        "kept_ahead": bool(walls) and (not cycles or max(walls) < min(cycles)),
+        "kept_ahead": not walls or not cycles or max(walls) < min(cycles),
         "faults": faults.log, "missed_reachable_by_a_working_arm": missed_reachable,
         "holds_for_fruit": len(run.holds), "hold_seconds": round(sum(h["seconds"] for h in run.holds), 3),
         "verified": ver.passed, "speed": opts.speed if mode == GantryMode.CONTINUOUS else None,
