@@ -417,3 +417,12 @@ def test_a_gantry_sweep_keeps_both_modes_of_the_same_row():
     assert sorted((it.params["n_arms"], it.params["gantry"]) for it in items) == \
         [(1, "continuous"), (1, "stop-and-go"), (2, "continuous"), (2, "stop-and-go")]
     assert len({it.key for it in items}) == 4
+
+
+@pytest.mark.parametrize("mode", ["continuous", "auto"])
+def test_solving_a_row_without_fruit_on_the_move_says_so(tmp_path, mode):
+    path = tmp_path / "empty.yaml"
+    path.write_text(to_yaml(gantry_row(length=6.0, n_arms=2, density=0.0, seed=2)))
+    res = CliRunner().invoke(app, ["solve", str(path), "--gantry", mode, "-o", str(tmp_path / "out")])
+    assert res.exit_code == 4 and "internal error" not in res.output and "Traceback" not in res.output
+    assert "status infeasible" in res.output  # nothing to harvest

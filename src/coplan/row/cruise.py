@@ -103,7 +103,7 @@ class Cruise:
                 run(d, jk)
             acc = 0.0
 
-        top = max(v for _, v, _ in stretches)
+        top = max((v for _, v, _ in stretches), default=g.max_velocity)  # (none: a carriage that never leaves)
         for k, (x_end, vk, hold) in enumerate(stretches):
             # the stop must begin where a ramp from this speed to rest ends exactly at x1
             stop_at = x1 - vk * ramp_time(vk, 0.0, a, j) / 2
