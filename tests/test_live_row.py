@@ -163,7 +163,7 @@ def test_coplan_run_stop_and_go_writes_a_verified_run_and_refuses_what_does_not_
     assert doc["mode"] == "row stop and go" and doc["metrics"]["verified"] and doc["options"]["mode"] == "stop-and-go"
     assert verify(parse_problem(path.read_text()), load_plan(tmp_path / "live" / "plan.json")).passed
     for args, words in ((["--gantry", "stop-and-go", "--speed", "0.1"], "--speed: applies on the move"),
-                        (["--gantry", "auto"], "--gantry: expected continuous or stop-and-go")):
+                        (["--gantry", "auto"], "is not one of")):
         bad = CliRunner().invoke(app, ["run", str(path), *args, "-o", str(tmp_path / "x")])
         assert bad.exit_code == 2 and words in bad.output and "Traceback" not in bad.output
 
@@ -192,3 +192,21 @@ def test_coplan_run_on_a_row_without_fruit_says_so(tmp_path, args):
     assert "Traceback" not in res.output and "internal error" not in res.output
     assert "0 fruit harvested, nothing for the offline plan" in res.output and "(kept ahead)" in res.output
     assert json.loads((tmp_path / "live" / "run.json").read_text())["metrics"]["verified"]
+
+
+def test_coplan_run_on_a_cell_refuses_the_row_options_by_name(tmp_path):
+    from coplan.problem import shipped_problems
+
+    cell = next(p for p in shipped_problems() if p.stem == "crossing_paths")
+    res = CliRunner().invoke(app, ["run", str(cell), "--speed", "0.3", "--camera-dark", "3", "-o", str(tmp_path / "x")])
+    assert res.exit_code == 2 and "--speed, --camera-dark: crossing-paths is a stationary cell" in res.output
+    assert "Traceback" not in res.output
+
+
+def test_a_missed_fruit_s_reason_names_the_fruit_not_only_the_report(row):
+    res = run_live_row(row, LiveRowOptions(speed=0.5, seed=1, hold_for_fruit=False))
+    missed = {k: v for k, v in res.outcome.items() if k.startswith("f") and v != "harvested"}
+    assert missed  # at the gantry's top speed, not holding, some fruit pass
+    for fid, why in missed.items():
+        assert why.startswith("missed: ") and (f"{fid} (report d" in why or "never reported" in why
+                                               or "reported at" in why or "closed on nothing" in why), why

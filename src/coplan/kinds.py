@@ -47,6 +47,14 @@ class GantryMode(str, Enum):
     AUTO = "auto"  # both planned and verified; the one with more fruit, then more fruit per hour, is kept
 
 
+class LiveGantryMode(str, Enum):
+    """How a live row's carriage moves (``coplan run ROW --gantry``): one mode, decided as fruit
+    come into view (no ``auto``: a live planner cannot plan both and keep the better)."""
+
+    CONTINUOUS = "continuous"
+    STOP_AND_GO = "stop-and-go"
+
+
 class AssignRule(str, Enum):
     """How continuous mode assigns and orders fruit to arms within their windows."""
 

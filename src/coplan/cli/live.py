@@ -16,7 +16,7 @@ from rich.console import Console
 from .console import ProgressDisplay
 from .failures import check_out_dir, resolve_problem, usage
 from .summary import safe as _safe
-from ..kinds import ExitCode, GantryMode, PlanStatus
+from ..kinds import ExitCode, GantryMode, LiveGantryMode, PlanStatus
 
 __all__ = ["feed_cmd", "run_cmd"]
 
@@ -69,7 +69,7 @@ def run_cmd(
                                                  "(a cell; a row's camera is simulated from the options below).")] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-live"),
     speed: Annotated[Optional[float], typer.Option(help="A row: the carriage's cruising speed, m/s (picks on the move).")] = None,
-    gantry: Annotated[Optional[GantryMode], typer.Option(
+    gantry: Annotated[Optional[LiveGantryMode], typer.Option(
         help="A row: continuous (picks on the move, at --speed; the default) or stop-and-go (stops chosen as fruit come "
              "into view).")] = None,
     look_ahead: Annotated[float, typer.Option("--look-ahead", min=0.0, max=100.0,
@@ -109,9 +109,16 @@ def run_cmd(
 
         faults = RowFaults(arm_stop, camera_dark, false_burst, late_replan)
         return _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults)
-    if feed is None or speed is not None or gantry is not None:
-        usage(f"{prob.name} is a stationary cell: give its camera's reports with --feed FEED (coplan feed makes one); "
-              "--speed and --gantry apply to a row")
+    row_only = [name for name, given in (("--speed", speed is not None), ("--gantry", gantry is not None),
+                                         ("--look-ahead", look_ahead != 1.5), ("--sigma", sigma != 0.01),
+                                         ("--false-rate", false_rate != 0.05), ("--duplicate-rate", duplicate_rate != 0.02),
+                                         ("--arm-stop", arm_stop), ("--camera-dark", camera_dark > 0),
+                                         ("--false-burst", false_burst > 0), ("--late-replan", late_replan > 0)) if given]
+    if row_only:
+        usage(f"{', '.join(row_only)}: {prob.name} is a stationary cell (no gantry section); these apply to a row "
+              "(a cell's camera is its --feed file: coplan feed makes one, with its own noise and false detections)")
+    if feed is None:
+        usage(f"{prob.name} is a stationary cell: give its camera's reports with --feed FEED (coplan feed makes one)")
     fd = load_feed(feed)
     if fd.problem is not None and fd.problem != prob.name:
         _err.print(f"[yellow]note[/]: the feed was made for problem {_safe(fd.problem)!r}, this is {_safe(prob.name)!r}",
@@ -157,10 +164,8 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
     if feed is not None:
         usage(f"--feed: {prob.name} is a row: its camera is simulated (--look-ahead, --sigma, --false-rate, "
               "--duplicate-rate, --seed); feed files describe a stationary cell's camera")
-    mode = GantryMode(gantry or GantryMode.CONTINUOUS)
+    mode = GantryMode((gantry or LiveGantryMode.CONTINUOUS).value)
     vmax = prob.gantry.max_velocity
-    if mode == GantryMode.AUTO:
-        usage("--gantry: expected continuous or stop-and-go for a live row (a live planner runs one mode), found auto")
     if mode == GantryMode.STOP_AND_GO:
         if speed is not None:
             usage("--speed: applies on the move (--gantry continuous); stop and go, the carriage hops between stops at "

@@ -42,6 +42,7 @@ Entry point: :func:`run_live_row` -> :class:`LiveRow`, in either gantry mode.
 from __future__ import annotations
 
 import math
+import re
 import time as _time
 from dataclasses import dataclass, field, replace
 
@@ -65,8 +66,10 @@ STOP_SLOWDOWN = 0.5
 STOP_PATIENCE = 10.0
 #: On the move, holding for fruit: the planner looks every CHECK s at the fruit whose windows close
 #: within LOOK s; one no working arm is free to reach (REACH_TIME s) before its window closes holds the
-#: carriage HOLD_PER_FRUIT s per such fruit per working arm (at least HOLD_MIN s).
-CHECK, LOOK, REACH_TIME, HOLD_PER_FRUIT, HOLD_MIN = 0.5, 8.0, 1.5, 3.0, 1.5
+#: carriage HOLD_PER_FRUIT s per such fruit, shared by the working arms (at least HOLD_MIN s, at most
+#: HOLD_MAX s); a report holds the carriage HOLDS_PER_REPORT times at most (a burst of false reports
+#: costs a few holds, not one per report and per look).
+CHECK, LOOK, REACH_TIME, HOLD_PER_FRUIT, HOLD_MIN, HOLD_MAX, HOLDS_PER_REPORT = 0.5, 8.0, 1.5, 3.0, 1.5, 6.0, 2
 
 # the camera and the faults live in .sensing; re-exported here, where a live row is run
 __all__ = ["LiveRowOptions", "RowFaults", "RowDetection", "LiveRow", "row_reports", "report_times", "row_detections",
@@ -216,6 +219,7 @@ def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str
     stretches: list[tuple] = [(math.inf, opts.speed)]
     n = len(problem.arms)
     holds: list[dict] = []
+    held_for: dict[str, int] = {}  # report -> holds the carriage made for it
 
     def change(kind: str, t_c: float, risk: list[str] | None = None) -> None:
         nonlocal cruise, stretches
@@ -233,7 +237,7 @@ def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str
             if slow <= 0:
                 return
             stretches = stretches[:-1] + [(x_s, v), (math.inf, slow)]
-            faults.log["arm_stop"].update({"carriage_slows_at": round(t_s, 3), "to_speed": slow})
+            faults.log["arm_stop"].update({"carriage_slows_at": round(t_s, 3), "to_speed": round(slow, 6)})
         elif kind == "camera_dark":
             hold = faults.dark[0] + faults.dark[1] - (t_s + stop)
             if hold <= 0:
@@ -245,7 +249,9 @@ def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str
             if t_s + stop >= max(hi for _, hi in risk):
                 return  # too late to help any of them
             working = n - sum(1 for t in halt.values() if t <= t_c)
-            hold = max(HOLD_MIN, HOLD_PER_FRUIT * len(risk) / max(working, 1))
+            hold = min(HOLD_MAX, max(HOLD_MIN, HOLD_PER_FRUIT * len(risk) / max(working, 1)))
+            for f, _ in risk:
+                held_for[f] = held_for.get(f, 0) + 1
             stretches = stretches[:-1] + [(x_s, v, hold), (math.inf, v)]
             holds.append({"t": round(t_s, 3), "x": round(x_s, 4), "seconds": round(hold, 3), "for": [f for f, _ in risk]})
         new = Cruise.shaped(problem, stretches, g.end)
@@ -265,7 +271,7 @@ def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str
         back = REACH_TIME + problem.task.pick_dwell + problem.task.place_dwell
         soon = []
         for f, ws in run.booker.windows.items():
-            if f in run.taken or run.seen[f] > t_c:
+            if f in run.taken or run.seen[f] > t_c or held_for.get(f, 0) >= HOLDS_PER_REPORT:
                 continue
             wk = [w for w in ws if w.arm in working and w.hi >= t_c]
             if wk and max(w.hi for w in wk) <= t_c + LOOK:
@@ -475,9 +481,21 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraw
     outcome = run.outcome
     for f in problem.fruits:
         outcome[f.id] = "harvested" if f.id in got else "missed"
+    def named(text: str) -> str:  # report ids in a reason, with the fruit each reports
+        def one(mt):
+            r = by_id.get(mt.group(0))
+            return mt.group(0) if r is None else f"{r.truth} (report {r.id})" if r.truth else f"a false report ({r.id})"
+        return re.sub(r"\b[db]\d{4,}\b", one, text)
+
     for did, why in (left | run.misses).items():
         if by_id[did].truth is not None and by_id[did].truth not in got:
-            outcome[by_id[did].truth] = why if why.startswith("missed") else f"missed: {why}"
+            outcome[by_id[did].truth] = named(why if why.startswith("missed") else f"missed: {why}")
+    for f in problem.fruits:
+        if outcome[f.id] == "missed":  # no report of it was ever booked nor left with a reason
+            rs = [r for r in by_id.values() if r.truth == f.id and math.isfinite(run.seen.get(r.id, math.inf))]
+            outcome[f.id] = ("missed: never reported (the camera did not see it before the run ended)" if not rs else
+                             f"missed: reported at ({rs[0].position[0]:.3f}, {rs[0].position[1]:.3f}) (report {rs[0].id}), "
+                             f"where no arm could pick it as the carriage went (the report's error)")
     windows = booker.windows
     working = [a for a in range(len(problem.arms)) if a not in halt]
     stopped_at = min(halt.values(), default=math.inf)

@@ -182,7 +182,8 @@ class FaultDraws:
                 if fired or now < t:
                     return 0.0
                 fired.append((arm, now))
-                log["late_replan"]["arm"], log["late_replan"]["decided_at"] = problem.arms[arm].name, now
+                log["late_replan"].update({"arm": problem.arms[arm].name, "decided_at": round(now, 3),
+                                           "waits_until": round(now + f.late_replan, 3)})  # (the first decision at or after t)
                 return f.late_replan
 
             self.delay = delay
