@@ -109,9 +109,13 @@ def run_cmd(
 
         faults = RowFaults(arm_stop, camera_dark, false_burst, late_replan)
         return _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults)
+    from ..row.sensing import LiveRowOptions
+
+    d = LiveRowOptions()  # (the row options' defaults: what a cell run leaves as they are)
     row_only = [name for name, given in (("--speed", speed is not None), ("--gantry", gantry is not None),
-                                         ("--look-ahead", look_ahead != 1.5), ("--sigma", sigma != 0.01),
-                                         ("--false-rate", false_rate != 0.05), ("--duplicate-rate", duplicate_rate != 0.02),
+                                         ("--look-ahead", look_ahead != d.look_ahead), ("--sigma", sigma != d.sigma),
+                                         ("--false-rate", false_rate != d.false_rate),
+                                         ("--duplicate-rate", duplicate_rate != d.duplicate_rate),
                                          ("--arm-stop", arm_stop), ("--camera-dark", camera_dark > 0),
                                          ("--false-burst", false_burst > 0), ("--late-replan", late_replan > 0)) if given]
     if row_only:

@@ -290,6 +290,10 @@ class Booker:
         st.q[st.k_free:] = st.q[st.k_free]
         st.k_free = k1
 
+    def at_home(self, i: int) -> bool:
+        """Whether arm ``i`` rests at home at the end of what it has booked."""
+        return bool(np.allclose(self.arms[i].q[self.arms[i].k_free], self.problem.arms[i].home, atol=1e-12))
+
     def go_home(self, i: int, not_before: float = 0.0) -> bool:
         """Book arm ``i``'s move home (rest to rest), the earliest clear start; False if none
         within a minute of waiting."""
@@ -297,7 +301,7 @@ class Booker:
         st = self.arms[i]
         q0 = st.q[st.k_free].copy()
         home = np.asarray(arm.home, float)
-        if np.allclose(q0, home, atol=1e-12):
+        if self.at_home(i):
             st.done = True
             return True
         leg = Leg(arm, np.array([q0, np.zeros(2), np.zeros(2)]), np.array([home, np.zeros(2), np.zeros(2)]), self.leg_share)
@@ -422,10 +426,9 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 gone = {(fid, w.arm) for fid, w in tries
                         if failed[(i, fid)] >= _GIVE_UP or not booker.branches(i, fid, x1, x1)}
                 by_arm[i] = [(fid, w) for fid, w in by_arm[i] if (fid, w.arm) not in gone]
-            at_home = np.allclose(booker.arms[i].q[booker.arms[i].k_free], arms[i].home, atol=1e-9)
             if first is not None:
                 pending[i].pop(0)  # the given order's next fruit does not fit: the greedy may take it
-            elif not (make_way and not at_home and booker.go_home(i)):  # (home: out of the way, it tries again)
+            elif not (make_way and not booker.at_home(i) and booker.go_home(i)):  # (home: out of the way, it tries again)
                 soonest = min((c[1].lo for c in cands if c[1].lo > now), default=now + _RETRY)
                 booker.wait(i, max(_RETRY, min(soonest - now - 1.0, 1.0)))
         heapq.heappush(queue, (booker.free_time(i), i))

@@ -89,7 +89,8 @@ class LiveRow:
 class _Run:
     """One live run's state: the reports, what is seen, the booker and the close-range sensor."""
 
-    def __init__(self, problem: Problem, opts: LiveRowOptions, reports: list[RowReport], cruise: Cruise):
+    def __init__(self, problem: Problem, opts: LiveRowOptions, reports: list[RowReport], cruise: Cruise,
+                 dark: tuple[float, float] | None = None):
         self.problem, self.opts = problem, opts
         self.reports = {r.id: r for r in reports}
         self.truth_xy = {f.id: f.position for f in problem.fruits}
@@ -98,7 +99,7 @@ class _Run:
                                     name=f"{problem.name} (as seen)", source=None, digest=None)
         self.reach = row_reach(self.seen_problem)
         self.booker = Booker(self.seen_problem, cruise, {}, DEFAULT_RATE, opts.margin, self.reach.resolution)
-        self.dark: tuple[float, float] | None = None
+        self.dark = dark  # (t, seconds) the camera reports nothing, or None
         self.seen: dict[str, float] = {}
         self.known: list[tuple[str, tuple[float, float]]] = []  # reports chosen so far (association)
         self.outcome: dict[str, str] = {}
@@ -180,7 +181,6 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
         raise ValueError("mode: expected continuous or stop-and-go for a live row (a live planner runs one mode), found auto")
     g = problem.gantry
     reports = row_reports(problem, opts)
-    t0 = _time.perf_counter()
     if mode == GantryMode.CONTINUOUS:
         if not 0.0 < opts.speed <= g.max_velocity:
             raise ValueError(f"speed: expected a cruising speed in (0, {g.max_velocity:g}] m/s, found {opts.speed:g}")
@@ -189,7 +189,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
         # the carriage does not know where the last fruit is: it cruises to the end of the rail
         cruise = Cruise.of(problem, opts.speed, g.end)
         faults = FaultDraws(problem, opts, cruise.duration, cruise)
-        run = _Run(problem, opts, reports + faults.burst, cruise)
+        run = _Run(problem, opts, reports + faults.burst, cruise, faults.dark)
         t0 = _time.perf_counter()
         left, cruise, stops = _on_the_move(run, faults, cruise), run.booker.cruise, None
     else:
@@ -197,7 +197,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
 
         offline = plan_row(problem, RowOptions(), progress)
         faults = FaultDraws(problem, opts, float(offline.plan.metrics.get("makespan") or 0.0), None)
-        run = _Run(problem, opts, reports, Cruise.hops(problem, []))
+        run = _Run(problem, opts, reports, Cruise.hops(problem, []), faults.dark)
         t0 = _time.perf_counter()
         left, stops = _stop_and_go(run, faults)
         cruise = run.booker.cruise
@@ -212,8 +212,6 @@ def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str
     unbooked -- always once every pick booked before is over, so that every booked cycle stays
     exact."""
     problem, opts, g = run.problem, run.opts, run.problem.gantry
-    run.dark = faults.dark
-    run.set_cruise(cruise)
     halt, delay = faults.halt, faults.delay
     changes = sorted([(t, "arm_stop") for t in halt.values()] + ([(faults.dark[0], "camera_dark")] if faults.dark else []))
     stretches: list[tuple] = [(math.inf, opts.speed)]
@@ -221,7 +219,7 @@ def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str
     holds: list[dict] = []
     held_for: dict[str, int] = {}  # report -> holds the carriage made for it
 
-    def change(kind: str, t_c: float, risk: list[str] | None = None) -> None:
+    def change(kind: str, t_c: float, risk: list[tuple[str, float]] | None = None) -> None:
         nonlocal cruise, stretches
         t_s = max([t_c] + run.pick_ends())
         v = stretches[-1][1]
@@ -311,11 +309,9 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
     reach, grid = run.reach, run.reach.grid
     front, rear = front_base(problem), min(a.base[0] for a in problem.arms)
     far = g.end + max(a.base[0] + a.reach for a in problem.arms)  # no arm reaches a fruit beyond this
-    run.dark = faults.dark
     legs: list[tuple[float, float]] = []
     inset = int(math.ceil(2.0 * opts.sigma / reach.resolution - 1e-9))
     run.booker.leg_share = AT_REST_SHARE  # every pick with the carriage at rest: no tracking seam to allow for
-    k, t_arr = 0, 0.0
     stops: list[dict] = []
 
     def edge_at(t: float) -> float:
@@ -365,13 +361,14 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
     k, _ = next_stop(0, 0.0, here=True)
     if k > 0:
         legs.append((0.0, float(grid[k])))
-        t_arr = Cruise.hops(problem, legs).duration
+    cruise = Cruise.hops(problem, legs)  # at rest at the stop for good, until the next hop is decided
+    t_arr = cruise.duration
     while True:
         if faults.burst_at is not None and not faults.burst and faults.burst_at <= t_arr:
             faults.burst = faults.burst_reports(problem, opts, float(grid[k]), t_arr)
             faults.log["false_burst"]["at_stop_x"] = round(float(grid[k]), 3)
             run.add_reports(faults.burst)
-        run.set_cruise(Cruise.hops(problem, legs))
+        run.set_cruise(cruise)
         # picks only with the carriage at rest here: windows from the arrival on, for as long as
         # the arms could need to harvest everything in reach (a fruit none can book by then waits
         # for the next stop, or is left out)
@@ -394,7 +391,8 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
             break
         legs.append((t_dep, float(grid[nxt])))
         k = nxt
-        t_arr = Cruise.hops(problem, legs).duration
+        cruise = Cruise.hops(problem, legs)
+        t_arr = cruise.duration
     for i in range(len(problem.arms)):
         if i not in faults.halt:
             run.booker.go_home(i)
@@ -490,9 +488,13 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraw
     for did, why in (left | run.misses).items():
         if by_id[did].truth is not None and by_id[did].truth not in got:
             outcome[by_id[did].truth] = named(why if why.startswith("missed") else f"missed: {why}")
+    reported: dict[str, list[RowReport]] = {}  # true fruit -> its reports the camera made
+    for r in by_id.values():
+        if r.truth is not None and math.isfinite(run.seen.get(r.id, math.inf)):
+            reported.setdefault(r.truth, []).append(r)
     for f in problem.fruits:
         if outcome[f.id] == "missed":  # no report of it was ever booked nor left with a reason
-            rs = [r for r in by_id.values() if r.truth == f.id and math.isfinite(run.seen.get(r.id, math.inf))]
+            rs = reported.get(f.id, [])
             outcome[f.id] = ("missed: never reported (the camera did not see it before the run ended)" if not rs else
                              f"missed: reported at ({rs[0].position[0]:.3f}, {rs[0].position[1]:.3f}) (report {rs[0].id}), "
                              f"where no arm could pick it as the carriage went (the report's error)")

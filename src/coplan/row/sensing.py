@@ -135,8 +135,9 @@ def report_times(reports: list[RowReport], cruise: Cruise, dark: tuple[float, fl
 
 def row_detections(problem: Problem, cruise: Cruise, opts: LiveRowOptions) -> list[RowDetection]:
     """The camera's reports with their times on ``cruise``, in time order."""
-    times = report_times(row_reports(problem, opts), cruise)
-    return sorted((RowDetection(r.id, r.position, max(0.0, times[r.id]), r.truth) for r in row_reports(problem, opts)),
+    reports = row_reports(problem, opts)
+    times = report_times(reports, cruise)
+    return sorted((RowDetection(r.id, r.position, max(0.0, times[r.id]), r.truth) for r in reports),
                   key=lambda d: (d.t, d.id))
 
 
