@@ -232,3 +232,48 @@ def test_deadline_ends_the_search(problems_dir):
     with pytest.raises(ConflictError, match="time budget"):
         coordinate(p, base, MARGIN, deadline=time.perf_counter() - 1.0)
     assert time.perf_counter() - t0 < 1.0
+
+
+@pytest.mark.parametrize("name", ["dense_overlap", "five_arm_row"])
+def test_batched_hits_are_the_per_move_hits(problems_dir, name):
+    """choose_branches tests every move of an arm against its neighbours' poses in one
+    vectorised batch (small chunks here, so several batches); each (move, pose) answer must be
+    the one the per-move test gives."""
+    from coplan.planners.coordinated.routing import ArmGeometry, _hits, _prefetch_hits
+
+    p = _load(problems_dir, name)
+    need = p.task.clearance + MARGIN
+    geo = ArmGeometry(p, need)
+    rng = np.random.default_rng(11)
+    for i, arm in enumerate(p.arms):
+        if not geo.nbrs[i]:
+            continue
+        lim = arm.limits
+        qs = rng.uniform(lim[:, 0], lim[:, 1], size=(12, 2))
+        avoid = {j: rng.uniform(p.arms[j].limits[:, 0], p.arms[j].limits[:, 1], size=(6, 2)) for j in geo.nbrs[i]}
+        keys = {j: [tuple(np.round(q, 9)) for q in v] for j, v in avoid.items()}
+        moves = [(qs[a], qs[b]) for a in range(12) for b in range(12) if a != b]
+        batched: dict = {}
+        _prefetch_hits(geo, i, moves, avoid, keys, batched, chunk=500)
+        one: dict = {}
+        for q0, q1 in moves:
+            key = (tuple(np.round(q0, 9)), tuple(np.round(q1, 9)))
+            assert _hits(geo, i, q0, q1, key, avoid, keys, batched) == _hits(geo, i, q0, q1, key, avoid, keys, one)
+        assert batched.keys() == one.keys() and batched == one
+        assert any(one.values()) and not all(one.values())  # both answers occur
+
+
+def test_schedule_state_is_the_step_by_step_state(problems_dir):
+    """ArmSchedule.state evaluates each step over its own stretch of sorted times; it must give
+    exactly what evaluating every step over every time gives, at step boundaries too, and the
+    same for times out of order."""
+    p = _load(problems_dir, "dense_overlap")
+    sched = decoupled_schedules(p, allocate(p))
+    rng = np.random.default_rng(3)
+    for s in sched.values():
+        bounds = np.array([x for st in s.steps for x in (st.t0, st.t1)])
+        t = np.sort(np.r_[np.linspace(-0.5, s.end + 0.5, 2001), bounds, rng.uniform(0, s.end, 300)])
+        ref = s._state_each(t, np.zeros((3, t.size, 2)) + np.r_[[np.asarray(s.arm.home, float)], np.zeros((2, 2))][:, None, :])
+        assert np.array_equal(s.state(t), ref)
+        perm = rng.permutation(t.size)
+        assert np.array_equal(s.state(t[perm]), ref[:, perm])

@@ -273,10 +273,16 @@ def choose_branches(problem: Problem, alloc: Allocation, need: float, weight: fl
             qb, vb = arm.ik(np.asarray(arm.bin, float))
             bins = [qb[b] for b in range(2) if vb[b]]
             home = np.asarray(arm.home, float)
-            states: dict = {None: (0.0, [], [])}
+            branches = []
             for fid in seq:
                 qf, vf = arm.ik(fruit_pos[fid], margin)
-                fbr = [qf[b] for b in range(2) if vf[b]] or [np.asarray(fruit_q[arm.name][fid], float)]
+                branches.append([qf[b] for b in range(2) if vf[b]] or [np.asarray(fruit_q[arm.name][fid], float)])
+            # every move the programme may price, tested against the neighbours' poses at once
+            moves = [(home, f) for f in branches[0]] + [(qbin, home) for qbin in bins]
+            moves += [m for fbr in branches for f in fbr for qbin in bins for m in ((qbin, f), (f, qbin))]
+            _prefetch_hits(geo, i, moves, avoid, avoid_keys, memo)
+            states: dict = {None: (0.0, [], [])}
+            for fbr in branches:
                 new: dict = {}
                 for prev, (c0, fs, ps) in states.items():
                     start = home if prev is None else bins[prev]
@@ -303,6 +309,42 @@ def _move_seconds(arm, i: int, q0, q1, key: tuple, memo: dict) -> float:
     if k not in memo:
         memo[k] = scurve_move(arm, 0.0, q0, q1).duration
     return memo[k]
+
+
+def _prefetch_hits(geo: ArmGeometry, i: int, moves: list, avoid: dict, avoid_keys: dict, memo: dict,
+                   chunk: int = 400_000) -> None:
+    """Fill ``memo`` as :func:`_hits` would for every move ``(q0, q1)`` in ``moves``, in a few
+    vectorised tests (all the moves' path samples against all of a neighbour's poses) instead of
+    one small test per move; the same samples and the same exact test, so the same answers."""
+    seen: set = set()
+    uniq = []
+    for q0, q1 in moves:
+        key = (_key(q0), _key(q1))
+        if key not in seen:
+            seen.add(key)
+            uniq.append((q0, q1, key))
+    for j, poses in avoid.items():
+        todo = [(q0, q1, key) for q0, q1, key in uniq
+                if any(("hit", i) + key + (j,) + kp not in memo for kp in avoid_keys[j])]
+        if not todo or len(poses) == 0:
+            continue
+        paths = [geo.path(q0, q1, step=0.08) for q0, q1, _ in todo]
+        per = max(1, chunk // len(poses))
+        lo = 0
+        while lo < len(paths):  # moves in chunks of about ``chunk`` sample-pose pairs
+            hi, n = lo, 0
+            while hi < len(paths) and (hi == lo or n + len(paths[hi]) <= per):
+                n += len(paths[hi])
+                hi += 1
+            samples = np.vstack(paths[lo:hi])
+            starts = np.cumsum([0] + [len(p) for p in paths[lo:hi - 1]])
+            close = geo.close(j, poses[None, :, :], i, samples[:, None, :])  # (samples, poses)
+            hit = np.logical_or.reduceat(close, starts, axis=0)  # (moves, poses)
+            for m in range(lo, hi):
+                key = todo[m][2]
+                for kp, h in zip(avoid_keys[j], hit[m - lo]):
+                    memo[("hit", i) + key + (j,) + kp] = bool(h)
+            lo = hi
 
 
 def _hits(geo: ArmGeometry, i: int, q0, q1, key: tuple, avoid: dict, avoid_keys: dict, memo: dict) -> int:

@@ -93,10 +93,37 @@ class ArmSchedule:
         return max((s.t1 for s in self.steps if s.kind == StepKind.PLACE), default=0.0)
 
     def state(self, t) -> np.ndarray:
-        """Joint position, velocity, acceleration at times ``t`` (K,) -> (3, K, 2)."""
+        """Joint position, velocity, acceleration at times ``t`` (K,) -> (3, K, 2).
+
+        At each time the last step started by then holds (its pose after it ends, at rest);
+        home before the first. For sorted times (every caller's case) each step is evaluated
+        only over its own stretch of ``t``: linear in steps plus samples."""
         t = np.asarray(t, float)
         out = np.zeros((3, t.size, 2))
         out[0] = np.asarray(self.arm.home, float)
+        if not self.steps or t.size == 0:
+            return out
+        t0s = np.array([s.t0 for s in self.steps])
+        if t.ndim != 1 or np.any(np.diff(t0s) < 0) or np.any(np.diff(t) < 0):
+            return self._state_each(t, out)
+        lo = np.searchsorted(t, t0s, side="left")  # step j holds over t[lo[j]:lo[j + 1]]
+        his = np.append(lo[1:], t.size)
+        ends = np.searchsorted(t, [s.t1 for s in self.steps], side="right")  # ... and is at rest from there
+        for s, a, b, e in zip(self.steps, lo, his, ends):
+            if a >= b:
+                continue
+            e = min(max(e, a), b)
+            if e > a:
+                if s.kind == StepKind.MOVE and s.curve is not None:
+                    out[:, a:e] = s.curve.derivatives(t[a:e] - s.t0)[:3]
+                else:
+                    out[0, a:e] = s.q1
+            out[0, e:b] = s.q1
+            out[1:, a:b][:, e - a:] = 0.0
+        return out
+
+    def _state_each(self, t: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """:meth:`state` step by step over every time (any order of times or steps)."""
         for s in self.steps:
             m = (t >= s.t0) & (t <= s.t1)
             if s.kind == StepKind.MOVE and s.curve is not None:
