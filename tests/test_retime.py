@@ -138,3 +138,44 @@ def test_the_screened_meetings_are_exactly_the_brute_force_ones(dense):
                 compared += 1
                 met += bool(brute.size)
     assert compared > 100 and met > 10  # both kinds of pair were compared
+
+
+@pytest.fixture(scope="module")
+def long_row():
+    prob = parse_problem(to_yaml(row_problem(5, 90, seed=5, reachable_only=True)), "row-5-90")
+    res = plan_coordinated(prob, "makespan", CoordinatedOptions(margin=MARGIN), lambda m: None)
+    return prob, res.candidate, res.bound.value
+
+
+def test_bounded_retiming_is_a_restriction_that_keeps_the_work_and_is_verified(long_row):
+    """Long rows: every move may start at most ``shift`` s later than now (and as early as its
+    own arm allows). The model has fewer constraints than the unbounded one, keeps the steps,
+    is never later than the plan it retimes, and the verifier passes it."""
+    prob, coord, bound = long_row
+    full = retime(prob, coord.schedules, MARGIN)
+    short = retime(prob, coord.schedules, MARGIN, shift=1.5)
+    assert short.schedules is not None and short.status == "OPTIMAL"
+    assert short.constraints < full.constraints / 3
+    for n, sch in coord.schedules.items():
+        assert _work(short.schedules[n]) == _work(sch)
+        new = {(s.kind, s.fruit, s.q1): s.t0 for s in short.schedules[n].steps if s.kind != StepKind.WAIT}
+        old = {(s.kind, s.fruit, s.q1): s.t0 for s in sch.steps if s.kind != StepKind.WAIT}
+        assert all(new[k] <= old[k] + 1.5 + 1e-3 for k in old)  # no move more than the shift later
+    assert bound - 1e-9 <= short.makespan <= coord.makespan + 1e-9
+    assert verify(prob, schedules_plan(prob, coord.alloc, short.schedules, PlannerKind.OPTIMAL, {})).passed
+    # a shift longer than the plan bounds nothing: the unbounded model's constraints and optimum
+    wide = retime(prob, coord.schedules, MARGIN, shift=10 * coord.makespan)
+    assert wide.constraints == full.constraints
+    if full.status == "OPTIMAL" and wide.status == "OPTIMAL":
+        assert wide.makespan == pytest.approx(full.makespan, abs=1e-3)
+
+
+def test_the_optimal_planner_bounds_retiming_only_beyond_refine_fruit(long_row):
+    prob, _, _ = long_row
+    opts = OptimalOptions(search_work=1, refine_fruit=40, widen=False)
+    res = plan_optimal(prob, options=opts)
+    shifts = [r["shift"] for r in res.plan.solver["retime"]]
+    assert shifts and all(s == opts.retime_shift for s in shifts)
+    res = plan_optimal(prob, options=OptimalOptions(search_work=1, refine_fruit=200, refine_retimes=0, widen=False))
+    assert [r["shift"] for r in res.plan.solver["retime"]] == [None] * len(res.plan.solver["retime"])
+    assert res.verification.passed

@@ -60,7 +60,11 @@ class OptimalOptions:
         ranked by its retimed makespan (:mod:`coplan.planners.optimal.refine`); this many
         retimings at most; 0 turns it off (then the search's best alone is retimed)
     refine_fruit : refine only problems with at most this many fruit to plan (each retiming
-        of a long row takes seconds)
+        of a long row takes seconds); longer ones get the bounded retiming instead
+    retime_shift : on problems with more than ``refine_fruit`` fruit, retiming lets every move
+        start at most this many seconds later than it does now (and as early as its own arm
+        allows): pairs of moves that can never overlap then need no constraint, and a 200-600
+        fruit row is retimed in seconds instead of running out of time
     polish : also run the joint NLP from the incumbent when it still waits (off by default:
         since retiming and refinement, it has not improved a verified plan on any benchmark
         problem -- retiming chooses every wait of the same moves together, and does it better:
@@ -113,6 +117,7 @@ class OptimalOptions:
     retime_work: float = 5.0
     refine_retimes: int = 100
     refine_fruit: int = 40
+    retime_shift: float = 1.5
     polish: bool = False
     polish_iterations: int = 400
     polish_rounds: int = 5
@@ -137,7 +142,7 @@ class OptimalOptions:
 
 
 # fields that must be > 0 (the others of their type must be >= 0)
-_POSITIVE = {"workers", "h_target", "window", "check_rate", "time_limit", "window_time_limit", "retime_work"}
+_POSITIVE = {"workers", "h_target", "window", "check_rate", "time_limit", "window_time_limit", "retime_work", "retime_shift"}
 
 
 class OptionsError(InputError):

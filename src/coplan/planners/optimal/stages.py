@@ -24,7 +24,6 @@ import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
-import numpy as np
 
 from ...allocate.allocation import AllocationMethod
 from ...allocate.screen import screened
@@ -129,10 +128,13 @@ class Run:
 
         self.stage("retime")
         tr = _time.perf_counter()
+        long = sum(len(seq) for seq in c.alloc.assignment.values()) > self.opts.refine_fruit
         r = retime(self.problem, c.schedules, self.opts.margin, work=self.opts.retime_work,
                    tables=self.cache.setdefault("curve_tables", {}), memo=self.cache.setdefault("meetings", {}),
-                   deadline=None if self.deadline is None else tr + (self.deadline - tr) / 2)  # (under a limit: half what is left)
-        entry = {"of": of, "status": r.status, "makespan_before": c.makespan, "makespan": r.makespan,
+                   deadline=None if self.deadline is None else tr + (self.deadline - tr) / 2,  # (under a limit: half what is left)
+                   shift=self.opts.retime_shift if long else None)
+        entry = {"of": of, "status": r.status, "shift": self.opts.retime_shift if long else None,
+                 "makespan_before": c.makespan, "makespan": r.makespan,
                  "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
         if r.schedules is not None and r.makespan < min(c.makespan, self.inc.makespan) - 1e-9:
             entry["accepted"] = self.offer(retimed_candidate(c, r), "retime")
