@@ -12,9 +12,11 @@ is solved by the whole ``coplan solve`` command in a fresh process, as a user ru
    resident set of the command or any of its worker processes).
 2. **The default budget** (work, not seconds) on 5 x 100 and 5 x 200 against the heuristic
    planner's command on the same row: the wall time more than the heuristic's.
-3. **Where the coordinated stage spends its time** (in process, profiled): allocation and
+3. **Planning cost per fruit**, 25 to 600 fruit: the first verified plan in process, imports
+   already made, not profiled.
+4. **Where the coordinated stage spends its time** (in process, profiled): allocation and
    bound MILPs, elbow-branch choice, leg-by-leg coordination, the taking-turns fallback,
-   verification; and its time per fruit from 25 to 600 fruit.
+   verification.
 
 Every plan is verified by the command (exit code 0 only when it is) and every fruit picked.
 Every ratio is measured in this run, on this machine.
@@ -146,6 +148,31 @@ def _defaults(rows, folder: Path, tmp: Path) -> list[str]:
     return lines
 
 
+def _per_fruit(sizes, folder: Path) -> list[str]:
+    """Planning cost per fruit: the optimal planner's first verified plan, in this process with
+    its imports already made (a small row planned first), not profiled: what a sweep or a live
+    re-plan pays per problem once coplan is loaded."""
+    from coplan.generate import row_problem, to_yaml
+    from coplan.planners.optimal import OptimalOptions, plan_optimal
+    from coplan.problem import load_problem, parse_problem
+
+    small = parse_problem(to_yaml(row_problem(2, 6, seed=1, reachable_only=True)), "warm-up")
+    plan_optimal(small, options=OptimalOptions(time_limit=0.01))  # imports made, caches warm
+    lines = ["", "| row | fruit | first verified plan (in process) | per fruit | verified, every fruit |", "|---|---|---|---|---|"]
+    print("\n".join(lines), flush=True)
+    per = []
+    for arms, fruit in sizes:
+        res = plan_optimal(load_problem(_row_file(folder, arms, fruit)), options=OptimalOptions(time_limit=0.01))
+        first = res.plan.metrics.get("time_to_first_verified")
+        ok = bool(res.verification and res.verification.passed) and res.plan.metrics.get("harvested") == fruit
+        per.append(1e3 * first / fruit)
+        lines.append(f"| {arms} x {fruit} | {fruit} | {first:.3f} s | {per[-1]:.1f} ms | {'yes' if ok else 'NO'} |")
+        print(lines[-1], flush=True)
+    lines.append(f"- per fruit from {min(per):.1f} to {max(per):.1f} ms: the largest {max(per) / min(per):.2f} x the least")
+    print(lines[-1], flush=True)
+    return lines
+
+
 def _split(sizes, folder: Path) -> list[str]:
     """The coordinated stage, profiled in process: where its time goes, and per fruit."""
     import cProfile
@@ -199,6 +226,7 @@ def main() -> None:
         lines = _limits(rows, folder, tmp)
         lines += _defaults(DEFAULT_ROWS, folder, tmp)
         sizes = [(5, 25), (5, 50)] + [(a, f) for a, f, _ in rows]
+        lines += _per_fruit(sizes, folder)
         lines += _split(sizes, folder)
     print(f"\nWhole run: {time.perf_counter() - t_all:.0f} s.")
 

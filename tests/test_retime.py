@@ -174,8 +174,13 @@ def test_the_optimal_planner_bounds_retiming_only_beyond_refine_fruit(long_row):
     prob, _, _ = long_row
     opts = OptimalOptions(search_work=1, refine_fruit=40, widen=False)
     res = plan_optimal(prob, options=opts)
-    shifts = [r["shift"] for r in res.plan.solver["retime"]]
-    assert shifts and all(s == opts.retime_shift for s in shifts)
+    entries = res.plan.solver["retime"]
+    assert entries and all(r["shift"] == opts.retime_shift for r in entries)
+    assert len(entries) <= opts.retime_rounds + 1  # the coordinated plan's rounds and the search's best
+    for prev, r in zip(entries, entries[1:]):  # a further round only from a kept round that gained
+        if "round" in r["of"]:
+            assert prev["accepted"] and prev["makespan"] < prev["makespan_before"] - 0.01
+            assert r["makespan_before"] == pytest.approx(prev["makespan"])
     res = plan_optimal(prob, options=OptimalOptions(search_work=1, refine_fruit=200, refine_retimes=0, widen=False))
     assert [r["shift"] for r in res.plan.solver["retime"]] == [None] * len(res.plan.solver["retime"])
     assert res.verification.passed

@@ -65,6 +65,8 @@ class OptimalOptions:
         start at most this many seconds later than it does now (and as early as its own arm
         allows): pairs of moves that can never overlap then need no constraint, and a 200-600
         fruit row is retimed in seconds instead of running out of time
+    retime_rounds : bounded retimings in a row, each from the last one's result, while each
+        gains (more than 10 ms) and is kept
     polish : also run the joint NLP from the incumbent when it still waits (off by default:
         since retiming and refinement, it has not improved a verified plan on any benchmark
         problem -- retiming chooses every wait of the same moves together, and does it better:
@@ -118,6 +120,7 @@ class OptimalOptions:
     refine_retimes: int = 100
     refine_fruit: int = 40
     retime_shift: float = 1.5
+    retime_rounds: int = 4
     polish: bool = False
     polish_iterations: int = 400
     polish_rounds: int = 5
@@ -142,7 +145,7 @@ class OptimalOptions:
 
 
 # fields that must be > 0 (the others of their type must be >= 0)
-_POSITIVE = {"workers", "h_target", "window", "check_rate", "time_limit", "window_time_limit", "retime_work", "retime_shift"}
+_POSITIVE = {"workers", "h_target", "window", "check_rate", "time_limit", "window_time_limit", "retime_work", "retime_shift", "retime_rounds"}
 
 
 class OptionsError(InputError):

@@ -127,19 +127,30 @@ class Run:
         from .retime import retime, retimed_candidate
 
         self.stage("retime")
-        tr = _time.perf_counter()
         long = sum(len(seq) for seq in c.alloc.assignment.values()) > self.opts.refine_fruit
-        r = retime(self.problem, c.schedules, self.opts.margin, work=self.opts.retime_work,
-                   tables=self.cache.setdefault("curve_tables", {}), memo=self.cache.setdefault("meetings", {}),
-                   deadline=None if self.deadline is None else tr + (self.deadline - tr) / 2,  # (under a limit: half what is left)
-                   shift=self.opts.retime_shift if long else None)
-        entry = {"of": of, "status": r.status, "shift": self.opts.retime_shift if long else None,
-                 "makespan_before": c.makespan, "makespan": r.makespan,
-                 "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
-        if r.schedules is not None and r.makespan < min(c.makespan, self.inc.makespan) - 1e-9:
-            entry["accepted"] = self.offer(retimed_candidate(c, r), "retime")
-        self.reports["retime"].append(entry)
-        self.timings["retime"] = self.timings.get("retime", 0.0) + entry["wall_seconds"]
+        shift = self.opts.retime_shift if long else None
+        # bounded, a move comes forward at most by the waits before it and goes back at most by
+        # the shift: from its own result, another round can gain again (12 x 600: 1.030, 1.022,
+        # 1.017 x the bound in three rounds)
+        for k in range(self.opts.retime_rounds if long else 1):
+            if k and not self.in_time():
+                break
+            tr = _time.perf_counter()
+            r = retime(self.problem, c.schedules, self.opts.margin, work=self.opts.retime_work,
+                       tables=self.cache.setdefault("curve_tables", {}), memo=self.cache.setdefault("meetings", {}),
+                       deadline=None if self.deadline is None else tr + (self.deadline - tr) / 2,  # (under a limit: half what is left)
+                       shift=shift)
+            entry = {"of": of if k == 0 else f"{of}, round {k + 1}", "status": r.status, "shift": shift,
+                     "makespan_before": c.makespan, "makespan": r.makespan,
+                     "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
+            gained = r.schedules is not None and r.makespan < c.makespan - 0.01
+            if r.schedules is not None and r.makespan < min(c.makespan, self.inc.makespan) - 1e-9:
+                entry["accepted"] = self.offer(retimed_candidate(c, r), "retime")
+            self.reports["retime"].append(entry)
+            self.timings["retime"] = self.timings.get("retime", 0.0) + entry["wall_seconds"]
+            if not (gained and entry["accepted"]):
+                break
+            c = retimed_candidate(c, r)
         return True
 
 
