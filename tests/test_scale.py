@@ -112,3 +112,29 @@ def test_a_sweep_keeps_one_process_per_problem():
     with pytest.raises(SweepError, match=r"options.workers.*expected 1 \(a sweep runs each problem in one process"):
         parse_sweep(text % 2, "s.yaml")
     assert len(parse_sweep(text % 1, "s.yaml").items()) == 2
+
+
+@pytest.fixture(scope="module")
+def alongside_runs():
+    """A row longer than refine_fruit: with 2 workers the coordinated planner's candidates run in
+    another process while the first candidate is retimed; a short search after it."""
+    prob = parse_problem(to_yaml(row_problem(4, 60, seed=3, reachable_only=True)), "row-4x60")
+    opts = dict(search_work=3000, refine_fruit=40, widen=False)
+    one = plan_optimal(prob, options=OptimalOptions(**opts))
+    two = [plan_optimal(prob, options=OptimalOptions(workers=2, **opts)) for _ in range(2)]
+    return prob, one, two
+
+
+def test_two_workers_retime_the_first_candidate_alongside_the_coordinated_planner(alongside_runs):
+    prob, one, (a, b) = alongside_runs
+    ra, r1 = a.plan.solver["retime"], one.plan.solver["retime"]
+    assert "first candidate" in ra[0]["of"] and ra[0]["shift"] is not None  # the bounded retiming, first
+    assert not any("first candidate" in r["of"] for r in r1)
+    # the other process's candidates are the one-process coordinated stage's, exactly
+    assert a.plan.solver["coordinated"]["candidates"] == one.plan.solver["coordinated"]["candidates"]
+    assert a.plan.metrics["coordinated_makespan"] == one.plan.metrics["coordinated_makespan"]
+    # ... and the same input and workers give the same plan; verified, never slower than one worker
+    assert _events(a.plan) == _events(b.plan)
+    assert [dict(r, wall_seconds=0) for r in ra] == [dict(r, wall_seconds=0) for r in b.plan.solver["retime"]]
+    assert verify(prob, a.plan).passed
+    assert a.plan.metrics["makespan"] <= one.plan.metrics["makespan"] + 1e-9

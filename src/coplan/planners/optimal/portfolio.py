@@ -31,7 +31,7 @@ from ...problem.model import Problem
 from ..coordinated.candidate import Coordinated
 from .search import SearchOptions, SearchStats, StopReason, improve
 
-__all__ = ["PortfolioResult", "search_portfolio", "default_workers"]
+__all__ = ["PortfolioResult", "search_portfolio", "default_workers", "Alongside"]
 
 _TICK_EVERY = 0.5  # s between a worker's progress messages
 
@@ -156,3 +156,50 @@ def search_portfolio(problem: Problem, start: Coordinated, bound: float, margin:
         best = start  # no worker beat the start (the copy that came back is the start itself)
     stats.local_bests = [lb for w in range(workers) if results.get(w) for lb in results[w][1].local_bests]
     return PortfolioResult(best, stats, summaries)
+
+
+# ----------------------------------------------------------------------------- the coordinated stage alongside
+def _coordinated_worker(problem: Problem, allocation, options, out) -> None:
+    from ..coordinated.planner import plan_coordinated
+
+    try:
+        out.put(("done", plan_coordinated(problem, allocation, options, None, {})))
+    except KeyboardInterrupt:
+        out.put(("error", "interrupted"))
+    except Exception as e:  # noqa: BLE001 -- reported to the parent, which keeps its own first candidate
+        out.put(("error", f"{type(e).__name__}: {e}"))
+
+
+class Alongside:
+    """The coordinated planner (every candidate) in another process, while the caller does
+    something else with the first one (the optimal planner retimes it); :meth:`result` waits
+    for it. The same input and options give the same result as in this process."""
+
+    def __init__(self, problem: Problem, allocation, options) -> None:
+        ctx = _context()
+        self._out = ctx.Queue()
+        self._proc = ctx.Process(target=_coordinated_worker, args=(problem, allocation, options, self._out), daemon=True)
+        self._proc.start()
+        self.error: str | None = None
+
+    def result(self):
+        """The other process's :class:`~coplan.planners.coordinated.planner.CoordinatedResult`,
+        or None (then :attr:`error` says why) when it failed or ended without a word."""
+        while True:
+            try:
+                kind, payload = self._out.get(timeout=1.0)
+            except _queue.Empty:
+                if not self._proc.is_alive():
+                    self.error = f"the coordinated planner's process ended (exit code {self._proc.exitcode})"
+                    return None
+                continue
+            if kind == "done":
+                return payload
+            self.error = payload
+            return None
+
+    def close(self) -> None:
+        if self._proc.is_alive():
+            self._proc.terminate()
+        self._proc.join(timeout=5.0)
+        self._out.close()

@@ -64,6 +64,7 @@ class Run:
     coord_plan: Plan | None = None
     cand: Coordinated | None = None  # the coordinated planner's best candidate
     start: Coordinated | None = None  # where the search starts
+    retimed_first: Coordinated | None = None  # the first candidate, retimed alongside the coordinated planner
     found: Coordinated | None = None  # the search's best
     stats: object = None
     hood: Neighbourhood | None = None
@@ -175,8 +176,15 @@ def coordinated(run: Run) -> str:
                                time_limit=None if opts.time_limit is None else opts.time_limit / 3)
     run.stage("coordinated")
     t0 = _time.perf_counter()
-    run.coord = coord = plan_coordinated(problem, run.allocation, copts, run.say, run.cache, on_feasible=first_feasible)
-    run.timings["coordinated"] = _time.perf_counter() - t0 - run.timings.get("baseline", 0.0)  # (the baseline is made inside it)
+    first = None
+    if opts.workers > 1 and opts.retime and len(problem.fruits) > opts.refine_fruit:
+        coord, first = _alongside(run, copts, first_feasible)
+    else:
+        coord = plan_coordinated(problem, run.allocation, copts, run.say, run.cache, on_feasible=first_feasible)
+    run.coord = coord
+    # (the baseline is made inside it; a retiming alongside is the retime stage's)
+    run.timings["coordinated"] = (_time.perf_counter() - t0 - run.timings.get("baseline", 0.0)
+                                  - run.timings.get("retime", 0.0))
     run.coord_plan = coord.plan
     run.cand = cand = coord.candidate
     if cand is not None:
@@ -184,12 +192,45 @@ def coordinated(run: Run) -> str:
                   "coordinated", cand)
     run.bound = coord.plan.metrics.get("lower_bound") or 0.0
     run.start = inc.candidate
+    if first is not None:  # where one worker would start: the better of the first and the best candidate
+        run.start = cand if cand is not None and cand.makespan < first.makespan - 1e-9 else first
     return "planned" if cand is not None else "no conflict-free candidate"
 
 
+def _alongside(run: Run, copts: CoordinatedOptions, first_feasible: Callable[[Coordinated], None]):
+    """Two workers or more on a long problem (more than ``refine_fruit`` fruit): the coordinated
+    planner's candidates in another process while this one takes the first candidate and
+    retimes it (bounded) at once -- on a long row that retiming, not the later candidates, is
+    what comes near the bound. Then the flow goes on exactly as with one worker, from the other
+    process's result (its best candidate is where the retime stage and the search start), so
+    the same input and workers give the same plan."""
+    from .portfolio import Alongside
+
+    other = Alongside(run.problem, run.allocation, copts)
+    try:
+        first = plan_coordinated(run.problem, run.allocation, replace(copts, time_limit=0.0), run.say, run.cache,
+                                 on_feasible=first_feasible)  # (the first candidate always completes)
+        run.bound = first.plan.metrics.get("lower_bound") or 0.0
+        if first.candidate is not None and not first.candidate.fallback:
+            run.retimed(first.candidate, "coordinated, its first candidate (the others alongside)")
+            run.retimed_first = first.candidate
+        coord = other.result()
+    finally:
+        other.close()
+    if coord is None:
+        run.say(f"the coordinated planner's other process gave nothing ({other.error}); going on from its first candidate")
+        return first, None
+    return coord, first.candidate
+
+
 def retime_coordinated(run: Run) -> str:
-    """The coordinated plan's moves retimed together."""
+    """The coordinated plan's moves retimed together (unless they were, alongside the
+    coordinated planner: its first candidate stayed the best)."""
+    if run.start is not None and run.start is run.retimed_first:
+        return "retimed alongside the coordinated planner"
     return "ran" if run.retimed(run.start, "coordinated") else "skipped"
+
+
 
 
 def search(run: Run) -> str:
