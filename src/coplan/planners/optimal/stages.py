@@ -24,7 +24,6 @@ import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
-
 from ...allocate.allocation import AllocationMethod
 from ...allocate.screen import screened
 from ...plan import Plan, PlannerKind, PlanStatus, finalize_plan
@@ -229,8 +228,6 @@ def retime_coordinated(run: Run) -> str:
     if run.start is not None and run.start is run.retimed_first:
         return "retimed alongside the coordinated planner"
     return "ran" if run.retimed(run.start, "coordinated") else "skipped"
-
-
 
 
 def search(run: Run) -> str:
