@@ -105,6 +105,25 @@ def test_retiming_stops_at_the_clock_limit():
     assert ok.schedules is not None  # a deadline far off changes nothing
 
 
+def test_the_search_and_its_anchor_stop_at_the_clock_limit():
+    """Under a spent clock limit the search makes no evaluation and builds no anchor (a long
+    row's anchor -- each fruit inserted where its arm finishes earliest -- took 18 s on 12 x 600
+    fruit, past a 5 s limit); a limit far off changes nothing."""
+    from coplan.planners.optimal.search import Neighbourhood, SearchOptions, StopReason, improve
+
+    prob = parse_problem(to_yaml(row_problem(3, 30, seed=4, reachable_only=True)), "row-3x30")
+    co = plan_coordinated(prob, "makespan", CoordinatedOptions())
+    opts = SearchOptions(work=2000)
+    best, st = improve(prob, co.candidate, co.bound.value, 0.015, opts, None, time.perf_counter() - 1.0, {},
+                       co.bound.assignment)
+    assert st.stop == StopReason.TIME_LIMIT and st.evaluations == 0 and best is co.candidate
+    hood = Neighbourhood(prob, co.candidate, 0.015, opts, {})
+    hood.deadline = time.perf_counter() - 1.0
+    assert hood.anchor(co.bound.assignment, tuple(a.name for a in prob.arms)) is None
+    hood.deadline = time.perf_counter() + 60.0
+    assert hood.anchor(co.bound.assignment, tuple(a.name for a in prob.arms)) is not None
+
+
 def test_a_sweep_keeps_one_process_per_problem():
     from coplan.sweep.spec import SweepError, parse_sweep
 

@@ -24,6 +24,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from coplan.kinematics import SCurve, cubic_eval, cubic_min_time, move_lower_bound, scurve_time
+from coplan.kinematics.timing import sync_duration
 
 V, A, J = 3.0, 8.0, 80.0  # the greenhouse arm's shoulder limits
 
@@ -249,3 +250,14 @@ def test_jerk_is_constant_between_switch_times(q0, q1, l0, l1) -> None:
     peak_t = float(np.cumsum(move.profiles[slow][0])[2])
     if 1e-9 < peak_t < move.duration - 1e-9:
         assert np.abs(sw - peak_t).min() < 1e-9
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.tuples(st.floats(-3.2, 3.2), st.floats(-3.2, 3.2)), st.tuples(st.floats(-3.2, 3.2), st.floats(-3.2, 3.2)))
+def test_sync_duration_is_the_scurve_duration(q0, q1) -> None:
+    """The remembered duration the allocation's programmes use is exactly the S-curve's, for
+    float joint values and for NumPy arrays of them."""
+    lim = ((3.0, 4.0), (10.0, 12.0), (80.0, 120.0))
+    want = SCurve.between(q0, q1, *lim).duration
+    assert sync_duration(q0, q1, *lim) == want
+    assert sync_duration(np.array(q0), np.array(q1), *lim) == want

@@ -39,7 +39,7 @@ from ..kinematics import arm as kin
 from ..errors import CoplanError
 from ..kinds import AllocationMethod, SequenceRule
 from ..problem.model import Arm, Problem
-from ..kinematics.timing import SCurve, move_lower_bound
+from ..kinematics.timing import move_lower_bound, sync_duration
 from ..ties import TIE, TIME_QUANTUM, first_min, quantised
 
 __all__ = ["AllocationMethod", "SequenceRule", "Allocation", "allocate", "arm_configs", "lower_bound", "bound_details",
@@ -89,7 +89,7 @@ class Allocation:
 
 
 def _sync_time(arm: Arm, q0, q1) -> float:
-    return SCurve.between(q0, q1, arm.max_velocity, arm.max_acceleration, arm.max_jerk).duration
+    return sync_duration(q0, q1, arm.max_velocity, arm.max_acceleration, arm.max_jerk)
 
 
 def _lb_time(arm: Arm, q0, q1) -> float:

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["cubic_min_time", "cubic_eval", "scurve_time", "scurve_times", "SCurve", "Move1D", "move_lower_bound",
+__all__ = ["sync_duration", "cubic_min_time", "cubic_eval", "scurve_time", "scurve_times", "SCurve", "Move1D", "move_lower_bound",
            "MoveError", "ruckig_move"]
 
 
@@ -190,6 +190,19 @@ def _between(q0, q1, vmax, amax, jmax) -> SCurve:
     profs = tuple(_phases(abs(b - a), v, ac, j) for a, b, v, ac, j in zip(q0, q1, vmax, amax, jmax))
     duration = max((float(sum(d)) for d, _ in profs), default=0.0)
     return SCurve(q0, q1, profs, duration)
+
+
+def sync_duration(q0, q1, vmax: tuple, amax: tuple, jmax: tuple) -> float:
+    """``SCurve.between(q0, q1, vmax, amax, jmax).duration`` for two-joint poses, remembered by
+    the four joint values: the allocation's dynamic programmes ask for millions of these (a
+    600-fruit row's search anchor: 6.3 million), and building ``between``'s key costs more
+    than the answer. The limits must be tuples of floats (a problem's arms have them so)."""
+    return _duration(float(q0[0]), float(q0[1]), float(q1[0]), float(q1[1]), vmax, amax, jmax)
+
+
+@functools.lru_cache(maxsize=1 << 18)
+def _duration(a0: float, a1: float, b0: float, b1: float, vmax, amax, jmax) -> float:
+    return _between((a0, a1), (b0, b1), vmax, amax, jmax).duration
 
 
 def scurve_times(D, v: float, a: float, j: float) -> np.ndarray:

@@ -221,6 +221,8 @@ class Neighbourhood:
             return None
         seqs = []
         for i, n in enumerate(self.names):
+            if self.deadline is not None and _time.perf_counter() > self.deadline:
+                return None  # (a long row's fastest orders take seconds: none under a spent clock limit)
             fr = tuple(assignment.get(n, ()))
             if len(fr) <= 6:
                 seqs.append(first_min(itertools.permutations(fr), key=lambda p: self.dp(i, tuple(p))[2]) if fr else ())
@@ -466,6 +468,9 @@ def improve(
         # the anchor: where every other fresh start begins -- and the first, when it beats the start
         a_state = a_cand = None
         a_turn = 1  # fresh starts with this parity begin at the anchor
+        if deadline is not None and _time.perf_counter() > deadline:
+            st.stop = StopReason.TIME_LIMIT
+            return best, st
         if anchor is not None and not opts.fixed_assignment and best.makespan > bound + opts.tolerance:
             a_state = srch.anchor(anchor, s_cur.order)
             a_cand = srch.evaluate(a_state) if a_state is not None and a_state != s_cur else None
