@@ -311,6 +311,12 @@ def _move_seconds(arm, i: int, q0, q1, key: tuple, memo: dict) -> float:
     return memo[k]
 
 
+def _hit_key(i: int, move: tuple, j: int, pose: tuple) -> tuple:
+    """The memo's key for arm i's move (``(_key(q0), _key(q1))``) against arm j's pose ``pose``
+    (a ``_key``): one format for :func:`_prefetch_hits`, which fills it, and :func:`_hits`."""
+    return ("hit", i) + move + (j,) + pose
+
+
 def _prefetch_hits(geo: ArmGeometry, i: int, moves: list, avoid: dict, avoid_keys: dict, memo: dict,
                    chunk: int = 400_000) -> None:
     """Fill ``memo`` as :func:`_hits` would for every move ``(q0, q1)`` in ``moves``, in a few
@@ -325,7 +331,7 @@ def _prefetch_hits(geo: ArmGeometry, i: int, moves: list, avoid: dict, avoid_key
             uniq.append((q0, q1, key))
     for j, poses in avoid.items():
         todo = [(q0, q1, key) for q0, q1, key in uniq
-                if any(("hit", i) + key + (j,) + kp not in memo for kp in avoid_keys[j])]
+                if any(_hit_key(i, key, j, kp) not in memo for kp in avoid_keys[j])]
         if not todo or len(poses) == 0:
             continue
         paths = [geo.path(q0, q1, step=0.08) for q0, q1, _ in todo]
@@ -343,7 +349,7 @@ def _prefetch_hits(geo: ArmGeometry, i: int, moves: list, avoid: dict, avoid_key
             for m in range(lo, hi):
                 key = todo[m][2]
                 for kp, h in zip(avoid_keys[j], hit[m - lo]):
-                    memo[("hit", i) + key + (j,) + kp] = bool(h)
+                    memo[_hit_key(i, key, j, kp)] = bool(h)
             lo = hi
 
 
@@ -352,7 +358,7 @@ def _hits(geo: ArmGeometry, i: int, q0, q1, key: tuple, avoid: dict, avoid_keys:
     close to; each (move, pose) pair is tested once per ``memo``."""
     n, path = 0, None
     for j, poses in avoid.items():
-        keys = [("hit", i) + key + (j,) + kp for kp in avoid_keys[j]]
+        keys = [_hit_key(i, key, j, kp) for kp in avoid_keys[j]]
         todo = [m for m, k in enumerate(keys) if k not in memo]
         if todo:
             if path is None:

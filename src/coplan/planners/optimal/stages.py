@@ -144,13 +144,14 @@ class Run:
                      "makespan_before": c.makespan, "makespan": r.makespan,
                      "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
             gained = r.schedules is not None and r.makespan < c.makespan - 0.01
-            if r.schedules is not None and r.makespan < min(c.makespan, self.inc.makespan) - 1e-9:
-                entry["accepted"] = self.offer(retimed_candidate(c, r), "retime")
+            rc = retimed_candidate(c, r) if r.schedules is not None else None
+            if rc is not None and r.makespan < min(c.makespan, self.inc.makespan) - 1e-9:
+                entry["accepted"] = self.offer(rc, "retime")
             self.reports["retime"].append(entry)
             self.timings["retime"] = self.timings.get("retime", 0.0) + entry["wall_seconds"]
             if not (gained and entry["accepted"]):
                 break
-            c = retimed_candidate(c, r)
+            c = rc
         return True
 
 
@@ -176,7 +177,7 @@ def coordinated(run: Run) -> str:
     run.stage("coordinated")
     t0 = _time.perf_counter()
     first = None
-    if opts.workers > 1 and opts.retime and len(problem.fruits) > opts.refine_fruit:
+    if opts.workers > 1 and opts.retime and run.n_harvestable > opts.refine_fruit:  # (the retiming will be bounded)
         coord, first = _alongside(run, copts, first_feasible)
     else:
         coord = plan_coordinated(problem, run.allocation, copts, run.say, run.cache, on_feasible=first_feasible)
