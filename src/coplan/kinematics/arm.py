@@ -17,6 +17,7 @@ Conventions (as in the course's ``Robot2R``):
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -33,6 +34,7 @@ __all__ = [
     "dls_velocity",
     "max_point_speed",
     "wrap_angle",
+    "sweep_box",
 ]
 
 
@@ -91,6 +93,38 @@ def fk_points(q: np.ndarray, links, base=(0.0, 0.0)) -> np.ndarray:
     elbow, tip = fk(q, links, base)
     b = np.broadcast_to(np.asarray(base, dtype=float), elbow.shape)
     return np.stack([b, elbow, tip], axis=-2)
+
+
+def _cos_range(a: float, b: float) -> tuple[float, float]:
+    """Least and greatest cos(x) over a <= x <= b."""
+    if b - a >= 2.0 * math.pi:
+        return -1.0, 1.0
+    ca, cb = math.cos(a), math.cos(b)
+    lo, hi = min(ca, cb), max(ca, cb)
+    if 2.0 * math.pi * math.floor(b / (2.0 * math.pi)) >= a:  # a multiple of 2 pi inside
+        hi = 1.0
+    if 2.0 * math.pi * math.floor((b - math.pi) / (2.0 * math.pi)) + math.pi >= a:  # pi + a multiple of 2 pi
+        lo = -1.0
+    return lo, hi
+
+
+def sweep_box(q_lo, q_hi, links, base=(0.0, 0.0), pad: float = 1e-9) -> tuple[float, float, float, float]:
+    """A box ``(xmin, xmax, ymin, ymax)`` holding the whole arm (base, elbow, tip and both links,
+    without their radius) at every pose q with ``q_lo <= q <= q_hi`` joint by joint (scalars).
+
+    Conservative, not tight: the tip's box is the elbow's plus the forearm's over every
+    absolute forearm angle ``t1 + t2`` in ``[lo1 + lo2, hi1 + hi2]``; ``pad`` (m) covers rounding.
+    Each link lies in the hull of its end points, so the box of the three points holds it.
+    """
+    l1, l2 = float(links[0]), float(links[1])
+    bx, by = float(base[0]), float(base[1])
+    a0, a1 = float(q_lo[0]), float(q_hi[0])
+    f0, f1 = a0 + float(q_lo[1]), a1 + float(q_hi[1])
+    c1, s1 = _cos_range(a0, a1), _cos_range(a0 - math.pi / 2, a1 - math.pi / 2)  # sin x = cos(x - pi / 2)
+    c2, s2 = _cos_range(f0, f1), _cos_range(f0 - math.pi / 2, f1 - math.pi / 2)
+    ex0, ex1, ey0, ey1 = bx + l1 * c1[0], bx + l1 * c1[1], by + l1 * s1[0], by + l1 * s1[1]
+    tx0, tx1, ty0, ty1 = ex0 + l2 * c2[0], ex1 + l2 * c2[1], ey0 + l2 * s2[0], ey1 + l2 * s2[1]
+    return (min(bx, ex0, tx0) - pad, max(bx, ex1, tx1) + pad, min(by, ey0, ty0) - pad, max(by, ey1, ty1) + pad)
 
 
 def wrap_angle(a):

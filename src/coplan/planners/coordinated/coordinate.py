@@ -15,8 +15,10 @@ import numpy as np
 
 from ...problem.model import Arm, Problem
 from ...ties import TIE, first_min_index, quantised
+from .boxes import SweepBoxes, apart
 from .routing import ArmGeometry, same_pose
-from .schedule import ArmSchedule, ConflictError, Step, StepKind, curve_eval, merge_waits, scurve_move, steps_positions
+from .schedule import (ArmSchedule, ConflictError, LinkPoints, Step, StepKind, curve_eval, merge_waits, scurve_move,
+                       steps_positions)
 from .legs import Leg, legs_of
 from .trace import Trace, Turn, resume_point
 
@@ -80,29 +82,36 @@ class _Window:
         self.c, self.tr, self.t0 = c, tr, t0
         self.key = (tr.index, tr.pose, leg.target, leg.kind, leg.dwell)  # what the leg's points depend on
         self.leg = leg
-        self._own: tuple | None = None
-        self._nb: dict[int, tuple] = {}
+        self._own: LinkPoints | None = None
+        self._nb: dict[int, LinkPoints] = {}
+        self._box: tuple | None | bool = False  # not yet computed
 
-    def own(self, n: int) -> tuple:
-        if self._own is None or self._own[0].size < n:
+    def own_box(self) -> tuple | None:
+        """A box holding the arm wherever the leg takes it (None: unbounded)."""
+        if self._box is False:
+            self._box = self.c.boxes.steps(self.tr.index, self.c.leg_steps(self.tr, self.leg, 0.0), self.leg.target)
+        return self._box
+
+    def own(self, n: int) -> LinkPoints:
+        if self._own is None or self._own.size < n:
             hit = self.c.own_points.get(self.key)  # shared by the runs on one problem
-            if hit is None or hit[0].size < n:
-                m = max(n, 2 * (0 if hit is None else hit[0].size))
+            if hit is None or hit.size < n:
+                m = max(n, 2 * (0 if hit is None else hit.size))
                 T = np.arange(m) / self.c.rate
                 steps0 = self.c.leg_steps(self.tr, self.leg, 0.0)
-                hit = self.c.points(self.tr.index, steps_positions(steps0, T, self.c.tables))
+                hit = self.c.links(self.tr.index, steps_positions(steps0, T, self.c.tables))
                 self.c.own_points[self.key] = hit
             self._own = hit
-        return tuple(x[:n] for x in self._own)
+        return self._own[:n]
 
-    def neighbour(self, o: _Track, t: float, n: int) -> tuple:
+    def neighbour(self, o: _Track, t: float, n: int) -> LinkPoints:
         k0 = int(round((t - self.t0) * self.c.rate))
         have = self._nb.get(o.index)
-        if have is None or have[0].size < k0 + n:
-            m = max(k0 + n, 2 * (0 if have is None else have[0].size))
-            have = self.c.points(o.index, o.positions(self.t0 + np.arange(m) / self.c.rate))
+        if have is None or have.size < k0 + n:
+            m = max(k0 + n, 2 * (0 if have is None else have.size))
+            have = self.c.links(o.index, o.positions(self.t0 + np.arange(m) / self.c.rate))
             self._nb[o.index] = have
-        return tuple(x[k0:k0 + n] for x in have)
+        return have[k0:k0 + n]
 
 
 class _Coordinator(ArmGeometry):
@@ -128,6 +137,8 @@ class _Coordinator(ArmGeometry):
         else:
             self.own_points = {}
             self._moves = {}
+        self.boxes = SweepBoxes(problem, {} if cache is None else cache.setdefault(("sweep_boxes", id(problem)), {}),
+                                self.tables)
         self.max_checks, self.checks = max_checks, 0
         names = [a.name for a in problem.arms]
         self.rate, self.quantum, self.deadline = rate, quantum, deadline
@@ -259,8 +270,14 @@ class _Coordinator(ArmGeometry):
         pa = window.own(n)
         arrive = next((s.t1 for s in reversed(steps) if s.kind == StepKind.MOVE), t)
         best = None
+        mine = window.own_box()
         for o in nb:
-            bad = self.close_points(tr.index, pa, o.index, window.neighbour(o, t, n))
+            # arms whose boxes over the whole span are further apart than the clearance need
+            # cannot be too close at any sample: the exact test would find nothing
+            gap = self.need + tr.arm.link_radius + o.arm.link_radius + 1e-9
+            if apart(mine, self.boxes.track(o.index, o.steps, o.t0s, o.pose, t - 1e-6, float(T[-1]) + 1e-6), gap):
+                continue
+            bad = self.close_links(tr.index, pa, o.index, window.neighbour(o, t, n))
             hit = np.flatnonzero(bad)
             if hit.size and (best is None or T[hit[0]] < best[0]):
                 late = T[hit[(T[hit] >= arrive) & (T[hit] < o.end)]]

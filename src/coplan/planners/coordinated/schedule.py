@@ -46,8 +46,11 @@ __all__ = [
     "pair_distances",
     # the building blocks routing, coordinate and serial share
     "CurveTable",
+    "LinkPoints",
     "arm_points",
     "curve_eval",
+    "links_too_close",
+    "links_too_close_pairs",
     "merge_waits",
     "points_clearance",
     "points_too_close",
@@ -214,12 +217,71 @@ def points_clearance(pa: tuple, pb: tuple, radii: float) -> np.ndarray:
     return d - radii
 
 
+class LinkPoints:
+    """Arm points of :func:`arm_points` (equal-length 1-D arrays) made ready for
+    :func:`links_too_close`, for one set of samples compared many times: the coordinates
+    ``P`` (6, N) and each link's midpoint ``mx, my`` and half length ``h`` (2, N, link 0 first),
+    computed once. ``lp[a:b]`` takes samples a..b-1 without copying."""
+
+    __slots__ = ("P", "mx", "my", "h")
+
+    def __init__(self, P: np.ndarray, mx: np.ndarray | None = None, my: np.ndarray | None = None,
+                 h: np.ndarray | None = None):
+        self.P = P
+        if mx is None:  # rows of P: bx, by, ex, ey, tx, ty; link s runs from row 2s to row 2s + 2
+            ax, ay, bx, by = P[0:4:2], P[1:4:2], P[2:6:2], P[3:6:2]
+            mx, my, h = (ax + bx) / 2, (ay + by) / 2, np.hypot(bx - ax, by - ay) / 2
+        self.mx, self.my, self.h = mx, my, h
+
+    @classmethod
+    def of(cls, points: tuple) -> "LinkPoints":
+        return cls(np.stack(points))
+
+    @property
+    def size(self) -> int:
+        return self.P.shape[1]
+
+    def __getitem__(self, sl: slice) -> "LinkPoints":
+        return LinkPoints(self.P[:, sl], self.mx[:, sl], self.my[:, sl], self.h[:, sl])
+
+
+def links_too_close(a: LinkPoints, b: LinkPoints, radii: float, need: float) -> np.ndarray:
+    """Whether two arms, sample by sample (N,), are closer than ``need``: two links whose
+    midpoints are further apart than their half lengths plus ``radii + need`` cannot be too
+    close (a screen); the exact distance (:func:`segment_distance_xy`) decides for the others.
+    Element by element, so a sample's answer depends on nothing else in the arrays."""
+    gap = np.hypot(a.mx[:, None] - b.mx[None], a.my[:, None] - b.my[None]) - a.h[:, None] - b.h[None]
+    s, u, k = np.nonzero(gap < need + radii)  # link s of a and link u of b may be too close at sample k
+    out = np.zeros(a.size, bool)
+    if k.size:
+        A, B = a.P, b.P
+        d = segment_distance_xy(A[2 * s, k], A[2 * s + 1, k], A[2 * s + 2, k], A[2 * s + 3, k],
+                                B[2 * u, k], B[2 * u + 1, k], B[2 * u + 2, k], B[2 * u + 3, k])
+        out[k[d - radii < need]] = True
+    return out
+
+
+def links_too_close_pairs(a: LinkPoints, b: LinkPoints, radii: float, need: float) -> np.ndarray:
+    """:func:`links_too_close` for every sample of ``a`` (N) against every sample of ``b`` (M):
+    (N, M), the same answer pair by pair as comparing the two broadcast against each other."""
+    gap = (np.hypot(a.mx[:, None, :, None] - b.mx[None, :, None, :], a.my[:, None, :, None] - b.my[None, :, None, :])
+           - a.h[:, None, :, None] - b.h[None, :, None, :])
+    s, u, k, m = np.nonzero(gap < need + radii)  # link s of a at its sample k, link u of b at its sample m
+    out = np.zeros((a.size, b.size), bool)
+    if k.size:
+        A, B = a.P, b.P
+        d = segment_distance_xy(A[2 * s, k], A[2 * s + 1, k], A[2 * s + 2, k], A[2 * s + 3, k],
+                                B[2 * u, m], B[2 * u + 1, m], B[2 * u + 2, m], B[2 * u + 3, m])
+        hit = d - radii < need
+        out[k[hit], m[hit]] = True
+    return out
+
+
 def points_too_close(pa: tuple, pb: tuple, radii: float, need: float) -> np.ndarray:
     """Whether two arms given by :func:`arm_points` are closer than ``need`` (broadcast).
 
-    The same exact test as ``points_clearance(...) < need``, with a cheap screen first: two
-    links whose midpoints are further apart than their half lengths plus ``radii + need``
-    cannot be too close, so the exact distance is computed only for the others.
+    The same exact test as ``points_clearance(...) < need``, with a cheap screen first
+    (:func:`links_too_close`, which this is on broadcast arrays).
     """
     if all(isinstance(x, np.ndarray) and x.ndim == 1 for x in (*pa, *pb)) and len({x.size for x in (*pa, *pb)}) == 1:
         shape = pa[0].shape  # the coordinator's case: samples side by side, nothing to broadcast
@@ -228,19 +290,7 @@ def points_too_close(pa: tuple, pb: tuple, radii: float, need: float) -> np.ndar
         xs = np.broadcast_arrays(*pa, *pb)
         shape = xs[0].shape
         A, B = np.stack([x.ravel() for x in xs[:6]]), np.stack([x.ravel() for x in xs[6:]])
-    out = np.zeros(A.shape[1], bool)
-    # rows (2, N): each arm's two links, start and end coordinates
-    ax, ay, bx, by = A[0:4:2], A[1:4:2], A[2:6:2], A[3:6:2]
-    cx, cy, dx, dy = B[0:4:2], B[1:4:2], B[2:6:2], B[3:6:2]
-    ha = np.hypot(bx - ax, by - ay) / 2
-    hb = np.hypot(dx - cx, dy - cy) / 2
-    mx, my = (ax + bx) / 2, (ay + by) / 2
-    gap = np.hypot(mx[:, None] - ((cx + dx) / 2)[None], my[:, None] - ((cy + dy) / 2)[None]) - ha[:, None] - hb[None]
-    s, u, k = np.nonzero(gap < need + radii)  # link s of a and link u of b may be too close at sample k
-    if k.size:
-        d = segment_distance_xy(ax[s, k], ay[s, k], bx[s, k], by[s, k], cx[u, k], cy[u, k], dx[u, k], dy[u, k])
-        out[k[d - radii < need]] = True
-    return out.reshape(shape)
+    return links_too_close(LinkPoints(A), LinkPoints(B), radii, need).reshape(shape)
 
 
 def pair_distances(problem: Problem, qa: np.ndarray, qb: np.ndarray, ia: int, ib: int) -> np.ndarray:

@@ -1,0 +1,168 @@
+"""The coordinator's cheap screens give exactly the answers of the exact test they skip.
+
+The coordinator tests a leg against its neighbours' commitments thousands of times per plan.
+Two screens make that cheaper without changing a single answer:
+
+* a box screen: when a box holding the arm wherever its leg takes it and a box holding the
+  neighbour over the whole span are further apart than the clearance needed, the exact test
+  is skipped (it could find nothing). The boxes come from :func:`coplan.kinematics.arm.sweep_box`
+  over stretches of each S-curve move, whose joints each move one way;
+* link midpoints and half lengths computed once per set of samples (``LinkPoints``) and,
+  for a set of poses against a set of samples, every pair at once (``links_too_close_pairs``).
+
+These tests check the facts each screen rests on, and that plans come out the same with the
+box screen switched off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from coplan import kinematics as kin
+from coplan.allocate.allocation import allocate
+from coplan.kinematics import SCurve
+from coplan.kinematics.arm import sweep_box
+from coplan.planners.coordinated import coordinate as coordinate_module
+from coplan.planners.coordinated.coordinate import coordinate
+from coplan.planners.coordinated.routing import ArmGeometry
+from coplan.planners.coordinated.schedule import (
+    CurveTable,
+    Step,
+    StepKind,
+    arm_points,
+    decoupled_schedules,
+    links_too_close,
+    links_too_close_pairs,
+    points_too_close,
+    scurve_move,
+)
+from coplan.problem import load_problem
+
+MARGIN = 0.015
+
+
+def _inside(points: np.ndarray, box) -> bool:
+    x, y = points[..., 0], points[..., 1]
+    return bool(x.min() >= box[0] and x.max() <= box[1] and y.min() >= box[2] and y.max() <= box[3])
+
+
+def test_sweep_box_holds_the_arm_at_every_pose_in_the_joint_box():
+    rng = np.random.default_rng(1)
+    for _ in range(2000):
+        lo = rng.uniform(-7.0, 7.0, 2)
+        hi = lo + rng.uniform(0.0, rng.choice([0.01, 1.0, 4.0, 8.0]), 2)
+        links, base = rng.uniform(0.1, 1.0, 2), rng.uniform(-2.0, 2.0, 2)
+        q = np.vstack([lo + rng.uniform(0.0, 1.0, (300, 2)) * (hi - lo), lo, hi, [lo[0], hi[1]], [hi[0], lo[1]]])
+        # base, elbow, tip; the links are segments between them, so inside their box
+        assert _inside(kin.fk_points(q, links, base), sweep_box(lo, hi, links, base))
+
+
+def test_sweep_box_of_one_pose_is_its_points_box():
+    q, links, base = np.array([0.7, -1.9]), (0.6, 0.45), (2.0, -0.3)
+    p = kin.fk_points(q, links, base)
+    box = sweep_box(q, q, links, base, pad=0.0)
+    np.testing.assert_allclose(box, (p[:, 0].min(), p[:, 0].max(), p[:, 1].min(), p[:, 1].max()), atol=1e-12)
+    # a full turn of both joints: the whole reach
+    assert sweep_box((0, 0), (2 * np.pi, 2 * np.pi), links, base, pad=0.0) == pytest.approx((0.95, 3.05, -1.35, 0.75))
+
+
+def test_scurve_moves_each_joint_one_way_between_its_end_values():
+    """What the move boxes rest on: a rest-to-rest S-curve never turns a joint back."""
+    rng = np.random.default_rng(2)
+    for _ in range(200):
+        q0, q1 = rng.uniform(-3, 3, 2), rng.uniform(-3, 3, 2)
+        if rng.random() < 0.2:  # some joints stay put
+            j = int(rng.integers(0, 2))
+            q1[j] = q0[j]
+        c = SCurve.between(q0, q1, rng.uniform(0.5, 4, 2), rng.uniform(1, 12, 2), rng.uniform(5, 120, 2))
+        q = CurveTable(c).eval(np.linspace(0.0, c.duration, 2001))
+        steps = np.diff(q, axis=0) * np.sign(q1 - q0)
+        assert (steps >= -1e-12).all()
+        assert (q >= np.minimum(q0, q1) - 1e-12).all() and (q <= np.maximum(q0, q1) + 1e-12).all()
+
+
+def _coordinator(problems_dir, name):
+    p = load_problem(problems_dir / f"{name}.yaml")
+    base = decoupled_schedules(p, allocate(p))
+    c = coordinate_module._Coordinator(p, base, MARGIN, 200.0, 0.02, None, None, None, None)
+    return p, c
+
+
+def test_a_move_box_holds_the_arm_at_every_sample_of_the_move(problems_dir):
+    p, c = _coordinator(problems_dir, "dense_overlap")
+    rng = np.random.default_rng(4)
+    for _ in range(100):
+        i = int(rng.integers(0, len(p.arms)))
+        arm = p.arms[i]
+        q0, q1 = (tuple(map(float, rng.uniform(arm.limits[:, 0], arm.limits[:, 1]))) for _ in range(2))
+        st = scurve_move(arm, 0.0, q0, q1)
+        box = c.boxes.step(i, st)
+        q = CurveTable(st.curve).eval(np.linspace(0.0, st.curve.duration, 4001))
+        pts = np.stack(arm_points(arm, q), axis=-1)  # (K, 6): bx, by, ex, ey, tx, ty
+        assert _inside(pts.reshape(-1, 3, 2), box)
+        # a pose's box is its own points' box
+        rest = Step(StepKind.WAIT, 0.0, 1.0, q1, q1)
+        assert _inside(kin.fk_points(np.array(q1), arm.links, arm.base), c.boxes.step(i, rest))
+
+
+def test_pairs_of_samples_are_the_broadcast_answers(problems_dir):
+    p = load_problem(problems_dir / "five_arm_row.yaml")
+    geo = ArmGeometry(p, p.task.clearance + MARGIN)
+    rng = np.random.default_rng(0)
+    hits = 0
+    for _ in range(200):
+        i = int(rng.integers(0, len(p.arms) - 1))
+        poses = rng.uniform(-3.2, 3.2, (int(rng.integers(1, 12)), 2))
+        samples = rng.uniform(-3.2, 3.2, (int(rng.integers(1, 300)), 2))
+        r = p.arms[i].link_radius + p.arms[i + 1].link_radius
+        pairs = links_too_close_pairs(geo.links(i, poses), geo.links(i + 1, samples), r, geo.need)
+        broadcast = points_too_close(arm_points(p.arms[i], poses[:, None, :]), arm_points(p.arms[i + 1], samples[None]),
+                                     r, geo.need)
+        assert np.array_equal(pairs, broadcast)
+        hits += int(pairs.sum())
+        # and slices of prepared samples are the samples' own answers
+        a, b = geo.links(i, samples), geo.links(i + 1, samples[::-1].copy())
+        k = int(rng.integers(0, len(samples)))
+        pa = tuple(x[k:] for x in arm_points(p.arms[i], samples))
+        pb = tuple(x[k:] for x in arm_points(p.arms[i + 1], samples[::-1]))
+        assert np.array_equal(links_too_close(a[k:], b[k:], r, geo.need), points_too_close(pa, pb, r, geo.need))
+    assert hits > 0
+
+
+@pytest.mark.parametrize("name", ["dense_overlap", "five_arm_row", "crossing_paths"])
+def test_the_box_screen_changes_no_plan(problems_dir, monkeypatch, name):
+    """Coordinating with the box screen and without it gives the same steps, to the bit; the
+    screen skips some exact tests on these problems."""
+    p = load_problem(problems_dir / f"{name}.yaml")
+    base = decoupled_schedules(p, allocate(p))
+    exact = []
+    real = ArmGeometry.close_links
+
+    def counted(self, *a):
+        exact.append(1)
+        return real(self, *a)
+
+    monkeypatch.setattr(ArmGeometry, "close_links", counted)
+    screened = coordinate(p, base, MARGIN)
+    n_screened = len(exact)
+    monkeypatch.setattr(coordinate_module, "apart", lambda a, b, d: False)
+    exact.clear()
+    plain = coordinate(p, base, MARGIN)
+    assert len(exact) > n_screened
+    for name_ in screened[0]:
+        a, b = screened[0][name_].steps, plain[0][name_].steps
+        assert [(s.kind, s.t0, s.t1, s.q0, s.q1) for s in a] == [(s.kind, s.t0, s.t1, s.q0, s.q1) for s in b]
+
+
+def test_pose_keys_are_numpy_rounding():
+    """The routing memo's pose keys are ``np.round(q, 9)`` computed in plain Python: the same
+    value for every pose, halves included, so a memo filled before is still found."""
+    from coplan.planners.coordinated.routing import _key
+
+    rng = np.random.default_rng(5)
+    q = np.concatenate([rng.uniform(-7, 7, (20000, 2)),
+                        np.round(rng.uniform(-7, 7, (20000, 2)), 9) + rng.choice([0.0, 5e-10, -5e-10, 1e-16], (20000, 2))])
+    for row in q:
+        assert _key(row) == tuple(np.round(row, 9))
+    assert np.isnan(_key(np.array([np.nan, 0.0]))[0])
