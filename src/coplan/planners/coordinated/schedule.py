@@ -241,7 +241,8 @@ class LinkPoints:
     def size(self) -> int:
         return self.P.shape[1]
 
-    def __getitem__(self, sl: slice) -> "LinkPoints":
+    def __getitem__(self, sl) -> "LinkPoints":
+        """Samples ``sl``: a slice (a view) or an index array (a copy)."""
         return LinkPoints(self.P[:, sl], self.mx[:, sl], self.my[:, sl], self.h[:, sl])
 
 

@@ -34,7 +34,8 @@ import numpy as np
 
 from ...problem.model import Problem
 from ..coordinated.candidate import Coordinated
-from ..coordinated.schedule import ArmSchedule, Step, StepKind, arm_points, curve_eval, points_too_close
+from ..coordinated.schedule import (ArmSchedule, LinkPoints, Step, StepKind, arm_points, curve_eval, links_too_close,
+                                   links_too_close_pairs, points_too_close)
 
 __all__ = ["RetimeResult", "retime", "retimed_candidate"]
 
@@ -47,6 +48,7 @@ class _Move:
     dwell: list[Step]  # the pick/place steps right after the move
     T: np.ndarray  # sample times from the move's start
     pts: tuple  # arm_points at T
+    links: LinkPoints  # the same, ready for links_too_close
 
     @property
     def dur(self) -> int:
@@ -85,7 +87,8 @@ def _moves(sch: ArmSchedule, rate: float, tables: dict) -> tuple[list[_Move], in
             continue
         if st.kind == StepKind.MOVE:
             T = np.append(np.arange(0.0, st.duration, 1.0 / rate), st.duration)
-            out.append(_Move(st, [], T, arm_points(sch.arm, curve_eval(st.curve, T, tables))))
+            pts = arm_points(sch.arm, curve_eval(st.curve, T, tables))
+            out.append(_Move(st, [], T, pts, LinkPoints.of(pts)))
             continue
         if not out:
             return None
@@ -146,7 +149,7 @@ def _meetings(xa: _Move, xb: _Move, radii: float, need: float) -> np.ndarray:
     p, q = np.nonzero(near)
     if p.size == 0:
         return np.zeros(0, int)
-    close = points_too_close(tuple(x[p] for x in xa.pts), tuple(x[q] for x in xb.pts), radii, need)
+    close = links_too_close(xa.links[p], xb.links[q], radii, need)
     return np.unique(np.round((xa.T[p[close]] - xb.T[q[close]]) * _MS).astype(int))
 
 
@@ -258,15 +261,13 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
         for x, y in ((i, j), (j, i)):  # a move against the other arm's rests
             ry = rests(y)
             poses = np.array([r[0] for r in ry])  # (R, 2)
-            pp = arm_points(arms[y], poses)
+            pp = LinkPoints.of(arm_points(arms[y], poses))
             for k, xm in enumerate(per[x][0]):
                 span = (busy[x][0][k], busy[x][1][k])
                 rs = np.array([r for r in range(len(ry)) if meet(span, ry[r][3])], int)
                 if rs.size == 0:
                     continue
-                K, R = xm.T.size, rs.size
-                u, v = np.repeat(np.arange(K), R), np.tile(rs, K)
-                close = points_too_close(tuple(a[u] for a in xm.pts), tuple(b[v] for b in pp), radii, need).reshape(K, R)
+                close = links_too_close_pairs(xm.links, pp[rs], radii, need)  # (K samples, R rests)
                 for c in np.flatnonzero(close.any(axis=0)):
                     r = rs[c]
                     _, r0, r1, _ = ry[r]

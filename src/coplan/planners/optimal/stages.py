@@ -91,7 +91,8 @@ class Run:
 
     def make_baseline(self) -> None:
         """The baseline, made once the first verified plan is in hand (so that the first plan
-        does not wait for it: 0.4-2.6 s on rows of 100-600 fruit), else at the end."""
+        does not wait for it: 0.4-2.6 s on rows of 100-600 fruit) -- with the coordinated stage
+        alongside, once that plan is retimed, while the other process works -- else at the end."""
         from ...verify.verifier import verify
 
         tb = _time.perf_counter()
@@ -163,11 +164,11 @@ def coordinated(run: Run) -> str:
 
     problem, opts, inc = run.problem, run.opts, run.inc
 
-    def first_feasible(c: Coordinated) -> None:
+    def first_feasible(c: Coordinated, baseline: bool = True) -> None:
         if inc.plan is None and not c.fallback:
             p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
             inc.offer(p, verify(problem, p), "coordinated", c)
-            if not run.base:
+            if baseline and not run.base:
                 run.make_baseline()
 
     # under a clock limit the coordinated stage's later candidates get at most a third of it
@@ -209,11 +210,13 @@ def _alongside(run: Run, copts: CoordinatedOptions, first_feasible: Callable[[Co
     other = Alongside(run.problem, run.allocation, copts)
     try:
         first = plan_coordinated(run.problem, run.allocation, replace(copts, time_limit=0.0), run.say, run.cache,
-                                 on_feasible=first_feasible)  # (the first candidate always completes)
+                                 on_feasible=lambda c: first_feasible(c, baseline=False))  # (the first always completes)
         run.bound = first.plan.metrics.get("lower_bound") or 0.0
         if first.candidate is not None and not first.candidate.fallback:
             run.retimed(first.candidate, "coordinated, its first candidate (the others alongside)")
             run.retimed_first = first.candidate
+        if not run.base:  # the baseline while the other process works, not before the retiming
+            run.make_baseline()
         coord = other.result()
     finally:
         other.close()
