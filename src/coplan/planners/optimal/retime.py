@@ -29,13 +29,14 @@ the independent verifier passes it and it is faster.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
 from ...problem.model import Problem
 from ..coordinated.candidate import Coordinated
 from ..coordinated.schedule import (ArmSchedule, LinkPoints, Step, StepKind, arm_points, curve_eval, links_too_close,
-                                   links_too_close_pairs, points_too_close)
+                                   links_too_close_pairs)
 
 __all__ = ["RetimeResult", "retime", "retimed_candidate"]
 
@@ -49,6 +50,10 @@ class _Move:
     T: np.ndarray  # sample times from the move's start
     pts: tuple  # arm_points at T
     links: LinkPoints  # the same, ready for links_too_close
+
+    @cached_property
+    def sample_boxes(self) -> tuple[np.ndarray, ...]:
+        return _sample_boxes(self.pts)
 
     @property
     def dur(self) -> int:
@@ -143,7 +148,7 @@ def _meetings(xa: _Move, xb: _Move, radii: float, need: float) -> np.ndarray:
     # keeps the temporaries small: na x nb pairs of link coordinates, allocated on every call,
     # had made a long row's retiming twice as slow in a process that had planned before)
     g = radii + need
-    (ax0, ay0, ax1, ay1), (bx0, by0, bx1, by1) = _sample_boxes(xa.pts), _sample_boxes(xb.pts)
+    (ax0, ay0, ax1, ay1), (bx0, by0, bx1, by1) = xa.sample_boxes, xb.sample_boxes
     near = ((ax0[:, None] <= bx1[None] + g) & (bx0[None] <= ax1[:, None] + g)
             & (ay0[:, None] <= by1[None] + g) & (by0[None] <= ay1[:, None] + g))
     p, q = np.nonzero(near)
@@ -281,10 +286,12 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
                     before = m.NewBoolVar("")
                     m.Add(S[x][k] + c1 <= r0).OnlyEnforceIf(before)
                     m.Add(S[x][k] + c0 >= r1).OnlyEnforceIf(before.Not())
-        for pa, a0, a1, sa in rests(i):  # rest against rest
-            ppa = arm_points(arms[i], pa[None])
-            for pb, b0, b1, sb in rests(j):
-                if not meet(sa, sb) or not points_too_close(ppa, arm_points(arms[j], pb[None]), radii, need).any():
+        ri, rj = rests(i), rests(j)  # rest against rest: every pair of poses tested at once
+        close = links_too_close_pairs(LinkPoints.of(arm_points(arms[i], np.array([r[0] for r in ri]))),
+                                      LinkPoints.of(arm_points(arms[j], np.array([r[0] for r in rj]))), radii, need)
+        for u, (pa, a0, a1, sa) in enumerate(ri):
+            for v, (pb, b0, b1, sb) in enumerate(rj):
+                if not meet(sa, sb) or not close[u, v]:
                     continue
                 n += 1
                 if a1 is None and b1 is None:
