@@ -157,3 +157,30 @@ def test_two_workers_retime_the_first_candidate_alongside_the_coordinated_planne
     assert [dict(r, wall_seconds=0) for r in ra] == [dict(r, wall_seconds=0) for r in b.plan.solver["retime"]]
     assert verify(prob, a.plan).passed
     assert a.plan.metrics["makespan"] <= one.plan.metrics["makespan"] + 1e-9
+
+
+def test_when_the_other_process_gives_nothing_the_planner_goes_on_from_its_first_candidate(alongside_runs, monkeypatch):
+    """The coordinated stage's other process may die (killed, out of memory): the planner says
+    so and goes on from the first candidate it retimed itself, to a verified plan."""
+    from coplan.planners.optimal import portfolio
+
+    class Gone:
+        def __init__(self, *args):
+            self.error = "the coordinated planner's process ended (exit code -9)"
+
+        def result(self):
+            return None
+
+        def close(self):
+            pass
+
+    monkeypatch.setattr(portfolio, "Alongside", Gone)
+    prob, one, (a, _) = alongside_runs
+    said: list[str] = []
+    r = plan_optimal(prob, options=OptimalOptions(workers=2, search_work=0, refine_fruit=40, widen=False),
+                     progress=lambda m: said.append(str(m)))
+    assert any("other process gave nothing" in m and "exit code -9" in m for m in said)
+    assert r.plan.solver["retime"][0]["of"].endswith("(the others alongside)")
+    assert verify(prob, r.plan).passed and r.plan.metrics["harvested"] == len(prob.fruits)
+    # the first candidate's retiming is kept: no worse than what it made with the other process's help
+    assert r.plan.metrics["makespan"] <= a.plan.solver["retime"][0]["makespan"] + 1e-9

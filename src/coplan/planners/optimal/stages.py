@@ -29,7 +29,8 @@ from ...allocate.screen import screened
 from ...plan import Plan, PlannerKind, PlanStatus, finalize_plan
 from ...problem.model import Problem
 from ...progress import Tick
-from ..coordinated.planner import Coordinated, CoordinatedOptions, make_plan, plan_coordinated, schedules_plan
+from ..coordinated.planner import (Coordinated, CoordinatedOptions, find_coordinated, make_plan, plan_coordinated,
+                                  schedules_plan)
 from ..coordinated.schedule import ArmSchedule, StepKind, decoupled_schedules
 from ..heuristic import plan_heuristic
 from .incumbent import Incumbent
@@ -209,12 +210,15 @@ def _alongside(run: Run, copts: CoordinatedOptions, first_feasible: Callable[[Co
 
     other = Alongside(run.problem, run.allocation, copts)
     try:
-        first = plan_coordinated(run.problem, run.allocation, replace(copts, time_limit=0.0), run.say, run.cache,
-                                 on_feasible=lambda c: first_feasible(c, baseline=False))  # (the first always completes)
-        run.bound = first.plan.metrics.get("lower_bound") or 0.0
-        if first.candidate is not None and not first.candidate.fallback:
-            run.retimed(first.candidate, "coordinated, its first candidate (the others alongside)")
-            run.retimed_first = first.candidate
+        # the first candidate (it always completes), offered verified by ``first_feasible``: no
+        # plan of the stage's own to verify again
+        first, _, bound = find_coordinated(run.problem, AllocationMethod(run.allocation), replace(copts, time_limit=0.0),
+                                           run.say, run.cache, _time.perf_counter(),
+                                           lambda c: first_feasible(c, baseline=False))
+        run.bound = (first.alloc.lower_bound if first is not None else bound.value) or 0.0
+        if first is not None and not first.fallback:
+            run.retimed(first, "coordinated, its first candidate (the others alongside)")
+            run.retimed_first = first
         if not run.base:  # the baseline while the other process works, not before the retiming
             run.make_baseline()
         coord = other.result()
@@ -222,8 +226,8 @@ def _alongside(run: Run, copts: CoordinatedOptions, first_feasible: Callable[[Co
         other.close()
     if coord is None:
         run.say(f"the coordinated planner's other process gave nothing ({other.error}); going on from its first candidate")
-        return first, None
-    return coord, first.candidate
+        return plan_coordinated(run.problem, run.allocation, replace(copts, time_limit=0.0), run.say, run.cache), None
+    return coord, first
 
 
 def retime_coordinated(run: Run) -> str:
