@@ -412,3 +412,18 @@ def test_segment_distance_broadcasts() -> None:
     d = segment_distance(p1, p2, q1, q2)
     assert d.shape == (4, 3)
     np.testing.assert_allclose(d[0], [1.0, 1.0, math.sqrt(2)])
+
+
+def test_scalar_jacobian_entries_are_the_jacobian_and_its_rate_its_derivative() -> None:
+    """``jacobian_entries`` (plain floats, for one pose at a time) is :func:`jacobian`;
+    ``jacobian_rate_entries`` is its time derivative along the joint rates (central finite
+    differences of the Jacobian along q + qd t)."""
+    rng = np.random.default_rng(8)
+    for _ in range(200):
+        q, qd, links = rng.uniform(-3.2, 3.2, 2), rng.uniform(-2.0, 2.0, 2), rng.uniform(0.2, 1.0, 2)
+        a, b, d, e = kin.jacobian_entries(float(q[0]), float(q[1]), links)
+        np.testing.assert_allclose([[a, b], [d, e]], kin.jacobian(q, links), rtol=0, atol=1e-14)
+        h = 1e-6
+        fd = (kin.jacobian(q + h * qd, links) - kin.jacobian(q - h * qd, links)) / (2 * h)
+        ad, bd, dd, ed = kin.jacobian_rate_entries(float(q[0]), float(q[1]), float(qd[0]), float(qd[1]), links)
+        np.testing.assert_allclose([[ad, bd], [dd, ed]], fd, rtol=0, atol=1e-8)

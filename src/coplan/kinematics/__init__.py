@@ -1,7 +1,8 @@
 """The arms' geometry and motion laws, pure NumPy (no planner, no problem file).
 
-- :mod:`.arm`: 2R forward/inverse kinematics, Jacobian, manipulability (``fk`` and
-  ``jacobian`` also on CasADi symbols)
+- :mod:`.arm`: 2R forward/inverse kinematics, Jacobian (and, for one pose in plain floats,
+  its entries and their rate), manipulability (``fk`` and ``jacobian`` also on CasADi
+  symbols), the box an arm sweeps over a box of joint angles (``sweep_box``)
 - :mod:`.geometry`: exact 2-D segment and capsule distances, the planners' one implementation
   (the verifier keeps its own, :mod:`coplan.verify.clearance`)
 - :mod:`.timing`: per-joint time-optimal jerk-limited S-curves (:class:`SCurve`), the course's cubic
@@ -14,18 +15,22 @@ from .arm import (
     ik,
     in_workspace,
     jacobian,
+    jacobian_entries,
+    jacobian_rate_entries,
     manipulability,
     max_point_speed,
     project_to_workspace,
     singularity_proximity,
+    sweep_box,
     wrap_angle,
 )
 from .geometry import capsule_distance, segment_distance, segment_distance_xy
 from .timing import SCurve, cubic_eval, cubic_min_time, move_lower_bound, scurve_time
 
 __all__ = [
-    "fk", "fk_points", "ik", "jacobian", "manipulability", "singularity_proximity", "in_workspace",
-    "project_to_workspace", "dls_velocity", "max_point_speed", "wrap_angle",
+    "fk", "fk_points", "ik", "jacobian", "jacobian_entries", "jacobian_rate_entries", "manipulability",
+    "singularity_proximity", "in_workspace", "project_to_workspace", "dls_velocity", "max_point_speed", "sweep_box",
+    "wrap_angle",
     "segment_distance", "segment_distance_xy", "capsule_distance",
     "SCurve", "cubic_eval", "cubic_min_time", "move_lower_bound", "scurve_time",
 ]

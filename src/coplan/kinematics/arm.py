@@ -35,6 +35,8 @@ __all__ = [
     "max_point_speed",
     "wrap_angle",
     "sweep_box",
+    "jacobian_entries",
+    "jacobian_rate_entries",
 ]
 
 
@@ -207,6 +209,24 @@ def jacobian(q: Any, links):
     row0 = np.stack([-l1 * s1 - l2 * s12, -l2 * s12], axis=-1)
     row1 = np.stack([l1 * c1 + l2 * c12, l2 * c12], axis=-1)
     return np.stack([row0, row1], axis=-2)
+
+
+def jacobian_entries(q0: float, q1: float, links) -> tuple[float, float, float, float]:
+    """:func:`jacobian` of one pose in plain floats (``math``; no array overhead): its entries
+    ``(a, b, d, e)`` for ``J = [[a, b], [d, e]]``."""
+    l1, l2 = float(links[0]), float(links[1])
+    t12 = q0 + q1
+    s1, s12 = math.sin(q0), math.sin(t12)
+    return -l1 * s1 - l2 * s12, -l2 * s12, l1 * math.cos(q0) + l2 * math.cos(t12), l2 * math.cos(t12)
+
+
+def jacobian_rate_entries(q0: float, q1: float, qd0: float, qd1: float, links) -> tuple[float, float, float, float]:
+    """The time derivative of :func:`jacobian_entries` along joint rates ``(qd0, qd1)``, exactly
+    (each entry differentiated): ``(a', b', d', e')``."""
+    l1, l2 = float(links[0]), float(links[1])
+    t12, w12 = q0 + q1, qd0 + qd1
+    c1, c12, s1, s12 = math.cos(q0), math.cos(t12), math.sin(q0), math.sin(t12)
+    return -l1 * c1 * qd0 - l2 * c12 * w12, -l2 * c12 * w12, -l1 * s1 * qd0 - l2 * s12 * w12, -l2 * s12 * w12
 
 
 def manipulability(q: Any, links):

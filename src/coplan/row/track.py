@@ -15,10 +15,9 @@ Everything is sampled on the plan's grid (``k / rate``); shapes are ``(K, 2)``.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from ..kinematics.arm import jacobian_entries, jacobian_rate_entries
 from ..kinematics.timing import MoveError, ruckig_move
 from ..problem.model import Arm
 from .cruise import Cruise
@@ -59,11 +58,8 @@ def track_state(arm: Arm, fruit: tuple[float, float], cruise: Cruise, t: float, 
     q = _ik(arm, np.array([[fruit[0] - c, fruit[1]]]), branch)[0]
     if not np.all(np.isfinite(q)):
         return np.array([q, q, q])
-    l1, l2 = float(arm.links[0]), float(arm.links[1])
-    t1, t12 = float(q[0]), float(q[0] + q[1])
-    s1, c1, s12, c12 = math.sin(t1), math.cos(t1), math.sin(t12), math.cos(t12)
-    # J = [[a, b], [d, e]] (kinematics.arm.jacobian), solved by Cramer's rule (2 x 2)
-    ja, jb, jd, je = -l1 * s1 - l2 * s12, -l2 * s12, l1 * c1 + l2 * c12, l2 * c12
+    # J qd = pd by Cramer's rule (2 x 2), then J qdd = pdd - J' qd
+    ja, jb, jd, je = jacobian_entries(float(q[0]), float(q[1]), arm.links)
     det = ja * je - jb * jd
     if abs(det) < 1e-12:  # at a singular pose no joint rates hold the tip
         return np.full((3, 2), np.nan)
@@ -72,12 +68,7 @@ def track_state(arm: Arm, fruit: tuple[float, float], cruise: Cruise, t: float, 
         return np.array([(r0 * je - jb * r1) / det, (ja * r1 - jd * r0) / det])
 
     qd = solve(-cv, 0.0)
-    w1, w12 = float(qd[0]), float(qd[0] + qd[1])
-    # d/dt J along qd, exactly: the derivative of each entry
-    jad = -l1 * c1 * w1 - l2 * c12 * w12
-    jbd = -l2 * c12 * w12
-    jdd = -l1 * s1 * w1 - l2 * s12 * w12
-    jed = -l2 * s12 * w12
+    jad, jbd, jdd, jed = jacobian_rate_entries(float(q[0]), float(q[1]), float(qd[0]), float(qd[1]), arm.links)
     qdd = solve(-ca - (jad * qd[0] + jbd * qd[1]), -(jdd * qd[0] + jed * qd[1]))
     return np.array([q, qd, qdd])
 

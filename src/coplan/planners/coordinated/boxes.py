@@ -12,6 +12,7 @@ is not an S-curve). Boxes come from :func:`coplan.kinematics.arm.sweep_box`.
 from __future__ import annotations
 
 import bisect
+import itertools
 
 import numpy as np
 
@@ -86,7 +87,7 @@ class SweepBoxes:
         (starting at ``t0s``) that can cover those times, and its pose ``after`` them (where
         the track rests outside its steps)."""
         box = self.pose(i, after)
-        for st in steps[max(0, bisect.bisect_right(t0s, t0) - 1):]:
+        for st in itertools.islice(steps, max(0, bisect.bisect_right(t0s, t0) - 1), None):  # (no copy of the tail)
             if st.t0 > t1 or box is None:
                 break
             box = union(box, self.step(i, st))
