@@ -166,3 +166,14 @@ def test_a_closed_pipe_keeps_the_commands_exit_code_and_prints_no_traceback(tmp_
     for json_flag in ([], ["--json"]):  # Rich's console and typer's echo
         p = _closed_pipe(["verify", str(single_arm.source), str(unsafe), *json_flag])
         assert p.returncode == ExitCode.UNSAFE and p.stderr == ""
+
+
+def test_a_closed_pipe_on_both_streams_still_writes_the_plan(tmp_path, problems_dir):
+    """``coplan solve 2>&1 | head -1``: the progress lines on stderr meet the closed pipe too; the
+    command still finishes its work, writes its files and exits with its own code."""
+    out = tmp_path / "o"
+    proc = subprocess.Popen(coplan_cmd() + ["solve", str(problems_dir / "greenhouse_row.yaml"), "--out", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    proc.stdout.close()  # the reader of both streams is gone
+    assert proc.wait(timeout=300) == 0
+    assert (out / "plan.json").exists() and (out / "verification.json").exists()

@@ -4,9 +4,9 @@
   ``--help``) as taking no value in ``--help`` (typer 0.29's rich help prints ``<bool>`` after them).
 * :func:`run_console` -- the console entry point's body (signals, pipes, ``--json`` usage errors).
 * :class:`ProgressDisplay` -- progress lines and, on a terminal, rich progress bars on stderr.
-* :class:`PipeSafeStdout` -- stdout that survives a reader closing the pipe (``coplan problems |
-  head -1``): the first ``BrokenPipeError`` sends fd 1 to ``/dev/null`` and every later write is
-  dropped, so the command finishes its work and exits with its own code, with no traceback and no
+* :class:`PipeSafeStdout` -- stdout (and stderr) that survives a reader closing the pipe
+  (``coplan problems | head -1``, ``coplan solve 2>&1 | head -1``): the first ``BrokenPipeError``
+  sends the stream's file descriptor to ``/dev/null`` and every later write is dropped, so the command finishes its work and exits with its own code, with no traceback and no
   "Exception ignored" message at exit (the handling the Python documentation recommends for SIGPIPE).
 """
 
@@ -80,9 +80,9 @@ class PipeSafeStdout:
 
 def run_console(app, err_console) -> None:
     """Run the typer ``app`` as the ``coplan`` command. SIGTERM is handled like Ctrl-C (the
-    planners save what they have), then exits with 143 instead of 130. stdout is a
-    :class:`PipeSafeStdout`: a reader closing it (``| head``) is no error, the command finishes
-    and exits with its own code. With ``--json`` on the command line, a usage error found before
+    planners save what they have), then exits with 143 instead of 130. stdout and stderr are
+    :class:`PipeSafeStdout`: a reader closing them (``| head``, ``2>&1 | head``) is no error, the
+    command finishes its work, writes its files and exits with its own code. With ``--json`` on the command line, a usage error found before
     the command ran is also printed as the JSON error document (:mod:`coplan.cli.failures`)."""
     import signal
 
@@ -100,6 +100,7 @@ def run_console(app, err_console) -> None:
     if hasattr(signal, "SIGTERM"):
         signal.signal(signal.SIGTERM, on_term)
     sys.stdout = PipeSafeStdout(sys.stdout)
+    sys.stderr = PipeSafeStdout(sys.stderr)  # (progress and messages: ``2>&1 | head`` closes it too)
     try:
         if "--json" in sys.argv[1:]:
             sys.exit(failures.run_with_json_usage_errors(app))
