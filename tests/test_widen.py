@@ -146,3 +146,14 @@ def test_exact_dynamics_closes_the_integration_with_the_least_change():
         assert np.max(np.abs(Xn[2:6, pin[n]])) < 1e-12  # at rest where held
         assert np.array_equal(Xn[0:2, pin[n]], X[n][0:2, pin[n]])  # at the held pose, exactly
         assert np.max(np.abs(Xn - X[n])) < 1e-3
+
+
+def test_a_time_limit_that_leaves_no_time_for_the_widening_stage_is_said():
+    """When the clock limit comes before the widening stage, plan.json says so (the summary
+    prints it as "not widened"), instead of an empty report."""
+    prob = load_problem(next(p for p in shipped_problems() if p.stem == "dense_overlap"))
+    res = plan_optimal(prob, options=OptimalOptions(time_limit=1.0))
+    assert res.plan.solver["stopped_by"] == "time_limit"
+    wid = res.plan.solver["widen"]
+    assert wid["accepted"] is False and wid["reason"] == "the time limit came before the widening stage"
+    assert verify(prob, res.plan).passed

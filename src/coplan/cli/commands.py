@@ -114,7 +114,7 @@ def solve(
         "--options", help="Solver options (YAML): any field of coplan.optimal.OptimalOptions, e.g. "
                           "search_work: 60000 (recorded in plan.json).")] = None,
     workers: Annotated[Optional[str], typer.Option(
-        help="Processes the optimal planner's search (or, on the move, the speed search) runs in: a number, or auto "
+        metavar="N|auto", help="Processes the optimal planner's search (or, on the move, the speed search) runs in: a number, or auto "
              "(this machine's cores, at most 8). Default 1: the plan then does not depend on the machine; the same N "
              "gives the same plan.")] = None,
     animate: Annotated[bool, typer.Option("--animate", help="Also render an animation of the plan.")] = False,

@@ -120,7 +120,8 @@ def print_summary(console, res) -> None:
           ("" if whole else f" (for the {m.get('harvestable')} harvestable fruit: no plan can harvest the others)"))
     if m.get("coordinated_makespan") is not None:
         p(f"  coordinated plan  {fmt(m.get('coordinated_makespan'), ' s')}   (improved by {fmt(100 * (m.get('improvement_over_coordinated') or 0.0), ' %', 1)};"
-          f" first verified plan at {fmt(m.get('time_to_first_verified'), ' s')}, last improvement at {fmt(m.get('time_of_last_improvement'), ' s')})")
+          f" first verified plan at {fmt(m.get('time_to_first_verified'), ' s')}, last improvement at {fmt(m.get('time_of_last_improvement'), ' s')},"
+          " since the planner started)")
         reached = [f"{r} x at {t:.2f} s" for r, t in (m.get("time_to_ratio") or {}).items() if t is not None]
         if reached:
             p(f"  bound reached     within " + ", ".join(reached) + " (of the lower bound, since the planner started)")
