@@ -68,6 +68,9 @@ def test_workers_are_validated_in_options_files_and_on_the_command_line(tmp_path
     with pytest.raises(OptionsError, match="workers.*expected a positive integer"):
         parse_options("workers: 0\n", "opts.yaml")
     assert parse_options("workers: 3\n").workers == 3
+    assert parse_options("workers: auto\n").workers == default_workers()  # as on the command line
+    with pytest.raises(OptionsError, match="workers.*expected a positive integer or auto, found string 'two'"):
+        parse_options("workers: two\n", "opts.yaml")
     runner = CliRunner()
     prob = str(default_problem_path())
     for bad in ("0", "-2", "two"):

@@ -50,7 +50,8 @@ class OptimalOptions:
         w searches with seed ``seed + w``, each with the whole ``search_work``, and the best
         wins (least makespan, then least work, then lowest index), so the same input, options
         and workers give the same plan. 1 (the default) is the search in this process: the plan
-        then depends on nothing about the machine, not even its number of cores
+        then depends on nothing about the machine, not even its number of cores; ``auto`` in an
+        options file, as on the command line: this machine's cores, at most 8
     retime : retime the coordinated plan and the search's best with CP-SAT (the same moves,
         every start chosen together instead of leg by leg); kept only when verified and faster;
         false also turns the refinement off
@@ -198,7 +199,14 @@ def parse_options(text: str, source: str | None = None, base: OptimalOptions | N
             hint = f"; did you mean {near[0]!r}?" if near else f"; allowed keys: {', '.join(kinds)}"
             issues.append(Issue(str(key), f"expected a known option, found unknown key {key!r}{hint}", line_of(lines, (key,))))
             continue
+        if key == "workers" and isinstance(v, str) and v.strip().lower() == "auto":  # as on the command line
+            from .portfolio import default_workers
+
+            values[key] = default_workers()
+            continue
         msg = _check(key, kinds[key], v)
+        if key == "workers" and msg is not None:
+            msg = msg.replace("expected a positive integer", "expected a positive integer or auto")
         if msg is not None:
             issues.append(Issue(str(key), msg, line_of(lines, (key,))))
             continue
