@@ -166,3 +166,26 @@ def test_pose_keys_are_numpy_rounding():
     for row in q:
         assert _key(row) == tuple(np.round(row, 9))
     assert np.isnan(_key(np.array([np.nan, 0.0]))[0])
+
+
+def test_a_move_cut_short_keeps_its_whole_curves_box(problems_dir):
+    """A live re-plan commits a move cut short: its own curve, but a pose part way as its end.
+    Its box is its curve's, not that of a fresh move between the same two poses (a different
+    path), whichever was boxed first."""
+    from dataclasses import replace
+
+    p, c = _coordinator(problems_dir, "dense_overlap")
+    arm = p.arms[1]
+    q0, q1 = (-1.5, 2.2), (-2.0, -2.5)  # (a move whose cut path leaves the fresh move's box)
+    full = scurve_move(arm, 0.0, q0, q1)
+    cut_t = 0.6 * full.duration
+    q_mid = tuple(map(float, CurveTable(full.curve).eval(np.array([cut_t]))[0]))
+    fresh = scurve_move(arm, 0.0, q0, q_mid)  # the same end poses, its own timing
+    cut = replace(full, duration=cut_t, q1=q_mid)
+    boxes = [c.boxes.step(1, fresh), c.boxes.step(1, cut)]  # the fresh move boxed first
+    paths = []
+    for st, upto, box in ((fresh, fresh.duration, boxes[0]), (cut, cut_t, boxes[1])):
+        q = CurveTable(st.curve).eval(np.linspace(0.0, upto, 2001))
+        paths.append(np.stack(arm_points(arm, q), axis=-1).reshape(-1, 3, 2))
+        assert _inside(paths[-1], box)
+    assert not _inside(paths[1], boxes[0])  # a memo keyed by the end poses would have been wrong here

@@ -297,7 +297,9 @@ def test_time_limit_mid_improvement_returns_the_verified_incumbent(monkeypatch):
     assert [k for k, _ in itertools.groupby(h["source"] for h in hist)] == ["coordinated", "search"]
     assert res.plan.metrics["makespan"] == pytest.approx(hist[-1]["makespan"])
     assert res.plan.metrics["makespan"] < res.plan.metrics["coordinated_makespan"]
-    assert res.plan.solver["nlp"] is None and res.plan.solver["widen"] is None  # nothing ran after the limit
+    assert res.plan.solver["nlp"] is None  # nothing ran after the limit, and the widening stage says why
+    assert res.plan.solver["widen"] == {"status": "skipped", "accepted": False,
+                                        "reason": "the time limit came before the widening stage"}
 
 
 def test_ipopt_opt_in_working_directory_is_ignored(tmp_path, monkeypatch, crossing):

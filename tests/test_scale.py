@@ -184,6 +184,8 @@ def test_when_the_other_process_gives_nothing_the_planner_goes_on_from_its_first
                      progress=lambda m: said.append(str(m)))
     assert any("other process gave nothing" in m and "exit code -9" in m for m in said)
     assert r.plan.solver["retime"][0]["of"].endswith("(the others alongside)")
+    # it goes on from that first candidate as with the other process: not retimed a second time
+    assert {x["stage"]: x["result"] for x in r.plan.solver["stages"]}["retime"] == "retimed alongside the coordinated planner"
     assert verify(prob, r.plan).passed and r.plan.metrics["harvested"] == len(prob.fruits)
     # the first candidate's retiming is kept: no worse than what it made with the other process's help
     assert r.plan.metrics["makespan"] <= a.plan.solver["retime"][0]["makespan"] + 1e-9

@@ -41,8 +41,8 @@ def apart(a: Box | None, b: Box | None, d: float) -> bool:
 
 
 class SweepBoxes:
-    """Boxes of the arms of ``problem`` over steps (memoised in ``memo``: they depend only on
-    the problem) and over a track's commitments in a span of time."""
+    """Boxes of the arms of ``problem`` over steps (memoised in ``memo``: a rest's by its pose, a
+    move's by its curve) and over a track's commitments in a span of time."""
 
     def __init__(self, problem: Problem, memo: dict, tables: dict):
         self.problem, self.memo, self.tables = problem, memo, tables
@@ -60,20 +60,25 @@ class SweepBoxes:
         moving = st.kind == StepKind.MOVE and st.curve is not None
         if moving and not isinstance(st.curve, SCurve):
             return None
-        key = (i, st.q0, st.q1) if moving else (i, st.q1)
-        box = self.memo.get(key)
-        if box is None:
+        if not moving:
+            key = (i, st.q1)
+            box = self.memo.get(key)
+            if box is None:
+                arm = self.problem.arms[i]
+                box = self.memo[key] = sweep_box(st.q1, st.q1, arm.links, arm.base)
+            return box
+        # a move's box is its whole curve's (a step cut short, e.g. a live re-plan's, holds less):
+        # memoised by the curve itself, kept beside its box so that its id is not reused
+        hit = self.memo.get((i, id(st.curve)))
+        if hit is None or hit[0] is not st.curve:
             arm = self.problem.arms[i]
-            if moving:
-                q = curve_eval(st.curve, np.linspace(0.0, st.curve.duration, SLICES + 1), self.tables)
-                lo, hi = np.minimum(q[:-1], q[1:]), np.maximum(q[:-1], q[1:])
-                box = sweep_box(lo[0], hi[0], arm.links, arm.base)
-                for k in range(1, SLICES):
-                    box = union(box, sweep_box(lo[k], hi[k], arm.links, arm.base))
-            else:
-                box = sweep_box(st.q1, st.q1, arm.links, arm.base)
-            self.memo[key] = box
-        return box
+            q = curve_eval(st.curve, np.linspace(0.0, st.curve.duration, SLICES + 1), self.tables)
+            lo, hi = np.minimum(q[:-1], q[1:]), np.maximum(q[:-1], q[1:])
+            box = sweep_box(lo[0], hi[0], arm.links, arm.base)
+            for k in range(1, SLICES):
+                box = union(box, sweep_box(lo[k], hi[k], arm.links, arm.base))
+            hit = self.memo[(i, id(st.curve))] = (st.curve, box)
+        return hit[1]
 
     def steps(self, i: int, steps: list[Step], after: tuple) -> Box | None:
         """A box holding arm i through ``steps`` and at rest at ``after``."""

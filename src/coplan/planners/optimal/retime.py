@@ -286,24 +286,28 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
                     before = m.NewBoolVar("")
                     m.Add(S[x][k] + c1 <= r0).OnlyEnforceIf(before)
                     m.Add(S[x][k] + c0 >= r1).OnlyEnforceIf(before.Not())
-        ri, rj = rests(i), rests(j)  # rest against rest: every pair of poses tested at once
-        close = links_too_close_pairs(LinkPoints.of(arm_points(arms[i], np.array([r[0] for r in ri]))),
-                                      LinkPoints.of(arm_points(arms[j], np.array([r[0] for r in rj]))), radii, need)
-        for u, (pa, a0, a1, sa) in enumerate(ri):
-            for v, (pb, b0, b1, sb) in enumerate(rj):
-                if not meet(sa, sb) or not close[u, v]:
-                    continue
-                n += 1
-                if a1 is None and b1 is None:
-                    return RetimeResult(None, "not retimed: two final rest poses too close", None, n)
-                if a1 is None:
-                    m.Add(b1 <= a0)
-                elif b1 is None:
-                    m.Add(a1 <= b0)
-                else:
-                    first = m.NewBoolVar("")
-                    m.Add(a1 <= b0).OnlyEnforceIf(first)
-                    m.Add(b1 <= a0).OnlyEnforceIf(first.Not())
+        ri, rj = rests(i), rests(j)  # rest against rest: the pairs that may meet, tested at once
+        pairs = [(u, v) for u in range(len(ri)) for v in range(len(rj)) if meet(ri[u][3], rj[v][3])]
+        if pairs:
+            u_, v_ = np.array(pairs).T
+            close = links_too_close(LinkPoints.of(arm_points(arms[i], np.array([ri[u][0] for u in u_]))),
+                                    LinkPoints.of(arm_points(arms[j], np.array([rj[v][0] for v in v_]))), radii, need)
+        for (u, v), c in zip(pairs, close if pairs else ()):
+            _, a0, a1, _ = ri[u]
+            _, b0, b1, _ = rj[v]
+            if not c:
+                continue
+            n += 1
+            if a1 is None and b1 is None:
+                return RetimeResult(None, "not retimed: two final rest poses too close", None, n)
+            if a1 is None:
+                m.Add(b1 <= a0)
+            elif b1 is None:
+                m.Add(a1 <= b0)
+            else:
+                first = m.NewBoolVar("")
+                m.Add(a1 <= b0).OnlyEnforceIf(first)
+                m.Add(b1 <= a0).OnlyEnforceIf(first.Not())
     m.Minimize(M * (len(ends) * horizon + 1) + sum(ends))
     for i, (mv, _) in enumerate(per):  # the coordinator's own times: a hint
         for k, x in enumerate(mv):

@@ -226,7 +226,7 @@ def _alongside(run: Run, copts: CoordinatedOptions, first_feasible: Callable[[Co
         other.close()
     if coord is None:
         run.say(f"the coordinated planner's other process gave nothing ({other.error}); going on from its first candidate")
-        return plan_coordinated(run.problem, run.allocation, replace(copts, time_limit=0.0), run.say, run.cache), None
+        return plan_coordinated(run.problem, run.allocation, replace(copts, time_limit=0.0), run.say, run.cache), first
     return coord, first
 
 
@@ -368,11 +368,11 @@ def polish(run: Run) -> str:
 def widen(run: Run) -> str:
     """More room between neighbours and less jerk at the incumbent's makespan (``widen``)."""
     inc = run.inc
-    if not run.opts.widen or inc.plan is None or inc.candidate is None or inc.source == "joint NLP":
+    if not run.opts.widen or run.interrupted or inc.plan is None or inc.candidate is None or inc.source == "joint NLP":
         return "skipped"
-    if run.interrupted or not run.in_time():  # said in plan.json and the summary, not silently skipped
-        run.reports["widen"] = {"status": "skipped", "accepted": False, "reason": (
-            "interrupted before the widening stage" if run.interrupted else "the time limit came before the widening stage")}
+    if not run.in_time():  # said in plan.json and the summary, not skipped silently
+        run.reports["widen"] = {"status": "skipped", "accepted": False,
+                                "reason": "the time limit came before the widening stage"}
         return "skipped"
     run.stage("widen")
     tw = _time.perf_counter()
