@@ -4,10 +4,11 @@
   ``--help``) as taking no value in ``--help`` (typer 0.29's rich help prints ``<bool>`` after them).
 * :func:`run_console` -- the console entry point's body (signals, pipes, ``--json`` usage errors).
 * :class:`ProgressDisplay` -- progress lines and, on a terminal, rich progress bars on stderr.
-* :class:`PipeSafeStdout` -- stdout (and stderr) that survives a reader closing the pipe
+* :class:`PipeSafeStream` -- stdout or stderr that survives a reader closing the pipe
   (``coplan problems | head -1``, ``coplan solve 2>&1 | head -1``): the first ``BrokenPipeError``
-  sends the stream's file descriptor to ``/dev/null`` and every later write is dropped, so the command finishes its work and exits with its own code, with no traceback and no
-  "Exception ignored" message at exit (the handling the Python documentation recommends for SIGPIPE).
+  sends the stream's file descriptor to ``/dev/null`` and every later write is dropped, so the
+  command finishes its work and exits with its own code, with no traceback and no "Exception
+  ignored" message at exit (the handling the Python documentation recommends for SIGPIPE).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import sys
 
 from typer.core import TyperGroup, TyperOption
 
-__all__ = ["FlagsGroup", "PipeSafeStdout", "ProgressDisplay", "run_console"]
+__all__ = ["FlagsGroup", "PipeSafeStream", "ProgressDisplay", "run_console"]
 
 
 def _flags_take_no_value(params) -> None:
@@ -41,8 +42,9 @@ class FlagsGroup(TyperGroup):
         return cmd
 
 
-class PipeSafeStdout:
-    """A stand-in for ``sys.stdout`` that turns a closed pipe into silence (see the module docstring)."""
+class PipeSafeStream:
+    """A stand-in for ``sys.stdout`` or ``sys.stderr`` that turns a closed pipe into silence (see
+    the module docstring)."""
 
     def __init__(self, stream):
         self._stream = stream
@@ -81,9 +83,10 @@ class PipeSafeStdout:
 def run_console(app, err_console) -> None:
     """Run the typer ``app`` as the ``coplan`` command. SIGTERM is handled like Ctrl-C (the
     planners save what they have), then exits with 143 instead of 130. stdout and stderr are
-    :class:`PipeSafeStdout`: a reader closing them (``| head``, ``2>&1 | head``) is no error, the
-    command finishes its work, writes its files and exits with its own code. With ``--json`` on the command line, a usage error found before
-    the command ran is also printed as the JSON error document (:mod:`coplan.cli.failures`)."""
+    :class:`PipeSafeStream`: a reader closing them (``| head``, ``2>&1 | head``) is no error, the
+    command finishes its work, writes its files and exits with its own code. With ``--json`` on
+    the command line, a usage error found before the command ran is also printed as the JSON
+    error document (:mod:`coplan.cli.failures`)."""
     import signal
 
     from . import failures
@@ -99,8 +102,8 @@ def run_console(app, err_console) -> None:
 
     if hasattr(signal, "SIGTERM"):
         signal.signal(signal.SIGTERM, on_term)
-    sys.stdout = PipeSafeStdout(sys.stdout)
-    sys.stderr = PipeSafeStdout(sys.stderr)  # (progress and messages: ``2>&1 | head`` closes it too)
+    sys.stdout = PipeSafeStream(sys.stdout)
+    sys.stderr = PipeSafeStream(sys.stderr)  # (progress and messages: ``2>&1 | head`` closes it too)
     try:
         if "--json" in sys.argv[1:]:
             sys.exit(failures.run_with_json_usage_errors(app))

@@ -49,7 +49,11 @@ class SweepBoxes:
 
     def pose(self, i: int, q: tuple) -> Box:
         """A box holding arm i at rest at pose q."""
-        return self.step(i, Step(StepKind.WAIT, 0.0, 0.0, q, q))
+        box = self.memo.get((i, q))
+        if box is None:
+            arm = self.problem.arms[i]
+            box = self.memo[(i, q)] = sweep_box(q, q, arm.links, arm.base)
+        return box
 
     def step(self, i: int, st: Step) -> Box | None:
         """A box holding arm i throughout step ``st``; None (unbounded) for a move whose curve is
@@ -57,16 +61,10 @@ class SweepBoxes:
         (rest to rest), so over each of ``SLICES`` stretches of the move the joints stay between
         their values at its ends: the move's box is the union of those stretches' boxes (tight
         where the joints turn little)."""
-        moving = st.kind == StepKind.MOVE and st.curve is not None
-        if moving and not isinstance(st.curve, SCurve):
+        if st.kind != StepKind.MOVE or st.curve is None:
+            return self.pose(i, st.q1)  # (a rest, or a move without a curve: evaluated at its end pose)
+        if not isinstance(st.curve, SCurve):
             return None
-        if not moving:
-            key = (i, st.q1)
-            box = self.memo.get(key)
-            if box is None:
-                arm = self.problem.arms[i]
-                box = self.memo[key] = sweep_box(st.q1, st.q1, arm.links, arm.base)
-            return box
         # a move's box is its whole curve's (a step cut short, e.g. a live re-plan's, holds less):
         # memoised by the curve itself, kept beside its box so that its id is not reused
         hit = self.memo.get((i, id(st.curve)))

@@ -274,7 +274,7 @@ class _Coordinator(ArmGeometry):
         for o in nb:
             # arms whose boxes over the whole span are further apart than the clearance need
             # cannot be too close at any sample: the exact test would find nothing
-            gap = self.need + tr.arm.link_radius + o.arm.link_radius + 1e-9
+            gap = self.need + self.radii(tr.index, o.index) + 1e-9
             if apart(mine, self.boxes.track(o.index, o.steps, o.t0s, o.pose, t - 1e-6, float(T[-1]) + 1e-6), gap):
                 continue
             bad = self.close_links(tr.index, pa, o.index, window.neighbour(o, t, n))

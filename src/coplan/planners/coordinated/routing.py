@@ -72,36 +72,30 @@ class ArmGeometry:
         self._stows: dict[int, np.ndarray] = {}
         self._routes: dict[tuple, list[tuple[float, float]]] = {}
 
+    def radii(self, i: int, j: int) -> float:
+        """The two arms' link radii together: links closer than ``radii + need`` are too close."""
+        return self.problem.arms[i].link_radius + self.problem.arms[j].link_radius
+
     def close(self, i: int, qi: np.ndarray, j: int, qj: np.ndarray) -> np.ndarray:
         """Whether arm i at poses qi and arm j at poses qj (broadcast) are closer than ``need``."""
         a, b = self.problem.arms[i], self.problem.arms[j]
-        return points_too_close(arm_points(a, qi), arm_points(b, qj), a.link_radius + b.link_radius, self.need)
-
-    def points(self, i: int, q: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Arm i's base, elbow and tip coordinates at poses q (..., 2), for :meth:`close_points`."""
-        return arm_points(self.problem.arms[i], q)
-
-    def close_points(self, i: int, pi: tuple, j: int, pj: tuple) -> np.ndarray:
-        """:meth:`close` on points from :meth:`points` (computed once, compared many times)."""
-        r = self.problem.arms[i].link_radius + self.problem.arms[j].link_radius
-        return points_too_close(pi, pj, r, self.need)
+        return points_too_close(arm_points(a, qi), arm_points(b, qj), self.radii(i, j), self.need)
 
     def links(self, i: int, q: np.ndarray) -> LinkPoints:
-        """Arm i's points at poses q (N, 2), ready for :meth:`close_links`."""
+        """Arm i's points at poses q (N, 2), ready for :meth:`close_links` (computed once,
+        compared many times)."""
         return LinkPoints.of(arm_points(self.problem.arms[i], q))
 
     def close_links(self, i: int, li: LinkPoints, j: int, lj: LinkPoints) -> np.ndarray:
-        """:meth:`close_points` on :meth:`links` (N,): the same answers, less work per comparison."""
-        r = self.problem.arms[i].link_radius + self.problem.arms[j].link_radius
-        return links_too_close(li, lj, r, self.need)
+        """:meth:`close` on samples from :meth:`links`, side by side (N,)."""
+        return links_too_close(li, lj, self.radii(i, j), self.need)
 
     def static_hits(self, i: int, poses: np.ndarray, j: int, samples: np.ndarray) -> np.ndarray:
         """For each of arm i's poses (C, 2): how many of arm j's samples (M, 2) come too close."""
         poses, samples = np.atleast_2d(np.asarray(poses, float)), np.atleast_2d(np.asarray(samples, float))
         if samples.size == 0 or poses.size == 0:
             return np.zeros(len(poses), int)
-        r = self.problem.arms[i].link_radius + self.problem.arms[j].link_radius
-        return links_too_close_pairs(self.links(i, poses), self.links(j, samples), r, self.need).sum(axis=1)
+        return links_too_close_pairs(self.links(i, poses), self.links(j, samples), self.radii(i, j), self.need).sum(axis=1)
 
     @staticmethod
     def path(q0, q1, step: float = 0.04) -> np.ndarray:
@@ -353,6 +347,7 @@ def _prefetch_hits(geo: ArmGeometry, i: int, moves: list, avoid: dict, avoid_key
         if not todo or len(poses) == 0:
             continue
         paths = [geo.path(q0, q1, step=0.08) for q0, q1, _ in todo]
+        pose_links = geo.links(j, poses)
         per = max(1, chunk // len(poses))
         lo = 0
         while lo < len(paths):  # moves in chunks of about ``chunk`` sample-pose pairs
@@ -362,8 +357,7 @@ def _prefetch_hits(geo: ArmGeometry, i: int, moves: list, avoid: dict, avoid_key
                 hi += 1
             samples = np.vstack(paths[lo:hi])
             starts = np.cumsum([0] + [len(p) for p in paths[lo:hi - 1]])
-            r = geo.problem.arms[i].link_radius + geo.problem.arms[j].link_radius
-            close = links_too_close_pairs(geo.links(j, poses), geo.links(i, samples), r, geo.need).T  # (samples, poses)
+            close = links_too_close_pairs(pose_links, geo.links(i, samples), geo.radii(j, i), geo.need).T  # (samples, poses)
             hit = np.logical_or.reduceat(close, starts, axis=0)  # (moves, poses)
             for m in range(lo, hi):
                 key = todo[m][2]

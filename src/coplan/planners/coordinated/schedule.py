@@ -254,12 +254,19 @@ def links_too_close(a: LinkPoints, b: LinkPoints, radii: float, need: float) -> 
     gap = np.hypot(a.mx[:, None] - b.mx[None], a.my[:, None] - b.my[None]) - a.h[:, None] - b.h[None]
     s, u, k = np.nonzero(gap < need + radii)  # link s of a and link u of b may be too close at sample k
     out = np.zeros(a.size, bool)
-    if k.size:
-        A, B = a.P, b.P
-        d = segment_distance_xy(A[2 * s, k], A[2 * s + 1, k], A[2 * s + 2, k], A[2 * s + 3, k],
-                                B[2 * u, k], B[2 * u + 1, k], B[2 * u + 2, k], B[2 * u + 3, k])
-        out[k[d - radii < need]] = True
+    out[k[_exact_hits(a, s, k, b, u, k, radii, need)]] = True
     return out
+
+
+def _exact_hits(a: LinkPoints, s, k, b: LinkPoints, u, m, radii: float, need: float) -> np.ndarray:
+    """For each screened candidate, link ``s`` of ``a`` at its sample ``k`` against link ``u`` of
+    ``b`` at its sample ``m`` (index arrays): whether they are too close, by the exact distance."""
+    if k.size == 0:
+        return np.zeros(0, bool)
+    A, B = a.P, b.P
+    d = segment_distance_xy(A[2 * s, k], A[2 * s + 1, k], A[2 * s + 2, k], A[2 * s + 3, k],
+                            B[2 * u, m], B[2 * u + 1, m], B[2 * u + 2, m], B[2 * u + 3, m])
+    return d - radii < need
 
 
 def links_too_close_pairs(a: LinkPoints, b: LinkPoints, radii: float, need: float) -> np.ndarray:
@@ -269,12 +276,8 @@ def links_too_close_pairs(a: LinkPoints, b: LinkPoints, radii: float, need: floa
            - a.h[:, None, :, None] - b.h[None, :, None, :])
     s, u, k, m = np.nonzero(gap < need + radii)  # link s of a at its sample k, link u of b at its sample m
     out = np.zeros((a.size, b.size), bool)
-    if k.size:
-        A, B = a.P, b.P
-        d = segment_distance_xy(A[2 * s, k], A[2 * s + 1, k], A[2 * s + 2, k], A[2 * s + 3, k],
-                                B[2 * u, m], B[2 * u + 1, m], B[2 * u + 2, m], B[2 * u + 3, m])
-        hit = d - radii < need
-        out[k[hit], m[hit]] = True
+    hit = _exact_hits(a, s, k, b, u, m, radii, need)
+    out[k[hit], m[hit]] = True
     return out
 
 

@@ -288,11 +288,12 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
                     m.Add(S[x][k] + c0 >= r1).OnlyEnforceIf(before.Not())
         ri, rj = rests(i), rests(j)  # rest against rest: the pairs that may meet, tested at once
         pairs = [(u, v) for u in range(len(ri)) for v in range(len(rj)) if meet(ri[u][3], rj[v][3])]
+        close = np.zeros(0, bool)
         if pairs:
             u_, v_ = np.array(pairs).T
             close = links_too_close(LinkPoints.of(arm_points(arms[i], np.array([ri[u][0] for u in u_]))),
                                     LinkPoints.of(arm_points(arms[j], np.array([rj[v][0] for v in v_]))), radii, need)
-        for (u, v), c in zip(pairs, close if pairs else ()):
+        for (u, v), c in zip(pairs, close):
             _, a0, a1, _ = ri[u]
             _, b0, b1, _ = rj[v]
             if not c:

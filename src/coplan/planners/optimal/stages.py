@@ -129,7 +129,7 @@ class Run:
         from .retime import retime, retimed_candidate
 
         self.stage("retime")
-        long = sum(len(seq) for seq in c.alloc.assignment.values()) > self.opts.refine_fruit
+        long = _fruit_of(c) > self.opts.refine_fruit
         shift = self.opts.retime_shift if long else None
         # bounded, a move comes forward at most by the waits before it and goes back at most by
         # the shift: from its own result, another round can gain again (12 x 600: 1.030, 1.022,
@@ -155,6 +155,12 @@ class Run:
                 break
             c = rc
         return True
+
+
+def _fruit_of(c: Coordinated) -> int:
+    """How many fruit candidate ``c`` plans: beyond ``refine_fruit`` a plan is long (its retiming
+    bounded, not refined)."""
+    return sum(len(seq) for seq in c.alloc.assignment.values())
 
 
 # ----------------------------------------------------------------------------- the stages
@@ -281,8 +287,7 @@ def refine(run: Run) -> str:
     found, stats, opts = run.found, run.stats, run.opts
     if found is None or run.interrupted:
         return "skipped"
-    n_fruit = sum(len(seq) for seq in found.alloc.assignment.values())
-    refining = opts.retime and opts.refine_retimes > 0 and n_fruit <= opts.refine_fruit
+    refining = opts.retime and opts.refine_retimes > 0 and _fruit_of(found) <= opts.refine_fruit
     if not (refining and not run.proven() and stats.best_state is not None and run.in_time()):
         if found is run.start:
             return "skipped"
