@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -21,13 +22,16 @@ from coplan.kinematics import arm as kin
 from coplan.kinematics.timing import Move1D
 from coplan.kinds import AssignRule, GantryMode, SpeedProfile
 from coplan.pipeline import solve
-from coplan.plan import EventKind, load_plan
+from coplan.plan import DEFAULT_RATE, EventKind, load_plan
 from coplan.problem import parse_problem
-from coplan.row.continuous import MovingOptions, make_cruise, plan_continuous, speed_search
+from coplan.row.assign import cpsat_order
+from coplan.row.booking import Booker, branch_table, run_policy, screen_branches
+from coplan.row.continuous import MovingOptions, make_cruise, plan_continuous, reorder_continuous, speed_search
 from coplan.row.cruise import Cruise, cruise_end, demand_stretches, pick_windows
 from coplan.row.reach import row_reach
 from coplan.row.track import track, track_state
 from coplan.verify import verify
+from coplan.verify.row import REACH_STEP, row_reachable_ids
 from coplan.verify.verdict import ViolationKind
 
 
@@ -219,6 +223,69 @@ def test_cpsat_order_is_kept_only_when_it_does_better(row, reach):
     assert greedy.info["left_out"].keys() - set(reach.reasons), "the greedy harvested everything: CP-SAT never ran"
     assert both.info["cpsat"]["status"] in ("OPTIMAL", "FEASIBLE") and both.info["cpsat"]["intervals"] > 0
     assert both.info["assign"] in (AssignRule.GREEDY.value, AssignRule.CPSAT.value)
+
+
+def test_the_search_s_cpsat_step_from_the_greedy_s_booking_is_cpsat_s_plan(row, reach):
+    """The speed search's CP-SAT step starts from the booking its greedy candidate already made
+    (:func:`reorder_continuous`): the same model, hint and order as planning the level again with
+    ``assign=cpsat``, so the same plan when CP-SAT's is kept, and none when the greedy's stands."""
+    opts = MovingOptions(profile=SpeedProfile.CONSTANT)
+    greedy = plan_continuous(row, 0.45, replace(opts, assign=AssignRule.GREEDY), reach)
+    both = plan_continuous(row, 0.45, replace(opts, assign=AssignRule.CPSAT), reach)
+    res, report = reorder_continuous(row, 0.45, opts, reach, None, greedy.plan.events)
+    assert report["status"] in ("OPTIMAL", "FEASIBLE") and report["intervals"] == both.info["cpsat"]["intervals"]
+    assert report["kept"] == (both.info["assign"] == AssignRule.CPSAT.value) == (res is not None)
+    if res is not None:
+        assert res.verification.passed
+        assert [(e.arm, e.fruit, e.t_start) for e in res.plan.events] == [(e.arm, e.fruit, e.t_start) for e in both.plan.events]
+
+
+def test_cpsat_starts_from_a_feasible_hint_so_it_never_orders_fewer_fruit_than_the_greedy(row, reach):
+    """Each cycle the greedy booked is priced no longer than it took, so the greedy's bookings
+    are a feasible start: CP-SAT's order (before the geometry books it) holds at least as many
+    fruit, on each of three speeds."""
+    for level in (0.3, 0.4, 0.5):
+        cruise = make_cruise(row, reach, SpeedProfile.CONSTANT, level)
+        booker = Booker(row, cruise, pick_windows(row, reach, cruise, row.task.pick_dwell), DEFAULT_RATE, 0.02, reach.resolution)
+        run_policy(booker)
+        order, report = cpsat_order(row, booker, reach, cruise)
+        booked = sum(1 for e in booker.events if e.kind == EventKind.PICK)
+        assert order is not None and report["fruit"] >= booked, (level, report, booked)
+
+
+def test_plain_float_carriage_states_and_shared_branch_screens_change_nothing(row, reach):
+    """The booking's fast paths give the slow paths' bits: :meth:`Cruise.state_one` against
+    :meth:`Cruise.state` (2,000 seeded times, before the start and past the end included), and
+    the elbow branches screened for every fruit at once against one fruit at a time."""
+    cruise = make_cruise(row, reach, SpeedProfile.DENSITY, 0.8)
+    ts = np.r_[np.random.default_rng(3).uniform(-1.0, cruise.duration + 1.0, 2000), 0.0, cruise.duration]
+    x, v, a = cruise.state(ts)
+    assert all((x[k], v[k], a[k]) == cruise.state_one(t) for k, t in enumerate(ts))
+    pairs = [(i, f) for f in reach.harvestable() for i in np.flatnonzero(reach.cover[f].any(axis=1)).tolist()]
+    batched = screen_branches(row, reach.resolution, pairs, {})
+    alone: dict = {}
+    for p in pairs:
+        screen_branches(row, reach.resolution, [p], alone)
+    assert set(batched) == set(alone) == set(pairs)
+    assert all(batched[p][0] == alone[p][0] and np.array_equal(batched[p][1], alone[p][1]) for p in pairs)
+    # and a booking given the shared table answers as one with its own
+    shared = Booker(row, cruise, {}, DEFAULT_RATE, 0.02, reach.resolution, branch_table(row, reach.resolution))
+    own = Booker(row, cruise, {}, DEFAULT_RATE, 0.02, reach.resolution)
+    for i, f in pairs[::7]:
+        lo, hi = (float(reach.grid[k]) for k in reach.span(f))
+        for c0 in np.linspace(lo, hi, 5):
+            assert shared.branches(i, f, c0, min(hi, c0 + 0.1)) == own.branches(i, f, c0, min(hi, c0 + 0.1))
+
+
+def test_the_verifier_s_row_reach_is_the_per_fruit_search(row):
+    """:func:`row_reachable_ids` (vectorised, once per problem) against the plain search it
+    stands for: some arm, some carriage position on a 1 cm grid, IK inside the limits."""
+    g = row.gantry
+    cs = np.arange(g.start, g.end + REACH_STEP / 2, REACH_STEP)
+    want = [f.id for f in row.fruits
+            if any(a.ik(np.c_[f.position[0] - cs, np.full(cs.size, f.position[1])][np.abs(f.position[0] - cs - a.base[0]) <= a.reach],
+                        row.task.reach_margin)[1].any() for a in row.arms)]
+    assert row_reachable_ids(row) == want and 0 < len(want) <= len(row.fruits)
 
 
 # ---------------------------------------------------------------------------- the pipeline and the CLI

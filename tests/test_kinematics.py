@@ -427,3 +427,24 @@ def test_scalar_jacobian_entries_are_the_jacobian_and_its_rate_its_derivative() 
         fd = (kin.jacobian(q + h * qd, links) - kin.jacobian(q - h * qd, links)) / (2 * h)
         ad, bd, dd, ed = kin.jacobian_rate_entries(float(q[0]), float(q[1]), float(qd[0]), float(qd[1]), links)
         np.testing.assert_allclose([[ad, bd], [dd, ed]], fd, rtol=0, atol=1e-8)
+
+
+@pytest.mark.parametrize("limits", [None, [[-math.pi, math.pi], [-math.pi + 0.1, math.pi - 0.1]],
+                                    [[0.0, 2 * math.pi], [-3.0, 3.0]], [[-2 * math.pi, -0.5], [0.0, 3.0]]])
+def test_ik_one_gives_the_bits_of_ik(limits) -> None:
+    """The plain-float IK of one point (the moving-carriage booking's) equals the vectorised one
+    to the last bit, NaN where it is invalid: 20,000 seeded points over and past the annulus,
+    both branches, limits narrower and wider than a turn."""
+    rng = np.random.default_rng(29)
+    links, base = (0.9, 0.7), (0.3, -0.2)
+    r = rng.uniform(0.0, 1.8, 20_000)
+    r[:200] = 1.6 + rng.choice([-1e-10, 0.0, 1e-10], 200)  # at the boundaries and just past them
+    r[200:400] = 0.2 + rng.choice([-1e-10, 0.0, 1e-10], 200)
+    a = rng.uniform(-math.pi, math.pi, r.size)
+    pts = np.c_[base[0] + r * np.cos(a), base[1] + r * np.sin(a)]
+    q, valid = kin.ik(pts, links, base, None if limits is None else np.array(limits))
+    for k in range(pts.shape[0]):
+        for b in (0, 1):
+            one = np.array(kin.ik_one(pts[k, 0], pts[k, 1], links, base, limits, b))
+            assert np.isfinite(one).all() == valid[k, b]
+            assert np.array_equal(one, q[k, b], equal_nan=True), (pts[k], b, one, q[k, b])

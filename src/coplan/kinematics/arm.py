@@ -26,6 +26,7 @@ __all__ = [
     "fk",
     "fk_points",
     "ik",
+    "ik_one",
     "jacobian",
     "manipulability",
     "singularity_proximity",
@@ -185,6 +186,40 @@ def ik(target, links, base=(0.0, 0.0), joint_limits=None, tol: float = 1e-9):
         out[..., b, 1] = np.where(ok, t2, np.nan)
         valid[..., b] = ok
     return out, valid
+
+
+def ik_one(x: float, y: float, links, base, joint_limits, branch: int, tol: float = 1e-9) -> tuple[float, float]:
+    """:func:`ik` of one point on one elbow branch in plain floats: ``(t1, t2)``, both NaN
+    where :func:`ik` marks the branch invalid. The same bits as :func:`ik` (the arithmetic in
+    the same order; the angles from ``np.arctan2`` on scalars, which runs the array's kernel:
+    ``math.atan2`` may differ in the last bit), at a tenth of its cost on one point.
+    ``joint_limits``: ``((t1_min, t1_max), (t2_min, t2_max))`` or None."""
+    l1, l2 = float(links[0]), float(links[1])
+    px, py = float(x) - float(base[0]), float(y) - float(base[1])
+    r2 = px * px + py * py
+    r = math.sqrt(r2)
+    if not (abs(l1 - l2) - tol <= r <= l1 + l2 + tol):
+        return math.nan, math.nan
+    c2 = min(max((r2 - l1 * l1 - l2 * l2) / (2.0 * l1 * l2), -1.0), 1.0)
+    s2 = math.sqrt(max(0.0, 1.0 - c2 * c2))
+    sgn = 1.0 if branch == 0 else -1.0
+    t2 = float(np.arctan2(sgn * s2, c2))
+    a = float(np.arctan2(py, px)) - float(np.arctan2(l2 * sgn * s2, l1 + l2 * c2)) + math.pi
+    t1 = a % (2.0 * math.pi) - math.pi  # wrap_angle: the same remainder as np.mod
+    if t1 == -math.pi:
+        t1 = math.pi
+    if joint_limits is not None:
+        (lo1, hi1), (lo2, hi2) = joint_limits
+        if not (lo2 <= t2 <= hi2):
+            return math.nan, math.nan
+        if not (lo1 <= t1 <= hi1):
+            for shift in (2.0 * math.pi, -2.0 * math.pi):
+                if lo1 <= t1 + shift <= hi1:
+                    t1 = t1 + shift
+                    break
+            else:
+                return math.nan, math.nan
+    return t1, t2
 
 
 def jacobian(q: Any, links):

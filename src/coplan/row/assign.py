@@ -20,13 +20,14 @@ import math
 
 import numpy as np
 
+from ..kinematics.arm import ik_one
 from ..kinematics.timing import move_lower_bound
 from ..plan import EventKind
 from ..problem.model import Problem
 from .booking import Booker
 from .cruise import Cruise
 from .reach import RowReach
-from .track import LIMIT_SHARE, track
+from .track import LIMIT_SHARE
 
 __all__ = ["cpsat_order", "CPSAT_WORK"]
 
@@ -44,7 +45,7 @@ def _move_estimate(problem: Problem, booker: Booker, cruise: Cruise, fid: str, w
     hi = w.hi if math.isfinite(w.hi) else w.lo + 1.0
     t = 0.5 * (w.lo + hi)
     xy = booker.fruit_xy[fid]
-    c = float(cruise.x(np.array([t]))[0])
+    c = cruise.state_one(t)[0]
     brs = booker.branches(w.arm, fid, c, c)
     if not brs:
         return None
@@ -52,8 +53,8 @@ def _move_estimate(problem: Problem, booker: Booker, cruise: Cruise, fid: str, w
     qb = booker.bin_q[w.arm]
     best = None
     for b in brs:
-        qf = track(arm, xy, cruise, np.array([t]), b)[0]
-        if not np.all(np.isfinite(qf)):
+        qf = ik_one(xy[0] - c, xy[1], arm.links, arm.base, arm.joint_limits, b)  # :func:`track` at t
+        if not (math.isfinite(qf[0]) and math.isfinite(qf[1])):
             continue
         d = move_lower_bound(qb, qf, *lim)
         if best is None or d < best:
@@ -61,14 +62,14 @@ def _move_estimate(problem: Problem, booker: Booker, cruise: Cruise, fid: str, w
     return best
 
 
-def _calibration(problem: Problem, greedy: Booker, cruise: Cruise) -> float:
+def _calibration(problem: Problem, greedy: Booker, events, cruise: Cruise) -> float:
     """How much longer the greedy's real moves took than the model's estimates (median of its
     cycles, at least 1): the moves arrive on a moving fruit, wait for neighbours, and come back
     from wherever the pick ended."""
     index = {a.name: i for i, a in enumerate(problem.arms)}
-    picks = {(e.arm, e.fruit): e for e in greedy.events if e.kind == EventKind.PICK}
+    picks = {(e.arm, e.fruit): e for e in events if e.kind == EventKind.PICK}
     ratios = []
-    for e in greedy.events:
+    for e in events:
         if e.kind != EventKind.PLACE or (e.arm, e.fruit) not in picks:
             continue
         pk = picks[(e.arm, e.fruit)]
@@ -80,25 +81,53 @@ def _calibration(problem: Problem, greedy: Booker, cruise: Cruise) -> float:
     return max(1.0, float(np.median(ratios))) if ratios else 1.0
 
 
+def _hint_room(events, index: dict[str, int]) -> dict[tuple[str, int], tuple[int, int]]:
+    """For each cycle the greedy booked, ``(fruit, arm) -> (approach, return)`` in model units:
+    the time from the arm's previous place's end to the pick, and from the pick's end to the
+    place. Intervals no longer than these nest inside the greedy's real cycles, which never
+    overlap on one arm, so the greedy's bookings are a feasible start for CP-SAT."""
+    picks = {(e.arm, e.fruit): e for e in events if e.kind == EventKind.PICK}
+    places = sorted((e for e in events if e.kind == EventKind.PLACE and (e.arm, e.fruit) in picks),
+                    key=lambda e: (e.arm, e.t_start))
+    out = {}
+    prev_end: dict[str, float] = {}
+    for e in places:
+        pk = picks[(e.arm, e.fruit)]
+        app = int(math.floor((pk.t_start - prev_end.get(e.arm, 0.0)) * _UNIT + 1e-6))
+        ret = int(math.floor((e.t_start - pk.t_end) * _UNIT + 1e-6))
+        out[(e.fruit, index[e.arm])] = (max(app, 0), max(ret, 0))
+        prev_end[e.arm] = e.t_end
+    return out
+
+
 def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruise,
-                work: float = CPSAT_WORK) -> tuple[dict[int, list[str]] | None, dict]:
-    """Each arm's fruit in CP-SAT's order (module docstring), or None; and a report."""
+                work: float = CPSAT_WORK, events=None) -> tuple[dict[int, list[str]] | None, dict]:
+    """Each arm's fruit in CP-SAT's order (module docstring), or None; and a report.
+
+    ``greedy``: a booker on this carriage motion (its windows, elbow branches and bin poses);
+    ``events``: the greedy's booked events, the hint (None: ``greedy.events``; a booking made
+    elsewhere on the same motion, e.g. the speed search's plan at this level)."""
     from ortools.sat.python import cp_model
 
     dwell, place = problem.task.pick_dwell, problem.task.place_dwell
-    scale = _calibration(problem, greedy, cruise)
-    horizon_s = max((e.t_end for e in greedy.events), default=cruise.duration) + 60.0
+    events = greedy.events if events is None else events
+    scale = _calibration(problem, greedy, events, cruise)
+    horizon_s = max((e.t_end for e in events), default=cruise.duration) + 60.0
     H = int(math.ceil(horizon_s * _UNIT))
     m = cp_model.CpModel()
     per_arm: dict[int, list] = {i: [] for i in range(len(problem.arms))}
     per_fruit: dict[str, list] = {}
     items = []
+    index = {a.name: i for i, a in enumerate(problem.arms)}
+    room = _hint_room(events, index)
     for fid, ws in greedy.windows.items():
         for w in ws:
             move = _move_estimate(problem, greedy, cruise, fid, w)
             if move is None:
                 continue
             app = ret = int(math.ceil(move * scale * _UNIT))
+            if (fid, w.arm) in room:  # the greedy's own cycle: no longer than it took (the hint is feasible)
+                app, ret = min(app, room[(fid, w.arm)][0]), min(ret, room[(fid, w.arm)][1])
             lo = max(app, int(math.ceil(w.lo * _UNIT)))
             hi = min(H, int(math.floor(w.hi * _UNIT)) if math.isfinite(w.hi) else H)
             if hi < lo:
@@ -124,8 +153,7 @@ def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruis
         m.Add(last >= e).OnlyEnforceIf(on)
     count = sum(on for _, _, on, _, _ in items)
     m.Maximize(count * (H + 10 * _UNIT * 60 + 1) - last)
-    index = {a.name: i for i, a in enumerate(problem.arms)}
-    booked = {(e.fruit, index[e.arm]): e.t_start for e in greedy.events if e.kind == EventKind.PICK}
+    booked = {(e.fruit, index[e.arm]): e.t_start for e in events if e.kind == EventKind.PICK}
     for fid, a, on, p, e in items:
         t = booked.get((fid, a))
         m.AddHint(on, t is not None)

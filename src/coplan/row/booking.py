@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import heapq
 import math
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,7 +33,7 @@ from ..problem.model import Problem
 from .cruise import Cruise, Window
 from .track import LIMIT_SHARE, Leg, LegError, track, track_state
 
-__all__ = ["Booker", "Cycle", "run_policy", "why_left"]
+__all__ = ["Booker", "Cycle", "run_policy", "why_left", "branch_table", "screen_branches"]
 
 _RETRY = 0.1  # s: a cycle that would come too close to a neighbour is tried again this much later ...
 _RETRY_GROWTH = 1.5  # ... and each further try that much later again
@@ -68,7 +69,7 @@ class Booker:
     """Every arm's booked motion (module docstring)."""
 
     def __init__(self, problem: Problem, cruise: Cruise, windows: dict[str, list[Window]], rate: float, margin: float,
-                 step: float = 0.05):
+                 step: float = 0.05, branch_table: dict | None = None):
         self.problem, self.cruise, self.windows, self.rate = problem, cruise, windows, rate
         self.dt = 1.0 / rate
         self.cell = cell_at(problem, 0.0, ())  # the carriage frame
@@ -83,7 +84,10 @@ class Booker:
         self.neighbours = [[j for p in pairs for j in p if i in p and j != i] for i in range(len(problem.arms))]
         self.fruit_xy = {f.id: tuple(map(float, f.position)) for f in problem.fruits}
         self.checks = 0
-        self._use: dict[tuple[int, str], tuple[float, np.ndarray]] = {}
+        # elbow branches screened so far (:meth:`branches`); ``branch_table``: one shared by the
+        # bookings of one fixed problem (:func:`branch_table`); none: this booking's own (a live
+        # row's booker sees its problem grow)
+        self._use = {} if branch_table is None else branch_table
         self.step = step  # m: the row screen's grid, on which a pick's elbow branch is screened
         self.leg_share = LIMIT_SHARE  # of the joint limits a move uses (AT_REST_SHARE: every pick at rest)
 
@@ -101,16 +105,10 @@ class Booker:
     def branches(self, i: int, fid: str, c0: float, c1: float) -> list[int]:
         """Elbow branches of arm ``i`` usable on fruit ``fid`` with the carriage anywhere in
         ``[c0, c1]``: the screen's rules on a 5 cm grid of carriage positions covering it
-        (computed once per arm and fruit, over the arm's whole reach of the fruit)."""
+        (computed once per arm and fruit, over the arm's whole reach of the fruit: :func:`screen_branches`)."""
         key = (i, fid)
         if key not in self._use:
-            x, y = self.fruit_xy[fid]
-            arm = self.problem.arms[i]
-            g = self.problem.gantry
-            # on the row screen's grid (positions g.start + k step), so a window's ends are grid points
-            lo = g.start + self.step * max(0, math.floor((x - arm.base[0] - arm.reach - g.start) / self.step) - 1)
-            cs = lo + self.step * np.arange(int(math.ceil((x - arm.base[0] + arm.reach - lo) / self.step)) + 2)
-            self._use[key] = (lo, usable_picks(self.cell, np.c_[x - cs, np.full(cs.size, y)], arms=(i,))[i])
+            screen_branches(self.problem, self.step, [key], self._use)
         lo, use = self._use[key]
         k0 = int(math.floor((c0 - lo) / self.step + 1e-9))
         k1 = int(math.ceil((c1 - lo) / self.step - 1e-9))
@@ -194,7 +192,7 @@ class Booker:
                 t_p = k_p * self.dt
                 if t_p > t_last + 1e-9:
                     return None
-                c0, c1 = (float(v) for v in self.cruise.x(np.array([t_p, t_p + self._dwells(fid)[0] * self.dt])))
+                c0, c1 = self.cruise.state_one(t_p)[0], self.cruise.state_one(t_p + self._dwells(fid)[0] * self.dt)[0]
                 brs = self.branches(i, fid, c0, c1)
                 if not brs:
                     k_p += max(1, self.up(_RETRY))
@@ -317,6 +315,45 @@ class Booker:
                 return True
             k_s += self.up(_RETRY)
         return False
+
+
+#: Per problem and grid step: (arm index, fruit id) -> (first carriage position, (K, 2) usable
+#: branches at positions first + k step). It depends on the geometry only, not on the carriage's
+#: motion, so every candidate of a speed search shares it (forked workers inherit it screened).
+_BRANCHES: "weakref.WeakKeyDictionary[Problem, dict[float, dict]]" = weakref.WeakKeyDictionary()
+
+
+def branch_table(problem: Problem, step: float) -> dict[tuple[int, str], tuple[float, np.ndarray]]:
+    """The elbow branches screened so far for ``problem`` (immutable) on grid ``step``, shared by
+    every :class:`Booker` given it (:func:`screen_branches` fills it)."""
+    return _BRANCHES.setdefault(problem, {}).setdefault(float(step), {})
+
+
+def screen_branches(problem: Problem, step: float, pairs, table: dict) -> dict:
+    """Screen each ``(arm index, fruit id)`` of ``pairs`` into ``table`` for
+    :meth:`Booker.branches`, each arm's in one vectorised call; pairs already in it are skipped.
+    Each pair's points are computed as alone (the same positions, the same answers). Returns
+    ``table``."""
+    cell = cell_at(problem, 0.0, ())  # the carriage frame
+    g = problem.gantry
+    xy = {f.id: (float(f.position[0]), float(f.position[1])) for f in problem.fruits}
+    todo: dict[int, list[tuple[str, float, np.ndarray]]] = {}
+    for i, fid in dict.fromkeys(pairs):
+        if (i, fid) in table:
+            continue
+        x, y = xy[fid]
+        arm = problem.arms[i]
+        # on the row screen's grid (positions g.start + k step), so a window's ends are grid points
+        lo = g.start + step * max(0, math.floor((x - arm.base[0] - arm.reach - g.start) / step) - 1)
+        cs = lo + step * np.arange(int(math.ceil((x - arm.base[0] + arm.reach - lo) / step)) + 2)
+        todo.setdefault(i, []).append((fid, lo, np.c_[x - cs, np.full(cs.size, y)]))
+    for i, items in todo.items():
+        use = usable_picks(cell, np.concatenate([p for _, _, p in items]), arms=(i,))[i]
+        at = 0
+        for fid, lo, p in items:
+            table[(i, fid)] = (lo, use[at:at + len(p)])
+            at += len(p)
+    return table
 
 
 def replace_reach_margin(problem: Problem) -> Problem:

@@ -32,7 +32,7 @@ from ..kinds import AssignRule, PlannerKind, PlanStatus, SpeedProfile
 from ..plan import DEFAULT_RATE, EventKind, Plan, compute_metrics, finalize_plan
 from ..problem.model import Problem
 from ..progress import speaker
-from .booking import Booker, run_policy
+from .booking import Booker, branch_table, run_policy, screen_branches
 from .cruise import STRETCH, Cruise, cruise_end, demand_stretches, pick_windows
 from .plan import RowResult
 from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
@@ -128,7 +128,8 @@ def _book(problem: Problem, reach: RowReach, cruise: Cruise, opts: MovingOptions
           windows=None) -> tuple[Booker, dict]:
     if windows is None:
         windows = pick_windows(problem, reach, cruise, problem.task.pick_dwell)
-    booker = Booker(problem, cruise, windows, opts.rate, opts.margin, reach.resolution)
+    booker = Booker(problem, cruise, windows, opts.rate, opts.margin, reach.resolution,
+                    branch_table(problem, reach.resolution))
     left = run_policy(booker, order)
     return booker, left
 
@@ -190,6 +191,47 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
     return RowResult(plan, ver, [], reach, timings, info)
 
 
+def reorder_continuous(problem: Problem, level: float, options: MovingOptions, reach: RowReach, demand,
+                       events) -> tuple[RowResult | None, dict]:
+    """CP-SAT's order at ``level``, started from ``events`` (the greedy's booking at this level
+    with these options, as :func:`plan_continuous` made it): the plan that order books, verified,
+    if it leaves fewer fruit out (then ends sooner) than the greedy, else None (the greedy's plan
+    stands); and CP-SAT's report. :func:`plan_continuous` with ``assign=cpsat``, without booking
+    the greedy again: the speed search's last step, beside its refinement."""
+    from ..verify.row import row_reachable_ids
+    from ..verify.verifier import verify
+    from .assign import cpsat_order
+
+    t0 = _time.perf_counter()
+    cruise = make_cruise(problem, reach, options.profile, level, demand)
+    windows = pick_windows(problem, reach, cruise, problem.task.pick_dwell)
+    geometry = Booker(problem, cruise, windows, options.rate, options.margin, reach.resolution,
+                      branch_table(problem, reach.resolution))  # nothing booked
+    order, report = cpsat_order(problem, geometry, reach, cruise, events=events)
+    report = {"level": level, **report, "kept": False}
+    if order is None:
+        return None, report
+    booker, left = _book(problem, reach, cruise, options, order, windows)
+    got = {e.fruit for e in events if e.kind == EventKind.PLACE}
+    greedy_left = sum(1 for f in windows if f not in got)  # as run_policy counts the greedy's
+    if (len(left), _end(booker)) >= (greedy_left, max((e.t_end for e in events), default=0.0)):
+        return None, report
+    report["kept"] = True
+    timings = {"reach": 0.0, "schedule": _time.perf_counter() - t0}
+    plan = assemble_moving(problem, booker, cruise)
+    timings["planning"] = _time.perf_counter() - t0
+    tv = _time.perf_counter()
+    ver = verify(problem, plan)
+    timings["verify"] = _time.perf_counter() - tv
+    plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
+    info: dict = {"mode": "continuous", "profile": SpeedProfile(options.profile).value, "level": level,
+                  "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.CPSAT.value,
+                  "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "cpsat": report,
+                  "left_out": dict(reach.reasons) | left, "first_stop_seconds": None}
+    plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
+    return RowResult(plan, ver, [], reach, timings, info), report
+
+
 def _end(b: Booker) -> float:
     return max((e.t_end for e in b.events), default=0.0)
 
@@ -225,6 +267,11 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     demand = demand_stretches(problem, reach, x1) if profile == SpeedProfile.DENSITY else None
     cap = level_cap(problem, reach, profile, demand)
     tried: dict = {}
+    cpsat_report = None
+    # every candidate books the same arms on the same fruit: screen their elbow branches once, here
+    # (before the workers fork, so that they inherit it)
+    screen_branches(problem, reach.resolution, [(i, f) for f in reach.harvestable() for i in np.flatnonzero(reach.cover[f].any(axis=1)).tolist()],
+                    branch_table(problem, reach.resolution))
     greedy = replace(opts, assign=AssignRule.GREEDY)  # the search's plans: CP-SAT only once, at its end
     with _Runner(problem, reach, demand, max(1, int(opts.workers)), progress) as runner:
 
@@ -268,15 +315,20 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                     bad_v = None  # an incomplete plan below a complete one: not a bracket; go on up
             if AssignRule(opts.assign) == AssignRule.CPSAT and bad_v is not None:
                 # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
-                # (alongside the refinement when there is a second worker)
-                runner.submit(bad_v, opts, None, key=(bad_v, "cpsat"))
+                # started from the greedy's booking there (alongside the refinement when there is
+                # a second worker)
+                runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, "cpsat"))
             if demand is not None and bad_v is not None:
                 _refine(reach, demand, bad_v, tried, runner, greedy)
-            for key, (res, secs) in runner.collect():
-                tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"]))
+            for key, ((res, report), secs) in runner.collect():
+                cpsat_report = report
+                if res is not None:
+                    tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"]))
     pts = [p for _, p in tried.values()]
     best = max(tried, key=lambda v: (tried[v][1].complete, tried[v][1].verified, tried[v][1].harvested,
                                      tried[v][1].fruit_per_hour))
+    if cpsat_report is not None:
+        tried[best][0].info.setdefault("cpsat", cpsat_report)  # the search's CP-SAT step, whether kept or not
     return tried[best][0], pts
 
 
@@ -311,6 +363,13 @@ def _plan_job(problem: Problem, level: float, opts: MovingOptions, reach: RowRea
     t = _time.perf_counter()
     res = plan_continuous(problem, level, opts, reach, None, demand)
     return res, _time.perf_counter() - t
+
+
+def _reorder_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand, events):
+    """:func:`reorder_continuous` in a worker process: ``((result or None, report), seconds)``."""
+    t = _time.perf_counter()
+    out = reorder_continuous(problem, level, opts, reach, demand, events)
+    return out, _time.perf_counter() - t
 
 
 class _Runner:
@@ -352,12 +411,13 @@ class _Runner:
         futures = [self.pool.submit(_plan_job, self.problem, v, opts, self.reach, self._demand(demand)) for v in levels]
         return [f.result() for f in futures]
 
-    def submit(self, level: float, opts: MovingOptions, demand=None, key=None) -> None:
-        """A plan to collect later (:meth:`collect`): in the background with a second worker."""
+    def reorder(self, level: float, opts: MovingOptions, events, key=None) -> None:
+        """:func:`reorder_continuous` at ``level`` from the greedy's ``events``, to collect later
+        (:meth:`collect`): in the background with a second worker."""
         if self.pool is None:
-            self.pending.append((key, self.map([level], opts, demand)[0]))
+            self.pending.append((key, _reorder_job(self.problem, level, opts, self.reach, self.demand, events)))
         else:
-            self.pending.append((key, self.pool.submit(_plan_job, self.problem, level, opts, self.reach, self._demand(demand))))
+            self.pending.append((key, self.pool.submit(_reorder_job, self.problem, level, opts, self.reach, self.demand, events)))
 
     def collect(self) -> list:
         out = [(k, f if isinstance(f, tuple) else f.result()) for k, f in self.pending]

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kinematics.arm import jacobian_entries, jacobian_rate_entries
+from ..kinematics.arm import ik_one, jacobian_entries, jacobian_rate_entries
 from ..kinematics.timing import MoveError, ruckig_move
 from ..problem.model import Arm
 from .cruise import Cruise
@@ -54,8 +54,8 @@ def track_state(arm: Arm, fruit: tuple[float, float], cruise: Cruise, t: float, 
 
     With the tip's carriage-frame point ``p(t) = (x_f - c(t), y_f)``: ``J qd = pd`` and
     ``J qdd = pdd - Jd qd``, where ``pd = (-c', 0)``, ``pdd = (-c'', 0)``."""
-    c, cv, ca = (float(u[0]) for u in cruise.state(np.array([t])))
-    q = _ik(arm, np.array([[fruit[0] - c, fruit[1]]]), branch)[0]
+    c, cv, ca = cruise.state_one(t)
+    q = np.array(ik_one(fruit[0] - c, fruit[1], arm.links, arm.base, arm.joint_limits, branch))
     if not np.all(np.isfinite(q)):
         return np.array([q, q, q])
     # J qd = pd by Cramer's rule (2 x 2), then J qdd = pdd - J' qd

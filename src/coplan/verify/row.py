@@ -26,6 +26,8 @@ Nothing here comes from :mod:`coplan.row` or the planners.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from ..errors import Issue, PlanFileError
@@ -88,23 +90,30 @@ def check_carriage(problem: Problem, plan: Plan, opts, ver: Verification) -> Non
                                             message=f"carriage {what} at {diff[w] / limit:.2f} x its limit"))
 
 
+#: :func:`row_reachable_ids` of each problem, computed once (problems are immutable).
+_REACHABLE: "weakref.WeakKeyDictionary[Problem, list[str]]" = weakref.WeakKeyDictionary()
+
+
 def row_reachable_ids(problem: Problem) -> list[str]:
     """Fruit some arm can pick from some carriage position on the rail (module docstring)."""
+    hit = _REACHABLE.get(problem)
+    if hit is None:
+        hit = _REACHABLE[problem] = _reachable(problem)
+    return list(hit)
+
+
+def _reachable(problem: Problem) -> list[str]:
     g = problem.gantry
     cs = np.arange(g.start, g.end + REACH_STEP / 2, REACH_STEP)
     m = problem.task.reach_margin
-    out = []
-    for f in problem.fruits:
-        fx, fy = f.position
-        ok = False
-        for arm in problem.arms:
-            near = cs[np.abs(fx - cs - arm.base[0]) <= arm.reach]
-            if near.size == 0:
-                continue
-            pts = np.c_[fx - near, np.full(near.size, fy)]
-            if arm.ik(pts, m)[1].any():
-                ok = True
-                break
-        if ok:
-            out.append(f.id)
-    return out
+    if not problem.fruits:
+        return []
+    fx = np.array([f.position[0] for f in problem.fruits], float)
+    fy = np.array([f.position[1] for f in problem.fruits], float)
+    ok = np.zeros(fx.size, dtype=bool)
+    for arm in problem.arms:  # every fruit and carriage position near it at once, arm by arm
+        rows, cols = np.nonzero(np.abs(fx[:, None] - cs[None, :] - arm.base[0]) <= arm.reach)
+        if rows.size:
+            hit = arm.ik(np.c_[fx[rows] - cs[cols], fy[rows]], m)[1].any(axis=-1)
+            ok[rows[hit]] = True
+    return [f.id for f, k in zip(problem.fruits, ok) if k]

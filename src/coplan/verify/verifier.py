@@ -261,14 +261,16 @@ def _hold(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, ts: float, te
     a pick in a row: the tip (in the row frame, carriage included) must then be
     still in the row frame, its speed bounded on the linear replay (the carriage may move while the
     joints carry the tip along: a pick on the move)."""
-    dist = np.hypot(*(tip - np.asarray(target, float)).T)
+    target = np.asarray(target, float)
     if time.size < 2:
-        return float(dist[0]), 0.0
+        return float(np.hypot(*(tip[0] - (target if target.ndim == 1 else target[0])))), 0.0
     dt = time[1] - time[0]
     lo = max(0, int(np.searchsorted(time, ts, side="right")) - 1)
     hi = min(time.size - 1, int(np.searchsorted(time, te, side="left")))
     if hi <= lo:
         hi = min(lo + 1, time.size - 1)
+    # the distances of the event's own samples lo .. hi only (d[k - lo] is sample k's), not the plan's
+    d = np.hypot(*(tip[lo:hi + 1] - (target if target.ndim == 1 else target[lo:hi + 1])).T)
     n = np.arange(lo, hi)
     overlap = np.clip(np.minimum(time[n + 1], te) - np.maximum(time[n], ts), 0.0, None)
     if not row_frame:
@@ -284,10 +286,9 @@ def _hold(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, ts: float, te
         still = np.hypot(*(tip[n + 1] - tip[n]).T) / dt
         speed = still + (m.links[0] * w1 ** 2 + m.links[1] * w12 ** 2) * dt / 2
     # the tip stays within (d0 + d1 + V dt) / 2 of the target over the whole interval
-    good = ((dist[n] + dist[n + 1] + speed * dt) / 2 <= opts.position_tolerance) & (still <= opts.still_speed)
+    good = ((d[:-1] + d[1:] + speed * dt) / 2 <= opts.position_tolerance) & (still <= opts.still_speed)
     best = max((float(overlap[a : b + 1].sum()) for a, b in runs(good & (overlap > 0))), default=0.0)
-    inside = dist[lo : hi + 1]
-    return float(inside.min()), best
+    return float(d.min()), best
 
 
 def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: VerifyOptions, ver: Verification):
