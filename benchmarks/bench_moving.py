@@ -261,6 +261,7 @@ def fault_runs(mode: str, n: int) -> None:
     how = ["--speed", "0.1"] if mode == "continuous" else ["--gantry", "stop-and-go"]
 
     bad_files, unsafe, missed, harvested, offline, took, holds, waits, nothing = 0, 0, [], 0, 0, [], [], 0, 0
+    ratios, changed = [], 0
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(n):
             path = Path(tmp) / f"row{seed}.yaml"
@@ -289,14 +290,21 @@ def fault_runs(mode: str, n: int) -> None:
             holds += [dark["hold_seconds"]] if "hold_seconds" in dark else []
             waits += "carriage_waits_at" in dark
             nothing += m["grasps_on_nothing"]
+            ratios += [m["row_time_ratio"]] if m.get("row_time_ratio") else []
+            changed += "hop_changed_at" in m["faults"].get("arm_stop", {})
     print(f"\nFaults over {n} seeded live rows, {'on the move at 0.1 m/s' if mode == 'continuous' else 'stop and go'} "
           f"(12 m, 3 arms, 6 fruit/m; one arm stops, a 3 s camera outage, "
           f"50 false reports at once, a decision 2 s late; each a coplan run in its own process, median {np.median(took):.1f} s):\n")
     print(f"- executed plans coplan verify refuses (collisions, limits, picks off their fruit): {unsafe} of {n - bad_files}")
     print(f"- runs whose files did not read back whole: {bad_files} of {n}")
     print(f"- fruit harvested: {harvested}, {100 * harvested / max(offline, 1):.1f} % of what the fault-free offline plans harvest")
-    print(f"- fruit missed though a working arm could still reach them: {sum(missed)} in total, in {sum(1 for x in missed if x)} "
+    print(f"- fruit missed though a working arm could still reach them (the true fruit, from a carriage position not yet "
+          f"passed{' -- at rest: one it could still brake to --' if mode != 'continuous' else ''} when the arm stopped, "
+          f"with a pick pose clear of the stopped arm): {sum(missed)} in total, in {sum(1 for x in missed if x)} "
           f"of {len(missed)} runs (at most {max(missed, default=0)} in one)")
+    print(f"- row time: median {np.median(ratios) if ratios else float('nan'):.2f} x the fault-free offline plan's "
+          f"(range {min(ratios, default=float('nan')):.2f}-{max(ratios, default=float('nan')):.2f})"
+          + (f"; a hop changed under way by the arm's stop in {changed} runs" if mode != "continuous" else ""))
     print(f"- camera outage: the carriage held in {len(holds)} runs (median {np.median(holds) if holds else 0:.2f} s), "
           f"waited at a stop for the camera in {waits}; grasps that closed on nothing (close-range error > 5 mm): {nothing}")
 

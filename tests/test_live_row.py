@@ -17,7 +17,7 @@ from coplan.generate import gantry_row, to_yaml
 from coplan.kinds import GantryMode
 from coplan.plan import EventKind, load_plan
 from coplan.problem import parse_problem
-from coplan.row.cruise import Cruise, ramp_time
+from coplan.row.cruise import Cruise, ramp_time, stop_from
 from coplan.row.live import LiveRowOptions, RowFaults, run_live_row
 from coplan.verify import verify
 
@@ -125,6 +125,49 @@ def test_faults_stop_and_go_degrade_safely_and_are_replayable(row):
     again = run_live_row(row, opts)
     assert again.metrics["faults"] == f and [(e.arm, e.fruit, e.t_start) for e in again.plan.events] == \
         [(e.arm, e.fruit, e.t_start) for e in res.plan.events]
+
+
+def test_an_arm_that_stops_during_a_hop_shortens_it_to_where_the_others_still_reach_its_fruit():
+    """Regression (the fault benchmark, seed 36): the rear arm stopped while the carriage hopped
+    to a stop chosen for it; the hop went on and its fruit there were passed though its neighbour
+    could reach them from nearer. Now the hop brakes to the nearest stop the others need, the
+    run is verified, and no fruit a working arm could still reach is missed."""
+    row = parse_problem(to_yaml(gantry_row(length=12.0, n_arms=3, density=6.0, seed=36)))
+    res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=36,
+                                           faults=RowFaults(arm_stop=True, camera_dark=3.0, false_burst=50, late_replan=2.0)))
+    stop = res.metrics["faults"]["arm_stop"]
+    assert "hop_changed_at" in stop and stop["stop_at"] < stop["instead_of"]
+    assert res.verification.passed and res.metrics["missed_reachable_by_a_working_arm"] == []
+    p = res.plan
+    x = p.gantry_x
+    assert np.all(np.diff(x) >= -1e-12)  # never back along the rail
+    k = int(np.searchsorted(p.time, stop["hop_changed_at"] + 5.0))
+    assert np.isclose(x[k], stop["stop_at"], atol=1e-9)  # at rest where the hop now ends
+
+
+def test_a_hop_changed_under_way_is_smooth_within_the_limits_and_never_goes_back(row):
+    """:meth:`Cruise.hops` with a leg changed under way: position, velocity and acceleration
+    continuous at the change, the gantry's limits kept (finite differences of a 1 kHz
+    sampling), at rest at the new stop; a stop nearer than the carriage can brake is refused."""
+    g = row.gantry
+    first = Cruise.hops(row, [(1.0, g.start + 4.0)])
+    t_c = 1.0 + 0.6 * (first.duration - 1.0)
+    x_c, v_c, _ = first.state_one(t_c)
+    changed = Cruise.hops(row, [(1.0, g.start + 4.0), (t_c, x_c + 0.8, True)])
+    assert changed.x1 == pytest.approx(x_c + 0.8) and changed.duration > t_c
+    before = np.linspace(0.0, t_c, 500)
+    assert np.allclose(changed.state(before)[0], first.state(before)[0], atol=1e-12)  # the same up to the change
+    dt = 1e-3
+    ts = np.arange(0.0, changed.duration + 1.0, dt)
+    x, v, a = changed.state(ts)
+    assert np.all(np.diff(x) >= -1e-12) and x[-1] == pytest.approx(x_c + 0.8, abs=1e-9)
+    assert np.max(np.abs(v)) <= g.max_velocity + 1e-9 and np.max(np.abs(a)) <= g.max_acceleration + 1e-9
+    assert np.max(np.abs(np.diff(a))) / dt <= g.max_jerk * (1 + 1e-6)
+    assert np.max(np.abs(np.diff(x) / dt - v[:-1])) < 1e-3  # no jump in position: v is x's rate
+    with pytest.raises(ValueError, match="back along the rail"):
+        stop_from(row, (x_c, v_c, 0.0), x_c + 0.01)  # at 0.5 m/s it cannot stop within 1 cm
+    moves = stop_from(row, (x_c, v_c, 0.0), x_c + 2.0)
+    assert moves[0][1][:2] == pytest.approx((x_c, v_c)) and sum(d for d, _ in moves) > 0
 
 
 def test_on_the_move_the_carriage_holds_while_the_camera_is_dark(row):

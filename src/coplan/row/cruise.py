@@ -26,7 +26,7 @@ from ..kinematics.timing import Move1D
 from ..problem.model import Problem
 from .reach import RowReach
 
-__all__ = ["Cruise", "Window", "pick_windows", "cruise_end", "demand_stretches", "ramp_time", "STRETCH"]
+__all__ = ["Cruise", "Window", "pick_windows", "cruise_end", "demand_stretches", "ramp_time", "stop_from", "STRETCH"]
 
 #: Length of rail with one speed in a shaped cruise, m.
 STRETCH = 1.0
@@ -139,12 +139,20 @@ class Cruise:
         """Stop and go: ``legs`` ``[(t_depart, x_to), ...]`` in time order; the carriage rests at
         ``gantry.start`` until the first departure, then each leg is a time-optimal jerk-limited
         rest-to-rest move (at the gantry's limits) to ``x_to``, where it rests until the next
-        departure (no earlier than its arrival) -- and after the last, for good."""
+        departure (no earlier than its arrival) -- and after the last, for good.
+
+        A leg ``(t, x_to, True)`` changes the hop under way at ``t`` (during the previous leg's
+        move): from the carriage's state then, the time-optimal jerk-limited move to rest at
+        ``x_to`` (:func:`stop_from`; never back along the rail: ValueError)."""
         g = problem.gantry
         out: list[tuple[float, float, float, float, float]] = []
         t, x = 0.0, g.start
-        for t_dep, x_to in legs:
+        for leg in legs:
+            t_dep, x_to = leg[0], leg[1]
             x_to = min(max(float(x_to), g.start), g.end)
+            if len(leg) > 2 and leg[2]:
+                out, t, x = _retarget(problem, out, float(t_dep), x_to)
+                continue
             if x_to < x - 1e-9:
                 raise ValueError(f"a hop back along the rail: from {x:g} to {x_to:g} m")
             t_dep = max(t, float(t_dep))
@@ -237,6 +245,47 @@ class Window:
     hi: float
     c_lo: float
     c_hi: float
+
+
+def _state_in(phases, t: float) -> tuple[float, float, float]:
+    """Position, velocity and acceleration at ``t`` of a chain of constant-jerk phases."""
+    t0, x0, v0, a0, j0 = max((p for p in phases if p[0] <= t), key=lambda p: p[0])
+    d = t - t0
+    return x0 + v0 * d + a0 * d * d / 2 + j0 * d ** 3 / 6, v0 + a0 * d + j0 * d * d / 2, a0 + j0 * d
+
+
+def stop_from(problem: Problem, state: tuple[float, float, float], x_to: float):
+    """The time-optimal jerk-limited move of the carriage from ``state`` (position, velocity,
+    acceleration) to rest at ``x_to``, within the gantry's limits: its phases ``[(duration,
+    (x, v, a, jerk) at its start), ...]``; ValueError if it would run back along the rail
+    (``x_to`` is nearer than the carriage can stop)."""
+    from ..kinematics.timing import ruckig_move
+
+    g = problem.gantry
+    tr = ruckig_move(np.array([[state[0]], [state[1]], [state[2]]]), np.array([[x_to], [0.0], [0.0]]),
+                     [g.max_velocity], [g.max_acceleration], [g.max_jerk])
+    out = []
+    main = tr.profiles[0][0]
+    for prof in (main.brake, main):  # (a brake pre-profile only from a state past the limits)
+        for k, d in enumerate(prof.t):
+            if d > 0:
+                out.append((float(d), (float(prof.p[k]), float(prof.v[k]), float(prof.a[k]), float(prof.j[k]))))
+    if any(v < -1e-9 for _, (_, v, _, _) in out) or x_to < state[0] - 1e-9:
+        raise ValueError(f"a hop back along the rail: from {state[0]:g} m at {state[1]:g} m/s to rest at {x_to:g} m")
+    return out
+
+
+def _retarget(problem: Problem, out: list, t: float, x_to: float):
+    """``out`` (phases, in order) cut at ``t`` and continued by :func:`stop_from` to rest at
+    ``x_to``: (phases, arrival time, ``x_to``)."""
+    kept = [p for p in out if p[0] < t - 1e-12]
+    if not kept:
+        raise ValueError(f"no hop under way at t = {t:g} s to change")
+    moves = stop_from(problem, _state_in(kept, t), x_to)
+    for d, (x, v, a, j) in moves:
+        kept.append((t, x, v, a, j))
+        t += d
+    return kept, t, x_to
 
 
 def cruise_end(problem: Problem, reach: RowReach) -> float:

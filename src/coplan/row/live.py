@@ -27,7 +27,9 @@ Entry point: :func:`run_live_row` -> :class:`LiveRow`, in either gantry mode.
   camera has seen, so it passes no fruit unseen); the arms pick, with the carriage at rest, the
   fruit the next stop could not serve and those it shares with the next stop where they
   lengthen the two stops least (:func:`_stop_share`), each arm's balanced; once the last pick
-  is over the carriage hops -- a time-optimal jerk-limited move -- while the arms place.
+  is over the carriage hops -- a time-optimal jerk-limited move -- while the arms place. An arm
+  that stops during a hop changes it: from the carriage's state then, it brakes to the nearest
+  stop the working arms need (:func:`coplan.row.cruise.stop_from`), never back along the rail.
 * **Verified against the truth**: the executed motion is one ordinary row plan whose events
   name the true fruit, verified by :func:`coplan.verify.verify` against the true problem.
 * **Reference**: the offline plan with full knowledge (every true fruit at its true position
@@ -54,14 +56,16 @@ from ..plan import DEFAULT_RATE, Event, EventKind, finalize_plan
 from ..problem.model import Fruit, Problem
 from .booking import Booker, run_policy, why_left
 from .continuous import MovingOptions, assemble_moving, plan_continuous
-from .cruise import Cruise, ramp_time, pick_windows
+from .cruise import Cruise, pick_windows, ramp_time, stop_from
 from .reach import row_reach
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
                       row_detections, row_reports)
 from .track import AT_REST_SHARE
 
-#: After an arm stops, the carriage runs at this share of the working arms' share of its speed.
-STOP_SLOWDOWN = 0.5
+#: After an arm stops, the carriage runs at this share of the working arms' share of its speed
+#: (its neighbours take on its fruit, round it as an obstacle: at 0.5, 6 fruit a working arm could
+#: still reach were missed over the fault benchmark's 50 rows; at 0.25, 1; at 0.2, none).
+STOP_SLOWDOWN = 0.2
 #: Stop and go: a stop's picks may start up to this long per fruit in reach (and one more) after it arrives, s.
 STOP_PATIENCE = 10.0
 #: On the move, holding for fruit: the planner looks every CHECK s at the fruit whose windows close
@@ -390,9 +394,24 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
         if nxt == k:
             break
         legs.append((t_dep, float(grid[nxt])))
-        k = nxt
         cruise = Cruise.hops(problem, legs)
         t_arr = cruise.duration
+        # an arm that stops during the hop leaves its share of the next stop to the others: from
+        # then the hop goes no farther than they need (the nearest stop it can still brake to)
+        t_h = min((t for t in faults.halt.values() if t_dep < t < t_arr), default=None)
+        if t_h is not None:
+            want, _ = next_stop(k, t_h)
+            for kk in range(max(want, k + 1), nxt):
+                try:
+                    cruise = Cruise.hops(problem, legs + [(t_h, float(grid[kk]), True)])
+                except ValueError:
+                    continue  # nearer than it can stop from its speed then
+                legs.append((t_h, float(grid[kk]), True))
+                faults.log["arm_stop"].update({"hop_changed_at": round(t_h, 3), "stop_at": round(float(grid[kk]), 4),
+                                               "instead_of": round(float(grid[nxt]), 4)})
+                nxt, t_arr = kk, cruise.duration
+                break
+        k = nxt
     for i in range(len(problem.arms)):
         if i not in faults.halt:
             run.booker.go_home(i)
@@ -502,12 +521,13 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraw
     working = [a for a in range(len(problem.arms)) if a not in halt]
     stopped_at = min(halt.values(), default=math.inf)
     seen = run.seen
-    # missed though a working arm could still reach it: a window of a working arm open after the
-    # stop (and after the report) with a pick pose clear of the stopped arm where it rests
-    missed_reachable = sorted({by_id[d].truth for d, ws in windows.items() if by_id[d].truth is not None
+    # missed though a working arm could still reach it: the true fruit, from a carriage position
+    # the carriage had not yet passed when it was reported (and when the arm stopped), under the
+    # screen's rules, with a pick pose clear of every stopped arm where it rests
+    missed_reachable = sorted({by_id[d].truth for d in windows if by_id[d].truth is not None
                                and by_id[d].truth not in got and d not in run.misses
-                               and any(w.arm in working and w.hi >= seen[d] and (w.hi >= stopped_at or not halt)
-                                       and _clear_of_stopped(booker, w, run.truth_xy[by_id[d].truth], halt) for w in ws)})
+                               and _still_reachable(run, run.truth_xy[by_id[d].truth], max(seen[d], stopped_at if halt else seen[d]),
+                                                    working, halt, GantryMode(opts.mode) == GantryMode.STOP_AND_GO)})
     span = float(plan.metrics.get("makespan") or 0.0)
     ref_span = float(offline.plan.metrics.get("makespan") or 0.0)
     pick_start = {(e.arm, e.fruit): e.t_start for e in events if e.kind == EventKind.PICK}
@@ -543,24 +563,50 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraw
     return LiveRow(plan, ver, offline, dets, outcome, metrics)
 
 
-def _clear_of_stopped(booker: Booker, w, xy, halt: dict[int, float]) -> bool:
-    """Whether arm ``w.arm`` has a pick pose on the fruit at ``xy`` (row frame), with the carriage
-    somewhere in the window's run, that keeps the clearance from every stopped arm where it rests
-    (the screen knows nothing of a stopped arm; a pose blocked by one is no longer reachable)."""
+def _cannot_stop_at(problem: Problem, state, x_to: float) -> bool:
+    try:
+        stop_from(problem, state, x_to)
+    except ValueError:
+        return True
+    return False
+
+
+def _still_reachable(run: _Run, xy, t0: float, working: list[int], halt: dict[int, float], at_rest: bool) -> bool:
+    """Whether a working arm can pick the fruit at row point ``xy`` from a carriage position at
+    or ahead of where the carriage is at ``t0`` (it never goes back; ``at_rest``: stop and go,
+    where it can still come to rest from its motion then), on the row screen's grid,
+    under the screen's rules (:func:`coplan.allocate.screen.usable_picks`), with a pick pose
+    that keeps the clearance from every stopped arm where it rests (the screen knows nothing of
+    a stopped arm; a pose blocked by one is no longer reachable)."""
+    from ..allocate.screen import usable_picks
     from ..planners.coordinated.schedule import arm_points, points_too_close
 
-    if not halt:
-        return True
-    problem = booker.problem
-    arm = problem.arms[w.arm]
-    for c in np.linspace(w.c_lo, w.c_hi, 9):
-        q, valid = arm.ik(np.array([xy[0] - c, xy[1]]))
+    booker, problem = run.booker, run.problem
+    cruise = booker.cruise
+    x, v, a = (float(u[0]) for u in cruise.state(np.array([min(t0, cruise.duration)])))
+    grid = run.reach.grid
+    cs = grid[(grid >= x - 1e-9) & (grid <= cruise.x1 + 1e-9)]
+    if at_rest and abs(v) + abs(a) > 1e-12:  # picks only at rest: from where it can still come to rest
+        while cs.size and _cannot_stop_at(problem, (x, v, a), float(cs[0])):
+            cs = cs[1:]
+    if cs.size == 0 or not working:
+        return False
+    pts = np.c_[xy[0] - cs, np.full(cs.size, xy[1])]
+    cell = booker.cell  # the carriage frame
+    use = usable_picks(cell, pts, arms=tuple(working))
+    for a in working:
+        arm = cell.arms[a]
+        q, _ = arm.ik(pts)
         for b in (0, 1):
-            if not valid[b]:
+            ok = use[a, :, b]
+            if not ok.any():
                 continue
-            pa = arm_points(arm, q[b])
-            if all(not points_too_close(pa, arm_points(problem.arms[j], booker.arms[j].q[booker.arms[j].k_free]),
-                                        arm.link_radius + problem.arms[j].link_radius, problem.task.clearance).any()
-                   for j in halt):
+            pa = arm_points(arm, q[ok, b])
+            for j in halt:
+                rest = booker.arms[j].q[booker.arms[j].k_free]
+                clear = ~points_too_close(pa, arm_points(cell.arms[j], rest), arm.link_radius + cell.arms[j].link_radius,
+                                          problem.task.clearance)
+                pa = tuple(x[clear] for x in pa)
+            if pa[0].size:
                 return True
     return False

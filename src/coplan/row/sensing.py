@@ -31,7 +31,9 @@ class RowFaults:
     run can be replayed.
 
     arm_stop : one arm (drawn) reports a controller fault: it finishes the motion in progress and
-        stays where it then rests, an obstacle; its fruit go to the neighbours that reach them
+        stays where it then rests, an obstacle; its fruit go to the neighbours that reach them (on
+        the move the carriage slows; stop and go, a hop under way brakes to the nearest stop from
+        which they do)
     camera_dark : s the camera reports nothing; what it would have seen is reported when it is
         back. The carriage does not pass what it has not seen: on the move it comes to rest (once
         the picks booked before are over) and holds until the camera is back; stop and go, it
