@@ -62,10 +62,15 @@ from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowRe
                       row_detections, row_reports)
 from .track import AT_REST_SHARE
 
-#: After an arm stops, the carriage runs at this share of the working arms' share of its speed
-#: (its neighbours take on its fruit, round it as an obstacle: at 0.5, 6 fruit a working arm could
-#: still reach were missed over the fault benchmark's 50 rows; at 0.25, 1; at 0.2, none).
-STOP_SLOWDOWN = 0.2
+#: After an arm stops, the carriage runs at this share of the working arms' share of its speed ...
+STOP_SLOWDOWN = 0.5
+#: ... and the check for fruit about to pass (``at_risk``) estimates each cycle this many times
+#: longer and lets a report hold the carriage this many times as often: the neighbours now take
+#: the stopped arm's fruit, round it as an obstacle and round each other. Over the fault
+#: benchmark's 50 rows on the move, 6 fruit a working arm could still reach were missed without
+#: it and none with it; slowing the whole carriage to 0.2 instead also missed none, at 1.5 x the
+#: row time (median 2.97 x the fault-free offline plan's, against 1.98-2.09 x).
+STOPPED_CAUTION = 2
 #: Stop and go: a stop's picks may start up to this long per fruit in reach (and one more) after it arrives, s.
 STOP_PATIENCE = 10.0
 #: On the move, holding for fruit: the planner looks every CHECK s at the fruit whose windows close
@@ -267,21 +272,24 @@ def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str
         """Reported fruit not taken whose working arms' windows all close within ``LOOK`` s and
         that an earliest-deadline-first schedule of them over those arms, from when each is
         free, with every cycle estimated at ``REACH_TIME`` out and ``REACH_TIME`` plus both
-        dwells back, cannot fit before their windows close."""
+        dwells back (``STOPPED_CAUTION`` times that once an arm has stopped), cannot fit
+        before their windows close."""
         working = {a for a in range(n) if a not in halt or halt[a] > t_c}
         avail = {a: max(t_c, run.booker.free_time(a)) for a in working}
-        back = REACH_TIME + problem.task.pick_dwell + problem.task.place_dwell
+        caution = STOPPED_CAUTION if len(working) < n else 1  # an arm stopped: its neighbours round an obstacle
+        reach_time = REACH_TIME * caution
+        back = reach_time + problem.task.pick_dwell + problem.task.place_dwell
         soon = []
         for f, ws in run.booker.windows.items():
-            if f in run.taken or run.seen[f] > t_c or held_for.get(f, 0) >= HOLDS_PER_REPORT:
+            if f in run.taken or run.seen[f] > t_c or held_for.get(f, 0) >= HOLDS_PER_REPORT * caution:
                 continue
             wk = [w for w in ws if w.arm in working and w.hi >= t_c]
             if wk and max(w.hi for w in wk) <= t_c + LOOK:
                 soon.append((max(w.hi for w in wk), f, wk))
         out = []
         for hi, f, wk in sorted(soon, key=lambda s: (s[0], s[1])):
-            starts = [(max(avail[w.arm], w.lo - REACH_TIME) + REACH_TIME, w.arm) for w in wk
-                      if max(avail[w.arm], w.lo - REACH_TIME) + REACH_TIME <= w.hi]
+            starts = [(max(avail[w.arm], w.lo - reach_time) + reach_time, w.arm) for w in wk
+                      if max(avail[w.arm], w.lo - reach_time) + reach_time <= w.hi]
             if starts:
                 t_p, a = min(starts)
                 avail[a] = t_p + back
