@@ -56,7 +56,8 @@ from ..plan import DEFAULT_RATE, Event, EventKind, finalize_plan
 from ..problem.model import Fruit, Problem
 from .booking import Booker, run_policy, why_left
 from .continuous import MovingOptions, assemble_moving, plan_continuous
-from .cruise import Cruise, pick_windows, ramp_time, stop_from
+from .cruise import Cruise, pick_windows, ramp_time
+from .stranded import still_reachable
 from .reach import row_reach
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
                       row_detections, row_reports)
@@ -534,8 +535,9 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraw
     # screen's rules, with a pick pose clear of every stopped arm where it rests
     missed_reachable = sorted({by_id[d].truth for d in windows if by_id[d].truth is not None
                                and by_id[d].truth not in got and d not in run.misses
-                               and _still_reachable(run, run.truth_xy[by_id[d].truth], max(seen[d], stopped_at if halt else seen[d]),
-                                                    working, halt, GantryMode(opts.mode) == GantryMode.STOP_AND_GO)})
+                               and still_reachable(booker, run.reach.grid, run.truth_xy[by_id[d].truth],
+                                                   max(seen[d], stopped_at if halt else seen[d]), working, halt,
+                                                   GantryMode(opts.mode) == GantryMode.STOP_AND_GO)})
     span = float(plan.metrics.get("makespan") or 0.0)
     ref_span = float(offline.plan.metrics.get("makespan") or 0.0)
     pick_start = {(e.arm, e.fruit): e.t_start for e in events if e.kind == EventKind.PICK}
@@ -569,52 +571,3 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraw
         row["stops"] = stops
     plan.solver = {"status": plan.status.value, "row": row, "live": metrics}
     return LiveRow(plan, ver, offline, dets, outcome, metrics)
-
-
-def _cannot_stop_at(problem: Problem, state, x_to: float) -> bool:
-    try:
-        stop_from(problem, state, x_to)
-    except ValueError:
-        return True
-    return False
-
-
-def _still_reachable(run: _Run, xy, t0: float, working: list[int], halt: dict[int, float], at_rest: bool) -> bool:
-    """Whether a working arm can pick the fruit at row point ``xy`` from a carriage position at
-    or ahead of where the carriage is at ``t0`` (it never goes back; ``at_rest``: stop and go,
-    where it can still come to rest from its motion then), on the row screen's grid,
-    under the screen's rules (:func:`coplan.allocate.screen.usable_picks`), with a pick pose
-    that keeps the clearance from every stopped arm where it rests (the screen knows nothing of
-    a stopped arm; a pose blocked by one is no longer reachable)."""
-    from ..allocate.screen import usable_picks
-    from ..planners.coordinated.schedule import arm_points, points_too_close
-
-    booker, problem = run.booker, run.problem
-    cruise = booker.cruise
-    x, v, a = (float(u[0]) for u in cruise.state(np.array([min(t0, cruise.duration)])))
-    grid = run.reach.grid
-    cs = grid[(grid >= x - 1e-9) & (grid <= cruise.x1 + 1e-9)]
-    if at_rest and abs(v) + abs(a) > 1e-12:  # picks only at rest: from where it can still come to rest
-        while cs.size and _cannot_stop_at(problem, (x, v, a), float(cs[0])):
-            cs = cs[1:]
-    if cs.size == 0 or not working:
-        return False
-    pts = np.c_[xy[0] - cs, np.full(cs.size, xy[1])]
-    cell = booker.cell  # the carriage frame
-    use = usable_picks(cell, pts, arms=tuple(working))
-    for a in working:
-        arm = cell.arms[a]
-        q, _ = arm.ik(pts)
-        for b in (0, 1):
-            ok = use[a, :, b]
-            if not ok.any():
-                continue
-            pa = arm_points(arm, q[ok, b])
-            for j in halt:
-                rest = booker.arms[j].q[booker.arms[j].k_free]
-                clear = ~points_too_close(pa, arm_points(cell.arms[j], rest), arm.link_radius + cell.arms[j].link_radius,
-                                          problem.task.clearance)
-                pa = tuple(x[clear] for x in pa)
-            if pa[0].size:
-                return True
-    return False
