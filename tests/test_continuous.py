@@ -24,7 +24,7 @@ from coplan.kinds import AssignRule, GantryMode, SpeedProfile
 from coplan.pipeline import solve
 from coplan.plan import DEFAULT_RATE, EventKind, load_plan
 from coplan.problem import parse_problem
-from coplan.row.assign import cpsat_order
+from coplan.row.assign import build_order_model, cpsat_order
 from coplan.row.booking import Booker, branch_table, run_policy, screen_branches
 from coplan.row.continuous import MovingOptions, make_cruise, plan_continuous, reorder_continuous, speed_search
 from coplan.row.cruise import Cruise, cruise_end, demand_stretches, pick_windows
@@ -240,16 +240,30 @@ def test_the_search_s_cpsat_step_from_the_greedy_s_booking_is_cpsat_s_plan(row, 
         assert [(e.arm, e.fruit, e.t_start) for e in res.plan.events] == [(e.arm, e.fruit, e.t_start) for e in both.plan.events]
 
 
-def test_cpsat_starts_from_a_feasible_hint_so_it_never_orders_fewer_fruit_than_the_greedy(row, reach):
-    """Each cycle the greedy booked is priced no longer than it took, so the greedy's bookings
-    are a feasible start: CP-SAT's order (before the geometry books it) holds at least as many
-    fruit, on each of three speeds."""
+@pytest.mark.parametrize("dwells", [None, (0.1, 0.2)])
+def test_cpsat_starts_from_a_feasible_hint_so_it_never_orders_fewer_fruit_than_the_greedy(row, dwells):
+    """Each cycle the greedy booked is priced no longer than it took (moves and dwells as the
+    booker holds them, in the window it was picked in), so the greedy's bookings are a feasible
+    start: CP-SAT with every variable fixed to the hint finds it feasible, and CP-SAT's order
+    (before the geometry books it) holds at least as many fruit -- on three speeds, also with
+    dwells whose sum is not a whole number of model units in floating point (0.1 + 0.2)."""
+    from ortools.sat.python import cp_model
+
+    if dwells is not None:
+        row = replace(row, task=replace(row.task, pick_dwell=dwells[0], place_dwell=dwells[1]))
+    reach = row_reach(row)
     for level in (0.3, 0.4, 0.5):
         cruise = make_cruise(row, reach, SpeedProfile.CONSTANT, level)
         booker = Booker(row, cruise, pick_windows(row, reach, cruise, row.task.pick_dwell), DEFAULT_RATE, 0.02, reach.resolution)
         run_policy(booker)
-        order, report = cpsat_order(row, booker, reach, cruise)
         booked = sum(1 for e in booker.events if e.kind == EventKind.PICK)
+        model, items, _ = build_order_model(row, booker, cruise)
+        assert sum(t is not None for *_, t in items) == booked  # every booking hinted, once
+        solver = cp_model.CpSolver()
+        solver.parameters.fix_variables_to_their_hinted_value = True
+        solver.parameters.num_workers = 1
+        assert solver.Solve(model) in (cp_model.OPTIMAL, cp_model.FEASIBLE), (level, "the hint is infeasible")
+        order, report = cpsat_order(row, booker, reach, cruise)
         assert order is not None and report["fruit"] >= booked, (level, report, booked)
 
 
@@ -275,6 +289,25 @@ def test_plain_float_carriage_states_and_shared_branch_screens_change_nothing(ro
         lo, hi = (float(reach.grid[k]) for k in reach.span(f))
         for c0 in np.linspace(lo, hi, 5):
             assert shared.branches(i, f, c0, min(hi, c0 + 0.1)) == own.branches(i, f, c0, min(hi, c0 + 0.1))
+
+
+def test_a_booking_screens_a_fruit_where_its_booker_was_told_it_is(row, reach):
+    """Regression (review): a live row's close-range measurement moves a fruit in its booker
+    (``fruit_xy``); the elbow branches must be screened there, as for a problem whose fruit is
+    at that place, not where the camera first reported it."""
+    cruise = make_cruise(row, reach, SpeedProfile.CONSTANT, 0.3)
+    f = reach.harvestable()[len(reach.harvestable()) // 2]
+    fruit = next(x for x in row.fruits if x.id == f)
+    moved = (fruit.position[0] + 0.3, fruit.position[1] - 0.05)
+    told = Booker(row, cruise, {}, DEFAULT_RATE, 0.02, reach.resolution)
+    told.fruit_xy[f] = moved
+    there = replace(row, fruits=tuple(replace(x, position=moved) if x.id == f else x for x in row.fruits))
+    truth = Booker(there, cruise, {}, DEFAULT_RATE, 0.02, reach.resolution)
+    arms = np.flatnonzero(reach.cover[f].any(axis=1)).tolist()
+    cs = np.arange(row.gantry.start, row.gantry.end, 0.05)
+    answers = [(told.branches(i, f, c, c), truth.branches(i, f, c, c)) for i in arms for c in cs]
+    assert all(a == b for a, b in answers)
+    assert any(a for a, _ in answers)  # (somewhere the arm reaches the moved fruit)
 
 
 def test_the_verifier_s_row_reach_is_the_per_fruit_search(row):

@@ -29,7 +29,7 @@ from .cruise import Cruise
 from .reach import RowReach
 from .track import LIMIT_SHARE
 
-__all__ = ["cpsat_order", "CPSAT_WORK"]
+__all__ = ["build_order_model", "cpsat_order", "CPSAT_WORK"]
 
 _UNIT = 100  # model time units per second (10 ms)
 #: CP-SAT's deterministic work limit (its "deterministic seconds"; the same on any machine).
@@ -100,17 +100,16 @@ def _hint_room(events, index: dict[str, int]) -> dict[tuple[str, int], tuple[int
     return out
 
 
-def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruise,
-                work: float = CPSAT_WORK, events=None) -> tuple[dict[int, list[str]] | None, dict]:
-    """Each arm's fruit in CP-SAT's order (module docstring), or None; and a report.
-
-    ``greedy``: a booker on this carriage motion (its windows, elbow branches and bin poses);
-    ``events``: the greedy's booked events, the hint (None: ``greedy.events``; a booking made
-    elsewhere on the same motion, e.g. the speed search's plan at this level)."""
+def build_order_model(problem: Problem, greedy: Booker, cruise: Cruise, events=None):
+    """The CP-SAT model of :func:`cpsat_order` (module docstring), hinted with the greedy's
+    bookings: ``(model, items, calibration)``, ``items`` one ``(fruit, arm, on, pick, end,
+    hinted pick time or None)`` per fruit and window; empty when no window prices."""
     from ortools.sat.python import cp_model
 
-    dwell, place = problem.task.pick_dwell, problem.task.place_dwell
     events = greedy.events if events is None else events
+    # both dwells as the booker holds them (whole samples), in model units: no longer than in the
+    # greedy's cycles, so that its bookings stay a feasible hint
+    dwells = int(math.ceil((greedy.n_pick + greedy.n_place) / greedy.rate * _UNIT - 1e-6))
     scale = _calibration(problem, greedy, events, cruise)
     horizon_s = max((e.t_end for e in events), default=cruise.duration) + 60.0
     H = int(math.ceil(horizon_s * _UNIT))
@@ -120,13 +119,16 @@ def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruis
     items = []
     index = {a.name: i for i, a in enumerate(problem.arms)}
     room = _hint_room(events, index)
+    booked = {(e.fruit, index[e.arm]): e.t_start for e in events if e.kind == EventKind.PICK}
     for fid, ws in greedy.windows.items():
         for w in ws:
             move = _move_estimate(problem, greedy, cruise, fid, w)
             if move is None:
                 continue
             app = ret = int(math.ceil(move * scale * _UNIT))
-            if (fid, w.arm) in room:  # the greedy's own cycle: no longer than it took (the hint is feasible)
+            t = booked.get((fid, w.arm))
+            mine = t is not None and w.lo - 1e-9 <= t <= w.hi + 1e-9  # the window the greedy picked it in
+            if mine:  # the greedy's own cycle: no longer than it took (the hint is feasible)
                 app, ret = min(app, room[(fid, w.arm)][0]), min(ret, room[(fid, w.arm)][1])
             lo = max(app, int(math.ceil(w.lo * _UNIT)))
             hi = min(H, int(math.floor(w.hi * _UNIT)) if math.isfinite(w.hi) else H)
@@ -134,31 +136,44 @@ def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruis
                 continue
             on = m.NewBoolVar("")
             p = m.NewIntVar(lo, hi, "")
-            dur = app + int(math.ceil((dwell + place) * _UNIT)) + ret
+            dur = app + dwells + ret
             s = m.NewIntVar(lo - app, hi - app, "")
             e = m.NewIntVar(lo - app + dur, hi - app + dur, "")
             m.Add(s == p - app)
             iv = m.NewOptionalIntervalVar(s, dur, e, on, "")
             per_arm[w.arm].append(iv)
             per_fruit.setdefault(fid, []).append(on)
-            items.append((fid, w.arm, on, p, e))
+            items.append((fid, w.arm, on, p, e, t if mine else None))
     if not items:
-        return None, {"status": "EMPTY"}
+        return m, items, scale
     for ivs in per_arm.values():
         m.AddNoOverlap(ivs)
     for ons in per_fruit.values():
         m.AddAtMostOne(ons)
     last = m.NewIntVar(0, H + 10 * _UNIT * 60, "")
-    for fid, a, on, p, e in items:
+    for _, _, on, _, e, _ in items:
         m.Add(last >= e).OnlyEnforceIf(on)
-    count = sum(on for _, _, on, _, _ in items)
+    count = sum(on for _, _, on, _, _, _ in items)
     m.Maximize(count * (H + 10 * _UNIT * 60 + 1) - last)
-    booked = {(e.fruit, index[e.arm]): e.t_start for e in events if e.kind == EventKind.PICK}
-    for fid, a, on, p, e in items:
-        t = booked.get((fid, a))
+    for _, _, on, p, _, t in items:
         m.AddHint(on, t is not None)
         if t is not None:
             m.AddHint(p, int(round(t * _UNIT)))
+    return m, items, scale
+
+
+def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruise,
+                work: float = CPSAT_WORK, events=None) -> tuple[dict[int, list[str]] | None, dict]:
+    """Each arm's fruit in CP-SAT's order (module docstring), or None; and a report.
+
+    ``greedy``: a booker on this carriage motion (its windows, elbow branches and bin poses);
+    ``events``: the greedy's booked events, the hint (None: ``greedy.events``; a booking made
+    elsewhere on the same motion, e.g. the speed search's plan at this level)."""
+    from ortools.sat.python import cp_model
+
+    m, items, scale = build_order_model(problem, greedy, cruise, events)
+    if not items:
+        return None, {"status": "EMPTY"}
     solver = cp_model.CpSolver()
     solver.parameters.num_workers = 1  # single-threaded and a deterministic limit: the same plan anywhere
     # the same work on a larger model buys less search: the budget shrinks with the model, so a
@@ -173,7 +188,7 @@ def cpsat_order(problem: Problem, greedy: Booker, reach: RowReach, cruise: Cruis
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
         return None, report
     chosen: dict[int, list[tuple[int, str]]] = {i: [] for i in range(len(problem.arms))}
-    for fid, a, on, p, e in items:
+    for fid, a, on, p, _, _ in items:
         if solver.Value(on):
             chosen[a].append((solver.Value(p), fid))
     report["fruit"] = int(sum(len(v) for v in chosen.values()))

@@ -108,7 +108,7 @@ class Booker:
         (computed once per arm and fruit, over the arm's whole reach of the fruit: :func:`screen_branches`)."""
         key = (i, fid)
         if key not in self._use:
-            screen_branches(self.problem, self.step, [key], self._use)
+            screen_branches(self.problem, self.step, [key], self._use, self.fruit_xy, self.cell)
         lo, use = self._use[key]
         k0 = int(math.floor((c0 - lo) / self.step + 1e-9))
         k1 = int(math.ceil((c1 - lo) / self.step - 1e-9))
@@ -329,14 +329,17 @@ def branch_table(problem: Problem, step: float) -> dict[tuple[int, str], tuple[f
     return _BRANCHES.setdefault(problem, {}).setdefault(float(step), {})
 
 
-def screen_branches(problem: Problem, step: float, pairs, table: dict) -> dict:
+def screen_branches(problem: Problem, step: float, pairs, table: dict, xy: dict | None = None, cell: Problem | None = None) -> dict:
     """Screen each ``(arm index, fruit id)`` of ``pairs`` into ``table`` for
     :meth:`Booker.branches`, each arm's in one vectorised call; pairs already in it are skipped.
-    Each pair's points are computed as alone (the same positions, the same answers). Returns
-    ``table``."""
-    cell = cell_at(problem, 0.0, ())  # the carriage frame
+    Each pair's points are computed as alone (the same positions, the same answers). ``xy``:
+    fruit id -> where the fruit is (None: the problem's positions; a live row's booker passes its
+    own, moved by the close-range measurement); ``cell``: the problem in the carriage frame
+    (None: made here). Returns ``table``."""
+    cell = cell if cell is not None else cell_at(problem, 0.0, ())  # the carriage frame
     g = problem.gantry
-    xy = {f.id: (float(f.position[0]), float(f.position[1])) for f in problem.fruits}
+    if xy is None:
+        xy = {f.id: (float(f.position[0]), float(f.position[1])) for f in problem.fruits}
     todo: dict[int, list[tuple[str, float, np.ndarray]]] = {}
     for i, fid in dict.fromkeys(pairs):
         if (i, fid) in table:

@@ -111,9 +111,20 @@ def _reachable(problem: Problem) -> list[str]:
     fx = np.array([f.position[0] for f in problem.fruits], float)
     fy = np.array([f.position[1] for f in problem.fruits], float)
     ok = np.zeros(fx.size, dtype=bool)
-    for arm in problem.arms:  # every fruit and carriage position near it at once, arm by arm
-        rows, cols = np.nonzero(np.abs(fx[:, None] - cs[None, :] - arm.base[0]) <= arm.reach)
-        if rows.size:
-            hit = arm.ik(np.c_[fx[rows] - cs[cols], fy[rows]], m)[1].any(axis=-1)
-            ok[rows[hit]] = True
+    for arm in problem.arms:  # every fruit and the carriage positions near it at once, arm by arm
+        # each fruit's candidate positions (a sorted grid: an index range, one position to spare
+        # each side), then the exact test on those only: memory in the pairs, not fruit x rail
+        lo = np.maximum(np.searchsorted(cs, fx - arm.base[0] - arm.reach) - 1, 0)
+        hi = np.minimum(np.searchsorted(cs, fx - arm.base[0] + arm.reach, side="right") + 1, cs.size)
+        n = np.maximum(hi - lo, 0)
+        if not n.any():
+            continue
+        rows = np.repeat(np.arange(fx.size), n)
+        cols = lo[rows] + (np.arange(rows.size) - np.repeat(np.cumsum(n) - n, n))
+        near = np.abs(fx[rows] - cs[cols] - arm.base[0]) <= arm.reach
+        rows, cols = rows[near], cols[near]
+        for a in range(0, rows.size, 200_000):  # (in chunks: a long dense row has millions of pairs)
+            r, c = rows[a:a + 200_000], cols[a:a + 200_000]
+            hit = arm.ik(np.c_[fx[r] - cs[c], fy[r]], m)[1].any(axis=-1)
+            ok[r[hit]] = True
     return [f.id for f, k in zip(problem.fruits, ok) if k]
