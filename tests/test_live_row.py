@@ -166,6 +166,9 @@ def test_a_hop_changed_under_way_is_smooth_within_the_limits_and_never_goes_back
     assert np.max(np.abs(np.diff(x) / dt - v[:-1])) < 1e-3  # no jump in position: v is x's rate
     with pytest.raises(ValueError, match="back along the rail"):
         stop_from(row, (x_c, v_c, 0.0), x_c + 0.01)  # at 0.5 m/s it cannot stop within 1 cm
+    for t_bad in (0.5, first.duration + 0.05):  # before the hop departs, after it has arrived: no move to change
+        with pytest.raises(ValueError, match="during the previous leg's move"):
+            Cruise.hops(row, [(1.0, g.start + 4.0), (t_bad, g.start + 4.5, True)])
     moves = stop_from(row, (x_c, v_c, 0.0), x_c + 2.0)
     assert moves[0][1][:2] == pytest.approx((x_c, v_c)) and sum(d for d, _ in moves) > 0
 

@@ -147,11 +147,16 @@ class Cruise:
         g = problem.gantry
         out: list[tuple[float, float, float, float, float]] = []
         t, x = 0.0, g.start
+        moving = (math.inf, -math.inf)  # the last leg's move: (departure, arrival)
         for leg in legs:
             t_dep, x_to = leg[0], leg[1]
             x_to = min(max(float(x_to), g.start), g.end)
             if len(leg) > 2 and leg[2]:
+                if not moving[0] < float(t_dep) < moving[1]:
+                    raise ValueError(f"a hop changed at t = {float(t_dep):g} s: expected a time during the previous "
+                                     f"leg's move ({moving[0]:g}, {moving[1]:g}) s")
                 out, t, x = _retarget(problem, out, float(t_dep), x_to)
+                moving = (float(t_dep), t)
                 continue
             if x_to < x - 1e-9:
                 raise ValueError(f"a hop back along the rail: from {x:g} to {x_to:g} m")
@@ -165,6 +170,7 @@ class Cruise:
                     p, v, acc = (float(u[0]) for u in mv.state(np.array([t - t_dep])))
                     out.append((t, p, v, acc, jk))
                     t += d
+            moving = (t_dep, t)
             x = x_to
         out.append((t, x, 0.0, 0.0, 0.0))
         return cls(g.start, x, float(g.max_velocity), tuple(out))
@@ -259,19 +265,27 @@ def stop_from(problem: Problem, state: tuple[float, float, float], x_to: float):
     acceleration) to rest at ``x_to``, within the gantry's limits: its phases ``[(duration,
     (x, v, a, jerk) at its start), ...]``; ValueError if it would run back along the rail
     (``x_to`` is nearer than the carriage can stop)."""
-    from ..kinematics.timing import ruckig_move
+    from ..kinematics.timing import MoveError, ruckig_move
 
     g = problem.gantry
-    tr = ruckig_move(np.array([[state[0]], [state[1]], [state[2]]]), np.array([[x_to], [0.0], [0.0]]),
-                     [g.max_velocity], [g.max_acceleration], [g.max_jerk])
+    back = ValueError(f"a hop back along the rail: from {state[0]:g} m at {state[1]:g} m/s to rest at {x_to:g} m")
+    if x_to < state[0] - 1e-9:
+        raise back
+    try:
+        tr = ruckig_move(np.array([[state[0]], [state[1]], [state[2]]]), np.array([[x_to], [0.0], [0.0]]),
+                         [g.max_velocity], [g.max_acceleration], [g.max_jerk])
+    except MoveError as exc:
+        raise ValueError(f"no move of the carriage from {state[0]:g} m at {state[1]:g} m/s to rest at {x_to:g} m: {exc}") from exc
     out = []
     main = tr.profiles[0][0]
     for prof in (main.brake, main):  # (a brake pre-profile only from a state past the limits)
         for k, d in enumerate(prof.t):
             if d > 0:
                 out.append((float(d), (float(prof.p[k]), float(prof.v[k]), float(prof.a[k]), float(prof.j[k]))))
-    if any(v < -1e-9 for _, (_, v, _, _) in out) or x_to < state[0] - 1e-9:
-        raise ValueError(f"a hop back along the rail: from {state[0]:g} m at {state[1]:g} m/s to rest at {x_to:g} m")
+    for d, (_, v, a, j) in out:  # the velocity at each phase's start, and its turning point inside
+        turn = -a / j if j != 0.0 else -1.0
+        if v < -1e-9 or (0.0 < turn < d and v + a * turn + j * turn * turn / 2 < -1e-9):
+            raise back
     return out
 
 

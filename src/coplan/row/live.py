@@ -65,12 +65,13 @@ from .track import AT_REST_SHARE
 
 #: After an arm stops, the carriage runs at this share of the working arms' share of its speed ...
 STOP_SLOWDOWN = 0.5
-#: ... and the check for fruit about to pass (``at_risk``) estimates each cycle this many times
-#: longer and lets a report hold the carriage this many times as often: the neighbours now take
-#: the stopped arm's fruit, round it as an obstacle and round each other. Over the fault
-#: benchmark's 50 rows on the move, 6 fruit a working arm could still reach were missed without
-#: it and none with it; slowing the whole carriage to 0.2 instead also missed none, at 1.5 x the
-#: row time (median 2.97 x the fault-free offline plan's, against 1.98-2.09 x).
+#: ... and the check for fruit about to pass (``at_risk``) estimates each cycle's moves (out to
+#: the fruit, back to the bin) this many times longer and lets a report hold the carriage this
+#: many times as often: the neighbours now take the stopped arm's fruit, round it as an obstacle
+#: and round each other. Over the fault benchmark's 50 rows on the move, 6 fruit a working arm
+#: could still reach were missed without it and none with it; slowing the whole carriage to 0.2
+#: instead also missed none, at 1.5 x the row time (median 2.97 x the fault-free offline plan's,
+#: against 1.98-2.09 x).
 STOPPED_CAUTION = 2
 #: Stop and go: a stop's picks may start up to this long per fruit in reach (and one more) after it arrives, s.
 STOP_PATIENCE = 10.0
@@ -273,7 +274,7 @@ def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str
         """Reported fruit not taken whose working arms' windows all close within ``LOOK`` s and
         that an earliest-deadline-first schedule of them over those arms, from when each is
         free, with every cycle estimated at ``REACH_TIME`` out and ``REACH_TIME`` plus both
-        dwells back (``STOPPED_CAUTION`` times that once an arm has stopped), cannot fit
+        dwells back (the moves ``STOPPED_CAUTION`` times longer once an arm has stopped), cannot fit
         before their windows close."""
         working = {a for a in range(n) if a not in halt or halt[a] > t_c}
         avail = {a: max(t_c, run.booker.free_time(a)) for a in working}
@@ -409,6 +410,7 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
         # then the hop goes no farther than they need (the nearest stop it can still brake to)
         t_h = min((t for t in faults.halt.values() if t_dep < t < t_arr), default=None)
         if t_h is not None:
+            run.set_cruise(cruise)  # what the planner knows then: the hop under way (the camera moved with it)
             want, _ = next_stop(k, t_h)
             for kk in range(max(want, k + 1), nxt):
                 try:
