@@ -438,6 +438,21 @@ def test_a_live_row_harvests_what_the_offline_plan_harvests_verified_against_the
     assert all(v == "harvested" for k, v in res.outcome.items() if k in got)
 
 
+def test_a_partial_row_on_the_move_says_which_fruit_it_left_and_why(tmp_path, row, reach):
+    """A carriage too fast for every fruit: exit 5 (partial), and the summary names each fruit
+    left out with its reason, as plan.json does (found by a new-user trial: only the count was
+    printed)."""
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=10.0, density=3.0, seed=7)))
+    res = CliRunner().invoke(app, ["solve", str(path), "--gantry", "continuous", "--speed", "0.5", "-o", str(tmp_path / "out")])
+    assert res.exit_code == 5, res.output
+    left = load_plan(tmp_path / "out" / "plan.json").solver["row"]["left_out"]
+    missed = [f for f in left if f not in reach.reasons]
+    said = " ".join(res.output.split())  # (as printed, whatever the console's width)
+    assert missed and "harvestable fruit:" in said
+    assert all(" ".join(left[f].split()) in said for f in missed[:5])
+
+
 def test_coplan_run_on_a_row_writes_a_verified_run(tmp_path):
     path = tmp_path / "row.yaml"
     path.write_text(to_yaml(gantry_row(length=10.0, density=3.0, seed=7)))
@@ -446,6 +461,10 @@ def test_coplan_run_on_a_row_writes_a_verified_run(tmp_path):
     doc = json.loads((tmp_path / "live" / "run.json").read_text())
     assert doc["metrics"]["verified"] and doc["metrics"]["of_offline"] == 1.0 and doc["detections"]
     assert verify(parse_problem(path.read_text()), load_plan(tmp_path / "live" / "plan.json")).passed
+    # the plan names its row, so the viewer finds it without --problem (found by a new-user trial)
+    assert load_plan(tmp_path / "live" / "plan.json").problem_file["path"] == str(path.resolve())
+    view = CliRunner().invoke(app, ["view", str(tmp_path / "live" / "plan.json"), "-o", str(tmp_path / "v.html")])
+    assert view.exit_code == 0 and (tmp_path / "v.html").stat().st_size > 0, view.output
     bad = CliRunner().invoke(app, ["run", str(path), "-o", str(tmp_path / "x")])
     assert bad.exit_code == 2 and "--speed: expected" in bad.output and "Traceback" not in bad.output
 

@@ -145,6 +145,30 @@ def test_an_arm_that_stops_during_a_hop_shortens_it_to_where_the_others_still_re
     assert np.isclose(x[k], stop["stop_at"], atol=1e-9)  # at rest where the hop now ends
 
 
+def test_still_reachable_counts_what_a_working_arm_could_have_picked_from_where_the_carriage_had_not_been(row):
+    """The fault report's count (:func:`coplan.row.stranded.still_reachable`): a fruit near the
+    row's start, on a carriage cruising the whole row -- reachable if reported at t = 0; not
+    once the carriage has passed it; passed before an arm stopped: any arm counts; every arm
+    stopped before the carriage got there: no working arm could."""
+    from coplan.row.booking import Booker
+    from coplan.row.reach import row_reach
+    from coplan.row.stranded import still_reachable
+
+    reach = row_reach(row)
+    cruise = Cruise.of(row, 0.2, row.gantry.end)
+    booker = Booker(row, cruise, {}, 100.0, 0.02, reach.resolution)
+    f = min(reach.harvestable(), key=lambda fid: next(x.position[0] for x in row.fruits if x.id == fid))
+    xy = next(x.position for x in row.fruits if x.id == f)
+    last = float(reach.grid[reach.span(f)[1]])  # the farthest carriage position any arm picks it from
+    t_past = float(cruise.time_at(np.array([last + 0.5]))[0])
+    everyone = {a: 1.0 for a in range(len(row.arms))}
+    for at_rest in (False, True):
+        assert still_reachable(booker, reach.grid, xy, 0.0, {}, at_rest)
+        assert not still_reachable(booker, reach.grid, xy, t_past, {}, at_rest)
+        assert still_reachable(booker, reach.grid, xy, 0.0, {0: t_past + 1.0}, at_rest)  # passed before the stop
+        assert not still_reachable(booker, reach.grid, xy, 0.0, everyone, at_rest)  # no arm left working
+
+
 def test_a_hop_changed_under_way_is_smooth_within_the_limits_and_never_goes_back(row):
     """:meth:`Cruise.hops` with a leg changed under way: position, velocity and acceleration
     continuous at the change, the gantry's limits kept (finite differences of a 1 kHz

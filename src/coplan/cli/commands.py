@@ -438,7 +438,7 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
     (``problem_file``: its path, and its digest, so a file changed since is not taken for it);
     else the shipped problem of the plan's name."""
     from ..plan import load_plan
-    from ..problem.model import load_problem, shipped_problems
+    from ..problem.model import load_problem, shipped_problems, shipped_rows
 
     plan = load_plan(plan_path)
     record = plan.problem_file
@@ -452,7 +452,7 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
             _fail(ExitCode.USAGE, f"{plan_path} was planned from {record['path']}, which has changed since (its sha256 "
                                   f"differs); give the problem with --problem FILE to use it anyway")
     else:
-        shipped = [load_problem(p) for p in shipped_problems()]
+        shipped = [load_problem(p) for p in shipped_problems() + shipped_rows()]
         prob = next((p for p in shipped if p.name == plan.problem), None)
         if prob is None:
             where = f"it was planned from {record['path']}, which is gone, and " if record is not None else ""

@@ -130,6 +130,7 @@ def run_cmd(
     opts = LiveOptions(horizon=horizon, budget=None) if all_candidates else LiveOptions(horizon=horizon)
     with ProgressDisplay(_err, quiet=as_json) as bars:
         result = simulate(prob, fd, opts, seed=seed, progress=bars)
+    result.plan.problem_file = prob.file_record()
     with RunFolder(out) as stage:
         result.plan.save(stage)
         (stage / "verification.json").write_text(json.dumps(jsonable(result.verification.summary()), indent=1))
@@ -187,6 +188,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
            | {"faults": faults.__dict__},
            "detections": [{"id": d.id, "position": list(d.position), "t": d.t, "fruit": d.truth} for d in res.detections],
            "outcome": res.outcome, "metrics": res.metrics}
+    res.plan.problem_file = prob.file_record()  # (coplan view / plot / animate find the row from the plan)
     with RunFolder(out) as stage:
         res.plan.save(stage)
         (stage / "verification.json").write_text(json.dumps(jsonable(res.verification.summary()), indent=1))
@@ -203,6 +205,10 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
                  f"a shortest cycle of {m['shortest_cycle_seconds']:.2f} s")
         faults_line = (f"faults: {_safe(json.dumps(m['faults']))}; missed though a working arm could still reach them: "
                        f"{len(m['missed_reachable_by_a_working_arm'])}\n" if m["faults"] else "")
+        missed = [why for f, why in res.outcome.items() if why != "harvested" and f in {x.id for x in prob.fruits}]
+        if missed:  # each true fruit not harvested, and why (all of them: run.json outcome)
+            faults_line += f"missed {len(missed)} fruit: " + "; ".join(_safe(w) for w in missed[:3]) + (
+                f"; ... and {len(missed) - 3} more (run.json: outcome)" if len(missed) > 3 else "") + "\n"
         _out.print(
             f"{_safe(prob.name)} live {how} (camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
             f"{m['false_reports']} false reports): {m['harvested']} fruit harvested, {share}; row time "

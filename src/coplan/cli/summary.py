@@ -69,6 +69,14 @@ def print_row_summary(console, res) -> None:
         p(f"    {safe(why)}")
     if len(out) > 3:
         p(f"    ... and {len(out) - 3} more (plan.json: metrics.row.screened_out)")
+    got = {e.fruit for e in res.plan.events}
+    left = {f: why for f, why in (solver.get("left_out") or {}).items() if f not in out and f not in got}
+    if left:  # harvestable but not harvested by this plan, and why (all of them: plan.json solver.row.left_out)
+        p(f"  left out          {plural(len(left), 'harvestable fruit', 'harvestable fruit')}:")
+        for fid, why in list(left.items())[:5]:
+            p(f"    {safe(why)}")
+        if len(left) > 5:
+            p(f"    ... and {len(left) - 5} more (plan.json: solver.row.left_out)")
     p(f"  fruit per hour    {r.get('fruit_per_hour', 0):.0f} (per arm: "
       + ", ".join(f"{safe(a)} {v:.0f}" for a, v in (r.get("fruit_per_hour_per_arm") or {}).items()) + ")")
     lb = r.get("lower_bound") or {}

@@ -529,16 +529,13 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraw
                              f"missed: reported at ({rs[0].position[0]:.3f}, {rs[0].position[1]:.3f}) (report {rs[0].id}), "
                              f"where no arm could pick it as the carriage went (the report's error)")
     windows = booker.windows
-    working = [a for a in range(len(problem.arms)) if a not in halt]
-    stopped_at = min(halt.values(), default=math.inf)
     seen = run.seen
-    # missed though a working arm could still reach it: the true fruit, from a carriage position
-    # the carriage had not yet passed when it was reported (and when the arm stopped), under the
-    # screen's rules, with a pick pose clear of every stopped arm where it rests
+    # missed though a working arm could still reach it (:func:`coplan.row.stranded.still_reachable`):
+    # the true fruit, from a carriage position not yet passed when it was reported -- before an
+    # arm stopped by any arm, after it by a working arm clear of the stopped one
     missed_reachable = sorted({by_id[d].truth for d in windows if by_id[d].truth is not None
                                and by_id[d].truth not in got and d not in run.misses
-                               and still_reachable(booker, run.reach.grid, run.truth_xy[by_id[d].truth],
-                                                   max(seen[d], stopped_at if halt else seen[d]), working, halt,
+                               and still_reachable(booker, run.reach.grid, run.truth_xy[by_id[d].truth], seen[d], halt,
                                                    GantryMode(opts.mode) == GantryMode.STOP_AND_GO)})
     span = float(plan.metrics.get("makespan") or 0.0)
     ref_span = float(offline.plan.metrics.get("makespan") or 0.0)

@@ -1,10 +1,11 @@
 """After a fault: which fruit a working arm could still have harvested (a live row's report).
 
 A live row (:mod:`coplan.row.live`) counts the fruit it missed though a working arm could still
-reach them: the true fruit, from a carriage position the carriage had not yet passed when the
-arm stopped (stop and go: one it could still brake to -- picks are made at rest), under the
-screen's rules (:func:`coplan.allocate.screen.usable_picks`), with a pick pose that keeps the
-clearance from every stopped arm where it rests. Entry point: :func:`still_reachable`.
+reach them: the true fruit, from a carriage position the carriage had not yet passed (stop and
+go: one it could still brake to -- picks are made at rest), under the screen's rules
+(:func:`coplan.allocate.screen.usable_picks`) -- before an arm stopped, by any arm; after, by
+the working arms with a pick pose that keeps the clearance from every stopped arm where it
+rests. Entry point: :func:`still_reachable`.
 """
 
 from __future__ import annotations
@@ -26,30 +27,31 @@ def _cannot_stop_at(problem: Problem, state, x_to: float) -> bool:
     return False
 
 
-def still_reachable(booker: Booker, grid: np.ndarray, xy, t0: float, working: list[int], halt: dict[int, float],
-                    at_rest: bool) -> bool:
-    """Whether a working arm can pick the fruit at row point ``xy`` from a carriage position at
-    or ahead of where ``booker``'s carriage is at ``t0`` (it never goes back; ``at_rest``: stop and
-    go, where it can still come to rest from its motion then), on the row screen's ``grid``,
-    under the screen's rules (:func:`coplan.allocate.screen.usable_picks`), with a pick pose
-    that keeps the clearance from every stopped arm where it rests (the screen knows nothing of
-    a stopped arm; a pose blocked by one is no longer reachable)."""
+def _positions(booker: Booker, grid: np.ndarray, t: float, at_rest: bool) -> np.ndarray:
+    """Grid positions at or ahead of where the carriage is at ``t`` (it never goes back; with
+    ``at_rest``, where it can still come to rest from its motion then), up to where it rests."""
+    cruise = booker.cruise
+    state = tuple(float(u[0]) for u in cruise.state(np.array([min(t, cruise.duration)])))  # x, v, a then
+    cs = grid[(grid >= state[0] - 1e-9) & (grid <= cruise.x1 + 1e-9)]
+    if at_rest and abs(state[1]) + abs(state[2]) > 1e-12:  # picks only at rest: where it can still come to rest
+        while cs.size and _cannot_stop_at(booker.problem, state, float(cs[0])):
+            cs = cs[1:]
+    return cs
+
+
+def _reaches(booker: Booker, xy, cs: np.ndarray, arms: list[int], halt) -> bool:
+    """Whether one of ``arms`` picks the fruit at ``xy`` from a position in ``cs`` under the
+    screen's rules, with a pose clear of every arm in ``halt`` where it rests."""
     from ..allocate.screen import usable_picks
     from ..planners.coordinated.schedule import arm_points, points_too_close
 
-    problem = booker.problem
-    cruise = booker.cruise
-    state = tuple(float(u[0]) for u in cruise.state(np.array([min(t0, cruise.duration)])))  # x, v, a then
-    cs = grid[(grid >= state[0] - 1e-9) & (grid <= cruise.x1 + 1e-9)]
-    if at_rest and abs(state[1]) + abs(state[2]) > 1e-12:  # picks only at rest: where it can still come to rest
-        while cs.size and _cannot_stop_at(problem, state, float(cs[0])):
-            cs = cs[1:]
-    if cs.size == 0 or not working:
+    if cs.size == 0 or not arms:
         return False
+    problem = booker.problem
     pts = np.c_[xy[0] - cs, np.full(cs.size, xy[1])]
     cell = booker.cell  # the carriage frame
-    use = usable_picks(cell, pts, arms=tuple(working))
-    for a in working:
+    use = usable_picks(cell, pts, arms=tuple(arms))
+    for a in arms:
         arm = cell.arms[a]
         q, _ = arm.ik(pts)
         for b in (0, 1):
@@ -65,3 +67,31 @@ def still_reachable(booker: Booker, grid: np.ndarray, xy, t0: float, working: li
             if pa[0].size:
                 return True
     return False
+
+
+def still_reachable(booker: Booker, grid: np.ndarray, xy, t_seen: float, halt: dict[int, float], at_rest: bool) -> bool:
+    """Whether a working arm could still pick the fruit at row point ``xy``, reported at
+    ``t_seen``, from a carriage position it had not yet passed (``at_rest``: stop and go, where
+    it could still come to rest), on the row screen's ``grid``, under the screen's rules:
+
+    * with every arm working (none in ``halt``, arm -> the time it stopped): from any position
+      after the report;
+    * a fruit the carriage passed before the first arm stopped, out of every arm's reach by
+      then: from a position after the report and before the stop, any arm;
+    * otherwise (it was still ahead when the arm stopped): from a position after both, by an
+      arm still working, with a pose clear of every stopped arm where it rests (what the stopped
+      arm was to pick and no other arm can reach from there on is not counted: those fruit are
+      the fault's, reported with their reasons)."""
+    n = len(booker.problem.arms)
+    every = list(range(n))
+    if not halt:
+        return _reaches(booker, xy, _positions(booker, grid, t_seen, at_rest), every, {})
+    t_stop = min(halt.values())
+    if t_seen < t_stop:
+        c_stop = float(booker.cruise.x(np.array([min(t_stop, booker.cruise.duration)]))[0])
+        ahead = grid[(grid >= c_stop - 1e-9) & (grid <= booker.cruise.x1 + 1e-9)]
+        if not _reaches(booker, xy, ahead, every, {}):  # passed before the stop, every arm working
+            before = _positions(booker, grid, t_seen, at_rest)
+            return _reaches(booker, xy, before[before < c_stop - 1e-9], every, {})
+    working = [a for a in every if a not in halt]
+    return _reaches(booker, xy, _positions(booker, grid, max(t_seen, t_stop), at_rest), working, halt)
