@@ -299,9 +299,9 @@ def fault_runs(mode: str, n: int) -> None:
     print(f"- runs whose files did not read back whole: {bad_files} of {n}")
     print(f"- fruit harvested: {harvested}, {100 * harvested / max(offline, 1):.1f} % of what the fault-free offline plans harvest")
     print(f"- fruit missed though a working arm could still reach them (the true fruit, from a carriage position not yet "
-          f"passed{' -- at rest: one it could still brake to --' if mode != 'continuous' else ''} when the arm stopped, "
-          f"with a pick pose clear of the stopped arm): {sum(missed)} in total, in {sum(1 for x in missed if x)} "
-          f"of {len(missed)} runs (at most {max(missed, default=0)} in one)")
+          f"passed when it was reported{' -- at rest: one it could still brake to --' if mode != 'continuous' else ''}: "
+          f"before the arm stopped by any arm, after it by a working arm with a pick pose clear of the stopped one): "
+          f"{sum(missed)} in total, in {sum(1 for x in missed if x)} of {len(missed)} runs (at most {max(missed, default=0)} in one)")
     print(f"- row time: median {np.median(ratios) if ratios else float('nan'):.2f} x the fault-free offline plan's "
           f"(range {min(ratios, default=float('nan')):.2f}-{max(ratios, default=float('nan')):.2f})"
           + (f"; a hop changed under way by the arm's stop in {changed} runs" if mode != "continuous" else ""))
