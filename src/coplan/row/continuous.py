@@ -151,9 +151,6 @@ def assemble_moving(problem: Problem, booker: Booker, cruise: Cruise) -> Plan:
 def plan_continuous(problem: Problem, level: float, options: MovingOptions | None = None, reach: RowReach | None = None,
                     progress: Callable[[str], None] | None = None, demand=None) -> RowResult:
     """Plan ``problem`` (a row) with the carriage at ``level`` (:func:`make_cruise`) and verify it."""
-    from ..verify.row import row_reachable_ids
-    from ..verify.verifier import verify
-
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: plan it as a cell")
     opts = options or MovingOptions()
@@ -177,6 +174,19 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
             if (len(left2), _end(b2)) < (len(left), _end(booker)):
                 booker, left, info["assign"] = b2, left2, AssignRule.CPSAT.value
     timings["schedule"] = _time.perf_counter() - ts
+    res = _verified(problem, booker, cruise, reach, left, info, timings, t0)
+    say(f"row on the move ({info['profile']}, {cruise.mean_speed:.3f} m/s on average): {res.plan.metrics.get('harvested')} fruit, "
+        f"makespan {res.plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
+    return res
+
+
+def _verified(problem: Problem, booker: Booker, cruise: Cruise, reach: RowReach, left: dict, info: dict, timings: dict,
+              t0: float) -> RowResult:
+    """The booked row as a plan, verified (``timings`` gains planning, counted from ``t0``, and
+    verify; ``info`` the fruit left out)."""
+    from ..verify.row import row_reachable_ids
+    from ..verify.verifier import verify
+
     plan = assemble_moving(problem, booker, cruise)
     timings["planning"] = _time.perf_counter() - t0
     tv = _time.perf_counter()
@@ -186,8 +196,6 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
     info["left_out"] = dict(reach.reasons) | left
     info["first_stop_seconds"] = None
     plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
-    say(f"row on the move ({info['profile']}, {cruise.mean_speed:.3f} m/s on average): {plan.metrics.get('harvested')} fruit, "
-        f"makespan {plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
     return RowResult(plan, ver, [], reach, timings, info)
 
 
@@ -198,8 +206,6 @@ def reorder_continuous(problem: Problem, level: float, options: MovingOptions, r
     if it leaves fewer fruit out (then ends sooner) than the greedy, else None (the greedy's plan
     stands); and CP-SAT's report. :func:`plan_continuous` with ``assign=cpsat``, without booking
     the greedy again: the speed search's last step, beside its refinement."""
-    from ..verify.row import row_reachable_ids
-    from ..verify.verifier import verify
     from .assign import cpsat_order
 
     t0 = _time.perf_counter()
@@ -217,19 +223,10 @@ def reorder_continuous(problem: Problem, level: float, options: MovingOptions, r
     if (len(left), _end(booker)) >= (greedy_left, max((e.t_end for e in events), default=0.0)):
         return None, report
     report["kept"] = True
-    timings = {"reach": 0.0, "schedule": _time.perf_counter() - t0}
-    plan = assemble_moving(problem, booker, cruise)
-    timings["planning"] = _time.perf_counter() - t0
-    tv = _time.perf_counter()
-    ver = verify(problem, plan)
-    timings["verify"] = _time.perf_counter() - tv
-    plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
     info: dict = {"mode": "continuous", "profile": SpeedProfile(options.profile).value, "level": level,
                   "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.CPSAT.value,
-                  "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "cpsat": report,
-                  "left_out": dict(reach.reasons) | left, "first_stop_seconds": None}
-    plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
-    return RowResult(plan, ver, [], reach, timings, info), report
+                  "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "cpsat": report}
+    return _verified(problem, booker, cruise, reach, left, info, {"reach": 0.0, "schedule": _time.perf_counter() - t0}, t0), report
 
 
 def _end(b: Booker) -> float:
