@@ -211,12 +211,7 @@ class Cruise:
         tf = min(max(float(t), 0.0), self.duration)
         if tf >= self.duration:
             return float(self.x1), 0.0, 0.0
-        k = min(max(bisect.bisect_right(self._starts, tf) - 1, 0), len(self.phases) - 1)
-        t0, x0, v0, a0, j0 = self.phases[k]
-        d = tf - t0
-        d2 = d * d
-        d3 = float(np.power(np.array([d]), 3)[0])  # (the scalar pow may differ in the last bit)
-        return x0 + v0 * d + a0 * d2 / 2 + j0 * d3 / 6, v0 + a0 * d + j0 * d2 / 2, a0 + j0 * d
+        return _at(self.phases[min(max(bisect.bisect_right(self._starts, tf) - 1, 0), len(self.phases) - 1)], tf)
 
     def x(self, t) -> np.ndarray:
         return self.state(t)[0]
@@ -253,11 +248,20 @@ class Window:
     c_hi: float
 
 
+def _at(phase, t: float) -> tuple[float, float, float]:
+    """Position, velocity and acceleration at ``t`` of one constant-jerk phase ``(t0, x, v, a, j)``,
+    in plain floats with :meth:`Cruise.state`'s bits (its arithmetic in its order; the cube through
+    NumPy's array kernel: the scalar ``pow`` may differ in the last bit)."""
+    t0, x0, v0, a0, j0 = phase
+    d = t - t0
+    d2 = d * d
+    d3 = float(np.power(np.array([d]), 3)[0])
+    return x0 + v0 * d + a0 * d2 / 2 + j0 * d3 / 6, v0 + a0 * d + j0 * d2 / 2, a0 + j0 * d
+
+
 def _state_in(phases, t: float) -> tuple[float, float, float]:
     """Position, velocity and acceleration at ``t`` of a chain of constant-jerk phases."""
-    t0, x0, v0, a0, j0 = max((p for p in phases if p[0] <= t), key=lambda p: p[0])
-    d = t - t0
-    return x0 + v0 * d + a0 * d * d / 2 + j0 * d ** 3 / 6, v0 + a0 * d + j0 * d * d / 2, a0 + j0 * d
+    return _at(max((p for p in phases if p[0] <= t), key=lambda p: p[0]), t)
 
 
 def stop_from(problem: Problem, state: tuple[float, float, float], x_to: float):

@@ -299,6 +299,8 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
     fruit_index = {f.id: k for k, f in enumerate(problem.fruits)}
     tips = {m.name: m.tips() for m in motions}
     shift = None if not row else np.c_[np.asarray(plan.gantry_x, float), np.zeros(plan.time.size)]
+    # where each arm's bin is at every sample (it rides with the carriage): once per arm, not per place
+    bins = {a.name: a.bin if shift is None else np.asarray(a.bin, float) + shift for a in problem.arms}
     dwell_tol = plan.dt if opts.dwell_tolerance is None else opts.dwell_tolerance
     eps = 1e-9
     picks: dict[str, list[str]] = {}
@@ -326,7 +328,7 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
             frame = row  # a fruit stays where it is: the tip must be still in the row frame
         else:
             placed.add(e.fruit)
-            target, dwell = arm.bin if shift is None else np.asarray(arm.bin, float) + shift, problem.task.place_dwell
+            target, dwell = bins[arm.name], problem.task.place_dwell
             missed, short = ViolationKind.PLACE_MISSED, ViolationKind.PLACE_DWELL
             frame = False  # the bin rides with the carriage: still relative to it
         m = motions[arm_index[e.arm]]
