@@ -128,21 +128,26 @@ def test_faults_stop_and_go_degrade_safely_and_are_replayable(row):
 
 
 def test_an_arm_that_stops_during_a_hop_shortens_it_to_where_the_others_still_reach_its_fruit():
-    """Regression (the fault benchmark, seed 36): the rear arm stopped while the carriage hopped
-    to a stop chosen for it; the hop went on and its fruit there were passed though its neighbour
-    could reach them from nearer. Now the hop brakes to the nearest stop the others need, the
-    run is verified, and no fruit a working arm could still reach is missed."""
-    row = parse_problem(to_yaml(gantry_row(length=12.0, n_arms=3, density=6.0, seed=36)))
-    res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=36,
-                                           faults=RowFaults(arm_stop=True, camera_dark=3.0, false_burst=50, late_replan=2.0)))
-    stop = res.metrics["faults"]["arm_stop"]
-    assert "hop_changed_at" in stop and stop["stop_at"] < stop["instead_of"]
-    assert res.verification.passed and res.metrics["missed_reachable_by_a_working_arm"] == []
-    p = res.plan
-    x = p.gantry_x
-    assert np.all(np.diff(x) >= -1e-12)  # never back along the rail
-    k = int(np.searchsorted(p.time, stop["hop_changed_at"] + 5.0))
-    assert np.isclose(x[k], stop["stop_at"], atol=1e-9)  # at rest where the hop now ends
+    """Regression (the fault benchmark, seeds 32 and 36): the rear arm stopped while the carriage
+    hopped to a stop chosen for it; the hop went on and its fruit there were passed though its
+    neighbour could reach them from nearer. Now the hop brakes to the nearest stop the others
+    need, the run is verified, and no fruit a working arm could still reach is missed. (Both
+    seeds, and a hop changed in at least one: which run's arm stops mid-hop is the plan's timing.)"""
+    changed = 0
+    for seed in (32, 36):
+        row = parse_problem(to_yaml(gantry_row(length=12.0, n_arms=3, density=6.0, seed=seed)))
+        res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=seed,
+                                               faults=RowFaults(arm_stop=True, camera_dark=3.0, false_burst=50, late_replan=2.0)))
+        assert res.verification.passed and res.metrics["missed_reachable_by_a_working_arm"] == [], seed
+        x = res.plan.gantry_x
+        assert np.all(np.diff(x) >= -1e-12)  # never back along the rail
+        stop = res.metrics["faults"]["arm_stop"]
+        if "hop_changed_at" in stop:
+            changed += 1
+            assert stop["stop_at"] < stop["instead_of"]
+            k = int(np.searchsorted(res.plan.time, stop["hop_changed_at"] + 5.0))
+            assert np.isclose(x[k], stop["stop_at"], atol=1e-9)  # at rest where the hop now ends
+    assert changed >= 1
 
 
 def test_still_reachable_counts_what_a_working_arm_could_have_picked_from_where_the_carriage_had_not_been(row):
