@@ -317,3 +317,36 @@ def test_a_row_plan_exports_its_carriage_and_the_live_cell_refuses_a_row(tmp_pat
     f.write_text(to_yaml(gantry_row(length=10.0, density=2.0)))
     r = CliRunner().invoke(app, ["feed", str(f), "--out", str(tmp_path / "feed.yaml")])
     assert r.exit_code == 2 and "is a row" in r.output
+
+
+def test_last_stop_serves_every_fruit_and_trades_the_move_against_the_busiest_arm(row):
+    """:func:`coplan.row.stops.last_stop` (a live row's end, stop and go): the stop it returns
+    serves every fruit with the arms given; none when no candidate does; for one fruit it is the
+    candidate of least move plus cheapest round trip, computed here independently."""
+    from coplan.row.stops import last_stop
+
+    reach = row_reach(row)
+    g = row.gantry
+    x_of = {f.id: f.position[0] for f in row.fruits}
+    tail = sorted(reach.harvestable(), key=lambda f: (x_of[f], f))[-4:]
+    arms = list(range(len(row.arms)))
+    ks = range(reach.grid.size)
+    k = last_stop(row, reach, tail, ks, arms, float(reach.grid[0]))
+    assert k is not None and all(reach.cover[f][:, k].any() for f in tail)
+    # no candidate serves a fruit the given arms never reach
+    only = [a for a in arms if not reach.cover[tail[-1]][a].any()]
+    if only:
+        assert last_stop(row, reach, tail, ks, only, float(reach.grid[0])) is None
+    assert last_stop(row, reach, tail, [k for k in ks if not reach.cover[tail[0]][:, k].any()], arms, 0.0) is None
+    # one fruit: the least move + round trip, over every serving index
+    f = tail[0]
+    x0 = float(reach.grid[0])
+    trips = round_trips(row, reach, [f], np.arange(reach.grid.size))
+
+    def est(kk):
+        move = Move1D.between(0.0, abs(float(reach.grid[kk]) - x0), g.max_velocity, g.max_acceleration, g.max_jerk).duration
+        return min(t for (_, k2, _), t in trips.items() if k2 == kk) + move
+
+    serving = sorted({k2 for (_, k2, _) in trips})
+    got = last_stop(row, reach, [f], ks, arms, x0)
+    assert est(got) <= min(est(kk) for kk in serving) + 1e-5

@@ -76,7 +76,7 @@ class Booker:
         self.need = problem.task.clearance + margin
         self.n_pick = int(math.ceil(problem.task.pick_dwell * rate - 1e-9))
         self.n_place = int(math.ceil(problem.task.place_dwell * rate - 1e-9))
-        self.probes: set[str] = set()  # fruit whose cycle is a probe: the arm comes, finds nothing, goes back (no dwells)
+        self.probes: set[str] = set()  # fruit whose cycle is a probe: the arm comes, finds nothing, goes back (no dwells) --
         self.arms = [ArmState(np.tile(np.asarray(a.home, float), (1024, 1))) for a in problem.arms]
         self.events: list[Event] = []
         self.bin_q = [self._bin_pose(i) for i in range(len(problem.arms))]
@@ -90,6 +90,7 @@ class Booker:
         self._use = {} if branch_table is None else branch_table
         self.step = step  # m: the row screen's grid, on which a pick's elbow branch is screened
         self.leg_share = LIMIT_SHARE  # of the joint limits a move uses (AT_REST_SHARE: every pick at rest)
+        self.probe_rests = False  # -- or, with the carriage at rest, stays there (:meth:`_probe_stays`)
 
     # ------------------------------------------------------------------ poses
     def _bin_pose(self, i: int) -> np.ndarray:
@@ -233,6 +234,8 @@ class Booker:
         xy = self.fruit_xy[fid]
         t_p = k_p * dt
         t_pe = (k_p + n_pick) * dt
+        if fid in self.probes and self.probe_rests and self.cruise.state_one(t_p)[1] == 0.0 and t_p >= self.cruise.duration:
+            return self._probe_stays(i, fid, k0, q0, k_p, leg1)
         end_state = track_state(arm, xy, self.cruise, t_pe, b)
         try:
             leg2 = Leg(arm, end_state, np.array([qb, np.zeros(2), np.zeros(2)]), self.leg_share)
@@ -266,6 +269,18 @@ class Booker:
                                             Event(arm.name, fid, EventKind.PLACE, k_pl * dt, k_end * dt)]
         return Cycle(i, fid, k0, q, ev)
 
+    def _probe_stays(self, i: int, fid: str, k0: int, q0: np.ndarray, k_p: int, leg1: Leg) -> Cycle | None:
+        """A probe with the carriage at rest for good: the arm goes to the report, finds nothing
+        and rests there (its gripper is empty: no way back to the bin); its next cycle starts
+        from there, or it makes way (home) if it has none."""
+        dt = self.dt
+        ts = np.arange(k0, k_p + 1) * dt
+        s1 = k_p * dt - leg1.duration
+        q = np.where((ts < s1)[:, None], q0, leg1.sample(np.clip(ts - s1, 0.0, leg1.duration)))
+        if not self._within_limits(i, q) or not self._differences_within(i, q, _CYCLE_SHARES, at_rest=True):
+            return None
+        return Cycle(i, fid, k0, q, [])
+
     def commit(self, cyc: Cycle) -> None:
         st = self.arms[cyc.arm]
         k1 = cyc.k0 + cyc.q.shape[0]
@@ -292,16 +307,35 @@ class Booker:
         """Whether arm ``i`` rests at home at the end of what it has booked."""
         return bool(np.allclose(self.arms[i].q[self.arms[i].k_free], self.problem.arms[i].home, atol=1e-12))
 
+    def rests_out(self, i: int) -> bool:
+        """Whether arm ``i`` rests where a probe left it: neither at its bin nor home."""
+        q = self.arms[i].q[self.arms[i].k_free]
+        return not (self.at_home(i) or np.allclose(q, self.bin_q[i], atol=1e-12))
+
+    def go_bin(self, i: int) -> bool:
+        """Book arm ``i``'s move back to its bin (rest to rest), where a cycle would have ended."""
+        return self._go(i, self.bin_q[i], 0.0)
+
     def go_home(self, i: int, not_before: float = 0.0) -> bool:
         """Book arm ``i``'s move home (rest to rest), the earliest clear start; False if none
         within a minute of waiting."""
+        if self.at_home(i):
+            self.arms[i].done = True
+            return True
+        if self.rests_out(i):
+            self._go(i, self.bin_q[i], not_before)  # (from a probe's pose: by its bin, the way every cycle ends)
+        if self._go(i, np.asarray(self.problem.arms[i].home, float), not_before):
+            self.arms[i].done = True
+            return True
+        return False
+
+    def _go(self, i: int, target: np.ndarray, not_before: float) -> bool:
+        """Book arm ``i``'s rest-to-rest move to ``target``, the earliest clear start; False if
+        none within a minute of waiting."""
         arm = self.problem.arms[i]
         st = self.arms[i]
         q0 = st.q[st.k_free].copy()
-        home = np.asarray(arm.home, float)
-        if self.at_home(i):
-            st.done = True
-            return True
+        home = target
         leg = Leg(arm, np.array([q0, np.zeros(2), np.zeros(2)]), np.array([home, np.zeros(2), np.zeros(2)]), self.leg_share)
         k_s = max(st.k_free, self.up(not_before))
         for _ in range(int(60.0 / _RETRY)):
@@ -311,7 +345,6 @@ class Booker:
             q[-1] = home
             if self._clear(i, st.k_free, q):
                 self.commit(Cycle(i, "", st.k_free, q, []))
-                st.done = True
                 return True
             k_s += self.up(_RETRY)
         return False
@@ -386,7 +419,9 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
     ``taken`` (fruit already booked) carries over to the next phase, whose booker may have a new
     carriage motion from then on; ``make_way=True`` sends an arm that finds no clear cycle home
     before it tries again (with the carriage at rest, two arms each resting where the other
-    would pick would otherwise wait for each other for good)."""
+    would pick would otherwise wait for each other for good). An arm a probe left where it found
+    nothing (``probe_rests``) decides its next move at once: a cycle from there, else back to its
+    bin (an arm held out over its neighbours' fruit would block them)."""
     windows = booker.windows
     taken = taken if taken is not None else set()
     arms = booker.problem.arms
@@ -421,11 +456,17 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
             later = [seen[f] for f, w in cands if seen[f] > now and w.hi >= seen[f]]
             cands = [(f, w) for f, w in cands if seen[f] <= now]
             if not cands and later:  # nothing in view yet: wait for the camera's next report
+                if booker.rests_out(i) and booker.go_bin(i):
+                    heapq.heappush(queue, (booker.free_time(i), i))
+                    continue
                 booker.wait(i, max(booker.dt, min(later) - now))
                 heapq.heappush(queue, (booker.free_time(i), i))
                 continue
         if not cands:
-            booker.go_home(i)
+            if booker.rests_out(i) and booker.go_bin(i):
+                heapq.heappush(queue, (booker.free_time(i), i))  # (at its bin: home next, clear of a probe's pose)
+            else:
+                booker.go_home(i)
             continue
         first = None
         while pending[i] and first is None:
@@ -455,6 +496,9 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                     pending[i].pop(0)
                 booked = True
                 break
+        if booked and booker.rests_out(i):  # a probe that found nothing and rests there: its next move is decided now
+            heapq.heappush(queue, (-math.inf, i))
+            continue
         if not booked:
             if now >= booker.cruise.duration:  # the carriage at rest for good: a fruit no branch reaches
                 # from there (its close-range measurement moved it off the run's edge) never will be,
@@ -468,7 +512,7 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 by_arm[i] = [(fid, w) for fid, w in by_arm[i] if (fid, w.arm) not in gone]
             if first is not None:
                 pending[i].pop(0)  # the given order's next fruit does not fit: the greedy may take it
-            elif not (make_way and not booker.at_home(i) and booker.go_home(i)):  # (home: out of the way, it tries again)
+            elif not (make_way and not booker.at_home(i) and (booker.go_bin(i) if booker.rests_out(i) else booker.go_home(i))):  # (home: out of the way, it tries again)
                 soonest = min((c[1].lo for c in cands if c[1].lo > now), default=now + _RETRY)
                 booker.wait(i, max(_RETRY, min(soonest - now - 1.0, 1.0)))
         heapq.heappush(queue, (booker.free_time(i), i))

@@ -26,8 +26,13 @@ Entry point: :func:`run_live_row` -> :class:`LiveRow`, in either gantry mode.
   would leave every arm's reach, nor than puts the rear arm's base under the edge of what the
   camera has seen, so it passes no fruit unseen); the arms pick, with the carriage at rest, the
   fruit the next stop could not serve and those it shares with the next stop where they
-  lengthen the two stops least (:func:`_stop_share`), each arm's balanced; once the last pick
-  is over the carriage hops -- a time-optimal jerk-limited move -- while the arms place. An arm
+  lengthen the two stops least (:func:`coplan.row.stops.stop_share`), each arm's balanced; once the last pick
+  is over the carriage hops -- a time-optimal jerk-limited move -- while the arms place. Once
+  the camera has seen to the row's end (``gantry.end``), the hop goes to the one stop that
+  serves the rest in the least estimated time (:func:`coplan.row.stops.last_stop`), not the
+  farthest, where the arms beyond the last fruit would idle, and that stop takes it all. A
+  probe (a false report, or a second report of a fruit taken) ends where the arm finds nothing:
+  its gripper is empty, so it goes on to its next fruit from there, not by its bin. An arm
   that stops during a hop changes it: from the carriage's state then, it brakes to the nearest
   stop the working arms need (:func:`coplan.row.cruise.stop_from`), never back along the rail.
 * **Verified against the truth**: the executed motion is one ordinary row plan whose events
@@ -57,6 +62,7 @@ from ..problem.model import Fruit, Problem
 from .booking import Booker, run_policy, why_left
 from .continuous import MovingOptions, assemble_moving, plan_continuous
 from .cruise import Cruise, pick_windows, ramp_time
+from .stops import last_stop, stop_share
 from .stranded import still_reachable
 from .reach import row_reach
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
@@ -326,6 +332,7 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
     legs: list[tuple[float, float]] = []
     inset = int(math.ceil(2.0 * opts.sigma / reach.resolution - 1e-9))
     run.booker.leg_share = AT_REST_SHARE  # every pick with the carriage at rest: no tracking seam to allow for
+    run.booker.probe_rests = True  # a probe finds nothing with the carriage at rest: the arm goes on from there
     stops: list[dict] = []
 
     def edge_at(t: float) -> float:
@@ -341,6 +348,15 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
         then, the camera's look-ahead."""
         base = rear if all(t_h > t for t_h in faults.halt.values()) else front
         return min(grid.size - 1, int(math.floor((edge_at(t) - base - g.start) / reach.resolution + 1e-9)))
+
+    def working_at(t: float) -> list[int]:
+        return [a for a in range(len(problem.arms)) if a not in faults.halt or faults.halt[a] > t]
+
+    def remaining(k: int, t: float) -> list[str]:
+        """The fruit reported by ``t``, not taken, that a working arm serves from grid index ``k`` or beyond."""
+        working = working_at(t)
+        return [f for f, t_s in run.seen.items() if t_s <= t and f not in run.taken and f in reach.cover
+                and reach.cover[f][working][:, k:].any()]
 
     def next_stop(k: int, t_dep: float, here: bool = False) -> tuple[int, float]:
         """Where to hop from grid index ``k`` leaving at ``t_dep`` (``k``: nowhere), and when:
@@ -394,7 +410,10 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
         # camera lets it go now -- and what the arms can add in the time those take
         todo = [f for f, t in run.seen.items() if t <= t_arr and f not in run.taken]
         stopped = {a for a, t in faults.halt.items() if t <= t_arr}  # (the planner learns of a fault when it happens)
-        order, keep = _stop_share(run.seen_problem, reach, run.booker.windows, todo, k, cap_at(t_arr), stopped)
+        rest = remaining(k, t_arr)
+        last = edge_at(t_arr) >= g.end and all(reach.cover[f][working_at(t_arr)][:, k].any() for f in rest)
+        # (the rest of the row in view and in reach here: this stop takes it all)
+        order, keep = stop_share(run.seen_problem, reach, run.booker.windows, todo, k, k if last else cap_at(t_arr), stopped)
         run.booker.windows = {f: ws for f, ws in run.booker.windows.items() if f in keep}
         run.policy(order=order, halt=faults.halt, delay=faults.delay, make_way=True)
         picks = [e for e in run.booker.events[before:] if e.kind == EventKind.PICK]
@@ -403,6 +422,10 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
         nxt, t_dep = next_stop(k, t_dep)
         if nxt == k:
             break
+        if edge_at(t_dep) >= g.end:  # the rest of the row is in view: one stop may serve it all, nearer
+            rest = remaining(k + 1, t_dep)
+            best = last_stop(run.seen_problem, reach, rest, range(k + 1, nxt + 1), working_at(t_dep), float(grid[k]))
+            nxt = nxt if best is None else best
         legs.append((t_dep, float(grid[nxt])))
         cruise = Cruise.hops(problem, legs)
         t_arr = cruise.duration
@@ -430,55 +453,6 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
     run.booker.windows = windows
     left = {f: why_left(run.booker, f, faults.halt) for f in windows if f not in run.taken}
     return left, stops
-
-
-def _stop_share(problem: Problem, reach, windows: dict, todo: list[str], k: int, k_plan: int, stopped: set[int]):
-    """What the stop at grid index ``k`` harvests, and each working arm's fruit there in row
-    order, against the next stop the camera allows now (``k_plan``; ``todo``: the fruit reported
-    and not taken). Every fruit no carriage position from ``k_plan`` on serves (it would be
-    passed) is harvested here; a fruit both stops serve goes where it lengthens the two stops
-    together least (each stop as long as its busiest arm, by time-optimal bin -> fruit -> bin
-    round trips; fewest options first, ties to this stop); the fruit only the next one serves
-    load it from the start. Returns (order, kept fruit)."""
-    from .stops import round_trips
-
-    here = [f for f, ws in windows.items() if any(w.arm not in stopped for w in ws)]
-    allowed = {f: {w.arm for w in windows[f]} - stopped for f in here}
-    now: dict[str, list[tuple[float, int]]] = {}
-    for (f, _, a), c in (round_trips(problem, reach, here, np.array([k])) if here else {}).items():
-        if a in allowed[f]:
-            now.setdefault(f, []).append((c, a))
-    later: dict[str, list[tuple[float, int]]] = {}
-    if k_plan > k:
-        for (f, _, a), c in round_trips(problem, reach, [f for f in todo if f in reach.cover], np.array([k_plan])).items():
-            if a not in stopped:
-                later.setdefault(f, []).append((c, a))
-    working = [a for a in range(len(problem.arms)) if a not in stopped]
-    last = {f: int(np.flatnonzero(reach.cover[f][working].any(axis=0))[-1]) for f in now}
-    load = {0: [0.0] * len(problem.arms), 1: [0.0] * len(problem.arms)}  # this stop, the next
-    order: dict[int, list[str]] = {}
-
-    def put(f: str, o: list[tuple[float, int, int]]) -> None:
-        def cost(c: float, a: int, s: int) -> tuple:
-            grown = max(max(load[s]), load[s][a] + c) - max(load[s])
-            return grown, c, s, a
-        _, c, s, a = min(cost(*x) for x in o)
-        load[s][a] += c
-        if s == 0:
-            order.setdefault(a, []).append(f)
-
-    for f, o in sorted(later.items(), key=lambda it: (len(it[1]), it[0])):
-        if f not in now:
-            put(f, [(c, a, 1) for c, a in o])
-    both = sorted(now, key=lambda f: (last[f] >= k_plan > k and f in later, len(now[f]) + len(later.get(f, [])), f))
-    for f in both:
-        o = [(c, a, 0) for c, a in now[f]]
-        if last[f] >= k_plan > k:
-            o += [(c, a, 1) for c, a in later.get(f, [])]
-        put(f, o)
-    x = {f.id: f.position[0] for f in problem.fruits}
-    keep = {f for fs in order.values() for f in fs} | (set(windows) - set(here))  # (a stopped arm's: not booked)
-    return {a: sorted(fs, key=lambda f: (x[f], f)) for a, fs in order.items()}, keep
 
 
 def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraws, left: dict[str, str], cruise: Cruise,
