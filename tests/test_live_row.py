@@ -239,6 +239,7 @@ def test_coplan_run_stop_and_go_writes_a_verified_run_and_refuses_what_does_not_
     assert "stop and go" in res.output
     doc = json.loads((tmp_path / "live" / "run.json").read_text())
     assert doc["mode"] == "row stop and go" and doc["metrics"]["verified"] and doc["options"]["mode"] == "stop-and-go"
+    assert doc["options"]["speed"] is None  # (no cruising speed stop and go)
     assert verify(parse_problem(path.read_text()), load_plan(tmp_path / "live" / "plan.json")).passed
     for args, words in ((["--gantry", "stop-and-go", "--speed", "0.1"], "--speed: applies on the move"),
                         (["--gantry", "auto"], "is not one of")):

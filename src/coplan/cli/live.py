@@ -175,7 +175,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         if speed is not None:
             usage("--speed: applies on the move (--gantry continuous); stop and go, the carriage hops between stops at "
                   "the gantry's limits")
-        speed = 0.1  # unused
+        speed = 0.1  # unused (run.json records none)
     elif speed is None or not (speed == speed and 0.0 < speed <= vmax):
         usage(f"--speed: expected the carriage's cruising speed in (0, {vmax:g}] m/s (gantry.max_velocity), found "
               f"{'nothing' if speed is None else f'{speed:g}'} (or --gantry stop-and-go)")
@@ -185,7 +185,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
     doc = {"format": "coplan.run/1", "problem": prob.name,
            "mode": "row on the move" if mode == GantryMode.CONTINUOUS else "row stop and go",
            "options": {k: (v.value if k == "mode" else v) for k, v in opts.__dict__.items() if k != "faults"}
-           | {"faults": faults.__dict__},
+           | {"faults": faults.__dict__} | ({"speed": None} if mode == GantryMode.STOP_AND_GO else {}),  # (no cruising speed)
            "detections": [{"id": d.id, "position": list(d.position), "t": d.t, "fruit": d.truth} for d in res.detections],
            "outcome": res.outcome, "metrics": res.metrics}
     res.plan.problem_file = prob.file_record()  # (coplan view / plot / animate find the row from the plan)
