@@ -345,3 +345,31 @@ def test_a_probe_at_rest_stays_where_it_found_nothing_and_the_arm_goes_on_from_t
             way = home.arms[a].q[k:home.arms[a].k_free + 1]
             assert np.any(np.all(np.isclose(way, home.bin_q[a], atol=1e-12), axis=1))  # by its bin
     assert ends[True][0] < ends[False][0] and ends[True][1] < ends[False][1]  # shorter, and the next pick sooner
+
+
+def test_stop_and_go_shares_a_stop_only_among_fruit_not_taken(row, monkeypatch):
+    """Regression: each stop's share (:func:`coplan.row.stops.stop_share`) was priced over every
+    report in view, the fruit harvested at the stops before included -- in the rear arm's reach
+    at the next stop, they loaded that arm on paper and it idled. Now no stop's share counts a
+    report whose fruit was picked before the carriage arrived (a second report of one is the
+    planner's to find out at close range: not counted here)."""
+    from coplan.row import live
+
+    seen = []
+    real = live.stop_share
+
+    def spy(problem, reach, windows, todo, k, k_plan, stopped):
+        seen.append(set(windows))
+        return real(problem, reach, windows, todo, k, k_plan, stopped)
+
+    monkeypatch.setattr(live, "stop_share", spy)
+    res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=4))
+    assert res.verification.passed and res.metrics["of_offline"] == 1.0
+    truth = {d.id: d.truth for d in res.detections}
+    once = {t for t in truth.values() if t is not None and list(truth.values()).count(t) == 1}
+    picked = {e.fruit: e.t_start for e in res.plan.events if e.kind == EventKind.PICK}
+    stops = res.plan.solver["row"]["stops"]
+    assert len(seen) == len(stops) >= 2
+    for ids, stop in zip(seen, stops):
+        before = {d for d in ids if truth.get(d) in once and picked.get(truth[d], math.inf) < stop["arrive"] - 1e-9}
+        assert not before, (stop, sorted(before))
