@@ -91,6 +91,7 @@ class Booker:
         self.step = step  # m: the row screen's grid, on which a pick's elbow branch is screened
         self.leg_share = LIMIT_SHARE  # of the joint limits a move uses (AT_REST_SHARE: every pick at rest)
         self.probe_rests = False  # -- or, with the carriage at rest, stays there (:meth:`_probe_stays`)
+        self.cycle_shares = _CYCLE_SHARES  # of the limits a whole cycle's finite differences may reach
 
     # ------------------------------------------------------------------ poses
     def _bin_pose(self, i: int) -> np.ndarray:
@@ -198,19 +199,17 @@ class Booker:
                 if not brs:
                     k_p += max(1, self.up(_RETRY))
                     continue
-                best = None
+                legs = []
                 for b in brs:
                     target = track_state(arm, xy, self.cruise, t_p, b)
                     try:
-                        leg = Leg(arm, rest, target, self.leg_share)
+                        legs.append((b, Leg(arm, rest, target, self.leg_share)))
                     except LegError:
                         continue
-                    if best is None or leg.duration < best[1].duration:
-                        best = (b, leg, target)
-                if best is None:
+                if not legs:
                     k_p += max(1, self.up(_RETRY))
                     continue
-                b, leg1, target = best
+                b, leg1 = min(legs, key=lambda bl: bl[1].duration)
                 if t_p - leg1.duration >= k_from * self.dt - 1e-9:
                     break
                 k_p = max(k_p + 1, self.up(k_from * self.dt + leg1.duration))
@@ -219,6 +218,11 @@ class Booker:
             cyc = self._assemble(i, fid, k0, q0, k_p, b, leg1, qb)
             if cyc is not None and self._clear(i, k0, cyc.q):
                 return cyc
+            for b2, leg2 in legs:  # the other elbow branch, if it arrives in time, may go round what is in the way
+                if b2 != b and k_p * self.dt - leg2.duration >= k_from * self.dt - 1e-9:
+                    cyc = self._assemble(i, fid, k0, q0, k_p, b2, leg2, qb)
+                    if cyc is not None and self._clear(i, k0, cyc.q):
+                        return cyc
             # later, by steps that grow (a neighbour in the way for long is not probed every 0.1 s)
             t_p = k_p * self.dt + retry
             retry *= _RETRY_GROWTH
@@ -263,7 +267,7 @@ class Booker:
         if back.stop > back.start:
             q[back] = leg2.sample(ts[back] - t_pe)
         q[k_pl - k0:] = qb
-        if not self._within_limits(i, q) or not self._differences_within(i, q, _CYCLE_SHARES, at_rest=True):
+        if not self._within_limits(i, q) or not self._differences_within(i, q, self.cycle_shares, at_rest=True):
             return None
         ev = [] if fid in self.probes else [Event(arm.name, fid, EventKind.PICK, t_p, t_pe),
                                             Event(arm.name, fid, EventKind.PLACE, k_pl * dt, k_end * dt)]
@@ -277,7 +281,7 @@ class Booker:
         ts = np.arange(k0, k_p + 1) * dt
         s1 = k_p * dt - leg1.duration
         q = np.where((ts < s1)[:, None], q0, leg1.sample(np.clip(ts - s1, 0.0, leg1.duration)))
-        if not self._within_limits(i, q) or not self._differences_within(i, q, _CYCLE_SHARES, at_rest=True):
+        if not self._within_limits(i, q) or not self._differences_within(i, q, self.cycle_shares, at_rest=True):
             return None
         return Cycle(i, fid, k0, q, [])
 

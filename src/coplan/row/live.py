@@ -67,7 +67,7 @@ from .stranded import still_reachable
 from .reach import row_reach
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
                       row_detections, row_reports)
-from .track import AT_REST_SHARE
+from .track import AT_REST_CYCLE_SHARE, AT_REST_SHARE
 
 #: After an arm stops, the carriage runs at this share of the working arms' share of its speed ...
 STOP_SLOWDOWN = 0.5
@@ -332,6 +332,7 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
     legs: list[tuple[float, float]] = []
     inset = int(math.ceil(2.0 * opts.sigma / reach.resolution - 1e-9))
     run.booker.leg_share = AT_REST_SHARE  # every pick with the carriage at rest: no tracking seam to allow for
+    run.booker.cycle_shares = (AT_REST_CYCLE_SHARE,) * 3
     run.booker.probe_rests = True  # a probe finds nothing with the carriage at rest: the arm goes on from there
     stops: list[dict] = []
 
