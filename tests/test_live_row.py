@@ -358,9 +358,9 @@ def test_stop_and_go_shares_a_stop_only_among_fruit_not_taken(row, monkeypatch):
     seen = []
     real = live.stop_share
 
-    def spy(problem, reach, windows, todo, k, k_plan, stopped):
+    def spy(problem, reach, windows, *rest):
         seen.append(set(windows))
-        return real(problem, reach, windows, todo, k, k_plan, stopped)
+        return real(problem, reach, windows, *rest)
 
     monkeypatch.setattr(live, "stop_share", spy)
     res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=4))

@@ -354,3 +354,38 @@ def test_last_stop_serves_every_fruit_and_trades_the_move_against_the_busiest_ar
     serving = sorted({k2 for (_, k2, _) in trips})
     got = last_stop(row, reach, [f], ks, arms, x0)
     assert est(got) <= min(est(kk) for kk in serving) + 1e-5
+
+
+def test_stop_share_takes_what_the_next_stop_cannot_and_leaves_it_only_what_it_keeps_in_reach(row):
+    """:func:`coplan.row.stops.stop_share` (a live row, stop and go): every fruit in reach here
+    that no working arm serves from ``inset`` steps beyond the next stop on is taken here; a fruit
+    left to the next stop stays in reach that far; a stopped arm is given nothing; with the next
+    stop the same as this one (the row's end in view), everything in reach here is taken."""
+    from coplan.row.cruise import Cruise, pick_windows
+    from coplan.row.stops import stop_share
+
+    reach = row_reach(row)
+    k = int(np.searchsorted(reach.grid, 4.0))
+    k_plan = int(np.searchsorted(reach.grid, 7.0))
+    cruise = Cruise.hops(row, [(0.0, float(reach.grid[k]))])
+    windows = {f: [w for w in ws if w.hi >= cruise.duration] for f, ws in
+               pick_windows(row, reach, cruise, row.task.pick_dwell).items()}
+    windows = {f: ws for f, ws in windows.items() if ws}
+    todo = reach.harvestable()
+    for stopped, inset in (set(), 0), ({1}, 0), (set(), 2):
+        working = [a for a in range(len(row.arms)) if a not in stopped]
+        order, keep = stop_share(row, reach, windows, todo, k, k_plan, stopped, inset)
+        here = {f for fs in order.values() for f in fs}
+        assert not (set(order) & stopped) and here <= set(windows)
+        served_here = {f for f in windows if any(w.arm in working for w in windows[f])}
+        forced = 0
+        for f in served_here:
+            last = int(np.flatnonzero(reach.cover[f][working].any(axis=0))[-1])
+            if last - inset < k_plan:
+                forced += 1
+                assert f in here, (f, last, k_plan)
+        assert 0 < forced < len(served_here)  # (both kinds present: the test means something)
+        everything, _ = stop_share(row, reach, windows, todo, k, k, stopped, inset)
+        priced = {f for (f, _, a) in round_trips(row, reach, sorted(served_here), np.array([k]))
+                  if a in working and any(w.arm == a for w in windows[f])}
+        assert {f for fs in everything.values() for f in fs} == priced and here <= priced and len(priced) > 0

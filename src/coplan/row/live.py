@@ -415,7 +415,7 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
         last = edge_at(t_arr) >= g.end and all(reach.cover[f][working_at(t_arr)][:, k].any() for f in rest)
         # (the rest of the row in view and in reach here: this stop takes it all)
         open_ = {f: ws for f, ws in run.booker.windows.items() if f not in run.taken}  # (a fruit taken loads no arm)
-        order, keep = stop_share(run.seen_problem, reach, open_, todo, k, k if last else cap_at(t_arr), stopped)
+        order, keep = stop_share(run.seen_problem, reach, open_, todo, k, k if last else cap_at(t_arr), stopped, inset)
         run.booker.windows = {f: ws for f, ws in run.booker.windows.items() if f in keep}
         run.policy(order=order, halt=faults.halt, delay=faults.delay, make_way=True)
         picks = [e for e in run.booker.events[before:] if e.kind == EventKind.PICK]

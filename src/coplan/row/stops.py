@@ -273,7 +273,8 @@ def last_stop(problem: Problem, reach: RowReach, fruit: list[str], ks, arms: lis
     return None if best is None else best[1]
 
 
-def stop_share(problem: Problem, reach, windows: dict, todo: list[str], k: int, k_plan: int, stopped: set[int]):
+def stop_share(problem: Problem, reach, windows: dict, todo: list[str], k: int, k_plan: int, stopped: set[int],
+               inset: int = 0):
     """What the stop at grid index ``k`` harvests, and each working arm's fruit there in row
     order, against the next stop the camera allows now (``k_plan``; ``todo``: the fruit reported
     and not taken). Every fruit no carriage position from ``k_plan`` on serves (it would be
@@ -285,7 +286,9 @@ def stop_share(problem: Problem, reach, windows: dict, todo: list[str], k: int, 
     density does not change much in one hop): a fruit both serve goes to the next stop's rear
     arm when that arm's round trip is cheaper, rather than fill this stop's front arm for free
     and leave that rear arm little -- the imbalance that made stop and go 1.13-1.31 x the
-    offline plan's row time on the benchmark rows. Returns (order, kept fruit)."""
+    offline plan's row time on the benchmark rows. A fruit is left to the next stop only if
+    it stays in reach ``inset`` grid steps beyond it (the margin the next stop keeps from a
+    fruit's last chance: the hop is not shortened for it). Returns (order, kept fruit)."""
     here = [f for f, ws in windows.items() if any(w.arm not in stopped for w in ws)]
     allowed = {f: {w.arm for w in windows[f]} - stopped for f in here}
     now: dict[str, list[tuple[float, int]]] = {}
@@ -298,7 +301,7 @@ def stop_share(problem: Problem, reach, windows: dict, todo: list[str], k: int, 
             if a not in stopped:
                 later.setdefault(f, []).append((c, a))
     working = [a for a in range(len(problem.arms)) if a not in stopped]
-    last = {f: int(np.flatnonzero(reach.cover[f][working].any(axis=0))[-1]) for f in now}
+    last = {f: int(np.flatnonzero(reach.cover[f][working].any(axis=0))[-1]) - inset for f in now}
     load = {0: [0.0] * len(problem.arms), 1: [0.0] * len(problem.arms)}  # this stop, the next
     order: dict[int, list[str]] = {}
 
