@@ -415,3 +415,31 @@ def test_the_row_view_follows_the_carriage(browser, row_page):
     assert log["errors"] == []
     assert len(log["requests"]) == 1 and log["requests"][0].startswith(path.as_uri())  # the page itself, nothing else
     page.close()
+
+
+def test_a_row_plan_s_stops_and_bound_in_the_viewer_data():
+    """The row strip's stops are where the carriage stood still for a pick: as many as the stop
+    rule made stop and go, none on the move at a constant speed; a live row's plan (no row
+    metrics of its own) is shown against the row's lower bound, not a cell's."""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+    from coplan.row.bound import row_bounds
+    from coplan.row.continuous import MovingOptions
+    from coplan.row.live import LiveRowOptions, run_live_row
+    from coplan.viz.viewer import viewer_data
+
+    prob = parse_problem(to_yaml(gantry_row(length=10.0, density=3.0, seed=3)))
+    stop = coplan.solve(prob, stops="fewest")
+    moving = coplan.solve(prob, gantry="continuous", options=MovingOptions(profile="constant", level=0.2))
+    data = viewer_data(prob, [stop.plan, moving.plan])
+    assert len(data["problem"]["row"]["stops"][0]) == stop.plan.metrics["row"]["stops"]
+    on_move = data["problem"]["row"]["stops"][1]  # (only where the carriage stood: its end, a hold)
+    picks = sum(e.kind == EventKind.PICK for e in moving.plan.events)
+    x = moving.plan.gantry_x
+    rest = x[1:][np.abs(np.diff(x)) < 1e-12]
+    assert sum(len(s["fruit"]) for s in on_move) < picks / 2
+    assert all(np.abs(rest - s["x"]).min() < 1e-9 for s in on_move)
+    live = run_live_row(prob, LiveRowOptions(speed=0.2, seed=1))
+    bound = row_bounds(prob).any_plan
+    assert viewer_data(prob, [live.plan])["lower_bound"] == pytest.approx(bound)
+    assert live.plan.metrics["makespan"] >= bound - 1e-6 and live.plan.metrics["lower_bound"] == pytest.approx(bound)

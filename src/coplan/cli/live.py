@@ -197,7 +197,8 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
     if as_json:
         typer.echo(json.dumps(jsonable(m), allow_nan=False))
     else:
-        how = f"on the move at {speed:g} m/s" if mode == GantryMode.CONTINUOUS else f"stop and go ({m['stops']} stops)"
+        idle = f", {m['stops_without_picks']} of them without a pick" if m.get("stops_without_picks") else ""
+        how = f"on the move at {speed:g} m/s," if mode == GantryMode.CONTINUOUS else f"stop and go, {m['stops']} stops{idle},"
         share = ("nothing for the offline plan (full knowledge) to harvest" if m["of_offline"] is None else
                  f"{100 * m['of_offline']:.1f} % of what the offline plan (full knowledge) harvests")
         ratio = "" if m["row_time_ratio"] is None else f" = {m['row_time_ratio']:.3f} x the offline plan's"
@@ -210,11 +211,12 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             faults_line += f"missed {len(missed)} fruit: " + "; ".join(_safe(w) for w in missed[:3]) + (
                 f"; ... and {len(missed) - 3} more (run.json: outcome)" if len(missed) > 3 else "") + "\n"
         _out.print(
-            f"{_safe(prob.name)} live {how} (camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
-            f"{m['false_reports']} false reports): {m['harvested']} fruit harvested, {share}; row time "
+            f"{_safe(prob.name)} live {how} camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
+            f"{m['false_reports']} false reports: {m['harvested']} fruit harvested, {share}; row time "
             f"{m['row_time']:.1f} s{ratio}\n{m['decisions']} decisions, slowest {1000 * m['decision_max_seconds']:.1f} ms "
             f"against {cycle} ({'kept ahead' if m['kept_ahead'] else 'LATE'}); {m['probes']} probes of false or repeated "
             f"reports\n{faults_line}executed plan {res.plan.status.value} "
-            f"({'verified' if m['verified'] else 'verification FAILED'}); wrote {_safe(out)}/plan.json, run.json",
+            f"({'verified' if m['verified'] else 'verification FAILED'}); wrote {_safe(out)}/: "
+            + ", ".join(sorted(p.name for p in Path(out).iterdir() if p.is_file() and not p.name.startswith("."))),
             highlight=False)
     raise typer.Exit(int(status_exit_code(res.plan.status)))

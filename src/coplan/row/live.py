@@ -64,6 +64,7 @@ from .continuous import MovingOptions, assemble_moving, plan_continuous
 from .cruise import Cruise, pick_windows, ramp_time
 from .stops import last_stop, stop_share
 from .stranded import still_reachable
+from .bound import row_bounds
 from .reach import row_reach
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
                       row_detections, row_reports)
@@ -478,6 +479,7 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraw
     for st in booker.arms:
         st.fruit = [by_id[f].truth for f in st.fruit if f not in booker.probes and f not in run.misses]
     plan = assemble_moving(problem, booker, cruise)
+    plan.metrics["lower_bound"] = row_bounds(problem).any_plan  # (the row's, for any motion: as coplan solve's)
     ver = verify(problem, plan)
     plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
     got = {e.fruit for e in events if e.kind == EventKind.PLACE}
@@ -535,7 +537,9 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraw
         "faults": faults.log, "missed_reachable_by_a_working_arm": missed_reachable,
         "holds_for_fruit": len(run.holds), "hold_seconds": round(sum(h["seconds"] for h in run.holds), 3),
         "verified": ver.passed, "speed": opts.speed if mode == GantryMode.CONTINUOUS else None,
-        "stops": len(stops) if stops is not None else None, "look_ahead": opts.look_ahead, "sigma": opts.sigma,
+        "stops": len(stops) if stops is not None else None,
+        "stops_without_picks": sum(not st["picks"] for st in stops) if stops is not None else None,
+        "look_ahead": opts.look_ahead, "sigma": opts.sigma,
         "false_rate": opts.false_rate, "seed": opts.seed,
     }
     row = {"mode": f"{mode.value}-live", "left_out": {k: v for k, v in outcome.items() if v != "harvested"}}

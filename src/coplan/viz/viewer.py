@@ -181,7 +181,8 @@ def _carriage_cell(problem: Problem) -> Problem:
 
 
 def _row_data(problem: Problem, plans: list[Plan]) -> dict:
-    """What the row strip draws: the rail, the arms' reach along it, each plan's stops."""
+    """What the row strip draws: the rail, the arms' reach along it, each plan's stops (where
+    the carriage stood still for a pick; a pick on the move is no stop)."""
     g = problem.gantry
     lo = min(a.base[0] - a.reach for a in problem.arms)
     hi = max(a.base[0] + a.reach for a in problem.arms)
@@ -189,9 +190,12 @@ def _row_data(problem: Problem, plans: list[Plan]) -> dict:
     for p in plans:
         x = np.asarray(p.gantry_x, float)
         mine = []
-        for e in p.events:
+        for e in sorted(p.events, key=lambda e: e.t_start):
             if e.kind == EventKind.PICK:
                 k = min(int(round(e.t_start / p.dt)), x.size - 1)
+                k1 = min(int(round(e.t_end / p.dt)), x.size - 1)
+                if np.ptp(x[k:k1 + 1]) > 1e-9:
+                    continue  # picked on the move
                 if mine and abs(mine[-1]["x"] - x[k]) <= 1e-6:
                     mine[-1]["fruit"].append(e.fruit)
                 else:
@@ -342,7 +346,11 @@ def viewer_data(problem: Problem, plans: list[Plan], verifications: list | None 
     vers = list(verifications) if verifications is not None else [None] * len(plans)
     vers = [v if v is not None else verify(problem, p) for p, v in zip(plans, vers)]
     bound = next((p.metrics.get("lower_bound") for p in plans if (p.metrics or {}).get("lower_bound") is not None), None)
-    if bound is None and problem.reachable_ids():
+    if bound is None and problem.gantry is not None:  # a row plan from elsewhere (a live run's): the row's bound
+        from ..row.bound import row_bounds
+
+        bound = row_bounds(problem).any_plan
+    elif bound is None and problem.reachable_ids():
         from ..allocate.allocation import bound_details
 
         bound = bound_details(problem).value
