@@ -154,3 +154,31 @@ def test_zero_reachable_fruit_same_exit_code_from_solve_and_verify(tmp_path: Pat
         assert res.exit_code == ExitCode.INFEASIBLE, res.output
         res = run("verify", str(prob), str(out / "plan.json"))
         assert res.exit_code == ExitCode.INFEASIBLE, res.output
+
+
+@pytest.mark.parametrize("gantry", ["stop-and-go", "continuous"])
+def test_a_row_plan_csv_carries_the_carriage_and_verifies_with_every_pick_inferred(tmp_path: Path, gantry: str) -> None:
+    """A row's plan.csv has the carriage's position (``gantry_x``, after ``t``); ``coplan verify``
+    reads it back and infers every pick in the row frame -- at rest, or on the move with the
+    joints carrying the tip along -- and every place over the bin the carriage carries: the same
+    fruit, arms and verdict as the plan.json the events were declared in."""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+    from coplan.row.continuous import MovingOptions
+
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=8.0, density=3.0, seed=4)))
+    prob = parse_problem(path.read_text())
+    opts = MovingOptions(profile="constant", level=0.2) if gantry == "continuous" else None
+    res = coplan.solve(prob, gantry=gantry, options=opts, out_dir=tmp_path / "o")
+    assert res.verification.passed
+    header = (tmp_path / "o" / "plan.csv").read_text().splitlines()[0]
+    assert header.startswith("t,gantry_x,")
+    csv_plan = load_plan(tmp_path / "o" / "plan.csv")
+    assert np.allclose(csv_plan.gantry_x, res.plan.gantry_x, atol=1e-7)
+    ver = verify(prob, csv_plan)
+    declared = sorted((e.arm, e.fruit, e.kind.value) for e in res.plan.events)
+    inferred = sorted((e.arm, e.fruit, e.kind.value) for e in ver.inferred_events)
+    assert ver.passed and inferred == declared and len(declared) > 0
+    r = CliRunner().invoke(app, ["verify", str(path), str(tmp_path / "o" / "plan.csv")])
+    assert r.exit_code == 0 and "inferred" in r.output

@@ -173,8 +173,9 @@ class Plan:
         tmp.write_text(json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
         tmp.replace(paths["json"])
 
-        cols = [self.time[:, None]] + [self.q[a] for a in self.q]
-        np.savetxt(paths["csv"], np.hstack(cols), delimiter=",", header=csv_header(self.q), comments="", fmt="%.7f")
+        cols = [self.time[:, None]] + ([] if self.gantry_x is None else [self.gantry_x[:, None]]) + [self.q[a] for a in self.q]
+        np.savetxt(paths["csv"], np.hstack(cols), delimiter=",", header=csv_header(self.q, self.gantry_x is not None),
+                   comments="", fmt="%.7f")
         np.savez_compressed(paths["npz"], time=self.time, **{f"q_{a}": q for a, q in self.q.items()})
         return paths
 
@@ -394,12 +395,12 @@ def time_grid_issues(time: np.ndarray) -> list[tuple[int | None, str]]:
 
 def _plan_from_csv(raw: bytes, source: str | None) -> Plan:
     """The :class:`Plan` of a ``plan.csv`` (no events), its time grid checked."""
-    time, q, lines = read_csv_samples(raw, source)
+    time, q, lines, gantry_x = read_csv_samples(raw, source)
     grid = time_grid_issues(time)
     if grid:
         raise PlanFileError([Issue("t", msg, None if i is None else int(lines[i])) for i, msg in grid], source)
     return Plan(problem="", planner=CSV_PLANNER, status=PlanStatus.UNVERIFIED, time=time, q=q, events=[],
-                allocation={}, unreachable=[])
+                allocation={}, unreachable=[], gantry_x=gantry_x)
 
 
 def plan_from_dict(data: Any, source: str | None = None) -> Plan:

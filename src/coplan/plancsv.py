@@ -2,7 +2,9 @@
 
 One header row, ``t,<arm>_q1,<arm>_q2,...`` (written with the :mod:`csv` module, so an arm
 name with a comma, a quote or a line break is quoted and survives), then one row per sample:
-the time (s) and each arm's two joint angles (rad), seven decimals. The table holds the
+the time (s) and each arm's two joint angles (rad), seven decimals. A row plan has a column
+``gantry_x`` after ``t``: the carriage's position (m), on which the verifier puts the bases,
+the bins and the fruit in the carriage frame (without it a row plan cannot be checked). The table holds the
 motion only -- no events, allocation or metrics -- so a plan read from it has no events and
 the verifier infers them from the motion (:mod:`coplan.verify.infer`).
 
@@ -26,11 +28,13 @@ __all__ = ["csv_header", "read_csv_samples", "CSV_PLANNER"]
 CSV_PLANNER = "unknown (plan.csv)"  # a CSV replay does not say which planner made it
 
 
-def csv_header(arm_names: Iterable[str]) -> str:
-    """The header row (no line end): ``t`` and ``<arm>_q1``, ``<arm>_q2`` per arm, CSV-quoted."""
+def csv_header(arm_names: Iterable[str], carriage: bool = False) -> str:
+    """The header row (no line end): ``t`` (then ``gantry_x`` for a row: ``carriage``) and
+    ``<arm>_q1``, ``<arm>_q2`` per arm, CSV-quoted."""
     buf = io.StringIO()
     # (the line end is what makes the writer quote a name holding \r or \n: then dropped)
-    csv.writer(buf, lineterminator="\r\n").writerow(["t"] + [f"{a}_q{k}" for a in arm_names for k in (1, 2)])
+    csv.writer(buf, lineterminator="\r\n").writerow(["t"] + (["gantry_x"] if carriage else [])
+                                                    + [f"{a}_q{k}" for a in arm_names for k in (1, 2)])
     return buf.getvalue().removesuffix("\r\n")
 
 
@@ -39,7 +43,7 @@ def _arm_names(header: list[str]) -> tuple[list[str], str | None]:
     expect = "a header row 't,<arm>_q1,<arm>_q2,...'"
     if not header or header[0].strip() != "t":
         return [], f"expected {expect}, found first column {header[0] if header else ''!r}"
-    cols = header[1:]
+    cols = header[2:] if len(header) > 1 and header[1].strip() == "gantry_x" else header[1:]
     if not cols or len(cols) % 2:
         return [], f"expected {expect} (two columns per arm), found {len(cols)} column{'s' if len(cols) != 1 else ''} after t"
     names = []
@@ -53,10 +57,11 @@ def _arm_names(header: list[str]) -> tuple[list[str], str | None]:
     return names, None
 
 
-def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
-    """Read a ``plan.csv`` (bytes of the file): ``(time, q, lines)`` -- the times (N,), each arm's
-    joint angles (N, 2) and the file line of each sample (N,), for errors about the time grid,
-    which :func:`coplan.plan.load_plan` checks when it builds the :class:`~coplan.plan.Plan`."""
+def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray, np.ndarray | None]:
+    """Read a ``plan.csv`` (bytes of the file): ``(time, q, lines, gantry_x)`` -- the times (N,),
+    each arm's joint angles (N, 2), the file line of each sample (N,), for errors about the time
+    grid, which :func:`coplan.plan.load_plan` checks when it builds the :class:`~coplan.plan.Plan`,
+    and a row plan's carriage positions (N,) (None: a cell's table)."""
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as e:
@@ -73,7 +78,8 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
         raise PlanFileError([Issue("", why, 1)], source)
     first = reader.line_num + 1  # the header may span lines (a quoted name with a line break)
     body = buf.read().splitlines()
-    width = 1 + 2 * len(names)
+    row = int(header[1].strip() == "gantry_x")  # (a carriage column after t)
+    width = 1 + row + 2 * len(names)
     rows = np.empty((len(body), width))
     lines = np.zeros(len(body), dtype=int)  # the file line of each row
     issues: list[Issue] = []
@@ -84,8 +90,8 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
         cells = line.split(",")
         where = first + k
         if len(cells) != width:
-            issues.append(Issue("", f"expected {width} values (t and two angles for each of {len(names)} arm"
-                                    f"{'s' if len(names) != 1 else ''}), found {len(cells)}", where))
+            issues.append(Issue("", f"expected {width} values (t{', gantry_x' if row else ''} and two angles for each of "
+                                    f"{len(names)} arm{'s' if len(names) != 1 else ''}), found {len(cells)}", where))
         else:
             try:
                 rows[n] = [float(c) for c in cells]
@@ -103,8 +109,8 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
     if issues:
         raise PlanFileError(issues, source)
     rows = rows[:n]
-    q = {a: rows[:, 1 + 2 * i: 3 + 2 * i].copy() for i, a in enumerate(names)}
-    return rows[:, 0], q, lines[:n]
+    q = {a: rows[:, 1 + row + 2 * i: 3 + row + 2 * i].copy() for i, a in enumerate(names)}
+    return rows[:, 0], q, lines[:n], (rows[:, 1].copy() if row else None)
 
 
 def _is_float(text: str) -> bool:

@@ -8,7 +8,9 @@ faster than ``still_speed`` (the same bound on the linear replay the verifier us
 least the dwell less ``dwell_tolerance``. Holds are taken in time order over all arms:
 
 * a hold on a fruit the arm can reach, while the arm holds nothing and nobody picked that
-  fruit yet, is a **pick** (the earliest hold wins a fruit two arms visit);
+  fruit yet, is a **pick** (the earliest hold wins a fruit two arms visit); in a row (a
+  ``plan.csv`` with its ``gantry_x`` column) the tip holds still in the row frame, the carriage
+  at rest or moving, as the verifier checks a declared pick (:mod:`coplan.verify.hold`);
 * the next hold over the arm's bin is its **place**.
 
 Each inferred event spans its whole hold, so the verifier then checks it like a declared one.
@@ -19,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kinematics import arm as kin
 from .clearance import ArmMotion, runs
+from .hold import holds_on
 from ..plan import Event, EventKind, Plan
 from ..problem.model import Problem
 from .verdict import VerifyOptions
@@ -28,19 +30,16 @@ from .verdict import VerifyOptions
 __all__ = ["infer_events"]
 
 
-def _holds(m: ArmMotion, tip: np.ndarray, time: np.ndarray, still: np.ndarray, target, min_hold: float,
-           opts: VerifyOptions) -> list[tuple[float, float]]:
-    """``(t_start, t_end)`` of every run of intervals with the tip on ``target`` and the arm still."""
-    idx = np.flatnonzero(still)
-    if not idx.size:
+def _holds(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, min_hold: float, opts: VerifyOptions,
+           row_frame: bool = False, near: np.ndarray | None = None) -> list[tuple[float, float]]:
+    """``(t_start, t_end)`` of every run of intervals over which the arm holds on ``target``
+    (:func:`coplan.verify.hold.holds_on`: the verifier's own test), at least ``min_hold`` long;
+    ``near``: the intervals worth testing (all by default)."""
+    n = np.arange(time.size - 1) if near is None else near
+    if not n.size:
         return []
-    dt = time[1] - time[0]
-    pos = np.asarray(target, float)
-    d0 = np.hypot(*(tip[idx] - pos).T)
-    d1 = np.hypot(*(tip[idx + 1] - pos).T)
-    # the tip stays within (d0 + d1 + V dt) / 2 of the target over the whole interval
-    on = np.zeros(still.size, dtype=bool)
-    on[idx] = (d0 + d1 + m.speed[idx] * dt) / 2 <= opts.position_tolerance
+    on = np.zeros(time.size - 1, dtype=bool)
+    on[n] = holds_on(m, tip, time, target, n, opts, row_frame)
     out = []
     for a, b in runs(on):
         t0, t1 = float(time[a]), float(time[b + 1])
@@ -59,17 +58,25 @@ def infer_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: V
         return []
     dwell_tol = plan.dt if opts.dwell_tolerance is None else opts.dwell_tolerance
     task = problem.task
-    reach = problem.reach_matrix()
+    row = problem.gantry is not None  # picks in the row frame, places over the bin the carriage carries
+    reach = None if row else problem.reach_matrix()
     holds: list[tuple[float, float, str, EventKind, str | None]] = []
     for ia, (arm, m) in enumerate(zip(problem.arms, motions)):
-        tip = kin.fk(m.q, m.links, m.base)[1]
-        still = m.speed <= opts.still_speed
+        tip = m.tips()  # (the row frame for a row: the carriage's shift included)
+        still = np.flatnonzero(m.speed <= opts.still_speed)  # (a cell's holds, and every place)
         for j, f in enumerate(problem.fruits):
-            if reach[ia, j]:
-                holds += [(t0, t1, arm.name, EventKind.PICK, f.id)
-                          for t0, t1 in _holds(m, tip, time, still, f.position, task.pick_dwell - dwell_tol, opts)]
+            if row:  # only where the tip comes near the fruit (a long row, many fruit)
+                close = np.hypot(*(tip - np.asarray(f.position, float)).T) <= opts.position_tolerance + 0.05
+                near = np.flatnonzero(close[:-1] | close[1:])
+            elif not reach[ia, j]:
+                continue
+            else:
+                near = still
+            holds += [(t0, t1, arm.name, EventKind.PICK, f.id)
+                      for t0, t1 in _holds(m, tip, time, f.position, task.pick_dwell - dwell_tol, opts, row, near)]
+        bin_at = arm.bin if not row else np.asarray(arm.bin, float) + np.c_[np.asarray(plan.gantry_x, float), np.zeros(time.size)]
         holds += [(t0, t1, arm.name, EventKind.PLACE, None)
-                  for t0, t1 in _holds(m, tip, time, still, arm.bin, task.place_dwell - dwell_tol, opts)]
+                  for t0, t1 in _holds(m, tip, time, bin_at, task.place_dwell - dwell_tol, opts, False, still)]
     holds.sort(key=lambda h: (h[0], h[2], h[3] != EventKind.PICK))
     holding: dict[str, str] = {}
     picked: set[str] = set()

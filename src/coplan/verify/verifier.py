@@ -60,6 +60,7 @@ from .clearance import ArmMotion, arm_motions, certify_pair, clearance_profile, 
 from ..errors import Issue, PlanFileError
 from .fclcheck import cross_check
 from ..kinematics.geometry import segment_distance
+from .hold import holds_on
 from .infer import infer_events
 from .row import check_carriage, check_row_inputs, row_reachable_ids
 from ..plan import DEFAULT_RATE, EventKind, Plan
@@ -264,7 +265,6 @@ def _hold(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, ts: float, te
     target = np.asarray(target, float)
     if time.size < 2:
         return float(np.hypot(*(tip[0] - (target if target.ndim == 1 else target[0])))), 0.0
-    dt = time[1] - time[0]
     lo = max(0, int(np.searchsorted(time, ts, side="right")) - 1)
     hi = min(time.size - 1, int(np.searchsorted(time, te, side="left")))
     if hi <= lo:
@@ -273,20 +273,7 @@ def _hold(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, ts: float, te
     d = np.hypot(*(tip[lo:hi + 1] - (target if target.ndim == 1 else target[lo:hi + 1])).T)
     n = np.arange(lo, hi)
     overlap = np.clip(np.minimum(time[n + 1], te) - np.maximum(time[n], ts), 0.0, None)
-    if not row_frame:
-        speed = still = m.speed[n]
-    else:
-        # in the row frame, on the linear replay (joints and carriage linear between samples): the
-        # tip moves by its row-frame displacement over the interval (``still``: the tip's motion
-        # from sample to sample, what a pick on a moving carriage must keep below still_speed), and
-        # its velocity J(q) qd turns within the interval by at most the tip's acceleration at
-        # constant joint rates, l1 w1^2 + l2 (w1 + w2)^2, times dt / 2: a bound on its speed
-        # anywhere inside, for the position check
-        w1, w12 = m.qd[n, 0], m.qd[n, 0] + m.qd[n, 1]
-        still = np.hypot(*(tip[n + 1] - tip[n]).T) / dt
-        speed = still + (m.links[0] * w1 ** 2 + m.links[1] * w12 ** 2) * dt / 2
-    # the tip stays within (d0 + d1 + V dt) / 2 of the target over the whole interval
-    good = ((d[:-1] + d[1:] + speed * dt) / 2 <= opts.position_tolerance) & (still <= opts.still_speed)
+    good = holds_on(m, tip, time, target, n, opts, row_frame)
     best = max((float(overlap[a : b + 1].sum()) for a, b in runs(good & (overlap > 0))), default=0.0)
     return float(d.min()), best
 
@@ -392,7 +379,7 @@ def verify(problem: Problem, plan: Plan, options: VerifyOptions | None = None, *
         ver.warnings.append(Finding(WarningKind.PROBLEM_NAME, (), None, message=f"plan is for {plan.problem!r}, problem is {problem.name!r}"))
     t0 = _time.perf_counter()
     motions = arm_motions(problem, plan)
-    if not plan.events and opts.infer_events and problem.gantry is None:  # (a row plan declares its events)
+    if not plan.events and opts.infer_events:  # (a plan.csv, or another tool's plan without events)
         plan = replace(plan, events=infer_events(problem, plan, motions, opts))
         ver.inferred_events = list(plan.events)
         n_pick = sum(e.kind == EventKind.PICK for e in plan.events)
