@@ -55,6 +55,15 @@ def test_a_folder_with_the_users_own_files_is_not_moved(tmp_path):
     assert res.previous is None and (out / "notes.txt").read_text() == "keep me"
     assert (out / "plan.json").exists() and not is_run_folder(out)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mine"]
+    # a second run there: the first run's files go to mine.previous whole, none left beside the
+    # new run's (the optimal planner's baseline.* after the heuristic's plan, a live run.json)
+    (out / "run.json").write_text("{}")
+    first = (out / "plan.json").read_bytes()
+    res = solve(_single(), planner="optimal", out_dir=out)
+    prev = tmp_path / "mine.previous"
+    assert res.previous == prev and (prev / "plan.json").read_bytes() == first and (prev / "run.json").exists()
+    assert (out / "notes.txt").read_text() == "keep me" and not (out / "run.json").exists()
+    assert (out / "baseline.json").exists() and not (prev / "baseline.json").exists()
 
 
 def test_staging_folders_are_unique_per_writer(tmp_path):

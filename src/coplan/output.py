@@ -8,7 +8,9 @@ whole run or is untouched, and a failed write removes its partial folder.
 
 The previous run is kept: a target folder that holds only coplan's files is renamed to
 ``<name>.previous`` first (replacing an older one). A target that also holds other files is
-not moved: the new files replace the same names in it one by one (each rename atomic).
+not moved: the previous run's files in it move to ``<name>.previous`` (so that no file of one
+run is left beside another's: a stop-and-go ``run.json`` beside a later solve's plan), the
+user's stay, and the new files go in one by one (each rename atomic).
 """
 
 from __future__ import annotations
@@ -104,7 +106,18 @@ class RunFolder:
                 prev.unlink()
             out.rename(prev)
             self.previous = prev
-        elif out.exists():  # a folder with the user's own files in it: replace file by file
+        elif out.exists():  # a folder with the user's own files in it: theirs stay, coplan's are replaced
+            ours = [p for p in sorted(out.iterdir()) if p.name.startswith(_OURS) and not p.is_dir()]
+            if ours:  # the previous run's files go to <name>.previous whole (none left beside the new run's)
+                prev = out.with_name(out.name + ".previous")
+                if prev.is_dir():
+                    shutil.rmtree(prev)
+                elif prev.exists():
+                    prev.unlink()
+                prev.mkdir()
+                for f in ours:
+                    os.replace(f, prev / f.name)
+                self.previous = prev
             for f in sorted(stage.iterdir()):
                 os.replace(f, out / f.name)
             stage.rmdir()
