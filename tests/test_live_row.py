@@ -282,6 +282,13 @@ def test_coplan_run_on_a_cell_refuses_the_row_options_by_name(tmp_path):
     assert "Traceback" not in res.output
 
 
+def test_coplan_run_on_a_row_refuses_the_cell_options_by_name(tmp_path):
+    res = CliRunner().invoke(app, ["run", "sparse_row", "--speed", "0.3", "--animate", "--horizon", "5",
+                                   "-o", str(tmp_path / "x")])
+    assert res.exit_code == 2 and "--animate, --horizon: sparse-row is a row" in res.output
+    assert "Traceback" not in res.output and not (tmp_path / "x").exists()
+
+
 def test_a_missed_fruit_s_reason_names_the_fruit_not_only_the_report(row):
     res = run_live_row(row, LiveRowOptions(speed=0.5, seed=1, hold_for_fruit=False))
     missed = {k: v for k, v in res.outcome.items() if k.startswith("f") and v != "harvested"}

@@ -70,8 +70,8 @@ def run_cmd(
     out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-live"),
     speed: Annotated[Optional[float], typer.Option(help="A row: the carriage's cruising speed, m/s (picks on the move).")] = None,
     gantry: Annotated[Optional[LiveGantryMode], typer.Option(
-        help="A row: continuous (picks on the move, at --speed; the default) or stop-and-go (stops chosen as fruit come "
-             "into view).")] = None,
+        help="A row: continuous (picks on the move at --speed, which it needs; the default) or stop-and-go (stops "
+             "chosen as fruit come into view).")] = None,
     look_ahead: Annotated[float, typer.Option("--look-ahead", min=0.0, max=100.0,
                                               help="A row: how far ahead of the front arm's base the camera sees, m.")] = 1.5,
     sigma: Annotated[float, typer.Option(min=0.0, max=1.0, help="A row: detection noise per coordinate, m.")] = 0.01,
@@ -88,7 +88,8 @@ def run_cmd(
     late_replan: Annotated[float, typer.Option("--late-replan", min=0.0, max=3600.0,
                                                help="A row: seconds one decision (at a drawn time) runs late.")] = 0.0,
     animate: Annotated[bool, typer.Option("--animate", help="Also write live.gif: fruit appearing, re-plans, misses.")] = False,
-    seed: Annotated[int, typer.Option(min=0, help="Seed of the simulated close-range measurements.")] = 0,
+    seed: Annotated[int, typer.Option(min=0, help="Seed of the simulation: a cell's close-range measurements; a row's "
+                                      "camera reports, faults and close-range measurements.")] = 0,
     horizon: Annotated[float, typer.Option(min=0.0, max=10.0, help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
     all_candidates: Annotated[bool, typer.Option("--all-candidates", help="Every re-plan tries every candidate plan, "
                                                  "not only those its 50 ms budget allows: the same run on any machine.")] = False,
@@ -106,6 +107,12 @@ def run_cmd(
     prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
     if prob.gantry is not None:
         from ..row.live import RowFaults
+
+        cell_only = [name for name, given in (("--animate", animate), ("--horizon", horizon != 0.1),
+                                              ("--all-candidates", all_candidates)) if given]
+        if cell_only:
+            usage(f"{', '.join(cell_only)}: {prob.name} is a row (it has a gantry section); these apply to a stationary "
+                  "cell's live run (a row's executed plan: coplan animate or coplan view on the plan.json it writes)")
 
         faults = RowFaults(arm_stop, camera_dark, false_burst, late_replan)
         return _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults)
