@@ -207,7 +207,8 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         idle = f", {m['stops_without_picks']} of them without a pick" if m.get("stops_without_picks") else ""
         how = f"on the move at {speed:g} m/s," if mode == GantryMode.CONTINUOUS else f"stop and go, {m['stops']} stops{idle},"
         share = ("nothing for the offline plan (full knowledge) to harvest" if m["of_offline"] is None else
-                 f"{100 * m['of_offline']:.1f} % of what the offline plan (full knowledge) harvests")
+                 f"{100 * m['of_offline']:.1f} % of the {m['offline_harvested']} the offline plan (full knowledge) harvests"
+                 + (f", and {m['harvested_not_offline']} it does not" if m.get("harvested_not_offline") else ""))
         ratio = "" if m["row_time_ratio"] is None else f" = {m['row_time_ratio']:.3f} x the offline plan's"
         cycle = ("no cycle" if m["shortest_cycle_seconds"] is None else
                  f"a shortest cycle of {m['shortest_cycle_seconds']:.2f} s")
