@@ -177,3 +177,22 @@ def test_a_closed_pipe_on_both_streams_still_writes_the_plan(tmp_path, problems_
     proc.stdout.close()  # the reader of both streams is gone
     assert proc.wait(timeout=300) == 0
     assert (out / "plan.json").exists() and (out / "verification.json").exists()
+
+
+def test_verify_and_view_refuse_an_out_file_whose_folder_is_a_file_before_the_work(tmp_path):
+    """``--out x/v.json`` where ``x`` is a file: said up front, with the path (it was found only
+    after the work, as a bare "File exists")."""
+    import coplan
+    from coplan.problem import load_problem, shipped_problems
+
+    res = coplan.solve(load_problem(next(p for p in shipped_problems() if p.stem == "single_arm")), planner="heuristic",
+                       out_dir=tmp_path / "run")
+    assert res.verification.passed
+    blocker = tmp_path / "afile"
+    blocker.write_text("")
+    plan = str(tmp_path / "run" / "plan.json")
+    for args in (["verify", "single_arm", plan, "--out", str(blocker / "v.json")],
+                 ["view", plan, "--out", str(blocker / "x.html")]):
+        r = CliRunner().invoke(app, args)
+        assert r.exit_code == 2 and f"its folder {blocker}: expected a folder, found a file" in r.output, r.output
+        assert "Traceback" not in r.output

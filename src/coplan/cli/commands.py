@@ -322,6 +322,8 @@ def verify_cmd(
 
     if out is not None and (out.resolve() == plan.resolve() or (out.is_dir() and (out / "verification.json").resolve() == plan.resolve())):
         _fail(ExitCode.USAGE, f"--out {out} is the plan being verified; give another file or folder")
+    if out is not None:  # (a file or a folder: the folder it goes into must take it, before the work)
+        failures.check_out_dir(out) if out.is_dir() or not out.suffix else failures.check_out_file(out)
     from ..plan import PlanFileError
 
     prob = load_problem(_resolve_problem(problem))
@@ -557,6 +559,8 @@ def view_cmd(
     """Write the interactive viewer of a plan: one self-contained HTML page (works offline) to scrub, play, hover, jump to violations."""
     from ..viz.viewer import write_view
 
+    if out is not None:
+        failures.check_out_file(out)
     prob, pl = _plan_with_problem(plan, problem)
     other = _plan_with_problem(compare, problem)[1] if compare is not None else None
     out_console.print(f"wrote {_s(write_view(prob, pl, other, out if out is not None else plan.with_suffix('.html'), open_page))}")

@@ -69,6 +69,14 @@ def check_out_dir(out, what: str = "--out") -> None:
         usage(f"{what} {out}: expected a folder coplan may write to, found {probe} not writable")
 
 
+def check_out_file(out, what: str = "--out") -> None:
+    """Before any work: the folder ``out`` (a file's Path) goes into must be one coplan can
+    create or write into, and ``out`` itself no folder."""
+    if out.is_dir():
+        usage(f"{what} {out}: expected a file name, found a folder")
+    check_out_dir(out.parent, what=f"{what} {out}: its folder")
+
+
 def resolve_problem(problem, note=lambda message: None):
     """The problem file an argument names: the shipped default when none is given; a shipped
     problem's bare name (``dense_overlap``, ``dense_overlap.yaml``) when no such file is here
