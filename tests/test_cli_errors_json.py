@@ -185,7 +185,7 @@ def test_verify_and_view_refuse_an_out_file_whose_folder_is_a_file_before_the_wo
     import coplan
     from coplan.problem import load_problem, shipped_problems
 
-    res = coplan.solve(load_problem(next(p for p in shipped_problems() if p.stem == "single_arm")), planner="heuristic",
+    res = coplan.solve(load_problem(next(p for p in shipped_problems() if p.stem == "single_arm")), planner="coordinated",
                        out_dir=tmp_path / "run")
     assert res.verification.passed
     blocker = tmp_path / "afile"
