@@ -389,3 +389,18 @@ def test_stop_share_takes_what_the_next_stop_cannot_and_leaves_it_only_what_it_k
         priced = {f for (f, _, a) in round_trips(row, reach, sorted(served_here), np.array([k]))
                   if a in working and any(w.arm == a for w in windows[f])}
         assert {f for fs in everything.values() for f in fs} == priced and here <= priced and len(priced) > 0
+
+
+def test_check_and_solve_agree_on_a_row_with_a_fruit_no_arm_reaches(tmp_path):
+    """A fruit out of every arm's reach from anywhere on the rail is not counted (as in a cell):
+    ``coplan check`` says why it is left out and exits 0, as ``coplan solve`` does (check said 5,
+    partial, before)."""
+    d = gantry_row(length=8.0, density=2.0, seed=1)
+    d["fruits"].append({"id": "high", "position": [4.0, 2.5]})
+    f = tmp_path / "row.yaml"
+    f.write_text(to_yaml(d))
+    run = CliRunner(env={"COLUMNS": "200"}).invoke
+    c = run(app, ["check", str(f)])
+    s = run(app, ["solve", str(f), "--stops", "fewest", "--out", str(tmp_path / "o")])
+    assert c.exit_code == s.exit_code == 0, (c.output, s.output)
+    assert "high" in c.output and "1 not" in c.output
