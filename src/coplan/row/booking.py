@@ -76,7 +76,7 @@ class Booker:
         self.need = problem.task.clearance + margin
         self.n_pick = int(math.ceil(problem.task.pick_dwell * rate - 1e-9))
         self.n_place = int(math.ceil(problem.task.place_dwell * rate - 1e-9))
-        self.probes: set[str] = set()  # fruit whose cycle is a probe: the arm comes, finds nothing, goes back (no dwells) --
+        self.probes: set[str] = set()  # fruit whose cycle is a probe: the arm comes, finds nothing, goes back (no dwells)
         self.arms = [ArmState(np.tile(np.asarray(a.home, float), (1024, 1))) for a in problem.arms]
         self.events: list[Event] = []
         self.bin_q = [self._bin_pose(i) for i in range(len(problem.arms))]
@@ -90,7 +90,7 @@ class Booker:
         self._use = {} if branch_table is None else branch_table
         self.step = step  # m: the row screen's grid, on which a pick's elbow branch is screened
         self.leg_share = LIMIT_SHARE  # of the joint limits a move uses (AT_REST_SHARE: every pick at rest)
-        self.probe_rests = False  # -- or, with the carriage at rest, stays there (:meth:`_probe_stays`)
+        self.probe_rests = False  # a probe with the carriage at rest ends where it found nothing (:meth:`_probe_stays`)
         self.cycle_shares = _CYCLE_SHARES  # of the limits a whole cycle's finite differences may reach
 
     # ------------------------------------------------------------------ poses
@@ -276,7 +276,7 @@ class Booker:
     def _probe_stays(self, i: int, fid: str, k0: int, q0: np.ndarray, k_p: int, leg1: Leg) -> Cycle | None:
         """A probe with the carriage at rest for good: the arm goes to the report, finds nothing
         and rests there (its gripper is empty: no way back to the bin); its next cycle starts
-        from there, or it makes way (home) if it has none."""
+        from there, or it goes back to its bin if it has none (:func:`run_policy`)."""
         dt = self.dt
         ts = np.arange(k0, k_p + 1) * dt
         s1 = k_p * dt - leg1.duration
@@ -339,14 +339,13 @@ class Booker:
         arm = self.problem.arms[i]
         st = self.arms[i]
         q0 = st.q[st.k_free].copy()
-        home = target
-        leg = Leg(arm, np.array([q0, np.zeros(2), np.zeros(2)]), np.array([home, np.zeros(2), np.zeros(2)]), self.leg_share)
+        leg = Leg(arm, np.array([q0, np.zeros(2), np.zeros(2)]), np.array([target, np.zeros(2), np.zeros(2)]), self.leg_share)
         k_s = max(st.k_free, self.up(not_before))
         for _ in range(int(60.0 / _RETRY)):
             n = self.up(leg.duration)
             ts = np.arange(st.k_free, k_s + n + 1) * self.dt
             q = np.where((ts < k_s * self.dt)[:, None], q0, leg.sample(np.maximum(ts - k_s * self.dt, 0.0)))
-            q[-1] = home
+            q[-1] = target
             if self._clear(i, st.k_free, q):
                 self.commit(Cycle(i, "", st.k_free, q, []))
                 return True

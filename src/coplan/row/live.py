@@ -26,8 +26,9 @@ Entry point: :func:`run_live_row` -> :class:`LiveRow`, in either gantry mode.
   would leave every arm's reach, nor than puts the rear arm's base under the edge of what the
   camera has seen, so it passes no fruit unseen); the arms pick, with the carriage at rest, the
   fruit the next stop could not serve and those it shares with the next stop where they
-  lengthen the two stops least (:func:`coplan.row.stops.stop_share`), each arm's balanced; once the last pick
-  is over the carriage hops -- a time-optimal jerk-limited move -- while the arms place. Once
+  lengthen the two stops least (:func:`coplan.row.stops.stop_share`), each arm's balanced;
+  once the last pick is over the carriage hops -- a time-optimal jerk-limited move -- while the
+  arms place. Once
   the camera has seen to the row's end (``gantry.end``), the hop goes to the one stop that
   serves the rest in the least estimated time (:func:`coplan.row.stops.last_stop`), not the
   farthest, where the arms beyond the last fruit would idle, and that stop takes it all. A
@@ -60,14 +61,14 @@ from ..kinds import AssignRule, GantryMode, SpeedProfile
 from ..plan import DEFAULT_RATE, Event, EventKind, finalize_plan
 from ..problem.model import Fruit, Problem
 from .booking import Booker, run_policy, why_left
+from .bound import row_bounds
 from .continuous import MovingOptions, assemble_moving, plan_continuous
 from .cruise import Cruise, pick_windows, ramp_time
-from .stops import last_stop, stop_share
-from .stranded import still_reachable
-from .bound import row_bounds
 from .reach import row_reach
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
                       row_detections, row_reports)
+from .stops import last_stop, stop_share
+from .stranded import still_reachable
 from .track import AT_REST_CYCLE_SHARE, AT_REST_SHARE
 
 #: After an arm stops, the carriage runs at this share of the working arms' share of its speed ...
