@@ -438,3 +438,20 @@ def test_a_cycle_blocked_on_its_faster_elbow_branch_goes_round_by_the_other(row)
     k = booker.up(pick.t_start) - cyc.k0
     branch_q = row.arms[a].ik(np.asarray(booker.fruit_xy[f]) - [x_stop, 0.0])[0][other]
     assert np.allclose(np.unwrap(np.array([branch_q, cyc.q[k]]), axis=0)[1], branch_q, atol=1e-6)
+
+
+def test_coplan_run_prints_its_faults_and_holds_in_words(tmp_path):
+    """The summary of a fault run says what happened in words, not a JSON dict, and says when
+    the carriage held for fruit (both are in run.json, which the line must agree with)."""
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=10.0, density=3.0, seed=7)))
+    res = CliRunner(env={"COLUMNS": "300"}).invoke(app, [
+        "run", str(path), "--speed", "0.3", "--arm-stop", "--camera-dark", "3", "--late-replan", "2", "--seed", "7",
+        "-o", str(tmp_path / "f")])
+    assert res.exit_code in (0, 5), res.output
+    doc = json.loads((tmp_path / "f" / "run.json").read_text())
+    line = next(x for x in res.output.splitlines() if x.startswith("faults: "))
+    assert "{" not in line and "arm stop: arm " in line and "late replan: " in line
+    assert f"arm {doc['metrics']['faults']['arm_stop']['arm']}" in line
+    holds = doc["metrics"]["holds_for_fruit"]
+    assert (f"the carriage held {holds} time" in res.output) == (holds > 0)

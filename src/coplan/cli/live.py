@@ -212,8 +212,11 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         ratio = "" if m["row_time_ratio"] is None else f" = {m['row_time_ratio']:.3f} x the offline plan's"
         cycle = ("no cycle" if m["shortest_cycle_seconds"] is None else
                  f"a shortest cycle of {m['shortest_cycle_seconds']:.2f} s")
-        faults_line = (f"faults: {_safe(json.dumps(m['faults']))}; missed though a working arm could still reach them: "
+        faults_line = (f"faults: {_safe(_faults_text(m['faults']))}; missed though a working arm could still reach them: "
                        f"{len(m['missed_reachable_by_a_working_arm'])}\n" if m["faults"] else "")
+        if m.get("holds_for_fruit"):
+            faults_line = (f"the carriage held {m['holds_for_fruit']} time{'s' if m['holds_for_fruit'] != 1 else ''} rather "
+                           f"than pass a fruit no arm could still book ({m['hold_seconds']:.1f} s)\n") + faults_line
         missed = [why for f, why in res.outcome.items() if why != "harvested" and f in {x.id for x in prob.fruits}]
         if missed:  # each true fruit not harvested, and why (all of them: run.json outcome)
             faults_line += f"missed {len(missed)} fruit: " + "; ".join(_safe(w) for w in missed[:3]) + (
@@ -228,3 +231,9 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             + ", ".join(sorted(p.name for p in Path(out).iterdir() if p.is_file() and not p.name.startswith("."))),
             highlight=False)
     raise typer.Exit(int(status_exit_code(res.plan.status)))
+
+
+def _faults_text(faults: dict) -> str:
+    """A run's faults and what each did, one clause each: ``arm stop: arm arm3, t 85.35, ...``."""
+    return "; ".join(f"{kind.replace('_', ' ')}: " + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in what.items())
+                     for kind, what in faults.items())
