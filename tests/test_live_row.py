@@ -455,3 +455,14 @@ def test_coplan_run_prints_its_faults_and_holds_in_words(tmp_path):
     assert f"arm {doc['metrics']['faults']['arm_stop']['arm']}" in line
     holds = doc["metrics"]["holds_for_fruit"]
     assert (f"the carriage held {holds} time" in res.output) == (holds > 0)
+
+
+@pytest.mark.parametrize("option, value, words", [("--look-ahead", "-1", "expected a number in [0, 100] m, found -1"),
+                                                   ("--sigma", "nan", "expected a number in [0, 1] m, found nan"),
+                                                   ("--false-rate", "2", "expected a number in [0, 1], found 2"),
+                                                   ("--late-replan", "inf", "expected a number in [0, 3600] s, found inf")])
+def test_coplan_run_says_what_it_expected_and_found_for_an_out_of_range_option(tmp_path, option, value, words):
+    res = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["run", "sparse_row", "--gantry", "stop-and-go", option, value,
+                                                         "-o", str(tmp_path / "x")])
+    assert res.exit_code == 2 and words in res.output and "Traceback" not in res.output
+    assert not (tmp_path / "x").exists()

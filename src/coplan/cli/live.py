@@ -7,6 +7,7 @@ NumPy, the planners and matplotlib are imported inside the commands.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -29,9 +30,9 @@ def feed_cmd(
     out: Annotated[Path, typer.Option("--out", "-o", help="Feed file to write (YAML).")],
     known: Annotated[float, typer.Option(min=0.0, max=1.0, help="Share of the fruit detected at t = 0.")] = 0.5,
     sigma: Annotated[float, typer.Option(min=1e-6, max=1.0, help="Detection noise: standard deviation per coordinate, m.")] = 0.01,
-    false_rate: Annotated[float, typer.Option("--false-rate", min=0.0, max=1.0,
+    false_rate: Annotated[float, typer.Option("--false-rate", callback=between(0.0, 1.0),
                                               help="Chance that a detection comes with a false one.")] = 0.0,
-    duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", min=0.0, max=1.0,
+    duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", callback=between(0.0, 1.0),
                                                   help="Chance that a fruit is detected a second time.")] = 0.0,
     seed: Annotated[int, typer.Option(min=0, help="Random seed (the same seed gives the same feed).")] = 0,
     reveal_by: Annotated[Optional[float], typer.Option("--reveal-by", min=0.001, help="Late fruit arrive by this time, s "
@@ -63,6 +64,16 @@ def feed_cmd(
                f"({n_late} after t = 0, {n_false} false), sigma {sigma * 1000:g} mm, seed {seed}", highlight=False)
 
 
+def between(lo: float, hi: float, unit: str = ""):
+    """An option's check: a finite number in ``[lo, hi]`` (``unit`` said with it), else a usage
+    error that says what was expected and what was found (NaN included)."""
+    def check(value: float) -> float:
+        if value is not None and not (math.isfinite(value) and lo <= value <= hi):
+            raise typer.BadParameter(f"expected a number in [{lo:g}, {hi:g}]{' ' + unit if unit else ''}, found {value:g}")
+        return value
+    return check
+
+
 def run_cmd(
     problem: Annotated[Path, typer.Argument(help="Problem file (YAML) with the true fruit positions.")],
     feed: Annotated[Optional[Path], typer.Option("--feed", "-f", help="Feed file (YAML): what the camera reports "
@@ -72,25 +83,25 @@ def run_cmd(
     gantry: Annotated[Optional[LiveGantryMode], typer.Option(
         help="A row: continuous (picks on the move at --speed, which it needs; the default) or stop-and-go (stops "
              "chosen as fruit come into view).")] = None,
-    look_ahead: Annotated[float, typer.Option("--look-ahead", min=0.0, max=100.0,
+    look_ahead: Annotated[float, typer.Option("--look-ahead", callback=between(0.0, 100.0, "m"),
                                               help="A row: how far ahead of the front arm's base the camera sees, m.")] = 1.5,
-    sigma: Annotated[float, typer.Option(min=0.0, max=1.0, help="A row: detection noise per coordinate, m.")] = 0.01,
-    false_rate: Annotated[float, typer.Option("--false-rate", min=0.0, max=1.0,
+    sigma: Annotated[float, typer.Option(callback=between(0.0, 1.0, "m"), help="A row: detection noise per coordinate, m.")] = 0.01,
+    false_rate: Annotated[float, typer.Option("--false-rate", callback=between(0.0, 1.0),
                                               help="A row: false reports, as a share of the fruit.")] = 0.05,
-    duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", min=0.0, max=1.0,
+    duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", callback=between(0.0, 1.0),
                                                   help="A row: share of fruit reported twice.")] = 0.02,
     arm_stop: Annotated[bool, typer.Option("--arm-stop", help="A row: one arm (drawn from --seed) reports a controller "
                                            "fault at a drawn time: it finishes its motion and stays, an obstacle.")] = False,
-    camera_dark: Annotated[float, typer.Option("--camera-dark", min=0.0, max=3600.0,
+    camera_dark: Annotated[float, typer.Option("--camera-dark", callback=between(0.0, 3600.0, "s"),
                                                help="A row: seconds the camera reports nothing, at a drawn time.")] = 0.0,
     false_burst: Annotated[int, typer.Option("--false-burst", min=0, max=100000,
                                              help="A row: false reports at one drawn instant, within the camera's view.")] = 0,
-    late_replan: Annotated[float, typer.Option("--late-replan", min=0.0, max=3600.0,
+    late_replan: Annotated[float, typer.Option("--late-replan", callback=between(0.0, 3600.0, "s"),
                                                help="A row: seconds one decision (at a drawn time) runs late.")] = 0.0,
     animate: Annotated[bool, typer.Option("--animate", help="Also write live.gif: fruit appearing, re-plans, misses.")] = False,
     seed: Annotated[int, typer.Option(min=0, help="Seed of the simulation: a cell's close-range measurements; a row's "
                                       "camera reports, faults and close-range measurements.")] = 0,
-    horizon: Annotated[float, typer.Option(min=0.0, max=10.0, help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
+    horizon: Annotated[float, typer.Option(callback=between(0.0, 10.0, "s"), help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
     all_candidates: Annotated[bool, typer.Option("--all-candidates", help="Every re-plan tries every candidate plan, "
                                                  "not only those its 50 ms budget allows: the same run on any machine.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the metrics as JSON.")] = False,
