@@ -14,7 +14,8 @@ Entry point: :func:`run_live_row` -> :class:`LiveRow`, in either gantry mode.
   report of a picked fruit costs a probe instead); as the arm approaches, its close-range sensor
   measures the fruit (``close_sigma``) and the cycle is planned on that measurement. A false
   report costs a probe: the arm goes there, finds nothing at close range, and returns without
-  dwelling (its cycle carries no events); so does a second report of a fruit already taken. A
+  dwelling (its cycle carries no events; stop and go, it goes on from there: below); so does a
+  second report of a fruit already taken. A
   grasp aimed farther than the pick tolerance from the true fruit (a close-range error of
   several sigma) closes on nothing: the cycle is executed, the fruit stays and is reported missed.
 * **On the move** (``mode=continuous``): the carriage cruises at a constant ``speed`` (a live
