@@ -4,6 +4,7 @@ previous run is kept; a failure leaves neither a partial folder nor a mix of two
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -89,3 +90,19 @@ def test_a_full_disk_is_reported_with_the_path_and_its_own_exit_code(tmp_path, m
     assert r.exit_code == 8
     assert "No space left on device" in r.output and "verification.json" in r.output
     assert "Traceback" not in r.output and list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("where", [".", ""])
+def test_a_run_into_the_folder_coplan_runs_in_replaces_its_files_there(tmp_path, monkeypatch, where):
+    """``-o .`` (or ``-o ''``): the current folder is never removed or renamed; a second run
+    moves the first one's files to ``<folder>.previous`` and leaves the user's (it stopped with an
+    internal error, "PosixPath('.') has an empty name")."""
+    here = tmp_path / "here"
+    here.mkdir()
+    (here / "notes.txt").write_text("keep me")
+    monkeypatch.chdir(here)
+    first = solve(_single(), planner="coordinated", out_dir=Path(where))
+    second = solve(_single(), planner="coordinated", out_dir=Path(where))
+    assert first.previous is None and second.previous == tmp_path / "here.previous"
+    assert (here / "notes.txt").read_text() == "keep me" and (here / "plan.json").exists()
+    assert (tmp_path / "here.previous" / "plan.json").exists() and not (tmp_path / "here.previous" / "notes.txt").exists()

@@ -10,7 +10,8 @@ The previous run is kept: a target folder that holds only coplan's files is rena
 ``<name>.previous`` first (replacing an older one). A target that also holds other files is
 not moved: the previous run's files in it move to ``<name>.previous`` (so that no file of one
 run is left beside another's: a stop-and-go ``run.json`` beside a later solve's plan), the
-user's stay, and the new files go in one by one (each rename atomic).
+user's stay, and the new files go in one by one (each rename atomic). So does a run into the
+folder coplan runs in (``-o .``), which is never removed or renamed.
 """
 
 from __future__ import annotations
@@ -96,9 +97,11 @@ class RunFolder:
 
     def _commit(self) -> None:
         out, stage = self.out, self.stage
-        if out.is_dir() and not any(out.iterdir()):
+        # the folder coplan runs in (``-o .``, ``-o ''``) is never removed or renamed: file by file
+        in_place = not out.name or out.absolute() == Path.cwd().absolute()
+        if not in_place and out.is_dir() and not any(out.iterdir()):
             out.rmdir()
-        elif is_run_folder(out):
+        elif not in_place and is_run_folder(out):
             prev = out.with_name(out.name + ".previous")
             if prev.is_dir():
                 shutil.rmtree(prev)
@@ -109,7 +112,8 @@ class RunFolder:
         elif out.exists():  # a folder with the user's own files in it: theirs stay, coplan's are replaced
             ours = [p for p in sorted(out.iterdir()) if p.name.startswith(_OURS) and not p.is_dir()]
             if ours:  # the previous run's files go to <name>.previous whole (none left beside the new run's)
-                prev = out.with_name(out.name + ".previous")
+                full = out.absolute()
+                prev = full.with_name(full.name + ".previous")
                 if prev.is_dir():
                     shutil.rmtree(prev)
                 elif prev.exists():
