@@ -102,28 +102,28 @@ class RunFolder:
         if not in_place and out.is_dir() and not any(out.iterdir()):
             out.rmdir()
         elif not in_place and is_run_folder(out):
-            prev = out.with_name(out.name + ".previous")
-            if prev.is_dir():
-                shutil.rmtree(prev)
-            elif prev.exists():
-                prev.unlink()
-            out.rename(prev)
-            self.previous = prev
+            self.previous = _cleared_previous(out)
+            out.rename(self.previous)
         elif out.exists():  # a folder with the user's own files in it: theirs stay, coplan's are replaced
             ours = [p for p in sorted(out.iterdir()) if p.name.startswith(_OURS) and not p.is_dir()]
             if ours:  # the previous run's files go to <name>.previous whole (none left beside the new run's)
-                full = out.absolute()
-                prev = full.with_name(full.name + ".previous")
-                if prev.is_dir():
-                    shutil.rmtree(prev)
-                elif prev.exists():
-                    prev.unlink()
-                prev.mkdir()
+                self.previous = _cleared_previous(out)
+                self.previous.mkdir()
                 for f in ours:
-                    os.replace(f, prev / f.name)
-                self.previous = prev
+                    os.replace(f, self.previous / f.name)
             for f in sorted(stage.iterdir()):
                 os.replace(f, out / f.name)
             stage.rmdir()
             return
         stage.rename(out)
+
+
+def _cleared_previous(out: Path) -> Path:
+    """``<out>.previous`` (beside ``out``, the current folder's too), an older one removed."""
+    full = out.absolute()
+    prev = out.with_name(out.name + ".previous") if out.name else full.with_name(full.name + ".previous")
+    if prev.is_dir():
+        shutil.rmtree(prev)
+    elif prev.exists():
+        prev.unlink()
+    return prev

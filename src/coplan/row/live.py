@@ -368,7 +368,7 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
         every arm's reach (``here``: the carriage may also stay), nor than :func:`cap_at`."""
         while True:
             cap, edge = cap_at(t_dep), edge_at(t_dep)
-            working = [a for a in range(len(problem.arms)) if a not in faults.halt or faults.halt[a] > t_dep]
+            working = working_at(t_dep)
             ends = []
             for f, t in run.seen.items():
                 if t > t_dep or f in run.taken or f not in reach.cover:

@@ -20,7 +20,7 @@ import numpy as np
 
 from .clearance import ArmMotion
 
-__all__ = ["holds_on"]
+__all__ = ["holds_on", "bin_track"]
 
 
 def holds_on(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, n: np.ndarray, opts, row_frame: bool = False) -> np.ndarray:
@@ -39,3 +39,13 @@ def holds_on(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, n: np.ndar
         still = np.hypot(*(tip[n + 1] - tip[n]).T) / dt
         speed = still + (m.links[0] * w1 ** 2 + m.links[1] * w12 ** 2) * dt / 2
     return ((d0 + d1 + speed * dt) / 2 <= opts.position_tolerance) & (still <= opts.still_speed)
+
+
+def bin_track(bin_xy, gantry_x) -> np.ndarray:
+    """Where an arm's bin is: the point ``bin_xy`` in a cell (``gantry_x`` None); in a row, (N, 2)
+    at every sample, riding with the carriage (``bin_xy`` is in its frame)."""
+    b = np.asarray(bin_xy, float)
+    if gantry_x is None:
+        return b
+    x = np.asarray(gantry_x, float)
+    return b + np.c_[x, np.zeros(x.size)]

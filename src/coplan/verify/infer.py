@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from .clearance import ArmMotion, runs
-from .hold import holds_on
+from .hold import bin_track, holds_on
 from ..plan import Event, EventKind, Plan
 from ..problem.model import Problem
 from .verdict import VerifyOptions
@@ -74,9 +74,9 @@ def infer_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: V
                 near = still
             holds += [(t0, t1, arm.name, EventKind.PICK, f.id)
                       for t0, t1 in _holds(m, tip, time, f.position, task.pick_dwell - dwell_tol, opts, row, near)]
-        bin_at = arm.bin if not row else np.asarray(arm.bin, float) + np.c_[np.asarray(plan.gantry_x, float), np.zeros(time.size)]
         holds += [(t0, t1, arm.name, EventKind.PLACE, None)
-                  for t0, t1 in _holds(m, tip, time, bin_at, task.place_dwell - dwell_tol, opts, False, still)]
+                  for t0, t1 in _holds(m, tip, time, bin_track(arm.bin, plan.gantry_x if row else None),
+                                       task.place_dwell - dwell_tol, opts, False, still)]
     holds.sort(key=lambda h: (h[0], h[2], h[3] != EventKind.PICK))
     holding: dict[str, str] = {}
     picked: set[str] = set()

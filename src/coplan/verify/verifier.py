@@ -60,7 +60,7 @@ from .clearance import ArmMotion, arm_motions, certify_pair, clearance_profile, 
 from ..errors import Issue, PlanFileError
 from .fclcheck import cross_check
 from ..kinematics.geometry import segment_distance
-from .hold import holds_on
+from .hold import bin_track, holds_on
 from .infer import infer_events
 from .row import check_carriage, check_row_inputs, row_reachable_ids
 from ..plan import DEFAULT_RATE, EventKind, Plan
@@ -285,9 +285,8 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
     arm_index = {a.name: k for k, a in enumerate(problem.arms)}
     fruit_index = {f.id: k for k, f in enumerate(problem.fruits)}
     tips = {m.name: m.tips() for m in motions}
-    shift = None if not row else np.c_[np.asarray(plan.gantry_x, float), np.zeros(plan.time.size)]
     # where each arm's bin is at every sample (it rides with the carriage): once per arm, not per place
-    bins = {a.name: a.bin if shift is None else np.asarray(a.bin, float) + shift for a in problem.arms}
+    bins = {a.name: bin_track(a.bin, plan.gantry_x if row else None) for a in problem.arms}
     dwell_tol = plan.dt if opts.dwell_tolerance is None else opts.dwell_tolerance
     eps = 1e-9
     picks: dict[str, list[str]] = {}
