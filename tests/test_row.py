@@ -404,3 +404,63 @@ def test_check_and_solve_agree_on_a_row_with_a_fruit_no_arm_reaches(tmp_path):
     s = run(app, ["solve", str(f), "--stops", "fewest", "--out", str(tmp_path / "o")])
     assert c.exit_code == s.exit_code == 0, (c.output, s.output)
     assert "high" in c.output and "1 not" in c.output
+
+
+def test_rebalance_never_lengthens_and_ends_where_no_single_move_shortens_the_stops():
+    """:func:`coplan.row.stops.rebalance` on seeded random assignments (stops x arms, each fruit
+    with its own (round trip, stop, arm) options, placed at random): the sum of the stops'
+    busiest arms never grows; afterwards every fruit is in one of its options exactly once, the
+    loads are the sums of what is placed (with each used arm's overhead once per stop), and no
+    single fruit moved to another option shortens the sum (checked here by recomputing it)."""
+    from coplan.row.stops import rebalance
+
+    def total(placed, S, A, over):
+        load = [[0.0] * A for _ in range(S)]
+        used = set()
+        for _, _, c, i, a, _ in placed:
+            load[i][a] += c + (0.0 if (i, a) in used else over[a])
+            used.add((i, a))
+        return load, sum(max(r) for r in load)
+
+    for seed in range(40):
+        rs = np.random.default_rng(seed)
+        S, A, F = int(rs.integers(1, 5)), int(rs.integers(1, 5)), int(rs.integers(1, 30))
+        over = [float(rs.uniform(0.0, 2.0)) for _ in range(A)]
+        chosen = []
+        for j in range(F):
+            keys = {(int(rs.integers(S)), int(rs.integers(A))) for _ in range(int(rs.integers(1, 5)))}
+            o = [(round(float(rs.uniform(1.0, 4.0)), 6), i, a) for i, a in sorted(keys)]
+            c, i, a = o[int(rs.integers(len(o)))]
+            chosen.append([j, f"f{j}", c, i, a, o])
+        load, before = total(chosen, S, A, over)
+        peak = [max(r) for r in load]
+        at = [[(j, f) for j, f, _, i, _, _ in chosen if i == s] for s in range(S)]
+        rebalance(load, peak, at, chosen, over, passes=1000)
+        again, after = total(chosen, S, A, over)
+        assert after <= before + 1e-9
+        assert np.allclose(load, again) and np.allclose(peak, [max(r) for r in again])
+        assert sorted(f for s in at for _, f in s) == sorted(f"f{j}" for j in range(F))
+        for ch in chosen:
+            assert (ch[2], ch[3], ch[4]) in ch[5] and (ch[0], ch[1]) in at[ch[3]]
+        for n, ch in enumerate(chosen):
+            for c2, i2, a2 in ch[5]:
+                moved = [list(x) for x in chosen]
+                moved[n][2:5] = [c2, i2, a2]
+                assert total(moved, S, A, over)[1] >= after - 1e-9
+
+
+@pytest.mark.parametrize("n_arms, length", [(3, 16.0), (6, 24.0)])
+def test_the_segment_that_reaches_the_rows_end_takes_every_fruit_left(n_arms, length):
+    """The optimised rule's segment whose window reaches the end of the rail takes every fruit
+    still to harvest: no stop of its own after it for the fruit that looked dear per fruit (a
+    6-arm 24 m row had a third segment for 4 fruit). These rows are shorter than the first
+    segment and the next: two segments, every harvestable fruit in exactly one stop."""
+    from coplan.row.stops import optimised_stops
+
+    for seed in range(4):
+        row = _row(length=length, density=6.0, seed=seed, n_arms=n_arms)
+        reach = row_reach(row, lazy=True)
+        stops, info = optimised_stops(row, reach)
+        assert info["segments"] == 2
+        got = [f for s in stops for f in s.fruit]
+        assert sorted(got) == sorted(reach.harvestable())
