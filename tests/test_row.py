@@ -27,7 +27,7 @@ from coplan.problem.gantry import cell_at
 from coplan.row.bound import cycle_bounds, row_bounds
 from coplan.row.plan import RowOptions, plan_row
 from coplan.row.reach import row_reach
-from coplan.row.stops import fewest_stops, fixed_stops, round_trips
+from coplan.row.stops import fewest_stops, round_trips
 from coplan.verify import verify
 from coplan.verify.verdict import ViolationKind
 
