@@ -79,6 +79,7 @@ def test_a_live_row_stop_and_go_harvests_at_rest_what_the_offline_plan_harvests(
     res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=2))
     m = res.metrics
     assert res.verification.passed and m["verified"] and m["mode"] == "stop-and-go"
+    assert res.plan.planner_name == "live"  # the executed plan of a live run, as a live cell's (not "coordinated")
     ref = {e.fruit for e in res.offline.plan.events if e.kind == EventKind.PLACE}
     got = {e.fruit for e in res.plan.events if e.kind == EventKind.PLACE}
     assert ref <= got and m["of_offline"] == 1.0  # the offline plan is the stop-and-go row planner's

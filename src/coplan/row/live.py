@@ -463,6 +463,7 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
 def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraws, left: dict[str, str], cruise: Cruise,
             offline, planning: float, stops: list[dict] | None) -> LiveRow:
     """The executed plan (events on the true fruit), verified against the truth, and the metrics."""
+    from ..live.sim import LIVE_PLANNER
     from ..verify.row import row_reachable_ids
     from ..verify.verifier import verify
 
@@ -481,6 +482,7 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraw
     for st in booker.arms:
         st.fruit = [by_id[f].truth for f in st.fruit if f not in booker.probes and f not in run.misses]
     plan = assemble_moving(problem, booker, cruise)
+    plan.planner = LIVE_PLANNER  # (the executed plan of a live run, as a live cell's)
     plan.metrics["lower_bound"] = row_bounds(problem).any_plan  # (the row's, for any motion: as coplan solve's)
     ver = verify(problem, plan)
     plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
