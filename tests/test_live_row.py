@@ -452,8 +452,8 @@ def test_coplan_run_prints_its_faults_and_holds_in_words(tmp_path):
     assert res.exit_code in (0, 5), res.output
     doc = json.loads((tmp_path / "f" / "run.json").read_text())
     line = next(x for x in res.output.splitlines() if x.startswith("faults: "))
-    assert "{" not in line and "arm stop: arm " in line and "late replan: " in line
-    assert f"arm {doc['metrics']['faults']['arm_stop']['arm']}" in line
+    assert "{" not in line and "late replan: " in line
+    assert f"arm stop: {doc['metrics']['faults']['arm_stop']['arm']}, " in line  # (the arm by its name, once)
     holds = doc["metrics"]["holds_for_fruit"]
     assert (f"the carriage held {holds} time" in res.output) == (holds > 0)
 

@@ -245,6 +245,8 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
 
 
 def _faults_text(faults: dict) -> str:
-    """A run's faults and what each did, one clause each: ``arm stop: arm arm3, t 85.35, ...``."""
-    return "; ".join(f"{kind.replace('_', ' ')}: " + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in what.items())
+    """A run's faults and what each did, one clause each: ``arm stop: arm3, t 85.35, ...`` (the
+    arm by its name alone)."""
+    return "; ".join(f"{kind.replace('_', ' ')}: " + ", ".join(str(v) if k == "arm" else f"{k.replace('_', ' ')} {v}"
+                                                               for k, v in what.items())
                      for kind, what in faults.items())

@@ -28,6 +28,7 @@
     return Number(x).toFixed(nd === undefined ? 2 : nd);
   }
   function clamp(x, lo, hi) { return Math.max(lo, Math.min(hi, x)); }
+  function plural(n, word) { return n + " " + word + (n === 1 ? "" : "s"); }
   function el(tag, attrs, text) {
     const e = document.createElement(tag);
     if (attrs) for (const k in attrs) e.setAttribute(k, attrs[k]);
@@ -286,7 +287,7 @@
     ctx.strokeStyle = "rgba(0,0,0,0.35)"; ctx.beginPath(); ctx.moveTo(pad, top + t / T_END * h); ctx.lineTo(W - pad, top + t / T_END * h); ctx.stroke();
     ctx.fillStyle = "#333"; ctx.font = "11px system-ui, sans-serif"; ctx.textAlign = "left";
     ctx.fillText("row " + num(R.start, 1) + "–" + num(R.end, 1) + " m; carriage at " + num(sh, 2) + " m; " +
-                 (R.stops[pl.index] || []).length + " stops (ticks); below: carriage x against time", pad, H - 4);
+                 plural((R.stops[pl.index] || []).length, "stop") + " (ticks); below: carriage x against time", pad, H - 4);
   };
   Cell.prototype.px = function (x, y) {
     const v = P.view;  // a row's view box is the carriage's: it follows the carriage (this.shift)
