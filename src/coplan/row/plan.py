@@ -145,8 +145,8 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         for f, why in (sp.plan.solver.get("left_out") or {}).items():
             info["left_out"][f] = f"at the stop at {sp.stop.x:.2f} m: {why}"
     plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
-    say(f"row: {len(planned)} stops ({rule.value}), {plan.metrics.get('harvested')} fruit, "
-        f"makespan {plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
+    say(f"row: {len(planned)} stop{'' if len(planned) == 1 else 's'} ({rule.value}), {plan.metrics.get('harvested')} fruit, "
+        f"row time {plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
     return RowResult(plan, ver, planned, reach, timings, info)
 
 
