@@ -285,7 +285,7 @@ def test_coplan_solve_verify_and_check_a_row(tmp_path):
     assert r.exit_code == 0 and "passed" in r.output and "carriage" in r.output
     for line in r.output.splitlines():  # a peak shown over 1 on a passed plan says why it passes
         if line.strip().startswith("peaks") and max(float(v) for v in re.findall(r"(\d+\.\d+)", line)) > 1.005:
-            assert "rounding of plan.json" in line
+            assert "rounding of the plan file" in line
     r = run(app, ["check", str(f)])
     assert r.exit_code == 0 and "harvestable from some carriage position" in r.output
     r = run(app, ["solve", str(f), "--planner", "heuristic", "--out", str(tmp_path / "h")])

@@ -216,7 +216,7 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     for arm, pk in ver.peaks.items():
         over = max(pk.values()) > 1.005 and not any(arm in v.arms for v in ver.violations)
         p(f"  peaks {safe(arm):12s} velocity {pk['velocity']:.2f}, acceleration {pk['acceleration']:.2f}, jerk {pk['jerk']:.2f} of the limits"
-          + (" (over 1 only by the rounding of plan.json's positions, which the check allows)" if over else ""))
+          + (" (over 1 only by the rounding of the plan file's positions, which the check allows)" if over else ""))
     if ver.fcl is not None:
         agree = "agrees" if ver.fcl.agree else "[bold red]DISAGREES[/]"
         p(f"  FCL cross-check   {agree} ({ver.fcl.samples} instants, {ver.fcl.queries} link pairs, max diff {ver.fcl.max_abs_diff:.1e} m)")
