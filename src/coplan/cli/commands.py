@@ -322,8 +322,10 @@ def verify_cmd(
 
     if out is not None and (out.resolve() == plan.resolve() or (out.is_dir() and (out / "verification.json").resolve() == plan.resolve())):
         _fail(ExitCode.USAGE, f"--out {out} is the plan being verified; give another file or folder")
-    if out is not None:  # (a file or a folder: the folder it goes into must take it, before the work)
-        failures.check_out_dir(out) if out.is_dir() or not out.suffix else failures.check_out_file(out)
+    if out is not None and (out.is_dir() or not out.suffix):  # (a folder, or a file: it must take it, before the work)
+        failures.check_out_dir(out)
+    elif out is not None:
+        failures.check_out_file(out)
     from ..plan import PlanFileError
 
     prob = load_problem(_resolve_problem(problem))

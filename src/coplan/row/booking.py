@@ -238,7 +238,7 @@ class Booker:
         xy = self.fruit_xy[fid]
         t_p = k_p * dt
         t_pe = (k_p + n_pick) * dt
-        if fid in self.probes and self.probe_rests and self.cruise.state_one(t_p)[1] == 0.0 and t_p >= self.cruise.duration:
+        if fid in self.probes and self.probe_rests and t_p >= self.cruise.duration:  # (the carriage at rest for good)
             return self._probe_stays(i, fid, k0, q0, k_p, leg1)
         end_state = track_state(arm, xy, self.cruise, t_pe, b)
         try:
