@@ -467,3 +467,44 @@ def test_coplan_run_says_what_it_expected_and_found_for_an_out_of_range_option(t
                                                          "-o", str(tmp_path / "x")])
     assert res.exit_code == 2 and words in res.output and "Traceback" not in res.output
     assert not (tmp_path / "x").exists()
+
+
+def test_robust_end_is_the_last_position_serving_the_whole_error_circle_against_the_annulus():
+    """:func:`coplan.row.reach.robust_end` against the analytic outer edge of one arm's reach (no
+    neighbours; fruit high and behind the base, where only the annulus binds): at the index it
+    returns, the fruit's whole error circle is inside the reach less the margin; one step
+    further along the rail it is not. Seeded random reports near the edge."""
+    from coplan.row.reach import robust_end, row_reach
+
+    row = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=1, density=2.0, seed=3)))
+    arm, reach = row.arms[0], row_reach(row)
+    outer = arm.reach - row.task.reach_margin
+    rng = np.random.default_rng(0)
+    checked = 0
+    for _ in range(20):
+        radius = float(rng.uniform(0.005, 0.04))
+        xy = (float(rng.uniform(2.0, 4.0)), float(rng.uniform(1.2, 1.5)))
+        k = robust_end(row, reach, xy, 0, 0, reach.grid.size - 1, radius)
+        assert k is not None
+        def far(kk):  # the farthest point of the error circle from the base, carriage at grid[kk]
+            return math.dist(xy, (reach.grid[kk] + arm.base[0], arm.base[1])) + radius
+        assert far(k) <= outer + radius * (1 - math.cos(math.pi / 8)) + 1e-9  # (eight points: a sliver between them)
+        if k < reach.grid.size - 1:
+            assert far(k + 1) > outer
+            checked += 1
+    assert checked >= 15
+
+
+def test_on_the_move_a_fruit_reported_near_the_reach_edge_at_the_rail_end_is_picked_before_the_carriage_rests():
+    """Regression (the fault benchmark on the move, seed 15): a fruit in the rear arm's reach at
+    the rail's end only by its report (the true fruit 24 mm back, out of reach there) had a
+    window without end, so the arm took every fruit with a deadline first and came to it once
+    the carriage rested at the end, too late. Its window now has a deadline where the report's
+    error may put it out of reach (:data:`coplan.row.live.RAIL_END_SIGMAS`): it is picked, and
+    no fruit a working arm could still reach is missed."""
+    row = parse_problem(to_yaml(gantry_row(length=12.0, n_arms=3, density=6.0, seed=15)))
+    res = run_live_row(row, LiveRowOptions(speed=0.1, seed=15,
+                                           faults=RowFaults(arm_stop=True, camera_dark=3.0, false_burst=50, late_replan=2.0)))
+    assert res.verification.passed
+    assert res.outcome["f0057"] == "harvested"
+    assert res.metrics["missed_reachable_by_a_working_arm"] == []

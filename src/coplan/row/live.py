@@ -65,7 +65,7 @@ from .booking import Booker, run_policy, why_left
 from .bound import row_bounds
 from .continuous import MovingOptions, assemble_moving, plan_continuous
 from .cruise import Cruise, pick_windows, ramp_time
-from .reach import row_reach
+from .reach import robust_end, row_reach
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
                       row_detections, row_reports)
 from .stops import last_stop, stop_share
@@ -89,6 +89,9 @@ STOP_PATIENCE = 10.0
 #: carriage HOLD_PER_FRUIT s per such fruit, shared by the working arms (at least HOLD_MIN s, at most
 #: HOLD_MAX s); a report holds the carriage HOLDS_PER_REPORT times at most (a burst of false reports
 #: costs a few holds, not one per report and per look).
+#: On the move, a report near the edge of an arm's reach at the rail's end gets a deadline where
+#: the arm stops serving it wherever within this many sigma of the report the fruit truly is.
+RAIL_END_SIGMAS = 3.0
 CHECK, LOOK, REACH_TIME, HOLD_PER_FRUIT, HOLD_MIN, HOLD_MAX, HOLDS_PER_REPORT = 0.5, 8.0, 1.5, 3.0, 1.5, 6.0, 2
 
 # the camera and the faults live in .sensing; re-exported here, where a live row is run
@@ -128,6 +131,8 @@ class _Run:
         self.measured: set[str] = set()
         self.taken: set[str] = set()
         self.holds: list[dict] = []  # on the move: where the carriage held for fruit
+        self.ends: dict[tuple[str, int], int | None] = {}  # (report, arm) -> robust_end at the rail's end
+        self.deadlined: set[tuple[str, int]] = set()  # (report, arm) whose window at rest has a twin with a deadline
         orig = self.booker.plan_cycle
 
         def timed(*a, **k):  # every decision's wall time (a decision is one or more cycle attempts)
@@ -158,7 +163,35 @@ class _Run:
         self.seen = {k: (self.seen[k] if self.seen.get(k, math.inf) < since else t) for k, t in times.items()}
         self.booker.cruise = cruise
         windows = pick_windows(self.seen_problem, self.reach, cruise, self.problem.task.pick_dwell)
-        self.booker.windows = {f: ws for f, ws in windows.items() if math.isfinite(self.seen[f])}  # reported on it
+        windows = {f: ws for f, ws in windows.items() if math.isfinite(self.seen[f])}  # reported on it
+        if GantryMode(self.opts.mode) == GantryMode.CONTINUOUS:
+            windows = {f: self.rail_end(f, ws, cruise) for f, ws in windows.items()}
+        self.booker.windows = windows
+
+    def rail_end(self, fid: str, ws: list, cruise: Cruise) -> list:
+        """On the move the carriage comes to rest for good at the rail's end; a window open there
+        (``hi`` inf) on a report near the edge of the arm's reach gets a twin that closes where the
+        arm stops serving the fruit wherever within ``RAIL_END_SIGMAS`` sigma of the report it truly
+        is (:func:`coplan.row.reach.robust_end`): the deadline the policy orders it by. The
+        at-rest window is kept (the report may be off the other way)."""
+        out = []
+        grid = self.reach.grid
+        for w in ws:
+            if math.isinf(w.hi):
+                key = (fid, w.arm)
+                if key not in self.ends:
+                    k_lo, k_hi = (int(np.searchsorted(grid, c - 1e-9)) for c in (w.c_lo, w.c_hi))
+                    self.ends[key] = robust_end(self.seen_problem, self.reach, self.reports[fid].position, w.arm,
+                                                k_lo, k_hi, RAIL_END_SIGMAS * self.opts.sigma)
+                k = self.ends[key]
+                x = cruise.x1 if k is None else float(grid[k])  # (robust nowhere: by the carriage's arrival)
+                if x < cruise.x1 - 1e-9 or k is None:
+                    hi = float(cruise.time_at(np.array([x]))[0]) - self.problem.task.pick_dwell
+                    if hi >= w.lo:
+                        out.append(replace(w, hi=hi, c_hi=x))
+                        self.deadlined.add(key)
+            out.append(w)
+        return out
 
     def on_book(self, i: int, did: str, now: float) -> bool:
         d = self.reports[did]
@@ -294,7 +327,9 @@ def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str
         for f, ws in run.booker.windows.items():
             if f in run.taken or run.seen[f] > t_c or held_for.get(f, 0) >= HOLDS_PER_REPORT * caution:
                 continue
-            wk = [w for w in ws if w.arm in working and w.hi >= t_c]
+            # (a window at rest whose twin has a deadline: the deadline counts)
+            wk = [w for w in ws if w.arm in working and w.hi >= t_c
+                  and not (math.isinf(w.hi) and (f, w.arm) in run.deadlined)]
             if wk and max(w.hi for w in wk) <= t_c + LOOK:
                 soon.append((max(w.hi for w in wk), f, wk))
         out = []

@@ -23,7 +23,7 @@ from ..allocate.screen import screened, usable_picks
 from ..problem.gantry import cell_at
 from ..problem.model import Problem
 
-__all__ = ["RowReach", "row_reach", "DEFAULT_RESOLUTION"]
+__all__ = ["RowReach", "row_reach", "robust_end", "DEFAULT_RESOLUTION"]
 
 #: Spacing of the candidate carriage positions, m.
 DEFAULT_RESOLUTION = 0.05
@@ -129,3 +129,19 @@ def _why(problem: Problem, f) -> str:
     why = screened(cell_at(problem, c, (f.id,))).reasons.get(f.id, f"{f.id}: blocked")
     return (f"{f.id}: no carriage position on the rail [{g.start:g}, {g.end:g}] m lets an arm harvest it; "
             f"with the carriage at {c:.2f} m, {why.split(': ', 1)[1]}")
+
+
+def robust_end(problem: Problem, reach: RowReach, xy, arm: int, k_lo: int, k_hi: int, radius: float) -> int | None:
+    """The last grid index in ``[k_lo, k_hi]`` from which arm ``arm`` serves a fruit reported at
+    ``xy`` wherever within ``radius`` of it the fruit truly is (eight points on that circle, and
+    ``xy``, all usable); None if no index there does. A live planner's deadline for a fruit near
+    the edge of an arm's reach: past that index the report's error may put it out of reach."""
+    cell = cell_at(problem, 0.0, ())
+    ang = np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)
+    ring = np.r_[[[0.0, 0.0]], radius * np.c_[np.cos(ang), np.sin(ang)]] + np.asarray(xy, float)  # (9, 2)
+    ks = np.arange(k_hi, k_lo - 1, -1)
+    pts = (ring[None, :, :] - np.c_[reach.grid[ks], np.zeros(ks.size)][:, None, :]).reshape(-1, 2)  # (K * 9, 2)
+    ok = usable_picks(cell, pts, arms=(arm,))[arm].any(axis=-1).reshape(ks.size, ring.shape[0]).all(axis=1)
+    hit = np.flatnonzero(ok)
+    return int(ks[hit[0]]) if hit.size else None
+
