@@ -327,7 +327,7 @@ def test_last_stop_serves_every_fruit_and_trades_the_move_against_the_busiest_ar
     """:func:`coplan.row.stops.last_stop` (a live row's end, stop and go): the stop it returns
     serves every fruit with the arms given; none when no candidate does; for one fruit it is the
     candidate of least move plus cheapest round trip, computed here independently."""
-    from coplan.row.stops import last_stop
+    from coplan.row.livestops import last_stop
 
     reach = row_reach(row)
     g = row.gantry
@@ -362,7 +362,7 @@ def test_stop_share_takes_what_the_next_stop_cannot_and_leaves_it_only_what_it_k
     left to the next stop stays in reach that far; a stopped arm is given nothing; with the next
     stop the same as this one (the row's end in view), everything in reach here is taken."""
     from coplan.row.cruise import Cruise, pick_windows
-    from coplan.row.stops import stop_share
+    from coplan.row.livestops import stop_share
 
     reach = row_reach(row)
     k = int(np.searchsorted(reach.grid, 4.0))

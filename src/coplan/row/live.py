@@ -27,12 +27,16 @@ Entry point: :func:`run_live_row` -> :class:`LiveRow`, in either gantry mode.
   would leave every arm's reach, nor than puts the rear arm's base under the edge of what the
   camera has seen, so it passes no fruit unseen); the arms pick, with the carriage at rest, the
   fruit the next stop could not serve and those it shares with the next stop where they
-  lengthen the two stops least (:func:`coplan.row.stops.stop_share`), each arm's balanced;
+  lengthen the two stops least (:func:`coplan.row.livestops.stop_share`), each arm's balanced;
   once the last pick is over the carriage hops -- a time-optimal jerk-limited move -- while the
-  arms place. Once
-  the camera has seen to the row's end (``gantry.end``), the hop goes to the one stop that
-  serves the rest in the least estimated time (:func:`coplan.row.stops.last_stop`), not the
-  farthest, where the arms beyond the last fruit would idle, and that stop takes it all. A
+  arms place. Once the next stop may be the rail's end, seen from a stop that has not seen that
+  far, the next stop is the one, of those from which the camera sees to the rail's end, that
+  with this stop serves what is known in the least estimated time, the stretch not seen yet
+  priced as the one before it (:func:`coplan.row.livestops.next_to_last`). Once the camera has
+  seen to the row's end (``gantry.end``), the hop goes to the one stop that serves the rest in
+  the least estimated time (:func:`coplan.row.livestops.last_stop`), not the farthest, where
+  the arms beyond the last fruit would idle, and that stop takes it all; the carriage goes on
+  to the rail's end to look further only if the camera has reported fruit past it. A
   probe (a false report, or a second report of a fruit taken) ends where the arm finds nothing:
   its gripper is empty, so it goes on to its next fruit from there, not by its bin. An arm
   that stops during a hop changes it: from the carriage's state then, it brakes to the nearest
@@ -57,18 +61,18 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..allocate.screen import TIP_TOLERANCE
 from ..kinds import AssignRule, GantryMode, SpeedProfile
-from ..plan import DEFAULT_RATE, Event, EventKind, finalize_plan
+from ..plan import Event, EventKind, finalize_plan
 from ..problem.model import Fruit, Problem
-from .booking import Booker, run_policy, why_left
+from .booking import why_left
 from .bound import row_bounds
 from .continuous import MovingOptions, assemble_moving, plan_continuous
 from .cruise import Cruise, pick_windows, ramp_time
-from .reach import robust_end, row_reach
+from .liverun import LiveRun
+from .reach import row_reach
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
                       row_detections, row_reports)
-from .stops import last_stop, stop_share
+from .livestops import last_stop, next_to_last, stop_share
 from .stranded import still_reachable
 from .track import AT_REST_CYCLE_SHARE, AT_REST_SHARE
 
@@ -89,9 +93,6 @@ STOP_PATIENCE = 10.0
 #: carriage HOLD_PER_FRUIT s per such fruit, shared by the working arms (at least HOLD_MIN s, at most
 #: HOLD_MAX s); a report holds the carriage HOLDS_PER_REPORT times at most (a burst of false reports
 #: costs a few holds, not one per report and per look).
-#: On the move, a report near the edge of an arm's reach at the rail's end gets a deadline where
-#: the arm stops serving it wherever within this many sigma of the report the fruit truly is.
-RAIL_END_SIGMAS = 3.0
 CHECK, LOOK, REACH_TIME, HOLD_PER_FRUIT, HOLD_MIN, HOLD_MAX, HOLDS_PER_REPORT = 0.5, 8.0, 1.5, 3.0, 1.5, 6.0, 2
 
 # the camera and the faults live in .sensing; re-exported here, where a live row is run
@@ -107,121 +108,6 @@ class LiveRow:
     detections: list[RowDetection]
     outcome: dict[str, str]  # true fruit id -> harvested | missed (why)
     metrics: dict = field(default_factory=dict)
-
-
-class _Run:
-    """One live run's state: the reports, what is seen, the booker and the close-range sensor."""
-
-    def __init__(self, problem: Problem, opts: LiveRowOptions, reports: list[RowReport], cruise: Cruise,
-                 dark: tuple[float, float] | None = None):
-        self.problem, self.opts = problem, opts
-        self.reports = {r.id: r for r in reports}
-        self.truth_xy = {f.id: f.position for f in problem.fruits}
-        self.rng = np.random.default_rng(opts.seed + 1)
-        self.seen_problem = replace(problem, fruits=tuple(Fruit(r.id, r.position) for r in reports),
-                                    name=f"{problem.name} (as seen)", source=None, digest=None)
-        self.reach = row_reach(self.seen_problem)
-        self.booker = Booker(self.seen_problem, cruise, {}, DEFAULT_RATE, opts.margin, self.reach.resolution)
-        self.dark = dark  # (t, seconds) the camera reports nothing, or None
-        self.seen: dict[str, float] = {}
-        self.known: list[tuple[str, tuple[float, float]]] = []  # reports chosen so far (association)
-        self.outcome: dict[str, str] = {}
-        self.walls: list[float] = []
-        self.misses: dict[str, str] = {}  # report -> why the grasp closed on nothing
-        self.measured: set[str] = set()
-        self.taken: set[str] = set()
-        self.holds: list[dict] = []  # on the move: where the carriage held for fruit
-        self.ends: dict[tuple[str, int], int | None] = {}  # (report, arm) -> robust_end at the rail's end
-        self.deadlined: set[tuple[str, int]] = set()  # (report, arm) whose window at rest has a twin with a deadline
-        orig = self.booker.plan_cycle
-
-        def timed(*a, **k):  # every decision's wall time (a decision is one or more cycle attempts)
-            t = _time.perf_counter()
-            out = orig(*a, **k)
-            self.walls.append(_time.perf_counter() - t)
-            return out
-
-        self.booker.plan_cycle = timed
-        self.set_cruise(cruise)
-
-    def add_reports(self, reports: list[RowReport]) -> None:
-        """Reports not known when the run began (a false burst at the carriage's position then)."""
-        self.reports |= {r.id: r for r in reports}
-        fruits = tuple(Fruit(r.id, r.position) for r in reports)
-        self.seen_problem = replace(self.seen_problem, fruits=self.seen_problem.fruits + fruits)
-        more = row_reach(replace(self.seen_problem, fruits=fruits), self.reach.resolution)
-        self.reach.problem = self.seen_problem
-        self.reach.cover |= more.cover
-        self.reach.reasons |= more.reasons
-        self.booker.problem = self.seen_problem
-        self.booker.fruit_xy |= {r.id: r.position for r in reports}
-
-    def set_cruise(self, cruise: Cruise, since: float = -math.inf) -> None:
-        """The carriage's motion as now decided; the reports' times follow from it (those seen
-        before ``since`` keep theirs), and so do the pick windows."""
-        times = report_times(list(self.reports.values()), cruise, self.dark)
-        self.seen = {k: (self.seen[k] if self.seen.get(k, math.inf) < since else t) for k, t in times.items()}
-        self.booker.cruise = cruise
-        windows = pick_windows(self.seen_problem, self.reach, cruise, self.problem.task.pick_dwell)
-        windows = {f: ws for f, ws in windows.items() if math.isfinite(self.seen[f])}  # reported on it
-        if GantryMode(self.opts.mode) == GantryMode.CONTINUOUS:
-            windows = {f: self.rail_end(f, ws, cruise) for f, ws in windows.items()}
-        self.booker.windows = windows
-
-    def rail_end(self, fid: str, ws: list, cruise: Cruise) -> list:
-        """On the move the carriage comes to rest for good at the rail's end; a window open there
-        (``hi`` inf) on a report near the edge of the arm's reach gets a twin that closes where the
-        arm stops serving the fruit wherever within ``RAIL_END_SIGMAS`` sigma of the report it truly
-        is (:func:`coplan.row.reach.robust_end`): the deadline the policy orders it by. The
-        at-rest window is kept (the report may be off the other way)."""
-        out = []
-        grid = self.reach.grid
-        for w in ws:
-            if math.isinf(w.hi):
-                key = (fid, w.arm)
-                if key not in self.ends:
-                    k_lo, k_hi = (int(np.searchsorted(grid, c - 1e-9)) for c in (w.c_lo, w.c_hi))
-                    self.ends[key] = robust_end(self.seen_problem, self.reach, self.reports[fid].position, w.arm,
-                                                k_lo, k_hi, RAIL_END_SIGMAS * self.opts.sigma)
-                k = self.ends[key]
-                x = cruise.x1 if k is None else float(grid[k])  # (robust nowhere: by the carriage's arrival)
-                if x < cruise.x1 - 1e-9 or k is None:
-                    hi = float(cruise.time_at(np.array([x]))[0]) - self.problem.task.pick_dwell
-                    if hi >= w.lo:
-                        out.append(replace(w, hi=hi, c_hi=x))
-                        self.deadlined.add(key)
-            out.append(w)
-        return out
-
-    def on_book(self, i: int, did: str, now: float) -> bool:
-        d = self.reports[did]
-        for other, xy in self.known:
-            if other != did and math.dist(xy, d.position) < self.opts.merge:
-                self.outcome.setdefault(f"report {did}", f"merged with {other} (within {self.opts.merge * 1000:g} mm)")
-                return False
-        self.known.append((did, d.position))
-        claimed = {self.reports[e.fruit].truth for e in self.booker.events}
-        if d.truth is None or d.truth in claimed:
-            # the close-range sensor finds nothing there (a false report, or a fruit already taken):
-            # the arm comes, looks and goes back -- a probe, no dwells
-            self.booker.probes.add(did)
-        elif did not in self.measured:  # it measures the fruit as the arm comes (once: a later choice
-            # of it, after one that found no clear cycle, plans on the same measurement)
-            self.measured.add(did)
-            tx, ty = self.truth_xy[d.truth]
-            xy = (tx + self.rng.normal(0, self.opts.close_sigma), ty + self.rng.normal(0, self.opts.close_sigma))
-            self.booker.fruit_xy[did] = xy
-            off = math.dist(xy, (tx, ty))
-            if off > TIP_TOLERANCE - 1e-4:
-                self.misses[did] = (f"missed: the close-range measurement was {off * 1000:.1f} mm off; the grasp "
-                                    f"closed on nothing")
-        return True
-
-    def policy(self, **kw) -> dict[str, str]:
-        return run_policy(self.booker, seen=self.seen, on_book=self.on_book, taken=self.taken, **kw)
-
-    def pick_ends(self) -> list[float]:
-        return [e.t_end for e in self.booker.events if e.kind == EventKind.PICK]
 
 
 def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progress=None) -> LiveRow:
@@ -242,7 +128,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
         # the carriage does not know where the last fruit is: it cruises to the end of the rail
         cruise = Cruise.of(problem, opts.speed, g.end)
         faults = FaultDraws(problem, opts, cruise.duration, cruise)
-        run = _Run(problem, opts, reports + faults.burst, cruise, faults.dark)
+        run = LiveRun(problem, opts, reports + faults.burst, cruise, faults.dark)
         t0 = _time.perf_counter()
         left, cruise, stops = _on_the_move(run, faults, cruise), run.booker.cruise, None
     else:
@@ -250,7 +136,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
 
         offline = plan_row(problem, RowOptions(), progress)
         faults = FaultDraws(problem, opts, float(offline.plan.metrics.get("makespan") or 0.0), None)
-        run = _Run(problem, opts, reports, Cruise.hops(problem, []), faults.dark)
+        run = LiveRun(problem, opts, reports, Cruise.hops(problem, []), faults.dark)
         t0 = _time.perf_counter()
         left, stops = _stop_and_go(run, faults)
         cruise = run.booker.cruise
@@ -258,7 +144,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
     return _finish(problem, opts, run, faults, left, cruise, offline, planning, stops)
 
 
-def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str]:
+def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, str]:
     """The row on the move: booked in phases of ``CHECK`` s, the carriage's motion changed at each
     fault that changes it (an arm stop: slower; the camera dark: a hold) and, with
     ``hold_for_fruit``, held wherever a reported fruit would otherwise pass every working arm
@@ -360,7 +246,7 @@ def _on_the_move(run: _Run, faults: FaultDraws, cruise: Cruise) -> dict[str, str
     return run.policy(halt=halt, delay=delay)
 
 
-def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[dict]]:
+def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list[dict]]:
     """The row stop by stop (module docstring): book this stop's share of the fruit reported,
     then hop to the next once the last pick is over."""
     problem, opts, g = run.problem, run.opts, run.problem.gantry
@@ -416,7 +302,10 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
                     # inside the run's end by two sigma of the camera's noise (the close-range
                     # measurement may move the fruit by that much), if the run is that long
                     ends.append(run_end if run_end == grid.size - 1 else max(int(ahead[0]), run_end - inset))
-            if k >= grid.size - 1 or (not ends and edge >= far):
+            # (the camera has seen the rest of the row: to its end, or, where it has reported
+            # fruit past the rail's end, as far as any arm could reach from the rail)
+            beyond = any(run.reports[f].position[0] > g.end for f, t in run.seen.items() if t <= t_dep)
+            if k >= grid.size - 1 or (not ends and edge >= (far if beyond else g.end)):
                 return k, t_dep  # the end of the rail, or nothing left anywhere ahead
             if min(ends + [cap]) > k or here:
                 return min(ends + [cap]), t_dep
@@ -453,7 +342,25 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
         last = edge_at(t_arr) >= g.end and all(reach.cover[f][working_at(t_arr)][:, k].any() for f in rest)
         # (the rest of the row in view and in reach here: this stop takes it all)
         open_ = {f: ws for f, ws in run.booker.windows.items() if f not in run.taken}  # (a fruit taken loads no arm)
-        order, keep = stop_share(run.seen_problem, reach, open_, todo, k, k if last else cap_at(t_arr), stopped, inset)
+        k_plan = k if last else cap_at(t_arr)
+        k_see = int(np.searchsorted(grid, g.end - front - opts.look_ahead - 1e-9))
+        planned = None
+        if not last and not stopped and k_plan == grid.size - 1 and max(k + 1, k_see) <= k_plan:
+            # the next stop may be one from which the camera sees to the rail's end (the rest
+            # of the row then in the front arm's reach): the one that with this stop serves
+            # what is known in the least time, not the rail's end, where the arms beyond the
+            # last fruit would idle (all arms working: after a fault, as far as allowed)
+            work = {f for f in todo if f in reach.cover and reach.cover[f][:, k:].any()}
+            # the stretch the camera has not seen yet, priced as the one before it (its reports, shifted)
+            edge = edge_at(t_arr)
+            u = g.end - edge
+            like = [Fruit(f"~{r.id}", (r.position[0] + u, r.position[1])) for r in run.reports.values()
+                    if run.seen.get(r.id, math.inf) <= t_arr and edge - u <= r.position[0] < edge]
+            est = replace(run.seen_problem, fruits=tuple(f for f in run.seen_problem.fruits if f.id in work) + tuple(like))
+            r2 = row_reach(est, reach.resolution)
+            planned = next_to_last(est, r2, r2.harvestable(), k, range(max(k + 1, k_see), k_plan + 1), float(grid[k]))
+            k_plan = k_plan if planned is None else planned
+        order, keep = stop_share(run.seen_problem, reach, open_, todo, k, k_plan, stopped, inset)
         run.booker.windows = {f: ws for f, ws in run.booker.windows.items() if f in keep}
         run.policy(order=order, halt=faults.halt, delay=faults.delay, make_way=True)
         picks = [e for e in run.booker.events[before:] if e.kind == EventKind.PICK]
@@ -462,6 +369,8 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
         nxt, t_dep = next_stop(k, t_dep)
         if nxt == k:
             break
+        if planned is not None:
+            nxt = min(nxt, planned)
         if edge_at(t_dep) >= g.end:  # the rest of the row is in view: one stop may serve it all, nearer
             rest = remaining(k + 1, t_dep)
             best = last_stop(run.seen_problem, reach, rest, range(k + 1, nxt + 1), working_at(t_dep), float(grid[k]))
@@ -495,7 +404,7 @@ def _stop_and_go(run: _Run, faults: FaultDraws) -> tuple[dict[str, str], list[di
     return left, stops
 
 
-def _finish(problem: Problem, opts: LiveRowOptions, run: _Run, faults: FaultDraws, left: dict[str, str], cruise: Cruise,
+def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultDraws, left: dict[str, str], cruise: Cruise,
             offline, planning: float, stops: list[dict] | None) -> LiveRow:
     """The executed plan (events on the true fruit), verified against the truth, and the metrics."""
     from ..live.sim import LIVE_PLANNER

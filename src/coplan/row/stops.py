@@ -11,7 +11,7 @@
   the rail (a receding horizon: the carriage starts once the first segment is decided). In each
   segment strides of 0.3 to 1 carriage span are tried from the last stop kept; the segment's
   fruit go to stops and arms by a balance (fewest options first, each where it lengthens its
-  stop's cell least, then each moved where it shortens the stops' sum: :func:`_segment`,
+  stop's cell least, then each moved where it shortens the stops' sum: :func:`price_stops`,
   :func:`rebalance`) priced by a cell-time estimate -- per-joint time-optimal
   bin -> fruit -> bin round trips with both dwells at that carriage position
   (:func:`round_trips`), each used arm's way out of home and back, the carriage's moves less
@@ -26,6 +26,9 @@
   7,000 binaries) ran into its 20-30 s limits without closing its gap, and CP-SAT within half
   a second returned the fewest-stops hint it was given; a row planner must stay ahead of the
   carriage, so the search is over strides, each priced in milliseconds.
+
+A live row, which knows only the fruit the camera has reported, chooses its stops by the rules
+of :mod:`coplan.row.livestops`, priced as these are (:class:`TripCosts`, :func:`price_stops`).
 
 Each rule returns :class:`Stop` objects in carriage order; which arm takes which fruit at a
 stop is the cell planner's to decide (the rules' arm choice only prices the stop).
@@ -45,7 +48,7 @@ from ..ties import quantised
 from .reach import RowReach
 
 __all__ = ["Stop", "fixed_stops", "fewest_stops", "optimised_stops", "carriage_span", "round_trips", "StopWindow",
-           "last_stop", "stop_share", "rebalance"]
+           "rebalance", "TripCosts", "price_stops", "quantised_trips", "move_time", "arm_overheads"]
 
 
 @dataclass(frozen=True)
@@ -181,7 +184,7 @@ class StopWindow:
     first_work: int = 40_000
 
 
-class _Costs:
+class TripCosts:
     """The round trips of one segment, by fruit then grid index: ``{f: {k: [(s, arm), ...]}}``,
     each time whole microseconds (so that every comparison below is the same on any CPU);
     priced on demand for grid indices not seen yet."""
@@ -196,12 +199,12 @@ class _Costs:
         if not need:
             return
         trips = round_trips(self.problem, self.reach, self.fruit, np.asarray(need, int))
-        for (f, k, a), t in _quantised(trips).items():
+        for (f, k, a), t in quantised_trips(trips).items():
             self.by_fruit.setdefault(f, {}).setdefault(k, []).append((t, a))
         self.priced |= set(need)
 
 
-def _segment(problem, reach, cost: _Costs, fruit, ks, over, x_from, overlap):
+def price_stops(problem, reach, cost: TripCosts, fruit, ks, over, x_from, overlap):
     """Assign ``fruit`` to stops ``ks`` (sorted) and arms there, and estimate the time: the
     carriage's moves from ``x_from`` (less what the arms' way home and out overlaps) and each
     stop's cell (its busiest arm: round trips plus its way out and home). Fruit with the fewest
@@ -247,7 +250,7 @@ def _segment(problem, reach, cost: _Costs, fruit, ks, over, x_from, overlap):
         if not at[i]:
             continue
         xk = float(reach.grid[k])
-        mv = _move_time(g, x, xk)
+        mv = move_time(g, x, xk)
         total += peak[i] + mv - min(mv, overlap)
         stops.append(Stop(k, xk, tuple(f for _, f in sorted(at[i]))))
         x = xk
@@ -307,99 +310,16 @@ def rebalance(load, peak, at, chosen, over, passes: int = 8) -> None:
             return
 
 
-def last_stop(problem: Problem, reach: RowReach, fruit: list[str], ks, arms: list[int], x_from: float) -> int | None:
-    """Of the grid indices ``ks``, the one stop that serves every fruit in ``fruit`` with the
-    arms ``arms`` in the least estimated time -- the carriage's move from ``x_from`` and the
-    stop's busiest arm, the fruit balanced as :func:`_segment` balances them (fewest options
-    first, each where it lengthens the busiest arm least, then where its round trip is
-    cheapest); None if no index in ``ks`` serves them all. A row's end: the stop the rest of the
-    row needs, nearer than the farthest one where the arms beyond the last fruit would idle."""
-    ks = np.asarray(sorted(set(int(k) for k in ks)), int)
-    if not fruit or ks.size == 0:
-        return None
-    use = set(arms)
-    by: dict[int, dict[str, list[tuple[float, int]]]] = {}
-    for (f, k, a), t in _quantised(round_trips(problem, reach, fruit, ks)).items():
-        if a in use:
-            by.setdefault(k, {}).setdefault(f, []).append((t, a))
-    best = None
-    for k in ks.tolist():
-        opts = by.get(k, {})
-        if len(opts) < len(fruit):
-            continue
-        load = dict.fromkeys(use, 0.0)
-        for f in sorted(opts, key=lambda f: (len(opts[f]), f)):
-            top = max(load.values())
-            _, c, a = min((max(top, load[a] + c) - top, c, a) for c, a in opts[f])
-            load[a] += c
-        est = max(load.values()) + _move_time(problem.gantry, x_from, float(reach.grid[k]))
-        if best is None or est < best[0] - 1e-9:
-            best = (est, k)
-    return None if best is None else best[1]
 
 
-def stop_share(problem: Problem, reach, windows: dict, todo: list[str], k: int, k_plan: int, stopped: set[int],
-               inset: int = 0):
-    """What the stop at grid index ``k`` harvests, and each working arm's fruit there in row
-    order, against the next stop the camera allows now (``k_plan``; ``todo``: the fruit reported
-    and not taken). Every fruit no carriage position from ``k_plan`` on serves (it would be
-    passed) is harvested here; a fruit both stops serve goes where it lengthens the two stops
-    together least (each stop as long as its busiest arm, by time-optimal bin -> fruit -> bin
-    round trips; fewest options first, then the cheaper round trip, then this stop); the fruit
-    only the next one serves load it from the start. The next stop is priced as at least as
-    long as this one (its fruit beyond the camera's view are not reported yet, and the row's
-    density does not change much in one hop): a fruit both serve goes to the next stop's rear
-    arm when that arm's round trip is cheaper, rather than fill this stop's front arm for free
-    and leave that rear arm little -- the imbalance that made stop and go 1.13-1.31 x the
-    offline plan's row time on the benchmark rows. A fruit is left to the next stop only if
-    it stays in reach ``inset`` grid steps beyond it (the margin the next stop keeps from a
-    fruit's last chance: the hop is not shortened for it). Returns (order, kept fruit)."""
-    here = [f for f, ws in windows.items() if any(w.arm not in stopped for w in ws)]
-    allowed = {f: {w.arm for w in windows[f]} - stopped for f in here}
-    now: dict[str, list[tuple[float, int]]] = {}
-    for (f, _, a), c in _quantised(round_trips(problem, reach, here, np.array([k])) if here else {}).items():
-        if a in allowed[f]:
-            now.setdefault(f, []).append((c, a))
-    later: dict[str, list[tuple[float, int]]] = {}
-    if k_plan > k:
-        for (f, _, a), c in _quantised(round_trips(problem, reach, [f for f in todo if f in reach.cover], np.array([k_plan]))).items():
-            if a not in stopped:
-                later.setdefault(f, []).append((c, a))
-    working = [a for a in range(len(problem.arms)) if a not in stopped]
-    last = {f: int(np.flatnonzero(reach.cover[f][working].any(axis=0))[-1]) - inset for f in now}
-    load = {0: [0.0] * len(problem.arms), 1: [0.0] * len(problem.arms)}  # this stop, the next
-    order: dict[int, list[str]] = {}
-
-    def put(f: str, o: list[tuple[float, int, int]]) -> None:
-        def cost(c: float, a: int, s: int) -> tuple:
-            top = max(load[s]) if s == 0 else max(max(load[0]), max(load[1]))  # (the next: as long as this one, at least)
-            grown = max(top, load[s][a] + c) - top
-            return grown, c, s, a
-        _, c, s, a = min(cost(*x) for x in o)
-        load[s][a] += c
-        if s == 0:
-            order.setdefault(a, []).append(f)
-
-    for f, o in sorted(later.items(), key=lambda it: (len(it[1]), it[0])):
-        if f not in now:
-            put(f, [(c, a, 1) for c, a in o])
-    both = sorted(now, key=lambda f: (last[f] >= k_plan > k and f in later, len(now[f]) + len(later.get(f, [])), f))
-    for f in both:
-        o = [(c, a, 0) for c, a in now[f]]
-        if last[f] >= k_plan > k:
-            o += [(c, a, 1) for c, a in later.get(f, [])]
-        put(f, o)
-    x = {f.id: f.position[0] for f in problem.fruits}
-    keep = {f for fs in order.values() for f in fs} | (set(windows) - set(here))  # (a stopped arm's: not booked)
-    return {a: sorted(fs, key=lambda f: (x[f], f)) for a, fs in order.items()}, keep
 
 
-def _quantised(trips: dict) -> dict:
+def quantised_trips(trips: dict) -> dict:
     """Round trips in whole microseconds: compared with each other, the same on any CPU."""
     return dict(zip(trips, quantised(list(trips.values())).tolist())) if trips else {}
 
 
-def _move_time(g, x0: float, x1: float) -> float:
+def move_time(g, x0: float, x1: float) -> float:
     """The carriage's time-optimal rest-to-rest move (s), by distance (memoised)."""
     d = round(abs(x1 - x0), 9)
     t = _MOVES.get((d, g.max_velocity, g.max_acceleration, g.max_jerk))
@@ -498,7 +418,7 @@ def _best_stride(problem, reach, todo, spans, lo, length, fresh, step_of, w, ove
     n = reach.grid.size
     evals = min(w.polish, w.first_work // len(inside)) if first else w.polish
     ks_all = sorted({k for fr in w.fractions for k in _stride(lo, step_of[fr], hi, n, fresh)})
-    cost = _Costs(problem, reach, inside)
+    cost = TripCosts(problem, reach, inside)
     cost.add(ks_all)
     best = None
     for fr in w.fractions:
@@ -506,13 +426,13 @@ def _best_stride(problem, reach, todo, spans, lo, length, fresh, step_of, w, ove
         must = [f for f in inside if spans[f][1] < (ks[-1] if ks else lo)]  # its last chance comes before the lookahead stop
         if hi >= n - 1:  # the row's end: no later segment takes what this one leaves
             must = list(inside)
-        est, st, taken = _segment(problem, reach, cost, inside, ks, over, x_now, overlap)
+        est, st, taken = price_stops(problem, reach, cost, inside, ks, over, x_now, overlap)
         missed = [f for f in must if f not in set(taken)]
         if missed:  # no stop of this stride serves them before their window closes: a stop of its own each
             extra = fewest_stops(reach, missed)
             cost.add([s.k for s in extra])
             ks = sorted(set(ks) | {s.k for s in extra})
-            est, st, taken = _segment(problem, reach, cost, inside, ks, over, x_now, overlap)
+            est, st, taken = price_stops(problem, reach, cost, inside, ks, over, x_now, overlap)
         per = est / max(1, len(taken))
         if best is None or per < best[0] - 1e-9:
             best = (per, fr, st, must)
@@ -524,7 +444,7 @@ def _best_stride(problem, reach, todo, spans, lo, length, fresh, step_of, w, ove
 def _polish(problem, reach, cost, inside, st, must, over, x_from, overlap, floor, evals):
     """Local search on one segment's stops from the best stride's: move a stop by 0.1 to 1.6 m
     either way, drop one, add one halfway between two, or merge two neighbours into one a
-    quarter, half or three quarters of the way between them, each priced by :func:`_segment`;
+    quarter, half or three quarters of the way between them, each priced by :func:`price_stops`;
     the best move that lowers the estimated time per fruit taken (and still takes every fruit
     whose window closes in the segment) is made, until none does or ``evals`` pricings are
     spent. Uniform strides leave stops with a handful of fruit where the fruit are uneven; this
@@ -533,7 +453,7 @@ def _polish(problem, reach, cost, inside, st, must, over, x_from, overlap, floor
     must = set(must)
 
     def price(ks):
-        est, s2, taken = _segment(problem, reach, cost, inside, ks, over, x_from, overlap)
+        est, s2, taken = price_stops(problem, reach, cost, inside, ks, over, x_from, overlap)
         if not must <= set(taken):
             return math.inf, s2
         return est / max(1, len(taken)), s2
