@@ -44,11 +44,12 @@ from .nlp_data import NLP, ConstraintPoint, Grid, NLPSolution, SolverStatus, Wid
 __all__ = ["SolverStatus", "Grid", "ConstraintPoint", "NLP", "NLPSolution", "build_grid", "build_nlp", "map_status"]  # data: .nlp_data
 
 
-def _var_state(problem: Problem, sch: ArmSchedule, grid: Grid):
+def _var_state(problem: Problem, sch: ArmSchedule, grid: Grid, free_idle: bool = False):
     """Bounds and warm start of one arm's (6, K+1) states and (2, K) jerks.
 
     Knot bounds are the limits themselves (widened only to a pose the arm must hold: home,
-    picks, places); between knots the ``hull`` rows of :func:`build_nlp` bound the motion."""
+    picks, places); between knots the ``hull`` rows of :func:`build_nlp` bound the motion.
+    An arm with no work holds home throughout, or (``free_idle``) at the first and last knot only."""
     arm = sch.arm
     K = grid.K
     held = np.array([arm.home] + [st.q1 for st in sch.steps if st.kind in (StepKind.PICK, StepKind.PLACE)], float)
@@ -80,7 +81,7 @@ def _var_state(problem: Problem, sch: ArmSchedule, grid: Grid):
         if st.kind in (StepKind.PICK, StepKind.PLACE):
             fix(k0, k1, st.q1)
             dwell_ranges.append((k0, k1, st.duration))
-    k_last = ranges[-1][1] if ranges else 0
+    k_last = ranges[-1][1] if ranges else (K if free_idle else 0)
     fix(k_last, K, home)
     h = np.diff(grid.t)
     U0 = np.where(h > 0, np.diff(X0[4:6], axis=1) / np.where(h > 0, h, 1.0), 0.0)
@@ -172,7 +173,8 @@ def _segments(grid: Grid, lo_k: int, hi_k: int, h_bounds: tuple[float, float], h
     return _Segments(h0, seg_of, nseg, elo, ehi, seg_len, boundary)
 
 
-def _arm_blocks(problem: Problem, schedules, grid: Grid, window: tuple[int, int], last: bool, start, blocks: list) -> dict:
+def _arm_blocks(problem: Problem, schedules, grid: Grid, window: tuple[int, int], last: bool, start, blocks: list,
+                free_idle: bool = False) -> dict:
     """Step 2: each arm's state and jerk variables (scaled to O(1)) appended to ``blocks``
     as ``(key, size, lower, upper, guess)``; returns each arm's bounds and scales."""
     lo_k, hi_k = window
@@ -183,7 +185,7 @@ def _arm_blocks(problem: Problem, schedules, grid: Grid, window: tuple[int, int]
         arm = problem.arm(name)
         # knot bounds are the limits themselves: between knots, velocity and position are
         # bounded by their Bezier control points (the ``hull`` rows below)
-        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid)
+        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid, free_idle)
         lo, hi, X0 = lo[:, lo_k : hi_k + 1], hi[:, lo_k : hi_k + 1], X0[:, lo_k : hi_k + 1]
         ulo, uhi, U0 = ulo[:, lo_k:hi_k], uhi[:, lo_k:hi_k], U0[:, lo_k:hi_k]
         if start is not None:
@@ -411,7 +413,7 @@ def build_nlp(
         ("eta", sg.n, sg.elo, sg.ehi, np.clip(np.ones(sg.n), sg.elo, sg.ehi)),
         ("T", sg.n, np.zeros(sg.n), np.full(sg.n, np.inf), np.cumsum(sg.length)),
     ]
-    per_arm = _arm_blocks(problem, schedules, grid, (lo_k, hi_k), last, start, blocks)
+    per_arm = _arm_blocks(problem, schedules, grid, (lo_k, hi_k), last, start, blocks, widen is not None and widen.free_idle)
     q_warm = {b[0][2:]: b[4].reshape((6, K + 1), order="F")[0:2].copy() for b in blocks if b[0].startswith("X_")}
     if carry is not None and warm is None:
         _guess_from_carry(blocks, per_arm, carry, (lo_k, hi_k), sg)

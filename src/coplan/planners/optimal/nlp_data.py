@@ -130,7 +130,8 @@ class WidenGoal:
     separation row keeps ``clearance + S`` with ``S`` a variable in ``[floor, cap]`` (m); no
     arm places after ``makespan`` and the plan ends by ``end`` (s); the objective is
     ``-weight * S`` plus the jerk integral ``sum_k h_k |u_k / jmax|^2`` (``weight`` 0: the jerk
-    alone, with ``S >= floor`` holding the room already won)."""
+    alone, with ``S >= floor`` holding the room already won). ``free_idle``: an arm with no
+    work rests at home at the start and the end only, and may move between (aside)."""
 
     makespan: float
     end: float
@@ -138,6 +139,7 @@ class WidenGoal:
     cap: float
     guess: float
     weight: float
+    free_idle: bool = False
 
 
 # ----------------------------------------------------------------------------- NLP

@@ -10,8 +10,11 @@ at every separation point (a max-min slack, capped at ``cap``), with the plan's 
 end held (no arm places later, the plan ends no later); with what is left free, minimise the
 jerk integral ``sum_k h_k |u_k / jmax|^2`` over every arm (one objective: the room weighted
 far above the jerk). Where both arms of a pair hold poses every plan must hold (picks, places,
-home, a locked arm), the distance is a constant: it caps ``S`` and, when it leaves no room to
-win, the program only smooths.
+home), the distance is a constant: it caps ``S`` and, when it leaves no room to win, the
+program only smooths. An arm with no work (one locked out of its bin, say) rests at home; where
+the least room is held beside it, it is pinned only at the first and last knot instead -- it
+may move aside and be home again by the end -- and the program holds every knot time (no event
+moves; free timing with the extra arm did not settle within the iterations on locked_arms).
 
 Separation points are added where a dense check of the solution comes closer than the room it
 claims, and the program solved again (``rounds``). The motion is piecewise-constant jerk
@@ -147,9 +150,10 @@ def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], go
     return sol, points, rounds
 
 
-def pinned_knots(schedules: dict[str, ArmSchedule], grid) -> dict[str, np.ndarray]:
+def pinned_knots(schedules: dict[str, ArmSchedule], grid, free_idle: bool = False) -> dict[str, np.ndarray]:
     """Per arm, (K+1,) bool: knots at which every plan on this grid holds the arm still at a
-    pose it cannot change (home at the start and after its last step, every pick and place)."""
+    pose it cannot change (home at the start and after its last step, every pick and place;
+    an arm with no work: throughout, or with ``free_idle`` at the first and last knot only)."""
     out = {}
     for n, sch in schedules.items():
         m = np.zeros(grid.K + 1, bool)
@@ -158,18 +162,19 @@ def pinned_knots(schedules: dict[str, ArmSchedule], grid) -> dict[str, np.ndarra
         for st, (k0, k1) in zip(sch.steps, ranges):
             if st.kind in (StepKind.PICK, StepKind.PLACE):
                 m[k0 : k1 + 1] = True
-        m[(ranges[-1][1] if ranges else 0):] = True
+        m[(ranges[-1][1] if ranges else (grid.K if free_idle else 0)):] = True
         out[n] = m
     return out
 
 
-def held_room(problem: Problem, schedules: dict[str, ArmSchedule], grid, points: list[ConstraintPoint]):
+def held_room(problem: Problem, schedules: dict[str, ArmSchedule], grid, points: list[ConstraintPoint],
+              free_idle: bool = False):
     """Split ``points`` into those the NLP can move and those where both arms are held at fixed
     poses (the distance there is a constant); returns ``(free points, least room at the held
     ones (m, inf if none), the held point with it)``. No plan on this grid has more room than
-    the held points allow."""
+    the held points allow (``free_idle``: arms with no work free between the first and last knot)."""
     names = [a.name for a in problem.arms]
-    pin = pinned_knots(schedules, grid)
+    pin = pinned_knots(schedules, grid, free_idle)
 
     def held(n, p):
         m = pin[n]
@@ -265,16 +270,25 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     q0 = {n: s.state(np.arange(0.0, end, 1e-3))[0] for n, s in schedules.items()}
     room0 = min_clearance(problem, q0) - problem.task.clearance
     points = screen_points(problem, schedules, grid, 0, grid.K, opts.cap + opts.screen, opts.shift)
+    everywhere = points
     points, held, where = held_room(problem, schedules, grid, points)
+    names = [a.name for a in problem.arms]
+    idle = {n for n in names if not grid.ranges[n]}
+    # the least room held by an arm with no work, at home: it may move aside (every event keeps
+    # its time, so with every knot time held), home again by the end
+    free_idle = where is not None and held < opts.cap and bool({names[where.ia], names[where.ib]} & idle)
+    if free_idle:
+        points, held, where = held_room(problem, schedules, grid, everywhere, free_idle=True)
+        info["idle_freed"] = sorted(idle)
+        say(f"widen: the least room is held by an arm with no work ({', '.join(sorted(idle))}): it may move aside")
     cap = round(min(opts.cap, held), 6)  # (a distance from sin/cos: whole micrometres, the same on any CPU)
     info["room_held"] = None if where is None else held
     budget = [opts.iterations]
     # held a microsecond inside the incumbent's (IPOPT meets constraints to its tolerance, ~1e-7)
     goal = WidenGoal(makespan=float(quantised(makespan)) - 1e-6, end=float(quantised(end)), floor=0.0, cap=cap,
                      guess=round(max(room0, 0.0), 6),
-                     weight=opts.weight if opts.weight is not None else _weight(opts.cap))
+                     weight=opts.weight if opts.weight is not None else _weight(opts.cap), free_idle=free_idle)
     if cap <= room0 + opts.least:  # no room to win: the jerk alone, the room held
-        names = [a.name for a in problem.arms]
         info["room_note"] = (f"the least room ({1000 * room0:.1f} mm) is at widen_cap ({1000 * opts.cap:.0f} mm) already"
                              if where is None or held >= opts.cap else
                              f"the least room ({1000 * room0:.1f} mm) is set by poses every plan on these events holds "
@@ -287,8 +301,8 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     # keep their times exactly (half the iterations each)
     total = budget[0]
     sol = None
-    for attempt, h_bounds in enumerate((opts.h_bounds, (1.0, 1.0))):
-        budget[0] = total // 2 if attempt == 0 else total - sum(r["iterations"] for r in info["rounds"])
+    for attempt, h_bounds in enumerate((opts.h_bounds, (1.0, 1.0)) if not free_idle else ((1.0, 1.0),)):
+        budget[0] = total // 2 if attempt == 0 and not free_idle else total - sum(r["iterations"] for r in info["rounds"])
         sol, used, rounds = _rounds(problem, schedules, grid, points, goal, opts, budget, deadline, say, h_bounds)
         info["rounds"] += rounds
         if sol is not None:
@@ -300,7 +314,7 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
                     iterations=sum(r["iterations"] for r in info["rounds"]), wall_seconds=_time.perf_counter() - t0)
         return WidenResult(None, info)
     room = sol.room  # type: ignore[attr-defined]
-    sol = exact_dynamics(sol, pinned_knots(schedules, grid))
+    sol = exact_dynamics(sol, pinned_knots(schedules, grid, free_idle))
     events = knot_events(schedules, grid, sol.t)
     plan = make_plan(problem, alloc, sol.sample, float(sol.t[-1]), events, PlanStatus.UNVERIFIED,
                      {"message": "widened"}, PlannerKind.OPTIMAL)
