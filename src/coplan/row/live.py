@@ -69,10 +69,10 @@ from .bound import row_bounds
 from .continuous import MovingOptions, assemble_moving, plan_continuous
 from .cruise import Cruise, pick_windows, ramp_time
 from .liverun import LiveRun
+from .livestops import last_stop, next_to_last, stop_share
 from .reach import row_reach
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
                       row_detections, row_reports)
-from .livestops import last_stop, next_to_last, stop_share
 from .stranded import still_reachable
 from .track import AT_REST_CYCLE_SHARE, AT_REST_SHARE
 

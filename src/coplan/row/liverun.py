@@ -27,6 +27,7 @@ __all__ = ["LiveRun", "RAIL_END_SIGMAS"]
 #: the arm stops serving it wherever within this many sigma of the report the fruit truly is.
 RAIL_END_SIGMAS = 3.0
 
+
 class LiveRun:
     """One live run's state: the reports, what is seen, the booker and the close-range sensor."""
 
