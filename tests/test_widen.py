@@ -186,15 +186,17 @@ def test_an_arm_with_no_work_moves_aside_when_the_least_room_is_held_beside_it()
 
 
 def test_an_iterate_at_ipopts_cap_within_the_feasibility_tolerance_is_a_candidate_the_verifier_judges():
-    """A two-arm layout of the widening benchmark (overlap-2x6-s24): both programs stop at
-    IPOPT's iteration cap with every constraint met to 5e-7 (not to IPOPT's own 1e-7), with
-    92 mm of room. Such an iterate is a candidate (``WidenOptions.feasible``): exact dynamics
-    restored, verified, kept -- the margin doubled at the same makespan (33.5 -> 87.4 mm on the
-    benchmark machine)."""
-    prob = parse_problem(to_yaml(overlap_problem(n_arms=2, n_fruits=6, spacing=1.567, seed=124)), "overlap-2x6-s24")
+    """A two-arm layout of the widening benchmark (overlap-2x6-s26): the free-timing program
+    stops at IPOPT's iteration cap with its last place 18 microseconds late (its constraints met
+    only to ``WidenOptions.feasible``, in scaled units) -- not a candidate: the stage would
+    refuse it as slower -- and the program with every knot time held stops at the cap too, in
+    time and within the tolerance. That iterate is a candidate: exact dynamics restored,
+    verified, kept -- the margin more than doubled at the same makespan (22.4 -> 83.5 mm on the
+    benchmark machine; refused as slower, or never tried, before)."""
+    prob = parse_problem(to_yaml(overlap_problem(n_arms=2, n_fruits=6, spacing=1.367, seed=126)), "overlap-2x6-s26")
     res = plan_optimal(prob)
     w = res.plan.solver["widen"]
-    assert w["rounds"] and w["rounds"][-1]["status"] == "limit_reached"
+    assert [r["timing"] for r in w["rounds"]][-1] == "held" and w["rounds"][-1]["status"] == "limit_reached"
     assert w["accepted"] and w["verified"] and res.verification.passed
-    assert abs(res.plan.metrics["makespan"] - w["makespan_before"]) < 1e-3
+    assert res.plan.metrics["makespan"] <= w["makespan_before"] + 1e-9
     assert w["margin"] >= max(2 * w["margin_before"], 0.05), (w["margin_before"], w["margin"])

@@ -37,7 +37,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ...allocate.allocation import Allocation
-from ...plan import Plan, PlannerKind, PlanStatus
+from ...plan import EventKind, Plan, PlannerKind, PlanStatus
 from ...problem.model import Problem
 from ...ties import quantised
 from ..coordinated.planner import make_plan
@@ -107,7 +107,7 @@ def _weight(cap: float) -> float:
 
 
 def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], goal: WidenGoal, opts: WidenOptions,
-            budget: list[int], deadline: float | None, say, h_bounds: tuple[float, float]):
+            budget: list[int], deadline: float | None, say, h_bounds: tuple[float, float], makespan: float):
     """Solve the program, adding points where a dense check of its solution comes closer than
     the room it claims (less ``give``), up to ``rounds`` times; ``(solution or None, points, rounds)``."""
     names = [a.name for a in problem.arms]
@@ -130,7 +130,8 @@ def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], go
             f"{new.iterations} iterations, room {1000 * s_val:.1f} mm")
         # IPOPT at its iteration cap may hold a feasible point that is not yet optimal: it is
         # kept (the verifier judges it); an infeasible or failed one is not
-        if not (new.status.converged or (new.status == SolverStatus.LIMIT_REACHED and new.max_violation <= opts.feasible)):
+        if not (new.status.converged or (new.status == SolverStatus.LIMIT_REACHED and new.max_violation <= opts.feasible
+                                         and _in_time(schedules, grid, new, makespan))):
             break
         dense = new.sample(np.arange(0.0, new.t[-1], 1e-3))
         new.room, new.dense_room = s_val, min_clearance(problem, dense) - problem.task.clearance  # type: ignore[attr-defined]
@@ -149,6 +150,15 @@ def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], go
             break
         points = points + added
     return sol, points, rounds
+
+
+def _in_time(schedules, grid, sol: NLPSolution, makespan: float) -> bool:
+    """Whether an iterate's last place ends no later than the incumbent's ``makespan`` (the
+    stage's own rule): the program holds it a microsecond inside, but an iterate at the cap
+    meets its constraints only to ``feasible``, in scaled units (overlap-2x6-s26's free-timing
+    iterate was 18 microseconds later, and the stage then refused it)."""
+    places = [e.t_end for e in knot_events(schedules, grid, sol.t) if e.kind == EventKind.PLACE]
+    return max(places, default=0.0) <= makespan + 1e-9
 
 
 def pinned_knots(schedules: dict[str, ArmSchedule], grid, free_idle: bool = False) -> dict[str, np.ndarray]:
@@ -304,7 +314,10 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     sol = None
     for attempt, h_bounds in enumerate((opts.h_bounds, (1.0, 1.0)) if not free_idle else ((1.0, 1.0),)):
         budget[0] = total // 2 if attempt == 0 and not free_idle else total - sum(r["iterations"] for r in info["rounds"])
-        sol, used, rounds = _rounds(problem, schedules, grid, points, goal, opts, budget, deadline, say, h_bounds)
+        # (every knot time held: the places end when the incumbent's do, and the program is
+        # held to that, not a microsecond inside, which no point with these times meets)
+        held_goal = goal if h_bounds[0] < h_bounds[1] else replace(goal, makespan=float(makespan) + 1e-9, end=max(goal.end, end + 1e-9))
+        sol, used, rounds = _rounds(problem, schedules, grid, points, held_goal, opts, budget, deadline, say, h_bounds, makespan)
         info["rounds"] += rounds
         if sol is not None:
             break
