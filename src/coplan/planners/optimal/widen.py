@@ -71,7 +71,7 @@ class WidenOptions:
     feasible : an iterate at IPOPT's iteration cap is kept when no constraint is violated by
         more than this and it has all the room the start had (the verifier then judges it; at
         IPOPT's own 1e-7, four of the benchmark's 30 layouts were left at 31-40 mm whose
-        iterates at the cap, 2.5e-7 to 5e-7 off, had 65-98 mm and were verified)
+        iterates at the cap, 3.9e-7 and 5e-7 off where printed, had 65-98 mm and were verified)
     """
 
     cap: float = 0.10
