@@ -16,7 +16,7 @@ import coplan
 from coplan.cli import app
 from coplan.kinds import EventKind, ExitCode
 from coplan.plan import Plan, PlannerKind, PlanStatus, load_plan
-from coplan.problem import default_problem_path, load_problem
+from coplan.problem import default_problem_path
 from coplan.kinematics import cubic_eval
 from coplan.verify.verifier import ViolationKind, WarningKind, verify
 
@@ -182,3 +182,20 @@ def test_a_row_plan_csv_carries_the_carriage_and_verifies_with_every_pick_inferr
     assert ver.passed and inferred == declared and len(declared) > 0
     r = CliRunner().invoke(app, ["verify", str(path), str(tmp_path / "o" / "plan.csv")])
     assert r.exit_code == 0 and "inferred" in r.output
+
+
+def test_near_intervals_by_a_sort_on_x_are_those_a_test_of_every_sample_finds():
+    """:func:`coplan.verify.infer.near_intervals` (one sort of the tip by x per arm, a bisection
+    per fruit) against the brute force it replaced (every sample's distance to the fruit): the
+    same intervals on 200 seeded random tip tracks, points and radii."""
+    from coplan.verify.infer import near_intervals
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        T = int(rng.integers(2, 400))
+        tip = np.cumsum(rng.normal(0, 0.05, (T, 2)), axis=0)
+        p = tip[int(rng.integers(T))] + rng.normal(0, 0.05, 2)
+        r = float(rng.uniform(0.001, 0.2))
+        close = np.hypot(*(tip - p).T) <= r
+        want = np.flatnonzero(close[:-1] | close[1:])
+        assert np.array_equal(near_intervals(tip, np.argsort(tip[:, 0], kind="stable"), p, r), want)

@@ -27,7 +27,7 @@ from ..plan import Event, EventKind, Plan
 from ..problem.model import Problem
 from .verdict import VerifyOptions
 
-__all__ = ["infer_events"]
+__all__ = ["infer_events", "near_intervals"]
 
 
 def _holds(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, min_hold: float, opts: VerifyOptions,
@@ -48,6 +48,20 @@ def _holds(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, min_hold: fl
     return out
 
 
+def near_intervals(tip: np.ndarray, by_x: np.ndarray, point, radius: float) -> np.ndarray:
+    """Indices ``n`` of the sample intervals ``[n, n + 1]`` with a sample of ``tip`` (T, 2)
+    within ``radius`` of ``point``, sorted; ``by_x``: ``tip``'s sample indices sorted by x (one
+    sort per arm, then a bisection per fruit: on a long row the tip comes near a fruit in a
+    few of its hundreds of thousands of samples)."""
+    x = tip[by_x, 0]
+    lo = np.searchsorted(x, point[0] - radius - 1e-9, "left")  # (a hair wider: the distance below decides)
+    hi = np.searchsorted(x, point[0] + radius + 1e-9, "right")
+    cand = by_x[lo:hi]
+    k = np.sort(cand[np.hypot(tip[cand, 0] - point[0], tip[cand, 1] - point[1]) <= radius])
+    n = np.union1d(k, k - 1)
+    return n[(n >= 0) & (n < tip.shape[0] - 1)]
+
+
 def infer_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: VerifyOptions | None = None) -> list[Event]:
     """Pick and place events of ``plan`` inferred from its motion (module docstring); sorted by time.
 
@@ -64,10 +78,10 @@ def infer_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: V
     for ia, (arm, m) in enumerate(zip(problem.arms, motions)):
         tip = m.tips()  # (the row frame for a row: the carriage's shift included)
         still = np.flatnonzero(m.speed <= opts.still_speed)  # (a cell's holds, and every place)
+        by_x = np.argsort(tip[:, 0], kind="stable") if row else None
         for j, f in enumerate(problem.fruits):
             if row:  # only where the tip comes near the fruit (a long row, many fruit)
-                close = np.hypot(*(tip - np.asarray(f.position, float)).T) <= opts.position_tolerance + 0.05
-                near = np.flatnonzero(close[:-1] | close[1:])
+                near = near_intervals(tip, by_x, f.position, opts.position_tolerance + 0.05)
             elif not reach[ia, j]:
                 continue
             else:
