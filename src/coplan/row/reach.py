@@ -144,4 +144,3 @@ def robust_end(problem: Problem, reach: RowReach, xy, arm: int, k_lo: int, k_hi:
     ok = usable_picks(cell, pts, arms=(arm,))[arm].any(axis=-1).reshape(ks.size, ring.shape[0]).all(axis=1)
     hit = np.flatnonzero(ok)
     return int(ks[hit[0]]) if hit.size else None
-

@@ -310,10 +310,6 @@ def rebalance(load, peak, at, chosen, over, passes: int = 8) -> None:
             return
 
 
-
-
-
-
 def quantised_trips(trips: dict) -> dict:
     """Round trips in whole microseconds: compared with each other, the same on any CPU."""
     return dict(zip(trips, quantised(list(trips.values())).tolist())) if trips else {}
@@ -427,7 +423,8 @@ def _best_stride(problem, reach, todo, spans, lo, length, fresh, step_of, w, ove
         if hi >= n - 1:  # the row's end: no later segment takes what this one leaves
             must = list(inside)
         est, st, taken = price_stops(problem, reach, cost, inside, ks, over, x_now, overlap)
-        missed = [f for f in must if f not in set(taken)]
+        got = set(taken)
+        missed = [f for f in must if f not in got]
         if missed:  # no stop of this stride serves them before their window closes: a stop of its own each
             extra = fewest_stops(reach, missed)
             cost.add([s.k for s in extra])

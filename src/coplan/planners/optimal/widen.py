@@ -316,8 +316,9 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
         budget[0] = total // 2 if attempt == 0 and not free_idle else total - sum(r["iterations"] for r in info["rounds"])
         # (every knot time held: the places end when the incumbent's do, and the program is
         # held to that, not a microsecond inside, which no point with these times meets)
-        held_goal = goal if h_bounds[0] < h_bounds[1] else replace(goal, makespan=float(makespan) + 1e-9, end=max(goal.end, end + 1e-9))
-        sol, used, rounds = _rounds(problem, schedules, grid, points, held_goal, opts, budget, deadline, say, h_bounds, makespan)
+        this_goal = (goal if h_bounds[0] < h_bounds[1] else
+                     replace(goal, makespan=float(makespan) + 1e-9, end=max(goal.end, end + 1e-9)))
+        sol, used, rounds = _rounds(problem, schedules, grid, points, this_goal, opts, budget, deadline, say, h_bounds, makespan)
         info["rounds"] += rounds
         if sol is not None:
             break
