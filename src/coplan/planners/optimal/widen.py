@@ -312,8 +312,9 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     # keep their times exactly (half the iterations each)
     total = budget[0]
     sol = None
-    for attempt, h_bounds in enumerate((opts.h_bounds, (1.0, 1.0)) if not free_idle else ((1.0, 1.0),)):
-        budget[0] = total // 2 if attempt == 0 and not free_idle else total - sum(r["iterations"] for r in info["rounds"])
+    attempts = ((1.0, 1.0),) if free_idle or opts.h_bounds[0] >= opts.h_bounds[1] else (opts.h_bounds, (1.0, 1.0))
+    for attempt, h_bounds in enumerate(attempts):
+        budget[0] = total // 2 if attempt == 0 and len(attempts) > 1 else total - sum(r["iterations"] for r in info["rounds"])
         # (every knot time held: the places end when the incumbent's do, and the program is
         # held to that, not a microsecond inside, which no point with these times meets)
         this_goal = (goal if h_bounds[0] < h_bounds[1] else
