@@ -211,7 +211,7 @@ def test_where_free_timing_leaves_less_room_than_the_goal_the_held_timing_progra
     prob = parse_problem(to_yaml(overlap_problem(n_arms=3, n_fruits=9, spacing=1.4, seed=129)), "overlap-3x9-s29")
     res = plan_optimal(prob)
     w = res.plan.solver["widen"]
-    assert "retry" in w and w["iterations"] <= OptimalOptions().widen_iterations
+    assert "retry" in w and w["status"] == "solved" and w["iterations"] <= OptimalOptions().widen_iterations
     assert w["accepted"] and w["verified"] and res.verification.passed
     assert res.plan.metrics["makespan"] <= w["makespan_before"] + 1e-9 and res.plan.metrics["optimality"] == "proven"
     assert w["margin"] >= min(2 * w["margin_before"], 0.05), (w["margin_before"], w["margin"])

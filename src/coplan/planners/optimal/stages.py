@@ -515,7 +515,8 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     free = any(r["timing"] == "free" for r in info.get("rounds", ()))
     if (free and left >= _RETRY_ITERATIONS and "room_note" not in info and (deadline is None or _time.perf_counter() < deadline)
             and (best is None or best[2] < want)):
-        say("widen: free timing left less room than the goal; solving again with every knot time held")
+        say(f"widen: free timing {'left less room than the goal' if best is not None else 'gave no plan to keep'}; "
+            "solving again with every knot time held")
         retry = widen_schedules(problem, inc.candidate.alloc, inc.candidate.schedules, inc.makespan,
                                 replace(wopts, h_bounds=(1.0, 1.0), iterations=left), deadline, say)
         again = dict(retry.info)
@@ -523,9 +524,10 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
         info["retry"] = {k: again.get(k) for k in ("status", "iterations", "room", "dense_room", "verified", "margin", "reason")}
         info["rounds"] = info.get("rounds", []) + again.get("rounds", [])
         info["iterations"] = info.get("iterations", 0) + again.get("iterations", 0)
+        info["wall_seconds"] = info.get("wall_seconds", 0.0) + again.get("wall_seconds", 0.0)
         if other is not None and (best is None or other[2] > best[2]):
             best = other
-            info.update({k: again[k] for k in ("room", "dense_room", "points", "verified", "margin", "makespan", "rms_jerk")
+            info.update({k: again[k] for k in ("status", "room", "dense_room", "points", "verified", "margin", "makespan", "rms_jerk")
                          if k in again})
             info.pop("reason", None)
     if best is None:
