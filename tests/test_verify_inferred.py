@@ -95,6 +95,7 @@ def test_cli_verifies_its_own_plan_csv_and_an_external_plan_without_events(solve
     res = run("verify", str(default_problem_path()), str(out / "plan.csv"))
     assert res.exit_code == 0, res.output
     assert "passed" in res.output and "events inferred" in res.output and "11 picks and 11 places" in res.output
+    assert "a plan.csv replay (its planner not recorded)" in res.output and "unknown" not in res.output
     doc = json.loads((out / "plan.json").read_text())
     doc.update(events=[], planner="my-tool")
     doc.pop("status")

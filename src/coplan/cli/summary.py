@@ -197,11 +197,14 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     last place (s), told apart from its length (the plan goes on, e.g. with the arms' way home)."""
     from rich.table import Table
 
+    from ..plancsv import CSV_PLANNER
+
     p = console.print
     s = ver.summary()
     verdict = "[bold green]passed[/]" if ver.passed else "[bold red]FAILED[/]"
     span = "" if makespan is None else f" (makespan {makespan:.2f} s: the last place)"
-    p(f"[bold]{safe(problem.name)}[/] -- {safe(ver.planner)} plan of {ver.duration:.2f} s{span}: {verdict}"
+    what = "a plan.csv replay (its planner not recorded)" if ver.planner == CSV_PLANNER else f"{safe(ver.planner)} plan"
+    p(f"[bold]{safe(problem.name)}[/] -- {what} of {ver.duration:.2f} s{span}: {verdict}"
       + ("" if ver.complete else f" [yellow](not harvested: {safe(', '.join(ver.unharvested))})[/]"))
     for w in ver.warnings:
         if w.kind.value == "events_inferred":  # harvesting judged from events the verifier inferred: say so
