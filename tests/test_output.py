@@ -106,3 +106,22 @@ def test_a_run_into_the_folder_coplan_runs_in_replaces_its_files_there(tmp_path,
     assert first.previous is None and second.previous == tmp_path / "here.previous"
     assert (here / "notes.txt").read_text() == "keep me" and (here / "plan.json").exists()
     assert (tmp_path / "here.previous" / "plan.json").exists() and not (tmp_path / "here.previous" / "notes.txt").exists()
+
+
+def test_a_folder_that_cannot_take_files_is_named_as_the_user_gave_it_not_the_staging_name(tmp_path, monkeypatch):
+    """Where the staging folder cannot be made (``-o /proc/x``: no new files there), the error
+    names the path the user gave, not ``.x.<random>.partial``."""
+    import tempfile
+
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    def refuse(prefix="", suffix="", dir=None):
+        raise FileNotFoundError(2, "No such file or directory", str(Path(dir) / f"{prefix}abc{suffix}"))
+
+    monkeypatch.setattr(tempfile, "mkdtemp", refuse)
+    out = tmp_path / "x"
+    r = CliRunner().invoke(app, ["solve", str(_single()), "--planner", "heuristic", "--out", str(out)])
+    assert r.exit_code == 8, r.output
+    assert f"No such file or directory: {out}" in " ".join(r.output.split()) and ".partial" not in r.output

@@ -19,6 +19,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,11 +39,22 @@ def usual_mode(folder: bool = False) -> int:
     return (0o777 if folder else 0o666) & ~mask
 
 
+@contextmanager
+def _as(target: Path):
+    """An OSError raised while the staging file or folder for ``target`` is created names
+    ``target`` (the path the user gave), not the hidden staging name it never asked for."""
+    try:
+        yield
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from exc
+
+
 def atomic_text(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` whole or not at all: a temporary file unique per writer
     beside it, then a rename; the file gets :func:`usual_mode`."""
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    with _as(path):
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     try:
         with os.fdopen(fd, "w", newline="") as f:
             f.write(text)
@@ -74,8 +86,9 @@ class RunFolder:
         self.out = Path(self.out)
 
     def __enter__(self) -> Path:
-        self.out.parent.mkdir(parents=True, exist_ok=True)
-        self.stage = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", suffix=".partial", dir=self.out.parent))
+        with _as(self.out):
+            self.out.parent.mkdir(parents=True, exist_ok=True)
+            self.stage = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", suffix=".partial", dir=self.out.parent))
         self.stage.chmod(usual_mode(folder=True))  # mkdtemp's 0700 is for the staging, not the run
         (self.stage / MARKER).write_text("files of one coplan run\n")
         return self.stage
