@@ -196,3 +196,21 @@ def test_verify_and_view_refuse_an_out_file_whose_folder_is_a_file_before_the_wo
         r = CliRunner().invoke(app, args)
         assert r.exit_code == 2 and f"its folder {blocker}: expected a folder, found a file" in r.output, r.output
         assert "Traceback" not in r.output
+
+
+@pytest.mark.parametrize("args, words", [
+    (["plot", "PLAN", "--dpi", "5"], "--dpi': expected a number in [30, 600], found 5"),
+    (["animate", "PLAN", "--fps", "0"], "--fps': expected a number in [1, 60], found 0"),
+    (["feed", "single_arm", "--sigma", "5"], "--sigma': expected a number in [1e-06, 1] m, found 5"),
+    (["feed", "single_arm", "--seed", "-3"], "--seed': expected a number >= 0, found -3"),
+    (["run", "single_arm", "--false-burst", "-1"], "--false-burst': expected a number in [0, 100000], found -1"),
+    (["sweep", "SWEEP", "--workers", "0"], "--workers': expected a number in [1, 1024], found 0"),
+])
+def test_an_out_of_range_option_says_what_was_expected_and_what_was_found(args, words, tmp_path):
+    plan = tmp_path / "plan.json"
+    plan.write_text("{}")
+    sweep = tmp_path / "sweep.yaml"
+    sweep.write_text("{}")
+    args = [str(plan) if a == "PLAN" else str(sweep) if a == "SWEEP" else a for a in args]
+    res = CliRunner(env={"COLUMNS": "200"}).invoke(app, args)
+    assert res.exit_code == 2 and words in res.output and "Traceback" not in res.output, res.output

@@ -4,17 +4,32 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Optional
+
+import typer
 
 from . import failures
 from ..kinds import ExitCode, PlannerKind
 
-__all__ = ["fail", "strict_json", "check_time_limit", "check_workers", "solver_options", "budget_hint"]
+__all__ = ["fail", "strict_json", "between", "check_time_limit", "check_workers", "solver_options", "budget_hint"]
 
 
 def fail(code: ExitCode, message: str):
     raise failures.Failure(code, message)
+
+
+def between(lo: float, hi: float = math.inf, unit: str = ""):
+    """An option's check (``typer.Option(callback=between(...))``): a finite number in
+    ``[lo, hi]`` (``unit`` said with it), else a usage error that says what was expected and
+    what was found (NaN included), not the bare bound typer's own ``min``/``max`` print."""
+    def check(value: float) -> float:
+        if value is not None and not (math.isfinite(value) and lo <= value <= hi):
+            want = f"in [{lo:g}, {hi:g}]" if math.isfinite(hi) else f">= {lo:g}"
+            raise typer.BadParameter(f"expected a number {want}{' ' + unit if unit else ''}, found {value:g}")
+        return value
+    return check
 
 
 def strict_json(doc) -> str:

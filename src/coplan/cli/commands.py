@@ -20,6 +20,7 @@ from rich.console import Console
 
 from . import failures
 from .checks import budget_hint as _budget_hint, check_time_limit as _check_time_limit, check_workers as _check_workers
+from .checks import between
 from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
 from .row import moving_options
@@ -491,7 +492,7 @@ def plot_cmd(
         Optional[Path], typer.Option("--out", "-o", help="Image file; the suffix sets the format (default: <plan>_<kind>.png).")
     ] = None,
     arm: Annotated[Optional[str], typer.Option(help="joints/workspace: draw only this arm.")] = None,
-    dpi: Annotated[int, typer.Option(min=30, max=600, help="Resolution of raster images.")] = 120,
+    dpi: Annotated[int, typer.Option(callback=between(30, 600), help="Resolution of raster images, 30-600 dpi.")] = 120,
 ):
     """Draw a figure of a plan: schedule Gantt, clearance, joint motion vs limits, or workspace map."""
     from ..viz import plots
@@ -531,9 +532,9 @@ def animate_cmd(
     out: Annotated[
         Optional[Path], typer.Option("--out", "-o", help="Output .gif (default, next to the plan) or .mp4.")
     ] = None,
-    speed: Annotated[float, typer.Option(min=0.01, max=100.0, help="Playback speed: 1 = real time, 2 = twice as fast.")] = 1.0,
-    fps: Annotated[float, typer.Option(min=1.0, max=60.0, help="Frames per second of the animation.")] = 10.0,
-    dpi: Annotated[int, typer.Option(min=30, max=300, help="Resolution (80: a 720 px wide GIF).")] = 80,
+    speed: Annotated[float, typer.Option(callback=between(0.01, 100.0), help="Playback speed: 1 = real time, 2 = twice as fast (0.01-100).")] = 1.0,
+    fps: Annotated[float, typer.Option(callback=between(1.0, 60.0), help="Frames per second of the animation (1-60).")] = 10.0,
+    dpi: Annotated[int, typer.Option(callback=between(30, 300), help="Resolution, 30-300 dpi (80: a 720 px wide GIF).")] = 80,
 ):
     """Render a plan as an animation: arms, fruit, bins, phases, clearance alarms (GIF or MP4)."""
     from ..viz.animate import animate_plan

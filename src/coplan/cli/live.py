@@ -7,13 +7,13 @@ NumPy, the planners and matplotlib are imported inside the commands.
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 from rich.console import Console
 
+from .checks import between
 from .console import ProgressDisplay
 from .failures import check_out_dir, resolve_problem, usage
 from .summary import safe as _safe
@@ -28,20 +28,20 @@ _err = Console(stderr=True, soft_wrap=True)
 def feed_cmd(
     problem: Annotated[Path, typer.Argument(help="Problem file (YAML) with the true fruit.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Feed file to write (YAML).")],
-    known: Annotated[float, typer.Option(min=0.0, max=1.0, help="Share of the fruit detected at t = 0.")] = 0.5,
-    sigma: Annotated[float, typer.Option(min=1e-6, max=1.0, help="Detection noise: standard deviation per coordinate, m.")] = 0.01,
+    known: Annotated[float, typer.Option(callback=between(0.0, 1.0), help="Share of the fruit detected at t = 0.")] = 0.5,
+    sigma: Annotated[float, typer.Option(callback=between(1e-6, 1.0, "m"), help="Detection noise: standard deviation per coordinate, m.")] = 0.01,
     false_rate: Annotated[float, typer.Option("--false-rate", callback=between(0.0, 1.0),
                                               help="Chance that a detection comes with a false one.")] = 0.0,
     duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", callback=between(0.0, 1.0),
                                                   help="Chance that a fruit is detected a second time.")] = 0.0,
-    seed: Annotated[int, typer.Option(min=0, help="Random seed (the same seed gives the same feed).")] = 0,
-    reveal_by: Annotated[Optional[float], typer.Option("--reveal-by", min=0.001, help="Late fruit arrive by this time, s "
+    seed: Annotated[int, typer.Option(callback=between(0), help="Random seed (the same seed gives the same feed).")] = 0,
+    reveal_by: Annotated[Optional[float], typer.Option("--reveal-by", callback=between(0.001, unit="s"), help="Late fruit arrive by this time, s "
                                                        "(default: half the makespan lower bound).")] = None,
-    after_pick: Annotated[float, typer.Option("--after-pick", min=0.0, max=1.0,
+    after_pick: Annotated[float, typer.Option("--after-pick", callback=between(0.0, 1.0),
                                               help="Share of the late fruit hidden behind a neighbour until it is picked.")] = 0.25,
-    close_sigma: Annotated[float, typer.Option("--close-sigma", min=1e-6, max=0.1,
+    close_sigma: Annotated[float, typer.Option("--close-sigma", callback=between(1e-6, 0.1, "m"),
                                                help="Close-range (gripper camera) noise, m.")] = 0.001,
-    close_distance: Annotated[float, typer.Option("--close-distance", min=0.005, max=1.0,
+    close_distance: Annotated[float, typer.Option("--close-distance", callback=between(0.005, 1.0, "m"),
                                                   help="The gripper camera measures when the tip is this close, m.")] = 0.1,
 ):
     """Generate a seeded vision feed for a problem: late fruit, noise, false and duplicate detections."""
@@ -64,16 +64,6 @@ def feed_cmd(
                f"({n_late} after t = 0, {n_false} false), sigma {sigma * 1000:g} mm, seed {seed}", highlight=False)
 
 
-def between(lo: float, hi: float, unit: str = ""):
-    """An option's check: a finite number in ``[lo, hi]`` (``unit`` said with it), else a usage
-    error that says what was expected and what was found (NaN included)."""
-    def check(value: float) -> float:
-        if value is not None and not (math.isfinite(value) and lo <= value <= hi):
-            raise typer.BadParameter(f"expected a number in [{lo:g}, {hi:g}]{' ' + unit if unit else ''}, found {value:g}")
-        return value
-    return check
-
-
 def run_cmd(
     problem: Annotated[Path, typer.Argument(help="Problem file (YAML) with the true fruit positions.")],
     feed: Annotated[Optional[Path], typer.Option("--feed", "-f", help="Feed file (YAML): what the camera reports "
@@ -94,12 +84,12 @@ def run_cmd(
                                            "fault at a drawn time: it finishes its motion and stays, an obstacle.")] = False,
     camera_dark: Annotated[float, typer.Option("--camera-dark", callback=between(0.0, 3600.0, "s"),
                                                help="A row: seconds the camera reports nothing, at a drawn time.")] = 0.0,
-    false_burst: Annotated[int, typer.Option("--false-burst", min=0, max=100000,
+    false_burst: Annotated[int, typer.Option("--false-burst", callback=between(0, 100000),
                                              help="A row: false reports at one drawn instant, within the camera's view.")] = 0,
     late_replan: Annotated[float, typer.Option("--late-replan", callback=between(0.0, 3600.0, "s"),
                                                help="A row: seconds one decision (at a drawn time) runs late.")] = 0.0,
     animate: Annotated[bool, typer.Option("--animate", help="Also write live.gif: fruit appearing, re-plans, misses.")] = False,
-    seed: Annotated[int, typer.Option(min=0, help="Seed of the simulation: a cell's close-range measurements; a row's "
+    seed: Annotated[int, typer.Option(callback=between(0), help="Seed of the simulation: a cell's close-range measurements; a row's "
                                       "camera reports, faults and close-range measurements.")] = 0,
     horizon: Annotated[float, typer.Option(callback=between(0.0, 10.0, "s"), help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
     all_candidates: Annotated[bool, typer.Option("--all-candidates", help="Every re-plan tries every candidate plan, "

@@ -14,6 +14,7 @@ import typer
 from rich.console import Console
 
 from ..errors import plural
+from .checks import between
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
 from ..errors import printable
@@ -37,7 +38,7 @@ def sweep_cmd(
                                           "or a folder or glob of problem files.")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Output folder (default: coplan-sweep/<sweep name>). "
                                                 "A re-run into the same folder skips the rows already done.")] = None,
-    workers: Annotated[Optional[int], typer.Option(min=1, max=1024, help="Worker processes of the local cluster "
+    workers: Annotated[Optional[int], typer.Option(callback=between(1, 1024), help="Worker processes of the local cluster "
                                                    "(default: one per core; one thread each).")] = None,
     scheduler: Annotated[Optional[str], typer.Option(help="Use an existing Dask cluster at this address "
                                                      "(e.g. tcp://host:8786) instead of a local one.")] = None,
