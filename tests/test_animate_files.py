@@ -84,3 +84,23 @@ def test_cli_refuses_the_fallback_over_an_existing_gif_as_a_usage_error(tmp_path
                                    str(tmp_path / "movie.mp4"), "--dpi", "30"])
     assert res.exit_code == ExitCode.USAGE, res.output
     assert "not overwritten" in res.stderr and (tmp_path / "movie.gif").read_bytes() == b"mine"
+
+
+def test_a_folder_that_takes_no_files_is_said_as_the_user_named_it_before_any_frame_is_drawn(tmp_path, single_arm, monkeypatch):
+    """``-o /proc/x.gif``: the error names the path given, not the hidden staging file, and no
+    animation is built (matplotlib's 'deleted without rendering' warning never shows)."""
+    import tempfile
+    import warnings
+
+    def refuse(prefix="", suffix="", dir=None):
+        raise FileNotFoundError(2, "No such file or directory", str(Path(dir) / f"{prefix}abc{suffix}"))
+
+    built = []
+    monkeypatch.setattr(tempfile, "mkstemp", refuse)
+    monkeypatch.setattr(anim_mod, "build_animation", lambda *a, **k: built.append(1))
+    target = tmp_path / "x.gif"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(OSError) as err:
+            animate_plan(single_arm, plan_heuristic(single_arm), target, fps=5, dpi=30, width=4)
+    assert err.value.filename == str(target) and ".partial" not in str(err.value) and built == []

@@ -23,7 +23,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["MARKER", "RunFolder", "is_run_folder", "usual_mode", "atomic_text"]
+__all__ = ["MARKER", "RunFolder", "is_run_folder", "usual_mode", "atomic_text", "named_as"]
 
 MARKER = ".coplan-run"  # written into every run folder
 _OURS = ("plan.", "baseline.", "verification.json", "run.json", "live.gif", MARKER)  # solve and live runs
@@ -40,7 +40,7 @@ def usual_mode(folder: bool = False) -> int:
 
 
 @contextmanager
-def _as(target: Path):
+def named_as(target: Path):
     """An OSError raised while the staging file or folder for ``target`` is created names
     ``target`` (the path the user gave), not the hidden staging name it never asked for."""
     try:
@@ -53,7 +53,7 @@ def atomic_text(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` whole or not at all: a temporary file unique per writer
     beside it, then a rename; the file gets :func:`usual_mode`."""
     path = Path(path)
-    with _as(path):
+    with named_as(path):
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     try:
         with os.fdopen(fd, "w", newline="") as f:
@@ -86,7 +86,7 @@ class RunFolder:
         self.out = Path(self.out)
 
     def __enter__(self) -> Path:
-        with _as(self.out):
+        with named_as(self.out):
             self.out.parent.mkdir(parents=True, exist_ok=True)
             self.stage = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", suffix=".partial", dir=self.out.parent))
         self.stage.chmod(usual_mode(folder=True))  # mkdtemp's 0700 is for the staging, not the run

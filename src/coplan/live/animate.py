@@ -17,7 +17,7 @@ import numpy as np
 
 from ..kinds import TrackState
 from ..problem.model import Problem
-from ..output import usual_mode
+from ..output import named_as, usual_mode
 
 __all__ = ["animate_live"]
 
@@ -72,7 +72,8 @@ def animate_live(problem: Problem, result, out_path: str | Path, *, speed: float
 
     scene.update = update
     out = Path(out_path)
-    fd, name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".partial.gif", dir=out.parent)
+    with named_as(out):
+        fd, name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".partial.gif", dir=out.parent)
     os.close(fd)
     tmp = Path(name)
     try:

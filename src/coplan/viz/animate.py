@@ -34,7 +34,7 @@ from ..problem.model import Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors, pair_label
 from .timeline import arm_points, fruit_states, harvested_count, pair_clearance, phase_at, schedule
 from ..progress import Tick, ticker
-from ..output import usual_mode
+from ..output import named_as, usual_mode
 
 __all__ = ["RenderError", "OverwriteRefused", "RenderWarning", "animate_plan", "build_animation", "render_frame", "frame_times", "ffmpeg_available"]
 
@@ -507,14 +507,14 @@ def animate_plan(
         new_speed = math.ceil(speed * n / max_frames * 10) / 10
         say(f"the plan lasts {plan.duration:.1f} s: playing it at ×{new_speed:g} instead of ×{speed:g} to stay within {max_frames} frames")
         speed = new_speed
-    tmp: Path | None = None
-    try:
+    with named_as(out):  # (a folder that takes no files: said before any frame is drawn, as the user named it)
         out.parent.mkdir(parents=True, exist_ok=True)
+        fd, name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".partial" + out.suffix, dir=out.parent)
+    os.close(fd)
+    tmp: Path | None = Path(name)
+    try:
         anim = build_animation(problem, plan, speed=speed, fps=fps, dpi=dpi, width=width)
         writer = FFMpegWriter(fps=fps, bitrate=1800) if mp4 else _blit_gif_writer(fps, anim.scene)
-        fd, name = tempfile.mkstemp(prefix=f".{out.stem}.", suffix=".partial" + out.suffix, dir=out.parent)
-        os.close(fd)
-        tmp = Path(name)
         tick = ticker(progress)
         anim.save(str(tmp), writer=writer, dpi=dpi,
                   progress_callback=lambda i, total: tick(Tick("frames", i + 1, total, "frames", note=out.name)))
