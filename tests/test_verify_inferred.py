@@ -132,6 +132,25 @@ def test_cubic_acceleration_steps_are_reported_by_size_and_time(single_arm, rate
             assert v.limit == pytest.approx(arm.max_jerk[jn] * (v.t_end - v.t_start + 1.0 / rate))
 
 
+@pytest.mark.parametrize("rate", [100.0, 200.0])
+def test_a_step_in_position_is_jerk_times_the_limit_not_an_acceleration_discontinuity(single_arm, rate: float) -> None:
+    """A plan whose joint jumps by 0.3 rad between two samples (third differences +1, -2, +1
+    times the jump, summing to nothing): every jerk row it gets says how many times the limit,
+    as the peak does -- none is an 'acceleration discontinuity' of about 0 rad/s^2 under its
+    own limit -- and the velocity and acceleration checks report the same instant."""
+    arm = single_arm.arms[0]
+    times = np.arange(int(1.0 * rate) + 1) / rate
+    q = np.tile(np.asarray(arm.home, float), (times.size, 1))
+    q[times >= 0.5, 0] += 0.3
+    plan = Plan(single_arm.name, PlannerKind.HEURISTIC, PlanStatus.UNVERIFIED, times, {arm.name: q}, [], {}, [])
+    ver = verify(single_arm, plan)
+    jerk = [v for v in ver.violations if v.kind == ViolationKind.JERK]
+    assert jerk and all("x the jerk limit" in v.message and v.value > v.limit for v in jerk)
+    assert {ViolationKind.VELOCITY, ViolationKind.ACCELERATION} <= {v.kind for v in ver.violations}
+    assert all(v.value > v.limit for v in ver.violations)
+    assert ver.peaks[arm.name]["jerk"] == pytest.approx(max(v.value / v.limit for v in jerk), rel=1e-9)
+
+
 def test_heuristic_plan_steps_at_the_start_are_at_time_zero_never_negative(greenhouse) -> None:
     from coplan.planners.heuristic import plan_heuristic
 

@@ -209,7 +209,8 @@ def _check_limits(problem: Problem, motions: list[ArmMotion], time: np.ndarray, 
             for jn in (0, 1):
                 for a, b in runs(diff[:, jn] > lim_k[jn] + tol[jn]):
                     w = a + int(np.argmax(diff[a : b + 1, jn]))
-                    if kind == ViolationKind.JERK and b - a < _STEP_SAMPLES:
+                    seg = signed[a : b + 1, jn]
+                    if kind == ViolationKind.JERK and b - a < _STEP_SAMPLES and (np.all(seg >= 0) or np.all(seg <= 0)):
                         ver.violations.append(_acceleration_step(arm.name, jn, signed[a : b + 1, jn], centre[a : b + 1], dt,
                                                                  lim_k[jn], t[-1]))
                         continue
@@ -228,9 +229,12 @@ def _check_limits(problem: Problem, motions: list[ArmMotion], time: np.ndarray, 
             )
 
 
-# A jerk violation no longer than a third difference's stencil (3 intervals) is one jump of the
-# acceleration between samples: its third differences / dt^3 are jump / dt (a grid artefact),
-# so it is reported as the jump itself.
+# A jerk violation no longer than a third difference's stencil (3 intervals), all of one sign,
+# is one jump of the acceleration between samples: its third differences / dt^3 are jump / dt (a
+# grid artefact), so it is reported as the jump itself. Lobes of both signs are a jump of the
+# velocity or the position (the third differences of a step in q are +1, -2, +1 times it): their
+# sum says nothing of their size, so they are reported as jerk, x the limit (and the velocity and
+# acceleration checks report the same instant).
 _STEP_SAMPLES = 3
 
 
