@@ -125,3 +125,40 @@ def test_a_folder_that_cannot_take_files_is_named_as_the_user_gave_it_not_the_st
     r = CliRunner().invoke(app, ["solve", str(_single()), "--planner", "heuristic", "--out", str(out)])
     assert r.exit_code == 8, r.output
     assert f"No such file or directory: {out}" in " ".join(r.output.split()) and ".partial" not in r.output
+
+
+@pytest.mark.parametrize("args", [["solve", "SINGLE", "--planner", "heuristic", "--out", "OUT"],
+                                  ["plot", "PLAN", "--out", "OUT.png"],
+                                  ["feed", "SINGLE", "--out", "OUT.yaml"],
+                                  ["verify", "SINGLE", "PLAN", "--out", "OUT.json"]])
+def test_a_folder_that_refuses_new_files_despite_its_permissions_is_a_usage_error_before_any_work(tmp_path, monkeypatch, args):
+    """Permission bits do not tell all (root passes ``os.access``; ``/proc`` and read-only
+    mounts refuse new files): each command makes and removes a hidden file where it will write,
+    before any work, and says so as a usage error (exit 2) naming the path given."""
+    import tempfile
+
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+    from coplan.planners.heuristic import plan_heuristic
+    from coplan.problem import load_problem
+
+    plan = plan_heuristic(load_problem(_single()))
+    plan.save(tmp_path / "p")
+    real = tempfile.mkstemp
+    walled = tmp_path / "walled"
+    walled.mkdir()
+
+    def mkstemp(prefix="", suffix="", dir=None, **kw):
+        if prefix.startswith(".coplan-probe-") and Path(dir) == walled:
+            raise OSError(30, "Read-only file system")
+        return real(prefix=prefix, suffix=suffix, dir=dir, **kw)
+
+    monkeypatch.setattr(tempfile, "mkstemp", mkstemp)
+    out = walled / "x"
+    sub = {"SINGLE": str(_single()), "PLAN": str(tmp_path / "p" / "plan.json"), "OUT": str(out),
+           "OUT.png": f"{out}.png", "OUT.yaml": f"{out}.yaml", "OUT.json": f"{out}.json"}
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, [sub.get(a, a) for a in args])
+    assert r.exit_code == 2, r.output
+    assert "takes no new files (Read-only file system)" in r.output and str(out) in r.output
+    assert list(walled.iterdir()) == []

@@ -497,6 +497,9 @@ def plot_cmd(
     """Draw a figure of a plan: schedule Gantt, clearance, joint motion vs limits, or workspace map."""
     from ..viz import plots
 
+    target = out if out is not None else plan.with_name(f"{plan.stem}_{kind.value}.png")
+    failures.check_out_file(target)  # (before any work)
+
     if kind == PlotKind.WORKSPACE and plan.suffix.lower() in (".yaml", ".yml"):
         from ..problem.model import load_problem
 
@@ -513,14 +516,13 @@ def plot_cmd(
         fig = plots.plot_joints(prob, pl, arms=None if arm is None else [arm])
     else:
         fig = plots.plot_workspace(prob, arm)
-    target = out if out is not None else plan.with_name(f"{plan.stem}_{kind.value}.png")
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(target, dpi=dpi)
     except ValueError as e:  # unknown format
         _fail(ExitCode.USAGE, f"--out {target}: {e} (use .png, .svg or .pdf)")
     except OSError as e:
-        _fail(ExitCode.BAD_INPUT, f"cannot write {target}: {e.strerror or e}")
+        _fail(ExitCode.IO_ERROR, f"cannot write {target}: {e.strerror or e}")
     out_console.print(f"wrote {_s(target)}")
 
 

@@ -67,6 +67,17 @@ def check_out_dir(out, what: str = "--out") -> None:
         usage(f"{what} {out}: expected a folder, found the file {probe} in its path")
     if not os.access(probe, os.W_OK | os.X_OK):
         usage(f"{what} {out}: expected a folder coplan may write to, found {probe} not writable")
+    # permission bits do not tell all (root passes os.access; /proc and read-only mounts refuse
+    # new files anyway): a hidden file made and removed there says it before any work
+    import tempfile
+
+    try:
+        fd, name = tempfile.mkstemp(prefix=".coplan-probe-", dir=probe)
+    except OSError as exc:
+        usage(f"{what} {out}: expected a folder coplan may write to, found {probe} takes no new files "
+              f"({exc.strerror or exc})")
+    os.close(fd)
+    os.unlink(name)
 
 
 def check_out_file(out, what: str = "--out") -> None:

@@ -15,7 +15,7 @@ from rich.console import Console
 
 from .checks import between
 from .console import ProgressDisplay
-from .failures import check_out_dir, resolve_problem, usage
+from .failures import check_out_dir, check_out_file, resolve_problem, usage
 from .summary import safe as _safe
 from ..kinds import ExitCode, GantryMode, LiveGantryMode, PlanStatus
 
@@ -48,8 +48,7 @@ def feed_cmd(
     from ..problem.model import load_problem
     from ..live.feed import feed_yaml, make_feed
 
-    if out.exists() and out.is_dir():
-        usage(f"--out {out}: expected a file name, found a folder")
+    check_out_file(out)
     prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
     if prob.gantry is not None:
         usage(f"{prob.name} is a row (it has a gantry): the live cell runs a stationary cell; plan a row with 'coplan solve'")

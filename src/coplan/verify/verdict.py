@@ -19,6 +19,7 @@ import numpy as np
 
 from .clearance import DEFAULT_SUBSTEPS
 from ..kinds import FclMode
+from ..output import named_as
 from .fclcheck import FCL_TOLERANCE, FclReport
 
 __all__ = [
@@ -277,7 +278,8 @@ class Verification:
             p = p / "verification.json"
         p.parent.mkdir(parents=True, exist_ok=True)
         tmp = p.with_name(p.name + ".tmp")
-        tmp.write_text(json.dumps(self.to_dict(), indent=1, allow_nan=False))
+        with named_as(p):
+            tmp.write_text(json.dumps(self.to_dict(), indent=1, allow_nan=False))
         os.replace(tmp, p)
         return p
 
