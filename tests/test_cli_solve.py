@@ -136,3 +136,17 @@ def test_problems_lists_every_shipped_problem() -> None:
 def test_console_script_is_installed() -> None:
     proc = subprocess.run(coplan_exe() + ["--help"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0 and "solve" in proc.stdout and "problems" in proc.stdout
+
+
+def test_verifying_a_row_plan_against_another_row_says_so_first_and_counts_what_it_leaves(tmp_path: Path) -> None:
+    """Two rows with the same arm names: the plan of one checked against the other is verified
+    (nothing in its form forbids it), but the report says first that it is another problem's
+    plan and lists ten of the fruit it leaves with the count of the rest, not hundreds of ids."""
+    r = CliRunner().invoke(app, ["solve", "sparse_row", "--stops", "fixed", "-o", str(tmp_path / "s")])
+    assert r.exit_code == 0, r.output
+    r = CliRunner(env={"COLUMNS": "400"}).invoke(app, ["verify", "course_row", str(tmp_path / "s" / "plan.json")])
+    head = r.output.splitlines()
+    verdict = next(i for i, line in enumerate(head) if line.startswith("course-row -- "))
+    assert "another problem" in head[verdict + 1] and "'sparse-row'" in head[verdict + 1]
+    m = re.search(r"not harvested: (\d+) fruit: ((?:f\d+, ){9}f\d+) and (\d+) more\)", head[verdict])
+    assert m and int(m.group(1)) == 10 + int(m.group(3)), head[verdict]

@@ -132,7 +132,7 @@ def print_summary(console, res) -> None:
           " since the planner started)")
         reached = [f"{r} x at {t:.2f} s" for r, t in (m.get("time_to_ratio") or {}).items() if t is not None]
         if reached:
-            p(f"  bound reached     within " + ", ".join(reached) + " (of the lower bound, since the planner started)")
+            p("  bound reached     within " + ", ".join(reached) + " (of the lower bound, since the planner started)")
     if m.get("baseline_makespan") is not None:
         p(f"  heuristic plan    {fmt(m.get('baseline_makespan'), ' s')}   (the course's baseline, {m.get('baseline_status', '?')}; baseline.json)")
     p(f"  cycle time/fruit  {fmt(m.get('cycle_time'), ' s')} worst arm, {fmt(m.get('cycle_time_mean'), ' s')} mean")
@@ -192,6 +192,9 @@ WARNING_WORDS = {
 }
 
 
+_SHOWN = 10  # fruit ids a verdict line lists (the rest counted; verification.json has them all)
+
+
 def print_verification(console, problem, ver, max_rows: int = 25, makespan: float | None = None) -> None:
     """Verdict, clearances, peaks and a short table of the violations. ``makespan``: the plan's
     last place (s), told apart from its length (the plan goes on, e.g. with the arms' way home)."""
@@ -204,8 +207,13 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     verdict = "[bold green]passed[/]" if ver.passed else "[bold red]FAILED[/]"
     span = "" if makespan is None else f" (makespan {makespan:.2f} s: the last place)"
     what = "a plan.csv replay (its planner not recorded)" if ver.planner == CSV_PLANNER else f"{safe(ver.planner)} plan"
+    left = list(ver.unharvested)
+    shown = ", ".join(left[:_SHOWN]) + (f" and {len(left) - _SHOWN} more" if len(left) > _SHOWN else "")
     p(f"[bold]{safe(problem.name)}[/] -- {what} of {ver.duration:.2f} s{span}: {verdict}"
-      + ("" if ver.complete else f" [yellow](not harvested: {safe(', '.join(ver.unharvested))})[/]"))
+      + ("" if ver.complete else f" [yellow](not harvested: {plural(len(left), 'fruit', 'fruit')}: {safe(shown)})[/]"))
+    for w in ver.warnings:
+        if w.kind.value == "problem_name":  # (a plan of another problem fails for that, not for its own faults: said first)
+            p(f"  [yellow]another problem[/]   {safe(w.message)}: what it leaves or breaks here may be fine there")
     for w in ver.warnings:
         if w.kind.value == "events_inferred":  # harvesting judged from events the verifier inferred: say so
             p(f"  [yellow]events inferred[/]   {safe(w.message.removeprefix('the plan declares no events: '))}")
