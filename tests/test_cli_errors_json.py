@@ -214,3 +214,13 @@ def test_an_out_of_range_option_says_what_was_expected_and_what_was_found(args, 
     args = [str(plan) if a == "PLAN" else str(sweep) if a == "SWEEP" else a for a in args]
     res = CliRunner(env={"COLUMNS": "200"}).invoke(app, args)
     assert res.exit_code == 2 and words in res.output and "Traceback" not in res.output, res.output
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--workers", "2"], "--workers applies on the move only (--gantry continuous or auto)"),
+    (["--time-limit", "3", "--allocation", "makespan"], "--allocation, --time-limit are for a stationary cell"),
+    (["--planner", "heuristic"], "--planner heuristic plans a cell, not a row's stops"),
+])
+def test_a_row_says_which_option_it_refuses_and_why(args, words, tmp_path):
+    res = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["solve", "sparse_row", "-o", str(tmp_path / "x"), *args])
+    assert res.exit_code == 2 and words in res.output and not (tmp_path / "x").exists(), res.output

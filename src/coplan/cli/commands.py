@@ -133,11 +133,15 @@ def solve(
     path = load_problem(_resolve_problem(problem))
     if path.gantry is not None:  # a row: the stop rule and the cell planner at each stop, or on the move
         on_the_move = gantry in (GantryMode.CONTINUOUS, GantryMode.AUTO)
-        if planner == PlannerKind.HEURISTIC or allocation is not None or options_file is not None or time_limit is not None \
-                or (workers is not None and not on_the_move):
-            _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): --gantry, --planner coordinated|optimal, --stops, "
-                                  "--speed and (on the move) --workers apply; --allocation, --options and --time-limit are for "
-                                  "a stationary cell")
+        cell_only = [o for o, given in (("--allocation", allocation is not None), ("--options", options_file is not None),
+                                        ("--time-limit", time_limit is not None)) if given]
+        refused = ([f"{', '.join(cell_only)} {'is' if len(cell_only) == 1 else 'are'} for a stationary cell"] if cell_only else []) \
+            + (["--planner heuristic plans a cell, not a row's stops (coordinated or optimal do)"]
+               if planner == PlannerKind.HEURISTIC else []) \
+            + (["--workers applies on the move only (--gantry continuous or auto); stop and go plans in one process"]
+               if workers is not None and not on_the_move else [])
+        if refused:
+            _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): {'; '.join(refused)}")
         moving = moving_options(path, gantry, speed, stops, planner)
         if moving is not None and workers is not None:
             from dataclasses import replace as _replace
