@@ -38,6 +38,22 @@ def test_a_plan_given_as_the_problem_says_the_arguments_look_swapped(crossing_pl
     assert r.exit_code == 3 and "swapped" in r.output and "Traceback" not in r.output
 
 
+def test_a_problem_given_as_the_plan_says_the_arguments_look_swapped(tmp_path):
+    """The other way round: a problem YAML where the plan is expected (also under another
+    suffix); a JSON file that is merely broken gets no such hint."""
+    for src in (PROBLEMS / "crossing_paths.yaml", tmp_path / "problem.txt"):
+        if src.suffix == ".txt":
+            src.write_text((PROBLEMS / "crossing_paths.yaml").read_text())
+        with pytest.raises(PlanFileError) as e:
+            load_plan(src)
+        assert "looks like a problem file (YAML)" in str(e.value) and "swapped" in str(e.value)
+    broken = tmp_path / "plan.json"
+    broken.write_text('{"format": ')
+    with pytest.raises(PlanFileError) as e:
+        load_plan(broken)
+    assert "expected JSON, found a syntax error" in str(e.value) and "swapped" not in str(e.value)
+
+
 def test_a_problem_given_as_the_feed_says_so():
     with pytest.raises(FeedError) as e:
         load_feed(PROBLEMS / "crossing_paths.yaml")

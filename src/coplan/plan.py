@@ -333,7 +333,10 @@ def load_plan(path: str | Path) -> Plan:
                                            "found an empty file")], src)
         data = json.loads(text)
     except json.JSONDecodeError as e:
-        raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno})", e.lineno)], src) from None
+        looks = (p.suffix.lower() in (".yaml", ".yml") or any(text.lstrip().startswith(k) for k in ("name:", "arms:", "task:", "gantry:"))
+                 or "\narms:" in text)
+        hint = "; it looks like a problem file (YAML): were the problem and the plan swapped?" if looks else ""
+        raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno}){hint}", e.lineno)], src) from None
     except UnicodeDecodeError as e:
         raise PlanFileError([Issue("", f"expected UTF-8 JSON, found an undecodable byte at offset {e.start}")], src) from None
     return plan_from_dict(data, src)
