@@ -146,6 +146,31 @@ def test_gantt_stacks_plans_with_arms_phases_and_fruit_ids(greenhouse, hplan):
         assert to_rgb(tick.get_color()) == to_rgb(colours[tick.get_text()])
 
 
+def test_a_rows_gantt_labels_only_the_picks_whose_ids_do_not_run_into_each_other(greenhouse, hplan):
+    """A row of hundreds of picks: on each arm's line no two fruit ids overlap as drawn (their
+    rendered boxes), yet some are labelled; a cell's few picks are all labelled (above)."""
+    from coplan.generate import gantry_row
+    from coplan.row.plan import plan_row
+
+    row = parse_problem(to_yaml(gantry_row(length=12.0, n_arms=3, density=10.0, seed=1)))
+    fig = plot_gantt(row, plan_row(row).plan)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    renderer = canvas.get_renderer()
+    ax = fig.axes[0]
+    ids = [t for t in ax.texts if t.get_text().startswith("f")]
+    picks = sum(1 for _ in row.fruits)
+    assert 0 < len(ids) < picks
+    by_line: dict = {}
+    for t in ids:
+        by_line.setdefault(round(t.get_position()[1], 3), []).append(t.get_window_extent(renderer))
+    for boxes in by_line.values():
+        boxes.sort(key=lambda b: b.x0)
+        assert all(a.x1 <= b.x0 + 0.5 for a, b in zip(boxes, boxes[1:]))
+
+
 def test_clearance_plot_draws_every_pair_and_the_requirement(greenhouse, hplan, crowded):
     fig = plot_clearance(greenhouse, hplan)
     (ax,) = fig.axes

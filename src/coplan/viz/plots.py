@@ -16,6 +16,7 @@ functions, so ``import coplan`` never pulls it in. Display a figure in a noteboo
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -74,6 +75,10 @@ def _makespan(plan: Plan) -> float:
 
 
 # --------------------------------------------------------------------------- Gantt
+_GANTT_AXES_IN = 9.6  # inches: the Gantt's time axis (an 11 in wide figure less its margins)
+_LABEL_CHAR_IN = 0.058  # inches: one character of a 7 pt fruit id
+
+
 def plot_gantt(problem: Problem, plans: Plan | Mapping[str, Plan], *, title: str | None = None):
     """Schedule Gantt chart: one row per arm, bars for moving / picking / placing / idle.
 
@@ -91,10 +96,14 @@ def plot_gantt(problem: Problem, plans: Plan | Mapping[str, Plan], *, title: str
     axes = fig.subplots(len(plans), 1, sharex=True, squeeze=False)[:, 0]
     t_max = max(p.duration for p in plans.values())
     h = 0.56
+    # a fruit id above its pick bar only where it does not run into the previous one (a row's
+    # hundreds of picks would print one unreadable string): the id's width in seconds on this axis
+    per_char = _LABEL_CHAR_IN * 1.02 * t_max / _GANTT_AXES_IN
     for ax, (label, plan) in zip(axes, plans.items()):
         segs = schedule(plan)
         for row, arm in enumerate(names):
             c = colors[arm]
+            free_from = -math.inf  # (seconds: where the last id drawn on this row ends)
             for s in segs.get(arm, []):
                 if s.duration <= 0:
                     continue
@@ -104,10 +113,11 @@ def plot_gantt(problem: Problem, plans: Plan | Mapping[str, Plan], *, title: str
                     ax.barh(row, s.duration, left=s.t0, height=h, color=c, alpha=0.35, linewidth=0)
                 elif s.phase == "picking":
                     ax.barh(row, s.duration, left=s.t0, height=h, color=c, edgecolor="black", linewidth=0.6)
-                    ax.text(
-                        s.t0 + s.duration / 2, row - h / 2 - 0.04, s.fruit or "", ha="center", va="bottom",
-                        fontsize=7, color="black", clip_on=True,
-                    )
+                    mid, half = s.t0 + s.duration / 2, 0.5 * per_char * (len(s.fruit or "") + 1)
+                    if mid - half >= free_from:
+                        ax.text(mid, row - h / 2 - 0.04, s.fruit or "", ha="center", va="bottom",
+                                fontsize=7, color="black", clip_on=True)
+                        free_from = mid + half
                 elif s.phase == "placing":
                     ax.barh(row, s.duration, left=s.t0, height=h, facecolor=c, edgecolor="black", hatch="////", linewidth=0.6)
         ms = _makespan(plan)
@@ -126,7 +136,7 @@ def plot_gantt(problem: Problem, plans: Plan | Mapping[str, Plan], *, title: str
     swatch = colors[names[0]]  # the bars' own colours (each arm's), not a grey that reads as idle
     handles = [
         Patch(facecolor=swatch, alpha=0.35, linewidth=0, label="moving (the arm's colour, light)"),
-        Patch(facecolor=swatch, edgecolor="black", linewidth=0.6, label="picking (fruit id above)"),
+        Patch(facecolor=swatch, edgecolor="black", linewidth=0.6, label="picking (fruit id above, where there is room)"),
         Patch(facecolor=swatch, edgecolor="black", hatch="////", linewidth=0.6, label="placing in bin"),
         Patch(facecolor=_IDLE, label="idle (thin grey)"),
     ]
