@@ -81,14 +81,23 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
     if as_json:
         out_console.print(strict_json(cmp.to_dict()), markup=False, highlight=False)
     else:
-        table = Table(title=f"{prob.name}: stop rules side by side", title_justify="left")
-        for _, head in ROW_COLUMNS:
-            table.add_column(head)
-        for r in cmp.rows:
-            table.add_row(*(cell_text(k, r.get(k)) for k, _ in ROW_COLUMNS))
+        from rich import box
+
+        table = Table(title=f"{prob.name}: stop rules side by side", title_justify="left", box=box.SIMPLE_HEAD,
+                      padding=(0, 1), pad_edge=False)
+        cells = [[cell_text(k, r.get(k)) for k, _ in ROW_COLUMNS] for r in cmp.rows]
+        # every value and every heading's words whole at 80 columns (the headings wrap between words)
+        heads = [_SHORT.get(k, head) for k, head in ROW_COLUMNS]
+        for c, head in enumerate(heads):
+            table.add_column(head, min_width=max([len(w) for w in head.split()] + [len(row[c]) for row in cells]))
+        for row in cells:
+            table.add_row(*row)
         out_console.print(table)
         out_console.print(f"wrote {safe(cmp.files['json'])} and {safe(cmp.files['markdown'])}")
     return ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
+
+
+_SHORT = {"ratio_stop_and_go_bound": "/ bound (stop by stop)", "planning_time": "planning s"}  # (the terminal's table)
 
 
 def moving_options(problem, gantry, speed, stops, planner):
