@@ -160,7 +160,8 @@ def run_cmd(
             f"{m['false_picks_avoided']} of {m['false_detections']}; unreachable detections "
             f"{len(m['unreachable_detections'])}\n"
             f"executed plan {result.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
-            f"wrote {_safe(out)}/plan.json, run.json", highlight=False)
+            f"wrote {_safe(out)}/: " + ", ".join(sorted(p.name for p in Path(out).iterdir() if p.is_file() and not p.name.startswith("."))),
+            highlight=False)
     status = result.plan.status
     code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
     raise typer.Exit(int(code))
