@@ -23,7 +23,7 @@ from .checks import budget_hint as _budget_hint, check_time_limit as _check_time
 from .checks import between
 from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
-from .row import moving_options
+from .row import moving_options, refused_on_a_row
 from .summary import fmt as _fmt
 from .summary import print_summary, print_verification
 from .summary import safe as _s
@@ -133,13 +133,7 @@ def solve(
     path = load_problem(_resolve_problem(problem))
     if path.gantry is not None:  # a row: the stop rule and the cell planner at each stop, or on the move
         on_the_move = gantry in (GantryMode.CONTINUOUS, GantryMode.AUTO)
-        cell_only = [o for o, given in (("--allocation", allocation is not None), ("--options", options_file is not None),
-                                        ("--time-limit", time_limit is not None)) if given]
-        refused = ([f"{', '.join(cell_only)} {'is' if len(cell_only) == 1 else 'are'} for a stationary cell"] if cell_only else []) \
-            + (["--planner heuristic plans a cell, not a row's stops (coordinated or optimal do)"]
-               if planner == PlannerKind.HEURISTIC else []) \
-            + (["--workers applies on the move only (--gantry continuous or auto); stop and go plans in one process"]
-               if workers is not None and not on_the_move else [])
+        refused = refused_on_a_row(planner, allocation, options_file, time_limit, workers, on_the_move)
         if refused:
             _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): {'; '.join(refused)}")
         moving = moving_options(path, gantry, speed, stops, planner)

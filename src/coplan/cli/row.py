@@ -97,6 +97,17 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
     return ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
 
 
+def refused_on_a_row(planner, allocation, options_file, time_limit, workers, on_the_move: bool) -> list[str]:
+    """What ``coplan solve`` on a row refuses of its options, each with why (empty: none)."""
+    cell_only = [o for o, given in (("--allocation", allocation is not None), ("--options", options_file is not None),
+                                    ("--time-limit", time_limit is not None)) if given]
+    return ([f"{', '.join(cell_only)} {'is' if len(cell_only) == 1 else 'are'} for a stationary cell"] if cell_only else []) \
+        + (["--planner heuristic plans a cell, not a row's stops (coordinated or optimal do)"]
+           if planner == PlannerKind.HEURISTIC else []) \
+        + (["--workers applies on the move only (--gantry continuous or auto); stop and go plans in one process"]
+           if workers is not None and not on_the_move else [])
+
+
 _SHORT = {"ratio_stop_and_go_bound": "/ bound (stop by stop)", "planning_time": "planning s"}  # (the terminal's table)
 
 
