@@ -162,3 +162,42 @@ def test_a_folder_that_refuses_new_files_despite_its_permissions_is_a_usage_erro
     assert r.exit_code == 2, r.output
     assert "takes no new files (Read-only file system)" in r.output and str(out) in r.output
     assert list(walled.iterdir()) == []
+
+
+def test_plan_json_verification_json_and_the_viewer_page_are_written_whole_or_not_at_all(tmp_path, monkeypatch):
+    """Each goes through ``atomic_text``: a write that fails half-way leaves neither the file nor
+    a temporary beside it (they each had their own ``<name>.tmp``, left behind on a failure)."""
+    import os
+
+    from coplan.planners.heuristic import plan_heuristic
+    from coplan.problem import load_problem
+    from coplan.verify import verify
+    from coplan.viz.viewer import write_html
+
+    prob = load_problem(_single())
+    plan = plan_heuristic(prob)
+    ver = verify(prob, plan)
+    real = os.fdopen
+
+    class Full:
+        def __init__(self, f):
+            self.f = f
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *a):
+            self.f.close()
+
+        def write(self, text):
+            self.f.write(text[: len(text) // 2])
+            raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "fdopen", lambda fd, *a, **k: Full(real(fd, *a, **k)))
+    for target, write in ((tmp_path / "a" / "plan.json", lambda: plan.save(tmp_path / "a")),
+                          (tmp_path / "b" / "verification.json", lambda: ver.save(tmp_path / "b")),
+                          (tmp_path / "c" / "plan.html", lambda: write_html(tmp_path / "c" / "plan.html", prob, plan))):
+        with pytest.raises(OSError) as err:
+            write()
+        assert err.value.strerror == "No space left on device"
+        assert list(target.parent.iterdir()) == []

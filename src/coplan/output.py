@@ -50,13 +50,14 @@ def named_as(target: Path):
 
 
 def atomic_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` whole or not at all: a temporary file unique per writer
-    beside it, then a rename; the file gets :func:`usual_mode`."""
+    """Write ``text`` (UTF-8) to ``path`` whole or not at all: a temporary file unique per
+    writer beside it, then a rename (a failure removes it, and names ``path``); the file gets
+    :func:`usual_mode`."""
     path = Path(path)
     with named_as(path):
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
     try:
-        with os.fdopen(fd, "w", newline="") as f:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
             f.write(text)
         os.chmod(tmp, usual_mode())
         os.replace(tmp, path)

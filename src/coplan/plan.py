@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .errors import Issue, PlanFileError
-from .output import named_as
+from .output import atomic_text
 from .kinds import EventKind, PlannerKind, PlanStatus
 from .plancsv import CSV_PLANNER, csv_header, read_csv_samples
 
@@ -170,10 +170,7 @@ class Plan:
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         paths = {"json": out / f"{stem}.json", "csv": out / f"{stem}.csv", "npz": out / f"{stem}.npz"}
-        tmp = paths["json"].with_suffix(".json.tmp")
-        with named_as(paths["json"]):
-            tmp.write_text(json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
-        tmp.replace(paths["json"])
+        atomic_text(paths["json"], json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
 
         cols = [self.time[:, None]] + ([] if self.gantry_x is None else [self.gantry_x[:, None]]) + [self.q[a] for a in self.q]
         np.savetxt(paths["csv"], np.hstack(cols), delimiter=",", header=csv_header(self.q, self.gantry_x is not None),

@@ -47,6 +47,7 @@ def feed_cmd(
     """Generate a seeded vision feed for a problem: late fruit, noise, false and duplicate detections."""
     from ..problem.model import load_problem
     from ..live.feed import feed_yaml, make_feed
+    from ..output import atomic_text
 
     check_out_file(out)
     prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
@@ -54,9 +55,7 @@ def feed_cmd(
         usage(f"{prob.name} is a row (it has a gantry): the live cell runs a stationary cell; plan a row with 'coplan solve'")
     feed = make_feed(prob, known, sigma, false_rate, duplicate_rate, seed, reveal_by, after_pick, close_distance, close_sigma)
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.name + ".tmp")
-    tmp.write_text(feed_yaml(feed), encoding="utf-8")
-    tmp.replace(out)
+    atomic_text(out, feed_yaml(feed))
     n_false = sum(d.fruit is None for d in feed.detections)
     n_late = sum(d.t > 0 or d.after is not None for d in feed.detections)
     _out.print(f"wrote {_safe(out)}: {len(feed.detections)} detections of {len(prob.fruits)} fruit "

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from dataclasses import dataclass, field, fields
 from enum import Enum
 from pathlib import Path
@@ -19,7 +18,7 @@ import numpy as np
 
 from .clearance import DEFAULT_SUBSTEPS
 from ..kinds import FclMode
-from ..output import named_as
+from ..output import atomic_text
 from .fclcheck import FCL_TOLERANCE, FclReport
 
 __all__ = [
@@ -277,10 +276,7 @@ class Verification:
         if p.is_dir() or p.suffix != ".json":
             p = p / "verification.json"
         p.parent.mkdir(parents=True, exist_ok=True)
-        tmp = p.with_name(p.name + ".tmp")
-        with named_as(p):
-            tmp.write_text(json.dumps(self.to_dict(), indent=1, allow_nan=False))
-        os.replace(tmp, p)
+        atomic_text(p, json.dumps(self.to_dict(), indent=1, allow_nan=False))
         return p
 
 

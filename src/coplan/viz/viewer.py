@@ -40,7 +40,7 @@ import numpy as np
 
 from ..errors import Issue, PlanFileError
 from ..kinds import EventKind
-from ..output import named_as
+from ..output import atomic_text
 from ..plan import Plan, jsonable, load_plan
 from ..problem.model import Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors
@@ -395,10 +395,7 @@ def write_html(path: str | Path, problem: Problem, plan: Plan, compare: Plan | N
     p = Path(path)
     page = render_html(problem, plan, compare, **kwargs)
     p.parent.mkdir(parents=True, exist_ok=True)
-    tmp = p.with_name(p.name + ".tmp")
-    with named_as(p):
-        tmp.write_text(page, encoding="utf-8")
-    tmp.replace(p)
+    atomic_text(p, page)
     return p
 
 
