@@ -62,6 +62,11 @@ def feed_cmd(
                f"({n_late} after t = 0, {n_false} false), sigma {sigma * 1000:g} mm, seed {seed}", highlight=False)
 
 
+def _written(out: Path) -> str:
+    """The files a run wrote into ``out`` (its hidden marker left out), by name."""
+    return _safe(", ".join(sorted(p.name for p in Path(out).iterdir() if p.is_file() and not p.name.startswith("."))))
+
+
 def run_cmd(
     problem: Annotated[Path, typer.Argument(help="Problem file (YAML) with the true fruit positions.")],
     feed: Annotated[Optional[Path], typer.Option("--feed", "-f", help="Feed file (YAML): what the camera reports "
@@ -159,8 +164,7 @@ def run_cmd(
             f"{m['false_picks_avoided']} of {m['false_detections']}; unreachable detections "
             f"{len(m['unreachable_detections'])}\n"
             f"executed plan {result.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
-            f"wrote {_safe(out)}/: " + ", ".join(sorted(p.name for p in Path(out).iterdir() if p.is_file() and not p.name.startswith("."))),
-            highlight=False)
+            f"wrote {_safe(out)}/: {_written(out)}", highlight=False)
     status = result.plan.status
     code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
     raise typer.Exit(int(code))
@@ -228,7 +232,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             f"against {cycle} ({'kept ahead' if m['kept_ahead'] else 'LATE'}); {m['probes']} probes of false or repeated "
             f"reports\n{faults_line}executed plan {res.plan.status.value} "
             f"({'verified' if m['verified'] else 'verification FAILED'}); wrote {_safe(out)}/: "
-            + ", ".join(sorted(p.name for p in Path(out).iterdir() if p.is_file() and not p.name.startswith("."))),
+            + _written(out),
             highlight=False)
     raise typer.Exit(int(status_exit_code(res.plan.status)))
 

@@ -481,6 +481,9 @@ def retimable(schedules: dict[str, ArmSchedule], tol: float = 1e-6) -> bool:
 
 
 # ----------------------------------------------------------------------------- widening
+_RETRY_ITERATIONS = 30  # fewer widening iterations left than this: no second program
+
+
 def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: float | None, say) -> dict:
     """The widening stage on the incumbent's schedules; the widened plan replaces the incumbent
     when it is verified, harvests as much, is no slower and its certified margin is no smaller.
@@ -529,7 +532,6 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
             best = other
             info.update({k: again[k] for k in ("status", "room", "dense_room", "points", "verified", "margin", "makespan", "rms_jerk")
                          if k in again})
-            info.pop("reason", None)
     if best is None:
         return info
     plan, ver, margin = best
@@ -538,9 +540,6 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     info.pop("reason", None)
     say(f"widen: certified margin {1000 * margin0:.1f} -> {1000 * margin:.1f} mm at {plan.metrics['makespan']:.4f} s")
     return info
-
-
-_RETRY_ITERATIONS = 30  # fewer left than this: no second program
 
 
 def _judged(problem: Problem, inc: Incumbent, res, info: dict, say):
