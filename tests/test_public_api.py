@@ -110,3 +110,15 @@ def test_python_m_coplan_schema_is_a_runnable_module():
     assert spec is not None and spec.origin.endswith("schema.py") and spec.submodule_search_locations is None
     assert 'if __name__ == "__main__":' in Path(spec.origin).read_text(encoding="utf-8")
     assert callable(importlib.import_module("coplan.schema").write_shipped)
+
+
+def test_a_choice_that_is_none_of_them_is_refused_with_every_choice_listed():
+    from coplan.kinds import GantryMode, PlannerKind, StopRule
+
+    assert PlannerKind("optimal") is PlannerKind.OPTIMAL and StopRule("fixed") is StopRule.FIXED
+    for kind, bad, words in ((PlannerKind, "fastest", "planner kind: expected one of 'heuristic', 'coordinated', 'optimal'; "
+                                                      "found 'fastest'"),
+                             (GantryMode, "moving", "gantry mode: expected one of 'stop-and-go', 'continuous', 'auto'"),
+                             (StopRule, 3, "found 3")):
+        with pytest.raises(ValueError, match=re.escape(words)):
+            kind(bad)

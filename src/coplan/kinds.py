@@ -7,31 +7,43 @@ Each is re-exported by the module that owns the concept (``coplan.allocate.alloc
 
 from __future__ import annotations
 
+import re
 from enum import Enum, IntEnum
 
-__all__ = ["AllocationMethod", "SequenceRule", "PlannerKind", "PlanStatus", "EventKind", "ExitCode", "FclMode",
+__all__ = ["Choice", "AllocationMethod", "SequenceRule", "PlannerKind", "PlanStatus", "EventKind", "ExitCode", "FclMode",
            "SweepBase", "SweepMode", "RowStatus", "TrackState", "ReplanCause", "ExportFormat", "SchemaKind",
            "StopRule", "GantryMode", "AssignRule", "SpeedProfile"]
 
 
-class AllocationMethod(str, Enum):
+class Choice(str, Enum):
+    """A named choice given by a user (an option, a YAML value, an argument): a value that is
+    none of the choices is refused with all of them listed, e.g. ``PlannerKind("fastest")``:
+    ``planner kind: expected one of 'heuristic', 'coordinated', 'optimal'; found 'fastest'``."""
+
+    @classmethod
+    def _missing_(cls, value):
+        words = re.sub(r"(?<!^)(?=[A-Z])", " ", cls.__name__).lower()
+        raise ValueError(f"{words}: expected one of {', '.join(repr(m.value) for m in cls)}; found {value!r}")
+
+
+class AllocationMethod(Choice):
     HEURISTIC = "heuristic"
     MAKESPAN = "makespan"
 
 
-class SequenceRule(str, Enum):
+class SequenceRule(Choice):
     FILE = "file"
     SWEEP = "sweep"
     SHORTEST = "shortest"
 
 
-class PlannerKind(str, Enum):
+class PlannerKind(Choice):
     HEURISTIC = "heuristic"  # the course's nearest-arm allocation + cubic splines (the baseline)
     COORDINATED = "coordinated"  # min-makespan allocation, S-curve moves, conflict-free coordination
     OPTIMAL = "optimal"  # anytime: the coordinated plan improved by search and joint optimisation
 
 
-class StopRule(str, Enum):
+class StopRule(Choice):
     """Where a row's carriage stops (:mod:`coplan.row.stops`)."""
 
     OPTIMISED = "optimised"  # stops and their fruit chosen with the arms (receding segments, strides priced by the arms' cycles)
@@ -39,7 +51,7 @@ class StopRule(str, Enum):
     FEWEST = "fewest"  # the fewest stops that serve every fruit (greedy stabbing)
 
 
-class GantryMode(str, Enum):
+class GantryMode(Choice):
     """How a row's carriage moves (:mod:`coplan.row`)."""
 
     STOP_AND_GO = "stop-and-go"  # the carriage stops; each stop is a stationary cell (the stop rule chooses where)
@@ -47,7 +59,7 @@ class GantryMode(str, Enum):
     AUTO = "auto"  # both planned and verified; the one with more fruit, then more fruit per hour, is kept
 
 
-class LiveGantryMode(str, Enum):
+class LiveGantryMode(Choice):
     """How a live row's carriage moves (``coplan run ROW --gantry``): one mode, decided as fruit
     come into view (no ``auto``: a live planner cannot plan both and keep the better)."""
 
@@ -55,21 +67,21 @@ class LiveGantryMode(str, Enum):
     STOP_AND_GO = "stop-and-go"
 
 
-class AssignRule(str, Enum):
+class AssignRule(Choice):
     """How continuous mode assigns and orders fruit to arms within their windows."""
 
     GREEDY = "greedy"  # earliest deadline first (interval scheduling's greedy; the baseline)
     CPSAT = "cpsat"  # OR-Tools CP-SAT over optional intervals, seeded by the greedy
 
 
-class SpeedProfile(str, Enum):
+class SpeedProfile(Choice):
     """How continuous mode's carriage speed varies along the row (:mod:`coplan.row.cruise`)."""
 
     CONSTANT = "constant"  # one cruising speed for the whole row
     DENSITY = "density"  # a speed per metre of rail, slower where the fruit need more of the arms' time
 
 
-class PlanStatus(str, Enum):
+class PlanStatus(Choice):
     """Overall verdict of a plan. Only ``SUCCESS`` means verified and complete."""
 
     SUCCESS = "success"  # every reachable fruit harvested, verification passed
@@ -81,7 +93,7 @@ class PlanStatus(str, Enum):
     INTERRUPTED = "interrupted"  # stopped by the user; the plan is the best it had
 
 
-class EventKind(str, Enum):
+class EventKind(Choice):
     PICK = "pick"
     PLACE = "place"
 
@@ -102,13 +114,13 @@ class ExitCode(IntEnum):
     TERMINATED = 143  # SIGTERM (e.g. a job scheduler's stop): handled like Ctrl-C, what there was is saved
 
 
-class FclMode(str, Enum):
+class FclMode(Choice):
     OFF = "off"  # no cross-check (inner loops only; never for a final verdict)
     CRITICAL = "critical"  # closest instants, interval worst points, seeded random instants
     FULL = "full"  # every sample the verifier evaluated, every pair (slow: ~0.1 ms per link pair)
 
 
-class SweepBase(str, Enum):
+class SweepBase(Choice):
     """What a design sweep's problems are made from (``coplan.sweep.spec``)."""
 
     ROW = "row"  # coplan.generate.row_problem: a straight row of identical arms
@@ -119,12 +131,12 @@ class SweepBase(str, Enum):
     GANTRY = "gantry"  # coplan.generate.gantry_row: a row harvested from a mobile gantry (stop and go or on the move)
 
 
-class SweepMode(str, Enum):
+class SweepMode(Choice):
     GRID = "grid"  # every combination of the varied values
     RANDOM = "random"  # ``samples`` combinations drawn with the sweep's seed
 
 
-class RowStatus(str, Enum):
+class RowStatus(Choice):
     """Status of one row of a sweep table: a plan's status, or why there is no plan."""
 
     SUCCESS = "success"
@@ -140,7 +152,7 @@ class RowStatus(str, Enum):
     LOST = "lost"  # the worker died on every attempt (crash, out of memory)
 
 
-class TrackState(str, Enum):
+class TrackState(Choice):
     """What the live planner (:mod:`coplan.live`) knows of one believed fruit (merged detections)."""
 
     PENDING = "pending"  # detected, not (yet) in the plan
@@ -150,13 +162,13 @@ class TrackState(str, Enum):
     UNREACHABLE = "unreachable"  # no arm can harvest it where it was measured
 
 
-class ReplanCause(str, Enum):
+class ReplanCause(Choice):
     DETECTIONS = "detections"  # new detections arrived
     CLOSE_RANGE = "close-range"  # a refined measurement at close range
     IDLE = "idle"  # retry: the plan ended with detected fruit left over
 
 
-class ExportFormat(str, Enum):
+class ExportFormat(Choice):
     """``coplan export --format``: what a joint controller is handed (:mod:`coplan.report.export`)."""
 
     CSV = "csv"  # one file, a row per time, every arm's q, qd, qdd
@@ -164,7 +176,7 @@ class ExportFormat(str, Enum):
     YAML = "yaml"  # the same as YAML
 
 
-class SchemaKind(str, Enum):
+class SchemaKind(Choice):
     """``coplan schema``: the file formats coplan ships a JSON Schema for (:mod:`coplan.schemas`)."""
 
     PROBLEM = "problem"
