@@ -17,6 +17,7 @@ from .checks import between
 from .console import ProgressDisplay
 from .failures import check_out_dir, check_out_file, resolve_problem, usage
 from .summary import safe as _safe
+from ..errors import plural
 from ..kinds import ExitCode, GantryMode, LiveGantryMode, PlanStatus
 
 __all__ = ["feed_cmd", "run_cmd"]
@@ -209,7 +210,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         typer.echo(json.dumps(jsonable(m), allow_nan=False))
     else:
         idle = f", {m['stops_without_picks']} of them without a pick" if m.get("stops_without_picks") else ""
-        how = f"on the move at {speed:g} m/s," if mode == GantryMode.CONTINUOUS else f"stop and go, {m['stops']} stops{idle},"
+        how = f"on the move at {speed:g} m/s," if mode == GantryMode.CONTINUOUS else f"stop and go, {plural(m['stops'], 'stop')}{idle},"
         share = ("nothing for the offline plan (full knowledge) to harvest" if m["of_offline"] is None else
                  f"{100 * m['of_offline']:.1f} % of the {m['offline_harvested']} the offline plan (full knowledge) harvests"
                  + (f", and {m['harvested_not_offline']} it does not" if m.get("harvested_not_offline") else ""))
@@ -227,9 +228,9 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
                 f"; ... and {len(missed) - 3} more (run.json: outcome)" if len(missed) > 3 else "") + "\n"
         _out.print(
             f"{_safe(prob.name)} live {how} camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
-            f"{m['false_reports']} false reports: {m['harvested']} fruit harvested, {share}; row time "
+            f"{plural(m['false_reports'], 'false report')}: {m['harvested']} fruit harvested, {share}; row time "
             f"{m['row_time']:.1f} s{ratio}\n{m['decisions']} decisions, slowest {1000 * m['decision_max_seconds']:.1f} ms "
-            f"against {cycle} ({'kept ahead' if m['kept_ahead'] else 'LATE'}); {m['probes']} probes of false or repeated "
+            f"against {cycle} ({'kept ahead' if m['kept_ahead'] else 'LATE'}); {plural(m['probes'], 'probe')} of false or repeated "
             f"reports\n{faults_line}executed plan {res.plan.status.value} "
             f"({'verified' if m['verified'] else 'verification FAILED'}); wrote {_safe(out)}/: "
             + _written(out),

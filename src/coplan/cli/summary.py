@@ -51,7 +51,9 @@ def print_row_summary(console, res) -> None:
     colour = "green" if res.success else "red"
     p = console.print
     moving = r.get("mode") == "continuous"
-    how = (f"on the move ({safe(r.get('profile'))} speed profile, {fmt(r.get('mean_speed'), ' m/s', 3)} on average, "
+    still = moving and not r.get("carriage_moving_share")  # every fruit served from where the carriage starts
+    how = ("on the move (the carriage need not move: every fruit is in reach from where it starts)" if still else
+           f"on the move ({safe(r.get('profile'))} speed profile, {fmt(r.get('mean_speed'), ' m/s', 3)} on average, "
            f"top {fmt(r.get('top_speed'), ' m/s', 3)})" if moving else
            f"stops {safe(solver.get('rule'))}, cell planner {safe(solver.get('cell_planner'))}")
     p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, {how}, "
@@ -86,7 +88,7 @@ def print_row_summary(console, res) -> None:
     shares = (f"carriage moving {fmt(100 * r.get('carriage_moving_share', 0), ' %', 1)} of the row time, some arm picking "
               f"{fmt(100 * r.get('picking_share', 0), ' %', 1)}")
     if moving:
-        p(f"  carriage          never stops for a pick; {shares}")
+        p(f"  carriage          {'stands where it starts' if still else 'never stops for a pick'}; {shares}")
     else:
         p(f"  stops             {r.get('stops')}, {fmt(r.get('mean_time_per_stop'), ' s')} each on average; {shares}")
     for a, causes in (r.get("idle_share") or {}).items():
@@ -97,13 +99,14 @@ def print_row_summary(console, res) -> None:
           f"(certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})")
     if not ver.get("passed", False):
         p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
-    first = r.get("first_motion_seconds")
+    first, known = r.get("first_motion_seconds"), r.get("first_stop_seconds", r.get("first_motion_seconds"))
+    later = "" if first == known else f" (first motion after {fmt(first, ' s')}: the carriage does not move before that stop's cell)"
     if moving:
         p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
-          f"of the row time ({r.get('plans_tried')} full plans tried by the speed search, each verified)")
+          f"of the row time ({plural(r.get('plans_tried') or 0, 'full plan')} tried by the speed search, each verified)")
     else:
         p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
-      f"of the row time; first stop known after {fmt(first, ' s')}; the slowest stop took {fmt(r.get('slowest_stop_seconds'), ' s')} "
+      f"of the row time; first stop known after {fmt(known, ' s')}{later}; the slowest stop took {fmt(r.get('slowest_stop_seconds'), ' s')} "
           f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({'kept ahead of the carriage' if r.get('kept_ahead') else 'LATE'})")
     for k, v in res.files.items():
         p(f"  wrote             {safe(v)}")

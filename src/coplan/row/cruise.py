@@ -230,6 +230,17 @@ class Cruise:
         out = np.where(x <= self.x0 + 1e-12, 0.0, hi)
         return np.where(x > self.x1 + 1e-9, math.inf, out)
 
+    def arrivals(self) -> list[float]:
+        """When the carriage comes to rest after a move, s (in time order; the start's rest is
+        not one)."""
+        out, moving = [], False
+        for t0, _, v, a, j in self.phases:
+            now = abs(v) > 1e-12 or abs(a) > 1e-12 or abs(j) > 1e-12
+            if moving and not now:
+                out.append(float(t0))
+            moving = now
+        return out
+
     @property
     def mean_speed(self) -> float:
         """The carriage's distance over its time in motion, m/s."""
@@ -323,7 +334,8 @@ def _runs(ok: np.ndarray) -> list[tuple[int, int]]:
 
 def pick_windows(problem: Problem, reach: RowReach, cruise: Cruise, dwell: float) -> dict[str, list[Window]]:
     """Each harvestable fruit's pick windows, one per arm and run of serving positions (module
-    docstring), in arm order (a fruit may have none at this motion)."""
+    docstring), in arm order (a fruit may have none at this motion); where ``gantry.settle`` is
+    set, no window lets a pick's dwell come within it of the carriage coming to rest after a move."""
     grid = reach.grid
     runs = []  # (fid, arm, c_lo, c_hi)
     for fid in reach.harvestable():
@@ -337,11 +349,28 @@ def pick_windows(problem: Problem, reach: RowReach, cruise: Cruise, dwell: float
     t_lo = cruise.time_at(np.array([max(r[2], cruise.x0) for r in runs]))  # all at once: one vectorised bisection
     t_hi = cruise.time_at(np.array([r[3] for r in runs]))
     out: dict[str, list[Window]] = {fid: [] for fid in reach.harvestable()}
+    settle = problem.gantry.settle
+    # no dwell within ``settle`` of the carriage coming to rest after a move (its vibration dies out)
+    bans = [(ta - dwell, ta + settle) for ta in cruise.arrivals()] if settle > 0 else []
     for (fid, a, c_lo, c_hi), lo, hi in zip(runs, t_lo.tolist(), t_hi.tolist()):
         # past x1 the carriage rests inside the run: no end to the window
         hi = math.inf if c_hi >= cruise.x1 - 1e-9 else hi - dwell
-        if hi >= lo:
-            out[fid].append(Window(a, lo, hi, c_lo, c_hi))
+        for lo2, hi2 in _settled(lo, hi, bans):
+            out[fid].append(Window(a, lo2, hi2, c_lo, c_hi))
+    return out
+
+
+def _settled(lo: float, hi: float, bans: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """``[lo, hi]`` less the open intervals ``bans`` (sorted): what is left, in pieces."""
+    out = []
+    for b0, b1 in bans:
+        if b1 <= lo or b0 >= hi:
+            continue
+        if b0 >= lo:
+            out.append((lo, b0))
+        lo = max(lo, b1)
+    if hi >= lo:
+        out.append((lo, hi))
     return out
 
 
@@ -357,6 +386,8 @@ def demand_stretches(problem: Problem, reach: RowReach, x1: float, stretch: floa
 
     g = problem.gantry
     edges = np.arange(g.start, x1 + stretch, stretch)
+    if edges.size < 2:  # the carriage need not move (every fruit served from where it starts): one stretch
+        edges = np.array([g.start, g.start + stretch])
     edges[-1] = max(edges[-1], x1)
     need = np.zeros(edges.size - 1)
     cost = cycle_bounds(problem)[0]

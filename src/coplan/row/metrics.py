@@ -17,9 +17,10 @@
   stop-and-go bound's model excludes;
 * **on the move** (``mode`` continuous): the speed profile, the carriage's mean and top speed,
   how many full plans the speed search tried;
-* **real time**: planning time / row time, when the first stop was known (the carriage's first
-  motion can start) and, stop by stop, whether its cell was planned before the carriage needed
-  it -- the least slack (s; negative: late) and the slowest stop's planning time.
+* **real time**: planning time / row time, when the first stop was known and when the row's first
+  motion can start (then; or, where the first stop is where the carriage starts, once its cell
+  is planned) and, stop by stop, whether its cell was planned before the row needed it, counted
+  from that first motion -- the least slack (s; negative: late) and the slowest stop's planning time.
 """
 
 from __future__ import annotations
@@ -71,7 +72,10 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
             if e.arm == a.name:
                 dwelling[int(round(e.t_start / dt)):int(round(e.t_end / dt)) + 1] = True
         has = {i for i, sp in enumerate(result.stops) if sp.plan.allocation.get(a.name)}
-        at_stop_without = np.isin(stop_of, [i for i in range(len(result.stops)) if i not in has])
+        if result.stops:
+            at_stop_without = np.isin(stop_of, [i for i in range(len(result.stops)) if i not in has])
+        else:  # on the move: an arm without a fruit in the whole row
+            at_stop_without = np.full(n, not plan.allocation.get(a.name))
         h = home[a.name] & upto
         causes = {
             "carriage": h & moving,
@@ -79,7 +83,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
             "others": h & ~moving & ~at_stop_without,
             "coordination": ~home[a.name] & still & ~dwelling & upto,
         }
-        idle[a.name] = {k: float(v.sum() * dt / span) if span > 0 else 0.0 for k, v in causes.items()}
+        idle[a.name] = {k: float(v.sum() / upto.sum()) if span > 0 else 0.0 for k, v in causes.items()}  # (shares of the samples)
     away = np.zeros(n, dtype=bool)  # some arm away from home
     for a in problem.arms:
         away |= ~home[a.name]
@@ -87,7 +91,10 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
     stands = [sp.depart - sp.arrive for sp in result.stops]
     planning = float(result.timings.get("planning", 0.0))
     first = result.info.get("first_stop_seconds")
-    slack = [first + sp.start - sp.ready for sp in result.stops] if first is not None else []
+    motion = first  # the row's first motion: the carriage's first move, once the first stop is known ...
+    if first is not None and result.stops and min(sp.start for sp in result.stops) <= 1e-9:
+        motion = max(first, max(sp.ready for sp in result.stops if sp.start <= 1e-9))  # ... or the arms', if no move comes first
+    slack = [motion + sp.start - sp.ready for sp in result.stops] if motion is not None else []
     out = {
         "fruit": len(problem.fruits),
         "harvestable": harvestable,
@@ -109,7 +116,8 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         "idle_share": idle,
         "planning_time": planning,
         "planning_over_row_time": planning / span if span > 0 else None,
-        "first_motion_seconds": first,
+        "first_stop_seconds": first,
+        "first_motion_seconds": motion,
         "slowest_stop_seconds": max((sp.seconds for sp in result.stops), default=0.0),
         "least_slack_seconds": min(slack) if slack else None,
         "kept_ahead": bool(slack) and min(slack) >= 0.0,

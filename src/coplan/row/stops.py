@@ -405,6 +405,7 @@ def _best_stride(problem, reach, todo, spans, lo, length, fresh, step_of, w, ove
     per fruit taken), polished by :func:`_polish` (the row's first segment within
     ``w.first_work``: the carriage waits for it). Returns (the stride, the segment's stops)."""
     first = fresh
+    floor = -1 if first else lo  # the polish may move stops back to the rail's start (the row's first segment), else to the last stop kept
     hi = lo + length
     inside = [f for f in todo if spans[f][0] <= hi]
     if not inside:  # a stretch of row without fruit: the segment starts at the next fruit's last chance
@@ -434,7 +435,7 @@ def _best_stride(problem, reach, todo, spans, lo, length, fresh, step_of, w, ove
         if best is None or per < best[0] - 1e-9:
             best = (per, fr, st, must)
     _, fr, st, must = best
-    st = _polish(problem, reach, cost, inside, st, must, over, x_now, overlap, lo if not fresh else lo - 1, evals)
+    st = _polish(problem, reach, cost, inside, st, must, over, x_now, overlap, floor, evals)
     return fr, st
 
 

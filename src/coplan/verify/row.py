@@ -6,7 +6,9 @@ the row's (world) frame: the bases are where the carriage puts them, ``base + (x
 * **carriage** -- at rest at ``gantry.start`` at t = 0 and at rest at the end of the plan;
   always within ``[start, end]``; velocity, acceleration and jerk within the gantry's limits
   (forward, second and third differences of the samples, with the joints' tolerances: see
-  :mod:`coplan.verify.verifier`).
+  :mod:`coplan.verify.verifier`); no pick's dwell within ``gantry.settle`` s of the carriage
+  coming to rest after a move (two samples' tolerance: a move's last micrometres may round to
+  rest a sample early).
 * **clearance** -- as for a cell, in the row frame (:class:`~coplan.verify.clearance.ArmMotion`
   with the carriage's shift); between samples the certificate adds the carriages' relative
   speed to the arms' own point speeds: zero for arms on one carriage, which move together.
@@ -31,7 +33,7 @@ import weakref
 import numpy as np
 
 from ..errors import Issue, PlanFileError
-from ..plan import Plan
+from ..plan import EventKind, Plan
 from ..problem.model import Problem
 from .clearance import runs
 from .verdict import Verification, Violation, ViolationKind
@@ -74,6 +76,7 @@ def check_carriage(problem: Problem, plan: Plan, opts, ver: Verification) -> Non
     if t.size < 2:
         return
     dt = float(t[1] - t[0])
+    _check_settle(problem, plan, x, t, dt, ver)
     pad = np.concatenate([np.repeat(x[:1], 3), x, np.repeat(x[-1:], 3)])  # at rest before and after the plan
     tp = (np.arange(pad.size) - 3) * dt
     res = 1e-7  # plan.json rounds positions to 1e-7 m
@@ -88,6 +91,27 @@ def check_carriage(problem: Problem, plan: Plan, opts, ver: Verification) -> Non
             ver.violations.append(Violation(ViolationKind.CARRIAGE, ("carriage",), float(centre[w]), float(diff[w] - limit),
                                             float(diff[w]), float(limit), float(centre[a]), float(centre[b]),
                                             message=f"carriage {what} at {diff[w] / limit:.2f} x its limit"))
+
+
+def _check_settle(problem: Problem, plan: Plan, x: np.ndarray, t: np.ndarray, dt: float, ver: Verification) -> None:
+    """No pick's dwell within ``gantry.settle`` s of the carriage coming to rest after a move."""
+    settle = problem.gantry.settle
+    if settle <= 0:
+        return
+    moved = np.abs(np.diff(x)) > 1e-9  # between samples i and i + 1
+    rest_at = t[1:-1][moved[:-1] & ~moved[1:]] if moved.size > 1 else np.zeros(0)  # the first sample at rest after a move
+    for e in plan.events:
+        if e.kind != EventKind.PICK or rest_at.size == 0:
+            continue
+        k = int(np.searchsorted(rest_at, e.t_end + 1e-9, side="right")) - 1  # the last rest that began before the dwell ended
+        if k < 0:
+            continue
+        since = e.t_start - float(rest_at[k])
+        if since < settle - 2.0 * dt - 1e-9:
+            ver.violations.append(Violation(ViolationKind.CARRIAGE, (e.arm, "carriage"), float(e.t_start), settle - since,
+                                            since, settle, message=(
+                                                f"{e.arm} picks {e.fruit} at t = {e.t_start:.2f} s, {max(since, 0.0):.2f} s after the "
+                                                f"carriage came to rest (at {float(rest_at[k]):.2f} s); gantry.settle is {settle:g} s")))
 
 
 #: :func:`row_reachable_ids` of each problem, computed once (problems are immutable).

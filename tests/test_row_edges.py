@@ -1,0 +1,130 @@
+"""Rows at their edges: every fruit in reach from where the carriage starts, a carriage that must
+settle before a pick, and the summaries of such rows (found by trying the project as a new user)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from coplan.generate import gantry_row, to_yaml
+from coplan.kinds import GantryMode, StopRule
+from coplan.plan import EventKind
+from coplan.problem import parse_problem
+from coplan.row.continuous import plan_moving
+from coplan.row.cruise import Cruise
+from coplan.row.live import LiveRowOptions, run_live_row
+from coplan.row.metrics import row_metrics
+from coplan.row.plan import RowOptions, plan_row
+from coplan.verify import verify
+from coplan.verify.verdict import ViolationKind
+
+
+def _row(fruits=None, **gantry):
+    d = gantry_row(length=6.0, density=3.0, seed=2)
+    d["gantry"].update(gantry)
+    if fruits is not None:
+        d["fruits"] = fruits
+    return parse_problem(to_yaml(d))
+
+
+@pytest.fixture(scope="module")
+def single():
+    """One fruit at x = 3 m: the right arm (base 2 m right of the carriage) reaches it from the start."""
+    return _row([{"id": "only", "position": [3.0, 1.0]}])
+
+
+def test_where_the_carriage_starts_serves_every_fruit_the_optimised_rule_does_not_move(single):
+    res = plan_row(single)
+    assert res.verification.passed and res.plan.metrics["harvested"] == 1
+    assert [sp.stop.x for sp in res.stops] == [single.gantry.start]
+    assert np.all(res.plan.gantry_x == single.gantry.start)
+    fixed = plan_row(single, RowOptions(stops=StopRule.FIXED))  # (the baseline drives to its stride's stop)
+    assert res.plan.metrics["makespan"] < fixed.plan.metrics["makespan"]
+    m = row_metrics(single, res)
+    # the row's first motion is the arms' -- once that stop's cell is planned -- and every stop is ready by then
+    assert m["first_motion_seconds"] >= m["first_stop_seconds"] and m["kept_ahead"] and m["least_slack_seconds"] >= 0
+
+
+def test_on_the_move_a_carriage_that_need_not_move_gives_a_verified_plan_and_shares_of_at_most_one(single):
+    res = plan_moving(single)  # (crashed: the speed profile had no stretch of rail)
+    assert res.verification.passed and res.plan.metrics["harvested"] == 1
+    m = row_metrics(single, res)
+    assert m["carriage_moving_share"] == 0.0
+    for arm, causes in m["idle_share"].items():
+        assert 0.0 <= sum(causes.values()) <= 1.0 + 1e-12, (arm, causes)
+    idle = [a for a, fs in res.plan.allocation.items() if not fs]
+    assert idle and all(m["idle_share"][a]["no_fruit"] == pytest.approx(1.0) for a in idle)  # no fruit all row long
+
+
+# --------------------------------------------------------------------------- settle
+def _picks_after_rest(plan, settle):
+    """(pick start - when the carriage last came to rest before it) for picks with the carriage at rest."""
+    x, t = np.asarray(plan.gantry_x), plan.time
+    moved = np.abs(np.diff(x)) > 1e-9
+    rest_at = t[1:-1][moved[:-1] & ~moved[1:]]
+    out = []
+    for e in plan.events:
+        if e.kind == EventKind.PICK:
+            k = np.searchsorted(rest_at, e.t_end, side="right") - 1
+            if k >= 0:
+                out.append(e.t_start - rest_at[k])
+    return out
+
+
+@pytest.fixture(scope="module")
+def settling():
+    """A short row whose last fruit cluster only the front arm reaches, from the rail's end: some
+    of it is picked with the carriage at rest there, in every mode."""
+    d = gantry_row(length=6.0, density=3.0, seed=2)
+    end = [{"id": f"e{i}", "position": [8.55 + 0.05 * (i % 3), 0.9 + 0.1 * (i // 3)]} for i in range(6)]
+    return _row(d["fruits"] + end, settle=1.0)
+
+
+def test_the_verifier_refuses_a_pick_before_the_carriage_has_settled(settling):
+    unsettled = _row(list(map(_fruit, settling.fruits)))  # the same row, no settle asked
+    plain = plan_row(unsettled)
+    assert min(_picks_after_rest(plain.plan, 1.0)) < 0.5
+    ver = verify(settling, plain.plan)
+    bad = [v for v in ver.violations if v.kind == ViolationKind.CARRIAGE and "settle" in v.message]
+    assert not ver.passed and bad
+    assert verify(unsettled, plain.plan).passed
+
+
+def _fruit(f):
+    return {"id": f.id, "position": list(f.position)}
+
+
+@pytest.mark.parametrize("how", ["offline stop and go", "live stop and go", "live on the move"])
+def test_every_planner_waits_for_the_carriage_to_settle_before_a_pick(settling, how):
+    if how == "offline stop and go":
+        plan = plan_row(settling).plan
+    else:
+        mode = GantryMode.STOP_AND_GO if "stop" in how else GantryMode.CONTINUOUS
+        res = run_live_row(settling, LiveRowOptions(speed=0.1, seed=0, mode=mode))
+        assert res.verification.passed
+        plan = res.plan
+    gaps = _picks_after_rest(plan, 1.0)
+    assert gaps and min(gaps) >= 1.0 - 2 * plan.dt - 1e-9
+    assert verify(settling, plan).passed
+
+
+def test_pick_windows_leave_out_the_settling_time_after_each_rest(settling):
+    from coplan.kinematics.timing import Move1D
+    from coplan.row.cruise import pick_windows
+    from coplan.row.reach import row_reach
+
+    g = settling.gantry
+    cruise = Cruise.hops(settling, [(0.0, 2.0), (9.0, 4.0)])
+    hop = Move1D.between(0.0, 2.0, g.max_velocity, g.max_acceleration, g.max_jerk).duration
+    assert cruise.arrivals() == pytest.approx([hop, 9.0 + hop])
+    dwell = settling.task.pick_dwell
+    wins = pick_windows(settling, row_reach(settling), cruise, dwell)
+    starts = [w.lo for ws in wins.values() for w in ws]
+    assert starts and min(starts) >= 0.0
+    for ws in wins.values():
+        for w in ws:
+            for ta in cruise.arrivals():  # no pick [s, s + dwell] with s in the window meets (ta, ta + settle)
+                assert w.hi <= ta - dwell + 1e-9 or w.lo >= ta + g.settle - 1e-9, (w, ta)
+    # and without settle the same windows run through the arrivals
+    plain = pick_windows(_row(), row_reach(_row()), Cruise.hops(_row(), [(0.0, 2.0), (9.0, 4.0)]), dwell)
+    assert any(w.lo < hop < w.hi for ws in plain.values() for w in ws)
