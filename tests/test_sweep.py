@@ -390,3 +390,17 @@ def test_the_sweep_command_end_to_end(tmp_path):
     rows = read_rows(out)
     assert len(rows) == 6 and sorted(r["planner"] for r in rows) == ["coordinated"] * 3 + ["heuristic"] * 3
     assert all(r["heuristic_makespan"] == r["makespan"] for r in rows if r["planner"] == "heuristic")
+
+
+def test_two_gantry_modes_of_one_row_are_two_designs_in_the_report_not_one_with_twice_the_seeds():
+    from coplan.sweep.report import designs, summarise
+    from coplan.sweep.table import normalise
+
+    base = {"exit_class": "ok", "verified": True, "status": "success", "reachable": 5, "n_arms": 3, "spacing": 2.0,
+            "link_1": 1.0, "link_2": 0.8, "planner": "coordinated", "seed": 2, "name": "row-8m-seed2", "params": "{}"}
+    rows = [normalise(dict(base, key="a", gantry="stop-and-go", throughput=2.0, ratio=2.136)),
+            normalise(dict(base, key="b", gantry="continuous", throughput=3.0, ratio=1.995))]
+    des = designs(rows)
+    assert sorted((d["gantry"], d["seeds"], d["throughput"]) for d in des) == [("continuous", 1, 3.0), ("stop-and-go", 1, 2.0)]
+    worst = summarise(rows)["worst"]["ratio"]
+    assert [(w["key"], w["gantry"]) for w in worst] == [("a", "stop-and-go"), ("b", "continuous")]

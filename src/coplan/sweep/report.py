@@ -44,19 +44,21 @@ def _median(xs: list[float]) -> float | None:
 
 
 def designs(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Successful rows grouped by design (arms, spacing, density, links; seeds pooled): the
-    median throughput and makespan of each design and how many seeds it has."""
+    """Successful rows grouped by design (arms, spacing, density, links, planner and, on a row,
+    the gantry mode; seeds pooled): the median throughput and makespan of each design and how
+    many seeds it has. Two modes of one row are two designs, never one with twice the seeds."""
     groups: dict[tuple, list[dict]] = {}
     for r in rows:
         if r["status"] != RowStatus.SUCCESS.value or r["throughput"] is None:
             continue
         dens = json.loads(r["params"] or "{}").get("density")  # a design parameter only when the sweep set it
         sp = round(r["spacing"], 6) if r["spacing"] is not None else None
-        k = (r["n_arms"], sp, dens, r["link_1"], r["link_2"], r["planner"])
+        k = (r["n_arms"], sp, dens, r["link_1"], r["link_2"], r["planner"], r.get("gantry"))
         groups.setdefault(k, []).append(r)
     out = []
-    for (arms, sp, dens, l1, l2, planner), rs in sorted(groups.items(), key=lambda kv: tuple(str(x) for x in kv[0])):
-        out.append({"n_arms": arms, "spacing": sp, "density": dens, "link_1": l1, "link_2": l2, "planner": planner, "seeds": len(rs),
+    for (arms, sp, dens, l1, l2, planner, gantry), rs in sorted(groups.items(), key=lambda kv: tuple(str(x) for x in kv[0])):
+        out.append({"n_arms": arms, "spacing": sp, "density": dens, "link_1": l1, "link_2": l2, "planner": planner,
+                    "gantry": gantry, "seeds": len(rs),
                     "throughput": _median([r["throughput"] for r in rs]),
                     "throughput_per_m": _median([r["throughput_per_m"] for r in rs]),
                     "makespan": _median([r["makespan"] for r in rs])})
@@ -110,7 +112,7 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
     def worst(col: str, high: bool, n: int = 5) -> list[dict]:
         rs = [r for r in ok if r[col] is not None]
         rs.sort(key=lambda r: r[col], reverse=high)
-        return [{"key": r["key"], "name": r["name"], "seed": r["seed"], col: r[col]} for r in rs[:n]]
+        return [{"key": r["key"], "name": r["name"], "seed": r["seed"], "gantry": r.get("gantry"), col: r[col]} for r in rs[:n]]
 
     def gain(a: str, b: str) -> float | None:
         xs = [r[a] / r[b] for r in ok if r[a] and r[b]]
@@ -151,7 +153,8 @@ def _text(s: dict[str, Any], title: str) -> str:
     lines += ["", "## Worst cases", ""]
     for col, rs in s["worst"].items():
         if rs:
-            lines.append(f"- {col}: " + "; ".join(f"{r['name']} (seed {r['seed']}, key {r['key']}) {_fmt(r[col])}" for r in rs))
+            lines.append(f"- {col}: " + "; ".join(f"{r['name']} (seed {r['seed']}{', ' + r['gantry'] if r.get('gantry') else ''}, "
+                                                  f"key {r['key']}) {_fmt(r[col])}" for r in rs))
     if s["failures"]:
         lines += ["", f"## Rows that are not a success ({len(s['failures'])})", "", "| key | problem | seed | status | exit class | message |",
                   "|---|---|---|---|---|---|"]
@@ -242,9 +245,11 @@ def sweep_report(folder: str | Path, out: str | Path | None = None, figures: boo
     title = ", ".join(sorted({r["sweep"] for r in rows if r["sweep"]})) or str(folder)
     text = _text(s, title)
     if s["pareto_front"]:
-        text += "\n## Pareto front: arms against throughput\n\n| arms | spacing, m | density, /m | fruit/min | seeds |\n|---|---|---|---|---|\n"
-        text += "".join(f"| {d['n_arms']} | {_fmt(d['spacing'])} | {_fmt(d['density'])} | {_fmt(d['throughput'], 2)} | {d['seeds']} |\n"
-                        for d in s["pareto_front"])
+        modes = any(d.get("gantry") for d in s["pareto_front"])  # (rows: which gantry mode each design is)
+        text += ("\n## Pareto front: arms against throughput\n\n| arms | spacing, m | density, /m |" + (" gantry |" if modes else "")
+                 + " fruit/min | seeds |\n|---|---|---|" + ("---|" if modes else "") + "---|---|\n")
+        text += "".join(f"| {d['n_arms']} | {_fmt(d['spacing'])} | {_fmt(d['density'])} |" + (f" {d['gantry'] or '-'} |" if modes else "")
+                        + f" {_fmt(d['throughput'], 2)} | {d['seeds']} |\n" for d in s["pareto_front"])
     files = {"markdown": out / "report.md", "json": out / "report.json"}
     files["markdown"].write_text(text)
     files["json"].write_text(json.dumps(s, indent=1, default=str, allow_nan=False))
