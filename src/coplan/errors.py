@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+import enum
 import math
+import numbers
 from dataclasses import dataclass
 
-__all__ = ["Issue", "InputError", "ProblemError", "PlanFileError", "CoplanError", "printable", "plural", "found",
-           "finite_number"]
+__all__ = ["Issue", "InputError", "ProblemError", "PlanFileError", "OptionsError", "CoplanError", "printable", "plural",
+           "found", "finite_number", "field_issue", "check_fields"]
 
 
 class CoplanError(Exception):
@@ -57,6 +60,12 @@ class PlanFileError(InputError):
     kind = "plan"
 
 
+class OptionsError(InputError):
+    """Bad solver options: from an options file (its path, lines), or built in Python (the class)."""
+
+    kind = "options"
+
+
 def plural(n: int, word: str, many: str | None = None) -> str:
     """``n`` and ``word`` agreeing in number: ``plural(1, "arm") == "1 arm"``, ``plural(3, "arm") == "3 arms"``."""
     return f"{n} {word if n == 1 else (many or word + 's')}"
@@ -89,3 +98,53 @@ def found(v, list_length: bool = False) -> str:
 def finite_number(v) -> bool:
     """Whether a value read from YAML is a finite int or float (not a boolean)."""
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
+    """The message for a bad value ``v`` of an options field ``name`` annotated ``kind``
+    (``int``, ``float``, ``bool``, ``dict``, ``... | None``; others are not judged here), or None
+    if it is good: a finite number, an integer where ``int``, > 0 where ``positive``, else >= 0."""
+    if kind == "bool":
+        return None if isinstance(v, bool) else f"expected true or false, found {found(v)}"
+    if kind == "dict":
+        if not isinstance(v, dict):
+            return f"expected a mapping of IPOPT settings (e.g. ipopt.max_iter: 500), found {found(v)}"
+        for k, x in v.items():
+            if not isinstance(k, str) or isinstance(x, (dict, list)) or x is None:
+                return f"expected setting: number or string, found {k!r}: {found(x)}"
+        return None
+    nullable = kind.endswith("| None")
+    base = kind.removesuffix("| None").strip()
+    if base not in ("int", "float"):
+        return None
+    if nullable and v is None:
+        return None
+    want = f"expected {'a positive' if positive else 'a non-negative'} {'integer' if base == 'int' else 'number'}" \
+           f"{' or null' if nullable else ''}"
+    if isinstance(v, bool) or not isinstance(v, numbers.Real):
+        return f"{want}, found {found(v)}"
+    x = float(v)
+    if (base == "int" and not x.is_integer()) or not math.isfinite(x) or x < 0 or (positive and x <= 0):
+        return f"{want}, found {found(x if base == 'float' else v)}"
+    return None
+
+
+def check_fields(obj, positive=frozenset(), source: str | None = None) -> None:
+    """Check every numeric, boolean and choice field of a frozen options dataclass ``obj`` built in
+    Python, by its annotation (:func:`field_issue`; ``positive``: the fields that must be > 0);
+    a choice (an enumeration default) given as its value is turned into it. Raises
+    :class:`OptionsError` listing every bad field, named by ``source`` (default: the class)."""
+    issues = []
+    for f in dataclasses.fields(obj):
+        v = getattr(obj, f.name)
+        if isinstance(f.default, enum.Enum):
+            try:
+                object.__setattr__(obj, f.name, type(f.default)(v))
+            except ValueError as e:
+                issues.append(Issue(f.name, str(e)))
+            continue
+        msg = field_issue(f.name, str(f.type), v, f.name in positive)
+        if msg is not None:
+            issues.append(Issue(f.name, msg))
+    if issues:
+        raise OptionsError(issues, source or type(obj).__name__)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time as _time
 from dataclasses import dataclass, field
+from collections.abc import Mapping
 from pathlib import Path
 
 from .allocate.allocation import AllocationMethod, allocate
@@ -15,7 +16,7 @@ from .kinds import ExitCode, GantryMode, StopRule
 from .output import RunFolder
 from .planners.heuristic import plan_heuristic
 from .plan import Plan, PlannerKind, PlanStatus, finalize_plan
-from .problem.model import Problem, load_problem
+from .problem.model import Problem, load_problem, parse_problem
 
 __all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
 
@@ -107,6 +108,36 @@ def _better_mode(stopping, moving):
     return best
 
 
+def _from_mapping(data: Mapping) -> Problem:
+    """A problem given as a mapping (as :mod:`coplan.generate` makes them), checked as a file is."""
+    from .problem.generate import to_yaml
+
+    return parse_problem(to_yaml(dict(data)), "a problem given as a mapping")
+
+
+def _options_for(planner: PlannerKind, options, row: GantryMode | None = None) -> None:
+    """TypeError unless ``options`` is of a kind ``planner`` (or a row in mode ``row``) takes."""
+    from .planners.coordinated.planner import CoordinatedOptions
+    from .planners.optimal.options import OptimalOptions
+
+    if options is None:
+        return
+    if row is not None:
+        from .row.continuous import MovingOptions
+        from .row.plan import RowOptions
+
+        kinds = {GantryMode.STOP_AND_GO: (RowOptions,), GantryMode.CONTINUOUS: (MovingOptions,),
+                 GantryMode.AUTO: (RowOptions, MovingOptions)}[row]
+        what = f"a row {'on the move' if row == GantryMode.CONTINUOUS else 'stop and go' if row == GantryMode.STOP_AND_GO else '(gantry auto)'}"
+    else:
+        kinds = {PlannerKind.HEURISTIC: (), PlannerKind.COORDINATED: (CoordinatedOptions, OptimalOptions),
+                 PlannerKind.OPTIMAL: (OptimalOptions,)}[planner]
+        what = f"the {planner.value} planner"
+    if not isinstance(options, kinds):
+        takes = " or ".join(k.__name__ for k in kinds) or "no options"
+        raise TypeError(f"options: {what} takes {takes}, found {type(options).__name__}")
+
+
 def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: float, gantry=None) -> SolveResult:
     """A row: stop and go (stops, each stop's cell) or on the move (:mod:`coplan.row.continuous`),
     the row plan verified in the row frame (:mod:`coplan.row`)."""
@@ -118,6 +149,7 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     from .row.plan import RowOptions, plan_row
 
     mode = GantryMode(gantry or (GantryMode.CONTINUOUS if isinstance(options, MovingOptions) else GantryMode.STOP_AND_GO))
+    _options_for(PlannerKind.COORDINATED, options, row=mode)
     if mode != GantryMode.STOP_AND_GO:
         if stops is not None and mode == GantryMode.CONTINUOUS:
             raise ValueError("stops: on the move (gantry continuous) the carriage does not stop; a stop rule applies to stop and go")
@@ -177,7 +209,8 @@ def solve(
 
     Parameters
     ----------
-    problem : a :class:`Problem` or the path of a YAML problem file
+    problem : a :class:`Problem`, the path of a YAML problem file, or a problem as a mapping
+        (:mod:`coplan.generate` makes them), checked as a file is
     planner : ``optimal`` (default, anytime: never slower than ``coordinated``),
         ``coordinated`` (fast: no NLP) or ``heuristic`` (the course's baseline)
     allocation : ``makespan`` or ``heuristic``; default: the planner's own
@@ -199,14 +232,18 @@ def solve(
     from .verify.verifier import verify
 
     t0 = _time.perf_counter()
-    prob = problem if isinstance(problem, Problem) else load_problem(problem)
+    prob = problem if isinstance(problem, Problem) else _from_mapping(problem) if isinstance(problem, Mapping) else load_problem(problem)
     if prob.gantry is not None:
+        if allocation is not None:
+            raise ValueError("allocation: a row's cells are allocated by the cell planner at each stop (stop and go) "
+                             "or by the row's booking (on the move); it applies to a stationary cell")
         return _solve_row(prob, planner, out_dir, options, progress, stops, t0, gantry)
     if gantry is not None:
         raise ValueError(f"gantry: {prob.name!r} is a stationary cell (no gantry section)")
     if stops is not None:
         raise ValueError(f"stops: {prob.name!r} is a stationary cell (no gantry); a stop rule applies to a row")
     planner = PlannerKind(planner or PlannerKind.OPTIMAL)
+    _options_for(planner, options)
     say = progress or (lambda msg: None)
     timings: dict[str, float] = {}
     baseline = None

@@ -31,7 +31,9 @@ def clearance_sweep(source: Path, planner, extra, out: Path, figures: bool, time
     check_time_limit(time_limit)
     failures.check_out_dir(out)
     options = solver_options(options_file, time_limit, kind != PlannerKind.HEURISTIC)
-    hint = budget_hint(kind, time_limit) if kind == PlannerKind.OPTIMAL else None
+    from .row import rows_in
+
+    hint = budget_hint(kind, time_limit) if kind == PlannerKind.OPTIMAL and not rows_in(source) else None  # (a row takes no --time-limit)
     return run_clearance_sweep(source, kind, extra, out, figures, options, hint, as_json, out_console, err_console)
 
 

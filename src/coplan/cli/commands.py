@@ -23,7 +23,7 @@ from .checks import budget_hint as _budget_hint, check_time_limit as _check_time
 from .checks import between
 from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
-from .row import moving_options, refused_on_a_row
+from .row import moving_options, refuse_rows_in_compare, refused_on_a_row
 from .summary import fmt as _fmt
 from .summary import print_summary, print_verification
 from .summary import safe as _s
@@ -384,6 +384,7 @@ def compare_cmd(
     from ..report.comparison import DEFAULT_PLANNERS, PlannerSpec, compare, rich_tables
 
     source = _resolve_problem(problems)
+    refuse_rows_in_compare(source, time_limit, options_file)
     if clearance_sweep:
         from .clearance import clearance_sweep
 
@@ -539,6 +540,8 @@ def animate_cmd(
     """Render a plan as an animation: arms, fruit, bins, phases, clearance alarms (GIF or MP4)."""
     from ..viz.animate import animate_plan
 
+    if out is not None and out.suffix.lower() not in (".gif", ".mp4"):
+        _fail(ExitCode.USAGE, f"--out: expected a .gif or .mp4 file, found {_s(out)!r}")
     prob, pl = _plan_with_problem(plan, problem)
     target = out if out is not None else plan.with_suffix(".gif")
     with ProgressDisplay(err_console) as bars:

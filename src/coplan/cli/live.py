@@ -53,7 +53,9 @@ def feed_cmd(
     check_out_file(out)
     prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
     if prob.gantry is not None:
-        usage(f"{prob.name} is a row (it has a gantry): the live cell runs a stationary cell; plan a row with 'coplan solve'")
+        usage(f"{prob.name} is a row (it has a gantry): a feed file is for a stationary cell; a live row simulates its "
+              f"own camera -- 'coplan run {_safe(str(problem or 'ROW'))} --speed V' (on the move) or '--gantry stop-and-go' "
+              "(--look-ahead, --sigma, --false-rate, --seed set it)")
     feed = make_feed(prob, known, sigma, false_rate, duplicate_rate, seed, reveal_by, after_pick, close_distance, close_sigma)
     out.parent.mkdir(parents=True, exist_ok=True)
     atomic_text(out, feed_yaml(feed))

@@ -97,6 +97,37 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
     return ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
 
 
+def rows_in(source: Path) -> list[Path]:
+    """The problem files at ``source`` (a file, or a folder's ``*.yaml``) that are rows (a
+    ``gantry`` section), read as plain YAML: a file that does not read is left to the command's
+    own checks."""
+    import yaml
+
+    files = sorted([*source.glob("*.yaml"), *source.glob("*.yml")]) if source.is_dir() else [source]
+    out = []
+    for f in files:
+        try:
+            data = yaml.safe_load(f.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, yaml.YAMLError):
+            continue
+        if isinstance(data, dict) and "gantry" in data:
+            out.append(f)
+    return out
+
+
+def refuse_rows_in_compare(source: Path, time_limit, options_file) -> None:
+    """``coplan compare``: a row's comparison takes no --time-limit or --options (its stops are
+    planned without them), and a folder of problems compares cells, so holds no row."""
+    rows = rows_in(source)
+    if rows and (time_limit is not None or options_file is not None):
+        fail(ExitCode.USAGE, f"--time-limit/--options: {safe(rows[0].name)} is a row: its stops are planned by the cell "
+                             "planner at each stop, without a wall-clock limit or solver options (they are for a stationary cell)")
+    if rows and source.is_dir():
+        fail(ExitCode.USAGE, f"{safe(source)}: comparing a folder compares the planners on stationary cells; "
+                             f"{plural(len(rows), 'file is a row', 'files are rows')} ({', '.join(safe(r.name) for r in rows[:5])}"
+                             f"{', ...' if len(rows) > 5 else ''}): compare a row's stop rules with 'coplan compare ROW.yaml'")
+
+
 def refused_on_a_row(planner, allocation, options_file, time_limit, workers, on_the_move: bool) -> list[str]:
     """What ``coplan solve`` on a row refuses of its options, each with why (empty: none)."""
     cell_only = [o for o, given in (("--allocation", allocation is not None), ("--options", options_file is not None),

@@ -58,6 +58,8 @@ def print_row_summary(console, res) -> None:
            f"stops {safe(solver.get('rule'))}, cell planner {safe(solver.get('cell_planner'))}")
     p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, {how}, "
       f"status [bold {colour}]{res.plan.status.value}[/]")
+    if not res.problem.fruits:
+        p(f"  nothing to harvest: the problem lists no fruit ({safe(res.problem.source or 'fruits')}: fruits is empty)")
     auto = solver.get("auto")
     if auto:
         other = next(k for k in auto if k not in ("chosen", auto["chosen"]))
@@ -100,6 +102,7 @@ def print_row_summary(console, res) -> None:
     if not ver.get("passed", False):
         p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
     first, known = r.get("first_motion_seconds"), r.get("first_stop_seconds", r.get("first_motion_seconds"))
+    ahead = {True: "kept ahead of the carriage", False: "LATE", None: "no stop to plan"}[r.get("kept_ahead")]
     later = "" if first == known else f" (first motion after {fmt(first, ' s')}: the carriage does not move before that stop's cell)"
     if moving:
         p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
@@ -107,7 +110,7 @@ def print_row_summary(console, res) -> None:
     else:
         p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
       f"of the row time; first stop known after {fmt(known, ' s')}{later}; the slowest stop took {fmt(r.get('slowest_stop_seconds'), ' s')} "
-          f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({'kept ahead of the carriage' if r.get('kept_ahead') else 'LATE'})")
+          f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({ahead})")
     for k, v in res.files.items():
         p(f"  wrote             {safe(v)}")
     if res.previous is not None:
@@ -123,6 +126,8 @@ def print_summary(console, res) -> None:
     colour = "green" if res.success else "red"
     p = console.print
     p(f"[bold]{safe(res.problem.name)}[/] -- planner [bold]{safe(res.plan.planner_name)}[/], status [bold {colour}]{res.plan.status.value}[/]")
+    if not res.problem.fruits:
+        p(f"  nothing to harvest: the problem lists no fruit ({safe(res.problem.source or 'fruits')}: fruits is empty)")
     p(f"  fruit             {fruit_line(m)}")
     p(f"  makespan          {fmt(m.get('makespan'), ' s')}   (lower bound {fmt(m.get('lower_bound'), ' s')}, ratio {fmt(m.get('gap_to_lower_bound'), '', 3)})")
     if m.get("optimality") == "proven":

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -21,6 +23,7 @@ from ..kinematics import arm as kin
 from . import plausible
 from ..errors import Issue, ProblemError
 from ..kinematics.geometry import segment_distance
+from .check import built_issues
 from .gantry import Gantry, carriage_extent, parse_gantry
 from .spec import (ARM_REQUIRED, TOP_KEYS, ArmFieldsSpec, ArmSpec, FruitSpec, TaskSpec, kind_of, missing,
                    name_value)
@@ -117,12 +120,25 @@ class Problem:
     digest: str | None = field(default=None, compare=False)  # sha256 of the YAML text it was read from
     gantry: Gantry | None = None  # a row: bases and bins relative to the carriage, fruit in row coordinates
 
+    def __post_init__(self) -> None:
+        # however it was made (a file checks much more, with lines): finite, positive where it must be
+        issues = built_issues(self)
+        if issues:  # (a file's own checks came first: these are a problem built or changed in Python)
+            raise ProblemError(issues, f"{self.source}, as changed in Python" if self.source else "a problem built in Python")
+
     def file_record(self) -> dict[str, str] | None:
         """Where the problem was read from, for a plan to name it: ``{"path": absolute path,
-        "sha256": the text's digest}``; None when it did not come from a file."""
+        "sha256": the text's digest}``; None when it did not come from a file, or is no longer
+        what that file holds (changed in Python with ``dataclasses.replace``, or the file since:
+        a viewer would otherwise draw the file's layout under this problem's plan)."""
         if self.source is None or self.digest is None or not Path(self.source).is_file():
             return None
-        return {"path": str(Path(self.source).resolve()), "sha256": self.digest}
+        try:
+            text = Path(self.source).read_text(encoding="utf-8")
+            same = text_digest(text) == self.digest and parse_problem(text, self.source) == self
+        except (OSError, UnicodeDecodeError, ProblemError):
+            same = False
+        return {"path": str(Path(self.source).resolve()), "sha256": self.digest} if same else None
 
     def arm(self, name: str) -> Arm:
         for a in self.arms:
@@ -471,7 +487,12 @@ def _tidy(issues: list[Issue]) -> list[Issue]:
 
 
 def parse_problem(text: str, source: str | None = None) -> Problem:
-    """Validate YAML text and return a :class:`Problem` (raises :class:`ProblemError`)."""
+    """Validate YAML text and return a :class:`Problem` (raises :class:`ProblemError`; TypeError
+    for anything but text)."""
+    if not isinstance(text, str):
+        hint = ("a problem as a mapping (coplan.generate's): parse_problem(coplan.generate.to_yaml(mapping)), or "
+                "coplan.solve(mapping)" if isinstance(text, Mapping) else "a file: coplan.load_problem(path)")
+        raise TypeError(f"problem: expected YAML text (a str), found {type(text).__name__}; {hint}")
     n = len(text.encode("utf-8", errors="replace"))
     if n > MAX_FILE_BYTES:
         raise ProblemError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
@@ -497,6 +518,10 @@ def load_problem(path: str | Path) -> Problem:
 
     A missing file named like a shipped problem (``dense_overlap``, ``dense_overlap.yaml``)
     gets an error that gives the shipped file's path."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"problem: expected the path of a YAML problem file (str or Path), found {type(path).__name__}"
+                        + ("; a problem as a mapping (coplan.generate's): coplan.parse_problem(mapping)"
+                           if isinstance(path, Mapping) else ""))
     p = Path(path)
     if not p.exists():
         name = p.name[:-5] if p.name.endswith(".yaml") else p.name

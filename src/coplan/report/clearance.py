@@ -87,7 +87,7 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
                    margin_mm=None if ver is None or not ver.pairs else 1000 * ver.margin,
                    harvested=m.get("harvested"), reachable=m.get("reachable"), status=res.plan.status.value,
                    verified=bool(ver is not None and ver.passed),
-                   planning_time=(res.plan.solver.get("timings") or {}).get("total"))
+                   planning_time=(res.plan.solver.get("timings") or {}).get("total") or res.timings.get("total"))
         cost.rows.append(row)
     tick(Tick("clearance", len(extras), len(extras), "clearances"))
     atomic_text(out / "clearance.json", json.dumps(cost.to_dict(), indent=1, allow_nan=False))

@@ -28,6 +28,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..errors import check_fields
 from ..kinds import AssignRule, PlannerKind, PlanStatus, SpeedProfile
 from ..plan import DEFAULT_RATE, EventKind, Plan, compute_metrics, finalize_plan
 from ..problem.model import Problem
@@ -95,6 +96,9 @@ class MovingOptions:
     refine_rounds: int = 2
     workers: int = 1
     rate: float = DEFAULT_RATE
+
+    def __post_init__(self) -> None:
+        check_fields(self, {'level', 'rate', 'workers', 'resolution', 'search_rounds'})  # built in Python: every value checked (OptionsError: what was expected, found)
 
 
 @dataclass(frozen=True)

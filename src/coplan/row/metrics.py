@@ -120,7 +120,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         "first_motion_seconds": motion,
         "slowest_stop_seconds": max((sp.seconds for sp in result.stops), default=0.0),
         "least_slack_seconds": min(slack) if slack else None,
-        "kept_ahead": bool(slack) and min(slack) >= 0.0,
+        "kept_ahead": min(slack) >= 0.0 if slack else None,  # (None: no stop to keep ahead of)
     }
     out["mode"] = result.info.get("mode", "stop-and-go")
     if out["mode"] == "continuous":  # no stops: the carriage's speeds instead, and no stop to keep ahead of

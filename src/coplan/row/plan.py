@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import check_fields
 from ..kinds import PlannerKind, PlanStatus, StopRule
 from ..kinematics.timing import Move1D
 from ..plan import DEFAULT_RATE, Event, EventKind, Plan, compute_metrics, finalize_plan
@@ -55,6 +56,9 @@ class RowOptions:
     resolution: float = DEFAULT_RESOLUTION
     window: StopWindow = field(default_factory=StopWindow)
     cell_search_work: int = 3000
+
+    def __post_init__(self) -> None:
+        check_fields(self, {'resolution'})  # built in Python: every value checked (OptionsError: what was expected, found)
 
 
 @dataclass

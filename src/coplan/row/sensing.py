@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import check_fields
 from ..kinds import GantryMode
 from ..problem.model import Problem
 from .cruise import Cruise
@@ -71,6 +72,9 @@ class LiveRowOptions:
     faults: RowFaults = field(default_factory=RowFaults)
     mode: GantryMode = GantryMode.CONTINUOUS  # continuous or stop-and-go
     hold_for_fruit: bool = True  # on the move: hold rather than pass a reported fruit no working arm can still book
+
+    def __post_init__(self) -> None:
+        check_fields(self, {'look_ahead', 'speed'})  # built in Python: every value checked (OptionsError: what was expected, found)
 
 
 @dataclass(frozen=True)

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...errors import check_fields
 from ...allocate.allocation import Allocation, AllocationMethod, LowerBound, allocate, bound_allocation, bound_details
 from .budget import attempt_checks
 from .coordinate import coordinate
@@ -89,6 +90,9 @@ class CoordinatedOptions:
     budget_checks: int = 3000
     serial_pairs: int = SERIAL_PAIRS
     time_limit: float | None = None
+
+    def __post_init__(self) -> None:
+        check_fields(self)  # (time_limit 0: the first candidate only) built in Python: every value checked (OptionsError: what was expected, found)
 
 
 @dataclass

@@ -18,12 +18,11 @@ was found ("did you mean" for a misspelt key) -- never a traceback.
 from __future__ import annotations
 
 import difflib
-import math
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from ...errors import InputError, Issue, ProblemError, found
+from ...errors import Issue, OptionsError, ProblemError, check_fields, field_issue, found
 from ...problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 
 __all__ = ["OptimalOptions", "OptionsError", "load_options", "parse_options"]
@@ -144,37 +143,22 @@ class OptimalOptions:
     check_rate: float = 1000.0
     ipopt: dict = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        # built in Python as in a file: every value checked (``workers="auto"``: this machine's cores, at most 8)
+        if isinstance(self.workers, str) and self.workers.strip().lower() == "auto":
+            from .portfolio import default_workers
+
+            object.__setattr__(self, "workers", default_workers())
+        check_fields(self, _POSITIVE)
+
 
 # fields that must be > 0 (the others of their type must be >= 0)
 _POSITIVE = {"workers", "h_target", "window", "check_rate", "time_limit", "window_time_limit", "retime_work", "retime_shift", "retime_rounds"}
 
 
-class OptionsError(InputError):
-    kind = "options"
-
-
 def _check(name: str, kind: str, v: Any) -> str | None:
     """The message for a bad value of field ``name`` (type ``kind``), or None if it is good."""
-    low = 0 if name not in _POSITIVE else None
-    bound = "a positive" if low is None else "a non-negative"
-    if kind == "bool":
-        return None if isinstance(v, bool) else f"expected true or false, found {found(v)}"
-    if kind == "dict":
-        if not isinstance(v, dict):
-            return f"expected a mapping of IPOPT settings (e.g. ipopt.max_iter: 500), found {found(v)}"
-        for k, x in v.items():
-            if not isinstance(k, str) or isinstance(x, (dict, list)) or x is None:
-                return f"expected setting: number or string, found {k!r}: {found(x)}"
-        return None
-    nullable = kind.endswith("| None")
-    if nullable and v is None:
-        return None
-    want = f"expected {bound} {'integer' if kind == 'int' else 'number'}{' or null' if nullable else ''}"
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        return f"{want}, found {found(v)}"
-    if (kind == "int" and not float(v).is_integer()) or not math.isfinite(v) or v < 0 or (low is None and v <= 0):
-        return f"{want}, found {found(v)}"
-    return None
+    return field_issue(name, kind, v, name in _POSITIVE)
 
 
 def parse_options(text: str, source: str | None = None, base: OptimalOptions | None = None) -> OptimalOptions:

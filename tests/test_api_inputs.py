@@ -1,0 +1,136 @@
+"""Bad input through the Python API and the command line's edges: a problem or options built in
+Python are checked as a file is (key path, what was expected, what was found); the facade says
+which options a planner takes (found by trying the project as a new user)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+import coplan
+from coplan.cli import app
+from coplan.errors import OptionsError, ProblemError
+from coplan.generate import gantry_row, to_yaml
+from coplan.optimal import OptimalOptions
+from coplan.planners.coordinated.planner import CoordinatedOptions
+from coplan.problem import load_problem, parse_problem, shipped_problems
+from coplan.row.continuous import MovingOptions
+from coplan.row.plan import RowOptions
+from coplan.row.sensing import LiveRowOptions
+
+CROSSING = next(p for p in shipped_problems() if p.stem == "crossing_paths")
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def cell():
+    return load_problem(CROSSING)
+
+
+@pytest.mark.parametrize("change, path", [
+    (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], link_radius=math.nan),) + p.arms[1:]), "arms[0].link_radius"),
+    (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], links=(math.nan, 0.8)),) + p.arms[1:]), "arms[0].links"),
+    (lambda p: dataclasses.replace(p, fruits=(coplan.Fruit("x", (math.inf, 1.0)),)), "fruits[0].position"),
+    (lambda p: dataclasses.replace(p, fruits=p.fruits + p.fruits[:1]), f"fruits[{4}].id"),
+    (lambda p: dataclasses.replace(p, task=dataclasses.replace(p.task, clearance=-0.1)), "task.clearance"),
+    (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], joint_limits=((1.0, -1.0), (-3.0, 3.0))),)
+                                   + p.arms[1:]), "arms[0].joint_limits"),
+])
+def test_a_problem_changed_in_python_is_checked_as_a_file_is(cell, change, path):
+    """(A NaN link radius reached the verifier, whose distances it made infinitely clear: a plan
+    with a collision passed.)"""
+    assert len(cell.fruits) == 4
+    with pytest.raises(ProblemError) as e:
+        change(cell)
+    assert any(i.path == path for i in e.value.issues), e.value.issues
+    assert "as changed in Python" in str(e.value)
+
+
+def test_a_problem_changed_in_python_no_longer_names_its_file(cell):
+    assert cell.file_record() is not None and cell.file_record()["path"] == str(CROSSING.resolve())
+    moved = dataclasses.replace(cell, arms=tuple(dataclasses.replace(a, base=(a.base[0] - 1.2, a.base[1])) for a in cell.arms))
+    assert moved.file_record() is None  # (a viewer drew the file's layout under the moved arms' plan)
+    assert dataclasses.replace(cell, name=cell.name).file_record() is not None  # the same problem: still that file's
+
+
+@pytest.mark.parametrize("cls, kw, words", [
+    (OptimalOptions, {"search_work": -5}, "search_work: expected a non-negative integer, found number -5"),
+    (OptimalOptions, {"search_work": "lots"}, "search_work: expected a non-negative integer, found string 'lots'"),
+    (OptimalOptions, {"time_limit": math.nan}, "time_limit: expected a positive number or null, found number nan"),
+    (OptimalOptions, {"workers": 0}, "workers: expected a positive integer"),
+    (OptimalOptions, {"margin": -1.0}, "margin: expected a non-negative number"),
+    (CoordinatedOptions, {"margin": "a"}, "margin: expected a non-negative number, found string 'a'"),
+    (RowOptions, {"resolution": -1}, "resolution: expected a positive number"),
+    (RowOptions, {"stops": "bogus"}, "stops: stop rule: expected one of 'optimised', 'fixed', 'fewest'; found 'bogus'"),
+    (MovingOptions, {"level": 0}, "level: expected a positive number or null"),
+    (MovingOptions, {"profile": "x"}, "profile: speed profile: expected one of"),
+    (LiveRowOptions, {"speed": 0}, "speed: expected a positive number"),
+])
+def test_options_built_in_python_are_checked_as_an_options_file_is(cls, kw, words):
+    with pytest.raises(OptionsError, match=words.replace("(", r"\(")):
+        cls(**kw)
+
+
+def test_options_given_as_their_values_become_them():
+    assert OptimalOptions(workers="auto").workers >= 1
+    assert RowOptions(stops="fewest").stops.value == "fewest" and MovingOptions(profile="constant").profile.value == "constant"
+
+
+def test_the_facade_takes_a_generated_mapping_and_says_which_options_each_planner_takes(cell):
+    row = gantry_row(length=6.0, density=2.0, seed=1)
+    res = coplan.solve(row)
+    assert res.verification.passed and res.plan.metrics["harvested"] == len(row["fruits"])
+    with pytest.raises(TypeError, match="expected the path of a YAML problem file"):
+        coplan.solve(None)
+    with pytest.raises(TypeError, match=r"parse_problem\(coplan.generate.to_yaml\(mapping\)\)"):
+        parse_problem(row)
+    for planner, options, words in (("optimal", {"search_work": 10}, "the optimal planner takes OptimalOptions, found dict"),
+                                    ("coordinated", RowOptions(), "takes CoordinatedOptions or OptimalOptions, found RowOptions"),
+                                    ("heuristic", OptimalOptions(), "the heuristic planner takes no options")):
+        with pytest.raises(TypeError, match=words):
+            coplan.solve(cell, planner=planner, options=options)
+    with pytest.raises(TypeError, match="a row on the move takes MovingOptions, found RowOptions"):
+        coplan.solve(row, gantry="continuous", options=RowOptions())
+    with pytest.raises(ValueError, match="allocation: a row's cells are allocated"):
+        coplan.solve(row, allocation="makespan")
+
+
+# --------------------------------------------------------------------------- the command line's edges
+@pytest.fixture(scope="module")
+def row_file(tmp_path_factory):
+    d = tmp_path_factory.mktemp("rows")
+    f = d / "short.yaml"
+    f.write_text(to_yaml(gantry_row(length=6.0, density=2.0, seed=1)))
+    return f
+
+
+def test_compare_refuses_a_folder_of_rows_and_a_time_limit_on_a_row(row_file, tmp_path):
+    r = runner.invoke(app, ["compare", str(row_file.parent), "--out", str(tmp_path / "c"), "--no-figures"])
+    assert r.exit_code == 2 and "1 file is a row (short.yaml)" in r.output and "coplan compare ROW.yaml" in r.output
+    r = runner.invoke(app, ["compare", str(row_file), "--time-limit", "5", "--out", str(tmp_path / "c2")])
+    assert r.exit_code == 2 and "short.yaml is a row" in r.output
+    assert not (tmp_path / "c").exists() and not (tmp_path / "c2").exists()
+
+
+def test_feed_on_a_row_points_to_the_live_row(row_file, tmp_path):
+    r = runner.invoke(app, ["feed", str(row_file), "--out", str(tmp_path / "f.yaml")])
+    assert r.exit_code == 2 and "coplan run" in r.output and "--gantry stop-and-go" in r.output
+    assert not (tmp_path / "f.yaml").exists()
+
+
+def test_animate_refuses_another_extension_before_any_work(tmp_path):
+    r = runner.invoke(app, ["animate", str(tmp_path / "no-such-plan.json"), "--out", str(tmp_path / "a.txt")])
+    assert r.exit_code == 2 and "expected a .gif or .mp4 file" in r.output and not (tmp_path / "a.txt").exists()
+
+
+def test_a_problem_without_fruit_says_there_is_nothing_to_harvest(tmp_path):
+    text = Path(CROSSING).read_text()
+    head = text[:text.index("fruits:")] + "fruits: []\n" + text[text.index("task:"):]
+    f = tmp_path / "nofruit.yaml"
+    f.write_text(head)
+    r = runner.invoke(app, ["solve", str(f), "--planner", "coordinated", "--out", str(tmp_path / "o")])
+    assert "nothing to harvest: the problem lists no fruit" in r.output
