@@ -39,7 +39,7 @@ def _rules(files: list[Path]) -> list[str]:
     from coplan.row.plan import RowOptions, plan_row
 
     out = ["| row | fruit | rule | stops | row time | fruit / h | harvested | / bound (any plan) | / bound (stop by stop) "
-           "| moves overlapping work | planning | planning / row time | first stop known | kept ahead | verified |",
+           "| moves overlapping work | planning | planning / row time | first motion | kept ahead | verified |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     gains = []
     for f in files:
@@ -89,7 +89,7 @@ print(json.dumps({"fruit": len(prob.fruits), "harvested": m["harvested"], "harve
 
 
 def _scale(lengths: list[float]) -> list[str]:
-    out = ["| row | fruit | planning | row time | planning / row time | planning per metre | first stop known "
+    out = ["| row | fruit | planning | row time | planning / row time | planning per metre | first motion "
            "| kept ahead | peak memory | plan.json | coplan verify (read back) | verified |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for L in lengths:

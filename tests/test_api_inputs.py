@@ -134,3 +134,36 @@ def test_a_problem_without_fruit_says_there_is_nothing_to_harvest(tmp_path):
     f.write_text(head)
     r = runner.invoke(app, ["solve", str(f), "--planner", "coordinated", "--out", str(tmp_path / "o")])
     assert "nothing to harvest: the problem lists no fruit" in r.output
+
+
+def test_more_bad_arguments_say_what_was_expected(cell):
+    import subprocess
+    import sys
+
+    import numpy as np
+
+    from coplan.allocate.allocation import allocate
+    from coplan.generate import row_problem
+    from coplan.planners.coordinated.planner import plan_coordinated
+    from coplan.planners.heuristic import plan_heuristic
+    from coplan.verify import verify
+
+    for bad in (0, -5, math.nan):
+        with pytest.raises(ValueError, match="rate: expected a sample rate > 0"):
+            plan_heuristic(cell, rate=bad)
+    with pytest.raises(TypeError, match="found str"):
+        plan_heuristic(cell, "makespan")
+    with pytest.raises(TypeError, match="the coordinated planner allocates itself"):
+        plan_coordinated(cell, allocate(cell))
+    with pytest.raises(ValueError, match="density: expected finite numbers, found nan"):
+        gantry_row(density=math.nan)
+    with pytest.raises(ValueError, match="spacing: expected finite numbers"):
+        row_problem(3, 5, spacing=math.nan)
+    plan = plan_heuristic(cell)
+    plan.q[cell.arms[0].name] = np.array(plan.q[cell.arms[0].name], float)
+    plan.q[cell.arms[0].name][7, 1] = math.nan
+    with pytest.raises(Exception, match=r"found a non-finite angle at row 7 \(t = "):
+        verify(cell, plan)
+    # the documented submodules of the row stage are attributes after `import coplan`
+    code = "import coplan; print(coplan.row.continuous.plan_moving.__name__)"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "plan_moving"

@@ -22,7 +22,7 @@ _LAZY = {
 
 
 # documented submodules, reachable as attributes before anything imported them (``coplan.generate.row_problem``)
-_SUBMODULES = ("generate", "optimal", "plausible", "verify")
+_SUBMODULES = ("generate", "optimal", "plausible", "row", "verify")
 
 
 def __getattr__(name: str):

@@ -70,6 +70,10 @@ def grid(t_end: float, rate: float = DEFAULT_RATE) -> np.ndarray:
 
 def plan_heuristic(problem: Problem, allocation: Allocation | None = None, rate: float = DEFAULT_RATE) -> Plan:
     """Plan every arm with the course's method. The plan is ``UNVERIFIED`` until verified."""
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not math.isfinite(rate) or rate <= 0:
+        raise ValueError(f"rate: expected a sample rate > 0 in Hz, found {rate!r}")
+    if allocation is not None and not isinstance(allocation, Allocation):
+        raise TypeError(f"allocation: expected an Allocation (coplan.allocate(problem, method)), found {type(allocation).__name__}")
     t0 = _time.perf_counter()
     alloc = allocation if allocation is not None else allocate(problem, AllocationMethod.HEURISTIC)
     timelines = {arm.name: build_timeline(problem, arm, alloc) for arm in problem.arms}

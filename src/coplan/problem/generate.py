@@ -60,6 +60,14 @@ def _bases(n_arms: int, spacing: float) -> list[float]:
     return [_r4((i - (n_arms - 1) / 2.0) * spacing) for i in range(n_arms)]
 
 
+def _finite(**values: Any) -> None:
+    """ValueError naming the first argument that is not a finite number (or pair of them)."""
+    for k, v in values.items():
+        xs = np.ravel(np.asarray(v, dtype=object))
+        if not all(isinstance(x, (int, float, np.number)) and not isinstance(x, bool) and math.isfinite(x) for x in xs):
+            raise ValueError(f"{k}: expected finite numbers, found {v!r}")
+
+
 def _fruit_ids(n: int) -> list[str]:
     width = max(3, len(str(n)))
     return [f"f{i:0{width}d}" for i in range(1, n + 1)]
@@ -130,6 +138,7 @@ def row_problem(
     """
     if n_arms < 1 or n_fruits < 0:
         raise ValueError(f"expected n_arms >= 1 and n_fruits >= 0, found {n_arms} and {n_fruits}")
+    _finite(spacing=spacing, links=links, link_radius=link_radius, y_range=y_range, bin_offset=bin_offset, x_pad=x_pad)
     # the lesson's draw: np.random.seed(seed); all x, then all y
     rs = np.random.RandomState(seed)
     bases = _bases(n_arms, spacing)
@@ -251,12 +260,13 @@ def gantry_row(
     of its height), as strawberries hang. Positions rounded to 4 decimals, ids ``f0001``... by x.
     Deterministic in its arguments.
     """
+    _finite(length=length, density=density, spacing=spacing, y_range=y_range)
     if length <= 0 or n_arms < 1 or density < 0:
         raise ValueError(f"expected length > 0, n_arms >= 1 and density >= 0, found {length}, {n_arms}, {density}")
     rng = np.random.default_rng(seed)
     n = int(rng.poisson(density * length))
     if trusses and n:
-        pos, xs = [], []
+        xs = []
         x = float(rng.uniform(0.0, 0.3))
         while x < length:
             xs.append(x)

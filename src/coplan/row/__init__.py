@@ -10,3 +10,15 @@
 * :mod:`coplan.row.bound` -- the row's lower bounds.
 * :mod:`coplan.row.metrics` -- fruit per hour, share harvested, idle by cause, real-time figures.
 """
+
+_SUBMODULES = ("assign", "booking", "bound", "continuous", "cruise", "live", "liverun", "livestops", "metrics", "plan",
+               "reach", "sensing", "stops", "stranded", "track")
+
+
+def __getattr__(name: str):
+    # the submodules the docs name (``coplan.row.continuous.plan_moving``), reachable after ``import coplan``
+    if name in _SUBMODULES:
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

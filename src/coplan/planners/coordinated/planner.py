@@ -335,6 +335,9 @@ def plan_coordinated(
     ``on_feasible``: see :func:`find_coordinated`."""
     from ...verify.verifier import verify
 
+    if isinstance(allocation, Allocation):
+        raise TypeError("allocation: the coordinated planner allocates itself; it takes the method ('makespan' or "
+                        "'heuristic'), found an Allocation (plan_heuristic takes one)")
     opts = options or CoordinatedOptions()
     say = progress or (lambda m: None)
     t0 = _time.perf_counter()
