@@ -128,3 +128,14 @@ def test_pick_windows_leave_out_the_settling_time_after_each_rest(settling):
     # and without settle the same windows run through the arrivals
     plain = pick_windows(_row(), row_reach(_row()), Cruise.hops(_row(), [(0.0, 2.0), (9.0, 4.0)]), dwell)
     assert any(w.lo < hop < w.hi for ws in plain.values() for w in ws)
+
+
+def test_a_fruit_the_camera_never_sees_is_reported_as_never_reported_in_both_modes():
+    """R lies where only the front arm at the rail's end reaches it, beyond what the camera (1.5 m
+    ahead of the front arm) ever sees: its miss said 'the carriage never stands where an arm can
+    pick it at this speed' in stop and go, for a report the camera never made."""
+    row = _row([{"id": "m", "position": [3.0, 1.0]}, {"id": "R", "position": [9.78, 0.05]}])
+    for mode in (GantryMode.STOP_AND_GO, GantryMode.CONTINUOUS):
+        res = run_live_row(row, LiveRowOptions(speed=0.1, seed=0, mode=mode))
+        assert res.verification.passed and res.outcome["m"] == "harvested"
+        assert res.outcome["R"].startswith("missed: never reported"), (mode, res.outcome["R"])

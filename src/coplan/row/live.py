@@ -441,8 +441,8 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
             return mt.group(0) if r is None else f"{r.truth} (report {r.id})" if r.truth else f"a false report ({r.id})"
         return re.sub(r"\b[db]\d{4,}\b", one, text)
 
-    for did, why in (left | run.misses).items():
-        if by_id[did].truth is not None and by_id[did].truth not in got:
+    for did, why in (left | run.misses).items():  # (a report the camera never made is not a reason: below)
+        if by_id[did].truth is not None and by_id[did].truth not in got and math.isfinite(run.seen.get(did, math.inf)):
             outcome[by_id[did].truth] = named(why if why.startswith("missed") else f"missed: {why}")
     reported: dict[str, list[RowReport]] = {}  # true fruit -> its reports the camera made
     for r in by_id.values():
