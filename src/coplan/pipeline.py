@@ -283,9 +283,10 @@ def solve(
     from .allocate.screen import screened
 
     scr = screened(prob)
+    record = prob.file_record()  # (it reads the file back: once)
     for p in (plan, baseline):  # the problem file they come from: plot, animate and view find it again
         if p is not None:
-            p.problem_file = prob.file_record()
+            p.problem_file = record
             p.metrics.update(fruit_counts(prob, scr, p))
     timings["total"] = _time.perf_counter() - t0
     previous = None

@@ -42,6 +42,11 @@ def fruit_line(m: dict) -> str:
     return head + (f"; of {total} fruit " + ", ".join(parts) if parts else f" (all {total} fruit)")
 
 
+def _say_if_no_fruit(p, problem) -> None:
+    if not problem.fruits:
+        p(f"  nothing to harvest: the problem lists no fruit ({safe(problem.source or 'fruits')}: fruits is empty)")
+
+
 def print_row_summary(console, res) -> None:
     """The summary of a row (:class:`coplan.pipeline.SolveResult` with ``row``)."""
     m = res.plan.metrics
@@ -58,8 +63,7 @@ def print_row_summary(console, res) -> None:
            f"stops {safe(solver.get('rule'))}, cell planner {safe(solver.get('cell_planner'))}")
     p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, {how}, "
       f"status [bold {colour}]{res.plan.status.value}[/]")
-    if not res.problem.fruits:
-        p(f"  nothing to harvest: the problem lists no fruit ({safe(res.problem.source or 'fruits')}: fruits is empty)")
+    _say_if_no_fruit(p, res.problem)
     auto = solver.get("auto")
     if auto:
         other = next(k for k in auto if k not in ("chosen", auto["chosen"]))
@@ -126,8 +130,7 @@ def print_summary(console, res) -> None:
     colour = "green" if res.success else "red"
     p = console.print
     p(f"[bold]{safe(res.problem.name)}[/] -- planner [bold]{safe(res.plan.planner_name)}[/], status [bold {colour}]{res.plan.status.value}[/]")
-    if not res.problem.fruits:
-        p(f"  nothing to harvest: the problem lists no fruit ({safe(res.problem.source or 'fruits')}: fruits is empty)")
+    _say_if_no_fruit(p, res.problem)
     p(f"  fruit             {fruit_line(m)}")
     p(f"  makespan          {fmt(m.get('makespan'), ' s')}   (lower bound {fmt(m.get('lower_bound'), ' s')}, ratio {fmt(m.get('gap_to_lower_bound'), '', 3)})")
     if m.get("optimality") == "proven":

@@ -15,6 +15,7 @@ import time as _time
 
 import numpy as np
 
+from ..errors import finite_number
 from ..allocate.allocation import Allocation, AllocationMethod, allocate
 from ..plan import DEFAULT_RATE, Event, EventKind, Piece, Plan, PlannerKind, PlanStatus, compute_metrics, sample_pieces
 from ..problem.model import Arm, Problem
@@ -70,7 +71,7 @@ def grid(t_end: float, rate: float = DEFAULT_RATE) -> np.ndarray:
 
 def plan_heuristic(problem: Problem, allocation: Allocation | None = None, rate: float = DEFAULT_RATE) -> Plan:
     """Plan every arm with the course's method. The plan is ``UNVERIFIED`` until verified."""
-    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not math.isfinite(rate) or rate <= 0:
+    if not finite_number(rate) or rate <= 0:
         raise ValueError(f"rate: expected a sample rate > 0 in Hz, found {rate!r}")
     if allocation is not None and not isinstance(allocation, Allocation):
         raise TypeError(f"allocation: expected an Allocation (coplan.allocate(problem, method)), found {type(allocation).__name__}")

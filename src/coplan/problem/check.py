@@ -9,11 +9,10 @@ expected, what was found); the problem raises :class:`coplan.errors.ProblemError
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from typing import Any
 
-from ..errors import Issue
+from ..errors import Issue, finite_number
 from .spec import kind_of
 
 __all__ = ["built_issues"]
@@ -28,9 +27,7 @@ _GANTRY = ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "sett
 
 
 def _num(v: Any, sign: str | None) -> bool:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        return False
-    return sign is None or (v > 0 if sign == "pos" else v >= 0)
+    return finite_number(v) and (sign is None or (v > 0 if sign == "pos" else v >= 0))
 
 
 def _words(sign: str | None) -> str:

@@ -520,7 +520,8 @@ def load_problem(path: str | Path) -> Problem:
     gets an error that gives the shipped file's path."""
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"problem: expected the path of a YAML problem file (str or Path), found {type(path).__name__}"
-                        + ("; a problem as a mapping (coplan.generate's): coplan.parse_problem(mapping)"
+                        + ("; a problem as a mapping (coplan.generate's): coplan.solve(mapping), or "
+                           "coplan.parse_problem(coplan.generate.to_yaml(mapping))"
                            if isinstance(path, Mapping) else ""))
     p = Path(path)
     if not p.exists():

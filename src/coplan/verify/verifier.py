@@ -100,10 +100,11 @@ def _check_inputs(problem: Problem, plan: Plan) -> None:
     for n in names:
         q = plan.q.get(n)
         if q is not None and (np.shape(q) != (t.size, 2) or not np.all(np.isfinite(q))):
-            bad = ~np.isfinite(q).all(axis=1) if np.shape(q) == (t.size, 2) else None
-            found = (f"a non-finite angle at row {int(np.argmax(bad))} (t = {t[int(np.argmax(bad))]:.3f} s)"
-                     + (f" and {int(bad.sum()) - 1} more rows" if bad.sum() > 1 else "") if bad is not None and bad.any()
-                     else f"shape {np.shape(q)}")
+            found = f"shape {np.shape(q)}"
+            if np.shape(q) == (t.size, 2):  # the right shape: where the first non-finite angle is
+                rows = np.flatnonzero(~np.isfinite(q).all(axis=1))
+                found = f"a non-finite angle at row {rows[0]} (t = {t[rows[0]]:.3f} s)" + (
+                    f" and {rows.size - 1} more rows" if rows.size > 1 else "")
             issues.append(Issue(f"arms.{n}.q", f"expected {t.size} finite rows of 2 angles, found {found}"))
     if issues:
         raise PlanFileError(issues, f"plan for problem {plan.problem!r}")
