@@ -217,7 +217,6 @@ def test_an_out_of_range_option_says_what_was_expected_and_what_was_found(args, 
 
 
 @pytest.mark.parametrize("args, words", [
-    (["--workers", "2"], "--workers applies on the move only (--gantry continuous or auto)"),
     (["--time-limit", "3", "--allocation", "makespan"], "--allocation, --time-limit are for a stationary cell"),
     (["--planner", "heuristic"], "--planner heuristic plans a cell, not a row's stops"),
 ])

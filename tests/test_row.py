@@ -294,6 +294,30 @@ def test_coplan_solve_verify_and_check_a_row(tmp_path):
     assert r.exit_code == 2 and "stationary cell" in r.output
 
 
+def test_cells_planned_in_two_processes_give_the_same_row_plan_as_in_one(row, planned):
+    """The stops' cells in worker processes beside the stop rule (``workers``): the same stops,
+    cells, events and samples as in one process, every stop's cell ready no earlier than its stop
+    was kept; ``--workers`` on a stop-and-go row is accepted by the CLI."""
+    one = planned[StopRule.OPTIMISED]
+    two = plan_row(row, RowOptions(workers=2))
+    assert two.verification.passed
+    assert [sp.stop.x for sp in two.stops] == [sp.stop.x for sp in one.stops]
+    assert [(e.arm, e.fruit, e.kind, e.t_start) for e in two.plan.events] == [(e.arm, e.fruit, e.kind, e.t_start) for e in one.plan.events]
+    assert np.array_equal(two.plan.gantry_x, one.plan.gantry_x)
+    assert all(np.array_equal(two.plan.q[a], one.plan.q[a]) for a in one.plan.q)
+    assert all(sp.ready >= two.info["first_stop_seconds"] and sp.seconds > 0 for sp in two.stops)
+    assert RowOptions(workers="auto").workers >= 1
+
+
+def test_workers_on_a_stop_and_go_row_from_the_command_line(tmp_path):
+    f = tmp_path / "row.yaml"
+    f.write_text(to_yaml(gantry_row(length=8.0, density=3.0, seed=5)))
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["solve", str(f), "--workers", "2", "--out", str(tmp_path / "o"), "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout)
+    assert doc["status"] == "success" and doc["metrics"]["row"]["share_harvested"] == 1.0
+
+
 def test_a_long_stretch_without_fruit_is_crossed():
     """Fruit at both ends of a 40 m row and none between: every rule plans it, verified."""
     d = gantry_row(length=40.0, density=0.0)

@@ -261,3 +261,24 @@ def test_sync_duration_is_the_scurve_duration(q0, q1) -> None:
     want = SCurve.between(q0, q1, *lim).duration
     assert sync_duration(q0, q1, *lim) == want
     assert sync_duration(np.array(q0), np.array(q1), *lim) == want
+
+
+def test_trajectory_states_are_ruckigs_own_at_time_bit_for_bit():
+    """The vectorised sampler of a Ruckig trajectory (used by the row's legs and the live cell's
+    approaches) gives exactly Ruckig's ``at_time`` on seeded random moves: from rest and from
+    states beyond the limits (a brake pre-trajectory), few samples and many."""
+    from coplan.kinematics.timing import ruckig_move, trajectory_states
+
+    rng = np.random.default_rng(7)
+    braked = 0
+    for it in range(300):
+        vmax, amax, jmax = rng.uniform(0.5, 3, 2), rng.uniform(1, 10, 2), rng.uniform(5, 100, 2)
+        start = np.array([rng.uniform(-3, 3, 2), rng.uniform(-1.6, 1.6, 2) * vmax * (it % 2), rng.uniform(-1, 1, 2) * amax * (it % 3 == 0)])
+        end = np.array([rng.uniform(-3, 3, 2), rng.uniform(-0.8, 0.8, 2) * vmax * (it % 4 == 0), np.zeros(2)])
+        traj = ruckig_move(start, end, vmax, amax, jmax)
+        braked += any(p.brake.duration > 0 for p in traj.profiles[0])
+        for k in (5, 150):
+            ts = np.r_[0.0, rng.uniform(0.0, traj.duration, k - 1)]
+            want = np.array([traj.at_time(float(x)) for x in ts]).transpose(1, 0, 2)
+            assert np.array_equal(trajectory_states(traj, ts), want)
+    assert braked > 20

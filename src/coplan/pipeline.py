@@ -161,7 +161,8 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
         cell_planner = PlannerKind(planner or PlannerKind.COORDINATED)
         if cell_planner == PlannerKind.HEURISTIC:
             raise ValueError("planner: the course's heuristic plans a stationary cell, not a row; use coordinated or optimal")
-        opts = options if isinstance(options, RowOptions) else RowOptions()
+        # (auto: both modes, the stops' cells in as many processes as the speed search)
+        opts = options if isinstance(options, RowOptions) else RowOptions(workers=getattr(options, "workers", 1))
         opts = replace(opts, planner=cell_planner, stops=StopRule(stops or opts.stops))
         stopping = plan_row(prob, opts, progress)
     if mode == GantryMode.AUTO:

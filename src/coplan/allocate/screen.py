@@ -292,7 +292,12 @@ def usable_picks(problem: Problem, points, tip_tolerance: float = TIP_TOLERANCE,
         _, bin_use, _, _ = _poses(problem, arm, np.asarray([arm.bin], float), 0.0, sw, need, tip_tolerance)
         if not bin_use[0].any() or pts.shape[0] == 0:
             continue
-        v0, use, _, _ = _poses(problem, arm, pts, problem.task.reach_margin, sw, need, tip_tolerance)
+        # the exact target first (the ring's first point); the ring only where the exact pose is
+        # valid but not usable: the same answer as the whole ring everywhere, at a fraction of its cost
+        v0, use, _, _ = _poses(problem, arm, pts, problem.task.reach_margin, sw, need, 0.0)
+        redo = np.flatnonzero((v0 & ~use).any(axis=1))
+        if redo.size and tip_tolerance > 0:
+            use[redo] = _poses(problem, arm, pts[redo], problem.task.reach_margin, sw, need, tip_tolerance)[1]
         out[i] = use
     return out
 

@@ -115,7 +115,7 @@ def solve(
         "--options", help="Solver options (YAML): any field of coplan.optimal.OptimalOptions, e.g. "
                           "search_work: 60000 (recorded in plan.json).")] = None,
     workers: Annotated[Optional[str], typer.Option(
-        metavar="N|auto", help="Processes the optimal planner's search (or, on the move, the speed search) runs in: a number, or auto "
+        metavar="N|auto", help="Processes the optimal planner's search runs in (on a row: the stops' cells, or on the move the speed search): a number, or auto "
              "(this machine's cores, at most 8). Default 1: the plan then does not depend on the machine; the same N "
              "gives the same plan.")] = None,
     animate: Annotated[bool, typer.Option("--animate", help="Also render an animation of the plan.")] = False,
@@ -132,17 +132,19 @@ def solve(
     failures.check_out_dir(out)
     path = load_problem(_resolve_problem(problem))
     if path.gantry is not None:  # a row: the stop rule and the cell planner at each stop, or on the move
-        on_the_move = gantry in (GantryMode.CONTINUOUS, GantryMode.AUTO)
-        refused = refused_on_a_row(planner, allocation, options_file, time_limit, workers, on_the_move)
+        refused = refused_on_a_row(planner, allocation, options_file, time_limit)
         if refused:
             _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): {'; '.join(refused)}")
         moving = moving_options(path, gantry, speed, stops, planner)
-        if moving is not None and workers is not None:
+        row_options = moving
+        if workers is not None:  # on the move: the speed search's processes; stop and go: the stops' cells'
             from dataclasses import replace as _replace
 
-            moving = _replace(moving, workers=n_workers)
+            from ..row.plan import RowOptions
+
+            row_options = _replace(moving, workers=n_workers) if moving is not None else RowOptions(workers=n_workers)
         with ProgressDisplay(err_console, quiet=as_json) as say:
-            res = run(path, planner=planner, out_dir=out, progress=say, stops=stops, gantry=gantry, options=moving)
+            res = run(path, planner=planner, out_dir=out, progress=say, stops=stops, gantry=gantry, options=row_options)
         return _report_solve(res, out, animate, html, as_json)
     if gantry is not None or speed is not None:
         _fail(ExitCode.USAGE, f"--gantry/--speed: {path.name} is a stationary cell (no gantry section); they apply to a row")

@@ -22,12 +22,13 @@ All functions are pure and work on plain floats / NumPy arrays.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["sync_duration", "cubic_min_time", "cubic_eval", "scurve_time", "scurve_times", "SCurve", "Move1D", "move_lower_bound",
+__all__ = ["trajectory_states", "sync_duration", "cubic_min_time", "cubic_eval", "scurve_time", "scurve_times", "SCurve", "Move1D", "move_lower_bound",
            "MoveError", "ruckig_move"]
 
 
@@ -286,3 +287,44 @@ def ruckig_move(start, end, vmax, amax, jmax):
     if result not in (Result.Working, Result.Finished):
         raise MoveError(f"ruckig: {result}")
     return traj
+
+
+def _integrate(t, p0, v0, a0, j):
+    """Ruckig's ``integrate`` (utils.hpp), term for term in its order: the same bits."""
+    return p0 + t * (v0 + t * (a0 / 2 + t * j / 6)), v0 + t * (a0 + t * j / 2), a0 + t * j
+
+
+def trajectory_states(traj, t) -> np.ndarray:
+    """``(3, K, n)``: position, velocity and acceleration of a one-section ``ruckig.Trajectory``
+    (:func:`ruckig_move`) at times ``t`` (K,), ``0 <= t < duration`` -- Ruckig's own
+    ``Trajectory::at_time`` (its brake pre-trajectory, then the profile's phase by upper bound
+    on the cumulative phase times, then constant acceleration past the profile's end), vectorised
+    over the times: the same values, a few array operations per joint instead of a call per sample."""
+    t = np.asarray(t, float).ravel()
+    prs = traj.profiles[0]
+    if t.size < 24:  # a few samples: Ruckig's own call each is quicker than the arrays
+        return np.array([traj.at_time(float(x)) for x in t], float).reshape(t.size, 3, len(prs)).transpose(1, 0, 2)
+    out = np.empty((3, t.size, len(prs)))
+    for dof, pr in enumerate(prs):
+        td = t
+        br = pr.brake
+        in_brake = None
+        if br.duration > 0:
+            in_brake = t < br.duration
+            bi = (t >= br.t[0]).astype(np.intp)
+            tb = np.where(bi > 0, t - br.t[0], t)
+            pb, vb, ab, jb = (np.asarray(x, float)[bi] for x in (br.p, br.v, br.a, br.j))
+            for m, x in enumerate(_integrate(tb, pb, vb, ab, jb)):
+                out[m, :, dof] = x
+            td = np.where(in_brake, t, t - br.duration)
+        t_sum = list(itertools.accumulate(pr.t))  # as Profile::t_sum: summed in order
+        i = np.searchsorted(t_sum, td, side="right")  # upper bound; len(t_sum): past the profile's end
+        start = np.asarray([0.0] + t_sum)[i]
+        tl = td - start  # (td - 0.0 is td: the first phase's offset is exact)
+        states = _integrate(tl, np.asarray(pr.p)[i], np.asarray(pr.v)[i], np.asarray(pr.a)[i], np.asarray(list(pr.j) + [0.0])[i])
+        for m, x in enumerate(states):
+            if in_brake is None:
+                out[m, :, dof] = x
+            else:
+                out[m, ~in_brake, dof] = x[~in_brake]
+    return out

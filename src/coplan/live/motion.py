@@ -19,7 +19,7 @@ import numpy as np
 
 from ..problem.model import Arm
 from ..planners.coordinated.schedule import Step, StepKind
-from ..kinematics.timing import MoveError, SCurve, ruckig_move
+from ..kinematics.timing import MoveError, SCurve, ruckig_move, trajectory_states
 
 __all__ = ["Approach", "ApproachError", "move_step", "split_at", "truncate_move", "step_state", "as_wait"]
 
@@ -51,12 +51,10 @@ class Approach:
         (at rest on ``q1`` from ``duration`` on)."""
         t = np.atleast_1d(np.asarray(t, float))
         out = np.zeros((3, t.size, 2))
-        for k, tk in enumerate(t):
-            if tk >= self.duration:
-                out[0, k] = self.q1
-                continue
-            p, v, a = self.trajectory.at_time(max(float(tk), 0.0))
-            out[:, k] = (p, v, a)
+        past = t >= self.duration
+        out[0, past] = self.q1
+        if not past.all():
+            out[:, ~past] = trajectory_states(self.trajectory, np.maximum(t[~past], 0.0))
         return out
 
     def eval(self, t) -> np.ndarray:

@@ -10,6 +10,8 @@ Entry point: :func:`plan_row` -> :class:`RowResult`.
    the cell planner (``coordinated``, or ``optimal`` with a per-stop budget): every arm from
    home back to home, verified as a cell. Stops are planned as the stop rule commits them
    (receding horizon), so the carriage's first move can start before the rest is planned.
+   With ``workers`` > 1 the cells are planned in that many processes while the stop rule goes
+   on (each cell's plan is deterministic in its inputs: the same plans as in one process).
 4. **Assembly**: one time grid. The carriage moves between stops with time-optimal
    jerk-limited moves; it leaves a stop once that stop's last pick is over (the arms place and
    go home while it moves: the bins ride with it, and arms on one carriage keep their distances
@@ -49,6 +51,8 @@ class RowOptions:
     resolution : spacing of the candidate carriage positions, m
     window : the optimised rule's receding window
     cell_search_work : the optimal cell planner's search budget per stop (work, not seconds)
+    workers : processes the stops' cells are planned in, beside the stop rule (1: all here; the
+        same plans either way)
     """
 
     stops: StopRule = StopRule.OPTIMISED
@@ -56,9 +60,14 @@ class RowOptions:
     resolution: float = DEFAULT_RESOLUTION
     window: StopWindow = field(default_factory=StopWindow)
     cell_search_work: int = 3000
+    workers: int = 1
 
     def __post_init__(self) -> None:
-        check_fields(self, {'resolution'})  # built in Python: every value checked (OptionsError: what was expected, found)
+        if isinstance(self.workers, str) and self.workers.strip().lower() == "auto":  # as the optimal planner's
+            from ..planners.optimal.portfolio import default_workers
+
+            object.__setattr__(self, "workers", default_workers())
+        check_fields(self, {'resolution', 'workers'})  # built in Python: every value checked (OptionsError: what was expected, found)
 
 
 @dataclass
@@ -84,8 +93,8 @@ class RowResult:
     info: dict
 
 
-def _cell_plan(problem: Problem, stop: Stop, opts: RowOptions) -> Plan:
-    cell = cell_at(problem, stop.x, stop.fruit)
+def _cell_plan(cell: Problem, opts: RowOptions) -> Plan:
+    """One stop's cell (``cell_at``), planned by the row's cell planner."""
     if opts.planner == PlannerKind.OPTIMAL:
         from ..planners.optimal import OptimalOptions, plan_optimal
 
@@ -93,6 +102,25 @@ def _cell_plan(problem: Problem, stop: Stop, opts: RowOptions) -> Plan:
     from ..planners.coordinated import plan_coordinated
 
     return plan_coordinated(cell).plan
+
+
+def _cell_job(cell: Problem, opts: RowOptions) -> tuple[Plan, float]:
+    """One stop's cell in a worker process (module-level: it is pickled): the plan and its seconds."""
+    t = _time.perf_counter()
+    return _cell_plan(cell, opts), _time.perf_counter() - t
+
+
+def _pool(workers: int):
+    """Processes for the stops' cells, or None for one process (as the continuous mode's speed
+    search and the optimal planner's portfolio: fork on Linux, no re-import; spawn elsewhere)."""
+    if workers <= 1:
+        return None
+    import multiprocessing
+    import sys
+    from concurrent.futures import ProcessPoolExecutor
+
+    ctx = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+    return ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
 
 
 def plan_row(problem: Problem, options: RowOptions | None = None, progress: Callable[[str], None] | None = None) -> RowResult:
@@ -113,23 +141,41 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     timings["reach"] = _time.perf_counter() - t0
     planned: list[StopPlan] = []
     first_stop_at: list[float] = []
+    pending: list[tuple] = []  # (stop, future, when it was ready) with workers
+    pool = _pool(int(opts.workers))
+
+    def landed(s: Stop, p: Plan, ready: float, seconds: float) -> None:
+        planned.append(StopPlan(s, p, ready=ready, seconds=seconds))
+        done = sum(len(sp.stop.fruit) for sp in planned)
+        tick(Tick("row", s.x - problem.gantry.start, problem.gantry.length, "m of rail", note=f"stop {len(planned)}: {done} fruit planned"))
 
     def on_stop(s: Stop) -> None:
         if not first_stop_at:
             first_stop_at.append(_time.perf_counter() - t0)
-        tc = _time.perf_counter()
-        p = _cell_plan(problem, s, opts)
-        planned.append(StopPlan(s, p, ready=_time.perf_counter() - t0, seconds=_time.perf_counter() - tc))
-        done = sum(len(sp.stop.fruit) for sp in planned)
-        tick(Tick("row", s.x - problem.gantry.start, problem.gantry.length, "m of rail", note=f"stop {len(planned)}: {done} fruit planned"))
+        cell = cell_at(problem, s.x, s.fruit)
+        if pool is None:
+            tc = _time.perf_counter()
+            p = _cell_plan(cell, opts)
+            landed(s, p, _time.perf_counter() - t0, _time.perf_counter() - tc)
+            return
+        fut, when = pool.submit(_cell_job, cell, opts), []
+        fut.add_done_callback(lambda f, when=when: when.append(_time.perf_counter() - t0))
+        pending.append((s, fut, when))
 
     ts = _time.perf_counter()
     info: dict = {"rule": rule.value, "cell_planner": PlannerKind(opts.planner).value}
-    if rule == StopRule.OPTIMISED:
-        _, info["stops_solver"] = optimised_stops(problem, reach, opts.window, on_stop)
-    else:
-        for s in (fixed_stops(reach) if rule == StopRule.FIXED else fewest_stops(reach)):
-            on_stop(s)
+    try:
+        if rule == StopRule.OPTIMISED:
+            _, info["stops_solver"] = optimised_stops(problem, reach, opts.window, on_stop)
+        else:
+            for s in (fixed_stops(reach) if rule == StopRule.FIXED else fewest_stops(reach)):
+                on_stop(s)
+        for s, fut, when in pending:  # the cells planned in the workers, in the order the stops were kept
+            p, seconds = fut.result()
+            landed(s, p, when[0] if when else _time.perf_counter() - t0, seconds)
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
     planned.sort(key=lambda sp: sp.stop.k)
     timings["stops_and_cells"] = _time.perf_counter() - ts
     timings["cells"] = sum(sp.seconds for sp in planned)

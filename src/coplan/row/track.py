@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..kinematics.arm import ik_one, jacobian_entries, jacobian_rate_entries
-from ..kinematics.timing import MoveError, ruckig_move
+from ..kinematics.timing import MoveError, ruckig_move, trajectory_states
 from ..problem.model import Arm
 from .cruise import Cruise
 
@@ -91,13 +91,12 @@ class Leg:
 
     def sample(self, t: np.ndarray) -> np.ndarray:
         """(K, 2) poses at times ``t`` from the leg's start (at its end state's pose after)."""
-        t = np.asarray(t, float)
+        t = np.asarray(t, float).ravel()
         out = np.empty((t.size, 2))
-        for k, tk in enumerate(t):
-            if tk >= self.duration:
-                # past the end: extrapolate the end state (only used within one sample of it)
-                dtk = tk - self.duration
-                out[k] = self.end[0] + self.end[1] * dtk + 0.5 * self.end[2] * dtk * dtk
-            else:
-                out[k] = self.trajectory.at_time(max(float(tk), 0.0))[0]
+        past = t >= self.duration
+        if past.any():  # past the end: extrapolate the end state (only used within one sample of it)
+            dtk = (t[past] - self.duration)[:, None]
+            out[past] = self.end[0] + self.end[1] * dtk + 0.5 * self.end[2] * dtk * dtk
+        if not past.all():
+            out[~past] = trajectory_states(self.trajectory, np.maximum(t[~past], 0.0))[0]
         return out
