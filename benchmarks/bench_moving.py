@@ -3,7 +3,7 @@
 1. **Head to head** on the shipped 50 m rows (``problems/rows/``) and on generated 20 m rows
    (``coplan.generate.gantry_row``, seed 11) at 2, 8 and 20 fruit per metre with 3 and 6 arms:
    the stop rules fixed stride, fewest stops and optimised (the coordinated cell planner at
-   every stop), and continuous (``--gantry continuous --workers 2``: the speed search over a
+   every stop, the stops' cells in two worker processes: ``--workers 2``), and continuous (``--gantry continuous --workers 2``: the speed search over a
    density profile, two levels planned side by side). Per row and mode: row time (the last fruit placed), fruit per hour, share of the
    harvestable fruit harvested, row time / the row's lower bound valid for any motion (no stop
    assumed: :func:`coplan.row.bound.row_bounds`), planning time and its share of the row time,
@@ -52,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 MODES = ("fixed", "fewest", "optimised", "continuous")
-WORKERS = 2  # processes of continuous mode's speed search (coplan solve --workers 2); the stop rules use one
+WORKERS = 2  # processes of continuous mode's speed search and of the stop rules' cells (coplan solve ROW --workers 2)
 
 
 def _rows(quick: bool) -> list[tuple[str, object, str]]:
@@ -77,7 +77,7 @@ def _plan(prob, mode: str):
         from coplan.row.continuous import MovingOptions
 
         return plan_moving(prob, MovingOptions(workers=WORKERS))  # the speed search on both cores
-    return plan_row(prob, RowOptions(stops=StopRule(mode)))
+    return plan_row(prob, RowOptions(stops=StopRule(mode), workers=WORKERS))  # the stops' cells on both cores
 
 
 def _cli_verify(text: str, plan, folder: Path) -> bool:

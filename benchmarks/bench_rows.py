@@ -1,7 +1,8 @@
 """Whole rows on a mobile gantry: the stop rules side by side, and planning at scale -- one run.
 
 1. **Stop rules** on the shipped 50 m rows (``problems/rows/``): fixed stride, fewest stops and
-   optimised, each planned with the coordinated cell planner at every stop and verified in the
+   optimised, each planned with the coordinated cell planner at every stop (the stops' cells in
+   two worker processes beside the stop rule: ``coplan solve ROW --workers 2``) and verified in the
    row frame. Per rule: stops, row time (the last fruit placed), fruit per hour, share of the
    harvestable fruit harvested, row time / the lower bound for any plan and for stop-and-go,
    how long the carriage moved while an arm worked (placing, going home, coming out: what the
@@ -11,7 +12,8 @@
    fruit per hour against the better of the two baselines.
 2. **Scale**: rows of 25, 50, 100 and 200 m, 6 arms, 10.5 fruit per metre (``gantry_row``), the
    optimised rule, each in a fresh process: planning time and its share of the row time,
-   planning time per metre, peak memory (the process's maximum resident set), and the plan file
+   planning time per metre, peak memory (the maximum resident set of the planning process and
+   of its largest worker), and the plan file
    written, read back and checked by ``coplan verify`` in another process (its wall time).
 
 Every ratio is measured in this run, on this machine. Every plan is verified.
@@ -30,6 +32,7 @@ import tempfile
 import time
 from pathlib import Path
 
+WORKERS = 2  # processes the stops' cells are planned in beside the stop rule (coplan solve ROW --workers 2)
 
 def _rules(files: list[Path]) -> list[str]:
     from coplan.kinds import StopRule
@@ -47,7 +50,7 @@ def _rules(files: list[Path]) -> list[str]:
         b = row_bounds(prob)
         per = {}
         for rule in (StopRule.FIXED, StopRule.FEWEST, StopRule.OPTIMISED):
-            res = plan_row(prob, RowOptions(stops=rule))
+            res = plan_row(prob, RowOptions(stops=rule, workers=WORKERS))
             m = row_metrics(prob, res, b)
             per[rule] = m
             out.append(f"| {f.stem} | {len(prob.fruits)} | {rule.value} | {m['stops']} | {m['row_time']:.1f} s | "
@@ -72,29 +75,31 @@ from pathlib import Path
 from coplan.generate import gantry_row, to_yaml
 from coplan.problem import parse_problem
 from coplan.pipeline import solve
+from coplan.row.plan import RowOptions
 length = float(sys.argv[1]); out = Path(sys.argv[2])
 text = to_yaml(gantry_row(length=length, n_arms=6, density=10.5, seed=11))
 (out / "row.yaml").write_text(text)
 prob = parse_problem(text, str(out / "row.yaml"))
 t = time.perf_counter()
-res = solve(prob, out_dir=out / "run")
+res = solve(prob, out_dir=out / "run", options=RowOptions(workers=int(sys.argv[3])))
 m = res.plan.metrics["row"]
 print(json.dumps({"fruit": len(prob.fruits), "harvested": m["harvested"], "harvestable": m["harvestable"],
                   "row_time": m["row_time"], "planning": m["planning_time"], "first": m["first_motion_seconds"],
                   "kept_ahead": m["kept_ahead"], "slack": m["least_slack_seconds"], "verified": bool(res.verification.passed),
                   "ratio": m["ratio_any_plan_bound"], "wall": time.perf_counter() - t,
                   "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+                  "worker_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0,
                   "plan_mb": (out / "run" / "plan.json").stat().st_size / 2**20}))
 """
 
 
 def _scale(lengths: list[float]) -> list[str]:
     out = ["| row | fruit | planning | row time | planning / row time | planning per metre | first motion "
-           "| kept ahead | peak memory | plan.json | coplan verify (read back) | verified |",
+           "| kept ahead | peak memory (largest worker) | plan.json | coplan verify (read back) | verified |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for L in lengths:
         with tempfile.TemporaryDirectory() as d:
-            r = subprocess.run([sys.executable, "-c", _CHILD, str(L), d], capture_output=True, text=True)
+            r = subprocess.run([sys.executable, "-c", _CHILD, str(L), d, str(WORKERS)], capture_output=True, text=True)
             if r.returncode != 0:
                 out.append(f"| {L:g} m | failed: {r.stderr.strip().splitlines()[-1] if r.stderr else r.returncode} |")
                 print(out[-1], flush=True)
@@ -106,7 +111,7 @@ def _scale(lengths: list[float]) -> list[str]:
             tv = time.perf_counter() - t
             out.append(f"| {L:g} m, 6 arms | {m['fruit']} | {m['planning']:.1f} s | {m['row_time']:.0f} s | "
                        f"{100 * m['planning'] / m['row_time']:.2f} % | {m['planning'] / L:.3f} s/m | {m['first']:.2f} s | "
-                       f"{'yes' if m['kept_ahead'] else 'no'} ({m['slack']:.1f} s) | {m['peak_mb']:.0f} MB | "
+                       f"{'yes' if m['kept_ahead'] else 'no'} ({m['slack']:.1f} s) | {m['peak_mb']:.0f} MB ({m['worker_mb']:.0f} MB) | "
                        f"{m['plan_mb']:.1f} MB | {tv:.1f} s, exit {v.returncode} | {'yes' if m['verified'] else 'NO'} |")
             print(out[-1], flush=True)
     return out
