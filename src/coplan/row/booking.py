@@ -454,7 +454,9 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
         if now > horizon:  # nothing fits any more: the rest is left out
             booker.go_home(i)
             continue
-        cands = [(fid, w) for fid, w in by_arm[i] if fid not in taken and w.hi >= now]
+        # (kept for good: this arm's time only grows and a fruit taken stays taken, so what is
+        # dropped here never comes back; the list shrinks as the row is harvested)
+        cands = by_arm[i] = [(fid, w) for fid, w in by_arm[i] if fid not in taken and w.hi >= now]
         if seen is not None:
             later = [seen[f] for f, w in cands if seen[f] > now and w.hi >= seen[f]]
             cands = [(f, w) for f, w in cands if seen[f] <= now]
