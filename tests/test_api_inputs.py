@@ -61,7 +61,10 @@ def test_a_problem_changed_in_python_no_longer_names_its_file(cell):
     (OptimalOptions, {"search_work": -5}, "search_work: expected a non-negative integer, found number -5"),
     (OptimalOptions, {"search_work": "lots"}, "search_work: expected a non-negative integer, found string 'lots'"),
     (OptimalOptions, {"time_limit": math.nan}, "time_limit: expected a positive number or null, found number nan"),
-    (OptimalOptions, {"workers": 0}, "workers: expected a positive integer"),
+    (OptimalOptions, {"workers": 0}, "workers: expected a whole number of processes from 1 to 256, or auto; found number 0"),
+    (RowOptions, {"workers": 10**6}, "workers: expected a whole number of processes from 1 to 256, or auto; found number 1000000"),
+    (MovingOptions, {"workers": "many"}, "workers: expected a whole number of processes from 1 to 256, or auto; found string 'many'"),
+    (RowOptions, {"planner": "heuristic"}, "planner: expected 'coordinated' or 'optimal' (the cell planner at each stop"),
     (OptimalOptions, {"margin": -1.0}, "margin: expected a non-negative number"),
     (CoordinatedOptions, {"margin": "a"}, "margin: expected a non-negative number, found string 'a'"),
     (RowOptions, {"resolution": -1}, "resolution: expected a positive number"),
@@ -77,6 +80,7 @@ def test_options_built_in_python_are_checked_as_an_options_file_is(cls, kw, word
 
 def test_options_given_as_their_values_become_them():
     assert OptimalOptions(workers="auto").workers >= 1
+    assert RowOptions(workers=2.0).workers == 2 and type(RowOptions(workers=2.0).workers) is int  # (2.0 is 2, as in a file)
     assert RowOptions(stops="fewest").stops.value == "fewest" and MovingOptions(profile="constant").profile.value == "constant"
 
 
@@ -97,6 +101,12 @@ def test_the_facade_takes_a_generated_mapping_and_says_which_options_each_planne
         coplan.solve(row, gantry="continuous", options=RowOptions())
     with pytest.raises(ValueError, match="allocation: a row's cells are allocated"):
         coplan.solve(row, allocation="makespan")
+    # the cell planner of RowOptions is the one used (a new user's RowOptions(planner='optimal') was
+    # planned with the coordinated planner); given twice and different, refused
+    opt = coplan.solve(row, options=RowOptions(planner="optimal", cell_search_work=50))
+    assert opt.plan.solver["row"]["cell_planner"] == "optimal" and opt.verification.passed
+    with pytest.raises(ValueError, match="planner: 'coordinated' disagrees with options.planner 'optimal'"):
+        coplan.solve(row, planner="coordinated", options=RowOptions(planner="optimal"))
 
 
 # --------------------------------------------------------------------------- the command line's edges

@@ -45,11 +45,26 @@ def test_where_the_carriage_starts_serves_every_fruit_the_optimised_rule_does_no
     assert m["first_motion_seconds"] >= m["first_stop_seconds"] and m["kept_ahead"] and m["least_slack_seconds"] >= 0
 
 
+def test_the_first_motion_waits_for_the_first_cell_its_arms_need(single):
+    """Found by a new user: a first stop whose arms start shortly after the row's first motion
+    (not at t = 0) was counted from the moment the stop was known, so the row was LATE at its
+    first stop. The first motion now waits for that cell: its slack is 0, not negative."""
+    res = plan_row(single)
+    sp = res.stops[0]
+    sp.start, sp.ready = 0.04, res.info["first_stop_seconds"] + 0.6  # (the arms start 0.04 s in; planned 0.6 s later)
+    m = row_metrics(single, res)
+    assert m["first_motion_seconds"] == pytest.approx(sp.ready - sp.start)
+    assert m["least_slack_seconds"] == pytest.approx(0.0, abs=1e-9) and m["kept_ahead"]
+
+
 def test_on_the_move_a_carriage_that_need_not_move_gives_a_verified_plan_and_shares_of_at_most_one(single):
     res = plan_moving(single)  # (crashed: the speed profile had no stretch of rail)
     assert res.verification.passed and res.plan.metrics["harvested"] == 1
     m = row_metrics(single, res)
     assert m["carriage_moving_share"] == 0.0
+    # on the move the carriage's speed and every cycle come from the whole search: the row starts once planned
+    assert m["first_motion_seconds"] == m["planning_time"] > 0 and m["kept_ahead"] is None
+    assert res.plan.solver["row"]["options"]["workers"] == 1  # (what the plan depends on is in plan.json)
     for arm, causes in m["idle_share"].items():
         assert 0.0 <= sum(causes.values()) <= 1.0 + 1e-12, (arm, causes)
     idle = [a for a, fs in res.plan.allocation.items() if not fs]

@@ -65,11 +65,11 @@ def test_worker_zero_is_the_one_process_search_and_the_best_worker_wins(row24, p
 
 
 def test_workers_are_validated_in_options_files_and_on_the_command_line(tmp_path):
-    with pytest.raises(OptionsError, match="workers.*expected a positive integer"):
+    with pytest.raises(OptionsError, match="workers: expected a whole number of processes from 1 to 256"):
         parse_options("workers: 0\n", "opts.yaml")
     assert parse_options("workers: 3\n").workers == 3
     assert parse_options("workers: auto\n").workers == default_workers()  # as on the command line
-    with pytest.raises(OptionsError, match="workers.*expected a positive integer or auto, found string 'two'"):
+    with pytest.raises(OptionsError, match="workers: expected a whole number of processes from 1 to 256, or auto; found string 'two'"):
         parse_options("workers: two\n", "opts.yaml")
     runner = CliRunner()
     prob = str(default_problem_path())

@@ -158,11 +158,14 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
                              "time-optimal moves; the cell planners apply to stop and go")
         moving = plan_moving(prob, options if isinstance(options, MovingOptions) else MovingOptions(), progress)
     if mode != GantryMode.CONTINUOUS:
-        cell_planner = PlannerKind(planner or PlannerKind.COORDINATED)
-        if cell_planner == PlannerKind.HEURISTIC:
-            raise ValueError("planner: the course's heuristic plans a stationary cell, not a row; use coordinated or optimal")
         # (auto: both modes, the stops' cells in as many processes as the speed search)
         opts = options if isinstance(options, RowOptions) else RowOptions(workers=getattr(options, "workers", 1))
+        cell_planner = PlannerKind(planner) if planner is not None else PlannerKind(opts.planner)
+        if cell_planner == PlannerKind.HEURISTIC:
+            raise ValueError("planner: the course's heuristic plans a stationary cell, not a row; use coordinated or optimal")
+        if planner is not None and isinstance(options, RowOptions) and cell_planner != PlannerKind(options.planner):
+            raise ValueError(f"planner: {cell_planner.value!r} disagrees with options.planner {PlannerKind(options.planner).value!r}; "
+                             "give the row's cell planner once")
         opts = replace(opts, planner=cell_planner, stops=StopRule(stops or opts.stops))
         stopping = plan_row(prob, opts, progress)
     if mode == GantryMode.AUTO:

@@ -45,19 +45,20 @@ def check_time_limit(time_limit: Optional[float]) -> None:
 
 
 def check_workers(workers: Optional[str]) -> Optional[int]:
-    """``--workers``: a whole number >= 1, or auto (this machine's cores, at most 8); None if not given."""
+    """``--workers``: a whole number from 1 to ``MAX_WORKERS``, or auto (this machine's cores, at
+    most 8); None if not given."""
+    from ..workers import MAX_WORKERS, default_workers
+
     if workers is None:
         return None
     if workers.strip().lower() == "auto":
-        from ..planners.optimal.portfolio import default_workers
-
         return default_workers()
     try:
         n = int(workers)
     except ValueError:
         n = 0
-    if n < 1:
-        fail(ExitCode.USAGE, f"--workers: expected a whole number of processes >= 1 or auto, found {workers!r}")
+    if not 1 <= n <= MAX_WORKERS:
+        fail(ExitCode.USAGE, f"--workers: expected a whole number of processes from 1 to {MAX_WORKERS}, or auto; found {workers!r}")
     return n
 
 

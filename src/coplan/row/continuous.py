@@ -21,6 +21,8 @@ arm2 was placing f0117").
 
 from __future__ import annotations
 
+import dataclasses
+import enum
 import math
 import time as _time
 from collections.abc import Callable
@@ -33,6 +35,7 @@ from ..kinds import AssignRule, PlannerKind, PlanStatus, SpeedProfile
 from ..plan import DEFAULT_RATE, EventKind, Plan, compute_metrics, finalize_plan
 from ..problem.model import Problem
 from ..progress import speaker
+from ..workers import settle_workers
 from .booking import Booker, branch_table, run_policy, screen_branches
 from .cruise import STRETCH, Cruise, cruise_end, demand_stretches, pick_windows
 from .plan import RowResult
@@ -98,6 +101,7 @@ class MovingOptions:
     rate: float = DEFAULT_RATE
 
     def __post_init__(self) -> None:
+        settle_workers(self)  # (auto: this machine's cores, at most 8)
         check_fields(self, {'level', 'rate', 'workers', 'resolution', 'search_rounds'})  # built in Python: every value checked (OptionsError: what was expected, found)
 
 
@@ -440,6 +444,9 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
         res, curve = speed_search(problem, opts, reach, progress=progress)
     total = _time.perf_counter() - t0
     res.info["speed_curve"] = [p.to_dict() for p in curve]
+    # what the plan depends on (the workers too: they set the levels tried side by side)
+    res.info["options"] = {f.name: (v.value if isinstance(v, enum.Enum) else v)
+                           for f in dataclasses.fields(opts) for v in [getattr(opts, f.name)]}
     res.timings["planning"] = total  # the whole search, verification of every candidate included
     res.plan.solver["timings"] = dict(res.timings)
     res.plan.solver["row"] = res.info

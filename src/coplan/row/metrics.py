@@ -18,9 +18,11 @@
 * **on the move** (``mode`` continuous): the speed profile, the carriage's mean and top speed,
   how many full plans the speed search tried;
 * **real time**: planning time / row time, when the first stop was known and when the row's first
-  motion can start (then; or, where the first stop is where the carriage starts, once its cell
-  is planned) and, stop by stop, whether its cell was planned before the row needed it, counted
-  from that first motion -- the least slack (s; negative: late) and the slowest stop's planning time.
+  motion can start (then, or later if the first cell's arms start before its cell would be
+  planned: the row waits for it) and, stop by stop, whether its cell was planned before the row
+  needed it, counted from that first motion -- the least slack (s; negative: late) and the
+  slowest stop's planning time. On the move the first motion is the end of planning: the
+  carriage's speed and every arm's cycles come from the whole speed search.
 """
 
 from __future__ import annotations
@@ -92,8 +94,9 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
     planning = float(result.timings.get("planning", 0.0))
     first = result.info.get("first_stop_seconds")
     motion = first  # the row's first motion: the carriage's first move, once the first stop is known ...
-    if first is not None and result.stops and min(sp.start for sp in result.stops) <= 1e-9:
-        motion = max(first, max(sp.ready for sp in result.stops if sp.start <= 1e-9))  # ... or the arms', if no move comes first
+    if first is not None and result.stops:  # ... or later: the row waits for the first cell its arms need
+        opening = min(sp.start for sp in result.stops)
+        motion = max(first, max(sp.ready - sp.start for sp in result.stops if sp.start <= opening + 1e-9))
     slack = [motion + sp.start - sp.ready for sp in result.stops] if motion is not None else []
     out = {
         "fruit": len(problem.fruits),
@@ -126,7 +129,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
     if out["mode"] == "continuous":  # no stops: the carriage's speeds instead, and no stop to keep ahead of
         out.update({"profile": result.info.get("profile"), "mean_speed": result.info.get("mean_speed"),
                     "top_speed": result.info.get("top_speed"), "plans_tried": len(result.info.get("speed_curve") or []),
-                    "kept_ahead": None, "least_slack_seconds": None})
+                    "kept_ahead": None, "least_slack_seconds": None, "first_motion_seconds": planning})
     if bounds is not None:
         out["lower_bound"] = bounds.to_dict()
         out["ratio_any_plan_bound"] = span / bounds.any_plan if bounds.any_plan > 0 else None

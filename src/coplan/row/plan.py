@@ -29,7 +29,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import check_fields
+from ..errors import Issue, OptionsError, check_fields
+from ..workers import cores, settle_workers
 from ..kinds import PlannerKind, PlanStatus, StopRule
 from ..kinematics.timing import Move1D
 from ..plan import DEFAULT_RATE, Event, EventKind, Plan, compute_metrics, finalize_plan
@@ -63,11 +64,12 @@ class RowOptions:
     workers: int = 1
 
     def __post_init__(self) -> None:
-        if isinstance(self.workers, str) and self.workers.strip().lower() == "auto":  # as the optimal planner's
-            from ..planners.optimal.portfolio import default_workers
-
-            object.__setattr__(self, "workers", default_workers())
-        check_fields(self, {'resolution', 'workers'})  # built in Python: every value checked (OptionsError: what was expected, found)
+        settle_workers(self)  # (auto: this machine's cores, at most 8)
+        check_fields(self, {'resolution', 'workers'})
+        if self.planner == PlannerKind.HEURISTIC:
+            raise OptionsError([Issue("planner", "expected 'coordinated' or 'optimal' (the cell planner at each stop; the "
+                                                 "course's heuristic plans a stationary cell, not a row's stops), found 'heuristic'")],
+                               "RowOptions")  # built in Python: every value checked (OptionsError: what was expected, found)
 
 
 @dataclass
@@ -85,6 +87,12 @@ class StopPlan:
 
 @dataclass
 class RowResult:
+    """A planned row: the verified row plan, its stops (none on the move), the row's screen,
+    timings (s) and the planner's report (``info``, also ``plan.solver['row']``). The figures a
+    row is judged by -- fruit per hour, first motion, slack, ratios to the bounds -- are
+    :func:`coplan.row.metrics.row_metrics` ``(problem, result, row_bounds(problem))``;
+    :func:`coplan.solve` adds them to the plan as ``plan.metrics['row']``."""
+
     plan: Plan
     verification: object
     stops: list[StopPlan]
@@ -112,7 +120,9 @@ def _cell_job(cell: Problem, opts: RowOptions) -> tuple[Plan, float]:
 
 def _pool(workers: int):
     """Processes for the stops' cells, or None for one process (as the continuous mode's speed
-    search and the optimal planner's portfolio: fork on Linux, no re-import; spawn elsewhere)."""
+    search and the optimal planner's portfolio: fork on Linux, no re-import; spawn elsewhere).
+    ``workers`` is at most this machine's cores (:func:`coplan.workers.cores`: more would only
+    queue; the plan does not depend on it)."""
     if workers <= 1:
         return None
     import multiprocessing
@@ -124,7 +134,8 @@ def _pool(workers: int):
 
 
 def plan_row(problem: Problem, options: RowOptions | None = None, progress: Callable[[str], None] | None = None) -> RowResult:
-    """Plan ``problem`` (a row: it has a gantry) end to end and verify it (module docstring)."""
+    """Plan ``problem`` (a row: it has a gantry) end to end and verify it (module docstring).
+    The row's figures: :func:`coplan.row.metrics.row_metrics` (see :class:`RowResult`)."""
     from ..verify.row import row_reachable_ids
     from ..verify.verifier import verify
 
@@ -142,7 +153,8 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     planned: list[StopPlan] = []
     first_stop_at: list[float] = []
     pending: list[tuple] = []  # (stop, future, when it was ready) with workers
-    pool = _pool(int(opts.workers))
+    workers = min(int(opts.workers), cores())
+    pool = _pool(workers)
 
     def landed(s: Stop, p: Plan, ready: float, seconds: float) -> None:
         planned.append(StopPlan(s, p, ready=ready, seconds=seconds))
@@ -163,7 +175,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         pending.append((s, fut, when))
 
     ts = _time.perf_counter()
-    info: dict = {"rule": rule.value, "cell_planner": PlannerKind(opts.planner).value}
+    info: dict = {"rule": rule.value, "cell_planner": PlannerKind(opts.planner).value, "workers": workers}
     try:
         if rule == StopRule.OPTIMISED:
             _, info["stops_solver"] = optimised_stops(problem, reach, opts.window, on_stop)

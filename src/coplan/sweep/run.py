@@ -255,10 +255,10 @@ def _client(workers: int, scheduler: str | None, retries: int):
 
 
 def default_workers() -> int:
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # not on Linux
-        return max(1, os.cpu_count() or 1)
+    """A sweep's workers by default: every core this process may use."""
+    from ..workers import cores
+
+    return cores()
 
 
 def run_sweep(

@@ -24,6 +24,7 @@ from typing import Any
 
 from ...errors import Issue, OptionsError, ProblemError, check_fields, field_issue, found
 from ...problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
+from ...workers import default_workers, settle_workers, workers_issue
 
 __all__ = ["OptimalOptions", "OptionsError", "load_options", "parse_options"]
 
@@ -145,10 +146,7 @@ class OptimalOptions:
 
     def __post_init__(self) -> None:
         # built in Python as in a file: every value checked (``workers="auto"``: this machine's cores, at most 8)
-        if isinstance(self.workers, str) and self.workers.strip().lower() == "auto":
-            from .portfolio import default_workers
-
-            object.__setattr__(self, "workers", default_workers())
+        settle_workers(self)
         check_fields(self, _POSITIVE)
 
 
@@ -183,14 +181,13 @@ def parse_options(text: str, source: str | None = None, base: OptimalOptions | N
             hint = f"; did you mean {near[0]!r}?" if near else f"; allowed keys: {', '.join(kinds)}"
             issues.append(Issue(str(key), f"expected a known option, found unknown key {key!r}{hint}", line_of(lines, (key,))))
             continue
-        if key == "workers" and isinstance(v, str) and v.strip().lower() == "auto":  # as on the command line
-            from .portfolio import default_workers
-
-            values[key] = default_workers()
-            continue
-        msg = _check(key, kinds[key], v)
-        if key == "workers" and msg is not None:
-            msg = msg.replace("expected a positive integer", "expected a positive integer or auto")
+        if key == "workers":  # as on the command line: a whole number of processes, or auto
+            msg = workers_issue(v)
+            if msg is None:
+                values[key] = default_workers() if isinstance(v, str) else int(v)
+                continue
+        else:
+            msg = _check(key, kinds[key], v)
         if msg is not None:
             issues.append(Issue(str(key), msg, line_of(lines, (key,))))
             continue

@@ -20,7 +20,6 @@ the start are inherited) and spawned elsewhere (each worker then imports coplan 
 from __future__ import annotations
 
 import multiprocessing as mp
-import os
 import queue as _queue
 import sys
 import time as _time
@@ -28,21 +27,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from ...problem.model import Problem
+from ...workers import default_workers
 from ..coordinated.candidate import Coordinated
 from .search import SearchOptions, SearchStats, StopReason, improve
 
 __all__ = ["PortfolioResult", "search_portfolio", "default_workers", "Alongside"]
 
 _TICK_EVERY = 0.5  # s between a worker's progress messages
-
-
-def default_workers() -> int:
-    """The cores this process may use, at most 8: what ``--workers auto`` asks for."""
-    try:
-        n = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        n = os.cpu_count() or 1
-    return max(1, min(8, n))
 
 
 @dataclass

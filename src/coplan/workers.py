@@ -1,0 +1,47 @@
+"""How many processes a run may use: ``auto`` (the cores this process may use, at most 8) or a
+whole number from 1 to :data:`MAX_WORKERS` -- one rule for ``--workers``, options files and
+options built in Python (``OptimalOptions``, ``RowOptions``, ``MovingOptions``)."""
+
+from __future__ import annotations
+
+import numbers
+import os
+
+from .errors import Issue, OptionsError, found
+
+__all__ = ["MAX_WORKERS", "cores", "default_workers", "workers_issue", "settle_workers"]
+
+#: The most processes one run may ask for: a typo such as 2000 is refused, not started.
+MAX_WORKERS = 256
+
+
+def cores() -> int:
+    """The cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def default_workers() -> int:
+    """The cores this process may use, at most 8: what ``--workers auto`` asks for."""
+    return min(8, cores())
+
+
+def workers_issue(v) -> str | None:
+    """The message for a bad number of processes ``v`` (``auto`` is good), or None."""
+    if isinstance(v, str) and v.strip().lower() == "auto":
+        return None
+    ok = isinstance(v, numbers.Real) and not isinstance(v, bool) and float(v).is_integer() and 1 <= v <= MAX_WORKERS
+    return None if ok else f"expected a whole number of processes from 1 to {MAX_WORKERS}, or auto; found {found(v)}"
+
+
+def settle_workers(obj, name: str = "workers") -> None:
+    """For a frozen options dataclass built in Python: its ``name`` field checked
+    (:func:`workers_issue`, :class:`OptionsError` naming the class) and settled to an ``int``
+    (``auto``: :func:`default_workers`; ``2.0``: 2)."""
+    v = getattr(obj, name)
+    msg = workers_issue(v)
+    if msg is not None:
+        raise OptionsError([Issue(name, msg)], type(obj).__name__)
+    object.__setattr__(obj, name, default_workers() if isinstance(v, str) else int(v))
