@@ -27,3 +27,24 @@ def test_the_readme_python_example_is_self_contained(tmp_path):
     for path in re.findall(r'load_plan\("([^"]+)"\)', code):
         assert (tmp_path / path).exists()
     assert not (tmp_path / "coplan-out").exists() or "coplan-out" in code
+
+
+def _anchor(heading: str) -> str:
+    """GitHub's anchor of a Markdown heading: lower case, punctuation dropped, spaces to hyphens."""
+    text = heading.lstrip("#").strip().lower()
+    return "".join(c for c in text if c.isalnum() or c in " -_").replace(" ", "-")
+
+
+def test_every_link_between_the_readme_and_the_docs_lands_on_a_heading():
+    """A regenerated docs page once lost two sections the README still linked to (the widening
+    stage's figures, time to quality on long rows): every ``file.md#anchor`` link in the README
+    and docs/ must name a heading of that file."""
+    pages = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+    anchors = {p.resolve(): {_anchor(l) for l in p.read_text().splitlines() if l.startswith("#")} for p in pages}
+    broken = []
+    for page in pages:
+        for target, frag in re.findall(r"\]\(([^)#\s]*\.md)#([^)\s]+)\)", page.read_text()):
+            dest = (page.parent / target).resolve()
+            if dest in anchors and frag not in anchors[dest]:
+                broken.append(f"{page.name} -> {target}#{frag}")
+    assert not broken, broken
