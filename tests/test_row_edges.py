@@ -10,11 +10,12 @@ from coplan.generate import gantry_row, to_yaml
 from coplan.kinds import GantryMode, StopRule
 from coplan.plan import EventKind
 from coplan.problem import parse_problem
-from coplan.row.continuous import plan_moving
+from coplan.row.continuous import MovingOptions, plan_moving
 from coplan.row.cruise import Cruise
 from coplan.row.live import LiveRowOptions, run_live_row
 from coplan.row.metrics import row_metrics
 from coplan.row.plan import RowOptions, plan_row
+from coplan.row.reach import row_reach
 from coplan.verify import verify
 from coplan.verify.verdict import ViolationKind
 
@@ -55,6 +56,26 @@ def test_the_first_motion_waits_for_the_first_cell_its_arms_need(single):
     m = row_metrics(single, res)
     assert m["first_motion_seconds"] == pytest.approx(sp.ready - sp.start)
     assert m["least_slack_seconds"] == pytest.approx(0.0, abs=1e-9) and m["kept_ahead"]
+
+
+@pytest.mark.parametrize("options", [MovingOptions(), MovingOptions(profile="constant", level=0.2)])
+def test_on_the_move_a_fruit_only_the_start_serves_is_picked_while_the_carriage_rests_there(options):
+    """A fruit only the carriage's start position serves was left out on the move (stop and go
+    picked it): a carriage that ramps up at once gives it no window at any speed. The carriage
+    now first rests where it starts, as long as the arms need for such fruit (the search's first
+    plans find them); every fruit is harvested and the plan verified."""
+    far = [{"id": f"f{i}", "position": [3.0 + 0.7 * i, 1.0]} for i in range(8)]
+    row = _row([{"id": "edge", "position": [-3.45, 1.0]}] + far)
+    reach = row_reach(row)
+    assert reach.span("edge") == (0, 0)  # (only the start serves it)
+    res = plan_moving(row, options)
+    assert res.verification.passed and res.plan.metrics["harvested"] == 9 and not res.info["left_out"]
+    hold = res.info["start_hold"]
+    assert hold > 0 and np.all(res.plan.gantry_x[res.plan.time <= hold] == row.gantry.start)
+    picks = [e for e in res.plan.events if e.kind == EventKind.PICK and e.fruit == "edge"]
+    assert len(picks) == 1 and picks[0].t_end <= hold + 1e-9  # picked while the carriage rests there
+    plain = plan_moving(_row(far), options)  # no such fruit: no hold
+    assert plain.info["start_hold"] == 0.0 and plain.plan.gantry_x[1] > row.gantry.start
 
 
 def test_on_the_move_a_carriage_that_need_not_move_gives_a_verified_plan_and_shares_of_at_most_one(single):

@@ -51,17 +51,48 @@ REFINE_PUSH = 1.06
 MIN_SPEED = 0.01
 
 
-def make_cruise(problem: Problem, reach: RowReach, profile: SpeedProfile, level: float, demand=None) -> Cruise:
+def make_cruise(problem: Problem, reach: RowReach, profile: SpeedProfile, level: float, demand=None,
+                hold: float = 0.0) -> Cruise:
     """The carriage's motion at ``level``: a constant cruise at ``level`` m/s, or a density
     profile whose speed on each metre of rail is ``level * n_arms / demand`` (within
-    [MIN_SPEED, the gantry's limit]; ``demand``: :func:`coplan.row.cruise.demand_stretches`)."""
+    [MIN_SPEED, the gantry's limit]; ``demand``: :func:`coplan.row.cruise.demand_stretches`);
+    first at rest where it starts for ``hold`` s (:func:`start_hold`)."""
     x1 = cruise_end(problem, reach)
     if SpeedProfile(profile) == SpeedProfile.CONSTANT:
-        return Cruise.of(problem, level, x1)
+        return Cruise.of(problem, level, x1, hold)
     demand = demand if demand is not None else demand_stretches(problem, reach, x1)
     vmax = problem.gantry.max_velocity
     n = len(problem.arms)
-    return Cruise.shaped(problem, [(x, float(min(vmax, max(MIN_SPEED, level * n / d)) if d > 0 else vmax)) for x, d in demand], x1)
+    return Cruise.shaped(problem, [(x, float(min(vmax, max(MIN_SPEED, level * n / d)) if d > 0 else vmax)) for x, d in demand], x1,
+                         hold)
+
+
+def start_hold(problem: Problem, reach: RowReach, fruit) -> float:
+    """How long the carriage rests where it starts so that the arms can pick ``fruit`` -- fruit
+    only the start serves, which a carriage that ramps up from rest at once leaves no time to be
+    picked in. Each fruit's cheapest cycle
+    (:func:`coplan.row.bound.cycle_bounds`, on an arm that serves it from the start) plus a
+    second for the arm's way out and the grid, each arm's summed; the busiest arm's total."""
+    from .bound import cycle_bounds
+
+    cost = cycle_bounds(problem)[0]
+    col = {f.id: k for k, f in enumerate(problem.fruits)}
+    load = np.zeros(len(problem.arms))
+    for fid in fruit:
+        arms = np.flatnonzero(reach.cover[fid][:, 0])  # the arms that serve it from the start
+        if arms.size == 0:
+            continue
+        c = cost[arms, col[fid]]
+        a = int(arms[np.argmin(np.where(np.isfinite(c), c + load[arms], np.inf))])
+        load[a] += (float(cost[a, col[fid]]) if np.isfinite(cost[a, col[fid]]) else 0.0) + 1.0
+    return float(load.max(initial=0.0))
+
+
+def _held_at_start(problem: Problem, reach: RowReach, res: RowResult) -> list[str]:
+    """Fruit a moving plan left out that only the carriage's start position serves (in file
+    order): no speed gives them a window, a carriage resting there first does."""
+    left = res.info.get("left_out") or {}
+    return [f for f in reach.harvestable() if f in left and reach.span(f)[1] == 0]
 
 
 def level_cap(problem: Problem, reach: RowReach, profile: SpeedProfile, demand=None) -> float:
@@ -119,6 +150,7 @@ class SpeedPoint:
     seconds: float
     refined: bool = False  # a density profile slowed where fruit were missed (:func:`_refine`)
     assign: str = AssignRule.GREEDY.value  # whose order the arms followed
+    start_hold: float = 0.0  # s the carriage first rested where it starts (:func:`start_hold`)
 
     @property
     def complete(self) -> bool:
@@ -129,7 +161,7 @@ class SpeedPoint:
                 "share_harvested": self.harvested / self.harvestable if self.harvestable else None,
                 "row_time": self.row_time, "fruit_per_hour": self.fruit_per_hour, "verified": self.verified,
                 "seconds": self.seconds, "refined": self.refined,
-                "assign": self.assign}
+                "assign": self.assign, "start_hold": self.start_hold}
 
 
 def _book(problem: Problem, reach: RowReach, cruise: Cruise, opts: MovingOptions, order=None,
@@ -157,8 +189,9 @@ def assemble_moving(problem: Problem, booker: Booker, cruise: Cruise) -> Plan:
 
 
 def plan_continuous(problem: Problem, level: float, options: MovingOptions | None = None, reach: RowReach | None = None,
-                    progress: Callable[[str], None] | None = None, demand=None) -> RowResult:
-    """Plan ``problem`` (a row) with the carriage at ``level`` (:func:`make_cruise`) and verify it."""
+                    progress: Callable[[str], None] | None = None, demand=None, hold: float = 0.0) -> RowResult:
+    """Plan ``problem`` (a row) with the carriage at ``level`` (:func:`make_cruise`; first at
+    rest where it starts for ``hold`` s) and verify it."""
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: plan it as a cell")
     opts = options or MovingOptions()
@@ -167,12 +200,12 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
     timings: dict[str, float] = {}
     reach = reach if reach is not None else row_reach(problem, opts.resolution)
     timings["reach"] = _time.perf_counter() - t0
-    cruise = make_cruise(problem, reach, opts.profile, level, demand)
+    cruise = make_cruise(problem, reach, opts.profile, level, demand, hold)
     ts = _time.perf_counter()
     booker, left = _book(problem, reach, cruise, opts)
     info: dict = {"mode": "continuous", "profile": SpeedProfile(opts.profile).value, "level": level,
                   "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.GREEDY.value,
-                  "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration}
+                  "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "start_hold": hold}
     if AssignRule(opts.assign) == AssignRule.CPSAT and left:
         from .assign import cpsat_order
 
@@ -208,7 +241,7 @@ def _verified(problem: Problem, booker: Booker, cruise: Cruise, reach: RowReach,
 
 
 def reorder_continuous(problem: Problem, level: float, options: MovingOptions, reach: RowReach, demand,
-                       events) -> tuple[RowResult | None, dict]:
+                       events, hold: float = 0.0) -> tuple[RowResult | None, dict]:
     """CP-SAT's order at ``level``, started from ``events`` (the greedy's booking at this level
     with these options, as :func:`plan_continuous` made it): the plan that order books, verified,
     if it leaves fewer fruit out (then ends sooner) than the greedy, else None (the greedy's plan
@@ -217,7 +250,7 @@ def reorder_continuous(problem: Problem, level: float, options: MovingOptions, r
     from .assign import cpsat_order
 
     t0 = _time.perf_counter()
-    cruise = make_cruise(problem, reach, options.profile, level, demand)
+    cruise = make_cruise(problem, reach, options.profile, level, demand, hold)
     windows = pick_windows(problem, reach, cruise, problem.task.pick_dwell)
     geometry = Booker(problem, cruise, windows, options.rate, options.margin, reach.resolution,
                       branch_table(problem, reach.resolution))  # nothing booked
@@ -233,7 +266,8 @@ def reorder_continuous(problem: Problem, level: float, options: MovingOptions, r
     report["kept"] = True
     info: dict = {"mode": "continuous", "profile": SpeedProfile(options.profile).value, "level": level,
                   "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.CPSAT.value,
-                  "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "cpsat": report}
+                  "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "cpsat": report,
+                  "start_hold": hold}
     return _verified(problem, booker, cruise, reach, left, info, {"reach": 0.0, "schedule": _time.perf_counter() - t0}, t0), report
 
 
@@ -284,7 +318,13 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
             vs = [round(float(min(cap, max(v, 1e-3))), 4) for v in vs]
             todo = [v for v in dict.fromkeys(vs) if v not in tried]
             for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
-                tried[v] = (res, _point(res, secs))
+                tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
+            if not runner.hold:  # fruit only the start serves, missed: every plan from here rests there first
+                held = sorted({f for v in todo for f in _held_at_start(problem, reach, tried[v][0])})
+                if held:
+                    runner.hold = start_hold(problem, reach, held)
+                    for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
+                        tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
             return [tried[v][1] for v in vs]
 
         if levels is not None:
@@ -328,7 +368,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
             for key, ((res, report), secs) in runner.collect():
                 cpsat_report = report
                 if res is not None:
-                    tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"]))
+                    tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"], start_hold=runner.hold))
     pts = [p for _, p in tried.values()]
     best = max(tried, key=lambda v: (tried[v][1].complete, tried[v][1].verified, tried[v][1].harvested,
                                      tried[v][1].fruit_per_hour))
@@ -348,7 +388,7 @@ def _refine(reach: RowReach, demand, level: float, tried: dict, runner: "_Runner
     for r in range(opts.refine_rounds + 1):
         if r > 0:
             [(res, secs)] = runner.map([v], opts, d)
-            p = replace(_point(res, secs), refined=True)
+            p = replace(_point(res, secs), refined=True, start_hold=runner.hold)
             tried[(v, r)] = (res, p)
             if p.complete:
                 v *= REFINE_PUSH
@@ -363,26 +403,29 @@ def _refine(reach: RowReach, demand, level: float, tried: dict, runner: "_Runner
             d = [(x, dk * REFINE_BUMP if x > lo and x - STRETCH < hi else dk) for x, dk in d]
 
 
-def _plan_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand) -> tuple[RowResult, float]:
+def _plan_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand,
+              hold: float = 0.0) -> tuple[RowResult, float]:
     """One full plan in a worker process (module-level: it is pickled to the worker)."""
     t = _time.perf_counter()
-    res = plan_continuous(problem, level, opts, reach, None, demand)
+    res = plan_continuous(problem, level, opts, reach, None, demand, hold)
     return res, _time.perf_counter() - t
 
 
-def _reorder_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand, events):
+def _reorder_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand, events, hold: float = 0.0):
     """:func:`reorder_continuous` in a worker process: ``((result or None, report), seconds)``."""
     t = _time.perf_counter()
-    out = reorder_continuous(problem, level, opts, reach, demand, events)
+    out = reorder_continuous(problem, level, opts, reach, demand, events, hold)
     return out, _time.perf_counter() - t
 
 
 class _Runner:
     """Full plans of the speed search, here (one worker) or in ``workers`` processes (the same
-    plans as here, each deterministic in its inputs: the same input and N give the same plan)."""
+    plans as here, each deterministic in its inputs: the same input and N give the same plan);
+    ``hold``: every plan's start hold (:func:`start_hold`)."""
 
     def __init__(self, problem: Problem, reach: RowReach, demand, workers: int, progress):
         self.problem, self.reach, self.demand, self.workers, self.progress = problem, reach, demand, workers, progress
+        self.hold = 0.0
         self.pool = None
         self.pending: list = []
 
@@ -410,19 +453,20 @@ class _Runner:
             out = []
             for v in levels:
                 t = _time.perf_counter()
-                out.append((plan_continuous(self.problem, v, opts, self.reach, self.progress, self._demand(demand)),
+                out.append((plan_continuous(self.problem, v, opts, self.reach, self.progress, self._demand(demand), self.hold),
                             _time.perf_counter() - t))
             return out
-        futures = [self.pool.submit(_plan_job, self.problem, v, opts, self.reach, self._demand(demand)) for v in levels]
+        futures = [self.pool.submit(_plan_job, self.problem, v, opts, self.reach, self._demand(demand), self.hold) for v in levels]
         return [f.result() for f in futures]
 
     def reorder(self, level: float, opts: MovingOptions, events, key=None) -> None:
         """:func:`reorder_continuous` at ``level`` from the greedy's ``events``, to collect later
         (:meth:`collect`): in the background with a second worker."""
         if self.pool is None:
-            self.pending.append((key, _reorder_job(self.problem, level, opts, self.reach, self.demand, events)))
+            self.pending.append((key, _reorder_job(self.problem, level, opts, self.reach, self.demand, events, self.hold)))
         else:
-            self.pending.append((key, self.pool.submit(_reorder_job, self.problem, level, opts, self.reach, self.demand, events)))
+            self.pending.append((key, self.pool.submit(_reorder_job, self.problem, level, opts, self.reach, self.demand, events,
+                                                       self.hold)))
 
     def collect(self) -> list:
         out = [(k, f if isinstance(f, tuple) else f.result()) for k, f in self.pending]
@@ -440,6 +484,12 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
     if opts.level is not None:
         res = plan_continuous(problem, opts.level, opts, reach, progress)
         curve = [_point(res, res.timings["planning"])]
+        held = _held_at_start(problem, reach, res)
+        if held:  # fruit only a carriage at rest where it starts can give time: once more, resting there first
+            again = plan_continuous(problem, opts.level, opts, reach, progress, None, start_hold(problem, reach, held))
+            curve.append(replace(_point(again, again.timings["planning"]), start_hold=again.info["start_hold"]))
+            if again.verification.passed and (again.plan.metrics.get("harvested") or 0) > (res.plan.metrics.get("harvested") or 0):
+                res = again
     else:
         res, curve = speed_search(problem, opts, reach, progress=progress)
     total = _time.perf_counter() - t0

@@ -66,17 +66,18 @@ class Cruise:
     phases: tuple  # ((t, x, v, a, j), ...) and a final rest phase
 
     @classmethod
-    def of(cls, problem: Problem, speed: float, x1: float) -> "Cruise":
-        """At one cruising ``speed`` from ``gantry.start`` to rest at ``x1``."""
-        return cls.shaped(problem, [(math.inf, speed)], x1)
+    def of(cls, problem: Problem, speed: float, x1: float, start_hold: float = 0.0) -> "Cruise":
+        """At one cruising ``speed`` from ``gantry.start`` to rest at ``x1`` (``start_hold``: see :meth:`shaped`)."""
+        return cls.shaped(problem, [(math.inf, speed)], x1, start_hold)
 
     @classmethod
-    def shaped(cls, problem: Problem, stretches, x1: float) -> "Cruise":
+    def shaped(cls, problem: Problem, stretches, x1: float, start_hold: float = 0.0) -> "Cruise":
         """``stretches``: ``[(x_end, speed), ...]`` or ``(x_end, speed, hold)`` in rail order:
         cruise at ``speed`` until the carriage reaches ``x_end`` (the next stretch's speed is
         reached by a ramp that starts there), the last until it must slow down to come to rest
         at ``x1``. A ``hold`` (s) > 0: at ``x_end`` the carriage ramps down to rest, waits that
-        long, and ramps up to the next stretch's speed."""
+        long, and ramps up to the next stretch's speed. ``start_hold`` (s): the carriage first rests
+        that long where it starts (fruit only the start serves are picked meanwhile)."""
         g = problem.gantry
         a, j = g.max_acceleration, g.max_jerk
         x1 = min(max(float(x1), g.start), g.end)
@@ -105,6 +106,7 @@ class Cruise:
             acc = 0.0
 
         top = max((v for _, v, _ in stretches), default=g.max_velocity)  # (none: a carriage that never leaves)
+        run(float(start_hold), 0.0)  # (at rest where it starts)
         for k, (x_end, vk, hold) in enumerate(stretches):
             # the stop must begin where a ramp from this speed to rest ends exactly at x1
             stop_at = x1 - vk * ramp_time(vk, 0.0, a, j) / 2
@@ -230,6 +232,14 @@ class Cruise:
         out = np.where(x <= self.x0 + 1e-12, 0.0, hi)
         return np.where(x > self.x1 + 1e-9, math.inf, out)
 
+    @property
+    def leaves_start(self) -> float:
+        """When the carriage first moves, s (0: at once; > 0 after a start hold)."""
+        for t0, _, v, a, j in self.phases:
+            if abs(v) > 1e-12 or abs(a) > 1e-12 or abs(j) > 1e-12:
+                return float(t0)
+        return math.inf  # (never: it rests where it starts for good)
+
     def arrivals(self) -> list[float]:
         """When the carriage comes to rest after a move, s (in time order; the start's rest is
         not one)."""
@@ -348,6 +358,8 @@ def pick_windows(problem: Problem, reach: RowReach, cruise: Cruise, dwell: float
                 runs.append((fid, a, c_lo, c_hi))
     t_lo = cruise.time_at(np.array([max(r[2], cruise.x0) for r in runs]))  # all at once: one vectorised bisection
     t_hi = cruise.time_at(np.array([r[3] for r in runs]))
+    # a run that ends where the carriage starts lasts while the carriage rests there (a start hold)
+    t_hi = np.where(np.array([r[3] for r in runs]) <= cruise.x0 + 1e-12, cruise.leaves_start, t_hi)
     out: dict[str, list[Window]] = {fid: [] for fid in reach.harvestable()}
     settle = problem.gantry.settle
     # no dwell within ``settle`` of the carriage coming to rest after a move (its vibration dies out)
