@@ -78,6 +78,17 @@ def test_on_the_move_a_fruit_only_the_start_serves_is_picked_while_the_carriage_
     assert plain.info["start_hold"] == 0.0 and plain.plan.gantry_x[1] > row.gantry.start
 
 
+def test_live_on_the_move_the_carriage_rests_where_it_starts_for_a_report_only_the_start_serves():
+    """Live, the camera reports at the start a fruit only the start position serves: the carriage
+    first rests there (as the offline plan, its reference, does), the fruit is picked, and the
+    executed plan is verified against the true fruit."""
+    far = [{"id": f"f{i}", "position": [3.0 + 0.7 * i, 1.0]} for i in range(8)]
+    row = _row([{"id": "edge", "position": [-3.45, 1.0]}] + far)
+    live = run_live_row(row, LiveRowOptions(seed=0, mode=GantryMode.CONTINUOUS, speed=0.2))
+    assert live.verification.passed and live.metrics["harvested"] == 9 and live.metrics["of_offline"] == 1.0
+    assert live.plan.gantry_x[live.plan.time <= 1.0].max() == row.gantry.start  # (resting where it starts)
+
+
 def test_on_the_move_a_carriage_that_need_not_move_gives_a_verified_plan_and_shares_of_at_most_one(single):
     res = plan_moving(single)  # (crashed: the speed profile had no stretch of rail)
     assert res.verification.passed and res.plan.metrics["harvested"] == 1

@@ -66,7 +66,7 @@ from ..plan import Event, EventKind, finalize_plan
 from ..problem.model import Fruit, Problem
 from .booking import why_left
 from .bound import row_bounds
-from .continuous import MovingOptions, assemble_moving, plan_continuous
+from .continuous import MovingOptions, assemble_moving, plan_moving, start_hold
 from .cruise import Cruise, pick_windows, ramp_time
 from .liverun import LiveRun
 from .livestops import last_stop, next_to_last, stop_share
@@ -123,10 +123,13 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
     if mode == GantryMode.CONTINUOUS:
         if not 0.0 < opts.speed <= g.max_velocity:
             raise ValueError(f"speed: expected a cruising speed in (0, {g.max_velocity:g}] m/s, found {opts.speed:g}")
-        offline = plan_continuous(problem, opts.speed, MovingOptions(profile=SpeedProfile.CONSTANT, assign=AssignRule.GREEDY,
-                                                                     margin=opts.margin), None, progress)
-        # the carriage does not know where the last fruit is: it cruises to the end of the rail
+        # (the offline plan at this speed rests where it starts first if fruit only the start serves need it)
+        offline = plan_moving(problem, MovingOptions(profile=SpeedProfile.CONSTANT, level=opts.speed, assign=AssignRule.GREEDY,
+                                                     margin=opts.margin), progress)
+        # the carriage does not know where the last fruit is: it cruises to the end of the rail --
+        # after a rest where it starts, as long as the reports then in view that only the start serves need
         cruise = Cruise.of(problem, opts.speed, g.end)
+        cruise = Cruise.of(problem, opts.speed, g.end, _start_hold_for(problem, reports, cruise))
         faults = FaultDraws(problem, opts, cruise.duration, cruise)
         run = LiveRun(problem, opts, reports + faults.burst, cruise, faults.dark)
         t0 = _time.perf_counter()
@@ -144,6 +147,20 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
     return _finish(problem, opts, run, faults, left, cruise, offline, planning, stops)
 
 
+def _start_hold_for(problem: Problem, reports: list[RowReport], cruise: Cruise) -> float:
+    """The rest where the carriage starts (:func:`coplan.row.continuous.start_hold`) for the
+    reports the camera makes before it moves that only the start position serves; 0 if none."""
+    seen = replace(problem, fruits=tuple(Fruit(r.id, r.position) for r in reports), name=f"{problem.name} (as seen)",
+                   source=None, digest=None)
+    times = report_times(reports, cruise)
+    at_start = [r.id for r in reports if times.get(r.id, math.inf) <= 0.0]
+    if not at_start:
+        return 0.0
+    reach = row_reach(seen, fruit_ids=at_start)
+    held = [f for f in at_start if f in reach.cover and reach.span(f)[1] == 0]
+    return start_hold(seen, reach, held) if held else 0.0
+
+
 def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, str]:
     """The row on the move: booked in phases of ``CHECK`` s, the carriage's motion changed at each
     fault that changes it (an arm stop: slower; the camera dark: a hold) and, with
@@ -157,6 +174,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
     n = len(problem.arms)
     holds: list[dict] = []
     held_for: dict[str, int] = {}  # report -> holds the carriage made for it
+    first = cruise.leaves_start if math.isfinite(cruise.leaves_start) else 0.0  # (a rest where it starts, kept by every change)
 
     def change(kind: str, t_c: float, risk: list[tuple[str, float]] | None = None) -> None:
         nonlocal cruise, stretches
@@ -191,7 +209,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
                 held_for[f] = held_for.get(f, 0) + 1
             stretches = stretches[:-1] + [(x_s, v, hold), (math.inf, v)]
             holds.append({"t": round(t_s, 3), "x": round(x_s, 4), "seconds": round(hold, 3), "for": [f for f, _ in risk]})
-        new = Cruise.shaped(problem, stretches, g.end)
+        new = Cruise.shaped(problem, stretches, g.end, first)
         ts = np.linspace(0.0, t_s, 2001)
         if float(np.max(np.abs(new.x(ts) - cruise.x(ts)))) > 1e-9:  # never: the change begins after t_s
             raise RuntimeError(f"the carriage's motion changed before t = {t_s:.2f} s")
