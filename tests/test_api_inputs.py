@@ -102,11 +102,11 @@ def test_the_facade_takes_a_generated_mapping_and_says_which_options_each_planne
     with pytest.raises(ValueError, match="allocation: a row's cells are allocated"):
         coplan.solve(row, allocation="makespan")
     # the cell planner of RowOptions is the one used (a new user's RowOptions(planner='optimal') was
-    # planned with the coordinated planner); given twice and different, refused
+    # planned with the coordinated planner); the planner argument, where given, wins (as stops= does)
     opt = coplan.solve(row, options=RowOptions(planner="optimal", cell_search_work=50))
     assert opt.plan.solver["row"]["cell_planner"] == "optimal" and opt.verification.passed
-    with pytest.raises(ValueError, match="planner: 'coordinated' disagrees with options.planner 'optimal'"):
-        coplan.solve(row, planner="coordinated", options=RowOptions(planner="optimal"))
+    both = coplan.solve(row, planner="optimal", options=RowOptions(workers=2, cell_search_work=50))  # (RowOptions' default planner)
+    assert both.plan.solver["row"]["cell_planner"] == "optimal" and both.plan.solver["row"]["workers"] >= 1
 
 
 # --------------------------------------------------------------------------- the command line's edges

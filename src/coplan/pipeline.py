@@ -160,12 +160,10 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     if mode != GantryMode.CONTINUOUS:
         # (auto: both modes, the stops' cells in as many processes as the speed search)
         opts = options if isinstance(options, RowOptions) else RowOptions(workers=getattr(options, "workers", 1))
+        # the arguments, where given, win over the options' fields (as stops=; the options' own otherwise)
         cell_planner = PlannerKind(planner) if planner is not None else PlannerKind(opts.planner)
         if cell_planner == PlannerKind.HEURISTIC:
             raise ValueError("planner: the course's heuristic plans a stationary cell, not a row; use coordinated or optimal")
-        if planner is not None and isinstance(options, RowOptions) and cell_planner != PlannerKind(options.planner):
-            raise ValueError(f"planner: {cell_planner.value!r} disagrees with options.planner {PlannerKind(options.planner).value!r}; "
-                             "give the row's cell planner once")
         opts = replace(opts, planner=cell_planner, stops=StopRule(stops or opts.stops))
         stopping = plan_row(prob, opts, progress)
     if mode == GantryMode.AUTO:
@@ -228,7 +226,8 @@ def solve(
     stops : a row (a problem with a gantry): the stop rule (``optimised`` by default, ``fixed``,
         ``fewest``); ``planner`` is then the cell planner at each stop (``coordinated`` by
         default: planning keeps ahead of the carriage; ``optimal`` gives each stop a search
-        budget) and ``options`` may be :class:`coplan.row.plan.RowOptions`
+        budget) and ``options`` may be :class:`coplan.row.plan.RowOptions` (``planner`` and
+        ``stops``, where given, win over its fields of the same name)
     gantry : a row: ``stop-and-go`` (default), ``continuous`` (pick on the move: ``options`` may
         be :class:`coplan.row.continuous.MovingOptions`; the speed is searched unless it gives one)
         or ``auto`` (both, each verified: the one with more fruit, then more fruit per hour)
