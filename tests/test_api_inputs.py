@@ -126,6 +126,23 @@ def test_compare_refuses_a_folder_of_rows_and_a_time_limit_on_a_row(row_file, tm
     assert not (tmp_path / "c").exists() and not (tmp_path / "c2").exists()
 
 
+def test_compare_on_a_row_sets_its_stop_rules_side_by_side_on_workers(row_file, tmp_path):
+    """``coplan compare ROW.yaml``: each stop rule planned, verified and written, the table in
+    compare.json; ``--workers 2`` plans each rule's cells in two processes (the same plans)."""
+    import json
+
+    r1 = runner.invoke(app, ["compare", str(row_file), "--json", "--out", str(tmp_path / "one")])
+    r2 = runner.invoke(app, ["compare", str(row_file), "--workers", "2", "--json", "--out", str(tmp_path / "two")])
+    assert r1.exit_code == 0 and r2.exit_code == 0, r1.output + r2.output
+    one, two = json.loads(r1.stdout), json.loads(r2.stdout)
+    assert one["format"] == "coplan.compare-rows/1" and [r["rule"] for r in one["rows"]] == ["optimised", "fixed", "fewest"]
+    assert all(r["verified"] and r["share_harvested"] == 1.0 for r in one["rows"] + two["rows"])
+    assert [(r["stops"], r["row_time"]) for r in one["rows"]] == [(r["stops"], r["row_time"]) for r in two["rows"]]
+    assert (tmp_path / "two" / "compare.json").is_file() and (tmp_path / "two" / "fixed" / "plan.json").is_file()
+    r = runner.invoke(app, ["compare", str(row_file), "--workers", "0", "--out", str(tmp_path / "bad")])
+    assert r.exit_code == 2 and "--workers: expected a whole number of processes" in r.output
+
+
 def test_feed_on_a_row_points_to_the_live_row(row_file, tmp_path):
     r = runner.invoke(app, ["feed", str(row_file), "--out", str(tmp_path / "f.yaml")])
     assert r.exit_code == 2 and "coplan run" in r.output and "--gantry stop-and-go" in r.output

@@ -369,6 +369,9 @@ def compare_cmd(
     options_file: Annotated[Optional[Path], typer.Option(
         "--options", help="Solver options (YAML) for the coordinated and optimal planners.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print compare.json's content instead of the tables.")] = False,
+    workers: Annotated[Optional[str], typer.Option(
+        metavar="N|auto", help="Processes each optimal solve's search runs in (a row: each stop rule's cells), as for "
+                               "coplan solve.")] = None,
     clearance_sweep: Annotated[bool, typer.Option(
         "--clearance-sweep", help="Instead: the makespan against the clearance asked for (the problem's, +10, +25, +50, "
         "+100 mm; --extra to choose), one planner (the first --planner, default optimal), every plan verified.")] = False,
@@ -387,6 +390,7 @@ def compare_cmd(
 
     source = _resolve_problem(problems)
     refuse_rows_in_compare(source, time_limit, options_file)
+    n_workers = _check_workers(workers)
     if clearance_sweep:
         from .clearance import clearance_sweep
 
@@ -401,7 +405,7 @@ def compare_cmd(
         if prob.gantry is not None:  # a row: its stop rules side by side
             from .row import compare_row
 
-            raise typer.Exit(int(compare_row(prob, planner, out, as_json, out_console, err_console)))
+            raise typer.Exit(int(compare_row(prob, planner, out, as_json, out_console, err_console, n_workers)))
     try:
         specs = [PlannerSpec.parse(p) for p in (planner or DEFAULT_PLANNERS)]
     except ValueError as e:
@@ -409,6 +413,12 @@ def compare_cmd(
     _check_time_limit(time_limit)
     failures.check_out_dir(out)
     options = _solver_options(options_file, time_limit, any(s.planner != PlannerKind.HEURISTIC for s in specs))
+    if n_workers is not None and any(s.planner == PlannerKind.OPTIMAL for s in specs):
+        from dataclasses import replace
+
+        from ..planners.optimal.planner import OptimalOptions
+
+        options = replace(options or OptimalOptions(), workers=n_workers)
     hint = _budget_hint(PlannerKind.OPTIMAL, time_limit) if any(s.planner == PlannerKind.OPTIMAL for s in specs) else None
     with ProgressDisplay(err_console, quiet=as_json, hint=hint) as say:
         cmp = compare(source, specs, out, figures=figures, options=options, progress=say)

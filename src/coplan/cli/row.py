@@ -62,7 +62,7 @@ def check_row(prob, path: Path, as_json: bool, out_console) -> ExitCode:
     return ExitCode.PARTIAL if set(row_reachable_ids(prob)) - set(reach.cover) else ExitCode.OK
 
 
-def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_console) -> ExitCode:
+def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_console, workers: int | None = None) -> ExitCode:
     """``coplan compare ROW.yaml``: the stop rules side by side (:func:`coplan.report.rows.compare_rows`)."""
     from rich.table import Table
 
@@ -77,7 +77,7 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
             return ExitCode.USAGE
         cell = PlannerKind(planner[0])
     with ProgressDisplay(err_console, quiet=as_json) as say:
-        cmp = compare_rows(prob, out, planner=cell, progress=say)
+        cmp = compare_rows(prob, out, planner=cell, progress=say, workers=workers)
     if as_json:
         out_console.print(strict_json(cmp.to_dict()), markup=False, highlight=False)
     else:

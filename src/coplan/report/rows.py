@@ -38,8 +38,9 @@ class RowComparison:
 
 
 def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), planner: PlannerKind | str | None = None,
-                 progress=None) -> RowComparison:
-    """Plan ``problem`` (a row) with each of ``rules``; write each run and the comparison."""
+                 progress=None, workers: int | None = None) -> RowComparison:
+    """Plan ``problem`` (a row) with each of ``rules``; write each run and the comparison
+    (``workers``: each rule's stops' cells in that many processes, :class:`coplan.row.plan.RowOptions`)."""
     from ..pipeline import solve
 
     say, tick = speaker(progress), ticker(progress)
@@ -50,7 +51,12 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     for i, rule in enumerate(rules):
         tick(Tick("compare", i, len(rules), "stop rules", note=rule.value))
         say(f"{problem.name}: stops {rule.value}")
-        res = solve(problem, planner=planner, out_dir=out / rule.value, progress=nested(progress), stops=rule)
+        options = None
+        if workers is not None:
+            from ..row.plan import RowOptions
+
+            options = RowOptions(workers=workers)
+        res = solve(problem, planner=planner, out_dir=out / rule.value, progress=nested(progress), stops=rule, options=options)
         m = res.plan.metrics.get("row") or {}
         cmp.rows.append({"rule": rule.value, "stops": m.get("stops"), "row_time": m.get("row_time"),
                          "fruit_per_hour": m.get("fruit_per_hour"), "share_harvested": m.get("share_harvested"),
