@@ -502,8 +502,11 @@ def test_gantry_auto_keeps_the_better_verified_mode(row):
 
 
 def test_the_speed_search_on_two_workers_gives_the_same_plan_each_time(row, reach):
-    one = speed_search(row, MovingOptions(search_rounds=4, refine_rounds=1, workers=2), reach)[0]
+    lines: list[str] = []
+    one, curve = speed_search(row, MovingOptions(search_rounds=4, refine_rounds=1, workers=2), reach, progress=lines.append)
     two = speed_search(row, MovingOptions(search_rounds=4, refine_rounds=1, workers=2), reach)[0]
+    # every plan the workers made is reported, as in one process (the workers cannot reach the callback)
+    assert sum(ln.startswith("row on the move") for ln in lines) == len([p for p in curve if p.assign == "greedy"]) > 0
     assert one.verification.passed and two.verification.passed
     assert [(e.arm, e.fruit, e.t_start) for e in one.plan.events] == [(e.arm, e.fruit, e.t_start) for e in two.plan.events]
     assert one.info["level"] == two.info["level"]

@@ -216,9 +216,15 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
                 booker, left, info["assign"] = b2, left2, AssignRule.CPSAT.value
     timings["schedule"] = _time.perf_counter() - ts
     res = _verified(problem, booker, cruise, reach, left, info, timings, t0)
-    say(f"row on the move ({info['profile']}, {cruise.mean_speed:.3f} m/s on average): {res.plan.metrics.get('harvested')} fruit, "
-        f"makespan {res.plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
+    say(_planned_line(res))
     return res
+
+
+def _planned_line(res: RowResult) -> str:
+    """The progress line of one plan on the move (here, or sent on by the parent of a worker)."""
+    return (f"row on the move ({res.info['profile']}, {res.info['mean_speed']:.3f} m/s on average): "
+            f"{res.plan.metrics.get('harvested')} fruit, makespan {res.plan.metrics.get('makespan', 0.0):.2f} s, "
+            f"planned in {res.timings['planning']:.2f} s")
 
 
 def _verified(problem: Problem, booker: Booker, cruise: Cruise, reach: RowReach, left: dict, info: dict, timings: dict,
@@ -457,7 +463,10 @@ class _Runner:
                             _time.perf_counter() - t))
             return out
         futures = [self.pool.submit(_plan_job, self.problem, v, opts, self.reach, self._demand(demand), self.hold) for v in levels]
-        return [f.result() for f in futures]
+        out = [f.result() for f in futures]
+        for res, _ in out:  # (a worker cannot reach the caller's progress: its lines come from here)
+            speaker(self.progress)(_planned_line(res))
+        return out
 
     def reorder(self, level: float, opts: MovingOptions, events, key=None) -> None:
         """:func:`reorder_continuous` at ``level`` from the greedy's ``events``, to collect later
