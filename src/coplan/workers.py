@@ -9,7 +9,7 @@ import os
 
 from .errors import Issue, OptionsError, found
 
-__all__ = ["MAX_WORKERS", "cores", "default_workers", "workers_issue", "settle_workers"]
+__all__ = ["MAX_WORKERS", "cores", "default_workers", "workers_issue", "settle_workers", "mp_context", "process_pool"]
 
 #: The most processes one run may ask for: a typo such as 2000 is refused, not started.
 MAX_WORKERS = 256
@@ -45,3 +45,22 @@ def settle_workers(obj, name: str = "workers") -> None:
     if msg is not None:
         raise OptionsError([Issue(name, msg)], type(obj).__name__)
     object.__setattr__(obj, name, default_workers() if isinstance(v, str) else int(v))
+
+
+def mp_context():
+    """The multiprocessing context coplan's workers start in: fork on Linux (nothing to
+    re-import; what the parent computed is inherited), spawn elsewhere."""
+    import multiprocessing
+    import sys
+
+    return multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
+
+
+def process_pool(workers: int):
+    """A ``ProcessPoolExecutor`` of ``workers`` processes in :func:`mp_context`, or None for
+    one (the work then runs in this process)."""
+    if workers <= 1:
+        return None
+    from concurrent.futures import ProcessPoolExecutor
+
+    return ProcessPoolExecutor(max_workers=workers, mp_context=mp_context())

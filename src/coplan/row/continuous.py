@@ -35,7 +35,7 @@ from ..kinds import AssignRule, PlannerKind, PlanStatus, SpeedProfile
 from ..plan import DEFAULT_RATE, EventKind, Plan, compute_metrics, finalize_plan
 from ..problem.model import Problem
 from ..progress import speaker
-from ..workers import settle_workers
+from ..workers import process_pool, settle_workers
 from .booking import Booker, branch_table, run_policy, screen_branches
 from .cruise import STRETCH, Cruise, cruise_end, demand_stretches, pick_windows
 from .plan import RowResult
@@ -88,7 +88,7 @@ def start_hold(problem: Problem, reach: RowReach, fruit) -> float:
     return float(load.max(initial=0.0))
 
 
-def _held_at_start(problem: Problem, reach: RowReach, res: RowResult) -> list[str]:
+def _held_at_start(reach: RowReach, res: RowResult) -> list[str]:
     """Fruit a moving plan left out that only the carriage's start position serves (in file
     order): no speed gives them a window, a carriage resting there first does."""
     left = res.info.get("left_out") or {}
@@ -326,7 +326,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
             for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
                 tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
             if not runner.hold:  # fruit only the start serves, missed: every plan from here rests there first
-                held = sorted({f for v in todo for f in _held_at_start(problem, reach, tried[v][0])})
+                held = sorted({f for v in todo for f in _held_at_start(reach, tried[v][0])})
                 if held:
                     runner.hold = start_hold(problem, reach, held)
                     for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
@@ -436,15 +436,7 @@ class _Runner:
         self.pending: list = []
 
     def __enter__(self) -> "_Runner":
-        if self.workers > 1:
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor
-
-            import sys
-
-            # as the optimal planner's portfolio: fork on Linux (no re-import), spawn elsewhere
-            ctx = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
-            self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+        self.pool = process_pool(self.workers)
         return self
 
     def __exit__(self, *exc) -> None:
@@ -493,7 +485,7 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
     if opts.level is not None:
         res = plan_continuous(problem, opts.level, opts, reach, progress)
         curve = [_point(res, res.timings["planning"])]
-        held = _held_at_start(problem, reach, res)
+        held = _held_at_start(reach, res)
         if held:  # fruit only a carriage at rest where it starts can give time: once more, resting there first
             again = plan_continuous(problem, opts.level, opts, reach, progress, None, start_hold(problem, reach, held))
             curve.append(replace(_point(again, again.timings["planning"]), start_hold=again.info["start_hold"]))

@@ -357,9 +357,9 @@ def pick_windows(problem: Problem, reach: RowReach, cruise: Cruise, dwell: float
                     continue  # the carriage never passes there
                 runs.append((fid, a, c_lo, c_hi))
     t_lo = cruise.time_at(np.array([max(r[2], cruise.x0) for r in runs]))  # all at once: one vectorised bisection
-    t_hi = cruise.time_at(np.array([r[3] for r in runs]))
-    # a run that ends where the carriage starts lasts while the carriage rests there (a start hold)
-    t_hi = np.where(np.array([r[3] for r in runs]) <= cruise.x0 + 1e-12, cruise.leaves_start, t_hi)
+    c_his = np.array([r[3] for r in runs])
+    # (a run that ends where the carriage starts lasts while the carriage rests there: a start hold)
+    t_hi = np.where(c_his <= cruise.x0 + 1e-12, cruise.leaves_start, cruise.time_at(c_his))
     out: dict[str, list[Window]] = {fid: [] for fid in reach.harvestable()}
     settle = problem.gantry.settle
     # no dwell within ``settle`` of the carriage coming to rest after a move (its vibration dies out)

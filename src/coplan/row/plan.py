@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import Issue, OptionsError, check_fields
-from ..workers import cores, settle_workers
+from ..workers import cores, process_pool, settle_workers
 from ..kinds import PlannerKind, PlanStatus, StopRule
 from ..kinematics.timing import Move1D
 from ..plan import DEFAULT_RATE, Event, EventKind, Plan, compute_metrics, finalize_plan
@@ -118,21 +118,6 @@ def _cell_job(cell: Problem, opts: RowOptions) -> tuple[Plan, float]:
     return _cell_plan(cell, opts), _time.perf_counter() - t
 
 
-def _pool(workers: int):
-    """Processes for the stops' cells, or None for one process (as the continuous mode's speed
-    search and the optimal planner's portfolio: fork on Linux, no re-import; spawn elsewhere).
-    ``workers`` is at most this machine's cores (:func:`coplan.workers.cores`: more would only
-    queue; the plan does not depend on it)."""
-    if workers <= 1:
-        return None
-    import multiprocessing
-    import sys
-    from concurrent.futures import ProcessPoolExecutor
-
-    ctx = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
-    return ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
-
-
 def plan_row(problem: Problem, options: RowOptions | None = None, progress: Callable[[str], None] | None = None) -> RowResult:
     """Plan ``problem`` (a row: it has a gantry) end to end and verify it (module docstring).
     The row's figures: :func:`coplan.row.metrics.row_metrics` (see :class:`RowResult`)."""
@@ -153,8 +138,8 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     planned: list[StopPlan] = []
     first_stop_at: list[float] = []
     pending: list[tuple] = []  # (stop, future, when it was ready) with workers
-    workers = min(int(opts.workers), cores())
-    pool = _pool(workers)
+    workers = min(int(opts.workers), cores())  # (more would only queue: the plan does not depend on it)
+    pool = process_pool(workers)
 
     def landed(s: Stop, p: Plan, ready: float, seconds: float) -> None:
         planned.append(StopPlan(s, p, ready=ready, seconds=seconds))

@@ -19,15 +19,13 @@ the start are inherited) and spawned elsewhere (each worker then imports coplan 
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import queue as _queue
-import sys
 import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from ...problem.model import Problem
-from ...workers import default_workers
+from ...workers import default_workers, mp_context
 from ..coordinated.candidate import Coordinated
 from .search import SearchOptions, SearchStats, StopReason, improve
 
@@ -70,10 +68,6 @@ def _worker(w: int, problem: Problem, start: Coordinated, bound: float, margin: 
         out.put(("error", w, f"{type(e).__name__}: {e}"))
 
 
-def _context():
-    return mp.get_context("fork" if sys.platform.startswith("linux") else "spawn")
-
-
 def search_portfolio(problem: Problem, start: Coordinated, bound: float, margin: float, options: SearchOptions,
                      workers: int, on_improve: Callable[[Coordinated], None] | None = None,
                      deadline: float | None = None, anchor=None,
@@ -87,7 +81,7 @@ def search_portfolio(problem: Problem, start: Coordinated, bound: float, margin:
     """
     if workers < 1:
         raise ValueError(f"expected workers >= 1, found {workers}")
-    ctx = _context()
+    ctx = mp_context()
     out = ctx.Queue()
     seconds = None if deadline is None else max(0.0, deadline - _time.perf_counter())
     procs = []
@@ -167,7 +161,7 @@ class Alongside:
     for it. The same input and options give the same result as in this process."""
 
     def __init__(self, problem: Problem, allocation, options) -> None:
-        ctx = _context()
+        ctx = mp_context()
         self._out = ctx.Queue()
         self._proc = ctx.Process(target=_coordinated_worker, args=(problem, allocation, options, self._out), daemon=True)
         self._proc.start()
