@@ -90,6 +90,9 @@ class OptimalOptions:
     widen_cap : the most extra room (m) the widening asks for
     widen_iterations : IPOPT iterations the widening may spend over all its solves
     widen_knots : plans whose knot grid is longer are not widened (one program over the whole plan)
+    widen_ease : the widening program starts from each arm's rest spread over its moves
+        (:mod:`coplan.planners.optimal.ease`; should it give nothing to keep, the program is
+        solved again from the plan's own schedules)
     tolerance : a makespan this close to the lower bound (s) is proven optimal
     screen : initial NLP constraint points where the schedule's links are within this (m)
     screen_shift : ... also when one arm of a pair runs up to this much (s) earlier or later
@@ -131,6 +134,7 @@ class OptimalOptions:
     widen_cap: float = 0.10
     widen_iterations: int = 300
     widen_knots: int = 600
+    widen_ease: bool = True
     tolerance: float = 1e-3
     screen: float = 0.25
     h_target: float = 0.06

@@ -489,12 +489,15 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     when it is verified, harvests as much, is no slower and its certified margin is no smaller.
     Where the program with free timing leaves less certified room than the goal (twice the
     margin, at most ``widen_goal``) or no candidate, the program with every knot time held is
-    solved on the iterations left (``retry`` in the report) and the better candidate kept.
+    solved on the iterations left (``retry`` in the report) and the better candidate kept. The
+    programs start from the eased schedules (:func:`coplan.planners.optimal.ease.ease`: each
+    arm's rest spread over its moves); should they give nothing to keep, the program is solved
+    once more from the incumbent's own (``uneased`` in the report).
     Returns the stage's report (plan.json ``solver.widen``)."""
     from .widen import WidenOptions, widen as widen_schedules
 
     wopts = WidenOptions(cap=opts.widen_cap, iterations=opts.widen_iterations, max_knots=opts.widen_knots,
-                         h_target=opts.h_target)
+                         h_target=opts.h_target, ease=opts.widen_ease)
     before = inc.plan
     margin0 = before.verification["margin"]
     jerk0 = {a: v.get("rms_jerk") for a, v in before.metrics.get("per_arm", {}).items()}
@@ -520,18 +523,12 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
             and (best is None or best[2] < want)):
         say(f"widen: free timing {'left less room than the goal' if best is not None else 'gave no plan to keep'}; "
             "solving again with every knot time held")
-        retry = widen_schedules(problem, inc.candidate.alloc, inc.candidate.schedules, inc.makespan,
-                                replace(wopts, h_bounds=(1.0, 1.0), iterations=left), deadline, say)
-        again = dict(retry.info)
-        other = _judged(problem, inc, retry, again, say)
-        info["retry"] = {k: again.get(k) for k in ("status", "iterations", "room", "dense_room", "verified", "margin", "reason")}
-        info["rounds"] = info.get("rounds", []) + again.get("rounds", [])
-        info["iterations"] = info.get("iterations", 0) + again.get("iterations", 0)
-        info["wall_seconds"] = info.get("wall_seconds", 0.0) + again.get("wall_seconds", 0.0)
-        if other is not None and (best is None or other[2] > best[2]):
-            best = other
-            info.update({k: again[k] for k in ("status", "room", "dense_room", "points", "verified", "margin", "makespan", "rms_jerk")
-                         if k in again})
+        best = _again(problem, inc, replace(wopts, h_bounds=(1.0, 1.0), iterations=left), "retry", info, best,
+                      widen_schedules, deadline, say)
+    if best is None and (info.get("ease") or {}).get("arms") and (deadline is None or _time.perf_counter() < deadline):
+        # the program from the eased schedules gave nothing to keep: once more from the plan's own
+        say("widen: nothing to keep from the eased schedules; solving again from the plan's own")
+        best = _again(problem, inc, replace(wopts, ease=False), "uneased", info, best, widen_schedules, deadline, say)
     if best is None:
         return info
     plan, ver, margin = best
@@ -540,6 +537,24 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     info.pop("reason", None)
     say(f"widen: certified margin {1000 * margin0:.1f} -> {1000 * margin:.1f} mm at {plan.metrics['makespan']:.4f} s")
     return info
+
+
+def _again(problem: Problem, inc: Incumbent, wopts, key: str, info: dict, best, widen_schedules, deadline, say):
+    """One more widening program (``wopts``) on the incumbent's schedules, judged; its report
+    under ``info[key]``, its rounds, iterations and time added to the stage's. Returns the
+    better of ``best`` and its candidate (more certified margin), ``info`` updated to it."""
+    res = widen_schedules(problem, inc.candidate.alloc, inc.candidate.schedules, inc.makespan, wopts, deadline, say)
+    again = dict(res.info)
+    other = _judged(problem, inc, res, again, say)
+    info[key] = {k: again.get(k) for k in ("status", "iterations", "room", "dense_room", "verified", "margin", "reason")}
+    info["rounds"] = info.get("rounds", []) + again.get("rounds", [])
+    info["iterations"] = info.get("iterations", 0) + again.get("iterations", 0)
+    info["wall_seconds"] = info.get("wall_seconds", 0.0) + again.get("wall_seconds", 0.0)
+    if other is None or (best is not None and other[2] <= best[2]):
+        return best
+    info.update({k: again[k] for k in ("status", "room", "dense_room", "points", "verified", "margin", "makespan", "rms_jerk")
+                 if k in again})
+    return other
 
 
 def _judged(problem: Problem, inc: Incumbent, res, info: dict, say):

@@ -42,6 +42,7 @@ from ...problem.model import Problem
 from ...ties import quantised
 from ..coordinated.planner import make_plan
 from ..coordinated.schedule import ArmSchedule, StepKind
+from .ease import ease
 from .nlp import build_nlp
 from .nlp_data import ConstraintPoint, NLPSolution, SolverStatus, WidenGoal, build_grid, knot_events
 from .nlp_solve import solve_nlp
@@ -72,6 +73,7 @@ class WidenOptions:
         more than this and it has all the room the start had (the verifier then judges it; at
         IPOPT's own 1e-7, four of the benchmark's 30 layouts were left at 31-40 mm whose
         iterates at the cap, 3.9e-7 and 5e-7 off where printed, had 65-98 mm and were verified)
+    ease : start from :func:`ease`'s schedules (each arm's rest spread over its moves)
     """
 
     cap: float = 0.10
@@ -87,6 +89,7 @@ class WidenOptions:
     least: float = 0.002
     feasible: float = 1e-6
     weight: float | None = None
+    ease: bool = True
     ipopt: dict = field(default_factory=dict)
 
 
@@ -272,6 +275,10 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     if not problem.neighbour_pairs():
         info["reason"] = "no neighbouring arms: nothing to widen"
         return WidenResult(None, info)
+    # (not with an arm that has no work: it moves aside on held knot times, and from eased
+    # schedules that program was infeasible on locked_arms)
+    if opts.ease and all(s.steps for s in schedules.values()):
+        schedules, info["ease"] = ease(problem, schedules, makespan, opts.cap)
     grid = build_grid(schedules, opts.h_target)
     info["knots"] = grid.K + 1
     if grid.K + 1 > opts.max_knots:
