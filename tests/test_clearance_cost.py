@@ -44,3 +44,32 @@ def test_the_command_line_sweep_and_its_usage_errors(tmp_path):
     neg = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--clearance-sweep", "--extra", "-5",
                               "-o", str(tmp_path / "c")])
     assert neg.exit_code == 2 and "0 to 1000 mm" in neg.output
+
+
+def test_an_interrupted_sweep_keeps_the_levels_that_finished_and_says_so(tmp_path, monkeypatch):
+    """Ctrl-C (or SIGTERM) during a level: the planner returns its incumbent marked interrupted;
+    the sweep stops there, writes the finished levels only, with a note, and raises the
+    interruption (the command then exits 130 / 143) -- the cut-short level is not a row."""
+    import pytest
+
+    import coplan.pipeline as pipeline
+    from coplan.kinds import PlanStatus
+
+    real = pipeline.solve
+    calls = []
+
+    def solve(problem, **kw):
+        res = real(problem, **kw)
+        calls.append(problem.task.clearance)
+        if len(calls) == 2:
+            res.plan.status = PlanStatus.INTERRUPTED
+        return res
+
+    monkeypatch.setattr(pipeline, "solve", solve)
+    with pytest.raises(KeyboardInterrupt):
+        clearance_cost(_path("crossing_paths"), tmp_path, (0, 10, 25), "coordinated", figures=False)
+    assert len(calls) == 2  # the third level never ran
+    doc = json.loads((tmp_path / "clearance.json").read_text())
+    assert [r["extra_mm"] for r in doc["rows"]] == [0.0]
+    assert "interrupted at +10 mm" in doc["notes"][0] and "1 of 3" in doc["notes"][0]
+    assert "interrupted at +10 mm" in (tmp_path / "clearance.md").read_text()

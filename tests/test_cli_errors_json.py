@@ -87,8 +87,9 @@ def test_bad_plan_file_with_json(single_arm, tmp_path):
     assert err["found"].startswith("a syntax error")
 
 
-def test_usage_error_inside_a_command_with_json(single_arm, tmp_path):
-    res = run("solve", str(single_arm.source), "--time-limit", "-1", "--out", str(tmp_path), "--json")
+@pytest.mark.parametrize("limit", ["-1", "inf"])
+def test_usage_error_inside_a_command_with_json(single_arm, tmp_path, limit):
+    res = run("solve", str(single_arm.source), "--time-limit", limit, "--out", str(tmp_path), "--json")
     assert res.exit_code == ExitCode.USAGE
     doc = one_document(res)
     assert doc["error"] == "usage" and "--time-limit" in doc["errors"][0]["message"]

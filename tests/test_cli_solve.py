@@ -150,3 +150,19 @@ def test_verifying_a_row_plan_against_another_row_says_so_first_and_counts_what_
     assert "another problem" in head[verdict + 1] and "'sparse-row'" in head[verdict + 1]
     m = re.search(r"not harvested: (\d+) fruit: ((?:f\d+, ){9}f\d+) and (\d+) more\)", head[verdict])
     assert m and int(m.group(1)) == 10 + int(m.group(3)), head[verdict]
+
+
+def test_a_failed_verdict_names_the_violations_that_fail_it_before_what_is_left(tmp_path: Path) -> None:
+    """A plan whose pick names a fruit the problem does not have: the headline says FAILED with
+    the violations by kind (what fails it), not only the fruit left (a warning)."""
+    r = CliRunner().invoke(app, ["solve", "single_arm", "--planner", "coordinated", "-o", str(tmp_path / "s")])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((tmp_path / "s" / "plan.json").read_text())
+    for e in doc["events"]:
+        e["fruit"] = "nope"
+    (tmp_path / "bad.json").write_text(json.dumps(doc))
+    r = CliRunner(env={"COLUMNS": "400"}).invoke(app, ["verify", "single_arm", str(tmp_path / "bad.json")])
+    assert r.exit_code != 0
+    head = next(line for line in r.output.splitlines() if line.startswith("single-arm -- "))
+    assert "FAILED (" in head and "unknown_fruit" in head, head
+    assert head.index("unknown_fruit") < head.index("not harvested"), head

@@ -52,6 +52,20 @@ def test_bad_feed_rows_give_key_path_errors_with_lines() -> None:
     assert "expected a value, found nothing (required field)" in text
 
 
+@pytest.mark.parametrize("parse, text, want", [
+    ("feed", "", "expected a mapping with key 'detections' (a coplan.feed/1 file); found an empty file"),
+    ("sweep", "# nothing\n", "expected a mapping with keys base, vary, planner, ...; found an empty file"),
+])
+def test_an_empty_feed_or_sweep_file_is_named_as_what_it_should_be(parse, text, want) -> None:
+    """Each kind of YAML file says what it should hold when it is empty (not a problem file's keys)."""
+    from coplan.sweep.spec import SweepError, parse_sweep
+
+    fn, err = (parse_feed, FeedError) if parse == "feed" else (parse_sweep, SweepError)
+    with pytest.raises(err) as e:
+        fn(text, "empty.yaml")
+    assert want in str(e.value) and "name, arms" not in str(e.value)
+
+
 def test_duplicate_ids_and_unknown_fruit_are_reported(greenhouse) -> None:
     with pytest.raises(FeedError) as e:
         parse_feed("detections:\n  - {t: 0, id: a, position: [0, 1], sigma: 0.01}\n"

@@ -458,7 +458,8 @@ def test_coplan_run_prints_its_faults_and_holds_in_words(tmp_path):
     assert (f"the carriage held {holds} time" in res.output) == (holds > 0)
 
 
-@pytest.mark.parametrize("option, value, words", [("--look-ahead", "-1", "expected a number in [0, 100] m, found -1"),
+@pytest.mark.parametrize("option, value, words", [("--look-ahead", "-1", "expected a number in (0, 100] m, found -1"),
+                                                   ("--look-ahead", "0", "expected a number in (0, 100] m, found 0"),
                                                    ("--sigma", "nan", "expected a number in [0, 1] m, found nan"),
                                                    ("--false-rate", "2", "expected a number in [0, 1], found 2"),
                                                    ("--late-replan", "inf", "expected a number in [0, 3600] s, found inf")])

@@ -138,6 +138,9 @@ def test_bad_problems_are_rows_with_exit_class_bad_input(tmp_path, problems_dir)
         assert (r["status"], r["exit_class"], r["exit_code"]) == ("bad input", "bad input", int(ExitCode.BAD_INPUT))
         assert name in r["message"]
     assert "links" in rows["b_bad.yaml"]["message"] and "UTF-8" in rows["c_not_utf8.yaml"]["message"]
+    # the command says so in its exit code, as compare does (here resumed: every row already done)
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(tmp_path / "files.yaml"), "--out", str(tmp_path / "out")])
+    assert r.exit_code == int(ExitCode.BAD_INPUT) and "2 problems of the sweep are invalid" in r.output, r.output
 
 
 def test_solve_item_turns_errors_into_rows_without_a_cluster():
@@ -297,6 +300,16 @@ def test_sweep_report_counts_medians_and_figures(small_run, tmp_path):
         assert rep.files[k].exists() and rep.files[k].stat().st_size > 0
     r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep-report", str(out), "--out", str(tmp_path / "r2"), "--no-figures"])
     assert r.exit_code == 0 and "success 6" in r.output and (tmp_path / "r2" / "report.md").exists()
+
+
+def test_sweep_report_refuses_a_folder_that_is_not_a_sweep(tmp_path):
+    """A folder with neither results.parquet nor the journal: exit 2 and nothing written in it."""
+    (tmp_path / "a.yaml").write_text("name: x\n")
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep-report", str(tmp_path)])
+    assert r.exit_code == 2 and "results.parquet" in r.output, r.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.yaml"]
+    with pytest.raises(FileNotFoundError, match="neither"):
+        sweep_report(tmp_path)
 
 
 def test_every_generated_base_expands_to_valid_problems_or_a_bad_input_item():

@@ -290,6 +290,8 @@ def test_cli_plot_defaults_and_errors(tmp_path, saved, greenhouse):
     assert (saved["single"].parent / "plan_gantt.png").exists()
     r = run("plot", str(greenhouse.source), "--kind", "workspace", "--arm", "left", "--out", str(tmp_path / "w.svg"))
     assert r.exit_code == 0 and (tmp_path / "w.svg").read_text().lstrip().startswith("<?xml")
+    r = run("plot", "sparse_row.yaml", "--kind", "workspace", "--out", str(tmp_path / "row.png"))
+    assert r.exit_code == 2 and "expected a stationary cell" in r.output and not (tmp_path / "row.png").exists()
     assert run("plot", str(tmp_path / "missing.json")).exit_code == 3
     assert run("plot", str(saved["greenhouse"]), "--kind", "joints", "--arm", "nobody").exit_code == 2
     assert run("plot", str(saved["greenhouse"]), "--out", str(tmp_path / "x.nope")).exit_code == 2

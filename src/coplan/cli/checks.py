@@ -20,13 +20,15 @@ def fail(code: ExitCode, message: str):
     raise failures.Failure(code, message)
 
 
-def between(lo: float, hi: float = math.inf, unit: str = ""):
+def between(lo: float, hi: float = math.inf, unit: str = "", above: bool = False):
     """An option's check (``typer.Option(callback=between(...))``): a finite number in
-    ``[lo, hi]`` (``unit`` said with it), else a usage error that says what was expected and
-    what was found (NaN included), not the bare bound typer's own ``min``/``max`` print."""
+    ``[lo, hi]`` (``above``: in ``(lo, hi]``; ``unit`` said with it), else a usage error that
+    says what was expected and what was found (NaN included), not the bare bound typer's own
+    ``min``/``max`` print."""
     def check(value: float) -> float:
-        if value is not None and not (math.isfinite(value) and lo <= value <= hi):
-            want = f"in [{lo:g}, {hi:g}]" if math.isfinite(hi) else f">= {lo:g}"
+        if value is not None and not (math.isfinite(value) and (lo < value if above else lo <= value) and value <= hi):
+            want = (f"in {'(' if above else '['}{lo:g}, {hi:g}]" if math.isfinite(hi)
+                    else f"{'>' if above else '>='} {lo:g}")
             raise typer.BadParameter(f"expected a number {want}{' ' + unit if unit else ''}, found {value:g}")
         return value
     return check
@@ -40,7 +42,7 @@ def strict_json(doc) -> str:
 
 
 def check_time_limit(time_limit: Optional[float]) -> None:
-    if time_limit is not None and not time_limit > 0:
+    if time_limit is not None and not (math.isfinite(time_limit) and time_limit > 0):
         fail(ExitCode.USAGE, f"--time-limit: expected a positive number of seconds, found {time_limit}")
 
 

@@ -519,6 +519,10 @@ def plot_cmd(
         prob, pl = _plan_with_problem(plan, problem)
     if arm is not None and arm not in [a.name for a in prob.arms]:
         _fail(ExitCode.USAGE, f"--arm: no arm named {arm!r}; arms are {', '.join(a.name for a in prob.arms)}")
+    if kind == PlotKind.WORKSPACE and prob.gantry is not None:
+        _fail(ExitCode.USAGE, f"--kind workspace: expected a stationary cell, found the row {prob.name!r} (its arms ride on "
+                              "the carriage, so what they reach depends on where it stops): `coplan check` screens a row, "
+                              "`coplan view` shows its fruit by arm and stop; --kind gantt, clearance and joints draw its plan")
     if kind == PlotKind.GANTT:
         fig = plots.plot_gantt(prob, {pl.planner_name: pl})
     elif kind == PlotKind.CLEARANCE:

@@ -79,7 +79,7 @@ def run_cmd(
     gantry: Annotated[Optional[LiveGantryMode], typer.Option(
         help="A row: continuous (picks on the move at --speed, which it needs; the default) or stop-and-go (stops "
              "chosen as fruit come into view).")] = None,
-    look_ahead: Annotated[float, typer.Option("--look-ahead", callback=between(0.0, 100.0, "m"),
+    look_ahead: Annotated[float, typer.Option("--look-ahead", callback=between(0.0, 100.0, "m", above=True),
                                               help="A row: how far ahead of the front arm's base the camera sees, m.")] = 1.5,
     sigma: Annotated[float, typer.Option(callback=between(0.0, 1.0, "m"), help="A row: detection noise per coordinate, m.")] = 0.01,
     false_rate: Annotated[float, typer.Option("--false-rate", callback=between(0.0, 1.0),

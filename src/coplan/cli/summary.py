@@ -220,7 +220,13 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     what = "a plan.csv replay (its planner not recorded)" if ver.planner == CSV_PLANNER else f"{safe(ver.planner)} plan"
     left = list(ver.unharvested)
     shown = ", ".join(left[:_SHOWN]) + (f" and {len(left) - _SHOWN} more" if len(left) > _SHOWN else "")
+    # what fails the plan first (the violations, by kind), then what it leaves
+    kinds: dict[str, int] = {}
+    for v in ver.violations:
+        kinds[v.kind.value] = kinds.get(v.kind.value, 0) + 1
+    why = ", ".join(f"{n} {k}" for k, n in sorted(kinds.items(), key=lambda kv: (-kv[1], kv[0])))
     p(f"[bold]{safe(problem.name)}[/] -- {what} of {ver.duration:.2f} s{span}: {verdict}"
+      + (f" [bold red]({plural(len(ver.violations), 'violation')}: {why})[/]" if ver.violations else "")
       + ("" if ver.complete else f" [yellow](not harvested: {plural(len(left), 'fruit', 'fruit')}: {safe(shown)})[/]"))
     for w in ver.warnings:
         if w.kind.value == "problem_name":  # (a plan of another problem fails for that, not for its own faults: said first)

@@ -18,7 +18,7 @@ from .checks import between
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
 from ..errors import printable
-from ..kinds import PlannerKind
+from ..kinds import ExitCode, PlannerKind, RowStatus
 
 __all__ = ["sweep_cmd", "sweep_report_cmd"]
 
@@ -94,6 +94,11 @@ def sweep_cmd(
     for k, v in res.files.items():
         _out.print(f"  wrote {_safe(v)}", highlight=False)
     _out.print(f"  next: coplan sweep-report {_safe(folder)}", highlight=False)
+    bad = res.counts.get(RowStatus.BAD_INPUT.value, 0)
+    if bad:  # (as compare: every row is written, and the exit code says some inputs were invalid)
+        _err.print(f"{plural(bad, 'problem')} of the sweep {'is' if bad == 1 else 'are'} invalid (status 'bad input', "
+                   "the reason in each row's error)", highlight=False)
+        raise typer.Exit(int(ExitCode.BAD_INPUT))
 
 
 def sweep_report_cmd(
@@ -107,6 +112,11 @@ def sweep_report_cmd(
 
     if not folder.exists():
         usage(f"{folder}: expected a sweep output folder, found nothing at this path")
+    from ..sweep.table import JOURNAL, PARQUET
+
+    if folder.is_dir() and not (folder / PARQUET).exists() and not (folder / JOURNAL).exists():
+        usage(f"{folder}: expected a sweep's output folder (with {PARQUET}, written by coplan sweep), found a folder "
+              f"without {PARQUET} or {JOURNAL}")
     target = out if out is not None else (folder if folder.is_dir() else folder.parent) / "report"
     check_out_dir(target, "--out")
     rep = sweep_report(folder, target, figures=figures)

@@ -95,7 +95,7 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
     if n > MAX_FILE_BYTES:
         raise FeedError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
     try:
-        data, lines = read_yaml(text, source)
+        data, lines = read_yaml(text, source, expected="a mapping with key 'detections' (a coplan.feed/1 file)")
     except ProblemError as e:  # the YAML itself: the same checks as for problem files
         raise FeedError(e.issues, source) from None
     issues: list[Issue] = []

@@ -166,11 +166,13 @@ def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = No
             _walk_nodes(v, path + [i], lines, issues, None, ctor, keep_text)
 
 
-def read_yaml(text: str, source: str | None, keep_text=None):
+def read_yaml(text: str, source: str | None, keep_text=None,
+              expected: str = "a mapping with keys name, arms, fruits, task"):
     """Parse YAML text safely; returns ``(data, lines)`` where ``lines`` maps key paths to lines.
 
     ``keep_text``: optional predicate on key paths (tuples) whose plain scalars are kept as
-    the text written (strings), see the module docstring."""
+    the text written (strings), see the module docstring. ``expected``: what the file should
+    hold, said when it is empty (default: a problem file)."""
     lines: dict = {}
     issues: list[Issue] = []
     try:
@@ -179,7 +181,7 @@ def read_yaml(text: str, source: str | None, keep_text=None):
             raise ProblemError(issues, source)
         node = yaml.compose(text, Loader=_FastLoader)
         if node is None:
-            raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty file")], source)
+            raise ProblemError([Issue("", f"expected {expected}; found an empty file")], source)
         _walk_nodes(node, [], lines, issues, keep_text=keep_text)
         if issues:
             raise ProblemError(issues, source)

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ProblemError
+from ..kinds import PlanStatus
 from ..output import atomic_text
 from ..plan import jsonable
 from ..problem.generate import to_yaml
@@ -44,10 +45,11 @@ class ClearanceCost:
     planner: str
     rows: list[dict] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         return {"format": "coplan.clearance-cost/1", "problem": self.problem, "planner": self.planner,
-                "rows": jsonable(self.rows)}
+                "rows": jsonable(self.rows), "notes": list(self.notes)}
 
 
 def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, planner=None, options=None,
@@ -77,7 +79,17 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
             row.update(error=str(e).splitlines()[-1].strip() or str(e), verified=False)
             cost.rows.append(row)
             continue
-        res = solve(prob, planner=planner, options=options, out_dir=out / f"plus_{extra:g}mm", progress=nested(progress))
+        try:
+            res = solve(prob, planner=planner, options=options, out_dir=out / f"plus_{extra:g}mm", progress=nested(progress))
+            if res.plan.status == PlanStatus.INTERRUPTED:  # (the planner stopped at Ctrl-C and kept its incumbent)
+                raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            # the levels that finished are written (the one cut short is not: its makespan is not
+            # the planner's answer), then the interruption goes on to the caller
+            cost.notes.append(f"interrupted at +{extra:g} mm: this table covers the {len(cost.rows)} of "
+                              f"{len(extras)} clearances that finished")
+            _write(cost, out)
+            raise
         m, ver = res.plan.metrics, res.verification
         mk = m.get("makespan")
         if extra == 0.0:
@@ -90,9 +102,7 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
                    planning_time=(res.plan.solver.get("timings") or {}).get("total") or res.timings.get("total"))
         cost.rows.append(row)
     tick(Tick("clearance", len(extras), len(extras), "clearances"))
-    atomic_text(out / "clearance.json", json.dumps(cost.to_dict(), indent=1, allow_nan=False))
-    atomic_text(out / "clearance.md", to_markdown(cost))
-    cost.files.update(json=str(out / "clearance.json"), markdown=str(out / "clearance.md"))
+    _write(cost, out)
     if figures and any(r.get("makespan") for r in cost.rows):
         from ..viz.plots import plot_clearance_cost
 
@@ -100,6 +110,13 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
         fig.savefig(out / "clearance_cost.png", dpi=110)
         cost.files["figure"] = str(out / "clearance_cost.png")
     return cost
+
+
+def _write(cost: ClearanceCost, out: Path) -> None:
+    """clearance.json and clearance.md, each written whole."""
+    atomic_text(out / "clearance.json", json.dumps(cost.to_dict(), indent=1, allow_nan=False))
+    atomic_text(out / "clearance.md", to_markdown(cost))
+    cost.files.update(json=str(out / "clearance.json"), markdown=str(out / "clearance.md"))
 
 
 def cell(row: dict, key: str) -> str:
@@ -125,4 +142,5 @@ def to_markdown(cost: ClearanceCost) -> str:
              "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in cost.rows:
         lines.append("| " + " | ".join(cell(r, k) for k, _ in COLUMNS) + " |")
+    lines += [""] + [f"- {n}" for n in cost.notes] if cost.notes else []
     return "\n".join(lines) + "\n"

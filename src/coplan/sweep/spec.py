@@ -423,7 +423,7 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
     if n > MAX_FILE_BYTES:
         raise SweepError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
     try:
-        data, lines = read_yaml(text, source)
+        data, lines = read_yaml(text, source, expected="a mapping with keys base, vary, planner, ...")
     except ProblemError as e:
         raise SweepError(e.issues, source) from None
     if not isinstance(data, dict):

@@ -183,6 +183,8 @@ def read_table(folder_or_file: str | Path):
     p = Path(folder_or_file)
     if p.is_file():
         return pq.read_table(p)
+    if not (p / PARQUET).exists() and not (p / JOURNAL).exists():
+        raise FileNotFoundError(f"{p}: expected a sweep's output folder (with {PARQUET} or {JOURNAL}), found a folder with neither")
     rows = read_rows(p)
     if (p / PARQUET).exists():
         t = pq.read_table(p / PARQUET)

@@ -364,6 +364,8 @@ def plot_workspace(problem: Problem, arm: str | None = None, *, resolution: int 
     dashed and labelled, and the fruit only they could pick shown as screened out: what makes a
     plan partial. With ``arm="name"``: that arm alone.
     """
+    if problem.gantry is not None:
+        raise ValueError(f"plot_workspace: expected a stationary cell, found the row {problem.name!r} (its arms ride on the carriage)")
     from matplotlib.colors import LinearSegmentedColormap
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch, Rectangle, Wedge

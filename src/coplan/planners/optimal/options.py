@@ -171,7 +171,7 @@ def parse_options(text: str, source: str | None = None, base: OptimalOptions | N
     if all(not ln.strip() or ln.lstrip().startswith("#") for ln in text.splitlines()):
         return base or OptimalOptions()  # nothing but comments: the defaults
     try:
-        data, lines = read_yaml(text, source)
+        data, lines = read_yaml(text, source, expected="a mapping of option names to values")
     except ProblemError as e:  # the YAML itself: the same checks as for problem files
         raise OptionsError(e.issues, source) from None
     if not isinstance(data, dict):
