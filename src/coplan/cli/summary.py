@@ -4,6 +4,7 @@ strings escaped). Light to import: rich only, like :mod:`coplan.cli`."""
 from __future__ import annotations
 
 import math
+from collections import Counter
 
 from ..errors import plural, printable
 
@@ -221,9 +222,7 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     left = list(ver.unharvested)
     shown = ", ".join(left[:_SHOWN]) + (f" and {len(left) - _SHOWN} more" if len(left) > _SHOWN else "")
     # what fails the plan first (the violations, by kind), then what it leaves
-    kinds: dict[str, int] = {}
-    for v in ver.violations:
-        kinds[v.kind.value] = kinds.get(v.kind.value, 0) + 1
+    kinds = Counter(v.kind.value for v in ver.violations)
     why = ", ".join(f"{n} {k}" for k, n in sorted(kinds.items(), key=lambda kv: (-kv[1], kv[0])))
     p(f"[bold]{safe(problem.name)}[/] -- {what} of {ver.duration:.2f} s{span}: {verdict}"
       + (f" [bold red]({plural(len(ver.violations), 'violation')}: {why})[/]" if ver.violations else "")

@@ -112,14 +112,12 @@ def sweep_report_cmd(
 
     if not folder.exists():
         usage(f"{folder}: expected a sweep output folder, found nothing at this path")
-    from ..sweep.table import JOURNAL, PARQUET
-
-    if folder.is_dir() and not (folder / PARQUET).exists() and not (folder / JOURNAL).exists():
-        usage(f"{folder}: expected a sweep's output folder (with {PARQUET}, written by coplan sweep), found a folder "
-              f"without {PARQUET} or {JOURNAL}")
     target = out if out is not None else (folder if folder.is_dir() else folder.parent) / "report"
     check_out_dir(target, "--out")
-    rep = sweep_report(folder, target, figures=figures)
+    try:
+        rep = sweep_report(folder, target, figures=figures)
+    except FileNotFoundError as e:  # a folder that is not a sweep's (read before anything is written)
+        usage(str(e))
     _out.print("\n".join(printable(line) for line in rep.text.splitlines()), markup=False, highlight=False)
     for v in rep.files.values():
         _out.print(f"wrote {_safe(v)}", highlight=False)

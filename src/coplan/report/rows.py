@@ -48,14 +48,14 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     out.mkdir(parents=True, exist_ok=True)
     cmp = RowComparison(problem.name)
     rules = [StopRule(r) for r in rules]
+    options = None
+    if workers is not None:
+        from ..row.plan import RowOptions
+
+        options = RowOptions(workers=workers)
     for i, rule in enumerate(rules):
         tick(Tick("compare", i, len(rules), "stop rules", note=rule.value))
         say(f"{problem.name}: stops {rule.value}")
-        options = None
-        if workers is not None:
-            from ..row.plan import RowOptions
-
-            options = RowOptions(workers=workers)
         res = solve(problem, planner=planner, out_dir=out / rule.value, progress=nested(progress), stops=rule, options=options)
         m = res.plan.metrics.get("row") or {}
         cmp.rows.append({"rule": rule.value, "stops": m.get("stops"), "row_time": m.get("row_time"),

@@ -33,6 +33,18 @@ def jerk_integral(curve) -> float:
     return out
 
 
+def _moves_jerk(steps: list[Step]) -> float:
+    """The sum of the jerk integrals of the moves among ``steps``."""
+    return sum(jerk_integral(s.curve) for s in steps if s.kind == StepKind.MOVE and s.curve is not None)
+
+
+def _record(report: dict, name: str, before: list[Step], after: list[Step]) -> None:
+    """Arm ``name`` eased: in the report, with the square root of its moves' jerk integral after over before."""
+    j0, j1 = _moves_jerk(before), _moves_jerk(after)
+    report["arms"].append(name)
+    report["rms_jerk_ratio"][name] = float(np.sqrt(j1 / j0)) if j0 > 0 else 1.0
+
+
 def _order_bounds(t: float, others: np.ndarray, gap: float = 0.03) -> tuple[float, float]:
     """The times an event starting at ``t`` may move to and keep its place among ``others``
     (the other arms' event starts, sorted): strictly between its neighbours there."""
@@ -113,17 +125,13 @@ def _steps_at(steps: list[Step], t: np.ndarray, end: float) -> list[Step]:
     """``steps`` (no waits) started at times ``t``: each move stretched (its S-curve slowed
     uniformly) to the next step's start, a wait after each pick or place up to the next step."""
     out = []
-    n = len(steps)
     for i, s in enumerate(steps):
-        until = t[i + 1] if i + 1 < n else end
         if s.kind == StepKind.MOVE:
-            dur = max(until - t[i], s.duration)
+            dur = max((t[i + 1] if i + 1 < len(steps) else end) - t[i], s.duration)
             out.append(replace(s, t0=float(t[i]), duration=float(dur), curve=replace(s.curve, duration=float(dur))))
         else:
             out.append(replace(s, t0=float(t[i])))
-            if until - (t[i] + s.duration) > 1e-9 and i + 1 < n:
-                out.append(Step(StepKind.WAIT, float(t[i] + s.duration), float(until - t[i] - s.duration), s.q1, s.q1))
-    return out
+    return _with_waits(out)
 
 
 def _blend(a: list[Step], b: list[Step], lam: float, end: float) -> list[Step]:
@@ -160,7 +168,6 @@ def _ease_moves(problem: Problem, out: dict[str, ArmSchedule], name: str, end: f
     of distance to its neighbours; every pick and place where it was."""
     sch = out[name]
     cur = [s for s in sch.steps if s.kind != StepKind.WAIT]
-    j0 = sum(jerk_integral(s.curve) for s in cur if s.kind == StepKind.MOVE and s.curve is not None)
     old = _arm_room(problem, out, name, t, cache)
     changed = False
     for i, st in enumerate(cur):
@@ -181,9 +188,7 @@ def _ease_moves(problem: Problem, out: dict[str, ArmSchedule], name: str, end: f
                 cur, out, changed = trial, cand, True
                 break
     if changed:
-        j1 = sum(jerk_integral(s.curve) for s in cur if s.kind == StepKind.MOVE and s.curve is not None)
-        report["arms"].append(name)
-        report["rms_jerk_ratio"][name] = float(np.sqrt(j1 / j0)) if j0 > 0 else 1.0
+        _record(report, name, sch.steps, cur)
     return out
 
 
@@ -224,10 +229,10 @@ def ease(problem: Problem, schedules: dict[str, ArmSchedule], makespan: float, k
     cache: dict = {}  # arm -> (its schedule, its poses at t)
     for name in names:
         sch = out[name]
-        others = np.sort([e.t_start for n in names if n != name for e in out[n].events()])
+        others = np.sort(np.array([e.t_start for n in names if n != name for e in out[n].events()], float))
         old = None
         for hold in (False, True):
-            best = _eased_arm(sch, np.asarray(others, float), end, makespan, hold)
+            best = _eased_arm(sch, others, end, makespan, hold)
             if best is None:
                 continue
             old = _arm_room(problem, out, name, t, cache) if old is None else old
@@ -236,10 +241,7 @@ def ease(problem: Problem, schedules: dict[str, ArmSchedule], makespan: float, k
                 cand = dict(out)
                 cand[name] = ArmSchedule(sch.arm, steps)
                 if _arm_room(problem, cand, name, t, cache) >= min(old, need) - 1e-9:
-                    j0 = sum(jerk_integral(s.curve) for s in sch.steps if s.kind == StepKind.MOVE and s.curve is not None)
-                    j1 = sum(jerk_integral(s.curve) for s in steps if s.kind == StepKind.MOVE and s.curve is not None)
-                    report["arms"].append(name)
-                    report["rms_jerk_ratio"][name] = float(np.sqrt(j1 / j0)) if j0 > 0 else 1.0
+                    _record(report, name, sch.steps, steps)
                     out = cand
                     break
             if out[name] is not sch:
