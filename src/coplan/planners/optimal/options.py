@@ -86,7 +86,8 @@ class OptimalOptions:
         clearance), then smooths the jerk; kept only when verified, no slower and with a
         certified margin no smaller. (Not ``margin``, the coordinator's planning buffer.)
     widen_goal : plans whose certified margin (least certified clearance less the required)
-        is already this much (m) are left as they are
+        is already this much (m) are only smoothed (their room held), or left as they are
+        when proven optimal
     widen_cap : the most extra room (m) the widening asks for
     widen_iterations : IPOPT iterations the widening may spend over all its solves
     widen_knots : plans whose knot grid is longer are not widened (one program over the whole plan)

@@ -381,7 +381,7 @@ def widen(run: Run) -> str:
         return "skipped"
     run.stage("widen")
     tw = _time.perf_counter()
-    run.reports["widen"] = widened(run.problem, inc, run.opts, run.deadline, run.say)
+    run.reports["widen"] = widened(run.problem, inc, run.opts, run.deadline, run.say, proven=run.proven())
     run.timings["widen"] = _time.perf_counter() - tw
     return "accepted" if run.reports["widen"]["accepted"] else run.reports["widen"]["status"]
 
@@ -484,7 +484,8 @@ def retimable(schedules: dict[str, ArmSchedule], tol: float = 1e-6) -> bool:
 _RETRY_ITERATIONS = 30  # fewer widening iterations left than this: no second program
 
 
-def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: float | None, say) -> dict:
+def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: float | None, say,
+            proven: bool = False) -> dict:
     """The widening stage on the incumbent's schedules; the widened plan replaces the incumbent
     when it is verified, harvests as much, is no slower and its certified margin is no smaller.
     Where the program with free timing leaves less certified room than the goal (twice the
@@ -493,6 +494,9 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     programs start from the eased schedules (:func:`coplan.planners.optimal.ease.ease`: each
     arm's rest spread over its moves); should they give nothing to keep, the program is solved
     once more from the incumbent's own (``uneased`` in the report).
+    A plan with ``widen_goal`` of margin already is only smoothed (its room held, widened up to
+    ``widen_cap``), and left as it is when the search ``proven`` it optimal: such a solve is
+    short (greenhouse_row's 0.07 s), and a program would be most of it.
     Returns the stage's report (plan.json ``solver.widen``)."""
     from .widen import WidenOptions, widen as widen_schedules
 
@@ -504,11 +508,11 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     if not problem.neighbour_pairs():
         return {"status": "skipped", "accepted": False, "margin_before": None, "makespan_before": inc.makespan,
                 "rms_jerk_before": jerk0, "reason": "no two arms can touch: nothing to widen"}
-    if margin0 >= opts.widen_goal:
+    if margin0 >= opts.widen_goal and proven:
         return {"status": "skipped", "accepted": False, "margin_before": margin0, "makespan_before": inc.makespan,
                 "rms_jerk_before": jerk0,
                 "reason": f"the plan keeps {1000 * margin0:.1f} mm beyond the clearance already "
-                          f"(widen_goal is {1000 * opts.widen_goal:.0f} mm)"}
+                          f"(widen_goal is {1000 * opts.widen_goal:.0f} mm) and is proven optimal: not smoothed"}
     res = widen_schedules(problem, inc.candidate.alloc, inc.candidate.schedules, inc.makespan, wopts, deadline, say)
     info = dict(res.info)
     info.update(accepted=False, margin_before=margin0, makespan_before=inc.makespan, rms_jerk_before=jerk0)
@@ -557,6 +561,12 @@ def _again(problem: Problem, inc: Incumbent, wopts, key: str, info: dict, best, 
     return other
 
 
+#: certified margins equal to the micrometre are no smaller: a held pose's certified clearance
+#: moves by 1e-8 m with the float noise of the motion around it (overlap-2x6-s28: 20.445996 ->
+#: 20.445976 mm, the same poses at the least room)
+_MARGIN_TOL = 1e-6
+
+
 def _judged(problem: Problem, inc: Incumbent, res, info: dict, say):
     """The widening's candidate judged against the incumbent: ``(plan, verification, certified
     margin)`` when it is verified, harvests as much, is no slower and keeps no less margin; else
@@ -581,7 +591,7 @@ def _judged(problem: Problem, inc: Incumbent, res, info: dict, say):
         why = "it harvests less"
     elif plan.metrics["makespan"] > inc.makespan + 1e-9:
         why = f"slower ({plan.metrics['makespan']:.4f} s against {inc.makespan:.4f} s)"
-    elif margin < margin0:
+    elif margin < margin0 - _MARGIN_TOL:
         why = f"its certified margin {1000 * margin:.1f} mm is smaller than {1000 * margin0:.1f} mm"
     if why is not None:
         say(f"widen: {why}; kept the incumbent")
