@@ -215,3 +215,32 @@ def test_where_free_timing_leaves_less_room_than_the_goal_the_held_timing_progra
     assert w["accepted"] and w["verified"] and res.verification.passed
     assert res.plan.metrics["makespan"] <= w["makespan_before"] + 1e-9 and res.plan.metrics["optimality"] == "proven"
     assert w["margin"] >= min(2 * w["margin_before"], 0.05), (w["margin_before"], w["margin"])
+
+
+def test_a_plan_with_room_already_is_smoothed_unless_proven_optimal():
+    """A plan that keeps ``widen_goal`` of margin already is only smoothed: its certified margin
+    no smaller, its makespan held, its jerk lower -- verified. The search's proven-optimal plans
+    are left as they are (their solve is short; a program would be most of it), and say why."""
+    import time
+
+    from coplan.planners.optimal.incumbent import Incumbent
+    from coplan.planners.optimal.stages import widened
+
+    prob = _shipped("greenhouse_row")
+    c = plan_coordinated(prob)
+    inc = Incumbent(prob, time.perf_counter(), lambda m: None)
+    assert inc.offer(c.plan, verify(prob, c.plan), "coordinated", c.candidate)
+    before = inc.plan
+    opts = OptimalOptions()
+    margin0 = before.verification["margin"]
+    assert margin0 >= opts.widen_goal  # (the case under test: room already)
+    rep = widened(prob, inc, opts, None, lambda m: None, proven=True)
+    assert rep["status"] == "skipped" and not rep["accepted"] and "proven optimal" in rep["reason"]
+    assert inc.plan is before
+    rep = widened(prob, inc, opts, None, lambda m: None)
+    assert rep["accepted"], rep.get("reason")
+    ver = verify(prob, inc.plan)
+    assert ver.passed and ver.margin >= margin0 - 1e-6
+    assert inc.plan.metrics["makespan"] <= before.metrics["makespan"] + 1e-9
+    jerk = lambda p: np.mean([v["rms_jerk"] for v in p.metrics["per_arm"].values()])  # noqa: E731
+    assert jerk(inc.plan) < 0.95 * jerk(before)
