@@ -380,3 +380,67 @@ def test_a_fruit_seen_where_one_was_already_picked_is_looked_at_again(greenhouse
     assert before.added == [] and "dup" in cell.tracks["f04"].detections
     after = cell.observe(pick.t1 + 0.05, [Detection(pick.t1 + 0.05, "new", p, 0.01)])  # after the pick: a new track
     assert after.added == ["new"] and cell.tracks["new"].state == TrackState.PLANNED
+
+
+def test_a_feed_time_past_the_longest_plan_and_a_fruit_hidden_behind_itself_are_refused(greenhouse) -> None:
+    """A detection at t = 1e9 s ran out of memory (a 745 GiB baseline); a fruit hidden behind
+    itself, or two each hidden behind the other, could never be revealed. Both are bad input,
+    said with the key path."""
+    with pytest.raises(FeedError) as e:
+        parse_feed("detections:\n  - {t: 1.0e9, id: a, position: [0.7, 0.74], sigma: 0.01}\n", "late.yaml")
+    assert "late.yaml:2: detections[0].t: expected a time in [0, 43200] s" in str(e.value)
+    with pytest.raises(FeedError) as e:
+        parse_feed("detections:\n  - {t: 0, id: a, position: [0.7, .nan], sigma: 0.01}\n", "nan.yaml")
+    assert "found [number 0.7, number nan]" in str(e.value)
+    for rows, where in (("  - {t: 0.1, id: a, position: [0.7, 0.74], sigma: 0.01, fruit: f04, after: f04}\n", ["detections[0].after"]),
+                        ("  - {t: 0.1, id: a, position: [0.7, 0.74], sigma: 0.01, fruit: f04, after: f09}\n"
+                         "  - {t: 0.1, id: b, position: [0.7, 1.29], sigma: 0.01, fruit: f09, after: f04}\n",
+                         ["detections[0].after", "detections[1].after"])):
+        feed = parse_feed("detections:\n" + rows, "hid.yaml")
+        with pytest.raises(FeedError) as e:
+            feed.check_against(greenhouse)
+        assert [i.path for i in e.value.issues] == where and "never be revealed" in str(e.value)
+    # hidden behind itself in one report, seen on its own in another: it is revealed
+    parse_feed("detections:\n  - {t: 0.1, id: a, position: [0.7, 0.74], sigma: 0.01, fruit: f04, after: f04}\n"
+               "  - {t: 0.2, id: b, position: [0.7, 0.74], sigma: 0.01, fruit: f04}\n", "ok.yaml").check_against(greenhouse)
+
+
+def test_the_commit_horizon_must_be_positive_and_a_late_run_says_so(tmp_path: Path, problems_dir: Path) -> None:
+    """--horizon 0 crashed (an IndexError); a horizon below the re-planning latency gave a
+    better makespan than is possible without a word. The run now says so; the summary names
+    only the files it wrote, and where the previous run went."""
+    from coplan.errors import OptionsError
+    from coplan.live.cell import LiveOptions
+
+    with pytest.raises(OptionsError, match="horizon: expected a commit horizon > 0 s"):
+        LiveOptions(horizon=0.0)
+    prob = str(problems_dir / "greenhouse_row.yaml")
+    r = run("feed", prob, "--out", str(tmp_path / "feed.yaml"), "--known", "0.5", "--seed", "4")
+    assert r.exit_code == 0, r.output
+    r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "o"), "--horizon", "0")
+    assert r.exit_code == ExitCode.USAGE and "expected a number in (0, 10] s, found 0" in r.output
+    (tmp_path / "o").mkdir()
+    (tmp_path / "o" / "notes.txt").write_text("mine\n")
+    r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "o"), "--horizon", "1e-6")
+    assert r.exit_code == ExitCode.OK, r.output
+    assert "took longer than the commit horizon (1e-06 s)" in r.output and "optimistic" in r.output
+    wrote = r.output.split("wrote", 1)[1]
+    assert "plan.json" in wrote and "notes.txt" not in wrote and (tmp_path / "o" / "notes.txt").exists()
+    r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "o"))
+    assert r.exit_code == ExitCode.OK and "previous run kept in" in r.output
+
+
+def test_a_fruit_lost_to_a_merged_track_is_said_to_be(problems_dir: Path) -> None:
+    """dense_overlap, seed 2: f013 and f015 are 51 mm apart and their reports (42 mm apart,
+    within 3 sigma of two 10 mm reports) make one track, which is picked as one fruit. The
+    fruit left says so -- its reason was an empty "d007: committed ()"."""
+    from coplan.live.cell import LiveOptions
+    from coplan.problem import load_problem
+
+    dense_overlap = load_problem(problems_dir / "dense_overlap.yaml")
+    feed = make_feed(dense_overlap, known=0.5, sigma=0.01, false_rate=0.1, duplicate_rate=0.2, seed=2)
+    r = simulate(dense_overlap, feed, LiveOptions(budget=None), seed=2, omniscient=False)
+    assert r.verification.passed
+    lost = {f: o["why"] for f, o in r.run["fruit"].items() if not o["harvested"] and o["reachable"]}
+    assert lost, "this seed merges two fruit"
+    assert all("merged with those of" in why and "()" not in why for why in lost.values())

@@ -274,6 +274,22 @@ def test_coplan_run_on_a_row_without_fruit_says_so(tmp_path, args):
     assert json.loads((tmp_path / "live" / "run.json").read_text())["metrics"]["verified"]
 
 
+def test_a_row_whose_fruit_no_arm_reaches_says_so_planned_and_live(tmp_path):
+    """Every fruit beside the rail but out of reach (too high): the plan on the move does not
+    say every fruit is in reach from where the carriage starts, and the live run's reason is
+    that reach, not "the report's error"."""
+    d = gantry_row(length=6.0, n_arms=2, density=0.0, seed=2)
+    d["fruits"] = [{"id": f"f{i}", "position": [1.0 + i, 5.0]} for i in range(3)]
+    path = tmp_path / "high.yaml"
+    path.write_text(to_yaml(d))
+    res = CliRunner().invoke(app, ["solve", str(path), "--gantry", "continuous", "-o", str(tmp_path / "plan")])
+    assert "nothing to harvest: the carriage stays where it starts" in res.output and "every fruit is in reach" not in res.output
+    res = run_live_row(parse_problem(to_yaml(d)), LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=1))
+    assert res.verification.passed
+    assert {why for f, why in res.outcome.items() if f.startswith("f")} == \
+        {"missed: out of every arm's reach from every carriage position (true position)"}
+
+
 def test_coplan_run_on_a_cell_refuses_the_row_options_by_name(tmp_path):
     from coplan.problem import shipped_problems
 
@@ -541,3 +557,17 @@ def test_stop_and_go_goes_on_to_look_past_the_rail_s_end_where_the_camera_report
     assert past and res.verification.passed and res.metrics["of_offline"] == 1.0
     assert res.plan.solver["row"]["stops"][-1]["x"] == 10.0
     assert all(res.outcome[f] == "harvested" for f in past)
+
+
+def test_a_fruit_only_a_stopped_arm_reached_from_the_stops_is_missed_for_that_reason():
+    """Stop and go: picks happen at the stops only. A fruit only the arm that stopped reached
+    from them is missed because that arm stopped (the carriage never goes back) -- not because
+    a working arm "passed" it while the carriage hopped (the reason it was given before)."""
+    row12 = parse_problem(to_yaml(gantry_row(length=12.0, n_arms=3, density=3.0, seed=4)))
+    res = run_live_row(row12, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=6, faults=RowFaults(arm_stop=True)))
+    assert res.verification.passed
+    stopped = res.metrics["faults"]["arm_stop"]["arm"]
+    missed = {f: why for f, why in res.outcome.items() if why != "harvested"}
+    assert missed  # (this seed: the stop comes before the rear arm's last fruit)
+    for why in missed.values():
+        assert f"only {stopped} could reach it, and it stopped" in why and "passed" not in why

@@ -330,6 +330,21 @@ def test_a_long_stretch_without_fruit_is_crossed():
         assert res.plan.gantry_x.max() > 30.0
 
 
+def test_a_rail_far_from_zero_keeps_one_grid():
+    """A rail from -2000 m: the grid's spacing read back from its points differs from the one
+    asked for in the last bits, and a stretch screened later on it had one point more (the
+    optimised rule crashed). The spacing is kept as asked; the row is planned and verified."""
+    d = gantry_row(length=6.0, density=0.0)
+    d["gantry"]["start"] = -2000.0
+    d["fruits"] = [{"id": f"f{i}", "position": [0.5 + 1.2 * i, 1.0]} for i in range(4)]
+    prob = parse_problem(to_yaml(d))
+    lazy = row_reach(prob, lazy=True)
+    assert lazy.ensure(10.0) and lazy.resolution == 0.05
+    assert all(c.shape[1] == lazy.grid.size for c in lazy.cover.values())
+    res = plan_row(prob, RowOptions(stops=StopRule.OPTIMISED))
+    assert res.verification.passed and res.plan.metrics["harvested"] == 4
+
+
 def test_a_row_plan_exports_its_carriage_and_the_live_cell_refuses_a_row(tmp_path, planned, row):
     from coplan.report.export import export_plan, trajectory
 

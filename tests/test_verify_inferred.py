@@ -96,6 +96,8 @@ def test_cli_verifies_its_own_plan_csv_and_an_external_plan_without_events(solve
     assert res.exit_code == 0, res.output
     assert "passed" in res.output and "events inferred" in res.output and "11 picks and 11 places" in res.output
     assert "a plan.csv replay (its planner not recorded)" in res.output and "unknown" not in res.output
+    res = run("verify", str(default_problem_path()), str(out / "plan.csv"), "--json")  # (a CSV names no problem)
+    assert res.exit_code == 0 and json.loads(res.stdout)["problem"] == "greenhouse-row"
     doc = json.loads((out / "plan.json").read_text())
     doc.update(events=[], planner="my-tool")
     doc.pop("status")

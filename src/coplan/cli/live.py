@@ -65,9 +65,17 @@ def feed_cmd(
                f"({n_late} after t = 0, {n_false} false), sigma {sigma * 1000:g} mm, seed {seed}", highlight=False)
 
 
-def _written(out: Path) -> str:
-    """The files a run wrote into ``out`` (its hidden marker left out), by name."""
-    return _safe(", ".join(sorted(p.name for p in Path(out).iterdir() if p.is_file() and not p.name.startswith("."))))
+def _staged(stage: Path) -> list[str]:
+    """The files a run staged (its hidden marker left out), by name: read before they move, so
+    that the summary names these and not the other files of a folder it writes into."""
+    return sorted(p.name for p in Path(stage).iterdir() if p.is_file() and not p.name.startswith("."))
+
+
+def _written(folder, names: list[str]) -> str:
+    """``names`` and where the previous run was kept, if it was moved (``folder``: the
+    :class:`RunFolder`, after its exit)."""
+    kept = f"; previous run kept in {folder.previous}" if folder.previous is not None else ""
+    return _safe(", ".join(names) + kept)
 
 
 def run_cmd(
@@ -97,7 +105,7 @@ def run_cmd(
     animate: Annotated[bool, typer.Option("--animate", help="Also write live.gif: fruit appearing, re-plans, misses.")] = False,
     seed: Annotated[int, typer.Option(callback=between(0), help="Seed of the simulation: a cell's close-range measurements; a row's "
                                       "camera reports, faults and close-range measurements.")] = 0,
-    horizon: Annotated[float, typer.Option(callback=between(0.0, 10.0, "s"), help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
+    horizon: Annotated[float, typer.Option(callback=between(0.0, 10.0, "s", above=True), help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
     all_candidates: Annotated[bool, typer.Option("--all-candidates", help="Every re-plan tries every candidate plan, "
                                                  "not only those its 50 ms budget allows: the same run on any machine.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the metrics as JSON.")] = False,
@@ -145,7 +153,8 @@ def run_cmd(
     with ProgressDisplay(_err, quiet=as_json) as bars:
         result = simulate(prob, fd, opts, seed=seed, progress=bars)
     result.plan.problem_file = prob.file_record()
-    with RunFolder(out) as stage:
+    folder = RunFolder(out)
+    with folder as stage:
         result.plan.save(stage)
         (stage / "verification.json").write_text(json.dumps(jsonable(result.verification.summary()), indent=1))
         (stage / "run.json").write_text(json.dumps(jsonable(result.run), indent=1, allow_nan=False))
@@ -153,6 +162,7 @@ def run_cmd(
             from ..live.animate import animate_live
 
             animate_live(prob, result, stage / "live.gif")
+        names = _staged(stage)
     m = result.run["metrics"]
     if as_json:
         typer.echo(json.dumps(jsonable(m), allow_nan=False))
@@ -166,8 +176,14 @@ def run_cmd(
             f"{1000 * (lat or 0):.1f} ms, max {1000 * (m['latency_max'] or 0):.1f} ms; false picks avoided "
             f"{m['false_picks_avoided']} of {m['false_detections']}; unreachable detections "
             f"{len(m['unreachable_detections'])}\n"
-            f"executed plan {result.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
-            f"wrote {_safe(out)}/: {_written(out)}", highlight=False)
+            + (f"[yellow]{m['late_replans']} of {m['replans']} re-plans took longer than the commit horizon "
+               f"({horizon:g} s)[/]: the arms would have run past their committed motion before the new plan "
+               "was ready, so this run is optimistic; "
+               + ("--all-candidates gives each re-plan all the time it needs (the same run on any machine), not a "
+                  "real-time run\n" if all_candidates else "give --horizon at least the latency\n")
+               if m.get("late_replans") else "")
+            + f"executed plan {result.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
+            f"wrote {_safe(out)}/: {_written(folder, names)}", highlight=False)
     status = result.plan.status
     code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
     raise typer.Exit(int(code))
@@ -203,10 +219,12 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
            "detections": [{"id": d.id, "position": list(d.position), "t": d.t, "fruit": d.truth} for d in res.detections],
            "outcome": res.outcome, "metrics": res.metrics}
     res.plan.problem_file = prob.file_record()  # (coplan view / plot / animate find the row from the plan)
-    with RunFolder(out) as stage:
+    folder = RunFolder(out)
+    with folder as stage:
         res.plan.save(stage)
         (stage / "verification.json").write_text(json.dumps(jsonable(res.verification.summary()), indent=1))
         (stage / "run.json").write_text(json.dumps(jsonable(doc), indent=1, allow_nan=False))
+        names = _staged(stage)
     m = res.metrics
     if as_json:
         typer.echo(json.dumps(jsonable(m), allow_nan=False))
@@ -224,7 +242,8 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         if m.get("holds_for_fruit"):
             faults_line = (f"the carriage held {m['holds_for_fruit']} time{'s' if m['holds_for_fruit'] != 1 else ''} rather "
                            f"than pass a fruit no arm could still book ({m['hold_seconds']:.1f} s)\n") + faults_line
-        missed = [why for f, why in res.outcome.items() if why != "harvested" and f in {x.id for x in prob.fruits}]
+        missed = [why if f in why else f"{f}: {why}" for f, why in res.outcome.items()
+                  if why != "harvested" and f in {x.id for x in prob.fruits}]
         if missed:  # each true fruit not harvested, and why (all of them: run.json outcome)
             faults_line += f"missed {len(missed)} fruit: " + "; ".join(_safe(w) for w in missed[:3]) + (
                 f"; ... and {len(missed) - 3} more (run.json: outcome)" if len(missed) > 3 else "") + "\n"
@@ -235,7 +254,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             f"against {cycle} ({'kept ahead' if m['kept_ahead'] else 'LATE'}); {plural(m['probes'], 'probe')} of false or repeated "
             f"reports\n{faults_line}executed plan {res.plan.status.value} "
             f"({'verified' if m['verified'] else 'verification FAILED'}); wrote {_safe(out)}/: "
-            + _written(out),
+            + _written(folder, names),
             highlight=False)
     raise typer.Exit(int(status_exit_code(res.plan.status)))
 

@@ -58,7 +58,8 @@ def print_row_summary(console, res) -> None:
     p = console.print
     moving = r.get("mode") == "continuous"
     still = moving and not r.get("carriage_moving_share")  # every fruit served from where the carriage starts
-    how = ("on the move (the carriage need not move: every fruit is in reach from where it starts)" if still else
+    how = ("on the move (nothing to harvest: the carriage stays where it starts)" if still and not m.get("harvested") else
+           "on the move (the carriage need not move: every fruit is in reach from where it starts)" if still else
            f"on the move ({safe(r.get('profile'))} speed profile, {fmt(r.get('mean_speed'), ' m/s', 3)} on average, "
            f"top {fmt(r.get('top_speed'), ' m/s', 3)})" if moving else
            f"stops {safe(solver.get('rule'))}, cell planner {safe(solver.get('cell_planner'))}")
@@ -111,11 +112,13 @@ def print_row_summary(console, res) -> None:
     later = "" if first == known else f" (first motion after {fmt(first, ' s')}: the carriage does not move before that stop's cell)"
     if moving:
         p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
-          f"of the row time ({plural(r.get('plans_tried') or 0, 'full plan')} tried by the speed search, each verified)")
+          f"of the row time ({plural(r.get('plans_tried') or 0, 'full plan')} tried by the speed search, each verified"
+          + ("; with the stop-and-go plan --gantry auto compared it with" if solver.get("auto") else "") + ")")
     else:
         p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
       f"of the row time; first stop known after {fmt(known, ' s')}{later}; the slowest stop took {fmt(r.get('slowest_stop_seconds'), ' s')} "
-          f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({ahead})")
+          f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({ahead})"
+          + ("; the planning time counts the on-the-move plans --gantry auto compared it with" if solver.get("auto") else ""))
     for k, v in res.files.items():
         p(f"  wrote             {safe(v)}")
     if res.previous is not None:

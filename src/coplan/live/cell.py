@@ -76,6 +76,13 @@ class LiveOptions:
     budget: float | None = 0.05
     max_correction: float = 0.3
 
+    def __post_init__(self):
+        if not (isinstance(self.horizon, (int, float)) and 0.0 < self.horizon < float("inf")):
+            from ..errors import Issue, OptionsError
+
+            raise OptionsError([Issue("horizon", f"expected a commit horizon > 0 s (at least the re-planning "
+                                                 f"latency), found {self.horizon!r}")], "LiveOptions")
+
 
 @dataclass
 class Track:

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..errors import InputError, Issue, ProblemError, finite_number, found
 from ..problem.model import Problem
+from ..problem.plausible import MAX_PLAN_SECONDS
 from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 
 __all__ = ["FEED_FORMAT", "Detection", "Feed", "FeedError", "parse_feed", "load_feed", "make_feed", "feed_yaml",
@@ -76,7 +77,8 @@ class Feed:
     source: str | None = None
 
     def check_against(self, problem: Problem) -> None:
-        """Raise :class:`FeedError` if a row names a fruit the problem does not have."""
+        """Raise :class:`FeedError` if a row names a fruit the problem does not have, or a fruit
+        can never be revealed: hidden behind itself, or behind fruit hidden behind it."""
         ids = {f.id for f in problem.fruits}
         issues = []
         for i, d in enumerate(self.detections):
@@ -85,8 +87,42 @@ class Feed:
                 if v is not None and v not in ids:
                     issues.append(Issue(f"detections[{i}].{key}", f"expected a fruit id of problem {problem.name!r}, "
                                                                     f"found {v!r}", d.line))
+        if not issues:
+            issues = self._never_revealed()
         if issues:
             raise FeedError(issues, self.source)
+
+    def _never_revealed(self) -> list[Issue]:
+        """Detections of a fruit every one of whose reports waits for a pick that waits for it:
+        ``after`` itself, or a loop of fruit each hidden behind the next."""
+        behind: dict[str, set[str]] = {}
+        free = set()
+        for d in self.detections:
+            if d.fruit is None:
+                continue
+            if d.after is None:
+                free.add(d.fruit)
+            else:
+                behind.setdefault(d.fruit, set()).add(d.after)
+        for f in free:
+            behind.pop(f, None)  # some report of it comes on its own: it is revealed
+        issues = []
+        for i, d in enumerate(self.detections):
+            if d.fruit is None or d.after is None or d.fruit not in behind:
+                continue
+            seen, todo = set(), [d.after]
+            while todo:  # the fruit this one waits for, and theirs
+                g = todo.pop()
+                if g in seen:
+                    continue
+                seen.add(g)
+                todo += behind.get(g, ())
+            if d.fruit in seen:
+                what = "itself" if d.after == d.fruit else f"{d.after!r}, which waits for {d.fruit!r} in turn"
+                issues.append(Issue(f"detections[{i}].after", f"expected a fruit picked before {d.fruit!r} can be seen, "
+                                                               f"found {d.after!r}: {d.fruit!r} would wait for {what} "
+                                                               "and never be revealed", d.line))
+        return issues
 
 
 def parse_feed(text: str, source: str | None = None) -> Feed:
@@ -159,8 +195,9 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
         if not ok:
             continue
         t, rid, pos, sigma = row["t"], row["id"], row["position"], row["sigma"]
-        if not finite_number(t) or t < 0:
-            bad(loc + ("t",), f"expected a time >= 0 (s), found {found(t, list_length=True)}")
+        if not finite_number(t) or t < 0 or t > MAX_PLAN_SECONDS:
+            bad(loc + ("t",), f"expected a time in [0, {MAX_PLAN_SECONDS:g}] s (within the longest plan coplan makes, "
+                              f"coplan.plausible.MAX_PLAN_SECONDS), found {found(t, list_length=True)}")
             ok = False
         if not isinstance(rid, str) or not rid.strip():
             bad(loc + ("id",), f"expected a non-empty string, found {found(rid, list_length=True)}")
@@ -171,7 +208,9 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
         else:
             seen[rid] = i
         if not isinstance(pos, list) or len(pos) != 2 or not all(finite_number(x) for x in pos):
-            bad(loc + ("position",), f"expected [x, y] (two finite numbers, m), found {found(pos, list_length=True)}")
+            what = (f"[{', '.join(found(x) for x in pos)}]" if isinstance(pos, list) and len(pos) == 2
+                    else found(pos, list_length=True))
+            bad(loc + ("position",), f"expected [x, y] (two finite numbers, m), found {what}")
             ok = False
         if not finite_number(sigma) or sigma <= 0:
             bad(loc + ("sigma",), f"expected a positive number (m), found {found(sigma, list_length=True)}")

@@ -214,7 +214,15 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
             hid = [h for h, ds in hidden.items() if any(d.fruit == f.id for d in ds)]
             why = f"never revealed (hidden behind {', '.join(hid)}, which was not picked)" if hid else "never detected"
         else:
-            notes = [f"{t}: {cell.tracks[t].state.value} ({cell.tracks[t].note})" for t in by_truth.get(f.id, [])]
+            notes = []
+            for t in by_truth.get(f.id, []):
+                tr = cell.tracks[t]
+                others = sorted({det_fruit.get(d) for d in tr.detections} - {f.id, None})
+                if others:  # one track for two true fruit: the arm picked one of them
+                    notes.append(f"{t}: its reports were merged with those of {', '.join(others)} into one track "
+                                 f"(within the gate: LiveOptions.gate, 3 sigma), {tr.state.value} as one fruit")
+                else:
+                    notes.append(f"{t}: {tr.state.value}" + (f" ({tr.note})" if tr.note else ""))
             why = "; ".join(notes) or "not harvested"
         outcomes[f.id] = {"harvested": ok, "reachable": f.id not in unreach, "tracks": by_truth.get(f.id, []), "why": why}
     false_tracks = [tr for tr in cell.tracks.values() if all(det_fruit.get(d) is None for d in tr.detections)]

@@ -526,7 +526,7 @@ def load_problem(path: str | Path) -> Problem:
     p = Path(path)
     if not p.exists():
         name = p.name[:-5] if p.name.endswith(".yaml") else p.name
-        shipped = {s.stem: s for s in shipped_problems()}
+        shipped = {s.stem: s for s in shipped_problems() + shipped_rows()}
         if name in shipped:
             raise ProblemError([Issue("", f"expected an existing YAML file, found no file at this path; "
                                           f"{name!r} is a shipped problem, its file is {shipped[name]} "

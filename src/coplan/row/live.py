@@ -277,6 +277,7 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
     run.booker.cycle_shares = (AT_REST_CYCLE_SHARE,) * 3
     run.booker.probe_rests = True  # a probe finds nothing with the carriage at rest: the arm goes on from there
     stops: list[dict] = []
+    rested: list[int] = []  # the stops' grid indices
 
     def edge_at(t: float) -> float:
         """How far along the row the camera has seen by ``t``: its view then (or when it went dark)."""
@@ -384,6 +385,7 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
         picks = [e for e in run.booker.events[before:] if e.kind == EventKind.PICK]
         t_dep = max([t_arr] + [e.t_end for e in picks])
         stops.append({"x": round(float(grid[k]), 4), "arrive": round(t_arr, 3), "depart": round(t_dep, 3), "picks": len(picks)})
+        rested.append(k)
         nxt, t_dep = next_stop(k, t_dep)
         if nxt == k:
             break
@@ -418,8 +420,22 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
             run.booker.go_home(i)
     windows = pick_windows(run.seen_problem, reach, run.booker.cruise, problem.task.pick_dwell)
     run.booker.windows = windows
-    left = {f: why_left(run.booker, f, faults.halt) for f in windows if f not in run.taken}
+    left = {f: _why_left_at_rest(run, f, rested, faults.halt) for f in windows if f not in run.taken}
     return left, stops
+
+
+def _why_left_at_rest(run: LiveRun, fid: str, rested: list[int], halt: dict[int, float]) -> str:
+    """Why a stop-and-go row left ``fid``: picks happen only at the stops (grid indices
+    ``rested``), so where only a stopped arm reached it from them, that is the reason (the
+    carriage never goes back), not a window it passed while hopping; else :func:`why_left`."""
+    cov = run.reach.cover[fid][:, rested] if rested else np.zeros((len(run.problem.arms), 0), bool)
+    at_rest = [a for a in range(cov.shape[0]) if cov[a].any()]
+    if at_rest and all(a in halt for a in at_rest):
+        names = " or ".join(run.problem.arms[a].name for a in at_rest)
+        when = ", ".join(f"{run.problem.arms[a].name} at t = {halt[a]:.1f} s" for a in at_rest)
+        return (f"{fid}: from the carriage's stops only {names} could reach it, and it stopped ({when}); "
+                "the carriage does not go back")
+    return why_left(run.booker, fid, halt)
 
 
 def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultDraws, left: dict[str, str], cruise: Cruise,
@@ -466,10 +482,14 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
     for r in by_id.values():
         if r.truth is not None and math.isfinite(run.seen.get(r.id, math.inf)):
             reported.setdefault(r.truth, []).append(r)
+    left_over = [f.id for f in problem.fruits if outcome[f.id] == "missed"]
+    anywhere = row_reach(problem, fruit_ids=left_over).cover if left_over else {}  # (the true positions)
     for f in problem.fruits:
         if outcome[f.id] == "missed":  # no report of it was ever booked nor left with a reason
             rs = reported.get(f.id, [])
-            outcome[f.id] = ("missed: never reported (the camera did not see it before the run ended)" if not rs else
+            outcome[f.id] = ("missed: out of every arm's reach from every carriage position (true position)"
+                             if f.id not in anywhere else
+                             "missed: never reported (the camera did not see it before the run ended)" if not rs else
                              f"missed: reported at ({rs[0].position[0]:.3f}, {rs[0].position[1]:.3f}) (report {rs[0].id}), "
                              f"where no arm could pick it as the carriage went (the report's error)")
     windows = booker.windows
