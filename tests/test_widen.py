@@ -224,7 +224,7 @@ def test_a_plan_with_room_already_is_smoothed_unless_proven_optimal():
     import time
 
     from coplan.planners.optimal.incumbent import Incumbent
-    from coplan.planners.optimal.stages import widened
+    from coplan.planners.optimal.judged import widened
 
     prob = _shipped("greenhouse_row")
     c = plan_coordinated(prob)
