@@ -7,6 +7,7 @@ NumPy, the planners and matplotlib are imported inside the commands.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -242,8 +243,8 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         if m.get("holds_for_fruit"):
             faults_line = (f"the carriage held {m['holds_for_fruit']} time{'s' if m['holds_for_fruit'] != 1 else ''} rather "
                            f"than pass a fruit no arm could still book ({m['hold_seconds']:.1f} s)\n") + faults_line
-        missed = [why if f in why else f"{f}: {why}" for f, why in res.outcome.items()
-                  if why != "harvested" and f in {x.id for x in prob.fruits}]
+        missed = [why if re.search(rf"(?<![\w-]){re.escape(f)}(?![\w-])", why) else f"{f}: {why}"  # (named once)
+                  for f, why in res.outcome.items() if why != "harvested" and f in {x.id for x in prob.fruits}]
         if missed:  # each true fruit not harvested, and why (all of them: run.json outcome)
             faults_line += f"missed {len(missed)} fruit: " + "; ".join(_safe(w) for w in missed[:3]) + (
                 f"; ... and {len(missed) - 3} more (run.json: outcome)" if len(missed) > 3 else "") + "\n"
