@@ -94,10 +94,12 @@ def test_a_shipped_problem_by_its_bare_name(tmp_path):
     (tmp_path / "crossing_paths").write_text("not a problem")  # a file of that name here wins
     r = run("check", "crossing_paths", cwd=tmp_path)
     assert r.exit_code == 3
+    # a plan.csv names no problem: the viewer asks for it (it quoted a problem '' before)
+    r = run("view", str(tmp_path / "o" / "plan.csv"), "--out", str(tmp_path / "v.html"))
+    assert r.exit_code == 2 and "does not name its problem" in r.output and "''" not in r.output
+    r = run("view", str(tmp_path / "o" / "plan.csv"), "--problem", "crossing_paths", "--out", str(tmp_path / "v.html"))
+    assert r.exit_code == 0, r.output
     # in Python, a bare name is not a file: the error gives the shipped file, a row's too
-    from coplan.errors import ProblemError
-    from coplan.problem import load_problem
-
     for name in ("crossing_paths", "sparse_row"):
         with pytest.raises(ProblemError, match=f"{name!r} is a shipped problem, its file is .*{name}.yaml"):
             load_problem(tmp_path / "nowhere" / name)

@@ -262,6 +262,8 @@ def test_sweep_file_errors_name_the_key_path_and_line():
     ("base: row\nbase_: x\n", "base_", "did you mean 'base'"),
     ("- 1\n", "", "expected a mapping"),
     ("base: row\nvary: {n_arms: &a [1]}\n", "vary.n_arms", "anchor"),
+    ("base: row\nvary: {}\n", "vary", "at least one to vary"),  # (as `vary:` left empty)
+    ("base: row\nvary: {n_arms: [2, -1, two, 2.5]}\n", "vary.n_arms[3]", "integer"),  # (every bad value, not the first)
 ])
 def test_sweep_file_errors(text, path, words, tmp_path):
     with pytest.raises(SweepError) as e:
@@ -359,6 +361,9 @@ def test_success_rate_counts_failed_solves_against_it():
     assert (s["success_with_reachable_fruit"], s["with_reachable_fruit"]) == (7, 9)  # timeout and partial count
     assert s["counts"] == {"success": 7, "infeasible": 1, "bad input": 1, "timeout": 1, "partial": 1}
     assert {f["key"] for f in s["failures"]} == {"n", "b", "t", "p"}
+    from coplan.sweep.report import _text
+
+    assert "## Worst cases" not in _text(summarise(rows[7:]), "t")  # (no successful row: no empty heading)
 
 
 def test_a_hung_solve_is_stopped_and_its_row_says_timeout(tmp_path):
@@ -398,8 +403,13 @@ def test_the_sweep_command_end_to_end(tmp_path):
     header = (out / "results.csv").read_text().splitlines()[0]
     assert header.replace('"', "").split(",") == list(COLUMNS)
     assert len((out / "results.csv").read_text().splitlines()) == 4
-    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(out), "--planner", "heuristic"])
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(out), "--planner", "heuristic",
+                                                        "--keep-plans"])
     assert r.exit_code == 0 and "3 problems (3 solved now, 0 already done)" in r.output  # another planner: other keys
+    assert "also holds 3 rows of other runs of this sweep (planner coordinated" in r.output  # (and says so)
+    assert len(list((out / "plans").glob("*.json"))) == 3
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(out), "--keep-plans"])
+    assert r.exit_code == 0 and "the 3 already done were not planned again" in r.output
     rows = read_rows(out)
     assert len(rows) == 6 and sorted(r["planner"] for r in rows) == ["coordinated"] * 3 + ["heuristic"] * 3
     assert all(r["heuristic_makespan"] == r["makespan"] for r in rows if r["planner"] == "heuristic")

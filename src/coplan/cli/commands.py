@@ -470,6 +470,9 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
     else:
         shipped = [load_problem(p) for p in shipped_problems() + shipped_rows()]
         prob = next((p for p in shipped if p.name == plan.problem), None)
+        if prob is None and not plan.problem:  # (a plan.csv names no problem)
+            _fail(ExitCode.USAGE, f"{plan_path} does not name its problem (a plan.csv does not): give its YAML file "
+                                  "with --problem FILE")
         if prob is None:
             where = f"it was planned from {record['path']}, which is gone, and " if record is not None else ""
             _fail(

@@ -14,6 +14,7 @@ import typer
 from rich.console import Console
 
 from ..errors import plural
+from ..workers import MAX_WORKERS
 from .checks import between
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
@@ -38,7 +39,7 @@ def sweep_cmd(
                                           "or a folder or glob of problem files.")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Output folder (default: coplan-sweep/<sweep name>). "
                                                 "A re-run into the same folder skips the rows already done.")] = None,
-    workers: Annotated[Optional[int], typer.Option(callback=between(1, 1024), help="Worker processes of the local cluster "
+    workers: Annotated[Optional[int], typer.Option(callback=between(1, MAX_WORKERS), help="Worker processes of the local cluster "
                                                    "(default: one per core; one thread each).")] = None,
     scheduler: Annotated[Optional[str], typer.Option(help="Use an existing Dask cluster at this address "
                                                      "(e.g. tcp://host:8786) instead of a local one.")] = None,
@@ -88,8 +89,20 @@ def sweep_cmd(
             usage(f"--scheduler {scheduler}: could not connect ({e})")
         raise
     rate = 60.0 * res.done / res.elapsed if res.elapsed > 0 else 0.0
-    _out.print(f"[bold]{_safe(sw.name)}[/]: {res.total} problems ({res.done} solved now, {res.skipped} already done) "
+    _out.print(f"[bold]{_safe(sw.name)}[/]: {plural(res.total, 'problem')} ({res.done} solved now, {res.skipped} already done) "
                f"in {res.elapsed:.1f} s ({rate:.1f} problems/min)", highlight=False)
+    from ..sweep.table import read_rows
+
+    rows = read_rows(folder)
+    extra = {r["key"] for r in rows} - {it.key for it in sw.items(planner, time_limit)}
+    if extra:  # rows of other runs into this folder (another planner, time limit or options): the table holds both
+        others = sorted({str(r.get("planner")) for r in rows if r["key"] in extra})
+        _err.print(f"[yellow]note[/]: {_safe(folder)} also holds {plural(len(extra), 'row')} of other runs of this sweep "
+                   f"(planner {', '.join(others)}, or other time limits or options): its table and report hold both",
+                   highlight=False)
+    if keep_plans and res.skipped:
+        _err.print(f"[yellow]note[/]: --keep-plans writes the plans of the rows solved now; the {res.skipped} already done "
+                   "were not planned again (run into a new --out for every plan)", highlight=False)
     _out.print("  " + (_counts_text(res.counts) if res.counts else "nothing to do"), highlight=False)
     for k, v in res.files.items():
         _out.print(f"  wrote {_safe(v)}", highlight=False)

@@ -150,8 +150,9 @@ def _text(s: dict[str, Any], title: str) -> str:
     if s["median_coordinated_over_plan"] is not None or s["median_heuristic_over_plan"] is not None:
         lines += ["", f"planners side by side: median coordinated / plan makespan {_fmt(s['median_coordinated_over_plan'])},"
                       f" heuristic / plan {_fmt(s['median_heuristic_over_plan'])}"]
-    lines += ["", "## Worst cases", ""]
-    for col, rs in s["worst"].items():
+    worst = {col: rs for col, rs in s["worst"].items() if rs}
+    lines += ["", "## Worst cases", ""] if worst else []  # (none among no successful rows: no empty heading)
+    for col, rs in worst.items():
         if rs:
             lines.append(f"- {col}: " + "; ".join(f"{r['name']} (seed {r['seed']}{', ' + r['gantry'] if r.get('gantry') else ''}, "
                                                   f"key {r['key']}) {_fmt(r[col])}" for r in rs))

@@ -498,6 +498,10 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
         if sec is None or not isinstance(sec, dict):
             issues.append(Issue(section, f"expected a mapping of parameter names to values, found {found(sec)}", line_of(lines, (section,))))
             continue
+        if section == "vary" and "vary" in data and not sec:  # (as `vary:` left empty: refused alike)
+            issues.append(Issue(section, "expected a mapping of parameter names to values (at least one to vary), "
+                                         "found an empty mapping", line_of(lines, (section,))))
+            continue
         for k, v in sec.items():
             k = str(k)
             loc = (section, k)
@@ -512,7 +516,7 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                 if vals is not None:
                     vary[k] = vals
             elif isinstance(v, list) and v:
-                if all(_one(k, x, loc + (i,), lines, issues) for i, x in enumerate(v)):
+                if all([_one(k, x, loc + (i,), lines, issues) for i, x in enumerate(v)]):  # (every bad value said)
                     vary[k] = list(v)
             else:
                 issues.append(Issue(_path(loc), f"expected a non-empty list of values or a range {{from, to, step}}, found {found(v)}",
