@@ -91,15 +91,10 @@ def sweep_cmd(
     rate = 60.0 * res.done / res.elapsed if res.elapsed > 0 else 0.0
     _out.print(f"[bold]{_safe(sw.name)}[/]: {plural(res.total, 'problem')} ({res.done} solved now, {res.skipped} already done) "
                f"in {res.elapsed:.1f} s ({rate:.1f} problems/min)", highlight=False)
-    from ..sweep.table import read_rows
-
-    rows = read_rows(folder)
-    extra = {r["key"] for r in rows} - {it.key for it in sw.items(planner, time_limit)}
-    if extra:  # rows of other runs into this folder (another planner, time limit or options): the table holds both
-        others = sorted({str(r.get("planner")) for r in rows if r["key"] in extra})
-        _err.print(f"[yellow]note[/]: {_safe(folder)} also holds {plural(len(extra), 'row')} of other runs of this sweep "
-                   f"(planner {', '.join(others)}, or other time limits or options): its table and report hold both",
-                   highlight=False)
+    if res.others:  # rows of other runs into this folder (another planner, time limit or options): the table holds both
+        _err.print(f"[yellow]note[/]: {_safe(folder)} also holds {plural(len(res.others), 'row')} of other runs of this "
+                   f"sweep (planner {', '.join(sorted(set(res.others.values())))}, or other time limits or options): its "
+                   "table and report hold both", highlight=False)
     if keep_plans and res.skipped:
         _err.print(f"[yellow]note[/]: --keep-plans writes the plans of the rows solved now; the {res.skipped} already done "
                    "were not planned again (run into a new --out for every plan)", highlight=False)

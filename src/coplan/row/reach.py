@@ -34,18 +34,18 @@ class RowReach:
     """Candidate carriage positions and, per fruit, which arms harvest it from which.
 
     grid : (K,) carriage positions from ``gantry.start`` to ``gantry.end``
+    resolution : the grid's spacing as asked (m; ``grid[1] - grid[0]`` differs from it in the
+        last bits far from 0 -- a rail from -2000 m -- and a grid rebuilt from that had one point more)
     cover : fruit id -> (A, K) bool (only fruit some position serves)
     reasons : fruit id -> why no position serves it
-    step : the grid's spacing as asked (m); ``grid[1] - grid[0]`` differs from it in the last
-        bits far from 0 (a rail from -2000 m), and a grid rebuilt from that had one point more
     """
 
     problem: Problem
     grid: np.ndarray
+    resolution: float
     cover: dict[str, np.ndarray] = field(default_factory=dict)
     reasons: dict[str, str] = field(default_factory=dict)
     done_to: float = -math.inf  # fruit up to this row x have been screened (a lazy reach grows as it is asked)
-    step: float | None = None
 
     def ensure(self, x: float = math.inf) -> list[str]:
         """Screen every fruit up to row position ``x`` not screened yet; returns the newly
@@ -60,12 +60,6 @@ class RowReach:
         self.cover.update(more.cover)
         self.reasons.update(more.reasons)
         return [f for f in new if f in more.cover]
-
-    @property
-    def resolution(self) -> float:
-        if self.step is not None:
-            return self.step
-        return float(self.grid[1] - self.grid[0]) if self.grid.size > 1 else 0.0
 
     def stops_of(self, fid: str) -> np.ndarray:
         """Grid indices from which some arm harvests ``fid`` (sorted)."""
@@ -93,7 +87,7 @@ def row_reach(problem: Problem, resolution: float = DEFAULT_RESOLUTION, fruit_id
     grid = g.start + resolution * np.arange(n + 1)
     if grid[-1] < g.end - 1e-9:
         grid = np.append(grid, g.end)
-    out = RowReach(problem, grid, done_to=math.inf if not lazy else -math.inf, step=float(resolution))
+    out = RowReach(problem, grid, float(resolution), done_to=math.inf if not lazy else -math.inf)
     if lazy:
         return out
     cell = cell_at(problem, 0.0, ())  # the carriage frame: bases and bins as written

@@ -153,9 +153,8 @@ def _text(s: dict[str, Any], title: str) -> str:
     worst = {col: rs for col, rs in s["worst"].items() if rs}
     lines += ["", "## Worst cases", ""] if worst else []  # (none among no successful rows: no empty heading)
     for col, rs in worst.items():
-        if rs:
-            lines.append(f"- {col}: " + "; ".join(f"{r['name']} (seed {r['seed']}{', ' + r['gantry'] if r.get('gantry') else ''}, "
-                                                  f"key {r['key']}) {_fmt(r[col])}" for r in rs))
+        lines.append(f"- {col}: " + "; ".join(f"{r['name']} (seed {r['seed']}{', ' + r['gantry'] if r.get('gantry') else ''}, "
+                                              f"key {r['key']}) {_fmt(r[col])}" for r in rs))
     if s["failures"]:
         lines += ["", f"## Rows that are not a success ({len(s['failures'])})", "", "| key | problem | seed | status | exit class | message |",
                   "|---|---|---|---|---|---|"]

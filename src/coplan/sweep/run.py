@@ -55,7 +55,9 @@ def exit_class(code: ExitCode) -> str:
 
 @dataclass
 class SweepOutcome:
-    """What :func:`run_sweep` did: rows written now, rows skipped (already done), counts by status."""
+    """What :func:`run_sweep` did: rows written now, rows skipped (already done), counts by status;
+    ``others``: the rows of other runs of the sweep already in the folder (another planner, time
+    limit or options), which its table keeps beside these."""
 
     out: Path
     total: int
@@ -66,6 +68,7 @@ class SweepOutcome:
     elapsed: float = 0.0
     workers: int = 0
     interrupted: bool = False
+    others: dict[str, str] = field(default_factory=dict)  # key -> planner: rows of other runs in the folder (kept)
 
 
 # ---------------------------------------------------------------------- in the worker
@@ -297,6 +300,8 @@ def run_sweep(
     todo = [it for it in items if it.key not in done]
     n_workers = workers or default_workers()
     outcome = SweepOutcome(out=out, total=len(items), skipped=len(items) - len(todo), workers=n_workers)
+    keys = {it.key for it in items}
+    outcome.others = {k: str(r.get("planner")) for k, r in previous.items() if k not in keys}
     for it in items:
         if it.key in done:
             s = previous[it.key]["status"]

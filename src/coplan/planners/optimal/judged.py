@@ -34,8 +34,8 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     less than the goal, once more with every knot time held and a lighter hold on the start's
     poses (``loose``).
     A plan with ``widen_goal`` of margin already is only smoothed (its room held, widened up to
-    ``widen_cap``), and left as it is when the search ``proven`` it optimal: such a solve is
-    short (greenhouse_row's 0.07 s), and a program would be most of it.
+    ``widen_cap``), and left as it is when the search proved it optimal (``proven``): such a
+    solve is short (greenhouse_row's 0.07 s), and a program would be most of it.
     Returns the stage's report (plan.json ``solver.widen``)."""
     from .widen import WidenOptions, widen as widen_schedules
 
@@ -56,30 +56,34 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     info = dict(res.info)
     info.update(accepted=False, margin_before=margin0, makespan_before=inc.makespan, rms_jerk_before=jerk0)
     best = _judged(problem, inc, res, info, say)
+
+    def in_time() -> bool:
+        return deadline is None or _time.perf_counter() < deadline
+
+    def left() -> int:  # IPOPT iterations the stage has left
+        return opts.widen_iterations - info.get("iterations", 0)
     # free timing settled on less room than the goal (a local optimum) or on a plan the
     # verifier refuses: the same program with every knot time held, on the iterations left
     # (overlap-3x9-s25: free timing 10.7 mm certified, refused; held 84.1 mm)
     want = min(2.0 * margin0, opts.widen_goal)
-    left = opts.widen_iterations - info.get("iterations", 0)
     free = any(r["timing"] == "free" for r in info.get("rounds", ()))
-    if (free and left >= _RETRY_ITERATIONS and "room_note" not in info and (deadline is None or _time.perf_counter() < deadline)
+    if (free and left() >= _RETRY_ITERATIONS and "room_note" not in info and in_time()
             and (best is None or best[2] < want)):
         say(f"widen: free timing {'left less room than the goal' if best is not None else 'gave no plan to keep'}; "
             "solving again with every knot time held")
-        best = _again(problem, inc, replace(wopts, h_bounds=(1.0, 1.0), iterations=left), "retry", info, best,
+        best = _again(problem, inc, replace(wopts, h_bounds=(1.0, 1.0), iterations=left()), "retry", info, best,
                       widen_schedules, deadline, say)
-    if best is None and (info.get("ease") or {}).get("arms") and (deadline is None or _time.perf_counter() < deadline):
+    if best is None and (info.get("ease") or {}).get("arms") and in_time():
         # the program from the eased schedules gave nothing to keep: once more from the plan's own
         say("widen: nothing to keep from the eased schedules; solving again from the plan's own")
         best = _again(problem, inc, replace(wopts, ease=False), "uneased", info, best, widen_schedules, deadline, say)
-    left = opts.widen_iterations - info.get("iterations", 0)
     if ((best is None or best[2] < want) and "room_note" not in info and wopts.track > _LOOSE_TRACK
-            and left >= _RETRY_ITERATIONS and (deadline is None or _time.perf_counter() < deadline)):
+            and left() >= _RETRY_ITERATIONS and in_time()):
         # still less room than the goal: a local optimum of a program held close to the start's
         # poses; once more, held more loosely, every knot time held (overlap-2x6-s22: 31.5 ->
         # 34.7 mm, the goal 32.6; free timing held loosely gave 31.7)
         say("widen: less room than the goal; solving again held more loosely to the start's poses")
-        best = _again(problem, inc, replace(wopts, track=_LOOSE_TRACK, h_bounds=(1.0, 1.0), iterations=left), "loose",
+        best = _again(problem, inc, replace(wopts, track=_LOOSE_TRACK, h_bounds=(1.0, 1.0), iterations=left()), "loose",
                       info, best, widen_schedules, deadline, say)
     if best is None:
         return info
