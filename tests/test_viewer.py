@@ -23,7 +23,7 @@ from coplan.kinds import EventKind
 from coplan.problem import load_problem, shipped_problems
 from coplan.verify import verify
 from coplan.viz import arm_colors
-from coplan.viz.viewer import decode_array, read_viewer_data, render_html, view, write_html
+from coplan.viz.viewer import decode_array, read_viewer_data, render_html, write_html
 
 PROBLEMS = Path(shipped_problems()[0]).parent
 GREENHOUSE = PROBLEMS / "greenhouse_row.yaml"

@@ -18,12 +18,13 @@ row whose carriage never moves).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import Issue
 from .yamlsafe import line_of, path_str
 
-# (``Problem`` in the annotations below is coplan.problem.model.Problem, which imports this module)
+if TYPE_CHECKING:  # (coplan.problem.model imports this module)
+    from .model import Problem
 
 __all__ = ["Gantry", "parse_gantry", "cell_at", "carriage_extent", "GANTRY_KEYS"]
 
