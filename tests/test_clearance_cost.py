@@ -44,6 +44,8 @@ def test_the_command_line_sweep_and_its_usage_errors(tmp_path):
     neg = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--clearance-sweep", "--extra", "-5",
                               "-o", str(tmp_path / "c")])
     assert neg.exit_code == 2 and "0 to 1000 mm" in neg.output
+    gone = runner.invoke(app, ["compare", str(tmp_path / "nope.yaml"), "--clearance-sweep", "-o", str(tmp_path / "d")])
+    assert gone.exit_code == 3 and "no file at this path" in gone.output and "folder" not in gone.output
 
 
 def test_an_interrupted_sweep_keeps_the_levels_that_finished_and_says_so(tmp_path, monkeypatch):

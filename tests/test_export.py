@@ -145,3 +145,11 @@ def test_cli_export(single_plan, tmp_path):
     assert res.exit_code == ExitCode.USAGE
     res = run("export", str(tmp_path / "missing.json"))
     assert res.exit_code == ExitCode.BAD_INPUT
+    # coplan's own plan.csv replay (or any other file) is not overwritten; an earlier export is
+    replay = tmp_path / "plan.csv"
+    replay.write_text("t,arm_q1,arm_q2\n0.0,0.1,0.2\n")
+    res = run("export", str(plan_path), "--out", str(replay))
+    assert res.exit_code == ExitCode.USAGE and "plan.csv replay" in res.stderr
+    assert replay.read_text() == "t,arm_q1,arm_q2\n0.0,0.1,0.2\n"
+    res = run("export", str(plan_path), "--out", str(tmp_path / "plan_250hz.csv"))
+    assert res.exit_code == 0, res.output

@@ -99,6 +99,9 @@ def test_a_shipped_problem_by_its_bare_name(tmp_path):
     assert r.exit_code == 2 and "does not name its problem" in r.output and "''" not in r.output
     r = run("view", str(tmp_path / "o" / "plan.csv"), "--problem", "crossing_paths", "--out", str(tmp_path / "v.html"))
     assert r.exit_code == 0, r.output
+    assert "says it is a plan of" not in r.output  # (a plan.csv names no problem: nothing to disagree with)
+    # its picks and places are inferred, as `coplan verify` does: 4 fruit, 4 picks and 4 places
+    assert "declares no picks or places: 8 inferred" in r.output
     # in Python, a bare name is not a file: the error gives the shipped file, a row's too
     for name in ("crossing_paths", "sparse_row"):
         with pytest.raises(ProblemError, match=f"{name!r} is a shipped problem, its file is .*{name}.yaml"):

@@ -70,6 +70,28 @@ def test_verify_out_never_overwrites_the_plan(single, tmp_path: Path, problems_d
     assert path.read_bytes() == before
 
 
+def test_verify_out_never_overwrites_another_plan_or_file(single, tmp_path: Path, problems_dir: Path) -> None:
+    """--out naming a baseline.json (a plan) or any file that is not a verification report is
+    refused before any work, the file untouched; an earlier report is replaced."""
+    path = _external_plan(single, tmp_path)
+    baseline = tmp_path / "baseline.json"
+    baseline.write_bytes(path.read_bytes())
+    other = tmp_path / "other.json"
+    other.write_text('{"a": 1}')
+    prob = str(problems_dir / "single_arm.yaml")
+    for target, kind in ((baseline, "a coplan.plan file"), (other, "a file of another kind")):
+        before = target.read_bytes()
+        res = run("verify", prob, str(path), "--out", str(target))
+        assert res.exit_code == int(ExitCode.USAGE), res.output
+        assert kind in res.output and "would be overwritten" in res.output
+        assert target.read_bytes() == before
+    report = tmp_path / "ver.json"
+    for _ in range(2):  # written, then replaced
+        res = run("verify", prob, str(path), "--out", str(report))
+        assert res.exit_code == int(ExitCode.UNSAFE), res.output
+    assert json.loads(report.read_text())["format"].startswith("coplan.verification/")
+
+
 def test_version() -> None:
     from importlib.metadata import version
 

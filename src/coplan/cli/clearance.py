@@ -18,6 +18,10 @@ __all__ = ["clearance_sweep", "run_clearance_sweep"]
 def clearance_sweep(source: Path, planner, extra, out: Path, figures: bool, time_limit, options_file, as_json: bool,
                     out_console, err_console) -> ExitCode:
     """``coplan compare PROBLEM --clearance-sweep``: its inputs checked, then the sweep run."""
+    if not source.exists():  # nothing there: bad input (3), as `coplan compare` without the sweep says
+        from ..problem.model import load_problem
+
+        load_problem(source)
     if not source.is_file():
         fail(ExitCode.USAGE, f"--clearance-sweep: expected one problem file, found the folder {safe(source)}")
     if planner and len(planner) > 1:

@@ -327,6 +327,10 @@ def verify_cmd(
         failures.check_out_dir(out)
     elif out is not None:
         failures.check_out_file(out)
+    if out is not None:  # an earlier report is replaced; a plan, a baseline or any other file is not
+        target = out if out.suffix == ".json" and not out.is_dir() else out / "verification.json"
+        failures.check_overwrite(target, lambda head: b'"format": "coplan.verification/' in head,
+                                 "a verification report")
     from ..plan import PlanFileError
 
     prob = load_problem(_resolve_problem(problem))
@@ -460,7 +464,7 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
     record = plan.problem_file
     if problem is not None:
         prob = load_problem(_resolve_problem(problem))
-        if prob.name != plan.problem:
+        if plan.problem and prob.name != plan.problem:  # (a plan.csv names no problem)
             err_console.print(f"[yellow]note[/]: {_s(plan_path)} says it is a plan of {_s(repr(plan.problem))}; {_s(problem)} is {_s(repr(prob.name))}")
     elif record is not None and Path(record["path"]).is_file():
         prob = load_problem(record["path"])
@@ -487,6 +491,15 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
             f"{plan_path} does not fit problem {prob.name!r}: no trajectory for arm(s) {', '.join(missing)} "
             f"(the plan has {', '.join(plan.q)})",
         )
+    if not plan.events and plan.q:  # (a plan.csv declares none): as the verifier infers them
+        from dataclasses import replace
+
+        from ..verify.clearance import arm_motions
+        from ..verify.infer import infer_events
+
+        plan = replace(plan, events=infer_events(prob, plan, arm_motions(prob, plan)))
+        err_console.print(f"[yellow]note[/]: {_s(plan_path)} declares no picks or places: {len(plan.events)} inferred "
+                          "from its motion, as `coplan verify` does")
     return prob, plan
 
 

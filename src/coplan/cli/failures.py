@@ -25,7 +25,8 @@ from typing import Any
 from ..errors import CoplanError, InputError, Issue
 from ..kinds import ExitCode
 
-__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "usage", "check_out_dir"]
+__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "usage", "check_out_dir",
+           "check_overwrite"]
 
 # set by the console entry point when SIGTERM arrived: an interruption then exits 143, not 130
 TERMINATED: list[int] = []
@@ -86,6 +87,35 @@ def check_out_file(out, what: str = "--out") -> None:
     if out.is_dir():
         usage(f"{what} {out}: expected a file name, found a folder")
     check_out_dir(out.parent, what=f"{what} {out}: its folder")
+
+
+def check_overwrite(out, mine, what: str, option: str = "--out") -> None:
+    """Before any work: an existing file ``out`` (a Path) is overwritten only when it is a file
+    of the kind the command writes (``mine(first_bytes) -> bool``); any other file (a plan, a
+    baseline, somebody's data) is refused, named, with exit 2: nothing is lost to a typo."""
+    if not out.is_file():
+        return
+    try:
+        with open(out, "rb") as f:
+            head = f.read(4096)
+    except OSError:
+        return  # (the write itself then says why)
+    if not mine(head):
+        found = _what_file(head)
+        usage(f"{option} {out}: expected a new file or {what}, found {found}: it would be overwritten; "
+              "give another file")
+
+
+def _what_file(head: bytes) -> str:
+    """What a file's first bytes say it is, for a message: a coplan file by its format, a CSV
+    by its header, else 'a file of another kind'."""
+    m = re.search(rb'"format"\s*:\s*"(coplan\.[a-z_]+)/', head)
+    if m:
+        return f"a {m.group(1).decode()} file"
+    line = head.split(b"\n", 1)[0].decode("utf-8", "replace").strip()
+    if line.startswith("t,") and "_q1" in line:
+        return "coplan's plan.csv replay" if "_qd1" not in line else "another export's CSV"
+    return "a file of another kind"
 
 
 def resolve_problem(problem, note=lambda message: None):
