@@ -18,13 +18,12 @@ row whose carriage never moves).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ..errors import Issue
 from .yamlsafe import line_of, path_str
 
-if TYPE_CHECKING:  # (coplan.problem.model imports this module)
-    from .model import Problem
+# (``Problem`` in the annotations below is coplan.problem.model.Problem, which imports this module)
 
 __all__ = ["Gantry", "parse_gantry", "cell_at", "carriage_extent", "GANTRY_KEYS"]
 
