@@ -329,8 +329,7 @@ def verify_cmd(
         failures.check_out_file(out)
     if out is not None:  # an earlier report is replaced; a plan, a baseline or any other file is not
         target = out if out.suffix == ".json" and not out.is_dir() else out / "verification.json"
-        failures.check_overwrite(target, lambda head: b'"format": "coplan.verification/' in head,
-                                 "a verification report")
+        failures.check_overwrite(target, "a coplan.verification file", "a verification report")
     from ..plan import PlanFileError
 
     prob = load_problem(_resolve_problem(problem))

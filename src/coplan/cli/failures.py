@@ -89,9 +89,9 @@ def check_out_file(out, what: str = "--out") -> None:
     check_out_dir(out.parent, what=f"{what} {out}: its folder")
 
 
-def check_overwrite(out, mine, what: str, option: str = "--out") -> None:
-    """Before any work: an existing file ``out`` (a Path) is overwritten only when it is a file
-    of the kind the command writes (``mine(first_bytes) -> bool``); any other file (a plan, a
+def check_overwrite(out, kind: str, what: str, option: str = "--out") -> None:
+    """Before any work: an existing file ``out`` (a Path) is overwritten only when it is of the
+    ``kind`` the command writes (as :func:`_file_kind` names it); any other file (a plan, a
     baseline, somebody's data) is refused, named, with exit 2: nothing is lost to a typo."""
     if not out.is_file():
         return
@@ -100,21 +100,22 @@ def check_overwrite(out, mine, what: str, option: str = "--out") -> None:
             head = f.read(4096)
     except OSError:
         return  # (the write itself then says why)
-    if not mine(head):
-        found = _what_file(head)
+    found = _file_kind(head)
+    if found != kind:
         usage(f"{option} {out}: expected a new file or {what}, found {found}: it would be overwritten; "
               "give another file")
 
 
-def _what_file(head: bytes) -> str:
-    """What a file's first bytes say it is, for a message: a coplan file by its format, a CSV
-    by its header, else 'a file of another kind'."""
+def _file_kind(head: bytes) -> str:
+    """What a file's first bytes say it is: a coplan JSON file by its format ('a
+    coplan.verification file'), coplan's plan.csv replay or an export CSV by its header, else
+    'a file of another kind'."""
     m = re.search(rb'"format"\s*:\s*"(coplan\.[a-z_]+)/', head)
     if m:
         return f"a {m.group(1).decode()} file"
     line = head.split(b"\n", 1)[0].decode("utf-8", "replace").strip()
     if line.startswith("t,") and "_q1" in line:
-        return "coplan's plan.csv replay" if "_qd1" not in line else "another export's CSV"
+        return "an export CSV" if "_qd1" in line else "coplan's plan.csv replay"
     return "a file of another kind"
 
 

@@ -59,6 +59,5 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     if out.resolve() == plan_path.resolve():
         raise Failure(ExitCode.USAGE, f"--out {out} is the plan being exported; give another file")
     if fmt == ExportFormat.CSV:  # an earlier export is replaced; coplan's plan.csv or any other file is not
-        check_overwrite(out, lambda head: head.startswith(b"t,") and b"_qd1" in head.split(b"\n", 1)[0],
-                        "an earlier export (a CSV with t, <arm>_q1 ... <arm>_qdd2)")
+        check_overwrite(out, "an export CSV", "an earlier export (a CSV with t, <arm>_q1 ... <arm>_qdd2)")
     return export_plan(plan, rate, fmt, out)
