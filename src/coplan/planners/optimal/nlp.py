@@ -349,6 +349,11 @@ def _ipopt_options(warm, ipopt_options: dict | None) -> dict:
         "ipopt.acceptable_iter": 5,
         "ipopt.max_iter": 500,
         "ipopt.mu_strategy": "adaptive",
+        # MUMPS's working space: 100 % beyond its estimate (IPOPT's default, 1000 %, allocates
+        # and zeroes eleven times the estimate at every factorisation: on dense_overlap's
+        # widening, 97 iterations, 1.0-1.4 s of 9.2-10.8 s; the same iterates, bit for bit).
+        # Where MUMPS needs more, IPOPT doubles it and factorises again.
+        "ipopt.mumps_mem_percent": 100,
     }
     if warm is not None:
         opts["ipopt.mu_init"] = 1e-3
