@@ -20,7 +20,10 @@ from coplan.planners.coordinated.planner import CoordinatedOptions
 from coplan.problem import load_problem, parse_problem, shipped_problems
 from coplan.row.continuous import MovingOptions
 from coplan.row.plan import RowOptions
+from coplan.output import OutputError
+from coplan.report.comparison import compare
 from coplan.row.sensing import LiveRowOptions
+from coplan.verify import VerifyOptions
 
 CROSSING = next(p for p in shipped_problems() if p.stem == "crossing_paths")
 runner = CliRunner()
@@ -72,6 +75,11 @@ def test_a_problem_changed_in_python_no_longer_names_its_file(cell):
     (MovingOptions, {"level": 0}, "level: expected a positive number or null"),
     (MovingOptions, {"profile": "x"}, "profile: speed profile: expected one of"),
     (LiveRowOptions, {"speed": 0}, "speed: expected a positive number"),
+    (VerifyOptions, {"substeps": 0}, "substeps: expected a positive integer, found number 0"),
+    (VerifyOptions, {"refine_factor": 1}, "refine_factor: expected an integer >= 2"),
+    (VerifyOptions, {"position_tolerance": math.nan}, "position_tolerance: expected a positive number, found number nan"),
+    (VerifyOptions, {"fcl": "bogus"}, "fcl: fcl mode: expected one of 'off', 'critical', 'full'; found 'bogus'"),
+    (VerifyOptions, {"infer_events": "yes"}, "infer_events: expected true or false, found string 'yes'"),
 ])
 def test_options_built_in_python_are_checked_as_an_options_file_is(cls, kw, words):
     with pytest.raises(OptionsError, match=words.replace("(", r"\(")):
@@ -194,3 +202,30 @@ def test_more_bad_arguments_say_what_was_expected(cell):
     # the documented submodules of the row stage are attributes after `import coplan`
     code = "import coplan; print(coplan.row.continuous.plan_moving.__name__)"
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "plan_moving"
+
+
+@pytest.mark.parametrize("where, words", [
+    ("file", "expected a folder, found a file"),
+    ("file/under", "expected a folder, found the file"),
+])
+def test_an_output_folder_the_api_cannot_write_is_refused_before_any_work(tmp_path, monkeypatch, where, words):
+    """(coplan.solve(out_dir=...) solved first and then raised the OS's NotADirectoryError: the
+    solve was lost.) The facade and the report functions check where they write first."""
+    (tmp_path / "file").write_text("somebody's data")
+    out = tmp_path / where
+
+    def no_work(*a, **k):
+        raise AssertionError("worked before checking out_dir")
+
+    monkeypatch.setattr("coplan.pipeline.load_problem", no_work)
+    monkeypatch.setattr("coplan.report.comparison._problem_files", no_work)
+    for call in (lambda: coplan.solve(CROSSING, out_dir=out), lambda: compare(CROSSING, out_dir=out)):
+        with pytest.raises(OutputError, match=f"out_dir {out}: {words}"):
+            call()
+    assert (tmp_path / "file").read_text() == "somebody's data"
+
+
+def test_compare_takes_one_planner_by_its_name(tmp_path):
+    """(A string was iterated: planners 'c', 'o', ... each refused.)"""
+    cmp = compare(CROSSING, planners="coordinated", out_dir=tmp_path, figures=False)
+    assert cmp.planners == ["coordinated"]

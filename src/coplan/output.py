@@ -23,10 +23,41 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["MARKER", "RunFolder", "is_run_folder", "usual_mode", "atomic_text", "named_as"]
+from .errors import CoplanError
+
+__all__ = ["MARKER", "RunFolder", "is_run_folder", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder"]
 
 MARKER = ".coplan-run"  # written into every run folder
 _OURS = ("plan.", "baseline.", "verification.json", "run.json", "live.gif", MARKER)  # solve and live runs
+
+
+class OutputError(CoplanError, ValueError):
+    """An output folder coplan cannot write into, found before any work."""
+
+
+def check_folder(out: str | Path, what: str = "out_dir") -> None:
+    """Before any work: ``out`` must be a folder coplan can create or write into (a missing
+    parent is created later); :class:`OutputError` says what was expected and found, so that
+    a solve of minutes is not lost to a typo in where it goes."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"{what} {out}: expected a folder, found a file")
+    probe = out
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        raise OutputError(f"{what} {out}: expected a folder, found the file {probe} in its path")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise OutputError(f"{what} {out}: expected a folder coplan may write to, found {probe} not writable")
+    # permission bits do not tell all (root passes os.access; /proc and read-only mounts refuse
+    # new files anyway): a hidden file made and removed there says it
+    try:
+        fd, name = tempfile.mkstemp(prefix=".coplan-probe-", dir=probe)
+    except OSError as exc:
+        raise OutputError(f"{what} {out}: expected a folder coplan may write to, found {probe} takes no new files "
+                          f"({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(name)
 
 
 def usual_mode(folder: bool = False) -> int:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from .allocate.allocation import AllocationMethod, allocate
 from .kinds import ExitCode, GantryMode, StopRule
-from .output import RunFolder
+from .output import RunFolder, check_folder
 from .planners.heuristic import plan_heuristic
 from .plan import Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem.model import Problem, load_problem, parse_problem
@@ -235,6 +235,8 @@ def solve(
     from .verify.verifier import verify
 
     t0 = _time.perf_counter()
+    if out_dir is not None:
+        check_folder(out_dir, "out_dir")  # (before any work: a solve is not lost to where it goes)
     prob = problem if isinstance(problem, Problem) else _from_mapping(problem) if isinstance(problem, Mapping) else load_problem(problem)
     if prob.gantry is not None:
         if allocation is not None:

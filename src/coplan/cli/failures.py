@@ -24,6 +24,7 @@ from typing import Any
 
 from ..errors import CoplanError, InputError, Issue
 from ..kinds import ExitCode
+from ..output import OutputError, check_folder
 
 __all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "usage", "check_out_dir",
            "check_overwrite"]
@@ -58,27 +59,12 @@ def usage(message: str):
 
 
 def check_out_dir(out, what: str = "--out") -> None:
-    """Before any work: ``out`` (a Path) must be a folder coplan can create or write into."""
-    if out.exists() and not out.is_dir():
-        usage(f"{what} {out}: expected a folder, found a file")
-    probe = out
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir():
-        usage(f"{what} {out}: expected a folder, found the file {probe} in its path")
-    if not os.access(probe, os.W_OK | os.X_OK):
-        usage(f"{what} {out}: expected a folder coplan may write to, found {probe} not writable")
-    # permission bits do not tell all (root passes os.access; /proc and read-only mounts refuse
-    # new files anyway): a hidden file made and removed there says it before any work
-    import tempfile
-
+    """Before any work: ``out`` (a Path) must be a folder coplan can create or write into
+    (:func:`coplan.output.check_folder`); else exit 2 with what it found."""
     try:
-        fd, name = tempfile.mkstemp(prefix=".coplan-probe-", dir=probe)
-    except OSError as exc:
-        usage(f"{what} {out}: expected a folder coplan may write to, found {probe} takes no new files "
-              f"({exc.strerror or exc})")
-    os.close(fd)
-    os.unlink(name)
+        check_folder(out, what)
+    except OutputError as exc:
+        usage(str(exc))
 
 
 def check_out_file(out, what: str = "--out") -> None:

@@ -20,7 +20,7 @@ from typing import Any
 
 from ..errors import ProblemError
 from ..kinds import PlanStatus
-from ..output import atomic_text
+from ..output import atomic_text, check_folder
 from ..plan import jsonable
 from ..problem.generate import to_yaml
 from ..problem.model import load_problem, parse_problem
@@ -58,6 +58,7 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
     from ..pipeline import solve
 
     say, tick = speaker(progress), ticker(progress)
+    check_folder(out_dir, "out_dir")  # (before any work)
     path = Path(path)
     base = load_problem(path)  # a bad file fails here, with its own error
     data, _ = read_yaml(path.read_text(encoding="utf-8"), str(path))

@@ -31,7 +31,7 @@ from ..allocate.allocation import AllocationMethod, lower_bound
 from ..errors import Issue, ProblemError, plural, printable
 from ..plan import Plan, PlannerKind
 from ..problem.model import Problem, load_problem
-from ..output import atomic_text
+from ..output import atomic_text, check_folder
 from ..progress import Tick, nested, speaker, ticker
 
 __all__ = ["PlannerSpec", "DEFAULT_PLANNERS", "Comparison", "compare", "run_row", "aggregate", "to_markdown", "rich_tables"]
@@ -198,9 +198,12 @@ def compare(
     returning an interrupted plan) stops the run: the report then covers the problems that
     finished (a note names the one interrupted), and the interruption is raised again.
     """
+    if isinstance(planners, (str, PlannerSpec)):  # one planner, not its letters
+        planners = [planners]
     specs = [PlannerSpec.parse(p) for p in planners]
     if not specs:
         raise ValueError("expected at least one planner")
+    check_folder(out_dir, "out_dir")  # (before any work)
     files = _problem_files(source)
     single = isinstance(source, (str, Path)) and not Path(source).is_dir()
     say = speaker(progress)

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..kinds import PlannerKind, StopRule
-from ..output import atomic_text
+from ..output import atomic_text, check_folder
 from ..plan import jsonable
 from ..problem.model import Problem
 from ..progress import Tick, nested, speaker, ticker
@@ -44,6 +44,7 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     from ..pipeline import solve
 
     say, tick = speaker(progress), ticker(progress)
+    check_folder(out_dir, "out_dir")  # (before any work)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     cmp = RowComparison(problem.name)

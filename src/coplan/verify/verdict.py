@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from .clearance import DEFAULT_SUBSTEPS
+from ..errors import Issue, OptionsError, check_fields
 from ..kinds import FclMode
 from ..output import atomic_text
 from .fclcheck import FCL_TOLERANCE, FclReport
@@ -110,6 +111,14 @@ class VerifyOptions:
     joint_tolerance: float = 1e-7
     infer_events: bool = True
     carriage_tolerance: float = 1e-6  # m: a row plan's carriage start and rail ends
+
+    def __post_init__(self):
+        # built in Python: every value checked (OptionsError: what was expected, found); a
+        # refinement that splits an interval into one would never end
+        check_fields(self, {"substeps", "refine_factor", "position_tolerance", "still_speed", "q_resolution"})
+        if self.refine_factor < 2:
+            raise OptionsError([Issue("refine_factor", f"expected an integer >= 2 (each uncertified interval split "
+                                                       f"into that many), found {self.refine_factor}")], "VerifyOptions")
 
 
 @dataclass(frozen=True)
