@@ -225,7 +225,21 @@ def test_an_output_folder_the_api_cannot_write_is_refused_before_any_work(tmp_pa
     assert (tmp_path / "file").read_text() == "somebody's data"
 
 
-def test_compare_takes_one_planner_by_its_name(tmp_path):
-    """(A string was iterated: planners 'c', 'o', ... each refused.)"""
-    cmp = compare(CROSSING, planners="coordinated", out_dir=tmp_path, figures=False)
-    assert cmp.planners == ["coordinated"]
+def test_compare_takes_one_planner_by_its_name_and_a_planner_given_twice_once(tmp_path):
+    """(A string was iterated: planners 'c', 'o', ... each refused. A planner given twice was
+    solved twice, into the same run folder and under the same label.)"""
+    cmp = compare(CROSSING, planners="coordinated", out_dir=tmp_path / "one", figures=False)
+    assert cmp.planners == ["coordinated"] and len(cmp.rows) == 1
+    cmp = compare(CROSSING, planners=["coordinated", "heuristic", "coordinated"], out_dir=tmp_path / "two", figures=False)
+    assert cmp.planners == ["coordinated", "heuristic"] and len(cmp.rows) == 2
+    assert cmp.notes == ["planner coordinated given more than once: compared once"]
+    assert "coordinated given more than once" in (tmp_path / "two" / "compare.md").read_text()
+
+
+def test_compare_of_a_missing_problem_file_makes_no_output_folder(tmp_path):
+    res = runner.invoke(app, ["compare", str(tmp_path / "nope.yaml"), "--out", str(tmp_path / "cmp")])
+    assert res.exit_code == 3 and "expected an existing YAML file, found no file at this path" in res.output
+    assert not (tmp_path / "cmp").exists()
+    with pytest.raises(ProblemError):
+        compare(tmp_path / "nope.yaml", out_dir=tmp_path / "api")
+    assert not (tmp_path / "api").exists()

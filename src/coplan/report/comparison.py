@@ -200,17 +200,25 @@ def compare(
     """
     if isinstance(planners, (str, PlannerSpec)):  # one planner, not its letters
         planners = [planners]
-    specs = [PlannerSpec.parse(p) for p in planners]
+    specs, twice = [], []
+    for spec in (PlannerSpec.parse(p) for p in planners):
+        if spec.label in [s.label for s in specs]:  # (the same label: the same run folder and row)
+            twice.append(spec.label)
+        else:
+            specs.append(spec)
     if not specs:
         raise ValueError("expected at least one planner")
     check_folder(out_dir, "out_dir")  # (before any work)
     files = _problem_files(source)
     single = isinstance(source, (str, Path)) and not Path(source).is_dir()
+    if single:
+        load_problem(files[0])  # a bad or missing file fails here, before the output folder is made
     say = speaker(progress)
     tick = ticker(progress)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     cmp = Comparison(planners=[s.label for s in specs])
+    cmp.notes += [f"planner {label} given more than once: compared once" for label in dict.fromkeys(twice)]
     _warm_up()
     runs = len(files) * len(specs)
     for k, path in enumerate(files):
