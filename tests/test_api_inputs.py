@@ -236,6 +236,15 @@ def test_compare_takes_one_planner_by_its_name_and_a_planner_given_twice_once(tm
     assert "coordinated given more than once" in (tmp_path / "two" / "compare.md").read_text()
 
 
+def test_compare_again_into_a_folder_names_the_earlier_runs_it_does_not_write(tmp_path):
+    compare(CROSSING, planners=["coordinated", "heuristic"], out_dir=tmp_path, figures=False)
+    cmp = compare(CROSSING, planners="coordinated", out_dir=tmp_path, figures=False)
+    stale = tmp_path / CROSSING.stem / "heuristic"
+    assert cmp.notes == [f"{stale}: a run of an earlier comparison (not in this one; left as it was)"]
+    assert (stale / "plan.json").is_file()  # (nothing of the user's is moved or removed)
+    assert f"{stale}: a run of an earlier comparison" in (tmp_path / "compare.md").read_text()
+
+
 def test_compare_of_a_missing_problem_file_makes_no_output_folder(tmp_path):
     res = runner.invoke(app, ["compare", str(tmp_path / "nope.yaml"), "--out", str(tmp_path / "cmp")])
     assert res.exit_code == 3 and "expected an existing YAML file, found no file at this path" in res.output

@@ -31,7 +31,7 @@ from ..allocate.allocation import AllocationMethod, lower_bound
 from ..errors import Issue, ProblemError, plural, printable
 from ..plan import Plan, PlannerKind
 from ..problem.model import Problem, load_problem
-from ..output import atomic_text, check_folder
+from ..output import atomic_text, check_folder, is_run_folder
 from ..progress import Tick, nested, speaker, ticker
 
 __all__ = ["PlannerSpec", "DEFAULT_PLANNERS", "Comparison", "compare", "run_row", "aggregate", "to_markdown", "rich_tables"]
@@ -219,6 +219,7 @@ def compare(
     out.mkdir(parents=True, exist_ok=True)
     cmp = Comparison(planners=[s.label for s in specs])
     cmp.notes += [f"planner {label} given more than once: compared once" for label in dict.fromkeys(twice)]
+    cmp.notes += _earlier_runs(out, files, specs)
     _warm_up()
     runs = len(files) * len(specs)
     for k, path in enumerate(files):
@@ -245,6 +246,20 @@ def compare(
         _write_report(cmp, specs, out)
         say(f"{k + 1} of {len(files)} problem files compared; report written to {out / 'compare.json'}")
     return cmp
+
+
+def _earlier_runs(out: Path, files: list[Path], specs: list[PlannerSpec]) -> list[str]:
+    """Notes naming the run folders of an earlier comparison into ``out`` that this one does not
+    write (another planner's): left as they were, and not this report's."""
+    mine = {s.folder for s in specs}
+    notes = []
+    for path in files:
+        folder = out / path.stem
+        if folder.is_dir():
+            for run in sorted(folder.iterdir()):
+                if run.name not in mine and not run.name.endswith(".previous") and is_run_folder(run):
+                    notes.append(f"{run}: a run of an earlier comparison (not in this one; left as it was)")
+    return notes
 
 
 def _warm_up() -> None:
