@@ -443,3 +443,23 @@ def test_a_row_plan_s_stops_and_bound_in_the_viewer_data():
     bound = row_bounds(prob).any_plan
     assert viewer_data(prob, [live.plan])["lower_bound"] == pytest.approx(bound)
     assert live.plan.metrics["makespan"] >= bound - 1e-6 and live.plan.metrics["lower_bound"] == pytest.approx(bound)
+
+
+def test_notebook_view_of_a_row_plan_file_finds_its_problem(tmp_path):
+    """(coplan.view(load_plan('plan.json')) of a row plan asked for a shipped cell's name; the
+    CLI found the row from the file the plan records, or the shipped rows.)"""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.plan import load_plan
+    from coplan.problem.model import shipped_rows
+
+    f = tmp_path / "short.yaml"
+    f.write_text(to_yaml(gantry_row(length=6.0, density=2.0, seed=1, name="short")))
+    coplan.solve(f, stops="fewest", out_dir=tmp_path / "run")
+    plan = load_plan(tmp_path / "run" / "plan.json")
+    assert read_viewer_data(coplan.view(plan).page)["problem"]["name"] == "short"  # the file it records
+    f.write_text(f.read_text() + "# changed since\n")
+    with pytest.raises(coplan.errors.PlanFileError, match="which is gone or has changed since"):
+        coplan.view(plan)
+    sparse = next(p for p in shipped_rows() if p.stem == "sparse_row")
+    plan.problem_file, plan.problem = None, load_problem(sparse).name  # a shipped row, by its name
+    assert read_viewer_data(coplan.view(plan).page)["problem"]["name"] == "sparse-row"

@@ -207,9 +207,15 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             usage("--speed: applies on the move (--gantry continuous); stop and go, the carriage hops between stops at "
                   "the gantry's limits")
         speed = 0.1  # unused (run.json records none)
-    elif speed is None or not (speed == speed and 0.0 < speed <= vmax):
+    elif speed is None:
         usage(f"--speed: expected the carriage's cruising speed in (0, {vmax:g}] m/s (gantry.max_velocity), found "
-              f"{'nothing' if speed is None else f'{speed:g}'} (or --gantry stop-and-go)")
+              "nothing (or --gantry stop-and-go)")
+    else:
+        from ..problem.plausible import cruise_speed_issue
+
+        bad = cruise_speed_issue(prob, speed)
+        if bad:
+            usage(f"--speed: {bad} (or --gantry stop-and-go)")
     opts = LiveRowOptions(speed=speed, look_ahead=look_ahead, sigma=sigma, false_rate=false_rate,
                           duplicate_rate=duplicate_rate, seed=seed, faults=faults, mode=mode)
     res = run_live_row(prob, opts)

@@ -155,8 +155,9 @@ def moving_options(problem, gantry, speed, stops, planner):
 
     if speed is None:
         return MovingOptions()
-    vmax = problem.gantry.max_velocity
-    if not (speed == speed and 0.0 < speed <= vmax):
-        fail(ExitCode.USAGE, f"--speed: expected a cruising speed in (0, {vmax:g}] m/s (gantry.max_velocity of "
-                              f"{problem.name!r}), found {speed:g}")
+    from ..problem.plausible import cruise_speed_issue
+
+    bad = cruise_speed_issue(problem, speed)
+    if bad:
+        fail(ExitCode.USAGE, f"--speed: {bad} ({problem.name!r})")
     return MovingOptions(profile=SpeedProfile.CONSTANT, level=speed)

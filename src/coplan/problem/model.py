@@ -468,7 +468,11 @@ def _whole(problem: Problem, fruits: list[Fruit], lines: dict, source: str | Non
                      line_of(lines, ("fruits", j, "position"))) for j, f in enumerate(fruits) if not lo <= f.position[0] <= hi]
         if far:
             raise ProblemError(far, source)
-        return  # a row's plan length is bounded by the row planner (its cells are checked as they are made)
+        # (the row planners bound the rest: each cell is checked as it is made, a speed on the move by the cruise)
+        slow = plausible.row_duration_issues(problem)
+        if slow:
+            raise ProblemError([Issue(path_str(loc), msg, line_of(lines, loc)) for loc, msg in slow], source)
+        return
     too_long = plausible.duration_issues(problem)
     if too_long:
         raise ProblemError([Issue(path_str(loc), msg, line_of(lines, loc)) for loc, msg in too_long], source)

@@ -30,7 +30,8 @@ import numpy as np
 from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES
 
 __all__ = ["Bound", "BOUNDS", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
-           "duration_issues"]
+           "duration_issues", "row_travel", "slowest_speed", "row_duration_issues",
+           "cruise_speed_issue"]
 
 TAU = 2.0 * math.pi
 
@@ -205,3 +206,55 @@ def duration_issues(problem) -> list[tuple[tuple, str]]:
         f"{list(arm.max_acceleration)} rad/s^2, max_jerk {list(arm.max_jerk)} rad/s^3; pick_dwell "
         f"{problem.task.pick_dwell:g} s, place_dwell {problem.task.place_dwell:g} s)"
     ))]
+
+
+def row_travel(problem) -> float:
+    """The least distance (m) a row's carriage covers in any plan: from ``gantry.start`` to
+    where its farthest fruit first comes within an arm's reach (0 when it is in reach from the
+    start)."""
+    g = problem.gantry
+    if g is None or not problem.fruits:
+        return 0.0
+    ahead = max(a.base[0] + a.reach for a in problem.arms)
+    far = min(max(float(problem.fruit_positions[:, 0].max()) - ahead, g.start), g.end)
+    return far - g.start
+
+
+def slowest_speed(problem) -> float:
+    """The slowest constant carriage speed (m/s) whose plan can fit :func:`max_plan_seconds`
+    (its 100 Hz grid, its file): :func:`row_travel` over that time."""
+    return row_travel(problem) / max_plan_seconds(len(problem.arms))
+
+
+def row_duration_issues(problem) -> list[tuple[tuple, str]]:
+    """``(key path, message)`` when a row's carriage, at its speed limit, cannot even reach its
+    farthest fruit within :func:`max_plan_seconds` (memory and file would run away); else nothing."""
+    g = problem.gantry
+    dist = row_travel(problem)
+    limit = max_plan_seconds(len(problem.arms))
+    if g is None or dist / g.max_velocity <= limit:
+        return []
+    return [(("gantry", "max_velocity"), (
+        f"expected a carriage that covers the row in a plan of at most {_hours(limit)} (plans are sampled at "
+        f"{SAMPLE_RATE:g} Hz{'' if limit == MAX_PLAN_SECONDS else f'; with {len(problem.arms)} arms, longer plans make files over {MAX_PLAN_BYTES >> 20} MiB'}), "
+        f"found max_velocity {g.max_velocity:g} m/s: the carriage alone takes at least {_hours(dist / g.max_velocity)} "
+        f"to bring its farthest fruit within reach ({dist:g} m from gantry.start)"
+    ))]
+
+
+def cruise_speed_issue(problem, speed) -> str | None:
+    """What is wrong with ``speed`` (m/s) as a row's constant cruising speed, or None: above
+    ``gantry.max_velocity``, or so slow that the plan would outgrow :func:`max_plan_seconds`
+    (:func:`slowest_speed`: a 100 Hz grid of days, a file no verifier reads)."""
+    g = problem.gantry
+    lo = slowest_speed(problem)
+    if isinstance(speed, (int, float)) and not isinstance(speed, bool) and math.isfinite(speed) and 0.0 < speed <= g.max_velocity \
+            and speed >= lo:
+        return None
+    limit = max_plan_seconds(len(problem.arms))
+    low = (f"[{lo:.3g}, {g.max_velocity:g}] m/s (gantry.max_velocity at most; at least what brings the farthest fruit "
+           f"within reach, {row_travel(problem):g} m along the rail, in a plan of {_hours(limit)}, the longest coplan makes"
+           f"{'' if limit == MAX_PLAN_SECONDS else f' with {len(problem.arms)} arms (its file under {MAX_PLAN_BYTES >> 20} MiB)'})"
+           if lo > 0 else f"(0, {g.max_velocity:g}] m/s (gantry.max_velocity)")
+    shown = f"{speed:g}" if isinstance(speed, (int, float)) and not isinstance(speed, bool) else repr(speed)
+    return f"expected a cruising speed in {low}, found {shown}"

@@ -30,10 +30,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import check_fields
+from ..errors import Issue, OptionsError, check_fields
 from ..kinds import AssignRule, PlannerKind, PlanStatus, SpeedProfile
 from ..plan import DEFAULT_RATE, EventKind, Plan, compute_metrics, finalize_plan
 from ..problem.model import Problem
+from ..problem.plausible import cruise_speed_issue, max_plan_seconds
 from ..progress import speaker
 from ..workers import process_pool, settle_workers
 from .booking import Booker, branch_table, run_policy, screen_branches
@@ -105,6 +106,9 @@ def level_cap(problem: Problem, reach: RowReach, profile: SpeedProfile, demand=N
     return vmax * max((d for _, d in demand), default=1.0) / len(problem.arms)
 
 
+MIN_RATE, MAX_RATE = 100.0, 10_000.0  # Hz: a plan's samples (the verifier wants 100 Hz or finer)
+
+
 @dataclass(frozen=True)
 class MovingOptions:
     """How to plan a row on the move (separate from the problem).
@@ -119,6 +123,7 @@ class MovingOptions:
     search_rounds : full plans the speed search may try (each verified)
     refine_rounds : full plans that then slow the carriage only where fruit were missed (density)
     workers : processes the speed search plans in (levels tried side by side); 1: all here
+    rate : the plan's samples per second, 100 to 10,000 Hz
     """
 
     profile: SpeedProfile = SpeedProfile.DENSITY
@@ -134,6 +139,9 @@ class MovingOptions:
     def __post_init__(self) -> None:
         settle_workers(self)  # (auto: this machine's cores, at most 8)
         check_fields(self, {'level', 'rate', 'workers', 'resolution', 'search_rounds'})  # built in Python: every value checked (OptionsError: what was expected, found)
+        if not MIN_RATE <= self.rate <= MAX_RATE:  # (a coarser grid is one no verifier passes; a finer one, gigabytes)
+            raise OptionsError([Issue("rate", f"expected a plan sample rate from {MIN_RATE:g} to {MAX_RATE:g} Hz, "
+                                              f"found {self.rate:g}")], "MovingOptions")
 
 
 @dataclass(frozen=True)
@@ -201,6 +209,11 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
     reach = reach if reach is not None else row_reach(problem, opts.resolution)
     timings["reach"] = _time.perf_counter() - t0
     cruise = make_cruise(problem, reach, opts.profile, level, demand, hold)
+    limit = max_plan_seconds(len(problem.arms))
+    if cruise.duration > limit:  # (a pace so slow that the plan would outgrow its grid and file)
+        raise OptionsError([Issue("level", f"expected a pace whose plan fits in {limit:.0f} s (the longest coplan makes "
+                                           f"with {len(problem.arms)} arms), found {level:g}: the carriage alone takes "
+                                           f"{cruise.duration:.0f} s")], "MovingOptions")
     ts = _time.perf_counter()
     booker, left = _book(problem, reach, cruise, opts)
     info: dict = {"mode": "continuous", "profile": SpeedProfile(opts.profile).value, "level": level,
@@ -480,6 +493,10 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
     """A row on the move: at ``options.level``, or at the level :func:`speed_search` chooses
     (its curve in ``plan.solver['row']['speed_curve']``); planning time covers the search."""
     opts = options or MovingOptions()
+    if opts.level is not None and SpeedProfile(opts.profile) == SpeedProfile.CONSTANT:
+        bad = cruise_speed_issue(problem, opts.level)
+        if bad:  # (before any work: a speed of micrometres per second books for hours and writes gigabytes)
+            raise OptionsError([Issue("level", bad)], "MovingOptions")
     t0 = _time.perf_counter()
     reach = row_reach(problem, opts.resolution)
     if opts.level is not None:

@@ -66,6 +66,9 @@ class RowOptions:
     def __post_init__(self) -> None:
         settle_workers(self)  # (auto: this machine's cores, at most 8)
         check_fields(self, {'resolution', 'workers'})
+        if not isinstance(self.window, StopWindow):
+            raise OptionsError([Issue("window", f"expected StopWindow(...), found {type(self.window).__name__} "
+                                                f"{self.window!r}")], "RowOptions")
         if self.planner == PlannerKind.HEURISTIC:
             raise OptionsError([Issue("planner", "expected 'coordinated' or 'optimal' (the cell planner at each stop; the "
                                                  "course's heuristic plans a stationary cell, not a row's stops), found 'heuristic'")],

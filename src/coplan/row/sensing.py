@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import check_fields
+from ..errors import Issue, OptionsError, check_fields
 from ..kinds import GantryMode
 from ..problem.model import Problem
 from .cruise import Cruise
@@ -49,6 +49,9 @@ class RowFaults:
     false_burst: int = 0
     late_replan: float = 0.0
 
+    def __post_init__(self) -> None:
+        check_fields(self)  # built in Python: every value checked (OptionsError: what was expected, found)
+
     @property
     def any(self) -> bool:
         return self.arm_stop or self.camera_dark > 0 or self.false_burst > 0 or self.late_replan > 0
@@ -75,6 +78,12 @@ class LiveRowOptions:
 
     def __post_init__(self) -> None:
         check_fields(self, {'look_ahead', 'speed'})  # built in Python: every value checked (OptionsError: what was expected, found)
+        issues = [Issue(name, f"expected a share of the fruit from 0 to 1, found {getattr(self, name):g}")
+                  for name in ("false_rate", "duplicate_rate") if getattr(self, name) > 1.0]
+        if not isinstance(self.faults, RowFaults):
+            issues.append(Issue("faults", f"expected RowFaults(...), found {type(self.faults).__name__} {self.faults!r}"))
+        if issues:
+            raise OptionsError(issues, "LiveRowOptions")
 
 
 @dataclass(frozen=True)

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import Issue, OptionsError, check_fields
 from ..kinematics.timing import Move1D, scurve_times
 from ..problem.model import Problem
 from ..ties import quantised
@@ -182,6 +183,14 @@ class StopWindow:
     fractions: tuple = tuple(round(0.3 + 0.05 * i, 2) for i in range(15))
     polish: int = 600
     first_work: int = 40_000
+
+    def __post_init__(self) -> None:
+        check_fields(self, {"spans"})  # built in Python: every value checked (OptionsError: what was expected, found)
+        fr = self.fractions
+        if not (isinstance(fr, (tuple, list)) and fr and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                                                             and math.isfinite(x) and x > 0 for x in fr)):
+            raise OptionsError([Issue("fractions", f"expected strides as positive fractions of a carriage span, e.g. "
+                                                   f"(0.5, 0.75, 1.0), found {fr!r}")], "StopWindow")
 
 
 class TripCosts:

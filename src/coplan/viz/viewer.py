@@ -85,14 +85,24 @@ def decode_array(entry: dict) -> np.ndarray:
 
 # --------------------------------------------------------------------------- the problem
 def problem_of(plan: Plan) -> Problem:
-    """The shipped problem a plan names (raises :class:`PlanFileError` when there is none)."""
-    from ..problem.model import load_problem, shipped_problems
+    """The problem of a plan, as ``coplan view`` finds it: the problem file the plan records
+    (unchanged since: its digest), else the shipped problem or row the plan names (raises
+    :class:`PlanFileError` when there is none)."""
+    from ..problem.model import load_problem, shipped_problems, shipped_rows
 
-    shipped = [load_problem(p) for p in shipped_problems()]
+    record = plan.problem_file
+    if record is not None and Path(record["path"]).is_file():
+        found = load_problem(record["path"])
+        if found.digest == record["sha256"]:
+            return found
+    shipped = [load_problem(p) for p in shipped_problems() + shipped_rows()]
     found = next((p for p in shipped if p.name == plan.problem), None)
     if found is None:
-        raise PlanFileError([Issue("problem", f"expected the name of a shipped problem ({', '.join(p.name for p in shipped)}), "
-                                              f"found {plan.problem!r}: pass the problem itself")])
+        where = (f"it was planned from {record['path']}, which is gone or has changed since; "
+                 if record is not None else "")
+        raise PlanFileError([Issue("problem", f"{where}expected the name of a shipped problem "
+                                              f"({', '.join(p.name for p in shipped)}), found {plan.problem!r}: "
+                                              "pass the problem itself")])
     return found
 
 
@@ -461,8 +471,8 @@ def view(plan, problem: Problem | str | Path | None = None, compare=None, *, hei
     """The interactive viewer of a plan, for a notebook cell (``coplan.view(result)``).
 
     ``plan`` and ``compare`` may be a :class:`Plan`, a :class:`~coplan.pipeline.SolveResult`
-    or a path to a ``plan.json``; ``problem`` defaults to the result's own problem or the
-    shipped problem the plan names.
+    or a path to a ``plan.json``; ``problem`` defaults to the result's own problem, else the
+    problem file the plan records, else the shipped problem or row it names (:func:`problem_of`).
     """
     from ..problem.model import load_problem
 
