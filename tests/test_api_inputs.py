@@ -284,6 +284,12 @@ def test_a_cruising_speed_too_slow_for_any_plan_is_refused_before_any_work(row_f
         plan_moving(row, MovingOptions(profile=SpeedProfile.CONSTANT, level=1e-9))
     with pytest.raises(OptionsError, match=r"speed: expected a cruising speed in \["):
         run_live_row(row, LiveRowOptions(speed=1e-9, mode=GantryMode.CONTINUOUS))
+    from coplan.problem.plausible import max_plan_seconds
+
+    rail = (row.gantry.end - row.gantry.start) / max_plan_seconds(len(row.arms))
+    assert rail > lo  # live, the carriage cruises the whole rail, not knowing where the last fruit is
+    with pytest.raises(OptionsError, match="cruises the whole rail"):
+        run_live_row(row, LiveRowOptions(speed=(lo + rail) / 2, mode=GantryMode.CONTINUOUS))
 
 
 def test_a_row_whose_carriage_cannot_reach_its_last_fruit_in_any_plan_is_refused(tmp_path):

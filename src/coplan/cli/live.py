@@ -211,9 +211,9 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         usage(f"--speed: expected the carriage's cruising speed in (0, {vmax:g}] m/s (gantry.max_velocity), found "
               "nothing (or --gantry stop-and-go)")
     else:
-        from ..problem.plausible import cruise_speed_issue
+        from ..problem.plausible import live_speed_issue
 
-        bad = cruise_speed_issue(prob, speed)
+        bad = live_speed_issue(prob, speed)
         if bad:
             usage(f"--speed: {bad} (or --gantry stop-and-go)")
     opts = LiveRowOptions(speed=speed, look_ahead=look_ahead, sigma=sigma, false_rate=false_rate,

@@ -31,7 +31,7 @@ from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES
 
 __all__ = ["Bound", "BOUNDS", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
            "duration_issues", "row_travel", "slowest_speed", "row_duration_issues",
-           "cruise_speed_issue"]
+           "cruise_speed_issue", "live_speed_issue"]
 
 TAU = 2.0 * math.pi
 
@@ -258,3 +258,16 @@ def cruise_speed_issue(problem, speed) -> str | None:
            if lo > 0 else f"(0, {g.max_velocity:g}] m/s (gantry.max_velocity)")
     shown = f"{speed:g}" if isinstance(speed, (int, float)) and not isinstance(speed, bool) else repr(speed)
     return f"expected a cruising speed in {low}, found {shown}"
+
+
+def live_speed_issue(problem, speed) -> str | None:
+    """:func:`cruise_speed_issue` for a live row on the move, whose carriage, not knowing where
+    the last fruit is, cruises to the rail's end: the whole rail within :func:`max_plan_seconds`."""
+    bad = cruise_speed_issue(problem, speed)
+    g = problem.gantry
+    limit = max_plan_seconds(len(problem.arms))
+    if bad or (g.end - g.start) / speed <= limit:
+        return bad
+    return (f"expected a cruising speed of at least {(g.end - g.start) / limit:.3g} m/s (the live carriage cruises the "
+            f"whole rail, {g.end - g.start:g} m, in a plan of at most {_hours(limit)}, the longest coplan makes with "
+            f"{len(problem.arms)} arms), found {speed:g}")

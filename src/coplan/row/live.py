@@ -65,7 +65,7 @@ from ..kinds import AssignRule, GantryMode, SpeedProfile
 from ..plan import Event, EventKind, finalize_plan
 from ..errors import Issue, OptionsError
 from ..problem.model import Fruit, Problem
-from ..problem.plausible import cruise_speed_issue, max_plan_seconds
+from ..problem.plausible import live_speed_issue
 from .booking import why_left
 from .bound import row_bounds
 from .continuous import MovingOptions, assemble_moving, plan_moving, start_hold
@@ -123,12 +123,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
     g = problem.gantry
     reports = row_reports(problem, opts)
     if mode == GantryMode.CONTINUOUS:
-        bad = cruise_speed_issue(problem, opts.speed)
-        limit = max_plan_seconds(len(problem.arms))
-        if not bad and (g.end - g.start) / opts.speed > limit:  # (live, the carriage cruises to the rail's end)
-            bad = (f"expected a cruising speed of at least {(g.end - g.start) / limit:.3g} m/s (the live carriage cruises the "
-                   f"whole rail, {g.end - g.start:g} m, in a plan of at most {limit:.0f} s, the longest coplan makes with "
-                   f"{len(problem.arms)} arms), found {opts.speed:g}")
+        bad = live_speed_issue(problem, opts.speed)
         if bad:  # (before any work)
             raise OptionsError([Issue("speed", bad)], "LiveRowOptions")
         # (the offline plan at this speed rests where it starts first if fruit only the start serves need it)
