@@ -116,6 +116,24 @@ def test_replay_is_linear_between_samples(saved: dict[str, Path]) -> None:
     assert back.dt == pytest.approx(0.01)
 
 
+def test_a_row_plan_replays_its_carriage_too(tmp_path: Path, saved: dict[str, Path]) -> None:
+    """(plan.sample(t) of a row gave the joint angles only: the bases' positions were the
+    carriage's, read from gantry_x by hand.)"""
+    import coplan
+    from coplan.generate import gantry_row
+
+    res = coplan.solve(gantry_row(length=6.0, density=2.0, seed=1), stops="fewest", out_dir=tmp_path / "row")
+    back = load_plan(tmp_path / "row" / "plan.json")
+    x = back.gantry_x
+    i = int(np.argmax(np.abs(np.diff(x)) > 1e-6))  # a sample while the carriage moves
+    mid = (back.time[i] + back.time[i + 1]) / 2
+    c = back.carriage(np.array([back.time[i], mid, -1.0, 1e9]))
+    np.testing.assert_allclose(c, [x[i], (x[i] + x[i + 1]) / 2, x[0], x[-1]], atol=1e-12)
+    assert x[i] != x[i + 1] and c[2] == res.problem.gantry.start
+    with pytest.raises(ValueError, match="a stationary cell's plan has no carriage"):
+        load_plan(saved["json"]).carriage(np.array([0.0]))
+
+
 def test_loaded_events_are_usable(saved: dict[str, Path]) -> None:
     back = load_plan(saved["json"])
     picks = back.events_of("center", EventKind.PICK)

@@ -137,6 +137,15 @@ class Plan:
         t = np.clip(np.asarray(t, float), 0.0, self.duration)
         return {a: np.stack([np.interp(t, self.time, q[:, 0]), np.interp(t, self.time, q[:, 1])], axis=-1) for a, q in self.q.items()}
 
+    def carriage(self, t) -> np.ndarray:
+        """A row plan's carriage position (m, row coordinates) at times ``t`` (K,), linear
+        between samples (the arms' bases are there plus their offsets on the carriage); a
+        stationary cell's plan has none (ValueError)."""
+        if self.gantry_x is None:
+            raise ValueError(f"plan of {self.problem!r}: a stationary cell's plan has no carriage (no gantry_x)")
+        t = np.clip(np.asarray(t, float), 0.0, self.duration)
+        return np.interp(t, self.time, self.gantry_x)
+
     def events_of(self, arm: str, kind: EventKind | None = None) -> list[Event]:
         return [e for e in self.events if e.arm == arm and (kind is None or e.kind == kind)]
 
