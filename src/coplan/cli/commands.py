@@ -328,8 +328,9 @@ def verify_cmd(
     elif out is not None:
         failures.check_out_file(out)
     if out is not None:  # an earlier report is replaced; a plan, a baseline or any other file is not
-        target = out if out.suffix == ".json" and not out.is_dir() else out / "verification.json"
-        failures.check_overwrite(target, "a coplan.verification file", "a verification report")
+        from ..verify.verdict import report_path
+
+        failures.check_overwrite(report_path(out), "a coplan.verification file", "a verification report")
     from ..plan import PlanFileError
 
     prob = load_problem(_resolve_problem(problem))

@@ -33,6 +33,7 @@ __all__ = [
     "ContactInterval",
     "PairClearance",
     "Verification",
+    "report_path",
 ]
 
 
@@ -280,13 +281,19 @@ class Verification:
         return _json(doc)
 
     def save(self, path: str | Path) -> Path:
-        """Write ``verification.json`` (``path`` may be a folder); returns the file written."""
-        p = Path(path)
-        if p.is_dir() or p.suffix != ".json":
-            p = p / "verification.json"
+        """Write ``verification.json`` (``path`` may be a folder: :func:`report_path`); returns
+        the file written."""
+        p = report_path(path)
         p.parent.mkdir(parents=True, exist_ok=True)
         atomic_text(p, json.dumps(self.to_dict(), indent=1, allow_nan=False))
         return p
+
+
+def report_path(path: str | Path) -> Path:
+    """The file :meth:`Verification.save` writes for ``path``: ``path`` itself when it names a
+    ``.json`` file, else ``verification.json`` in the folder ``path``."""
+    p = Path(path)
+    return p / "verification.json" if p.is_dir() or p.suffix != ".json" else p
 
 
 def _asdict(obj) -> dict:
