@@ -512,6 +512,67 @@ def test_robust_end_is_the_last_position_serving_the_whole_error_circle_against_
     assert checked >= 15
 
 
+def test_stop_and_go_after_an_arm_stops_plans_its_stops_on_what_the_others_reach_round_it():
+    """Regression (``coplan run sparse_row --gantry stop-and-go --arm-stop``, seeds 1 and 6: 1 and
+    2 fruit missed that a working arm could still reach): after the rear arm stopped, the screen
+    still let the middle arm reach fruit from stops where the stopped arm, resting where it was,
+    was in the way; the carriage went on to those stops and the fruit were passed. The live
+    planner now masks the screen with the stopped arm an obstacle where it rests
+    (:class:`coplan.row.stranded.StoppedCover`): every fruit the offline plan harvests is
+    harvested, the runs verified."""
+    from coplan.problem import load_problem, shipped_rows
+
+    row = load_problem(next(p for p in shipped_rows() if p.stem == "sparse_row"))
+    for seed in (1, 6):
+        res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=seed, faults=RowFaults(arm_stop=True)))
+        assert res.verification.passed, seed
+        assert res.metrics["missed_reachable_by_a_working_arm"] == [], seed
+        assert res.metrics["harvested"] == res.metrics["offline_harvested"], seed
+
+
+def test_a_cover_masked_by_a_stopped_arm_keeps_only_positions_with_a_pose_clear_of_it():
+    """:func:`coplan.row.stranded.clear_cover` on seeded fruit: a subset of the screen's cover,
+    the stopped arm's row as it was, and every position it keeps (and none it drops) has a pick
+    pose, within the screen's rules, whose links keep the clearance from the stopped arm's links
+    where it rests -- checked here by brute force on both elbow branches with the exact capsule
+    distance (:func:`coplan.planners.coordinated.schedule.points_clearance`)."""
+    from coplan.allocate.screen import usable_picks
+    from coplan.planners.coordinated.schedule import arm_points, points_clearance
+    from coplan.row.booking import Booker
+    from coplan.row.reach import row_reach
+    from coplan.row.stranded import clear_cover
+
+    row = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=3, density=6.0, seed=3)))
+    reach = row_reach(row)
+    booker = Booker(row, Cruise.hops(row, []), {}, 100.0, 0.0, reach.resolution)
+    cell = booker.cell
+    stopped = 1  # the middle arm, resting out over the rear arm's side
+    arm_s = cell.arms[stopped]
+    q_s, ok = arm_s.ik(np.array([[arm_s.base[0] - 0.6, arm_s.base[1] + 0.9]]))
+    booker.arms[stopped].q[booker.arms[stopped].k_free] = q_s[0, int(np.argmax(ok[0]))]
+    rest = arm_points(arm_s, booker.arms[stopped].q[booker.arms[stopped].k_free])
+    dropped = kept = 0
+    for f in row.fruits:
+        if f.id not in reach.cover:
+            continue
+        whole = reach.cover[f.id]
+        out = clear_cover(booker, reach.grid, f.position, whole, {stopped: 0.0})
+        assert out.shape == whole.shape and not np.any(out & ~whole)
+        assert np.array_equal(out[stopped], whole[stopped])
+        for a in (0, 2):
+            for k in np.flatnonzero(whole[a]):
+                pt = np.array([[f.position[0] - reach.grid[k], f.position[1]]])
+                use = usable_picks(cell, pt, arms=(a,))[a][0]
+                q, _ = cell.arms[a].ik(pt)
+                clear = any(use[b] and float(points_clearance(arm_points(cell.arms[a], q[0, b]), rest,
+                                                              cell.arms[a].link_radius + arm_s.link_radius))
+                            >= row.task.clearance for b in (0, 1))
+                assert bool(out[a, k]) == clear, (f.id, a, k)
+                kept += clear
+                dropped += not clear
+    assert kept > 0 and dropped > 0  # (the stopped arm is in the way of some picks, not all)
+
+
 def test_on_the_move_a_fruit_reported_near_the_reach_edge_at_the_rail_end_is_picked_before_the_carriage_rests():
     """Regression (the fault benchmark on the move, seed 15): a fruit in the rear arm's reach at
     the rail's end only by its report (the true fruit 24 mm back, out of reach there) had a

@@ -75,7 +75,7 @@ from .livestops import last_stop, next_to_last, stop_share
 from .reach import row_reach
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
                       row_detections, row_reports)
-from .stranded import still_reachable
+from .stranded import StoppedCover, still_reachable
 from .track import AT_REST_CYCLE_SHARE, AT_REST_SHARE
 
 #: After an arm stops, the carriage runs at this share of the working arms' share of its speed ...
@@ -281,6 +281,11 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
     run.booker.probe_rests = True  # a probe finds nothing with the carriage at rest: the arm goes on from there
     stops: list[dict] = []
     rested: list[int] = []  # the stops' grid indices
+    masked = StoppedCover(run.booker, reach)  # once an arm stops: the screen with it an obstacle where it rests
+
+    def learn(t: float) -> None:
+        """What the planner knows of the faults by ``t``: the arms stopped then, obstacles."""
+        masked.update({a for a, t_h in faults.halt.items() if t_h <= t}, run.taken)
 
     def edge_at(t: float) -> float:
         """How far along the row the camera has seen by ``t``: its view then (or when it went dark)."""
@@ -310,6 +315,7 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
         no farther than the first place where a fruit reported by then, not taken, would leave
         every arm's reach (``here``: the carriage may also stay), nor than :func:`cap_at`."""
         while True:
+            learn(t_dep)
             cap, edge = cap_at(t_dep), edge_at(t_dep)
             working = working_at(t_dep)
             ends = []
@@ -348,6 +354,7 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
             faults.burst = faults.burst_reports(problem, opts, float(grid[k]), t_arr)
             faults.log["false_burst"]["at_stop_x"] = round(float(grid[k]), 3)
             run.add_reports(faults.burst)
+        learn(t_arr)
         run.set_cruise(cruise)
         # picks only with the carriage at rest here: windows from the arrival on, for as long as
         # the arms could need to harvest everything in reach (a fruit none can book by then waits
@@ -405,6 +412,7 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
         # then the hop goes no farther than they need (the nearest stop it can still brake to)
         t_h = min((t for t in faults.halt.values() if t_dep < t < t_arr), default=None)
         if t_h is not None:
+            learn(t_h)
             run.set_cruise(cruise)  # what the planner knows then: the hop under way (the camera moved with it)
             want, _ = next_stop(k, t_h)
             for kk in range(max(want, k + 1), nxt):

@@ -16,7 +16,7 @@ from ..problem.model import Problem
 from .booking import Booker
 from .cruise import stop_from
 
-__all__ = ["still_reachable"]
+__all__ = ["still_reachable", "clear_cover"]
 
 
 def _cannot_stop_at(problem: Problem, state, x_to: float) -> bool:
@@ -39,34 +39,55 @@ def _positions(booker: Booker, grid: np.ndarray, t: float, at_rest: bool) -> np.
     return cs
 
 
-def _reaches(booker: Booker, xy, cs: np.ndarray, arms: list[int], halt) -> bool:
-    """Whether one of ``arms`` picks the fruit at ``xy`` from a position in ``cs`` under the
-    screen's rules, with a pose clear of every arm in ``halt`` where it rests."""
+def _clear_at(booker: Booker, xy, cs: np.ndarray, arm: int, halt) -> np.ndarray:
+    """(len(cs),) bool: whether arm ``arm`` picks the fruit at row point ``xy`` with the carriage
+    at each of ``cs`` under the screen's rules, with a pose clear of every arm in ``halt`` where
+    it rests (either elbow branch)."""
     from ..allocate.screen import usable_picks
     from ..planners.coordinated.schedule import arm_points, points_too_close
 
-    if cs.size == 0 or not arms:
-        return False
-    problem = booker.problem
-    pts = np.c_[xy[0] - cs, np.full(cs.size, xy[1])]
+    out = np.zeros(cs.size, dtype=bool)
+    if cs.size == 0:
+        return out
     cell = booker.cell  # the carriage frame
-    use = usable_picks(cell, pts, arms=tuple(arms))
-    for a in arms:
-        arm = cell.arms[a]
-        q, _ = arm.ik(pts)
-        for b in (0, 1):
-            ok = use[a, :, b]
-            if not ok.any():
-                continue
-            pa = arm_points(arm, q[ok, b])
-            for j in halt:
-                rest = booker.arms[j].q[booker.arms[j].k_free]
-                clear = ~points_too_close(pa, arm_points(cell.arms[j], rest), arm.link_radius + cell.arms[j].link_radius,
-                                          problem.task.clearance)
-                pa = tuple(p[clear] for p in pa)
-            if pa[0].size:
-                return True
-    return False
+    pts = np.c_[xy[0] - cs, np.full(cs.size, xy[1])]
+    use = usable_picks(cell, pts, arms=(arm,))[arm]  # (len(cs), 2)
+    me = cell.arms[arm]
+    q, _ = me.ik(pts)
+    for b in (0, 1):
+        idx = np.flatnonzero(use[:, b] & ~out)
+        if not idx.size:
+            continue
+        pa = arm_points(me, q[idx, b])
+        for j in halt:
+            rest = booker.arms[j].q[booker.arms[j].k_free]
+            clear = ~points_too_close(pa, arm_points(cell.arms[j], rest), me.link_radius + cell.arms[j].link_radius,
+                                      booker.problem.task.clearance)
+            pa, idx = tuple(p[clear] for p in pa), idx[clear]
+        out[idx] = True
+    return out
+
+
+def _reaches(booker: Booker, xy, cs: np.ndarray, arms: list[int], halt) -> bool:
+    """Whether one of ``arms`` picks the fruit at ``xy`` from a position in ``cs`` under the
+    screen's rules, with a pose clear of every arm in ``halt`` where it rests."""
+    return any(_clear_at(booker, xy, cs, a, halt).any() for a in arms)
+
+
+def clear_cover(booker: Booker, grid: np.ndarray, xy, cover: np.ndarray, halt) -> np.ndarray:
+    """A fruit's row cover (``(A, K)`` bool, :class:`coplan.row.reach.RowReach`) once the arms in
+    ``halt`` have stopped: each working arm keeps only the carriage positions from which it has
+    a pick pose clear of every stopped arm where it rests (the screen knows nothing of an arm
+    left out over its neighbours' fruit); a stopped arm's row is kept as it was (who could have
+    reached it: the reason a fruit is left)."""
+    out = cover.copy()
+    for a in range(cover.shape[0]):
+        if a in halt:
+            continue
+        ks = np.flatnonzero(cover[a])
+        if ks.size:
+            out[a, ks] = _clear_at(booker, xy, grid[ks], a, halt)
+    return out
 
 
 def still_reachable(booker: Booker, grid: np.ndarray, xy, t_seen: float, halt: dict[int, float], at_rest: bool) -> bool:
@@ -95,3 +116,34 @@ def still_reachable(booker: Booker, grid: np.ndarray, xy, t_seen: float, halt: d
             return _reaches(booker, xy, before[before < c_stop - 1e-9], every, {})
     working = [a for a in every if a not in halt]
     return _reaches(booker, xy, _positions(booker, grid, max(t_seen, t_stop), at_rest), working, halt)
+
+
+class StoppedCover:
+    """A live row's screen once arms have stopped (stop and go, :mod:`coplan.row.live`): each
+    fruit's cover in ``reach`` keeps, for every working arm, only the carriage positions with a
+    pick pose clear of the stopped arms where they rest (:func:`clear_cover`) -- the screen alone
+    sent the carriage on to stops from which a neighbour of the stopped arm could not reach a
+    fruit without touching it, and the fruit was passed. :meth:`update` as the planner learns of
+    a stop (and as new reports come): the covers as screened are kept to mask again."""
+
+    def __init__(self, booker: Booker, reach) -> None:
+        self.booker, self.reach = booker, reach
+        self.whole: dict[str, np.ndarray] = {}  # fruit -> its cover as screened, once masked
+        self.key: tuple = ()
+
+    def update(self, stopped, skip=()) -> None:
+        """Mask every fruit's cover (but those in ``skip``, e.g. taken) against the arms in
+        ``stopped`` where they now rest; a fruit masked against the same rests is left as is."""
+        if not stopped:
+            return
+        arms = self.booker.arms
+        key = tuple((j, tuple(arms[j].q[arms[j].k_free].round(12))) for j in sorted(stopped))
+        todo = [f for f in self.reach.cover if f not in skip and (key != self.key or f not in self.whole)]
+        self.key = key
+        if not todo:
+            return
+        halt = dict.fromkeys(stopped, 0.0)
+        xy = {f.id: f.position for f in self.reach.problem.fruits}  # (as reported: what the screen saw)
+        for f in todo:
+            whole = self.whole.setdefault(f, self.reach.cover[f])
+            self.reach.cover[f] = clear_cover(self.booker, self.reach.grid, xy[f], whole, halt)
