@@ -530,6 +530,23 @@ def test_stop_and_go_after_an_arm_stops_plans_its_stops_on_what_the_others_reach
         assert res.metrics["harvested"] == res.metrics["offline_harvested"], seed
 
 
+def test_on_the_move_a_false_burst_at_the_chosen_speed_passes_no_fruit_a_working_arm_could_reach():
+    """Regression (``coplan run sparse_row --speed 0.351 --false-burst 50``, seeds 2 and 8: 2 and 3
+    fruit missed that a working arm could still reach; 62 over 16 runs on three shipped rows): at
+    the speed the offline search chooses the arms are busy to the limit; 50 false reports at once
+    made each arm leave a fruit to the next until the last one's window closed, and the check for
+    fruit about to pass saw it only 8 s before, holding the carriage at most twice for it. It
+    looks 30 s ahead now, holding up to 6 times a report: none missed, every run verified."""
+    from coplan.problem import load_problem, shipped_rows
+
+    row = load_problem(next(p for p in shipped_rows() if p.stem == "sparse_row"))
+    for seed in (2, 8):
+        res = run_live_row(row, LiveRowOptions(speed=0.351, seed=seed, faults=RowFaults(false_burst=50)))
+        assert res.verification.passed, seed
+        assert res.metrics["missed_reachable_by_a_working_arm"] == [], seed
+        assert res.metrics["holds_for_fruit"] > 0, seed  # (the carriage held for them)
+
+
 def test_a_cover_masked_by_a_stopped_arm_keeps_only_positions_with_a_pose_clear_of_it():
     """:func:`coplan.row.stranded.clear_cover` on seeded fruit: a subset of the screen's cover,
     the stopped arm's row as it was, and every position it keeps (and none it drops) has a pick
