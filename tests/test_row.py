@@ -237,6 +237,41 @@ def test_no_plan_beats_the_bounds(row, planned):
         assert 0 < m["overlap_seconds"] < m["row_time"]
 
 
+def _locked_row_text() -> str:
+    """Three arms 0.3 m apart on a 6 m row: the rear two cannot reach their bins (link 1 would
+    cross the next arm's base on the way), the front one harvests every fruit."""
+    doc = gantry_row(length=6.0, n_arms=3, density=2.0, seed=4)
+    for arm, x in zip(doc["arms"], (-0.3, 0.0, 0.3)):
+        arm["base"], arm["bin"] = [x, 0.0], [x, -0.5]
+    return to_yaml(doc)
+
+
+def test_a_row_whose_arms_are_locked_says_so_and_bounds_with_the_others(tmp_path):
+    """Regression (a new-user trial: arms 0.3 m apart passed ``coplan check`` as a working row,
+    its bound counting three arms, and stop and go was partial after 26.9 s): the row's screen
+    names the locked arms with the cell screen's reason (bins ride with the carriage, so the
+    verdict holds along the rail), ``coplan check`` says so in text and JSON, and the work bound
+    is the unlocked arm's cycles alone (every harvest is one of its cycles, in turn)."""
+    text = _locked_row_text()
+    row = parse_problem(text)
+    reach = row_reach(row)
+    names = [a.name for a in row.arms]
+    assert sorted(reach.locked) == names[:2]
+    assert all("cannot reach its bin" in why for why in reach.locked.values())
+    assert reach.cover and all(not c[:2].any() for c in reach.cover.values())  # (the screen already said so per fruit)
+    cost, can, _ = cycle_bounds(row)
+    assert not can[:2].any() and can[2].any()
+    b = row_bounds(row)
+    assert b.work == pytest.approx(float(cost[2, can[2]].sum()), rel=1e-6)  # one arm: every cycle in turn
+    path = tmp_path / "locked.yaml"
+    path.write_text(text)
+    out = CliRunner().invoke(app, ["check", str(path)])
+    assert out.exit_code == 0, out.output  # (every fruit harvestable: the front arm reaches them all)
+    assert "2 of 3 arms locked (arm1, arm2)" in out.output and "cannot reach its bin" in out.output
+    doc = json.loads(CliRunner().invoke(app, ["check", str(path), "--json"]).output)
+    assert sorted(doc["locked"]) == names[:2]
+
+
 def test_row_metrics_add_up(row, planned):
     from coplan.row.metrics import row_metrics
 

@@ -22,7 +22,7 @@ def strict_json(doc) -> str:
 
 def check_row(prob, path: Path, as_json: bool, out_console) -> ExitCode:
     """``coplan check`` of a row: which fruit some carriage position serves (and why not), the
-    carriage span, the stop rules' stop counts and the row's lower bounds."""
+    arms the screen locks, the carriage span, the stop rules' stop counts and the row's lower bounds."""
     from ..row.bound import row_bounds
     from ..row.reach import row_reach
     from ..row.stops import carriage_span, fewest_stops, fixed_stops
@@ -32,7 +32,7 @@ def check_row(prob, path: Path, as_json: bool, out_console) -> ExitCode:
     b = row_bounds(prob)
     doc = {"problem": prob.name, "file": str(path), "arms": len(prob.arms), "fruit": len(prob.fruits),
            "row": {"start": g.start, "end": g.end, "length": g.length},
-           "harvestable": len(reach.cover), "not_harvestable": dict(reach.reasons),
+           "harvestable": len(reach.cover), "not_harvestable": dict(reach.reasons), "locked": dict(reach.locked),
            "carriage_span": carriage_span(reach) if reach.cover else None,
            "stops": {"fewest": len(fewest_stops(reach)), "fixed": len(fixed_stops(reach))},
            "lower_bound": b.to_dict()}
@@ -43,6 +43,11 @@ def check_row(prob, path: Path, as_json: bool, out_console) -> ExitCode:
         p(f"[bold]{safe(prob.name)}[/] ({safe(path)}): a row of {g.length:g} m ([{g.start:g}, {g.end:g}]), "
           f"{plural(len(prob.arms), 'arm')} on the carriage, {len(prob.fruits)} fruit: {len(reach.cover)} harvestable "
           f"from some carriage position, {len(reach.reasons)} not")
+        if reach.locked:  # (as a cell's check says it: the bins ride with the carriage, so all along the rail)
+            p(f"screen: {len(reach.locked)} of {plural(len(prob.arms), 'arm')} locked ({', '.join(reach.locked)}): "
+              f"they harvest nothing from any carriage position", highlight=False)
+            for why in reach.locked.values():
+                p(f"  - {safe(why)}", highlight=False)
         for why in list(reach.reasons.values())[:10]:
             p(f"  - {safe(why)}", highlight=False)
         if len(reach.reasons) > 10:

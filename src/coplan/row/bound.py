@@ -14,7 +14,8 @@ Entry point: :func:`row_bounds` -> :class:`RowBounds`.
   joint step from the bin pose is at least the distance to that range (2 pi shifts included),
   on the better elbow branch. The least over all cells bounds every carriage position.
 * **Work bound**: the busiest arm's cycles under the best assignment of fruit to arms (each
-  fruit to an arm that can reach it from somewhere), the min-max assignment's LP relaxation
+  fruit to an arm that can reach it from somewhere; an arm that cannot reach its bin -- locked,
+  by the cell screen -- harvests nothing), the min-max assignment's LP relaxation
   (HiGHS, :func:`coplan.allocate.allocation.min_max_bound`: fractional assignments allowed, so
   a bound on the integer one too, and fast on thousands of fruit). No plan -- whatever the carriage does --
   can be faster: an arm's cycles never overlap.
@@ -84,8 +85,13 @@ def cycle_bounds(problem: Problem, step: float = 0.05) -> tuple[np.ndarray, np.n
     one harvest cycle (bin -> fruit -> bin and both dwells) over every carriage position (module
     docstring); whether the arm can reach the fruit from some position on the rail (annulus
     less the margin, ignoring joint limits: a superset); and the least carriage position from
-    which some arm might reach the fruit."""
+    which some arm might reach the fruit. An arm the cell screen locks (it cannot reach its bin,
+    which rides with the carriage: :func:`coplan.row.reach.locked_arms`) reaches nothing."""
+    from ..problem.gantry import cell_at
+    from .reach import locked_arms
+
     g = problem.gantry
+    locked = locked_arms(cell_at(problem, 0.0, ()))
     m = problem.task.reach_margin
     dw = problem.task.pick_dwell + problem.task.place_dwell
     cs = np.arange(g.start, g.end + step, step)
@@ -102,7 +108,7 @@ def cycle_bounds(problem: Problem, step: float = 0.05) -> tuple[np.ndarray, np.n
         r_in, r_out = abs(l1 - l2) + m, l1 + l2 - m
         qb, vb = arm.ik(np.asarray(arm.bin, float), 0.0)
         bins = qb[vb]
-        if bins.size == 0 or F == 0:
+        if bins.size == 0 or F == 0 or arm.name in locked:
             continue
         # per fruit, the band of cells within reach: (F, W) cell indices (clipped; duplicates are harmless)
         first = np.searchsorted(hi_c, xs - arm.base[0] - arm.reach)

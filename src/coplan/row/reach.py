@@ -23,7 +23,7 @@ from ..allocate.screen import screened, usable_picks
 from ..problem.gantry import cell_at
 from ..problem.model import Problem
 
-__all__ = ["RowReach", "row_reach", "robust_end", "DEFAULT_RESOLUTION"]
+__all__ = ["RowReach", "row_reach", "robust_end", "locked_arms", "DEFAULT_RESOLUTION"]
 
 #: Spacing of the candidate carriage positions, m.
 DEFAULT_RESOLUTION = 0.05
@@ -38,6 +38,8 @@ class RowReach:
         last bits far from 0 -- a rail from -2000 m -- and a grid rebuilt from that had one point more)
     cover : fruit id -> (A, K) bool (only fruit some position serves)
     reasons : fruit id -> why no position serves it
+    locked : arm name -> why it harvests nothing from any position (it cannot reach its bin: the
+        bins ride with the carriage, so the cell screen's verdict holds all along the rail)
     """
 
     problem: Problem
@@ -45,6 +47,7 @@ class RowReach:
     resolution: float
     cover: dict[str, np.ndarray] = field(default_factory=dict)
     reasons: dict[str, str] = field(default_factory=dict)
+    locked: dict[str, str] = field(default_factory=dict)
     done_to: float = -math.inf  # fruit up to this row x have been screened (a lazy reach grows as it is asked)
 
     def ensure(self, x: float = math.inf) -> list[str]:
@@ -87,10 +90,11 @@ def row_reach(problem: Problem, resolution: float = DEFAULT_RESOLUTION, fruit_id
     grid = g.start + resolution * np.arange(n + 1)
     if grid[-1] < g.end - 1e-9:
         grid = np.append(grid, g.end)
-    out = RowReach(problem, grid, float(resolution), done_to=math.inf if not lazy else -math.inf)
+    cell = cell_at(problem, 0.0, ())  # the carriage frame: bases and bins as written
+    out = RowReach(problem, grid, float(resolution), locked=locked_arms(cell),
+                   done_to=math.inf if not lazy else -math.inf)
     if lazy:
         return out
-    cell = cell_at(problem, 0.0, ())  # the carriage frame: bases and bins as written
     reach = np.array([a.reach for a in problem.arms])
     bx = np.array([a.base[0] for a in problem.arms])
     keep = None if fruit_ids is None else set(fruit_ids)
@@ -117,6 +121,14 @@ def row_reach(problem: Problem, resolution: float = DEFAULT_RESOLUTION, fruit_id
         else:
             out.reasons[f.id] = _why(problem, f)
     return out
+
+
+def locked_arms(cell: Problem) -> dict[str, str]:
+    """Arm name -> why it harvests nothing, for a carriage-frame cell (:func:`cell_at` at 0, no
+    fruit): the cell screen's locked arms -- an arm that cannot reach its bin places nothing,
+    wherever the carriage stands (the bins ride with it)."""
+    scr = screened(cell)
+    return {a: scr.reasons[a] for a in scr.locked}
 
 
 def _why(problem: Problem, f) -> str:
