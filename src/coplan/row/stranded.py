@@ -1,4 +1,4 @@
-"""After a fault: which fruit a working arm could still have harvested (a live row's report).
+"""After an arm stops: which fruit a working arm can still harvest (a live row's plan and report).
 
 A live row (:mod:`coplan.row.live`) counts the fruit it missed though a working arm could still
 reach them: the true fruit, from a carriage position the carriage had not yet passed (stop and
@@ -6,6 +6,10 @@ go: one it could still brake to -- picks are made at rest), under the screen's r
 (:func:`coplan.allocate.screen.usable_picks`) -- before an arm stopped, by any arm; after, by
 the working arms with a pick pose that keeps the clearance from every stopped arm where it
 rests. Entry point: :func:`still_reachable`.
+
+The same test plans a stop-and-go row after the fault: :class:`StoppedCover` masks the row's
+screen so that each working arm keeps only the carriage positions with such a pose
+(:func:`clear_cover`), and the stops are chosen on that.
 """
 
 from __future__ import annotations
@@ -16,7 +20,7 @@ from ..problem.model import Problem
 from .booking import Booker
 from .cruise import stop_from
 
-__all__ = ["still_reachable", "clear_cover"]
+__all__ = ["still_reachable", "clear_cover", "StoppedCover"]
 
 
 def _cannot_stop_at(problem: Problem, state, x_to: float) -> bool:
