@@ -204,7 +204,7 @@ def test_verify_and_view_refuse_an_out_file_whose_folder_is_a_file_before_the_wo
     (["animate", "PLAN", "--fps", "0"], "--fps': expected a number in [1, 60], found 0"),
     (["feed", "single_arm", "--sigma", "5"], "--sigma': expected a number in [1e-06, 1] m, found 5"),
     (["feed", "single_arm", "--seed", "-3"], "--seed': expected a number >= 0, found -3"),
-    (["run", "single_arm", "--false-burst", "-1"], "--false-burst': expected a number in [0, 100000], found -1"),
+    (["run", "single_arm", "--false-burst", "-1"], "--false-burst': expected a number in [0, 1000], found -1"),
     (["sweep", "SWEEP", "--workers", "0"], "--workers': expected a number in [1, 256], found 0"),
     (["solve", "sparse_row", "--workers", "2000"], "--workers: expected a whole number of processes from 1 to 256, or auto; found '2000'"),
 ])

@@ -547,6 +547,22 @@ def test_on_the_move_a_false_burst_at_the_chosen_speed_passes_no_fruit_a_working
         assert res.metrics["holds_for_fruit"] > 0, seed  # (the carriage held for them)
 
 
+def test_a_false_burst_beyond_the_largest_is_refused_before_any_work(tmp_path):
+    """``--false-burst 100000`` grew to 2.2 GB: at most :data:`coplan.row.sensing.MAX_FALSE_BURST`
+    (1000), in the API (OptionsError, what was expected and found) and on the command line (exit 2,
+    the same number), and the CLI's limit is that constant."""
+    from coplan.errors import OptionsError
+    from coplan.row.sensing import MAX_FALSE_BURST
+
+    assert RowFaults(false_burst=MAX_FALSE_BURST).false_burst == MAX_FALSE_BURST
+    with pytest.raises(OptionsError, match=f"expected at most {MAX_FALSE_BURST} false reports at one instant, found 100000"):
+        RowFaults(false_burst=100000)
+    r = CliRunner().invoke(app, ["run", "sparse_row", "--gantry", "stop-and-go", "--false-burst", str(MAX_FALSE_BURST + 1),
+                                 "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and f"expected a number in [0, {MAX_FALSE_BURST}]" in r.output
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_cover_masked_by_a_stopped_arm_keeps_only_positions_with_a_pose_clear_of_it():
     """:func:`coplan.row.stranded.clear_cover` on seeded fruit: a subset of the screen's cover,
     the stopped arm's row as it was, and every position it keeps (and none it drops) has a pick

@@ -99,7 +99,7 @@ def run_cmd(
                                            "fault at a drawn time: it finishes its motion and stays, an obstacle.")] = False,
     camera_dark: Annotated[float, typer.Option("--camera-dark", callback=between(0.0, 3600.0, "s"),
                                                help="A row: seconds the camera reports nothing, at a drawn time.")] = 0.0,
-    false_burst: Annotated[int, typer.Option("--false-burst", callback=between(0, 100000),
+    false_burst: Annotated[int, typer.Option("--false-burst", callback=between(0, 1000),  # row.sensing.MAX_FALSE_BURST (numpy: not at import)
                                              help="A row: false reports at one drawn instant, within the camera's view.")] = 0,
     late_replan: Annotated[float, typer.Option("--late-replan", callback=between(0.0, 3600.0, "s"),
                                                help="A row: seconds one decision (at a drawn time) runs late.")] = 0.0,
