@@ -80,6 +80,17 @@ def test_bad_gantry_sections_are_refused_with_the_key_path_and_line(change, path
     assert text.splitlines()[issue.line - 1].strip().startswith(path.split(".")[-1]) or path == "gantry.speed"
 
 
+def test_every_bad_gantry_value_is_reported_at_once():
+    """Regression (a new-user trial): ``start`` past ``end`` with ``max_velocity: 0`` reported only
+    the speed; both now, each with its key path and line."""
+    text = _with(to_yaml(gantry_row(length=10.0, density=2.0)), start=60.0, max_velocity=0.0)
+    with pytest.raises(ProblemError) as e:
+        parse_problem(text, "row.yaml")
+    paths = {i.path for i in e.value.issues}
+    assert {"gantry.end", "gantry.max_velocity"} <= paths
+    assert all(i.line is not None for i in e.value.issues)
+
+
 def test_a_fruit_outside_the_rail_is_refused():
     d = gantry_row(length=10.0, density=2.0)
     d["fruits"][0]["position"] = [40.0, 1.0]

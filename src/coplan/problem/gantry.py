@@ -117,7 +117,7 @@ def parse_gantry(data: Any, lines: dict, issues: list[Issue]) -> Gantry | None:
                                 line_of(lines, loc)))
             ok = False
         values[k] = v
-    if ok and not values["start"] < values["end"]:
+    if "start" in values and "end" in values and not values["start"] < values["end"]:  # (beside any other issue)
         issues.append(Issue("gantry.end", f"expected the end of the row past its start ({values['start']:g} m), "
                                           f"found {values['end']:g}", line_of(lines, ("gantry", "end"))))
         ok = False
