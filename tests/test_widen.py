@@ -265,3 +265,27 @@ def test_a_program_left_short_of_the_goal_is_solved_again_held_more_loosely():
     assert ver.passed and ver.margin == pytest.approx(wid["loose"]["margin"], abs=1e-6)
     assert ver.margin > 1.9 * wid["margin_before"]
     assert res.plan.metrics["makespan"] <= wid["makespan_before"] + 1e-9
+
+
+def test_the_free_timing_program_holds_the_start_more_lightly_than_the_held_timing_one(monkeypatch):
+    """``WidenOptions.free_track`` weighs the hold on the start's poses when the knot times are
+    free (a pose held at a knot also holds that knot's time), ``track`` when they are held."""
+    import coplan.planners.optimal.widen as W
+
+    seen = []
+    real = W.build_nlp
+
+    def spy(*args, **kw):
+        seen.append((kw["h_bounds"], kw["track"]))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(W, "build_nlp", spy)
+    prob = _shipped("crossing_paths")
+    cand = plan_coordinated(prob).candidate
+    mk = max(s.last_place for s in cand.schedules.values())
+    opts = WidenOptions(track=10.0, free_track=3.0, iterations=40)
+    W.widen(prob, cand.alloc, cand.schedules, mk, opts)
+    W.widen(prob, cand.alloc, cand.schedules, mk, WidenOptions(track=10.0, free_track=3.0, iterations=40, h_bounds=(1.0, 1.0)))
+    free = {tr for hb, tr in seen if hb[0] < hb[1]}
+    held = {tr for hb, tr in seen if hb[0] >= hb[1]}
+    assert free == {3.0} and held == {10.0}, seen
