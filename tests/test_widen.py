@@ -248,8 +248,8 @@ def test_a_plan_with_room_already_is_smoothed_unless_proven_optimal():
 
 def test_a_program_left_short_of_the_goal_is_solved_again_held_more_loosely():
     """overlap-2x6-s22 (the benchmark's layout 22): the programs held close to the start's poses
-    (track 10) settle short of the room that doubles its certified 18.7 mm (free timing 35.97
-    mm sampled, the held-timing retry 35.59 mm certified); once more with every knot time held
+    (free_track 3, track 10) settle short of the room that doubles its certified 18.7 mm (free
+    timing 35.97 mm, the held-timing retry 35.59 mm certified); once more with every knot time held
     and a lighter hold (``loose``): more room than the retry's, kept -- at the same makespan,
     verified by the independent verifier."""
     seed = 22
