@@ -108,6 +108,27 @@ def test_a_run_into_the_folder_coplan_runs_in_replaces_its_files_there(tmp_path,
     assert (tmp_path / "here.previous" / "plan.json").exists() and not (tmp_path / "here.previous" / "notes.txt").exists()
 
 
+@pytest.mark.parametrize("args", [
+    ["solve", "SINGLE", "--planner", "heuristic", "--out", ""],
+    ["solve", "SINGLE", "--planner", "heuristic", "--out="],
+    ["feed", "SINGLE", "-o", ""],
+    ["compare", "SINGLE", "--planner", "heuristic", "-o", ""],
+])
+def test_an_empty_out_on_the_command_line_is_a_usage_error_not_the_current_folder(tmp_path, monkeypatch, args):
+    """``--out "$DIR"`` with ``DIR`` unset: exit 2 before any work, nothing written -- not a run
+    into the current folder with the previous one moved beside it (the library's
+    ``out_dir=Path('')`` is still the current folder, above)."""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    monkeypatch.chdir(tmp_path)
+    r = CliRunner().invoke(app, [str(_single()) if a == "SINGLE" else a for a in args])
+    assert r.exit_code == 2, r.output
+    assert "--out" in r.output and "empty" in r.output and "Traceback" not in r.output
+    assert list(tmp_path.iterdir()) == [] and not (tmp_path.parent / (tmp_path.name + ".previous")).exists()
+
+
 def test_a_folder_that_cannot_take_files_is_named_as_the_user_gave_it_not_the_staging_name(tmp_path, monkeypatch):
     """Where the staging folder cannot be made (``-o /proc/x``: no new files there), the error
     names the path the user gave, not ``.x.<random>.partial``."""

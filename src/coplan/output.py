@@ -142,7 +142,7 @@ class RunFolder:
 
     def _commit(self) -> None:
         out, stage = self.out, self.stage
-        # the folder coplan runs in (``-o .``, ``-o ''``) is never removed or renamed: file by file
+        # the folder coplan runs in (``-o .``; ``out_dir=Path('')`` from the library) is never removed or renamed: file by file
         in_place = not out.name or out.absolute() == Path.cwd().absolute()
         if not in_place and out.is_dir() and not any(out.iterdir()):
             out.rmdir()

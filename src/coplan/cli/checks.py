@@ -64,6 +64,14 @@ def check_workers(workers: Optional[str]) -> Optional[int]:
     return n
 
 
+def out_path(value: str) -> Path:
+    """``--out``'s value as a Path. An empty one (``--out "$DIR"`` with ``DIR`` unset, say) is
+    refused (exit 2) rather than read as the current folder, which typer would make of it."""
+    if value == "":
+        raise typer.BadParameter("expected a file or folder name, found an empty string (an unset variable?)")
+    return Path(value)
+
+
 def solver_options(path: Optional[Path], time_limit: Optional[float], applies: bool):
     """OptimalOptions from ``--options`` (validated; bad values exit 3 with the key and line)
     and ``--time-limit`` (which wins); None when neither is given."""

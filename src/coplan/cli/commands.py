@@ -20,7 +20,7 @@ from rich.console import Console
 
 from . import failures
 from .checks import budget_hint as _budget_hint, check_time_limit as _check_time_limit, check_workers as _check_workers
-from .checks import between
+from .checks import between, out_path
 from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
 from .row import moving_options, refuse_rows_in_compare, refused_on_a_row
@@ -107,7 +107,7 @@ def solve(
     allocation: Annotated[
         Optional[AllocationMethod], typer.Option(help="Allocation method (default: the planner's own).")
     ] = None,
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-out"),
+    out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder.")] = Path("coplan-out"),
     time_limit: Annotated[Optional[float], typer.Option(
         help="Wall-clock limit, s: the optimal planner returns its verified incumbent at the limit "
              "(by default it stops on a work budget, so the plan does not depend on the machine).")] = None,
@@ -307,7 +307,7 @@ def check(
 def verify_cmd(
     problem: Annotated[Path, typer.Argument(help="Problem YAML file.")],
     plan: Annotated[Path, typer.Argument(help="Plan to verify: plan.json, or the plan.csv replay coplan writes (no events: they are inferred).")],
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Write verification.json (a file or a folder).")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Write verification.json (a file or a folder).")] = None,
     fcl: Annotated[FclMode, typer.Option(help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
     as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,
 ):
@@ -367,7 +367,7 @@ def compare_cmd(
         typer.Option("--planner", "-p", help="Planner to run, repeatable: heuristic, coordinated, optimal or planner:allocation "
                      "(e.g. heuristic:makespan). Default: heuristic, coordinated and optimal."),
     ] = None,
-    out: Annotated[Path, typer.Option("--out", "-o", help="Output folder.")] = Path("coplan-compare"),
+    out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder.")] = Path("coplan-compare"),
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the comparison figures.")] = True,
     time_limit: Annotated[Optional[float], typer.Option(help="Optimal planner: wall-clock limit per solve, s.")] = None,
     options_file: Annotated[Optional[Path], typer.Option(
@@ -516,7 +516,7 @@ def plot_cmd(
     kind: Annotated[PlotKind, typer.Option("--kind", "-k", help="Which figure.")] = PlotKind.GANTT,
     problem: PlanProblemOption = None,
     out: Annotated[
-        Optional[Path], typer.Option("--out", "-o", help="Image file; the suffix sets the format (default: <plan>_<kind>.png).")
+        Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Image file; the suffix sets the format (default: <plan>_<kind>.png).")
     ] = None,
     arm: Annotated[Optional[str], typer.Option(help="joints/workspace: draw only this arm.")] = None,
     dpi: Annotated[int, typer.Option(callback=between(30, 600), help="Resolution of raster images, 30-600 dpi.")] = 120,
@@ -563,7 +563,7 @@ def animate_cmd(
     plan: Annotated[Path, typer.Argument(help="plan.json to animate.")],
     problem: PlanProblemOption = None,
     out: Annotated[
-        Optional[Path], typer.Option("--out", "-o", help="Output .gif (default, next to the plan) or .mp4.")
+        Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output .gif (default, next to the plan) or .mp4.")
     ] = None,
     speed: Annotated[float, typer.Option(callback=between(0.01, 100.0), help="Playback speed: 1 = real time, 2 = twice as fast (0.01-100).")] = 1.0,
     fps: Annotated[float, typer.Option(callback=between(1.0, 60.0), help="Frames per second of the animation (1-60).")] = 10.0,
@@ -591,7 +591,7 @@ def view_cmd(
     plan: Annotated[Path, typer.Argument(help="plan.json to view.")],
     problem: PlanProblemOption = None,
     compare: Annotated[Optional[Path], typer.Option("--compare", help="A second plan.json of the same problem, side by side on one clock.")] = None,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="HTML file (default: the plan's name with .html, next to it).")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="HTML file (default: the plan's name with .html, next to it).")] = None,
     open_page: Annotated[bool, typer.Option("--open", help="Open the page in the default browser.")] = False,
 ):
     """Write the interactive viewer of a plan: one self-contained HTML page (works offline) to scrub, play, hover, jump to violations."""

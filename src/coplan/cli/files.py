@@ -12,6 +12,7 @@ from rich.markup import escape
 
 from ..errors import printable
 from ..kinds import ExitCode, ExportFormat, SchemaKind
+from .checks import out_path
 from .failures import Failure, check_overwrite
 
 __all__ = ["export_cmd", "schema_cmd"]
@@ -24,7 +25,7 @@ def export_cmd(
     rate: Annotated[float, typer.Option(help="Points per second, Hz.")] = 100.0,
     fmt: Annotated[ExportFormat, typer.Option("--format", "-f", help="csv: one file, every arm; json, yaml: a ROS 2 "
                                               "trajectory_msgs/JointTrajectory per arm, in a folder.")] = ExportFormat.CSV,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="CSV file, or folder (default: beside the plan).")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="CSV file, or folder (default: beside the plan).")] = None,
 ):
     """Export a plan for a joint controller: positions, velocities and accelerations per joint at a chosen rate."""
     for path in _export(plan, rate, fmt, out):

@@ -15,7 +15,7 @@ from rich.console import Console
 
 from ..errors import plural
 from ..workers import MAX_WORKERS
-from .checks import between
+from .checks import between, out_path
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
 from ..errors import printable
@@ -37,7 +37,7 @@ def _counts_text(counts: dict[str, int]) -> str:
 def sweep_cmd(
     spec: Annotated[Path, typer.Argument(help="Sweep file (YAML): a base, the parameters to vary, planner and options; "
                                           "or a folder or glob of problem files.")],
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Output folder (default: coplan-sweep/<sweep name>). "
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder (default: coplan-sweep/<sweep name>). "
                                                 "A re-run into the same folder skips the rows already done.")] = None,
     workers: Annotated[Optional[int], typer.Option(callback=between(1, MAX_WORKERS), help="Worker processes of the local cluster "
                                                    "(default: one per core; one thread each).")] = None,
@@ -111,7 +111,7 @@ def sweep_cmd(
 
 def sweep_report_cmd(
     folder: Annotated[Path, typer.Argument(help="A sweep's output folder (or its results.parquet).")],
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", help="Where to write report.md and the figures "
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Where to write report.md and the figures "
                                                 "(default: <folder>/report).")] = None,
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the figures.")] = True,
 ):
