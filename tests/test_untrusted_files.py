@@ -125,3 +125,23 @@ def test_plan_files_over_the_cap_are_refused_before_reading(tmp_path: Path, monk
     with pytest.raises(PlanFileError) as e:  # under the cap: read and checked as before
         load_plan(small)
     assert "bytes" not in str(e.value)
+
+
+def test_a_plan_with_implausible_joint_angles_is_refused_with_the_row_and_time(tmp_path: Path, single_arm) -> None:
+    """A plan angle beyond coplan.plausible.MAX_PLAN_ANGLE (1000 rad) is no motion: the plan is
+    refused as a bad file (the key path, the row, its time and what was found), not verified into
+    a clearance of -9e297 m printed in 300 digits. One just inside is verified as usual."""
+    from coplan.plausible import MAX_PLAN_ANGLE
+    from coplan.verify import verify
+
+    plan = plan_heuristic(single_arm)
+    name = next(iter(plan.q))
+    q = np.array(plan.q[name], float)
+    q[7, 0] = 1e300
+    plan.q[name] = q
+    with pytest.raises(PlanFileError) as e:
+        verify(single_arm, plan)
+    msg = str(e.value)
+    assert f"arms.{name}.q[7]" in msg and "1e+300" in msg and f"{plan.time[7]:.3f} s" in msg and "1000 rad" in msg
+    q[7, 0] = MAX_PLAN_ANGLE - 1.0
+    assert not verify(single_arm, plan).passed  # far past the joint limit: verified, and refused as a plan

@@ -8,6 +8,7 @@ imports this module.
 from .problem.plausible import (
     BOUNDS,
     BYTES_PER_SAMPLE,
+    MAX_PLAN_ANGLE,
     MAX_PLAN_SECONDS,
     SAMPLE_RATE,
     Bound,
@@ -19,5 +20,5 @@ from .problem.plausible import (
     plan_duration_bound,
 )
 
-__all__ = ["Bound", "BOUNDS", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "DurationBound",
+__all__ = ["Bound", "BOUNDS", "MAX_PLAN_ANGLE", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "DurationBound",
            "move_times", "field_issues", "plan_duration_bound", "duration_issues"]

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES
 
-__all__ = ["Bound", "BOUNDS", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
+__all__ = ["Bound", "BOUNDS", "MAX_PLAN_ANGLE", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
            "duration_issues", "row_travel", "slowest_speed", "row_duration_issues",
            "cruise_speed_issue", "live_speed_issue"]
 
@@ -48,6 +48,10 @@ class Bound:
     def holds(self, x: float) -> bool:
         return self.low <= x <= self.high
 
+
+#: A plan file's joint angles (rad): beyond it a sample is no motion (joint limits lie within
+#: 2 pi) and its figures are not printable (a plan with 1e300 rad read as -9e297 m of clearance).
+MAX_PLAN_ANGLE = 1000.0
 
 _COORD = Bound(-1000.0, 1000.0, "m", "a coordinate")
 _ANGLE = Bound(-TAU, TAU, "rad", "a joint angle")
