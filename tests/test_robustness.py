@@ -92,6 +92,21 @@ def test_verify_out_never_overwrites_another_plan_or_file(single, tmp_path: Path
     assert json.loads(report.read_text())["format"].startswith("coplan.verification/")
 
 
+def test_verify_out_naming_a_file_not_ending_json_is_refused_before_any_work(single, tmp_path: Path, problems_dir: Path) -> None:
+    """The report is a .json file or goes into a folder: an existing file without that ending
+    (``afile``, ``notes.txt``) is neither -- exit 2 saying so, the file untouched (it said
+    "expected a folder" of ``afile``, and ``notes.txt`` failed only at the write, exit 8)."""
+    path = _external_plan(single, tmp_path)
+    prob = str(problems_dir / "single_arm.yaml")
+    for name, said in (("afile", "without an ending"), ("notes.txt", "ending .txt")):
+        target = tmp_path / name
+        target.write_text("mine")
+        res = run("verify", prob, str(path), "--out", str(target))
+        assert res.exit_code == int(ExitCode.USAGE), res.output
+        assert "expected a folder or a file name ending .json" in res.output and said in res.output
+        assert target.read_text() == "mine"
+
+
 def test_version() -> None:
     from importlib.metadata import version
 

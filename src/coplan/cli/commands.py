@@ -307,7 +307,7 @@ def check(
 def verify_cmd(
     problem: Annotated[Path, typer.Argument(help="Problem YAML file.")],
     plan: Annotated[Path, typer.Argument(help="Plan to verify: plan.json, or the plan.csv replay coplan writes (no events: they are inferred).")],
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Write verification.json (a file or a folder).")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Write verification.json (a folder, or a file name ending .json).")] = None,
     fcl: Annotated[FclMode, typer.Option(help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
     as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,
 ):
@@ -323,6 +323,9 @@ def verify_cmd(
 
     if out is not None and (out.resolve() == plan.resolve() or (out.is_dir() and (out / "verification.json").resolve() == plan.resolve())):
         _fail(ExitCode.USAGE, f"--out {out} is the plan being verified; give another file or folder")
+    if out is not None and out.is_file() and out.suffix != ".json":  # (the report is a .json file, or goes into a folder)
+        _fail(ExitCode.USAGE, f"--out {out}: expected a folder or a file name ending .json, found a file "
+                              f"({'without an ending' if not out.suffix else 'ending ' + out.suffix})")
     if out is not None and (out.is_dir() or not out.suffix):  # (a folder, or a file: it must take it, before the work)
         failures.check_out_dir(out)
     elif out is not None:
