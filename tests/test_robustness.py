@@ -107,6 +107,24 @@ def test_verify_out_naming_a_file_not_ending_json_is_refused_before_any_work(sin
         assert target.read_text() == "mine"
 
 
+def test_options_the_coordinated_planner_does_not_take_are_named_not_silently_dropped(tmp_path: Path, problems_dir: Path) -> None:
+    """``--planner coordinated --options`` with an optimal-only field (search_work): a note names
+    it and what the coordinated planner takes; with only those (margin), no note."""
+    from dataclasses import fields
+
+    from coplan.cli.checks import COORDINATED_FIELDS
+    from coplan.optimal import OptimalOptions
+
+    assert set(COORDINATED_FIELDS) <= {f.name for f in fields(OptimalOptions)}
+    prob = str(problems_dir / "crossing_paths.yaml")
+    for body, noted in (("search_work: 100\nmargin: 0.02\n", True), ("margin: 0.02\n", False)):
+        opts = tmp_path / "opts.yaml"
+        opts.write_text(body)
+        res = run("solve", prob, "--planner", "coordinated", "--options", str(opts), "--out", str(tmp_path / "o"))
+        assert res.exit_code == int(ExitCode.OK), res.output
+        assert ("search_work applies to the optimal planner only" in res.output) is noted, res.output
+
+
 def test_version() -> None:
     from importlib.metadata import version
 

@@ -90,6 +90,22 @@ def solver_options(path: Optional[Path], time_limit: Optional[float], applies: b
     return replace(opts, time_limit=time_limit) if time_limit is not None else opts
 
 
+#: The OptimalOptions fields the coordinated planner takes (coplan.pipeline.solve makes its
+#: CoordinatedOptions of them); the rest steer only the optimal planner.
+COORDINATED_FIELDS = ("margin", "coordination_checks", "time_limit")
+
+
+def optimal_only(opts) -> list[str]:
+    """The fields of ``opts`` (OptimalOptions) set away from their defaults that the
+    coordinated planner does not take."""
+    from dataclasses import fields
+
+    from ..planners.optimal.planner import OptimalOptions
+
+    base = OptimalOptions()
+    return [f.name for f in fields(opts) if f.name not in COORDINATED_FIELDS and getattr(opts, f.name) != getattr(base, f.name)]
+
+
 def budget_hint(planner: PlannerKind, time_limit: Optional[float]) -> Optional[str]:
     """Shown once a long optimal solve has run a while without a clock limit."""
     if planner != PlannerKind.OPTIMAL or time_limit is not None:
