@@ -112,10 +112,12 @@ def test_options_the_coordinated_planner_does_not_take_are_named_not_silently_dr
     it and what the coordinated planner takes; with only those (margin), no note."""
     from dataclasses import fields
 
-    from coplan.cli.checks import COORDINATED_FIELDS
     from coplan.optimal import OptimalOptions
+    from coplan.planners.coordinated.planner import CoordinatedOptions
+    from coplan.planners.optimal.options import COORDINATED_FIELDS
 
     assert set(COORDINATED_FIELDS) <= {f.name for f in fields(OptimalOptions)}
+    assert set(COORDINATED_FIELDS.values()) <= {f.name for f in fields(CoordinatedOptions)}
     prob = str(problems_dir / "crossing_paths.yaml")
     for body, noted in (("search_work: 100\nmargin: 0.02\n", True), ("margin: 0.02\n", False)):
         opts = tmp_path / "opts.yaml"

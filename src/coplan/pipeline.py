@@ -270,8 +270,10 @@ def solve(
         from .planners.coordinated.planner import CoordinatedOptions, plan_coordinated
 
         method = AllocationMethod(allocation or AllocationMethod.MAKESPAN)
+        from .planners.optimal.options import COORDINATED_FIELDS
+
         copts = options if isinstance(options, CoordinatedOptions) else CoordinatedOptions(
-            margin=options.margin, budget_checks=options.coordination_checks, time_limit=options.time_limit
+            **{theirs: getattr(options, ours) for ours, theirs in COORDINATED_FIELDS.items()}
         ) if options is not None else None
         res = plan_coordinated(prob, allocation=method, options=copts, progress=say)
         plan, ver = res.plan, res.verification

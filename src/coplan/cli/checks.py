@@ -90,20 +90,19 @@ def solver_options(path: Optional[Path], time_limit: Optional[float], applies: b
     return replace(opts, time_limit=time_limit) if time_limit is not None else opts
 
 
-#: The OptimalOptions fields the coordinated planner takes (coplan.pipeline.solve makes its
-#: CoordinatedOptions of them); the rest steer only the optimal planner.
-COORDINATED_FIELDS = ("margin", "coordination_checks", "time_limit")
-
-
-def optimal_only(opts) -> list[str]:
-    """The fields of ``opts`` (OptimalOptions) set away from their defaults that the
-    coordinated planner does not take."""
+def optimal_only_note(opts) -> Optional[str]:
+    """For the coordinated planner: a note naming the fields of ``opts`` (OptimalOptions) set
+    away from their defaults that it does not take, and the ones it does; None if there are none."""
     from dataclasses import fields
 
-    from ..planners.optimal.planner import OptimalOptions
+    from ..planners.optimal.options import COORDINATED_FIELDS, OptimalOptions
 
     base = OptimalOptions()
-    return [f.name for f in fields(opts) if f.name not in COORDINATED_FIELDS and getattr(opts, f.name) != getattr(base, f.name)]
+    unused = [f.name for f in fields(opts) if f.name not in COORDINATED_FIELDS and getattr(opts, f.name) != getattr(base, f.name)]
+    if not unused:
+        return None
+    return (f"--options: {', '.join(unused)} appl{'ies' if len(unused) == 1 else 'y'} to the optimal planner only; "
+            f"the coordinated planner takes {', '.join(COORDINATED_FIELDS)}")
 
 
 def budget_hint(planner: PlannerKind, time_limit: Optional[float]) -> Optional[str]:

@@ -20,7 +20,7 @@ from rich.console import Console
 
 from . import failures
 from .checks import budget_hint as _budget_hint, check_time_limit as _check_time_limit, check_workers as _check_workers
-from .checks import COORDINATED_FIELDS, between, optimal_only, out_path
+from .checks import between, optimal_only_note, out_path
 from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
 from .row import moving_options, refuse_rows_in_compare, refused_on_a_row
@@ -161,11 +161,9 @@ def solve(
         from ..planners.optimal.planner import OptimalOptions
 
         options = replace(options or OptimalOptions(), workers=n_workers)
-    if planner == PlannerKind.COORDINATED and options is not None and optimal_only(options):
-        unused = optimal_only(options)
-        err_console.print(f"note: --options: {', '.join(unused)} appl{'ies' if len(unused) == 1 else 'y'} to the optimal "
-                          f"planner only; the coordinated planner takes {', '.join(COORDINATED_FIELDS)}",
-                          markup=False, highlight=False)
+    note = optimal_only_note(options) if planner == PlannerKind.COORDINATED and options is not None else None
+    if note is not None:
+        err_console.print(f"note: {note}", markup=False, highlight=False)
     if not as_json and planner != PlannerKind.HEURISTIC:
         from ..allocate.screen import screened
 

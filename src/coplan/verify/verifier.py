@@ -108,11 +108,12 @@ def _check_inputs(problem: Problem, plan: Plan) -> None:
                     f" and {rows.size - 1} more rows" if rows.size > 1 else "")
             issues.append(Issue(f"arms.{n}.q", f"expected {t.size} finite rows of 2 angles, found {found}"))
         elif q is not None:
-            far = np.flatnonzero((np.abs(np.asarray(q, float)) > MAX_PLAN_ANGLE).any(axis=1))
+            qa = np.asarray(q, float)
+            far = np.flatnonzero((np.abs(qa) > MAX_PLAN_ANGLE).any(axis=1))
             if far.size:
                 r = int(far[0])
                 issues.append(Issue(f"arms.{n}.q[{r}]", f"expected joint angles within +-{MAX_PLAN_ANGLE:g} rad "
-                                    f"(coplan.plausible.MAX_PLAN_ANGLE), found [{', '.join(f'{v:g}' for v in np.asarray(q, float)[r])}] "
+                                    f"(coplan.plausible.MAX_PLAN_ANGLE), found [{', '.join(f'{v:g}' for v in qa[r])}] "
                                     f"(t = {t[r]:.3f} s)" + (f" and {far.size - 1} more rows" if far.size > 1 else "")))
     if issues:
         raise PlanFileError(issues, f"plan for problem {plan.problem!r}")

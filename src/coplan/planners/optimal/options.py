@@ -28,6 +28,11 @@ from ...workers import default_workers, settle_workers, workers_issue
 
 __all__ = ["OptimalOptions", "OptionsError", "load_options", "parse_options"]
 
+#: The OptimalOptions fields the coordinated planner takes, by their CoordinatedOptions names
+#: (:func:`coplan.pipeline.solve` makes its options of them); the rest steer only the optimal planner.
+COORDINATED_FIELDS = {"margin": "margin", "coordination_checks": "budget_checks", "time_limit": "time_limit"}
+
+
 @dataclass(frozen=True)
 class OptimalOptions:
     """Solver options (separate from the problem).
