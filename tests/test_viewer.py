@@ -138,6 +138,24 @@ def test_compare_needs_a_plan_of_the_same_problem(greenhouse):
         render_html(prob, coord.plan, other)
 
 
+def test_view_of_a_plan_json_takes_its_recorded_problem_file_only_while_unchanged(tmp_path):
+    """``coplan.view(plan.json)`` finds the problem file the plan records; once that file has
+    changed it says so (pass the problem) rather than show the shipped problem of the same name,
+    which may be another; once it is gone, the shipped problem of that name."""
+    mine = tmp_path / "crossing.yaml"
+    mine.write_text(CROSSING.read_text())
+    coplan.solve(load_problem(mine), planner="coordinated", out_dir=tmp_path / "run")
+    plan_json = tmp_path / "run" / "plan.json"
+    assert coplan.view(plan_json).page  # the recorded file, unchanged
+    mine.write_text(CROSSING.read_text().replace("clearance: 0.05", "clearance: 0.06"))
+    with pytest.raises(coplan.PlanFileError, match="has changed since"):
+        coplan.view(plan_json)
+    assert coplan.view(plan_json, problem=mine).page  # given: taken as it is
+    mine.unlink()
+    data = read_viewer_data(coplan.view(plan_json).page)  # gone: the shipped problem of its name
+    assert data["problem"]["task"]["clearance"] == pytest.approx(0.05)
+
+
 def test_notebook_view_is_an_inline_page(greenhouse):
     prob, coord, heur = greenhouse
     v = coplan.view(coord, compare=heur)
@@ -458,7 +476,7 @@ def test_notebook_view_of_a_row_plan_file_finds_its_problem(tmp_path):
     plan = load_plan(tmp_path / "run" / "plan.json")
     assert read_viewer_data(coplan.view(plan).page)["problem"]["name"] == "short"  # the file it records
     f.write_text(f.read_text() + "# changed since\n")
-    with pytest.raises(coplan.errors.PlanFileError, match="which is gone or has changed since"):
+    with pytest.raises(coplan.errors.PlanFileError, match="which has changed since"):
         coplan.view(plan)
     sparse = next(p for p in shipped_rows() if p.stem == "sparse_row")
     plan.problem_file, plan.problem = None, load_problem(sparse).name  # a shipped row, by its name

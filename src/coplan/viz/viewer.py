@@ -86,8 +86,9 @@ def decode_array(entry: dict) -> np.ndarray:
 # --------------------------------------------------------------------------- the problem
 def problem_of(plan: Plan) -> Problem:
     """The problem of a plan, as ``coplan view`` finds it: the problem file the plan records
-    (unchanged since: its digest), else the shipped problem or row the plan names (raises
-    :class:`PlanFileError` when there is none)."""
+    (unchanged since: its digest), else -- that file gone -- the shipped problem or row the plan
+    names. Raises :class:`PlanFileError` when there is none, or when the recorded file has
+    changed since (not the shipped problem of the same name instead: it may be another)."""
     from ..problem.model import load_problem, shipped_problems, shipped_rows
 
     record = plan.problem_file
@@ -95,10 +96,12 @@ def problem_of(plan: Plan) -> Problem:
         found = load_problem(record["path"])
         if found.digest == record["sha256"]:
             return found
+        raise PlanFileError([Issue("problem_file", f"it was planned from {record['path']}, which has changed since (its "
+                                                   "sha256 differs): pass the problem itself")])
     shipped = [load_problem(p) for p in shipped_problems() + shipped_rows()]
     found = next((p for p in shipped if p.name == plan.problem), None)
     if found is None:
-        where = (f"it was planned from {record['path']}, which is gone or has changed since; "
+        where = (f"it was planned from {record['path']}, which is gone; "
                  if record is not None else "")
         raise PlanFileError([Issue("problem", f"{where}expected the name of a shipped problem "
                                               f"({', '.join(p.name for p in shipped)}), found {plan.problem!r}: "
