@@ -63,6 +63,7 @@ def test_ctrl_c_in_the_cli_exits_130_with_the_report_of_what_finished(folder, tm
     interrupt_on("problem-b", monkeypatch)
     res = CliRunner().invoke(app, ["compare", str(folder), "-p", "heuristic", "--no-figures", "-o", str(tmp_path / "o")])
     assert res.exit_code == ExitCode.INTERRUPTED, res.output
+    assert "interrupted by the user (Ctrl-C)" in res.output  # the message, not the kind again ("interrupted")
     doc = json.loads((tmp_path / "o" / "compare.json").read_text())
     assert [p["name"] for p in doc["problems"]] == ["problem-a"] and doc["rows"][0]["status"]
 

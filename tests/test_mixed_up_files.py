@@ -60,11 +60,59 @@ def test_a_problem_given_as_the_feed_says_so():
     assert len(e.value.issues) == 1 and "found a problem file" in str(e.value) and "swapped" in str(e.value)
 
 
+def test_a_feed_or_plan_csv_in_the_wrong_place_is_named_in_one_sentence(crossing_plan, tmp_path):
+    """A feed where the plan is expected, a plan where the feed is expected, the plan CSV where
+    the problem is expected: each is named for what it is (one issue, exit 3), not read as
+    broken JSON, a list of unknown keys or a string."""
+    feed = tmp_path / "feed.yaml"
+    r = runner.invoke(app, ["feed", str(PROBLEMS / "crossing_paths.yaml"), "--out", str(feed)])
+    assert r.exit_code == 0, r.output
+    with pytest.raises(PlanFileError) as e:
+        load_plan(feed)
+    assert len(e.value.issues) == 1
+    assert "expected a plan file (plan.json or plan.csv), found a coplan feed file (format 'coplan.feed/1')" in str(e.value)
+    r = runner.invoke(app, ["verify", str(PROBLEMS / "crossing_paths.yaml"), str(feed)])
+    assert r.exit_code == 3 and "found a coplan feed file" in r.output and "syntax error" not in r.output
+    with pytest.raises(FeedError) as e:
+        load_feed(crossing_plan)
+    (issue,) = e.value.issues
+    assert "expected a feed file (format coplan.feed/1, key 'detections'), found a coplan plan file (format 'coplan.plan/1')" \
+        in issue.message and issue.line == 1
+    r = runner.invoke(app, ["run", str(PROBLEMS / "crossing_paths.yaml"), "--feed", str(crossing_plan),
+                            "--out", str(tmp_path / "run")])
+    assert r.exit_code == 3 and "found a coplan plan file" in r.output and "unknown key" not in r.output
+    csv = crossing_plan.with_name("plan.csv")
+    assert csv.read_text().startswith("t,left_q1,")
+    with pytest.raises(ProblemError) as e:
+        load_problem(csv)
+    (issue,) = e.value.issues
+    assert "found a coplan plan CSV" in issue.message and "swapped" in issue.message
+    r = runner.invoke(app, ["check", str(csv)])
+    assert r.exit_code == 3 and "found a coplan plan CSV" in r.output
+
+
 def test_a_plan_checked_against_another_problem_names_both_files(crossing_plan):
     r = runner.invoke(app, ["verify", str(PROBLEMS / "greenhouse_row.yaml"), str(crossing_plan)])
     assert r.exit_code == 3
     assert str(crossing_plan) in r.output and "greenhouse_row.yaml" in r.output
     assert "expected the problem's arms ['left', 'center', 'right'], found ['left', 'right']" in r.output
+
+
+def test_verify_notes_a_problem_file_other_than_the_one_the_plan_was_planned_from(crossing_plan, tmp_path):
+    """The plan records its problem file's sha256: verified against other text of the same
+    problem (here a wider clearance), verify says so before its verdict; against the same text
+    (any path), nothing."""
+    record = json.loads(crossing_plan.read_text())["problem_file"]
+    changed = tmp_path / "crossing_wider.yaml"
+    changed.write_text((PROBLEMS / "crossing_paths.yaml").read_text().replace("clearance: 0.05", "clearance: 0.06"))
+    r = runner.invoke(app, ["verify", str(changed), str(crossing_plan)])
+    assert r.exit_code == 0, r.output
+    assert f"was planned from {record['path']}" in r.output and "its sha256 differs" in r.output
+    assert "(required 0.060 m)" in r.output  # verified against the file given, as it is
+    same = tmp_path / "copy.yaml"
+    same.write_text((PROBLEMS / "crossing_paths.yaml").read_text())
+    r = runner.invoke(app, ["verify", str(same), str(crossing_plan)])
+    assert r.exit_code == 0 and "sha256" not in r.output
 
 
 def test_an_empty_plan_file_is_called_empty(tmp_path):

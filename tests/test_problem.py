@@ -164,6 +164,8 @@ CASES = [
      ["expected a list of 2 items", "found number 1.8"]),
     ("type-three-items", lambda t: edit(t, "links: [1.0, 0.8]", "links: [1.0, 0.8, 0.5]"), "defaults.links", "links:",
      ["expected a list of 2 items", "found a list of 3 items"]),
+    ("type-one-item", lambda t: edit(t, "links: [1.0, 0.8]", "links: [1.0]"), "defaults.links", "links:",
+     ["expected a list of 2 items", "found a list of 1 item"]),
     ("type-limits-flat", lambda t: edit(t, LIMITS, "joint_limits: [[-3.1416, 3.1416], 3.0]"), "defaults.joint_limits[1]",
      "joint_limits", ["expected a list of 2 items", "found number 3.0"]),
     ("type-bool", lambda t: edit(t, "pick_dwell: 0.3", "pick_dwell: yes"), "task.pick_dwell", "pick_dwell",

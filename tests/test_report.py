@@ -88,8 +88,14 @@ def test_compare_folder_aggregates_and_records_bad_files(tmp_path):
     for name in ("single_arm.yaml", "crossing_paths.yaml"):
         shutil.copy(shipped(name), src / name)
     (src / "broken.yaml").write_text("name: broken\narms: []\n")
-    cmp = compare(src, PLANNERS, tmp_path / "out", figures=False)
+    said: list[str] = []
+    cmp = compare(src, PLANNERS, tmp_path / "out", figures=False, progress=said.append)
     assert [p["error"] is not None for p in cmp.problems] == [True, False, False]  # sorted: broken, crossing, single
+    # the progress lines count the invalid file as done, not as compared
+    counts = [m for m in said if "problem files done" in m]
+    assert [m.split(";")[0] for m in counts] == ["1 of 3 problem files done, 0 compared (1 skipped: invalid)",
+                                                 "2 of 3 problem files done, 1 compared (1 skipped: invalid)",
+                                                 "3 of 3 problem files done, 2 compared (1 skipped: invalid)"]
     assert len(cmp.rows) == 4 and not cmp.failed_runs
     agg = json.loads((tmp_path / "out" / "compare.json").read_text())["aggregate"]
     for label in PLANNERS:

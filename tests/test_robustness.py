@@ -147,12 +147,12 @@ def test_json_stdout_and_plan_file_are_strict_json(tmp_path: Path, problems_dir:
     json.loads((tmp_path / "plan.json").read_text(), parse_constant=refuse)
 
 
-@pytest.mark.parametrize("limit", ["0", "-1", "nan"])
+@pytest.mark.parametrize("limit", ["0", "-1", "nan", "inf"])
 def test_time_limit_must_be_positive(tmp_path: Path, problems_dir: Path, limit: str) -> None:
     for cmd in ("solve", "compare"):
         res = run(cmd, str(problems_dir / "single_arm.yaml"), "--time-limit", limit, "--out", str(tmp_path / cmd))
         assert res.exit_code == int(ExitCode.USAGE), res.output
-        assert "--time-limit: expected a positive number of seconds" in res.output
+        assert "--time-limit: expected a positive, finite number of seconds" in res.output
         assert not (tmp_path / cmd).exists()  # refused before any work
 
 

@@ -68,6 +68,7 @@ def _with(text: str, **gantry) -> str:
     (dict(max_jerk=".nan"), "gantry.max_jerk", "found"),
     (dict(max_acceleration="fast"), "gantry.max_acceleration", "string 'fast'"),
     (dict(speed=1.0), "gantry.speed", "unknown key"),
+    (dict(setle=1.0), "gantry.setle", "found unknown key 'setle'; did you mean 'settle'?"),
 ])
 def test_bad_gantry_sections_are_refused_with_the_key_path_and_line(change, path, words):
     text = _with(to_yaml(gantry_row(length=10.0, density=2.0)), **change)
@@ -77,7 +78,7 @@ def test_bad_gantry_sections_are_refused_with_the_key_path_and_line(change, path
         parse_problem(text, "row.yaml")
     issue = next(i for i in e.value.issues if i.path == path)
     assert words in issue.message and issue.line is not None
-    assert text.splitlines()[issue.line - 1].strip().startswith(path.split(".")[-1]) or path == "gantry.speed"
+    assert text.splitlines()[issue.line - 1].strip().startswith(path.split(".")[-1]) or path in ("gantry.speed", "gantry.setle")
 
 
 def test_every_bad_gantry_value_is_reported_at_once():

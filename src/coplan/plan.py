@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from enum import Enum
@@ -339,8 +340,12 @@ def load_plan(path: str | Path) -> Plan:
                                            "found an empty file")], src)
         data = json.loads(text)
     except json.JSONDecodeError as e:
+        other = re.search(r"^format:\s*['\"]?(coplan\.(\w+)/\w+)", text, re.MULTILINE)  # a feed or other coplan YAML file
         looks = (p.suffix.lower() in (".yaml", ".yml") or any(text.lstrip().startswith(k) for k in ("name:", "arms:", "task:", "gantry:"))
                  or "\narms:" in text)
+        if other:
+            raise PlanFileError([Issue("", f"expected a plan file (plan.json or plan.csv), found a coplan {other.group(2)} file "
+                                           f"(format {other.group(1)!r}); were the arguments swapped?", 1)], src) from None
         hint = "; it looks like a problem file (YAML): were the problem and the plan swapped?" if looks else ""
         raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno}){hint}", e.lineno)], src) from None
     except UnicodeDecodeError as e:

@@ -43,7 +43,7 @@ def strict_json(doc) -> str:
 
 def check_time_limit(time_limit: Optional[float]) -> None:
     if time_limit is not None and not (math.isfinite(time_limit) and time_limit > 0):
-        fail(ExitCode.USAGE, f"--time-limit: expected a positive number of seconds, found {time_limit}")
+        fail(ExitCode.USAGE, f"--time-limit: expected a positive, finite number of seconds (leave it out for the planner's own), found {time_limit}")
 
 
 def check_workers(workers: Optional[str]) -> Optional[int]:

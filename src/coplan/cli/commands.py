@@ -341,6 +341,12 @@ def verify_cmd(
 
     prob = load_problem(_resolve_problem(problem))
     loaded = load_plan(plan)
+    record = loaded.problem_file
+    # (a plan of another problem by name is refused with both names by the verifier's own check)
+    if record is not None and prob.digest is not None and prob.digest != record["sha256"]:
+        err_console.print(f"[yellow]note[/]: {_s(plan)} was planned from {_s(record['path'])}; {_s(problem)} is not that "
+                          "text (another file, or changed since: its sha256 differs): the plan is verified against "
+                          f"{_s(problem)} as it is now")
     try:
         ver = run_verify(prob, loaded, fcl=fcl)
     except PlanFileError as e:  # a well-formed plan that does not fit this problem: name both files

@@ -132,7 +132,7 @@ def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
     if isinstance(exc, InputError):
         return ExitCode.BAD_INPUT, str(exc)
     if isinstance(exc, KeyboardInterrupt):
-        return (ExitCode.TERMINATED, "terminated (SIGTERM)") if TERMINATED else (ExitCode.INTERRUPTED, "interrupted")
+        return (ExitCode.TERMINATED, "terminated (SIGTERM)") if TERMINATED else (ExitCode.INTERRUPTED, "interrupted by the user (Ctrl-C)")
     if isinstance(exc, CoplanError):  # an error class may name its own exit code
         return ExitCode(getattr(exc, "exit_code", ExitCode.INTERNAL)), str(exc)
     if isinstance(exc, OSError):  # disk full, permissions: the path and the reason, nothing half-written left

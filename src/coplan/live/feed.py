@@ -147,6 +147,11 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
     if "detections" not in data and {"arms", "fruits"} <= set(data):
         raise FeedError([Issue("", "expected a feed file (format coplan.feed/1, key 'detections'), found a problem file "
                                    "(keys arms, fruits); were the problem and the feed swapped?", line_of(lines, ()))], source)
+    fmt = data.get("format")
+    if isinstance(fmt, str) and fmt.startswith("coplan.") and fmt != FEED_FORMAT:  # another coplan file: say only that
+        kind = fmt.split(".", 1)[1].split("/", 1)[0]
+        raise FeedError([Issue("", f"expected a feed file (format {FEED_FORMAT}, key 'detections'), found a coplan {kind} file "
+                                   f"(format {fmt!r}); were the arguments swapped?", line_of(lines, ("format",)))], source)
     for key in data:
         if key not in _TOP_KEYS:
             bad((key,), f"expected one of {', '.join(_TOP_KEYS)}, found unknown key {key!r}")

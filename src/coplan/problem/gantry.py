@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from ..errors import Issue
-from .yamlsafe import line_of, path_str
+from .yamlsafe import did_you_mean, line_of, path_str
 
 # (``Problem`` in the annotations below is coplan.problem.model.Problem, which imports this module)
 
@@ -93,7 +93,7 @@ def parse_gantry(data: Any, lines: dict, issues: list[Issue]) -> Gantry | None:
     values: dict[str, float] = {}
     for k in data:
         if k not in GANTRY_KEYS:
-            issues.append(Issue(path_str(("gantry", k)), f"expected one of {', '.join(GANTRY_KEYS)}, found unknown key {k!r}",
+            issues.append(Issue(path_str(("gantry", k)), f"expected one of {', '.join(GANTRY_KEYS)}, found unknown key {k!r}{did_you_mean(k, GANTRY_KEYS)}",
                                 line_of(lines, ("gantry", k))))
             ok = False
     for k in GANTRY_KEYS:

@@ -8,9 +8,9 @@ what was expected and what was found.
 
 from __future__ import annotations
 
-import difflib
 import math
 import os
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -27,7 +27,7 @@ from .check import built_issues
 from .gantry import Gantry, carriage_extent, parse_gantry
 from .spec import (ARM_REQUIRED, TOP_KEYS, ArmFieldsSpec, ArmSpec, FruitSpec, TaskSpec, kind_of, missing,
                    name_value)
-from .yamlsafe import MAX_FILE_BYTES, line_of, path_str, read_yaml, read_input_text
+from .yamlsafe import MAX_FILE_BYTES, did_you_mean, line_of, path_str, read_yaml, read_input_text
 
 __all__ = [
     "Arm",
@@ -186,8 +186,7 @@ class Problem:
 
 
 def _suggest(key: Any, choices) -> str:
-    m = difflib.get_close_matches(str(key), list(choices), n=1, cutoff=0.5)
-    return f"; did you mean {m[0]!r}?" if m else f"; allowed keys: {', '.join(choices)}"
+    return did_you_mean(key, choices) or f"; allowed keys: {', '.join(choices)}"
 
 
 def _user_loc(data: Any, loc: tuple, missing: bool) -> tuple:
@@ -290,6 +289,9 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
 def _top_level(data: Any, lines: dict, source: str | None, issues: list) -> tuple[str, str]:
     """The document is a problem (a mapping, not another coplan file), its keys are known and
     present; returns its name and description."""
+    if isinstance(data, str) and re.match(r"t,[^,\s]+_q1,", data):  # the header of coplan's plan CSV (coplan.plancsv)
+        raise ProblemError([Issue("", "expected a problem file (keys name, arms, fruits, task), found a coplan plan CSV (a "
+                                      "replay of joint samples: t,<arm>_q1,<arm>_q2,...); were the arguments swapped?", 1)], source)
     if not isinstance(data, dict):
         raise ProblemError(
             [Issue("", f"expected a mapping with keys name, arms, fruits, task; found {kind_of(data)}", 1)], source

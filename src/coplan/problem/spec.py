@@ -52,7 +52,7 @@ def pair_list(v: Any) -> Any:
     if not isinstance(v, (list, tuple)):
         raise ValueError(f"expected a list of 2 items, found {kind_of(v)}")
     if len(v) != 2:
-        raise ValueError(f"expected a list of 2 items, found a list of {len(v)} items")
+        raise ValueError(f"expected a list of 2 items, found a list of {len(v)} item{'' if len(v) == 1 else 's'}")
     return tuple(v)
 
 

@@ -21,6 +21,7 @@ import :mod:`coplan.problem.model` (which imports it).
 
 from __future__ import annotations
 
+import difflib
 import re
 from pathlib import Path
 from typing import Any
@@ -237,3 +238,9 @@ def read_input_text(path, error: type[InputError]) -> str:
         line = raw[: e.start].count(b"\n") + 1
         raise error([Issue("", f"expected UTF-8 text, found the undecodable byte 0x{raw[e.start]:02x} at offset {e.start}", line)],
                     src) from None
+
+
+def did_you_mean(key: Any, choices) -> str:
+    """``"; did you mean 'x'?"`` for the closest of ``choices`` to an unknown ``key``, or ``""``."""
+    m = difflib.get_close_matches(str(key), [str(c) for c in choices], n=1, cutoff=0.5)
+    return f"; did you mean {m[0]!r}?" if m else ""

@@ -244,7 +244,9 @@ def compare(
             _write_report(mine, specs, out / path.stem, figures_from=cmp)
             cmp.files[f"{path.stem}/compare.json"] = mine.files["json"]
         _write_report(cmp, specs, out)
-        say(f"{k + 1} of {len(files)} problem files compared; report written to {out / 'compare.json'}")
+        bad = sum(1 for e in cmp.problems if e.get("error"))
+        skipped = f" ({bad} skipped: invalid)" if bad else ""
+        say(f"{k + 1} of {len(files)} problem files done, {k + 1 - bad} compared{skipped}; report written to {out / 'compare.json'}")
     return cmp
 
 
