@@ -102,6 +102,9 @@ def test_csv_export(crossing_plan, tmp_path):
     np.testing.assert_allclose(data[:, 1:3], traj.q[arms[0]], atol=1e-8)
     np.testing.assert_allclose(data[:, 3:5], traj.qd[arms[0]], rtol=1e-8, atol=1e-8)
     assert list(tmp_path.iterdir()) == [path]  # no temporary file left
+    # at rest the rates are exact zeros, not the spline's rounding (it wrote -1.07e-258)
+    rates = np.concatenate([np.r_[traj.qd[a].ravel(), traj.qdd[a].ravel()] for a in arms])
+    assert not np.any((rates != 0) & (np.abs(rates) < 1e-12)) and np.any(rates == 0)
 
 
 @pytest.mark.parametrize("fmt", ["json", "yaml"])
@@ -143,6 +146,9 @@ def test_cli_export(single_plan, tmp_path):
         assert res.exit_code == ExitCode.USAGE and "--rate" in res.stderr
     res = run("export", str(plan_path), "--out", str(tmp_path / "ros"))  # csv into a folder
     assert res.exit_code == ExitCode.USAGE
+    for name in ("ex.json", "ex.yaml"):  # a folder of per-arm files under a file's name: refused, nothing made
+        res = run("export", str(plan_path), "--format", name.split(".")[1], "--out", str(tmp_path / name))
+        assert res.exit_code == ExitCode.USAGE and "give a folder name" in res.stderr and not (tmp_path / name).exists()
     res = run("export", str(tmp_path / "missing.json"))
     assert res.exit_code == ExitCode.BAD_INPUT
     # coplan's own plan.csv replay (or any other file) is not overwritten; an earlier export is

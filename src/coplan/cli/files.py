@@ -57,6 +57,10 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         raise Failure(ExitCode.USAGE, f"--out {out}: expected a CSV file name, found a folder")
     if fmt != ExportFormat.CSV and out.exists() and not out.is_dir():
         raise Failure(ExitCode.USAGE, f"--out {out}: expected a folder (one {fmt.value} file per arm), found a file")
+    if fmt != ExportFormat.CSV and not out.exists() and out.suffix.lower() in (".json", ".yaml", ".yml", ".csv"):
+        # (a file name: the export would make a folder of that name)
+        raise Failure(ExitCode.USAGE, f"--out {out}: expected a folder (one {fmt.value} file per arm, <arm>.{fmt.value}), "
+                                      f"found a file name ending {out.suffix}; give a folder name")
     if out.resolve() == plan_path.resolve():
         raise Failure(ExitCode.USAGE, f"--out {out} is the plan being exported; give another file")
     if fmt == ExportFormat.CSV:  # an earlier export is replaced; coplan's plan.csv or any other file is not

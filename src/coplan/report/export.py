@@ -90,7 +90,7 @@ def trajectory(plan: Plan, rate: float) -> Trajectory:
             continue
         rest = ((1, np.zeros(2)), (1, np.zeros(2)))
         spline = CubicSpline(plan.time, samples, axis=0, bc_type=rest)
-        q[arm], qd[arm], qdd[arm] = spline(t), spline(t, 1), spline(t, 2)
+        q[arm], qd[arm], qdd[arm] = spline(t), _flushed(spline(t, 1)), _flushed(spline(t, 2))
     carriage = None
     if plan.gantry_x is not None:  # a row: the carriage is one more (prismatic) axis, derived the same way
         x = np.asarray(plan.gantry_x, float)
@@ -98,8 +98,14 @@ def trajectory(plan: Plan, rate: float) -> Trajectory:
             carriage = (np.full(t.size, x[0]), np.zeros(t.size), np.zeros(t.size))
         else:
             cs = CubicSpline(plan.time, x, bc_type=((1, 0.0), (1, 0.0)))
-            carriage = (cs(t), cs(t, 1), cs(t, 2))
+            carriage = (cs(t), _flushed(cs(t, 1)), _flushed(cs(t, 2)))
     return Trajectory(t, q, qd, qdd, float(rate), carriage)
+
+
+def _flushed(v: np.ndarray, tiny: float = 1e-12) -> np.ndarray:
+    """Rates whose magnitude is below ``tiny`` -- the spline's rounding at rest, down to denormals
+    like -1e-258 -- as exact zeros (a controller reads a joint at rest)."""
+    return np.where(np.abs(v) < tiny, 0.0, v)
 
 
 _SAFE = re.compile(r"[^A-Za-z0-9_.-]+")
