@@ -105,7 +105,7 @@ def sweep_cmd(
     bad = res.counts.get(RowStatus.BAD_INPUT.value, 0)
     if bad:  # (as compare: every row is written, and the exit code says some inputs were invalid)
         _err.print(f"{plural(bad, 'problem')} of the sweep {'is' if bad == 1 else 'are'} invalid (status 'bad input', "
-                   "the reason in each row's error)", highlight=False)
+                   "the reason in each row's message column)", highlight=False)
         raise typer.Exit(int(ExitCode.BAD_INPUT))
 
 
