@@ -16,7 +16,8 @@ from coplan.allocate import lower_bound
 from coplan.cli import app
 from coplan.planners.heuristic import plan_heuristic
 from coplan.plan import MAX_PLAN_BYTES
-from coplan.plausible import BOUNDS, BYTES_PER_SAMPLE, MAX_PLAN_SECONDS, max_plan_seconds, move_times, plan_duration_bound
+from coplan.plausible import (BOUNDS, BYTES_PER_CARRIAGE_SAMPLE, BYTES_PER_SAMPLE, MAX_PLAN_SECONDS, max_plan_seconds, move_times,
+                              plan_duration_bound)
 from coplan.problem.model import ProblemError, default_problem_path, load_problem, parse_problem
 from coplan.kinematics import cubic_min_time, scurve_time
 
@@ -144,5 +145,25 @@ def test_the_longest_plan_allowed_fits_the_plan_file_cap(tmp_path: Path) -> None
     for arms in (1, 3, 64):
         samples = max_plan_seconds(arms) * 100
         assert samples * (BYTES_PER_SAMPLE[0] + BYTES_PER_SAMPLE[1] * arms) <= MAX_PLAN_BYTES * (1 + 1e-12)
-    assert max_plan_seconds(1) == pytest.approx(MAX_PLAN_BYTES / 34 / 100)
+    assert max_plan_seconds(1) == pytest.approx(MAX_PLAN_BYTES / 39 / 100)
     assert max_plan_seconds(3) < max_plan_seconds(1) < MAX_PLAN_SECONDS
+    assert max_plan_seconds(3, carriage=True) == pytest.approx(MAX_PLAN_BYTES / (39 + 48 + 14) / 100)
+
+
+def test_the_widest_samples_fit_the_per_sample_size_model(tmp_path: Path) -> None:
+    """The model's widths are the widest values coplan writes: times near 12 h (plan.csv's seven
+    decimals), angles at -2 pi (plan.json's pairs), a carriage at -1000 m. (It undercounted both
+    once: a slow row on the move wrote a 70 MB plan.csv its own verifier refused.)"""
+    from coplan.kinds import PlanStatus
+    from coplan.plan import Plan
+
+    n = 500
+    t = MAX_PLAN_SECONDS - 5.0 + np.arange(n) / 100.0
+    q = {f"arm{i}": np.full((n, 2), -2 * math.pi + 1e-7) for i in range(3)}
+    for carriage in (None, np.full(n, -999.1234567)):
+        plan = Plan(problem="wide", planner="optimal", status=PlanStatus.SUCCESS, time=t, q=q, events=[],
+                    allocation={a: [] for a in q}, unreachable=[], gantry_x=carriage)
+        files = plan.save(tmp_path / ("row" if carriage is not None else "cell"))
+        per_sample = BYTES_PER_SAMPLE[0] + BYTES_PER_SAMPLE[1] * len(q) + (BYTES_PER_CARRIAGE_SAMPLE if carriage is not None else 0)
+        for kind in ("json", "csv"):
+            assert files[kind].stat().st_size <= n * per_sample + 2000, (kind, carriage is not None)  # (+ header, names)

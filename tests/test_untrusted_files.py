@@ -103,6 +103,8 @@ def test_bad_plan_csv_is_refused_with_its_line(tmp_path: Path, body: str, line, 
         load_plan(p)
     it = e.value.issues[0]
     assert it.line == line and words in it.message, it
+    if "numbers, found" in words:  # a bad value: its column's name is the key path
+        assert it.path == "arm_q2", it
 
 
 def test_plan_files_over_the_cap_are_refused_before_reading(tmp_path: Path, monkeypatch) -> None:
@@ -145,3 +147,47 @@ def test_a_plan_with_implausible_joint_angles_is_refused_with_the_row_and_time(t
     assert f"arms.{name}.q[7]" in msg and "1e+300" in msg and f"{plan.time[7]:.3f} s" in msg and "1000 rad" in msg
     q[7, 0] = MAX_PLAN_ANGLE - 1.0
     assert not verify(single_arm, plan).passed  # far past the joint limit: verified, and refused as a plan
+
+
+def test_a_row_plan_with_implausible_carriage_positions_is_refused_with_the_sample_and_time(tmp_path: Path) -> None:
+    """(A plan.json with gantry.x[10] = 1e300 was verified into collisions between arms that ride
+    on one carriage, from the rounding of their bases, and a 300-digit carriage speed.) Beyond
+    coplan.plausible.MAX_PLAN_COORD the plan is refused as a bad file; a carriage merely off its
+    rail is verified, and unsafe."""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.plausible import MAX_PLAN_COORD
+    from coplan.problem import parse_problem
+    from coplan.row.plan import RowOptions, plan_row
+    from coplan.verify import verify
+
+    row = parse_problem(to_yaml(gantry_row(length=6.0, density=2.0, seed=1)), "short.yaml")
+    plan = plan_row(row, RowOptions(stops="fewest")).plan
+    gx = np.array(plan.gantry_x, float)
+    gx[10] = 1e300
+    plan.gantry_x = gx
+    with pytest.raises(PlanFileError) as e:
+        verify(row, plan)
+    msg = str(e.value)
+    assert "gantry.x[10]" in msg and "1e+300" in msg and f"{plan.time[10]:.3f} s" in msg and "MAX_PLAN_COORD" in msg
+    gx[10] = MAX_PLAN_COORD / 100  # off the rail, but a number: verified, and not safe
+    assert not verify(row, plan).passed
+
+
+def test_a_row_checked_against_a_plan_csv_without_its_carriage_column_says_which_column(tmp_path: Path) -> None:
+    """(It read 'a plan for problem ''' and named plan.json's gantry.x only.)"""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+    from coplan.row.plan import RowOptions, plan_row
+    from coplan.verify import verify
+
+    row = parse_problem(to_yaml(gantry_row(length=6.0, density=2.0, seed=1)), "short.yaml")
+    files = plan_row(row, RowOptions(stops="fewest")).plan.save(tmp_path)
+    rows = list(csv.reader(files["csv"].open()))
+    assert rows[0][1] == "gantry_x"
+    bare = tmp_path / "bare.csv"
+    with bare.open("w", newline="") as f:
+        csv.writer(f).writerows([r[:1] + r[2:] for r in rows])
+    with pytest.raises(PlanFileError) as e:
+        verify(row, load_plan(bare))
+    assert "in a plan.csv, the column gantry_x after t" in str(e.value) and "plan.csv replay (it names no problem)" in str(e.value)
+    assert "problem ''" not in str(e.value)

@@ -96,12 +96,13 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
             try:
                 rows[n] = [float(c) for c in cells]
             except ValueError:
-                bad = next(c for c in cells if not _is_float(c))
-                issues.append(Issue("", f"expected numbers, found {bad.strip()[:40]!r}", where))
+                j = next(j for j, c in enumerate(cells) if not _is_float(c))
+                issues.append(Issue(_column(header, j), f"expected numbers, found {cells[j].strip()[:40]!r}", where))
             else:
                 if not all(math.isfinite(x) for x in rows[n]):
-                    issues.append(Issue("", "expected finite numbers, found " + ", ".join(c.strip() for c in cells if not math.isfinite(float(c)))[:60],
-                                        where))
+                    j = next(j for j, x in enumerate(rows[n]) if not math.isfinite(x))
+                    issues.append(Issue(_column(header, j), "expected finite numbers, found "
+                                        + ", ".join(c.strip() for c in cells if not math.isfinite(float(c)))[:60], where))
                 lines[n] = where
                 n += 1
         if len(issues) >= 20:  # a file that is not a plan: the first problems say enough
@@ -111,6 +112,11 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
     rows = rows[:n]
     q = {a: rows[:, 1 + row + 2 * i: 3 + row + 2 * i].copy() for i, a in enumerate(names)}
     return rows[:, 0], q, lines[:n], (rows[:, 1].copy() if row else None)
+
+
+def _column(header: list[str], j: int) -> str:
+    """The name of column ``j`` (its header cell), the key path of a bad value in it."""
+    return header[j].strip() if j < len(header) else f"column {j + 1}"
 
 
 def _is_float(text: str) -> bool:

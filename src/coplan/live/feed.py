@@ -89,8 +89,20 @@ class Feed:
                                                                     f"found {v!r}", d.line))
         if not issues:
             issues = self._never_revealed()
+        if not issues:
+            issues = self._too_late(problem)
         if issues:
             raise FeedError(issues, self.source)
+
+    def _too_late(self, problem: Problem) -> list[Issue]:
+        """A detection so late that the run's plan -- at least that long, and then the problem's
+        work (:func:`coplan.problem.plausible.plan_duration_bound`) -- would outgrow the longest
+        plan coplan makes with this many arms (its file must read back)."""
+        from ..problem.plausible import latest_report_time
+
+        last, why = latest_report_time(problem)
+        return [Issue(f"detections[{i}].t", f"expected a time of at most {last:.0f} s ({why}), found {d.t:g}", d.line)
+                for i, d in enumerate(self.detections) if d.t > last][:5]
 
     def _never_revealed(self) -> list[Issue]:
         """Detections of a fruit every one of whose reports waits for a pick that waits for it:

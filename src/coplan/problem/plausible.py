@@ -29,9 +29,9 @@ import numpy as np
 
 from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES
 
-__all__ = ["Bound", "BOUNDS", "MAX_PLAN_ANGLE", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
+__all__ = ["Bound", "BOUNDS", "MAX_PLAN_ANGLE", "MAX_PLAN_COORD", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "BYTES_PER_CARRIAGE_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "plan_seconds_limit", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
            "duration_issues", "row_travel", "slowest_speed", "row_duration_issues",
-           "cruise_speed_issue", "live_speed_issue"]
+           "cruise_speed_issue", "live_speed_issue", "latest_report_time"]
 
 TAU = 2.0 * math.pi
 
@@ -52,6 +52,10 @@ class Bound:
 #: A plan file's joint angles (rad): beyond it a sample is no motion (joint limits lie within
 #: 2 pi) and its figures are not printable (a plan with 1e300 rad read as -9e297 m of clearance).
 MAX_PLAN_ANGLE = 1000.0
+#: A plan file's carriage positions (m): a row's coordinates lie within 1000 m; beyond ten times
+#: that a sample is no motion of the carriage (1e300 m read as collisions between arms that ride
+#: on one carriage, from the rounding of their bases).
+MAX_PLAN_COORD = 10_000.0
 
 _COORD = Bound(-1000.0, 1000.0, "m", "a coordinate")
 _ANGLE = Bound(-TAU, TAU, "rad", "a joint angle")
@@ -79,15 +83,24 @@ BOUNDS: dict[str, Bound] = {
 MAX_PLAN_SECONDS = 12 * 3600.0
 SAMPLE_RATE = DEFAULT_RATE
 #: Bytes of a plan file per sample, an upper estimate for plan.json and plan.csv: the time
-#: (``1234.56,``) and, per arm, two angles of seven decimals (``[-1.2345678,0.1234567],``).
-BYTES_PER_SAMPLE = (10, 24)  # (time, per arm): the widest values they can take
+#: (plan.csv's ``43200.0000000,`` and its line end), per arm two angles of seven decimals within
+#: joint limits (plan.json's ``[-6.2831853,-6.2831853],``), and a row's carriage position
+#: (``-1000.0000000,``, coordinates within +-1000 m).
+BYTES_PER_SAMPLE = (15, 24)  # (time, per arm): the widest values they can take
+BYTES_PER_CARRIAGE_SAMPLE = 14
 
 
-def max_plan_seconds(n_arms: int) -> float:
-    """The longest plan (s) of ``n_arms`` arms coplan makes: :data:`MAX_PLAN_SECONDS`, or less
-    where its file would not fit :data:`coplan.plan.MAX_PLAN_BYTES`."""
-    per_sample = BYTES_PER_SAMPLE[0] + BYTES_PER_SAMPLE[1] * max(n_arms, 1)
+def max_plan_seconds(n_arms: int, carriage: bool = False) -> float:
+    """The longest plan (s) of ``n_arms`` arms coplan makes (``carriage``: a row's, with the
+    carriage's position too): :data:`MAX_PLAN_SECONDS`, or less where its file would not fit
+    :data:`coplan.plan.MAX_PLAN_BYTES`."""
+    per_sample = BYTES_PER_SAMPLE[0] + BYTES_PER_SAMPLE[1] * max(n_arms, 1) + (BYTES_PER_CARRIAGE_SAMPLE if carriage else 0)
     return min(MAX_PLAN_SECONDS, MAX_PLAN_BYTES / per_sample / SAMPLE_RATE)
+
+
+def plan_seconds_limit(problem) -> float:
+    """:func:`max_plan_seconds` for ``problem``'s plans (a row's carry the carriage's position)."""
+    return max_plan_seconds(len(problem.arms), carriage=getattr(problem, "gantry", None) is not None)
 
 
 def _leaves(value, loc: tuple):
@@ -190,12 +203,23 @@ def _hours(s: float) -> str:
     return f"{s:.0f} s" if s < 3600 else f"{s / 3600:.1f} h"
 
 
+def latest_report_time(problem) -> tuple[float, str]:
+    """The latest time (s) a live cell's feed may report a fruit, and why: the run's plan is at
+    least that long, and then the problem's work (:func:`plan_duration_bound`), within
+    :func:`plan_seconds_limit`."""
+    limit = plan_seconds_limit(problem)
+    work = plan_duration_bound(problem).seconds
+    return limit - work, (f"the run's plan must fit in {_hours(limit)}, the longest coplan makes with {len(problem.arms)} "
+                          f"arms (its file under {MAX_PLAN_BYTES >> 20} MiB), and the problem's work takes at least "
+                          f"{work:.1f} s more")
+
+
 def duration_issues(problem) -> list[tuple[tuple, str]]:
     """``(key path, message)`` when even a lower bound on the length of the baseline plan
     (which every solve computes first) exceeds :data:`MAX_PLAN_SECONDS` (the 100 Hz grid of
     such a plan is absurd); else nothing."""
     b = plan_duration_bound(problem, baseline=True)
-    limit = max_plan_seconds(len(problem.arms))
+    limit = plan_seconds_limit(problem)
     if b.seconds <= limit:
         return []
     arm = problem.arms[b.arm]
@@ -227,7 +251,7 @@ def row_travel(problem) -> float:
 def slowest_speed(problem) -> float:
     """The slowest constant carriage speed (m/s) whose plan can fit :func:`max_plan_seconds`
     (its 100 Hz grid, its file): :func:`row_travel` over that time."""
-    return row_travel(problem) / max_plan_seconds(len(problem.arms))
+    return row_travel(problem) / plan_seconds_limit(problem)
 
 
 def row_duration_issues(problem) -> list[tuple[tuple, str]]:
@@ -235,7 +259,7 @@ def row_duration_issues(problem) -> list[tuple[tuple, str]]:
     farthest fruit within :func:`max_plan_seconds` (memory and file would run away); else nothing."""
     g = problem.gantry
     dist = row_travel(problem)
-    limit = max_plan_seconds(len(problem.arms))
+    limit = plan_seconds_limit(problem)
     if g is None or dist / g.max_velocity <= limit:
         return []
     return [(("gantry", "max_velocity"), (
@@ -255,7 +279,7 @@ def cruise_speed_issue(problem, speed) -> str | None:
     if isinstance(speed, (int, float)) and not isinstance(speed, bool) and math.isfinite(speed) and 0.0 < speed <= g.max_velocity \
             and speed >= lo:
         return None
-    limit = max_plan_seconds(len(problem.arms))
+    limit = plan_seconds_limit(problem)
     low = (f"[{lo:.3g}, {g.max_velocity:g}] m/s (gantry.max_velocity at most; at least what brings the farthest fruit "
            f"within reach, {row_travel(problem):g} m along the rail, in a plan of {_hours(limit)}, the longest coplan makes"
            f"{'' if limit == MAX_PLAN_SECONDS else f' with {len(problem.arms)} arms (its file under {MAX_PLAN_BYTES >> 20} MiB)'})"
@@ -269,7 +293,7 @@ def live_speed_issue(problem, speed) -> str | None:
     the last fruit is, cruises to the rail's end: the whole rail within :func:`max_plan_seconds`."""
     bad = cruise_speed_issue(problem, speed)
     g = problem.gantry
-    limit = max_plan_seconds(len(problem.arms))
+    limit = plan_seconds_limit(problem)
     if bad or (g.end - g.start) / speed <= limit:
         return bad
     return (f"expected a cruising speed of at least {(g.end - g.start) / limit:.3g} m/s (the live carriage cruises the "

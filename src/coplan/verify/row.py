@@ -38,24 +38,29 @@ from ..problem.model import Problem
 from .clearance import runs
 from .verdict import Verification, Violation, ViolationKind
 
-__all__ = ["check_row_inputs", "check_carriage", "row_reachable_ids"]
+__all__ = ["check_row_inputs", "check_carriage", "row_reachable_ids", "plan_source"]
 
 REACH_STEP = 0.01  # m between the carriage positions :func:`row_reachable_ids` tries
+
+
+def plan_source(plan: Plan) -> str:
+    """How a plan's problems name it: by the problem it says it is of (a plan.csv names none)."""
+    return f"plan for problem {plan.problem!r}" if plan.problem else "plan.csv replay (it names no problem)"
 
 
 def check_row_inputs(problem: Problem, plan: Plan) -> None:
     """A row problem needs a row plan (and a cell problem a cell plan)."""
     n = np.asarray(plan.time).size
     if problem.gantry is not None and plan.gantry_x is None:
-        raise PlanFileError([Issue("gantry", "expected a row plan (gantry.x: the carriage's position at every time), "
-                                             "found a plan without a carriage; the problem has a gantry")],
-                            f"plan for problem {plan.problem!r}")
+        raise PlanFileError([Issue("gantry", "expected a row plan (gantry.x: the carriage's position at every time; in a "
+                                             "plan.csv, the column gantry_x after t), found a plan without a carriage; "
+                                             "the problem has a gantry")], plan_source(plan))
     if problem.gantry is None and plan.gantry_x is not None:
         raise PlanFileError([Issue("gantry", "expected a plan of a stationary cell, found a row plan (gantry.x); the problem "
-                                             "has no gantry")], f"plan for problem {plan.problem!r}")
+                                             "has no gantry")], plan_source(plan))
     if plan.gantry_x is not None and (np.shape(plan.gantry_x) != (n,) or not np.all(np.isfinite(plan.gantry_x))):
         raise PlanFileError([Issue("gantry.x", f"expected {n} finite positions, found shape {np.shape(plan.gantry_x)}")],
-                            f"plan for problem {plan.problem!r}")
+                            plan_source(plan))
 
 
 def check_carriage(problem: Problem, plan: Plan, opts, ver: Verification) -> None:

@@ -62,11 +62,11 @@ from .fclcheck import cross_check
 from ..kinematics.geometry import segment_distance
 from .hold import bin_track, holds_on
 from .infer import infer_events
-from .row import check_carriage, check_row_inputs, row_reachable_ids
+from .row import check_carriage, check_row_inputs, plan_source, row_reachable_ids
 from ..plan import DEFAULT_RATE, EventKind, Plan
 from . import verdict as _verdict
 from ..problem.model import Problem
-from ..problem.plausible import MAX_PLAN_ANGLE
+from ..problem.plausible import MAX_PLAN_ANGLE, MAX_PLAN_COORD
 from .verdict import (
     ContactInterval,
     FclMode,
@@ -115,8 +115,16 @@ def _check_inputs(problem: Problem, plan: Plan) -> None:
                 issues.append(Issue(f"arms.{n}.q[{r}]", f"expected joint angles within +-{MAX_PLAN_ANGLE:g} rad "
                                     f"(coplan.plausible.MAX_PLAN_ANGLE), found [{', '.join(f'{v:g}' for v in qa[r])}] "
                                     f"(t = {t[r]:.3f} s)" + (f" and {far.size - 1} more rows" if far.size > 1 else "")))
+    gx = getattr(plan, "gantry_x", None)
+    if gx is not None and np.shape(gx) == t.shape and np.all(np.isfinite(gx)):
+        far = np.flatnonzero(np.abs(np.asarray(gx, float)) > MAX_PLAN_COORD)
+        if far.size:
+            r = int(far[0])
+            issues.append(Issue(f"gantry.x[{r}]", f"expected carriage positions within +-{MAX_PLAN_COORD:g} m "
+                                f"(coplan.plausible.MAX_PLAN_COORD), found {float(gx[r]):g} (t = {t[r]:.3f} s)"
+                                + (f" and {far.size - 1} more samples" if far.size > 1 else "")))
     if issues:
-        raise PlanFileError(issues, f"plan for problem {plan.problem!r}")
+        raise PlanFileError(issues, plan_source(plan))
 
 
 # --------------------------------------------------------------------------- clearance
