@@ -284,12 +284,84 @@ def test_a_cruising_speed_too_slow_for_any_plan_is_refused_before_any_work(row_f
         plan_moving(row, MovingOptions(profile=SpeedProfile.CONSTANT, level=1e-9))
     with pytest.raises(OptionsError, match=r"speed: expected a cruising speed in \["):
         run_live_row(row, LiveRowOptions(speed=1e-9, mode=GantryMode.CONTINUOUS))
-    from coplan.problem.plausible import max_plan_seconds
+    from coplan.problem.plausible import plan_seconds_limit
 
-    rail = (row.gantry.end - row.gantry.start) / max_plan_seconds(len(row.arms))
+    rail = (row.gantry.end - row.gantry.start) / plan_seconds_limit(row)
     assert rail > lo  # live, the carriage cruises the whole rail, not knowing where the last fruit is
     with pytest.raises(OptionsError, match="cruises the whole rail"):
         run_live_row(row, LiveRowOptions(speed=(lo + rail) / 2, mode=GantryMode.CONTINUOUS))
+
+
+def test_a_speed_within_the_quick_range_but_too_slow_for_the_cruise_is_a_usage_error(row_file, tmp_path):
+    """The range checked before any work is necessary, not sufficient (the carriage comes to rest
+    where the last fruit's window opens, and ramps): a speed inside it whose cruise outgrows the
+    longest plan is refused once the row is screened -- as --speed, exit 2, with the least speed
+    that fits -- not as 'MovingOptions: level' with exit 3."""
+    from coplan.problem.plausible import slowest_speed
+
+    row = load_problem(row_file)
+    v = slowest_speed(row) * 1.0001
+    with pytest.raises(OptionsError) as e:
+        plan_moving(row, MovingOptions(profile="constant", level=v))
+    (issue,) = e.value.issues
+    need = float(re.search(r"of at least ([0-9.e-]+),", issue.message).group(1))
+    assert issue.path == "level" and need > v
+    res = runner.invoke(app, ["solve", str(row_file), "--gantry", "continuous", "--speed", f"{v:.6g}", "-o", str(tmp_path / "s")])
+    assert res.exit_code == 2, res.output
+    assert f"--speed: expected a cruising speed (m/s) of at least {need:.3g}" in res.output
+    assert not (tmp_path / "s").exists()
+
+
+def test_live_row_options_are_bounded_like_the_command_line(row_file, tmp_path):
+    """(RowFaults(camera_dark=1e9) ran into a 1.46 TiB MemoryError; sigma 5 m and a 1e9 m
+    look-ahead ran; a dict as the options failed with an AttributeError.) The Python options take
+    what ``coplan run`` takes; faults that would make the run's plan longer than coplan reads back
+    are refused before any work (exit 2 on the command line, nothing written)."""
+    from coplan.row.sensing import MAX_FAULT_SECONDS, MAX_LOOK_AHEAD, MAX_SIGMA
+
+    for bad, name in ((dict(camera_dark=1e9), "camera_dark"), (dict(late_replan=MAX_FAULT_SECONDS + 1), "late_replan")):
+        with pytest.raises(OptionsError) as e:
+            RowFaults(**bad)
+        assert [i.path for i in e.value.issues] == [name] and "expected at most 3600 s" in str(e.value)
+    for bad, name in ((dict(sigma=MAX_SIGMA * 5), "sigma"), (dict(look_ahead=MAX_LOOK_AHEAD * 10), "look_ahead")):
+        with pytest.raises(OptionsError) as e:
+            LiveRowOptions(**bad)
+        assert [i.path for i in e.value.issues] == [name]
+    for flag, top in (("--camera-dark", MAX_FAULT_SECONDS), ("--late-replan", MAX_FAULT_SECONDS), ("--look-ahead", MAX_LOOK_AHEAD),
+                      ("--sigma", MAX_SIGMA)):  # the command line's own bounds are the same
+        res = runner.invoke(app, ["run", str(row_file), "--gantry", "stop-and-go", flag, f"{top * 1.01:g}", "-o", str(tmp_path / "x")])
+        assert res.exit_code == 2 and flag in res.output, res.output
+    row = load_problem(row_file)
+    with pytest.raises(TypeError, match=r"options: a live row takes LiveRowOptions\(...\), found dict"):
+        run_live_row(row, {"speed": 0.2})
+    with pytest.raises(TypeError, match=r"found dict"):
+        plan_moving(row, {"level": 0.2})
+    res = runner.invoke(app, ["run", str(row_file), "--gantry", "stop-and-go", "--camera-dark", "3600", "--late-replan", "3600",
+                              "-o", str(tmp_path / "long")])
+    assert res.exit_code == 2 and "expected faults whose run fits in" in res.output, res.output
+    assert not (tmp_path / "long").exists()
+
+
+def test_a_feed_reporting_later_than_the_longest_plan_is_refused(tmp_path):
+    """(coplan feed --reveal-by 40000 made a feed whose run wrote a 152 MB plan.json that
+    coplan verify refused.)"""
+    from coplan.live.feed import FeedError, load_feed
+    from coplan.problem.plausible import latest_report_time
+
+    cell = next(p for p in shipped_problems() if p.stem == "crossing_paths")
+    last, _ = latest_report_time(load_problem(cell))
+    res = runner.invoke(app, ["feed", str(cell), "--reveal-by", f"{last + 10:.0f}", "--known", "0", "--out", str(tmp_path / "f.yaml")])
+    assert res.exit_code == 2 and "--reveal-by: expected a time of at most" in res.output and not (tmp_path / "f.yaml").exists()
+    res = runner.invoke(app, ["feed", str(cell), "--reveal-by", "100", "--known", "0", "--out", str(tmp_path / "ok.yaml")])
+    assert res.exit_code == 0, res.output
+    late = tmp_path / "late.yaml"
+    late.write_text(re.sub(r"t: [0-9.]+", f"t: {last + 10:.1f}", (tmp_path / "ok.yaml").read_text(), count=1))
+    with pytest.raises(FeedError) as e:
+        load_feed(late).check_against(load_problem(cell))
+    (issue,) = e.value.issues
+    assert issue.path == "detections[0].t" and issue.line is not None and "expected a time of at most" in issue.message
+    res = runner.invoke(app, ["run", str(cell), "--feed", str(late), "--out", str(tmp_path / "run")])
+    assert res.exit_code == 3 and "detections[0].t" in res.output and not (tmp_path / "run").exists()
 
 
 def test_a_row_whose_carriage_cannot_reach_its_last_fruit_in_any_plan_is_refused(tmp_path):
@@ -304,3 +376,17 @@ def test_a_row_whose_carriage_cannot_reach_its_last_fruit_in_any_plan_is_refused
     assert res.exit_code == 3
     assert "gantry.max_velocity: expected a carriage that covers the row in a plan of at most" in res.output
     assert "found max_velocity 0.001 m/s: the carriage alone takes at least" in res.output
+
+
+def test_the_row_entry_points_and_options_are_names_of_coplan_row():
+    """(``from coplan.row import RowOptions`` raised ImportError; the docs name the options but
+    not their modules.) Each is the object its module defines."""
+    import coplan.row as row
+    from coplan.row import LiveRowOptions as L, MovingOptions as M, RowFaults as F, RowOptions as R, plan_row
+
+    assert (R, M, L, F) == (RowOptions, MovingOptions, LiveRowOptions, RowFaults)
+    assert plan_row is coplan.row.plan.plan_row and row.run_live_row is run_live_row
+    assert {"plan_row", "plan_moving", "run_live_row", "RowOptions", "MovingOptions", "LiveRowOptions", "RowFaults",
+            "StopWindow"} <= set(row.__all__)
+    with pytest.raises(AttributeError, match="no attribute 'RowOption'"):
+        row.RowOption  # noqa: B018

@@ -143,8 +143,16 @@ def solve(
             from ..row.plan import RowOptions
 
             row_options = _replace(moving, workers=n_workers) if moving is not None else RowOptions(workers=n_workers)
-        with ProgressDisplay(err_console, quiet=as_json) as say:
-            res = run(path, planner=planner, out_dir=out, progress=say, stops=stops, gantry=gantry, options=row_options)
+        from ..errors import OptionsError
+
+        try:
+            with ProgressDisplay(err_console, quiet=as_json) as say:
+                res = run(path, planner=planner, out_dir=out, progress=say, stops=stops, gantry=gantry, options=row_options)
+        except OptionsError as e:  # --speed so slow that the row's cruise outgrows the longest plan (known once screened)
+            slow = [i for i in e.issues if i.path == "level"] if speed is not None else []
+            if not slow:
+                raise
+            _fail(ExitCode.USAGE, f"--speed: {slow[0].message.replace('a pace', 'a cruising speed (m/s)')} ({path.name!r})")
         return _report_solve(res, out, animate, html, as_json)
     if gantry is not None or speed is not None:
         _fail(ExitCode.USAGE, f"--gantry/--speed: {path.name} is a stationary cell (no gantry section); they apply to a row")

@@ -57,6 +57,12 @@ def feed_cmd(
         usage(f"{prob.name} is a row (it has a gantry): a feed file is for a stationary cell; a live row simulates its "
               f"own camera -- 'coplan run {_safe(str(problem or 'ROW'))} --speed V' (on the move) or '--gantry stop-and-go' "
               "(--look-ahead, --sigma, --false-rate, --seed set it)")
+    if reveal_by is not None:
+        from ..problem.plausible import latest_report_time
+
+        last, why = latest_report_time(prob)
+        if reveal_by > last:
+            usage(f"--reveal-by: expected a time of at most {last:.0f} s ({why}), found {reveal_by:g}")
     feed = make_feed(prob, known, sigma, false_rate, duplicate_rate, seed, reveal_by, after_pick, close_distance, close_sigma)
     out.parent.mkdir(parents=True, exist_ok=True)
     atomic_text(out, feed_yaml(feed))
@@ -218,7 +224,14 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             usage(f"--speed: {bad} (or --gantry stop-and-go)")
     opts = LiveRowOptions(speed=speed, look_ahead=look_ahead, sigma=sigma, false_rate=false_rate,
                           duplicate_rate=duplicate_rate, seed=seed, faults=faults, mode=mode)
-    res = run_live_row(prob, opts)
+    from ..errors import OptionsError
+
+    try:
+        res = run_live_row(prob, opts)
+    except OptionsError as e:  # faults too long for the run's plan file (known once the offline plan is)
+        if not any(i.path == "faults" for i in e.issues):
+            raise
+        usage(f"--camera-dark/--late-replan/--arm-stop: {e.issues[0].message} ({prob.name!r})")
     doc = {"format": "coplan.run/1", "problem": prob.name,
            "mode": "row on the move" if mode == GantryMode.CONTINUOUS else "row stop and go",
            "options": {k: (v.value if k == "mode" else v) for k, v in opts.__dict__.items() if k != "faults"}
@@ -242,6 +255,10 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
                  f"{100 * m['of_offline']:.1f} % of the {m['offline_harvested']} the offline plan (full knowledge) harvests"
                  + (f", and {m['harvested_not_offline']} it does not" if m.get("harvested_not_offline") else ""))
         ratio = "" if m["row_time_ratio"] is None else f" = {m['row_time_ratio']:.3f} x the offline plan's"
+        if m["row_time"] > m["last_place"] + 0.5:  # probes after the last fruit placed
+            ratio += f" (the last fruit placed at {m['last_place']:.1f} s, then probes of false or repeated reports)"
+        if m["plan_seconds"] > m["row_time"] + 60.0:  # an arm held long after the work (a late decision)
+            ratio += f"; the executed plan lasts {m['plan_seconds']:.1f} s (an arm's way home waited)"
         cycle = ("no cycle" if m["shortest_cycle_seconds"] is None else
                  f"a shortest cycle of {m['shortest_cycle_seconds']:.2f} s")
         faults_line = (f"faults: {_safe(_faults_text(m['faults']))}; missed though a working arm could still reach them: "

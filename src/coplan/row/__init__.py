@@ -9,16 +9,30 @@
   :mod:`~coplan.row.assign` CP-SAT's assignment and order), the speed searched.
 * :mod:`coplan.row.bound` -- the row's lower bounds.
 * :mod:`coplan.row.metrics` -- fruit per hour, share harvested, idle by cause, real-time figures.
+* :mod:`coplan.row.live` -- :func:`run_live_row`: a live row from a simulated camera
+  (:mod:`~coplan.row.sensing` its options and faults).
+
+The entry points and their options are also names of this package (``from coplan.row import
+RowOptions, plan_row``), imported when first used.
 """
 
 _SUBMODULES = ("assign", "booking", "bound", "continuous", "cruise", "live", "liverun", "livestops", "metrics", "plan",
                "reach", "sensing", "stops", "stranded", "track")
 
 
-def __getattr__(name: str):
-    # the submodules the docs name (``coplan.row.continuous.plan_moving``), reachable after ``import coplan``
-    if name in _SUBMODULES:
-        import importlib
+_EXPORTS = {"plan_row": "plan", "RowOptions": "plan", "RowResult": "plan", "plan_moving": "continuous",
+            "MovingOptions": "continuous", "run_live_row": "live", "LiveRowOptions": "sensing", "RowFaults": "sensing",
+            "StopWindow": "stops", "row_bounds": "bound", "RowBounds": "bound", "row_metrics": "metrics"}
+__all__ = sorted(_EXPORTS)
 
+
+def __getattr__(name: str):
+    # the submodules the docs name (``coplan.row.continuous.plan_moving``), reachable after
+    # ``import coplan``, and the entry points and options (``from coplan.row import RowOptions``)
+    import importlib
+
+    if name in _SUBMODULES:
         return importlib.import_module(f".{name}", __name__)
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

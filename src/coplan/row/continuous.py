@@ -32,9 +32,9 @@ import numpy as np
 
 from ..errors import Issue, OptionsError, check_fields
 from ..kinds import AssignRule, PlannerKind, PlanStatus, SpeedProfile
-from ..plan import DEFAULT_RATE, EventKind, Plan, compute_metrics, finalize_plan
+from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES, EventKind, Plan, compute_metrics, finalize_plan
 from ..problem.model import Problem
-from ..problem.plausible import cruise_speed_issue, max_plan_seconds
+from ..problem.plausible import cruise_speed_issue, plan_seconds_limit
 from ..progress import speaker
 from ..workers import process_pool, settle_workers
 from .booking import Booker, branch_table, run_policy, screen_branches
@@ -209,11 +209,17 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
     reach = reach if reach is not None else row_reach(problem, opts.resolution)
     timings["reach"] = _time.perf_counter() - t0
     cruise = make_cruise(problem, reach, opts.profile, level, demand, hold)
-    limit = max_plan_seconds(len(problem.arms))
+    limit = plan_seconds_limit(problem)
     if cruise.duration > limit:  # (a pace so slow that the plan would outgrow its grid and file)
-        raise OptionsError([Issue("level", f"expected a pace whose plan fits in {limit:.0f} s (the longest coplan makes "
-                                           f"with {len(problem.arms)} arms), found {level:g}: the carriage alone takes "
-                                           f"{cruise.duration:.0f} s")], "MovingOptions")
+        # (the least pace: the cruise's time scales with 1 / pace; its rests and ramps do not)
+        cruising = cruise.duration - hold
+        need = level * cruising / max(limit - hold, 1e-9) * 1.001  # (its ramps: a little more)
+        step = 10.0 ** (math.floor(math.log10(need)) - 2)
+        need = math.ceil(need / step) * step  # (three figures, rounded up)
+        raise OptionsError([Issue("level", f"expected a pace of at least {need:.3g}, whose plan fits in {limit:.0f} s (the longest "
+                                           f"coplan makes with {len(problem.arms)} arms on a row: its file under "
+                                           f"{MAX_PLAN_BYTES >> 20} MiB), found "
+                                           f"{level:g}: the carriage alone takes {cruise.duration:.0f} s")], "MovingOptions")
     ts = _time.perf_counter()
     booker, left = _book(problem, reach, cruise, opts)
     info: dict = {"mode": "continuous", "profile": SpeedProfile(opts.profile).value, "level": level,
@@ -331,68 +337,77 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     screen_branches(problem, reach.resolution, [(i, f) for f in reach.harvestable() for i in np.flatnonzero(reach.cover[f].any(axis=1)).tolist()],
                     branch_table(problem, reach.resolution))
     greedy = replace(opts, assign=AssignRule.GREEDY)  # the search's plans: CP-SAT only once, at its end
+    interrupted = False
     with _Runner(problem, reach, demand, max(1, int(opts.workers)), progress) as runner:
+        try:
+            def run_many(vs) -> list[SpeedPoint]:
+                vs = [round(float(min(cap, max(v, 1e-3))), 4) for v in vs]
+                todo = [v for v in dict.fromkeys(vs) if v not in tried]
+                for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
+                    tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
+                if not runner.hold:  # fruit only the start serves, missed: every plan from here rests there first
+                    held = sorted({f for v in todo for f in _held_at_start(reach, tried[v][0])})
+                    if held:
+                        runner.hold = start_hold(problem, reach, held)
+                        for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
+                            tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
+                return [tried[v][1] for v in vs]
 
-        def run_many(vs) -> list[SpeedPoint]:
-            vs = [round(float(min(cap, max(v, 1e-3))), 4) for v in vs]
-            todo = [v for v in dict.fromkeys(vs) if v not in tried]
-            for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
-                tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
-            if not runner.hold:  # fruit only the start serves, missed: every plan from here rests there first
-                held = sorted({f for v in todo for f in _held_at_start(reach, tried[v][0])})
-                if held:
-                    runner.hold = start_hold(problem, reach, held)
-                    for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
-                        tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
-            return [tried[v][1] for v in vs]
-
-        if levels is not None:
-            run_many(list(levels))
-        else:
-            if profile == SpeedProfile.CONSTANT:
-                v = max(x1 - g.start, 0.05) / max(row_bounds(problem).work, 1e-3)
+            if levels is not None:
+                run_many(list(levels))
             else:
-                v = 1.0
-            v = min(v, cap)
-            ok_v, bad_v = None, None
-            w = runner.workers
-            for _ in range(int(math.ceil(opts.search_rounds / w))):
-                # w levels at once: down by halves / up by half again until bracketed, then w points inside
-                if ok_v is None and bad_v is None:
-                    batch = [v / 2.0 ** k for k in range(w)]
-                elif ok_v is None:
-                    batch = [bad_v / 2.0 ** (k + 1) for k in range(w)]
-                elif bad_v is None:
-                    if ok_v >= cap:
-                        break
-                    batch = [min(cap, ok_v * 1.5 ** (k + 1)) for k in range(w)]
+                if profile == SpeedProfile.CONSTANT:
+                    v = max(x1 - g.start, 0.05) / max(row_bounds(problem).work, 1e-3)
                 else:
-                    if bad_v - ok_v <= 0.05 * ok_v:
-                        break
-                    batch = [ok_v + (bad_v - ok_v) * (k + 1) / (w + 1) for k in range(w)]
-                for p in run_many(batch):
-                    if p.complete:
-                        ok_v = p.level if ok_v is None else max(ok_v, p.level)
+                    v = 1.0
+                v = min(v, cap)
+                ok_v, bad_v = None, None
+                w = runner.workers
+                for _ in range(int(math.ceil(opts.search_rounds / w))):
+                    # w levels at once: down by halves / up by half again until bracketed, then w points inside
+                    if ok_v is None and bad_v is None:
+                        batch = [v / 2.0 ** k for k in range(w)]
+                    elif ok_v is None:
+                        batch = [bad_v / 2.0 ** (k + 1) for k in range(w)]
+                    elif bad_v is None:
+                        if ok_v >= cap:
+                            break
+                        batch = [min(cap, ok_v * 1.5 ** (k + 1)) for k in range(w)]
                     else:
-                        bad_v = p.level if bad_v is None else min(bad_v, p.level)
-                if ok_v is not None and bad_v is not None and bad_v < ok_v:
-                    bad_v = None  # an incomplete plan below a complete one: not a bracket; go on up
-            if AssignRule(opts.assign) == AssignRule.CPSAT and bad_v is not None:
-                # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
-                # started from the greedy's booking there (alongside the refinement when there is
-                # a second worker)
-                runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, "cpsat"))
-            if demand is not None and bad_v is not None:
-                _refine(reach, demand, bad_v, tried, runner, greedy)
-            for key, ((res, report), secs) in runner.collect():
-                cpsat_report = report
-                if res is not None:
-                    tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"], start_hold=runner.hold))
+                        if bad_v - ok_v <= 0.05 * ok_v:
+                            break
+                        batch = [ok_v + (bad_v - ok_v) * (k + 1) / (w + 1) for k in range(w)]
+                    for p in run_many(batch):
+                        if p.complete:
+                            ok_v = p.level if ok_v is None else max(ok_v, p.level)
+                        else:
+                            bad_v = p.level if bad_v is None else min(bad_v, p.level)
+                    if ok_v is not None and bad_v is not None and bad_v < ok_v:
+                        bad_v = None  # an incomplete plan below a complete one: not a bracket; go on up
+                if AssignRule(opts.assign) == AssignRule.CPSAT and bad_v is not None:
+                    # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
+                    # started from the greedy's booking there (alongside the refinement when there is
+                    # a second worker)
+                    runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, "cpsat"))
+                if demand is not None and bad_v is not None:
+                    _refine(reach, demand, bad_v, tried, runner, greedy)
+                for key, ((res, report), secs) in runner.collect():
+                    cpsat_report = report
+                    if res is not None:
+                        tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"], start_hold=runner.hold))
+        except KeyboardInterrupt:  # Ctrl-C / SIGTERM: the best verified plan so far is kept
+            if not tried:
+                raise
+            interrupted = True
     pts = [p for _, p in tried.values()]
     best = max(tried, key=lambda v: (tried[v][1].complete, tried[v][1].verified, tried[v][1].harvested,
                                      tried[v][1].fruit_per_hour))
     if cpsat_report is not None:
         tried[best][0].info.setdefault("cpsat", cpsat_report)  # the search's CP-SAT step, whether kept or not
+    if interrupted:
+        tried[best][0].plan.status = PlanStatus.INTERRUPTED  # (its verdict is in plan.verification)
+        tried[best][0].plan.solver["status"] = PlanStatus.INTERRUPTED.value
+        tried[best][0].info["interrupted"] = f"the speed search stopped after {len(tried)} plan{'' if len(tried) == 1 else 's'}: the best verified so far"
     return tried[best][0], pts
 
 
@@ -492,6 +507,8 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
                 progress: Callable[[str], None] | None = None) -> RowResult:
     """A row on the move: at ``options.level``, or at the level :func:`speed_search` chooses
     (its curve in ``plan.solver['row']['speed_curve']``); planning time covers the search."""
+    if options is not None and not isinstance(options, MovingOptions):
+        raise TypeError(f"options: a row on the move takes MovingOptions(...), found {type(options).__name__} {options!r}")
     opts = options or MovingOptions()
     if opts.level is not None and SpeedProfile(opts.profile) == SpeedProfile.CONSTANT:
         bad = cruise_speed_issue(problem, opts.level)

@@ -62,10 +62,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..kinds import AssignRule, GantryMode, SpeedProfile
-from ..plan import Event, EventKind, finalize_plan
+from ..plan import MAX_PLAN_BYTES, Event, EventKind, finalize_plan
 from ..errors import Issue, OptionsError
 from ..problem.model import Fruit, Problem
-from ..problem.plausible import live_speed_issue
+from ..problem.plausible import live_speed_issue, plan_seconds_limit
 from .booking import why_left
 from .bound import row_bounds
 from .continuous import MovingOptions, assemble_moving, plan_moving, start_hold
@@ -122,6 +122,8 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
     """Run the row live (module docstring) and verify what was executed against the truth."""
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: a live row needs a row")
+    if options is not None and not isinstance(options, LiveRowOptions):
+        raise TypeError(f"options: a live row takes LiveRowOptions(...), found {type(options).__name__} {options!r}")
     opts = options or LiveRowOptions()
     mode = GantryMode(opts.mode)
     if mode == GantryMode.AUTO:
@@ -139,6 +141,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
         # after a rest where it starts, as long as the reports then in view that only the start serves need
         cruise = Cruise.of(problem, opts.speed, g.end)
         cruise = Cruise.of(problem, opts.speed, g.end, _start_hold_for(problem, reports, cruise))
+        _check_fault_room(problem, opts, max(cruise.duration, float(offline.plan.time[-1])))
         faults = FaultDraws(problem, opts, cruise.duration, cruise)
         run = LiveRun(problem, opts, reports + faults.burst, cruise, faults.dark)
         t0 = _time.perf_counter()
@@ -147,6 +150,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
         from .plan import RowOptions, plan_row
 
         offline = plan_row(problem, RowOptions(), progress)
+        _check_fault_room(problem, opts, float(offline.plan.time[-1]))
         faults = FaultDraws(problem, opts, float(offline.plan.metrics.get("makespan") or 0.0), None)
         run = LiveRun(problem, opts, reports, Cruise.hops(problem, []), faults.dark)
         t0 = _time.perf_counter()
@@ -154,6 +158,27 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
         cruise = run.booker.cruise
     planning = _time.perf_counter() - t0
     return _finish(problem, opts, run, faults, left, cruise, offline, planning, stops)
+
+
+def _check_fault_room(problem: Problem, opts: LiveRowOptions, seconds: float) -> None:
+    """Refuse faults that would make the executed plan longer than the longest plan coplan makes
+    (:func:`coplan.problem.plausible.plan_seconds_limit`: its file must read back), before any
+    work: the fault-free run (``seconds``: the offline plan's, or the live carriage's cruise),
+    slowed as after an arm stops from the start, plus the outage and the late decision in full."""
+    f = opts.faults
+    if not (f.arm_stop or f.camera_dark or f.late_replan):
+        return
+    n = len(problem.arms)
+    slow = 1.0 / (STOP_SLOWDOWN * (n - 1) / n) if f.arm_stop and n > 1 else 1.0
+    need = 1.05 * seconds * slow + f.camera_dark + f.late_replan  # (5 %: the arms' last cycles, holds)
+    limit = plan_seconds_limit(problem)
+    if need > limit:
+        raise OptionsError([Issue("faults", f"expected faults whose run fits in {limit:.0f} s (the longest plan coplan makes "
+                                            f"with {n} arms on a row, its file under {MAX_PLAN_BYTES >> 20} MiB), found "
+                                            f"a run that may take {need:.0f} s: {seconds:.0f} s without faults"
+                                            f"{f' (x {slow:.1f} after an arm stops)' if slow > 1 else ''}, "
+                                            f"{f.camera_dark:g} s of camera outage and a decision {f.late_replan:g} s late")],
+                           "LiveRowOptions")
 
 
 def _start_hold_for(problem: Problem, reports: list[RowReport], cruise: Cruise) -> float:
@@ -466,6 +491,9 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
     # the events name the true fruit (a probe's cycle has none: the arm found nothing there; nor
     # has a grasp that closed on nothing)
     events, picked_by = [], {}
+    # the row is busy until the last cycle's end, a probe's or a grasp on nothing's too (the arms
+    # cannot know a report false before they look): the live row time
+    work_end = booker.work_end
     for e in sorted(booker.events, key=lambda e: (e.t_start, e.arm)):
         if e.fruit in run.misses:
             continue
@@ -518,7 +546,7 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
                                and by_id[d].truth not in got and d not in run.misses
                                and still_reachable(booker, run.reach.grid, run.truth_xy[by_id[d].truth], seen[d], halt,
                                                    GantryMode(opts.mode) == GantryMode.STOP_AND_GO)})
-    span = float(plan.metrics.get("makespan") or 0.0)
+    span = max(float(plan.metrics.get("makespan") or 0.0), work_end)
     ref_span = float(offline.plan.metrics.get("makespan") or 0.0)
     pick_start = {(e.arm, e.fruit): e.t_start for e in events if e.kind == EventKind.PICK}
     cycles = [e.t_end - pick_start[(e.arm, e.fruit)] for e in events if e.kind == EventKind.PLACE]
@@ -530,6 +558,7 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
         "mode": mode.value,
         "harvested": len(got), "offline_harvested": len(ref), "of_offline": len(got & ref) / len(ref) if ref else None,
         "harvested_not_offline": len(got - ref), "row_time": span, "offline_row_time": ref_span,
+        "last_place": float(plan.metrics.get("makespan") or 0.0), "plan_seconds": float(plan.time[-1]),
         "row_time_ratio": span / ref_span if ref_span > 0 else None,
         "reports": len(dets), "false_reports": sum(d.truth is None for d in dets), "probes": len(booker.probes),
         "merged": sum(1 for k in outcome if k.startswith("report ")), "grasps_on_nothing": len(run.misses),

@@ -21,13 +21,19 @@ from ..kinds import GantryMode
 from ..problem.model import Problem
 from .cruise import Cruise
 
-__all__ = ["RowFaults", "LiveRowOptions", "RowDetection", "RowReport", "FaultDraws", "front_base", "row_reports",
+__all__ = ["MAX_FALSE_BURST", "MAX_FAULT_SECONDS", "MAX_LOOK_AHEAD", "MAX_SIGMA", "RowFaults", "LiveRowOptions", "RowDetection", "RowReport", "FaultDraws", "front_base", "row_reports",
            "report_times", "row_detections"]
 
 
 #: The largest false burst a run takes: 20 x the 50 of the fault benchmark (1000 on sparse_row,
 #: stop and go: 6.2 s and 180 MB; 5000: 46 s and 370 MB; 100000 grew to 2.2 GB).
 MAX_FALSE_BURST = 1000
+#: The longest camera outage or late decision a run takes, s (as ``coplan run`` takes them).
+MAX_FAULT_SECONDS = 3600.0
+#: The farthest the camera may see ahead of the front arm's base, m, and the largest detection
+#: noise, m per coordinate (as ``coplan run`` takes them).
+MAX_LOOK_AHEAD = 100.0
+MAX_SIGMA = 1.0
 
 
 @dataclass(frozen=True)
@@ -56,9 +62,13 @@ class RowFaults:
 
     def __post_init__(self) -> None:
         check_fields(self)  # built in Python: every value checked (OptionsError: what was expected, found)
+        issues = [Issue(name, f"expected at most {MAX_FAULT_SECONDS:g} s, found {getattr(self, name):g}")
+                  for name in ("camera_dark", "late_replan") if getattr(self, name) > MAX_FAULT_SECONDS]
         if self.false_burst > MAX_FALSE_BURST:
-            raise OptionsError([Issue("false_burst", f"expected at most {MAX_FALSE_BURST} false reports at one instant, "
-                                                     f"found {self.false_burst}")], type(self).__name__)
+            issues.append(Issue("false_burst", f"expected at most {MAX_FALSE_BURST} false reports at one instant, "
+                                               f"found {self.false_burst}"))
+        if issues:
+            raise OptionsError(issues, type(self).__name__)
 
     @property
     def any(self) -> bool:
@@ -88,6 +98,9 @@ class LiveRowOptions:
         check_fields(self, {'look_ahead', 'speed'})  # built in Python: every value checked (OptionsError: what was expected, found)
         issues = [Issue(name, f"expected a share of the fruit from 0 to 1, found {getattr(self, name):g}")
                   for name in ("false_rate", "duplicate_rate") if getattr(self, name) > 1.0]
+        issues += [Issue(name, f"expected at most {top:g} m, found {getattr(self, name):g}")
+                   for name, top in (("look_ahead", MAX_LOOK_AHEAD), ("sigma", MAX_SIGMA), ("close_sigma", MAX_SIGMA))
+                   if getattr(self, name) > top]
         if not isinstance(self.faults, RowFaults):
             issues.append(Issue("faults", f"expected RowFaults(...), found {type(self.faults).__name__} {self.faults!r}"))
         if issues:
