@@ -665,3 +665,36 @@ def test_a_fruit_only_a_stopped_arm_reached_from_the_stops_is_missed_for_that_re
     assert missed  # (this seed: the stop comes before the rear arm's last fruit)
     for why in missed.values():
         assert f"only {stopped} could reach it, and it stopped" in why and "passed" not in why
+
+
+def test_a_live_row_s_time_counts_the_probes_after_the_last_fruit_placed(tmp_path):
+    """(A 50-report burst at the last stop kept the arms probing 17 s after the last fruit was
+    placed while the summary said the row took as long as without it.) The row time is the end
+    of the last cycle -- a probe's too; the last place and the executed plan's length are in the
+    metrics, and the summary says when the row ran on past the last place."""
+    path = tmp_path / "row10.yaml"
+    path.write_text(to_yaml(gantry_row(length=10.0, density=2.0, seed=1)))
+    row = parse_problem(path.read_text(), str(path))
+    quiet = run_live_row(row, LiveRowOptions(mode="stop-and-go")).metrics
+    burst = run_live_row(row, LiveRowOptions(mode="stop-and-go", faults=RowFaults(false_burst=50))).metrics
+    assert quiet["row_time"] == pytest.approx(quiet["last_place"], abs=0.02)  # no probe after the last place
+    assert burst["probes"] >= 50 and burst["row_time"] > burst["last_place"] + 1.0
+    assert burst["last_place"] <= burst["row_time"] <= burst["plan_seconds"]
+    assert burst["row_time_ratio"] == pytest.approx(burst["row_time"] / burst["offline_row_time"])
+    res = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["run", str(path), "--gantry", "stop-and-go", "--false-burst", "50",
+                                                         "-o", str(tmp_path / "r")])
+    assert res.exit_code == 0, res.output
+    assert f"row time {burst['row_time']:.1f} s" in res.output
+    assert f"the last fruit placed at {burst['last_place']:.1f} s, then probes" in res.output
+
+
+def test_a_long_late_decision_stop_and_go_holds_the_carriage_and_misses_nothing(tmp_path):
+    """(With a decision 100 s late the waiting arm's fruit at the next stop were given up -- 'no
+    clear cycle was found' -- by a guard that counted from the carriage's rest, not from when the
+    arm was free, and the carriage crept on by 5 cm hops.) The carriage waits for the arm."""
+    row = parse_problem(to_yaml(gantry_row(length=10.0, density=2.0, seed=1)))
+    res = run_live_row(row, LiveRowOptions(mode="stop-and-go", faults=RowFaults(late_replan=100.0)))
+    m = res.metrics
+    assert m["faults"]["late_replan"]["waits_until"] > m["faults"]["late_replan"]["decided_at"] + 99.0
+    assert m["missed_reachable_by_a_working_arm"] == [] and m["of_offline"] == 1.0 and res.verification.passed
+    assert m["stops_without_picks"] == 0

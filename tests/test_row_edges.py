@@ -103,6 +103,26 @@ def test_on_the_move_a_carriage_that_need_not_move_gives_a_verified_plan_and_sha
     assert idle and all(m["idle_share"][a]["no_fruit"] == pytest.approx(1.0) for a in idle)  # no fruit all row long
 
 
+def test_a_locked_arm_s_idle_shares_add_up_to_the_whole_row(tmp_path):
+    """(A locked arm's causes added up to 0.86 of the row while its idle fraction was 1: its moves
+    out of a neighbour's way were no cause.) ``making_way``: moving where it has no fruit."""
+    import coplan
+    from coplan.generate import gantry_row, to_yaml
+
+    d = gantry_row(length=10.0, density=2.0, seed=1)
+    d["arms"][2]["base"], d["arms"][2]["bin"] = [0.3, 0.0], [0.3, -0.5]  # arm2 can no longer reach its bin
+    path = tmp_path / "lock.yaml"
+    path.write_text(to_yaml(d))
+    res = coplan.solve(path)
+    m = res.plan.metrics
+    locked = [a for a, fs in res.plan.allocation.items() if not fs]
+    assert locked == ["arm2"]
+    assert sum(m["row"]["idle_share"]["arm2"].values()) == pytest.approx(m["per_arm"]["arm2"]["idle_fraction"], abs=0.01)
+    assert m["row"]["idle_share"]["arm2"]["making_way"] > 0
+    for arm, causes in m["row"]["idle_share"].items():
+        assert sum(causes.values()) <= 1.0 + 1e-9 and causes["making_way"] >= 0
+
+
 # --------------------------------------------------------------------------- settle
 def _picks_after_rest(plan, settle):
     """(pick start - when the carriage last came to rest before it) for picks with the carriage at rest."""
@@ -186,3 +206,72 @@ def test_a_fruit_the_camera_never_sees_is_reported_as_never_reported_in_both_mod
         res = run_live_row(row, LiveRowOptions(speed=0.1, seed=0, mode=mode))
         assert res.verification.passed and res.outcome["m"] == "harvested"
         assert res.outcome["R"].startswith("missed: never reported"), (mode, res.outcome["R"])
+
+
+def test_an_interrupted_row_keeps_its_stops_planned_so_far_verified(tmp_path, monkeypatch):
+    """(Ctrl-C or SIGTERM during a row's solve saved nothing, while the message said it was
+    saving.) The row as far as its first stops' cells are planned is assembled, verified and
+    written with status interrupted (exit 130); nothing before the first stop: a plan that
+    harvests nothing, still verified."""
+    import coplan
+    import coplan.row.plan as rp
+    from coplan.cli import app
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.kinds import ExitCode, PlanStatus
+    from typer.testing import CliRunner
+
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=24.0, density=2.0, seed=4)))
+    full = coplan.solve(path, stops="fixed")
+    assert len(full.row.stops) >= 3
+    real = rp._cell_plan
+    for after in (2, 0):
+        calls = []
+
+        def cell_plan(cell, opts, after=after, calls=calls):
+            calls.append(1)
+            if len(calls) > after:
+                raise KeyboardInterrupt
+            return real(cell, opts)
+
+        monkeypatch.setattr(rp, "_cell_plan", cell_plan)
+        res = coplan.solve(path, stops="fixed", out_dir=tmp_path / f"run{after}")
+        assert res.plan.status == PlanStatus.INTERRUPTED and res.verification.passed
+        assert len(res.row.stops) == after and "interrupted" in res.plan.solver["row"]
+        got = {e.fruit for e in res.plan.events if e.kind.value == "place"}
+        assert got == {f for sp in full.row.stops[:after] for f in sp.stop.fruit}
+        assert (tmp_path / f"run{after}" / "plan.json").exists()
+    res = CliRunner().invoke(app, ["solve", str(path), "--stops", "fixed", "-o", str(tmp_path / "cli")])
+    assert res.exit_code == ExitCode.INTERRUPTED and (tmp_path / "cli" / "plan.json").exists(), res.output
+
+
+def test_an_interrupted_speed_search_keeps_its_best_verified_plan(tmp_path, monkeypatch):
+    """On the move, Ctrl-C / SIGTERM during the speed search keeps the best verified plan so far
+    (status interrupted, written); before any plan, nothing (the interruption goes on)."""
+    import coplan
+    import coplan.row.continuous as rc
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.kinds import PlanStatus
+
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=8.0, density=2.0, seed=4)))
+    real = rc._Runner.map
+    for after in (1, 0):
+        calls = []
+
+        def map_(self, *a, after=after, calls=calls, **k):
+            calls.append(1)
+            if len(calls) > after:
+                raise KeyboardInterrupt
+            return real(self, *a, **k)
+
+        monkeypatch.setattr(rc._Runner, "map", map_)
+        if after == 0:
+            with pytest.raises(KeyboardInterrupt):
+                coplan.solve(path, gantry="continuous", out_dir=tmp_path / "none")
+            assert not (tmp_path / "none").exists()
+            continue
+        res = coplan.solve(path, gantry="continuous", out_dir=tmp_path / "one")
+        assert res.plan.status == PlanStatus.INTERRUPTED and res.verification.passed
+        assert "stopped after 1 plan:" in res.plan.solver["row"]["interrupted"] and res.plan.solver["status"] == "interrupted"
+        assert (tmp_path / "one" / "plan.json").exists()

@@ -79,6 +79,7 @@ class Booker:
         self.probes: set[str] = set()  # fruit whose cycle is a probe: the arm comes, finds nothing, goes back (no dwells)
         self.arms = [ArmState(np.tile(np.asarray(a.home, float), (1024, 1))) for a in problem.arms]
         self.events: list[Event] = []
+        self.work_end = 0.0  # s: the end of the last cycle committed on a fruit or a report (a probe's too)
         self.bin_q = [self._bin_pose(i) for i in range(len(problem.arms))]
         pairs = problem.neighbour_pairs()
         self.neighbours = [[j for p in pairs for j in p if i in p and j != i] for i in range(len(problem.arms))]
@@ -296,6 +297,7 @@ class Booker:
         st.k_free = k1 - 1
         if cyc.fruit:
             st.fruit.append(cyc.fruit)
+            self.work_end = max(self.work_end, (k1 - 1) * self.dt)
         self.events += cyc.events
 
     def wait(self, i: int, seconds: float) -> None:
@@ -433,7 +435,10 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
         for w in ws:
             by_arm[w.arm].append((fid, w))
     n_arms_of = {fid: len({w.arm for w in ws}) for fid, ws in windows.items()}
-    horizon = booker.cruise.duration + _PATIENCE + 10.0 * len(windows)  # a guard, never reached by a plan that progresses
+    # a guard, never reached by a plan that progresses (from the carriage's rest, or from when the
+    # busiest arm is free: one waiting out a late decision made before this phase)
+    start = max([booker.cruise.duration] + [booker.free_time(i) for i in range(len(arms))])
+    horizon = start + _PATIENCE + 10.0 * len(windows)
     queue = [(0.0, i) for i in range(len(arms))]
     heapq.heapify(queue)
     pending = {i: list((order or {}).get(i, [])) for i in range(len(arms))}
@@ -446,6 +451,7 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
             continue
         late = delay(i, now) if delay is not None else 0.0
         if late > 0:
+            horizon += late  # (the guard waits for a late decision too: its arm's fruit are not given up)
             booker.wait(i, late)
             heapq.heappush(queue, (booker.free_time(i), i))
             continue

@@ -11,7 +11,8 @@
 * **idle share by cause** per arm: ``carriage`` (home while the carriage moves), ``no_fruit``
   (home at a stop where it has nothing within reach), ``others`` (done at a stop, home, while the
   other arms finish), ``coordination`` (within its work, holding still for a neighbour: neither
-  moving nor dwelling);
+  moving nor dwelling), ``making_way`` (moving where it has no fruit: out of a neighbour's way --
+  an arm the screen locks does only that);
 * **ratios** to the row's lower bounds (:mod:`coplan.row.bound`), and ``overlap_seconds``: how
   long the carriage moves while some arm works (places, goes home, comes out), which the
   stop-and-go bound's model excludes;
@@ -84,6 +85,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
             "no_fruit": h & ~moving & at_stop_without,
             "others": h & ~moving & ~at_stop_without,
             "coordination": ~home[a.name] & still & ~dwelling & upto,
+            "making_way": ~home[a.name] & ~still & at_stop_without & upto,
         }
         idle[a.name] = {k: float(v.sum() / upto.sum()) if span > 0 else 0.0 for k, v in causes.items()}  # (shares of the samples)
     away = np.zeros(n, dtype=bool)  # some arm away from home

@@ -129,6 +129,8 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
 
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: plan it as a cell")
+    if options is not None and not isinstance(options, RowOptions):
+        raise TypeError(f"options: a row stop and go takes RowOptions(...), found {type(options).__name__} {options!r}")
     opts = options or RowOptions()
     say, tick = speaker(progress), ticker(progress)
     t0 = _time.perf_counter()
@@ -164,18 +166,35 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
 
     ts = _time.perf_counter()
     info: dict = {"rule": rule.value, "cell_planner": PlannerKind(opts.planner).value, "workers": workers}
+    kept: list[Stop] = []  # every stop the rule kept, in carriage order
+    interrupted = False
     try:
         if rule == StopRule.OPTIMISED:
-            _, info["stops_solver"] = optimised_stops(problem, reach, opts.window, on_stop)
+            _, info["stops_solver"] = optimised_stops(problem, reach, opts.window, lambda s: (kept.append(s), on_stop(s)))
         else:
             for s in (fixed_stops(reach) if rule == StopRule.FIXED else fewest_stops(reach)):
+                kept.append(s)
                 on_stop(s)
         for s, fut, when in pending:  # the cells planned in the workers, in the order the stops were kept
             p, seconds = fut.result()
             landed(s, p, when[0] if when else _time.perf_counter() - t0, seconds)
+    except KeyboardInterrupt:  # Ctrl-C / SIGTERM: the row as far as its stops are planned, verified, is kept
+        interrupted = True
+        for s, fut, when in pending:
+            if fut.done() and not fut.cancelled() and fut.exception() is None and all(sp.stop is not s for sp in planned):
+                p, seconds = fut.result()
+                landed(s, p, when[0] if when else _time.perf_counter() - t0, seconds)
     finally:
         if pool is not None:
-            pool.shutdown(wait=True, cancel_futures=True)
+            pool.shutdown(wait=not interrupted, cancel_futures=True)
+    if interrupted:  # the stops from the first on whose cells are planned (a worker may have finished a later one)
+        have = {id(sp.stop) for sp in planned}
+        prefix = next((i for i, s in enumerate(kept) if id(s) not in have), len(kept))
+        keep = {id(s) for s in kept[:prefix]}
+        planned = [sp for sp in planned if id(sp.stop) in keep]
+        info["interrupted"] = f"after {len(planned)} of the {len(kept)} stops kept so far: the row as far as they go"
+        say(f"row: interrupted; keeping the row as far as its stops planned so far ({len(planned)}), verified")
+        reach.ensure(math.inf)  # (the whole row screened: what is harvestable, for the figures)
     planned.sort(key=lambda sp: sp.stop.k)
     timings["stops_and_cells"] = _time.perf_counter() - ts
     timings["cells"] = sum(sp.seconds for sp in planned)
@@ -189,6 +208,8 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     # as for a cell: success when every fruit some carriage position reaches is harvested (the
     # verifier's own count); a fruit only a locked arm or a blocked pose reaches makes it partial
     plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
+    if interrupted:
+        plan.status = PlanStatus.INTERRUPTED  # (the verdict on what it has is in plan.verification)
     info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
     info["left_out"] = dict(reach.reasons)
     for sp in planned:  # fruit a stop's cell planner could not fit in
