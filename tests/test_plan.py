@@ -132,6 +132,11 @@ def test_a_row_plan_replays_its_carriage_too(tmp_path: Path, saved: dict[str, Pa
     assert x[i] != x[i + 1] and c[2] == res.problem.gantry.start
     with pytest.raises(ValueError, match="a stationary cell's plan has no carriage"):
         load_plan(saved["json"]).carriage(np.array([0.0]))
+    for bad in (np.nan, [0.0, np.inf]):  # a time that is not a number: refused, not answered with NaN
+        with pytest.raises(ValueError, match="t: expected finite times in s, found"):
+            back.carriage(bad)
+        with pytest.raises(ValueError, match="t: expected finite times in s, found"):
+            back.sample(bad)
 
 
 def test_loaded_events_are_usable(saved: dict[str, Path]) -> None:

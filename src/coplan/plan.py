@@ -133,9 +133,18 @@ class Plan:
     def arm_names(self) -> list[str]:
         return list(self.q)
 
+    def _clock(self, t) -> np.ndarray:
+        """``t`` (s) as an array within the plan (before it: its start; after it: its end); a
+        time that is not a number is refused (ValueError), not answered with NaN."""
+        t = np.asarray(t, float)
+        if not np.all(np.isfinite(t)):
+            bad = t[~np.isfinite(t)].ravel()[0] if t.ndim else t
+            raise ValueError(f"t: expected finite times in s, found {bad}")
+        return np.clip(t, 0.0, self.duration)
+
     def sample(self, t) -> dict[str, np.ndarray]:
         """Joint angles of every arm at times ``t`` (K,), linear between samples."""
-        t = np.clip(np.asarray(t, float), 0.0, self.duration)
+        t = self._clock(t)
         return {a: np.stack([np.interp(t, self.time, q[:, 0]), np.interp(t, self.time, q[:, 1])], axis=-1) for a, q in self.q.items()}
 
     def carriage(self, t) -> np.ndarray:
@@ -144,7 +153,7 @@ class Plan:
         stationary cell's plan has none (ValueError)."""
         if self.gantry_x is None:
             raise ValueError(f"plan of {self.problem!r}: a stationary cell's plan has no carriage (no gantry_x)")
-        t = np.clip(np.asarray(t, float), 0.0, self.duration)
+        t = self._clock(t)
         return np.interp(t, self.time, self.gantry_x)
 
     def events_of(self, arm: str, kind: EventKind | None = None) -> list[Event]:

@@ -97,7 +97,7 @@ def run_console(app, err_console) -> None:
     def on_term(signum, frame):
         if not terminated:
             terminated.append(signum)
-            err_console.print("terminated (SIGTERM): saving what there is", markup=False)
+            err_console.print("terminated (SIGTERM): stopping; a solve keeps what it has, a live run writes nothing", markup=False)
         raise KeyboardInterrupt
 
     if hasattr(signal, "SIGTERM"):
