@@ -81,6 +81,14 @@ def test_a_feed_or_plan_csv_in_the_wrong_place_is_named_in_one_sentence(crossing
     r = runner.invoke(app, ["run", str(PROBLEMS / "crossing_paths.yaml"), "--feed", str(crossing_plan),
                             "--out", str(tmp_path / "run")])
     assert r.exit_code == 3 and "found a coplan plan file" in r.output and "unknown key" not in r.output
+    res = runner.invoke(app, ["run", str(PROBLEMS / "crossing_paths.yaml"), "--feed", str(crossing_plan.with_name("plan.csv")),
+                              "--out", str(tmp_path / "run2")])  # a CSV as the feed: one sentence, not the whole file
+    assert res.exit_code == 3 and "found a CSV of joint samples" in res.output and len(res.output) < 2000
+    ver = crossing_plan.with_name("verification.json")  # another coplan JSON file as the plan
+    with pytest.raises(PlanFileError) as e:
+        load_plan(ver)
+    (issue,) = e.value.issues
+    assert "found a coplan verification file (format 'coplan.verification/1')" in issue.message
     csv = crossing_plan.with_name("plan.csv")
     assert csv.read_text().startswith("t,left_q1,")
     with pytest.raises(ProblemError) as e:

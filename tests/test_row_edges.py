@@ -277,3 +277,40 @@ def test_an_interrupted_speed_search_keeps_its_best_verified_plan(tmp_path, monk
         assert res.plan.status == PlanStatus.INTERRUPTED and res.verification.passed
         assert "stopped after 1 plan:" in res.plan.solver["row"]["interrupted"] and res.plan.solver["status"] == "interrupted"
         assert (tmp_path / "one" / "plan.json").exists()
+
+
+def test_an_interrupt_a_cell_planner_absorbed_still_interrupts_the_row_its_live_run_and_its_comparison(tmp_path, monkeypatch):
+    """(The optimal cell planner turns Ctrl-C into its best plan: the row went on planning and
+    saved a 'success'; a live stop-and-go run went on against a cut-short reference; compare ROW
+    kept a cut-short rule in its table as a result and went on.)"""
+    import coplan.row.plan as rp
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.kinds import PlanStatus
+    from coplan.problem import parse_problem
+    from coplan.report.rows import compare_rows
+    from coplan.row.live import LiveRowOptions, run_live_row
+    from coplan.row.plan import RowOptions, plan_row
+
+    row = parse_problem(to_yaml(gantry_row(length=24.0, density=2.0, seed=4)), "row.yaml")
+    real = rp._cell_plan
+    calls = []
+
+    def absorbing(cell, opts):  # as plan_optimal does: the interrupt becomes the plan's status
+        calls.append(1)
+        p = real(cell, opts)
+        if len(calls) > 1:
+            p.status = PlanStatus.INTERRUPTED
+        return p
+
+    monkeypatch.setattr(rp, "_cell_plan", absorbing)
+    res = plan_row(row, RowOptions(stops="fixed"))
+    assert res.plan.status == PlanStatus.INTERRUPTED and len(res.stops) == 1 and res.verification.passed
+    calls.clear()
+    calls.append(1)  # (every cell interrupted from the first: the live run's reference is cut short)
+    with pytest.raises(KeyboardInterrupt):
+        run_live_row(row, LiveRowOptions(mode="stop-and-go"))
+    calls.clear()
+    with pytest.raises(KeyboardInterrupt):
+        compare_rows(row, tmp_path / "cmp", rules=("fixed", "fewest"))
+    md = (tmp_path / "cmp" / "compare.md").read_text()
+    assert "| fixed (interrupted) |" in md and "Note: interrupted while planning stop rule fixed" in md and "fewest" not in md

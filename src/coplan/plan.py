@@ -438,6 +438,11 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
 
     if not isinstance(data, dict):
         raise PlanFileError([Issue("", f"expected a JSON object, found {_kind(data)}")], source)
+    fmt = data.get("format")
+    if isinstance(fmt, str) and fmt.startswith("coplan.") and fmt != PLAN_FORMAT:  # another coplan file: say only that
+        kind = fmt.split(".", 1)[1].split("/", 1)[0]
+        raise PlanFileError([Issue("", f"expected a plan file (plan.json or plan.csv), found a coplan {kind} file (format "
+                                       f"{fmt!r}); were the arguments swapped?")], source)
     if data.get("format") != PLAN_FORMAT:
         bad("format", f"expected {PLAN_FORMAT!r}, found {_kind(data.get('format')) if 'format' in data else 'nothing'}")
     for key in ("problem", "time", "arms", "events"):

@@ -7,6 +7,7 @@ NumPy, the planners and matplotlib are imported inside the commands.
 from __future__ import annotations
 
 import json
+import math
 import re
 from pathlib import Path
 from typing import Annotated, Optional
@@ -62,7 +63,7 @@ def feed_cmd(
 
         last, why = latest_report_time(prob)
         if reveal_by > last:
-            usage(f"--reveal-by: expected a time of at most {last:.0f} s ({why}), found {reveal_by:g}")
+            usage(f"--reveal-by: expected a time of at most {math.floor(last * 10) / 10:g} s ({why}), found {reveal_by!r}")
     feed = make_feed(prob, known, sigma, false_rate, duplicate_rate, seed, reveal_by, after_pick, close_distance, close_sigma)
     out.parent.mkdir(parents=True, exist_ok=True)
     atomic_text(out, feed_yaml(feed))
@@ -258,7 +259,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         if m["row_time"] > m["last_place"] + 0.5:  # probes after the last fruit placed
             ratio += f" (the last fruit placed at {m['last_place']:.1f} s, then probes of false or repeated reports)"
         if m["plan_seconds"] > m["row_time"] + 60.0:  # an arm held long after the work (a late decision)
-            ratio += f"; the executed plan lasts {m['plan_seconds']:.1f} s (an arm's way home waited)"
+            ratio += f"; the executed plan lasts {m['plan_seconds']:.1f} s (the carriage's way to the rail's end, the arms' way home)"
         cycle = ("no cycle" if m["shortest_cycle_seconds"] is None else
                  f"a shortest cycle of {m['shortest_cycle_seconds']:.2f} s")
         faults_line = (f"faults: {_safe(_faults_text(m['faults']))}; missed though a working arm could still reach them: "

@@ -24,6 +24,7 @@ positives and duplicate detections.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -101,7 +102,7 @@ class Feed:
         from ..problem.plausible import latest_report_time
 
         last, why = latest_report_time(problem)
-        return [Issue(f"detections[{i}].t", f"expected a time of at most {last:.0f} s ({why}), found {d.t:g}", d.line)
+        return [Issue(f"detections[{i}].t", f"expected a time of at most {math.floor(last * 10) / 10:g} s ({why}), found {d.t!r}", d.line)
                 for i, d in enumerate(self.detections) if d.t > last][:5]
 
     def _never_revealed(self) -> list[Issue]:
@@ -154,8 +155,13 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
             path += f"[{part}]" if isinstance(part, int) else ("." if path else "") + str(part)
         issues.append(Issue(path, msg, line_of(lines, loc)))
 
+    if isinstance(data, str) and re.match(r"t,[^,\s]+_q1,", data):  # coplan's plan CSV or an export CSV
+        raise FeedError([Issue("", "expected a feed file (format coplan.feed/1, key 'detections'), found a CSV of joint "
+                                   "samples (t,<arm>_q1,...: a plan.csv or an export); were the arguments swapped?", 1)], source)
     if not isinstance(data, dict):
-        raise FeedError([Issue("", f"expected a mapping with key 'detections', found {found(data, list_length=True)}", line_of(lines, ()))], source)
+        shown = found(data, list_length=True)
+        shown = shown if len(shown) <= 80 else shown[:77] + "..."
+        raise FeedError([Issue("", f"expected a mapping with key 'detections', found {shown}", line_of(lines, ()))], source)
     if "detections" not in data and {"arms", "fruits"} <= set(data):
         raise FeedError([Issue("", "expected a feed file (format coplan.feed/1, key 'detections'), found a problem file "
                                    "(keys arms, fruits); were the problem and the feed swapped?", line_of(lines, ()))], source)

@@ -280,7 +280,8 @@ def cruise_speed_issue(problem, speed) -> str | None:
             and speed >= lo:
         return None
     limit = plan_seconds_limit(problem)
-    low = (f"[{lo:.3g}, {g.max_velocity:g}] m/s (gantry.max_velocity at most; at least what brings the farthest fruit "
+    low = (f"[{lo:.3g}, {g.max_velocity:g}] m/s (gantry.max_velocity at most; the row's screen may ask for a little more: "
+           f"at least what brings the farthest fruit "
            f"within reach, {row_travel(problem):g} m along the rail, in a plan of {_hours(limit)}, the longest coplan makes"
            f"{'' if limit == MAX_PLAN_SECONDS else f' with {len(problem.arms)} arms (its file under {MAX_PLAN_BYTES >> 20} MiB)'})"
            if lo > 0 else f"(0, {g.max_velocity:g}] m/s (gantry.max_velocity)")

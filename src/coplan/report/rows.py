@@ -13,7 +13,7 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..kinds import PlannerKind, StopRule
+from ..kinds import PlannerKind, PlanStatus, StopRule
 from ..output import atomic_text, check_folder
 from ..plan import jsonable
 from ..problem.model import Problem
@@ -32,9 +32,10 @@ class RowComparison:
     problem: str
     rows: list[dict] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        return {"format": "coplan.compare-rows/1", "problem": self.problem, "rows": self.rows}
+        return {"format": "coplan.compare-rows/1", "problem": self.problem, "rows": self.rows, "notes": self.notes}
 
 
 def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), planner: PlannerKind | str | None = None,
@@ -59,20 +60,31 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
         say(f"{problem.name}: stops {rule.value}")
         res = solve(problem, planner=planner, out_dir=out / rule.value, progress=nested(progress), stops=rule, options=options)
         m = res.plan.metrics.get("row") or {}
-        cmp.rows.append({"rule": rule.value, "stops": m.get("stops"), "row_time": m.get("row_time"),
+        cut = res.plan.status == PlanStatus.INTERRUPTED
+        cmp.rows.append({"rule": rule.value + (" (interrupted)" if cut else ""), "stops": m.get("stops"), "row_time": m.get("row_time"),
                          "fruit_per_hour": m.get("fruit_per_hour"), "share_harvested": m.get("share_harvested"),
                          "ratio_any_plan_bound": m.get("ratio_any_plan_bound"),
                          "ratio_stop_and_go_bound": m.get("ratio_stop_and_go_bound"),
                          "planning_time": m.get("planning_time"), "first_motion_seconds": m.get("first_motion_seconds"),
                          "kept_ahead": m.get("kept_ahead"), "verified": bool(res.verification.passed),
                          "status": res.plan.status.value, "plan": str(res.files.get("json", ""))})
+        if cut:  # Ctrl-C / SIGTERM: what finished is written, said, and the run stops
+            cmp.notes.append(f"interrupted while planning stop rule {rule.value}: its row is cut short (status interrupted); "
+                             f"this report covers {i} of {len(rules)} rules whole")
+            _write(cmp, out)
+            raise KeyboardInterrupt
+    _write(cmp, out)
+    return cmp
+
+
+def _write(cmp: RowComparison, out: Path) -> None:
+    """compare.json and compare.md (each rule's share of the best fruit per hour among those written)."""
     best = max((r["fruit_per_hour"] or 0.0 for r in cmp.rows), default=0.0)
     for r in cmp.rows:
         r["fruit_per_hour_vs_best"] = (r["fruit_per_hour"] or 0.0) / best if best else None
     cmp.files = {"json": str(out / "compare.json"), "markdown": str(out / "compare.md")}
     atomic_text(out / "compare.json", json.dumps(jsonable(cmp.to_dict()), indent=1, allow_nan=False))
     atomic_text(out / "compare.md", to_markdown(cmp))
-    return cmp
 
 
 def cell_text(key: str, v) -> str:
@@ -91,4 +103,5 @@ def to_markdown(cmp: RowComparison) -> str:
     lines = [f"# {cmp.problem}: stop rules side by side", "",
              "| " + " | ".join(h for _, h in ROW_COLUMNS) + " |", "|" + "---|" * len(ROW_COLUMNS)]
     lines += ["| " + " | ".join(cell_text(k, r.get(k)) for k, _ in ROW_COLUMNS) + " |" for r in cmp.rows]
+    lines += [""] + [f"Note: {n}" for n in cmp.notes] if cmp.notes else []
     return "\n".join(lines) + "\n"

@@ -61,7 +61,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..kinds import AssignRule, GantryMode, SpeedProfile
+from ..kinds import AssignRule, GantryMode, PlanStatus, SpeedProfile
 from ..plan import MAX_PLAN_BYTES, Event, EventKind, finalize_plan
 from ..errors import Issue, OptionsError
 from ..problem.model import Fruit, Problem
@@ -139,6 +139,8 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
                                                      margin=opts.margin), progress)
         # the carriage does not know where the last fruit is: it cruises to the end of the rail --
         # after a rest where it starts, as long as the reports then in view that only the start serves need
+        if offline.plan.status == PlanStatus.INTERRUPTED:
+            raise KeyboardInterrupt
         cruise = Cruise.of(problem, opts.speed, g.end)
         cruise = Cruise.of(problem, opts.speed, g.end, _start_hold_for(problem, reports, cruise))
         _check_fault_room(problem, opts, max(cruise.duration, float(offline.plan.time[-1])))
@@ -150,6 +152,8 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
         from .plan import RowOptions, plan_row
 
         offline = plan_row(problem, RowOptions(), progress)
+        if offline.plan.status == PlanStatus.INTERRUPTED:  # (Ctrl-C while the reference was planned)
+            raise KeyboardInterrupt
         _check_fault_room(problem, opts, float(offline.plan.time[-1]))
         faults = FaultDraws(problem, opts, float(offline.plan.metrics.get("makespan") or 0.0), None)
         run = LiveRun(problem, opts, reports, Cruise.hops(problem, []), faults.dark)
@@ -392,6 +396,13 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
         # for the next stop, or is left out)
         here = {f: [w for w in ws if w.hi >= t_arr] for f, ws in run.booker.windows.items()}
         until = t_arr + STOP_PATIENCE * (1 + sum(bool(ws) for ws in here.values()))
+        # a late decision makes its arm wait: the stop waits for it too (the carriage holds, as the
+        # fault is specified), whether it came before this stop or comes during it
+        late = faults.log.get("late_replan") or {}
+        if "waits_until" in late:
+            until += max(0.0, late["waits_until"] - t_arr)
+        elif late and late["t"] <= until:
+            until += late["seconds"]
         run.booker.windows = {f: [replace(w, lo=max(w.lo, t_arr), hi=min(w.hi, until)) for w in ws] for f, ws in here.items()}
         before = len(run.booker.events)
         # this stop takes what the carriage would pass before it can next stop -- as far as the

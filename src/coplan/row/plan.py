@@ -147,6 +147,8 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     pool = process_pool(workers)
 
     def landed(s: Stop, p: Plan, ready: float, seconds: float) -> None:
+        if p.status == PlanStatus.INTERRUPTED:  # (the optimal cell planner turns Ctrl-C into its best plan)
+            raise KeyboardInterrupt
         planned.append(StopPlan(s, p, ready=ready, seconds=seconds))
         done = sum(len(sp.stop.fruit) for sp in planned)
         tick(Tick("row", s.x - problem.gantry.start, problem.gantry.length, "m of rail", note=f"stop {len(planned)}: {done} fruit planned"))
@@ -183,7 +185,8 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         for s, fut, when in pending:
             if fut.done() and not fut.cancelled() and fut.exception() is None and all(sp.stop is not s for sp in planned):
                 p, seconds = fut.result()
-                landed(s, p, when[0] if when else _time.perf_counter() - t0, seconds)
+                if p.status != PlanStatus.INTERRUPTED:
+                    landed(s, p, when[0] if when else _time.perf_counter() - t0, seconds)
     finally:
         if pool is not None:
             pool.shutdown(wait=not interrupted, cancel_futures=True)

@@ -62,7 +62,7 @@ class RowFaults:
 
     def __post_init__(self) -> None:
         check_fields(self)  # built in Python: every value checked (OptionsError: what was expected, found)
-        issues = [Issue(name, f"expected at most {MAX_FAULT_SECONDS:g} s, found {getattr(self, name):g}")
+        issues = [Issue(name, f"expected at most {MAX_FAULT_SECONDS:g} s, found {getattr(self, name)!r}")
                   for name in ("camera_dark", "late_replan") if getattr(self, name) > MAX_FAULT_SECONDS]
         if self.false_burst > MAX_FALSE_BURST:
             issues.append(Issue("false_burst", f"expected at most {MAX_FALSE_BURST} false reports at one instant, "
@@ -98,7 +98,7 @@ class LiveRowOptions:
         check_fields(self, {'look_ahead', 'speed'})  # built in Python: every value checked (OptionsError: what was expected, found)
         issues = [Issue(name, f"expected a share of the fruit from 0 to 1, found {getattr(self, name):g}")
                   for name in ("false_rate", "duplicate_rate") if getattr(self, name) > 1.0]
-        issues += [Issue(name, f"expected at most {top:g} m, found {getattr(self, name):g}")
+        issues += [Issue(name, f"expected at most {top:g} m, found {getattr(self, name)!r}")
                    for name, top in (("look_ahead", MAX_LOOK_AHEAD), ("sigma", MAX_SIGMA), ("close_sigma", MAX_SIGMA))
                    if getattr(self, name) > top]
         if not isinstance(self.faults, RowFaults):
