@@ -289,3 +289,12 @@ def test_the_free_timing_program_holds_the_start_more_lightly_than_the_held_timi
     free = {tr for hb, tr in seen if hb[0] < hb[1]}
     held = {tr for hb, tr in seen if hb[0] >= hb[1]}
     assert free == {3.0} and held == {10.0}, seen
+
+
+def test_ctrl_c_inside_the_widening_program_stops_the_planner(monkeypatch):
+    """(IPOPT's own Ctrl-C handler stopped the widening program only: a row of optimal cells went
+    on planning to a 'success'.) A widening round stopped by Ctrl-C marks the run interrupted."""
+    import coplan.planners.optimal.stages as st
+
+    assert st._any_interrupted({"rounds": [{"status": "optimal"}], "retry": {"rounds": [{"status": "interrupted"}]}})
+    assert not st._any_interrupted({"rounds": [{"status": "optimal"}], "status": "solved"})

@@ -222,7 +222,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         done = {f for sp in planned for f in sp.stop.fruit}
         for f in reach.harvestable():
             if f not in done and f not in info["left_out"]:
-                info["left_out"][f] = "not planned: the row was interrupted before a stop that serves it"
+                info["left_out"][f] = f"{f}: not planned: the row was interrupted before a stop that serves it"
     plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
     say(f"row: {len(planned)} stop{'' if len(planned) == 1 else 's'} ({rule.value}), {plan.metrics.get('harvested')} fruit, "
         f"row time {plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
