@@ -89,6 +89,11 @@ def test_a_feed_or_plan_csv_in_the_wrong_place_is_named_in_one_sentence(crossing
         load_plan(ver)
     (issue,) = e.value.issues
     assert "found a coplan verification file (format 'coplan.verification/1')" in issue.message
+    other = tmp_path / "plan2.json"  # another version of the plan format is not "another kind of file"
+    other.write_text(crossing_plan.read_text().replace('"coplan.plan/1"', '"coplan.plan/2"', 1))
+    with pytest.raises(PlanFileError) as e:
+        load_plan(other)
+    assert "swapped" not in str(e.value) and "expected 'coplan.plan/1'" in str(e.value)
     csv = crossing_plan.with_name("plan.csv")
     assert csv.read_text().startswith("t,left_q1,")
     with pytest.raises(ProblemError) as e:

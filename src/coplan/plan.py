@@ -439,8 +439,8 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     if not isinstance(data, dict):
         raise PlanFileError([Issue("", f"expected a JSON object, found {_kind(data)}")], source)
     fmt = data.get("format")
-    if isinstance(fmt, str) and fmt.startswith("coplan.") and fmt != PLAN_FORMAT:  # another coplan file: say only that
-        kind = fmt.split(".", 1)[1].split("/", 1)[0]
+    kind = fmt.split(".", 1)[1].split("/", 1)[0] if isinstance(fmt, str) and fmt.startswith("coplan.") else None
+    if kind is not None and kind != "plan":  # another kind of coplan file: say only that (another version: below)
         raise PlanFileError([Issue("", f"expected a plan file (plan.json or plan.csv), found a coplan {kind} file (format "
                                        f"{fmt!r}); were the arguments swapped?")], source)
     if data.get("format") != PLAN_FORMAT:

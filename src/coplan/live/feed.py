@@ -166,8 +166,8 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
         raise FeedError([Issue("", "expected a feed file (format coplan.feed/1, key 'detections'), found a problem file "
                                    "(keys arms, fruits); were the problem and the feed swapped?", line_of(lines, ()))], source)
     fmt = data.get("format")
-    if isinstance(fmt, str) and fmt.startswith("coplan.") and fmt != FEED_FORMAT:  # another coplan file: say only that
-        kind = fmt.split(".", 1)[1].split("/", 1)[0]
+    kind = fmt.split(".", 1)[1].split("/", 1)[0] if isinstance(fmt, str) and fmt.startswith("coplan.") else None
+    if kind is not None and kind != "feed":  # another kind of coplan file: say only that (another version: below)
         raise FeedError([Issue("", f"expected a feed file (format {FEED_FORMAT}, key 'detections'), found a coplan {kind} file "
                                    f"(format {fmt!r}); were the arguments swapped?", line_of(lines, ("format",)))], source)
     for key in data:
