@@ -6,6 +6,7 @@ import dataclasses
 import enum
 import math
 import numbers
+import re
 from dataclasses import dataclass
 
 __all__ = ["Issue", "InputError", "ProblemError", "PlanFileError", "OptionsError", "CoplanError", "printable", "plural",
@@ -148,3 +149,17 @@ def check_fields(obj, positive=frozenset(), source: str | None = None) -> None:
             issues.append(Issue(f.name, msg))
     if issues:
         raise OptionsError(issues, source or type(obj).__name__)
+
+
+def coplan_file_kind(data) -> str | None:
+    """The kind a decoded coplan file names in its ``format`` (``coplan.<kind>/<version>``:
+    ``plan``, ``feed``, ``verification``, ...), or None: how a loader tells a file of another
+    kind given in its place."""
+    fmt = data.get("format") if isinstance(data, dict) else None
+    return fmt.split(".", 1)[1].split("/", 1)[0] if isinstance(fmt, str) and fmt.startswith("coplan.") else None
+
+
+def is_joint_csv(data) -> bool:
+    """Whether a document read as text is a CSV of joint samples (``t,<arm>_q1,...``): coplan's
+    plan.csv replay or an export, given where another file is expected."""
+    return isinstance(data, str) and re.match(r"t,[^,\s]+_q1,", data) is not None

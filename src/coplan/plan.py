@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import Issue, PlanFileError
+from .errors import Issue, PlanFileError, coplan_file_kind
 from .output import atomic_text
 from .kinds import EventKind, PlannerKind, PlanStatus
 from .plancsv import CSV_PLANNER, csv_header, read_csv_samples
@@ -439,7 +439,7 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     if not isinstance(data, dict):
         raise PlanFileError([Issue("", f"expected a JSON object, found {_kind(data)}")], source)
     fmt = data.get("format")
-    kind = fmt.split(".", 1)[1].split("/", 1)[0] if isinstance(fmt, str) and fmt.startswith("coplan.") else None
+    kind = coplan_file_kind(data)
     if kind is not None and kind != "plan":  # another kind of coplan file: say only that (another version: below)
         raise PlanFileError([Issue("", f"expected a plan file (plan.json or plan.csv), found a coplan {kind} file (format "
                                        f"{fmt!r}); were the arguments swapped?")], source)

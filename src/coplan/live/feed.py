@@ -24,13 +24,12 @@ positives and duplicate detections.
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, Issue, ProblemError, finite_number, found
+from ..errors import InputError, Issue, ProblemError, coplan_file_kind, finite_number, found, is_joint_csv
 from ..problem.model import Problem
 from ..problem.plausible import MAX_PLAN_SECONDS
 from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
@@ -155,7 +154,7 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
             path += f"[{part}]" if isinstance(part, int) else ("." if path else "") + str(part)
         issues.append(Issue(path, msg, line_of(lines, loc)))
 
-    if isinstance(data, str) and re.match(r"t,[^,\s]+_q1,", data):  # coplan's plan CSV or an export CSV
+    if is_joint_csv(data):  # coplan's plan CSV or an export CSV
         raise FeedError([Issue("", "expected a feed file (format coplan.feed/1, key 'detections'), found a CSV of joint "
                                    "samples (t,<arm>_q1,...: a plan.csv or an export); were the arguments swapped?", 1)], source)
     if not isinstance(data, dict):
@@ -166,7 +165,7 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
         raise FeedError([Issue("", "expected a feed file (format coplan.feed/1, key 'detections'), found a problem file "
                                    "(keys arms, fruits); were the problem and the feed swapped?", line_of(lines, ()))], source)
     fmt = data.get("format")
-    kind = fmt.split(".", 1)[1].split("/", 1)[0] if isinstance(fmt, str) and fmt.startswith("coplan.") else None
+    kind = coplan_file_kind(data)
     if kind is not None and kind != "feed":  # another kind of coplan file: say only that (another version: below)
         raise FeedError([Issue("", f"expected a feed file (format {FEED_FORMAT}, key 'detections'), found a coplan {kind} file "
                                    f"(format {fmt!r}); were the arguments swapped?", line_of(lines, ("format",)))], source)

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -21,7 +20,7 @@ from pydantic import ValidationError
 
 from ..kinematics import arm as kin
 from . import plausible
-from ..errors import Issue, ProblemError
+from ..errors import Issue, ProblemError, coplan_file_kind, is_joint_csv
 from ..kinematics.geometry import segment_distance
 from .check import built_issues
 from .gantry import Gantry, carriage_extent, parse_gantry
@@ -289,16 +288,15 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
 def _top_level(data: Any, lines: dict, source: str | None, issues: list) -> tuple[str, str]:
     """The document is a problem (a mapping, not another coplan file), its keys are known and
     present; returns its name and description."""
-    if isinstance(data, str) and re.match(r"t,[^,\s]+_q1,", data):  # the header of coplan's plan CSV (coplan.plancsv)
+    if is_joint_csv(data):  # the header of coplan's plan CSV (coplan.plancsv)
         raise ProblemError([Issue("", "expected a problem file (keys name, arms, fruits, task), found a coplan plan CSV (a "
                                       "replay of joint samples: t,<arm>_q1,<arm>_q2,...); were the arguments swapped?", 1)], source)
     if not isinstance(data, dict):
         raise ProblemError(
             [Issue("", f"expected a mapping with keys name, arms, fruits, task; found {kind_of(data)}", 1)], source
         )
-    fmt = data.get("format")
-    if isinstance(fmt, str) and fmt.startswith("coplan."):  # a problem file has no format: a plan, feed, ... file
-        kind = fmt.split(".", 1)[1].split("/", 1)[0]
+    fmt, kind = data.get("format"), coplan_file_kind(data)
+    if kind is not None:  # a problem file has no format: a plan, feed, ... file
         raise ProblemError([Issue("", f"expected a problem file (keys name, arms, fruits, task), found a coplan {kind} file "
                                       f"(format {fmt!r}); were the arguments swapped?", line_of(lines, ("format",)))], source)
     for k in data:
