@@ -395,6 +395,26 @@ def test_adaptive_sampling_matches_uniform_1khz(name):
         assert sum(c.arms == pc.arms for c in ver.collisions) == n_runs
 
 
+@pytest.mark.parametrize("chunk", [1, 7, 10_000])
+def test_the_profile_in_pieces_is_the_whole_profile(chunk):
+    """clearance_chunks (a long plan's profile, reduced piece by piece) yields the uniform
+    profile's instants and distances, in order, whatever the piece size."""
+    from coplan.verify.clearance import clearance_chunks
+
+    problem = load_problem(shipped("crossing_paths.yaml"))
+    plan = plan_heuristic(problem)
+    t, prof = clearance_profile(problem, plan)
+    pieces = list(clearance_chunks(problem, plan, chunk=chunk))
+    assert len(pieces) == -(-(plan.time.size - 1) // chunk)
+    tc = np.concatenate([tt for tt, _ in pieces])
+    assert tc.size == (plan.time.size - 1) * DEFAULT_SUBSTEPS + 1 and tc[-1] == plan.time[-1]
+    np.testing.assert_array_equal(tc, t)
+    np.testing.assert_array_equal(np.concatenate([d[(0, 1)] for _, d in pieces]), prof[(0, 1)])
+    # the whole profile at 1 kHz from samples 10 ms apart: the instants are the plan's knots
+    # and nine between each two
+    np.testing.assert_allclose(t[::DEFAULT_SUBSTEPS], plan.time, atol=1e-12)
+
+
 def test_single_arm_has_no_pairs_and_saves_clean_json(tmp_path):
     problem = load_problem(shipped("single_arm.yaml"))
     plan = scurve_plan(problem, {"arm": ["pick"]})
