@@ -93,6 +93,10 @@ def test_plan_csv_with_hostile_arm_names_loads_back(tmp_path: Path, single_arm) 
     ("t,arm_q1,arm_q2\n0,1,2\n0.01,1,2,3\n", 3, "expected 3 values (t and two angles for each of 1 arm), found 4"),
     ("t,arm_q1,arm_q2\n0,1,2\n0.01,1,abc\n", 3, "expected numbers, found 'abc'"),
     ("t,arm_q1,arm_q2\n0,1,2\n0.01,1,nan\n", 3, "expected finite numbers, found nan"),
+    ("t,arm_q1,arm_q2\n0,1,2\n0.01,1,2e5\n0.02,1,3e5\n", 3,
+     "expected joint angles within +-1000 rad (coplan.plausible.MAX_PLAN_ANGLE), found 200000 (t = 0.010 s) and 1 more rows"),
+    ("t,gantry_x,arm_q1,arm_q2\n0,0,1,2\n0.01,-1e300,1,2\n", 3,
+     "expected carriage positions within +-10000 m (coplan.plausible.MAX_PLAN_COORD), found -1e+300 (t = 0.010 s)"),
     ("t,arm_q1,arm_q2\n0,1,2\n0.01,1,2\n0.03,1,2\n", 3, "expected a uniform grid with spacing 0.015 s, found a step of 0.01 s"),
     ("t,arm_q1,arm_q2\n0,1,2\n0.05,1,2\n", None, "expected a grid of 100 Hz or finer"),
 ])
@@ -103,8 +107,8 @@ def test_bad_plan_csv_is_refused_with_its_line(tmp_path: Path, body: str, line, 
         load_plan(p)
     it = e.value.issues[0]
     assert it.line == line and words in it.message, it
-    if "numbers, found" in words:  # a bad value: its column's name is the key path
-        assert it.path == "arm_q2", it
+    if "numbers, found" in words or "within" in words:  # a bad value: its column's name is the key path
+        assert it.path == ("gantry_x" if "carriage" in words else "arm_q2"), it
 
 
 def test_plan_files_over_the_cap_are_refused_before_reading(tmp_path: Path, monkeypatch) -> None:

@@ -40,6 +40,8 @@ __all__ = [
     "load_plan",
     "time_grid_issues",
     "MAX_PLAN_BYTES",
+    "MAX_PLAN_ANGLE",
+    "MAX_PLAN_COORD",
 ]
 
 PLAN_FORMAT = "coplan.plan/1"
@@ -47,6 +49,13 @@ DEFAULT_RATE = 100.0  # Hz
 # Plan files (JSON or CSV) larger than this are refused before they are read: about 2 h of
 # three arms at 100 Hz. (A 100 MB plan used to take 27 s and 1.5 GB before any check.)
 MAX_PLAN_BYTES = 64 * 1024 * 1024
+#: A plan file's joint angles (rad): beyond it a sample is no motion (joint limits lie within
+#: 2 pi) and its figures are not printable (a plan with 1e300 rad read as -9e297 m of clearance).
+MAX_PLAN_ANGLE = 1000.0
+#: A plan file's carriage positions (m): a row's coordinates lie within 1000 m; beyond ten times
+#: that a sample is no motion of the carriage (1e300 m read as collisions between arms that ride
+#: on one carriage, from the rounding of their bases).
+MAX_PLAN_COORD = 10_000.0
 
 
 @dataclass(frozen=True)
@@ -424,6 +433,20 @@ def _plan_from_csv(raw: bytes, source: str | None) -> Plan:
     grid = time_grid_issues(time)
     if grid:
         raise PlanFileError([Issue("t", msg, None if i is None else int(lines[i])) for i, msg in grid], source)
+    # values no motion has, named by their column and line (the verifier checks a plan.json's
+    # by key path)
+    far: list[Issue] = []
+    cols = [] if gantry_x is None else [("gantry_x", gantry_x, MAX_PLAN_COORD, "carriage positions", "m")]
+    cols += [(f"{a}_q{k + 1}", v[:, k], MAX_PLAN_ANGLE, "joint angles", "rad") for a, v in q.items() for k in range(2)]
+    for name, col, cap, what, unit in cols:
+        rows = np.flatnonzero(np.abs(col) > cap)
+        if rows.size:
+            r = int(rows[0])
+            far.append(Issue(name, f"expected {what} within +-{cap:g} {unit} (coplan.plausible.{'MAX_PLAN_COORD' if unit == 'm' else 'MAX_PLAN_ANGLE'}), "
+                                   f"found {float(col[r]):g} (t = {time[r]:.3f} s)" + (f" and {rows.size - 1} more rows" if rows.size > 1 else ""),
+                             int(lines[r])))
+    if far:
+        raise PlanFileError(far, source)
     return Plan(problem="", planner=CSV_PLANNER, status=PlanStatus.UNVERIFIED, time=time, q=q, events=[],
                 allocation={}, unreachable=[], gantry_x=gantry_x)
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES
+from ..plan import DEFAULT_RATE, MAX_PLAN_ANGLE, MAX_PLAN_BYTES, MAX_PLAN_COORD
 
 __all__ = ["Bound", "BOUNDS", "MAX_PLAN_ANGLE", "MAX_PLAN_COORD", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "BYTES_PER_CARRIAGE_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "plan_seconds_limit", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
            "duration_issues", "row_travel", "slowest_speed", "row_duration_issues",
@@ -49,13 +49,6 @@ class Bound:
         return self.low <= x <= self.high
 
 
-#: A plan file's joint angles (rad): beyond it a sample is no motion (joint limits lie within
-#: 2 pi) and its figures are not printable (a plan with 1e300 rad read as -9e297 m of clearance).
-MAX_PLAN_ANGLE = 1000.0
-#: A plan file's carriage positions (m): a row's coordinates lie within 1000 m; beyond ten times
-#: that a sample is no motion of the carriage (1e300 m read as collisions between arms that ride
-#: on one carriage, from the rounding of their bases).
-MAX_PLAN_COORD = 10_000.0
 
 _COORD = Bound(-1000.0, 1000.0, "m", "a coordinate")
 _ANGLE = Bound(-TAU, TAU, "rad", "a joint angle")
