@@ -144,8 +144,15 @@ def test_cli_export(single_plan, tmp_path):
     for bad in ("0", "-5", "nan", "1e6"):
         res = run("export", str(plan_path), "--rate", bad)
         assert res.exit_code == ExitCode.USAGE and "--rate" in res.stderr
-    res = run("export", str(plan_path), "--out", str(tmp_path / "ros"))  # csv into a folder
-    assert res.exit_code == ExitCode.USAGE
+    # a CSV into a folder (one that exists, or a name ending with /): <plan>_<rate>hz.csv in it
+    # (--out ex/ wrote a CSV file named ex)
+    res = run("export", str(plan_path), "--out", str(tmp_path / "ros"))
+    assert res.exit_code == 0 and (tmp_path / "ros" / "plan_100hz.csv").is_file(), res.output
+    res = run("export", str(plan_path), "--out", str(tmp_path / "new") + "/")
+    assert res.exit_code == 0 and (tmp_path / "new" / "plan_100hz.csv").is_file(), res.output
+    (tmp_path / "ros" / "plan_50hz.csv").mkdir()  # that name is a folder: refused
+    res = run("export", str(plan_path), "--rate", "50", "--out", str(tmp_path / "ros"))
+    assert res.exit_code == ExitCode.USAGE and "expected a CSV file name, found a folder" in res.stderr
     for name in ("ex.json", "ex.yaml"):  # a folder of per-arm files under a file's name: refused, nothing made
         res = run("export", str(plan_path), "--format", name.split(".")[1], "--out", str(tmp_path / name))
         assert res.exit_code == ExitCode.USAGE and "give a folder name" in res.stderr and not (tmp_path / name).exists()

@@ -3,6 +3,7 @@ import: the heavy work is imported inside each command)."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -20,12 +21,22 @@ __all__ = ["export_cmd", "schema_cmd"]
 _out = Console(soft_wrap=True)
 
 
+class _FolderOut(type(Path())):  # type: ignore[misc]
+    """An ``--out`` given with a trailing separator: a folder, whether or not it exists yet
+    (``Path`` drops the separator: ``--out ex/`` wrote a CSV file named ``ex``)."""
+
+
+def _export_out(value: str) -> Path:
+    p = out_path(value)
+    return _FolderOut(p) if value.endswith(("/", os.sep)) else p
+
+
 def export_cmd(
     plan: Annotated[Path, typer.Argument(help="plan.json to export.")],
     rate: Annotated[float, typer.Option(help="Points per second, Hz.")] = 100.0,
     fmt: Annotated[ExportFormat, typer.Option("--format", "-f", help="csv: one file, every arm; json, yaml: a ROS 2 "
                                               "trajectory_msgs/JointTrajectory per arm, in a folder.")] = ExportFormat.CSV,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="CSV file, or folder (default: beside the plan).")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=_export_out, metavar="PATH", help="CSV file, or folder (default: beside the plan; a CSV into a folder that exists, or ends with /, is named <plan>_<rate>hz.csv).")] = None,
 ):
     """Export a plan for a joint controller: positions, velocities and accelerations per joint at a chosen rate."""
     for path in _export(plan, rate, fmt, out):
@@ -53,8 +64,10 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     if out is None:
         stem = plan_path.with_name(f"{plan_path.stem}_{rate:g}hz")
         out = stem.with_suffix(".csv") if fmt == ExportFormat.CSV else stem
-    if fmt == ExportFormat.CSV and out.is_dir():
-        raise Failure(ExitCode.USAGE, f"--out {out}: expected a CSV file name, found a folder")
+    if fmt == ExportFormat.CSV and (isinstance(out, _FolderOut) or out.is_dir()):  # into the folder
+        out = Path(out) / f"{plan_path.stem}_{rate:g}hz.csv"
+        if out.is_dir():
+            raise Failure(ExitCode.USAGE, f"--out {out}: expected a CSV file name, found a folder")
     if fmt != ExportFormat.CSV and out.exists() and not out.is_dir():
         raise Failure(ExitCode.USAGE, f"--out {out}: expected a folder (one {fmt.value} file per arm), found a file")
     if fmt != ExportFormat.CSV and not out.exists() and out.suffix.lower() in (".json", ".yaml", ".yml", ".csv"):
