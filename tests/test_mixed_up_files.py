@@ -126,6 +126,13 @@ def test_verify_notes_a_problem_file_other_than_the_one_the_plan_was_planned_fro
     same.write_text((PROBLEMS / "crossing_paths.yaml").read_text())
     r = runner.invoke(app, ["verify", str(same), str(crossing_plan)])
     assert r.exit_code == 0 and "sha256" not in r.output
+    # --json (and verification.json) carry it too: the text checked against and the plan's record
+    for problem, same_text in ((changed, False), (same, True)):
+        r = runner.invoke(app, ["verify", str(problem), str(crossing_plan), "--json"])
+        assert r.exit_code == 0, r.output
+        doc = json.loads(r.stdout)["problem_file"]
+        assert doc["planned_from"] == record and doc["same_text"] is same_text
+        assert (doc["sha256"] == record["sha256"]) is same_text
 
 
 def test_an_empty_plan_file_is_called_empty(tmp_path):

@@ -213,6 +213,9 @@ class Verification:
     fcl: FclReport | None = None
     timings: dict[str, float] = field(default_factory=dict)
     inferred_events: list | None = None  # the events inferred from the motion, when the plan declared none
+    # the problem text checked against and the one the plan records it was planned from:
+    # {"sha256": str | None, "planned_from": {"path", "sha256"} | None, "same_text": bool | None}
+    problem_file: dict | None = None
 
     @property
     def passed(self) -> bool:
@@ -276,6 +279,7 @@ class Verification:
             "warnings": [_asdict(w) for w in self.warnings],
             "fcl": None if self.fcl is None else self.fcl.to_dict(),
             "inferred_events": None if self.inferred_events is None else [e.to_dict() for e in self.inferred_events],
+            "problem_file": self.problem_file,
             "timings": self.timings,
         }
         return _json(doc)

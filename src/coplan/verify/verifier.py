@@ -401,6 +401,9 @@ def verify(problem: Problem, plan: Plan, options: VerifyOptions | None = None, *
     check_row_inputs(problem, plan)
     # (a plan.csv names no problem: the one it is checked against)
     ver = Verification(plan.problem or problem.name, plan.planner_name, plan.duration, problem.task.clearance, opts)
+    record = plan.problem_file
+    ver.problem_file = {"sha256": problem.digest, "planned_from": None if record is None else dict(record),
+                        "same_text": None if record is None or problem.digest is None else record["sha256"] == problem.digest}
     if plan.problem and plan.problem != problem.name:  # (a plan.csv names no problem)
         ver.warnings.append(Finding(WarningKind.PROBLEM_NAME, (), None, message=f"plan is for {plan.problem!r}, problem is {problem.name!r}"))
     t0 = _time.perf_counter()
