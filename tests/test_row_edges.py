@@ -244,8 +244,13 @@ def test_an_interrupted_row_keeps_its_stops_planned_so_far_verified(tmp_path, mo
         assert {f for f in left if "interrupted before a stop" in left[f] and left[f].startswith(f)} \
             == set(full.row.reach.harvestable()) - got
         assert (tmp_path / f"run{after}" / "plan.json").exists()
+        if after == 0:  # a row of no time: no ratio to its bounds, no share of its time ("0.00 %" before)
+            m = res.plan.metrics["row"]
+            assert m["ratio_any_plan_bound"] is None and m["planning_over_row_time"] is None
+    # (the interruption before the first stop, from the loop's last patch)
     res = CliRunner().invoke(app, ["solve", str(path), "--stops", "fixed", "-o", str(tmp_path / "cli")])
     assert res.exit_code == ExitCode.INTERRUPTED and (tmp_path / "cli" / "plan.json").exists(), res.output
+    assert "ratio -;" in res.output and "(the row has no time to set it against)" in res.output, res.output
 
 
 def test_an_interrupted_speed_search_keeps_its_best_verified_plan(tmp_path, monkeypatch):

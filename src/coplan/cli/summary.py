@@ -26,6 +26,13 @@ def fmt(x, unit="", nd=2) -> str:
     return f"{x:.{nd}f}{unit}"
 
 
+def _of_row(r: dict) -> str:
+    """Planning time's share of the row time, in words (none for a row of no time: one
+    interrupted before its first stop)."""
+    x = r.get("planning_over_row_time")
+    return "(the row has no time to set it against)" if x is None else f"= {100 * x:.2f} % of the row time"
+
+
 def fruit_line(m: dict) -> str:
     """The fruit of a plan in coplan's one vocabulary: harvested of harvestable; of all fruit,
     the unreachable, screened-out and left-out ones by id."""
@@ -111,12 +118,10 @@ def print_row_summary(console, res) -> None:
     ahead = {True: "kept ahead of the carriage", False: "LATE", None: "no stop to plan"}[r.get("kept_ahead")]
     later = "" if first == known else f" (first motion after {fmt(first, ' s')}: the carriage does not move before that stop's cell)"
     if moving:
-        p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
-          f"of the row time ({plural(r.get('plans_tried') or 0, 'full plan')} tried by the speed search, each verified"
+        p(f"  planning          {fmt(r.get('planning_time'), ' s')} {_of_row(r)} ({plural(r.get('plans_tried') or 0, 'full plan')} tried by the speed search, each verified"
           + ("; with the stop-and-go plan --gantry auto compared it with" if solver.get("auto") else "") + ")")
     else:
-        p(f"  planning          {fmt(r.get('planning_time'), ' s')} = {fmt(100 * (r.get('planning_over_row_time') or 0), ' %', 2)} "
-      f"of the row time; first stop known after {fmt(known, ' s')}{later}; the slowest stop took {fmt(r.get('slowest_stop_seconds'), ' s')} "
+        p(f"  planning          {fmt(r.get('planning_time'), ' s')} {_of_row(r)}; first stop known after {fmt(known, ' s')}{later}; the slowest stop took {fmt(r.get('slowest_stop_seconds'), ' s')} "
           f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({ahead})"
           + ("; the planning time counts the on-the-move plans --gantry auto compared it with" if solver.get("auto") else ""))
     for k, v in res.files.items():

@@ -134,6 +134,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
                     "kept_ahead": None, "least_slack_seconds": None, "first_motion_seconds": planning})
     if bounds is not None:
         out["lower_bound"] = bounds.to_dict()
-        out["ratio_any_plan_bound"] = span / bounds.any_plan if bounds.any_plan > 0 else None
-        out["ratio_stop_and_go_bound"] = span / bounds.stop_and_go if bounds.stop_and_go > 0 else None
+        # (no ratio for a row that harvested nothing: an interrupted row before its first stop)
+        out["ratio_any_plan_bound"] = span / bounds.any_plan if bounds.any_plan > 0 and span > 0 else None
+        out["ratio_stop_and_go_bound"] = span / bounds.stop_and_go if bounds.stop_and_go > 0 and span > 0 else None
     return out
