@@ -235,6 +235,37 @@ def test_sigterm_saves_the_incumbent_and_exits_143(tmp_path: Path, problems_dir:
     assert json.loads((tmp_path / "verification.json").read_text())["summary"]["passed"] is True
 
 
+@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="needs fork")
+def test_sigterm_to_the_process_group_is_announced_once(tmp_path: Path) -> None:
+    """A service manager's SIGTERM reaches coplan's worker processes too (the process group):
+    forked from the command, they inherit its handler and each printed 'terminated (SIGTERM)'.
+    A forked child stops quietly; the command says it once and exits 143."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "term.py"
+    script.write_text(
+        "import os, signal, time\n"
+        "from rich.console import Console\n"
+        "from coplan.cli.console import run_console\n"
+        "def app():\n"
+        "    pid = os.fork()\n"
+        "    if pid == 0:  # a worker: SIGTERM, as the process group's\n"
+        "        try:\n"
+        "            os.kill(os.getpid(), signal.SIGTERM)\n"
+        "            time.sleep(10)\n"
+        "        except KeyboardInterrupt:\n"
+        "            os._exit(7)\n"
+        "        os._exit(1)\n"
+        "    assert os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]) == 7\n"
+        "    os.kill(os.getpid(), signal.SIGTERM)\n"
+        "    time.sleep(10)\n"
+        "run_console(app, Console(stderr=True))\n")
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=60)
+    assert proc.returncode == int(ExitCode.TERMINATED), proc.stderr
+    assert proc.stderr.count("terminated (SIGTERM)") == 1 and "Traceback" not in proc.stderr, proc.stderr
+
+
 def test_summary_lists_every_file_written(tmp_path: Path, problems_dir: Path) -> None:
     res = run("solve", str(problems_dir / "single_arm.yaml"), "--planner", "coordinated", "--out", str(tmp_path))
     assert res.exit_code == 0, res.output

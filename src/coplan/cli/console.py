@@ -93,10 +93,13 @@ def run_console(app, err_console) -> None:
     from ..kinds import ExitCode
 
     terminated = failures.TERMINATED
+    main = os.getpid()  # worker processes forked from this one inherit the handler: they stop quietly
 
     def on_term(signum, frame):
         if not terminated:
             terminated.append(signum)
+            if os.getpid() != main:
+                raise KeyboardInterrupt
             err_console.print("terminated (SIGTERM): stopping; a solve keeps what it has, a live run writes nothing", markup=False)
         raise KeyboardInterrupt
 
