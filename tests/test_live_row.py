@@ -699,3 +699,25 @@ def test_a_long_late_decision_stop_and_go_holds_the_carriage_and_misses_nothing(
         assert m["faults"]["late_replan"]["waits_until"] > m["faults"]["late_replan"]["decided_at"] + late - 1.0
         assert m["missed_reachable_by_a_working_arm"] == [] and m["of_offline"] == 1.0 and res.verification.passed
         assert m["stops_without_picks"] == 0
+
+
+def test_stop_and_go_a_false_burst_during_a_stop_is_probed_there():
+    """(On a row of one stop the burst came after the stop's arrival and fell at no stop: dropped,
+    while the summary named it.) A burst while the arms work at a stop is reported at its time and
+    probed before the carriage moves on."""
+    import yaml
+    from importlib.resources import files
+
+    d = yaml.safe_load((files("coplan") / "problems" / "rows" / "six_arm_row.yaml").read_text())
+    d["fruits"] = [f for f in d["fruits"] if f["position"][0] <= 12.0]
+    d["gantry"]["end"] = 12.0
+    row = parse_problem(yaml.safe_dump(d))
+    quiet = run_live_row(row, LiveRowOptions(mode="stop-and-go"))
+    (stop,) = quiet.plan.solver["row"]["stops"]  # one stop serves it all
+    res = run_live_row(row, LiveRowOptions(mode="stop-and-go", faults=RowFaults(false_burst=30)))
+    f = res.metrics["faults"]["false_burst"]
+    assert stop["arrive"] < f["t"] == f["reported_at"] and f["at_stop_x"] == stop["x"]
+    assert res.metrics["false_reports"] >= 30 and res.metrics["probes"] >= 30
+    first = res.plan.solver["row"]["stops"][0]
+    assert first["depart"] > f["t"]  # the carriage stayed for the probes
+    assert res.verification.passed and res.metrics["of_offline"] == 1.0

@@ -387,7 +387,7 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
     while True:
         if faults.burst_at is not None and not faults.burst and faults.burst_at <= t_arr:
             faults.burst = faults.burst_reports(problem, opts, float(grid[k]), t_arr)
-            faults.log["false_burst"]["at_stop_x"] = round(float(grid[k]), 3)
+            faults.log["false_burst"].update(at_stop_x=round(float(grid[k]), 3), reported_at=round(t_arr, 3))
             run.add_reports(faults.burst)
         learn(t_arr)
         run.set_cruise(cruise)
@@ -436,6 +436,24 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
         run.policy(order=order, halt=faults.halt, delay=faults.delay, make_way=True)
         picks = [e for e in run.booker.events[before:] if e.kind == EventKind.PICK]
         t_dep = max([t_arr] + [e.t_end for e in picks])
+        t_b = faults.burst_at
+        if t_b is not None and not faults.burst and t_arr < t_b < t_dep:
+            # a burst while the arms work here (it fell at no stop's arrival: on a row of one
+            # stop, none at all): its reports are booked at its time, after the cycles booked
+            # already, and the carriage stays until they are probed
+            faults.burst = faults.burst_reports(problem, opts, float(grid[k]), t_b)
+            faults.log["false_burst"].update(at_stop_x=round(float(grid[k]), 3), reported_at=t_b)
+            run.add_reports(faults.burst)
+            learn(t_b)
+            run.set_cruise(cruise, since=t_b)
+            ids = {r.id for r in faults.burst}
+            until_b = t_b + STOP_PATIENCE * (1 + len(ids))
+            run.booker.windows = {f: [replace(w, lo=max(w.lo, t_b), hi=min(w.hi, until_b)) for w in ws if w.hi >= t_b]
+                                  for f, ws in run.booker.windows.items() if f in ids}
+            more = len(run.booker.events)
+            run.policy(halt=faults.halt, delay=faults.delay, make_way=True)
+            picks += [e for e in run.booker.events[more:] if e.kind == EventKind.PICK]
+            t_dep = max([t_dep] + [e.t_end for e in picks])
         stops.append({"x": round(float(grid[k]), 4), "arrive": round(t_arr, 3), "depart": round(t_dep, 3), "picks": len(picks)})
         rested.append(k)
         nxt, t_dep = next_stop(k, t_dep)
