@@ -78,6 +78,22 @@ def test_on_the_move_a_fruit_only_the_start_serves_is_picked_while_the_carriage_
     assert plain.info["start_hold"] == 0.0 and plain.plan.gantry_x[1] > row.gantry.start
 
 
+def test_on_the_move_a_fruit_the_first_centimetres_serve_is_held_for_too():
+    """(A fruit served from 0-0.10 m of the rail was not held for -- only one the start alone
+    serves was -- and the speed search slowed the whole row to 0.08 m/s, six times the row time.)
+    The carriage at its fastest leaves it behind before an arm could pick it: it rests there first."""
+    far = [{"id": f"f{i}", "position": [3.0 + 0.7 * i, 1.0]} for i in range(8)]
+    row = _row([{"id": "edge", "position": [-3.35, 1.0]}] + far)
+    assert row_reach(row).span("edge") == (0, 2)  # (0 to 0.10 m)
+    res = plan_moving(row, MovingOptions())
+    plain = plan_moving(_row(far), MovingOptions())
+    assert res.verification.passed and res.plan.metrics["harvested"] == 9 and res.info["start_hold"] > 0
+    pick = next(e for e in res.plan.events if e.kind == EventKind.PICK and e.fruit == "edge")
+    assert pick.t_end <= res.info["start_hold"] + 1e-9
+    # the rest of the row at the pace it has without that fruit: the hold, not a slower row
+    assert res.plan.metrics["makespan"] <= plain.plan.metrics["makespan"] + res.info["start_hold"] + 1.0
+
+
 def test_live_on_the_move_the_carriage_rests_where_it_starts_for_a_report_only_the_start_serves():
     """Live, the camera reports at the start a fruit only the start position serves: the carriage
     first rests there (as the offline plan, its reference, does), the fruit is picked, and the

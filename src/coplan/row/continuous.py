@@ -89,11 +89,37 @@ def start_hold(problem: Problem, reach: RowReach, fruit) -> float:
     return float(load.max(initial=0.0))
 
 
-def _held_at_start(reach: RowReach, res: RowResult) -> list[str]:
-    """Fruit a moving plan left out that only the carriage's start position serves (in file
-    order): no speed gives them a window, a carriage resting there first does."""
+def _held_at_start(problem: Problem, reach: RowReach, res: RowResult) -> list[str]:
+    """Fruit a moving plan left out that only the carriage's first positions serve (in file
+    order): those the carriage, ramping up from rest at its limits, leaves behind before an arm
+    could have reached and picked them -- the way out and the pick of the fruit's cheapest cycle
+    (:func:`coplan.row.bound.cycle_bounds`) from the start (the start alone, or a few
+    centimetres beyond: a fruit served from 0-0.10 m slowed a whole row sixfold). No speed worth cruising at gives them a
+    window; a carriage resting there first does."""
     left = res.info.get("left_out") or {}
-    return [f for f in reach.harvestable() if f in left and reach.span(f)[1] == 0]
+    first = [f for f in reach.harvestable() if f in left and reach.span(f)[0] == 0]
+    if not first:
+        return []
+    from .bound import cycle_bounds
+
+    g = problem.gantry
+    ramp = Cruise.of(problem, g.max_velocity, g.end)
+    ts = np.arange(0.0, ramp.duration, 0.01)
+    xs = ramp.x(ts)
+    cost = cycle_bounds(problem)[0]
+    dwell = problem.task.pick_dwell + problem.task.place_dwell
+    col = {f.id: k for k, f in enumerate(problem.fruits)}
+    out = []
+    for f in first:
+        hi = float(reach.grid[reach.span(f)[1]])
+        arms = np.flatnonzero(reach.cover[f][:, 0])
+        cheapest = float(np.min(cost[arms, col[f]])) if arms.size else math.inf
+        passed = float(ts[min(int(np.searchsorted(xs, hi, side="right")), ts.size - 1)]) if ts.size else 0.0
+        # the cheapest cycle's way out and pick (its ways out and back take as long): not done
+        # before the carriage at its fastest leaves the fruit behind
+        if reach.span(f)[1] == 0 or passed < 0.5 * (cheapest - dwell) + problem.task.pick_dwell:
+            out.append(f)
+    return out
 
 
 def level_cap(problem: Problem, reach: RowReach, profile: SpeedProfile, demand=None) -> float:
@@ -346,7 +372,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                 for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
                     tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
                 if not runner.hold:  # fruit only the start serves, missed: every plan from here rests there first
-                    held = sorted({f for v in todo for f in _held_at_start(reach, tried[v][0])})
+                    held = sorted({f for v in todo for f in _held_at_start(problem, reach, tried[v][0])})
                     if held:
                         runner.hold = start_hold(problem, reach, held)
                         for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
@@ -519,7 +545,7 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
     if opts.level is not None:
         res = plan_continuous(problem, opts.level, opts, reach, progress)
         curve = [_point(res, res.timings["planning"])]
-        held = _held_at_start(reach, res)
+        held = _held_at_start(problem, reach, res)
         if held:  # fruit only a carriage at rest where it starts can give time: once more, resting there first
             again = plan_continuous(problem, opts.level, opts, reach, progress, None, start_hold(problem, reach, held))
             curve.append(replace(_point(again, again.timings["planning"]), start_hold=again.info["start_hold"]))
