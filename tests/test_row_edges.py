@@ -336,3 +336,18 @@ def test_an_interrupt_a_cell_planner_absorbed_still_interrupts_the_row_its_live_
         compare_rows(row, tmp_path / "cmp", rules=("fixed", "fewest"))
     md = (tmp_path / "cmp" / "compare.md").read_text()
     assert "| fixed (interrupted) |" in md and "Note: interrupted while planning stop rule fixed" in md and "fewest" not in md
+
+
+def test_on_the_move_a_long_settle_at_the_rail_s_end_leaves_no_fruit():
+    """(With gantry.settle 8 s or more, every speed left the fruit only the carriage's final
+    rest serves -- 'no clear cycle was found': each arm gave them up after three tries, a second
+    apart, before the settle let their windows open.) A window not open yet is no failed try."""
+    d = gantry_row(length=10.0, density=2.0, seed=0)
+    d["gantry"]["settle"] = 10.0
+    row = parse_problem(to_yaml(d))
+    res = plan_moving(row, MovingOptions(profile="constant", level=0.3))
+    assert res.verification.passed and not res.info["left_out"]
+    assert res.plan.metrics["harvested"] == len(row_reach(row).harvestable())
+    rest = res.plan.time[np.flatnonzero(np.diff(res.plan.gantry_x) > 0)[-1] + 1]  # the carriage's final rest
+    late = [e for e in res.plan.events if e.kind == EventKind.PICK and e.t_end > rest]
+    assert late and all(e.t_start >= rest + 10.0 - 1e-6 for e in late)  # picked once the carriage settled

@@ -517,9 +517,10 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 # is left to the next stop
                 x1 = booker.cruise.x1
                 for fid, w in tries:
-                    failed[(i, fid)] = failed.get((i, fid), 0) + 1
+                    if w.lo <= now + _PATIENCE:  # (a window not open yet -- the carriage settling -- is no failure)
+                        failed[(i, fid)] = failed.get((i, fid), 0) + 1
                 gone = {(fid, w.arm) for fid, w in tries
-                        if failed[(i, fid)] >= _GIVE_UP or not booker.branches(i, fid, x1, x1)}
+                        if failed.get((i, fid), 0) >= _GIVE_UP or not booker.branches(i, fid, x1, x1)}
                 by_arm[i] = [(fid, w) for fid, w in by_arm[i] if (fid, w.arm) not in gone]
             if first is not None:
                 pending[i].pop(0)  # the given order's next fruit does not fit: the greedy may take it
