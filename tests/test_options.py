@@ -81,3 +81,28 @@ def test_options_with_the_heuristic_is_a_usage_error(tmp_path: Path) -> None:
     opts.write_text("seed: 1\n")
     res = run("solve", "--planner", "heuristic", "--options", str(opts), "--out", str(tmp_path / "o"))
     assert res.exit_code == int(ExitCode.USAGE) and "the heuristic planner has no solver options" in res.output
+
+
+def test_ipopt_settings_are_checked_before_any_work(tmp_path: Path) -> None:
+    """(A bad IPOPT setting passed the options check and failed inside the first program, an
+    internal error after seconds of solving, exit 1.) CasADi and IPOPT judge each setting on a
+    one-variable program when the options are made: exit 3, each bad setting on its line."""
+    text = ("ipopt:\n  ipopt.tol: x\n  ipopt.max_iter: -5\n  ipopt.mu_strategy: bogus\n  ipopt.nonsense: 2\n"
+            "  print_tme: true\n  ipopt.max_cpu_time: 10\n")
+    with pytest.raises(OptionsError) as e:
+        parse_options(text, "o.yaml")
+    got = {(i.path, i.line): i.message for i in e.value.issues}
+    assert got.keys() == {("ipopt.ipopt.tol", 2), ("ipopt.ipopt.max_iter", 3), ("ipopt.ipopt.mu_strategy", 4),
+                          ("ipopt.ipopt.nonsense", 5), ("ipopt.print_tme", 6)}
+    assert "found 'x'" in got[("ipopt.ipopt.tol", 2)]
+    assert "0 <= (3000) <= +inf" in got[("ipopt.ipopt.max_iter", 3)] and "found -5" in got[("ipopt.ipopt.max_iter", 3)]
+    assert "one of: monotone, adaptive" in got[("ipopt.ipopt.mu_strategy", 4)]
+    assert "did you mean 'print_time'?" in got[("ipopt.print_tme", 6)]
+    assert parse_options("ipopt: {ipopt.tol: 1.0e-6, ipopt.max_iter: 50}\n").ipopt == {"ipopt.tol": 1e-6, "ipopt.max_iter": 50}
+    with pytest.raises(OptionsError, match="ipopt.ipopt.tol: expected a value of the type IPOPT's tol takes"):
+        OptimalOptions(ipopt={"ipopt.tol": "x"})  # built in Python: the same check
+    path = tmp_path / "o.yaml"
+    path.write_text(text)
+    res = CliRunner().invoke(app, ["solve", "crossing_paths", "--options", str(path), "-o", str(tmp_path / "out")])
+    assert res.exit_code == ExitCode.BAD_INPUT and "o.yaml:3: ipopt.ipopt.max_iter" in res.output, res.output
+    assert not (tmp_path / "out").exists()

@@ -158,6 +158,10 @@ class OptimalOptions:
         # built in Python as in a file: every value checked (``workers="auto"``: this machine's cores, at most 8)
         settle_workers(self)
         check_fields(self, _POSITIVE)
+        if self.ipopt:  # names and values as CasADi and IPOPT take them (else: an internal error, minutes in)
+            bad = ipopt_issues(self.ipopt)
+            if bad:
+                raise OptionsError(bad, type(self).__name__)
 
 
 # fields that must be > 0 (the others of their type must be >= 0)
@@ -201,11 +205,25 @@ def parse_options(text: str, source: str | None = None, base: OptimalOptions | N
         if msg is not None:
             issues.append(Issue(str(key), msg, line_of(lines, (key,))))
             continue
+        if key == "ipopt":  # each setting on its own line
+            bad = ipopt_issues(v, lines)
+            if bad:
+                issues += bad
+                continue
         values[key] = (int(v) if kinds[key] == "int" else float(v) if kinds[key].startswith("float") and v is not None
                        else dict(v) if kinds[key] == "dict" else v)
     if issues:
         raise OptionsError(issues, source)
     return replace(base or OptimalOptions(), **values)
+
+
+def ipopt_issues(settings: dict, lines=None) -> list[Issue]:
+    """Issues for the IPOPT settings CasADi or IPOPT refuse (:mod:`.ipopt_options`), each named
+    ``ipopt.<key>`` (with its line in an options file's ``lines``)."""
+    from .ipopt_options import ipopt_option_issues
+
+    return [Issue(f"ipopt.{k}", msg, line_of(lines, ("ipopt", k)) if lines is not None else None)
+            for k, msg in ipopt_option_issues(settings)]
 
 
 def load_options(path: str | Path, base: OptimalOptions | None = None) -> OptimalOptions:
