@@ -313,7 +313,12 @@ def test_cli_animate_and_problem_lookup(tmp_path, saved, greenhouse):
     assert r.exit_code == 0, r.output
     assert (tmp_path / "odd.gif").exists()
     r = run("animate", str(odd), "--problem", str(Path(greenhouse.source).with_name("single_arm.yaml")))
-    assert r.exit_code == 3 and "no trajectory for arm" in r.output
+    assert r.exit_code == 3 and "does not fit problem" in r.output and "missing ['arm']" in r.output
+    # a problem with fewer arms than the plan: refused too (its third arm was left out of the figure)
+    for cmd in (["animate"], ["plot", "--kind", "clearance"]):
+        r = run(*cmd, str(saved["greenhouse"]), "--problem", str(Path(greenhouse.source).with_name("crossing_paths.yaml")),
+                "--out", str(tmp_path / ("x.gif" if cmd[0] == "animate" else "x.png")))
+        assert r.exit_code == 3 and "unknown ['center']" in r.output, r.output
     assert run("animate", str(saved["single"]), "--speed", "0").exit_code == 2
 
 

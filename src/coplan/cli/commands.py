@@ -504,12 +504,14 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
                 f"{plan_path} is a plan of problem {plan.problem!r}; {where}that is not a shipped problem "
                 f"({', '.join(p.name for p in shipped)}): give its YAML file with --problem FILE",
             )
-    missing = [a.name for a in prob.arms if a.name not in plan.q]
-    if missing:
+    names = [a.name for a in prob.arms]
+    missing = [n for n in names if n not in plan.q]
+    extra = [n for n in plan.q if n not in names]
+    if missing or extra:  # (an arm the problem does not have was silently left out of the figure)
         _fail(
             ExitCode.BAD_INPUT,
-            f"{plan_path} does not fit problem {prob.name!r}: no trajectory for arm(s) {', '.join(missing)} "
-            f"(the plan has {', '.join(plan.q)})",
+            f"{plan_path} does not fit problem {prob.name!r}: expected the problem's arms {names}, found {list(plan.q)}"
+            + (f" (missing {missing})" if missing else "") + (f" (unknown {extra})" if extra else ""),
         )
     if not plan.events and plan.q:  # (a plan.csv declares none): as the verifier infers them
         from dataclasses import replace
