@@ -359,3 +359,19 @@ def test_gif_fps_is_rounded_to_whole_centiseconds_and_long_plans_speed_up(tmp_pa
     said.clear()
     animate_plan(single_arm, plan, tmp_path / "b.gif", fps=10, dpi=30, width=4, max_frames=20, notify=said.append)
     assert len(said) == 1 and "instead of ×1" in said[0]
+
+
+def test_a_gif_s_frames_fit_its_memory_budget(tmp_path, single_arm, monkeypatch):
+    """(Pillow holds every GIF frame until the file is written: --dpi 300 --fps 30 ran out of
+    memory.) The frames a GIF may hold are capped by MAX_GIF_BYTES at about 2 bytes per pixel;
+    a plan needing more plays faster, and says so."""
+    import coplan.viz.animate as anim
+
+    plan = plan_heuristic(single_arm)
+    px = (4 * 40) * (anim._extent(single_arm, plan, 4)[2] * 40)
+    monkeypatch.setattr(anim, "MAX_GIF_BYTES", int(2.0 * px * 12) + 2)  # room for 12 frames
+    said = []
+    out = animate_plan(single_arm, plan, tmp_path / "m.gif", fps=10, dpi=40, width=4, notify=said.append)
+    assert len(said) == 1 and "within 12 frames of 160 px wide at --dpi 40" in said[0] and "held in memory" in said[0]
+    with Image.open(out) as im:
+        assert im.n_frames <= 12

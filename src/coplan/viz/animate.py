@@ -89,6 +89,38 @@ def _ffmpeg_path() -> str:
     return matplotlib.rcParams.get("animation.ffmpeg_path", "ffmpeg") or "ffmpeg"
 
 
+_AXES = (0.98, 0.15, 0.74)  # the scene's axes: width, bottom and height, as shares of the figure
+
+
+def _extent(problem: Problem, plan: Plan, width: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """The world rectangle drawn (lower and upper corner, m) and the figure's height (inches)
+    at ``width`` inches: the arms' reach, the bins, and the fruit (a row's: their heights, as the
+    scene follows the carriage)."""
+    arms = list(problem.arms)
+    lo = np.min([np.subtract(a.base, a.reach) for a in arms], axis=0)
+    hi = np.max([np.add(a.base, a.reach) for a in arms], axis=0)
+    if problem.fruits and plan.gantry_x is None:
+        lo = np.minimum(lo, problem.fruit_positions.min(axis=0))
+        hi = np.maximum(hi, problem.fruit_positions.max(axis=0))
+    elif problem.fruits:
+        lo[1] = min(lo[1], problem.fruit_positions[:, 1].min())
+        hi[1] = max(hi[1], problem.fruit_positions[:, 1].max())
+    for a in arms:
+        lo = np.minimum(lo, np.subtract(a.bin, 0.3))
+        hi = np.maximum(hi, np.add(a.bin, 0.3))
+    lo, hi = lo - 0.25, hi + 0.25
+    ex, ey = hi - lo
+    ax_w, _, ax_h = _AXES
+    return lo, hi, width * ax_w * ey / ex / ax_h
+
+
+#: The most memory a GIF's frames may take while it is written (Pillow holds every frame, one
+#: byte per pixel, and about as much again while it encodes): about 2 bytes per pixel per frame
+#: (measured: 474 frames of 1350 x 1000 px took 1.29 GB). More frames play the plan faster.
+MAX_GIF_BYTES = 1_000_000_000
+_GIF_BYTES_PER_PIXEL = 2.0
+
+
 def frame_times(duration: float, speed: float = 1.0, fps: float = 10.0, hold_end: float = 1.0) -> np.ndarray:
     """Plan times shown by each frame: real time x ``speed`` at ``fps``, then ``hold_end``
     seconds (wall clock) on the final pose."""
@@ -231,21 +263,9 @@ class _Scene:
 
         # a row is drawn from the carriage (the camera rides on it): the arms stay, the row passes by
         self.shift = None if plan.gantry_x is None else np.asarray(plan.gantry_x, float)
-        lo = np.min([np.subtract(a.base, a.reach) for a in self.arms], axis=0)
-        hi = np.max([np.add(a.base, a.reach) for a in self.arms], axis=0)
-        if problem.fruits and self.shift is None:
-            lo = np.minimum(lo, problem.fruit_positions.min(axis=0))
-            hi = np.maximum(hi, problem.fruit_positions.max(axis=0))
-        elif problem.fruits:
-            lo[1] = min(lo[1], problem.fruit_positions[:, 1].min())
-            hi[1] = max(hi[1], problem.fruit_positions[:, 1].max())
-        for a in self.arms:
-            lo = np.minimum(lo, np.subtract(a.bin, 0.3))
-            hi = np.maximum(hi, np.add(a.bin, 0.3))
-        lo, hi = lo - 0.25, hi + 0.25
+        lo, hi, height = _extent(problem, plan, width)
         ex, ey = hi - lo
-        ax_w, ax_b, ax_h = 0.98, 0.15, 0.74
-        height = width * ax_w * ey / ex / ax_h
+        ax_w, ax_b, ax_h = _AXES
         self.fig = fig = Figure(figsize=(width, height), dpi=dpi)
         _offscreen_canvas_class(FigureCanvasAgg)(fig)
         ax = self.ax = fig.add_axes((0.01, ax_b, ax_w, ax_h))
@@ -503,9 +523,16 @@ def animate_plan(
             say(f"GIF frame delays are whole centiseconds: using {gif_fps:g} fps instead of {fps:g}")
             fps = gif_fps
     n = len(frame_times(plan.duration, speed, fps, 1.0))
-    if n > max_frames:
-        new_speed = math.ceil(speed * n / max_frames * 10) / 10
-        say(f"the plan lasts {plan.duration:.1f} s: playing it at ×{new_speed:g} instead of ×{speed:g} to stay within {max_frames} frames")
+    cap, why = max_frames, f"to stay within {max_frames} frames"
+    if not mp4:  # a GIF's frames are held in memory until it is written
+        px = (width * dpi) * (_extent(problem, plan, width)[2] * dpi)
+        fits = int(MAX_GIF_BYTES // (_GIF_BYTES_PER_PIXEL * px))
+        if fits < cap:
+            cap, why = max(fits, 2), (f"to stay within {fits} frames of {width * dpi:.0f} px wide at --dpi {dpi:g} "
+                                      f"(a GIF's frames are held in memory: at most {MAX_GIF_BYTES / 1e9:g} GB)")
+    if n > cap:
+        new_speed = math.ceil(speed * n / cap * 10) / 10
+        say(f"the plan lasts {plan.duration:.1f} s: playing it at ×{new_speed:g} instead of ×{speed:g} {why}")
         speed = new_speed
     with named_as(out):  # (a folder that takes no files: said before any frame is drawn, as the user named it)
         out.parent.mkdir(parents=True, exist_ok=True)
