@@ -82,6 +82,19 @@ def test_save_writes_csv_and_npz_beside_and_no_temporary(saved: dict[str, Path],
     np.testing.assert_array_equal(npz["q_center"], plan.q["center"])
 
 
+def test_save_to_a_json_file_name_writes_beside_it(plan: Plan, tmp_path: Path) -> None:
+    """(plan.save("my_plan.json") made a folder named my_plan.json.) A file name ending .json
+    writes my_plan.json, .csv and .npz beside it, each whole (no temporary file left)."""
+    paths = plan.save(tmp_path / "my_plan.json")
+    assert {k: p.name for k, p in paths.items()} == {"json": "my_plan.json", "csv": "my_plan.csv", "npz": "my_plan.npz"}
+    assert {p.name for p in tmp_path.iterdir()} == {"my_plan.json", "my_plan.csv", "my_plan.npz"}
+    assert all(p.is_file() for p in paths.values())
+    np.testing.assert_allclose(load_plan(paths["json"]).q["left"], plan.q["left"], atol=5.1e-8)
+    np.testing.assert_allclose(load_plan(paths["csv"]).q["left"], plan.q["left"], atol=1e-7)
+    (tmp_path / "folder.json").mkdir()  # an existing folder is a folder, whatever its name
+    assert plan.save(tmp_path / "folder.json")["json"] == tmp_path / "folder.json" / "plan.json"
+
+
 # --------------------------------------------------------------------------- round trip
 def test_save_load_round_trip(saved: dict[str, Path], plan: Plan) -> None:
     back = load_plan(saved["json"])

@@ -97,6 +97,22 @@ def atomic_text(path: Path, text: str) -> None:
         raise
 
 
+def atomic_file(path: Path, write) -> None:
+    """As :func:`atomic_text`, for a writer: ``write(tmp_path)`` fills a temporary file beside
+    ``path``, which then replaces it (``np.savez_compressed``, ``np.savetxt``)."""
+    path = Path(path)
+    with named_as(path):
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial" + path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        write(tmp)
+        os.chmod(tmp, usual_mode())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
 def is_run_folder(path: Path) -> bool:
     """Whether ``path`` is a folder holding nothing but files a coplan run writes."""
     if not path.is_dir():

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from .errors import Issue, PlanFileError, coplan_file_kind
-from .output import atomic_text
+from .output import atomic_file, atomic_text
 from .kinds import EventKind, PlannerKind, PlanStatus
 from .plancsv import CSV_PLANNER, csv_header, read_csv_samples
 
@@ -190,20 +190,24 @@ class Plan:
             {"gantry": {"x": jsonable(np.round(self.gantry_x, 7))}} if self.gantry_x is not None else {})
 
     def save(self, out_dir: str | Path, stem: str = "plan") -> dict[str, Path]:
-        """Write ``plan.json`` plus ``plan.csv`` (one row per time) and ``plan.npz``.
+        """Write ``plan.json`` plus ``plan.csv`` (one row per time) and ``plan.npz`` into the
+        folder ``out_dir``; a file name ending ``.json`` (``save("my_plan.json")``) writes
+        ``my_plan.json``, ``.csv`` and ``.npz`` beside it (it made a folder of that name).
 
-        The JSON is written to a temporary name first and renamed, so a crash never
-        leaves a half-written plan. Returns the paths written.
+        Each file is written to a temporary name first and renamed, so a crash never
+        leaves a half-written one. Returns the paths written.
         """
         out = Path(out_dir)
+        if out.suffix.lower() == ".json" and not out.is_dir():
+            out, stem = out.parent, out.stem
         out.mkdir(parents=True, exist_ok=True)
         paths = {"json": out / f"{stem}.json", "csv": out / f"{stem}.csv", "npz": out / f"{stem}.npz"}
         atomic_text(paths["json"], json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
 
         cols = [self.time[:, None]] + ([] if self.gantry_x is None else [self.gantry_x[:, None]]) + [self.q[a] for a in self.q]
-        np.savetxt(paths["csv"], np.hstack(cols), delimiter=",", header=csv_header(self.q, self.gantry_x is not None),
-                   comments="", fmt="%.7f")
-        np.savez_compressed(paths["npz"], time=self.time, **{f"q_{a}": q for a, q in self.q.items()})
+        atomic_file(paths["csv"], lambda tmp: np.savetxt(tmp, np.hstack(cols), delimiter=",", comments="", fmt="%.7f",
+                                                          header=csv_header(self.q, self.gantry_x is not None)))
+        atomic_file(paths["npz"], lambda tmp: np.savez_compressed(tmp, time=self.time, **{f"q_{a}": q for a, q in self.q.items()}))
         return paths
 
 
