@@ -375,3 +375,18 @@ def test_a_gif_s_frames_fit_its_memory_budget(tmp_path, single_arm, monkeypatch)
     assert len(said) == 1 and "within 12 frames of 160 px wide at --dpi 40" in said[0] and "held in memory" in said[0]
     with Image.open(out) as im:
         assert im.n_frames <= 12
+
+
+def test_the_plotting_api_names_a_plan_of_another_problem(single_arm, greenhouse):
+    """(plot_clearance of another problem's plan raised KeyError: 'left'; plot_workspace(plan) an
+    AttributeError.) Each plotting function says what it expected and what it found."""
+    from coplan.viz import plot_clearance, plot_gantt, plot_joints, plot_workspace
+
+    plan = plan_heuristic(single_arm)
+    for fn in (plot_clearance, plot_gantt, plot_joints):
+        with pytest.raises(ValueError, match=rf"{fn.__name__}: plan .* does not fit problem .*expected the problem's arms"):
+            fn(greenhouse, plan)
+        with pytest.raises(TypeError, match=rf"{fn.__name__}: expected a Problem .* found NoneType"):
+            fn(None, plan)
+    with pytest.raises(TypeError, match="plot_workspace: expected a Problem .* found Plan"):
+        plot_workspace(plan)

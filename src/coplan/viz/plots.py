@@ -47,14 +47,32 @@ def _figure(figsize, **kw):
     return Figure(figsize=figsize, layout="constrained", **kw)
 
 
-def _as_plans(plans) -> dict[str, Plan]:
+def _check_problem(problem, what: str) -> None:
+    if not isinstance(problem, Problem):
+        raise TypeError(f"{what}: expected a Problem (coplan.problem.load_problem) as the first argument, "
+                        f"found {type(problem).__name__}")
+
+
+def _as_plans(problem: Problem, plans, what: str) -> dict[str, Plan]:
+    """``{label: plan}`` of one plan or a mapping, each checked to be a plan of ``problem``'s
+    arms (one of another problem raised a KeyError from inside the drawing)."""
+    _check_problem(problem, what)
     if isinstance(plans, Plan):
-        return {plans.planner_name: plans}
-    if isinstance(plans, Mapping):
+        plans = {plans.planner_name: plans}
+    elif isinstance(plans, Mapping):
         if not plans:
-            raise ValueError("expected at least one plan, found none")
-        return dict(plans)
-    raise TypeError(f"expected a Plan or a mapping label -> Plan, found {type(plans).__name__}")
+            raise ValueError(f"{what}: expected at least one plan, found none")
+        plans = dict(plans)
+    else:
+        raise TypeError(f"{what}: expected a Plan or a mapping label -> Plan, found {type(plans).__name__}")
+    names = [a.name for a in problem.arms]
+    for label, plan in plans.items():
+        if not isinstance(plan, Plan):
+            raise TypeError(f"{what}: expected a Plan for {label!r}, found {type(plan).__name__}")
+        if sorted(plan.q) != sorted(names):
+            raise ValueError(f"{what}: plan {label!r} does not fit problem {problem.name!r}: expected the problem's arms "
+                             f"{names}, found {list(plan.q)}")
+    return plans
 
 
 def plan_title(label: str, plan: Plan) -> str:
@@ -88,7 +106,7 @@ def plot_gantt(problem: Problem, plans: Plan | Mapping[str, Plan], *, title: str
     """
     from matplotlib.patches import Patch
 
-    plans = _as_plans(plans)
+    plans = _as_plans(problem, plans, "plot_gantt")
     colors = arm_colors(problem)
     names = [a.name for a in problem.arms]
     n_arms = len(names)
@@ -167,7 +185,7 @@ def plot_clearance(problem: Problem, plans: Plan | Mapping[str, Plan], *, title:
     """
     from matplotlib.lines import Line2D
 
-    plans = _as_plans(plans)
+    plans = _as_plans(problem, plans, "plot_clearance")
     req = problem.task.clearance
     fig = _figure((11, 0.9 + 2.5 * len(plans)))
     axes = fig.subplots(len(plans), 1, sharex=True, sharey=True, squeeze=False)[:, 0]
@@ -253,6 +271,7 @@ def plot_joints(problem: Problem, plan: Plan, *, arms: list[str] | None = None, 
     """
     from matplotlib.lines import Line2D
 
+    _as_plans(problem, plan, "plot_joints")
     colors = arm_colors(problem)
     names = [a.name for a in problem.arms if a.name in plan.q and (arms is None or a.name in arms)]
     if not names:
@@ -364,6 +383,7 @@ def plot_workspace(problem: Problem, arm: str | None = None, *, resolution: int 
     dashed and labelled, and the fruit only they could pick shown as screened out: what makes a
     plan partial. With ``arm="name"``: that arm alone.
     """
+    _check_problem(problem, "plot_workspace")
     if problem.gantry is not None:
         raise ValueError(f"plot_workspace: expected a stationary cell, found the row {problem.name!r} (its arms ride on the carriage)")
     from matplotlib.colors import LinearSegmentedColormap
@@ -503,7 +523,7 @@ def save_comparison_figures(problem: Problem, plans: Mapping[str, Plan], out_dir
     heuristic drawn above optimal). Files: ``schedule_gantt.png``, ``clearance.png`` and one
     ``joints_<label>.png`` per plan.
     """
-    plans = _as_plans(plans)
+    plans = _as_plans(problem, plans, "save_comparison_figures")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figs = [("schedule_gantt.png", plot_gantt(problem, plans)), ("clearance.png", plot_clearance(problem, plans))]
