@@ -390,3 +390,27 @@ def test_the_row_entry_points_and_options_are_names_of_coplan_row():
             "StopWindow"} <= set(row.__all__)
     with pytest.raises(AttributeError, match="no attribute 'RowOption'"):
         row.RowOption  # noqa: B018
+
+
+def test_the_generators_name_a_bad_count_seed_or_link_pair():
+    """(row_problem('3', 5) raised "'<' not supported", links=(1,) an IndexError, seed=-1 NumPy's
+    own message; cell_problem(0, n_arms=0) returned a problem of no arms, and n_fruits=10**5
+    gave up after 200 draws over 4 MiB each.) Each is refused at once, naming the argument."""
+    from coplan.generate import cell_problem, gantry_row, overlap_problem, random_problem, row_problem
+
+    cases = [
+        (lambda: row_problem("3", 5), r"row_problem: n_arms: expected a whole number from 1 to 64, found '3'"),
+        (lambda: row_problem(3, 5, links=(1,)), r"row_problem: links: expected two positive finite numbers, found \(1,\)"),
+        (lambda: row_problem(3, 5, seed=-1), r"row_problem: seed: expected a whole number from 0 to 4294967295, found -1"),
+        (lambda: random_problem("a"), r"random_problem: seed: expected a whole number .* found 'a'"),
+        (lambda: cell_problem(0, n_arms=0), r"cell_problem: n_arms: expected a whole number from 1 to 64, found 0"),
+        (lambda: cell_problem(0, n_fruits=10**5), r"cell_problem: n_fruits: expected a whole number from 0 to 20000, found 100000"),
+        (lambda: overlap_problem(n_arms=2.5), r"overlap_problem: n_arms: expected a whole number"),
+        (lambda: gantry_row(n_arms=True), r"gantry_row: n_arms: expected a whole number .* found True"),
+    ]
+    for make, words in cases:
+        with pytest.raises(ValueError, match=words):
+            make()
+    import numpy
+
+    assert len(row_problem(3, 5, seed=numpy.int64(4))["fruits"]) == 5  # NumPy integers are whole numbers

@@ -68,6 +68,30 @@ def _finite(**values: Any) -> None:
             raise ValueError(f"{k}: expected finite numbers, found {v!r}")
 
 
+def _whole(what: str, **values: Any) -> None:
+    """ValueError naming the first count or seed that is not a whole number in its range:
+    ``seed`` 0 to 2**32 - 1 (NumPy's seeds), ``n_arms`` 1 to MAX_ARMS, ``n_fruits`` 0 to
+    MAX_FRUITS (a problem file's limits), ``max_tries`` >= 1; None passes (drawn)."""
+    from .model import MAX_ARMS, MAX_FRUITS
+
+    ranges = {"seed": (0, 2**32 - 1), "n_arms": (1, MAX_ARMS), "n_fruits": (0, MAX_FRUITS), "max_tries": (1, 10**6)}
+    for k, v in values.items():
+        if v is None:
+            continue
+        lo, hi = ranges[k]
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
+            raise ValueError(f"{what}: {k}: expected a whole number from {lo} to {hi}, found {v!r}")
+
+
+def _pair(what: str, **values: Any) -> None:
+    """ValueError naming the first argument that is not a pair of positive finite numbers."""
+    for k, v in values.items():
+        xs = list(np.ravel(np.asarray(v, dtype=object)))
+        if len(xs) != 2 or not all(isinstance(x, (int, float, np.number)) and not isinstance(x, bool)
+                                   and math.isfinite(x) and x > 0 for x in xs):
+            raise ValueError(f"{what}: {k}: expected two positive finite numbers, found {v!r}")
+
+
 def _fruit_ids(n: int) -> list[str]:
     width = max(3, len(str(n)))
     return [f"f{i:0{width}d}" for i in range(1, n + 1)]
@@ -136,8 +160,10 @@ def row_problem(
     could reach (lesson margin 0.01 m) is replaced by fresh draws from the same stream, so
     the row has no holes. Deterministic in ``seed``.
     """
-    if n_arms < 1 or n_fruits < 0:
-        raise ValueError(f"expected n_arms >= 1 and n_fruits >= 0, found {n_arms} and {n_fruits}")
+    _whole("row_problem", n_arms=n_arms, n_fruits=n_fruits, seed=seed)
+    if n_arms is None or n_fruits is None:
+        raise ValueError(f"row_problem: expected n_arms and n_fruits, found {n_arms!r} and {n_fruits!r}")
+    _pair("row_problem", links=links)
     _finite(spacing=spacing, links=links, link_radius=link_radius, y_range=y_range, bin_offset=bin_offset, x_pad=x_pad)
     # the lesson's draw: np.random.seed(seed); all x, then all y
     rs = np.random.RandomState(seed)
@@ -185,8 +211,9 @@ def overlap_problem(
     in ``y_range``; a draw that is not reachable by *both* neighbours (lesson margin) is
     drawn again. Limits and task are the lesson's.
     """
-    if n_arms < 2:
-        raise ValueError(f"expected at least 2 arms for overlap zones, found {n_arms}")
+    _whole("overlap_problem", n_arms=n_arms, n_fruits=n_fruits, seed=seed)
+    if n_arms is None or n_arms < 2 or n_fruits is None:
+        raise ValueError(f"overlap_problem: expected at least 2 arms for overlap zones and a fruit count, found {n_arms!r} and {n_fruits!r}")
     rng = np.random.default_rng(seed)
     bases = _bases(n_arms, spacing)
     links = LESSON_DEFAULTS["links"]
@@ -260,6 +287,7 @@ def gantry_row(
     of its height), as strawberries hang. Positions rounded to 4 decimals, ids ``f0001``... by x.
     Deterministic in its arguments.
     """
+    _whole("gantry_row", n_arms=n_arms, seed=seed)
     _finite(length=length, density=density, spacing=spacing, y_range=y_range)
     if length <= 0 or n_arms < 1 or density < 0:
         raise ValueError(f"expected length > 0, n_arms >= 1 and density >= 0, found {length}, {n_arms}, {density}")
@@ -296,6 +324,8 @@ def gantry_row(
 def _valid_draw(draw, what: str, seed: int, n_arms, n_fruits, max_tries: int) -> dict[str, Any]:
     from ..errors import ProblemError
     from .model import parse_problem
+
+    _whole(what, seed=seed, n_arms=n_arms, n_fruits=n_fruits, max_tries=max_tries)
 
     rng = np.random.default_rng(seed)
     last: Exception | None = None
