@@ -81,6 +81,10 @@ def test_options_with_the_heuristic_is_a_usage_error(tmp_path: Path) -> None:
     opts.write_text("seed: 1\n")
     res = run("solve", "--planner", "heuristic", "--options", str(opts), "--out", str(tmp_path / "o"))
     assert res.exit_code == int(ExitCode.USAGE) and "the heuristic planner has no solver options" in res.output
+    # nor a time limit: refused, not silently ignored
+    res = run("solve", "--planner", "heuristic", "--time-limit", "5", "--out", str(tmp_path / "o"))
+    assert res.exit_code == int(ExitCode.USAGE) and "--time-limit: the heuristic planner" in res.output
+    assert not (tmp_path / "o").exists()
 
 
 def test_ipopt_settings_are_checked_before_any_work(tmp_path: Path) -> None:

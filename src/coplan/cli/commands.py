@@ -159,6 +159,9 @@ def solve(
     if stops is not None:
         _fail(ExitCode.USAGE, f"--stops: {path.name} is a stationary cell (no gantry section); a stop rule applies to a row")
     planner = planner or PlannerKind.OPTIMAL
+    if time_limit is not None and planner == PlannerKind.HEURISTIC:  # (as --options and --workers: said, not ignored)
+        _fail(ExitCode.USAGE, "--time-limit: the heuristic planner plans in one pass and has no time limit; "
+                              "it applies to --planner optimal or coordinated")
     options = _solver_options(options_file, time_limit, planner != PlannerKind.HEURISTIC)
     if n_workers is not None:
         if planner != PlannerKind.OPTIMAL:
