@@ -299,4 +299,5 @@ def solve(
     previous = None
     if out_dir is not None:  # the whole set is staged and renamed into place (coplan.output): never a mix of runs
         files, previous = _write(out_dir, plan, ver, baseline)
+        timings["write"] = _time.perf_counter() - t0 - timings["total"]
     return SolveResult(prob, plan, ver, baseline, files, timings, previous, error, error_trace)

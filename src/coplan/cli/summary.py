@@ -195,7 +195,9 @@ def print_summary(console, res) -> None:
     if parts:
         planned = sum(tm[k] for k in parts)
         split = ", ".join(f"{k} {tm[k]:.2f}" for k in parts)
-        p(f"  solve time        {planned:.2f} s ({split}; whole command {res.timings.get('total', planned):.2f} s)")
+        wrote = res.timings.get("write")
+        p(f"  solve time        {planned:.2f} s ({split}; with the screen, bound and baseline {res.timings.get('total', planned):.2f} s"
+          + (f"; the files written in {wrote:.2f} s)" if wrote is not None else ")"))
     for k, v in res.files.items():  # every file written: plan (JSON, CSV, NPZ), verification, baseline, animation
         p(f"  wrote             {safe(v)}")
     if res.previous is not None:
