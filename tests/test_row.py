@@ -550,3 +550,24 @@ def test_the_segment_that_reaches_the_rows_end_takes_every_fruit_left(n_arms, le
         assert info["segments"] == 2
         got = [f for s in stops for f in s.fruit]
         assert sorted(got) == sorted(reach.harvestable())
+
+
+def test_an_optimal_cell_holds_the_carriage_no_longer_than_the_coordinated_one():
+    """(With --planner optimal a 10 m row took 30.69 s against 30.47 s with coordinated cells: the
+    optimal planner shortens the last place, and a cell whose last pick came later held the
+    carriage longer.) Each stop keeps the optimal cell only where it holds the carriage no longer;
+    the row is then no slower than with the coordinated cells at the same stops."""
+    from coplan.kinds import PlannerKind
+
+    row = parse_problem(to_yaml(gantry_row(length=8.0, density=2.0, seed=3)))
+    coord = plan_row(row, RowOptions(stops=StopRule.FIXED))
+    opt = plan_row(row, RowOptions(stops=StopRule.FIXED, planner=PlannerKind.OPTIMAL, cell_search_work=100))
+    assert [sp.stop.x for sp in opt.stops] == [sp.stop.x for sp in coord.stops]
+    assert opt.verification.passed and opt.plan.metrics["harvested"] == coord.plan.metrics["harvested"]
+
+    def stay(sp):
+        picks = [e for e in sp.plan.events if e.kind == EventKind.PICK]
+        return max(e.t_end for e in picks) - min(e.t_start for e in picks) if picks else 0.0
+
+    assert all(stay(o) <= stay(c) + 1e-9 for o, c in zip(opt.stops, coord.stops))
+    assert opt.plan.metrics["makespan"] <= coord.plan.metrics["makespan"] + 1e-9

@@ -105,14 +105,27 @@ class RowResult:
 
 
 def _cell_plan(cell: Problem, opts: RowOptions) -> Plan:
-    """One stop's cell (``cell_at``), planned by the row's cell planner."""
+    """One stop's cell (``cell_at``), planned by the row's cell planner. The optimal planner's
+    cell is kept where it holds the carriage no longer than the coordinated one (its last pick
+    less its first: the optimal planner shortens the last place, and a cell whose last pick came
+    later made a 10 m row 0.2 s slower than with coordinated cells); else the coordinated."""
+    from ..planners.coordinated import plan_coordinated
+
     if opts.planner == PlannerKind.OPTIMAL:
         from ..planners.optimal import OptimalOptions, plan_optimal
 
-        return plan_optimal(cell, options=OptimalOptions(search_work=opts.cell_search_work, refine_retimes=20)).plan
-    from ..planners.coordinated import plan_coordinated
-
+        best = plan_optimal(cell, options=OptimalOptions(search_work=opts.cell_search_work, refine_retimes=20)).plan
+        base = plan_coordinated(cell).plan
+        if best.status == base.status and _stay(best) > _stay(base) + 1e-9:
+            return base
+        return best
     return plan_coordinated(cell).plan
+
+
+def _stay(p: Plan) -> float:
+    """How long a stop's cell holds the carriage (its last pick less its first, s)."""
+    first, last = _first_last_pick(p)
+    return last - first
 
 
 def _cell_job(cell: Problem, opts: RowOptions) -> tuple[Plan, float]:
