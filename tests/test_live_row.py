@@ -721,3 +721,26 @@ def test_stop_and_go_a_false_burst_during_a_stop_is_probed_there():
     first = res.plan.solver["row"]["stops"][0]
     assert first["depart"] > f["t"]  # the carriage stayed for the probes
     assert res.verification.passed and res.metrics["of_offline"] == 1.0
+
+
+def test_a_fruit_left_to_a_stop_where_only_the_stopped_arm_reaches_it_says_so():
+    """(Four of six fruit missed after an arm stopped were said to have 'passed arm2's reach ...
+    while arm2 was waiting for a neighbour', during a hop: the stop arm2 worked at had left them
+    to the next stop, and only the arm that then stopped reached them there.) The reason names
+    both stops and the stopped arm."""
+    import yaml
+    from importlib.resources import files
+
+    d = yaml.safe_load((files("coplan") / "problems" / "rows" / "course_row.yaml").read_text())
+    d["fruits"] = [f for f in d["fruits"] if f["position"][0] <= 10.0]
+    d["gantry"]["end"] = 10.0
+    row = parse_problem(yaml.safe_dump(d))
+    res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=1, faults=RowFaults(
+        arm_stop=True, camera_dark=3.0, false_burst=50, late_replan=2.0)))
+    assert res.verification.passed and res.metrics["missed_reachable_by_a_working_arm"] == []
+    stopped = res.metrics["faults"]["arm_stop"]["arm"]
+    missed = {f: why for f, why in res.outcome.items() if why != "harvested"}
+    assert missed
+    for why in missed.values():
+        assert f"only {stopped} could reach it, and it stopped" in why and "waiting for a neighbour" not in why, why
+    assert any("which left it to the stop at x = " in why for why in missed.values())
