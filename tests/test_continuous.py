@@ -549,3 +549,14 @@ def test_solving_a_row_without_fruit_on_the_move_says_so(tmp_path, mode):
     res = CliRunner().invoke(app, ["solve", str(path), "--gantry", mode, "-o", str(tmp_path / "out")])
     assert res.exit_code == 4 and "internal error" not in res.output and "Traceback" not in res.output
     assert "status infeasible" in res.output  # nothing to harvest
+
+
+def test_the_summary_says_a_given_speed_was_not_searched(tmp_path):
+    """(With --speed V the summary said '1 full plan tried by the speed search'.)"""
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=6.0, density=2.0, seed=1)))
+    runner = CliRunner(env={"COLUMNS": "250"})
+    res = runner.invoke(app, ["solve", str(path), "--gantry", "continuous", "--speed", "0.3", "-o", str(tmp_path / "a")])
+    assert res.exit_code == 0 and "(1 full plan at the speed given, verified)" in res.output, res.output
+    res = runner.invoke(app, ["solve", str(path), "--gantry", "continuous", "-o", str(tmp_path / "b")])
+    assert res.exit_code == 0 and "tried by the speed search, each verified)" in res.output, res.output

@@ -106,6 +106,11 @@ def test_a_shipped_problem_by_its_bare_name(tmp_path):
     for name in ("crossing_paths", "sparse_row"):
         with pytest.raises(ProblemError, match=f"{name!r} is a shipped problem, its file is .*{name}.yaml"):
             load_problem(tmp_path / "nowhere" / name)
+    # a shipped problem's name misspelt: did you mean (none for a name like no shipped one)
+    r = run("check", "cours_row", cwd=tmp_path)
+    assert r.exit_code == 3 and "did you mean the shipped problem 'course_row'?" in r.output, r.output
+    r = run("check", "zebra", cwd=tmp_path)
+    assert r.exit_code == 3 and "did you mean" not in r.output
 
 
 # --------------------------------------------------------------------------- one vocabulary

@@ -118,7 +118,9 @@ def print_row_summary(console, res) -> None:
     ahead = {True: "kept ahead of the carriage", False: "LATE", None: "no stop to plan"}[r.get("kept_ahead")]
     later = "" if first == known else f" (first motion after {fmt(first, ' s')}: the carriage does not move before that stop's cell)"
     if moving:
-        p(f"  planning          {fmt(r.get('planning_time'), ' s')} {_of_row(r)} ({plural(r.get('plans_tried') or 0, 'full plan')} tried by the speed search, each verified"
+        given = (solver.get("options") or {}).get("level") is not None  # (--speed: one speed, no search)
+        p(f"  planning          {fmt(r.get('planning_time'), ' s')} {_of_row(r)} ({plural(r.get('plans_tried') or 0, 'full plan')} "
+          f"{'at the speed given' if given else 'tried by the speed search'}, {'each ' if (r.get('plans_tried') or 0) > 1 else ''}verified"
           + ("; with the stop-and-go plan --gantry auto compared it with" if solver.get("auto") else "") + ")")
     else:
         p(f"  planning          {fmt(r.get('planning_time'), ' s')} {_of_row(r)}; first stop known after {fmt(known, ' s')}{later}; the slowest stop took {fmt(r.get('slowest_stop_seconds'), ' s')} "

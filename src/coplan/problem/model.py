@@ -8,6 +8,7 @@ what was expected and what was found.
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 from collections.abc import Mapping
@@ -535,6 +536,10 @@ def load_problem(path: str | Path) -> Problem:
             raise ProblemError([Issue("", f"expected an existing YAML file, found no file at this path; "
                                           f"{name!r} is a shipped problem, its file is {shipped[name]} "
                                           f"('coplan problems' lists them all)")], str(p))
+        near = difflib.get_close_matches(name, list(shipped), n=1, cutoff=0.8) if p.parent == Path(".") else []
+        if near:  # a shipped problem's name, misspelt
+            raise ProblemError([Issue("", f"expected an existing YAML file, found no file at this path; did you mean "
+                                          f"the shipped problem {near[0]!r}? ('coplan problems' lists them all)")], str(p))
     return parse_problem(read_input_text(path, ProblemError), str(p))
 
 
