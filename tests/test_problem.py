@@ -243,7 +243,11 @@ CASES = [
     ("home-clash-arm-home",
      lambda t: edit(edit(t, LEFT, "{name: left,   base: [-2.0, 0.0], bin: [-2.0, -0.5], home: [0.0, 0.0]}"),
                     CENTER, "{name: center, base: [0.0, 0.0],  bin: [0.0, -0.5], home: [3.1416, 0.0]}"),
-     "arms[1].home", "name: center", ["expected home poses at least the clearance 0.05 m apart", "'left' (arms[0]) and 'center' (arms[1])", "-0.0800 m apart"]),
+     "arms[1].home", "name: center", ["expected home poses at least the clearance 0.05 m apart", "'left' (arms[0]) and 'center' (arms[1])", "overlapping by 0.0800 m at home"]),
+    # (bases 0.01 m apart were reported as homes "-0.0713 m apart": the overlap and the bases say it)
+    ("home-clash-bases-overlap",
+     lambda t: edit(edit(t, "base: [0.0, 0.0]", "base: [-1.99, 0.0]"), "bin: [0.0, -0.5]", "bin: [-1.99, -0.5]"),
+     "arms[1].home", "name: center", ["overlapping by", "(their bases 0.010 m apart)"]),
     ("home-clash-default-home",
      lambda t: edit(edit(t, "base: [0.0, 0.0]", "base: [-1.9, 0.0]"), "bin: [0.0, -0.5]", "bin: [-1.9, -0.5]"),
      "arms[1].home", "name: center", ["'left' (arms[0]) and 'center' (arms[1]) 0.0066 m apart", "home from defaults.home"]),

@@ -450,7 +450,11 @@ def _home_issues(arms: list[tuple[int, Arm]], origins: dict, task: Task, lines: 
                     Issue(
                         path_str(("arms", k, "home")),
                         f"expected home poses at least the clearance {task.clearance} m apart, found arms "
-                        f"{a.name!r} (arms[{i}]) and {b.name!r} (arms[{k}]) {dmin:.4f} m apart at home{home_from}",
+                        f"{a.name!r} (arms[{i}]) and {b.name!r} (arms[{k}]) "
+                        + (f"{dmin:.4f} m apart" if dmin >= 0 else f"overlapping by {-dmin:.4f} m")
+                        + f" at home{home_from}"
+                        + (f" (their bases {math.dist(a.base, b.base):.3f} m apart)"
+                           if math.dist(a.base, b.base) < a.link_radius + b.link_radius + task.clearance else ""),
                         line_of(lines, origins[k]["home"]) if home_from == "" else line_of(lines, ("arms", k)),
                     )
                 )

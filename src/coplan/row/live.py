@@ -66,7 +66,6 @@ from ..plan import MAX_PLAN_BYTES, Event, EventKind, finalize_plan
 from ..errors import Issue, OptionsError
 from ..problem.model import Fruit, Problem
 from ..problem.plausible import live_speed_issue, plan_seconds_limit
-from .booking import why_left
 from .bound import row_bounds
 from .continuous import MovingOptions, assemble_moving, plan_moving, start_hold
 from .cruise import Cruise, pick_windows, ramp_time
@@ -75,7 +74,7 @@ from .livestops import last_stop, next_to_last, stop_share
 from .reach import row_reach
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
                       row_detections, row_reports)
-from .stranded import StoppedCover, still_reachable
+from .stranded import StoppedCover, still_reachable, why_left_at_rest
 from .track import AT_REST_CYCLE_SHARE, AT_REST_SHARE
 
 #: After an arm stops, the carriage runs at this share of the working arms' share of its speed ...
@@ -491,37 +490,8 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
             run.booker.go_home(i)
     windows = pick_windows(run.seen_problem, reach, run.booker.cruise, problem.task.pick_dwell)
     run.booker.windows = windows
-    left = {f: _why_left_at_rest(run, f, rested, faults.halt) for f in windows if f not in run.taken}
+    left = {f: why_left_at_rest(run, f, rested, faults.halt) for f in windows if f not in run.taken}
     return left, stops
-
-
-def _why_left_at_rest(run: LiveRun, fid: str, rested: list[int], halt: dict[int, float]) -> str:
-    """Why a stop-and-go row left ``fid``: picks happen only at the stops (grid indices
-    ``rested``), so where only a stopped arm reached it from them, that is the reason (the
-    carriage never goes back), not a window it passed while hopping; else :func:`why_left`."""
-    cov = run.reach.cover[fid][:, rested] if rested else np.zeros((len(run.problem.arms), 0), bool)
-    at_rest = [a for a in range(cov.shape[0]) if cov[a].any()]
-    arms = run.problem.arms
-    if at_rest and all(a in halt for a in at_rest):
-        names = " or ".join(arms[a].name for a in at_rest)
-        when = ", ".join(f"{arms[a].name} at t = {halt[a]:.1f} s" for a in at_rest)
-        return (f"{fid}: from the carriage's stops only {names} could reach it, and it stopped ({when}); "
-                "the carriage does not go back")
-    # a working arm reached it from a stop, which left it to a later one where only a stopped arm did
-    for j in range(cov.shape[1] - 1, 0, -1):
-        later = [a for a in range(cov.shape[0]) if cov[a, j]]
-        if later and all(a in halt for a in later):
-            earlier = [(i, a) for i in range(j) for a in range(cov.shape[0]) if cov[a, i] and a not in halt]
-            if earlier:
-                i, a = earlier[-1]
-                x = float(run.reach.grid[rested[i]])
-                names = " or ".join(arms[b].name for b in later)
-                when = ", ".join(f"{arms[b].name} at t = {halt[b]:.1f} s" for b in later)
-                xj = float(run.reach.grid[rested[j]])
-                return (f"{fid}: {arms[a].name} could reach it from the stop at x = {x:.2f} m, which left it to the stop "
-                        f"at x = {xj:.2f} m; from there only {names} could reach it, and it stopped ({when}); the carriage does "
-                        "not go back")
-    return why_left(run.booker, fid, halt)
 
 
 def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultDraws, left: dict[str, str], cruise: Cruise,

@@ -9,18 +9,24 @@ rests. Entry point: :func:`still_reachable`.
 
 The same test plans a stop-and-go row after the fault: :class:`StoppedCover` masks the row's
 screen so that each working arm keeps only the carriage positions with such a pose
-(:func:`clear_cover`), and the stops are chosen on that.
+(:func:`clear_cover`), and the stops are chosen on that; :func:`why_left_at_rest` says why a
+stop-and-go row missed a fruit after the fault (the stops it was left to).
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..problem.model import Problem
-from .booking import Booker
+from .booking import Booker, why_left
 from .cruise import stop_from
 
-__all__ = ["still_reachable", "clear_cover", "StoppedCover"]
+if TYPE_CHECKING:
+    from .liverun import LiveRun
+
+__all__ = ["still_reachable", "clear_cover", "StoppedCover", "why_left_at_rest"]
 
 
 def _cannot_stop_at(problem: Problem, state, x_to: float) -> bool:
@@ -151,3 +157,32 @@ class StoppedCover:
         for f in todo:
             whole = self.whole.setdefault(f, self.reach.cover[f])
             self.reach.cover[f] = clear_cover(self.booker, self.reach.grid, xy[f], whole, halt)
+
+
+def why_left_at_rest(run: "LiveRun", fid: str, rested: list[int], halt: dict[int, float]) -> str:
+    """Why a stop-and-go row left ``fid``: picks happen only at the stops (grid indices
+    ``rested``), so where only a stopped arm reached it from them, that is the reason (the
+    carriage never goes back), not a window it passed while hopping; else :func:`why_left`."""
+    cov = run.reach.cover[fid][:, rested] if rested else np.zeros((len(run.problem.arms), 0), bool)
+    at_rest = [a for a in range(cov.shape[0]) if cov[a].any()]
+    arms = run.problem.arms
+    if at_rest and all(a in halt for a in at_rest):
+        names = " or ".join(arms[a].name for a in at_rest)
+        when = ", ".join(f"{arms[a].name} at t = {halt[a]:.1f} s" for a in at_rest)
+        return (f"{fid}: from the carriage's stops only {names} could reach it, and it stopped ({when}); "
+                "the carriage does not go back")
+    # a working arm reached it from a stop, which left it to a later one where only a stopped arm did
+    for j in range(cov.shape[1] - 1, 0, -1):
+        later = [a for a in range(cov.shape[0]) if cov[a, j]]
+        if later and all(a in halt for a in later):
+            earlier = [(i, a) for i in range(j) for a in range(cov.shape[0]) if cov[a, i] and a not in halt]
+            if earlier:
+                i, a = earlier[-1]
+                x = float(run.reach.grid[rested[i]])
+                names = " or ".join(arms[b].name for b in later)
+                when = ", ".join(f"{arms[b].name} at t = {halt[b]:.1f} s" for b in later)
+                xj = float(run.reach.grid[rested[j]])
+                return (f"{fid}: {arms[a].name} could reach it from the stop at x = {x:.2f} m, which left it to the stop "
+                        f"at x = {xj:.2f} m; from there only {names} could reach it, and it stopped ({when}); the carriage does "
+                        "not go back")
+    return why_left(run.booker, fid, halt)
