@@ -166,3 +166,27 @@ def test_a_failed_verdict_names_the_violations_that_fail_it_before_what_is_left(
     head = next(line for line in r.output.splitlines() if line.startswith("single-arm -- "))
     assert "FAILED (" in head and "unknown_fruit" in head, head
     assert head.index("unknown_fruit") < head.index("not harvested"), head
+
+
+def test_a_table_into_a_pipe_is_printed_whole():
+    """(Into a pipe Rich sets 80 columns: the clearance sweep's headers were cut to 'makesp...'
+    and numbers split across lines.) Not on a terminal, a table is printed as wide as it needs."""
+    import io
+
+    from rich.console import Console
+    from rich.table import Table
+
+    from coplan.cli.console import print_table
+
+    buf = io.StringIO()
+    console = Console(file=buf, width=80, soft_wrap=True)
+    assert not console.is_terminal
+    table = Table(title="sweep")
+    for head in ("extra, mm", "clearance, m", "makespan, s", "x problem's", "certified margin, mm", "harvested",
+                 "verified", "planning, s"):
+        table.add_column(head)
+    table.add_row("+0", "0.050", "12.895", "1.000", "70.0", "4 / 4", "yes", "0.53")
+    print_table(console, table)
+    text = buf.getvalue()
+    assert "certified margin, mm" in text and "12.895" in text and "…" not in text
+    assert max(len(line) for line in text.splitlines()) > 80

@@ -222,3 +222,22 @@ def test_plan_json_verification_json_and_the_viewer_page_are_written_whole_or_no
             write()
         assert err.value.strerror == "No space left on device"
         assert list(target.parent.iterdir()) == []
+
+
+@pytest.mark.parametrize("args", [
+    ["solve", "SINGLE", "--planner", "heuristic", "--out", "-"],
+    ["export", "PLAN", "--out", "-"],
+])
+def test_out_dash_is_not_a_file_named_dash(tmp_path, monkeypatch, args):
+    """(``--out -`` wrote a file or a folder named '-'.) No command writes its files to stdout:
+    exit 2, nothing written."""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    plan = tmp_path / "p" / "plan.json"
+    solve(_single(), planner="heuristic", out_dir=plan.parent)
+    monkeypatch.chdir(tmp_path)
+    r = CliRunner().invoke(app, [str(_single()) if a == "SINGLE" else str(plan) if a == "PLAN" else a for a in args])
+    assert r.exit_code == 2 and "found '-'" in r.output, r.output
+    assert not (tmp_path / "-").exists()

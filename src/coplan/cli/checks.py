@@ -69,6 +69,9 @@ def out_path(value: str) -> Path:
     refused (exit 2) rather than read as the current folder, which typer would make of it."""
     if value == "":
         raise typer.BadParameter("expected a file or folder name, found an empty string (an unset variable?)")
+    if value == "-":  # (no command writes its files to stdout: --json prints the summary there)
+        raise typer.BadParameter("expected a file or folder name, found '-': coplan writes files, not to stdout "
+                                 "(--json prints the summary on stdout)")
     return Path(value)
 
 

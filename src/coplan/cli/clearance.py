@@ -9,7 +9,7 @@ from pathlib import Path
 from ..kinds import ExitCode, PlannerKind
 from . import failures
 from .checks import budget_hint, check_time_limit, fail, solver_options
-from .console import ProgressDisplay
+from .console import ProgressDisplay, print_table
 from .summary import safe
 
 __all__ = ["clearance_sweep", "run_clearance_sweep"]
@@ -58,7 +58,7 @@ def run_clearance_sweep(source: Path, kind, extra, out: Path, figures: bool, opt
             table.add_column(head)
         for r in cost.rows:
             table.add_row(*[safe(cell(r, k)) for k, _ in COLUMNS])
-        out_console.print(table)
+        print_table(out_console, table)
         out_console.print(f"wrote {safe(cost.files['json'])} and {safe(cost.files['markdown'])}")
     failed = any(r.get("makespan") and not r.get("verified") for r in cost.rows)
     return ExitCode.SOLVER_FAILED if failed else ExitCode.OK

@@ -27,7 +27,7 @@ from .row import moving_options, refuse_rows_in_compare, refused_on_a_row
 from .summary import fmt as _fmt
 from .summary import print_summary, print_verification
 from .summary import safe as _s
-from .console import FlagsGroup, ProgressDisplay, run_console
+from .console import FlagsGroup, ProgressDisplay, print_table, run_console
 from ..errors import InputError, plural
 from ..kinds import AllocationMethod, ExitCode, FclMode, GantryMode, PlannerKind, StopRule
 
@@ -453,7 +453,7 @@ def compare_cmd(
         typer.echo(json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
     else:
         for table in rich_tables(cmp):
-            out_console.print(table)
+            print_table(out_console, table)
         for bad in cmp.bad_inputs:
             err_console.print(bad["error"], markup=False, highlight=False)
         for row in cmp.failed_runs:

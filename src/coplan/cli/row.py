@@ -73,7 +73,7 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
 
     from ..kinds import PlannerKind
     from ..report.rows import ROW_COLUMNS, cell_text, compare_rows
-    from .console import ProgressDisplay
+    from .console import ProgressDisplay, print_table
 
     cell = None
     if planner:
@@ -97,7 +97,7 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
             table.add_column(head, min_width=max([len(w) for w in head.split()] + [len(row[c]) for row in cells]))
         for row in cells:
             table.add_row(*row)
-        out_console.print(table)
+        print_table(out_console, table)
         out_console.print(f"wrote {safe(cmp.files['json'])} and {safe(cmp.files['markdown'])}")
     return ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
 

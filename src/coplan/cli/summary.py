@@ -7,6 +7,7 @@ import math
 from collections import Counter
 
 from ..errors import plural, printable
+from .console import print_table
 
 __all__ = ["fmt", "fruit_line", "print_row_summary", "print_summary", "print_verification", "safe"]
 
@@ -272,6 +273,6 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
         span = f"{v.t:.3f}" if v.t_start is None or v.t_end is None or v.t_end - v.t_start < 1e-9 else f"{v.t_start:.3f}..{v.t_end:.3f}"
         detail = " ".join(x for x in (f"fruit {v.fruit}" if v.fruit else "", v.message) if x)
         table.add_row(v.kind.value, safe(",".join(v.arms)), span, fmt(v.value, "", 4), fmt(v.limit, "", 4), safe(detail))
-    console.print(table)
+    print_table(console, table)
     if len(ver.violations) > max_rows:
         p(f"  ... and {len(ver.violations) - max_rows} more (see verification.json: --out)")
