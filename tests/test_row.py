@@ -571,3 +571,15 @@ def test_an_optimal_cell_holds_the_carriage_no_longer_than_the_coordinated_one()
 
     assert all(stay(o) <= stay(c) + 1e-9 for o, c in zip(opt.stops, coord.stops))
     assert opt.plan.metrics["makespan"] <= coord.plan.metrics["makespan"] + 1e-9
+
+
+def test_check_of_a_row_with_nothing_to_harvest_says_so(tmp_path):
+    """(coplan check of a row with no fruit exited 4 with a lower bound of 0.00 s and no word of
+    why.) It says there is nothing to plan, as a cell's check does."""
+    d = gantry_row(length=6.0, density=2.0, seed=1)
+    d["fruits"] = []
+    path = tmp_path / "empty.yaml"
+    path.write_text(to_yaml(d))
+    r = CliRunner(env={"COLUMNS": "250"}).invoke(app, ["check", str(path)])
+    assert r.exit_code == 4 and "nothing to plan" in r.output and "the problem lists no fruit" in r.output, r.output
+    assert "lower bound" not in r.output
