@@ -338,7 +338,7 @@ def test_solve_on_the_move_writes_a_plan_that_verify_accepts(tmp_path, row):
 
 
 @pytest.mark.parametrize("args, words", [
-    (["--gantry", "continuous", "--speed", "3"], "--speed: expected a cruising speed in [0.000"),
+    (["--gantry", "continuous", "--speed", "3"], "--speed: expected a cruising speed in [0.00"),
     (["--gantry", "continuous", "--speed", "3"], ", 0.5] m/s (gantry.max_velocity at most;"),
     (["--gantry", "continuous", "--stops", "fixed"], "--stops: on the move"),
     (["--gantry", "continuous", "--planner", "optimal"], "--planner: on the move"),

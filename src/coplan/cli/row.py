@@ -167,6 +167,20 @@ def moving_options(problem, gantry, speed, stops, planner):
     from ..problem.plausible import cruise_speed_issue
 
     bad = cruise_speed_issue(problem, speed)
+    from ..problem.plausible import plan_seconds_limit, slowest_speed
+
+    ref = speed if isinstance(speed, (int, float)) and 0.0 < speed <= problem.gantry.max_velocity else slowest_speed(problem)
+    if bad and isinstance(speed, (int, float)) and ref > 0:
+        # the least speed as the planner reckons it (the carriage's cruise to its rest, by the
+        # row's screen), not the quick estimate's, which may lie a little below it
+        from ..row.continuous import least_pace, make_cruise
+        from ..row.reach import row_reach
+
+        limit = plan_seconds_limit(problem)
+        need = least_pace(ref, make_cruise(problem, row_reach(problem), SpeedProfile.CONSTANT, ref), limit)
+        bad = (f"expected a cruising speed in [{need:.3g}, {problem.gantry.max_velocity:g}] m/s (gantry.max_velocity at "
+               f"most; at least what keeps the plan within {limit:.0f} s, the longest coplan makes with {plural(len(problem.arms), 'arm')} on a row: "
+               f"its file under 64 MiB), found {speed:g}")
     if bad:
         fail(ExitCode.USAGE, f"--speed: {bad} ({problem.name!r})")
     return MovingOptions(profile=SpeedProfile.CONSTANT, level=speed)

@@ -89,6 +89,16 @@ def start_hold(problem: Problem, reach: RowReach, fruit) -> float:
     return float(load.max(initial=0.0))
 
 
+def least_pace(level: float, cruise: Cruise, limit: float, hold: float = 0.0) -> float:
+    """The least pace whose cruise (``cruise``, at ``level``) fits a plan of ``limit`` s: the
+    cruise's time scales with 1 / pace, its rests and ramps do not (a little more for those);
+    three figures, rounded up."""
+    cruising = cruise.duration - hold
+    need = level * cruising / max(limit - hold, 1e-9) * 1.001
+    step = 10.0 ** (math.floor(math.log10(need)) - 2)
+    return math.ceil(need / step) * step
+
+
 def _held_at_start(problem: Problem, reach: RowReach, res: RowResult) -> list[str]:
     """Fruit a moving plan left out that only the carriage's first positions serve (in file
     order): those the carriage, ramping up from rest at its limits, leaves behind before an arm
@@ -237,11 +247,7 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
     cruise = make_cruise(problem, reach, opts.profile, level, demand, hold)
     limit = plan_seconds_limit(problem)
     if cruise.duration > limit:  # (a pace so slow that the plan would outgrow its grid and file)
-        # (the least pace: the cruise's time scales with 1 / pace; its rests and ramps do not)
-        cruising = cruise.duration - hold
-        need = level * cruising / max(limit - hold, 1e-9) * 1.001  # (its ramps: a little more)
-        step = 10.0 ** (math.floor(math.log10(need)) - 2)
-        need = math.ceil(need / step) * step  # (three figures, rounded up)
+        need = least_pace(level, cruise, limit, hold)
         raise OptionsError([Issue("level", f"expected a pace of at least {need:.3g}, whose plan fits in {limit:.0f} s (the longest "
                                            f"coplan makes with {len(problem.arms)} arms on a row: its file under "
                                            f"{MAX_PLAN_BYTES >> 20} MiB), found "
