@@ -173,6 +173,7 @@ def moving_options(problem, gantry, speed, stops, planner):
     if bad and isinstance(speed, (int, float)) and ref > 0:
         # the least speed as the planner reckons it (the carriage's cruise to its rest, by the
         # row's screen), not the quick estimate's, which may lie a little below it
+        from ..plan import MAX_PLAN_BYTES
         from ..row.continuous import least_pace, make_cruise
         from ..row.reach import row_reach
 
@@ -180,7 +181,7 @@ def moving_options(problem, gantry, speed, stops, planner):
         need = least_pace(ref, make_cruise(problem, row_reach(problem), SpeedProfile.CONSTANT, ref), limit)
         bad = (f"expected a cruising speed in [{need:.3g}, {problem.gantry.max_velocity:g}] m/s (gantry.max_velocity at "
                f"most; at least what keeps the plan within {limit:.0f} s, the longest coplan makes with {plural(len(problem.arms), 'arm')} on a row: "
-               f"its file under 64 MiB), found {speed:g}")
+               f"its file under {MAX_PLAN_BYTES >> 20} MiB), found {speed:g}")
     if bad:
         fail(ExitCode.USAGE, f"--speed: {bad} ({problem.name!r})")
     return MovingOptions(profile=SpeedProfile.CONSTANT, level=speed)
