@@ -176,7 +176,7 @@ def test_a_table_into_a_pipe_is_printed_whole():
     from rich.console import Console
     from rich.table import Table
 
-    from coplan.cli.console import print_table
+    from coplan.cli.summary import print_table
 
     buf = io.StringIO()
     console = Console(file=buf, width=80, soft_wrap=True)

@@ -9,8 +9,8 @@ from pathlib import Path
 from ..kinds import ExitCode, PlannerKind
 from . import failures
 from .checks import budget_hint, check_time_limit, fail, solver_options
-from .console import ProgressDisplay, print_table
-from .summary import safe
+from .console import ProgressDisplay
+from .summary import print_table, safe
 
 __all__ = ["clearance_sweep", "run_clearance_sweep"]
 

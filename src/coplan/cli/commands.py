@@ -25,9 +25,9 @@ from .checks import fail as _fail, solver_options as _solver_options, strict_jso
 from .failures import resolve_problem
 from .row import moving_options, refuse_rows_in_compare, refused_on_a_row
 from .summary import fmt as _fmt
-from .summary import print_summary, print_verification
+from .summary import print_summary, print_table, print_verification
 from .summary import safe as _s
-from .console import FlagsGroup, ProgressDisplay, print_table, run_console
+from .console import FlagsGroup, ProgressDisplay, run_console
 from ..errors import InputError, plural
 from ..kinds import AllocationMethod, ExitCode, FclMode, GantryMode, PlannerKind, StopRule
 

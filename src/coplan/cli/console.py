@@ -80,21 +80,6 @@ class PipeSafeStream:
         return getattr(self._stream, name)
 
 
-def print_table(console, table) -> None:
-    """Print a Rich table whole: on a terminal at its width, as Rich does; into a pipe or a file
-    (80 columns for Rich) as wide as the table needs, at most 400 columns -- the clearance
-    sweep's headers were cut to 'makesp...', numbers split across lines."""
-    if console.is_terminal:
-        console.print(table)
-        return
-    from rich.console import Console
-
-    need = console.measure(table, options=console.options.update(width=400)).maximum
-    wide = Console(file=console.file, width=max(console.width, min(int(need), 400)), no_color=console.no_color,
-                   highlight=False)  # (Rich caps a print's width at its console's)
-    wide.print(table)
-
-
 def run_console(app, err_console) -> None:
     """Run the typer ``app`` as the ``coplan`` command. SIGTERM is handled like Ctrl-C (the
     planners save what they have), then exits with 143 instead of 130. stdout and stderr are

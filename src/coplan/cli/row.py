@@ -77,7 +77,8 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
 
     from ..kinds import PlannerKind
     from ..report.rows import ROW_COLUMNS, cell_text, compare_rows
-    from .console import ProgressDisplay, print_table
+    from .console import ProgressDisplay
+    from .summary import print_table
 
     cell = None
     if planner:

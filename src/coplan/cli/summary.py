@@ -7,7 +7,6 @@ import math
 from collections import Counter
 
 from ..errors import plural, printable
-from .console import print_table
 
 __all__ = ["fmt", "fruit_line", "print_row_summary", "print_summary", "print_verification", "safe"]
 
@@ -18,6 +17,21 @@ def safe(x) -> str:
     from rich.markup import escape
 
     return escape(printable(x))
+
+
+def print_table(console, table) -> None:
+    """Print a Rich table whole: on a terminal at its width, as Rich does; into a pipe or a file
+    (80 columns for Rich) as wide as the table needs, at most 400 columns -- the clearance
+    sweep's headers were cut to 'makesp...', numbers split across lines."""
+    if console.is_terminal:
+        console.print(table)
+        return
+    from rich.console import Console
+
+    need = console.measure(table, options=console.options.update(width=400)).maximum
+    wide = Console(file=console.file, width=max(console.width, min(int(need), 400)), no_color=console.no_color,
+                   highlight=False)  # (Rich caps a print's width at its console's)
+    wide.print(table)
 
 
 def fmt(x, unit="", nd=2) -> str:
