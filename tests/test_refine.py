@@ -130,7 +130,7 @@ def test_the_shared_offsets_memo_changes_nothing(dense):
 
 def test_the_planner_reports_the_refinement_and_can_turn_it_off():
     prob = load_problem(default_problem_path().with_name("dense_overlap.yaml"))
-    small = dict(search_work=6000, search_evaluations=200, polish=False)
+    small = dict(search_work=6000, search_evaluations=200, polish=False, widen=False)  # (refinement only)
     on = plan_optimal(prob, options=OptimalOptions(**small, refine_retimes=15))
     info = on.plan.solver["refine"]
     assert info["retimes"] == 15 and info["stopped_by"] == "budget"
