@@ -185,21 +185,24 @@ def arm_motions(problem: Problem, plan: Plan) -> list[ArmMotion]:
     return out
 
 
-def dense_grid(plan: Plan, substeps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def dense_grid(plan: Plan, substeps: int, first: int = 0, last: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Dense instants on the plan's grid: ``substeps`` per interval, knots included.
 
     Returns ``(t, seg, frac)``, each (K,) with ``K = (N - 1) * substeps + 1``: time, index of
     the plan interval the instant starts (the last knot belongs to interval N - 2 at
-    fraction 1) and the fraction inside it.
+    fraction 1) and the fraction inside it. ``first``, ``last``: only the intervals
+    ``first .. last - 1`` (the plan's last knot only when ``last`` is the last interval's end).
     """
     n = plan.time.size
     if n < 2:
         return plan.time.astype(float).copy(), np.zeros(n, dtype=int), np.zeros(n)
+    last = n - 1 if last is None else last
     s = max(1, int(substeps))
-    seg = np.repeat(np.arange(n - 1), s)
-    frac = np.tile(np.arange(s) / s, n - 1)
-    seg = np.append(seg, n - 2)
-    frac = np.append(frac, 1.0)
+    seg = np.repeat(np.arange(first, last), s)
+    frac = np.tile(np.arange(s) / s, last - first)
+    if last == n - 1:
+        seg = np.append(seg, n - 2)
+        frac = np.append(frac, 1.0)
     t = plan.time[seg] + frac * (plan.time[seg + 1] - plan.time[seg])
     return t, seg, frac
 
@@ -262,22 +265,12 @@ def clearance_chunks(
     if rate is not None:
         substeps = max(1, int(round(float(rate) * plan.dt)))
     motions = arm_motions(problem, plan)
-    t, seg, frac = dense_grid(plan, 1)  # the knots: each piece is expanded from its own intervals
     pairs = problem.neighbour_pairs() if pairs is None else pairs
     n = plan.time.size
-    if n < 2:
-        yield t, {(i, j): _pair_eval(motions[i], motions[j], seg, frac)[0] for i, j in pairs}
-        return
-    s = max(1, int(substeps))
     step = max(1, int(CHUNK_INTERVALS if chunk is None else chunk))
-    for a in range(0, n - 1, step):
-        b = min(a + step, n - 1)
-        seg = np.repeat(np.arange(a, b), s)
-        frac = np.tile(np.arange(s) / s, b - a)
-        if b == n - 1:  # the last knot, in the last piece
-            seg, frac = np.append(seg, n - 2), np.append(frac, 1.0)
-        tt = plan.time[seg] + frac * (plan.time[seg + 1] - plan.time[seg])
-        yield tt, {(i, j): _pair_eval(motions[i], motions[j], seg, frac)[0] for i, j in pairs}
+    for a in range(0, max(n - 1, 1), step):  # (a plan of one sample: one piece, that sample)
+        t, seg, frac = dense_grid(plan, substeps, a, min(a + step, n - 1))
+        yield t, {(i, j): _pair_eval(motions[i], motions[j], seg, frac)[0] for i, j in pairs}
 
 
 # --------------------------------------------------------------------------- certificate
