@@ -99,17 +99,16 @@ def least_pace(level: float, cruise: Cruise, limit: float, hold: float = 0.0) ->
     return math.ceil(need / step) * step
 
 
-def _held_at_start(problem: Problem, reach: RowReach, res: RowResult) -> list[str]:
-    """Fruit a moving plan left out that only the carriage's first positions serve (in file
-    order): those the carriage, ramping up from rest at its limits, leaves behind before an arm
-    could have reached and picked them -- the way out and the pick of the fruit's cheapest cycle
-    (:func:`coplan.row.bound.cycle_bounds`) from the start (the start alone, or a few
-    centimetres beyond: a fruit served from 0-0.10 m slowed a whole row sixfold). No speed worth cruising at gives them a
-    window; a carriage resting there first does."""
-    left = res.info.get("left_out") or {}
-    first = [f for f in reach.harvestable() if f in left and reach.span(f)[0] == 0]
+def start_served(problem: Problem, reach: RowReach) -> set[str]:
+    """Fruit only the carriage's first positions serve: those the carriage, ramping up from
+    rest at its limits, leaves behind before an arm could have reached and picked them -- the
+    way out and the pick of the fruit's cheapest cycle (:func:`coplan.row.bound.cycle_bounds`)
+    from the start (the start alone, or a few centimetres beyond: a fruit served from 0-0.10 m
+    slowed a whole row sixfold). No speed worth cruising at gives them a window; a carriage
+    resting there first does. (It depends on the row only: computed once per search.)"""
+    first = [f for f in reach.harvestable() if reach.span(f)[0] == 0]
     if not first:
-        return []
+        return set()
     from .bound import cycle_bounds
 
     g = problem.gantry
@@ -119,7 +118,7 @@ def _held_at_start(problem: Problem, reach: RowReach, res: RowResult) -> list[st
     cost = cycle_bounds(problem)[0]
     dwell = problem.task.pick_dwell + problem.task.place_dwell
     col = {f.id: k for k, f in enumerate(problem.fruits)}
-    out = []
+    out = set()
     for f in first:
         hi = float(reach.grid[reach.span(f)[1]])
         arms = np.flatnonzero(reach.cover[f][:, 0])
@@ -128,8 +127,15 @@ def _held_at_start(problem: Problem, reach: RowReach, res: RowResult) -> list[st
         # the cheapest cycle's way out and pick (its ways out and back take as long): not done
         # before the carriage at its fastest leaves the fruit behind
         if reach.span(f)[1] == 0 or passed < 0.5 * (cheapest - dwell) + problem.task.pick_dwell:
-            out.append(f)
+            out.add(f)
     return out
+
+
+def _left_at_start(reach: RowReach, res: RowResult) -> list[str]:
+    """Fruit a moving plan left out that the carriage's start position serves (in file order):
+    the candidates of :func:`start_served`."""
+    left = res.info.get("left_out") or {}
+    return [f for f in reach.harvestable() if f in left and reach.span(f)[0] == 0]
 
 
 def level_cap(problem: Problem, reach: RowReach, profile: SpeedProfile, demand=None) -> float:
@@ -370,15 +376,20 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                     branch_table(problem, reach.resolution))
     greedy = replace(opts, assign=AssignRule.GREEDY)  # the search's plans: CP-SAT only once, at its end
     interrupted = False
+    served: set[str] | None = None  # (start_served: once, when a plan first leaves such a fruit out)
     with _Runner(problem, reach, demand, max(1, int(opts.workers)), progress) as runner:
         try:
             def run_many(vs) -> list[SpeedPoint]:
+                nonlocal served
                 vs = [round(float(min(cap, max(v, 1e-3))), 4) for v in vs]
                 todo = [v for v in dict.fromkeys(vs) if v not in tried]
                 for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
                     tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
-                if not runner.hold:  # fruit only the start serves, missed: every plan from here rests there first
-                    held = sorted({f for v in todo for f in _held_at_start(problem, reach, tried[v][0])})
+                left = set() if runner.hold else {f for v in todo for f in _left_at_start(reach, tried[v][0])}
+                if left:  # fruit only the start serves, missed: every plan from here rests there first
+                    if served is None:
+                        served = start_served(problem, reach)
+                    held = sorted(left & served)
                     if held:
                         runner.hold = start_hold(problem, reach, held)
                         for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
@@ -551,7 +562,9 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
     if opts.level is not None:
         res = plan_continuous(problem, opts.level, opts, reach, progress)
         curve = [_point(res, res.timings["planning"])]
-        held = _held_at_start(problem, reach, res)
+        left = _left_at_start(reach, res)
+        served = start_served(problem, reach) if left else set()
+        held = [f for f in left if f in served]
         if held:  # fruit only a carriage at rest where it starts can give time: once more, resting there first
             again = plan_continuous(problem, opts.level, opts, reach, progress, None, start_hold(problem, reach, held))
             curve.append(replace(_point(again, again.timings["planning"]), start_hold=again.info["start_hold"]))
