@@ -165,13 +165,11 @@ def moving_options(problem, gantry, speed, stops, planner):
 
     if speed is None:
         return MovingOptions()
-    from ..problem.plausible import cruise_speed_issue
+    from ..problem.plausible import cruise_speed_issue, plan_seconds_limit, slowest_speed
 
     bad = cruise_speed_issue(problem, speed)
-    from ..problem.plausible import plan_seconds_limit, slowest_speed
-
-    ref = speed if isinstance(speed, (int, float)) and 0.0 < speed <= problem.gantry.max_velocity else slowest_speed(problem)
-    if bad and isinstance(speed, (int, float)) and ref > 0:
+    ref = speed if bad and 0.0 < speed <= problem.gantry.max_velocity else slowest_speed(problem) if bad else 0.0
+    if ref > 0:
         # the least speed as the planner reckons it (the carriage's cruise to its rest, by the
         # row's screen), not the quick estimate's, which may lie a little below it
         from ..plan import MAX_PLAN_BYTES
