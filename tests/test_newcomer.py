@@ -132,6 +132,8 @@ def test_check_and_solve_count_fruit_with_the_same_words(tmp_path):
     m = doc["metrics"]
     assert (m["fruit"], m["reachable"], m["harvestable"], m["harvested"]) == (2, 2, 1, 1)
     assert m["fruit_ids"] == {"unreachable": [], "screened_out": ["p005"], "left_out": []}
+    # the counts agree with the ids: a fruit only a locked arm reaches is reachable, not unreachable
+    assert (m["unreachable"], m["screened_out"]) == (0, 1) and m["reachable"] + m["unreachable"] == m["fruit"]
     r = run("solve", str(f), "--out", str(tmp_path / "o2"))
     assert "1 harvested of 1 harvestable; of 2 fruit 1 screened out (p005)" in r.output
 

@@ -191,10 +191,13 @@ def fruit_counts(problem: Problem, scr, plan: Plan) -> dict:
     reach = set(problem.reachable_ids())
     can = {f.id for j, f in enumerate(problem.fruits) if scr.reach[:, j].any()}
     picked = {e.fruit for e in plan.events if e.kind.value == "place"}
+    ids = {"unreachable": [f.id for f in problem.fruits if f.id not in reach],
+           "screened_out": [f.id for f in problem.fruits if f.id in reach and f.id not in can],
+           "left_out": [f.id for f in problem.fruits if f.id in can and f.id not in picked]}
+    # (the counts too: the planners' own ``unreachable`` list holds the screened-out fruit as well,
+    # which counted a fruit only a locked arm reaches as both reachable and unreachable)
     return {"fruit": len(problem.fruits), "reachable": len(reach), "harvestable": len(can),
-            "fruit_ids": {"unreachable": [f.id for f in problem.fruits if f.id not in reach],
-                          "screened_out": [f.id for f in problem.fruits if f.id in reach and f.id not in can],
-                          "left_out": [f.id for f in problem.fruits if f.id in can and f.id not in picked]}}
+            "unreachable": len(ids["unreachable"]), "screened_out": len(ids["screened_out"]), "fruit_ids": ids}
 
 
 def solve(

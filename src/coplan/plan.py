@@ -103,7 +103,8 @@ class Plan:
     q : arm name -> (N, 2) joint angles
     events : pick/place events (tip still on the fruit / over the bin)
     allocation : arm name -> fruit ids in the order the arm harvests them
-    unreachable : fruit no arm can reach (left out)
+    unreachable : fruit the planner left out as no usable arm reaches them (out of every arm's reach, or
+        reached only by an arm the screen locks; ``metrics.fruit_ids`` tells the two apart)
     metrics : computed by :func:`compute_metrics`
     solver : planner-specific information (status, iterations, timings, messages)
     verification : summary of the independent verification, when it ran
