@@ -94,7 +94,7 @@ def _resolve_problem(problem: Optional[Path]) -> Path:
 @app.command()
 @guarded
 def solve(
-    problem: Annotated[Optional[Path], typer.Argument(help="Problem YAML file (default: the shipped greenhouse row).")] = None,
+    problem: Annotated[Optional[Path], typer.Argument(metavar="PROBLEM", help="Problem YAML file (default: the shipped greenhouse row).")] = None,
     planner: Annotated[Optional[PlannerKind], typer.Option(
         help="Planner to use (default optimal; for a row, the cell planner at each stop: default coordinated).")] = None,
     stops: Annotated[Optional[StopRule], typer.Option(
@@ -248,7 +248,7 @@ def list_problems():
 @app.command()
 @guarded
 def check(
-    problem: Annotated[Optional[Path], typer.Argument(help="Problem YAML file (default: the shipped greenhouse row).")] = None,
+    problem: Annotated[Optional[Path], typer.Argument(metavar="PROBLEM", help="Problem YAML file (default: the shipped greenhouse row).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
 ):
     """Validate a problem and say, without solving, what its geometry allows: locked arms,
@@ -319,8 +319,8 @@ def check(
 @app.command("verify")
 @guarded
 def verify_cmd(
-    problem: Annotated[Path, typer.Argument(help="Problem YAML file.")],
-    plan: Annotated[Path, typer.Argument(help="Plan to verify: plan.json, or the plan.csv replay coplan writes (no events: they are inferred).")],
+    problem: Annotated[Path, typer.Argument(metavar="PROBLEM", help="Problem YAML file.")],
+    plan: Annotated[Path, typer.Argument(metavar="PLAN", help="Plan to verify: plan.json, or the plan.csv replay coplan writes (no events: they are inferred).")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Write verification.json (a folder, or a file name ending .json).")] = None,
     fcl: Annotated[FclMode, typer.Option(help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
     as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,
@@ -383,7 +383,7 @@ def verify_cmd(
 @guarded
 def compare_cmd(
     problems: Annotated[
-        Optional[Path], typer.Argument(help="Problem YAML file or folder of them (default: the shipped greenhouse row).")
+        Optional[Path], typer.Argument(metavar="PROBLEMS", help="Problem YAML file or folder of them (default: the shipped greenhouse row).")
     ] = None,
     planner: Annotated[
         Optional[list[str]],
@@ -537,7 +537,7 @@ PlanProblemOption = Annotated[
 @app.command("plot")
 @guarded
 def plot_cmd(
-    plan: Annotated[Path, typer.Argument(help="plan.json to draw (for --kind workspace also a problem YAML).")],
+    plan: Annotated[Path, typer.Argument(metavar="PLAN", help="plan.json to draw (for --kind workspace also a problem YAML).")],
     kind: Annotated[PlotKind, typer.Option("--kind", "-k", help="Which figure.")] = PlotKind.GANTT,
     problem: PlanProblemOption = None,
     out: Annotated[
@@ -585,7 +585,7 @@ def plot_cmd(
 @app.command("animate")
 @guarded
 def animate_cmd(
-    plan: Annotated[Path, typer.Argument(help="plan.json to animate.")],
+    plan: Annotated[Path, typer.Argument(metavar="PLAN", help="plan.json to animate.")],
     problem: PlanProblemOption = None,
     out: Annotated[
         Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output .gif (default, next to the plan) or .mp4.")
@@ -613,7 +613,7 @@ def animate_cmd(
 @app.command("view")
 @guarded
 def view_cmd(
-    plan: Annotated[Path, typer.Argument(help="plan.json to view.")],
+    plan: Annotated[Path, typer.Argument(metavar="PLAN", help="plan.json to view.")],
     problem: PlanProblemOption = None,
     compare: Annotated[Optional[Path], typer.Option("--compare", help="A second plan.json of the same problem, side by side on one clock.")] = None,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="HTML file (default: the plan's name with .html, next to it).")] = None,

@@ -32,7 +32,7 @@ def _export_out(value: str) -> Path:
 
 
 def export_cmd(
-    plan: Annotated[Path, typer.Argument(help="plan.json to export.")],
+    plan: Annotated[Path, typer.Argument(metavar="PLAN", help="plan.json to export.")],
     rate: Annotated[float, typer.Option(help="Points per second, Hz.")] = 100.0,
     fmt: Annotated[ExportFormat, typer.Option("--format", "-f", help="csv: one file, every arm; json, yaml: a ROS 2 "
                                               "trajectory_msgs/JointTrajectory per arm, in a folder.")] = ExportFormat.CSV,
@@ -43,7 +43,7 @@ def export_cmd(
         _out.print(f"wrote {escape(printable(path))}")
 
 
-def schema_cmd(kind: Annotated[SchemaKind, typer.Argument(help="Which file format.")]):
+def schema_cmd(kind: Annotated[SchemaKind, typer.Argument(metavar="KIND", help="Which file format.")]):
     """Print the JSON Schema of problem files or plan files (shipped as coplan/schemas/*.schema.json)."""
     typer.echo((Path(__file__).parents[1] / "schemas" / f"{kind.value}.schema.json").read_text(), nl=False)
 

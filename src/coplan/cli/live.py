@@ -29,7 +29,7 @@ _err = Console(stderr=True, soft_wrap=True)
 
 
 def feed_cmd(
-    problem: Annotated[Path, typer.Argument(help="Problem file (YAML) with the true fruit.")],
+    problem: Annotated[Path, typer.Argument(metavar="PROBLEM", help="Problem file (YAML) with the true fruit.")],
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Feed file to write (YAML).")],
     known: Annotated[float, typer.Option(callback=between(0.0, 1.0), help="Share of the fruit detected at t = 0.")] = 0.5,
     sigma: Annotated[float, typer.Option(callback=between(1e-6, 1.0, "m"), help="Detection noise: standard deviation per coordinate, m.")] = 0.01,
@@ -87,7 +87,7 @@ def _written(folder, names: list[str]) -> str:
 
 
 def run_cmd(
-    problem: Annotated[Path, typer.Argument(help="Problem file (YAML) with the true fruit positions.")],
+    problem: Annotated[Path, typer.Argument(metavar="PROBLEM", help="Problem file (YAML) with the true fruit positions.")],
     feed: Annotated[Optional[Path], typer.Option("--feed", "-f", help="Feed file (YAML): what the camera reports "
                                                  "(a cell; a row's camera is simulated from the options below).")] = None,
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder.")] = Path("coplan-live"),

@@ -35,7 +35,7 @@ def _counts_text(counts: dict[str, int]) -> str:
 
 
 def sweep_cmd(
-    spec: Annotated[Path, typer.Argument(help="Sweep file (YAML): a base, the parameters to vary, planner and options; "
+    spec: Annotated[Path, typer.Argument(metavar="SPEC", help="Sweep file (YAML): a base, the parameters to vary, planner and options; "
                                           "or a folder or glob of problem files.")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder (default: coplan-sweep/<sweep name>). "
                                                 "A re-run into the same folder skips the rows already done.")] = None,
@@ -110,7 +110,7 @@ def sweep_cmd(
 
 
 def sweep_report_cmd(
-    folder: Annotated[Path, typer.Argument(help="A sweep's output folder (or its results.parquet).")],
+    folder: Annotated[Path, typer.Argument(metavar="FOLDER", help="A sweep's output folder (or its results.parquet).")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Where to write report.md and the figures "
                                                 "(default: <folder>/report).")] = None,
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the figures.")] = True,
