@@ -292,6 +292,13 @@ def test_a_cruising_speed_too_slow_for_any_plan_is_refused_before_any_work(row_f
     assert rail > lo  # live, the carriage cruises the whole rail, not knowing where the last fruit is
     with pytest.raises(OptionsError, match="cruises the whole rail"):
         run_live_row(row, LiveRowOptions(speed=(lo + rail) / 2, mode=GantryMode.CONTINUOUS))
+    # the live range quoted is the one a live run holds to: just above its low end passes that check
+    from coplan.problem.plausible import live_speed_issue
+
+    msg = live_speed_issue(row, lo / 2)
+    quoted = float(re.search(r"cruising speed in \[([0-9.e-]+),", msg).group(1))
+    assert quoted == pytest.approx(rail, rel=1e-3) and "cruises the whole rail" in msg
+    assert live_speed_issue(row, quoted * 1.001) is None and live_speed_issue(row, quoted * 0.999) is not None
 
 
 def test_a_speed_within_the_quick_range_but_too_slow_for_the_cruise_is_a_usage_error(row_file, tmp_path):

@@ -283,13 +283,21 @@ def cruise_speed_issue(problem, speed) -> str | None:
 
 
 def live_speed_issue(problem, speed) -> str | None:
-    """:func:`cruise_speed_issue` for a live row on the move, whose carriage, not knowing where
-    the last fruit is, cruises to the rail's end: the whole rail within :func:`max_plan_seconds`."""
-    bad = cruise_speed_issue(problem, speed)
+    """What is wrong with ``speed`` (m/s) as a live row's cruising speed on the move, or None.
+    The live carriage, not knowing where the last fruit is, cruises to the rail's end: the whole
+    rail within :func:`max_plan_seconds` (more than :func:`cruise_speed_issue` asks of a plan
+    that knows its last fruit), and the range quoted is the live one."""
     g = problem.gantry
     limit = plan_seconds_limit(problem)
-    if bad or (g.end - g.start) / speed <= limit:
-        return bad
-    return (f"expected a cruising speed of at least {(g.end - g.start) / limit:.3g} m/s (the live carriage cruises the "
-            f"whole rail, {g.end - g.start:g} m, in a plan of at most {_hours(limit)}, the longest coplan makes with "
-            f"{len(problem.arms)} arms), found {speed:g}")
+    rail = g.end - g.start
+    lo = max(slowest_speed(problem), rail / limit)
+    if isinstance(speed, (int, float)) and not isinstance(speed, bool) and math.isfinite(speed) and 0.0 < speed <= g.max_velocity \
+            and speed >= lo:
+        return None
+    shown = f"{speed:g}" if isinstance(speed, (int, float)) and not isinstance(speed, bool) else repr(speed)
+    if lo <= 0:
+        return f"expected a cruising speed in (0, {g.max_velocity:g}] m/s (gantry.max_velocity), found {shown}"
+    return (f"expected a cruising speed in [{lo:.3g}, {g.max_velocity:g}] m/s (gantry.max_velocity at most; at least what "
+            f"cruises the whole rail, {rail:g} m, in a plan of at most {_hours(limit)}, the longest coplan makes"
+            f"{'' if limit == MAX_PLAN_SECONDS else f' with {len(problem.arms)} arms'}: a live carriage does not know "
+            f"where the last fruit is), found {shown}")
