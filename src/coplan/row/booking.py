@@ -93,6 +93,12 @@ class Booker:
         self.leg_share = LIMIT_SHARE  # of the joint limits a move uses (AT_REST_SHARE: every pick at rest)
         self.probe_rests = False  # a probe with the carriage at rest ends where it found nothing (:meth:`_probe_stays`)
         self.cycle_shares = _CYCLE_SHARES  # of the limits a whole cycle's finite differences may reach
+        # where each arm rests when it has nothing to do: home, but an arm the screen locks (it
+        # harvests nothing) is parked out of its neighbours' way first (:mod:`coplan.row.park`)
+        self.rest_q = [np.asarray(a.home, float) for a in problem.arms]
+        for i, pose in _parked(problem, self.need).items():
+            if self._go(i, pose, 0.0):
+                self.rest_q[i] = pose
 
     # ------------------------------------------------------------------ poses
     def _bin_pose(self, i: int) -> np.ndarray:
@@ -310,8 +316,8 @@ class Booker:
         st.k_free = k1
 
     def at_home(self, i: int) -> bool:
-        """Whether arm ``i`` rests at home at the end of what it has booked."""
-        return bool(np.allclose(self.arms[i].q[self.arms[i].k_free], self.problem.arms[i].home, atol=1e-12))
+        """Whether arm ``i`` rests at home (a locked arm: where it is parked) at the end of what it has booked."""
+        return bool(np.allclose(self.arms[i].q[self.arms[i].k_free], self.rest_q[i], atol=1e-12))
 
     def rests_out(self, i: int) -> bool:
         """Whether arm ``i`` rests where a probe left it: neither at its bin nor home."""
@@ -330,7 +336,7 @@ class Booker:
             return True
         if self.rests_out(i):
             self._go(i, self.bin_q[i], not_before)  # (from a probe's pose: by its bin, the way every cycle ends)
-        if self._go(i, np.asarray(self.problem.arms[i].home, float), not_before):
+        if self._go(i, self.rest_q[i], not_before):
             self.arms[i].done = True
             return True
         return False
@@ -353,6 +359,20 @@ class Booker:
                 return True
             k_s += self.up(_RETRY)
         return False
+
+
+_PARKED: "weakref.WeakKeyDictionary[Problem, dict[float, dict]]" = weakref.WeakKeyDictionary()
+
+
+def _parked(problem: Problem, need: float) -> dict:
+    """:func:`coplan.row.park.park_poses`, once per problem and clearance (every booking of a
+    speed search shares them)."""
+    from .park import park_poses
+
+    per = _PARKED.setdefault(problem, {})
+    if need not in per:
+        per[need] = park_poses(problem, need)
+    return per[need]
 
 
 #: Per problem and grid step: (arm index, fruit id) -> (first carriage position, (K, 2) usable

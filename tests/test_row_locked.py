@@ -1,0 +1,64 @@
+"""A row with an arm the screen locks: on a moving carriage the booker parks it out of its
+neighbour's way (before, it rested at home, leaning over the neighbour's fruit, and a live
+stop-and-go run harvested 6 of the 17 fruit the offline plan harvests), and the row metrics
+count its rest as no work, not as waiting for a neighbour."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from coplan.generate import gantry_row, to_yaml
+from coplan.kinds import GantryMode
+from coplan.problem import parse_problem
+from coplan.row.booking import Booker
+from coplan.row.continuous import MovingOptions, plan_moving
+from coplan.row.cruise import Cruise
+from coplan.row.live import LiveRowOptions, run_live_row
+from coplan.row.park import park_poses
+from coplan.row.reach import locked_arms
+from coplan.problem.gantry import cell_at
+from coplan.planners.coordinated.routing import ArmGeometry
+
+
+@pytest.fixture(scope="module")
+def locked_row():
+    """Two arms 0.3 m apart on an 8 m row (seed 7): ``a`` cannot reach its bin without link 1
+    crossing ``b``'s base, so the screen locks it; at home it leans over ``b``'s fruit."""
+    d = gantry_row(length=8, n_arms=2, density=2, seed=7)
+    d["arms"] = [{"name": "a", "base": [-0.15, 0.0], "bin": [-0.15, -0.5]},
+                 {"name": "b", "base": [0.15, 0.0], "bin": [0.15, -0.5]}]
+    return parse_problem(to_yaml(d))
+
+
+def test_the_locked_arm_is_parked_clear_of_its_neighbours_rests(locked_row):
+    cell = cell_at(locked_row, 0.0, ())
+    assert set(locked_arms(cell)) == {"a"}
+    need = locked_row.task.clearance + MovingOptions().margin
+    park = park_poses(locked_row, need)
+    assert set(park) == {0} and not np.allclose(park[0], locked_row.arms[0].home)
+    geo = ArmGeometry(cell, need)
+    b = cell.arms[1]
+    qb, vb = b.ik(np.asarray(b.bin, float))
+    rests = np.vstack([np.asarray(b.home, float)[None, :], qb[vb]])
+    assert geo.static_hits(0, park[0][None, :], 1, rests)[0] == 0  # b's home and bin poses stay clear
+    assert park_poses(locked_row, need)[0].tolist() == park[0].tolist()  # deterministic
+    # the booker moves it there first, and rests it there
+    booker = Booker(locked_row, Cruise.of(locked_row, 0.1, 1.0), {}, 100.0, MovingOptions().margin)
+    assert booker.at_home(0) and np.allclose(booker.arms[0].q[booker.arms[0].k_free], park[0])
+    assert np.allclose(booker.arms[0].q[0], locked_row.arms[0].home)  # (from home, at t = 0)
+
+
+def test_on_the_move_and_live_stop_and_go_harvest_every_fruit_beside_a_locked_arm(locked_row):
+    res = plan_moving(locked_row)
+    assert res.verification.passed and res.plan.metrics["harvested"] == 17
+    live = run_live_row(locked_row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=0))
+    assert live.verification.passed and live.metrics["of_offline"] == 1.0 and live.metrics["harvested"] == 17
+
+
+def test_the_locked_arms_rest_counts_as_no_work_not_as_waiting_for_a_neighbour(locked_row):
+    import coplan
+
+    res = coplan.solve(locked_row, gantry="continuous")
+    idle = res.plan.metrics["row"]["idle_share"]["a"]
+    assert idle["coordination"] == 0.0 and idle["carriage"] + idle["no_fruit"] > 0.9
