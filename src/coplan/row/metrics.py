@@ -8,11 +8,15 @@
 * **row time** (the last fruit placed), per metre of row, the **stops** and the mean time the
   carriage stands at one, the **carriage moving share** and the **picking share** (some arm
   holding still on a fruit) of the row time;
-* **idle share by cause** per arm: ``carriage`` (home while the carriage moves), ``no_fruit``
-  (home at a stop where it has nothing within reach), ``others`` (done at a stop, home, while the
-  other arms finish), ``coordination`` (within its work, holding still for a neighbour: neither
-  moving nor dwelling), ``making_way`` (moving where it has no fruit: out of a neighbour's way --
-  an arm the screen locks does only that);
+* **idle share by cause** per arm: ``carriage`` (at rest while the carriage moves), ``no_fruit``
+  (at rest at a stop where it has nothing within reach), ``others`` (done at a stop, at rest,
+  while the other arms finish), ``coordination`` (within its work -- from its first event to its
+  last, at a stop where it has fruit -- holding still for a neighbour: neither moving nor
+  dwelling), ``making_way`` (moving where it has no fruit: out of a neighbour's way -- an arm the
+  screen locks does only that, and then rests where it went). At rest: home, or holding still
+  away from home outside its work (done over its bin, or parked out of the way). On the move, an
+  arm holding still within its work while the fruit it picks next is not yet in its reach waits
+  for the carriage (``carriage``), not for a neighbour;
 * **ratios** to the row's lower bounds (:mod:`coplan.row.bound`), and ``overlap_seconds``: how
   long the carriage moves while some arm works (places, goes home, comes out), which the
   stop-and-go bound's model excludes;
@@ -38,6 +42,26 @@ __all__ = ["row_metrics"]
 
 def _home(problem: Problem, plan: Plan, tol: float = 1e-6) -> dict[str, np.ndarray]:
     return {a.name: np.all(np.abs(plan.q[a.name] - np.asarray(a.home, float)) <= tol, axis=1) for a in problem.arms}
+
+
+def _not_in_reach_yet(reach, arm: int, events, x: np.ndarray, waiting: np.ndarray, dt: float) -> np.ndarray:
+    """On the move: the samples of ``waiting`` (an arm holding still within its work) at which
+    the fruit it picks next is not yet within its reach from where the carriage is -- it waits
+    for the carriage to bring it, not for a neighbour."""
+    out = np.zeros(waiting.size, dtype=bool)
+    picks = sorted((e for e in events if e.kind == EventKind.PICK), key=lambda e: e.t_start)
+    grid = reach.grid
+    k0 = 0
+    for e in picks:
+        k1 = int(round(e.t_start / dt))
+        idx = np.flatnonzero(waiting[k0:k1]) + k0
+        cover = reach.cover.get(e.fruit)
+        if idx.size and cover is not None:
+            step = grid[1] - grid[0] if grid.size > 1 else 1.0
+            at = np.clip(np.rint((x[idx] - grid[0]) / step).astype(int), 0, grid.size - 1)  # (the nearest grid position)
+            out[idx] = ~cover[arm][at]
+        k0 = int(round(e.t_end / dt)) + 1
+    return out
 
 
 def row_metrics(problem: Problem, result, bounds=None) -> dict:
@@ -67,7 +91,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         a0, a1 = int(round(sp.start / dt)), int(round(sp.start / dt)) + sp.plan.time.size
         stop_of[a0:min(a1, n)] = i
     idle: dict[str, dict[str, float]] = {}
-    for a in problem.arms:
+    for ai, a in enumerate(problem.arms):
         q = plan.q[a.name]
         still = np.r_[np.all(np.abs(np.diff(q, axis=0)) <= 1e-9, axis=1), True]
         dwelling = np.zeros(n, dtype=bool)
@@ -79,12 +103,22 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
             at_stop_without = np.isin(stop_of, [i for i in range(len(result.stops)) if i not in has])
         else:  # on the move: an arm without a fruit in the whole row
             at_stop_without = np.full(n, not plan.allocation.get(a.name))
-        h = home[a.name] & upto
+        # within its work: from its first event to its last (an arm with none: nowhere); holding
+        # still away from home outside it -- done, or parked where it has nothing to do (an arm the
+        # screen locks) -- is resting, as at home, not waiting for a neighbour
+        within = np.zeros(n, dtype=bool)
+        mine = [e for e in plan.events if e.arm == a.name]
+        if mine:
+            within[int(round(min(e.t_start for e in mine) / dt)):int(round(max(e.t_end for e in mine) / dt)) + 1] = True
+        held = ~home[a.name] & still & ~dwelling
+        h = (home[a.name] | (held & (~within | at_stop_without))) & upto
+        waiting = held & within & ~at_stop_without & upto
+        early = _not_in_reach_yet(result.reach, ai, mine, x, waiting, dt) if not result.stops else np.zeros(n, dtype=bool)
         causes = {
-            "carriage": h & moving,
+            "carriage": (h & moving) | early,
             "no_fruit": h & ~moving & at_stop_without,
             "others": h & ~moving & ~at_stop_without,
-            "coordination": ~home[a.name] & still & ~dwelling & upto,
+            "coordination": waiting & ~early,
             "making_way": ~home[a.name] & ~still & at_stop_without & upto,
         }
         idle[a.name] = {k: float(v.sum() / upto.sum()) if span > 0 else 0.0 for k, v in causes.items()}  # (shares of the samples)
