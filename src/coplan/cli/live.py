@@ -190,11 +190,22 @@ def run_cmd(
                + ("--all-candidates gives each re-plan all the time it needs (the same run on any machine), not a "
                   "real-time run\n" if all_candidates else "give --horizon at least the latency\n")
                if m.get("late_replans") else "")
+            + _missed_line(result.run["fruit"])
             + f"executed plan {result.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
             f"wrote {_safe(out)}/: {_written(folder, names)}", highlight=False)
     status = result.plan.status
     code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
     raise typer.Exit(int(code))
+
+
+def _missed_line(fruit: dict) -> str:
+    """The reachable fruit a live cell did not harvest, each with why (the first three; run.json has all)."""
+    missed = [(f, o.get("why") or "not harvested") for f, o in fruit.items() if o.get("reachable") and not o.get("harvested")]
+    if not missed:
+        return ""
+    shown = "; ".join(f"{_safe(f)}: {_safe(why)}" for f, why in missed[:3])
+    more = f"; ... and {len(missed) - 3} more (run.json: fruit)" if len(missed) > 3 else ""
+    return f"missed {len(missed)}: {shown}{more}\n"
 
 
 def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults):

@@ -157,20 +157,43 @@ def _tips(cell: LiveCell, name: str, t: np.ndarray) -> np.ndarray:
     return fk(q, arm.links, arm.base)[1]
 
 
-def _executed_plan(problem: Problem, cell: LiveCell, track_truth: dict) -> tuple[Plan, list[str]]:
+def _executed_plan(problem: Problem, cell: LiveCell, track_truth: dict) -> tuple[Plan, list[str], dict[str, str]]:
+    """The executed plan, its events on the true fruit; the tracks whose pick found no fruit (a
+    false detection); and, per true fruit, why a grasp aimed at it closed on nothing: the
+    close-range measurement put the tip farther from the fruit than the verifier's
+    ``position_tolerance`` throughout the pick -- a fruit missed (the cycle ran, nothing was
+    harvested), not a plan that breaks a limit or comes too close."""
+    from ..kinematics.arm import fk
     from ..planners.heuristic import grid as uniform_grid
+    from ..verify.verdict import VerifyOptions
 
     sch = cell.schedules()
     times = uniform_grid(cell.end, DEFAULT_RATE)
     q = {n: s.state(times)[0] for n, s in sch.items()}
+    tol = VerifyOptions().position_tolerance
+    arms = {a.name: a for a in problem.arms}
+    truth = {f.id: np.asarray(f.position, float) for f in problem.fruits}
     events, unknown, allocation = [], [], {n: [] for n in sch}
+    misses: dict[str, str] = {}
     kinds = {StepKind.PICK: EventKind.PICK, StepKind.PLACE: EventKind.PLACE}
     for n, s in sch.items():
+        empty: set[str] = set()  # this arm's tracks whose grasp closed on nothing (their place too: nothing to place)
         for st in s.steps:
             if st.kind in kinds:
                 fid = track_truth.get(st.fruit)
                 if fid is None:
                     unknown.append(st.fruit)
+                    continue
+                if st.kind == StepKind.PICK:
+                    on = (times >= st.t0 - 1e-9) & (times <= st.t1 + 1e-9)
+                    tips = fk(q[n][on], arms[n].links, arms[n].base)[1] if on.any() else np.zeros((0, 2))
+                    least = float(np.min(np.hypot(*(tips - truth[fid]).T))) if len(tips) else math.inf
+                    if least > tol:
+                        empty.add(st.fruit)
+                        misses[fid] = (f"{n}'s grasp closed on nothing: the close-range measurement put the tip "
+                                       f"{least * 1000:.1f} mm from the fruit (more than {tol * 1000:.0f} mm)")
+                        continue
+                elif st.fruit in empty:
                     continue
                 events.append(Event(n, fid, kinds[st.kind], st.t0, st.t1))
                 if st.kind == StepKind.PICK:
@@ -178,14 +201,14 @@ def _executed_plan(problem: Problem, cell: LiveCell, track_truth: dict) -> tuple
     events.sort(key=lambda e: (e.t_start, e.arm))
     plan = Plan(problem=problem.name, planner=LIVE_PLANNER, status=PlanStatus.UNVERIFIED, time=times, q=q, events=events,
                 allocation=allocation, unreachable=problem.unreachable(), solver={})
-    return plan, unknown
+    return plan, unknown, misses
 
 
 def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, omniscient, verify, warm) -> LiveRun:
     from ..planners.coordinated.planner import plan_coordinated
     from ..verify.verdict import ViolationKind
 
-    plan, unknown = _executed_plan(problem, cell, track_truth)
+    plan, unknown, grasped_nothing = _executed_plan(problem, cell, track_truth)
     n_reach = len(problem.reachable_ids())
     ver = verify(problem, plan)
     plan.metrics = compute_metrics(plan, n_reach)
@@ -206,6 +229,8 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
         ok = f.id in picked and f.id in placed and f.id not in missed_picks
         if ok:
             why = None
+        elif f.id in grasped_nothing and f.id not in picked:
+            why = grasped_nothing[f.id]
         elif f.id in missed_picks:
             why = f"pick not within tolerance: {missed_picks[f.id]}"
         elif f.id in unreach:
@@ -234,6 +259,7 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
         "harvested": harvested, "reachable": reachable,
         "pick_success_rate": harvested / reachable if reachable else None,
         "makespan": makespan, "throughput": harvested / makespan if makespan > 0 else 0.0,
+        "grasps_on_nothing": len(grasped_nothing),
         "false_detections": len(false_tracks),
         "false_picks_avoided": sum(tr.state == TrackState.DROPPED for tr in false_tracks),
         "false_picks": sum(1 for tr in false_tracks if tr.id in unknown),
