@@ -286,6 +286,20 @@ def test_a_grasp_the_close_range_error_puts_off_the_fruit_is_a_miss_not_an_unsaf
     assert again.passed and not again.complete
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_long_commit_horizon_loses_no_fruit_already_committed(greenhouse, seed) -> None:
+    """With a 3 s horizon a close-range correction cuts its arm's commitment at the corrected
+    pick while the next pick was committed too: that fruit was neither kept nor planned again
+    (8 and 7 of 11 harvested on seeds 0 and 1). A committed pick no longer in the motion kept
+    is planned again."""
+    from coplan.live.cell import LiveOptions
+
+    feed = make_feed(greenhouse, seed=seed)
+    result = simulate(greenhouse, feed, options=LiveOptions(horizon=3.0), seed=seed, omniscient=False)
+    m = result.run["metrics"]
+    assert result.verification.passed and m["harvested"] == m["reachable"] == 11
+
+
 def test_continuity_at_every_replan_boundary(live_run) -> None:
     from coplan.planners.coordinated.schedule import ArmSchedule
 

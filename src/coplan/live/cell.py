@@ -377,8 +377,11 @@ class LiveCell:
                 elif s.kind == StepKind.PLACE:
                     h = None
             held[name] = h
+        # (a committed pick no longer in the motion kept -- a close-range correction cuts its arm's
+        # commitment at the corrected pick, and a long horizon had committed the next one too --
+        # is planned again: before, it was neither kept nor planned, and the fruit was lost)
         todo = [tr for tr in self.tracks.values() if tr.id not in picks
-                and tr.state in (TrackState.PENDING, TrackState.PLANNED, TrackState.UNREACHABLE)]
+                and tr.state in (TrackState.PENDING, TrackState.PLANNED, TrackState.UNREACHABLE, TrackState.COMMITTED)]
         believed = replace(prob, fruits=tuple(Fruit(tr.id, self._plan_position(tr)) for tr in todo))
         reach = screened_reach(believed)
         unreachable = {f.id for j, f in enumerate(believed.fruits) if not reach[:, j].any()}
@@ -432,6 +435,7 @@ class LiveCell:
             elif tr.arm != arm_new:
                 rep.reassigned[tr.id] = [tr.arm, arm_new]
             tr.state, tr.arm = (TrackState.PLANNED, arm_new) if arm_new else (TrackState.PENDING, None)
+            tr.pick_end = None
         for name, sch in best[1].items():
             self.steps[name] = list(cuts[name][0]) + list(sch.steps)
             rep.commit_until[name] = self.commit[name] = float(cuts[name][1][-1].t1)
