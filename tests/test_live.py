@@ -66,6 +66,23 @@ def test_an_empty_feed_or_sweep_file_is_named_as_what_it_should_be(parse, text, 
     assert want in str(e.value) and "name, arms" not in str(e.value)
 
 
+def test_feed_out_never_overwrites_a_file_that_is_not_a_feed(tmp_path: Path, problems_dir: Path) -> None:
+    """(``coplan feed P --out P`` replaced the problem with its feed; a plan.json got YAML.)"""
+    prob = tmp_path / "p.yaml"
+    prob.write_text((problems_dir / "crossing_paths.yaml").read_text())
+    plan = tmp_path / "plan.json"
+    plan.write_text('{"format": "coplan.plan/1"}')
+    for victim in (prob, plan):
+        before = victim.read_text()
+        r = run("feed", str(prob), "--out", str(victim))
+        assert r.exit_code == ExitCode.USAGE and "it would be overwritten" in r.output
+        assert victim.read_text() == before
+    feed = tmp_path / "f.yaml"
+    assert run("feed", str(prob), "--out", str(feed)).exit_code == 0
+    assert run("feed", str(prob), "--out", str(feed), "--seed", "2").exit_code == 0  # an earlier feed: replaced
+    assert load_feed(feed).detections
+
+
 def test_duplicate_ids_and_unknown_fruit_are_reported(greenhouse) -> None:
     with pytest.raises(FeedError) as e:
         parse_feed("detections:\n  - {t: 0, id: a, position: [0, 1], sigma: 0.01}\n"

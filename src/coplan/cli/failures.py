@@ -93,11 +93,11 @@ def check_overwrite(out, kind: str, what: str, option: str = "--out") -> None:
 
 
 def _file_kind(head: bytes) -> str:
-    """What a file's first bytes say it is: a coplan JSON file by its format ('a
-    coplan.verification file'), coplan's plan.csv replay or an export CSV by its header, else
-    'a file of another kind'."""
-    m = re.search(rb'"format"\s*:\s*"(coplan\.[a-z_]+)/', head)
-    if m:
+    """What a file's first bytes say it is: a coplan JSON or YAML file by its format ('a
+    coplan.verification file', 'a coplan.feed file'), coplan's plan.csv replay or an export CSV
+    by its header, else 'a file of another kind'."""
+    m = re.search(rb'"format"\s*:\s*"(coplan\.[a-z_]+)/', head) or re.search(rb'(?m)^format:\s*["\']?(coplan\.[a-z_]+)/', head)
+    if m:  # (JSON, or a YAML file's top-level format: a feed)
         return f"a {m.group(1).decode()} file"
     line = head.split(b"\n", 1)[0].decode("utf-8", "replace").strip()
     if line.startswith("t,") and "_q1" in line:

@@ -17,7 +17,7 @@ from rich.console import Console
 
 from .checks import between, out_path
 from .console import ProgressDisplay
-from .failures import check_out_dir, check_out_file, resolve_problem, usage
+from .failures import check_out_dir, check_out_file, check_overwrite, resolve_problem, usage
 from .summary import safe as _safe
 from ..errors import plural
 from ..kinds import ExitCode, GantryMode, LiveGantryMode, PlanStatus
@@ -53,6 +53,7 @@ def feed_cmd(
     from ..output import atomic_text
 
     check_out_file(out)
+    check_overwrite(out, "a coplan.feed file", "an earlier feed")  # (a problem, a plan: never overwritten by a typo)
     prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
     if prob.gantry is not None:
         usage(f"{prob.name} is a row (it has a gantry): a feed file is for a stationary cell; a live row simulates its "
