@@ -195,3 +195,40 @@ def test_a_row_checked_against_a_plan_csv_without_its_carriage_column_says_which
         verify(row, load_plan(bare))
     assert "in a plan.csv, the column gantry_x after t" in str(e.value) and "plan.csv replay (it names no problem)" in str(e.value)
     assert "problem ''" not in str(e.value)
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="no /dev/zero on this system")
+def test_a_device_is_refused_by_name_not_read_for_ever() -> None:
+    """(``coplan check /dev/zero`` read until the kernel stopped it at 23 GB; a plan file given
+    as a device was called a directory.)"""
+    from coplan.problem import load_problem
+
+    with pytest.raises(ProblemError, match="found a character device"):
+        load_problem("/dev/zero")
+    with pytest.raises(PlanFileError, match="found a character device"):
+        load_plan("/dev/zero")
+
+
+def test_a_pipe_is_read_no_further_than_the_cap(tmp_path: Path) -> None:
+    """A pipe's size says nothing (0): it is read up to the cap and refused past it."""
+    import os
+    import threading
+
+    from coplan.problem import load_problem
+    from coplan.problem.yamlsafe import MAX_FILE_BYTES
+
+    fifo = tmp_path / "p.yaml"
+    os.mkfifo(fifo)
+
+    def feed():
+        with open(fifo, "wb") as f:
+            try:
+                f.write(b"#" * (MAX_FILE_BYTES + 10))
+            except BrokenPipeError:
+                pass
+
+    t = threading.Thread(target=feed, daemon=True)
+    t.start()
+    with pytest.raises(ProblemError, match=f"at most {MAX_FILE_BYTES} bytes, found more"):
+        load_problem(fifo)
+    t.join(5)

@@ -9,7 +9,7 @@ import numbers
 import re
 from dataclasses import dataclass
 
-__all__ = ["Issue", "InputError", "ProblemError", "PlanFileError", "OptionsError", "CoplanError", "printable", "plural",
+__all__ = ["special_file", "Issue", "InputError", "ProblemError", "PlanFileError", "OptionsError", "CoplanError", "printable", "plural",
            "found", "finite_number", "field_issue", "check_fields"]
 
 
@@ -163,3 +163,19 @@ def is_joint_csv(data) -> bool:
     """Whether a document read as text is a CSV of joint samples (``t,<arm>_q1,...``): coplan's
     plan.csv replay or an export, given where another file is expected."""
     return isinstance(data, str) and re.match(r"t,[^,\s]+_q1,", data) is not None
+
+
+def special_file(p) -> str | None:
+    """What ``p`` is when it is a device or a socket (``"a character device"``: ``/dev/zero``
+    would be read for ever), else None (a regular file, a pipe)."""
+    import stat
+    from pathlib import Path
+
+    try:
+        mode = Path(p).stat().st_mode
+    except OSError:
+        return None
+    for test, name in ((stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return None

@@ -349,7 +349,10 @@ def load_plan(path: str | Path) -> Plan:
     if not p.exists():
         raise PlanFileError([Issue("", "expected an existing plan file, found no file at this path")], src)
     if not p.is_file():
-        raise PlanFileError([Issue("", "expected a plan file, found a directory")], src)
+        from .errors import special_file
+
+        found = "a directory" if p.is_dir() else special_file(p) or "a pipe or other special file"
+        raise PlanFileError([Issue("", f"expected a plan file, found {found}")], src)
     size = p.stat().st_size
     if size > MAX_PLAN_BYTES:
         raise PlanFileError([Issue("", f"expected a plan file of at most {MAX_PLAN_BYTES} bytes ({MAX_PLAN_BYTES >> 20} MiB, "

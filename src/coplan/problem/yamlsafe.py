@@ -28,7 +28,7 @@ from typing import Any
 
 import yaml
 
-from ..errors import InputError, Issue, ProblemError
+from ..errors import InputError, Issue, ProblemError, special_file
 
 MAX_FILE_BYTES = 4 * 1024 * 1024
 MAX_DEPTH = 12
@@ -225,13 +225,19 @@ def read_input_text(path, error: type[InputError]) -> str:
         raise error([Issue("", "expected an existing YAML file, found no file at this path")], src)
     if p.is_dir():
         raise error([Issue("", "expected a YAML file, found a directory")], src)
+    kind = special_file(p)  # (a device would be read for ever)
+    if kind is not None:
+        raise error([Issue("", f"expected a YAML file, found {kind}")], src)
     size = p.stat().st_size
     if size > MAX_FILE_BYTES:
         raise error([Issue("", f"expected a file of at most {MAX_FILE_BYTES} bytes, found {size} bytes")], src)
     try:
-        raw = p.read_bytes()
+        with open(p, "rb") as f:  # (at most the cap, whatever the size said: a pipe says 0)
+            raw = f.read(MAX_FILE_BYTES + 1)
     except OSError as e:
         raise error([Issue("", f"expected a readable file, found an error: {e.strerror}")], src) from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise error([Issue("", f"expected a file of at most {MAX_FILE_BYTES} bytes, found more")], src)
     try:
         return raw.decode("utf-8")
     except UnicodeDecodeError as e:
