@@ -5,7 +5,9 @@ chosen by :func:`speed_search`) -> :class:`coplan.row.plan.RowResult` (no stops)
 
 1. **Screen the row** (:func:`coplan.row.reach.row_reach`, as for stop-and-go).
 2. **The carriage** (:class:`coplan.row.cruise.Cruise`): one jerk-limited move from
-   ``gantry.start`` at the cruising speed, to rest where the last fruit comes within reach.
+   ``gantry.start`` at the cruising speed, to rest at the end half the front arm's reach past
+   where the last fruit first comes within reach (:func:`coplan.row.cruise.cruise_end`; at the
+   level the speed search chooses, resting where it first comes within reach is tried too).
 3. **Windows** (:func:`coplan.row.cruise.pick_windows`): when each arm can start each pick.
 4. **Assignment and order**: the interval-scheduling greedy (earliest deadline first, the
    baseline) and, with ``assign=cpsat``, OR-Tools CP-SAT over optional intervals per fruit and
@@ -53,12 +55,13 @@ MIN_SPEED = 0.01
 
 
 def make_cruise(problem: Problem, reach: RowReach, profile: SpeedProfile, level: float, demand=None,
-                hold: float = 0.0) -> Cruise:
+                hold: float = 0.0, early: bool = False) -> Cruise:
     """The carriage's motion at ``level``: a constant cruise at ``level`` m/s, or a density
     profile whose speed on each metre of rail is ``level * n_arms / demand`` (within
     [MIN_SPEED, the gantry's limit]; ``demand``: :func:`coplan.row.cruise.demand_stretches`);
-    first at rest where it starts for ``hold`` s (:func:`start_hold`)."""
-    x1 = cruise_end(problem, reach)
+    first at rest where it starts for ``hold`` s (:func:`start_hold`); at rest at the end
+    where :func:`coplan.row.cruise.cruise_end` says (``early``: its early rest)."""
+    x1 = cruise_end(problem, reach, early)
     if SpeedProfile(profile) == SpeedProfile.CONSTANT:
         return Cruise.of(problem, level, x1, hold)
     demand = demand if demand is not None else demand_stretches(problem, reach, x1)
@@ -201,6 +204,7 @@ class SpeedPoint:
     refined: bool = False  # a density profile slowed where fruit were missed (:func:`_refine`)
     assign: str = AssignRule.GREEDY.value  # whose order the arms followed
     start_hold: float = 0.0  # s the carriage first rested where it starts (:func:`start_hold`)
+    early_rest: bool = False  # at rest at the end where the last fruit first comes into reach (:func:`coplan.row.cruise.cruise_end`)
 
     @property
     def complete(self) -> bool:
@@ -211,7 +215,7 @@ class SpeedPoint:
                 "share_harvested": self.harvested / self.harvestable if self.harvestable else None,
                 "row_time": self.row_time, "fruit_per_hour": self.fruit_per_hour, "verified": self.verified,
                 "seconds": self.seconds, "refined": self.refined,
-                "assign": self.assign, "start_hold": self.start_hold}
+                "assign": self.assign, "start_hold": self.start_hold, "early_rest": self.early_rest}
 
 
 def _book(problem: Problem, reach: RowReach, cruise: Cruise, opts: MovingOptions, order=None,
@@ -239,9 +243,10 @@ def assemble_moving(problem: Problem, booker: Booker, cruise: Cruise) -> Plan:
 
 
 def plan_continuous(problem: Problem, level: float, options: MovingOptions | None = None, reach: RowReach | None = None,
-                    progress: Callable[[str], None] | None = None, demand=None, hold: float = 0.0) -> RowResult:
+                    progress: Callable[[str], None] | None = None, demand=None, hold: float = 0.0,
+                    early: bool = False) -> RowResult:
     """Plan ``problem`` (a row) with the carriage at ``level`` (:func:`make_cruise`; first at
-    rest where it starts for ``hold`` s) and verify it."""
+    rest where it starts for ``hold`` s; ``early``: its early rest at the end) and verify it."""
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: plan it as a cell")
     opts = options or MovingOptions()
@@ -250,7 +255,7 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
     timings: dict[str, float] = {}
     reach = reach if reach is not None else row_reach(problem, opts.resolution)
     timings["reach"] = _time.perf_counter() - t0
-    cruise = make_cruise(problem, reach, opts.profile, level, demand, hold)
+    cruise = make_cruise(problem, reach, opts.profile, level, demand, hold, early)
     limit = plan_seconds_limit(problem)
     if cruise.duration > limit:  # (a pace so slow that the plan would outgrow its grid and file)
         need = least_pace(level, cruise, limit, hold)
@@ -262,7 +267,8 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
     booker, left = _book(problem, reach, cruise, opts)
     info: dict = {"mode": "continuous", "profile": SpeedProfile(opts.profile).value, "level": level,
                   "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.GREEDY.value,
-                  "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "start_hold": hold}
+                  "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "start_hold": hold,
+                  "early_rest": early}
     if AssignRule(opts.assign) == AssignRule.CPSAT and left:
         from .assign import cpsat_order
 
@@ -330,7 +336,7 @@ def reorder_continuous(problem: Problem, level: float, options: MovingOptions, r
     info: dict = {"mode": "continuous", "profile": SpeedProfile(options.profile).value, "level": level,
                   "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.CPSAT.value,
                   "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "cpsat": report,
-                  "start_hold": hold}
+                  "start_hold": hold, "early_rest": False}
     return _verified(problem, booker, cruise, reach, left, info, {"reach": 0.0, "schedule": _time.perf_counter() - t0}, t0), report
 
 
@@ -343,7 +349,7 @@ def _point(res: RowResult, seconds: float) -> SpeedPoint:
     span = float(m.get("makespan") or 0.0)
     got = int(m.get("harvested") or 0)
     return SpeedPoint(float(res.info["level"]), float(res.info["mean_speed"]), got, len(res.reach.cover), span, got * 3600.0 / span if span > 0 else 0.0,
-                      bool(res.verification.passed), seconds)
+                      bool(res.verification.passed), seconds, early_rest=bool(res.info.get("early_rest")))
 
 
 def speed_search(problem: Problem, options: MovingOptions | None = None, reach: RowReach | None = None,
@@ -438,13 +444,18 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                     cpsat_report = report
                     if res is not None:
                         tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"], start_hold=runner.hold))
+                # at the level chosen, the carriage's early rest at the end too (where the last fruit
+                # first comes into reach: :func:`coplan.row.cruise.cruise_end`): the faster plan kept
+                top = max(tried, key=lambda v: _rank(tried[v][1]))
+                if not isinstance(top, tuple) and tried[top][1].complete:
+                    (res, secs), = runner.map([top], greedy, early=True)
+                    tried[(top, "early")] = (res, replace(_point(res, secs), start_hold=runner.hold))
         except KeyboardInterrupt:  # Ctrl-C / SIGTERM: the best verified plan so far is kept
             if not tried:
                 raise
             interrupted = True
     pts = [p for _, p in tried.values()]
-    best = max(tried, key=lambda v: (tried[v][1].complete, tried[v][1].verified, tried[v][1].harvested,
-                                     tried[v][1].fruit_per_hour))
+    best = max(tried, key=lambda v: _rank(tried[v][1]))
     if cpsat_report is not None:
         tried[best][0].info.setdefault("cpsat", cpsat_report)  # the search's CP-SAT step, whether kept or not
     if interrupted:
@@ -452,6 +463,12 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
         tried[best][0].plan.solver["status"] = PlanStatus.INTERRUPTED.value
         tried[best][0].info["interrupted"] = f"the speed search stopped after {len(tried)} plan{'' if len(tried) == 1 else 's'}: the best verified so far"
     return tried[best][0], pts
+
+
+def _rank(p: SpeedPoint) -> tuple:
+    """How the speed search ranks its plans: complete and verified first, then the most fruit
+    harvested, then the most fruit per hour."""
+    return p.complete, p.verified, p.harvested, p.fruit_per_hour
 
 
 def _refine(reach: RowReach, demand, level: float, tried: dict, runner: "_Runner", opts: MovingOptions) -> None:
@@ -481,10 +498,10 @@ def _refine(reach: RowReach, demand, level: float, tried: dict, runner: "_Runner
 
 
 def _plan_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand,
-              hold: float = 0.0) -> tuple[RowResult, float]:
+              hold: float = 0.0, early: bool = False) -> tuple[RowResult, float]:
     """One full plan in a worker process (module-level: it is pickled to the worker)."""
     t = _time.perf_counter()
-    res = plan_continuous(problem, level, opts, reach, None, demand, hold)
+    res = plan_continuous(problem, level, opts, reach, None, demand, hold, early)
     return res, _time.perf_counter() - t
 
 
@@ -517,15 +534,16 @@ class _Runner:
     def _demand(self, d):
         return self.demand if d is None else d
 
-    def map(self, levels: list[float], opts: MovingOptions, demand=None) -> list[tuple[RowResult, float]]:
+    def map(self, levels: list[float], opts: MovingOptions, demand=None, early: bool = False) -> list[tuple[RowResult, float]]:
         if self.pool is None:
             out = []
             for v in levels:
                 t = _time.perf_counter()
-                out.append((plan_continuous(self.problem, v, opts, self.reach, self.progress, self._demand(demand), self.hold),
-                            _time.perf_counter() - t))
+                out.append((plan_continuous(self.problem, v, opts, self.reach, self.progress, self._demand(demand), self.hold,
+                                            early), _time.perf_counter() - t))
             return out
-        futures = [self.pool.submit(_plan_job, self.problem, v, opts, self.reach, self._demand(demand), self.hold) for v in levels]
+        futures = [self.pool.submit(_plan_job, self.problem, v, opts, self.reach, self._demand(demand), self.hold, early)
+                   for v in levels]
         out = [f.result() for f in futures]
         for res, _ in out:  # (a worker cannot reach the caller's progress: its lines come from here)
             speaker(self.progress)(_planned_line(res))

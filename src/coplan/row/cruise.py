@@ -327,12 +327,20 @@ def _retarget(problem: Problem, out: list, t: float, x_to: float):
     return kept, t, x_to
 
 
-def cruise_end(problem: Problem, reach: RowReach) -> float:
-    """Where the carriage comes to rest: the furthest first serving position of any fruit
-    (past it every fruit can still be picked with the carriage at rest), on the rail."""
+def cruise_end(problem: Problem, reach: RowReach, early: bool = False) -> float:
+    """Where the carriage comes to rest, on the rail: half the front arm's reach past the
+    furthest first serving position of any fruit (``early``: at that position, where the last
+    fruit first comes into some arm's reach; past it every fruit can still be picked with the
+    carriage at rest). Resting where the last fruit only just comes into the front arm's reach
+    left the front arm to pick the row's tail alone from the edge of its reach: on the shipped
+    rows the search's plans took 1.7-6.9 % longer (on 12 generated rows of 1-6 arms, 3.6 % on
+    average; 3 were faster) -- the search tries both at the level it chooses (the faster kept)."""
     g = problem.gantry
     firsts = [float(reach.grid[reach.span(f)[0]]) for f in reach.harvestable()]
-    return min(g.end, max(firsts, default=g.start))
+    x = max(firsts, default=g.start)
+    if firsts and not early:
+        x += max(problem.arms, key=lambda a: (a.base[0], a.name)).reach / 2.0
+    return min(g.end, x)
 
 
 def _runs(ok: np.ndarray) -> list[tuple[int, int]]:
