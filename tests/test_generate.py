@@ -161,3 +161,15 @@ def _same_arm_and_task_as_greenhouse(p: Problem) -> None:
         d = min(float(capsule_distance(pa[s], pa[s + 1], a.link_radius, pb[u], pb[u + 1], b.link_radius))
                 for s in range(2) for u in range(2))
         assert math.isfinite(d) and d > 1.0
+
+
+def test_gantry_row_takes_only_the_gantry_keys_given() -> None:
+    """(``gantry={'settle': 0.5}`` replaced the whole section: the problem then lacked every limit.)"""
+    from coplan.generate import LESSON_GANTRY, gantry_row
+
+    d = gantry_row(length=6, n_arms=2, density=2, seed=1, gantry={"settle": 0.5, "max_velocity": 0.3})
+    g = parse_problem(to_yaml(d)).gantry
+    assert (g.settle, g.max_velocity) == (0.5, 0.3)
+    assert (g.max_acceleration, g.max_jerk, g.start, g.end) == (LESSON_GANTRY["max_acceleration"], LESSON_GANTRY["max_jerk"], 0.0, 6.0)
+    with pytest.raises(TypeError, match="gantry: expected a mapping"):
+        gantry_row(length=6, gantry=0.5)

@@ -281,7 +281,8 @@ def gantry_row(
 
     The carriage carries the arms ``spacing`` m apart, centred on its origin, each bin 0.5 m
     below its base; it runs from ``start`` 0 to ``end`` = ``length`` with the limits of
-    :data:`LESSON_GANTRY` (or ``gantry``). About ``density`` fruit per metre (Poisson count,
+    :data:`LESSON_GANTRY`, each key ``gantry`` gives in place of that default (``gantry={"settle":
+    0.5}`` keeps the lesson's limits; ``start`` and ``end`` too). About ``density`` fruit per metre (Poisson count,
     seeded) lie along x in [0, ``length``] at heights in ``y_range``: uniform, or with
     ``trusses`` in clusters (a truss every 0.25-0.45 m, its fruit within 6 cm of it and 12 cm
     of its height), as strawberries hang. Positions rounded to 4 decimals, ids ``f0001``... by x.
@@ -308,7 +309,9 @@ def gantry_row(
     else:
         pts = sorted(zip(rng.uniform(0.0, length, n), rng.uniform(*y_range, n)))
     bases = _bases(n_arms, spacing)
-    g = {"start": 0.0, "end": _r4(length)} | (gantry or LESSON_GANTRY)
+    if gantry is not None and not isinstance(gantry, dict):
+        raise TypeError(f"gantry: expected a mapping of gantry keys (e.g. {{'settle': 0.5}}), found {type(gantry).__name__} {gantry!r}")
+    g = {"start": 0.0, "end": _r4(length)} | LESSON_GANTRY | (gantry or {})  # (a key given replaces its default only)
     d = _assemble(
         name or f"row-{length:g}m-{n_arms}arms-{density:g}perm-seed{seed}",
         f"{n_arms} of the lesson's arms {spacing:g} m apart on a gantry along a {length:g} m row, about {density:g} "
