@@ -586,3 +586,15 @@ def test_the_carriage_rests_at_the_end_with_the_tail_inside_the_front_arm_s_reac
     res = plan_moving(p)
     assert res.verification.passed and res.plan.metrics["harvested"] == len(p.fruits)
     assert res.plan.time[-1] < 71.2 * 0.9
+
+
+def test_on_the_move_the_metrics_count_the_picks_made_with_the_carriage_at_rest():
+    """(A 5 m row with one arm: 8 of its 12 picks came at the carriage's rest at the end while the
+    summary said it never stops for a pick.)"""
+    p = parse_problem(to_yaml(gantry_row(length=5, n_arms=1, density=3, seed=2, trusses=False)))
+    res = solve(p, gantry=GantryMode.CONTINUOUS)
+    r = res.plan.metrics["row"]
+    x, t = np.asarray(res.plan.gantry_x), res.plan.time
+    still = sum(1 for e in res.plan.events if e.kind == EventKind.PICK
+                and np.ptp(x[(t >= e.t_start - 1e-9) & (t <= e.t_end + 1e-9)]) < 1e-9)
+    assert r["picks_at_rest"] == still and 0 < still < res.plan.metrics["harvested"]

@@ -82,7 +82,7 @@ def print_row_summary(console, res) -> None:
     still = moving and not r.get("carriage_moving_share")  # every fruit served from where the carriage starts
     how = ("on the move (nothing to harvest: the carriage stays where it starts)" if still and not m.get("harvested") else
            "on the move (the carriage need not move: every fruit is in reach from where it starts)" if still else
-           f"on the move ({safe(r.get('profile'))} speed profile, {fmt(r.get('mean_speed'), ' m/s', 3)} on average, "
+           f"on the move ({safe(r.get('profile'))} speed profile, {fmt(r.get('mean_speed'), ' m/s', 3)} on average while it moves, "
            f"top {fmt(r.get('top_speed'), ' m/s', 3)})" if moving else
            f"stops {safe(solver.get('rule'))}, cell planner {safe(solver.get('cell_planner'))}")
     p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, {how}, "
@@ -118,7 +118,11 @@ def print_row_summary(console, res) -> None:
     shares = (f"carriage moving {fmt(100 * r.get('carriage_moving_share', 0), ' %', 1)} of the row time, some arm picking "
               f"{fmt(100 * r.get('picking_share', 0), ' %', 1)}")
     if moving:
-        p(f"  carriage          {'stands where it starts' if still else 'never stops for a pick'}; {shares}")
+        rest = r.get("picks_at_rest") or 0
+        how = ("stands where it starts" if still else "never stops for a pick" if not rest else
+               f"never stops for a pick, but {rest} of the {m.get('harvested')} picks come with it at rest (where it "
+               f"starts, or at its rest at the row's end)")
+        p(f"  carriage          {how}; {shares}")
     else:
         p(f"  stops             {r.get('stops')}, {fmt(r.get('mean_time_per_stop'), ' s')} each on average; {shares}")
     for a, causes in (r.get("idle_share") or {}).items():

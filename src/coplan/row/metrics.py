@@ -20,8 +20,9 @@
 * **ratios** to the row's lower bounds (:mod:`coplan.row.bound`), and ``overlap_seconds``: how
   long the carriage moves while some arm works (places, goes home, comes out), which the
   stop-and-go bound's model excludes;
-* **on the move** (``mode`` continuous): the speed profile, the carriage's mean and top speed,
-  how many full plans the speed search tried;
+* **on the move** (``mode`` continuous): the speed profile, the carriage's mean speed (over its
+  time in motion) and top speed, how many full plans the speed search tried, how many picks had
+  the carriage at rest (where it starts, or at its rest at the row's end) for their whole dwell;
 * **real time**: planning time / row time, when the first stop was known and when the row's first
   motion can start (then, or later if the first cell's arms start before its cell would be
   planned: the row waits for it) and, stop by stop, whether its cell was planned before the row
@@ -163,7 +164,10 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
     }
     out["mode"] = result.info.get("mode", "stop-and-go")
     if out["mode"] == "continuous":  # no stops: the carriage's speeds instead, and no stop to keep ahead of
-        out.update({"profile": result.info.get("profile"), "mean_speed": result.info.get("mean_speed"),
+        # picks whose whole dwell has the carriage at rest (where it starts, held, or at its rest at the end)
+        at_rest = sum(1 for e in plan.events if e.kind == EventKind.PICK
+                      and not moving[int(round(e.t_start / dt)):int(round(e.t_end / dt)) + 1].any())
+        out.update({"picks_at_rest": at_rest, "profile": result.info.get("profile"), "mean_speed": result.info.get("mean_speed"),
                     "top_speed": result.info.get("top_speed"), "plans_tried": len(result.info.get("speed_curve") or []),
                     "kept_ahead": None, "least_slack_seconds": None, "first_motion_seconds": planning})
     if bounds is not None:
