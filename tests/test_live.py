@@ -494,3 +494,16 @@ def test_a_fruit_lost_to_a_merged_track_is_said_to_be(problems_dir: Path) -> Non
     lost = {f: o["why"] for f, o in r.run["fruit"].items() if not o["harvested"] and o["reachable"]}
     assert lost, "this seed merges two fruit"
     assert all("merged with those of" in why and "()" not in why for why in lost.values())
+
+
+@pytest.mark.parametrize("key, value", [("distance", 100), ("sigma", 5), ("distance", 0.001), ("sigma", 0.2)])
+def test_a_feed_file_s_close_range_is_held_to_the_same_ranges_as_coplan_feed(key, value) -> None:
+    """(``close_range: {distance: 100, sigma: 5}`` was read, and the run ended unsafe.)"""
+    from coplan.live.feed import CLOSE_RANGE_BOUNDS
+
+    text = f"format: coplan.feed/1\nclose_range: {{{key}: {value}}}\ndetections:\n  - {{t: 0.0, id: d1, position: [0.7, 0.74], sigma: 0.01}}\n"
+    with pytest.raises(FeedError, match=rf"close_range\.{key}: expected a number in \["):
+        parse_feed(text, "f.yaml")
+    lo, hi = CLOSE_RANGE_BOUNDS[key]
+    r = run("feed", "greenhouse_row", "--out", "/dev/null/x.yaml", f"--close-{key}", f"{value}")
+    assert r.exit_code == ExitCode.USAGE and f"[{lo:g}, {hi:g}]" in r.output.replace(" m]", "]")

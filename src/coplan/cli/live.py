@@ -42,6 +42,7 @@ def feed_cmd(
                                                        "(default: half the makespan lower bound).")] = None,
     after_pick: Annotated[float, typer.Option("--after-pick", callback=between(0.0, 1.0),
                                               help="Share of the late fruit hidden behind a neighbour until it is picked.")] = 0.25,
+    # (the ranges of coplan.live.feed.CLOSE_RANGE_BOUNDS, a feed file's; not imported: --help stays quick)
     close_sigma: Annotated[float, typer.Option("--close-sigma", callback=between(1e-6, 0.1, "m"),
                                                help="Close-range (gripper camera) noise, m.")] = 0.001,
     close_distance: Annotated[float, typer.Option("--close-distance", callback=between(0.005, 1.0, "m"),

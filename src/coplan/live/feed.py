@@ -42,6 +42,9 @@ DEFAULT_CLOSE_DISTANCE = 0.10  # m: the gripper camera sees the fruit from here
 DEFAULT_CLOSE_SIGMA = 0.001  # m
 _ROW_KEYS = ("t", "id", "position", "sigma", "fruit", "after")
 _TOP_KEYS = ("format", "problem", "close_range", "detections")
+#: The plausible range of each close_range key, m (a feed file's, and ``coplan feed``'s options):
+#: a gripper camera that measures from a metre away, or with 10 cm of error, is no close range.
+CLOSE_RANGE_BOUNDS = {"distance": (0.005, 1.0), "sigma": (1e-6, 0.1)}
 
 
 class FeedError(InputError):
@@ -187,8 +190,10 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
             for key, v in cr.items():
                 if key not in ("distance", "sigma"):
                     bad(("close_range", key), f"expected distance or sigma, found unknown key {key!r}")
-                elif not finite_number(v) or v <= 0:
-                    bad(("close_range", key), f"expected a positive number (m), found {found(v, list_length=True)}")
+                elif not finite_number(v) or not CLOSE_RANGE_BOUNDS[key][0] <= v <= CLOSE_RANGE_BOUNDS[key][1]:
+                    lo, hi = CLOSE_RANGE_BOUNDS[key]
+                    bad(("close_range", key), f"expected a number in [{lo:g}, {hi:g}] m (as coplan feed's --close-{key}), "
+                                              f"found {found(v, list_length=True)}")
             dist = cr.get("distance", dist) if finite_number(cr.get("distance", dist)) else dist
             sig = cr.get("sigma", sig) if finite_number(cr.get("sigma", sig)) else sig
     rows = data.get("detections")
