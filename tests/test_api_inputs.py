@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+import json
 from pathlib import Path
 
 import pytest
@@ -143,6 +144,21 @@ def test_compare_refuses_a_folder_of_rows_and_a_time_limit_on_a_row(row_file, tm
     r = runner.invoke(app, ["compare", str(row_file), "--time-limit", "5", "--out", str(tmp_path / "c2")])
     assert r.exit_code == 2 and "short.yaml is a row" in r.output
     assert not (tmp_path / "c").exists() and not (tmp_path / "c2").exists()
+
+
+def test_a_folder_file_whose_gantry_is_no_mapping_is_a_bad_file_not_a_row(tmp_path):
+    """(``gantry: yes`` made the folder a folder of rows: nothing was compared, exit 2.)"""
+    from coplan.problem import default_problem_path
+
+    src = tmp_path / "p"
+    src.mkdir()
+    (src / "single_arm.yaml").write_text((default_problem_path().parent / "single_arm.yaml").read_text())
+    (src / "gantry_str.yaml").write_text((default_problem_path().parent / "single_arm.yaml").read_text() + "gantry: yes\n")
+    r = runner.invoke(app, ["compare", str(src), "--planner", "heuristic", "--no-figures", "--out", str(tmp_path / "c")])
+    assert r.exit_code == 3 and "is a row" not in r.output
+    doc = json.loads((tmp_path / "c" / "compare.json").read_text())
+    errors = {Path(p["file"]).name: p["error"] for p in doc["problems"]}
+    assert errors["single_arm.yaml"] is None and "gantry" in errors["gantry_str.yaml"]
 
 
 def test_compare_on_a_row_sets_its_stop_rules_side_by_side_on_workers(row_file, tmp_path):

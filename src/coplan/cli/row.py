@@ -109,8 +109,8 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
 
 def rows_in(source: Path) -> list[Path]:
     """The problem files at ``source`` (a file, or a folder's ``*.yaml``) that are rows (a
-    ``gantry`` section), read as plain YAML: a file that does not read is left to the command's
-    own checks."""
+    ``gantry`` section, a mapping), read as plain YAML: a file that does not read, or whose
+    ``gantry`` is no mapping, is left to the command's own checks."""
     import yaml
 
     files = sorted([*source.glob("*.yaml"), *source.glob("*.yml")]) if source.is_dir() else [source]
@@ -120,7 +120,7 @@ def rows_in(source: Path) -> list[Path]:
             data = yaml.safe_load(f.read_text(encoding="utf-8"))
         except (OSError, UnicodeDecodeError, yaml.YAMLError):
             continue
-        if isinstance(data, dict) and "gantry" in data:
+        if isinstance(data, dict) and isinstance(data.get("gantry"), dict):  # (``gantry: yes`` is a bad file, left to its checks)
             out.append(f)
     return out
 
