@@ -5,9 +5,9 @@ which options a planner takes (found by trying the project as a new user)."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import re
-import json
 from pathlib import Path
 
 import pytest
