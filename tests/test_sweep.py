@@ -315,6 +315,30 @@ def test_sweep_report_refuses_a_folder_that_is_not_a_sweep(tmp_path):
         sweep_report(tmp_path)
 
 
+def test_sweep_report_on_damaged_files_says_so(small_run, tmp_path):
+    """(A cut-short results.parquet, or a file given in its place, was an internal error; a
+    damaged journal line was left out in silence.) The table that does not read is named; a
+    folder's report then comes from its journal, each line that is no row named."""
+    from coplan.sweep.table import PARQUET, damaged_table
+
+    src, _, _ = small_run
+    out = tmp_path / "damaged"
+    shutil.copytree(src, out)
+    data = (out / PARQUET).read_bytes()
+    (out / PARQUET).write_bytes(data[: len(data) // 2])
+    lines = (out / JOURNAL).read_text().splitlines(keepends=True)
+    (out / JOURNAL).write_text("".join(lines[:5]) + "{not json\n" + lines[5])
+    assert "damaged" in damaged_table(out)
+    unread: list[int] = []
+    assert len(read_rows(out, unread)) == 6 and unread == [6]
+    runner = CliRunner(env={"COLUMNS": "200"})
+    r = runner.invoke(app, ["sweep-report", str(out), "--no-figures", "--out", str(tmp_path / "rep")])
+    assert r.exit_code == 0 and "results.parquet" in r.output and "1 line (6) is no complete row" in r.output, r.output
+    assert json.loads((tmp_path / "rep" / "report.json").read_text())
+    r = runner.invoke(app, ["sweep-report", str(out / PARQUET), "--no-figures", "--out", str(tmp_path / "rep2")])
+    assert r.exit_code == 3 and "expected a sweep's results table (Parquet), found a damaged" in r.output, r.output
+
+
 def test_every_generated_base_expands_to_valid_problems_or_a_bad_input_item():
     from coplan.problem import parse_problem
 

@@ -16,7 +16,9 @@ import os
 from pathlib import Path
 from typing import Any
 
-__all__ = ["COLUMNS", "JOURNAL", "PARQUET", "CSV", "RowJournal", "normalise", "read_rows", "read_table", "write_table", "schema"]
+from ..errors import InputError, Issue
+
+__all__ = ["SweepTableError", "COLUMNS", "JOURNAL", "PARQUET", "CSV", "RowJournal", "normalise", "read_rows", "read_table", "write_table", "schema"]
 
 JOURNAL = "rows.jsonl"
 PARQUET = "results.parquet"
@@ -129,22 +131,31 @@ class RowJournal:
             self._fh = None
 
 
-def read_rows(folder: str | Path) -> list[dict[str, Any]]:
-    """Every complete row in the journal, the last row of each key winning."""
+class SweepTableError(InputError):
+    kind = "sweep table"
+
+
+def read_rows(folder: str | Path, unread: list[int] | None = None) -> list[dict[str, Any]]:
+    """Every complete row in the journal, the last row of each key winning; ``unread`` (a list)
+    receives the line numbers of lines that are no complete row (torn by a crash, or damaged)."""
     path = Path(folder) / JOURNAL
     if not path.exists():
         return []
     rows: dict[str, dict] = {}
-    with open(path, encoding="utf-8") as fh:
-        for line in fh:
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        for n, line in enumerate(fh, start=1):
             if not line.endswith("\n"):
+                if unread is not None and line.strip():
+                    unread.append(n)
                 break  # a torn last line: that row was not finished
             try:
                 row = json.loads(line)
             except json.JSONDecodeError:
-                continue
+                row = None
             if isinstance(row, dict) and isinstance(row.get("key"), str):
                 rows[row["key"]] = normalise(row)
+            elif unread is not None and line.strip():
+                unread.append(n)
     return sorted(rows.values(), key=lambda r: (r["sweep"] or "", r["index"] if r["index"] is not None else 0))
 
 
@@ -180,14 +191,39 @@ def read_table(folder_or_file: str | Path):
     import pyarrow as pa
     import pyarrow.parquet as pq
 
+    def parquet(path: Path):
+        try:
+            return pq.read_table(path)  # (its footer is checked on opening: a cut-short file is refused there)
+        except (pa.ArrowException, OSError) as e:
+            raise SweepTableError([Issue("", f"expected a sweep's results table (Parquet), found a damaged or other "
+                                             f"file ({str(e).splitlines()[0] if str(e) else type(e).__name__})")], str(path)) from None
+
     p = Path(folder_or_file)
     if p.is_file():
-        return pq.read_table(p)
+        return parquet(p)
     if not (p / PARQUET).exists() and not (p / JOURNAL).exists():
         raise FileNotFoundError(f"{p}: expected a sweep's output folder (with {PARQUET} or {JOURNAL}), found a folder with neither")
     rows = read_rows(p)
     if (p / PARQUET).exists():
-        t = pq.read_table(p / PARQUET)
-        if t.num_rows >= len(rows):
+        try:
+            t = parquet(p / PARQUET)
+        except SweepTableError:
+            if not rows:
+                raise
+            t = None  # (damaged: the journal it was written from has the rows)
+        if t is not None and t.num_rows >= len(rows):
             return t
     return pa.Table.from_pylist(rows, schema=schema())
+
+
+def damaged_table(folder: str | Path) -> str | None:
+    """Why the folder's ``results.parquet`` does not read (None: it reads, or there is none):
+    :func:`read_table` then reads the journal it was written from."""
+    p = Path(folder) / PARQUET
+    if not p.is_file():
+        return None
+    try:
+        read_table(p)
+    except SweepTableError as e:
+        return e.issues[0].message
+    return None
