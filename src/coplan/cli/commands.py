@@ -624,6 +624,8 @@ def view_cmd(
 
     if out is not None:
         failures.check_out_file(out)
+        if out.suffix.lower() not in (".html", ".htm"):  # (a usage error, before any work: as plot's and animate's --out)
+            failures.usage(f"--out: expected a file name ending in .html, found {out.name!r}")
     prob, pl = _plan_with_problem(plan, problem)
     other = _plan_with_problem(compare, problem)[1] if compare is not None else None
     out_console.print(f"wrote {_s(write_view(prob, pl, other, out if out is not None else plan.with_suffix('.html'), open_page))}")

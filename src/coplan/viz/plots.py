@@ -228,7 +228,7 @@ def plot_clearance(problem: Problem, plans: Plan | Mapping[str, Plan], *, title:
     if max(highs) > hi:
         axes[0].text(0.002, 0.985, f"axis cut at {hi:.2f} m", transform=axes[0].transAxes, fontsize=7, va="top", color="#555555")
     axes[-1].set_xlabel("time (s)")
-    axes[-1].set_xlim(0, max(p.duration for p in plans.values()))
+    axes[-1].set_xlim(0, max([p.duration for p in plans.values()] + [1e-3]))  # (a plan of one sample lasts 0 s: no singular axis)
     extra = [
         Line2D([], [], color=ALERT_COLOR, linestyle="--", label=f"required clearance {req:g} m"),
         Line2D([], [], color="black", linewidth=0.8, label="contact (capsules touch)"),
