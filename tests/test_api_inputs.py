@@ -444,3 +444,13 @@ def test_the_generators_name_a_bad_count_seed_or_link_pair():
     import numpy
 
     assert len(row_problem(3, 5, seed=numpy.int64(4))["fruits"]) == 5  # NumPy integers are whole numbers
+
+
+def test_a_problem_given_as_a_mapping_is_named_by_key_path_without_lines_of_a_text_never_seen():
+    """(Its issues carried line numbers of the YAML it was turned into: 'a problem given as a mapping:16'.)"""
+    d = gantry_row(length=6.0, density=2.0, seed=1)
+    d["fruits"][1]["position"][0] = "abc"
+    with pytest.raises(ProblemError) as e:
+        coplan.solve(d)
+    assert "fruits[1].position[0]" in str(e.value) and not re.search(r"mapping:\d", str(e.value))
+    assert all(i.line is None for i in e.value.issues)

@@ -109,10 +109,17 @@ def _better_mode(stopping, moving):
 
 
 def _from_mapping(data: Mapping) -> Problem:
-    """A problem given as a mapping (as :mod:`coplan.generate` makes them), checked as a file is."""
+    """A problem given as a mapping (as :mod:`coplan.generate` makes them), checked as a file is
+    -- its issues named by key path only: the lines are those of a YAML text the caller never saw."""
+    import dataclasses
+
+    from .errors import ProblemError
     from .problem.generate import to_yaml
 
-    return parse_problem(to_yaml(dict(data)), "a problem given as a mapping")
+    try:
+        return parse_problem(to_yaml(dict(data)), "a problem given as a mapping")
+    except ProblemError as e:
+        raise ProblemError([dataclasses.replace(i, line=None) for i in e.issues], e.source) from None
 
 
 def _options_for(planner: PlannerKind, options, row: GantryMode | None = None) -> None:
