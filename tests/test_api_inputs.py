@@ -454,3 +454,11 @@ def test_a_problem_given_as_a_mapping_is_named_by_key_path_without_lines_of_a_te
         coplan.solve(d)
     assert "fruits[1].position[0]" in str(e.value) and not re.search(r"mapping:\d", str(e.value))
     assert all(i.line is None for i in e.value.issues)
+
+
+def test_an_empty_row_s_summary_gives_no_share_of_nothing(tmp_path):
+    """(It printed '0 harvested of 0 harvestable (0.0 %)' while metrics.row.share_harvested is null.)"""
+    f = tmp_path / "empty.yaml"
+    f.write_text(to_yaml(gantry_row(length=6.0, density=0.0, seed=1)))
+    r = runner.invoke(app, ["solve", str(f), "--out", str(tmp_path / "o")])
+    assert "0 harvested of 0 harvestable (-)" in r.output, r.output

@@ -96,7 +96,7 @@ def print_row_summary(console, res) -> None:
           f"{'verified' if auto[other]['verified'] else 'NOT verified'})")
     out = r.get("screened_out") or {}
     p(f"  fruit             {r.get('harvested')} harvested of {r.get('harvestable')} harvestable "
-      f"({fmt(100 * (r.get('share_harvested') or 0), ' %', 1)}); of {r.get('fruit')} fruit {len(out)} no carriage position can reach")
+      f"({fmt(None if r.get('share_harvested') is None else 100 * r['share_harvested'], ' %', 1)}); of {r.get('fruit')} fruit {len(out)} no carriage position can reach")
     for fid, why in list(out.items())[:3]:
         p(f"    {safe(why)}")
     if len(out) > 3:
