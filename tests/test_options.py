@@ -110,3 +110,32 @@ def test_ipopt_settings_are_checked_before_any_work(tmp_path: Path) -> None:
     res = CliRunner().invoke(app, ["solve", "crossing_paths", "--options", str(path), "-o", str(tmp_path / "out")])
     assert res.exit_code == ExitCode.BAD_INPUT and "o.yaml:3: ipopt.ipopt.max_iter" in res.output, res.output
     assert not (tmp_path / "out").exists()
+
+
+def test_a_margin_that_leaves_no_room_is_refused_in_a_file_and_in_python(tmp_path: Path) -> None:
+    """(``margin: 5`` was read; the planners then spent their whole budget finding no room.)"""
+    from coplan.planners.coordinated import CoordinatedOptions
+    from coplan.row.continuous import MovingOptions
+
+    f = tmp_path / "o.yaml"
+    f.write_text("margin: 5\n")
+    with pytest.raises(OptionsError, match=r"o\.yaml:1: margin: expected a planning margin of at most 0\.5 m"):
+        load_options(f)
+    for cls in (OptimalOptions, CoordinatedOptions, MovingOptions):
+        with pytest.raises(OptionsError, match="margin: expected a planning margin of at most"):
+            cls(margin=0.6)
+        assert cls(margin=0.5).margin == 0.5
+
+
+def test_a_time_limit_stops_the_coordinated_search_after_its_first_candidate_when_none_is_feasible(problems_dir: Path) -> None:
+    """(A margin leaving no room: every candidate was tried, 8 x a 3 s limit.) The first candidate is
+    always tried; then, past the limit, the arms take turns -- and the plan is still verified."""
+    from coplan.planners.coordinated import CoordinatedOptions, plan_coordinated
+    from coplan.problem import load_problem
+
+    p = load_problem(problems_dir / "crossing_paths.yaml")
+    res = plan_coordinated(p, options=CoordinatedOptions(margin=0.3, time_limit=0.0))
+    cands = res.plan.solver["candidates"]
+    attempts = [c for c in cands if "schedules" in c and "fallback" not in c]
+    assert len(attempts) == 1 and not attempts[0]["feasible"]
+    assert any("fallback" in c for c in cands) and res.verification.passed

@@ -130,6 +130,20 @@ def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     return None
 
 
+#: The most a planner's ``margin`` (m, a planning buffer beyond ``task.clearance``) may be: more
+#: leaves neighbouring arms (bases 1-2 m apart, links of about a metre) no room to work, and the
+#: planners then spend their whole budget finding that out.
+MAX_MARGIN = 0.5
+
+
+def margin_issue(v) -> Issue | None:
+    """:data:`MAX_MARGIN` for an options object's ``margin`` (already a non-negative number)."""
+    if isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v) and v > MAX_MARGIN:
+        return Issue("margin", f"expected a planning margin of at most {MAX_MARGIN:g} m beyond task.clearance (more "
+                               f"leaves neighbouring arms no room to work), found {v!r}")
+    return None
+
+
 def check_fields(obj, positive=frozenset(), source: str | None = None) -> None:
     """Check every numeric, boolean and choice field of a frozen options dataclass ``obj`` built in
     Python, by its annotation (:func:`field_issue`; ``positive``: the fields that must be > 0);
@@ -147,6 +161,8 @@ def check_fields(obj, positive=frozenset(), source: str | None = None) -> None:
         msg = field_issue(f.name, str(f.type), v, f.name in positive)
         if msg is not None:
             issues.append(Issue(f.name, msg))
+        elif f.name == "margin" and margin_issue(v) is not None:
+            issues.append(margin_issue(v))
     if issues:
         raise OptionsError(issues, source or type(obj).__name__)
 

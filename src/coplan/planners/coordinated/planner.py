@@ -196,8 +196,11 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
             for order in priority_orders(base):
                 yield label, al, base, order
 
-    def out_of_work():  # the clock limit never stops the first candidate: there must be a plan
-        late = best is not None and deadline is not None and _time.perf_counter() > deadline
+    def out_of_work():
+        # the clock limit never stops the first candidate (time_limit 0: the first only); once one
+        # is tried and the limit has passed, no more -- with none feasible, the arms take turns
+        # (:func:`_fallback`): a margin that leaves no room spent 8 x a 3 s limit on candidates
+        late = (best is not None or bool(tried)) and deadline is not None and _time.perf_counter() > deadline
         return left <= 0 or late
 
     def good_enough():
@@ -262,7 +265,7 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
                 break
             attempt(terr, avoid, label, al, base, order)
     if best is None:
-        best = _fallback(problem, method, opts, bound, say, tried)
+        best = _fallback(problem, method, opts, bound, say, tried, deadline)
     return best, tried, details
 
 
@@ -278,7 +281,7 @@ def clear(problem: Problem, schedules: dict[str, ArmSchedule], need: float, rate
     return True
 
 
-def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
+def _fallback(problem, method, opts, bound, say, tried, deadline: float | None = None) -> Coordinated | None:
     """The arms take turns (:func:`coplan.planners.coordinated.serial.serial_schedules`) when coordination deadlocks.
 
     When even that cannot schedule some fruit (its pick leaves a neighbour nowhere to go, or no
@@ -300,8 +303,10 @@ def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
         except ConflictError as e:
             tried.append({"fallback": "serial", "feasible": False, "reason": str(e), "fruit": e.fruit,
                           "pairs": work.get("pairs", 0)})
-            if e.fruit is None or e.fruit in left_out or work.get("pairs", 0) >= opts.serial_pairs:
-                say(f"no conflict-free coordination found, and taking turns failed: {e}")
+            late = deadline is not None and _time.perf_counter() > deadline  # (a clock limit: no more tries)
+            if e.fruit is None or e.fruit in left_out or work.get("pairs", 0) >= opts.serial_pairs or late:
+                say(f"no conflict-free coordination found, and taking turns failed: {e}"
+                    + (" (the time limit has passed)" if late else ""))
                 return one_at_a_time(problem, full, opts.margin, say, tried)
             left_out[e.fruit] = str(e)
             say(f"taking turns: {e.fruit} is left out ({e})")
@@ -311,7 +316,7 @@ def _fallback(problem, method, opts, bound, say, tried) -> Coordinated | None:
                   "pairs": work.get("pairs", 0)})
     say(f"leg-by-leg coordination deadlocked on every candidate: the arms take turns ({span:.2f} s)")
     turns = Coordinated(alloc, sched, span, [], "serial", 0, fallback=True, left_out=left_out)
-    if left_out:  # the last resort may harvest what taking turns left out
+    if left_out and (deadline is None or _time.perf_counter() <= deadline):  # the last resort may harvest what taking turns left out
         alone = one_at_a_time(problem, full, opts.margin, say, tried)
         if len(alone.left_out) < len(left_out):
             return alone
