@@ -29,6 +29,7 @@ def test_every_field_round_trips_through_yaml() -> None:
         v = getattr(d, f.name)
         changed[f.name] = (not v if isinstance(v, bool) else v + 3 if isinstance(v, int) else v * 2 + 0.5
                            if isinstance(v, float) else 7.5 if v is None else {"ipopt.max_iter": 50})
+    changed["margin"] = 0.25  # (within its range: at most 0.5 m)
     back = parse_options(yaml.safe_dump(changed), "all.yaml")
     assert asdict(back) == changed
 

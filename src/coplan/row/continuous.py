@@ -433,6 +433,11 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                             bad_v = p.level if bad_v is None else min(bad_v, p.level)
                     if ok_v is not None and bad_v is not None and bad_v < ok_v:
                         bad_v = None  # an incomplete plan below a complete one: not a bracket; go on up
+                # at the best complete level, the carriage's early rest at the end too (where the last
+                # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`), alongside CP-SAT's
+                # order and the refinement when there is a second worker: the faster plan kept
+                if ok_v is not None:
+                    runner.early(ok_v, greedy, key=(ok_v, "early"))
                 if AssignRule(opts.assign) == AssignRule.CPSAT and bad_v is not None:
                     # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
                     # started from the greedy's booking there (alongside the refinement when there is
@@ -441,15 +446,12 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                 if demand is not None and bad_v is not None:
                     _refine(reach, demand, bad_v, tried, runner, greedy)
                 for key, ((res, report), secs) in runner.collect():
-                    cpsat_report = report
+                    if key[1] == "cpsat":
+                        cpsat_report = report
+                    elif res is not None:  # (the early rest's plan, made in the background: its line from here)
+                        speaker(progress)(_planned_line(res))
                     if res is not None:
                         tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"], start_hold=runner.hold))
-                # at the level chosen, the carriage's early rest at the end too (where the last fruit
-                # first comes into reach: :func:`coplan.row.cruise.cruise_end`): the faster plan kept
-                top = max(tried, key=lambda v: _rank(tried[v][1]))
-                if not isinstance(top, tuple) and tried[top][1].complete:
-                    (res, secs), = runner.map([top], greedy, early=True)
-                    tried[(top, "early")] = (res, replace(_point(res, secs), start_hold=runner.hold))
         except KeyboardInterrupt:  # Ctrl-C / SIGTERM: the best verified plan so far is kept
             if not tried:
                 raise
@@ -505,6 +507,12 @@ def _plan_job(problem: Problem, level: float, opts: MovingOptions, reach: RowRea
     return res, _time.perf_counter() - t
 
 
+def _early_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand, hold: float = 0.0):
+    """:func:`plan_continuous` with the early rest at the end, in a worker process: ``((result, None), seconds)``."""
+    res, secs = _plan_job(problem, level, opts, reach, demand, hold, True)
+    return (res, None), secs
+
+
 def _reorder_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand, events, hold: float = 0.0):
     """:func:`reorder_continuous` in a worker process: ``((result or None, report), seconds)``."""
     t = _time.perf_counter()
@@ -557,6 +565,14 @@ class _Runner:
         else:
             self.pending.append((key, self.pool.submit(_reorder_job, self.problem, level, opts, self.reach, self.demand, events,
                                                        self.hold)))
+
+    def early(self, level: float, opts: MovingOptions, key=None) -> None:
+        """The plan at ``level`` with the carriage's early rest at the end, to collect later
+        (:meth:`collect`, as ``((result, None), seconds)``): in the background with a second worker."""
+        if self.pool is None:
+            self.pending.append((key, _early_job(self.problem, level, opts, self.reach, self.demand, self.hold)))
+        else:
+            self.pending.append((key, self.pool.submit(_early_job, self.problem, level, opts, self.reach, self.demand, self.hold)))
 
     def collect(self) -> list:
         out = [(k, f if isinstance(f, tuple) else f.result()) for k, f in self.pending]
