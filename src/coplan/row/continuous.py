@@ -433,11 +433,6 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                             bad_v = p.level if bad_v is None else min(bad_v, p.level)
                     if ok_v is not None and bad_v is not None and bad_v < ok_v:
                         bad_v = None  # an incomplete plan below a complete one: not a bracket; go on up
-                # at the best complete level, the carriage's early rest at the end too (where the last
-                # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`), alongside CP-SAT's
-                # order and the refinement when there is a second worker: the faster plan kept
-                if ok_v is not None:
-                    runner.early(ok_v, greedy, key=(ok_v, "early"))
                 if AssignRule(opts.assign) == AssignRule.CPSAT and bad_v is not None:
                     # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
                     # started from the greedy's booking there (alongside the refinement when there is
@@ -445,6 +440,12 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                     runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, "cpsat"))
                 if demand is not None and bad_v is not None:
                     _refine(reach, demand, bad_v, tried, runner, greedy)
+                # at the best complete level, the carriage's early rest at the end too (where the last
+                # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`), the faster plan
+                # kept; with a second worker, alongside what is left of CP-SAT's order (after the
+                # refinement, which would otherwise wait for a worker)
+                if ok_v is not None:
+                    runner.early(ok_v, greedy, key=(ok_v, "early"))
                 for key, ((res, report), secs) in runner.collect():
                     if key[1] == "cpsat":
                         cpsat_report = report
