@@ -142,13 +142,14 @@ def speed_curve(name: str = "sparse_row") -> None:
     took = time.perf_counter() - t
     print(f"\nSpeed curve of {name} on the move ({took:.1f} s): one constant speed for the row, every 0.05 m/s, then the "
           f"speed search over a density profile ({len(res.info['speed_curve'])} full plans); every plan verified:\n")
-    print("| profile | pace | mean speed | fruit / h | harvested | row time | slowed where missed | order | verified |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| profile | pace | mean speed | fruit / h | harvested | row time | slowed where missed | order | rest at the end | verified |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     rows = [("constant", p.to_dict()) for p in grid] + [("density", p) for p in res.info["speed_curve"]]
     for prof, p in sorted(rows, key=lambda r: (r[0], r[1]["mean_speed"])):
         pace = "-" if prof == "constant" else f"{p['level']:.3f}"
         print(f"| {prof} | {pace} | {p['mean_speed']:.3f} m/s | {p['fruit_per_hour']:.0f} | {100 * p['share_harvested']:.1f} % | "
-              f"{p['row_time']:.1f} s | {'yes' if p['refined'] else 'no'} | {p['assign']} | {'yes' if p['verified'] else 'NO'} |")
+              f"{p['row_time']:.1f} s | {'yes' if p['refined'] else 'no'} | {p['assign']} | "
+              f"{'early' if p.get('early_rest') else 'further on'} | {'yes' if p['verified'] else 'NO'} |")
     best_c = max((p.to_dict() for p in grid if p.complete), key=lambda p: p["fruit_per_hour"], default=None)
     print(f"\nchosen (density): pace {res.info['level']:.3f}, {res.info['mean_speed']:.3f} m/s on average, "
           f"{res.plan.metrics['harvested']} fruit in {res.plan.metrics['makespan']:.1f} s"
