@@ -101,10 +101,17 @@ def finite_number(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
+#: The most a planner's ``margin`` (m, a planning buffer beyond ``task.clearance``) may be: more
+#: leaves neighbouring arms (bases 1-2 m apart, links of about a metre) no room to work, and the
+#: planners then spend their whole budget finding that out.
+MAX_MARGIN = 0.5
+
+
 def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     """The message for a bad value ``v`` of an options field ``name`` annotated ``kind``
     (``int``, ``float``, ``bool``, ``dict``, ``... | None``; others are not judged here), or None
-    if it is good: a finite number, an integer where ``int``, > 0 where ``positive``, else >= 0."""
+    if it is good: a finite number, an integer where ``int``, > 0 where ``positive``, else >= 0;
+    a ``margin`` at most :data:`MAX_MARGIN`."""
     if kind == "bool":
         return None if isinstance(v, bool) else f"expected true or false, found {found(v)}"
     if kind == "dict":
@@ -127,20 +134,9 @@ def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     x = float(v)
     if (base == "int" and not x.is_integer()) or not math.isfinite(x) or x < 0 or (positive and x <= 0):
         return f"{want}, found {found(x if base == 'float' else v)}"
-    return None
-
-
-#: The most a planner's ``margin`` (m, a planning buffer beyond ``task.clearance``) may be: more
-#: leaves neighbouring arms (bases 1-2 m apart, links of about a metre) no room to work, and the
-#: planners then spend their whole budget finding that out.
-MAX_MARGIN = 0.5
-
-
-def margin_issue(v) -> Issue | None:
-    """:data:`MAX_MARGIN` for an options object's ``margin`` (already a non-negative number)."""
-    if isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v) and v > MAX_MARGIN:
-        return Issue("margin", f"expected a planning margin of at most {MAX_MARGIN:g} m beyond task.clearance (more "
-                               f"leaves neighbouring arms no room to work), found {v!r}")
+    if name == "margin" and x > MAX_MARGIN:  # (every planner's margin, from a file or from Python)
+        return (f"expected a planning margin of at most {MAX_MARGIN:g} m beyond task.clearance (more leaves neighbouring "
+                f"arms no room to work), found {v!r}")
     return None
 
 
@@ -161,8 +157,6 @@ def check_fields(obj, positive=frozenset(), source: str | None = None) -> None:
         msg = field_issue(f.name, str(f.type), v, f.name in positive)
         if msg is not None:
             issues.append(Issue(f.name, msg))
-        elif f.name == "margin" and margin_issue(v) is not None:
-            issues.append(margin_issue(v))
     if issues:
         raise OptionsError(issues, source or type(obj).__name__)
 

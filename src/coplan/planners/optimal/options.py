@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from ...errors import Issue, OptionsError, ProblemError, check_fields, field_issue, found, margin_issue
+from ...errors import Issue, OptionsError, ProblemError, check_fields, field_issue, found
 from ...problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 from ...workers import default_workers, settle_workers, workers_issue
 
@@ -170,11 +170,7 @@ _POSITIVE = {"workers", "h_target", "window", "check_rate", "time_limit", "windo
 
 def _check(name: str, kind: str, v: Any) -> str | None:
     """The message for a bad value of field ``name`` (type ``kind``), or None if it is good."""
-    msg = field_issue(name, kind, v, name in _POSITIVE)
-    if msg is None and name == "margin":
-        bad = margin_issue(v)
-        msg = bad.message if bad is not None else None
-    return msg
+    return field_issue(name, kind, v, name in _POSITIVE)
 
 
 def parse_options(text: str, source: str | None = None, base: OptimalOptions | None = None) -> OptimalOptions:
