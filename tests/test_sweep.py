@@ -319,7 +319,7 @@ def test_sweep_report_on_damaged_files_says_so(small_run, tmp_path):
     """(A cut-short results.parquet, or a file given in its place, was an internal error; a
     damaged journal line was left out in silence.) The table that does not read is named; a
     folder's report then comes from its journal, each line that is no row named."""
-    from coplan.sweep.table import PARQUET, damaged_table
+    from coplan.sweep.table import PARQUET
 
     src, _, _ = small_run
     out = tmp_path / "damaged"
@@ -328,7 +328,8 @@ def test_sweep_report_on_damaged_files_says_so(small_run, tmp_path):
     (out / PARQUET).write_bytes(data[: len(data) // 2])
     lines = (out / JOURNAL).read_text().splitlines(keepends=True)
     (out / JOURNAL).write_text("".join(lines[:5]) + "{not json\n" + lines[5])
-    assert "damaged" in damaged_table(out)
+    notes: dict = {}
+    assert read_table(out, notes).num_rows == 6 and "damaged" in notes["damaged"] and notes["unread"] == [6]
     unread: list[int] = []
     assert len(read_rows(out, unread)) == 6 and unread == [6]
     runner = CliRunner(env={"COLUMNS": "200"})

@@ -129,15 +129,12 @@ def sweep_report_cmd(
     _out.print("\n".join(printable(line) for line in rep.text.splitlines()), markup=False, highlight=False)
     for v in rep.files.values():
         _out.print(f"wrote {_safe(v)}", highlight=False)
-    from ..sweep.table import JOURNAL, PARQUET, damaged_table, read_rows
+    from ..sweep.table import JOURNAL, PARQUET
 
-    unread: list[int] = []
-    if folder.is_dir():
-        read_rows(folder, unread)
-        why = damaged_table(folder)
-        if why:
-            _err.print(f"[yellow]note[/]: {_safe(folder / PARQUET)}: {_safe(why)}; the report is made from "
-                       f"{JOURNAL}, the rows it was written from ('coplan sweep' into this folder writes it again)", highlight=False)
+    unread, why = rep.notes.get("unread") or [], rep.notes.get("damaged")
+    if why:
+        _err.print(f"[yellow]note[/]: {_safe(folder / PARQUET)}: {_safe(why)}; the report is made from "
+                   f"{JOURNAL}, the rows it was written from ('coplan sweep' into this folder writes it again)", highlight=False)
     if unread:
         _err.print(f"[yellow]note[/]: {_safe(folder / JOURNAL)}: {plural(len(unread), 'line')} "
                    f"({', '.join(map(str, unread[:5]))}{', ...' if len(unread) > 5 else ''}) "

@@ -33,6 +33,7 @@ class SweepReport:
     summary: dict[str, Any]
     text: str
     files: dict[str, Path] = field(default_factory=dict)
+    notes: dict[str, Any] = field(default_factory=dict)  # what reading the table found (:func:`coplan.sweep.table.read_table`)
 
 
 def _median(xs: list[float]) -> float | None:
@@ -235,7 +236,8 @@ def sweep_report(folder: str | Path, out: str | Path | None = None, figures: boo
     """Read a sweep's table and write ``report.md``, ``report.json`` (and the figures) to ``out``
     (default ``<folder>/report``)."""
     folder = Path(folder)
-    rows = read_table(folder).to_pylist()
+    notes: dict[str, Any] = {}
+    rows = read_table(folder, notes).to_pylist()
     base = folder if folder.is_dir() else folder.parent
     out = Path(out) if out is not None else base / "report"
     out.mkdir(parents=True, exist_ok=True)
@@ -255,4 +257,4 @@ def sweep_report(folder: str | Path, out: str | Path | None = None, figures: boo
     files["json"].write_text(json.dumps(s, indent=1, default=str, allow_nan=False))
     if figures and rows:
         files.update(_figures(rows, out))
-    return SweepReport(s, text, files)
+    return SweepReport(s, text, files, notes)

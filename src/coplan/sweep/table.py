@@ -185,9 +185,12 @@ def write_table(folder: str | Path, rows: list[dict[str, Any]] | None = None, cs
     return out
 
 
-def read_table(folder_or_file: str | Path):
+def read_table(folder_or_file: str | Path, notes: dict | None = None):
     """The sweep table as a ``pyarrow.Table``: ``results.parquet`` of a folder (or the file
-    given); when the folder has only a journal (a sweep still running), the journal's rows."""
+    given); when the folder has only a journal (a sweep still running), or its results.parquet
+    does not read, the journal's rows. ``notes`` (a dict) receives, for a folder, ``unread``:
+    the journal's line numbers that are no complete row, and ``damaged``: why results.parquet
+    did not read, if it did not."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -203,27 +206,20 @@ def read_table(folder_or_file: str | Path):
         return parquet(p)
     if not (p / PARQUET).exists() and not (p / JOURNAL).exists():
         raise FileNotFoundError(f"{p}: expected a sweep's output folder (with {PARQUET} or {JOURNAL}), found a folder with neither")
-    rows = read_rows(p)
+    unread: list[int] = []
+    rows = read_rows(p, unread)
+    if notes is not None:
+        notes["unread"] = unread
     if (p / PARQUET).exists():
         try:
             t = parquet(p / PARQUET)
-        except SweepTableError:
+        except SweepTableError as e:
             if not rows:
                 raise
             t = None  # (damaged: the journal it was written from has the rows)
+            if notes is not None:
+                notes["damaged"] = e.issues[0].message
         if t is not None and t.num_rows >= len(rows):
             return t
     return pa.Table.from_pylist(rows, schema=schema())
 
-
-def damaged_table(folder: str | Path) -> str | None:
-    """Why the folder's ``results.parquet`` does not read (None: it reads, or there is none):
-    :func:`read_table` then reads the journal it was written from."""
-    p = Path(folder) / PARQUET
-    if not p.is_file():
-        return None
-    try:
-        read_table(p)
-    except SweepTableError as e:
-        return e.issues[0].message
-    return None
