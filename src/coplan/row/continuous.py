@@ -558,22 +558,21 @@ class _Runner:
             speaker(self.progress)(_planned_line(res))
         return out
 
+    def _later(self, key, job, *args) -> None:
+        """``job(problem, *args, ...)`` to collect later (:meth:`collect`): in the background with
+        a second worker, else here and now."""
+        args = (self.problem, *args)
+        self.pending.append((key, job(*args) if self.pool is None else self.pool.submit(job, *args)))
+
     def reorder(self, level: float, opts: MovingOptions, events, key=None) -> None:
         """:func:`reorder_continuous` at ``level`` from the greedy's ``events``, to collect later
         (:meth:`collect`): in the background with a second worker."""
-        if self.pool is None:
-            self.pending.append((key, _reorder_job(self.problem, level, opts, self.reach, self.demand, events, self.hold)))
-        else:
-            self.pending.append((key, self.pool.submit(_reorder_job, self.problem, level, opts, self.reach, self.demand, events,
-                                                       self.hold)))
+        self._later(key, _reorder_job, level, opts, self.reach, self.demand, events, self.hold)
 
     def early(self, level: float, opts: MovingOptions, key=None) -> None:
         """The plan at ``level`` with the carriage's early rest at the end, to collect later
         (:meth:`collect`, as ``((result, None), seconds)``): in the background with a second worker."""
-        if self.pool is None:
-            self.pending.append((key, _early_job(self.problem, level, opts, self.reach, self.demand, self.hold)))
-        else:
-            self.pending.append((key, self.pool.submit(_early_job, self.problem, level, opts, self.reach, self.demand, self.hold)))
+        self._later(key, _early_job, level, opts, self.reach, self.demand, self.hold)
 
     def collect(self) -> list:
         out = [(k, f if isinstance(f, tuple) else f.result()) for k, f in self.pending]
