@@ -263,14 +263,23 @@ def row_duration_issues(problem) -> list[tuple[tuple, str]]:
     ))]
 
 
+def _speed_within(speed, lo: float, hi: float) -> bool:
+    """Whether ``speed`` is a finite number (not a bool) in ``(0, hi]`` and at least ``lo``."""
+    return isinstance(speed, (int, float)) and not isinstance(speed, bool) and math.isfinite(speed) and 0.0 < speed <= hi \
+        and speed >= lo
+
+
+def _shown(speed) -> str:
+    return f"{speed:g}" if isinstance(speed, (int, float)) and not isinstance(speed, bool) else repr(speed)
+
+
 def cruise_speed_issue(problem, speed) -> str | None:
     """What is wrong with ``speed`` (m/s) as a row's constant cruising speed, or None: above
     ``gantry.max_velocity``, or so slow that the plan would outgrow :func:`max_plan_seconds`
     (:func:`slowest_speed`: a 100 Hz grid of days, a file no verifier reads)."""
     g = problem.gantry
     lo = slowest_speed(problem)
-    if isinstance(speed, (int, float)) and not isinstance(speed, bool) and math.isfinite(speed) and 0.0 < speed <= g.max_velocity \
-            and speed >= lo:
+    if _speed_within(speed, lo, g.max_velocity):
         return None
     limit = plan_seconds_limit(problem)
     low = (f"[{lo:.3g}, {g.max_velocity:g}] m/s (gantry.max_velocity at most; the row's screen may ask for a little more: "
@@ -278,8 +287,7 @@ def cruise_speed_issue(problem, speed) -> str | None:
            f"within reach, {row_travel(problem):g} m along the rail, in a plan of {_hours(limit)}, the longest coplan makes"
            f"{'' if limit == MAX_PLAN_SECONDS else f' with {len(problem.arms)} arms (its file under {MAX_PLAN_BYTES >> 20} MiB)'})"
            if lo > 0 else f"(0, {g.max_velocity:g}] m/s (gantry.max_velocity)")
-    shown = f"{speed:g}" if isinstance(speed, (int, float)) and not isinstance(speed, bool) else repr(speed)
-    return f"expected a cruising speed in {low}, found {shown}"
+    return f"expected a cruising speed in {low}, found {_shown(speed)}"
 
 
 def live_speed_issue(problem, speed) -> str | None:
@@ -291,10 +299,9 @@ def live_speed_issue(problem, speed) -> str | None:
     limit = plan_seconds_limit(problem)
     rail = g.end - g.start
     lo = max(slowest_speed(problem), rail / limit)
-    if isinstance(speed, (int, float)) and not isinstance(speed, bool) and math.isfinite(speed) and 0.0 < speed <= g.max_velocity \
-            and speed >= lo:
+    if _speed_within(speed, lo, g.max_velocity):
         return None
-    shown = f"{speed:g}" if isinstance(speed, (int, float)) and not isinstance(speed, bool) else repr(speed)
+    shown = _shown(speed)
     if lo <= 0:
         return f"expected a cruising speed in (0, {g.max_velocity:g}] m/s (gantry.max_velocity), found {shown}"
     return (f"expected a cruising speed in [{lo:.3g}, {g.max_velocity:g}] m/s (gantry.max_velocity at most; at least what "
