@@ -27,7 +27,7 @@ from coplan.problem import parse_problem
 from coplan.row.assign import build_order_model, cpsat_order
 from coplan.row.booking import Booker, branch_table, run_policy, screen_branches
 from coplan.row.continuous import MovingOptions, make_cruise, plan_continuous, reorder_continuous, speed_search
-from coplan.row.cruise import Cruise, cruise_end, demand_stretches, pick_windows
+from coplan.row.cruise import Cruise, cruise_end, demand_stretches, last_place_bound, pick_windows
 from coplan.row.reach import row_reach
 from coplan.row.track import track, track_state
 from coplan.verify import verify
@@ -199,6 +199,27 @@ def test_the_same_input_gives_the_same_plan(row, reach, moving):
     assert [(e.arm, e.fruit, e.t_start) for e in again.plan.events] == [(e.arm, e.fruit, e.t_start) for e in moving.plan.events]
     for n in again.plan.q:
         assert np.array_equal(again.plan.q[n], moving.plan.q[n])
+
+
+@pytest.mark.parametrize("profile, level", [(SpeedProfile.CONSTANT, 0.05), (SpeedProfile.CONSTANT, 0.2), (SpeedProfile.DENSITY, 0.4),
+                                            (SpeedProfile.DENSITY, 0.9)])
+def test_no_plan_places_its_last_fruit_before_the_cruise_bound(row, reach, profile, level):
+    """The bound the speed search's refinement stops on: every pick starts after the carriage
+    passed the grid position before the fruit's first serving one, so the last place ends no
+    sooner than ``last_place_bound`` on a complete plan (and each pick no sooner than its own;
+    at 0.05 m/s the bound is within 2 % of the plan)."""
+    x1 = cruise_end(row, reach)
+    demand = demand_stretches(row, reach, x1) if profile == SpeedProfile.DENSITY else None
+    res = plan_continuous(row, level, MovingOptions(profile=profile, assign=AssignRule.GREEDY), reach, demand=demand)
+    cruise = make_cruise(row, reach, profile, level, demand)
+    bound = last_place_bound(row, reach, cruise)
+    assert bound > row.task.pick_dwell + row.task.place_dwell
+    for e in res.plan.events:
+        if e.kind == EventKind.PICK:
+            k = max(reach.span(e.fruit)[0] - 1, 0)
+            assert e.t_start >= float(cruise.time_at(float(reach.grid[k]))[0]) - 1e-6
+    assert res.plan.metrics["harvested"] == len(reach.cover)  # (these levels harvest every fruit)
+    assert res.plan.metrics["makespan"] >= bound - 1e-6
 
 
 def test_the_speed_search_keeps_the_best_complete_verified_plan(row, reach):

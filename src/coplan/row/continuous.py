@@ -40,7 +40,7 @@ from ..problem.plausible import cruise_speed_issue, plan_seconds_limit
 from ..progress import speaker
 from ..workers import process_pool, settle_workers
 from .booking import Booker, branch_table, run_policy, screen_branches
-from .cruise import STRETCH, Cruise, cruise_end, demand_stretches, pick_windows
+from .cruise import STRETCH, Cruise, cruise_end, demand_stretches, last_place_bound, pick_windows
 from .plan import RowResult
 from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
 
@@ -438,14 +438,13 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                     # started from the greedy's booking there (alongside the refinement when there is
                     # a second worker)
                     runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, "cpsat"))
-                if demand is not None and bad_v is not None:
-                    _refine(reach, demand, bad_v, tried, runner, greedy)
                 # at the best complete level, the carriage's early rest at the end too (where the last
                 # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`), the faster plan
-                # kept; with a second worker, alongside what is left of CP-SAT's order (after the
-                # refinement, which would otherwise wait for a worker)
+                # kept; with a second worker, alongside the refinement (one plan at a time)
                 if ok_v is not None:
                     runner.early(ok_v, greedy, key=(ok_v, "early"))
+                if demand is not None and bad_v is not None:
+                    _refine(reach, demand, bad_v, tried, runner, greedy)
                 for key, ((res, report), secs) in runner.collect():
                     if key[1] == "cpsat":
                         cpsat_report = report
@@ -478,12 +477,18 @@ def _refine(reach: RowReach, demand, level: float, tried: dict, runner: "_Runner
     """Slow down only where fruit were missed: from the slowest incomplete level, each round
     raises the demand of the stretches from which a missed fruit is served by ``REFINE_BUMP``
     and plans again; a complete plan pushes the level up by ``REFINE_PUSH``. Every round a full,
-    verified plan (added to ``tried``, keyed apart from the plain levels)."""
+    verified plan (added to ``tried``, keyed apart from the plain levels). The refinement stops
+    where its next cruise cannot place the last fruit sooner than a complete plan already does
+    (:func:`coplan.row.cruise.last_place_bound`)."""
     d = list(demand)
     v = level
     res = tried[level][0]  # the plan at that level already says which fruit were missed
     for r in range(opts.refine_rounds + 1):
         if r > 0:
+            best = min((p.row_time for _, p in tried.values() if p.complete), default=math.inf)
+            cruise = make_cruise(runner.problem, reach, SpeedProfile.DENSITY, v, d, runner.hold)
+            if last_place_bound(runner.problem, reach, cruise) >= best:
+                break
             [(res, secs)] = runner.map([v], opts, d)
             p = replace(_point(res, secs), refined=True, start_hold=runner.hold)
             tried[(v, r)] = (res, p)

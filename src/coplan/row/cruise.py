@@ -26,7 +26,7 @@ from ..kinematics.timing import Move1D
 from ..problem.model import Problem
 from .reach import RowReach
 
-__all__ = ["Cruise", "Window", "pick_windows", "cruise_end", "demand_stretches", "ramp_time", "stop_from", "STRETCH"]
+__all__ = ["Cruise", "Window", "pick_windows", "cruise_end", "last_place_bound", "demand_stretches", "ramp_time", "stop_from", "STRETCH"]
 
 #: Length of rail with one speed in a shaped cruise, m.
 STRETCH = 1.0
@@ -342,6 +342,17 @@ def cruise_end(problem: Problem, reach: RowReach, early: bool = False) -> float:
     if firsts and not early:
         x += max(problem.arms, key=lambda a: (a.base[0], a.name)).reach / 2.0
     return min(g.end, x)
+
+
+def last_place_bound(problem: Problem, reach: RowReach, cruise: Cruise) -> float:
+    """No plan on ``cruise`` booked on ``reach`` places every harvestable fruit sooner than this,
+    s: a fruit's pick starts no sooner than the carriage passes the last grid position before the
+    first that serves it, and its pick and place dwells follow (the latest such fruit; 0 for a
+    row with none)."""
+    firsts = [float(reach.grid[max(reach.span(f)[0] - 1, 0)]) for f in reach.harvestable()]
+    if not firsts:
+        return 0.0
+    return float(np.max(cruise.time_at(np.array(firsts)))) + problem.task.pick_dwell + problem.task.place_dwell
 
 
 def _runs(ok: np.ndarray) -> list[tuple[int, int]]:
