@@ -15,6 +15,10 @@ from coplan.cli import app
 from coplan.kinds import ExitCode
 from coplan.report import compare
 
+import yaml
+
+parse_yaml, dump_yaml = yaml.safe_load, yaml.safe_dump
+
 PLANNERS = ["heuristic", "heuristic:makespan"]
 
 
@@ -114,3 +118,29 @@ def test_an_unreadable_problem_file_is_a_row(folder, tmp_path):
     errors = {Path(p["file"]).name: p["error"] for p in cmp.problems if p["error"]}
     assert set(errors) == {"d.yaml", "e.yaml"}
     assert len([r for r in cmp.rows if not r.get("error")]) == 3
+
+
+def test_files_that_share_a_problem_name_each_show_their_own_figures(tmp_path, problems_dir):
+    """Design variants are often copies of one file under one ``name:``: each file's table shows
+    its own plans' figures (its rows carry the file), and the headings tell them apart."""
+    src = (problems_dir / "crossing_paths.yaml").read_text()
+    d = tmp_path / "variants"
+    d.mkdir()
+    (d / "full.yaml").write_text(src)
+    doc = parse_yaml(src)
+    doc["fruits"] = doc["fruits"][:2]  # fewer fruit: another plan under the same name
+    (d / "short.yaml").write_text(dump_yaml(doc))
+    out = tmp_path / "out"
+    cmp = compare(d, PLANNERS, out, figures=False)
+    by_file = {Path(r["file"]).stem: r for r in cmp.rows if r["planner"] == "heuristic"}
+    for stem, r in by_file.items():  # each row's figures are its own plan's
+        plan = json.loads((out / stem / "heuristic" / "plan.json").read_text())
+        assert r["makespan"] == pytest.approx(plan["metrics"]["makespan"]) and r["harvested"] == plan["metrics"]["harvested"]
+    assert by_file["short"]["harvested"] == 2 < by_file["full"]["harvested"]
+    md = (out / "compare.md").read_text()
+    full, short = md.split("## crossing-paths (full.yaml)")[1], md.split("## crossing-paths (short.yaml)")[1]
+    assert f"| {by_file['full']['harvested']} / " in full.split("##")[0]
+    assert f"| {by_file['short']['harvested']} / " in short.split("##")[0]
+    for r in cmp.rows:  # each ratio against its own file's first planner
+        ref = next(x for x in cmp.rows if x["file"] == r["file"] and x["planner"] == "heuristic")
+        assert r["makespan_vs_heuristic"] == pytest.approx(r["makespan"] / ref["makespan"])

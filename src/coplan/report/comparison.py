@@ -315,6 +315,8 @@ def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, s
             continue
         rows.append(row)
         plans[spec.label] = res.plan
+    for row in rows:  # (two files may share a problem name: a row belongs to its file)
+        row["file"] = str(path)
     return entry, rows, plans
 
 
@@ -337,7 +339,7 @@ def _write_report(cmp: Comparison, specs: list[PlannerSpec], out: Path, figures_
     """Relative makespans, aggregates, then ``compare.json`` and ``compare.md`` in ``out``."""
     base = specs[0].label
     for row in cmp.rows:
-        ref = next((r for r in cmp.rows if r["problem"] == row["problem"] and r["planner"] == base and not r.get("error")), None)
+        ref = next((r for r in cmp.rows if _same_source(r, row) and r["planner"] == base and not r.get("error")), None)
         if not row.get("error") and ref is not None:
             row["makespan_vs_" + base.replace(":", "_")] = _ratio(row["makespan"], ref["makespan"])
     cmp.aggregate = aggregate(cmp.rows, cmp.planners)
@@ -380,7 +382,7 @@ def _worst(rows: list[dict], key: str, highest: bool) -> dict | None:
     if not ok:
         return None
     r = (max if highest else min)(ok, key=lambda r: r[key])
-    return {"problem": r["problem"], "value": r[key]}
+    return {"problem": r["problem"], "file": r.get("file"), "value": r[key]}
 
 
 def aggregate(rows: list[dict], planners: list[str]) -> dict[str, Any]:
@@ -457,9 +459,18 @@ _FIGURES: list[tuple[str, str, Callable[[dict], str]]] = [
 ]
 
 
-def problem_table(cmp: Comparison, problem: str) -> tuple[list[str], list[list[str]]]:
-    """Header and rows (figure x planner) for one problem."""
-    rows = {r["planner"]: r for r in cmp.rows if r["problem"] == problem}
+def _same_source(a: dict[str, Any], b: dict[str, Any]) -> bool:
+    """Whether two rows (or a row and a ``problems`` entry) come from the same problem file
+    (by name where a row records no file)."""
+    if a.get("file") and b.get("file"):
+        return a["file"] == b["file"]
+    return a.get("problem", a.get("name")) == b.get("problem", b.get("name"))
+
+
+def problem_table(cmp: Comparison, problem: str | dict[str, Any]) -> tuple[list[str], list[list[str]]]:
+    """Header and rows (figure x planner) for one problem: its ``problems`` entry (its file), or its name."""
+    entry = problem if isinstance(problem, dict) else {"name": problem}
+    rows = {r["planner"]: r for r in cmp.rows if _same_source(r, entry)}
     header = ["figure"] + [p for p in cmp.planners if p in rows]
     body = []
     for title, _, fmt in _FIGURES:
@@ -495,6 +506,12 @@ def _aggregate_table(cmp: Comparison) -> tuple[list[str], list[list[str]]]:
     return header, [[title] + [fn(agg[p], p) for p in cmp.planners] for title, fn in spec]
 
 
+def _title(cmp: Comparison, entry: dict[str, Any]) -> str:
+    """A problem's heading: its name, and its file where another file has the same name."""
+    same = sum(1 for p in cmp.problems if p.get("name") == entry["name"])
+    return entry["name"] if same < 2 else f"{entry['name']} ({Path(entry['file']).name})"
+
+
 def _md_table(header: list[str], body: list[list[str]]) -> str:
     esc = [[c.replace("|", "\\|") for c in row] for row in [header] + body]
     lines = ["| " + " | ".join(esc[0]) + " |", "|" + "---|" * len(header)]
@@ -512,10 +529,10 @@ def to_markdown(cmp: Comparison, out_dir: Path | None = None) -> str:
         if p.get("error"):
             parts += [f"## {p['file']}", "", "Invalid problem file:", "", "```", p["error"], "```", ""]
             continue
-        parts += [f"## {p['name']}", "", f"{plural(p['arms'], 'arm')}, {p['fruit']} fruit ({p['reachable']} reachable). Source: `{p['file']}`", ""]
-        parts += [_md_table(*problem_table(cmp, p["name"])), ""]
+        parts += [f"## {_title(cmp, p)}", "", f"{plural(p['arms'], 'arm')}, {p['fruit']} fruit ({p['reachable']} reachable). Source: `{p['file']}`", ""]
+        parts += [_md_table(*problem_table(cmp, p)), ""]
         for r in cmp.rows:
-            if r["problem"] == p["name"] and r.get("collision_intervals"):
+            if _same_source(r, p) and r.get("collision_intervals"):
                 parts.append(f"Collision intervals of **{r['planner']}**:")
                 parts.append("")
                 parts += [f"- {'/'.join(c['arms'])}: {c['t_start']:.3f}-{c['t_end']:.3f} s, penetration {c['penetration'] * 1000:.1f} mm"
@@ -544,8 +561,8 @@ def rich_tables(cmp: Comparison) -> list:
     for p in cmp.problems:
         if p.get("error"):
             continue
-        header, body = problem_table(cmp, p["name"])
-        t = Table(title=plain(p["name"]), title_justify="left")
+        header, body = problem_table(cmp, p)
+        t = Table(title=plain(_title(cmp, p)), title_justify="left")
         for h in header:
             t.add_column(h, overflow="fold")
         for row in body:

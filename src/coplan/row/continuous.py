@@ -438,11 +438,13 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                     # started from the greedy's booking there (alongside the refinement when there is
                     # a second worker)
                     runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, "cpsat"))
-                # at the best complete level, the carriage's early rest at the end too (where the last
+                # at the best complete level (the most fruit per hour: not always the fastest
+                # complete one), the carriage's early rest at the end too (where the last
                 # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`), the faster plan
                 # kept; with a second worker, alongside the refinement (one plan at a time)
                 if ok_v is not None:
-                    runner.early(ok_v, greedy, key=(ok_v, "early"))
+                    top = max((v for v in tried if tried[v][1].complete), key=lambda v: _rank(tried[v][1]))
+                    runner.early(top, greedy, key=(top, "early"))
                 if demand is not None and bad_v is not None:
                     _refine(reach, demand, bad_v, tried, runner, greedy)
                 for key, ((res, report), secs) in runner.collect():
