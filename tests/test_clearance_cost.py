@@ -30,15 +30,24 @@ def test_more_clearance_never_plans_with_less_and_an_impossible_one_says_why(tmp
     assert "| +25 | 0.075 |" in (tmp_path / "clearance.md").read_text()
     assert (tmp_path / "clearance_cost.png").stat().st_size > 1000
     assert (tmp_path / "plus_25mm" / "plan.json").exists()
+    # the plan names the raised problem written beside it: verified from the files at 0.075 m
+    plan = json.loads((tmp_path / "plus_25mm" / "plan.json").read_text())
+    assert plan["problem_file"]["path"] == str((tmp_path / "plus_25mm.yaml").resolve()) == str((tmp_path / rows[25.0]["problem_file"]).resolve())
+    r = CliRunner().invoke(app, ["verify", str(tmp_path / "plus_25mm.yaml"), str(tmp_path / "plus_25mm" / "plan.json"), "--json"])
+    assert r.exit_code == 0, r.output
+    ver = json.loads(r.stdout[r.stdout.index("{"):])
+    assert ver["summary"]["required_clearance"] == 0.075 and ver["problem_file"]["same_text"] is True
+    assert not (tmp_path / "plus_5000mm.yaml").exists()  # (no plan: no problem file either)
 
 
 def test_the_command_line_sweep_and_its_usage_errors(tmp_path):
     runner = CliRunner()
     r = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--clearance-sweep", "-p", "coordinated",
-                            "--extra", "0", "--extra", "10", "-o", str(tmp_path / "out"), "--no-figures", "--json"])
+                            "--extra", "10", "-o", str(tmp_path / "out"), "--no-figures", "--json"])
     assert r.exit_code == 0, r.output
     doc = json.loads(r.stdout[r.stdout.index("{"):])
-    assert [row["extra_mm"] for row in doc["rows"]] == [0.0, 10.0]
+    assert [row["extra_mm"] for row in doc["rows"]] == [0.0, 10.0]  # (the problem's own too: the ratios' reference)
+    assert doc["rows"][1]["ratio"] is not None
     bad = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--extra", "10", "-o", str(tmp_path / "b")])
     assert bad.exit_code == 2 and "--clearance-sweep" in bad.output
     neg = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--clearance-sweep", "--extra", "-5",

@@ -403,7 +403,7 @@ def compare_cmd(
         "--clearance-sweep", help="Instead: the makespan against the clearance asked for (the problem's, +10, +25, +50, "
         "+100 mm; --extra to choose), one planner (the first --planner, default optimal), every plan verified.")] = False,
     extra: Annotated[Optional[list[float]], typer.Option(
-        "--extra", help="With --clearance-sweep: an extra clearance in mm, repeatable.")] = None,
+        "--extra", help="With --clearance-sweep: an extra clearance in mm, repeatable (the problem's own is always planned too: the ratios' reference).")] = None,
 ):
     """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
 

@@ -2,9 +2,12 @@
 
 Entry point: :func:`clearance_cost` (``coplan compare PROBLEM --clearance-sweep``). The problem
 file is planned again with its ``task.clearance`` raised by each extra (default the problem's
-own, +10, +25, +50 and +100 mm), each with the same planner and options, each plan verified
+own, +10, +25, +50 and +100 mm; the problem's own always, the reference of every ratio), each
+with the same planner and options, each plan verified
 against the raised clearance; ``clearance.json``, ``clearance.md`` and ``clearance_cost.png``
-(makespan against clearance) go to the output folder, each plan to ``plus_<mm>mm/``.
+(makespan against clearance) go to the output folder, each plan to ``plus_<mm>mm/`` and the
+problem it was planned for to ``plus_<mm>mm.yaml`` beside it (the plan names that file, so that
+``coplan verify`` checks it at the clearance it was planned for).
 
 A clearance the problem's fixed geometry cannot give (the home poses closer than it) is not a
 plan: its row says so (the validation error) and the sweep goes on.
@@ -64,7 +67,7 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
     data, _ = read_yaml(path.read_text(encoding="utf-8"), str(path))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    extras = sorted({float(e) for e in extras_mm})
+    extras = sorted({0.0, *(float(e) for e in extras_mm)})  # (the problem's own: every ratio's reference)
     res0_makespan = res0_harvested = None
     cost = ClearanceCost(base.name, str(getattr(planner, "value", planner) or "optimal"))
     for i, extra in enumerate(extras):
@@ -74,12 +77,19 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
         d = copy.deepcopy(data)
         d.setdefault("task", {})["clearance"] = clearance
         row: dict[str, Any] = {"extra_mm": extra, "clearance": clearance}
+        text = to_yaml(d)
         try:
-            prob = parse_problem(to_yaml(d), f"{path} with task.clearance {clearance:g}")
+            parse_problem(text, f"{path} with task.clearance {clearance:g}")
         except ProblemError as e:
             row.update(error=str(e).splitlines()[-1].strip() or str(e), verified=False)
             cost.rows.append(row)
             continue
+        # the raised problem as a file beside its plan, which names it (plan.json problem_file):
+        # `coplan verify`, `plot` and `view` then check and draw the plan at its own clearance
+        source = out / f"plus_{extra:g}mm.yaml"
+        atomic_text(source, text)
+        prob = load_problem(source)
+        row["problem_file"] = str(source)
         try:
             res = solve(prob, planner=planner, options=options, out_dir=out / f"plus_{extra:g}mm", progress=nested(progress))
             if res.plan.status == PlanStatus.INTERRUPTED:  # (the planner stopped at Ctrl-C and kept its incumbent)
