@@ -294,7 +294,32 @@ def test_the_free_timing_program_holds_the_start_more_lightly_than_the_held_timi
 def test_ctrl_c_inside_the_widening_program_stops_the_planner(monkeypatch):
     """(IPOPT's own Ctrl-C handler stopped the widening program only: a row of optimal cells went
     on planning to a 'success'.) A widening round stopped by Ctrl-C marks the run interrupted."""
-    import coplan.planners.optimal.stages as st
+    from coplan.planners.optimal.judged import any_interrupted
 
-    assert st._any_interrupted({"rounds": [{"status": "optimal"}], "retry": {"rounds": [{"status": "interrupted"}]}})
-    assert not st._any_interrupted({"rounds": [{"status": "optimal"}], "status": "solved"})
+    assert any_interrupted({"rounds": [{"status": "optimal"}], "retry": {"rounds": [{"status": "interrupted"}]}})
+    assert not any_interrupted({"rounds": [{"status": "optimal"}], "status": "solved"})
+
+
+def test_ctrl_c_inside_the_first_widening_program_starts_no_second_one(monkeypatch):
+    """(A trial: Ctrl-C stopped the free-timing program, and the stage then solved the held-timing
+    one to the end before the planner stopped.) An interrupted round ends the stage's programs."""
+    import coplan.planners.optimal.widen as W
+    from coplan.planners.optimal.nlp_data import SolverStatus
+
+    real, calls = W.solve_nlp, []
+
+    def stopped(nlp, names, time_limit=None):
+        sol = real(nlp, names, time_limit=time_limit)
+        calls.append(sol.status)
+        sol.status = SolverStatus.INTERRUPTED
+        return sol
+
+    monkeypatch.setattr(W, "solve_nlp", stopped)
+    prob = _shipped("crossing_paths")
+    cand = plan_coordinated(prob).candidate
+    mk = max(s.last_place for s in cand.schedules.values())
+    res = W.widen(prob, cand.alloc, cand.schedules, mk, WidenOptions(iterations=40))
+    assert len(calls) == 1 and res.plan is None
+    from coplan.planners.optimal.judged import any_interrupted
+
+    assert res.info["reason"] == "interrupted (Ctrl-C)" and any_interrupted(res.info)

@@ -13,6 +13,7 @@ from dataclasses import replace
 from ...plan import finalize_plan
 from ...problem.model import Problem
 from .incumbent import Incumbent
+from .nlp_data import SolverStatus
 from .options import OptimalOptions
 
 __all__ = ["widened"]
@@ -57,8 +58,8 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     info.update(accepted=False, margin_before=margin0, makespan_before=inc.makespan, rms_jerk_before=jerk0)
     best = _judged(problem, inc, res, info, say)
 
-    def in_time() -> bool:
-        return deadline is None or _time.perf_counter() < deadline
+    def in_time() -> bool:  # (and not stopped by Ctrl-C: IPOPT's own handler stopped its program only)
+        return (deadline is None or _time.perf_counter() < deadline) and not any_interrupted(info)
 
     def left() -> int:  # IPOPT iterations the stage has left
         return opts.widen_iterations - info.get("iterations", 0)
@@ -93,6 +94,15 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     info.pop("reason", None)
     say(f"widen: certified margin {1000 * margin0:.1f} -> {1000 * margin:.1f} mm at {plan.metrics['makespan']:.4f} s")
     return info
+
+
+def any_interrupted(report) -> bool:
+    """Whether any IPOPT round in a stage's report (its retries' too) was stopped by Ctrl-C."""
+    if isinstance(report, dict):
+        return report.get("status") == SolverStatus.INTERRUPTED.value or any(any_interrupted(v) for v in report.values())
+    if isinstance(report, list):
+        return any(any_interrupted(v) for v in report)
+    return False
 
 
 def _again(problem: Problem, inc: Incumbent, wopts, key: str, info: dict, best, widen_schedules, deadline, say):

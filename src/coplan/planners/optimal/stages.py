@@ -34,7 +34,7 @@ from ..coordinated.planner import (Coordinated, CoordinatedOptions, find_coordin
 from ..coordinated.schedule import ArmSchedule, StepKind, decoupled_schedules
 from ..heuristic import plan_heuristic
 from .incumbent import Incumbent
-from .judged import widened
+from .judged import any_interrupted, widened
 from .nlp_data import Grid, SolverStatus, build_grid, knot_events
 from .options import OptimalOptions
 from .search import Neighbourhood, SearchOptions, StopReason, improve
@@ -371,15 +371,6 @@ def polish(run: Run) -> str:
     return "accepted" if nlp_info.get("accepted") else "ran"
 
 
-def _any_interrupted(report) -> bool:
-    """Whether any IPOPT round in a stage's report (its retries' too) was stopped by Ctrl-C."""
-    if isinstance(report, dict):
-        return report.get("status") == SolverStatus.INTERRUPTED.value or any(_any_interrupted(v) for v in report.values())
-    if isinstance(report, list):
-        return any(_any_interrupted(v) for v in report)
-    return False
-
-
 def widen(run: Run) -> str:
     """More room between neighbours and less jerk at the incumbent's makespan (``widen``)."""
     inc = run.inc
@@ -394,7 +385,7 @@ def widen(run: Run) -> str:
     run.reports["widen"] = widened(run.problem, inc, run.opts, run.deadline, run.say, proven=run.proven())
     run.timings["widen"] = _time.perf_counter() - tw
     # Ctrl-C inside IPOPT stops that program only (its own handler): the run stops here too
-    run.interrupted = run.interrupted or _any_interrupted(run.reports["widen"])
+    run.interrupted = run.interrupted or any_interrupted(run.reports["widen"])
     return "accepted" if run.reports["widen"]["accepted"] else run.reports["widen"]["status"]
 
 

@@ -362,10 +362,13 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
         info["rounds"] += rounds
         if sol is not None:
             break
+        if any(r["status"] == SolverStatus.INTERRUPTED.value for r in rounds):  # Ctrl-C: no second program
+            break
         if attempt == 0:
             say("widen: IPOPT did not settle with free timing; solving again with every knot time held")
     if sol is None:
-        info.update(status="failed", reason="IPOPT did not converge",
+        stopped = any(r["status"] == SolverStatus.INTERRUPTED.value for r in info["rounds"])
+        info.update(status="failed", reason="interrupted (Ctrl-C)" if stopped else "IPOPT did not converge",
                     iterations=sum(r["iterations"] for r in info["rounds"]), wall_seconds=_time.perf_counter() - t0)
         return WidenResult(None, info)
     room = sol.room  # type: ignore[attr-defined]
