@@ -30,6 +30,7 @@ def test_every_field_round_trips_through_yaml() -> None:
         changed[f.name] = (not v if isinstance(v, bool) else v + 3 if isinstance(v, int) else v * 2 + 0.5
                            if isinstance(v, float) else 7.5 if v is None else {"ipopt.max_iter": 50})
     changed["margin"] = 0.25  # (within its range: at most 0.5 m)
+    changed["tolerance"] = 0.005  # (at most 0.01 s)
     back = parse_options(yaml.safe_dump(changed), "all.yaml")
     assert asdict(back) == changed
 
@@ -126,6 +127,17 @@ def test_a_margin_that_leaves_no_room_is_refused_in_a_file_and_in_python(tmp_pat
         with pytest.raises(OptionsError, match="margin: expected a planning margin of at most"):
             cls(margin=0.6)
         assert cls(margin=0.5).margin == 0.5
+
+
+def test_a_tolerance_that_would_call_a_slower_plan_proven_optimal_is_refused(tmp_path: Path) -> None:
+    """(``tolerance: 10`` was read: 6.50 s against a 5.66 s bound was then 'proven optimal'.)"""
+    f = tmp_path / "o.yaml"
+    f.write_text("search_work: 10\ntolerance: 10\n")
+    with pytest.raises(OptionsError, match=r"o\.yaml:2: tolerance: expected a tolerance of at most 0\.01 s"):
+        load_options(f)
+    with pytest.raises(OptionsError, match="tolerance: expected a tolerance of at most 0.01 s"):
+        OptimalOptions(tolerance=0.5)
+    assert OptimalOptions(tolerance=0.01).tolerance == 0.01 and OptimalOptions().tolerance == 1e-3
 
 
 def test_a_time_limit_stops_the_coordinated_search_after_its_first_candidate_when_none_is_feasible(problems_dir: Path) -> None:

@@ -107,11 +107,17 @@ def finite_number(v) -> bool:
 MAX_MARGIN = 0.5
 
 
+#: The most the optimal planner's ``tolerance`` may be, s: one sample at 100 Hz. A makespan within
+#: it of the lower bound is called proven optimal; a wider one would call a plan optimal that
+#: is not (a trial's ``tolerance: 10`` called 6.50 s against a 5.66 s bound proven).
+MAX_TOLERANCE = 0.01
+
+
 def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     """The message for a bad value ``v`` of an options field ``name`` annotated ``kind``
     (``int``, ``float``, ``bool``, ``dict``, ``... | None``; others are not judged here), or None
     if it is good: a finite number, an integer where ``int``, > 0 where ``positive``, else >= 0;
-    a ``margin`` at most :data:`MAX_MARGIN`."""
+    a ``margin`` at most :data:`MAX_MARGIN`, a ``tolerance`` at most :data:`MAX_TOLERANCE`."""
     if kind == "bool":
         return None if isinstance(v, bool) else f"expected true or false, found {found(v)}"
     if kind == "dict":
@@ -137,6 +143,9 @@ def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     if name == "margin" and x > MAX_MARGIN:  # (every planner's margin, from a file or from Python)
         return (f"expected a planning margin of at most {MAX_MARGIN:g} m beyond task.clearance (more leaves neighbouring "
                 f"arms no room to work), found {v!r}")
+    if name == "tolerance" and x > MAX_TOLERANCE:
+        return (f"expected a tolerance of at most {MAX_TOLERANCE:g} s (one sample: a makespan further from the lower bound "
+                f"is not proven optimal), found {v!r}")
     return None
 
 

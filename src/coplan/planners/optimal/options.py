@@ -99,7 +99,7 @@ class OptimalOptions:
     widen_ease : the widening program starts from each arm's rest spread over its moves
         (:mod:`coplan.planners.optimal.ease`; should it give nothing to keep, the program is
         solved again from the plan's own schedules)
-    tolerance : a makespan this close to the lower bound (s) is proven optimal
+    tolerance : a makespan this close to the lower bound (s) is proven optimal (at most 0.01 s: one sample)
     screen : initial NLP constraint points where the schedule's links are within this (m)
     screen_shift : ... also when one arm of a pair runs up to this much (s) earlier or later
     h_target : target knot spacing (s)
