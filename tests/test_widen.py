@@ -92,7 +92,7 @@ def test_the_optimal_planner_widens_crossing_paths_at_the_same_makespan():
     assert res.plan.metrics["margin"] == pytest.approx(w["margin"])
     assert set(res.plan.metrics["margin_per_pair"]) == {"left-right"}
     again = widen_off = plan_optimal(prob, options=OptimalOptions(widen=False))
-    assert widen_off.plan.solver["widen"] is None
+    assert widen_off.plan.solver["widen"] == {"status": "skipped", "accepted": False, "reason": "the option widen is false"}
     assert abs(again.plan.metrics["makespan"] - res.plan.metrics["makespan"]) < 1e-3
     rms = lambda p: np.mean([v["rms_jerk"] for v in p.metrics["per_arm"].values()])  # noqa: E731
     assert rms(res.plan) < rms(widen_off.plan)

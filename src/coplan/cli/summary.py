@@ -212,7 +212,7 @@ def print_summary(console, res) -> None:
         if len(left) > 5:
             p(f"    ... and {len(left) - 5} more (plan.json: solver.left_out)")
     tm = res.plan.solver.get("timings", {})
-    parts = [k for k in ("allocation", "coordinated", "retime", "search", "refine", "polish", "plan", "verify") if k in tm]
+    parts = [k for k in ("allocation", "coordinated", "retime", "search", "refine", "polish", "widen", "plan", "verify") if k in tm]
     if parts:
         planned = sum(tm[k] for k in parts)
         split = ", ".join(f"{k} {tm[k]:.2f}" for k in parts)

@@ -374,7 +374,12 @@ def polish(run: Run) -> str:
 def widen(run: Run) -> str:
     """More room between neighbours and less jerk at the incumbent's makespan (``widen``)."""
     inc = run.inc
-    if not run.opts.widen or run.interrupted or inc.plan is None or inc.candidate is None or inc.source == "joint NLP":
+    why = ("the option widen is false" if not run.opts.widen else
+           "the run was interrupted first" if run.interrupted else
+           "no verified plan with schedules to widen" if inc.plan is None or inc.candidate is None else
+           "the incumbent is the joint NLP's plan (no schedules to widen)" if inc.source == "joint NLP" else None)
+    if why is not None:  # (said in plan.json solver.widen and the summary)
+        run.reports["widen"] = {"status": "skipped", "accepted": False, "reason": why}
         return "skipped"
     if not run.in_time():  # said in plan.json and the summary, not skipped silently
         run.reports["widen"] = {"status": "skipped", "accepted": False,
