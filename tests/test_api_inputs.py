@@ -110,6 +110,9 @@ def test_the_facade_takes_a_generated_mapping_and_says_which_options_each_planne
     assert res.verification.passed and res.plan.metrics["harvested"] == len(row["fruits"])
     with pytest.raises(TypeError, match="expected the path of a YAML problem file"):
         coplan.solve(None)
+    for bad in (42, True, ["out"]):  # (42 gave os.fspath's bare 'expected str, bytes or os.PathLike object')
+        with pytest.raises(TypeError, match=r"out_dir: expected the path of a folder \(str or Path\), found"):
+            coplan.solve(row, out_dir=bad)
     with pytest.raises(TypeError, match=r"parse_problem\(coplan.generate.to_yaml\(mapping\)\)"):
         parse_problem(row)
     for planner, options, words in (("optimal", {"search_work": 10}, "the optimal planner takes OptimalOptions, found dict"),

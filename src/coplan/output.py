@@ -39,6 +39,8 @@ def check_folder(out: str | Path, what: str = "out_dir") -> None:
     """Before any work: ``out`` must be a folder coplan can create or write into (a missing
     parent is created later); :class:`OutputError` says what was expected and found, so that
     a solve of minutes is not lost to a typo in where it goes."""
+    if isinstance(out, bool) or not isinstance(out, (str, os.PathLike)):
+        raise TypeError(f"{what}: expected the path of a folder (str or Path), found {type(out).__name__} {out!r}"[:300])
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise OutputError(f"{what} {out}: expected a folder, found a file")
