@@ -152,3 +152,18 @@ def test_a_time_limit_stops_the_coordinated_search_after_its_first_candidate_whe
     attempts = [c for c in cands if "schedules" in c and "fallback" not in c]
     assert len(attempts) == 1 and not attempts[0]["feasible"]
     assert any("fallback" in c for c in cands) and res.verification.passed
+
+
+def test_another_coplan_file_given_as_options_is_named_in_one_sentence(tmp_path: Path, problems_dir: Path) -> None:
+    """(A plan.json given to --options listed each of its 13 keys as an unknown option.)"""
+    plan = tmp_path / "plan.json"
+    plan.write_text(json.dumps({"format": "coplan.plan/1", "problem": "p", "planner": "heuristic", "time": [0.0]}))
+    csv = tmp_path / "plan.csv"
+    csv.write_text("t,left_q1,left_q2\n0,0,0\n")
+    for path, what in ((plan, "a coplan plan file (format 'coplan.plan/1')"), (problems_dir / "crossing_paths.yaml", "a problem file"),
+                       (csv, "a coplan plan CSV")):
+        with pytest.raises(OptionsError) as e:
+            load_options(path)
+        assert len(e.value.issues) == 1 and what in str(e.value) and "were the arguments swapped?" in str(e.value)
+    r = CliRunner().invoke(app, ["solve", str(problems_dir / "crossing_paths.yaml"), "--options", str(plan), "-o", str(tmp_path / "o")])
+    assert r.exit_code == ExitCode.BAD_INPUT and "unknown key" not in r.output and not (tmp_path / "o").exists()

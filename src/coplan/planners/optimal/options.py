@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from ...errors import Issue, OptionsError, ProblemError, check_fields, field_issue, found
+from ...errors import Issue, OptionsError, ProblemError, check_fields, coplan_file_kind, field_issue, found, is_joint_csv
 from ...problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 from ...workers import default_workers, settle_workers, workers_issue
 
@@ -184,6 +184,12 @@ def parse_options(text: str, source: str | None = None, base: OptimalOptions | N
         data, lines = read_yaml(text, source, expected="a mapping of option names to values")
     except ProblemError as e:  # the YAML itself: the same checks as for problem files
         raise OptionsError(e.issues, source) from None
+    other = ("a coplan plan CSV (a replay of joint samples: t,<arm>_q1,...)" if is_joint_csv(data) else
+             f"a coplan {coplan_file_kind(data)} file (format {data.get('format')!r})" if coplan_file_kind(data) else
+             "a problem file (keys arms, fruits)" if isinstance(data, dict) and {"arms", "fruits"} <= set(data) else None)
+    if other is not None:  # another file given here: one sentence, not a list of unknown keys
+        raise OptionsError([Issue("", f"expected an options file (option names such as search_work, widen, time_limit), "
+                                      f"found {other}; were the arguments swapped?", 1)], source)
     if not isinstance(data, dict):
         raise OptionsError([Issue("", f"expected a mapping of option names to values, found {found(data)}", line_of(lines, ()))],
                            source)
