@@ -283,6 +283,16 @@ def test_the_sweep_command_reports_a_bad_file_with_exit_code_3(tmp_path):
     assert r.exit_code == int(ExitCode.USAGE)
 
 
+def test_a_scheduler_that_cannot_be_reached_leaves_no_sweep_folder_behind(tmp_path):
+    """(It left an empty results.parquet and sweep.json, which sweep-report then called a sweep of 0 rows.)"""
+    spec = tmp_path / "tiny.yaml"
+    spec.write_text(TINY)
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(tmp_path / "o"), "--scheduler",
+                                                        "tcp://127.0.0.1:9"])
+    assert r.exit_code == int(ExitCode.USAGE) and "could not connect" in r.output, r.output
+    assert not (tmp_path / "o").exists()
+
+
 # ---------------------------------------------------------------------- report
 def test_pareto_front():
     pts = [(2, 10.0), (3, 9.0), (3, 12.0), (4, 12.0), (5, 15.0), (2, 8.0)]
@@ -434,11 +444,24 @@ def test_the_sweep_command_end_to_end(tmp_path):
     assert r.exit_code == 0 and "3 problems (3 solved now, 0 already done)" in r.output  # another planner: other keys
     assert "also holds 3 rows of other runs of this sweep (planner coordinated" in r.output  # (and says so)
     assert len(list((out / "plans").glob("*.json"))) == 3
+    assert len((out / "results.csv").read_text().splitlines()) == 7  # (the CSV of the first run rewritten, not stale)
     r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(out), "--keep-plans"])
-    assert r.exit_code == 0 and "the 3 already done were not planned again" in r.output
+    assert r.exit_code == 0 and "3 of the 3 already done have no plan in" in " ".join(r.output.split())
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(out), "--planner", "heuristic",
+                                                        "--keep-plans"])
+    assert r.exit_code == 0 and "--keep-plans" not in r.output  # (every plan already there: nothing to say)
     rows = read_rows(out)
     assert len(rows) == 6 and sorted(r["planner"] for r in rows) == ["coordinated"] * 3 + ["heuristic"] * 3
     assert all(r["heuristic_makespan"] == r["makespan"] for r in rows if r["planner"] == "heuristic")
+    spec.write_text(TINY.replace("n_fruits: [2, 3, 4]", "n_fruits: [2, 5]"))  # the spec changed, not the planner
+    shutil.copytree(out, tmp_path / "o2")
+    shutil.rmtree(tmp_path / "o2" / "plans")
+    (tmp_path / "o2" / JOURNAL).write_text("".join(ln for ln in (out / JOURNAL).read_text().splitlines(keepends=True)
+                                                   if '"planner": "heuristic"' in ln))
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(tmp_path / "o2"), "--planner", "heuristic"])
+    said = " ".join(r.output.split())
+    assert r.exit_code == 0 and "also holds 2 rows of other runs" in said and "(planner" not in said, said
+    assert "the same planners: other problems, time limits or options" in said
 
 
 def test_two_gantry_modes_of_one_row_are_two_designs_in_the_report_not_one_with_twice_the_seeds():

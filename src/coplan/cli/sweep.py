@@ -91,13 +91,16 @@ def sweep_cmd(
     rate = 60.0 * res.done / res.elapsed if res.elapsed > 0 else 0.0
     _out.print(f"[bold]{_safe(sw.name)}[/]: {plural(res.total, 'problem')} ({res.done} solved now, {res.skipped} already done) "
                f"in {res.elapsed:.1f} s ({rate:.1f} problems/min)", highlight=False)
-    if res.others:  # rows of other runs into this folder (another planner, time limit or options): the table holds both
+    if res.others:  # rows of other runs into this folder (another planner, time limit, options or problems): the table holds both
+        what = (f"planner {', '.join(res.other_planners)}, or other problems, time limits or options" if res.other_planners
+                else "the same planners: other problems, time limits or options; the spec or the command changed")
         _err.print(f"[yellow]note[/]: {_safe(folder)} also holds {plural(len(res.others), 'row')} of other runs of this "
-                   f"sweep (planner {', '.join(sorted(set(res.others.values())))}, or other time limits or options): its "
-                   "table and report hold both", highlight=False)
-    if keep_plans and res.skipped:
-        _err.print(f"[yellow]note[/]: --keep-plans writes the plans of the rows solved now; the {res.skipped} already done "
-                   "were not planned again (run into a new --out for every plan)", highlight=False)
+                   f"sweep ({what}): its table and report hold both (their key column tells them apart; index numbers "
+                   "each run's problems)", highlight=False)
+    if keep_plans and res.unplanned:
+        _err.print(f"[yellow]note[/]: --keep-plans writes the plans of the rows solved now; {res.unplanned} of the "
+                   f"{res.skipped} already done have no plan in {_safe(folder / 'plans')} and were not planned again "
+                   "(run into a new --out for every plan)", highlight=False)
     _out.print("  " + (_counts_text(res.counts) if res.counts else "nothing to do"), highlight=False)
     for k, v in res.files.items():
         _out.print(f"  wrote {_safe(v)}", highlight=False)

@@ -69,6 +69,8 @@ class SweepOutcome:
     workers: int = 0
     interrupted: bool = False
     others: dict[str, str] = field(default_factory=dict)  # key -> planner: rows of other runs in the folder (kept)
+    other_planners: list[str] = field(default_factory=list)  # of those rows, planners this run does not use
+    unplanned: int = 0  # with keep_plans: rows already done whose plan is not in plans/ (not planned again)
 
 
 # ---------------------------------------------------------------------- in the worker
@@ -288,7 +290,6 @@ def run_sweep(
     """
     t0 = time.perf_counter()
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     meta = out / "sweep.json"
     other = json.loads(meta.read_text()).get("name") if meta.exists() else spec.name
     if other != spec.name:
@@ -302,10 +303,18 @@ def run_sweep(
     outcome = SweepOutcome(out=out, total=len(items), skipped=len(items) - len(todo), workers=n_workers)
     keys = {it.key for it in items}
     outcome.others = {k: str(r.get("planner")) for k, r in previous.items() if k not in keys}
+    outcome.other_planners = sorted(set(outcome.others.values()) - {str(it.planner) for it in items})
     for it in items:
         if it.key in done:
             s = previous[it.key]["status"]
             outcome.counts[s] = outcome.counts.get(s, 0) + 1
+            no_plan = (RowStatus.BAD_INPUT.value, RowStatus.ERROR.value, RowStatus.TIMEOUT.value)  # (rows without one)
+            if keep_plans and s not in no_plan and not (out / "plans" / f"{it.key}.json").exists():
+                outcome.unplanned += 1
+    client = cluster = None
+    if todo:  # (first: a scheduler that cannot be reached leaves nothing behind, not an empty sweep)
+        client, cluster = _client(n_workers, scheduler, spec.retries)
+    out.mkdir(parents=True, exist_ok=True)
     state = out / STATE
     state.mkdir(exist_ok=True)
     _write_json(out / "sweep.json", {
@@ -320,12 +329,10 @@ def run_sweep(
     journal = RowJournal(out)
     if keep_plans:
         (out / "plans").mkdir(exist_ok=True)
-    client = cluster = None
     try:
         if todo:
             from distributed import as_completed
 
-            client, cluster = _client(n_workers, scheduler, spec.retries)
             by_key = {}
             futures = []
             for it in todo:

@@ -171,7 +171,8 @@ def _atomic(path: Path, write) -> Path:
 
 
 def write_table(folder: str | Path, rows: list[dict[str, Any]] | None = None, csv: bool = False) -> dict[str, Path]:
-    """Write ``results.parquet`` (and ``results.csv``) from ``rows`` (default: the journal)."""
+    """Write ``results.parquet`` (and ``results.csv``: with ``csv``, or when the folder has one
+    already, which would otherwise disagree with the table) from ``rows`` (default: the journal)."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
@@ -180,7 +181,7 @@ def write_table(folder: str | Path, rows: list[dict[str, Any]] | None = None, cs
     rows = read_rows(folder) if rows is None else [normalise(r) for r in rows]
     table = pa.Table.from_pylist(rows, schema=schema())
     out = {"parquet": _atomic(folder / PARQUET, lambda p: pq.write_table(table, p))}
-    if csv:
+    if csv or (folder / CSV).exists():
         out["csv"] = _atomic(folder / CSV, lambda p: pacsv.write_csv(table, p))
     return out
 
