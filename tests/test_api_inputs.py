@@ -465,3 +465,17 @@ def test_an_empty_row_s_summary_gives_no_share_of_nothing(tmp_path):
     f.write_text(to_yaml(gantry_row(length=6.0, density=0.0, seed=1)))
     r = runner.invoke(app, ["solve", str(f), "--out", str(tmp_path / "o")])
     assert "0 harvested of 0 harvestable (-)" in r.output, r.output
+
+
+def test_a_result_shows_what_it_is_in_a_notebook_cell_not_its_samples():
+    """(``result`` in a cell printed about 15,000 characters: every sample of the plan.)"""
+    from coplan.viz.plots import plot_workspace
+
+    path = next(p for p in shipped_problems() if p.stem == "crossing_paths")
+    res = coplan.solve(str(path), planner="heuristic")
+    text = repr(res)
+    assert len(text) < 400 and "problem='crossing-paths'" in text and f"samples={res.plan.time.size}" in text
+    assert f"harvested={res.plan.metrics['harvested']}/{res.plan.metrics['reachable']}" in text
+    assert repr(res.plan) in text and "array(" not in text
+    with pytest.raises(TypeError, match=r"plot_workspace: arm: expected an arm's name \(str\) or None, found Plan"):
+        plot_workspace(res.problem, res.plan)  # (the plan where the arm's name goes: a KeyError printing the plan)

@@ -51,6 +51,13 @@ class SolveResult:
     error_trace: str | None = None  # its traceback (shown with COPLAN_DEBUG=1)
     row: object | None = None  # a row's :class:`coplan.row.plan.RowResult` (stops, cells, reach)
 
+    def __repr__(self) -> str:  # (short: the plan's samples and the problem stay out of a notebook cell)
+        m = self.plan.metrics
+        passed = None if self.verification is None else bool(getattr(self.verification, "passed", False))
+        return (f"SolveResult(problem={self.problem.name!r}, status={self.plan.status.value!r}, verified={passed}, "
+                f"harvested={m.get('harvested')}/{m.get('reachable')}, plan={self.plan!r}, files={sorted(self.files)}"
+                f"{f', error={self.error!r}' if self.error else ''})")
+
     @property
     def status(self) -> PlanStatus:
         return self.plan.status

@@ -124,6 +124,13 @@ class Plan:
     problem_file: dict[str, str] | None = None  # {"path", "sha256"}: the problem file it was planned from
     gantry_x: np.ndarray | None = None  # (N,) a row plan's carriage position on the time grid, m (None: a cell)
 
+    def __repr__(self) -> str:  # (the samples are the bulk: a notebook cell shows what the plan is, not 10^4 numbers)
+        mk = self.metrics.get("makespan")
+        return (f"Plan(problem={self.problem!r}, planner={getattr(self.planner, 'value', self.planner)!r}, "
+                f"status={self.status.value!r}, arms={list(self.q)}, samples={self.time.size}, "
+                f"events={len(self.events)}, makespan={'-' if mk is None else f'{mk:.4f} s'}"
+                f"{', row' if self.gantry_x is not None else ''})")
+
     # ------------------------------------------------------------------ queries
     @property
     def dt(self) -> float:

@@ -384,6 +384,9 @@ def plot_workspace(problem: Problem, arm: str | None = None, *, resolution: int 
     plan partial. With ``arm="name"``: that arm alone.
     """
     _check_problem(problem, "plot_workspace")
+    if arm is not None and not isinstance(arm, str):  # (a plan given here printed the whole plan in a KeyError)
+        raise TypeError(f"plot_workspace: arm: expected an arm's name (str) or None, found {type(arm).__name__}; "
+                        f"arms are {[a.name for a in problem.arms]}")
     if problem.gantry is not None:
         raise ValueError(f"plot_workspace: expected a stationary cell, found the row {problem.name!r} (its arms ride on the carriage)")
     from matplotlib.colors import LinearSegmentedColormap
