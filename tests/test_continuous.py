@@ -611,9 +611,10 @@ def test_the_carriage_rests_at_the_end_with_the_tail_inside_the_front_arm_s_reac
 
 def test_on_the_move_the_metrics_count_the_picks_made_with_the_carriage_at_rest():
     """(A 5 m row with one arm: 8 of its 12 picks came at the carriage's rest at the end while the
-    summary said it never stops for a pick.)"""
+    summary said it never stops for a pick.) At a constant 0.1 m/s it picks every fruit, two of
+    them at rest at the end."""
     p = parse_problem(to_yaml(gantry_row(length=5, n_arms=1, density=3, seed=2, trusses=False)))
-    res = solve(p, gantry=GantryMode.CONTINUOUS)
+    res = solve(p, gantry=GantryMode.CONTINUOUS, options=MovingOptions(level=0.1, profile=SpeedProfile.CONSTANT))
     r = res.plan.metrics["row"]
     x, t = np.asarray(res.plan.gantry_x), res.plan.time
     still = sum(1 for e in res.plan.events if e.kind == EventKind.PICK

@@ -177,7 +177,7 @@ class MovingOptions:
     margin: float = 0.02
     resolution: float = DEFAULT_RESOLUTION
     search_rounds: int = 7
-    refine_rounds: int = 2
+    refine_rounds: int = 1  # (2 before the search's top was left unplanned: the second round then won on no benchmark row)
     workers: int = 1
     rate: float = DEFAULT_RATE
 
@@ -358,11 +358,13 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     harvestable fruit (each candidate a full, verified plan), and the curve of the levels tried.
 
     Fruit per hour rises with the level as long as every fruit is still harvested, so the search
-    brackets the fastest complete level: it starts where the carriage would take as long as the
-    busiest arm's work (constant: the row's work bound, no faster plan harvests everything) or
-    gives each stretch exactly its fruit's cheapest cycles (density: pace 1), halves it until a
-    plan is complete (grows it by half while complete), then bisects between the fastest
-    complete and the slowest incomplete level, to 5 %. With ``levels`` it plans exactly those
+    brackets the fastest complete level. Its top is at first the level where the carriage would
+    take as long as the busiest arm's work (constant: the row's work bound, no faster plan
+    harvests everything) or gives each stretch exactly its fruit's cheapest cycles (density: pace
+    1), not planned: the first plans go from half of it up (one per worker), halving further
+    until a plan is complete; then it bisects between the fastest complete and the slowest
+    incomplete level (that top while no plan was incomplete), to 5 %; where every plan up to the
+    top is complete, the top is planned too and the level grows by half while complete. With ``levels`` it plans exactly those
     (the curve) and returns the best. The winner: complete and verified first, then the most
     fruit per hour."""
     from .bound import row_bounds
@@ -411,21 +413,30 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                     v = 1.0
                 v = min(v, cap)
                 ok_v, bad_v = None, None
+                # the starting level is the bracket's top until a plan says otherwise: a faster carriage
+                # than the busiest arm's work (pace 1) leaves fruit on every benchmark row, so it is
+                # planned only when the bracket closes below it with no incomplete plan
+                assumed: float | None = v
                 w = runner.workers
                 for _ in range(int(math.ceil(opts.search_rounds / w))):
-                    # w levels at once: down by halves / up by half again until bracketed, then w points inside
+                    # w levels at once: from half the start up to it / down by halves / up by half again
+                    # until bracketed, then w points inside
+                    top = bad_v if bad_v is not None else assumed
                     if ok_v is None and bad_v is None:
-                        batch = [v / 2.0 ** k for k in range(w)]
+                        batch = [v / 2.0 * (1.0 + k / w) for k in range(w)]
                     elif ok_v is None:
                         batch = [bad_v / 2.0 ** (k + 1) for k in range(w)]
-                    elif bad_v is None:
+                    elif top is None:
                         if ok_v >= cap:
                             break
                         batch = [min(cap, ok_v * 1.5 ** (k + 1)) for k in range(w)]
-                    else:
-                        if bad_v - ok_v <= 0.05 * ok_v:
+                    elif top - ok_v <= 0.05 * ok_v:
+                        if bad_v is not None:
                             break
-                        batch = [ok_v + (bad_v - ok_v) * (k + 1) / (w + 1) for k in range(w)]
+                        batch = [min(cap, top * 1.5 ** k) for k in range(w)]  # complete up to the start: it too, and on up
+                        assumed = None
+                    else:
+                        batch = [ok_v + (top - ok_v) * (k + 1) / (w + 1) for k in range(w)]
                     for p in run_many(batch):
                         if p.complete:
                             ok_v = p.level if ok_v is None else max(ok_v, p.level)
