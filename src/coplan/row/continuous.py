@@ -454,8 +454,8 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                 # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`), the faster plan
                 # kept; with a second worker, alongside the refinement (one plan at a time)
                 if ok_v is not None:
-                    top = max((v for v in tried if tried[v][1].complete), key=lambda v: _rank(tried[v][1]))
-                    runner.early(top, greedy, key=(top, "early"))
+                    best_v = max((k for k in tried if tried[k][1].complete), key=lambda k: _rank(tried[k][1]))
+                    runner.early(best_v, greedy, key=(best_v, "early"))
                 if demand is not None and bad_v is not None:
                     _refine(reach, demand, bad_v, tried, runner, greedy)
                 for key, ((res, report), secs) in runner.collect():
