@@ -233,6 +233,14 @@ def test_the_speed_search_keeps_the_best_complete_verified_plan(row, reach):
     assert fph >= max(p.fruit_per_hour for p in complete) - 1e-6
     # a faster carriage never came back with every fruit and more per hour
     assert all(not (p.complete and p.fruit_per_hour > fph + 1e-6) for p in curve)
+    # the refinement (asked for: off by default) slows only where the slowest incomplete level
+    # missed fruit: each round's plan is no faster than that level's on average
+    refined = [p for p in curve if p.refined]
+    slowest_bad = min(p.level for p in curve if not p.complete and not p.refined)
+    assert refined and all(p.mean_speed <= next(q.mean_speed for q in curve if q.level == slowest_bad and not q.refined) + 1e-9
+                           for p in refined[:1])
+    plain = speed_search(row, MovingOptions(search_rounds=5), reach)[1]
+    assert not any(p.refined for p in plain) and len(plain) == len(curve) - len(refined)
 
 
 def test_cpsat_order_is_kept_only_when_it_does_better(row, reach):

@@ -166,7 +166,9 @@ class MovingOptions:
     margin : kept beyond the problem's clearance when booking cycles, m
     resolution : spacing of the candidate carriage positions of the row's screen, m
     search_rounds : full plans the speed search may try (each verified)
-    refine_rounds : full plans that then slow the carriage only where fruit were missed (density)
+    refine_rounds : full plans that then slow the carriage only where fruit were missed (density;
+        default none: with the search's bracketing, they won on no benchmark row and cost the search
+        a plan at its end)
     workers : processes the speed search plans in (levels tried side by side); 1: all here
     rate : the plan's samples per second, 100 to 10,000 Hz
     """
@@ -177,7 +179,7 @@ class MovingOptions:
     margin: float = 0.02
     resolution: float = DEFAULT_RESOLUTION
     search_rounds: int = 7
-    refine_rounds: int = 1  # (2 before the search's top was left unplanned: the second round then won on no benchmark row)
+    refine_rounds: int = 0  # (2 before the search's top was left unplanned; since, no round won on any of the 10 benchmark rows)
     workers: int = 1
     rate: float = DEFAULT_RATE
 
