@@ -294,7 +294,7 @@ def test_the_free_timing_program_holds_the_start_more_lightly_than_the_held_timi
 def test_ctrl_c_inside_the_widening_program_stops_the_planner(monkeypatch):
     """(IPOPT's own Ctrl-C handler stopped the widening program only: a row of optimal cells went
     on planning to a 'success'.) A widening round stopped by Ctrl-C marks the run interrupted."""
-    from coplan.planners.optimal.judged import any_interrupted
+    from coplan.planners.optimal.nlp_data import any_interrupted
 
     assert any_interrupted({"rounds": [{"status": "optimal"}], "retry": {"rounds": [{"status": "interrupted"}]}})
     assert not any_interrupted({"rounds": [{"status": "optimal"}], "status": "solved"})
@@ -320,6 +320,6 @@ def test_ctrl_c_inside_the_first_widening_program_starts_no_second_one(monkeypat
     mk = max(s.last_place for s in cand.schedules.values())
     res = W.widen(prob, cand.alloc, cand.schedules, mk, WidenOptions(iterations=40))
     assert len(calls) == 1 and res.plan is None
-    from coplan.planners.optimal.judged import any_interrupted
+    from coplan.planners.optimal.nlp_data import any_interrupted
 
     assert res.info["reason"] == "interrupted (Ctrl-C)" and any_interrupted(res.info)

@@ -337,7 +337,7 @@ def cruise_end(problem: Problem, reach: RowReach, early: bool = False) -> float:
     generated rows of 1-6 arms, 3.6 % longer on average, 3 of them faster) -- the search tries
     both at the level it chooses (the faster kept)."""
     g = problem.gantry
-    firsts = [float(reach.grid[reach.span(f)[0]]) for f in reach.harvestable()]
+    firsts = _first_serving(reach)
     x = max(firsts, default=g.start)
     if firsts and not early:
         x += max(problem.arms, key=lambda a: (a.base[0], a.name)).reach / 2.0
@@ -349,10 +349,16 @@ def last_place_bound(problem: Problem, reach: RowReach, cruise: Cruise) -> float
     s: a fruit's pick starts no sooner than the carriage passes the last grid position before the
     first that serves it, and its pick and place dwells follow (the latest such fruit; 0 for a
     row with none)."""
-    firsts = [float(reach.grid[max(reach.span(f)[0] - 1, 0)]) for f in reach.harvestable()]
+    firsts = _first_serving(reach, back=1)
     if not firsts:
         return 0.0
     return float(np.max(cruise.time_at(np.array(firsts)))) + problem.task.pick_dwell + problem.task.place_dwell
+
+
+def _first_serving(reach: RowReach, back: int = 0) -> list[float]:
+    """Each harvestable fruit's first carriage position that serves it, m (``back`` grid steps
+    before it), in file order."""
+    return [float(reach.grid[max(reach.span(f)[0] - back, 0)]) for f in reach.harvestable()]
 
 
 def _runs(ok: np.ndarray) -> list[tuple[int, int]]:

@@ -266,6 +266,10 @@ def default_workers() -> int:
     return cores()
 
 
+#: Row statuses that come with no plan (nothing for ``--keep-plans`` to have written).
+_NO_PLAN = (RowStatus.BAD_INPUT.value, RowStatus.ERROR.value, RowStatus.TIMEOUT.value)
+
+
 def run_sweep(
     spec: SweepSpec,
     out: str | Path,
@@ -308,8 +312,7 @@ def run_sweep(
         if it.key in done:
             s = previous[it.key]["status"]
             outcome.counts[s] = outcome.counts.get(s, 0) + 1
-            no_plan = (RowStatus.BAD_INPUT.value, RowStatus.ERROR.value, RowStatus.TIMEOUT.value)  # (rows without one)
-            if keep_plans and s not in no_plan and not (out / "plans" / f"{it.key}.json").exists():
+            if keep_plans and s not in _NO_PLAN and not (out / "plans" / f"{it.key}.json").exists():
                 outcome.unplanned += 1
     client = cluster = None
     if todo:  # (first: a scheduler that cannot be reached leaves nothing behind, not an empty sweep)

@@ -13,7 +13,7 @@ from dataclasses import replace
 from ...plan import finalize_plan
 from ...problem.model import Problem
 from .incumbent import Incumbent
-from .nlp_data import SolverStatus
+from .nlp_data import any_interrupted
 from .options import OptimalOptions
 
 __all__ = ["widened"]
@@ -94,15 +94,6 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     info.pop("reason", None)
     say(f"widen: certified margin {1000 * margin0:.1f} -> {1000 * margin:.1f} mm at {plan.metrics['makespan']:.4f} s")
     return info
-
-
-def any_interrupted(report) -> bool:
-    """Whether any IPOPT round in a stage's report (its retries' too) was stopped by Ctrl-C."""
-    if isinstance(report, dict):
-        return report.get("status") == SolverStatus.INTERRUPTED.value or any(any_interrupted(v) for v in report.values())
-    if isinstance(report, list):
-        return any(any_interrupted(v) for v in report)
-    return False
 
 
 def _again(problem: Problem, inc: Incumbent, wopts, key: str, info: dict, best, widen_schedules, deadline, say):

@@ -14,8 +14,8 @@ import numpy as np
 from ..coordinated.schedule import ArmSchedule, StepKind
 from ...plan import Event, EventKind
 
-__all__ = ["SolverStatus", "Grid", "ConstraintPoint", "WidenGoal", "NLP", "NLPSolution", "build_grid", "knot_events",
-           "map_status"]
+__all__ = ["SolverStatus", "any_interrupted", "Grid", "ConstraintPoint", "WidenGoal", "NLP", "NLPSolution", "build_grid",
+           "knot_events", "map_status"]
 
 
 class SolverStatus(str, Enum):
@@ -29,6 +29,16 @@ class SolverStatus(str, Enum):
     @property
     def converged(self) -> bool:
         return self in (SolverStatus.OPTIMAL, SolverStatus.ACCEPTABLE)
+
+
+def any_interrupted(report) -> bool:
+    """Whether any IPOPT round in a report (a stage's, its retries' too: nested dicts and lists
+    with ``status``) was stopped by Ctrl-C."""
+    if isinstance(report, dict):
+        return report.get("status") == SolverStatus.INTERRUPTED.value or any(any_interrupted(v) for v in report.values())
+    if isinstance(report, list):
+        return any(any_interrupted(v) for v in report)
+    return False
 
 
 _IPOPT_STATUS = {

@@ -34,8 +34,8 @@ from ..coordinated.planner import (Coordinated, CoordinatedOptions, find_coordin
 from ..coordinated.schedule import ArmSchedule, StepKind, decoupled_schedules
 from ..heuristic import plan_heuristic
 from .incumbent import Incumbent
-from .judged import any_interrupted, widened
-from .nlp_data import Grid, SolverStatus, build_grid, knot_events
+from .judged import widened
+from .nlp_data import Grid, SolverStatus, any_interrupted, build_grid, knot_events
 from .options import OptimalOptions
 from .search import Neighbourhood, SearchOptions, StopReason, improve
 from .windows import LADDER, solve_windows, window_count

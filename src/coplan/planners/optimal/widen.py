@@ -44,7 +44,7 @@ from ..coordinated.planner import make_plan
 from ..coordinated.schedule import ArmSchedule, StepKind
 from .ease import ease
 from .nlp import build_nlp
-from .nlp_data import ConstraintPoint, NLPSolution, SolverStatus, WidenGoal, build_grid, knot_events
+from .nlp_data import ConstraintPoint, NLPSolution, SolverStatus, WidenGoal, any_interrupted, build_grid, knot_events
 from .nlp_solve import solve_nlp
 from .windows import link_pair_distances, min_clearance, refine_points, screen_points
 
@@ -362,13 +362,12 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
         info["rounds"] += rounds
         if sol is not None:
             break
-        if any(r["status"] == SolverStatus.INTERRUPTED.value for r in rounds):  # Ctrl-C: no second program
+        if any_interrupted(rounds):  # Ctrl-C: no second program
             break
         if attempt == 0:
             say("widen: IPOPT did not settle with free timing; solving again with every knot time held")
     if sol is None:
-        stopped = any(r["status"] == SolverStatus.INTERRUPTED.value for r in info["rounds"])
-        info.update(status="failed", reason="interrupted (Ctrl-C)" if stopped else "IPOPT did not converge",
+        info.update(status="failed", reason="interrupted (Ctrl-C)" if any_interrupted(info["rounds"]) else "IPOPT did not converge",
                     iterations=sum(r["iterations"] for r in info["rounds"]), wall_seconds=_time.perf_counter() - t0)
         return WidenResult(None, info)
     room = sol.room  # type: ignore[attr-defined]
