@@ -631,3 +631,31 @@ def test_on_the_move_the_metrics_count_the_picks_made_with_the_carriage_at_rest(
     still = sum(1 for e in res.plan.events if e.kind == EventKind.PICK
                 and np.ptp(x[(t >= e.t_start - 1e-9) & (t <= e.t_end + 1e-9)]) < 1e-9)
     assert r["picks_at_rest"] == still and 0 < still < res.plan.metrics["harvested"]
+
+
+def test_the_row_shares_are_shares_of_the_row_time_on_the_move():
+    """At a constant 0.2 m/s on a short row the carriage moves the whole row: its share is 1,
+    not 1.0003 (counting samples, both ends of a stretch); the picking share is the pick dwells'
+    time where no two overlap; the mode is in the plan's label."""
+    d = gantry_row(length=10, n_arms=2, density=2, seed=2, trusses=False)
+    prob = parse_problem(to_yaml(d))
+    res = solve(prob, options=MovingOptions(profile=SpeedProfile.CONSTANT, level=0.2))
+    r = res.plan.metrics["row"]
+    assert 0.99 <= r["carriage_moving_share"] <= 1.0 and 0.0 < r["picking_share"] <= 1.0
+    picks = sorted((e.t_start, e.t_end) for e in res.plan.events if e.kind == EventKind.PICK)
+    union, end = 0.0, -1.0
+    for a, b in picks:
+        union += max(0.0, b - max(a, end))
+        end = max(end, b)
+    assert r["picking_share"] * r["row_time"] == pytest.approx(union, abs=res.plan.dt * len(picks))
+    assert res.plan.label == "coordinated (on the move)"
+
+
+def test_no_cell_planner_on_the_move_and_the_message_says_so(tmp_path):
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=10, n_arms=2, density=2, seed=2, trusses=False)))
+    for planner in ("heuristic", "optimal"):
+        r = CliRunner().invoke(app, ["solve", str(path), "--gantry", "continuous", "--planner", planner, "-o", str(tmp_path / "o")])
+        assert r.exit_code == 2 and "on the move the row books its own coordinated moves" in r.output, r.output
+        assert "coordinated or optimal do" not in r.output
+    assert not (tmp_path / "o").exists()

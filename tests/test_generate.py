@@ -173,3 +173,23 @@ def test_gantry_row_takes_only_the_gantry_keys_given() -> None:
     assert (g.max_acceleration, g.max_jerk, g.start, g.end) == (LESSON_GANTRY["max_acceleration"], LESSON_GANTRY["max_jerk"], 0.0, 6.0)
     with pytest.raises(TypeError, match="gantry: expected a mapping"):
         gantry_row(length=6, gantry=0.5)
+
+
+def test_gantry_row_moves_its_fruit_with_the_rail_and_refuses_what_it_cannot_draw() -> None:
+    """(``gantry={'start': 20, 'end': 30}`` kept the fruit in [0, length], a row coplan refused;
+    a reversed ``y_range`` met NumPy's 'high - low < 0'.)"""
+    from coplan.generate import gantry_row
+
+    p = parse_problem(to_yaml(gantry_row(length=10, n_arms=2, density=3, seed=1, gantry={"start": 20.0})))
+    xs = [f.position[0] for f in p.fruits]
+    assert (p.gantry.start, p.gantry.end) == (20.0, 30.0) and 20.0 <= min(xs) and max(xs) <= 30.0
+    base = gantry_row(length=10, n_arms=2, density=3, seed=1)
+    assert [f["position"][0] for f in base["fruits"]] == pytest.approx([x - 20.0 for x in xs], abs=1e-4)
+    longer = parse_problem(to_yaml(gantry_row(length=10, n_arms=2, density=3, seed=1, gantry={"start": 20.0, "end": 35.0})))
+    assert longer.gantry.end == 35.0 and max(f.position[0] for f in longer.fruits) <= 30.0
+    with pytest.raises(ValueError, match=r"gantry end: expected at least start \+ length = 70 \(the fruit lie along length m from start\), found 30"):
+        gantry_row(gantry={"start": 20, "end": 30})
+    with pytest.raises(ValueError, match=r"y_range: expected \(low, high\) with low < high, found \(1.5, 0.5\)"):
+        gantry_row(y_range=(1.5, 0.5))
+    narrow = parse_problem(to_yaml(gantry_row(length=5, density=4, seed=2, y_range=(0.9, 1.0))))
+    assert all(0.9 <= f.position[1] <= 1.0 for f in narrow.fruits)

@@ -744,3 +744,20 @@ def test_a_fruit_left_to_a_stop_where_only_the_stopped_arm_reaches_it_says_so():
     for why in missed.values():
         assert f"only {stopped} could reach it, and it stopped" in why and "waiting for a neighbour" not in why, why
     assert any("which left it to the stop at x = " in why for why in missed.values())
+
+
+def test_on_the_move_the_carriage_rests_at_the_start_for_a_fruit_it_would_pass_before_an_arm_got_there():
+    """A fruit 0.18 m inside arm1's reach at the start: the carriage, ramping up at once to
+    0.3 m/s, leaves it 0.7 s later, too soon for a cycle. It rests first (as the offline plan
+    does), and the fruit is harvested; it was passed, reported as 'waiting for a neighbour'."""
+    d = gantry_row(length=10, n_arms=2, density=2, seed=2, trusses=False)
+    d["fruits"][0]["position"] = [-2.4, 0.8]
+    prob = parse_problem(to_yaml(d))
+    r = run_live_row(prob, LiveRowOptions(speed=0.3, seed=0))
+    m = r.metrics
+    assert m["harvested"] == m["offline_harvested"] == len(prob.fruits) == 17, m
+    assert m["verified"] and verify(prob, r.plan).passed
+    picks = [e for e in r.plan.events if e.kind == EventKind.PICK and e.fruit == "f0001"]
+    x = np.asarray(r.plan.gantry_x)
+    i = int(round(picks[0].t_start / r.plan.dt))
+    assert len(picks) == 1 and x[i] <= x[0] + 0.18 + 1e-6  # picked before the carriage took it out of reach

@@ -474,6 +474,12 @@ def test_a_row_plan_s_stops_and_bound_in_the_viewer_data():
     rest = x[1:][np.abs(np.diff(x)) < 1e-12]
     assert sum(len(s["fruit"]) for s in on_move) < picks / 2
     assert all(np.abs(rest - s["x"]).min() < 1e-9 for s in on_move)
+    # which plan moved how: in each panel's label and the page's title (both were "coordinated")
+    assert [p["label"] for p in data["plans"]] == ["coordinated (stop and go, fewest stops)", "coordinated (on the move)"]
+    assert [p["planner"] for p in data["plans"]] == ["coordinated", "coordinated"]
+    from coplan.viz.viewer import render_html
+    page = render_html(prob, stop.plan, compare=moving.plan)
+    assert "coordinated (stop and go, fewest stops) vs coordinated (on the move)</title>" in page
     live = run_live_row(prob, LiveRowOptions(speed=0.2, seed=1))
     bound = row_bounds(prob).any_plan
     assert viewer_data(prob, [live.plan])["lower_bound"] == pytest.approx(bound)

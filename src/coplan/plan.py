@@ -147,6 +147,18 @@ class Plan:
         return self.planner.value if isinstance(self.planner, PlannerKind) else str(self.planner)
 
     @property
+    def label(self) -> str:
+        """The planner's name and, for a row's plan, how its carriage moved (its ``solver.row``):
+        "coordinated (on the move)", "optimal (stop and go, optimised stops)"; a cell's: the name."""
+        row = (self.solver or {}).get("row") if isinstance(self.solver, dict) else None
+        if not isinstance(row, dict) or self.gantry_x is None:
+            return self.planner_name
+        if row.get("mode") == "continuous":
+            return f"{self.planner_name} (on the move)"
+        rule = row.get("rule")
+        return f"{self.planner_name} (stop and go" + (f", {rule} stops)" if isinstance(rule, str) else ")")
+
+    @property
     def arm_names(self) -> list[str]:
         return list(self.q)
 

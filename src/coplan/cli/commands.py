@@ -132,7 +132,7 @@ def solve(
     failures.check_out_dir(out)
     path = load_problem(_resolve_problem(problem))
     if path.gantry is not None:  # a row: the stop rule and the cell planner at each stop, or on the move
-        refused = refused_on_a_row(planner, allocation, options_file, time_limit)
+        refused = refused_on_a_row(planner, allocation, options_file, time_limit, gantry)
         if refused:
             _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): {'; '.join(refused)}")
         moving = moving_options(path, gantry, speed, stops, planner)
@@ -370,7 +370,8 @@ def verify_cmd(
 
         events = loaded.events or ver.inferred_events or []
         places = [e.t_end for e in events if e.kind == EventKind.PLACE]
-        print_verification(out_console, prob, ver, makespan=max(places) if places else None)
+        print_verification(out_console, prob, ver, makespan=max(places) if places else None,
+                           label=getattr(loaded, "label", None))
         if written is not None:
             out_console.print(f"  wrote             {_s(written)}")
     # no reachable fruit: infeasible (4), as `solve` says of the same problem

@@ -238,9 +238,11 @@ WARNING_WORDS = {
 _SHOWN = 10  # fruit ids a verdict line lists (the rest counted; verification.json has them all)
 
 
-def print_verification(console, problem, ver, max_rows: int = 25, makespan: float | None = None) -> None:
+def print_verification(console, problem, ver, max_rows: int = 25, makespan: float | None = None,
+                       label: str | None = None) -> None:
     """Verdict, clearances, peaks and a short table of the violations. ``makespan``: the plan's
-    last place (s), told apart from its length (the plan goes on, e.g. with the arms' way home)."""
+    last place (s), told apart from its length (the plan goes on, e.g. with the arms' way home);
+    ``label``: the plan's :attr:`coplan.plan.Plan.label` (a row's says how its carriage moved)."""
     from rich.table import Table
 
     from ..plancsv import CSV_PLANNER
@@ -249,7 +251,7 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     s = ver.summary()
     verdict = "[bold green]passed[/]" if ver.passed else "[bold red]FAILED[/]"
     span = "" if makespan is None else f" (makespan {makespan:.2f} s: the last place)"
-    what = "a plan.csv replay (its planner not recorded)" if ver.planner == CSV_PLANNER else f"{safe(ver.planner)} plan"
+    what = "a plan.csv replay (its planner not recorded)" if ver.planner == CSV_PLANNER else f"{safe(label or ver.planner)} plan"
     left = list(ver.unharvested)
     shown = ", ".join(left[:_SHOWN]) + (f" and {len(left) - _SHOWN} more" if len(left) > _SHOWN else "")
     # what fails the plan first (the violations, by kind), then what it leaves

@@ -282,8 +282,9 @@ def gantry_row(
     The carriage carries the arms ``spacing`` m apart, centred on its origin, each bin 0.5 m
     below its base; it runs from ``start`` 0 to ``end`` = ``length`` with the limits of
     :data:`LESSON_GANTRY`, each key ``gantry`` gives in place of that default (``gantry={"settle":
-    0.5}`` keeps the lesson's limits; ``start`` and ``end`` too). About ``density`` fruit per metre (Poisson count,
-    seeded) lie along x in [0, ``length``] at heights in ``y_range``: uniform, or with
+    0.5}`` keeps the lesson's limits; ``start`` and ``end`` too: the fruit then lie along ``length`` m
+    from ``start``, and ``end`` is at least that far). About ``density`` fruit per metre (Poisson count,
+    seeded) lie along x in [``start``, ``start + length``] at heights in ``y_range`` (low, high): uniform, or with
     ``trusses`` in clusters (a truss every 0.25-0.45 m, its fruit within 6 cm of it and 12 cm
     of its height), as strawberries hang. Positions rounded to 4 decimals, ids ``f0001``... by x.
     Deterministic in its arguments.
@@ -292,6 +293,18 @@ def gantry_row(
     _finite(length=length, density=density, spacing=spacing, y_range=y_range)
     if length <= 0 or n_arms < 1 or density < 0:
         raise ValueError(f"expected length > 0, n_arms >= 1 and density >= 0, found {length}, {n_arms}, {density}")
+    if not (len(y_range) == 2 and y_range[0] < y_range[1]):
+        raise ValueError(f"y_range: expected (low, high) with low < high, found {tuple(y_range)!r}")
+    if gantry is not None and not isinstance(gantry, dict):
+        raise TypeError(f"gantry: expected a mapping of gantry keys (e.g. {{'settle': 0.5}}), found {type(gantry).__name__} {gantry!r}")
+    x0 = (gantry or {}).get("start", 0.0)
+    _finite(**{"gantry start": x0})
+    x0 = float(x0)
+    if "end" in (gantry or {}):
+        _finite(**{"gantry end": gantry["end"]})  # type: ignore[index]
+        if float(gantry["end"]) < x0 + length - 1e-9:  # type: ignore[index]
+            raise ValueError(f"gantry end: expected at least start + length = {x0 + length:g} (the fruit lie along "
+                             f"length m from start), found {gantry['end']!r}")  # type: ignore[index]
     rng = np.random.default_rng(seed)
     n = int(rng.poisson(density * length))
     if trusses and n:
@@ -301,7 +314,8 @@ def gantry_row(
             xs.append(x)
             x += float(rng.uniform(0.25, 0.45))
         xs = np.asarray(xs)
-        heights = rng.uniform(y_range[0] + 0.12, y_range[1] - 0.12, xs.size)
+        inset = min(0.12, 0.5 * (y_range[1] - y_range[0]))  # (a truss's fruit within 12 cm of its height)
+        heights = rng.uniform(y_range[0] + inset, y_range[1] - inset, xs.size)
         which = rng.integers(0, xs.size, n)
         px = np.clip(xs[which] + rng.uniform(-0.06, 0.06, n), 0.0, length)
         py = np.clip(heights[which] + rng.uniform(-0.12, 0.12, n), *y_range)
@@ -309,14 +323,12 @@ def gantry_row(
     else:
         pts = sorted(zip(rng.uniform(0.0, length, n), rng.uniform(*y_range, n)))
     bases = _bases(n_arms, spacing)
-    if gantry is not None and not isinstance(gantry, dict):
-        raise TypeError(f"gantry: expected a mapping of gantry keys (e.g. {{'settle': 0.5}}), found {type(gantry).__name__} {gantry!r}")
-    g = {"start": 0.0, "end": _r4(length)} | LESSON_GANTRY | (gantry or {})  # (a key given replaces its default only)
+    g = {"start": 0.0, "end": _r4(x0 + length)} | LESSON_GANTRY | (gantry or {})  # (a key given replaces its default only)
     d = _assemble(
         name or f"row-{length:g}m-{n_arms}arms-{density:g}perm-seed{seed}",
         f"{n_arms} of the lesson's arms {spacing:g} m apart on a gantry along a {length:g} m row, about {density:g} "
         f"fruit per metre ({'in trusses' if trusses else 'uniform'}, seed {seed}).",
-        dict(LESSON_DEFAULTS), _arm_entries(bases, -0.5, None), [(_r4(x), _r4(y)) for x, y in pts], LESSON_TASK)
+        dict(LESSON_DEFAULTS), _arm_entries(bases, -0.5, None), [(_r4(x0 + x), _r4(y)) for x, y in pts], LESSON_TASK)
     width = max(4, len(str(len(pts))))
     for i, f in enumerate(d["fruits"], 1):
         f["id"] = f"f{i:0{width}d}"

@@ -563,6 +563,9 @@ def why_left(booker: Booker, fid: str, halt: dict[int, float]) -> str:
         return f"{fid}: only {arm} could reach it, and {arm} stopped at t = {halt[w.arm]:.1f} s"
     if not math.isfinite(w.hi):
         return f"{fid}: {arm} could still reach it, but no clear cycle was found"
+    if not any(e.arm == arm and e.t_start <= w.hi for e in booker.events):  # (not waiting: nothing done yet)
+        return (f"{fid}: passed {arm}'s reach at t = {w.hi:.1f} s, {max(w.hi - w.lo, 0.0):.1f} s after it came "
+                f"into reach, before {arm}'s first pick")
     doing = "waiting for a neighbour"
     for e in booker.events:
         if e.arm == arm and e.t_start <= w.hi <= e.t_end + 1.5:

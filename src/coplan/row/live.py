@@ -186,7 +186,15 @@ def _check_fault_room(problem: Problem, opts: LiveRowOptions, seconds: float) ->
 
 def _start_hold_for(problem: Problem, reports: list[RowReport], cruise: Cruise) -> float:
     """The rest where the carriage starts (:func:`coplan.row.continuous.start_hold`) for the
-    reports the camera makes before it moves that only the start position serves; 0 if none."""
+    reports the camera makes before it moves that the start position serves and the carriage,
+    ramping up at once (``cruise``), would pass before an arm could get there: a fruit every arm
+    that serves it from the start loses from reach (the end of its first run of serving
+    positions) sooner than its cheapest way out (half its cycle bound, less the dwells), the pick
+    dwell and a second for the grid. Only the start serving it is the extreme case; a fruit
+    0.18 m inside the reach at the start was passed at 0.3 m/s while the offline plan rested for
+    it. 0 if none."""
+    from .bound import cycle_bounds
+
     seen = replace(problem, fruits=tuple(Fruit(r.id, r.position) for r in reports), name=f"{problem.name} (as seen)",
                    source=None, digest=None)
     times = report_times(reports, cruise)
@@ -194,7 +202,22 @@ def _start_hold_for(problem: Problem, reports: list[RowReport], cruise: Cruise) 
     if not at_start:
         return 0.0
     reach = row_reach(seen, fruit_ids=at_start)
-    held = [f for f in at_start if f in reach.cover and reach.span(f)[1] == 0]
+    cost = cycle_bounds(seen)[0]
+    col = {f.id: k for k, f in enumerate(seen.fruits)}
+    task = problem.task
+
+    def passed(f: str) -> bool:
+        for a in np.flatnonzero(reach.cover[f][:, 0]):
+            if not np.isfinite(cost[a, col[f]]):
+                continue
+            ks = reach.cover[f][a]
+            last = int(np.argmin(ks)) - 1 if not ks.all() else ks.size - 1  # the first run of serving positions
+            way_out = 0.5 * (float(cost[a, col[f]]) - task.pick_dwell - task.place_dwell)
+            if float(cruise.time_at(reach.grid[last])[0]) >= way_out + task.pick_dwell + 1.0:
+                return False  # this arm has time to pick it with the carriage under way
+        return True
+
+    held = [f for f in at_start if f in reach.cover and reach.cover[f][:, 0].any() and passed(f)]
     return start_hold(seen, reach, held) if held else 0.0
 
 

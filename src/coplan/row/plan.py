@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import Issue, OptionsError, check_fields
 from ..workers import cores, process_pool, settle_workers
-from ..kinds import PlannerKind, PlanStatus, StopRule
+from ..kinds import GantryMode, PlannerKind, PlanStatus, StopRule
 from ..kinematics.timing import Move1D
 from ..plan import DEFAULT_RATE, Event, EventKind, Plan, compute_metrics, finalize_plan
 from ..problem.gantry import cell_at
@@ -180,7 +180,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         pending.append((s, fut, when))
 
     ts = _time.perf_counter()
-    info: dict = {"rule": rule.value, "cell_planner": PlannerKind(opts.planner).value, "workers": workers}
+    info: dict = {"mode": GantryMode.STOP_AND_GO.value, "rule": rule.value, "cell_planner": PlannerKind(opts.planner).value, "workers": workers}
     kept: list[Stop] = []  # every stop the rule kept, in carriage order
     interrupted = False
     try:

@@ -440,7 +440,7 @@ class _Scene:
 def _title(problem: Problem, plan: Plan) -> str:
     m = plan.metrics or {}
     ms = f", makespan {m['makespan']:.2f} s" if m.get("makespan") is not None else ""
-    return f"{problem.name}: {plan.planner_name} plan ({plan.status.value}{ms})"
+    return f"{problem.name}: {plan.label} plan ({plan.status.value}{ms})"
 
 
 # --------------------------------------------------------------------------- entry points

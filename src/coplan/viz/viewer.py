@@ -319,6 +319,7 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
                    "margin": p.certified - ver.required_clearance} for p in ver.pairs]
     return {
         "planner": plan.planner_name,
+        "label": plan.label,  # (a row's: how its carriage moved too)
         "status": plan.status.value,
         "duration": plan.duration,
         "makespan": m.get("makespan", max((e.t_end for e in plan.events if e.kind == EventKind.PLACE), default=0.0)),
@@ -404,7 +405,7 @@ def render_html(problem: Problem, plan: Plan, compare: Plan | None = None, *, ve
     plans = [plan] if compare is None else [plan, compare]
     vers = [verification] if compare is None else [verification, compare_verification]
     data = viewer_data(problem, plans, vers, display_rate=display_rate)
-    heading = title or f"{problem.name}: " + " vs ".join(p.planner_name for p in plans)
+    heading = title or f"{problem.name}: " + " vs ".join(p.label for p in plans)
     parts = {"CSS": _asset("viewer.css"), "JS": _asset("viewer.js"), "TITLE": html.escape(heading), "DATA": _script_json(data)}
     return _MARKER.sub(lambda m: parts[m.group(1) or m.group(2)], _asset("viewer.html"))
 

@@ -437,7 +437,7 @@
     root.appendChild(box);
     const v = pl.verdict;
     const ratio = pl.lower_bound ? " (lower bound " + num(pl.lower_bound, 3) + " s, \u00D7" + num(pl.makespan / pl.lower_bound, 3) + ")" : "";
-    const h = el("h3", null, pl.planner + " \u2014 " + pl.status + " \u2014 makespan " + num(pl.makespan, 3) + " s" + ratio + " \u2014 ");
+    const h = el("h3", null, (pl.label || pl.planner) + " \u2014 " + pl.status + " \u2014 makespan " + num(pl.makespan, 3) + " s" + ratio + " \u2014 ");
     h.appendChild(el("span", { class: v.passed ? "verdict-ok" : "verdict-bad" },
       v.passed ? "verified: no violations" : "FAILED verification: " + v.violation_count + " violations (" + v.violation_kinds.join(", ") + ")"));
     box.appendChild(h);
@@ -614,7 +614,7 @@
   summary.appendChild(el("span", null, (P.description ? P.description + " \u2014 " : "") + ARMS.length + " arms, " + P.fruits.length + " fruit, required clearance " + num(P.task.clearance, 3) + " m"));
   if (PLANS.length > 1 || D.lower_bound !== null) {
     summary.appendChild(el("br"));
-    summary.appendChild(el("span", null, PLANS.map(function (p) { return p.planner + " " + num(p.makespan, 3) + " s (" + p.status + ")"; }).join(" vs ") +
+    summary.appendChild(el("span", null, PLANS.map(function (p) { return (p.label || p.planner) + " " + num(p.makespan, 3) + " s (" + p.status + ")"; }).join(" vs ") +
       (D.lower_bound !== null ? "; lower bound " + num(D.lower_bound, 3) + " s (no plan can be faster)" : "")));
   }
   const legend = document.getElementById("legend");
@@ -625,7 +625,7 @@
   const cellsRoot = document.getElementById("cells"), panelsRoot = document.getElementById("panels");
   const cells = PLANS.map(function (pl) {
     const box = el("div", { class: "cellbox" });
-    box.appendChild(el("h2", null, pl.planner + " \u2014 " + pl.status + " \u2014 makespan " + num(pl.makespan, 3) + " s"));
+    box.appendChild(el("h2", null, (pl.label || pl.planner) + " \u2014 " + pl.status + " \u2014 makespan " + num(pl.makespan, 3) + " s"));
     cellsRoot.appendChild(box);
     return new Cell(pl, box);
   });
