@@ -54,6 +54,10 @@ def test_on_the_move_and_live_stop_and_go_harvest_every_fruit_beside_a_locked_ar
     assert res.verification.passed and res.plan.metrics["harvested"] == 17
     live = run_live_row(locked_row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=0))
     assert live.verification.passed and live.metrics["of_offline"] == 1.0 and live.metrics["harvested"] == 17
+    # the parked arm goes home at the end (it ended parked, which the verifier now refuses)
+    for plan in (res.plan, live.plan):
+        assert np.allclose(plan.q["a"][-1], locked_row.arms[0].home, atol=1e-12)
+        assert not np.allclose(plan.q["a"][len(plan.time) // 2], locked_row.arms[0].home)
 
 
 def test_the_locked_arms_rest_counts_as_no_work_not_as_waiting_for_a_neighbour(locked_row):

@@ -492,3 +492,71 @@ def test_cli_verify_reads_back_a_saved_heuristic_plan(tmp_path):
     res = CliRunner().invoke(app, ["verify", str(path), plan_file])
     assert res.exit_code == ExitCode.UNSAFE
     assert "collision" in res.output
+
+
+def _glide(plan: Plan, arm: str, dq, seconds: float = 3.0, at_start: bool = False) -> Plan:
+    """``plan`` with a smooth quintic glide of ``arm`` by ``dq`` after its end (or, ``at_start``,
+    from home + dq into its start, the events later by as much); the other arms rest meanwhile."""
+    n = int(round(seconds / plan.dt))
+    s = np.arange(1, n + 1) / n
+    e = (s**3 * (10 - 15 * s + 6 * s * s))[:, None]
+    q = {}
+    for name, qa in plan.q.items():
+        qa = np.asarray(qa, float)
+        if at_start:
+            pre = np.repeat(qa[:1], n, axis=0) + (np.asarray(dq) * (1 - np.r_[0.0, e[:-1, 0]])[:, None] if name == arm else 0.0)
+            q[name] = np.vstack([pre, qa])
+        else:
+            post = np.repeat(qa[-1:], n, axis=0) + (np.asarray(dq) * e if name == arm else 0.0)
+            q[name] = np.vstack([qa, post])
+    time = np.arange(len(next(iter(q.values())))) * plan.dt
+    shift = seconds if at_start else 0.0
+    events = [Event(ev.arm, ev.fruit, ev.kind, ev.t_start + shift, ev.t_end + shift) for ev in plan.events]
+    return Plan(plan.problem, plan.planner, PlanStatus.UNVERIFIED, time, q, events, plan.allocation, plan.unreachable)
+
+
+def test_an_arm_that_does_not_start_at_home_fails_and_one_that_does_not_end_there_is_warned_of(tmp_path):
+    """The problem's ``home`` is the arms' pose at start and end. A plan that starts 0.3 rad off
+    home (an unplanned jump) was passed: now a violation. One that glides 0.5 rad off home after
+    its last place leaves the arm out: a warning with the pose (the motion itself is verified;
+    coplan's coordinated planner leaves an arm parked where locked neighbours block its home)."""
+    from coplan.pipeline import solve
+
+    prob = load_problem(shipped("single_arm.yaml"))
+    plan = solve(prob, planner="coordinated").plan
+    ok = verify(prob, plan)
+    assert ok.passed and not [w for w in ok.warnings if w.kind == WarningKind.NOT_HOME]
+    arm = prob.arms[0].name
+    starts = verify(prob, _glide(plan, arm, [0.0, 0.3], at_start=True))
+    assert not starts.passed and kinds(starts) == {ViolationKind.HOME}
+    (v,) = starts.violations
+    assert v.arms == (arm,) and v.t == 0.0 and v.amount == pytest.approx(0.3, abs=1e-9) and "starts at" in v.message
+    ends = verify(prob, _glide(plan, arm, [-0.5, 0.0]))
+    assert ends.passed
+    (w,) = [w for w in ends.warnings if w.kind == WarningKind.NOT_HOME]
+    assert w.arms == (arm,) and w.t == pytest.approx(plan.duration + 3.0) and "0.5000 rad from its home" in w.message
+    assert "in its neighbours' way" in w.message
+    # a micro-radian's rounding is nothing; the CLI fails a plan that starts off home with exit 6
+    assert verify(prob, _glide(plan, arm, [5e-7, 0.0], at_start=True)).passed
+    path = tmp_path / "starts_away.json"
+    _glide(plan, arm, [0.0, 0.3], at_start=True).save(path)
+    res = CliRunner().invoke(app, ["verify", str(shipped("single_arm.yaml")), str(path)])
+    assert res.exit_code == ExitCode.UNSAFE, res.output
+    assert "starts at" in " ".join(res.output.split())
+
+
+def test_the_warning_names_a_declared_fault_that_left_the_arm_out():
+    from coplan.pipeline import solve
+
+    prob = load_problem(shipped("crossing_paths.yaml"))
+    base = solve(prob, planner="coordinated").plan
+    arm = prob.arms[0].name
+    away = _glide(base, arm, [0.0, 0.2])
+    away.solver = {"live": {"faults": {"arm_stop": {"arm": arm, "t": float(base.duration)}}}}
+    ver = verify(prob, away)
+    assert ver.passed
+    (w,) = [w for w in ver.warnings if w.kind == WarningKind.NOT_HOME]
+    assert w.arms == (arm,) and "the plan declares it stopped by a fault at t = " in w.message
+    away.solver = {"live": {"faults": {"arm_stop": {"arm": arm, "t": "soon"}}}}  # not a declaration
+    (w,) = [w for w in verify(prob, away).warnings if w.kind == WarningKind.NOT_HOME]
+    assert "in its neighbours' way" in w.message

@@ -122,6 +122,8 @@ def test_cubic_acceleration_steps_are_reported_by_size_and_time(single_arm, rate
     steps = [v for v in ver.violations if v.kind == ViolationKind.JERK]
     assert steps and all("acceleration discontinuity" in v.message for v in steps)
     assert {v.kind for v in ver.violations} == {ViolationKind.JERK}
+    # (and the arm ends away from its home, where the cubic leaves it: a warning)
+    assert [w.t for w in ver.warnings if w.kind.value == "not_home"] == [pytest.approx(times[-1])]
     # the cubic's acceleration jumps by 6 dq / T^2 at its start and its end, on each joint; the
     # samples measure it one step inside the cubic, where its jerk 12 dq / T^3 took dt off it
     a0 = 6 * np.abs(dq) / T**2 - 12 * np.abs(dq) / T**3 / rate

@@ -341,6 +341,17 @@ class Booker:
             return True
         return False
 
+    def home_parked(self, halted=()) -> None:
+        """Book each parked arm's way home (the problem's home is where every arm starts and
+        ends) once every other arm's booked motion is over: the park move reversed, the others
+        resting at home, where the arm left them at t = 0; an arm a fault stopped (``halted``)
+        stays where it is."""
+        for i, rest in enumerate(self.rest_q):
+            home = np.asarray(self.problem.arms[i].home, float)
+            if i in halted or np.allclose(rest, home, atol=1e-12):
+                continue
+            self._go(i, home, max(self.free_time(j) for j in range(len(self.arms))))
+
     def _go(self, i: int, target: np.ndarray, not_before: float) -> bool:
         """Book arm ``i``'s rest-to-rest move to ``target``, the earliest clear start; False if
         none within a minute of waiting."""

@@ -227,6 +227,7 @@ def _book(problem: Problem, reach: RowReach, cruise: Cruise, opts: MovingOptions
     booker = Booker(problem, cruise, windows, opts.rate, opts.margin, reach.resolution,
                     branch_table(problem, reach.resolution))
     left = run_policy(booker, order)
+    booker.home_parked()
     return booker, left
 
 

@@ -541,9 +541,13 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
     booker.events = events
     for st in booker.arms:
         st.fruit = [by_id[f].truth for f in st.fruit if f not in booker.probes and f not in run.misses]
+    booker.home_parked(set(faults.halt))
     plan = assemble_moving(problem, booker, cruise)
     plan.planner = LIVE_PLANNER  # (the executed plan of a live run, as a live cell's)
     plan.metrics["lower_bound"] = row_bounds(problem).any_plan  # (the row's, for any motion: as coplan solve's)
+    stop = faults.log.get("arm_stop") or {}
+    if "arm" in stop:  # an arm's fault, declared where the verifier reads it (solver.live.faults: it ends out)
+        plan.solver = {"live": {"faults": {"arm_stop": dict(stop)}}}
     ver = verify(problem, plan)
     plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
     got = {e.fruit for e in events if e.kind == EventKind.PLACE}

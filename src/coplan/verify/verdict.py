@@ -58,6 +58,7 @@ class ViolationKind(str, Enum):
     SEQUENCE = "sequence"  # overlapping events, a place without its pick, a pick never placed
     EVENT = "event"  # an event of an unknown arm or outside the plan's time span
     CARRIAGE = "carriage"  # a row plan's carriage: off the rail, not starting at rest at start, over a limit
+    HOME = "home"  # an arm that does not start at its home pose (problem ``home``): an unplanned jump
 
 
 class WarningKind(str, Enum):
@@ -67,6 +68,7 @@ class WarningKind(str, Enum):
     NOT_HARVESTED = "not_harvested"  # a reachable fruit is not picked and placed (the plan is partial)
     PROBLEM_NAME = "problem_name"  # the plan names another problem
     EVENTS_INFERRED = "events_inferred"  # the plan declares no events: they were inferred from its motion
+    NOT_HOME = "not_home"  # an arm that does not end at its home pose (left out; or stopped by a declared fault)
 
 
 class IntervalKind(str, Enum):
@@ -92,6 +94,7 @@ class VerifyOptions:
         sets the finite-difference tolerances together with ``rel_tolerance``
     joint_tolerance : allowed excess over a joint limit
     carriage_tolerance : a row plan's carriage may miss ``gantry.start`` / overrun the rail by this
+    home_tolerance : an arm's first and last pose may miss its home by this (each joint)
     infer_events : when a plan declares no events, infer them from its motion
         (:mod:`coplan.verify.infer`) and say so; otherwise nothing counts as harvested
     """
@@ -112,6 +115,7 @@ class VerifyOptions:
     joint_tolerance: float = 1e-7
     infer_events: bool = True
     carriage_tolerance: float = 1e-6  # m: a row plan's carriage start and rail ends
+    home_tolerance: float = 1e-6  # rad: an arm's first and last pose against its home (plan.csv keeps 1e-7)
 
     def __post_init__(self):
         # built in Python: every value checked (OptionsError: what was expected, found); a

@@ -61,6 +61,7 @@ from ..errors import Issue, PlanFileError
 from .fclcheck import cross_check
 from ..kinematics.geometry import segment_distance
 from .hold import bin_track, holds_on
+from .home import check_home
 from .infer import infer_events
 from .row import check_carriage, check_row_inputs, plan_source, row_reachable_ids
 from ..plan import DEFAULT_RATE, EventKind, Plan
@@ -425,6 +426,7 @@ def verify(problem: Problem, plan: Plan, options: VerifyOptions | None = None, *
                                             message=f"FCL and NumPy disagree ({d.kind.value}) on links {d.links}"))
     t2 = _time.perf_counter()
     _check_limits(problem, motions, np.asarray(plan.time, float), opts, ver)
+    check_home(problem, plan, motions, np.asarray(plan.time, float), opts.home_tolerance, ver)
     if problem.gantry is not None:
         check_carriage(problem, plan, opts, ver)
     _check_events(problem, plan, motions, opts, ver)
