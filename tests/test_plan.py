@@ -246,3 +246,11 @@ def test_missing_file_and_directory(tmp_path: Path) -> None:
         load_plan(tmp_path / "none.json")
     with pytest.raises(PlanFileError, match="found a directory"):
         load_plan(tmp_path)
+
+
+def test_a_sample_missing_from_the_grid_is_measured_against_the_usual_step():
+    """(One sample of a 100 Hz plan deleted: 'expected spacing 0.0100106 s', the mean step.)"""
+    from coplan.plan import time_grid_issues
+
+    t = np.delete(np.arange(1000) / 100.0, 100)
+    assert time_grid_issues(t) == [(100, "expected a uniform grid with spacing 0.01 s, found a step of 0.02 s")]

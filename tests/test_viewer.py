@@ -504,3 +504,23 @@ def test_notebook_view_of_a_row_plan_file_finds_its_problem(tmp_path):
     sparse = next(p for p in shipped_rows() if p.stem == "sparse_row")
     plan.problem_file, plan.problem = None, load_problem(sparse).name  # a shipped row, by its name
     assert read_viewer_data(coplan.view(plan).page)["problem"]["name"] == "sparse-row"
+
+
+def test_a_plan_the_verifier_fails_is_never_shown_as_a_success(planted, tmp_path):
+    """(The viewer, `coplan plot` and `coplan animate` took the status from the file: "success"
+    beside "FAILED verification".)"""
+    from coplan.viz.viewer import viewer_data
+
+    prob, plan, ver = planted
+    assert plan.status.value == "success" and not ver.passed  # the file's word, and the verdict
+    assert viewer_data(prob, [plan], [ver])["plans"][0]["status"] == "unsafe"
+    path = tmp_path / "planted.json"
+    plan.save(path)
+    for cmd in (["plot", str(path), "--kind", "gantt", "-o", str(tmp_path / "g.png")],
+                ["view", str(path), "-o", str(tmp_path / "v.html")]):
+        res = CliRunner().invoke(app, cmd)
+        assert res.exit_code == 0, res.output
+    res = CliRunner().invoke(app, ["plot", str(path), "--kind", "gantt", "-o", str(tmp_path / "g2.png")])
+    said = " ".join(res.output.split())
+    assert "the plan file says success; verified, it is unsafe (" in said and "joint_limit" in said
+    assert '"status":"unsafe"' in (tmp_path / "v.html").read_text()

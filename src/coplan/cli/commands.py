@@ -529,6 +529,21 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
     return prob, plan
 
 
+def _checked(prob, plan) -> None:
+    """``plan``'s status held to the verifier's verdict (:func:`coplan.plan.checked_status`):
+    a figure never calls a plan the verifier fails a success; a note says where they differ."""
+    from ..plan import checked_status
+    from ..verify.verifier import verify
+
+    ver = verify(prob, plan)
+    status = checked_status(plan.status, ver)
+    if status != plan.status:
+        err_console.print(f"[yellow]note[/]: the plan file says {plan.status.value}; verified, it is {status.value}"
+                          + (f" ({len(ver.violations)} violation{'s' * (len(ver.violations) != 1)}: "
+                             f"{', '.join(sorted({v.kind.value for v in ver.violations}))})" if ver.violations else ""))
+        plan.status = status
+
+
 # the problem a plan belongs to, for the commands that read a plan.json
 PlanProblemOption = Annotated[
     Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML (default: the shipped problem it names).")
@@ -565,6 +580,8 @@ def plot_cmd(
         _fail(ExitCode.USAGE, f"--kind workspace: expected a stationary cell, found the row {prob.name!r} (its arms ride on "
                               "the carriage, so what they reach depends on where it stops): `coplan check` screens a row, "
                               "`coplan view` shows its fruit by arm and stop; --kind gantt, clearance and joints draw its plan")
+    if pl is not None:  # (the title's status: the verdict's, not the file's word)
+        _checked(prob, pl)
     if kind == PlotKind.GANTT:
         fig = plots.plot_gantt(prob, {pl.planner_name: pl})
     elif kind == PlotKind.CLEARANCE:
@@ -601,6 +618,7 @@ def animate_cmd(
     if out is not None and out.suffix.lower() not in (".gif", ".mp4"):
         _fail(ExitCode.USAGE, f"--out: expected a .gif or .mp4 file, found {_s(out)!r}")
     prob, pl = _plan_with_problem(plan, problem)
+    _checked(prob, pl)  # (the title's status: the verdict's, not the file's word)
     target = out if out is not None else plan.with_suffix(".gif")
     with ProgressDisplay(err_console) as bars:
         path = animate_plan(

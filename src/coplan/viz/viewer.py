@@ -41,7 +41,7 @@ import numpy as np
 from ..errors import Issue, PlanFileError
 from ..kinds import EventKind
 from ..output import atomic_text
-from ..plan import Plan, jsonable, load_plan
+from ..plan import Plan, checked_status, jsonable, load_plan
 from ..problem.model import Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors
 from .timeline import Segment, schedule
@@ -301,6 +301,15 @@ def _violations(ver) -> list[dict]:
     return [{"kind": v.kind.value, "arms": list(v.arms)} | {k: getattr(v, k) for k in keys} for v in ver.violations]
 
 
+def _harvested(metrics: dict, ver) -> int | None:
+    """The fruit harvested as the verdict counts them: the file's count, less the reachable fruit
+    the verifier finds unharvested where the file claims more (a pick cut short)."""
+    got, reach = metrics.get("harvested"), metrics.get("reachable")
+    if got is None or reach is None:
+        return got
+    return min(int(got), int(reach) - len(ver.unharvested))
+
+
 def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: float | None) -> dict:
     names = [a.name for a in problem.arms]
     times, rate = _display_times(plan, rate)
@@ -320,11 +329,11 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
     return {
         "planner": plan.planner_name,
         "label": plan.label,  # (a row's: how its carriage moved too)
-        "status": plan.status.value,
+        "status": checked_status(plan.status, ver).value,  # (the verdict shown beside it, not the file's word)
         "duration": plan.duration,
         "makespan": m.get("makespan", max((e.t_end for e in plan.events if e.kind == EventKind.PLACE), default=0.0)),
         "lower_bound": m.get("lower_bound") if m.get("lower_bound") is not None else lower_bound,
-        "harvested": m.get("harvested"),
+        "harvested": _harvested(m, ver),
         "reachable": m.get("reachable"),
         "display": {"rate": rate, "n": int(times.size), "q": _encode(track, "<f4")},
         "gantry": None if plan.gantry_x is None else _encode(np.interp(times, plan.time, plan.gantry_x), "<f4"),
