@@ -88,7 +88,31 @@ def test_an_interrupted_plan_stops_the_comparison(folder, tmp_path, monkeypatch)
     with pytest.raises(KeyboardInterrupt):
         compare(folder, ["heuristic"], tmp_path / "o", figures=False)
     doc = json.loads((tmp_path / "o" / "compare.json").read_text())
-    assert [p["name"] for p in doc["problems"]] == ["problem-a"]
+    # problem-b's interrupted plan is kept, marked so (it was dropped with every row of its problem)
+    assert [p["name"] for p in doc["problems"]] == ["problem-a", "problem-b"]
+    assert [(r["problem"], r["status"]) for r in doc["rows"]] == [("problem-a", "unsafe"), ("problem-b", "interrupted")]
+    assert any("covers the 1 of 3 problem files that finished, and of b.yaml the planners that finished (none) and "
+               "heuristic's verified incumbent" in n for n in doc["notes"])
+
+
+def test_ctrl_c_during_one_planner_keeps_the_planners_that_finished_on_that_problem(folder, tmp_path, monkeypatch):
+    """(Ctrl-C while the optimal planner ran on a cell threw away the heuristic's and the
+    coordinated planner's finished, verified rows: the report said 0 of 1 files.)"""
+    real = pipeline.solve
+
+    def solve(problem, **kw):
+        if problem.name == "problem-a" and kw.get("allocation") is not None:
+            raise KeyboardInterrupt
+        return real(problem, **kw)
+
+    monkeypatch.setattr(pipeline, "solve", solve)
+    res = CliRunner().invoke(app, ["compare", str(folder / "a.yaml"), "-p", "heuristic", "-p", "heuristic:makespan",
+                                   "--no-figures", "-o", str(tmp_path / "o")])
+    assert res.exit_code == ExitCode.INTERRUPTED, res.output
+    doc = json.loads((tmp_path / "o" / "compare.json").read_text())
+    assert [(r["planner"], r["status"]) for r in doc["rows"]] == [("heuristic", "unsafe")]  # (the course's heuristic: jerk)
+    md = (tmp_path / "o" / "compare.md").read_text()
+    assert "of a.yaml the planners that finished (heuristic)" in md and "| status | unsafe |" in md
 
 
 def test_a_planner_bug_is_a_row_and_the_run_goes_on(folder, tmp_path, monkeypatch):

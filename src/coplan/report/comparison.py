@@ -196,7 +196,9 @@ def compare(
     ``compare.md`` go into ``OUT/<problem>/`` as soon as it finishes, and the report in ``OUT``
     is rewritten with every problem finished so far. Ctrl-C (``KeyboardInterrupt``, or a planner
     returning an interrupted plan) stops the run: the report then covers the problems that
-    finished (a note names the one interrupted), and the interruption is raised again.
+    finished and, of the one interrupted (a note names it), the planners that finished and the
+    interrupted planner's verified incumbent where it returned one (status interrupted); the
+    interruption is raised again.
     """
     if isinstance(planners, (str, PlannerSpec)):  # one planner, not its letters
         planners = [planners]
@@ -232,11 +234,20 @@ def compare(
             if figures and plans:
                 ran(len(specs), "figures")
                 _figures(problem, plans, out / path.stem, cmp)
-        except KeyboardInterrupt:
-            cmp.notes.append(f"interrupted while comparing {path.name}: this report covers the {len(cmp.problems)} of "
-                             f"{len(files)} problem files that finished")
+        except KeyboardInterrupt as e:
+            note = (f"interrupted while comparing {path.name}: this report covers the {k} of {len(files)} problem files "
+                    "that finished")
+            if isinstance(e, _Cut) and e.rows:  # what finished of the interrupted one is kept too
+                e.entry.pop("_problem", None)
+                cmp.problems.append(e.entry)
+                cmp.rows += e.rows
+                cut = [r["planner"] for r in e.rows if r.get("status") == "interrupted"]
+                done = [r["planner"] for r in e.rows if r.get("status") != "interrupted"]
+                note += (f", and of {path.name} the planners that finished ({', '.join(done) or 'none'})"
+                         + (f" and {cut[0]}'s verified incumbent when it was interrupted (status interrupted)" if cut else ""))
+            cmp.notes.append(note)
             _write_report(cmp, specs, out)
-            raise
+            raise KeyboardInterrupt from None
         cmp.problems.append(entry)
         cmp.rows += rows
         if not single:
@@ -275,10 +286,21 @@ def _warm_up() -> None:
         importlib.import_module(name)
 
 
+class _Cut(KeyboardInterrupt):
+    """Ctrl-C while one problem was compared, with what finished of it: its ``problems`` entry
+    and the rows of the planners done (the interrupted one's too, where it returned its
+    verified incumbent, status interrupted)."""
+
+    def __init__(self, entry: dict, rows: list[dict]):
+        super().__init__()
+        self.entry, self.rows = entry, rows
+
+
 def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, say, single: bool,
                      ran=lambda j, what: None, inner=None):
     """One problem file with every planner: its ``problems`` entry, its rows and its plans.
-    Any failure becomes a recorded error; only an interruption escapes."""
+    Any failure becomes a recorded error; only an interruption escapes, as :class:`_Cut` with
+    the rows done so far."""
     from ..kinds import PlanStatus
     from ..pipeline import solve
 
@@ -299,6 +321,12 @@ def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, s
     rows: list[dict[str, Any]] = []
     plans: dict[str, Plan] = {}
     lb_cache: list[float] = []
+
+    def mine() -> list[dict]:
+        for row in rows:  # (two files may share a problem name: a row belongs to its file)
+            row["file"] = str(path)
+        return rows
+
     for j, spec in enumerate(specs):
         ran(j, spec.label)
         say(f"{problem.name}: solving with {spec.label}")
@@ -306,18 +334,18 @@ def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, s
         try:
             res = solve(problem, planner=spec.planner, allocation=spec.allocation, out_dir=out / path.stem / spec.folder,
                         progress=inner if inner is not None else say, **kw)
-            if res.plan.status == PlanStatus.INTERRUPTED:
-                raise KeyboardInterrupt
             row = _row_of(problem, spec, res, lb_cache)
+        except KeyboardInterrupt:
+            raise _Cut(entry, mine()) from None
         except Exception as e:  # noqa: BLE001 -- a planner failing in any way (even a bug) is a row; the run goes on
             rows.append({"problem": problem.name, "planner": spec.label, "status": None, "error": f"{type(e).__name__}: {e}"})
             say(f"{problem.name}: {spec.label} failed: {e}")
             continue
         rows.append(row)
+        if res.plan.status == PlanStatus.INTERRUPTED:  # its verified incumbent: a row, status interrupted
+            raise _Cut(entry, mine())
         plans[spec.label] = res.plan
-    for row in rows:  # (two files may share a problem name: a row belongs to its file)
-        row["file"] = str(path)
-    return entry, rows, plans
+    return entry, mine(), plans
 
 
 def _row_of(problem: Problem, spec: PlannerSpec, res, lb_cache: list[float]) -> dict[str, Any]:
