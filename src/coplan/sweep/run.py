@@ -21,9 +21,11 @@ a re-run of the same sweep into the same folder skips every key already there.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
+import signal
 import threading
 import time
 import warnings
@@ -254,9 +256,27 @@ def _client(workers: int, scheduler: str | None, retries: int):
     with dask.config.set({"distributed.scheduler.allowed-failures": retries}), warnings.catch_warnings():
         # the scheduler's HTTP routes move to a free port when another cluster holds 8787: not news
         warnings.filterwarnings("ignore", message=r"Port \d+ is already in use", category=UserWarning)
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                               silence_logs=logging.CRITICAL)
+        # the worker processes start with Ctrl-C ignored (a disposition a new process inherits):
+        # Ctrl-C reaches the whole foreground group, and each worker printed its KeyboardInterrupt
+        # traceback; this process stops the sweep and closes the cluster, which ends them
+        with _sigint_ignored():
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                                   silence_logs=logging.CRITICAL)
         return Client(cluster), cluster
+
+
+@contextlib.contextmanager
+def _sigint_ignored():
+    """SIGINT ignored in this process while the block runs (in the main thread only: elsewhere
+    Python cannot change a handler, and nothing is changed)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 def default_workers() -> int:
