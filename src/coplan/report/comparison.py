@@ -21,7 +21,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import statistics
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,6 +32,7 @@ from ..plan import Plan, PlannerKind
 from ..problem.model import Problem, load_problem
 from ..output import atomic_text, check_folder, is_run_folder
 from ..progress import Tick, nested, speaker, ticker
+from .aggregate import aggregate
 
 __all__ = ["PlannerSpec", "DEFAULT_PLANNERS", "Comparison", "compare", "run_row", "aggregate", "to_markdown", "rich_tables"]
 
@@ -396,54 +396,6 @@ def _figures(problem: Problem, plans: dict[str, Plan], folder: Path, cmp: Compar
 
 
 # --------------------------------------------------------------------------- aggregation
-_MEDIANS = ("makespan", "makespan_ratio", "throughput", "cycle_time_worst", "min_clearance", "certified_clearance",
-            "peak_jerk", "planning_time")
-
-
-def _median(vals: list) -> float | None:
-    v = [x for x in vals if isinstance(x, (int, float)) and math.isfinite(x)]
-    return statistics.median(v) if v else None
-
-
-def _worst(rows: list[dict], key: str, highest: bool) -> dict | None:
-    ok = [r for r in rows if isinstance(r.get(key), (int, float)) and math.isfinite(r[key])]
-    if not ok:
-        return None
-    r = (max if highest else min)(ok, key=lambda r: r[key])
-    return {"problem": r["problem"], "file": r.get("file"), "value": r[key]}
-
-
-def aggregate(rows: list[dict], planners: list[str]) -> dict[str, Any]:
-    """Per planner: counts, medians and worst cases over every problem it ran on."""
-    out: dict[str, Any] = {}
-    for label in planners:
-        mine = [r for r in rows if r["planner"] == label]
-        ok = [r for r in mine if not r.get("error")]
-        statuses: dict[str, int] = {}
-        for r in ok:
-            statuses[r["status"]] = statuses.get(r["status"], 0) + 1
-        rel = [k for k in (ok[0] if ok else {}) if k.startswith("makespan_vs_")]
-        out[label] = {
-            "runs": len(mine),
-            "errors": len(mine) - len(ok),
-            "passed": sum(r["passed"] for r in ok),
-            "complete": sum(r["passed"] and r["complete"] for r in ok),
-            "collision_free": sum(r["collision_count"] == 0 for r in ok),
-            "statuses": statuses,
-            "fruit_harvested": sum(r["harvested"] or 0 for r in ok),
-            "fruit_reachable": sum(r["reachable"] or 0 for r in ok),
-            "median": {k: _median([r.get(k) for r in ok]) for k in _MEDIANS + tuple(rel)},
-            "worst": {
-                "makespan_ratio": _worst(ok, "makespan_ratio", True),
-                "min_clearance": _worst(ok, "min_clearance", False),
-                "collision_count": _worst(ok, "collision_count", True),
-                "peak_jerk": _worst(ok, "peak_jerk", True),
-                "planning_time": _worst(ok, "planning_time", True),
-            },
-        }
-    return out
-
-
 # --------------------------------------------------------------------------- rendering
 def _f(x, nd: int = 2, unit: str = "") -> str:
     if x is None or (isinstance(x, float) and not math.isfinite(x)):

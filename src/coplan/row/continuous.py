@@ -43,6 +43,7 @@ from .booking import Booker, branch_table, run_policy, screen_branches
 from .cruise import STRETCH, Cruise, cruise_end, demand_stretches, last_place_bound, pick_windows
 from .plan import RowResult
 from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
+from .starthold import start_hold
 
 __all__ = ["MovingOptions", "assemble_moving", "plan_continuous", "plan_moving", "speed_search", "SpeedPoint", "make_cruise"]
 
@@ -69,27 +70,6 @@ def make_cruise(problem: Problem, reach: RowReach, profile: SpeedProfile, level:
     n = len(problem.arms)
     return Cruise.shaped(problem, [(x, float(min(vmax, max(MIN_SPEED, level * n / d)) if d > 0 else vmax)) for x, d in demand], x1,
                          hold)
-
-
-def start_hold(problem: Problem, reach: RowReach, fruit) -> float:
-    """How long the carriage rests where it starts so that the arms can pick ``fruit`` -- fruit
-    only the start serves, which a carriage that ramps up from rest at once leaves no time to be
-    picked in. Each fruit's cheapest cycle
-    (:func:`coplan.row.bound.cycle_bounds`, on an arm that serves it from the start) plus a
-    second for the arm's way out and the grid, each arm's summed; the busiest arm's total."""
-    from .bound import cycle_bounds
-
-    cost = cycle_bounds(problem)[0]
-    col = {f.id: k for k, f in enumerate(problem.fruits)}
-    load = np.zeros(len(problem.arms))
-    for fid in fruit:
-        arms = np.flatnonzero(reach.cover[fid][:, 0])  # the arms that serve it from the start
-        if arms.size == 0:
-            continue
-        c = cost[arms, col[fid]]
-        a = int(arms[np.argmin(np.where(np.isfinite(c), c + load[arms], np.inf))])
-        load[a] += (float(cost[a, col[fid]]) if np.isfinite(cost[a, col[fid]]) else 0.0) + 1.0
-    return float(load.max(initial=0.0))
 
 
 def least_pace(level: float, cruise: Cruise, limit: float, hold: float = 0.0) -> float:

@@ -67,11 +67,12 @@ from ..errors import Issue, OptionsError
 from ..problem.model import Fruit, Problem
 from ..problem.plausible import live_speed_issue, plan_seconds_limit
 from .bound import row_bounds
-from .continuous import MovingOptions, assemble_moving, plan_moving, start_hold
+from .continuous import MovingOptions, assemble_moving, plan_moving
 from .cruise import Cruise, pick_windows, ramp_time
 from .liverun import LiveRun
 from .livestops import last_stop, next_to_last, stop_share
 from .reach import row_reach
+from .starthold import reports_start_hold
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
                       row_detections, row_reports)
 from .stranded import StoppedCover, still_reachable, why_left_at_rest
@@ -141,7 +142,7 @@ def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progre
         if offline.plan.status == PlanStatus.INTERRUPTED:
             raise KeyboardInterrupt
         cruise = Cruise.of(problem, opts.speed, g.end)
-        cruise = Cruise.of(problem, opts.speed, g.end, _start_hold_for(problem, reports, cruise))
+        cruise = Cruise.of(problem, opts.speed, g.end, reports_start_hold(problem, reports, cruise))
         _check_fault_room(problem, opts, max(cruise.duration, float(offline.plan.time[-1])))
         faults = FaultDraws(problem, opts, cruise.duration, cruise)
         run = LiveRun(problem, opts, reports + faults.burst, cruise, faults.dark)
@@ -182,43 +183,6 @@ def _check_fault_room(problem: Problem, opts: LiveRowOptions, seconds: float) ->
                                             f"{f' (x {slow:.1f} after an arm stops)' if slow > 1 else ''}, "
                                             f"{f.camera_dark:g} s of camera outage and a decision {f.late_replan:g} s late")],
                            "LiveRowOptions")
-
-
-def _start_hold_for(problem: Problem, reports: list[RowReport], cruise: Cruise) -> float:
-    """The rest where the carriage starts (:func:`coplan.row.continuous.start_hold`) for the
-    reports the camera makes before it moves that the start position serves and the carriage,
-    ramping up at once (``cruise``), would pass before an arm could get there: a fruit every arm
-    that serves it from the start loses from reach (the end of its first run of serving
-    positions) sooner than its cheapest way out (half its cycle bound, less the dwells), the pick
-    dwell and a second for the grid. Only the start serving it is the extreme case; a fruit
-    0.18 m inside the reach at the start was passed at 0.3 m/s while the offline plan rested for
-    it. 0 if none."""
-    from .bound import cycle_bounds
-
-    seen = replace(problem, fruits=tuple(Fruit(r.id, r.position) for r in reports), name=f"{problem.name} (as seen)",
-                   source=None, digest=None)
-    times = report_times(reports, cruise)
-    at_start = [r.id for r in reports if times.get(r.id, math.inf) <= 0.0]
-    if not at_start:
-        return 0.0
-    reach = row_reach(seen, fruit_ids=at_start)
-    cost = cycle_bounds(seen)[0]
-    col = {f.id: k for k, f in enumerate(seen.fruits)}
-    task = problem.task
-
-    def passed(f: str) -> bool:
-        for a in np.flatnonzero(reach.cover[f][:, 0]):
-            if not np.isfinite(cost[a, col[f]]):
-                continue
-            ks = reach.cover[f][a]
-            last = int(np.argmin(ks)) - 1 if not ks.all() else ks.size - 1  # the first run of serving positions
-            way_out = 0.5 * (float(cost[a, col[f]]) - task.pick_dwell - task.place_dwell)
-            if float(cruise.time_at(reach.grid[last])[0]) >= way_out + task.pick_dwell + 1.0:
-                return False  # this arm has time to pick it with the carriage under way
-        return True
-
-    held = [f for f in at_start if f in reach.cover and reach.cover[f][:, 0].any() and passed(f)]
-    return start_hold(seen, reach, held) if held else 0.0
 
 
 def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, str]:
