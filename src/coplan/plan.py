@@ -585,7 +585,8 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
                 bad(f"{where}.{key}", f"expected a string, found {_kind(e[key])}")
                 ok = False
         if arms is not None and isinstance(e["arm"], str) and e["arm"] not in arms:
-            bad(f"{where}.arm", f"expected one of the plan's arms {list(arms)}, found {e['arm']!r}")
+            bad(f"{where}.arm", f"expected one of the plan's arms {list(arms)}, found {e['arm']!r} "
+                                f"(arms has no samples of {e['arm']!r}: missing, or the event misnames its arm)")
             ok = False
         if e["kind"] not in [k.value for k in EventKind]:
             bad(f"{where}.kind", f"expected 'pick' or 'place', found {_kind(e['kind'])}")
