@@ -241,3 +241,27 @@ def test_out_dash_is_not_a_file_named_dash(tmp_path, monkeypatch, args):
     r = CliRunner().invoke(app, [str(_single()) if a == "SINGLE" else str(plan) if a == "PLAN" else a for a in args])
     assert r.exit_code == 2 and "found '-'" in r.output, r.output
     assert not (tmp_path / "-").exists()
+
+
+def test_a_users_plan_md_is_never_taken_for_a_run_file_and_a_stale_export_moves_with_its_run(tmp_path):
+    """(Any name starting 'plan.' or 'baseline.' counted as coplan's: a folder holding only a
+    user's plan.md and baseline.xlsx was moved to .previous, and removed by the next run.)"""
+    from coplan.problem import load_problem, shipped_problems
+
+    prob = load_problem(next(p for p in shipped_problems() if p.stem == "single_arm"))
+    out = tmp_path / "notes"
+    out.mkdir()
+    (out / "plan.md").write_text("season notes")
+    (out / "baseline.xlsx").write_text("x")
+    assert not is_run_folder(out)
+    for _ in range(2):
+        solve(prob, planner="coordinated", out_dir=out)
+    assert (out / "plan.md").read_text() == "season notes" and (out / "baseline.xlsx").read_text() == "x"
+    (out / "plan_100hz.csv").write_text("t,arm_q1\n")  # what coplan export writes beside the plan
+    (out / "plan_gantt.png").write_bytes(b"png")
+    (out / "plan_100hz").mkdir()  # (its JSON/YAML folder)
+    solve(prob, planner="coordinated", out_dir=out)
+    assert not (out / "plan_100hz.csv").exists() and not (out / "plan_gantt.png").exists() and not (out / "plan_100hz").exists()
+    prev = out.with_name("notes.previous")
+    assert {"plan_100hz.csv", "plan_gantt.png", "plan_100hz", "plan.json"} <= {p.name for p in prev.iterdir()}
+    assert not (prev / "plan.md").exists() and (out / "plan.md").exists()

@@ -17,6 +17,7 @@ folder coplan runs in (``-o .``), which is never removed or renamed.
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
 from contextlib import contextmanager
@@ -28,7 +29,19 @@ from .errors import CoplanError
 __all__ = ["MARKER", "RunFolder", "is_run_folder", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder"]
 
 MARKER = ".coplan-run"  # written into every run folder
-_OURS = ("plan.", "baseline.", "verification.json", "run.json", "live.gif", MARKER)  # solve and live runs
+# the files a run writes (solve, live runs), by their exact names -- a user's plan.md or
+# baseline.xlsx is theirs, never moved or removed -- and what coplan writes beside a plan by
+# default (`coplan export`: plan_<rate>hz.csv, or that folder of per-arm files; `coplan plot`:
+# plan_<kind>.png), which would otherwise stay beside the next run's plan, stale
+_OURS = re.compile(r"plan\.(json|csv|npz|html|gif|mp4)|baseline\.(json|csv|npz)|verification\.json|run\.json|live\.gif"
+                   r"|\.coplan-run|plan_[0-9.]+hz(\.csv)?|plan_(gantt|clearance|joints|workspace)\.(png|svg|pdf)")
+
+
+def _ours(p: Path) -> bool:
+    """Whether ``p`` (in a run folder) is a file of coplan's, or an export's folder of per-arm files."""
+    if not _OURS.fullmatch(p.name):
+        return False
+    return p.is_dir() == (p.name.startswith("plan_") and p.name.endswith("hz"))
 
 
 class OutputError(CoplanError, ValueError):
@@ -119,8 +132,8 @@ def is_run_folder(path: Path) -> bool:
     """Whether ``path`` is a folder holding nothing but files a coplan run writes."""
     if not path.is_dir():
         return False
-    names = [p.name for p in path.iterdir()]
-    return bool(names) and all(p.startswith(_OURS) and not (path / p).is_dir() for p in names)
+    entries = list(path.iterdir())
+    return bool(entries) and all(_ours(p) for p in entries)
 
 
 @dataclass
@@ -168,7 +181,7 @@ class RunFolder:
             self.previous = _cleared_previous(out)
             out.rename(self.previous)
         elif out.exists():  # a folder with the user's own files in it: theirs stay, coplan's are replaced
-            ours = [p for p in sorted(out.iterdir()) if p.name.startswith(_OURS) and not p.is_dir()]
+            ours = [p for p in sorted(out.iterdir()) if _ours(p)]
             if ours:  # the previous run's files go to <name>.previous whole (none left beside the new run's)
                 self.previous = _cleared_previous(out)
                 self.previous.mkdir()
