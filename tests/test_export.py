@@ -166,3 +166,33 @@ def test_cli_export(single_plan, tmp_path):
     assert replay.read_text() == "t,arm_q1,arm_q2\n0.0,0.1,0.2\n"
     res = run("export", str(plan_path), "--out", str(tmp_path / "plan_250hz.csv"))
     assert res.exit_code == 0, res.output
+
+
+def test_json_and_yaml_exports_never_overwrite_another_file_and_keep_a_rows_carriage(tmp_path):
+    """(An arm named 'plan' exported into the run folder overwrote plan.json; an arm named
+    'carriage' took the carriage's file, and the carriage's trajectory was lost.)"""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.pipeline import solve
+    from coplan.problem import parse_problem, shipped_problems
+
+    text = next(p for p in shipped_problems() if p.stem == "single_arm").read_text().replace("name: arm\n", "name: plan\n")
+    prob = parse_problem(text)
+    run = tmp_path / "run"
+    solve(prob, planner="coordinated", out_dir=run)
+    before = (run / "plan.json").read_bytes()
+    for fmt in ("json", "yaml"):
+        res = CliRunner().invoke(app, ["export", str(run / "plan.json"), "--format", fmt, "--out", str(run)])
+        if fmt == "json":
+            assert res.exit_code == 2 and "found a coplan.plan file: it would be overwritten" in " ".join(res.output.split())
+    assert (run / "plan.json").read_bytes() == before
+    first = CliRunner().invoke(app, ["export", str(run / "plan.json"), "--format", "json", "--out", str(tmp_path / "ex")])
+    assert first.exit_code == 0, first.output
+    again = CliRunner().invoke(app, ["export", str(run / "plan.json"), "--format", "json", "--out", str(tmp_path / "ex")])
+    assert again.exit_code == 0, again.output  # an earlier export is replaced
+    d = gantry_row(length=6.0, n_arms=2, density=2.0, seed=3)
+    d["arms"][0]["name"] = "carriage"
+    row = parse_problem(to_yaml(d))
+    paths = export_plan(solve(row).plan, 100.0, "json", tmp_path / "row")
+    names = {p.stem: json.loads(p.read_text())["joint_names"] for p in paths}
+    assert names == {"carriage": ["carriage_x"], "carriage_2": ["carriage_2_joint1", "carriage_2_joint2"],
+                     "arm2": ["arm2_joint1", "arm2_joint2"]}

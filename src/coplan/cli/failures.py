@@ -99,6 +99,8 @@ def _file_kind(head: bytes) -> str:
     m = re.search(rb'"format"\s*:\s*"(coplan\.[a-z_]+)/', head) or re.search(rb'(?m)^format:\s*["\']?(coplan\.[a-z_]+)/', head)
     if m:  # (JSON, or a YAML file's top-level format: a feed)
         return f"a {m.group(1).decode()} file"
+    if re.search(rb'"joint_names"\s*:', head) or re.search(rb'(?m)^joint_names:', head):
+        return "an export JointTrajectory"  # (coplan export --format json|yaml: one per arm)
     line = head.split(b"\n", 1)[0].decode("utf-8", "replace").strip()
     if line.startswith("t,") and "_q1" in line:
         return "an export CSV" if "_qd1" in line else "coplan's plan.csv replay"

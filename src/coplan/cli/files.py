@@ -78,4 +78,10 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         raise Failure(ExitCode.USAGE, f"--out {out} is the plan being exported; give another file")
     if fmt == ExportFormat.CSV:  # an earlier export is replaced; coplan's plan.csv or any other file is not
         check_overwrite(out, "an export CSV", "an earlier export (a CSV with t, <arm>_q1 ... <arm>_qdd2)")
+    else:  # each arm's file likewise: an arm named plan or verification would overwrite those
+        from ..report.export import export_names
+
+        for name in export_names(plan).values():
+            check_overwrite(out / f"{name}.{fmt.value}", "an export JointTrajectory",
+                            "an earlier export (a JointTrajectory with joint_names and points)")
     return export_plan(plan, rate, fmt, out)

@@ -111,18 +111,34 @@ def _flushed(v: np.ndarray, tiny: float = 1e-12) -> np.ndarray:
 _SAFE = re.compile(r"[^A-Za-z0-9_.-]+")
 
 
-def safe_names(names: list[str]) -> dict[str, str]:
-    """File-system and ROS-safe names for untrusted arm names (unique, never empty, never hidden)."""
-    out: dict[str, str] = {}
+#: The carriage's key among a row's export names (not an arm name: an arm may be called "carriage").
+CARRIAGE = object()
+
+
+def export_names(plan) -> dict:
+    """``{arm name (or CARRIAGE): file and joint-name stem}`` of a JSON/YAML export: a row's
+    carriage first, as ``carriage``, so that an arm of that name becomes ``carriage_2`` (it took
+    the carriage's file, and the carriage's trajectory was lost)."""
+    return _unique(([(CARRIAGE, "carriage")] if plan.gantry_x is not None else [])
+                   + [(a, _SAFE.sub("_", str(a)).strip("._") or f"arm{k}") for k, a in enumerate(plan.q)])
+
+
+def _unique(pairs) -> dict:
+    """``{key: base}`` made unique, case-blind, in order (``base_2``, ``base_3`` ...)."""
+    out: dict = {}
     used: set[str] = set()
-    for k, name in enumerate(names):
-        base = _SAFE.sub("_", str(name)).strip("._") or f"arm{k}"
+    for key, base in pairs:
         cand, i = base, 2
         while cand.lower() in used:
             cand, i = f"{base}_{i}", i + 1
         used.add(cand.lower())
-        out[name] = cand
+        out[key] = cand
     return out
+
+
+def safe_names(names: list[str]) -> dict[str, str]:
+    """File-system and ROS-safe names for untrusted arm names (unique, never empty, never hidden)."""
+    return _unique((name, _SAFE.sub("_", str(name)).strip("._") or f"arm{k}") for k, name in enumerate(names))
 
 
 def csv_text(traj: Trajectory) -> str:
@@ -178,10 +194,10 @@ def export_plan(plan: Plan, rate: float, fmt: ExportFormat | str, out: str | Pat
         atomic_text(out, csv_text(traj))
         return [out]
     out.mkdir(parents=True, exist_ok=True)
-    names = safe_names(list(traj.q) + (["carriage"] if traj.carriage is not None else []))
+    names = export_names(plan)
     written = []
-    for arm in list(traj.q) + (["carriage"] if traj.carriage is not None else []):
-        msg = joint_trajectory(traj, arm, names[arm]) if arm in traj.q else carriage_trajectory(traj, names[arm])
+    for arm in list(traj.q) + ([CARRIAGE] if traj.carriage is not None else []):
+        msg = joint_trajectory(traj, arm, names[arm]) if arm != CARRIAGE else carriage_trajectory(traj, names[arm])
         if fmt == ExportFormat.JSON:
             text = json.dumps(msg, indent=None, separators=(",", ":"), allow_nan=False)
         else:
