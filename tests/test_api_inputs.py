@@ -479,3 +479,23 @@ def test_a_result_shows_what_it_is_in_a_notebook_cell_not_its_samples():
     assert repr(res.plan) in text and "array(" not in text
     with pytest.raises(TypeError, match=r"plot_workspace: arm: expected an arm's name \(str\) or None, found Plan"):
         plot_workspace(res.problem, res.plan)  # (the plan where the arm's name goes: a KeyError printing the plan)
+
+
+def test_a_problem_changed_in_python_is_held_to_the_ranges_and_plan_length_a_file_is():
+    """(A joint velocity limit of 1e-6 rad/s set with dataclasses.replace ran out of memory after
+    28 s; an 8 h dwell made a 78 MB plan file no coplan command reads back.)"""
+    import dataclasses
+
+    import coplan
+    from coplan.errors import ProblemError
+    from coplan.problem import load_problem, shipped_problems
+
+    p = load_problem(next(f for f in shipped_problems() if f.stem == "single_arm"))
+    a = p.arms[0]
+    slow = dataclasses.replace(p, arms=(dataclasses.replace(a, max_velocity=(1e-6, 1e-6)),))
+    with pytest.raises(ProblemError, match=r"arms\[0\]\.max_velocity\[0\]: expected a joint velocity limit within"):
+        coplan.solve(slow, planner="coordinated")
+    long = dataclasses.replace(p, task=dataclasses.replace(p.task, pick_dwell=8 * 3600.0))
+    with pytest.raises(ProblemError, match="as changed in Python"):
+        coplan.solve(long, planner="coordinated")
+    assert coplan.solve(dataclasses.replace(p, name="changed"), planner="coordinated").plan.status.value == "success"
