@@ -254,3 +254,18 @@ def test_a_sample_missing_from_the_grid_is_measured_against_the_usual_step():
 
     t = np.delete(np.arange(1000) / 100.0, 100)
     assert time_grid_issues(t) == [(100, "expected a uniform grid with spacing 0.01 s, found a step of 0.02 s")]
+
+
+def test_a_plan_read_back_equals_the_plan_and_a_rows_npz_keeps_the_carriage(tmp_path):
+    """(``load_plan(path) == plan`` raised on the NumPy arrays; a row's plan.npz had no gantry_x.)"""
+    import coplan
+    from coplan.generate import gantry_row
+
+    res = coplan.solve(gantry_row(length=6.0, n_arms=2, density=2.0, seed=3), out_dir=tmp_path / "row")
+    back = load_plan(tmp_path / "row" / "plan.json")
+    assert back == res.plan and back == load_plan(tmp_path / "row" / "plan.json") and back != 3
+    back.events = back.events[:-1]
+    assert back != res.plan
+    npz = np.load(tmp_path / "row" / "plan.npz")
+    assert sorted(npz) == ["gantry_x", "q_arm1", "q_arm2", "time"]
+    assert np.array_equal(npz["gantry_x"], res.plan.gantry_x)

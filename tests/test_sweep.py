@@ -503,3 +503,12 @@ def test_ctrl_c_on_a_sweep_stops_it_cleanly_without_the_workers_tracebacks(tmp_p
     assert "Traceback" not in stderr and "KeyboardInterrupt" not in stderr, stderr
     assert "interrupted: every finished row is kept" in stdout + stderr
     assert 1 <= len(read_rows(out)) < 8
+
+
+@pytest.mark.parametrize("address", ["localhost", "tcp://127.0.0.1", "http://127.0.0.1:8786", ""])
+def test_a_malformed_scheduler_address_is_a_usage_error_before_any_work(tmp_path, address):
+    """(It was an internal error, exit 1, from deep in Dask.)"""
+    res = CliRunner().invoke(app, ["sweep", str(SMALL), "--scheduler", address, "--out", str(tmp_path / "o")])
+    assert res.exit_code == ExitCode.USAGE, res.output
+    assert "expected a Dask scheduler address such as tcp://10.0.0.5:8786" in " ".join(res.output.split())
+    assert not (tmp_path / "o").exists()

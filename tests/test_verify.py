@@ -560,3 +560,20 @@ def test_the_warning_names_a_declared_fault_that_left_the_arm_out():
     away.solver = {"live": {"faults": {"arm_stop": {"arm": arm, "t": "soon"}}}}  # not a declaration
     (w,) = [w for w in verify(prob, away).warnings if w.kind == WarningKind.NOT_HOME]
     assert "in its neighbours' way" in w.message
+
+
+def test_verify_json_carries_the_exit_code_and_verdict(tmp_path):
+    """(``solve --json`` did, ``verify --json`` did not: a script reading the document alone could
+    not tell 'infeasible' from 'passed'.)"""
+    from coplan.pipeline import solve
+
+    path = shipped("single_arm.yaml")
+    prob = load_problem(path)
+    plan = solve(prob, planner="coordinated").plan
+    good, bad = tmp_path / "good.json", tmp_path / "bad.json"
+    plan.save(good)
+    _glide(plan, prob.arms[0].name, [0.0, 0.3], at_start=True).save(bad)
+    for f, code, verdict in ((good, 0, "ok"), (bad, 6, "unsafe")):
+        res = CliRunner().invoke(app, ["verify", str(path), str(f), "--json"])
+        doc = json.loads(res.stdout)
+        assert res.exit_code == code and (doc["exit_code"], doc["verdict"]) == (code, verdict), res.output

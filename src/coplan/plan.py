@@ -146,6 +146,15 @@ class Plan:
         elsewhere, the name its file gives."""
         return self.planner.value if isinstance(self.planner, PlannerKind) else str(self.planner)
 
+    def __eq__(self, other: object) -> bool:
+        """Equal when their ``plan.json`` would be (the generated comparison raised on the
+        NumPy arrays: a notebook's round-trip check ``load_plan(path) == plan`` could not run)."""
+        if not isinstance(other, Plan):
+            return NotImplemented
+        return json.dumps(jsonable(self.to_dict()), sort_keys=True) == json.dumps(jsonable(other.to_dict()), sort_keys=True)
+
+    __hash__ = None  # type: ignore[assignment]  (mutable: as before)
+
     @property
     def label(self) -> str:
         """The planner's name and, for a row's plan, how its carriage moved (its ``solver.row``):
@@ -227,7 +236,9 @@ class Plan:
         cols = [self.time[:, None]] + ([] if self.gantry_x is None else [self.gantry_x[:, None]]) + [self.q[a] for a in self.q]
         atomic_file(paths["csv"], lambda tmp: np.savetxt(tmp, np.hstack(cols), delimiter=",", comments="", fmt="%.7f",
                                                           header=csv_header(self.q, self.gantry_x is not None)))
-        atomic_file(paths["npz"], lambda tmp: np.savez_compressed(tmp, time=self.time, **{f"q_{a}": q for a, q in self.q.items()}))
+        carriage = {} if self.gantry_x is None else {"gantry_x": self.gantry_x}  # (a row's: as in plan.csv)
+        atomic_file(paths["npz"], lambda tmp: np.savez_compressed(tmp, time=self.time, **carriage,
+                                                                  **{f"q_{a}": q for a, q in self.q.items()}))
         return paths
 
 

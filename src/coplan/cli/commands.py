@@ -363,8 +363,11 @@ def verify_cmd(
     except PlanFileError as e:  # a well-formed plan that does not fit this problem: name both files
         raise PlanFileError(e.issues, f"{plan} (a {e.source}, checked against {problem})") from None
     written = ver.save(out) if out is not None else None
-    if as_json:
-        typer.echo(json.dumps(ver.to_dict(), indent=1, allow_nan=False))
+    # no reachable fruit: infeasible (4), as `solve` says of the same problem
+    code = ExitCode.UNSAFE if not ver.passed else ExitCode.INFEASIBLE if not prob.reachable_ids() \
+        else ExitCode.OK if ver.complete else ExitCode.PARTIAL
+    if as_json:  # (the verdict as the exit code says it, as `solve --json` carries it: a script reads one document)
+        typer.echo(json.dumps(ver.to_dict() | {"exit_code": int(code), "verdict": code.name.lower()}, indent=1, allow_nan=False))
     else:
         from ..plan import EventKind
 
@@ -374,9 +377,6 @@ def verify_cmd(
                            label=getattr(loaded, "label", None))
         if written is not None:
             out_console.print(f"  wrote             {_s(written)}")
-    # no reachable fruit: infeasible (4), as `solve` says of the same problem
-    code = ExitCode.UNSAFE if not ver.passed else ExitCode.INFEASIBLE if not prob.reachable_ids() \
-        else ExitCode.OK if ver.complete else ExitCode.PARTIAL
     raise typer.Exit(int(code))
 
 
@@ -508,6 +508,10 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
                 f"{plan_path} is a plan of problem {plan.problem!r}; {where}that is not a shipped problem "
                 f"({', '.join(p.name for p in shipped)}): give its YAML file with --problem FILE",
             )
+        if record is None and plan.problem:  # (a problem changed in Python records no file: say what is drawn)
+            err_console.print(f"[yellow]note[/]: {_s(plan_path)} records no problem file: checked against the shipped "
+                              f"problem {_s(repr(prob.name))} ({_s(prob.source or '')}); if it was planned on a changed "
+                              "problem, give that with --problem FILE", highlight=False, soft_wrap=True)
     names = [a.name for a in prob.arms]
     missing = [n for n in names if n not in plan.q]
     extra = [n for n in plan.q if n not in names]

@@ -57,6 +57,8 @@ def sweep_cmd(
         usage(f"--time-limit: expected a positive number of seconds, found {time_limit}")
     if workers is not None and scheduler is not None:
         usage("--workers: expected either --workers (a local cluster) or --scheduler (an existing one), found both")
+    if scheduler is not None:
+        _check_scheduler(scheduler)
     sw = load_sweep(spec)  # SweepError (an InputError): file:line: key.path messages, exit 3
     folder = out if out is not None else Path("coplan-sweep") / (re.sub(r"[^\w.-]+", "_", sw.name).strip("._") or "sweep")
     check_out_dir(folder, "--out")
@@ -143,3 +145,18 @@ def sweep_report_cmd(
                    f"({', '.join(map(str, unread[:5]))}{', ...' if len(unread) > 5 else ''}) "
                    f"{'is' if len(unread) == 1 else 'are'} no complete row (torn by a crash, or damaged): not in the report; "
                    f"run the sweep again into this folder to solve {'it' if len(unread) == 1 else 'them'}", highlight=False)
+
+
+def _check_scheduler(address: str) -> None:
+    """Before any work: ``--scheduler`` must be a Dask address (``tcp://host:port``, ``host:port``,
+    ``tls://...``); a malformed one was an internal error (exit 1) from deep in Dask."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
+
+    try:
+        proto, loc = parse_address(address)
+        get_backend(proto)
+        if proto in ("tcp", "tls"):
+            parse_host_port(loc)
+    except ValueError as e:
+        usage(f"--scheduler {address!r}: expected a Dask scheduler address such as tcp://10.0.0.5:8786, found {e}")
