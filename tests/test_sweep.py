@@ -488,8 +488,11 @@ def test_ctrl_c_on_a_sweep_stops_it_cleanly_without_the_workers_tracebacks(tmp_p
     spec = tmp_path / "slow.yaml"
     spec.write_text("name: slow\nbase: random\nvary:\n  seed: {from: 0, to: 7}\nplanner: optimal\ntime_limit: 3\n")
     out = tmp_path / "out"
+    # (Ctrl-C as a terminal has it: an xdist worker, this test's process, ignores SIGINT, and a
+    # child inherits that -- the sweep then ran to its end)
     proc = subprocess.Popen([sys.executable, "-m", "coplan.cli", "sweep", str(spec), "--out", str(out), "--workers", "2"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     journal = out / JOURNAL
     t0 = time.monotonic()
     while time.monotonic() - t0 < 120 and proc.poll() is None:  # a row finished: the workers are at work
