@@ -117,23 +117,14 @@ def _better_mode(stopping, moving):
 
 def _checked_as_a_file(problem: Problem) -> None:
     """:class:`ProblemError` where a problem built or changed in Python (``dataclasses.replace``)
-    breaks what a problem file is held to -- the plausible ranges (:data:`coplan.plausible.BOUNDS`)
-    and the longest plan coplan makes: a joint velocity limit of 1e-6 rad/s ran out of memory
-    (27 GiB), a dwell of 8 h made a plan file no coplan command reads back. Issues by key path."""
+    breaks what a problem file is held to (:func:`coplan.problem.plausible.problem_issues`): a
+    joint velocity limit of 1e-6 rad/s ran out of memory (27 GiB), a dwell of 8 h made a plan
+    file no coplan command reads back. Issues by key path."""
     from .errors import Issue, ProblemError
-    from .problem import plausible
+    from .problem.plausible import problem_issues
     from .problem.yamlsafe import path_str
 
-    found: list = []
-    for i, a in enumerate(problem.arms):
-        for f in ("links", "link_radius", "joint_limits", "home", "max_velocity", "max_acceleration", "max_jerk", "base", "bin"):
-            found += plausible.field_issues(f, getattr(a, f), ("arms", i, f))
-    for i, fr in enumerate(problem.fruits):
-        found += plausible.field_issues("position", fr.position, ("fruits", i, "position"))
-    for f in ("pick_dwell", "place_dwell", "clearance", "reach_margin"):
-        found += plausible.field_issues(f, getattr(problem.task, f), ("task", f))
-    if not found:
-        found = plausible.row_duration_issues(problem) if problem.gantry is not None else plausible.duration_issues(problem)
+    found = problem_issues(problem)
     if found:
         raise ProblemError([Issue(path_str(loc), msg) for loc, msg in found],
                            f"{problem.source}, as changed in Python" if problem.source else "a problem built in Python")

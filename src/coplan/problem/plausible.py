@@ -30,7 +30,7 @@ import numpy as np
 from ..plan import DEFAULT_RATE, MAX_PLAN_ANGLE, MAX_PLAN_BYTES, MAX_PLAN_COORD
 
 __all__ = ["Bound", "BOUNDS", "MAX_PLAN_ANGLE", "MAX_PLAN_COORD", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "BYTES_PER_CARRIAGE_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "plan_seconds_limit", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
-           "duration_issues", "row_travel", "slowest_speed", "row_duration_issues",
+           "duration_issues", "problem_issues", "row_travel", "slowest_speed", "row_duration_issues",
            "cruise_speed_issue", "live_speed_issue", "latest_report_time"]
 
 TAU = 2.0 * math.pi
@@ -227,6 +227,24 @@ def duration_issues(problem) -> list[tuple[tuple, str]]:
         f"{list(arm.max_acceleration)} rad/s^2, max_jerk {list(arm.max_jerk)} rad/s^3; pick_dwell "
         f"{problem.task.pick_dwell:g} s, place_dwell {problem.task.place_dwell:g} s)"
     ))]
+
+
+def problem_issues(problem) -> list[tuple[tuple, str]]:
+    """``(key path, message)`` for what a problem file would be refused for beyond its structure
+    (a problem built or changed in Python skips the file's checks): every field outside
+    :data:`BOUNDS`, else a plan longer than coplan makes (:func:`duration_issues`, for a row
+    :func:`row_duration_issues`)."""
+    found: list[tuple[tuple, str]] = []
+    for i, a in enumerate(problem.arms):
+        for f in ("links", "link_radius", "joint_limits", "home", "max_velocity", "max_acceleration", "max_jerk", "base", "bin"):
+            found += field_issues(f, getattr(a, f), ("arms", i, f))
+    for i, fr in enumerate(problem.fruits):
+        found += field_issues("position", fr.position, ("fruits", i, "position"))
+    for f in ("pick_dwell", "place_dwell", "clearance", "reach_margin"):
+        found += field_issues(f, getattr(problem.task, f), ("task", f))
+    if found:
+        return found
+    return row_duration_issues(problem) if problem.gantry is not None else duration_issues(problem)
 
 
 def row_travel(problem) -> float:

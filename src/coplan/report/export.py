@@ -120,7 +120,12 @@ def export_names(plan) -> dict:
     carriage first, as ``carriage``, so that an arm of that name becomes ``carriage_2`` (it took
     the carriage's file, and the carriage's trajectory was lost)."""
     return _unique(([(CARRIAGE, "carriage")] if plan.gantry_x is not None else [])
-                   + [(a, _SAFE.sub("_", str(a)).strip("._") or f"arm{k}") for k, a in enumerate(plan.q)])
+                   + [(a, _safe(a, k)) for k, a in enumerate(plan.q)])
+
+
+def _safe(name, k: int) -> str:
+    """A file-system and ROS-safe stem for the ``k``-th (untrusted) arm name: never empty, never hidden."""
+    return _SAFE.sub("_", str(name)).strip("._") or f"arm{k}"
 
 
 def _unique(pairs) -> dict:
@@ -138,7 +143,7 @@ def _unique(pairs) -> dict:
 
 def safe_names(names: list[str]) -> dict[str, str]:
     """File-system and ROS-safe names for untrusted arm names (unique, never empty, never hidden)."""
-    return _unique((name, _SAFE.sub("_", str(name)).strip("._") or f"arm{k}") for k, name in enumerate(names))
+    return _unique((name, _safe(name, k)) for k, name in enumerate(names))
 
 
 def csv_text(traj: Trajectory) -> str:

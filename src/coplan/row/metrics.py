@@ -79,12 +79,12 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
     dt = plan.dt
     upto = t <= span + 1e-9
     x = np.asarray(plan.gantry_x, float)
-    moving = np.zeros(n, dtype=bool)
-    moving[1:] |= np.abs(np.diff(x)) > 1e-9
-    moving[:-1] |= np.abs(np.diff(x)) > 1e-9
-    # the shares of the row time: over the sample intervals [t_i, t_i+1] (a stretch of m samples
-    # lasts m - 1 intervals; counting samples made a row on the move 100.03 % moving)
-    moves = np.abs(np.diff(x)) > 1e-9
+    moves = np.abs(np.diff(x)) > 1e-9  # (N - 1,) the carriage moves over [t_i, t_i+1]
+    moving = np.zeros(n, dtype=bool)  # (N,) a sample at either end of such an interval
+    moving[1:] |= moves
+    moving[:-1] |= moves
+    # the shares of the row time: over the sample intervals (a stretch of m samples lasts m - 1
+    # intervals; counting samples made a row on the move 100.03 % moving)
     in_row = t[1:] <= span + 1e-9
     picking = np.zeros(max(n - 1, 0), dtype=bool)
     for e in plan.events:
