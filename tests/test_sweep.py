@@ -515,3 +515,35 @@ def test_a_malformed_scheduler_address_is_a_usage_error_before_any_work(tmp_path
     assert res.exit_code == ExitCode.USAGE, res.output
     assert "expected a Dask scheduler address such as tcp://10.0.0.5:8786" in " ".join(res.output.split())
     assert not (tmp_path / "o").exists()
+
+
+def test_problems_left_without_a_result_make_the_sweep_exit_9_and_the_next_run_solves_them(tmp_path, monkeypatch):
+    """(A sweep whose external scheduler died mid-run, or whose worker died on every attempt,
+    had rows with status "lost" and exited 0: a script took the sweep for done.)"""
+    import coplan.sweep.run as sweep_run
+
+    def always_dies(item, state_dir, keep_plan):
+        if item.index == 1:
+            os.kill(os.getpid(), 9)  # every attempt: the task's worker process dies
+        return solve_item(item, state_dir, keep_plan)
+
+    real = sweep_run.run_sweep
+    monkeypatch.setattr(sweep_run, "run_sweep", lambda *a, **k: real(*a, **dict(k, task=always_dies)))
+    spec = tmp_path / "tiny.yaml"
+    spec.write_text(TINY + "retries: 0\n")
+    out = tmp_path / "o"
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(out), "--workers", "1"])
+    said = " ".join(r.output.split())
+    assert r.exit_code == int(ExitCode.INCOMPLETE) == 9, said
+    rows = {r["index"]: r for r in read_rows(out)}
+    lost = sorted(i for i, r in rows.items() if r["status"] == RowStatus.LOST.value)
+    # (Dask may also give up on a task queued on the dying worker with no retry left: lost too)
+    assert 1 in lost and all(rows[i]["status"] == "success" for i in rows if i not in lost)
+    assert all(rows[i]["exit_class"] == "incomplete" and "died" in rows[i]["message"] for i in lost)
+    n = len(lost)
+    assert f"{n} problem{'s' if n > 1 else ''} of the sweep {'have' if n > 1 else 'has'} no result" in said, said
+    assert "run the same command again" in said
+    monkeypatch.setattr(sweep_run, "run_sweep", real)
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(out), "--workers", "1"])
+    assert r.exit_code == 0 and f"3 problems ({n} solved now, {3 - n} already done)" in " ".join(r.output.split()), r.output
+    assert all([r["status"] for r in read_rows(out) if r["index"] == i][-1] == "success" for i in lost)

@@ -110,6 +110,7 @@ class ExitCode(IntEnum):
     UNSAFE = 6  # verification failed (collisions, limits, missed picks)
     SOLVER_FAILED = 7  # solver hit a limit or a numerical error; best iterate kept
     IO_ERROR = 8  # a file could not be written or read (disk full, permissions); the path is named
+    INCOMPLETE = 9  # a sweep's problems without a result (workers died on every attempt, scheduler gone): run again
     INTERRUPTED = 130  # Ctrl-C; what there was is saved
     TERMINATED = 143  # SIGTERM (e.g. a job scheduler's stop): handled like Ctrl-C, what there was is saved
 

@@ -107,6 +107,13 @@ def sweep_cmd(
     for k, v in res.files.items():
         _out.print(f"  wrote {_safe(v)}", highlight=False)
     _out.print(f"  next: coplan sweep-report {_safe(folder)}", highlight=False)
+    lost = res.counts.get(RowStatus.LOST.value, 0)
+    if lost:  # no result is not a result: a script must not take the sweep for done (the next run solves them)
+        _err.print(f"{plural(lost, 'problem')} of the sweep {'has' if lost == 1 else 'have'} no result (status 'lost': "
+                   "the worker process died on every attempt, or the scheduler went away; the reason in the message "
+                   "column): run the same command again to solve "
+                   f"{'it' if lost == 1 else 'them'}, the rows already done are kept", highlight=False)
+        raise typer.Exit(int(ExitCode.INCOMPLETE))
     bad = res.counts.get(RowStatus.BAD_INPUT.value, 0)
     if bad:  # (as compare: every row is written, and the exit code says some inputs were invalid)
         _err.print(f"{plural(bad, 'problem')} of the sweep {'is' if bad == 1 else 'are'} invalid (status 'bad input', "

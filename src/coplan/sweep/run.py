@@ -237,7 +237,7 @@ def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = 
 def _lost_row(item: SweepItem, sweep: str, attempts: int, err: BaseException) -> dict[str, Any]:
     row = _base_row(item)
     row.update(sweep=sweep, worker=None)
-    return _fail_row(row, RowStatus.LOST, ExitCode.INTERNAL,
+    return _fail_row(row, RowStatus.LOST, ExitCode.INCOMPLETE,
                      f"the worker process died on all {attempts} attempts ({type(err).__name__}: {err})")
 
 
