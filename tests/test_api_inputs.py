@@ -47,6 +47,9 @@ def cell():
     (lambda p: dataclasses.replace(p, task=dataclasses.replace(p.task, clearance=-0.1)), "task.clearance"),
     (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], joint_limits=((1.0, -1.0), (-3.0, 3.0))),)
                                    + p.arms[1:]), "arms[0].joint_limits"),
+    (lambda p: dataclasses.replace(p, name=""), "name"),  # (a file's empty name was refused, not a built one)
+    (lambda p: dataclasses.replace(p, name="  "), "name"),
+    (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], name=" "),) + p.arms[1:]), "arms[0].name"),
 ])
 def test_a_problem_changed_in_python_is_checked_as_a_file_is(cell, change, path):
     """(A NaN link radius reached the verifier, whose distances it made infinitely clear: a plan

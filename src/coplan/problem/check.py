@@ -43,7 +43,7 @@ def _names(items: Iterable, attr: str, where: str, out: list[Issue]) -> None:
     seen: dict[str, int] = {}
     for i, it in enumerate(items):
         name = getattr(it, attr, None)
-        if not isinstance(name, str) or not name:
+        if not isinstance(name, str) or not name.strip():  # (as a file's: blank is empty)
             out.append(Issue(f"{where}[{i}].{attr}", f"expected a non-empty string, found {kind_of(name)}"))
         elif name in seen:
             out.append(Issue(f"{where}[{i}].{attr}", f"expected a unique {attr}, found {name!r} again ({where}[{seen[name]}])"))
@@ -55,8 +55,8 @@ def built_issues(problem) -> list[Issue]:
     """Every way ``problem`` is not a problem coplan can plan: arms, fruit, task and gantry of the
     right kinds, finite, positive where a length or a limit, joint limits in order, names unique."""
     out: list[Issue] = []
-    if not isinstance(problem.name, str):
-        out.append(Issue("name", f"expected a string, found {kind_of(problem.name)}"))
+    if not isinstance(problem.name, str) or not problem.name.strip():  # (a file's is refused empty too)
+        out.append(Issue("name", f"expected a non-empty string, found {kind_of(problem.name)}"))
     arms, fruits = problem.arms, problem.fruits
     if not isinstance(arms, tuple) or not arms:
         return out + [Issue("arms", f"expected a non-empty tuple of Arm, found {kind_of(arms)}")]
