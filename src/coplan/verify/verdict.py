@@ -221,6 +221,16 @@ class Verification:
     # {"sha256": str | None, "planned_from": {"path", "sha256"} | None, "same_text": bool | None}
     problem_file: dict | None = None
 
+    def __repr__(self) -> str:  # (short: the pairs' intervals and every finding stay out of a notebook cell)
+        kinds = sorted({v.kind.value for v in self.violations})
+        cert = self.certified_clearance
+        room = "-" if not math.isfinite(cert) else f"{cert:.4f} m (margin {1e3 * self.margin:+.1f} mm)"
+        left = ", ".join(self.unharvested[:5]) + (", ..." if len(self.unharvested) > 5 else "")
+        return (f"Verification(problem={self.problem!r}, planner={self.planner!r}, passed={self.passed}, "
+                f"complete={self.complete}, certified_clearance={room}, violations={len(self.violations)}"
+                f"{f' {kinds}' if kinds else ''}, warnings={len(self.warnings)}"
+                f"{f', unharvested=[{left}]' if self.unharvested else ''}, duration={self.duration:.4f} s)")
+
     @property
     def passed(self) -> bool:
         return not self.violations
