@@ -119,6 +119,29 @@ class _Alone:
             self.t = self.timeline[i][-1].t1
             self.rest[i] = tuple(float(x) for x in steps[-1].q1)
 
+    def go_home(self) -> int:
+        """Once every arm's work is done: each arm not at home goes home alone, straight or by a
+        tucked transit (:meth:`ArmGeometry.route`), when that is clear of every arm at rest; in
+        passes until none can go (an arm parked in another's way goes once that one is home).
+        Returns how many arms are left away from home."""
+        home = [tuple(float(x) for x in a.home) for a in self.problem.arms]
+        away = [i for i in range(len(home)) if not np.allclose(self.rest[i], home[i], atol=1e-12, rtol=0)]
+        moved = True
+        while away and moved:
+            moved = False
+            for i in list(away):
+                for vias in ([home[i]], self.geo.route(i, self.rest[i], home[i])):
+                    steps, q = [], self.rest[i]
+                    for v in vias:
+                        steps.append(scurve_move(self.problem.arms[i], steps[-1].t1 if steps else 0.0, q, v))
+                        q = v
+                    if self.first_hit(i, self.samples(i, steps)) is None:
+                        self.book(i, steps)
+                        away.remove(i)
+                        moved = True
+                        break
+        return len(away)
+
     def schedules(self) -> dict[str, ArmSchedule]:
         out = {}
         for arm, line in zip(self.problem.arms, self.timeline):
@@ -152,7 +175,9 @@ def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Calla
     every other arm rests (at home, or where it finished), in the arms' order.
 
     Each arm does its allocated work, fastest decoupled schedule, cycle by cycle (move to the
-    fruit, pick, move to the bin, place), without going home at the end. When a cycle comes
+    fruit, pick, move to the bin, place), without going home at the end; once every arm is done,
+    the arms go home one at a time (:meth:`_Alone.go_home`; one that cannot stays where it is,
+    and the verifier warns that it does not end at home). When a cycle comes
     within ``clearance + margin / 2`` of a neighbour resting, the neighbour first moves (alone) to
     a candidate rest pose clear of that cycle -- home, over its bin, folded-elbow poses --
     reached without touching an arm at rest; a neighbour that still has its own work to do
@@ -229,12 +254,13 @@ def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Calla
                              f"{problem.arms[j].name!r} resting while it harvests this fruit, and that arm has no "
                              "rest pose clear of it")
         assignment[arm.name] = tuple(seq)
+    not_home = st.go_home()
     out = st.schedules()
     al = replace(alloc, assignment=assignment, fruit_q=fruit_q, place_q=place_q)
     span = makespan_of(out)
     if tried is not None:
         tried.append({"fallback": "one_at_a_time", "feasible": True, "makespan": span, "left_out": left_out,
-                      "moved_out_of_the_way": moved})
+                      "moved_out_of_the_way": moved, "not_home": not_home})
     if say is not None:
         say(f"one arm at a time, the others resting: {span:.2f} s, {len(left_out)} fruit left out")
     return Coordinated(al, out, span, [], "one_at_a_time", 0, fallback=True, left_out=left_out)
