@@ -47,6 +47,12 @@ def cell():
     (lambda p: dataclasses.replace(p, task=dataclasses.replace(p.task, clearance=-0.1)), "task.clearance"),
     (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], joint_limits=((1.0, -1.0), (-3.0, 3.0))),)
                                    + p.arms[1:]), "arms[0].joint_limits"),
+    # (a home outside the joint limits was solved into an unsafe plan, an unreachable bin into a partial one)
+    (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], home=(5.0, 0.0)),) + p.arms[1:]), "arms[0].home[0]"),
+    (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], bin=(-2.0, -3.0)),) + p.arms[1:]), "arms[0].bin"),
+    (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], base=p.arms[1].base,
+                                                                bin=(p.arms[1].base[0], p.arms[1].base[1] - 0.5)),)
+                                   + p.arms[1:]), "arms[1].home"),
     (lambda p: dataclasses.replace(p, name=""), "name"),  # (a file's empty name was refused, not a built one)
     (lambda p: dataclasses.replace(p, name="  "), "name"),
     (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], name=" "),) + p.arms[1:]), "arms[0].name"),
@@ -502,3 +508,18 @@ def test_a_problem_changed_in_python_is_held_to_the_ranges_and_plan_length_a_fil
     with pytest.raises(ProblemError, match="as changed in Python"):
         coplan.solve(long, planner="coordinated")
     assert coplan.solve(dataclasses.replace(p, name="changed"), planner="coordinated").plan.status.value == "success"
+
+
+def test_lists_and_arrays_in_a_problem_built_in_python_are_its_tuples(cell):
+    """(A list for a fruit's position was accepted, then coplan.solve died in a TypeError:
+    unhashable type 'list'.)"""
+    import numpy as np
+
+    p = dataclasses.replace(cell, fruits=(coplan.Fruit("z", [0.1, 1.2]), coplan.Fruit("y", np.array([0.2, 1.1]))),
+                            arms=(dataclasses.replace(cell.arms[0], links=[0.9, 0.7], joint_limits=[[-3.0, 3.0], [-2.8, 2.8]]),)
+                            + cell.arms[1:])
+    assert p.fruits[0].position == (0.1, 1.2) and p.fruits[1].position == (0.2, 1.1)
+    assert p.arms[0].links == (0.9, 0.7) and p.arms[0].joint_limits == ((-3.0, 3.0), (-2.8, 2.8))
+    assert hash(p) == hash(dataclasses.replace(p)) and p.fruit_positions.shape == (2, 2)
+    with pytest.raises(ProblemError, match=r"arms: expected a non-empty tuple of Arm, found tuple \(\)"):
+        dataclasses.replace(cell, arms=())  # (said "found list ()" of a tuple)

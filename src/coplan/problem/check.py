@@ -26,6 +26,11 @@ _TASK = ("pick_dwell", "place_dwell", "clearance", "reach_margin", "singularity_
 _GANTRY = ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle")
 
 
+def _kind(v: Any) -> str:
+    """:func:`kind_of` in Python's words: a problem built in Python holds tuples, not YAML lists."""
+    return "tuple " + kind_of(v).split(" ", 1)[1] if isinstance(v, tuple) else kind_of(v)
+
+
 def _num(v: Any, sign: str | None) -> bool:
     return finite_number(v) and (sign is None or (v > 0 if sign == "pos" else v >= 0))
 
@@ -36,7 +41,7 @@ def _words(sign: str | None) -> str:
 
 def _pair(v: Any, path: str, what: str, sign: str | None, out: list[Issue]) -> None:
     if not isinstance(v, (tuple, list)) or len(v) != 2 or not all(_num(u, sign) for u in v):
-        out.append(Issue(path, f"expected {what}, found {kind_of(v)}"))
+        out.append(Issue(path, f"expected {what}, found {_kind(v)}"))
 
 
 def _names(items: Iterable, attr: str, where: str, out: list[Issue]) -> None:
@@ -44,7 +49,7 @@ def _names(items: Iterable, attr: str, where: str, out: list[Issue]) -> None:
     for i, it in enumerate(items):
         name = getattr(it, attr, None)
         if not isinstance(name, str) or not name.strip():  # (as a file's: blank is empty)
-            out.append(Issue(f"{where}[{i}].{attr}", f"expected a non-empty string, found {kind_of(name)}"))
+            out.append(Issue(f"{where}[{i}].{attr}", f"expected a non-empty string, found {_kind(name)}"))
         elif name in seen:
             out.append(Issue(f"{where}[{i}].{attr}", f"expected a unique {attr}, found {name!r} again ({where}[{seen[name]}])"))
         else:
@@ -56,40 +61,40 @@ def built_issues(problem) -> list[Issue]:
     right kinds, finite, positive where a length or a limit, joint limits in order, names unique."""
     out: list[Issue] = []
     if not isinstance(problem.name, str) or not problem.name.strip():  # (a file's is refused empty too)
-        out.append(Issue("name", f"expected a non-empty string, found {kind_of(problem.name)}"))
+        out.append(Issue("name", f"expected a non-empty string, found {_kind(problem.name)}"))
     arms, fruits = problem.arms, problem.fruits
     if not isinstance(arms, tuple) or not arms:
-        return out + [Issue("arms", f"expected a non-empty tuple of Arm, found {kind_of(arms)}")]
+        return out + [Issue("arms", f"expected a non-empty tuple of Arm, found {_kind(arms)}")]
     if not isinstance(fruits, tuple):
-        return out + [Issue("fruits", f"expected a tuple of Fruit, found {kind_of(fruits)}")]
+        return out + [Issue("fruits", f"expected a tuple of Fruit, found {_kind(fruits)}")]
     _names(arms, "name", "arms", out)
     for i, a in enumerate(arms):
         for f, what, sign in _ARM_PAIRS:
             _pair(getattr(a, f, None), f"arms[{i}].{f}", what, sign, out)
         if not _num(getattr(a, "link_radius", None), "pos"):
-            out.append(Issue(f"arms[{i}].link_radius", f"expected a capsule radius > 0 in m, found {kind_of(a.link_radius)}"))
+            out.append(Issue(f"arms[{i}].link_radius", f"expected a capsule radius > 0 in m, found {_kind(a.link_radius)}"))
         lim = getattr(a, "joint_limits", None)
         if (not isinstance(lim, (tuple, list)) or len(lim) != 2
                 or not all(isinstance(p, (tuple, list)) and len(p) == 2 and all(_num(u, None) for u in p) and p[0] < p[1]
                            for p in lim)):
             out.append(Issue(f"arms[{i}].joint_limits", f"expected [[t1_min, t1_max], [t2_min, t2_max]] in rad, each min < max, "
-                                                        f"found {kind_of(lim)}"))
+                                                        f"found {_kind(lim)}"))
     _names(fruits, "id", "fruits", out)
     for i, f in enumerate(fruits):
         p = getattr(f, "position", None)
         if not (isinstance(p, (tuple, list)) and len(p) == 2 and _num(p[0], None) and _num(p[1], None)):
-            out.append(Issue(f"fruits[{i}].position", f"expected [x, y] in m, two finite numbers, found {kind_of(p)}"))
+            out.append(Issue(f"fruits[{i}].position", f"expected [x, y] in m, two finite numbers, found {_kind(p)}"))
     for k in _TASK:
         v = getattr(problem.task, k, None)
         if not _num(v, "nonneg"):
-            out.append(Issue(f"task.{k}", f"expected {_words('nonneg')}, found {kind_of(v)}"))
+            out.append(Issue(f"task.{k}", f"expected {_words('nonneg')}, found {_kind(v)}"))
     g = problem.gantry
     if g is not None:
         for k in _GANTRY:
             v = getattr(g, k, None)
             sign = "pos" if k.startswith("max_") else "nonneg" if k == "settle" else None
             if not _num(v, sign):
-                out.append(Issue(f"gantry.{k}", f"expected {_words(sign)}, found {kind_of(v)}"))
+                out.append(Issue(f"gantry.{k}", f"expected {_words(sign)}, found {_kind(v)}"))
         if _num(g.start, None) and _num(g.end, None) and not g.start < g.end:
             out.append(Issue("gantry.end", f"expected the end of the row past its start ({g.start:g} m), found {g.end:g}"))
     return out

@@ -63,6 +63,10 @@ class Arm:
     max_jerk: tuple[float, float]
     home: tuple[float, float]
 
+    def __post_init__(self) -> None:
+        for f in ("base", "bin", "links", "joint_limits", "max_velocity", "max_acceleration", "max_jerk", "home"):
+            object.__setattr__(self, f, _as_tuples(getattr(self, f)))
+
     @property
     def reach(self) -> float:
         return self.links[0] + self.links[1]
@@ -92,10 +96,26 @@ class Arm:
         return bool(np.any(self.ik(point, margin)[1]))
 
 
+def _as_tuples(v: Any) -> Any:
+    """A list or array of numbers (or of pairs) as tuples, as a file's are: a list in a frozen,
+    hashable problem made it unhashable (a TypeError deep in the planner). Anything else as it is,
+    for :func:`coplan.problem.check.built_issues` to name."""
+    if isinstance(v, np.ndarray) and v.ndim in (1, 2):
+        v = v.tolist()
+    if isinstance(v, list):
+        return tuple(_as_tuples(u) for u in v)
+    if isinstance(v, tuple):
+        return tuple(_as_tuples(u) if isinstance(u, (list, tuple, np.ndarray)) else u for u in v)
+    return v
+
+
 @dataclass(frozen=True)
 class Fruit:
     id: str
     position: tuple[float, float]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "position", _as_tuples(self.position))
 
 
 @dataclass(frozen=True)
@@ -123,6 +143,8 @@ class Problem:
     def __post_init__(self) -> None:
         # however it was made (a file checks much more, with lines): finite, positive where it must be
         issues = built_issues(self)
+        if not issues:  # what a file's arms are checked for beyond their numbers
+            issues = _pose_issues(self)
         if issues:  # (a file's own checks came first: these are a problem built or changed in Python)
             raise ProblemError(issues, f"{self.source}, as changed in Python" if self.source else "a problem built in Python")
 
@@ -459,6 +481,27 @@ def _home_issues(arms: list[tuple[int, Arm]], origins: dict, task: Task, lines: 
                     )
                 )
     return out
+
+
+def _pose_issues(problem: Problem) -> list[Issue]:
+    """A problem built or changed in Python, checked as a file's arms are: each home inside its
+    joint limits, each bin reachable, the home poses the clearance apart (a file's problem has
+    passed these before it is built: nothing is found twice)."""
+    out = []
+    for i, a in enumerate(problem.arms):
+        for j in range(2):
+            lo, hi = a.joint_limits[j]
+            if not lo <= a.home[j] <= hi:
+                out.append(Issue(f"arms[{i}].home[{j}]", f"expected a home angle inside the joint limits [{lo}, {hi}] "
+                                                         f"(arms[{i}].joint_limits[{j}]), found {a.home[j]}"))
+        if not a.can_reach(a.bin):
+            out.append(Issue(f"arms[{i}].bin", f"expected a bin its arm {a.name!r} can reach (IK inside joint limits), found "
+                                               f"{list(a.bin)} at {math.dist(a.base, a.bin):.3f} m from the base; the "
+                                               f"reachable annulus is [{a.inner_radius:.3f}, {a.reach:.3f}] m"))
+    if out:
+        return out
+    return _home_issues(list(enumerate(problem.arms)), {i: {"home": ("arms", i, "home")} for i in range(len(problem.arms))},
+                        problem.task, {})
 
 
 def _whole(problem: Problem, fruits: list[Fruit], lines: dict, source: str | None) -> None:
