@@ -313,6 +313,13 @@ def test_sweep_report_counts_medians_and_figures(small_run, tmp_path):
         assert rep.files[k].exists() and rep.files[k].stat().st_size > 0
     r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep-report", str(out), "--out", str(tmp_path / "r2"), "--no-figures"])
     assert r.exit_code == 0 and "success 6" in r.output and (tmp_path / "r2" / "report.md").exists()
+    # a notebook's backend is its own: the report draws on Figure objects (it switched the backend to Agg,
+    # and the notebook's next plt.show() showed nothing)
+    code = ("import sys, matplotlib; matplotlib.use('svg'); from coplan.sweep.report import sweep_report; "
+            f"r = sweep_report({str(out)!r}, {str(tmp_path / 'r3')!r}); "
+            "print(matplotlib.get_backend(), 'matplotlib.pyplot' in sys.modules, sorted(r.files))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert p.stdout.split()[:2] == ["svg", "False"] and "'pareto'" in p.stdout, p.stdout + p.stderr
 
 
 def test_sweep_report_refuses_a_folder_that_is_not_a_sweep(tmp_path):

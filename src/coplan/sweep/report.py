@@ -2,7 +2,7 @@
 
 Counts by status and exit class, the success rate among problems with reachable fruit,
 medians and worst cases, the three planners side by side where computed, and the figures a
-designer looks at (matplotlib, Agg, imported lazily; never ``plt.show()``):
+designer looks at (matplotlib figures, imported lazily; no pyplot, so no backend chosen or changed):
 
 * ``throughput.png`` -- throughput (fruit/min) against base spacing, one panel per arm count,
   one line per fruit density (median over seeds);
@@ -168,17 +168,15 @@ def _text(s: dict[str, Any], title: str) -> str:
 
 
 def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # (no pyplot: a notebook's backend and figures are left as they are)
 
     files: dict[str, Path] = {}
     ok = [r for r in rows if r["status"] == RowStatus.SUCCESS.value]
     des = designs(rows)
     arms = sorted({d["n_arms"] for d in des if d["spacing"] is not None})
     if arms:
-        fig, axes = plt.subplots(1, len(arms), figsize=(3.6 * len(arms), 3.4), sharey=True, squeeze=False)
+        fig = Figure(figsize=(3.6 * len(arms), 3.4))
+        axes = fig.subplots(1, len(arms), sharey=True, squeeze=False)
         for ax, a in zip(axes[0], arms):
             dens = sorted({d["density"] for d in des if d["n_arms"] == a}, key=lambda x: (x is None, x or 0))
             for dn in dens:
@@ -192,12 +190,12 @@ def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
         fig.tight_layout()
         files["throughput"] = out / "throughput.png"
         fig.savefig(files["throughput"], dpi=110)
-        plt.close(fig)
     for col, name, label in (("ratio", "ratio", "makespan / lower bound"), ("solve_time", "solve_time", "solve time, s")):
         xs = [r[col] for r in (ok if col == "ratio" else rows) if r[col] is not None]
         if not xs:
             continue
-        fig, ax = plt.subplots(figsize=(5, 3.4))
+        fig = Figure(figsize=(5, 3.4))
+        ax = fig.subplots()
         ax.hist(xs, bins=min(40, max(5, len(xs) // 3)), color="tab:blue", alpha=0.8)
         ax.set_xlabel(label)
         ax.set_ylabel("problems")
@@ -206,10 +204,10 @@ def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
         fig.tight_layout()
         files[name] = out / f"{name}.png"
         fig.savefig(files[name], dpi=110)
-        plt.close(fig)
     if des:
         pts = [(float(d["n_arms"]), float(d["throughput"])) for d in des]
-        fig, ax = plt.subplots(figsize=(5.5, 3.8))
+        fig = Figure(figsize=(5.5, 3.8))
+        ax = fig.subplots()
         ax.scatter([p[0] for p in pts], [p[1] for p in pts], s=10, alpha=0.35, color="grey", label="designs (median over seeds)")
         by_density = fronts(des)
         for dn, front in by_density.items():
@@ -228,7 +226,6 @@ def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
         fig.tight_layout()
         files["pareto"] = out / "pareto.png"
         fig.savefig(files["pareto"], dpi=110)
-        plt.close(fig)
     return files
 
 
