@@ -580,3 +580,24 @@ def test_verify_json_carries_the_exit_code_and_verdict(tmp_path):
         res = CliRunner().invoke(app, ["verify", str(path), str(f), "--json"])
         doc = json.loads(res.stdout)
         assert res.exit_code == code and (doc["exit_code"], doc["verdict"]) == (code, verdict), res.output
+
+
+def test_verify_takes_paths_and_says_what_it_expects(tmp_path):
+    """(verify('problem.yaml', plan) died in an AttributeError: 'str' object has no attribute
+    'arms'; options={'fcl': 'full'} in a TypeError from dataclasses.replace.)"""
+    path = shipped("crossing_paths.yaml")
+    problem = load_problem(path)
+    plan = plan_heuristic(problem)
+    plan.save(tmp_path)
+    by_path = verify(str(path), tmp_path / "plan.json", options={"fcl": "off"})
+    by_object = verify(problem, plan, fcl=FclMode.OFF)
+    assert by_path.summary()["violation_kinds"] == by_object.summary()["violation_kinds"] == ["collision", "jerk"]
+    assert by_path.fcl is None and by_path.certified_clearance == pytest.approx(by_object.certified_clearance, abs=1e-6)
+    with pytest.raises(TypeError, match="problem: expected a Problem or the path of a problem file, found dict"):
+        verify({}, plan)
+    with pytest.raises(TypeError, match="plan: expected a Plan or the path of a plan file"):
+        verify(problem, plan.q)
+    with pytest.raises(TypeError, match="expected options among .*found 'fcll'"):
+        verify(problem, plan, fcll="off")
+    with pytest.raises(TypeError, match="options: expected VerifyOptions, a mapping of its fields or None, found str"):
+        verify(problem, plan, "full")

@@ -49,8 +49,10 @@ What "passes" means (every check below, with the default :class:`VerifyOptions`)
 from __future__ import annotations
 
 import math
+import os
 import time as _time
-from dataclasses import replace
+from collections.abc import Mapping
+from dataclasses import fields, replace
 from typing import Any
 
 import numpy as np
@@ -64,9 +66,9 @@ from .hold import bin_track, holds_on
 from .home import check_home
 from .infer import infer_events
 from .row import check_carriage, check_row_inputs, plan_source, row_reachable_ids
-from ..plan import DEFAULT_RATE, EventKind, Plan
+from ..plan import DEFAULT_RATE, EventKind, Plan, load_plan
 from . import verdict as _verdict
-from ..problem.model import Problem
+from ..problem.model import Problem, load_problem
 from ..problem.plausible import MAX_PLAN_ANGLE, MAX_PLAN_COORD
 from .verdict import (
     ContactInterval,
@@ -390,14 +392,42 @@ def _check_sequence(plan: Plan, ver: Verification) -> None:
 
 
 # --------------------------------------------------------------------------- entry point
-def verify(problem: Problem, plan: Plan, options: VerifyOptions | None = None, **overrides: Any) -> Verification:
+def _arguments(problem, plan, options, overrides: dict) -> tuple[Problem, Plan, VerifyOptions]:
+    """:func:`verify`'s arguments as objects: a path is read (as ``coplan.solve`` and
+    ``coplan.view`` take paths); anything else of the wrong kind is a ``TypeError`` saying
+    what was expected, not an ``AttributeError`` from deep inside."""
+    if isinstance(problem, (str, os.PathLike)):
+        problem = load_problem(problem)
+    elif not isinstance(problem, Problem):
+        raise TypeError(f"verify(): problem: expected a Problem or the path of a problem file, found {type(problem).__name__}")
+    if isinstance(plan, (str, os.PathLike)):
+        plan = load_plan(plan)
+    elif not isinstance(plan, Plan):
+        raise TypeError(f"verify(): plan: expected a Plan or the path of a plan file (plan.json, plan.csv), "
+                        f"found {type(plan).__name__}")
+    if isinstance(options, Mapping):
+        overrides, options = {**options, **overrides}, None
+    elif options is not None and not isinstance(options, VerifyOptions):
+        raise TypeError(f"verify(): options: expected VerifyOptions, a mapping of its fields or None, found {type(options).__name__}")
+    names = [f.name for f in fields(VerifyOptions)]
+    unknown = [k for k in overrides if k not in names]
+    if unknown:
+        raise TypeError(f"verify(): expected options among {', '.join(names)}; found {', '.join(map(repr, unknown))}")
+    opts = replace(options or VerifyOptions(), **overrides)
+    return problem, plan, replace(opts, fcl=FclMode(opts.fcl))
+
+
+def verify(problem: Problem | str | os.PathLike, plan: Plan | str | os.PathLike, options: VerifyOptions | None = None,
+           **overrides: Any) -> Verification:
     """Verify ``plan`` against ``problem``; keyword overrides replace :class:`VerifyOptions` fields.
+
+    ``problem`` and ``plan`` may be paths (read with :func:`coplan.problem.load_problem` and
+    :func:`coplan.plan.load_plan`); ``options`` may be a mapping of :class:`VerifyOptions` fields.
 
     Raises :class:`PlanFileError` when the plan does not fit the problem (other arms, a
     non-uniform grid, wrong shapes). Every other finding is in the returned object.
     """
-    opts = replace(options or VerifyOptions(), **overrides)
-    opts = replace(opts, fcl=FclMode(opts.fcl))
+    problem, plan, opts = _arguments(problem, plan, options, overrides)
     _check_inputs(problem, plan)
     check_row_inputs(problem, plan)
     # (a plan.csv names no problem: the one it is checked against)
