@@ -167,3 +167,17 @@ def test_another_coplan_file_given_as_options_is_named_in_one_sentence(tmp_path:
         assert len(e.value.issues) == 1 and what in str(e.value) and "were the arguments swapped?" in str(e.value)
     r = CliRunner().invoke(app, ["solve", str(problems_dir / "crossing_paths.yaml"), "--options", str(plan), "-o", str(tmp_path / "o")])
     assert r.exit_code == ExitCode.BAD_INPUT and "unknown key" not in r.output and not (tmp_path / "o").exists()
+
+
+def test_ipopt_settings_changed_after_the_options_were_made_are_refused_before_any_work():
+    """(OptimalOptions is frozen but its ipopt dict is not: a value changed afterwards ran the
+    whole search, then came back 'success' with an error and exit code 1.)"""
+    from coplan.errors import OptionsError
+    from coplan.planners.optimal.planner import plan_optimal
+    from coplan.problem import load_problem, shipped_problems
+
+    o = OptimalOptions(search_work=300, ipopt={"ipopt.max_iter": 50})
+    o.ipopt["ipopt.max_iter"] = "lots"
+    problem = load_problem(next(p for p in shipped_problems() if p.name == "single_arm.yaml"))
+    with pytest.raises(OptionsError, match=r"as changed since it was made.*ipopt.ipopt.max_iter.*found 'lots'"):
+        plan_optimal(problem, options=o)

@@ -75,6 +75,7 @@ def test_internal_error_in_a_stage_keeps_the_incumbent_and_the_baseline(tmp_path
     monkeypatch.setattr(optimal_mod, "improve", _boom)
     res = coplan.solve(PROBLEMS / "crossing_paths.yaml", out_dir=tmp_path / "out")
     assert res.exit_code == ExitCode.INTERNAL
+    assert not res.success  # (it said success beside exit code 1: the run is not, its kept plan is)
     assert res.error == "RuntimeError: boom in the search"
     assert "boom in the search" in res.error_trace
     # the verified coordinated incumbent is the plan, and it is on disk with the baseline

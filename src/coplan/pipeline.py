@@ -70,7 +70,9 @@ class SolveResult:
 
     @property
     def success(self) -> bool:
-        return self.plan.status == PlanStatus.SUCCESS
+        """A verified success, and no internal error on the way (``exit_code`` 0): a plan kept
+        from before an error may be verified, but the run is not a success."""
+        return self.plan.status == PlanStatus.SUCCESS and not self.error
 
 
 def finalize(problem: Problem, plan: Plan, verification) -> Plan:

@@ -56,7 +56,8 @@ from ...progress import speaker, ticker
 from ..coordinated.planner import make_plan
 from .incumbent import Incumbent, stop_message, time_to_ratio
 from .nlp_data import SolverStatus
-from .options import OptimalOptions
+from ...errors import OptionsError
+from .options import OptimalOptions, ipopt_issues
 from .search import StopReason
 from .stages import STAGES, Run, nlp_plan, retimable
 
@@ -86,6 +87,8 @@ def plan_optimal(
     """Plan all arms, anytime: the stages of :data:`~coplan.planners.optimal.stages.STAGES` in
     turn (coordinated, retime, search, refine, polish, widen); every incumbent verified."""
     opts = options or OptimalOptions()
+    if opts.ipopt and (bad := ipopt_issues(opts.ipopt)):  # (checked when made, but a dict can change since)
+        raise OptionsError(bad, f"{type(opts).__name__}, as changed since it was made")
     say = speaker(progress)
     t_start = _time.perf_counter()
     run = Run(problem, allocation, opts, say, ticker(progress), t_start, Incumbent(problem, t_start, say),
