@@ -523,3 +523,19 @@ def test_lists_and_arrays_in_a_problem_built_in_python_are_its_tuples(cell):
     assert hash(p) == hash(dataclasses.replace(p)) and p.fruit_positions.shape == (2, 2)
     with pytest.raises(ProblemError, match=r"arms: expected a non-empty tuple of Arm, found tuple \(\)"):
         dataclasses.replace(cell, arms=())  # (said "found list ()" of a tuple)
+
+
+def test_a_progress_that_cannot_be_called_is_refused_before_any_work(cell):
+    with pytest.raises(TypeError, match="progress: expected a callable taking one message"):
+        coplan.solve(cell, planner="coordinated", progress="yes")
+
+
+def test_findings_hold_python_numbers(cell):
+    """(A violation read amount=np.float64(6.29), limit=np.float64(1.6) in a notebook.)"""
+    from coplan.planners.heuristic import plan_heuristic
+    from coplan.verify import verify
+
+    ver = verify(cell, plan_heuristic(cell))
+    found = ver.violations + ver.warnings + ver.intervals + ver.pairs
+    assert ver.violations and "np." not in repr(found)
+    assert all(type(v.amount) is float for v in ver.violations)

@@ -163,6 +163,8 @@ def test_view_of_a_plan_json_takes_its_recorded_problem_file_only_while_unchange
     coplan.solve(load_problem(mine), planner="coordinated", out_dir=tmp_path / "run")
     plan_json = tmp_path / "run" / "plan.json"
     assert coplan.view(plan_json).page  # the recorded file, unchanged
+    shown = repr(coplan.view(plan_json))  # (a plain REPL printed the whole page, 147,000 characters)
+    assert shown.startswith("PlanView(") and len(shown) < 200 and "characters" in shown, shown
     mine.write_text(CROSSING.read_text().replace("clearance: 0.05", "clearance: 0.06"))
     with pytest.raises(coplan.PlanFileError, match="has changed since"):
         coplan.view(plan_json)

@@ -269,6 +269,8 @@ def solve(
     from .verify.verifier import verify
 
     t0 = _time.perf_counter()
+    if progress is not None and not callable(progress):  # (it failed minutes in, at the first message)
+        raise TypeError(f"progress: expected a callable taking one message (str), or None; found {type(progress).__name__}")
     if out_dir is not None:
         check_folder(out_dir, "out_dir")  # (before any work: a solve is not lost to where it goes)
     prob = problem if isinstance(problem, Problem) else _from_mapping(problem) if isinstance(problem, Mapping) else load_problem(problem)

@@ -126,6 +126,21 @@ class VerifyOptions:
                                                        f"into that many), found {self.refine_factor}")], "VerifyOptions")
 
 
+def _plain(v):
+    """NumPy scalars (also inside tuples) as Python numbers: a finding reads ``amount=6.29``,
+    not ``amount=np.float64(6.29)``, and compares and serialises as a number."""
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, tuple):
+        return tuple(_plain(u) for u in v)
+    return v
+
+
+def _plain_fields(obj) -> None:
+    for f in fields(obj):
+        object.__setattr__(obj, f.name, _plain(getattr(obj, f.name)))
+
+
 @dataclass(frozen=True)
 class Violation:
     """One failed check: ``value`` measured against ``limit``; ``amount`` is by how much."""
@@ -142,6 +157,9 @@ class Violation:
     fruit: str | None = None
     message: str = ""
 
+    def __post_init__(self) -> None:
+        _plain_fields(self)
+
 
 @dataclass(frozen=True)
 class Finding:
@@ -155,6 +173,9 @@ class Finding:
     t_start: float | None = None
     t_end: float | None = None
     message: str = ""
+
+    def __post_init__(self) -> None:
+        _plain_fields(self)
 
 
 @dataclass(frozen=True)
@@ -175,6 +196,9 @@ class ContactInterval:
     links: tuple[int, int]
     points: tuple[tuple[float, float], tuple[float, float]]
 
+    def __post_init__(self) -> None:
+        _plain_fields(self)
+
     @property
     def penetration(self) -> float:
         return max(0.0, -self.least_distance)
@@ -193,6 +217,9 @@ class PairClearance:
     t_certified: float
     samples: int
     refined: int
+
+    def __post_init__(self) -> None:
+        _plain_fields(self)
 
     @property
     def key(self) -> str:

@@ -458,6 +458,12 @@ class PlanView:
     page: str
     height: int = 900
 
+    def __repr__(self) -> str:  # (a plain REPL printed the whole page: 147,000 characters)
+        title = re.search(r"<title>(.*?)</title>", self.page, re.S)
+        return (f"PlanView({html.unescape(title.group(1)).strip()!r}, {len(self.page):,} characters; "
+                "shown inline in a notebook, .save(path) or .open(path) for a browser)" if title else
+                f"PlanView({len(self.page):,} characters; shown inline in a notebook, .save(path) or .open(path))")
+
     def _repr_html_(self) -> str:
         return (f'<iframe srcdoc="{html.escape(self.page, quote=True)}" style="width:100%;height:{int(self.height)}px;'
                 'border:1px solid #ddd" sandbox="allow-scripts" title="coplan plan viewer"></iframe>')
