@@ -265,3 +265,35 @@ def test_a_users_plan_md_is_never_taken_for_a_run_file_and_a_stale_export_moves_
     prev = out.with_name("notes.previous")
     assert {"plan_100hz.csv", "plan_gantt.png", "plan_100hz", "plan.json"} <= {p.name for p in prev.iterdir()}
     assert not (prev / "plan.md").exists() and (out / "plan.md").exists()
+
+
+@pytest.mark.parametrize("theirs", ["folder", "file"])
+def test_a_users_file_or_folder_named_like_the_previous_run_is_never_replaced(tmp_path, theirs):
+    """(A second run into a folder replaced <out>.previous whatever it held: a user's
+    thesis.tex kept there was deleted, a file of that name too, exit 0.)"""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+    from coplan.output import OutputError, RunFolder
+
+    out = tmp_path / "o"
+    solve(_single(), planner="heuristic", out_dir=out)
+    prev = tmp_path / "o.previous"
+    if theirs == "folder":
+        prev.mkdir()
+        (prev / "thesis.tex").write_text("mine")
+    else:
+        prev.write_text("mine")
+    with pytest.raises(OutputError, match=r"expected coplan's previous run or nothing at .*o\.previous, found"):
+        solve(_single(), planner="heuristic", out_dir=out)
+    r = CliRunner().invoke(app, ["solve", str(_single()), "--planner", "heuristic", "--out", str(out)])
+    assert r.exit_code == 2 and ("thesis.tex" in r.output) == (theirs == "folder"), r.output
+    assert (prev / "thesis.tex" if theirs == "folder" else prev).read_text() == "mine"
+    # made after the check, before the run's files move: the previous run goes beside it, nothing is removed
+    with RunFolder(out) as stage:
+        (stage / "plan.json").write_text("{}")
+    assert (prev / "thesis.tex" if theirs == "folder" else prev).read_text() == "mine"
+    assert (tmp_path / "o.previous.1" / "plan.json").exists() and (out / "plan.json").read_text() == "{}"
+    # coplan's own previous run is replaced as before
+    (prev / "thesis.tex").unlink() if theirs == "folder" else prev.unlink()
+    assert solve(_single(), planner="heuristic", out_dir=out).previous == prev

@@ -7,7 +7,8 @@ or a full disk never leaves one run's plan.json beside another's CSV: the target
 whole run or is untouched, and a failed write removes its partial folder.
 
 The previous run is kept: a target folder that holds only coplan's files is renamed to
-``<name>.previous`` first (replacing an older one). A target that also holds other files is
+``<name>.previous`` first (replacing an older one, never a file or folder of the user's of
+that name: :func:`check_folder` refuses the run before any work). A target that also holds other files is
 not moved: the previous run's files in it move to ``<name>.previous`` (so that no file of one
 run is left beside another's: a stop-and-go ``run.json`` beside a later solve's plan), the
 user's stay, and the new files go in one by one (each rename atomic). So does a run into the
@@ -26,7 +27,7 @@ from pathlib import Path
 
 from .errors import CoplanError
 
-__all__ = ["MARKER", "RunFolder", "is_run_folder", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder"]
+__all__ = ["MARKER", "RunFolder", "is_run_folder", "previous_of", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder"]
 
 MARKER = ".coplan-run"  # written into every run folder
 # the files a run writes (solve, live runs), by their exact names -- a user's plan.md or
@@ -73,6 +74,29 @@ def check_folder(out: str | Path, what: str = "out_dir") -> None:
                           f"({exc.strerror or exc})") from None
     os.close(fd)
     os.unlink(name)
+    prev = previous_of(out)
+    if out.is_dir() and any(_ours(p) for p in out.iterdir()) and not _replaceable(prev):
+        held = "a file" if not prev.is_dir() else "a folder holding files coplan did not write (" + ", ".join(
+            sorted(p.name for p in prev.iterdir() if not _ours(p))[:3]) + ")"
+        raise OutputError(f"{what} {out}: a run there moves the previous one to {prev}, which would replace what is "
+                          f"there; expected coplan's previous run or nothing at {prev}, found {held}: move it, or "
+                          "choose another folder")
+
+
+def previous_of(out: Path) -> Path:
+    """Where a run into ``out`` keeps the previous run: ``<out>.previous`` beside it (the
+    current folder's too)."""
+    out = Path(out)
+    full = out.absolute()
+    return out.with_name(out.name + ".previous") if out.name else full.with_name(full.name + ".previous")
+
+
+def _replaceable(prev: Path) -> bool:
+    """Whether ``prev`` may be replaced by the next previous run: nothing, an empty folder, or a
+    folder of coplan's files only (a user's file or folder of that name is theirs)."""
+    if not prev.exists() and not prev.is_symlink():
+        return True
+    return prev.is_dir() and not prev.is_symlink() and all(_ours(p) for p in prev.iterdir())
 
 
 def usual_mode(folder: bool = False) -> int:
@@ -195,11 +219,15 @@ class RunFolder:
 
 
 def _cleared_previous(out: Path) -> Path:
-    """``<out>.previous`` (beside ``out``, the current folder's too), an older one removed."""
-    full = out.absolute()
-    prev = out.with_name(out.name + ".previous") if out.name else full.with_name(full.name + ".previous")
-    if prev.is_dir():
-        shutil.rmtree(prev)
-    elif prev.exists():
-        prev.unlink()
-    return prev
+    """``<out>.previous``, an older previous run there removed; when something else is there
+    (made since :func:`check_folder` looked), the first free ``<out>.previous.<n>``: nothing of
+    the user's is removed."""
+    prev = previous_of(out)
+    if _replaceable(prev):
+        if prev.is_dir():
+            shutil.rmtree(prev)
+        return prev
+    n = 1
+    while previous_of(out).with_name(f"{prev.name}.{n}").exists():
+        n += 1
+    return prev.with_name(f"{prev.name}.{n}")
