@@ -192,18 +192,20 @@ def test_names_with_markup_and_escape_sequences_are_printed_safely(tmp_path: Pat
 
     doc = yaml.safe_load(text)
     doc["name"] = "row [/] [bold]x\x1b[31m"
-    doc["arms"][0]["name"] = "a[/]"
-    doc["fruits"][0]["id"] = "f[red]1"
+    doc["arms"][0]["name"] = "a[/]\x1b]0;PWNED\x07"  # (the screen's lines printed arm names raw: a window title set)
+    doc["arms"][1]["name"] = "c\x1b[31mred\nline"
+    doc["fruits"][0]["id"] = "f[red]1\x1b[2J"
     bad = tmp_path / "hostile.yaml"
     bad.write_text(yaml.safe_dump(doc, allow_unicode=True))
     for args in (("solve", str(bad), "--planner", "heuristic", "--out", str(tmp_path / "o")),
+                 ("solve", str(bad), "--planner", "coordinated", "--out", str(tmp_path / "o2")),
                  ("check", str(bad)),
                  ("verify", str(bad), str(tmp_path / "o" / "plan.json")),
                  ("compare", str(bad), "-p", "heuristic", "--no-figures", "--out", str(tmp_path / "c"))):
         res = run(*args)
         assert "internal error" not in res.output and res.exception is None or isinstance(res.exception, SystemExit), res.output
         assert res.exit_code in (0, int(ExitCode.PARTIAL), int(ExitCode.UNSAFE)), (args, res.output)
-        assert "\x1b" not in res.output, args
+        assert "\x1b" not in res.output and "\x07" not in res.output and "red\nline" not in res.output, args
         if args[0] in ("solve", "check", "verify"):
             assert "row [/] [bold]x" in res.output, res.output
 

@@ -28,7 +28,7 @@ from .summary import fmt as _fmt
 from .summary import print_summary, print_table, print_verification
 from .summary import safe as _s
 from .console import FlagsGroup, ProgressDisplay, run_console
-from ..errors import InputError, plural
+from ..errors import InputError, plural, printable
 from ..kinds import AllocationMethod, ExitCode, FclMode, GantryMode, PlannerKind, StopRule
 
 app = typer.Typer(
@@ -178,8 +178,8 @@ def solve(
     if not as_json and planner != PlannerKind.HEURISTIC:
         from ..allocate.screen import screened
 
-        for line in screened(path).lines():  # the screen's verdict, before solving
-            err_console.print(line, markup=False, highlight=False)
+        for line in screened(path).lines():  # the screen's verdict, before solving (names escaped)
+            err_console.print(printable(line), markup=False, highlight=False)
     with ProgressDisplay(err_console, quiet=as_json, hint=_budget_hint(planner, time_limit)) as say:
         res = run(path, planner=planner, allocation=allocation, out_dir=out, options=options, progress=say)
     return _report_solve(res, out, animate, html, as_json)
@@ -293,8 +293,8 @@ def check(
         p = out_console.print
         p(f"[bold]{_s(prob.name)}[/] ({_s(path)}): {plural(len(prob.arms), 'arm')}, {len(prob.fruits)} fruit: "
           f"{n_reach} reachable, {harvestable} harvestable")
-        for line in scr.lines():
-            p(line, markup=False, highlight=False)
+        for line in scr.lines():  # (its names and ids escaped: they come from the file)
+            p(printable(line), markup=False, highlight=False)
         if harvestable == 0:
             p("nothing to plan: no fruit can be harvested by any arm (solve would exit 4, infeasible)")
         else:
