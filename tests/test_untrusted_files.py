@@ -60,6 +60,31 @@ def test_numbers_elsewhere_are_still_numbers() -> None:
     assert p.arms[0].links == (1.0, 0.8) and p.task.pick_dwell == 0.3
 
 
+@pytest.mark.parametrize("written, read", [("010", 10.0), ("0x10", 16.0), ("0o17", 15.0), ("8e1", 80.0), (".5", 0.5),
+                                           ("+3", 3.0), ("1.5e+2", 150.0)])
+def test_numbers_are_read_as_yaml_1_2_reads_them(written, read) -> None:
+    """(YAML 1.1 read 010 as octal 8.)"""
+    assert parse_problem(SINGLE.replace("pick_dwell: 0.3", f"pick_dwell: {written}")).task.pick_dwell == read
+
+
+@pytest.mark.parametrize("written", ["1:30", "0_3", "1_000.5", "0b11"])
+def test_yaml_1_1_number_forms_are_strings_refused_where_a_number_is_expected(written) -> None:
+    """(``pick_dwell: 1:30`` was read as 90 s, base 60, and ``0_3`` as 3 s: a typo, a silent 10 x.)"""
+    with pytest.raises(ProblemError, match=f"task.pick_dwell: expected a number, found string '{written}'"):
+        parse_problem(SINGLE.replace("pick_dwell: 0.3", f"pick_dwell: {written}"))
+
+
+def test_an_integer_of_hundreds_of_digits_is_refused_with_its_line_not_an_overflow() -> None:
+    """(``links: [1000...0, 0.8]`` was an internal error: OverflowError, int too large to convert to float.)"""
+    text = SINGLE.replace("links: [1.0, 0.8]", "links: [1" + "0" * 400 + ", 0.8]", 1)
+    assert text != SINGLE
+    with pytest.raises(ProblemError) as e:
+        parse_problem(text, "big.yaml")
+    (issue,) = e.value.issues
+    assert "expected a number coplan can hold, found an integer of 401 digits" in issue.message
+    assert issue.line == next(i + 1 for i, ln in enumerate(text.splitlines()) if "0" * 400 in ln) and "links" in issue.path
+
+
 # --------------------------------------------------------------------------- CSV
 NASTY = ['a,b', 'say "hi"', "two\nlines", "car\rriage", "plain"]
 

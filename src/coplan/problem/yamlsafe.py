@@ -13,7 +13,10 @@ What :func:`read_yaml` guarantees, before anything is constructed:
   :func:`line_of` gives the line of a path or of its nearest recorded ancestor;
 - ``keep_text``: at the key paths it selects (names, ids), a plain scalar is kept as the text
   written, never coerced by YAML 1.1's implicit types (``no`` -> false, ``0x10`` -> 16,
-  ``012`` -> 10, ``1_000`` -> 1000, ``12:30`` -> 750); only ``null``/``~``/empty stays null.
+  ``012`` -> 10, ``1_000`` -> 1000, ``12:30`` -> 750); only ``null``/``~``/empty stays null;
+- numbers everywhere as YAML 1.2 reads them: ``1:30``, ``0_3``, ``0b11`` are strings (refused
+  where a number is expected), ``010`` is ten; an integer of more than ``MAX_INT_DIGITS`` digits
+  is refused with its line.
 
 Every problem is raised as :class:`~coplan.errors.ProblemError`. This module must not
 import :mod:`coplan.problem.model` (which imports it).
@@ -60,11 +63,39 @@ class _FastLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):
     ``8.0e+1`` and would make them strings."""
 
 
+# Numbers as YAML 1.2 (its core schema) reads them, as every other tool does: YAML 1.1's forms
+# read a typo as another number, silently -- ``1:30`` as 90 (base 60), ``0_3`` as 3, ``010`` as 8
+# (octal). Those are strings now (so "expected a number, found string '1:30'"); ``0x10`` and
+# ``0o17`` stay numbers, as in YAML 1.2; scientific notation needs no dot (``8e1``, ``1e-3``).
+_INT, _FLOAT = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float"
+_FastLoader.add_implicit_resolver(_FLOAT, re.compile("x^"), [])  # (gives this class its own copy of the table)
+_FastLoader.yaml_implicit_resolvers = {
+    first: [(tag, rx) for tag, rx in rules if tag not in (_INT, _FLOAT)]
+    for first, rules in _FastLoader.yaml_implicit_resolvers.items()}
+_FastLoader.add_implicit_resolver(_INT, re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$"), list("-+0123456789"))
 _FastLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
-    list("-+0123456789"),
-)
+    _FLOAT, re.compile(r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"),
+    list("-+0123456789."))
+
+#: The most digits an integer in a coplan file may have: more is no plausible value of any key,
+#: and converting it to a float (every check does) overflowed, an internal error.
+MAX_INT_DIGITS = 30
+
+
+def _construct_int(loader, node):
+    """YAML 1.2's integers: decimal (``010`` is ten, not YAML 1.1's octal eight), ``0o`` octal,
+    ``0x`` hexadecimal; one of more than :data:`MAX_INT_DIGITS` digits is refused with its line."""
+    text = loader.construct_scalar(node)
+    digits = text.lstrip("+-")
+    if len(digits) > MAX_INT_DIGITS:
+        raise yaml.constructor.ConstructorError(
+            None, None, f"expected a number coplan can hold, found an integer of {len(digits)} digits", node.start_mark)
+    if digits[:2] in ("0o", "0x"):
+        return int(digits[2:], 8 if digits[1] == "o" else 16)
+    return int(text, 10)
+
+
+_LineLoader.add_constructor(_INT, _construct_int)
 
 
 def _scan_events(text: str, issues: list) -> None:
@@ -167,6 +198,12 @@ def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = No
             _walk_nodes(v, path + [i], lines, issues, None, ctor, keep_text)
 
 
+def _path_at(lines: dict, line: int | None) -> str:
+    """The deepest key path recorded at ``line`` ('' when none is)."""
+    at = [k for k, v in lines.items() if v == line]
+    return path_str(max(at, key=len)) if at else ""
+
+
 def read_yaml(text: str, source: str | None, keep_text=None,
               expected: str = "a mapping with keys name, arms, fruits, task"):
     """Parse YAML text safely; returns ``(data, lines)`` where ``lines`` maps key paths to lines.
@@ -200,6 +237,8 @@ def read_yaml(text: str, source: str | None, keep_text=None,
                 and text.splitlines()[mark.line][mark.column:mark.column + 1] == "\t":
             raise ProblemError([Issue("", f"expected spaces for indentation, found a tab character at column {mark.column + 1} "
                                           "(YAML does not allow tabs there)", line)], source) from None
+        if isinstance(e, yaml.constructor.ConstructorError) and str(msg).startswith("expected "):  # (ours: _construct_int)
+            raise ProblemError([Issue(_path_at(lines, line), str(msg), line)], source) from None
         raise ProblemError([Issue("", f"expected valid YAML, found a syntax error: {msg}" + (f" ({context})" if context else ""), line)], source) from None
     return data, lines
 
