@@ -118,6 +118,7 @@ def test_faults_stop_and_go_degrade_safely_and_are_replayable(row):
     stopped = f["arm_stop"]["arm"]
     assert len([e for e in res.plan.events if e.arm == stopped and e.t_start > f["arm_stop"]["t"]]) <= 2
     assert m["false_reports"] >= 20 and "at_stop_x" in f["false_burst"]
+    _still_after_its_fault(res)
     # once an arm is an obstacle the hops are no longer than what the camera sees ahead of the front arm
     stops = res.plan.solver["row"]["stops"]
     after = [(a, b) for a, b in zip(stops, stops[1:]) if a["depart"] >= f["arm_stop"]["t"]]
@@ -126,6 +127,38 @@ def test_faults_stop_and_go_degrade_safely_and_are_replayable(row):
     again = run_live_row(row, opts)
     assert again.metrics["faults"] == f and [(e.arm, e.fruit, e.t_start) for e in again.plan.events] == \
         [(e.arm, e.fruit, e.t_start) for e in res.plan.events]
+
+
+def _still_after_its_fault(res) -> None:
+    """The arm a fault stopped finishes what is under way at its fault -- a move, or the cycle
+    it is in (to the fruit, the pick, to the bin, the place) -- then never moves again."""
+    stop = res.metrics["faults"]["arm_stop"]
+    t, q = np.asarray(res.plan.time), np.asarray(res.plan.q[stop["arm"]])
+    moving = np.abs(np.diff(q, axis=0)).max(axis=1) > 1e-12  # interval k: t[k] .. t[k + 1]
+    k = int(np.searchsorted(t, stop["t"]))
+    while k < moving.size and moving[k] and k > 0 and moving[k - 1]:  # the motion under way at the fault
+        k += 1
+    later = [e for e in res.plan.events if e.arm == stop["arm"] and e.t_end > stop["t"]]
+    if later:  # the cycle under way: its pick (begun, or reached by the move under way) and its place, no more
+        assert len(later) <= 2 and later[-1].kind.value == "place" and later[0].fruit == later[-1].fruit, (stop, later)
+        assert later[0].t_start <= t[k] + 1e-9, (stop, later)
+        k = max(k, int(np.searchsorted(t, later[-1].t_end - 1e-9)))
+    assert not moving[k:].any(), (stop, float(t[k + np.flatnonzero(moving[k:])[0]]))
+
+
+def test_an_arm_a_fault_stopped_starts_nothing_after_it_in_stop_and_go():
+    """Regression (``coplan run sparse_row --gantry stop-and-go --arm-stop --false-burst 30
+    --sigma 0.03 --false-rate 0.2 --duplicate-rate 0.2 --look-ahead 0.5``, seed 12): arm3, at
+    rest at its fault (87.94 s), then picked and placed f0034 (pick at 89.40 s): a cycle decided
+    before the fault, waiting for the carriage to reach the stop, was made after it."""
+    from coplan.problem import load_problem, shipped_rows
+
+    row = load_problem(next(p for p in shipped_rows() if p.stem == "sparse_row"))
+    res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=12, sigma=0.03, false_rate=0.2,
+                                           duplicate_rate=0.2, look_ahead=0.5,
+                                           faults=RowFaults(arm_stop=True, false_burst=30)))
+    assert res.verification.passed and res.metrics["missed_reachable_by_a_working_arm"] == []
+    _still_after_its_fault(res)
 
 
 def test_an_arm_that_stops_during_a_hop_shortens_it_to_where_the_others_still_reach_its_fruit():
@@ -141,6 +174,7 @@ def test_an_arm_that_stops_during_a_hop_shortens_it_to_where_the_others_still_re
         res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=seed,
                                                faults=RowFaults(arm_stop=True, camera_dark=3.0, false_burst=50, late_replan=2.0)))
         assert res.verification.passed and res.metrics["missed_reachable_by_a_working_arm"] == [], seed
+        _still_after_its_fault(res)
         x = res.plan.gantry_x
         assert np.all(np.diff(x) >= -1e-12)  # never back along the rail
         stop = res.metrics["faults"]["arm_stop"]

@@ -96,6 +96,7 @@ class Booker:
         # where each arm rests when it has nothing to do: home, but an arm the screen locks (it
         # harvests nothing) is parked out of its neighbours' way first (:mod:`coplan.row.park`)
         self.rest_q = [np.asarray(a.home, float) for a in problem.arms]
+        self.halted: dict[int, float] = {}  # arm -> the time of its controller fault: no motion starts from then
         for i, pose in _parked(problem, self.need).items():
             if self._go(i, pose, 0.0):
                 self.rest_q[i] = pose
@@ -292,6 +293,16 @@ class Booker:
             return None
         return Cycle(i, fid, k0, q, [])
 
+    def moves_after_halt(self, i: int, k0: int, q: np.ndarray) -> bool:
+        """Whether motion ``q`` of arm ``i`` (samples from ``k0``) starts at or after the arm's
+        fault (:attr:`halted`): a cycle or move decided before the fault but starting after it
+        (waiting for the carriage or a neighbour) is never made."""
+        t_h = self.halted.get(i)
+        if t_h is None:
+            return False
+        moving = np.flatnonzero(np.abs(q - q[0]).max(axis=1) > 1e-12)
+        return moving.size > 0 and (k0 + moving[0] - 1) * self.dt >= t_h
+
     def commit(self, cyc: Cycle) -> None:
         st = self.arms[cyc.arm]
         k1 = cyc.k0 + cyc.q.shape[0]
@@ -365,6 +376,8 @@ class Booker:
             ts = np.arange(st.k_free, k_s + n + 1) * self.dt
             q = np.where((ts < k_s * self.dt)[:, None], q0, leg.sample(np.maximum(ts - k_s * self.dt, 0.0)))
             q[-1] = target
+            if self.moves_after_halt(i, st.k_free, q):
+                return False  # (its fault came first: it stays where it rests)
             if self._clear(i, st.k_free, q):
                 self.commit(Cycle(i, "", st.k_free, q, []))
                 return True
@@ -448,7 +461,8 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
 
     Faults: ``halt`` (arm index -> time of a controller fault): the arm finishes the motion in
     progress and, from its next rest, books nothing more -- an obstacle where it rests; its fruit
-    are left to the neighbours. ``delay(arm, now)`` -> seconds a decision runs late: the arm
+    are left to the neighbours. A cycle or move decided before the fault whose motion would
+    start at or after it (the arm waiting for the carriage or a neighbour) is not made. ``delay(arm, now)`` -> seconds a decision runs late: the arm
     rests that much longer before the cycle it decides.
 
     In phases: ``until`` stops deciding at that time (each arm left free at or after it, at rest);
@@ -461,6 +475,7 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
     windows = booker.windows
     taken = taken if taken is not None else set()
     arms = booker.problem.arms
+    booker.halted.update(halt or {})
     by_arm: dict[int, list[tuple[str, Window]]] = {i: [] for i in range(len(arms))}
     for fid, ws in windows.items():
         for w in ws:
@@ -525,12 +540,15 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
             pool = ready or cands
             pool.sort(key=lambda c: (c[1].hi, n_arms_of[c[0]], c[1].lo, c[0]))
             tries = pool[:4]
-        booked = False
+        booked = stopped = False
         for fid, w in tries:
             if on_book is not None and not on_book(i, fid, now):
                 taken.add(fid)  # vetoed for good (not harvested: left out with the veto's reason)
                 continue
             cyc = booker.plan_cycle(i, fid, w, now)
+            if cyc is not None and booker.moves_after_halt(i, cyc.k0, cyc.q):
+                stopped = True  # decided before the fault, it would start after it: never made
+                break
             if cyc is not None:
                 booker.commit(cyc)
                 taken.add(fid)
@@ -538,6 +556,9 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                     pending[i].pop(0)
                 booked = True
                 break
+        if stopped:
+            booker.arms[i].done = True  # it stays where it rests
+            continue
         if booked and booker.rests_out(i):  # a probe that found nothing and rests there: its next move is decided now
             heapq.heappush(queue, (-math.inf, i))
             continue
