@@ -254,6 +254,7 @@ def test_on_the_move_the_carriage_holds_while_the_camera_is_dark(row):
     assert at_rest.any() and np.ptp(p.gantry_x[at_rest]) < 1e-9
     calm = run_live_row(row, LiveRowOptions(speed=0.15, seed=5))
     assert p.metrics["makespan"] > calm.plan.metrics["makespan"]  # what it cost
+    assert p.label.endswith("(on the move)"), p.label  # (a live run on the move was labelled "(stop and go)")
 
 
 def test_a_grasp_aimed_beyond_the_tolerance_closes_on_nothing_and_is_reported(row):

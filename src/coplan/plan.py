@@ -162,7 +162,8 @@ class Plan:
         row = (self.solver or {}).get("row") if isinstance(self.solver, dict) else None
         if not isinstance(row, dict) or self.gantry_x is None:
             return self.planner_name
-        if row.get("mode") == "continuous":
+        mode = str(row.get("mode") or "")
+        if mode.startswith("continuous"):  # (a live run's is "continuous-live": it was called stop and go)
             return f"{self.planner_name} (on the move)"
         rule = row.get("rule")
         return f"{self.planner_name} (stop and go" + (f", {rule} stops)" if isinstance(rule, str) else ")")
