@@ -370,6 +370,9 @@ def test_every_generated_base_expands_to_valid_problems_or_a_bad_input_item():
     assert rnd.problem_text == to_yaml(random_problem(5)) and rnd.source == "random_problem(seed=5)"
     tiny_arm = parse_sweep("base: row\nfixed: {n_arms: 2, links: [0.3, 0.2]}\n", "t.yaml").items()[0]
     assert tiny_arm.problem_text is None and "within reach" in tiny_arm.error
+    # (a gantry row of 1e9 fruit per metre crashed the whole sweep: MemoryError, 149 GiB asked for)
+    huge = parse_sweep("base: gantry\nvary: {density: [1e9]}\n", "g.yaml").items()[0]
+    assert huge.problem_text is None and "expected at most 20000 fruit" in huge.error
     row, _ = solve_item(tiny_arm)
     assert (row["status"], row["exit_code"]) == ("bad input", int(ExitCode.BAD_INPUT))
     limits = parse_sweep("base: row\nfixed: {n_arms: 2, n_fruits: 2}\nvary: {max_velocity: [2.0, [1.0, 1.5]]}\n", "l.yaml").items()

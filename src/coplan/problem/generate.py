@@ -293,6 +293,12 @@ def gantry_row(
     _finite(length=length, density=density, spacing=spacing, y_range=y_range)
     if length <= 0 or n_arms < 1 or density < 0:
         raise ValueError(f"expected length > 0, n_arms >= 1 and density >= 0, found {length}, {n_arms}, {density}")
+    from .model import MAX_ARMS, MAX_FRUITS
+
+    if density * length > MAX_FRUITS or n_arms > MAX_ARMS:  # (before drawing: 1e9 per metre asked for 149 GiB)
+        raise ValueError(f"expected at most {MAX_FRUITS} fruit (density x length) and {MAX_ARMS} arms, a problem file's "
+                         f"limits; found about {density * length:.4g} fruit ({density:g} per metre over {length:g} m) "
+                         f"and {n_arms} arms")
     if not (len(y_range) == 2 and y_range[0] < y_range[1]):
         raise ValueError(f"y_range: expected (low, high) with low < high, found {tuple(y_range)!r}")
     if gantry is not None and not isinstance(gantry, dict):
