@@ -70,7 +70,8 @@ def sweep_cmd(
                         TextColumn("ETA"), TimeRemainingColumn(), TextColumn("{task.description}"), console=_err, transient=False)
     state: dict = {}
 
-    def on_start(o):
+    def on_start(o):  # (the display starts here, its refresh thread after the cluster: see below)
+        progress.start()
         _err.print(f"sweep [bold]{_safe(sw.name)}[/]: {o.total} problems, {o.skipped} already done in {_safe(folder)}; "
                    f"{_safe(scheduler) if scheduler else plural(o.workers, 'local worker process', 'local worker processes')}", highlight=False)
         state["task"] = progress.add_task(_counts_text(o.counts), total=o.total - o.skipped, name=sw.name)
@@ -79,9 +80,14 @@ def sweep_cmd(
         progress.update(state["task"], advance=1, description=_counts_text(o.counts))
 
     try:
-        with progress:
+        # the progress display is started once the cluster is up (on_start): a Ctrl-C while the
+        # cluster starts is held for this thread, and a thread started before it could take the
+        # signal instead and drop it (the sweep then ran to its end)
+        try:
             res = run_sweep(sw, folder, workers=workers, scheduler=scheduler, planner=planner, time_limit=time_limit,
                             csv=csv, keep_plans=keep_plans, on_row=on_row, on_start=on_start)
+        finally:
+            progress.stop()
     except KeyboardInterrupt:
         _err.print(f"interrupted: every finished row is kept in {_safe(folder)}; run the same command again to resume",
                    highlight=False)

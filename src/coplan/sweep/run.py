@@ -241,6 +241,21 @@ def _lost_row(item: SweepItem, sweep: str, attempts: int, err: BaseException) ->
                      f"the worker process died on all {attempts} attempts ({type(err).__name__}: {err})")
 
 
+def _completed(ac, stop: _Interrupt, poll: float = 0.2):
+    """The futures of ``ac`` (a ``distributed.as_completed``) as they finish, asking ``stop``
+    between short waits: a Ctrl-C swallowed where it landed still stops the sweep within
+    ``poll`` seconds, not after the next solve."""
+    while not ac.is_empty():
+        stop.check()
+        batch = ac.next_batch(block=False)
+        if not batch:
+            time.sleep(poll)
+            continue
+        for fut in batch:
+            yield fut
+            stop.check()
+
+
 def _write_json(path: Path, doc: dict) -> None:
     tmp = path.with_name(f".{path.name}.tmp")
     tmp.write_text(json.dumps(doc, indent=2, default=str))
@@ -259,24 +274,79 @@ def _client(workers: int, scheduler: str | None, retries: int):
         # the worker processes start with Ctrl-C ignored (a disposition a new process inherits):
         # Ctrl-C reaches the whole foreground group, and each worker printed its KeyboardInterrupt
         # traceback; this process stops the sweep and closes the cluster, which ends them
-        with _sigint_ignored():
+        with _sigint_ignored() as held:
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                                    silence_logs=logging.CRITICAL)
+        if held:  # Ctrl-C while the cluster started: stop now (it was dropped, and the sweep ran to its end)
+            cluster.close()
+            raise KeyboardInterrupt
         return Client(cluster), cluster
 
 
 @contextlib.contextmanager
 def _sigint_ignored():
-    """SIGINT ignored in this process while the block runs (in the main thread only: elsewhere
-    Python cannot change a handler, and nothing is changed)."""
+    """SIGINT ignored in this process while the block runs, so that the processes it starts
+    inherit that -- and a Ctrl-C meanwhile noticed, not dropped: the list yielded holds True
+    afterwards if one came (main thread only: elsewhere Python cannot change a handler, and
+    nothing is changed).
+
+    An ignored signal is gone, and blocking it cannot hold it (the threads the cluster starts
+    take it unblocked), so a watcher process in this process group, which a terminal's Ctrl-C
+    reaches too, catches it and says so."""
+    held: list[bool] = []
     if threading.current_thread() is not threading.main_thread():
-        yield
+        yield held
         return
-    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    import subprocess
+    import sys
+
+    watcher = subprocess.Popen(  # (started before SIGINT is ignored here: it would inherit that)
+        [sys.executable, "-c", "import signal, sys\nsignal.signal(signal.SIGINT, lambda *a: sys.exit(3))\n"
+                               "print(flush=True)\nsys.stdin.read()"],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
     try:
-        yield
+        watcher.stdout.readline()  # its handler is set
+        old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            yield held
+        finally:
+            watcher.stdin.close()
+            if watcher.wait(timeout=10) != 0:
+                held.append(True)
+            signal.signal(signal.SIGINT, old)
     finally:
-        signal.signal(signal.SIGINT, old)
+        if watcher.poll() is None:
+            watcher.kill()
+            watcher.wait()
+
+
+class _Interrupt:
+    """While a sweep runs: Ctrl-C remembered as well as raised. Raised alone, it could land in a
+    callback that swallows it (Dask's garbage-collection diagnosis: "Exception ignored in ...
+    KeyboardInterrupt"), and the sweep ran on to its end and exited 0; the main loop asks
+    :meth:`check` between its waits (main thread only; elsewhere nothing is changed)."""
+
+    def __init__(self):
+        self.seen = False
+        self.old = None
+
+    def _handler(self, signum, frame):
+        self.seen = True
+        raise KeyboardInterrupt
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread() and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            self.old = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def check(self) -> None:
+        if self.seen:
+            raise KeyboardInterrupt
+
+    def __exit__(self, *exc):
+        if self.old is not None:
+            signal.signal(signal.SIGINT, self.old)
+        return False
 
 
 def default_workers() -> int:
@@ -352,6 +422,7 @@ def run_sweep(
     journal = RowJournal(out)
     if keep_plans:
         (out / "plans").mkdir(exist_ok=True)
+    stop = _Interrupt().__enter__()
     try:
         if todo:
             from distributed import as_completed
@@ -363,7 +434,7 @@ def run_sweep(
                 by_key[f.key] = it
                 futures.append(f)
             last = time.monotonic()
-            for fut in as_completed(futures):
+            for fut in _completed(as_completed(futures), stop):
                 it = by_key[fut.key]
                 plan = None
                 try:
@@ -387,11 +458,20 @@ def run_sweep(
         outcome.interrupted = True
         raise
     finally:
+        stop.__exit__()
         journal.close()
         outcome.files = write_table(out, csv=csv)
         outcome.elapsed = time.perf_counter() - t0
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
+        # closing is not interrupted: a second Ctrl-C there left the cluster to Dask's exit hook,
+        # which printed its KeyboardInterrupt traceback
+        main = threading.current_thread() is threading.main_thread()
+        old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            if client is not None:
+                client.close()
+            if cluster is not None:
+                cluster.close()
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, old)
     return outcome
