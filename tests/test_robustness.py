@@ -105,6 +105,10 @@ def test_verify_out_naming_a_file_not_ending_json_is_refused_before_any_work(sin
         assert res.exit_code == int(ExitCode.USAGE), res.output
         assert "expected a folder or a file name ending .json" in res.output and said in res.output
         assert target.read_text() == "mine"
+    # a new name with another ending is neither either (it made a folder report.txt/ holding verification.json)
+    res = run("verify", prob, str(path), "--out", str(tmp_path / "report.txt"))
+    assert res.exit_code == int(ExitCode.USAGE) and "found a new name ending .txt" in res.output, res.output
+    assert not (tmp_path / "report.txt").exists()
 
 
 def test_options_the_coordinated_planner_does_not_take_are_named_not_silently_dropped(tmp_path: Path, problems_dir: Path) -> None:

@@ -340,6 +340,9 @@ def verify_cmd(
     if out is not None and out.is_file() and out.suffix != ".json":  # (the report is a .json file, or goes into a folder)
         _fail(ExitCode.USAGE, f"--out {out}: expected a folder or a file name ending .json, found a file "
                               f"({'without an ending' if not out.suffix else 'ending ' + out.suffix})")
+    if out is not None and not out.exists() and out.suffix not in ("", ".json"):  # (it made a folder report.txt/)
+        _fail(ExitCode.USAGE, f"--out {out}: expected a folder or a file name ending .json, found a new name ending "
+                              f"{out.suffix} (for a new folder of that name, make it first)")
     if out is not None and (out.is_dir() or not out.suffix):  # (a folder, or a file: it must take it, before the work)
         failures.check_out_dir(out)
     elif out is not None:
