@@ -296,6 +296,12 @@ def test_cli_plot_defaults_and_errors(tmp_path, saved, greenhouse):
     assert run("plot", str(saved["greenhouse"]), "--kind", "joints", "--arm", "nobody").exit_code == 2
     assert run("plot", str(saved["greenhouse"]), "--out", str(tmp_path / "x.nope")).exit_code == 2
     assert run("plot", str(saved["greenhouse"]), "--kind", "pie").exit_code == 2
+    # a name without an ending: the PNG matplotlib writes, named as written (it said "wrote notes" beside
+    # the user's own file notes)
+    (tmp_path / "notes").write_text("mine")
+    r = run("plot", str(saved["greenhouse"]), "--out", str(tmp_path / "notes"))
+    assert r.exit_code == 0 and r.output.strip().endswith("notes.png"), r.output
+    assert (tmp_path / "notes").read_text() == "mine" and (tmp_path / "notes.png").exists()
 
 
 def test_cli_animate_and_problem_lookup(tmp_path, saved, greenhouse):
