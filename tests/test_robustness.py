@@ -280,3 +280,11 @@ def test_summary_lists_every_file_written(tmp_path: Path, problems_dir: Path) ->
 
     assert written == {p.name for p in tmp_path.iterdir() if p.name != MARKER} >= {"plan.json", "plan.csv", "plan.npz", "verification.json"}
     assert (tmp_path / MARKER).exists()
+
+
+def test_a_time_limit_for_the_heuristic_alone_is_refused_by_compare_as_by_solve(tmp_path: Path, problems_dir: Path) -> None:
+    """(``coplan compare --planner heuristic --time-limit 5`` ran and exited 0: the limit was ignored.)"""
+    for cmd in (("solve", "--planner", "heuristic"), ("compare", "--planner", "heuristic")):
+        res = run(*cmd, str(problems_dir / "single_arm.yaml"), "--time-limit", "5", "--out", str(tmp_path / cmd[0]))
+        assert res.exit_code == int(ExitCode.USAGE) and "has no time limit" in res.output, res.output
+        assert not (tmp_path / cmd[0]).exists()

@@ -442,6 +442,9 @@ def compare_cmd(
     except ValueError as e:
         _fail(ExitCode.USAGE, f"--planner: {e}")
     _check_time_limit(time_limit)
+    if time_limit is not None and all(s.planner == PlannerKind.HEURISTIC for s in specs):  # (as solve: said, not ignored)
+        _fail(ExitCode.USAGE, "--time-limit: the heuristic planner plans in one pass and has no time limit; "
+                              "it applies to --planner optimal or coordinated")
     failures.check_out_dir(out)
     options = _solver_options(options_file, time_limit, any(s.planner != PlannerKind.HEURISTIC for s in specs))
     if n_workers is not None and any(s.planner == PlannerKind.OPTIMAL for s in specs):
