@@ -614,3 +614,10 @@ def test_a_ctrl_c_swallowed_where_it_landed_still_stops_the_sweep():
         stop.seen = True  # ... and, swallowed there, still remembered
         with pytest.raises(KeyboardInterrupt):
             next(_completed(Waiting(), stop, poll=0.01))
+
+
+def test_a_problem_file_given_as_the_sweep_file_is_said_to_be_one(problems_dir):
+    """(It listed six unknown keys: base missing, arms unknown -- did you mean 'vary'?, ...)"""
+    with pytest.raises(SweepError) as e:
+        load_sweep(problems_dir / "crossing_paths.yaml")
+    assert len(e.value.issues) == 1 and "found a problem file" in str(e.value) and "glob" in str(e.value)

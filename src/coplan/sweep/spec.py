@@ -429,6 +429,10 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
     if not isinstance(data, dict):
         raise SweepError([Issue("", f"expected a mapping with keys base, vary, planner, ...; found {found(data)}", line_of(lines, ()))],
                          source)
+    if {"arms", "fruits"} <= set(data) and not set(data) & {"base", "vary", "problems"}:  # (six unknown keys were listed)
+        raise SweepError([Issue("", "expected a sweep file (keys base, vary, planner, ...), found a problem file (arms, "
+                                    "fruits, task); to solve problem files as a sweep give their folder or a glob "
+                                    "(coplan sweep 'problems/*.yaml'), or a sweep file with 'problems:'", 1)], source)
     issues: list[Issue] = []
     import difflib
 
@@ -483,6 +487,11 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
             problems = _resolve_problems(data["problems"], here, lines, issues)
     elif "problems" in data and base is not None:
         issues.append(Issue("problems", f"expected no 'problems' with base {base.value!r} (they are generated)", line_of(lines, ("problems",))))
+    if base == SweepBase.GANTRY and "options" in data:  # (accepted, stored and not used: 'designs' alike but in name)
+        issues.append(Issue("options", "expected no 'options' with base gantry: a gantry row's solve takes no cell "
+                                       "planner options (stop and go plans each stop with the planner's defaults; on "
+                                       f"the move books its own moves); found {found(data['options'])}",
+                            line_of(lines, ("options",))))
     options: dict[str, Any] = {}
     if "options" in data:
         if not isinstance(data["options"], dict):
