@@ -621,3 +621,18 @@ def test_a_problem_file_given_as_the_sweep_file_is_said_to_be_one(problems_dir):
     with pytest.raises(SweepError) as e:
         load_sweep(problems_dir / "crossing_paths.yaml")
     assert len(e.value.issues) == 1 and "found a problem file" in str(e.value) and "glob" in str(e.value)
+
+
+def test_a_row_file_in_a_files_sweep_has_its_rail_as_its_length(tmp_path):
+    """(A generated 8 m row swept from its file had row_length 6.0 -- arms x spacing -- so its
+    density and throughput per metre were a third too high.)"""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.sweep.run import _problem_columns
+    from coplan.problem import parse_problem
+
+    path = tmp_path / "row8.yaml"
+    path.write_text(to_yaml(gantry_row(length=8, n_arms=3, density=3, seed=1)))
+    (item,) = load_sweep(str(path.parent / "row8*.yaml")).items()
+    problem = parse_problem(item.problem_text)
+    cols = _problem_columns(problem, item)
+    assert cols["row_length"] == 8.0 and cols["density"] == pytest.approx(len(problem.fruits) / 8.0)

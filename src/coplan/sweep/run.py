@@ -105,6 +105,8 @@ def _problem_columns(problem, item: SweepItem) -> dict[str, Any]:
     spacing = (xs[-1] - xs[0]) / (n - 1) if n > 1 else None
     a0 = problem.arms[0]
     length = item.row_length
+    if length is None and problem.gantry is not None:  # a row's file: its rail (it was arms x spacing: 6 m of an 8 m row)
+        length = problem.gantry.length
     if length is None:
         length = n * spacing if spacing else 2.0 * a0.reach
     out = {"name": problem.name, "n_arms": n, "n_fruits": len(problem.fruits), "spacing": spacing, "row_length": length,
