@@ -47,7 +47,7 @@ def test_bad_feed_rows_give_key_path_errors_with_lines() -> None:
     assert ("detections[4].t", 7) in got
     assert ("detections[5]", 8) in got
     text = str(e.value)
-    assert "bad.yaml:4: detections[1].sigma: expected a positive number (m), found number -1" in text
+    assert "bad.yaml:4: detections[1].sigma: expected a positive number of at most 1 (m), found number -1" in text
     assert "expected [x, y] (two finite numbers, m), found a list of 1" in text
     assert "expected a value, found nothing (required field)" in text
 
@@ -442,6 +442,13 @@ def test_a_feed_time_past_the_longest_plan_and_a_fruit_hidden_behind_itself_are_
     with pytest.raises(FeedError) as e:
         parse_feed("detections:\n  - {t: 0, id: a, position: [0.7, .nan], sigma: 0.01}\n", "nan.yaml")
     assert "found [number 0.7, number nan]" in str(e.value)
+    # (1e300 was accepted, and NumPy's overflow warning reached the user; 1e9 m, silently)
+    for far in ("1.0e300", "1.0e9"):
+        with pytest.raises(FeedError) as e:
+            parse_feed(f"detections:\n  - {{t: 0, id: a, position: [{far}, 0.74], sigma: 0.01}}\n", "far.yaml")
+        assert "far.yaml:2: detections[0].position[0]: expected a coordinate within [-1000, 1000] m" in str(e.value)
+    with pytest.raises(FeedError, match=r"detections\[0\].sigma: expected a positive number of at most 1"):
+        parse_feed("detections:\n  - {t: 0, id: a, position: [0.7, 0.74], sigma: 5}\n", "wide.yaml")
     for rows, where in (("  - {t: 0.1, id: a, position: [0.7, 0.74], sigma: 0.01, fruit: f04, after: f04}\n", ["detections[0].after"]),
                         ("  - {t: 0.1, id: a, position: [0.7, 0.74], sigma: 0.01, fruit: f04, after: f09}\n"
                          "  - {t: 0.1, id: b, position: [0.7, 1.29], sigma: 0.01, fruit: f09, after: f04}\n",

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import InputError, Issue, ProblemError, coplan_file_kind, finite_number, found, is_joint_csv
 from ..problem.model import Problem
-from ..problem.plausible import MAX_PLAN_SECONDS
+from ..problem.plausible import MAX_PLAN_SECONDS, field_issues
 from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 
 __all__ = ["FEED_FORMAT", "Detection", "Feed", "FeedError", "parse_feed", "load_feed", "make_feed", "feed_yaml",
@@ -40,6 +40,8 @@ __all__ = ["FEED_FORMAT", "Detection", "Feed", "FeedError", "parse_feed", "load_
 FEED_FORMAT = "coplan.feed/1"
 DEFAULT_CLOSE_DISTANCE = 0.10  # m: the gripper camera sees the fruit from here
 DEFAULT_CLOSE_SIGMA = 0.001  # m
+#: The largest noise a detection may report (m): a metre of error is no measurement of a fruit.
+MAX_FEED_SIGMA = 1.0
 _ROW_KEYS = ("t", "id", "position", "sigma", "fruit", "after")
 _TOP_KEYS = ("format", "problem", "close_range", "detections")
 #: The plausible range of each close_range key, m (a feed file's, and ``coplan feed``'s options):
@@ -239,8 +241,13 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
                     else found(pos, list_length=True))
             bad(loc + ("position",), f"expected [x, y] (two finite numbers, m), found {what}")
             ok = False
-        if not finite_number(sigma) or sigma <= 0:
-            bad(loc + ("sigma",), f"expected a positive number (m), found {found(sigma, list_length=True)}")
+        else:  # (as a problem file's fruit: 1e300 was accepted, and NumPy's overflow warning reached the user)
+            for where, msg in field_issues("position", pos, loc + ("position",)):
+                bad(where, msg)
+                ok = False
+        if not finite_number(sigma) or not 0 < sigma <= MAX_FEED_SIGMA:
+            bad(loc + ("sigma",), f"expected a positive number of at most {MAX_FEED_SIGMA:g} (m), "
+                                  f"found {found(sigma, list_length=True)}")
             ok = False
         for key in ("fruit", "after"):
             v = row.get(key)
