@@ -381,6 +381,7 @@ def test_live_row_options_are_bounded_like_the_command_line(row_file, tmp_path):
     res = runner.invoke(app, ["run", str(row_file), "--gantry", "stop-and-go", "--camera-dark", "3600", "--late-replan", "3600",
                               "-o", str(tmp_path / "long")])
     assert res.exit_code == 2 and "expected faults whose run fits in" in res.output, res.output
+    assert "--camera-dark/--late-replan:" in res.output and "--arm-stop" not in res.output  # (the options given)
     assert not (tmp_path / "long").exists()
 
 

@@ -245,7 +245,9 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
     except OptionsError as e:  # faults too long for the run's plan file (known once the offline plan is)
         if not any(i.path == "faults" for i in e.issues):
             raise
-        usage(f"--camera-dark/--late-replan/--arm-stop: {e.issues[0].message} ({prob.name!r})")
+        given = [o for o, on in (("--arm-stop", faults.arm_stop), ("--camera-dark", faults.camera_dark),
+                                 ("--late-replan", faults.late_replan)) if on]  # (only those given: it named all three)
+        usage(f"{'/'.join(given)}: {e.issues[0].message} ({prob.name!r})")
     doc = {"format": "coplan.run/1", "problem": prob.name,
            "mode": "row on the move" if mode == GantryMode.CONTINUOUS else "row stop and go",
            "options": {k: (v.value if k == "mode" else v) for k, v in opts.__dict__.items() if k != "faults"}
