@@ -796,3 +796,13 @@ def test_on_the_move_the_carriage_rests_at_the_start_for_a_fruit_it_would_pass_b
     x = np.asarray(r.plan.gantry_x)
     i = int(round(picks[0].t_start / r.plan.dt))
     assert len(picks) == 1 and x[i] <= x[0] + 0.18 + 1e-6  # picked before the carriage took it out of reach
+
+
+def test_coplan_run_on_the_move_without_a_speed_quotes_the_range_it_would_take(tmp_path):
+    """(Without --speed it quoted (0, 0.5] m/s; --speed 0.001 then was refused with [0.00753, 0.5].)"""
+    said = []
+    for args in ([], ["--speed", "0.001"]):
+        res = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["run", "sparse_row", *args, "-o", str(tmp_path / "x")])
+        assert res.exit_code == 2, res.output
+        said.append(res.output.split("expected a cruising speed in ")[1].split(" m/s")[0])
+    assert said[0] == said[1] and said[0].startswith("[0.00"), said

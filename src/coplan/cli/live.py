@@ -221,21 +221,17 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         usage(f"--feed: {prob.name} is a row: its camera is simulated (--look-ahead, --sigma, --false-rate, "
               "--duplicate-rate, --seed); feed files describe a stationary cell's camera")
     mode = GantryMode((gantry or LiveGantryMode.CONTINUOUS).value)
-    vmax = prob.gantry.max_velocity
     if mode == GantryMode.STOP_AND_GO:
         if speed is not None:
             usage("--speed: applies on the move (--gantry continuous); stop and go, the carriage hops between stops at "
                   "the gantry's limits")
         speed = 0.1  # unused (run.json records none)
-    elif speed is None:
-        usage(f"--speed: expected the carriage's cruising speed in (0, {vmax:g}] m/s (gantry.max_velocity), found "
-              "nothing (or --gantry stop-and-go)")
     else:
         from ..problem.plausible import live_speed_issue
 
-        bad = live_speed_issue(prob, speed)
+        bad = live_speed_issue(prob, math.nan if speed is None else speed)  # (the range it quotes is the live one)
         if bad:
-            usage(f"--speed: {bad} (or --gantry stop-and-go)")
+            usage(f"--speed: {bad.replace('found nan', 'found nothing') if speed is None else bad} (or --gantry stop-and-go)")
     opts = LiveRowOptions(speed=speed, look_ahead=look_ahead, sigma=sigma, false_rate=false_rate,
                           duplicate_rate=duplicate_rate, seed=seed, faults=faults, mode=mode)
     from ..errors import OptionsError
