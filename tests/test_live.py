@@ -358,6 +358,13 @@ def test_cli_feed_and_run_write_a_verified_run(tmp_path: Path, problems_dir: Pat
     assert r.exit_code == ExitCode.OK, r.output
     assert (tmp_path / "live.previous" / "run.json").read_bytes() == first
     assert (tmp_path / "live.previous" / "plan.json").exists() and (tmp_path / "live" / "run.json").exists()
+    # the summary says what became of every false detection (it said "false picks avoided 2 of 3"
+    # where the third was out of reach, not picked)
+    r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "live"))
+    m = json.loads((tmp_path / "live" / "run.json").read_text())["metrics"]
+    assert m["false_picks_avoided"] + m["false_unreachable"] + m["false_picks"] <= m["false_detections"]
+    assert (f"false detections {m['false_detections']}: {m['false_picks_avoided']} dropped at close range, "
+            f"{m['false_unreachable']} out of reach, {m['false_picks']} picked") in " ".join(r.output.split()), r.output
 
 
 def test_the_live_animation_renders(live_run, tmp_path: Path) -> None:

@@ -263,6 +263,7 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
         "false_detections": len(false_tracks),
         "false_picks_avoided": sum(tr.state == TrackState.DROPPED for tr in false_tracks),
         "false_picks": sum(1 for tr in false_tracks if tr.id in unknown),
+        "false_unreachable": sum(tr.state == TrackState.UNREACHABLE for tr in false_tracks),  # (never tried: out of reach)
         "duplicates_merged": sum(len(tr.detections) - 1 for tr in cell.tracks.values()),
         "duplicates_dropped_at_close_range": sum(tr.state == TrackState.DROPPED and tr not in false_tracks for tr in cell.tracks.values()),
         "unreachable_detections": sorted(tr.id for tr in cell.tracks.values() if tr.state == TrackState.UNREACHABLE),
