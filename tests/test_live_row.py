@@ -806,3 +806,21 @@ def test_coplan_run_on_the_move_without_a_speed_quotes_the_range_it_would_take(t
         assert res.exit_code == 2, res.output
         said.append(res.output.split("expected a cruising speed in ")[1].split(" m/s")[0])
     assert said[0] == said[1] and said[0].startswith("[0.00"), said
+
+
+def test_a_fruit_left_to_a_stopped_arm_names_the_stop_it_was_left_to_not_the_last_one():
+    """(``--arm-stop`` stop and go, sparse_row seed 16: 'left it to the stop at x = 27.70 m' where
+    the next stop after 22.35 m that reached it was 26.2 m; the scan ran from the last stop back.)"""
+    from types import SimpleNamespace
+
+    from coplan.row.stranded import why_left_at_rest
+
+    arms = [SimpleNamespace(name=n) for n in ("arm1", "arm2", "arm3")]
+    grid = np.array([22.35, 26.2, 26.7, 27.2, 27.7])
+    cover = np.zeros((3, 5), bool)
+    cover[2, 0] = True  # arm3 reaches it from 22.35 m ...
+    cover[0, 1:] = True  # ... and only arm1, stopped, from every later stop
+    run = SimpleNamespace(reach=SimpleNamespace(cover={"f": cover}, grid=grid), problem=SimpleNamespace(arms=arms))
+    why = why_left_at_rest(run, "f", list(range(5)), {0: 107.0})
+    assert "arm3 could reach it from the stop at x = 22.35 m, which left it to the stop at x = 26.20 m" in why, why
+    assert "only arm1 could reach it, and it stopped (arm1 at t = 107.0 s)" in why

@@ -171,18 +171,19 @@ def why_left_at_rest(run: "LiveRun", fid: str, rested: list[int], halt: dict[int
         when = ", ".join(f"{arms[a].name} at t = {halt[a]:.1f} s" for a in at_rest)
         return (f"{fid}: from the carriage's stops only {names} could reach it, and it stopped ({when}); "
                 "the carriage does not go back")
-    # a working arm reached it from a stop, which left it to a later one where only a stopped arm did
-    for j in range(cov.shape[1] - 1, 0, -1):
-        later = [a for a in range(cov.shape[0]) if cov[a, j]]
-        if later and all(a in halt for a in later):
-            earlier = [(i, a) for i in range(j) for a in range(cov.shape[0]) if cov[a, i] and a not in halt]
-            if earlier:
-                i, a = earlier[-1]
-                x = float(run.reach.grid[rested[i]])
-                names = " or ".join(arms[b].name for b in later)
-                when = ", ".join(f"{arms[b].name} at t = {halt[b]:.1f} s" for b in later)
-                xj = float(run.reach.grid[rested[j]])
-                return (f"{fid}: {arms[a].name} could reach it from the stop at x = {x:.2f} m, which left it to the stop "
-                        f"at x = {xj:.2f} m; from there only {names} could reach it, and it stopped ({when}); the carriage does "
-                        "not go back")
+    # a working arm reached it from a stop, which left it to the next stop that reaches it, where
+    # only a stopped arm did (the next one: the last such stop was named, not the one it was left to)
+    working = [(i, a) for i in range(cov.shape[1]) for a in range(cov.shape[0]) if cov[a, i] and a not in halt]
+    if working:
+        i, a = working[-1]
+        nxt = [j for j in range(i + 1, cov.shape[1]) if cov[:, j].any()]
+        if nxt:
+            j = nxt[0]
+            later = [b for b in range(cov.shape[0]) if cov[b, j]]  # (all stopped: no working arm reaches it after i)
+            x, xj = float(run.reach.grid[rested[i]]), float(run.reach.grid[rested[j]])
+            names = " or ".join(arms[b].name for b in later)
+            when = ", ".join(f"{arms[b].name} at t = {halt[b]:.1f} s" for b in later)
+            return (f"{fid}: {arms[a].name} could reach it from the stop at x = {x:.2f} m, which left it to the stop "
+                    f"at x = {xj:.2f} m; from there only {names} could reach it, and it stopped ({when}); the carriage does "
+                    "not go back")
     return why_left(run.booker, fid, halt)
