@@ -93,6 +93,7 @@ def run_console(app, err_console) -> None:
     from ..kinds import ExitCode
 
     terminated = failures.TERMINATED
+    failures.CONSOLE.append(True)
     main = os.getpid()  # worker processes forked from this one inherit the handler: they stop quietly
 
     def on_term(signum, frame):

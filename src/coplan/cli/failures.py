@@ -26,11 +26,14 @@ from ..errors import CoplanError, InputError, Issue
 from ..kinds import ExitCode
 from ..output import OutputError, check_folder
 
-__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "usage", "check_out_dir",
+__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "CONSOLE", "usage", "check_out_dir",
            "check_overwrite"]
 
 # set by the console entry point when SIGTERM arrived: an interruption then exits 143, not 130
 TERMINATED: list[int] = []
+# set by the console entry point: this process is the ``coplan`` command (not a test's CliRunner),
+# whose signal dispositions a command may change for the rest of its life
+CONSOLE: list[bool] = []
 
 _KIND = {
     ExitCode.USAGE: "usage",

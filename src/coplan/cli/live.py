@@ -88,6 +88,22 @@ def _written(folder, names: list[str]) -> str:
     return _safe(", ".join(names) + kept)
 
 
+def _on_disk() -> None:
+    """The run is written whole: from here a Ctrl-C or SIGTERM changes nothing, and the command
+    prints its summary and exits with its verdict (one landing here killed the process by the
+    signal, or printed Python's 'Exception ignored ... KeyboardInterrupt', after the files were
+    written and the previous run moved aside). Main thread of the ``coplan`` command only (a
+    test's CliRunner keeps its process's signals)."""
+    import signal
+    import threading
+
+    from .failures import CONSOLE
+
+    if CONSOLE and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
 def run_cmd(
     problem: Annotated[Path, typer.Argument(metavar="PROBLEM", help="Problem file (YAML) with the true fruit positions.")],
     feed: Annotated[Optional[Path], typer.Option("--feed", "-f", help="Feed file (YAML): what the camera reports "
@@ -173,6 +189,7 @@ def run_cmd(
 
             animate_live(prob, result, stage / "live.gif")
         names = _staged(stage)
+    _on_disk()
     m = result.run["metrics"]
     if as_json:
         typer.echo(json.dumps(jsonable(m), allow_nan=False))
@@ -258,6 +275,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         (stage / "verification.json").write_text(json.dumps(jsonable(res.verification.summary()), indent=1))
         (stage / "run.json").write_text(json.dumps(jsonable(doc), indent=1, allow_nan=False))
         names = _staged(stage)
+    _on_disk()
     m = res.metrics
     if as_json:
         typer.echo(json.dumps(jsonable(m), allow_nan=False))
