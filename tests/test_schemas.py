@@ -92,3 +92,35 @@ def test_cli_schema_prints_the_shipped_file(kind):
     res = CliRunner().invoke(app, ["schema", kind])
     assert res.exit_code == 0 and res.stdout == shipped_path(kind).read_text()
     assert CliRunner().invoke(app, ["schema", "options"]).exit_code == 2
+
+
+def _accepted_edits(doc: dict):
+    """Edits coplan's loader accepts, each with what it is (the schema refused each)."""
+    yield "a number as the name", lambda d: d.__setitem__("name", 5)
+    yield "a number as the description", lambda d: d.__setitem__("description", 12)
+    yield "a number as an arm name", lambda d: d["arms"][0].__setitem__("name", 12)
+    if doc.get("fruits"):
+        yield "a number as a fruit id", lambda d: d["fruits"][0].__setitem__("id", 2.5)
+
+
+@pytest.mark.parametrize("path", shipped_problems(), ids=lambda p: p.stem)
+def test_what_the_loader_accepts_the_schema_accepts(path):
+    v = validator(SchemaKind.PROBLEM)
+    doc = yaml.safe_load(path.read_text())
+    for what, edit in _accepted_edits(doc):
+        ok = copy.deepcopy(doc)
+        edit(ok)
+        parse_problem(yaml.safe_dump(ok))  # accepted by coplan ...
+        assert v.is_valid(ok), (what, [e.message for e in v.iter_errors(ok)])  # ... and by the schema
+    none = copy.deepcopy(doc)
+    none["fruits"] = None  # (coplan: nothing to harvest, exit 4 at solve; the schema said "None is not of type 'array'")
+    parse_problem(yaml.safe_dump(none))
+    assert v.is_valid(none)
+
+
+def test_a_plan_with_more_keys_in_its_gantry_validates_as_coplan_reads_it(tmp_path):
+    """(``gantry: {x: [...], extra: 1}`` was refused by the schema and verified by coplan.)"""
+    v = validator(SchemaKind.PLAN)
+    doc = {"format": "coplan.plan/1", "problem": "p", "time": [0.0, 0.01], "arms": {"a": {"q": [[0, 0], [0, 0]]}},
+           "events": [], "gantry": {"x": [0.0, 0.0], "note": "from my tool"}}
+    assert v.is_valid(doc), [e.message for e in v.iter_errors(doc)]

@@ -32,6 +32,9 @@ _ID = "https://coplan.invalid/schemas/"  # a stable identifier, not a download l
 Pos = Annotated[float, Field(gt=0)]
 NonNeg = Annotated[float, Field(ge=0)]
 Name = Annotated[str, Field(min_length=1)]
+# a problem's names and ids are kept as written: ``id: 2`` or ``name: 12`` is the text "2", "12"
+# (the schema said "is not of type 'string'" of files coplan reads)
+Text = Name | int | float
 Point = Annotated[list[float], Field(min_length=2, max_length=2)]
 PosPair = Annotated[list[Pos], Field(min_length=2, max_length=2)]
 Limits = Annotated[list[Point], Field(min_length=2, max_length=2)]
@@ -56,13 +59,13 @@ class ArmFields(_Closed):
 class ArmSpec(ArmFields):
     """One arm: its name, base and bin, and any arm field not taken from ``defaults``."""
 
-    name: Name = Field(description="unique arm name")
+    name: Text = Field(description="unique arm name (a number is kept as written)")
     base: Point = Field(description="[x, y] of the shoulder joint, m")
     bin: Point = Field(description="[x, y] where the arm places its fruit, m")
 
 
 class FruitSpec(_Closed):
-    id: Name = Field(description="unique fruit id")
+    id: Text = Field(description="unique fruit id (a number is kept as written)")
     position: Point = Field(description="[x, y], m")
 
 
@@ -90,11 +93,12 @@ class ProblemFile(_Closed):
 
     model_config = ConfigDict(extra="forbid", title="coplan problem")
 
-    name: Name = Field(description="the problem's name")
-    description: str = Field("", description="free text")
+    name: Text = Field(description="the problem's name (a number is kept as written)")
+    description: str | int | float | None = Field("", description="free text")
     defaults: ArmFields | None = Field(None, description="arm fields used by every arm that does not set them")
     arms: list[ArmSpec] = Field(min_length=1, max_length=MAX_ARMS)
-    fruits: list[FruitSpec] = Field(default_factory=list, max_length=MAX_FRUITS)
+    fruits: list[FruitSpec] | None = Field(default_factory=list, max_length=MAX_FRUITS,
+                                           description="none (or null): nothing to harvest")
     task: TaskSpec
     gantry: GantrySpec | None = Field(None, description="a mobile gantry: the problem is a row (bases and bins on the carriage)")
 
@@ -111,7 +115,7 @@ class ArmTrajectory(BaseModel):
     q: list[Point] = Field(description="one [t1, t2] pair (rad) per time of the grid")
 
 
-class GantryTrajectory(_Closed):
+class GantryTrajectory(BaseModel):  # (open, as the plan is: coplan reads a plan with more keys)
     x: list[float] = Field(description="the carriage origin's x at every time of the grid, m (linear between samples)")
 
 
