@@ -8,6 +8,7 @@ a browser these browser tests are skipped locally; with CI=true a missing browse
 from __future__ import annotations
 
 import copy
+import json
 import os
 import re
 import shutil
@@ -201,6 +202,19 @@ def test_cli_view_and_solve_html(tmp_path):
     res = runner.invoke(app, ["view", str(heur / "plan.json"), "--out", str(tmp_path / "v.txt")])
     # a usage error, as plot's and animate's --out of the wrong kind (it was exit 3, a bad input file)
     assert res.exit_code == 2 and ".html" in res.output and "Traceback" not in res.output
+    # a plan of another problem to compare with is named by its file (the message named the option)
+    single = tmp_path / "single"
+    runner.invoke(app, ["solve", str(GREENHOUSE.with_name("single_arm.yaml")), "--planner", "coordinated", "--out", str(single)])
+    res = runner.invoke(app, ["view", str(out / "plan.json"), "--compare", str(single / "plan.json"), "--out", str(tmp_path / "x.html")])
+    said = " ".join(res.output.split())
+    assert res.exit_code == 2 and f"--compare {single / 'plan.json'}: expected a plan of the same problem" in said, said
+    # a plan file that says success, which the verifier fails: the page shows the verdict, and a note says so (as plot)
+    doc = json.loads((heur / "plan.json").read_text())
+    doc["status"] = "success"
+    (tmp_path / "liar.json").write_text(json.dumps(doc))
+    res = runner.invoke(app, ["view", str(tmp_path / "liar.json"), "--problem", str(GREENHOUSE), "--out", str(tmp_path / "l.html")])
+    assert res.exit_code == 0 and "note: the plan file says success; verified, it is unsafe" in " ".join(res.output.split())
+    assert read_viewer_data((tmp_path / "l.html").read_text())["plans"][0]["status"] == "unsafe"
 
 
 # --------------------------------------------------------------------------- in a real browser

@@ -539,9 +539,10 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
     return prob, plan
 
 
-def _checked(prob, plan) -> None:
+def _checked(prob, plan):
     """``plan``'s status held to the verifier's verdict (:func:`coplan.plan.checked_status`):
-    a figure never calls a plan the verifier fails a success; a note says where they differ."""
+    a figure never calls a plan the verifier fails a success; a note says where they differ.
+    Returns the verification."""
     from ..plan import checked_status
     from ..verify.verifier import verify
 
@@ -552,6 +553,7 @@ def _checked(prob, plan) -> None:
                           + (f" ({len(ver.violations)} violation{'s' * (len(ver.violations) != 1)}: "
                              f"{', '.join(sorted({v.kind.value for v in ver.violations}))})" if ver.violations else ""))
         plan.status = status
+    return ver
 
 
 # the problem a plan belongs to, for the commands that read a plan.json
@@ -659,7 +661,13 @@ def view_cmd(
             failures.usage(f"--out: expected a file name ending in .html, found {out.name!r}")
     prob, pl = _plan_with_problem(plan, problem)
     other = _plan_with_problem(compare, problem)[1] if compare is not None else None
-    out_console.print(f"wrote {_s(write_view(prob, pl, other, out if out is not None else plan.with_suffix('.html'), open_page))}")
+    if other is not None and other.problem != pl.problem:  # (the message named the option, not the file)
+        _fail(ExitCode.USAGE, f"--compare {compare}: expected a plan of the same problem {pl.problem!r} as {plan}, "
+                              f"found a plan of {other.problem!r}")
+    # each plan verified once, here: the page shows the verdict, and a note says where the file's word differs (as plot)
+    vers = {"verification": _checked(prob, pl)} | ({"compare_verification": _checked(prob, other)} if other is not None else {})
+    target = out if out is not None else plan.with_suffix('.html')
+    out_console.print(f"wrote {_s(write_view(prob, pl, other, target, open_page, **vers))}")
 
 
 # design sweeps on Dask (bodies in coplan.sweep.command; light to import)
