@@ -196,3 +196,25 @@ def test_json_and_yaml_exports_never_overwrite_another_file_and_keep_a_rows_carr
     names = {p.stem: json.loads(p.read_text())["joint_names"] for p in paths}
     assert names == {"carriage": ["carriage_x"], "carriage_2": ["carriage_2_joint1", "carriage_2_joint2"],
                      "arm2": ["arm2_joint1", "arm2_joint2"]}
+
+
+def test_an_export_too_coarse_for_the_motion_says_how_far_a_controller_would_depart(crossing_plan, tmp_path):
+    """(``--rate 0.001`` wrote two points, both at home: a trajectory that never moves, and said
+    nothing.) The figure is checked against its definition: a cubic through the points with
+    their velocities, against the plan's samples."""
+    from scipy.interpolate import CubicHermiteSpline
+
+    from coplan.report.export import FOLLOW_TOLERANCE, follow_error
+
+    fine = trajectory(crossing_plan, 100.0)
+    assert follow_error(crossing_plan, fine)[0] < 1e-9  # the plan's own samples
+    coarse = trajectory(crossing_plan, 2.0)
+    err, arm, t = follow_error(crossing_plan, coarse)
+    k = int(np.searchsorted(crossing_plan.time, t))
+    follow = CubicHermiteSpline(coarse.time, coarse.q[arm], coarse.qd[arm], axis=0)(crossing_plan.time[k])
+    assert err == pytest.approx(float(np.abs(follow - crossing_plan.q[arm][k]).max())) and err > FOLLOW_TOLERANCE
+    plan_path = tmp_path / "plan.json"
+    plan_path.write_text(json.dumps(crossing_plan.to_dict()))
+    said = " ".join(run("export", str(plan_path), "--rate", "0.001").stderr.split())
+    assert "note: at 0.001 Hz a controller following these points" in said and "departs from the plan by up to" in said
+    assert "note" not in run("export", str(plan_path), "--rate", "100").stderr

@@ -19,6 +19,7 @@ from .failures import Failure, check_overwrite
 __all__ = ["export_cmd", "schema_cmd"]
 
 _out = Console(soft_wrap=True)
+_err = Console(stderr=True, soft_wrap=True)
 
 
 class _FolderOut(type(Path())):  # type: ignore[misc]
@@ -84,4 +85,12 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         for name in export_names(plan).values():
             check_overwrite(out / f"{name}.{fmt.value}", "an export JointTrajectory",
                             "an earlier export (a JointTrajectory with joint_names and points)")
-    return export_plan(plan, rate, fmt, out)
+    written = export_plan(plan, rate, fmt, out)
+    from ..report.export import FOLLOW_TOLERANCE, follow_error, trajectory
+
+    err, arm, t = follow_error(plan, trajectory(plan, rate))
+    if err > FOLLOW_TOLERANCE:  # (0.001 Hz wrote two points, both home: a trajectory that never moves, said nothing)
+        _err.print(f"note: at {rate:g} Hz a controller following these points (cubic between them, with their "
+                   f"velocities) departs from the plan by up to {err:.3g} rad ({escape(printable(arm))} at t = {t:.2f} s); "
+                   f"the plan is sampled at {1.0 / plan.dt:g} Hz", markup=False, highlight=False)
+    return written

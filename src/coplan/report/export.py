@@ -40,7 +40,12 @@ from ..kinds import ExportFormat
 from ..plan import Plan
 from ..output import atomic_text
 
-__all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "MAX_POINTS", "MAX_RATE"]
+__all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "follow_error", "FOLLOW_TOLERANCE", "MAX_POINTS",
+           "MAX_RATE"]
+
+#: rad: an export whose points a controller follows (cubic, with their velocities) within this of
+#: the plan says nothing; beyond it ``coplan export`` notes how far (about 1.8 mm at a 1.8 m reach)
+FOLLOW_TOLERANCE = 1e-3
 
 MAX_RATE = 10_000.0  # Hz: far above any joint controller's rate
 MAX_POINTS = 2_000_000  # per arm: about 5.5 hours at 100 Hz
@@ -100,6 +105,26 @@ def trajectory(plan: Plan, rate: float) -> Trajectory:
             cs = CubicSpline(plan.time, x, bc_type=((1, 0.0), (1, 0.0)))
             carriage = (cs(t), _flushed(cs(t, 1)), _flushed(cs(t, 2)))
     return Trajectory(t, q, qd, qdd, float(rate), carriage)
+
+
+def follow_error(plan: Plan, traj: Trajectory) -> tuple[float, str | None, float]:
+    """How far a controller following the exported points departs from the plan: cubic between
+    points with their velocities (as a ROS joint trajectory controller does), against the plan's
+    own samples. Returns ``(largest error in rad, its arm, its time)``; ``(0, None, 0)`` for a
+    plan of one instant. At a rate too low for the motion (0.3 Hz: an export whose two points
+    were both home) the points say little of what the plan does."""
+    from scipy.interpolate import CubicHermiteSpline
+
+    worst, arm_at, t_at = 0.0, None, 0.0
+    if plan.time.size < 2 or traj.time.size < 2:
+        return worst, arm_at, t_at
+    for arm, samples in plan.q.items():
+        follow = CubicHermiteSpline(traj.time, traj.q[arm], traj.qd[arm], axis=0)(plan.time)
+        err = np.abs(follow - np.asarray(samples, float)).max(axis=1)
+        k = int(np.argmax(err))
+        if err[k] > worst:
+            worst, arm_at, t_at = float(err[k]), arm, float(plan.time[k])
+    return worst, arm_at, t_at
 
 
 def _flushed(v: np.ndarray, tiny: float = 1e-12) -> np.ndarray:
