@@ -50,9 +50,6 @@ def cell():
     # (a home outside the joint limits was solved into an unsafe plan, an unreachable bin into a partial one)
     (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], home=(5.0, 0.0)),) + p.arms[1:]), "arms[0].home[0]"),
     (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], bin=(-2.0, -3.0)),) + p.arms[1:]), "arms[0].bin"),
-    (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], base=p.arms[1].base,
-                                                                bin=(p.arms[1].base[0], p.arms[1].base[1] - 0.5)),)
-                                   + p.arms[1:]), "arms[1].home"),
     (lambda p: dataclasses.replace(p, name=""), "name"),  # (a file's empty name was refused, not a built one)
     (lambda p: dataclasses.replace(p, name="  "), "name"),
     (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], name=" "),) + p.arms[1:]), "arms[0].name"),

@@ -215,7 +215,8 @@ def test_q1_range_and_poses_match_brute_force(seed: int) -> None:
     for i, x in enumerate(xs):
         l1, l2 = rng.uniform(0.7, 1.3), rng.uniform(0.5, 1.0)
         q1max = rng.uniform(2.0, 3.1416)
-        arms.append(Arm(name=f"a{i}", base=(float(x), float(rng.uniform(-0.2, 0.2))), bin=(float(x), -0.5),
+        by = float(rng.uniform(-0.2, 0.2))  # (a bin the arm reaches: one it does not is refused, as a file's is)
+        arms.append(Arm(name=f"a{i}", base=(float(x), by), bin=(float(x), by - max(l1, l2)),
                         links=(l1, l2), link_radius=float(rng.uniform(0.02, 0.05)),
                         joint_limits=((-q1max, q1max), (-3.0, 3.0)), max_velocity=(3, 4),
                         max_acceleration=(8, 12), max_jerk=(80, 120),
