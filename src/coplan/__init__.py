@@ -7,7 +7,23 @@ Pipeline: ``problem -> allocate -> plan -> verify -> report``. The quickest way 
     result.plan.metrics["makespan"], result.status
 """
 
-from .kinds import AllocationMethod, EventKind, ExitCode, PlannerKind, PlanStatus, SequenceRule
+import os as _os
+import platform as _platform
+
+# IPOPT's linear algebra (the optimal planner's programs) runs on the OpenBLAS CasADi bundles,
+# which picks its kernels at load time -- for the CPU, or as OPENBLAS_CORETYPE says. Another
+# kernel rounds otherwise, IPOPT takes other steps, and the widened plan differs, or is not
+# found (crossing_paths under OPENBLAS_CORETYPE=Haswell, which a machine's environment set: the
+# program did not converge). So the generic x86-64 kernel on one thread is pinned here, before
+# anything of coplan loads CasADi, whatever the environment says: the same plan on any machine
+# (the speed is the same on these small programs). COPLAN_OPENBLAS_CORETYPE=native keeps the
+# environment's choice (plans may then depend on the CPU).
+if _os.environ.get("COPLAN_OPENBLAS_CORETYPE", "") != "native":
+    if _platform.machine() in ("x86_64", "AMD64"):
+        _os.environ["OPENBLAS_CORETYPE"] = "Prescott"
+    _os.environ["OPENBLAS_NUM_THREADS"] = "1"
+
+from .kinds import AllocationMethod, EventKind, ExitCode, PlannerKind, PlanStatus, SequenceRule  # noqa: E402
 
 # the rest is imported on first use (PEP 562), so `import coplan` and `coplan --help` stay quick
 _LAZY = {

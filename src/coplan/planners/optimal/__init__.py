@@ -10,18 +10,9 @@
 - :mod:`.windows`: refinement rounds and receding windows around the NLP
 - :mod:`.widen`: the widening stage (the same makespan, more room between neighbours, less jerk)
 
-IPOPT's linear algebra runs on the OpenBLAS that CasADi bundles, which picks its kernels for the
-CPU at load time; unless the caller chose otherwise, it is pinned here (before CasADi loads) to
-the generic x86-64 kernel on one thread, so that IPOPT takes the same steps on any x86-64 machine
-and the widened plan does not depend on the CPU (the speed is the same on these small programs).
+IPOPT's linear algebra runs on the OpenBLAS that CasADi bundles, whose kernel is pinned when
+``coplan`` is imported (:mod:`coplan`'s package docstring says why and how).
 """
-
-import os as _os
-import platform as _platform
-
-if _platform.machine() in ("x86_64", "AMD64"):
-    _os.environ.setdefault("OPENBLAS_CORETYPE", "Prescott")
-_os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from .options import OptimalOptions, OptionsError, load_options, parse_options
 from .planner import OptimalResult, plan_optimal
