@@ -351,3 +351,29 @@ def test_on_the_move_a_long_settle_at_the_rail_s_end_leaves_no_fruit():
     rest = res.plan.time[np.flatnonzero(np.diff(res.plan.gantry_x) > 0)[-1] + 1]  # the carriage's final rest
     late = [e for e in res.plan.events if e.kind == EventKind.PICK and e.t_end > rest]
     assert late and all(e.t_start >= rest + 10.0 - 1e-6 for e in late)  # picked once the carriage settled
+
+
+def test_fewest_stops_are_the_fewest_where_a_fruit_is_served_from_several_stretches_of_rail():
+    """(``--stops fewest`` took 4 stops where 2 serve every fruit -- more than the fixed stride's 3:
+    a fruit several arms serve has several stretches of rail it is served from, where the greedy
+    is not exact.) The fewest is never more than any other rule's stops, serves every fruit, and
+    is no fewer than a packing of fruit no one position serves two of; on the shipped rows it is
+    the greedy's (the packing bound certifies it)."""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import load_problem, parse_problem, shipped_rows
+    from coplan.row.reach import row_reach
+    from coplan.row.stops import _packing, fewest_stops, fixed_stops
+
+    odd = row_reach(parse_problem(to_yaml(gantry_row(length=10, n_arms=3, density=2, seed=3, y_range=(0.5, 2.1)))))
+    assert (len(fewest_stops(odd)), len(fewest_stops(odd, exact=True)), len(fixed_stops(odd))) == (4, 2, 3)
+    for seed in range(6):
+        reach = row_reach(parse_problem(to_yaml(gantry_row(length=10, n_arms=3, density=2, seed=seed, y_range=(0.5, 2.1)))))
+        stops = fewest_stops(reach, exact=True)
+        ks = [s.k for s in stops]
+        assert all(reach.cover[f].any(axis=0)[ks].any() for f in reach.cover), seed  # every fruit served
+        assert sorted(f for s in stops for f in s.fruit) == sorted(reach.cover)  # each by one stop
+        cov = {f: reach.cover[f].any(axis=0) for f in reach.cover}
+        assert _packing(cov) <= len(stops) <= min(len(fewest_stops(reach)), len(fixed_stops(reach))), seed
+    for path in shipped_rows():
+        reach = row_reach(load_problem(path))
+        assert [s.x for s in fewest_stops(reach, exact=True)] == [s.x for s in fewest_stops(reach)], path.stem

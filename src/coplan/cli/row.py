@@ -34,7 +34,7 @@ def check_row(prob, path: Path, as_json: bool, out_console) -> ExitCode:
            "row": {"start": g.start, "end": g.end, "length": g.length},
            "harvestable": len(reach.cover), "not_harvestable": dict(reach.reasons), "locked": dict(reach.locked),
            "carriage_span": carriage_span(reach) if reach.cover else None,
-           "stops": {"fewest": len(fewest_stops(reach)), "fixed": len(fixed_stops(reach))},
+           "stops": {"fewest": len(fewest_stops(reach, exact=True)), "fixed": len(fixed_stops(reach))},
            "lower_bound": b.to_dict()}
     if as_json:
         out_console.print_json(strict_json(doc))

@@ -187,7 +187,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         if rule == StopRule.OPTIMISED:
             _, info["stops_solver"] = optimised_stops(problem, reach, opts.window, lambda s: (kept.append(s), on_stop(s)))
         else:
-            for s in (fixed_stops(reach) if rule == StopRule.FIXED else fewest_stops(reach)):
+            for s in (fixed_stops(reach) if rule == StopRule.FIXED else fewest_stops(reach, exact=True)):
                 kept.append(s)
                 on_stop(s)
         for s, fut, when in pending:  # the cells planned in the workers, in the order the stops were kept

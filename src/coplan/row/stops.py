@@ -6,7 +6,8 @@
   analogue of a camera-frame rule: advance by what the cell sees.
 * ``fewest`` (:func:`fewest_stops`) -- the fewest stops that serve every fruit: greedy
   interval stabbing (at the last position that still serves the fruit whose window closes
-  first), exact for fruit whose serving positions are intervals.
+  first), exact for fruit whose serving positions are intervals; where a fruit several arms
+  serve breaks that and the greedy takes more than a packing bound, a set-cover MILP.
 * ``optimised`` (:func:`optimised_stops`) -- chosen with the arms, segment by segment along
   the rail (a receding horizon: the carriage starts once the first segment is decided). In each
   segment strides of 0.3 to 1 carriage span are tried from the last stop kept; the segment's
@@ -79,8 +80,16 @@ def _stops_from(reach: RowReach, ks: list[int], fruit: list[str]) -> list[Stop]:
     return [Stop(k, float(reach.grid[k]), tuple(sorted(owner[k], key=order.__getitem__))) for k in ks if owner[k]]
 
 
-def fewest_stops(reach: RowReach, fruit: list[str] | None = None) -> list[Stop]:
-    """The fewest stops serving every fruit (greedy stabbing, see the module docstring)."""
+def fewest_stops(reach: RowReach, fruit: list[str] | None = None, exact: bool = False) -> list[Stop]:
+    """The fewest stops serving every fruit (greedy stabbing, see the module docstring).
+
+    ``exact``: the fewest for any fruit. A fruit several arms serve has several stretches of
+    rail it is served from, where the greedy may take more stops than needed (4 where 2 do, and
+    more than the fixed stride). Its count is checked against a packing of fruit no one position
+    serves two of (a lower bound; equal on every shipped row, so their stops are the greedy's);
+    where they differ, a HiGHS set-cover MILP over the ends of the stretches (an optimal cover
+    can use only those: a stop moves along the rail until some fruit it serves is about to leave
+    its reach) takes over if it needs fewer."""
     todo = list(reach.cover) if fruit is None else [f for f in fruit if f in reach.cover]
     cov = {f: reach.cover[f].any(axis=0) for f in todo}
     first_end = {}
@@ -97,7 +106,46 @@ def fewest_stops(reach: RowReach, fruit: list[str] | None = None) -> list[Stop]:
         k = first_end[f]
         ks.append(k)
         done |= {g for g in left if cov[g][k]}
-    return _stops_from(reach, sorted(set(ks)), todo)
+    ks = sorted(set(ks))
+    if exact and len(ks) > _packing(cov):
+        fewer = _set_cover(cov, len(ks))
+        if fewer is not None:
+            ks = fewer
+    return _stops_from(reach, ks, todo)
+
+
+def _packing(cov: dict[str, np.ndarray]) -> int:
+    """How many fruit no one position serves two of (greedy, by where each last is served): no
+    set of stops serving them all is smaller."""
+    last = {f: int(np.flatnonzero(c)[-1]) for f, c in cov.items()}
+    used, n = None, 0
+    for f in sorted(cov, key=lambda f: (last[f], f)):
+        if used is None or not (cov[f] & used).any():
+            used = cov[f].copy() if used is None else used | cov[f]
+            n += 1
+    return n
+
+
+def _set_cover(cov: dict[str, np.ndarray], than: int, seconds: float = 10.0) -> list[int] | None:
+    """Grid indices of fewer than ``than`` stops serving every fruit of ``cov`` (a HiGHS MILP
+    over the ends of each fruit's serving stretches), or None when it finds none in ``seconds``."""
+    from scipy.optimize import Bounds, LinearConstraint, milp
+    from scipy.sparse import csr_matrix
+
+    cands = sorted({int(k) for c in cov.values() for k in np.flatnonzero(c & ~np.r_[c[1:], False])})
+    at = np.asarray(cands)
+    rows, cols = [], []
+    for r, c in enumerate(cov.values()):
+        hit = np.flatnonzero(c[at])
+        rows += [r] * hit.size
+        cols += hit.tolist()
+    a = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(cov), len(cands)))
+    res = milp(np.ones(len(cands)), constraints=LinearConstraint(a, lb=1), integrality=np.ones(len(cands)),
+               bounds=Bounds(0, 1), options={"time_limit": seconds})
+    if res.x is None:
+        return None
+    chosen = [cands[i] for i in np.flatnonzero(res.x > 0.5)]
+    return chosen if len(chosen) < than else None
 
 
 def fixed_stops(reach: RowReach, stride: float | None = None) -> list[Stop]:
