@@ -288,3 +288,11 @@ def test_a_time_limit_for_the_heuristic_alone_is_refused_by_compare_as_by_solve(
         res = run(*cmd, str(problems_dir / "single_arm.yaml"), "--time-limit", "5", "--out", str(tmp_path / cmd[0]))
         assert res.exit_code == int(ExitCode.USAGE) and "has no time limit" in res.output, res.output
         assert not (tmp_path / cmd[0]).exists()
+
+
+@pytest.mark.parametrize("args", [["check", ""], ["solve", ""], ["verify", "", "plan.json"], ["plot", ""], ["view", ""],
+                                  ["export", ""], ["run", ""], ["sweep", ""], ["compare", ""]])
+def test_an_empty_file_argument_is_a_usage_error_not_the_current_folder(args) -> None:
+    """(``coplan check ""`` -- an unset variable -- said "expected a YAML file, found a directory" of '.'.)"""
+    res = run(*args)
+    assert res.exit_code == int(ExitCode.USAGE) and "found an empty string" in " ".join(res.output.split()), (args, res.output)

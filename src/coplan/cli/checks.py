@@ -13,7 +13,7 @@ import typer
 from . import failures
 from ..kinds import ExitCode, PlannerKind
 
-__all__ = ["fail", "strict_json", "between", "check_time_limit", "check_workers", "solver_options", "budget_hint"]
+__all__ = ["in_path", "fail", "strict_json", "between", "check_time_limit", "check_workers", "solver_options", "budget_hint"]
 
 
 def fail(code: ExitCode, message: str):
@@ -62,6 +62,14 @@ def check_workers(workers: Optional[str]) -> Optional[int]:
     if not 1 <= n <= MAX_WORKERS:
         fail(ExitCode.USAGE, f"--workers: expected a whole number of processes from 1 to {MAX_WORKERS}, or auto; found {workers!r}")
     return n
+
+
+def in_path(value: str) -> Path:
+    """A file argument's value as a Path. An empty one (``coplan check "$F"`` with ``F`` unset)
+    is refused (exit 2): typer made the current folder of it, said to be a folder, not a file."""
+    if value == "":
+        raise typer.BadParameter("expected a file name, found an empty string (an unset variable?)")
+    return Path(value)
 
 
 def out_path(value: str) -> Path:

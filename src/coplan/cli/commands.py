@@ -20,7 +20,7 @@ from rich.console import Console
 
 from . import failures
 from .checks import budget_hint as _budget_hint, check_time_limit as _check_time_limit, check_workers as _check_workers
-from .checks import between, optimal_only_note, out_path
+from .checks import between, in_path, optimal_only_note, out_path
 from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
 from .row import moving_options, refuse_rows_in_compare, refused_on_a_row
@@ -94,7 +94,7 @@ def _resolve_problem(problem: Optional[Path]) -> Path:
 @app.command()
 @guarded
 def solve(
-    problem: Annotated[Optional[Path], typer.Argument(metavar="PROBLEM", help="Problem YAML file (default: the shipped greenhouse row).")] = None,
+    problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file (default: the shipped greenhouse row).")] = None,
     planner: Annotated[Optional[PlannerKind], typer.Option(
         help="Planner to use (default optimal; for a row, the cell planner at each stop: default coordinated).")] = None,
     stops: Annotated[Optional[StopRule], typer.Option(
@@ -248,7 +248,7 @@ def list_problems():
 @app.command()
 @guarded
 def check(
-    problem: Annotated[Optional[Path], typer.Argument(metavar="PROBLEM", help="Problem YAML file (default: the shipped greenhouse row).")] = None,
+    problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file (default: the shipped greenhouse row).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
 ):
     """Validate a problem and say, without solving, what its geometry allows: locked arms,
@@ -319,8 +319,8 @@ def check(
 @app.command("verify")
 @guarded
 def verify_cmd(
-    problem: Annotated[Path, typer.Argument(metavar="PROBLEM", help="Problem YAML file.")],
-    plan: Annotated[Path, typer.Argument(metavar="PLAN", help="Plan to verify: plan.json, or the plan.csv replay coplan writes (no events: they are inferred).")],
+    problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file.")],
+    plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="Plan to verify: plan.json, or the plan.csv replay coplan writes (no events: they are inferred).")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Write verification.json (a folder, or a file name ending .json).")] = None,
     fcl: Annotated[FclMode, typer.Option(help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
     as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,
@@ -387,7 +387,7 @@ def verify_cmd(
 @guarded
 def compare_cmd(
     problems: Annotated[
-        Optional[Path], typer.Argument(metavar="PROBLEMS", help="Problem YAML file or folder of them (default: the shipped greenhouse row).")
+        Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEMS", help="Problem YAML file or folder of them (default: the shipped greenhouse row).")
     ] = None,
     planner: Annotated[
         Optional[list[str]],
@@ -565,7 +565,7 @@ PlanProblemOption = Annotated[
 @app.command("plot")
 @guarded
 def plot_cmd(
-    plan: Annotated[Path, typer.Argument(metavar="PLAN", help="plan.json to draw (for --kind workspace also a problem YAML).")],
+    plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="plan.json to draw (for --kind workspace also a problem YAML).")],
     kind: Annotated[PlotKind, typer.Option("--kind", "-k", help="Which figure.")] = PlotKind.GANTT,
     problem: PlanProblemOption = None,
     out: Annotated[
@@ -617,7 +617,7 @@ def plot_cmd(
 @app.command("animate")
 @guarded
 def animate_cmd(
-    plan: Annotated[Path, typer.Argument(metavar="PLAN", help="plan.json to animate.")],
+    plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="plan.json to animate.")],
     problem: PlanProblemOption = None,
     out: Annotated[
         Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output .gif (default, next to the plan) or .mp4.")
@@ -646,7 +646,7 @@ def animate_cmd(
 @app.command("view")
 @guarded
 def view_cmd(
-    plan: Annotated[Path, typer.Argument(metavar="PLAN", help="plan.json to view.")],
+    plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="plan.json to view.")],
     problem: PlanProblemOption = None,
     compare: Annotated[Optional[Path], typer.Option("--compare", help="A second plan.json of the same problem, side by side on one clock.")] = None,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="HTML file (default: the plan's name with .html, next to it).")] = None,

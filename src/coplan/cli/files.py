@@ -13,7 +13,7 @@ from rich.markup import escape
 
 from ..errors import printable
 from ..kinds import ExitCode, ExportFormat, SchemaKind
-from .checks import out_path
+from .checks import in_path, out_path
 from .failures import Failure, check_overwrite
 
 __all__ = ["export_cmd", "schema_cmd"]
@@ -33,7 +33,7 @@ def _export_out(value: str) -> Path:
 
 
 def export_cmd(
-    plan: Annotated[Path, typer.Argument(metavar="PLAN", help="plan.json to export.")],
+    plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="plan.json to export.")],
     rate: Annotated[float, typer.Option(help="Points per second, Hz.")] = 100.0,
     fmt: Annotated[ExportFormat, typer.Option("--format", "-f", help="csv: one file, every arm; json, yaml: a ROS 2 "
                                               "trajectory_msgs/JointTrajectory per arm, in a folder.")] = ExportFormat.CSV,

@@ -15,7 +15,7 @@ from typing import Annotated, Optional
 import typer
 from rich.console import Console
 
-from .checks import between, out_path
+from .checks import between, in_path, out_path
 from .console import ProgressDisplay
 from .failures import check_out_dir, check_out_file, check_overwrite, resolve_problem, usage
 from .summary import safe as _safe
@@ -29,7 +29,7 @@ _err = Console(stderr=True, soft_wrap=True)
 
 
 def feed_cmd(
-    problem: Annotated[Path, typer.Argument(metavar="PROBLEM", help="Problem file (YAML) with the true fruit.")],
+    problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem file (YAML) with the true fruit.")],
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Feed file to write (YAML).")],
     known: Annotated[float, typer.Option(callback=between(0.0, 1.0), help="Share of the fruit detected at t = 0.")] = 0.5,
     sigma: Annotated[float, typer.Option(callback=between(1e-6, 1.0, "m"), help="Detection noise: standard deviation per coordinate, m.")] = 0.01,
@@ -105,7 +105,7 @@ def _on_disk() -> None:
 
 
 def run_cmd(
-    problem: Annotated[Path, typer.Argument(metavar="PROBLEM", help="Problem file (YAML) with the true fruit positions.")],
+    problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem file (YAML) with the true fruit positions.")],
     feed: Annotated[Optional[Path], typer.Option("--feed", "-f", help="Feed file (YAML): what the camera reports "
                                                  "(a cell; a row's camera is simulated from the options below).")] = None,
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder.")] = Path("coplan-live"),

@@ -56,9 +56,9 @@ def check_row(prob, path: Path, as_json: bool, out_console) -> ExitCode:
             p(f"carriage span      {doc['carriage_span']:.2f} m (a fruit stays within the arms' reach over this much rail, "
               f"median); stops: {doc['stops']['fewest']} at the fewest, {doc['stops']['fixed']} at a fixed stride")
         if reach.cover:
-            p(f"lower bound        {b.any_plan:.2f} s for any plan (the busiest arm's cycles {b.work:.2f} s; the carriage "
-              f"reaching {b.reach_to:.2f} m {b.travel:.2f} s); {b.stop_and_go:.2f} s stop by stop (its moves "
-              f"{b.moves:.2f} s, then the cells)")
+            p(f"lower bound        {b.any_plan:.2f} s for any plan (the busiest arm's cycles {b.work:.2f} s; the carriage's "
+              f"way to {b.reach_to:.2f} m and one fruit's dwells, {b.travel:.2f} s); {b.stop_and_go:.2f} s stop by stop "
+              f"(its moves {b.moves:.2f} s, then the cells)")
         else:  # (as a cell's check says it)
             p("nothing to plan: no fruit can be harvested from any carriage position (solve would exit 4, infeasible)"
               + (" -- the problem lists no fruit" if not prob.fruits else ""))

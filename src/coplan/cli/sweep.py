@@ -15,7 +15,7 @@ from rich.console import Console
 
 from ..errors import plural
 from ..workers import MAX_WORKERS
-from .checks import between, out_path
+from .checks import between, in_path, out_path
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
 from ..errors import printable
@@ -31,11 +31,11 @@ def _counts_text(counts: dict[str, int]) -> str:
     order = ["success", "partial", "unsafe", "infeasible", "failed", "bad input", "error", "timeout", "lost"]
     keys = sorted(counts, key=lambda k: order.index(k) if k in order else len(order))
     colour = {"success": "green", "partial": "yellow"}
-    return "  ".join(f"[{colour.get(k, 'red')}]{_safe(k)} {counts[k]}[/]" for k in keys) or "[dim]starting workers[/]"
+    return "  ".join(f"[{colour.get(k, 'red')}]{_safe(k)} {counts[k]}[/]" for k in keys) or "[dim]no problem finished yet[/]"
 
 
 def sweep_cmd(
-    spec: Annotated[Path, typer.Argument(metavar="SPEC", help="Sweep file (YAML): a base, the parameters to vary, planner and options; "
+    spec: Annotated[Path, typer.Argument(parser=in_path, metavar="SPEC", help="Sweep file (YAML): a base, the parameters to vary, planner and options; "
                                           "or a folder or glob of problem files.")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder (default: coplan-sweep/<sweep name>). "
                                                 "A re-run into the same folder skips the rows already done.")] = None,
@@ -128,7 +128,7 @@ def sweep_cmd(
 
 
 def sweep_report_cmd(
-    folder: Annotated[Path, typer.Argument(metavar="FOLDER", help="A sweep's output folder (or its results.parquet).")],
+    folder: Annotated[Path, typer.Argument(parser=in_path, metavar="FOLDER", help="A sweep's output folder (or its results.parquet).")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Where to write report.md and the figures "
                                                 "(default: <folder>/report).")] = None,
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the figures.")] = True,

@@ -61,7 +61,7 @@ PARAMETERS: dict[str, tuple[str, tuple, str]] = {
     "spacing": ("positive", _ROWS + _GANTRY, "distance between neighbouring bases, m"),
     "length": ("positive", _GANTRY, "length of the row the gantry travels, m"),
     "trusses": ("bool", _GANTRY, "fruit hang in trusses (default true) or uniformly"),
-    "gantry": ("gantry", _GANTRY, "stop-and-go | continuous"),
+    "gantry": ("gantry", _GANTRY, "stop-and-go | continuous | auto (both, the better kept)"),
     "seed": ("count0", _GEN, "seed of the generator"),
     "links": ("pair", (SweepBase.ROW,), "link lengths, m (a pair, or one number for both)"),
     "link_radius": ("positive", (SweepBase.ROW,), "capsule radius of the links, m"),
