@@ -257,3 +257,10 @@ def test_a_pipe_is_read_no_further_than_the_cap(tmp_path: Path) -> None:
     with pytest.raises(ProblemError, match=f"at most {MAX_FILE_BYTES} bytes, found more"):
         load_problem(fifo)
     t.join(5)
+
+
+def test_a_null_key_is_said_to_be_one_in_yaml_words() -> None:
+    """(``~: 1`` was reported as 'None: expected a known key, found unknown key None'.)"""
+    with pytest.raises(ProblemError) as e:
+        parse_problem(SINGLE + "~: 1\n", "nk.yaml")
+    assert "expected a key name, found null" in str(e.value) and "None" not in str(e.value)

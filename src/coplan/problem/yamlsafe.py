@@ -182,6 +182,10 @@ def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = No
                 issues.append(Issue(path_str(path), f"expected a plain YAML key, found the tag {k.tag!r} (tags are not supported)", kline))
                 continue
             key = k.value if k.tag == _STR_TAG else ctor.construct_object(k)
+            if key is None:  # (reported as "None: ... found unknown key None", Python's word)
+                issues.append(Issue(path_str(path), "expected a key name, found null (a key written as ~ or null, "
+                                                    "or left out before the colon)", kline))
+                continue
             if key in seen:
                 issues.append(
                     Issue(
