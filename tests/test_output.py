@@ -297,3 +297,46 @@ def test_a_users_file_or_folder_named_like_the_previous_run_is_never_replaced(tm
     # coplan's own previous run is replaced as before
     (prev / "thesis.tex").unlink() if theirs == "folder" else prev.unlink()
     assert solve(_single(), planner="heuristic", out_dir=out).previous == prev
+
+
+@pytest.mark.parametrize("users_file", [True, False])
+def test_a_commit_that_fails_half_way_leaves_the_previous_run_whole_where_it_was(tmp_path, monkeypatch, users_file):
+    """(With one file of the previous run immutable, a second run into a folder holding the
+    user's notes moved part of the previous run to .previous and stopped: the folder held the
+    user's notes and one old file, .previous the rest -- and the run before that was gone.)"""
+    import os as os_mod
+
+    import coplan.output as output
+
+    out = tmp_path / "o"
+    solve(_single(), planner="heuristic", out_dir=out)
+    solve(_single(), planner="heuristic", out_dir=out)  # an older previous run in o.previous
+    if users_file:
+        (out / "notes.md").write_text("mine")
+
+    def snapshot(folder):
+        return {p.name: p.read_bytes() for p in folder.iterdir()}
+
+    before, older = snapshot(out), snapshot(tmp_path / "o.previous")
+    real = os_mod.replace
+
+    def stuck(src, dst):
+        if Path(src).name == "verification.json" and Path(src).parent == out:
+            raise PermissionError(1, "Operation not permitted", str(src))
+        return real(src, dst)
+
+    monkeypatch.setattr(output.os, "replace", stuck)
+    if not users_file:  # (the whole folder is renamed: make the new run's rename fail instead)
+        real_rename = Path.rename
+
+        def no_rename(self, target):
+            if self.name.endswith(".partial"):
+                raise PermissionError(1, "Operation not permitted", str(self))
+            return real_rename(self, target)
+
+        monkeypatch.setattr(Path, "rename", no_rename)
+    with pytest.raises(PermissionError):
+        solve(_single(), planner="coordinated", out_dir=out)
+    monkeypatch.undo()
+    assert snapshot(out) == before and snapshot(tmp_path / "o.previous") == older
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o", "o.previous"]  # no staging or set-aside folder left

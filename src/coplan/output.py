@@ -176,13 +176,19 @@ class RunFolder:
         with named_as(self.out):
             self.out.parent.mkdir(parents=True, exist_ok=True)
             self.stage = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", suffix=".partial", dir=self.out.parent))
-        self.stage.chmod(usual_mode(folder=True))  # mkdtemp's 0700 is for the staging, not the run
-        (self.stage / MARKER).write_text("files of one coplan run\n")
+        try:
+            self.stage.chmod(usual_mode(folder=True))  # mkdtemp's 0700 is for the staging, not the run
+            (self.stage / MARKER).write_text("files of one coplan run\n")
+        except BaseException:  # (a Ctrl-C right here left the hidden staging folder behind for good)
+            shutil.rmtree(self.stage, ignore_errors=True)
+            raise
         return self.stage
 
     def __exit__(self, exc_type, exc, tb) -> bool:
         if exc_type is not None:
             shutil.rmtree(self.stage, ignore_errors=True)
+            if isinstance(exc, OSError) and exc.filename is None:  # (a full disk said only "No space left on device")
+                raise OSError(exc.errno, exc.strerror or str(exc), str(self.out)) from exc
             return False
         try:
             self._commit()
@@ -196,38 +202,89 @@ class RunFolder:
         return self.out / Path(staged).name
 
     def _commit(self) -> None:
+        """The staged run into place; on any failure (a file that will not move, Ctrl-C) every
+        move made is undone: the folder holds the new run whole or the previous one as it was
+        (one immutable file left the previous run split between the folder and .previous)."""
         out, stage = self.out, self.stage
         # the folder coplan runs in (``-o .``; ``out_dir=Path('')`` from the library) is never removed or renamed: file by file
         in_place = not out.name or out.absolute() == Path.cwd().absolute()
         if not in_place and out.is_dir() and not any(out.iterdir()):
             out.rmdir()
-        elif not in_place and is_run_folder(out):
-            self.previous = _cleared_previous(out)
-            out.rename(self.previous)
-        elif out.exists():  # a folder with the user's own files in it: theirs stay, coplan's are replaced
-            ours = [p for p in sorted(out.iterdir()) if _ours(p)]
+            try:
+                stage.rename(out)
+            except BaseException:
+                out.mkdir(exist_ok=True)
+                raise
+            return
+        if not in_place and is_run_folder(out):
+            prev, older = _cleared_previous(out)
+            out.rename(prev)
+            try:
+                stage.rename(out)
+            except BaseException:
+                if not out.exists():
+                    prev.rename(out)
+                _restore(older, prev)
+                raise
+            _drop(older)
+            self.previous = prev
+            return
+        if not out.exists():
+            stage.rename(out)
+            return
+        # a folder with the user's own files in it: theirs stay, coplan's are replaced, one by one
+        moved: list[tuple[Path, Path]] = []
+        ours = [p for p in sorted(out.iterdir()) if _ours(p)]
+        prev = older = None
+        try:
             if ours:  # the previous run's files go to <name>.previous whole (none left beside the new run's)
-                self.previous = _cleared_previous(out)
-                self.previous.mkdir()
+                prev, older = _cleared_previous(out)
+                prev.mkdir()
                 for f in ours:
-                    os.replace(f, self.previous / f.name)
+                    os.replace(f, prev / f.name)
+                    moved.append((f, prev / f.name))
             for f in sorted(stage.iterdir()):
                 os.replace(f, out / f.name)
-            stage.rmdir()
-            return
-        stage.rename(out)
+                moved.append((f, out / f.name))
+        except BaseException:
+            for src, dst in reversed(moved):
+                os.replace(dst, src)
+            if prev is not None and prev.is_dir() and not any(prev.iterdir()):
+                prev.rmdir()
+            _restore(older, prev)
+            raise
+        _drop(older)
+        self.previous = prev
+        stage.rmdir()
 
 
-def _cleared_previous(out: Path) -> Path:
-    """``<out>.previous``, an older previous run there removed; when something else is there
-    (made since :func:`check_folder` looked), the first free ``<out>.previous.<n>``: nothing of
-    the user's is removed."""
+def _restore(older: Path | None, prev: Path | None) -> None:
+    """An older previous run set aside by :func:`_cleared_previous` back in place (a commit failed)."""
+    if older is not None and prev is not None and not prev.exists():
+        older.rename(prev)
+        shutil.rmtree(older.parent, ignore_errors=True)  # (the hidden folder it was set aside in)
+
+
+def _drop(older: Path | None) -> None:
+    """An older previous run set aside, removed (the commit succeeded)."""
+    if older is not None:
+        shutil.rmtree(older.parent, ignore_errors=True)  # (the hidden folder it was set aside in)
+
+
+def _cleared_previous(out: Path) -> tuple[Path, Path | None]:
+    """``(<out>.previous, where an older previous run there was set aside or None)``: the older
+    one is removed once the commit succeeds (:func:`_drop`), put back if it fails
+    (:func:`_restore`). When something else is there (made since :func:`check_folder` looked),
+    the first free ``<out>.previous.<n>``: nothing of the user's is removed."""
     prev = previous_of(out)
     if _replaceable(prev):
+        older = None
         if prev.is_dir():
-            shutil.rmtree(prev)
-        return prev
+            older = Path(tempfile.mkdtemp(prefix=f".{prev.name}.", suffix=".old", dir=prev.parent))
+            os.replace(prev, older / prev.name)
+            older = older / prev.name
+        return prev, older
     n = 1
-    while previous_of(out).with_name(f"{prev.name}.{n}").exists():
+    while prev.with_name(f"{prev.name}.{n}").exists():
         n += 1
-    return prev.with_name(f"{prev.name}.{n}")
+    return prev.with_name(f"{prev.name}.{n}"), None
