@@ -340,3 +340,23 @@ def test_a_commit_that_fails_half_way_leaves_the_previous_run_whole_where_it_was
     monkeypatch.undo()
     assert snapshot(out) == before and snapshot(tmp_path / "o.previous") == older
     assert sorted(p.name for p in tmp_path.iterdir()) == ["o", "o.previous"]  # no staging or set-aside folder left
+
+
+def test_a_ctrl_c_while_a_run_is_written_is_answered_once_it_is_whole(tmp_path):
+    """(Ctrl-C or SIGTERM while solve wrote its files threw the verified plan away -- exit 130,
+    the previous run left, though 130 says the incumbent is saved.) Held while the files are
+    written, then answered: here a KeyboardInterrupt after the block, the files whole."""
+    import signal
+    import subprocess
+    import sys
+
+    code = ("import os, signal\nfrom pathlib import Path\nfrom coplan.output import RunFolder, signals_deferred\n"
+            f"out = Path({str(tmp_path / 'o')!r})\n"
+            "try:\n    with signals_deferred(), RunFolder(out) as stage:\n        os.kill(os.getpid(), signal.SIGINT)\n"
+            "        (stage / 'plan.json').write_text('{}')\n"
+            "except KeyboardInterrupt:\n    print('interrupted after', sorted(p.name for p in out.iterdir()))\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                       preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    # the run whole, then Ctrl-C answered (a KeyboardInterrupt)
+    assert "interrupted after ['.coplan-run', 'plan.json']" in p.stdout, (p.stdout, p.stderr)
+    assert p.returncode == 0 and "Traceback" not in p.stderr

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from .errors import CoplanError
 
-__all__ = ["MARKER", "RunFolder", "is_run_folder", "previous_of", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder"]
+__all__ = ["MARKER", "RunFolder", "is_run_folder", "previous_of", "signals_deferred", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder"]
 
 MARKER = ".coplan-run"  # written into every run folder
 # the files a run writes (solve, live runs), by their exact names -- a user's plan.md or
@@ -150,6 +150,34 @@ def atomic_file(path: Path, write) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+@contextmanager
+def signals_deferred():
+    """Ctrl-C and SIGTERM held while the block runs, then answered as they would have been
+    (their handlers called, or the signal sent again): a run's files, written in a second or
+    two, are written whole -- a Ctrl-C landing there threw away the verified plan the solve had
+    spent minutes on, and said it was saved. Main thread only (elsewhere nothing changes)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got: list[int] = []
+    kinds = [signal.SIGINT] + ([signal.SIGTERM] if hasattr(signal, "SIGTERM") else [])
+    old = {k: signal.signal(k, lambda signum, frame: got.append(signum)) for k in kinds}
+    try:
+        yield
+    finally:
+        for k, h in old.items():
+            signal.signal(k, h)
+    for k in dict.fromkeys(got):  # (once each, in order)
+        h = old[k]
+        if callable(h):
+            h(k, None)
+        elif h == signal.SIG_DFL:
+            os.kill(os.getpid(), k)
 
 
 def is_run_folder(path: Path) -> bool:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from .allocate.allocation import AllocationMethod, allocate
 from .kinds import ExitCode, GantryMode, StopRule
-from .output import RunFolder, check_folder
+from .output import RunFolder, check_folder, signals_deferred
 from .planners.heuristic import plan_heuristic
 from .plan import Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem.model import Problem, load_problem, parse_problem
@@ -84,7 +84,7 @@ def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None) -> tuple[dict
     """The run's files, staged and renamed into place (:mod:`coplan.output`)."""
     files: dict[str, Path] = {}
     folder = RunFolder(Path(out_dir))
-    with folder as stage:
+    with signals_deferred(), folder as stage:  # (whole: a Ctrl-C here threw the verified plan away)
         if baseline is not None:
             files.update({f"baseline_{k}": v for k, v in baseline.save(stage, "baseline").items()})
         files.update(plan.save(stage, "plan"))
