@@ -531,8 +531,8 @@ def test_once_a_live_run_is_on_disk_a_ctrl_c_or_sigterm_changes_nothing(tmp_path
     import subprocess
     import sys
 
-    code = ("import os, signal\nimport coplan.cli.failures as f\nfrom coplan.cli.live import _on_disk\n"
-            "f.CONSOLE.append(True)\n_on_disk()\nos.kill(os.getpid(), signal.SIGINT)\nos.kill(os.getpid(), signal.SIGTERM)\n"
+    code = ("import os, signal\nimport coplan.cli.failures as f\nfrom coplan.cli.failures import work_done\n"
+            "f.CONSOLE.append(True)\nwork_done()\nos.kill(os.getpid(), signal.SIGINT)\nos.kill(os.getpid(), signal.SIGTERM)\n"
             "print('summary printed')\n")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
                        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))

@@ -194,6 +194,7 @@ def _report_solve(res, out: Path, animate: bool, html: bool, as_json: bool):
         from ..viz.viewer import write_html
 
         res.files["viewer"] = write_html(out / "plan.html", res.problem, res.plan, verification=res.verification)
+    failures.work_done()  # (every file written: the summary and the verdict follow)
     ver = res.plan.verification or {}
     if as_json:
         doc = {
@@ -456,6 +457,7 @@ def compare_cmd(
     hint = _budget_hint(PlannerKind.OPTIMAL, time_limit) if any(s.planner == PlannerKind.OPTIMAL for s in specs) else None
     with ProgressDisplay(err_console, quiet=as_json, hint=hint) as say:
         cmp = compare(source, specs, out, figures=figures, options=options, progress=say)
+    failures.work_done()  # (the report is written: the tables and the verdict follow)
     if as_json:
         typer.echo(json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
     else:
@@ -640,6 +642,7 @@ def animate_cmd(
             notify=lambda m: err_console.print(f"[yellow]note[/]: {_s(m)}", highlight=False, soft_wrap=True),
             progress=bars,
         )
+    failures.work_done()
     out_console.print(f"wrote {_s(path)}")
 
 

@@ -26,7 +26,7 @@ from ..errors import CoplanError, InputError, Issue
 from ..kinds import ExitCode
 from ..output import OutputError, check_folder
 
-__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "CONSOLE", "usage", "check_out_dir",
+__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "CONSOLE", "work_done", "usage", "check_out_dir",
            "check_overwrite"]
 
 # set by the console entry point when SIGTERM arrived: an interruption then exits 143, not 130
@@ -54,6 +54,21 @@ class Failure(CoplanError):
         super().__init__(message)
         self.code = ExitCode(code)
         self.message = message
+
+
+def work_done() -> None:
+    """The command's files are written whole: from here a Ctrl-C or SIGTERM changes nothing, and
+    the command prints its summary and exits with its verdict (one landing here killed the
+    process by the signal, printed Python's 'Exception ignored ... KeyboardInterrupt', or said
+    'interrupted' after the files were written and the previous run moved aside). Main thread
+    of the ``coplan`` command only (a test's CliRunner keeps its process's signals)."""
+    import signal
+    import threading
+
+    if CONSOLE and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        if hasattr(signal, "SIGTERM"):
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
 def usage(message: str):

@@ -16,6 +16,7 @@ import typer
 from rich.console import Console
 
 from .checks import between, in_path, out_path
+from .failures import work_done
 from .console import ProgressDisplay
 from .failures import check_out_dir, check_out_file, check_overwrite, resolve_problem, usage
 from .summary import safe as _safe
@@ -86,22 +87,6 @@ def _written(folder, names: list[str]) -> str:
     :class:`RunFolder`, after its exit)."""
     kept = f"; previous run kept in {folder.previous}" if folder.previous is not None else ""
     return _safe(", ".join(names) + kept)
-
-
-def _on_disk() -> None:
-    """The run is written whole: from here a Ctrl-C or SIGTERM changes nothing, and the command
-    prints its summary and exits with its verdict (one landing here killed the process by the
-    signal, or printed Python's 'Exception ignored ... KeyboardInterrupt', after the files were
-    written and the previous run moved aside). Main thread of the ``coplan`` command only (a
-    test's CliRunner keeps its process's signals)."""
-    import signal
-    import threading
-
-    from .failures import CONSOLE
-
-    if CONSOLE and threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
 def run_cmd(
@@ -189,7 +174,7 @@ def run_cmd(
 
             animate_live(prob, result, stage / "live.gif")
         names = _staged(stage)
-    _on_disk()
+    work_done()
     m = result.run["metrics"]
     if as_json:
         typer.echo(json.dumps(jsonable(m), allow_nan=False))
@@ -275,7 +260,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         (stage / "verification.json").write_text(json.dumps(jsonable(res.verification.summary()), indent=1))
         (stage / "run.json").write_text(json.dumps(jsonable(doc), indent=1, allow_nan=False))
         names = _staged(stage)
-    _on_disk()
+    work_done()
     m = res.metrics
     if as_json:
         typer.echo(json.dumps(jsonable(m), allow_nan=False))
