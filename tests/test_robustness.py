@@ -296,3 +296,17 @@ def test_an_empty_file_argument_is_a_usage_error_not_the_current_folder(args) ->
     """(``coplan check ""`` -- an unset variable -- said "expected a YAML file, found a directory" of '.'.)"""
     res = run(*args)
     assert res.exit_code == int(ExitCode.USAGE) and "found an empty string" in " ".join(res.output.split()), (args, res.output)
+
+
+def test_a_ctrl_c_while_the_command_loads_exits_130_without_a_traceback() -> None:
+    """(A Ctrl-C in the first 0.3 s, while the commands were imported, printed Python's traceback
+    of the import and the process died by the signal.)"""
+    import subprocess
+    import sys
+
+    code = ("import builtins, sys\nreal = builtins.__import__\n"
+            "def stopped(name, *a, **k):\n    if name == 'commands':\n        raise KeyboardInterrupt\n"
+            "    return real(name, *a, **k)\nbuiltins.__import__ = stopped\nsys.argv = ['coplan', '--help']\n"
+            "from coplan.cli import main\nmain()\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 130 and "Traceback" not in p.stderr, (p.returncode, p.stderr)

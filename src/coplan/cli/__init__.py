@@ -9,6 +9,28 @@
 Light to import: NumPy, SciPy and the planners load inside the commands that use them.
 """
 
-from .commands import app, main
-
 __all__ = ["app", "main"]
+
+
+def main() -> None:
+    """The console entry point: the commands load here, where a Ctrl-C or SIGTERM while they do
+    exits 130 or 143 quietly (it printed Python's traceback of the import, and the process died
+    by the signal), then :func:`coplan.cli.commands.main` runs."""
+    import signal
+    import sys
+
+    if hasattr(signal, "SIGTERM"):
+        signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(143))  # (until the console's own handler)
+    try:
+        from .commands import main as run
+    except KeyboardInterrupt:
+        sys.exit(130)
+    run()
+
+
+def __getattr__(name: str):
+    if name == "app":  # (imported on first use: ``import coplan.cli`` stays light for the entry point)
+        from .commands import app
+
+        return app
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,5 +1,5 @@
 """``python -m coplan.cli``: the ``coplan`` command."""
 
-from .commands import main
+from . import main
 
 main()
