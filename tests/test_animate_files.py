@@ -39,8 +39,34 @@ def test_any_failure_leaves_no_partial_file(tmp_path, single_arm, monkeypatch):
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(Image.Image, "save", broken_save)
-    with pytest.raises(RenderError, match="No space left"):
+    # a full disk is an I/O error naming the file (it was a render failure, exit 1)
+    with pytest.raises(OSError, match="No space left") as e:
         animate_plan(single_arm, plan_heuristic(single_arm), tmp_path / "one.gif", fps=5, dpi=30, width=4)
+    assert e.value.errno == 28 and e.value.filename == str(tmp_path / "one.gif") and not isinstance(e.value, RenderError)
+    assert list(tmp_path.iterdir()) == []
+
+    def encoder_broke(self, fp, *args, **kwargs):
+        raise ValueError("bad frame")
+
+    monkeypatch.setattr(Image.Image, "save", encoder_broke)
+    with pytest.raises(RenderError, match="bad frame"):
+        animate_plan(single_arm, plan_heuristic(single_arm), tmp_path / "one.gif", fps=5, dpi=30, width=4)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_ffmpeg_stopped_by_the_groups_ctrl_c_is_an_interruption_not_a_render_failure(tmp_path, single_arm, monkeypatch):
+    """(Ctrl-C on ``coplan animate --out a.mp4`` reached ffmpeg too, which exited 255: the command
+    said it could not render the animation, exit 1, not 130.)"""
+    import subprocess
+
+    from matplotlib.animation import Animation
+
+    def ffmpeg_interrupted(self, *args, **kwargs):
+        raise subprocess.CalledProcessError(255, ["ffmpeg", "-f", "rawvideo"])
+
+    monkeypatch.setattr(Animation, "save", ffmpeg_interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        animate_plan(single_arm, plan_heuristic(single_arm), tmp_path / "a.gif", fps=5, dpi=30, width=4)
     assert list(tmp_path.iterdir()) == []
 
 

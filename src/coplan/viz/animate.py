@@ -17,9 +17,11 @@ Playback is real time times ``speed``; frames are subsampled to ``fps``.
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import shutil
+import subprocess
 import tempfile
 import warnings
 from collections.abc import Callable
@@ -473,6 +475,10 @@ def render_frame(problem: Problem, plan: Plan, t: float, *, dpi: float = 100, wi
     return scene.fig
 
 
+#: errnos of the disk or the folder, not of the encoder: reported as I/O errors with the path
+_DISK_ERRNOS = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG)
+
+
 def animate_plan(
     problem: Problem,
     plan: Plan,
@@ -550,6 +556,14 @@ def animate_plan(
         tmp = None
     except RenderError:
         raise
+    except subprocess.CalledProcessError as e:
+        if e.returncode == 255 or e.returncode < 0:  # ffmpeg stopped by the Ctrl-C or SIGTERM its process group got
+            raise KeyboardInterrupt from e  # (it was a render failure, exit 1)
+        raise RenderError(f"could not render the animation to {out}: {type(e).__name__}: {e}") from e
+    except OSError as e:
+        if e.errno in _DISK_ERRNOS:  # a full disk, a folder that refuses the file: an I/O error (exit 8), named
+            raise OSError(e.errno, e.strerror or str(e), str(out)) from e
+        raise RenderError(f"could not render the animation to {out}: {type(e).__name__}: {e}") from e
     except Exception as e:  # noqa: BLE001 -- turn any backend/encoder failure into one clear message
         raise RenderError(f"could not render the animation to {out}: {type(e).__name__}: {e}") from e
     finally:  # a failure or Ctrl-C: no partial file is left behind
