@@ -168,3 +168,22 @@ def test_files_that_share_a_problem_name_each_show_their_own_figures(tmp_path, p
     for r in cmp.rows:  # each ratio against its own file's first planner
         ref = next(x for x in cmp.rows if x["file"] == r["file"] and x["planner"] == "heuristic")
         assert r["makespan_vs_heuristic"] == pytest.approx(r["makespan"] / ref["makespan"])
+
+
+def test_ctrl_c_while_the_figures_are_drawn_keeps_the_planners_that_finished(tmp_path, monkeypatch):
+    """(Ctrl-C after every planner had finished, while the figures were drawn, wrote a report of
+    'the 0 of 1 problem files that finished' over the earlier full one.)"""
+    import coplan.report.comparison as comparison
+    from coplan.problem import default_problem_path
+
+    def figures_interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(comparison, "_figures", figures_interrupted)
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        compare(default_problem_path().with_name("single_arm.yaml"), PLANNERS, out, figures=True)
+    doc = json.loads((out / "compare.json").read_text())
+    assert [r["planner"] for r in doc["rows"]] == list(PLANNERS) and doc["aggregate"]["heuristic"]["runs"] == 1
+    assert any("interrupted while drawing the figures of single_arm.yaml: every planner of it finished" in n
+               for n in doc["notes"]), doc["notes"]

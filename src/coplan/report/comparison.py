@@ -228,6 +228,7 @@ def compare(
         def ran(j: int, what: str) -> None:
             tick(Tick("compare", k * len(specs) + j, runs, "runs", note=f"{path.stem}: {what}"))
 
+        entry = None
         try:
             entry, rows, plans = _compare_problem(path, specs, out, options, say, single, ran, nested(progress))
             problem = entry.pop("_problem", None)
@@ -235,6 +236,13 @@ def compare(
                 ran(len(specs), "figures")
                 _figures(problem, plans, out / path.stem, cmp)
         except KeyboardInterrupt as e:
+            if entry is not None:  # every planner finished, the figures were being drawn: the rows are kept
+                cmp.problems.append(entry)
+                cmp.rows += rows
+                cmp.notes.append(f"interrupted while drawing the figures of {path.name}: every planner of it finished "
+                                 f"(in this report, with the {k} problem files before it); its figures are not all drawn")
+                _write_report(cmp, specs, out)
+                raise KeyboardInterrupt from None
             note = (f"interrupted while comparing {path.name}: this report covers the {k} of {len(files)} problem files "
                     "that finished")
             if isinstance(e, _Cut) and e.rows:  # what finished of the interrupted one is kept too
