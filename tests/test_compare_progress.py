@@ -187,3 +187,17 @@ def test_ctrl_c_while_the_figures_are_drawn_keeps_the_planners_that_finished(tmp
     assert [r["planner"] for r in doc["rows"]] == list(PLANNERS) and doc["aggregate"]["heuristic"]["runs"] == 1
     assert any("interrupted while drawing the figures of single_arm.yaml: every planner of it finished" in n
                for n in doc["notes"]), doc["notes"]
+
+
+def test_a_full_disk_stops_compare_as_an_io_error_not_a_failed_planner(tmp_path, monkeypatch):
+    """(A full disk read 'crossing-paths: coordinated failed: OSError: No space left on device', exit 7.)"""
+    from coplan.problem import default_problem_path
+
+    def full(problem, **kw):
+        raise OSError(28, "No space left on device", str(tmp_path / "out"))
+
+    monkeypatch.setattr(pipeline, "solve", full)
+    r = CliRunner().invoke(app, ["compare", str(default_problem_path().with_name("single_arm.yaml")), "-p", "heuristic",
+                                 "--out", str(tmp_path / "out")])
+    assert r.exit_code == int(ExitCode.IO_ERROR) and "No space left on device" in r.output, r.output
+    assert str(tmp_path / "out") in " ".join(r.output.split())

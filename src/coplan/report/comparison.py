@@ -18,6 +18,7 @@ several problems the report aggregates per planner: counts, medians and worst ca
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
@@ -345,6 +346,12 @@ def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, s
             row = _row_of(problem, spec, res, lb_cache)
         except KeyboardInterrupt:
             raise _Cut(entry, mine()) from None
+        except OSError as e:
+            if e.errno in (errno.ENOSPC, errno.EDQUOT, errno.EROFS):  # the disk, not the planner: exit 8, named
+                raise  # (a full disk was 'coordinated failed', exit 7, and the next planner met it again)
+            rows.append({"problem": problem.name, "planner": spec.label, "status": None, "error": f"{type(e).__name__}: {e}"})
+            say(f"{problem.name}: {spec.label} failed: {e}")
+            continue
         except Exception as e:  # noqa: BLE001 -- a planner failing in any way (even a bug) is a row; the run goes on
             rows.append({"problem": problem.name, "planner": spec.label, "status": None, "error": f"{type(e).__name__}: {e}"})
             say(f"{problem.name}: {spec.label} failed: {e}")
