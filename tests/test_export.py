@@ -218,3 +218,13 @@ def test_an_export_too_coarse_for_the_motion_says_how_far_a_controller_would_dep
     said = " ".join(run("export", str(plan_path), "--rate", "0.001").stderr.split())
     assert "note: at 0.001 Hz a controller following these points" in said and "departs from the plan by up to" in said
     assert "note" not in run("export", str(plan_path), "--rate", "100").stderr
+
+
+def test_the_default_name_of_an_export_at_a_fractional_rate_keeps_its_rate(single_plan, tmp_path):
+    """(``--rate 12.5`` wrote plan_12.csv, and 0.5 Hz and 0.2 Hz both plan_0.csv, the second over the first.)"""
+    plan_path = tmp_path / "plan.json"
+    plan_path.write_text(json.dumps(single_plan.to_dict()))
+    for rate in ("12.5", "0.5", "0.2"):
+        res = run("export", str(plan_path), "--rate", rate)
+        assert res.exit_code == 0 and res.output.strip().endswith(f"plan_{rate}hz.csv"), res.output
+    assert sorted(p.name for p in tmp_path.glob("plan_*")) == ["plan_0.2hz.csv", "plan_0.5hz.csv", "plan_12.5hz.csv"]

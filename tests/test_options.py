@@ -181,3 +181,15 @@ def test_ipopt_settings_changed_after_the_options_were_made_are_refused_before_a
     problem = load_problem(next(p for p in shipped_problems() if p.name == "single_arm.yaml"))
     with pytest.raises(OptionsError, match=r"as changed since it was made.*ipopt.ipopt.max_iter.*found 'lots'"):
         plan_optimal(problem, options=o)
+
+
+def test_the_coordinated_planners_options_are_recorded_in_the_plan(tmp_path):
+    """(``--planner coordinated --time-limit 5`` or ``--options`` left solver.options out of plan.json:
+    the run could not be made again from its file.)"""
+    from coplan.problem import default_problem_path
+
+    r = CliRunner().invoke(app, ["solve", str(default_problem_path().with_name("single_arm.yaml")), "--planner", "coordinated",
+                                 "--time-limit", "5", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    opts = json.loads((tmp_path / "o" / "plan.json").read_text())["solver"]["options"]
+    assert opts["time_limit"] == 5.0 and "margin" in opts

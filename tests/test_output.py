@@ -360,3 +360,17 @@ def test_a_ctrl_c_while_a_run_is_written_is_answered_once_it_is_whole(tmp_path):
     # the run whole, then Ctrl-C answered (a KeyboardInterrupt)
     assert "interrupted after ['.coplan-run', 'plan.json']" in p.stdout, (p.stdout, p.stderr)
     assert p.returncode == 0 and "Traceback" not in p.stderr
+
+
+def test_what_coplan_made_of_a_runs_baseline_moves_with_the_run(tmp_path):
+    """(A second run left baseline_100hz.csv, baseline_gantt.png, baseline.html and baseline.gif
+    of the first beside its own baseline.json: files of another problem, looking current.)"""
+    out = tmp_path / "run"
+    solve(_single(), planner="heuristic", out_dir=out)
+    made = ["baseline_100hz.csv", "baseline_12.5hz.csv", "baseline_gantt.png", "baseline.html", "baseline.gif", "plan_0.5hz.csv"]
+    for name in made:
+        (out / name).write_text("made by coplan from the first run")
+    (out / "baseline.xlsx").write_text("mine")  # (the user's: stays)
+    second = solve(_single(), planner="coordinated", out_dir=out)
+    assert all((second.previous / name).exists() and not (out / name).exists() for name in made)
+    assert (out / "baseline.xlsx").read_text() == "mine"

@@ -34,15 +34,15 @@ MARKER = ".coplan-run"  # written into every run folder
 # baseline.xlsx is theirs, never moved or removed -- and what coplan writes beside a plan by
 # default (`coplan export`: plan_<rate>hz.csv, or that folder of per-arm files; `coplan plot`:
 # plan_<kind>.png), which would otherwise stay beside the next run's plan, stale
-_OURS = re.compile(r"plan\.(json|csv|npz|html|gif|mp4)|baseline\.(json|csv|npz)|verification\.json|run\.json|live\.gif"
-                   r"|\.coplan-run|plan_[0-9.]+hz(\.csv)?|plan_(gantt|clearance|joints|workspace)\.(png|svg|pdf)")
+_OURS = re.compile(r"(plan|baseline)\.(json|csv|npz|html|gif|mp4)|verification\.json|run\.json|live\.gif"
+                   r"|\.coplan-run|(plan|baseline)_[0-9.]+hz(\.csv)?|(plan|baseline)_(gantt|clearance|joints|workspace)\.(png|svg|pdf)")
 
 
 def _ours(p: Path) -> bool:
     """Whether ``p`` (in a run folder) is a file of coplan's, or an export's folder of per-arm files."""
     if not _OURS.fullmatch(p.name):
         return False
-    return p.is_dir() == (p.name.startswith("plan_") and p.name.endswith("hz"))
+    return p.is_dir() == (p.name.startswith(("plan_", "baseline_")) and p.name.endswith("hz"))
 
 
 class OutputError(CoplanError, ValueError):

@@ -7,8 +7,9 @@ unless the independent verifier passed it and every reachable fruit was harveste
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass, field
 from collections.abc import Mapping
+from dataclasses import dataclass, field
+from dataclasses import fields as dataclass_fields
 from pathlib import Path
 
 from .allocate.allocation import AllocationMethod, allocate
@@ -315,6 +316,8 @@ def solve(
         ) if options is not None else None
         res = plan_coordinated(prob, allocation=method, options=copts, progress=say)
         plan, ver = res.plan, res.verification
+        if copts is not None:  # (as the optimal planner's: the run can be made again from its file)
+            plan.solver["options"] = {f.name: getattr(copts, f.name) for f in dataclass_fields(copts)}
         timings.update(res.timings)
     else:
         from .planners.optimal.planner import plan_optimal

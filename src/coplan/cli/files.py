@@ -64,7 +64,7 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         raise Failure(ExitCode.USAGE, f"--rate: {e}") from None
     if out is None:
         stem = plan_path.with_name(f"{plan_path.stem}_{rate:g}hz")
-        out = stem.with_suffix(".csv") if fmt == ExportFormat.CSV else stem
+        out = stem.with_name(stem.name + ".csv") if fmt == ExportFormat.CSV else stem  # (with_suffix took ".5hz" of 12.5 Hz for one)
     if fmt == ExportFormat.CSV and (isinstance(out, _FolderOut) or out.is_dir()):  # into the folder
         out = Path(out) / f"{plan_path.stem}_{rate:g}hz.csv"
         if out.is_dir():

@@ -112,9 +112,13 @@ def print_row_summary(console, res) -> None:
     p(f"  fruit per hour    {r.get('fruit_per_hour', 0):.0f} (per arm: "
       + ", ".join(f"{safe(a)} {v:.0f}" for a, v in (r.get("fruit_per_hour_per_arm") or {}).items()) + ")")
     lb = r.get("lower_bound") or {}
-    p(f"  row time          {fmt(r.get('row_time'), ' s')}   ({fmt(r.get('time_per_metre'), ' s/m')}; lower bound "
-      f"{fmt(lb.get('any_plan'), ' s')} for any plan, ratio {fmt(r.get('ratio_any_plan_bound'), '', 3)}; "
-      f"{fmt(lb.get('stop_and_go'), ' s')} stop by stop, ratio {fmt(r.get('ratio_stop_and_go_bound'), '', 3)})")
+    if res.plan.status.value == "interrupted":  # (a part of the row against the whole row's bounds read 0.271)
+        p(f"  row time          {fmt(r.get('row_time'), ' s')} for the part planned before the interruption (the "
+          f"whole row's lower bound {fmt(lb.get('any_plan'), ' s')} for any plan; no ratio for a part)")
+    else:
+        p(f"  row time          {fmt(r.get('row_time'), ' s')}   ({fmt(r.get('time_per_metre'), ' s/m')}; lower bound "
+          f"{fmt(lb.get('any_plan'), ' s')} for any plan, ratio {fmt(r.get('ratio_any_plan_bound'), '', 3)}; "
+          f"{fmt(lb.get('stop_and_go'), ' s')} stop by stop, ratio {fmt(r.get('ratio_stop_and_go_bound'), '', 3)})")
     shares = (f"carriage moving {fmt(100 * r.get('carriage_moving_share', 0), ' %', 1)} of the row time, some arm picking "
               f"{fmt(100 * r.get('picking_share', 0), ' %', 1)}")
     if moving:
