@@ -16,9 +16,8 @@ import typer
 from rich.console import Console
 
 from .checks import between, in_path, out_path
-from .failures import work_done
 from .console import ProgressDisplay
-from .failures import check_out_dir, check_out_file, check_overwrite, resolve_problem, usage
+from .failures import check_out_dir, check_out_file, check_overwrite, resolve_problem, usage, work_done
 from .summary import safe as _safe
 from ..errors import plural
 from ..kinds import ExitCode, GantryMode, LiveGantryMode, PlanStatus
