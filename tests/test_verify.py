@@ -601,3 +601,61 @@ def test_verify_takes_paths_and_says_what_it_expects(tmp_path):
         verify(problem, plan, fcll="off")
     with pytest.raises(TypeError, match="options: expected VerifyOptions, a mapping of its fields or None, found str"):
         verify(problem, plan, "full")
+
+
+# ---------------------------------------------------------------------------- grids finer than 100 Hz
+def _scurves_at(problem: Problem, rate: float) -> Plan:
+    arm = problem.arms[0]
+    rng = np.random.default_rng(3)
+    pieces, t, cur = [], 0.05, np.asarray(arm.home, float)
+    for _ in range(6):
+        nxt = np.clip(cur + rng.normal(0, 0.6, 2), -2.9, 2.9)
+        s = SCurve.between(cur, nxt, arm.max_velocity, arm.max_acceleration, arm.max_jerk)
+        pieces.append(Piece(t, t + s.duration, s.eval))
+        t += s.duration + 0.1
+        cur = nxt
+    pieces.append(Piece(t, t + 1.0, SCurve.between(cur, np.asarray(arm.home, float), arm.max_velocity, arm.max_acceleration,
+                                                   arm.max_jerk).eval))
+    times = np.arange(int((t + 1.2) * rate) + 1) / rate
+    return Plan(problem.name, PlannerKind.OPTIMAL, PlanStatus.UNVERIFIED, times,
+                {arm.name: sample_pieces(pieces, arm.home, times)}, [], {}, [])
+
+
+def test_a_finer_grid_earns_no_larger_rounding_allowance():
+    """At 1 kHz the 1e-7 rad rounding allowance of the 100 Hz grid would be 400 rad/s^3 of
+    jerk: a plan stored at full precision is checked to its floating point, one rounded to
+    1e-7 rad is reported as not checkable, and a wiggle over the acceleration limit fails."""
+    problem = load_problem(shipped("single_arm.yaml"))
+    arm = problem.arms[0]
+    plan = _scurves_at(problem, 1000.0)
+    ver = verify(problem, plan)
+    assert not kinds(ver) & {ViolationKind.VELOCITY, ViolationKind.ACCELERATION, ViolationKind.JERK}, ver.violations[:3]
+    # 1.5 x the acceleration limit of joint 1 over 0.2 s, a 2 ms wiggle: caught at full precision
+    w = 2000.0
+    wiggle = 1.5 * arm.max_acceleration[0] / w**2 * np.sin(w * plan.time) * ((plan.time > 0.5) & (plan.time < 0.7))
+    q = plan.q[arm.name].copy()
+    q[:, 0] += wiggle
+    bad = verify(problem, Plan(plan.problem, plan.planner, plan.status, plan.time, {arm.name: q}, [], {}, []))
+    acc = [v for v in bad.violations if v.kind == ViolationKind.ACCELERATION]
+    assert acc and all(0.45 < v.t < 0.75 for v in acc) and max(v.value for v in acc) > 1.3 * arm.max_acceleration[0]
+    # the clean plan rounded as plan.json rounds: the limits it cannot resolve fail, said so
+    rounded = Plan(plan.problem, plan.planner, plan.status, plan.time, {arm.name: np.round(plan.q[arm.name], 7)}, [], {}, [])
+    v2 = verify(problem, rounded)
+    unresolved = [v for v in v2.violations if "not checkable" in v.message]
+    assert not v2.passed and {v.kind for v in unresolved} == {ViolationKind.JERK}  # (acceleration: 0.2 rad/s^2, 2.5 %)
+    assert all("1000 Hz" in v.message and "100 Hz grid" in v.message for v in unresolved)
+    # the 100 Hz grid keeps its allowance: the same motion rounded there passes
+    at100 = _scurves_at(problem, 100.0)
+    at100 = Plan(at100.problem, at100.planner, at100.status, at100.time, {arm.name: np.round(at100.q[arm.name], 7)}, [], {}, [])
+    assert not kinds(verify(problem, at100)) & {ViolationKind.VELOCITY, ViolationKind.ACCELERATION, ViolationKind.JERK}
+
+
+def test_a_fruit_picked_twice_is_reported_at_its_second_pick_with_both(two_arms):
+    plan = scurve_plan(two_arms, {"west": ["w1", "w2"], "east": ["e1"]})
+    first = next(e for e in plan.events if e.kind == EventKind.PICK and e.fruit == "w2")
+    again = Event("west", "w2", EventKind.PICK, first.t_start + 0.5, first.t_end + 0.5)
+    ver = verify(two_arms, Plan(plan.problem, plan.planner, plan.status, plan.time, plan.q, plan.events + [again], {}, []))
+    dup = [v for v in ver.violations if v.kind == ViolationKind.DUPLICATE_PICK]
+    assert len(dup) == 1 and dup[0].t == pytest.approx(again.t_start)
+    assert f"{first.t_start:.3f}" in dup[0].message and f"{again.t_start:.3f}" in dup[0].message
+

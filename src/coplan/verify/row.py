@@ -36,7 +36,7 @@ from ..errors import Issue, PlanFileError
 from ..plan import EventKind, Plan
 from ..problem.model import Problem
 from .clearance import runs
-from .verdict import Verification, Violation, ViolationKind
+from .verdict import UNCHECKABLE_SHARE, Verification, Violation, ViolationKind, rounding_allowance
 
 __all__ = ["check_row_inputs", "check_carriage", "row_reachable_ids", "plan_source"]
 
@@ -89,8 +89,17 @@ def check_carriage(problem: Problem, plan: Plan, opts, ver: Verification) -> Non
                                        ("jerk", g.max_jerk)), start=1):
         diff = np.abs(np.diff(pad, n=k)) / dt ** k
         centre = np.clip(0.5 * (tp[:-k] + tp[k:]), 0.0, t[-1])
-        bound = limit * (1.0 + opts.rel_tolerance) + 2.0 ** (k - 1) * res / dt ** k
+        allow = rounding_allowance(x, res, dt, k)
+        bound = limit * (1.0 + opts.rel_tolerance) + allow
         ver.peaks.setdefault("carriage", {})[what] = float(diff.max() / limit) if diff.size else 0.0
+        if dt < 0.01 - 1e-12 and allow > UNCHECKABLE_SHARE * limit:  # (finer than 100 Hz, on the 1e-7 lattice)
+            ver.violations.append(Violation(ViolationKind.CARRIAGE, ("carriage",), 0.0, float(allow), float(allow), float(limit),
+                                            0.0, float(t[-1]), message=(
+                                                f"carriage {what} not checkable: positions stored to {res:g} m on a "
+                                                f"{1.0 / dt:.4g} Hz grid carry up to {allow:.3g} of rounding in their {what}, "
+                                                f"{100.0 * allow / limit:.0f} % of the limit; write the plan at full precision "
+                                                f"or on the 100 Hz grid")))
+            continue
         for a, b in runs(diff > bound):
             w = a + int(np.argmax(diff[a:b + 1]))
             ver.violations.append(Violation(ViolationKind.CARRIAGE, ("carriage",), float(centre[w]), float(diff[w] - limit),

@@ -34,7 +34,29 @@ __all__ = [
     "PairClearance",
     "Verification",
     "report_path",
+    "rounding_allowance",
+    "UNCHECKABLE_SHARE",
 ]
+
+#: A finite-difference limit check on a grid finer than 100 Hz whose rounding allowance exceeds
+#: this share of the limit certifies too little: the limit is reported as not checkable there
+#: (1e-7 rad on a 200 Hz grid: 3.2 rad/s^3 of jerk, 4 % of an 80 rad/s^3 limit; at 1 kHz 400).
+UNCHECKABLE_SHARE = 0.05
+
+
+def rounding_allowance(values: np.ndarray, resolution: float, dt: float, k: int) -> float:
+    """What rounding the stored ``values`` to ``resolution`` (plan.json and plan.csv keep 1e-7)
+    can add to a k-th difference over ``dt^k``: ``2^(k-1) resolution / dt^k``. On the 100 Hz
+    grid coplan plans on (or coarser) that allowance always applies (0.4 rad/s^3 at most). On a
+    finer grid it grows as ``dt^-k`` (400 rad/s^3 at 1 kHz), so it applies only where the values
+    really sit on the ``resolution`` lattice; values stored at full precision get the allowance
+    of their floating point (about 1e-15 of their size) instead."""
+    if dt >= 0.01 - 1e-12:
+        return 2.0 ** (k - 1) * resolution / dt ** k
+    v = np.asarray(values, float)
+    on = v.size == 0 or bool(np.all(np.abs(v / resolution - np.rint(v / resolution)) <= 1e-3))
+    r = resolution if on else 8.0 * np.finfo(float).eps * max(1.0, float(np.max(np.abs(v), initial=0.0)))
+    return 2.0 ** (k - 1) * r / dt ** k
 
 
 class ViolationKind(str, Enum):
