@@ -223,3 +223,22 @@ def test_near_intervals_by_a_sort_on_x_are_those_a_test_of_every_sample_finds():
         close = np.hypot(*(tip - p).T) <= r
         want = np.flatnonzero(close[:-1] | close[1:])
         assert np.array_equal(near_intervals(tip, np.argsort(tip[:, 0], kind="stable"), p, r), want)
+
+
+def test_an_arm_resting_over_its_bin_after_its_last_place_does_not_stretch_the_makespan(single_arm) -> None:
+    """(Found by a new user: an on-the-move plan.csv, whose arms rest over their bins to the
+    row's end, read a makespan 1.4 s longer than its plan.json: the inferred place spanned the
+    whole rest.) An inferred place lasts its dwell from the hold's start."""
+    from coplan.planners.heuristic import plan_heuristic
+
+    plan = plan_heuristic(single_arm)
+    place = max((e for e in plan.events if e.kind == EventKind.PLACE), key=lambda e: e.t_end)
+    k = int(round(place.t_end / plan.dt))
+    arm = single_arm.arms[0].name
+    q = np.vstack([plan.q[arm][:k + 1], np.repeat(plan.q[arm][k:k + 1], 200, axis=0)])  # 2 s more over the bin
+    rest = Plan(plan.problem, plan.planner, PlanStatus.UNVERIFIED, np.arange(q.shape[0]) * plan.dt, {arm: q}, [], {}, [])
+    ver = verify(single_arm, rest)
+    places = [e for e in ver.inferred_events if e.kind == EventKind.PLACE]
+    assert len(places) == 1 and not {v.kind for v in ver.violations} & {ViolationKind.PLACE_DWELL, ViolationKind.PLACE_MISSED}
+    assert places[0].t_end - places[0].t_start == pytest.approx(single_arm.task.place_dwell + 2 * plan.dt, abs=1e-9)
+    assert places[0].t_end <= place.t_end + 2 * plan.dt + 1e-9 < rest.time[-1] - 1.9

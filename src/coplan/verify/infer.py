@@ -13,7 +13,9 @@ least the dwell less ``dwell_tolerance``. Holds are taken in time order over all
   at rest or moving, as the verifier checks a declared pick (:mod:`coplan.verify.hold`);
 * the next hold over the arm's bin is its **place**.
 
-Each inferred event spans its whole hold, so the verifier then checks it like a declared one.
+Each inferred pick spans its whole hold, a place its dwell and two samples from the hold's start
+(an arm may rest over its bin long after: the plan's makespan is not that rest), so the verifier then checks
+each like a declared one.
 Part of the verifier: it uses no planner code.
 """
 
@@ -88,7 +90,10 @@ def infer_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: V
                 near = still
             holds += [(t0, t1, arm.name, EventKind.PICK, f.id)
                       for t0, t1 in _holds(m, tip, time, f.position, task.pick_dwell - dwell_tol, opts, row, near)]
-        holds += [(t0, t1, arm.name, EventKind.PLACE, None)
+        # a place lasts its dwell (and two samples: an arm settling within the tolerance before
+        # it is still) from the hold's start: an arm may rest over its bin long after (on the
+        # move, to the row's end), and the fruit was dropped once the dwell was over
+        holds += [(t0, min(t1, t0 + task.place_dwell + 2.0 * plan.dt), arm.name, EventKind.PLACE, None)
                   for t0, t1 in _holds(m, tip, time, bin_track(arm.bin, plan.gantry_x if row else None),
                                        task.place_dwell - dwell_tol, opts, False, still)]
     holds.sort(key=lambda h: (h[0], h[2], h[3] != EventKind.PICK))
