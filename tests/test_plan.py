@@ -15,7 +15,7 @@ from coplan.plan import PLAN_FORMAT, EventKind, Plan, PlanStatus, load_plan
 from coplan.problem import Problem
 
 ISSUE_KEYS = {"format", "problem", "planner", "status", "time", "arms", "events", "unreachable", "metrics"}
-EXTRA_KEYS = {"allocation", "solver", "verification"}  # optional fields beside the issue's
+EXTRA_KEYS = {"allocation", "solver", "verification", "software"}  # optional fields beside the issue's
 
 
 @pytest.fixture(scope="module")
@@ -269,3 +269,26 @@ def test_a_plan_read_back_equals_the_plan_and_a_rows_npz_keeps_the_carriage(tmp_
     npz = np.load(tmp_path / "row" / "plan.npz")
     assert sorted(npz) == ["gantry_x", "q_arm1", "q_arm2", "time"]
     assert np.array_equal(npz["gantry_x"], res.plan.gantry_x)
+
+
+def test_a_plan_file_records_the_software_that_made_it_and_keeps_it(tmp_path, problems_dir):
+    """(A reproducibility trial found no version in plan.json: pyproject asks only for minimum
+    versions, so a later install may plan differently, and COPLAN_OPENBLAS_CORETYPE=native may.)"""
+    import json
+    from dataclasses import replace
+
+    import coplan
+    from coplan.plan import load_plan
+
+    res = coplan.solve(problems_dir / "crossing_paths.yaml", planner="coordinated", out_dir=tmp_path / "a")
+    data = json.loads((tmp_path / "a" / "plan.json").read_text())
+    sw = data["software"]
+    assert sw["coplan"] == coplan.__version__ and sw["openblas_coretype"] == "Prescott"
+    import numpy, casadi  # noqa: E401
+    assert sw["numpy"] == numpy.__version__ and sw["casadi"] == casadi.__version__
+    plan = load_plan(tmp_path / "a" / "plan.json")
+    assert plan.software == sw
+    # a plan read back and written again keeps what made it, not what wrote it
+    replace(plan, software=dict(sw, numpy="0.0-elsewhere")).save(tmp_path / "b")
+    assert json.loads((tmp_path / "b" / "plan.json").read_text())["software"]["numpy"] == "0.0-elsewhere"
+    assert res.plan.software is None  # (a plan made here: this process's, written when saved)

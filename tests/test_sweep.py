@@ -16,6 +16,8 @@ import textwrap
 from pathlib import Path
 
 import pytest
+
+import coplan
 from typer.testing import CliRunner
 
 pytest.importorskip("distributed")
@@ -133,6 +135,15 @@ def test_bad_problems_are_rows_with_exit_class_bad_input(tmp_path, problems_dir)
     r = CliRunner().invoke(app, ["verify", str(saved.with_suffix(".yaml")), str(saved.with_suffix(".json"))])
     assert r.exit_code == 0, r.output  # the kept plan passes coplan verify on its own
     assert sorted(p.name for p in saved.parent.iterdir()) == [saved.name + ".json", saved.name + ".yaml"]
+    # it names its problem, as a solve's plan does (copied away from its folder it still says which), and
+    # it and the sweep record what made them
+    import hashlib
+
+    kept = json.loads(saved.with_suffix(".json").read_text())
+    assert kept["problem_file"] == {"path": str(saved.with_suffix(".yaml").resolve()),
+                                    "sha256": hashlib.sha256(saved.with_suffix(".yaml").read_bytes()).hexdigest()}
+    meta = json.loads((tmp_path / "out" / "sweep.json").read_text())
+    assert kept["software"]["coplan"] == meta["software"]["coplan"] == coplan.__version__
     for name in ("b_bad.yaml", "c_not_utf8.yaml"):
         r = rows[name]
         assert (r["status"], r["exit_class"], r["exit_code"]) == ("bad input", "bad input", int(ExitCode.BAD_INPUT))

@@ -22,6 +22,7 @@ from .errors import Issue, PlanFileError, coplan_file_kind
 from .output import atomic_file, atomic_text
 from .kinds import EventKind, PlannerKind, PlanStatus
 from .plancsv import CSV_PLANNER, csv_header, read_csv_samples
+from .provenance import software_record
 
 __all__ = [
     "PLAN_FORMAT",
@@ -123,6 +124,7 @@ class Plan:
     verification: dict[str, Any] | None = None
     problem_file: dict[str, str] | None = None  # {"path", "sha256"}: the problem file it was planned from
     gantry_x: np.ndarray | None = None  # (N,) a row plan's carriage position on the time grid, m (None: a cell)
+    software: dict[str, Any] | None = field(default=None, compare=False)  # what made it (a file's; else this process's)
 
     def __repr__(self) -> str:  # (the samples are the bulk: a notebook cell shows what the plan is, not 10^4 numbers)
         mk = self.metrics.get("makespan")
@@ -217,7 +219,8 @@ class Plan:
             "solver": jsonable(self.solver),
             "verification": jsonable(self.verification),
         } | ({"problem_file": dict(self.problem_file)} if self.problem_file else {}) | (
-            {"gantry": {"x": jsonable(np.round(self.gantry_x, 7))}} if self.gantry_x is not None else {})
+            {"gantry": {"x": jsonable(np.round(self.gantry_x, 7))}} if self.gantry_x is not None else {}) | {
+            "software": dict(self.software) if self.software else software_record()}
 
     def save(self, out_dir: str | Path, stem: str = "plan") -> dict[str, Path]:
         """Write ``plan.json`` plus ``plan.csv`` (one row per time) and ``plan.npz`` into the
@@ -637,6 +640,10 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
             if gantry_x is not None and time is not None and gantry_x.size != time.size:
                 bad("gantry.x", f"expected {time.size} positions (one per time), found {gantry_x.size}")
                 gantry_x = None
+    software = data.get("software")
+    if software is not None and not isinstance(software, dict):
+        bad("software", f"expected an object (the versions that made the plan), found {_kind(software)}")
+        software = None
     record = data.get("problem_file")
     if record is not None and not (isinstance(record, dict) and all(isinstance(record.get(k), str) for k in ("path", "sha256"))):
         bad("problem_file", f"expected an object {{path, sha256}} (strings), found {_kind(record)}")
@@ -657,4 +664,5 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
         verification=data.get("verification"),
         problem_file={"path": record["path"], "sha256": record["sha256"]} if record else None,
         gantry_x=gantry_x,
+        software=software,
     )

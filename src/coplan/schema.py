@@ -145,6 +145,9 @@ class PlanFile(BaseModel):
     gantry: GantryTrajectory | None = Field(None, description="a row plan: the carriage's position on the same grid")
     problem_file: ProblemFileRecord | None = Field(
         None, description="the problem file the plan was made from (the plot, animate and view commands find it there)")
+    software: dict[str, str | None] | None = Field(
+        None, description="what made the plan: coplan's version, Python's, the machine, the versions of the libraries "
+                          "that decide a plan (numpy, scipy, casadi, ortools, ruckig, python-fcl) and the OpenBLAS kernel")
 
 
 assert PLAN_FORMAT == "coplan.plan/1", "PlanFile.format must name the format plan.py writes"

@@ -35,6 +35,7 @@ from typing import Any, Callable
 
 from ..kinds import ExitCode, GantryMode, PlannerKind, RowStatus
 from ..errors import Issue
+from ..provenance import software_record
 from .spec import SweepError, SweepItem, SweepSpec
 from .table import RowJournal, read_rows, write_table
 
@@ -418,6 +419,7 @@ def run_sweep(
         "time_limit": time_limit if time_limit is not None else spec.time_limit, "retries": spec.retries,
         "vary": {k: v for k, v in spec.vary.items()}, "fixed": spec.fixed, "options": spec.options,
         "scheduler": scheduler or f"LocalCluster({n_workers} worker processes x 1 thread)", "started": time.time(),
+        "software": software_record(),
     })
     if on_start is not None:
         on_start(outcome)
@@ -447,6 +449,11 @@ def run_sweep(
                 journal.append(row)
                 if plan is not None:  # coplan verify plans/<key>.yaml plans/<key>.json checks it again
                     (out / "plans" / f"{it.key}.yaml").write_text(it.problem_text or "")
+                    # (which problem it solved, as a plan coplan solve writes says: copied away, it still does)
+                    from ..problem.model import text_digest
+
+                    plan["problem_file"] = {"path": str((out / "plans" / f"{it.key}.yaml").resolve()),
+                                            "sha256": text_digest(it.problem_text or "")}
                     _write_json(out / "plans" / f"{it.key}.json", plan)
                 fut.release()
                 outcome.done += 1
