@@ -96,7 +96,8 @@ def print_row_summary(console, res) -> None:
           f"{'verified' if auto[other]['verified'] else 'NOT verified'})")
     out = r.get("screened_out") or {}
     p(f"  fruit             {r.get('harvested')} harvested of {r.get('harvestable')} harvestable "
-      f"({fmt(None if r.get('share_harvested') is None else 100 * r['share_harvested'], ' %', 1)}); of {r.get('fruit')} fruit {len(out)} no carriage position can reach")
+      f"({fmt(None if r.get('share_harvested') is None else 100 * r['share_harvested'], ' %', 1)}); of {r.get('fruit')} fruit {len(out)} screened out"
+      + (f" (no carriage position the screen tries lets a working arm harvest {'it' if len(out) == 1 else 'them'})" if out else ""))
     for fid, why in list(out.items())[:3]:
         p(f"    {safe(why)}")
     if len(out) > 3:
@@ -295,10 +296,12 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
           + "; ".join(f"{k} ({WARNING_WORDS.get(k, k)})" for k in kinds))
     if not ver.violations:
         return
-    table = Table(title=plural(len(ver.violations), "violation"), title_justify="left")
+    table = Table(title=plural(len(ver.violations), "violation") + " (by kind, the arms' contact first; then by time)",
+                  title_justify="left")
     for col in ("kind", "arms", "t (s)", "value", "limit", "detail"):
         table.add_column(col, overflow="fold")
-    for v in ver.violations[:max_rows]:
+    order = {k: i for i, k in enumerate(type(ver.violations[0].kind))}  # (ViolationKind's order: collision, clearance, ...)
+    for v in sorted(ver.violations, key=lambda v: (order[v.kind], v.t))[:max_rows]:
         span = f"{v.t:.3f}" if v.t_start is None or v.t_end is None or v.t_end - v.t_start < 1e-9 else f"{v.t_start:.3f}..{v.t_end:.3f}"
         detail = " ".join(x for x in (f"fruit {v.fruit}" if v.fruit else "", v.message) if x)
         table.add_row(v.kind.value, safe(",".join(v.arms)), span, fmt(v.value, "", 4), fmt(v.limit, "", 4), safe(detail))
