@@ -3,6 +3,8 @@ settle before a pick, and the summaries of such rows (found by trying the projec
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -379,3 +381,104 @@ def test_fewest_stops_are_the_fewest_where_a_fruit_is_served_from_several_stretc
     for path in shipped_rows():
         reach = row_reach(load_problem(path))
         assert [s.x for s in fewest_stops(reach, exact=True)] == [s.x for s in fewest_stops(reach)], path.stem
+
+
+# --------------------------------------------------------------------------- the screen's grid
+def _narrow():
+    """Fruit ``edge`` lies 1.7899 m from east's base when the carriage stands right below it: in
+    reach (1.8 m less the 0.01 m margin) only from 3.007-3.043 m, between the 0.05 m grid's points."""
+    d = gantry_row(length=10.0, density=1.0, seed=0, n_arms=2, spacing=2.5)
+    d["fruits"] = [{"id": "edge", "position": [4.275, 1.7899]}, {"id": "ok", "position": [2.0, 1.0]},
+                   {"id": "high", "position": [5.0, 2.5]}]
+    return parse_problem(to_yaml(d))
+
+
+def test_a_fruit_reachable_only_between_the_grid_s_positions_is_said_so_and_a_finer_grid_plans_it():
+    """(Found by a new user: it read "no carriage position ... lets an arm harvest it; with the
+    carriage at 3.03 m, blocked" -- from where it is in reach.)"""
+    prob = _narrow()
+    east = prob.arm("arm2")
+    why = row_reach(prob).reasons["edge"]
+    assert "narrower than the candidate stops' spacing (0.05 m" in why and "arm2 at 3.00" in why and "--resolution" in why
+    lo, hi = (float(x) for x in why.split("arm2 at ")[1].split(" m")[0].split("-"))
+    for c in (lo, hi):  # the window's ends are in reach; just outside them not
+        assert math.dist((4.275 - c, 1.7899), east.base) <= east.reach - prob.task.reach_margin + 1e-9
+    assert math.dist((4.275 - lo + 0.002, 1.7899), east.base) > east.reach - prob.task.reach_margin
+    # a fruit too high for any position keeps the screen's own reason, at its nearest miss
+    assert "beyond its outer reach" in row_reach(prob).reasons["high"]
+    coarse = plan_row(prob)
+    assert coarse.plan.unreachable == ["edge", "high"] and coarse.plan.metrics["unreachable"] == 2
+    fine = plan_row(prob, RowOptions(resolution=0.01))
+    assert fine.verification.passed and {e.fruit for e in fine.plan.events} == {"edge", "ok"}
+    assert fine.plan.unreachable == ["high"]
+
+
+def test_a_row_plan_lists_what_its_screen_left_out_in_both_modes(tmp_path):
+    import json
+
+    import coplan
+
+    prob = _narrow()
+    for gantry in (GantryMode.STOP_AND_GO, GantryMode.CONTINUOUS):
+        res = coplan.solve(prob, gantry=gantry, out_dir=tmp_path / gantry.value)
+        data = json.loads((tmp_path / gantry.value / "plan.json").read_text())
+        assert data["unreachable"] == ["edge", "high"] == res.plan.unreachable
+        assert data["metrics"]["unreachable"] == 2 and set(data["metrics"]["row"]["screened_out"]) == {"edge", "high"}
+
+
+def test_the_mean_speed_on_the_move_is_over_the_time_the_carriage_moves():
+    """(It divided by the whole cruise, the rest at the start included: 0.185 m/s for a cruise at 0.2.)"""
+    prob = _row()
+    hold = 3.0
+    c = Cruise.of(prob, 0.2, prob.gantry.end, start_hold=hold)
+    assert c.leaves_start == pytest.approx(hold)
+    assert c.moving_seconds == pytest.approx(c.duration - hold)
+    assert c.mean_speed == pytest.approx(prob.gantry.length / (c.duration - hold))
+    assert c.mean_speed < 0.2 < prob.gantry.length / (c.duration - hold - 5.0)  # (the ramps at each end: below the cruise)
+
+
+def test_resolution_on_the_command_line(tmp_path):
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    path = tmp_path / "narrow.yaml"
+    d = gantry_row(length=10.0, density=1.0, seed=0, n_arms=2, spacing=2.5)
+    d["fruits"] = [{"id": "edge", "position": [4.275, 1.7899]}, {"id": "ok", "position": [2.0, 1.0]}]
+    path.write_text(to_yaml(d))
+    run = CliRunner(env={"COLUMNS": "200"}).invoke
+    r = run(app, ["check", str(path)])
+    assert r.exit_code == 5 and "1 harvestable from some carriage position, 1 not" in r.output and "--resolution" in r.output
+    r = run(app, ["check", str(path), "--resolution", "0.01"])
+    assert r.exit_code == 0 and "2 harvestable" in r.output, r.output
+    r = run(app, ["solve", str(path), "--resolution", "0.01", "--out", str(tmp_path / "out")])
+    assert r.exit_code == 0 and "2 harvested of 2 harvestable" in r.output and "0 screened out" in r.output, r.output
+    r = run(app, ["solve", str(path), "--resolution", "0.001", "--out", str(tmp_path / "o2")])
+    assert r.exit_code == 2 and "expected a number in [0.01, 0.5] m, found 0.001" in r.output
+    r = run(app, ["solve", "crossing_paths", "--resolution", "0.01", "--out", str(tmp_path / "o3")])
+    assert r.exit_code == 2 and "stationary cell" in r.output
+
+
+def test_on_the_move_a_fruit_an_arm_free_all_along_could_not_fit_says_so():
+    """(Found by a new user: a long arm 1.6 m from a short one, whose direct moves from its bin
+    sweep through the short one at rest, was said to have passed the fruit 'before its first
+    pick' or 'while waiting for a neighbour'; stop and go, which tucks round, picks them.)"""
+    text = """
+name: long-beside-short
+gantry: {start: 2.0, end: 14.0, max_velocity: 0.4, max_acceleration: 0.3, max_jerk: 3.0, settle: 0.3}
+defaults: {link_radius: 0.04, joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]], max_velocity: [3, 4],
+           max_acceleration: [8, 12], max_jerk: [80, 120], home: [1.0472, 0.7854]}
+arms:
+  - {name: big, links: [1.2, 1.0], base: [-1.6, 0.0], bin: [-1.6, -0.5]}
+  - {name: small, links: [0.8, 0.6], base: [0.0, 0.0], bin: [0.0, -0.5]}
+fruits: [{id: p03, position: [4.0, 2.1]}, {id: p09, position: [8.0, 1.2]}]
+task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
+"""
+    prob = parse_problem(text)
+    moving = plan_moving(prob, MovingOptions(profile="constant", level=0.1))
+    assert moving.verification.passed
+    why = moving.info["left_out"].get("p03")
+    assert why is not None and "big free all that time: no cycle fitted" in why and "--gantry stop-and-go or auto" in why
+    assert "first pick" not in why and "waiting for a neighbour" not in why
+    stop = plan_row(prob)
+    assert stop.verification.passed and "p03" in {e.fruit for e in stop.plan.events}

@@ -179,6 +179,7 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     from .row.continuous import MovingOptions, plan_moving
     from .row.metrics import row_metrics
     from .row.plan import RowOptions, plan_row
+    from .row.reach import DEFAULT_RESOLUTION
 
     mode = GantryMode(gantry or (GantryMode.CONTINUOUS if isinstance(options, MovingOptions) else GantryMode.STOP_AND_GO))
     _options_for(PlannerKind.COORDINATED, options, row=mode)
@@ -188,10 +189,12 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
         if planner is not None and PlannerKind(planner) != PlannerKind.COORDINATED and mode == GantryMode.CONTINUOUS:
             raise ValueError("planner: on the move the arms are planned by the row's own booking of coordinated, "
                              "time-optimal moves; the cell planners apply to stop and go")
-        moving = plan_moving(prob, options if isinstance(options, MovingOptions) else MovingOptions(), progress)
+        moving = plan_moving(prob, options if isinstance(options, MovingOptions) else MovingOptions(
+            resolution=getattr(options, "resolution", DEFAULT_RESOLUTION)), progress)
     if mode != GantryMode.CONTINUOUS:
         # (auto: both modes, the stops' cells in as many processes as the speed search)
-        opts = options if isinstance(options, RowOptions) else RowOptions(workers=getattr(options, "workers", 1))
+        opts = options if isinstance(options, RowOptions) else RowOptions(
+            workers=getattr(options, "workers", 1), resolution=getattr(options, "resolution", DEFAULT_RESOLUTION))
         # the arguments, where given, win over the options' fields (as stops=; the options' own otherwise)
         cell_planner = PlannerKind(planner) if planner is not None else PlannerKind(opts.planner)
         if cell_planner == PlannerKind.HEURISTIC:
@@ -205,6 +208,9 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     bounds = row_bounds(prob)
     plan = res.plan
     plan.metrics["row"] = row_metrics(prob, res, bounds)
+    for a, causes in plan.metrics["row"]["idle_share"].items():  # (a row's idle fraction: the sum of its causes)
+        if a in plan.metrics.get("per_arm", {}):
+            plan.metrics["per_arm"][a]["idle_fraction"] = float(sum(causes.values()))
     plan.metrics["lower_bound"] = bounds.any_plan
     plan.problem_file = prob.file_record()
     timings = dict(res.timings) | {"bounds": bounds.seconds}

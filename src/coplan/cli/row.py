@@ -20,15 +20,15 @@ def strict_json(doc) -> str:
     return json.dumps(jsonable(doc), default=str, allow_nan=False)
 
 
-def check_row(prob, path: Path, as_json: bool, out_console) -> ExitCode:
+def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | None = None) -> ExitCode:
     """``coplan check`` of a row: which fruit some carriage position serves (and why not), the
     arms the screen locks, the carriage span, the stop rules' stop counts and the row's lower bounds."""
     from ..row.bound import row_bounds
-    from ..row.reach import row_reach
+    from ..row.reach import DEFAULT_RESOLUTION, row_reach
     from ..row.stops import carriage_span, fewest_stops, fixed_stops
 
     g = prob.gantry
-    reach = row_reach(prob)
+    reach = row_reach(prob, resolution or DEFAULT_RESOLUTION)
     b = row_bounds(prob)
     doc = {"problem": prob.name, "file": str(path), "arms": len(prob.arms), "fruit": len(prob.fruits),
            "row": {"start": g.start, "end": g.end, "length": g.length},

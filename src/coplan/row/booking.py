@@ -595,11 +595,14 @@ def why_left(booker: Booker, fid: str, halt: dict[int, float]) -> str:
         return f"{fid}: only {arm} could reach it, and {arm} stopped at t = {halt[w.arm]:.1f} s"
     if not math.isfinite(w.hi):
         return f"{fid}: {arm} could still reach it, but no clear cycle was found"
-    if not any(e.arm == arm and e.t_start <= w.hi for e in booker.events):  # (not waiting: nothing done yet)
-        return (f"{fid}: passed {arm}'s reach at t = {w.hi:.1f} s, {max(w.hi - w.lo, 0.0):.1f} s after it came "
-                f"into reach, before {arm}'s first pick")
-    doing = "waiting for a neighbour"
-    for e in booker.events:
-        if e.arm == arm and e.t_start <= w.hi <= e.t_end + 1.5:
+    busy = [e for e in booker.events if e.arm == arm and e.t_start <= w.hi and e.t_end + 1.5 >= w.lo]
+    if not busy:  # free for the whole window: no cycle of its fitted, not a neighbour's turn
+        return (f"{fid}: passed {arm}'s reach at t = {w.hi:.1f} s, {max(w.hi - w.lo, 0.0):.1f} s after it came into "
+                f"reach, {arm} free all that time: no cycle fitted -- its direct moves between its bin and the fruit "
+                f"come within the clearance of a neighbour, or past a limit, at every start tried (on the move an arm "
+                f"does not tuck round a neighbour as the stop-and-go cell planner does: --gantry stop-and-go or auto)")
+    doing = "held: no cycle fitted before the window closed (a neighbour in the way, or a limit)"
+    for e in busy:
+        if e.t_start <= w.hi <= e.t_end + 1.5:
             doing = f"{'picking' if e.kind == EventKind.PICK else 'placing'} {e.fruit}"
     return f"{fid}: passed {arm}'s reach at t = {w.hi:.1f} s while {arm} was {doing}"

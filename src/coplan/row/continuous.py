@@ -42,7 +42,7 @@ from ..workers import process_pool, settle_workers
 from .booking import Booker, branch_table, run_policy, screen_branches
 from .cruise import STRETCH, Cruise, cruise_end, demand_stretches, last_place_bound, pick_windows
 from .plan import RowResult
-from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
+from .reach import DEFAULT_RESOLUTION, RowReach, row_reach, screened_out
 from .starthold import start_hold
 
 __all__ = ["MovingOptions", "assemble_moving", "plan_continuous", "plan_moving", "speed_search", "SpeedPoint", "make_cruise"]
@@ -285,6 +285,7 @@ def _verified(problem: Problem, booker: Booker, cruise: Cruise, reach: RowReach,
     tv = _time.perf_counter()
     ver = verify(problem, plan)
     timings["verify"] = _time.perf_counter() - tv
+    plan.unreachable = screened_out(problem, reach)
     plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
     info["left_out"] = dict(reach.reasons) | left
     info["first_stop_seconds"] = None

@@ -252,9 +252,18 @@ class Cruise:
         return out
 
     @property
+    def moving_seconds(self) -> float:
+        """The carriage's time in motion, s: its duration less its rests (the start hold, holds
+        on the way)."""
+        ends = [p[0] for p in self.phases[1:]] + [self.duration]
+        return float(sum(max(t1 - t0, 0.0) for (t0, _, v, a, j), t1 in zip(self.phases, ends)
+                         if abs(v) > 1e-12 or abs(a) > 1e-12 or abs(j) > 1e-12))
+
+    @property
     def mean_speed(self) -> float:
-        """The carriage's distance over its time in motion, m/s."""
-        return (self.x1 - self.x0) / self.duration if self.duration > 0 else 0.0
+        """The carriage's distance over its time in motion (:attr:`moving_seconds`), m/s."""
+        t = self.moving_seconds
+        return (self.x1 - self.x0) / t if t > 0 else 0.0
 
 
 @dataclass(frozen=True)

@@ -37,7 +37,7 @@ from ..plan import DEFAULT_RATE, Event, EventKind, Plan, compute_metrics, finali
 from ..problem.gantry import cell_at
 from ..problem.model import Problem
 from ..progress import Tick, speaker, ticker
-from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
+from .reach import DEFAULT_RESOLUTION, RowReach, row_reach, screened_out
 from .stops import Stop, StopWindow, fewest_stops, fixed_stops, optimised_stops
 
 __all__ = ["RowOptions", "RowResult", "StopPlan", "plan_row", "assemble"]
@@ -223,6 +223,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     timings["verify"] = _time.perf_counter() - tv
     # as for a cell: success when every fruit some carriage position reaches is harvested (the
     # verifier's own count); a fruit only a locked arm or a blocked pose reaches makes it partial
+    plan.unreachable = screened_out(problem, reach)
     plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
     if interrupted:
         plan.status = PlanStatus.INTERRUPTED  # (the verdict on what it has is in plan.verification)

@@ -23,7 +23,7 @@ from ..allocate.screen import screened, usable_picks
 from ..problem.gantry import cell_at
 from ..problem.model import Problem
 
-__all__ = ["RowReach", "row_reach", "robust_end", "locked_arms", "DEFAULT_RESOLUTION"]
+__all__ = ["RowReach", "row_reach", "robust_end", "locked_arms", "screened_out", "DEFAULT_RESOLUTION"]
 
 #: Spacing of the candidate carriage positions, m.
 DEFAULT_RESOLUTION = 0.05
@@ -119,8 +119,14 @@ def row_reach(problem: Problem, resolution: float = DEFAULT_RESOLUTION, fruit_id
         if cover[j].any():
             out.cover[f.id] = cover[j]
         else:
-            out.reasons[f.id] = _why(problem, f)
+            out.reasons[f.id] = _why(problem, f, resolution, cell)
     return out
+
+
+def screened_out(problem: Problem, reach: RowReach) -> list[str]:
+    """The fruit the screen found no carriage position for (file order): a row plan's
+    ``unreachable``, as a cell plan's lists what its screen left out."""
+    return [f.id for f in problem.fruits if f.id in reach.reasons]
 
 
 def locked_arms(cell: Problem) -> dict[str, str]:
@@ -131,14 +137,44 @@ def locked_arms(cell: Problem) -> dict[str, str]:
     return {a: scr.reasons[a] for a in scr.locked}
 
 
-def _why(problem: Problem, f) -> str:
-    """Why no carriage position serves fruit ``f``: the screen's sentence with the carriage
-    where the fruit comes nearest above some arm's base (on the rail)."""
+def _why(problem: Problem, f, resolution: float, cell: Problem) -> str:
+    """Why no grid position serves fruit ``f``. Where some arm harvests it from a carriage
+    position between the grid's (a window narrower than the grid's spacing, found on a 1 mm
+    scan), that window; else the screen's sentence with the carriage where the fruit comes
+    nearest some arm's reach (the arm it misses by least, on the rail)."""
     g = problem.gantry
-    c = min(((abs(f.position[0] - min(max(f.position[0] - a.base[0], g.start), g.end) - a.base[0]),
-              min(max(f.position[0] - a.base[0], g.start), g.end)) for a in problem.arms))[1]
+    fx, fy = f.position
+    windows = []
+    for a, arm in enumerate(problem.arms):
+        lo, hi = max(fx - arm.base[0] - arm.reach, g.start), min(fx - arm.base[0] + arm.reach, g.end)
+        if hi < lo:
+            continue
+        cs = np.linspace(lo, hi, max(2, int(math.ceil((hi - lo) / 1e-3)) + 1))
+        d = np.hypot(fx - cs - arm.base[0], fy - arm.base[1])
+        m = problem.task.reach_margin
+        cs = cs[(d <= arm.reach - m) & (d >= arm.inner_radius + m)]  # (only where the annulus holds: a fruit too high costs nothing)
+        if not cs.size:
+            continue
+        ok = usable_picks(cell, np.c_[fx - cs, np.full(cs.size, fy)], arms=(a,))[a].any(axis=-1)
+        if ok.any():
+            windows.append((arm.name, float(cs[ok][0]), float(cs[ok][-1])))
+    rail = f"the rail [{g.start:g}, {g.end:g}] m"
+    if windows:
+        wide = max(hi - lo for _, lo, hi in windows)
+        finer = max(math.floor(wide * 1000.0) / 1000.0, 0.001)
+        hint = f"candidate stops every {finer:g} m or closer put one in it: --resolution, RowOptions.resolution"
+        return (f"{f.id}: no candidate stop serves it: an arm harvests it only with the carriage within a "
+                f"window narrower than the candidate stops' spacing ({resolution:g} m along {rail}): "
+                f"{', '.join(f'{n} at {lo:.3f}-{hi:.3f} m' for n, lo, hi in windows)} ({hint})")
+
+    def miss(arm, c):  # how far the fruit lies outside the arm's reach annulus (less the margin)
+        d = math.hypot(fx - c - arm.base[0], fy - arm.base[1])
+        m = problem.task.reach_margin
+        return max(d - (arm.reach - m), (arm.inner_radius + m) - d, 0.0)
+
+    c = min((miss(a, c), c) for a in problem.arms for c in [min(max(fx - a.base[0], g.start), g.end)])[1]
     why = screened(cell_at(problem, c, (f.id,))).reasons.get(f.id, f"{f.id}: blocked")
-    return (f"{f.id}: no carriage position on the rail [{g.start:g}, {g.end:g}] m lets an arm harvest it; "
+    return (f"{f.id}: no carriage position on {rail} lets an arm harvest it; "
             f"with the carriage at {c:.2f} m, {why.split(': ', 1)[1]}")
 
 
