@@ -232,7 +232,7 @@ CASES = [
      ["expected a bin its arm 'center' can reach", "found [0.0, -2.5] at 2.500 m"]),
     ("bin-inside-annulus",
      lambda t: edit(t, CENTER, "{name: center, base: [0.0, 0.0],  bin: [0.0, -0.1]}"), "arms[1].bin", "name: center",
-     ["found [0.0, -0.1] at 0.100 m", "annulus is [0.200, 1.800] m"]),
+     ["found [0.0, -0.1] at 0.100 m", "radii are [0.219, 1.800] m (the elbow"]),
     ("bin-outside-joint-limits",
      lambda t: edit(t, CENTER, "{name: center, base: [0.0, 0.0],  bin: [0.0, -0.5], joint_limits: [[0, 3.1416], [-3.0416, 3.0416]]}"),
      "arms[1].bin", "name: center", ["IK inside joint limits", "found [0.0, -0.5] at 0.500 m"]),
@@ -547,3 +547,69 @@ def test_lookup_helpers(greenhouse: Problem) -> None:
     with pytest.raises(KeyError):
         greenhouse.fruit("f99")
     assert math.isclose(greenhouse.arms[0].reach, 1.8) and math.isclose(greenhouse.arms[0].inner_radius, 0.2)
+
+
+def test_two_fruit_at_one_position_are_refused_from_a_file_and_from_python():
+    """(Found by a new user: a copied fruit was counted, planned and 'harvested' twice, the
+    second pick closing on nothing; the lower bound and 'proven optimal' counted it too.)"""
+    import dataclasses
+
+    from coplan.problem.model import Fruit
+
+    text = """
+name: dup
+defaults: {links: [1.0, 0.8], link_radius: 0.04, joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]],
+           max_velocity: [3, 4], max_acceleration: [8, 12], max_jerk: [80, 120], home: [1.0472, 0.7854]}
+arms:
+  - {name: a, base: [0, 0], bin: [0, -0.5]}
+fruits:
+  - {id: d1, position: [0.5, 1.0]}
+  - {id: d2, position: [0.5, 1.0]}
+  - {id: d3, position: [0.5, 1.0001]}
+task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
+"""
+    with pytest.raises(ProblemError) as e:
+        parse_problem(text, "dup.yaml")
+    (issue,) = e.value.issues
+    assert issue.path == "fruits[1].position" and issue.line == 9 and "also fruits[0] 'd1'" in issue.message
+    ok = parse_problem(text.replace("  - {id: d2, position: [0.5, 1.0]}\n", ""), "dup.yaml")  # 0.1 mm apart: two fruit
+    assert [f.id for f in ok.fruits] == ["d1", "d3"]
+    with pytest.raises(ProblemError) as e:
+        dataclasses.replace(ok, fruits=ok.fruits + (Fruit("d4", (0.5, 1.0001)),))
+    assert any(i.path == "fruits[2].position" and "also fruits[1]" in i.message for i in e.value.issues)
+
+
+@pytest.mark.parametrize("elbow, radii", [("[-2.5, 2.5]", "[0.607, 1.700]"), ("[-0.3, 0.3]", "[1.682, 1.700]")])
+def test_a_bin_out_of_reach_is_measured_against_the_radii_the_elbow_s_limits_allow(elbow, radii):
+    """(It said 'the reachable annulus is [0.300, 1.700] m' of a bin 0.5 m from the base.)"""
+    text = f"""
+name: binx
+defaults: {{link_radius: 0.04, max_velocity: [3, 4], max_acceleration: [8, 12], max_jerk: [80, 120], home: [1.0, 0.2]}}
+arms:
+  - {{name: x, links: [1.0, 0.7], joint_limits: [[-3, 3], {elbow}], base: [0, 0], bin: [0, -0.5]}}
+fruits: [{{id: f, position: [0.5, 1.0]}}]
+task: {{pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}}
+"""
+    with pytest.raises(ProblemError) as e:
+        parse_problem(text, "bin.yaml")
+    (issue,) = e.value.issues
+    assert issue.path == "arms[0].bin" and f"the reachable radii are {radii} m (the elbow's joint limits" in issue.message
+    arm = parse_problem(text.replace("bin: [0, -0.5]", "bin: [0, -1.69]"), "bin.yaml").arms[0]
+    lo, hi = arm.radii()
+    for q2 in np.linspace(*arm.joint_limits[1], 201):  # the radii are the tip's least and greatest distance
+        r = np.hypot(1.0 + 0.7 * np.cos(q2), 0.7 * np.sin(q2))
+        assert lo - 1e-9 <= r <= hi + 1e-9
+    assert lo == pytest.approx(np.hypot(1.0 + 0.7 * np.cos(arm.joint_limits[1][1]), 0.7 * np.sin(arm.joint_limits[1][1])))
+
+
+def test_a_problem_changed_in_python_whose_homes_overlap_is_refused_when_solved(tmp_path, greenhouse):
+    """(Found by a new user: two bases moved together with dataclasses.replace gave an 'unsafe'
+    plan of 0 s, harvesting nothing, where the same file says why.)"""
+    import coplan
+
+    left, center, right = greenhouse.arms
+    moved = dataclasses.replace(greenhouse, arms=(left, dataclasses.replace(center, base=left.base, bin=left.bin), right))
+    with pytest.raises(ProblemError) as e:
+        coplan.solve(moved, planner="coordinated", out_dir=tmp_path / "out")
+    assert any(i.path == "arms[1].home" and "expected home poses at least the clearance" in i.message for i in e.value.issues)
+    assert not (tmp_path / "out").exists()

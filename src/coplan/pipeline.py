@@ -127,10 +127,11 @@ def _checked_as_a_file(problem: Problem) -> None:
     from .problem.plausible import problem_issues
     from .problem.yamlsafe import path_str
 
-    found = problem_issues(problem)
-    if found:
-        raise ProblemError([Issue(path_str(loc), msg) for loc, msg in found],
-                           f"{problem.source}, as changed in Python" if problem.source else "a problem built in Python")
+    from .problem.model import home_issues
+
+    found = [Issue(path_str(loc), msg) for loc, msg in problem_issues(problem)] + home_issues(problem)
+    if found:  # (home poses too close: a plan 'unsafe' at t = 0 s, where a file says why)
+        raise ProblemError(found, f"{problem.source}, as changed in Python" if problem.source else "a problem built in Python")
 
 
 def _from_mapping(data: Mapping) -> Problem:

@@ -95,6 +95,28 @@ class Arm:
     def can_reach(self, point, margin: float = 0.0) -> bool:
         return bool(np.any(self.ik(point, margin)[1]))
 
+    def radii(self) -> tuple[float, float]:
+        """The least and greatest distance from the base the tip reaches within the elbow's
+        joint limits, m (``[inner_radius, reach]`` when the elbow may fold and stretch fully)."""
+        l1, l2 = self.links
+        lo, hi = self.joint_limits[1]
+        bend = (0.0, max(-lo, hi)) if lo <= 0.0 <= hi else (lo, hi) if lo > 0.0 else (-hi, -lo)  # |q2|
+        def r(q: float) -> float:
+            return math.sqrt(max(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * math.cos(min(q, math.pi)), 0.0))
+        return r(bend[1]), r(bend[0])
+
+    def reach_words(self, point) -> str:
+        """Why ``point`` is out of this arm's reach, for a message: its distance from the base
+        against the radii the elbow's limits allow, or the shoulder's limits."""
+        d = math.dist(self.base, point)
+        lo, hi = self.radii()
+        limited = abs(lo - self.inner_radius) > 1e-9 or abs(hi - self.reach) > 1e-9
+        span = f"[{lo:.3f}, {hi:.3f}] m" + (f" (the elbow's joint limits {list(self.joint_limits[1])} rad)" if limited else "")
+        if lo - 1e-9 <= d <= hi + 1e-9:
+            return (f"at {d:.3f} m from the base, within the reachable radii {span}, but in a direction the "
+                    f"shoulder's joint limits {list(self.joint_limits[0])} rad (with the elbow's) do not reach")
+        return f"at {d:.3f} m from the base; the reachable radii are {span}"
+
 
 def _as_tuples(v: Any) -> Any:
     """A list or array of numbers (or of pairs) as tuples, as a file's are: a list in a frozen,
@@ -427,12 +449,11 @@ def _arm(i: int, spec: ArmSpec, defaults: ArmFieldsSpec, lines: dict, issues: li
         return None
     arm = Arm(name=spec.name, base=spec.base, bin=spec.bin, **merged)
     if not arm.can_reach(arm.bin):
-        r = math.dist(arm.base, arm.bin)
         issues.append(
             Issue(
                 path_str(("arms", i, "bin")),
                 f"expected a bin its arm {arm.name!r} can reach (IK inside joint limits), found {list(arm.bin)} "
-                f"at {r:.3f} m from the base; the reachable annulus is [{arm.inner_radius:.3f}, {arm.reach:.3f}] m",
+                f"{arm.reach_words(arm.bin)}",
                 line_of(lines, ("arms", i, "bin")),
             )
         )
@@ -444,6 +465,7 @@ def _fruits(fruit_specs: list, lines: dict, issues: list) -> list[Fruit]:
     """The fruit with unique ids and plausible positions."""
     fruits: list[Fruit] = []
     seen_ids: dict[str, int] = {}
+    seen_at: dict[tuple[float, float], tuple[int, str]] = {}
     for j, spec in fruit_specs:
         if spec is None:
             continue
@@ -451,8 +473,23 @@ def _fruits(fruit_specs: list, lines: dict, issues: list) -> list[Fruit]:
             continue
         if _implausible("position", spec.position, ("fruits", j, "position"), lines, issues):
             continue
+        at = (float(spec.position[0]), float(spec.position[1]))
+        if at in seen_at:  # (a copy: it would be counted, planned and "harvested" twice)
+            k, first = seen_at[at]
+            issues.append(Issue(path_str(("fruits", j, "position")), f"expected one fruit per position, found {list(at)} "
+                                f"again (also fruits[{k}] {first!r}): a fruit is picked once; remove the copy",
+                                line_of(lines, ("fruits", j, "position"))))
+            continue
+        seen_at[at] = (j, str(spec.id))
         fruits.append(Fruit(id=spec.id, position=spec.position))
     return fruits
+
+
+def home_issues(problem: Problem) -> list[Issue]:
+    """Home poses closer than the clearance, as a file is refused for them (a problem built or
+    changed in Python is held to this when it is planned: :func:`coplan.solve`)."""
+    origins = {i: {"home": ("arms", i, "home")} for i in range(len(problem.arms))}
+    return _home_issues(list(enumerate(problem.arms)), origins, problem.task, {})
 
 
 def _home_issues(arms: list[tuple[int, Arm]], origins: dict, task: Task, lines: dict) -> list[Issue]:
@@ -497,8 +534,7 @@ def _pose_issues(problem: Problem) -> list[Issue]:
                                                          f"(arms[{i}].joint_limits[{j}]), found {a.home[j]}"))
         if not a.can_reach(a.bin):
             out.append(Issue(f"arms[{i}].bin", f"expected a bin its arm {a.name!r} can reach (IK inside joint limits), found "
-                                               f"{list(a.bin)} at {math.dist(a.base, a.bin):.3f} m from the base; the "
-                                               f"reachable annulus is [{a.inner_radius:.3f}, {a.reach:.3f}] m"))
+                                               f"{list(a.bin)} {a.reach_words(a.bin)}"))
     return out
 
 
