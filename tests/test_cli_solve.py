@@ -190,3 +190,12 @@ def test_a_table_into_a_pipe_is_printed_whole():
     text = buf.getvalue()
     assert "certified margin, mm" in text and "12.895" in text and "…" not in text
     assert max(len(line) for line in text.splitlines()) > 80
+
+
+def test_a_plan_that_harvests_more_than_the_screen_allows_says_so():
+    """(The course's heuristic, which does not screen, read '10 harvested of 8 harvestable':
+    two of its picks were a locked arm's, placed only by colliding.)"""
+    from coplan.cli.summary import fruit_line
+
+    assert "(2 more than the screen allows" in fruit_line({"harvested": 10, "harvestable": 8, "fruit": 10})
+    assert "more than" not in fruit_line({"harvested": 8, "harvestable": 8, "fruit": 10})

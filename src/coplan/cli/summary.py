@@ -53,6 +53,9 @@ def fruit_line(m: dict) -> str:
     the unreachable, screened-out and left-out ones by id."""
     ids = m.get("fruit_ids") or {}
     head = f"{m.get('harvested')} harvested of {m.get('harvestable', m.get('reachable'))} harvestable"
+    over = (m.get("harvested") or 0) - (m.get("harvestable", m.get("reachable")) or 0)
+    if over > 0:  # (the course's heuristic does not screen: a locked arm's picks, say, which its violations show)
+        head += f" ({over} more than the screen allows: picks it finds no safe way to make)"
     parts = []
     for key, words in (("unreachable", "unreachable"), ("screened_out", "screened out"), ("left_out", "left out")):
         got = ids.get(key) or []
