@@ -650,6 +650,29 @@ def test_a_finer_grid_earns_no_larger_rounding_allowance():
     assert not kinds(verify(problem, at100)) & {ViolationKind.VELOCITY, ViolationKind.ACCELERATION, ViolationKind.JERK}
 
 
+def test_a_finer_grid_with_an_arm_at_rest_on_the_lattice_is_checked_and_coplan_writes_it_whole(tmp_path, two_arms):
+    """An arm resting at its home (4-decimal angles: on the 1e-7 lattice) beside one that moves:
+    no difference of its is over a limit, so nothing is 'not checkable'; and a plan on a 1 kHz
+    grid, written by coplan (at full precision there), reads back and passes as it did."""
+    plan = scurve_plan(two_arms, {"west": ["w1", "w2"]})
+    west = two_arms.arm("west")
+    fine_t = np.arange(int(plan.time[-1] * 1000) + 1) / 1000.0
+    pieces, t, cur = [], 0.0, np.asarray(west.home, float)
+    for target in (np.asarray(west.home) + [0.6, -0.4], np.asarray(west.home)):
+        s = SCurve.between(cur, target, west.max_velocity, west.max_acceleration, west.max_jerk)
+        pieces.append(Piece(t, t + s.duration, s.eval))
+        t, cur = t + s.duration + 0.2, target
+    q = {"west": sample_pieces(pieces, west.home, fine_t), "east": np.tile(np.asarray(two_arms.arm("east").home), (fine_t.size, 1))}
+    fine = Plan(two_arms.name, PlannerKind.OPTIMAL, PlanStatus.UNVERIFIED, fine_t, q, [], {}, [])
+    ver = verify(two_arms, fine)
+    assert not [v for v in ver.violations if "not checkable" in v.message], ver.violations[:3]
+    assert not kinds(ver) & {ViolationKind.VELOCITY, ViolationKind.ACCELERATION, ViolationKind.JERK}
+    files = fine.save(tmp_path)
+    for name in ("json", "csv"):
+        back = verify(two_arms, load_plan(files[name]))
+        assert not kinds(back) & {ViolationKind.VELOCITY, ViolationKind.ACCELERATION, ViolationKind.JERK}, (name, back.violations[:2])
+
+
 def test_a_fruit_picked_twice_is_reported_at_its_second_pick_with_both(two_arms):
     plan = scurve_plan(two_arms, {"west": ["w1", "w2"], "east": ["e1"]})
     first = next(e for e in plan.events if e.kind == EventKind.PICK and e.fruit == "w2")

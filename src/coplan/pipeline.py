@@ -127,10 +127,10 @@ def _checked_as_a_file(problem: Problem) -> None:
     from .problem.plausible import problem_issues
     from .problem.yamlsafe import path_str
 
-    from .problem.model import home_issues
+    from .problem.model import home_issues, position_issues
 
-    found = [Issue(path_str(loc), msg) for loc, msg in problem_issues(problem)] + home_issues(problem)
-    if found:  # (home poses too close: a plan 'unsafe' at t = 0 s, where a file says why)
+    found = [Issue(path_str(loc), msg) for loc, msg in problem_issues(problem)] + home_issues(problem) + position_issues(problem)
+    if found:  # (home poses too close: a plan 'unsafe' at t = 0 s; a fruit twice: harvested twice -- where a file says why)
         raise ProblemError(found, f"{problem.source}, as changed in Python" if problem.source else "a problem built in Python")
 
 
@@ -209,9 +209,10 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     bounds = row_bounds(prob)
     plan = res.plan
     plan.metrics["row"] = row_metrics(prob, res, bounds)
+    span = plan.metrics.get("makespan") or 0.0
     for a, causes in plan.metrics["row"]["idle_share"].items():  # (a row's idle fraction: the sum of its causes)
         if a in plan.metrics.get("per_arm", {}):
-            plan.metrics["per_arm"][a]["idle_fraction"] = float(sum(causes.values()))
+            plan.metrics["per_arm"][a]["idle_fraction"] = float(sum(causes.values())) if span > 0 else None
     plan.metrics["lower_bound"] = bounds.any_plan
     plan.problem_file = prob.file_record()
     timings = dict(res.timings) | {"bounds": bounds.seconds}

@@ -68,6 +68,10 @@ class Event:
     t_end: float
 
     def to_dict(self) -> dict:
+        # on a grid finer than 100 Hz, full precision: angles rounded to 1e-7 rad there carry more
+        # rounding in their differences than the verifier can tell from a limit (400 rad/s^3 of
+        # jerk at 1 kHz), so the file would fail where the plan passed
+        fine = self.dt < 0.01 - 1e-12
         return {"arm": self.arm, "fruit": self.fruit, "kind": self.kind.value, "t_start": self.t_start, "t_end": self.t_end}
 
 
@@ -124,7 +128,7 @@ class Plan:
     verification: dict[str, Any] | None = None
     problem_file: dict[str, str] | None = None  # {"path", "sha256"}: the problem file it was planned from
     gantry_x: np.ndarray | None = None  # (N,) a row plan's carriage position on the time grid, m (None: a cell)
-    software: dict[str, Any] | None = field(default=None, compare=False)  # what made it (a file's; else this process's)
+    software: dict[str, Any] | None = field(default=None, compare=False)  # what made it (finalize_plan: this process's; a file's)
 
     def __repr__(self) -> str:  # (the samples are the bulk: a notebook cell shows what the plan is, not 10^4 numbers)
         mk = self.metrics.get("makespan")
@@ -153,7 +157,9 @@ class Plan:
         NumPy arrays: a notebook's round-trip check ``load_plan(path) == plan`` could not run)."""
         if not isinstance(other, Plan):
             return NotImplemented
-        return json.dumps(jsonable(self.to_dict()), sort_keys=True) == json.dumps(jsonable(other.to_dict()), sort_keys=True)
+        mine, theirs = self.to_dict(), other.to_dict()
+        mine.pop("software", None), theirs.pop("software", None)  # (what made it: two installs, one plan)
+        return json.dumps(jsonable(mine), sort_keys=True) == json.dumps(jsonable(theirs), sort_keys=True)
 
     __hash__ = None  # type: ignore[assignment]  (mutable: as before)
 
@@ -205,13 +211,17 @@ class Plan:
 
     # ------------------------------------------------------------------ I/O
     def to_dict(self) -> dict:
+        # on a grid finer than 100 Hz, full precision: angles rounded to 1e-7 rad there carry more
+        # rounding in their differences than the verifier can tell from a limit (400 rad/s^3 of
+        # jerk at 1 kHz), so the file would fail where the plan passed
+        fine = self.dt < 0.01 - 1e-12
         return {
             "format": PLAN_FORMAT,
             "problem": self.problem,
             "planner": self.planner_name,
             "status": self.status.value,
             "time": jsonable(np.round(self.time, 6)),
-            "arms": {a: {"q": jsonable(np.round(q, 7))} for a, q in self.q.items()},
+            "arms": {a: {"q": jsonable(q if fine else np.round(q, 7))} for a, q in self.q.items()},
             "events": [e.to_dict() for e in self.events],
             "allocation": self.allocation,
             "unreachable": list(self.unreachable),
@@ -219,8 +229,8 @@ class Plan:
             "solver": jsonable(self.solver),
             "verification": jsonable(self.verification),
         } | ({"problem_file": dict(self.problem_file)} if self.problem_file else {}) | (
-            {"gantry": {"x": jsonable(np.round(self.gantry_x, 7))}} if self.gantry_x is not None else {}) | {
-            "software": dict(self.software) if self.software else software_record()}
+            {"gantry": {"x": jsonable(self.gantry_x if fine else np.round(self.gantry_x, 7))}} if self.gantry_x is not None
+            else {}) | ({"software": dict(self.software)} if self.software else {})
 
     def save(self, out_dir: str | Path, stem: str = "plan") -> dict[str, Path]:
         """Write ``plan.json`` plus ``plan.csv`` (one row per time) and ``plan.npz`` into the
@@ -238,7 +248,8 @@ class Plan:
         atomic_text(paths["json"], json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
 
         cols = [self.time[:, None]] + ([] if self.gantry_x is None else [self.gantry_x[:, None]]) + [self.q[a] for a in self.q]
-        atomic_file(paths["csv"], lambda tmp: np.savetxt(tmp, np.hstack(cols), delimiter=",", comments="", fmt="%.7f",
+        fmt = "%.17g" if self.dt < 0.01 - 1e-12 else "%.7f"  # (as plan.json: full precision on a finer grid)
+        atomic_file(paths["csv"], lambda tmp: np.savetxt(tmp, np.hstack(cols), delimiter=",", comments="", fmt=fmt,
                                                           header=csv_header(self.q, self.gantry_x is not None)))
         carriage = {} if self.gantry_x is None else {"gantry_x": self.gantry_x}  # (a row's: as in plan.csv)
         atomic_file(paths["npz"], lambda tmp: np.savez_compressed(tmp, time=self.time, **carriage,
@@ -336,6 +347,8 @@ def finalize_plan(plan: Plan, verification, n_reachable: int) -> Plan:
     """Set the plan's metrics and status from the verifier's verdict (never upgrades a solver
     failure or an interruption). ``verification`` is the verifier's result (or None)."""
     plan.verification = verification.summary() if verification is not None else None
+    if plan.software is None:  # (made here: what made it; a file's own record is kept)
+        plan.software = software_record()
     keep = {k: v for k, v in plan.metrics.items() if k in _KEPT_METRICS}
     plan.metrics = compute_metrics(plan, n_reachable) | keep
     summary = plan.verification or {}

@@ -2,8 +2,8 @@
 
 ``plan.json`` and ``sweep.json`` carry :func:`software_record`, so that a published plan says
 which versions made it (``pyproject.toml`` asks only for minimum versions: a later install may
-plan differently) and which OpenBLAS kernel IPOPT ran on (coplan pins one when it is imported,
-unless ``COPLAN_OPENBLAS_CORETYPE=native``: see the README).
+plan differently) and the ``OPENBLAS_CORETYPE`` in effect (coplan pins the kernel IPOPT's
+OpenBLAS runs on when it is imported, unless ``COPLAN_OPENBLAS_CORETYPE=native``: see the README).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ def _versions() -> tuple[tuple[str, str | None], ...]:
 
 def software_record() -> dict:
     """``{"coplan": version, "python": ..., "machine": ..., <each of DECIDING>: version,
-    "openblas_coretype": the kernel in effect, "coplan_openblas_coretype": the override}``."""
+    "openblas_coretype": OPENBLAS_CORETYPE in effect, "coplan_openblas_coretype": the override}``."""
     from . import __version__
 
     return {"coplan": __version__, "python": platform.python_version(), "machine": platform.machine(),

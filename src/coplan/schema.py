@@ -147,7 +147,7 @@ class PlanFile(BaseModel):
         None, description="the problem file the plan was made from (the plot, animate and view commands find it there)")
     software: dict[str, str | None] | None = Field(
         None, description="what made the plan: coplan's version, Python's, the machine, the versions of the libraries "
-                          "that decide a plan (numpy, scipy, casadi, ortools, ruckig, python-fcl) and the OpenBLAS kernel")
+                          "that decide a plan (numpy, scipy, casadi, ortools, ruckig, python-fcl) and OPENBLAS_CORETYPE")
 
 
 assert PLAN_FORMAT == "coplan.plan/1", "PlanFile.format must name the format plan.py writes"

@@ -80,17 +80,10 @@ def built_issues(problem) -> list[Issue]:
             out.append(Issue(f"arms[{i}].joint_limits", f"expected [[t1_min, t1_max], [t2_min, t2_max]] in rad, each min < max, "
                                                         f"found {_kind(lim)}"))
     _names(fruits, "id", "fruits", out)
-    seen_at: dict[tuple, int] = {}
     for i, f in enumerate(fruits):
         p = getattr(f, "position", None)
         if not (isinstance(p, (tuple, list)) and len(p) == 2 and _num(p[0], None) and _num(p[1], None)):
             out.append(Issue(f"fruits[{i}].position", f"expected [x, y] in m, two finite numbers, found {_kind(p)}"))
-            continue
-        at = (float(p[0]), float(p[1]))
-        if at in seen_at:
-            out.append(Issue(f"fruits[{i}].position", f"expected one fruit per position, found {list(at)} again (also "
-                                                      f"fruits[{seen_at[at]}]): a fruit is picked once; remove the copy"))
-        seen_at.setdefault(at, i)
     for k in _TASK:
         v = getattr(problem.task, k, None)
         if not _num(v, "nonneg"):

@@ -286,7 +286,8 @@ def gantry_row(
     from ``start``, and ``end`` is at least that far). About ``density`` fruit per metre (Poisson count,
     seeded) lie along x in [``start``, ``start + length``] at heights in ``y_range`` (low, high): uniform, or with
     ``trusses`` in clusters (a truss every 0.25-0.45 m, its fruit within 6 cm of it and 12 cm
-    of its height), as strawberries hang. Positions rounded to 4 decimals, ids ``f0001``... by x.
+    of its height), as strawberries hang. Positions rounded to 4 decimals (two that round to one
+    position are one fruit), ids ``f0001``... by x.
     Deterministic in its arguments.
     """
     _whole("gantry_row", n_arms=n_arms, seed=seed)
@@ -334,7 +335,9 @@ def gantry_row(
         name or f"row-{length:g}m-{n_arms}arms-{density:g}perm-seed{seed}",
         f"{n_arms} of the lesson's arms {spacing:g} m apart on a gantry along a {length:g} m row, about {density:g} "
         f"fruit per metre ({'in trusses' if trusses else 'uniform'}, seed {seed}).",
-        dict(LESSON_DEFAULTS), _arm_entries(bases, -0.5, None), [(_r4(x0 + x), _r4(y)) for x, y in pts], LESSON_TASK)
+        dict(LESSON_DEFAULTS), _arm_entries(bases, -0.5, None),
+        # (one fruit per position: two clipped to a narrow band's edge can round to one, which a problem refuses)
+        list(dict.fromkeys((_r4(x0 + x), _r4(y)) for x, y in pts)), LESSON_TASK)
     width = max(4, len(str(len(pts))))
     for i, f in enumerate(d["fruits"], 1):
         f["id"] = f"f{i:0{width}d}"

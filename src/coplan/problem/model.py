@@ -485,6 +485,21 @@ def _fruits(fruit_specs: list, lines: dict, issues: list) -> list[Fruit]:
     return fruits
 
 
+def position_issues(problem: Problem) -> list[Issue]:
+    """Two fruit at one position, as a file is refused for them (a problem built or changed in
+    Python is held to this when it is planned: :func:`coplan.solve`; the live planners' problems
+    of camera reports, which may coincide, are not)."""
+    out, seen = [], {}
+    for i, f in enumerate(problem.fruits):
+        at = (float(f.position[0]), float(f.position[1]))
+        if at in seen:
+            out.append(Issue(f"fruits[{i}].position", f"expected one fruit per position, found {list(at)} again (also "
+                                                      f"fruits[{seen[at]}] {problem.fruits[seen[at]].id!r}): a fruit is "
+                                                      f"picked once; remove the copy"))
+        seen.setdefault(at, i)
+    return out
+
+
 def home_issues(problem: Problem) -> list[Issue]:
     """Home poses closer than the clearance, as a file is refused for them (a problem built or
     changed in Python is held to this when it is planned: :func:`coplan.solve`)."""

@@ -287,6 +287,9 @@ def _verified(problem: Problem, booker: Booker, cruise: Cruise, reach: RowReach,
     timings["verify"] = _time.perf_counter() - tv
     plan.unreachable = screened_out(problem, reach)
     plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
+    # (as a cell's: the count is of the fruit out of every arm's reach from the whole rail; the
+    # list, like a cell planner's, also holds those the screen left out)
+    plan.metrics["unreachable"] = len(problem.fruits) - plan.metrics["reachable"]
     info["left_out"] = dict(reach.reasons) | left
     info["first_stop_seconds"] = None
     plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}

@@ -16,10 +16,11 @@
   screen locks does only that, and then rests where it went). At rest: home, or holding still
   away from home outside its work (done over its bin, or parked out of the way). On the move, an
   arm holding still within its work while the fruit it picks next is not yet in its reach waits
-  for the carriage (``carriage``), not for a neighbour. A row plan's
-  ``metrics.per_arm[arm].idle_fraction`` is the sum of these (the cell's definition, the time
-  after its last place and out of its moves and dwells, counted its move home after its last
-  place as idle and its moves out of a neighbour's way as work: up to 4.6 points off them);
+  for the carriage (``carriage``), not for a neighbour. The row plan
+  :func:`coplan.solve` writes has ``metrics.per_arm[arm].idle_fraction`` the sum of these (the
+  cell's definition, the time after its last place and out of its moves and dwells, counted its
+  move home after its last place as idle and its moves out of a neighbour's way as work: up to
+  4.6 points off them);
 * **ratios** to the row's lower bounds (:mod:`coplan.row.bound`), and ``overlap_seconds``: how
   long the carriage moves while some arm works (places, goes home, comes out), which the
   stop-and-go bound's model excludes;

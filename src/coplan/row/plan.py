@@ -225,6 +225,9 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     # verifier's own count); a fruit only a locked arm or a blocked pose reaches makes it partial
     plan.unreachable = screened_out(problem, reach)
     plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
+    # (as a cell's: the count is of the fruit out of every arm's reach from the whole rail; the
+    # list, like a cell planner's, also holds those the screen left out)
+    plan.metrics["unreachable"] = len(problem.fruits) - plan.metrics["reachable"]
     if interrupted:
         plan.status = PlanStatus.INTERRUPTED  # (the verdict on what it has is in plan.verification)
     info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None

@@ -156,13 +156,17 @@ def _why(problem: Problem, f, resolution: float, cell: Problem) -> str:
         if not cs.size:
             continue
         ok = usable_picks(cell, np.c_[fx - cs, np.full(cs.size, fy)], arms=(a,))[a].any(axis=-1)
-        if ok.any():
-            windows.append((arm.name, float(cs[ok][0]), float(cs[ok][-1])))
+        # each run of serving positions (1 mm apart on the scan) a window of its own
+        cut = np.flatnonzero(~ok[:-1] & ok[1:] | (np.diff(cs) > 1.5e-3) & ok[1:]) + 1 if ok.size > 1 else np.zeros(0, int)
+        for run_cs, run_ok in zip(np.split(cs, cut), np.split(ok, cut)):
+            if run_ok.any():
+                windows.append((arm.name, float(run_cs[run_ok][0]), float(run_cs[run_ok][-1])))
     rail = f"the rail [{g.start:g}, {g.end:g}] m"
     if windows:
         wide = max(hi - lo for _, lo, hi in windows)
-        finer = max(math.floor(wide * 1000.0) / 1000.0, 0.001)
-        hint = f"candidate stops every {finer:g} m or closer put one in it: --resolution, RowOptions.resolution"
+        finer = math.floor(wide * 1000.0) / 1000.0
+        hint = (f"candidate stops every {finer:g} m or closer put one in it: --resolution {finer:g}, RowOptions.resolution"
+                if finer >= 0.01 else "narrower than the 0.01 m --resolution goes down to: RowOptions.resolution from Python")
         return (f"{f.id}: no candidate stop serves it: an arm harvests it only with the carriage within a "
                 f"window narrower than the candidate stops' spacing ({resolution:g} m along {rail}): "
                 f"{', '.join(f'{n} at {lo:.3f}-{hi:.3f} m' for n, lo, hi in windows)} ({hint})")

@@ -448,7 +448,7 @@ def run_sweep(
                 row["sweep"] = spec.name
                 journal.append(row)
                 if plan is not None:  # coplan verify plans/<key>.yaml plans/<key>.json checks it again
-                    (out / "plans" / f"{it.key}.yaml").write_text(it.problem_text or "")
+                    (out / "plans" / f"{it.key}.yaml").write_text(it.problem_text or "", encoding="utf-8")
                     # (which problem it solved, as a plan coplan solve writes says: copied away, it still does)
                     from ..problem.model import text_digest
 

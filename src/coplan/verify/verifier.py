@@ -237,15 +237,19 @@ def _check_limits(problem: Problem, motions: list[ArmMotion], time: np.ndarray, 
             lim_k = np.asarray(limits, float)
             peaks[kind.value] = float(np.max(diff / lim_k)) if diff.size else 0.0
             for jn in (0, 1):
-                tol = opts.rel_tolerance * lim_k[jn] + rounding_allowance(q[:, jn], opts.q_resolution, dt, k)
-                if dt < 0.01 - 1e-12 and tol > UNCHECKABLE_SHARE * lim_k[jn]:  # (finer than 100 Hz, on the 1e-7 lattice)
+                allow = rounding_allowance(q[:, jn], opts.q_resolution, dt, k)
+                tol = opts.rel_tolerance * lim_k[jn] + allow
+                blurred = (diff[:, jn] > lim_k[jn] * (1.0 + opts.rel_tolerance)) & (diff[:, jn] <= lim_k[jn] + tol)
+                if dt < 0.01 - 1e-12 and allow > UNCHECKABLE_SHARE * lim_k[jn] and blurred.any():
+                    # (finer than 100 Hz, on the 1e-7 lattice: over the limit by no more than rounding could make)
+                    w = int(np.argmax(np.where(blurred, diff[:, jn], -np.inf)))
                     ver.violations.append(Violation(
-                        kind, (arm.name,), 0.0, float(tol), float(tol), float(lim_k[jn]), 0.0, float(t[-1]), joint=jn,
-                        message=(f"joint {jn + 1}: {kind.value} not checkable: angles stored to {opts.q_resolution:g} rad on a "
-                                 f"{1.0 / dt:.4g} Hz grid carry up to {tol:.3g} of rounding in their {kind.value}, "
-                                 f"{100.0 * tol / lim_k[jn]:.0f} % of the limit; write the plan at full precision or on "
-                                 f"the 100 Hz grid")))
-                    continue
+                        kind, (arm.name,), float(tc[w]), float(diff[w, jn] - lim_k[jn]), float(diff[w, jn]), float(lim_k[jn]),
+                        float(tc[np.argmax(blurred)]), float(tc[len(blurred) - 1 - np.argmax(blurred[::-1])]), joint=jn,
+                        message=(f"joint {jn + 1}: {kind.value} not checkable: {diff[w, jn] / lim_k[jn]:.2f} x the limit, "
+                                 f"but angles stored to {opts.q_resolution:g} rad on a {1.0 / dt:.4g} Hz grid carry up to "
+                                 f"{allow:.3g} of rounding in their {kind.value}, {100.0 * allow / lim_k[jn]:.0f} % of the "
+                                 f"limit; write the plan at full precision or on the 100 Hz grid")))
                 for a, b in runs(diff[:, jn] > lim_k[jn] + tol):
                     w = a + int(np.argmax(diff[a : b + 1, jn]))
                     seg = signed[a : b + 1, jn]
