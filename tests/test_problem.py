@@ -566,17 +566,20 @@ fruits:
   - {id: d1, position: [0.5, 1.0]}
   - {id: d2, position: [0.5, 1.0]}
   - {id: d3, position: [0.5, 1.0001]}
+  - {id: d5, position: [0.5000000001, 1.0001]}
 task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
 """
     with pytest.raises(ProblemError) as e:
         parse_problem(text, "dup.yaml")
-    (issue,) = e.value.issues
-    assert issue.path == "fruits[1].position" and issue.line == 9 and "also fruits[0] 'd1'" in issue.message
+    first, second = e.value.issues  # (an exact copy, and one 1e-10 m off: both copies)
+    assert first.path == "fruits[1].position" and first.line == 9 and "also fruits[0] 'd1'" in first.message
+    assert second.path == "fruits[3].position" and second.line == 11 and "also fruits[2] 'd3'" in second.message
+    text = text.replace("  - {id: d5, position: [0.5000000001, 1.0001]}\n", "")
     ok = parse_problem(text.replace("  - {id: d2, position: [0.5, 1.0]}\n", ""), "dup.yaml")  # 0.1 mm apart: two fruit
     assert [f.id for f in ok.fruits] == ["d1", "d3"]
     import coplan
 
-    copied = dataclasses.replace(ok, fruits=ok.fruits + (Fruit("d4", (0.5, 1.0001)),))  # (a live planner's reports may coincide)
+    copied = dataclasses.replace(ok, fruits=ok.fruits + (Fruit("d4", (0.5, 1.0001 + 1e-9)),))  # (a live planner's reports may coincide)
     with pytest.raises(ProblemError) as e:
         coplan.solve(copied, planner="coordinated")  # ... a problem to plan may not
     assert any(i.path == "fruits[2].position" and "also fruits[1] 'd3'" in i.message for i in e.value.issues)

@@ -68,10 +68,6 @@ class Event:
     t_end: float
 
     def to_dict(self) -> dict:
-        # on a grid finer than 100 Hz, full precision: angles rounded to 1e-7 rad there carry more
-        # rounding in their differences than the verifier can tell from a limit (400 rad/s^3 of
-        # jerk at 1 kHz), so the file would fail where the plan passed
-        fine = self.dt < 0.01 - 1e-12
         return {"arm": self.arm, "fruit": self.fruit, "kind": self.kind.value, "t_start": self.t_start, "t_end": self.t_end}
 
 

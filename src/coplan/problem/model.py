@@ -465,7 +465,7 @@ def _fruits(fruit_specs: list, lines: dict, issues: list) -> list[Fruit]:
     """The fruit with unique ids and plausible positions."""
     fruits: list[Fruit] = []
     seen_ids: dict[str, int] = {}
-    seen_at: dict[tuple[float, float], tuple[int, str]] = {}
+    where: list[int] = []  # each fruit's index in the file
     for j, spec in fruit_specs:
         if spec is None:
             continue
@@ -473,31 +473,46 @@ def _fruits(fruit_specs: list, lines: dict, issues: list) -> list[Fruit]:
             continue
         if _implausible("position", spec.position, ("fruits", j, "position"), lines, issues):
             continue
-        at = (float(spec.position[0]), float(spec.position[1]))
-        if at in seen_at:  # (a copy: it would be counted, planned and "harvested" twice)
-            k, first = seen_at[at]
-            issues.append(Issue(path_str(("fruits", j, "position")), f"expected one fruit per position, found {list(at)} "
-                                f"again (also fruits[{k}] {first!r}): a fruit is picked once; remove the copy",
-                                line_of(lines, ("fruits", j, "position"))))
-            continue
-        seen_at[at] = (j, str(spec.id))
         fruits.append(Fruit(id=spec.id, position=spec.position))
+        where.append(j)
+    copies = coincident([f.position for f in fruits])  # (a copy would be counted, planned and "harvested" twice)
+    for a, b in copies:
+        issues.append(Issue(path_str(("fruits", where[b], "position")), f"expected one fruit per position, found "
+                            f"{list(fruits[b].position)} again (also fruits[{where[a]}] {fruits[a].id!r}, within "
+                            f"{COINCIDENT * 1e6:g} um): a fruit is picked once; remove the copy",
+                            line_of(lines, ("fruits", where[b], "position"))))
+    drop = {b for _, b in copies}
+    fruits = [f for i, f in enumerate(fruits) if i not in drop]
     return fruits
+
+
+#: Two fruit closer than this (m) are one position (a copy, or a copy nudged by a rounding).
+COINCIDENT = 1e-6
+
+
+def coincident(positions) -> list[tuple[int, int]]:
+    """``(a, b)`` index pairs, ``a < b``, of positions within :data:`COINCIDENT` of each other
+    (each later one once, with the first it repeats)."""
+    pts = np.asarray(positions, float).reshape(-1, 2)
+    if pts.shape[0] < 2:
+        return []
+    from scipy.spatial import cKDTree
+
+    first: dict[int, int] = {}
+    for a, b in sorted(cKDTree(pts).query_pairs(COINCIDENT, p=2.0)):
+        first.setdefault(b, a)
+    return sorted((a, b) for b, a in first.items())
 
 
 def position_issues(problem: Problem) -> list[Issue]:
     """Two fruit at one position, as a file is refused for them (a problem built or changed in
     Python is held to this when it is planned: :func:`coplan.solve`; the live planners' problems
     of camera reports, which may coincide, are not)."""
-    out, seen = [], {}
-    for i, f in enumerate(problem.fruits):
-        at = (float(f.position[0]), float(f.position[1]))
-        if at in seen:
-            out.append(Issue(f"fruits[{i}].position", f"expected one fruit per position, found {list(at)} again (also "
-                                                      f"fruits[{seen[at]}] {problem.fruits[seen[at]].id!r}): a fruit is "
-                                                      f"picked once; remove the copy"))
-        seen.setdefault(at, i)
-    return out
+    fr = problem.fruits
+    return [Issue(f"fruits[{b}].position", f"expected one fruit per position, found {list(fr[b].position)} again (also "
+                                           f"fruits[{a}] {fr[a].id!r}, within {COINCIDENT * 1e6:g} um): a fruit is picked "
+                                           f"once; remove the copy")
+            for a, b in coincident([f.position for f in fr])]
 
 
 def home_issues(problem: Problem) -> list[Issue]:
