@@ -494,3 +494,13 @@ def test_a_live_row_whose_repeated_reports_coincide_runs(mode):
     how = {"speed": 0.2} if mode == "on the move" else {"mode": GantryMode.STOP_AND_GO}
     run = run_live_row(prob, LiveRowOptions(sigma=0.0, duplicate_rate=0.5, false_rate=0.0, seed=1, **how))
     assert run.verification.passed and run.plan.metrics["harvested"] > 0
+
+
+def test_a_live_row_on_the_move_without_a_speed_says_what_it_expects(tmp_path):
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    r = CliRunner(env={"COLUMNS": "400"}).invoke(app, ["run", "sparse_row", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and "--speed: expected a cruising speed in [" in r.output
+    assert "found nothing (or --gantry stop-and-go)" in " ".join(r.output.split()) and "nan" not in r.output

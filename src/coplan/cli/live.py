@@ -231,9 +231,9 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
     else:
         from ..problem.plausible import live_speed_issue
 
-        bad = live_speed_issue(prob, math.nan if speed is None else speed)  # (the range it quotes is the live one)
+        bad = live_speed_issue(prob, speed)  # (the range it quotes is the live one; none given: 'found nothing')
         if bad:
-            usage(f"--speed: {bad.replace('found nan', 'found nothing') if speed is None else bad} (or --gantry stop-and-go)")
+            usage(f"--speed: {bad} (or --gantry stop-and-go)")
     opts = LiveRowOptions(speed=speed, look_ahead=look_ahead, sigma=sigma, false_rate=false_rate,
                           duplicate_rate=duplicate_rate, seed=seed, faults=faults, mode=mode)
     from ..errors import OptionsError

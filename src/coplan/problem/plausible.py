@@ -288,6 +288,8 @@ def _speed_within(speed, lo: float, hi: float) -> bool:
 
 
 def _shown(speed) -> str:
+    if speed is None:  # (none given: the command line's --speed left out)
+        return "nothing"
     return f"{speed:g}" if isinstance(speed, (int, float)) and not isinstance(speed, bool) else repr(speed)
 
 

@@ -587,7 +587,7 @@ def why_left(booker: Booker, fid: str, halt: dict[int, float]) -> str:
     """Why ``fid`` was not booked, from its windows on the booker's carriage motion."""
     ws = booker.windows[fid]
     if not ws:
-        return f"{fid}: the carriage never stands where an arm can pick it at this speed"
+        return f"{fid}: at this speed the carriage never stays where an arm can hold its tip on it for the pick's dwell"
     # the working arm whose window closed last (a stopped arm's only if no working arm had one)
     w = max(ws, key=lambda w: (w.arm not in halt, min(w.hi, 1e9), w.arm))
     arm = booker.problem.arms[w.arm].name
