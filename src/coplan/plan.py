@@ -27,6 +27,7 @@ from .provenance import software_record
 __all__ = [
     "PLAN_FORMAT",
     "DEFAULT_RATE",
+    "finer_grid",
     "jsonable",
     "PlannerKind",
     "PlanStatus",
@@ -47,6 +48,15 @@ __all__ = [
 
 PLAN_FORMAT = "coplan.plan/1"
 DEFAULT_RATE = 100.0  # Hz
+
+
+def finer_grid(dt: float) -> bool:
+    """Whether a grid of spacing ``dt`` (s) is finer than the :data:`DEFAULT_RATE` one coplan plans
+    on: there, angles rounded to 1e-7 rad carry more rounding in their differences than a limit
+    check can tell from the limit (400 rad/s^3 of jerk at 1 kHz), so plans are written at full
+    precision and the verifier takes that rounding only for values that sit on its lattice."""
+    return dt < 1.0 / DEFAULT_RATE - 1e-12
+
 # Plan files (JSON or CSV) larger than this are refused before they are read: about 2 h of
 # three arms at 100 Hz. (A 100 MB plan used to take 27 s and 1.5 GB before any check.)
 MAX_PLAN_BYTES = 64 * 1024 * 1024
@@ -207,10 +217,7 @@ class Plan:
 
     # ------------------------------------------------------------------ I/O
     def to_dict(self) -> dict:
-        # on a grid finer than 100 Hz, full precision: angles rounded to 1e-7 rad there carry more
-        # rounding in their differences than the verifier can tell from a limit (400 rad/s^3 of
-        # jerk at 1 kHz), so the file would fail where the plan passed
-        fine = self.dt < 0.01 - 1e-12
+        fine = finer_grid(self.dt)  # (full precision there: rounded, the file would fail where the plan passed)
         return {
             "format": PLAN_FORMAT,
             "problem": self.problem,
@@ -244,7 +251,7 @@ class Plan:
         atomic_text(paths["json"], json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
 
         cols = [self.time[:, None]] + ([] if self.gantry_x is None else [self.gantry_x[:, None]]) + [self.q[a] for a in self.q]
-        fmt = "%.17g" if self.dt < 0.01 - 1e-12 else "%.7f"  # (as plan.json: full precision on a finer grid)
+        fmt = "%.17g" if finer_grid(self.dt) else "%.7f"  # (as plan.json: full precision on a finer grid)
         atomic_file(paths["csv"], lambda tmp: np.savetxt(tmp, np.hstack(cols), delimiter=",", comments="", fmt=fmt,
                                                           header=csv_header(self.q, self.gantry_x is not None)))
         carriage = {} if self.gantry_x is None else {"gantry_x": self.gantry_x}  # (a row's: as in plan.csv)

@@ -36,7 +36,7 @@ from ..errors import Issue, PlanFileError
 from ..plan import EventKind, Plan
 from ..problem.model import Problem
 from .clearance import runs
-from .verdict import UNCHECKABLE_SHARE, Verification, Violation, ViolationKind, rounding_allowance
+from .verdict import Verification, Violation, ViolationKind, blurred_by_rounding, rounding_allowance, rounding_words
 
 __all__ = ["check_row_inputs", "check_carriage", "row_reachable_ids", "plan_source"]
 
@@ -92,16 +92,13 @@ def check_carriage(problem: Problem, plan: Plan, opts, ver: Verification) -> Non
         allow = rounding_allowance(x, res, dt, k)
         bound = limit * (1.0 + opts.rel_tolerance) + allow
         ver.peaks.setdefault("carriage", {})[what] = float(diff.max() / limit) if diff.size else 0.0
-        blurred = (diff > limit * (1.0 + opts.rel_tolerance)) & (diff <= bound)
-        if dt < 0.01 - 1e-12 and allow > UNCHECKABLE_SHARE * limit and blurred.any():
-            # (finer than 100 Hz, on the 1e-7 lattice: over the limit by no more than rounding could make)
+        blurred = blurred_by_rounding(diff, limit, opts.rel_tolerance, allow, dt)
+        if blurred is not None:  # (finer than 100 Hz, on the 1e-7 lattice: over the limit by no more than rounding)
             w = int(np.argmax(np.where(blurred, diff, -np.inf)))
             ver.violations.append(Violation(ViolationKind.CARRIAGE, ("carriage",), float(centre[w]), float(diff[w] - limit),
                                             float(diff[w]), float(limit), message=(
                                                 f"carriage {what} not checkable: {diff[w] / limit:.2f} x its limit, but "
-                                                f"positions stored to {res:g} m on a {1.0 / dt:.4g} Hz grid carry up to "
-                                                f"{allow:.3g} of rounding in their {what}, {100.0 * allow / limit:.0f} % of the "
-                                                f"limit; write the plan at full precision or on the 100 Hz grid")))
+                                                + rounding_words("positions", "m", res, dt, allow, limit, what))))
         for a, b in runs(diff > bound):
             w = a + int(np.argmax(diff[a:b + 1]))
             ver.violations.append(Violation(ViolationKind.CARRIAGE, ("carriage",), float(centre[w]), float(diff[w] - limit),

@@ -20,6 +20,7 @@ from .clearance import DEFAULT_SUBSTEPS
 from ..errors import Issue, OptionsError, check_fields
 from ..kinds import FclMode
 from ..output import atomic_text
+from ..plan import finer_grid
 from .fclcheck import FCL_TOLERANCE, FclReport
 
 __all__ = [
@@ -35,6 +36,8 @@ __all__ = [
     "Verification",
     "report_path",
     "rounding_allowance",
+    "blurred_by_rounding",
+    "rounding_words",
     "UNCHECKABLE_SHARE",
 ]
 
@@ -51,12 +54,31 @@ def rounding_allowance(values: np.ndarray, resolution: float, dt: float, k: int)
     finer grid it grows as ``dt^-k`` (400 rad/s^3 at 1 kHz), so it applies only where the values
     really sit on the ``resolution`` lattice; values stored at full precision get the allowance
     of their floating point (about 1e-15 of their size) instead."""
-    if dt >= 0.01 - 1e-12:
+    if not finer_grid(dt):
         return 2.0 ** (k - 1) * resolution / dt ** k
     v = np.asarray(values, float)
     on = v.size == 0 or bool(np.all(np.abs(v / resolution - np.rint(v / resolution)) <= 1e-3))
     r = resolution if on else 8.0 * np.finfo(float).eps * max(1.0, float(np.max(np.abs(v), initial=0.0)))
     return 2.0 ** (k - 1) * r / dt ** k
+
+
+def blurred_by_rounding(diff: np.ndarray, limit: float, rel_tolerance: float, allow: float, dt: float) -> np.ndarray | None:
+    """Where a limit check cannot tell (a failure, "not checkable"): on a grid finer than 100 Hz
+    whose rounding allowance ``allow`` (:func:`rounding_allowance`) exceeds
+    :data:`UNCHECKABLE_SHARE` of ``limit``, the differences ``diff`` over the limit by no more than
+    that allowance, as a mask; None where there are none (the check passes or fails them itself)."""
+    if not finer_grid(dt) or allow <= UNCHECKABLE_SHARE * limit:
+        return None
+    top = limit * (1.0 + rel_tolerance)
+    hit = (diff > top) & (diff <= top + allow)
+    return hit if hit.any() else None
+
+
+def rounding_words(stored: str, unit: str, resolution: float, dt: float, allow: float, limit: float, what: str) -> str:
+    """Why a difference :func:`blurred_by_rounding` found is not checkable, for its message."""
+    return (f"{stored} stored to {resolution:g} {unit} on a {1.0 / dt:.4g} Hz grid carry up to {allow:.3g} of rounding "
+            f"in their {what}, {100.0 * allow / limit:.0f} % of the limit; write the plan at full precision or on the "
+            f"100 Hz grid")
 
 
 class ViolationKind(str, Enum):

@@ -32,8 +32,8 @@ What "passes" means (every check below, with the default :class:`VerifyOptions`)
   to 1e-7 rad: 1e-5 rad/s, 2e-3 rad/s^2, 0.4 rad/s^3 at 100 Hz). On a finer grid that
   allowance grows as ``dt^-k`` (400 rad/s^3 at 1 kHz): it is taken only where the angles
   really sit on the 1e-7 lattice (else their floating point's), and where it exceeds 5 % of a
-  limit that limit is reported as not checkable (a failure), never passed on the allowance
-  (:func:`coplan.verify.verdict.rounding_allowance`).
+  limit, a difference over that limit by no more than the allowance is reported as not
+  checkable (a failure), never passed on it (:func:`coplan.verify.verdict.blurred_by_rounding`).
 * **picks and places** -- during each event the tip is within ``position_tolerance``
   (5 mm) of its fruit (of the arm's bin for a place) and *still* (every point of the arm
   slower than ``still_speed``, 5 mm/s; in a row, a pick's tip slower than that in the row
@@ -75,7 +75,6 @@ from . import verdict as _verdict
 from ..problem.model import Problem, load_problem
 from ..problem.plausible import MAX_PLAN_ANGLE, MAX_PLAN_COORD
 from .verdict import (
-    UNCHECKABLE_SHARE,
     ContactInterval,
     FclMode,
     Finding,
@@ -86,7 +85,9 @@ from .verdict import (
     Violation,
     ViolationKind,
     WarningKind,
+    blurred_by_rounding,
     rounding_allowance,
+    rounding_words,
 )
 
 __all__ = [*_verdict.__all__, "verify", "clearance_profile"]  # the result types are re-exported from here
@@ -239,17 +240,14 @@ def _check_limits(problem: Problem, motions: list[ArmMotion], time: np.ndarray, 
             for jn in (0, 1):
                 allow = rounding_allowance(q[:, jn], opts.q_resolution, dt, k)
                 tol = opts.rel_tolerance * lim_k[jn] + allow
-                blurred = (diff[:, jn] > lim_k[jn] * (1.0 + opts.rel_tolerance)) & (diff[:, jn] <= lim_k[jn] + tol)
-                if dt < 0.01 - 1e-12 and allow > UNCHECKABLE_SHARE * lim_k[jn] and blurred.any():
-                    # (finer than 100 Hz, on the 1e-7 lattice: over the limit by no more than rounding could make)
+                blurred = blurred_by_rounding(diff[:, jn], lim_k[jn], opts.rel_tolerance, allow, dt)
+                if blurred is not None:  # (finer than 100 Hz, on the 1e-7 lattice: over the limit by no more than rounding)
                     w = int(np.argmax(np.where(blurred, diff[:, jn], -np.inf)))
                     ver.violations.append(Violation(
                         kind, (arm.name,), float(tc[w]), float(diff[w, jn] - lim_k[jn]), float(diff[w, jn]), float(lim_k[jn]),
                         float(tc[np.argmax(blurred)]), float(tc[len(blurred) - 1 - np.argmax(blurred[::-1])]), joint=jn,
-                        message=(f"joint {jn + 1}: {kind.value} not checkable: {diff[w, jn] / lim_k[jn]:.2f} x the limit, "
-                                 f"but angles stored to {opts.q_resolution:g} rad on a {1.0 / dt:.4g} Hz grid carry up to "
-                                 f"{allow:.3g} of rounding in their {kind.value}, {100.0 * allow / lim_k[jn]:.0f} % of the "
-                                 f"limit; write the plan at full precision or on the 100 Hz grid")))
+                        message=(f"joint {jn + 1}: {kind.value} not checkable: {diff[w, jn] / lim_k[jn]:.2f} x the limit, but "
+                                 + rounding_words("angles", "rad", opts.q_resolution, dt, allow, lim_k[jn], kind.value))))
                 for a, b in runs(diff[:, jn] > lim_k[jn] + tol):
                     w = a + int(np.argmax(diff[a : b + 1, jn]))
                     seg = signed[a : b + 1, jn]
@@ -336,8 +334,7 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
     bins = {a.name: bin_track(a.bin, plan.gantry_x if row else None) for a in problem.arms}
     dwell_tol = plan.dt if opts.dwell_tolerance is None else opts.dwell_tolerance
     eps = 1e-9
-    picks: dict[str, list[str]] = {}
-    pick_times: dict[str, list[tuple[float, float, str]]] = {}
+    picks: dict[str, list[tuple[float, float, str]]] = {}  # fruit -> (t_start, t_end, arm) of each pick
     placed: set[str] = set()
     for e in plan.events:
         if e.arm not in arm_index:
@@ -353,8 +350,7 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
             continue
         arm = problem.arms[arm_index[e.arm]]
         if e.kind == EventKind.PICK:
-            picks.setdefault(e.fruit, []).append(e.arm)
-            pick_times.setdefault(e.fruit, []).append((e.t_start, e.t_end, e.arm))
+            picks.setdefault(e.fruit, []).append((e.t_start, e.t_end, e.arm))
             if reach is not None and not reach[arm_index[e.arm], fruit_index[e.fruit]]:
                 ver.violations.append(Violation(ViolationKind.UNREACHABLE_PICK, (e.arm,), e.t_start, 0.0, fruit=e.fruit,
                                                 message="arm picks a fruit it cannot reach"))
@@ -375,12 +371,12 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
         elif held < dwell - dwell_tol - eps:
             ver.violations.append(Violation(short, (e.arm,), e.t_start, dwell - held, held, dwell, e.t_start, e.t_end, fruit=e.fruit,
                                             message=f"still on target for {held:.3f} s, dwell is {dwell} s"))
-    for fid, who in picks.items():
-        if len(who) > 1:  # reported at the second pick, with every pick's time and arm
-            when = sorted(pick_times[fid])
-            ver.violations.append(Violation(ViolationKind.DUPLICATE_PICK, tuple(sorted(set(who))), float(when[1][0]),
-                                            float(len(who) - 1), float(len(who)), 1.0, float(when[0][0]), float(when[-1][1]),
-                                            fruit=fid, message=f"picked {len(who)} times: " + ", ".join(
+    for fid, when in picks.items():
+        if len(when) > 1:  # reported at the second pick, with every pick's time and arm
+            when = sorted(when)
+            ver.violations.append(Violation(ViolationKind.DUPLICATE_PICK, tuple(sorted({a for _, _, a in when})), float(when[1][0]),
+                                            float(len(when) - 1), float(len(when)), 1.0, float(when[0][0]), float(when[-1][1]),
+                                            fruit=fid, message=f"picked {len(when)} times: " + ", ".join(
                                                 f"by {a} at {t0:.3f}-{t1:.3f} s" for t0, t1, a in when)))
     _check_sequence(plan, ver)
     reachable = row_reachable_ids(problem) if row else problem.reachable_ids()
