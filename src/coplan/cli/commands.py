@@ -91,6 +91,13 @@ def _resolve_problem(problem: Optional[Path]) -> Path:
     return resolve_problem(problem, lambda m: err_console.print(f"[dim]{_s(m)}[/]", highlight=False))
 
 
+# a row's screen: the spacing of the carriage positions it tries (solve and check)
+ResolutionOption = Annotated[Optional[float], typer.Option(
+    callback=between(0.01, 0.5, "m"),  # (a 200 m row of 2,000 fruit, 6 arms: a 240 MB screen at 0.01)
+    help="A row: spacing of the carriage positions its screen tries as stops, m (default 0.05; finer serves a "
+         "fruit an arm reaches only from a narrower window of rail, and takes longer).")]
+
+
 @app.command()
 @guarded
 def solve(
@@ -104,10 +111,7 @@ def solve(
              "(both, each verified; the better kept).")] = None,
     speed: Annotated[Optional[float], typer.Option(
         help="A row on the move: one cruising speed, m/s (default: the speed search, a speed per metre of rail).")] = None,
-    resolution: Annotated[Optional[float], typer.Option(
-        callback=between(0.01, 0.5, "m"),  # (a 200 m row of 2,000 fruit, 6 arms: a 240 MB screen at 0.01)
-        help="A row: spacing of the carriage positions its screen tries as stops, m (default 0.05; finer serves a "
-             "fruit an arm reaches only from a narrower window of rail, and takes longer).")] = None,
+    resolution: ResolutionOption = None,
     allocation: Annotated[
         Optional[AllocationMethod], typer.Option(help="Allocation method (default: the planner's own).")
     ] = None,
@@ -141,18 +145,15 @@ def solve(
             _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): {'; '.join(refused)}")
         moving = moving_options(path, gantry, speed, stops, planner)
         row_options = moving
-        if workers is not None:  # on the move: the speed search's processes; stop and go: the stops' cells'
+        # --workers: on the move the speed search's processes, stop and go the stops' cells';
+        # --resolution: the screen's grid, both modes
+        given = {k: v for k, v in (("workers", n_workers), ("resolution", resolution)) if v is not None}
+        if given:
             from dataclasses import replace as _replace
 
             from ..row.plan import RowOptions
 
-            row_options = _replace(moving, workers=n_workers) if moving is not None else RowOptions(workers=n_workers)
-        if resolution is not None:  # (the screen's grid: both modes)
-            from dataclasses import replace as _replace
-
-            from ..row.plan import RowOptions
-
-            row_options = _replace(row_options, resolution=resolution) if row_options is not None else RowOptions(resolution=resolution)
+            row_options = _replace(moving, **given) if moving is not None else RowOptions(**given)
         from ..errors import OptionsError
 
         try:
@@ -260,9 +261,7 @@ def list_problems():
 @guarded
 def check(
     problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file (default: the shipped greenhouse row).")] = None,
-    resolution: Annotated[Optional[float], typer.Option(
-        callback=between(0.01, 0.5, "m"),  # (a 200 m row of 2,000 fruit, 6 arms: a 240 MB screen at 0.01)
-        help="A row: spacing of the carriage positions its screen tries as stops, m (default 0.05, as solve).")] = None,
+    resolution: ResolutionOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
 ):
     """Validate a problem and say, without solving, what its geometry allows: locked arms,

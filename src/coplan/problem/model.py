@@ -475,14 +475,7 @@ def _fruits(fruit_specs: list, lines: dict, issues: list) -> list[Fruit]:
             continue
         fruits.append(Fruit(id=spec.id, position=spec.position))
         where.append(j)
-    copies = coincident([f.position for f in fruits])  # (a copy would be counted, planned and "harvested" twice)
-    for a, b in copies:
-        issues.append(Issue(path_str(("fruits", where[b], "position")), f"expected one fruit per position, found "
-                            f"{list(fruits[b].position)} again (also fruits[{where[a]}] {fruits[a].id!r}, within "
-                            f"{COINCIDENT * 1e6:g} um): a fruit is picked once; remove the copy",
-                            line_of(lines, ("fruits", where[b], "position"))))
-    drop = {b for _, b in copies}
-    fruits = [f for i, f in enumerate(fruits) if i not in drop]
+    issues += _copies(fruits, where, lines)  # (a copy would be counted, planned and "harvested" twice)
     return fruits
 
 
@@ -508,11 +501,19 @@ def position_issues(problem: Problem) -> list[Issue]:
     """Two fruit at one position, as a file is refused for them (a problem built or changed in
     Python is held to this when it is planned: :func:`coplan.solve`; the live planners' problems
     of camera reports, which may coincide, are not)."""
-    fr = problem.fruits
-    return [Issue(f"fruits[{b}].position", f"expected one fruit per position, found {list(fr[b].position)} again (also "
-                                           f"fruits[{a}] {fr[a].id!r}, within {COINCIDENT * 1e6:g} um): a fruit is picked "
-                                           f"once; remove the copy")
-            for a, b in coincident([f.position for f in fr])]
+    return _copies(list(problem.fruits), list(range(len(problem.fruits))), {})
+
+
+def _copies(fruits: list[Fruit], where: list[int], lines: dict) -> list[Issue]:
+    """One issue per fruit within :data:`COINCIDENT` of an earlier one; ``where``: each fruit's
+    index in ``fruits:`` (a file's skips the entries refused before), ``lines`` its lines."""
+    out = []
+    for a, b in coincident([f.position for f in fruits]):
+        loc = ("fruits", where[b], "position")
+        out.append(Issue(path_str(loc), f"expected one fruit per position, found {list(fruits[b].position)} again (also "
+                                        f"fruits[{where[a]}] {fruits[a].id!r}, within {COINCIDENT * 1e6:g} um): a fruit is "
+                                        f"picked once; remove the copy", line_of(lines, loc)))
+    return out
 
 
 def home_issues(problem: Problem) -> list[Issue]:

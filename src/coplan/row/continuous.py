@@ -34,15 +34,15 @@ import numpy as np
 
 from ..errors import Issue, OptionsError, check_fields
 from ..kinds import AssignRule, PlannerKind, PlanStatus, SpeedProfile
-from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES, EventKind, Plan, compute_metrics, finalize_plan
+from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES, EventKind, Plan, compute_metrics
 from ..problem.model import Problem
 from ..problem.plausible import cruise_speed_issue, plan_seconds_limit
 from ..progress import speaker
 from ..workers import process_pool, settle_workers
 from .booking import Booker, branch_table, run_policy, screen_branches
 from .cruise import STRETCH, Cruise, cruise_end, demand_stretches, last_place_bound, pick_windows
-from .plan import RowResult
-from .reach import DEFAULT_RESOLUTION, RowReach, row_reach, screened_out
+from .plan import RowResult, finalize_row
+from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
 from .starthold import start_hold
 
 __all__ = ["MovingOptions", "assemble_moving", "plan_continuous", "plan_moving", "speed_search", "SpeedPoint", "make_cruise"]
@@ -277,7 +277,6 @@ def _verified(problem: Problem, booker: Booker, cruise: Cruise, reach: RowReach,
               t0: float) -> RowResult:
     """The booked row as a plan, verified (``timings`` gains planning, counted from ``t0``, and
     verify; ``info`` the fruit left out)."""
-    from ..verify.row import row_reachable_ids
     from ..verify.verifier import verify
 
     plan = assemble_moving(problem, booker, cruise)
@@ -285,11 +284,7 @@ def _verified(problem: Problem, booker: Booker, cruise: Cruise, reach: RowReach,
     tv = _time.perf_counter()
     ver = verify(problem, plan)
     timings["verify"] = _time.perf_counter() - tv
-    plan.unreachable = screened_out(problem, reach)
-    plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
-    # (as a cell's: the count is of the fruit out of every arm's reach from the whole rail; the
-    # list, like a cell planner's, also holds those the screen left out)
-    plan.metrics["unreachable"] = len(problem.fruits) - plan.metrics["reachable"]
+    plan = finalize_row(problem, plan, ver, reach)
     info["left_out"] = dict(reach.reasons) | left
     info["first_stop_seconds"] = None
     plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}

@@ -235,19 +235,19 @@ class Cruise:
     @property
     def leaves_start(self) -> float:
         """When the carriage first moves, s (0: at once; > 0 after a start hold)."""
-        for t0, _, v, a, j in self.phases:
-            if abs(v) > 1e-12 or abs(a) > 1e-12 or abs(j) > 1e-12:
-                return float(t0)
+        for phase in self.phases:
+            if _moving(phase):
+                return float(phase[0])
         return math.inf  # (never: it rests where it starts for good)
 
     def arrivals(self) -> list[float]:
         """When the carriage comes to rest after a move, s (in time order; the start's rest is
         not one)."""
         out, moving = [], False
-        for t0, _, v, a, j in self.phases:
-            now = abs(v) > 1e-12 or abs(a) > 1e-12 or abs(j) > 1e-12
+        for phase in self.phases:
+            now = _moving(phase)
             if moving and not now:
-                out.append(float(t0))
+                out.append(float(phase[0]))
             moving = now
         return out
 
@@ -256,8 +256,7 @@ class Cruise:
         """The carriage's time in motion, s: its duration less its rests (the start hold, holds
         on the way)."""
         ends = [p[0] for p in self.phases[1:]] + [self.duration]
-        return float(sum(max(t1 - t0, 0.0) for (t0, _, v, a, j), t1 in zip(self.phases, ends)
-                         if abs(v) > 1e-12 or abs(a) > 1e-12 or abs(j) > 1e-12))
+        return float(sum(max(t1 - p[0], 0.0) for p, t1 in zip(self.phases, ends) if _moving(p)))
 
     @property
     def mean_speed(self) -> float:
@@ -276,6 +275,12 @@ class Window:
     hi: float
     c_lo: float
     c_hi: float
+
+
+def _moving(phase) -> bool:
+    """Whether the carriage moves during a constant-jerk phase ``(t0, x, v, a, j)``."""
+    _, _, v, a, j = phase
+    return abs(v) > 1e-12 or abs(a) > 1e-12 or abs(j) > 1e-12
 
 
 def _at(phase, t: float) -> tuple[float, float, float]:

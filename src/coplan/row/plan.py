@@ -40,7 +40,7 @@ from ..progress import Tick, speaker, ticker
 from .reach import DEFAULT_RESOLUTION, RowReach, row_reach, screened_out
 from .stops import Stop, StopWindow, fewest_stops, fixed_stops, optimised_stops
 
-__all__ = ["RowOptions", "RowResult", "StopPlan", "plan_row", "assemble"]
+__all__ = ["RowOptions", "RowResult", "StopPlan", "plan_row", "assemble", "finalize_row"]
 
 
 @dataclass(frozen=True)
@@ -137,7 +137,6 @@ def _cell_job(cell: Problem, opts: RowOptions) -> tuple[Plan, float]:
 def plan_row(problem: Problem, options: RowOptions | None = None, progress: Callable[[str], None] | None = None) -> RowResult:
     """Plan ``problem`` (a row: it has a gantry) end to end and verify it (module docstring).
     The row's figures: :func:`coplan.row.metrics.row_metrics` (see :class:`RowResult`)."""
-    from ..verify.row import row_reachable_ids
     from ..verify.verifier import verify
 
     if problem.gantry is None:
@@ -221,13 +220,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     tv = _time.perf_counter()
     ver = verify(problem, plan)
     timings["verify"] = _time.perf_counter() - tv
-    # as for a cell: success when every fruit some carriage position reaches is harvested (the
-    # verifier's own count); a fruit only a locked arm or a blocked pose reaches makes it partial
-    plan.unreachable = screened_out(problem, reach)
-    plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
-    # (as a cell's: the count is of the fruit out of every arm's reach from the whole rail; the
-    # list, like a cell planner's, also holds those the screen left out)
-    plan.metrics["unreachable"] = len(problem.fruits) - plan.metrics["reachable"]
+    plan = finalize_row(problem, plan, ver, reach)
     if interrupted:
         plan.status = PlanStatus.INTERRUPTED  # (the verdict on what it has is in plan.verification)
     info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
@@ -244,6 +237,20 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     say(f"row: {len(planned)} stop{'' if len(planned) == 1 else 's'} ({rule.value}), {plan.metrics.get('harvested')} fruit, "
         f"row time {plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
     return RowResult(plan, ver, planned, reach, timings, info)
+
+
+def finalize_row(problem: Problem, plan: Plan, ver, reach: RowReach) -> Plan:
+    """A row plan's status and metrics from the verifier's verdict (:func:`coplan.plan.finalize_plan`):
+    as for a cell, success when every fruit some carriage position reaches is harvested (the
+    verifier's own count: a fruit only a locked arm or a blocked pose reaches makes it partial).
+    Its ``unreachable`` lists what the screen left out, and ``metrics.unreachable`` counts, as a
+    cell's does, the fruit out of every arm's reach from the whole rail."""
+    from ..verify.row import row_reachable_ids
+
+    plan.unreachable = screened_out(problem, reach)
+    plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
+    plan.metrics["unreachable"] = len(problem.fruits) - plan.metrics["reachable"]
+    return plan
 
 
 def _first_last_pick(p: Plan) -> tuple[float, float]:
