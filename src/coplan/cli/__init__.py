@@ -4,7 +4,8 @@
 - :mod:`.failures`: exit codes and the ``--json`` error document of every failure
 - :mod:`.console`: the console runner (SIGTERM, closed pipes) and ``--help`` formatting
 - :mod:`.summary`: the solve summary and verification report
-- :mod:`.files`, :mod:`.live`, :mod:`.sweep`: the export/schema, feed/run and sweep commands
+- :mod:`.figures`, :mod:`.files`, :mod:`.live`, :mod:`.sweep`: the plot/animate/view, export/schema,
+  feed/run and sweep commands
 
 Light to import: NumPy, SciPy and the planners load inside the commands that use them.
 """

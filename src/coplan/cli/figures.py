@@ -1,0 +1,220 @@
+"""The figure commands: ``coplan plot``, ``coplan animate`` and ``coplan view`` (registered in
+:mod:`coplan.cli.commands`), and how they find a plan's problem and hold its status to the verifier.
+
+Imports only typer, rich and the enums at module level: ``import coplan.cli`` stays light;
+NumPy, the planners and matplotlib are imported inside the commands.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+
+from . import failures
+from .checks import between, fail, in_path, out_path
+from .console import ProgressDisplay
+from .failures import resolve_problem
+from .summary import safe as _s
+from ..kinds import ExitCode
+
+__all__ = ["PlotKind", "plot_cmd", "animate_cmd", "view_cmd"]
+
+_out = Console(soft_wrap=True)
+_err = Console(stderr=True, soft_wrap=True)
+
+
+def _resolve_problem(problem: Optional[Path]) -> Path:
+    return resolve_problem(problem, lambda m: _err.print(f"[dim]{_s(m)}[/]", highlight=False))
+
+
+class PlotKind(str, Enum):
+    GANTT = "gantt"
+    CLEARANCE = "clearance"
+    JOINTS = "joints"
+    WORKSPACE = "workspace"
+
+
+def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
+    """Load a plan.json and its problem: --problem; else the problem file the plan records
+    (``problem_file``: its path, and its digest, so a file changed since is not taken for it);
+    else the shipped problem of the plan's name."""
+    from ..plan import load_plan
+    from ..problem.model import load_problem, shipped_problems, shipped_rows
+
+    plan = load_plan(plan_path)
+    record = plan.problem_file
+    if problem is not None:
+        prob = load_problem(_resolve_problem(problem))
+        if plan.problem and prob.name != plan.problem:  # (a plan.csv names no problem)
+            _err.print(f"[yellow]note[/]: {_s(plan_path)} says it is a plan of {_s(repr(plan.problem))}; {_s(problem)} is {_s(repr(prob.name))}")
+    elif record is not None and Path(record["path"]).is_file():
+        prob = load_problem(record["path"])
+        if prob.digest != record["sha256"]:
+            fail(ExitCode.USAGE, f"{plan_path} was planned from {record['path']}, which has changed since (its sha256 "
+                                  f"differs); give the problem with --problem FILE to use it anyway")
+    else:
+        shipped = [load_problem(p) for p in shipped_problems() + shipped_rows()]
+        prob = next((p for p in shipped if p.name == plan.problem), None)
+        if prob is None and not plan.problem:  # (a plan.csv names no problem)
+            fail(ExitCode.USAGE, f"{plan_path} does not name its problem (a plan.csv does not): give its YAML file "
+                                  "with --problem FILE")
+        if prob is None:
+            where = f"it was planned from {record['path']}, which is gone, and " if record is not None else ""
+            fail(
+                ExitCode.USAGE,
+                f"{plan_path} is a plan of problem {plan.problem!r}; {where}that is not a shipped problem "
+                f"({', '.join(p.name for p in shipped)}): give its YAML file with --problem FILE",
+            )
+        if record is None and plan.problem:  # (a problem changed in Python records no file: say what is drawn)
+            _err.print(f"[yellow]note[/]: {_s(plan_path)} records no problem file: checked against the shipped "
+                              f"problem {_s(repr(prob.name))} ({_s(prob.source or '')}); if it was planned on a changed "
+                              "problem, give that with --problem FILE", highlight=False, soft_wrap=True)
+    names = [a.name for a in prob.arms]
+    missing = [n for n in names if n not in plan.q]
+    extra = [n for n in plan.q if n not in names]
+    if missing or extra:  # (an arm the problem does not have was silently left out of the figure)
+        fail(
+            ExitCode.BAD_INPUT,
+            f"{plan_path} does not fit problem {prob.name!r}: expected the problem's arms {names}, found {list(plan.q)}"
+            + (f" (missing {missing})" if missing else "") + (f" (unknown {extra})" if extra else ""),
+        )
+    if not plan.events and plan.q:  # (a plan.csv declares none): as the verifier infers them
+        from dataclasses import replace
+
+        from ..verify.clearance import arm_motions
+        from ..verify.infer import infer_events
+
+        plan = replace(plan, events=infer_events(prob, plan, arm_motions(prob, plan)))
+        _err.print(f"[yellow]note[/]: {_s(plan_path)} declares no picks or places: {len(plan.events)} inferred "
+                          "from its motion, as `coplan verify` does")
+    return prob, plan
+
+
+def _checked(prob, plan):
+    """``plan``'s status held to the verifier's verdict (:func:`coplan.plan.checked_status`):
+    a figure never calls a plan the verifier fails a success; a note says where they differ.
+    Returns the verification."""
+    from ..plan import checked_status
+    from ..verify.verifier import verify
+
+    ver = verify(prob, plan)
+    status = checked_status(plan.status, ver)
+    if status != plan.status:
+        _err.print(f"[yellow]note[/]: the plan file says {plan.status.value}; verified, it is {status.value}"
+                          + (f" ({len(ver.violations)} violation{'s' * (len(ver.violations) != 1)}: "
+                             f"{', '.join(sorted({v.kind.value for v in ver.violations}))})" if ver.violations else ""))
+        plan.status = status
+    return ver
+
+
+# the problem a plan belongs to, for the commands that read a plan.json
+PlanProblemOption = Annotated[
+    Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML (default: the shipped problem it names).")
+]
+
+
+def plot_cmd(
+    plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="plan.json to draw (for --kind workspace also a problem YAML).")],
+    kind: Annotated[PlotKind, typer.Option("--kind", "-k", help="Which figure.")] = PlotKind.GANTT,
+    problem: PlanProblemOption = None,
+    out: Annotated[
+        Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Image file; the suffix sets the format (default: <plan>_<kind>.png).")
+    ] = None,
+    arm: Annotated[Optional[str], typer.Option(help="joints/workspace: draw only this arm.")] = None,
+    dpi: Annotated[int, typer.Option(callback=between(30, 600), help="Resolution of raster images, 30-600 dpi.")] = 120,
+):
+    """Draw a figure of a plan: schedule Gantt, clearance, joint motion vs limits, or workspace map."""
+    from ..viz import plots
+
+    target = out if out is not None else plan.with_name(f"{plan.stem}_{kind.value}.png")
+    if not target.suffix:  # (matplotlib writes NAME.png and it said "wrote NAME", a file of the user's of that name)
+        target = target.with_name(target.name + ".png")
+    failures.check_out_file(target)  # (before any work)
+
+    if kind == PlotKind.WORKSPACE and plan.suffix.lower() in (".yaml", ".yml"):
+        from ..problem.model import load_problem
+
+        prob, pl = load_problem(_resolve_problem(plan)), None
+    else:
+        prob, pl = _plan_with_problem(plan, problem)
+    if arm is not None and arm not in [a.name for a in prob.arms]:
+        fail(ExitCode.USAGE, f"--arm: no arm named {arm!r}; arms are {', '.join(a.name for a in prob.arms)}")
+    if kind == PlotKind.WORKSPACE and prob.gantry is not None:
+        fail(ExitCode.USAGE, f"--kind workspace: expected a stationary cell, found the row {prob.name!r} (its arms ride on "
+                              "the carriage, so what they reach depends on where it stops): `coplan check` screens a row, "
+                              "`coplan view` shows its fruit by arm and stop; --kind gantt, clearance and joints draw its plan")
+    if pl is not None:  # (the title's status: the verdict's, not the file's word)
+        _checked(prob, pl)
+    if kind == PlotKind.GANTT:
+        fig = plots.plot_gantt(prob, {pl.planner_name: pl})
+    elif kind == PlotKind.CLEARANCE:
+        fig = plots.plot_clearance(prob, {pl.planner_name: pl})
+    elif kind == PlotKind.JOINTS:
+        fig = plots.plot_joints(prob, pl, arms=None if arm is None else [arm])
+    else:
+        fig = plots.plot_workspace(prob, arm)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(target, dpi=dpi)
+    except ValueError as e:  # unknown format
+        fail(ExitCode.USAGE, f"--out {target}: {e} (use .png, .svg or .pdf)")
+    except OSError as e:
+        fail(ExitCode.IO_ERROR, f"cannot write {target}: {e.strerror or e}")
+    _out.print(f"wrote {_s(target)}")
+
+
+def animate_cmd(
+    plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="plan.json to animate.")],
+    problem: PlanProblemOption = None,
+    out: Annotated[
+        Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output .gif (default, next to the plan) or .mp4.")
+    ] = None,
+    speed: Annotated[float, typer.Option(callback=between(0.01, 100.0), help="Playback speed: 1 = real time, 2 = twice as fast (0.01-100).")] = 1.0,
+    fps: Annotated[float, typer.Option(callback=between(1.0, 60.0), help="Frames per second of the animation (1-60).")] = 10.0,
+    dpi: Annotated[int, typer.Option(callback=between(30, 300), help="Resolution, 30-300 dpi (80: a 720 px wide GIF).")] = 80,
+):
+    """Render a plan as an animation: arms, fruit, bins, phases, clearance alarms (GIF or MP4)."""
+    from ..viz.animate import animate_plan
+
+    if out is not None and out.suffix.lower() not in (".gif", ".mp4"):
+        fail(ExitCode.USAGE, f"--out: expected a .gif or .mp4 file, found {_s(out)!r}")
+    prob, pl = _plan_with_problem(plan, problem)
+    _checked(prob, pl)  # (the title's status: the verdict's, not the file's word)
+    target = out if out is not None else plan.with_suffix(".gif")
+    with ProgressDisplay(_err) as bars:
+        path = animate_plan(
+            prob, pl, target, speed=speed, fps=fps, dpi=dpi,
+            notify=lambda m: _err.print(f"[yellow]note[/]: {_s(m)}", highlight=False, soft_wrap=True),
+            progress=bars,
+        )
+    failures.work_done()
+    _out.print(f"wrote {_s(path)}")
+
+
+def view_cmd(
+    plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="plan.json to view.")],
+    problem: PlanProblemOption = None,
+    compare: Annotated[Optional[Path], typer.Option("--compare", help="A second plan.json of the same problem, side by side on one clock.")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="HTML file (default: the plan's name with .html, next to it).")] = None,
+    open_page: Annotated[bool, typer.Option("--open", help="Open the page in the default browser.")] = False,
+):
+    """Write the interactive viewer of a plan: one self-contained HTML page (works offline) to scrub, play, hover, jump to violations."""
+    from ..viz.viewer import write_view
+
+    if out is not None:
+        failures.check_out_file(out)
+        if out.suffix.lower() not in (".html", ".htm"):  # (a usage error, before any work: as plot's and animate's --out)
+            failures.usage(f"--out: expected a file name ending in .html, found {out.name!r}")
+    prob, pl = _plan_with_problem(plan, problem)
+    other = _plan_with_problem(compare, problem)[1] if compare is not None else None
+    if other is not None and other.problem != pl.problem:  # (the message named the option, not the file)
+        fail(ExitCode.USAGE, f"--compare {compare}: expected a plan of the same problem {pl.problem!r} as {plan}, "
+                              f"found a plan of {other.problem!r}")
+    # each plan verified once, here: the page shows the verdict, and a note says where the file's word differs (as plot)
+    vers = {"verification": _checked(prob, pl)} | ({"compare_verification": _checked(prob, other)} if other is not None else {})
+    target = out if out is not None else plan.with_suffix('.html')
+    _out.print(f"wrote {_s(write_view(prob, pl, other, target, open_page, **vers))}")
