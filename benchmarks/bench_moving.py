@@ -6,7 +6,7 @@
    every stop, the stops' cells in two worker processes: ``--workers 2``), and continuous (``--gantry continuous --workers 2``: the speed search over a
    density profile, two levels planned side by side). Per row and mode: row time (the last fruit placed), fruit per hour, share of the
    harvestable fruit harvested, row time / the row's lower bound valid for any motion (no stop
-   assumed: :func:`coplan.row.bound.row_bounds`), planning time and its share of the row time,
+   assumed: :func:`coplan.allocate.row_bound.row_bounds`), planning time and its share of the row time,
    and the verdict of ``coplan verify`` run on the written plan file in another process. Then,
    per row, which mode wins and by how much (fruit per hour against the better of the others).
 2. **Speed curve** of continuous mode on one row: fruit per hour and share harvested against
@@ -94,7 +94,7 @@ def _cli_verify(text: str, plan, folder: Path) -> bool:
 
 
 def head_to_head(quick: bool) -> None:
-    from coplan.row.bound import row_bounds
+    from coplan.allocate.row_bound import row_bounds
     from coplan.row.metrics import row_metrics
 
     print("| row | fruit | mode | row time | fruit / h | harvested | / bound (any motion) | planning | planning / row time | "

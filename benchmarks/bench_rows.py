@@ -37,7 +37,7 @@ WORKERS = 2  # processes the stops' cells are planned in beside the stop rule (c
 def _rules(files: list[Path]) -> list[str]:
     from coplan.kinds import StopRule
     from coplan.problem import load_problem
-    from coplan.row.bound import row_bounds
+    from coplan.allocate.row_bound import row_bounds
     from coplan.row.metrics import row_metrics
     from coplan.row.plan import RowOptions, plan_row
 

@@ -24,7 +24,7 @@ from coplan.kinds import StopRule
 from coplan.plan import EventKind, load_plan
 from coplan.problem import load_problem, parse_problem, shipped_rows
 from coplan.problem.gantry import cell_at
-from coplan.row.bound import cycle_bounds, row_bounds
+from coplan.allocate.row_bound import cycle_bounds, row_bounds
 from coplan.row.plan import RowOptions, plan_row
 from coplan.row.reach import row_reach
 from coplan.row.stops import fewest_stops, round_trips

@@ -474,7 +474,7 @@ def test_a_row_plan_s_stops_and_bound_in_the_viewer_data():
     metrics of its own) is shown against the row's lower bound, not a cell's."""
     from coplan.generate import gantry_row, to_yaml
     from coplan.problem import parse_problem
-    from coplan.row.bound import row_bounds
+    from coplan.allocate.row_bound import row_bounds
     from coplan.row.continuous import MovingOptions
     from coplan.row.live import LiveRowOptions, run_live_row
     from coplan.viz.viewer import viewer_data

@@ -176,7 +176,7 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     the row plan verified in the row frame (:mod:`coplan.row`)."""
     from dataclasses import replace
 
-    from .row.bound import row_bounds
+    from .allocate.row_bound import row_bounds
     from .row.continuous import MovingOptions, plan_moving
     from .row.metrics import row_metrics
     from .row.plan import RowOptions, plan_row

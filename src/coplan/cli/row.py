@@ -23,7 +23,7 @@ def strict_json(doc) -> str:
 def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | None = None) -> ExitCode:
     """``coplan check`` of a row: which fruit some carriage position serves (and why not), the
     arms the screen locks, the carriage span, the stop rules' stop counts and the row's lower bounds."""
-    from ..row.bound import row_bounds
+    from ..allocate.row_bound import row_bounds
     from ..row.reach import DEFAULT_RESOLUTION, row_reach
     from ..row.stops import carriage_span, fewest_stops, fixed_stops
 

@@ -7,7 +7,6 @@
   :mod:`~coplan.row.cruise` its motion and the pick windows, :mod:`~coplan.row.track` the tip held
   over a moving fruit, :mod:`~coplan.row.booking` cycles booked clear of the neighbours,
   :mod:`~coplan.row.assign` CP-SAT's assignment and order), the speed searched.
-* :mod:`coplan.row.bound` -- the row's lower bounds.
 * :mod:`coplan.row.metrics` -- fruit per hour, share harvested, idle by cause, real-time figures.
 * :mod:`coplan.row.live` -- :func:`run_live_row`: a live row from a simulated camera
   (:mod:`~coplan.row.sensing` its options and faults).
@@ -16,13 +15,13 @@ The entry points and their options are also names of this package (``from coplan
 RowOptions, plan_row``), imported when first used.
 """
 
-_SUBMODULES = ("assign", "booking", "bound", "continuous", "cruise", "live", "liverun", "livestops", "metrics", "plan",
+_SUBMODULES = ("assign", "booking", "continuous", "cruise", "live", "liverun", "livestops", "metrics", "plan",
                "reach", "sensing", "stops", "stranded", "track")
 
 
 _EXPORTS = {"plan_row": "plan", "RowOptions": "plan", "RowResult": "plan", "plan_moving": "continuous",
             "MovingOptions": "continuous", "run_live_row": "live", "LiveRowOptions": "sensing", "RowFaults": "sensing",
-            "StopWindow": "stops", "row_bounds": "bound", "RowBounds": "bound", "row_metrics": "metrics"}
+            "StopWindow": "stops", "row_metrics": "metrics"}
 __all__ = sorted(_EXPORTS)
 
 

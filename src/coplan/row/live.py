@@ -66,7 +66,7 @@ from ..plan import MAX_PLAN_BYTES, Event, EventKind, finalize_plan
 from ..errors import Issue, OptionsError
 from ..problem.model import Fruit, Problem
 from ..problem.plausible import live_speed_issue, plan_seconds_limit
-from .bound import row_bounds
+from ..allocate.row_bound import row_bounds
 from .continuous import MovingOptions, assemble_moving, plan_moving
 from .cruise import Cruise, pick_windows, ramp_time
 from .liverun import LiveRun

@@ -21,7 +21,7 @@
   cell's definition, the time after its last place and out of its moves and dwells, counted its
   move home after its last place as idle and its moves out of a neighbour's way as work: up to
   4.6 points off them);
-* **ratios** to the row's lower bounds (:mod:`coplan.row.bound`), and ``overlap_seconds``: how
+* **ratios** to the row's lower bounds (:mod:`coplan.allocate.row_bound`), and ``overlap_seconds``: how
   long the carriage moves while some arm works (places, goes home, comes out), which the
   stop-and-go bound's model excludes;
 * **on the move** (``mode`` continuous): the speed profile, the carriage's mean speed (over its

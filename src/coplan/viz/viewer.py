@@ -378,7 +378,7 @@ def viewer_data(problem: Problem, plans: list[Plan], verifications: list | None 
     vers = [v if v is not None else verify(problem, p) for p, v in zip(plans, vers)]
     bound = next((p.metrics.get("lower_bound") for p in plans if (p.metrics or {}).get("lower_bound") is not None), None)
     if bound is None and problem.gantry is not None:  # a row plan from elsewhere (a live run's): the row's bound
-        from ..row.bound import row_bounds
+        from ..allocate.row_bound import row_bounds
 
         bound = row_bounds(problem).any_plan
     elif bound is None and problem.reachable_ids():

@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..allocate.allocation import min_max_bound
+from .allocation import min_max_bound
 from ..kinematics.timing import Move1D, scurve_times
 from ..problem.model import Problem
 
@@ -86,12 +86,12 @@ def cycle_bounds(problem: Problem, step: float = 0.05) -> tuple[np.ndarray, np.n
     docstring); whether the arm can reach the fruit from some position on the rail (annulus
     less the margin, ignoring joint limits: a superset); and the least carriage position from
     which some arm might reach the fruit. An arm the cell screen locks (it cannot reach its bin,
-    which rides with the carriage: :func:`coplan.row.reach.locked_arms`) reaches nothing."""
+    which rides with the carriage: the screen of the cell at any carriage position) reaches nothing."""
     from ..problem.gantry import cell_at
-    from .reach import locked_arms
+    from .screen import screened
 
     g = problem.gantry
-    locked = locked_arms(cell_at(problem, 0.0, ()))
+    locked = set(screened(cell_at(problem, 0.0, ())).locked)
     m = problem.task.reach_margin
     dw = problem.task.pick_dwell + problem.task.place_dwell
     cs = np.arange(g.start, g.end + step, step)
