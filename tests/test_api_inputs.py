@@ -53,6 +53,9 @@ def cell():
     (lambda p: dataclasses.replace(p, name=""), "name"),  # (a file's empty name was refused, not a built one)
     (lambda p: dataclasses.replace(p, name="  "), "name"),
     (lambda p: dataclasses.replace(p, arms=(dataclasses.replace(p.arms[0], name=" "),) + p.arms[1:]), "arms[0].name"),
+    # (a gantry or task of the wrong type raised AttributeError from inside the check)
+    (lambda p: dataclasses.replace(p, gantry="x"), "gantry"),
+    (lambda p: dataclasses.replace(p, task="x"), "task"),
 ])
 def test_a_problem_changed_in_python_is_checked_as_a_file_is(cell, change, path):
     """(A NaN link radius reached the verifier, whose distances it made infinitely clear: a plan
@@ -506,6 +509,27 @@ def test_a_problem_changed_in_python_is_held_to_the_ranges_and_plan_length_a_fil
     with pytest.raises(ProblemError, match="as changed in Python"):
         coplan.solve(long, planner="coordinated")
     assert coplan.solve(dataclasses.replace(p, name="changed"), planner="coordinated").plan.status.value == "success"
+
+
+def test_a_row_changed_in_python_is_held_to_its_rail_as_a_file_is():
+    """(A rail cut from 50 to 5 m with dataclasses.replace was planned: 'success' with 15 of 93
+    fruit, the other 78 'screened out'; the same row as a file is refused, fruit by fruit.)"""
+    import dataclasses
+
+    import coplan
+    from coplan.errors import ProblemError
+    from coplan.problem import load_problem, shipped_rows
+
+    r = load_problem(next(f for f in shipped_rows() if f.stem == "sparse_row"))
+    cut = dataclasses.replace(r, gantry=dataclasses.replace(r.gantry, end=5.0))
+    with pytest.raises(ProblemError) as e:
+        coplan.solve(cut, planner="coordinated")
+    far = [i for i in e.value.issues if i.message.startswith("expected a fruit on this row")]
+    assert far and all(i.path.startswith("fruits[") and i.path.endswith("].position[0]") for i in far)
+    assert len(far) == sum(f.position[0] > 5.0 + max(a.base[0] + a.reach for a in r.arms) for f in r.fruits)
+    crawl = dataclasses.replace(r, gantry=dataclasses.replace(r.gantry, max_velocity=1e-5))
+    with pytest.raises(ProblemError, match=r"gantry\.max_velocity: expected .* within the plausible range"):
+        coplan.solve(crawl, planner="coordinated")
 
 
 def test_lists_and_arrays_in_a_problem_built_in_python_are_its_tuples(cell):

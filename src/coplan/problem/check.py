@@ -13,6 +13,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from ..errors import Issue, finite_number
+from .gantry import Gantry
 from .spec import kind_of
 
 __all__ = ["built_issues"]
@@ -84,12 +85,16 @@ def built_issues(problem) -> list[Issue]:
         p = getattr(f, "position", None)
         if not (isinstance(p, (tuple, list)) and len(p) == 2 and _num(p[0], None) and _num(p[1], None)):
             out.append(Issue(f"fruits[{i}].position", f"expected [x, y] in m, two finite numbers, found {_kind(p)}"))
-    for k in _TASK:
+    if not all(hasattr(problem.task, k) for k in _TASK):  # (Task is coplan.problem.model's, which imports this module)
+        out.append(Issue("task", f"expected a Task ({', '.join(_TASK)}), found {_kind(problem.task)}"))
+    for k in _TASK if not out or out[-1].path != "task" else ():
         v = getattr(problem.task, k, None)
         if not _num(v, "nonneg"):
             out.append(Issue(f"task.{k}", f"expected {_words('nonneg')}, found {_kind(v)}"))
     g = problem.gantry
-    if g is not None:
+    if g is not None and not isinstance(g, Gantry):
+        out.append(Issue("gantry", f"expected a Gantry (coplan.problem.gantry.Gantry) or None, found {_kind(g)}"))
+    elif g is not None:
         for k in _GANTRY:
             v = getattr(g, k, None)
             sign = "pos" if k.startswith("max_") else "nonneg" if k == "settle" else None

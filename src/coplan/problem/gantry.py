@@ -25,7 +25,7 @@ from .yamlsafe import did_you_mean, line_of, path_str
 
 # (``Problem`` in the annotations below is coplan.problem.model.Problem, which imports this module)
 
-__all__ = ["Gantry", "parse_gantry", "cell_at", "carriage_extent", "GANTRY_KEYS"]
+__all__ = ["Gantry", "parse_gantry", "cell_at", "carriage_extent", "off_rail", "gantry_range_issues", "GANTRY_KEYS"]
 
 #: The keys of a ``gantry`` section: required ones first.
 GANTRY_KEYS = ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle")
@@ -131,6 +131,28 @@ def carriage_extent(problem: "Problem") -> tuple[float, float]:
     lo = min(a.base[0] - a.reach for a in problem.arms)
     hi = max(a.base[0] + a.reach for a in problem.arms)
     return g.start + lo, g.end + hi
+
+
+def off_rail(problem: "Problem", fruits=None) -> list[tuple[int, str]]:
+    """``(index, message)`` of each fruit of ``fruits`` (default: the problem's) outside
+    :func:`carriage_extent`: on no stretch of this row, so bad input."""
+    g = problem.gantry
+    lo, hi = carriage_extent(problem)
+    return [(j, f"expected a fruit on this row: x within [{lo:g}, {hi:g}] m, what some arm reaches from the rail "
+                f"[{g.start:g}, {g.end:g}] m; found x = {f.position[0]:g}")
+            for j, f in enumerate(problem.fruits if fruits is None else fruits) if not lo <= f.position[0] <= hi]
+
+
+def gantry_range_issues(g: Gantry) -> list[tuple[tuple, str]]:
+    """``(key path, message)`` for each number of a :class:`Gantry` built or changed in Python
+    outside its plausible range (:data:`BOUNDS`), as a file's section is refused for it."""
+    out = []
+    for k in GANTRY_KEYS:
+        lo, hi = BOUNDS[k]
+        v = getattr(g, k)
+        if not lo <= v <= hi:
+            out.append((("gantry", k), f"expected {_EXPECT[k]} within the plausible range [{lo:g}, {hi:g}], found {v:g}"))
+    return out
 
 
 def cell_at(problem: "Problem", x: float, fruit_ids=None, name: str | None = None) -> "Problem":

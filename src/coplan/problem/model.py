@@ -24,7 +24,7 @@ from . import plausible
 from ..errors import Issue, ProblemError, coplan_file_kind, is_joint_csv
 from ..kinematics.geometry import segment_distance
 from .check import built_issues
-from .gantry import Gantry, carriage_extent, parse_gantry
+from .gantry import Gantry, off_rail, parse_gantry
 from .spec import (ARM_REQUIRED, TOP_KEYS, ArmFieldsSpec, ArmSpec, FruitSpec, TaskSpec, kind_of, missing,
                    name_value)
 from .yamlsafe import MAX_FILE_BYTES, did_you_mean, line_of, path_str, read_yaml, read_input_text
@@ -575,10 +575,8 @@ def _whole(problem: Problem, fruits: list[Fruit], lines: dict, source: str | Non
     length, refused up front)."""
     gantry = problem.gantry
     if gantry is not None:  # a fruit beyond what any arm reaches from anywhere on the rail is not of this row
-        lo, hi = carriage_extent(problem)
-        far = [Issue(path_str(("fruits", j, "position", 0)), f"expected a fruit on this row: x within [{lo:g}, {hi:g}] m, "
-                     f"what some arm reaches from the rail [{gantry.start:g}, {gantry.end:g}] m; found x = {f.position[0]:g}",
-                     line_of(lines, ("fruits", j, "position"))) for j, f in enumerate(fruits) if not lo <= f.position[0] <= hi]
+        far = [Issue(path_str(("fruits", j, "position", 0)), msg, line_of(lines, ("fruits", j, "position")))
+               for j, msg in off_rail(problem, fruits)]
         if far:
             raise ProblemError(far, source)
         # (the row planners bound the rest: each cell is checked as it is made, a speed on the move by the cruise)

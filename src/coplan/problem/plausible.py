@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..plan import DEFAULT_RATE, MAX_PLAN_ANGLE, MAX_PLAN_BYTES, MAX_PLAN_COORD
+from .gantry import gantry_range_issues, off_rail
 
 __all__ = ["Bound", "BOUNDS", "MAX_PLAN_ANGLE", "MAX_PLAN_COORD", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "BYTES_PER_CARRIAGE_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "plan_seconds_limit", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
            "duration_issues", "problem_issues", "row_travel", "slowest_speed", "row_duration_issues",
@@ -232,7 +233,8 @@ def duration_issues(problem) -> list[tuple[tuple, str]]:
 def problem_issues(problem) -> list[tuple[tuple, str]]:
     """``(key path, message)`` for what a problem file would be refused for beyond its structure
     (a problem built or changed in Python skips the file's checks): every field outside
-    :data:`BOUNDS`, else a plan longer than coplan makes (:func:`duration_issues`, for a row
+    :data:`BOUNDS` (a row's gantry: :data:`coplan.problem.gantry.BOUNDS`, and each fruit on
+    the rail's reach), else a plan longer than coplan makes (:func:`duration_issues`, for a row
     :func:`row_duration_issues`)."""
     found: list[tuple[tuple, str]] = []
     for i, a in enumerate(problem.arms):
@@ -242,6 +244,9 @@ def problem_issues(problem) -> list[tuple[tuple, str]]:
         found += field_issues("position", fr.position, ("fruits", i, "position"))
     for f in ("pick_dwell", "place_dwell", "clearance", "reach_margin"):
         found += field_issues(f, getattr(problem.task, f), ("task", f))
+    if problem.gantry is not None:  # (a file's section and fruit are refused for these in the reader)
+        found += gantry_range_issues(problem.gantry)
+        found += [(("fruits", j, "position", 0), msg) for j, msg in ([] if found else off_rail(problem))]
     if found:
         return found
     return row_duration_issues(problem) if problem.gantry is not None else duration_issues(problem)
