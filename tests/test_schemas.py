@@ -51,6 +51,28 @@ def test_a_solved_plan_validates(tmp_path, problems_dir):
     assert {e.validator for e in v.iter_errors(broken)} == {"enum", "required"}
 
 
+def test_every_metric_coplan_writes_is_described_in_the_plan_schema(tmp_path, problems_dir):
+    """(plan.json's metrics were a bare object: nothing said that ``throughput`` is fruit per
+    second -- a sweep's table column of that name is fruit per minute -- or that
+    ``gap_to_lower_bound`` is a ratio.) An optimal cell plan, its baseline and a row plan."""
+    import coplan
+    from coplan.problem import load_problem, shipped_rows
+
+    schema = json.loads(shipped_path(SchemaKind.PLAN).read_text())["$defs"]
+    described = schema["PlanMetrics"]["properties"]
+    assert all(v.get("description") for v in described.values())
+    assert "SECOND" in described["throughput"]["description"] and "RATIO" in described["gap_to_lower_bound"]["description"]
+    cell = coplan.solve(problems_dir / "greenhouse_row.yaml", out_dir=tmp_path / "cell")
+    row = coplan.solve(load_problem(next(p for p in shipped_rows() if p.stem == "sparse_row")), planner="coordinated")
+    docs = [json.loads((tmp_path / "cell" / n).read_text()) for n in ("plan.json", "baseline.json")] + [row.plan.to_dict()]
+    for doc in docs:
+        assert set(doc["metrics"]) <= set(described), set(doc["metrics"]) - set(described)
+        for arm in doc["metrics"]["per_arm"].values():
+            assert set(arm) <= set(schema["ArmMetrics"]["properties"])
+        assert [e.message for e in validator(SchemaKind.PLAN).iter_errors(doc)] == []
+    assert cell.plan.metrics["throughput"] == pytest.approx(cell.plan.metrics["harvested"] / cell.plan.metrics["makespan"])
+
+
 def _mutations(doc: dict, rng: random.Random):
     """Edits that make a problem file invalid, each with where it applies."""
     arm = rng.randrange(len(doc["arms"]))

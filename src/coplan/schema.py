@@ -124,6 +124,51 @@ class ProblemFileRecord(_Closed):
     sha256: str = Field(description="sha256 of that file's text: a file changed since is not taken for it")
 
 
+class ArmMetrics(BaseModel):  # (open: coplan may add figures)
+    fruit: int | None = Field(None, description="fruit this arm placed in its bin")
+    last_place: float | None = Field(None, description="s, the end of this arm's last place")
+    cycle_time: float | None = Field(None, description="s per fruit: last_place / fruit")
+    idle_fraction: float | None = Field(None, description="share of the makespan (0-1) the arm is not moving, picking or placing")
+    rms_jerk: float | None = Field(None, description="rad/s^3, RMS over both joints and the whole plan (third differences)")
+    peak_jerk: float | None = Field(None, description="rad/s^3, the largest joint jerk")
+
+
+class PlanMetrics(BaseModel):
+    """The figures coplan writes under ``metrics`` (open: more keys may follow; a plan from
+    elsewhere needs none). Times in s, distances in m."""
+
+    harvested: int | None = Field(None, description="fruit placed in a bin")
+    reachable: int | None = Field(None, description="fruit some arm can harvest (the screen's harvestable count)")
+    unreachable: int | None = Field(None, description="fruit out of every arm's reach")
+    makespan: float | None = Field(None, description="s, the end of the last place")
+    cycle_time: float | None = Field(None, description="s per fruit, the worst arm's")
+    cycle_time_mean: float | None = Field(None, description="s per fruit, the mean over the arms that harvest")
+    throughput: float | None = Field(None, description="fruit per SECOND: harvested / makespan (a sweep's table gives "
+                                                        "fruit per minute; a row's metrics.row fruit per hour)")
+    per_arm: dict[str, ArmMetrics] | None = Field(None, description="arm name -> its figures")
+    lower_bound: float | None = Field(None, description="s, a makespan no plan can beat (a row's: for any carriage motion)")
+    gap_to_lower_bound: float | None = Field(None, description="a RATIO, makespan / lower_bound (1.0: no gap)")
+    optimality: str | None = Field(None, description="proven when the makespan meets the lower bound")
+    margin: float | None = Field(None, description="m, the least certified clearance beyond the required one")
+    margin_per_pair: dict[str, float | None] | None = Field(None, description="'a-b' (neighbouring arms) -> m, as margin")
+    fruit: int | None = Field(None, description="the problem's fruit")
+    harvestable: int | None = Field(None, description="reachable fruit the screen does not rule out")
+    screened_out: int | None = Field(None, description="reachable fruit the screen rules out (reasons: solver.screen)")
+    fruit_ids: dict[str, list[str]] | None = Field(None, description="the ids of the unreachable, screened_out and "
+                                                                      "left_out (harvestable, not harvested) fruit")
+    coordinated_makespan: float | None = Field(None, description="s, the optimal planner's first (coordinated) plan")
+    improvement_over_coordinated: float | None = Field(None, description="share (0.05: 5 %) by which the makespan is "
+                                                                          "shorter than coordinated_makespan")
+    baseline_makespan: float | None = Field(None, description="s, the course's heuristic plan made beside it (baseline.json)")
+    baseline_status: str | None = Field(None, description="that plan's verified status")
+    time_to_first_verified: float | None = Field(None, description="s of planning to the first verified plan")
+    time_of_last_improvement: float | None = Field(None, description="s of planning to the plan kept")
+    time_to_ratio: dict[str, float | None] | None = Field(None, description="'1.05', '1.02', '1.01' -> s of planning to a "
+                                                                             "plan within that ratio of lower_bound (null: never)")
+    row: dict[str, Any] | None = Field(None, description="a row plan's figures: fruit per hour, shares, stops, idle by "
+                                                          "cause, ratios to the row's bounds (docs/usage.md)")
+
+
 class PlanFile(BaseModel):
     """A coplan plan file (``plan.json``): every arm's joints on one uniform grid (100 Hz or
     finer, from 0), linear between samples, and the pick/place events."""
@@ -139,7 +184,7 @@ class PlanFile(BaseModel):
     events: list[EventSpec]
     allocation: dict[str, list[str]] = Field(default_factory=dict, description="arm name -> fruit ids in harvesting order")
     unreachable: list[str] = Field(default_factory=list, description="fruit no arm can reach")
-    metrics: dict[str, Any] | None = None
+    metrics: PlanMetrics | None = Field(None, description="what coplan measured of the plan (units in each field)")
     solver: dict[str, Any] | None = None
     verification: dict[str, Any] | None = None
     gantry: GantryTrajectory | None = Field(None, description="a row plan: the carriage's position on the same grid")
