@@ -199,3 +199,15 @@ def test_a_plan_that_harvests_more_than_the_screen_allows_says_so():
 
     assert "(2 more than the screen allows" in fruit_line({"harvested": 10, "harvestable": 8, "fruit": 10})
     assert "more than" not in fruit_line({"harvested": 8, "harvestable": 8, "fruit": 10})
+
+
+def test_the_solve_summary_counts_the_verifier_s_warnings(tmp_path):
+    """(The summary said nothing of them: greenhouse_row's coordinated plan passes near singular
+    poses 12 times, which verification.json and --json counted and `coplan verify` listed.)"""
+    res = run("solve", "greenhouse_row", "--planner", "coordinated", "--out", str(tmp_path))
+    assert res.exit_code == 0, res.output
+    doc = json.loads((tmp_path / "verification.json").read_text())
+    n = doc["summary"]["warning_count"]
+    kinds = {w["kind"] for w in doc["warnings"]}
+    assert n > 0 and kinds == {"singular"}
+    assert f"warnings          {n}, which do not fail the plan: {n} singular (" in res.output

@@ -141,6 +141,7 @@ def print_row_summary(console, res) -> None:
           f"(certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})")
     if not ver.get("passed", False):
         p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
+    _warnings(p, res.verification)
     first, known = r.get("first_motion_seconds"), r.get("first_stop_seconds", r.get("first_motion_seconds"))
     ahead = {True: "kept ahead of the carriage", False: "LATE", None: "no stop to plan"}[r.get("kept_ahead")]
     later = "" if first == known else f" (first motion after {fmt(first, ' s')}: the carriage does not move before that stop's cell)"
@@ -157,6 +158,15 @@ def print_row_summary(console, res) -> None:
         p(f"  wrote             {safe(v)}")
     if res.previous is not None:
         p(f"  previous run      kept in {safe(res.previous)}")
+
+
+def _warnings(p, verification) -> None:
+    """The verifier's warnings in one line (counted by kind; verification.json lists each)."""
+    warnings = getattr(verification, "warnings", None) or []
+    if warnings:
+        kinds = Counter(w.kind.value for w in warnings)
+        p(f"  warnings          {len(warnings)}, which do not fail the plan: "
+          + "; ".join(f"{n} {k} ({WARNING_WORDS.get(k, k)})" for k, n in sorted(kinds.items())))
 
 
 def print_summary(console, res) -> None:
@@ -214,6 +224,7 @@ def print_summary(console, res) -> None:
                                              if "rms_jerk" in v) + " rad/s^3")
         if not ver.get("passed", False):
             p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
+        _warnings(p, res.verification)
     solver = res.plan.solver
     if solver.get("message"):
         p(f"  solver            {safe(solver.get('status', ''))}: {safe(solver['message'])}")
@@ -294,10 +305,7 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     if ver.fcl is not None:
         agree = "agrees" if ver.fcl.agree else "[bold red]DISAGREES[/]"
         p(f"  FCL cross-check   {agree} ({ver.fcl.samples} instants, {ver.fcl.queries} link pairs, max diff {ver.fcl.max_abs_diff:.1e} m)")
-    if ver.warnings:
-        kinds = sorted({w.kind.value for w in ver.warnings})
-        p(f"  warnings          {len(ver.warnings)}, which do not fail the plan: "
-          + "; ".join(f"{k} ({WARNING_WORDS.get(k, k)})" for k in kinds))
+    _warnings(p, ver)
     if not ver.violations:
         return
     table = Table(title=plural(len(ver.violations), "violation") + " (by kind, the arms' contact first; then by time)",

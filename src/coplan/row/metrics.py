@@ -5,8 +5,10 @@
 * **fruit per hour** over the row (harvested / row time), and per arm;
 * **share harvested** of the harvestable fruit (and of all fruit), with the fruit screened out
   and the reason for each;
-* **row time** (the last fruit placed), per metre of row, the **stops** and the mean time the
-  carriage stands at one, the **carriage moving share** and the **picking share** (some arm
+* **row time** (the last fruit placed), per metre of row, the **stops** and the mean time per
+  stop (``mean_time_per_stop``: from the carriage's arrival to the end of the stop's last pick,
+  when it may leave -- the arms place while it moves on; at the last stop the row's last place
+  comes after), the **carriage moving share** and the **picking share** (some arm
   holding still on a fruit) of the row time;
 * **idle share by cause** per arm: ``carriage`` (at rest while the carriage moves), ``no_fruit``
   (at rest at a stop where it has nothing within reach), ``others`` (done at a stop, at rest,
