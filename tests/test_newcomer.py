@@ -15,6 +15,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
+import coplan
 from coplan.allocate.screen import reach_reason, screened
 from coplan.cli import app
 from coplan.errors import ProblemError
@@ -85,7 +86,7 @@ def test_a_plan_finds_its_own_problem_file_and_refuses_one_changed_since(tmp_pat
     assert r.exit_code == 2 and "which is gone" in r.output
 
 
-def test_a_shipped_problem_by_its_bare_name(tmp_path):
+def test_a_shipped_problem_by_its_bare_name(tmp_path, monkeypatch):
     r = run("solve", "crossing_paths", "--planner", "coordinated", "--out", str(tmp_path / "o"), cwd=tmp_path)
     assert r.exit_code == 0, r.output
     assert load_plan(tmp_path / "o" / "plan.json").problem == "crossing-paths"
@@ -102,10 +103,16 @@ def test_a_shipped_problem_by_its_bare_name(tmp_path):
     assert "says it is a plan of" not in r.output  # (a plan.csv names no problem: nothing to disagree with)
     # its picks and places are inferred, as `coplan verify` does: 4 fruit, 4 picks and 4 places
     assert "declares no picks or places: 8 inferred" in r.output
-    # in Python, a bare name is not a file: the error gives the shipped file, a row's too
+    # in Python, a bare name is the shipped problem, as on the command line (it was an error);
+    # elsewhere, the error gives the shipped file, a row's too
     for name in ("crossing_paths", "sparse_row"):
         with pytest.raises(ProblemError, match=f"{name!r} is a shipped problem, its file is .*{name}.yaml"):
             load_problem(tmp_path / "nowhere" / name)
+    (tmp_path / "empty").mkdir()
+    monkeypatch.chdir(tmp_path / "empty")  # (tmp_path holds a file named crossing_paths: above)
+    assert load_problem("crossing_paths") == load_problem(next(p for p in shipped_problems() if p.stem == "crossing_paths"))
+    assert load_problem("sparse_row.yaml").source.endswith("sparse_row.yaml")
+    assert coplan.solve("single_arm", planner="coordinated").plan.status.value == "success"
     # a shipped problem's name misspelt: did you mean (none for a name like no shipped one)
     r = run("check", "cours_row", cwd=tmp_path)
     assert r.exit_code == 3 and "did you mean the shipped problem 'course_row'?" in r.output, r.output

@@ -631,8 +631,9 @@ def _is_text_path(path: tuple) -> bool:
 def load_problem(path: str | Path) -> Problem:
     """Load and validate a problem file (raises :class:`ProblemError`, never a bare traceback).
 
-    A missing file named like a shipped problem (``dense_overlap``, ``dense_overlap.yaml``)
-    gets an error that gives the shipped file's path."""
+    A shipped problem's bare name (``dense_overlap``, ``dense_overlap.yaml``) where no such
+    file is in the working folder loads the shipped file, as the ``coplan`` commands do; a
+    missing file elsewhere named like one gets an error that gives the shipped file's path."""
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"problem: expected the path of a YAML problem file (str or Path), found {type(path).__name__}"
                         + ("; a problem as a mapping (coplan.generate's): coplan.solve(mapping), or "
@@ -642,6 +643,8 @@ def load_problem(path: str | Path) -> Problem:
     if not p.exists():
         name = p.name[:-5] if p.name.endswith(".yaml") else p.name
         shipped = {s.stem: s for s in shipped_problems() + shipped_rows()}
+        if name in shipped and p.parent == Path("."):
+            return load_problem(shipped[name])
         if name in shipped:
             raise ProblemError([Issue("", f"expected an existing YAML file, found no file at this path; "
                                           f"{name!r} is a shipped problem, its file is {shipped[name]} "
