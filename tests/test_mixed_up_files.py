@@ -186,11 +186,12 @@ def test_verify_tells_the_makespan_from_the_plans_length(crossing_plan):
 
 def test_a_shipped_problem_named_without_its_path_gets_its_path(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # no such file here
-    for given in ("dense_overlap", "dense_overlap.yaml"):
-        with pytest.raises(ProblemError) as e:
-            load_problem(given)
-        msg = str(e.value)
-        assert msg.startswith(f"{given}:") and str(PROBLEMS / "dense_overlap.yaml") in msg and "coplan problems" in msg
+    for given in ("dense_overlap", "dense_overlap.yaml"):  # (in Python too, as on the command line: it was an error)
+        assert load_problem(given).source == str(PROBLEMS / "dense_overlap.yaml")
+    with pytest.raises(ProblemError) as e:  # a path elsewhere: the error gives the shipped file's path
+        load_problem("elsewhere/dense_overlap")
+    msg = str(e.value)
+    assert msg.startswith("elsewhere/dense_overlap:") and str(PROBLEMS / "dense_overlap.yaml") in msg and "coplan problems" in msg
     # the command line takes a shipped problem's bare name for that problem (and says which file)
     r = runner.invoke(app, ["check", "dense_overlap"])
     assert r.exit_code == 0 and str(PROBLEMS / "dense_overlap.yaml") in r.output and "Traceback" not in r.output

@@ -27,8 +27,8 @@ from coplan.cli import app  # noqa: E402
 from coplan.kinds import ExitCode, RowStatus, SweepBase, SweepMode  # noqa: E402
 from coplan.sweep.report import pareto_front, sweep_report  # noqa: E402
 from coplan.sweep.run import run_sweep, solve_item  # noqa: E402
-from coplan.sweep.spec import SweepError, SweepItem, load_sweep, parse_sweep  # noqa: E402
-from coplan.sweep.table import COLUMNS, JOURNAL, read_rows, read_table  # noqa: E402
+from coplan.sweep.spec import PARAMETERS, TOP_KEYS, SweepError, SweepItem, load_sweep, parse_sweep  # noqa: E402
+from coplan.sweep.table import COLUMNS, JOURNAL, normalise, read_rows, read_table  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "sweeps" / "small.yaml"
@@ -163,6 +163,45 @@ def test_solve_item_turns_errors_into_rows_without_a_cluster():
     assert solve_item(gen_err)[0]["exit_class"] == "bad input"
 
 
+def test_a_bad_input_row_keeps_its_design_and_a_row_file_with_the_heuristic_is_bad_input(problems_dir):
+    """(A design whose problem could not be made lost its arms, spacing and links in the table --
+    its n_arms column read as floats in pandas -- and the generator's default seed 0 read null;
+    a row file swept with the heuristic was an 'internal error'.)"""
+    params = {"n_arms": 2, "spacing": 0.3, "density": 1e9, "links": [0.9, 0.7], "link_radius": 0.05}
+    row = solve_item(SweepItem(0, "k", params, "coordinated", {}, 5.0, "row generator", None, 2.4, "could not generate"))[0]
+    assert row["status"] == "bad input"
+    assert (row["n_arms"], row["spacing"], row["density"], row["row_length"]) == (2, 0.3, 1e9, 2.4)
+    assert (row["link_1"], row["link_2"], row["link_radius"], row["seed"]) == (0.9, 0.7, 0.05, 0)
+    text = (problems_dir / "rows" / "sparse_row.yaml").read_text() if (problems_dir / "rows").is_dir() else None
+    if text is None:
+        from coplan.problem import shipped_rows
+
+        text = next(p for p in shipped_rows() if p.stem == "sparse_row").read_text()
+    row = solve_item(SweepItem(1, "k2", {"problem": "sparse_row.yaml"}, "heuristic", {}, 30.0, "sparse_row.yaml", text))[0]
+    assert (row["status"], row["exit_class"]) == ("bad input", "bad input") and "planner" in row["message"]
+    assert row["seed"] is None and row["n_arms"] == 3  # (a file's: its own figures, no generator seed)
+    # why the optimal planner stopped, so that a row its clock stopped (machine-dependent) can be found
+    single = (problems_dir / "single_arm.yaml").read_text()
+    row = solve_item(SweepItem(2, "k3", {"problem": "single_arm.yaml"}, "optimal", {}, 30.0, "single_arm.yaml", single))[0]
+    assert row["status"] == "success" and row["stopped_by"] == "proven_optimal"
+
+
+def test_a_task_dask_returns_no_row_for_says_why():
+    """(Every task cancelled when an external scheduler went away said 'the worker process died on
+    all 3 attempts'.)"""
+    import types
+
+    from distributed import KilledWorker
+    from distributed.client import FutureCancelledError
+
+    from coplan.sweep.run import lost_reason
+
+    assert lost_reason(KilledWorker("t", types.SimpleNamespace(address="tcp://w"), 2), 3).startswith("the worker process died on all 3 attempts")
+    why = lost_reason(FutureCancelledError("t", reason="scheduler-connection-lost"), 3)
+    assert why.startswith("the connection to the Dask scheduler was lost") and "run the same command again" in why
+    assert lost_reason(RuntimeError("boom"), 3).startswith("Dask returned no result (RuntimeError: boom)")
+
+
 def test_the_watchdog_stops_a_hung_worker_and_the_retry_writes_a_timeout_row(tmp_path):
     code = textwrap.dedent(f"""
         import time
@@ -216,11 +255,45 @@ def test_random_mode_draws_seeded_values_within_ranges():
           options.search_work: {from: 1000, to: 3000, step: 1000}
     """)
     a, b = parse_sweep(text, "r.yaml").items(), parse_sweep(text, "r.yaml").items()
-    assert [i.key for i in a] == [i.key for i in b] and 30 <= len(a) <= 40
+    assert [i.key for i in a] == [i.key for i in b] and len(a) == 40  # (a draw that repeats a problem is drawn again)
     assert {i.params["n_arms"] for i in a} == {2, 3, 4, 5}
     assert all(1.2 <= i.params["spacing"] <= 2.6 for i in a) and {i.params["density"] for i in a} == {0.5, 1.0}
     assert {i.options["search_work"] for i in a} == {1000, 2000, 3000}
     assert parse_sweep(text.replace("seed: 7", "seed: 8"), "r.yaml").items()[0].key != a[0].key
+
+
+def test_random_mode_gives_the_samples_asked_for_or_the_whole_grid():
+    """(100 samples of a 36-set grid gave 27 problems, silently: repeats were dropped; a range
+    with a count was drawn from as if it had none.)"""
+    text = textwrap.dedent("""
+        base: row
+        mode: random
+        samples: 100
+        seed: 3
+        vary:
+          spacing: {from: 1.2, to: 2.0, step: 0.1}
+          n_arms: [2, 3]
+          density: {from: 0.5, to: 1.0, count: 2}
+    """)
+    spec = parse_sweep(text, "r.yaml")
+    assert spec.grid_size() == 9 * 2 * 2 and spec.vary["density"] == [0.5, 1.0]
+    whole = spec.items()
+    grid = parse_sweep(text.replace("mode: random\n", "").replace("samples: 100\n", ""), "g.yaml").items()
+    assert [i.key for i in whole] == [i.key for i in grid] and len(whole) == 36
+    some = parse_sweep(text.replace("samples: 100", "samples: 20"), "r.yaml").items()
+    assert len(some) == 20 and {i.key for i in some} <= {i.key for i in grid}
+    with pytest.raises(SweepError) as e:
+        parse_sweep(text.replace("samples: 100", "samples: 1000000000"), "r.yaml")
+    assert [(i.path, i.line) for i in e.value.issues] == [("samples", 4)] and "found samples: 1000000000" in str(e.value)
+
+
+def test_every_sweep_file_key_and_parameter_is_in_the_usage_guide():
+    """(The guide named no base, no `fixed`, `mode`, `samples`, `seed` or `retries`, and few
+    parameters: a user found `gantry` from an error message.)"""
+    text = (ROOT / "docs" / "usage.md").read_text()
+    section = text[text.index("## Design sweeps"):text.index("## Exit codes")]
+    missing = [k for k in sorted(TOP_KEYS) + list(PARAMETERS) + [b.value for b in SweepBase] if f"`{k}`" not in section]
+    assert missing == []
 
 
 def test_the_shipped_sweeps_validate():
@@ -254,7 +327,7 @@ def test_sweep_file_errors_name_the_key_path_and_line():
     got = {i.path: (i.line, i.message) for i in e.value.issues}
     assert got["fixed.link_radius"][0] == 4 and "positive" in got["fixed.link_radius"][1]
     assert got["vary.spacng"][0] == 6 and "did you mean 'spacing'" in got["vary.spacng"][1]
-    assert got["vary.n_arms[1]"] == (7, "expected an integer >= 1, found number 0")
+    assert got["vary.n_arms[1]"] == (7, "expected an integer >= 1 and <= 64 (what a problem may have), found number 0")
     assert got["vary.density"][0] == 8 and "from <= to" in got["vary.density"][1]
     assert got["vary.seed"][0] == 9 and "whole numbers" in got["vary.seed"][1]
     assert got["vary.options.search_work[0]"][0] == 10
@@ -276,6 +349,9 @@ def test_sweep_file_errors_name_the_key_path_and_line():
     ("base: row\nvary: {n_arms: &a [1]}\n", "vary.n_arms", "anchor"),
     ("base: row\nvary: {}\n", "vary", "at least one to vary"),  # (as `vary:` left empty)
     ("base: row\nvary: {n_arms: [2, -1, two, 2.5]}\n", "vary.n_arms[3]", "integer"),  # (every bad value, not the first)
+    # (the heuristic plans no row: every row of such a sweep was an 'internal error', and it exited 0)
+    ("base: gantry\nvary: {n_arms: [2]}\nplanner: heuristic\n", "planner", "coordinated or optimal with base gantry"),
+    ("base: gantry\nvary: {n_arms: [2], planner: [optimal, heuristic]}\n", "vary.planner[1]", "with base gantry"),
 ])
 def test_sweep_file_errors(text, path, words, tmp_path):
     with pytest.raises(SweepError) as e:
@@ -288,7 +364,7 @@ def test_the_sweep_command_reports_a_bad_file_with_exit_code_3(tmp_path):
     bad.write_text(BAD)
     r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(bad), "--out", str(tmp_path / "o")])
     assert r.exit_code == int(ExitCode.BAD_INPUT)
-    assert f"{bad}:7: vary.n_arms[1]: expected an integer >= 1, found number 0" in r.output
+    assert f"{bad}:7: vary.n_arms[1]: expected an integer >= 1 and <= 64 (what a problem may have), found number 0" in r.output
     assert "Traceback" not in r.output and not (tmp_path / "o").exists()
     r = CliRunner().invoke(app, ["sweep", str(SMALL), "--workers", "2", "--scheduler", "tcp://x:1"])
     assert r.exit_code == int(ExitCode.USAGE)
@@ -485,6 +561,32 @@ def test_the_sweep_command_end_to_end(tmp_path):
     assert "the same planners: other problems, time limits or options" in said
 
 
+def test_designs_that_differ_in_links_or_time_limit_are_told_apart_in_the_report(tmp_path):
+    """(Two link sets at one spacing were one zig-zag line of the throughput figure, and the
+    Pareto table had no link column; a re-run with another time limit counted as a second seed.)"""
+    from coplan.sweep.report import designs, sweep_report, varied
+    from coplan.sweep.table import RowJournal
+
+    base = {"exit_class": "ok", "verified": True, "status": "success", "reachable": 5, "n_arms": 3, "spacing": 1.4,
+            "link_2": 0.8, "planner": "coordinated", "time_limit": 20.0, "sweep": "links", "name": "row",
+            "params": json.dumps({"density": 2.0}), "makespan": 10.0}
+    rows = [dict(base, key="a", link_1=1.0, seed=0, throughput=42.2), dict(base, key="b", link_1=0.8, seed=0, throughput=52.9),
+            dict(base, key="c", link_1=1.0, seed=1, throughput=44.0),
+            dict(base, key="d", link_1=1.0, seed=0, throughput=40.0, time_limit=25.0)]  # (a re-run: another time limit)
+    journal = RowJournal(tmp_path)
+    for r in rows:
+        journal.append(r)
+    table = [normalise(r) for r in rows]
+    des = designs(table)
+    assert varied(des) == ["link_1", "time_limit"]
+    assert sorted((d["link_1"], d["time_limit"], d["seeds"], d["rows"]) for d in des) == [
+        (0.8, 20.0, 1, 1), (1.0, 20.0, 2, 2), (1.0, 25.0, 1, 1)]
+    rep = sweep_report(tmp_path)
+    table_md = rep.text[rep.text.index("## Pareto front"):]
+    assert "| link 1, m |" in table_md and "| time limit, s |" in table_md and "| 0.800 |" in table_md
+    assert (tmp_path / "report" / "throughput.png").exists()
+
+
 def test_two_gantry_modes_of_one_row_are_two_designs_in_the_report_not_one_with_twice_the_seeds():
     from coplan.sweep.report import designs, summarise
     from coplan.sweep.table import normalise
@@ -560,6 +662,7 @@ def test_problems_left_without_a_result_make_the_sweep_exit_9_and_the_next_run_s
     lost = sorted(i for i, r in rows.items() if r["status"] == RowStatus.LOST.value)
     # (Dask may also give up on a task queued on the dying worker with no retry left: lost too)
     assert 1 in lost and all(rows[i]["status"] == "success" for i in rows if i not in lost)
+    assert f"({3 - len(lost)} solved now, {len(lost)} lost, 0 already done)" in said, said  # (lost ones were 'solved')
     assert all(rows[i]["exit_class"] == "incomplete" and "died" in rows[i]["message"] for i in lost)
     n = len(lost)
     assert f"{n} problem{'s' if n > 1 else ''} of the sweep {'have' if n > 1 else 'has'} no result" in said, said

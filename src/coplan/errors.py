@@ -90,9 +90,9 @@ def found(v, list_length: bool = False) -> str:
     if isinstance(v, str):
         return f"string {v!r}"
     if isinstance(v, dict):
-        return "a mapping"
+        return "an empty mapping" if not v else "a mapping"
     if isinstance(v, list):
-        return f"a list of {len(v)}" if list_length else "a list"
+        return "an empty list" if not v else f"a list of {len(v)}" if list_length else "a list"
     return type(v).__name__
 
 

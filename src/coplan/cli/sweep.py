@@ -96,8 +96,11 @@ def sweep_cmd(
         if "connect" in str(e).lower() or isinstance(e, (ConnectionError, TimeoutError)):
             usage(f"--scheduler {scheduler}: could not connect ({e})")
         raise
-    rate = 60.0 * res.done / res.elapsed if res.elapsed > 0 else 0.0
-    _out.print(f"[bold]{_safe(sw.name)}[/]: {plural(res.total, 'problem')} ({res.done} solved now, {res.skipped} already done) "
+    lost = res.counts.get(RowStatus.LOST.value, 0)  # (no row from Dask: not solved; a re-run solves them)
+    solved = res.done - lost
+    rate = 60.0 * solved / res.elapsed if res.elapsed > 0 else 0.0
+    _out.print(f"[bold]{_safe(sw.name)}[/]: {plural(res.total, 'problem')} ({solved} solved now, "
+               + (f"{lost} lost, " if lost else "") + f"{res.skipped} already done) "
                f"in {res.elapsed:.1f} s ({rate:.1f} problems/min)", highlight=False)
     if res.others:  # rows of other runs into this folder (another planner, time limit, options or problems): the table holds both
         what = (f"planner {', '.join(res.other_planners)}, or other problems, time limits or options" if res.other_planners

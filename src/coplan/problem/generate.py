@@ -332,7 +332,7 @@ def gantry_row(
     bases = _bases(n_arms, spacing)
     g = {"start": 0.0, "end": _r4(x0 + length)} | LESSON_GANTRY | (gantry or {})  # (a key given replaces its default only)
     d = _assemble(
-        name or f"row-{length:g}m-{n_arms}arms-{density:g}perm-seed{seed}",
+        name or f"row-{length:g}m-{n_arms}arms-{spacing:g}m-{density:g}perm-seed{seed}",
         f"{n_arms} of the lesson's arms {spacing:g} m apart on a gantry along a {length:g} m row, about {density:g} "
         f"fruit per metre ({'in trusses' if trusses else 'uniform'}, seed {seed}).",
         dict(LESSON_DEFAULTS), _arm_entries(bases, -0.5, None),

@@ -23,7 +23,8 @@ from typing import Any
 from ..kinds import RowStatus
 from .table import COLUMNS, read_table
 
-__all__ = ["SweepReport", "sweep_report", "summarise", "pareto_front", "designs", "fronts", "counts_as_with_fruit"]
+__all__ = ["SweepReport", "sweep_report", "summarise", "pareto_front", "designs", "varied", "FAMILY", "fronts",
+           "counts_as_with_fruit"]
 
 _MEDIANS = ("makespan", "ratio", "throughput", "throughput_per_m", "cycle_worst", "cycle_mean", "certified_clearance", "solve_time")
 
@@ -44,26 +45,45 @@ def _median(xs: list[float]) -> float | None:
     return xs[n // 2] if n % 2 else 0.5 * (xs[n // 2 - 1] + xs[n // 2])
 
 
+# what tells two designs apart besides arms, spacing and density (a row's gantry mode, the
+# planner and how it ran too: a re-run with another time limit is another design, not more seeds)
+FAMILY = ("link_1", "link_2", "link_radius", "planner", "gantry", "time_limit", "options")
+
+
 def designs(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Successful rows grouped by design (arms, spacing, density, links, planner and, on a row,
-    the gantry mode; seeds pooled): the median throughput and makespan of each design and how
-    many seeds it has. Two modes of one row are two designs, never one with twice the seeds."""
+    """Successful rows grouped by design (arms, spacing, density and :data:`FAMILY`: links,
+    link radius, planner, a row's gantry mode, time limit, options; seeds pooled): the median
+    throughput and makespan of each design, how many distinct seeds it has and how many rows.
+    Two modes of one row are two designs, never one with twice the seeds; nor are two time limits."""
     groups: dict[tuple, list[dict]] = {}
     for r in rows:
         if r["status"] != RowStatus.SUCCESS.value or r["throughput"] is None:
             continue
         dens = json.loads(r["params"] or "{}").get("density")  # a design parameter only when the sweep set it
         sp = round(r["spacing"], 6) if r["spacing"] is not None else None
-        k = (r["n_arms"], sp, dens, r["link_1"], r["link_2"], r["planner"], r.get("gantry"))
+        k = (r["n_arms"], sp, dens) + tuple(r.get(f) for f in FAMILY)
         groups.setdefault(k, []).append(r)
     out = []
-    for (arms, sp, dens, l1, l2, planner, gantry), rs in sorted(groups.items(), key=lambda kv: tuple(str(x) for x in kv[0])):
-        out.append({"n_arms": arms, "spacing": sp, "density": dens, "link_1": l1, "link_2": l2, "planner": planner,
-                    "gantry": gantry, "seeds": len(rs),
+    for k, rs in sorted(groups.items(), key=lambda kv: tuple(str(x) for x in kv[0])):
+        arms, sp, dens = k[:3]
+        out.append({"n_arms": arms, "spacing": sp, "density": dens, **dict(zip(FAMILY, k[3:])),
+                    "seeds": len({r["seed"] for r in rs}), "rows": len(rs),
                     "throughput": _median([r["throughput"] for r in rs]),
                     "throughput_per_m": _median([r["throughput_per_m"] for r in rs]),
                     "makespan": _median([r["makespan"] for r in rs])})
     return out
+
+
+def varied(des: list[dict[str, Any]]) -> list[str]:
+    """The :data:`FAMILY` fields whose values differ among ``des`` (what a table or a figure
+    must show to tell the designs apart)."""
+    return [f for f in FAMILY if len({json.dumps(d.get(f), default=str) for d in des}) > 1]
+
+
+def _family_words(d: dict[str, Any], fields: list[str]) -> str:
+    words = {"link_1": lambda v: f"l1 {v:g} m", "link_2": lambda v: f"l2 {v:g} m", "link_radius": lambda v: f"r {v:g} m",
+             "time_limit": lambda v: f"{v:g} s", "planner": str, "gantry": str, "options": lambda v: f"options {v}"}
+    return ", ".join(words[f](d[f]) if d.get(f) is not None else f"{f} -" for f in fields)
 
 
 def pareto_front(points: list[tuple[float, float]]) -> list[int]:
@@ -125,6 +145,9 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
         "rows": len(rows), "counts": counts, "exit_classes": classes,
         "with_reachable_fruit": len(with_fruit), "success_with_reachable_fruit": len(ok_fruit),
         "success_rate": len(ok_fruit) / len(with_fruit) if with_fruit else None,
+        "success_by_planner": {pl: [sum(r["status"] == RowStatus.SUCCESS.value for r in with_fruit if r["planner"] == pl),
+                                    sum(r["planner"] == pl for r in with_fruit)]
+                               for pl in sorted({r["planner"] for r in with_fruit if r["planner"]})},
         "success_but_not_verified": unverified_success,
         "medians": med,
         "median_heuristic_over_plan": gain("heuristic_makespan", "makespan"),
@@ -144,7 +167,9 @@ def _text(s: dict[str, Any], title: str) -> str:
              "exit classes: " + ", ".join(f"{k} {v}" for k, v in sorted(s["exit_classes"].items()))]
     if s["success_rate"] is not None:
         lines.append(f"success among problems with reachable fruit: {s['success_with_reachable_fruit']}/{s['with_reachable_fruit']}"
-                     f" ({100 * s['success_rate']:.1f} %)")
+                     f" ({100 * s['success_rate']:.1f} %)"
+                     + ("; by planner: " + ", ".join(f"{pl} {a}/{b}" for pl, (a, b) in s["success_by_planner"].items())
+                        if len(s.get("success_by_planner") or {}) > 1 else ""))
     lines.append(f"rows called success whose plan was not verified: {len(s['success_but_not_verified'])}")
     lines += ["", "## Medians (successful rows)", "", "| figure | median | what, unit |", "|---|---|---|"]
     lines += [f"| {k} | {_fmt(v)} | {COLUMNS.get(k, ('', ''))[1]} |" for k, v in s["medians"].items()]
@@ -173,20 +198,27 @@ def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
     files: dict[str, Path] = {}
     ok = [r for r in rows if r["status"] == RowStatus.SUCCESS.value]
     des = designs(rows)
+    fam = varied(des)
     arms = sorted({d["n_arms"] for d in des if d["spacing"] is not None})
     if arms:
         fig = Figure(figsize=(3.6 * len(arms), 3.4))
         axes = fig.subplots(1, len(arms), sharey=True, squeeze=False)
         for ax, a in zip(axes[0], arms):
-            dens = sorted({d["density"] for d in des if d["n_arms"] == a}, key=lambda x: (x is None, x or 0))
-            for dn in dens:
-                pts = sorted((d["spacing"], d["throughput"]) for d in des if d["n_arms"] == a and d["density"] == dn)
-                ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", ms=3, label=f"{dn:g}/m" if dn is not None else "?")
+            lines: dict[tuple, list] = {}  # one line per density and design family (links, planner, gantry mode, ...)
+            for d in des:
+                if d["n_arms"] == a:
+                    lines.setdefault((d["density"],) + tuple(json.dumps(d.get(f), default=str) for f in fam), []).append(d)
+            for key in sorted(lines, key=lambda k: ((k[0] is None, k[0] or 0),) + k[1:]):
+                ds = lines[key]
+                pts = sorted((d["spacing"], d["throughput"]) for d in ds)
+                dn = key[0]
+                label = (f"{dn:g}/m" if dn is not None else "?") + (f", {_family_words(ds[0], fam)}" if fam else "")
+                ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", ms=3, label=label)
             ax.set_title(f"{a} arms")
             ax.set_xlabel("base spacing, m")
             ax.grid(alpha=0.3)
         axes[0][0].set_ylabel("throughput, fruit/min (median over seeds)")
-        axes[0][-1].legend(title="fruit density", fontsize=7)
+        axes[0][-1].legend(title="fruit density" + (", design" if fam else ""), fontsize=7)
         fig.tight_layout()
         files["throughput"] = out / "throughput.png"
         fig.savefig(files["throughput"], dpi=110)
@@ -244,10 +276,13 @@ def sweep_report(folder: str | Path, out: str | Path | None = None, figures: boo
     title = ", ".join(sorted({r["sweep"] for r in rows if r["sweep"]})) or str(folder)
     text = _text(s, title)
     if s["pareto_front"]:
-        modes = any(d.get("gantry") for d in s["pareto_front"])  # (rows: which gantry mode each design is)
-        text += ("\n## Pareto front: arms against throughput\n\n| arms | spacing, m | density, /m |" + (" gantry |" if modes else "")
-                 + " fruit/min | seeds |\n|---|---|---|" + ("---|" if modes else "") + "---|---|\n")
-        text += "".join(f"| {d['n_arms']} | {_fmt(d['spacing'])} | {_fmt(d['density'])} |" + (f" {d['gantry'] or '-'} |" if modes else "")
+        fam = varied(s["designs"])  # (the columns that tell the designs apart: links, gantry mode, planner, ...)
+        heads = {"link_1": "link 1, m", "link_2": "link 2, m", "link_radius": "link radius, m", "planner": "planner",
+                 "gantry": "gantry", "time_limit": "time limit, s", "options": "options"}
+        text += ("\n## Pareto front: arms against throughput\n\n| arms | spacing, m | density, /m |"
+                 + "".join(f" {heads[f]} |" for f in fam) + " fruit/min | seeds |\n|---|---|---|" + "---|" * len(fam) + "---|---|\n")
+        text += "".join(f"| {d['n_arms']} | {_fmt(d['spacing'])} | {_fmt(d['density'])} |"
+                        + "".join(f" {_fmt(d.get(f)) if d.get(f) is not None else '-'} |" for f in fam)
                         + f" {_fmt(d['throughput'], 2)} | {d['seeds']} |\n" for d in s["pareto_front"])
     files = {"markdown": out / "report.md", "json": out / "report.json"}
     files["markdown"].write_text(text)

@@ -39,7 +39,7 @@ from ..provenance import software_record
 from .spec import SweepError, SweepItem, SweepSpec
 from .table import RowJournal, read_rows, write_table
 
-__all__ = ["SweepOutcome", "run_sweep", "solve_item", "hard_limit", "exit_class", "Watchdog", "SNAPSHOT_SECONDS", "default_workers"]
+__all__ = ["SweepOutcome", "run_sweep", "solve_item", "hard_limit", "exit_class", "Watchdog", "SNAPSHOT_SECONDS", "default_workers", "lost_reason"]
 
 SNAPSHOT_SECONDS = 5.0  # how often results.parquet is rewritten while the sweep runs
 STATE = ".sweep-state"
@@ -87,11 +87,21 @@ def _worker_name() -> str:
 
 
 def _base_row(item: SweepItem) -> dict[str, Any]:
+    """The row's columns known before the problem is read: the design's parameters (a problem
+    that cannot be made or read keeps them: its row is still that design's), replaced by the
+    problem's own figures once it is read (:func:`_problem_columns`)."""
     p = item.params
+    links = p.get("links")
+    links = (links, links) if isinstance(links, (int, float)) else links
+    generated = "problem" not in p  # (base files: the file's figures only)
     return {
         "key": item.key, "index": item.index, "source": item.source, "planner": item.planner,
         "params": json.dumps(p, sort_keys=True, default=str), "options": json.dumps(item.options, sort_keys=True, default=str),
-        "seed": p.get("seed"), "density": p.get("density"), "time_limit": item.time_limit, "worker": _worker_name(),
+        "seed": p.get("seed", 0 if generated else None),  # (a generator's default seed is 0)
+        "density": p.get("density"), "time_limit": item.time_limit, "worker": _worker_name(),
+        "n_arms": p.get("n_arms"), "n_fruits": p.get("n_fruits"), "spacing": p.get("spacing"), "row_length": item.row_length,
+        "link_1": links[0] if links else None, "link_2": links[1] if links else None, "link_radius": p.get("link_radius"),
+        "gantry": p.get("gantry"),
     }
 
 
@@ -130,6 +140,7 @@ def _result_columns(res, row: dict[str, Any]) -> dict[str, Any]:
         "throughput": per_min, "throughput_per_m": per_min / row["row_length"] if per_min and row.get("row_length") else None,
         "certified_clearance": ver.get("certified_clearance"), "required_clearance": ver.get("required_clearance"),
         "verified": ver.get("passed"), "solve_time": res.timings.get("total"),
+        "stopped_by": (res.plan.solver or {}).get("stopped_by"),
         "message": None if res.success else (res.plan.solver.get("message") or _why(res)),
     }
     r = m.get("row")
@@ -215,6 +226,9 @@ def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = 
             problem = parse_problem(item.problem_text or "", item.source)
             row.update(_problem_columns(problem, item))
             options = None
+            if problem.gantry is not None and item.planner == PlannerKind.HEURISTIC.value:  # (a file's row; was 'internal error')
+                raise InputError([Issue("planner", "expected coordinated or optimal for a row on a gantry (the course's "
+                                                   "heuristic plans a stationary cell), found heuristic")], item.source)
             if problem.gantry is not None:  # a row: the cell planner at each stop, or on the move (no cell planner)
                 mode = GantryMode(item.params.get("gantry", GantryMode.STOP_AND_GO.value))
                 res = solve(problem, planner=None if mode == GantryMode.CONTINUOUS else item.planner, gantry=mode)
@@ -237,11 +251,23 @@ def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = 
 
 
 # ---------------------------------------------------------------------- the driver
+def lost_reason(err: BaseException, attempts: int) -> str:
+    """Why Dask returned no row: every attempt's worker died (``KilledWorker``), or the task
+    was cancelled -- the connection to the scheduler lost, the client closed -- or another error."""
+    name, text = type(err).__name__, str(err)
+    if name == "KilledWorker":
+        return f"the worker process died on all {attempts} attempts ({name}: {text})"
+    if "cancel" in name.lower() or "cancel" in text.lower():
+        why = ("the connection to the Dask scheduler was lost" if "connection-lost" in text or "connection lost" in text.lower()
+               else "Dask cancelled the task")
+        return f"{why} before it finished ({name}: {text}); run the same command again to solve it"
+    return f"Dask returned no result ({name}: {text}); run the same command again to solve it"
+
+
 def _lost_row(item: SweepItem, sweep: str, attempts: int, err: BaseException) -> dict[str, Any]:
     row = _base_row(item)
     row.update(sweep=sweep, worker=None)
-    return _fail_row(row, RowStatus.LOST, ExitCode.INCOMPLETE,
-                     f"the worker process died on all {attempts} attempts ({type(err).__name__}: {err})")
+    return _fail_row(row, RowStatus.LOST, ExitCode.INCOMPLETE, lost_reason(err, attempts))
 
 
 def _completed(ac, stop: _Interrupt, poll: float = 0.2):
@@ -270,6 +296,9 @@ def _client(workers: int, scheduler: str | None, retries: int):
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
+        # (a scheduler that goes away printed the client's tracebacks for every task: each
+        # becomes a 'lost' row saying so, which a re-run solves)
+        logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
         return Client(scheduler, timeout="20s"), None
     with dask.config.set({"distributed.scheduler.allowed-failures": retries}), warnings.catch_warnings():
         # the scheduler's HTTP routes move to a free port when another cluster holds 8787: not news

@@ -12,7 +12,8 @@ A sweep file (YAML)::
       density: [0.8, 1.2, 1.6]          # fruit per metre of row
       seed: {from: 0, to: 4}
       options.search_work: [5000, 20000]  # any solver option, as options.<name>
-    mode: grid                # grid (every combination) | random (``samples`` draws, seeded; repeats dropped)
+    mode: grid                # grid (every combination) | random (``samples`` distinct problems drawn, seeded;
+                              #   the whole grid when it holds no more)
     planner: optimal          # heuristic | coordinated | optimal (can be varied too)
     options: {polish: false}  # solver options (coplan.optimal.OptimalOptions fields)
     time_limit: 60            # per problem, s (the planner's clock limit; a hard stop later)
@@ -37,9 +38,10 @@ from typing import Any
 
 from ..errors import InputError, Issue, ProblemError, finite_number, found
 from ..kinds import GantryMode, PlannerKind, SweepBase, SweepMode
+from ..problem.model import MAX_ARMS
 from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 
-__all__ = ["SweepError", "SweepItem", "SweepSpec", "load_sweep", "parse_sweep", "PARAMETERS", "MAX_ITEMS"]
+__all__ = ["SweepError", "SweepItem", "SweepSpec", "load_sweep", "parse_sweep", "PARAMETERS", "TOP_KEYS", "MAX_ITEMS"]
 
 MAX_ITEMS = 200_000  # problems one sweep may expand to
 MAX_VALUES = 10_000  # values one range may expand to
@@ -55,7 +57,7 @@ _GEN = (SweepBase.ROW, SweepBase.OVERLAP, SweepBase.RANDOM, SweepBase.CELL, Swee
 _GANTRY = (SweepBase.GANTRY,)
 _ALL = tuple(SweepBase)
 PARAMETERS: dict[str, tuple[str, tuple, str]] = {
-    "n_arms": ("count1", _GEN, "number of arms"),
+    "n_arms": ("arms", _GEN, "number of arms"),
     "n_fruits": ("count0", _GEN[:4], "number of fruit (instead of density)"),
     "density": ("positive", _ROWS + _GANTRY, "fruit per metre of row"),
     "spacing": ("positive", _ROWS + _GANTRY, "distance between neighbouring bases, m"),
@@ -78,9 +80,10 @@ PARAMETERS: dict[str, tuple[str, tuple, str]] = {
     "clearance": ("positive", _ROWS + _GANTRY, "required clearance between links, m"),
     "planner": ("planner", _ALL, "heuristic | coordinated | optimal"),
 }
-_TOP = {"name", "description", "base", "problems", "fixed", "vary", "mode", "samples", "seed", "planner",
+TOP_KEYS = {"name", "description", "base", "problems", "fixed", "vary", "mode", "samples", "seed", "planner",
         "options", "time_limit", "retries"}
 _TASK_KEYS = ("pick_dwell", "place_dwell", "clearance")
+_INTEGER = ("count0", "count1", "arms")  # kinds of whole numbers (arms: 1 to MAX_ARMS)
 
 
 @dataclass(frozen=True)
@@ -120,11 +123,21 @@ class SweepSpec:
     def items(self, planner: PlannerKind | str | None = None, time_limit: float | None = None) -> list[SweepItem]:
         """The concrete problems (duplicates, by key, dropped); ``planner`` / ``time_limit``
         replace the file's (the command line's ``--planner`` and ``--time-limit``)."""
+        if planner is not None and self.base == SweepBase.GANTRY and PlannerKind(planner) == PlannerKind.HEURISTIC:
+            raise SweepError([Issue("--planner", "expected coordinated or optimal with base gantry (the course's heuristic "
+                                                 "plans a stationary cell, not a row), found heuristic")], self.source)
         combos = self._combinations()
         out: list[SweepItem] = []
         seen: set[str] = set()
         limit = float(time_limit) if time_limit is not None else self.time_limit
+        # random mode: ``samples`` distinct problems (a draw that repeats one is drawn again), or
+        # the whole grid when it holds no more
+        grid = self.grid_size() if self.mode == SweepMode.RANDOM else None
+        want = (None if self.mode == SweepMode.GRID or (grid is not None and grid <= (self.samples or 0)) else
+                (self.samples or 0) * max(1, len(self.problems)))
         for params in combos:
+            if want is not None and len(out) >= want:
+                break
             if planner is not None:
                 params["planner"] = PlannerKind(planner).value
             for item in self._make(len(out), params, limit):
@@ -139,16 +152,31 @@ class SweepSpec:
         if self.mode == SweepMode.GRID:
             lists = [self.vary[n] for n in names]
             return [dict(self.fixed, **dict(zip(names, combo))) for combo in itertools.product(*lists)]
+        grid = self.grid_size()
+        if grid is not None and grid <= (self.samples or 0):  # as many samples as the grid has: the whole grid
+            lists = [_values(self.vary[n], _kind_of(n)) for n in names]
+            return [dict(self.fixed, **dict(zip(names, combo))) for combo in itertools.product(*lists)]
         import numpy as np
 
         rng = np.random.default_rng(self.seed)
         out = []
-        for _ in range(self.samples or 0):
+        for _ in range(50 * (self.samples or 0)):  # (drawn on while draws repeat a problem: items() stops at ``samples``)
             p = dict(self.fixed)
             for n in names:
                 p[n] = _draw(rng, self.vary[n], _kind_of(n))
             out.append(p)
         return out
+
+    def grid_size(self) -> int | None:
+        """How many distinct parameter sets ``vary`` holds (None: a range of real numbers
+        without a step, which random mode draws from freely)."""
+        n = 1
+        for name, v in self.vary.items():
+            vals = _values(v, _kind_of(name))
+            if vals is None:
+                return None
+            n *= len(vals)
+        return n
 
     def _make(self, index: int, params: dict[str, Any], limit: float) -> list[SweepItem]:
         planner = str(params.pop("planner", self.planner.value))
@@ -193,13 +221,26 @@ def _draw(rng, values: list | dict, kind: str):
     if step is not None:
         n = int(math.floor((hi - lo) / step + 1e-9))
         return _tidy(lo + step * int(rng.integers(0, n + 1)), kind)
-    if kind in ("count0", "count1") or (kind == "option" and isinstance(lo, int) and isinstance(hi, int)):
+    if kind in _INTEGER or (kind == "option" and isinstance(lo, int) and isinstance(hi, int)):
         return int(rng.integers(lo, hi + 1))
     return round(float(rng.uniform(lo, hi)), 6)
 
 
+def _values(v: list | dict, kind: str) -> list | None:
+    """The values a list or a range (random mode's ``{from, to[, step]}``) holds, None for a
+    range of real numbers without a step (integers: every one between)."""
+    if isinstance(v, list):
+        return v
+    lo, hi, step = v["from"], v["to"], v.get("step")
+    if step is None and (kind in _INTEGER or (kind == "option" and isinstance(lo, int) and isinstance(hi, int))):
+        step = 1
+    if step is None:
+        return None
+    return [_tidy(lo + i * step, kind) for i in range(int(math.floor((hi - lo) / step + 1e-9)) + 1)]
+
+
 def _tidy(x: float, kind: str):
-    if kind in ("count0", "count1"):
+    if kind in _INTEGER:
         return int(round(x))
     x = round(float(x), 9)
     return int(x) if kind == "option" and x.is_integer() else x
@@ -261,10 +302,11 @@ def _generate(base: SweepBase, p: dict[str, Any]) -> tuple[str, float | None, st
 # ---------------------------------------------------------------------- validation
 def _check_value(kind: str, v: Any) -> str | None:
     """Why ``v`` is not a good value of a parameter of ``kind`` (None when it is)."""
-    if kind in ("count0", "count1"):
-        low = 1 if kind == "count1" else 0
-        ok = finite_number(v) and float(v).is_integer() and v >= low
-        return None if ok else f"expected an integer >= {low}, found {found(v)}"
+    if kind in _INTEGER:
+        low, high = (0, math.inf) if kind == "count0" else (1, MAX_ARMS if kind == "arms" else math.inf)
+        ok = finite_number(v) and float(v).is_integer() and low <= v <= high
+        return None if ok else (f"expected an integer >= {low}" + (f" and <= {high} (what a problem may have)" if high < math.inf else "")
+                                + f", found {found(v)}")
     if kind == "positive":
         return None if finite_number(v) and v > 0 else f"expected a positive number, found {found(v)}"
     if kind == "nonneg":
@@ -283,7 +325,8 @@ def _check_value(kind: str, v: Any) -> str | None:
         if finite_number(v) and v > 0:
             return None
         ok = isinstance(v, list) and len(v) == 2 and all(finite_number(x) and x > 0 for x in v)
-        return None if ok else f"expected a positive number or a pair of them [a, b], found {found(v)}"
+        shown = f"[{', '.join(found(x) for x in v)}]" if isinstance(v, list) and len(v) == 2 else found(v, list_length=True)
+        return None if ok else f"expected a positive number or a pair of them [a, b], found {shown}"
     if kind == "box":
         ok = isinstance(v, list) and len(v) == 2 and all(finite_number(x) for x in v) and v[0] < v[1]
         return None if ok else f"expected a pair [low, high] with low < high, found {found(v) if not isinstance(v, list) else v}"
@@ -328,7 +371,7 @@ def _range_values(r: dict, kind: str, loc: tuple, lines: dict, issues: list, kee
     if count is not None and not (finite_number(count) and float(count).is_integer() and count >= 1):
         issues.append(Issue(_path(loc + ("count",)), f"expected an integer >= 1, found {found(count)}", line_of(lines, loc + ("count",))))
         return None
-    integer = kind in ("count0", "count1")
+    integer = kind in _INTEGER
     if integer and not all(float(x).is_integer() for x in (lo, hi) + ((step,) if step is not None else ())):
         issues.append(Issue(path, f"expected whole numbers for this integer parameter, found from {lo}, to {hi}"
                                   + (f", step {step}" if step is not None else ""), where))
@@ -357,7 +400,7 @@ def _range_values(r: dict, kind: str, loc: tuple, lines: dict, issues: list, kee
     if bad:
         issues.append(Issue(path, f"range: {_check_value(kind, bad[0])}", where))
         return None
-    if keep_range:
+    if keep_range and count is None:  # (random mode draws from it; a range with a count is its values)
         return {"from": lo, "to": hi, **({"step": step} if step is not None else {})}
     return values
 
@@ -437,9 +480,9 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
     import difflib
 
     for k in data:
-        if k not in _TOP:
-            near = difflib.get_close_matches(str(k), sorted(_TOP), n=1, cutoff=0.5)
-            hint = f"; did you mean {near[0]!r}?" if near else f"; allowed keys: {', '.join(sorted(_TOP))}"
+        if k not in TOP_KEYS:
+            near = difflib.get_close_matches(str(k), sorted(TOP_KEYS), n=1, cutoff=0.5)
+            hint = f"; did you mean {near[0]!r}?" if near else f"; allowed keys: {', '.join(sorted(TOP_KEYS))}"
             issues.append(Issue(str(k), f"expected a known key, found unknown key {k!r}{hint}", line_of(lines, (k,))))
 
     def get(key, kind, default):
@@ -532,6 +575,13 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                                     line_of(lines, loc)))
             if k in fixed:
                 issues.append(Issue(_path(loc), f"expected each parameter once, found {k!r} both fixed and varied", line_of(lines, loc)))
+    if base == SweepBase.GANTRY:  # the course's heuristic plans a stationary cell only (every row was an 'internal error')
+        for loc, v in ((("planner",), data.get("planner")), (("fixed", "planner"), fixed.get("planner")),
+                       *((("vary", "planner", i), x) for i, x in enumerate(vary.get("planner") or []))):
+            if v == PlannerKind.HEURISTIC.value:
+                issues.append(Issue(_path(loc), "expected coordinated or optimal with base gantry (each stop's cell planner; "
+                                                 "the course's heuristic plans a stationary cell, not a row), found heuristic",
+                                    line_of(lines, loc)))
     both = {"n_fruits", "density"} & (set(fixed) | set(vary))
     if len(both) == 2:
         issues.append(Issue("vary" if "density" in vary else "fixed", "expected either n_fruits or density, found both",
@@ -544,8 +594,11 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
     total = math.prod(sizes.values()) if mode == SweepMode.GRID else (samples or 0)
     if base == SweepBase.FILES:
         total *= max(1, len(problems))
-    if total > MAX_ITEMS:
-        issues.append(Issue("vary", f"expected at most {MAX_ITEMS} problems, found {total} combinations", line_of(lines, ("vary",))))
+    if total > MAX_ITEMS and mode == SweepMode.RANDOM and base != SweepBase.FILES:
+        issues.append(Issue("samples", f"expected at most {MAX_ITEMS} problems, found samples: {samples}", line_of(lines, ("samples",))))
+    elif total > MAX_ITEMS:
+        issues.append(Issue("vary", f"expected at most {MAX_ITEMS} problems, found {total}"
+                                    + (" combinations" if mode == SweepMode.GRID else " (samples x problem files)"), line_of(lines, ("vary",))))
     if issues:
         raise SweepError(sorted(issues, key=lambda i: -1 if i.line is None else i.line), source)
     return SweepSpec(name=str(name), base=base, mode=mode, fixed=fixed, vary=vary, planner=planner, options=options,
