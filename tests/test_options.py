@@ -50,6 +50,12 @@ BAD = [
     ("window: true\n", "window", "expected a positive number, found boolean True"),
     ("ipopt: 5\n", "ipopt", "expected a mapping of IPOPT settings"),
     ("ipopt: {ipopt.tol: [1]}\n", "ipopt", "expected setting: number or string"),
+    # (1e-9 s built billions of knots: 23 GB of memory; 0 polish iterations or rounds crashed the polish)
+    ("h_target: 1.0e-9\n", "h_target", "within [0.005, 1], found 1e-09"),
+    ("check_rate: 1.0e+9\n", "check_rate", "within [100, 100000]"),
+    ("polish_iterations: 0\n", "polish_iterations", "expected a positive integer, found number 0"),
+    ("polish_rounds: 0\n", "polish_rounds", "expected a positive integer"),
+    ("max_rounds: 0\n", "max_rounds", "expected a positive integer"),
 ]
 
 

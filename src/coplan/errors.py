@@ -113,6 +113,14 @@ MAX_MARGIN = 0.5
 MAX_TOLERANCE = 0.01
 
 
+#: options whose plausible range is narrower than their sign (``h_target`` 1e-9 s built billions
+#: of knots: 23 GB of memory before any check could skip the stage)
+OPTION_RANGES = {
+    "h_target": (0.005, 1.0, "a knot spacing of the NLP's grid, s,"),
+    "check_rate": (100.0, 100_000.0, "a rate of the planner's dense clearance check, Hz,"),
+}
+
+
 def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     """The message for a bad value ``v`` of an options field ``name`` annotated ``kind``
     (``int``, ``float``, ``bool``, ``dict``, ``... | None``; others are not judged here), or None
@@ -143,6 +151,9 @@ def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     if name == "margin" and x > MAX_MARGIN:  # (every planner's margin, from a file or from Python)
         return (f"expected a planning margin of at most {MAX_MARGIN:g} m beyond task.clearance (more leaves neighbouring "
                 f"arms no room to work), found {v!r}")
+    if name in OPTION_RANGES and not OPTION_RANGES[name][0] <= x <= OPTION_RANGES[name][1]:
+        lo, hi, what = OPTION_RANGES[name]
+        return f"expected {what} within [{lo:g}, {hi:g}], found {v!r}"
     if name == "tolerance" and x > MAX_TOLERANCE:
         return (f"expected a tolerance of at most {MAX_TOLERANCE:g} s (one sample: a makespan further from the lower bound "
                 f"is not proven optimal), found {v!r}")

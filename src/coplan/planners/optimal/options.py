@@ -165,7 +165,8 @@ class OptimalOptions:
 
 
 # fields that must be > 0 (the others of their type must be >= 0)
-_POSITIVE = {"workers", "h_target", "window", "check_rate", "time_limit", "window_time_limit", "retime_work", "retime_shift", "retime_rounds"}
+_POSITIVE = {"workers", "h_target", "window", "check_rate", "time_limit", "window_time_limit", "retime_work", "retime_shift", "retime_rounds",
+             "polish_iterations", "polish_rounds", "max_rounds"}  # (0 of the last three crashed the polish: nothing to solve)
 
 
 def _check(name: str, kind: str, v: Any) -> str | None:
