@@ -561,3 +561,11 @@ def test_findings_hold_python_numbers(cell):
     found = ver.violations + ver.warnings + ver.intervals + ver.pairs
     assert ver.violations and "np." not in repr(found)
     assert all(type(v.amount) is float for v in ver.violations)
+
+
+def test_load_plan_names_a_path_of_the_wrong_type():
+    """(coplan.load_plan(5) gave os's bare 'expected str, bytes or os.PathLike object, not int'.)"""
+    import coplan
+
+    with pytest.raises(TypeError, match=r"path: expected the path of a plan file \(str or Path\), found int 5"):
+        coplan.load_plan(5)

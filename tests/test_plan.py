@@ -194,7 +194,9 @@ BAD = [
     ("coarse", lambda d: d.update(time=[2 * x for x in d["time"]]), "time", "expected a grid of 100 Hz or finer"),
     ("late-start", lambda d: d.update(time=[x + 0.5 for x in d["time"]]), "time[0]", "expected 0, found 0.5"),
     ("empty-time", _set(["time"], []), "time", "found an empty one"),
-    ("unknown-arm", lambda d: d["events"][3].update(arm="ghost"), "events[3].arm", "expected one of the plan's arms ['left', 'center', 'right'], found 'ghost' (arms has no samples of 'ghost': missing, or the event misnames its arm)"),
+    ("unknown-arm", lambda d: d["events"][3].update(arm="ghost"), "events[3].arm", "expected one of the plan's arms ['left', 'center', 'right'], found 'ghost' (arms has no samples of 'ghost': missing, or the event misnames its arm; 1 event names it)"),
+    # (an arm cut from arms: one issue, not one per event -- hundreds on a row)
+    ("arm-cut", lambda d: d["arms"].pop("right"), "events[2].arm", "found 'right' (arms has no samples of 'right'"),
     ("bad-kind", lambda d: d["events"][0].update(kind="grab"), "events[0].kind", "expected 'pick' or 'place', found string 'grab'"),
     ("nan-event", lambda d: d["events"][2].update(t_start=float("nan")), "events[2].t_start", "expected a finite time"),
     ("reversed-event", lambda d: d["events"][1].update(t_end=0.0), "events[1].t_end", "expected t_end >= t_start"),

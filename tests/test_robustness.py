@@ -184,7 +184,7 @@ def test_unwritable_out_is_refused(tmp_path: Path, problems_dir: Path, monkeypat
     monkeypatch.setattr(coplan.cli.commands.os, "access", lambda path, mode: Path(path) != locked)
     res = run("solve", str(problems_dir / "single_arm.yaml"), "--out", str(locked / "run"))
     assert res.exit_code == int(ExitCode.USAGE), res.output
-    assert f"found {locked} not writable" in res.output
+    assert f"found that {locked} is not writable" in res.output
     assert not (locked / "run").exists()
 
 
@@ -310,3 +310,9 @@ def test_a_ctrl_c_while_the_command_loads_exits_130_without_a_traceback() -> Non
             "from coplan.cli import main\nmain()\n")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert p.returncode == 130 and "Traceback" not in p.stderr, (p.returncode, p.stderr)
+
+
+def test_an_integer_option_out_of_range_is_shown_as_given():
+    """(--false-burst 100000000 said 'found 1e+08'.)"""
+    res = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["run", "course_row", "--false-burst", "100000000"])
+    assert res.exit_code == int(ExitCode.USAGE) and "found 100000000" in " ".join(res.output.split()), res.output

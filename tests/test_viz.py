@@ -396,3 +396,21 @@ def test_the_plotting_api_names_a_plan_of_another_problem(single_arm, greenhouse
             fn(None, plan)
     with pytest.raises(TypeError, match="plot_workspace: expected a Problem .* found Plan"):
         plot_workspace(plan)
+
+
+def test_coplan_plot_says_matplotlib_s_warnings_as_notes(tmp_path, problems_dir):
+    """(A one-sample plan printed matplotlib's UserWarning with its source line, twice.)"""
+    r = CliRunner().invoke(app, ["solve", str(problems_dir / "crossing_paths.yaml"), "--planner", "coordinated",
+                                 "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((tmp_path / "o" / "plan.json").read_text())
+    doc["time"] = doc["time"][:1]
+    for a in doc["arms"].values():
+        a["q"] = a["q"][:1]
+    one = tmp_path / "one.json"
+    one.write_text(json.dumps(doc))
+    r = CliRunner().invoke(app, ["plot", str(one), "--problem", str(problems_dir / "crossing_paths.yaml"), "--kind", "gantt",
+                                 "--out", str(tmp_path / "one.png")])
+    assert r.exit_code == 0 and (tmp_path / "one.png").exists(), r.output
+    assert "UserWarning" not in r.output and "savefig" not in r.output
+    assert r.output.count("note: matplotlib: constrained_layout not applied") == 1, r.output

@@ -64,13 +64,13 @@ def check_folder(out: str | Path, what: str = "out_dir") -> None:
     if not probe.is_dir():
         raise OutputError(f"{what} {out}: expected a folder, found the file {probe} in its path")
     if not os.access(probe, os.W_OK | os.X_OK):
-        raise OutputError(f"{what} {out}: expected a folder coplan may write to, found {probe} not writable")
+        raise OutputError(f"{what} {out}: expected a folder coplan may write to, found that {probe} is not writable")
     # permission bits do not tell all (root passes os.access; /proc and read-only mounts refuse
     # new files anyway): a hidden file made and removed there says it
     try:
         fd, name = tempfile.mkstemp(prefix=".coplan-probe-", dir=probe)
     except OSError as exc:
-        raise OutputError(f"{what} {out}: expected a folder coplan may write to, found {probe} takes no new files "
+        raise OutputError(f"{what} {out}: expected a folder coplan may write to, found that {probe} takes no new files "
                           f"({exc.strerror or exc})") from None
     os.close(fd)
     os.unlink(name)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -406,6 +407,8 @@ def load_plan(path: str | Path) -> Plan:
     """Load and check a ``plan.json``, or the ``plan.csv`` replay coplan writes beside it (joint
     samples only: no events, see :mod:`coplan.plancsv`). Raises :class:`PlanFileError` listing
     every problem; a file over :data:`MAX_PLAN_BYTES` is refused before it is read."""
+    if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)):  # (5 gave os's bare TypeError)
+        raise TypeError(f"path: expected the path of a plan file (str or Path), found {type(path).__name__} {path!r}"[:300])
     p = Path(path)
     src = str(p)
     if not p.exists():
@@ -596,6 +599,7 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     if not isinstance(evs, list):
         bad("events", f"expected an array of events, found {_kind(evs)}")
         evs = []
+    unsampled: set[str] = set()  # event arms with no samples, said once each
     for i, e in enumerate(evs):
         where = f"events[{i}]"
         if not isinstance(e, dict):
@@ -616,8 +620,12 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
                 bad(f"{where}.{key}", f"expected a string, found {_kind(e[key])}")
                 ok = False
         if arms is not None and isinstance(e["arm"], str) and e["arm"] not in arms:
-            bad(f"{where}.arm", f"expected one of the plan's arms {list(arms)}, found {e['arm']!r} "
-                                f"(arms has no samples of {e['arm']!r}: missing, or the event misnames its arm)")
+            if e["arm"] not in unsampled:  # (once per arm: an arm cut from arms gave one error per event, hundreds on a row)
+                n = sum(isinstance(x, dict) and x.get("arm") == e["arm"] for x in evs)
+                bad(f"{where}.arm", f"expected one of the plan's arms {list(arms)}, found {e['arm']!r} "
+                                    f"(arms has no samples of {e['arm']!r}: missing, or the event misnames its arm; "
+                                    + ("1 event names it)" if n == 1 else f"{n} events name it, this the first)"))
+            unsampled.add(e["arm"])
             ok = False
         if e["kind"] not in [k.value for k in EventKind]:
             bad(f"{where}.kind", f"expected 'pick' or 'place', found {_kind(e['kind'])}")

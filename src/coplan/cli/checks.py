@@ -29,7 +29,8 @@ def between(lo: float, hi: float = math.inf, unit: str = "", above: bool = False
         if value is not None and not (math.isfinite(value) and (lo < value if above else lo <= value) and value <= hi):
             want = (f"in {'(' if above else '['}{lo:g}, {hi:g}]" if math.isfinite(hi)
                     else f"{'>' if above else '>='} {lo:g}")
-            raise typer.BadParameter(f"expected a number {want}{' ' + unit if unit else ''}, found {value:g}")
+            shown = f"{value:d}" if isinstance(value, int) else f"{value:g}"  # (an integer option: 100000000, not 1e+08)
+            raise typer.BadParameter(f"expected a number {want}{' ' + unit if unit else ''}, found {shown}")
         return value
     return check
 

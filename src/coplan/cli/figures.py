@@ -7,6 +7,7 @@ NumPy, the planners and matplotlib are imported inside the commands.
 
 from __future__ import annotations
 
+import warnings
 from enum import Enum
 from pathlib import Path
 from typing import Annotated, Optional
@@ -159,7 +160,11 @@ def plot_cmd(
         fig = plots.plot_workspace(prob, arm)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(target, dpi=dpi)
+        with warnings.catch_warnings(record=True) as said:  # (matplotlib's printed its source line: a note instead)
+            warnings.simplefilter("always")
+            fig.savefig(target, dpi=dpi)
+        for w in {str(w.message): w for w in said}.values():  # (each once)
+            _err.print(f"[yellow]note[/]: matplotlib: {_s(str(w.message))}", highlight=False, soft_wrap=True)
     except ValueError as e:  # unknown format
         fail(ExitCode.USAGE, f"--out {target}: {e} (use .png, .svg or .pdf)")
     except OSError as e:
