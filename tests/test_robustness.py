@@ -316,3 +316,15 @@ def test_an_integer_option_out_of_range_is_shown_as_given():
     """(--false-burst 100000000 said 'found 1e+08'.)"""
     res = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["run", "course_row", "--false-burst", "100000000"])
     assert res.exit_code == int(ExitCode.USAGE) and "found 100000000" in " ".join(res.output.split()), res.output
+
+
+def test_check_of_a_large_cell_says_its_stages_and_a_small_one_stays_quiet(tmp_path):
+    """(coplan check of 1500 fruit ran a minute, 3000 two and a half, saying nothing.)"""
+    from coplan.generate import random_problem, to_yaml
+
+    big = tmp_path / "big.yaml"
+    big.write_text(to_yaml(random_problem(3, n_arms=2, n_fruits=500)))
+    res = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["check", str(big)])
+    assert res.exit_code in (0, 5) and "lower bound (MILP)" in res.output and "verifying the baseline" in res.output, res.output
+    res = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["check", "crossing_paths"])
+    assert res.exit_code in (0, 5) and "lower bound (MILP)" not in res.output, res.output
