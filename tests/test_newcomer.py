@@ -113,6 +113,12 @@ def test_a_shipped_problem_by_its_bare_name(tmp_path, monkeypatch):
     assert load_problem("crossing_paths") == load_problem(next(p for p in shipped_problems() if p.stem == "crossing_paths"))
     assert load_problem("sparse_row.yaml").source.endswith("sparse_row.yaml")
     assert coplan.solve("single_arm", planner="coordinated").plan.status.value == "success"
+    # a file of the name here comes first (the user's own dense_overlap.yaml was passed over)
+    own = next(p for p in shipped_problems() if p.stem == "crossing_paths").read_text().replace("name: crossing-paths", "name: mine")
+    (tmp_path / "empty" / "dense_overlap.yaml").write_text(own)
+    assert load_problem("dense_overlap").name == "mine"
+    r = run("check", "dense_overlap")
+    assert r.exit_code == 0 and "the file dense_overlap.yaml here" in r.output and "mine" in r.output, r.output
     # a shipped problem's name misspelt: did you mean (none for a name like no shipped one)
     r = run("check", "cours_row", cwd=tmp_path)
     assert r.exit_code == 3 and "did you mean the shipped problem 'course_row'?" in r.output, r.output

@@ -287,6 +287,53 @@ def test_random_mode_gives_the_samples_asked_for_or_the_whole_grid():
     assert [(i.path, i.line) for i in e.value.issues] == [("samples", 4)] and "found samples: 1000000000" in str(e.value)
 
 
+def test_random_mode_over_a_huge_range_is_quick_and_draws_each_set_once():
+    """(A whole-number option range of 1e12 values was listed to be counted: items() never
+    returned; 50 x samples sets were drawn before the first problem was made.)"""
+    import time
+
+    spec = parse_sweep("base: cell\nmode: random\nsamples: 5\nvary:\n  options.search_work: {from: 1000, to: 1000000000000}\n"
+                       "  seed: [1, 2]\n", "r.yaml")
+    t0 = time.perf_counter()
+    assert spec.grid_size() == (10**12 - 1000 + 1) * 2
+    items = spec.items()
+    assert len(items) == 5 and len({json.dumps(i.params, sort_keys=True) for i in items}) == 5
+    assert time.perf_counter() - t0 < 30  # (generous: a few problems made; it was unbounded)
+
+
+@pytest.mark.parametrize("text, path, words", [
+    # a solver option's range is checked as an options file's values are (h_target 1e-9: 23 GB)
+    ("base: cell\nvary: {options.h_target: {from: 0.000000001, to: 0.1, count: 3}}\n", "vary.options.h_target", "within [0.005, 1]"),
+    ("base: cell\nvary: {options.polish_rounds: {from: 0, to: 2}}\n", "vary.options.polish_rounds", "positive integer"),
+    # base gantry takes no solver option (the same plan was solved twice, as two designs)
+    ("base: gantry\nvary: {options.search_work: [1000, 2000]}\n", "vary.options.search_work", "no solver option with base gantry"),
+])
+def test_sweep_option_values_are_checked_however_given(text, path, words, tmp_path):
+    with pytest.raises(SweepError) as e:
+        parse_sweep(text, "s.yaml", tmp_path)
+    assert any(i.path == path and words in i.message for i in e.value.issues), e.value.issues
+
+
+def test_the_heuristic_is_refused_on_a_gantry_only_where_it_would_plan():
+    ok = ["base: gantry\nvary: {n_arms: [2]}\nplanner: heuristic\nfixed: {planner: coordinated}\n",  # (fixed overrides the key)
+          "base: gantry\nvary: {n_arms: [2], planner: [coordinated, optimal]}\nplanner: heuristic\n",
+          "base: gantry\nvary: {n_arms: [2], gantry: [continuous]}\nplanner: heuristic\n"]  # (on the move: no cell planner)
+    for text in ok:
+        parse_sweep(text, "g.yaml")
+    with pytest.raises(ValueError, match="planner: expected coordinated or optimal with base gantry"):
+        parse_sweep("base: gantry\nvary: {n_arms: [2]}\n", "g.yaml").items(planner="heuristic")
+    spec_file = ROOT / "sweeps" / "small.yaml"  # (a cell sweep: --planner heuristic is fine there)
+    assert parse_sweep(spec_file.read_text(), str(spec_file)).items(planner="heuristic")
+
+
+def test_the_sweep_command_refuses_the_heuristic_on_a_gantry_as_a_usage_error(tmp_path):
+    spec = tmp_path / "g.yaml"
+    spec.write_text("name: g\nbase: gantry\nvary: {n_arms: [2]}\n")
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--planner", "heuristic", "--out", str(tmp_path / "o")])
+    assert r.exit_code == int(ExitCode.USAGE) and "--planner: expected coordinated or optimal" in " ".join(r.output.split())
+    assert not (tmp_path / "o").exists()
+
+
 def test_every_sweep_file_key_and_parameter_is_in_the_usage_guide():
     """(The guide named no base, no `fixed`, `mode`, `samples`, `seed` or `retries`, and few
     parameters: a user found `gantry` from an error message.)"""
@@ -585,6 +632,13 @@ def test_designs_that_differ_in_links_or_time_limit_are_told_apart_in_the_report
     table_md = rep.text[rep.text.index("## Pareto front"):]
     assert "| link 1, m |" in table_md and "| time limit, s |" in table_md and "| 0.800 |" in table_md
     assert (tmp_path / "report" / "throughput.png").exists()
+    # any other parameter the sweep set tells designs apart too (two dwells were one design, 'seeds 3')
+    dwell = [normalise(dict(base, key=f"w{i}", link_1=1.0, seed=i % 3, throughput=40.0 + i,
+                             params=json.dumps({"density": 2.0, "pick_dwell": 0.5 if i < 3 else 2.0, "seed": i % 3})))
+             for i in range(6)]
+    des = designs(dwell)
+    assert sorted((d["params"]["pick_dwell"], d["seeds"], d["rows"]) for d in des) == [(0.5, 3, 3), (2.0, 3, 3)]
+    assert varied(des) == ["pick_dwell"]
 
 
 def test_two_gantry_modes_of_one_row_are_two_designs_in_the_report_not_one_with_twice_the_seeds():

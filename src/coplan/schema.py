@@ -138,7 +138,8 @@ class PlanMetrics(BaseModel):
     elsewhere needs none). Times in s, distances in m."""
 
     harvested: int | None = Field(None, description="fruit placed in a bin")
-    reachable: int | None = Field(None, description="fruit some arm can harvest (the screen's harvestable count)")
+    reachable: int | None = Field(None, description="fruit within some arm's reach, task.reach_margin kept (a row's: "
+                                                     "those its screen finds a carriage position for)")
     unreachable: int | None = Field(None, description="fruit out of every arm's reach")
     makespan: float | None = Field(None, description="s, the end of the last place")
     cycle_time: float | None = Field(None, description="s per fruit, the worst arm's")

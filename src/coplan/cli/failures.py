@@ -126,9 +126,9 @@ def _file_kind(head: bytes) -> str:
 
 
 def resolve_problem(problem, note=lambda message: None):
-    """The problem file an argument names: the shipped default when none is given; a shipped
-    problem's bare name (``dense_overlap``, ``dense_overlap.yaml``) when no such file is here
-    (``note`` is told which file that is); else the path as given."""
+    """The problem file an argument names: the shipped default when none is given; a bare name
+    (``dense_overlap``): ``dense_overlap.yaml`` here, else a shipped problem's (``note`` is told
+    which file that is; ``dense_overlap.yaml`` too when no such file is here); else the path as given."""
     from pathlib import Path
 
     from ..problem.model import default_problem_path, shipped_problems, shipped_rows
@@ -136,6 +136,9 @@ def resolve_problem(problem, note=lambda message: None):
     if problem is None:
         return default_problem_path()
     problem = Path(problem)
+    if not problem.exists() and problem.parent == Path(".") and Path(problem.name + ".yaml").is_file():
+        note(f"{problem}: the file {problem.name}.yaml here")  # (before a shipped problem of the name)
+        return Path(problem.name + ".yaml")
     if not problem.exists() and problem.parent == Path("."):
         stem = problem.name[:-5] if problem.name.endswith(".yaml") else problem.name
         hit = next((p for p in shipped_problems() + shipped_rows() if p.stem == stem), None)

@@ -19,7 +19,7 @@ from .checks import between, in_path, out_path
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
 from ..errors import printable
-from ..kinds import ExitCode, PlannerKind, RowStatus
+from ..kinds import ExitCode, PlannerKind, RowStatus, SweepBase
 
 __all__ = ["sweep_cmd", "sweep_report_cmd"]
 
@@ -60,6 +60,9 @@ def sweep_cmd(
     if scheduler is not None:
         _check_scheduler(scheduler)
     sw = load_sweep(spec)  # SweepError (an InputError): file:line: key.path messages, exit 3
+    if planner == PlannerKind.HEURISTIC and sw.base == SweepBase.GANTRY:
+        usage(f"--planner: expected coordinated or optimal for {spec} (base gantry: each stop's cell planner; the "
+              "course's heuristic plans a stationary cell, not a row), found heuristic")
     folder = out if out is not None else Path("coplan-sweep") / (re.sub(r"[^\w.-]+", "_", sw.name).strip("._") or "sweep")
     check_out_dir(folder, "--out")
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn

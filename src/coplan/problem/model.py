@@ -631,8 +631,9 @@ def _is_text_path(path: tuple) -> bool:
 def load_problem(path: str | Path) -> Problem:
     """Load and validate a problem file (raises :class:`ProblemError`, never a bare traceback).
 
-    A shipped problem's bare name (``dense_overlap``, ``dense_overlap.yaml``) where no such
-    file is in the working folder loads the shipped file, as the ``coplan`` commands do; a
+    A bare name (``dense_overlap``) is ``dense_overlap.yaml`` in the working folder when there
+    is one, else the shipped problem of that name (``dense_overlap.yaml`` too), as the
+    ``coplan`` commands take it; a
     missing file elsewhere named like one gets an error that gives the shipped file's path."""
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"problem: expected the path of a YAML problem file (str or Path), found {type(path).__name__}"
@@ -643,6 +644,8 @@ def load_problem(path: str | Path) -> Problem:
     if not p.exists():
         name = p.name[:-5] if p.name.endswith(".yaml") else p.name
         shipped = {s.stem: s for s in shipped_problems() + shipped_rows()}
+        if p.parent == Path(".") and not p.name.endswith(".yaml") and Path(p.name + ".yaml").is_file():
+            return load_problem(Path(p.name + ".yaml"))  # (a file of the name here comes before a shipped one)
         if name in shipped and p.parent == Path("."):
             return load_problem(shipped[name])
         if name in shipped:

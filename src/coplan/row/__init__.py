@@ -21,7 +21,8 @@ _SUBMODULES = ("assign", "booking", "continuous", "cruise", "live", "liverun", "
 
 _EXPORTS = {"plan_row": "plan", "RowOptions": "plan", "RowResult": "plan", "plan_moving": "continuous",
             "MovingOptions": "continuous", "run_live_row": "live", "LiveRowOptions": "sensing", "RowFaults": "sensing",
-            "StopWindow": "stops", "row_metrics": "metrics"}
+            "StopWindow": "stops", "row_metrics": "metrics",
+            "row_bounds": "coplan.allocate.row_bound", "RowBounds": "coplan.allocate.row_bound"}  # (the bounds: stage 2's)
 __all__ = sorted(_EXPORTS)
 
 
@@ -33,5 +34,6 @@ def __getattr__(name: str):
     if name in _SUBMODULES:
         return importlib.import_module(f".{name}", __name__)
     if name in _EXPORTS:
-        return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+        mod = _EXPORTS[name]
+        return getattr(importlib.import_module(mod if mod.startswith("coplan.") else f".{mod}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -46,28 +46,38 @@ def _median(xs: list[float]) -> float | None:
 
 
 # what tells two designs apart besides arms, spacing and density (a row's gantry mode, the
-# planner and how it ran too: a re-run with another time limit is another design, not more seeds)
+# planner and how it ran too: a re-run with another time limit is another design, not more seeds),
+# and besides every other parameter the sweep set (dwells, clearance, fruit box, a file, ...)
 FAMILY = ("link_1", "link_2", "link_radius", "planner", "gantry", "time_limit", "options")
+_IN_COLUMNS = {"seed", "n_arms", "spacing", "density", "links", "link_radius", "gantry", "planner"}  # (table columns)
+
+
+def _other_params(r: dict[str, Any]) -> dict[str, Any]:
+    """The parameters of a row that set its design beyond its columns (not its seed; solver
+    options are in the options column)."""
+    params = json.loads(r["params"] or "{}")
+    return {k: v for k, v in params.items() if k not in _IN_COLUMNS and not k.startswith("options.")}
 
 
 def designs(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Successful rows grouped by design (arms, spacing, density and :data:`FAMILY`: links,
-    link radius, planner, a row's gantry mode, time limit, options; seeds pooled): the median
-    throughput and makespan of each design, how many distinct seeds it has and how many rows.
-    Two modes of one row are two designs, never one with twice the seeds; nor are two time limits."""
+    """Successful rows grouped by design (arms, spacing, density, :data:`FAMILY` -- links, link
+    radius, planner, a row's gantry mode, time limit, options -- and every other parameter but
+    the seed; seeds pooled): the median throughput and makespan of each design, how many
+    distinct seeds it has and how many rows. Two modes of one row are two designs, never one
+    with twice the seeds; nor are two time limits, two dwells or two problem files."""
     groups: dict[tuple, list[dict]] = {}
     for r in rows:
         if r["status"] != RowStatus.SUCCESS.value or r["throughput"] is None:
             continue
         dens = json.loads(r["params"] or "{}").get("density")  # a design parameter only when the sweep set it
         sp = round(r["spacing"], 6) if r["spacing"] is not None else None
-        k = (r["n_arms"], sp, dens) + tuple(r.get(f) for f in FAMILY)
+        k = (r["n_arms"], sp, dens) + tuple(r.get(f) for f in FAMILY) + (json.dumps(_other_params(r), sort_keys=True, default=str),)
         groups.setdefault(k, []).append(r)
     out = []
     for k, rs in sorted(groups.items(), key=lambda kv: tuple(str(x) for x in kv[0])):
         arms, sp, dens = k[:3]
-        out.append({"n_arms": arms, "spacing": sp, "density": dens, **dict(zip(FAMILY, k[3:])),
-                    "seeds": len({r["seed"] for r in rs}), "rows": len(rs),
+        out.append({"n_arms": arms, "spacing": sp, "density": dens, **dict(zip(FAMILY, k[3:-1])),
+                    "params": json.loads(k[-1]), "seeds": len({r["seed"] for r in rs}), "rows": len(rs),
                     "throughput": _median([r["throughput"] for r in rs]),
                     "throughput_per_m": _median([r["throughput_per_m"] for r in rs]),
                     "makespan": _median([r["makespan"] for r in rs])})
@@ -75,15 +85,22 @@ def designs(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def varied(des: list[dict[str, Any]]) -> list[str]:
-    """The :data:`FAMILY` fields whose values differ among ``des`` (what a table or a figure
-    must show to tell the designs apart)."""
-    return [f for f in FAMILY if len({json.dumps(d.get(f), default=str) for d in des}) > 1]
+    """What must be shown to tell ``des`` apart beyond arms, spacing and density: the
+    :data:`FAMILY` fields whose values differ, then the other parameters that do (by name)."""
+    out = [f for f in FAMILY if len({json.dumps(d.get(f), default=str) for d in des}) > 1]
+    names = sorted({k for d in des for k in d["params"]})
+    return out + [k for k in names if len({json.dumps(d["params"].get(k), default=str) for d in des}) > 1]
+
+
+def _value(d: dict[str, Any], f: str):
+    return d.get(f) if f in FAMILY else d["params"].get(f)
 
 
 def _family_words(d: dict[str, Any], fields: list[str]) -> str:
     words = {"link_1": lambda v: f"l1 {v:g} m", "link_2": lambda v: f"l2 {v:g} m", "link_radius": lambda v: f"r {v:g} m",
              "time_limit": lambda v: f"{v:g} s", "planner": str, "gantry": str, "options": lambda v: f"options {v}"}
-    return ", ".join(words[f](d[f]) if d.get(f) is not None else f"{f} -" for f in fields)
+    return ", ".join((words[f](_value(d, f)) if f in words else f"{f} {_value(d, f)}") if _value(d, f) is not None else f"{f} -"
+                     for f in fields)
 
 
 def pareto_front(points: list[tuple[float, float]]) -> list[int]:
@@ -207,7 +224,7 @@ def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
             lines: dict[tuple, list] = {}  # one line per density and design family (links, planner, gantry mode, ...)
             for d in des:
                 if d["n_arms"] == a:
-                    lines.setdefault((d["density"],) + tuple(json.dumps(d.get(f), default=str) for f in fam), []).append(d)
+                    lines.setdefault((d["density"],) + tuple(json.dumps(_value(d, f), default=str) for f in fam), []).append(d)
             for key in sorted(lines, key=lambda k: ((k[0] is None, k[0] or 0),) + k[1:]):
                 ds = lines[key]
                 pts = sorted((d["spacing"], d["throughput"]) for d in ds)
@@ -280,10 +297,11 @@ def sweep_report(folder: str | Path, out: str | Path | None = None, figures: boo
         heads = {"link_1": "link 1, m", "link_2": "link 2, m", "link_radius": "link radius, m", "planner": "planner",
                  "gantry": "gantry", "time_limit": "time limit, s", "options": "options"}
         text += ("\n## Pareto front: arms against throughput\n\n| arms | spacing, m | density, /m |"
-                 + "".join(f" {heads[f]} |" for f in fam) + " fruit/min | seeds |\n|---|---|---|" + "---|" * len(fam) + "---|---|\n")
+                 + "".join(f" {heads.get(f, f)} |" for f in fam) + " fruit/min | seeds | rows |\n|---|---|---|"
+                 + "---|" * len(fam) + "---|---|---|\n")
         text += "".join(f"| {d['n_arms']} | {_fmt(d['spacing'])} | {_fmt(d['density'])} |"
-                        + "".join(f" {_fmt(d.get(f)) if d.get(f) is not None else '-'} |" for f in fam)
-                        + f" {_fmt(d['throughput'], 2)} | {d['seeds']} |\n" for d in s["pareto_front"])
+                        + "".join(f" {_fmt(_value(d, f)) if _value(d, f) is not None else '-'} |" for f in fam)
+                        + f" {_fmt(d['throughput'], 2)} | {d['seeds']} | {d['rows']} |\n" for d in s["pareto_front"])
     files = {"markdown": out / "report.md", "json": out / "report.json"}
     files["markdown"].write_text(text)
     files["json"].write_text(json.dumps(s, indent=1, default=str, allow_nan=False))

@@ -296,9 +296,6 @@ def _client(workers: int, scheduler: str | None, retries: int):
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        # (a scheduler that goes away printed the client's tracebacks for every task: each
-        # becomes a 'lost' row saying so, which a re-run solves)
-        logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
         return Client(scheduler, timeout="20s"), None
     with dask.config.set({"distributed.scheduler.allowed-failures": retries}), warnings.catch_warnings():
         # the scheduler's HTTP routes move to a free port when another cluster holds 8787: not news
@@ -437,8 +434,18 @@ def run_sweep(
             if keep_plans and s not in _NO_PLAN and not (out / "plans" / f"{it.key}.json").exists():
                 outcome.unplanned += 1
     client = cluster = None
-    if todo:  # (first: a scheduler that cannot be reached leaves nothing behind, not an empty sweep)
-        client, cluster = _client(n_workers, scheduler, spec.retries)
+    # (a scheduler that goes away printed the client's tracebacks for every task: each becomes a
+    # 'lost' row saying so, which a re-run solves; the level is restored when the sweep ends)
+    client_log = logging.getLogger("distributed.client")
+    client_level = client_log.level
+    if scheduler is not None:
+        client_log.setLevel(logging.CRITICAL)
+    try:
+        if todo:  # (first: a scheduler that cannot be reached leaves nothing behind, not an empty sweep)
+            client, cluster = _client(n_workers, scheduler, spec.retries)
+    except BaseException:
+        client_log.setLevel(client_level)
+        raise
     out.mkdir(parents=True, exist_ok=True)
     state = out / STATE
     state.mkdir(exist_ok=True)
@@ -510,6 +517,7 @@ def run_sweep(
             if cluster is not None:
                 cluster.close()
         finally:
+            client_log.setLevel(client_level)
             if main:
                 signal.signal(signal.SIGINT, old)
     return outcome

@@ -124,9 +124,8 @@ class SweepSpec:
         """The concrete problems (duplicates, by key, dropped); ``planner`` / ``time_limit``
         replace the file's (the command line's ``--planner`` and ``--time-limit``)."""
         if planner is not None and self.base == SweepBase.GANTRY and PlannerKind(planner) == PlannerKind.HEURISTIC:
-            raise SweepError([Issue("--planner", "expected coordinated or optimal with base gantry (the course's heuristic "
-                                                 "plans a stationary cell, not a row), found heuristic")], self.source)
-        combos = self._combinations()
+            raise ValueError("planner: expected coordinated or optimal with base gantry (the course's heuristic plans a "
+                             "stationary cell, not a row), found heuristic")
         out: list[SweepItem] = []
         seen: set[str] = set()
         limit = float(time_limit) if time_limit is not None else self.time_limit
@@ -135,7 +134,7 @@ class SweepSpec:
         grid = self.grid_size() if self.mode == SweepMode.RANDOM else None
         want = (None if self.mode == SweepMode.GRID or (grid is not None and grid <= (self.samples or 0)) else
                 (self.samples or 0) * max(1, len(self.problems)))
-        for params in combos:
+        for params in self._combinations(whole=want is None):
             if want is not None and len(out) >= want:
                 break
             if planner is not None:
@@ -147,35 +146,38 @@ class SweepSpec:
         return out
 
     # ------------------------------------------------------------------ expansion
-    def _combinations(self) -> list[dict[str, Any]]:
+    def _combinations(self, whole: bool):
+        """The parameter sets, one at a time: every combination (``whole``: grid mode, or a
+        random sweep whose grid is no larger than ``samples``), else seeded draws, each set once,
+        up to 50 x ``samples`` draws (the caller stops at ``samples`` problems)."""
         names = list(self.vary)
-        if self.mode == SweepMode.GRID:
-            lists = [self.vary[n] for n in names]
-            return [dict(self.fixed, **dict(zip(names, combo))) for combo in itertools.product(*lists)]
-        grid = self.grid_size()
-        if grid is not None and grid <= (self.samples or 0):  # as many samples as the grid has: the whole grid
+        if whole:
             lists = [_values(self.vary[n], _kind_of(n)) for n in names]
-            return [dict(self.fixed, **dict(zip(names, combo))) for combo in itertools.product(*lists)]
+            for combo in itertools.product(*lists):
+                yield dict(self.fixed, **dict(zip(names, combo)))
+            return
         import numpy as np
 
         rng = np.random.default_rng(self.seed)
-        out = []
-        for _ in range(50 * (self.samples or 0)):  # (drawn on while draws repeat a problem: items() stops at ``samples``)
+        seen: set[str] = set()
+        for _ in range(50 * (self.samples or 0)):
             p = dict(self.fixed)
             for n in names:
                 p[n] = _draw(rng, self.vary[n], _kind_of(n))
-            out.append(p)
-        return out
+            key = json.dumps(p, sort_keys=True, default=str)
+            if key not in seen:  # (a repeated set would make the same problem again)
+                seen.add(key)
+                yield p
 
     def grid_size(self) -> int | None:
-        """How many distinct parameter sets ``vary`` holds (None: a range of real numbers
-        without a step, which random mode draws from freely)."""
+        """How many distinct parameter sets ``vary`` holds, counted (None: a range of real
+        numbers without a step, which random mode draws from freely)."""
         n = 1
         for name, v in self.vary.items():
-            vals = _values(v, _kind_of(name))
-            if vals is None:
+            k = _count(v, _kind_of(name))
+            if k is None:
                 return None
-            n *= len(vals)
+            n *= k
         return n
 
     def _make(self, index: int, params: dict[str, Any], limit: float) -> list[SweepItem]:
@@ -226,17 +228,31 @@ def _draw(rng, values: list | dict, kind: str):
     return round(float(rng.uniform(lo, hi)), 6)
 
 
+def _step(v: dict, kind: str):
+    """A range's step: its own, 1 for a range of whole numbers, else None."""
+    lo, hi, step = v["from"], v["to"], v.get("step")
+    if step is None and (kind in _INTEGER or (kind == "option" and isinstance(lo, int) and isinstance(hi, int))):
+        step = 1
+    return step
+
+
+def _count(v: list | dict, kind: str) -> int | None:
+    """How many values a list or a range holds (None: a range of real numbers without a step)."""
+    if isinstance(v, list):
+        return len(v)
+    step = _step(v, kind)
+    return None if step is None else int(math.floor((v["to"] - v["from"]) / step + 1e-9)) + 1
+
+
 def _values(v: list | dict, kind: str) -> list | None:
     """The values a list or a range (random mode's ``{from, to[, step]}``) holds, None for a
     range of real numbers without a step (integers: every one between)."""
     if isinstance(v, list):
         return v
-    lo, hi, step = v["from"], v["to"], v.get("step")
-    if step is None and (kind in _INTEGER or (kind == "option" and isinstance(lo, int) and isinstance(hi, int))):
-        step = 1
+    step = _step(v, kind)
     if step is None:
         return None
-    return [_tidy(lo + i * step, kind) for i in range(int(math.floor((hi - lo) / step + 1e-9)) + 1)]
+    return [_tidy(v["from"] + i * step, kind) for i in range(_count(v, kind))]
 
 
 def _tidy(x: float, kind: str):
@@ -348,7 +364,7 @@ def _check_option(name: str, v: Any) -> str | None:
     return None
 
 
-def _range_values(r: dict, kind: str, loc: tuple, lines: dict, issues: list, keep_range: bool) -> list | dict | None:
+def _range_values(r: dict, kind: str, loc: tuple, lines: dict, issues: list, keep_range: bool, name: str = "") -> list | dict | None:
     where = line_of(lines, loc)
     path = _path(loc)
     extra = set(r) - {"from", "to", "step", "count"}
@@ -396,9 +412,12 @@ def _range_values(r: dict, kind: str, loc: tuple, lines: dict, issues: list, kee
             issues.append(Issue(path, f"expected at most {MAX_VALUES} values, found count {n}", where))
             return None
         values = [_tidy(lo + (hi - lo) * i / (n - 1), kind) if n > 1 else _tidy(lo, kind) for i in range(n)]
-    bad = [x for x in (values or [lo, hi]) if _check_value(kind, x)]
+    def why(x):  # (a solver option's values as an options file's: h_target 1e-9 came through a range)
+        return _check_option(name.removeprefix("options."), x) if kind == "option" else _check_value(kind, x)
+
+    bad = [x for x in (values or [lo, hi]) if why(x)]
     if bad:
-        issues.append(Issue(path, f"range: {_check_value(kind, bad[0])}", where))
+        issues.append(Issue(path, f"range: {why(bad[0])}", where))
         return None
     if keep_range and count is None:  # (random mode draws from it; a range with a count is its values)
         return {"from": lo, "to": hi, **({"step": step} if step is not None else {})}
@@ -415,6 +434,10 @@ def _path(loc) -> str:
 def _param_ok(name: str, base: SweepBase, loc: tuple, lines: dict, issues: list) -> bool:
     import difflib
 
+    if name.startswith("options.") and base == SweepBase.GANTRY:  # (as the key 'options': the same plan solved twice)
+        issues.append(Issue(_path(loc), f"expected no solver option with base gantry: a gantry row's solve takes no cell "
+                                        f"planner options, found {name!r}", line_of(lines, loc)))
+        return False
     if name.startswith("options."):
         return True
     if name not in PARAMETERS:
@@ -564,7 +587,7 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                     fixed[k] = v
                 continue
             if isinstance(v, dict):
-                vals = _range_values(v, _kind_of(k), loc, lines, issues, keep_range=mode == SweepMode.RANDOM)
+                vals = _range_values(v, _kind_of(k), loc, lines, issues, keep_range=mode == SweepMode.RANDOM, name=k)
                 if vals is not None:
                     vary[k] = vals
             elif isinstance(v, list) and v:
@@ -575,9 +598,13 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                                     line_of(lines, loc)))
             if k in fixed:
                 issues.append(Issue(_path(loc), f"expected each parameter once, found {k!r} both fixed and varied", line_of(lines, loc)))
-    if base == SweepBase.GANTRY:  # the course's heuristic plans a stationary cell only (every row was an 'internal error')
-        for loc, v in ((("planner",), data.get("planner")), (("fixed", "planner"), fixed.get("planner")),
-                       *((("vary", "planner", i), x) for i, x in enumerate(vary.get("planner") or []))):
+    modes = vary.get("gantry") or [fixed.get("gantry", GantryMode.STOP_AND_GO.value)]
+    if base == SweepBase.GANTRY and modes != [GantryMode.CONTINUOUS.value] * len(modes):
+        # the course's heuristic plans a stationary cell only (every row was an 'internal error'); the
+        # planners that are used: varied, else fixed, else the key's (a row on the move uses none)
+        given = ([(("vary", "planner", i), x) for i, x in enumerate(vary["planner"])] if isinstance(vary.get("planner"), list)
+                 else [(("fixed", "planner"), fixed["planner"])] if "planner" in fixed else [(("planner",), data.get("planner"))])
+        for loc, v in given:
             if v == PlannerKind.HEURISTIC.value:
                 issues.append(Issue(_path(loc), "expected coordinated or optimal with base gantry (each stop's cell planner; "
                                                  "the course's heuristic plans a stationary cell, not a row), found heuristic",
