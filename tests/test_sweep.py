@@ -179,6 +179,12 @@ def test_a_bad_input_row_keeps_its_design_and_a_row_file_with_the_heuristic_is_b
         text = next(p for p in shipped_rows() if p.stem == "sparse_row").read_text()
     row = solve_item(SweepItem(1, "k2", {"problem": "sparse_row.yaml"}, "heuristic", {}, 30.0, "sparse_row.yaml", text))[0]
     assert (row["status"], row["exit_class"]) == ("bad input", "bad input") and "planner" in row["message"]
+    # on the move no cell planner plans: the heuristic named there is not in the way (the file parses so)
+    from coplan.generate import gantry_row, to_yaml
+
+    short = to_yaml(gantry_row(length=4.0, n_arms=2, density=1.0, seed=1))
+    moving = solve_item(SweepItem(3, "k4", {"gantry": "continuous"}, "heuristic", {}, 30.0, "gantry_row", short))[0]
+    assert moving["status"] == "success" and moving["gantry"] == "continuous", moving["message"]
     assert row["seed"] is None and row["n_arms"] == 3  # (a file's: its own figures, no generator seed)
     # why the optimal planner stopped, so that a row its clock stopped (machine-dependent) can be found
     single = (problems_dir / "single_arm.yaml").read_text()
@@ -307,11 +313,12 @@ def test_random_mode_over_a_huge_range_is_quick_and_draws_each_set_once():
     ("base: cell\nvary: {options.polish_rounds: {from: 0, to: 2}}\n", "vary.options.polish_rounds", "positive integer"),
     # base gantry takes no solver option (the same plan was solved twice, as two designs)
     ("base: gantry\nvary: {options.search_work: [1000, 2000]}\n", "vary.options.search_work", "no solver option with base gantry"),
+    ("base: cell\nvary: {options.nonsense: [1, 2]}\n", "vary.options.nonsense", "unknown key 'nonsense'"),  # (once, not per value)
 ])
 def test_sweep_option_values_are_checked_however_given(text, path, words, tmp_path):
     with pytest.raises(SweepError) as e:
         parse_sweep(text, "s.yaml", tmp_path)
-    assert any(i.path == path and words in i.message for i in e.value.issues), e.value.issues
+    assert [i.path for i in e.value.issues] == [path] and words in e.value.issues[0].message, e.value.issues
 
 
 def test_the_heuristic_is_refused_on_a_gantry_only_where_it_would_plan():

@@ -226,11 +226,12 @@ def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = 
             problem = parse_problem(item.problem_text or "", item.source)
             row.update(_problem_columns(problem, item))
             options = None
-            if problem.gantry is not None and item.planner == PlannerKind.HEURISTIC.value:  # (a file's row; was 'internal error')
-                raise InputError([Issue("planner", "expected coordinated or optimal for a row on a gantry (the course's "
-                                                   "heuristic plans a stationary cell), found heuristic")], item.source)
             if problem.gantry is not None:  # a row: the cell planner at each stop, or on the move (no cell planner)
                 mode = GantryMode(item.params.get("gantry", GantryMode.STOP_AND_GO.value))
+                if mode != GantryMode.CONTINUOUS and item.planner == PlannerKind.HEURISTIC.value:  # (was 'internal error')
+                    raise InputError([Issue("planner", "expected coordinated or optimal for a row on a gantry stop and go "
+                                                       "(each stop's cell planner; the course's heuristic plans a stationary "
+                                                       "cell), found heuristic")], item.source)
                 res = solve(problem, planner=None if mode == GantryMode.CONTINUOUS else item.planner, gantry=mode)
             else:
                 if item.planner != PlannerKind.HEURISTIC.value:

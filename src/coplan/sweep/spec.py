@@ -591,7 +591,11 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                 if vals is not None:
                     vary[k] = vals
             elif isinstance(v, list) and v:
-                if all([_one(k, x, loc + (i,), lines, issues) for i, x in enumerate(v)]):  # (every bad value said)
+                unknown = _kind_of(k) == "option" and (_check_option(k.removeprefix("options."), v[0]) or "").startswith(
+                    "expected a known option")
+                if unknown:  # (said once, not once per value)
+                    _one(k, v[0], loc, lines, issues)
+                elif all([_one(k, x, loc + (i,), lines, issues) for i, x in enumerate(v)]):  # (every bad value said)
                     vary[k] = list(v)
             else:
                 issues.append(Issue(_path(loc), f"expected a non-empty list of values or a range {{from, to, step}}, found {found(v)}",
