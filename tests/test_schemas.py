@@ -62,11 +62,18 @@ def test_every_metric_coplan_writes_is_described_in_the_plan_schema(tmp_path, pr
     described = schema["PlanMetrics"]["properties"]
     assert all(v.get("description") for v in described.values())
     assert "SECOND" in described["throughput"]["description"] and "RATIO" in described["gap_to_lower_bound"]["description"]
+    from coplan.generate import gantry_row
+
     cell = coplan.solve(problems_dir / "greenhouse_row.yaml", out_dir=tmp_path / "cell")
     row = coplan.solve(load_problem(next(p for p in shipped_rows() if p.stem == "sparse_row")), planner="coordinated")
-    docs = [json.loads((tmp_path / "cell" / n).read_text()) for n in ("plan.json", "baseline.json")] + [row.plan.to_dict()]
+    moving = coplan.solve(gantry_row(length=6.0, n_arms=2, density=1.0, seed=1), gantry="continuous")
+    docs = [json.loads((tmp_path / "cell" / n).read_text()) for n in ("plan.json", "baseline.json")] + [
+        json.loads(json.dumps(r.plan.to_dict())) for r in (row, moving)]
+    rows = schema["RowMetrics"]["properties"]
+    assert all(v.get("description") for v in rows.values())
     for doc in docs:
         assert set(doc["metrics"]) <= set(described), set(doc["metrics"]) - set(described)
+        assert set(doc["metrics"].get("row") or {}) <= set(rows), set(doc["metrics"]["row"]) - set(rows)
         for arm in doc["metrics"]["per_arm"].values():
             assert set(arm) <= set(schema["ArmMetrics"]["properties"])
         assert [e.message for e in validator(SchemaKind.PLAN).iter_errors(doc)] == []

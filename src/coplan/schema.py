@@ -133,6 +133,53 @@ class ArmMetrics(BaseModel):  # (open: coplan may add figures)
     peak_jerk: float | None = Field(None, description="rad/s^3, the largest joint jerk")
 
 
+class RowMetrics(BaseModel):  # (open: coplan may add figures)
+    """A row plan's ``metrics.row`` (:func:`coplan.row.metrics.row_metrics`): what a grower and
+    an engineer judge it by. Times in s, distances in m."""
+
+    mode: str | None = Field(None, description="stop-and-go, or continuous: picked on the move")
+    fruit: int | None = Field(None, description="the row's fruit")
+    harvestable: int | None = Field(None, description="fruit the row's screen finds a carriage position for")
+    harvested: int | None = Field(None, description="fruit placed in a bin")
+    share_harvested: float | None = Field(None, description="harvested / harvestable (0-1)")
+    share_of_all_fruit: float | None = Field(None, description="harvested / fruit (0-1)")
+    screened_out: dict[str, str] | None = Field(None, description="fruit id -> why no carriage position serves it")
+    row_time: float | None = Field(None, description="s, the end of the last place")
+    row_length: float | None = Field(None, description="m, gantry end - start")
+    time_per_metre: float | None = Field(None, description="s per m of row: row_time / row_length")
+    fruit_per_hour: float | None = Field(None, description="harvested per hour of row time")
+    fruit_per_hour_per_arm: dict[str, float] | None = Field(None, description="arm name -> its fruit per hour of row time")
+    stops: int | None = Field(None, description="stops the carriage makes (0 on the move)")
+    stop_positions: list[float] | None = Field(None, description="m, the carriage origin's x at each stop")
+    mean_time_per_stop: float | None = Field(None, description="s, from the carriage's arrival to the end of the stop's "
+                                                                "last pick, when it may leave")
+    carriage_moving_share: float | None = Field(None, description="share of the row time (0-1) the carriage moves")
+    picking_share: float | None = Field(None, description="share of the row time (0-1) some arm holds still on a fruit")
+    overlap_seconds: float | None = Field(None, description="s the carriage moves while some arm works (away from home), "
+                                                             "which the stop-and-go bound's model excludes")
+    idle_share: dict[str, dict[str, float]] | None = Field(None, description="arm -> share of the row time idle by cause: "
+                                                                             "carriage, no_fruit, others, coordination, making_way")
+    planning_time: float | None = Field(None, description="s of planning (the stop rule and every stop's cell, or the speed search)")
+    planning_over_row_time: float | None = Field(None, description="planning_time / row_time")
+    first_stop_seconds: float | None = Field(None, description="s of planning until the first stop was known")
+    first_motion_seconds: float | None = Field(None, description="s of planning until the row can start moving (on the "
+                                                                  "move: the end of planning)")
+    slowest_stop_seconds: float | None = Field(None, description="s, the longest planning of one stop's cell")
+    least_slack_seconds: float | None = Field(None, description="s, the least time a stop's cell was planned before the "
+                                                                 "carriage needed it (negative: late; null on the move)")
+    kept_ahead: bool | None = Field(None, description="every stop's cell planned before the carriage needed it (null: "
+                                                       "no stop, or on the move)")
+    lower_bound: dict[str, Any] | None = Field(None, description="the row's bounds (coplan.allocate.row_bound.RowBounds): "
+                                                                  "any_plan, stop_and_go, work, travel, moves, ... in s")
+    ratio_any_plan_bound: float | None = Field(None, description="row_time / the bound valid for any carriage motion")
+    ratio_stop_and_go_bound: float | None = Field(None, description="row_time / the bound for plans that pick only at rest")
+    picks_at_rest: int | None = Field(None, description="on the move: picks whose whole dwell has the carriage at rest")
+    profile: str | None = Field(None, description="on the move: the carriage's speed profile (constant or by density)")
+    mean_speed: float | None = Field(None, description="on the move: m/s, over the time the carriage moves")
+    top_speed: float | None = Field(None, description="on the move: m/s")
+    plans_tried: int | None = Field(None, description="on the move: full plans the speed search tried, each verified")
+
+
 class PlanMetrics(BaseModel):
     """The figures coplan writes under ``metrics`` (open: more keys may follow; a plan from
     elsewhere needs none). Times in s, distances in m."""
@@ -166,8 +213,8 @@ class PlanMetrics(BaseModel):
     time_of_last_improvement: float | None = Field(None, description="s of planning to the plan kept")
     time_to_ratio: dict[str, float | None] | None = Field(None, description="'1.05', '1.02', '1.01' -> s of planning to a "
                                                                              "plan within that ratio of lower_bound (null: never)")
-    row: dict[str, Any] | None = Field(None, description="a row plan's figures: fruit per hour, shares, stops, idle by "
-                                                          "cause, ratios to the row's bounds (docs/usage.md)")
+    row: RowMetrics | None = Field(None, description="a row plan's figures: fruit per hour, shares, stops, idle by "
+                                                      "cause, ratios to the row's bounds")
 
 
 class PlanFile(BaseModel):
