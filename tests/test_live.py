@@ -544,3 +544,18 @@ def test_once_a_live_run_is_on_disk_a_ctrl_c_or_sigterm_changes_nothing(tmp_path
     r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "live"))
     assert r.exit_code == 0, r.output
     assert signal.getsignal(signal.SIGTERM) == before
+
+
+def test_the_close_range_camera_sees_only_what_lies_within_its_distance(greenhouse) -> None:
+    """(A detection 0.3 m from its fruit, 30 sigma, was 'refined' onto it: the gripper camera knew
+    which fruit a report meant however far off it was.)"""
+    near = parse_feed("close_range: {distance: 0.1, sigma: 0.001}\ndetections:\n"
+                      "  - {t: 0.0, id: a, position: [0.7406, 0.7384], sigma: 0.005, fruit: f04}\n", "near.yaml")
+    r = simulate(greenhouse, near, omniscient=False)  # (50 mm off: within the camera's 100 mm)
+    assert r.run["fruit"]["f04"]["harvested"] and r.verification.passed
+    far = parse_feed("close_range: {distance: 0.1, sigma: 0.001}\ndetections:\n"
+                     "  - {t: 0.0, id: a, position: [0.9906, 0.7384], sigma: 0.005, fruit: f04}\n", "far.yaml")
+    r = simulate(greenhouse, far, omniscient=False)  # (300 mm off)
+    assert not r.run["fruit"]["f04"]["harvested"] and r.verification.passed
+    why = r.run["fruit"]["f04"]["why"]
+    assert "300 mm off, farther than the close-range camera sees (100 mm)" in why, why

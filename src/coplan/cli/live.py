@@ -6,6 +6,7 @@ NumPy, the planners and matplotlib are imported inside the commands.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import re
@@ -160,7 +161,7 @@ def run_cmd(
         _err.print(f"[yellow]note[/]: the feed was made for problem {_safe(fd.problem)!r}, this is {_safe(prob.name)!r}",
                    highlight=False)
     opts = LiveOptions(horizon=horizon, budget=None) if all_candidates else LiveOptions(horizon=horizon)
-    with ProgressDisplay(_err, quiet=as_json) as bars:
+    with ProgressDisplay(_err, quiet=as_json) as bars, _nothing_written(out):
         result = simulate(prob, fd, opts, seed=seed, progress=bars)
     result.plan.problem_file = prob.file_record()
     folder = RunFolder(out)
@@ -239,7 +240,8 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
     from ..errors import OptionsError
 
     try:
-        res = run_live_row(prob, opts)
+        with _nothing_written(out):
+            res = run_live_row(prob, opts)
     except OptionsError as e:  # faults too long for the run's plan file (known once the offline plan is)
         if not any(i.path == "faults" for i in e.issues):
             raise
@@ -276,26 +278,45 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             ratio += f"; the executed plan lasts {m['plan_seconds']:.1f} s (the carriage's way to the rail's end, the arms' way home)"
         cycle = ("no cycle" if m["shortest_cycle_seconds"] is None else
                  f"a shortest cycle of {m['shortest_cycle_seconds']:.2f} s")
+        reachable = len(m["missed_reachable_by_a_working_arm"])
+        # (said with faults, and without them where the run passed fruit a working arm could still reach: the planner's loss)
         faults_line = (f"faults: {_safe(_faults_text(m['faults']))}; missed though a working arm could still reach them: "
-                       f"{len(m['missed_reachable_by_a_working_arm'])}\n" if m["faults"] else "")
+                       f"{reachable}\n" if m["faults"] else
+                       f"no fault; missed though an arm could still reach them: {reachable} (run.json: "
+                       "missed_reachable_by_a_working_arm)\n" if reachable else "")
         if m.get("holds_for_fruit"):
             faults_line = (f"the carriage held {m['holds_for_fruit']} time{'s' if m['holds_for_fruit'] != 1 else ''} rather "
                            f"than pass a fruit no arm could still book ({m['hold_seconds']:.1f} s)\n") + faults_line
         missed = [why if re.search(rf"(?<![\w-]){re.escape(f)}(?![\w-])", why) else f"{f}: {why}"  # (named once)
-                  for f, why in res.outcome.items() if why != "harvested" and f in {x.id for x in prob.fruits}]
+                  for f, why in ((f, w.removeprefix("missed: ")) for f, w in res.outcome.items())  # ('missed N fruit: missed: ...')
+                  if why != "harvested" and f in {x.id for x in prob.fruits}]
         if missed:  # each true fruit not harvested, and why (all of them: run.json outcome)
             faults_line += f"missed {len(missed)} fruit: " + "; ".join(_safe(w) for w in missed[:3]) + (
                 f"; ... and {len(missed) - 3} more (run.json: outcome)" if len(missed) > 3 else "") + "\n"
+        per_hour = "" if m.get("fruit_per_hour") is None else f" ({m['fruit_per_hour']:.0f} fruit per hour)"
         _out.print(
             f"{_safe(prob.name)} live {how} camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
             f"{plural(m['false_reports'], 'false report')}: {m['harvested']} fruit harvested, {share}; row time "
-            f"{m['row_time']:.1f} s{ratio}\n{m['decisions']} decisions, slowest {1000 * m['decision_max_seconds']:.1f} ms "
+            f"{m['row_time']:.1f} s{per_hour}{ratio}\n{m['decisions']} decisions, slowest {1000 * m['decision_max_seconds']:.1f} ms "
             f"against {cycle} ({'kept ahead' if m['kept_ahead'] else 'LATE'}); {plural(m['probes'], 'probe')} of false or repeated "
             f"reports\n{faults_line}executed plan {res.plan.status.value} "
             f"({'verified' if m['verified'] else 'verification FAILED'}); wrote {_safe(out)}/: "
             + _written(folder, names),
             highlight=False)
     raise typer.Exit(int(status_exit_code(res.plan.status)))
+
+
+@contextlib.contextmanager
+def _nothing_written(out: Path):
+    """Say, when a live run is interrupted (Ctrl-C, SIGTERM) before its files, that none of it is
+    written and ``out`` holds what it held (a run is written whole, at its end, or not at all)."""
+    try:
+        yield
+    except KeyboardInterrupt:
+        held = "holds what it held before" if out.exists() else "was not made"
+        _err.print(f"interrupted before the run's files were written: nothing of this run is kept; {_safe(out)} {held} "
+                   "(a live run is written whole at its end, or not at all)", markup=False, highlight=False)
+        raise
 
 
 def _faults_text(faults: dict) -> str:

@@ -95,7 +95,10 @@ def simulate(problem: Problem, feed: Feed, options: LiveOptions | None = None, s
             now = t_cr
             tr = cell.tracks[cr.track]
             cands = [f for f in {det_fruit.get(d) for d in tr.detections} if f is not None and f not in claimed]
-            fid = track_truth.get(tr.id) or min(cands, key=lambda f: float(np.hypot(*(truth[f] - tr.position))), default=None)
+            # the gripper camera sees what lies within close_distance of where the arm goes (a fruit
+            # the detections put farther off is not there: it was found however far off they were)
+            near = [f for f in cands if float(np.hypot(*(truth[f] - tr.position))) <= feed.close_distance]
+            fid = track_truth.get(tr.id) or min(near, key=lambda f: float(np.hypot(*(truth[f] - tr.position))), default=None)
             extra = []
             if fid is not None:
                 claimed.add(fid)
@@ -107,7 +110,11 @@ def simulate(problem: Problem, feed: Feed, options: LiveOptions | None = None, s
             else:
                 pos = None
                 dup = [f for f in {det_fruit.get(d) for d in tr.detections} if f is not None]
-                tr.note = "false detection" if not dup else f"duplicate of {', '.join(sorted(dup))} (already taken)"
+                far = sorted(set(cands) - set(near))
+                tr.note = ("false detection" if not dup else
+                           f"detections of {', '.join(far)} {min(float(np.hypot(*(truth[f] - tr.position))) for f in far) * 1000:.0f} mm "
+                           f"off, farther than the close-range camera sees ({feed.close_distance * 1000:g} mm)" if far else
+                           f"duplicate of {', '.join(sorted(dup))} (already taken)")
             log.append({"t": now, "event": "close-range", "arm": cr.arm, "track": tr.id, "found": fid is not None,
                         "error_before": None if fid is None else float(np.hypot(*(truth[fid] - tr.position)))})
             note = tr.note

@@ -525,7 +525,7 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
             return mt.group(0) if r is None else f"{r.truth} (report {r.id})" if r.truth else f"a false report ({r.id})"
         return re.sub(r"\b[db]\d{4,}\b", one, text)
 
-    for did, why in (left | run.misses).items():  # (a report the camera never made is not a reason: below)
+    for did, why in (left | run.misses | run.unseen).items():  # (a report the camera never made is not a reason: below)
         if by_id[did].truth is not None and by_id[did].truth not in got and math.isfinite(run.seen.get(did, math.inf)):
             outcome[by_id[did].truth] = named(why if why.startswith("missed") else f"missed: {why}")
     reported: dict[str, list[RowReport]] = {}  # true fruit -> its reports the camera made
@@ -548,7 +548,7 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
     # the true fruit, from a carriage position not yet passed when it was reported -- before an
     # arm stopped by any arm, after it by a working arm clear of the stopped one
     missed_reachable = sorted({by_id[d].truth for d in windows if by_id[d].truth is not None
-                               and by_id[d].truth not in got and d not in run.misses
+                               and by_id[d].truth not in got and d not in run.misses and d not in run.unseen
                                and still_reachable(booker, run.reach.grid, run.truth_xy[by_id[d].truth], seen[d], halt,
                                                    GantryMode(opts.mode) == GantryMode.STOP_AND_GO)})
     span = max(float(plan.metrics.get("makespan") or 0.0), work_end)
@@ -565,8 +565,13 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
         "harvested_not_offline": len(got - ref), "row_time": span, "offline_row_time": ref_span,
         "last_place": float(plan.metrics.get("makespan") or 0.0), "plan_seconds": float(plan.time[-1]),
         "row_time_ratio": span / ref_span if ref_span > 0 else None,
+        # what a grower judges, as a planned row's metrics.row (the README says a live run gives its own)
+        "fruit_per_hour": 3600.0 * len(got) / span if span > 0 else None,
+        "fruit_per_hour_per_arm": {a.name: 3600.0 * sum(1 for e in events if e.kind == EventKind.PLACE and e.arm == a.name) / span
+                                   for a in problem.arms} if span > 0 else None,
         "reports": len(dets), "false_reports": sum(d.truth is None for d in dets), "probes": len(booker.probes),
         "merged": sum(1 for k in outcome if k.startswith("report ")), "grasps_on_nothing": len(run.misses),
+        "found_nothing_at_close_range": len(run.unseen),  # (reports farther from their fruit than the gripper camera sees)
         "decisions": len(walls), "decision_max_seconds": max(walls, default=0.0),
         "decision_mean_seconds": float(np.mean(walls)) if walls else 0.0,
         "shortest_cycle_seconds": min(cycles, default=None), "planning_seconds": planning,

@@ -47,6 +47,7 @@ class LiveRun:
         self.outcome: dict[str, str] = {}
         self.walls: list[float] = []
         self.misses: dict[str, str] = {}  # report -> why the grasp closed on nothing
+        self.unseen: dict[str, str] = {}  # report -> why the close-range camera found nothing there (its fruit too far off)
         self.measured: set[str] = set()
         self.taken: set[str] = set()
         self.holds: list[dict] = []  # on the move: where the carriage held for fruit
@@ -120,10 +121,16 @@ class LiveRun:
                 return False
         self.known.append((did, d.position))
         claimed = {self.reports[e.fruit].truth for e in self.booker.events}
-        if d.truth is None or d.truth in claimed:
-            # the close-range sensor finds nothing there (a false report, or a fruit already taken):
-            # the arm comes, looks and goes back -- a probe, no dwells
+        far = d.truth is not None and math.dist(self.truth_xy[d.truth], d.position) > self.opts.close_distance
+        if d.truth is None or d.truth in claimed or far:
+            # the close-range sensor finds nothing there (a false report, a fruit already taken, or
+            # one the report put farther off than the gripper camera sees): the arm comes, looks and
+            # goes back -- a probe, no dwells
             self.booker.probes.add(did)
+            if far:
+                self.unseen[did] = (f"missed: reported {math.dist(self.truth_xy[d.truth], d.position) * 1000:.0f} mm from the "
+                                    f"fruit, farther than the close-range camera sees ({self.opts.close_distance * 1000:g} mm): "
+                                    f"the arm found nothing there")
         elif did not in self.measured:  # it measures the fruit as the arm comes (once: a later choice
             # of it, after one that found no clear cycle, plans on the same measurement)
             self.measured.add(did)

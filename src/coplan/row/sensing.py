@@ -85,6 +85,7 @@ class LiveRowOptions:
     false_rate: float = 0.05  # false reports, as a share of the fruit
     duplicate_rate: float = 0.02  # fruit reported twice
     close_sigma: float = 0.001  # m, the close-range measurement's noise per coordinate
+    close_distance: float = 0.1  # m: the gripper camera sees a fruit this close to where the arm goes (the report)
     merge: float = 0.0  # m: a report this close to an earlier one is the same fruit (0: none merged; a
     # second report of a picked fruit then costs a probe -- in trusses, distinct fruit lie closer than
     # two noisy reports of one)
@@ -101,6 +102,8 @@ class LiveRowOptions:
         issues += [Issue(name, f"expected at most {top:g} m, found {getattr(self, name)!r}")
                    for name, top in (("look_ahead", MAX_LOOK_AHEAD), ("sigma", MAX_SIGMA), ("close_sigma", MAX_SIGMA))
                    if getattr(self, name) > top]
+        if not 0.005 <= self.close_distance <= 1.0:  # (a feed file's close_range.distance range)
+            issues.append(Issue("close_distance", f"expected a number in [0.005, 1] m, found {self.close_distance!r}"))
         if not isinstance(self.faults, RowFaults):
             issues.append(Issue("faults", f"expected RowFaults(...), found {type(self.faults).__name__} {self.faults!r}"))
         if issues:
