@@ -84,3 +84,15 @@ def test_an_interrupted_sweep_keeps_the_levels_that_finished_and_says_so(tmp_pat
     assert [r["extra_mm"] for r in doc["rows"]] == [0.0]
     assert "interrupted at +10 mm" in doc["notes"][0] and "1 of 3" in doc["notes"][0]
     assert "interrupted at +10 mm" in (tmp_path / "clearance.md").read_text()
+
+
+def test_a_clearance_at_which_the_screen_locks_an_arm_says_so_with_its_lower_bound(tmp_path):
+    """(crossing_paths at +100 mm took 2.15 x as long with no word why: its left arm can no longer
+    reach its bin clear of the other, and the lower bound doubles.)"""
+    cost = clearance_cost(_path("crossing_paths"), tmp_path, (0, 100), "coordinated", figures=False)
+    rows = {r["extra_mm"]: r for r in cost.rows}
+    assert rows[100.0]["lower_bound"] > 1.5 * rows[0.0]["lower_bound"]
+    assert rows[100.0]["makespan"] >= rows[100.0]["lower_bound"] - 1e-9
+    note = next(n for n in cost.notes if n.startswith("+100 mm: the screen locks "))
+    assert f"the lower bound is {rows[100.0]['lower_bound']:.3f} s" in note
+    assert "lower bound, s" in (tmp_path / "clearance.md").read_text()

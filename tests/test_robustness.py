@@ -328,3 +328,28 @@ def test_check_of_a_large_cell_says_its_stages_and_a_small_one_stays_quiet(tmp_p
     assert res.exit_code in (0, 5) and "lower bound (MILP)" in res.output and "verifying the baseline" in res.output, res.output
     res = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["check", "crossing_paths"])
     assert res.exit_code in (0, 5) and "lower bound (MILP)" not in res.output, res.output
+
+
+def _sigterm_is_default(_=None) -> bool:
+    import signal
+
+    return signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+
+
+def test_worker_processes_end_quietly_on_sigterm(monkeypatch):
+    """(A forked worker inherited the command line's SIGTERM handler, which raises
+    KeyboardInterrupt: terminated once done, half the --workers 2 solves printed its traceback
+    from multiprocessing's exit.)"""
+    import signal
+
+    from coplan.workers import process_pool
+
+    def on_term(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, on_term)  # (as coplan.cli.console installs)
+    try:
+        with process_pool(2) as pool:
+            assert all(pool.map(_sigterm_is_default, range(4)))
+    finally:
+        signal.signal(signal.SIGTERM, old)

@@ -91,8 +91,12 @@ def test_the_optimal_planner_widens_crossing_paths_at_the_same_makespan():
     assert w["margin"] >= 2 * w["margin_before"]  # 16 mm -> 64 mm on the benchmark machine
     assert res.plan.metrics["margin"] == pytest.approx(w["margin"])
     assert set(res.plan.metrics["margin_per_pair"]) == {"left-right"}
+    # the solver's record names the stage whose plan is written (it named the refinement alone)
+    assert res.plan.solver["moved_by"] == "widening" and "then moved by the widening stage" in res.plan.solver["message"]
+    assert res.plan.solver["incumbents"][-1]["source"].endswith("moved by widening")
     again = widen_off = plan_optimal(prob, options=OptimalOptions(widen=False))
     assert widen_off.plan.solver["widen"] == {"status": "skipped", "accepted": False, "reason": "the option widen is false"}
+    assert widen_off.plan.solver["moved_by"] is None
     assert abs(again.plan.metrics["makespan"] - res.plan.metrics["makespan"]) < 1e-3
     rms = lambda p: np.mean([v["rms_jerk"] for v in p.metrics["per_arm"].values()])  # noqa: E731
     assert rms(res.plan) < rms(widen_off.plan)
@@ -323,3 +327,17 @@ def test_ctrl_c_inside_the_first_widening_program_starts_no_second_one(monkeypat
     from coplan.planners.optimal.nlp_data import any_interrupted
 
     assert res.info["reason"] == "interrupted (Ctrl-C)" and any_interrupted(res.info)
+
+
+def test_a_plan_past_the_knot_limit_is_left_at_once_with_no_retry():
+    """(A 60-fruit cell's 2027-knot plan was eased first, then refused for its knots, then eased and
+    refused again by the 'uneased' and 'loose' retries: 8 s of its solve, reported as 0 s.)"""
+    import coplan
+    from coplan.generate import row_problem
+    from coplan.optimal import OptimalOptions
+
+    res = coplan.solve(row_problem(5, 60, seed=11, reachable_only=True), options=OptimalOptions(search_work=2000))
+    w = res.plan.solver["widen"]
+    assert w["accepted"] is False and w["reason"].startswith("the plan needs") and "widen_knots is 600" in w["reason"]
+    assert "uneased" not in w and "loose" not in w and "retry" not in w and "ease" not in w
+    assert 0.0 < w["wall_seconds"] == pytest.approx(res.plan.solver["timings"]["widen"], abs=0.05)

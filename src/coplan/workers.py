@@ -9,7 +9,7 @@ import os
 
 from .errors import Issue, OptionsError, found
 
-__all__ = ["MAX_WORKERS", "cores", "default_workers", "workers_issue", "settle_workers", "mp_context", "process_pool"]
+__all__ = ["MAX_WORKERS", "cores", "default_workers", "workers_issue", "settle_workers", "mp_context", "process_pool", "quiet_child"]
 
 #: The most processes one run may ask for: a typo such as 2000 is refused, not started.
 MAX_WORKERS = 256
@@ -56,11 +56,21 @@ def mp_context():
     return multiprocessing.get_context("fork" if sys.platform.startswith("linux") else "spawn")
 
 
+def quiet_child() -> None:
+    """In a worker process: SIGTERM ends it as the default does. A forked worker inherits the
+    command line's handler, which raises KeyboardInterrupt -- inside multiprocessing's own exit
+    when the parent terminates a worker that has finished, which printed its traceback."""
+    import signal
+
+    if hasattr(signal, "SIGTERM"):
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 def process_pool(workers: int):
-    """A ``ProcessPoolExecutor`` of ``workers`` processes in :func:`mp_context`, or None for
-    one (the work then runs in this process)."""
+    """A ``ProcessPoolExecutor`` of ``workers`` processes in :func:`mp_context` (each
+    :func:`quiet_child`), or None for one (the work then runs in this process)."""
     if workers <= 1:
         return None
     from concurrent.futures import ProcessPoolExecutor
 
-    return ProcessPoolExecutor(max_workers=workers, mp_context=mp_context())
+    return ProcessPoolExecutor(max_workers=workers, mp_context=mp_context(), initializer=quiet_child)

@@ -36,7 +36,7 @@ __all__ = ["EXTRAS_MM", "COLUMNS", "ClearanceCost", "clearance_cost", "cell", "t
 EXTRAS_MM: tuple[float, ...] = (0.0, 10.0, 25.0, 50.0, 100.0)
 
 COLUMNS = (("extra_mm", "extra, mm"), ("clearance", "clearance, m"), ("makespan", "makespan, s"),
-            ("ratio", "x problem's"), ("margin_mm", "certified margin, mm"), ("harvested", "harvested"),
+            ("lower_bound", "lower bound, s"), ("ratio", "x problem's"), ("margin_mm", "certified margin, mm"), ("harvested", "harvested"),
             ("verified", "verified"), ("planning_time", "planning, s"))
 
 
@@ -69,6 +69,7 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
     out.mkdir(parents=True, exist_ok=True)
     extras = sorted({0.0, *(float(e) for e in extras_mm)})  # (the problem's own: every ratio's reference)
     res0_makespan = res0_harvested = None
+    locked0: set = set()
     cost = ClearanceCost(base.name, str(getattr(planner, "value", planner) or "optimal"))
     for i, extra in enumerate(extras):
         clearance = round(base.task.clearance + extra / 1000.0, 6)
@@ -103,10 +104,16 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
             raise
         m, ver = res.plan.metrics, res.verification
         mk = m.get("makespan")
+        locked = ((res.plan.solver or {}).get("screen") or {}).get("locked") or []
         if extra == 0.0:
-            res0_makespan, res0_harvested = mk, m.get("harvested")
+            res0_makespan, res0_harvested, locked0 = mk, m.get("harvested"), set(locked)
+        elif set(locked) - locked0:  # (a jump in makespan that the table alone left unexplained)
+            why = ((res.plan.solver or {}).get("screen") or {}).get("reasons") or {}
+            cost.notes.append(f"+{extra:g} mm: the screen locks {', '.join(sorted(set(locked) - locked0))} ("
+                              + "; ".join(f"{a}: {why.get(a, 'locked')}" for a in sorted(set(locked) - locked0))
+                              + f"); the lower bound is {m.get('lower_bound') or 0:.3f} s")
         same_fruit = m.get("harvested") == res0_harvested  # (a ratio over fewer fruit would flatter)
-        row.update(makespan=mk, ratio=(mk / res0_makespan) if (mk and res0_makespan and same_fruit) else None,
+        row.update(makespan=mk, lower_bound=m.get("lower_bound"), ratio=(mk / res0_makespan) if (mk and res0_makespan and same_fruit) else None,
                    margin_mm=None if ver is None or not ver.pairs else 1000 * ver.margin,
                    harvested=m.get("harvested"), reachable=m.get("reachable"), status=res.plan.status.value,
                    verified=bool(ver is not None and ver.passed),
@@ -143,7 +150,7 @@ def cell(row: dict, key: str) -> str:
         return f"{v} / {row.get('reachable')}"
     if key == "extra_mm":
         return f"+{v:g}"
-    digits = {"ratio": 3, "clearance": 3, "margin_mm": 1}.get(key, 2)
+    digits = {"ratio": 3, "clearance": 3, "margin_mm": 1, "lower_bound": 3}.get(key, 2)
     return f"{v:.{digits}f}" if isinstance(v, float) else str(v)
 
 

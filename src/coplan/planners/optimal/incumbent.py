@@ -36,6 +36,7 @@ class Incumbent:
         self.first_wall = None  # the wall clock (s since the epoch) at the first verified plan
         self.improved_at = None
         self.history: list[dict] = []
+        self.moved_by: str | None = None  # the stage that moved the incumbent's plan at its makespan (widen)
 
     @property
     def makespan(self) -> float:
@@ -69,10 +70,14 @@ class Incumbent:
         self.say(f"incumbent {self.makespan:.3f} s ({source}){gap}")
         return True
 
-    def replace(self, plan: Plan, verification) -> None:
+    def replace(self, plan: Plan, verification, stage: str) -> None:
         """Put ``plan`` (verified, checked by the caller: as fast, as much) in place of the
-        incumbent's plan; its source and schedules stay (it is the same plan, moved)."""
+        incumbent's plan; its source and schedules stay (it is the same plan, moved by
+        ``stage``, which the history and :func:`stop_message` name: the written plan is that one)."""
         self.plan, self.verification = plan, verification
+        self.moved_by = stage
+        self.history.append({"t": _time.perf_counter() - self.t_start, "makespan": self.makespan,
+                             "source": f"{self.source}, moved by {stage}"})
 
 
 def time_to_ratio(history: list[dict], bound: float | None, ratios=(1.05, 1.02, 1.01)) -> dict[str, float | None]:
@@ -101,4 +106,5 @@ def stop_message(inc: Incumbent, stop: StopReason) -> str:
     }
     source = {"coordinated": "the coordinated plan", "search": "the search", "refine": "the refinement",
               "joint NLP": "the joint NLP"}.get(inc.source, inc.source)
-    return f"{words[stop]} (incumbent from {source})"
+    moved = f", then moved by the {inc.moved_by} stage at its makespan" if inc.moved_by else ""
+    return f"{words[stop]} (incumbent from {source}{moved})"

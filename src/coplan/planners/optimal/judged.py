@@ -57,6 +57,8 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     info = dict(res.info)
     info.update(accepted=False, margin_before=margin0, makespan_before=inc.makespan, rms_jerk_before=jerk0)
     best = _judged(problem, inc, res, info, say)
+    if info.get("too_long"):  # (no retry fits a grid past widen_knots: the same plan, the same knots)
+        return info
 
     def in_time() -> bool:  # (and not stopped by Ctrl-C: IPOPT's own handler stopped its program only)
         return (deadline is None or _time.perf_counter() < deadline) and not any_interrupted(info)
@@ -86,10 +88,13 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
         say("widen: less room than the goal; solving again held more loosely to the start's poses")
         best = _again(problem, inc, replace(wopts, track=_LOOSE_TRACK, h_bounds=(1.0, 1.0), iterations=left()), "loose",
                       info, best, widen_schedules, deadline, say)
-    if best is None:
+    if best is None:  # (the reason said each attempt's: it gave the first program's alone)
+        tried = [f"{k}: {info[k]['reason']}" for k in ("retry", "uneased", "loose") if (info.get(k) or {}).get("reason")]
+        if tried and info.get("reason"):
+            info["reason"] = "; ".join([info["reason"]] + tried)
         return info
     plan, ver, margin = best
-    inc.replace(plan, ver)
+    inc.replace(plan, ver, "widening")
     info["accepted"] = True
     info.pop("reason", None)
     say(f"widen: certified margin {1000 * margin0:.1f} -> {1000 * margin:.1f} mm at {plan.metrics['makespan']:.4f} s")

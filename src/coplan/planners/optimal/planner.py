@@ -163,6 +163,7 @@ def _finish(run: Run, error: str | None, error_trace: str | None) -> OptimalResu
         "message": stop_message(inc, run.stop),
         "stopped_by": run.stop.value,
         "incumbent_from": inc.source,
+        "moved_by": inc.moved_by,  # (the stage whose plan, at the incumbent's makespan, is the one written)
         "incumbents": inc.history,
         "first_verified_wall_time": inc.first_wall,  # s since the epoch: when a caller outside could have had a plan
         # fruit the incumbent's coordination could not fit in, each with the reason

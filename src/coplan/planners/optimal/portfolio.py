@@ -25,7 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from ...problem.model import Problem
-from ...workers import default_workers, mp_context
+from ...workers import default_workers, mp_context, quiet_child
 from ..coordinated.candidate import Coordinated
 from .search import SearchOptions, SearchStats, StopReason, improve
 
@@ -47,6 +47,7 @@ class PortfolioResult:
 def _worker(w: int, problem: Problem, start: Coordinated, bound: float, margin: float, opts: SearchOptions,
             seconds: float | None, anchor, out) -> None:
     """Worker ``w``: one seeded search; every new best, throttled progress, and its end go to ``out``."""
+    quiet_child()  # (terminated once done, it printed the command line's KeyboardInterrupt from multiprocessing's exit)
     deadline = None if seconds is None else _time.perf_counter() + seconds
     last = [0.0]
 

@@ -306,6 +306,14 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     if not problem.neighbour_pairs():
         info["reason"] = "no neighbouring arms: nothing to widen"
         return WidenResult(None, info)
+    # a plan far past the knot limit is left at once (easing it first took 8 s of a 60-fruit
+    # cell's solve, three times over with the retries, for a grid of 2027 knots refused after it;
+    # easing keeps the plan's length, so the knots: within the limit's half more, the eased grid decides)
+    pre = build_grid(schedules, opts.h_target)
+    if pre.K + 1 > 1.5 * opts.max_knots:
+        info.update(knots=pre.K + 1, too_long=True, wall_seconds=_time.perf_counter() - t0,
+                    reason=f"the plan needs {pre.K + 1} knots (widen_knots is {opts.max_knots})")
+        return WidenResult(None, info)
     # (not with an arm that has no work: it moves aside on held knot times, and from eased
     # schedules that program was infeasible on locked_arms)
     if opts.ease and all(s.steps for s in schedules.values()):
@@ -313,7 +321,8 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     grid = build_grid(schedules, opts.h_target)
     info["knots"] = grid.K + 1
     if grid.K + 1 > opts.max_knots:
-        info["reason"] = f"the plan needs {grid.K + 1} knots (widen_knots is {opts.max_knots})"
+        info.update(too_long=True, wall_seconds=_time.perf_counter() - t0,
+                    reason=f"the plan needs {grid.K + 1} knots (widen_knots is {opts.max_knots})")
         return WidenResult(None, info)
     end = float(grid.t[-1])
     q0 = {n: s.state(np.arange(0.0, end, 1e-3))[0] for n, s in schedules.items()}
