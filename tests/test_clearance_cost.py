@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 from typer.testing import CliRunner
 
 from coplan.cli import app
@@ -96,3 +97,9 @@ def test_a_clearance_at_which_the_screen_locks_an_arm_says_so_with_its_lower_bou
     note = next(n for n in cost.notes if n.startswith("+100 mm: the screen locks "))
     assert f"the lower bound is {rows[100.0]['lower_bound']:.3f} s" in note
     assert "lower bound, s" in (tmp_path / "clearance.md").read_text()
+
+
+def test_less_clearance_than_the_problem_s_is_refused_before_any_work(tmp_path):
+    with pytest.raises(ValueError, match="expected extra clearances >= 0 mm, found -10"):
+        clearance_cost(_path("crossing_paths"), tmp_path / "c", (-10, 25), "coordinated", figures=False)
+    assert not (tmp_path / "c").exists()

@@ -93,7 +93,7 @@ def test_the_optimal_planner_widens_crossing_paths_at_the_same_makespan():
     assert set(res.plan.metrics["margin_per_pair"]) == {"left-right"}
     # the solver's record names the stage whose plan is written (it named the refinement alone)
     assert res.plan.solver["moved_by"] == "widening" and "then moved by the widening stage" in res.plan.solver["message"]
-    assert res.plan.solver["incumbents"][-1]["source"].endswith("moved by widening")
+    assert [h["source"] for h in res.plan.solver["incumbents"]][-1] == "refine"  # (no makespan came of it: not in the history)
     again = widen_off = plan_optimal(prob, options=OptimalOptions(widen=False))
     assert widen_off.plan.solver["widen"] == {"status": "skipped", "accepted": False, "reason": "the option widen is false"}
     assert widen_off.plan.solver["moved_by"] is None
@@ -341,3 +341,14 @@ def test_a_plan_past_the_knot_limit_is_left_at_once_with_no_retry():
     assert w["accepted"] is False and w["reason"].startswith("the plan needs") and "widen_knots is 600" in w["reason"]
     assert "uneased" not in w and "loose" not in w and "retry" not in w and "ease" not in w
     assert 0.0 < w["wall_seconds"] == pytest.approx(res.plan.solver["timings"]["widen"], abs=0.05)
+
+
+def test_an_eased_plan_past_the_knot_limit_is_tried_from_the_plan_s_own_schedules():
+    """(The stage returned at once when the eased schedules' grid passed widen_knots, though the
+    plan's own may fit: easing moves event starts -- crossing_paths' plan 220 knots, eased 222.)"""
+    prob = _shipped("crossing_paths")  # (its coordinated plan: the incumbent with no search, retime or refinement)
+    res = plan_optimal(prob, options=OptimalOptions(widen_knots=221, search_work=0, retime=False, refine_retimes=0))
+    w = res.plan.solver["widen"]
+    assert w.get("too_long") and w["knots_uneased"] <= 221 < w["knots"]
+    assert "uneased" in w and "retry" not in w and "loose" not in w  # (only the retry that can fit)
+    assert w["uneased"]["status"] == "solved" and w["accepted"] and res.verification.passed

@@ -94,7 +94,9 @@ def run_console(app, err_console) -> None:
 
     terminated = failures.TERMINATED
     failures.CONSOLE.append(True)
-    main = os.getpid()  # worker processes forked from this one inherit the handler: they stop quietly
+    # worker processes forked from this one inherit the handler (coplan's own reset it to the
+    # default at their start, coplan.workers.quiet_child: terminated, they end without a word)
+    main = os.getpid()
 
     def on_term(signum, frame):
         if not terminated:

@@ -298,8 +298,8 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             f"{_safe(prob.name)} live {how} camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
             f"{plural(m['false_reports'], 'false report')}: {m['harvested']} fruit harvested, {share}; row time "
             f"{m['row_time']:.1f} s{per_hour}{ratio}\n{m['decisions']} decisions, slowest {1000 * m['decision_max_seconds']:.1f} ms "
-            f"against {cycle} ({'kept ahead' if m['kept_ahead'] else 'LATE'}); {plural(m['probes'], 'probe')} of false or repeated "
-            f"reports\n{faults_line}executed plan {res.plan.status.value} "
+            f"against {cycle} ({'kept ahead' if m['kept_ahead'] else 'LATE'}); {plural(m['probes'], 'probe')} of false, repeated "
+            f"or far-off reports\n{faults_line}executed plan {res.plan.status.value} "
             f"({'verified' if m['verified'] else 'verification FAILED'}); wrote {_safe(out)}/: "
             + _written(folder, names),
             highlight=False)

@@ -61,13 +61,16 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
     from ..pipeline import solve
 
     say, tick = speaker(progress), ticker(progress)
+    extras = sorted({0.0, *(float(e) for e in extras_mm)})  # (the problem's own: every ratio's reference)
+    if extras[0] < 0.0:  # (the command line's --extra is 0-1000 mm; less clearance than the problem's asks is not room)
+        raise ValueError(f"extras_mm: expected extra clearances >= 0 mm, found {extras[0]:g}")
     check_folder(out_dir, "out_dir")  # (before any work)
     path = Path(path)
     base = load_problem(path)  # a bad file fails here, with its own error
     data, _ = read_yaml(path.read_text(encoding="utf-8"), str(path))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    extras = sorted({0.0, *(float(e) for e in extras_mm)})  # (the problem's own: every ratio's reference)
+
     res0_makespan = res0_harvested = None
     locked0: set = set()
     cost = ClearanceCost(base.name, str(getattr(planner, "value", planner) or "optimal"))
@@ -111,7 +114,8 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
             why = ((res.plan.solver or {}).get("screen") or {}).get("reasons") or {}
             cost.notes.append(f"+{extra:g} mm: the screen locks {', '.join(sorted(set(locked) - locked0))} ("
                               + "; ".join(f"{a}: {why.get(a, 'locked')}" for a in sorted(set(locked) - locked0))
-                              + f"); the lower bound is {m.get('lower_bound') or 0:.3f} s")
+                              + ("" if m.get("lower_bound") is None else f"); the lower bound is {m['lower_bound']:.3f} s")
+                              + (")" if m.get("lower_bound") is None else ""))
         same_fruit = m.get("harvested") == res0_harvested  # (a ratio over fewer fruit would flatter)
         row.update(makespan=mk, lower_bound=m.get("lower_bound"), ratio=(mk / res0_makespan) if (mk and res0_makespan and same_fruit) else None,
                    margin_mm=None if ver is None or not ver.pairs else 1000 * ver.margin,

@@ -121,7 +121,8 @@ class LiveRun:
                 return False
         self.known.append((did, d.position))
         claimed = {self.reports[e.fruit].truth for e in self.booker.events}
-        far = d.truth is not None and math.dist(self.truth_xy[d.truth], d.position) > self.opts.close_distance
+        far = (d.truth is not None and d.truth not in claimed  # (a report of a fruit taken finds nothing anyway)
+               and math.dist(self.truth_xy[d.truth], d.position) > self.opts.close_distance)
         if d.truth is None or d.truth in claimed or far:
             # the close-range sensor finds nothing there (a false report, a fruit already taken, or
             # one the report put farther off than the gripper camera sees): the arm comes, looks and

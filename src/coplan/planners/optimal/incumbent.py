@@ -73,11 +73,9 @@ class Incumbent:
     def replace(self, plan: Plan, verification, stage: str) -> None:
         """Put ``plan`` (verified, checked by the caller: as fast, as much) in place of the
         incumbent's plan; its source and schedules stay (it is the same plan, moved by
-        ``stage``, which the history and :func:`stop_message` name: the written plan is that one)."""
+        ``stage``, which ``moved_by`` and :func:`stop_message` name: the written plan is that one)."""
         self.plan, self.verification = plan, verification
-        self.moved_by = stage
-        self.history.append({"t": _time.perf_counter() - self.t_start, "makespan": self.makespan,
-                             "source": f"{self.source}, moved by {stage}"})
+        self.moved_by = stage  # (not in the history: no makespan came of it, and its readers group by source)
 
 
 def time_to_ratio(history: list[dict], bound: float | None, ratios=(1.05, 1.02, 1.01)) -> dict[str, float | None]:

@@ -7,6 +7,8 @@ Called by :func:`coplan.planners.optimal.stages.widen`."""
 
 from __future__ import annotations
 
+import math
+
 import time as _time
 from dataclasses import replace
 
@@ -57,7 +59,10 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     info = dict(res.info)
     info.update(accepted=False, margin_before=margin0, makespan_before=inc.makespan, rms_jerk_before=jerk0)
     best = _judged(problem, inc, res, info, say)
-    if info.get("too_long"):  # (no retry fits a grid past widen_knots: the same plan, the same knots)
+    # past widen_knots: no retry on these schedules fits (the same knots); the plan's own, uneased,
+    # may (easing moves event starts: crossing_paths 220 knots uneased, 222 eased)
+    too_long = bool(info.get("too_long"))
+    if too_long and not ((info.get("ease") or {}).get("arms") and info.get("knots_uneased", math.inf) <= opts.widen_knots):
         return info
 
     def in_time() -> bool:  # (and not stopped by Ctrl-C: IPOPT's own handler stopped its program only)
@@ -70,7 +75,7 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     # (overlap-3x9-s25: free timing 10.7 mm certified, refused; held 84.1 mm)
     want = min(2.0 * margin0, opts.widen_goal)
     free = any(r["timing"] == "free" for r in info.get("rounds", ()))
-    if (free and left() >= _RETRY_ITERATIONS and "room_note" not in info and in_time()
+    if (free and not too_long and left() >= _RETRY_ITERATIONS and "room_note" not in info and in_time()
             and (best is None or best[2] < want)):
         say(f"widen: free timing {'left less room than the goal' if best is not None else 'gave no plan to keep'}; "
             "solving again with every knot time held")
@@ -80,7 +85,7 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
         # the program from the eased schedules gave nothing to keep: once more from the plan's own
         say("widen: nothing to keep from the eased schedules; solving again from the plan's own")
         best = _again(problem, inc, replace(wopts, ease=False), "uneased", info, best, widen_schedules, deadline, say)
-    if ((best is None or best[2] < want) and "room_note" not in info and wopts.track > _LOOSE_TRACK
+    if ((best is None or best[2] < want) and not too_long and "room_note" not in info and wopts.track > _LOOSE_TRACK
             and left() >= _RETRY_ITERATIONS and in_time()):
         # still less room than the goal: a local optimum of a program held close to the start's
         # poses; once more, held more loosely, every knot time held (overlap-2x6-s22: 31.5 ->

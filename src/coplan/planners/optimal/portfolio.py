@@ -148,6 +148,8 @@ def search_portfolio(problem: Problem, start: Coordinated, bound: float, margin:
 def _coordinated_worker(problem: Problem, allocation, options, out) -> None:
     from ..coordinated.planner import plan_coordinated
 
+    quiet_child()  # (terminated once it has sent its result, as the search's workers are)
+
     try:
         out.put(("done", plan_coordinated(problem, allocation, options, None, {})))
     except KeyboardInterrupt:

@@ -320,8 +320,8 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
         schedules, info["ease"] = ease(problem, schedules, makespan, opts.cap)
     grid = build_grid(schedules, opts.h_target)
     info["knots"] = grid.K + 1
-    if grid.K + 1 > opts.max_knots:
-        info.update(too_long=True, wall_seconds=_time.perf_counter() - t0,
+    if grid.K + 1 > opts.max_knots:  # (the plan's own schedules may fit where the eased ones do not: knots_uneased)
+        info.update(too_long=True, knots_uneased=pre.K + 1, wall_seconds=_time.perf_counter() - t0,
                     reason=f"the plan needs {grid.K + 1} knots (widen_knots is {opts.max_knots})")
         return WidenResult(None, info)
     end = float(grid.t[-1])
