@@ -129,23 +129,14 @@ def resolve_problem(problem, note=lambda message: None):
     """The problem file an argument names: the shipped default when none is given; a bare name
     (``dense_overlap``): ``dense_overlap.yaml`` here, else a shipped problem's (``note`` is told
     which file that is; ``dense_overlap.yaml`` too when no such file is here); else the path as given."""
-    from pathlib import Path
-
-    from ..problem.model import default_problem_path, shipped_problems, shipped_rows
+    from ..problem.model import default_problem_path, resolve_name
 
     if problem is None:
         return default_problem_path()
-    problem = Path(problem)
-    if not problem.exists() and problem.parent == Path(".") and Path(problem.name + ".yaml").is_file():
-        note(f"{problem}: the file {problem.name}.yaml here")  # (before a shipped problem of the name)
-        return Path(problem.name + ".yaml")
-    if not problem.exists() and problem.parent == Path("."):
-        stem = problem.name[:-5] if problem.name.endswith(".yaml") else problem.name
-        hit = next((p for p in shipped_problems() + shipped_rows() if p.stem == stem), None)
-        if hit is not None:
-            note(f"{problem}: the shipped problem {hit}")
-            return hit
-    return problem
+    path, taken_as = resolve_name(problem)
+    if taken_as is not None:
+        note(f"{problem}: {taken_as}")
+    return path
 
 
 def failure_of(exc: BaseException) -> tuple[ExitCode, str]:

@@ -628,6 +628,21 @@ def _is_text_path(path: tuple) -> bool:
     return path in (("name",), ("description",)) or (len(path) == 3 and (path[0], path[2]) in (("arms", "name"), ("fruits", "id")))
 
 
+def resolve_name(path: str | Path) -> tuple[Path, str | None]:
+    """The file a problem argument names, and what a bare name was taken as (None: the path as
+    given): where no such file exists and the name has no folder, ``NAME.yaml`` in the working
+    folder, else the shipped problem of that name (``NAME`` or ``NAME.yaml``). The one rule of
+    :func:`load_problem` and the ``coplan`` commands."""
+    p = Path(path)
+    if p.exists() or p.parent != Path("."):
+        return p, None
+    if not p.name.endswith(".yaml") and Path(p.name + ".yaml").is_file():  # (a file of the name here comes first)
+        return Path(p.name + ".yaml"), f"the file {p.name}.yaml here"
+    stem = p.name[:-5] if p.name.endswith(".yaml") else p.name
+    hit = next((s for s in shipped_problems() + shipped_rows() if s.stem == stem), None)
+    return (hit, f"the shipped problem {hit}") if hit is not None else (p, None)
+
+
 def load_problem(path: str | Path) -> Problem:
     """Load and validate a problem file (raises :class:`ProblemError`, never a bare traceback).
 
@@ -641,13 +656,12 @@ def load_problem(path: str | Path) -> Problem:
                            "coplan.parse_problem(coplan.generate.to_yaml(mapping))"
                            if isinstance(path, Mapping) else ""))
     p = Path(path)
+    named, taken_as = resolve_name(p)
+    if taken_as is not None:
+        return load_problem(named)
     if not p.exists():
         name = p.name[:-5] if p.name.endswith(".yaml") else p.name
         shipped = {s.stem: s for s in shipped_problems() + shipped_rows()}
-        if p.parent == Path(".") and not p.name.endswith(".yaml") and Path(p.name + ".yaml").is_file():
-            return load_problem(Path(p.name + ".yaml"))  # (a file of the name here comes before a shipped one)
-        if name in shipped and p.parent == Path("."):
-            return load_problem(shipped[name])
         if name in shipped:
             raise ProblemError([Issue("", f"expected an existing YAML file, found no file at this path; "
                                           f"{name!r} is a shipped problem, its file is {shipped[name]} "

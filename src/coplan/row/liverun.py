@@ -121,15 +121,15 @@ class LiveRun:
                 return False
         self.known.append((did, d.position))
         claimed = {self.reports[e.fruit].truth for e in self.booker.events}
-        far = (d.truth is not None and d.truth not in claimed  # (a report of a fruit taken finds nothing anyway)
-               and math.dist(self.truth_xy[d.truth], d.position) > self.opts.close_distance)
+        away = math.dist(self.truth_xy[d.truth], d.position) if d.truth is not None else 0.0
+        far = d.truth is not None and d.truth not in claimed and away > self.opts.close_distance  # (a fruit taken: nothing anyway)
         if d.truth is None or d.truth in claimed or far:
             # the close-range sensor finds nothing there (a false report, a fruit already taken, or
             # one the report put farther off than the gripper camera sees): the arm comes, looks and
             # goes back -- a probe, no dwells
             self.booker.probes.add(did)
             if far:
-                self.unseen[did] = (f"missed: reported {math.dist(self.truth_xy[d.truth], d.position) * 1000:.0f} mm from the "
+                self.unseen[did] = (f"missed: reported {away * 1000:.0f} mm from the "
                                     f"fruit, farther than the close-range camera sees ({self.opts.close_distance * 1000:g} mm): "
                                     f"the arm found nothing there")
         elif did not in self.measured:  # it measures the fruit as the arm comes (once: a later choice

@@ -221,8 +221,7 @@ def _draw(rng, values: list | dict, kind: str):
         return values[int(rng.integers(0, len(values)))]
     lo, hi, step = values["from"], values["to"], values.get("step")
     if step is not None:
-        n = int(math.floor((hi - lo) / step + 1e-9))
-        return _tidy(lo + step * int(rng.integers(0, n + 1)), kind)
+        return _tidy(lo + step * int(rng.integers(0, _count(values, kind))), kind)
     if kind in _INTEGER or (kind == "option" and isinstance(lo, int) and isinstance(hi, int)):
         return int(rng.integers(lo, hi + 1))
     return round(float(rng.uniform(lo, hi)), 6)
