@@ -8,6 +8,11 @@ the bins and the fruit in the carriage frame (without it a row plan cannot be ch
 motion only -- no events, allocation or metrics -- so a plan read from it has no events and
 the verifier infers them from the motion (:mod:`coplan.verify.infer`).
 
+The reader also takes a ``coplan export`` CSV (:mod:`coplan.report.export`: ``t``, per arm
+``<arm>_q1, <arm>_q2, <arm>_qd1, <arm>_qd2, <arm>_qdd1, <arm>_qdd2``, a row's ``carriage_x,
+carriage_v, carriage_a`` last): its positions and the carriage's are read, the rates left, so
+that ``coplan verify`` checks the very table a controller is given.
+
 This module reads and writes the table only; :func:`coplan.plan.load_plan` builds the plan.
 Errors are :class:`~coplan.errors.PlanFileError` issues with the file's line.
 """
@@ -38,9 +43,46 @@ def csv_header(arm_names: Iterable[str], carriage: bool = False) -> str:
     return buf.getvalue().removesuffix("\r\n")
 
 
+_EXPORT = ("q1", "q2", "qd1", "qd2", "qdd1", "qdd2")
+_EXPORT_CARRIAGE = ["carriage_x", "carriage_v", "carriage_a"]
+
+
+def _export_layout(header: list[str]) -> tuple[list[str], list[int], int | None] | None:
+    """A ``coplan export`` CSV's header (``t``, per arm ``<arm>_q1 ... <arm>_qdd2``, a row's
+    ``carriage_x, carriage_v, carriage_a`` last): its arm names, each arm's first column and
+    the carriage's; None if it is not one."""
+    cols = [c.strip() for c in header]
+    x = None
+    if cols[-3:] == _EXPORT_CARRIAGE:
+        x, cols = len(cols) - 3, cols[:-3]
+    body = cols[1:]
+    if not body or len(body) % 6:
+        return None
+    names = []
+    for i in range(0, len(body), 6):
+        stem = body[i][:-3] if body[i].endswith("_q1") else ""
+        if not stem or body[i:i + 6] != [f"{stem}_{c}" for c in _EXPORT]:
+            return None
+        names.append(stem)
+    return names, [1 + i for i in range(0, len(body), 6)], x
+
+
+def _layout(header: list[str]) -> tuple[list[str], list[int], int | None, str | None]:
+    """A header row's arm names, the column of each arm's q1 (q2 follows it), the carriage's
+    column (None: a cell), or the reason it is neither a ``plan.csv`` nor an export's header.
+    Every row has a value per header column."""
+    if header and header[0].strip() == "t" and len(header) > 1 and header[1].strip() != "gantry_x":
+        export = _export_layout(header)
+        if export is not None and len(set(export[0])) == len(export[0]):
+            return (*export, None)
+    names, why = _arm_names(header)
+    x = 1 if not why and header[1].strip() == "gantry_x" else None
+    return names, [1 + (x is not None) + 2 * i for i in range(len(names))], x, why
+
+
 def _arm_names(header: list[str]) -> tuple[list[str], str | None]:
-    """Arm names from a header row, or the reason it is not one."""
-    expect = "a header row 't,<arm>_q1,<arm>_q2,...'"
+    """Arm names from a ``plan.csv`` header row, or the reason it is not one."""
+    expect = "a header row 't,<arm>_q1,<arm>_q2,...' (or a coplan export's)"
     if not header or header[0].strip() != "t":
         return [], f"expected {expect}, found first column {header[0] if header else ''!r}"
     cols = header[2:] if len(header) > 1 and header[1].strip() == "gantry_x" else header[1:]
@@ -73,13 +115,12 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
         header = next(reader, [])
     except csv.Error as e:
         raise PlanFileError([Issue("", f"expected a CSV header row, found a syntax error: {e}", 1)], source) from None
-    names, why = _arm_names(header)
+    names, at, x_col, why = _layout(header)
     if why:
         raise PlanFileError([Issue("", why, 1)], source)
     first = reader.line_num + 1  # the header may span lines (a quoted name with a line break)
     body = buf.read().splitlines()
-    row = int(header[1].strip() == "gantry_x")  # (a carriage column after t)
-    width = 1 + row + 2 * len(names)
+    width = len(header)
     rows = np.empty((len(body), width))
     lines = np.zeros(len(body), dtype=int)  # the file line of each row
     issues: list[Issue] = []
@@ -90,8 +131,7 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
         cells = line.split(",")
         where = first + k
         if len(cells) != width:
-            issues.append(Issue("", f"expected {width} values (t{', gantry_x' if row else ''} and two angles for each of "
-                                    f"{len(names)} arm{'s' if len(names) != 1 else ''}), found {len(cells)}", where))
+            issues.append(Issue("", f"expected {width} values, one per column of the header, found {len(cells)}", where))
         else:
             try:
                 rows[n] = [float(c) for c in cells]
@@ -110,8 +150,8 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
     if issues:
         raise PlanFileError(issues, source)
     rows = rows[:n]
-    q = {a: rows[:, 1 + row + 2 * i: 3 + row + 2 * i].copy() for i, a in enumerate(names)}
-    return rows[:, 0], q, lines[:n], (rows[:, 1].copy() if row else None)
+    q = {a: rows[:, j: j + 2].copy() for a, j in zip(names, at)}
+    return rows[:, 0], q, lines[:n], (rows[:, x_col].copy() if x_col is not None else None)
 
 
 def _column(header: list[str], j: int) -> str:

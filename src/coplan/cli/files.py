@@ -53,11 +53,13 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     """``coplan export``: load the plan, check the rate and where to write (usage errors exit 2
     before anything is written), export. Default ``out``: beside the plan,
     ``<plan>_<rate>hz.csv`` or the folder ``<plan>_<rate>hz/``."""
-    from ..plan import load_plan
+    from ..plan import exact_samples, load_plan
     from ..report.export import check_rate, export_plan
 
     fmt = ExportFormat(fmt)
     plan = load_plan(plan_path)
+    if plan_path.suffix.lower() == ".json":
+        plan = exact_samples(plan, plan_path)  # (the plan.npz beside it: no 1e-7 rounding for a finer grid to magnify)
     try:
         check_rate(rate, plan.duration)
     except ValueError as e:

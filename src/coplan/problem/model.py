@@ -630,12 +630,12 @@ def _is_text_path(path: tuple) -> bool:
 
 def resolve_name(path: str | Path) -> tuple[Path, str | None]:
     """The file a problem argument names, and what a bare name was taken as (None: the path as
-    given): where no such file exists and the name has no folder, ``NAME.yaml`` in the working
+    given): where no such file exists (or a folder: a run's output, named like its problem) and the name has no folder, ``NAME.yaml`` in the working
     folder, else the shipped problem of that name (``NAME`` or ``NAME.yaml``). The one rule of
     :func:`load_problem` and the ``coplan`` commands."""
     p = Path(path)
-    if p.exists() or p.parent != Path("."):
-        return p, None
+    if (p.exists() and not p.is_dir()) or p.parent != Path("."):  # (a folder of that name here -- often a run's
+        return p, None                                              # output -- is no problem file: the name still names one)
     if not p.name.endswith(".yaml") and Path(p.name + ".yaml").is_file():  # (a file of the name here comes first)
         return Path(p.name + ".yaml"), f"the file {p.name}.yaml here"
     stem = p.name[:-5] if p.name.endswith(".yaml") else p.name

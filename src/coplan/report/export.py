@@ -3,25 +3,34 @@
 :func:`trajectory` resamples every arm's joints at a chosen rate with their velocities and
 accelerations; :func:`export_plan` writes them as
 
-* ``csv``: one file, one row per time: ``t`` then, per arm, ``<arm>_q1, <arm>_q2, <arm>_qd1,
-  <arm>_qd2, <arm>_qdd1, <arm>_qdd2`` (rad, rad/s, rad/s^2; names quoted by the ``csv`` module);
+* ``csv``: one file, one row per time: ``t`` (s) then, per arm, ``<arm>_q1, <arm>_q2, <arm>_qd1,
+  <arm>_qd2, <arm>_qdd1, <arm>_qdd2`` (rad, rad/s, rad/s^2; names quoted by the ``csv`` module),
+  a row's ``carriage_x, carriage_v, carriage_a`` (m, m/s, m/s^2) last; times and positions at
+  full precision (``coplan verify PROBLEM export.csv`` checks the table itself: a finite
+  difference at 1 kHz magnifies a ninth digit's rounding into the jerk), the rates to 9 digits;
 * ``json`` / ``yaml``: one file per arm in a folder, each a ROS 2
   ``trajectory_msgs/msg/JointTrajectory`` (``header``, ``joint_names``, ``points`` with
   ``positions``, ``velocities``, ``accelerations``, ``effort``, ``time_from_start: {sec,
   nanosec}``), loadable field for field into the message (e.g. ``rosidl_runtime_py.set_message_fields``).
 
-Where the derivatives come from: ``plan.json`` holds positions on a uniform grid (100 Hz). The
-export interpolates them with the C^2 cubic spline through every sample, clamped at rest at both
-ends (the arms start and end still, as the verifier assumes), and differentiates the spline. So
-the positions are the plan's own at every grid time, the velocities and accelerations are the
-exact derivatives of the exported positions (a controller integrating them stays on the plan),
-and for a coordinated plan's time-optimal S-curve move they agree with the analytic profile
-(:meth:`coplan.kinematics.timing.SCurve.derivatives`) to about 1e-3 rad/s and 1.5 % of the acceleration
-limit (jerk switches fall between samples; tested). For the same reason the exported
-accelerations can exceed a joint's acceleration limit slightly where the plan runs at it
-(measured on the coordinated plans of the shipped problems at 1 kHz: at most 1.1 % over the
-acceleration limit, 0.01 % over the velocity limit); a controller that refuses any excess
-should be given limits with that margin.
+Where the derivatives come from: ``plan.json`` holds positions on a uniform grid (100 Hz, step
+``dt``), the samples the verifier checked: their first, second and third differences / ``dt^k``
+within the velocity, acceleration and jerk limits. The export is the uniform cubic B-spline whose
+control points are those samples (each end's sample repeated), differentiated exactly. Its
+velocity, acceleration and jerk are at every instant weighted means of the samples' first,
+second and third differences (the B-spline's derivatives are B-splines of the differences), so
+**no exported value, and no finite difference of the exported positions at any rate, exceeds
+what the verifier accepted** in the plan -- an interpolating spline through the samples
+overshoots them (about 1 % in acceleration and 11 % in jerk at 250 Hz, measured on the
+coordinated cell plan). The price: the curve passes near, not through, the samples, by at most a
+sixth of a second difference (``|q[k-1] - 2 q[k] + q[k+1]| / 6``: about 2e-4 rad at a 12 rad/s^2
+limit; :func:`follow_error` reports how far a controller would depart from the plan), and,
+symmetric about each sample, it starts moving one step before the plan does. So the export is
+the plan **delayed by one step** (:attr:`Trajectory.delay`, 10 ms at 100 Hz), every arm and the
+carriage alike (their relative timing, which clearance depends on, unchanged): it starts at t = 0
+exactly at rest, ends exactly at rest two steps after the plan's duration, and stands exactly
+still wherever the plan holds a pose for three samples or more (a dwell). The grid is uniform at
+the rate asked for, its last point the first at or after the end.
 """
 
 from __future__ import annotations
@@ -61,14 +70,32 @@ class Trajectory:
     qdd: dict[str, np.ndarray]
     rate: float
     carriage: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # a row plan: the carriage's (x, v, a) at ``time``
+    delay: float = 0.0  # s: the export at ``t`` is the plan at ``t - delay`` (module docstring)
 
 
 def _times(duration: float, rate: float) -> np.ndarray:
-    n = int(math.floor(duration * rate + 1e-9))
-    t = np.arange(n + 1) / rate
-    if t[-1] < duration - 1e-9:
-        t = np.append(t, duration)  # the final pose is always a point
-    return t
+    """A uniform grid at ``rate`` from 0 to the first point at or after ``duration``."""
+    n = int(math.ceil(duration * rate - 1e-9))
+    return np.arange(n + 1) / rate
+
+
+def _smoothed(samples: np.ndarray, dt: float, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The uniform cubic B-spline over ``samples`` (N, ...) at plan step ``dt``, delayed by one
+    step (module docstring), and its first two derivatives, at times ``t`` (K,): (K, ...) each.
+    Exactly at rest at and before 0 and from ``(N + 1) dt`` on."""
+    from scipy.interpolate import BSpline
+
+    n = samples.shape[0]
+    ctrl = np.concatenate([samples[:1], samples[:1], samples, samples[-1:], samples[-1:]])  # (N + 4, ...)
+    knots = (np.arange(n + 8) - 3.0) * dt  # control point i centred at (i - 1) dt: the first sample at one step
+    spline = BSpline(knots, ctrl, 3, extrapolate=False)
+    u = np.clip(t, 0.0, (n + 1) * dt)
+    out = [spline(u, nu) for nu in (0, 1, 2)]
+    first, last = t <= 0.0, t >= (n + 1) * dt  # (at and past the clips: the end poses exactly, at rest)
+    out[0][first], out[0][last] = samples[0], samples[-1]
+    for d in out[1:]:
+        d[first | last] = 0.0
+    return out[0], out[1], out[2]
 
 
 def check_rate(rate: float, duration: float) -> None:
@@ -81,30 +108,29 @@ def check_rate(rate: float, duration: float) -> None:
 
 
 def trajectory(plan: Plan, rate: float) -> Trajectory:
-    """Positions, velocities and accelerations of every arm at ``rate`` Hz, from t = 0 to the
-    plan's end (its final pose always included); see the module docstring for the derivatives."""
-    from scipy.interpolate import CubicSpline
-
+    """Positions, velocities and accelerations of every arm at ``rate`` Hz on a uniform grid from
+    t = 0, the plan delayed by one step and at rest at both ends (module docstring)."""
     check_rate(rate, plan.duration)
-    t = _times(plan.duration, rate)
+    one = plan.time.size < 2  # a plan of one instant: everything stands still
+    delay = 0.0 if one else float(plan.dt)
+    t = _times(plan.duration + 2.0 * delay, rate)
     q, qd, qdd = {}, {}, {}
     for arm, samples in plan.q.items():
         samples = np.asarray(samples, float)
-        if plan.time.size < 2:  # a plan of one instant: the arm stands still
+        if one:
             q[arm], qd[arm], qdd[arm] = np.repeat(samples[:1], t.size, axis=0), np.zeros((t.size, 2)), np.zeros((t.size, 2))
             continue
-        rest = ((1, np.zeros(2)), (1, np.zeros(2)))
-        spline = CubicSpline(plan.time, samples, axis=0, bc_type=rest)
-        q[arm], qd[arm], qdd[arm] = spline(t), _flushed(spline(t, 1)), _flushed(spline(t, 2))
+        p, v, a = _smoothed(samples, plan.dt, t)
+        q[arm], qd[arm], qdd[arm] = p, _flushed(v), _flushed(a)
     carriage = None
     if plan.gantry_x is not None:  # a row: the carriage is one more (prismatic) axis, derived the same way
         x = np.asarray(plan.gantry_x, float)
-        if plan.time.size < 2:
+        if one:
             carriage = (np.full(t.size, x[0]), np.zeros(t.size), np.zeros(t.size))
         else:
-            cs = CubicSpline(plan.time, x, bc_type=((1, 0.0), (1, 0.0)))
-            carriage = (cs(t), _flushed(cs(t, 1)), _flushed(cs(t, 2)))
-    return Trajectory(t, q, qd, qdd, float(rate), carriage)
+            p, v, a = _smoothed(x, plan.dt, t)
+            carriage = (p, _flushed(v), _flushed(a))
+    return Trajectory(t, q, qd, qdd, float(rate), carriage, delay)
 
 
 def follow_error(plan: Plan, traj: Trajectory) -> tuple[float, str | None, float]:
@@ -119,7 +145,7 @@ def follow_error(plan: Plan, traj: Trajectory) -> tuple[float, str | None, float
     if plan.time.size < 2 or traj.time.size < 2:
         return worst, arm_at, t_at
     for arm, samples in plan.q.items():
-        follow = CubicHermiteSpline(traj.time, traj.q[arm], traj.qd[arm], axis=0)(plan.time)
+        follow = CubicHermiteSpline(traj.time, traj.q[arm], traj.qd[arm], axis=0)(plan.time + traj.delay)
         err = np.abs(follow - np.asarray(samples, float)).max(axis=1)
         k = int(np.argmax(err))
         if err[k] > worst:
@@ -180,8 +206,14 @@ def csv_text(traj: Trajectory) -> str:
     cols = [traj.time[:, None]] + [np.hstack([traj.q[a], traj.qd[a], traj.qdd[a]]) for a in arms]
     if traj.carriage is not None:
         cols.append(np.column_stack(traj.carriage))
+    exact = np.zeros(1 + 6 * len(arms) + (3 if traj.carriage is not None else 0), dtype=bool)
+    exact[0] = True
+    for i in range(len(arms)):
+        exact[1 + 6 * i: 3 + 6 * i] = True  # positions as stored (shortest exact text): verifiable at any rate
+    if traj.carriage is not None:
+        exact[-3] = True
     for row in np.hstack(cols):
-        w.writerow([f"{row[0]:.6f}"] + [f"{x:.9g}" for x in row[1:]])
+        w.writerow([repr(float(x)) if e else f"{x:.9g}" for x, e in zip(row, exact)])
     return buf.getvalue()
 
 
