@@ -661,3 +661,15 @@ def test_no_cell_planner_on_the_move_and_the_message_says_so(tmp_path):
         assert r.exit_code == 2 and "on the move the row books its own coordinated moves" in r.output, r.output
         assert "coordinated or optimal do" not in r.output
     assert not (tmp_path / "o").exists()
+
+
+def test_the_summary_of_a_plan_on_the_move_gives_no_ratio_to_the_stop_by_stop_bound(tmp_path):
+    """(It read "49.31 s stop by stop, ratio 0.841": a ratio below 1 beside "lower bound" read
+    as a broken bound, and that bound is for stop-and-go plans only.)"""
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=6, n_arms=2, density=2, seed=2, trusses=False)))
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["solve", str(path), "--gantry", "continuous", "--speed", "0.2",
+                                                       "-o", str(tmp_path / "o")])
+    out = " ".join(r.output.split())
+    assert r.exit_code == 0, r.output
+    assert "for a stop-and-go plan, which this one is not" in out and "stop by stop, ratio" not in out

@@ -193,3 +193,14 @@ def test_gantry_row_moves_its_fruit_with_the_rail_and_refuses_what_it_cannot_dra
         gantry_row(y_range=(1.5, 0.5))
     narrow = parse_problem(to_yaml(gantry_row(length=5, density=4, seed=2, y_range=(0.9, 1.0))))
     assert all(0.9 <= f.position[1] <= 1.0 for f in narrow.fruits)
+
+
+@pytest.mark.parametrize("kwargs, says", [({"spacing": -2.0}, "spacing > 0"), ({"spacing": 0.0}, "spacing > 0"),
+                                          ({"trusses": "no"}, "trusses True or False")])
+def test_gantry_row_refuses_a_spacing_or_trusses_it_cannot_mean(kwargs, says):
+    """(A negative spacing swapped the arms' order and validated; ``trusses="no"`` clustered the fruit.)"""
+    from coplan.generate import gantry_row
+
+    with pytest.raises(ValueError, match=says):
+        gantry_row(length=6.0, n_arms=3, density=2.0, **kwargs)
+    assert gantry_row(length=6.0, n_arms=1, density=2.0, spacing=0.0)["arms"]  # one arm: no neighbour to space

@@ -200,3 +200,20 @@ def test_a_shipped_problem_named_without_its_path_gets_its_path(tmp_path, monkey
     with pytest.raises(ProblemError) as e:  # any other missing file: the plain message
         load_problem("no_such_cell.yaml")
     assert "shipped" not in str(e.value) and "found no file at this path" in str(e.value)
+
+
+def test_a_plan_too_large_for_a_problem_file_is_named_as_a_plan(tmp_path):
+    """(``coplan check`` on a 200 m row's 21 MB plan.json said only that the file was too large.)"""
+    big = tmp_path / "plan.json"
+    big.write_text('{"format":"coplan.plan/1","time":[' + ",".join(["0.0"] * 1_200_000) + "]}")
+    with pytest.raises(ProblemError) as e:
+        load_problem(big)
+    assert "found a coplan.plan file" in str(e.value) and "swapped" in str(e.value)
+
+
+def test_a_folder_named_like_a_shipped_problem_does_not_hide_it(tmp_path, monkeypatch):
+    """(``coplan solve crossing_paths --out crossing_paths`` made a folder after which the bare
+    name ``crossing_paths`` in that working folder meant the folder: "expected a YAML file, found a directory".)"""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "crossing_paths").mkdir()
+    assert load_problem("crossing_paths").name == "crossing-paths"

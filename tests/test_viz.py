@@ -414,3 +414,12 @@ def test_coplan_plot_says_matplotlib_s_warnings_as_notes(tmp_path, problems_dir)
     assert r.exit_code == 0 and (tmp_path / "one.png").exists(), r.output
     assert "UserWarning" not in r.output and "savefig" not in r.output
     assert r.output.count("note: matplotlib: constrained_layout not applied") == 1, r.output
+
+
+def test_cli_plot_into_a_folder_writes_in_it(tmp_path, saved):
+    """(``--out d/`` wrote d.png beside the folder.)"""
+    d = tmp_path / "figs"
+    d.mkdir()
+    r = run("plot", str(saved["greenhouse"]), "--out", str(d))
+    assert r.exit_code == 0, r.output
+    assert (d / "plan_gantt.png").is_file() and not (tmp_path / "figs.png").exists()

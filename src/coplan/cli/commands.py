@@ -237,7 +237,8 @@ def _animate_files(res, out: Path, say=None) -> dict:
     from ..viz.animate import RenderError, animate_plan
 
     try:
-        path = animate_plan(res.problem, res.plan, out / "plan.gif", progress=say)
+        path = animate_plan(res.problem, res.plan, out / "plan.gif", progress=say,
+                            notify=lambda m: err_console.print(f"[yellow]note[/]: {_s(m)}", highlight=False, soft_wrap=True))
     except RenderError as e:
         err_console.print(f"[yellow]warning[/]: animation not rendered: {_s(e)} (the plan files are written)")
         return {}

@@ -132,6 +132,8 @@ def plot_cmd(
     from ..viz import plots
 
     target = out if out is not None else plan.with_name(f"{plan.stem}_{kind.value}.png")
+    if out is not None and out.is_dir():  # (it wrote FOLDER.png beside the folder)
+        target = out / f"{plan.stem}_{kind.value}.png"
     if not target.suffix:  # (matplotlib writes NAME.png and it said "wrote NAME", a file of the user's of that name)
         target = target.with_name(target.name + ".png")
     failures.check_out_file(target)  # (before any work)

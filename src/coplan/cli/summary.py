@@ -122,7 +122,9 @@ def print_row_summary(console, res) -> None:
     else:
         p(f"  row time          {fmt(r.get('row_time'), ' s')}   ({fmt(r.get('time_per_metre'), ' s/m')}; lower bound "
           f"{fmt(lb.get('any_plan'), ' s')} for any plan, ratio {fmt(r.get('ratio_any_plan_bound'), '', 3)}; "
-          f"{fmt(lb.get('stop_and_go'), ' s')} stop by stop, ratio {fmt(r.get('ratio_stop_and_go_bound'), '', 3)})")
+          + (f"{fmt(lb.get('stop_and_go'), ' s')} for a stop-and-go plan, which this one is not: it picks on the move)"
+             if moving else  # (a ratio below 1 beside "lower bound" read as a broken bound)
+             f"{fmt(lb.get('stop_and_go'), ' s')} stop by stop, ratio {fmt(r.get('ratio_stop_and_go_bound'), '', 3)})"))
     shares = (f"carriage moving {fmt(100 * r.get('carriage_moving_share', 0), ' %', 1)} of the row time, some arm picking "
               f"{fmt(100 * r.get('picking_share', 0), ' %', 1)}")
     if moving:

@@ -183,8 +183,8 @@ def _blit_gif_writer(fps: float, scene: "_Scene"):
             canvas.draw()
             W, H = fig.bbox.width, fig.bbox.height
             ax = scene.ax.bbox
-            boxes = {
-                "axes": ax,
+            boxes = {  # the axes on whole pixels: a fractional edge left a column never restored (fruit streaks)
+                "axes": Bbox.from_extents(math.floor(ax.x0), math.floor(ax.y0), math.ceil(ax.x1), math.ceil(ax.y1)),
                 "time": Bbox.from_extents(0, ax.y1 + 1, scene.split * W, H),
                 "info": Bbox.from_extents(scene.split * W, ax.y1 + 1, W, H),
                 "arms": Bbox.from_extents(0, 0, W, ax.y0 - 1),
