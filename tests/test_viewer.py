@@ -540,3 +540,16 @@ def test_a_plan_the_verifier_fails_is_never_shown_as_a_success(planted, tmp_path
     said = " ".join(res.output.split())
     assert "the plan file says success; verified, it is unsafe (" in said and "joint_limit" in said
     assert '"status":"unsafe"' in (tmp_path / "v.html").read_text()
+
+
+def test_view_open_without_a_browser_says_where_the_page_is(tmp_path, monkeypatch):
+    """(``coplan view --open`` with no browser wrote the page, opened nothing and said nothing.)"""
+    import webbrowser
+
+    monkeypatch.setattr(webbrowser, "open", lambda url: False)
+    runner = CliRunner(env={"COLUMNS": "200", "COPLAN_DEBUG": None})
+    out = tmp_path / "run"
+    assert runner.invoke(app, ["solve", str(GREENHOUSE), "--planner", "coordinated", "--out", str(out)]).exit_code == 0
+    res = runner.invoke(app, ["view", str(out / "plan.json"), "--open", "--out", str(tmp_path / "v.html")])
+    said = " ".join(res.output.split())
+    assert res.exit_code == 0 and "no web browser could be opened here" in said and (tmp_path / "v.html").as_uri() in said

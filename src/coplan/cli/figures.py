@@ -224,4 +224,5 @@ def view_cmd(
     # each plan verified once, here: the page shows the verdict, and a note says where the file's word differs (as plot)
     vers = {"verification": _checked(prob, pl)} | ({"compare_verification": _checked(prob, other)} if other is not None else {})
     target = out if out is not None else plan.with_suffix('.html')
-    _out.print(f"wrote {_s(write_view(prob, pl, other, target, open_page, **vers))}")
+    note = lambda m: _err.print(f"[yellow]note[/]: {_s(m)}", highlight=False, soft_wrap=True)  # noqa: E731
+    _out.print(f"wrote {_s(write_view(prob, pl, other, target, open_page, notify=note, **vers))}")

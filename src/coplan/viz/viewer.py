@@ -430,17 +430,18 @@ def write_html(path: str | Path, problem: Problem, plan: Plan, compare: Plan | N
 
 
 def write_view(problem: Problem, plan: Plan, compare: Plan | None, out: str | Path, open_browser: bool = False,
-               **verdicts) -> Path:
-    """``coplan view``: write the page to ``out`` (an ``.html`` file) and optionally open it;
-    ``verdicts``: ``verification`` / ``compare_verification`` when computed already."""
+               notify=None, **verdicts) -> Path:
+    """``coplan view``: write the page to ``out`` (an ``.html`` file) and optionally open it
+    (``notify(message)`` when no browser could be opened); ``verdicts``:
+    ``verification`` / ``compare_verification`` when computed already."""
     p = Path(out)
     if p.is_dir():
         raise PlanFileError([Issue("--out", f"expected an .html file to write, found the folder {p}")], str(p))
     if p.suffix.lower() not in (".html", ".htm"):
         raise PlanFileError([Issue("--out", f"expected a file name ending in .html, found {p.name!r}")], str(p))
     written = write_html(p, problem, plan, compare, **verdicts)
-    if open_browser:
-        webbrowser.open(written.resolve().as_uri())
+    if open_browser and not webbrowser.open(written.resolve().as_uri()) and notify is not None:
+        notify(f"no web browser could be opened here; open {written.resolve().as_uri()} in one")
     return written
 
 
