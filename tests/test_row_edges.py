@@ -504,3 +504,35 @@ def test_a_live_row_on_the_move_without_a_speed_says_what_it_expects(tmp_path):
     r = CliRunner(env={"COLUMNS": "400"}).invoke(app, ["run", "sparse_row", "--out", str(tmp_path / "o")])
     assert r.exit_code == 2 and "--speed: expected a cruising speed in [" in r.output
     assert "found nothing (or --gantry stop-and-go)" in " ".join(r.output.split()) and "nan" not in r.output
+
+
+def test_a_fruit_a_stops_cell_leaves_out_gets_a_second_chance_elsewhere_on_the_rail(monkeypatch):
+    """(Three arms 0.35 m apart: a stop's coordination found no schedule for four fruit and the
+    row left them out, "at the stop at 3.95 m", though a stop at 3.0 m harvests them.) Here the
+    cell planner is made to leave one fruit out at the stop that first takes it: the row plans
+    it at another stop, at least RETRY_AWAY[0] from there, verified, and says so."""
+    import coplan.row.plan as rp
+    from coplan.problem.gantry import cell_at as cell_of
+    from coplan.row.plan import RETRY_AWAY
+
+    prob = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=2, density=2.0, seed=5, trusses=False)))
+    real, seen = rp._cell_plan, {}
+
+    def refusing(cell, opts):
+        ids = [f.id for f in cell.fruits]
+        if not seen and len(ids) > 1:  # the first stop with more than one fruit: its first fruit left out
+            x = cell.arms[0].base[0] - prob.arms[0].base[0]
+            seen.update(fruit=ids[0], x=x)
+            p = real(cell_of(prob, x, tuple(ids[1:])), opts)
+            p.solver["left_out"] = {ids[0]: "made to fail here by the test"}
+            return p
+        return real(cell, opts)
+
+    monkeypatch.setattr(rp, "_cell_plan", refusing)
+    res = plan_row(prob, RowOptions(workers=1))
+    f = seen["fruit"]
+    assert res.verification.passed and res.plan.metrics["harvested"] == len(prob.fruits)
+    assert res.info["second_chance"] == {"stops": 1, "fruit": 1, "harvested": 1} and f not in res.info["left_out"]
+    again = next(sp for sp in res.stops if f in sp.stop.fruit and f not in sp.plan.solver.get("left_out", {}))
+    assert abs(again.stop.x - seen["x"]) >= RETRY_AWAY[0] - 1e-9
+    assert any(e.fruit == f and e.kind.value == "pick" for e in again.plan.events)

@@ -134,7 +134,10 @@ def print_row_summary(console, res) -> None:
                f"starts, or at its rest at the row's end)")
         p(f"  carriage          {how}; {shares}")
     else:
-        p(f"  stops             {r.get('stops')}, {fmt(r.get('mean_time_per_stop'), ' s')} each on average; {shares}")
+        again = solver.get("second_chance") or {}
+        extra = (f" ({again['stops']} of them a second chance for {plural(again['fruit'], 'fruit', 'fruit')} a stop's cell "
+                 f"left out: {again['harvested']} harvested there)" if again.get("stops") else "")
+        p(f"  stops             {r.get('stops')}{extra}, {fmt(r.get('mean_time_per_stop'), ' s')} each on average; {shares}")
     for a, causes in (r.get("idle_share") or {}).items():
         p(f"  idle {safe(a):12s} " + ", ".join(f"{k.replace('_', ' ')} {100 * v:.1f} %" for k, v in causes.items()))
     least = ver.get("min_clearance")

@@ -202,6 +202,12 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     finally:
         if pool is not None:
             pool.shutdown(wait=not interrupted, cancel_futures=True)
+    if not interrupted:
+        try:
+            info["second_chance"] = _second_chance(problem, reach, planned, opts, landed, t0)
+        except KeyboardInterrupt:  # (the row as planned so far stands: every cell in it is whole)
+            interrupted = True
+            info["interrupted"] = "while fruit a stop left out were given a second chance: the row without the rest of them"
     if interrupted:  # the stops from the first on whose cells are planned (a worker may have finished a later one)
         have = {id(sp.stop) for sp in planned}
         prefix = next((i for i, s in enumerate(kept) if id(s) not in have), len(kept))
@@ -225,9 +231,12 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         plan.status = PlanStatus.INTERRUPTED  # (the verdict on what it has is in plan.verification)
     info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
     info["left_out"] = dict(reach.reasons)
-    for sp in planned:  # fruit a stop's cell planner could not fit in
+    picked = _picked(planned)
+    for sp in planned:  # fruit a stop's cell planner could not fit in (and no second chance took)
         for f, why in (sp.plan.solver.get("left_out") or {}).items():
-            info["left_out"][f] = f"at the stop at {sp.stop.x:.2f} m: {why}"
+            if f not in picked:
+                said = info["left_out"].get(f)
+                info["left_out"][f] = (f"{said}; " if said else "") + f"at the stop at {sp.stop.x:.2f} m: {why}"
     if interrupted:  # the rest of the row: not planned
         done = {f for sp in planned for f in sp.stop.fruit}
         for f in reach.harvestable():
@@ -237,6 +246,45 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     say(f"row: {len(planned)} stop{'' if len(planned) == 1 else 's'} ({rule.value}), {plan.metrics.get('harvested')} fruit, "
         f"row time {plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
     return RowResult(plan, ver, planned, reach, timings, info)
+
+
+#: m: a fruit a stop's cell planner left out is tried again at a stop at least this far from
+#: where it was tried (then farther), while a stop of the rail serves it
+RETRY_AWAY = (0.25, 0.5)
+
+
+def _picked(planned: list[StopPlan]) -> set[str]:
+    return {e.fruit for sp in planned for e in sp.plan.events if e.kind == EventKind.PICK}
+
+
+def _second_chance(problem: Problem, reach: RowReach, planned: list[StopPlan], opts: RowOptions, landed, t0: float) -> dict:
+    """Fruit a stop's cell planner left out -- its coordination found no schedule there (arms too
+    close for the fruit at that carriage position) -- are tried again, at stops elsewhere on the
+    rail that serve them (:func:`coplan.row.stops.retry_stops`), each at least
+    :data:`RETRY_AWAY` from where they were tried, in up to that many rounds. The new stops join
+    the row in carriage order, planned after the rest (their slack says whether the carriage
+    would have had to wait). Returns what it did."""
+    from .stops import retry_stops
+
+    tried: dict[str, list[float]] = {}  # fruit -> where a stop left it out
+    stops = 0
+    for away in RETRY_AWAY:
+        picked = _picked(planned)
+        for sp in planned:
+            for f in (sp.plan.solver.get("left_out") or {}):
+                if f not in picked and sp.stop.x not in tried.setdefault(f, []):
+                    tried[f].append(sp.stop.x)
+        failed = {f: xs for f, xs in tried.items() if f not in picked}
+        new = retry_stops(reach, failed, {sp.stop.k for sp in planned}, away) if failed else []
+        if not new:
+            break
+        for s in new:
+            tc = _time.perf_counter()
+            p = _cell_plan(cell_at(problem, s.x, s.fruit), opts)
+            landed(s, p, _time.perf_counter() - t0, _time.perf_counter() - tc)
+            stops += 1
+    picked = _picked(planned)
+    return {"stops": stops, "fruit": len(tried), "harvested": sum(1 for f in tried if f in picked)}
 
 
 def finalize_row(problem: Problem, plan: Plan, ver, reach: RowReach) -> Plan:

@@ -50,7 +50,7 @@ from ..ties import quantised
 from .reach import RowReach
 
 __all__ = ["Stop", "fixed_stops", "fewest_stops", "optimised_stops", "carriage_span", "round_trips", "StopWindow",
-           "rebalance", "TripCosts", "price_stops", "quantised_trips", "move_time", "arm_overheads"]
+           "rebalance", "TripCosts", "price_stops", "quantised_trips", "move_time", "arm_overheads", "retry_stops"]
 
 
 @dataclass(frozen=True)
@@ -162,6 +162,29 @@ def fixed_stops(reach: RowReach, stride: float | None = None) -> list[Stop]:
     served = {f for f in reach.cover if reach.cover[f].any(axis=0)[ks].any()}
     extra = fewest_stops(reach, [f for f in reach.cover if f not in served])
     return _stops_from(reach, sorted(set(ks) | {s.k for s in extra}), list(reach.cover))
+
+
+def retry_stops(reach: RowReach, failed: dict[str, list[float]], taken: set[int], away: float) -> list[Stop]:
+    """Stops for a second chance: fruit a stop's cell planner left out (``failed``: fruit id ->
+    the positions, m, of the stops where it was tried), each to another position that serves it
+    -- none within ``away`` m of where it was tried, nor a stop already ``taken`` (grid indices)
+    -- the fewest such stops (:func:`fewest_stops`). A fruit no such position serves gets none."""
+    from dataclasses import replace
+
+    masked = {}
+    for f, xs in failed.items():
+        c = reach.cover.get(f)
+        if c is None:
+            continue
+        off = np.zeros(reach.grid.size, dtype=bool)
+        for x in xs:
+            off |= np.abs(reach.grid - x) <= away + 1e-9
+        off[sorted(taken)] = True
+        if (c & ~off).any():
+            masked[f] = c & ~off
+    if not masked:
+        return []
+    return fewest_stops(replace(reach, cover=masked), list(masked))
 
 
 # --------------------------------------------------------------------------- the optimised rule
