@@ -506,7 +506,7 @@ def test_a_live_row_on_the_move_without_a_speed_says_what_it_expects(tmp_path):
     assert "found nothing (or --gantry stop-and-go)" in " ".join(r.output.split()) and "nan" not in r.output
 
 
-def test_a_fruit_a_stops_cell_leaves_out_gets_a_second_chance_elsewhere_on_the_rail(monkeypatch):
+def test_a_fruit_a_stops_cell_leaves_out_gets_a_second_chance_elsewhere_on_the_rail(monkeypatch, tmp_path):
     """(Three arms 0.35 m apart: a stop's coordination found no schedule for four fruit and the
     row left them out, "at the stop at 3.95 m", though a stop at 3.0 m harvests them.) Here the
     cell planner is made to leave one fruit out at the stop that first takes it: the row plans
@@ -536,3 +536,13 @@ def test_a_fruit_a_stops_cell_leaves_out_gets_a_second_chance_elsewhere_on_the_r
     again = next(sp for sp in res.stops if f in sp.stop.fruit and f not in sp.plan.solver.get("left_out", {}))
     assert abs(again.stop.x - seen["x"]) >= RETRY_AWAY[0] - 1e-9
     assert any(e.fruit == f and e.kind.value == "pick" for e in again.plan.events)
+    seen.clear()  # the command line's summary says so too
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=6.0, n_arms=2, density=2.0, seed=5, trusses=False)))
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["solve", str(path), "--workers", "1", "-o", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert "1 of them a second chance for 1 fruit a stop's cell left out: 1 harvested there" in " ".join(r.output.split())
