@@ -303,3 +303,19 @@ def test_a_plan_file_records_the_software_that_made_it_and_keeps_it(tmp_path, pr
     csv_plan = _load(tmp_path / "a" / "plan.csv")
     csv_plan.save(tmp_path / "c")
     assert csv_plan.software is None and "software" not in json.loads((tmp_path / "c" / "plan.json").read_text())
+
+
+def test_a_plan_changed_after_its_verdict_is_saved_unverified(greenhouse: Problem, tmp_path: Path) -> None:
+    """(A plan edited in place -- its joints moved 5 rad -- was saved still "success" with its
+    verdict, and ``coplan verify`` then failed it.) Its file says ``unverified``, no verdict;
+    unchanged, it keeps both."""
+    from coplan.planners.coordinated import plan_coordinated
+
+    p = plan_coordinated(greenhouse).plan
+    assert p.status == PlanStatus.SUCCESS and not p.changed_since_verified()
+    assert p.to_dict()["status"] == "success" and p.to_dict()["verification"]["passed"]
+    arm = next(iter(p.q))
+    p.q[arm][:] = p.q[arm][0] + 5.0
+    assert p.changed_since_verified()
+    back = load_plan(p.save(tmp_path)["json"])
+    assert back.status == PlanStatus.UNVERIFIED and back.verification is None

@@ -138,6 +138,8 @@ class Plan:
     problem_file: dict[str, str] | None = None  # {"path", "sha256"}: the problem file it was planned from
     gantry_x: np.ndarray | None = None  # (N,) a row plan's carriage position on the time grid, m (None: a cell)
     software: dict[str, Any] | None = field(default=None, compare=False)  # what made it (finalize_plan: this process's; a file's)
+    #: the :func:`motion_digest` its verdict judged (set by :func:`finalize_plan`; not written)
+    verified_motion: str | None = field(default=None, repr=False, compare=False)
 
     def __repr__(self) -> str:  # (the samples are the bulk: a notebook cell shows what the plan is, not 10^4 numbers)
         mk = self.metrics.get("makespan")
@@ -219,13 +221,21 @@ class Plan:
         return replace(self, status=status)
 
     # ------------------------------------------------------------------ I/O
+    def changed_since_verified(self) -> bool:
+        """Whether its motion (times, joints, carriage, events) changed after
+        :func:`finalize_plan` judged it: then its verdict is not its own."""
+        return self.verified_motion is not None and self.verified_motion != motion_digest(self)
+
     def to_dict(self) -> dict:
+        """The ``plan.json`` document. A plan whose motion was changed after its verdict (its
+        arrays edited in place, say) is written ``unverified``, without that verdict."""
         fine = finer_grid(self.dt)  # (full precision there: rounded, the file would fail where the plan passed)
+        stale = self.changed_since_verified() and self.status in (PlanStatus.SUCCESS, PlanStatus.PARTIAL, PlanStatus.UNSAFE)
         return {
             "format": PLAN_FORMAT,
             "problem": self.problem,
             "planner": self.planner_name,
-            "status": self.status.value,
+            "status": (PlanStatus.UNVERIFIED if stale else self.status).value,
             "time": jsonable(np.round(self.time, 6)),
             "arms": {a: {"q": jsonable(q if fine else np.round(q, 7))} for a, q in self.q.items()},
             "events": [e.to_dict() for e in self.events],
@@ -233,7 +243,7 @@ class Plan:
             "unreachable": list(self.unreachable),
             "metrics": jsonable(self.metrics),
             "solver": jsonable(self.solver),
-            "verification": jsonable(self.verification),
+            "verification": None if stale else jsonable(self.verification),
         } | ({"problem_file": dict(self.problem_file)} if self.problem_file else {}) | (
             {"gantry": {"x": jsonable(self.gantry_x if fine else np.round(self.gantry_x, 7))}} if self.gantry_x is not None
             else {}) | ({"software": dict(self.software)} if self.software else {})
@@ -372,6 +382,19 @@ def checked_status(status: PlanStatus, verification) -> PlanStatus:
     return PlanStatus.PARTIAL if verification.unharvested else PlanStatus.SUCCESS
 
 
+def motion_digest(plan: Plan) -> str:
+    """A sha256 of a plan's motion: its times, every arm's joints, the carriage, its events."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for a in [plan.time, plan.gantry_x] + [plan.q[k] for k in plan.q]:
+        if a is not None:
+            h.update(np.ascontiguousarray(a, dtype=float).tobytes())
+    h.update(repr([(a, len(plan.q[a])) for a in plan.q]).encode())
+    h.update(repr([(e.arm, e.fruit, e.kind.value, e.t_start, e.t_end) for e in plan.events]).encode())
+    return h.hexdigest()
+
+
 def finalize_plan(plan: Plan, verification, n_reachable: int) -> Plan:
     """Set the plan's metrics and status from the verifier's verdict (never upgrades a solver
     failure or an interruption). ``verification`` is the verifier's result (or None)."""
@@ -387,6 +410,7 @@ def finalize_plan(plan: Plan, verification, n_reachable: int) -> Plan:
     lb = plan.metrics.get("lower_bound")
     if lb:
         plan.metrics["gap_to_lower_bound"] = plan.metrics["makespan"] / lb if plan.metrics["makespan"] else None
+    plan.verified_motion = motion_digest(plan) if verification is not None else None  # (what the verdict is about)
     if plan.status in (PlanStatus.FAILED, PlanStatus.INTERRUPTED, PlanStatus.INFEASIBLE):
         return plan
     if verification is None:

@@ -82,7 +82,7 @@ def _layout(header: list[str]) -> tuple[list[str], list[int], int | None, str | 
 
 def _arm_names(header: list[str]) -> tuple[list[str], str | None]:
     """Arm names from a ``plan.csv`` header row, or the reason it is not one."""
-    expect = "a header row 't,<arm>_q1,<arm>_q2,...' (or a coplan export's)"
+    expect = "a header row 't,<arm>_q1,<arm>_q2,...'"
     if not header or header[0].strip() != "t":
         return [], f"expected {expect}, found first column {header[0] if header else ''!r}"
     cols = header[2:] if len(header) > 1 and header[1].strip() == "gantry_x" else header[1:]
@@ -131,7 +131,10 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
         cells = line.split(",")
         where = first + k
         if len(cells) != width:
-            issues.append(Issue("", f"expected {width} values, one per column of the header, found {len(cells)}", where))
+            what = ("one per column of the export's header" if x_col is None and width != 1 + 2 * len(names) or
+                    x_col is not None and header[x_col].strip() == "carriage_x" else
+                    f"t{', gantry_x' if x_col is not None else ''} and two angles for each of {len(names)} arm{'s' if len(names) != 1 else ''}")
+            issues.append(Issue("", f"expected {width} values ({what}), found {len(cells)}", where))
         else:
             try:
                 rows[n] = [float(c) for c in cells]
