@@ -546,3 +546,26 @@ def test_a_fruit_a_stops_cell_leaves_out_gets_a_second_chance_elsewhere_on_the_r
     r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["solve", str(path), "--workers", "1", "-o", str(tmp_path / "o")])
     assert r.exit_code == 0, r.output
     assert "1 of them a second chance for 1 fruit a stop's cell left out: 1 harvested there" in " ".join(r.output.split())
+
+
+def test_the_stop_rules_price_each_stop_with_the_carriages_settle():
+    """(The optimised rule priced a stop without the carriage's settle, which every stop waits: on
+    a row with ``settle: 20`` it chose as many stops as with none.) Each moving stop costs
+    ``settle`` more; a long settle makes the rule take fewer stops."""
+    from dataclasses import replace
+
+    from coplan.row.stops import TripCosts, arm_overheads, optimised_stops, price_stops
+
+    prob = parse_problem(to_yaml(gantry_row(length=20.0, n_arms=2, density=3.0, seed=1, trusses=False)))
+    slow = replace(prob, gantry=replace(prob.gantry, settle=20.0))
+    reach = row_reach(prob)
+    todo = reach.harvestable()
+    ks = sorted({s.k for s in optimised_stops(prob, row_reach(prob))[0]})
+    cost = TripCosts(prob, reach, todo)
+    cost.add(ks)
+    over = arm_overheads(prob)
+    t0, st0, _ = price_stops(prob, reach, cost, todo, ks, over, prob.gantry.start, 0.0)
+    t1, st1, _ = price_stops(slow, reach, cost, todo, ks, over, prob.gantry.start, 0.0)
+    moving = sum(1 for i, s in enumerate(st0) if s.x != (st0[i - 1].x if i else prob.gantry.start))
+    assert st0 == st1 and t1 - t0 == pytest.approx(20.0 * moving, abs=1e-6)
+    assert len(optimised_stops(slow, row_reach(slow))[0]) < len(ks)

@@ -286,7 +286,8 @@ class TripCosts:
 
 def price_stops(problem, reach, cost: TripCosts, fruit, ks, over, x_from, overlap):
     """Assign ``fruit`` to stops ``ks`` (sorted) and arms there, and estimate the time: the
-    carriage's moves from ``x_from`` (less what the arms' way home and out overlaps) and each
+    carriage's moves from ``x_from``, each with the gantry's ``settle`` (less what the arms' way
+    home and out overlaps), and each
     stop's cell (its busiest arm: round trips plus its way out and home). Fruit with the fewest
     options first, each where it lengthens its stop's cell least (then where its cycle is
     cheapest): a balance across stops and arms. A fruit no stop serves is not taken. Returns
@@ -331,6 +332,7 @@ def price_stops(problem, reach, cost: TripCosts, fruit, ks, over, x_from, overla
             continue
         xk = float(reach.grid[k])
         mv = move_time(g, x, xk)
+        mv += g.settle if mv > 0 else 0.0  # (no pick before the carriage has settled; the arms' way out may overlap it)
         total += peak[i] + mv - min(mv, overlap)
         stops.append(Stop(k, xk, tuple(f for _, f in sorted(at[i]))))
         x = xk
