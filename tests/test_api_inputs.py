@@ -435,6 +435,18 @@ def test_the_row_entry_points_and_options_are_names_of_coplan_row():
         row.RowOption  # noqa: B018
 
 
+def test_the_sweep_entry_points_are_names_of_coplan_sweep():
+    """(The design-sweep notebook imported them from four private-looking modules.)"""
+    import coplan.sweep as sweep
+    from coplan.sweep import load_sweep, parse_sweep, read_table, run_sweep, sweep_report
+    from coplan.sweep import report, run, spec, table
+
+    assert (load_sweep, parse_sweep, run_sweep) == (spec.load_sweep, spec.parse_sweep, run.run_sweep)
+    assert (read_table, sweep_report) == (table.read_table, report.sweep_report)
+    with pytest.raises(AttributeError, match="no attribute 'run_sweeps'"):
+        sweep.run_sweeps  # noqa: B018
+
+
 def test_the_generators_name_a_bad_count_seed_or_link_pair():
     """(row_problem('3', 5) raised "'<' not supported", links=(1,) an IndexError, seed=-1 NumPy's
     own message; cell_problem(0, n_arms=0) returned a problem of no arms, and n_fruits=10**5

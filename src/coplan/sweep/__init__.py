@@ -10,3 +10,16 @@
 The ``coplan sweep`` and ``coplan sweep-report`` commands are in :mod:`coplan.cli.sweep`.
 This package's ``__init__`` imports nothing heavy (``coplan --help`` stays light).
 """
+
+_EXPORTS = {"load_sweep": "spec", "parse_sweep": "spec", "SweepSpec": "spec", "SweepItem": "spec", "run_sweep": "run",
+            "read_table": "table", "sweep_report": "report"}
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    # the entry points (``from coplan.sweep import run_sweep``), imported when first used
+    import importlib
+
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
