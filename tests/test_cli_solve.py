@@ -211,3 +211,18 @@ def test_the_solve_summary_counts_the_verifier_s_warnings(tmp_path):
     kinds = {w["kind"] for w in doc["warnings"]}
     assert n > 0 and kinds == {"singular"}
     assert f"warnings          {n}, which do not fail the plan: {n} singular (" in res.output
+
+
+def test_every_commands_help_reads_as_prose():
+    """(``coplan compare --help`` showed ``--clearance-sweep`` with its RST quotes and broke its
+    sentences mid-line: the help keeps the line breaks of a docstring's later paragraphs.)"""
+    import inspect
+
+    import typer.main
+
+    from coplan.cli import app
+
+    for name, cmd in typer.main.get_command(app).commands.items():
+        doc = inspect.getdoc(cmd.callback) or ""
+        assert "``" not in doc, name
+        assert all("\n" not in p.strip() for p in doc.split("\n\n")[1:]), name

@@ -423,3 +423,5 @@ def test_cli_plot_into_a_folder_writes_in_it(tmp_path, saved):
     r = run("plot", str(saved["greenhouse"]), "--out", str(d))
     assert r.exit_code == 0, r.output
     assert (d / "plan_gantt.png").is_file() and not (tmp_path / "figs.png").exists()
+    r = run("plot", str(saved["greenhouse"]), "--kind", "gantt", "--arm", "left", "--out", str(d))  # (ignored, before)
+    assert r.exit_code == 2 and "--arm: expected with --kind joints or workspace" in " ".join(r.output.split())

@@ -350,10 +350,8 @@ def verify_cmd(
 ):
     """Independently verify a plan: clearance (certified), limits, picks and places.
 
-    Exit codes: 0 passed and every reachable fruit harvested; 5 passed but fruit left;
-    4 passed but the problem has no reachable fruit (as solve); 6 violations found; 3 bad
-    problem or plan file.
-    """
+    Exit codes: 0 passed and every reachable fruit harvested; 5 passed but fruit left; 4 passed but the problem has no reachable fruit (as solve); 6 violations found; 3 bad problem or plan file.
+    """  # (one line per paragraph: the help keeps a docstring's line breaks)
     from ..plan import load_plan
     from ..problem.model import load_problem
     from ..verify.verifier import verify as run_verify
@@ -434,12 +432,10 @@ def compare_cmd(
 ):
     """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
 
-    With ``--clearance-sweep``: one problem file planned at its clearance plus each extra
-    (clearance.json, clearance.md, clearance_cost.png).
+    With --clearance-sweep: one problem file planned at its clearance plus each extra (clearance.json, clearance.md, clearance_cost.png).
 
-    Exit codes: 0 the comparison ran; 3 a problem file is invalid (the others are still
-    compared); 7 a planner failed on some problem (recorded in its row).
-    """
+    Exit codes: 0 the comparison ran; 3 a problem file is invalid (the others are still compared); 7 a planner failed on some problem (recorded in its row).
+    """  # (one line per paragraph: the help keeps a docstring's line breaks)
     from ..report.comparison import DEFAULT_PLANNERS, PlannerSpec, compare, rich_tables
 
     source = _resolve_problem(problems)

@@ -131,6 +131,9 @@ def plot_cmd(
     """Draw a figure of a plan: schedule Gantt, clearance, joint motion vs limits, or workspace map."""
     from ..viz import plots
 
+    if arm is not None and kind in (PlotKind.GANTT, PlotKind.CLEARANCE):  # (it was ignored: every arm drawn)
+        fail(ExitCode.USAGE, f"--arm: expected with --kind joints or workspace (a {kind.value} figure shows every arm or "
+                              f"pair), found --kind {kind.value}")
     target = out if out is not None else plan.with_name(f"{plan.stem}_{kind.value}.png")
     if out is not None and out.is_dir():  # (it wrote FOLDER.png beside the folder)
         target = out / f"{plan.stem}_{kind.value}.png"
