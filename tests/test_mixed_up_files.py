@@ -217,3 +217,13 @@ def test_a_folder_named_like_a_shipped_problem_does_not_hide_it(tmp_path, monkey
     monkeypatch.chdir(tmp_path)
     (tmp_path / "crossing_paths").mkdir()
     assert load_problem("crossing_paths").name == "crossing-paths"
+
+
+def test_an_exported_joint_trajectory_given_as_a_plan_is_named(tmp_path):
+    """(``coplan verify PROBLEM left.json`` -- one arm of ``coplan export --format json`` --
+    listed five missing keys.)"""
+    f = tmp_path / "left.json"
+    f.write_text(json.dumps({"header": {}, "joint_names": ["left_joint1", "left_joint2"], "points": []}))
+    with pytest.raises(PlanFileError) as e:
+        load_plan(f)
+    assert len(e.value.issues) == 1 and "found a JointTrajectory" in str(e.value) and "CSV export" in str(e.value)

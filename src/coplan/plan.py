@@ -589,6 +589,10 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
         raise PlanFileError([Issue("", f"expected a JSON object, found {_kind(data)}")], source)
     fmt = data.get("format")
     kind = coplan_file_kind(data)
+    if kind is None and {"joint_names", "points"} <= set(data):  # (it listed five missing keys)
+        raise PlanFileError([Issue("", "expected a plan file (plan.json or plan.csv), found a JointTrajectory (one arm of a "
+                                       "`coplan export --format json`): verify the plan.json it was exported from, or its "
+                                       "CSV export (`coplan export PLAN --rate HZ`), which holds every arm")], source)
     if kind is not None and kind != "plan":  # another kind of coplan file: say only that (another version: below)
         raise PlanFileError([Issue("", f"expected a plan file (plan.json or plan.csv), found a coplan {kind} file (format "
                                        f"{fmt!r}); were the arguments swapped?")], source)

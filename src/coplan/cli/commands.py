@@ -416,7 +416,7 @@ def compare_cmd(
                      "(e.g. heuristic:makespan). Default: heuristic, coordinated and optimal."),
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder.")] = Path("coplan-compare"),
-    figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the comparison figures.")] = True,
+    figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the comparison figures (cells; a row's comparison is its tables).")] = True,
     time_limit: Annotated[Optional[float], typer.Option(help="Optimal planner: wall-clock limit per solve, s.")] = None,
     options_file: Annotated[Optional[Path], typer.Option(
         "--options", help="Solver options (YAML) for the coordinated and optimal planners.")] = None,
