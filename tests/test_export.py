@@ -138,6 +138,13 @@ def test_an_export_of_a_saved_plan_passes_coplan_verify_at_a_controller_rate(pro
     res = run("verify", str(problems_dir / "crossing_paths.yaml"), str(tmp_path / "e.csv"))
     out = " ".join(res.output.split())
     assert res.exit_code == 0 and "passed" in out and "4 picks and 4 places were inferred" in out, out
+    # from the plan.csv replay, and from Python, alike (load_plan takes the plan.npz's samples)
+    res = run("export", str(tmp_path / "run" / "plan.csv"), "--rate", "250", "--out", str(tmp_path / "c.csv"))
+    assert res.exit_code == 0, res.output
+    export_plan(load_plan(tmp_path / "run" / "plan.json"), 250.0, "csv", tmp_path / "api.csv")
+    for f in ("c.csv", "api.csv"):
+        res = run("verify", str(problems_dir / "crossing_paths.yaml"), str(tmp_path / f))
+        assert res.exit_code == 0 and "passed" in " ".join(res.output.split()), (f, res.output)
 
 
 def test_csv_export(crossing_plan, tmp_path):

@@ -227,3 +227,12 @@ def test_an_exported_joint_trajectory_given_as_a_plan_is_named(tmp_path):
     with pytest.raises(PlanFileError) as e:
         load_plan(f)
     assert len(e.value.issues) == 1 and "found a JointTrajectory" in str(e.value) and "CSV export" in str(e.value)
+
+
+def test_a_feed_too_large_is_said_to_be_too_large_not_mixed_up(tmp_path):
+    """(A 4.7 MB feed was "a coplan.feed file ...; were the arguments swapped?" to load_feed.)"""
+    big = tmp_path / "feed.yaml"
+    big.write_text('{"format":"coplan.feed/1","detections":[' + ",".join(["0"] * 2_400_000) + "]}")
+    with pytest.raises(FeedError) as e:
+        load_feed(big)
+    assert "expected a file of at most" in str(e.value) and "swapped" not in str(e.value)

@@ -535,6 +535,8 @@ def test_a_fruit_a_stops_cell_leaves_out_gets_a_second_chance_elsewhere_on_the_r
     assert res.info["second_chance"] == {"stops": 1, "fruit": 1, "harvested": 1} and f not in res.info["left_out"]
     again = next(sp for sp in res.stops if f in sp.stop.fruit and f not in sp.plan.solver.get("left_out", {}))
     assert abs(again.stop.x - seen["x"]) >= RETRY_AWAY[0] - 1e-9
+    ahead = res.reach.grid[res.reach.cover[f].any(axis=0)] > seen["x"] + RETRY_AWAY[0]
+    assert ahead.any() and again.stop.x > seen["x"]  # ahead of where it failed: the carriage has not passed it
     assert any(e.fruit == f and e.kind.value == "pick" for e in again.plan.events)
     seen.clear()  # the command line's summary says so too
     path = tmp_path / "row.yaml"
@@ -569,3 +571,32 @@ def test_the_stop_rules_price_each_stop_with_the_carriages_settle():
     moving = sum(1 for i, s in enumerate(st0) if s.x != (st0[i - 1].x if i else prob.gantry.start))
     assert st0 == st1 and t1 - t0 == pytest.approx(20.0 * moving, abs=1e-6)
     assert len(optimised_stops(slow, row_reach(slow))[0]) < len(ks)
+
+
+def test_an_interruption_during_the_second_chance_keeps_every_stop_planned(monkeypatch):
+    """(Ctrl-C while a left-out fruit's second stop was planned kept the row's stops and said
+    "after 2 of the 2 stops kept so far", not when it came.)"""
+    import coplan.row.plan as rp
+    from coplan.problem.gantry import cell_at as cell_of
+    from coplan.kinds import PlanStatus
+
+    prob = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=2, density=2.0, seed=5, trusses=False)))
+    real, calls = rp._cell_plan, []
+
+    def refusing(cell, opts):
+        ids = [f.id for f in cell.fruits]
+        calls.append(ids)
+        if len(calls) > 1 and ids == [calls[0][0]]:  # the second chance of the first stop's refused fruit
+            raise KeyboardInterrupt
+        if len(calls) == 1 and len(ids) > 1:
+            x = cell.arms[0].base[0] - prob.arms[0].base[0]
+            p = real(cell_of(prob, x, tuple(ids[1:])), opts)
+            p.solver["left_out"] = {ids[0]: "made to fail here by the test"}
+            return p
+        return real(cell, opts)
+
+    monkeypatch.setattr(rp, "_cell_plan", refusing)
+    res = plan_row(prob, RowOptions(workers=1))
+    assert res.plan.status == PlanStatus.INTERRUPTED
+    assert "second chance" in res.info["interrupted"] and len(res.stops) == len(calls) - 1
+    assert res.verification.passed and res.plan.metrics["harvested"] == len(prob.fruits) - 1

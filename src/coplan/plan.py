@@ -274,7 +274,7 @@ class Plan:
 
 
 def exact_samples(plan: Plan, path: str | Path) -> Plan:
-    """``plan`` (read from ``path``, a ``plan.json``) with the full-precision samples of the
+    """``plan`` (read from ``path``, a ``plan.json`` or ``plan.csv``) with the full-precision samples of the
     ``plan.npz`` saved beside it, where that file holds this plan's samples (the same times,
     arms and carriage, each value within the JSON's 1e-7 rounding); else ``plan`` as it is.
     What a resampling takes: rounding to 1e-7 rad is below 1e-4 of a limit in a 100 Hz
@@ -455,7 +455,9 @@ def _busy_time(plan: Plan, arm: str) -> float:
 def load_plan(path: str | Path) -> Plan:
     """Load and check a ``plan.json``, or the ``plan.csv`` replay coplan writes beside it (joint
     samples only: no events, see :mod:`coplan.plancsv`). Raises :class:`PlanFileError` listing
-    every problem; a file over :data:`MAX_PLAN_BYTES` is refused before it is read."""
+    every problem; a file over :data:`MAX_PLAN_BYTES` is refused before it is read. Where the
+    ``plan.npz`` saved beside it holds the same samples at full precision, those are taken
+    (:func:`exact_samples`: what a resampling at a finer rate needs)."""
     if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)):  # (5 gave os's bare TypeError)
         raise TypeError(f"path: expected the path of a plan file (str or Path), found {type(path).__name__} {path!r}"[:300])
     p = Path(path)
@@ -472,7 +474,7 @@ def load_plan(path: str | Path) -> Plan:
         raise PlanFileError([Issue("", f"expected a plan file of at most {MAX_PLAN_BYTES} bytes ({MAX_PLAN_BYTES >> 20} MiB, "
                                        f"about 2 h of three arms at 100 Hz), found {size} bytes; it was not read")], src)
     if p.suffix.lower() == ".csv":
-        return _plan_from_csv(p.read_bytes(), src)
+        return exact_samples(_plan_from_csv(p.read_bytes(), src), p)
     try:
         text = p.read_text(encoding="utf-8")
         if not text.strip():
@@ -490,7 +492,7 @@ def load_plan(path: str | Path) -> Plan:
         raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno}){hint}", e.lineno)], src) from None
     except UnicodeDecodeError as e:
         raise PlanFileError([Issue("", f"expected UTF-8 JSON, found an undecodable byte at offset {e.start}")], src) from None
-    return plan_from_dict(data, src)
+    return exact_samples(plan_from_dict(data, src), p)
 
 
 def _kind(v: Any) -> str:

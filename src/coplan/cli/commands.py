@@ -265,10 +265,10 @@ def check(
     resolution: ResolutionOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
 ):
-    """Validate a problem and say, without solving, what its geometry allows: locked arms,
-    harvestable fruit per arm (and why the others are not), the makespan lower bound and the
-    heuristic baseline's makespan. Exit 0 when every reachable fruit can be harvested, 5 when
-    some cannot, 4 when no fruit is harvestable at all (nothing to plan, as solve)."""
+    """Validate a problem and say, without solving, what its geometry allows: locked arms, harvestable fruit per arm (and why the others are not), the makespan lower bound and the heuristic baseline's makespan.
+
+    Exit 0 when every reachable fruit can be harvested, 5 when some cannot, 4 when no fruit is harvestable at all (nothing to plan, as solve).
+    """  # (one line per paragraph: the help keeps a docstring's line breaks)
     from ..allocate.allocation import bound_details
     from ..planners.heuristic import plan_heuristic
     from ..problem.model import load_problem

@@ -53,13 +53,11 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     """``coplan export``: load the plan, check the rate and where to write (usage errors exit 2
     before anything is written), export. Default ``out``: beside the plan,
     ``<plan>_<rate>hz.csv`` or the folder ``<plan>_<rate>hz/``."""
-    from ..plan import exact_samples, load_plan
+    from ..plan import load_plan
     from ..report.export import check_rate, export_plan
 
     fmt = ExportFormat(fmt)
-    plan = load_plan(plan_path)
-    if plan_path.suffix.lower() == ".json":
-        plan = exact_samples(plan, plan_path)  # (the plan.npz beside it: no 1e-7 rounding for a finer grid to magnify)
+    plan = load_plan(plan_path)  # (with the plan.npz beside it: no 1e-7 rounding for a finer grid to magnify)
     try:
         check_rate(rate, plan.duration)
     except ValueError as e:
@@ -90,9 +88,10 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     written = export_plan(plan, rate, fmt, out)
     from ..report.export import FOLLOW_TOLERANCE, follow_error, trajectory
 
-    err, arm, t = follow_error(plan, trajectory(plan, rate))
+    traj = trajectory(plan, rate)
+    err, arm, t = follow_error(plan, traj)
     if err > FOLLOW_TOLERANCE:  # (0.001 Hz wrote two points, both home: a trajectory that never moves, said nothing)
         _err.print(f"note: at {rate:g} Hz a controller following these points (cubic between them, with their "
-                   f"velocities) departs from the plan by up to {err:.3g} rad ({escape(printable(arm))} at t = {t:.2f} s); "
+                   f"velocities) departs from the plan by up to {err:.3g} rad ({escape(printable(arm))} at t = {t + traj.delay:.2f} s of the export); "
                    f"the plan is sampled at {1.0 / plan.dt:g} Hz", markup=False, highlight=False)
     return written

@@ -275,8 +275,10 @@ def read_input_text(path, error: type[InputError]) -> str:
     if size > MAX_FILE_BYTES:
         with p.open("rb") as fh:  # (a plan of a long row is over the cap: say what it is, as for a small one)
             other = re.search(rb'"format"\s*:\s*"(coplan\.[a-z_]+)/', fh.read(4096))
-        if other is not None:
-            raise error([Issue("", f"expected a YAML file, found a {other.group(1).decode()} file of {size} bytes; were the "
+        found = other.group(1).decode() if other is not None else None
+        expected = error.__name__.lower().removesuffix("error")  # (FeedError: a coplan.feed is the kind asked for)
+        if found is not None and found.removeprefix("coplan.") != expected:
+            raise error([Issue("", f"expected a YAML file, found a {found} file of {size} bytes; were the "
                                    f"arguments swapped?")], src)
         raise error([Issue("", f"expected a file of at most {MAX_FILE_BYTES} bytes, found {size} bytes")], src)
     try:

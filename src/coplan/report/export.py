@@ -29,7 +29,8 @@ symmetric about each sample, it starts moving one step before the plan does. So 
 the plan **delayed by one step** (:attr:`Trajectory.delay`, 10 ms at 100 Hz), every arm and the
 carriage alike (their relative timing, which clearance depends on, unchanged): it starts at t = 0
 exactly at rest, ends exactly at rest two steps after the plan's duration, and stands exactly
-still wherever the plan holds a pose for three samples or more (a dwell). The grid is uniform at
+still wherever the plan holds a pose for four samples or more (a dwell), but for a step at each
+end of the hold (a 0.5 s dwell: 0.48 s exactly still). The grid is uniform at
 the rate asked for, its last point the first at or after the end.
 """
 

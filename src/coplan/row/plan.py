@@ -202,12 +202,12 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     finally:
         if pool is not None:
             pool.shutdown(wait=not interrupted, cancel_futures=True)
+    late = False  # interrupted during the second chance: every stop planned by then is kept
     if not interrupted:
         try:
             info["second_chance"] = _second_chance(problem, reach, planned, opts, landed, t0)
         except KeyboardInterrupt:  # (the row as planned so far stands: every cell in it is whole)
-            interrupted = True
-            info["interrupted"] = "while fruit a stop left out were given a second chance: the row without the rest of them"
+            late = True
     if interrupted:  # the stops from the first on whose cells are planned (a worker may have finished a later one)
         have = {id(sp.stop) for sp in planned}
         prefix = next((i for i, s in enumerate(kept) if id(s) not in have), len(kept))
@@ -216,6 +216,11 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         info["interrupted"] = f"after {len(planned)} of the {len(kept)} stops kept so far: the row as far as they go"
         say(f"row: interrupted; keeping the row as far as its stops planned so far ({len(planned)}), verified")
         reach.ensure(math.inf)  # (the whole row screened: what is harvestable, for the figures)
+    elif late:
+        interrupted = True
+        info["interrupted"] = (f"while fruit a stop's cell left out were given a second chance: the row's {len(planned)} "
+                               f"stops planned by then")
+        say("row: interrupted during the second chance; keeping every stop planned so far, verified")
     planned.sort(key=lambda sp: sp.stop.k)
     timings["stops_and_cells"] = _time.perf_counter() - ts
     timings["cells"] = sum(sp.seconds for sp in planned)
@@ -267,6 +272,7 @@ def _second_chance(problem: Problem, reach: RowReach, planned: list[StopPlan], o
     from .stops import retry_stops
 
     tried: dict[str, list[float]] = {}  # fruit -> where a stop left it out
+    offered: set[str] = set()  # fruit a second-chance stop took
     stops = 0
     for away in RETRY_AWAY:
         picked = _picked(planned)
@@ -279,12 +285,13 @@ def _second_chance(problem: Problem, reach: RowReach, planned: list[StopPlan], o
         if not new:
             break
         for s in new:
+            offered |= set(s.fruit)
             tc = _time.perf_counter()
             p = _cell_plan(cell_at(problem, s.x, s.fruit), opts)
             landed(s, p, _time.perf_counter() - t0, _time.perf_counter() - tc)
             stops += 1
     picked = _picked(planned)
-    return {"stops": stops, "fruit": len(tried), "harvested": sum(1 for f in tried if f in picked)}
+    return {"stops": stops, "fruit": len(offered), "harvested": sum(1 for f in offered if f in picked)}
 
 
 def finalize_row(problem: Problem, plan: Plan, ver, reach: RowReach) -> Plan:

@@ -167,8 +167,9 @@ def fixed_stops(reach: RowReach, stride: float | None = None) -> list[Stop]:
 def retry_stops(reach: RowReach, failed: dict[str, list[float]], taken: set[int], away: float) -> list[Stop]:
     """Stops for a second chance: fruit a stop's cell planner left out (``failed``: fruit id ->
     the positions, m, of the stops where it was tried), each to another position that serves it
-    -- none within ``away`` m of where it was tried, nor a stop already ``taken`` (grid indices)
-    -- the fewest such stops (:func:`fewest_stops`). A fruit no such position serves gets none."""
+    -- none within ``away`` m of where it was tried, nor a stop already ``taken`` (grid indices),
+    and ahead of where it was tried where one there serves it (the carriage has not passed it
+    yet) -- the fewest such stops (:func:`fewest_stops`). A fruit no such position serves gets none."""
     from dataclasses import replace
 
     masked = {}
@@ -180,7 +181,10 @@ def retry_stops(reach: RowReach, failed: dict[str, list[float]], taken: set[int]
         for x in xs:
             off |= np.abs(reach.grid - x) <= away + 1e-9
         off[sorted(taken)] = True
-        if (c & ~off).any():
+        ahead = off | (reach.grid <= max(xs) + away + 1e-9)
+        if (c & ~ahead).any():
+            masked[f] = c & ~ahead
+        elif (c & ~off).any():
             masked[f] = c & ~off
     if not masked:
         return []
