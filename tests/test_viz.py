@@ -184,6 +184,30 @@ def test_clearance_plot_draws_every_pair_and_the_requirement(greenhouse, hplan, 
     assert any(c.__class__.__name__ in ("PolyCollection", "FillBetweenPolyCollection") for c in fig.axes[0].collections)
 
 
+def test_the_clearance_figure_names_the_verifiers_instant_among_near_ties(greenhouse, hplan):
+    """(The figure said "0.120 m at 5.57 s", verification.json 0.1200 m at 1.80 s: a near-tie,
+    each its own sample.) Told another instant of (nearly) the same least clearance, the figure
+    names it; told an instant of a clearly larger one, it keeps its own least."""
+    import copy
+
+    from coplan.viz.timeline import pair_clearance
+
+    t, prof = pair_clearance(greenhouse, hplan)
+    (a, b), d = next(iter(prof.items()))
+    k = int(np.argmin(d))
+    near = k + 2 if k + 2 < d.size else k - 2
+    far = int(np.argmax(d))
+    assert d[near] - d[k] <= 5e-4 < d[far] - d[k]
+
+    def said(i):
+        plan = copy.deepcopy(hplan)
+        plan.verification = dict(plan.verification or {}, pairs={f"{a}-{b}": {"min_clearance": float(d[k]), "t": float(t[i])}})
+        return " ".join(x.get_text() for x in plot_clearance(greenhouse, plan).axes[0].texts)
+
+    assert f"{d[near]:.3f} m at {t[near]:.2f} s" in said(near)
+    assert f"{d[k]:.3f} m at {t[k]:.2f} s" in said(far)
+
+
 def test_joint_plot_has_four_quantities_two_joints_and_limits(greenhouse, hplan):
     fig = plot_joints(greenhouse, hplan)
     assert len(fig.axes) == 8

@@ -209,6 +209,10 @@ def plot_clearance(problem: Problem, plans: Plan | Mapping[str, Plan], *, title:
             if low.any():
                 ax.fill_between(t, d, req, where=low, color=ALERT_COLOR, alpha=0.45, linewidth=0, interpolate=True)
             k = int(np.argmin(d))
+            said = ((plan.verification or {}).get("pairs") or {}).get(f"{a}-{b}") or {}
+            if said.get("t") is not None and t.size:  # among near-ties, the verifier's instant (it named another)
+                k2 = int(np.argmin(np.abs(t - said["t"])))
+                k = k2 if d[k2] - d[k] <= 5e-4 else k
             ax.plot(t[k], d[k], "v", color=color, markersize=6, markeredgecolor="white")
             worst.append(f"{pair_label(a, b)} {d[k]:.3f} m at {t[k]:.2f} s")
             lows.append(float(d.min()))
