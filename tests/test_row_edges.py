@@ -600,3 +600,22 @@ def test_an_interruption_during_the_second_chance_keeps_every_stop_planned(monke
     assert res.plan.status == PlanStatus.INTERRUPTED
     assert "second chance" in res.info["interrupted"] and len(res.stops) == len(calls) - 1
     assert res.verification.passed and res.plan.metrics["harvested"] == len(prob.fruits) - 1
+
+
+def test_a_partial_row_whose_harvestable_fruit_are_all_harvested_says_why(tmp_path):
+    """(A fruit reachable only from a window between the candidate stops made the row partial
+    beside "10 harvested of 10 harvestable (100.0 %)", exit 5, and said no more.)"""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    d = gantry_row(length=6.0, n_arms=1, density=1.0, seed=3, trusses=False)
+    arm = parse_problem(to_yaml(d)).arms[0]
+    reach = sum(arm.links) - 0.01  # (the task's reach margin)
+    d["fruits"].append({"id": "narrow", "position": [3.025, round(math.sqrt(reach**2 - 0.012**2), 6)]})  # a 24 mm window
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(d))
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["solve", str(path), "-o", str(tmp_path / "o")])
+    said = " ".join(r.output.split())
+    assert r.exit_code == 5 and "status partial" in said and "(100.0 %)" in said
+    assert "why partial 1 screened-out fruit is still reachable" in said and "--resolution 0.022" in said

@@ -105,6 +105,11 @@ def print_row_summary(console, res) -> None:
         p(f"    {safe(why)}")
     if len(out) > 3:
         p(f"    ... and {len(out) - 3} more (plan.json: metrics.row.screened_out)")
+    beyond = (m.get("reachable") or 0) - (r.get("harvestable") or 0)
+    if res.plan.status.value == "partial" and beyond > 0 and r.get("harvested") == r.get("harvestable"):
+        p(f"  why partial       {plural(beyond, 'screened-out fruit is', 'screened-out fruit are')} still reachable, as the "
+          f"verifier counts: from between the candidate stops (a finer --resolution serves "
+          f"{'it' if beyond == 1 else 'them'}), or only by an arm the screen locks")
     got = {e.fruit for e in res.plan.events}
     left = {f: why for f, why in (solver.get("left_out") or {}).items() if f not in out and f not in got}
     if left:  # harvestable but not harvested by this plan, and why (all of them: plan.json solver.row.left_out)
