@@ -506,21 +506,20 @@ def test_a_live_row_on_the_move_without_a_speed_says_what_it_expects(tmp_path):
     assert "found nothing (or --gantry stop-and-go)" in " ".join(r.output.split()) and "nan" not in r.output
 
 
-def test_a_fruit_a_stops_cell_leaves_out_gets_a_second_chance_elsewhere_on_the_rail(monkeypatch, tmp_path):
-    """(Three arms 0.35 m apart: a stop's coordination found no schedule for four fruit and the
-    row left them out, "at the stop at 3.95 m", though a stop at 3.0 m harvests them.) Here the
-    cell planner is made to leave one fruit out at the stop that first takes it: the row plans
-    it at another stop, at least RETRY_AWAY[0] from there, verified, and says so."""
-    import coplan.row.plan as rp
+def _refusing_a_fruit(prob, real, seen: dict, calls: list | None = None, interrupt_again: bool = False):
+    """A stand-in for the row's cell planner: at the first stop with more than one fruit, its
+    first fruit is left out (``seen``: which, and where); with ``interrupt_again``, planning that
+    fruit's second chance is interrupted (Ctrl-C). ``calls``: each cell's fruit, in turn."""
     from coplan.problem.gantry import cell_at as cell_of
-    from coplan.row.plan import RETRY_AWAY
 
-    prob = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=2, density=2.0, seed=5, trusses=False)))
-    real, seen = rp._cell_plan, {}
+    calls = [] if calls is None else calls
 
     def refusing(cell, opts):
         ids = [f.id for f in cell.fruits]
-        if not seen and len(ids) > 1:  # the first stop with more than one fruit: its first fruit left out
+        calls.append(ids)
+        if interrupt_again and seen and ids == [seen["fruit"]]:
+            raise KeyboardInterrupt
+        if not seen and len(ids) > 1:
             x = cell.arms[0].base[0] - prob.arms[0].base[0]
             seen.update(fruit=ids[0], x=x)
             p = real(cell_of(prob, x, tuple(ids[1:])), opts)
@@ -528,7 +527,20 @@ def test_a_fruit_a_stops_cell_leaves_out_gets_a_second_chance_elsewhere_on_the_r
             return p
         return real(cell, opts)
 
-    monkeypatch.setattr(rp, "_cell_plan", refusing)
+    return refusing
+
+
+def test_a_fruit_a_stops_cell_leaves_out_gets_a_second_chance_elsewhere_on_the_rail(monkeypatch, tmp_path):
+    """(Three arms 0.35 m apart: a stop's coordination found no schedule for four fruit and the
+    row left them out, "at the stop at 3.95 m", though a stop at 3.0 m harvests them.) Here the
+    cell planner is made to leave one fruit out at the stop that first takes it: the row plans
+    it at another stop, at least RETRY_AWAY[0] from there, verified, and says so."""
+    import coplan.row.plan as rp
+    from coplan.row.plan import RETRY_AWAY
+
+    prob = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=2, density=2.0, seed=5, trusses=False)))
+    seen: dict = {}
+    monkeypatch.setattr(rp, "_cell_plan", _refusing_a_fruit(prob, rp._cell_plan, seen))
     res = plan_row(prob, RowOptions(workers=1))
     f = seen["fruit"]
     assert res.verification.passed and res.plan.metrics["harvested"] == len(prob.fruits)
@@ -577,25 +589,11 @@ def test_an_interruption_during_the_second_chance_keeps_every_stop_planned(monke
     """(Ctrl-C while a left-out fruit's second stop was planned kept the row's stops and said
     "after 2 of the 2 stops kept so far", not when it came.)"""
     import coplan.row.plan as rp
-    from coplan.problem.gantry import cell_at as cell_of
     from coplan.kinds import PlanStatus
 
     prob = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=2, density=2.0, seed=5, trusses=False)))
-    real, calls = rp._cell_plan, []
-
-    def refusing(cell, opts):
-        ids = [f.id for f in cell.fruits]
-        calls.append(ids)
-        if len(calls) > 1 and ids == [calls[0][0]]:  # the second chance of the first stop's refused fruit
-            raise KeyboardInterrupt
-        if len(calls) == 1 and len(ids) > 1:
-            x = cell.arms[0].base[0] - prob.arms[0].base[0]
-            p = real(cell_of(prob, x, tuple(ids[1:])), opts)
-            p.solver["left_out"] = {ids[0]: "made to fail here by the test"}
-            return p
-        return real(cell, opts)
-
-    monkeypatch.setattr(rp, "_cell_plan", refusing)
+    calls: list = []
+    monkeypatch.setattr(rp, "_cell_plan", _refusing_a_fruit(prob, rp._cell_plan, {}, calls, interrupt_again=True))
     res = plan_row(prob, RowOptions(workers=1))
     assert res.plan.status == PlanStatus.INTERRUPTED
     assert "second chance" in res.info["interrupted"] and len(res.stops) == len(calls) - 1
