@@ -226,3 +226,10 @@ def test_every_commands_help_reads_as_prose():
         doc = inspect.getdoc(cmd.callback) or ""
         assert "``" not in doc, name
         assert all("\n" not in p.strip() for p in doc.split("\n\n")), name  # (the first too: `coplan --help` lists it)
+
+
+def test_the_summary_shows_a_slow_joints_jerk_not_zero():
+    """(Joints limited to 0.05 rad/s^3 were summarised "jerk RMS / peak A 0 / 0".)"""
+    from coplan.cli.summary import _jerk
+
+    assert [_jerk(v) for v in (0.05, 0.1234, 41.26, 80.0, 1234.5, 0.0)] == ["0.05", "0.123", "41.3", "80", "1234", "0"]

@@ -114,11 +114,17 @@ def test_retiming_beats_the_plain_search_on_crossing_paths():
     assert res.plan.metrics["makespan"] < 6.469 - 0.2 and verify(prob, res.plan).passed
 
 
-def test_the_screened_meetings_are_exactly_the_brute_force_ones(dense):
+@pytest.mark.parametrize("pairs", [1_000_000, 37])
+def test_the_screened_meetings_are_exactly_the_brute_force_ones(dense, pairs, monkeypatch):
     """Every start offset at which two moves meet, with the bounding-box screen, against every
-    pair of samples tested exactly (the screen only skips pairs that cannot be too close)."""
+    pair of samples tested exactly (the screen only skips pairs that cannot be too close); the
+    same when the pairs are tested a few rows at a time (slow moves near each other all along
+    had 38 million near pairs at once: 24 GB)."""
+    import coplan.planners.optimal.retime as rt
     from coplan.planners.coordinated.schedule import points_too_close
     from coplan.planners.optimal.retime import _meetings, _moves
+
+    monkeypatch.setattr(rt, "_PAIRS", pairs)
 
     prob, coord = dense
     arms = prob.arms

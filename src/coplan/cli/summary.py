@@ -230,7 +230,7 @@ def print_summary(console, res) -> None:
                 p(f"  not widened       {safe(wid['reason'])}")
         per = m.get("per_arm") or {}
         if any("rms_jerk" in v for v in per.values()):
-            p("  jerk RMS / peak   " + ", ".join(f"{safe(a)} {v['rms_jerk']:.0f} / {v['peak_jerk']:.0f}" for a, v in per.items()
+            p("  jerk RMS / peak   " + ", ".join(f"{safe(a)} {_jerk(v['rms_jerk'])} / {_jerk(v['peak_jerk'])}" for a, v in per.items()
                                              if "rms_jerk" in v) + " rad/s^3")
         if not ver.get("passed", False):
             p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
@@ -330,3 +330,9 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     print_table(console, table)
     if len(ver.violations) > max_rows:
         p(f"  ... and {len(ver.violations) - max_rows} more (see verification.json: --out)")
+
+
+def _jerk(v: float) -> str:
+    """A jerk figure: whole rad/s^3, or three significant digits below 100 (slow joints at 0.05
+    rad/s^3 were shown as 0)."""
+    return f"{v:.0f}" if abs(v) >= 100 or v == 0 else f"{v:.3g}"

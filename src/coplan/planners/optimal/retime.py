@@ -147,15 +147,25 @@ def _meetings(xa: _Move, xb: _Move, radii: float, need: float) -> np.ndarray:
     # (along x or y) cannot be too close; only the other pairs are tested exactly (this also
     # keeps the temporaries small: na x nb pairs of link coordinates, allocated on every call,
     # had made a long row's retiming twice as slow in a process that had planned before)
+    # ``xa``'s samples a block at a time, at most _PAIRS pairs each: two slow moves near each
+    # other all along (thousands of samples each) had 38 million near pairs at once -- 24 GB
     g = radii + need
     (ax0, ay0, ax1, ay1), (bx0, by0, bx1, by1) = xa.sample_boxes, xb.sample_boxes
-    near = ((ax0[:, None] <= bx1[None] + g) & (bx0[None] <= ax1[:, None] + g)
-            & (ay0[:, None] <= by1[None] + g) & (by0[None] <= ay1[:, None] + g))
-    p, q = np.nonzero(near)
-    if p.size == 0:
-        return np.zeros(0, int)
-    close = links_too_close(xa.links[p], xb.links[q], radii, need)
-    return np.unique(np.round((xa.T[p[close]] - xb.T[q[close]]) * _MS).astype(int))
+    rows = max(1, _PAIRS // max(1, bx0.size))
+    found = []
+    for i in range(0, ax0.size, rows):
+        s = slice(i, i + rows)
+        near = ((ax0[s, None] <= bx1[None] + g) & (bx0[None] <= ax1[s, None] + g)
+                & (ay0[s, None] <= by1[None] + g) & (by0[None] <= ay1[s, None] + g))
+        p, q = np.nonzero(near)
+        if p.size:
+            p += i
+            close = links_too_close(xa.links[p], xb.links[q], radii, need)
+            found.append(np.unique(np.round((xa.T[p[close]] - xb.T[q[close]]) * _MS).astype(int)))
+    return np.unique(np.concatenate(found)) if found else np.zeros(0, int)
+
+
+_PAIRS = 1_000_000  # sample pairs _meetings tests at once (memory: about 100 MB of link coordinates)
 
 
 _LATE = "not retimed: the time limit came while building the model"
