@@ -445,6 +445,9 @@ def test_the_sweep_entry_points_are_names_of_coplan_sweep():
     assert (read_table, sweep_report) == (table.read_table, report.sweep_report)
     with pytest.raises(AttributeError, match="no attribute 'run_sweeps'"):
         sweep.run_sweeps  # noqa: B018
+    # and tab completion lists them (dir() did not)
+    assert {"run_sweep", "sweep_report"} <= set(dir(sweep))
+    assert {"plan_row", "RowOptions", "continuous"} <= set(dir(coplan.row)) and {"solve", "load_plan", "row"} <= set(dir(coplan))
 
 
 def test_the_generators_name_a_bad_count_seed_or_link_pair():

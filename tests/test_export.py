@@ -134,10 +134,17 @@ def test_an_export_of_a_saved_plan_passes_coplan_verify_at_a_controller_rate(pro
     plan = plan_coordinated(load_problem(problems_dir / "crossing_paths.yaml")).plan
     plan.save(tmp_path / "run")
     res = run("export", str(tmp_path / "run" / "plan.json"), "--rate", "250", "--out", str(tmp_path / "e.csv"))
-    assert res.exit_code == 0, res.output
+    assert res.exit_code == 0 and "note" not in res.stderr, res.output
     res = run("verify", str(problems_dir / "crossing_paths.yaml"), str(tmp_path / "e.csv"))
     out = " ".join(res.output.split())
     assert res.exit_code == 0 and "passed" in out and "4 picks and 4 places were inferred" in out, out
+    # without its plan.npz (a plan.json sent on alone) the export says what it is of
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    (alone / "plan.json").write_bytes((tmp_path / "run" / "plan.json").read_bytes())
+    res = run("export", str(alone / "plan.json"), "--rate", "250", "--out", str(tmp_path / "a.csv"))
+    assert res.exit_code == 0 and "no plan.npz with this plan's full-precision samples" in " ".join(res.stderr.split())
+    assert "note" not in run("export", str(alone / "plan.json"), "--rate", "50", "--out", str(tmp_path / "a50.csv")).stderr
     # from the plan.csv replay, and from Python, alike (load_plan takes the plan.npz's samples)
     res = run("export", str(tmp_path / "run" / "plan.csv"), "--rate", "250", "--out", str(tmp_path / "c.csv"))
     assert res.exit_code == 0, res.output

@@ -160,3 +160,18 @@ def test_compare_with_figures(tmp_path):
     assert "schedule_gantt.png" in pngs and "clearance.png" in pngs
     md = (tmp_path / "compare.md").read_text()
     assert "](single_arm/schedule_gantt.png)" in md
+
+
+def test_the_aggregate_leaves_a_problem_with_nothing_to_plan_out_of_the_medians():
+    """(A folder with a problem no arm reaches put its makespan 0 and throughput 0 into the
+    medians; "most collision intervals 0 (blocked)" named one problem of many for a most of 0.)"""
+    from coplan.report.aggregate import aggregate
+
+    def row(problem, status, makespan, throughput):
+        return {"problem": problem, "planner": "p", "status": status, "passed": True, "complete": True,
+                "collision_count": 0, "harvested": 1, "reachable": 1, "makespan": makespan, "throughput": throughput}
+
+    rows = [row("a", "success", 2.0, 0.5), row("b", "success", 4.0, 0.25), row("none", "infeasible", 0.0, 0.0)]
+    agg = aggregate(rows, ["p"])["p"]
+    assert agg["median"]["makespan"] == 3.0 and agg["median"]["throughput"] == 0.375
+    assert agg["worst"]["collision_count"] is None and agg["runs"] == 3

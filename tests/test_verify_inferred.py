@@ -178,6 +178,7 @@ def test_zero_reachable_fruit_same_exit_code_from_solve_and_verify(tmp_path: Pat
         assert res.exit_code == ExitCode.INFEASIBLE, res.output
         res = run("verify", str(prob), str(out / "plan.json"))
         assert res.exit_code == ExitCode.INFEASIBLE, res.output
+        assert "nothing to plan no fruit of the problem is reachable: exit 4" in " ".join(res.output.split())
 
 
 @pytest.mark.parametrize("gantry", ["stop-and-go", "continuous"])

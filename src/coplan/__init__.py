@@ -55,6 +55,10 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
+def __dir__():  # (tab completion: the lazy names too)
+    return sorted(set(globals()) | set(_LAZY) | set(_SUBMODULES))
+
+
 __version__ = "0.1.0"
 
 __all__ = [

@@ -399,6 +399,9 @@ def verify_cmd(
         places = [e.t_end for e in events if e.kind == EventKind.PLACE]
         print_verification(out_console, prob, ver, makespan=max(places) if places else None,
                            label=getattr(loaded, "label", None))
+        if code == ExitCode.INFEASIBLE:  # (it said "passed" and exited 4 without a word why)
+            out_console.print("  nothing to plan   no fruit of the problem is reachable: exit 4 (infeasible), as "
+                              "`coplan solve` and `coplan check` say of it")
         if written is not None:
             out_console.print(f"  wrote             {_s(written)}")
     raise typer.Exit(int(code))

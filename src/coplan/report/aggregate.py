@@ -20,7 +20,7 @@ def _median(vals: list) -> float | None:
 
 def _worst(rows: list[dict], key: str, highest: bool) -> dict | None:
     ok = [r for r in rows if isinstance(r.get(key), (int, float)) and math.isfinite(r[key])]
-    if not ok:
+    if not ok or (highest and max(r[key] for r in ok) == 0):  # (a most of 0 named one problem of many)
         return None
     r = (max if highest else min)(ok, key=lambda r: r[key])
     return {"problem": r["problem"], "file": r.get("file"), "value": r[key]}
@@ -45,7 +45,8 @@ def aggregate(rows: list[dict], planners: list[str]) -> dict[str, Any]:
             "statuses": statuses,
             "fruit_harvested": sum(r["harvested"] or 0 for r in ok),
             "fruit_reachable": sum(r["reachable"] or 0 for r in ok),
-            "median": {k: _median([r.get(k) for r in ok]) for k in _MEDIANS + tuple(rel)},
+            # (a problem with nothing to plan -- no reachable fruit, makespan 0 -- is no plan's median)
+            "median": {k: _median([r.get(k) for r in ok if r.get("status") != "infeasible"]) for k in _MEDIANS + tuple(rel)},
             "worst": {
                 "makespan_ratio": _worst(ok, "makespan_ratio", True),
                 "min_clearance": _worst(ok, "min_clearance", False),

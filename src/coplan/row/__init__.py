@@ -37,3 +37,7 @@ def __getattr__(name: str):
         mod = _EXPORTS[name]
         return getattr(importlib.import_module(mod if mod.startswith("coplan.") else f".{mod}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():  # (tab completion: the lazy names too)
+    return sorted(set(globals()) | set(_EXPORTS) | set(_SUBMODULES))
