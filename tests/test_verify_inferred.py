@@ -179,6 +179,7 @@ def test_zero_reachable_fruit_same_exit_code_from_solve_and_verify(tmp_path: Pat
         res = run("verify", str(prob), str(out / "plan.json"))
         assert res.exit_code == ExitCode.INFEASIBLE, res.output
         assert "nothing to plan no fruit of the problem is reachable: exit 4" in " ".join(res.output.split())
+        assert "events_inferred" not in res.output  # (coplan's own plan of no fruit: nothing to infer, no warning)
 
 
 @pytest.mark.parametrize("gantry", ["stop-and-go", "continuous"])
