@@ -185,6 +185,13 @@ def test_a_bad_input_row_keeps_its_design_and_a_row_file_with_the_heuristic_is_b
     short = to_yaml(gantry_row(length=4.0, n_arms=2, density=1.0, seed=1))
     moving = solve_item(SweepItem(3, "k4", {"gantry": "continuous"}, "heuristic", {}, 30.0, "gantry_row", short))[0]
     assert moving["status"] == "success" and moving["gantry"] == "continuous", moving["message"]
+    # auto: the design asked for stays in `gantry` (it was overwritten: the report merged it with continuous), the mode
+    # kept is `gantry_mode`
+    both = solve_item(SweepItem(4, "k5", {"gantry": "auto"}, "coordinated", {}, 30.0, "gantry_row", short))[0]
+    assert both["status"] == "success" and both["gantry"] == "auto" and both["gantry_mode"] in ("stop-and-go", "continuous")
+    from coplan.sweep.report import _mode
+
+    assert _mode(both) == f"auto: {both['gantry_mode']}" and _mode(moving) == "continuous"
     assert row["seed"] is None and row["n_arms"] == 3  # (a file's: its own figures, no generator seed)
     # why the optimal planner stopped, so that a row its clock stopped (machine-dependent) can be found
     single = (problems_dir / "single_arm.yaml").read_text()

@@ -150,7 +150,7 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
     def worst(col: str, high: bool, n: int = 5) -> list[dict]:
         rs = [r for r in ok if r[col] is not None]
         rs.sort(key=lambda r: r[col], reverse=high)
-        return [{"key": r["key"], "name": r["name"], "seed": r["seed"], "gantry": r.get("gantry"), col: r[col]} for r in rs[:n]]
+        return [{"key": r["key"], "name": r["name"], "seed": r["seed"], "gantry": _mode(r), col: r[col]} for r in rs[:n]]
 
     def gain(a: str, b: str) -> float | None:
         xs = [r[a] / r[b] for r in ok if r[a] and r[b]]
@@ -308,3 +308,9 @@ def sweep_report(folder: str | Path, out: str | Path | None = None, figures: boo
     if figures and rows:
         files.update(_figures(rows, out))
     return SweepReport(s, text, files, notes)
+
+
+def _mode(r: dict) -> str | None:
+    """A row's gantry mode as asked, and the one kept where it asked for both (``auto: continuous``)."""
+    asked, used = r.get("gantry"), r.get("gantry_mode")
+    return f"{asked}: {used}" if asked and used and asked != used else asked

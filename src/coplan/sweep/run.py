@@ -145,7 +145,10 @@ def _result_columns(res, row: dict[str, Any]) -> dict[str, Any]:
     }
     r = m.get("row")
     if r:  # a row on a gantry: what a grower judges
-        out.update({"gantry": r.get("mode"), "fruit_per_hour": r.get("fruit_per_hour"), "share_harvested": r.get("share_harvested"),
+        # ``gantry``: the mode asked (a design's); ``gantry_mode``: the one the plan used (auto: the one kept; the
+        # report lost the design that asked for auto, merged with continuous)
+        out.update({"gantry": row.get("gantry") or r.get("mode"), "gantry_mode": r.get("mode"),
+                    "fruit_per_hour": r.get("fruit_per_hour"), "share_harvested": r.get("share_harvested"),
                     "mean_speed": r.get("mean_speed"), "ratio": r.get("ratio_any_plan_bound")})
     if planner == PlannerKind.COORDINATED.value and out["coordinated_makespan"] is None:
         out["coordinated_makespan"] = makespan
