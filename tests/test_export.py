@@ -138,6 +138,7 @@ def test_an_export_of_a_saved_plan_passes_coplan_verify_at_a_controller_rate(pro
     res = run("verify", str(problems_dir / "crossing_paths.yaml"), str(tmp_path / "e.csv"))
     out = " ".join(res.output.split())
     assert res.exit_code == 0 and "passed" in out and "4 picks and 4 places were inferred" in out, out
+    assert "a coplan export table (its planner not recorded)" in out  # (it was "a plan.csv replay")
     # without its plan.npz (a plan.json sent on alone) the export says what it is of
     alone = tmp_path / "alone"
     alone.mkdir()

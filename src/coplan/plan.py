@@ -23,7 +23,7 @@ import numpy as np
 from .errors import Issue, PlanFileError, coplan_file_kind
 from .output import atomic_file, atomic_text
 from .kinds import EventKind, PlannerKind, PlanStatus
-from .plancsv import CSV_PLANNER, csv_header, read_csv_samples
+from .plancsv import csv_header, csv_planner, read_csv_samples
 from .provenance import software_record
 
 __all__ = [
@@ -575,7 +575,7 @@ def _plan_from_csv(raw: bytes, source: str | None) -> Plan:
                              int(lines[r])))
     if far:
         raise PlanFileError(far, source)
-    return Plan(problem="", planner=CSV_PLANNER, status=PlanStatus.UNVERIFIED, time=time, q=q, events=[],
+    return Plan(problem="", planner=csv_planner(raw), status=PlanStatus.UNVERIFIED, time=time, q=q, events=[],
                 allocation={}, unreachable=[], gantry_x=gantry_x)
 
 

@@ -31,6 +31,17 @@ from .errors import Issue, PlanFileError
 __all__ = ["csv_header", "read_csv_samples", "CSV_PLANNER"]
 
 CSV_PLANNER = "unknown (plan.csv)"  # a CSV replay does not say which planner made it
+EXPORT_PLANNER = "unknown (coplan export CSV)"  # nor does an export's table
+
+
+def csv_planner(raw: bytes) -> str:
+    """What a CSV table's plan is called: :data:`EXPORT_PLANNER` for a ``coplan export`` table's
+    header, else :data:`CSV_PLANNER` (its first line only is read; a bad one says nothing here)."""
+    try:
+        header = next(csv.reader(io.StringIO(raw.split(b"\n", 1)[0].decode("utf-8-sig"))), [])
+    except (UnicodeDecodeError, csv.Error):
+        return CSV_PLANNER
+    return EXPORT_PLANNER if header and header[0].strip() == "t" and _export_layout(header) is not None else CSV_PLANNER
 
 
 def csv_header(arm_names: Iterable[str], carriage: bool = False) -> str:

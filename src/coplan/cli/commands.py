@@ -343,7 +343,7 @@ def check(
 @guarded
 def verify_cmd(
     problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file.")],
-    plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="Plan to verify: plan.json, or the plan.csv replay coplan writes (no events: they are inferred).")],
+    plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="Plan to verify: plan.json, the plan.csv replay coplan writes, or a coplan export CSV (no events: they are inferred).")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Write verification.json (a folder, or a file name ending .json).")] = None,
     fcl: Annotated[FclMode, typer.Option(help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
     as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,

@@ -280,13 +280,14 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     ``label``: the plan's :attr:`coplan.plan.Plan.label` (a row's says how its carriage moved)."""
     from rich.table import Table
 
-    from ..plancsv import CSV_PLANNER
+    from ..plancsv import CSV_PLANNER, EXPORT_PLANNER
 
     p = console.print
     s = ver.summary()
     verdict = "[bold green]passed[/]" if ver.passed else "[bold red]FAILED[/]"
     span = "" if makespan is None else f" (makespan {makespan:.2f} s: the last place)"
-    what = "a plan.csv replay (its planner not recorded)" if ver.planner == CSV_PLANNER else f"{safe(label or ver.planner)} plan"
+    what = ("a plan.csv replay (its planner not recorded)" if ver.planner == CSV_PLANNER else
+            "a coplan export table (its planner not recorded)" if ver.planner == EXPORT_PLANNER else f"{safe(label or ver.planner)} plan")
     left = list(ver.unharvested)
     shown = ", ".join(left[:_SHOWN]) + (f" and {len(left) - _SHOWN} more" if len(left) > _SHOWN else "")
     # what fails the plan first (the violations, by kind), then what it leaves
