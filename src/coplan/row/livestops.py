@@ -121,8 +121,7 @@ def last_stop(problem: Problem, reach: RowReach, fruit: list[str], ks, arms: lis
             top = max(load.values())
             _, c, a = min((max(top, load[a] + c) - top, c, a) for c, a in opts[f])
             load[a] += c
-        mv = move_time(problem.gantry, x_from, float(reach.grid[k]))
-        est = max(load.values()) + mv + (problem.gantry.settle if mv > 0 else 0.0)
+        est = max(load.values()) + move_time(problem.gantry, x_from, float(reach.grid[k]))
         if best is None or est < best[0] - 1e-9:
             best = (est, k)
     return None if best is None else best[1]

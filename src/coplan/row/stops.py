@@ -335,8 +335,7 @@ def price_stops(problem, reach, cost: TripCosts, fruit, ks, over, x_from, overla
         if not at[i]:
             continue
         xk = float(reach.grid[k])
-        mv = move_time(g, x, xk)
-        mv += g.settle if mv > 0 else 0.0  # (no pick before the carriage has settled; the arms' way out may overlap it)
+        mv = move_time(g, x, xk)  # (with its settle: the arms' way out may overlap both)
         total += peak[i] + mv - min(mv, overlap)
         stops.append(Stop(k, xk, tuple(f for _, f in sorted(at[i]))))
         x = xk
@@ -402,13 +401,14 @@ def quantised_trips(trips: dict) -> dict:
 
 
 def move_time(g, x0: float, x1: float) -> float:
-    """The carriage's time-optimal rest-to-rest move (s), by distance (memoised)."""
+    """The carriage's time-optimal rest-to-rest move (s), by distance (memoised), and after a
+    move its ``settle``: when a pick at ``x1`` may start (each stop rule's price of a stop)."""
     d = round(abs(x1 - x0), 9)
     t = _MOVES.get((d, g.max_velocity, g.max_acceleration, g.max_jerk))
     if t is None:
         t = Move1D.between(0.0, d, g.max_velocity, g.max_acceleration, g.max_jerk).duration
         t = _MOVES[(d, g.max_velocity, g.max_acceleration, g.max_jerk)] = float(quantised(t))
-    return t
+    return t + g.settle if t > 0 else t
 
 
 _MOVES: dict = {}
