@@ -30,6 +30,7 @@ __all__ = [
     "PLAN_FORMAT",
     "DEFAULT_RATE",
     "finer_grid",
+    "on_lattice",
     "jsonable",
     "exact_samples",
     "PlannerKind",
@@ -59,6 +60,13 @@ def finer_grid(dt: float) -> bool:
     check can tell from the limit (400 rad/s^3 of jerk at 1 kHz), so plans are written at full
     precision and the verifier takes that rounding only for values that sit on its lattice."""
     return dt < 1.0 / DEFAULT_RATE - 1e-12
+
+
+def on_lattice(values, resolution: float = 1e-7) -> bool:
+    """Whether every value sits on the ``resolution`` lattice (within a thousandth of a step): the
+    1e-7 rad rounding of a plan file, not full precision."""
+    v = np.asarray(values, float)
+    return v.size == 0 or bool(np.all(np.abs(v / resolution - np.rint(v / resolution)) <= 1e-3))
 
 # Plan files (JSON or CSV) larger than this are refused before they are read: about 2 h of
 # three arms at 100 Hz. (A 100 MB plan used to take 27 s and 1.5 GB before any check.)
@@ -292,8 +300,7 @@ def exact_samples(plan: Plan, path: str | Path) -> Plan:
         {"gantry_x": plan.gantry_x} if plan.gantry_x is not None else {})
     if any(arrays[k].shape != np.shape(v) or not np.allclose(arrays[k], v, rtol=0.0, atol=1.01e-7) for k, v in mine.items()):
         return plan
-    return replace(plan, time=arrays["time"], q={a: arrays[f"q_{a}"] for a in plan.q},
-                               gantry_x=arrays.get("gantry_x"))
+    return replace(plan, time=arrays["time"], q={a: arrays[f"q_{a}"] for a in plan.q}, gantry_x=arrays.get("gantry_x"))
 
 
 def jsonable(x):

@@ -86,14 +86,11 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
             check_overwrite(out / f"{name}.{fmt.value}", "an export JointTrajectory",
                             "an earlier export (a JointTrajectory with joint_names and points)")
     written = export_plan(plan, rate, fmt, out)
-    import numpy as np
-
-    from ..plan import finer_grid
+    from ..plan import finer_grid, on_lattice
     from ..report.export import FOLLOW_TOLERANCE, follow_error, trajectory
 
     traj = trajectory(plan, rate)
-    rounded = all(np.allclose(q * 1e7, np.rint(q * 1e7), rtol=0, atol=1e-3) for q in plan.q.values())
-    if rounded and finer_grid(1.0 / rate) and plan.time.size > 1:  # (no plan.npz beside it: it exported in silence)
+    if all(on_lattice(q) for q in plan.q.values()) and finer_grid(1.0 / rate) and plan.time.size > 1:  # (no plan.npz beside it: it exported in silence)
         _err.print(f"note: no plan.npz with this plan's full-precision samples beside {escape(printable(plan_path))}: the "
                    f"export is of its 1e-7 rad rounding, which differences at {rate:g} Hz magnify -- where the plan runs "
                    f"at a limit, 1e-4 of it over, which coplan verify of the export reports", markup=False, highlight=False)

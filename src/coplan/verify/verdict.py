@@ -20,7 +20,7 @@ from .clearance import DEFAULT_SUBSTEPS
 from ..errors import Issue, OptionsError, check_fields
 from ..kinds import FclMode
 from ..output import atomic_text
-from ..plan import finer_grid
+from ..plan import finer_grid, on_lattice
 from .fclcheck import FCL_TOLERANCE, FclReport
 
 __all__ = [
@@ -57,8 +57,7 @@ def rounding_allowance(values: np.ndarray, resolution: float, dt: float, k: int)
     if not finer_grid(dt):
         return 2.0 ** (k - 1) * resolution / dt ** k
     v = np.asarray(values, float)
-    on = v.size == 0 or bool(np.all(np.abs(v / resolution - np.rint(v / resolution)) <= 1e-3))
-    r = resolution if on else 8.0 * np.finfo(float).eps * max(1.0, float(np.max(np.abs(v), initial=0.0)))
+    r = resolution if on_lattice(v, resolution) else 8.0 * np.finfo(float).eps * max(1.0, float(np.max(np.abs(v), initial=0.0)))
     return 2.0 ** (k - 1) * r / dt ** k
 
 
