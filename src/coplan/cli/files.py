@@ -85,11 +85,11 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         for name in export_names(plan).values():
             check_overwrite(out / f"{name}.{fmt.value}", "an export JointTrajectory",
                             "an earlier export (a JointTrajectory with joint_names and points)")
-    written = export_plan(plan, rate, fmt, out)
     from ..plan import finer_grid, on_lattice
     from ..report.export import FOLLOW_TOLERANCE, follow_error, trajectory
 
-    traj = trajectory(plan, rate)
+    traj = trajectory(plan, rate)  # (once: the files and the follow error are of the same points)
+    written = export_plan(plan, rate, fmt, out, traj)
     if all(on_lattice(q) for q in plan.q.values()) and finer_grid(1.0 / rate) and plan.time.size > 1:  # (no plan.npz beside it: it exported in silence)
         _err.print(f"note: no plan.npz with this plan's full-precision samples beside {escape(printable(plan_path))}: the "
                    f"export is of its 1e-7 rad rounding, which differences at {rate:g} Hz magnify -- where the plan runs "

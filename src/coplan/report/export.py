@@ -245,12 +245,13 @@ def carriage_trajectory(traj: Trajectory, name: str = "carriage", frame_id: str 
     return {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": frame_id}, "joint_names": [f"{name}_x"], "points": points}
 
 
-def export_plan(plan: Plan, rate: float, fmt: ExportFormat | str, out: str | Path) -> list[Path]:
+def export_plan(plan: Plan, rate: float, fmt: ExportFormat | str, out: str | Path, traj: Trajectory | None = None) -> list[Path]:
     """Write the plan at ``rate`` Hz: ``csv`` to the file ``out``; ``json``/``yaml`` one file per
     arm (``<arm>.json``) into the folder ``out``. Each file is written whole or not at all.
-    Returns the paths written."""
+    ``traj``: :func:`trajectory` ``(plan, rate)`` when the caller has it already. Returns the
+    paths written."""
     fmt = ExportFormat(fmt)
-    traj = trajectory(plan, rate)
+    traj = trajectory(plan, rate) if traj is None else traj
     out = Path(out)
     if fmt == ExportFormat.CSV:
         out.parent.mkdir(parents=True, exist_ok=True)
