@@ -28,6 +28,11 @@ _out = Console(soft_wrap=True)
 _err = Console(stderr=True, soft_wrap=True)
 
 
+def _note(message: str) -> None:
+    """A library's note to the user (``notify=``), on stderr."""
+    _err.print(f"[yellow]note[/]: {_s(message)}", highlight=False, soft_wrap=True)
+
+
 def _resolve_problem(problem: Optional[Path]) -> Path:
     return resolve_problem(problem, lambda m: _err.print(f"[dim]{_s(m)}[/]", highlight=False))
 
@@ -198,7 +203,7 @@ def animate_cmd(
     with ProgressDisplay(_err) as bars:
         path = animate_plan(
             prob, pl, target, speed=speed, fps=fps, dpi=dpi,
-            notify=lambda m: _err.print(f"[yellow]note[/]: {_s(m)}", highlight=False, soft_wrap=True),
+            notify=_note,
             progress=bars,
         )
     failures.work_done()
@@ -227,5 +232,4 @@ def view_cmd(
     # each plan verified once, here: the page shows the verdict, and a note says where the file's word differs (as plot)
     vers = {"verification": _checked(prob, pl)} | ({"compare_verification": _checked(prob, other)} if other is not None else {})
     target = out if out is not None else plan.with_suffix('.html')
-    note = lambda m: _err.print(f"[yellow]note[/]: {_s(m)}", highlight=False, soft_wrap=True)  # noqa: E731
-    _out.print(f"wrote {_s(write_view(prob, pl, other, target, open_page, notify=note, **vers))}")
+    _out.print(f"wrote {_s(write_view(prob, pl, other, target, open_page, notify=_note, **vers))}")
