@@ -41,7 +41,7 @@ def csv_planner(raw: bytes) -> str:
         header = next(csv.reader(io.StringIO(raw.split(b"\n", 1)[0].decode("utf-8-sig"))), [])
     except (UnicodeDecodeError, csv.Error):
         return CSV_PLANNER
-    return EXPORT_PLANNER if header and header[0].strip() == "t" and _export_layout(header) is not None else CSV_PLANNER
+    return EXPORT_PLANNER if _export_layout(header) is not None else CSV_PLANNER
 
 
 def csv_header(arm_names: Iterable[str], carriage: bool = False) -> str:
@@ -59,10 +59,12 @@ _EXPORT_CARRIAGE = ["carriage_x", "carriage_v", "carriage_a"]
 
 
 def _export_layout(header: list[str]) -> tuple[list[str], list[int], int | None] | None:
-    """A ``coplan export`` CSV's header (``t``, per arm ``<arm>_q1 ... <arm>_qdd2``, a row's
-    ``carriage_x, carriage_v, carriage_a`` last): its arm names, each arm's first column and
-    the carriage's; None if it is not one."""
+    """A ``coplan export`` CSV's header (``t``, per arm ``<arm>_q1 ... <arm>_qdd2``, each arm
+    once, a row's ``carriage_x, carriage_v, carriage_a`` last): its arm names, each arm's first
+    column and the carriage's; None if it is not one."""
     cols = [c.strip() for c in header]
+    if not cols or cols[0] != "t":
+        return None
     x = None
     if cols[-3:] == _EXPORT_CARRIAGE:
         x, cols = len(cols) - 3, cols[:-3]
@@ -75,20 +77,21 @@ def _export_layout(header: list[str]) -> tuple[list[str], list[int], int | None]
         if not stem or body[i:i + 6] != [f"{stem}_{c}" for c in _EXPORT]:
             return None
         names.append(stem)
+    if len(set(names)) != len(names):
+        return None
     return names, [1 + i for i in range(0, len(body), 6)], x
 
 
-def _layout(header: list[str]) -> tuple[list[str], list[int], int | None, str | None]:
+def _layout(header: list[str]) -> tuple[list[str], list[int], int | None, bool, str | None]:
     """A header row's arm names, the column of each arm's q1 (q2 follows it), the carriage's
-    column (None: a cell), or the reason it is neither a ``plan.csv`` nor an export's header.
-    Every row has a value per header column."""
-    if header and header[0].strip() == "t" and len(header) > 1 and header[1].strip() != "gantry_x":
-        export = _export_layout(header)
-        if export is not None and len(set(export[0])) == len(export[0]):
-            return (*export, None)
+    column (None: a cell), whether it is an export's, or the reason it is neither a
+    ``plan.csv`` nor an export's header. Every row has a value per header column."""
+    export = _export_layout(header)
+    if export is not None:
+        return (*export, True, None)
     names, why = _arm_names(header)
     x = 1 if not why and header[1].strip() == "gantry_x" else None
-    return names, [1 + (x is not None) + 2 * i for i in range(len(names))], x, why
+    return names, [1 + (x is not None) + 2 * i for i in range(len(names))], x, False, why
 
 
 def _arm_names(header: list[str]) -> tuple[list[str], str | None]:
@@ -126,7 +129,7 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
         header = next(reader, [])
     except csv.Error as e:
         raise PlanFileError([Issue("", f"expected a CSV header row, found a syntax error: {e}", 1)], source) from None
-    names, at, x_col, why = _layout(header)
+    names, at, x_col, export, why = _layout(header)
     if why:
         raise PlanFileError([Issue("", why, 1)], source)
     first = reader.line_num + 1  # the header may span lines (a quoted name with a line break)
@@ -142,8 +145,7 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
         cells = line.split(",")
         where = first + k
         if len(cells) != width:
-            what = ("one per column of the export's header" if x_col is None and width != 1 + 2 * len(names) or
-                    x_col is not None and header[x_col].strip() == "carriage_x" else
+            what = ("one per column of the export's header" if export else
                     f"t{', gantry_x' if x_col is not None else ''} and two angles for each of {len(names)} arm{'s' if len(names) != 1 else ''}")
             issues.append(Issue("", f"expected {width} values ({what}), found {len(cells)}", where))
         else:
