@@ -372,7 +372,7 @@ def verify_cmd(
         from ..verify.verdict import report_path
 
         failures.check_overwrite(report_path(out), "a coplan.verification file", "a verification report")
-    from ..plan import PlanFileError
+    from ..errors import PlanFileError
 
     prob = load_problem(_resolve_problem(problem))
     loaded = load_plan(plan)

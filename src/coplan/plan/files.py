@@ -1,0 +1,339 @@
+"""Reading plan files: :func:`load_plan` checks a ``plan.json`` (every problem named by its key
+path) or the ``plan.csv`` replay coplan writes beside it, and takes the full-precision samples of
+the ``plan.npz`` saved beside either where it holds the same plan (:func:`exact_samples`)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import zipfile
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import Issue, PlanFileError, coplan_file_kind, special_file
+from ..kinds import EventKind, PlannerKind, PlanStatus
+from ..plancsv import csv_planner, read_csv_samples
+from .model import MAX_PLAN_ANGLE, MAX_PLAN_BYTES, MAX_PLAN_COORD, PLAN_FORMAT, Event, Plan
+
+__all__ = ["load_plan", "plan_from_dict", "exact_samples", "time_grid_issues"]
+
+
+def exact_samples(plan: Plan, path: str | Path) -> Plan:
+    """``plan`` (read from ``path``, a ``plan.json`` or ``plan.csv``) with the full-precision samples of the
+    ``plan.npz`` saved beside it, where that file holds this plan's samples (the same times,
+    arms and carriage, each value within the JSON's 1e-7 rounding); else ``plan`` as it is.
+    What a resampling takes: rounding to 1e-7 rad is below 1e-4 of a limit in a 100 Hz
+    difference, but a finer grid's differences would magnify it."""
+    npz = Path(path).with_suffix(".npz")
+    try:
+        with np.load(npz, allow_pickle=False) as z:
+            keys = set(z.files)
+            if keys != {"time"} | {f"q_{a}" for a in plan.q} | ({"gantry_x"} if plan.gantry_x is not None else set()):
+                return plan
+            arrays = {k: np.asarray(z[k], float) for k in keys}
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        return plan
+    mine = {"time": plan.time} | {f"q_{a}": q for a, q in plan.q.items()} | (
+        {"gantry_x": plan.gantry_x} if plan.gantry_x is not None else {})
+    if any(arrays[k].shape != np.shape(v) or not np.allclose(arrays[k], v, rtol=0.0, atol=1.01e-7) for k, v in mine.items()):
+        return plan
+    return replace(plan, time=arrays["time"], q={a: arrays[f"q_{a}"] for a in plan.q}, gantry_x=arrays.get("gantry_x"))
+
+
+
+def load_plan(path: str | Path) -> Plan:
+    """Load and check a ``plan.json``, or the ``plan.csv`` replay coplan writes beside it (joint
+    samples only: no events, see :mod:`coplan.plancsv`). Raises :class:`PlanFileError` listing
+    every problem; a file over :data:`MAX_PLAN_BYTES` is refused before it is read. Where the
+    ``plan.npz`` saved beside it holds the same samples at full precision, those are taken
+    (:func:`exact_samples`: what a resampling at a finer rate needs)."""
+    if isinstance(path, bool) or not isinstance(path, (str, os.PathLike)):  # (5 gave os's bare TypeError)
+        raise TypeError(f"path: expected the path of a plan file (str or Path), found {type(path).__name__} {path!r}"[:300])
+    p = Path(path)
+    src = str(p)
+    if not p.exists():
+        raise PlanFileError([Issue("", "expected an existing plan file, found no file at this path")], src)
+    if not p.is_file():
+        found = "a directory" if p.is_dir() else special_file(p) or "a pipe or other special file"
+        raise PlanFileError([Issue("", f"expected a plan file, found {found}")], src)
+    size = p.stat().st_size
+    if size > MAX_PLAN_BYTES:
+        raise PlanFileError([Issue("", f"expected a plan file of at most {MAX_PLAN_BYTES} bytes ({MAX_PLAN_BYTES >> 20} MiB, "
+                                       f"about 2 h of three arms at 100 Hz), found {size} bytes; it was not read")], src)
+    if p.suffix.lower() == ".csv":
+        return exact_samples(_plan_from_csv(p.read_bytes(), src), p)
+    try:
+        text = p.read_text(encoding="utf-8")
+        if not text.strip():
+            raise PlanFileError([Issue("", "expected a JSON plan (an object with keys format, problem, time, arms, events), "
+                                           "found an empty file")], src)
+        data = json.loads(text)
+    except json.JSONDecodeError as e:
+        other = re.search(r"^format:\s*['\"]?(coplan\.(\w+)/\w+)", text, re.MULTILINE)  # a feed or other coplan YAML file
+        looks = (p.suffix.lower() in (".yaml", ".yml") or any(text.lstrip().startswith(k) for k in ("name:", "arms:", "task:", "gantry:"))
+                 or "\narms:" in text)
+        if other:
+            raise PlanFileError([Issue("", f"expected a plan file (plan.json or plan.csv), found a coplan {other.group(2)} file "
+                                           f"(format {other.group(1)!r}); were the arguments swapped?", 1)], src) from None
+        hint = "; it looks like a problem file (YAML): were the problem and the plan swapped?" if looks else ""
+        raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno}){hint}", e.lineno)], src) from None
+    except UnicodeDecodeError as e:
+        raise PlanFileError([Issue("", f"expected UTF-8 JSON, found an undecodable byte at offset {e.start}")], src) from None
+    return exact_samples(plan_from_dict(data, src), p)
+
+
+def _kind(v: Any) -> str:
+    names = {bool: "boolean", int: "number", float: "number", str: "string", list: "array", dict: "object"}
+    if v is None:
+        return "null"
+    text = repr(v)
+    return f"{names.get(type(v), type(v).__name__)} {text[:57] + '...' if len(text) > 60 else text}"
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _number_array(v: Any, path: str, bad, pair: bool) -> np.ndarray | None:
+    """``v`` as a float array of shape (N,) (``pair=False``) or (N, 2), or None after reporting
+    the first offending element with its exact key path."""
+    if not isinstance(v, list):
+        bad(path, f"expected an array of {'[t1, t2] pairs' if pair else 'numbers'}, found {_kind(v)}")
+        return None
+    for i, x in enumerate(v):
+        items = x if pair else [x]
+        if pair and not (isinstance(x, list) and len(x) == 2):
+            bad(f"{path}[{i}]", f"expected a [t1, t2] pair of numbers, found {_kind(x)}")
+            return None
+        for k, y in enumerate(items):
+            where = f"{path}[{i}][{k}]" if pair else f"{path}[{i}]"
+            if not _is_number(y):
+                bad(where, f"expected a number, found {_kind(y)}")
+                return None
+            if not math.isfinite(y):
+                bad(where, f"expected a finite number, found {y}")
+                return None
+    return np.asarray(v, dtype=float).reshape(-1, 2) if pair else np.asarray(v, dtype=float)
+
+
+def time_grid_issues(time: np.ndarray) -> list[tuple[int | None, str]]:
+    """``(sample index or None, message)`` for what is wrong with a plan's time grid: it must be
+    non-empty, start at 0, increase strictly and uniformly, at 100 Hz or finer."""
+    if time.size < 1:
+        return [(None, "expected a non-empty array of times, found an empty one")]
+    out: list[tuple[int | None, str]] = []
+    if time[0] != 0.0:
+        out.append((0, f"expected 0, found {time[0]}"))
+    if time.size > 1:
+        d = np.diff(time)
+        h = (time[-1] - time[0]) / (time.size - 1)
+        if np.any(d <= 0):
+            i = int(np.argmax(d <= 0)) + 1
+            out.append((i, f"expected strictly increasing times, found {time[i]} after {time[i - 1]}"))
+        elif np.max(np.abs(d - h)) > 1e-4 * h + 1e-6:
+            # (the spacing most steps have: a sample missing from a 100 Hz grid is a step of
+            # 0.02 s against 0.01 s, not against the mean step, 0.0100106 s)
+            usual = float(np.median(d))
+            off = np.abs(d - usual) > 1e-4 * usual + 1e-6
+            i = int(np.argmax(off if off.any() else np.abs(d - h))) + 1
+            out.append((i, f"expected a uniform grid with spacing {usual:.6g} s, found a step of {d[i - 1]:.6g} s"))
+        elif h > 0.01 + 1e-9:
+            out.append((None, f"expected a grid of 100 Hz or finer (spacing <= 0.01 s), found spacing {h:.4g} s"))
+    return out
+
+
+def _plan_from_csv(raw: bytes, source: str | None) -> Plan:
+    """The :class:`Plan` of a ``plan.csv`` (no events), its time grid checked."""
+    time, q, lines, gantry_x = read_csv_samples(raw, source)
+    grid = time_grid_issues(time)
+    if grid:
+        raise PlanFileError([Issue("t", msg, None if i is None else int(lines[i])) for i, msg in grid], source)
+    # values no motion has, named by their column and line (the verifier checks a plan.json's
+    # by key path)
+    far: list[Issue] = []
+    cols = [] if gantry_x is None else [("gantry_x", gantry_x, MAX_PLAN_COORD, "carriage positions", "m")]
+    cols += [(f"{a}_q{k + 1}", v[:, k], MAX_PLAN_ANGLE, "joint angles", "rad") for a, v in q.items() for k in range(2)]
+    for name, col, cap, what, unit in cols:
+        rows = np.flatnonzero(np.abs(col) > cap)
+        if rows.size:
+            r = int(rows[0])
+            far.append(Issue(name, f"expected {what} within +-{cap:g} {unit} (coplan.plausible.{'MAX_PLAN_COORD' if unit == 'm' else 'MAX_PLAN_ANGLE'}), "
+                                   f"found {float(col[r]):g} (t = {time[r]:.3f} s)" + (f" and {rows.size - 1} more rows" if rows.size > 1 else ""),
+                             int(lines[r])))
+    if far:
+        raise PlanFileError(far, source)
+    return Plan(problem="", planner=csv_planner(raw), status=PlanStatus.UNVERIFIED, time=time, q=q, events=[],
+                allocation={}, unreachable=[], gantry_x=gantry_x)
+
+
+def plan_from_dict(data: Any, source: str | None = None) -> Plan:
+    """Check a decoded ``plan.json`` document and build the :class:`Plan` (raises
+    :class:`PlanFileError` listing every problem, each with its key path)."""
+    issues: list[Issue] = []
+
+    def bad(path: str, msg: str) -> None:
+        issues.append(Issue(path, msg))
+
+    if not isinstance(data, dict):
+        raise PlanFileError([Issue("", f"expected a JSON object, found {_kind(data)}")], source)
+    fmt = data.get("format")
+    kind = coplan_file_kind(data)
+    if kind is None and {"joint_names", "points"} <= set(data):  # (it listed five missing keys)
+        raise PlanFileError([Issue("", "expected a plan file (plan.json or plan.csv), found a JointTrajectory (one arm of a "
+                                       "`coplan export --format json`): verify the plan.json it was exported from, or its "
+                                       "CSV export (`coplan export PLAN --rate HZ`), which holds every arm")], source)
+    if kind is not None and kind != "plan":  # another kind of coplan file: say only that (another version: below)
+        raise PlanFileError([Issue("", f"expected a plan file (plan.json or plan.csv), found a coplan {kind} file (format "
+                                       f"{fmt!r}); were the arguments swapped?")], source)
+    if data.get("format") != PLAN_FORMAT:
+        bad("format", f"expected {PLAN_FORMAT!r}, found {_kind(data.get('format')) if 'format' in data else 'nothing'}")
+    for key in ("problem", "time", "arms", "events"):
+        if key not in data:
+            bad(key, "expected a value, found nothing (required field)")
+    if issues:
+        raise PlanFileError(issues, source)
+    if not isinstance(data["problem"], str):
+        bad("problem", f"expected a string, found {_kind(data['problem'])}")
+    # any planner may have made the plan: coplan's own names become PlannerKind, others are kept
+    planner: PlannerKind | str = data.get("planner", "external")
+    if not isinstance(planner, str) or not planner.strip():
+        bad("planner", f"expected the planner's name (a non-empty string), found {_kind(planner)}")
+        planner = "external"
+    elif planner in {k.value for k in PlannerKind}:
+        planner = PlannerKind(planner)
+    # the file's own status is only what its writer claimed: the verdict is the verifier's
+    try:
+        status = PlanStatus(data.get("status", PlanStatus.UNVERIFIED.value))
+    except ValueError:
+        status = PlanStatus.UNVERIFIED
+
+    # ---- the time grid
+    time = _number_array(data["time"], "time", bad, pair=False)
+    if time is not None:
+        grid_issues = time_grid_issues(time)
+        for i, msg in grid_issues:
+            bad("time" if i is None else f"time[{i}]", msg)
+        if time.size < 1:
+            time = None
+
+    # ---- joint trajectories: one [t1, t2] pair per time for every arm
+    q: dict[str, np.ndarray] = {}
+    arms = data["arms"]
+    if not isinstance(arms, dict) or not arms:
+        bad("arms", f"expected an object mapping arm names to {{q: [[t1, t2], ...]}}, found {_kind(arms)}")
+        arms = None
+    else:
+        for name, v in arms.items():
+            if not isinstance(v, dict) or "q" not in v:
+                bad(f"arms.{name}", f"expected an object with key 'q', found {_kind(v)}")
+                continue
+            arr = _number_array(v["q"], f"arms.{name}.q", bad, pair=True)
+            if arr is None:
+                continue
+            if time is not None and arr.shape[0] != time.size:
+                bad(f"arms.{name}.q", f"expected {time.size} [t1, t2] pairs (one per time), found {arr.shape[0]}")
+                continue
+            q[name] = arr
+
+    # ---- events
+    events: list[Event] = []
+    evs = data["events"]
+    if not isinstance(evs, list):
+        bad("events", f"expected an array of events, found {_kind(evs)}")
+        evs = []
+    unsampled: set[str] = set()  # event arms with no samples, said once each
+    for i, e in enumerate(evs):
+        where = f"events[{i}]"
+        if not isinstance(e, dict):
+            bad(where, f"expected an object {{arm, fruit, kind, t_start, t_end}}, found {_kind(e)}")
+            continue
+        ok = True
+        for key in ("arm", "fruit", "kind", "t_start", "t_end"):
+            if key not in e:
+                bad(f"{where}.{key}", "expected a value, found nothing (required field)")
+                ok = False
+        for key in set(e) - {"arm", "fruit", "kind", "t_start", "t_end"}:
+            bad(f"{where}.{key}", f"expected one of arm, fruit, kind, t_start, t_end, found unknown key {key!r}")
+            ok = False
+        if not ok:
+            continue
+        for key in ("arm", "fruit"):
+            if not isinstance(e[key], str):
+                bad(f"{where}.{key}", f"expected a string, found {_kind(e[key])}")
+                ok = False
+        if arms is not None and isinstance(e["arm"], str) and e["arm"] not in arms:
+            if e["arm"] not in unsampled:  # (once per arm: an arm cut from arms gave one error per event, hundreds on a row)
+                n = sum(isinstance(x, dict) and x.get("arm") == e["arm"] for x in evs)
+                bad(f"{where}.arm", f"expected one of the plan's arms {list(arms)}, found {e['arm']!r} "
+                                    f"(arms has no samples of {e['arm']!r}: missing, or the event misnames its arm; "
+                                    + ("1 event names it)" if n == 1 else f"{n} events name it, this the first)"))
+            unsampled.add(e["arm"])
+            ok = False
+        if e["kind"] not in [k.value for k in EventKind]:
+            bad(f"{where}.kind", f"expected 'pick' or 'place', found {_kind(e['kind'])}")
+            ok = False
+        for key in ("t_start", "t_end"):
+            if not _is_number(e[key]) or not math.isfinite(e[key]):
+                bad(f"{where}.{key}", f"expected a finite time in s, found {_kind(e[key])}")
+                ok = False
+        if ok and not e["t_end"] >= e["t_start"]:
+            bad(f"{where}.t_end", f"expected t_end >= t_start = {e['t_start']}, found {e['t_end']}")
+            ok = False
+        if ok:
+            events.append(Event(e["arm"], e["fruit"], EventKind(e["kind"]), float(e["t_start"]), float(e["t_end"])))
+
+    # ---- optional bookkeeping
+    allocation = data.get("allocation") or {}
+    if not isinstance(allocation, dict) or not all(
+        isinstance(v, list) and all(isinstance(f, str) for f in v) for v in allocation.values()
+    ):
+        bad("allocation", f"expected an object mapping arm names to arrays of fruit ids, found {_kind(allocation)}")
+        allocation = {}
+    unreachable = data.get("unreachable") or []
+    if not isinstance(unreachable, list) or not all(isinstance(f, str) for f in unreachable):
+        bad("unreachable", f"expected an array of fruit ids, found {_kind(unreachable)}")
+        unreachable = []
+    for key in ("metrics", "solver", "verification"):
+        if data.get(key) is not None and not isinstance(data[key], dict):
+            bad(key, f"expected an object, found {_kind(data[key])}")
+    gantry_x = None
+    if data.get("gantry") is not None:  # a row plan: the carriage's position on the same grid
+        g = data["gantry"]
+        if not isinstance(g, dict) or "x" not in g:
+            bad("gantry", f"expected an object {{x: [one carriage position per time]}}, found {_kind(g)}")
+        else:
+            gantry_x = _number_array(g["x"], "gantry.x", bad, pair=False)
+            if gantry_x is not None and time is not None and gantry_x.size != time.size:
+                bad("gantry.x", f"expected {time.size} positions (one per time), found {gantry_x.size}")
+                gantry_x = None
+    software = data.get("software")
+    if software is not None and not isinstance(software, dict):
+        bad("software", f"expected an object (the versions that made the plan), found {_kind(software)}")
+        software = None
+    record = data.get("problem_file")
+    if record is not None and not (isinstance(record, dict) and all(isinstance(record.get(k), str) for k in ("path", "sha256"))):
+        bad("problem_file", f"expected an object {{path, sha256}} (strings), found {_kind(record)}")
+        record = None
+    if issues:
+        raise PlanFileError(issues, source)
+    return Plan(
+        problem=str(data["problem"]),
+        planner=planner,
+        status=status,
+        time=time,
+        q=q,
+        events=events,
+        allocation={k: list(v) for k, v in allocation.items()},
+        unreachable=list(unreachable),
+        metrics=data.get("metrics") or {},
+        solver=data.get("solver") or {},
+        verification=data.get("verification"),
+        problem_file={"path": record["path"], "sha256": record["sha256"]} if record else None,
+        gantry_x=gantry_x,
+        software=software,
+    )
