@@ -127,7 +127,7 @@ def _checked_as_a_file(problem: Problem) -> None:
     from .problem.plausible import problem_issues
     from .problem.yamlsafe import path_str
 
-    from .problem.model import home_issues, position_issues
+    from .problem.poses import home_issues, position_issues
 
     found = [Issue(path_str(loc), msg) for loc, msg in problem_issues(problem)] + home_issues(problem) + position_issues(problem)
     if found:  # (home poses too close: a plan 'unsafe' at t = 0 s; a fruit twice: harvested twice -- where a file says why)

@@ -6,6 +6,7 @@
 - :mod:`.plausible`: the documented plausible range of every field (``BOUNDS``) and the
   longest plan coplan writes
 - :mod:`.generate`: generated rows and random layouts (sweeps, tests)
+- :mod:`.poses`: home poses apart, homes in their limits, bins reachable, one fruit per position
 - :mod:`.gantry`: a row's mobile gantry (``Gantry``, ``cell_at``: the cell at a carriage position)
 - :mod:`.spec`: the raw schema of a problem file (pydantic validators and models)
 """

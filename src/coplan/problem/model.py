@@ -22,9 +22,9 @@ from pydantic import ValidationError
 from ..kinematics import arm as kin
 from . import plausible
 from ..errors import Issue, ProblemError, coplan_file_kind, is_joint_csv
-from ..kinematics.geometry import segment_distance
 from .check import built_issues
 from .gantry import Gantry, off_rail, parse_gantry
+from .poses import copy_issues, home_pair_issues, pose_issues
 from .spec import (ARM_REQUIRED, TOP_KEYS, ArmFieldsSpec, ArmSpec, FruitSpec, TaskSpec, kind_of, missing,
                    name_value)
 from .yamlsafe import MAX_FILE_BYTES, did_you_mean, line_of, path_str, read_yaml, read_input_text
@@ -166,7 +166,7 @@ class Problem:
         # however it was made (a file checks much more, with lines): finite, positive where it must be
         issues = built_issues(self)
         if not issues:  # what a file's arms are checked for beyond their numbers
-            issues = _pose_issues(self)
+            issues = pose_issues(self)
         if issues:  # (a file's own checks came first: these are a problem built or changed in Python)
             raise ProblemError(issues, f"{self.source}, as changed in Python" if self.source else "a problem built in Python")
 
@@ -300,7 +300,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
 
     Steps: the top level (:func:`_top_level`), the arm, fruit and task specs (:func:`_specs`),
     each arm merged with ``defaults`` and checked (:func:`_arm`), the fruit (:func:`_fruits`),
-    home poses against the clearance (:func:`_home_issues`), the gantry, then what the whole
+    home poses against the clearance (:func:`coplan.problem.poses.home_pair_issues`), the gantry, then what the whole
     problem must satisfy (:func:`_whole`)."""
     issues: list[Issue] = []
     name, description = _top_level(data, lines, source, issues)
@@ -320,7 +320,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
             origins[i] = built[1]
     fruits = _fruits(fruit_specs, lines, issues)
     if task is not None:
-        issues += _home_issues(arms, origins, task, lines)
+        issues += home_pair_issues(arms, origins, task, lines)
     gantry = parse_gantry(data["gantry"], lines, issues) if "gantry" in data else None
     if issues:
         raise ProblemError(_tidy(issues), source)
@@ -475,98 +475,8 @@ def _fruits(fruit_specs: list, lines: dict, issues: list) -> list[Fruit]:
             continue
         fruits.append(Fruit(id=spec.id, position=spec.position))
         where.append(j)
-    issues += _copies(fruits, where, lines)  # (a copy would be counted, planned and "harvested" twice)
+    issues += copy_issues(fruits, where, lines)  # (a copy would be counted, planned and "harvested" twice)
     return fruits
-
-
-#: Two fruit closer than this (m) are one position (a copy, or a copy nudged by a rounding).
-COINCIDENT = 1e-6
-
-
-def coincident(positions) -> list[tuple[int, int]]:
-    """``(a, b)`` index pairs, ``a < b``, of positions within :data:`COINCIDENT` of each other
-    (each later one once, with the first it repeats)."""
-    pts = np.asarray(positions, float).reshape(-1, 2)
-    if pts.shape[0] < 2:
-        return []
-    from scipy.spatial import cKDTree
-
-    first: dict[int, int] = {}
-    for a, b in sorted(cKDTree(pts).query_pairs(COINCIDENT, p=2.0)):
-        first.setdefault(b, a)
-    return sorted((a, b) for b, a in first.items())
-
-
-def position_issues(problem: Problem) -> list[Issue]:
-    """Two fruit at one position, as a file is refused for them (a problem built or changed in
-    Python is held to this when it is planned: :func:`coplan.solve`; the live planners' problems
-    of camera reports, which may coincide, are not)."""
-    return _copies(list(problem.fruits), list(range(len(problem.fruits))), {})
-
-
-def _copies(fruits: list[Fruit], where: list[int], lines: dict) -> list[Issue]:
-    """One issue per fruit within :data:`COINCIDENT` of an earlier one; ``where``: each fruit's
-    index in ``fruits:`` (a file's skips the entries refused before), ``lines`` its lines."""
-    out = []
-    for a, b in coincident([f.position for f in fruits]):
-        loc = ("fruits", where[b], "position")
-        out.append(Issue(path_str(loc), f"expected one fruit per position, found {list(fruits[b].position)} again (also "
-                                        f"fruits[{where[a]}] {fruits[a].id!r}, within {COINCIDENT * 1e6:g} um): a fruit is "
-                                        f"picked once; remove the copy", line_of(lines, loc)))
-    return out
-
-
-def home_issues(problem: Problem) -> list[Issue]:
-    """Home poses closer than the clearance, as a file is refused for them (a problem built or
-    changed in Python is held to this when it is planned: :func:`coplan.solve`)."""
-    origins = {i: {"home": ("arms", i, "home")} for i in range(len(problem.arms))}
-    return _home_issues(list(enumerate(problem.arms)), origins, problem.task, {})
-
-
-def _home_issues(arms: list[tuple[int, Arm]], origins: dict, task: Task, lines: dict) -> list[Issue]:
-    """Home poses must already respect the clearance: one issue per pair that does not."""
-    out = []
-    for x in range(len(arms)):
-        for y in range(x + 1, len(arms)):
-            (i, a), (k, b) = arms[x], arms[y]
-            pa = kin.fk_points(np.array(a.home), a.links, a.base)
-            pb = kin.fk_points(np.array(b.home), b.links, b.base)
-            dmin = min(
-                float(segment_distance(pa[s], pa[s + 1], pb[u], pb[u + 1])) for s in range(2) for u in range(2)
-            ) - a.link_radius - b.link_radius
-            if dmin < task.clearance:
-                home_from = "" if origins[k]["home"][0] == "arms" else " (home from defaults.home)"
-                out.append(
-                    Issue(
-                        path_str(("arms", k, "home")),
-                        f"expected home poses at least the clearance {task.clearance} m apart, found arms "
-                        f"{a.name!r} (arms[{i}]) and {b.name!r} (arms[{k}]) "
-                        + (f"{dmin:.4f} m apart" if dmin >= 0 else f"overlapping by {-dmin:.4f} m")
-                        + f" at home{home_from}"
-                        + (f" (their bases {math.dist(a.base, b.base):.3f} m apart)"
-                           if math.dist(a.base, b.base) < a.link_radius + b.link_radius + task.clearance else ""),
-                        line_of(lines, origins[k]["home"]) if home_from == "" else line_of(lines, ("arms", k)),
-                    )
-                )
-    return out
-
-
-def _pose_issues(problem: Problem) -> list[Issue]:
-    """A problem built or changed in Python, checked as a file's arms are: each home inside its
-    joint limits, each bin reachable (a file's problem has passed these before it is built:
-    nothing is found twice). Home poses closer than the clearance are not refused here: the
-    screen's tests build them on purpose, and a plan from there fails verification at t = 0."""
-    out = []
-    for i, a in enumerate(problem.arms):
-        for j in range(2):
-            lo, hi = a.joint_limits[j]
-            if not lo <= a.home[j] <= hi:
-                out.append(Issue(f"arms[{i}].home[{j}]", f"expected a home angle inside the joint limits [{lo}, {hi}] "
-                                                         f"(arms[{i}].joint_limits[{j}]), found {a.home[j]}"))
-        if not a.can_reach(a.bin):
-            out.append(Issue(f"arms[{i}].bin", f"expected a bin its arm {a.name!r} can reach (IK inside joint limits), found "
-                                               f"{list(a.bin)} {a.reach_words(a.bin)}"))
-    return out
 
 
 def _whole(problem: Problem, fruits: list[Fruit], lines: dict, source: str | None) -> None:
