@@ -293,3 +293,52 @@ def test_the_default_name_of_an_export_at_a_fractional_rate_keeps_its_rate(singl
         res = run("export", str(plan_path), "--rate", rate)
         assert res.exit_code == 0 and res.output.strip().endswith(f"plan_{rate}hz.csv"), res.output
     assert sorted(p.name for p in tmp_path.glob("plan_*")) == ["plan_0.2hz.csv", "plan_0.5hz.csv", "plan_12.5hz.csv"]
+
+
+def test_an_export_whose_smoothing_departs_from_the_samples_does_not_blame_the_rate(tmp_path):
+    """(Joints ten times as quick to accelerate: at 100 Hz and at 1000 Hz the note said "at 1000
+    Hz a controller ... departs from the plan by up to 0.002 rad", as if a higher rate would cure
+    it; it is the B-spline's own distance from the samples, at any rate.) The note says so, with
+    the figure of its definition, a sixth of the samples' largest second difference."""
+    from coplan.problem import load_problem
+    from coplan.problem.model import default_problem_path
+    from coplan.report.export import FOLLOW_TOLERANCE, follow_error, smoothing_error
+
+    text = (default_problem_path().parent / "crossing_paths.yaml").read_text()
+    fast = text.replace("max_acceleration: [8.0, 12.0]", "max_acceleration: [80.0, 120.0]").replace(
+        "max_jerk: [80.0, 120.0]", "max_jerk: [8000.0, 12000.0]")
+    assert fast.count("8000.0") == 1
+    (tmp_path / "fast.yaml").write_text(fast)
+    plan = plan_coordinated(load_problem(tmp_path / "fast.yaml")).plan
+    smooth, arm, t = smoothing_error(plan)
+    second = max(np.abs(np.diff(q, n=2, axis=0)).max() for q in plan.q.values())
+    assert smooth == pytest.approx(second / 6) and smooth > FOLLOW_TOLERANCE
+    k = int(np.searchsorted(plan.time, t))  # the B-spline's value at that sample, from the export at the plan's own rate
+    assert float(np.abs(trajectory(plan, 100.0).q[arm][k + 1] - plan.q[arm][k]).max()) == pytest.approx(smooth)
+    assert follow_error(plan, trajectory(plan, 1000.0))[0] - smooth <= FOLLOW_TOLERANCE
+    plan.save(tmp_path / "o")
+    for rate in ("100", "1000"):
+        said = " ".join(run("export", str(tmp_path / "o" / "plan.json"), "--rate", rate, "-o",
+                            str(tmp_path / f"e{rate}.csv")).stderr.split())
+        assert "passes up to" in said and "at any rate" in said and f"at {rate} Hz a controller" not in said
+
+
+def test_the_point_cap_counts_the_export_s_own_points(single_plan):
+    """(The cap was checked against the plan's duration, but the export runs two plan steps past
+    it: at the limit it passed 2,000,200 points per arm.) At the rate where the export has
+    MAX_POINTS points it is written; one point more is refused, before anything is computed."""
+    import math
+    from dataclasses import replace
+
+    from coplan.report.export import MAX_POINTS, check_rate
+
+    n = 20_001  # 200 s at 100 Hz, the arm at home (a long plan: the cap is met below the largest rate)
+    plan = replace(single_plan, time=np.arange(n) / 100.0, q={a: np.repeat(q[:1], n, axis=0) for a, q in single_plan.q.items()},
+                   events=[])
+    length = plan.duration + 2 * plan.dt
+    rate = (MAX_POINTS - 1) / length  # MAX_POINTS points: 0 to length
+    assert math.ceil(length * rate - 1e-9) + 1 == MAX_POINTS
+    check_rate(rate, plan)
+    with pytest.raises(ValueError, match=f"at most {MAX_POINTS} points per arm, found {MAX_POINTS + 1}"):
+        check_rate((MAX_POINTS - 0.5) / length, plan)
+    assert trajectory(plan, 20.0).time.size == math.ceil(length * 20.0 - 1e-9) + 1

@@ -307,8 +307,9 @@ def test_a_plan_file_records_the_software_that_made_it_and_keeps_it(tmp_path, pr
 
 def test_a_plan_changed_after_its_verdict_is_saved_unverified(greenhouse: Problem, tmp_path: Path) -> None:
     """(A plan edited in place -- its joints moved 5 rad -- was saved still "success" with its
-    verdict, and ``coplan verify`` then failed it.) Its file says ``unverified``, no verdict;
-    unchanged, it keeps both."""
+    verdict, and ``coplan verify`` then failed it; then still with the verdict's certified
+    margin and the old motion's jerk in its metrics.) Its file says ``unverified``, no verdict,
+    metrics of the motion it has; unchanged, it keeps both."""
     from coplan.planners.coordinated import plan_coordinated
 
     p = plan_coordinated(greenhouse).plan
@@ -317,5 +318,10 @@ def test_a_plan_changed_after_its_verdict_is_saved_unverified(greenhouse: Proble
     arm = next(iter(p.q))
     p.q[arm][:] = p.q[arm][0] + 5.0
     assert p.changed_since_verified()
+    assert p.metrics["margin"] > 0 and p.metrics["margin_per_pair"]
+    p.q[arm][5:8] += 0.001  # (a jerk the old motion did not have)
     back = load_plan(p.save(tmp_path)["json"])
     assert back.status == PlanStatus.UNVERIFIED and back.verification is None
+    assert "margin" not in back.metrics and "margin_per_pair" not in back.metrics
+    assert back.metrics["per_arm"][arm]["peak_jerk"] > p.metrics["per_arm"][arm]["peak_jerk"]
+    assert back.metrics["harvested"] == p.metrics["harvested"] and back.metrics["lower_bound"] == p.metrics["lower_bound"]

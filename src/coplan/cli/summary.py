@@ -142,6 +142,9 @@ def print_row_summary(console, res) -> None:
         again = solver.get("second_chance") or {}
         extra = (f" ({again['stops']} of them a second chance for {plural(again['fruit'], 'fruit', 'fruit')} a stop's cell "
                  f"left out: {again['harvested']} harvested there)" if again.get("stops") else "")
+        if again.get("dropped"):  # (tried there, nothing picked: not driven to)
+            extra += (f" ({plural(again['dropped'], 'second-chance stop', 'second-chance stops')} left out: "
+                      f"{'its cell picks' if again['dropped'] == 1 else 'their cells pick'} nothing)")
         p(f"  stops             {r.get('stops')}{extra}, {fmt(r.get('mean_time_per_stop'), ' s')} each on average; {shares}")
     for a, causes in (r.get("idle_share") or {}).items():
         p(f"  idle {safe(a):12s} " + ", ".join(f"{k.replace('_', ' ')} {100 * v:.1f} %" for k, v in causes.items()))

@@ -229,7 +229,8 @@ class Plan:
 
     def to_dict(self) -> dict:
         """The ``plan.json`` document. A plan whose motion was changed after its verdict (its
-        arrays edited in place, say) is written ``unverified``, without that verdict."""
+        arrays edited in place, say) is written ``unverified``, without that verdict, its metrics
+        those of the motion it has (no certified margin: that was the verdict's)."""
         fine = finer_grid(self.dt)  # (full precision there: rounded, the file would fail where the plan passed)
         stale = self.changed_since_verified() and self.status in (PlanStatus.SUCCESS, PlanStatus.PARTIAL, PlanStatus.UNSAFE)
         return {
@@ -242,7 +243,7 @@ class Plan:
             "events": [e.to_dict() for e in self.events],
             "allocation": self.allocation,
             "unreachable": list(self.unreachable),
-            "metrics": jsonable(self.metrics),
+            "metrics": jsonable(motion_metrics(self, self.metrics.get("reachable", 0), None) if stale else self.metrics),
             "solver": jsonable(self.solver),
             "verification": None if stale else jsonable(self.verification),
         } | ({"problem_file": dict(self.problem_file)} if self.problem_file else {}) | (
@@ -373,21 +374,27 @@ def motion_digest(plan: Plan) -> str:
     return h.hexdigest()
 
 
+def motion_metrics(plan: Plan, n_reachable: int, summary: dict | None) -> dict[str, Any]:
+    """The plan's metrics of its motion (:func:`compute_metrics`, with what its planner set
+    itself kept and its gap to the lower bound) and, from a verifier's ``summary``, the certified
+    margin overall and per neighbouring pair."""
+    metrics = compute_metrics(plan, n_reachable) | {k: v for k, v in plan.metrics.items() if k in _KEPT_METRICS}
+    if summary and "margin" in summary:  # least certified clearance less the required, overall and per neighbouring pair
+        metrics["margin"] = summary["margin"]
+        metrics["margin_per_pair"] = {k: v.get("margin") for k, v in (summary.get("pairs") or {}).items()}
+    lb = metrics.get("lower_bound")
+    if lb:
+        metrics["gap_to_lower_bound"] = metrics["makespan"] / lb if metrics["makespan"] else None
+    return metrics
+
+
 def finalize_plan(plan: Plan, verification, n_reachable: int) -> Plan:
     """Set the plan's metrics and status from the verifier's verdict (never upgrades a solver
     failure or an interruption). ``verification`` is the verifier's result (or None)."""
     plan.verification = verification.summary() if verification is not None else None
     if plan.software is None:  # (made here: what made it; a file's own record is kept)
         plan.software = software_record()
-    keep = {k: v for k, v in plan.metrics.items() if k in _KEPT_METRICS}
-    plan.metrics = compute_metrics(plan, n_reachable) | keep
-    summary = plan.verification or {}
-    if "margin" in summary:  # least certified clearance less the required, overall and per neighbouring pair
-        plan.metrics["margin"] = summary["margin"]
-        plan.metrics["margin_per_pair"] = {k: v.get("margin") for k, v in (summary.get("pairs") or {}).items()}
-    lb = plan.metrics.get("lower_bound")
-    if lb:
-        plan.metrics["gap_to_lower_bound"] = plan.metrics["makespan"] / lb if plan.metrics["makespan"] else None
+    plan.metrics = motion_metrics(plan, n_reachable, plan.verification)
     plan.verified_motion = motion_digest(plan) if verification is not None else None  # (what the verdict is about)
     if plan.status in (PlanStatus.FAILED, PlanStatus.INTERRUPTED, PlanStatus.INFEASIBLE):
         return plan

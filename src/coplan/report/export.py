@@ -50,8 +50,8 @@ from ..kinds import ExportFormat
 from ..plan import Plan
 from ..output import atomic_text
 
-__all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "follow_error", "FOLLOW_TOLERANCE", "MAX_POINTS",
-           "MAX_RATE"]
+__all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "follow_error", "smoothing_error", "FOLLOW_TOLERANCE",
+           "MAX_POINTS", "MAX_RATE"]
 
 #: rad: an export whose points a controller follows (cubic, with their velocities) within this of
 #: the plan says nothing; beyond it ``coplan export`` notes how far (about 1.8 mm at a 1.8 m reach)
@@ -99,22 +99,31 @@ def _smoothed(samples: np.ndarray, dt: float, t: np.ndarray) -> tuple[np.ndarray
     return out[0], out[1], out[2]
 
 
-def check_rate(rate: float, duration: float) -> None:
-    """Raise ``ValueError`` (with the reason) for a rate no export can use."""
+def _span(plan: Plan) -> tuple[float, float]:
+    """``(the export's delay, its length in s)``: the plan one step later, at rest two steps after its end."""
+    delay = 0.0 if plan.time.size < 2 else float(plan.dt)
+    return delay, plan.duration + 2.0 * delay
+
+
+def check_rate(rate: float, plan: Plan) -> None:
+    """Raise ``ValueError`` (with the reason) for a rate no export of ``plan`` can use: not a
+    rate, or more than :data:`MAX_POINTS` points per arm (the export's own count: its grid runs
+    two plan steps past the plan's end)."""
     if not (isinstance(rate, (int, float)) and math.isfinite(rate) and 0 < rate <= MAX_RATE):
         raise ValueError(f"expected a rate in (0, {MAX_RATE:g}] Hz, found {rate!r}")
-    n = duration * rate + 1
+    length = _span(plan)[1]
+    n = int(math.ceil(length * rate - 1e-9)) + 1  # (the size of _times(length, rate))
     if n > MAX_POINTS:
-        raise ValueError(f"expected at most {MAX_POINTS} points per arm, found {n:.0f} ({duration:.1f} s at {rate:g} Hz)")
+        raise ValueError(f"expected at most {MAX_POINTS} points per arm, found {n} ({length:.1f} s at {rate:g} Hz)")
 
 
 def trajectory(plan: Plan, rate: float) -> Trajectory:
     """Positions, velocities and accelerations of every arm at ``rate`` Hz on a uniform grid from
     t = 0, the plan delayed by one step and at rest at both ends (module docstring)."""
-    check_rate(rate, plan.duration)
+    check_rate(rate, plan)
     one = plan.time.size < 2  # a plan of one instant: everything stands still
-    delay = 0.0 if one else float(plan.dt)
-    t = _times(plan.duration + 2.0 * delay, rate)
+    delay, length = _span(plan)
+    t = _times(length, rate)
     q, qd, qdd = {}, {}, {}
     for arm, samples in plan.q.items():
         samples = np.asarray(samples, float)
@@ -151,6 +160,23 @@ def follow_error(plan: Plan, traj: Trajectory) -> tuple[float, str | None, float
         k = int(np.argmax(err))
         if err[k] > worst:
             worst, arm_at, t_at = float(err[k]), arm, float(plan.time[k])
+    return worst, arm_at, t_at
+
+
+def smoothing_error(plan: Plan) -> tuple[float, str | None, float]:
+    """How far the export's curve passes from the plan's samples whatever the rate: the uniform
+    cubic B-spline's value at a sample is ``(q[k-1] + 4 q[k] + q[k+1]) / 6``, a sixth of the second
+    difference from it. Returns ``(largest in rad, its arm, its time)``; a part of
+    :func:`follow_error` that no rate removes (a plan that accelerates hard for its sampling)."""
+    worst, arm_at, t_at = 0.0, None, 0.0
+    for arm, samples in plan.q.items():
+        q = np.asarray(samples, float)
+        if q.shape[0] < 3:
+            continue
+        err = np.abs(q[:-2] - 2.0 * q[1:-1] + q[2:]).max(axis=1) / 6.0
+        k = int(np.argmax(err))
+        if err[k] > worst:
+            worst, arm_at, t_at = float(err[k]), arm, float(plan.time[k + 1])
     return worst, arm_at, t_at
 
 

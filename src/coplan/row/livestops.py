@@ -11,7 +11,7 @@ import numpy as np
 
 from ..problem.model import Problem
 from .reach import RowReach
-from .stops import TripCosts, arm_overheads, move_time, price_stops, quantised_trips, round_trips
+from .stops import TripCosts, arm_overheads, arrival_time, price_stops, quantised_trips, round_trips
 
 __all__ = ["stop_share", "next_to_last", "last_stop"]
 
@@ -121,7 +121,7 @@ def last_stop(problem: Problem, reach: RowReach, fruit: list[str], ks, arms: lis
             top = max(load.values())
             _, c, a = min((max(top, load[a] + c) - top, c, a) for c, a in opts[f])
             load[a] += c
-        est = max(load.values()) + move_time(problem.gantry, x_from, float(reach.grid[k]))
+        est = max(load.values()) + arrival_time(problem.gantry, x_from, float(reach.grid[k]))
         if best is None or est < best[0] - 1e-9:
             best = (est, k)
     return None if best is None else best[1]

@@ -203,9 +203,10 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         if pool is not None:
             pool.shutdown(wait=not interrupted, cancel_futures=True)
     late = False  # interrupted during the second chance: every stop planned by then is kept
+    dropped: list[tuple[float, dict]] = []  # second-chance stops that picked nothing: (x, left_out)
     if not interrupted:
         try:
-            info["second_chance"] = _second_chance(problem, reach, planned, opts, landed, t0)
+            info["second_chance"] = _second_chance(problem, reach, planned, opts, landed, t0, dropped)
         except KeyboardInterrupt:  # (the row as planned so far stands: every cell in it is whole)
             late = True
     if interrupted:  # the stops from the first on whose cells are planned (a worker may have finished a later one)
@@ -237,11 +238,12 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
     info["left_out"] = dict(reach.reasons)
     picked = _picked(planned)
-    for sp in planned:  # fruit a stop's cell planner could not fit in (and no second chance took)
-        for f, why in (sp.plan.solver.get("left_out") or {}).items():
+    # fruit a stop's cell planner could not fit in (and no second chance took), at every stop tried
+    for x, left in sorted([(sp.stop.x, sp.plan.solver.get("left_out") or {}) for sp in planned] + dropped, key=lambda d: d[0]):
+        for f, why in left.items():
             if f not in picked:
                 said = info["left_out"].get(f)
-                info["left_out"][f] = (f"{said}; " if said else "") + f"at the stop at {sp.stop.x:.2f} m: {why}"
+                info["left_out"][f] = (f"{said}; " if said else "") + f"at the stop at {x:.2f} m: {why}"
     if interrupted:  # the rest of the row: not planned
         done = {f for sp in planned for f in sp.stop.fruit}
         for f in reach.harvestable():
@@ -262,13 +264,16 @@ def _picked(planned: list[StopPlan]) -> set[str]:
     return {e.fruit for sp in planned for e in sp.plan.events if e.kind == EventKind.PICK}
 
 
-def _second_chance(problem: Problem, reach: RowReach, planned: list[StopPlan], opts: RowOptions, landed, t0: float) -> dict:
+def _second_chance(problem: Problem, reach: RowReach, planned: list[StopPlan], opts: RowOptions, landed, t0: float,
+                   dropped: list[tuple[float, dict]]) -> dict:
     """Fruit a stop's cell planner left out -- its coordination found no schedule there (arms too
     close for the fruit at that carriage position) -- are tried again, at stops elsewhere on the
     rail that serve them (:func:`coplan.row.stops.retry_stops`), each at least
     :data:`RETRY_AWAY` from where they were tried, in up to that many rounds. The new stops join
     the row in carriage order, planned after the rest (their slack says whether the carriage
-    would have had to wait). Returns what it did."""
+    would have had to wait). A new stop whose cell picks nothing is not kept (the carriage would
+    drive there and settle for nothing): it goes to ``dropped`` as ``(x, left_out)``, for the
+    reasons. Returns what it did."""
     from .stops import retry_stops
 
     tried: dict[str, list[float]] = {}  # fruit -> where a stop left it out
@@ -276,10 +281,10 @@ def _second_chance(problem: Problem, reach: RowReach, planned: list[StopPlan], o
     stops = 0
     for away in RETRY_AWAY:
         picked = _picked(planned)
-        for sp in planned:
-            for f in (sp.plan.solver.get("left_out") or {}):
-                if f not in picked and sp.stop.x not in tried.setdefault(f, []):
-                    tried[f].append(sp.stop.x)
+        for x, left in [(sp.stop.x, sp.plan.solver.get("left_out") or {}) for sp in planned] + dropped:
+            for f in left:
+                if f not in picked and x not in tried.setdefault(f, []):
+                    tried[f].append(x)
         failed = {f: xs for f, xs in tried.items() if f not in picked}
         new = retry_stops(reach, failed, {sp.stop.k for sp in planned}, away) if failed else []
         if not new:
@@ -288,10 +293,14 @@ def _second_chance(problem: Problem, reach: RowReach, planned: list[StopPlan], o
             offered |= set(s.fruit)
             tc = _time.perf_counter()
             p = _cell_plan(cell_at(problem, s.x, s.fruit), opts)
-            landed(s, p, _time.perf_counter() - t0, _time.perf_counter() - tc)
-            stops += 1
+            if p.status == PlanStatus.INTERRUPTED or any(e.kind == EventKind.PICK for e in p.events):
+                landed(s, p, _time.perf_counter() - t0, _time.perf_counter() - tc)
+                stops += 1
+            else:
+                dropped.append((s.x, dict(p.solver.get("left_out") or {})))
     picked = _picked(planned)
-    return {"stops": stops, "fruit": len(offered), "harvested": sum(1 for f in offered if f in picked)}
+    return {"stops": stops, "fruit": len(offered), "harvested": sum(1 for f in offered if f in picked),
+            "dropped": len(dropped)}
 
 
 def finalize_row(problem: Problem, plan: Plan, ver, reach: RowReach) -> Plan:

@@ -50,7 +50,7 @@ from ..ties import quantised
 from .reach import RowReach
 
 __all__ = ["Stop", "fixed_stops", "fewest_stops", "optimised_stops", "carriage_span", "round_trips", "StopWindow",
-           "rebalance", "TripCosts", "price_stops", "quantised_trips", "move_time", "arm_overheads", "retry_stops"]
+           "rebalance", "TripCosts", "price_stops", "quantised_trips", "arrival_time", "arm_overheads", "retry_stops"]
 
 
 @dataclass(frozen=True)
@@ -335,7 +335,7 @@ def price_stops(problem, reach, cost: TripCosts, fruit, ks, over, x_from, overla
         if not at[i]:
             continue
         xk = float(reach.grid[k])
-        mv = move_time(g, x, xk)  # (with its settle: the arms' way out may overlap both)
+        mv = arrival_time(g, x, xk)  # (with its settle: the arms' way out may overlap both)
         total += peak[i] + mv - min(mv, overlap)
         stops.append(Stop(k, xk, tuple(f for _, f in sorted(at[i]))))
         x = xk
@@ -400,9 +400,10 @@ def quantised_trips(trips: dict) -> dict:
     return dict(zip(trips, quantised(list(trips.values())).tolist())) if trips else {}
 
 
-def move_time(g, x0: float, x1: float) -> float:
-    """The carriage's time-optimal rest-to-rest move (s), by distance (memoised), and after a
-    move its ``settle``: when a pick at ``x1`` may start (each stop rule's price of a stop)."""
+def arrival_time(g, x0: float, x1: float) -> float:
+    """When a pick at ``x1`` may start after the carriage leaves ``x0`` at rest (s): its
+    time-optimal rest-to-rest move, by distance (memoised), and after a move its ``settle``
+    (each stop rule's price of a stop; 0 where it does not move)."""
     d = round(abs(x1 - x0), 9)
     t = _MOVES.get((d, g.max_velocity, g.max_acceleration, g.max_jerk))
     if t is None:
