@@ -58,7 +58,8 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
         if reach.cover:
             p(f"lower bound        {b.any_plan:.2f} s for any plan (the busiest arm's cycles {b.work:.2f} s; the carriage's "
               f"way to {b.reach_to:.2f} m and one fruit's dwells, {b.travel:.2f} s); {b.stop_and_go:.2f} s stop by stop "
-              f"(its moves {b.moves:.2f} s, then the cells)")
+              f"with no arm working while the carriage moves (its moves {b.moves:.2f} s, then the cells; coplan's "
+              f"plans let the arms place and come out during the moves, and may beat it)")
         else:  # (as a cell's check says it)
             p("nothing to plan: no fruit can be harvested from any carriage position (solve would exit 4, infeasible)"
               + (" -- the problem lists no fruit" if not prob.fruits else ""))
@@ -150,7 +151,7 @@ def refused_on_a_row(planner, allocation, options_file, time_limit, gantry=None)
         + ([heuristic] if planner == PlannerKind.HEURISTIC else [])
 
 
-_SHORT = {"ratio_stop_and_go_bound": "/ bound (stop by stop)", "planning_time": "planning s"}  # (the terminal's table)
+_SHORT = {"ratio_stop_and_go_bound": "/ bound (stop by stop, no overlap)", "planning_time": "planning s"}  # (the terminal's table)
 
 
 def moving_options(problem, gantry, speed, stops, planner):

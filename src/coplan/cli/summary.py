@@ -129,7 +129,10 @@ def print_row_summary(console, res) -> None:
           f"{fmt(lb.get('any_plan'), ' s')} for any plan, ratio {fmt(r.get('ratio_any_plan_bound'), '', 3)}; "
           + (f"{fmt(lb.get('stop_and_go'), ' s')} for a stop-and-go plan, which this one is not: it picks on the move)"
              if moving else  # (a ratio below 1 beside "lower bound" read as a broken bound)
-             f"{fmt(lb.get('stop_and_go'), ' s')} stop by stop, ratio {fmt(r.get('ratio_stop_and_go_bound'), '', 3)})"))
+             f"{fmt(lb.get('stop_and_go'), ' s')} stop by stop with no arm working while the carriage moves, ratio "
+             f"{fmt(r.get('ratio_stop_and_go_bound'), '', 3)}"
+             + (f": below 1, as this plan's arms work {fmt(r.get('overlap_seconds'), ' s')} while the carriage moves)"
+                if (r.get("ratio_stop_and_go_bound") or 1.0) < 1.0 else ")")))
     shares = (f"carriage moving {fmt(100 * r.get('carriage_moving_share', 0), ' %', 1)} of the row time, some arm picking "
               f"{fmt(100 * r.get('picking_share', 0), ' %', 1)}")
     if moving:

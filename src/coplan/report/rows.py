@@ -24,7 +24,7 @@ __all__ = ["RowComparison", "compare_rows", "ROW_COLUMNS", "cell_text", "to_mark
 #: (key, heading) of the comparison's table.
 ROW_COLUMNS = (("rule", "stop rule"), ("stops", "stops"), ("row_time", "row time, s"), ("fruit_per_hour", "fruit / h"),
                ("share_harvested", "harvested"), ("ratio_any_plan_bound", "/ bound (any plan)"),
-               ("ratio_stop_and_go_bound", "/ bound (stop by stop)"), ("planning_time", "planning, s"), ("verified", "verified"))
+               ("ratio_stop_and_go_bound", "/ bound (stop by stop, no overlap)"), ("planning_time", "planning, s"), ("verified", "verified"))
 
 
 @dataclass
