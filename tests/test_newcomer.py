@@ -244,3 +244,26 @@ def test_the_workspace_plot_shows_locked_arms_and_the_fruit_they_leave():
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert any("locked arm" in x for x in labels) and any("screened out" in x for x in labels)
     assert any(t.get_text() == "r1 (locked)" for t in fig.axes[0].texts)
+
+
+def test_an_edited_copy_of_a_shipped_problem_here_is_named_when_the_shipped_one_is_read(tmp_path, monkeypatch):
+    """(A newcomer edited the clone's problems/greenhouse_row.yaml, ran ``coplan check``, and
+    the installed copy was read without a word.) The command says which file it reads and how
+    to use the edited one; an unedited copy says nothing."""
+    from coplan.problem.model import default_problem_path
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "problems").mkdir()
+    shipped = default_problem_path()
+    copy = tmp_path / "problems" / shipped.name
+    copy.write_bytes(shipped.read_bytes())
+    run = CliRunner(env={"COLUMNS": "300"})
+    for args in ([], [shipped.stem], [shipped.name]):
+        assert "differs from the shipped copy" not in run.invoke(app, ["check", *args]).output
+    copy.write_text(shipped.read_text().replace("clearance: 0.05", "clearance: 0.07", 1))
+    assert copy.read_text() != shipped.read_text()
+    for args in ([], [shipped.stem], [shipped.name]):
+        out = " ".join(run.invoke(app, ["check", *args]).output.split())
+        assert f"note: problems/{shipped.name} here differs from the shipped copy this command reads ({shipped})" in out
+    out = " ".join(run.invoke(app, ["check", f"problems/{shipped.name}"]).output.split())
+    assert "differs" not in out  # its path given: that file is read

@@ -619,3 +619,28 @@ def test_a_problem_changed_in_python_whose_homes_overlap_is_refused_when_solved(
         coplan.solve(moved, planner="coordinated", out_dir=tmp_path / "out")
     assert any(i.path == "arms[1].home" and "expected home poses at least the clearance" in i.message for i in e.value.issues)
     assert not (tmp_path / "out").exists()
+
+
+def test_an_arm_or_fruit_with_a_bad_field_still_has_its_other_mistakes_reported_at_once() -> None:
+    """(An arm missing its ``bin`` had nothing else said of it; once the bin was added, six more
+    missing fields appeared. Two fruit with one id, the first with a three-item position: the
+    repeated id showed only after the position was fixed.) Every mistake is reported at once:
+    fixing the reported ones leaves none that were there before."""
+    text = """name: m1
+arms:
+  - {name: a, base: [0.0, 0.0], links: [0.9, 0.7]}
+  - {name: a, base: [1.8, 0.0], bin: [1.8, -3.5], home: [1.0, 0.5], links: [0.9, 0.7], link_radius: 0.04,
+     joint_limits: [[-3, 3], [-3, 3]], max_velocity: [1, 1], max_acceleration: [2, 2], max_jerk: [20, 20]}
+fruits:
+  - {id: s1, position: [0.6, 1.1, 3]}
+  - {id: s1, position: [0.6, 1.2]}
+task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
+"""
+    err = errors_of(text)
+    assert_clean(err)
+    said = {i.path for i in err.issues}
+    assert {"arms[0].bin", "arms[0].link_radius", "arms[0].joint_limits", "arms[0].max_velocity", "arms[0].max_acceleration",
+            "arms[0].max_jerk", "arms[0].home"} <= said and "arms[0].links" not in said  # (it has links)
+    assert "arms[1].name" in said  # the second "a", though the first arm failed
+    assert {"fruits[0].position", "fruits[1].id"} <= said
+    assert [i.line for i in err.issues if i.path == "arms[0].home"] == [line_of(text, "{name: a, base: [0.0")]

@@ -20,6 +20,7 @@ import json
 import math
 import os
 import re
+from pathlib import Path
 from typing import Any
 
 from ..errors import CoplanError, InputError, Issue
@@ -132,11 +133,28 @@ def resolve_problem(problem, note=lambda message: None):
     from ..problem.model import default_problem_path, resolve_name
 
     if problem is None:
-        return default_problem_path()
-    path, taken_as = resolve_name(problem)
-    if taken_as is not None:
-        note(f"{problem}: {taken_as}")
+        path, taken_as = default_problem_path(), "shipped"
+    else:
+        path, taken_as = resolve_name(problem)
+        if taken_as is not None:
+            note(f"{problem}: {taken_as}")
+    edited = _edited_copy(path) if taken_as is not None else None
+    if edited is not None:  # (a newcomer edits the clone's copy; an installed coplan reads its own)
+        note(f"note: {edited} here differs from the shipped copy this command reads ({path}); "
+             f"give its path ({edited}) to use it")
     return path
+
+
+def _edited_copy(shipped: Path) -> Path | None:
+    """``problems/<name>`` in the working folder (a clone's copy of a shipped problem) where it
+    is another file than ``shipped`` and its text differs; else None."""
+    here = Path("problems") / shipped.name
+    try:
+        if here.is_file() and here.resolve() != shipped.resolve() and here.read_bytes() != shipped.read_bytes():
+            return here
+    except OSError:
+        return None
+    return None
 
 
 def failure_of(exc: BaseException) -> tuple[ExitCode, str]:

@@ -308,8 +308,10 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     arms: list[tuple[int, Arm]] = []
     origins: dict[int, dict[str, tuple]] = {}
     seen_names: dict[str, int] = {}
+    raw_arms = data.get("arms") if isinstance(data.get("arms"), list) else []
     for i, spec in arm_specs:
-        if spec is None:
+        if spec is None:  # its own fields failed: what does not depend on them is still said now
+            _unvalidated_arm(i, raw_arms[i], defaults, seen_names, lines, issues)
             continue
         _check_unique(seen_names, spec.name, ("arms", i, "name"), "arm name", lines, issues)
         if defaults is None:
@@ -318,7 +320,7 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         if built is not None:
             arms.append((i, built[0]))
             origins[i] = built[1]
-    fruits = _fruits(fruit_specs, lines, issues)
+    fruits = _fruits(fruit_specs, data.get("fruits") if isinstance(data.get("fruits"), list) else [], lines, issues)
     if task is not None:
         issues += home_pair_issues(arms, origins, task, lines)
     gantry = parse_gantry(data["gantry"], lines, issues) if "gantry" in data else None
@@ -461,13 +463,41 @@ def _arm(i: int, spec: ArmSpec, defaults: ArmFieldsSpec, lines: dict, issues: li
     return arm, origin
 
 
-def _fruits(fruit_specs: list, lines: dict, issues: list) -> list[Fruit]:
-    """The fruit with unique ids and plausible positions."""
+def _raw_name(raw: Any, key: str) -> str | None:
+    """``raw[key]`` where ``raw`` is an entry whose validation failed but this key is a valid name; else None."""
+    if not isinstance(raw, dict) or key not in raw:
+        return None
+    try:
+        return name_value(raw[key])
+    except (ValueError, TypeError):
+        return None
+
+
+def _unvalidated_arm(i: int, raw: Any, defaults: ArmFieldsSpec | None, seen_names: dict, lines: dict, issues: list) -> None:
+    """Arm ``i``, whose own fields failed validation (reported): its name's uniqueness and the
+    fields it lacks that ``defaults`` does not give either, reported now, not once its other
+    mistakes are fixed."""
+    name = _raw_name(raw, "name")
+    if name is not None:
+        _check_unique(seen_names, name, ("arms", i, "name"), "arm name", lines, issues)
+    if defaults is None or not isinstance(raw, dict):
+        return
+    for f in ARM_REQUIRED:
+        if f not in raw and getattr(defaults, f) is None:
+            issues.append(Issue(path_str(("arms", i, f)), missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
+
+
+def _fruits(fruit_specs: list, raw: list, lines: dict, issues: list) -> list[Fruit]:
+    """The fruit with unique ids and plausible positions (``raw``: the file's entries; an entry
+    that failed validation still takes its id, if that is a valid one, for the uniqueness check)."""
     fruits: list[Fruit] = []
     seen_ids: dict[str, int] = {}
     where: list[int] = []  # each fruit's index in the file
     for j, spec in fruit_specs:
         if spec is None:
+            fid = _raw_name(raw[j], "id") if j < len(raw) else None
+            if fid is not None:
+                _check_unique(seen_ids, fid, ("fruits", j, "id"), "fruit id", lines, issues)
             continue
         if not _check_unique(seen_ids, spec.id, ("fruits", j, "id"), "fruit id", lines, issues):
             continue
