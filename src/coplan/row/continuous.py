@@ -149,7 +149,7 @@ class MovingOptions:
     refine_rounds : full plans that then slow the carriage only where fruit were missed (density;
         default none: with the search's bracketing, they won on no benchmark row and cost the search
         a plan at its end)
-    workers : processes the speed search plans in (levels tried side by side); 1: all here
+    workers : processes the speed search plans in (its levels side by side; the same plan for any); 1: all here
     rate : the plan's samples per second, 100 to 10,000 Hz
     """
 
@@ -343,7 +343,9 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     brackets the fastest complete level. Its top is at first the level where the carriage would
     take as long as the busiest arm's work (constant: the row's work bound, no faster plan
     harvests everything) or gives each stretch exactly its fruit's cheapest cycles (density: pace
-    1), not planned: the first plans go from half of it up (one per worker), halving further
+    1), not planned: the first plans go from half of it up (:data:`SEARCH_WIDTH` levels a round,
+    side by side with as many workers, one after the other with one: the same levels and plan for
+    any number of workers), halving further
     until a plan is complete; then it bisects between the fastest complete and the slowest
     incomplete level (that top while no plan was incomplete), to 5 %; where every plan up to the
     top is complete, the top is planned too and the level grows by half while complete. With ``levels`` it plans exactly those
@@ -399,7 +401,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                 # than the busiest arm's work (pace 1) leaves fruit on every benchmark row, so it is
                 # planned only when the bracket closes below it with no incomplete plan
                 assumed: float | None = v
-                w = runner.workers
+                w = SEARCH_WIDTH  # (not the workers: the levels tried, and so the plan, are the same for any)
                 for _ in range(int(math.ceil(opts.search_rounds / w))):
                     # w levels at once: from half the start up to it / down by halves / up by half again
                     # until bracketed, then w points inside
@@ -460,6 +462,11 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
         tried[best][0].plan.solver["status"] = PlanStatus.INTERRUPTED.value
         tried[best][0].info["interrupted"] = f"the speed search stopped after {len(tried)} plan{'' if len(tried) == 1 else 's'}: the best verified so far"
     return tried[best][0], pts
+
+
+#: levels the speed search plans a round (side by side with two workers or more): fixed, so
+#: that ``--workers`` changes how long the search takes, never which plan it finds
+SEARCH_WIDTH = 2
 
 
 def _rank(p: SpeedPoint) -> tuple:
@@ -608,7 +615,7 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
         res, curve = speed_search(problem, opts, reach, progress=progress)
     total = _time.perf_counter() - t0
     res.info["speed_curve"] = [p.to_dict() for p in curve]
-    # what the plan depends on (the workers too: they set the levels tried side by side)
+    # what the plan depends on (the options; not the workers, since SEARCH_WIDTH is fixed)
     res.info["options"] = {f.name: (v.value if isinstance(v, enum.Enum) else v)
                            for f in dataclasses.fields(opts) for v in [getattr(opts, f.name)]}
     res.timings["planning"] = total  # the whole search, verification of every candidate included
