@@ -46,6 +46,17 @@ def test_angles_in_degrees_are_refused_with_a_hint() -> None:
     assert "45 deg is 0.7854 rad" in by_path["arms[0].home[0]"].message
 
 
+def test_lengths_in_millimetres_are_refused_with_a_hint() -> None:
+    """(``clearance: 50`` -- millimetres -- said only "found 50".) A length beyond its range
+    whose thousandth is within it is said to look like millimetres."""
+    text = SINGLE.replace("clearance: 0.05", "clearance: 50").replace("links: [1.0, 0.8]", "links: [1000, 800]")
+    by_path = {i.path: i.message for i in _issues(text)}
+    assert "found 50 (it looks like millimetres: 50 mm is 0.05 m; lengths are in m)" in by_path["task.clearance"]
+    assert "found 1000 (it looks like millimetres: 1000 mm is 1 m; lengths are in m)" in by_path["arms[0].links[0]"]
+    text = SINGLE.replace("clearance: 0.05", "clearance: 20000")  # (20 m: no length in mm either)
+    assert "millimetres" not in {i.path: i.message for i in _issues(text)}["task.clearance"]
+
+
 @pytest.mark.parametrize("old, new, path, found", [
     ("max_velocity: [3.0, 4.0]", "max_velocity: [1.0e-9, 4.0]", "arms[0].max_velocity[0]", "found 1e-09"),
     ("max_velocity: [3.0, 4.0]", "max_velocity: [3.0, 1.0e+308]", "arms[0].max_velocity[1]", "found 1e+308"),
