@@ -225,3 +225,27 @@ def test_an_out_of_range_option_says_what_was_expected_and_what_was_found(args, 
 def test_a_row_says_which_option_it_refuses_and_why(args, words, tmp_path):
     res = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["solve", "sparse_row", "-o", str(tmp_path / "x"), *args])
     assert res.exit_code == 2 and words in res.output and not (tmp_path / "x").exists(), res.output
+
+
+@pytest.mark.parametrize("args, option, enum", [
+    (["solve", "--planner", "fast"], "--planner", "PlannerKind"),
+    (["solve", "--stops", "few"], "--stops", "StopRule"),
+    (["solve", "--gantry", "moving"], "--gantry", "GantryMode"),
+    (["verify", "p.yaml", "plan.json", "--fcl", "some"], "--fcl", "FclMode"),
+    (["export", "plan.json", "--format", "xml"], "--format", "ExportFormat"),
+    (["run", "p.yaml", "--gantry", "auto"], "--gantry", "LiveGantryMode"),
+    (["sweep", "s.yaml", "--planner", "fast"], "--planner", "PlannerKind"),
+])
+def test_a_choice_option_s_bad_value_is_said_in_coplan_s_words_with_every_choice(args, option, enum):
+    """(``--planner fast`` said "Value error, 'fast' is not one of ...": the validator's words.)
+    Every choice option refuses as the rest of coplan does -- expected one of ..., found ... --
+    and its help lists the choices."""
+    import coplan.kinds as kinds
+
+    cls = getattr(kinds, enum)
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, args)
+    out = " ".join(r.output.split())
+    assert r.exit_code == 2 and "Value error" not in out
+    assert f"expected one of {', '.join(repr(m.value) for m in cls)}; found {args[args.index(option) + 1]!r}" in out
+    helped = CliRunner(env={"COLUMNS": "300"}).invoke(app, [args[0], "--help"]).output
+    assert "[" + "|".join(m.value for m in cls) + "]" in helped

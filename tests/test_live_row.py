@@ -278,8 +278,8 @@ def test_coplan_run_stop_and_go_writes_a_verified_run_and_refuses_what_does_not_
     assert doc["options"]["speed"] is None  # (no cruising speed stop and go)
     assert verify(parse_problem(path.read_text()), load_plan(tmp_path / "live" / "plan.json")).passed
     for args, words in ((["--gantry", "stop-and-go", "--speed", "0.1"], "--speed: applies on the move"),
-                        (["--gantry", "auto"], "is not one of")):
-        bad = CliRunner().invoke(app, ["run", str(path), *args, "-o", str(tmp_path / "x")])
+                        (["--gantry", "auto"], "expected one of 'continuous', 'stop-and-go'; found 'auto'")):
+        bad = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["run", str(path), *args, "-o", str(tmp_path / "x")])
         assert bad.exit_code == 2 and words in bad.output and "Traceback" not in bad.output
 
 

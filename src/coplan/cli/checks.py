@@ -65,6 +65,25 @@ def check_workers(workers: Optional[str]) -> Optional[int]:
     return n
 
 
+def choice(cls):
+    """``typer.Option(parser=choice(Enum), metavar=choices(Enum))``: an enum option's value,
+    refused as ``expected one of 'a', 'b'; found 'x'`` (typer's own said "Value error, 'x' is not
+    one of ...", its validator's words)."""
+    def parse(value):
+        if isinstance(value, cls):
+            return value
+        try:
+            return cls(value)
+        except ValueError:
+            raise typer.BadParameter(f"expected one of {', '.join(repr(m.value) for m in cls)}; found {value!r}") from None
+    return parse
+
+
+def choices(cls) -> str:
+    """The metavar that lists an enum option's values, as typer's own did: ``[a|b|c]``."""
+    return "[" + "|".join(m.value for m in cls) + "]"
+
+
 def in_path(value: str) -> Path:
     """A file argument's value as a Path. An empty one (``coplan check "$F"`` with ``F`` unset)
     is refused (exit 2): typer made the current folder of it, said to be a folder, not a file."""

@@ -20,7 +20,7 @@ from rich.console import Console
 
 from . import failures
 from .checks import budget_hint as _budget_hint, check_time_limit as _check_time_limit, check_workers as _check_workers
-from .checks import between, in_path, optimal_only_note, out_path
+from .checks import between, choice, choices, in_path, optimal_only_note, out_path
 from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
 from .row import moving_options, refuse_rows_in_compare, refused_on_a_row
@@ -101,13 +101,13 @@ ResolutionOption = Annotated[Optional[float], typer.Option(
 @app.command()
 @guarded
 def solve(
-    problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file (default: the shipped greenhouse row).")] = None,
+    problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file, or a shipped problem's name (coplan problems lists them; default: the shipped greenhouse row).")] = None,
     planner: Annotated[Optional[PlannerKind], typer.Option(
-        help="Planner to use (default optimal; for a row, the cell planner at each stop: default coordinated).")] = None,
+        parser=choice(PlannerKind), metavar=choices(PlannerKind), help="Planner to use (default optimal; for a row, the cell planner at each stop: default coordinated).")] = None,
     stops: Annotated[Optional[StopRule], typer.Option(
-        help="A row (a problem with a gantry): where the carriage stops (default optimised).")] = None,
+        parser=choice(StopRule), metavar=choices(StopRule), help="A row (a problem with a gantry): where the carriage stops (default optimised).")] = None,
     gantry: Annotated[Optional[GantryMode], typer.Option(
-        help="A row: stop-and-go (default), continuous (pick on the move, the speed searched) or auto "
+        parser=choice(GantryMode), metavar=choices(GantryMode), help="A row: stop-and-go (default), continuous (pick on the move, the speed searched) or auto "
              "(both, each verified; the better kept).")] = None,
     speed: Annotated[Optional[float], typer.Option(
         help="A row on the move: one cruising speed, m/s (default: the speed search, a speed per metre of rail).")] = None,
@@ -117,8 +117,9 @@ def solve(
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder.")] = Path("coplan-out"),
     time_limit: Annotated[Optional[float], typer.Option(
-        help="Wall-clock limit, s: the optimal planner returns its verified incumbent at the limit "
-             "(by default it stops on a work budget, so the plan does not depend on the machine).")] = None,
+        help="Wall-clock limit, s: the optimal planner returns its verified incumbent at the limit, the coordinated "
+             "planner its best candidate so far (by default they stop on a work budget, so the plan does not depend on "
+             "the machine).")] = None,
     options_file: Annotated[Optional[Path], typer.Option(
         "--options", help="Solver options (YAML): any field of coplan.optimal.OptimalOptions, e.g. "
                           "search_work: 60000 (recorded in plan.json).")] = None,
@@ -261,7 +262,7 @@ def list_problems():
 @app.command()
 @guarded
 def check(
-    problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file (default: the shipped greenhouse row).")] = None,
+    problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file, or a shipped problem's name (coplan problems lists them; default: the shipped greenhouse row).")] = None,
     resolution: ResolutionOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
 ):
@@ -342,10 +343,10 @@ def check(
 @app.command("verify")
 @guarded
 def verify_cmd(
-    problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file.")],
+    problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file, or a shipped problem's name (coplan problems lists them).")],
     plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="Plan to verify: plan.json, the plan.csv replay coplan writes, or a coplan export CSV (no events: they are inferred).")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Write verification.json (a folder, or a file name ending .json).")] = None,
-    fcl: Annotated[FclMode, typer.Option(help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
+    fcl: Annotated[FclMode, typer.Option(parser=choice(FclMode), metavar=choices(FclMode), help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
     as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,
 ):
     """Independently verify a plan: clearance (certified), limits, picks and places.
@@ -411,16 +412,16 @@ def verify_cmd(
 @guarded
 def compare_cmd(
     problems: Annotated[
-        Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEMS", help="Problem YAML file or folder of them (default: the shipped greenhouse row).")
+        Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEMS", help="Problem YAML file, a shipped problem's name, or a folder of problem files (default: the shipped greenhouse row).")
     ] = None,
     planner: Annotated[
         Optional[list[str]],
-        typer.Option("--planner", "-p", help="Planner to run, repeatable: heuristic, coordinated, optimal or planner:allocation "
+        typer.Option("--planner", "-p", metavar="PLANNER[:ALLOCATION]", help="Planner to run, repeatable: heuristic, coordinated, optimal or planner:allocation "
                      "(e.g. heuristic:makespan). Default: heuristic, coordinated and optimal."),
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder.")] = Path("coplan-compare"),
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the comparison figures (cells; a row's comparison is its tables).")] = True,
-    time_limit: Annotated[Optional[float], typer.Option(help="Optimal planner: wall-clock limit per solve, s.")] = None,
+    time_limit: Annotated[Optional[float], typer.Option(help="Coordinated and optimal planners: wall-clock limit per solve, s.")] = None,
     options_file: Annotated[Optional[Path], typer.Option(
         "--options", help="Solver options (YAML) for the coordinated and optimal planners.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print compare.json's content instead of the tables.")] = False,
@@ -431,7 +432,7 @@ def compare_cmd(
         "--clearance-sweep", help="Instead: the makespan against the clearance asked for (the problem's, +10, +25, +50, "
         "+100 mm; --extra to choose), one planner (the first --planner, default optimal), every plan verified.")] = False,
     extra: Annotated[Optional[list[float]], typer.Option(
-        "--extra", help="With --clearance-sweep: an extra clearance in mm, repeatable (the problem's own is always planned too: the ratios' reference).")] = None,
+        "--extra", metavar="MM", help="With --clearance-sweep: an extra clearance in mm, repeatable (the problem's own is always planned too: the ratios' reference).")] = None,
 ):
     """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
 

@@ -16,7 +16,7 @@ import typer
 from rich.console import Console
 
 from . import failures
-from .checks import between, fail, in_path, out_path
+from .checks import between, choice, choices, fail, in_path, out_path
 from .console import ProgressDisplay
 from .failures import resolve_problem
 from .summary import safe as _s
@@ -125,7 +125,7 @@ PlanProblemOption = Annotated[
 
 def plot_cmd(
     plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="plan.json to draw (for --kind workspace also a problem YAML).")],
-    kind: Annotated[PlotKind, typer.Option("--kind", "-k", help="Which figure.")] = PlotKind.GANTT,
+    kind: Annotated[PlotKind, typer.Option("--kind", "-k", parser=choice(PlotKind), metavar=choices(PlotKind), help="Which figure.")] = PlotKind.GANTT,
     problem: PlanProblemOption = None,
     out: Annotated[
         Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Image file; the suffix sets the format (default: <plan>_<kind>.png).")

@@ -16,7 +16,7 @@ from typing import Annotated, Optional
 import typer
 from rich.console import Console
 
-from .checks import between, in_path, out_path
+from .checks import between, choice, choices, in_path, out_path
 from .console import ProgressDisplay
 from .failures import check_out_dir, check_out_file, check_overwrite, resolve_problem, usage, work_done
 from .summary import safe as _safe
@@ -30,7 +30,7 @@ _err = Console(stderr=True, soft_wrap=True)
 
 
 def feed_cmd(
-    problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem file (YAML) with the true fruit.")],
+    problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem file (YAML) with the true fruit, or a shipped problem's name.")],
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Feed file to write (YAML).")],
     known: Annotated[float, typer.Option(callback=between(0.0, 1.0), help="Share of the fruit detected at t = 0.")] = 0.5,
     sigma: Annotated[float, typer.Option(callback=between(1e-6, 1.0, "m"), help="Detection noise: standard deviation per coordinate, m.")] = 0.01,
@@ -90,13 +90,13 @@ def _written(folder, names: list[str]) -> str:
 
 
 def run_cmd(
-    problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem file (YAML) with the true fruit positions.")],
+    problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem file (YAML) with the true fruit positions, or a shipped problem's name.")],
     feed: Annotated[Optional[Path], typer.Option("--feed", "-f", help="Feed file (YAML): what the camera reports "
                                                  "(a cell; a row's camera is simulated from the options below).")] = None,
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder.")] = Path("coplan-live"),
     speed: Annotated[Optional[float], typer.Option(help="A row: the carriage's cruising speed, m/s (picks on the move).")] = None,
     gantry: Annotated[Optional[LiveGantryMode], typer.Option(
-        help="A row: continuous (picks on the move at --speed, which it needs; the default) or stop-and-go (stops "
+        parser=choice(LiveGantryMode), metavar=choices(LiveGantryMode), help="A row: continuous (picks on the move at --speed, which it needs; the default) or stop-and-go (stops "
              "chosen as fruit come into view).")] = None,
     look_ahead: Annotated[float, typer.Option("--look-ahead", callback=between(0.0, 100.0, "m", above=True),
                                               help="A row: how far ahead of the front arm's base the camera sees, m.")] = 1.5,
@@ -121,7 +121,7 @@ def run_cmd(
                                                  "not only those its 50 ms budget allows: the same run on any machine.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the metrics as JSON.")] = False,
 ):
-    """Simulate the cell live: re-plan as detections arrive, verify what was executed, compare with the omniscient plan."""
+    """Simulate a cell or a row live: re-plan as detections arrive, verify what was executed, compare with the omniscient plan."""
     from ..output import RunFolder
     from ..plan import jsonable
     from ..problem.model import load_problem

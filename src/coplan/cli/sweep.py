@@ -15,7 +15,7 @@ from rich.console import Console
 
 from ..errors import plural
 from ..workers import MAX_WORKERS
-from .checks import between, in_path, out_path
+from .checks import between, choice, choices, in_path, out_path
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
 from ..errors import printable
@@ -43,7 +43,7 @@ def sweep_cmd(
                                                    "(default: one per core; one thread each).")] = None,
     scheduler: Annotated[Optional[str], typer.Option(help="Use an existing Dask cluster at this address "
                                                      "(e.g. tcp://host:8786) instead of a local one.")] = None,
-    planner: Annotated[Optional[PlannerKind], typer.Option(help="Planner for every problem (replaces the file's).")] = None,
+    planner: Annotated[Optional[PlannerKind], typer.Option(parser=choice(PlannerKind), metavar=choices(PlannerKind), help="Planner for every problem (replaces the file's).")] = None,
     time_limit: Annotated[Optional[float], typer.Option(help="Per-problem time limit, s (replaces the file's; "
                                                         "default 120).")] = None,
     csv: Annotated[bool, typer.Option("--csv", help="Also write results.csv.")] = False,
