@@ -559,3 +559,19 @@ def test_the_close_range_camera_sees_only_what_lies_within_its_distance(greenhou
     assert not r.run["fruit"]["f04"]["harvested"] and r.verification.passed
     why = r.run["fruit"]["f04"]["why"]
     assert "300 mm off, farther than the close-range camera sees (100 mm)" in why, why
+
+
+def test_the_live_cell_snippet_in_the_user_docs_runs():
+    """(The snippet used a ``problem`` it never made, called ``next_close_range(now)`` whose
+    argument is ``after``, and said ``sample`` gives (q, qd, qdd) where it gives (3, K, 2).) The
+    block in docs/usage.md runs as written, and does what its comments say."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / "docs" / "usage.md").read_text()
+    block = next(b for b in re.findall(r"```python\n(.*?)```", text, re.S) if "LiveCell(problem)" in b)
+    env: dict = {}
+    exec(compile(block, "docs/usage.md", "exec"), env)
+    cell, state = env["cell"], env["state"]
+    assert env["close"] is not None and cell.tracks[env["close"].track].refined
+    assert set(state) == {a.name for a in env["problem"].arms} and all(s.shape == (3, 2, 2) for s in state.values())

@@ -644,3 +644,13 @@ task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
     assert "arms[1].name" in said  # the second "a", though the first arm failed
     assert {"fruits[0].position", "fruits[1].id"} <= said
     assert [i.line for i in err.issues if i.path == "arms[0].home"] == [line_of(text, "{name: a, base: [0.0")]
+
+
+def test_a_negative_dwell_or_clearance_is_refused_with_its_unit() -> None:
+    """(``task.pick_dwell: expected a number >= 0 in s`` when missing, but ``expected a number
+    >= 0, found -1.0`` when negative, and so for the clearance's metres.)"""
+    text = (default_problem_path().parent / "single_arm.yaml").read_text()
+    text = edit(edit(text, "pick_dwell: 0.3", "pick_dwell: -1"), "clearance: 0.05", "clearance: -0.05")
+    by_path = {i.path: i.message for i in errors_of(text).issues}
+    assert by_path["task.pick_dwell"] == "expected a number >= 0 in s, found -1.0"
+    assert by_path["task.clearance"] == "expected a number >= 0 in m, found -0.05"

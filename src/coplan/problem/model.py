@@ -25,7 +25,7 @@ from ..errors import Issue, ProblemError, coplan_file_kind, is_joint_csv
 from .check import built_issues
 from .gantry import Gantry, off_rail, parse_gantry
 from .poses import copy_issues, home_pair_issues, pose_issues
-from .spec import (ARM_REQUIRED, TOP_KEYS, ArmFieldsSpec, ArmSpec, FruitSpec, TaskSpec, kind_of, missing,
+from .spec import (ARM_REQUIRED, EXPECT, TOP_KEYS, ArmFieldsSpec, ArmSpec, FruitSpec, TaskSpec, kind_of, missing,
                    name_value)
 from .yamlsafe import MAX_FILE_BYTES, did_you_mean, line_of, path_str, read_yaml, read_input_text
 
@@ -272,6 +272,9 @@ def _validate(model, data, prefix: tuple, lines: dict, issues: list):
                 issues.append(Issue(path, f"expected a mapping, found {kind_of(err.get('input'))}", line_of(lines, loc)))
             else:
                 msg = err["msg"].removeprefix("Value error, ")
+                want = EXPECT.get(str(loc[-1]), "")  # (a scalar's unit: "a number >= 0" is "a number >= 0 in s" for a dwell)
+                if want.startswith("a number") and msg.startswith(f"expected {want.split(' in ')[0]},"):
+                    msg = f"expected {want}," + msg[len(f"expected {want.split(' in ')[0]},"):]
                 if "found" not in msg:
                     msg = f"{msg}; found {kind_of(err.get('input'))}"
                 issues.append(Issue(path, msg, line_of(lines, loc)))
