@@ -352,6 +352,12 @@ def test_cli_feed_and_run_write_a_verified_run(tmp_path: Path, problems_dir: Pat
     from coplan.problem import load_problem
 
     assert verify(load_problem(prob), load_plan(tmp_path / "live" / "plan.json")).passed
+    # its verification.json is the verifier's report, as coplan solve writes it (it was the summary
+    # alone, and coplan verify --out into the run's folder refused it as "a file of another kind")
+    report = json.loads((tmp_path / "live" / "verification.json").read_text())
+    assert report["format"] == "coplan.verification/1" and report["summary"]["passed"] and report["violations"] == []
+    again = run("verify", prob, str(tmp_path / "live" / "plan.json"), "--out", str(tmp_path / "live"))
+    assert again.exit_code == ExitCode.OK, again.output
     # a second run into the same folder keeps the first one whole, as `coplan solve` does
     first = (tmp_path / "live" / "run.json").read_bytes()
     r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "live"), "--json")

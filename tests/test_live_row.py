@@ -277,6 +277,8 @@ def test_coplan_run_stop_and_go_writes_a_verified_run_and_refuses_what_does_not_
     assert doc["mode"] == "row stop and go" and doc["metrics"]["verified"] and doc["options"]["mode"] == "stop-and-go"
     assert doc["options"]["speed"] is None  # (no cruising speed stop and go)
     assert verify(parse_problem(path.read_text()), load_plan(tmp_path / "live" / "plan.json")).passed
+    report = json.loads((tmp_path / "live" / "verification.json").read_text())  # (the verifier's whole report)
+    assert report["format"] == "coplan.verification/1" and report["summary"]["passed"] and report["violations"] == []
     for args, words in ((["--gantry", "stop-and-go", "--speed", "0.1"], "--speed: applies on the move"),
                         (["--gantry", "auto"], "expected one of 'continuous', 'stop-and-go'; found 'auto'")):
         bad = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["run", str(path), *args, "-o", str(tmp_path / "x")])

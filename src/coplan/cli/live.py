@@ -122,7 +122,7 @@ def run_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print the metrics as JSON.")] = False,
 ):
     """Simulate a cell or a row live: re-plan as detections arrive, verify what was executed, compare with the omniscient plan."""
-    from ..output import RunFolder
+    from ..output import RunFolder, signals_deferred
     from ..plan import jsonable
     from ..problem.model import load_problem
     from ..live.cell import LiveOptions
@@ -165,9 +165,9 @@ def run_cmd(
         result = simulate(prob, fd, opts, seed=seed, progress=bars)
     result.plan.problem_file = prob.file_record()
     folder = RunFolder(out)
-    with folder as stage:
+    with signals_deferred(), folder as stage:  # (whole: a Ctrl-C here is answered once they are written)
         result.plan.save(stage)
-        (stage / "verification.json").write_text(json.dumps(jsonable(result.verification.summary()), indent=1))
+        result.verification.save(stage / "verification.json")  # (the full report, as coplan solve and verify write)
         (stage / "run.json").write_text(json.dumps(jsonable(result.run), indent=1, allow_nan=False))
         if animate:
             from ..live.animate import animate_live
@@ -215,7 +215,7 @@ def _missed_line(fruit: dict) -> str:
 
 def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults):
     """``coplan run ROW``: the row live, on the move or stop and go (:mod:`coplan.row.live`)."""
-    from ..output import RunFolder
+    from ..output import RunFolder, signals_deferred
     from ..pipeline import status_exit_code
     from ..plan import jsonable
     from ..row.live import LiveRowOptions, run_live_row
@@ -256,9 +256,9 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
            "outcome": res.outcome, "metrics": res.metrics}
     res.plan.problem_file = prob.file_record()  # (coplan view / plot / animate find the row from the plan)
     folder = RunFolder(out)
-    with folder as stage:
+    with signals_deferred(), folder as stage:  # (whole: a Ctrl-C here is answered once they are written)
         res.plan.save(stage)
-        (stage / "verification.json").write_text(json.dumps(jsonable(res.verification.summary()), indent=1))
+        res.verification.save(stage / "verification.json")  # (the full report, as coplan solve and verify write)
         (stage / "run.json").write_text(json.dumps(jsonable(doc), indent=1, allow_nan=False))
         names = _staged(stage)
     work_done()
