@@ -581,3 +581,23 @@ def test_the_live_cell_snippet_in_the_user_docs_runs():
     cell, state = env["cell"], env["state"]
     assert env["close"] is not None and cell.tracks[env["close"].track].refined
     assert set(state) == {a.name for a in env["problem"].arms} and all(s.shape == (3, 2, 2) for s in state.values())
+
+
+def test_a_feed_hides_fruit_only_behind_fruit_some_arm_reaches(greenhouse) -> None:
+    """(A reachable fruit 0.2 m from the out-of-reach f01 was hidden behind it: "never revealed
+    (hidden behind f01, which was not picked)", every run of that feed partial, the planner
+    blamed.) Over seeds, every occluder is a fruit some arm reaches, and fruit still hide."""
+    import dataclasses
+
+    from coplan.problem.model import Fruit
+
+    prob = dataclasses.replace(greenhouse, fruits=greenhouse.fruits + (Fruit("f13", (-0.75, 1.45)),))
+    out = set(prob.unreachable())
+    assert "f01" in out and "f13" not in out
+    hidden = 0
+    for seed in range(12):
+        feed = make_feed(prob, after_pick=1.0, seed=seed)
+        afters = {d.after for d in feed.detections if d.after is not None}
+        assert not afters & out
+        hidden += len(afters)
+    assert hidden > 0

@@ -273,7 +273,7 @@ def make_feed(problem: Problem, known: float = 0.5, sigma: float = 0.01, false_r
     """A seeded feed for ``problem``: the detections a camera might report.
 
     A share ``known`` of the fruit is detected at t = 0; of the rest, a share ``after_pick`` is
-    hidden behind a neighbouring fruit (within 0.35 m, detected at t = 0 or at a time) and
+    hidden behind a neighbouring fruit some arm reaches (within 0.35 m, detected at t = 0 or at a time) and
     detected 0-0.5 s after that one is picked, the others at uniform times in
     ``(0, reveal_by]`` (default: half the problem's makespan lower bound). Every measurement has
     Gaussian noise ``sigma`` per coordinate. Each true detection is followed, with probability
@@ -297,6 +297,9 @@ def make_feed(problem: Problem, known: float = 0.5, sigma: float = 0.01, false_r
     reveal_by = max(float(reveal_by), 1e-3)
     truth: list[tuple[float, str, str | None]] = []  # (t, fruit, after)
     visible: list[int] = []
+    # an occluder is a fruit some arm reaches: one no arm picks would hide its fruit for good
+    # (a reachable fruit behind the out-of-reach f01 was "never revealed", the run partial)
+    picked = set(problem.reachable_ids()) if after_pick > 0 else set()
     for k, j in enumerate(order):
         f = fruits[j]
         if k < n_known:
@@ -304,8 +307,9 @@ def make_feed(problem: Problem, known: float = 0.5, sigma: float = 0.01, false_r
             visible.append(j)
             continue
         near = [i for i in visible if math.dist(fruits[i].position, f.position) < 0.35]
-        if near and rng.random() < after_pick:
-            occluder = fruits[min(near, key=lambda i: math.dist(fruits[i].position, f.position))]
+        hides = [i for i in near if fruits[i].id in picked]
+        if near and rng.random() < after_pick and hides:  # (the same draws as before: the other fruit's feed unchanged)
+            occluder = fruits[min(hides, key=lambda i: math.dist(fruits[i].position, f.position))]
             truth.append((float(rng.uniform(0.0, 0.5)), f.id, occluder.id))
         else:
             truth.append((float(rng.uniform(0.0, reveal_by)), f.id, None))
