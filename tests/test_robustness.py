@@ -312,6 +312,37 @@ def test_a_ctrl_c_while_the_command_loads_exits_130_without_a_traceback() -> Non
     assert p.returncode == 130 and "Traceback" not in p.stderr, (p.returncode, p.stderr)
 
 
+def _console_script(body: str) -> str:
+    """A ``coplan``-like command (the console's handlers) whose one command runs ``body``."""
+    return ("import time, weakref, typer\nfrom rich.console import Console\nfrom coplan.cli.console import run_console\n"
+            "app = typer.Typer()\n@app.command()\ndef slow() -> None:\n"
+            + "".join(f"    {ln}\n" for ln in body.splitlines())
+            + "    print('finished')\nrun_console(app, Console(stderr=True))\n")
+
+
+def test_a_ctrl_c_python_swallowed_still_interrupts() -> None:
+    """(A Ctrl-C in the first second of ``coplan run``, while NumPy and SciPy load, now and then
+    landed in a weakref callback -- printed as "Exception ignored" and dropped: the run went on,
+    wrote its files and exited 0.) The command stops, exit 130, nothing printed of it."""
+    import subprocess
+    import sys
+
+    body = "class A: pass\na = A()\ndef cb(ref): raise KeyboardInterrupt\nr = weakref.ref(a, cb)\ndel a\ntime.sleep(5)"
+    p = subprocess.run([sys.executable, "-c", _console_script(body)], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 130 and "finished" not in p.stdout and "Exception ignored" not in p.stderr, (p.returncode, p.stderr)
+
+
+def test_an_import_error_after_a_ctrl_c_is_that_interruption(monkeypatch) -> None:
+    """(A Ctrl-C landing in an extension's initialisation said "internal error (ImportError):
+    initialization failed", exit 1.) With a Ctrl-C seen, it is the interruption, exit 130;
+    without one, an internal error."""
+    from coplan.cli import failures
+
+    assert failures.failure_of(ImportError("initialization failed"))[0] == ExitCode.INTERNAL
+    monkeypatch.setattr(failures, "INTERRUPTED", [2])
+    assert failures.failure_of(ImportError("initialization failed")) == (ExitCode.INTERRUPTED, "interrupted by the user (Ctrl-C)")
+
+
 def test_an_integer_option_out_of_range_is_shown_as_given():
     """(--false-burst 100000000 said 'found 1e+08'.)"""
     res = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["run", "course_row", "--false-burst", "100000000"])

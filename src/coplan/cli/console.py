@@ -80,6 +80,37 @@ class PipeSafeStream:
         return getattr(self._stream, name)
 
 
+def _redeliver(hook, main: int):
+    """An unraisable-exception hook that answers a Ctrl-C or SIGTERM Python swallowed -- its
+    KeyboardInterrupt raised inside a weakref callback, a ``__del__`` or a gc callback is printed
+    as "Exception ignored" and dropped, and the command went on to finish and write its files
+    (exit 0) -- by raising it again 20 ms later from a timer (SIGALRM, where the platform has
+    one): it lands at the main thread's instruction then, where it interrupts (and, should that
+    be another such callback, comes here again). Anything else goes to ``hook``."""
+    import os
+    import signal
+
+    if not hasattr(signal, "setitimer"):
+        return hook
+    pending: list[bool] = []
+
+    def on_alarm(signum, frame):
+        if pending:
+            pending.clear()
+            raise KeyboardInterrupt
+
+    signal.signal(signal.SIGALRM, on_alarm)
+
+    def redeliver(args) -> None:
+        if args.exc_type is not None and issubclass(args.exc_type, KeyboardInterrupt) and os.getpid() == main:
+            pending.append(True)
+            signal.setitimer(signal.ITIMER_REAL, 0.02)
+            return
+        hook(args)
+
+    return redeliver
+
+
 def run_console(app, err_console) -> None:
     """Run the typer ``app`` as the ``coplan`` command. SIGTERM is handled like Ctrl-C (the
     planners save what they have), then exits with 143 instead of 130. stdout and stderr are
@@ -106,8 +137,14 @@ def run_console(app, err_console) -> None:
             err_console.print("terminated (SIGTERM): stopping; a solve keeps what it has, a live run writes nothing", markup=False)
         raise KeyboardInterrupt
 
+    def on_int(signum, frame):
+        failures.INTERRUPTED.append(signum)
+        raise KeyboardInterrupt
+
     if hasattr(signal, "SIGTERM"):
         signal.signal(signal.SIGTERM, on_term)
+    signal.signal(signal.SIGINT, on_int)
+    sys.unraisablehook = _redeliver(sys.unraisablehook, main)
     sys.stdout = PipeSafeStream(sys.stdout)
     sys.stderr = PipeSafeStream(sys.stderr)  # (progress and messages: ``2>&1 | head`` closes it too)
     try:

@@ -27,11 +27,13 @@ from ..errors import CoplanError, InputError, Issue
 from ..kinds import ExitCode
 from ..output import OutputError, check_folder
 
-__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "CONSOLE", "work_done", "usage", "check_out_dir",
-           "check_overwrite"]
+__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "INTERRUPTED", "CONSOLE", "work_done",
+           "usage", "check_out_dir", "check_overwrite"]
 
 # set by the console entry point when SIGTERM arrived: an interruption then exits 143, not 130
 TERMINATED: list[int] = []
+# set by the console entry point when Ctrl-C arrived: an import it broke ("initialization failed") is that interruption
+INTERRUPTED: list[int] = []
 # set by the console entry point: this process is the ``coplan`` command (not a test's CliRunner),
 # whose signal dispositions a command may change for the rest of its life
 CONSOLE: list[bool] = []
@@ -163,7 +165,8 @@ def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
         return exc.code, exc.message
     if isinstance(exc, InputError):
         return ExitCode.BAD_INPUT, str(exc)
-    if isinstance(exc, KeyboardInterrupt):
+    if isinstance(exc, KeyboardInterrupt) or (isinstance(exc, ImportError) and (INTERRUPTED or TERMINATED)):
+        # (a Ctrl-C landing in a C extension's initialisation surfaces as its ImportError)
         return (ExitCode.TERMINATED, "terminated (SIGTERM)") if TERMINATED else (ExitCode.INTERRUPTED, "interrupted by the user (Ctrl-C)")
     if isinstance(exc, CoplanError):  # an error class may name its own exit code
         return ExitCode(getattr(exc, "exit_code", ExitCode.INTERNAL)), str(exc)
