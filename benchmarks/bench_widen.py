@@ -148,13 +148,39 @@ def live_proxy(n: int) -> None:
                   f"{picked} / {true} | {bad} runs failed verification |")
 
 
+def sweeps(tmp: Path) -> None:
+    """The makespan against the clearance asked for, crossing_paths and dense_overlap (optimal)."""
+    for stem in ("crossing_paths", "dense_overlap"):
+        path = next(p for p in shipped_problems() if p.stem == stem)
+        cost = clearance_cost(path, tmp / f"sweep-{stem}", EXTRAS_MM, "optimal", figures=False)
+        print(f"\n## {cost.problem}: makespan against the clearance asked for (optimal planner)\n")
+        print("| clearance (m) | makespan (s) | x the problem's | certified margin (mm) | the plan planned for | "
+              "that level's own plan (s) | harvested | verified |")
+        print("|---|---|---|---|---|---|---|---|")
+        for r in cost.rows:
+            if r.get("error"):
+                print(f"| {r['clearance']:.3f} | impossible: {r['error']} | - | - | - | - | - | - |")
+                continue
+            ratio = "-" if r.get("ratio") is None else f"{r['ratio']:.3f}"
+            mine = r["plan_from_mm"] == r["extra_mm"]
+            print(f"| {r['clearance']:.3f} (+{r['extra_mm']:g} mm) | {r['makespan']:.3f} | {ratio} | "
+                  f"{r['margin_mm']:.1f} | {'this level' if mine else '+%g mm' % r['plan_from_mm']} | "
+                  f"{r['planned_makespan']:.3f} | {r['harvested']}/{r['reachable']} | {'yes' if r['verified'] else 'NO'} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--layouts", type=int, default=30)
     ap.add_argument("--no-sweep", action="store_true")
+    ap.add_argument("--sweep-only", action="store_true", help="the makespan-against-clearance tables only")
     ap.add_argument("--live", type=int, default=0, help="live proxy runs per setting (0: none)")
     args = ap.parse_args()
     t0 = time.perf_counter()
+    if args.sweep_only:
+        with tempfile.TemporaryDirectory() as tmp:
+            sweeps(Path(tmp))
+        print(f"\n(one run, {time.perf_counter() - t0:.0f} s)")
+        return
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         shipped = [load_problem(p) for p in shipped_problems()]
@@ -170,19 +196,7 @@ def main() -> None:
         both = [r["jerk"] / r["jerk_before"] for r in rows + lay if r["jerk_before"]]
         print(f"\nall {len(both)} problems (shipped and layouts): median RMS jerk ratio {statistics.median(both):.3f}")
         if not args.no_sweep:
-            for stem in ("crossing_paths", "dense_overlap"):
-                path = next(p for p in shipped_problems() if p.stem == stem)
-                cost = clearance_cost(path, tmp / f"sweep-{stem}", EXTRAS_MM, "optimal", figures=False)
-                print(f"\n## {cost.problem}: makespan against the clearance asked for (optimal planner)\n")
-                print("| clearance (m) | makespan (s) | x the problem's | certified margin (mm) | harvested | verified |")
-                print("|---|---|---|---|---|---|")
-                for r in cost.rows:
-                    if r.get("error"):
-                        print(f"| {r['clearance']:.3f} | impossible: {r['error']} | - | - | - | - |")
-                        continue
-                    ratio = "-" if r.get("ratio") is None else f"{r['ratio']:.3f}"
-                    print(f"| {r['clearance']:.3f} (+{r['extra_mm']:g} mm) | {r['makespan']:.3f} | {ratio} | "
-                          f"{r['margin_mm']:.1f} | {r['harvested']}/{r['reachable']} | {'yes' if r['verified'] else 'NO'} |")
+            sweeps(tmp)
     if args.live:
         live_proxy(args.live)
     print(f"\n(one run, {time.perf_counter() - t0:.0f} s)")

@@ -103,3 +103,28 @@ def test_less_clearance_than_the_problem_s_is_refused_before_any_work(tmp_path):
     with pytest.raises(ValueError, match="expected extra clearances >= 0 mm, found -10"):
         clearance_cost(_path("crossing_paths"), tmp_path / "c", (-10, 25), "coordinated", figures=False)
     assert not (tmp_path / "c").exists()
+
+
+def test_a_smaller_clearance_s_plan_that_keeps_a_larger_one_is_its_row_when_faster(tmp_path, monkeypatch):
+    """(The optimal plan of crossing_paths at its clearance keeps 70 mm beyond it, so it keeps
+    +50 mm too, at 6.22 s; the +50 mm row said 6.50 s, "1.044 x": a cost of room that a plan
+    already in the sweep does not pay.) Here the planner's own plan at +25 mm is made slower
+    (its makespan figure raised 1 s): the row is the +0 mm plan, verified against 0.075 m, and
+    says so; its own plan's figure is kept beside it."""
+    import coplan.pipeline as pipeline
+
+    real = pipeline.solve
+
+    def solve(problem, **kw):
+        res = real(problem, **kw)
+        if problem.task.clearance > 0.06:
+            res.plan.metrics["makespan"] += 1.0
+        return res
+
+    monkeypatch.setattr(pipeline, "solve", solve)
+    cost = clearance_cost(_path("crossing_paths"), tmp_path, (0, 25), "coordinated", figures=False)
+    zero, more = cost.rows
+    assert more["plan_from_mm"] == 0.0 and more["makespan"] == zero["makespan"] and more["ratio"] == 1.0
+    assert more["planned_makespan"] == pytest.approx(zero["makespan"] + 1.0) and more["verified"]
+    assert more["margin_mm"] == pytest.approx(zero["margin_mm"] - 25.0, abs=1e-6)  # the same plan, 25 mm less room to spare
+    assert "| +25 | 0.075 | 6.50 |" in (tmp_path / "clearance.md").read_text() and "+0 mm's" in (tmp_path / "clearance.md").read_text()
