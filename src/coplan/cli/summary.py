@@ -231,7 +231,7 @@ def print_summary(console, res) -> None:
             wid = (res.plan.solver or {}).get("widen") or {}
             if wid.get("accepted"):
                 p(f"  widened           margin {1000 * wid['margin_before']:.1f} -> {1000 * wid['margin']:.1f} mm at the same makespan "
-                  f"({fmt(wid.get('wall_seconds'), ' s', 2)}; option widen)")
+                  f"(the stage took {fmt(wid.get('wall_seconds'), ' s', 2)} of planning; option widen)")
             elif wid.get("reason"):
                 p(f"  not widened       {safe(wid['reason'])}")
         per = m.get("per_arm") or {}
