@@ -101,6 +101,33 @@ def test_resume_skips_finished_rows_and_survives_a_torn_line(small_run, tmp_path
     assert (again.skipped, again.done, again.counts) == (6, 0, {"success": 6})
 
 
+def test_a_second_sweep_into_a_folder_another_is_writing_is_refused(small_run, tmp_path):
+    """(Two sweeps into one folder at once both ran: the second solved every problem the first
+    had not finished again, and the journal held those rows twice.) While the folder's lock is
+    held the second is refused, naming the first, before any work; once released, it runs."""
+    from coplan.sweep.run import _FolderLock
+    from coplan.sweep.spec import SweepError
+
+    src, _, _ = small_run
+    out = tmp_path / "busy"
+    shutil.copytree(src, out)
+    spec = load_sweep(SMALL)
+    first = _FolderLock(out, spec)
+    first.acquire()
+    try:
+        before = (out / JOURNAL).read_text()
+        with pytest.raises(SweepError, match="being written by coplan sweep .* process [0-9]+; wait for it to finish"):
+            run_sweep(spec, out, workers=1)
+        assert (out / JOURNAL).read_text() == before
+    finally:
+        first.release()
+    again = run_sweep(spec, out, workers=1)  # (all done: nothing solved, and its own lock released at the end)
+    assert again.skipped == 6
+    last = _FolderLock(out, spec)
+    last.acquire()
+    last.release()
+
+
 def test_a_killed_worker_process_is_replaced_and_its_task_retried(tmp_path):
     marker = tmp_path / "killed-once"
 

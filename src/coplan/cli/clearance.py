@@ -59,6 +59,8 @@ def run_clearance_sweep(source: Path, kind, extra, out: Path, figures: bool, opt
         for r in cost.rows:
             table.add_row(*[safe(cell(r, k)) for k, _ in COLUMNS])
         print_table(out_console, table)
-        out_console.print(f"wrote {safe(cost.files['json'])} and {safe(cost.files['markdown'])}")
+        out_console.print(f"wrote {safe(cost.files['json'])}, {safe(cost.files['markdown'])}"
+                          + (f", {safe(cost.files['figure'])}" if cost.files.get("figure") else "")
+                          + " and each clearance's plan (plus_<mm>mm/) and problem (plus_<mm>mm.yaml) beside them")
     failed = any(r.get("makespan") and not r.get("verified") for r in cost.rows)
     return ExitCode.SOLVER_FAILED if failed else ExitCode.OK

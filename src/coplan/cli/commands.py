@@ -491,7 +491,10 @@ def compare_cmd(
             err_console.print(f"{row['problem']}: {row['planner']} failed: {row['error']}", markup=False, highlight=False)
         for note in cmp.notes:
             err_console.print(f"note: {note}", markup=False, highlight=False)
-        out_console.print(f"wrote {_s(cmp.files['json'])} and {_s(cmp.files['markdown'])}")
+        figs = [k for k in cmp.files if k.endswith((".png", ".gif"))]  # (it named the two tables alone)
+        out_console.print(f"wrote {_s(str(out))}/: {Path(cmp.files['json']).name}, {Path(cmp.files['markdown']).name}"
+                          + (f", {len(figs)} figure{'s' * (len(figs) != 1)}" if figs else "")
+                          + " and each run's plan files, in a folder per problem")
     code = ExitCode.BAD_INPUT if cmp.bad_inputs else ExitCode.SOLVER_FAILED if cmp.failed_runs else ExitCode.OK
     raise typer.Exit(int(code))
 

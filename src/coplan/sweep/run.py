@@ -43,6 +43,41 @@ __all__ = ["SweepOutcome", "run_sweep", "solve_item", "hard_limit", "exit_class"
 
 SNAPSHOT_SECONDS = 5.0  # how often results.parquet is rewritten while the sweep runs
 STATE = ".sweep-state"
+LOCK = ".sweep.lock"  # held (flock) by the sweep writing into the folder: a second one is refused
+
+
+class _FolderLock:
+    """An exclusive lock on a sweep's output folder (``fcntl.flock`` on :data:`LOCK`, which the
+    system releases when the process ends, however it ends): two sweeps into one folder solved
+    every problem twice and journaled each row twice. Where the platform has no ``flock``, none."""
+
+    def __init__(self, out: Path, spec: SweepSpec):
+        self.out, self.spec, self.fd = out, spec, None
+
+    def acquire(self) -> None:
+        try:
+            import fcntl
+        except ImportError:  # (not on this platform)
+            return
+        if self.fd is not None:
+            return
+        fd = os.open(self.out / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            who = os.read(fd, 200).decode("utf-8", "replace").strip() or "another process"
+            os.close(fd)
+            raise SweepError([Issue("", f"expected an output folder no other coplan sweep is writing to, found {self.out} "
+                                        f"being written by {who}; wait for it to finish (a re-run then skips every row "
+                                        f"it did), or choose another --out")], self.spec.source) from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"coplan sweep {self.spec.name!r}, process {os.getpid()}".encode())
+        self.fd = fd
+
+    def release(self) -> None:
+        if self.fd is not None:
+            os.close(self.fd)  # (closing releases the lock; the file stays, empty of meaning)
+            self.fd = None
 
 
 def hard_limit(time_limit: float) -> float:
@@ -422,50 +457,65 @@ def run_sweep(
     if other != spec.name:
         raise SweepError([Issue("name", f"expected the output folder of sweep {spec.name!r} or a new folder, found {out} "
                                         f"holding sweep {other!r}; choose another --out")], spec.source)
-    items = spec.items(planner, time_limit)
-    previous = {r["key"]: r for r in read_rows(out)}
-    done = {k for k, r in previous.items() if r["status"] != RowStatus.LOST.value}
-    todo = [it for it in items if it.key not in done]
-    n_workers = workers or default_workers()
-    outcome = SweepOutcome(out=out, total=len(items), skipped=len(items) - len(todo), workers=n_workers)
-    keys = {it.key for it in items}
-    outcome.others = {k: str(r.get("planner")) for k, r in previous.items() if k not in keys}
-    outcome.other_planners = sorted(set(outcome.others.values()) - {str(it.planner) for it in items})
-    for it in items:
-        if it.key in done:
-            s = previous[it.key]["status"]
-            outcome.counts[s] = outcome.counts.get(s, 0) + 1
-            if keep_plans and s not in _NO_PLAN and not (out / "plans" / f"{it.key}.json").exists():
-                outcome.unplanned += 1
-    client = cluster = None
-    # (a scheduler that goes away printed the client's tracebacks for every task: each becomes a
-    # 'lost' row saying so, which a re-run solves; the level is restored when the sweep ends)
-    client_log = logging.getLogger("distributed.client")
-    client_level = client_log.level
-    if scheduler is not None:
-        client_log.setLevel(logging.CRITICAL)
-    try:
-        if todo:  # (first: a scheduler that cannot be reached leaves nothing behind, not an empty sweep)
-            client, cluster = _client(n_workers, scheduler, spec.retries)
+    lock = _FolderLock(out, spec)
+    try:  # (whatever stops it before the sweep's own try below: the folder's lock released)
+        if out.is_dir():  # (before reading what is done: another sweep writing here would change it)
+            lock.acquire()
+        items = spec.items(planner, time_limit)
+        previous = {r["key"]: r for r in read_rows(out)}
+        done = {k for k, r in previous.items() if r["status"] != RowStatus.LOST.value}
+        todo = [it for it in items if it.key not in done]
+        n_workers = workers or default_workers()
+        outcome = SweepOutcome(out=out, total=len(items), skipped=len(items) - len(todo), workers=n_workers)
+        keys = {it.key for it in items}
+        outcome.others = {k: str(r.get("planner")) for k, r in previous.items() if k not in keys}
+        outcome.other_planners = sorted(set(outcome.others.values()) - {str(it.planner) for it in items})
+        for it in items:
+            if it.key in done:
+                s = previous[it.key]["status"]
+                outcome.counts[s] = outcome.counts.get(s, 0) + 1
+                if keep_plans and s not in _NO_PLAN and not (out / "plans" / f"{it.key}.json").exists():
+                    outcome.unplanned += 1
+        client = cluster = None
+        # (a scheduler that goes away printed the client's tracebacks for every task: each becomes a
+        # 'lost' row saying so, which a re-run solves; the level is restored when the sweep ends)
+        client_log = logging.getLogger("distributed.client")
+        client_level = client_log.level
+        if scheduler is not None:
+            client_log.setLevel(logging.CRITICAL)
+        try:
+            if todo:  # (first: a scheduler that cannot be reached leaves nothing behind, not an empty sweep)
+                client, cluster = _client(n_workers, scheduler, spec.retries)
+        except BaseException:
+            client_log.setLevel(client_level)
+            raise
+        out.mkdir(parents=True, exist_ok=True)
+        try:
+            lock.acquire()  # (a new folder: made now)
+        except BaseException:
+            for closing in (client, cluster):
+                if closing is not None:
+                    closing.close()
+            client_log.setLevel(client_level)
+            raise
+        state = out / STATE
+        state.mkdir(exist_ok=True)
+        _write_json(out / "sweep.json", {
+            "name": spec.name, "source": spec.source, "base": spec.base.value, "mode": spec.mode.value,
+            "problems": len(items), "already_done": outcome.skipped, "planner": (PlannerKind(planner).value if planner else spec.planner.value),
+            "time_limit": time_limit if time_limit is not None else spec.time_limit, "retries": spec.retries,
+            "vary": {k: v for k, v in spec.vary.items()}, "fixed": spec.fixed, "options": spec.options,
+            "scheduler": scheduler or f"LocalCluster({n_workers} worker processes x 1 thread)", "started": time.time(),
+            "software": software_record(),
+        })
+        if on_start is not None:
+            on_start(outcome)
+        journal = RowJournal(out)
+        if keep_plans:
+            (out / "plans").mkdir(exist_ok=True)
     except BaseException:
-        client_log.setLevel(client_level)
+        lock.release()
         raise
-    out.mkdir(parents=True, exist_ok=True)
-    state = out / STATE
-    state.mkdir(exist_ok=True)
-    _write_json(out / "sweep.json", {
-        "name": spec.name, "source": spec.source, "base": spec.base.value, "mode": spec.mode.value,
-        "problems": len(items), "already_done": outcome.skipped, "planner": (PlannerKind(planner).value if planner else spec.planner.value),
-        "time_limit": time_limit if time_limit is not None else spec.time_limit, "retries": spec.retries,
-        "vary": {k: v for k, v in spec.vary.items()}, "fixed": spec.fixed, "options": spec.options,
-        "scheduler": scheduler or f"LocalCluster({n_workers} worker processes x 1 thread)", "started": time.time(),
-        "software": software_record(),
-    })
-    if on_start is not None:
-        on_start(outcome)
-    journal = RowJournal(out)
-    if keep_plans:
-        (out / "plans").mkdir(exist_ok=True)
     stop = _Interrupt().__enter__()
     try:
         if todo:
@@ -522,6 +572,7 @@ def run_sweep(
                 cluster.close()
         finally:
             client_log.setLevel(client_level)
+            lock.release()
             if main:
                 signal.signal(signal.SIGINT, old)
     return outcome
