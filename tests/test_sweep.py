@@ -696,6 +696,23 @@ def test_two_gantry_modes_of_one_row_are_two_designs_in_the_report_not_one_with_
     assert [(w["key"], w["gantry"]) for w in worst] == [("a", "stop-and-go"), ("b", "continuous")]
 
 
+def test_a_worst_case_names_the_parameters_its_rows_differ_in():
+    """(Four worst cases read "row-2arms-1.8m-5fruit-seed1 (seed 1, key ...)", the same name,
+    told apart by key alone: they differed in clearance and joint speed.) Each names the
+    parameters the sweep's rows differ in besides the seed."""
+    from coplan.sweep.report import summarise, _text
+    from coplan.sweep.table import normalise
+
+    base = {"exit_class": "ok", "verified": True, "status": "success", "reachable": 5, "n_arms": 2, "spacing": 1.8,
+            "link_1": 1.0, "link_2": 0.8, "planner": "coordinated", "seed": 1, "name": "row-2arms-1.8m-5fruit-seed1"}
+    rows = [normalise(dict(base, key=f"k{i}", throughput=10.0 + i, ratio=1.1 + 0.1 * i,
+                           params=json.dumps({"clearance": c, "max_velocity": v, "seed": 1, "n_fruits": 5})))
+            for i, (c, v) in enumerate([(0.05, 1.0), (0.05, 2.0), (0.15, 1.0), (0.15, 2.0)])]
+    worst = summarise(rows)["worst"]["ratio"]
+    assert [w["params"] for w in worst][:2] == [{"clearance": 0.15, "max_velocity": 2.0}, {"clearance": 0.15, "max_velocity": 1.0}]
+    assert "seed 1, clearance 0.15, max_velocity 2.0, key k3)" in _text(summarise(rows), "t")
+
+
 def test_ctrl_c_on_a_sweep_stops_it_cleanly_without_the_workers_tracebacks(tmp_path):
     """Ctrl-C reaches the whole foreground process group: each Dask worker printed its own
     KeyboardInterrupt traceback after the sweep's clean 'interrupted' (the workers now start with

@@ -147,10 +147,17 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
     unverified_success = [r["key"] for r in ok if not r["verified"]]
     med = {k: _median([r[k] for r in ok]) for k in _MEDIANS}
 
+    params = {r["key"]: json.loads(r["params"] or "{}") for r in ok}
+    # the parameters the rows differ in besides the seed: a worst case names its own (four rows
+    # "row-2arms-1.8m-5fruit-seed1" at other clearances and speeds were told apart by key alone)
+    differ = sorted(k for k in {k for p in params.values() for k in p} - {"seed"}
+                    if len({json.dumps(p.get(k), default=str) for p in params.values()}) > 1)
+
     def worst(col: str, high: bool, n: int = 5) -> list[dict]:
         rs = [r for r in ok if r[col] is not None]
         rs.sort(key=lambda r: r[col], reverse=high)
-        return [{"key": r["key"], "name": r["name"], "seed": r["seed"], "gantry": _mode(r), col: r[col]} for r in rs[:n]]
+        return [{"key": r["key"], "name": r["name"], "seed": r["seed"], "gantry": _mode(r),
+                 "params": {k: params[r["key"]].get(k) for k in differ}, col: r[col]} for r in rs[:n]]
 
     def gain(a: str, b: str) -> float | None:
         xs = [r[a] / r[b] for r in ok if r[a] and r[b]]
@@ -196,8 +203,9 @@ def _text(s: dict[str, Any], title: str) -> str:
     worst = {col: rs for col, rs in s["worst"].items() if rs}
     lines += ["", "## Worst cases", ""] if worst else []  # (none among no successful rows: no empty heading)
     for col, rs in worst.items():
-        lines.append(f"- {col}: " + "; ".join(f"{r['name']} (seed {r['seed']}{', ' + r['gantry'] if r.get('gantry') else ''}, "
-                                              f"key {r['key']}) {_fmt(r[col])}" for r in rs))
+        lines.append(f"- {col}: " + "; ".join(f"{r['name']} (seed {r['seed']}{', ' + r['gantry'] if r.get('gantry') else ''}"
+                                              + "".join(f", {k} {json.dumps(v, default=str)}" for k, v in (r.get("params") or {}).items())
+                                              + f", key {r['key']}) {_fmt(r[col])}" for r in rs))
     if s["failures"]:
         lines += ["", f"## Rows that are not a success ({len(s['failures'])})", "", "| key | problem | seed | status | exit class | message |",
                   "|---|---|---|---|---|---|"]
