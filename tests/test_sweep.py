@@ -862,3 +862,13 @@ def test_a_row_file_in_a_files_sweep_has_its_rail_as_its_length(tmp_path):
     problem = parse_problem(item.problem_text)
     cols = _problem_columns(problem, item)
     assert cols["row_length"] == 8.0 and cols["density"] == pytest.approx(len(problem.fruits) / 8.0)
+
+
+def test_a_value_repeated_in_a_list_is_refused_at_its_line():
+    """(``seed: [0, 0]`` made one problem of two, silently.)"""
+    text = "name: dup\nbase: row\nfixed:\n  n_arms: 2\n  n_fruits: 4\nvary:\n  seed: [0, 0]\n  spacing: [1.6, 2.0, 1.6]\n"
+    with pytest.raises(SweepError) as e:
+        parse_sweep(text, "dup.yaml")
+    by_path = {i.path: i for i in e.value.issues}
+    assert set(by_path) == {"vary.seed[1]", "vary.spacing[2]"}
+    assert by_path["vary.seed[1]"].line == 7 and "expected distinct values, found number 0 again" in by_path["vary.seed[1]"].message

@@ -595,7 +595,14 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                 if unknown:  # (said once, not once per value)
                     _one(k, v[0], loc, lines, issues)
                 elif all([_one(k, x, loc + (i,), lines, issues) for i, x in enumerate(v)]):  # (every bad value said)
-                    vary[k] = list(v)
+                    again = next((i for i, x in enumerate(v) if any(json.dumps(x, default=str) == json.dumps(y, default=str)
+                                                                    for y in v[:i])), None)
+                    if again is not None:  # (seed: [0, 0] made one problem of two, silently)
+                        issues.append(Issue(_path(loc + (again,)), f"expected distinct values, found {found(v[again])} again "
+                                                                   f"(the same value makes the same problems again, which the sweep runs once)",
+                                            line_of(lines, loc + (again,))))
+                    else:
+                        vary[k] = list(v)
             else:
                 issues.append(Issue(_path(loc), f"expected a non-empty list of values or a range {{from, to, step}}, found {found(v)}",
                                     line_of(lines, loc)))
