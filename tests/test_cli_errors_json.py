@@ -30,7 +30,7 @@ task:
 """
 EXPECTED_ERRORS = [
     {"path": "arms[0].links[1]", "line": 3, "expected": "a number", "found": "string 'abc'"},
-    {"path": "task.pick_dwell", "line": 9, "expected": "a number >= 0", "found": "-0.3"},
+    {"path": "task.pick_dwell", "line": 9, "expected": "a number >= 0 in s", "found": "-0.3"},
 ]
 
 
