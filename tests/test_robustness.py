@@ -330,6 +330,13 @@ def test_a_ctrl_c_python_swallowed_still_interrupts() -> None:
     body = "class A: pass\na = A()\ndef cb(ref): raise KeyboardInterrupt\nr = weakref.ref(a, cb)\ndel a\ntime.sleep(5)"
     p = subprocess.run([sys.executable, "-c", _console_script(body)], capture_output=True, text=True, timeout=60)
     assert p.returncode == 130 and "finished" not in p.stdout and "Exception ignored" not in p.stderr, (p.returncode, p.stderr)
+    # one swallowed just before a run's files are written waits for them (it cut a write short)
+    body = ("from coplan.output import signals_deferred\nclass A: pass\na = A()\n"
+            "def cb(ref): raise KeyboardInterrupt\nr = weakref.ref(a, cb)\ndel a\n"
+            "with signals_deferred():\n    print('writing', flush=True)\n    time.sleep(0.3)\n    print('whole', flush=True)\n"
+            "time.sleep(5)")
+    p = subprocess.run([sys.executable, "-c", _console_script(body)], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 130 and "whole" in p.stdout and "finished" not in p.stdout, (p.returncode, p.stdout, p.stderr)
 
 
 def test_an_import_error_after_a_ctrl_c_is_that_interruption(monkeypatch) -> None:
@@ -341,6 +348,8 @@ def test_an_import_error_after_a_ctrl_c_is_that_interruption(monkeypatch) -> Non
     assert failures.failure_of(ImportError("initialization failed"))[0] == ExitCode.INTERNAL
     monkeypatch.setattr(failures, "INTERRUPTED", [2])
     assert failures.failure_of(ImportError("initialization failed")) == (ExitCode.INTERRUPTED, "interrupted by the user (Ctrl-C)")
+    # a module missing after a Ctrl-C the planner absorbed is still what it is
+    assert failures.failure_of(ModuleNotFoundError("No module named 'x'"))[0] == ExitCode.INTERNAL
 
 
 def test_an_integer_option_out_of_range_is_shown_as_given():

@@ -872,3 +872,34 @@ def test_a_value_repeated_in_a_list_is_refused_at_its_line():
     by_path = {i.path: i for i in e.value.issues}
     assert set(by_path) == {"vary.seed[1]", "vary.spacing[2]"}
     assert by_path["vary.seed[1]"].line == 7 and "expected distinct values, found number 0 again" in by_path["vary.seed[1]"].message
+
+
+def test_the_sweep_s_ctrl_c_handler_is_installed_under_the_coplan_console_too():
+    """(Under the ``coplan`` command the console's SIGINT handler is not Python's own, and the
+    sweep's, which remembers a Ctrl-C a callback swallowed, was never installed.) Before it,
+    Python's or the console's (marked as raising as Python's does): installed, the console's
+    still told; anything else: left alone."""
+    import signal
+
+    from coplan.sweep.run import _Interrupt
+
+    told = []
+
+    def console(signum, frame):
+        told.append(signum)
+        raise KeyboardInterrupt
+
+    console.raises_keyboard_interrupt = True
+    old = signal.signal(signal.SIGINT, console)
+    try:
+        stop = _Interrupt().__enter__()
+        assert stop.old is console and signal.getsignal(signal.SIGINT) == stop._handler
+        with pytest.raises(KeyboardInterrupt):
+            stop._handler(signal.SIGINT, None)
+        assert stop.seen and told == [signal.SIGINT]
+        stop.__exit__()
+        assert signal.getsignal(signal.SIGINT) is console
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        assert _Interrupt().__enter__().old is None  # (ignored: a sweep leaves that as it is)
+    finally:
+        signal.signal(signal.SIGINT, old)

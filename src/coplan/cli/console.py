@@ -84,26 +84,31 @@ def _redeliver(hook, main: int):
     """An unraisable-exception hook that answers a Ctrl-C or SIGTERM Python swallowed -- its
     KeyboardInterrupt raised inside a weakref callback, a ``__del__`` or a gc callback is printed
     as "Exception ignored" and dropped, and the command went on to finish and write its files
-    (exit 0) -- by raising it again 20 ms later from a timer (SIGALRM, where the platform has
-    one): it lands at the main thread's instruction then, where it interrupts (and, should that
-    be another such callback, comes here again). Anything else goes to ``hook``."""
+    (exit 0) -- by sending the signal again 20 ms later from a timer (SIGALRM, where the platform
+    has one): it lands at the main thread's instruction then and goes to the handler of that
+    moment -- which raises it, or holds it while a run's files are written
+    (:func:`coplan.output.signals_deferred`), or ignores it where closing must not be cut short
+    -- and should it land in another such callback, comes here again. Anything else goes to ``hook``."""
     import os
     import signal
 
+    from . import failures
+
     if not hasattr(signal, "setitimer"):
         return hook
-    pending: list[bool] = []
+    pending: list[int] = []  # the signal to send again
 
     def on_alarm(signum, frame):
         if pending:
+            sig = pending.pop()
             pending.clear()
-            raise KeyboardInterrupt
+            signal.raise_signal(sig)  # (its handler runs as this one returns, where the main thread is)
 
     signal.signal(signal.SIGALRM, on_alarm)
 
     def redeliver(args) -> None:
         if args.exc_type is not None and issubclass(args.exc_type, KeyboardInterrupt) and os.getpid() == main:
-            pending.append(True)
+            pending.append(signal.SIGTERM if failures.TERMINATED and hasattr(signal, "SIGTERM") else signal.SIGINT)
             signal.setitimer(signal.ITIMER_REAL, 0.02)
             return
         hook(args)
@@ -140,6 +145,8 @@ def run_console(app, err_console) -> None:
     def on_int(signum, frame):
         failures.INTERRUPTED.append(signum)
         raise KeyboardInterrupt
+
+    on_int.raises_keyboard_interrupt = True  # (as Python's own: a sweep may put its own before it)
 
     if hasattr(signal, "SIGTERM"):
         signal.signal(signal.SIGTERM, on_term)

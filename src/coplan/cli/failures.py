@@ -165,8 +165,8 @@ def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
         return exc.code, exc.message
     if isinstance(exc, InputError):
         return ExitCode.BAD_INPUT, str(exc)
-    if isinstance(exc, KeyboardInterrupt) or (isinstance(exc, ImportError) and (INTERRUPTED or TERMINATED)):
-        # (a Ctrl-C landing in a C extension's initialisation surfaces as its ImportError)
+    if isinstance(exc, KeyboardInterrupt) or (  # (a Ctrl-C landing in a C extension's initialisation: its ImportError)
+            type(exc) is ImportError and "initialization failed" in str(exc) and (INTERRUPTED or TERMINATED)):
         return (ExitCode.TERMINATED, "terminated (SIGTERM)") if TERMINATED else (ExitCode.INTERRUPTED, "interrupted by the user (Ctrl-C)")
     if isinstance(exc, CoplanError):  # an error class may name its own exit code
         return ExitCode(getattr(exc, "exit_code", ExitCode.INTERNAL)), str(exc)

@@ -400,10 +400,16 @@ class _Interrupt:
 
     def _handler(self, signum, frame):
         self.seen = True
+        if callable(self.old):  # (the console's records the Ctrl-C, then raises)
+            self.old(signum, frame)
         raise KeyboardInterrupt
 
     def __enter__(self):
-        if threading.current_thread() is threading.main_thread() and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        h = signal.getsignal(signal.SIGINT)
+        # (Python's own handler, or the ``coplan`` console's, which raises as it does: the sweep's
+        # was never installed under the console, whose handler is not Python's)
+        if threading.current_thread() is threading.main_thread() and (
+                h is signal.default_int_handler or getattr(h, "raises_keyboard_interrupt", False)):
             self.old = signal.signal(signal.SIGINT, self._handler)
         return self
 
