@@ -128,3 +128,32 @@ def test_a_smaller_clearance_s_plan_that_keeps_a_larger_one_is_its_row_when_fast
     assert more["planned_makespan"] == pytest.approx(zero["makespan"] + 1.0) and more["verified"]
     assert more["margin_mm"] == pytest.approx(zero["margin_mm"] - 25.0, abs=1e-6)  # the same plan, 25 mm less room to spare
     assert "| +25 | 0.075 | 6.50 |" in (tmp_path / "clearance.md").read_text() and "+0 mm's" in (tmp_path / "clearance.md").read_text()
+
+
+def test_an_interruption_while_the_smaller_clearances_plans_are_verified_keeps_the_finished_levels(tmp_path, monkeypatch):
+    """(A Ctrl-C while the sweep verified the +0 mm plan at +25 mm wrote no clearance.json at all.)"""
+    import coplan.pipeline as pipeline
+    import coplan.verify.verifier as verifier
+
+    real_solve, real_verify = pipeline.solve, verifier.verify
+    first: list = []
+
+    def solve(problem, **kw):  # (the +25 mm plan made slower: the +0 mm one is verified there)
+        res = real_solve(problem, **kw)
+        first.append(res.plan)
+        if problem.task.clearance > 0.06:
+            res.plan.metrics["makespan"] += 1.0
+        return res
+
+    def verify(problem, plan, *a, **k):  # (the +0 mm plan at +25 mm: only the sweep verifies that)
+        if problem.task.clearance > 0.06 and first and plan is first[0]:
+            raise KeyboardInterrupt
+        return real_verify(problem, plan, *a, **k)
+
+    monkeypatch.setattr(pipeline, "solve", solve)
+    monkeypatch.setattr(verifier, "verify", verify)
+    with pytest.raises(KeyboardInterrupt):
+        clearance_cost(_path("crossing_paths"), tmp_path, (0, 25), "coordinated", figures=False)
+    assert len(first) == 2  # (both levels planned: it came after, as the +0 mm plan was verified at +25 mm)
+    doc = json.loads((tmp_path / "clearance.json").read_text())
+    assert [r["extra_mm"] for r in doc["rows"]] == [0.0] and "interrupted at +25 mm" in doc["notes"][0]

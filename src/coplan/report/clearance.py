@@ -110,9 +110,7 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
         except KeyboardInterrupt:
             # the levels that finished are written (the one cut short is not: its makespan is not
             # the planner's answer), then the interruption goes on to the caller
-            cost.notes.append(f"interrupted at +{extra:g} mm: this table covers the {len(cost.rows)} of "
-                              f"{len(extras)} clearances that finished")
-            _write(cost, out)
+            _cut_short(cost, out, extra, len(extras))
             raise
         m, ver = res.plan.metrics, res.verification
         mk = m.get("makespan")
@@ -130,13 +128,17 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
         if verified:
             earlier.append((extra, res.plan))
         best = (extra, ver)
-        for e, pl in earlier[:-1] if verified else earlier:  # a smaller clearance's plan that keeps this one, faster
-            mk_e = pl.metrics.get("makespan")
-            if mk_e is None or (verified and mk_e >= mk - 1e-9) or pl.metrics.get("harvested") != m.get("harvested"):
-                continue
-            v = verify(prob, pl)
-            if v.passed:
-                best, mk, verified = (e, v), mk_e, True
+        try:
+            for e, pl in earlier[:-1] if verified else earlier:  # a smaller clearance's plan that keeps this one, faster
+                mk_e = pl.metrics.get("makespan")
+                if mk_e is None or (verified and mk_e >= mk - 1e-9) or pl.metrics.get("harvested") != m.get("harvested"):
+                    continue
+                v = verify(prob, pl)
+                if v.passed:
+                    best, mk, verified = (e, v), mk_e, True
+        except KeyboardInterrupt:  # (while the smaller clearances' plans were verified here: as above)
+            _cut_short(cost, out, extra, len(extras))
+            raise
         if best[0] != extra:
             say(f"{base.name}: the +{best[0]:g} mm plan keeps {clearance:.3f} m too, at {mk:.3f} s "
                 f"(this level's own plan {own:.3f} s)")
@@ -157,6 +159,12 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
         fig.savefig(out / "clearance_cost.png", dpi=110)
         cost.files["figure"] = str(out / "clearance_cost.png")
     return cost
+
+
+def _cut_short(cost: ClearanceCost, out: Path, extra: float, n: int) -> None:
+    """An interruption at level ``extra``: the levels that finished written, with a note."""
+    cost.notes.append(f"interrupted at +{extra:g} mm: this table covers the {len(cost.rows)} of {n} clearances that finished")
+    _write(cost, out)
 
 
 def _write(cost: ClearanceCost, out: Path) -> None:
