@@ -105,8 +105,7 @@ def test_a_second_sweep_into_a_folder_another_is_writing_is_refused(small_run, t
     """(Two sweeps into one folder at once both ran: the second solved every problem the first
     had not finished again, and the journal held those rows twice.) While the folder's lock is
     held the second is refused, naming the first, before any work; once released, it runs."""
-    from coplan.sweep.run import _FolderLock
-    from coplan.sweep.spec import SweepError
+    from coplan.sweep.run import LOCK, FolderBusy, _FolderLock
 
     src, _, _ = small_run
     out = tmp_path / "busy"
@@ -116,13 +115,14 @@ def test_a_second_sweep_into_a_folder_another_is_writing_is_refused(small_run, t
     first.acquire()
     try:
         before = (out / JOURNAL).read_text()
-        with pytest.raises(SweepError, match="being written by coplan sweep .* process [0-9]+; wait for it to finish"):
+        with pytest.raises(FolderBusy, match="being written by coplan sweep .* process [0-9]+; wait for it to finish"):
             run_sweep(spec, out, workers=1)
-        assert (out / JOURNAL).read_text() == before
+        assert (out / JOURNAL).read_text() == before and FolderBusy.exit_code == 2
     finally:
         first.release()
     again = run_sweep(spec, out, workers=1)  # (all done: nothing solved, and its own lock released at the end)
     assert again.skipped == 6
+    assert not (out / LOCK).exists()  # (released and removed: nothing left behind)
     last = _FolderLock(out, spec)
     last.acquire()
     last.release()
@@ -866,7 +866,7 @@ def test_a_row_file_in_a_files_sweep_has_its_rail_as_its_length(tmp_path):
 
 def test_a_value_repeated_in_a_list_is_refused_at_its_line():
     """(``seed: [0, 0]`` made one problem of two, silently.)"""
-    text = "name: dup\nbase: row\nfixed:\n  n_arms: 2\n  n_fruits: 4\nvary:\n  seed: [0, 0]\n  spacing: [1.6, 2.0, 1.6]\n"
+    text = "name: dup\nbase: row\nfixed:\n  n_arms: 2\n  n_fruits: 4\nvary:\n  seed: [0, 0]\n  spacing: [1.6, 2.0, 2]\n"
     with pytest.raises(SweepError) as e:
         parse_sweep(text, "dup.yaml")
     by_path = {i.path: i for i in e.value.issues}

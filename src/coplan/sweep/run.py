@@ -36,6 +36,7 @@ from typing import Any, Callable
 from ..kinds import ExitCode, GantryMode, PlannerKind, RowStatus
 from ..errors import Issue
 from ..provenance import software_record
+from ..output import OutputError
 from .spec import SweepError, SweepItem, SweepSpec
 from .table import RowJournal, read_rows, write_table
 
@@ -44,6 +45,12 @@ __all__ = ["SweepOutcome", "run_sweep", "solve_item", "hard_limit", "exit_class"
 SNAPSHOT_SECONDS = 5.0  # how often results.parquet is rewritten while the sweep runs
 STATE = ".sweep-state"
 LOCK = ".sweep.lock"  # held (flock) by the sweep writing into the folder: a second one is refused
+
+
+class FolderBusy(OutputError):
+    """The output folder is being written by another sweep (a usage error: choose another ``--out``)."""
+
+    exit_code = ExitCode.USAGE
 
 
 class _FolderLock:
@@ -67,16 +74,18 @@ class _FolderLock:
         except OSError:
             who = os.read(fd, 200).decode("utf-8", "replace").strip() or "another process"
             os.close(fd)
-            raise SweepError([Issue("", f"expected an output folder no other coplan sweep is writing to, found {self.out} "
-                                        f"being written by {who}; wait for it to finish (a re-run then skips every row "
-                                        f"it did), or choose another --out")], self.spec.source) from None
+            raise FolderBusy(f"{self.out}: expected an output folder no other coplan sweep is writing to, found it being "
+                             f"written by {who}; wait for it to finish (a re-run then skips every row it did), or "
+                             f"choose another --out") from None
         os.ftruncate(fd, 0)
         os.write(fd, f"coplan sweep {self.spec.name!r}, process {os.getpid()}".encode())
         self.fd = fd
 
     def release(self) -> None:
         if self.fd is not None:
-            os.close(self.fd)  # (closing releases the lock; the file stays, empty of meaning)
+            with contextlib.suppress(OSError):  # (removed while held: no lock file left behind)
+                os.unlink(self.out / LOCK)
+            os.close(self.fd)
             self.fd = None
 
 

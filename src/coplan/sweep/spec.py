@@ -363,6 +363,13 @@ def _check_option(name: str, v: Any) -> str | None:
     return None
 
 
+def _same_value(a, b) -> bool:
+    """Two values of a list that make the same problems: equal numbers however written (2 and 2.0), else equal as JSON."""
+    if finite_number(a) and finite_number(b):
+        return float(a) == float(b)
+    return json.dumps(a, sort_keys=True, default=str) == json.dumps(b, sort_keys=True, default=str)
+
+
 def _range_values(r: dict, kind: str, loc: tuple, lines: dict, issues: list, keep_range: bool, name: str = "") -> list | dict | None:
     where = line_of(lines, loc)
     path = _path(loc)
@@ -595,8 +602,7 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                 if unknown:  # (said once, not once per value)
                     _one(k, v[0], loc, lines, issues)
                 elif all([_one(k, x, loc + (i,), lines, issues) for i, x in enumerate(v)]):  # (every bad value said)
-                    again = next((i for i, x in enumerate(v) if any(json.dumps(x, default=str) == json.dumps(y, default=str)
-                                                                    for y in v[:i])), None)
+                    again = next((i for i, x in enumerate(v) if any(_same_value(x, y) for y in v[:i])), None)
                     if again is not None:  # (seed: [0, 0] made one problem of two, silently)
                         issues.append(Issue(_path(loc + (again,)), f"expected distinct values, found {found(v[again])} again "
                                                                    f"(the same value makes the same problems again, which the sweep runs once)",
