@@ -235,6 +235,7 @@ def test_a_row_says_which_option_it_refuses_and_why(args, words, tmp_path):
     (["export", "plan.json", "--format", "xml"], "--format", "ExportFormat"),
     (["run", "p.yaml", "--gantry", "auto"], "--gantry", "LiveGantryMode"),
     (["sweep", "s.yaml", "--planner", "fast"], "--planner", "PlannerKind"),
+    (["schema", "bogus"], "schema", "SchemaKind"),
 ])
 def test_a_choice_option_s_bad_value_is_said_in_coplan_s_words_with_every_choice(args, option, enum):
     """(``--planner fast`` said "Value error, 'fast' is not one of ...": the validator's words.)
@@ -243,6 +244,8 @@ def test_a_choice_option_s_bad_value_is_said_in_coplan_s_words_with_every_choice
     import coplan.kinds as kinds
 
     cls = getattr(kinds, enum)
+    if args[0] == "schema":  # (an argument: its value comes right after the command)
+        option = "schema"
     r = CliRunner(env={"COLUMNS": "300"}).invoke(app, args)
     out = " ".join(r.output.split())
     assert r.exit_code == 2 and "Value error" not in out

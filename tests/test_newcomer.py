@@ -267,3 +267,11 @@ def test_an_edited_copy_of_a_shipped_problem_here_is_named_when_the_shipped_one_
         assert f"note: problems/{shipped.name} here differs from the shipped copy this command reads ({shipped})" in out
     out = " ".join(run.invoke(app, ["check", f"problems/{shipped.name}"]).output.split())
     assert "differs" not in out  # its path given: that file is read
+    # a shipped row lives in problems/rows/ (the note looked in problems/ alone)
+    from coplan.problem import shipped_rows
+
+    row = next(r for r in shipped_rows() if r.stem == "sparse_row")
+    (tmp_path / "problems" / "rows").mkdir()
+    (tmp_path / "problems" / "rows" / row.name).write_text(row.read_text().replace("clearance: 0.05", "clearance: 0.06", 1))
+    out = " ".join(run.invoke(app, ["check", "sparse_row"]).output.split())
+    assert f"note: problems/rows/{row.name} here differs from the shipped copy this command reads" in out

@@ -122,3 +122,16 @@ def test_a_choice_that_is_none_of_them_is_refused_with_every_choice_listed():
                              (StopRule, 3, "found 3")):
         with pytest.raises(ValueError, match=re.escape(words)):
             kind(bad)
+
+
+def test_the_subpackages_the_docs_name_are_attributes_of_coplan():
+    """(``import coplan; coplan.sweep.run_sweep(...)``, as docs/usage.md shows it, raised
+    AttributeError: ``sweep`` was not among the lazily imported subpackages.)"""
+    import subprocess
+    import sys
+
+    code = ("import coplan\nassert callable(coplan.sweep.run_sweep) and callable(coplan.sweep.load_sweep)\n"
+            "assert callable(coplan.report.compare) and callable(coplan.row.plan_row)\n"
+            "assert {'sweep', 'report', 'row'} <= set(dir(coplan))\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr

@@ -38,7 +38,7 @@ _LAZY = {
 
 
 # documented submodules, reachable as attributes before anything imported them (``coplan.generate.row_problem``)
-_SUBMODULES = ("generate", "optimal", "plausible", "row", "verify")
+_SUBMODULES = ("generate", "optimal", "plausible", "report", "row", "sweep", "verify")
 
 
 def __getattr__(name: str):

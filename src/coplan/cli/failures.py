@@ -150,7 +150,12 @@ def resolve_problem(problem, note=lambda message: None):
 def _edited_copy(shipped: Path) -> Path | None:
     """``problems/<name>`` in the working folder (a clone's copy of a shipped problem) where it
     is another file than ``shipped`` and its text differs; else None."""
-    here = Path("problems") / shipped.name
+    from ..problem.model import default_problem_path
+
+    try:  # (a shipped row is problems/rows/<name>: the same path under ./problems)
+        here = Path("problems") / shipped.resolve().relative_to(default_problem_path().parent.resolve())
+    except ValueError:
+        here = Path("problems") / shipped.name
     try:
         if here.is_file() and here.resolve() != shipped.resolve() and here.read_bytes() != shipped.read_bytes():
             return here

@@ -50,7 +50,7 @@ from ..ties import quantised
 from .reach import RowReach
 
 __all__ = ["Stop", "fixed_stops", "fewest_stops", "optimised_stops", "carriage_span", "round_trips", "StopWindow",
-           "rebalance", "TripCosts", "price_stops", "quantised_trips", "arrival_time", "arm_overheads", "retry_stops"]
+           "rebalance", "TripCosts", "price_stops", "quantised_trips", "arrival_time", "move_time", "arm_overheads", "retry_stops"]
 
 
 @dataclass(frozen=True)
@@ -410,6 +410,9 @@ def arrival_time(g, x0: float, x1: float) -> float:
         t = Move1D.between(0.0, d, g.max_velocity, g.max_acceleration, g.max_jerk).duration
         t = _MOVES[(d, g.max_velocity, g.max_acceleration, g.max_jerk)] = float(quantised(t))
     return t + g.settle if t > 0 else t
+
+
+move_time = arrival_time  # (its name before it counted the settle: kept for code that imports it)
 
 
 _MOVES: dict = {}
