@@ -601,3 +601,29 @@ def test_a_feed_hides_fruit_only_behind_fruit_some_arm_reaches(greenhouse) -> No
         assert not afters & out
         hidden += len(afters)
     assert hidden > 0
+
+
+def test_a_live_run_s_gif_is_drawn_before_its_files_and_a_ctrl_c_there_writes_nothing(tmp_path, problems_dir, monkeypatch):
+    """(The GIF was drawn while Ctrl-C was held for the files: a Ctrl-C waited seconds for the
+    drawing.) It is drawn first, where a Ctrl-C stops the run with nothing written; then it goes
+    into the run's folder with its files."""
+    import coplan.live.animate as anim
+
+    prob = str(problems_dir / "greenhouse_row.yaml")
+    assert run("feed", prob, "--out", str(tmp_path / "feed.yaml"), "--seed", "1").exit_code == 0
+
+    def drawn(problem, result, out_path, **kw):
+        Path(out_path).write_bytes(b"GIF89a")
+        return Path(out_path)
+
+    monkeypatch.setattr(anim, "animate_live", drawn)
+    r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "a"), "--animate")
+    assert r.exit_code == ExitCode.OK, r.output
+    assert (tmp_path / "a" / "live.gif").read_bytes() == b"GIF89a" and (tmp_path / "a" / "run.json").exists()
+
+    def stopped(problem, result, out_path, **kw):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(anim, "animate_live", stopped)
+    r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "b"), "--animate")
+    assert r.exit_code == ExitCode.INTERRUPTED and not (tmp_path / "b").exists()

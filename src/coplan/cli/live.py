@@ -164,16 +164,22 @@ def run_cmd(
     with ProgressDisplay(_err, quiet=as_json) as bars, _nothing_written(out):
         result = simulate(prob, fd, opts, seed=seed, progress=bars)
     result.plan.problem_file = prob.file_record()
-    folder = RunFolder(out)
-    with signals_deferred(), folder as stage:  # (whole: a Ctrl-C here is answered once they are written)
-        result.plan.save(stage)
-        result.verification.save(stage / "verification.json")  # (the full report, as coplan solve and verify write)
-        (stage / "run.json").write_text(json.dumps(jsonable(result.run), indent=1, allow_nan=False))
-        if animate:
+    import shutil
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        if animate:  # (drawn first, where a Ctrl-C stops it: the run then writes nothing, as at any other time)
             from ..live.animate import animate_live
 
-            animate_live(prob, result, stage / "live.gif")
-        names = _staged(stage)
+            animate_live(prob, result, Path(tmp) / "live.gif")
+        folder = RunFolder(out)
+        with signals_deferred(), folder as stage:  # (whole: a Ctrl-C here is answered once they are written)
+            result.plan.save(stage)
+            result.verification.save(stage / "verification.json")  # (the full report, as coplan solve and verify write)
+            (stage / "run.json").write_text(json.dumps(jsonable(result.run), indent=1, allow_nan=False))
+            if animate:
+                shutil.move(str(Path(tmp) / "live.gif"), str(stage / "live.gif"))
+            names = _staged(stage)
     work_done()
     m = result.run["metrics"]
     if as_json:
