@@ -325,3 +325,40 @@ def test_a_plan_changed_after_its_verdict_is_saved_unverified(greenhouse: Proble
     assert "margin" not in back.metrics and "margin_per_pair" not in back.metrics
     assert back.metrics["per_arm"][arm]["peak_jerk"] > p.metrics["per_arm"][arm]["peak_jerk"]
     assert back.metrics["harvested"] == p.metrics["harvested"] and back.metrics["lower_bound"] == p.metrics["lower_bound"]
+
+
+def test_a_plan_read_from_its_file_then_edited_is_saved_unverified(greenhouse: Problem, tmp_path: Path) -> None:
+    """(A plan read with load_plan, its joints moved, was saved "success" with the verdict of
+    the motion it no longer has: load_plan recorded nothing of what the verdict was about.)"""
+    import dataclasses
+
+    from coplan.planners.coordinated import plan_coordinated
+
+    path = plan_coordinated(greenhouse).plan.save(tmp_path / "a")["json"]
+    read = load_plan(path)
+    assert read.status == PlanStatus.SUCCESS and not read.changed_since_verified()
+    assert load_plan(read.save(tmp_path / "same")["json"]).status == PlanStatus.SUCCESS  # unchanged: its verdict kept
+    arm = next(iter(read.q))
+    moved = dataclasses.replace(read, q={**read.q, arm: read.q[arm] + 0.3})
+    read.q[arm][300:, 0] += 0.3
+    for p, where in ((read, "edited"), (moved, "replaced")):
+        assert p.changed_since_verified()
+        back = load_plan(p.save(tmp_path / where)["json"])
+        assert back.status == PlanStatus.UNVERIFIED and back.verification is None
+
+
+def test_the_verifier_holds_a_plan_made_in_python_to_a_plan_file_s_time_grid(single_arm: Problem) -> None:
+    """(A plan made in Python on a 10 Hz grid passed verification -- its limits read on
+    differences ten times as coarse -- though the same motion at 100 Hz is 10 x over its
+    acceleration limit; and one whose times started at 1 s. A plan file with either is refused.)"""
+    from coplan.errors import PlanFileError
+    from coplan.planners.coordinated import plan_coordinated
+    from coplan.verify.verifier import verify
+
+    p = plan_coordinated(single_arm).plan
+    for time, q, words in ((p.time[::10], {a: v[::10] for a, v in p.q.items()}, "expected a grid of 100 Hz or finer"),
+                           (p.time + 1.0, p.q, "expected 0, found 1.0")):
+        coarse = Plan(problem=p.problem, planner="mine", status=PlanStatus.UNVERIFIED, time=time, q=q, events=[],
+                      allocation={}, unreachable=[])
+        with pytest.raises(PlanFileError, match=words):
+            verify(single_arm, coarse)

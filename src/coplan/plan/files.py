@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import Issue, PlanFileError, coplan_file_kind, special_file
 from ..kinds import EventKind, PlannerKind, PlanStatus
 from ..plancsv import csv_planner, read_csv_samples
-from .model import MAX_PLAN_ANGLE, MAX_PLAN_BYTES, MAX_PLAN_COORD, PLAN_FORMAT, Event, Plan
+from .model import MAX_PLAN_ANGLE, MAX_PLAN_BYTES, MAX_PLAN_COORD, PLAN_FORMAT, Event, Plan, motion_digest
 
 __all__ = ["load_plan", "plan_from_dict", "exact_samples", "time_grid_issues"]
 
@@ -84,7 +84,14 @@ def load_plan(path: str | Path) -> Plan:
         raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno}){hint}", e.lineno)], src) from None
     except UnicodeDecodeError as e:
         raise PlanFileError([Issue("", f"expected UTF-8 JSON, found an undecodable byte at offset {e.start}")], src) from None
-    return exact_samples(plan_from_dict(data, src), p)
+    return _as_judged(exact_samples(plan_from_dict(data, src), p))
+
+
+def _as_judged(plan: Plan) -> Plan:
+    """``plan`` with its motion recorded as the one its file's verdict is about (when it has
+    one): edited after it was read, it is saved ``unverified`` (it was saved with that verdict)."""
+    plan.verified_motion = motion_digest(plan) if plan.verification is not None else None
+    return plan
 
 
 def _kind(v: Any) -> str:
@@ -321,7 +328,7 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
         record = None
     if issues:
         raise PlanFileError(issues, source)
-    return Plan(
+    return _as_judged(Plan(
         problem=str(data["problem"]),
         planner=planner,
         status=status,
@@ -336,4 +343,4 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
         problem_file={"path": record["path"], "sha256": record["sha256"]} if record else None,
         gantry_x=gantry_x,
         software=software,
-    )
+    ))
