@@ -31,7 +31,8 @@ from coplan.row.cruise import Cruise, cruise_end, demand_stretches, last_place_b
 from coplan.row.reach import row_reach
 from coplan.row.track import track, track_state
 from coplan.verify import verify
-from coplan.verify.row import REACH_STEP, row_reachable_ids
+from coplan.problem.gantry import REACH_STEP
+from coplan.verify.row import row_reachable_ids
 from coplan.verify.verdict import ViolationKind
 
 

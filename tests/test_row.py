@@ -587,3 +587,20 @@ def test_check_of_a_row_with_nothing_to_harvest_says_so(tmp_path):
     r = CliRunner(env={"COLUMNS": "250"}).invoke(app, ["check", str(path)])
     assert r.exit_code == 4 and "nothing to plan" in r.output and "the problem lists no fruit" in r.output, r.output
     assert "lower bound" not in r.output
+
+
+def test_a_row_problem_s_reach_is_from_every_carriage_position_on_its_rail():
+    """(On sparse_row, ``reach_matrix()`` and ``unreachable()`` took the carriage at 0 alone:
+    88 of 93 fruit "no arm can reach", a plan harvesting all 93.) A row's reach is from some
+    position on the rail: the verifier's reachable fruit, and each arm's own a superset of what
+    it reaches from any one position."""
+    from coplan.problem import load_problem
+    from coplan.problem.gantry import cell_at
+    from coplan.verify.row import row_reachable_ids
+
+    p = load_problem("sparse_row")
+    m = p.reach_matrix()
+    assert m.shape == (len(p.arms), len(p.fruits)) and p.unreachable() == []
+    assert p.reachable_ids() == row_reachable_ids(p) and len(p.reachable_ids()) == len(p.fruits)
+    for k in (0, 1234, 2500):  # (positions of its 1 cm grid)
+        assert not (cell_at(p, p.gantry.start + 0.01 * k).reach_matrix() & ~m).any()

@@ -17,8 +17,11 @@ row whose carriage never moves).
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, replace
 from typing import Any
+
+import numpy as np
 
 from ..errors import Issue
 from .yamlsafe import did_you_mean, line_of, path_str
@@ -153,6 +156,49 @@ def gantry_range_issues(g: Gantry) -> list[tuple[tuple, str]]:
         if not lo <= v <= hi:
             out.append((("gantry", k), f"expected {_EXPECT[k]} within the plausible range [{lo:g}, {hi:g}], found {v:g}"))
     return out
+
+
+REACH_STEP = 0.01  # m between the carriage positions :func:`rail_reach` tries
+_RAIL_REACH: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def rail_reach(problem: "Problem") -> np.ndarray:
+    """(A, F) bool: arm ``a`` can pick fruit ``f`` (IK inside its joint limits, ``reach_margin``
+    kept) from some carriage position on the rail, tried every :data:`REACH_STEP` m from
+    ``start`` to ``end`` (computed once per problem: problems are immutable). What a row's
+    :meth:`Problem.reach_matrix` is, and the verifier's reachable fruit."""
+    hit = _RAIL_REACH.get(problem)
+    if hit is None:
+        hit = _RAIL_REACH[problem] = _rail_reach(problem)
+    return hit.copy()
+
+
+def _rail_reach(problem: "Problem") -> np.ndarray:
+    g = problem.gantry
+    cs = np.arange(g.start, g.end + REACH_STEP / 2, REACH_STEP)
+    m = problem.task.reach_margin
+    if not problem.fruits:
+        return np.zeros((len(problem.arms), 0), dtype=bool)
+    fx = np.array([f.position[0] for f in problem.fruits], float)
+    fy = np.array([f.position[1] for f in problem.fruits], float)
+    ok = np.zeros((len(problem.arms), fx.size), dtype=bool)
+    for i, arm in enumerate(problem.arms):  # every fruit and the carriage positions near it at once, arm by arm
+        # each fruit's candidate positions (a sorted grid: an index range, one position to spare
+        # each side), then the exact test on those only: memory in the pairs, not fruit x rail
+        lo = np.maximum(np.searchsorted(cs, fx - arm.base[0] - arm.reach) - 1, 0)
+        hi = np.minimum(np.searchsorted(cs, fx - arm.base[0] + arm.reach, side="right") + 1, cs.size)
+        n = np.maximum(hi - lo, 0)
+        if not n.any():
+            continue
+        rows = np.repeat(np.arange(fx.size), n)
+        cols = lo[rows] + (np.arange(rows.size) - np.repeat(np.cumsum(n) - n, n))
+        near = np.abs(fx[rows] - cs[cols] - arm.base[0]) <= arm.reach
+        rows, cols = rows[near], cols[near]
+        for a in range(0, rows.size, 200_000):  # (in chunks: a long dense row has millions of pairs)
+            r, c = rows[a:a + 200_000], cols[a:a + 200_000]
+            hit = arm.ik(np.c_[fx[r] - cs[c], fy[r]], m)[1].any(axis=-1)
+            ok[i, r[hit]] = True
+    return ok
 
 
 def cell_at(problem: "Problem", x: float, fruit_ids=None, name: str | None = None) -> "Problem":

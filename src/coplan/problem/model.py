@@ -23,7 +23,7 @@ from ..kinematics import arm as kin
 from . import plausible
 from ..errors import Issue, ProblemError, coplan_file_kind, is_joint_csv
 from .check import built_issues
-from .gantry import Gantry, off_rail, parse_gantry
+from .gantry import Gantry, off_rail, parse_gantry, rail_reach
 from .poses import copy_issues, home_pair_issues, pose_issues
 from .spec import (ARM_REQUIRED, EXPECT, TOP_KEYS, ArmFieldsSpec, ArmSpec, FruitSpec, TaskSpec, kind_of, missing,
                    name_value)
@@ -202,7 +202,11 @@ class Problem:
         return np.array([f.position for f in self.fruits], dtype=float).reshape(-1, 2)
 
     def reach_matrix(self) -> np.ndarray:
-        """(A, F) bool: arm a can reach fruit f (IK inside joint limits, ``reach_margin`` kept)."""
+        """(A, F) bool: arm a can reach fruit f (IK inside joint limits, ``reach_margin`` kept);
+        on a row, from some carriage position on its rail (:func:`coplan.problem.gantry.rail_reach`:
+        with the carriage at 0 alone, sparse_row's arms reached 5 of its 93 fruit)."""
+        if self.gantry is not None:
+            return rail_reach(self)
         pts = self.fruit_positions
         return np.array([a.ik(pts, self.task.reach_margin)[1].any(axis=-1) for a in self.arms]).reshape(
             len(self.arms), len(self.fruits)

@@ -28,19 +28,17 @@ Nothing here comes from :mod:`coplan.row` or the planners.
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
 from ..errors import Issue, PlanFileError
 from ..plan import EventKind, Plan
+from ..problem.gantry import rail_reach
 from ..problem.model import Problem
 from .clearance import runs
 from .verdict import Verification, Violation, ViolationKind, blurred_by_rounding, rounding_allowance, rounding_words
 
 __all__ = ["check_row_inputs", "check_carriage", "row_reachable_ids", "plan_source"]
 
-REACH_STEP = 0.01  # m between the carriage positions :func:`row_reachable_ids` tries
 
 
 def plan_source(plan: Plan) -> str:
@@ -127,41 +125,8 @@ def _check_settle(problem: Problem, plan: Plan, x: np.ndarray, t: np.ndarray, dt
                                                 f"carriage came to rest (at {float(rest_at[k]):.2f} s); gantry.settle is {settle:g} s")))
 
 
-#: :func:`row_reachable_ids` of each problem, computed once (problems are immutable).
-_REACHABLE: "weakref.WeakKeyDictionary[Problem, list[str]]" = weakref.WeakKeyDictionary()
-
-
 def row_reachable_ids(problem: Problem) -> list[str]:
-    """Fruit some arm can pick from some carriage position on the rail (module docstring)."""
-    hit = _REACHABLE.get(problem)
-    if hit is None:
-        hit = _REACHABLE[problem] = _reachable(problem)
-    return list(hit)
+    """Fruit some arm can pick from some carriage position on the rail (module docstring;
+    :func:`coplan.problem.gantry.rail_reach`, on a 1 cm grid)."""
+    return [f.id for f, k in zip(problem.fruits, rail_reach(problem).any(axis=0)) if k]
 
-
-def _reachable(problem: Problem) -> list[str]:
-    g = problem.gantry
-    cs = np.arange(g.start, g.end + REACH_STEP / 2, REACH_STEP)
-    m = problem.task.reach_margin
-    if not problem.fruits:
-        return []
-    fx = np.array([f.position[0] for f in problem.fruits], float)
-    fy = np.array([f.position[1] for f in problem.fruits], float)
-    ok = np.zeros(fx.size, dtype=bool)
-    for arm in problem.arms:  # every fruit and the carriage positions near it at once, arm by arm
-        # each fruit's candidate positions (a sorted grid: an index range, one position to spare
-        # each side), then the exact test on those only: memory in the pairs, not fruit x rail
-        lo = np.maximum(np.searchsorted(cs, fx - arm.base[0] - arm.reach) - 1, 0)
-        hi = np.minimum(np.searchsorted(cs, fx - arm.base[0] + arm.reach, side="right") + 1, cs.size)
-        n = np.maximum(hi - lo, 0)
-        if not n.any():
-            continue
-        rows = np.repeat(np.arange(fx.size), n)
-        cols = lo[rows] + (np.arange(rows.size) - np.repeat(np.cumsum(n) - n, n))
-        near = np.abs(fx[rows] - cs[cols] - arm.base[0]) <= arm.reach
-        rows, cols = rows[near], cols[near]
-        for a in range(0, rows.size, 200_000):  # (in chunks: a long dense row has millions of pairs)
-            r, c = rows[a:a + 200_000], cols[a:a + 200_000]
-            hit = arm.ik(np.c_[fx[r] - cs[c], fy[r]], m)[1].any(axis=-1)
-            ok[r[hit]] = True
-    return [f.id for f, k in zip(problem.fruits, ok) if k]
