@@ -584,3 +584,60 @@ def test_load_plan_names_a_path_of_the_wrong_type():
 
     with pytest.raises(TypeError, match=r"path: expected the path of a plan file \(str or Path\), found int 5"):
         coplan.load_plan(5)
+
+
+def test_public_functions_given_the_wrong_kind_of_thing_say_so(tmp_path):
+    """(A researcher's calls that raised from deep inside: plan_moving and row_bounds of a cell
+    -- "'NoneType' object has no attribute 'length'" --, compare of a Problem -- "'Problem'
+    object is not iterable" --, a Plan made with lists, with_status("success"), whose repr and
+    save then raised.) Each says what it expected, or takes what it was given for what it means."""
+    import coplan
+    from coplan.allocate.row_bound import row_bounds
+    from coplan.kinds import PlanStatus
+    from coplan.plan import Plan
+    from coplan.report.comparison import compare
+    from coplan.row import plan_moving
+
+    cell = coplan.load_problem("single_arm")
+    for call in (lambda: plan_moving(cell), lambda: row_bounds(cell)):
+        with pytest.raises(ValueError, match="has no gantry"):
+            call()
+    with pytest.raises(TypeError, match="found Problem; a Problem made in Python is planned by coplan.solve"):
+        compare(cell, ["coordinated"], tmp_path / "c")
+    p = coplan.solve(cell, planner="coordinated").plan
+    listed = Plan(problem=p.problem, planner="mine", status="unverified", time=p.time.tolist(),
+                  q={a: v.tolist() for a, v in p.q.items()}, events=list(p.events), allocation={}, unreachable=[])
+    assert listed.status == PlanStatus.UNVERIFIED and listed.time.dtype == float
+    assert coplan.verify.verify(cell, listed).passed
+    assert p.with_status("partial").status == PlanStatus.PARTIAL and "partial" in repr(p.with_status("partial"))
+    with pytest.raises(ValueError, match="expected one of"):
+        p.with_status("great")
+
+
+def test_a_problem_made_in_python_saves_as_a_file_that_reads_back_equal(tmp_path):
+    """(``to_yaml(problem)`` raised "'Problem' object has no attribute 'items'": a problem
+    changed in Python could not be saved.)"""
+    import dataclasses
+
+    import coplan
+    from coplan.generate import to_yaml
+
+    for name in ("crossing_paths", "sparse_row"):
+        p = coplan.load_problem(name)
+        p = dataclasses.replace(p, task=dataclasses.replace(p.task, clearance=0.07))
+        (tmp_path / f"{name}.yaml").write_text(to_yaml(p))
+        assert coplan.load_problem(tmp_path / f"{name}.yaml") == p
+    with pytest.raises(TypeError, match="expected a problem mapping"):
+        to_yaml(5)
+
+
+def test_export_plan_takes_a_plan_file_s_path(tmp_path):
+    """(A path raised "'str' object has no attribute 'time'".)"""
+    import coplan
+    from coplan.report.export import export_plan
+
+    files = coplan.solve("single_arm", planner="coordinated", out_dir=tmp_path / "o").files
+    out = export_plan(str(files["json"]), 100.0, "csv", tmp_path / "e.csv")
+    assert out == [tmp_path / "e.csv"] and (tmp_path / "e.csv").read_text().startswith("t,")
+    with pytest.raises(TypeError, match="expected a Plan or a plan file's path, found int"):
+        export_plan(5, 100.0, "csv", tmp_path / "f.csv")

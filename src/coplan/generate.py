@@ -1,6 +1,7 @@
 """``coplan.generate``: the documented path of the problem generators (README:
 ``coplan.generate`` makes rows and random layouts: ``row_problem``, ``random_problem``,
-``cell_problem``, ``gantry_row`` (a row on a mobile gantry), ``to_yaml``).
+``cell_problem``, ``gantry_row`` (a row on a mobile gantry), ``to_yaml`` (of a mapping or a
+``Problem``), ``problem_dict``).
 
 Only a re-export: the code is in :mod:`coplan.problem.generate`. Nothing inside coplan
 imports this module.
@@ -13,10 +14,11 @@ from .problem.generate import (
     cell_problem,
     gantry_row,
     overlap_problem,
+    problem_dict,
     random_problem,
     row_problem,
     to_yaml,
 )
 
-__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "LESSON_DEFAULTS",
+__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "problem_dict", "LESSON_DEFAULTS",
            "LESSON_TASK", "LESSON_GANTRY"]

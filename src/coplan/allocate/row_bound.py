@@ -151,6 +151,8 @@ def cycle_bounds(problem: Problem, step: float = 0.05) -> tuple[np.ndarray, np.n
 
 def row_bounds(problem: Problem, step: float = 0.05) -> RowBounds:
     """The row's lower bounds (module docstring)."""
+    if problem.gantry is None:  # (it raised AttributeError from inside)
+        raise ValueError(f"{problem.name!r} has no gantry: a cell's lower bound is coplan.allocate.lower_bound")
     t0 = _time.perf_counter()
     g = problem.gantry
     cost, reach, reach_from = cycle_bounds(problem, step)

@@ -142,6 +142,17 @@ class Plan:
     #: the :func:`motion_digest` its verdict judged (set by :func:`finalize_plan`; not written)
     verified_motion: str | None = field(default=None, repr=False, compare=False)
 
+    def __post_init__(self) -> None:
+        # a plan made in Python with lists, or a status by name ("success"), is the plan it
+        # means (lists raised "'list' object has no attribute 'size'" in the verifier; a status
+        # string was kept, and repr() and save() raised): arrays of floats (the same arrays where
+        # they are already), the status a PlanStatus (a name that is none: every choice listed)
+        self.time = np.asarray(self.time, dtype=float)
+        self.q = {a: np.asarray(v, dtype=float) for a, v in self.q.items()}
+        if self.gantry_x is not None:
+            self.gantry_x = np.asarray(self.gantry_x, dtype=float)
+        self.status = PlanStatus(self.status)
+
     def __repr__(self) -> str:  # (the samples are the bulk: a notebook cell shows what the plan is, not 10^4 numbers)
         mk = self.metrics.get("makespan")
         return (f"Plan(problem={self.problem!r}, planner={getattr(self.planner, 'value', self.planner)!r}, "
@@ -218,8 +229,9 @@ class Plan:
     def events_of(self, arm: str, kind: EventKind | None = None) -> list[Event]:
         return [e for e in self.events if e.arm == arm and (kind is None or e.kind == kind)]
 
-    def with_status(self, status: PlanStatus) -> "Plan":
-        return replace(self, status=status)
+    def with_status(self, status: PlanStatus | str) -> "Plan":
+        """A copy with ``status`` (a :class:`PlanStatus` or its name)."""
+        return replace(self, status=PlanStatus(status))
 
     # ------------------------------------------------------------------ I/O
     def changed_since_verified(self) -> bool:

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..kinematics import arm as kin
 
-__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "LESSON_DEFAULTS",
+__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "problem_dict", "LESSON_DEFAULTS",
            "LESSON_TASK", "LESSON_GANTRY"]
 
 #: The arm of the course's cell (``greenhouse_row.yaml``): every field of ``defaults``.
@@ -491,12 +491,36 @@ def _flow(v: Any) -> str:
     return _scalar(v)
 
 
-def to_yaml(d: dict[str, Any], header: str | None = None) -> str:
-    """Problem dict -> YAML text in the shipped files' layout (one arm or fruit per line).
+def problem_dict(problem) -> dict[str, Any]:
+    """A :class:`coplan.problem.model.Problem` as the mapping its file holds (every arm field
+    written out: no ``defaults``), for :func:`to_yaml` -- a problem made or changed in Python saved
+    as a file that reads back equal."""
+    from dataclasses import asdict, fields
+
+    arm_keys = ("name", "base", "bin", "links", "link_radius", "joint_limits", "max_velocity", "max_acceleration",
+                "max_jerk", "home")
+    d: dict[str, Any] = {"name": problem.name}
+    if problem.description:
+        d["description"] = problem.description
+    d["arms"] = [{k: getattr(a, k) for k in arm_keys} for a in problem.arms]
+    d["fruits"] = [{"id": f.id, "position": f.position} for f in problem.fruits]
+    d["task"] = asdict(problem.task)
+    if problem.gantry is not None:
+        d["gantry"] = {f.name: getattr(problem.gantry, f.name) for f in fields(problem.gantry)}
+    return d
+
+
+def to_yaml(d, header: str | None = None) -> str:
+    """Problem dict -> YAML text in the shipped files' layout (one arm or fruit per line); a
+    :class:`~coplan.problem.model.Problem` too (:func:`problem_dict`).
 
     ``header`` becomes leading ``#`` comment lines. ``yaml.safe_load(to_yaml(d))`` gives
     ``d`` back (tuples as lists).
     """
+    if not isinstance(d, dict):
+        if not all(hasattr(d, k) for k in ("arms", "fruits", "task", "gantry")):
+            raise TypeError(f"d: expected a problem mapping (coplan.generate's) or a Problem, found {type(d).__name__}")
+        d = problem_dict(d)
     out: list[str] = [f"# {ln}".rstrip() for ln in header.splitlines()] if header else []
     for key, value in d.items():
         if isinstance(value, dict):

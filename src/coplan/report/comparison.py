@@ -161,7 +161,7 @@ def run_row(problem: Problem, spec: PlannerSpec, plan: Plan, summary: dict[str, 
 
 
 def _problem_files(source: str | Path | Sequence[str | Path]) -> list[Path]:
-    if isinstance(source, (str, Path)):
+    if isinstance(source, (str, os.PathLike)):
         p = Path(source)
         if p.is_dir():
             files = sorted([*p.glob("*.yaml"), *p.glob("*.yml")])
@@ -169,6 +169,11 @@ def _problem_files(source: str | Path | Sequence[str | Path]) -> list[Path]:
                 raise ProblemError([Issue("", "expected a problem file or a folder of *.yaml problem files, found no *.yaml files")], str(p))
             return files
         return [p]
+    if not isinstance(source, (list, tuple)) or not all(
+            isinstance(s, (str, os.PathLike)) for s in source):  # (a Problem: "'Problem' object is not iterable")
+        raise TypeError(f"source: expected a problem file, a folder of them or a list of files (str or Path), found "
+                        f"{type(source).__name__}" + ("; a Problem made in Python is planned by coplan.solve(problem), "
+                                                      "once per planner" if type(source).__name__ == "Problem" else ""))
     return [Path(s) for s in source]
 
 

@@ -40,6 +40,7 @@ import csv
 import io
 import json
 import math
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -271,11 +272,17 @@ def carriage_trajectory(traj: Trajectory, name: str = "carriage", frame_id: str 
     return {"header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": frame_id}, "joint_names": [f"{name}_x"], "points": points}
 
 
-def export_plan(plan: Plan, rate: float, fmt: ExportFormat | str, out: str | Path, traj: Trajectory | None = None) -> list[Path]:
+def export_plan(plan: Plan | str | Path, rate: float, fmt: ExportFormat | str, out: str | Path, traj: Trajectory | None = None) -> list[Path]:
     """Write the plan at ``rate`` Hz: ``csv`` to the file ``out``; ``json``/``yaml`` one file per
     arm (``<arm>.json``) into the folder ``out``. Each file is written whole or not at all.
     ``traj``: :func:`trajectory` ``(plan, rate)`` when the caller has it already. Returns the
-    paths written."""
+    paths written. ``plan`` may be a plan file's path (read with :func:`coplan.plan.load_plan`)."""
+    if isinstance(plan, (str, os.PathLike)):  # (a path raised "'str' object has no attribute 'time'")
+        from ..plan import load_plan
+
+        plan = load_plan(plan)
+    elif not isinstance(plan, Plan):
+        raise TypeError(f"plan: expected a Plan or a plan file's path, found {type(plan).__name__}")
     fmt = ExportFormat(fmt)
     traj = trajectory(plan, rate) if traj is None else traj
     out = Path(out)

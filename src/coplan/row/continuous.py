@@ -593,6 +593,8 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
     (its curve in ``plan.solver['row']['speed_curve']``); planning time covers the search."""
     if options is not None and not isinstance(options, MovingOptions):
         raise TypeError(f"options: a row on the move takes MovingOptions(...), found {type(options).__name__} {options!r}")
+    if getattr(problem, "gantry", None) is None:  # (as plan_row says it: it raised from deep in the screen)
+        raise ValueError(f"{getattr(problem, 'name', problem)!r} has no gantry: plan it as a cell")
     opts = options or MovingOptions()
     if opts.level is not None and SpeedProfile(opts.profile) == SpeedProfile.CONSTANT:
         bad = cruise_speed_issue(problem, opts.level)
