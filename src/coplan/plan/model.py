@@ -213,7 +213,9 @@ class Plan:
         return np.clip(t, 0.0, self.duration)
 
     def sample(self, t) -> dict[str, np.ndarray]:
-        """Joint angles of every arm at times ``t`` (K,), linear between samples."""
+        """Joint angles (rad) of every arm at times ``t`` (s; a number or (K,)), linear between
+        samples: ``{arm: (K, 2)}``, or ``{arm: (2,)}`` for a number. Before the plan's start and
+        after its end, the first and last poses (the arm at rest there)."""
         t = self._clock(t)
         return {a: np.stack([np.interp(t, self.time, q[:, 0]), np.interp(t, self.time, q[:, 1])], axis=-1) for a, q in self.q.items()}
 

@@ -142,6 +142,11 @@ class Fruit:
 
 @dataclass(frozen=True)
 class Task:
+    """The task's settings (SI units): ``pick_dwell`` and ``place_dwell`` (s) the tip holds still
+    on the fruit and over the bin; ``clearance`` (m) between neighbouring arms' links, beyond
+    their radii; ``reach_margin`` (m) kept inside each arm's annulus of reach;
+    ``singularity_threshold``: manipulability (|det J|) below which a pose is reported near-singular."""
+
     pick_dwell: float
     place_dwell: float
     clearance: float

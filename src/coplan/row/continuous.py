@@ -145,7 +145,9 @@ class MovingOptions:
     assign : ``greedy`` (earliest deadline first) or ``cpsat`` (CP-SAT, seeded by the greedy)
     margin : kept beyond the problem's clearance when booking cycles, m
     resolution : spacing of the candidate carriage positions of the row's screen, m
-    search_rounds : full plans the speed search may try (each verified)
+    search_rounds : levels the speed search plans (each a full, verified plan), rounded up to whole
+        rounds of :data:`SEARCH_WIDTH`; the plans of its best level with the early rest at the end
+        and, on the density profile, CP-SAT's order and the refinement come on top
     refine_rounds : full plans that then slow the carriage only where fruit were missed (density;
         default none: with the search's bracketing, they won on no benchmark row and cost the search
         a plan at its end)
