@@ -888,3 +888,16 @@ def test_a_live_row_that_harvests_more_than_its_offline_plan_gives_both_fruit_pe
     off = 3600.0 * m["offline_harvested"] / m["offline_row_time"]
     assert (f"which harvests {m['harvested_not_offline']} fewer fruit: {m['fruit_per_hour']:.0f} fruit per hour against "
             f"its {off:.0f}") in " ".join(r.output.split())
+
+
+def test_a_live_row_calls_a_fruit_out_of_every_reach_not_harvested_not_missed(tmp_path):
+    """(A fruit out of every arm's reach from every carriage position was "missed 1 fruit", as if
+    the run had passed it; coplan solve calls it screened out.)"""
+    d = gantry_row(length=10.0, n_arms=2, density=0.7, seed=3, trusses=False)
+    d["fruits"].append({"id": "r7", "position": [5.0, 3.5]})
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(d))
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["run", str(path), "--speed", "0.3", "-o", str(tmp_path / "o")])
+    said = " ".join(r.output.split())
+    assert "not harvested, 1 fruit: r7: out of every arm's reach from every carriage position" in said, said
+    assert "missed 1 fruit" not in said

@@ -301,8 +301,9 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         missed = [why if re.search(rf"(?<![\w-]){re.escape(f)}(?![\w-])", why) else f"{f}: {why}"  # (named once)
                   for f, why in ((f, w.removeprefix("missed: ")) for f, w in res.outcome.items())  # ('missed N fruit: missed: ...')
                   if why != "harvested" and f in {x.id for x in prob.fruits}]
-        if missed:  # each true fruit not harvested, and why (all of them: run.json outcome)
-            faults_line += f"missed {len(missed)} fruit: " + "; ".join(_safe(w) for w in missed[:3]) + (
+        if missed:  # each true fruit not harvested, and why (all of them: run.json outcome; "missed" read as the
+            # planner's miss for a fruit out of every arm's reach, which coplan solve calls screened out)
+            faults_line += f"not harvested, {len(missed)} fruit: " + "; ".join(_safe(w) for w in missed[:3]) + (
                 f"; ... and {len(missed) - 3} more (run.json: outcome)" if len(missed) > 3 else "") + "\n"
         per_hour = "" if m.get("fruit_per_hour") is None else f" ({m['fruit_per_hour']:.0f} fruit per hour)"
         _out.print(
