@@ -348,6 +348,9 @@ def test_cli_feed_and_run_write_a_verified_run(tmp_path: Path, problems_dir: Pat
     assert metrics["verified"] and metrics["pick_success_rate"] == 1.0
     doc = json.loads((tmp_path / "live" / "run.json").read_text())
     assert {"detections", "replans", "fruit", "metrics", "tracks"} <= set(doc)
+    import hashlib  # (the feed's path alone: an edited feed could not be told from the one run)
+
+    assert doc["feed_sha256"] == hashlib.sha256((tmp_path / "feed.yaml").read_bytes()).hexdigest()
     assert all({"t", "latency", "cause", "added", "dropped", "reassigned"} <= set(r) for r in doc["replans"])
     from coplan.problem import load_problem
 

@@ -80,6 +80,7 @@ class Feed:
     close_sigma: float = DEFAULT_CLOSE_SIGMA
     problem: str | None = None
     source: str | None = None
+    digest: str | None = field(default=None, compare=False)  # sha256 of the YAML text it was read from
 
     def check_against(self, problem: Problem) -> None:
         """Raise :class:`FeedError` if a row names a fruit the problem does not have, or a fruit
@@ -259,7 +260,9 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
                                  row.get("after"), line_of(lines, loc)))
     if issues:
         raise FeedError(issues, source)
-    return Feed(tuple(out), float(dist), float(sig), problem, source)
+    import hashlib
+
+    return Feed(tuple(out), float(dist), float(sig), problem, source, hashlib.sha256(text.encode("utf-8")).hexdigest())
 
 
 def load_feed(path: str | Path) -> Feed:

@@ -290,6 +290,7 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
     plan.solver = {"status": plan.status.value, "live": {"replans": len(cell.replans), "feed": feed.source}}
     run = {
         "format": "coplan.run/1", "problem": problem.name, "feed": feed.source,
+        "feed_sha256": feed.digest,  # (the path alone: an edited feed could not be told from the one run)
         "options": {k: getattr(cell.options, k) for k in cell.options.__dataclass_fields__},
         "close_range": {"distance": feed.close_distance, "sigma": feed.close_sigma},
         "detections": [d.to_dict() | {"track": next((t.id for t in cell.tracks.values() if d.id in t.detections), None)}
