@@ -362,3 +362,15 @@ def test_the_verifier_holds_a_plan_made_in_python_to_a_plan_file_s_time_grid(sin
                       allocation={}, unreachable=[])
         with pytest.raises(PlanFileError, match=words):
             verify(single_arm, coarse)
+
+
+def test_two_solves_of_one_problem_are_the_same_motion_though_their_timings_differ(greenhouse: Problem) -> None:
+    """(A researcher checked "the same input gives the same plan" with ``==``, which compares the
+    files, wall-clock timings included: never equal.)"""
+    from coplan.planners.coordinated import plan_coordinated
+
+    a, b = plan_coordinated(greenhouse).plan, plan_coordinated(greenhouse).plan
+    assert a.same_motion(b)
+    arm = next(iter(b.q))
+    b.q[arm][10, 0] += 1e-9
+    assert not a.same_motion(b)

@@ -175,9 +175,17 @@ class Plan:
         elsewhere, the name its file gives."""
         return self.planner.value if isinstance(self.planner, PlannerKind) else str(self.planner)
 
+    def same_motion(self, other: "Plan") -> bool:
+        """Whether ``other`` moves exactly as this plan does: the same times, joints, carriage and
+        events (:func:`motion_digest`), whatever their solver reports, timings and metrics say --
+        what "the same input gives the same plan" means; ``==`` compares whole files, wall-clock
+        timings included, so two solves of one problem are never ``==``."""
+        return motion_digest(self) == motion_digest(other)
+
     def __eq__(self, other: object) -> bool:
-        """Equal when their ``plan.json`` would be (the generated comparison raised on the
-        NumPy arrays: a notebook's round-trip check ``load_plan(path) == plan`` could not run)."""
+        """Equal when their ``plan.json`` would be, its solver timings included (the generated
+        comparison raised on the NumPy arrays: a notebook's round-trip check ``load_plan(path) ==
+        plan`` could not run); :meth:`same_motion` compares the motion alone."""
         if not isinstance(other, Plan):
             return NotImplemented
         mine, theirs = self.to_dict(), other.to_dict()
