@@ -337,6 +337,11 @@ def test_a_ctrl_c_python_swallowed_still_interrupts() -> None:
             "time.sleep(5)")
     p = subprocess.run([sys.executable, "-c", _console_script(body)], capture_output=True, text=True, timeout=60)
     assert p.returncode == 130 and "whole" in p.stdout and "finished" not in p.stdout, (p.returncode, p.stdout, p.stderr)
+    # one swallowed as the command ends, before it is sent again (the timer, left armed, killed
+    # the process at exit: "Alarm clock", 142)
+    body = "class A:\n    def __del__(self): raise KeyboardInterrupt\na = A()\ndel a"
+    p = subprocess.run([sys.executable, "-c", _console_script(body)], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 130 and "Alarm" not in p.stderr, (p.returncode, p.stderr)
 
 
 def test_an_import_error_after_a_ctrl_c_is_that_interruption(monkeypatch) -> None:

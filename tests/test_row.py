@@ -604,3 +604,11 @@ def test_a_row_problem_s_reach_is_from_every_carriage_position_on_its_rail():
     assert p.reachable_ids() == row_reachable_ids(p) and len(p.reachable_ids()) == len(p.fruits)
     for k in (0, 1234, 2500):  # (positions of its 1 cm grid)
         assert not (cell_at(p, p.gantry.start + 0.01 * k).reach_matrix() & ~m).any()
+    # the cell stages given the row itself still take the arms where they stand (the carriage at
+    # 0), as before: the rail's reach with carriage-0 poses raised KeyError in the allocation
+    from coplan.allocate import allocate
+    from coplan.allocate.screen import screened
+
+    here = cell_at(p, 0.0)
+    assert allocate(p, "heuristic").assignment == allocate(here, "heuristic").assignment
+    assert (screened(p).reach == screened(here).reach).all()

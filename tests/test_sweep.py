@@ -105,7 +105,7 @@ def test_a_second_sweep_into_a_folder_another_is_writing_is_refused(small_run, t
     """(Two sweeps into one folder at once both ran: the second solved every problem the first
     had not finished again, and the journal held those rows twice.) While the folder's lock is
     held the second is refused, naming the first, before any work; once released, it runs."""
-    from coplan.sweep.run import LOCK, FolderBusy, _FolderLock
+    from coplan.sweep.run import FolderBusy, _FolderLock
 
     src, _, _ = small_run
     out = tmp_path / "busy"
@@ -122,8 +122,7 @@ def test_a_second_sweep_into_a_folder_another_is_writing_is_refused(small_run, t
         first.release()
     again = run_sweep(spec, out, workers=1)  # (all done: nothing solved, and its own lock released at the end)
     assert again.skipped == 6
-    assert not (out / LOCK).exists()  # (released and removed: nothing left behind)
-    last = _FolderLock(out, spec)
+    last = _FolderLock(out, spec)  # (released: the next one takes it)
     last.acquire()
     last.release()
 
@@ -872,6 +871,10 @@ def test_a_value_repeated_in_a_list_is_refused_at_its_line():
     by_path = {i.path: i for i in e.value.issues}
     assert set(by_path) == {"vary.seed[1]", "vary.spacing[2]"}
     assert by_path["vary.seed[1]"].line == 7 and "expected distinct values, found number 0 again" in by_path["vary.seed[1]"].message
+    nested = "name: dup\nbase: row\nfixed:\n  n_arms: 2\n  n_fruits: 4\nvary:\n  y_range: [[0.5, 1], [0.5, 1.0]]\n"
+    with pytest.raises(SweepError) as e:  # (pairs compared as text: one problem made of two)
+        parse_sweep(nested, "dup.yaml")
+    assert [i.path for i in e.value.issues] == ["vary.y_range[1]"]
 
 
 def test_the_sweep_s_ctrl_c_handler_is_installed_under_the_coplan_console_too():

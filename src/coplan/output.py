@@ -34,7 +34,7 @@ MARKER = ".coplan-run"  # written into every run folder
 # baseline.xlsx is theirs, never moved or removed -- and what coplan writes beside a plan by
 # default (`coplan export`: plan_<rate>hz.csv, or that folder of per-arm files; `coplan plot`:
 # plan_<kind>.png), which would otherwise stay beside the next run's plan, stale
-_OURS = re.compile(r"(plan|baseline)\.(json|csv|npz|html|gif|mp4)|plan\.problem\.yaml|verification\.json|run\.json|live\.gif"
+_OURS = re.compile(r"(plan|baseline)\.(json|csv|npz|html|gif|mp4)|verification\.json|run\.json|live\.gif"
                    r"|\.coplan-run|(plan|baseline)_[0-9.]+hz(\.csv)?|(plan|baseline)_(gantt|clearance|joints|workspace)\.(png|svg|pdf)")
 
 

@@ -81,27 +81,11 @@ def finalize(problem: Problem, plan: Plan, verification) -> Plan:
     return finalize_plan(plan, verification, len(problem.reachable_ids()))
 
 
-def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None,
-           problem: Problem | None = None) -> tuple[dict[str, Path], Path | None]:
-    """The run's files, staged and renamed into place (:mod:`coplan.output`). A ``problem`` that
-    is no file's (made or changed in Python) is written beside them as ``plan.problem.yaml``, which
-    the plans name: the run says what it solved, and ``coplan verify`` / ``view`` find it."""
+def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None) -> tuple[dict[str, Path], Path | None]:
+    """The run's files, staged and renamed into place (:mod:`coplan.output`)."""
     files: dict[str, Path] = {}
     folder = RunFolder(Path(out_dir))
-    text = None
-    if problem is not None and plan.problem_file is None:
-        from .problem.generate import to_yaml
-        from .problem.model import text_digest
-
-        text = to_yaml(problem, header="the problem this run solved (made or changed in Python: no file of its own)")
-        record = {"path": str(Path(out_dir).resolve() / "plan.problem.yaml"), "sha256": text_digest(text)}
-        for p in (plan, baseline):
-            if p is not None:
-                p.problem_file = dict(record)
     with signals_deferred(), folder as stage:  # (whole: a Ctrl-C here threw the verified plan away)
-        if text is not None:
-            (stage / "plan.problem.yaml").write_text(text, encoding="utf-8")
-            files["problem"] = stage / "plan.problem.yaml"
         if baseline is not None:
             files.update({f"baseline_{k}": v for k, v in baseline.save(stage, "baseline").items()})
         files.update(plan.save(stage, "plan"))
@@ -233,7 +217,7 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     plan.problem_file = prob.file_record()
     timings = dict(res.timings) | {"bounds": bounds.seconds}
     plan.solver["timings"] = dict(timings)
-    files, previous = _write(out_dir, plan, res.verification, problem=prob) if out_dir is not None else ({}, None)
+    files, previous = _write(out_dir, plan, res.verification) if out_dir is not None else ({}, None)
     timings["total"] = _time.perf_counter() - t0
     return SolveResult(prob, plan, res.verification, None, files, timings, previous, row=res)
 
@@ -363,6 +347,6 @@ def solve(
     timings["total"] = _time.perf_counter() - t0
     previous = None
     if out_dir is not None:  # the whole set is staged and renamed into place (coplan.output): never a mix of runs
-        files, previous = _write(out_dir, plan, ver, baseline, problem=prob)
+        files, previous = _write(out_dir, plan, ver, baseline)
         timings["write"] = _time.perf_counter() - t0 - timings["total"]
     return SolveResult(prob, plan, ver, baseline, files, timings, previous, error, error_trace)

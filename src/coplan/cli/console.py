@@ -113,6 +113,7 @@ def _redeliver(hook, main: int):
             return
         hook(args)
 
+    redeliver.pending = pending  # (the console's exit: an interruption not yet sent again is still one)
     return redeliver
 
 
@@ -151,7 +152,7 @@ def run_console(app, err_console) -> None:
     if hasattr(signal, "SIGTERM"):
         signal.signal(signal.SIGTERM, on_term)
     signal.signal(signal.SIGINT, on_int)
-    sys.unraisablehook = _redeliver(sys.unraisablehook, main)
+    sys.unraisablehook = hook = _redeliver(sys.unraisablehook, main)
     sys.stdout = PipeSafeStream(sys.stdout)
     sys.stderr = PipeSafeStream(sys.stderr)  # (progress and messages: ``2>&1 | head`` closes it too)
     try:
@@ -163,7 +164,12 @@ def run_console(app, err_console) -> None:
     except SystemExit as e:
         if terminated and e.code in (int(ExitCode.INTERRUPTED), int(ExitCode.OK)):
             sys.exit(int(ExitCode.TERMINATED))
+        if getattr(hook, "pending", None) and e.code == int(ExitCode.OK):  # (the command ended before the redelivery)
+            sys.exit(int(ExitCode.INTERRUPTED))
         raise
+    finally:
+        if hasattr(signal, "setitimer"):  # (a redelivery still armed: at exit SIGALRM's default killed the process, 142)
+            signal.setitimer(signal.ITIMER_REAL, 0)
 
 
 class ProgressDisplay:

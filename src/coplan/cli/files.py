@@ -44,8 +44,8 @@ def export_cmd(
         _out.print(f"wrote {escape(printable(path))}")
 
 
-def schema_cmd(kind: Annotated[SchemaKind, typer.Argument(parser=choice(SchemaKind), metavar=choices(SchemaKind),
-                                                           help="Which file format.")]):
+def schema_cmd(kind: Annotated[SchemaKind, typer.Argument(parser=choice(SchemaKind), metavar="KIND",
+                                                           help="Which file format: " + " or ".join(m.value for m in SchemaKind) + ".")]):
     """Print the JSON Schema of problem files or plan files (shipped as coplan/schemas/*.schema.json)."""
     typer.echo((Path(__file__).parents[1] / "schemas" / f"{kind.value}.schema.json").read_text(), nl=False)
 

@@ -167,11 +167,13 @@ def run_cmd(
     import shutil
     import tempfile
 
-    with tempfile.TemporaryDirectory() as tmp:
+    near = Path(out).resolve().parent
+    with tempfile.TemporaryDirectory(dir=near if near.is_dir() else None) as tmp:  # (beside the run: its disk)
         if animate:  # (drawn first, where a Ctrl-C stops it: the run then writes nothing, as at any other time)
             from ..live.animate import animate_live
 
-            animate_live(prob, result, Path(tmp) / "live.gif")
+            with _nothing_written(out):
+                animate_live(prob, result, Path(tmp) / "live.gif")
         folder = RunFolder(out)
         with signals_deferred(), folder as stage:  # (whole: a Ctrl-C here is answered once they are written)
             result.plan.save(stage)

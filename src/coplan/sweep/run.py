@@ -82,10 +82,8 @@ class _FolderLock:
         self.fd = fd
 
     def release(self) -> None:
-        if self.fd is not None:
-            with contextlib.suppress(OSError):  # (removed while held: no lock file left behind)
-                os.unlink(self.out / LOCK)
-            os.close(self.fd)
+        if self.fd is not None:  # (closing releases it; the file stays: removed, a sweep that had opened it
+            os.close(self.fd)    # could lock it while a third locked a new one -- two writing the folder)
             self.fd = None
 
 

@@ -367,6 +367,10 @@ def _same_value(a, b) -> bool:
     """Two values of a list that make the same problems: equal numbers however written (2 and 2.0), else equal as JSON."""
     if finite_number(a) and finite_number(b):
         return float(a) == float(b)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):  # ([0.5, 1] and [0.5, 1.0])
+        return len(a) == len(b) and all(_same_value(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same_value(a[k], b[k]) for k in a)
     return json.dumps(a, sort_keys=True, default=str) == json.dumps(b, sort_keys=True, default=str)
 
 
