@@ -682,3 +682,19 @@ def test_a_fruit_picked_twice_is_reported_at_its_second_pick_with_both(two_arms)
     assert len(dup) == 1 and dup[0].t == pytest.approx(again.t_start)
     assert f"{first.t_start:.3f}" in dup[0].message and f"{again.t_start:.3f}" in dup[0].message
 
+
+
+def test_a_missed_place_names_the_bin_not_the_fruit(greenhouse):
+    """(A place with the tip 40 mm from the bin read "fruit f02 tip never within 5 mm", as if the
+    fruit had been missed.)"""
+    import dataclasses
+
+    from coplan.planners.coordinated import plan_coordinated
+
+    p = plan_coordinated(greenhouse).plan
+    i, place = next((i, e) for i, e in enumerate(p.events) if e.kind == EventKind.PLACE)
+    events = list(p.events)
+    events[i] = dataclasses.replace(place, t_start=0.0, t_end=place.t_end - place.t_start)  # (at home then, not at the bin)
+    ver = verify(greenhouse, dataclasses.replace(p, events=events))
+    v = next(v for v in ver.violations if v.kind == ViolationKind.PLACE_MISSED)
+    assert v.fruit == place.fruit and f"of {place.arm}'s bin (placing it)" in v.message

@@ -366,7 +366,9 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
         if least > opts.position_tolerance:
             ver.violations.append(Violation(missed, (e.arm,), e.t_start, least - opts.position_tolerance, least,
                                             opts.position_tolerance, e.t_start, e.t_end, fruit=e.fruit,
-                                            message=f"tip never within {opts.position_tolerance * 1000:.0f} mm (closest {least * 1000:.1f} mm)"))
+                                            message=f"tip never within {opts.position_tolerance * 1000:.0f} mm of "
+                                                    + ("the fruit" if e.kind == EventKind.PICK else f"{e.arm}'s bin (placing it)")
+                                                    + f" (closest {least * 1000:.1f} mm)"))
         elif held < dwell - dwell_tol - eps:
             ver.violations.append(Violation(short, (e.arm,), e.t_start, dwell - held, held, dwell, e.t_start, e.t_end, fruit=e.fruit,
                                             message=f"still on target for {held:.3f} s, dwell is {dwell} s"))
