@@ -108,7 +108,7 @@ def test_live_on_the_move_the_carriage_rests_where_it_starts_for_a_report_only_t
 
 
 def test_on_the_move_a_carriage_that_need_not_move_gives_a_verified_plan_and_shares_of_at_most_one(single):
-    res = plan_moving(single)  # (crashed: the speed profile had no stretch of rail)
+    res = plan_moving(single, MovingOptions(search_rounds=2))  # (crashed: the speed profile had no stretch of rail)
     assert res.verification.passed and res.plan.metrics["harvested"] == 1
     m = row_metrics(single, res)
     assert m["carriage_moving_share"] == 0.0
@@ -424,7 +424,8 @@ def test_a_row_plan_lists_what_its_screen_left_out_in_both_modes(tmp_path):
 
     prob = _narrow()
     for gantry in (GantryMode.STOP_AND_GO, GantryMode.CONTINUOUS):
-        res = coplan.solve(prob, gantry=gantry, out_dir=tmp_path / gantry.value)
+        opts = MovingOptions(search_rounds=2) if gantry == GantryMode.CONTINUOUS else None  # (the screen, not the search)
+        res = coplan.solve(prob, gantry=gantry, out_dir=tmp_path / gantry.value, options=opts)
         data = json.loads((tmp_path / gantry.value / "plan.json").read_text())
         assert data["unreachable"] == ["edge", "high"] == res.plan.unreachable
         assert data["metrics"]["unreachable"] == 1 and set(data["metrics"]["row"]["screened_out"]) == {"edge", "high"}
