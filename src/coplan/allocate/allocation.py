@@ -38,7 +38,7 @@ import numpy as np
 from ..kinematics import arm as kin
 from ..errors import CoplanError
 from ..kinds import AllocationMethod, SequenceRule
-from ..problem.gantry import cell_at
+from ..problem.gantry import standing_reach
 from ..problem.model import Arm, Problem
 from ..kinematics.timing import move_lower_bound, sync_duration
 from ..ties import TIE, TIME_QUANTUM, first_min, quantised
@@ -467,8 +467,7 @@ def allocate(
         sequence = SequenceRule.FILE if method == AllocationMethod.HEURISTIC else SequenceRule.SWEEP
     sequence = SequenceRule(sequence)
     course = method == AllocationMethod.HEURISTIC  # the course's rule knows nothing of the screen
-    # (a row's reach_matrix is from the whole rail: the course's rule takes the arms where they stand)
-    reach = (problem if problem.gantry is None else cell_at(problem, 0.0)).reach_matrix() if course else screened_reach(problem)
+    reach = standing_reach(problem) if course else screened_reach(problem)  # (the course's rule: the arms where they stand)
     cfg = [arm_configs(problem, arm, prefer_elbow_up=course, screen=not course) for arm in problem.arms]
     F = len(problem.fruits)
     assign = np.full(F, -1)

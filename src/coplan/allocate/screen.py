@@ -43,7 +43,7 @@ import numpy as np
 
 from ..kinematics import arm as kin
 from ..errors import plural
-from ..problem.gantry import cell_at
+from ..problem.gantry import standing_reach
 from ..problem.model import Arm, Problem
 
 __all__ = ["Screen", "screen", "screened", "usable_picks", "reach_reason", "TIP_TOLERANCE"]
@@ -316,9 +316,7 @@ def screen(problem: Problem, tip_tolerance: float = TIP_TOLERANCE) -> Screen:
     arms, fruits = problem.arms, problem.fruits
     clear = problem.task.clearance
     pts = problem.fruit_positions
-    # (a row's reach_matrix is from the whole rail; the screen, as every cell stage, takes the arms
-    # where they stand: a row given here is its cell with the carriage at 0)
-    base_reach = (problem if problem.gantry is None else cell_at(problem, 0.0)).reach_matrix()
+    base_reach = standing_reach(problem)  # (a row given here: its cell with the carriage at 0)
     A, F = len(arms), len(fruits)
     reach = np.zeros((A, F), dtype=bool)
     q1_range: dict[str, tuple[float, float] | None] = {}

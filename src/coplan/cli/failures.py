@@ -157,11 +157,10 @@ def _edited_copy(shipped: Path) -> Path | None:
     except ValueError:
         here = Path("problems") / shipped.name
     try:
-        if here.is_file() and here.resolve() != shipped.resolve() and here.read_bytes() != shipped.read_bytes():
-            return here
+        edited = here.is_file() and here.resolve() != shipped.resolve() and here.read_bytes() != shipped.read_bytes()
     except OSError:
-        return None
-    return None
+        edited = False
+    return here if edited else None
 
 
 def failure_of(exc: BaseException) -> tuple[ExitCode, str]:

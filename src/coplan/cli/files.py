@@ -96,13 +96,15 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
                    f"export is of its 1e-7 rad rounding, which differences at {rate:g} Hz magnify -- where the plan runs "
                    f"at a limit, 1e-4 of it over, which coplan verify of the export reports", markup=False, highlight=False)
     err, arm, t = follow_error(plan, traj)
+    if err <= FOLLOW_TOLERANCE:
+        return written
     smooth, sarm, st = smoothing_error(plan)
-    if err > FOLLOW_TOLERANCE and err - smooth <= FOLLOW_TOLERANCE:  # (the smoothing's, at any rate: a higher one is no cure)
+    if err - smooth <= FOLLOW_TOLERANCE:  # (the smoothing's, at any rate: a higher one is no cure)
         _err.print(f"note: the export's curve passes up to {smooth:.3g} rad from the plan's samples ({escape(printable(sarm))} "
                    f"at t = {st + traj.delay:.2f} s of the export), at any rate: it is the smoothing that keeps every "
                    f"rate within the plan's limits (a sixth of a second difference of the samples), large where the "
                    f"plan accelerates hard for its {1.0 / plan.dt:g} Hz samples", markup=False, highlight=False)
-    elif err > FOLLOW_TOLERANCE:  # (0.001 Hz wrote two points, both home: a trajectory that never moves, said nothing)
+    else:  # (0.001 Hz wrote two points, both home: a trajectory that never moves, said nothing)
         _err.print(f"note: at {rate:g} Hz a controller following these points (cubic between them, with their "
                    f"velocities) departs from the plan by up to {err:.3g} rad ({escape(printable(arm))} at t = {t + traj.delay:.2f} s of the export); "
                    f"the plan is sampled at {1.0 / plan.dt:g} Hz", markup=False, highlight=False)

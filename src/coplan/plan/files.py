@@ -45,7 +45,6 @@ def exact_samples(plan: Plan, path: str | Path) -> Plan:
     return replace(plan, time=arrays["time"], q={a: arrays[f"q_{a}"] for a in plan.q}, gantry_x=arrays.get("gantry_x"))
 
 
-
 def load_plan(path: str | Path) -> Plan:
     """Load and check a ``plan.json``, or the ``plan.csv`` replay coplan writes beside it (joint
     samples only: no events, see :mod:`coplan.plancsv`). Raises :class:`PlanFileError` listing
@@ -84,7 +83,9 @@ def load_plan(path: str | Path) -> Plan:
         raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno}){hint}", e.lineno)], src) from None
     except UnicodeDecodeError as e:
         raise PlanFileError([Issue("", f"expected UTF-8 JSON, found an undecodable byte at offset {e.start}")], src) from None
-    return _as_judged(exact_samples(plan_from_dict(data, src), p))
+    plan = plan_from_dict(data, src)  # (its motion recorded as the one its verdict is about)
+    exact = exact_samples(plan, p)
+    return exact if exact is plan else _as_judged(exact)  # (the npz's samples: recorded again, once)
 
 
 def _as_judged(plan: Plan) -> Plan:

@@ -37,6 +37,8 @@ __all__ = [
     "sample_pieces",
     "compute_metrics",
     "jerk_figures",
+    "checked_status",
+    "motion_digest",
     "finalize_plan",
     "MAX_PLAN_BYTES",
     "MAX_PLAN_ANGLE",

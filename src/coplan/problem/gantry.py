@@ -28,7 +28,7 @@ from .yamlsafe import did_you_mean, line_of, path_str
 
 # (``Problem`` in the annotations below is coplan.problem.model.Problem, which imports this module)
 
-__all__ = ["Gantry", "parse_gantry", "cell_at", "carriage_extent", "off_rail", "gantry_range_issues", "GANTRY_KEYS"]
+__all__ = ["Gantry", "parse_gantry", "cell_at", "carriage_extent", "off_rail", "gantry_range_issues", "GANTRY_KEYS", "rail_reach", "standing_reach", "REACH_STEP"]
 
 #: The keys of a ``gantry`` section: required ones first.
 GANTRY_KEYS = ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle")
@@ -199,6 +199,13 @@ def _rail_reach(problem: "Problem") -> np.ndarray:
             hit = arm.ik(np.c_[fx[r] - cs[c], fy[r]], m)[1].any(axis=-1)
             ok[i, r[hit]] = True
     return ok
+
+
+def standing_reach(problem: "Problem") -> np.ndarray:
+    """(A, F) bool: what each arm reaches where it stands -- a cell's ``reach_matrix``, a row's with
+    the carriage at 0 (its ``reach_matrix`` is the whole rail's, :func:`rail_reach`): the reach the
+    cell stages (the screen, the course's allocation) take of a problem they are given."""
+    return (problem if problem.gantry is None else cell_at(problem, 0.0)).reach_matrix()
 
 
 def cell_at(problem: "Problem", x: float, fruit_ids=None, name: str | None = None) -> "Problem":

@@ -185,8 +185,10 @@ def cell(row: dict, key: str) -> str:
         return "yes" if v else "no"
     if key == "harvested":
         return f"{v} / {row.get('reachable')}"
-    if key in ("extra_mm", "plan_from_mm"):
-        return (f"+{v:g}" if key == "extra_mm" else "its own" if v == row.get("extra_mm") else f"+{v:g} mm's")
+    if key == "extra_mm":
+        return f"+{v:g}"
+    if key == "plan_from_mm":
+        return "its own" if v == row.get("extra_mm") else f"+{v:g} mm's"
     digits = {"ratio": 3, "clearance": 3, "margin_mm": 1, "lower_bound": 3}.get(key, 2)
     return f"{v:.{digits}f}" if isinstance(v, float) else str(v)
 

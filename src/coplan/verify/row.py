@@ -32,13 +32,11 @@ import numpy as np
 
 from ..errors import Issue, PlanFileError
 from ..plan import EventKind, Plan
-from ..problem.gantry import rail_reach
 from ..problem.model import Problem
 from .clearance import runs
 from .verdict import Verification, Violation, ViolationKind, blurred_by_rounding, rounding_allowance, rounding_words
 
 __all__ = ["check_row_inputs", "check_carriage", "row_reachable_ids", "plan_source"]
-
 
 
 def plan_source(plan: Plan) -> str:
@@ -126,7 +124,7 @@ def _check_settle(problem: Problem, plan: Plan, x: np.ndarray, t: np.ndarray, dt
 
 
 def row_reachable_ids(problem: Problem) -> list[str]:
-    """Fruit some arm can pick from some carriage position on the rail (module docstring;
-    :func:`coplan.problem.gantry.rail_reach`, on a 1 cm grid)."""
-    return [f.id for f, k in zip(problem.fruits, rail_reach(problem).any(axis=0)) if k]
+    """Fruit some arm can pick from some carriage position on the rail (module docstring): a row's
+    :meth:`Problem.reachable_ids` (:func:`coplan.problem.gantry.rail_reach`, on a 1 cm grid)."""
+    return problem.reachable_ids()
 

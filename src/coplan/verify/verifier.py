@@ -69,7 +69,7 @@ from ..kinematics.geometry import segment_distance
 from .hold import bin_track, holds_on
 from .home import check_home
 from .infer import infer_events
-from .row import check_carriage, check_row_inputs, plan_source, row_reachable_ids
+from .row import check_carriage, check_row_inputs, plan_source
 from ..kinds import PlannerKind
 from ..plan import DEFAULT_RATE, EventKind, Plan, load_plan, time_grid_issues
 from . import verdict as _verdict
@@ -380,7 +380,7 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
                                             fruit=fid, message=f"picked {len(when)} times: " + ", ".join(
                                                 f"by {a} at {t0:.3f}-{t1:.3f} s" for t0, t1, a in when)))
     _check_sequence(plan, ver)
-    reachable = row_reachable_ids(problem) if row else problem.reachable_ids()
+    reachable = problem.reachable_ids()  # (a row's: from every carriage position on its rail)
     ver.unharvested = [f for f in reachable if f not in picks or f not in placed]
     for f in ver.unharvested:
         ver.warnings.append(Finding(WarningKind.NOT_HARVESTED, (), None, message=f"reachable fruit {f} is not harvested"))
