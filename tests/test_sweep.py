@@ -906,3 +906,16 @@ def test_the_sweep_s_ctrl_c_handler_is_installed_under_the_coplan_console_too():
         assert _Interrupt().__enter__().old is None  # (ignored: a sweep leaves that as it is)
     finally:
         signal.signal(signal.SIGINT, old)
+
+
+def test_a_range_whose_step_misses_its_end_is_refused_not_cut_short():
+    """{from: 1.0, to: 2.0, step: 0.3} used to sweep 1.0 ... 1.9 and drop 2.0 without a word."""
+    text = "name: s\nbase: row\nvary:\n  spacing: {from: 1.0, to: 2.0, step: 0.3}\n"
+    with pytest.raises(SweepError) as e:
+        parse_sweep(text, "s.yaml")
+    (issue,) = e.value.issues
+    assert issue.path == "vary.spacing" and issue.line == 4
+    assert "last value would be 1.9" in issue.message and "count" in issue.message
+    # a step that divides the span (up to rounding: 0.2 into 1.4) is fine, its end included
+    ok = parse_sweep(text.replace("to: 2.0, step: 0.3", "to: 2.6, step: 0.2").replace("1.0", "1.2"), "s.yaml")
+    assert ok.vary["spacing"][0] == 1.2 and ok.vary["spacing"][-1] == 2.6 and len(ok.vary["spacing"]) == 8

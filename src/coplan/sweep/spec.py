@@ -412,6 +412,12 @@ def _range_values(r: dict, kind: str, loc: tuple, lines: dict, issues: list, kee
             return None
     if step is not None:
         n = int(math.floor((hi - lo) / step + 1e-9)) + 1
+        last = lo + (n - 1) * step
+        if abs(last - hi) > 1e-9 * max(1.0, abs(hi)) and n <= MAX_VALUES:  # ('to' was dropped without a word)
+            issues.append(Issue(path, f"expected a step that divides to - from (so that 'to' is one of the values), found from {lo}, "
+                                      f"to {hi}, step {step}: the last value would be {_tidy(last, kind)} (use a step that fits, "
+                                      f"or 'count' for evenly spaced values)", where))
+            return None
         if n > MAX_VALUES:
             issues.append(Issue(path, f"expected at most {MAX_VALUES} values, found a range of {n}", where))
             return None
