@@ -250,7 +250,8 @@ def _check_limits(problem: Problem, motions: list[ArmMotion], time: np.ndarray, 
                 for a, b in runs(diff[:, jn] > lim_k[jn] + tol):
                     w = a + int(np.argmax(diff[a : b + 1, jn]))
                     seg = signed[a : b + 1, jn]
-                    if kind == ViolationKind.JERK and b - a < _STEP_SAMPLES and (np.all(seg >= 0) or np.all(seg <= 0)):
+                    if (kind == ViolationKind.JERK and b - a < _STEP_SAMPLES and (np.all(seg >= 0) or np.all(seg <= 0))
+                            and abs(float(np.sum(seg))) * dt > _STEP_FACTOR * lim_k[jn] * seg.size * dt):
                         ver.violations.append(_acceleration_step(arm.name, jn, signed[a : b + 1, jn], centre[a : b + 1], dt,
                                                                  lim_k[jn], t[-1]))
                         continue
@@ -276,6 +277,12 @@ def _check_limits(problem: Problem, motions: list[ArmMotion], time: np.ndarray, 
 # sum says nothing of their size, so they are reported as jerk, x the limit (and the velocity and
 # acceleration checks report the same instant).
 _STEP_SAMPLES = 3
+# ... when the change of acceleration over the run is more than this many times what the jerk
+# limit allows over it. A short, smooth overshoot (the jerk at 1.05 x its limit for two samples)
+# changes the acceleration by about as much as the limit allows: it was reported as an
+# "acceleration discontinuity (unbounded jerk)" of a fraction of a rad/s^2; on the grid it is
+# jerk, x the limit (as is a step too small to tell from one)
+_STEP_FACTOR = 1.5
 
 
 def _acceleration_step(arm: str, jn: int, jerk: np.ndarray, tc: np.ndarray, dt: float, jmax: float, t_end: float) -> Violation:
