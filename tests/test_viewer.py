@@ -215,6 +215,13 @@ def test_cli_view_and_solve_html(tmp_path):
     res = runner.invoke(app, ["view", str(tmp_path / "liar.json"), "--problem", str(GREENHOUSE), "--out", str(tmp_path / "l.html")])
     assert res.exit_code == 0 and "note: the plan file says success; verified, it is unsafe" in " ".join(res.output.split())
     assert read_viewer_data((tmp_path / "l.html").read_text())["plans"][0]["status"] == "unsafe"
+    # one that claims nothing (no status key, as an external planner's): it "carries no verdict" (it said "says unverified")
+    doc = json.loads((out / "plan.json").read_text())
+    doc.pop("status")
+    (tmp_path / "mute.json").write_text(json.dumps(doc))
+    res = runner.invoke(app, ["view", str(tmp_path / "mute.json"), "--problem", str(GREENHOUSE), "--out", str(tmp_path / "m.html")])
+    said = " ".join(res.output.split())
+    assert res.exit_code == 0 and "note: the plan file carries no verdict (unverified); verified, it is success" in said, said
 
 
 # --------------------------------------------------------------------------- in a real browser

@@ -104,13 +104,15 @@ def _checked(prob, plan):
     """``plan``'s status held to the verifier's verdict (:func:`coplan.plan.checked_status`):
     a figure never calls a plan the verifier fails a success; a note says where they differ.
     Returns the verification."""
-    from ..plan import checked_status
+    from ..plan import PlanStatus, checked_status
     from ..verify.verifier import verify
 
     ver = verify(prob, plan)
     status = checked_status(plan.status, ver)
     if status != plan.status:
-        _err.print(f"[yellow]note[/]: the plan file says {plan.status.value}; verified, it is {status.value}"
+        said = ("carries no verdict (unverified)" if plan.status == PlanStatus.UNVERIFIED  # (a CSV, or no status key)
+                else f"says {plan.status.value}")
+        _err.print(f"[yellow]note[/]: the plan file {said}; verified, it is {status.value}"
                           + (f" ({len(ver.violations)} violation{'s' * (len(ver.violations) != 1)}: "
                              f"{', '.join(sorted({v.kind.value for v in ver.violations}))})" if ver.violations else ""))
         plan.status = status
