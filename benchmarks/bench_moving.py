@@ -70,7 +70,7 @@ def _rows(quick: bool) -> list[tuple[str, object, str]]:
 
 def _plan(prob, mode: str):
     from coplan.kinds import StopRule
-    from coplan.row.continuous import plan_moving
+    from coplan.row.moving import plan_moving
     from coplan.row.plan import RowOptions, plan_row
 
     if mode == "continuous":
@@ -132,7 +132,8 @@ def head_to_head(quick: bool) -> None:
 def speed_curve(name: str = "sparse_row") -> None:
     from coplan.kinds import SpeedProfile
     from coplan.problem import load_problem, shipped_rows
-    from coplan.row.continuous import MovingOptions, plan_moving, speed_search
+    from coplan.row.continuous import MovingOptions
+    from coplan.row.moving import plan_moving, speed_search
 
     prob = load_problem(next(p for p in shipped_rows() if p.stem == name))
     t = time.perf_counter()
@@ -220,7 +221,8 @@ def live_rows(seeds=(0, 1, 2)) -> None:
     from coplan.row.live import LiveRowOptions, run_live_row
 
     from coplan.kinds import GantryMode, SpeedProfile
-    from coplan.row.continuous import MovingOptions, plan_moving
+    from coplan.row.continuous import MovingOptions
+    from coplan.row.moving import plan_moving
 
     print("\nLive rows (camera 1.5 m ahead, 10 mm noise, 5 % false and 2 % repeated reports; the offline plan in the "
           "same mode knows every fruit: on the move at the same constant speed, stop and go the optimised-stops row "

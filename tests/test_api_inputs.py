@@ -25,7 +25,7 @@ from coplan.row.plan import RowOptions
 from coplan.output import OutputError
 from coplan.report.comparison import compare
 from coplan.row.live import run_live_row
-from coplan.row.continuous import plan_moving
+from coplan.row.moving import plan_moving
 from coplan.row.sensing import LiveRowOptions, RowFaults
 from coplan.row.stops import StopWindow
 from coplan.verify import VerifyOptions
@@ -239,7 +239,7 @@ def test_more_bad_arguments_say_what_was_expected(cell):
     with pytest.raises(Exception, match=r"found a non-finite angle at row 7 \(t = "):
         verify(cell, plan)
     # the documented submodules of the row stage are attributes after `import coplan`
-    code = "import coplan; print(coplan.row.continuous.plan_moving.__name__)"
+    code = "import coplan; print(coplan.row.moving.plan_moving.__name__)"
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "plan_moving"
 
 

@@ -26,7 +26,8 @@ from coplan.plan import DEFAULT_RATE, EventKind, load_plan
 from coplan.problem import parse_problem
 from coplan.row.assign import build_order_model, cpsat_order
 from coplan.row.booking import Booker, branch_table, run_policy, screen_branches
-from coplan.row.continuous import MovingOptions, make_cruise, plan_continuous, reorder_continuous, speed_search
+from coplan.row.continuous import MovingOptions, make_cruise, plan_continuous, reorder_continuous
+from coplan.row.moving import speed_search
 from coplan.row.cruise import Cruise, cruise_end, demand_stretches, last_place_bound, pick_windows
 from coplan.row.reach import row_reach
 from coplan.row.track import track, track_state
@@ -607,7 +608,7 @@ def test_the_carriage_rests_at_the_end_with_the_tail_inside_the_front_arm_s_reac
     took 71.2 s; the live carriage, cruising on, beat the offline plan by 21 %.) It rests half
     the front arm's reach further on; the search also tries the early rest at the level it chose
     and keeps the faster."""
-    from coplan.row.continuous import plan_moving
+    from coplan.row.moving import plan_moving
 
     p = parse_problem(to_yaml(gantry_row(length=10, n_arms=3, density=4, seed=1)))
     r = row_reach(p)

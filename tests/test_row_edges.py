@@ -12,7 +12,8 @@ from coplan.generate import gantry_row, to_yaml
 from coplan.kinds import GantryMode, StopRule
 from coplan.plan import EventKind
 from coplan.problem import parse_problem
-from coplan.row.continuous import MovingOptions, plan_moving
+from coplan.row.continuous import MovingOptions
+from coplan.row.moving import plan_moving
 from coplan.row.cruise import Cruise
 from coplan.row.live import LiveRowOptions, run_live_row
 from coplan.row.metrics import row_metrics
@@ -277,7 +278,7 @@ def test_an_interrupted_speed_search_keeps_its_best_verified_plan(tmp_path, monk
     """On the move, Ctrl-C / SIGTERM during the speed search keeps the best verified plan so far
     (status interrupted, written); before any plan, nothing (the interruption goes on)."""
     import coplan
-    import coplan.row.continuous as rc
+    import coplan.row.moving as rc
     from coplan.generate import gantry_row, to_yaml
     from coplan.kinds import PlanStatus
 

@@ -12,7 +12,8 @@ from coplan.generate import gantry_row, to_yaml
 from coplan.kinds import GantryMode
 from coplan.problem import parse_problem
 from coplan.row.booking import Booker
-from coplan.row.continuous import MovingOptions, plan_moving
+from coplan.row.continuous import MovingOptions
+from coplan.row.moving import plan_moving
 from coplan.row.cruise import Cruise
 from coplan.row.live import LiveRowOptions, run_live_row
 from coplan.row.park import park_poses

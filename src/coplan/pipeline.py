@@ -177,7 +177,8 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     from dataclasses import replace
 
     from .allocate.row_bound import row_bounds
-    from .row.continuous import MovingOptions, plan_moving
+    from .row.continuous import MovingOptions
+    from .row.moving import plan_moving
     from .row.metrics import row_metrics
     from .row.plan import RowOptions, plan_row
     from .row.reach import DEFAULT_RESOLUTION

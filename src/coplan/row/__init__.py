@@ -3,10 +3,11 @@
 * :mod:`coplan.row.reach` -- :func:`row_reach`: from which carriage positions each arm harvests each fruit.
 * :mod:`coplan.row.stops` -- the stop rules (optimised, fixed stride, fewest stops).
 * :mod:`coplan.row.plan` -- :func:`plan_row`: stops, each stop's cell, one verified row plan.
-* :mod:`coplan.row.continuous` -- :func:`plan_moving`: pick on the move (the carriage never stops;
+* :mod:`coplan.row.moving` -- :func:`plan_moving`: pick on the move, the speed searched, each
+  candidate a plan of :mod:`coplan.row.continuous` (the carriage never stops;
   :mod:`~coplan.row.cruise` its motion and the pick windows, :mod:`~coplan.row.track` the tip held
   over a moving fruit, :mod:`~coplan.row.booking` cycles booked clear of the neighbours,
-  :mod:`~coplan.row.assign` CP-SAT's assignment and order), the speed searched.
+  :mod:`~coplan.row.assign` CP-SAT's assignment and order).
 * :mod:`coplan.row.metrics` -- fruit per hour, share harvested, idle by cause, real-time figures.
 * :mod:`coplan.row.live` -- :func:`run_live_row`: a live row from a simulated camera
   (:mod:`~coplan.row.sensing` its options and faults).
@@ -15,11 +16,11 @@ The entry points and their options are also names of this package (``from coplan
 RowOptions, plan_row``), imported when first used.
 """
 
-_SUBMODULES = ("assign", "booking", "continuous", "cruise", "live", "liverun", "livestops", "metrics", "plan",
+_SUBMODULES = ("assign", "booking", "continuous", "cruise", "live", "liverun", "livestops", "metrics", "moving", "plan",
                "reach", "sensing", "stops", "stranded", "track")
 
 
-_EXPORTS = {"plan_row": "plan", "RowOptions": "plan", "RowResult": "plan", "plan_moving": "continuous",
+_EXPORTS = {"plan_row": "plan", "RowOptions": "plan", "RowResult": "plan", "plan_moving": "moving",
             "MovingOptions": "continuous", "run_live_row": "live", "LiveRowOptions": "sensing", "RowFaults": "sensing",
             "StopWindow": "stops", "row_metrics": "metrics",
             "row_bounds": "coplan.allocate.row_bound", "RowBounds": "coplan.allocate.row_bound"}  # (the bounds: stage 2's)
@@ -27,7 +28,7 @@ __all__ = sorted(_EXPORTS)
 
 
 def __getattr__(name: str):
-    # the submodules the docs name (``coplan.row.continuous.plan_moving``), reachable after
+    # the submodules the docs name (``coplan.row.moving.plan_moving``), reachable after
     # ``import coplan``, and the entry points and options (``from coplan.row import RowOptions``)
     import importlib
 

@@ -1,7 +1,7 @@
 """Pick on the move: the carriage never stops for a pick; each arm picks within its time windows.
 
-Entry points: :func:`plan_continuous` (one cruising speed) and :func:`plan_moving` (the speed
-chosen by :func:`speed_search`) -> :class:`coplan.row.plan.RowResult` (no stops).
+Entry point: :func:`plan_continuous` (one cruising speed) -> :class:`coplan.row.plan.RowResult`
+(no stops); :func:`coplan.row.moving.plan_moving` chooses the speed (:mod:`coplan.row.moving`).
 
 1. **Screen the row** (:func:`coplan.row.reach.row_reach`, as for stop-and-go).
 2. **The carriage** (:class:`coplan.row.cruise.Cruise`): one jerk-limited move from
@@ -23,12 +23,10 @@ arm2 was placing f0117").
 
 from __future__ import annotations
 
-import dataclasses
-import enum
 import math
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -36,21 +34,17 @@ from ..errors import Issue, OptionsError, check_fields
 from ..kinds import AssignRule, PlannerKind, PlanStatus, SpeedProfile
 from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES, EventKind, Plan, compute_metrics
 from ..problem.model import Problem
-from ..problem.plausible import cruise_speed_issue, plan_seconds_limit
+from ..problem.plausible import plan_seconds_limit
 from ..progress import speaker
-from ..workers import process_pool, settle_workers
-from .booking import Booker, branch_table, run_policy, screen_branches
-from .cruise import STRETCH, Cruise, cruise_end, demand_stretches, last_place_bound, pick_windows
+from ..workers import settle_workers
+from .booking import Booker, branch_table, run_policy
+from .cruise import Cruise, cruise_end, demand_stretches, pick_windows
 from .plan import RowResult, finalize_row
 from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
-from .starthold import start_hold
 
-__all__ = ["MovingOptions", "assemble_moving", "plan_continuous", "plan_moving", "speed_search", "SpeedPoint", "make_cruise"]
+__all__ = ["MovingOptions", "assemble_moving", "plan_continuous", "reorder_continuous", "SpeedPoint", "make_cruise", "least_pace",
+           "level_cap", "start_served", "left_at_start", "planned_line", "MIN_SPEED"]
 
-#: A refinement round raises a missed fruit's stretches' demand by this factor ...
-REFINE_BUMP = 1.25
-#: ... and pushes the level of a complete plan up by this one.
-REFINE_PUSH = 1.06
 #: The slowest a shaped cruise goes, m/s (a stretch whose fruit ask for more waits a little there).
 MIN_SPEED = 0.01
 
@@ -114,7 +108,7 @@ def start_served(problem: Problem, reach: RowReach) -> set[str]:
     return out
 
 
-def _left_at_start(reach: RowReach, res: RowResult) -> list[str]:
+def left_at_start(reach: RowReach, res: RowResult) -> list[str]:
     """Fruit a moving plan left out that the carriage's start position serves (in file order):
     the candidates of :func:`start_served`."""
     left = res.info.get("left_out") or {}
@@ -185,9 +179,9 @@ class SpeedPoint:
     fruit_per_hour: float
     verified: bool
     seconds: float
-    refined: bool = False  # a density profile slowed where fruit were missed (:func:`_refine`)
+    refined: bool = False  # a density profile slowed where fruit were missed (the speed search's refinement)
     assign: str = AssignRule.GREEDY.value  # whose order the arms followed
-    start_hold: float = 0.0  # s the carriage first rested where it starts (:func:`start_hold`)
+    start_hold: float = 0.0  # s the carriage first rested where it starts (:func:`coplan.row.starthold.start_hold`)
     early_rest: bool = False  # at rest at the end where the last fruit first comes into reach (:func:`coplan.row.cruise.cruise_end`)
 
     @property
@@ -264,11 +258,11 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
                 booker, left, info["assign"] = b2, left2, AssignRule.CPSAT.value
     timings["schedule"] = _time.perf_counter() - ts
     res = _verified(problem, booker, cruise, reach, left, info, timings, t0)
-    say(_planned_line(res))
+    say(planned_line(res))
     return res
 
 
-def _planned_line(res: RowResult) -> str:
+def planned_line(res: RowResult) -> str:
     """The progress line of one plan on the move (here, or sent on by the parent of a worker)."""
     return (f"row on the move ({res.info['profile']}, {res.info['mean_speed']:.3f} m/s on average): "
             f"{res.plan.metrics.get('harvested')} fruit, makespan {res.plan.metrics.get('makespan', 0.0):.2f} s, "
@@ -326,303 +320,3 @@ def reorder_continuous(problem: Problem, level: float, options: MovingOptions, r
 
 def _end(b: Booker) -> float:
     return max((e.t_end for e in b.events), default=0.0)
-
-
-def _point(res: RowResult, seconds: float) -> SpeedPoint:
-    m = res.plan.metrics
-    span = float(m.get("makespan") or 0.0)
-    got = int(m.get("harvested") or 0)
-    return SpeedPoint(float(res.info["level"]), float(res.info["mean_speed"]), got, len(res.reach.cover), span, got * 3600.0 / span if span > 0 else 0.0,
-                      bool(res.verification.passed), seconds, early_rest=bool(res.info.get("early_rest")))
-
-
-def speed_search(problem: Problem, options: MovingOptions | None = None, reach: RowReach | None = None,
-                 levels=None, progress: Callable[[str], None] | None = None) -> tuple[RowResult, list[SpeedPoint]]:
-    """The level (speed, or pace) that maximises fruit per hour while harvesting every
-    harvestable fruit (each candidate a full, verified plan), and the curve of the levels tried.
-
-    Fruit per hour rises with the level as long as every fruit is still harvested, so the search
-    brackets the fastest complete level. Its top is at first the level where the carriage would
-    take as long as the busiest arm's work (constant: the row's work bound, no faster plan
-    harvests everything) or gives each stretch exactly its fruit's cheapest cycles (density: pace
-    1), not planned: the first plans go from half of it up (:data:`SEARCH_WIDTH` levels a round,
-    side by side with as many workers, one after the other with one: the same levels and plan for
-    any number of workers), halving further
-    until a plan is complete; then it bisects between the fastest complete and the slowest
-    incomplete level (that top while no plan was incomplete), to 5 %; where every plan up to the
-    top is complete, the top is planned too and the level grows by half while complete. With ``levels`` it plans exactly those
-    (the curve) and returns the best. The winner: complete and verified first, then the most
-    fruit per hour."""
-    from ..allocate.row_bound import row_bounds
-
-    opts = options or MovingOptions()
-    reach = reach if reach is not None else row_reach(problem, opts.resolution)
-    g = problem.gantry
-    x1 = cruise_end(problem, reach)
-    profile = SpeedProfile(opts.profile)
-    demand = demand_stretches(problem, reach, x1) if profile == SpeedProfile.DENSITY else None
-    cap = level_cap(problem, reach, profile, demand)
-    tried: dict = {}
-    cpsat_report = None
-    # every candidate books the same arms on the same fruit: screen their elbow branches once, here
-    # (before the workers fork, so that they inherit it)
-    screen_branches(problem, reach.resolution, [(i, f) for f in reach.harvestable() for i in np.flatnonzero(reach.cover[f].any(axis=1)).tolist()],
-                    branch_table(problem, reach.resolution))
-    greedy = replace(opts, assign=AssignRule.GREEDY)  # the search's plans: CP-SAT only once, at its end
-    interrupted = False
-    served: set[str] | None = None  # (start_served: once, when a plan first leaves such a fruit out)
-    with _Runner(problem, reach, demand, max(1, int(opts.workers)), progress) as runner:
-        try:
-            def run_many(vs) -> list[SpeedPoint]:
-                nonlocal served
-                vs = [round(float(min(cap, max(v, 1e-3))), 4) for v in vs]
-                todo = [v for v in dict.fromkeys(vs) if v not in tried]
-                for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
-                    tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
-                left = set() if runner.hold else {f for v in todo for f in _left_at_start(reach, tried[v][0])}
-                if left:  # fruit only the start serves, missed: every plan from here rests there first
-                    if served is None:
-                        served = start_served(problem, reach)
-                    held = sorted(left & served)
-                    if held:
-                        runner.hold = start_hold(problem, reach, held)
-                        for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
-                            tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
-                return [tried[v][1] for v in vs]
-
-            if levels is not None:
-                run_many(list(levels))
-            else:
-                if profile == SpeedProfile.CONSTANT:
-                    v = max(x1 - g.start, 0.05) / max(row_bounds(problem).work, 1e-3)
-                else:
-                    v = 1.0
-                v = min(v, cap)
-                ok_v, bad_v = None, None
-                # the starting level is the bracket's top until a plan says otherwise: a faster carriage
-                # than the busiest arm's work (pace 1) leaves fruit on every benchmark row, so it is
-                # planned only when the bracket closes below it with no incomplete plan
-                assumed: float | None = v
-                w = SEARCH_WIDTH  # (not the workers: the levels tried, and so the plan, are the same for any)
-                for _ in range(int(math.ceil(opts.search_rounds / w))):
-                    # w levels at once: from half the start up to it / down by halves / up by half again
-                    # until bracketed, then w points inside
-                    top = bad_v if bad_v is not None else assumed
-                    if ok_v is None and bad_v is None:
-                        batch = [v / 2.0 * (1.0 + k / w) for k in range(w)]
-                    elif ok_v is None:
-                        batch = [bad_v / 2.0 ** (k + 1) for k in range(w)]
-                    elif top is None:
-                        if ok_v >= cap:
-                            break
-                        batch = [min(cap, ok_v * 1.5 ** (k + 1)) for k in range(w)]
-                    elif top - ok_v <= 0.05 * ok_v:
-                        if bad_v is not None:
-                            break
-                        batch = [min(cap, top * 1.5 ** k) for k in range(w)]  # complete up to the start: it too, and on up
-                        assumed = None
-                    else:
-                        batch = [ok_v + (top - ok_v) * (k + 1) / (w + 1) for k in range(w)]
-                    for p in run_many(batch):
-                        if p.complete:
-                            ok_v = p.level if ok_v is None else max(ok_v, p.level)
-                        else:
-                            bad_v = p.level if bad_v is None else min(bad_v, p.level)
-                    if ok_v is not None and bad_v is not None and bad_v < ok_v:
-                        bad_v = None  # an incomplete plan below a complete one: not a bracket; go on up
-                if AssignRule(opts.assign) == AssignRule.CPSAT and bad_v is not None:
-                    # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
-                    # started from the greedy's booking there (alongside the refinement when there is
-                    # a second worker)
-                    runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, "cpsat"))
-                # at the best complete level (the most fruit per hour: not always the fastest
-                # complete one), the carriage's early rest at the end too (where the last
-                # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`), the faster plan
-                # kept; with a second worker, alongside the refinement (one plan at a time)
-                if ok_v is not None:
-                    best_v = max((k for k in tried if tried[k][1].complete), key=lambda k: _rank(tried[k][1]))
-                    runner.early(best_v, greedy, key=(best_v, "early"))
-                if demand is not None and bad_v is not None:
-                    _refine(reach, demand, bad_v, tried, runner, greedy)
-                for key, ((res, report), secs) in runner.collect():
-                    if key[1] == "cpsat":
-                        cpsat_report = report
-                    elif res is not None:  # (the early rest's plan, made in the background: its line from here)
-                        speaker(progress)(_planned_line(res))
-                    if res is not None:
-                        tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"], start_hold=runner.hold))
-        except KeyboardInterrupt:  # Ctrl-C / SIGTERM: the best verified plan so far is kept
-            if not tried:
-                raise
-            interrupted = True
-    pts = [p for _, p in tried.values()]
-    best = max(tried, key=lambda v: _rank(tried[v][1]))
-    if cpsat_report is not None:
-        tried[best][0].info.setdefault("cpsat", cpsat_report)  # the search's CP-SAT step, whether kept or not
-    if interrupted:
-        tried[best][0].plan.status = PlanStatus.INTERRUPTED  # (its verdict is in plan.verification)
-        tried[best][0].plan.solver["status"] = PlanStatus.INTERRUPTED.value
-        tried[best][0].info["interrupted"] = f"the speed search stopped after {len(tried)} plan{'' if len(tried) == 1 else 's'}: the best verified so far"
-    return tried[best][0], pts
-
-
-#: levels the speed search plans a round (side by side with two workers or more): fixed, so
-#: that ``--workers`` changes how long the search takes, never which plan it finds
-SEARCH_WIDTH = 2
-
-
-def _rank(p: SpeedPoint) -> tuple:
-    """How the speed search ranks its plans: complete and verified first, then the most fruit
-    harvested, then the most fruit per hour."""
-    return p.complete, p.verified, p.harvested, p.fruit_per_hour
-
-
-def _refine(reach: RowReach, demand, level: float, tried: dict, runner: "_Runner", opts: MovingOptions) -> None:
-    """Slow down only where fruit were missed: from the slowest incomplete level, each round
-    raises the demand of the stretches from which a missed fruit is served by ``REFINE_BUMP``
-    and plans again; a complete plan pushes the level up by ``REFINE_PUSH``. Every round a full,
-    verified plan (added to ``tried``, keyed apart from the plain levels). The refinement stops
-    where its next cruise cannot place the last fruit sooner than a complete plan already does
-    (:func:`coplan.row.cruise.last_place_bound`)."""
-    d = list(demand)
-    v = level
-    res = tried[level][0]  # the plan at that level already says which fruit were missed
-    for r in range(opts.refine_rounds + 1):
-        if r > 0:
-            best = min((p.row_time for _, p in tried.values() if p.complete), default=math.inf)
-            cruise = make_cruise(runner.problem, reach, SpeedProfile.DENSITY, v, d, runner.hold)
-            if last_place_bound(runner.problem, reach, cruise) >= best:
-                break
-            [(res, secs)] = runner.map([v], opts, d)
-            p = replace(_point(res, secs), refined=True, start_hold=runner.hold)
-            tried[(v, r)] = (res, p)
-            if p.complete:
-                v *= REFINE_PUSH
-                continue
-            if r == opts.refine_rounds:
-                break
-        got = {e.fruit for e in res.plan.events if e.kind == EventKind.PLACE}
-        for fid in reach.harvestable():
-            if fid in got:
-                continue
-            lo, hi = (float(reach.grid[k]) for k in reach.span(fid))
-            d = [(x, dk * REFINE_BUMP if x > lo and x - STRETCH < hi else dk) for x, dk in d]
-
-
-def _plan_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand,
-              hold: float = 0.0, early: bool = False) -> tuple[RowResult, float]:
-    """One full plan in a worker process (module-level: it is pickled to the worker)."""
-    t = _time.perf_counter()
-    res = plan_continuous(problem, level, opts, reach, None, demand, hold, early)
-    return res, _time.perf_counter() - t
-
-
-def _early_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand, hold: float = 0.0):
-    """:func:`plan_continuous` with the early rest at the end, in a worker process: ``((result, None), seconds)``."""
-    res, secs = _plan_job(problem, level, opts, reach, demand, hold, True)
-    return (res, None), secs
-
-
-def _reorder_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand, events, hold: float = 0.0):
-    """:func:`reorder_continuous` in a worker process: ``((result or None, report), seconds)``."""
-    t = _time.perf_counter()
-    out = reorder_continuous(problem, level, opts, reach, demand, events, hold)
-    return out, _time.perf_counter() - t
-
-
-class _Runner:
-    """Full plans of the speed search, here (one worker) or in ``workers`` processes (the same
-    plans as here, each deterministic in its inputs: the same input and N give the same plan);
-    ``hold``: every plan's start hold (:func:`start_hold`)."""
-
-    def __init__(self, problem: Problem, reach: RowReach, demand, workers: int, progress):
-        self.problem, self.reach, self.demand, self.workers, self.progress = problem, reach, demand, workers, progress
-        self.hold = 0.0
-        self.pool = None
-        self.pending: list = []
-
-    def __enter__(self) -> "_Runner":
-        self.pool = process_pool(self.workers)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        if self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
-
-    def _demand(self, d):
-        return self.demand if d is None else d
-
-    def map(self, levels: list[float], opts: MovingOptions, demand=None, early: bool = False) -> list[tuple[RowResult, float]]:
-        if self.pool is None:
-            out = []
-            for v in levels:
-                t = _time.perf_counter()
-                out.append((plan_continuous(self.problem, v, opts, self.reach, self.progress, self._demand(demand), self.hold,
-                                            early), _time.perf_counter() - t))
-            return out
-        futures = [self.pool.submit(_plan_job, self.problem, v, opts, self.reach, self._demand(demand), self.hold, early)
-                   for v in levels]
-        out = [f.result() for f in futures]
-        for res, _ in out:  # (a worker cannot reach the caller's progress: its lines come from here)
-            speaker(self.progress)(_planned_line(res))
-        return out
-
-    def _later(self, key, job, *args) -> None:
-        """``job(problem, *args, ...)`` to collect later (:meth:`collect`): in the background with
-        a second worker, else here and now."""
-        args = (self.problem, *args)
-        self.pending.append((key, job(*args) if self.pool is None else self.pool.submit(job, *args)))
-
-    def reorder(self, level: float, opts: MovingOptions, events, key=None) -> None:
-        """:func:`reorder_continuous` at ``level`` from the greedy's ``events``, to collect later
-        (:meth:`collect`): in the background with a second worker."""
-        self._later(key, _reorder_job, level, opts, self.reach, self.demand, events, self.hold)
-
-    def early(self, level: float, opts: MovingOptions, key=None) -> None:
-        """The plan at ``level`` with the carriage's early rest at the end, to collect later
-        (:meth:`collect`, as ``((result, None), seconds)``): in the background with a second worker."""
-        self._later(key, _early_job, level, opts, self.reach, self.demand, self.hold)
-
-    def collect(self) -> list:
-        out = [(k, f if isinstance(f, tuple) else f.result()) for k, f in self.pending]
-        self.pending = []
-        return out
-
-
-def plan_moving(problem: Problem, options: MovingOptions | None = None,
-                progress: Callable[[str], None] | None = None) -> RowResult:
-    """A row on the move: at ``options.level``, or at the level :func:`speed_search` chooses
-    (its curve in ``plan.solver['row']['speed_curve']``); planning time covers the search."""
-    if options is not None and not isinstance(options, MovingOptions):
-        raise TypeError(f"options: a row on the move takes MovingOptions(...), found {type(options).__name__} {options!r}")
-    if getattr(problem, "gantry", None) is None:  # (as plan_row says it: it raised from deep in the screen)
-        raise ValueError(f"{getattr(problem, 'name', problem)!r} has no gantry: plan it as a cell")
-    opts = options or MovingOptions()
-    if opts.level is not None and SpeedProfile(opts.profile) == SpeedProfile.CONSTANT:
-        bad = cruise_speed_issue(problem, opts.level)
-        if bad:  # (before any work: a speed of micrometres per second books for hours and writes gigabytes)
-            raise OptionsError([Issue("level", bad)], "MovingOptions")
-    t0 = _time.perf_counter()
-    reach = row_reach(problem, opts.resolution)
-    if opts.level is not None:
-        res = plan_continuous(problem, opts.level, opts, reach, progress)
-        curve = [_point(res, res.timings["planning"])]
-        left = _left_at_start(reach, res)
-        served = start_served(problem, reach) if left else set()
-        held = [f for f in left if f in served]
-        if held:  # fruit only a carriage at rest where it starts can give time: once more, resting there first
-            again = plan_continuous(problem, opts.level, opts, reach, progress, None, start_hold(problem, reach, held))
-            curve.append(replace(_point(again, again.timings["planning"]), start_hold=again.info["start_hold"]))
-            if again.verification.passed and (again.plan.metrics.get("harvested") or 0) > (res.plan.metrics.get("harvested") or 0):
-                res = again
-    else:
-        res, curve = speed_search(problem, opts, reach, progress=progress)
-    total = _time.perf_counter() - t0
-    res.info["speed_curve"] = [p.to_dict() for p in curve]
-    # what the plan depends on (the options; not the workers, since SEARCH_WIDTH is fixed)
-    res.info["options"] = {f.name: (v.value if isinstance(v, enum.Enum) else v)
-                           for f in dataclasses.fields(opts) for v in [getattr(opts, f.name)]}
-    res.timings["planning"] = total  # the whole search, verification of every candidate included
-    res.plan.solver["timings"] = dict(res.timings)
-    res.plan.solver["row"] = res.info
-    return res

@@ -67,7 +67,8 @@ from ..errors import Issue, OptionsError
 from ..problem.model import Fruit, Problem
 from ..problem.plausible import live_speed_issue, plan_seconds_limit
 from ..allocate.row_bound import row_bounds
-from .continuous import MovingOptions, assemble_moving, plan_moving
+from .continuous import MovingOptions, assemble_moving
+from .moving import plan_moving
 from .cruise import Cruise, pick_windows, ramp_time
 from .liverun import LiveRun
 from .livestops import last_stop, next_to_last, stop_share
