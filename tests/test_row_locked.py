@@ -8,14 +8,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from coplan.generate import gantry_row, to_yaml
+from coplan.generate import gantry_row, problem_dict, to_yaml
 from coplan.kinds import GantryMode
 from coplan.problem import parse_problem
 from coplan.row.booking import Booker
 from coplan.row.continuous import MovingOptions
-from coplan.row.moving import plan_moving
 from coplan.row.cruise import Cruise
 from coplan.row.live import LiveRowOptions, run_live_row
+from coplan.row.moving import plan_moving
 from coplan.row.park import park_poses
 from coplan.row.reach import locked_arms
 from coplan.problem.gantry import cell_at
@@ -67,3 +67,23 @@ def test_the_locked_arms_rest_counts_as_no_work_not_as_waiting_for_a_neighbour(l
     res = coplan.solve(locked_row, gantry="continuous")
     idle = res.plan.metrics["row"]["idle_share"]["a"]
     assert idle["coordination"] == 0.0 and idle["carriage"] + idle["no_fruit"] > 0.9
+
+
+def test_a_rows_solve_says_which_arm_the_screen_locks_and_why(locked_row, tmp_path):
+    """`coplan check` named the locked arm; `coplan solve` of the same row said nothing of it (its
+    fruit per hour 0 and 'no fruit' idle unexplained) and plan.json did not record it."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    path = tmp_path / "locked.yaml"
+    path.write_text(to_yaml(problem_dict(locked_row)))
+    res = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["solve", str(path), "--out", str(tmp_path / "run")])
+    said = " ".join(res.output.split())
+    assert res.exit_code == 0, res.output
+    assert "screen 1 of 2 arms locked (a): it harvests nothing from any carriage position" in said
+    why = json.loads((tmp_path / "run" / "plan.json").read_text())["metrics"]["row"]["locked_arms"]
+    assert list(why) == ["a"] and "bin" in why["a"] and why["a"] in said
+    assert "(share of the row time each arm is idle: carriage -- at rest while the carriage moves" in said

@@ -144,6 +144,8 @@ class RowMetrics(BaseModel):  # (open: coplan may add figures)
     share_harvested: float | None = Field(None, description="harvested / harvestable (0-1)")
     share_of_all_fruit: float | None = Field(None, description="harvested / fruit (0-1)")
     screened_out: dict[str, str] | None = Field(None, description="fruit id -> why no carriage position serves it")
+    locked_arms: dict[str, str] | None = Field(None, description="arm -> why the screen locks it (it cannot reach its "
+                                                                 "bin, which rides with the carriage): it harvests nothing")
     row_time: float | None = Field(None, description="s, the end of the last place")
     row_length: float | None = Field(None, description="m, gantry end - start")
     time_per_metre: float | None = Field(None, description="s per m of row: row_time / row_length")
@@ -158,7 +160,9 @@ class RowMetrics(BaseModel):  # (open: coplan may add figures)
     overlap_seconds: float | None = Field(None, description="s the carriage moves while some arm works (away from home), "
                                                              "which the stop-and-go bound's model excludes")
     idle_share: dict[str, dict[str, float]] | None = Field(None, description="arm -> share of the row time idle by cause: "
-                                                                             "carriage, no_fruit, others, coordination, making_way")
+        "carriage (at rest while the carriage moves), no_fruit (at a stop with nothing in its reach), others (done at a "
+        "stop, waiting for the other arms), coordination (holding still within its work for a neighbour), making_way "
+        "(moving out of a neighbour's way where it has no fruit)")
     planning_time: float | None = Field(None, description="s of planning (the stop rule and every stop's cell, or the speed search)")
     planning_over_row_time: float | None = Field(None, description="planning_time / row_time")
     first_stop_seconds: float | None = Field(None, description="s of planning until the first stop was known")

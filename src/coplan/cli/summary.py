@@ -91,6 +91,12 @@ def print_row_summary(console, res) -> None:
     p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, {how}, "
       f"status [bold {colour}]{res.plan.status.value}[/]")
     _say_if_no_fruit(p, res.problem)
+    locked = r.get("locked_arms") or {}
+    if locked:  # (as a cell's summary and `coplan check` say it: the bins ride with the carriage, so all along the rail)
+        p(f"  screen            {len(locked)} of {plural(len(res.problem.arms), 'arm')} locked ({', '.join(map(safe, locked))}): "
+          f"{'it harvests' if len(locked) == 1 else 'they harvest'} nothing from any carriage position")
+        for why in locked.values():
+            p(f"    {safe(why)}")
     auto = solver.get("auto")
     if auto:
         other = next(k for k in auto if k not in ("chosen", auto["chosen"]))
@@ -151,6 +157,10 @@ def print_row_summary(console, res) -> None:
         p(f"  stops             {r.get('stops')}{extra}, {fmt(r.get('mean_time_per_stop'), ' s')} each on average; {shares}")
     for a, causes in (r.get("idle_share") or {}).items():
         p(f"  idle {safe(a):12s} " + ", ".join(f"{k.replace('_', ' ')} {100 * v:.1f} %" for k, v in causes.items()))
+    if r.get("idle_share"):  # (the causes were explained only in a docstring)
+        p("    (share of the row time each arm is idle: carriage -- at rest while the carriage moves; no fruit -- at a stop "
+          "with nothing in its reach; others -- done at a stop, waiting for the other arms; coordination -- holding still "
+          "within its work for a neighbour; making way -- moving out of a neighbour's way)", highlight=False)
     least = ver.get("min_clearance")
     if least is not None and math.isfinite(least):
         p(f"  collisions found  {ver.get('collision_count', '-')}   least clearance {fmt(least, ' m', 4)} "

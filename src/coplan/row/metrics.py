@@ -4,7 +4,8 @@
 
 * **fruit per hour** over the row (harvested / row time), and per arm;
 * **share harvested** of the harvestable fruit (and of all fruit), with the fruit screened out
-  and the reason for each;
+  and the reason for each, and the arms the screen locks (``locked_arms``: arm -> why; they
+  harvest nothing from any carriage position);
 * **row time** (the last fruit placed), per metre of row, the **stops** and the mean time per
   stop (``mean_time_per_stop``: from the carriage's arrival to the end of the stop's last pick,
   when it may leave -- the arms place while it moves on; at the last stop the row's last place
@@ -152,6 +153,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         "share_harvested": harvested / harvestable if harvestable else None,
         "share_of_all_fruit": harvested / len(problem.fruits) if problem.fruits else None,
         "screened_out": dict(result.reach.reasons),
+        "locked_arms": dict(result.reach.locked),
         "row_time": span,
         "row_length": g.length,
         "time_per_metre": span / g.length,
