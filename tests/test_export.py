@@ -133,7 +133,8 @@ def test_an_export_of_a_saved_plan_passes_coplan_verify_at_a_controller_rate(pro
 
     plan = plan_coordinated(load_problem(problems_dir / "crossing_paths.yaml")).plan
     plan.save(tmp_path / "run")
-    res = run("export", str(tmp_path / "run" / "plan.json"), "--rate", "250", "--out", str(tmp_path / "e.csv"))
+    prob = ["-p", str(problems_dir / "crossing_paths.yaml")]  # (a plan made in Python records no problem file)
+    res = run("export", str(tmp_path / "run" / "plan.json"), "--rate", "250", "--out", str(tmp_path / "e.csv"), *prob)
     assert res.exit_code == 0 and "note" not in res.stderr, res.output
     res = run("verify", str(problems_dir / "crossing_paths.yaml"), str(tmp_path / "e.csv"))
     out = " ".join(res.output.split())
@@ -143,11 +144,17 @@ def test_an_export_of_a_saved_plan_passes_coplan_verify_at_a_controller_rate(pro
     alone = tmp_path / "alone"
     alone.mkdir()
     (alone / "plan.json").write_bytes((tmp_path / "run" / "plan.json").read_bytes())
-    res = run("export", str(alone / "plan.json"), "--rate", "250", "--out", str(tmp_path / "a.csv"))
-    assert res.exit_code == 0 and "no plan.npz with this plan's full-precision samples" in " ".join(res.stderr.split())
-    assert "note" not in run("export", str(alone / "plan.json"), "--rate", "50", "--out", str(tmp_path / "a50.csv")).stderr
+    res = run("export", str(alone / "plan.json"), "--rate", "250", "--out", str(tmp_path / "a.csv"), *prob)
+    said = " ".join(res.stderr.split())
+    assert res.exit_code == 0 and "no plan.npz with this plan's full-precision samples" in said
+    # the note's figure is the verifier's: over a limit exactly when coplan verify of the export fails on one
+    over = "x its limit, which coplan verify of the export reports" in said
+    assert over != ("every limit holds" in said)
+    checked = run("verify", str(problems_dir / "crossing_paths.yaml"), str(tmp_path / "a.csv"))
+    assert (checked.exit_code == 6) == over, (said, checked.output)
+    assert "note" not in run("export", str(alone / "plan.json"), "--rate", "50", "--out", str(tmp_path / "a50.csv"), *prob).stderr
     # from the plan.csv replay, and from Python, alike (load_plan takes the plan.npz's samples)
-    res = run("export", str(tmp_path / "run" / "plan.csv"), "--rate", "250", "--out", str(tmp_path / "c.csv"))
+    res = run("export", str(tmp_path / "run" / "plan.csv"), "--rate", "250", "--out", str(tmp_path / "c.csv"), *prob)
     assert res.exit_code == 0, res.output
     export_plan(load_plan(tmp_path / "run" / "plan.json"), 250.0, "csv", tmp_path / "api.csv")
     for f in ("c.csv", "api.csv"):
@@ -195,6 +202,9 @@ def test_untrusted_arm_names_make_safe_distinct_file_names():
     assert names["../../etc/passwd"] == "etc_passwd"
     assert len(set(v.lower() for v in names.values())) == 6
     assert all("/" not in v and not v.startswith(".") and v for v in names.values())
+    # a name that is safe as it is keeps it, wherever it comes: "a b" before "a_b" took a_b
+    assert names["a_b"] == "a_b" and names["a b"] == "a_b_2" and names["left"] == "left" and names["Left"] == "Left_2"
+    assert safe_names(["a b", "a_b"]) == {"a b": "a_b_2", "a_b": "a_b"}
 
 
 def test_cli_export(single_plan, tmp_path):
@@ -241,21 +251,28 @@ def test_json_and_yaml_exports_never_overwrite_another_file_and_keep_a_rows_carr
 
     text = next(p for p in shipped_problems() if p.stem == "single_arm").read_text().replace("name: arm\n", "name: plan\n")
     prob = parse_problem(text)
+    (tmp_path / "p.yaml").write_text(text)
     run = tmp_path / "run"
     solve(prob, planner="coordinated", out_dir=run)
     before = (run / "plan.json").read_bytes()
     for fmt in ("json", "yaml"):
-        res = CliRunner().invoke(app, ["export", str(run / "plan.json"), "--format", fmt, "--out", str(run)])
+        res = CliRunner().invoke(app, ["export", str(run / "plan.json"), "--format", fmt, "--out", str(run), "-p", str(tmp_path / "p.yaml")])
         if fmt == "json":
             assert res.exit_code == 2 and "found a coplan.plan file: it would be overwritten" in " ".join(res.output.split())
     assert (run / "plan.json").read_bytes() == before
-    first = CliRunner().invoke(app, ["export", str(run / "plan.json"), "--format", "json", "--out", str(tmp_path / "ex")])
+    first = CliRunner().invoke(app, ["export", str(run / "plan.json"), "--format", "json", "--out", str(tmp_path / "ex"), "--unverified"])
     assert first.exit_code == 0, first.output
-    again = CliRunner().invoke(app, ["export", str(run / "plan.json"), "--format", "json", "--out", str(tmp_path / "ex")])
+    again = CliRunner().invoke(app, ["export", str(run / "plan.json"), "--format", "json", "--out", str(tmp_path / "ex"), "-p", str(tmp_path / "p.yaml")])
     assert again.exit_code == 0, again.output  # an earlier export is replaced
     d = gantry_row(length=6.0, n_arms=2, density=2.0, seed=3)
     d["arms"][0]["name"] = "carriage"
     row = parse_problem(to_yaml(d))
+    (tmp_path / "row.yaml").write_text(to_yaml(d))
+    solve(row, out_dir=tmp_path / "rowrun")
+    res = CliRunner().invoke(app, ["export", str(tmp_path / "rowrun" / "plan.json"), "-f", "json", "-o", str(tmp_path / "rowcli"),
+                                   "-p", str(tmp_path / "row.yaml")])
+    said = " ".join(res.output.split())
+    assert res.exit_code == 0 and "note: arm 'carriage' is in carriage_2.json (joints carriage_2_joint1, carriage_2_joint2)" in said, said
     paths = export_plan(solve(row).plan, 100.0, "json", tmp_path / "row")
     names = {p.stem: json.loads(p.read_text())["joint_names"] for p in paths}
     assert names == {"carriage": ["carriage_x"], "carriage_2": ["carriage_2_joint1", "carriage_2_joint2"],
@@ -278,11 +295,14 @@ def test_an_export_too_coarse_for_the_motion_says_how_far_a_controller_would_dep
     k = int(np.searchsorted(crossing_plan.time, t))
     follow = CubicHermiteSpline(coarse.time, coarse.q[arm], coarse.qd[arm], axis=0)(crossing_plan.time[k] + coarse.delay)
     assert err == pytest.approx(float(np.abs(follow - crossing_plan.q[arm][k]).max())) and err > FOLLOW_TOLERANCE
+    from coplan.problem.model import default_problem_path
+
     plan_path = tmp_path / "plan.json"
     plan_path.write_text(json.dumps(crossing_plan.to_dict()))
-    said = " ".join(run("export", str(plan_path), "--rate", "0.001").stderr.split())
+    prob = ["-p", str(default_problem_path().parent / "crossing_paths.yaml")]
+    said = " ".join(run("export", str(plan_path), "--rate", "0.001", *prob).stderr.split())
     assert "note: at 0.001 Hz a controller following these points" in said and "departs from the plan by up to" in said
-    assert "note" not in run("export", str(plan_path), "--rate", "100").stderr
+    assert "note" not in run("export", str(plan_path), "--rate", "100", *prob).stderr
 
 
 def test_the_default_name_of_an_export_at_a_fractional_rate_keeps_its_rate(single_plan, tmp_path):
@@ -319,7 +339,7 @@ def test_an_export_whose_smoothing_departs_from_the_samples_does_not_blame_the_r
     plan.save(tmp_path / "o")
     for rate in ("100", "1000"):
         said = " ".join(run("export", str(tmp_path / "o" / "plan.json"), "--rate", rate, "-o",
-                            str(tmp_path / f"e{rate}.csv")).stderr.split())
+                            str(tmp_path / f"e{rate}.csv"), "-p", str(tmp_path / "fast.yaml")).stderr.split())
         assert "passes up to" in said and "at any rate" in said and f"at {rate} Hz a controller" not in said
 
 
@@ -342,3 +362,36 @@ def test_the_point_cap_counts_the_export_s_own_points(single_plan):
     with pytest.raises(ValueError, match=f"at most {MAX_POINTS} points per arm, found {MAX_POINTS + 1}"):
         check_rate((MAX_POINTS - 0.5) / length, plan)
     assert trajectory(plan, 20.0).time.size == math.ceil(length * 20.0 - 1e-9) + 1
+
+
+def test_an_unsafe_or_edited_plan_is_not_exported_for_a_controller(tmp_path):
+    """(The heuristic's baseline.json, unsafe, and a plan.json edited after its verdict were
+    exported with exit 0 -- the second with a note that its rates kept the plan's limits; the
+    export's jerk was 9.6 x the limit, its acceleration 61 x.) The plan is verified against its
+    problem first: refused, exit 6, nothing written; --unverified exports it, and says so."""
+    from coplan.pipeline import solve
+    from coplan.problem.model import default_problem_path
+
+    run_dir = tmp_path / "run"
+    solve(default_problem_path(), out_dir=run_dir, planner="optimal")  # (plan.json records its problem file)
+    assert json.loads((run_dir / "baseline.json").read_text())["status"] == "unsafe"
+    res = run("export", str(run_dir / "baseline.json"), "-o", str(tmp_path / "b.csv"))
+    said = " ".join(res.output.split())
+    assert res.exit_code == 6 and "does not pass the verifier against problem 'greenhouse-row'" in said and "jerk" in said, said
+    assert "nothing written (--unverified exports it anyway)" in said and not (tmp_path / "b.csv").exists()
+    res = run("export", str(run_dir / "baseline.json"), "-o", str(tmp_path / "b.csv"), "--unverified")
+    assert res.exit_code == 0 and (tmp_path / "b.csv").is_file() and "exported without verifying it (--unverified)" in " ".join(res.output.split())
+    # edited after its verdict (it still says success; its plan.npz beside it is of the old motion)
+    edited = tmp_path / "edited"
+    edited.mkdir()
+    doc = json.loads((run_dir / "plan.json").read_text())
+    arm = next(iter(doc["arms"]))
+    doc["arms"][arm]["q"][300][0] += 0.05
+    (edited / "plan.json").write_text(json.dumps(doc))
+    (edited / "plan.npz").write_bytes((run_dir / "plan.npz").read_bytes())
+    res = run("export", str(edited / "plan.json"), "-o", str(tmp_path / "e.csv"))
+    said = " ".join(res.output.split())
+    assert res.exit_code == 6 and "does not pass the verifier" in said and not (tmp_path / "e.csv").exists(), said
+    # the verified plan itself: exported, no word of a verdict
+    res = run("export", str(run_dir / "plan.json"), "-o", str(tmp_path / "ok.csv"))
+    assert res.exit_code == 0 and (tmp_path / "ok.csv").is_file() and "verif" not in res.output, res.output

@@ -44,7 +44,7 @@ class PlotKind(str, Enum):
     WORKSPACE = "workspace"
 
 
-def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
+def plan_with_problem(plan_path: Path, problem: Optional[Path]):
     """Load a plan.json and its problem: --problem; else the problem file the plan records
     (``problem_file``: its path, and its digest, so a file changed since is not taken for it);
     else the shipped problem of the plan's name."""
@@ -100,7 +100,7 @@ def _plan_with_problem(plan_path: Path, problem: Optional[Path]):
     return prob, plan
 
 
-def _checked(prob, plan):
+def checked(prob, plan):
     """``plan``'s status held to the verifier's verdict (:func:`coplan.plan.checked_status`):
     a figure never calls a plan the verifier fails a success; a note says where they differ.
     Returns the verification."""
@@ -153,7 +153,7 @@ def plot_cmd(
 
         prob, pl = load_problem(_resolve_problem(plan)), None
     else:
-        prob, pl = _plan_with_problem(plan, problem)
+        prob, pl = plan_with_problem(plan, problem)
     if arm is not None and arm not in [a.name for a in prob.arms]:
         fail(ExitCode.USAGE, f"--arm: no arm named {arm!r}; arms are {', '.join(a.name for a in prob.arms)}")
     if kind == PlotKind.WORKSPACE and prob.gantry is not None:
@@ -161,7 +161,7 @@ def plot_cmd(
                               "the carriage, so what they reach depends on where it stops): `coplan check` screens a row, "
                               "`coplan view` shows its fruit by arm and stop; --kind gantt, clearance and joints draw its plan")
     if pl is not None:  # (the title's status: the verdict's, not the file's word)
-        _checked(prob, pl)
+        checked(prob, pl)
     if kind == PlotKind.GANTT:
         fig = plots.plot_gantt(prob, {pl.planner_name: pl})
     elif kind == PlotKind.CLEARANCE:
@@ -199,8 +199,8 @@ def animate_cmd(
 
     if out is not None and out.suffix.lower() not in (".gif", ".mp4"):
         fail(ExitCode.USAGE, f"--out: expected a .gif or .mp4 file, found {_s(out)!r}")
-    prob, pl = _plan_with_problem(plan, problem)
-    _checked(prob, pl)  # (the title's status: the verdict's, not the file's word)
+    prob, pl = plan_with_problem(plan, problem)
+    checked(prob, pl)  # (the title's status: the verdict's, not the file's word)
     target = out if out is not None else plan.with_suffix(".gif")
     with ProgressDisplay(_err) as bars:
         path = animate_plan(
@@ -226,12 +226,12 @@ def view_cmd(
         failures.check_out_file(out)
         if out.suffix.lower() not in (".html", ".htm"):  # (a usage error, before any work: as plot's and animate's --out)
             failures.usage(f"--out: expected a file name ending in .html, found {out.name!r}")
-    prob, pl = _plan_with_problem(plan, problem)
-    other = _plan_with_problem(compare, problem)[1] if compare is not None else None
+    prob, pl = plan_with_problem(plan, problem)
+    other = plan_with_problem(compare, problem)[1] if compare is not None else None
     if other is not None and other.problem != pl.problem:  # (the message named the option, not the file)
         fail(ExitCode.USAGE, f"--compare {compare}: expected a plan of the same problem {pl.problem!r} as {plan}, "
                               f"found a plan of {other.problem!r}")
     # each plan verified once, here: the page shows the verdict, and a note says where the file's word differs (as plot)
-    vers = {"verification": _checked(prob, pl)} | ({"compare_verification": _checked(prob, other)} if other is not None else {})
+    vers = {"verification": checked(prob, pl)} | ({"compare_verification": checked(prob, other)} if other is not None else {})
     target = out if out is not None else plan.with_suffix('.html')
     _out.print(f"wrote {_s(write_view(prob, pl, other, target, open_page, notify=_note, **vers))}")

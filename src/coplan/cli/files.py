@@ -38,9 +38,14 @@ def export_cmd(
     fmt: Annotated[ExportFormat, typer.Option("--format", "-f", parser=choice(ExportFormat), metavar=choices(ExportFormat), help="csv: one file, every arm; json, yaml: a ROS 2 "
                                               "trajectory_msgs/JointTrajectory per arm, in a folder.")] = ExportFormat.CSV,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=_export_out, metavar="PATH", help="CSV file, or folder (default: beside the plan; a CSV into a folder that exists, or ends with /, is named <plan>_<rate>hz.csv).")] = None,
+    problem: Annotated[Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML, to verify the plan against (default: the problem file the plan records, else the shipped problem it names).")] = None,
+    unverified: Annotated[bool, typer.Option("--unverified", help="Export without verifying the plan first (a plan the verifier fails is refused otherwise).")] = False,
 ):
-    """Export a plan for a joint controller: positions, velocities and accelerations per joint at a chosen rate."""
-    for path in _export(plan, rate, fmt, out):
+    """Export a plan for a joint controller: positions, velocities and accelerations per joint at a chosen rate.
+
+    The plan is verified against its problem first; one that fails (collisions, limits, missed
+    picks) is refused, exit 6, nothing written."""
+    for path in _export(plan, rate, fmt, out, problem, unverified):
         _out.print(f"wrote {escape(printable(path))}")
 
 
@@ -50,7 +55,8 @@ def schema_cmd(kind: Annotated[SchemaKind, typer.Argument(parser=choice(SchemaKi
     typer.echo((Path(__file__).parents[1] / "schemas" / f"{kind.value}.schema.json").read_text(), nl=False)
 
 
-def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | None) -> list[Path]:
+def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | None, problem: Path | None = None,
+            unverified: bool = False) -> list[Path]:
     """``coplan export``: load the plan, check the rate and where to write (usage errors exit 2
     before anything is written), export. Default ``out``: beside the plan,
     ``<plan>_<rate>hz.csv`` or the folder ``<plan>_<rate>hz/``."""
@@ -86,15 +92,43 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         for name in export_names(plan).values():
             check_overwrite(out / f"{name}.{fmt.value}", "an export JointTrajectory",
                             "an earlier export (a JointTrajectory with joint_names and points)")
+    if unverified:
+        _err.print(f"note: {printable(plan_path)} exported without verifying it (--unverified): nothing here says a "
+                   "controller may follow it", markup=False, highlight=False)
+    else:  # (an unsafe plan, or one edited after its verdict, was exported with exit 0 and a note that said its rates kept the limits)
+        from .figures import checked, plan_with_problem
+
+        prob, verified = plan_with_problem(plan_path, problem)
+        ver = checked(prob, verified)
+        if not ver.passed:
+            kinds = ", ".join(sorted({v.kind.value for v in ver.violations}))
+            raise Failure(ExitCode.UNSAFE, f"{plan_path} does not pass the verifier against problem {prob.name!r} "
+                                           f"({len(ver.violations)} violation{'s' * (len(ver.violations) != 1)}: {kinds}; "
+                                           f"coplan verify says where): a controller must not follow it, nothing written "
+                                           f"(--unverified exports it anyway)")
     from ..plan import finer_grid, on_lattice
     from ..report.export import FOLLOW_TOLERANCE, follow_error, smoothing_error, trajectory
 
     traj = trajectory(plan, rate)  # (once: the files and the follow error are of the same points)
     written = export_plan(plan, rate, fmt, out, traj)
+    if fmt != ExportFormat.CSV:  # (an arm whose name is not a safe file name: which file it is in was nowhere said)
+        from ..report.export import export_names
+
+        for arm, stem in export_names(plan).items():
+            if isinstance(arm, str) and stem != arm:
+                _err.print(f"note: arm {arm!r} is in {stem}.{fmt.value} (joints {stem}_joint1, {stem}_joint2): its name "
+                           "is not a safe file and joint name as it is", markup=False, highlight=False)
     if all(on_lattice(q) for q in plan.q.values()) and finer_grid(1.0 / rate) and plan.time.size > 1:  # (no plan.npz beside it: it exported in silence)
+        from ..report.export import limit_excess
+
+        ratio, arm, what = limit_excess(traj, prob) if not unverified else (0.0, None, None)
+        over = (f": measured on the export, {arm}'s {what} comes to {ratio:.4f} x its limit, which coplan verify of "
+                f"the export reports" if ratio > 1.0 else
+                ": where the plan runs at a limit, the export's differences can come out over it, which coplan verify of "
+                "the export reports" if unverified else "; measured on the export, every limit holds")
         _err.print(f"note: no plan.npz with this plan's full-precision samples beside {escape(printable(plan_path))}: the "
-                   f"export is of its 1e-7 rad rounding, which differences at {rate:g} Hz magnify -- where the plan runs "
-                   f"at a limit, 1e-4 of it over, which coplan verify of the export reports", markup=False, highlight=False)
+                   f"export is of its 1e-7 rad rounding, which differences at {rate:g} Hz magnify{over}",
+                   markup=False, highlight=False)
     err, arm, t = follow_error(plan, traj)
     if err <= FOLLOW_TOLERANCE:
         return written

@@ -51,7 +51,7 @@ from ..kinds import ExportFormat
 from ..plan import Plan
 from ..output import atomic_text
 
-__all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "follow_error", "smoothing_error", "FOLLOW_TOLERANCE",
+__all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "follow_error", "limit_excess", "smoothing_error", "FOLLOW_TOLERANCE",
            "MAX_POINTS", "MAX_RATE"]
 
 #: rad: an export whose points a controller follows (cubic, with their velocities) within this of
@@ -144,6 +144,23 @@ def trajectory(plan: Plan, rate: float) -> Trajectory:
     return Trajectory(t, q, qd, qdd, float(rate), carriage, delay)
 
 
+def limit_excess(traj: Trajectory, problem) -> tuple[float, str | None, str | None]:
+    """``(ratio, arm, what)``: the largest finite difference of the exported positions (first,
+    second and third, over the export's step) against the problem's joint limits -- what
+    ``coplan verify`` of the export measures -- and where (1 or less: within every limit)."""
+    worst: tuple[float, str | None, str | None] = (0.0, None, None)
+    dt = 1.0 / traj.rate
+    limits = {a.name: (a.max_velocity, a.max_acceleration, a.max_jerk) for a in problem.arms}
+    for arm, q in traj.q.items():
+        if arm not in limits or q.shape[0] < 4:
+            continue
+        for k, (what, lim) in enumerate(zip(("velocity", "acceleration", "jerk"), limits[arm]), start=1):
+            r = float((np.abs(np.diff(q, n=k, axis=0)) / dt**k / np.asarray(lim, float)).max())
+            if r > worst[0]:
+                worst = (r, arm, what)
+    return worst
+
+
 def follow_error(plan: Plan, traj: Trajectory) -> tuple[float, str | None, float]:
     """How far a controller following the exported points departs from the plan: cubic between
     points with their velocities (as a ROS joint trajectory controller does), against the plan's
@@ -208,16 +225,21 @@ def _safe(name, k: int) -> str:
 
 
 def _unique(pairs) -> dict:
-    """``{key: base}`` made unique, case-blind, in order (``base_2``, ``base_3`` ...)."""
-    out: dict = {}
+    """``{key: base}`` made unique, case-blind (``base_2``, ``base_3`` ...): a row's carriage and
+    every name that is safe as it is keep theirs first, the rest in order
+    (arms "a b" and "a_b": "a b" took a_b.json and the arm named a_b became a_b_2)."""
+    pairs = list(pairs)
+    first = [k for k, (key, base) in enumerate(pairs) if key is CARRIAGE or base == key]
+    chosen: dict[int, str] = {}
     used: set[str] = set()
-    for key, base in pairs:
+    for k in first + [k for k in range(len(pairs)) if k not in set(first)]:
+        base = pairs[k][1]
         cand, i = base, 2
         while cand.lower() in used:
             cand, i = f"{base}_{i}", i + 1
         used.add(cand.lower())
-        out[key] = cand
-    return out
+        chosen[k] = cand
+    return {key: chosen[k] for k, (key, _) in enumerate(pairs)}
 
 
 def safe_names(names: list[str]) -> dict[str, str]:
