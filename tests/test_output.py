@@ -374,3 +374,56 @@ def test_what_coplan_made_of_a_runs_baseline_moves_with_the_run(tmp_path):
     second = solve(_single(), planner="coordinated", out_dir=out)
     assert all((second.previous / name).exists() and not (out / name).exists() for name in made)
     assert (out / "baseline.xlsx").read_text() == "mine"
+
+
+def test_a_writable_folder_in_a_folder_that_is_not_takes_the_run_inside_it(tmp_path, monkeypatch):
+    """(``--out p/run``, p/run writable and p not: the solve -- and a whole live run -- did its
+    work, then failed with "Permission denied", exit 8, the result lost: the run is staged beside
+    its folder, and the previous run kept there.) The run is staged inside the folder and written
+    there; a folder that holds a previous run, which would then have nowhere to go, is refused
+    before any work, exit 2."""
+    import tempfile
+
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    walled = tmp_path / "walled"
+    (walled / "run").mkdir(parents=True)
+    real_stemp, real_dtemp = tempfile.mkstemp, tempfile.mkdtemp
+
+    def refused(d):
+        return d is not None and Path(d).resolve() == walled.resolve()
+
+    def mkstemp(prefix="", suffix="", dir=None, **kw):
+        if refused(dir):
+            raise PermissionError(13, "Permission denied", str(dir))
+        return real_stemp(prefix=prefix, suffix=suffix, dir=dir, **kw)
+
+    def mkdtemp(prefix=None, suffix=None, dir=None):
+        if refused(dir):
+            raise PermissionError(13, "Permission denied", str(dir))
+        return real_dtemp(prefix=prefix, suffix=suffix, dir=dir)
+
+    monkeypatch.setattr(tempfile, "mkstemp", mkstemp)
+    monkeypatch.setattr(tempfile, "mkdtemp", mkdtemp)
+    runner = CliRunner(env={"COLUMNS": "300"})
+    out = walled / "run"
+    r = runner.invoke(app, ["solve", str(_single()), "--planner", "coordinated", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    assert {"plan.json", "verification.json", MARKER} <= {p.name for p in out.iterdir()}
+    assert sorted(p.name for p in walled.iterdir()) == ["run"] and not [p for p in out.iterdir() if p.name.endswith(".partial")]
+    # a live run into a fresh folder there (its scratch folder is made elsewhere)
+    feed = tmp_path / "feed.yaml"
+    assert runner.invoke(app, ["feed", str(_single()), "--out", str(feed)]).exit_code == 0
+    (walled / "live").mkdir()
+    r = runner.invoke(app, ["run", str(_single()), "--feed", str(feed), "--out", str(walled / "live")])
+    assert r.exit_code == 0, r.output
+    assert {"plan.json", "run.json", "verification.json"} <= {p.name for p in (walled / "live").iterdir()}
+    # again into the folder that now holds a run: nowhere to keep it, refused before any work
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    r = runner.invoke(app, ["solve", str(_single()), "--planner", "coordinated", "--out", str(out)])
+    said = " ".join(r.output.split())
+    assert r.exit_code == 2 and "it holds a previous run, which a run there keeps as" in said and "is not writable" in said, said
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+    assert "lower bound" not in said  # (refused before any work)

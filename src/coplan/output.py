@@ -27,7 +27,7 @@ from pathlib import Path
 
 from .errors import CoplanError
 
-__all__ = ["MARKER", "RunFolder", "is_run_folder", "previous_of", "signals_deferred", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder"]
+__all__ = ["MARKER", "RunFolder", "is_run_folder", "previous_of", "writable_folder", "signals_deferred", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder"]
 
 MARKER = ".coplan-run"  # written into every run folder
 # the files a run writes (solve, live runs), by their exact names -- a user's plan.md or
@@ -75,12 +75,29 @@ def check_folder(out: str | Path, what: str = "out_dir") -> None:
     os.close(fd)
     os.unlink(name)
     prev = previous_of(out)
+    if out.is_dir() and not writable_folder(prev.parent):  # (the run is then staged inside it: RunFolder)
+        if any(_ours(p) for p in out.iterdir()):  # (a solve of minutes was lost at its end: "Permission denied")
+            raise OutputError(f"{what} {out}: it holds a previous run, which a run there keeps as {prev}, but "
+                              f"{prev.parent} is not writable; expected a folder with no coplan run in it, or one "
+                              "beside which coplan may write: move that run's files, or choose another folder")
     if out.is_dir() and any(_ours(p) for p in out.iterdir()) and not _replaceable(prev):
         held = "a file" if not prev.is_dir() else "a folder holding files coplan did not write (" + ", ".join(
             sorted(p.name for p in prev.iterdir() if not _ours(p))[:3]) + ")"
         raise OutputError(f"{what} {out}: a run there moves the previous one to {prev}, which would replace what is "
                           f"there; expected coplan's previous run or nothing at {prev}, found {held}: move it, or "
                           "choose another folder")
+
+
+def writable_folder(path: str | Path) -> bool:
+    """Whether coplan can make a file in the folder ``path`` (a hidden file made and removed
+    there: permission bits do not tell all)."""
+    try:
+        fd, name = tempfile.mkstemp(prefix=".coplan-probe-", dir=path)
+    except OSError:
+        return False
+    os.close(fd)
+    os.unlink(name)
+    return True
 
 
 def previous_of(out: Path) -> Path:
@@ -196,6 +213,7 @@ class RunFolder:
     out: Path
     stage: Path | None = None
     previous: Path | None = None  # where the previous run was kept, if it was moved
+    inside: bool = False  # staged inside ``out`` (nothing may be made beside it)
 
     def __post_init__(self):
         self.out = Path(self.out)
@@ -203,7 +221,11 @@ class RunFolder:
     def __enter__(self) -> Path:
         with named_as(self.out):
             self.out.parent.mkdir(parents=True, exist_ok=True)
-            self.stage = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.", suffix=".partial", dir=self.out.parent))
+            # staged beside the folder; inside it where nothing may be made beside it (check_folder
+            # then refuses a folder with a previous run in it, which would go to <out>.previous there)
+            self.inside = self.out.is_dir() and not writable_folder(previous_of(self.out).parent)
+            self.stage = Path(tempfile.mkdtemp(prefix=f".{self.out.name or 'coplan-run'}.", suffix=".partial",
+                                               dir=self.out if self.inside else self.out.parent))
         try:
             self.stage.chmod(usual_mode(folder=True))  # mkdtemp's 0700 is for the staging, not the run
             (self.stage / MARKER).write_text("files of one coplan run\n")
@@ -234,6 +256,9 @@ class RunFolder:
         move made is undone: the folder holds the new run whole or the previous one as it was
         (one immutable file left the previous run split between the folder and .previous)."""
         out, stage = self.out, self.stage
+        if self.inside:  # file by file into the folder, the stage inside it
+            self._commit_inside()
+            return
         # the folder coplan runs in (``-o .``; ``out_dir=Path('')`` from the library) is never removed or renamed: file by file
         in_place = not out.name or out.absolute() == Path.cwd().absolute()
         if not in_place and out.is_dir() and not any(out.iterdir()):
@@ -283,6 +308,27 @@ class RunFolder:
             raise
         _drop(older)
         self.previous = prev
+        stage.rmdir()
+
+
+    def _commit_inside(self) -> None:
+        """The staged files into ``out``, where the stage is (nothing may be made beside it): a
+        previous run there, which would be overwritten with nowhere to keep it, is refused (as
+        :func:`check_folder` refused it before the work; one made since)."""
+        out, stage = self.out, self.stage
+        held = [p for p in out.iterdir() if p != stage and _ours(p)]
+        if held:
+            raise OutputError(f"{out}: a run was written there meanwhile ({held[0].name}), and nothing may be made beside "
+                              f"the folder to keep it in: this run is not written")
+        moved: list[Path] = []
+        try:
+            for f in sorted(stage.iterdir()):
+                os.replace(f, out / f.name)
+                moved.append(out / f.name)
+        except BaseException:
+            for dst in reversed(moved):
+                os.replace(dst, stage / dst.name)
+            raise
         stage.rmdir()
 
 

@@ -167,8 +167,11 @@ def run_cmd(
     import shutil
     import tempfile
 
+    from ..output import writable_folder
+
     near = Path(out).resolve().parent
-    with tempfile.TemporaryDirectory(dir=near if near.is_dir() else None) as tmp:  # (beside the run: its disk)
+    beside = near if near.is_dir() and writable_folder(near) else None  # (it failed the run at its end where it may not write)
+    with tempfile.TemporaryDirectory(dir=beside) as tmp:  # (beside the run: its disk)
         if animate:  # (drawn first, where a Ctrl-C stops it: the run then writes nothing, as at any other time)
             from ..live.animate import animate_live
 
