@@ -236,3 +236,19 @@ def test_a_feed_too_large_is_said_to_be_too_large_not_mixed_up(tmp_path):
     with pytest.raises(FeedError) as e:
         load_feed(big)
     assert "expected a file of at most" in str(e.value) and "swapped" not in str(e.value)
+
+
+@pytest.mark.parametrize("char", ["\x07", "\x00", "\x1b"])
+def test_a_control_character_in_yaml_is_named_with_its_line_and_column(char):
+    """(PyYAML's reader said "unacceptable character #x0007 ... in "<unicode string>", position
+    240", with no line: every other syntax error has one.)"""
+    text = (PROBLEMS / "single_arm.yaml").read_text()
+    lines = text.splitlines()
+    k = next(i for i, s in enumerate(lines) if "name: arm" in s)
+    col = lines[k].index("name: arm") + len("name: ar") + 1
+    lines[k] = lines[k].replace("name: arm", f"name: ar{char}m")
+    with pytest.raises(ProblemError) as e:
+        parse_problem("\n".join(lines) + "\n", "ctrl.yaml")
+    (issue,) = e.value.issues
+    assert issue.line == k + 1 and f"found the control character U+{ord(char):04X} at column {col}" in issue.message
+    assert "unicode string" not in str(e.value)

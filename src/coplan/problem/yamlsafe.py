@@ -234,6 +234,12 @@ def read_yaml(text: str, source: str | None, keep_text=None,
         line = mark.line + 1 if mark is not None else None
         msg = getattr(e, "problem", None) or str(e)
         context = getattr(e, "context", None)
+        if isinstance(e, yaml.reader.ReaderError):  # (a control character: no line, and PyYAML's "<unicode string>, position 240")
+            line = text.count("\n", 0, e.position) + 1
+            col = e.position - (text.rfind("\n", 0, e.position) + 1) + 1
+            ch = e.character if isinstance(e.character, str) else chr(e.character)
+            raise ProblemError([Issue("", f"expected printable text, found the control character "
+                                                              f"U+{ord(ch):04X} at column {col}", line)], source) from None
         if "nesting depth" in str(msg):  # PyYAML >= 6.0.4 stops deep nesting itself, before the event scan can
             raise ProblemError([Issue("", f"expected at most {MAX_DEPTH} levels of nesting, found more (YAML: {msg})", line)],
                                source) from None
