@@ -252,3 +252,22 @@ def test_a_control_character_in_yaml_is_named_with_its_line_and_column(char):
     (issue,) = e.value.issues
     assert issue.line == k + 1 and f"found the control character U+{ord(char):04X} at column {col}" in issue.message
     assert "unicode string" not in str(e.value)
+
+
+def test_a_plan_file_with_a_repeated_key_or_an_npz_is_refused_with_what_it_is(tmp_path):
+    """(A repeated "planner" key was read as its last value, exit 0; plan.npz given as the plan
+    was "an undecodable byte at offset 17".)"""
+    from coplan.planners.heuristic import plan_heuristic
+
+    plan = plan_heuristic(parse_problem((PROBLEMS / "single_arm.yaml").read_text()))
+    plan.save(tmp_path / "run")
+    text = (tmp_path / "run" / "plan.json").read_text()
+    assert text.count('"planner":') == 1
+    (tmp_path / "dup.json").write_text(text.replace('"planner":', '"planner": "optimal", "planner":', 1))
+    with pytest.raises(PlanFileError) as e:
+        load_plan(tmp_path / "dup.json")
+    assert "found 'planner' twice" in str(e.value)
+    with pytest.raises(PlanFileError) as e:
+        load_plan(tmp_path / "run" / "plan.npz")
+    assert "found a NumPy .npz archive" in str(e.value) and "give the plan.json beside it" in str(e.value)
+    assert load_plan(tmp_path / "run" / "plan.json").same_motion(plan)  # (the file itself reads as before)

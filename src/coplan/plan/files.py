@@ -71,7 +71,9 @@ def load_plan(path: str | Path) -> Plan:
         if not text.strip():
             raise PlanFileError([Issue("", "expected a JSON plan (an object with keys format, problem, time, arms, events), "
                                            "found an empty file")], src)
-        data = json.loads(text)
+        data = json.loads(text, object_pairs_hook=_unique_keys)  # (NaN, Infinity: named at their key path below)
+    except _StrictJSON as e:  # (JSON keeps a repeated key's last value silently, as a problem file never does)
+        raise PlanFileError([Issue("", str(e))], src) from None
     except json.JSONDecodeError as e:
         other = re.search(r"^format:\s*['\"]?(coplan\.(\w+)/\w+)", text, re.MULTILINE)  # a feed or other coplan YAML file
         looks = (p.suffix.lower() in (".yaml", ".yml") or any(text.lstrip().startswith(k) for k in ("name:", "arms:", "task:", "gantry:"))
@@ -82,10 +84,28 @@ def load_plan(path: str | Path) -> Plan:
         hint = "; it looks like a problem file (YAML): were the problem and the plan swapped?" if looks else ""
         raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno}){hint}", e.lineno)], src) from None
     except UnicodeDecodeError as e:
+        if p.suffix.lower() == ".npz" or p.read_bytes()[:2] == b"PK":
+            raise PlanFileError([Issue("", "expected a plan file (plan.json or plan.csv), found a NumPy .npz archive (the "
+                                           "full-precision samples coplan writes beside plan.json, which takes them): give "
+                                           "the plan.json beside it")], src) from None
         raise PlanFileError([Issue("", f"expected UTF-8 JSON, found an undecodable byte at offset {e.start}")], src) from None
     plan = plan_from_dict(data, src)  # (its motion recorded as the one its verdict is about)
     exact = exact_samples(plan, p)
     return exact if exact is plan else _as_judged(exact)  # (the npz's samples: recorded again, once)
+
+
+class _StrictJSON(ValueError):
+    """JSON that :func:`json.loads` takes and a plan file may not hold (a repeated key)."""
+
+
+def _unique_keys(pairs: list) -> dict:
+    seen: set = set()
+    for k, _ in pairs:
+        if k in seen:
+            raise _StrictJSON(f"expected every key once in an object, found {k!r} twice (JSON would keep the last "
+                              f"silently; a plan file is refused instead, as a problem file is)")
+        seen.add(k)
+    return dict(pairs)
 
 
 def _as_judged(plan: Plan) -> Plan:
