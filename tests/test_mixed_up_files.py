@@ -271,3 +271,26 @@ def test_a_plan_file_with_a_repeated_key_or_an_npz_is_refused_with_what_it_is(tm
         load_plan(tmp_path / "run" / "plan.npz")
     assert "found a NumPy .npz archive" in str(e.value) and "give the plan.json beside it" in str(e.value)
     assert load_plan(tmp_path / "run" / "plan.json").same_motion(plan)  # (the file itself reads as before)
+
+
+def test_a_near_miss_of_a_plan_files_key_is_named_other_keys_are_the_writers_own(tmp_path):
+    """(A row plan with ``gantry`` misspelt ``gantri`` was "a plan without a carriage"; the
+    schema leaves a plan open to a writer's own keys, which stay unread.)"""
+    from coplan.plan.files import PLAN_KEYS
+    from coplan.planners.heuristic import plan_heuristic
+    from coplan.schema import PlanFile
+
+    assert set(PLAN_KEYS) == set(PlanFile.model_fields)  # (the reader's keys are the schema's)
+    plan = plan_heuristic(parse_problem((PROBLEMS / "single_arm.yaml").read_text()))
+    doc = plan.to_dict()
+    (tmp_path / "typo.json").write_text(json.dumps(dict(doc, gantri={"x": [0.0] * len(doc["time"])})))
+    with pytest.raises(PlanFileError) as e:
+        load_plan(tmp_path / "typo.json")
+    assert "gantri: expected one of the plan file's keys, found unknown key 'gantri'; did you mean 'gantry'?" in str(e.value)
+    (tmp_path / "own.json").write_text(json.dumps(dict(doc, my_tool={"version": 3}, Status="x")))
+    with pytest.raises(PlanFileError) as e:  # (a key in another case is a near miss too)
+        load_plan(tmp_path / "own.json")
+    assert "did you mean 'status'?" in str(e.value)
+    (tmp_path / "own.json").write_text(json.dumps(dict(doc, my_tool={"version": 3})))
+    got = load_plan(tmp_path / "own.json")
+    assert got.events == plan.events and abs(got.q["arm"] - plan.q["arm"]).max() < 1e-6  # (rounded to 1e-7 in JSON)

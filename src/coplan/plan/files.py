@@ -4,6 +4,7 @@ the ``plan.npz`` saved beside either where it holds the same plan (:func:`exact_
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 import os
@@ -92,6 +93,11 @@ def load_plan(path: str | Path) -> Plan:
     plan = plan_from_dict(data, src)  # (its motion recorded as the one its verdict is about)
     exact = exact_samples(plan, p)
     return exact if exact is plan else _as_judged(exact)  # (the npz's samples: recorded again, once)
+
+
+#: the keys of a plan file (coplan.plan/1); others may be there (a writer's own), unread
+PLAN_KEYS = ("format", "problem", "planner", "status", "time", "arms", "events", "allocation", "unreachable", "metrics",
+             "solver", "verification", "gantry", "software", "problem_file")
 
 
 class _StrictJSON(ValueError):
@@ -223,6 +229,10 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     for key in ("problem", "time", "arms", "events"):
         if key not in data:
             bad(key, "expected a value, found nothing (required field)")
+    for key in data:  # (other keys are a plan's writer's own; a near miss of one of ours is a typo: 'gantri' was ignored)
+        near = difflib.get_close_matches(str(key).lower(), PLAN_KEYS, n=1, cutoff=0.8) if key not in PLAN_KEYS else []
+        if near:
+            bad(str(key), f"expected one of the plan file's keys, found unknown key {key!r}; did you mean {near[0]!r}?")
     if issues:
         raise PlanFileError(issues, source)
     if not isinstance(data["problem"], str):
