@@ -199,3 +199,16 @@ def test_the_coordinated_planners_options_are_recorded_in_the_plan(tmp_path):
     assert r.exit_code == 0, r.output
     opts = json.loads((tmp_path / "o" / "plan.json").read_text())["solver"]["options"]
     assert opts["time_limit"] == 5.0 and "margin" in opts
+
+
+def test_a_work_budget_beyond_any_run_is_refused_a_seed_is_not():
+    """(``search_work: 1e30`` was taken, recorded as 1000000000000000019884624838656 checks: a
+    typo in the exponent that never ends.)"""
+    with pytest.raises(OptionsError) as e:
+        parse_options("search_work: 1e30\n", "o.yaml")
+    (issue,) = e.value.issues
+    assert issue.path == "search_work" and issue.line == 1 and "at most 1,000,000,000" in issue.message
+    with pytest.raises(OptionsError):
+        OptimalOptions(widen_iterations=10**12)
+    assert OptimalOptions(search_work=10**9).search_work == 10**9
+    assert OptimalOptions(seed=2**40).seed == 2**40

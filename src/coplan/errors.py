@@ -115,6 +115,10 @@ MAX_TOLERANCE = 0.01
 
 #: options whose plausible range is narrower than their sign (``h_target`` 1e-9 s built billions
 #: of knots: 23 GB of memory before any check could skip the stage)
+#: the largest whole-number option (work budgets, iterations, counts; not a seed): 1e9 conflict
+#: checks of the search are days of one core
+MAX_COUNT = 1_000_000_000
+
 OPTION_RANGES = {
     "h_target": (0.005, 1.0, "a knot spacing of the NLP's grid, s,"),
     "check_rate": (100.0, 100_000.0, "a rate of the planner's dense clearance check, Hz,"),
@@ -151,6 +155,9 @@ def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     if name == "margin" and x > MAX_MARGIN:  # (every planner's margin, from a file or from Python)
         return (f"expected a planning margin of at most {MAX_MARGIN:g} m beyond task.clearance (more leaves neighbouring "
                 f"arms no room to work), found {v!r}")
+    if base == "int" and name not in ("seed",) and x > MAX_COUNT:  # (search_work: 1e30 was taken as 10^30 checks)
+        return (f"expected an integer of at most {MAX_COUNT:,} (a budget or count that large never ends: "
+                f"a typo in the exponent?), found {found(v)}")
     if name in OPTION_RANGES and not OPTION_RANGES[name][0] <= x <= OPTION_RANGES[name][1]:
         lo, hi, what = OPTION_RANGES[name]
         return f"expected {what} within [{lo:g}, {hi:g}], found {v!r}"
