@@ -89,6 +89,12 @@ def _layout(header: list[str]) -> tuple[list[str], list[int], int | None, bool, 
     export = _export_layout(header)
     if export is not None:
         return (*export, True, None)
+    cols = [c.strip() for c in header]
+    twice = next((c for c in cols if cols.count(c) > 1), None)
+    if twice is not None:  # (it blamed the valid columns after it: "expected a pair '<arm>_q1,<arm>_q2', found 'left_qd1', ...")
+        at = [i + 1 for i, c in enumerate(cols) if c == twice]
+        return [], [], None, False, (f"expected each column once in the header row, found {twice!r} in columns "
+                                     f"{', '.join(map(str, at))}")
     names, why = _arm_names(header)
     x = 1 if not why and header[1].strip() == "gantry_x" else None
     return names, [1 + (x is not None) + 2 * i for i in range(len(names))], x, False, why
