@@ -463,6 +463,10 @@ def test_the_row_view_follows_the_carriage(browser, row_page):
     x = float(np.interp(t, plan.time, plan.gantry_x))
     assert page.evaluate("coplanViewer.carriage(0)") == pytest.approx(x, abs=0.02)
     assert page.locator("canvas.rowstrip").count() == 1 and page.locator("canvas.rowstrip").bounding_box()["height"] > 100
+    head = " ".join(page.locator("section.panel h3").first.inner_text().split())
+    r = plan.metrics["row"]
+    assert f"row time {plan.metrics['makespan']:.3f} s" in head and f"{r['fruit_per_hour']:.0f} fruit/h" in head, head
+    assert f"{r['stops']} stop" in head and "% of the harvestable fruit harvested" in head, head
     arm = prob.arms[1]
     q = plan.sample([t])[arm.name][0]
     base = np.array([arm.base[0] + x, arm.base[1]])
@@ -497,6 +501,19 @@ def test_a_row_plan_s_stops_and_bound_in_the_viewer_data():
     rest = x[1:][np.abs(np.diff(x)) < 1e-12]
     assert sum(len(s["fruit"]) for s in on_move) < picks / 2
     assert all(np.abs(rest - s["x"]).min() < 1e-9 for s in on_move)
+    # on the move those are rests, not stops (the strip said "1 stop" where the summary says 0)
+    assert data["problem"]["row"]["moving"] == [False, True]
+    # a grower's figures beside each plan, as the summary gives them
+    for p, res in zip(data["plans"], (stop, moving)):
+        r = res.plan.metrics["row"]
+        assert p["row"] == {k: r[k] for k in ("mode", "fruit_per_hour", "share_harvested", "row_time", "stops")}
+    # why a fruit was left: the planner's reason, shown on hover (it said only "not harvested by this plan")
+    dense = parse_problem(to_yaml(gantry_row(length=10.0, n_arms=3, density=6.0, seed=1)))
+    fast = coplan.solve(dense, gantry="continuous", options=MovingOptions(profile="constant", level=0.3))
+    left = fast.plan.solver["row"]["left_out"]
+    got = {e.fruit for e in fast.plan.events}
+    assert [f for f in left if f not in got], "the fast row should leave fruit out"
+    assert viewer_data(dense, [fast.plan])["plans"][0]["left_out"] == left
     # which plan moved how: in each panel's label and the page's title (both were "coordinated")
     assert [p["label"] for p in data["plans"]] == ["coordinated (stop and go, fewest stops)", "coordinated (on the move)"]
     assert [p["planner"] for p in data["plans"]] == ["coordinated", "coordinated"]

@@ -196,12 +196,16 @@ def _carriage_cell(problem: Problem) -> Problem:
 
 def _row_data(problem: Problem, plans: list[Plan]) -> dict:
     """What the row strip draws: the rail, the arms' reach along it, each plan's stops (where
-    the carriage stood still for a pick; a pick on the move is no stop)."""
+    the carriage stood still for a pick; a pick on the move is no stop) and whether it picks on
+    the move (``moving``: its picks at rest -- where the carriage starts, or at its rest at the
+    row's end -- are rests of a plan with no stops)."""
     g = problem.gantry
     lo = min(a.base[0] - a.reach for a in problem.arms)
     hi = max(a.base[0] + a.reach for a in problem.arms)
-    stops = []
+    stops, moving = [], []
     for p in plans:
+        row = (p.solver or {}).get("row") or (p.metrics or {}).get("row") or {}
+        moving.append(row.get("mode") == "continuous")  # (its picks at rest are rests, not stops: the summary says 0 stops)
         x = np.asarray(p.gantry_x, float)
         mine = []
         for e in sorted(p.events, key=lambda e: e.t_start):
@@ -215,7 +219,7 @@ def _row_data(problem: Problem, plans: list[Plan]) -> dict:
                 else:
                     mine.append({"x": float(x[k]), "fruit": [e.fruit]})
         stops.append(sorted(mine, key=lambda s: s["x"]))
-    return {"start": g.start, "end": g.end, "reach": [lo, hi], "stops": stops}
+    return {"start": g.start, "end": g.end, "reach": [lo, hi], "stops": stops, "moving": moving}
 
 
 # --------------------------------------------------------------------------- one plan
@@ -341,6 +345,11 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
         "events": [e.to_dict() for e in sorted(plan.events, key=lambda e: (e.t_start, e.arm))],
         "allocation": plan.allocation,
         "unreachable": list(plan.unreachable),
+        # why a harvestable fruit was left (a row's planner says it: "passed arm1's reach at t = ...")
+        "left_out": {k: str(v) for k, v in ((plan.solver or {}).get("row", {}).get("left_out") or {}).items()},
+        # a row's headline figures, as the summary gives them (fruit per hour, share harvested, row time, stops)
+        "row": {k: (m.get("row") or {}).get(k) for k in ("mode", "fruit_per_hour", "share_harvested", "row_time", "stops")}
+               if m.get("row") else None,
         "segments": {a: [{"phase": s.phase, "t0": s.t0, "t1": s.t1, "fruit": s.fruit} for s in segs.get(a, [])] for a in names},
         "waits": _waits(plan, segs, pairs),
         "clearance": _clearance(problem, plan, times, rate),

@@ -133,7 +133,7 @@
   }
   function fruitState(pl, f, fact, t) {
     if (f.unreachable) return { state: "unreachable", text: "unreachable: " + f.unreachable };
-    if (!fact.pick) return { state: "unharvested", text: "not harvested by this plan" };
+    if (!fact.pick) return { state: "unharvested", text: "not harvested by this plan" + (pl.left_out && pl.left_out[f.id] ? ": " + pl.left_out[f.id] : "") };
     if (t < fact.pick.t_start) return { state: "waiting", text: "on the plant, waiting for " + fact.arm };
     if (t <= fact.pick.t_end) return { state: "picking", text: "being picked by " + fact.arm };
     if (!fact.place || t < fact.place.t_start) return { state: "carried", text: "carried by " + fact.arm };
@@ -287,7 +287,8 @@
     ctx.strokeStyle = "rgba(0,0,0,0.35)"; ctx.beginPath(); ctx.moveTo(pad, top + t / T_END * h); ctx.lineTo(W - pad, top + t / T_END * h); ctx.stroke();
     ctx.fillStyle = "#333"; ctx.font = "11px system-ui, sans-serif"; ctx.textAlign = "left";
     ctx.fillText("row " + num(R.start, 1) + "–" + num(R.end, 1) + " m; carriage at " + num(sh, 2) + " m; " +
-                 plural((R.stops[pl.index] || []).length, "stop") + " (ticks); below: carriage x against time", pad, H - 4);
+                 ((R.moving || [])[pl.index] ? "on the move, no stops; " + plural((R.stops[pl.index] || []).length, "rest") + " with picks (ticks)"
+                  : plural((R.stops[pl.index] || []).length, "stop") + " (ticks)") + "; below: carriage x against time", pad, H - 4);
   };
   Cell.prototype.px = function (x, y) {
     const v = P.view;  // a row's view box is the carriage's: it follows the carriage (this.shift)
@@ -437,7 +438,10 @@
     root.appendChild(box);
     const v = pl.verdict;
     const ratio = pl.lower_bound ? " (lower bound " + num(pl.lower_bound, 3) + " s, \u00D7" + num(pl.makespan / pl.lower_bound, 3) + ")" : "";
-    const h = el("h3", null, (pl.label || pl.planner) + " \u2014 " + pl.status + " \u2014 makespan " + num(pl.makespan, 3) + " s" + ratio + " \u2014 ");
+    // a row: what a grower judges it by first, as the summary says it
+    const rw = pl.row, grower = rw ? " \u2014 " + num(rw.fruit_per_hour, 0) + " fruit/h, " + num(100 * rw.share_harvested, 1) + " % of the harvestable fruit harvested, " +
+      (rw.mode === "continuous" ? "on the move" : plural(rw.stops || 0, "stop")) : "";
+    const h = el("h3", null, (pl.label || pl.planner) + " \u2014 " + pl.status + " \u2014 " + (rw ? "row time " : "makespan ") + num(pl.makespan, 3) + " s" + ratio + grower + " \u2014 ");
     h.appendChild(el("span", { class: v.passed ? "verdict-ok" : "verdict-bad" },
       v.passed ? "verified: no violations" : "FAILED verification: " + v.violation_count + " violations (" + v.violation_kinds.join(", ") + ")"));
     box.appendChild(h);
@@ -614,7 +618,7 @@
   summary.appendChild(el("span", null, (P.description ? P.description + " \u2014 " : "") + ARMS.length + " arms, " + P.fruits.length + " fruit, required clearance " + num(P.task.clearance, 3) + " m"));
   if (PLANS.length > 1 || D.lower_bound !== null) {
     summary.appendChild(el("br"));
-    summary.appendChild(el("span", null, PLANS.map(function (p) { return (p.label || p.planner) + " " + num(p.makespan, 3) + " s (" + p.status + ")"; }).join(" vs ") +
+    summary.appendChild(el("span", null, PLANS.map(function (p) { return (p.label || p.planner) + " " + num(p.makespan, 3) + " s" + (p.row ? ", " + num(p.row.fruit_per_hour, 0) + " fruit/h" : "") + " (" + p.status + ")"; }).join(" vs ") +
       (D.lower_bound !== null ? "; lower bound " + num(D.lower_bound, 3) + " s (no plan can be faster)" : "")));
   }
   const legend = document.getElementById("legend");
