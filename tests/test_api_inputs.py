@@ -183,6 +183,10 @@ def test_compare_on_a_row_sets_its_stop_rules_side_by_side_on_workers(row_file, 
     assert r1.exit_code == 0 and r2.exit_code == 0, r1.output + r2.output
     one, two = json.loads(r1.stdout), json.loads(r2.stdout)
     assert one["format"] == "coplan.compare-rows/1" and [r["rule"] for r in one["rows"]] == ["optimised", "fixed", "fewest"]
+    # which cell planner made the table, in the file (it was recorded nowhere) and its heading
+    assert one["cell_planner"] == "coordinated"
+    assert (tmp_path / "two" / "compare.md").read_text().startswith(
+        f"# {one['problem']}: stop rules side by side (coordinated cell planner at each stop)")
     assert all(r["verified"] and r["share_harvested"] == 1.0 for r in one["rows"] + two["rows"])
     assert [(r["stops"], r["row_time"]) for r in one["rows"]] == [(r["stops"], r["row_time"]) for r in two["rows"]]
     assert (tmp_path / "two" / "compare.json").is_file() and (tmp_path / "two" / "fixed" / "plan.json").is_file()

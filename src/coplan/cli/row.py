@@ -94,7 +94,8 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
     else:
         from rich import box
 
-        table = Table(title=f"{prob.name}: stop rules side by side", title_justify="left", box=box.SIMPLE_HEAD,
+        table = Table(title=f"{prob.name}: stop rules side by side ({cmp.cell_planner} cell planner at each stop)",
+                      title_justify="left", box=box.SIMPLE_HEAD,
                       padding=(0, 1), pad_edge=False)
         cells = [[cell_text(k, r.get(k)) for k, _ in ROW_COLUMNS] for r in cmp.rows]
         # every value and every heading's words whole at 80 columns (the headings wrap between words)

@@ -30,12 +30,14 @@ ROW_COLUMNS = (("rule", "stop rule"), ("stops", "stops"), ("row_time", "row time
 @dataclass
 class RowComparison:
     problem: str
+    cell_planner: str = PlannerKind.COORDINATED.value  # the cell planner at every stop (it was recorded nowhere)
     rows: list[dict] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        return {"format": "coplan.compare-rows/1", "problem": self.problem, "rows": self.rows, "notes": self.notes}
+        return {"format": "coplan.compare-rows/1", "problem": self.problem, "cell_planner": self.cell_planner,
+                "rows": self.rows, "notes": self.notes}
 
 
 def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), planner: PlannerKind | str | None = None,
@@ -48,7 +50,7 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     check_folder(out_dir, "out_dir")  # (before any work)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    cmp = RowComparison(problem.name)
+    cmp = RowComparison(problem.name, PlannerKind(planner).value if planner is not None else PlannerKind.COORDINATED.value)
     rules = [StopRule(r) for r in rules]
     options = None
     if workers is not None:
@@ -100,7 +102,7 @@ def cell_text(key: str, v) -> str:
 
 
 def to_markdown(cmp: RowComparison) -> str:
-    lines = [f"# {cmp.problem}: stop rules side by side", "",
+    lines = [f"# {cmp.problem}: stop rules side by side ({cmp.cell_planner} cell planner at each stop)", "",
              "| " + " | ".join(h for _, h in ROW_COLUMNS) + " |", "|" + "---|" * len(ROW_COLUMNS)]
     lines += ["| " + " | ".join(cell_text(k, r.get(k)) for k, _ in ROW_COLUMNS) + " |" for r in cmp.rows]
     lines += [""] + [f"Note: {n}" for n in cmp.notes] if cmp.notes else []
