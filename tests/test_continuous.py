@@ -536,6 +536,17 @@ def test_gantry_auto_keeps_the_better_verified_mode(row):
     assert res.plan.metrics["row"]["mode"] == chosen
     m = res.plan.metrics
     assert auto[chosen]["fruit_per_hour"] == pytest.approx(3600.0 * m["harvested"] / m["makespan"])
+    # each with how it moved, the stop rule too (the summary named only "stop-and-go" beside a fewest-stops plan)
+    assert auto["stop-and-go"]["label"] == "coordinated (stop and go, optimised stops)"
+    assert auto["continuous"]["label"] == "coordinated (on the move)"
+    from rich.console import Console
+
+    from coplan.cli.summary import print_row_summary
+
+    con = Console(record=True, width=400)
+    print_row_summary(con, res)
+    said = " ".join(con.export_text().split())
+    assert f"{auto[other]['fruit_per_hour']:.0f} {auto[other]['label']} (" in said, said
 
 
 def test_the_speed_search_gives_the_same_plan_on_one_worker_or_two(row, reach):

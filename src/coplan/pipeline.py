@@ -107,7 +107,7 @@ def _better_mode(stopping, moving):
         span = m.get("makespan") or 0.0
         return {"harvested": m.get("harvested"), "row_time": span, "verified": bool(r.verification.passed),
                 "fruit_per_hour": 3600.0 * (m.get("harvested") or 0) / span if span else 0.0,
-                "planning_time": r.timings.get("planning")}
+                "planning_time": r.timings.get("planning"), "label": r.plan.label}  # (which stop rule: a summary said only "stop-and-go")
 
     best = moving if key(moving) > key(stopping) else stopping
     both = {GantryMode.STOP_AND_GO.value: figures(stopping), GantryMode.CONTINUOUS.value: figures(moving),

@@ -101,7 +101,7 @@ def print_row_summary(console, res) -> None:
     if auto:
         other = next(k for k in auto if k not in ("chosen", auto["chosen"]))
         p(f"  gantry auto       {safe(auto['chosen'])} kept: {auto[auto['chosen']]['fruit_per_hour']:.0f} fruit/h against "
-          f"{auto[other]['fruit_per_hour']:.0f} {safe(other)} ({auto[other]['harvested']} fruit, "
+          f"{auto[other]['fruit_per_hour']:.0f} {safe(auto[other].get('label') or other)} ({auto[other]['harvested']} fruit, "
           f"{'verified' if auto[other]['verified'] else 'NOT verified'})")
     out = r.get("screened_out") or {}
     p(f"  fruit             {r.get('harvested')} harvested of {r.get('harvestable')} harvestable "
