@@ -270,7 +270,13 @@ def range_values(r: dict, kind: str, loc: tuple, lines: dict, issues: list, keep
         if n > MAX_VALUES:
             issues.append(Issue(path, f"expected at most {MAX_VALUES} values, found count {n}", where))
             return None
-        values = [tidy(lo + (hi - lo) * i / (n - 1), kind) if n > 1 else tidy(lo, kind) for i in range(n)]
+        exact = [lo + (hi - lo) * i / (n - 1) if n > 1 else lo for i in range(n)]
+        if kind in INTEGER_KINDS and any(abs(x - round(x)) > 1e-9 for x in exact):  # (n_arms 2 to 3, count 5: 2 problems, silently)
+            issues.append(Issue(path, f"expected a count that gives whole numbers for this integer parameter, found from "
+                                      f"{lo}, to {hi}, count {n} (values {', '.join(f'{x:g}' for x in exact[:4])}"
+                                      f"{' ...' if n > 4 else ''}): use a step, or count {int(hi - lo) + 1}", where))
+            return None
+        values = [tidy(x, kind) for x in exact]
     def why(x):  # (a solver option's values as an options file's: h_target 1e-9 came through a range)
         return check_option(name.removeprefix("options."), x) if kind == "option" else check_value(kind, x)
 

@@ -213,7 +213,7 @@ def _one(name: str, v: Any, loc: tuple, lines: dict, issues: list) -> bool:
 
 def _resolve_problems(pats: Any, here: Path, lines: dict, issues: list) -> tuple[str, ...]:
     pats_list = pats if isinstance(pats, list) else [pats]
-    found: list[str] = []
+    files: list[str] = []  # (named 'found', it hid found(): 'problems: 5' was an internal error)
     for i, pat in enumerate(pats_list):
         loc = ("problems", i) if isinstance(pats, list) else ("problems",)
         if not isinstance(pat, str) or not pat:
@@ -229,8 +229,8 @@ def _resolve_problems(pats: Any, here: Path, lines: dict, issues: list) -> tuple
         if not hits:
             issues.append(Issue(key_path(loc), f"expected at least one problem file, found none matching {pat!r} (relative to {here})",
                                 line_of(lines, loc)))
-        found += [h for h in hits if h not in found]
-    return tuple(found)
+        files += [h for h in hits if h not in files]
+    return tuple(files)
 
 
 def parse_sweep(text: str, source: str | None = None, here: Path | None = None) -> SweepSpec:
@@ -274,7 +274,7 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
     base = SweepBase.FILES if "problems" in data and "base" not in data else None
     if "base" in data:
         b = data["base"]
-        if b not in {x.value for x in SweepBase}:
+        if not isinstance(b, str) or b not in {x.value for x in SweepBase}:  # (base: [row] was an internal error)
             issues.append(Issue("base", f"expected one of {', '.join(x.value for x in SweepBase)}, found {found(b)}", line_of(lines, ("base",))))
         else:
             base = SweepBase(b)
@@ -283,7 +283,7 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                                     "(or 'problems:' for problem files), found none", line_of(lines, ())))
     mode_v = data.get("mode", SweepMode.GRID.value)
     mode = SweepMode.GRID
-    if mode_v not in {m.value for m in SweepMode}:
+    if not isinstance(mode_v, str) or mode_v not in {m.value for m in SweepMode}:  # (mode: [grid] likewise)
         issues.append(Issue("mode", f"expected one of {', '.join(m.value for m in SweepMode)}, found {found(mode_v)}", line_of(lines, ("mode",))))
     else:
         mode = SweepMode(mode_v)
@@ -291,6 +291,12 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
     if mode == SweepMode.RANDOM and samples is None and "samples" not in data:
         issues.append(Issue("samples", "expected 'samples' (how many problems to draw) with mode: random", line_of(lines, ("mode",))))
     seed = int(get("seed", "count0", 0))
+    if mode == SweepMode.GRID:  # (seed: 5 in a grid looked like the generators' seed and was ignored: every problem seed 0)
+        for key, what in (("seed", "the seed of the draws; a generator's seed is a parameter: fixed: {seed: 5}, or varied"),
+                          ("samples", "how many problems to draw")):
+            if key in data:
+                issues.append(Issue(key, f"expected '{key}' only with mode: random ({what}), found it in a grid sweep",
+                                    line_of(lines, (key,))))
     planner = PlannerKind(get("planner", "planner", PlannerKind.OPTIMAL.value))
     time_limit = float(get("time_limit", "positive", 120.0))
     retries = int(get("retries", "count0", 2))
@@ -358,6 +364,9 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                                     line_of(lines, loc)))
             if k in fixed:
                 issues.append(Issue(key_path(loc), f"expected each parameter once, found {k!r} both fixed and varied", line_of(lines, loc)))
+            if k.startswith("options.") and k.removeprefix("options.") in options:  # (the varied values won without a word)
+                issues.append(Issue(key_path(loc), f"expected each option once, found {k.removeprefix('options.')!r} both "
+                                                   f"in options and varied as {k!r}", line_of(lines, loc)))
     modes = vary.get("gantry") or [fixed.get("gantry", GantryMode.STOP_AND_GO.value)]
     if base == SweepBase.GANTRY and modes != [GantryMode.CONTINUOUS.value] * len(modes):
         # the course's heuristic plans a stationary cell only (every row was an 'internal error'); the
