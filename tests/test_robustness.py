@@ -235,7 +235,7 @@ def test_sigterm_saves_the_incumbent_and_exits_143(tmp_path: Path, problems_dir:
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == int(ExitCode.TERMINATED), out + err
-    assert "Traceback" not in err and "terminated (SIGTERM): stopping; a solve keeps what it has" in err
+    assert "Traceback" not in err and "terminated (SIGTERM): stopping; what is finished is kept (a solve its best plan" in err
     plan = load_plan(tmp_path / "plan.json")
     assert plan.status == PlanStatus.INTERRUPTED and plan.metrics["harvested"] == 15
     assert json.loads((tmp_path / "verification.json").read_text())["summary"]["passed"] is True

@@ -140,7 +140,8 @@ def run_console(app, err_console) -> None:
             terminated.append(signum)
             if os.getpid() != main:
                 raise KeyboardInterrupt
-            err_console.print("terminated (SIGTERM): stopping; a solve keeps what it has, a live run writes nothing", markup=False)
+            err_console.print("terminated (SIGTERM): stopping; what is finished is kept (a solve its best plan, a sweep its "
+                              "finished rows; a live run writes nothing)", markup=False)
         raise KeyboardInterrupt
 
     def on_int(signum, frame):

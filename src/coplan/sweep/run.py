@@ -578,6 +578,12 @@ def run_sweep(
         # which printed its KeyboardInterrupt traceback
         main = threading.current_thread() is threading.main_thread()
         old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        # (after a SIGTERM, the comms closing under the client once printed distributed.batched's
+        # CommClosedError traceback: the cluster is going away, which is not news)
+        dask_log = logging.getLogger("distributed")
+        dask_level = dask_log.level
+        if outcome.interrupted:
+            dask_log.setLevel(logging.CRITICAL)
         try:
             if client is not None:
                 client.close()
@@ -585,6 +591,7 @@ def run_sweep(
                 cluster.close()
         finally:
             client_log.setLevel(client_level)
+            dask_log.setLevel(dask_level)
             lock.release()
             if main:
                 signal.signal(signal.SIGINT, old)
