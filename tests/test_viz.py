@@ -449,3 +449,24 @@ def test_cli_plot_into_a_folder_writes_in_it(tmp_path, saved):
     assert (d / "plan_gantt.png").is_file() and not (tmp_path / "figs.png").exists()
     r = run("plot", str(saved["greenhouse"]), "--kind", "gantt", "--arm", "left", "--out", str(d))  # (ignored, before)
     assert r.exit_code == 2 and "--arm: expected with --kind joints or workspace" in " ".join(r.output.split())
+
+
+def test_a_rows_figure_titles_say_how_the_carriage_moved_and_the_row_time(tmp_path):
+    """(`coplan plot ROW_PLAN --kind gantt` said "coordinated: makespan 77.18 s ..." for a stop
+    and go and an on-the-move plan alike.)"""
+    from typer.testing import CliRunner
+
+    import coplan
+    from coplan.cli import app
+    from coplan.generate import gantry_row
+    from coplan.viz.plots import plan_title
+
+    d = gantry_row(length=6.0, n_arms=2, density=2.0, seed=3)
+    (tmp_path / "row.yaml").write_text(to_yaml(d))
+    res = coplan.solve(tmp_path / "row.yaml", out_dir=tmp_path / "run")
+    r = res.plan.metrics["row"]
+    title = plan_title(res.plan.label, res.plan)
+    assert title.startswith(f"coordinated (stop and go, optimised stops): row time {r['row_time']:.2f} s, "
+                            f"{r['fruit_per_hour']:.0f} fruit/h"), title
+    out = CliRunner().invoke(app, ["plot", str(tmp_path / "run" / "plan.json"), "--kind", "gantt", "--out", str(tmp_path / "g.png")])
+    assert out.exit_code == 0 and (tmp_path / "g.png").is_file(), out.output

@@ -163,9 +163,9 @@ def plot_cmd(
     if pl is not None:  # (the title's status: the verdict's, not the file's word)
         checked(prob, pl)
     if kind == PlotKind.GANTT:
-        fig = plots.plot_gantt(prob, {pl.planner_name: pl})
+        fig = plots.plot_gantt(prob, {pl.label: pl})  # (a row's: how its carriage moved too)
     elif kind == PlotKind.CLEARANCE:
-        fig = plots.plot_clearance(prob, {pl.planner_name: pl})
+        fig = plots.plot_clearance(prob, {pl.label: pl})
     elif kind == PlotKind.JOINTS:
         fig = plots.plot_joints(prob, pl, arms=None if arm is None else [arm])
     else:

@@ -76,11 +76,15 @@ def _as_plans(problem: Problem, plans, what: str) -> dict[str, Plan]:
 
 
 def plan_title(label: str, plan: Plan) -> str:
-    """``"heuristic: makespan 21.66 s, 11/11 fruit, unsafe"`` from a plan's metrics."""
+    """``"heuristic: makespan 21.66 s, 11/11 fruit, unsafe"`` from a plan's metrics; a row's:
+    ``"coordinated (on the move): row time 78.51 s, 2751 fruit/h, 60/60 fruit, success"``."""
     m = plan.metrics or {}
+    row = m.get("row") if plan.gantry_x is not None else None
     bits = []
     if m.get("makespan") is not None:
-        bits.append(f"makespan {m['makespan']:.2f} s")
+        bits.append(f"{'row time' if row else 'makespan'} {m['makespan']:.2f} s")
+    if row and row.get("fruit_per_hour") is not None:
+        bits.append(f"{row['fruit_per_hour']:.0f} fruit/h")
     if m.get("harvested") is not None and m.get("reachable") is not None:
         bits.append(f"{m['harvested']}/{m['reachable']} fruit")
     bits.append(plan.status.value)
