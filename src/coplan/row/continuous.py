@@ -264,8 +264,9 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
 
 def planned_line(res: RowResult) -> str:
     """The progress line of one plan on the move (here, or sent on by the parent of a worker)."""
-    return (f"row on the move ({res.info['profile']}, {res.info['mean_speed']:.3f} m/s on average): "
-            f"{res.plan.metrics.get('harvested')} fruit, makespan {res.plan.metrics.get('makespan', 0.0):.2f} s, "
+    how = ", CP-SAT's order" if res.info.get("assign") == AssignRule.CPSAT.value else ""
+    return (f"row on the move ({res.info['profile']}, {res.info['mean_speed']:.3f} m/s on average{how}): "
+            f"{res.plan.metrics.get('harvested')} fruit, row time {res.plan.metrics.get('makespan', 0.0):.2f} s, "
             f"planned in {res.timings['planning']:.2f} s")
 
 

@@ -156,7 +156,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                 for key, ((res, report), secs) in runner.collect():
                     if key[1] == "cpsat":
                         cpsat_report = report
-                    elif res is not None:  # (the early rest's plan, made in the background: its line from here)
+                    if res is not None:  # (made in the background: its line from here; CP-SAT's kept plan was never said)
                         speaker(progress)(planned_line(res))
                     if res is not None:
                         tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"], start_hold=runner.hold))
