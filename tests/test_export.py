@@ -395,3 +395,17 @@ def test_an_unsafe_or_edited_plan_is_not_exported_for_a_controller(tmp_path):
     # the verified plan itself: exported, no word of a verdict
     res = run("export", str(run_dir / "plan.json"), "-o", str(tmp_path / "ok.csv"))
     assert res.exit_code == 0 and (tmp_path / "ok.csv").is_file() and "verif" not in res.output, res.output
+
+
+def test_an_export_larger_than_verify_reads_says_so(single_plan, tmp_path, monkeypatch):
+    """(A 270 MB export at 1 kHz was written in silence; coplan verify then refused it as over
+    its 64 MiB.) The cap is lowered here to the size of a small export."""
+    import coplan.plan
+    from coplan.problem.model import default_problem_path
+
+    plan_path = tmp_path / "plan.json"
+    plan_path.write_text(json.dumps(single_plan.to_dict()))
+    monkeypatch.setattr(coplan.plan, "MAX_PLAN_BYTES", 2000)
+    res = run("export", str(plan_path), "-o", str(tmp_path / "e.csv"), "-p", str(default_problem_path().with_name("single_arm.yaml")))
+    said = " ".join(res.stderr.split())
+    assert res.exit_code == 0 and "more than coplan verify reads" in said and (tmp_path / "e.csv").stat().st_size > 2000, said

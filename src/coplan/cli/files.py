@@ -111,6 +111,13 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
 
     traj = trajectory(plan, rate)  # (once: the files and the follow error are of the same points)
     written = export_plan(plan, rate, fmt, out, traj)
+    if fmt == ExportFormat.CSV:
+        from ..plan import MAX_PLAN_BYTES
+
+        size = written[0].stat().st_size if written else 0
+        if size > MAX_PLAN_BYTES:  # (a 270 MB export at 1 kHz, which coplan verify then refused, said nothing)
+            _err.print(f"note: this export is {size / 2**20:.0f} MiB, more than coplan verify reads ({MAX_PLAN_BYTES >> 20} MiB): "
+                       f"verify the plan it came from, or an export at a lower rate", markup=False, highlight=False)
     if fmt != ExportFormat.CSV:  # (an arm whose name is not a safe file name: which file it is in was nowhere said)
         from ..report.export import export_names
 
