@@ -280,3 +280,32 @@ def test_a_short_smooth_jerk_overshoot_is_jerk_times_the_limit_not_an_accelerati
     assert max(v.value / v.limit for v in jerk) == pytest.approx(over, rel=0.02)
     assert not [v for v in ver.violations if v.kind != ViolationKind.JERK]
     assert ver.peaks[arm.name]["jerk"] == pytest.approx(over, rel=0.02)
+
+
+def test_verify_says_how_close_the_farthest_pick_came_and_takes_a_tolerance(tmp_path) -> None:
+    """(A fruit moved 4.5 mm from where the plan picks it passed with no word of it, and the 5 mm
+    tolerance could not be tightened from the command line.)"""
+    import json
+
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+    from coplan.pipeline import solve
+    from coplan.problem import default_problem_path
+
+    solve(default_problem_path(), planner="coordinated", out_dir=tmp_path / "run")
+    text = default_problem_path().read_text()
+    assert text.count("0.7078") == 1
+    (tmp_path / "moved.yaml").write_text(text.replace("0.7078", "0.7123"))  # (f09, 4.5 mm along x)
+    runner = CliRunner(env={"COLUMNS": "250"})
+    plan = str(tmp_path / "run" / "plan.json")
+    res = runner.invoke(app, ["verify", str(tmp_path / "moved.yaml"), plan])
+    said = " ".join(res.output.split())
+    assert res.exit_code == 0 and "every tip within 4.50 mm of its fruit at its closest (the farthest: f09 by" in said, said
+    res = runner.invoke(app, ["verify", str(tmp_path / "moved.yaml"), plan, "--tolerance", "2", "--json"])
+    doc = json.loads(res.stdout)
+    assert res.exit_code == 6 and doc["summary"]["violation_kinds"] == ["pick_missed"]
+    assert doc["summary"]["worst_pick"]["fruit"] == "f09" and doc["summary"]["worst_pick"]["distance"] == pytest.approx(0.0045, abs=2e-4)
+    assert doc["summary"]["position_tolerance"] == 0.002
+    res = runner.invoke(app, ["verify", str(default_problem_path()), plan, "--json"])
+    assert res.exit_code == 0 and json.loads(res.stdout)["summary"]["worst_pick"]["distance"] < 1e-5  # (on the fruit)

@@ -348,6 +348,7 @@ def verify_cmd(
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Write verification.json (a folder, or a file name ending .json).")] = None,
     fcl: Annotated[FclMode, typer.Option(parser=choice(FclMode), metavar=choices(FclMode), help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
     as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,
+    tolerance: Annotated[float, typer.Option("--tolerance", min=0.1, max=50.0, metavar="MM", help="How close the tip must come to the fruit (or over the bin) during a pick (a place), mm.")] = 5.0,
 ):
     """Independently verify a plan: clearance (certified), limits, picks and places.
 
@@ -384,7 +385,7 @@ def verify_cmd(
                           "text (another file, or changed since: its sha256 differs): the plan is verified against "
                           f"{_s(problem)} as it is now")
     try:
-        ver = run_verify(prob, loaded, fcl=fcl)
+        ver = run_verify(prob, loaded, fcl=fcl, position_tolerance=tolerance / 1000.0)
     except PlanFileError as e:  # a well-formed plan that does not fit this problem: name both files
         raise PlanFileError(e.issues, f"{plan} (a {e.source}, checked against {problem})") from None
     written = ver.save(out) if out is not None else None

@@ -287,6 +287,8 @@ class Verification:
     fcl: FclReport | None = None
     timings: dict[str, float] = field(default_factory=dict)
     inferred_events: list | None = None  # the events inferred from the motion, when the plan declared none
+    # the pick whose tip came least close to its fruit: {"fruit", "arm", "distance" (m, its closest), "t"} (None: no picks)
+    worst_pick: dict | None = None
     # the problem text checked against and the one the plan records it was planned from:
     # {"sha256": str | None, "planned_from": {"path", "sha256"} | None, "same_text": bool | None}
     problem_file: dict | None = None
@@ -342,6 +344,8 @@ class Verification:
             "warning_count": len(self.warnings),
             "unharvested": list(self.unharvested),
             "events_inferred": self.inferred_events is not None,
+            "worst_pick": self.worst_pick,
+            "position_tolerance": self.options.position_tolerance,
             "pairs": {p.key: {"min_clearance": p.min_clearance, "t": p.t, "certified": p.certified,
                               "margin": p.certified - self.required_clearance} for p in self.pairs},
             "peaks": self.peaks,

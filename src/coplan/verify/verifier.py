@@ -370,6 +370,8 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
             frame = False  # the bin rides with the carriage: still relative to it
         m = motions[arm_index[e.arm]]
         least, held = _hold(m, tips[e.arm], plan.time, target, e.t_start, e.t_end, opts, frame)
+        if e.kind == EventKind.PICK and (ver.worst_pick is None or least > ver.worst_pick["distance"]):
+            ver.worst_pick = {"fruit": e.fruit, "arm": e.arm, "distance": float(least), "t": float(e.t_start)}
         if least > opts.position_tolerance:
             ver.violations.append(Violation(missed, (e.arm,), e.t_start, least - opts.position_tolerance, least,
                                             opts.position_tolerance, e.t_start, e.t_end, fruit=e.fruit,
