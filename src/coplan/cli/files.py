@@ -43,8 +43,7 @@ def export_cmd(
 ):
     """Export a plan for a joint controller: positions, velocities and accelerations per joint at a chosen rate.
 
-    The plan is verified against its problem first; one that fails (collisions, limits, missed
-    picks) is refused, exit 6, nothing written."""
+    The plan is verified against its problem first; one that fails (collisions, limits, missed picks) is refused, exit 6, nothing written."""
     for path in _export(plan, rate, fmt, out, problem, unverified):
         _out.print(f"wrote {escape(printable(path))}")
 
