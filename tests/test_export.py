@@ -409,3 +409,28 @@ def test_an_export_larger_than_verify_reads_says_so(single_plan, tmp_path, monke
     res = run("export", str(plan_path), "-o", str(tmp_path / "e.csv"), "-p", str(default_problem_path().with_name("single_arm.yaml")))
     said = " ".join(res.stderr.split())
     assert res.exit_code == 0 and "more than coplan verify reads" in said and (tmp_path / "e.csv").stat().st_size > 2000, said
+
+
+def test_verify_holds_an_exports_velocities_and_accelerations_to_its_positions(crossing_plan, tmp_path):
+    """(The verifier checks an export's positions; its velocity columns -- what a controller
+    follows for feed-forward -- were read past: five times the limit, 'passed'.)"""
+    import csv
+
+    from coplan.problem.model import default_problem_path
+
+    problem = default_problem_path().parent / "crossing_paths.yaml"
+    crossing_plan.save(tmp_path / "run")  # (with its plan.npz: the export at full precision, which verify passes)
+    plan_path = tmp_path / "run" / "plan.json"
+    assert run("export", str(plan_path), "--rate", "250", "-o", str(tmp_path / "e.csv"), "-p", str(problem)).exit_code == 0
+    assert run("verify", str(problem), str(tmp_path / "e.csv")).exit_code == 0
+    rows = list(csv.reader((tmp_path / "e.csv").open()))
+    for column, factor in (("left_qd1", 5.0), ("right_qdd2", 1.2)):
+        bad = [list(r) for r in rows]
+        j = bad[0].index(column)
+        for r in bad[1:]:
+            r[j] = repr(float(r[j]) * factor)
+        with (tmp_path / "bad.csv").open("w", newline="") as f:
+            csv.writer(f).writerows(bad)
+        res = run("verify", str(problem), str(tmp_path / "bad.csv"))
+        said = " ".join(res.output.split())
+        assert res.exit_code == 3 and f"{column}: expected the {'velocity' if 'qd1' in column else 'acceleration'} of the positions" in said, said

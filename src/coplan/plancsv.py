@@ -172,8 +172,43 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
     if issues:
         raise PlanFileError(issues, source)
     rows = rows[:n]
+    if export:  # the velocities and accelerations a controller follows: those of the positions the verifier checks
+        axes = [(j, 2, j + 2, j + 4) for j in at] + ([(x_col, 1, x_col + 1, x_col + 2)] if x_col is not None else [])
+        _check_rates(rows, axes, header, lines[:n], source)
     q = {a: rows[:, j: j + 2].copy() for a, j in zip(names, at)}
     return rows[:, 0], q, lines[:n], (rows[:, x_col].copy() if x_col is not None else None)
+
+
+def _check_rates(rows: np.ndarray, axes: list[tuple[int, int, int, int]], header: list[str], lines: np.ndarray,
+                 source: str | None) -> None:
+    """An export's velocity and acceleration columns against the central differences of its
+    positions (the verifier checks only the positions: a file whose qd columns were 5 x the
+    limit passed): each within 2 % of the column's largest value (and 1e-3 rad/s, rad/s^2), the
+    differences' own error on a smooth motion at a controller's rate being far less. ``axes``:
+    (first position column, how many, first velocity column, first acceleration column) of each
+    arm (two joints) and the carriage (one axis)."""
+    t = rows[:, 0]
+    if t.size < 5:
+        return
+    dt = float(np.median(np.diff(t)))
+    if dt > 0.0100001:  # (coarser than 100 Hz: the verifier refuses the grid itself, and says so)
+        return
+    issues: list[Issue] = []
+    for j, w, jv, ja in axes:
+        q = rows[:, j:j + w]
+        est = {jv: (q[2:] - q[:-2]) / (2 * dt), ja: (q[2:] - 2 * q[1:-1] + q[:-2]) / dt**2}
+        for c0, what in ((jv, "velocity"), (ja, "acceleration")):
+            col = rows[1:-1, c0:c0 + w]
+            tol = 0.02 * max(float(np.abs(est[c0]).max()), float(np.abs(col).max())) + 1e-3
+            err = np.abs(col - est[c0])
+            if err.max() > tol:
+                k, jn = np.unravel_index(int(np.argmax(err)), err.shape)
+                issues.append(Issue(_column(header, c0 + jn),
+                                    f"expected the {what} of the positions (their central difference, {est[c0][k, jn]:.4g}), "
+                                    f"found {col[k, jn]:.4g} at t = {t[k + 1]:.3f} s: a controller following this column "
+                                    f"would not follow the positions coplan verify checks", int(lines[k + 1])))
+    if issues:
+        raise PlanFileError(issues, source)
 
 
 def _column(header: list[str], j: int) -> str:
