@@ -163,7 +163,7 @@ def test_an_export_of_a_saved_plan_passes_coplan_verify_at_a_controller_rate(pro
 
 
 def test_csv_export(crossing_plan, tmp_path):
-    (path,) = export_plan(crossing_plan, 100.0, "csv", tmp_path / "traj.csv")
+    path, events = export_plan(crossing_plan, 100.0, "csv", tmp_path / "traj.csv")
     rows = list(csv.reader(path.open()))
     arms = list(crossing_plan.q)
     assert rows[0] == ["t"] + [f"{a}_{c}" for a in arms for c in ("q1", "q2", "qd1", "qd2", "qdd1", "qdd2")]
@@ -172,7 +172,26 @@ def test_csv_export(crossing_plan, tmp_path):
     assert data.shape == (len(traj.time), 1 + 6 * len(arms))
     np.testing.assert_allclose(data[:, 1:3], traj.q[arms[0]], atol=1e-8)
     np.testing.assert_allclose(data[:, 3:5], traj.qd[arms[0]], rtol=1e-8, atol=1e-8)
-    assert list(tmp_path.iterdir()) == [path]  # no temporary file left
+    assert sorted(tmp_path.iterdir()) == sorted([path, events])  # no temporary file left
+    # the picks and places on the export's clock: the plan's one step later (gripper timing was rebuilt by hand)
+    got = list(csv.DictReader(events.open()))
+    assert events.name == "traj.events.csv" and len(got) == len(crossing_plan.events)
+    for e, g in zip(sorted(crossing_plan.events, key=lambda e: (e.t_start, e.arm)), got):
+        assert (g["arm"], g["fruit"], g["kind"]) == (e.arm, e.fruit, e.kind.value)
+        assert float(g["t_start"]) == pytest.approx(e.t_start + traj.delay) and float(g["t_end"]) == pytest.approx(e.t_end + traj.delay)
+    # and the tip is on the fruit at those times in the export itself
+    from coplan.kinematics.arm import fk
+    from coplan.problem import load_problem
+    from coplan.problem.model import default_problem_path
+
+    prob = load_problem(default_problem_path().parent / "crossing_paths.yaml")
+    for g in got:
+        if g["kind"] == "pick":
+            arm = next(a for a in prob.arms if a.name == g["arm"])
+            k = int(round(0.5 * (float(g["t_start"]) + float(g["t_end"])) * 100.0))
+            tip = np.asarray(fk(traj.q[arm.name][k], arm.links, arm.base)[1])
+            fruit = next(f for f in prob.fruits if f.id == g["fruit"])
+            assert np.hypot(*(tip - np.asarray(fruit.position))) < 1e-3
     # at rest the rates are exact zeros, not the spline's rounding (it wrote -1.07e-258)
     rates = np.concatenate([np.r_[traj.qd[a].ravel(), traj.qdd[a].ravel()] for a in arms])
     assert not np.any((rates != 0) & (np.abs(rates) < 1e-12)) and np.any(rates == 0)
@@ -181,8 +200,11 @@ def test_csv_export(crossing_plan, tmp_path):
 @pytest.mark.parametrize("fmt", ["json", "yaml"])
 def test_ros_joint_trajectory_per_arm(crossing_plan, tmp_path, fmt):
     paths = export_plan(crossing_plan, 20.0, fmt, tmp_path / "ros")
-    assert [p.name for p in paths] == [f"{a}.{fmt}" for a in crossing_plan.q]
+    assert [p.name for p in paths] == [f"events.{fmt}"] + [f"{a}.{fmt}" for a in crossing_plan.q]
     traj = trajectory(crossing_plan, 20.0)
+    load = json.loads if fmt == "json" else yaml.safe_load
+    assert len(load(paths[0].read_text())["events"]) == len(crossing_plan.events)
+    paths = paths[1:]
     for arm, path in zip(crossing_plan.q, paths):
         msg = json.loads(path.read_text()) if fmt == "json" else yaml.safe_load(path.read_text())
         assert set(msg) == {"header", "joint_names", "points"}
@@ -274,7 +296,7 @@ def test_json_and_yaml_exports_never_overwrite_another_file_and_keep_a_rows_carr
     said = " ".join(res.output.split())
     assert res.exit_code == 0 and "note: arm 'carriage' is in carriage_2.json (joints carriage_2_joint1, carriage_2_joint2)" in said, said
     paths = export_plan(solve(row).plan, 100.0, "json", tmp_path / "row")
-    names = {p.stem: json.loads(p.read_text())["joint_names"] for p in paths}
+    names = {p.stem: json.loads(p.read_text())["joint_names"] for p in paths if p.stem != "events"}
     assert names == {"carriage": ["carriage_x"], "carriage_2": ["carriage_2_joint1", "carriage_2_joint2"],
                      "arm2": ["arm2_joint1", "arm2_joint2"]}
 
@@ -311,8 +333,8 @@ def test_the_default_name_of_an_export_at_a_fractional_rate_keeps_its_rate(singl
     plan_path.write_text(json.dumps(single_plan.to_dict()))
     for rate in ("12.5", "0.5", "0.2"):
         res = run("export", str(plan_path), "--rate", rate)
-        assert res.exit_code == 0 and res.output.strip().endswith(f"plan_{rate}hz.csv"), res.output
-    assert sorted(p.name for p in tmp_path.glob("plan_*")) == ["plan_0.2hz.csv", "plan_0.5hz.csv", "plan_12.5hz.csv"]
+        assert res.exit_code == 0 and f"wrote {tmp_path / f'plan_{rate}hz.csv'}" in res.output, res.output
+    assert sorted(p.name for p in tmp_path.glob("plan_*hz.csv")) == ["plan_0.2hz.csv", "plan_0.5hz.csv", "plan_12.5hz.csv"]
 
 
 def test_an_export_whose_smoothing_departs_from_the_samples_does_not_blame_the_rate(tmp_path):

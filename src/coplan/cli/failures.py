@@ -122,7 +122,11 @@ def _file_kind(head: bytes) -> str:
         return f"a {m.group(1).decode()} file"
     if re.search(rb'"joint_names"\s*:', head) or re.search(rb'(?m)^joint_names:', head):
         return "an export JointTrajectory"  # (coplan export --format json|yaml: one per arm)
+    if re.match(rb'\s*(\{\s*"events"\s*:|events:)', head):
+        return "an export's events"  # (its picks and places: events.json / events.yaml)
     line = head.split(b"\n", 1)[0].decode("utf-8", "replace").strip()
+    if line == "arm,fruit,kind,t_start,t_end":
+        return "an export's events"  # (beside an export CSV: <name>.events.csv)
     if line.startswith("t,") and "_q1" in line:
         return "an export CSV" if "_qd1" in line else "coplan's plan.csv replay"
     return "a file of another kind"

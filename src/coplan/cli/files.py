@@ -83,14 +83,18 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
                                       f"found a file name ending {out.suffix}; give a folder name")
     if out.resolve() == plan_path.resolve():
         raise Failure(ExitCode.USAGE, f"--out {out} is the plan being exported; give another file")
+    from ..report.export import EVENTS, events_path, export_names
+
     if fmt == ExportFormat.CSV:  # an earlier export is replaced; coplan's plan.csv or any other file is not
         check_overwrite(out, "an export CSV", "an earlier export (a CSV with t, <arm>_q1 ... <arm>_qdd2)")
+        check_overwrite(events_path(out), "an export's events", "an earlier export's events (arm,fruit,kind,t_start,t_end)")
     else:  # each arm's file likewise: an arm named plan or verification would overwrite those
-        from ..report.export import export_names
-
-        for name in export_names(plan).values():
-            check_overwrite(out / f"{name}.{fmt.value}", "an export JointTrajectory",
-                            "an earlier export (a JointTrajectory with joint_names and points)")
+        for key, name in export_names(plan).items():
+            if key is EVENTS:
+                check_overwrite(out / f"{name}.{fmt.value}", "an export's events", "an earlier export's events")
+            else:
+                check_overwrite(out / f"{name}.{fmt.value}", "an export JointTrajectory",
+                                "an earlier export (a JointTrajectory with joint_names and points)")
     if unverified:
         _err.print(f"note: {printable(plan_path)} exported without verifying it (--unverified): nothing here says a "
                    "controller may follow it", markup=False, highlight=False)

@@ -51,7 +51,7 @@ from ..kinds import ExportFormat
 from ..plan import Plan
 from ..output import atomic_text
 
-__all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "follow_error", "limit_excess", "smoothing_error", "FOLLOW_TOLERANCE",
+__all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "follow_error", "limit_excess", "export_events", "events_path", "smoothing_error", "FOLLOW_TOLERANCE",
            "MAX_POINTS", "MAX_RATE"]
 
 #: rad: an export whose points a controller follows (cubic, with their velocities) within this of
@@ -209,13 +209,14 @@ _SAFE = re.compile(r"[^A-Za-z0-9_.-]+")
 
 #: The carriage's key among a row's export names (not an arm name: an arm may be called "carriage").
 CARRIAGE = object()
+EVENTS = object()  # the events file's stem in a JSON/YAML export's folder
 
 
 def export_names(plan) -> dict:
     """``{arm name (or CARRIAGE): file and joint-name stem}`` of a JSON/YAML export: a row's
     carriage first, as ``carriage``, so that an arm of that name becomes ``carriage_2`` (it took
     the carriage's file, and the carriage's trajectory was lost)."""
-    return _unique(([(CARRIAGE, "carriage")] if plan.gantry_x is not None else [])
+    return _unique([(EVENTS, "events")] + ([(CARRIAGE, "carriage")] if plan.gantry_x is not None else [])
                    + [(a, _safe(a, k)) for k, a in enumerate(plan.q)])
 
 
@@ -229,7 +230,7 @@ def _unique(pairs) -> dict:
     every name that is safe as it is keep theirs first, the rest in order
     (arms "a b" and "a_b": "a b" took a_b.json and the arm named a_b became a_b_2)."""
     pairs = list(pairs)
-    first = [k for k, (key, base) in enumerate(pairs) if key is CARRIAGE or base == key]
+    first = [k for k, (key, base) in enumerate(pairs) if key is CARRIAGE or key is EVENTS or base == key]
     chosen: dict[int, str] = {}
     used: set[str] = set()
     for k in first + [k for k in range(len(pairs)) if k not in set(first)]:
@@ -245,6 +246,28 @@ def _unique(pairs) -> dict:
 def safe_names(names: list[str]) -> dict[str, str]:
     """File-system and ROS-safe names for untrusted arm names (unique, never empty, never hidden)."""
     return _unique((name, _safe(name, k)) for k, name in enumerate(names))
+
+
+def export_events(plan: Plan, traj: Trajectory) -> list[dict]:
+    """The plan's picks and places on the export's clock (each time + ``traj.delay``: the export is
+    the plan one step later), in time order: ``{arm, fruit, kind, t_start, t_end}`` -- when the
+    gripper closes and opens, without rebuilding them from plan.json's clock."""
+    return [{"arm": e.arm, "fruit": e.fruit, "kind": e.kind.value, "t_start": round(e.t_start + traj.delay, 9),
+             "t_end": round(e.t_end + traj.delay, 9)} for e in sorted(plan.events, key=lambda e: (e.t_start, e.arm))]
+
+
+def events_path(out: Path) -> Path:
+    """Where a CSV export's events go: ``<name>.events.csv`` beside it."""
+    return out.with_name(out.stem + ".events.csv")
+
+
+def events_csv(events: list[dict]) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["arm", "fruit", "kind", "t_start", "t_end"])
+    for e in events:
+        w.writerow([e["arm"], e["fruit"], e["kind"], repr(e["t_start"]), repr(e["t_end"])])
+    return buf.getvalue()
 
 
 def csv_text(traj: Trajectory) -> str:
@@ -295,8 +318,9 @@ def carriage_trajectory(traj: Trajectory, name: str = "carriage", frame_id: str 
 
 
 def export_plan(plan: Plan | str | Path, rate: float, fmt: ExportFormat | str, out: str | Path, traj: Trajectory | None = None) -> list[Path]:
-    """Write the plan at ``rate`` Hz: ``csv`` to the file ``out``; ``json``/``yaml`` one file per
-    arm (``<arm>.json``) into the folder ``out``. Each file is written whole or not at all.
+    """Write the plan at ``rate`` Hz: ``csv`` to the file ``out`` (and its picks and places, on the
+    export's clock, to ``<out>.events.csv`` beside it); ``json``/``yaml`` one file per arm
+    (``<arm>.json``) and ``events.json`` into the folder ``out``. Each file is written whole or not at all.
     ``traj``: :func:`trajectory` ``(plan, rate)`` when the caller has it already. Returns the
     paths written. ``plan`` may be a plan file's path (read with :func:`coplan.plan.load_plan`)."""
     if isinstance(plan, (str, os.PathLike)):  # (a path raised "'str' object has no attribute 'time'")
@@ -308,15 +332,18 @@ def export_plan(plan: Plan | str | Path, rate: float, fmt: ExportFormat | str, o
     fmt = ExportFormat(fmt)
     traj = trajectory(plan, rate) if traj is None else traj
     out = Path(out)
+    events = export_events(plan, traj)
     if fmt == ExportFormat.CSV:
         out.parent.mkdir(parents=True, exist_ok=True)
         atomic_text(out, csv_text(traj))
-        return [out]
+        atomic_text(events_path(out), events_csv(events))
+        return [out, events_path(out)]
     out.mkdir(parents=True, exist_ok=True)
     names = export_names(plan)
     written = []
-    for arm in list(traj.q) + ([CARRIAGE] if traj.carriage is not None else []):
-        msg = joint_trajectory(traj, arm, names[arm]) if arm != CARRIAGE else carriage_trajectory(traj, names[arm])
+    for arm in [EVENTS] + list(traj.q) + ([CARRIAGE] if traj.carriage is not None else []):
+        msg = ({"events": events} if arm is EVENTS else
+               joint_trajectory(traj, arm, names[arm]) if arm is not CARRIAGE else carriage_trajectory(traj, names[arm]))
         if fmt == ExportFormat.JSON:
             text = json.dumps(msg, indent=None, separators=(",", ":"), allow_nan=False)
         else:
