@@ -486,6 +486,9 @@ def test_a_problem_given_as_a_mapping_is_named_by_key_path_without_lines_of_a_te
         coplan.solve(d)
     assert "fruits[1].position[0]" in str(e.value) and not re.search(r"mapping:\d", str(e.value))
     assert all(i.line is None for i in e.value.issues)
+    with pytest.raises(ProblemError) as e:  # (it said "found an empty file")
+        coplan.solve({})
+    assert "found an empty mapping" in str(e.value) and "file" not in str(e.value)
 
 
 def test_an_empty_row_s_summary_gives_no_share_of_nothing(tmp_path):

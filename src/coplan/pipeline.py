@@ -142,6 +142,11 @@ def _from_mapping(data: Mapping) -> Problem:
     from .errors import ProblemError
     from .problem.generate import to_yaml
 
+    if not data:  # (it said "found an empty file")
+        from .errors import Issue
+
+        raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty mapping")],
+                           "a problem given as a mapping")
     try:
         return parse_problem(to_yaml(dict(data)), "a problem given as a mapping")
     except ProblemError as e:
