@@ -505,6 +505,10 @@ def test_sweep_report_refuses_a_folder_that_is_not_a_sweep(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.yaml"]
     with pytest.raises(FileNotFoundError, match="neither"):
         sweep_report(tmp_path)
+    # a sweep stopped before its first problem was done: said so (it was "a folder with neither")
+    (tmp_path / "sweep.json").write_text('{"name": "x"}')
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep-report", str(tmp_path)])
+    assert r.exit_code == 2 and "found a sweep that has none yet" in " ".join(r.output.split()), r.output
 
 
 def test_sweep_report_on_damaged_files_says_so(small_run, tmp_path):

@@ -208,6 +208,9 @@ def read_table(folder_or_file: str | Path, notes: dict | None = None):
     if p.is_file():
         return parquet(p)
     if not (p / PARQUET).exists() and not (p / JOURNAL).exists():
+        if (p / "sweep.json").is_file():  # (a sweep stopped before its first problem was done: "a folder with neither")
+            raise FileNotFoundError(f"{p}: expected a sweep with finished problems, found a sweep that has none yet "
+                                    f"(stopped before its first was done: run it again into this folder to go on)")
         raise FileNotFoundError(f"{p}: expected a sweep's output folder (with {PARQUET} or {JOURNAL}), found a folder with neither")
     unread: list[int] = []
     rows = read_rows(p, unread)
