@@ -698,6 +698,12 @@ def test_two_gantry_modes_of_one_row_are_two_designs_in_the_report_not_one_with_
     assert sorted((d["gantry"], d["seeds"], d["throughput"]) for d in des) == [("continuous", 1, 3.0), ("stop-and-go", 1, 2.0)]
     worst = summarise(rows)["worst"]["ratio"]
     assert [(w["key"], w["gantry"]) for w in worst] == [("a", "stop-and-go"), ("b", "continuous")]
+    # the mode a varied parameter too: said once (it read 'continuous, gantry "continuous"')
+    from coplan.sweep.report import _text
+
+    varied_rows = [dict(r, params=json.dumps({"gantry": r["gantry"]})) for r in rows]
+    text = _text(summarise(varied_rows), "t")
+    assert "seed 2, continuous, key b" in text and 'gantry "continuous"' not in text, text
 
 
 def test_a_worst_case_names_the_parameters_its_rows_differ_in():

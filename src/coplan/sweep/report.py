@@ -204,7 +204,8 @@ def _text(s: dict[str, Any], title: str) -> str:
     lines += ["", "## Worst cases", ""] if worst else []  # (none among no successful rows: no empty heading)
     for col, rs in worst.items():
         lines.append(f"- {col}: " + "; ".join(f"{r['name']} (seed {r['seed']}{', ' + r['gantry'] if r.get('gantry') else ''}"
-                                              + "".join(f", {k} {json.dumps(v, default=str)}" for k, v in (r.get("params") or {}).items())
+                                              + "".join(f", {k} {json.dumps(v, default=str)}" for k, v in (r.get("params") or {}).items()
+                                                        if not (k == "gantry" and r.get("gantry")))  # (the mode said twice)
                                               + f", key {r['key']}) {_fmt(r[col])}" for r in rs))
     if s["failures"]:
         lines += ["", f"## Rows that are not a success ({len(s['failures'])})", "", "| key | problem | seed | status | exit class | message |",
