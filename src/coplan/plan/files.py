@@ -58,17 +58,30 @@ def load_plan(path: str | Path) -> Plan:
     src = str(p)
     if not p.exists():
         raise PlanFileError([Issue("", "expected an existing plan file, found no file at this path")], src)
+    raw = None
     if not p.is_file():
-        found = "a directory" if p.is_dir() else special_file(p) or "a pipe or other special file"
-        raise PlanFileError([Issue("", f"expected a plan file, found {found}")], src)
-    size = p.stat().st_size
-    if size > MAX_PLAN_BYTES:
-        raise PlanFileError([Issue("", f"expected a plan file of at most {MAX_PLAN_BYTES} bytes ({MAX_PLAN_BYTES >> 20} MiB, "
-                                       f"about 2 h of three arms at 100 Hz), found {size} bytes; it was not read")], src)
-    if p.suffix.lower() == ".csv":
-        return exact_samples(_plan_from_csv(p.read_bytes(), src), p)
+        found = "a directory" if p.is_dir() else special_file(p)
+        if found is not None:
+            raise PlanFileError([Issue("", f"expected a plan file, found {found}")], src)
+        # a pipe (``coplan verify P /dev/stdin``, as a problem may come): read up to the cap, its kind from its text
+        try:
+            with open(p, "rb") as fh:
+                raw = fh.read(MAX_PLAN_BYTES + 1)
+        except OSError as e:
+            raise PlanFileError([Issue("", f"expected a readable plan, found an error: {e.strerror}")], src) from None
+        if len(raw) > MAX_PLAN_BYTES:
+            raise PlanFileError([Issue("", f"expected a plan of at most {MAX_PLAN_BYTES} bytes, found more")], src)
+        if raw.removeprefix(b"\xef\xbb\xbf").lstrip().startswith(b"t,"):
+            return _plan_from_csv(raw, src)
+    else:
+        size = p.stat().st_size
+        if size > MAX_PLAN_BYTES:
+            raise PlanFileError([Issue("", f"expected a plan file of at most {MAX_PLAN_BYTES} bytes ({MAX_PLAN_BYTES >> 20} MiB, "
+                                           f"about 2 h of three arms at 100 Hz), found {size} bytes; it was not read")], src)
+        if p.suffix.lower() == ".csv":
+            return exact_samples(_plan_from_csv(p.read_bytes(), src), p)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = raw.decode("utf-8") if raw is not None else p.read_text(encoding="utf-8")
         if not text.strip():
             raise PlanFileError([Issue("", "expected a JSON plan (an object with keys format, problem, time, arms, events), "
                                            "found an empty file")], src)
@@ -85,12 +98,14 @@ def load_plan(path: str | Path) -> Plan:
         hint = "; it looks like a problem file (YAML): were the problem and the plan swapped?" if looks else ""
         raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno}){hint}", e.lineno)], src) from None
     except UnicodeDecodeError as e:
-        if p.suffix.lower() == ".npz" or p.read_bytes()[:2] == b"PK":
+        if p.suffix.lower() == ".npz" or (raw if raw is not None else p.read_bytes())[:2] == b"PK":
             raise PlanFileError([Issue("", "expected a plan file (plan.json or plan.csv), found a NumPy .npz archive (the "
                                            "full-precision samples coplan writes beside plan.json, which takes them): give "
                                            "the plan.json beside it")], src) from None
         raise PlanFileError([Issue("", f"expected UTF-8 JSON, found an undecodable byte at offset {e.start}")], src) from None
     plan = plan_from_dict(data, src)  # (its motion recorded as the one its verdict is about)
+    if raw is not None:  # (a pipe: no plan.npz beside it)
+        return _as_judged(plan)
     exact = exact_samples(plan, p)
     return exact if exact is plan else _as_judged(exact)  # (the npz's samples: recorded again, once)
 
