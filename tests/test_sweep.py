@@ -958,3 +958,19 @@ def test_sweep_file_mistakes_that_were_internal_errors_or_silent_are_named(text,
 def test_an_integer_range_with_a_count_that_fits_is_its_values():
     spec = parse_sweep("base: row\nvary:\n  n_arms: {from: 2, to: 5, count: 4}\n", "s.yaml")
     assert spec.vary["n_arms"] == [2, 3, 4, 5]
+
+
+def test_a_big_sweep_says_it_is_making_its_problems_before_the_wait(tmp_path, monkeypatch):
+    """(A grid of 64,320 problems printed nothing for minutes while its problems were made.)"""
+    import coplan.sweep.run as sweep_run
+
+    def stop(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep_run, "run_sweep", stop)
+    (tmp_path / "big.yaml").write_text("base: row\nplanner: coordinated\nvary:\n  seed: {from: 0, to: 1199}\n")
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(tmp_path / "big.yaml"), "--out", str(tmp_path / "o")])
+    assert "making its 1,200 problems" in " ".join(r.output.split()), r.output
+    (tmp_path / "small.yaml").write_text("base: row\nplanner: coordinated\nvary:\n  seed: [0, 1]\n")
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(tmp_path / "small.yaml"), "--out", str(tmp_path / "s")])
+    assert "making its" not in r.output

@@ -19,7 +19,7 @@ from .checks import between, choice, choices, in_path, out_path
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
 from ..errors import printable
-from ..kinds import ExitCode, PlannerKind, RowStatus, SweepBase
+from ..kinds import ExitCode, PlannerKind, RowStatus, SweepBase, SweepMode
 
 __all__ = ["sweep_cmd", "sweep_report_cmd"]
 
@@ -65,6 +65,10 @@ def sweep_cmd(
               "course's heuristic plans a stationary cell, not a row), found heuristic")
     folder = out if out is not None else Path("coplan-sweep") / (re.sub(r"[^\w.-]+", "_", sw.name).strip("._") or "sweep")
     check_out_dir(folder, "--out")
+    n = sw.samples if sw.mode == SweepMode.RANDOM else sw.grid_size()
+    if n is not None and n * max(1, len(sw.problems)) >= 1000:  # (a 64,320-problem grid said nothing for minutes while they were made)
+        _err.print(f"sweep [bold]{_safe(sw.name)}[/]: making its {n * max(1, len(sw.problems)):,} problems (generating and "
+                   f"keying each: a while for this many)", highlight=False)
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
     from ..sweep.run import run_sweep
