@@ -456,3 +456,31 @@ def test_verify_holds_an_exports_velocities_and_accelerations_to_its_positions(c
         res = run("verify", str(problem), str(tmp_path / "bad.csv"))
         said = " ".join(res.output.split())
         assert res.exit_code == 3 and f"{column}: expected the {'velocity' if 'qd1' in column else 'acceleration'} of the positions" in said, said
+
+
+def test_an_export_of_a_plan_csv_carries_the_inferred_events_and_an_arm_named_events_keeps_its_file(tmp_path):
+    """(A plan.csv's export wrote an events file of its header alone, while its note said the picks
+    and places were inferred; an arm named Events became Events_2 beside the new events.json,
+    its joint names with it, and the note blamed its name.)"""
+    import csv
+
+    from coplan.pipeline import solve
+    from coplan.problem.model import default_problem_path
+
+    problem = default_problem_path().parent / "crossing_paths.yaml"
+    solve(problem, planner="coordinated", out_dir=tmp_path / "run")
+    n = len(json.loads((tmp_path / "run" / "plan.json").read_text())["events"])
+    res = run("export", str(tmp_path / "run" / "plan.csv"), "-p", str(problem), "-o", str(tmp_path / "c.csv"))
+    assert res.exit_code == 0, res.output
+    got = list(csv.DictReader((tmp_path / "c.events.csv").open()))
+    assert len(got) == n and {g["kind"] for g in got} == {"pick", "place"}
+    text = problem.read_text()
+    odd = text.replace("name: left,", 'name: "Events",', 1)
+    assert odd != text
+    (tmp_path / "odd.yaml").write_text(odd)
+    solve(tmp_path / "odd.yaml", planner="coordinated", out_dir=tmp_path / "odd")
+    res = run("export", str(tmp_path / "odd" / "plan.json"), "-f", "json", "-o", str(tmp_path / "oj"))
+    said = " ".join(res.output.split())
+    assert res.exit_code == 0 and (tmp_path / "oj" / "Events.json").is_file() and (tmp_path / "oj" / "events_2.json").is_file(), said
+    assert json.loads((tmp_path / "oj" / "Events.json").read_text())["joint_names"] == ["Events_joint1", "Events_joint2"]
+    assert "note: arm" not in said

@@ -97,12 +97,17 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
                                 "an earlier export (a JointTrajectory with joint_names and points)")
     if unverified:
         _err.print(f"note: {printable(plan_path)} exported without verifying it (--unverified): nothing here says a "
-                   "controller may follow it", markup=False, highlight=False)
+                   "controller may follow it" + ("; it declares no picks or places, so its events file is empty"
+                                                 if not plan.events else ""), markup=False, highlight=False)
     else:  # (an unsafe plan, or one edited after its verdict, was exported with exit 0 and a note that said its rates kept the limits)
         from .figures import checked, plan_with_problem
 
         prob, verified = plan_with_problem(plan_path, problem)
         ver = checked(prob, verified)
+        if not plan.events and verified.events:  # (a plan.csv: the picks and places inferred, as the note says, in the events file too)
+            from dataclasses import replace
+
+            plan = replace(plan, events=verified.events)
         if not ver.passed:
             kinds = ", ".join(sorted({v.kind.value for v in ver.violations}))
             raise Failure(ExitCode.UNSAFE, f"{plan_path} does not pass the verifier against problem {prob.name!r} "
@@ -124,10 +129,14 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     if fmt != ExportFormat.CSV:  # (an arm whose name is not a safe file name: which file it is in was nowhere said)
         from ..report.export import export_names
 
+        from ..report.export import safe_names
+
         for arm, stem in export_names(plan).items():
             if isinstance(arm, str) and stem != arm:
-                _err.print(f"note: arm {arm!r} is in {stem}.{fmt.value} (joints {stem}_joint1, {stem}_joint2): its name "
-                           "is not a safe file and joint name as it is", markup=False, highlight=False)
+                why = ("its name is not a safe file and joint name as it is" if safe_names([arm])[arm] != arm else
+                       "another file has its name (file names are told apart case-blind)")
+                _err.print(f"note: arm {arm!r} is in {stem}.{fmt.value} (joints {stem}_joint1, {stem}_joint2): {why}",
+                           markup=False, highlight=False)
     if all(on_lattice(q) for q in plan.q.values()) and finer_grid(1.0 / rate) and plan.time.size > 1:  # (no plan.npz beside it: it exported in silence)
         from ..report.export import limit_excess
 

@@ -215,9 +215,10 @@ EVENTS = object()  # the events file's stem in a JSON/YAML export's folder
 def export_names(plan) -> dict:
     """``{arm name (or CARRIAGE): file and joint-name stem}`` of a JSON/YAML export: a row's
     carriage first, as ``carriage``, so that an arm of that name becomes ``carriage_2`` (it took
-    the carriage's file, and the carriage's trajectory was lost)."""
-    return _unique([(EVENTS, "events")] + ([(CARRIAGE, "carriage")] if plan.gantry_x is not None else [])
-                   + [(a, _safe(a, k)) for k, a in enumerate(plan.q)])
+    the carriage's file, and the carriage's trajectory was lost); ``EVENTS``, the picks and
+    places, last: ``events``, or ``events_2`` beside an arm of that name (which keeps its own)."""
+    return _unique(([(CARRIAGE, "carriage")] if plan.gantry_x is not None else [])
+                   + [(a, _safe(a, k)) for k, a in enumerate(plan.q)] + [(EVENTS, "events")])
 
 
 def _safe(name, k: int) -> str:
@@ -230,7 +231,8 @@ def _unique(pairs) -> dict:
     every name that is safe as it is keep theirs first, the rest in order
     (arms "a b" and "a_b": "a b" took a_b.json and the arm named a_b became a_b_2)."""
     pairs = list(pairs)
-    first = [k for k, (key, base) in enumerate(pairs) if key is CARRIAGE or key is EVENTS or base == key]
+    # (the events file last: an arm named events keeps its file, and the events take events_2)
+    first = [k for k, (key, base) in enumerate(pairs) if key is CARRIAGE or (key is not EVENTS and base == key)]
     chosen: dict[int, str] = {}
     used: set[str] = set()
     for k in first + [k for k in range(len(pairs)) if k not in set(first)]:
