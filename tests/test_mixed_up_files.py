@@ -275,7 +275,8 @@ def test_a_plan_file_with_a_repeated_key_or_an_npz_is_refused_with_what_it_is(tm
 
 def test_a_near_miss_of_a_plan_files_key_is_named_other_keys_are_the_writers_own(tmp_path):
     """(A row plan with ``gantry`` misspelt ``gantri`` was "a plan without a carriage"; the
-    schema leaves a plan open to a writer's own keys, which stay unread.)"""
+    schema leaves a plan open to a writer's own keys, which stay unread: a near miss is a typo
+    only where the key it misses is not there.)"""
     from coplan.plan.files import PLAN_KEYS
     from coplan.planners.heuristic import plan_heuristic
     from coplan.schema import PlanFile
@@ -287,10 +288,26 @@ def test_a_near_miss_of_a_plan_files_key_is_named_other_keys_are_the_writers_own
     with pytest.raises(PlanFileError) as e:
         load_plan(tmp_path / "typo.json")
     assert "gantri: expected one of the plan file's keys, found unknown key 'gantri'; did you mean 'gantry'?" in str(e.value)
-    (tmp_path / "own.json").write_text(json.dumps(dict(doc, my_tool={"version": 3}, Status="x")))
-    with pytest.raises(PlanFileError) as e:  # (a key in another case is a near miss too)
-        load_plan(tmp_path / "own.json")
-    assert "did you mean 'status'?" in str(e.value)
-    (tmp_path / "own.json").write_text(json.dumps(dict(doc, my_tool={"version": 3})))
+    doc2 = {k: v for k, v in doc.items() if k != "events"}
+    (tmp_path / "ev.json").write_text(json.dumps(dict(doc2, Events=doc["events"])))
+    with pytest.raises(PlanFileError) as e:  # (a required key misspelt: named with it)
+        load_plan(tmp_path / "ev.json")
+    assert "events: expected a value, found nothing (required field); found 'Events': did you mean 'events'?" in str(e.value)
+    (tmp_path / "events.json").write_text(json.dumps({"events": []}))
+    with pytest.raises(PlanFileError) as e:  # (an export's events.json listed four missing keys)
+        load_plan(tmp_path / "events.json")
+    assert "found an export's events" in str(e.value) and len(e.value.issues) == 1
+    # a writer's own keys, near to ours or not, beside ours: read past (problem_id, planned were refused)
+    (tmp_path / "own.json").write_text(json.dumps(dict(doc, my_tool={"version": 3}, problem_id="x", planned="2024-05-01")))
     got = load_plan(tmp_path / "own.json")
     assert got.events == plan.events and abs(got.q["arm"] - plan.q["arm"]).max() < 1e-6  # (rounded to 1e-7 in JSON)
+
+
+@pytest.mark.parametrize("doc, words", [({"events": []}, "found an export's events"),
+                                        ({"header": {}, "joint_names": ["a_joint1"], "points": []}, "found an export's JointTrajectory")])
+def test_an_exports_file_given_as_the_problem_is_named(tmp_path, doc, words):
+    p = tmp_path / "x.json"
+    p.write_text(json.dumps(doc))
+    with pytest.raises(ProblemError) as e:
+        load_problem(p)
+    assert len(e.value.issues) == 1 and words in str(e.value) and "were the arguments swapped?" in str(e.value)

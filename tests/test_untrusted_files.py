@@ -115,6 +115,7 @@ def test_plan_csv_with_hostile_arm_names_loads_back(tmp_path: Path, single_arm) 
     ("x,arm_q1,arm_q2\n0,1,2\n", 1, "expected a header row 't,<arm>_q1,<arm>_q2,...', found first column 'x'"),
     ("t,arm_q1\n0,1\n", 1, "two columns per arm"),
     ("t,arm_q1,other_q2\n0,1,2\n", 1, "expected a pair '<arm>_q1,<arm>_q2', found 'arm_q1', 'other_q2'"),
+    ("arm,fruit,kind,t_start,t_end\nleft,f1,pick,0.1,0.6\n", 1, "found an export's events"),
     # (a column named twice: the message blamed the valid columns after it)
     ("t,a_q1,a_q2,a_qd1,a_qd2,a_qdd1,a_qdd2,a_q1,b_q2,b_qd1,b_qd2,b_qdd1,b_qdd2\n" + ",".join(["0"] * 13) + "\n", 1,
      "expected each column once in the header row, found 'a_q1' in columns 2, 8"),

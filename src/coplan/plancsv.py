@@ -90,6 +90,9 @@ def _layout(header: list[str]) -> tuple[list[str], list[int], int | None, bool, 
     if export is not None:
         return (*export, True, None)
     cols = [c.strip() for c in header]
+    if cols == ["arm", "fruit", "kind", "t_start", "t_end"]:  # (it said "found first column 'arm'")
+        return [], [], None, False, ("expected a plan's samples, found an export's events (the picks and places beside a "
+                                     "`coplan export` CSV, <name>.events.csv): give the export CSV itself, or its plan")
     twice = next((c for c in cols if cols.count(c) > 1), None)
     if twice is not None:  # (it blamed the valid columns after it: "expected a pair '<arm>_q1,<arm>_q2', found 'left_qd1', ...")
         at = [i + 1 for i, c in enumerate(cols) if c == twice]

@@ -232,6 +232,10 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
         raise PlanFileError([Issue("", f"expected a JSON object, found {_kind(data)}")], source)
     fmt = data.get("format")
     kind = coplan_file_kind(data)
+    if kind is None and set(data) == {"events"}:  # (an export's events.json: it listed four missing keys)
+        raise PlanFileError([Issue("", "expected a plan file (plan.json or plan.csv), found an export's events (the picks "
+                                       "and places beside a `coplan export --format json`): verify the plan.json it was "
+                                       "exported from, or its CSV export")], source)
     if kind is None and {"joint_names", "points"} <= set(data):  # (it listed five missing keys)
         raise PlanFileError([Issue("", "expected a plan file (plan.json or plan.csv), found a JointTrajectory (one arm of a "
                                        "`coplan export --format json`): verify the plan.json it was exported from, or its "
@@ -241,13 +245,20 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
                                        f"{fmt!r}); were the arguments swapped?")], source)
     if data.get("format") != PLAN_FORMAT:
         bad("format", f"expected {PLAN_FORMAT!r}, found {_kind(data.get('format')) if 'format' in data else 'nothing'}")
+    # other keys are a writer's own (the schema leaves a plan open: problem_id, planned, ...); a near
+    # miss of a key that is missing is a typo: 'gantri' for 'gantry' read a row plan as a cell's
+    extra = [str(k) for k in data if k not in PLAN_KEYS]
+
+    def near(key: str) -> str | None:
+        return next((k for k in extra if difflib.get_close_matches(k.lower(), [key], n=1, cutoff=0.8)), None)
+
     for key in ("problem", "time", "arms", "events"):
         if key not in data:
-            bad(key, "expected a value, found nothing (required field)")
-    for key in data:  # (other keys are a plan's writer's own; a near miss of one of ours is a typo: 'gantri' was ignored)
-        near = difflib.get_close_matches(str(key).lower(), PLAN_KEYS, n=1, cutoff=0.8) if key not in PLAN_KEYS else []
-        if near:
-            bad(str(key), f"expected one of the plan file's keys, found unknown key {key!r}; did you mean {near[0]!r}?")
+            hit = near(key)
+            bad(key, "expected a value, found nothing (required field)" + (f"; found {hit!r}: did you mean {key!r}?" if hit else ""))
+    hit = near("gantry") if "gantry" not in data else None
+    if hit is not None:
+        bad(hit, f"expected one of the plan file's keys, found unknown key {hit!r}; did you mean 'gantry'?")
     if issues:
         raise PlanFileError(issues, source)
     if not isinstance(data["problem"], str):
