@@ -135,12 +135,12 @@ class MovingOptions:
     profile : ``density`` (a speed per metre of rail, slower where fruit are dense) or ``constant``
     level : the cruising speed (m/s) of a constant profile, the pace of a density profile (the
         arms' share of time the carriage gives each stretch's fruit, :func:`make_cruise`);
-        None: chosen by :func:`speed_search`
+        None: chosen by :func:`coplan.row.moving.speed_search`
     assign : ``greedy`` (earliest deadline first) or ``cpsat`` (CP-SAT, seeded by the greedy)
     margin : kept beyond the problem's clearance when booking cycles, m
     resolution : spacing of the candidate carriage positions of the row's screen, m
     search_rounds : levels the speed search plans (each a full, verified plan), rounded up to whole
-        rounds of :data:`SEARCH_WIDTH`; the plans of its best level with the early rest at the end
+        rounds of :data:`coplan.row.moving.SEARCH_WIDTH`; the plans of its best level with the early rest at the end
         and, on the density profile, CP-SAT's order and the refinement come on top
     refine_rounds : full plans that then slow the carriage only where fruit were missed (density;
         default none: with the search's bracketing, they won on no benchmark row and cost the search
@@ -321,3 +321,12 @@ def reorder_continuous(problem: Problem, level: float, options: MovingOptions, r
 
 def _end(b: Booker) -> float:
     return max((e.t_end for e in b.events), default=0.0)
+
+
+def __getattr__(name: str):
+    # (plan_moving and the speed search were this module's before coplan.row.moving: old imports still work)
+    if name in ("plan_moving", "speed_search", "SEARCH_WIDTH"):
+        from . import moving
+
+        return getattr(moving, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,7 +1,7 @@
 """How long a row's carriage first rests where it starts, on the move: fruit the start serves
 that a carriage ramping up at once would pass before an arm could pick them.
 
-* :func:`start_hold` -- offline (:mod:`coplan.row.continuous`), for the fruit the speed
+* :func:`start_hold` -- offline (:mod:`coplan.row.moving`), for the fruit the speed
   search's first plans left out that only the start serves;
 * :func:`reports_start_hold` -- live (:mod:`coplan.row.live`), for the camera's reports before
   the carriage moves.
