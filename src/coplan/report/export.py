@@ -144,11 +144,12 @@ def trajectory(plan: Plan, rate: float) -> Trajectory:
     return Trajectory(t, q, qd, qdd, float(rate), carriage, delay)
 
 
-def limit_excess(traj: Trajectory, problem) -> tuple[float, str | None, str | None]:
-    """``(ratio, arm, what)``: the largest finite difference of the exported positions (first,
-    second and third, over the export's step) against the problem's joint limits -- what
-    ``coplan verify`` of the export measures -- and where (1 or less: within every limit)."""
-    worst: tuple[float, str | None, str | None] = (0.0, None, None)
+def limit_excess(traj: Trajectory, problem) -> dict[str, tuple[float, str]]:
+    """``{velocity|acceleration|jerk: (ratio, arm)}``: the largest finite difference of the
+    exported positions (first, second and third, over the export's step) against the problem's
+    joint limits -- what ``coplan verify`` of the export measures -- and whose (1 or less:
+    within the limit)."""
+    worst: dict[str, tuple[float, str]] = {}
     dt = 1.0 / traj.rate
     limits = {a.name: (a.max_velocity, a.max_acceleration, a.max_jerk) for a in problem.arms}
     for arm, q in traj.q.items():
@@ -156,8 +157,8 @@ def limit_excess(traj: Trajectory, problem) -> tuple[float, str | None, str | No
             continue
         for k, (what, lim) in enumerate(zip(("velocity", "acceleration", "jerk"), limits[arm]), start=1):
             r = float((np.abs(np.diff(q, n=k, axis=0)) / dt**k / np.asarray(lim, float)).max())
-            if r > worst[0]:
-                worst = (r, arm, what)
+            if r > worst.get(what, (0.0, ""))[0]:
+                worst[what] = (r, arm)
     return worst
 
 
