@@ -947,6 +947,7 @@ def test_a_range_whose_step_misses_its_end_is_refused_not_cut_short():
      "found 'search_work' both in options and varied"),
     # (rounded to 2, 3: two problems of the five asked, silently)
     ("base: row\nvary:\n  n_arms: {from: 2, to: 3, count: 5}\n", "vary.n_arms", "expected a count that gives whole numbers"),
+    ("base: row\nvary:\n  n_arms: {from: 2, to: 4, count: 1}\n", "vary.n_arms", "expected a count of at least 2"),
 ])
 def test_sweep_file_mistakes_that_were_internal_errors_or_silent_are_named(text, path, words):
     with pytest.raises(SweepError) as e:

@@ -267,6 +267,10 @@ def range_values(r: dict, kind: str, loc: tuple, lines: dict, issues: list, keep
         values = [tidy(lo + i * step, kind) for i in range(n)]
     elif count is not None:
         n = int(count)
+        if n == 1 and hi != lo:  # (it kept 'from' alone and dropped 'to' without a word)
+            issues.append(Issue(path, f"expected a count of at least 2 for a range from {lo} to {hi} (count 1 would keep "
+                                      f"{lo} alone), or from equal to to", where))
+            return None
         if n > MAX_VALUES:
             issues.append(Issue(path, f"expected at most {MAX_VALUES} values, found count {n}", where))
             return None
