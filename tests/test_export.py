@@ -387,21 +387,22 @@ def test_the_point_cap_counts_the_export_s_own_points(single_plan):
 
 
 def test_an_unsafe_or_edited_plan_is_not_exported_for_a_controller(tmp_path):
-    """(The heuristic's baseline.json, unsafe, and a plan.json edited after its verdict were
+    """(The heuristic's plan (an optimal run's baseline.json), unsafe, and a plan.json edited after its verdict were
     exported with exit 0 -- the second with a note that its rates kept the plan's limits; the
     export's jerk was 9.6 x the limit, its acceleration 61 x.) The plan is verified against its
     problem first: refused, exit 6, nothing written; --unverified exports it, and says so."""
     from coplan.pipeline import solve
     from coplan.problem.model import default_problem_path
 
-    run_dir = tmp_path / "run"
-    solve(default_problem_path(), out_dir=run_dir, planner="optimal")  # (plan.json records its problem file)
-    assert json.loads((run_dir / "baseline.json").read_text())["status"] == "unsafe"
-    res = run("export", str(run_dir / "baseline.json"), "-o", str(tmp_path / "b.csv"))
+    run_dir, heur = tmp_path / "run", tmp_path / "heur"
+    solve(default_problem_path(), out_dir=run_dir, planner="coordinated")  # (plan.json records its problem file)
+    solve(default_problem_path(), out_dir=heur, planner="heuristic")  # (the course's baseline: unsafe, its jerk)
+    assert json.loads((heur / "plan.json").read_text())["status"] == "unsafe"
+    res = run("export", str(heur / "plan.json"), "-o", str(tmp_path / "b.csv"))
     said = " ".join(res.output.split())
     assert res.exit_code == 6 and "does not pass the verifier against problem 'greenhouse-row'" in said and "jerk" in said, said
     assert "nothing written (--unverified exports it anyway)" in said and not (tmp_path / "b.csv").exists()
-    res = run("export", str(run_dir / "baseline.json"), "-o", str(tmp_path / "b.csv"), "--unverified")
+    res = run("export", str(heur / "plan.json"), "-o", str(tmp_path / "b.csv"), "--unverified")
     assert res.exit_code == 0 and (tmp_path / "b.csv").is_file() and "exported without verifying it (--unverified)" in " ".join(res.output.split())
     # edited after its verdict (it still says success; its plan.npz beside it is of the old motion)
     edited = tmp_path / "edited"
