@@ -245,11 +245,6 @@ def test_more_bad_arguments_say_what_was_expected(cell):
     # the documented submodules of the row stage are attributes after `import coplan`
     code = "import coplan; print(coplan.row.moving.plan_moving.__name__)"
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "plan_moving"
-    # the names coplan.row.continuous had before the speed search moved out still import from there
-    from coplan.row.continuous import SEARCH_WIDTH, plan_moving as old_plan_moving, speed_search as old_search
-    from coplan.row.moving import SEARCH_WIDTH as width, speed_search
-
-    assert old_plan_moving is plan_moving and old_search is speed_search and SEARCH_WIDTH == width
 
 
 @pytest.mark.parametrize("where, words", [

@@ -321,12 +321,3 @@ def reorder_continuous(problem: Problem, level: float, options: MovingOptions, r
 
 def _end(b: Booker) -> float:
     return max((e.t_end for e in b.events), default=0.0)
-
-
-def __getattr__(name: str):
-    # (plan_moving and the speed search were this module's before coplan.row.moving: old imports still work)
-    if name in ("plan_moving", "speed_search", "SEARCH_WIDTH"):
-        from . import moving
-
-        return getattr(moving, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
