@@ -140,7 +140,7 @@ def read_csv_samples(raw: bytes, source: str | None = None) -> tuple[np.ndarray,
         raise PlanFileError([Issue("", f"expected a CSV header row, found a syntax error: {e}", 1)], source) from None
     names, at, x_col, export, why = _layout(header)
     if why:
-        raise PlanFileError([Issue("", why, 1)], source)
+        raise PlanFileError([Issue("header", why, 1)], source)  # (it read "<top>", a YAML word, of a CSV's first row)
     first = reader.line_num + 1  # the header may span lines (a quoted name with a line break)
     body = buf.read().splitlines()
     width = len(header)
