@@ -434,20 +434,26 @@ def test_an_export_larger_than_verify_reads_says_so(single_plan, tmp_path, monke
     assert res.exit_code == 0 and "more than coplan verify reads" in said and (tmp_path / "e.csv").stat().st_size > 2000, said
 
 
-def test_verify_holds_an_exports_velocities_and_accelerations_to_its_positions(crossing_plan, tmp_path):
+@pytest.mark.parametrize("name, rate, columns", [("crossing_paths", "250", ("left_qd1", "right_qdd2")),
+                                                  ("locked_arms", "100", ("r2_qd1", "r1_qdd2"))])
+def test_verify_holds_an_exports_velocities_and_accelerations_to_its_positions(tmp_path, name, rate, columns):
     """(The verifier checks an export's positions; its velocity columns -- what a controller
-    follows for feed-forward -- were read past: five times the limit, 'passed'.)"""
+    follows for feed-forward -- were read past: five times the limit, 'passed'. Then the check
+    refused coplan's own 100 Hz export of locked_arms, its time-optimal moves switching jerk:
+    the differences' own error grows with it.)"""
     import csv
 
+    from coplan.pipeline import solve
     from coplan.problem.model import default_problem_path
 
-    problem = default_problem_path().parent / "crossing_paths.yaml"
-    crossing_plan.save(tmp_path / "run")  # (with its plan.npz: the export at full precision, which verify passes)
+    problem = default_problem_path().parent / f"{name}.yaml"
+    solve(problem, planner="coordinated", out_dir=tmp_path / "run")  # (with its plan.npz: the export at full precision)
     plan_path = tmp_path / "run" / "plan.json"
-    assert run("export", str(plan_path), "--rate", "250", "-o", str(tmp_path / "e.csv"), "-p", str(problem)).exit_code == 0
-    assert run("verify", str(problem), str(tmp_path / "e.csv")).exit_code == 0
+    assert run("export", str(plan_path), "--rate", rate, "-o", str(tmp_path / "e.csv")).exit_code == 0
+    res = run("verify", str(problem), str(tmp_path / "e.csv"))
+    assert res.exit_code == 0, res.output
     rows = list(csv.reader((tmp_path / "e.csv").open()))
-    for column, factor in (("left_qd1", 5.0), ("right_qdd2", 1.2)):
+    for column, factor in zip(columns, (5.0, 1.2)):
         bad = [list(r) for r in rows]
         j = bad[0].index(column)
         for r in bad[1:]:
@@ -457,6 +463,33 @@ def test_verify_holds_an_exports_velocities_and_accelerations_to_its_positions(c
         res = run("verify", str(problem), str(tmp_path / "bad.csv"))
         said = " ".join(res.output.split())
         assert res.exit_code == 3 and f"{column}: expected the {'velocity' if 'qd1' in column else 'acceleration'} of the positions" in said, said
+
+
+@pytest.mark.parametrize("name", ["plan.json", "plan.csv"])
+def test_a_plan_from_a_pipe_is_exported_as_verify_reads_it(tmp_path, name):
+    """(Export read the plan twice -- once to export, once to verify -- and a pipe was empty the
+    second time: "found an empty file", exit 3, while coplan verify read the same pipe.)"""
+    import os
+    import threading
+
+    from coplan.pipeline import solve
+    from coplan.problem.model import default_problem_path
+
+    solve(default_problem_path(), planner="coordinated", out_dir=tmp_path / "run")
+    body = (tmp_path / "run" / name).read_bytes()
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+
+    def feed():
+        with open(fifo, "wb") as f:
+            f.write(body)
+
+    t = threading.Thread(target=feed, daemon=True)
+    t.start()
+    res = run("export", str(fifo), "-p", str(default_problem_path()), "-o", str(tmp_path / "e.csv"))
+    t.join(5)
+    assert res.exit_code == 0 and (tmp_path / "e.csv").is_file(), res.output
+    assert len((tmp_path / "e.events.csv").read_text().splitlines()) == 1 + 22  # (11 picks, 11 places: inferred from a CSV too)
 
 
 def test_an_export_of_a_plan_csv_carries_the_inferred_events_and_an_arm_named_events_keeps_its_file(tmp_path):

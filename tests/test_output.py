@@ -258,12 +258,15 @@ def test_a_users_plan_md_is_never_taken_for_a_run_file_and_a_stale_export_moves_
         solve(prob, planner="coordinated", out_dir=out)
     assert (out / "plan.md").read_text() == "season notes" and (out / "baseline.xlsx").read_text() == "x"
     (out / "plan_100hz.csv").write_text("t,arm_q1\n")  # what coplan export writes beside the plan
+    (out / "plan_100hz.events.csv").write_text("arm,fruit,kind,t_start,t_end\n")  # (and its events: they stayed, stale)
+    (out / "plan_1e-05hz.csv").write_text("t,arm_q1\n")  # (a rate Python writes with an exponent: it stayed)
     (out / "plan_gantt.png").write_bytes(b"png")
     (out / "plan_100hz").mkdir()  # (its JSON/YAML folder)
     solve(prob, planner="coordinated", out_dir=out)
-    assert not (out / "plan_100hz.csv").exists() and not (out / "plan_gantt.png").exists() and not (out / "plan_100hz").exists()
+    ours = {"plan_100hz.csv", "plan_100hz.events.csv", "plan_1e-05hz.csv", "plan_gantt.png", "plan_100hz"}
+    assert not ours & {p.name for p in out.iterdir()}
     prev = out.with_name("notes.previous")
-    assert {"plan_100hz.csv", "plan_gantt.png", "plan_100hz", "plan.json"} <= {p.name for p in prev.iterdir()}
+    assert ours | {"plan.json"} <= {p.name for p in prev.iterdir()}
     assert not (prev / "plan.md").exists() and (out / "plan.md").exists()
 
 

@@ -186,8 +186,8 @@ def _check_rates(rows: np.ndarray, axes: list[tuple[int, int, int, int]], header
                  source: str | None) -> None:
     """An export's velocity and acceleration columns against the central differences of its
     positions (the verifier checks only the positions: a file whose qd columns were 5 x the
-    limit passed): each within 2 % of the column's largest value (and 1e-3 rad/s, rad/s^2), the
-    differences' own error on a smooth motion at a controller's rate being far less. ``axes``:
+    limit passed): each within 2 % of the column's largest value (and 1e-3 rad/s, rad/s^2) and
+    what the motion's jerk makes of the differences' own error (below). ``axes``:
     (first position column, how many, first velocity column, first acceleration column) of each
     arm (two joints) and the carriage (one axis)."""
     t = rows[:, 0]
@@ -200,9 +200,15 @@ def _check_rates(rows: np.ndarray, axes: list[tuple[int, int, int, int]], header
     for j, w, jv, ja in axes:
         q = rows[:, j:j + w]
         est = {jv: (q[2:] - q[:-2]) / (2 * dt), ja: (q[2:] - 2 * q[1:-1] + q[:-2]) / dt**2}
+        # the differences' own error on the export's smooth curve grows with its jerk: where the
+        # jerk switches sign (a time-optimal move), the second difference departs from the exact
+        # acceleration by up to the jerk's change x dt / 6 -- at 100 Hz 2.2 % of a 12 rad/s^2 peak
+        # on locked_arms, which a flat 2 % refused in coplan's own export
+        jerk = float(np.abs(np.diff(q, n=3, axis=0)).max()) / dt**3 if q.shape[0] > 3 else 0.0
+        slack = {jv: jerk * dt**2, ja: jerk * dt / 2}
         for c0, what in ((jv, "velocity"), (ja, "acceleration")):
             col = rows[1:-1, c0:c0 + w]
-            tol = 0.02 * max(float(np.abs(est[c0]).max()), float(np.abs(col).max())) + 1e-3
+            tol = 0.02 * max(float(np.abs(est[c0]).max()), float(np.abs(col).max())) + 1e-3 + slack[c0]
             err = np.abs(col - est[c0])
             if err.max() > tol:
                 k, jn = np.unravel_index(int(np.argmax(err)), err.shape)

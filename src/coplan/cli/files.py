@@ -63,7 +63,15 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     from ..report.export import check_rate, export_plan
 
     fmt = ExportFormat(fmt)
-    plan = load_plan(plan_path)  # (with the plan.npz beside it: no 1e-7 rounding for a finer grid to magnify)
+    # read once (a plan from a pipe is gone after the first read), with the plan.npz beside it: no
+    # 1e-7 rounding for a finer grid to magnify; with its problem unless --unverified (a plan.csv's
+    # events then inferred from its motion, for the events file)
+    if unverified:
+        plan, prob = load_plan(plan_path), None
+    else:
+        from .figures import plan_with_problem
+
+        prob, plan = plan_with_problem(plan_path, problem)
     try:
         check_rate(rate, plan)
     except ValueError as e:
@@ -100,14 +108,9 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
                    "controller may follow it" + ("; it declares no picks or places, so its events file is empty"
                                                  if not plan.events else ""), markup=False, highlight=False)
     else:  # (an unsafe plan, or one edited after its verdict, was exported with exit 0 and a note that said its rates kept the limits)
-        from .figures import checked, plan_with_problem
+        from .figures import checked
 
-        prob, verified = plan_with_problem(plan_path, problem)
-        ver = checked(prob, verified)
-        if not plan.events and verified.events:  # (a plan.csv: the picks and places inferred, as the note says, in the events file too)
-            from dataclasses import replace
-
-            plan = replace(plan, events=verified.events)
+        ver = checked(prob, plan)
         if not ver.passed:
             kinds = ", ".join(sorted({v.kind.value for v in ver.violations}))
             raise Failure(ExitCode.UNSAFE, f"{plan_path} does not pass the verifier against problem {prob.name!r} "

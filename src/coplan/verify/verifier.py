@@ -477,7 +477,7 @@ def verify(problem: Problem | str | os.PathLike, plan: Plan | str | os.PathLike,
         ver.warnings.append(Finding(WarningKind.EVENTS_INFERRED, (), None, message=(
             f"the plan declares no events: {n_pick} pick{'s' if n_pick != 1 else ''} and {len(plan.events) - n_pick} "
             f"place{'s' if len(plan.events) - n_pick != 1 else ''} were inferred from its motion (tip within "
-            f"{opts.position_tolerance * 1000:.0f} mm and still for the dwell over a fruit, then over the arm's bin)")))
+            f"{opts.position_tolerance * 1000:g} mm and still for the dwell over a fruit, then over the arm's bin)")))
     samples = _check_clearance(problem, plan, motions, opts, ver)
     t1 = _time.perf_counter()
     if opts.fcl != FclMode.OFF:
