@@ -84,6 +84,18 @@ def test_a_plan_finds_its_own_problem_file_and_refuses_one_changed_since(tmp_pat
     mine.unlink()
     r = run("plot", str(out / "plan.json"), "--kind", "gantt", "--out", str(tmp_path / "g3.png"))
     assert r.exit_code == 2 and "which is gone" in r.output
+    # gone, and named like a shipped problem of another text: not checked against that one in silence
+    twin = tmp_path / "twin.yaml"
+    twin.write_text(_text("greenhouse_row").replace("clearance: 0.05", "clearance: 0.06"))
+    assert twin.read_text() != _text("greenhouse_row")
+    r = run("solve", str(twin), "--planner", "coordinated", "--out", str(tmp_path / "tw"))
+    assert r.exit_code == 0, r.output
+    twin.unlink()
+    for cmd in (["plot", str(tmp_path / "tw" / "plan.json"), "--kind", "gantt", "--out", str(tmp_path / "g4.png")],
+                ["export", str(tmp_path / "tw" / "plan.json"), "-o", str(tmp_path / "e.csv")]):
+        r = run(*cmd)
+        said = " ".join(r.output.split())
+        assert r.exit_code == 2 and "which is gone; the shipped problem 'greenhouse-row' is another text" in said, said
 
 
 def test_a_shipped_problem_by_its_bare_name(tmp_path, monkeypatch):

@@ -75,6 +75,9 @@ def plan_with_problem(plan_path: Path, problem: Optional[Path]):
                 f"{plan_path} is a plan of problem {plan.problem!r}; {where}that is not a shipped problem "
                 f"({', '.join(p.name for p in shipped)}): give its YAML file with --problem FILE",
             )
+        if record is not None and prob.digest != record["sha256"]:  # (it was checked against the shipped one silently)
+            fail(ExitCode.USAGE, f"{plan_path} was planned from {record['path']}, which is gone; the shipped problem "
+                                  f"{prob.name!r} is another text (its sha256 differs): give the plan's problem with --problem FILE")
         if record is None and plan.problem:  # (a problem changed in Python records no file: say what is drawn)
             _err.print(f"[yellow]note[/]: {_s(plan_path)} records no problem file: checked against the shipped "
                               f"problem {_s(repr(prob.name))} ({_s(prob.source or '')}); if it was planned on a changed "
