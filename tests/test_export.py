@@ -517,4 +517,10 @@ def test_an_export_of_a_plan_csv_carries_the_inferred_events_and_an_arm_named_ev
     said = " ".join(res.output.split())
     assert res.exit_code == 0 and (tmp_path / "oj" / "Events.json").is_file() and (tmp_path / "oj" / "events_2.json").is_file(), said
     assert json.loads((tmp_path / "oj" / "Events.json").read_text())["joint_names"] == ["Events_joint1", "Events_joint2"]
-    assert "note: arm" not in said
+    assert "note: arm" not in said and "note: the picks and places are in events_2.json" in said, said
+    # another plan exported into that folder: the earlier export's files of arms it does not have are removed (a
+    # controller loading the folder got two plans' trajectories), said; a rate verify does not read is said too
+    res = run("export", str(tmp_path / "run" / "plan.json"), "-f", "json", "-o", str(tmp_path / "oj"), "--rate", "50")
+    said = " ".join(res.output.split())
+    assert res.exit_code == 0 and sorted(p.name for p in (tmp_path / "oj").iterdir()) == ["events.json", "left.json", "right.json"], said
+    assert "note: removed the earlier export's Events.json, events_2.json" in said and "at 50 Hz coplan verify does not read" in said, said

@@ -113,6 +113,15 @@ def check_overwrite(out, kind: str, what: str, option: str = "--out") -> None:
               "give another file")
 
 
+def file_kind(path: Path) -> str | None:
+    """What an existing file says it is (:func:`_file_kind`'s words), None if it cannot be read."""
+    try:
+        with open(path, "rb") as f:
+            return _file_kind(f.read(4096))
+    except OSError:
+        return None
+
+
 def _file_kind(head: bytes) -> str:
     """What a file's first bytes say it is: a coplan JSON or YAML file by its format ('a
     coplan.verification file', 'a coplan.feed file'), coplan's plan.csv replay or an export CSV

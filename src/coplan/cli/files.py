@@ -120,8 +120,23 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     from ..plan import finer_grid, on_lattice
     from ..report.export import FOLLOW_TOLERANCE, follow_error, smoothing_error, trajectory
 
+    stale = []  # an earlier export's per-arm files in the folder that this one does not replace (a plan of other arms)
+    if fmt != ExportFormat.CSV and out.is_dir():
+        from .failures import file_kind
+
+        new = {f"{stem}.{fmt.value}" for stem in export_names(plan).values()}
+        stale = [p for p in sorted(out.glob(f"*.{fmt.value}")) if p.name not in new
+                 and file_kind(p) in ("an export JointTrajectory", "an export's events")]
     traj = trajectory(plan, rate)  # (once: the files and the follow error are of the same points)
     written = export_plan(plan, rate, fmt, out, traj)
+    for p in stale:  # (a controller loading the folder got two plans' trajectories)
+        p.unlink(missing_ok=True)
+    if stale:
+        _err.print(f"note: removed the earlier export's {', '.join(p.name for p in stale)} from {printable(out)} (not of "
+                   "this plan: the folder is this export whole)", markup=False, highlight=False)
+    if rate < 100.0:
+        _err.print(f"note: at {rate:g} Hz coplan verify does not read this export (it checks a grid of 100 Hz or finer): "
+                   "verify the plan it came from", markup=False, highlight=False)
     if fmt == ExportFormat.CSV:
         from ..plan import MAX_PLAN_BYTES
 
@@ -130,11 +145,12 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
             _err.print(f"note: this export is {size / 2**20:.0f} MiB, more than coplan verify reads ({MAX_PLAN_BYTES >> 20} MiB): "
                        f"verify the plan it came from, or an export at a lower rate", markup=False, highlight=False)
     if fmt != ExportFormat.CSV:  # (an arm whose name is not a safe file name: which file it is in was nowhere said)
-        from ..report.export import export_names
-
         from ..report.export import safe_names
 
         for arm, stem in export_names(plan).items():
+            if arm is EVENTS and stem != "events":  # (events.json held an arm's trajectory, without a word)
+                _err.print(f"note: the picks and places are in {stem}.{fmt.value} (an arm's trajectory has the name events "
+                           f"takes: it keeps its file)", markup=False, highlight=False)
             if isinstance(arm, str) and stem != arm:
                 why = ("its name is not a safe file and joint name as it is" if safe_names([arm])[arm] != arm else
                        "another file has its name (file names are told apart case-blind)")
@@ -142,7 +158,6 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
                            markup=False, highlight=False)
     if all(on_lattice(q) for q in plan.q.values()) and finer_grid(1.0 / rate) and plan.time.size > 1:  # (no plan.npz beside it: it exported in silence)
         from ..report.export import limit_excess
-
         from ..verify.verdict import VerifyOptions
 
         tol = 1.0 + VerifyOptions().rel_tolerance  # (what the verifier lets pass)
