@@ -152,7 +152,7 @@ def test_an_export_of_a_saved_plan_passes_coplan_verify_at_a_controller_rate(pro
     assert over != ("every limit holds" in said)
     checked = run("verify", str(problems_dir / "crossing_paths.yaml"), str(tmp_path / "a.csv"))
     assert (checked.exit_code == 6) == over, (said, checked.output)
-    assert "note" not in run("export", str(alone / "plan.json"), "--rate", "50", "--out", str(tmp_path / "a50.csv"), *prob).stderr
+    assert "no plan.npz" not in run("export", str(alone / "plan.json"), "--rate", "50", "--out", str(tmp_path / "a50.csv"), *prob).stderr
     # from the plan.csv replay, and from Python, alike (load_plan takes the plan.npz's samples)
     res = run("export", str(tmp_path / "run" / "plan.csv"), "--rate", "250", "--out", str(tmp_path / "c.csv"), *prob)
     assert res.exit_code == 0, res.output
