@@ -311,3 +311,15 @@ def test_an_exports_file_given_as_the_problem_is_named(tmp_path, doc, words):
     with pytest.raises(ProblemError) as e:
         load_problem(p)
     assert len(e.value.issues) == 1 and words in str(e.value) and "were the arguments swapped?" in str(e.value)
+
+
+def test_an_exports_yaml_given_as_the_plan_is_named(tmp_path):
+    """(A `coplan export --format yaml` file given as the plan was "it looks like a problem file
+    (YAML): were the problem and the plan swapped?".)"""
+    (tmp_path / "events.yaml").write_text("events:\n- {arm: left, fruit: f1, kind: pick, t_start: 0.1, t_end: 0.6}\n")
+    (tmp_path / "left.yaml").write_text("header: {stamp: {sec: 0, nanosec: 0}, frame_id: ''}\njoint_names: [left_joint1, left_joint2]\npoints: []\n")
+    for name, words in (("events.yaml", "found an export's events of a `coplan export --format yaml`"),
+                        ("left.yaml", "found a JointTrajectory (one arm of a `coplan export --format yaml`)")):
+        with pytest.raises(PlanFileError) as e:
+            load_plan(tmp_path / name)
+        assert words in str(e.value) and "swapped" not in str(e.value), str(e.value)

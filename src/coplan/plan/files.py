@@ -95,6 +95,12 @@ def load_plan(path: str | Path) -> Plan:
         if other:
             raise PlanFileError([Issue("", f"expected a plan file (plan.json or plan.csv), found a coplan {other.group(2)} file "
                                            f"(format {other.group(1)!r}); were the arguments swapped?", 1)], src) from None
+        export = ("an export's events" if re.match(r"\s*events:", text) else
+                  "a JointTrajectory (one arm" if re.search(r"(?m)^joint_names:", text) else None)
+        if export:  # (a `coplan export --format yaml` file was "a problem file (YAML): swapped?")
+            raise PlanFileError([Issue("", f"expected a plan file (plan.json or plan.csv), found {export} of a `coplan export "
+                                           f"--format yaml`{')' if 'arm' in export else ''}: verify the plan.json it was "
+                                           f"exported from, or its CSV export", 1)], src) from None
         hint = "; it looks like a problem file (YAML): were the problem and the plan swapped?" if looks else ""
         raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno}){hint}", e.lineno)], src) from None
     except UnicodeDecodeError as e:

@@ -357,7 +357,7 @@ def _top_level(data: Any, lines: dict, source: str | None, issues: list) -> tupl
     if set(data) == {"events"} or {"joint_names", "points"} <= set(data):  # (an export's file: four unknown keys were listed)
         what = "events (the picks and places" if "events" in data else "JointTrajectory (one arm"
         raise ProblemError([Issue("", f"expected a problem file (keys name, arms, fruits, task), found an export's {what} "
-                                      "of a `coplan export --format json`); were the arguments swapped?", 1)], source)
+                                      "of a `coplan export --format json` or `yaml`); were the arguments swapped?", 1)], source)
     fmt, kind = data.get("format"), coplan_file_kind(data)
     if kind is not None:  # a problem file has no format: a plan, feed, ... file
         raise ProblemError([Issue("", f"expected a problem file (keys name, arms, fruits, task), found a coplan {kind} file "
