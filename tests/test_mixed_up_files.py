@@ -297,6 +297,10 @@ def test_a_near_miss_of_a_plan_files_key_is_named_other_keys_are_the_writers_own
     with pytest.raises(PlanFileError) as e:  # (an export's events.json listed four missing keys)
         load_plan(tmp_path / "events.json")
     assert "found an export's events" in str(e.value) and len(e.value.issues) == 1
+    (tmp_path / "st.json").write_text(json.dumps(dict({k: v for k, v in doc.items() if k != "status"}, Status="success")))
+    with pytest.raises(PlanFileError) as e:  # (its verdict's key misspelt: read as no verdict, in silence)
+        load_plan(tmp_path / "st.json")
+    assert "found unknown key 'Status'; did you mean 'status'?" in str(e.value)
     # a writer's own keys, near to ours or not, beside ours: read past (problem_id, planned were refused)
     (tmp_path / "own.json").write_text(json.dumps(dict(doc, my_tool={"version": 3}, problem_id="x", planned="2024-05-01")))
     got = load_plan(tmp_path / "own.json")

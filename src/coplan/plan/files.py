@@ -262,9 +262,10 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
         if key not in data:
             hit = near(key)
             bad(key, "expected a value, found nothing (required field)" + (f"; found {hit!r}: did you mean {key!r}?" if hit else ""))
-    hit = near("gantry") if "gantry" not in data else None
-    if hit is not None:
-        bad(hit, f"expected one of the plan file's keys, found unknown key {hit!r}; did you mean 'gantry'?")
+    for key in ("gantry", "status"):  # (optional, but a typo changes what the plan is: a cell's, unverified)
+        hit = near(key) if key not in data else None
+        if hit is not None:
+            bad(hit, f"expected one of the plan file's keys, found unknown key {hit!r}; did you mean {key!r}?")
     if issues:
         raise PlanFileError(issues, source)
     if not isinstance(data["problem"], str):
