@@ -945,6 +945,8 @@ def test_a_range_whose_step_misses_its_end_is_refused_not_cut_short():
     # (the varied values won without a word)
     ("base: row\noptions: {search_work: 100}\nvary:\n  options.search_work: [100, 200]\n", "vary.options.search_work",
      "found 'search_work' both in options and varied"),
+    ("base: row\noptions: {search_work: 200}\nfixed:\n  options.search_work: 100\n", "fixed.options.search_work",
+     "found 'search_work' both in options and fixed"),
     # (rounded to 2, 3: two problems of the five asked, silently)
     ("base: row\nvary:\n  n_arms: {from: 2, to: 3, count: 5}\n", "vary.n_arms", "expected a count that gives whole numbers"),
     ("base: row\nvary:\n  n_arms: {from: 2, to: 4, count: 1}\n", "vary.n_arms", "expected a count of at least 2"),

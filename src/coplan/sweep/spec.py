@@ -338,6 +338,10 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
             loc = (section, k)
             if base is None or not _param_ok(k, base, loc, lines, issues):
                 continue
+            if k.startswith("options.") and k.removeprefix("options.") in options:  # (one of the two won without a word)
+                issues.append(Issue(key_path(loc), f"expected each option once, found {k.removeprefix('options.')!r} both "
+                                                   f"in options and {'fixed' if section == 'fixed' else 'varied'} as {k!r}",
+                                    line_of(lines, loc)))
             if section == "fixed":
                 if _one(k, v, loc, lines, issues):
                     fixed[k] = v
@@ -364,9 +368,6 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                                     line_of(lines, loc)))
             if k in fixed:
                 issues.append(Issue(key_path(loc), f"expected each parameter once, found {k!r} both fixed and varied", line_of(lines, loc)))
-            if k.startswith("options.") and k.removeprefix("options.") in options:  # (the varied values won without a word)
-                issues.append(Issue(key_path(loc), f"expected each option once, found {k.removeprefix('options.')!r} both "
-                                                   f"in options and varied as {k!r}", line_of(lines, loc)))
     modes = vary.get("gantry") or [fixed.get("gantry", GantryMode.STOP_AND_GO.value)]
     if base == SweepBase.GANTRY and modes != [GantryMode.CONTINUOUS.value] * len(modes):
         # the course's heuristic plans a stationary cell only (every row was an 'internal error'); the
