@@ -977,3 +977,14 @@ def test_a_big_sweep_says_it_is_making_its_problems_before_the_wait(tmp_path, mo
     (tmp_path / "small.yaml").write_text("base: row\nplanner: coordinated\nvary:\n  seed: [0, 1]\n")
     r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(tmp_path / "small.yaml"), "--out", str(tmp_path / "s")])
     assert "making its" not in r.output
+
+
+def test_parameter_sets_that_make_one_problem_are_said(tmp_path):
+    """(Eleven densities from 0.5 to 1.5 on a 2-arm row round to five fruit counts: five problems
+    ran and six values vanished without a word.)"""
+    spec = tmp_path / "d.yaml"
+    spec.write_text("base: row\nplanner: coordinated\nfixed: {n_arms: 2}\nvary:\n  density: {from: 0.5, to: 1.5, step: 0.1}\n")
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(tmp_path / "o"), "--workers", "1"])
+    said = " ".join(r.output.split())
+    n = len(load_sweep(spec).items())
+    assert r.exit_code == 0 and n < 11 and f"note: {11 - n} of the 11 parameter sets make a problem another set makes too" in said, said

@@ -81,6 +81,11 @@ def sweep_cmd(
         progress.start()
         _err.print(f"sweep [bold]{_safe(sw.name)}[/]: {o.total} problems, {o.skipped} already done in {_safe(folder)}; "
                    f"{_safe(scheduler) if scheduler else plural(o.workers, 'local worker process', 'local worker processes')}", highlight=False)
+        sets = sw.grid_size() if sw.mode == SweepMode.GRID and sw.base != SweepBase.FILES else None
+        if sets is not None and sets > o.total:  # (densities that round to one fruit count: 11 asked, 5 run, not a word)
+            _err.print(f"note: {sets - o.total} of the {sets} parameter sets make a problem another set makes too (the "
+                       f"same problem text: e.g. densities that round to the same number of fruit); each is solved once",
+                       highlight=False)
         state["task"] = progress.add_task(_counts_text(o.counts), total=o.total - o.skipped, name=sw.name)
 
     def on_row(row, o):
