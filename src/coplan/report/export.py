@@ -325,7 +325,10 @@ def export_plan(plan: Plan | str | Path, rate: float, fmt: ExportFormat | str, o
     export's clock, to ``<out>.events.csv`` beside it); ``json``/``yaml`` one file per arm
     (``<arm>.json``) and ``events.json`` into the folder ``out``. Each file is written whole or not at all.
     ``traj``: :func:`trajectory` ``(plan, rate)`` when the caller has it already. Returns the
-    paths written. ``plan`` may be a plan file's path (read with :func:`coplan.plan.load_plan`)."""
+    paths written. ``plan`` may be a plan file's path (read with :func:`coplan.plan.load_plan`).
+    It writes what it is given: ``coplan export`` verifies the plan against its problem first
+    (:func:`coplan.verify.verify` does it here); a plan without events (a plan.csv) gives an empty
+    events file unless its events are inferred first (:func:`coplan.verify.infer.infer_events`)."""
     if isinstance(plan, (str, os.PathLike)):  # (a path raised "'str' object has no attribute 'time'")
         from ..plan import load_plan
 
