@@ -645,6 +645,6 @@ def test_export_plan_takes_a_plan_file_s_path(tmp_path):
 
     files = coplan.solve("single_arm", planner="coordinated", out_dir=tmp_path / "o").files
     out = export_plan(str(files["json"]), 100.0, "csv", tmp_path / "e.csv")
-    assert out == [tmp_path / "e.csv"] and (tmp_path / "e.csv").read_text().startswith("t,")
+    assert out == [tmp_path / "e.csv", tmp_path / "e.events.csv"] and (tmp_path / "e.csv").read_text().startswith("t,")
     with pytest.raises(TypeError, match="expected a Plan or a plan file's path, found int"):
         export_plan(5, 100.0, "csv", tmp_path / "f.csv")

@@ -401,12 +401,12 @@ def test_a_row_plan_exports_its_carriage_and_the_live_cell_refuses_a_row(tmp_pat
     # the carriage, like the arms, one plan step later (within a sixth of a second difference)
     assert np.allclose(x, np.interp(traj.time - traj.delay, plan.time, plan.gantry_x), atol=row.gantry.max_acceleration * plan.dt**2 / 6 + 1e-9)
     assert np.max(np.abs(v)) <= row.gantry.max_velocity * (1 + 1e-9)
-    (table,) = export_plan(plan, 100.0, "csv", tmp_path / "e.csv")  # read back as a plan: the carriage and the arms
+    table, _ = export_plan(plan, 100.0, "csv", tmp_path / "e.csv")  # read back as a plan: the carriage and the arms (and its events)
     back = load_plan(table)
     assert np.array_equal(back.gantry_x, x) and all(np.array_equal(back.q[a], traj.q[a]) for a in plan.q)
     paths = export_plan(plan, 50.0, "json", tmp_path / "ros")
     car = json.loads((tmp_path / "ros" / "carriage.json").read_text())
-    assert car["joint_names"] == ["carriage_x"] and len(paths) == len(row.arms) + 1
+    assert car["joint_names"] == ["carriage_x"] and len(paths) == len(row.arms) + 2  # (and events.json)
     f = tmp_path / "row.yaml"
     f.write_text(to_yaml(gantry_row(length=10.0, density=2.0)))
     r = CliRunner().invoke(app, ["feed", str(f), "--out", str(tmp_path / "feed.yaml")])
