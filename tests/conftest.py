@@ -29,3 +29,28 @@ def greenhouse() -> Problem:
 def single_arm() -> Problem:
     """The lesson's single-arm pick-and-place demo."""
     return load_problem(default_problem_path().parent / "single_arm.yaml")
+
+
+@pytest.fixture
+def fifo(tmp_path):
+    """A named pipe fed from a thread: ``path = fifo(body)`` (as ``cat file | coplan ... /dev/stdin``)."""
+    import threading
+
+    threads = []
+
+    def make(body: bytes, name: str = "fifo") -> Path:
+        path = tmp_path / name
+        os.mkfifo(path)
+
+        def feed():
+            with open(path, "wb") as f:
+                f.write(body)
+
+        t = threading.Thread(target=feed, daemon=True)
+        t.start()
+        threads.append(t)
+        return path
+
+    yield make
+    for t in threads:
+        t.join(5)

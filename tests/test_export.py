@@ -466,28 +466,15 @@ def test_verify_holds_an_exports_velocities_and_accelerations_to_its_positions(t
 
 
 @pytest.mark.parametrize("name", ["plan.json", "plan.csv"])
-def test_a_plan_from_a_pipe_is_exported_as_verify_reads_it(tmp_path, name):
+def test_a_plan_from_a_pipe_is_exported_as_verify_reads_it(tmp_path, name, fifo):
     """(Export read the plan twice -- once to export, once to verify -- and a pipe was empty the
     second time: "found an empty file", exit 3, while coplan verify read the same pipe.)"""
-    import os
-    import threading
-
     from coplan.pipeline import solve
     from coplan.problem.model import default_problem_path
 
     solve(default_problem_path(), planner="coordinated", out_dir=tmp_path / "run")
-    body = (tmp_path / "run" / name).read_bytes()
-    fifo = tmp_path / "fifo"
-    os.mkfifo(fifo)
-
-    def feed():
-        with open(fifo, "wb") as f:
-            f.write(body)
-
-    t = threading.Thread(target=feed, daemon=True)
-    t.start()
-    res = run("export", str(fifo), "-p", str(default_problem_path()), "-o", str(tmp_path / "e.csv"))
-    t.join(5)
+    pipe = fifo((tmp_path / "run" / name).read_bytes())
+    res = run("export", str(pipe), "-p", str(default_problem_path()), "-o", str(tmp_path / "e.csv"))
     assert res.exit_code == 0 and (tmp_path / "e.csv").is_file(), res.output
     assert len((tmp_path / "e.events.csv").read_text().splitlines()) == 1 + 22  # (11 picks, 11 places: inferred from a CSV too)
 

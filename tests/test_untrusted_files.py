@@ -273,26 +273,12 @@ def test_a_null_key_is_said_to_be_one_in_yaml_words() -> None:
 
 
 @pytest.mark.parametrize("kind", ["json", "csv"])
-def test_a_plan_from_a_pipe_is_read_as_a_problem_from_one_is(tmp_path: Path, kind: str) -> None:
+def test_a_plan_from_a_pipe_is_read_as_a_problem_from_one_is(tmp_path: Path, kind: str, fifo) -> None:
     """(``cat plan.json | coplan verify P /dev/stdin`` was refused, "a pipe or other special
     file", while a problem from a pipe is read.) Read up to the cap, its kind from its text."""
-    import os
-    import threading
-
     from coplan.planners.heuristic import plan_heuristic
 
     plan = plan_heuristic(parse_problem(SINGLE, "s.yaml"))
     plan.save(tmp_path / "run")
-    body = (tmp_path / "run" / f"plan.{kind}").read_bytes()
-    fifo = tmp_path / "p"
-    os.mkfifo(fifo)
-
-    def feed():
-        with open(fifo, "wb") as f:
-            f.write(body)
-
-    t = threading.Thread(target=feed, daemon=True)
-    t.start()
-    got = load_plan(fifo)
-    t.join(5)
+    got = load_plan(fifo((tmp_path / "run" / f"plan.{kind}").read_bytes()))
     assert got.events == (plan.events if kind == "json" else []) and abs(got.q["arm"] - plan.q["arm"]).max() < 1e-6
