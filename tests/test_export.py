@@ -511,3 +511,9 @@ def test_an_export_of_a_plan_csv_carries_the_inferred_events_and_an_arm_named_ev
     said = " ".join(res.output.split())
     assert res.exit_code == 0 and sorted(p.name for p in (tmp_path / "oj").iterdir()) == ["events.json", "left.json", "right.json"], said
     assert "note: removed the earlier export's Events.json, events_2.json" in said and "at 50 Hz coplan verify does not read" in said, said
+    # a folder of someone's own trajectories (no coplan events file in it): theirs stay
+    theirs = tmp_path / "theirs"
+    theirs.mkdir()
+    (theirs / "gripper.json").write_text(json.dumps({"header": {}, "joint_names": ["g"], "points": []}))
+    res = run("export", str(tmp_path / "run" / "plan.json"), "-f", "json", "-o", str(theirs))
+    assert res.exit_code == 0 and (theirs / "gripper.json").is_file() and "removed" not in res.output, res.output

@@ -125,8 +125,10 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         from .failures import file_kind
 
         new = {f"{stem}.{fmt.value}" for stem in export_names(plan).values()}
-        stale = [p for p in sorted(out.glob(f"*.{fmt.value}")) if p.name not in new
-                 and file_kind(p) in ("an export JointTrajectory", "an export's events")]
+        kinds = {p: file_kind(p) for p in sorted(out.glob(f"*.{fmt.value}"))}
+        # only in a folder a coplan export made (its events file says so): someone's own trajectories stay
+        if "an export's events" in kinds.values():
+            stale = [p for p, k in kinds.items() if p.name not in new and k in ("an export JointTrajectory", "an export's events")]
     traj = trajectory(plan, rate)  # (once: the files and the follow error are of the same points)
     written = export_plan(plan, rate, fmt, out, traj)
     for p in stale:  # (a controller loading the folder got two plans' trajectories)
