@@ -309,3 +309,24 @@ def test_verify_says_how_close_the_farthest_pick_came_and_takes_a_tolerance(tmp_
     assert doc["summary"]["position_tolerance"] == 0.002
     res = runner.invoke(app, ["verify", str(default_problem_path()), plan, "--json"])
     assert res.exit_code == 0 and json.loads(res.stdout)["summary"]["worst_pick"]["distance"] < 1e-5  # (on the fruit)
+
+
+def test_an_arm_whose_acceleration_jumps_has_unbounded_jerk_not_a_grids_peak(greenhouse, tmp_path) -> None:
+    """(The course's cubic was summarised "peak jerk per arm left 1051" rad/s^3 -- 10512 when
+    sampled at 1 kHz -- and an RMS beside the optimal plan's, as if as smooth: its acceleration
+    jumps at every start and stop, so its jerk is unbounded.)"""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+    from coplan.planners.heuristic import plan_heuristic
+
+    ver = verify(greenhouse, plan_heuristic(greenhouse))
+    steps = ver.summary()["acceleration_steps"]
+    assert set(steps) == {a.name for a in greenhouse.arms} and all(5.0 < v < 50.0 for v in steps.values())
+    fine = verify(greenhouse, plan_heuristic(greenhouse, rate=1000.0)).summary()["acceleration_steps"]
+    assert all(abs(fine[a] - steps[a]) < 0.15 * steps[a] for a in steps)  # (rad/s^2: the same at 10 x the rate, unlike the jerk)
+    res = CliRunner(env={"COLUMNS": "250"}).invoke(app, ["solve", "--planner", "heuristic", "--out", str(tmp_path / "h")])
+    said = " ".join(res.output.split())
+    assert "jerk RMS / peak left unbounded (acceleration steps up to" in said, said
+    res = CliRunner(env={"COLUMNS": "250"}).invoke(app, ["solve", "--planner", "coordinated", "--out", str(tmp_path / "c")])
+    assert "unbounded" not in res.output and " rad/s^3" in res.output

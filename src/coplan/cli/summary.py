@@ -245,9 +245,11 @@ def print_summary(console, res) -> None:
             elif wid.get("reason"):
                 p(f"  not widened       {safe(wid['reason'])}")
         per = m.get("per_arm") or {}
+        steps = ver.get("acceleration_steps") or {}  # (their sampled jerk is a grid's figure: 10 x at 10 x the rate)
         if any("rms_jerk" in v for v in per.values()):
-            p("  jerk RMS / peak   " + ", ".join(f"{safe(a)} {_jerk(v['rms_jerk'])} / {_jerk(v['peak_jerk'])}" for a, v in per.items()
-                                             if "rms_jerk" in v) + " rad/s^3")
+            p("  jerk RMS / peak   " + ", ".join(f"{safe(a)} " + (f"unbounded (acceleration steps up to {steps[a]:.1f} rad/s^2)"
+                                                                 if a in steps else f"{_jerk(v['rms_jerk'])} / {_jerk(v['peak_jerk'])}")
+                                             for a, v in per.items() if "rms_jerk" in v) + (" rad/s^3" if set(per) - set(steps) else ""))
         if not ver.get("passed", False):
             p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
         _warnings(p, res.verification)

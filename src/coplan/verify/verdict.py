@@ -199,6 +199,7 @@ class Violation:
     joint: int | None = None
     fruit: str | None = None
     message: str = ""
+    step: bool = False  # a jerk violation that is one jump of the acceleration (value, limit in rad/s^2): unbounded jerk
 
     def __post_init__(self) -> None:
         _plain_fields(self)
@@ -328,6 +329,16 @@ class Verification:
         """The certified margin: least certified clearance less the required one (m; inf without pairs)."""
         return self.certified_clearance - self.required_clearance
 
+    def acceleration_steps(self) -> dict[str, float]:
+        """``{arm: its largest acceleration step, rad/s^2}`` for the arms whose acceleration jumps
+        between samples (the course's cubic starts and stops that way): their jerk is unbounded."""
+        out: dict[str, float] = {}
+        for v in self.violations:
+            if v.step and v.value is not None:
+                for a in v.arms:
+                    out[a] = max(out.get(a, 0.0), float(v.value))
+        return out
+
     def summary(self) -> dict[str, Any]:
         """Small JSON-able verdict (stored in ``plan.json``). Clearances are ``inf`` without pairs."""
         return {
@@ -345,6 +356,9 @@ class Verification:
             "unharvested": list(self.unharvested),
             "events_inferred": self.inferred_events is not None,
             "worst_pick": self.worst_pick,
+            # per arm, the largest acceleration step (rad/s^2): its jerk is unbounded, whatever a
+            # sampled figure says (a finite difference of a step grows with the rate)
+            "acceleration_steps": self.acceleration_steps(),
             "position_tolerance": self.options.position_tolerance,
             "pairs": {p.key: {"min_clearance": p.min_clearance, "t": p.t, "certified": p.certified,
                               "margin": p.certified - self.required_clearance} for p in self.pairs},

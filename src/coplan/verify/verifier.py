@@ -299,7 +299,7 @@ def _acceleration_step(arm: str, jn: int, jerk: np.ndarray, tc: np.ndarray, dt: 
     span = jerk.size * dt
     allowed = jmax * span
     t0, t1 = (float(x) for x in np.clip(tc[[0, -1]], 0.0, t_end))
-    return Violation(ViolationKind.JERK, (arm,), t, abs(jump) - allowed, abs(jump), allowed, t0, t1, joint=jn,
+    return Violation(ViolationKind.JERK, (arm,), t, abs(jump) - allowed, abs(jump), allowed, t0, t1, joint=jn, step=True,
                      message=f"joint {jn + 1}: acceleration discontinuity of {jump:+.3f} rad/s^2 (unbounded jerk; within "
                              f"{span:.3f} s the jerk limit {jmax:g} rad/s^3 allows {allowed:.3f} rad/s^2)")
 
