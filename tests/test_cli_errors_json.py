@@ -252,3 +252,41 @@ def test_a_choice_option_s_bad_value_is_said_in_coplan_s_words_with_every_choice
     assert f"expected one of {', '.join(repr(m.value) for m in cls)}; found {args[args.index(option) + 1]!r}" in out
     helped = CliRunner(env={"COLUMNS": "300"}).invoke(app, [args[0], "--help"]).output
     assert "|".join(m.value for m in cls) in helped
+
+
+def test_a_name_the_output_stream_cannot_encode_is_escaped_not_an_internal_error(tmp_path, problems_dir):
+    """(On Windows a redirected stdout is the ANSI code page, strict: a problem named in Chinese
+    ended `coplan check` and a finished `coplan solve` with "internal error (UnicodeEncodeError)",
+    exit 1, no summary. cp1252 stands in for it here.)"""
+    import os
+    import subprocess
+    import sys
+
+    text = (problems_dir / "single_arm.yaml").read_text().replace("name: single-arm", 'name: "温室 single"', 1)
+    (tmp_path / "u.yaml").write_text(text, encoding="utf-8")
+    env = dict(os.environ, PYTHONIOENCODING="cp1252")
+    for cmd in (["check", str(tmp_path / "u.yaml")],
+                ["solve", str(tmp_path / "u.yaml"), "--planner", "coordinated", "--out", str(tmp_path / "o")]):
+        p = subprocess.run([sys.executable, "-m", "coplan.cli", *cmd], capture_output=True, env=env)
+        assert p.returncode == 0, p.stderr.decode("cp1252", "replace")
+        assert b"\\u6e29\\u5ba4 single" in p.stdout and b"Traceback" not in p.stderr
+
+
+def test_a_closed_pipe_on_windows_reads_as_one(monkeypatch):
+    """(On Windows a write to a closed pipe raises EINVAL, not EPIPE: `coplan problems | head -1`
+    exited 8, "Invalid argument".) Silenced there as a broken pipe is; elsewhere EINVAL is an error."""
+    import errno
+    import io
+
+    from coplan.cli.console import PipeSafeStream
+
+    class Closed(io.StringIO):
+        def write(self, text):
+            raise OSError(errno.EINVAL, "Invalid argument")
+
+    monkeypatch.setattr(sys, "platform", "win32")
+    s = PipeSafeStream(Closed())
+    assert s.write("x\n") == 2 and s.broken
+    monkeypatch.setattr(sys, "platform", "linux")
+    with pytest.raises(OSError):
+        PipeSafeStream(Closed()).write("x\n")

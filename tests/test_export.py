@@ -517,3 +517,12 @@ def test_an_export_of_a_plan_csv_carries_the_inferred_events_and_an_arm_named_ev
     (theirs / "gripper.json").write_text(json.dumps({"header": {}, "joint_names": ["g"], "points": []}))
     res = run("export", str(tmp_path / "run" / "plan.json"), "-f", "json", "-o", str(theirs))
     assert res.exit_code == 0 and (theirs / "gripper.json").is_file() and "removed" not in res.output, res.output
+
+
+def test_an_arm_named_like_a_windows_device_gets_a_file_windows_can_make():
+    """(Arms named CON, nul, Com1 or aux became CON.json ...: a device there, not a file.)"""
+    from pathlib import PureWindowsPath
+
+    names = safe_names(["CON", "nul", "Com1", "aux", "console", "lpt9", "left"])
+    assert not any(PureWindowsPath(v + ".json").is_reserved() for v in names.values()), names
+    assert names["console"] == "console" and names["left"] == "left" and names["CON"] == "CON_"

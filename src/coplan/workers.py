@@ -71,6 +71,9 @@ def process_pool(workers: int):
     :func:`quiet_child`), or None for one (the work then runs in this process)."""
     if workers <= 1:
         return None
+    import sys
     from concurrent.futures import ProcessPoolExecutor
 
+    if sys.platform == "win32":  # (ProcessPoolExecutor refuses more than 61 there: --workers 100 was an internal error)
+        workers = min(workers, 61)
     return ProcessPoolExecutor(max_workers=workers, mp_context=mp_context(), initializer=quiet_child)

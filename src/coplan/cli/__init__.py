@@ -22,6 +22,14 @@ def main() -> None:
 
     if hasattr(signal, "SIGTERM"):
         signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(143))  # (until the console's own handler)
+    # a character the stream cannot encode is escaped, not an error: on Windows a redirected stdout
+    # is the ANSI code page, strict, and a problem named in Chinese ended a finished solve with
+    # "internal error (UnicodeEncodeError)", exit 1, no summary
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.reconfigure(errors="backslashreplace")
+        except (AttributeError, ValueError, OSError):  # (not a TextIOWrapper: a test's, or a closed one)
+            pass
     try:
         from .commands import main as run
     except KeyboardInterrupt:

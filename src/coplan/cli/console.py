@@ -42,6 +42,15 @@ class FlagsGroup(TyperGroup):
         return cmd
 
 
+def _closed_pipe(e: OSError) -> bool:
+    """Whether a write failed because the reading end of the pipe is gone: EPIPE, or on Windows
+    EINVAL (a write to a closed pipe raises that there: CPython issue 79935)."""
+    import errno
+    import sys
+
+    return isinstance(e, BrokenPipeError) or (sys.platform == "win32" and e.errno == errno.EINVAL)
+
+
 class PipeSafeStream:
     """A stand-in for ``sys.stdout`` or ``sys.stderr`` that turns a closed pipe into silence (see
     the module docstring)."""
@@ -64,7 +73,9 @@ class PipeSafeStream:
             return len(text)
         try:
             return self._stream.write(text)
-        except BrokenPipeError:
+        except OSError as e:
+            if not _closed_pipe(e):
+                raise
             self._silence()
             return len(text)
 
@@ -73,7 +84,9 @@ class PipeSafeStream:
             return
         try:
             self._stream.flush()
-        except BrokenPipeError:
+        except OSError as e:
+            if not _closed_pipe(e):
+                raise
             self._silence()
 
     def __getattr__(self, name):

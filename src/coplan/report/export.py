@@ -222,9 +222,15 @@ def export_names(plan) -> dict:
                    + [(a, _safe(a, k)) for k, a in enumerate(plan.q)] + [(EVENTS, "events")])
 
 
+#: names Windows keeps for devices, whatever follows the dot (CON.json is the console there)
+_DEVICES = {"con", "prn", "aux", "nul"} | {f"{d}{i}" for d in ("com", "lpt") for i in range(1, 10)}
+
+
 def _safe(name, k: int) -> str:
-    """A file-system and ROS-safe stem for the ``k``-th (untrusted) arm name: never empty, never hidden."""
-    return _SAFE.sub("_", str(name)).strip("._") or f"arm{k}"
+    """A file-system and ROS-safe stem for the ``k``-th (untrusted) arm name: never empty, never
+    hidden, never a Windows device name (``CON`` -> ``CON_``)."""
+    stem = _SAFE.sub("_", str(name)).strip("._") or f"arm{k}"
+    return stem + "_" if stem.split(".")[0].lower() in _DEVICES else stem
 
 
 def _unique(pairs) -> dict:

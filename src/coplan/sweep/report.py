@@ -312,8 +312,8 @@ def sweep_report(folder: str | Path, out: str | Path | None = None, figures: boo
                         + "".join(f" {_fmt(_value(d, f)) if _value(d, f) is not None else '-'} |" for f in fam)
                         + f" {_fmt(d['throughput'], 2)} | {d['seeds']} | {d['rows']} |\n" for d in s["pareto_front"])
     files = {"markdown": out / "report.md", "json": out / "report.json"}
-    files["markdown"].write_text(text)
-    files["json"].write_text(json.dumps(s, indent=1, default=str, allow_nan=False))
+    files["markdown"].write_text(text, encoding="utf-8")  # (the locale's on Windows: a sweep named in Chinese was an internal error)
+    files["json"].write_text(json.dumps(s, indent=1, default=str, allow_nan=False), encoding="utf-8")
     if figures and rows:
         files.update(_figures(rows, out))
     return SweepReport(s, text, files, notes)
