@@ -988,3 +988,32 @@ def test_parameter_sets_that_make_one_problem_are_said(tmp_path):
     said = " ".join(r.output.split())
     n = len(load_sweep(spec).items())
     assert r.exit_code == 0 and n < 11 and f"note: {11 - n} of the 11 parameter sets make a problem another set makes too" in said, said
+
+
+def test_a_snapshot_that_cannot_be_written_does_not_stop_the_sweep(tmp_path, monkeypatch):
+    """(On Windows results.csv open in a spreadsheet cannot be replaced: the periodic snapshot's
+    error stopped the sweep part-way, exit 8, naming a hidden temporary file.) The sweep goes on;
+    the final table's error names the file itself."""
+    import os
+
+    import coplan.sweep.run as sweep_run
+    import coplan.sweep.table as table
+
+    spec = tmp_path / "s.yaml"
+    spec.write_text("base: row\nplanner: coordinated\nvary:\n  seed: [0, 1, 2]\n")
+    monkeypatch.setattr(sweep_run, "SNAPSHOT_SECONDS", -1.0)  # (a snapshot after every row)
+    real = os.replace
+    calls = []
+
+    def busy(src, dst):
+        if str(dst).endswith("results.parquet"):
+            calls.append(dst)
+            if len(calls) == 1:  # (the first snapshot: the file is open elsewhere)
+                raise PermissionError(13, "Access is denied", str(src))
+        return real(src, dst)
+
+    monkeypatch.setattr(table.os, "replace", busy)
+    out = run_sweep(load_sweep(spec), tmp_path / "o", workers=1)
+    assert out.done == 3 and out.counts == {"success": 3} and "Access is denied" in out.snapshot_error
+    assert "results.parquet" in out.snapshot_error and ".tmp" not in out.snapshot_error
+    assert len(read_table(tmp_path / "o")) == 3

@@ -120,6 +120,9 @@ def sweep_cmd(
         _err.print(f"[yellow]note[/]: {_safe(folder)} also holds {plural(len(res.others), 'row')} of other runs of this "
                    f"sweep ({what}): its table and report hold both (their key column tells them apart; index numbers "
                    "each run's problems)", highlight=False)
+    if res.snapshot_error:
+        _err.print(f"[yellow]note[/]: a snapshot of the table could not be written meanwhile ({_safe(res.snapshot_error)}); "
+                   "the sweep went on, every row journaled, and the table was written at its end", highlight=False)
     if keep_plans and res.unplanned:
         _err.print(f"[yellow]note[/]: --keep-plans writes the plans of the rows solved now; {res.unplanned} of the "
                    f"{res.skipped} already done have no plan in {_safe(folder / 'plans')} and were not planned again "

@@ -116,6 +116,7 @@ class SweepOutcome:
     others: dict[str, str] = field(default_factory=dict)  # key -> planner: rows of other runs in the folder (kept)
     other_planners: list[str] = field(default_factory=list)  # of those rows, planners this run does not use
     unplanned: int = 0  # with keep_plans: rows already done whose plan is not in plans/ (not planned again)
+    snapshot_error: str | None = None  # why a snapshot of the table could not be written meanwhile (the sweep went on)
 
 
 # ---------------------------------------------------------------------- in the worker
@@ -564,7 +565,10 @@ def run_sweep(
                 if on_row is not None:
                     on_row(row, outcome)
                 if time.monotonic() - last > SNAPSHOT_SECONDS:
-                    write_table(out, csv=csv)
+                    try:  # (results.csv open in a spreadsheet on Windows stopped the sweep part-way: exit 8)
+                        write_table(out, csv=csv)
+                    except OSError as e:  # the rows are in the journal; the table is written again at the end
+                        outcome.snapshot_error = f"{e.strerror or e}: {e.filename}"
                     last = time.monotonic()
     except KeyboardInterrupt:
         outcome.interrupted = True

@@ -165,7 +165,10 @@ def _atomic(path: Path, write) -> Path:
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         write(tmp)
-        os.replace(tmp, path)
+        try:
+            os.replace(tmp, path)
+        except OSError as e:  # (it named the hidden temporary file: the file the user has open is this one)
+            raise OSError(e.errno, f"{e.strerror or e} (open in another program?)", str(path)) from None
     finally:
         if tmp.exists():
             tmp.unlink()
