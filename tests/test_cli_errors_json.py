@@ -290,3 +290,24 @@ def test_a_closed_pipe_on_windows_reads_as_one(monkeypatch):
     monkeypatch.setattr(sys, "platform", "linux")
     with pytest.raises(OSError):
         PipeSafeStream(Closed()).write("x\n")
+
+
+def test_a_rows_compare_refusing_its_planner_prints_the_error_document(tmp_path):
+    """(`coplan compare ROW --planner heuristic --json` exited 2 with nothing on stdout.)"""
+    r = subprocess.run([sys.executable, "-m", "coplan.cli", "compare", "sparse_row", "--planner", "heuristic", "--json",
+                        "--out", str(tmp_path / "x")], capture_output=True, text=True)
+    doc = json.loads(r.stdout)
+    assert r.returncode == 2 and doc["format"] == "coplan.error/1" and doc["exit_code"] == 2
+    assert "a row takes one cell planner" in doc["message"] and "error: --planner" in r.stderr
+
+
+def test_a_name_with_an_emoji_code_is_printed_as_written(tmp_path, problems_dir):
+    """(An arm named ":warning:" was printed as the sign, a problem "cp:apple:x" as cp🍎x, while
+    the JSON kept the names.)"""
+    text = (problems_dir / "crossing_paths.yaml").read_text()
+    text = text.replace("name: crossing-paths", 'name: "cp:apple:x"', 1).replace("name: left,", 'name: ":warning:",', 1)
+    (tmp_path / "e.yaml").write_text(text)
+    r = subprocess.run([sys.executable, "-m", "coplan.cli", "solve", str(tmp_path / "e.yaml"), "--planner", "coordinated",
+                        "--out", str(tmp_path / "o")], capture_output=True, text=True)
+    assert r.returncode == 0 and "cp:apple:x -- planner coordinated" in r.stdout and ":warning:-right" in r.stdout, r.stdout
+    assert "\N{WARNING SIGN}" not in r.stdout + r.stderr and "\N{RED APPLE}" not in r.stdout

@@ -38,8 +38,9 @@ app = typer.Typer(
     help="Plan coordinated, collision-free, jerk-limited motion for several 2R arms harvesting fruit.",
     pretty_exceptions_enable=False,
 )
-out_console = Console(soft_wrap=True)
-err_console = Console(stderr=True, soft_wrap=True)
+# (emoji off: a name ":warning:" printed as the sign, while the JSON kept the name)
+out_console = Console(soft_wrap=True, emoji=False)
+err_console = Console(stderr=True, soft_wrap=True, emoji=False)
 
 
 def _version(value: bool) -> None:

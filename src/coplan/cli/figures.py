@@ -24,8 +24,8 @@ from ..kinds import ExitCode
 
 __all__ = ["PlotKind", "plot_cmd", "animate_cmd", "view_cmd"]
 
-_out = Console(soft_wrap=True)
-_err = Console(stderr=True, soft_wrap=True)
+_out = Console(soft_wrap=True, emoji=False)
+_err = Console(stderr=True, soft_wrap=True, emoji=False)
 
 
 def _note(message: str) -> None:

@@ -18,8 +18,8 @@ from .failures import Failure, check_overwrite
 
 __all__ = ["export_cmd", "schema_cmd"]
 
-_out = Console(soft_wrap=True)
-_err = Console(stderr=True, soft_wrap=True)
+_out = Console(soft_wrap=True, emoji=False)
+_err = Console(stderr=True, soft_wrap=True, emoji=False)
 
 
 class _FolderOut(type(Path())):  # type: ignore[misc]

@@ -25,8 +25,8 @@ from ..kinds import ExitCode, GantryMode, LiveGantryMode, PlanStatus
 
 __all__ = ["feed_cmd", "run_cmd"]
 
-_out = Console(soft_wrap=True)
-_err = Console(stderr=True, soft_wrap=True)
+_out = Console(soft_wrap=True, emoji=False)
+_err = Console(stderr=True, soft_wrap=True, emoji=False)
 
 
 def feed_cmd(

@@ -83,9 +83,10 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
 
     cell = None
     if planner:
-        if len(planner) > 1 or planner[0] not in ("coordinated", "optimal"):
-            err_console.print("--planner: a row takes one cell planner: coordinated or optimal", markup=False)
-            return ExitCode.USAGE
+        if len(planner) > 1 or planner[0] not in ("coordinated", "optimal"):  # (it printed no error document with --json)
+            from .failures import usage
+
+            usage(f"--planner: a row takes one cell planner: coordinated or optimal, found {', '.join(planner)}")
         cell = PlannerKind(planner[0])
     with ProgressDisplay(err_console, quiet=as_json) as say:
         cmp = compare_rows(prob, out, planner=cell, progress=say, workers=workers)

@@ -29,7 +29,7 @@ def print_table(console, table) -> None:
     from rich.console import Console
 
     need = console.measure(table, options=console.options.update(width=400)).maximum
-    wide = Console(file=console.file, width=max(console.width, min(int(need), 400)), no_color=console.no_color,
+    wide = Console(file=console.file, width=max(console.width, min(int(need), 400)), no_color=console.no_color, emoji=False,
                    highlight=False)  # (Rich caps a print's width at its console's)
     wide.print(table)
 

@@ -23,8 +23,8 @@ from ..kinds import ExitCode, PlannerKind, RowStatus, SweepBase, SweepMode
 
 __all__ = ["sweep_cmd", "sweep_report_cmd"]
 
-_out = Console(soft_wrap=True)
-_err = Console(stderr=True, soft_wrap=True)
+_out = Console(soft_wrap=True, emoji=False)
+_err = Console(stderr=True, soft_wrap=True, emoji=False)
 
 
 def _counts_text(counts: dict[str, int]) -> str:
