@@ -311,3 +311,23 @@ def test_a_name_with_an_emoji_code_is_printed_as_written(tmp_path, problems_dir)
                         "--out", str(tmp_path / "o")], capture_output=True, text=True)
     assert r.returncode == 0 and "cp:apple:x -- planner coordinated" in r.stdout and ":warning:-right" in r.stdout, r.stdout
     assert "\N{WARNING SIGN}" not in r.stdout + r.stderr and "\N{RED APPLE}" not in r.stdout
+
+
+def test_check_and_run_json_documents_carry_their_exit_code(tmp_path, problems_dir):
+    """(`check --json` and `run --json` exited 4, 5 or 6 with nothing in the document to say so.)"""
+    import yaml
+
+    doc = yaml.safe_load((problems_dir / "single_arm.yaml").read_text())
+    doc["fruits"] = [{"id": "far", "position": [9.0, 9.0]}]
+    far = tmp_path / "far.yaml"
+    far.write_text(yaml.safe_dump(doc))
+    cases = [(["check", "greenhouse_row"], 0, "ok"), (["check", "sparse_row"], 0, "ok"), (["check", str(far)], 4, "infeasible"),
+             (["run", "sparse_row", "--gantry", "stop-and-go", "--out", str(tmp_path / "r")], None, None)]
+    for cmd, code, verdict in cases:
+        r = subprocess.run([sys.executable, "-m", "coplan.cli", *cmd, "--json"], capture_output=True, text=True)
+        doc = json.loads(r.stdout)
+        assert doc["exit_code"] == r.returncode and doc["verdict"] in ("ok", "partial", "infeasible", "unsafe"), (cmd, doc)
+        if code is not None:
+            assert (r.returncode, doc["verdict"]) == (code, verdict), cmd
+        else:
+            assert doc["status"] in ("success", "partial")

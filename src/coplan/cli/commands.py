@@ -312,6 +312,8 @@ def check(
         "heuristic_verified": bool(base_ver.get("passed")),
         "heuristic_violations": base_ver.get("violation_kinds"),
     }
+    code = ExitCode.INFEASIBLE if harvestable == 0 else ExitCode.OK if harvestable == n_reach else ExitCode.PARTIAL
+    doc.update(exit_code=int(code), verdict=code.name.lower())  # (the status as the exit code says it, as verify's)
     if as_json:
         out_console.print_json(_strict_json(doc))
     else:
@@ -330,9 +332,7 @@ def check(
             if not doc["heuristic_verified"] and hm is not None and hm < bd.value:
                 verdict += "; below the lower bound only because it breaks these limits"
             p(f"heuristic baseline {_fmt(hm, ' s', 3)} (the course's planner; {verdict})")
-    if harvestable == 0:
-        raise typer.Exit(int(ExitCode.INFEASIBLE))
-    raise typer.Exit(int(ExitCode.OK if harvestable == n_reach else ExitCode.PARTIAL))
+    raise typer.Exit(int(code))
 
 
 # --- commands added by the verification/report and visualisation modules go below ---

@@ -187,8 +187,11 @@ def run_cmd(
             names = _staged(stage)
     work_done()
     m = result.run["metrics"]
-    if as_json:
-        typer.echo(json.dumps(jsonable(m), allow_nan=False))
+    status = result.plan.status
+    code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
+    if as_json:  # (with the status and exit code: a script read neither from the document)
+        typer.echo(json.dumps(jsonable(dict(m, status=status.value, exit_code=int(code), verdict=code.name.lower())),
+                              allow_nan=False))
     else:
         lat = m["latency_p95"]
         _out.print(
@@ -209,8 +212,6 @@ def run_cmd(
             + _missed_line(result.run["fruit"])
             + f"executed plan {result.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}); "
             f"wrote {_safe(out)}/: {_written(folder, names)}", highlight=False)
-    status = result.plan.status
-    code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
     raise typer.Exit(int(code))
 
 
@@ -274,8 +275,10 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         names = _staged(stage)
     work_done()
     m = res.metrics
-    if as_json:
-        typer.echo(json.dumps(jsonable(m), allow_nan=False))
+    code = status_exit_code(res.plan.status)
+    if as_json:  # (with the status and exit code: a script read neither from the document)
+        typer.echo(json.dumps(jsonable(dict(m, status=res.plan.status.value, exit_code=int(code), verdict=ExitCode(code).name.lower())),
+                              allow_nan=False))
     else:
         idle = f", {m['stops_without_picks']} of them without a pick" if m.get("stops_without_picks") else ""
         how = f"on the move at {speed:g} m/s," if mode == GantryMode.CONTINUOUS else f"stop and go, {plural(m['stops'], 'stop')}{idle},"
@@ -320,7 +323,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             f"({'verified' if m['verified'] else 'verification FAILED'}); wrote {_safe(out)}/: "
             + _written(folder, names),
             highlight=False)
-    raise typer.Exit(int(status_exit_code(res.plan.status)))
+    raise typer.Exit(int(code))
 
 
 @contextlib.contextmanager

@@ -36,6 +36,13 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
            "carriage_span": carriage_span(reach) if reach.cover else None,
            "stops": {"fewest": len(fewest_stops(reach, exact=True)), "fixed": len(fixed_stops(reach))},
            "lower_bound": b.to_dict()}
+    # as solve would say: partial only if some fruit an arm reaches from the rail (the verifier's
+    # count) cannot be harvested; a fruit out of every arm's reach is not counted (as in a cell)
+    from ..verify.row import row_reachable_ids
+
+    code = (ExitCode.INFEASIBLE if not reach.cover else
+            ExitCode.PARTIAL if set(row_reachable_ids(prob)) - set(reach.cover) else ExitCode.OK)
+    doc.update(exit_code=int(code), verdict=code.name.lower())  # (a script read no status from the document)
     if as_json:
         out_console.print_json(strict_json(doc))
     else:
@@ -63,13 +70,7 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
         else:  # (as a cell's check says it)
             p("nothing to plan: no fruit can be harvested from any carriage position (solve would exit 4, infeasible)"
               + (" -- the problem lists no fruit" if not prob.fruits else ""))
-    if not reach.cover:
-        return ExitCode.INFEASIBLE
-    # as solve would say: partial only if some fruit an arm reaches from the rail (the verifier's
-    # count) cannot be harvested; a fruit out of every arm's reach is not counted (as in a cell)
-    from ..verify.row import row_reachable_ids
-
-    return ExitCode.PARTIAL if set(row_reachable_ids(prob)) - set(reach.cover) else ExitCode.OK
+    return code
 
 
 def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_console, workers: int | None = None) -> ExitCode:
