@@ -171,6 +171,10 @@ def test_a_folder_file_whose_gantry_is_no_mapping_is_a_bad_file_not_a_row(tmp_pa
     doc = json.loads((tmp_path / "c" / "compare.json").read_text())
     errors = {Path(p["file"]).name: p["error"] for p in doc["problems"]}
     assert errors["single_arm.yaml"] is None and "gantry" in errors["gantry_str.yaml"]
+    # with --json the document says the exit code it ends with (3: nothing said so)
+    r = runner.invoke(app, ["compare", str(src), "--planner", "heuristic", "--no-figures", "--json", "--out", str(tmp_path / "j")])
+    doc = json.loads(r.stdout)
+    assert r.exit_code == 3 and doc["exit_code"] == 3 and doc["verdict"] == "bad_input" and doc["format"] == "coplan.compare/1"
 
 
 def test_compare_on_a_row_sets_its_stop_rules_side_by_side_on_workers(row_file, tmp_path):

@@ -482,8 +482,9 @@ def compare_cmd(
     with ProgressDisplay(err_console, quiet=as_json, hint=hint) as say:
         cmp = compare(source, specs, out, figures=figures, options=options, progress=say)
     failures.work_done()  # (the report is written: the tables and the verdict follow)
-    if as_json:
-        typer.echo(json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
+    code = ExitCode.BAD_INPUT if cmp.bad_inputs else ExitCode.SOLVER_FAILED if cmp.failed_runs else ExitCode.OK
+    if as_json:  # (with the exit code: a folder with a bad file exited 3 with nothing in the document to say so)
+        typer.echo(json.dumps(dict(cmp.to_dict(), exit_code=int(code), verdict=code.name.lower()), indent=1, allow_nan=False))
     else:
         for table in rich_tables(cmp):
             print_table(out_console, table)
@@ -497,7 +498,6 @@ def compare_cmd(
         out_console.print(f"wrote {_s(str(out))}/: {Path(cmp.files['json']).name}, {Path(cmp.files['markdown']).name}"
                           + (f", {len(figs)} figure{'s' * (len(figs) != 1)}" if figs else "")
                           + " and each run's plan files, in a folder per problem")
-    code = ExitCode.BAD_INPUT if cmp.bad_inputs else ExitCode.SOLVER_FAILED if cmp.failed_runs else ExitCode.OK
     raise typer.Exit(int(code))
 
 
