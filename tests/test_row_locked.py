@@ -87,3 +87,8 @@ def test_a_rows_solve_says_which_arm_the_screen_locks_and_why(locked_row, tmp_pa
     why = json.loads((tmp_path / "run" / "plan.json").read_text())["metrics"]["row"]["locked_arms"]
     assert list(why) == ["a"] and "bin" in why["a"] and why["a"] in said
     assert "(share of the row time each arm is idle: carriage -- at rest while the carriage moves" in said
+    # on the move the legend speaks of no stop (it explained "no fruit -- at a stop" to a run that never stops)
+    res = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["solve", str(path), "--gantry", "continuous", "--out", str(tmp_path / "m")])
+    said = " ".join(res.output.split())
+    assert res.exit_code == 0 and "carriage -- waiting for the carriage to bring its next fruit into reach" in said
+    assert "at a stop" not in said.split("(share of the row time")[1]
