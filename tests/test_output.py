@@ -338,11 +338,17 @@ def test_a_commit_that_fails_half_way_leaves_the_previous_run_whole_where_it_was
             return real_rename(self, target)
 
         monkeypatch.setattr(Path, "rename", no_rename)
-    with pytest.raises(PermissionError):
+    with pytest.raises(OSError) as e:
         solve(_single(), planner="coordinated", out_dir=out)
     monkeypatch.undo()
     assert snapshot(out) == before and snapshot(tmp_path / "o.previous") == older
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["o", "o.previous"]  # no staging or set-aside folder left
+    if users_file:  # the new run, finished and verified, is kept whole beside the folder (it was thrown away)
+        assert isinstance(e.value, output.RunKept) and "it is kept whole in" in str(e.value)
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["o", "o.previous", "o.unsaved"]
+        assert json.loads((tmp_path / "o.unsaved" / "plan.json").read_text())["planner"] == "coordinated"
+    else:  # (the stage cannot be renamed at all: nothing to keep it as)
+        assert isinstance(e.value, PermissionError)
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["o", "o.previous"]  # no staging or set-aside folder left
 
 
 def test_a_ctrl_c_while_a_run_is_written_is_answered_once_it_is_whole(tmp_path):
@@ -430,3 +436,29 @@ def test_a_writable_folder_in_a_folder_that_is_not_takes_the_run_inside_it(tmp_p
     assert r.exit_code == 2 and "it holds a previous run, which a run there keeps as" in said and "is not writable" in said, said
     assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
     assert "lower bound" not in said  # (refused before any work)
+
+
+def test_a_finished_run_that_cannot_be_moved_into_place_is_kept_whole_beside_it(tmp_path, monkeypatch):
+    """(On Windows a folder with a file open in it cannot be renamed: the previous run could not
+    be moved aside, and the finished solve was thrown away, exit 8.) The previous run stays where
+    it was; the new one is kept whole as <out>.unsaved, and the message says so."""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    out = tmp_path / "run"
+    assert CliRunner().invoke(app, ["solve", str(_single()), "--planner", "heuristic", "--out", str(out)]).exit_code in (0, 6)
+    before = (out / "plan.json").read_bytes()
+    real = Path.rename
+
+    def busy(self, target):
+        if Path(self) == out:  # (the previous run's folder: a file in it is open elsewhere)
+            raise PermissionError(13, "Access is denied", str(self))
+        return real(self, target)
+
+    monkeypatch.setattr(Path, "rename", busy)
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["solve", str(_single()), "--planner", "coordinated", "--out", str(out)])
+    said = " ".join(r.output.split())
+    assert r.exit_code == 8 and f"it is kept whole in {tmp_path / 'run.unsaved'}" in said, said
+    assert (out / "plan.json").read_bytes() == before
+    assert json.loads((tmp_path / "run.unsaved" / "plan.json").read_text())["planner"] == "coordinated"

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from .errors import CoplanError
 
-__all__ = ["MARKER", "RunFolder", "is_run_folder", "previous_of", "writable_folder", "signals_deferred", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder"]
+__all__ = ["MARKER", "RunFolder", "RunKept", "is_run_folder", "previous_of", "writable_folder", "signals_deferred", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder"]
 
 MARKER = ".coplan-run"  # written into every run folder
 # the files a run writes (solve, live runs), by their exact names -- a user's plan.md or
@@ -45,6 +45,10 @@ def _ours(p: Path) -> bool:
     if not _OURS.fullmatch(p.name):
         return False
     return p.is_dir() == (p.name.startswith(("plan_", "baseline_")) and p.name.endswith("hz"))
+
+
+class RunKept(OSError):
+    """A finished run that could not be moved into its folder: kept whole elsewhere, named in the message."""
 
 
 class OutputError(CoplanError, ValueError):
@@ -244,10 +248,32 @@ class RunFolder:
             return False
         try:
             self._commit()
+        except OSError as e:  # (Windows refuses to rename a folder with a file open in it: a finished solve was thrown away)
+            kept = self._keep_stage()
+            if kept is None:
+                shutil.rmtree(self.stage, ignore_errors=True)
+                raise
+            raise RunKept(e.errno, f"{e.strerror or e}: the run could not be moved into {self.out} (a file there open in "
+                                   f"another program?); it is kept whole in {kept}", str(self.out)) from e
         except BaseException:
             shutil.rmtree(self.stage, ignore_errors=True)
             raise
         return False
+
+    def _keep_stage(self) -> Path | None:
+        """The staged run under a visible name beside its folder, ``<out>.unsaved`` (or ``.unsaved.N``),
+        when it cannot be moved into place; None if that fails too."""
+        base = self.out.absolute()
+        target = base.with_name(base.name + ".unsaved") if not self.inside else base / "unsaved"
+        n = 1
+        while target.exists():
+            target = target.with_name(f"{target.name.split('.unsaved')[0]}.unsaved.{n}" if not self.inside else f"unsaved.{n}")
+            n += 1
+        try:
+            self.stage.rename(target)
+        except OSError:
+            return None
+        return target
 
     def path(self, staged: Path) -> Path:
         """Where a file written into the stage ends up."""

@@ -25,7 +25,7 @@ from typing import Any
 
 from ..errors import CoplanError, InputError, Issue
 from ..kinds import ExitCode
-from ..output import OutputError, check_folder
+from ..output import OutputError, RunKept, check_folder
 
 __all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "INTERRUPTED", "CONSOLE", "work_done",
            "usage", "check_out_dir", "check_overwrite"]
@@ -187,6 +187,8 @@ def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
         return (ExitCode.TERMINATED, "terminated (SIGTERM)") if TERMINATED else (ExitCode.INTERRUPTED, "interrupted by the user (Ctrl-C)")
     if isinstance(exc, CoplanError):  # an error class may name its own exit code
         return ExitCode(getattr(exc, "exit_code", ExitCode.INTERNAL)), str(exc)
+    if isinstance(exc, RunKept):  # (the run is whole, elsewhere: its message says where)
+        return ExitCode.IO_ERROR, str(exc.strerror)
     if isinstance(exc, OSError):  # disk full, permissions: the path and the reason, nothing half-written left
         where = f": {exc.filename}" if exc.filename else ""
         return ExitCode.IO_ERROR, f"{exc.strerror or exc}{where} (nothing of this run was left half-written)"
