@@ -52,8 +52,9 @@ F02 = "{id: f02, position: [3.155, 0.776]}"
 
 
 def line_of(text: str, snippet: str, nth: int = 1) -> int:
-    """1-based line of the ``nth`` line containing ``snippet``."""
-    hits = [i + 1 for i, ln in enumerate(text.splitlines()) if snippet in ln]
+    """1-based line of the ``nth`` line containing ``snippet`` (comment lines left out: a file's
+    header may name a key in prose)."""
+    hits = [i + 1 for i, ln in enumerate(text.splitlines()) if snippet in ln and not ln.lstrip().startswith("#")]
     assert len(hits) >= nth, f"{snippet!r} not in text"
     return hits[nth - 1]
 

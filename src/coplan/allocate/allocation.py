@@ -102,9 +102,11 @@ def arm_configs(problem: Problem, arm: Arm, prefer_elbow_up: bool = False, scree
 
     Returns ``(bin_branches, {fruit_id: [branches]})`` (lists of (2,) joint poses). Only
     branches the static feasibility screen leaves usable (:func:`coplan.allocate.screen.screened`;
-    ``screen=False``: every valid IK branch, as the course does): an arm that can never reach
-    its bin gets ``([], {})`` and takes no fruit. With
-    ``prefer_elbow_up`` (the course's IK) only the elbow-up branch is kept where it is valid.
+    ``screen=False``: every valid IK branch): an arm that can never reach its bin gets ``([],
+    {})`` and takes no fruit. With ``prefer_elbow_up`` (the course's IK) only the elbow-up branch
+    is kept where it is valid; where it is not, elbow-down is used (the lesson's IK skips the
+    fruit), and a shoulder angle is wrapped into (-pi, pi] (the lesson's is not, and refuses a
+    pose below -pi that the arm reaches): coplan's deviations from the lesson, docs/usage.md.
     """
     from .screen import screened
 

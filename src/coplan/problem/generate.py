@@ -35,7 +35,9 @@ from ..kinematics import arm as kin
 __all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "problem_dict", "LESSON_DEFAULTS",
            "LESSON_TASK", "LESSON_GANTRY"]
 
-#: The arm of the course's cell (``greenhouse_row.yaml``): every field of ``defaults``.
+#: The arm of the course's cell (``greenhouse_row.yaml``): every field of ``defaults``. The lesson
+#: gives the links, joint limits and home; the link radius and the velocity, acceleration and
+#: jerk limits are coplan's (the lesson asks for smooth, jerk-limited motion and gives no numbers).
 LESSON_DEFAULTS: dict[str, Any] = {
     "links": [1.0, 0.8],
     "link_radius": 0.04,
@@ -45,7 +47,7 @@ LESSON_DEFAULTS: dict[str, Any] = {
     "max_jerk": [80.0, 120.0],
     "home": [1.0472, 0.7854],
 }
-#: The course cell's task.
+#: The course cell's task: coplan's dwells and clearance (the lesson gives none).
 LESSON_TASK: dict[str, float] = {"pick_dwell": 0.3, "place_dwell": 0.2, "clearance": 0.05}
 
 _REACH_MARGIN = 0.01  # the lesson's IK margin, also coplan's default ``task.reach_margin``
@@ -209,7 +211,7 @@ def overlap_problem(
     Each fruit picks a gap between neighbouring bases (round robin, so the gaps get equal
     shares), then x is uniform within ``zone_halfwidth`` of the gap's midpoint and y uniform
     in ``y_range``; a draw that is not reachable by *both* neighbours (lesson margin) is
-    drawn again. Limits and task are the lesson's.
+    drawn again. Limits and task are the course cell's (:data:`LESSON_DEFAULTS`, :data:`LESSON_TASK`).
     """
     _whole("overlap_problem", n_arms=n_arms, n_fruits=n_fruits, seed=seed)
     if n_arms is None or n_arms < 2 or n_fruits is None:
@@ -262,7 +264,7 @@ def cell_problem(seed: int, n_arms: int | None = None, n_fruits: int | None = No
     return _valid_draw(_draw_cell, "cell_problem", seed, n_arms, n_fruits, max_tries)
 
 
-#: The gantry of the generated rows: a greenhouse pipe-rail carriage's limits.
+#: The gantry of the generated rows: a greenhouse pipe-rail carriage's limits (coplan's; the lesson has no gantry).
 LESSON_GANTRY: dict[str, float] = {"max_velocity": 0.5, "max_acceleration": 0.5, "max_jerk": 5.0}
 
 
@@ -282,7 +284,7 @@ def gantry_row(
     The carriage carries the arms ``spacing`` m apart, centred on its origin, each bin 0.5 m
     below its base; it runs from ``start`` 0 to ``end`` = ``length`` with the limits of
     :data:`LESSON_GANTRY`, each key ``gantry`` gives in place of that default (``gantry={"settle":
-    0.5}`` keeps the lesson's limits; ``start`` and ``end`` too: the fruit then lie along ``length`` m
+    0.5}`` keeps these limits; ``start`` and ``end`` too: the fruit then lie along ``length`` m
     from ``start``, and ``end`` is at least that far). About ``density`` fruit per metre (Poisson count,
     seeded) lie along x in [``start``, ``start + length``] at heights in ``y_range`` (low, high): uniform, or with
     ``trusses`` in clusters (a truss every 0.25-0.45 m, its fruit within 6 cm of it and 12 cm
