@@ -270,6 +270,9 @@ def test_a_name_the_output_stream_cannot_encode_is_escaped_not_an_internal_error
         p = subprocess.run([sys.executable, "-m", "coplan.cli", *cmd], capture_output=True, env=env)
         assert p.returncode == 0, p.stderr.decode("cp1252", "replace")
         assert b"\\u6e29\\u5ba4 single" in p.stdout and b"Traceback" not in p.stderr
+        # and --json stays valid JSON (the stream's escapes are not JSON's: "Invalid \escape")
+        p = subprocess.run([sys.executable, "-m", "coplan.cli", *cmd, "--json"], capture_output=True, env=env)
+        assert json.loads(p.stdout)["problem"] == "温室 single", p.stdout[:200]
 
 
 def test_a_closed_pipe_on_windows_reads_as_one(monkeypatch):

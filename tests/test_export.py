@@ -523,6 +523,7 @@ def test_an_arm_named_like_a_windows_device_gets_a_file_windows_can_make():
     """(Arms named CON, nul, Com1 or aux became CON.json ...: a device there, not a file.)"""
     from pathlib import PureWindowsPath
 
-    names = safe_names(["CON", "nul", "Com1", "aux", "console", "lpt9", "left"])
+    names = safe_names(["CON", "nul", "Com1", "aux", "console", "lpt9", "left", "nul.a"])
     assert not any(PureWindowsPath(v + ".json").is_reserved() for v in names.values()), names
     assert names["console"] == "console" and names["left"] == "left" and names["CON"] == "CON_"
+    assert names["nul.a"] == "nul_.a"  # (NUL.anything is the device: nul.a_.json was one)

@@ -462,3 +462,25 @@ def test_a_finished_run_that_cannot_be_moved_into_place_is_kept_whole_beside_it(
     assert r.exit_code == 8 and f"it is kept whole in {tmp_path / 'run.unsaved'}" in said, said
     assert (out / "plan.json").read_bytes() == before
     assert json.loads((tmp_path / "run.unsaved" / "plan.json").read_text())["planner"] == "coordinated"
+
+
+def test_a_stage_that_will_not_go_once_the_run_is_in_place_is_no_failure(tmp_path, monkeypatch):
+    """(Every file moved in, only the empty staging folder's removal refused: the run was said
+    to be "kept whole in <out>.unsaved", an empty folder, exit 8.)"""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")  # (a folder with the user's file: committed file by file)
+    real = Path.rmdir
+
+    def stuck(self):
+        if self.name.endswith(".partial"):
+            raise PermissionError(13, "Access is denied", str(self))
+        return real(self)
+
+    monkeypatch.setattr(Path, "rmdir", stuck)
+    r = CliRunner().invoke(app, ["solve", str(_single()), "--planner", "coordinated", "--out", str(out)])
+    assert r.exit_code == 0 and (out / "plan.json").is_file() and not (tmp_path / "run.unsaved").exists(), r.output

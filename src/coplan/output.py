@@ -253,8 +253,9 @@ class RunFolder:
             if kept is None:
                 shutil.rmtree(self.stage, ignore_errors=True)
                 raise
-            raise RunKept(e.errno, f"{e.strerror or e}: the run could not be moved into {self.out} (a file there open in "
-                                   f"another program?); it is kept whole in {kept}", str(self.out)) from e
+            hint = " (a file there open in another program?)" if isinstance(e, PermissionError) else ""
+            raise RunKept(e.errno, f"{e.strerror or e}: the run could not be moved into {self.out}{hint}; it is kept "
+                                   f"whole in {kept}", str(self.out)) from e
         except BaseException:
             shutil.rmtree(self.stage, ignore_errors=True)
             raise
@@ -336,7 +337,7 @@ class RunFolder:
             raise
         _drop(older)
         self.previous = prev
-        stage.rmdir()
+        _drop_empty(stage)  # (the run is in place: an empty stage that will not go is no failure)
 
 
     def _commit_inside(self) -> None:
@@ -357,7 +358,15 @@ class RunFolder:
             for dst in reversed(moved):
                 os.replace(dst, stage / dst.name)
             raise
+        _drop_empty(stage)  # (the run is in place: an empty stage that will not go is no failure)
+
+
+def _drop_empty(stage: Path) -> None:
+    """The emptied staging folder removed; left (hidden, empty) where the system refuses."""
+    try:
         stage.rmdir()
+    except OSError:
+        pass
 
 
 def _restore(older: Path | None, prev: Path | None) -> None:

@@ -221,7 +221,7 @@ def _report_solve(res, out: Path, animate: bool, html: bool, as_json: bool):
             "files": {k: str(v) for k, v in res.files.items()},
             "previous_run": str(res.previous) if res.previous is not None else None,
         }
-        out_console.print_json(_strict_json(doc))
+        out_console.print_json(_strict_json(doc), ensure_ascii=True)  # (valid JSON whatever stdout encodes)
     else:
         print_summary(out_console, res)
     if res.error:  # a bug stopped the planner: what it had computed is on disk; exit 1 (res.exit_code)
@@ -315,7 +315,7 @@ def check(
     code = ExitCode.INFEASIBLE if harvestable == 0 else ExitCode.OK if harvestable == n_reach else ExitCode.PARTIAL
     doc.update(exit_code=int(code), verdict=code.name.lower())  # (the status as the exit code says it, as verify's)
     if as_json:
-        out_console.print_json(_strict_json(doc))
+        out_console.print_json(_strict_json(doc), ensure_ascii=True)  # (valid JSON whatever stdout encodes)
     else:
         p = out_console.print
         p(f"[bold]{_s(prob.name)}[/] ({_s(path)}): {plural(len(prob.arms), 'arm')}, {len(prob.fruits)} fruit: "

@@ -44,7 +44,7 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
             ExitCode.PARTIAL if set(row_reachable_ids(prob)) - set(reach.cover) else ExitCode.OK)
     doc.update(exit_code=int(code), verdict=code.name.lower())  # (a script read no status from the document)
     if as_json:
-        out_console.print_json(strict_json(doc))
+        out_console.print_json(strict_json(doc), ensure_ascii=True)  # (valid JSON whatever stdout encodes)
     else:
         p = out_console.print
         p(f"[bold]{safe(prob.name)}[/] ({safe(path)}): a row of {g.length:g} m ([{g.start:g}, {g.end:g}]), "

@@ -230,7 +230,8 @@ def _safe(name, k: int) -> str:
     """A file-system and ROS-safe stem for the ``k``-th (untrusted) arm name: never empty, never
     hidden, never a Windows device name (``CON`` -> ``CON_``)."""
     stem = _SAFE.sub("_", str(name)).strip("._") or f"arm{k}"
-    return stem + "_" if stem.split(".")[0].lower() in _DEVICES else stem
+    head, dot, tail = stem.partition(".")  # (NUL.anything is the device too: the mark goes before the first dot)
+    return f"{head}_{dot}{tail}" if head.lower() in _DEVICES else stem
 
 
 def _unique(pairs) -> dict:

@@ -168,7 +168,8 @@ def _atomic(path: Path, write) -> Path:
         try:
             os.replace(tmp, path)
         except OSError as e:  # (it named the hidden temporary file: the file the user has open is this one)
-            raise OSError(e.errno, f"{e.strerror or e} (open in another program?)", str(path)) from None
+            hint = " (open in another program?)" if isinstance(e, PermissionError) else ""
+            raise OSError(e.errno, f"{e.strerror or e}{hint}", str(path)) from None
     finally:
         if tmp.exists():
             tmp.unlink()
