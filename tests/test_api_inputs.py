@@ -186,6 +186,7 @@ def test_compare_on_a_row_sets_its_stop_rules_side_by_side_on_workers(row_file, 
     r2 = runner.invoke(app, ["compare", str(row_file), "--workers", "2", "--json", "--out", str(tmp_path / "two")])
     assert r1.exit_code == 0 and r2.exit_code == 0, r1.output + r2.output
     one, two = json.loads(r1.stdout), json.loads(r2.stdout)
+    assert one["exit_code"] == 0 and one["verdict"] == "ok"  # (as every document of a command that ran)
     assert one["format"] == "coplan.compare-rows/1" and [r["rule"] for r in one["rows"]] == ["optimised", "fixed", "fewest"]
     # which cell planner made the table, in the file (it was recorded nowhere) and its heading
     assert one["cell_planner"] == "coordinated"

@@ -49,6 +49,7 @@ def test_the_command_line_sweep_and_its_usage_errors(tmp_path):
     doc = json.loads(r.stdout[r.stdout.index("{"):])
     assert [row["extra_mm"] for row in doc["rows"]] == [0.0, 10.0]  # (the problem's own too: the ratios' reference)
     assert doc["rows"][1]["ratio"] is not None
+    assert doc["exit_code"] == 0 and doc["verdict"] == "ok"  # (as every document of a command that ran)
     bad = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--extra", "10", "-o", str(tmp_path / "b")])
     assert bad.exit_code == 2 and "--clearance-sweep" in bad.output
     neg = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--clearance-sweep", "--extra", "-5",

@@ -50,8 +50,10 @@ def run_clearance_sweep(source: Path, kind, extra, out: Path, figures: bool, opt
 
     with ProgressDisplay(err_console, quiet=as_json, hint=hint) as say:
         cost = clearance_cost(source, out, extra or EXTRAS_MM, kind, options, figures, say)
-    if as_json:
-        print(json.dumps(cost.to_dict(), indent=1, allow_nan=False))
+    failed = any(r.get("makespan") and not r.get("verified") for r in cost.rows)
+    code = ExitCode.SOLVER_FAILED if failed else ExitCode.OK
+    if as_json:  # (with the exit code, as every document of a command that ran)
+        print(json.dumps(dict(cost.to_dict(), exit_code=int(code), verdict=code.name.lower()), indent=1, allow_nan=False))
     else:
         table = Table(title=f"{safe(cost.problem)}: makespan against the clearance asked for ({cost.planner} planner)")
         for _, head in COLUMNS:
@@ -62,5 +64,4 @@ def run_clearance_sweep(source: Path, kind, extra, out: Path, figures: bool, opt
         out_console.print(f"wrote {safe(cost.files['json'])}, {safe(cost.files['markdown'])}"
                           + (f", {safe(cost.files['figure'])}" if cost.files.get("figure") else "")
                           + " and each clearance's plan (plus_<mm>mm/) and problem (plus_<mm>mm.yaml) beside them")
-    failed = any(r.get("makespan") and not r.get("verified") for r in cost.rows)
-    return ExitCode.SOLVER_FAILED if failed else ExitCode.OK
+    return code

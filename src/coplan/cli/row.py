@@ -91,8 +91,10 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
         cell = PlannerKind(planner[0])
     with ProgressDisplay(err_console, quiet=as_json) as say:
         cmp = compare_rows(prob, out, planner=cell, progress=say, workers=workers)
-    if as_json:
-        out_console.print(strict_json(cmp.to_dict()), markup=False, highlight=False)
+    code = ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
+    if as_json:  # (with the exit code, as every document of a command that ran)
+        out_console.print(strict_json(dict(cmp.to_dict(), exit_code=int(code), verdict=code.name.lower())), markup=False,
+                          highlight=False)
     else:
         from rich import box
 
@@ -108,7 +110,7 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
             table.add_row(*row)
         print_table(out_console, table)
         out_console.print(f"wrote {safe(cmp.files['json'])} and {safe(cmp.files['markdown'])}")
-    return ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
+    return code
 
 
 def rows_in(source: Path) -> list[Path]:
