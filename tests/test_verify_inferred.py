@@ -330,3 +330,15 @@ def test_an_arm_whose_acceleration_jumps_has_unbounded_jerk_not_a_grids_peak(gre
     assert "jerk RMS / peak left unbounded (acceleration steps up to" in said, said
     res = CliRunner(env={"COLUMNS": "250"}).invoke(app, ["solve", "--planner", "coordinated", "--out", str(tmp_path / "c")])
     assert "unbounded" not in res.output and " rad/s^3" in res.output
+    # compare: per arm, the peak and the RMS, the table's peak / limit and the aggregate's worst
+    from coplan.problem import default_problem_path
+
+    folder = tmp_path / "two"
+    folder.mkdir()
+    for name in ("crossing_paths", "single_arm"):
+        (folder / f"{name}.yaml").write_text((default_problem_path().parent / f"{name}.yaml").read_text())
+    res = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["compare", str(folder), "--planner", "heuristic", "--planner",
+                                                         "coordinated", "--no-figures", "--out", str(tmp_path / "cmp")])
+    md = (tmp_path / "cmp" / "compare.md").read_text()
+    assert res.exit_code == 0 and "left unbounded, right unbounded" in md and "| unbounded |" in md.replace("  ", " ")
+    assert "unbounded (crossing-paths)" in " ".join(res.output.split()), res.output

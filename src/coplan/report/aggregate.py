@@ -26,6 +26,16 @@ def _worst(rows: list[dict], key: str, highest: bool) -> dict | None:
     return {"problem": r["problem"], "file": r.get("file"), "value": r[key]}
 
 
+def _worst_jerk(rows: list[dict]) -> dict | None:
+    """The worst peak jerk / limit; where a plan's acceleration jumps its jerk is unbounded (its
+    sampled peak grows with the rate: no figure to rank), said so with the first such problem."""
+    stepping = [r for r in rows if r.get("acceleration_steps")]
+    if not stepping:
+        return _worst(rows, "peak_jerk", True)
+    r = stepping[0]
+    return {"problem": r["problem"], "file": r.get("file"), "value": None, "unbounded": True}
+
+
 def aggregate(rows: list[dict], planners: list[str]) -> dict[str, Any]:
     """Per planner: counts, medians and worst cases over every problem it ran on."""
     out: dict[str, Any] = {}
@@ -51,7 +61,7 @@ def aggregate(rows: list[dict], planners: list[str]) -> dict[str, Any]:
                 "makespan_ratio": _worst(ok, "makespan_ratio", True),
                 "min_clearance": _worst(ok, "min_clearance", False),
                 "collision_count": _worst(ok, "collision_count", True),
-                "peak_jerk": _worst(ok, "peak_jerk", True),
+                "peak_jerk": _worst_jerk(ok),
                 "planning_time": _worst(ok, "planning_time", True),
             },
         }

@@ -446,7 +446,8 @@ _FIGURES: list[tuple[str, str, Callable[[dict], str]]] = [
     ("margin per pair (mm)", "margin_per_pair",
      lambda r: ", ".join(f"{k} {_f(None if v is None else 1000 * v, 1)}" for k, v in (r.get("margin_per_pair") or {}).items()) or "-"),
     ("RMS jerk per arm (rad/s^3)", "rms_jerk",
-     lambda r: ", ".join(f"{a} {_f(v, 0)}" for a, v in (r.get("rms_jerk") or {}).items()) or "-"),
+     lambda r: ", ".join(f"{a} " + ("unbounded" if a in (r.get("acceleration_steps") or {}) else _f(v, 0))
+                         for a, v in (r.get("rms_jerk") or {}).items()) or "-"),
     ("peak jerk per arm (rad/s^3)", "peak_jerk_per_arm",
      lambda r: ", ".join(f"{a} " + (f"unbounded (acceleration steps up to {_f(r['acceleration_steps'][a], 1)} rad/s^2)"
                                     if a in (r.get("acceleration_steps") or {}) else _f(v, 0))
@@ -488,7 +489,7 @@ def _aggregate_table(cmp: Comparison) -> tuple[list[str], list[list[str]]]:
 
     def w(label, key, nd=2):
         x = agg[label]["worst"][key]
-        return "-" if x is None else f"{_f(x['value'], nd)} ({x['problem']})"
+        return "-" if x is None else f"unbounded ({x['problem']})" if x.get("unbounded") else f"{_f(x['value'], nd)} ({x['problem']})"
 
     spec = [
         ("runs (errors)", lambda a, l: f"{a['runs']} ({a['errors']})"),
