@@ -159,8 +159,10 @@ def print_row_summary(console, res) -> None:
         p(f"  idle {safe(a):12s} " + ", ".join(f"{k.replace('_', ' ')} {100 * v:.1f} %" for k, v in causes.items()))
     if r.get("idle_share") and moving:  # (the causes were explained only in a docstring; on the move, no stop's)
         p("    (share of the row time each arm is idle: carriage -- waiting for the carriage to bring its next fruit into "
-          "reach, or at rest while it moves; coordination -- holding still within its work for a neighbour; making way -- "
-          "moving out of a neighbour's way)", highlight=False)
+          "reach, or at rest while it moves; others -- at rest while the carriage stands (where it starts, or at its rest "
+          "at the row's end) and the other arms work; no fruit -- the same, for an arm with no fruit in the row; "
+          "coordination -- holding still within its work for a neighbour; making way -- moving out of a neighbour's way)",
+          highlight=False)
     elif r.get("idle_share"):
         p("    (share of the row time each arm is idle: carriage -- at rest while the carriage moves; no fruit -- at a stop "
           "with nothing in its reach; others -- done at a stop, waiting for the other arms; coordination -- holding still "
