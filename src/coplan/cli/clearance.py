@@ -53,7 +53,7 @@ def run_clearance_sweep(source: Path, kind, extra, out: Path, figures: bool, opt
     failed = any(r.get("makespan") and not r.get("verified") for r in cost.rows)
     code = ExitCode.SOLVER_FAILED if failed else ExitCode.OK
     if as_json:  # (with the exit code, as every document of a command that ran)
-        print(json.dumps(dict(cost.to_dict(), exit_code=int(code), verdict=code.name.lower()), indent=1, allow_nan=False))
+        print(json.dumps(cost.to_dict() | failures.exit_fields(code), indent=1, allow_nan=False))
     else:
         table = Table(title=f"{safe(cost.problem)}: makespan against the clearance asked for ({cost.planner} planner)")
         for _, head in COLUMNS:

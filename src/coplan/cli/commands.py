@@ -16,7 +16,6 @@ from typing import Annotated, Optional
 os.environ.setdefault("MPLBACKEND", "Agg")  # the CLI never needs a display
 
 import typer
-from rich.console import Console
 
 from . import failures
 from .checks import budget_hint as _budget_hint, check_time_limit as _check_time_limit, check_workers as _check_workers
@@ -27,7 +26,7 @@ from .row import moving_options, refuse_rows_in_compare, refused_on_a_row
 from .summary import fmt as _fmt
 from .summary import print_summary, print_table, print_verification
 from .summary import safe as _s
-from .console import FlagsGroup, ProgressDisplay, run_console
+from .console import FlagsGroup, ProgressDisplay, run_console, text_console
 from ..errors import InputError, plural, printable
 from ..kinds import AllocationMethod, ExitCode, FclMode, GantryMode, PlannerKind, StopRule
 
@@ -38,9 +37,8 @@ app = typer.Typer(
     help="Plan coordinated, collision-free, jerk-limited motion for several 2R arms harvesting fruit.",
     pretty_exceptions_enable=False,
 )
-# (emoji off: a name ":warning:" printed as the sign, while the JSON kept the name)
-out_console = Console(soft_wrap=True, emoji=False)
-err_console = Console(stderr=True, soft_wrap=True, emoji=False)
+out_console = text_console()
+err_console = text_console(stderr=True)
 
 
 def _version(value: bool) -> None:
@@ -313,7 +311,7 @@ def check(
         "heuristic_violations": base_ver.get("violation_kinds"),
     }
     code = ExitCode.INFEASIBLE if harvestable == 0 else ExitCode.OK if harvestable == n_reach else ExitCode.PARTIAL
-    doc.update(exit_code=int(code), verdict=code.name.lower())  # (the status as the exit code says it, as verify's)
+    doc.update(failures.exit_fields(code))  # (the status as the exit code says it, as verify's)
     if as_json:
         out_console.print_json(_strict_json(doc), ensure_ascii=True)  # (valid JSON whatever stdout encodes)
     else:
@@ -394,7 +392,7 @@ def verify_cmd(
     code = ExitCode.UNSAFE if not ver.passed else ExitCode.INFEASIBLE if not prob.reachable_ids() \
         else ExitCode.OK if ver.complete else ExitCode.PARTIAL
     if as_json:  # (the verdict as the exit code says it, as `solve --json` carries it: a script reads one document)
-        typer.echo(json.dumps(ver.to_dict() | {"exit_code": int(code), "verdict": code.name.lower()}, indent=1, allow_nan=False))
+        typer.echo(json.dumps(ver.to_dict() | failures.exit_fields(code), indent=1, allow_nan=False))
     else:
         from ..plan import EventKind
 
@@ -484,7 +482,7 @@ def compare_cmd(
     failures.work_done()  # (the report is written: the tables and the verdict follow)
     code = ExitCode.BAD_INPUT if cmp.bad_inputs else ExitCode.SOLVER_FAILED if cmp.failed_runs else ExitCode.OK
     if as_json:  # (with the exit code: a folder with a bad file exited 3 with nothing in the document to say so)
-        typer.echo(json.dumps(dict(cmp.to_dict(), exit_code=int(code), verdict=code.name.lower()), indent=1, allow_nan=False))
+        typer.echo(json.dumps(cmp.to_dict() | failures.exit_fields(code), indent=1, allow_nan=False))
     else:
         for table in rich_tables(cmp):
             print_table(out_console, table)

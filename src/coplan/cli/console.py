@@ -18,7 +18,7 @@ import sys
 
 from typer.core import TyperGroup, TyperOption
 
-__all__ = ["FlagsGroup", "PipeSafeStream", "ProgressDisplay", "run_console"]
+__all__ = ["text_console", "FlagsGroup", "PipeSafeStream", "ProgressDisplay", "run_console"]
 
 
 def _flags_take_no_value(params) -> None:
@@ -40,6 +40,15 @@ class FlagsGroup(TyperGroup):
         if cmd is not None:
             _flags_take_no_value(cmd.get_params(ctx))
         return cmd
+
+
+def text_console(stderr: bool = False):
+    """A command's stdout (or stderr) console: long lines left whole (a pipe or a file gets them
+    unbroken), and emoji codes kept as written (a name ":warning:" was printed as the sign, while
+    the JSON kept the name)."""
+    from rich.console import Console
+
+    return Console(stderr=stderr, soft_wrap=True, emoji=False)
 
 
 def _closed_pipe(e: OSError) -> bool:

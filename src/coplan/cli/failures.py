@@ -28,7 +28,7 @@ from ..kinds import ExitCode
 from ..output import OutputError, RunKept, check_folder
 
 __all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "INTERRUPTED", "CONSOLE", "work_done",
-           "usage", "check_out_dir", "check_overwrite"]
+           "usage", "check_out_dir", "check_overwrite", "exit_fields", "file_kind"]
 
 # set by the console entry point when SIGTERM arrived: an interruption then exits 143, not 130
 TERMINATED: list[int] = []
@@ -72,6 +72,13 @@ def work_done() -> None:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         if hasattr(signal, "SIGTERM"):
             signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
+def exit_fields(code: ExitCode) -> dict[str, Any]:
+    """What a ``--json`` document of a command that ran says of how it ends: ``exit_code`` and
+    ``verdict`` (the exit code's name: ``ok``, ``partial``, ``unsafe`` ...)."""
+    code = ExitCode(code)
+    return {"exit_code": int(code), "verdict": code.name.lower()}
 
 
 def usage(message: str):

@@ -13,19 +13,18 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from rich.console import Console
 
 from . import failures
 from .checks import between, choice, choices, fail, in_path, out_path
-from .console import ProgressDisplay
+from .console import ProgressDisplay, text_console
 from .failures import resolve_problem
 from .summary import safe as _s
 from ..kinds import ExitCode
 
 __all__ = ["PlotKind", "plot_cmd", "animate_cmd", "view_cmd"]
 
-_out = Console(soft_wrap=True, emoji=False)
-_err = Console(stderr=True, soft_wrap=True, emoji=False)
+_out = text_console()
+_err = text_console(stderr=True)
 
 
 def _note(message: str) -> None:

@@ -8,18 +8,18 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from rich.console import Console
 from rich.markup import escape
 
 from ..errors import printable
 from ..kinds import ExitCode, ExportFormat, SchemaKind
 from .checks import choice, choices, in_path, out_path
+from .console import text_console
 from .failures import Failure, check_overwrite
 
 __all__ = ["export_cmd", "schema_cmd"]
 
-_out = Console(soft_wrap=True, emoji=False)
-_err = Console(stderr=True, soft_wrap=True, emoji=False)
+_out = text_console()
+_err = text_console(stderr=True)
 
 
 class _FolderOut(type(Path())):  # type: ignore[misc]

@@ -14,19 +14,18 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from rich.console import Console
 
 from .checks import between, choice, choices, in_path, out_path
-from .console import ProgressDisplay
-from .failures import check_out_dir, check_out_file, check_overwrite, resolve_problem, usage, work_done
+from .console import ProgressDisplay, text_console
+from .failures import check_out_dir, check_out_file, check_overwrite, exit_fields, resolve_problem, usage, work_done
 from .summary import safe as _safe
 from ..errors import plural
 from ..kinds import ExitCode, GantryMode, LiveGantryMode, PlanStatus
 
 __all__ = ["feed_cmd", "run_cmd"]
 
-_out = Console(soft_wrap=True, emoji=False)
-_err = Console(stderr=True, soft_wrap=True, emoji=False)
+_out = text_console()
+_err = text_console(stderr=True)
 
 
 def feed_cmd(
@@ -190,7 +189,7 @@ def run_cmd(
     status = result.plan.status
     code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
     if as_json:  # (with the status and exit code: a script read neither from the document)
-        typer.echo(json.dumps(jsonable(dict(m, status=status.value, exit_code=int(code), verdict=code.name.lower())),
+        typer.echo(json.dumps(jsonable(dict(m, status=status.value, **exit_fields(code))),
                               allow_nan=False))
     else:
         lat = m["latency_p95"]
@@ -277,7 +276,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
     m = res.metrics
     code = status_exit_code(res.plan.status)
     if as_json:  # (with the status and exit code: a script read neither from the document)
-        typer.echo(json.dumps(jsonable(dict(m, status=res.plan.status.value, exit_code=int(code), verdict=ExitCode(code).name.lower())),
+        typer.echo(json.dumps(jsonable(dict(m, status=res.plan.status.value, **exit_fields(code))),
                               allow_nan=False))
     else:
         idle = f", {m['stops_without_picks']} of them without a pick" if m.get("stops_without_picks") else ""

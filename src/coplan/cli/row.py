@@ -9,6 +9,7 @@ from pathlib import Path
 from ..errors import plural
 from ..kinds import ExitCode, GantryMode, PlannerKind, SpeedProfile
 from .checks import fail
+from .failures import exit_fields, usage
 from .summary import safe
 
 __all__ = ["check_row", "compare_row"]
@@ -42,7 +43,7 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
 
     code = (ExitCode.INFEASIBLE if not reach.cover else
             ExitCode.PARTIAL if set(row_reachable_ids(prob)) - set(reach.cover) else ExitCode.OK)
-    doc.update(exit_code=int(code), verdict=code.name.lower())  # (a script read no status from the document)
+    doc.update(exit_fields(code))  # (a script read no status from the document)
     if as_json:
         out_console.print_json(strict_json(doc), ensure_ascii=True)  # (valid JSON whatever stdout encodes)
     else:
@@ -85,15 +86,13 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
     cell = None
     if planner:
         if len(planner) > 1 or planner[0] not in ("coordinated", "optimal"):  # (it printed no error document with --json)
-            from .failures import usage
-
             usage(f"--planner: a row takes one cell planner: coordinated or optimal, found {', '.join(planner)}")
         cell = PlannerKind(planner[0])
     with ProgressDisplay(err_console, quiet=as_json) as say:
         cmp = compare_rows(prob, out, planner=cell, progress=say, workers=workers)
     code = ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
     if as_json:  # (with the exit code, as every document of a command that ran)
-        out_console.print(strict_json(dict(cmp.to_dict(), exit_code=int(code), verdict=code.name.lower())), markup=False,
+        out_console.print(strict_json(cmp.to_dict() | exit_fields(code)), markup=False,
                           highlight=False)
     else:
         from rich import box

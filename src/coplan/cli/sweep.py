@@ -11,11 +11,11 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from rich.console import Console
 
 from ..errors import plural
 from ..workers import MAX_WORKERS
 from .checks import between, choice, choices, in_path, out_path
+from .console import text_console
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
 from ..errors import printable
@@ -23,8 +23,8 @@ from ..kinds import ExitCode, PlannerKind, RowStatus, SweepBase, SweepMode
 
 __all__ = ["sweep_cmd", "sweep_report_cmd"]
 
-_out = Console(soft_wrap=True, emoji=False)
-_err = Console(stderr=True, soft_wrap=True, emoji=False)
+_out = text_console()
+_err = text_console(stderr=True)
 
 
 def _counts_text(counts: dict[str, int]) -> str:
@@ -81,7 +81,7 @@ def sweep_cmd(
         progress.start()
         _err.print(f"sweep [bold]{_safe(sw.name)}[/]: {o.total} problems, {o.skipped} already done in {_safe(folder)}; "
                    f"{_safe(scheduler) if scheduler else plural(o.workers, 'local worker process', 'local worker processes')}", highlight=False)
-        sets = sw.grid_size() if sw.mode == SweepMode.GRID and sw.base != SweepBase.FILES else None
+        sets = n if sw.mode == SweepMode.GRID and sw.base != SweepBase.FILES else None  # (the grid's size, counted above)
         if sets is not None and sets > o.total:  # (densities that round to one fruit count: 11 asked, 5 run, not a word)
             _err.print(f"note: {sets - o.total} of the {sets} parameter sets make a problem another set makes too (the "
                        f"same problem text: e.g. densities that round to the same number of fruit); each is solved once",
