@@ -73,13 +73,10 @@ def check_folder(out: str | Path, what: str = "out_dir") -> None:
         raise OutputError(f"{what} {out}: expected a folder coplan may write to, found that {probe} is not writable")
     # permission bits do not tell all (root passes os.access; /proc and read-only mounts refuse
     # new files anyway): a hidden file made and removed there says it
-    try:
-        fd, name = tempfile.mkstemp(prefix=".coplan-probe-", dir=probe)
-    except OSError as exc:
+    refused = _probe(probe)
+    if refused is not None:
         raise OutputError(f"{what} {out}: expected a folder coplan may write to, found that {probe} takes no new files "
-                          f"({exc.strerror or exc})") from None
-    os.close(fd)
-    os.unlink(name)
+                          f"({refused.strerror or refused})")
     prev = previous_of(out)
     if out.is_dir() and not writable_folder(prev.parent):  # (the run is then staged inside it: RunFolder)
         if any(_ours(p) for p in out.iterdir()):  # (a solve of minutes was lost at its end: "Permission denied")
@@ -94,16 +91,21 @@ def check_folder(out: str | Path, what: str = "out_dir") -> None:
                           "choose another folder")
 
 
-def writable_folder(path: str | Path) -> bool:
-    """Whether coplan can make a file in the folder ``path`` (a hidden file made and removed
-    there: permission bits do not tell all)."""
+def _probe(path: str | Path) -> OSError | None:
+    """Why a file cannot be made in the folder ``path`` (a hidden one made and removed there:
+    permission bits do not tell all), or None when it can."""
     try:
         fd, name = tempfile.mkstemp(prefix=".coplan-probe-", dir=path)
-    except OSError:
-        return False
+    except OSError as exc:
+        return exc
     os.close(fd)
     os.unlink(name)
-    return True
+    return None
+
+
+def writable_folder(path: str | Path) -> bool:
+    """Whether coplan can make a file in the folder ``path`` (:func:`_probe`)."""
+    return _probe(path) is None
 
 
 def previous_of(out: Path) -> Path:
@@ -265,11 +267,10 @@ class RunFolder:
         """The staged run under a visible name beside its folder, ``<out>.unsaved`` (or ``.unsaved.N``),
         when it cannot be moved into place; None if that fails too."""
         base = self.out.absolute()
-        target = base.with_name(base.name + ".unsaved") if not self.inside else base / "unsaved"
-        n = 1
+        first = base / "unsaved" if self.inside else base.with_name(base.name + ".unsaved")
+        target, n = first, 1
         while target.exists():
-            target = target.with_name(f"{target.name.split('.unsaved')[0]}.unsaved.{n}" if not self.inside else f"unsaved.{n}")
-            n += 1
+            target, n = first.with_name(f"{first.name}.{n}"), n + 1
         try:
             self.stage.rename(target)
         except OSError:
@@ -338,7 +339,6 @@ class RunFolder:
         _drop(older)
         self.previous = prev
         _drop_empty(stage)  # (the run is in place: an empty stage that will not go is no failure)
-
 
     def _commit_inside(self) -> None:
         """The staged files into ``out``, where the stage is (nothing may be made beside it): a

@@ -204,7 +204,7 @@ def _check_rates(rows: np.ndarray, axes: list[tuple[int, int, int, int]], header
         # jerk switches sign (a time-optimal move), the second difference departs from the exact
         # acceleration by up to the jerk's change x dt / 6 -- at 100 Hz 2.2 % of a 12 rad/s^2 peak
         # on locked_arms, which a flat 2 % refused in coplan's own export
-        jerk = float(np.abs(np.diff(q, n=3, axis=0)).max()) / dt**3 if q.shape[0] > 3 else 0.0
+        jerk = float(np.abs(np.diff(q, n=3, axis=0)).max()) / dt**3  # (five samples or more: above)
         slack = {jv: jerk * dt**2, ja: jerk * dt / 2}
         for c0, what in ((jv, "velocity"), (ja, "acceleration")):
             col = rows[1:-1, c0:c0 + w]

@@ -111,7 +111,7 @@ def load_plan(path: str | Path) -> Plan:
         raise PlanFileError([Issue("", f"expected UTF-8 JSON, found an undecodable byte at offset {e.start}")], src) from None
     plan = plan_from_dict(data, src)  # (its motion recorded as the one its verdict is about)
     if raw is not None:  # (a pipe: no plan.npz beside it)
-        return _as_judged(plan)
+        return plan
     exact = exact_samples(plan, p)
     return exact if exact is plan else _as_judged(exact)  # (the npz's samples: recorded again, once)
 

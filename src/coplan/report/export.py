@@ -243,7 +243,7 @@ def _unique(pairs) -> dict:
     first = [k for k, (key, base) in enumerate(pairs) if key is CARRIAGE or (key is not EVENTS and base == key)]
     chosen: dict[int, str] = {}
     used: set[str] = set()
-    for k in first + [k for k in range(len(pairs)) if k not in set(first)]:
+    for k in first + [k for k in range(len(pairs)) if k not in first]:
         base = pairs[k][1]
         cand, i = base, 2
         while cand.lower() in used:

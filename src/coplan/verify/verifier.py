@@ -250,11 +250,11 @@ def _check_limits(problem: Problem, motions: list[ArmMotion], time: np.ndarray, 
                 for a, b in runs(diff[:, jn] > lim_k[jn] + tol):
                     w = a + int(np.argmax(diff[a : b + 1, jn]))
                     seg = signed[a : b + 1, jn]
-                    if (kind == ViolationKind.JERK and b - a < _STEP_SAMPLES and (np.all(seg >= 0) or np.all(seg <= 0))
-                            and abs(float(np.sum(seg))) * dt > _STEP_FACTOR * lim_k[jn] * seg.size * dt):
-                        ver.violations.append(_acceleration_step(arm.name, jn, signed[a : b + 1, jn], centre[a : b + 1], dt,
-                                                                 lim_k[jn], t[-1]))
-                        continue
+                    if kind == ViolationKind.JERK and b - a < _STEP_SAMPLES and (np.all(seg >= 0) or np.all(seg <= 0)):
+                        step = _acceleration_step(arm.name, jn, seg, centre[a : b + 1], dt, lim_k[jn], t[-1])
+                        if step.value > _STEP_FACTOR * step.limit:  # (the jump against what the limit allows over it)
+                            ver.violations.append(step)
+                            continue
                     ver.violations.append(
                         Violation(kind, (arm.name,), float(tc[w]), float(diff[w, jn] - lim_k[jn]), float(diff[w, jn]), float(lim_k[jn]),
                                   float(tc[a]), float(tc[b]), joint=jn,
@@ -375,7 +375,7 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
         if least > opts.position_tolerance:
             ver.violations.append(Violation(missed, (e.arm,), e.t_start, least - opts.position_tolerance, least,
                                             opts.position_tolerance, e.t_start, e.t_end, fruit=e.fruit,
-                                            message=f"tip never within {opts.position_tolerance * 1000:.0f} mm of "
+                                            message=f"tip never within {opts.position_tolerance * 1000:g} mm of "
                                                     + ("the fruit" if e.kind == EventKind.PICK else f"{e.arm}'s bin (placing it)")
                                                     + f" (closest {least * 1000:.1f} mm)"))
         elif held < dwell - dwell_tol - eps:
