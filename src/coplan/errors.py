@@ -113,12 +113,12 @@ MAX_MARGIN = 0.5
 MAX_TOLERANCE = 0.01
 
 
-#: options whose plausible range is narrower than their sign (``h_target`` 1e-9 s built billions
-#: of knots: 23 GB of memory before any check could skip the stage)
 #: the largest whole-number option (work budgets, iterations, counts; not a seed): 1e9 conflict
 #: checks of the search are days of one core
 MAX_COUNT = 1_000_000_000
 
+#: options whose plausible range is narrower than their sign (``h_target`` 1e-9 s built billions
+#: of knots: 23 GB of memory before any check could skip the stage)
 OPTION_RANGES = {
     "h_target": (0.005, 1.0, "a knot spacing of the NLP's grid, s,"),
     "check_rate": (100.0, 100_000.0, "a rate of the planner's dense clearance check, Hz,"),

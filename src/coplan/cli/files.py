@@ -59,8 +59,9 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     """``coplan export``: load the plan, check the rate and where to write (usage errors exit 2
     before anything is written), export. Default ``out``: beside the plan,
     ``<plan>_<rate>hz.csv`` or the folder ``<plan>_<rate>hz/``."""
-    from ..plan import load_plan
-    from ..report.export import check_rate, export_plan
+    from ..plan import MAX_PLAN_BYTES, finer_grid, load_plan, on_lattice
+    from ..report.export import (EVENTS, FOLLOW_TOLERANCE, check_rate, events_path, export_names, export_plan, follow_error,
+                                 limit_excess, safe_names, smoothing_error, trajectory)
 
     fmt = ExportFormat(fmt)
     # read once (a plan from a pipe is gone after the first read), with the plan.npz beside it: no
@@ -91,13 +92,12 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
                                       f"found a file name ending {out.suffix}; give a folder name")
     if out.resolve() == plan_path.resolve():
         raise Failure(ExitCode.USAGE, f"--out {out} is the plan being exported; give another file")
-    from ..report.export import EVENTS, events_path, export_names
-
+    names = export_names(plan)  # (each arm's file and joint-name stem, the carriage's and the events')
     if fmt == ExportFormat.CSV:  # an earlier export is replaced; coplan's plan.csv or any other file is not
         check_overwrite(out, "an export CSV", "an earlier export (a CSV with t, <arm>_q1 ... <arm>_qdd2)")
         check_overwrite(events_path(out), "an export's events", "an earlier export's events (arm,fruit,kind,t_start,t_end)")
     else:  # each arm's file likewise: an arm named plan or verification would overwrite those
-        for key, name in export_names(plan).items():
+        for key, name in names.items():
             if key is EVENTS:
                 check_overwrite(out / f"{name}.{fmt.value}", "an export's events", "an earlier export's events")
             else:
@@ -117,14 +117,11 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
                                            f"({len(ver.violations)} violation{'s' * (len(ver.violations) != 1)}: {kinds}; "
                                            f"coplan verify says where): a controller must not follow it, nothing written "
                                            f"(--unverified exports it anyway)")
-    from ..plan import finer_grid, on_lattice
-    from ..report.export import FOLLOW_TOLERANCE, follow_error, smoothing_error, trajectory
-
     stale = []  # an earlier export's per-arm files in the folder that this one does not replace (a plan of other arms)
     if fmt != ExportFormat.CSV and out.is_dir():
         from .failures import file_kind
 
-        new = {f"{stem}.{fmt.value}" for stem in export_names(plan).values()}
+        new = {f"{stem}.{fmt.value}" for stem in names.values()}
         kinds = {p: file_kind(p) for p in sorted(out.glob(f"*.{fmt.value}"))}
         # only in a folder a coplan export made (its events file says so): someone's own trajectories stay
         if "an export's events" in kinds.values():
@@ -140,16 +137,12 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         _err.print(f"note: at {rate:g} Hz coplan verify does not read this export (it checks a grid of 100 Hz or finer): "
                    "verify the plan it came from", markup=False, highlight=False)
     if fmt == ExportFormat.CSV:
-        from ..plan import MAX_PLAN_BYTES
-
         size = written[0].stat().st_size if written else 0
         if size > MAX_PLAN_BYTES:  # (a 270 MB export at 1 kHz, which coplan verify then refused, said nothing)
             _err.print(f"note: this export is {size / 2**20:.0f} MiB, more than coplan verify reads ({MAX_PLAN_BYTES >> 20} MiB): "
                        f"verify the plan it came from, or an export at a lower rate", markup=False, highlight=False)
     if fmt != ExportFormat.CSV:  # (an arm whose name is not a safe file name: which file it is in was nowhere said)
-        from ..report.export import safe_names
-
-        for arm, stem in export_names(plan).items():
+        for arm, stem in names.items():
             if arm is EVENTS and stem != "events":  # (events.json held an arm's trajectory, without a word)
                 _err.print(f"note: the picks and places are in {stem}.{fmt.value} (an arm's trajectory has the name events "
                            f"takes: it keeps its file)", markup=False, highlight=False)
@@ -159,7 +152,6 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
                 _err.print(f"note: arm {arm!r} is in {stem}.{fmt.value} (joints {stem}_joint1, {stem}_joint2): {why}",
                            markup=False, highlight=False)
     if all(on_lattice(q) for q in plan.q.values()) and finer_grid(1.0 / rate) and plan.time.size > 1:  # (no plan.npz beside it: it exported in silence)
-        from ..report.export import limit_excess
         from ..verify.verdict import VerifyOptions
 
         tol = 1.0 + VerifyOptions().rel_tolerance  # (what the verifier lets pass)

@@ -338,11 +338,11 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
         p(f"    {safe(pc.key):18s} {fmt(pc.min_clearance, ' m', 4)} at {pc.t:.3f} s (links {pc.links[0]}/{pc.links[1]}), certified {fmt(pc.certified, ' m', 4)}")
     wp = ver.worst_pick
     if wp is not None:  # (a pick 4.5 mm off its fruit passed with no word of it)
-        p(f"  picks             every tip within {1000 * wp['distance']:.2f} mm of its fruit at its closest (the farthest: "
-          f"{safe(wp['fruit'])} by {safe(wp['arm'])} at {wp['t']:.2f} s; tolerance {1000 * ver.options.position_tolerance:g} mm)"
+        which = f"{safe(wp['fruit'])} by {safe(wp['arm'])} at {wp['t']:.2f} s; tolerance {1000 * ver.options.position_tolerance:g} mm"
+        p(f"  picks             every tip within {1000 * wp['distance']:.2f} mm of its fruit at its closest (the farthest: {which})"
           if wp["distance"] <= ver.options.position_tolerance else
-          f"  picks             the farthest tip from its fruit {1000 * wp['distance']:.2f} mm at its closest ({safe(wp['fruit'])} "
-          f"by {safe(wp['arm'])} at {wp['t']:.2f} s; tolerance {1000 * ver.options.position_tolerance:g} mm)", highlight=False)
+          f"  picks             the farthest tip from its fruit {1000 * wp['distance']:.2f} mm at its closest ({which})",
+          highlight=False)
     for arm, pk in ver.peaks.items():
         over = max(pk.values()) > 1.005 and not any(arm in v.arms for v in ver.violations)
         p(f"  peaks {safe(arm):12s} velocity {pk['velocity']:.2f}, acceleration {pk['acceleration']:.2f}, jerk {pk['jerk']:.2f} of the limits"
