@@ -20,6 +20,7 @@ from coplan.generate import gantry_row, to_yaml
 from coplan.optimal import OptimalOptions
 from coplan.planners.coordinated.planner import CoordinatedOptions
 from coplan.problem import load_problem, parse_problem, shipped_problems
+from coplan.problem.load import file_record
 from coplan.row.continuous import MovingOptions
 from coplan.row.plan import RowOptions
 from coplan.output import OutputError
@@ -68,10 +69,10 @@ def test_a_problem_changed_in_python_is_checked_as_a_file_is(cell, change, path)
 
 
 def test_a_problem_changed_in_python_no_longer_names_its_file(cell):
-    assert cell.file_record() is not None and cell.file_record()["path"] == str(CROSSING.resolve())
+    assert file_record(cell) is not None and file_record(cell)["path"] == str(CROSSING.resolve())
     moved = dataclasses.replace(cell, arms=tuple(dataclasses.replace(a, base=(a.base[0] - 1.2, a.base[1])) for a in cell.arms))
-    assert moved.file_record() is None  # (a viewer drew the file's layout under the moved arms' plan)
-    assert dataclasses.replace(cell, name=cell.name).file_record() is not None  # the same problem: still that file's
+    assert file_record(moved) is None  # (a viewer drew the file's layout under the moved arms' plan)
+    assert file_record(dataclasses.replace(cell, name=cell.name)) is not None  # the same problem: still that file's
 
 
 @pytest.mark.parametrize("cls, kw, words", [

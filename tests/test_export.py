@@ -182,7 +182,7 @@ def test_csv_export(crossing_plan, tmp_path):
     # and the tip is on the fruit at those times in the export itself
     from coplan.kinematics.arm import fk
     from coplan.problem import load_problem
-    from coplan.problem.model import default_problem_path
+    from coplan.problem.load import default_problem_path
 
     prob = load_problem(default_problem_path().parent / "crossing_paths.yaml")
     for g in got:
@@ -317,7 +317,7 @@ def test_an_export_too_coarse_for_the_motion_says_how_far_a_controller_would_dep
     k = int(np.searchsorted(crossing_plan.time, t))
     follow = CubicHermiteSpline(coarse.time, coarse.q[arm], coarse.qd[arm], axis=0)(crossing_plan.time[k] + coarse.delay)
     assert err == pytest.approx(float(np.abs(follow - crossing_plan.q[arm][k]).max())) and err > FOLLOW_TOLERANCE
-    from coplan.problem.model import default_problem_path
+    from coplan.problem.load import default_problem_path
 
     plan_path = tmp_path / "plan.json"
     plan_path.write_text(json.dumps(crossing_plan.to_dict()))
@@ -343,7 +343,7 @@ def test_an_export_whose_smoothing_departs_from_the_samples_does_not_blame_the_r
     it; it is the B-spline's own distance from the samples, at any rate.) The note says so, with
     the figure of its definition, a sixth of the samples' largest second difference."""
     from coplan.problem import load_problem
-    from coplan.problem.model import default_problem_path
+    from coplan.problem.load import default_problem_path
     from coplan.report.export import FOLLOW_TOLERANCE, follow_error, smoothing_error
 
     text = (default_problem_path().parent / "crossing_paths.yaml").read_text()
@@ -392,7 +392,7 @@ def test_an_unsafe_or_edited_plan_is_not_exported_for_a_controller(tmp_path):
     export's jerk was 9.6 x the limit, its acceleration 61 x.) The plan is verified against its
     problem first: refused, exit 6, nothing written; --unverified exports it, and says so."""
     from coplan.pipeline import solve
-    from coplan.problem.model import default_problem_path
+    from coplan.problem.load import default_problem_path
 
     run_dir, heur = tmp_path / "run", tmp_path / "heur"
     solve(default_problem_path(), out_dir=run_dir, planner="coordinated")  # (plan.json records its problem file)
@@ -424,7 +424,7 @@ def test_an_export_larger_than_verify_reads_says_so(single_plan, tmp_path, monke
     """(A 270 MB export at 1 kHz was written in silence; coplan verify then refused it as over
     its 64 MiB.) The cap is lowered here to the size of a small export."""
     import coplan.plan
-    from coplan.problem.model import default_problem_path
+    from coplan.problem.load import default_problem_path
 
     plan_path = tmp_path / "plan.json"
     plan_path.write_text(json.dumps(single_plan.to_dict()))
@@ -444,7 +444,7 @@ def test_verify_holds_an_exports_velocities_and_accelerations_to_its_positions(t
     import csv
 
     from coplan.pipeline import solve
-    from coplan.problem.model import default_problem_path
+    from coplan.problem.load import default_problem_path
 
     problem = default_problem_path().parent / f"{name}.yaml"
     solve(problem, planner="coordinated", out_dir=tmp_path / "run")  # (with its plan.npz: the export at full precision)
@@ -470,7 +470,7 @@ def test_a_plan_from_a_pipe_is_exported_as_verify_reads_it(tmp_path, name, fifo)
     """(Export read the plan twice -- once to export, once to verify -- and a pipe was empty the
     second time: "found an empty file", exit 3, while coplan verify read the same pipe.)"""
     from coplan.pipeline import solve
-    from coplan.problem.model import default_problem_path
+    from coplan.problem.load import default_problem_path
 
     solve(default_problem_path(), planner="coordinated", out_dir=tmp_path / "run")
     pipe = fifo((tmp_path / "run" / name).read_bytes())
@@ -486,7 +486,7 @@ def test_an_export_of_a_plan_csv_carries_the_inferred_events_and_an_arm_named_ev
     import csv
 
     from coplan.pipeline import solve
-    from coplan.problem.model import default_problem_path
+    from coplan.problem.load import default_problem_path
 
     problem = default_problem_path().parent / "crossing_paths.yaml"
     solve(problem, planner="coordinated", out_dir=tmp_path / "run")

@@ -262,7 +262,7 @@ def test_an_edited_copy_of_a_shipped_problem_here_is_named_when_the_shipped_one_
     """(A newcomer edited the clone's problems/greenhouse_row.yaml, ran ``coplan check``, and
     the installed copy was read without a word.) The command says which file it reads and how
     to use the edited one; an unedited copy says nothing."""
-    from coplan.problem.model import default_problem_path
+    from coplan.problem.load import default_problem_path
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "problems").mkdir()

@@ -18,7 +18,8 @@ from coplan.planners.heuristic import plan_heuristic
 from coplan.plan import MAX_PLAN_BYTES
 from coplan.plausible import (BOUNDS, BYTES_PER_CARRIAGE_SAMPLE, BYTES_PER_SAMPLE, MAX_PLAN_SECONDS, max_plan_seconds, move_times,
                               plan_duration_bound)
-from coplan.problem.model import ProblemError, default_problem_path, load_problem, parse_problem
+from coplan.problem.model import ProblemError
+from coplan.problem.load import default_problem_path, load_problem, parse_problem
 from coplan.kinematics import cubic_min_time, scurve_time
 
 PROBLEMS = default_problem_path().parent

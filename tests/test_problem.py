@@ -16,7 +16,9 @@ import numpy as np
 import pytest
 
 from coplan.errors import ProblemError
-from coplan.problem.model import MAX_FILE_BYTES, Problem, default_problem_path, load_problem, parse_problem, shipped_problems
+from coplan.problem.model import Problem
+from coplan.problem.load import default_problem_path, load_problem, parse_problem, shipped_problems
+from coplan.problem.yamlsafe import MAX_FILE_BYTES
 
 GREENHOUSE = default_problem_path()
 BASE = GREENHOUSE.read_text(encoding="utf-8")

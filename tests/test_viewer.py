@@ -531,7 +531,7 @@ def test_notebook_view_of_a_row_plan_file_finds_its_problem(tmp_path):
     CLI found the row from the file the plan records, or the shipped rows.)"""
     from coplan.generate import gantry_row, to_yaml
     from coplan.plan import load_plan
-    from coplan.problem.model import shipped_rows
+    from coplan.problem.load import shipped_rows
 
     f = tmp_path / "short.yaml"
     f.write_text(to_yaml(gantry_row(length=6.0, density=2.0, seed=1, name="short")))

@@ -31,8 +31,8 @@ _LAZY = {
     "CoplanError": "errors", "InputError": "errors", "PlanFileError": "errors", "ProblemError": "errors",
     "Plan": "plan", "load_plan": "plan",
     "SolveResult": "pipeline", "solve": "pipeline",
-    "Arm": "problem.model", "Fruit": "problem.model", "Problem": "problem.model", "Task": "problem.model", "default_problem_path": "problem.model",
-    "load_problem": "problem.model", "parse_problem": "problem.model", "shipped_problems": "problem.model",
+    "Arm": "problem.model", "Fruit": "problem.model", "Problem": "problem.model", "Task": "problem.model", "default_problem_path": "problem.load",
+    "load_problem": "problem.load", "parse_problem": "problem.load", "shipped_problems": "problem.load",
     "view": "viz.viewer",
 }
 

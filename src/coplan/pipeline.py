@@ -17,7 +17,8 @@ from .kinds import ExitCode, GantryMode, StopRule
 from .output import RunFolder, check_folder, signals_deferred
 from .planners.heuristic import plan_heuristic
 from .plan import Plan, PlannerKind, PlanStatus, finalize_plan
-from .problem.model import Problem, load_problem, parse_problem
+from .problem.model import Problem
+from .problem.load import file_record, load_problem, parse_problem
 
 __all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
 
@@ -220,7 +221,7 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
         if a in plan.metrics.get("per_arm", {}):
             plan.metrics["per_arm"][a]["idle_fraction"] = float(sum(causes.values())) if span > 0 else None
     plan.metrics["lower_bound"] = bounds.any_plan
-    plan.problem_file = prob.file_record()
+    plan.problem_file = file_record(prob)
     timings = dict(res.timings) | {"bounds": bounds.seconds}
     plan.solver["timings"] = dict(timings)
     files, previous = _write(out_dir, plan, res.verification) if out_dir is not None else ({}, None)
@@ -345,7 +346,7 @@ def solve(
     from .allocate.screen import screened
 
     scr = screened(prob)
-    record = prob.file_record()  # (it reads the file back: once)
+    record = file_record(prob)  # (it reads the file back: once)
     for p in (plan, baseline):  # the problem file they come from: plot, animate and view find it again
         if p is not None:
             p.problem_file = record

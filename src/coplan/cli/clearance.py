@@ -19,7 +19,7 @@ def clearance_sweep(source: Path, planner, extra, out: Path, figures: bool, time
                     out_console, err_console) -> ExitCode:
     """``coplan compare PROBLEM --clearance-sweep``: its inputs checked, then the sweep run."""
     if not source.exists():  # nothing there: bad input (3), as `coplan compare` without the sweep says
-        from ..problem.model import load_problem
+        from ..problem.load import load_problem
 
         load_problem(source)
     if not source.is_file():

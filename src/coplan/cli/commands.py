@@ -133,7 +133,7 @@ def solve(
     """Solve a problem, verify the plan and write plan.json (+ CSV, NPZ, verification.json)."""
     from ..pipeline import solve as run
 
-    from ..problem.model import load_problem
+    from ..problem.load import load_problem
 
     _check_time_limit(time_limit)
     n_workers = _check_workers(workers)
@@ -249,7 +249,7 @@ def _animate_files(res, out: Path, say=None) -> dict:
 @guarded
 def list_problems():
     """List the problem files shipped with coplan."""
-    from ..problem.model import load_problem, shipped_problems, shipped_rows
+    from ..problem.load import load_problem, shipped_problems, shipped_rows
 
     for path in shipped_problems() + shipped_rows():
         p = load_problem(path)
@@ -271,7 +271,7 @@ def check(
     """  # (one line per paragraph: the help keeps a docstring's line breaks)
     from ..allocate.allocation import bound_details
     from ..planners.heuristic import plan_heuristic
-    from ..problem.model import load_problem
+    from ..problem.load import load_problem
     from ..allocate.screen import screened
     from ..verify.verifier import verify
 
@@ -354,7 +354,7 @@ def verify_cmd(
     Exit codes: 0 passed and every reachable fruit harvested; 5 passed but fruit left; 4 passed but the problem has no reachable fruit (as solve); 6 violations found; 3 bad problem or plan file.
     """  # (one line per paragraph: the help keeps a docstring's line breaks)
     from ..plan import load_plan
-    from ..problem.model import load_problem
+    from ..problem.load import load_problem
     from ..verify.verifier import verify as run_verify
 
     if out is not None and (out.resolve() == plan.resolve() or (out.is_dir() and (out / "verification.json").resolve() == plan.resolve())):
@@ -453,7 +453,7 @@ def compare_cmd(
     if extra:
         _fail(ExitCode.USAGE, "--extra: only with --clearance-sweep")
     if source.is_file():
-        from ..problem.model import load_problem
+        from ..problem.load import load_problem
 
         prob = load_problem(source)
         if prob.gantry is not None:  # a row: its stop rules side by side

@@ -152,7 +152,7 @@ def resolve_problem(problem, note=lambda message: None):
     """The problem file an argument names: the shipped default when none is given; a bare name
     (``dense_overlap``): ``dense_overlap.yaml`` here, else a shipped problem's (``note`` is told
     which file that is; ``dense_overlap.yaml`` too when no such file is here); else the path as given."""
-    from ..problem.model import default_problem_path, resolve_name
+    from ..problem.load import default_problem_path, resolve_name
 
     if problem is None:
         path, taken_as = default_problem_path(), "shipped"
@@ -170,7 +170,7 @@ def resolve_problem(problem, note=lambda message: None):
 def _edited_copy(shipped: Path) -> Path | None:
     """``problems/<name>`` in the working folder (a clone's copy of a shipped problem) where it
     is another file than ``shipped`` and its text differs; else None."""
-    from ..problem.model import default_problem_path
+    from ..problem.load import default_problem_path
 
     try:  # (a shipped row is problems/rows/<name>: the same path under ./problems)
         here = Path("problems") / shipped.resolve().relative_to(default_problem_path().parent.resolve())

@@ -48,7 +48,7 @@ def plan_with_problem(plan_path: Path, problem: Optional[Path]):
     (``problem_file``: its path, and its digest, so a file changed since is not taken for it);
     else the shipped problem of the plan's name."""
     from ..plan import load_plan
-    from ..problem.model import load_problem, shipped_problems, shipped_rows
+    from ..problem.load import load_problem, shipped_problems, shipped_rows
 
     plan = load_plan(plan_path)
     record = plan.problem_file
@@ -151,7 +151,7 @@ def plot_cmd(
     failures.check_out_file(target)  # (before any work)
 
     if kind == PlotKind.WORKSPACE and plan.suffix.lower() in (".yaml", ".yml"):
-        from ..problem.model import load_problem
+        from ..problem.load import load_problem
 
         prob, pl = load_problem(_resolve_problem(plan)), None
     else:

@@ -49,7 +49,7 @@ def feed_cmd(
                                                   help="The gripper camera measures when the tip is this close, m.")] = 0.1,
 ):
     """Generate a seeded vision feed for a problem: late fruit, noise, false and duplicate detections."""
-    from ..problem.model import load_problem
+    from ..problem.load import load_problem
     from ..live.feed import feed_yaml, make_feed
     from ..output import atomic_text
 
@@ -123,7 +123,7 @@ def run_cmd(
     """Simulate a cell or a row live: re-plan as detections arrive, verify what was executed, compare with the omniscient plan."""
     from ..output import RunFolder, signals_deferred
     from ..plan import jsonable
-    from ..problem.model import load_problem
+    from ..problem.load import file_record, load_problem
     from ..live.cell import LiveOptions
     from ..live.feed import load_feed
     from ..live.sim import simulate
@@ -162,7 +162,7 @@ def run_cmd(
     opts = LiveOptions(horizon=horizon, budget=None) if all_candidates else LiveOptions(horizon=horizon)
     with ProgressDisplay(_err, quiet=as_json) as bars, _nothing_written(out):
         result = simulate(prob, fd, opts, seed=seed, progress=bars)
-    result.plan.problem_file = prob.file_record()
+    result.plan.problem_file = file_record(prob)
     import shutil
     import tempfile
 
@@ -229,6 +229,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
     from ..output import RunFolder, signals_deferred
     from ..pipeline import status_exit_code
     from ..plan import jsonable
+    from ..problem.load import file_record
     from ..row.live import LiveRowOptions, run_live_row
 
     if feed is not None:
@@ -265,7 +266,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
            | {"faults": faults.__dict__} | ({"speed": None} if mode == GantryMode.STOP_AND_GO else {}),  # (no cruising speed)
            "detections": [{"id": d.id, "position": list(d.position), "t": d.t, "fruit": d.truth} for d in res.detections],
            "outcome": res.outcome, "metrics": res.metrics}
-    res.plan.problem_file = prob.file_record()  # (coplan view / plot / animate find the row from the plan)
+    res.plan.problem_file = file_record(prob)  # (coplan view / plot / animate find the row from the plan)
     folder = RunFolder(out)
     with signals_deferred(), folder as stage:  # (whole: a Ctrl-C here is answered once they are written)
         res.plan.save(stage)

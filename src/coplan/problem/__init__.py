@@ -1,7 +1,8 @@
 """Stage 1, the problem: a YAML file read safely, checked completely, as a frozen :class:`Problem`.
 
-- :mod:`.model`: the ``Problem`` (``Arm``, ``Fruit``, ``Task``), :func:`load_problem`,
-  :func:`parse_problem`, the shipped problems
+- :mod:`.model`: the immutable ``Problem`` (``Arm``, ``Fruit``, ``Task``), checked however it is made
+- :mod:`.load`: :func:`load_problem` (a file), :func:`parse_problem` (text), ``file_record`` (the
+  file a problem came from, for a plan to name it), the shipped problems
 - :mod:`.yamlsafe`: safe YAML (no tags, anchors or aliases; size caps; key path -> line)
 - :mod:`.plausible`: the documented plausible range of every field (``BOUNDS``) and the
   longest plan coplan writes
@@ -11,17 +12,8 @@
 - :mod:`.spec`: the raw schema of a problem file (pydantic validators and models)
 """
 
-from .model import (
-    Arm,
-    Fruit,
-    Problem,
-    Task,
-    default_problem_path,
-    load_problem,
-    parse_problem,
-    shipped_problems,
-    shipped_rows,
-)
+from .model import Arm, Fruit, Problem, Task
+from .load import default_problem_path, load_problem, parse_problem, shipped_problems, shipped_rows
 
 __all__ = ["Arm", "Fruit", "Problem", "Task", "default_problem_path", "load_problem", "parse_problem", "shipped_problems",
            "shipped_rows"]

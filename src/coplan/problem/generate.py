@@ -353,7 +353,7 @@ def gantry_row(
 
 def _valid_draw(draw, what: str, seed: int, n_arms, n_fruits, max_tries: int) -> dict[str, Any]:
     from ..errors import ProblemError
-    from .model import parse_problem
+    from .load import parse_problem
 
     _whole(what, seed=seed, n_arms=n_arms, n_fruits=n_fruits, max_tries=max_tries)
 

@@ -32,7 +32,7 @@ from ..kinds import PlanStatus
 from ..output import atomic_text, check_folder
 from ..plan import jsonable
 from ..problem.generate import to_yaml
-from ..problem.model import load_problem, parse_problem
+from ..problem.load import load_problem, parse_problem
 from ..problem.yamlsafe import read_yaml
 from ..progress import Tick, nested, speaker, ticker
 

@@ -30,7 +30,8 @@ from typing import Any
 from ..allocate.allocation import AllocationMethod, lower_bound
 from ..errors import Issue, ProblemError, plural, printable
 from ..plan import Plan, PlannerKind
-from ..problem.model import Problem, load_problem
+from ..problem.model import Problem
+from ..problem.load import load_problem
 from ..output import atomic_text, check_folder, is_run_folder
 from ..progress import Tick, nested, speaker, ticker
 from .aggregate import aggregate

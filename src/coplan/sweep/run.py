@@ -255,7 +255,7 @@ def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = 
     from ..errors import CoplanError, InputError
     from ..planners.optimal.options import parse_options
     from ..pipeline import solve
-    from ..problem.model import parse_problem
+    from ..problem.load import parse_problem
 
     row = _base_row(item)
     if item.error is not None:
@@ -554,7 +554,7 @@ def run_sweep(
                 if plan is not None:  # coplan verify plans/<key>.yaml plans/<key>.json checks it again
                     (out / "plans" / f"{it.key}.yaml").write_text(it.problem_text or "", encoding="utf-8")
                     # (which problem it solved, as a plan coplan solve writes says: copied away, it still does)
-                    from ..problem.model import text_digest
+                    from ..problem.load import text_digest
 
                     plan["problem_file"] = {"path": str((out / "plans" / f"{it.key}.yaml").resolve()),
                                             "sha256": text_digest(it.problem_text or "")}

@@ -73,7 +73,8 @@ from .row import check_carriage, check_row_inputs, plan_source
 from ..kinds import PlannerKind
 from ..plan import DEFAULT_RATE, EventKind, Plan, load_plan, time_grid_issues
 from . import verdict as _verdict
-from ..problem.model import Problem, load_problem
+from ..problem.model import Problem
+from ..problem.load import load_problem
 from ..problem.plausible import MAX_PLAN_ANGLE, MAX_PLAN_COORD
 from .verdict import (
     ContactInterval,

@@ -89,7 +89,7 @@ def problem_of(plan: Plan) -> Problem:
     (unchanged since: its digest), else -- that file gone -- the shipped problem or row the plan
     names. Raises :class:`PlanFileError` when there is none, or when the recorded file has
     changed since (not the shipped problem of the same name instead: it may be another)."""
-    from ..problem.model import load_problem, shipped_problems, shipped_rows
+    from ..problem.load import load_problem, shipped_problems, shipped_rows
 
     record = plan.problem_file
     if record is not None and Path(record["path"]).is_file():
@@ -512,7 +512,7 @@ def view(plan, problem: Problem | str | Path | None = None, compare=None, *, hei
     or a path to a ``plan.json``; ``problem`` defaults to the result's own problem, else the
     problem file the plan records, else the shipped problem or row it names (:func:`problem_of`).
     """
-    from ..problem.model import load_problem
+    from ..problem.load import load_problem
 
     pl, prob, ver = _as_plan(plan, "plan")
     if isinstance(problem, (str, Path)):
