@@ -180,6 +180,24 @@ def test_a_closed_pipe_on_both_streams_still_writes_the_plan(tmp_path, problems_
     assert (out / "plan.json").exists() and (out / "verification.json").exists()
 
 
+def test_a_stream_closed_before_coplan_starts_is_no_error(tmp_path, problems_dir):
+    """``coplan --version >&-``: Python starts with ``sys.stdout`` None (it died in a traceback,
+    exit 120); the command's own exit code, its files written, either stream closed."""
+    import os
+
+    def closed(fd: int, args: list[str]) -> subprocess.CompletedProcess:
+        keep = subprocess.PIPE
+        return subprocess.run(coplan_cmd() + args, stdout=None if fd == 1 else keep, stderr=None if fd == 2 else keep,
+                              text=True, timeout=300, preexec_fn=lambda: os.close(fd))
+
+    p = closed(1, ["--version"])
+    assert p.returncode == 0 and p.stderr == ""
+    p = closed(1, ["solve", str(problems_dir / "single_arm.yaml"), "--planner", "coordinated", "--out", str(tmp_path / "o")])
+    assert p.returncode == 0 and "Traceback" not in p.stderr and (tmp_path / "o" / "plan.json").exists()
+    p = closed(2, ["solve", str(tmp_path / "no_such.yaml")])  # an error with its message's stream closed: its exit code
+    assert p.returncode == ExitCode.BAD_INPUT and "Traceback" not in p.stdout
+
+
 def test_verify_and_view_refuse_an_out_file_whose_folder_is_a_file_before_the_work(tmp_path):
     """``--out x/v.json`` where ``x`` is a file: said up front, with the path (it was found only
     after the work, as a bare "File exists")."""

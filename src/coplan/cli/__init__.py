@@ -17,9 +17,17 @@ def main() -> None:
     """The console entry point: the commands load here, where a Ctrl-C or SIGTERM while they do
     exits 130 or 143 quietly (it printed Python's traceback of the import, and the process died
     by the signal), then :func:`coplan.cli.commands.main` runs."""
+    import os
     import signal
     import sys
 
+    # a stream closed before coplan started (``coplan ... >&-``: Python makes it None) writes to the
+    # null device, as one whose reader has gone does (console.PipeSafeStream): the command does its
+    # work, writes its files and exits with its own code (it died in a traceback, exit 120)
+    if sys.stdout is None:
+        sys.stdout = open(os.devnull, "w", encoding="utf-8")
+    if sys.stderr is None:
+        sys.stderr = open(os.devnull, "w", encoding="utf-8")
     if hasattr(signal, "SIGTERM"):
         signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(143))  # (until the console's own handler)
     # a character the stream cannot encode is escaped, not an error: on Windows a redirected stdout
