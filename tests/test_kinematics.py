@@ -448,3 +448,34 @@ def test_ik_one_gives_the_bits_of_ik(limits) -> None:
             one = np.array(kin.ik_one(pts[k, 0], pts[k, 1], links, base, limits, b))
             assert np.isfinite(one).all() == valid[k, b]
             assert np.array_equal(one, q[k, b], equal_nan=True), (pts[k], b, one, q[k, b])
+
+
+def test_poses_of_the_wrong_shape_are_refused_with_what_was_expected_and_found() -> None:
+    """Poses in columns ((2, T): the easiest slip with trajectory data) gave T wrong answers
+    without a word, a (T, 3) array used its first two columns; lists and tuples are poses too."""
+    links = (1.0, 0.8)
+    q = np.array([[0.1, 0.4], [0.7, -0.3], [1.2, 0.9]])
+    for fn in (kin.fk, kin.jacobian, kin.manipulability, kin.fk_points):
+        with pytest.raises(ValueError, match=r"expected shape \(\.\.\., 2\).*found shape \(2, 3\).*\.T gives them in rows"):
+            fn(q.T, links)
+        with pytest.raises(ValueError, match=r"found shape \(3, 3\)"):
+            fn(np.c_[q, q[:, :1]], links)
+        with pytest.raises(ValueError, match=r"found shape \(\)"):
+            fn(0.3, links)
+    assert np.array_equal(kin.fk([0.1, 0.4], links)[1], kin.fk(q[0], links)[1])  # (a list: TypeError from inside)
+    assert np.array_equal(kin.jacobian([[0.1, 0.4]], links), kin.jacobian(q[:1], links))
+    with pytest.raises(ValueError, match=r"links: expected \(l1, l2\) in m, two numbers, found \(1\.0,\)"):
+        kin.fk(q, (1.0,))
+    with pytest.raises(ValueError, match=r"base: expected \(x, y\) in m, two numbers"):
+        kin.fk(q, links, base=(1.0,))
+    with pytest.raises(ValueError, match=r"ik: target: expected shape \(\.\.\., 2\).*found shape \(5, 3\)"):
+        kin.ik(np.zeros((5, 3)), links)
+    with pytest.raises(ValueError, match=r"in_workspace: target"):
+        kin.in_workspace(np.zeros((5, 3)), links)
+    with pytest.raises(ValueError, match=r"dls_velocity: v_desired: expected shape \(\.\.\., 2\).*found shape \(3,\)"):
+        kin.dls_velocity(np.eye(2), np.zeros(3))
+    with pytest.raises(ValueError, match=r"J of shape \(\.\.\., 2, 2\) and v_desired \(\.\.\., 2\).*found J \(3, 2\) and v_desired \(2,\)"):
+        kin.dls_velocity(np.zeros((3, 2)), np.zeros(2))
+    for bad in (ca.SX.sym("q", 3, 1), ca.SX.sym("q", 2, 3), ca.MX.sym("q", 1, 1)):
+        with pytest.raises(ValueError, match=r"fk: q as CasADi symbols: expected one pose as a \(2, 1\) column or T poses as a \(T, 2\) matrix"):
+            kin.fk(bad, links)

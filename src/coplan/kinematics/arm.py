@@ -46,6 +46,35 @@ def _is_casadi(x: Any) -> bool:
     return mod.startswith("casadi")
 
 
+def _poses(q: Any, fn: str, name: str = "q") -> Any:
+    """``q`` checked: NumPy (any array-like, as floats) with its last axis of 2, or CasADi as
+    one (2, 1) column or a (T, 2) matrix. A ValueError says what was expected and what was found
+    (a (2, T) array -- poses in columns -- gave T wrong answers without a word)."""
+    if _is_casadi(q):
+        rows, cols = q.shape
+        if not ((cols == 1 and rows == 2) or cols == 2):
+            raise ValueError(f"{fn}: {name} as CasADi symbols: expected one pose as a (2, 1) column or T poses as a "
+                             f"(T, 2) matrix, found shape {q.shape}")
+        return q
+    try:
+        a = np.asarray(q, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{fn}: {name}: expected numbers of shape (..., 2), found {type(q).__name__} {q!r:.80}") from None
+    if a.ndim == 0 or a.shape[-1] != 2:
+        hint = f" (poses in columns? {name}.T gives them in rows)" if a.ndim == 2 and a.shape[0] == 2 else ""
+        raise ValueError(f"{fn}: {name}: expected shape (..., 2), the two values on the last axis, found shape {a.shape}{hint}")
+    return a
+
+
+def _pair(v: Any, fn: str, name: str, what: str) -> tuple[float, float]:
+    """Two finite numbers (``links``, ``base``), or a ValueError saying what was found."""
+    try:
+        a, b = (float(x) for x in v)
+    except (TypeError, ValueError):
+        raise ValueError(f"{fn}: {name}: expected {what}, two numbers, found {v!r:.80}") from None
+    return a, b
+
+
 def _ops(x: Any):
     """Return (sin, cos, column-getter, hstack) for NumPy or CasADi inputs.
 
@@ -80,11 +109,13 @@ def fk(q: Any, links, base=(0.0, 0.0)):
     -------
     elbow, tip : arrays (..., 2) (CasADi: (2, 1) or (T, 2))
     """
+    q = _poses(q, "fk")
     sin, cos, col, stack = _ops(q)
-    l1, l2 = float(links[0]), float(links[1])
+    l1, l2 = _pair(links, "fk", "links", "(l1, l2) in m")
+    bx, by = _pair(base, "fk", "base", "(x, y) in m")
     t1, t2 = col(q, 0), col(q, 1)
-    ex = base[0] + l1 * cos(t1)
-    ey = base[1] + l1 * sin(t1)
+    ex = bx + l1 * cos(t1)
+    ey = by + l1 * sin(t1)
     tx = ex + l2 * cos(t1 + t2)
     ty = ey + l2 * sin(t1 + t2)
     return stack(ex, ey), stack(tx, ty)
@@ -92,7 +123,9 @@ def fk(q: Any, links, base=(0.0, 0.0)):
 
 def fk_points(q: np.ndarray, links, base=(0.0, 0.0)) -> np.ndarray:
     """Base, elbow and tip as one array of shape ``(..., 3, 2)`` (NumPy only)."""
-    q = np.asarray(q, dtype=float)
+    if _is_casadi(q):
+        raise ValueError("fk_points: expected a NumPy array of shape (..., 2) (fk takes CasADi symbols), found CasADi symbols")
+    q = _poses(q, "fk_points")
     elbow, tip = fk(q, links, base)
     b = np.broadcast_to(np.asarray(base, dtype=float), elbow.shape)
     return np.stack([b, elbow, tip], axis=-2)
@@ -156,9 +189,9 @@ def ik(target, links, base=(0.0, 0.0), joint_limits=None, tol: float = 1e-9):
         NaN where invalid.
     valid : bool array (..., 2)
     """
-    target = np.asarray(target, dtype=float)
-    l1, l2 = float(links[0]), float(links[1])
-    p = target - np.asarray(base, dtype=float)
+    target = _poses(target, "ik", "target")
+    l1, l2 = _pair(links, "ik", "links", "(l1, l2) in m")
+    p = target - np.asarray(_pair(base, "ik", "base", "(x, y) in m"))
     px, py = p[..., 0], p[..., 1]
     r2 = px * px + py * py
     r = np.sqrt(r2)
@@ -227,8 +260,9 @@ def jacobian(q: Any, links):
 
     NumPy: ``q`` (..., 2) -> (..., 2, 2). CasADi: ``q`` (2, 1) -> (2, 2).
     """
+    q = _poses(q, "jacobian")
     sin, cos, col, _ = _ops(q)
-    l1, l2 = float(links[0]), float(links[1])
+    l1, l2 = _pair(links, "jacobian", "links", "(l1, l2) in m")
     t1, t2 = col(q, 0), col(q, 1)
     s1, c1 = sin(t1), cos(t1)
     s12, c12 = sin(t1 + t2), cos(t1 + t2)
@@ -266,8 +300,9 @@ def jacobian_rate_entries(q0: float, q1: float, qd0: float, qd1: float, links) -
 
 def manipulability(q: Any, links):
     """Yoshikawa manipulability |det J| = l1 l2 |sin t2|; shape (...)."""
+    q = _poses(q, "manipulability")
     sin, _, col, _ = _ops(q)
-    l1, l2 = float(links[0]), float(links[1])
+    l1, l2 = _pair(links, "manipulability", "links", "(l1, l2) in m")
     s = sin(col(q, 1))
     if _is_casadi(q):
         import casadi as ca
@@ -284,9 +319,9 @@ def singularity_proximity(q, links) -> np.ndarray:
 
 def in_workspace(target, links, base=(0.0, 0.0), margin: float = 0.0) -> np.ndarray:
     """Whether targets (..., 2) lie inside the reachable annulus shrunk by ``margin``."""
-    p = np.asarray(target, dtype=float) - np.asarray(base, dtype=float)
+    p = _poses(target, "in_workspace", "target") - np.asarray(_pair(base, "in_workspace", "base", "(x, y) in m"))
     r = np.hypot(p[..., 0], p[..., 1])
-    l1, l2 = float(links[0]), float(links[1])
+    l1, l2 = _pair(links, "in_workspace", "links", "(l1, l2) in m")
     return (r <= l1 + l2 - margin) & (r >= abs(l1 - l2) + margin)
 
 
@@ -295,9 +330,9 @@ def project_to_workspace(target, links, base=(0.0, 0.0), margin: float = 0.05) -
 
     A target at the base itself is sent to the inner boundary along +x.
     """
-    target = np.asarray(target, dtype=float)
-    base = np.asarray(base, dtype=float)
-    l1, l2 = float(links[0]), float(links[1])
+    target = _poses(target, "project_to_workspace", "target")
+    base = np.asarray(_pair(base, "project_to_workspace", "base", "(x, y) in m"))
+    l1, l2 = _pair(links, "project_to_workspace", "links", "(l1, l2) in m")
     r_in, r_out = abs(l1 - l2) + margin, l1 + l2 - margin
     d = target - base
     r = np.hypot(d[..., 0], d[..., 1])
@@ -315,7 +350,10 @@ def dls_velocity(J: np.ndarray, v_desired: np.ndarray, threshold: float = 0.05, 
     Always finite, also at exactly singular poses.
     """
     J = np.asarray(J, dtype=float)
-    v = np.asarray(v_desired, dtype=float)
+    v = _poses(v_desired, "dls_velocity", "v_desired")
+    if J.ndim < 2 or J.shape[-2:] != (2, 2) or J.shape[:-2] != v.shape[:-1]:
+        raise ValueError(f"dls_velocity: expected J of shape (..., 2, 2) and v_desired (..., 2) over the same poses, "
+                         f"found J {J.shape} and v_desired {v.shape}")
     det = np.abs(np.linalg.det(J))
     lam = np.where(det < threshold, damping * (1.0 - det / threshold), 0.0)
     JJt = J @ np.swapaxes(J, -1, -2) + (lam**2)[..., None, None] * np.eye(2)
@@ -329,6 +367,6 @@ def max_point_speed(qd, links) -> np.ndarray:
 
     A point on link 1 moves at most l1 |qd1|; on link 2 at most l1 |qd1| + l2 |qd1 + qd2|.
     """
-    qd = np.asarray(qd, dtype=float)
-    l1, l2 = float(links[0]), float(links[1])
+    qd = _poses(qd, "max_point_speed", "qd")
+    l1, l2 = _pair(links, "max_point_speed", "links", "(l1, l2) in m")
     return l1 * np.abs(qd[..., 0]) + l2 * np.abs(qd[..., 0] + qd[..., 1])
