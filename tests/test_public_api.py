@@ -135,3 +135,18 @@ def test_the_subpackages_the_docs_name_are_attributes_of_coplan():
             "assert {'sweep', 'report', 'row'} <= set(dir(coplan))\n")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
+
+
+def test_coplan_allocate_is_the_stage_function_whatever_was_imported_first():
+    """``coplan.allocate`` is in ``__all__`` as the allocation function; importing the package of
+    that name (a solve does) bound the name to the package: "'module' object is not callable"
+    after a solve, in a fresh process. The package is callable as its function now."""
+    import subprocess
+    import sys
+
+    code = ("import coplan\np = coplan.load_problem('crossing_paths')\n"
+            "coplan.solve(p, planner='heuristic')\n"
+            "a = coplan.allocate(p, 'makespan')\nassert type(a).__name__ == 'Allocation', a\n"
+            "assert coplan.allocate.allocate(p, 'makespan').assignment == a.assignment\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr

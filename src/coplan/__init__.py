@@ -27,7 +27,7 @@ from .kinds import AllocationMethod, EventKind, ExitCode, PlannerKind, PlanStatu
 
 # the rest is imported on first use (PEP 562), so `import coplan` and `coplan --help` stay quick
 _LAZY = {
-    "Allocation": "allocate.allocation", "allocate": "allocate.allocation",
+    "Allocation": "allocate.allocation",
     "CoplanError": "errors", "InputError": "errors", "PlanFileError": "errors", "ProblemError": "errors",
     "Plan": "plan", "load_plan": "plan",
     "SolveResult": "pipeline", "solve": "pipeline",
@@ -38,7 +38,8 @@ _LAZY = {
 
 
 # documented submodules, reachable as attributes before anything imported them (``coplan.generate.row_problem``)
-_SUBMODULES = ("generate", "optimal", "plausible", "report", "row", "sweep", "verify")
+# (``allocate`` is a package callable as its entry function: coplan.allocate(problem, "makespan"))
+_SUBMODULES = ("allocate", "generate", "optimal", "plausible", "report", "row", "sweep", "verify")
 
 
 def __getattr__(name: str):
