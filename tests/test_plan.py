@@ -150,6 +150,9 @@ def test_a_row_plan_replays_its_carriage_too(tmp_path: Path, saved: dict[str, Pa
             back.carriage(bad)
         with pytest.raises(ValueError, match="t: expected finite times in s, found"):
             back.sample(bad)
+    for bad in ("1.0", ["0.5"], None):  # (a string was read as its number)
+        with pytest.raises(ValueError, match=r"t: expected times in s \(numbers\), found"):
+            back.sample(bad)
 
 
 def test_loaded_events_are_usable(saved: dict[str, Path]) -> None:

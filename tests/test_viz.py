@@ -221,6 +221,10 @@ def test_joint_plot_has_four_quantities_two_joints_and_limits(greenhouse, hplan)
     assert legend_texts(one)[:1] == ["right"]
     with pytest.raises(ValueError):
         plot_joints(greenhouse, hplan, arms=["nobody"])
+    assert legend_texts(plot_joints(greenhouse, hplan, arms="right"))[:1] == ["right"]  # one name as a str
+    for typo in (["left", "lft"], "leftright"):  # (a typo was dropped in silence; a str matched by substring: both arms)
+        with pytest.raises(ValueError, match=r"plot_joints: arms: expected names of the plan's arms .*found \['(lft|leftright)'\]"):
+            plot_joints(greenhouse, hplan, arms=typo)
 
 
 def test_workspace_map_cell_and_single_arm(greenhouse):
@@ -233,6 +237,9 @@ def test_workspace_map_cell_and_single_arm(greenhouse):
     assert "manipulability" in fig.axes[1].get_ylabel()  # the colour bar
     one = plot_workspace(greenhouse, "center", resolution=80)
     assert "arm center" in one.axes[0].get_title() and "overlap (≥ 2 arms reach)" not in legend_texts(one)
+    for bad in (0, 1, 2.5, True, 10**6):  # (0: an IndexError from inside)
+        with pytest.raises(ValueError, match=r"resolution: expected a whole number of grid points per axis from 2 to 2000, found"):
+            plot_workspace(greenhouse, resolution=bad)
 
 
 def test_save_comparison_figures_writes_pngs(tmp_path, greenhouse, hplan):
@@ -282,6 +289,9 @@ def test_rendering_errors_are_clear(tmp_path, greenhouse, single_arm):
         animate_plan(greenhouse, plan_heuristic(single_arm), tmp_path / "x.gif")
     with pytest.raises(RenderError, match="speed"):
         animate_plan(single_arm, plan_heuristic(single_arm), tmp_path / "x.gif", speed=-1)
+    with pytest.raises(RenderError, match=r"expected an output file ending \.gif or \.mp4, found 'x\.png'"):
+        animate_plan(single_arm, plan_heuristic(single_arm), tmp_path / "x.png")  # (Pillow wrote an animated PNG)
+    assert not (tmp_path / "x.png").exists()
 
 
 def test_frame_shows_phases_counts_and_collisions(greenhouse, hplan, crowded):

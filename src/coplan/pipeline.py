@@ -40,7 +40,16 @@ def status_exit_code(status: PlanStatus) -> ExitCode:
 
 @dataclass
 class SolveResult:
-    """What :func:`solve` returns: the plan, its verification, the baseline, files written."""
+    """What :func:`solve` returns: the plan, its verification, the baseline, files written.
+
+    ``timings`` (wall seconds) by planner: heuristic ``allocation``, ``plan``, ``verify``;
+    coordinated ``plan`` (its one search: allocation candidates, each scheduled and coordinated)
+    and ``verify``; optimal its stages (``baseline``: the heuristic's plan beside it,
+    ``coordinated``, ``retime``, ``search``, ``refine``, ``polish``, ``widen``, those that ran);
+    a row ``reach``, ``stops_and_cells``, ``cells`` (summed over the stops: with workers more than
+    the wall time), ``assemble``, ``planning``, ``verify``, ``bounds``. Every solve: ``total``,
+    and ``write`` when it wrote files.
+    """
 
     problem: Problem
     plan: Plan

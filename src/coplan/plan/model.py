@@ -215,8 +215,12 @@ class Plan:
 
     def _clock(self, t) -> np.ndarray:
         """``t`` (s) as an array within the plan (before it: its start; after it: its end); a
-        time that is not a number is refused (ValueError), not answered with NaN."""
-        t = np.asarray(t, float)
+        time that is not a number is refused (ValueError), not answered with NaN (nor a string
+        read as one: ``sample("1.0")``)."""
+        raw = np.asarray(t)
+        if raw.dtype.kind not in "iuf":
+            raise ValueError(f"t: expected times in s (numbers), found {type(t).__name__} {t!r:.60}")
+        t = raw.astype(float)
         if not np.all(np.isfinite(t)):
             bad = t[~np.isfinite(t)].ravel()[0] if t.ndim else t
             raise ValueError(f"t: expected finite times in s, found {bad}")

@@ -494,7 +494,8 @@ def animate_plan(
 ) -> Path:
     """Render the plan to ``out_path`` and return the path actually written.
 
-    ``.gif`` (or any suffix other than ``.mp4``): an animated GIF through Pillow, ``fps``
+    ``.gif``: an animated GIF through Pillow (another suffix is a :class:`RenderError`, as
+    ``coplan animate``'s usage error: Pillow took ``.png`` as an animated PNG), ``fps``
     rounded so that the frame delay is whole centiseconds (10, 20, 25, 50 fps are exact).
     ``.mp4``: through ffmpeg (the system's, else the ``imageio-ffmpeg`` wheel's); when there is
     none, ``notify`` gets a clear message and a GIF is written next to it (``.gif`` suffix)
@@ -511,6 +512,8 @@ def animate_plan(
 
     say = notify or (lambda msg: warnings.warn(msg, RenderWarning, stacklevel=3))
     out = Path(out_path)
+    if out.suffix.lower() not in (".gif", ".mp4"):
+        raise RenderError(f"expected an output file ending .gif or .mp4, found {out.name!r}")
     if not (speed > 0 and math.isfinite(speed)):
         raise RenderError(f"expected a speed factor > 0, found {speed!r}")
     if not (0 < fps <= 60):

@@ -275,12 +275,19 @@ def plot_joints(problem: Problem, plan: Plan, *, arms: list[str] | None = None, 
     in its colour. Limits are dashed (black when all arms share them). Each chart prints
     every arm's peak as a multiple of its limit, in red when over (beyond the verifier's
     tolerance). The y axis stops at ``clip`` times the limit so a spike does not flatten the
-    rest of the chart.
+    rest of the chart. ``arms``: the arms to draw (names of the plan's arms; one as a str),
+    default every arm.
     """
     from matplotlib.lines import Line2D
 
     _as_plans(problem, plan, "plot_joints")
     colors = arm_colors(problem)
+    if arms is not None:  # (names were matched with ``in``: a typo was dropped in silence, a string matched by substring)
+        asked = [arms] if isinstance(arms, str) else list(arms)
+        unknown = [a for a in asked if a not in plan.q]
+        if unknown:
+            raise ValueError(f"plot_joints: arms: expected names of the plan's arms {list(plan.q)}, found {unknown}")
+        arms = asked
     names = [a.name for a in problem.arms if a.name in plan.q and (arms is None or a.name in arms)]
     if not names:
         raise ValueError(f"no arm to plot: plan arms {list(plan.q)}, asked for {arms}")
@@ -361,11 +368,18 @@ def _workspace_grid(problem: Problem, arms, resolution: int):
     return xs, ys, np.stack([X, Y], axis=-1)
 
 
+#: the finest workspace map (grid points per axis): 4 million points per arm
+MAX_RESOLUTION = 2000
+
+
 def workspace_maps(problem: Problem, arms=None, resolution: int = 300):
     """Grids for the workspace map: ``(xs, ys, manip (ny, nx) best |det J| over arms, NaN where
     unreachable, count (ny, nx) how many arms reach each point)``. Reach honours joint limits."""
     from ..kinematics import arm as kin
 
+    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) or not 2 <= resolution <= MAX_RESOLUTION:
+        raise ValueError(f"workspace map: resolution: expected a whole number of grid points per axis from 2 to "
+                         f"{MAX_RESOLUTION}, found {resolution!r}")
     arms = list(problem.arms) if arms is None else list(arms)
     xs, ys, P = _workspace_grid(problem, arms, resolution)
     best = np.full(P.shape[:2], np.nan)

@@ -349,7 +349,8 @@ def plan_coordinated(
     deadline = None if opts.time_limit is None else t0 + opts.time_limit
     best, tried, bound = find_coordinated(problem, AllocationMethod(allocation), opts, say, cache, deadline,
                                           on_feasible)  # bound: LowerBound
-    timings = {"allocation": _time.perf_counter() - t0}
+    # (one search: allocation candidates, each scheduled and coordinated -- it was called "allocation")
+    timings = {"plan": _time.perf_counter() - t0}
     n_reach = len(problem.reachable_ids())
     from ...allocate.screen import screened
 
