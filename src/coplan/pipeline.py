@@ -42,6 +42,10 @@ def status_exit_code(status: PlanStatus) -> ExitCode:
 class SolveResult:
     """What :func:`solve` returns: the plan, its verification, the baseline, files written.
 
+    ``verification`` is the verifier's :class:`~coplan.verify.verifier.Verification` (every
+    violation, the certified clearances); ``plan.verification`` is its summary as plan.json
+    holds it (a dict).
+
     ``timings`` (wall seconds) by planner: heuristic ``allocation``, ``plan``, ``verify``;
     coordinated ``plan`` (its one search: allocation candidates, each scheduled and coordinated)
     and ``verify``; optimal its stages (``baseline``: the heuristic's plan beside it,

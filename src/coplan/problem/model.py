@@ -136,7 +136,9 @@ class Task:
 
 @dataclass(frozen=True)
 class Problem:
-    """A validated, immutable harvesting problem."""
+    """A validated, immutable harvesting problem. A variant is a new one:
+    ``dataclasses.replace(problem, task=dataclasses.replace(problem.task, clearance=0.1))``,
+    checked as it is made (:class:`~coplan.errors.ProblemError`)."""
 
     name: str
     arms: tuple[Arm, ...]
