@@ -42,7 +42,7 @@ def status_exit_code(status: PlanStatus) -> ExitCode:
 class SolveResult:
     """What :func:`solve` returns: the plan, its verification, the baseline, files written.
 
-    ``verification`` is the verifier's :class:`~coplan.verify.verifier.Verification` (every
+    ``verification`` is the verifier's :class:`~coplan.verify.verdict.Verification` (every
     violation, the certified clearances); ``plan.verification`` is its summary as plan.json
     holds it (a dict).
 
