@@ -901,3 +901,34 @@ def test_a_live_row_calls_a_fruit_out_of_every_reach_not_harvested_not_missed(tm
     said = " ".join(r.output.split())
     assert "not harvested, 1 fruit: r7: out of every arm's reach from every carriage position" in said, said
     assert "missed 1 fruit" not in said
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_a_signal_while_a_runs_files_are_written_ends_it_with_its_verdict_not_interrupted(tmp_path, sig):
+    """A Ctrl-C or SIGTERM landing while a live run's (or a solve's) files were written: they were
+    written whole, the previous run moved aside -- and the command said "interrupted", a live run
+    "nothing of this run is kept", exit 130/143, no verdict. It now ends as it would have, with
+    its summary and verdict, and says the signal came while writing."""
+    import subprocess
+    import sys
+
+    row = tmp_path / "r.yaml"
+    row.write_text(to_yaml(gantry_row(length=6.0, density=1.0, seed=1)))
+    (tmp_path / "o").mkdir()
+    (tmp_path / "o" / "earlier.txt").write_text("kept")
+    code = (  # the signal sent to itself as the staged run is moved into place
+        "import os, signal, sys\nimport coplan.output as o\ncommit = o.RunFolder._commit\n"
+        f"def late(self):\n    os.kill(os.getpid(), signal.{sig})\n    commit(self)\n"
+        "o.RunFolder._commit = late\nfrom coplan.cli import main\nsys.argv = ['coplan'] + sys.argv[1:]\nmain()\n")
+    for args, files in ((["run", str(row), "--gantry", "stop-and-go", "--out", str(tmp_path / "o")], {"run.json", "plan.json"}),
+                        (["solve", str(row), "--planner", "coordinated", "--out", str(tmp_path / "s")], {"plan.json"})):
+        p = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, timeout=300)
+        said = " ".join((p.stdout + p.stderr).split())
+        assert p.returncode == 0, said  # (the verdict: this row is harvested whole)
+        what = "Ctrl-C" if sig == "SIGINT" else "SIGTERM"
+        assert f"({what} came while the run's files were written: they are written whole" in said, said
+        assert "interrupted" not in said and "nothing of this run is kept" not in said and "terminated" not in said, said
+        assert "executed plan success" in said or "success" in said
+        out = tmp_path / ("o" if args[0] == "run" else "s")
+        assert files <= {x.name for x in out.iterdir()}
+    assert (tmp_path / "o" / "earlier.txt").read_text() == "kept"

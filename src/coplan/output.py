@@ -177,6 +177,17 @@ def atomic_file(path: Path, write) -> None:
         raise
 
 
+#: Set by the ``coplan`` command (its console runner). Then a Ctrl-C or SIGTERM held while a
+#: block of :func:`signals_deferred` wrote a run's files is not answered once they are whole:
+#: the command goes on to say what it wrote and exits with its verdict, as after its files (it
+#: said "interrupted" of a run written whole -- a live run "nothing of this run is kept" -- with
+#: the previous run moved aside, and no verdict); the signals are kept in
+#: :data:`HELD_WHILE_WRITING` for the command to say so. A block that raised answers them as
+#: ever (nothing was written).
+ABSORB_AFTER_WRITING: list[bool] = []
+HELD_WHILE_WRITING: list[int] = []
+
+
 @contextmanager
 def signals_deferred():
     """Ctrl-C and SIGTERM held while the block runs, then answered as they would have been
@@ -192,11 +203,17 @@ def signals_deferred():
     got: list[int] = []
     kinds = [signal.SIGINT] + ([signal.SIGTERM] if hasattr(signal, "SIGTERM") else [])
     old = {k: signal.signal(k, lambda signum, frame: got.append(signum)) for k in kinds}
+    written = False
     try:
         yield
+        written = True
     finally:
+        absorb = written and got and ABSORB_AFTER_WRITING
         for k, h in old.items():
-            signal.signal(k, h)
+            signal.signal(k, h)  # (absorbed or not, a later one is answered as ever: a solve's animation may follow)
+    if absorb:
+        HELD_WHILE_WRITING.extend(dict.fromkeys(got))
+        return
     for k in dict.fromkeys(got):  # (once each, in order)
         h = old[k]
         if callable(h):
