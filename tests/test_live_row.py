@@ -932,3 +932,27 @@ def test_a_signal_while_a_runs_files_are_written_ends_it_with_its_verdict_not_in
         out = tmp_path / ("o" if args[0] == "run" else "s")
         assert files <= {x.name for x in out.iterdir()}
     assert (tmp_path / "o" / "earlier.txt").read_text() == "kept"
+
+
+def test_stop_and_go_measures_what_a_camera_outage_cost(row):
+    """(Stop and go, a 100 s outage logged only its time and length: nothing of what it cost --
+    here 75 s of row time, the machine at a stop waiting for what the camera could not see.)"""
+    calm = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=5))
+    res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=5, faults=RowFaults(camera_dark=100.0)))
+    assert res.verification.passed
+    cost = res.metrics["row_time"] - calm.metrics["row_time"]
+    held = res.metrics["faults"]["camera_dark"]["hold_seconds"]
+    assert cost > 30.0 and 0.8 * cost <= held <= cost + 1e-6  # (the rest: the arms' moves put off with the fruit)
+
+
+def test_a_live_row_that_harvests_nothing_names_no_last_place_nor_a_ratio(tmp_path):
+    """(--sigma 1, a metre of noise: nothing harvested, and the summary said "= 0.617 x the
+    offline plan's (the last fruit placed at 0.0 s, ...)", a speed-up of a run that did nothing.)"""
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=6.0, density=1.0, seed=1)))
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["run", str(path), "--gantry", "stop-and-go", "--sigma", "1",
+                                                       "-o", str(tmp_path / "o")])
+    m = json.loads((tmp_path / "o" / "run.json").read_text())["metrics"]
+    said = " ".join(r.output.split())
+    assert m["harvested"] == 0 and m["last_place"] is None and r.exit_code == 5, said
+    assert "0 fruit harvested" in said and "x the offline plan's" not in said and "last fruit placed" not in said

@@ -285,13 +285,14 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         share = ("nothing for the offline plan (full knowledge) to harvest" if m["of_offline"] is None else
                  f"{100 * m['of_offline']:.1f} % of the {m['offline_harvested']} the offline plan (full knowledge) harvests"
                  + (f", and {m['harvested_not_offline']} it does not" if m.get("harvested_not_offline") else ""))
-        ratio = "" if m["row_time_ratio"] is None else f" = {m['row_time_ratio']:.3f} x the offline plan's"
+        ratio = ("" if m["row_time_ratio"] is None or not m["harvested"]  # (nothing harvested: no speed-up to read)
+                 else f" = {m['row_time_ratio']:.3f} x the offline plan's")
         if m["row_time_ratio"] and m.get("harvested_not_offline") and m.get("offline_harvested") and m.get("offline_row_time"):
             # (4.5 x the offline plan's time read as a slow run where the offline plan left 73 % of the fruit)
             off_fph = 3600.0 * m["offline_harvested"] / m["offline_row_time"]
             ratio += (f", which harvests {m['harvested_not_offline']} fewer fruit: "
                       f"{3600.0 * m['harvested'] / m['row_time']:.0f} fruit per hour against its {off_fph:.0f}")
-        if m["row_time"] > m["last_place"] + 0.5:  # probes after the last fruit placed
+        if m["last_place"] is not None and m["row_time"] > m["last_place"] + 0.5:  # probes after the last fruit placed
             ratio += f" (the last fruit placed at {m['last_place']:.1f} s, then probes of false or repeated reports)"
         if m["plan_seconds"] > m["row_time"] + 60.0:  # an arm held long after the work (a late decision)
             ratio += f"; the executed plan lasts {m['plan_seconds']:.1f} s (the carriage's way to the rail's end, the arms' way home)"

@@ -71,7 +71,7 @@ from .continuous import MovingOptions, assemble_moving
 from .moving import plan_moving
 from .cruise import Cruise, pick_windows, ramp_time
 from .liverun import LiveRun
-from .livestops import last_stop, next_to_last, stop_share
+from .livestops import dark_hold, last_stop, next_to_last, stop_share
 from .reach import row_reach
 from .starthold import reports_start_hold
 from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
@@ -510,6 +510,8 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
     plan = assemble_moving(problem, booker, cruise)
     plan.planner = LIVE_PLANNER  # (the executed plan of a live run, as a live cell's)
     plan.metrics["lower_bound"] = row_bounds(problem).any_plan  # (the row's, for any motion: as coplan solve's)
+    if stops is not None and faults.dark is not None:  # what the outage cost (on the move: its hold, logged as it came)
+        faults.log["camera_dark"]["hold_seconds"] = dark_hold(plan, faults.dark)
     stop = faults.log.get("arm_stop") or {}
     if "arm" in stop:  # an arm's fault, declared where the verifier reads it (solver.live.faults: it ends out)
         plan.solver = {"live": {"faults": {"arm_stop": dict(stop)}}}
@@ -564,7 +566,8 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
         "mode": mode.value,
         "harvested": len(got), "offline_harvested": len(ref), "of_offline": len(got & ref) / len(ref) if ref else None,
         "harvested_not_offline": len(got - ref), "row_time": span, "offline_row_time": ref_span,
-        "last_place": float(plan.metrics.get("makespan") or 0.0), "plan_seconds": float(plan.time[-1]),
+        # (None when nothing was placed: a run that harvested nothing said "the last fruit placed at 0.0 s")
+        "last_place": float(plan.metrics.get("makespan") or 0.0) if got else None, "plan_seconds": float(plan.time[-1]),
         "row_time_ratio": span / ref_span if ref_span > 0 else None,
         # what a grower judges, as a planned row's metrics.row (the README says a live run gives its own)
         "fruit_per_hour": 3600.0 * len(got) / span if span > 0 else None,

@@ -13,7 +13,26 @@ from ..problem.model import Problem
 from .reach import RowReach
 from .stops import TripCosts, arm_overheads, arrival_time, price_stops, quantised_trips, round_trips
 
-__all__ = ["stop_share", "next_to_last", "last_stop"]
+__all__ = ["stop_share", "next_to_last", "last_stop", "dark_hold"]
+
+
+def dark_hold(plan, dark: tuple[float, float]) -> float:
+    """Seconds of the camera's outage (``dark``: its start and length) in which the whole machine
+    stood still -- the carriage at rest, every arm at rest and none dwelling at a pick or a place
+    -- waiting for what the camera could not see: the outage's cost stop and go
+    (``hold_seconds``, as on the move), from the executed ``plan``'s samples."""
+    t = plan.time
+    if t.size < 2:
+        return 0.0
+    dt = float(t[1] - t[0])
+    still = np.abs(np.diff(plan.gantry_x)) < 1e-9
+    for q in plan.q.values():
+        still &= np.all(np.abs(np.diff(q, axis=0)) < 1e-9, axis=1)
+    mid = 0.5 * (t[:-1] + t[1:])  # each step between two samples
+    for e in plan.events:
+        still &= ~((mid > e.t_start) & (mid < e.t_end))
+    d0, d1 = dark[0], dark[0] + dark[1]
+    return round(float(np.count_nonzero(still & (mid >= d0) & (mid < d1))) * dt, 3)
 
 
 def stop_share(problem: Problem, reach, windows: dict, todo: list[str], k: int, k_plan: int, stopped: set[int],
