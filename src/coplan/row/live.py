@@ -254,7 +254,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         back = reach_time + problem.task.pick_dwell + problem.task.place_dwell
         soon = []
         for f, ws in run.booker.windows.items():
-            if f in run.taken or run.seen[f] > t_c or held_for.get(f, 0) >= HOLDS_PER_REPORT * caution:
+            if f in run.taken or run.seen[f] > t_c:
                 continue
             # (a window at rest whose twin has a deadline: the deadline counts)
             wk = [w for w in ws if w.arm in working and w.hi >= t_c
@@ -262,13 +262,16 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
             if wk and max(w.hi for w in wk) <= t_c + LOOK:
                 soon.append((max(w.hi for w in wk), f, wk))
         out = []
+        # a report that has held the carriage as often as it may holds it no more, but its arm's
+        # time is still its (left out of the schedule, the fruit after it seemed to fit: course_row
+        # at 0.3 m/s with an arm stopped lost one a working arm could still reach)
         for hi, f, wk in sorted(soon, key=lambda s: (s[0], s[1])):
             starts = [(max(avail[w.arm], w.lo - reach_time) + reach_time, w.arm) for w in wk
                       if max(avail[w.arm], w.lo - reach_time) + reach_time <= w.hi]
             if starts:
                 t_p, a = min(starts)
                 avail[a] = t_p + back
-            else:
+            elif held_for.get(f, 0) < HOLDS_PER_REPORT * caution:
                 out.append((f, hi))
         return out
 
