@@ -34,6 +34,7 @@ from coplan.live.cell import LiveOptions
 from coplan.live.feed import make_feed
 from coplan.live.sim import simulate
 from coplan.problem import parse_problem
+from run_header import run_header
 
 SCENARIOS = {
     "late": dict(known=0.5, sigma=0.01, false_rate=0.0, duplicate_rate=0.0),
@@ -43,10 +44,11 @@ SCENARIOS = {
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--seeds", type=int, default=5)
-    ap.add_argument("--sizes", type=int, nargs="+", default=[12, 20, 30])
+    ap.add_argument("--seeds", type=int, default=5, help="seeded feeds per problem size (default 5)")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[12, 20, 30], help="fruit per problem (default 12 20 30)")
     ap.add_argument("--budget", default="0.05", help="re-plan clock budget in s, or 'none'")
     args = ap.parse_args()
+    print(run_header(), flush=True)
     opts = LiveOptions(budget=None if args.budget.lower() == "none" else float(args.budget))
     print(f"{'scenario':8} {'fruit':>5} {'seed':>4} {'replans':>7} {'med ms':>7} {'p95 ms':>7} {'max ms':>7} "
           f"{'live s':>7} {'omni s':>7} {'loss %':>7} {'picked':>7} {'false':>9} {'verified':>8} {'run s':>6}")

@@ -50,6 +50,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from run_header import run_header
 
 MODES = ("fixed", "fewest", "optimised", "continuous")
 WORKERS = 2  # processes of continuous mode's speed search and of the stop rules' cells (coplan solve ROW --workers 2)
@@ -318,8 +319,10 @@ def main() -> None:
     ap.add_argument("--arms-only", action="store_true", help="the arms curve only")
     ap.add_argument("--live-only", action="store_true", help="the live rows only (at 0.1 m/s)")
     ap.add_argument("--faults-only", action="store_true", help="the fault runs only")
-    ap.add_argument("--figure", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "arms_curve.png")
+    ap.add_argument("--figure", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "arms_curve.png",
+                    help="where the arms curve's figure goes (default docs/arms_curve.png)")
     args = ap.parse_args()
+    print(run_header(), flush=True)
     t = time.perf_counter()
     only = args.arms_only or args.live_only or args.faults_only
     if not only:

@@ -46,6 +46,7 @@ from coplan.generate import cell_problem, random_problem, row_problem, to_yaml
 from coplan.problem import load_problem, parse_problem, shipped_problems
 from coplan.allocate.screen import screened
 from coplan.verify import verify
+from run_header import run_header
 
 TOL = 1e-3  # s: "never slower" and "proven optimal" tolerance
 
@@ -91,9 +92,15 @@ def table_problems(quick: bool) -> list[str]:
     head = ("| problem | fruit | lower bound | heuristic | coordinated | optimal | optimal / bound | vs coordinated "
             "| first verified | last improvement | optimal / bound at 10 s | stopped by |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    print("\n".join(lines), flush=True)  # (the rows stream as they finish: under their header)
     for name, prob in _problems(quick):
         lb = bound_details(prob)
-        r = {k: _run(prob, k) for k in ("heuristic", "coordinated", "optimal")}
+        try:
+            r = {k: _run(prob, k) for k in ("heuristic", "coordinated", "optimal")}
+        except Exception as e:  # noqa: BLE001 -- one problem's failure is its row, not the end of the run
+            lines.append(f"| {name} | failed: {type(e).__name__}: {e} |")
+            print(lines[-1], flush=True)
+            continue
 
         def cell(k):
             x = r[k]
@@ -311,6 +318,7 @@ def main(argv=None) -> int:
                     "on the optimal planner's success rate: its first incumbent is this plan)")
     ap.add_argument("--out", help="also write the tables as Markdown to this file")
     args = ap.parse_args(argv)
+    print(run_header(), flush=True)
     t0 = time.perf_counter()
     head = f"coplan {coplan.__version__}, python {sys.version.split()[0]}, {time.strftime('%Y-%m-%d')}"
     print(head)

@@ -31,6 +31,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from run_header import run_header
 
 WORKERS = 2  # processes the stops' cells are planned in beside the stop rule (coplan solve ROW --workers 2)
 
@@ -119,10 +120,11 @@ def _scale(lengths: list[float]) -> list[str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--rules-only", action="store_true")
-    ap.add_argument("--scale-only", action="store_true")
-    ap.add_argument("--lengths", default="25,50,100,200")
+    ap.add_argument("--rules-only", action="store_true", help="the stop rules on the shipped rows only (about 1 minute)")
+    ap.add_argument("--scale-only", action="store_true", help="the rows at scale only (6 arms, 10.5 fruit per metre)")
+    ap.add_argument("--lengths", default="25,50,100,200", help="the rows at scale, m, comma-separated (default 25,50,100,200)")
     args = ap.parse_args()
+    print(run_header(), flush=True)
     from coplan.problem import shipped_rows
 
     t0 = time.perf_counter()

@@ -36,6 +36,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from run_header import run_header
 
 ROWS = [(5, 100, 10.0), (5, 200, 30.0), (10, 300, 30.0), (12, 600, 60.0)]
 DEFAULT_ROWS = [(5, 100), (5, 200)]
@@ -216,6 +217,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="5 x 100 and 5 x 200 only")
     args = ap.parse_args()
+    print(run_header(), flush=True)
     rows = ROWS[:2] if args.quick else ROWS
     t_all = time.perf_counter()
     with tempfile.TemporaryDirectory() as d:

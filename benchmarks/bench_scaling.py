@@ -28,6 +28,7 @@ from coplan.planners.coordinated import CoordinatedOptions, plan_coordinated
 from coplan.planners.coordinated.coordinate import coordinate
 from coplan.planners.coordinated.schedule import decoupled_schedules
 from coplan.problem import parse_problem
+from run_header import run_header
 
 ROWS = [(5, 25), (5, 50), (5, 100), (5, 200), (2, 40), (4, 80), (6, 120), (8, 160), (10, 200)]
 
@@ -71,6 +72,7 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="rows up to 100 fruit, coordinated planner only")
     args = ap.parse_args(argv)
+    print(run_header(), flush=True)
     rows = [r for r in ROWS if not args.quick or r[1] <= 100]
     print("| arms | fruit | lower bound | coordinated (solve s) | coordinated ms / fruit | one coordinator run ms / fruit "
           "| optimal (solve s) | optimal / bound | coordinator runs | ms / run | ms / run / fruit |")

@@ -22,6 +22,7 @@ from coplan.allocate import bound_details
 from coplan.generate import row_problem, to_yaml
 from coplan.problem import load_problem, parse_problem, shipped_problems
 from coplan.allocate.screen import screen
+from run_header import run_header
 
 
 def _median_time(fn, repeat: int) -> float:
@@ -46,6 +47,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args(argv)
+    print(run_header(), flush=True)
     probs = [(p.stem, load_problem(p)) for p in shipped_problems()]
     for arms, n in ((5, 100), (5, 200), (3, 100)):
         name = f"row_problem({arms}, {n}, seed=11)"

@@ -29,6 +29,7 @@ from pathlib import Path
 
 from coplan.sweep.run import run_sweep
 from coplan.sweep.spec import parse_sweep
+from run_header import run_header
 
 
 def _spec(n: int, planner: str, time_limit: float):
@@ -96,6 +97,7 @@ def main(argv=None) -> int:
     ap.add_argument("--time-limit", type=float, default=120.0)
     ap.add_argument("--json", type=Path, help="also write the figures to this JSON file")
     args = ap.parse_args(argv)
+    print(run_header(), flush=True)
     print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} at start (shared with other jobs)")
     out: dict = {}
     if args.problems:

@@ -44,6 +44,7 @@ from coplan.plan import load_plan
 from coplan.problem import load_problem, parse_problem, shipped_problems
 from coplan.report.clearance import EXTRAS_MM, clearance_cost
 from coplan.verify import verify
+from run_header import run_header
 
 
 def layouts(n: int):
@@ -169,12 +170,14 @@ def sweeps(tmp: Path) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--layouts", type=int, default=30)
-    ap.add_argument("--no-sweep", action="store_true")
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0].replace("\n", " ")
+                                 + " The whole run takes about 20 minutes on 2 cores (--sweep-only: 7).")
+    ap.add_argument("--layouts", type=int, default=30, help="interference-heavy random layouts (default 30)")
+    ap.add_argument("--no-sweep", action="store_true", help="without the makespan-against-clearance tables")
     ap.add_argument("--sweep-only", action="store_true", help="the makespan-against-clearance tables only")
     ap.add_argument("--live", type=int, default=0, help="live proxy runs per setting (0: none)")
     args = ap.parse_args()
+    print(run_header(), flush=True)
     t0 = time.perf_counter()
     if args.sweep_only:
         with tempfile.TemporaryDirectory() as tmp:

@@ -21,6 +21,7 @@ from coplan.sweep.report import counts_as_with_fruit
 from coplan.sweep.spec import load_sweep
 from coplan.sweep.table import read_rows
 from coplan.verify import verify
+from run_header import run_header
 
 
 def main(argv=None) -> int:
@@ -29,6 +30,7 @@ def main(argv=None) -> int:
     ap.add_argument("--limit", type=int, default=None, help="verify at most this many plans")
     ap.add_argument("--offset", type=int, default=0, help="skip the first N successful rows (checked in an earlier call)")
     args = ap.parse_args(argv)
+    print(run_header(), flush=True)
     rows = read_rows(args.out)
     meta = json.loads((args.out / "sweep.json").read_text())
     texts = {}
