@@ -956,3 +956,13 @@ def test_a_live_row_that_harvests_nothing_names_no_last_place_nor_a_ratio(tmp_pa
     said = " ".join(r.output.split())
     assert m["harvested"] == 0 and m["last_place"] is None and r.exit_code == 5, said
     assert "0 fruit harvested" in said and "x the offline plan's" not in said and "last fruit placed" not in said
+
+
+def test_with_an_arm_stopped_a_fast_row_passes_no_fruit_a_working_arm_could_reach():
+    """(At 0.3 m/s with an arm stopped, the working arms' backlog outlasted the six holds a report
+    could make, and f0050 -- which a working arm could still reach -- was passed; course_row at
+    0.3 m/s lost f0300 so.) On the move, a report holds the carriage until its arm has time."""
+    row = parse_problem(to_yaml(gantry_row(length=8.0, density=6.0, seed=0)))
+    res = run_live_row(row, LiveRowOptions(speed=0.3, seed=0, faults=RowFaults(arm_stop=True)))
+    assert res.verification.passed and res.metrics["faults"]["arm_stop"]["t"] < res.metrics["row_time"]
+    assert res.metrics["missed_reachable_by_a_working_arm"] == [] and res.metrics["holds_for_fruit"] > 0
