@@ -509,6 +509,10 @@ def test_coplan_run_prints_its_faults_and_holds_in_words(tmp_path):
     assert f"arm stop: {doc['metrics']['faults']['arm_stop']['arm']}, " in line  # (the arm by its name, once)
     holds = doc["metrics"]["holds_for_fruit"]
     assert (f"the carriage held {holds} time" in res.output) == (holds > 0)
+    ver = json.loads((tmp_path / "f" / "verification.json").read_text())["summary"]  # the run's safety, as verified
+    said = " ".join(res.output.split())
+    assert (f"{ver['collision_count']} collisions, least clearance {ver['certified_clearance']:.4f} m certified, "
+            f"{1000 * ver['margin']:.1f} mm beyond the 0.05 m required") in said, said
 
 
 @pytest.mark.parametrize("option, value, words", [("--look-ahead", "-1", "expected a number in (0, 100] m, found -1"),
