@@ -960,6 +960,7 @@ def test_a_live_row_that_harvests_nothing_names_no_last_place_nor_a_ratio(tmp_pa
     said = " ".join(r.output.split())
     assert m["harvested"] == 0 and m["last_place"] is None and r.exit_code == 5, said
     assert "0 fruit harvested" in said and "x the offline plan's" not in said and "last fruit placed" not in said
+    assert "note: --sigma 1 m is more than the 0.1 m within which the gripper camera finds a reported fruit" in said
 
 
 def test_with_an_arm_stopped_a_fast_row_passes_no_fruit_a_working_arm_could_reach():

@@ -250,6 +250,10 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             usage(f"--speed: {bad} (or --gantry stop-and-go)")
     opts = LiveRowOptions(speed=speed, look_ahead=look_ahead, sigma=sigma, false_rate=false_rate,
                           duplicate_rate=duplicate_rate, seed=seed, faults=faults, mode=mode)
+    if sigma > opts.close_distance:  # (--sigma 1, meant as cm or mm, harvested nothing, and said nothing of why)
+        _err.print(f"note: --sigma {sigma:g} m is more than the {opts.close_distance:g} m within which the gripper camera "
+                   "finds a reported fruit: most reports will find nothing (--sigma is in m: 0.01 is 10 mm)",
+                   markup=False, highlight=False)
     from ..errors import OptionsError
 
     try:
