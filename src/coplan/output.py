@@ -177,23 +177,21 @@ def atomic_file(path: Path, write) -> None:
         raise
 
 
-#: Set by the ``coplan`` command (its console runner). Then a Ctrl-C or SIGTERM held while a
-#: block of :func:`signals_deferred` wrote a run's files is not answered once they are whole:
-#: the command goes on to say what it wrote and exits with its verdict, as after its files (it
-#: said "interrupted" of a run written whole -- a live run "nothing of this run is kept" -- with
-#: the previous run moved aside, and no verdict); the signals are kept in
-#: :data:`HELD_WHILE_WRITING` for the command to say so. A block that raised answers them as
-#: ever (nothing was written).
-ABSORB_AFTER_WRITING: list[bool] = []
-HELD_WHILE_WRITING: list[int] = []
+#: The run folders written whole just before a Ctrl-C or SIGTERM held while writing them was
+#: answered (:func:`signals_deferred` given the folder): the ``coplan`` command's message then
+#: says where the run is -- it said "interrupted", a live run "nothing of this run is kept", of a
+#: run written whole with the previous one moved aside.
+WRITTEN_BEFORE_SIGNAL: list = []
 
 
 @contextmanager
-def signals_deferred():
+def signals_deferred(folder: "RunFolder | None" = None):
     """Ctrl-C and SIGTERM held while the block runs, then answered as they would have been
     (their handlers called, or the signal sent again): a run's files, written in a second or
     two, are written whole -- a Ctrl-C landing there threw away the verified plan the solve had
-    spent minutes on, and said it was saved. Main thread only (elsewhere nothing changes)."""
+    spent minutes on, and said it was saved. Main thread only (elsewhere nothing changes).
+    ``folder``: the :class:`RunFolder` the block writes; written whole when a held signal is
+    answered (the block did not raise), it goes to :data:`WRITTEN_BEFORE_SIGNAL` first."""
     import signal
     import threading
 
@@ -203,17 +201,13 @@ def signals_deferred():
     got: list[int] = []
     kinds = [signal.SIGINT] + ([signal.SIGTERM] if hasattr(signal, "SIGTERM") else [])
     old = {k: signal.signal(k, lambda signum, frame: got.append(signum)) for k in kinds}
-    written = False
     try:
         yield
-        written = True
     finally:
-        absorb = written and got and ABSORB_AFTER_WRITING
         for k, h in old.items():
-            signal.signal(k, h)  # (absorbed or not, a later one is answered as ever: a solve's animation may follow)
-    if absorb:
-        HELD_WHILE_WRITING.extend(dict.fromkeys(got))
-        return
+            signal.signal(k, h)
+    if got and folder is not None:  # (here the block did not raise: its run is written)
+        WRITTEN_BEFORE_SIGNAL.append(folder)
     for k in dict.fromkeys(got):  # (once each, in order)
         h = old[k]
         if callable(h):

@@ -99,7 +99,7 @@ def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None) -> tuple[dict
     """The run's files, staged and renamed into place (:mod:`coplan.output`)."""
     files: dict[str, Path] = {}
     folder = RunFolder(Path(out_dir))
-    with signals_deferred(), folder as stage:  # (whole: a Ctrl-C here threw the verified plan away)
+    with signals_deferred(folder), folder as stage:  # (whole: a Ctrl-C here threw the verified plan away)
         if baseline is not None:
             files.update({f"baseline_{k}": v for k, v in baseline.save(stage, "baseline").items()})
         files.update(plan.save(stage, "plan"))

@@ -162,8 +162,10 @@ def run_console(app, err_console) -> None:
             terminated.append(signum)
             if os.getpid() != main:
                 raise KeyboardInterrupt
-            err_console.print("terminated (SIGTERM): stopping; what is finished is kept (a solve its best plan, a sweep its "
-                              "finished rows; a live run writes nothing)", markup=False)
+            err_console.print("terminated (SIGTERM): stopping" + (
+                "" if failures.written_note() else  # (its run is written: the message below says where)
+                "; what is finished is kept (a solve its best plan, a sweep its finished rows; a live run writes nothing)"),
+                markup=False)
         raise KeyboardInterrupt
 
     def on_int(signum, frame):
@@ -178,9 +180,6 @@ def run_console(app, err_console) -> None:
     sys.unraisablehook = hook = _redeliver(sys.unraisablehook, main)
     sys.stdout = PipeSafeStream(sys.stdout)
     sys.stderr = PipeSafeStream(sys.stderr)  # (progress and messages: ``2>&1 | head`` closes it too)
-    from ..output import ABSORB_AFTER_WRITING, HELD_WHILE_WRITING
-
-    ABSORB_AFTER_WRITING.append(True)  # (a signal while a run's files are written: they are whole, the run ends as it would)
     try:
         if "--json" in sys.argv[1:]:
             sys.exit(failures.run_with_json_usage_errors(app))
@@ -196,10 +195,6 @@ def run_console(app, err_console) -> None:
     finally:
         if hasattr(signal, "setitimer"):  # (a redelivery still armed: at exit SIGALRM's default killed the process, 142)
             signal.setitimer(signal.ITIMER_REAL, 0)
-        if HELD_WHILE_WRITING:
-            what = " and ".join("Ctrl-C" if s == signal.SIGINT else "SIGTERM" for s in HELD_WHILE_WRITING)
-            err_console.print(f"({what} came while the run's files were written: they are written whole, and the command "
-                              "ended as it would have, with its own verdict)", markup=False, highlight=False)
 
 
 class ProgressDisplay:

@@ -183,6 +183,17 @@ def _edited_copy(shipped: Path) -> Path | None:
     return here if edited else None
 
 
+def written_note() -> str:
+    """Where a run written whole just before a Ctrl-C or SIGTERM was answered is
+    (:data:`coplan.output.WRITTEN_BEFORE_SIGNAL`), as a clause of the interrupted message; ''
+    when none was."""
+    from ..output import WRITTEN_BEFORE_SIGNAL
+
+    return "".join(f"; it came as the run's files were written: they are whole, in {f.out}"
+                   + (f" (the previous run kept in {f.previous})" if f.previous is not None else "")
+                   for f in WRITTEN_BEFORE_SIGNAL[-1:])
+
+
 def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
     """The exit code and message of any exception a command raised."""
     if isinstance(exc, Failure):
@@ -191,7 +202,8 @@ def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
         return ExitCode.BAD_INPUT, str(exc)
     if isinstance(exc, KeyboardInterrupt) or (  # (a Ctrl-C landing in a C extension's initialisation: its ImportError)
             type(exc) is ImportError and "initialization failed" in str(exc) and (INTERRUPTED or TERMINATED)):
-        return (ExitCode.TERMINATED, "terminated (SIGTERM)") if TERMINATED else (ExitCode.INTERRUPTED, "interrupted by the user (Ctrl-C)")
+        return ((ExitCode.TERMINATED, "terminated (SIGTERM)" + written_note()) if TERMINATED
+                else (ExitCode.INTERRUPTED, "interrupted by the user (Ctrl-C)" + written_note()))
     if isinstance(exc, CoplanError):  # an error class may name its own exit code
         return ExitCode(getattr(exc, "exit_code", ExitCode.INTERNAL)), str(exc)
     if isinstance(exc, RunKept):  # (the run is whole, elsewhere: its message says where)

@@ -177,7 +177,7 @@ def run_cmd(
             with _nothing_written(out):
                 animate_live(prob, result, Path(tmp) / "live.gif")
         folder = RunFolder(out)
-        with signals_deferred(), folder as stage:  # (whole: a Ctrl-C here is answered once they are written)
+        with signals_deferred(folder), folder as stage:  # (whole: a Ctrl-C here is answered once they are written)
             result.plan.save(stage)
             result.verification.save(stage / "verification.json")  # (the full report, as coplan solve and verify write)
             (stage / "run.json").write_text(json.dumps(jsonable(result.run), indent=1, allow_nan=False))
@@ -273,7 +273,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
            "outcome": res.outcome, "metrics": res.metrics}
     res.plan.problem_file = file_record(prob)  # (coplan view / plot / animate find the row from the plan)
     folder = RunFolder(out)
-    with signals_deferred(), folder as stage:  # (whole: a Ctrl-C here is answered once they are written)
+    with signals_deferred(folder), folder as stage:  # (whole: a Ctrl-C here is answered once they are written)
         res.plan.save(stage)
         res.verification.save(stage / "verification.json")  # (the full report, as coplan solve and verify write)
         (stage / "run.json").write_text(json.dumps(jsonable(doc), indent=1, allow_nan=False))
