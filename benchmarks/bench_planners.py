@@ -98,7 +98,7 @@ def table_problems(quick: bool) -> list[str]:
         try:
             r = {k: _run(prob, k) for k in ("heuristic", "coordinated", "optimal")}
         except Exception as e:  # noqa: BLE001 -- one problem's failure is its row, not the end of the run
-            lines.append(f"| {name} | failed: {type(e).__name__}: {e} |")
+            lines.append(f"| {name} | failed: {type(e).__name__}: {e} |" + " |" * (head.count("|") - 3))
             print(lines[-1], flush=True)
             continue
 
@@ -318,10 +318,9 @@ def main(argv=None) -> int:
                     "on the optimal planner's success rate: its first incumbent is this plan)")
     ap.add_argument("--out", help="also write the tables as Markdown to this file")
     args = ap.parse_args(argv)
-    print(run_header(), flush=True)
+    head = run_header()
+    print(head, flush=True)
     t0 = time.perf_counter()
-    head = f"coplan {coplan.__version__}, python {sys.version.split()[0]}, {time.strftime('%Y-%m-%d')}"
-    print(head)
     parts = [f"<!-- {head}: python benchmarks/bench_planners.py {' '.join(argv or sys.argv[1:])} -->", "",
              "Makespan (solve time); every plan checked again with `coplan.verify.verify`.", ""]
     if not args.random_only:

@@ -476,6 +476,15 @@ def test_poses_of_the_wrong_shape_are_refused_with_what_was_expected_and_found()
         kin.dls_velocity(np.eye(2), np.zeros(3))
     with pytest.raises(ValueError, match=r"J of shape \(\.\.\., 2, 2\) and v_desired \(\.\.\., 2\).*found J \(3, 2\) and v_desired \(2,\)"):
         kin.dls_velocity(np.zeros((3, 2)), np.zeros(2))
+    with pytest.raises(ValueError, match=r"found J \(3, 2, 2\) and v_desired \(4, 2\)"):
+        kin.dls_velocity(np.zeros((3, 2, 2)), np.zeros((4, 2)))
+    J = kin.jacobian(q, links)  # one J for many velocities, many J for one: broadcast, as before the checks
+    vs = np.array([[0.1, 0.2], [0.0, -0.3], [0.5, 0.5]])
+    np.testing.assert_allclose(kin.dls_velocity(J[0], vs), [kin.dls_velocity(J[0], v) for v in vs])
+    np.testing.assert_allclose(kin.dls_velocity(J, vs[0]), [kin.dls_velocity(j, vs[0]) for j in J])
+    b, qs = ca.SX.sym("b", 2), ca.SX.sym("q", 2, 1)  # a symbolic base stays symbolic
+    tip = ca.Function("tip", [qs, b], [kin.fk(qs, links, b)[1]])
+    np.testing.assert_allclose(np.array(tip(q[1], [0.5, 0.2])).ravel(), kin.fk(q[1], links, (0.5, 0.2))[1], atol=1e-12)
     for bad in (ca.SX.sym("q", 3, 1), ca.SX.sym("q", 2, 3), ca.MX.sym("q", 1, 1)):
         with pytest.raises(ValueError, match=r"fk: q as CasADi symbols: expected one pose as a \(2, 1\) column or T poses as a \(T, 2\) matrix"):
             kin.fk(bad, links)

@@ -577,7 +577,7 @@ def test_on_the_move_a_false_burst_at_the_chosen_speed_passes_no_fruit_a_working
     the speed the offline search chooses the arms are busy to the limit; 50 false reports at once
     made each arm leave a fruit to the next until the last one's window closed, and the check for
     fruit about to pass saw it only 8 s before, holding the carriage at most twice for it. It
-    looks 30 s ahead now, holding up to 6 times a report: none missed, every run verified."""
+    looks 30 s ahead now, holding up to 6 times a report (30 since): none missed, every run verified."""
     from coplan.problem import load_problem, shipped_rows
 
     row = load_problem(next(p for p in shipped_rows() if p.stem == "sparse_row"))

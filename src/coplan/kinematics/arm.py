@@ -66,8 +66,11 @@ def _poses(q: Any, fn: str, name: str = "q") -> Any:
     return a
 
 
-def _pair(v: Any, fn: str, name: str, what: str) -> tuple[float, float]:
-    """Two finite numbers (``links``, ``base``), or a ValueError saying what was found."""
+def _pair(v: Any, fn: str, name: str, what: str) -> tuple[Any, Any]:
+    """Two numbers (``links``, ``base``) as floats -- a CasADi base stays symbolic, its two
+    entries -- or a ValueError saying what was found."""
+    if _is_casadi(v) and v.numel() == 2:
+        return v[0], v[1]
     try:
         a, b = (float(x) for x in v)
     except (TypeError, ValueError):
@@ -351,9 +354,14 @@ def dls_velocity(J: np.ndarray, v_desired: np.ndarray, threshold: float = 0.05, 
     """
     J = np.asarray(J, dtype=float)
     v = _poses(v_desired, "dls_velocity", "v_desired")
-    if J.ndim < 2 or J.shape[-2:] != (2, 2) or J.shape[:-2] != v.shape[:-1]:
-        raise ValueError(f"dls_velocity: expected J of shape (..., 2, 2) and v_desired (..., 2) over the same poses, "
-                         f"found J {J.shape} and v_desired {v.shape}")
+    try:  # (one J for many velocities, or many J for one, broadcast as NumPy does)
+        np.broadcast_shapes(J.shape[:-2], v.shape[:-1])
+        fits = J.ndim >= 2 and J.shape[-2:] == (2, 2)
+    except ValueError:
+        fits = False
+    if not fits:
+        raise ValueError(f"dls_velocity: expected J of shape (..., 2, 2) and v_desired (..., 2) over the same (or "
+                         f"broadcastable) poses, found J {J.shape} and v_desired {v.shape}")
     det = np.abs(np.linalg.det(J))
     lam = np.where(det < threshold, damping * (1.0 - det / threshold), 0.0)
     JJt = J @ np.swapaxes(J, -1, -2) + (lam**2)[..., None, None] * np.eye(2)

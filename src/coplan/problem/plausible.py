@@ -15,7 +15,7 @@ is refused before anything is planned; so is one whose plan file would be too la
 back (:data:`coplan.plan.MAX_PLAN_BYTES`, at ``BYTES_PER_SAMPLE``), so the longest plan
 allowed is shorter with more arms (5.5 h for one arm, 2.3 h for three, 7 min for 64).
 
-The functions taking a ``problem`` are called by :mod:`coplan.problem.model` with its
+The functions taking a ``problem`` are called by :mod:`coplan.problem.load` with its
 :class:`~coplan.problem.Problem` (they use its ``arms``, ``task``, ``fruits``,
 ``fruit_positions`` and ``reach_matrix()``); this module does not import that one.
 """

@@ -1,6 +1,6 @@
 """What a problem's poses and positions must satisfy beyond each field's own value: home poses at
 least the clearance apart, each home inside its joint limits and each bin reachable, one fruit
-per position. A file is refused for these at its lines (:mod:`coplan.problem.model`); a
+per position. A file is refused for these at its lines (:mod:`coplan.problem.load`); a
 problem built or changed in Python is held to them when it is built or planned.
 
 Entry points: :func:`home_issues`, :func:`position_issues`, :func:`pose_issues` -> lists of
@@ -19,7 +19,7 @@ from ..kinematics.geometry import segment_distance
 from .yamlsafe import line_of, path_str
 
 # (``Problem``, ``Arm``, ``Fruit`` and ``Task`` in the annotations below are coplan.problem.model's,
-# which imports this module)
+# which imports this module, as coplan.problem.load does)
 
 __all__ = ["COINCIDENT", "coincident", "position_issues", "copy_issues", "home_issues", "home_pair_issues", "pose_issues"]
 

@@ -1,5 +1,5 @@
 """The raw schema of a problem file: pydantic field validators and models, and the words of
-the messages that say what each field expects (used by :mod:`coplan.problem.model`)."""
+the messages that say what each field expects (used by :mod:`coplan.problem.load`)."""
 
 from __future__ import annotations
 

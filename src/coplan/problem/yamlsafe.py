@@ -19,7 +19,7 @@ What :func:`read_yaml` guarantees, before anything is constructed:
   is refused with its line.
 
 Every problem is raised as :class:`~coplan.errors.ProblemError`. This module must not
-import :mod:`coplan.problem.model` (which imports it).
+import :mod:`coplan.problem.load` (which imports it).
 """
 
 from __future__ import annotations
