@@ -291,7 +291,7 @@ def fault_runs(mode: str, n: int) -> None:
             harvested += m["harvested"]
             offline += m["offline_harvested"]
             dark = m["faults"].get("camera_dark", {})
-            holds += [dark["hold_seconds"]] if "hold_seconds" in dark else []
+            holds += [dark["hold_seconds"]] if dark.get("hold_seconds") else []  # (stop and go logs 0 where none)
             waits += "carriage_waits_at" in dark
             nothing += m["grasps_on_nothing"]
             ratios += [m["row_time_ratio"]] if m.get("row_time_ratio") else []
@@ -309,7 +309,8 @@ def fault_runs(mode: str, n: int) -> None:
     print(f"- row time: median {np.median(ratios) if ratios else float('nan'):.2f} x the fault-free offline plan's "
           f"(range {min(ratios, default=float('nan')):.2f}-{max(ratios, default=float('nan')):.2f})"
           + (f"; a hop changed under way by the arm's stop in {changed} runs" if mode != "continuous" else ""))
-    print(f"- camera outage: the carriage held in {len(holds)} runs (median {np.median(holds) if holds else 0:.2f} s), "
+    what = "the carriage held" if mode == "continuous" else "the machine stood still waiting for the camera"
+    print(f"- camera outage: {what} in {len(holds)} runs (median {np.median(holds) if holds else 0:.2f} s), "
           f"waited at a stop for the camera in {waits}; grasps that closed on nothing (close-range error > 5 mm): {nothing}")
 
 
