@@ -101,12 +101,9 @@ STOP_PATIENCE = 10.0
 #: could still reach, none now (the arms, busy to the limit at that speed, each left a fruit to
 #: the next until the last one's window closed, the check seeing it only 8 s before); without
 #: faults, course_row, six_arm_row and sparse_row (seeds 0-2) harvest 100 % of the offline
-#: plan's fruit (99.0-100 % before), row time 0.95-1.01 x the offline plan's (0.95-0.99 x). Up to
-#: 30 holds a report (was 6): with an arm stopped, faster than the benchmark's 0.1 m/s (generated
-#: 8 m rows of 6 and 10 fruit per metre at 0.25-0.3 m/s, seeds 0-7; course_row at 0.3 m/s), the
-#: working arms' backlog outlasted six holds of a report and 5 fruit they could still reach were
-#: passed (course_row's f0300 among them); none now but one a stopped arm's obstacle keeps from a
-#: clear cycle.
+#: plan's fruit (99.0-100 % before), row time 0.95-1.01 x the offline plan's (0.95-0.99 x). 30 holds
+#: (was 6): with an arm stopped at 0.25-0.3 m/s (8 m rows, 6-10 fruit/m, seeds 0-7; course_row) the
+#: working arms' backlog outlasted six and passed 5 fruit they could reach; none now but one no clear cycle serves.
 CHECK, LOOK, REACH_TIME, HOLD_PER_FRUIT, HOLD_MIN, HOLD_MAX, HOLDS_PER_REPORT = 0.5, 30.0, 1.5, 3.0, 1.5, 6.0, 30
 
 # the camera and the faults live in .sensing; re-exported here, where a live row is run
