@@ -367,6 +367,12 @@ def test_a_planted_violation_is_on_the_timeline_and_a_click_goes_there(browser, 
     assert page.url.endswith("#t=6")
     marker.locator("path").hover()
     assert "joint_limit" in page.locator("#tip").inner_text()
+    summary = page.locator("details.violations summary")  # Space on it opens the list (it played the plan)
+    assert re.match(r"\d+ violations?: click one", summary.inner_text())
+    summary.focus()
+    page.keyboard.press(" ")
+    assert page.evaluate("document.querySelector('details.violations').open")
+    assert not page.evaluate("coplanViewer.playing()")
     assert log["errors"] == []
     page.close()
 
@@ -398,6 +404,8 @@ def test_hover_shows_a_fruits_facts(browser, pages, greenhouse):
     text = tip.inner_text()
     assert f"q1 = {q[0]:.4f} rad" in text and f"q2 = {q[1]:.4f} rad" in text
     assert f"q\u03071 = {qd[0]:.3f} rad/s" in text and f"q\u03072 = {qd[1]:.3f} rad/s" in text
+    # every line inside the box (a long one ran out of it, off the screen: the arm's fruit, placed so far)
+    assert page.evaluate("Array.from(document.querySelectorAll('#tip .r')).every(r => r.scrollWidth <= r.clientWidth + 1)")
     # an unreachable fruit says why
     x, y = page.evaluate("([x, y]) => coplanViewer.clientPoint(0, x, y)", list(prob.fruit("f01").position))
     page.mouse.move(x, y)
@@ -578,3 +586,39 @@ def test_view_open_without_a_browser_says_where_the_page_is(tmp_path, monkeypatc
     res = runner.invoke(app, ["view", str(out / "plan.json"), "--open", "--out", str(tmp_path / "v.html")])
     said = " ".join(res.output.split())
     assert res.exit_code == 0 and "no web browser could be opened here" in said and (tmp_path / "v.html").as_uri() in said
+
+
+def test_a_plan_viewed_against_another_problem_text_says_so_and_counts_a_missed_pick_unharvested(tmp_path):
+    """(``coplan view plan.json --problem OTHER``, whose fruit a1 had moved: no word that the file
+    differed, where ``coplan verify`` says it, and "fruit harvested 4/4" beside the pick_missed
+    verdict.)"""
+    mine = tmp_path / "crossing.yaml"
+    mine.write_text(CROSSING.read_text())
+    coplan.solve(load_problem(mine), planner="coordinated", out_dir=tmp_path / "run")
+    moved = CROSSING.read_text().replace("{id: a1, position: [0.45, 0.35]}", "{id: a1, position: [0.40, 0.55]}")
+    other = tmp_path / "other.yaml"
+    other.write_text(moved)
+    assert load_problem(other).fruit("a1").position != load_problem(mine).fruit("a1").position
+    r = CliRunner().invoke(app, ["view", str(tmp_path / "run" / "plan.json"), "--problem", str(other), "--out",
+                                 str(tmp_path / "v.html")])
+    said = " ".join(r.output.split())
+    assert "is not that text (another file, or changed since: its sha256 differs)" in said, said
+    data = read_viewer_data((tmp_path / "v.html").read_text())
+    (pl,) = data["plans"]
+    assert any(v["kind"] == "pick_missed" and v["fruit"] == "a1" for v in pl["violations"])
+    assert pl["harvested"] == 3, pl["harvested"]  # a1's pick missed it
+
+
+def test_a_live_rows_headline_gives_its_row_figures():
+    """(A live row's viewer said only its makespan: no fruit per hour, share or stops, which a
+    planned row's headline gives.)"""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.kinds import GantryMode
+    from coplan.row.live import run_live_row
+    from coplan.row.sensing import LiveRowOptions
+
+    row = coplan.parse_problem(to_yaml(gantry_row(length=6.0, density=1.0, seed=1)))
+    res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=1))
+    rw = read_viewer_data(render_html(row, res.plan))["plans"][0]["row"]
+    assert rw["fruit_per_hour"] == pytest.approx(res.metrics["fruit_per_hour"]) and rw["stops"] == res.metrics["stops"]
+    assert rw["share_harvested"] == pytest.approx(res.metrics["harvested"] / res.plan.metrics["reachable"])

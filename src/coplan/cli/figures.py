@@ -56,6 +56,10 @@ def plan_with_problem(plan_path: Path, problem: Optional[Path]):
         prob = load_problem(_resolve_problem(problem))
         if plan.problem and prob.name != plan.problem:  # (a plan.csv names no problem)
             _err.print(f"[yellow]note[/]: {_s(plan_path)} says it is a plan of {_s(repr(plan.problem))}; {_s(problem)} is {_s(repr(prob.name))}")
+        elif record is not None and prob.digest is not None and prob.digest != record["sha256"]:  # (as coplan verify says it)
+            _err.print(f"[yellow]note[/]: {_s(plan_path)} was planned from {_s(record['path'])}; {_s(problem)} is not that "
+                       "text (another file, or changed since: its sha256 differs): the plan is drawn and verified against "
+                       f"{_s(problem)} as it is now", highlight=False, soft_wrap=True)
     elif record is not None and Path(record["path"]).is_file():
         prob = load_problem(record["path"])
         if prob.digest != record["sha256"]:

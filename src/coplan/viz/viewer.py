@@ -305,13 +305,30 @@ def _violations(ver) -> list[dict]:
     return [{"kind": v.kind.value, "arms": list(v.arms)} | {k: getattr(v, k) for k in keys} for v in ver.violations]
 
 
+def _row_headline(plan: Plan, m: dict) -> dict | None:
+    """A row's headline figures (mode, fruit per hour, share harvested, row time, stops): a
+    planned row's ``metrics.row``; a live row's from its run's metrics (``solver.live``: its
+    headline said only the makespan); None for a cell."""
+    keys = ("mode", "fruit_per_hour", "share_harvested", "row_time", "stops")
+    if m.get("row"):
+        return {k: m["row"].get(k) for k in keys}
+    live = (plan.solver or {}).get("live")
+    if plan.gantry_x is None or not isinstance(live, dict):
+        return None
+    reach = m.get("reachable")
+    return {"mode": live.get("mode"), "fruit_per_hour": live.get("fruit_per_hour"), "row_time": live.get("row_time"),
+            "share_harvested": live.get("harvested", 0) / reach if reach else None, "stops": live.get("stops")}
+
+
 def _harvested(metrics: dict, ver) -> int | None:
     """The fruit harvested as the verdict counts them: the file's count, less the reachable fruit
-    the verifier finds unharvested where the file claims more (a pick cut short)."""
+    the verifier finds unharvested where the file claims more (a pick cut short), and less the
+    fruit whose pick missed it (the tip never on it: "4/4" was said beside a missed pick)."""
     got, reach = metrics.get("harvested"), metrics.get("reachable")
     if got is None or reach is None:
         return got
-    return min(int(got), int(reach) - len(ver.unharvested))
+    missed = {v.fruit for v in ver.violations if v.kind.value == "pick_missed" and v.fruit} - set(ver.unharvested)
+    return max(0, min(int(got), int(reach) - len(ver.unharvested)) - len(missed))
 
 
 def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: float | None) -> dict:
@@ -348,8 +365,7 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
         # why a harvestable fruit was left (a row's planner says it: "passed arm1's reach at t = ...")
         "left_out": {k: str(v) for k, v in ((plan.solver or {}).get("row", {}).get("left_out") or {}).items()},
         # a row's headline figures, as the summary gives them (fruit per hour, share harvested, row time, stops)
-        "row": {k: (m.get("row") or {}).get(k) for k in ("mode", "fruit_per_hour", "share_harvested", "row_time", "stops")}
-               if m.get("row") else None,
+        "row": _row_headline(plan, m),
         "segments": {a: [{"phase": s.phase, "t0": s.t0, "t1": s.t1, "fruit": s.fruit} for s in segs.get(a, [])] for a in names},
         "waits": _waits(plan, segs, pairs),
         "clearance": _clearance(problem, plan, times, rate),

@@ -443,7 +443,7 @@
       (rw.mode === "continuous" ? "on the move" : plural(rw.stops || 0, "stop")) : "";
     const h = el("h3", null, (pl.label || pl.planner) + " \u2014 " + pl.status + " \u2014 " + (rw ? "row time " : "makespan ") + num(pl.makespan, 3) + " s" + ratio + grower + " \u2014 ");
     h.appendChild(el("span", { class: v.passed ? "verdict-ok" : "verdict-bad" },
-      v.passed ? "verified: no violations" : "FAILED verification: " + v.violation_count + " violations (" + v.violation_kinds.join(", ") + ")"));
+      v.passed ? "verified: no violations" : "FAILED verification: " + plural(v.violation_count, "violation") + " (" + v.violation_kinds.join(", ") + ")"));
     box.appendChild(h);
     box.appendChild(el("div", { class: "facts" }, "fruit harvested " + (pl.harvested === null || pl.harvested === undefined ? "\u2013" : pl.harvested) + "/" +
       (pl.reachable === null || pl.reachable === undefined ? "\u2013" : pl.reachable) + (v.unharvested.length ? " (not harvested: " + v.unharvested.join(", ") + ")" : "") +
@@ -456,7 +456,7 @@
     box.appendChild(this.legend);
     if (pl.violations.length) {
       const det = el("details", { class: "violations" });
-      det.appendChild(el("summary", null, pl.violations.length + " violations: click one to go to its time"));
+      det.appendChild(el("summary", null, plural(pl.violations.length, "violation") + ": click one to go to its time"));
       const tab = el("table", { class: "vtable" }), head = el("tr");
       ["kind", "arms", "t (s)", "value", "limit", "detail"].forEach(function (c) { head.appendChild(el("th", null, c)); });
       tab.appendChild(head);
@@ -629,7 +629,7 @@
   const cellsRoot = document.getElementById("cells"), panelsRoot = document.getElementById("panels");
   const cells = PLANS.map(function (pl) {
     const box = el("div", { class: "cellbox" });
-    box.appendChild(el("h2", null, (pl.label || pl.planner) + " \u2014 " + pl.status + " \u2014 makespan " + num(pl.makespan, 3) + " s"));
+    box.appendChild(el("h2", null, (pl.label || pl.planner) + " \u2014 " + pl.status + " \u2014 " + (pl.row ? "row time " : "makespan ") + num(pl.makespan, 3) + " s"));
     cellsRoot.appendChild(box);
     return new Cell(pl, box);
   });
@@ -667,7 +667,9 @@
     box.addEventListener("change", function () { layers[k] = box.checked; dirty = true; });
   });
   document.addEventListener("keydown", function (ev) {
-    if (ev.target && (ev.target.tagName === "SELECT" || ev.target.tagName === "INPUT" && ev.target.type !== "range")) return;
+    // (a focused control keeps its own keys: Space on the violations' summary opened nothing and played)
+    if (ev.target && (["SELECT", "SUMMARY", "BUTTON", "A", "TEXTAREA"].indexOf(ev.target.tagName) >= 0 ||
+                      ev.target.tagName === "INPUT" && ev.target.type !== "range")) return;
     if (ev.key === " ") { ev.preventDefault(); setPlaying(!playing); }
     else if (ev.key === "ArrowRight" || ev.key === "ArrowLeft") {
       if (ev.target === slider) return;
