@@ -559,7 +559,9 @@
       const sw = el("span", { class: "sw", style: "background:" + (c ? c.color : "#999") });
       const a = el("a", { href: "#", "data-t": String(p.t) }, p.arms.join("\u2013") + ": least " + num(p.min, 4) + " m at " + num(p.t, 2) + " s (certified " + num(p.certified, 4) + ", margin " + (p.margin == null ? "-" : num(1000 * p.margin, 1) + " mm") + ")");
       a.addEventListener("click", function (ev) { ev.preventDefault(); setPlaying(false); setTime(p.t); });
-      self.legend.appendChild(sw); self.legend.appendChild(a);
+      const pair = el("span", { class: "pair" });  // (a swatch kept with its label: it wrapped away from it)
+      pair.appendChild(sw); pair.appendChild(a);
+      self.legend.appendChild(pair);
     });
     this.legend.appendChild(el("span", null, "  red dashed: required clearance " + num(req, 3) + " m"));
   };
