@@ -371,6 +371,45 @@ def test_a_ctrl_c_while_a_run_is_written_is_answered_once_it_is_whole(tmp_path):
     assert p.returncode == 0 and "Traceback" not in p.stderr
 
 
+
+def test_a_held_signals_note_of_the_run_written_lasts_only_while_its_answer_raises(tmp_path):
+    """The run a held signal came during is named for the command's message while the signal is
+    answered (KeyboardInterrupt: the command ends); answered without raising, or at the next
+    write, no note of it is left for a later, unrelated interrupt."""
+    import signal
+
+    import coplan.output as o
+
+    out = tmp_path / "o"
+    seen = []
+    old = signal.signal(signal.SIGINT, lambda s, f: seen.append(list(o.WRITTEN_BEFORE_SIGNAL)))  # answered, no raise
+    try:
+        folder = o.RunFolder(out)
+        with o.signals_deferred(folder), folder as stage:
+            signal.raise_signal(signal.SIGINT)
+            (stage / "plan.json").write_text("{}")
+    finally:
+        signal.signal(signal.SIGINT, old)
+    assert seen == [[folder]] and o.WRITTEN_BEFORE_SIGNAL == []
+
+    def stop(s, f):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGINT, stop)
+    try:
+        folder = o.RunFolder(out)
+        with pytest.raises(KeyboardInterrupt):
+            with o.signals_deferred(folder), folder as stage:
+                signal.raise_signal(signal.SIGINT)
+                (stage / "plan.json").write_text("{}")
+        assert o.WRITTEN_BEFORE_SIGNAL == [folder] and (out / "plan.json").exists()
+        with o.signals_deferred():  # the next write: no note of the last
+            pass
+        assert o.WRITTEN_BEFORE_SIGNAL == []
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 def test_what_coplan_made_of_a_runs_baseline_moves_with_the_run(tmp_path):
     """(A second run left baseline_100hz.csv, baseline_gantt.png, baseline.html and baseline.gif
     of the first beside its own baseline.json: files of another problem, looking current.)"""

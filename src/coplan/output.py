@@ -191,7 +191,8 @@ def signals_deferred(folder: "RunFolder | None" = None):
     two, are written whole -- a Ctrl-C landing there threw away the verified plan the solve had
     spent minutes on, and said it was saved. Main thread only (elsewhere nothing changes).
     ``folder``: the :class:`RunFolder` the block writes; written whole when a held signal is
-    answered (the block did not raise), it goes to :data:`WRITTEN_BEFORE_SIGNAL` first."""
+    answered (the block did not raise), it is :data:`WRITTEN_BEFORE_SIGNAL` while the answer runs
+    -- and stays there only if the answer raised (the command's end): a note never outlives it."""
     import signal
     import threading
 
@@ -199,6 +200,7 @@ def signals_deferred(folder: "RunFolder | None" = None):
         yield
         return
     got: list[int] = []
+    WRITTEN_BEFORE_SIGNAL.clear()  # (an earlier block's: its answer raised, and someone went on)
     kinds = [signal.SIGINT] + ([signal.SIGTERM] if hasattr(signal, "SIGTERM") else [])
     old = {k: signal.signal(k, lambda signum, frame: got.append(signum)) for k in kinds}
     try:
@@ -214,6 +216,7 @@ def signals_deferred(folder: "RunFolder | None" = None):
             h(k, None)
         elif h == signal.SIG_DFL:
             os.kill(os.getpid(), k)
+    WRITTEN_BEFORE_SIGNAL.clear()  # (answered without raising: no note is due)
 
 
 def is_run_folder(path: Path) -> bool:
