@@ -373,6 +373,12 @@ def test_a_planted_violation_is_on_the_timeline_and_a_click_goes_there(browser, 
     page.keyboard.press(" ")
     assert page.evaluate("document.querySelector('details.violations').open")
     assert not page.evaluate("coplanViewer.playing()")
+    page.evaluate("coplanViewer.setTime(0)")
+    row = page.locator("tr.violation-row", has_text="joint_limit")  # by keyboard: focusable, Enter goes to its time
+    row.focus()
+    page.keyboard.press("Enter")
+    assert page.evaluate("coplanViewer.time()") == pytest.approx(6.0) == float(row.get_attribute("data-t"))
+    assert not page.evaluate("coplanViewer.playing()")
     assert log["errors"] == []
     page.close()
 

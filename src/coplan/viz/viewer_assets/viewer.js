@@ -461,7 +461,8 @@
       ["kind", "arms", "t (s)", "value", "limit", "detail"].forEach(function (c) { head.appendChild(el("th", null, c)); });
       tab.appendChild(head);
       pl.violations.slice(0, 500).forEach(function (vi, i) {
-        const tr = el("tr", { class: "violation-row", "data-t": String(clamp(vi.t, 0, T_END)), "data-index": String(i) });
+        // (focusable: Enter or Space goes to its time, as a click does -- a keyboard could not reach one)
+        const tr = el("tr", { class: "violation-row", "data-t": String(clamp(vi.t, 0, T_END)), "data-index": String(i), tabindex: "0", role: "button" });
         [vi.kind, vi.arms.join(", "), num(vi.t, 3), num(vi.value, 4), num(vi.limit, 4),
           (vi.fruit ? "fruit " + vi.fruit + " " : "") + (vi.message || "")].forEach(function (c) { tr.appendChild(el("td", null, c)); });
         tab.appendChild(tr);
@@ -471,6 +472,12 @@
       tab.addEventListener("click", function (ev) {
         const row = ev.target.closest(".violation-row");
         if (row) { setPlaying(false); setTime(parseFloat(row.getAttribute("data-t"))); }
+      });
+      tab.addEventListener("keydown", function (ev) {
+        const row = ev.target.closest(".violation-row");
+        if (row && (ev.key === "Enter" || ev.key === " ")) {
+          ev.preventDefault(); ev.stopPropagation(); setPlaying(false); setTime(parseFloat(row.getAttribute("data-t")));
+        }
       });
     }
     const self = this;
@@ -670,7 +677,7 @@
   });
   document.addEventListener("keydown", function (ev) {
     // (a focused control keeps its own keys: Space on the violations' summary opened nothing and played)
-    if (ev.target && (["SELECT", "SUMMARY", "BUTTON", "A", "TEXTAREA"].indexOf(ev.target.tagName) >= 0 ||
+    if (ev.target && (["SELECT", "SUMMARY", "BUTTON", "A", "TEXTAREA", "TR"].indexOf(ev.target.tagName) >= 0 ||
                       ev.target.tagName === "INPUT" && ev.target.type !== "range")) return;
     if (ev.key === " ") { ev.preventDefault(); setPlaying(!playing); }
     else if (ev.key === "ArrowRight" || ev.key === "ArrowLeft") {
