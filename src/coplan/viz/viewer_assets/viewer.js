@@ -277,7 +277,7 @@
     ctx.fillStyle = "#333"; ctx.beginPath();
     ctx.moveTo(X(sh), 60); ctx.lineTo(X(sh) - 5, 68); ctx.lineTo(X(sh) + 5, 68); ctx.fill();
     // the carriage's x against time
-    const top = 74, h = H - top - 4, n = pl.gx ? pl.gx.length : 0;
+    const top = 74, h = H - top - 18, n = pl.gx ? pl.gx.length : 0;  // (the caption's line below it, clear of the curve)
     ctx.strokeStyle = "#2a6"; ctx.lineWidth = 1.5; ctx.beginPath();
     for (let i = 0; i < n; i += Math.max(1, Math.floor(n / 600))) {
       const tt = i / pl.display.rate, px = X(pl.gx[i]), py = top + tt / T_END * h;
@@ -286,9 +286,13 @@
     ctx.stroke();
     ctx.strokeStyle = "rgba(0,0,0,0.35)"; ctx.beginPath(); ctx.moveTo(pad, top + t / T_END * h); ctx.lineTo(W - pad, top + t / T_END * h); ctx.stroke();
     ctx.fillStyle = "#333"; ctx.font = "11px system-ui, sans-serif"; ctx.textAlign = "left";
-    ctx.fillText("row " + num(R.start, 1) + "–" + num(R.end, 1) + " m; carriage at " + num(sh, 2) + " m; " +
-                 ((R.moving || [])[pl.index] ? "on the move, no stops; " + plural((R.stops[pl.index] || []).length, "rest") + " with picks (ticks)"
-                  : plural((R.stops[pl.index] || []).length, "stop") + " (ticks)") + "; below: carriage x against time", pad, H - 4);
+    const stops = (R.moving || [])[pl.index] ? "on the move, no stops; " + plural((R.stops[pl.index] || []).length, "rest") + " with picks (ticks)"
+      : plural((R.stops[pl.index] || []).length, "stop") + " (ticks)";
+    // the longest caption that fits the strip (it ran past a narrow one, over the carriage's curve)
+    const caption = ["row " + num(R.start, 1) + "–" + num(R.end, 1) + " m; carriage at " + num(sh, 2) + " m; " + stops + "; above: carriage x against time",
+                     "carriage at " + num(sh, 2) + " m; " + stops, "carriage at " + num(sh, 2) + " m"]
+      .find(function (c) { return ctx.measureText(c).width <= W - 2 * pad; }) || "x " + num(sh, 2) + " m";
+    ctx.fillText(caption, pad, H - 4);
   };
   Cell.prototype.px = function (x, y) {
     const v = P.view;  // a row's view box is the carriage's: it follows the carriage (this.shift)
