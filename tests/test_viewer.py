@@ -375,6 +375,7 @@ def test_a_planted_violation_is_on_the_timeline_and_a_click_goes_there(browser, 
     assert not page.evaluate("coplanViewer.playing()")
     page.evaluate("coplanViewer.setTime(0)")
     row = page.locator("tr.violation-row", has_text="joint_limit")  # by keyboard: focusable, Enter goes to its time
+    assert row.locator("td").nth(5).inner_text() == "rad"  # its value's unit (the table gave none)
     row.focus()
     page.keyboard.press("Enter")
     assert page.evaluate("coplanViewer.time()") == pytest.approx(6.0) == float(row.get_attribute("data-t"))

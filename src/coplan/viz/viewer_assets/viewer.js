@@ -28,6 +28,9 @@
     return Number(x).toFixed(nd === undefined ? 2 : nd);
   }
   function clamp(x, lo, hi) { return Math.max(lo, Math.min(hi, x)); }
+  // the units of a violation's value and limit, where one kind has one (the verifier's, coplan.verify.verdict)
+  const VIOLATION_UNITS = { collision: "m", clearance: "m", uncertified: "m", joint_limit: "rad", velocity: "rad/s",
+    acceleration: "rad/s\u00b2", jerk: "rad/s\u00b3", pick_missed: "m", place_missed: "m" };
   function plural(n, word) { return n + " " + word + (n === 1 ? "" : "s"); }
   function el(tag, attrs, text) {
     const e = document.createElement(tag);
@@ -462,12 +465,12 @@
       const det = el("details", { class: "violations" });
       det.appendChild(el("summary", null, plural(pl.violations.length, "violation") + ": click one to go to its time"));
       const tab = el("table", { class: "vtable" }), head = el("tr");
-      ["kind", "arms", "t (s)", "value", "limit", "detail"].forEach(function (c) { head.appendChild(el("th", null, c)); });
+      ["kind", "arms", "t (s)", "value", "limit", "unit", "detail"].forEach(function (c) { head.appendChild(el("th", null, c)); });
       tab.appendChild(head);
       pl.violations.slice(0, 500).forEach(function (vi, i) {
         // (focusable: Enter or Space goes to its time, as a click does -- a keyboard could not reach one)
         const tr = el("tr", { class: "violation-row", "data-t": String(clamp(vi.t, 0, T_END)), "data-index": String(i), tabindex: "0", role: "button" });
-        [vi.kind, vi.arms.join(", "), num(vi.t, 3), num(vi.value, 4), num(vi.limit, 4),
+        [vi.kind, vi.arms.join(", "), num(vi.t, 3), num(vi.value, 4), num(vi.limit, 4), VIOLATION_UNITS[vi.kind] || "",
           (vi.fruit ? "fruit " + vi.fruit + " " : "") + (vi.message || "")].forEach(function (c) { tr.appendChild(el("td", null, c)); });
         tab.appendChild(tr);
       });
