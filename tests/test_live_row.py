@@ -892,6 +892,8 @@ def test_a_live_row_that_harvests_more_than_its_offline_plan_gives_both_fruit_pe
     off = 3600.0 * m["offline_harvested"] / m["offline_row_time"]
     assert (f"which harvests {m['harvested_not_offline']} fewer fruit: {m['fruit_per_hour']:.0f} fruit per hour against "
             f"its {off:.0f}") in " ".join(r.output.split())
+    assert (f"{m['harvested'] - m['harvested_not_offline']} of the {m['offline_harvested']} the offline plan (full "
+            f"knowledge) harvests, and {m['harvested_not_offline']} more that it does not") in " ".join(r.output.split())
 
 
 def test_a_live_row_calls_a_fruit_out_of_every_reach_not_harvested_not_missed(tmp_path):
