@@ -372,10 +372,11 @@ def test_a_ctrl_c_while_a_run_is_written_is_answered_once_it_is_whole(tmp_path):
 
 
 
-def test_a_held_signals_note_of_the_run_written_lasts_only_while_its_answer_raises(tmp_path):
-    """The run a held signal came during is named for the command's message while the signal is
-    answered (KeyboardInterrupt: the command ends); answered without raising, or at the next
-    write, no note of it is left for a later, unrelated interrupt."""
+def test_a_held_signals_note_of_the_run_written_goes_with_its_own_interrupt_only(tmp_path):
+    """The run a held signal came during is named while the signal is answered, and the
+    KeyboardInterrupt its answer raises carries it (``written_run``); nothing of it is left for a
+    later, unrelated interrupt (it was: a Ctrl-C while planning, in the same process, was told of
+    an earlier run's folder)."""
     import signal
 
     import coplan.output as o
@@ -398,14 +399,17 @@ def test_a_held_signals_note_of_the_run_written_lasts_only_while_its_answer_rais
     old = signal.signal(signal.SIGINT, stop)
     try:
         folder = o.RunFolder(out)
-        with pytest.raises(KeyboardInterrupt):
+        with pytest.raises(KeyboardInterrupt) as got:
             with o.signals_deferred(folder), folder as stage:
                 signal.raise_signal(signal.SIGINT)
                 (stage / "plan.json").write_text("{}")
-        assert o.WRITTEN_BEFORE_SIGNAL == [folder] and (out / "plan.json").exists()
-        with o.signals_deferred():  # the next write: no note of the last
-            pass
+        assert got.value.written_run is folder and (out / "plan.json").exists()
         assert o.WRITTEN_BEFORE_SIGNAL == []
+        from coplan.cli.failures import failure_of
+
+        assert failure_of(got.value)[1].endswith(f"it came as the run's files were written: they are whole, in {out} "
+                                                 f"(the previous run kept in {folder.previous})")
+        assert failure_of(KeyboardInterrupt())[1] == "interrupted by the user (Ctrl-C)"  # a later one: no note
     finally:
         signal.signal(signal.SIGINT, old)
 

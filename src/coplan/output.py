@@ -177,10 +177,10 @@ def atomic_file(path: Path, write) -> None:
         raise
 
 
-#: The run folders written whole just before a Ctrl-C or SIGTERM held while writing them was
-#: answered (:func:`signals_deferred` given the folder): the ``coplan`` command's message then
-#: says where the run is -- it said "interrupted", a live run "nothing of this run is kept", of a
-#: run written whole with the previous one moved aside.
+#: The run folder written whole while a Ctrl-C or SIGTERM held during its writing is answered
+#: (:func:`signals_deferred` given the folder; empty otherwise): the ``coplan`` command's messages
+#: then say where the run is -- it said "interrupted", a live run "nothing of this run is kept", of
+#: a run written whole with the previous one moved aside.
 WRITTEN_BEFORE_SIGNAL: list = []
 
 
@@ -191,8 +191,9 @@ def signals_deferred(folder: "RunFolder | None" = None):
     two, are written whole -- a Ctrl-C landing there threw away the verified plan the solve had
     spent minutes on, and said it was saved. Main thread only (elsewhere nothing changes).
     ``folder``: the :class:`RunFolder` the block writes; written whole when a held signal is
-    answered (the block did not raise), it is :data:`WRITTEN_BEFORE_SIGNAL` while the answer runs
-    -- and stays there only if the answer raised (the command's end): a note never outlives it."""
+    answered (the block did not raise), it is :data:`WRITTEN_BEFORE_SIGNAL` while the answer runs,
+    and the KeyboardInterrupt an answer raises carries it (``written_run``): a note of it goes
+    with that interrupt, never with a later one."""
     import signal
     import threading
 
@@ -200,7 +201,6 @@ def signals_deferred(folder: "RunFolder | None" = None):
         yield
         return
     got: list[int] = []
-    WRITTEN_BEFORE_SIGNAL.clear()  # (an earlier block's: its answer raised, and someone went on)
     kinds = [signal.SIGINT] + ([signal.SIGTERM] if hasattr(signal, "SIGTERM") else [])
     old = {k: signal.signal(k, lambda signum, frame: got.append(signum)) for k in kinds}
     try:
@@ -210,13 +210,20 @@ def signals_deferred(folder: "RunFolder | None" = None):
             signal.signal(k, h)
     if got and folder is not None:  # (here the block did not raise: its run is written)
         WRITTEN_BEFORE_SIGNAL.append(folder)
-    for k in dict.fromkeys(got):  # (once each, in order)
-        h = old[k]
-        if callable(h):
-            h(k, None)
-        elif h == signal.SIG_DFL:
-            os.kill(os.getpid(), k)
-    WRITTEN_BEFORE_SIGNAL.clear()  # (answered without raising: no note is due)
+    try:
+        for k in dict.fromkeys(got):  # (once each, in order)
+            h = old[k]
+            if callable(h):
+                try:
+                    h(k, None)
+                except KeyboardInterrupt as e:
+                    if folder is not None:
+                        e.written_run = folder
+                    raise
+            elif h == signal.SIG_DFL:
+                os.kill(os.getpid(), k)
+    finally:
+        WRITTEN_BEFORE_SIGNAL.clear()
 
 
 def is_run_folder(path: Path) -> bool:

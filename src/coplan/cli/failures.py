@@ -183,15 +183,18 @@ def _edited_copy(shipped: Path) -> Path | None:
     return here if edited else None
 
 
-def written_note() -> str:
-    """Where a run written whole just before a Ctrl-C or SIGTERM was answered is
-    (:data:`coplan.output.WRITTEN_BEFORE_SIGNAL`), as a clause of the interrupted message; ''
-    when none was."""
+def written_note(exc: BaseException | None = None) -> str:
+    """Where a run written whole as a Ctrl-C or SIGTERM came is -- the one the interrupt ``exc``
+    carries (``written_run``), else the one whose held signal is being answered now
+    (:data:`coplan.output.WRITTEN_BEFORE_SIGNAL`) -- as a clause of the interrupted message; ''
+    when there is none."""
     from ..output import WRITTEN_BEFORE_SIGNAL
 
-    return "".join(f"; it came as the run's files were written: they are whole, in {f.out}"
-                   + (f" (the previous run kept in {f.previous})" if f.previous is not None else "")
-                   for f in WRITTEN_BEFORE_SIGNAL[-1:])
+    f = getattr(exc, "written_run", None) if exc is not None else (WRITTEN_BEFORE_SIGNAL[-1] if WRITTEN_BEFORE_SIGNAL else None)
+    if f is None:
+        return ""
+    return (f"; it came as the run's files were written: they are whole, in {f.out}"
+            + (f" (the previous run kept in {f.previous})" if f.previous is not None else ""))
 
 
 def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
@@ -202,8 +205,8 @@ def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
         return ExitCode.BAD_INPUT, str(exc)
     if isinstance(exc, KeyboardInterrupt) or (  # (a Ctrl-C landing in a C extension's initialisation: its ImportError)
             type(exc) is ImportError and "initialization failed" in str(exc) and (INTERRUPTED or TERMINATED)):
-        return ((ExitCode.TERMINATED, "terminated (SIGTERM)" + written_note()) if TERMINATED
-                else (ExitCode.INTERRUPTED, "interrupted by the user (Ctrl-C)" + written_note()))
+        return ((ExitCode.TERMINATED, "terminated (SIGTERM)" + written_note(exc)) if TERMINATED
+                else (ExitCode.INTERRUPTED, "interrupted by the user (Ctrl-C)" + written_note(exc)))
     if isinstance(exc, CoplanError):  # an error class may name its own exit code
         return ExitCode(getattr(exc, "exit_code", ExitCode.INTERNAL)), str(exc)
     if isinstance(exc, RunKept):  # (the run is whole, elsewhere: its message says where)
