@@ -291,7 +291,8 @@ def fault_runs(mode: str, n: int) -> None:
             harvested += m["harvested"]
             offline += m["offline_harvested"]
             dark = m["faults"].get("camera_dark", {})
-            holds += [dark["hold_seconds"]] if dark.get("hold_seconds") else []  # (stop and go logs 0 where none)
+            if "hold_seconds" in dark and (mode == "continuous" or dark["hold_seconds"] > 0):  # (stop and go logs 0 where none)
+                holds.append(dark["hold_seconds"])
             waits += "carriage_waits_at" in dark
             nothing += m["grasps_on_nothing"]
             ratios += [m["row_time_ratio"]] if m.get("row_time_ratio") else []

@@ -380,6 +380,13 @@ def test_a_planted_violation_is_on_the_timeline_and_a_click_goes_there(browser, 
     page.keyboard.press("Enter")
     assert page.evaluate("coplanViewer.time()") == pytest.approx(6.0) == float(row.get_attribute("data-t"))
     assert not page.evaluate("coplanViewer.playing()")
+    page.keyboard.press("ArrowRight")  # the arrows stay the page's, a control focused (they did nothing after a click)
+    assert page.evaluate("coplanViewer.time()") == pytest.approx(6.1)
+    page.locator("#play").click()
+    page.locator("#play").click()
+    t0 = page.evaluate("coplanViewer.time()")
+    page.keyboard.press("ArrowRight")
+    assert page.evaluate("coplanViewer.time()") == pytest.approx(t0 + 0.1)
     assert log["errors"] == []
     page.close()
 
@@ -629,3 +636,4 @@ def test_a_live_rows_headline_gives_its_row_figures():
     rw = read_viewer_data(render_html(row, res.plan))["plans"][0]["row"]
     assert rw["fruit_per_hour"] == pytest.approx(res.metrics["fruit_per_hour"]) and rw["stops"] == res.metrics["stops"]
     assert rw["share_harvested"] == pytest.approx(res.metrics["harvested"] / res.plan.metrics["reachable"])
+    assert rw["row_time"] == pytest.approx(res.metrics["row_time"])  # (the headline gave the last place as the row time)

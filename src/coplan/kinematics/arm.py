@@ -66,11 +66,13 @@ def _poses(q: Any, fn: str, name: str = "q") -> Any:
     return a
 
 
-def _pair(v: Any, fn: str, name: str, what: str) -> tuple[Any, Any]:
-    """Two numbers (``links``, ``base``) as floats -- a CasADi base stays symbolic, its two
-    entries -- or a ValueError saying what was found."""
-    if _is_casadi(v) and v.numel() == 2:
+def _pair(v: Any, fn: str, name: str, what: str, symbolic: bool = False) -> tuple[Any, Any]:
+    """Two numbers (``links``, ``base``) as floats -- with ``symbolic`` (:func:`fk` of CasADi
+    poses), a base of two SX/MX symbols stays symbolic -- or a ValueError saying what was found."""
+    if symbolic and type(v).__name__ in ("SX", "MX") and v.numel() == 2:
         return v[0], v[1]
+    if type(v).__name__ == "DM" and v.numel() == 2:  # (CasADi numbers: as floats)
+        return float(v[0]), float(v[1])
     try:
         a, b = (float(x) for x in v)
     except (TypeError, ValueError):
@@ -115,7 +117,7 @@ def fk(q: Any, links, base=(0.0, 0.0)):
     q = _poses(q, "fk")
     sin, cos, col, stack = _ops(q)
     l1, l2 = _pair(links, "fk", "links", "(l1, l2) in m")
-    bx, by = _pair(base, "fk", "base", "(x, y) in m")
+    bx, by = _pair(base, "fk", "base", "(x, y) in m", symbolic=_is_casadi(q))
     t1, t2 = col(q, 0), col(q, 1)
     ex = bx + l1 * cos(t1)
     ey = by + l1 * sin(t1)

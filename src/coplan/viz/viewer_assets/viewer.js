@@ -444,11 +444,13 @@
     const box = el("section", { class: "panel", "data-plan": String(pl.index) });
     root.appendChild(box);
     const v = pl.verdict;
-    const ratio = pl.lower_bound ? " (lower bound " + num(pl.lower_bound, 3) + " s, \u00D7" + num(pl.makespan / pl.lower_bound, 3) + ")" : "";
+    // a row: its row time (a live row's runs to its last cycle's end, a probe's too: past the last place)
+    const rw = pl.row, span = rw && rw.row_time != null ? rw.row_time : pl.makespan;
+    const ratio = pl.lower_bound ? " (lower bound " + num(pl.lower_bound, 3) + " s, \u00D7" + num(span / pl.lower_bound, 3) + ")" : "";
     // a row: what a grower judges it by first, as the summary says it
-    const rw = pl.row, grower = rw ? " \u2014 " + num(rw.fruit_per_hour, 0) + " fruit/h, " + num(100 * rw.share_harvested, 1) + " % of the harvestable fruit harvested, " +
+    const grower = rw ? " \u2014 " + num(rw.fruit_per_hour, 0) + " fruit/h, " + (rw.share_harvested == null ? "\u2013" : num(100 * rw.share_harvested, 1)) + " % of the harvestable fruit harvested, " +
       (rw.mode === "continuous" ? "on the move" : plural(rw.stops || 0, "stop")) : "";
-    const h = el("h3", null, (pl.label || pl.planner) + " \u2014 " + pl.status + " \u2014 " + (rw ? "row time " : "makespan ") + num(pl.makespan, 3) + " s" + ratio + grower + " \u2014 ");
+    const h = el("h3", null, (pl.label || pl.planner) + " \u2014 " + pl.status + " \u2014 " + (rw ? "row time " : "makespan ") + num(span, 3) + " s" + ratio + grower + " \u2014 ");
     h.appendChild(el("span", { class: v.passed ? "verdict-ok" : "verdict-bad" },
       v.passed ? "verified: no violations" : "FAILED verification: " + plural(v.violation_count, "violation") + " (" + v.violation_kinds.join(", ") + ")"));
     box.appendChild(h);
@@ -645,7 +647,7 @@
   const cellsRoot = document.getElementById("cells"), panelsRoot = document.getElementById("panels");
   const cells = PLANS.map(function (pl) {
     const box = el("div", { class: "cellbox" });
-    box.appendChild(el("h2", null, (pl.label || pl.planner) + " \u2014 " + pl.status + " \u2014 " + (pl.row ? "row time " : "makespan ") + num(pl.makespan, 3) + " s"));
+    box.appendChild(el("h2", null, (pl.label || pl.planner) + " \u2014 " + pl.status + " \u2014 " + (pl.row ? "row time " + num(pl.row.row_time != null ? pl.row.row_time : pl.makespan, 3) : "makespan " + num(pl.makespan, 3)) + " s"));
     cellsRoot.appendChild(box);
     return new Cell(pl, box);
   });
@@ -683,10 +685,10 @@
     box.addEventListener("change", function () { layers[k] = box.checked; dirty = true; });
   });
   document.addEventListener("keydown", function (ev) {
-    // (a focused control keeps its own keys: Space on the violations' summary opened nothing and played)
-    if (ev.target && (["SELECT", "SUMMARY", "BUTTON", "A", "TEXTAREA", "TR"].indexOf(ev.target.tagName) >= 0 ||
-                      ev.target.tagName === "INPUT" && ev.target.type !== "range")) return;
-    if (ev.key === " ") { ev.preventDefault(); setPlaying(!playing); }
+    if (ev.target && (["SELECT", "TEXTAREA"].indexOf(ev.target.tagName) >= 0 || ev.target.tagName === "INPUT" && ev.target.type !== "range")) return;
+    // (Space on a focused control is the control's: on the violations' summary it opened nothing and played; the arrows stay the page's)
+    const control = ev.target && ["SUMMARY", "BUTTON", "TR"].indexOf(ev.target.tagName) >= 0;
+    if (ev.key === " ") { if (control) return; ev.preventDefault(); setPlaying(!playing); }
     else if (ev.key === "ArrowRight" || ev.key === "ArrowLeft") {
       if (ev.target === slider) return;
       ev.preventDefault(); setPlaying(false); setTime(T + (ev.key === "ArrowRight" ? 1 : -1) * (ev.shiftKey ? 1 : 0.1));
