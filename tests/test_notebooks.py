@@ -3,7 +3,8 @@
 The kernel is this interpreter (a kernelspec written to a temporary folder and found via
 ``JUPYTER_PATH``), so the notebooks import the coplan under test, whether it is installed
 editable or not. The optimal planner's search in ``compare_schedules`` gets a small work
-budget and no polishing NLP (``COPLAN_NOTEBOOK_SEARCH_WORK``, ``COPLAN_NOTEBOOK_POLISH``):
+budget, no polishing NLP and no widening (``COPLAN_NOTEBOOK_SEARCH_WORK``, ``COPLAN_NOTEBOOK_POLISH``,
+``COPLAN_NOTEBOOK_WIDEN``):
 its plans are still verified, only less searched.
 """
 
@@ -38,6 +39,7 @@ def kernel(tmp_path, monkeypatch) -> str:
     monkeypatch.setenv("MPLBACKEND", "Agg")
     monkeypatch.setenv("COPLAN_NOTEBOOK_SEARCH_WORK", "400")
     monkeypatch.setenv("COPLAN_NOTEBOOK_POLISH", "0")
+    monkeypatch.setenv("COPLAN_NOTEBOOK_WIDEN", "0")
     monkeypatch.setenv("PYDEVD_DISABLE_FILE_VALIDATION", "1")
     return KERNEL
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 import itertools
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -42,7 +41,8 @@ def test_the_same_plan_under_a_cpu_hog(tmp_path, problems_dir):
     quiet = solve_into(tmp_path / "quiet", problems_dir)
     stages = [k for k, _ in itertools.groupby(i["source"] for i in quiet["solver"]["incumbents"])]
     assert stages == ["coordinated", "search", "refine"]  # each ran and won
-    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 2)]
+    # (one hog: the solve's clocks differ as surely, and the suite's other worker keeps a core)
+    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"])]
     try:
         busy = solve_into(tmp_path / "busy", problems_dir)
     finally:

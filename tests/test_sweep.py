@@ -458,8 +458,11 @@ def test_the_sweep_command_reports_a_bad_file_with_exit_code_3(tmp_path):
     assert r.exit_code == int(ExitCode.USAGE)
 
 
-def test_a_scheduler_that_cannot_be_reached_leaves_no_sweep_folder_behind(tmp_path):
+def test_a_scheduler_that_cannot_be_reached_leaves_no_sweep_folder_behind(tmp_path, monkeypatch):
     """(It left an empty results.parquet and sweep.json, which sweep-report then called a sweep of 0 rows.)"""
+    import coplan.sweep.run as run_mod
+
+    monkeypatch.setattr(run_mod, "SCHEDULER_TIMEOUT", "3s")  # (the 20 s a user gets: the test's wait)
     spec = tmp_path / "tiny.yaml"
     spec.write_text(TINY)
     r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(tmp_path / "o"), "--scheduler",

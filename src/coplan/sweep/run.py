@@ -43,6 +43,7 @@ from .table import RowJournal, read_rows, write_table
 __all__ = ["SweepOutcome", "run_sweep", "solve_item", "hard_limit", "exit_class", "Watchdog", "SNAPSHOT_SECONDS", "default_workers", "lost_reason"]
 
 SNAPSHOT_SECONDS = 5.0  # how often results.parquet is rewritten while the sweep runs
+SCHEDULER_TIMEOUT = "20s"  # how long a sweep waits for a --scheduler that does not answer
 STATE = ".sweep-state"
 LOCK = ".sweep.lock"  # held (flock) by the sweep writing into the folder: a second one is refused
 
@@ -343,7 +344,7 @@ def _client(workers: int, scheduler: str | None, retries: int):
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        return Client(scheduler, timeout="20s"), None
+        return Client(scheduler, timeout=SCHEDULER_TIMEOUT), None
     with dask.config.set({"distributed.scheduler.allowed-failures": retries}), warnings.catch_warnings():
         # the scheduler's HTTP routes move to a free port when another cluster holds 8787: not news
         warnings.filterwarnings("ignore", message=r"Port \d+ is already in use", category=UserWarning)
