@@ -357,7 +357,7 @@ def test_layers_change_the_picture(browser, pages):
     page.close()
 
 
-def test_a_planted_violation_is_on_the_timeline_and_a_click_goes_there(browser, pages):
+def test_a_planted_violation_is_on_the_timeline_and_a_click_goes_there(browser, pages, planted):
     page, log = _open(browser, pages["planted"])
     marker = page.locator('svg.timeline .violation[data-kind="joint_limit"]')
     assert marker.count() == 1
@@ -380,6 +380,8 @@ def test_a_planted_violation_is_on_the_timeline_and_a_click_goes_there(browser, 
     page.keyboard.press("Enter")
     assert page.evaluate("coplanViewer.time()") == pytest.approx(6.0) == float(row.get_attribute("data-t"))
     assert not page.evaluate("coplanViewer.playing()")
+    assert page.evaluate("coplanViewer.placed(0)") == sum(  # the running count beside the clock: placed by then
+        e.kind == EventKind.PLACE and e.t_end <= 6.0 for e in planted[1].events)
     page.keyboard.press("ArrowRight")  # the arrows stay the page's, a control focused (they did nothing after a click)
     assert page.evaluate("coplanViewer.time()") == pytest.approx(6.1)
     page.locator("#play").click()

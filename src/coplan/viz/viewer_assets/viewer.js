@@ -80,14 +80,20 @@
       if (e.kind === "pick") { f.pick = e; f.arm = e.arm; } else { f.place = e; }
     });
     pl.binOrder = {};
-    p.events.filter(function (e) { return e.kind === "place"; }).sort(function (a, b) { return a.t_end - b.t_end; })
-      .forEach(function (e) { (pl.binOrder[e.arm] = pl.binOrder[e.arm] || []).push(e.fruit); });
+    const places = p.events.filter(function (e) { return e.kind === "place"; }).sort(function (a, b) { return a.t_end - b.t_end; });
+    places.forEach(function (e) { (pl.binOrder[e.arm] = pl.binOrder[e.arm] || []).push(e.fruit); });
+    pl.placedAt = places.map(function (e) { return e.t_end; });  // (the running harvest count beside the clock)
     pl.waitNotes = {};
     Object.keys(p.waits).forEach(function (a) { pl.waitNotes[a] = p.waits[a]; });
     pl.contacts = p.violations.filter(function (v) { return v.kind === "collision" || v.kind === "clearance"; });
     return pl;
   }
   const PLANS = D.plans.map(prepare);
+  function placedBy(pl, t) {  // fruit placed by t
+    let n = 0;
+    while (n < pl.placedAt.length && pl.placedAt[n] <= t + 1e-9) n++;
+    return n;
+  }
   const T_END = Math.max(1e-3, Math.max.apply(null, PLANS.map(function (p) { return p.duration; })));
 
   function qTrack(pl, a, t) {
@@ -397,7 +403,9 @@
       ctx.fillText((Object.values(alarm).indexOf("collision") >= 0 ? "COLLISION: " : "CLEARANCE BREACH: ") + names.join(", "), 8, 18);
     }
     ctx.fillStyle = "#333"; ctx.font = "12px system-ui, sans-serif"; ctx.textAlign = "right";
-    ctx.fillText("t = " + t.toFixed(2) + " s" + (pl.gx ? ", carriage at " + sh.toFixed(2) + " m" : ""), this.W - 8, 16);
+    const placed = placedBy(pl, t);  // (the bins show nine at most: a row's count was nowhere)
+    ctx.fillText("t = " + t.toFixed(2) + " s" + (pl.gx ? ", carriage at " + sh.toFixed(2) + " m" : "") + "; placed " + placed + "/" + pl.placedAt.length,
+                 this.W - 8, 16);
     if (this.strip) this.drawStrip(t);
   };
   Cell.prototype.hover = function (ev) {
@@ -709,6 +717,7 @@
     time: function () { return T; },
     setTime: function (t) { setPlaying(false); setTime(t); },
     playing: function () { return playing; },
+    placed: function (plan) { return placedBy(PLANS[plan], T); },
     carriage: function (plan) { return gxAt(PLANS[plan], T); },
     clientPoint: function (plan, x, y) {
       const c = cells[plan], r = c.canvas.getBoundingClientRect(), p = c.px(x, y);
