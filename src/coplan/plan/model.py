@@ -245,6 +245,16 @@ class Plan:
     def events_of(self, arm: str, kind: EventKind | None = None) -> list[Event]:
         return [e for e in self.events if e.arm == arm and (kind is None or e.kind == kind)]
 
+    def busy(self, arm: str) -> np.ndarray:
+        """(N - 1,) bool: per sampling interval, whether ``arm`` moves (its joints change over it)
+        or dwells (the interval's midpoint inside one of its events)."""
+        q = self.q[arm]
+        busy = np.any(np.abs(np.diff(q, axis=0)) > 1e-9, axis=1)
+        mid = (self.time[:-1] + self.time[1:]) / 2
+        for e in self.events_of(arm):
+            busy |= (mid >= e.t_start) & (mid <= e.t_end)
+        return busy
+
     def with_status(self, status: PlanStatus | str) -> "Plan":
         """A copy with ``status`` (a :class:`PlanStatus` or its name)."""
         return replace(self, status=PlanStatus(status))
@@ -448,17 +458,11 @@ _KEPT_METRICS = ("lower_bound", "optimality", "coordinated_makespan", "improveme
 def _busy_time(plan: Plan, arm: str) -> float:
     """Seconds, up to the arm's last place, during which it moves or dwells.
 
-    Each sampling interval counts once: busy when the joints change over it or its midpoint
-    lies inside one of the arm's events.
+    Each sampling interval counts once (:meth:`Plan.busy`).
     """
-    q = plan.q[arm]
     places = plan.events_of(arm, EventKind.PLACE)
-    if q.shape[0] < 2 or not places:
+    if plan.q[arm].shape[0] < 2 or not places:
         return 0.0
     end = max(e.t_end for e in places)
-    mid = (plan.time[:-1] + plan.time[1:]) / 2
-    busy = np.any(np.abs(np.diff(q, axis=0)) > 1e-9, axis=1)
-    for e in plan.events_of(arm):
-        busy |= (mid >= e.t_start) & (mid <= e.t_end)
-    busy &= mid <= end
+    busy = plan.busy(arm) & ((plan.time[:-1] + plan.time[1:]) / 2 <= end)
     return float(min(busy.sum() * plan.dt, end))

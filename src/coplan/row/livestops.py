@@ -26,11 +26,9 @@ def dark_hold(plan, dark: tuple[float, float]) -> float:
         return 0.0
     dt = float(t[1] - t[0])
     still = np.abs(np.diff(plan.gantry_x)) < 1e-9
-    for q in plan.q.values():
-        still &= np.all(np.abs(np.diff(q, axis=0)) < 1e-9, axis=1)
+    for arm in plan.q:  # (no arm moving or dwelling: Plan.busy, as each arm's busy time counts it)
+        still &= ~plan.busy(arm)
     mid = 0.5 * (t[:-1] + t[1:])  # each step between two samples
-    for e in plan.events:
-        still &= ~((mid > e.t_start) & (mid < e.t_end))
     d0, d1 = dark[0], dark[0] + dark[1]
     return round(float(np.count_nonzero(still & (mid >= d0) & (mid < d1))) * dt, 3)
 

@@ -43,6 +43,7 @@ from ..kinds import EventKind
 from ..output import atomic_text
 from ..plan import Plan, checked_status, jsonable, load_plan
 from ..problem.model import Problem
+from ..verify.verdict import ViolationKind
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors
 from .timeline import Segment, schedule
 
@@ -327,7 +328,7 @@ def _harvested(metrics: dict, ver) -> int | None:
     got, reach = metrics.get("harvested"), metrics.get("reachable")
     if got is None or reach is None:
         return got
-    missed = {v.fruit for v in ver.violations if v.kind.value == "pick_missed" and v.fruit} - set(ver.unharvested)
+    missed = {v.fruit for v in ver.violations if v.kind == ViolationKind.PICK_MISSED and v.fruit} - set(ver.unharvested)
     return max(0, min(int(got), int(reach) - len(ver.unharvested)) - len(missed))
 
 
