@@ -32,7 +32,6 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
-import subprocess
 import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -46,7 +45,7 @@ from coplan.generate import cell_problem, random_problem, row_problem, to_yaml
 from coplan.problem import load_problem, parse_problem, shipped_problems
 from coplan.allocate.screen import screened
 from coplan.verify import verify
-from run_header import run_header
+from run_header import run_header, src_commit
 
 TOL = 1e-3  # s: "never slower" and "proven optimal" tolerance
 
@@ -145,21 +144,6 @@ def _layout(args) -> dict:
     return row
 
 
-def _git(*args: str) -> str:
-    return subprocess.run(["git", *args], capture_output=True, text=True, cwd=Path(__file__).resolve().parent,
-                          check=True).stdout.strip()
-
-
-def _commit() -> str:
-    """The code a row was measured on: the git tree of ``src/`` (so a commit that changes only
-    documentation keeps the rows), ``+dirty`` if ``src/`` has uncommitted changes."""
-    try:
-        tree = _git("rev-parse", "--short", "HEAD:src")
-        return tree + ("+dirty" if _git("status", "--porcelain", "--untracked-files=no", "--", "../src") else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-
-
 def _done_rows(path: str | None, commit: str) -> dict:
     """Rows already finished by an earlier run of the same commit (``--rows``): resume, lose nothing."""
     if not path or not Path(path).exists():
@@ -175,7 +159,7 @@ def _done_rows(path: str | None, commit: str) -> dict:
 
 def table_random(n_random: int, n_cells: int, workers: int, rows_file: str | None = None,
                  summary_only: bool = False, commit: str | None = None) -> list[str]:
-    commit = commit or _commit()
+    commit = commit or src_commit()
     jobs = [(k, s) for s in range(max(n_random, n_cells)) for k, n in (("random", n_random), ("cell", n_cells)) if s < n]
     # interleaved, so that a sweep stopped part-way covers both distributions
     done = _done_rows(rows_file, commit) if "dirty" not in commit else {}

@@ -13,7 +13,7 @@ import subprocess
 import time
 from pathlib import Path
 
-__all__ = ["run_header"]
+__all__ = ["run_header", "src_commit"]
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -25,12 +25,22 @@ def _git(*args: str) -> str:
         return "unknown"
 
 
+def src_commit() -> str:
+    """The code a figure was measured on: the git tree of ``src/`` (so a commit that changes only
+    documentation keeps it), ``+dirty`` if ``src/`` has uncommitted changes; ``unknown`` outside git."""
+    tree = _git("rev-parse", "--short", "HEAD:src")
+    if tree == "unknown":
+        return tree
+    status = _git("status", "--porcelain", "--untracked-files=no", "--", "src")
+    return tree + ("+dirty" if status and status != "unknown" else "")
+
+
 def run_header() -> str:
     """``commit 3f06369-dirty (src tree f366d46), coplan 0.1.0, python 3.11.7, 2 cores, load 0.4
     0.6 0.5, 2026-12-02 15:40 UTC``."""
     import coplan
 
     load = " ".join(f"{x:.1f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "unknown"
-    return (f"commit {_git('describe', '--always', '--dirty')} (src tree {_git('rev-parse', '--short', 'HEAD:src')}), "
+    return (f"commit {_git('describe', '--always', '--dirty')} (src tree {src_commit()}), "
             f"coplan {coplan.__version__}, python {platform.python_version()}, {os.cpu_count()} cores, load {load}, "
             f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}")
