@@ -21,7 +21,9 @@ from coplan.problem import default_problem_path, load_problem, parse_problem
 from coplan.verify import verify
 from layouts import squeezed
 
-SMALL = OptimalOptions(search_work=1500, polish=False)  # a short search: these tests check behaviour
+# a short search and refinement, no widening: these tests check the incumbents (the widening stage,
+# which never lengthens a plan, is tested in test_widen.py)
+SMALL = OptimalOptions(search_work=1500, polish=False, refine_retimes=12, widen=False)
 
 
 def _shipped(name: str):

@@ -136,9 +136,10 @@ def test_the_facade_takes_a_generated_mapping_and_says_which_options_each_planne
         coplan.solve(row, allocation="makespan")
     # the cell planner of RowOptions is the one used (a new user's RowOptions(planner='optimal') was
     # planned with the coordinated planner); the planner argument, where given, wins (as stops= does)
-    opt = coplan.solve(row, options=RowOptions(planner="optimal", cell_search_work=50))
+    short = gantry_row(length=1.0, density=3.0, seed=1)  # (4 fruit: the optimal planner at each stop)
+    opt = coplan.solve(short, options=RowOptions(planner="optimal", cell_search_work=50))
     assert opt.plan.solver["row"]["cell_planner"] == "optimal" and opt.verification.passed
-    both = coplan.solve(row, planner="optimal", options=RowOptions(workers=2, cell_search_work=50))  # (RowOptions' default planner)
+    both = coplan.solve(short, planner="optimal", options=RowOptions(workers=2, cell_search_work=50))  # (RowOptions' default planner)
     assert both.plan.solver["row"]["cell_planner"] == "optimal" and both.plan.solver["row"]["workers"] >= 1
 
 

@@ -3,8 +3,7 @@
 The kernel is this interpreter (a kernelspec written to a temporary folder and found via
 ``JUPYTER_PATH``), so the notebooks import the coplan under test, whether it is installed
 editable or not. The optimal planner's search in ``compare_schedules`` gets a small work
-budget, no polishing NLP and no widening (``COPLAN_NOTEBOOK_SEARCH_WORK``, ``COPLAN_NOTEBOOK_POLISH``,
-``COPLAN_NOTEBOOK_WIDEN``):
+budget and a short refinement, no polishing NLP and no widening (``COPLAN_NOTEBOOK_QUICK``):
 its plans are still verified, only less searched.
 """
 
@@ -37,10 +36,9 @@ def kernel(tmp_path, monkeypatch) -> str:
     }))
     monkeypatch.setenv("JUPYTER_PATH", str(tmp_path / "jupyter"))
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    monkeypatch.setenv("COPLAN_NOTEBOOK_SEARCH_WORK", "400")
-    monkeypatch.setenv("COPLAN_NOTEBOOK_POLISH", "0")
-    monkeypatch.setenv("COPLAN_NOTEBOOK_WIDEN", "0")
+    monkeypatch.setenv("COPLAN_NOTEBOOK_QUICK", "1")
     monkeypatch.setenv("PYDEVD_DISABLE_FILE_VALIDATION", "1")
+    monkeypatch.setenv("TMPDIR", str(tmp_path))  # (the notebooks' temporary folders go with the test's)
     return KERNEL
 
 

@@ -333,9 +333,11 @@ def test_random_layouts_success_implies_verified(seed, tmp_path):
 
 @pytest.mark.parametrize("seed", [5, 12])
 def test_random_layouts_are_solved_faster_than_the_baseline(seed):
-    """Layouts nobody tuned for (4 and 5 arms): a verified plan, every fruit, faster than the baseline."""
+    """Layouts nobody tuned for (4 and 5 arms): a verified plan, every fruit, faster than the baseline.
+    (Not widened: the stage never changes a makespan, and on 4 arms and 600 knots each of its
+    programs takes seconds to build.)"""
     prob = parse_problem(to_yaml(random_problem(seed)), f"random-{seed}")
-    res = plan_optimal(prob, options=OptimalOptions(search_work=2000, refine_retimes=20, widen_iterations=60))
+    res = plan_optimal(prob, options=OptimalOptions(search_work=2000, refine_retimes=20, widen=False))
     assert res.plan.status == PlanStatus.SUCCESS
     assert verify(prob, res.plan).passed
     assert res.plan.metrics["harvested"] == len(prob.reachable_ids())
@@ -362,9 +364,9 @@ def test_cli_time_limit_returns_a_verified_plan(tmp_path):
 
 
 def test_heuristic_allocation_option_with_optimal_planner(greenhouse):
-    # (a smaller search than the default's: the allocation is what is tested)
+    # (a smaller search than the default's and no widening: the allocation is what is tested)
     res = plan_optimal(greenhouse, allocation="heuristic",
-                       options=OptimalOptions(search_work=3000, polish=False, refine_retimes=20, widen_iterations=60))
+                       options=OptimalOptions(search_work=3000, polish=False, refine_retimes=20, widen=False))
     assert res.allocation.method == AllocationMethod.HEURISTIC
     assert {a: len(f) for a, f in res.allocation.assignment.items()} == {"left": 4, "center": 2, "right": 5}
     if res.plan.status == PlanStatus.SUCCESS:

@@ -4,6 +4,8 @@ without the shared offsets memo; the caller's refusal, the stopping rules and de
 
 from __future__ import annotations
 
+import copy
+
 import pytest
 
 from coplan.plan import PlannerKind
@@ -30,17 +32,18 @@ def dense():
     bound = co.plan.metrics["lower_bound"]
     hood = Neighbourhood(prob, co.candidate, MARGIN, SEARCH, cache)
     best, stats = improve(prob, co.candidate, bound, MARGIN, SEARCH, None, None, cache, co.bound.assignment, hood)
+    _PRISTINE[id(prob)] = copy.deepcopy((hood, stats.best_state, best))
     return prob, hood, stats.best_state, best, bound
 
 
+_PRISTINE: dict = {}
+
+
 def _fresh(dense):
-    """A neighbourhood in the state the fixture's search left (same seed, same moves)."""
-    prob, _, _, _, bound = dense
-    cache: dict = {}
-    co = plan_coordinated(prob, "makespan", CoordinatedOptions(margin=MARGIN), lambda m: None, cache)
-    hood = Neighbourhood(prob, co.candidate, MARGIN, SEARCH, cache)
-    best, stats = improve(prob, co.candidate, bound, MARGIN, SEARCH, None, None, cache, co.bound.assignment, hood)
-    return hood, stats.best_state, best
+    """A neighbourhood in the state the fixture's search left: a deep copy of it taken then (its
+    caches and random generator with it), as a second search with the same seed would leave it --
+    whatever the tests before did to the fixture's own."""
+    return copy.deepcopy(_PRISTINE[id(dense[0])])
 
 
 def test_the_search_reports_the_state_of_its_best(dense):

@@ -31,7 +31,7 @@ def without_wall_clock(x):
 
 
 def solve_into(out: Path, problems_dir: Path) -> dict:
-    options = OptimalOptions(search_work=12_000, polish=False)  # the search finds one improvement
+    options = OptimalOptions(search_work=12_000, refine_retimes=30, polish=False)  # the search finds one improvement
     res = solve(problems_dir / "crossing_paths.yaml", planner="optimal", options=options, out_dir=out)
     assert res.plan.verification["passed"]
     return json.loads((out / "plan.json").read_text())

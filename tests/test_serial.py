@@ -266,18 +266,18 @@ def test_the_summary_says_which_fruit_were_left_out_and_why():
     from rich.console import Console
 
     from coplan.cli.summary import print_summary
-    from coplan.pipeline import solve
+    from coplan.pipeline import SolveResult
     from coplan.plan import PlannerKind, finalize_plan
     from coplan.planners.coordinated.planner import one_at_a_time, schedules_plan
 
     p = tight_problem()
     last = one_at_a_time(p, allocate(p, "makespan"), margin=0.2)
     plan = schedules_plan(p, last.alloc, last.schedules, PlannerKind.COORDINATED, {"left_out": last.left_out})
-    plan = finalize_plan(plan, verify(p, plan), len(p.reachable_ids()))
+    ver = verify(p, plan)
+    plan = finalize_plan(plan, ver, len(p.reachable_ids()))
     left = plan.solver["left_out"]
     assert len(left) == 15 and plan.status.value == "partial"
-    out = solve(p, planner="coordinated")  # a SolveResult to print; its plan is swapped for the partial one
-    out.plan = plan
+    out = SolveResult(problem=p, plan=plan, verification=ver)  # what solve returns, to print
     buf = io.StringIO()
     print_summary(Console(file=buf, width=200), out)
     text = buf.getvalue()
