@@ -1020,3 +1020,22 @@ def test_a_snapshot_that_cannot_be_written_does_not_stop_the_sweep(tmp_path, mon
     assert out.done == 3 and out.counts == {"success": 3} and "Access is denied" in out.snapshot_error
     assert "results.parquet" in out.snapshot_error and ".tmp" not in out.snapshot_error
     assert len(read_table(tmp_path / "o")) == 3
+
+
+def test_the_table_s_pyarrow_is_imported_before_the_sweep_s_work_starts(tmp_path):
+    """A Ctrl-C while the first snapshot imported pyarrow left it half imported, and the table
+    written after it failed: exit 1 (internal error, "module 'pyarrow' has no attribute 'lib'")
+    instead of 130. The sweep imports what the table needs before its work starts: in a fresh
+    process, the modules are there when the first row comes, before any snapshot."""
+    script = textwrap.dedent(f"""
+        import sys
+        from coplan.sweep.run import run_sweep
+        from coplan.sweep.spec import load_sweep
+        seen = []
+        run_sweep(load_sweep({str(SMALL)!r}), {str(tmp_path / 'out')!r}, workers=1,
+                  on_row=lambda row, o: seen.append(all(m in sys.modules for m in ("pyarrow.lib", "pyarrow.csv", "pyarrow.parquet"))))
+        print(seen[0])
+    """)
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().splitlines()[-1] == "True"

@@ -38,7 +38,7 @@ from ..errors import Issue
 from ..provenance import software_record
 from ..output import OutputError
 from .spec import SweepError, SweepItem, SweepSpec
-from .table import RowJournal, read_rows, write_table
+from .table import RowJournal, import_arrow, read_rows, write_table
 
 __all__ = ["SweepOutcome", "run_sweep", "solve_item", "hard_limit", "exit_class", "Watchdog", "SNAPSHOT_SECONDS", "default_workers", "lost_reason"]
 
@@ -528,6 +528,7 @@ def run_sweep(
         journal = RowJournal(out)
         if keep_plans:
             (out / "plans").mkdir(exist_ok=True)
+        import_arrow()  # (before Ctrl-C may stop the sweep: see import_arrow)
     except BaseException:
         lock.release()
         raise

@@ -176,6 +176,17 @@ def _atomic(path: Path, write) -> Path:
     return path
 
 
+def import_arrow() -> None:
+    """Import the pyarrow modules :func:`write_table` uses, now. A sweep calls it before its work
+    starts: imported lazily at the first snapshot, a Ctrl-C that came during the import left
+    pyarrow half imported, and the table written after it failed ("module 'pyarrow' has no
+    attribute 'lib'"): an internal error, exit 1, instead of the interrupted sweep's 130."""
+    import importlib
+
+    for name in ("pyarrow", "pyarrow.csv", "pyarrow.parquet"):
+        importlib.import_module(name)
+
+
 def write_table(folder: str | Path, rows: list[dict[str, Any]] | None = None, csv: bool = False) -> dict[str, Path]:
     """Write ``results.parquet`` (and ``results.csv``: with ``csv``, or when the folder has one
     already, which would otherwise disagree with the table) from ``rows`` (default: the journal)."""
