@@ -6,6 +6,7 @@ Dask, pyarrow, NumPy and matplotlib are imported inside the commands.
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 from typing import Annotated, Optional
@@ -53,13 +54,15 @@ def sweep_cmd(
     """Solve every problem of a design sweep on Dask; one table row per problem (results.parquet)."""
     from ..sweep.spec import load_sweep
 
-    if time_limit is not None and not time_limit > 0:
+    if time_limit is not None and not (time_limit > 0 and math.isfinite(time_limit)):
         usage(f"--time-limit: expected a positive number of seconds, found {time_limit}")
     if workers is not None and scheduler is not None:
         usage("--workers: expected either --workers (a local cluster) or --scheduler (an existing one), found both")
     if scheduler is not None:
         _check_scheduler(scheduler)
     sw = load_sweep(spec)  # SweepError (an InputError): file:line: key.path messages, exit 3
+    if planner == PlannerKind.HEURISTIC and (sw.options or any(str(k).startswith("options.") for k in {**sw.fixed, **sw.vary})):
+        usage(f"--planner: the heuristic planner has no solver options, and {spec} gives some (options); found heuristic")
     if planner == PlannerKind.HEURISTIC and sw.base == SweepBase.GANTRY:
         usage(f"--planner: expected coordinated or optimal for {spec} (base gantry: each stop's cell planner; the "
               "course's heuristic plans a stationary cell, not a row), found heuristic")
@@ -79,7 +82,7 @@ def sweep_cmd(
 
     def on_start(o):  # (the display starts here, its refresh thread after the cluster: see below)
         progress.start()
-        _err.print(f"sweep [bold]{_safe(sw.name)}[/]: {o.total} problems, {o.skipped} already done in {_safe(folder)}; "
+        _err.print(f"sweep [bold]{_safe(sw.name)}[/]: {plural(o.total, 'problem')}, {o.skipped} already done in {_safe(folder)}; "
                    f"{_safe(scheduler) if scheduler else plural(o.workers, 'local worker process', 'local worker processes')}", highlight=False)
         sets = n if sw.mode == SweepMode.GRID and sw.base != SweepBase.FILES else None  # (the grid's size, counted above)
         if sets is not None and sets > o.total:  # (densities that round to one fruit count: 11 asked, 5 run, not a word)

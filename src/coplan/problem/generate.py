@@ -153,8 +153,8 @@ def row_problem(
 ) -> dict[str, Any]:
     """A straight row of ``n_arms`` identical arms harvesting ``n_fruits`` fruit.
 
-    Bases at y = 0, ``spacing`` m apart and centred on x = 0; each bin ``bin_offset`` m
-    below its base. Fruit are drawn as in the lesson -- ``np.random.seed(seed)``, all x
+    Bases at y = 0, ``spacing`` m apart and centred on x = 0; each bin at height
+    ``bin_offset`` m relative to its base (signed: the default -0.5 is half a metre below). Fruit are drawn as in the lesson -- ``np.random.seed(seed)``, all x
     uniform over the row's extent (first base - ``x_pad`` to last base + ``x_pad``; for the
     lesson's 3-arm cell exactly [-3.5, 3.5]), then all y uniform in ``y_range`` -- so
     ``row_problem(3, 12, seed=42)`` holds the lesson's twelve fruit. Positions are rounded

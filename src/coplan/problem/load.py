@@ -156,6 +156,9 @@ def _top_level(data: Any, lines: dict, source: str | None, issues: list) -> tupl
     if kind is not None:  # a problem file has no format: a plan, feed, ... file
         raise ProblemError([Issue("", f"expected a problem file (keys name, arms, fruits, task), found a coplan {kind} file "
                                       f"(format {fmt!r}); were the arguments swapped?", line_of(lines, ("format",)))], source)
+    if "base" in data and set(data) & {"vary", "fixed", "problems"} and "arms" not in data:  # (seven issues were listed)
+        raise ProblemError([Issue("", "expected a problem file (keys name, arms, fruits, task), found a sweep file (keys "
+                                      "base, vary, fixed, ...): run it with coplan sweep FILE", line_of(lines, ("base",)))], source)
     for k in data:
         if k not in TOP_KEYS:
             issues.append(Issue(str(k), f"expected a known key, found unknown key {k!r}{_suggest(k, TOP_KEYS)}", line_of(lines, (k,))))

@@ -44,7 +44,7 @@ PARAMETERS: dict[str, tuple[str, tuple, str]] = {
     "y_range": ("box", _ROWS, "fruit box: lowest and highest fruit, m"),
     "x_pad": ("nonneg", (SweepBase.ROW,), "fruit box: how far past the end bases fruit grow, m (default spacing/2)"),
     "zone_halfwidth": ("positive", (SweepBase.OVERLAP,), "half width of the shared zones, m"),
-    "bin_offset": ("number", _ROWS, "bin height below the base, m"),
+    "bin_offset": ("number", _ROWS, "the bin's height relative to its base, m (signed: the default -0.5 is half a metre below; a positive value puts the bin above the base, among the fruit)"),
     "reachable_only": ("bool", (SweepBase.ROW,), "redraw fruit no arm can reach (default true)"),
     "pick_dwell": ("nonneg", _ROWS + _GANTRY, "dwell at each fruit, s"),
     "place_dwell": ("nonneg", _ROWS + _GANTRY, "dwell at the bin, s"),

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..errors import plural
 from ..kinds import RowStatus
 from .table import COLUMNS, read_table
 
@@ -192,6 +193,8 @@ def _text(s: dict[str, Any], title: str) -> str:
     if s["success_rate"] is not None:
         lines.append(f"success among problems with reachable fruit: {s['success_with_reachable_fruit']}/{s['with_reachable_fruit']}"
                      f" ({100 * s['success_rate']:.1f} %)"
+                     + (f" (not counted: {plural(s['counts'][RowStatus.BAD_INPUT.value], 'bad input')}, no problem to solve)"
+                        if s["counts"].get(RowStatus.BAD_INPUT.value) else "")
                      + ("; by planner: " + ", ".join(f"{pl} {a}/{b}" for pl, (a, b) in s["success_by_planner"].items())
                         if len(s.get("success_by_planner") or {}) > 1 else ""))
     lines.append(f"rows called success whose plan was not verified: {len(s['success_but_not_verified'])}")

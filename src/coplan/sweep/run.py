@@ -483,6 +483,7 @@ def run_sweep(
         n_workers = workers or default_workers()
         outcome = SweepOutcome(out=out, total=len(items), skipped=len(items) - len(todo), workers=n_workers)
         keys = {it.key for it in items}
+        positions = {it.key: it.index for it in items}
         outcome.others = {k: str(r.get("planner")) for k, r in previous.items() if k not in keys}
         outcome.other_planners = sorted(set(outcome.others.values()) - {str(it.planner) for it in items})
         for it in items:
@@ -568,7 +569,7 @@ def run_sweep(
                     on_row(row, outcome)
                 if time.monotonic() - last > SNAPSHOT_SECONDS:
                     try:  # (results.csv open in a spreadsheet on Windows stopped the sweep part-way: exit 8)
-                        write_table(out, csv=csv)
+                        write_table(out, csv=csv, positions=positions)
                     except OSError as e:  # the rows are in the journal; the table is written again at the end
                         outcome.snapshot_error = f"{e.strerror or e}: {e.filename}"
                     last = time.monotonic()
@@ -578,7 +579,7 @@ def run_sweep(
     finally:
         stop.__exit__()
         journal.close()
-        outcome.files = write_table(out, csv=csv)
+        outcome.files = write_table(out, csv=csv, positions=positions)
         outcome.elapsed = time.perf_counter() - t0
         # closing is not interrupted: a second Ctrl-C there left the cluster to Dask's exit hook,
         # which printed its KeyboardInterrupt traceback

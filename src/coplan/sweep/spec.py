@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputError, Issue, ProblemError, found
+from ..errors import InputError, Issue, ProblemError, coplan_file_kind, found
 from ..kinds import GantryMode, PlannerKind, SweepBase, SweepMode
 from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 from .params import (PARAMETERS, check_option, check_value, count_values, draw, generate_problem, key_path, kind_of,
@@ -154,6 +154,8 @@ class SweepSpec:
         options = dict(self.options)
         for k in [k for k in params if k.startswith("options.")]:
             options[k.removeprefix("options.")] = params.pop(k)
+        if planner == PlannerKind.HEURISTIC.value:  # (it takes no options: one row, not one per option value)
+            options = {}
         shown = dict(params, **{f"options.{k}": v for k, v in options.items() if k not in self.options})
         if self.base == SweepBase.FILES:
             items = []
@@ -221,11 +223,16 @@ def _resolve_problems(pats: Any, here: Path, lines: dict, issues: list) -> tuple
             continue
         p = Path(pat) if Path(pat).is_absolute() else here / pat
         if p.is_dir():
-            hits = sorted(str(q) for q in p.iterdir() if q.suffix in (".yaml", ".yml") and q.is_file())
+            named = [q for q in p.iterdir() if q.suffix in (".yaml", ".yml")]
         elif p.is_file():
-            hits = [str(p)]
+            named = [p]
         else:
-            hits = sorted(q for q in glob.glob(str(p), recursive=True) if Path(q).is_file())
+            named = [Path(q) for q in glob.glob(str(p), recursive=True)]
+        hits = sorted(str(q) for q in named if q.is_file())
+        for q in sorted(str(q) for q in named if not q.is_file() and q.suffix in (".yaml", ".yml")):
+            # (it was left out without a word: "1 problem")
+            issues.append(Issue(key_path(loc), f"expected problem files, found a folder named like one among them: {q}",
+                                line_of(lines, loc)))
         if not hits:
             issues.append(Issue(key_path(loc), f"expected at least one problem file, found none matching {pat!r} (relative to {here})",
                                 line_of(lines, loc)))
@@ -245,6 +252,10 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
     if not isinstance(data, dict):
         raise SweepError([Issue("", f"expected a mapping with keys base, vary, planner, ...; found {found(data)}", line_of(lines, ()))],
                          source)
+    kind = coplan_file_kind(data)
+    if kind is not None:  # a plan, feed, run ... file: fourteen unknown keys were listed
+        raise SweepError([Issue("", f"expected a sweep file (keys base, vary, planner, ...), found a coplan {kind} file "
+                                    f"(format {data.get('format')!r}); were the arguments swapped?", line_of(lines, ("format",)))], source)
     if {"arms", "fruits"} <= set(data) and not set(data) & {"base", "vary", "problems"}:  # (six unknown keys were listed)
         raise SweepError([Issue("", "expected a sweep file (keys base, vary, planner, ...), found a problem file (arms, "
                                     "fruits, task); to solve problem files as a sweep give their folder or a glob "
@@ -379,6 +390,15 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                 issues.append(Issue(key_path(loc), "expected coordinated or optimal with base gantry (each stop's cell planner; "
                                                  "the course's heuristic plans a stationary cell, not a row), found heuristic",
                                     line_of(lines, loc)))
+    used = (vary["planner"] if isinstance(vary.get("planner"), list) else [fixed.get("planner", data.get("planner"))])
+    if used and all(u == PlannerKind.HEURISTIC.value for u in used):
+        # (as coplan solve --planner heuristic --options: each option value solved the same plan again)
+        given = [("options",)] if "options" in data else []
+        given += [(sec, k) for sec, d in (("fixed", fixed), ("vary", vary)) for k in d if str(k).startswith("options.")]
+        for loc in given:
+            issues.append(Issue(key_path(loc), "expected no solver options with planner heuristic (the course's heuristic "
+                                               "plans in one pass and takes none: each value would solve the same plan "
+                                               f"again), found {loc[-1]!r}", line_of(lines, loc)))
     both = {"n_fruits", "density"} & (set(fixed) | set(vary))
     if len(both) == 2:
         issues.append(Issue("vary" if "density" in vary else "fixed", "expected either n_fruits or density, found both",

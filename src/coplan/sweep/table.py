@@ -187,15 +187,21 @@ def import_arrow() -> None:
         importlib.import_module(name)
 
 
-def write_table(folder: str | Path, rows: list[dict[str, Any]] | None = None, csv: bool = False) -> dict[str, Path]:
+def write_table(folder: str | Path, rows: list[dict[str, Any]] | None = None, csv: bool = False,
+                positions: dict[str, int] | None = None) -> dict[str, Path]:
     """Write ``results.parquet`` (and ``results.csv``: with ``csv``, or when the folder has one
-    already, which would otherwise disagree with the table) from ``rows`` (default: the journal)."""
+    already, which would otherwise disagree with the table) from ``rows`` (default: the journal).
+    ``positions`` (key -> index): the rows of the sweep now run take their place in it, also
+    those done by an earlier run of a smaller grid (which kept that grid's: 0, 1, 2, 2, 3, 5)."""
     import pyarrow as pa
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
     folder = Path(folder)
     rows = read_rows(folder) if rows is None else [normalise(r) for r in rows]
+    if positions:
+        rows = sorted(({**r, "index": positions.get(r["key"], r["index"])} for r in rows),
+                      key=lambda r: (r["sweep"] or "", r["index"] if r["index"] is not None else 0))
     table = pa.Table.from_pylist(rows, schema=schema())
     out = {"parquet": _atomic(folder / PARQUET, lambda p: pq.write_table(table, p))}
     if csv or (folder / CSV).exists():
