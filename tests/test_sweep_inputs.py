@@ -66,7 +66,8 @@ def test_a_heuristic_row_beside_varied_options_is_solved_once_with_no_options():
 
 
 @pytest.mark.parametrize("args, words", [
-    (["--time-limit", "inf"], "--time-limit: expected a positive number of seconds, found inf"),
+    (["--time-limit", "inf"], "--time-limit: expected a positive, finite number of seconds (leave it out for the sweep "
+                              "file's, or 120 s), found inf"),
     (["--planner", "heuristic"], "--planner: the heuristic planner has no solver options"),
 ])
 def test_the_sweep_command_refuses_before_any_work(args, words, tmp_path):

@@ -42,9 +42,11 @@ def strict_json(doc) -> str:
     return json.dumps(jsonable(doc), default=str, allow_nan=False)
 
 
-def check_time_limit(time_limit: Optional[float]) -> None:
+def check_time_limit(time_limit: Optional[float], default: str = "the planner's own") -> None:
+    """``--time-limit`` before any work: a positive, finite number of seconds (``default``: what
+    leaving it out gives)."""
     if time_limit is not None and not (math.isfinite(time_limit) and time_limit > 0):
-        fail(ExitCode.USAGE, f"--time-limit: expected a positive, finite number of seconds (leave it out for the planner's own), found {time_limit}")
+        fail(ExitCode.USAGE, f"--time-limit: expected a positive, finite number of seconds (leave it out for {default}), found {time_limit}")
 
 
 def check_workers(workers: Optional[str]) -> Optional[int]:

@@ -6,7 +6,6 @@ Dask, pyarrow, NumPy and matplotlib are imported inside the commands.
 
 from __future__ import annotations
 
-import math
 import re
 from pathlib import Path
 from typing import Annotated, Optional
@@ -15,7 +14,7 @@ import typer
 
 from ..errors import plural
 from ..workers import MAX_WORKERS
-from .checks import between, choice, choices, in_path, out_path
+from .checks import between, check_time_limit, choice, choices, in_path, out_path
 from .console import text_console
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
@@ -54,8 +53,7 @@ def sweep_cmd(
     """Solve every problem of a design sweep on Dask; one table row per problem (results.parquet)."""
     from ..sweep.spec import load_sweep
 
-    if time_limit is not None and not (time_limit > 0 and math.isfinite(time_limit)):
-        usage(f"--time-limit: expected a positive number of seconds, found {time_limit}")
+    check_time_limit(time_limit, "the sweep file's, or 120 s")
     if workers is not None and scheduler is not None:
         usage("--workers: expected either --workers (a local cluster) or --scheduler (an existing one), found both")
     if scheduler is not None:

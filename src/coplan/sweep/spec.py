@@ -379,19 +379,19 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                                     line_of(lines, loc)))
             if k in fixed:
                 issues.append(Issue(key_path(loc), f"expected each parameter once, found {k!r} both fixed and varied", line_of(lines, loc)))
+    # the planners that are used: varied, else fixed, else the key's (with where each is given)
+    planners = ([(("vary", "planner", i), x) for i, x in enumerate(vary["planner"])] if isinstance(vary.get("planner"), list)
+                else [(("fixed", "planner"), fixed["planner"])] if "planner" in fixed else [(("planner",), data.get("planner"))])
     modes = vary.get("gantry") or [fixed.get("gantry", GantryMode.STOP_AND_GO.value)]
     if base == SweepBase.GANTRY and modes != [GantryMode.CONTINUOUS.value] * len(modes):
-        # the course's heuristic plans a stationary cell only (every row was an 'internal error'); the
-        # planners that are used: varied, else fixed, else the key's (a row on the move uses none)
-        given = ([(("vary", "planner", i), x) for i, x in enumerate(vary["planner"])] if isinstance(vary.get("planner"), list)
-                 else [(("fixed", "planner"), fixed["planner"])] if "planner" in fixed else [(("planner",), data.get("planner"))])
-        for loc, v in given:
+        # the course's heuristic plans a stationary cell only (every row was an 'internal error'; a
+        # row on the move uses no planner)
+        for loc, v in planners:
             if v == PlannerKind.HEURISTIC.value:
                 issues.append(Issue(key_path(loc), "expected coordinated or optimal with base gantry (each stop's cell planner; "
                                                  "the course's heuristic plans a stationary cell, not a row), found heuristic",
                                     line_of(lines, loc)))
-    used = (vary["planner"] if isinstance(vary.get("planner"), list) else [fixed.get("planner", data.get("planner"))])
-    if used and all(u == PlannerKind.HEURISTIC.value for u in used):
+    if planners and all(v == PlannerKind.HEURISTIC.value for _, v in planners):
         # (as coplan solve --planner heuristic --options: each option value solved the same plan again)
         given = [("options",)] if "options" in data else []
         given += [(sec, k) for sec, d in (("fixed", fixed), ("vary", vary)) for k in d if str(k).startswith("options.")]

@@ -158,7 +158,12 @@ def read_rows(folder: str | Path, unread: list[int] | None = None) -> list[dict[
                 rows[row["key"]] = normalise(row)
             elif unread is not None and line.strip():
                 unread.append(n)
-    return sorted(rows.values(), key=lambda r: (r["sweep"] or "", r["index"] if r["index"] is not None else 0))
+    return sorted(rows.values(), key=_table_order)
+
+
+def _table_order(row: dict[str, Any]):
+    """A table's rows in order: by sweep, then by place in it."""
+    return row["sweep"] or "", row["index"] if row["index"] is not None else 0
 
 
 def _atomic(path: Path, write) -> Path:
@@ -200,8 +205,7 @@ def write_table(folder: str | Path, rows: list[dict[str, Any]] | None = None, cs
     folder = Path(folder)
     rows = read_rows(folder) if rows is None else [normalise(r) for r in rows]
     if positions:
-        rows = sorted(({**r, "index": positions.get(r["key"], r["index"])} for r in rows),
-                      key=lambda r: (r["sweep"] or "", r["index"] if r["index"] is not None else 0))
+        rows = sorted(({**r, "index": positions.get(r["key"], r["index"])} for r in rows), key=_table_order)
     table = pa.Table.from_pylist(rows, schema=schema())
     out = {"parquet": _atomic(folder / PARQUET, lambda p: pq.write_table(table, p))}
     if csv or (folder / CSV).exists():
