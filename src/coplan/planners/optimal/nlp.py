@@ -44,19 +44,22 @@ from .nlp_data import NLP, ConstraintPoint, Grid, NLPSolution, SolverStatus, Wid
 __all__ = ["SolverStatus", "Grid", "ConstraintPoint", "NLP", "NLPSolution", "build_grid", "build_nlp", "map_status"]  # data: .nlp_data
 
 
-def _var_state(problem: Problem, sch: ArmSchedule, grid: Grid, free_idle: bool = False):
+def _var_state(problem: Problem, sch: ArmSchedule, grid: Grid, free_idle: bool = False, times_held: bool = False):
     """Bounds and warm start of one arm's (6, K+1) states and (2, K) jerks.
 
     Knot bounds are the limits themselves (widened only to a pose the arm must hold: home,
     picks, places); between knots the ``hull`` rows of :func:`build_nlp` bound the motion.
-    An arm with no work holds home throughout, or (``free_idle``) at the first and last knot only."""
+    An arm with no work holds home throughout, or (``free_idle``) at the first and last knot only.
+    The jerk is bounded a hair inside its limit, but with every knot time held (``times_held``) at the
+    limit itself: a time-optimal move (full jerk) between two held poses in a held time has
+    no slower way, and the program would have no feasible point."""
     arm = sch.arm
     K = grid.K
     held = np.array([arm.home] + [st.q1 for st in sch.steps if st.kind in (StepKind.PICK, StepKind.PLACE)], float)
     lim = np.column_stack([np.minimum(arm.limits[:, 0], held.min(axis=0)), np.maximum(arm.limits[:, 1], held.max(axis=0))])
     v = np.asarray(arm.max_velocity)
     a = np.asarray(arm.max_acceleration)
-    j = np.asarray(arm.max_jerk) * (1.0 - 1e-5)  # IPOPT may relax bounds by its tolerances: stay inside
+    j = np.asarray(arm.max_jerk) * (1.0 if times_held else 1.0 - 1e-5)  # IPOPT may relax bounds by its tolerances: stay inside
     lo = np.vstack([lim[:, 0:1], -v[:, None], -a[:, None]]) * np.ones((1, K + 1))
     hi = np.vstack([lim[:, 1:2], v[:, None], a[:, None]]) * np.ones((1, K + 1))
     ulo = -j[:, None] * np.ones((1, K))
@@ -174,7 +177,7 @@ def _segments(grid: Grid, lo_k: int, hi_k: int, h_bounds: tuple[float, float], h
 
 
 def _arm_blocks(problem: Problem, schedules, grid: Grid, window: tuple[int, int], last: bool, start, blocks: list,
-                free_idle: bool = False) -> dict:
+                free_idle: bool = False, held: bool = False) -> dict:
     """Step 2: each arm's state and jerk variables (scaled to O(1)) appended to ``blocks``
     as ``(key, size, lower, upper, guess)``; returns each arm's bounds and scales."""
     lo_k, hi_k = window
@@ -185,7 +188,7 @@ def _arm_blocks(problem: Problem, schedules, grid: Grid, window: tuple[int, int]
         arm = problem.arm(name)
         # knot bounds are the limits themselves: between knots, velocity and position are
         # bounded by their Bezier control points (the ``hull`` rows below)
-        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid, free_idle)
+        lo, hi, X0, ulo, uhi, U0, dwells, k_end = _var_state(problem, sch, grid, free_idle, held)
         lo, hi, X0 = lo[:, lo_k : hi_k + 1], hi[:, lo_k : hi_k + 1], X0[:, lo_k : hi_k + 1]
         ulo, uhi, U0 = ulo[:, lo_k:hi_k], uhi[:, lo_k:hi_k], U0[:, lo_k:hi_k]
         if start is not None:
@@ -289,6 +292,9 @@ def _arm_rows(problem: Problem, name: str, arm_vars: tuple, v: _Vars, window: tu
         ubg.append(np.tile(np.r_[1.0, 1.0, phi, phi], cols.size))
     for k0, k1, dwell in dwells:
         a_, b_ = max(k0, lo_k), min(k1, hi_k)
+        segs = v.sg.seg_of[a_ - lo_k : b_ - lo_k]
+        if b_ > a_ and np.all(v.sg.elo[segs] >= v.sg.ehi[segs]):
+            continue  # its time scales fixed: the dwell is the plan's own (a constant row, never met 1e-6 beyond)
         if b_ > a_:  # a dwell cut by a window boundary: each part keeps its share
             g.append(v.time_at(b_ - lo_k) - v.time_at(a_ - lo_k))
             lbg.append([dwell * (b_ - a_) / (k1 - k0) + 1e-6])
@@ -418,7 +424,9 @@ def build_nlp(
         ("eta", sg.n, sg.elo, sg.ehi, np.clip(np.ones(sg.n), sg.elo, sg.ehi)),
         ("T", sg.n, np.zeros(sg.n), np.full(sg.n, np.inf), np.cumsum(sg.length)),
     ]
-    per_arm = _arm_blocks(problem, schedules, grid, (lo_k, hi_k), last, start, blocks, widen is not None and widen.free_idle)
+    held = bool(np.all(sg.elo >= sg.ehi))  # every knot time held (h_bounds (1, 1))
+    per_arm = _arm_blocks(problem, schedules, grid, (lo_k, hi_k), last, start, blocks, widen is not None and widen.free_idle,
+                          held)
     q_warm = {b[0][2:]: b[4].reshape((6, K + 1), order="F")[0:2].copy() for b in blocks if b[0].startswith("X_")}
     if carry is not None and warm is None:
         _guess_from_carry(blocks, per_arm, carry, (lo_k, hi_k), sg)

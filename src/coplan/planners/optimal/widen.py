@@ -21,7 +21,9 @@ claims, and the program solved again (``rounds``). The motion is piecewise-const
 integrated exactly; position and velocity between knots are bounded through their Bezier
 control points and acceleration is linear per interval, so the limits hold for the continuous
 trajectory, not only at the knots: the starting plan is a feasible point (up to its tucked
-transits, which the knot grid represents only approximately).
+transits, which the knot grid represents only approximately). With every knot time held the
+jerk is bounded at its limit itself and a dwell keeps the plan's own length (a time-optimal
+move between held poses in held time has no gentler way), so there too.
 
 The result is only a candidate: :func:`coplan.planners.optimal.planner.plan_optimal` keeps it
 when the independent verifier passes it, it harvests as much, is no slower, and its certified
