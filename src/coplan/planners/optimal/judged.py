@@ -30,7 +30,8 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     when it is verified, harvests as much, is no slower and its certified margin is no smaller.
     Where the program with free timing leaves less certified room than the goal (twice the
     margin, at most ``widen_goal``) or no candidate, the program with every knot time held is
-    solved on the iterations left (``retry`` in the report) and the better candidate kept. The
+    solved on the iterations left (``retry`` in the report; not when the first call solved it
+    already) and the better candidate kept. The
     programs start from the eased schedules (:func:`coplan.planners.optimal.ease.ease`: each
     arm's rest spread over its moves); should they give nothing to keep, the program is solved
     once more from the incumbent's own (``uneased`` in the report). Where the room kept is still
@@ -73,9 +74,12 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     # free timing settled on less room than the goal (a local optimum) or on a plan the
     # verifier refuses: the same program with every knot time held, on the iterations left
     # (overlap-3x9-s25: free timing 10.7 mm certified, refused; held 84.1 mm)
+    # (not when the first call solved that program already -- free timing did not settle -- it
+    # would start from the same point and take the same steps, on fewer iterations)
     want = min(2.0 * margin0, opts.widen_goal)
     free = any(r["timing"] == "free" for r in info.get("rounds", ()))
-    if (free and not too_long and left() >= _RETRY_ITERATIONS and "room_note" not in info and in_time()
+    held = any(r["timing"] == "held" for r in info.get("rounds", ()))
+    if (free and not held and not too_long and left() >= _RETRY_ITERATIONS and "room_note" not in info and in_time()
             and (best is None or best[2] < want)):
         say(f"widen: free timing {'left less room than the goal' if best is not None else 'gave no plan to keep'}; "
             "solving again with every knot time held")
