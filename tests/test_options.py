@@ -46,6 +46,7 @@ BAD = [
     ("search_work: 2.5\n", "search_work", "expected a non-negative integer, found number 2.5"),
     ("polish: yes please\n", "polish", "expected true or false, found string 'yes please'"),
     ("margin: .inf\n", "margin", "expected a non-negative number, found number inf"),
+    ("widen_cap: 1e400\n", "widen_cap", "expected a non-negative number, found number inf (not finite: YAML reads a number of magnitude 1e309 or more as inf)"),
     ("time_limit: 0\n", "time_limit", "expected a positive number or null, found number 0"),
     ("window: true\n", "window", "expected a positive number, found boolean True"),
     ("ipopt: 5\n", "ipopt", "expected a mapping of IPOPT settings"),

@@ -150,6 +150,8 @@ def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     if isinstance(v, bool) or not isinstance(v, numbers.Real):
         return f"{want}, found {found(v)}"
     x = float(v)
+    if math.isinf(x):  # (YAML reads 1e309 and beyond as inf, which "found number inf" alone left a puzzle)
+        return f"{want}, found number {x} (not finite: YAML reads a number of magnitude 1e309 or more as {x})"
     if (base == "int" and not x.is_integer()) or not math.isfinite(x) or x < 0 or (positive and x <= 0):
         return f"{want}, found {found(x if base == 'float' else v)}"
     if name == "margin" and x > MAX_MARGIN:  # (every planner's margin, from a file or from Python)
