@@ -158,6 +158,22 @@ def test_widening_options_are_validated():
         parse_options("widen: 3")
 
 
+def test_a_widening_goal_past_the_cap_is_refused_at_its_line_and_from_python():
+    # the program asks for at most widen_cap of extra room, so a goal above it could never be met
+    with pytest.raises(OptionsError) as ei:
+        parse_options("# options\nwiden_goal: 0.2\nwiden_cap: 0.1\n", "opts.yaml")
+    (it,) = ei.value.issues
+    assert it.path == "widen_goal" and it.line == 2
+    assert it.message == ("expected at most widen_cap (0.1 m): the widening asks for at most widen_cap of extra room, "
+                          "so a larger goal is never met; found 0.2")
+    with pytest.raises(OptionsError) as ei:  # the cap alone lowered under the default goal (0.05): named at the cap's line
+        parse_options("widen_cap: 0.01\n")
+    assert ei.value.issues[0].line == 1 and "found 0.05" in ei.value.issues[0].message
+    with pytest.raises(OptionsError, match="widen_goal: expected at most widen_cap"):
+        OptimalOptions(widen_goal=0.3)
+    assert parse_options("widen_goal: 0.1\nwiden_cap: 0.1\n").widen_goal == 0.1  # equal is fine
+
+
 def test_exact_dynamics_closes_the_integration_with_the_least_change():
     """IPOPT meets the dynamics to its tolerance; the projection makes them exact (a replay
     without jumps at the knots), keeps every held pose, and moves the rest by about the residual."""

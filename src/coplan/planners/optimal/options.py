@@ -159,6 +159,9 @@ class OptimalOptions:
         # built in Python as in a file: every value checked (``workers="auto"``: this machine's cores, at most 8)
         settle_workers(self)
         check_fields(self, _POSITIVE)
+        msg = _goal_issue(self.widen_goal, self.widen_cap)
+        if msg is not None:
+            raise OptionsError([Issue("widen_goal", msg)], type(self).__name__)
         if self.ipopt:  # names and values as CasADi and IPOPT take them (else: an internal error, minutes in)
             bad = ipopt_issues(self.ipopt)
             if bad:
@@ -168,6 +171,15 @@ class OptimalOptions:
 # fields that must be > 0 (the others of their type must be >= 0)
 _POSITIVE = {"workers", "h_target", "window", "check_rate", "time_limit", "window_time_limit", "retime_work", "retime_shift", "retime_rounds",
              "polish_iterations", "polish_rounds", "max_rounds"}  # (0 of the last three crashed the polish: nothing to solve)
+
+
+def _goal_issue(goal: float, cap: float) -> str | None:
+    """The message when ``widen_goal`` exceeds ``widen_cap`` (the program asks for at most the cap,
+    so a larger goal could never be met), or None."""
+    if goal > cap:
+        return (f"expected at most widen_cap ({cap:g} m): the widening asks for at most widen_cap of extra room, "
+                f"so a larger goal is never met; found {goal:g}")
+    return None
 
 
 def _check(name: str, kind: str, v: Any) -> str | None:
@@ -220,6 +232,12 @@ def parse_options(text: str, source: str | None = None, base: OptimalOptions | N
                 continue
         values[key] = (int(v) if kinds[key] == "int" else float(v) if kinds[key].startswith("float") and v is not None
                        else dict(v) if kinds[key] == "dict" else v)
+    if not issues:
+        start = base or OptimalOptions()
+        msg = _goal_issue(values.get("widen_goal", start.widen_goal), values.get("widen_cap", start.widen_cap))
+        if msg is not None:
+            key = "widen_goal" if "widen_goal" in values else "widen_cap"
+            issues.append(Issue("widen_goal", msg, line_of(lines, (key,))))
     if issues:
         raise OptionsError(issues, source)
     return replace(base or OptimalOptions(), **values)
