@@ -241,7 +241,8 @@ def test_no_plan_beats_the_bounds(row, planned):
     from coplan.row.metrics import row_metrics
 
     b = row_bounds(row)
-    assert 0 < b.work <= b.any_plan <= b.stop_and_go and b.stop_and_go == pytest.approx(max(b.any_plan, b.moves + b.work))
+    assert 0 < b.work <= b.any_plan <= b.stop_and_go
+    assert b.stop_and_go == pytest.approx(max(b.any_plan, b.moves + b.work, b.priced)) and b.priced > 0
     for res in planned.values():
         m = row_metrics(row, res, b)
         assert m["row_time"] >= b.any_plan - 1e-9

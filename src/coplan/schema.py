@@ -174,7 +174,8 @@ class RowMetrics(BaseModel):  # (open: coplan may add figures)
     kept_ahead: bool | None = Field(None, description="every stop's cell planned before the carriage needed it (null: "
                                                        "no stop, or on the move)")
     lower_bound: dict[str, Any] | None = Field(None, description="the row's bounds (coplan.allocate.row_bound.RowBounds): "
-                                                                  "any_plan, stop_and_go, work, travel, moves, ... in s")
+                                                                  "any_plan, stop_and_go, work, travel, moves, priced "
+                                                                  "(stops and positions priced together), ... in s")
     ratio_any_plan_bound: float | None = Field(None, description="row_time / the bound valid for any carriage motion")
     ratio_stop_and_go_bound: float | None = Field(None, description="row_time / the bound for plans that pick only at rest")
     picks_at_rest: int | None = Field(None, description="on the move: picks whose whole dwell has the carriage at rest")

@@ -4,7 +4,8 @@
 - :mod:`.allocation`: :func:`allocate` (the course's heuristic score or the min-makespan
   MILP) and the lower bound (:func:`bound_details`) with its own assignment
 - :mod:`.row_bound`: a row's lower bounds (:func:`row_bounds`: for any motion and for stop and
-  go; :func:`cycle_bounds`: each fruit's cheapest harvest cycle per arm and carriage position)
+  go), from :mod:`.row_cycles` (:func:`cycle_bounds`: each fruit's cheapest harvest cycle per
+  arm over carriage positions) and :mod:`.stop_bound` (stops and positions priced together)
 
 ``coplan.allocate`` names this package and the stage's entry function at once: calling the
 package calls :func:`allocate` (``coplan.allocate(problem, "makespan")``). Python binds the name

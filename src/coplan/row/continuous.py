@@ -79,14 +79,14 @@ def least_pace(level: float, cruise: Cruise, limit: float, hold: float = 0.0) ->
 def start_served(problem: Problem, reach: RowReach) -> set[str]:
     """Fruit only the carriage's first positions serve: those the carriage, ramping up from
     rest at its limits, leaves behind before an arm could have reached and picked them -- the
-    way out and the pick of the fruit's cheapest cycle (:func:`coplan.allocate.row_bound.cycle_bounds`)
+    way out and the pick of the fruit's cheapest cycle (:func:`coplan.allocate.row_cycles.cycle_bounds`)
     from the start (the start alone, or a few centimetres beyond: a fruit served from 0-0.10 m
     slowed a whole row sixfold). No speed worth cruising at gives them a window; a carriage
     resting there first does. (It depends on the row only: computed once per search.)"""
     first = [f for f in reach.harvestable() if reach.span(f)[0] == 0]
     if not first:
         return set()
-    from ..allocate.row_bound import cycle_bounds
+    from ..allocate.row_cycles import cycle_bounds
 
     g = problem.gantry
     ramp = Cruise.of(problem, g.max_velocity, g.end)

@@ -429,12 +429,12 @@ def _settled(lo: float, hi: float, bans: list[tuple[float, float]]) -> list[tupl
 def demand_stretches(problem: Problem, reach: RowReach, x1: float, stretch: float = STRETCH) -> list[tuple[float, float]]:
     """``[(x_end, demand), ...]``: the arms' time the fruit ask of each stretch of rail (s per m).
 
-    Each fruit asks for its cheapest harvest cycle (:func:`coplan.allocate.row_bound.cycle_bounds`: the
+    Each fruit asks for its cheapest harvest cycle (:func:`coplan.allocate.row_cycles.cycle_bounds`: the
     least over arms and carriage positions), spread evenly over the carriage positions from
     which some arm serves it. A carriage that spends ``demand / n_arms`` per metre of a stretch
     gives the arms, working side by side, as much time as its fruit need (if they balanced
     perfectly): :meth:`Cruise.shaped` speeds are ``pace * n_arms / demand``."""
-    from ..allocate.row_bound import cycle_bounds
+    from ..allocate.row_cycles import cycle_bounds
 
     g = problem.gantry
     edges = np.arange(g.start, x1 + stretch, stretch)

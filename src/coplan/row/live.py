@@ -514,7 +514,7 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
     booker.home_parked(set(faults.halt))
     plan = assemble_moving(problem, booker, cruise)
     plan.planner = LIVE_PLANNER  # (the executed plan of a live run, as a live cell's)
-    plan.metrics["lower_bound"] = row_bounds(problem).any_plan  # (the row's, for any motion: as coplan solve's)
+    plan.metrics["lower_bound"] = row_bounds(problem, priced=False).any_plan  # (the row's, for any motion: as coplan solve's)
     if stops is not None and faults.dark is not None:  # what the outage cost (on the move: its hold, logged as it came)
         faults.log["camera_dark"]["hold_seconds"] = dark_hold(plan, faults.dark)
     stop = faults.log.get("arm_stop") or {}

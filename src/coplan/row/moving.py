@@ -103,7 +103,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                 run_many(list(levels))
             else:
                 if profile == SpeedProfile.CONSTANT:
-                    v = max(x1 - g.start, 0.05) / max(row_bounds(problem).work, 1e-3)
+                    v = max(x1 - g.start, 0.05) / max(row_bounds(problem, priced=False).work, 1e-3)
                 else:
                     v = 1.0
                 v = min(v, cap)

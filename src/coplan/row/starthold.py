@@ -15,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..problem.model import Fruit, Problem
-from ..allocate.row_bound import cycle_bounds
+from ..allocate.row_cycles import cycle_bounds
 from .cruise import Cruise
 from .reach import RowReach, row_reach
 from .sensing import RowReport, report_times
@@ -27,7 +27,7 @@ def start_hold(problem: Problem, reach: RowReach, fruit, cost: np.ndarray | None
     """How long the carriage rests where it starts so that the arms can pick ``fruit`` -- fruit
     only the start serves, which a carriage that ramps up from rest at once leaves no time to be
     picked in. Each fruit's cheapest cycle
-    (:func:`coplan.allocate.row_bound.cycle_bounds`, on an arm that serves it from the start; ``cost``:
+    (:func:`coplan.allocate.row_cycles.cycle_bounds`, on an arm that serves it from the start; ``cost``:
     those bounds where the caller has them) plus a second for the arm's way out and the grid,
     each arm's summed; the busiest arm's total."""
     cost = cycle_bounds(problem)[0] if cost is None else cost

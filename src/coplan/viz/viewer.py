@@ -406,7 +406,7 @@ def viewer_data(problem: Problem, plans: list[Plan], verifications: list | None 
     if bound is None and problem.gantry is not None:  # a row plan from elsewhere (a live run's): the row's bound
         from ..allocate.row_bound import row_bounds
 
-        bound = row_bounds(problem).any_plan
+        bound = row_bounds(problem, priced=False).any_plan
     elif bound is None and problem.reachable_ids():
         from ..allocate.allocation import bound_details
 

@@ -1,0 +1,149 @@
+"""A row's harvest cycles, bounded below over carriage positions (the basis of the row's lower
+bounds, :mod:`coplan.allocate.row_bound`).
+
+Every harvest is a move from the bin to the fruit, the pick dwell, a move back and the place
+dwell; each move takes at least the per-joint time-optimal S-curve time of its largest joint
+step. The fruit's joint pose depends on where the carriage stands, so the bound is taken over
+*every* position, not a sample of them: the rail is cut into cells of ``step`` m and, in each,
+the range of each joint angle is enclosed exactly -- the elbow angle is a monotone function of
+the distance to the base (whose least value, right above the base, is added when the cell
+holds it), the shoulder angle is the angle of the fruit seen from the base (monotone along the
+rail) less a function of the elbow angle, so its range lies within the difference of the two
+ranges. The joint step from the bin pose is at least the distance to that range (2 pi shifts
+included), on the better elbow branch.
+
+:func:`cell_cycles` -> :class:`CellCycles`: per arm, fruit and cell; :func:`cycle_bounds`: the
+least over all cells, per arm and fruit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kinematics.timing import scurve_times
+from ..problem.model import Problem
+
+__all__ = ["CellCycles", "cell_cycles", "cycle_bounds"]
+
+_TWO_PI = 2.0 * math.pi
+
+
+def _phi(l1: float, l2: float, q2):
+    return np.arctan2(l2 * np.sin(q2), l1 + l2 * np.cos(q2))
+
+
+def _q2_of_r(l1: float, l2: float, r):
+    c = np.clip((r * r - l1 * l1 - l2 * l2) / (2.0 * l1 * l2), -1.0, 1.0)
+    return np.arccos(c)  # elbow-up branch (>= 0); elbow-down is its negative
+
+
+def _dist_to_range(b, lo, hi):
+    return np.where(b < lo, lo - b, np.where(b > hi, b - hi, 0.0))
+
+
+@dataclass(frozen=True)
+class CellCycles:
+    """Per arm, a lower bound on each fruit's harvest cycle with the carriage anywhere in each
+    rail cell (:func:`cell_cycles`). Cells ``[lo[c], hi[c]]`` cover the rail; for arm ``a``,
+    ``cost[a]`` (F, W) holds the bound for fruit ``f`` in cells ``first[a][f] + 0 .. W - 1``
+    (clipped to the last cell; inf where the arm cannot reach the fruit from that cell); an arm
+    that harvests nothing (locked, or no bin pose) has ``cost[a]`` None."""
+
+    lo: np.ndarray  # (N,) m
+    hi: np.ndarray  # (N,) m
+    first: tuple  # per arm: (F,) int cell index, or None
+    cost: tuple  # per arm: (F, W) s, or None
+    reach: np.ndarray  # (A, F) bool: the arm reaches the fruit from some cell (annulus less the margin)
+
+    def band(self, a: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(cells (F, W), cost (F, W))`` of arm ``a``: the cell index of each column, clipped."""
+        W = self.cost[a].shape[1]
+        return np.minimum(self.first[a][:, None] + np.arange(W)[None, :], self.lo.size - 1), self.cost[a]
+
+
+def cell_cycles(problem: Problem, step: float = 0.05) -> CellCycles:
+    """Per arm, fruit and rail cell of ``step`` m: a lower bound on one harvest cycle (bin ->
+    fruit -> bin and both dwells) with the carriage anywhere in the cell (module docstring)."""
+    from ..problem.gantry import cell_at
+    from .screen import screened
+
+    g = problem.gantry
+    locked = set(screened(cell_at(problem, 0.0, ())).locked)
+    m = problem.task.reach_margin
+    dw = problem.task.pick_dwell + problem.task.place_dwell
+    cs = np.arange(g.start, g.end + step, step)
+    cs = np.minimum(cs, g.end)
+    lo_c, hi_c = cs[:-1], cs[1:]  # cells [lo, hi] covering the rail
+    A, F = len(problem.arms), len(problem.fruits)
+    reach = np.zeros((A, F), dtype=bool)
+    firsts, costs = [], []
+    xs = problem.fruit_positions[:, 0] if F else np.zeros(0)
+    ys = problem.fruit_positions[:, 1] if F else np.zeros(0)
+    for a, arm in enumerate(problem.arms):
+        l1, l2 = arm.links
+        r_in, r_out = abs(l1 - l2) + m, l1 + l2 - m
+        qb, vb = arm.ik(np.asarray(arm.bin, float), 0.0)
+        bins = qb[vb]
+        if bins.size == 0 or F == 0 or arm.name in locked:
+            firsts.append(None)
+            costs.append(None)
+            continue
+        # per fruit, the band of cells within reach: (F, W) cell indices (clipped; duplicates are harmless)
+        first = np.searchsorted(hi_c, xs - arm.base[0] - arm.reach)
+        W = int(math.ceil(2.0 * arm.reach / step)) + 2
+        idx = np.minimum(first[:, None] + np.arange(W)[None, :], lo_c.size - 1)
+        dy = (ys - arm.base[1])[:, None]
+        p0, p1 = xs[:, None] - hi_c[idx] - arm.base[0], xs[:, None] - lo_c[idx] - arm.base[0]
+        rmin = np.where((p0 <= 0) & (p1 >= 0), np.abs(dy), np.minimum(np.hypot(p0, dy), np.hypot(p1, dy)))
+        rmax = np.maximum(np.hypot(p0, dy), np.hypot(p1, dy))
+        inside = (rmin <= r_out) & (rmax >= r_in)
+        reach[a] = inside.any(axis=1)
+        r_lo, r_hi = np.clip(rmin, r_in, r_out), np.clip(rmax, r_in, r_out)
+        q2a, q2b = _q2_of_r(l1, l2, r_hi), _q2_of_r(l1, l2, r_lo)  # q2 falls as r grows: [q2a, q2b]
+        # phi(q2) over [q2a, q2b]: its ends and, if inside, its turning point (cos q2 = -l2 / l1)
+        ph = [_phi(l1, l2, q2a), _phi(l1, l2, q2b)]
+        if l2 < l1:
+            qc = math.acos(-l2 / l1)
+            ph.append(np.where((q2a <= qc) & (qc <= q2b), _phi(l1, l2, qc), ph[0]))
+        ph_lo, ph_hi = np.minimum.reduce(ph), np.maximum.reduce(ph)
+        th0, th1 = np.arctan2(np.broadcast_to(dy, p0.shape), p0), np.arctan2(np.broadcast_to(dy, p1.shape), p1)
+        flat = np.broadcast_to(np.abs(dy) < 1e-12, p0.shape)  # a fruit at base height: the angle jumps 0 <-> pi
+        th_lo = np.where(flat, -math.pi, np.minimum(th0, th1))
+        th_hi = np.where(flat, math.pi, np.maximum(th0, th1))
+        best = np.full(p0.shape, np.inf)
+        for sgn in (1.0, -1.0):  # elbow up: q2 >= 0, q1 = theta - phi; elbow down: mirrored
+            q2_lo, q2_hi = (q2a, q2b) if sgn > 0 else (-q2b, -q2a)
+            q1_lo, q1_hi = (th_lo - ph_hi, th_hi - ph_lo) if sgn > 0 else (th_lo + ph_lo, th_hi + ph_hi)
+            for qb0 in bins:
+                d1 = np.minimum.reduce([_dist_to_range(qb0[0], q1_lo + s, q1_hi + s) for s in (-_TWO_PI, 0.0, _TWO_PI)])
+                d2 = _dist_to_range(qb0[1], q2_lo, q2_hi)
+                t = np.maximum(scurve_times(d1, arm.max_velocity[0], arm.max_acceleration[0], arm.max_jerk[0]),
+                               scurve_times(d2, arm.max_velocity[1], arm.max_acceleration[1], arm.max_jerk[1]))
+                best = np.minimum(best, t)
+        firsts.append(first)
+        costs.append(np.where(inside, 2.0 * best + dw, np.inf))
+    return CellCycles(lo_c, hi_c, tuple(firsts), tuple(costs), reach)
+
+
+def cycle_bounds(problem: Problem, step: float = 0.05) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(cost (A, F), reach (A, F) bool, reach_from (F,))``: per arm and fruit, a lower bound on
+    one harvest cycle (bin -> fruit -> bin and both dwells) over every carriage position (module
+    docstring); whether the arm can reach the fruit from some position on the rail (annulus
+    less the margin, ignoring joint limits: a superset); and the least carriage position from
+    which some arm might reach the fruit. An arm the cell screen locks (it cannot reach its bin,
+    which rides with the carriage: the screen of the cell at any carriage position) reaches nothing."""
+    cc = cell_cycles(problem, step)
+    A, F = cc.reach.shape
+    cost = np.full((A, F), np.inf)
+    reach_from = np.full(F, np.inf)
+    for a in range(A):
+        if cc.cost[a] is None:
+            continue
+        cells, t = cc.band(a)
+        inside = np.isfinite(t)
+        reach_from = np.minimum(reach_from, np.where(inside, cc.lo[cells], np.inf).min(axis=1))
+        cost[a] = np.where(cc.reach[a], t.min(axis=1), np.inf)
+    return cost, cc.reach.copy(), reach_from

@@ -1,0 +1,155 @@
+"""The priced-stops bound (coplan.allocate.stop_bound): a lower bound for every stop-by-stop row
+plan, checked against brute force over every set of stops on seeded random rows, against the
+move-time properties its proof uses, and on the shipped rows against the plain bound and the
+plans coplan makes."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from coplan.allocate.row_bound import row_bounds
+from coplan.allocate.row_cycles import cell_cycles
+from coplan.allocate.stop_bound import fruit_cell_costs, stops_bound, stops_dp
+from coplan.kinematics.timing import scurve_times
+from coplan.problem import load_problem
+
+ROWS = Path(__file__).resolve().parents[1] / "problems" / "rows"
+LIMITS = [(0.5, 0.5, 5.0), (0.2, 1.0, 2.0), (1.0, 0.3, 50.0)]
+
+
+def _random_bands(rng, N: int, F: int, width: int, holes: bool, clusters: bool = False):
+    """Each fruit reachable over a band of up to ``width`` cells somewhere on ``N`` cells (with a
+    hole inside where ``holes``: the annulus's inner circle; near either end where ``clusters``,
+    an empty stretch between), costs 1-5 s."""
+    first = np.zeros(F, dtype=int)
+    w = np.full((F, width + 2), np.inf)
+    for f in range(F):
+        lo = int(rng.integers(0, N // 4) if f % 2 == 0 else rng.integers(N - N // 4 - 1, N)) if clusters else int(rng.integers(0, N))
+        n = int(rng.integers(1, width + 1))
+        first[f] = max(lo - 1, 0)
+        cols = np.arange(lo - first[f], min(lo - first[f] + n, N - first[f]))
+        w[f, cols] = rng.uniform(1.0, 5.0, cols.size)
+        if holes and cols.size >= 3 and rng.random() < 0.5:
+            w[f, cols[1:-1][rng.integers(cols.size - 2)]] = np.inf
+    return first, w
+
+
+def _exact(first, w, N, step, lim, cells, pos):
+    """A stop-by-stop plan's lower bound with stops at ``pos`` in ``cells`` (sorted): the moves
+    from the start (0) through them, each fruit at its cheapest stop."""
+    moves = scurve_times(np.diff(np.concatenate([[0.0], pos])), *lim).sum()
+    cols = np.asarray(cells)[None, :] - first[:, None]
+    ok = (cols >= 0) & (cols < w.shape[1])
+    c = np.where(ok, w[np.arange(w.shape[0])[:, None], np.clip(cols, 0, w.shape[1] - 1)], np.inf)
+    return moves + c.min(axis=1).sum()
+
+
+def _charged(first, w, step, lim, cells, span):
+    """What the programme's relaxation charges the set of stop ``cells`` (module docstring),
+    written out directly: gaps of up to ``span`` cells priced in pairs (a half of each gap at a
+    run's ends), a longer gap whole; each fruit the cheaper of its least up to the stop before
+    its best cell and its least from the stop at or after it."""
+    T = lambda k: float(scurve_times(np.array([max(k - 1, 0) * step]), *lim)[0])  # a gap of k cells: (k - 1) steps at least
+    idx = [0] + [c + 1 for c in cells]  # 0: the start, cell c is c + 1
+    gaps = np.diff(idx)
+    moves, run = 0.0, []
+    for k in list(gaps) + [None]:
+        if k is None or k > span:  # a run of short gaps ends
+            if run:
+                moves += 0.5 * T(run[0]) + 0.5 * T(run[-1])
+                moves += sum(0.5 * max(T(a) + T(b), T(a + b)) for a, b in zip(run, run[1:]))
+            run = []
+            if k is not None:
+                moves += T(k)
+        else:
+            run.append(k)
+    work = 0.0
+    for f in range(w.shape[0]):
+        c = first[f] + 1 + np.arange(w.shape[1])
+        r = c[np.argmin(w[f])]
+        i = int(np.searchsorted(idx, r, "left")) - 1  # r in (idx[i], idx[i + 1]]
+        left = w[f][c <= idx[i]].min(initial=np.inf)
+        right = w[f][c >= idx[i + 1]].min(initial=np.inf) if i + 1 < len(idx) else np.inf
+        work += min(left, right)
+    return moves + work
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_the_programme_is_its_relaxation_s_least_and_below_every_set_of_stops_brute_force(seed):
+    """Every set of stop cells on a seeded random row: the programme's value is the least its
+    relaxation charges any set (written out directly, not by the programme), its witness
+    attains it, and for every set what it charges is at most what a stop-by-stop plan with
+    those stops costs, each stop anywhere in its cell (both ends, alternating ends --
+    neighbours as close as cells allow -- and random points): the bound is valid set by set.
+    Half the cases have wide cells and narrow bands, so gaps past the pair states occur."""
+    rng = np.random.default_rng(seed)
+    lim = LIMITS[seed % len(LIMITS)]
+    long_gaps = seed % 2 == 1
+    N = 11 if long_gaps else 9
+    step = 1.2 if long_gaps else 0.05
+    first, w = _random_bands(rng, N, int(rng.integers(3, 9)), 2 if long_gaps else 4, holes=not long_gaps, clusters=long_gaps)
+    value, stops, work, span = stops_dp(first, w, N, step, *lim)
+    assert np.isfinite(value) and work <= value + 1e-9
+    assert work >= np.nanmin(np.where(np.isfinite(w), w, np.nan), axis=1).sum() - 1e-9
+    least, long_used = np.inf, False
+    for k in range(1, N + 1):
+        for cells in itertools.combinations(range(N), k):
+            charged = _charged(first, w, step, lim, cells, span)
+            least = min(least, charged)
+            lo = np.asarray(cells) * step
+            pats = [lo, lo + step, np.where(np.arange(k) % 2 == 0, lo + step, lo), np.where(np.arange(k) % 2 == 1, lo + step, lo)]
+            pats += [lo + rng.uniform(0, step, k) for _ in range(2)]
+            assert charged <= min(_exact(first, w, N, step, lim, cells, p) for p in pats) + 1e-9, cells
+            long_used |= np.isfinite(charged) and np.diff([-1, *cells]).max() > span
+    assert value == pytest.approx(least, rel=1e-12, abs=1e-9)
+    assert _charged(first, w, step, lim, stops, span) == pytest.approx(value, rel=1e-12, abs=1e-9)
+    if long_gaps:
+        assert long_used  # (some finite set has a gap past the pairs: that path is compared too)
+
+
+@pytest.mark.parametrize("lim", LIMITS + [(0.5, 0.5, 5.0)])
+def test_the_carriage_move_times_are_what_the_proof_uses(lim):
+    """T (the rest-to-rest move over a distance) is increasing, subadditive (two moves make one
+    over the sum), and past the distance where it reaches its top speed grows by exactly
+    d / v_max: what pricing pairs of gaps, and long gaps cell by cell, rely on."""
+    v, a, j = lim
+    d = np.linspace(0.0, 6.0, 601)
+    T = scurve_times(d, v, a, j)
+    assert np.all(np.diff(T) > 0)
+    assert np.all(T[:, None] + T[None, :] >= scurve_times(d[:, None] + d[None, :], v, a, j) - 1e-12)
+    cruise = v * ((v / a + a / j) if v >= a * a / j else 2.0 * np.sqrt(v / j))
+    far = d[d >= cruise]
+    assert np.allclose(np.diff(scurve_times(far, v, a, j)), np.diff(far) / v)
+
+
+@pytest.mark.parametrize("name", ["sparse_row", "course_row"])
+def test_the_priced_bound_on_a_shipped_row_is_above_the_plain_one_and_below_its_plan(name):
+    """Pricing the stops raises the stop-by-stop bound above the carriage's one move plus the
+    busiest arm's best-position work, and the row's stop_and_go is the larger; a fine grid and
+    the default one both bound (the fine one's cells price positions closer)."""
+    prob = load_problem(ROWS / f"{name}.yaml")
+    b = row_bounds(prob)
+    plain = b.moves + b.work
+    assert b.priced > plain + 1.0 and b.stop_and_go == pytest.approx(max(b.any_plan, plain, b.priced))
+    assert b.priced_stops >= 2
+    fine = stops_bound(prob, 0.05)
+    assert fine.value >= plain and fine.moves > 0 and fine.work > 0
+    assert all(prob.gantry.start <= x <= prob.gantry.end for x in fine.stops)
+    assert row_bounds(prob, priced=False).priced == 0.0
+
+
+def test_the_cell_costs_are_the_cheapest_arm_s_over_the_harvesting_arms():
+    """w_f(c) is min over arms of the cycle bound from cell c, divided by the arms that harvest;
+    its least over cells is the per-fruit cycle bound's least over arms, divided the same way."""
+    from coplan.allocate.row_cycles import cycle_bounds
+
+    prob = load_problem(ROWS / "sparse_row.yaml")
+    cc = cell_cycles(prob, 0.1)
+    first, w, arms = fruit_cell_costs(cc)
+    cost, reach, _ = cycle_bounds(prob, 0.1)
+    assert arms == len(prob.arms)
+    np.testing.assert_allclose(w.min(axis=1), cost.min(axis=0) / arms)
