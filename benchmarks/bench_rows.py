@@ -43,8 +43,8 @@ def _rules(files: list[Path]) -> list[str]:
     from coplan.row.metrics import row_metrics
     from coplan.row.plan import RowOptions, plan_row
 
-    out = ["| row | fruit | rule | stops | row time | fruit / h | harvested | / bound (any plan) | / bound (stop by stop, no overlap) "
-           "| moves overlapping work | planning | planning / row time | first motion | kept ahead | verified |",
+    out = ["| row | fruit | stop rule | stops | row time | fruit / h | harvested | / bound (any plan) | / bound (stop by stop, no overlap) "
+           "| moves overlapping work | planning | planning / row time | first motion | kept ahead (least slack) | verified |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     gains, bounds = [], []
     for f in files:
