@@ -283,6 +283,10 @@ def test_a_row_whose_arms_are_locked_says_so_and_bounds_with_the_others(tmp_path
     assert "2 of 3 arms locked (arm1, arm2)" in out.output and "cannot reach its bin" in out.output
     doc = json.loads(CliRunner().invoke(app, ["check", str(path), "--json"]).output)
     assert sorted(doc["locked"]) == names[:2]
+    # the priced-stops bound charges the one arm that harvests: at least its cycles and the carriage's way
+    lb = doc["lower_bound"]
+    assert lb["priced"] >= lb["work"] and lb["stop_and_go"] >= lb["priced"] and lb["priced_stops"] >= 1
+    assert "where each fruit is picked from priced together" in out.output
 
 
 def test_row_metrics_add_up(row, planned):
