@@ -346,6 +346,37 @@ def test_coplan_solve_verify_and_check_a_row(tmp_path):
     assert r.exit_code == 2 and "stationary cell" in r.output
 
 
+def _pick_span(p):
+    picks = [e for e in p.events if e.kind == EventKind.PICK]
+    return min(e.t_start for e in picks), max(e.t_end for e in picks), float(p.time[-1])
+
+
+def test_retimed_cells_pick_the_same_fruit_at_the_same_stops_and_put_no_stop_later(row, planned):
+    """Each stop's coordinated cell retimed by CP-SAT (``RowOptions.retime``, on by default) is
+    kept only where it verifies and makes no stop of the row later: its last pick, its stay (last
+    pick less first), its end and its end less its first pick no later than the coordinated
+    cell's. So the same stops, each arm the same fruit, every departure and the row no later
+    (to the plan's grid, a sample per stop); on this row some cells are retimed, and the row is
+    shorter."""
+    from coplan.plan import DEFAULT_RATE
+
+    on = planned[StopRule.OPTIMISED]
+    off = plan_row(row, RowOptions(retime=False))
+    assert on.verification.passed and off.verification.passed
+    assert [(sp.stop.x, sp.stop.fruit) for sp in on.stops] == [(sp.stop.x, sp.stop.fruit) for sp in off.stops]
+    assert on.plan.allocation == off.plan.allocation
+    dt = 1.0 / DEFAULT_RATE
+    for k, (a, b) in enumerate(zip(on.stops, off.stops)):
+        assert a.depart <= b.depart + (k + 1) * dt
+        (fa, la, ea), (fb, lb, eb) = _pick_span(a.plan), _pick_span(b.plan)
+        assert la <= lb + 1e-9 and la - fa <= lb - fb + 1e-9 and ea <= eb + 1e-9 and ea - fa <= eb - fb + 1e-9
+        if a.plan.solver.get("retime"):
+            assert a.plan.verification["passed"] and a.plan.solver["retime"]["rounds"][0]["makespan"] < eb
+    assert off.info["retimed_cells"] == 0 and off.info["retime"] is False and on.info["retime"] is True
+    assert on.info["retimed_cells"] >= 1
+    assert on.plan.metrics["makespan"] < off.plan.metrics["makespan"]
+
+
 def test_cells_planned_in_two_processes_give_the_same_row_plan_as_in_one(row, planned):
     """The stops' cells in worker processes beside the stop rule (``workers``): the same stops,
     cells, events and samples as in one process, every stop's cell ready no earlier than its stop

@@ -8,7 +8,9 @@ Entry point: :func:`plan_row` -> :class:`RowResult`.
    (a stop every carriage span) or ``fewest``; each stop's fruit.
 3. **Cells**: each stop is a stationary cell (:func:`coplan.problem.gantry.cell_at`) planned by
    the cell planner (``coordinated``, or ``optimal`` with a per-stop budget): every arm from
-   home back to home, verified as a cell. Stops are planned as the stop rule commits them
+   home back to home, verified as a cell. A coordinated cell is then retimed by CP-SAT (the
+   optimal planner's retime stage: the same moves, every start chosen together; ``retime``),
+   kept where it verifies and makes no stop later. Stops are planned as the stop rule commits them
    (receding horizon), so the carriage's first move can start before the rest is planned.
    With ``workers`` > 1 the cells are planned in that many processes while the stop rule goes
    on (each cell's plan is deterministic in its inputs: the same plans as in one process).
@@ -54,6 +56,9 @@ class RowOptions:
     cell_search_work : the optimal cell planner's search budget per stop (work, not seconds)
     workers : processes the stops' cells are planned in, beside the stop rule (1: all here; the
         same plans either way)
+    retime : the coordinated cell planner's plan at each stop retimed by CP-SAT (the optimal
+        planner's retime stage: the same moves, picks and places, every start chosen together;
+        deterministic), kept where it verifies and holds the carriage no longer
     """
 
     stops: StopRule = StopRule.OPTIMISED
@@ -62,6 +67,7 @@ class RowOptions:
     window: StopWindow = field(default_factory=StopWindow)
     cell_search_work: int = 3000
     workers: int = 1
+    retime: bool = True
 
     def __post_init__(self) -> None:
         settle_workers(self)  # (auto: this machine's cores, at most 8)
@@ -119,7 +125,62 @@ def _cell_plan(cell: Problem, opts: RowOptions) -> Plan:
         if best.status == base.status and _stay(best) > _stay(base) + 1e-9:
             return base
         return best
-    return plan_coordinated(cell).plan
+    res = plan_coordinated(cell)
+    if opts.retime:
+        better = _retimed(cell, res)
+        if better is not None:
+            return better
+    return res.plan
+
+
+def _retimed(cell: Problem, res) -> Plan | None:
+    """The coordinated cell plan ``res`` (a :class:`CoordinatedResult`) with its moves retimed
+    together by CP-SAT, as the optimal planner's retime stage does it (the same moves, picks and
+    places; a cell of more than ``refine_fruit`` fruit in bounded rounds, each move at most
+    ``retime_shift`` later, while a round gains): the last round that verifies and makes no stop
+    of the row later (:func:`_no_later`); None where none does. Its report is
+    ``solver['retime']``."""
+    from ..planners.coordinated.planner import CoordinatedOptions, schedules_plan
+    from ..planners.optimal.options import OptimalOptions
+    from ..planners.optimal.retime import retime, retimed_candidate
+    from ..verify.verifier import verify
+
+    c, base = res.candidate, res.plan
+    if c is None or c.fallback or base.status != PlanStatus.SUCCESS:
+        return None
+    o, margin = OptimalOptions(), CoordinatedOptions().margin
+    long = len(cell.fruits) > o.refine_fruit
+    tables, memo, rounds, best = {}, {}, [], None
+    t0 = _time.perf_counter()
+    for _ in range(o.retime_rounds if long else 1):
+        r = retime(cell, c.schedules, margin, work=o.retime_work, tables=tables, memo=memo,
+                   shift=o.retime_shift if long else None)
+        rounds.append({"status": r.status, "makespan_before": c.makespan, "makespan": r.makespan})
+        if r.schedules is None or r.makespan >= c.makespan - 0.01:
+            break
+        c = retimed_candidate(c, r)
+        info = dict(base.solver) | {"retime": {"rounds": rounds, "wall_seconds": _time.perf_counter() - t0}}
+        p = schedules_plan(cell, c.alloc, c.schedules, PlannerKind.COORDINATED, info)
+        v = verify(cell, p)
+        if not v.passed:
+            break
+        p = finalize_plan(p, v, len(cell.reachable_ids()))
+        if p.status != base.status or not _no_later(p, best or base):
+            break
+        best = p
+    return best
+
+
+def _no_later(p: Plan, base: Plan) -> bool:
+    """Whether cell plan ``p`` puts no stop of any row later than ``base`` does, and gains
+    somewhere. In :func:`assemble` a cell starts at ``max(free, arrive - first pick)`` and frees
+    the carriage at its start + last pick, the arms at its start + end: both no later, whatever
+    ``free`` and ``arrive`` are, when its last pick, its stay (last pick less first), its end and
+    its end less its first pick are each no later."""
+    (fp, lp), (fb, lb) = _first_last_pick(p), _first_last_pick(base)
+    ep, eb = float(p.time[-1]), float(base.time[-1])
+    here, there = (lp, lp - fp, ep, ep - fp), (lb, lb - fb, eb, eb - fb)
+    return all(a <= b + 1e-9 for a, b in zip(here, there)) and any(a < b - 1e-6 for a, b in zip(here, there))
 
 
 def _stay(p: Plan) -> float:
@@ -179,7 +240,8 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         pending.append((s, fut, when))
 
     ts = _time.perf_counter()
-    info: dict = {"mode": GantryMode.STOP_AND_GO.value, "rule": rule.value, "cell_planner": PlannerKind(opts.planner).value, "workers": workers}
+    info: dict = {"mode": GantryMode.STOP_AND_GO.value, "rule": rule.value, "cell_planner": PlannerKind(opts.planner).value,
+                  "workers": workers, "retime": bool(opts.retime) and PlannerKind(opts.planner) == PlannerKind.COORDINATED}
     kept: list[Stop] = []  # every stop the rule kept, in carriage order
     interrupted = False
     try:
@@ -236,6 +298,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     if interrupted:
         plan.status = PlanStatus.INTERRUPTED  # (the verdict on what it has is in plan.verification)
     info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
+    info["retimed_cells"] = sum(1 for sp in planned if sp.plan.solver.get("retime"))  # (cells whose retiming was kept)
     info["left_out"] = dict(reach.reasons)
     picked = _picked(planned)
     # fruit a stop's cell planner could not fit in (and no second chance took), at every stop tried
