@@ -37,6 +37,7 @@ Every ratio is measured in this run, on this machine. Every plan is verified.
     python benchmarks/bench_moving.py --arms-only   # the arms curve only
     python benchmarks/bench_moving.py --live-only   # the live rows only
     python benchmarks/bench_moving.py --faults-only # the fault runs only
+    python benchmarks/bench_moving.py --parts head,live  # some of the parts, in one run
 """
 
 from __future__ import annotations
@@ -321,21 +322,29 @@ def main() -> None:
     ap.add_argument("--arms-only", action="store_true", help="the arms curve only")
     ap.add_argument("--live-only", action="store_true", help="the live rows only (at 0.1 m/s)")
     ap.add_argument("--faults-only", action="store_true", help="the fault runs only")
+    ap.add_argument("--parts", default=None, help="a comma list of parts to run, of: head, speed, arms, live, faults "
+                                                  "(e.g. head,live: what a change to the stop rules' plans moves)")
     ap.add_argument("--figure", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "arms_curve.png",
                     help="where the arms curve's figure goes (default docs/arms_curve.png)")
     args = ap.parse_args()
     print(run_header(), flush=True)
     t = time.perf_counter()
     only = args.arms_only or args.live_only or args.faults_only
-    if not only:
+    parts = {"head", "speed", "arms", "live", "faults"}
+    if args.parts is not None:
+        asked = {p.strip() for p in args.parts.split(",") if p.strip()}
+        if not asked or asked - parts:
+            ap.error(f"--parts: expected a comma list of {', '.join(sorted(parts))}, found {args.parts!r}")
+        parts = asked
+    if not only and "head" in parts:
         head_to_head(args.quick)
-    if not args.quick and not only:
+    if not args.quick and not only and "speed" in parts:
         speed_curve()
-    if not args.quick and (not only or args.arms_only):
+    if not args.quick and (not only or args.arms_only) and "arms" in parts:
         arms_curve(args.figure)
-    if not args.quick and (not only or args.live_only):
+    if not args.quick and (not only or args.live_only) and "live" in parts:
         live_rows()
-    if not args.quick and (not only or args.faults_only):
+    if not args.quick and (not only or args.faults_only) and "faults" in parts:
         faults()
     print(f"\n(one run, {time.perf_counter() - t:.0f} s)")
 
