@@ -375,6 +375,14 @@ def test_retimed_cells_pick_the_same_fruit_at_the_same_stops_and_put_no_stop_lat
     assert off.info["retimed_cells"] == 0 and off.info["retime"] is False and on.info["retime"] is True
     assert on.info["retimed_cells"] >= 1
     assert on.plan.metrics["makespan"] < off.plan.metrics["makespan"]
+    # the first stop's cell is retimed only where the carriage's drive there leaves it the time
+    # (a rule on the row: FIRST_RETIME_PER_FRUIT_ARM s per fruit and arm): with no drive, never
+    from coplan.row.plan import _cell_plan
+
+    sp = next(sp for sp in on.stops if sp.plan.solver.get("retime"))
+    cell = cell_at(row, sp.stop.x, sp.stop.fruit)
+    assert _cell_plan(cell, RowOptions(), drive=1e6).solver.get("retime")
+    assert not _cell_plan(cell, RowOptions(), drive=0.0).solver.get("retime")
 
 
 def test_cells_planned_in_two_processes_give_the_same_row_plan_as_in_one(row, planned):
