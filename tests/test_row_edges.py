@@ -247,11 +247,11 @@ def test_an_interrupted_row_keeps_its_stops_planned_so_far_verified(tmp_path, mo
     for after in (2, 0):
         calls = []
 
-        def cell_plan(cell, opts, after=after, calls=calls):
+        def cell_plan(cell, opts, drive=None, after=after, calls=calls):
             calls.append(1)
             if len(calls) > after:
                 raise KeyboardInterrupt
-            return real(cell, opts)
+            return real(cell, opts, drive)
 
         monkeypatch.setattr(rp, "_cell_plan", cell_plan)
         res = coplan.solve(path, stops="fixed", out_dir=tmp_path / f"run{after}")
@@ -324,9 +324,9 @@ def test_an_interrupt_a_cell_planner_absorbed_still_interrupts_the_row_its_live_
     real = rp._cell_plan
     calls = []
 
-    def absorbing(cell, opts):  # as plan_optimal does: the interrupt becomes the plan's status
+    def absorbing(cell, opts, drive=None):  # as plan_optimal does: the interrupt becomes the plan's status
         calls.append(1)
-        p = real(cell, opts)
+        p = real(cell, opts, drive)
         if len(calls) > 1:
             p.status = PlanStatus.INTERRUPTED
         return p
@@ -520,7 +520,7 @@ def _refusing_a_fruit(prob, real, seen: dict, calls: list | None = None, interru
 
     calls = [] if calls is None else calls
 
-    def refusing(cell, opts):
+    def refusing(cell, opts, drive=None):
         ids = [f.id for f in cell.fruits]
         calls.append(ids)
         if interrupt_again and seen and ids == [seen["fruit"]]:
@@ -528,15 +528,15 @@ def _refusing_a_fruit(prob, real, seen: dict, calls: list | None = None, interru
         if not seen and len(ids) > 1:
             x = cell.arms[0].base[0] - prob.arms[0].base[0]
             seen.update(fruit=ids[0], x=x)
-            p = real(cell_of(prob, x, tuple(ids[1:])), opts)
+            p = real(cell_of(prob, x, tuple(ids[1:])), opts, drive)
             p.solver["left_out"] = {ids[0]: "made to fail here by the test"}
             return p
         if always and seen and seen["fruit"] in ids:
             x = cell.arms[0].base[0] - prob.arms[0].base[0]
-            p = real(cell_of(prob, x, tuple(i for i in ids if i != seen["fruit"])), opts)
+            p = real(cell_of(prob, x, tuple(i for i in ids if i != seen["fruit"])), opts, drive)
             p.solver["left_out"] = {seen["fruit"]: "made to fail again by the test"}
             return p
-        return real(cell, opts)
+        return real(cell, opts, drive)
 
     return refusing
 
