@@ -385,6 +385,16 @@ def test_retimed_cells_pick_the_same_fruit_at_the_same_stops_and_put_no_stop_lat
     assert not _cell_plan(cell, RowOptions(), drive=0.0).solver.get("retime")
 
 
+def test_the_summary_says_how_many_cells_were_retimed(tmp_path):
+    f = tmp_path / "row.yaml"
+    f.write_text(to_yaml(gantry_row(length=12.0, density=4.0, seed=5)))
+    r = CliRunner(env={"COLUMNS": "250"}).invoke(app, ["solve", str(f), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    doc = json.loads((tmp_path / "o" / "plan.json").read_text())
+    n, stops = doc["solver"]["row"]["retimed_cells"], doc["metrics"]["row"]["stops"]
+    assert n >= 1 and f"cell planner coordinated ({n} of {stops} cells retimed by CP-SAT)" in r.output
+
+
 def test_cells_planned_in_two_processes_give_the_same_row_plan_as_in_one(row, planned):
     """The stops' cells in worker processes beside the stop rule (``workers``): the same stops,
     cells, events and samples as in one process, every stop's cell ready no earlier than its stop
