@@ -48,6 +48,7 @@ beat it by at most that overlap, as for the plain bound.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -95,16 +96,14 @@ def fruit_cell_costs(cc: CellCycles) -> tuple[np.ndarray, np.ndarray, int]:
     return first, w / len(arms), len(arms)
 
 
-def stops_bound(problem: Problem, step: float = STEP, cc: CellCycles | None = None) -> StopsBound:
+def stops_bound(problem: Problem, step: float = STEP) -> StopsBound:
     """The bound (module docstring) on ``problem``'s row (which has a gantry), with rail cells of
-    ``step`` m (or the cycles ``cc`` already computed); counts the fruit some arm reaches from
-    some cell. Its value is inf where some fruit an arm reaches could be picked by no
-    stop-by-stop plan (none here: a fruit within reach of some cell is within reach of a stop there)."""
-    import time
-
+    ``step`` m; counts the fruit some arm reaches from some cell. Its value is inf where some
+    fruit an arm reaches could be picked by no stop-by-stop plan (none here: a fruit within
+    reach of some cell is within reach of a stop there)."""
     t0 = time.perf_counter()
     g = problem.gantry
-    cc = cell_cycles(problem, step) if cc is None else cc
+    cc = cell_cycles(problem, step)
     first, w, arms = fruit_cell_costs(cc)
     ok = np.isfinite(w).any(axis=1)
     if not ok.any():

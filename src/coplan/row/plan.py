@@ -40,7 +40,7 @@ from ..problem.gantry import cell_at
 from ..problem.model import Problem
 from ..progress import Tick, speaker, ticker
 from .reach import DEFAULT_RESOLUTION, RowReach, row_reach, screened_out
-from .stops import Stop, StopWindow, fewest_stops, fixed_stops, optimised_stops
+from .stops import Stop, StopWindow, arrival_time, fewest_stops, fixed_stops, optimised_stops
 
 __all__ = ["RowOptions", "RowResult", "StopPlan", "plan_row", "assemble", "finalize_row"]
 
@@ -132,7 +132,7 @@ def _cell_plan(cell: Problem, opts: RowOptions, drive: float | None = None) -> P
             return base
         return best
     res = plan_coordinated(cell)
-    # the first stop's cell (``drive``: the carriage's way there, s): the row's first motion waits
+    # the first stop's cell (``drive``: when it may pick there, s): the row's first motion waits
     # for it, and what it has is the drive less the cell's lead to its first pick; retimed only
     # where that is FIRST_RETIME_PER_FRUIT_ARM s per fruit and arm or more (planning and retiming
     # took 8.6-8.8 ms per fruit and arm on a 2-core machine: dense_row's first stop, 91 fruit and
@@ -206,12 +206,6 @@ def _stay(p: Plan) -> float:
 FIRST_RETIME_PER_FRUIT_ARM = 0.02  # s per fruit and arm of the first stop's slack before its cell starts, to retime it
 
 
-def _first_drive(problem: Problem, s: Stop) -> float:
-    """The carriage's drive from the rail's start to the first stop ``s`` (s)."""
-    g = problem.gantry
-    return Move1D.between(g.start, s.x, g.max_velocity, g.max_acceleration, g.max_jerk).duration
-
-
 def _cell_job(cell: Problem, opts: RowOptions, drive: float | None = None) -> tuple[Plan, float]:
     """One stop's cell in a worker process (module-level: it is pickled): the plan and its seconds."""
     t = _time.perf_counter()
@@ -253,7 +247,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         drive = None
         if not first_stop_at:
             first_stop_at.append(_time.perf_counter() - t0)
-            drive = _first_drive(problem, s)
+            drive = arrival_time(problem.gantry, problem.gantry.start, s.x)  # (its move there and settle)
         cell = cell_at(problem, s.x, s.fruit)
         if pool is None:
             tc = _time.perf_counter()
