@@ -16,7 +16,7 @@ from coplan.planners.coordinated.planner import schedules_plan
 from coplan.planners.coordinated.schedule import StepKind
 from coplan.planners.optimal import OptimalOptions, plan_optimal
 from coplan.planners.optimal import retime as retime_module
-from coplan.planners.optimal.retime import _allowed, retime
+from coplan.planners.optimal.retime import _allowed, retime, retime_rounds
 from coplan.problem import default_problem_path, load_problem, parse_problem
 from coplan.verify import verify
 
@@ -174,6 +174,30 @@ def test_bounded_retiming_is_a_restriction_that_keeps_the_work_and_is_verified(l
     assert wide.constraints == full.constraints
     if full.status == "OPTIMAL" and wide.status == "OPTIMAL":
         assert wide.makespan == pytest.approx(full.makespan, abs=1e-3)
+
+
+def test_retime_rounds_go_on_from_each_round_that_gains_and_stop_at_one_that_does_not(long_row):
+    """The rounds the optimal planner and a row's cells share: each round retimes the last
+    round's result, only while a round gains more than ``gain``; every round keeps the work and
+    is never later than the one before; the caller can leave after any round."""
+    prob, coord, bound = long_row
+    tables, memo = {}, {}
+    seen = list(retime_rounds(prob, coord, MARGIN, rounds=4, shift=1.5, work=5.0, tables=tables, memo=memo))
+    assert 1 <= len(seen) <= 4 and memo  # (the meetings are kept between rounds)
+    before = coord.makespan
+    for j, (r, rc, gained, seconds) in enumerate(seen):
+        assert r.schedules is not None and seconds >= 0.0
+        assert rc.makespan == r.makespan <= before + 1e-9 and rc.alloc is coord.alloc
+        assert gained == (r.makespan < before - 0.01)
+        assert gained or j == len(seen) - 1  # a round that does not gain is the last
+        for n, sch in coord.schedules.items():
+            assert _work(rc.schedules[n]) == _work(sch)
+        before = r.makespan
+    assert bound - 1e-9 <= before
+    # the first round is the single retiming of the plan, and one round asked for is one round given
+    first = retime(prob, coord.schedules, MARGIN, shift=1.5, work=5.0)
+    assert seen[0][0].makespan == pytest.approx(first.makespan, abs=1e-9)
+    assert len(list(retime_rounds(prob, coord, MARGIN, rounds=1, shift=1.5, work=5.0, tables={}, memo={}))) == 1
 
 
 def test_the_optimal_planner_bounds_retiming_only_beyond_refine_fruit(long_row):

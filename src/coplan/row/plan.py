@@ -156,7 +156,7 @@ def _retimed(cell: Problem, res, work: float) -> Plan | None:
     ``solver['retime']``."""
     from ..planners.coordinated.planner import CoordinatedOptions, schedules_plan
     from ..planners.optimal.options import OptimalOptions
-    from ..planners.optimal.retime import retime, retimed_candidate
+    from ..planners.optimal.retime import retime_rounds
     from ..verify.verifier import verify
 
     c, base = res.candidate, res.plan
@@ -164,17 +164,17 @@ def _retimed(cell: Problem, res, work: float) -> Plan | None:
         return None
     o, margin = OptimalOptions(), CoordinatedOptions().margin
     long = len(cell.fruits) > o.refine_fruit
-    tables, memo, rounds, best = {}, {}, [], None
+    rounds, best, before = [], None, c.makespan
     t0 = _time.perf_counter()
-    for _ in range(o.retime_rounds if long else 1):
-        r = retime(cell, c.schedules, margin, work=work, tables=tables, memo=memo,
-                   shift=o.retime_shift if long else None, linear=False)
-        rounds.append({"status": r.status, "makespan_before": c.makespan, "makespan": r.makespan})
-        if r.schedules is None or r.makespan >= c.makespan - 0.01:
+    for r, rc, gained, _ in retime_rounds(cell, c, margin, rounds=o.retime_rounds if long else 1,
+                                          shift=o.retime_shift if long else None, work=work, tables={}, memo={},
+                                          linear=False):
+        rounds.append({"status": r.status, "makespan_before": before, "makespan": r.makespan})
+        if not gained:
             break
-        c = retimed_candidate(c, r)
+        before = rc.makespan
         info = dict(base.solver) | {"retime": {"rounds": rounds, "wall_seconds": _time.perf_counter() - t0}}
-        p = schedules_plan(cell, c.alloc, c.schedules, PlannerKind.COORDINATED, info)
+        p = schedules_plan(cell, rc.alloc, rc.schedules, PlannerKind.COORDINATED, info)
         v = verify(cell, p)
         if not v.passed:
             break

@@ -127,32 +127,25 @@ class Run:
         whether a retiming ran."""
         if not self.opts.retime or c is None or c.fallback or self.proven() or not self.in_time():
             return False
-        from .retime import retime, retimed_candidate
+        from .retime import retime_rounds
 
         self.stage("retime")
         long = _fruit_of(c) > self.opts.refine_fruit
         shift = self.opts.retime_shift if long else None
         # bounded, a move comes forward at most by the waits before it and goes back at most by
-        # the shift: from its own result, another round can gain again (12 x 600: 1.030, 1.022,
-        # 1.017 x the bound in three rounds)
-        for k in range(self.opts.retime_rounds if long else 1):
-            if k and not self.in_time():
-                break
-            tr = _time.perf_counter()
-            r = retime(self.problem, c.schedules, self.opts.margin, work=self.opts.retime_work,
-                       tables=self.cache.setdefault("curve_tables", {}), memo=self.cache.setdefault("meetings", {}),
-                       deadline=None if self.deadline is None else tr + (self.deadline - tr) / 2,  # (under a limit: half what is left)
-                       shift=shift)
+        # the shift: from its own result, another round can gain again
+        rounds = retime_rounds(self.problem, c, self.opts.margin, rounds=self.opts.retime_rounds if long else 1,
+                               shift=shift, work=self.opts.retime_work, tables=self.cache.setdefault("curve_tables", {}),
+                               memo=self.cache.setdefault("meetings", {}), deadline=self.deadline)  # (under a limit: half what is left)
+        for k, (r, rc, gained, seconds) in enumerate(rounds):
             entry = {"of": of if k == 0 else f"{of}, round {k + 1}", "status": r.status, "shift": shift,
                      "makespan_before": c.makespan, "makespan": r.makespan,
-                     "constraints": r.constraints, "wall_seconds": _time.perf_counter() - tr, "accepted": False}
-            gained = r.schedules is not None and r.makespan < c.makespan - 0.01
-            rc = retimed_candidate(c, r) if r.schedules is not None else None
+                     "constraints": r.constraints, "wall_seconds": seconds, "accepted": False}
             if rc is not None and r.makespan < min(c.makespan, self.inc.makespan) - 1e-9:
                 entry["accepted"] = self.offer(rc, "retime")
             self.reports["retime"].append(entry)
-            self.timings["retime"] = self.timings.get("retime", 0.0) + entry["wall_seconds"]
-            if not (gained and entry["accepted"]):
+            self.timings["retime"] = self.timings.get("retime", 0.0) + seconds
+            if not (gained and entry["accepted"]) or not self.in_time():
                 break
             c = rc
         return True
