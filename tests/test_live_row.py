@@ -97,6 +97,35 @@ def test_a_live_row_stop_and_go_harvests_at_rest_what_the_offline_plan_harvests(
     assert m["probes"] >= m["false_reports"] > 0 and m["kept_ahead"]
 
 
+def test_the_round_trip_the_stop_rules_price_bounds_every_cycle_live_and_offline(row):
+    """``round_trips`` (the stop rules' price of a fruit at a carriage position, and
+    ``benchmarks/bench_live_loss.py``'s yardstick) is a lower bound on every cycle an arm makes
+    from its bin without waiting -- place, pick, place -- in the executed live row and in its
+    offline plan (retimed cells: at the bound); the live booking's own cycles a little above it."""
+    from coplan.row.reach import row_reach
+    from coplan.row.stops import round_trips
+
+    res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=2, sigma=0.0, false_rate=0.0, duplicate_rate=0.0))
+    reach = row_reach(row)
+    names = [a.name for a in row.arms]
+    for plan in (res.plan, res.offline.plan):
+        by: dict = {}
+        for e in sorted(plan.events, key=lambda e: e.t_start):
+            by.setdefault(e.arm, []).append(e)
+        over = []
+        for arm, es in by.items():
+            for e0, e1, e2 in zip(es, es[1:], es[2:]):
+                if (e0.kind, e1.kind, e2.kind) != (EventKind.PLACE, EventKind.PICK, EventKind.PLACE):
+                    continue
+                x = float(np.interp(e1.t_start, plan.time, plan.gantry_x))
+                k = int(np.argmin(np.abs(reach.grid - x)))
+                assert reach.grid[k] == pytest.approx(x, abs=1e-9)  # every stop on the screen's grid
+                bound = round_trips(row, reach, [e1.fruit], np.array([k]))[(e1.fruit, k, names.index(arm))]
+                over.append(e2.t_end - e0.t_end - bound)
+        assert len(over) >= 15 and min(over) >= -1e-9
+    assert np.median(over) == pytest.approx(0.0, abs=1e-6)  # (the offline plan's, last: retimed to the bound)
+
+
 def test_stop_and_go_never_hops_past_what_the_camera_has_seen(row):
     opts = LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=3, look_ahead=0.3)
     res = run_live_row(row, opts)
