@@ -97,9 +97,10 @@ def retime_rounds(problem: Problem, c: Coordinated, margin: float, *, rounds: in
         t0 = _time.perf_counter()
         r = retime(problem, c.schedules, margin, work=work, tables=tables, memo=memo, shift=shift, linear=linear,
                    deadline=None if deadline is None else t0 + (deadline - t0) / 2)
+        seconds = _time.perf_counter() - t0  # (the retiming's own time, as each caller reports it)
         rc = retimed_candidate(c, r) if r.schedules is not None else None
         gained = rc is not None and r.makespan < c.makespan - gain
-        yield r, rc, gained, _time.perf_counter() - t0
+        yield r, rc, gained, seconds
         if not gained:
             return
         c = rc
