@@ -9,13 +9,15 @@ short view costs, and what the stops chosen live cost in the arms' work:
   (camera 1.5 m ahead of the front arm, 10 mm noise, 5 % false and 2 % repeated reports), with
   a perfect camera (no noise, no false or repeated reports) at the same look-ahead, and with a
   perfect camera 3 m ahead (the hop may then be 1.5 m longer);
-* for the perfect 1.5 m run and the offline plan: the stops, the mean hop, the **round trip**
+* for the perfect 1.5 m run and the offline plan: the stops, the mean hop, the seconds the
+  carriage moves and stands (to the plan's end, the arms home), the **round trip**
   of each fruit where it was picked -- the time-optimal bin -> fruit -> bin cycle with both
   dwells of the arm that picked it, with the carriage where it stood
   (:func:`coplan.row.stops.round_trips`, a lower bound on that cycle, so it measures where
-  the stops put the fruit relative to the arms, not how well the arms move) -- and each cycle's
-  **excess** over that bound (cycles that start from the bin without waiting: what the
-  execution adds).
+  the stops put the fruit relative to the arms, not how well the arms move; averaged over the
+  fruit both plans picked) -- and each cycle's **excess** over that bound (place, pick, place
+  of one arm with its joints never still for two samples in between: no wait in it, so what
+  the execution adds).
 
 Every row plan here is verified (the live ones against the true fruit).
 
@@ -31,14 +33,17 @@ from run_header import run_header
 
 
 def _picks_at(plan, reach):
-    """Per pick event: (fruit, arm index, grid index of the carriage at the pick's start)."""
+    """Per pick event: (event, arm index, grid index of the carriage at the pick's start)."""
     names = [a.name for a in reach.problem.arms]
     t, gx = np.asarray(plan.time), np.asarray(plan.gantry_x)
     out = []
     for e in plan.events:
         if e.kind.value == "pick":
             x = float(np.interp(e.t_start, t, gx))
-            out.append((e, names.index(e.arm), int(np.argmin(np.abs(reach.grid - x)))))
+            k = int(np.argmin(np.abs(reach.grid - x)))
+            if abs(float(reach.grid[k]) - x) > 1e-9:
+                raise RuntimeError(f"{e.fruit}: picked with the carriage at {x} m, off the screen's grid")
+            out.append((e, names.index(e.arm), k))
     return out
 
 
@@ -49,25 +54,44 @@ def _trips(plan, reach) -> dict:
     out = {}
     for e, a, k in _picks_at(plan, reach):
         tr = round_trips(reach.problem, reach, [e.fruit], np.array([k]))
-        if (e.fruit, k, a) in tr:
-            out[e.fruit] = tr[(e.fruit, k, a)]
+        if e.fruit in out or (e.fruit, k, a) not in tr:
+            raise RuntimeError(f"{e.fruit}: picked twice, or by an arm the screen says cannot from there")
+        out[e.fruit] = tr[(e.fruit, k, a)]
     return out
 
 
+def _still(q: np.ndarray, t: np.ndarray, t0: float, t1: float) -> bool:
+    """Whether joints ``q`` (T, 2) on times ``t`` stand still for two steps or more between ``t0``
+    and ``t1`` (a wait: a rest-to-rest move is at rest only at its two ends)."""
+    on = (t >= t0 - 1e-9) & (t <= t1 + 1e-9)
+    moving = np.abs(np.diff(q[on], axis=0)).max(axis=1) > 1e-12
+    return bool(np.any(~moving[1:] & ~moving[:-1])) if moving.size > 1 else False
+
+
 def _excess(plan, trips: dict) -> np.ndarray:
-    """Per cycle that leaves the bin at once after the last place (place -> pick -> place, the
-    way out no longer than a cycle bound allows for no wait): its time beyond the fruit's round trip."""
+    """Per cycle from the bin with no wait in it (place, pick, place of one arm, its joints never
+    still for two steps between them): its time beyond the fruit's round trip -- what the
+    execution adds."""
     by: dict[str, list] = {}
     for e in sorted(plan.events, key=lambda e: e.t_start):
         by.setdefault(e.arm, []).append(e)
+    t = np.asarray(plan.time)
     out = []
-    for es in by.values():
+    for arm, es in by.items():
+        q = np.asarray(plan.q[arm])
         for e0, e1, e2 in zip(es, es[1:], es[2:]):
-            if (e0.kind.value, e1.kind.value, e2.kind.value) == ("place", "pick", "place") and e1.fruit in trips:
-                cycle = e2.t_end - e0.t_end
-                if cycle < 2.0 * trips[e1.fruit]:  # (a cycle with a long wait in it -- a hop -- is not execution)
-                    out.append(cycle - trips[e1.fruit])
+            if ((e0.kind.value, e1.kind.value, e2.kind.value) != ("place", "pick", "place") or e1.fruit != e2.fruit
+                    or _still(q, t, e0.t_end, e1.t_start) or _still(q, t, e1.t_end, e2.t_start)):
+                continue
+            out.append(e2.t_end - e0.t_end - trips[e1.fruit])
     return np.asarray(out)
+
+
+def _moving(plan) -> tuple[float, float]:
+    """Seconds the carriage moves and stands in the plan (to its last sample)."""
+    t, gx = np.asarray(plan.time), np.asarray(plan.gantry_x)
+    moving = float(np.sum(np.diff(t)[np.abs(np.diff(gx)) > 1e-12]))
+    return moving, float(t[-1] - t[0]) - moving
 
 
 def _hops(xs: list[float]) -> float:
@@ -85,9 +109,9 @@ def main() -> None:
     perfect = dict(sigma=0.0, false_rate=0.0, duplicate_rate=0.0)
     print("\nLive stop and go against its offline plan (seed 0; row time / the offline plan's):\n")
     print("| row | as run (1.5 m, noisy) | perfect camera, 1.5 m | perfect camera, 3 m | stops live / offline | "
-          "mean hop live / offline (m) | round trip live / offline (s per fruit) | cycle excess live / offline, median "
-          "(mean) (s) | verified |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "mean hop live / offline (m) | carriage moving live / offline (s) | carriage standing live / offline (s) | round trip live / offline (s per fruit) | cycle excess live / offline, median "
+          "(mean, cycles) (s) | verified |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for path in shipped_rows():
         prob = load_problem(path)
         reach = row_reach(prob)
@@ -97,15 +121,18 @@ def main() -> None:
         live, off = runs["perfect"].plan, runs["perfect"].offline.plan
         t_live, t_off = _trips(live, reach), _trips(off, reach)
         e_live, e_off = _excess(live, t_live), _excess(off, t_off)
+        (mv_live, st_live), (mv_off, st_off) = _moving(live), _moving(off)
+        both = sorted(set(t_live) & set(t_off))  # (the round trips of the fruit both plans picked)
+        m_live, m_off = np.mean([t_live[f] for f in both]), np.mean([t_off[f] for f in both])
         x_live = [s["x"] for s in live.solver["row"]["stops"]]
         x_off = [sp.stop.x for sp in runs["perfect"].offline.stops]
         ok = all(r.metrics["verified"] for r in runs.values()) and runs["perfect"].offline.verification.passed
         print(f"| {path.stem} | {runs['run'].metrics['row_time_ratio']:.3f} | {runs['perfect'].metrics['row_time_ratio']:.3f} | "
               f"{runs['perfect3'].metrics['row_time_ratio']:.3f} | {len(x_live)} / {len(x_off)} | "
-              f"{_hops(x_live):.2f} / {_hops(x_off):.2f} | "
-              f"{np.mean(list(t_live.values())):.3f} / {np.mean(list(t_off.values())):.3f} "
-              f"({np.mean(list(t_live.values())) / np.mean(list(t_off.values())) - 1:+.1%}) | "
-              f"{np.median(e_live):.3f} ({np.mean(e_live):.3f}) / {np.median(e_off):.3f} ({np.mean(e_off):.3f}) | "
+              f"{_hops(x_live):.2f} / {_hops(x_off):.2f} | {mv_live:.1f} / {mv_off:.1f} | {st_live:.1f} / {st_off:.1f} | "
+              f"{m_live:.3f} / {m_off:.3f} ({m_live / m_off - 1:+.1%}) | "
+              f"{np.median(e_live):.3f} ({np.mean(e_live):.3f}, {e_live.size}) / {np.median(e_off):.3f} "
+              f"({np.mean(e_off):.3f}, {e_off.size}) | "
               f"{'yes' if ok else 'NO'} |", flush=True)
     print(f"\n(one run, {time.perf_counter() - t_all:.0f} s)")
 
