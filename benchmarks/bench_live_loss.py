@@ -15,7 +15,9 @@ short view costs, and what the stops chosen live cost in the arms' work:
   dwells of the arm that picked it, with the carriage where it stood
   (:func:`coplan.row.stops.round_trips`, a lower bound on that cycle, so it measures where
   the stops put the fruit relative to the arms, not how well the arms move; averaged over the
-  fruit both plans picked) -- and each cycle's **excess** over that bound (place, pick, place
+  fruit both plans picked), the **busiest arm** over the arms' mean in those round trips (summed
+  over the stops: what a stop's other arms stand idle for while its busiest arm finishes) -- and
+  each cycle's **excess** over that bound (place, pick, place
   of one arm with its joints never still for two samples in between: no wait in it, so what
   the execution adds).
 
@@ -45,6 +47,16 @@ def _picks_at(plan, reach):
                 raise RuntimeError(f"{e.fruit}: picked with the carriage at {x} m, off the screen's grid")
             out.append((e, names.index(e.arm), k))
     return out
+
+
+def _busiest(plan, reach, trips: dict) -> float:
+    """Over the plan's stops, the busiest arm's round trips against the arms' mean, summed over
+    the stops (1.0: every stop's arms equally loaded; what a stop's other arms stand idle for
+    while its busiest arm finishes, in round trips)."""
+    load: dict[int, np.ndarray] = {}
+    for e, a, k in _picks_at(plan, reach):
+        load.setdefault(k, np.zeros(len(reach.problem.arms)))[a] += trips[e.fruit]
+    return float(sum(v.max() for v in load.values()) / sum(v.mean() for v in load.values()))
 
 
 def _trips(plan, reach) -> dict:
@@ -109,9 +121,9 @@ def main() -> None:
     perfect = dict(sigma=0.0, false_rate=0.0, duplicate_rate=0.0)
     print("\nLive stop and go against its offline plan (seed 0; row time / the offline plan's):\n")
     print("| row | as run (1.5 m, noisy) | perfect camera, 1.5 m | perfect camera, 3 m | stops live / offline | "
-          "mean hop live / offline (m) | carriage moving live / offline (s) | carriage standing live / offline (s) | round trip live / offline (s per fruit) | cycle excess live / offline, median "
+          "mean hop live / offline (m) | carriage moving live / offline (s) | carriage standing live / offline (s) | round trip live / offline (s per fruit) | busiest arm / mean live / offline | cycle excess live / offline, median "
           "(mean, cycles) (s) | verified |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for path in shipped_rows():
         prob = load_problem(path)
         reach = row_reach(prob)
@@ -131,6 +143,7 @@ def main() -> None:
               f"{runs['perfect3'].metrics['row_time_ratio']:.3f} | {len(x_live)} / {len(x_off)} | "
               f"{_hops(x_live):.2f} / {_hops(x_off):.2f} | {mv_live:.1f} / {mv_off:.1f} | {st_live:.1f} / {st_off:.1f} | "
               f"{m_live:.3f} / {m_off:.3f} ({m_live / m_off - 1:+.1%}) | "
+              f"{_busiest(live, reach, t_live):.3f} / {_busiest(off, reach, t_off):.3f} | "
               f"{np.median(e_live):.3f} ({np.mean(e_live):.3f}, {e_live.size}) / {np.median(e_off):.3f} "
               f"({np.mean(e_off):.3f}, {e_off.size}) | "
               f"{'yes' if ok else 'NO'} |", flush=True)
