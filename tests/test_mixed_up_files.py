@@ -229,6 +229,30 @@ def test_an_exported_joint_trajectory_given_as_a_plan_is_named(tmp_path):
     assert len(e.value.issues) == 1 and "found a JointTrajectory" in str(e.value) and "CSV export" in str(e.value)
 
 
+def test_a_long_row_s_plan_given_as_the_problem_is_named_not_counted(tmp_path):
+    """(``coplan verify course/plan.json course_row`` -- a 3.1 MB row plan, under the byte cap but
+    over the YAML value cap -- was "arms.arm3.q[7071][0]: expected at most 300000 YAML values in a
+    problem file, found more"; a smaller plan said "were the arguments swapped?".) A feed or an
+    options file that large is still counted: only a file whose head names another coplan format
+    is named."""
+    from coplan.problem.yamlsafe import MAX_NODES
+
+    plan = tmp_path / "plan.json"
+    plan.write_text('{"format":"coplan.plan/1","problem":"course-row","time":[' + ",".join(["0.0"] * (MAX_NODES + 10)) + "]}")
+    with pytest.raises(ProblemError) as e:
+        load_problem(plan)
+    (issue,) = e.value.issues
+    assert "found a coplan.plan file (format 'coplan.plan/1'" in issue.message and "were the arguments swapped?" in issue.message
+    assert "YAML values" not in str(e.value)
+    r = CliRunner().invoke(app, ["verify", str(plan), "course_row"])
+    assert r.exit_code != 0 and "were the arguments swapped?" in r.output and "Traceback" not in r.output
+    feed = tmp_path / "feed.yaml"  # (a feed that large, read as a feed: its size, not a mix-up)
+    feed.write_text('{"format":"coplan.feed/1","detections":[' + ",".join(["0"] * (MAX_NODES + 10)) + "]}")
+    with pytest.raises(FeedError) as e:
+        load_feed(feed)
+    assert "YAML values" in str(e.value) and "swapped" not in str(e.value)
+
+
 def test_a_feed_too_large_is_said_to_be_too_large_not_mixed_up(tmp_path):
     """(A 4.7 MB feed was "a coplan.feed file ...; were the arguments swapped?" to load_feed.)"""
     big = tmp_path / "feed.yaml"

@@ -208,6 +208,17 @@ def _path_at(lines: dict, line: int | None) -> str:
     return path_str(max(at, key=len)) if at else ""
 
 
+def _swapped(text: str, expected: str) -> list[Issue]:
+    """The issue to report for a file too big to parse (over ``MAX_NODES`` values) that is
+    another kind of coplan file -- a long row's plan.json given where a problem is expected --
+    named from its first 4096 characters, as a smaller one is named once parsed; [] otherwise."""
+    m = re.search(r'"?format"?\s*:\s*"?(coplan\.[a-z_]+)/(\d+)', text[:4096])
+    if m is None or m.group(1) in expected:
+        return []
+    return [Issue("", f"expected {expected}, found a {m.group(1)} file (format '{m.group(1)}/{m.group(2)}', over "
+                      f"{MAX_NODES} values); were the arguments swapped?", 1)]
+
+
 def read_yaml(text: str, source: str | None, keep_text=None,
               expected: str = "a mapping with keys name, arms, fruits, task"):
     """Parse YAML text safely; returns ``(data, lines)`` where ``lines`` maps key paths to lines.
@@ -220,7 +231,7 @@ def read_yaml(text: str, source: str | None, keep_text=None,
     try:
         _scan_events(text, issues)
         if issues:
-            raise ProblemError(issues, source)
+            raise ProblemError(_swapped(text, expected) or issues, source)
         node = yaml.compose(text, Loader=_FastLoader)
         if node is None:
             raise ProblemError([Issue("", f"expected {expected}; found an empty file")], source)
