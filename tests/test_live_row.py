@@ -316,6 +316,30 @@ def test_coplan_run_stop_and_go_writes_a_verified_run_and_refuses_what_does_not_
         assert bad.exit_code == 2 and words in bad.output and "Traceback" not in bad.output
 
 
+def test_coplan_run_speed_auto_runs_at_the_constant_speed_the_offline_search_chooses(tmp_path):
+    """``--speed auto``: the speed the offline search over constant speeds chooses (every fruit
+    known, each plan verified), rounded down to the mm/s -- the one ``bench_moving.py``'s live
+    rows use; a word that is neither a number nor auto is refused by name."""
+    from coplan.kinds import SpeedProfile
+    from coplan.row.continuous import MovingOptions
+    from coplan.row.moving import plan_moving
+
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=10.0, density=3.0, seed=7)))
+    res = CliRunner().invoke(app, ["run", str(path), "--speed", "auto", "--seed", "1", "-o", str(tmp_path / "live")])
+    assert res.exit_code == 0, res.output
+    top = plan_moving(parse_problem(path.read_text()), MovingOptions(profile=SpeedProfile.CONSTANT)).info["top_speed"]
+    want = math.floor(top * 1000 + 1e-9) / 1000
+    doc = json.loads((tmp_path / "live" / "run.json").read_text())
+    assert doc["options"]["speed"] == pytest.approx(want) and doc["mode"] == "row on the move" and doc["metrics"]["verified"]
+    assert f"--speed auto: {want:g} m/s" in res.output
+    for args, words in ((["--speed", "fast"], "--speed: expected a cruising speed in m/s or auto, found 'fast'"),
+                        ([], "(or --speed auto, or --gantry stop-and-go)")):
+        bad = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["run", str(path), *args, "-o", str(tmp_path / "x")])
+        assert bad.exit_code == 2 and words in bad.output and "Traceback" not in bad.output
+        assert not (tmp_path / "x").exists()
+
+
 def test_on_the_move_the_carriage_holds_rather_than_pass_fruit_no_arm_can_book():
     # a fast carriage on a sparse row: some fruit would pass the rear arm while it is busy
     row = parse_problem(to_yaml(gantry_row(length=20.0, density=2.0, seed=11)))

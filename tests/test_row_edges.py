@@ -507,7 +507,7 @@ def test_a_live_row_on_the_move_without_a_speed_says_what_it_expects(tmp_path):
 
     r = CliRunner(env={"COLUMNS": "400"}).invoke(app, ["run", "sparse_row", "--out", str(tmp_path / "o")])
     assert r.exit_code == 2 and "--speed: expected a cruising speed in [" in r.output
-    assert "found nothing (or --gantry stop-and-go)" in " ".join(r.output.split()) and "nan" not in r.output
+    assert "found nothing (or --speed auto, or --gantry stop-and-go)" in " ".join(r.output.split()) and "nan" not in r.output
 
 
 def _refusing_a_fruit(prob, real, seen: dict, calls: list | None = None, interrupt_again: bool = False,

@@ -93,9 +93,11 @@ def run_cmd(
     feed: Annotated[Optional[Path], typer.Option("--feed", "-f", help="Feed file (YAML): what the camera reports "
                                                  "(a cell; a row's camera is simulated from the options below).")] = None,
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder.")] = Path("coplan-live"),
-    speed: Annotated[Optional[float], typer.Option(help="A row: the carriage's cruising speed, m/s (picks on the move).")] = None,
+    speed: Annotated[Optional[str], typer.Option(metavar="<float>|auto", help="A row: the carriage's cruising speed, m/s "
+                                                 "(picks on the move), or auto: the constant speed the offline speed "
+                                                 "search chooses for the row (every harvestable fruit, the most fruit per hour).")] = None,
     gantry: Annotated[Optional[LiveGantryMode], typer.Option(
-        parser=choice(LiveGantryMode), metavar=choices(LiveGantryMode), help="A row: continuous (picks on the move at --speed, which it needs; the default) or stop-and-go (stops "
+        parser=choice(LiveGantryMode), metavar=choices(LiveGantryMode), help="A row: continuous (picks on the move at --speed, a number or auto, which it needs; the default) or stop-and-go (stops "
              "chosen as fruit come into view).")] = None,
     look_ahead: Annotated[float, typer.Option("--look-ahead", callback=between(0.0, 100.0, "m", above=True),
                                               help="A row: how far ahead of the front arm's base the camera sees, m.")] = 1.5,
@@ -225,6 +227,39 @@ def _missed_line(fruit: dict) -> str:
     return f"missed {len(missed)}: {shown}{more}\n"
 
 
+def _number(text: Optional[str]) -> Optional[float]:
+    """``--speed`` as a number (None when not given); anything else but auto is refused."""
+    if text is None:
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        usage(f"--speed: expected a cruising speed in m/s or auto, found {text!r}")
+
+
+def _auto_speed(prob, quiet: bool) -> float:
+    """``--speed auto``: the constant speed the offline speed search over constant speeds chooses
+    for the row, every fruit known (:func:`coplan.row.moving.plan_moving`; its plans verified),
+    rounded down to the mm/s -- a live planner cannot shape its speed to fruit it has not seen."""
+    import time as _time
+
+    from ..kinds import SpeedProfile
+    from ..row.continuous import MovingOptions
+    from ..row.moving import plan_moving
+
+    t0 = _time.perf_counter()
+    best = plan_moving(prob, MovingOptions(profile=SpeedProfile.CONSTANT))
+    top = best.info.get("top_speed")
+    if not top:
+        usage(f"--speed auto: the offline speed search found no speed for {prob.name!r} (give --speed V, or --gantry stop-and-go)")
+    v = math.floor(float(top) * 1000 + 1e-9) / 1000  # (no faster than the speed found)
+    if not quiet:
+        _err.print(f"--speed auto: {v:g} m/s, the constant speed the offline search chooses "
+                   f"({best.plan.metrics.get('harvested', 0)} fruit; {_time.perf_counter() - t0:.1f} s)",
+                   markup=False, highlight=False)
+    return v
+
+
 def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults):
     """``coplan run ROW``: the row live, on the move or stop and go (:mod:`coplan.row.live`)."""
     from ..output import RunFolder, signals_deferred
@@ -245,9 +280,11 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
     else:
         from ..problem.plausible import live_speed_issue
 
+        auto = speed is not None and speed.strip().lower() == "auto"
+        speed = _auto_speed(prob, as_json) if auto else _number(speed)
         bad = live_speed_issue(prob, speed)  # (the range it quotes is the live one; none given: 'found nothing')
         if bad:
-            usage(f"--speed: {bad} (or --gantry stop-and-go)")
+            usage(f"--speed{' auto' if auto else ''}: {bad} (or --speed auto, or --gantry stop-and-go)")
     opts = LiveRowOptions(speed=speed, look_ahead=look_ahead, sigma=sigma, false_rate=false_rate,
                           duplicate_rate=duplicate_rate, seed=seed, faults=faults, mode=mode)
     if sigma > opts.close_distance:  # (--sigma 1, meant as cm or mm, harvested nothing, and said nothing of why)
