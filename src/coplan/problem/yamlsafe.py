@@ -98,13 +98,13 @@ def _construct_int(loader, node):
 _LineLoader.add_constructor(_INT, _construct_int)
 
 
-def _scan_events(text: str, issues: list) -> None:
+def _scan_events(text: str, issues: list) -> bool:
     """Walk the YAML event stream (no recursion, nothing built) tracking key paths.
 
     Reports every alias and anchor (a few aliases can expand into gigabytes); stops at once
     at nesting deeper than ``MAX_DEPTH`` (which would overflow the recursive composer) or
     more than ``MAX_NODES`` values (a hostile file), so those cost no more than reading the
-    file. Issues are appended to ``issues``.
+    file. Issues are appended to ``issues``; returns whether it stopped at ``MAX_NODES``.
     """
     # frame: [kind ("map" | "seq"), path, expect_key, key, index]
     stack: list[list] = []
@@ -132,7 +132,7 @@ def _scan_events(text: str, issues: list) -> None:
         nodes += 1
         if nodes > MAX_NODES:
             issues.append(Issue(path_str(path), f"expected at most {MAX_NODES} YAML values in a problem file, found more", line))
-            return
+            return True
         if isinstance(ev, yaml.AliasEvent):
             issues.append(
                 Issue(path_str(path), f"expected a plain value, found the alias *{ev.anchor} (YAML anchors and aliases are not supported)", line)
@@ -144,8 +144,9 @@ def _scan_events(text: str, issues: list) -> None:
         if isinstance(ev, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
             if len(stack) >= MAX_DEPTH:
                 issues.append(Issue(path_str(path), f"expected at most {MAX_DEPTH} levels of nesting, found more", line))
-                return
+                return False
             stack.append(["map" if isinstance(ev, yaml.MappingStartEvent) else "seq", path, True, None, 0])
+    return False
 
 
 _STR_TAG = "tag:yaml.org,2002:str"
@@ -208,14 +209,21 @@ def _path_at(lines: dict, line: int | None) -> str:
     return path_str(max(at, key=len)) if at else ""
 
 
+def _format_in_head(head: str) -> tuple[str, str] | None:
+    """The coplan format a JSON file names in its first 4096 characters (``("coplan.plan", "1")``),
+    or None: what a file too big to read is, said without reading it."""
+    m = re.search(r'"format"\s*:\s*"(coplan\.[a-z_]+)/(\w*)', head[:4096])
+    return None if m is None else (m.group(1), m.group(2))
+
+
 def _swapped(text: str, expected: str) -> list[Issue]:
     """The issue to report for a file too big to parse (over ``MAX_NODES`` values) that is
     another kind of coplan file -- a long row's plan.json given where a problem is expected --
-    named from its first 4096 characters, as a smaller one is named once parsed; [] otherwise."""
-    m = re.search(r'"?format"?\s*:\s*"?(coplan\.[a-z_]+)/(\d+)', text[:4096])
-    if m is None or m.group(1) in expected:
+    named from its head, as a smaller one is named once parsed; [] otherwise."""
+    fmt = _format_in_head(text)
+    if fmt is None or fmt[0] in expected:
         return []
-    return [Issue("", f"expected {expected}, found a {m.group(1)} file (format '{m.group(1)}/{m.group(2)}', over "
+    return [Issue("", f"expected {expected}, found a {fmt[0]} file (format '{fmt[0]}/{fmt[1]}', over "
                       f"{MAX_NODES} values); were the arguments swapped?", 1)]
 
 
@@ -229,9 +237,9 @@ def read_yaml(text: str, source: str | None, keep_text=None,
     lines: dict = {}
     issues: list[Issue] = []
     try:
-        _scan_events(text, issues)
+        over = _scan_events(text, issues)
         if issues:
-            raise ProblemError(_swapped(text, expected) or issues, source)
+            raise ProblemError((_swapped(text, expected) if over else []) or issues, source)
         node = yaml.compose(text, Loader=_FastLoader)
         if node is None:
             raise ProblemError([Issue("", f"expected {expected}; found an empty file")], source)
@@ -291,8 +299,8 @@ def read_input_text(path, error: type[InputError]) -> str:
     size = p.stat().st_size
     if size > MAX_FILE_BYTES:
         with p.open("rb") as fh:  # (a plan of a long row is over the cap: say what it is, as for a small one)
-            other = re.search(rb'"format"\s*:\s*"(coplan\.[a-z_]+)/', fh.read(4096))
-        found = other.group(1).decode() if other is not None else None
+            other = _format_in_head(fh.read(4096).decode("utf-8", "replace"))
+        found = other[0] if other is not None else None
         expected = error.__name__.lower().removesuffix("error")  # (FeedError: a coplan.feed is the kind asked for)
         if found is not None and found.removeprefix("coplan.") != expected:
             raise error([Issue("", f"expected a YAML file, found a {found} file of {size} bytes; were the "
