@@ -43,7 +43,6 @@ Every ratio is measured in this run, on this machine. Every plan is verified.
 from __future__ import annotations
 
 import argparse
-import math
 import subprocess
 import sys
 import tempfile
@@ -222,9 +221,8 @@ def live_rows(seeds=(0, 1, 2)) -> None:
     from coplan.problem import load_problem, shipped_rows
     from coplan.row.live import LiveRowOptions, run_live_row
 
-    from coplan.kinds import GantryMode, SpeedProfile
-    from coplan.row.continuous import MovingOptions
-    from coplan.row.moving import plan_moving
+    from coplan.kinds import GantryMode
+    from coplan.row.moving import live_speed
 
     print("\nLive rows (camera 1.5 m ahead, 10 mm noise, 5 % false and 2 % repeated reports; the offline plan in the "
           "same mode knows every fruit: on the move at the same constant speed, stop and go the optimised-stops row "
@@ -237,8 +235,7 @@ def live_rows(seeds=(0, 1, 2)) -> None:
         # a live planner cannot shape its speed to fruit it has not seen: the row runs at one speed,
         # the one the speed search over constant speeds chooses offline (every fruit harvested)
         t = time.perf_counter()
-        best = plan_moving(prob, MovingOptions(profile=SpeedProfile.CONSTANT, workers=WORKERS))
-        v = math.floor(best.info["top_speed"] * 1000 + 1e-9) / 1000  # (rounded down: no faster than the speed found)
+        v, best = live_speed(prob, workers=WORKERS)  # (rounded down to the mm/s: no faster than the speed found)
         print(f"| {path.stem} | (constant speed search: {v:.3f} m/s, {best.plan.metrics['harvested']} fruit, "
               f"{time.perf_counter() - t:.1f} s) | | | | | | | | | |", flush=True)
         for mode in (GantryMode.CONTINUOUS, GantryMode.STOP_AND_GO):

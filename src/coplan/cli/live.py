@@ -238,21 +238,16 @@ def _number(text: Optional[str]) -> Optional[float]:
 
 
 def _auto_speed(prob, quiet: bool) -> float:
-    """``--speed auto``: the constant speed the offline speed search over constant speeds chooses
-    for the row, every fruit known (:func:`coplan.row.moving.plan_moving`; its plans verified),
-    rounded down to the mm/s -- a live planner cannot shape its speed to fruit it has not seen."""
+    """``--speed auto``: :func:`coplan.row.moving.live_speed`, said on stderr."""
     import time as _time
 
-    from ..kinds import SpeedProfile
-    from ..row.continuous import MovingOptions
-    from ..row.moving import plan_moving
+    from ..row.moving import live_speed
 
     t0 = _time.perf_counter()
-    best = plan_moving(prob, MovingOptions(profile=SpeedProfile.CONSTANT))
-    top = best.info.get("top_speed")
-    if not top:
-        usage(f"--speed auto: the offline speed search found no speed for {prob.name!r} (give --speed V, or --gantry stop-and-go)")
-    v = math.floor(float(top) * 1000 + 1e-9) / 1000  # (no faster than the speed found)
+    try:
+        v, best = live_speed(prob)
+    except ValueError as e:
+        usage(f"--speed auto: {e} (give --speed V, or --gantry stop-and-go)")
     if not quiet:
         _err.print(f"--speed auto: {v:g} m/s, the constant speed the offline search chooses "
                    f"({best.plan.metrics.get('harvested', 0)} fruit; {_time.perf_counter() - t0:.1f} s)",

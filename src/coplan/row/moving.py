@@ -30,7 +30,7 @@ from .plan import RowResult
 from .reach import RowReach, row_reach
 from .starthold import start_hold
 
-__all__ = ["plan_moving", "speed_search", "SEARCH_WIDTH"]
+__all__ = ["plan_moving", "live_speed", "speed_search", "SEARCH_WIDTH"]
 
 #: A refinement round raises a missed fruit's stretches' demand by this factor ...
 REFINE_BUMP = 1.25
@@ -335,3 +335,16 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
     res.plan.solver["timings"] = dict(res.timings)
     res.plan.solver["row"] = res.info
     return res
+
+
+def live_speed(problem: Problem, workers: int = 1) -> tuple[float, RowResult]:
+    """The cruising speed for a live row on the move (``coplan run ROW --speed auto``,
+    ``benchmarks/bench_moving.py``'s live rows): the constant speed the offline search over
+    constant speeds chooses, every fruit known (each plan verified), rounded down to the mm/s --
+    a live planner cannot shape its speed to fruit it has not seen; and the search's result.
+    ValueError where the search found no speed (the carriage need not move)."""
+    best = plan_moving(problem, MovingOptions(profile=SpeedProfile.CONSTANT, workers=workers))
+    top = best.info.get("top_speed")
+    if not top:
+        raise ValueError(f"the offline speed search found no cruising speed for {problem.name!r}")
+    return math.floor(float(top) * 1000 + 1e-9) / 1000, best  # (no faster than the speed found)
