@@ -156,19 +156,17 @@ def _retimed(cell: Problem, res, work: float) -> Plan | None:
     ``solver['retime']``."""
     from ..planners.coordinated.planner import CoordinatedOptions, schedules_plan
     from ..planners.optimal.options import OptimalOptions
-    from ..planners.optimal.retime import retime_rounds
+    from ..planners.optimal.retime import bounded_rounds, retime_rounds
     from ..verify.verifier import verify
 
     c, base = res.candidate, res.plan
     if c is None or c.fallback or base.status != PlanStatus.SUCCESS:
         return None
-    o, margin = OptimalOptions(), CoordinatedOptions().margin
-    long = len(cell.fruits) > o.refine_fruit
+    n, shift = bounded_rounds(len(cell.fruits), OptimalOptions())
     rounds, best, before = [], None, c.makespan
     t0 = _time.perf_counter()
-    for r, rc, gained, _ in retime_rounds(cell, c, margin, rounds=o.retime_rounds if long else 1,
-                                          shift=o.retime_shift if long else None, work=work, tables={}, memo={},
-                                          linear=False):
+    for r, rc, gained, _ in retime_rounds(cell, c, CoordinatedOptions().margin, rounds=n, shift=shift, work=work,
+                                          tables={}, memo={}, linear=False):
         rounds.append({"status": r.status, "makespan_before": before, "makespan": r.makespan})
         if not gained:
             break

@@ -38,7 +38,7 @@ from ..coordinated.candidate import Coordinated
 from ..coordinated.schedule import (ArmSchedule, LinkPoints, Step, StepKind, arm_points, curve_eval, links_too_close,
                                    links_too_close_pairs)
 
-__all__ = ["RetimeResult", "retime", "retimed_candidate", "retime_rounds"]
+__all__ = ["RetimeResult", "retime", "retimed_candidate", "retime_rounds", "bounded_rounds"]
 
 _MS = 1000  # time unit of the model: 1 ms
 
@@ -80,6 +80,16 @@ def retimed_candidate(c: Coordinated, r: RetimeResult) -> Coordinated:
     """Candidate ``c`` with the schedules ``r`` retimed from it (makespan and waits updated)."""
     waits = sum(1 for sch in r.schedules.values() for st in sch.steps if st.kind == StepKind.WAIT)
     return replace(c, schedules=r.schedules, makespan=r.makespan, waits=waits)
+
+
+def bounded_rounds(fruit: int, opts) -> tuple[int, float | None]:
+    """``(rounds, shift)`` for a candidate of ``fruit`` fruit under ``opts`` (an
+    :class:`~coplan.planners.optimal.options.OptimalOptions`): beyond ``refine_fruit`` a plan is
+    long, its retiming bounded (each move at most ``retime_shift`` later) in up to
+    ``retime_rounds`` rounds; otherwise one unbounded round. The optimal planner's retime stage
+    and a row's cells both ask this."""
+    long = fruit > opts.refine_fruit
+    return (opts.retime_rounds, opts.retime_shift) if long else (1, None)
 
 
 def retime_rounds(problem: Problem, c: Coordinated, margin: float, *, rounds: int, shift: float | None, work: float,

@@ -127,15 +127,13 @@ class Run:
         whether a retiming ran."""
         if not self.opts.retime or c is None or c.fallback or self.proven() or not self.in_time():
             return False
-        from .retime import retime_rounds
+        from .retime import bounded_rounds, retime_rounds
 
         self.stage("retime")
-        long = _fruit_of(c) > self.opts.refine_fruit
-        shift = self.opts.retime_shift if long else None
         # bounded, a move comes forward at most by the waits before it and goes back at most by
         # the shift: from its own result, another round can gain again
-        rounds = retime_rounds(self.problem, c, self.opts.margin, rounds=self.opts.retime_rounds if long else 1,
-                               shift=shift, work=self.opts.retime_work, tables=self.cache.setdefault("curve_tables", {}),
+        n, shift = bounded_rounds(_fruit_of(c), self.opts)
+        rounds = retime_rounds(self.problem, c, self.opts.margin, rounds=n, shift=shift, work=self.opts.retime_work, tables=self.cache.setdefault("curve_tables", {}),
                                memo=self.cache.setdefault("meetings", {}), deadline=self.deadline)  # (under a limit: half what is left)
         for k, (r, rc, gained, seconds) in enumerate(rounds):
             entry = {"of": of if k == 0 else f"{of}, round {k + 1}", "status": r.status, "shift": shift,
