@@ -591,6 +591,40 @@ def test_rebalance_never_lengthens_and_ends_where_no_single_move_shortens_the_st
                 moved = [list(x) for x in chosen]
                 moved[n][2:5] = [c2, i2, a2]
                 assert total(moved, S, A, over)[1] >= after - 1e-9
+                # nor a chain: a fruit of a stop's busiest arm to (i2, a2), one of the fruit there
+                # on to another of its options
+                if again[ch[3]][ch[4]] < max(again[ch[3]]) - 1e-9:
+                    continue
+                for m, g in enumerate(chosen):
+                    if m == n or (g[3], g[4]) != (i2, a2) or (i2, a2) == (ch[3], ch[4]):
+                        continue
+                    for c3, i3, a3 in g[5]:
+                        two = [list(x) for x in moved]
+                        two[m][2:5] = [c3, i3, a3]
+                        assert total(two, S, A, over)[1] >= after - 1e-9
+
+
+def test_rebalance_moves_a_chain_where_no_single_move_shortens():
+    """The case that priced dense_row's stop at 28.7 m 15 % above its cell: the front arm is the
+    busiest, its fruit would make the middle arm busier still, and the rear arm has time to
+    spare only for the middle arm's fruit -- no single move shortens the stop, the chain of two
+    does (16 s -> 15 s, the least any assignment of these fruit has)."""
+    from coplan.row.stops import rebalance
+
+    over = [0.0, 0.0, 0.0]
+    chosen = [[0, "r", 10.0, 0, 0, [(10.0, 0, 0)]],  # only the rear arm
+              [1, "m", 12.0, 0, 1, [(12.0, 0, 1)]],  # only the middle arm
+              [2, "x", 3.0, 0, 1, [(3.0, 0, 0), (3.0, 0, 1)]],  # middle or rear
+              [3, "y", 3.0, 0, 2, [(3.0, 0, 1), (3.0, 0, 2)]],  # front or middle
+              [4, "g", 13.0, 0, 2, [(13.0, 0, 2)]]]  # only the front arm
+    load, peak, at = [[10.0, 15.0, 16.0]], [16.0], [[(j, f) for j, f, *_ in chosen]]
+    single = [list(c) for c in chosen]
+    p1 = list(peak)
+    rebalance([list(r) for r in load], p1, [list(a) for a in at], single, over, chains=False)
+    assert p1 == [16.0] and [c[4] for c in single] == [0, 1, 1, 2, 2]  # no single move shortens it
+    rebalance(load, peak, at, chosen, over)
+    assert peak == [15.0] and load == [[13.0, 15.0, 13.0]]
+    assert {c[1]: c[4] for c in chosen} == {"r": 0, "m": 1, "x": 0, "y": 1, "g": 2}
 
 
 @pytest.mark.parametrize("n_arms, length", [(3, 16.0), (6, 24.0)])
