@@ -38,17 +38,18 @@ def _random_bands(rng, N: int, F: int, width: int, holes: bool, clusters: bool =
     return first, w
 
 
-def _exact(first, w, N, step, lim, cells, pos):
+def _exact(first, w, N, step, lim, cells, pos, per_stop=0.0):
     """A stop-by-stop plan's lower bound with stops at ``pos`` in ``cells`` (sorted): the moves
-    from the start (0) through them, each fruit at its cheapest stop."""
-    moves = scurve_times(np.diff(np.concatenate([[0.0], pos])), *lim).sum()
+    from the start (0) through them, each fruit at its cheapest stop, ``per_stop`` for each
+    stop a move ends at (not one where the carriage starts)."""
+    moves = scurve_times(np.diff(np.concatenate([[0.0], pos])), *lim).sum() + per_stop * np.count_nonzero(np.asarray(pos) > 0)
     cols = np.asarray(cells)[None, :] - first[:, None]
     ok = (cols >= 0) & (cols < w.shape[1])
     c = np.where(ok, w[np.arange(w.shape[0])[:, None], np.clip(cols, 0, w.shape[1] - 1)], np.inf)
     return moves + c.min(axis=1).sum()
 
 
-def _charged(first, w, step, lim, cells, span):
+def _charged(first, w, step, lim, cells, span, per_stop=0.0):
     """What the programme's relaxation charges the set of stop ``cells`` (module docstring),
     written out directly: gaps of up to ``span`` cells priced in pairs (a half of each gap at a
     run's ends), a longer gap whole; each fruit the cheaper of its least up to the stop before
@@ -75,7 +76,7 @@ def _charged(first, w, step, lim, cells, span):
         left = w[f][c <= idx[i]].min(initial=np.inf)
         right = w[f][c >= idx[i + 1]].min(initial=np.inf) if i + 1 < len(idx) else np.inf
         work += min(left, right)
-    return moves + work
+    return moves + work + per_stop * sum(1 for c in cells if c >= 1)
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -92,21 +93,22 @@ def test_the_programme_is_its_relaxation_s_least_and_below_every_set_of_stops_br
     N = 11 if long_gaps else 9
     step = 1.2 if long_gaps else 0.05
     first, w = _random_bands(rng, N, int(rng.integers(3, 9)), 2 if long_gaps else 4, holes=not long_gaps, clusters=long_gaps)
-    value, stops, work, span = stops_dp(first, w, N, step, *lim)
+    per_stop = 0.7 * (seed % 3 == 2)  # a settle floor on some rows: charged per stop past the first cell
+    value, stops, work, span = stops_dp(first, w, N, step, *lim, per_stop=per_stop)
     assert np.isfinite(value) and work <= value + 1e-9
     assert work >= np.nanmin(np.where(np.isfinite(w), w, np.nan), axis=1).sum() - 1e-9
     least, long_used = np.inf, False
     for k in range(1, N + 1):
         for cells in itertools.combinations(range(N), k):
-            charged = _charged(first, w, step, lim, cells, span)
+            charged = _charged(first, w, step, lim, cells, span, per_stop)
             least = min(least, charged)
             lo = np.asarray(cells) * step
             pats = [lo, lo + step, np.where(np.arange(k) % 2 == 0, lo + step, lo), np.where(np.arange(k) % 2 == 1, lo + step, lo)]
             pats += [lo + rng.uniform(0, step, k) for _ in range(2)]
-            assert charged <= min(_exact(first, w, N, step, lim, cells, p) for p in pats) + 1e-9, cells
+            assert charged <= min(_exact(first, w, N, step, lim, cells, p, per_stop) for p in pats) + 1e-9, cells
             long_used |= np.isfinite(charged) and np.diff([-1, *cells]).max() > span
     assert value == pytest.approx(least, rel=1e-12, abs=1e-9)
-    assert _charged(first, w, step, lim, stops, span) == pytest.approx(value, rel=1e-12, abs=1e-9)
+    assert _charged(first, w, step, lim, stops, span, per_stop) == pytest.approx(value, rel=1e-12, abs=1e-9)
     if long_gaps:
         assert long_used  # (some finite set has a gap past the pairs: that path is compared too)
 
@@ -153,3 +155,31 @@ def test_the_cell_costs_are_the_cheapest_arm_s_over_the_harvesting_arms():
     cost, reach, _ = cycle_bounds(prob, 0.1)
     assert arms == len(prob.arms)
     np.testing.assert_allclose(w.min(axis=1), cost.min(axis=0) / arms)
+
+
+def test_a_settling_gantry_raises_the_stop_by_stop_bound_by_its_floor_per_stop_and_stays_below_the_plan():
+    """gantry.settle: no arm picks until the carriage has settled after a move, and of an arm's
+    work only its way to its first fruit can come before -- each stop after a move adds the
+    settle less the longest such way (settle_floor). On sparse_row with a 20 s settle the floor
+    is 20 s less under 2 s; the bound rises by at least the floor per stop of its witness past
+    the start and stays below the verified plan the optimised rule makes."""
+    from dataclasses import replace
+
+    from coplan.allocate.stop_bound import settle_floor
+    from coplan.pipeline import solve
+
+    prob = load_problem(ROWS / "sparse_row.yaml")
+    slow = replace(prob, gantry=replace(prob.gantry, settle=20.0))
+    floor = settle_floor(slow, cell_cycles(slow, 0.1))
+    assert 18.0 < floor < 20.0 and settle_floor(prob, cell_cycles(prob, 0.1)) == 0.0
+    b0, b1 = row_bounds(prob), row_bounds(slow)
+    assert b1.priced >= b0.priced + floor * (b1.priced_stops - 1) - 1e-6
+    assert b1.moves == pytest.approx(b0.moves + settle_floor(slow, cell_cycles(slow, 0.05)))  # (row_bounds' cells)
+    res = solve(slow, planner="coordinated")
+    assert res.verification.passed and res.plan.metrics["makespan"] >= b1.stop_and_go
+    # the arms at home while the carriage settles wait for it ("carriage"), not for each other
+    # ("others": 46-72 % of the row time before, on this row and a 15 m one)
+    idle = res.plan.metrics["row"]["idle_share"]
+    settling = 20.0 * (res.plan.metrics["row"]["stops"] - 1) / res.plan.metrics["makespan"]
+    for a, causes in idle.items():
+        assert causes["others"] < 0.05 and causes["carriage"] > 0.5 * settling, (a, causes)

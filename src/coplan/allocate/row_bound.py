@@ -18,7 +18,9 @@ Entry point: :func:`row_bounds` -> :class:`RowBounds`.
   moves, each at rest at both ends, take at least one rest-to-rest move over the same distance
   (a time-optimal move is never slower than a chain of stops), and their stops' cells at least
   the busiest arm's cycles (each stop's cell lasts at least its busiest arm's cycles there, and
-  those sum to at least the work bound). coplan's own row plans let the arms place and go home,
+  those sum to at least the work bound); where the gantry settles after a move, the stop it ends
+  at lasts that much longer, less what of an arm's way to its first fruit may come before it
+  (:func:`coplan.allocate.stop_bound.settle_floor`). coplan's own row plans let the arms place and go home,
   and come out to the next stop's first fruit, while the carriage moves: they can be faster than
   this bound by that overlap, which ``metrics.row.overlap_seconds`` reports.
 * **Priced stops** (:mod:`coplan.allocate.stop_bound`): the same plans, with where the carriage
@@ -80,6 +82,11 @@ def row_bounds(problem: Problem, step: float = 0.05, priced: bool = True) -> Row
     dist = far - g.start
     travel = dist / g.max_velocity + problem.task.pick_dwell + problem.task.place_dwell
     moves = Move1D.between(g.start, far, g.max_velocity, g.max_acceleration, g.max_jerk).duration
+    if dist > 0 and g.settle > 0:  # the stop the move ends at settles before its first pick (stop_bound.settle_floor)
+        from .row_cycles import cell_cycles
+        from .stop_bound import settle_floor
+
+        moves += settle_floor(problem, cell_cycles(problem, step))
     any_plan = max(work, travel)
     pv, ps = 0.0, 0
     if priced:

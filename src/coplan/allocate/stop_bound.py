@@ -41,6 +41,10 @@ best cell lies in its middle (none may), only the stop before it those just afte
 stop after it those just before it. Tested against brute force over every set of stops on
 seeded random rows (``tests/test_stop_bound.py``).
 
+*Settling.* Where the gantry settles after a move (``gantry.settle``), each stop past the
+first cell adds :func:`settle_floor`: no arm picks before the settle is over, and only an arm's
+way to its first fruit there may come before its first pick.
+
 Work overlapping the carriage's moves (coplan's plans place and come out while it moves) can
 beat it by at most that overlap, as for the plain bound.
 """
@@ -58,7 +62,7 @@ from ..kinematics.timing import scurve_times
 from ..problem.model import Problem
 from .row_cycles import CellCycles, cell_cycles
 
-__all__ = ["Programme", "StopsBound", "stops_bound", "fruit_cell_costs", "stops_dp"]
+__all__ = ["Programme", "StopsBound", "stops_bound", "fruit_cell_costs", "stops_dp", "settle_floor"]
 
 STEP = 0.1  # m: the rail cells of the programme (finer cells price a fruit's position closer, pairs of moves less)
 
@@ -108,9 +112,22 @@ def stops_bound(problem: Problem, step: float = STEP) -> StopsBound:
     ok = np.isfinite(w).any(axis=1)
     if not ok.any():
         return StopsBound(0.0, 0.0, 0.0, (), arms, step, time.perf_counter() - t0)
-    value, stops, work, _ = stops_dp(first[ok], w[ok], cc.lo.size, step, g.max_velocity, g.max_acceleration, g.max_jerk)
+    value, stops, work, _ = stops_dp(first[ok], w[ok], cc.lo.size, step, g.max_velocity, g.max_acceleration, g.max_jerk,
+                                     settle_floor(problem, cc))
     return StopsBound(value, value - work, work, tuple(float(g.start + c * step) for c in stops), arms, step,
                       time.perf_counter() - t0)
+
+
+def settle_floor(problem: Problem, cc: CellCycles) -> float:
+    """What each stop after a move adds at least, from ``gantry.settle`` (s): no arm picks until
+    the carriage has settled, and of an arm's work at a stop only its way to its first fruit can
+    come before its first pick -- at most the longest bin -> fruit move a cycle bound counts (half
+    a cycle less its dwells, over every arm, fruit and cell; ``cc``), so the stop's busiest arm
+    takes at least ``settle`` less that beyond its cycles. 0 where the settle is shorter."""
+    settle = problem.gantry.settle
+    dw = problem.task.pick_dwell + problem.task.place_dwell
+    hide = max((float(np.max(c[np.isfinite(c)], initial=dw)) for c in cc.cost if c is not None), default=dw)
+    return max(0.0, settle - 0.5 * (hide - dw))
 
 
 class Programme(NamedTuple):
@@ -124,11 +141,14 @@ class Programme(NamedTuple):
     span: int
 
 
-def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, acc: float, jerk: float) -> Programme:
+def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, acc: float, jerk: float,
+             per_stop: float = 0.0) -> Programme:
     """The dynamic programme (module docstring) over ``N`` rail cells of ``step`` m from the
     start, the fruit's costs ``w`` (F, W) in the cells ``first + 0 .. W - 1`` (each fruit
-    finite somewhere), the carriage's limits ``v``, ``acc``, ``jerk``. Its value is inf if
-    some fruit no set of stops can serve."""
+    finite somewhere), the carriage's limits ``v``, ``acc``, ``jerk``; ``per_stop`` (s) is
+    charged for each stop past the first cell (the settle floor, :func:`settle_floor`: a stop in
+    the first cell may be where the carriage starts, with no move to settle from). Its value is
+    inf if some fruit no set of stops can serve."""
     F, Wb = w.shape
     # index 0 is the start (the carriage at rest at the rail's start, the lower end of the first
     # cell), cells 1 .. N: a gap from index s to n is at least (n - s - 1) steps
@@ -191,7 +211,8 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
         j = via.argmin(axis=1)
         via_pair = via[np.arange(k.size), j]
         via_b = Bd[s] + 0.5 * T[k - 1]
-        V[n, k - 1] = np.minimum(via_pair, via_b) + fruit_sum(s, n)
+        here = per_stop if n >= 2 else 0.0
+        V[n, k - 1] = np.minimum(via_pair, via_b) + fruit_sum(s, n) + here
         arg_v[n, k - 1] = np.where(via_b <= via_pair, -1, j)
         s_hi = n - H - 1  # a long gap from a stop s <= s_hi with nxt[s] > n - Gr - 1 (nxt rises with s: a range of s)
         if s_hi >= 0:
@@ -199,7 +220,7 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
             if s_lo <= s_hi:
                 cand = leave[s_lo:s_hi + 1] + near_s[s_lo:s_hi + 1] - cells[s_lo:s_hi + 1] * step_v
                 i = int(np.argmin(cand))
-                Bd[n] = cand[i] + (n - 1) * step_v + C + near_n[n]
+                Bd[n] = cand[i] + (n - 1) * step_v + C + near_n[n] + here
                 arg_b[n] = s_lo + i
         owed = V[n] + 0.5 * T[:H]
         i = int(np.argmin(owed))

@@ -11,7 +11,8 @@
   when it may leave -- the arms place while it moves on; at the last stop the row's last place
   comes after), the **carriage moving share** and the **picking share** (some arm
   holding still on a fruit) of the row time;
-* **idle share by cause** per arm: ``carriage`` (at rest while the carriage moves), ``no_fruit``
+* **idle share by cause** per arm: ``carriage`` (at rest while the carriage moves, or settles
+  after a stop: ``gantry.settle``, when no arm may pick), ``no_fruit``
   (at rest at a stop where it has nothing within reach), ``others`` (done at a stop, at rest,
   while the other arms finish), ``coordination`` (within its work -- from its first event to its
   last, at a stop where it has fruit -- holding still for a neighbour: neither moving nor
@@ -42,6 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kinds import GantryMode
 from ..plan import EventKind, Plan
 from ..problem.model import Problem
 
@@ -99,6 +101,10 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
             picking[int(round(e.t_start / dt)):int(round(e.t_end / dt))] = True
     home = _home(problem, plan)
     stop_of = np.full(n, -1)
+    settling = np.zeros(n, dtype=bool)  # (N,) the carriage at rest at a stop, its settle not over: no arm may pick
+    for sp in result.stops if g.settle > 0 else ():
+        settling[int(round(sp.arrive / dt)):int(round((sp.arrive + g.settle) / dt))] = True
+    settling &= ~moving
     for i, sp in enumerate(result.stops):
         a0, a1 = int(round(sp.start / dt)), int(round(sp.start / dt)) + sp.plan.time.size
         stop_of[a0:min(a1, n)] = i
@@ -127,9 +133,9 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         waiting = held & within & ~at_stop_without & upto
         early = _not_in_reach_yet(result.reach, ai, mine, x, waiting, dt) if not result.stops else np.zeros(n, dtype=bool)
         causes = {
-            "carriage": (h & moving) | early,
-            "no_fruit": h & ~moving & at_stop_without,
-            "others": h & ~moving & ~at_stop_without,
+            "carriage": (h & (moving | settling)) | early,
+            "no_fruit": h & ~moving & ~settling & at_stop_without,
+            "others": h & ~moving & ~settling & ~at_stop_without,
             "coordination": waiting & ~early,
             "making_way": ~home[a.name] & ~still & at_stop_without & upto,
         }
@@ -175,8 +181,8 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         "least_slack_seconds": min(slack) if slack else None,
         "kept_ahead": min(slack) >= 0.0 if slack else None,  # (None: no stop to keep ahead of)
     }
-    out["mode"] = result.info.get("mode", "stop-and-go")
-    if out["mode"] == "continuous":  # no stops: the carriage's speeds instead, and no stop to keep ahead of
+    out["mode"] = result.info.get("mode", GantryMode.STOP_AND_GO.value)
+    if out["mode"] == GantryMode.CONTINUOUS:  # no stops: the carriage's speeds instead, and no stop to keep ahead of
         # picks whose whole dwell has the carriage at rest (where it starts, held, or at its rest at the end)
         at_rest = sum(1 for e in plan.events if e.kind == EventKind.PICK
                       and not moving[int(round(e.t_start / dt)):int(round(e.t_end / dt)) + 1].any())
