@@ -711,3 +711,64 @@ def test_a_stop_by_stop_ratio_below_one_says_why(tmp_path):
     m = json.loads((tmp_path / "o" / "plan.json").read_text())["metrics"]["row"]
     assert m["ratio_stop_and_go_bound"] < 1.0 and m["overlap_seconds"] > 0  # (this row's plan, on any machine)
     assert f"below 1, as this plan's arms work {m['overlap_seconds']:.2f} s while the carriage moves" in out
+
+
+def test_gantry_auto_interrupted_says_so_and_compares_no_part(row, monkeypatch):
+    """Ctrl-C in --gantry auto: a stop-and-go part row (its planning interrupted) is no
+    comparison -- the kept plan is said interrupted (exit 130), whichever mode it is; an
+    interrupted speed search stops there, stop and go never planned (a second Ctrl-C was
+    needed, and a whole row on the move was then 'success' against a part)."""
+    import coplan.row.moving as moving_mod
+    import coplan.row.plan as plan_mod
+    from coplan.kinds import ExitCode, PlanStatus
+    from coplan.pipeline import status_exit_code
+
+    real_row, real_moving = plan_mod.plan_row, moving_mod.plan_moving
+
+    def cut(res):
+        res.plan.status = PlanStatus.INTERRUPTED
+        return res
+
+    monkeypatch.setattr(plan_mod, "plan_row", lambda *a, **k: cut(real_row(*a, **k)))
+    res = solve(row, gantry=GantryMode.AUTO)
+    auto = res.plan.solver["row"]["auto"]
+    assert auto["stop-and-go"]["interrupted"] and not auto["continuous"]["interrupted"] and auto["interrupted"]
+    assert res.plan.status == PlanStatus.INTERRUPTED and status_exit_code(res.plan.status) == ExitCode.INTERRUPTED
+    assert res.verification.passed  # (what it kept is verified; only the comparison was cut short)
+
+    monkeypatch.setattr(plan_mod, "plan_row", lambda *a, **k: pytest.fail("stop and go planned after the interrupt"))
+    monkeypatch.setattr(moving_mod, "plan_moving", lambda *a, **k: cut(real_moving(*a, **k)))
+    res = solve(row, gantry=GantryMode.AUTO)
+    auto = res.plan.solver["row"]["auto"]
+    assert auto["chosen"] == "continuous" and auto["stop-and-go"] is None and "not planned" in auto["interrupted"]
+    assert res.plan.status == PlanStatus.INTERRUPTED
+    from rich.console import Console
+
+    from coplan.cli.summary import print_row_summary
+
+    con = Console(record=True, width=400)
+    print_row_summary(con, res)
+    said = " ".join(con.export_text().split())
+    assert "nothing compared" in said and "compared it with" not in said, said
+    # a whole row whose search alone was cut short keeps its ratios (it is not 'a part')
+    assert "for the part planned" not in said and "ratio" in said
+
+
+def test_speed_auto_is_not_run_on_an_interrupted_search(row, monkeypatch):
+    """``coplan run ROW --speed auto``: a speed search cut short (Ctrl-C) is not the speed the
+    search chooses: live_speed raises KeyboardInterrupt (the run exits 130, nothing written)
+    instead of running the whole live row on it."""
+    import coplan.row.moving as moving_mod
+    from coplan.kinds import PlanStatus
+
+    real = moving_mod.plan_moving
+
+    def cut(*a, **k):
+        res = real(*a, **k)
+        res.plan.status = PlanStatus.INTERRUPTED
+        res.info["interrupted"] = "the speed search stopped after 2 plans"
+        return res
+
+    monkeypatch.setattr(moving_mod, "plan_moving", cut)
+    with pytest.raises(KeyboardInterrupt, match="stopped after 2 plans"):
+        moving_mod.live_speed(row)

@@ -16,7 +16,7 @@ from .allocate.allocation import AllocationMethod, allocate
 from .kinds import ExitCode, GantryMode, StopRule
 from .output import RunFolder, check_folder, signals_deferred
 from .planners.heuristic import plan_heuristic
-from .plan import Plan, PlannerKind, PlanStatus, finalize_plan
+from .plan import EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem.model import Problem
 from .problem.load import file_record, load_problem, parse_problem
 
@@ -110,26 +110,44 @@ def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None) -> tuple[dict
 
 def _better_mode(stopping, moving):
     """``--gantry auto``: the row plan (both verified) with more fruit harvested, then more fruit
-    per hour; both modes' figures in ``solver.row.auto``, the planning time of both."""
+    per hour; both modes' figures in ``solver.row.auto``, the planning time of both. Where either
+    mode's planning was interrupted (Ctrl-C: ``stopping`` None when it never started) the
+    comparison is cut short: the plan kept is said interrupted (exit 130), whichever it is."""
+    if stopping is None:  # (the speed search was interrupted: stop and go never planned)
+        both = {GantryMode.CONTINUOUS.value: None, GantryMode.STOP_AND_GO.value: None, "chosen": GantryMode.CONTINUOUS.value,
+                "interrupted": "the speed search was interrupted: stop and go was not planned, nothing compared"}
+        both[GantryMode.CONTINUOUS.value] = _mode_figures(moving)
+        moving.info["auto"] = both
+        moving.plan.solver["row"]["auto"] = both
+        return moving
+
     def key(r):
         m = r.plan.metrics
         span = m.get("makespan") or 0.0
         return (bool(r.verification.passed), m.get("harvested") or 0, (m.get("harvested") or 0) / span if span else 0.0)
 
-    def figures(r):
-        m = r.plan.metrics
-        span = m.get("makespan") or 0.0
-        return {"harvested": m.get("harvested"), "row_time": span, "verified": bool(r.verification.passed),
-                "fruit_per_hour": 3600.0 * (m.get("harvested") or 0) / span if span else 0.0,
-                "planning_time": r.timings.get("planning"), "label": r.plan.label}  # (which stop rule: a summary said only "stop-and-go")
-
     best = moving if key(moving) > key(stopping) else stopping
-    both = {GantryMode.STOP_AND_GO.value: figures(stopping), GantryMode.CONTINUOUS.value: figures(moving),
+    both = {GantryMode.STOP_AND_GO.value: _mode_figures(stopping), GantryMode.CONTINUOUS.value: _mode_figures(moving),
             "chosen": GantryMode.CONTINUOUS.value if best is moving else GantryMode.STOP_AND_GO.value}
+    if stopping.plan.status == PlanStatus.INTERRUPTED and best.plan.status != PlanStatus.INTERRUPTED:
+        # (a stop-and-go part against a whole row on the move is no comparison: the run was stopped, and says so)
+        best.plan.status = PlanStatus.INTERRUPTED
+        best.plan.solver["status"] = PlanStatus.INTERRUPTED.value
+        both["interrupted"] = "stop and go's planning was interrupted: its part row is no comparison"
     best.info["auto"] = both
     best.plan.solver["row"]["auto"] = both
     best.timings["planning"] = (stopping.timings.get("planning") or 0.0) + (moving.timings.get("planning") or 0.0)
     return best
+
+
+def _mode_figures(r) -> dict:
+    """One mode's figures in ``solver.row.auto`` (``--gantry auto``)."""
+    m = r.plan.metrics
+    span = m.get("makespan") or 0.0
+    return {"harvested": m.get("harvested"), "row_time": span, "verified": bool(r.verification.passed),
+            "fruit_per_hour": 3600.0 * (m.get("harvested") or 0) / span if span else 0.0,
+            "planning_time": r.timings.get("planning"), "label": r.plan.label,  # (which stop rule: a summary said only "stop-and-go")
+            "interrupted": r.plan.status == PlanStatus.INTERRUPTED}
 
 
 def _checked_as_a_file(problem: Problem) -> None:
@@ -212,7 +230,10 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
                              "time-optimal moves; the cell planners apply to stop and go")
         moving = plan_moving(prob, options if isinstance(options, MovingOptions) else MovingOptions(
             resolution=getattr(options, "resolution", DEFAULT_RESOLUTION)), progress)
-    if mode != GantryMode.CONTINUOUS:
+    # auto: a speed search cut short (Ctrl-C) stops there -- its plan kept, said interrupted, stop and go not planned
+    if mode == GantryMode.CONTINUOUS or (mode == GantryMode.AUTO and moving.plan.status == PlanStatus.INTERRUPTED):
+        stopping = None
+    else:
         # (auto: both modes, the stops' cells in as many processes as the speed search)
         opts = options if isinstance(options, RowOptions) else RowOptions(
             workers=getattr(options, "workers", 1), resolution=getattr(options, "resolution", DEFAULT_RESOLUTION))
@@ -250,7 +271,7 @@ def fruit_counts(problem: Problem, scr, plan: Plan) -> dict:
     each one's reason in the screen (``coplan check``) or ``plan.solver.left_out``."""
     reach = set(problem.reachable_ids())
     can = {f.id for j, f in enumerate(problem.fruits) if scr.reach[:, j].any()}
-    picked = {e.fruit for e in plan.events if e.kind.value == "place"}
+    picked = {e.fruit for e in plan.events if e.kind == EventKind.PLACE}
     ids = {"unreachable": [f.id for f in problem.fruits if f.id not in reach],
            "screened_out": [f.id for f in problem.fruits if f.id in reach and f.id not in can],
            "left_out": [f.id for f in problem.fruits if f.id in can and f.id not in picked]}
@@ -276,7 +297,7 @@ def solve(
     ----------
     problem : a :class:`Problem`, the path of a YAML problem file, or a problem as a mapping
         (:mod:`coplan.generate` makes them), checked as a file is
-    planner : ``optimal`` (default, anytime: never slower than ``coordinated``),
+    planner : ``optimal`` (default, anytime: never slower than ``coordinated`` harvesting as much),
         ``coordinated`` (fast: no NLP) or ``heuristic`` (the course's baseline)
     allocation : ``makespan`` or ``heuristic``; default: the planner's own
         (``heuristic`` for the baseline, ``makespan`` for the others)
@@ -291,7 +312,8 @@ def solve(
         default: planning keeps ahead of the carriage; ``optimal`` gives each stop a search
         budget) and ``options`` may be :class:`coplan.row.plan.RowOptions` (``planner`` and
         ``stops``, where given, win over its fields of the same name)
-    gantry : a row: ``stop-and-go`` (default), ``continuous`` (pick on the move: ``options`` may
+    gantry : a row: ``stop-and-go`` (default; ``continuous`` where ``options`` is a
+        :class:`~coplan.row.continuous.MovingOptions`), ``continuous`` (pick on the move: ``options`` may
         be :class:`coplan.row.continuous.MovingOptions`; the speed is searched unless it gives one)
         or ``auto`` (both, each verified: the one with more fruit, then more fruit per hour)
     """

@@ -248,6 +248,10 @@ def _auto_speed(prob, quiet: bool) -> float:
         v, best = live_speed(prob)
     except ValueError as e:
         usage(f"--speed auto: {e} (give --speed V, or --gantry stop-and-go)")
+    except KeyboardInterrupt:  # (its best plan so far would not be the speed the search chooses: no run on it)
+        _err.print("interrupted in --speed auto's speed search, before the live run started: nothing of this run "
+                   "is written", markup=False, highlight=False)
+        raise
     if not quiet:
         _err.print(f"--speed auto: {v:g} m/s, the constant speed the offline search chooses "
                    f"({best.plan.metrics.get('harvested', 0)} fruit; {_time.perf_counter() - t0:.1f} s)",

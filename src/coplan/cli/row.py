@@ -3,22 +3,15 @@ import: the row stage is imported inside each function."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from ..errors import plural
 from ..kinds import ExitCode, GantryMode, PlannerKind, SpeedProfile
-from .checks import fail
+from .checks import fail, strict_json
 from .failures import exit_fields, usage
 from .summary import safe
 
 __all__ = ["check_row", "compare_row"]
-
-
-def strict_json(doc) -> str:
-    from ..plan import jsonable
-
-    return json.dumps(jsonable(doc), default=str, allow_nan=False)
 
 
 def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | None = None) -> ExitCode:

@@ -7,6 +7,7 @@ import math
 from collections import Counter
 
 from ..errors import plural, printable
+from ..kinds import GantryMode, PlanStatus
 
 __all__ = ["fmt", "fruit_line", "print_row_summary", "print_summary", "print_verification", "safe"]
 
@@ -81,7 +82,7 @@ def print_row_summary(console, res) -> None:
     solver = (res.plan.solver or {}).get("row", {})
     colour = "green" if res.success else "red"
     p = console.print
-    moving = r.get("mode") == "continuous"
+    moving = r.get("mode") == GantryMode.CONTINUOUS
     still = moving and not r.get("carriage_moving_share")  # every fruit served from where the carriage starts
     how = ("on the move (nothing to harvest: the carriage stays where it starts)" if still and not m.get("harvested") else
            "on the move (the carriage need not move: every fruit is in reach from where it starts)" if still else
@@ -100,10 +101,14 @@ def print_row_summary(console, res) -> None:
             p(f"    {safe(why)}")
     auto = solver.get("auto")
     if auto:
-        other = next(k for k in auto if k not in ("chosen", auto["chosen"]))
-        p(f"  gantry auto       {safe(auto['chosen'])} kept: {auto[auto['chosen']]['fruit_per_hour']:.0f} fruit/h against "
-          f"{auto[other]['fruit_per_hour']:.0f} {safe(auto[other].get('label') or other)} ({auto[other]['harvested']} fruit, "
-          f"{'verified' if auto[other]['verified'] else 'NOT verified'})")
+        other = GantryMode.CONTINUOUS.value if auto["chosen"] == GantryMode.STOP_AND_GO else GantryMode.STOP_AND_GO.value
+        if auto.get(other) is None:  # (interrupted before the other mode was planned)
+            p(f"  gantry auto       {safe(auto['chosen'])} kept, nothing compared: {safe(auto.get('interrupted'))}")
+        else:
+            cut = " [yellow]interrupted: a part of the row[/]" if auto[other].get("interrupted") else ""
+            p(f"  gantry auto       {safe(auto['chosen'])} kept: {auto[auto['chosen']]['fruit_per_hour']:.0f} fruit/h against "
+              f"{auto[other]['fruit_per_hour']:.0f} {safe(auto[other].get('label') or other)} ({auto[other]['harvested']} fruit, "
+              f"{'verified' if auto[other]['verified'] else 'NOT verified'}){cut}")
     out = r.get("screened_out") or {}
     p(f"  fruit             {r.get('harvested')} harvested of {r.get('harvestable')} harvestable "
       f"({fmt(None if r.get('share_harvested') is None else 100 * r['share_harvested'], ' %', 1)}); of {r.get('fruit')} fruit {len(out)} screened out"
@@ -113,7 +118,7 @@ def print_row_summary(console, res) -> None:
     if len(out) > 3:
         p(f"    ... and {len(out) - 3} more (plan.json: metrics.row.screened_out)")
     beyond = (m.get("reachable") or 0) - (r.get("harvestable") or 0)
-    if res.plan.status.value == "partial" and beyond > 0 and r.get("harvested") == r.get("harvestable"):
+    if res.plan.status == PlanStatus.PARTIAL and beyond > 0 and r.get("harvested") == r.get("harvestable"):
         p(f"  why partial       {plural(beyond, 'screened-out fruit is', 'screened-out fruit are')} still reachable, as the "
           f"verifier counts: from between the candidate stops (a finer --resolution serves "
           f"{'it' if beyond == 1 else 'them'}), or only by an arm the screen locks")
@@ -128,7 +133,9 @@ def print_row_summary(console, res) -> None:
     p(f"  fruit per hour    {r.get('fruit_per_hour', 0):.0f} (per arm: "
       + ", ".join(f"{safe(a)} {v:.0f}" for a, v in (r.get("fruit_per_hour_per_arm") or {}).items()) + ")")
     lb = r.get("lower_bound") or {}
-    if res.plan.status.value == "interrupted":  # (a part of the row against the whole row's bounds read 0.271)
+    if res.plan.status == PlanStatus.INTERRUPTED and (r.get("harvested") or 0) < (r.get("harvestable") or 0):
+        # (a part of the row against the whole row's bounds read 0.271; a whole row whose speed search
+        # alone was cut short has its ratios, and its status says it was interrupted)
         p(f"  row time          {fmt(r.get('row_time'), ' s')} for the part planned before the interruption (the "
           f"whole row's lower bound {fmt(lb.get('any_plan'), ' s')} for any plan; no ratio for a part)")
     else:
@@ -165,7 +172,7 @@ def print_row_summary(console, res) -> None:
           "coordination -- holding still within its work for a neighbour; making way -- moving out of a neighbour's way)",
           highlight=False)
     elif r.get("idle_share"):
-        p("    (share of the row time each arm is idle: carriage -- at rest while the carriage moves; no fruit -- at a stop "
+        p("    (share of the row time each arm is idle: carriage -- at rest while the carriage moves or settles; no fruit -- at a stop "
           "with nothing in its reach; others -- done at a stop, waiting for the other arms; coordination -- holding still "
           "within its work for a neighbour; making way -- moving out of a neighbour's way)", highlight=False)
     least = ver.get("min_clearance")
@@ -182,7 +189,8 @@ def print_row_summary(console, res) -> None:
         given = (solver.get("options") or {}).get("level") is not None  # (--speed: one speed, no search)
         p(f"  planning          {fmt(r.get('planning_time'), ' s')} {_of_row(r)} ({plural(r.get('plans_tried') or 0, 'full plan')} "
           f"{'at the speed given' if given else 'tried by the speed search'}, {'each ' if (r.get('plans_tried') or 0) > 1 else ''}verified"
-          + ("; with the stop-and-go plan --gantry auto compared it with" if solver.get("auto") else "") + ")")
+          + ("; with the stop-and-go plan --gantry auto compared it with"
+             if (solver.get("auto") or {}).get(GantryMode.STOP_AND_GO.value) else "") + ")")
     else:
         p(f"  planning          {fmt(r.get('planning_time'), ' s')} {_of_row(r)}; first stop known after {fmt(known, ' s')}{later}; the slowest stop took {fmt(r.get('slowest_stop_seconds'), ' s')} "
           f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({ahead})"
@@ -321,11 +329,13 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     p(f"[bold]{safe(problem.name)}[/] -- {what} of {ver.duration:.2f} s{span}: {verdict}"
       + (f" [bold red]({plural(len(ver.violations), 'violation')}: {why})[/]" if ver.violations else "")
       + ("" if ver.complete else f" [yellow](not harvested: {plural(len(left), 'fruit', 'fruit')}: {safe(shown)})[/]"))
+    from ..verify.verdict import WarningKind  # (here: this module stays light to import)
+
     for w in ver.warnings:
-        if w.kind.value == "problem_name":  # (a plan of another problem fails for that, not for its own faults: said first)
+        if w.kind == WarningKind.PROBLEM_NAME:  # (a plan of another problem fails for that, not for its own faults: said first)
             p(f"  [yellow]another problem[/]   {safe(w.message)}: what it leaves or breaks here may be fine there")
     for w in ver.warnings:
-        if w.kind.value == "events_inferred":  # harvesting judged from events the verifier inferred: say so
+        if w.kind == WarningKind.EVENTS_INFERRED:  # harvesting judged from events the verifier inferred: say so
             p(f"  [yellow]events inferred[/]   {safe(w.message.removeprefix('the plan declares no events: '))}")
     if not ver.pairs:
         p("  least clearance   - (no two arms can touch)")

@@ -7,6 +7,8 @@ import math
 import statistics
 from typing import Any
 
+from ..kinds import PlanStatus
+
 __all__ = ["aggregate"]
 
 _MEDIANS = ("makespan", "makespan_ratio", "throughput", "cycle_time_worst", "min_clearance", "certified_clearance",
@@ -56,7 +58,7 @@ def aggregate(rows: list[dict], planners: list[str]) -> dict[str, Any]:
             "fruit_harvested": sum(r["harvested"] or 0 for r in ok),
             "fruit_reachable": sum(r["reachable"] or 0 for r in ok),
             # (a problem with nothing to plan -- no reachable fruit, makespan 0 -- is no plan's median)
-            "median": {k: _median([r.get(k) for r in ok if r.get("status") != "infeasible"]) for k in _MEDIANS + tuple(rel)},
+            "median": {k: _median([r.get(k) for r in ok if r.get("status") != PlanStatus.INFEASIBLE]) for k in _MEDIANS + tuple(rel)},
             "worst": {
                 "makespan_ratio": _worst(ok, "makespan_ratio", True),
                 "min_clearance": _worst(ok, "min_clearance", False),

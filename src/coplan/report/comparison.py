@@ -29,7 +29,7 @@ from typing import Any
 
 from ..allocate.allocation import AllocationMethod, lower_bound
 from ..errors import Issue, ProblemError, plural, printable
-from ..plan import Plan, PlannerKind
+from ..plan import Plan, PlannerKind, PlanStatus
 from ..problem.model import Problem
 from ..problem.load import load_problem
 from ..output import atomic_text, check_folder, is_run_folder
@@ -258,8 +258,8 @@ def compare(
                 e.entry.pop("_problem", None)
                 cmp.problems.append(e.entry)
                 cmp.rows += e.rows
-                cut = [r["planner"] for r in e.rows if r.get("status") == "interrupted"]
-                done = [r["planner"] for r in e.rows if r.get("status") != "interrupted"]
+                cut = [r["planner"] for r in e.rows if r.get("status") == PlanStatus.INTERRUPTED]
+                done = [r["planner"] for r in e.rows if r.get("status") != PlanStatus.INTERRUPTED]
                 note += (f", and of {path.name} the planners that finished ({', '.join(done) or 'none'})"
                          + (f" and {cut[0]}'s verified incumbent when it was interrupted (status interrupted)" if cut else ""))
             cmp.notes.append(note)

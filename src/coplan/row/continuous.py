@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import Issue, OptionsError, check_fields
-from ..kinds import AssignRule, PlannerKind, PlanStatus, SpeedProfile
+from ..kinds import AssignRule, GantryMode, PlannerKind, PlanStatus, SpeedProfile
 from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES, EventKind, Plan, compute_metrics
 from ..problem.model import Problem
 from ..problem.plausible import plan_seconds_limit
@@ -244,7 +244,7 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
                                            f"{level:g}: the carriage alone takes {cruise.duration:.0f} s")], "MovingOptions")
     ts = _time.perf_counter()
     booker, left = _book(problem, reach, cruise, opts)
-    info: dict = {"mode": "continuous", "profile": SpeedProfile(opts.profile).value, "level": level,
+    info: dict = {"mode": GantryMode.CONTINUOUS.value, "profile": SpeedProfile(opts.profile).value, "level": level,
                   "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.GREEDY.value,
                   "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "start_hold": hold,
                   "early_rest": early}
@@ -312,7 +312,7 @@ def reorder_continuous(problem: Problem, level: float, options: MovingOptions, r
     if (len(left), _end(booker)) >= (greedy_left, max((e.t_end for e in events), default=0.0)):
         return None, report
     report["kept"] = True
-    info: dict = {"mode": "continuous", "profile": SpeedProfile(options.profile).value, "level": level,
+    info: dict = {"mode": GantryMode.CONTINUOUS.value, "profile": SpeedProfile(options.profile).value, "level": level,
                   "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.CPSAT.value,
                   "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "cpsat": report,
                   "start_hold": hold, "early_rest": False}

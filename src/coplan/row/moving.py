@@ -342,8 +342,12 @@ def live_speed(problem: Problem, workers: int = 1) -> tuple[float, RowResult]:
     ``benchmarks/bench_moving.py``'s live rows): the constant speed the offline search over
     constant speeds chooses, every fruit known (each plan verified), rounded down to the mm/s --
     a live planner cannot shape its speed to fruit it has not seen; and the search's result.
-    ValueError where the search found no speed (the carriage need not move)."""
+    ValueError where the search found no speed (the carriage need not move); KeyboardInterrupt
+    where the search was interrupted (Ctrl-C, SIGTERM): a speed from a search cut short is not
+    the one it chooses, and a live run is not started on it."""
     best = plan_moving(problem, MovingOptions(profile=SpeedProfile.CONSTANT, workers=workers))
+    if best.plan.status == PlanStatus.INTERRUPTED:
+        raise KeyboardInterrupt(best.info.get("interrupted", "the speed search was interrupted"))
     top = best.info.get("top_speed")
     if not top:
         raise ValueError(f"the offline speed search found no cruising speed for {problem.name!r}")

@@ -4,7 +4,7 @@ Entry point: :func:`plan_row` -> :class:`RowResult`.
 
 1. **Screen the row** (:func:`coplan.row.reach.row_reach`): from which carriage positions each
    arm can harvest each fruit; a fruit no position serves is left out with the reason.
-2. **Stops** (:mod:`coplan.row.stops`): ``optimised`` (receding windows, CP-SAT), ``fixed``
+2. **Stops** (:mod:`coplan.row.stops`): ``optimised`` (receding segments, a search over strides priced by the arms' round trips), ``fixed``
    (a stop every carriage span) or ``fewest``; each stop's fruit.
 3. **Cells**: each stop is a stationary cell (:func:`coplan.problem.gantry.cell_at`) planned by
    the cell planner (``coordinated``, or ``optimal`` with a per-stop budget): every arm from

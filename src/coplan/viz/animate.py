@@ -63,7 +63,7 @@ def ffmpeg_available() -> bool:
 
         _use_bundled_ffmpeg()
         return bool(animation.writers.is_available("ffmpeg")) and shutil.which(_ffmpeg_path()) is not None
-    except Exception:  # noqa: BLE001 -- any doubt means no
+    except (ImportError, OSError, RuntimeError, ValueError, KeyError):  # no writer, no binary, a bad rcParam: no MP4
         return False
 
 

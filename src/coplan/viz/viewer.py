@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import Issue, PlanFileError
-from ..kinds import EventKind
+from ..kinds import EventKind, GantryMode
 from ..output import atomic_text
 from ..plan import Plan, checked_status, jsonable, load_plan
 from ..problem.model import Problem
@@ -206,7 +206,7 @@ def _row_data(problem: Problem, plans: list[Plan]) -> dict:
     stops, moving = [], []
     for p in plans:
         row = (p.solver or {}).get("row") or (p.metrics or {}).get("row") or {}
-        moving.append(row.get("mode") == "continuous")  # (its picks at rest are rests, not stops: the summary says 0 stops)
+        moving.append(row.get("mode") == GantryMode.CONTINUOUS)  # (its picks at rest are rests, not stops: the summary says 0 stops)
         x = np.asarray(p.gantry_x, float)
         mine = []
         for e in sorted(p.events, key=lambda e: e.t_start):

@@ -44,8 +44,9 @@ class Incumbent:
 
     def offer(self, plan: Plan, verification, source: str, candidate: Coordinated | None = None,
               ties: bool = False) -> bool:
-        """Keep ``plan`` if verified, harvesting as much and faster (with ``ties``: or as fast,
-        so that a parallel search's winner replaces an equal best that happened to arrive first)."""
+        """Keep ``plan`` if verified and it harvests more, or as much and faster (with ``ties``: or
+        as fast, so that a parallel search's winner replaces an equal best that happened to arrive
+        first). A plan that harvests more is kept even if slower: fruit come first."""
         plan = finalize_plan(plan, verification, self.n_reach)
         if plan.status not in (PlanStatus.SUCCESS, PlanStatus.PARTIAL):
             return False

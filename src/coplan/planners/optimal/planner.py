@@ -1,9 +1,10 @@
 """The anytime optimal planner: the coordinated plan, improved by search and joint optimisation.
 
 Entry point: :func:`plan_optimal`. It keeps an **incumbent**: a verified plan. Every later
-candidate replaces it only if the independent verifier passes it, it harvests at least as
-much, and it is faster. So the optimal planner never returns a plan slower than the
-coordinated one, and whenever it stops -- at its work budget, at an explicit
+candidate replaces it only if the independent verifier passes it and it harvests more, or as
+much and faster (the widening stage: as much and no slower, with no less room). So the optimal
+planner never returns a plan slower than the coordinated one that harvests as much (one that
+harvests more may be slower), and whenever it stops -- at its work budget, at an explicit
 ``time_limit``, on Ctrl-C, or because the incumbent meets the lower bound (then it is
 *proven optimal*) -- it has a verified plan to return.
 
