@@ -551,12 +551,12 @@ def test_check_and_solve_agree_on_a_row_with_a_fruit_no_arm_reaches(tmp_path):
 
 
 def test_rebalance_never_lengthens_and_ends_where_no_single_move_shortens_the_stops():
-    """:func:`coplan.row.stops.rebalance` on seeded random assignments (stops x arms, each fruit
+    """:func:`coplan.row.balance.rebalance` on seeded random assignments (stops x arms, each fruit
     with its own (round trip, stop, arm) options, placed at random): the sum of the stops'
     busiest arms never grows; afterwards every fruit is in one of its options exactly once, the
     loads are the sums of what is placed (with each used arm's overhead once per stop), and no
     single fruit moved to another option shortens the sum (checked here by recomputing it)."""
-    from coplan.row.stops import rebalance
+    from coplan.row.balance import rebalance
 
     def total(placed, S, A, over):
         load = [[0.0] * A for _ in range(S)]
@@ -609,7 +609,7 @@ def test_rebalance_moves_a_chain_where_no_single_move_shortens():
     busiest, its fruit would make the middle arm busier still, and the rear arm has time to
     spare only for the middle arm's fruit -- no single move shortens the stop, the chain of two
     does (16 s -> 15 s, the least any assignment of these fruit has)."""
-    from coplan.row.stops import rebalance
+    from coplan.row.balance import rebalance
 
     over = [0.0, 0.0, 0.0]
     chosen = [[0, "r", 10.0, 0, 0, [(10.0, 0, 0)]],  # only the rear arm
