@@ -158,3 +158,20 @@ def test_an_interruption_while_the_smaller_clearances_plans_are_verified_keeps_t
     assert len(first) == 2  # (both levels planned: it came after, as the +0 mm plan was verified at +25 mm)
     doc = json.loads((tmp_path / "clearance.json").read_text())
     assert [r["extra_mm"] for r in doc["rows"]] == [0.0] and "interrupted at +25 mm" in doc["notes"][0]
+
+
+def test_a_rows_sweep_plans_its_cells_as_coplan_solve_does(tmp_path):
+    """A row's --clearance-sweep without --planner plans each stop's cell with the coordinated
+    planner, as ``coplan solve ROW`` does (it took the optimal one: 10 minutes on sparse_row);
+    every level verified."""
+    from coplan.generate import gantry_row, to_yaml
+
+    row = tmp_path / "row.yaml"
+    row.write_text(to_yaml(gantry_row(length=8.0, n_arms=2, density=2.0, seed=3)))
+    r = CliRunner().invoke(app, ["compare", str(row), "--clearance-sweep", "--extra", "25", "-o", str(tmp_path / "out"),
+                                 "--no-figures", "--json"])
+    assert r.exit_code == 0, r.output
+    doc = json.loads(r.stdout[r.stdout.index("{"):])
+    assert doc["planner"] == "coordinated" and all(row["verified"] for row in doc["rows"])
+    plan = json.loads((tmp_path / "out" / "plus_25mm" / "plan.json").read_text())
+    assert plan["solver"]["row"]["cell_planner"] == "coordinated"

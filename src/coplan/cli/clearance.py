@@ -28,16 +28,17 @@ def clearance_sweep(source: Path, planner, extra, out: Path, figures: bool, time
         fail(ExitCode.USAGE, f"--clearance-sweep: expected at most one --planner, found {len(planner)}")
     if extra and any(not (0 <= e <= 1000) for e in extra):
         fail(ExitCode.USAGE, f"--extra: expected extra clearances from 0 to 1000 mm, found {extra}")
-    try:
-        kind = PlannerKind(planner[0].split(":")[0]) if planner else PlannerKind.OPTIMAL
+    from .row import rows_in
+
+    row = bool(rows_in(source))
+    try:  # (a row's default is its cells' default, coordinated, as `coplan solve ROW`: the optimal cells took 10 min on sparse_row)
+        kind = PlannerKind(planner[0].split(":")[0]) if planner else PlannerKind.COORDINATED if row else PlannerKind.OPTIMAL
     except ValueError:
         fail(ExitCode.USAGE, f"--planner: expected heuristic, coordinated or optimal, found {planner[0]!r}")
     check_time_limit(time_limit)
     failures.check_out_dir(out)
     options = solver_options(options_file, time_limit, kind != PlannerKind.HEURISTIC)
-    from .row import rows_in
-
-    hint = budget_hint(kind, time_limit) if kind == PlannerKind.OPTIMAL and not rows_in(source) else None  # (a row takes no --time-limit)
+    hint = budget_hint(kind, time_limit) if kind == PlannerKind.OPTIMAL and not row else None  # (a row takes no --time-limit)
     return run_clearance_sweep(source, kind, extra, out, figures, options, hint, as_json, out_console, err_console)
 
 
