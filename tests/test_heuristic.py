@@ -287,3 +287,21 @@ def test_single_arm_reproduces_the_lesson_demo(single_arm: Problem) -> None:
     _, tip = kin.fk(plan.q["arm"], arm.links, arm.base)
     assert np.linalg.norm(tip - [1.2, 0.8], axis=1).min() < 1e-9
     assert np.linalg.norm(tip - [-0.5, 1.0], axis=1).min() < 1e-9
+
+
+@pytest.mark.parametrize("dwell", [0.3001, 0.2103, 0.305])
+def test_the_baselines_dwells_hold_on_the_samples_whatever_their_length(dwell: float) -> None:
+    """A dwell that is no whole number of samples (0.3001 s) was held 0.290 s on the plan's
+    100 Hz grid -- a pick_dwell violation the course's method does not make: each dwell now lasts
+    the whole samples that cover it (0.31 s), on the fruit and on the bin, which the verifier
+    passes; a dwell on the grid keeps its own length."""
+    from coplan.verify import ViolationKind, verify
+
+    d = row_problem(n_arms=2, n_fruits=4, seed=1)
+    d["task"]["pick_dwell"] = d["task"]["place_dwell"] = dwell
+    prob = parse_problem(to_yaml(d), "dwell")
+    plan = plan_heuristic(prob)
+    ver = verify(prob, plan)
+    assert not [v for v in ver.violations if v.kind in (ViolationKind.PICK_DWELL, ViolationKind.PLACE_DWELL)]
+    held = {round(e.t_end - e.t_start, 9) for e in plan.events}
+    assert held == {math.ceil(dwell * 100 - 1e-9) / 100}

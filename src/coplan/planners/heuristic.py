@@ -38,8 +38,10 @@ def _hold(t0: float, dur: float, q) -> Piece:
     return Piece(t0, t0 + dur, lambda t, q=q: np.tile(q, (np.size(t), 1)))
 
 
-def build_timeline(problem: Problem, arm: Arm, alloc: Allocation):
-    """Pieces and events of one arm's heuristic schedule."""
+def build_timeline(problem: Problem, arm: Arm, alloc: Allocation, rate: float = DEFAULT_RATE):
+    """Pieces and events of one arm's heuristic schedule. Each dwell lasts a whole number of
+    the plan's samples (``rate`` Hz), at least the task's: sampled, a hold of 0.3001 s between
+    two arbitrary instants was on target 0.29 s, short of the dwell the verifier asks."""
     pieces: list[Piece] = []
     events: list[Event] = []
     home = np.asarray(arm.home, float)
@@ -49,6 +51,7 @@ def build_timeline(problem: Problem, arm: Arm, alloc: Allocation):
         qf = alloc.fruit_q[arm.name][fid]
         qb = alloc.place_q[arm.name][fid]
         for target, kind, dwell in ((qf, EventKind.PICK, problem.task.pick_dwell), (qb, EventKind.PLACE, problem.task.place_dwell)):
+            dwell = math.ceil(dwell * rate - 1e-9) / rate
             p = _cubic_piece(arm, t, cur, target)
             pieces.append(p)
             t = p.t1
@@ -77,7 +80,7 @@ def plan_heuristic(problem: Problem, allocation: Allocation | None = None, rate:
         raise TypeError(f"allocation: expected an Allocation (coplan.allocate(problem, method)), found {type(allocation).__name__}")
     t0 = _time.perf_counter()
     alloc = allocation if allocation is not None else allocate(problem, AllocationMethod.HEURISTIC)
-    timelines = {arm.name: build_timeline(problem, arm, alloc) for arm in problem.arms}
+    timelines = {arm.name: build_timeline(problem, arm, alloc, rate) for arm in problem.arms}
     t_end = max((tl[2] for tl in timelines.values()), default=0.0)
     times = grid(t_end, rate)
     q = {arm.name: sample_pieces(timelines[arm.name][0], arm.home, times) for arm in problem.arms}
