@@ -866,14 +866,14 @@ def test_a_row_file_in_a_files_sweep_has_its_rail_as_its_length(tmp_path):
     """(A generated 8 m row swept from its file had row_length 6.0 -- arms x spacing -- so its
     density and throughput per metre were a third too high.)"""
     from coplan.generate import gantry_row, to_yaml
-    from coplan.sweep.run import _problem_columns
+    from coplan.sweep.columns import problem_columns
     from coplan.problem import parse_problem
 
     path = tmp_path / "row8.yaml"
     path.write_text(to_yaml(gantry_row(length=8, n_arms=3, density=3, seed=1)))
     (item,) = load_sweep(str(path.parent / "row8*.yaml")).items()
     problem = parse_problem(item.problem_text)
-    cols = _problem_columns(problem, item)
+    cols = problem_columns(problem, item)
     assert cols["row_length"] == 8.0 and cols["density"] == pytest.approx(len(problem.fruits) / 8.0)
 
 
@@ -1039,3 +1039,22 @@ def test_the_table_s_pyarrow_is_imported_before_the_sweep_s_work_starts(tmp_path
     r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip().splitlines()[-1] == "True"
+
+
+def test_a_row_that_is_not_a_success_says_why_and_shows_no_ratio_to_a_bound_it_does_not_answer():
+    """A partial row's message names the first fruit left out and why (the screen's reason, or
+    the planner's), and it has no ratio (the bound counts the fruit it left: 0.73 x 'a bound no
+    plan can beat'); a problem with no fruit says so, its makespan and bound empty, not 0.0."""
+    from coplan.generate import row_problem, to_yaml
+
+    d = row_problem(n_arms=2, n_fruits=4, spacing=0.2, seed=1)
+    row, _ = solve_item(SweepItem(0, "k1", {"seed": 1}, "coordinated", {}, 30.0, "row", to_yaml(d)))
+    assert row["status"] == "partial" and row["ratio"] is None
+    assert "left out: f003: only arm1 reaches it and arm1 cannot reach its bin" in row["message"], row["message"]
+    d = row_problem(n_arms=2, n_fruits=4, spacing=0.2, seed=2)
+    row, _ = solve_item(SweepItem(1, "k2", {"seed": 2}, "coordinated", {}, 30.0, "row", to_yaml(d)))
+    assert row["status"] == "partial" and "no serial schedule" in row["message"], row["message"]
+    d = row_problem(n_arms=2, n_fruits=0, spacing=0.2, seed=0)
+    row, _ = solve_item(SweepItem(2, "k3", {}, "coordinated", {}, 30.0, "row", to_yaml(d)))
+    assert row["status"] == "infeasible" and "no fruit" in row["message"]
+    assert row["makespan"] is None and row["lower_bound"] is None and row["ratio"] is None

@@ -37,6 +37,7 @@ from ..kinds import ExitCode, GantryMode, PlannerKind, RowStatus
 from ..errors import Issue
 from ..provenance import software_record
 from ..output import OutputError
+from .columns import exit_class, problem_columns, result_columns
 from .spec import SweepError, SweepItem, SweepSpec
 from .table import RowJournal, import_arrow, read_rows, write_table
 
@@ -94,11 +95,6 @@ def hard_limit(time_limit: float) -> float:
     return 1.5 * time_limit + 30.0
 
 
-def exit_class(code: ExitCode) -> str:
-    """``ExitCode.BAD_INPUT`` -> ``"bad input"``."""
-    return code.name.lower().replace("_", " ")
-
-
 @dataclass
 class SweepOutcome:
     """What :func:`run_sweep` did: rows written now, rows skipped (already done), counts by status;
@@ -133,7 +129,7 @@ def _worker_name() -> str:
 def _base_row(item: SweepItem) -> dict[str, Any]:
     """The row's columns known before the problem is read: the design's parameters (a problem
     that cannot be made or read keeps them: its row is still that design's), replaced by the
-    problem's own figures once it is read (:func:`_problem_columns`)."""
+    problem's own figures once it is read (:func:`coplan.sweep.columns.problem_columns`)."""
     p = item.params
     links = p.get("links")
     links = (links, links) if isinstance(links, (int, float)) else links
@@ -152,60 +148,6 @@ def _base_row(item: SweepItem) -> dict[str, Any]:
 def _fail_row(row: dict[str, Any], status: RowStatus, code: ExitCode, message: str) -> dict[str, Any]:
     row.update(status=status.value, exit_code=int(code), exit_class=exit_class(code), message=message, finished=time.time())
     return row
-
-
-def _problem_columns(problem, item: SweepItem) -> dict[str, Any]:
-    xs = sorted(a.base[0] for a in problem.arms)
-    n = len(xs)
-    spacing = (xs[-1] - xs[0]) / (n - 1) if n > 1 else None
-    a0 = problem.arms[0]
-    length = item.row_length
-    if length is None and problem.gantry is not None:  # a row's file: its rail (it was arms x spacing: 6 m of an 8 m row)
-        length = problem.gantry.length
-    if length is None:
-        length = n * spacing if spacing else 2.0 * a0.reach
-    out = {"name": problem.name, "n_arms": n, "n_fruits": len(problem.fruits), "spacing": spacing, "row_length": length,
-           "link_1": a0.links[0], "link_2": a0.links[1], "link_radius": a0.link_radius}
-    if item.params.get("density") is None and length:
-        out["density"] = len(problem.fruits) / length
-    return out
-
-
-def _result_columns(res, row: dict[str, Any]) -> dict[str, Any]:
-    m, ver, planner = res.plan.metrics, res.plan.verification or {}, res.plan.planner_name
-    makespan, harvested = m.get("makespan"), m.get("harvested") or 0
-    per_min = 60.0 * harvested / makespan if makespan else None
-    out = {
-        "status": res.status.value, "exit_code": int(res.exit_code), "exit_class": exit_class(res.exit_code),
-        "reachable": m.get("reachable"), "harvested": m.get("harvested"), "makespan": makespan,
-        "lower_bound": m.get("lower_bound"), "ratio": m.get("gap_to_lower_bound"), "optimality": m.get("optimality"),
-        "coordinated_makespan": m.get("coordinated_makespan"), "heuristic_makespan": m.get("baseline_makespan"),
-        "heuristic_status": m.get("baseline_status"), "cycle_worst": m.get("cycle_time"), "cycle_mean": m.get("cycle_time_mean"),
-        "throughput": per_min, "throughput_per_m": per_min / row["row_length"] if per_min and row.get("row_length") else None,
-        "certified_clearance": ver.get("certified_clearance"), "required_clearance": ver.get("required_clearance"),
-        "verified": ver.get("passed"), "solve_time": res.timings.get("total"),
-        "stopped_by": (res.plan.solver or {}).get("stopped_by"),
-        "message": None if res.success else (res.plan.solver.get("message") or _why(res)),
-    }
-    r = m.get("row")
-    if r:  # a row on a gantry: what a grower judges
-        # ``gantry``: the mode asked (a design's); ``gantry_mode``: the one the plan used (auto: the one kept; the
-        # report lost the design that asked for auto, merged with continuous)
-        out.update({"gantry": row.get("gantry") or r.get("mode"), "gantry_mode": r.get("mode"),
-                    "fruit_per_hour": r.get("fruit_per_hour"), "share_harvested": r.get("share_harvested"),
-                    "mean_speed": r.get("mean_speed"), "ratio": r.get("ratio_any_plan_bound")})
-    if planner == PlannerKind.COORDINATED.value and out["coordinated_makespan"] is None:
-        out["coordinated_makespan"] = makespan
-    if planner == PlannerKind.HEURISTIC.value:
-        out["heuristic_makespan"], out["heuristic_status"] = makespan, res.status.value
-    return out
-
-
-def _why(res) -> str:
-    ver = res.plan.verification or {}
-    kinds = ", ".join(ver.get("violation_kinds", []))
-    m = res.plan.metrics
-    return f"{res.status.value}: {m.get('harvested')}/{m.get('reachable')} fruit harvested" + (f"; violations: {kinds}" if kinds else "")
 
 
 class Watchdog:
@@ -271,7 +213,7 @@ def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = 
     try:
         with Watchdog(hard_limit(item.time_limit), marker):
             problem = parse_problem(item.problem_text or "", item.source)
-            row.update(_problem_columns(problem, item))
+            row.update(problem_columns(problem, item))
             options = None
             if problem.gantry is not None:  # a row: the cell planner at each stop, or on the move (no cell planner)
                 mode = GantryMode(item.params.get("gantry", GantryMode.STOP_AND_GO.value))
@@ -284,7 +226,7 @@ def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = 
                 if item.planner != PlannerKind.HEURISTIC.value:
                     options = parse_options(yaml.safe_dump(dict(item.options, time_limit=item.time_limit)), "sweep options")
                 res = solve(problem, planner=item.planner, options=options)
-        row.update(_result_columns(res, row))
+        row.update(result_columns(res, row))
         plan = res.plan.to_dict() if keep_plan else None
     except InputError as e:
         _fail_row(row, RowStatus.BAD_INPUT, ExitCode.BAD_INPUT, str(e))
