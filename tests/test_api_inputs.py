@@ -108,6 +108,19 @@ def test_options_built_in_python_are_checked_as_an_options_file_is(cls, kw, word
         cls(**kw)
 
 
+@pytest.mark.parametrize("cls, kw", [
+    (OptimalOptions, {"search_work": "x", "workers": 0, "widen_goal": 0.5}),
+    (RowOptions, {"workers": 0, "resolution": -1}),
+    (MovingOptions, {"workers": "many", "level": 0}),
+])
+def test_every_bad_option_is_said_at_once_workers_too(cls, kw):
+    """A bad workers beside other bad fields: every one in one OptionsError (workers was raised
+    alone, the others said only once it was mended)."""
+    with pytest.raises(OptionsError) as e:
+        cls(**kw)
+    assert sorted(i.path for i in e.value.issues) == sorted(kw)
+
+
 def test_options_given_as_their_values_become_them():
     assert OptimalOptions(workers="auto").workers >= 1
     assert RowOptions(workers=2.0).workers == 2 and type(RowOptions(workers=2.0).workers) is int  # (2.0 is 2, as in a file)

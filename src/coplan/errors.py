@@ -169,13 +169,17 @@ def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     return None
 
 
-def check_fields(obj, positive=frozenset(), source: str | None = None) -> None:
+def check_fields(obj, positive=frozenset(), source: str | None = None, found: list | None = None) -> None:
     """Check every numeric, boolean and choice field of a frozen options dataclass ``obj`` built in
     Python, by its annotation (:func:`field_issue`; ``positive``: the fields that must be > 0);
     a choice (an enumeration default) given as its value is turned into it. Raises
-    :class:`OptionsError` listing every bad field, named by ``source`` (default: the class)."""
-    issues = []
+    :class:`OptionsError` listing every bad field, named by ``source`` (default: the class), after
+    the issues already ``found`` (their fields are not checked again)."""
+    issues = list(found or ())
+    seen = {i.path for i in issues}
     for f in dataclasses.fields(obj):
+        if f.name in seen:
+            continue
         v = getattr(obj, f.name)
         if isinstance(f.default, enum.Enum):
             try:

@@ -36,15 +36,19 @@ def workers_issue(v) -> str | None:
     return None if ok else f"expected a whole number of processes from 1 to {MAX_WORKERS}, or auto; found {found(v)}"
 
 
-def settle_workers(obj, name: str = "workers") -> None:
+def settle_workers(obj, name: str = "workers", collect: bool = False) -> list[Issue]:
     """For a frozen options dataclass built in Python: its ``name`` field checked
     (:func:`workers_issue`, :class:`OptionsError` naming the class) and settled to an ``int``
-    (``auto``: :func:`default_workers`; ``2.0``: 2)."""
+    (``auto``: :func:`default_workers`; ``2.0``: 2). ``collect``: the issue is returned, not
+    raised (the caller reports it with its other fields': every bad field at once)."""
     v = getattr(obj, name)
     msg = workers_issue(v)
     if msg is not None:
+        if collect:
+            return [Issue(name, msg)]
         raise OptionsError([Issue(name, msg)], type(obj).__name__)
     object.__setattr__(obj, name, default_workers() if isinstance(v, str) else int(v))
+    return []
 
 
 def mp_context():

@@ -160,8 +160,8 @@ class MovingOptions:
     rate: float = DEFAULT_RATE
 
     def __post_init__(self) -> None:
-        settle_workers(self)  # (auto: this machine's cores, at most 8)
-        check_fields(self, {'level', 'rate', 'workers', 'resolution', 'search_rounds'})  # built in Python: every value checked (OptionsError: what was expected, found)
+        bad = settle_workers(self, collect=True)  # (auto: this machine's cores, at most 8)
+        check_fields(self, {'level', 'rate', 'workers', 'resolution', 'search_rounds'}, found=bad)  # built in Python: every value checked (OptionsError: what was expected, found)
         if not MIN_RATE <= self.rate <= MAX_RATE:  # (a coarser grid is one no verifier passes; a finer one, gigabytes)
             raise OptionsError([Issue("rate", f"expected a plan sample rate from {MIN_RATE:g} to {MAX_RATE:g} Hz, "
                                               f"found {self.rate:g}")], "MovingOptions")

@@ -76,8 +76,8 @@ class RowOptions:
     retime_work: float = 0.5
 
     def __post_init__(self) -> None:
-        settle_workers(self)  # (auto: this machine's cores, at most 8)
-        check_fields(self, {'resolution', 'workers', 'retime_work'})
+        bad = settle_workers(self, collect=True)  # (auto: this machine's cores, at most 8)
+        check_fields(self, {'resolution', 'workers', 'retime_work'}, found=bad)
         if not isinstance(self.window, StopWindow):
             raise OptionsError([Issue("window", f"expected StopWindow(...), found {type(self.window).__name__} "
                                                 f"{self.window!r}")], "RowOptions")

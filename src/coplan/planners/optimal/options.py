@@ -157,15 +157,20 @@ class OptimalOptions:
 
     def __post_init__(self) -> None:
         # built in Python as in a file: every value checked (``workers="auto"``: this machine's cores, at most 8)
-        settle_workers(self)
-        check_fields(self, _POSITIVE)
-        msg = _goal_issue(self.widen_goal, self.widen_cap)
-        if msg is not None:
-            raise OptionsError([Issue("widen_goal", msg)], type(self).__name__)
-        if self.ipopt:  # names and values as CasADi and IPOPT take them (else: an internal error, minutes in)
-            bad = ipopt_issues(self.ipopt)
-            if bad:
-                raise OptionsError(bad, type(self).__name__)
+        # every bad field at once (search_work='x' beside workers=0 was said only after workers was mended)
+        issues = settle_workers(self, collect=True)
+        try:
+            check_fields(self, _POSITIVE, found=issues)
+        except OptionsError as e:
+            issues = list(e.issues)
+        if not {"widen_goal", "widen_cap"} & {i.path for i in issues}:
+            msg = _goal_issue(self.widen_goal, self.widen_cap)
+            if msg is not None:
+                issues.append(Issue("widen_goal", msg))
+        if self.ipopt and "ipopt" not in {i.path for i in issues}:  # names and values as CasADi and IPOPT take them
+            issues += ipopt_issues(self.ipopt)  # (else: an internal error, minutes in)
+        if issues:
+            raise OptionsError(issues, type(self).__name__)
 
 
 # fields that must be > 0 (the others of their type must be >= 0)
