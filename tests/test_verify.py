@@ -698,3 +698,24 @@ def test_a_missed_place_names_the_bin_not_the_fruit(greenhouse):
     ver = verify(greenhouse, dataclasses.replace(p, events=events))
     v = next(v for v in ver.violations if v.kind == ViolationKind.PLACE_MISSED)
     assert v.fruit == place.fruit and f"of {place.arm}'s bin (placing it)" in v.message
+
+
+def test_verify_says_where_a_plan_files_own_figures_are_not_its_motions(tmp_path):
+    """plan.json's metrics edited (makespan, harvested) -- the motion still passes, and coplan
+    verify says the stated figures are not the motion's (it passed without a word), in the report
+    and in --json (``stated_figures``); a plan as written states nothing amiss."""
+    run = CliRunner()
+    out = tmp_path / "p"
+    assert run.invoke(app, ["solve", "crossing_paths", "--planner", "coordinated", "-o", str(out)]).exit_code == 0
+    clean = run.invoke(app, ["verify", "crossing_paths", str(out / "plan.json")], env={"COLUMNS": "300"})
+    assert clean.exit_code == 0 and "stated figures" not in clean.output
+    doc = json.loads((out / "plan.json").read_text())
+    true_span, true_n = doc["metrics"]["makespan"], doc["metrics"]["harvested"]
+    doc["metrics"]["makespan"], doc["metrics"]["harvested"] = 1.0, 99
+    (out / "plan.json").write_text(json.dumps(doc))
+    r = run.invoke(app, ["verify", "crossing_paths", str(out / "plan.json")], env={"COLUMNS": "300"})
+    assert r.exit_code == 0 and "stated figures" in r.output and "harvested 99 stated" in r.output, r.output
+    j = run.invoke(app, ["verify", "crossing_paths", str(out / "plan.json"), "--json"])
+    got = json.loads(j.stdout[j.stdout.index("{"):])["stated_figures"]
+    assert got == {"makespan": {"stated": 1.0, "measured": pytest.approx(true_span)},
+                   "harvested": {"stated": 99.0, "measured": float(true_n)}}
