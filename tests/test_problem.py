@@ -657,3 +657,19 @@ def test_a_negative_dwell_or_clearance_is_refused_with_its_unit() -> None:
     by_path = {i.path: i.message for i in errors_of(text).issues}
     assert by_path["task.pick_dwell"] == "expected a number >= 0 in s, found -1.0"
     assert by_path["task.clearance"] == "expected a number >= 0 in m, found -0.05"
+
+
+@pytest.mark.parametrize("home_a", ["[0.5, 0.5]", "[10.0, 0.5]"])
+def test_limits_out_of_order_are_said_beside_a_missing_or_implausible_home(home_a: str) -> None:
+    """defaults.joint_limits with min > max was said only once arms[1].home (missing) or
+    arms[0].home (10 rad: degrees?) was mended: it depends on neither, so it is said with them."""
+    text = ("name: m\ndefaults:\n  links: [1.0, 0.8]\n  link_radius: 0.04\n  joint_limits: [[3.0, -3.0], [-3.0, 3.0]]\n"
+            "  max_velocity: [3.0, 4.0]\n  max_acceleration: [8.0, 12.0]\n  max_jerk: [80.0, 120.0]\narms:\n"
+            f"  - {{name: a, base: [0.0, 0.0], bin: [0.0, -0.5], home: {home_a}}}\n"
+            "  - {name: b, base: [2.0, 0.0], bin: [2.0, -0.5]}\n"
+            "fruits:\n  - {id: f1, position: [0.5, 1.0]}\ntask: {pick_dwell: 0.3, place_dwell: 0.3, clearance: 0.05}\n")
+    err = errors_of(text)
+    paths = [it.path for it in err.issues]
+    assert "defaults.joint_limits[0]" in paths and "arms[1].home" in paths, paths
+    assert paths.count("defaults.joint_limits[0]") == 1  # (once, not once per arm)
+    assert ("arms[0].home[0]" in paths) == (home_a == "[10.0, 0.5]")

@@ -211,6 +211,17 @@ def _specs(data: dict, lines: dict, issues: list):
     return defaults, arm_specs, fruit_specs, task
 
 
+def _limits_in_order(lim, loc0: tuple, lines: dict, issues: list) -> bool:
+    """Each joint's limits ``lim`` (at key path ``loc0``) with min < max; the issues appended."""
+    ok = True
+    for j in range(2):
+        if lim[j][0] >= lim[j][1]:
+            loc = loc0 + (j,)
+            issues.append(Issue(path_str(loc), f"expected min < max, found min {lim[j][0]} >= max {lim[j][1]}", line_of(lines, loc)))
+            ok = False
+    return ok
+
+
 def _arm(i: int, spec: ArmSpec, defaults: ArmFieldsSpec, lines: dict, issues: list) -> tuple[Arm, dict] | None:
     """Arm ``i`` merged with ``defaults`` and checked (plausible values, joint limits, home
     inside them, a bin it reaches); ``(arm, where each field came from)`` or None. A value taken
@@ -228,20 +239,19 @@ def _arm(i: int, spec: ArmSpec, defaults: ArmFieldsSpec, lines: dict, issues: li
             issues.append(Issue(path_str(("arms", i, f)), missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
             ok = False
         merged[f] = v
-    if not ok:
+    if not ok:  # what does not depend on the missing fields is still said now: the limits' order
+        if merged.get("joint_limits") is not None and not _implausible("joint_limits", merged["joint_limits"],
+                                                                        origin["joint_limits"], lines, []):
+            _limits_in_order(merged["joint_limits"], origin["joint_limits"], lines, issues)
         return None
     # far outside any real cell (degrees for radians, 1e308, 1e-9): refused before any arithmetic
     fields = [("base", spec.base, ("arms", i, "base")), ("bin", spec.bin, ("arms", i, "bin"))]
-    if any([_implausible(f, v, loc, lines, issues) for f, v, loc in fields + [(f, merged[f], origin[f]) for f in merged]]):
+    implausible = [f for f, v, loc in fields + [(f, merged[f], origin[f]) for f in merged] if _implausible(f, v, loc, lines, issues)]
+    if "joint_limits" not in implausible:  # (said beside the implausible others, not only once they are mended)
+        ok = _limits_in_order(merged["joint_limits"], origin["joint_limits"], lines, issues)
+    if implausible or not ok:
         return None
     lim = merged["joint_limits"]
-    for j in range(2):
-        if lim[j][0] >= lim[j][1]:
-            loc = origin["joint_limits"] + (j,)
-            issues.append(Issue(path_str(loc), f"expected min < max, found min {lim[j][0]} >= max {lim[j][1]}", line_of(lines, loc)))
-            ok = False
-    if not ok:
-        return None
     home = merged["home"]
     for j in range(2):
         if not lim[j][0] <= home[j] <= lim[j][1]:
