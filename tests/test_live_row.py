@@ -124,8 +124,10 @@ def test_the_round_trip_the_stop_rules_price_bounds_every_cycle_live_and_offline
                 bound = round_trips(row, reach, [e1.fruit], np.array([k]))[(e1.fruit, k, names.index(arm))]
                 over.append(e2.t_end - e0.t_end - bound)
         assert len(over) >= 15 and min(over) >= -1e-9
-    assert np.median(above["offline"]) == pytest.approx(0.0, abs=1e-6)  # retimed to the bound
-    assert 0.0 < np.median(above["live"]) < 0.1  # the booking's legs at 99 % of the limits, on its 10 ms grid
+    # retimed cells: at the bound, within a sample (10 ms), at the median; a cell's retiming is kept
+    # only where it verifies and makes no stop later, so some cycles stay above it
+    assert np.median(above["offline"]) < 0.01
+    assert np.median(above["offline"]) < np.median(above["live"]) < 0.1  # the booking's legs at 99 % of the limits, on its 10 ms grid
 
 
 def test_stop_and_go_never_hops_past_what_the_camera_has_seen(row):
