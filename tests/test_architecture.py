@@ -181,6 +181,17 @@ def test_no_module_imports_another_modules_private_name():
     ("coplan.allocate", "coplan.row"),
     ("coplan.row", "coplan.pipeline"),
     ("coplan.row", "coplan.cli"),
+    ("coplan.row", "coplan.live"),  # (a live row took the executed plan's planner name from the live cell's module)
+    ("coplan.row", "coplan.report"),
+    ("coplan.row", "coplan.sweep"),
+    ("coplan.pipeline", "coplan.report"),
+    ("coplan.pipeline", "coplan.sweep"),
+    ("coplan.pipeline", "coplan.live"),
+    ("coplan.planners", "coplan.live"),
+    ("coplan.allocate", "coplan.verify"),
+    ("coplan.viz", "coplan.pipeline"),
+    ("coplan.live", "coplan.cli"),
+    ("coplan.sweep", "coplan.cli"),
 ])
 def test_dependencies_point_one_way(low, high):
     """Nothing in a lower stage imports a higher one (the CLI is on top, kinematics at the bottom)."""

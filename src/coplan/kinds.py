@@ -12,7 +12,10 @@ from enum import Enum, IntEnum
 
 __all__ = ["Choice", "AllocationMethod", "SequenceRule", "PlannerKind", "PlanStatus", "EventKind", "ExitCode", "FclMode",
            "SweepBase", "SweepMode", "RowStatus", "TrackState", "ReplanCause", "ExportFormat", "SchemaKind",
-           "StopRule", "GantryMode", "AssignRule", "SpeedProfile"]
+           "StopRule", "GantryMode", "AssignRule", "SpeedProfile", "LIVE_PLANNER"]
+
+#: the planner name a live run's executed plan carries (a live cell's and a live row's)
+LIVE_PLANNER = "live"
 
 
 class Choice(str, Enum):

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..kinds import EventKind, PlanStatus, TrackState
+from ..kinds import LIVE_PLANNER, EventKind, PlanStatus, TrackState
 from ..plan import DEFAULT_RATE, Event, Plan, compute_metrics, finalize_plan
 from ..problem.model import Problem
 from ..planners.coordinated.schedule import ArmSchedule, StepKind
@@ -28,7 +28,6 @@ from .feed import Detection, Feed
 
 __all__ = ["LIVE_PLANNER", "LiveRun", "simulate", "RUN_FORMAT"]
 
-LIVE_PLANNER = "live"  # the planner name the executed plan carries
 RUN_FORMAT = "coplan.run/1"
 BATCH = 0.05  # s: detections this close in time are handled in one re-plan
 

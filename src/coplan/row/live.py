@@ -490,7 +490,7 @@ def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list
 def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultDraws, left: dict[str, str], cruise: Cruise,
             offline, planning: float, stops: list[dict] | None) -> LiveRow:
     """The executed plan (events on the true fruit), verified against the truth, and the metrics."""
-    from ..live.sim import LIVE_PLANNER
+    from ..kinds import LIVE_PLANNER
     from ..verify.row import row_reachable_ids
     from ..verify.verifier import verify
 
