@@ -179,6 +179,10 @@ def test_bad_problems_are_rows_with_exit_class_bad_input(tmp_path, problems_dir)
     r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(tmp_path / "files.yaml"), "--out", str(tmp_path / "out")])
     assert r.exit_code == int(ExitCode.BAD_INPUT) and "2 problems of the sweep are invalid" in r.output, r.output
     assert "message column" in r.output  # the column the reason is in (it once said "error", which no column is)
+    from coplan.sweep.report import summarise
+
+    named = {f["key"]: f["name"] for f in summarise(read_rows(tmp_path / "out"))["failures"]}
+    assert sorted(Path(v).name for v in named.values()) == ["b_bad.yaml", "c_not_utf8.yaml"], named  # its file, not None
 
 
 def test_solve_item_turns_errors_into_rows_without_a_cluster():

@@ -164,8 +164,10 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
         xs = [r[a] / r[b] for r in ok if r[a] and r[b]]
         return _median(xs)
 
-    failures = [{"key": r["key"], "name": r["name"], "seed": r["seed"], "status": r["status"], "exit_class": r["exit_class"],
-                 "message": (r["message"] or "")[:300]} for r in rows if r["status"] != RowStatus.SUCCESS.value]
+    # (a problem that could not be made has no name: its generator or file says which it was, not "None")
+    failures = [{"key": r["key"], "name": r["name"] or r.get("source") or "-", "seed": r["seed"], "status": r["status"],
+                 "exit_class": r["exit_class"], "message": (r["message"] or "")[:300]}
+                for r in rows if r["status"] != RowStatus.SUCCESS.value]
     return {
         "rows": len(rows), "counts": counts, "exit_classes": classes,
         "with_reachable_fruit": len(with_fruit), "success_with_reachable_fruit": len(ok_fruit),
