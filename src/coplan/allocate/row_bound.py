@@ -19,8 +19,8 @@ Entry point: :func:`row_bounds` -> :class:`RowBounds`.
   (a time-optimal move is never slower than a chain of stops), and their stops' cells at least
   the busiest arm's cycles (each stop's cell lasts at least its busiest arm's cycles there, and
   those sum to at least the work bound); where the gantry settles after a move, the stop it ends
-  at lasts that much longer, less what of an arm's way to its first fruit may come before it
-  (:func:`coplan.allocate.stop_bound.settle_floor`). coplan's own row plans let the arms place and go home,
+  at lasts that much longer, less what may fall within the settle: the end of the last stop's
+  cycle and the way to the first fruit here (:func:`coplan.allocate.stop_bound.settle_floor`). coplan's own row plans let the arms place and go home,
   and come out to the next stop's first fruit, while the carriage moves: they can be faster than
   this bound by that overlap, which ``metrics.row.overlap_seconds`` reports.
 * **Priced stops** (:mod:`coplan.allocate.stop_bound`): the same plans, with where the carriage

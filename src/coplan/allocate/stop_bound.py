@@ -42,8 +42,9 @@ stop after it those just before it. Tested against brute force over every set of
 seeded random rows (``tests/test_stop_bound.py``).
 
 *Settling.* Where the gantry settles after a move (``gantry.settle``), each stop past the
-first cell adds :func:`settle_floor`: no arm picks before the settle is over, and only an arm's
-way to its first fruit there may come before its first pick.
+first cell adds :func:`settle_floor`: no arm picks before the settle is over, and within it an
+arm can only end the last stop's cycle (back to the bin, the place) and make its way to its
+first fruit here.
 
 Work overlapping the carriage's moves (coplan's plans place and come out while it moves) can
 beat it by at most that overlap, as for the plain bound.
@@ -120,14 +121,17 @@ def stops_bound(problem: Problem, step: float = STEP) -> StopsBound:
 
 def settle_floor(problem: Problem, cc: CellCycles) -> float:
     """What each stop after a move adds at least, from ``gantry.settle`` (s): no arm picks until
-    the carriage has settled, and of an arm's work at a stop only its way to its first fruit can
-    come before its first pick -- at most the longest bin -> fruit move a cycle bound counts (half
-    a cycle less its dwells, over every arm, fruit and cell; ``cc``), so the stop's busiest arm
-    takes at least ``settle`` less that beyond its cycles. 0 where the settle is shorter."""
+    the carriage has settled. Within the settle an arm may still finish the last stop's cycle (its
+    way from the fruit back to the bin and the place dwell: coplan's plans place as the carriage
+    leaves) and make its way to this stop's first fruit -- each way at most the longest bin <->
+    fruit move a cycle bound counts (half a cycle less its dwells, over every arm, fruit and cell;
+    ``cc``). So the stops last at least ``settle`` less two such ways and a place dwell beyond
+    the cycles they are charged. 0 where the settle is shorter."""
     settle = problem.gantry.settle
     dw = problem.task.pick_dwell + problem.task.place_dwell
-    hide = max((float(np.max(c[np.isfinite(c)], initial=dw)) for c in cc.cost if c is not None), default=dw)
-    return max(0.0, settle - 0.5 * (hide - dw))
+    longest = max((float(np.max(c[np.isfinite(c)], initial=dw)) for c in cc.cost if c is not None), default=dw)
+    way = 0.5 * (longest - dw)  # the longest bin -> fruit (or fruit -> bin) move a cycle bound counts
+    return max(0.0, settle - (2.0 * way + problem.task.place_dwell))
 
 
 class Programme(NamedTuple):
