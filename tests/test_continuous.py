@@ -753,6 +753,21 @@ def test_gantry_auto_interrupted_says_so_and_compares_no_part(row, monkeypatch):
     # a whole row whose search alone was cut short keeps its ratios (it is not 'a part')
     assert "for the part planned" not in said and "ratio" in said
 
+    # Ctrl-C where stop and go has no row yet (its screen, or its last verify): the verified plan on
+    # the move is kept, said interrupted -- it was lost with nothing written
+    monkeypatch.setattr(moving_mod, "plan_moving", real_moving)
+
+    def stopped(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plan_mod, "plan_row", stopped)
+    res = solve(row, gantry=GantryMode.AUTO)
+    auto = res.plan.solver["row"]["auto"]
+    assert res.plan.status == PlanStatus.INTERRUPTED and res.verification.passed and auto["stop-and-go"] is None
+    assert auto["interrupted"] == "interrupted before stop and go had a row: nothing compared"
+    with pytest.raises(KeyboardInterrupt):  # (stop and go alone: nothing to keep, the interrupt goes on)
+        solve(row, gantry=GantryMode.STOP_AND_GO)
+
 
 def test_speed_auto_is_not_run_on_an_interrupted_search(row, monkeypatch):
     """``coplan run ROW --speed auto``: a speed search cut short (Ctrl-C) is not the speed the

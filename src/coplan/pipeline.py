@@ -108,14 +108,15 @@ def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None) -> tuple[dict
     return {k: folder.path(v) for k, v in files.items()}, folder.previous
 
 
-def _better_mode(stopping, moving):
+def _better_mode(stopping, moving, cut: str | None = None):
     """``--gantry auto``: the row plan (both verified) with more fruit harvested, then more fruit
     per hour; both modes' figures in ``solver.row.auto``, the planning time of both. Where either
-    mode's planning was interrupted (Ctrl-C: ``stopping`` None when it never started) the
-    comparison is cut short: the plan kept is said interrupted (exit 130), whichever it is."""
-    if stopping is None:  # (the speed search was interrupted: stop and go never planned)
+    mode's planning was interrupted (Ctrl-C: ``stopping`` None when stop and go has no row,
+    ``cut`` saying why if not the speed search) the comparison is cut short: the plan kept is said
+    interrupted (exit 130), whichever it is."""
+    if stopping is None:  # (interrupted before stop and go had a row: nothing to compare)
         both = {GantryMode.CONTINUOUS.value: None, GantryMode.STOP_AND_GO.value: None, "chosen": GantryMode.CONTINUOUS.value,
-                "interrupted": "the speed search was interrupted: stop and go was not planned, nothing compared"}
+                "interrupted": cut or "the speed search was interrupted: stop and go was not planned, nothing compared"}
         both[GantryMode.CONTINUOUS.value] = _mode_figures(moving)
         moving.info["auto"] = both
         moving.plan.solver["row"]["auto"] = both
@@ -231,6 +232,7 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
         moving = plan_moving(prob, options if isinstance(options, MovingOptions) else MovingOptions(
             resolution=getattr(options, "resolution", DEFAULT_RESOLUTION)), progress)
     # auto: a speed search cut short (Ctrl-C) stops there -- its plan kept, said interrupted, stop and go not planned
+    cut = None
     if mode == GantryMode.CONTINUOUS or (mode == GantryMode.AUTO and moving.plan.status == PlanStatus.INTERRUPTED):
         stopping = None
     else:
@@ -242,9 +244,16 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
         if cell_planner == PlannerKind.HEURISTIC:
             raise ValueError("planner: the course's heuristic plans a stationary cell, not a row; use coordinated or optimal")
         opts = replace(opts, planner=cell_planner, stops=StopRule(stops or opts.stops))
-        stopping = plan_row(prob, opts, progress)
+        try:
+            stopping = plan_row(prob, opts, progress)
+        except KeyboardInterrupt:  # (auto: before stop and go had a row to keep -- the verified plan on the move is kept)
+            if mode != GantryMode.AUTO:
+                raise
+            stopping, cut = None, "interrupted before stop and go had a row: nothing compared"
+            moving.plan.status = PlanStatus.INTERRUPTED
+            moving.plan.solver["status"] = PlanStatus.INTERRUPTED.value
     if mode == GantryMode.AUTO:
-        res = _better_mode(stopping, moving)
+        res = _better_mode(stopping, moving, cut)
     else:
         res = moving if mode == GantryMode.CONTINUOUS else stopping
     bounds = row_bounds(prob)
