@@ -630,3 +630,44 @@ def test_a_live_run_s_gif_is_drawn_before_its_files_and_a_ctrl_c_there_writes_no
     monkeypatch.setattr(anim, "animate_live", stopped)
     r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "b"), "--animate")
     assert r.exit_code == ExitCode.INTERRUPTED and not (tmp_path / "b").exists()
+
+
+def test_observe_checks_detections_as_a_feed_file_does_and_a_refused_call_changes_nothing(greenhouse):
+    """LiveCell.observe in Python: a NaN position was kept (every later call then failed), and a
+    negative time, a time after now, a repeated id, a position 1000 km off and a negative noise
+    were taken as given. Now each is refused with its key path, all at once, the cell untouched;
+    time may not go backwards between calls; good detections after a refused call go through."""
+    cell = _cell(greenhouse)
+    before = (dict(cell.tracks), len(cell.replans), {n: list(s) for n, s in cell.steps.items()})
+    f = greenhouse.fruit("f05").position
+    bad = [Detection(1.0, "n", (float("nan"), 1.0), 0.01), Detection(-3.0, "neg", f, 0.01), Detection(2.0, "late", f, 0.01),
+           Detection(1.0, "f04", f, 0.01), Detection(1.0, "far", (1e6, 1.2), 0.01), Detection(1.0, "s", f, -1.0)]
+    with pytest.raises(FeedError) as e:
+        cell.observe(1.0, bad)
+    assert [i.path for i in e.value.issues] == ["detections[0].position", "detections[1].t", "detections[2].t",
+                                                "detections[3].id", "detections[4].position[0]", "detections[5].sigma"]
+    assert (dict(cell.tracks), len(cell.replans), {n: list(s) for n, s in cell.steps.items()}) == before
+    with pytest.raises(FeedError, match="now: expected a time no earlier than the last call's"):
+        cell.observe(-1.0, [])
+    r = cell.observe(1.0, [Detection(1.0, "f05", f, 0.001, "f05")])
+    assert r.ok and "f05" in cell.tracks
+
+
+def test_a_live_run_that_picked_nothing_is_not_given_inferred_picks(greenhouse, tmp_path):
+    """A feed whose detections name no true fruit (a camera's own file): every detection counts as
+    false and nothing is harvested -- the executed plan was called unsafe, the verifier inferring a
+    pick where a close-range probe hovered over a fruit ("picked but never placed"). A live plan
+    says what it did: partial, verified; and the command says why nothing could be harvested."""
+    feed = make_feed(greenhouse, seed=0)
+    blind = Feed(tuple(Detection(d.t, d.id, d.position, d.sigma) for d in feed.detections if d.after is None),
+                 feed.close_distance, feed.close_sigma, feed.problem)
+    path = tmp_path / "blind.yaml"
+    path.write_text(feed_yaml(blind))
+    from coplan.problem import default_problem_path
+
+    r = CliRunner().invoke(app, ["run", str(default_problem_path()), "--feed", str(path), "-o", str(tmp_path / "out")],
+                           env={"COLUMNS": "300"})
+    assert r.exit_code == int(ExitCode.PARTIAL), r.output
+    assert "names its true fruit" in r.output and "no throughput to compare" in r.output and "unsafe" not in r.output
+    run = json.loads((tmp_path / "out" / "run.json").read_text())
+    assert run["metrics"]["harvested"] == 0 and run["metrics"]["verified"] is True

@@ -1030,3 +1030,15 @@ def test_with_an_arm_stopped_a_fast_row_passes_no_fruit_a_working_arm_could_reac
     res = run_live_row(row, LiveRowOptions(speed=0.3, seed=0, faults=RowFaults(arm_stop=True)))
     assert res.verification.passed and res.metrics["faults"]["arm_stop"]["t"] < res.metrics["row_time"]
     assert res.metrics["missed_reachable_by_a_working_arm"] == [] and res.metrics["holds_for_fruit"] > 0
+
+
+def test_run_live_row_takes_a_rows_file_as_solve_does(tmp_path):
+    """``run_live_row("row.yaml")`` failed inside with "'str' object has no attribute 'gantry'":
+    a path (or a shipped row's name) is loaded as coplan.solve loads it; anything else is refused
+    by name."""
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=6.0, density=2.0, seed=4)))
+    res = run_live_row(str(path), LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=1))
+    assert res.verification.passed and res.metrics["of_offline"] == 1.0
+    with pytest.raises(TypeError, match="expected a row Problem or the path of its file, found int"):
+        run_live_row(42)

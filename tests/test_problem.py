@@ -400,7 +400,7 @@ def test_deep_nesting_is_refused_without_recursion_error() -> None:
 def test_huge_flat_list_stops_at_the_node_cap() -> None:
     text = BASE[: BASE.index("fruits:")] + "fruits: [" + ",".join(["1"] * 400_000) + "]\n" + BASE[BASE.index("task:"):]
     err = errors_of(text)
-    assert len(err.issues) == 1 and "YAML values in a problem file" in err.issues[0].message
+    assert len(err.issues) == 1 and "YAML values in a file" in err.issues[0].message
 
 
 def test_many_bad_fruit_are_all_in_issues_but_the_message_is_capped() -> None:

@@ -45,7 +45,8 @@ from ..kinds import ReplanCause, TrackState
 from ..problem.model import Fruit, Problem
 from ..planners.coordinated.planner import CoordinatedOptions
 from ..planners.coordinated.schedule import ArmSchedule, ConflictError, Step, StepKind, pair_distances
-from .feed import DEFAULT_CLOSE_DISTANCE, Detection
+from ..errors import Issue, finite_number, found
+from .feed import DEFAULT_CLOSE_DISTANCE, Detection, FeedError, detection_issues
 from .motion import Approach, ApproachError, as_wait, move_step, split_at, truncate_move
 
 __all__ = ["LiveOptions", "Track", "Replan", "CloseRange", "LiveCell"]
@@ -217,7 +218,18 @@ class LiveCell:
         return best, True
 
     def observe(self, now: float, detections: list[Detection]) -> Replan:
-        """New detections at ``now``: merge them and re-plan from the committed motion."""
+        """New detections at ``now``: merge them and re-plan from the committed motion. Each is
+        checked first as a feed file's rows are (:func:`coplan.live.feed.detection_issues`: a time
+        from 0 to ``now``, a new id, a plausible position, a noise in (0, 1] m; ``now`` no earlier
+        than the last re-plan's); any bad one raises :class:`~coplan.live.feed.FeedError` listing them
+        all and leaves the cell as it was (a NaN position was kept, and every later call failed)."""
+        last = self.replans[-1].t if self.replans else 0.0
+        seen = {i for tr in self.tracks.values() for i in tr.detections}
+        issues = ([Issue("now", f"expected a time no earlier than the last call's ({last:g} s), found {found(now)}")]
+                  if not finite_number(now) or now < last else [])
+        issues += detection_issues(list(detections), seen, now if finite_number(now) else None)
+        if issues:
+            raise FeedError(issues, "LiveCell.observe")
         for d in detections:
             self.merge(d)
         return self._replan(now, ReplanCause.DETECTIONS)

@@ -32,9 +32,9 @@ import numpy as np
 from ..errors import InputError, Issue, ProblemError, coplan_file_kind, finite_number, found, is_joint_csv
 from ..problem.model import Problem
 from ..problem.plausible import MAX_PLAN_SECONDS, field_issues
-from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
+from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, path_str, read_input_text, read_yaml
 
-__all__ = ["FEED_FORMAT", "Detection", "Feed", "FeedError", "parse_feed", "load_feed", "make_feed", "feed_yaml",
+__all__ = ["FEED_FORMAT", "Detection", "Feed", "FeedError", "parse_feed", "load_feed", "detection_issues", "make_feed", "feed_yaml",
            "DEFAULT_CLOSE_DISTANCE", "DEFAULT_CLOSE_SIGMA"]
 
 FEED_FORMAT = "coplan.feed/1"
@@ -263,6 +263,41 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
     import hashlib
 
     return Feed(tuple(out), float(dist), float(sig), problem, source, hashlib.sha256(text.encode("utf-8")).hexdigest())
+
+
+def detection_issues(detections, seen: set[str], now: float | None = None) -> list[Issue]:
+    """What is wrong with ``detections`` (:class:`Detection` objects, given in Python: to
+    :meth:`coplan.live.cell.LiveCell.observe`), as a feed file's rows are checked: a finite arrival
+    time from 0 to ``now``, a non-empty id not in ``seen`` nor repeated, a plausible
+    position (two finite numbers within a problem's coordinates), a noise in (0, 1] m. Key paths
+    ``detections[i].<key>``."""
+    issues: list[Issue] = []
+    ids = set(seen)
+    for i, d in enumerate(detections):
+        loc = ("detections", i)
+        at = f"detections[{i}]"
+        if not isinstance(d, Detection):
+            issues.append(Issue(at, f"expected a Detection(t, id, position, sigma), found {type(d).__name__}"))
+            continue
+        hi = MAX_PLAN_SECONDS if now is None else now
+        if not finite_number(d.t) or not 0.0 <= d.t <= hi:
+            issues.append(Issue(f"{at}.t", f"expected a time in [0, {hi:g}] s (it has arrived by now), "
+                                           f"found {found(d.t, list_length=True)}"))
+        if not isinstance(d.id, str) or not d.id.strip():
+            issues.append(Issue(f"{at}.id", f"expected a non-empty string, found {found(d.id, list_length=True)}"))
+        elif d.id in ids:
+            issues.append(Issue(f"{at}.id", f"expected a unique id, found {d.id!r} again"))
+        else:
+            ids.add(d.id)
+        pos = list(d.position) if isinstance(d.position, (tuple, list, np.ndarray)) else d.position
+        if not isinstance(pos, list) or len(pos) != 2 or not all(finite_number(x) for x in pos):
+            issues.append(Issue(f"{at}.position", f"expected (x, y) (two finite numbers, m), found {found(pos, list_length=True)}"))
+        else:
+            issues += [Issue(path_str(where), msg) for where, msg in field_issues("position", pos, loc + ("position",))]
+        if not finite_number(d.sigma) or not 0 < d.sigma <= MAX_FEED_SIGMA:
+            issues.append(Issue(f"{at}.sigma", f"expected a positive number of at most {MAX_FEED_SIGMA:g} (m), "
+                                               f"found {found(d.sigma, list_length=True)}"))
+    return issues
 
 
 def load_feed(path: str | Path) -> Feed:

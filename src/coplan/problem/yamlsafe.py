@@ -131,7 +131,7 @@ def _scan_events(text: str, issues: list) -> bool:
         line = ev.start_mark.line + 1
         nodes += 1
         if nodes > MAX_NODES:
-            issues.append(Issue(path_str(path), f"expected at most {MAX_NODES} YAML values in a problem file, found more", line))
+            issues.append(Issue(path_str(path), f"expected at most {MAX_NODES} YAML values in a file, found more", line))
             return True
         if isinstance(ev, yaml.AliasEvent):
             issues.append(

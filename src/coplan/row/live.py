@@ -55,6 +55,7 @@ Entry point: :func:`run_live_row` -> :class:`LiveRow`, in either gantry mode.
 from __future__ import annotations
 
 import math
+import os
 import re
 import time as _time
 from dataclasses import dataclass, field, replace
@@ -121,8 +122,15 @@ class LiveRow:
     metrics: dict = field(default_factory=dict)
 
 
-def run_live_row(problem: Problem, options: LiveRowOptions | None = None, progress=None) -> LiveRow:
-    """Run the row live (module docstring) and verify what was executed against the truth."""
+def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, progress=None) -> LiveRow:
+    """Run the row live (module docstring) and verify what was executed against the truth;
+    ``problem`` a row, or its file's path (or a shipped row's name) as :func:`coplan.solve` takes."""
+    from ..problem.load import load_problem
+
+    if isinstance(problem, (str, os.PathLike)):  # (a path gave "'str' object has no attribute 'gantry'")
+        problem = load_problem(problem)
+    elif not isinstance(problem, Problem):
+        raise TypeError(f"problem: expected a row Problem or the path of its file, found {type(problem).__name__}")
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: a live row needs a row")
     if options is not None and not isinstance(options, LiveRowOptions):

@@ -70,7 +70,7 @@ from .hold import bin_track, holds_on
 from .home import check_home
 from .infer import infer_events
 from .row import check_carriage, check_row_inputs, plan_source
-from ..kinds import PlannerKind
+from ..kinds import LIVE_PLANNER, PlannerKind
 from ..plan import DEFAULT_RATE, EventKind, Plan, load_plan, time_grid_issues
 from . import verdict as _verdict
 from ..problem.model import Problem
@@ -469,7 +469,10 @@ def verify(problem: Problem | str | os.PathLike, plan: Plan | str | os.PathLike,
         ver.warnings.append(Finding(WarningKind.PROBLEM_NAME, (), None, message=f"plan is for {plan.problem!r}, problem is {problem.name!r}"))
     t0 = _time.perf_counter()
     motions = arm_motions(problem, plan)
-    planned_nothing = plan.planner in {k.value for k in PlannerKind} and bool(plan.allocation) and not any(plan.allocation.values())
+    # (a live run's executed plan says what it did too: one that picked nothing was inferred a pick where a
+    # probe hovered over a fruit, and failed "picked but never placed")
+    planned_nothing = plan.planner in {k.value for k in PlannerKind} | {LIVE_PLANNER} and bool(plan.allocation) \
+        and not any(plan.allocation.values())
     if not plan.events and opts.infer_events and not planned_nothing:  # (a plan.csv, or another tool's plan without
         # events; not coplan's own plan that allocated no fruit: nothing to infer, and the warning read as a fault)
         plan = replace(plan, events=infer_events(problem, plan, motions, opts))
