@@ -671,3 +671,41 @@ def test_a_live_run_that_picked_nothing_is_not_given_inferred_picks(greenhouse, 
     assert "names its true fruit" in r.output and "no throughput to compare" in r.output and "unsafe" not in r.output
     run = json.loads((tmp_path / "out" / "run.json").read_text())
     assert run["metrics"]["harvested"] == 0 and run["metrics"]["verified"] is True
+
+
+def test_a_burst_of_false_detections_does_not_crowd_out_the_real_fruit(greenhouse, monkeypatch):
+    """A re-plan coordinates at most ``max_open`` tracks -- those its plan holds, then the ones seen
+    first -- and the rest wait, pending (500 false detections in 50 ms exhausted every coordination
+    attempt and left two real fruit pending to the end: 9 of 11). With 60 false detections at
+    t = 10 s and room for 8 tracks a re-plan, no coordination sees more than 8 fruit, every false
+    track is dropped at close range or found out of reach, every real fruit is harvested, the run
+    verified."""
+    import coplan.planners.coordinated.coordinate as coord
+    from coplan.live.cell import LiveOptions
+
+    seen: list[int] = []
+    real = coord.coordinate
+
+    def counted(problem, *a, **k):
+        seen.append(len(problem.fruits))
+        return real(problem, *a, **k)
+
+    monkeypatch.setattr(coord, "coordinate", counted)
+    feed = make_feed(greenhouse, seed=0)
+    rng = np.random.default_rng(0)
+    fruit = np.array([f.position for f in greenhouse.fruits])
+    extra: list[Detection] = []
+    while len(extra) < 60:
+        arm = greenhouse.arms[int(rng.integers(len(greenhouse.arms)))]
+        r, th = rng.uniform(0.5, 1.7), rng.uniform(0.2, np.pi - 0.2)
+        pt = np.asarray(arm.base) + r * np.array([np.cos(th), np.sin(th)])
+        if np.min(np.hypot(*(fruit - pt).T)) >= 0.1 and any(a.can_reach(pt, 0.02) for a in greenhouse.arms):
+            extra.append(Detection(10.0 + 1e-4 * len(extra), f"x{len(extra):03d}", (float(pt[0]), float(pt[1])), 0.01))
+    burst = Feed(feed.detections + tuple(extra), feed.close_distance, feed.close_sigma, feed.problem)
+    res = simulate(greenhouse, burst, LiveOptions(max_open=8), seed=0, omniscient=False)
+    m = res.run["metrics"]
+    assert max(seen) <= 8 and len(seen) > 60
+    assert res.verification.passed and m["harvested"] == m["reachable"] == 11 and m["false_picks"] == 0
+    assert m["false_picks_avoided"] + m["false_unreachable"] == m["false_detections"] >= 55  # (each accounted for)
+    with pytest.raises(Exception, match="max_open: expected a whole number of tracks >= 1, found 0"):
+        LiveOptions(max_open=0)
