@@ -63,10 +63,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..kinds import AssignRule, GantryMode, PlanStatus, SpeedProfile
-from ..plan import MAX_PLAN_BYTES, Event, EventKind, finalize_plan
+from ..plan import Event, EventKind, finalize_plan
 from ..errors import Issue, OptionsError
 from ..problem.model import Fruit, Problem
-from ..problem.plausible import live_speed_issue, plan_seconds_limit
+from ..problem.plausible import live_speed_issue
 from ..allocate.row_bound import row_bounds
 from .continuous import MovingOptions, assemble_moving
 from .moving import plan_moving
@@ -75,7 +75,7 @@ from .liverun import LiveRun
 from .livestops import dark_hold, last_stop, next_to_last, stop_share
 from .reach import row_reach
 from .starthold import reports_start_hold
-from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, front_base, report_times,
+from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, check_fault_room, front_base, report_times,
                       row_detections, row_reports)
 from .stranded import StoppedCover, still_reachable, why_left_at_rest
 from .track import AT_REST_CYCLE_SHARE, AT_REST_SHARE
@@ -154,7 +154,7 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
             raise KeyboardInterrupt
         cruise = Cruise.of(problem, opts.speed, g.end)
         cruise = Cruise.of(problem, opts.speed, g.end, reports_start_hold(problem, reports, cruise))
-        _check_fault_room(problem, opts, max(cruise.duration, float(offline.plan.time[-1])))
+        check_fault_room(problem, opts, max(cruise.duration, float(offline.plan.time[-1])), STOP_SLOWDOWN)
         faults = FaultDraws(problem, opts, cruise.duration, cruise)
         run = LiveRun(problem, opts, reports + faults.burst, cruise, faults.dark)
         t0 = _time.perf_counter()
@@ -165,7 +165,7 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
         offline = plan_row(problem, RowOptions(), progress)
         if offline.plan.status == PlanStatus.INTERRUPTED:  # (Ctrl-C while the reference was planned)
             raise KeyboardInterrupt
-        _check_fault_room(problem, opts, float(offline.plan.time[-1]))
+        check_fault_room(problem, opts, float(offline.plan.time[-1]), STOP_SLOWDOWN)
         faults = FaultDraws(problem, opts, float(offline.plan.metrics.get("makespan") or 0.0), None)
         run = LiveRun(problem, opts, reports, Cruise.hops(problem, []), faults.dark)
         t0 = _time.perf_counter()
@@ -173,27 +173,6 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
         cruise = run.booker.cruise
     planning = _time.perf_counter() - t0
     return _finish(problem, opts, run, faults, left, cruise, offline, planning, stops)
-
-
-def _check_fault_room(problem: Problem, opts: LiveRowOptions, seconds: float) -> None:
-    """Refuse faults that would make the executed plan longer than the longest plan coplan makes
-    (:func:`coplan.problem.plausible.plan_seconds_limit`: its file must read back), before any
-    work: the fault-free run (``seconds``: the offline plan's, or the live carriage's cruise),
-    slowed as after an arm stops from the start, plus the outage and the late decision in full."""
-    f = opts.faults
-    if not (f.arm_stop or f.camera_dark or f.late_replan):
-        return
-    n = len(problem.arms)
-    slow = 1.0 / (STOP_SLOWDOWN * (n - 1) / n) if f.arm_stop and n > 1 else 1.0
-    need = 1.05 * seconds * slow + f.camera_dark + f.late_replan  # (5 %: the arms' last cycles, holds)
-    limit = plan_seconds_limit(problem)
-    if need > limit:
-        raise OptionsError([Issue("faults", f"expected faults whose run fits in {limit:.0f} s (the longest plan coplan makes "
-                                            f"with {n} arms on a row, its file under {MAX_PLAN_BYTES >> 20} MiB), found "
-                                            f"a run that may take {need:.0f} s: {seconds:.0f} s without faults"
-                                            f"{f' (x {slow:.1f} after an arm stops)' if slow > 1 else ''}, "
-                                            f"{f.camera_dark:g} s of camera outage and a decision {f.late_replan:g} s late")],
-                           "LiveRowOptions")
 
 
 def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, str]:

@@ -18,10 +18,12 @@ import numpy as np
 
 from ..errors import Issue, OptionsError, check_fields
 from ..kinds import GantryMode
+from ..plan import MAX_PLAN_BYTES
 from ..problem.model import Problem
+from ..problem.plausible import plan_seconds_limit
 from .cruise import Cruise
 
-__all__ = ["MAX_FALSE_BURST", "MAX_FAULT_SECONDS", "MAX_LOOK_AHEAD", "MAX_SIGMA", "RowFaults", "LiveRowOptions", "RowDetection", "RowReport", "FaultDraws", "front_base", "row_reports",
+__all__ = ["MAX_FALSE_BURST", "MAX_FAULT_SECONDS", "MAX_LOOK_AHEAD", "MAX_SIGMA", "RowFaults", "LiveRowOptions", "RowDetection", "RowReport", "FaultDraws", "front_base", "row_reports", "check_fault_room",
            "report_times", "row_detections"]
 
 
@@ -236,3 +238,25 @@ class FaultDraws:
         y0, y1 = min(ys), max(ys)
         return [RowReport(f"b{k + 1:0{self._width}d}", (round(c + front + u * opts.look_ahead, 6), round(y0 + v * (y1 - y0), 6)),
                           None, t, None) for k, (u, v) in enumerate(self._rng_burst)]
+
+
+def check_fault_room(problem: Problem, opts: LiveRowOptions, seconds: float, stop_slowdown: float) -> None:
+    """Refuse faults that would make the executed plan longer than the longest plan coplan makes
+    (:func:`coplan.problem.plausible.plan_seconds_limit`: its file must read back), before any
+    work: the fault-free run (``seconds``: the offline plan's, or the live carriage's cruise),
+    slowed as after an arm stops from the start (the working arms' carriage speed falls by
+    ``stop_slowdown`` per arm share), plus the outage and the late decision in full."""
+    f = opts.faults
+    if not (f.arm_stop or f.camera_dark or f.late_replan):
+        return
+    n = len(problem.arms)
+    slow = 1.0 / (stop_slowdown * (n - 1) / n) if f.arm_stop and n > 1 else 1.0
+    need = 1.05 * seconds * slow + f.camera_dark + f.late_replan  # (5 %: the arms' last cycles, holds)
+    limit = plan_seconds_limit(problem)
+    if need > limit:
+        raise OptionsError([Issue("faults", f"expected faults whose run fits in {limit:.0f} s (the longest plan coplan makes "
+                                            f"with {n} arms on a row, its file under {MAX_PLAN_BYTES >> 20} MiB), found "
+                                            f"a run that may take {need:.0f} s: {seconds:.0f} s without faults"
+                                            f"{f' (x {slow:.1f} after an arm stops)' if slow > 1 else ''}, "
+                                            f"{f.camera_dark:g} s of camera outage and a decision {f.late_replan:g} s late")],
+                           "LiveRowOptions")
