@@ -46,6 +46,7 @@ from ..problem.model import Fruit, Problem
 from ..planners.coordinated.planner import CoordinatedOptions
 from ..planners.coordinated.schedule import ArmSchedule, ConflictError, Step, StepKind, pair_distances
 from ..errors import Issue, finite_number, found
+from .gating import TrackIndex
 from .feed import DEFAULT_CLOSE_DISTANCE, Detection, FeedError, detection_issues
 from .motion import Approach, ApproachError, as_wait, move_step, split_at, truncate_move
 
@@ -203,27 +204,25 @@ class LiveCell:
         return [tr for tr in self.tracks.values() if tr.state == TrackState.PENDING]
 
     # ------------------------------------------------------------------ detections
-    def merge(self, d: Detection) -> tuple[Track, bool]:
+    def merge(self, d: Detection, index: TrackIndex | None = None) -> tuple[Track, bool]:
         """File one detection: merged into the nearest track within the gate, else a new track.
-        Returns ``(track, merged)``."""
+        Returns ``(track, merged)``. ``index``: the tracks' gating arrays, when a batch is filed
+        (:meth:`observe` builds one and keeps it current); built here when not given."""
+        index = TrackIndex(self.tracks.values(), self.options.gate) if index is None else index
         p = np.asarray(d.position, float)
-        best, best_d = None, np.inf
-        for tr in self.tracks.values():
-            if tr.pick_end is not None and tr.pick_end <= d.t:
-                continue  # seen where a fruit was already taken: another fruit, or a stale view (a close look tells)
-            dist = float(np.hypot(*(tr.position - p)))
-            gate = 3.0 * float(np.hypot(tr.sigma, d.sigma))  # a refined track: only within its own 3 sigma
-            if dist <= (gate if tr.refined else max(self.options.gate, gate)) and dist < best_d:
-                best, best_d = tr, dist
-        if best is None:
+        i, best_d = index.nearest(p, d.sigma, d.t)
+        if i < 0:
             tr = Track(d.id, p, float(d.sigma), d.t, [d.id])
             self.tracks[tr.id] = tr
+            index.add(tr)
             return tr, False
+        best = index.tracks[i]
         best.detections.append(d.id)
         if not best.refined and best.state in (TrackState.PENDING, TrackState.PLANNED, TrackState.UNREACHABLE):
             w1, w2 = 1.0 / best.sigma**2, 1.0 / d.sigma**2
             best.position = (w1 * best.position + w2 * p) / (w1 + w2)
             best.sigma = float(1.0 / np.sqrt(w1 + w2))
+            index.update(i)
         self.merges.append({"t": d.t, "detection": d.id, "track": best.id, "distance": best_d, "track_state": best.state.value})
         return best, True
 
@@ -240,8 +239,9 @@ class LiveCell:
         issues += detection_issues(list(detections), seen, now if finite_number(now) else None)
         if issues:
             raise FeedError(issues, "LiveCell.observe")
+        index = TrackIndex(self.tracks.values(), self.options.gate)
         for d in detections:
-            self.merge(d)
+            self.merge(d, index)
         return self._replan(now, ReplanCause.DETECTIONS)
 
     def retry(self, now: float) -> Replan:
