@@ -25,7 +25,8 @@ from coplan.pipeline import solve
 from coplan.plan import DEFAULT_RATE, EventKind, load_plan
 from coplan.problem import parse_problem
 from coplan.row.assign import build_order_model, cpsat_order
-from coplan.row.booking import Booker, branch_table, run_policy, screen_branches
+from coplan.row.booking import Booker, run_policy
+from coplan.row.branches import branch_table, screen_branches
 from coplan.row.continuous import MovingOptions, make_cruise, plan_continuous, reorder_continuous
 from coplan.row.moving import speed_search
 from coplan.row.cruise import Cruise, cruise_end, demand_stretches, last_place_bound, pick_windows

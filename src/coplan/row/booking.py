@@ -30,10 +30,11 @@ from ..plan import Event, EventKind
 from ..planners.coordinated.schedule import arm_points, points_too_close
 from ..problem.gantry import cell_at
 from ..problem.model import Problem
+from .branches import screen_branches
 from .cruise import Cruise, Window
 from .track import LIMIT_SHARE, Leg, LegError, track, track_state
 
-__all__ = ["Booker", "Cycle", "run_policy", "why_left", "branch_table", "screen_branches"]
+__all__ = ["Booker", "Cycle", "run_policy", "why_left"]
 
 _RETRY = 0.1  # s: a cycle that would come too close to a neighbour is tried again this much later ...
 _RETRY_GROWTH = 1.5  # ... and each further try that much later again
@@ -86,7 +87,7 @@ class Booker:
         self.fruit_xy = {f.id: tuple(map(float, f.position)) for f in problem.fruits}
         self.checks = 0
         # elbow branches screened so far (:meth:`branches`); ``branch_table``: one shared by the
-        # bookings of one fixed problem (:func:`branch_table`); none: this booking's own (a live
+        # bookings of one fixed problem (:func:`coplan.row.branches.branch_table`); none: this booking's own (a live
         # row's booker sees its problem grow)
         self._use = {} if branch_table is None else branch_table
         self.step = step  # m: the row screen's grid, on which a pick's elbow branch is screened
@@ -115,7 +116,7 @@ class Booker:
     def branches(self, i: int, fid: str, c0: float, c1: float) -> list[int]:
         """Elbow branches of arm ``i`` usable on fruit ``fid`` with the carriage anywhere in
         ``[c0, c1]``: the screen's rules on a 5 cm grid of carriage positions covering it
-        (computed once per arm and fruit, over the arm's whole reach of the fruit: :func:`screen_branches`)."""
+        (computed once per arm and fruit, over the arm's whole reach of the fruit: :func:`coplan.row.branches.screen_branches`)."""
         key = (i, fid)
         if key not in self._use:
             screen_branches(self.problem, self.step, [key], self._use, self.fruit_xy, self.cell)
@@ -397,48 +398,6 @@ def _parked(problem: Problem, need: float) -> dict:
     if need not in per:
         per[need] = park_poses(problem, need)
     return per[need]
-
-
-#: Per problem and grid step: (arm index, fruit id) -> (first carriage position, (K, 2) usable
-#: branches at positions first + k step). It depends on the geometry only, not on the carriage's
-#: motion, so every candidate of a speed search shares it (forked workers inherit it screened).
-_BRANCHES: "weakref.WeakKeyDictionary[Problem, dict[float, dict]]" = weakref.WeakKeyDictionary()
-
-
-def branch_table(problem: Problem, step: float) -> dict[tuple[int, str], tuple[float, np.ndarray]]:
-    """The elbow branches screened so far for ``problem`` (immutable) on grid ``step``, shared by
-    every :class:`Booker` given it (:func:`screen_branches` fills it)."""
-    return _BRANCHES.setdefault(problem, {}).setdefault(float(step), {})
-
-
-def screen_branches(problem: Problem, step: float, pairs, table: dict, xy: dict | None = None, cell: Problem | None = None) -> dict:
-    """Screen each ``(arm index, fruit id)`` of ``pairs`` into ``table`` for
-    :meth:`Booker.branches`, each arm's in one vectorised call; pairs already in it are skipped.
-    Each pair's points are computed as alone (the same positions, the same answers). ``xy``:
-    fruit id -> where the fruit is (None: the problem's positions; a live row's booker passes its
-    own, moved by the close-range measurement); ``cell``: the problem in the carriage frame
-    (None: made here). Returns ``table``."""
-    cell = cell if cell is not None else cell_at(problem, 0.0, ())  # the carriage frame
-    g = problem.gantry
-    if xy is None:
-        xy = {f.id: (float(f.position[0]), float(f.position[1])) for f in problem.fruits}
-    todo: dict[int, list[tuple[str, float, np.ndarray]]] = {}
-    for i, fid in dict.fromkeys(pairs):
-        if (i, fid) in table:
-            continue
-        x, y = xy[fid]
-        arm = problem.arms[i]
-        # on the row screen's grid (positions g.start + k step), so a window's ends are grid points
-        lo = g.start + step * max(0, math.floor((x - arm.base[0] - arm.reach - g.start) / step) - 1)
-        cs = lo + step * np.arange(int(math.ceil((x - arm.base[0] + arm.reach - lo) / step)) + 2)
-        todo.setdefault(i, []).append((fid, lo, np.c_[x - cs, np.full(cs.size, y)]))
-    for i, items in todo.items():
-        use = usable_picks(cell, np.concatenate([p for _, _, p in items]), arms=(i,))[i]
-        at = 0
-        for fid, lo, p in items:
-            table[(i, fid)] = (lo, use[at:at + len(p)])
-            at += len(p)
-    return table
 
 
 def replace_reach_margin(problem: Problem) -> Problem:

@@ -22,7 +22,7 @@ from ..problem.model import Problem
 from ..problem.plausible import cruise_speed_issue
 from ..progress import speaker
 from ..workers import process_pool
-from .booking import branch_table, screen_branches
+from .branches import branch_table, screen_branches
 from .continuous import (MovingOptions, SpeedPoint, left_at_start, level_cap, make_cruise, plan_continuous, planned_line,
                          reorder_continuous, start_served)
 from .cruise import STRETCH, cruise_end, demand_stretches, last_place_bound

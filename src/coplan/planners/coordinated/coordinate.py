@@ -7,70 +7,22 @@ everything already booked; deadlocks are broken by rule.
 
 from __future__ import annotations
 
-import bisect
 import time as _time
 from dataclasses import replace
 
 import numpy as np
 
-from ...problem.model import Arm, Problem
+from ...problem.model import Problem
 from ...ties import TIE, first_min_index, quantised
 from .boxes import SweepBoxes, apart
 from .routing import ArmGeometry, same_pose
-from .schedule import (ArmSchedule, ConflictError, LinkPoints, Step, StepKind, curve_eval, merge_waits, scurve_move,
+from .schedule import (ArmSchedule, ConflictError, LinkPoints, Step, StepKind, merge_waits, scurve_move,
                        steps_positions)
 from .legs import Leg, legs_of
 from .trace import Trace, Turn, resume_point
+from .tracks import ArmTrack
 
 __all__ = ["coordinate"]
-
-
-class _Track:
-    """One arm in :func:`coordinate`: its committed steps, its pose after them, its remaining legs."""
-
-    def __init__(self, arm: Arm, index: int, rank: int, legs: list[Leg], tables: dict):
-        self.arm, self.index, self.rank = arm, index, rank
-        self.tables = tables  # the run's curve tables
-        self.home = tuple(map(float, arm.home))
-        self.steps: list[Step] = []
-        self.t0s: list[float] = []
-        self.end = 0.0  # committed until here; rests at ``pose`` afterwards until its next commitment
-        self.pose = self.home
-        self.todo = legs
-        self.ready = 0.0  # when it next tries to start its next leg
-        self.stuck: int | None = None  # the arm whose rest pose blocks its next leg (cleared when that one moves)
-        self.blocker: tuple | None = None  # (arm, its pose) that first rest-blocked the next leg
-        self.deferred = False  # finished, waiting for home to be out of the neighbours' way
-        self.parked = False
-
-    @property
-    def working(self) -> bool:
-        return any(not leg.home for leg in self.todo)
-
-    def positions(self, T: np.ndarray) -> np.ndarray:
-        """Joint positions (K, 2) at sorted times ``T``; resting at ``pose`` after ``end``."""
-        out = np.empty((T.size, 2))
-        out[:] = self.pose
-        i = max(0, bisect.bisect_right(self.t0s, float(T[0])) - 1)
-        for s in self.steps[i:]:
-            if s.t0 > T[-1]:
-                break
-            lo, hi = np.searchsorted(T, [s.t0, s.t1])
-            if hi <= lo:
-                continue
-            out[lo:hi] = curve_eval(s.curve, T[lo:hi] - s.t0, self.tables) if s.kind == StepKind.MOVE and s.curve is not None else s.q1
-        return out
-
-    def commit(self, t: float, steps: list[Step]) -> None:
-        new = steps
-        if t > self.end + 1e-9:
-            new = [Step(StepKind.WAIT, self.end, t - self.end, self.pose, self.pose)] + steps
-        for s in new:
-            self.steps.append(s)
-            self.t0s.append(s.t0)
-        if steps:
-            self.end = steps[-1].t1
-            self.pose = tuple(map(float, steps[-1].q1))
 
 
 class _Window:
@@ -78,7 +30,7 @@ class _Window:
     leg's (relative to its start: the same at every trial start) and each neighbour's
     (absolute), each computed once and grown as needed."""
 
-    def __init__(self, c: _Coordinator, tr: _Track, leg: Leg, t0: float):
+    def __init__(self, c: _Coordinator, tr: ArmTrack, leg: Leg, t0: float):
         self.c, self.tr, self.t0 = c, tr, t0
         self.key = (tr.index, tr.pose, leg.target, leg.kind, leg.dwell)  # what the leg's points depend on
         self.leg = leg
@@ -104,7 +56,7 @@ class _Window:
             self._own = hit
         return self._own[:n]
 
-    def neighbour(self, o: _Track, t: float, n: int) -> LinkPoints:
+    def neighbour(self, o: ArmTrack, t: float, n: int) -> LinkPoints:
         k0 = int(round((t - self.t0) * self.c.rate))
         have = self._nb.get(o.index)
         if have is None or have.size < k0 + n:
@@ -144,7 +96,7 @@ class _Coordinator(ArmGeometry):
         self.rate, self.quantum, self.deadline = rate, quantum, deadline
         order = priority or sorted(names, key=lambda n: -float(quantised(schedules[n].last_place)))
         rank = {n: i for i, n in enumerate(order)}
-        self.tracks = [_Track(a, i, rank.get(a.name, len(order) + i), legs_of(problem, schedules[a.name]), self.tables)
+        self.tracks = [ArmTrack(a, i, rank.get(a.name, len(order) + i), legs_of(problem, schedules[a.name]), self.tables)
                        for i, a in enumerate(problem.arms)]
         for tr in self.tracks:  # motion already committed (live re-planning): booked first, the legs follow it
             pre = (committed or {}).get(tr.arm.name)
@@ -191,7 +143,7 @@ class _Coordinator(ArmGeometry):
         if trace is not None:
             trace.turns = resume.turns[:e]
 
-    def record_turn(self, tr: _Track, t: float) -> None:
+    def record_turn(self, tr: ArmTrack, t: float) -> None:
         tc = self.trace
         if tc is None or tc.barrier is not None:
             return
@@ -222,7 +174,7 @@ class _Coordinator(ArmGeometry):
         self._remaining[j] = (key, out)
         return out
 
-    def leg_samples(self, tr: _Track, leg: Leg) -> np.ndarray:
+    def leg_samples(self, tr: ArmTrack, leg: Leg) -> np.ndarray:
         """Arm ``tr``'s poses along ``leg`` from where it rests (at ``rate``), target included."""
         steps = self.leg_steps(tr, leg, 0.0)
         if not steps:
@@ -231,7 +183,7 @@ class _Coordinator(ArmGeometry):
         return steps_positions(steps, T, self.tables)
 
     # ---- timing
-    def leg_steps(self, tr: _Track, leg: Leg, t: float) -> list[Step]:
+    def leg_steps(self, tr: ArmTrack, leg: Leg, t: float) -> list[Step]:
         """The leg's move(s) from where the arm rests, starting at ``t``, then its dwell."""
         steps: list[Step] = []
         if not same_pose(tr.pose, leg.target):
@@ -249,7 +201,7 @@ class _Coordinator(ArmGeometry):
             steps.append(Step(leg.kind, t, leg.dwell, leg.target, leg.target, fruit=leg.fruit))
         return steps
 
-    def conflict(self, tr: _Track, steps: list[Step], t: float, window: _Window):
+    def conflict(self, tr: ArmTrack, steps: list[Step], t: float, window: _Window):
         """First conflict of ``steps`` (from ``t``, resting after) with the neighbours' commitments.
 
         Returns None, or ``(tc, j, late)``: the first time too close, the neighbour, and (when
@@ -284,7 +236,7 @@ class _Coordinator(ArmGeometry):
                 best = (float(T[hit[0]]), o.index, float(late.max()) if late.size and T[hit[0]] >= arrive else None)
         return best
 
-    def earliest(self, tr: _Track, leg: Leg, t: float) -> tuple[float | None, int | None]:
+    def earliest(self, tr: ArmTrack, leg: Leg, t: float) -> tuple[float | None, int | None]:
         """Earliest start, ``t`` or a whole number of samples at least ``quantum`` later, at which
         ``leg`` is clear of the neighbours' commitments: ``(start, None)``; or ``(None, j)`` when
         neighbour j's rest pose after its commitments is in the way (then no start helps).
@@ -327,7 +279,7 @@ class _Coordinator(ArmGeometry):
             seen.add(x.index)
             x = self.tracks[x.stuck]
 
-    def yield_pose(self, y: _Track, x: _Track) -> np.ndarray | None:
+    def yield_pose(self, y: ArmTrack, x: ArmTrack) -> np.ndarray | None:
         """Where arm y should go so that arm x's next leg is clear of it.
 
         Hard: clear of x's next leg (sampled at ``rate``, target included), and y's way there
@@ -350,7 +302,7 @@ class _Coordinator(ArmGeometry):
         time = np.array([scurve_move(y.arm, 0.0, y.pose, c).duration for c in cand])
         return cand[first_min_index(np.where(ok, 10.0 * soft + time, np.inf))]
 
-    def do_yield(self, y: _Track, x: _Track, t: float) -> bool:
+    def do_yield(self, y: ArmTrack, x: ArmTrack, t: float) -> bool:
         """Send arm y out of arm x's way (a yield move first in its list); False if it cannot."""
         key = (y.index, x.index, len(x.todo), x.pose, y.pose)
         if key in self._yielded:
@@ -369,7 +321,7 @@ class _Coordinator(ArmGeometry):
         self.yields += 1
         return True
 
-    def other_branch(self, tr: _Track, leg: Leg) -> Leg | None:
+    def other_branch(self, tr: ArmTrack, leg: Leg) -> Leg | None:
         """The same pick/place with the other elbow branch, if valid and not into a pose a
         neighbour keeps coming back to (its places, its home); else None."""
         if leg.point is None:
@@ -394,7 +346,7 @@ class _Coordinator(ArmGeometry):
             q = v
         return out
 
-    def detour(self, tr: _Track, leg: Leg, alt: Leg) -> float:
+    def detour(self, tr: ArmTrack, leg: Leg, alt: Leg) -> float:
         """Extra time of doing ``alt`` instead of ``leg`` (into the target and on to the next one)."""
         nxt = tr.todo[1].target if len(tr.todo) > 1 else None
 
@@ -405,12 +357,12 @@ class _Coordinator(ArmGeometry):
         return via(alt.target) - via(leg.target)
 
     # ---- finishing
-    def home_blocks(self, tr: _Track) -> bool:
+    def home_blocks(self, tr: ArmTrack) -> bool:
         """Whether home is in the way of a neighbour's remaining work."""
         return any(self.static_hits(tr.index, np.asarray(tr.home, float), j, self.remaining(j))[0] > 0
                    for j in self.nbrs[tr.index] if self.tracks[j].working)
 
-    def park_pose(self, tr: _Track) -> np.ndarray | None:
+    def park_pose(self, tr: ArmTrack) -> np.ndarray | None:
         """Where a finished arm waits until home is out of the way: where it is if that is clear
         of the neighbours' remaining work, else the clearest candidate -- counting the
         neighbours' remaining work, where they rest now and their homes (None: stay)."""
@@ -426,7 +378,7 @@ class _Coordinator(ArmGeometry):
         return None if best == 0 else cand[best]
 
     # ---- main loop
-    def commit(self, tr: _Track, steps: list[Step], start: float) -> None:
+    def commit(self, tr: ArmTrack, steps: list[Step], start: float) -> None:
         if steps:
             tr.commit(start, steps)
         tr.todo.pop(0)
@@ -466,7 +418,7 @@ class _Coordinator(ArmGeometry):
             self.trace.steps = [tr.steps for tr in self.tracks]
         return {tr.arm.name: ArmSchedule(tr.arm, merge_waits(tr.steps)) for tr in self.tracks}
 
-    def next_track(self) -> _Track | None:
+    def next_track(self) -> ArmTrack | None:
         """The arm whose next leg is due first (ties: priority rank); None when all are done."""
         active = [tr for tr in self.tracks if tr.todo]
         if not active:
@@ -481,7 +433,7 @@ class _Coordinator(ArmGeometry):
         if t > self.horizon:
             raise ConflictError(f"no conflict-free schedule found within {self.horizon:.0f} s of plan time")
 
-    def park_or_defer(self, tr: _Track, t: float) -> None:
+    def park_or_defer(self, tr: ArmTrack, t: float) -> None:
         """A finished arm whose home is in the neighbours' remaining work: once, a park leg to
         the clearest candidate pose; else it waits until a working neighbour is due."""
         q = self.quantum
@@ -496,7 +448,7 @@ class _Coordinator(ArmGeometry):
         nxt = [self.tracks[j].ready for j in self.nbrs[tr.index] if self.tracks[j].working]
         tr.ready = max(t + q, min(nxt, default=t + q))
 
-    def wait_or_resolve(self, tr: _Track, leg: Leg, t: float, o: _Track) -> None:
+    def wait_or_resolve(self, tr: ArmTrack, leg: Leg, t: float, o: ArmTrack) -> None:
         """Neighbour ``o`` rests in the way of ``leg`` until it moves again: wait for it if it
         will move by itself (only once for the same neighbour and pose), else break the deadlock."""
         q = self.quantum
@@ -513,7 +465,7 @@ class _Coordinator(ArmGeometry):
             return
         self.break_deadlock(tr, leg, t, o)
 
-    def break_deadlock(self, tr: _Track, leg: Leg, t: float, o: _Track) -> None:
+    def break_deadlock(self, tr: ArmTrack, leg: Leg, t: float, o: ArmTrack) -> None:
         """The other branch of this pick/place if it costs little, else someone gets out of the
         way (the neighbour if it is finished or has the lower priority; else this arm, so that
         the neighbour's next leg can go), else the other branch whatever it costs; else

@@ -17,7 +17,7 @@ import numpy as np
 from ...plan import Plan, PlanStatus, finalize_plan
 from ...problem.model import Problem
 from ..coordinated.planner import Coordinated
-from .search import StopReason
+from .search_setup import StopReason
 
 __all__ = ["Incumbent", "time_to_ratio", "stop_message"]
 

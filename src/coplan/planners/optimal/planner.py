@@ -59,7 +59,7 @@ from .incumbent import Incumbent, stop_message, time_to_ratio
 from .nlp_data import SolverStatus
 from ...errors import OptionsError
 from .options import OptimalOptions, ipopt_issues
-from .search import StopReason
+from .search_setup import StopReason
 from .stages import STAGES, Run, nlp_plan, retimable
 
 __all__ = ["OptimalOptions", "OptimalResult", "plan_optimal", "nlp_plan", "retimable", "time_to_ratio"]  # (re-exported)

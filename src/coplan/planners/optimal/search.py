@@ -43,7 +43,6 @@ import math
 import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from enum import Enum
 
 import numpy as np
 
@@ -56,87 +55,9 @@ from ..coordinated.routing import choose_branches as clear_branches
 from ..coordinated.schedule import ConflictError, decoupled_schedules
 from ..coordinated.trace import Trace
 from ...ties import first_max_index, first_min, quantised
+from .search_setup import BranchRule, SearchOptions, StopReason
 
 __all__ = ["BranchRule", "Neighbourhood", "SearchOptions", "SearchStats", "State", "StopReason", "improve"]
-
-
-class BranchRule(str, Enum):
-    """How a state's elbow branches are chosen from its allocation and orders: the fastest
-    (each arm's dynamic programme alone), or keeping out of the neighbours' way with each
-    move charged a price (s) per neighbour pose it would hit
-    (:func:`coplan.planners.coordinated.routing.choose_branches`). ``BRANCHES`` (0.5 s) is the
-    coordinated planner's rule; the search also tries lighter and heavier prices."""
-
-    FASTEST = "fastest"
-    AVOID_LIGHT = "avoid-0.1"
-    AVOID_SOME = "avoid-0.25"
-    BRANCHES = "branches"
-    AVOID_HEAVY = "avoid-1.0"
-
-    @property
-    def price(self) -> float:
-        return _PRICE[self]
-
-
-_PRICE = {BranchRule.FASTEST: 0.0, BranchRule.AVOID_LIGHT: 0.1, BranchRule.AVOID_SOME: 0.25, BranchRule.BRANCHES: 0.5,
-          BranchRule.AVOID_HEAVY: 1.0}
-
-
-class StopReason(str, Enum):
-    PROVEN_OPTIMAL = "proven_optimal"  # the makespan meets the lower bound
-    BUDGET = "budget"  # the work budget (evaluations) is spent
-    STALLED = "stalled"  # no improvement within ``patience`` evaluations, after ``starts`` fresh starts
-    TIME_LIMIT = "time_limit"  # the explicit clock limit
-    INTERRUPTED = "interrupted"  # Ctrl-C
-    EXHAUSTED = "exhausted"  # every state was tried or bounded out: the coordinator's best
-
-
-@dataclass(frozen=True)
-class SearchOptions:
-    """Work budget and rules of :func:`improve`.
-
-    evaluations : coordinator runs (a cap)
-    work : conflict checks over all coordinator runs (the work budget: proportional to
-        time on a given machine, and the same on every machine)
-    patience : after this many evaluations without a new best, start afresh from the start
-        state (the moves' random stream goes on, so the new start explores elsewhere); stop
-        after ``starts`` such fresh starts
-    starts : fresh starts before the search stops for lack of progress
-    stall : restart from the best state (with ``kick`` random moves) after this many
-        evaluations without progress of the current state
-    attempt_checks : work cap of one coordinator run (conflict checks), or ``checks_per_fruit``
-        per fruit if more (:func:`~coplan.planners.coordinated.budget.attempt_checks`)
-    seed : seed of the move generator
-    fixed_assignment : keep which arm takes which fruit (order, branches and priorities
-        still change); used when the caller asked for a given allocation method
-    tolerance : a makespan this close to the lower bound (s) is optimal
-    exhaustive : when the whole state space (allocations x orders x elbow branches x variants x
-        priorities) has at most this many states, and at most half of ``evaluations`` of them
-        have an estimate below the start's makespan, try those instead, cheapest estimate
-        first, until the estimate alone cannot beat the best (branch and bound): the result
-        is then the best plan the coordinator can make; 0 turns this off
-    temperature : accept a slower state with probability exp(-(its makespan - current) / T),
-        T falling linearly from ``temperature`` (s) to 0 as the first ``cooling`` checks of the
-        work budget are spent (simulated annealing, seeded like the moves); the best state is
-        kept whatever is accepted
-    cooling : work (checks) over which the temperature falls to 0 (at most ``work``); a larger
-        budget then buys more descent and fresh starts, not a longer random walk
-    """
-
-    evaluations: int = 400
-    work: int = 8_000
-    patience: int = 60
-    starts: int = 0
-    stall: int = 25
-    kick: int = 2
-    attempt_checks: int = 600
-    checks_per_fruit: int = 8
-    seed: int = 0
-    fixed_assignment: bool = False
-    tolerance: float = 1e-3
-    temperature: float = 0.0
-    cooling: int = 30_000
-    exhaustive: int = 20_000
 
 
 @dataclass
