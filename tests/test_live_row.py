@@ -471,16 +471,16 @@ def test_stop_and_go_shares_a_stop_only_among_fruit_not_taken(row, monkeypatch):
     at the next stop, they loaded that arm on paper and it idled. Now no stop's share counts a
     report whose fruit was picked before the carriage arrived (a second report of one is the
     planner's to find out at close range: not counted here)."""
-    from coplan.row import live
+    from coplan.row import stopgo
 
     seen = []
-    real = live.stop_share
+    real = stopgo.stop_share
 
     def spy(problem, reach, windows, *rest):
         seen.append(set(windows))
         return real(problem, reach, windows, *rest)
 
-    monkeypatch.setattr(live, "stop_share", spy)
+    monkeypatch.setattr(stopgo, "stop_share", spy)
     res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=4))
     assert res.verification.passed and res.metrics["of_offline"] == 1.0
     truth = {d.id: d.truth for d in res.detections}

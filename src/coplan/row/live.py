@@ -58,27 +58,27 @@ import math
 import os
 import re
 import time as _time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..kinds import AssignRule, GantryMode, PlanStatus, SpeedProfile
 from ..plan import Event, EventKind, finalize_plan
 from ..errors import Issue, OptionsError
-from ..problem.model import Fruit, Problem
+from ..problem.model import Problem
 from ..problem.plausible import live_speed_issue
 from ..allocate.row_bound import row_bounds
 from .continuous import MovingOptions, assemble_moving
 from .moving import plan_moving
-from .cruise import Cruise, pick_windows, ramp_time
+from .cruise import Cruise, ramp_time
 from .liverun import LiveRun
-from .livestops import dark_hold, last_stop, next_to_last, stop_share
+from .livestops import dark_hold
 from .reach import row_reach
 from .starthold import reports_start_hold
-from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, check_fault_room, front_base, report_times,
+from .stopgo import stop_and_go
+from .sensing import (FaultDraws, LiveRowOptions, RowDetection, RowFaults, RowReport, check_fault_room, report_times,
                       row_detections, row_reports)
-from .stranded import StoppedCover, still_reachable, why_left_at_rest
-from .track import AT_REST_CYCLE_SHARE, AT_REST_SHARE
+from .stranded import still_reachable
 
 #: After an arm stops, the carriage runs at this share of the working arms' share of its speed ...
 STOP_SLOWDOWN = 0.5
@@ -90,8 +90,6 @@ STOP_SLOWDOWN = 0.5
 #: instead also missed none, at 1.5 x the row time (median 2.97 x the fault-free offline plan's,
 #: against 1.98-2.09 x).
 STOPPED_CAUTION = 2
-#: Stop and go: a stop's picks may start up to this long per fruit in reach (and one more) after it arrives, s.
-STOP_PATIENCE = 10.0
 #: On the move, holding for fruit: the planner looks every CHECK s at the fruit whose windows close
 #: within LOOK s; one no working arm is free to reach (REACH_TIME s) before its window closes holds the
 #: carriage HOLD_PER_FRUIT s per such fruit, shared by the working arms (at least HOLD_MIN s, at most
@@ -169,7 +167,7 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
         faults = FaultDraws(problem, opts, float(offline.plan.metrics.get("makespan") or 0.0), None)
         run = LiveRun(problem, opts, reports, Cruise.hops(problem, []), faults.dark)
         t0 = _time.perf_counter()
-        left, stops = _stop_and_go(run, faults)
+        left, stops = stop_and_go(run, faults)
         cruise = run.booker.cruise
     planning = _time.perf_counter() - t0
     return _finish(problem, opts, run, faults, left, cruise, offline, planning, stops)
@@ -279,199 +277,6 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
                 change("fruit", t_c, risk)
     run.holds = holds
     return run.policy(halt=halt, delay=delay)
-
-
-def _stop_and_go(run: LiveRun, faults: FaultDraws) -> tuple[dict[str, str], list[dict]]:
-    """The row stop by stop (module docstring): book this stop's share of the fruit reported,
-    then hop to the next once the last pick is over."""
-    problem, opts, g = run.problem, run.opts, run.problem.gantry
-    reach, grid = run.reach, run.reach.grid
-    front, rear = front_base(problem), min(a.base[0] for a in problem.arms)
-    far = g.end + max(a.base[0] + a.reach for a in problem.arms)  # no arm reaches a fruit beyond this
-    legs: list[tuple[float, float]] = []
-    inset = int(math.ceil(2.0 * opts.sigma / reach.resolution - 1e-9))
-    run.booker.leg_share = AT_REST_SHARE  # every pick with the carriage at rest: no tracking seam to allow for
-    run.booker.cycle_shares = (AT_REST_CYCLE_SHARE,) * 3
-    run.booker.probe_rests = True  # a probe finds nothing with the carriage at rest: the arm goes on from there
-    stops: list[dict] = []
-    rested: list[int] = []  # the stops' grid indices
-    masked = StoppedCover(run.booker, reach)  # once an arm stops: the screen with it an obstacle where it rests
-
-    def learn(t: float) -> None:
-        """What the planner knows of the faults by ``t``: the arms stopped then, obstacles."""
-        masked.update({a for a, t_h in faults.halt.items() if t_h <= t}, run.taken)
-
-    def edge_at(t: float) -> float:
-        """How far along the row the camera has seen by ``t``: its view then (or when it went dark)."""
-        t_view = t if faults.dark is None or not faults.dark[0] <= t < sum(faults.dark) else faults.dark[0]
-        return float(run.booker.cruise.x(np.array([t_view]))[0]) + front + opts.look_ahead
-
-    def cap_at(t: float) -> int:
-        """The farthest stop (grid index) a hop decided at ``t`` may reach: an unseen fruit lies
-        at or beyond the edge, and the rear arm serves it at least until the carriage puts that
-        arm's base under it, so a hop up to there passes none. Once an arm has stopped, an
-        obstacle, the arms beside it may not reach what the screen says: the front arm's base
-        then, the camera's look-ahead."""
-        base = rear if all(t_h > t for t_h in faults.halt.values()) else front
-        return min(grid.size - 1, int(math.floor((edge_at(t) - base - g.start) / reach.resolution + 1e-9)))
-
-    def working_at(t: float) -> list[int]:
-        return [a for a in range(len(problem.arms)) if a not in faults.halt or faults.halt[a] > t]
-
-    def remaining(k: int, t: float) -> list[str]:
-        """The fruit reported by ``t``, not taken, that a working arm serves from grid index ``k`` or beyond."""
-        working = working_at(t)
-        return [f for f, t_s in run.seen.items() if t_s <= t and f not in run.taken and f in reach.cover
-                and reach.cover[f][working][:, k:].any()]
-
-    def next_stop(k: int, t_dep: float, here: bool = False) -> tuple[int, float]:
-        """Where to hop from grid index ``k`` leaving at ``t_dep`` (``k``: nowhere), and when:
-        no farther than the first place where a fruit reported by then, not taken, would leave
-        every arm's reach (``here``: the carriage may also stay), nor than :func:`cap_at`."""
-        while True:
-            learn(t_dep)
-            cap, edge = cap_at(t_dep), edge_at(t_dep)
-            working = working_at(t_dep)
-            ends = []
-            for f, t in run.seen.items():
-                if t > t_dep or f in run.taken or f not in reach.cover:
-                    continue
-                ks = np.flatnonzero(reach.cover[f][working].any(axis=0))  # (a stopped arm serves nothing)
-                ahead = ks[ks >= k] if here else ks[ks > k]
-                if ahead.size:
-                    gaps = np.flatnonzero(np.diff(ahead) > 1)
-                    run_end = int(ahead[gaps[0]] if gaps.size else ahead[-1])
-                    # inside the run's end by two sigma of the camera's noise (the close-range
-                    # measurement may move the fruit by that much), if the run is that long
-                    ends.append(run_end if run_end == grid.size - 1 else max(int(ahead[0]), run_end - inset))
-            # (the camera has seen the rest of the row: to its end, or, where it has reported
-            # fruit past the rail's end, as far as any arm could reach from the rail)
-            beyond = any(run.reports[f].position[0] > g.end for f, t in run.seen.items() if t <= t_dep)
-            if k >= grid.size - 1 or (not ends and edge >= (far if beyond else g.end)):
-                return k, t_dep  # the end of the rail, or nothing left anywhere ahead
-            if min(ends + [cap]) > k or here:
-                return min(ends + [cap]), t_dep
-            if faults.dark is not None and t_dep < sum(faults.dark):
-                faults.log["camera_dark"]["carriage_waits_at"] = round(float(grid[k]), 3)
-                t_dep = sum(faults.dark)  # nothing seen ahead: wait for the camera
-            else:
-                return k + 1, t_dep
-
-    # the first stop, from what the camera sees at the start
-    k, _ = next_stop(0, 0.0, here=True)
-    if k > 0:
-        legs.append((0.0, float(grid[k])))
-    cruise = Cruise.hops(problem, legs)  # at rest at the stop for good, until the next hop is decided
-    t_arr = cruise.duration
-    while True:
-        if faults.burst_at is not None and not faults.burst and faults.burst_at <= t_arr:
-            faults.burst = faults.burst_reports(problem, opts, float(grid[k]), t_arr)
-            faults.log["false_burst"].update(at_stop_x=round(float(grid[k]), 3), reported_at=round(t_arr, 3))
-            run.add_reports(faults.burst)
-        learn(t_arr)
-        run.set_cruise(cruise)
-        # picks only with the carriage at rest here: windows from the arrival on, for as long as
-        # the arms could need to harvest everything in reach (a fruit none can book by then waits
-        # for the next stop, or is left out)
-        here = {f: [w for w in ws if w.hi >= t_arr] for f, ws in run.booker.windows.items()}
-        until = t_arr + STOP_PATIENCE * (1 + sum(bool(ws) for ws in here.values()))
-        # a late decision makes its arm wait: the stop waits for it too (the carriage holds, as the
-        # fault is specified), whether it came before this stop or comes during it
-        late = faults.log.get("late_replan") or {}
-        if "waits_until" in late:
-            until += max(0.0, late["waits_until"] - t_arr)
-        elif late and late["t"] <= until:
-            until += late["seconds"]
-        run.booker.windows = {f: [replace(w, lo=max(w.lo, t_arr), hi=min(w.hi, until)) for w in ws] for f, ws in here.items()}
-        before = len(run.booker.events)
-        # this stop takes what the carriage would pass before it can next stop -- as far as the
-        # camera lets it go now -- and what the arms can add in the time those take
-        todo = [f for f, t in run.seen.items() if t <= t_arr and f not in run.taken]
-        stopped = {a for a, t in faults.halt.items() if t <= t_arr}  # (the planner learns of a fault when it happens)
-        rest = remaining(k, t_arr)
-        last = edge_at(t_arr) >= g.end and all(reach.cover[f][working_at(t_arr)][:, k].any() for f in rest)
-        # (the rest of the row in view and in reach here: this stop takes it all)
-        open_ = {f: ws for f, ws in run.booker.windows.items() if f not in run.taken}  # (a fruit taken loads no arm)
-        k_plan = k if last else cap_at(t_arr)
-        k_see = int(np.searchsorted(grid, g.end - front - opts.look_ahead - 1e-9))
-        planned = None
-        if not last and not stopped and k_plan == grid.size - 1 and max(k + 1, k_see) <= k_plan:
-            # the next stop may be one from which the camera sees to the rail's end (the rest
-            # of the row then in the front arm's reach): the one that with this stop serves
-            # what is known in the least time, not the rail's end, where the arms beyond the
-            # last fruit would idle (all arms working: after a fault, as far as allowed)
-            work = {f for f in todo if f in reach.cover and reach.cover[f][:, k:].any()}
-            # the stretch the camera has not seen yet, priced as the one before it (its reports, shifted)
-            edge = edge_at(t_arr)
-            u = g.end - edge
-            like = [Fruit(f"~{r.id}", (r.position[0] + u, r.position[1])) for r in run.reports.values()
-                    if run.seen.get(r.id, math.inf) <= t_arr and edge - u <= r.position[0] < edge]
-            est = replace(run.seen_problem, fruits=tuple(f for f in run.seen_problem.fruits if f.id in work) + tuple(like))
-            r2 = row_reach(est, reach.resolution)
-            planned = next_to_last(est, r2, r2.harvestable(), k, range(max(k + 1, k_see), k_plan + 1), float(grid[k]))
-            k_plan = k_plan if planned is None else planned
-        order, keep = stop_share(run.seen_problem, reach, open_, todo, k, k_plan, stopped, inset)
-        run.booker.windows = {f: ws for f, ws in run.booker.windows.items() if f in keep}
-        run.policy(order=order, halt=faults.halt, delay=faults.delay, make_way=True)
-        picks = [e for e in run.booker.events[before:] if e.kind == EventKind.PICK]
-        t_dep = max([t_arr] + [e.t_end for e in picks])
-        t_b = faults.burst_at
-        if t_b is not None and not faults.burst and t_arr < t_b < t_dep:
-            # a burst while the arms work here (it fell at no stop's arrival: on a row of one
-            # stop, none at all): its reports are booked at its time, after the cycles booked
-            # already, and the carriage stays until they are probed
-            faults.burst = faults.burst_reports(problem, opts, float(grid[k]), t_b)
-            faults.log["false_burst"].update(at_stop_x=round(float(grid[k]), 3), reported_at=t_b)
-            run.add_reports(faults.burst)
-            learn(t_b)
-            run.set_cruise(cruise, since=t_b)
-            ids = {r.id for r in faults.burst}
-            until_b = t_b + STOP_PATIENCE * (1 + len(ids))
-            run.booker.windows = {f: [replace(w, lo=max(w.lo, t_b), hi=min(w.hi, until_b)) for w in ws if w.hi >= t_b]
-                                  for f, ws in run.booker.windows.items() if f in ids}
-            more = len(run.booker.events)
-            run.policy(halt=faults.halt, delay=faults.delay, make_way=True)
-            picks += [e for e in run.booker.events[more:] if e.kind == EventKind.PICK]
-            t_dep = max([t_dep] + [e.t_end for e in picks])
-        stops.append({"x": round(float(grid[k]), 4), "arrive": round(t_arr, 3), "depart": round(t_dep, 3), "picks": len(picks)})
-        rested.append(k)
-        nxt, t_dep = next_stop(k, t_dep)
-        if nxt == k:
-            break
-        if planned is not None:
-            nxt = min(nxt, planned)
-        if edge_at(t_dep) >= g.end:  # the rest of the row is in view: one stop may serve it all, nearer
-            rest = remaining(k + 1, t_dep)
-            best = last_stop(run.seen_problem, reach, rest, range(k + 1, nxt + 1), working_at(t_dep), float(grid[k]))
-            nxt = nxt if best is None else best
-        legs.append((t_dep, float(grid[nxt])))
-        cruise = Cruise.hops(problem, legs)
-        t_arr = cruise.duration
-        # an arm that stops during the hop leaves its share of the next stop to the others: from
-        # then the hop goes no farther than they need (the nearest stop it can still brake to)
-        t_h = min((t for t in faults.halt.values() if t_dep < t < t_arr), default=None)
-        if t_h is not None:
-            learn(t_h)
-            run.set_cruise(cruise)  # what the planner knows then: the hop under way (the camera moved with it)
-            want, _ = next_stop(k, t_h)
-            for kk in range(max(want, k + 1), nxt):
-                try:
-                    cruise = Cruise.hops(problem, legs + [(t_h, float(grid[kk]), True)])
-                except ValueError:
-                    continue  # nearer than it can stop from its speed then
-                legs.append((t_h, float(grid[kk]), True))
-                faults.log["arm_stop"].update({"hop_changed_at": round(t_h, 3), "stop_at": round(float(grid[kk]), 4),
-                                               "instead_of": round(float(grid[nxt]), 4)})
-                nxt, t_arr = kk, cruise.duration
-                break
-        k = nxt
-    for i in range(len(problem.arms)):
-        if i not in faults.halt:
-            run.booker.go_home(i)
-    windows = pick_windows(run.seen_problem, reach, run.booker.cruise, problem.task.pick_dwell)
-    run.booker.windows = windows
-    left = {f: why_left_at_rest(run, f, rested, faults.halt) for f in windows if f not in run.taken}
-    return left, stops
 
 
 def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultDraws, left: dict[str, str], cruise: Cruise,
