@@ -234,6 +234,51 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     def bad(path: str, msg: str) -> None:
         issues.append(Issue(path, msg))
 
+    _check_kind(data, source, bad)
+    if issues:
+        raise PlanFileError(issues, source)
+    if not isinstance(data["problem"], str):
+        bad("problem", f"expected a string, found {_kind(data['problem'])}")
+    # any planner may have made the plan: coplan's own names become PlannerKind, others are kept
+    planner: PlannerKind | str = data.get("planner", "external")
+    if not isinstance(planner, str) or not planner.strip():
+        bad("planner", f"expected the planner's name (a non-empty string), found {_kind(planner)}")
+        planner = "external"
+    elif planner in {k.value for k in PlannerKind}:
+        planner = PlannerKind(planner)
+    # the file's own status is only what its writer claimed: the verdict is the verifier's
+    try:
+        status = PlanStatus(data.get("status", PlanStatus.UNVERIFIED.value))
+    except ValueError:
+        status = PlanStatus.UNVERIFIED
+    time = _time_grid(data["time"], bad)
+    arms, q = _arm_samples(data["arms"], time, bad)
+    events = _events(data["events"], arms, bad)
+    allocation, unreachable, gantry_x, software, record = _bookkeeping(data, time, bad)
+    if issues:
+        raise PlanFileError(issues, source)
+    return _as_judged(Plan(
+        problem=str(data["problem"]),
+        planner=planner,
+        status=status,
+        time=time,
+        q=q,
+        events=events,
+        allocation={k: list(v) for k, v in allocation.items()},
+        unreachable=list(unreachable),
+        metrics=data.get("metrics") or {},
+        solver=data.get("solver") or {},
+        verification=data.get("verification"),
+        problem_file={"path": record["path"], "sha256": record["sha256"]} if record else None,
+        gantry_x=gantry_x,
+        software=software,
+    ))
+
+
+def _check_kind(data: Any, source: str | None, bad) -> None:
+    """That ``data`` is a plan document with its required keys: another kind of file (an
+    export's events, a JointTrajectory, another coplan file) raises :class:`PlanFileError` at
+    once saying what it is; a wrong format or a missing or misspelt key goes to ``bad``."""
     if not isinstance(data, dict):
         raise PlanFileError([Issue("", f"expected a JSON object, found {_kind(data)}")], source)
     fmt = data.get("format")
@@ -266,54 +311,43 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
         hit = near(key) if key not in data else None
         if hit is not None:
             bad(hit, f"expected one of the plan file's keys, found unknown key {hit!r}; did you mean {key!r}?")
-    if issues:
-        raise PlanFileError(issues, source)
-    if not isinstance(data["problem"], str):
-        bad("problem", f"expected a string, found {_kind(data['problem'])}")
-    # any planner may have made the plan: coplan's own names become PlannerKind, others are kept
-    planner: PlannerKind | str = data.get("planner", "external")
-    if not isinstance(planner, str) or not planner.strip():
-        bad("planner", f"expected the planner's name (a non-empty string), found {_kind(planner)}")
-        planner = "external"
-    elif planner in {k.value for k in PlannerKind}:
-        planner = PlannerKind(planner)
-    # the file's own status is only what its writer claimed: the verdict is the verifier's
-    try:
-        status = PlanStatus(data.get("status", PlanStatus.UNVERIFIED.value))
-    except ValueError:
-        status = PlanStatus.UNVERIFIED
 
-    # ---- the time grid
-    time = _number_array(data["time"], "time", bad, pair=False)
+
+def _time_grid(raw: Any, bad) -> np.ndarray | None:
+    """The plan's times (None where they are unusable: the issues go to ``bad``)."""
+    time = _number_array(raw, "time", bad, pair=False)
     if time is not None:
-        grid_issues = time_grid_issues(time)
-        for i, msg in grid_issues:
+        for i, msg in time_grid_issues(time):
             bad("time" if i is None else f"time[{i}]", msg)
         if time.size < 1:
             time = None
+    return time
 
-    # ---- joint trajectories: one [t1, t2] pair per time for every arm
+
+def _arm_samples(arms: Any, time: np.ndarray | None, bad) -> tuple[dict | None, dict[str, np.ndarray]]:
+    """Joint trajectories: one [t1, t2] pair per time for every arm. Returns the ``arms``
+    object (None when it is not one) and each usable arm's samples."""
     q: dict[str, np.ndarray] = {}
-    arms = data["arms"]
     if not isinstance(arms, dict) or not arms:
         bad("arms", f"expected an object mapping arm names to {{q: [[t1, t2], ...]}}, found {_kind(arms)}")
-        arms = None
-    else:
-        for name, v in arms.items():
-            if not isinstance(v, dict) or "q" not in v:
-                bad(f"arms.{name}", f"expected an object with key 'q', found {_kind(v)}")
-                continue
-            arr = _number_array(v["q"], f"arms.{name}.q", bad, pair=True)
-            if arr is None:
-                continue
-            if time is not None and arr.shape[0] != time.size:
-                bad(f"arms.{name}.q", f"expected {time.size} [t1, t2] pairs (one per time), found {arr.shape[0]}")
-                continue
-            q[name] = arr
+        return None, q
+    for name, v in arms.items():
+        if not isinstance(v, dict) or "q" not in v:
+            bad(f"arms.{name}", f"expected an object with key 'q', found {_kind(v)}")
+            continue
+        arr = _number_array(v["q"], f"arms.{name}.q", bad, pair=True)
+        if arr is None:
+            continue
+        if time is not None and arr.shape[0] != time.size:
+            bad(f"arms.{name}.q", f"expected {time.size} [t1, t2] pairs (one per time), found {arr.shape[0]}")
+            continue
+        q[name] = arr
+    return arms, q
 
-    # ---- events
+
+def _events(evs: Any, arms: dict | None, bad) -> list[Event]:
+    """The picks and places, each checked (``arms``: the plan's, None when unusable)."""
     events: list[Event] = []
-    evs = data["events"]
     if not isinstance(evs, list):
         bad("events", f"expected an array of events, found {_kind(evs)}")
         evs = []
@@ -357,8 +391,12 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
             ok = False
         if ok:
             events.append(Event(e["arm"], e["fruit"], EventKind(e["kind"]), float(e["t_start"]), float(e["t_end"])))
+    return events
 
-    # ---- optional bookkeeping
+
+def _bookkeeping(data: dict, time: np.ndarray | None, bad) -> tuple[dict, list, np.ndarray | None, dict | None, dict | None]:
+    """The optional keys: allocation, unreachable fruit, the carriage's positions (a row plan),
+    the software and the problem file's record (each None or empty where unusable)."""
     allocation = data.get("allocation") or {}
     if not isinstance(allocation, dict) or not all(
         isinstance(v, list) and all(isinstance(f, str) for f in v) for v in allocation.values()
@@ -390,21 +428,4 @@ def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     if record is not None and not (isinstance(record, dict) and all(isinstance(record.get(k), str) for k in ("path", "sha256"))):
         bad("problem_file", f"expected an object {{path, sha256}} (strings), found {_kind(record)}")
         record = None
-    if issues:
-        raise PlanFileError(issues, source)
-    return _as_judged(Plan(
-        problem=str(data["problem"]),
-        planner=planner,
-        status=status,
-        time=time,
-        q=q,
-        events=events,
-        allocation={k: list(v) for k, v in allocation.items()},
-        unreachable=list(unreachable),
-        metrics=data.get("metrics") or {},
-        solver=data.get("solver") or {},
-        verification=data.get("verification"),
-        problem_file={"path": record["path"], "sha256": record["sha256"]} if record else None,
-        gantry_x=gantry_x,
-        software=software,
-    ))
+    return allocation, unreachable, gantry_x, software, record
