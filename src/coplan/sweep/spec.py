@@ -242,24 +242,7 @@ def _resolve_problems(pats: Any, here: Path, lines: dict, issues: list) -> tuple
 
 def parse_sweep(text: str, source: str | None = None, here: Path | None = None) -> SweepSpec:
     """Validate a sweep file's text (raises :class:`SweepError` listing every problem)."""
-    n = len(text.encode("utf-8", errors="replace"))
-    if n > MAX_FILE_BYTES:
-        raise SweepError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
-    try:
-        data, lines = read_yaml(text, source, expected="a mapping with keys base, vary, planner, ...")
-    except ProblemError as e:
-        raise SweepError(e.issues, source) from None
-    if not isinstance(data, dict):
-        raise SweepError([Issue("", f"expected a mapping with keys base, vary, planner, ...; found {found(data)}", line_of(lines, ()))],
-                         source)
-    kind = coplan_file_kind(data)
-    if kind is not None:  # a plan, feed, run ... file: fourteen unknown keys were listed
-        raise SweepError([Issue("", f"expected a sweep file (keys base, vary, planner, ...), found a coplan {kind} file "
-                                    f"(format {data.get('format')!r}); were the arguments swapped?", line_of(lines, ("format",)))], source)
-    if {"arms", "fruits"} <= set(data) and not set(data) & {"base", "vary", "problems"}:  # (six unknown keys were listed)
-        raise SweepError([Issue("", "expected a sweep file (keys base, vary, planner, ...), found a problem file (arms, "
-                                    "fruits, task); to solve problem files as a sweep give their folder or a glob "
-                                    "(coplan sweep 'problems/*.yaml'), or a sweep file with 'problems:'", 1)], source)
+    data, lines = _read(text, source)
     issues: list[Issue] = []
     import difflib
 
@@ -333,6 +316,52 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
             for k, v in data["options"].items():
                 if _one(f"options.{k}", v, ("options", k), lines, issues):
                     options[str(k)] = v
+    fixed, vary = _parameters(data, base, mode, options, lines, issues)
+    _cross_checks(data, base, fixed, vary, lines, issues)
+    sizes = {k: len(v) for k, v in vary.items() if isinstance(v, list)}
+    total = math.prod(sizes.values()) if mode == SweepMode.GRID else (samples or 0)
+    if base == SweepBase.FILES:
+        total *= max(1, len(problems))
+    if total > MAX_ITEMS and mode == SweepMode.RANDOM and base != SweepBase.FILES:
+        issues.append(Issue("samples", f"expected at most {MAX_ITEMS} problems, found samples: {samples}", line_of(lines, ("samples",))))
+    elif total > MAX_ITEMS:
+        issues.append(Issue("vary", f"expected at most {MAX_ITEMS} problems, found {total}"
+                                    + (" combinations" if mode == SweepMode.GRID else " (samples x problem files)"), line_of(lines, ("vary",))))
+    if issues:
+        raise SweepError(sorted(issues, key=lambda i: -1 if i.line is None else i.line), source)
+    return SweepSpec(name=str(name), base=base, mode=mode, fixed=fixed, vary=vary, planner=planner, options=options,
+                     time_limit=time_limit, retries=retries, samples=samples, seed=seed, problems=problems,
+                     source=source, description=str(description or ""), sizes=sizes)
+
+
+def _read(text: str, source: str | None) -> tuple[dict, Any]:
+    """The sweep file's mapping and its line table; raises :class:`SweepError` at once for text
+    too large, YAML that does not parse, a value that is not a mapping, or another kind of file
+    (a coplan plan, feed, run ... file; a problem file)."""
+    n = len(text.encode("utf-8", errors="replace"))
+    if n > MAX_FILE_BYTES:
+        raise SweepError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
+    try:
+        data, lines = read_yaml(text, source, expected="a mapping with keys base, vary, planner, ...")
+    except ProblemError as e:
+        raise SweepError(e.issues, source) from None
+    if not isinstance(data, dict):
+        raise SweepError([Issue("", f"expected a mapping with keys base, vary, planner, ...; found {found(data)}", line_of(lines, ()))],
+                         source)
+    kind = coplan_file_kind(data)
+    if kind is not None:  # a plan, feed, run ... file: fourteen unknown keys were listed
+        raise SweepError([Issue("", f"expected a sweep file (keys base, vary, planner, ...), found a coplan {kind} file "
+                                    f"(format {data.get('format')!r}); were the arguments swapped?", line_of(lines, ("format",)))], source)
+    if {"arms", "fruits"} <= set(data) and not set(data) & {"base", "vary", "problems"}:  # (six unknown keys were listed)
+        raise SweepError([Issue("", "expected a sweep file (keys base, vary, planner, ...), found a problem file (arms, "
+                                    "fruits, task); to solve problem files as a sweep give their folder or a glob "
+                                    "(coplan sweep 'problems/*.yaml'), or a sweep file with 'problems:'", 1)], source)
+    return data, lines
+
+
+def _parameters(data: dict, base: SweepBase | None, mode: SweepMode, options: dict, lines, issues: list[Issue]) -> tuple[dict, dict]:
+    """The ``fixed`` and ``vary`` sections, each parameter checked for ``base`` (issues to
+    ``issues``); returns the usable ``fixed`` and ``vary``."""
     fixed: dict[str, Any] = {}
     vary: dict[str, list | dict] = {}
     for section in ("fixed", "vary"):
@@ -379,6 +408,12 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
                                     line_of(lines, loc)))
             if k in fixed:
                 issues.append(Issue(key_path(loc), f"expected each parameter once, found {k!r} both fixed and varied", line_of(lines, loc)))
+    return fixed, vary
+
+
+def _cross_checks(data: dict, base: SweepBase | None, fixed: dict, vary: dict, lines, issues: list[Issue]) -> None:
+    """What the parameters mean together: the planners used against the base and the options,
+    n_fruits with density, one arm in an overlap sweep."""
     # the planners that are used: varied, else fixed, else the key's (with where each is given)
     planners = ([(("vary", "planner", i), x) for i, x in enumerate(vary["planner"])] if isinstance(vary.get("planner"), list)
                 else [(("fixed", "planner"), fixed["planner"])] if "planner" in fixed else [(("planner",), data.get("planner"))])
@@ -407,20 +442,6 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
     if base == SweepBase.OVERLAP and (1 in arm_counts if isinstance(arm_counts, list) else arm_counts["from"] < 2):
         sec = "vary" if "n_arms" in vary else "fixed"
         issues.append(Issue(f"{sec}.n_arms", "expected at least 2 arms for base overlap, found 1", line_of(lines, (sec, "n_arms"))))
-    sizes = {k: len(v) for k, v in vary.items() if isinstance(v, list)}
-    total = math.prod(sizes.values()) if mode == SweepMode.GRID else (samples or 0)
-    if base == SweepBase.FILES:
-        total *= max(1, len(problems))
-    if total > MAX_ITEMS and mode == SweepMode.RANDOM and base != SweepBase.FILES:
-        issues.append(Issue("samples", f"expected at most {MAX_ITEMS} problems, found samples: {samples}", line_of(lines, ("samples",))))
-    elif total > MAX_ITEMS:
-        issues.append(Issue("vary", f"expected at most {MAX_ITEMS} problems, found {total}"
-                                    + (" combinations" if mode == SweepMode.GRID else " (samples x problem files)"), line_of(lines, ("vary",))))
-    if issues:
-        raise SweepError(sorted(issues, key=lambda i: -1 if i.line is None else i.line), source)
-    return SweepSpec(name=str(name), base=base, mode=mode, fixed=fixed, vary=vary, planner=planner, options=options,
-                     time_limit=time_limit, retries=retries, samples=samples, seed=seed, problems=problems,
-                     source=source, description=str(description or ""), sizes=sizes)
 
 
 def load_sweep(path: str | Path) -> SweepSpec:
