@@ -458,14 +458,7 @@ def run_sweep(
             raise
         state = out / STATE
         state.mkdir(exist_ok=True)
-        _write_json(out / "sweep.json", {
-            "name": spec.name, "source": spec.source, "base": spec.base.value, "mode": spec.mode.value,
-            "problems": len(items), "already_done": outcome.skipped, "planner": (PlannerKind(planner).value if planner else spec.planner.value),
-            "time_limit": time_limit if time_limit is not None else spec.time_limit, "retries": spec.retries,
-            "vary": {k: v for k, v in spec.vary.items()}, "fixed": spec.fixed, "options": spec.options,
-            "scheduler": scheduler or f"LocalCluster({n_workers} worker processes x 1 thread)", "started": time.time(),
-            "software": software_record(),
-        })
+        _write_meta(out, spec, len(items), outcome.skipped, planner, time_limit, scheduler, n_workers)
         if on_start is not None:
             on_start(outcome)
         journal = RowJournal(out)
@@ -497,13 +490,7 @@ def run_sweep(
                 row["sweep"] = spec.name
                 journal.append(row)
                 if plan is not None:  # coplan verify plans/<key>.yaml plans/<key>.json checks it again
-                    (out / "plans" / f"{it.key}.yaml").write_text(it.problem_text or "", encoding="utf-8")
-                    # (which problem it solved, as a plan coplan solve writes says: copied away, it still does)
-                    from ..problem.load import text_digest
-
-                    plan["problem_file"] = {"path": str((out / "plans" / f"{it.key}.yaml").resolve()),
-                                            "sha256": text_digest(it.problem_text or "")}
-                    _write_json(out / "plans" / f"{it.key}.json", plan)
+                    _keep_plan(out, it, plan)
                 fut.release()
                 outcome.done += 1
                 outcome.counts[row["status"]] = outcome.counts.get(row["status"], 0) + 1
@@ -523,25 +510,54 @@ def run_sweep(
         journal.close()
         outcome.files = write_table(out, csv=csv, positions=positions)
         outcome.elapsed = time.perf_counter() - t0
-        # closing is not interrupted: a second Ctrl-C there left the cluster to Dask's exit hook,
-        # which printed its KeyboardInterrupt traceback
-        main = threading.current_thread() is threading.main_thread()
-        old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
-        # (after a SIGTERM, the comms closing under the client once printed distributed.batched's
-        # CommClosedError traceback: the cluster is going away, which is not news)
-        dask_log = logging.getLogger("distributed")
-        dask_level = dask_log.level
-        if outcome.interrupted:
-            dask_log.setLevel(logging.CRITICAL)
-        try:
-            if client is not None:
-                client.close()
-            if cluster is not None:
-                cluster.close()
-        finally:
-            client_log.setLevel(client_level)
-            dask_log.setLevel(dask_level)
-            lock.release()
-            if main:
-                signal.signal(signal.SIGINT, old)
+        _close(client, cluster, outcome.interrupted, client_log, client_level, lock)
     return outcome
+
+
+def _write_meta(out: Path, spec: SweepSpec, problems: int, already: int, planner, time_limit, scheduler, n_workers: int) -> None:
+    """``sweep.json``: what the sweep is and how it runs."""
+    _write_json(out / "sweep.json", {
+        "name": spec.name, "source": spec.source, "base": spec.base.value, "mode": spec.mode.value,
+        "problems": problems, "already_done": already, "planner": (PlannerKind(planner).value if planner else spec.planner.value),
+        "time_limit": time_limit if time_limit is not None else spec.time_limit, "retries": spec.retries,
+        "vary": {k: v for k, v in spec.vary.items()}, "fixed": spec.fixed, "options": spec.options,
+        "scheduler": scheduler or f"LocalCluster({n_workers} worker processes x 1 thread)", "started": time.time(),
+        "software": software_record(),
+    })
+
+
+def _keep_plan(out: Path, it, plan: dict) -> None:
+    """``plans/<key>.yaml`` (the problem) and ``plans/<key>.json`` (its plan, naming that file
+    and its digest, as a plan coplan solve writes does: copied away, it still says which problem
+    it solved)."""
+    from ..problem.load import text_digest
+
+    (out / "plans" / f"{it.key}.yaml").write_text(it.problem_text or "", encoding="utf-8")
+    plan["problem_file"] = {"path": str((out / "plans" / f"{it.key}.yaml").resolve()),
+                            "sha256": text_digest(it.problem_text or "")}
+    _write_json(out / "plans" / f"{it.key}.json", plan)
+
+
+def _close(client, cluster, interrupted: bool, client_log, client_level: int, lock) -> None:
+    """Close the client and the cluster, restore the loggers' levels, release the folder."""
+    # closing is not interrupted: a second Ctrl-C there left the cluster to Dask's exit hook,
+    # which printed its KeyboardInterrupt traceback
+    main = threading.current_thread() is threading.main_thread()
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    # (after a SIGTERM, the comms closing under the client once printed distributed.batched's
+    # CommClosedError traceback: the cluster is going away, which is not news)
+    dask_log = logging.getLogger("distributed")
+    dask_level = dask_log.level
+    if interrupted:
+        dask_log.setLevel(logging.CRITICAL)
+    try:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    finally:
+        client_log.setLevel(client_level)
+        dask_log.setLevel(dask_level)
+        lock.release()
+        if main:
+            signal.signal(signal.SIGINT, old)
