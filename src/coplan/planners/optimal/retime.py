@@ -38,7 +38,8 @@ from ..coordinated.candidate import Coordinated
 from ..coordinated.schedule import (ArmSchedule, LinkPoints, Step, StepKind, arm_points, curve_eval, links_too_close,
                                    links_too_close_pairs)
 
-__all__ = ["RetimeResult", "retime", "retimed_candidate", "retime_rounds", "bounded_rounds"]
+__all__ = ["RetimeResult", "RetimeModel", "retime", "build_retime_model", "solve_retime_model", "retimed_candidate",
+           "retime_rounds", "bounded_rounds"]
 
 _MS = 1000  # time unit of the model: 1 ms
 
@@ -243,14 +244,62 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
     with the plan's length instead of its square. A restriction of the unbounded model (the
     current times stay a solution): on 5 arms x 200 fruit the unbounded model was still
     unsolved after 13 s, the bounded one (1.5 s) solved in about 1 s."""
-    import time as _time
-
-    from ortools.sat.python import cp_model
-
     tables = {} if tables is None else tables
     memo = {} if memo is None else memo
+    model = build_retime_model(problem, schedules, margin, rate, pad, tables, memo, deadline, shift)
+    if isinstance(model, RetimeResult):
+        return model
+    return solve_retime_model(model, work, deadline, linear)
+
+
+@dataclass
+class RetimeModel:
+    """The CP-SAT model of one retiming (:func:`build_retime_model`): ``m`` the model, ``S`` each
+    arm's move starts (ms), ``per`` each arm's moves (and the index of the move its last place
+    follows), ``box`` each move's least and greatest start, ``busy`` when each move may be under
+    way, ``constraints`` the pair constraints so far."""
+
+    problem: Problem
+    m: object
+    S: list
+    per: list
+    box: list
+    busy: list
+    horizon: int
+    pad: int
+    step: int
+    need: float
+    M: object = None
+    ends: list = None
+    constraints: int = 0
+
+    def meet(self, a: tuple[int, int], b: tuple[int, int]) -> bool:
+        """Whether two spans of time (ms) may overlap (each widened by the padding)."""
+        return a[0] <= b[1] + 2 * self.pad * self.step and b[0] <= a[1] + 2 * self.pad * self.step
+
+    def rests(self, i: int) -> list:
+        """Arm ``i``'s rests: (pose, start expr, end expr or None: for ever, (earliest start, latest end) ms)."""
+        mv, _ = self.per[i]
+        lo, hi = self.box[i]
+        S, horizon = self.S, self.horizon
+        out = [(np.asarray(self.problem.arms[i].home, float), 0, S[i][0] if mv else None, (0, int(hi[0]) if mv else horizon))]
+        for k, x in enumerate(mv):
+            last = k + 1 == len(mv)
+            out.append((np.asarray(x.step.q1, float), S[i][k] + x.dur, None if last else S[i][k + 1],
+                        (int(lo[k]) + x.dur, horizon if last else int(hi[k + 1]))))
+        return out
+
+
+def build_retime_model(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float, pad: int,
+                       tables: dict, memo: dict, deadline: float | None, shift: float | None) -> RetimeModel | RetimeResult:
+    """The model of :func:`retime` (its arguments are that function's): variables, each arm's
+    order, the makespan, then every neighbour pair's constraints (:func:`_moves_apart`,
+    :func:`_moves_clear_of_rests`, :func:`_rests_apart`, in that order), the objective and the
+    coordinator's times as a hint. A :class:`RetimeResult` instead where there is nothing to
+    solve (a shape it does not retime, the deadline, two final rests too close)."""
+    from ortools.sat.python import cp_model
+
     arms = problem.arms
-    need = problem.task.clearance + margin
     per = []
     for a in arms:
         got = _moves(schedules[a.name], rate, tables)
@@ -275,91 +324,118 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
             m.Add(M >= S[i][lp] + mv[lp].dur + mv[lp].hold)
         if mv:
             ends.append(S[i][-1] + mv[-1].dur + mv[-1].hold)
-
-    def rests(i):  # (pose, start expr, end expr or None: for ever, (earliest start, latest end) ms)
-        mv, _ = per[i]
-        lo, hi = box[i]
-        out = [(np.asarray(arms[i].home, float), 0, S[i][0] if mv else None, (0, int(hi[0]) if mv else horizon))]
-        for k, x in enumerate(mv):
-            last = k + 1 == len(mv)
-            out.append((np.asarray(x.step.q1, float), S[i][k] + x.dur, None if last else S[i][k + 1],
-                        (int(lo[k]) + x.dur, horizon if last else int(hi[k + 1]))))
-        return out
-
-    def meet(a: tuple[int, int], b: tuple[int, int]) -> bool:  # two spans of time (ms) that may overlap
-        return a[0] <= b[1] + 2 * pad * step and b[0] <= a[1] + 2 * pad * step
-
-    step = int(round(_MS / rate))
-    n = 0
+    md = RetimeModel(problem, m, S, per, box, busy, horizon, pad, int(round(_MS / rate)), problem.task.clearance + margin, M, ends)
     for i, j in problem.neighbour_pairs():
         radii = arms[i].link_radius + arms[j].link_radius
-        boxes = [[_box(x.pts) for x in per[a][0]] for a in (i, j)]
-        for ka, xa in enumerate(per[i][0]):  # move against move
-            if deadline is not None and _time.perf_counter() > deadline:
-                return RetimeResult(None, _LATE, None, n)
-            for kb, xb in enumerate(per[j][0]):
-                if _apart(boxes[0][ka], boxes[1][kb], need + radii) or not meet(
-                        (busy[i][0][ka], busy[i][1][ka]), (busy[j][0][kb], busy[j][1][kb])):
-                    continue
-                key = (i, j, xa.step.q0, xa.step.q1, xa.step.duration, xb.step.q0, xb.step.q1, xb.step.duration,
-                       rate, need)
-                forbid = memo.get(key)
-                if forbid is None:
-                    forbid = memo[key] = _meetings(xa, xb, radii, need)  # s_b - s_a at which they meet
-                if forbid.size == 0:
-                    continue
-                m.AddLinearExpressionInDomain(S[j][kb] - S[i][ka], cp_model.Domain.FromIntervals(_allowed(forbid, pad * step, horizon)))
-                n += 1
-        for x, y in ((i, j), (j, i)):  # a move against the other arm's rests
-            ry = rests(y)
-            poses = np.array([r[0] for r in ry])  # (R, 2)
-            pp = LinkPoints.of(arm_points(arms[y], poses))
-            for k, xm in enumerate(per[x][0]):
-                span = (busy[x][0][k], busy[x][1][k])
-                rs = np.array([r for r in range(len(ry)) if meet(span, ry[r][3])], int)
-                if rs.size == 0:
-                    continue
-                close = links_too_close_pairs(xm.links, pp[rs], radii, need)  # (K samples, R rests)
-                for c in np.flatnonzero(close.any(axis=0)):
-                    r = rs[c]
-                    _, r0, r1, _ = ry[r]
-                    hit = xm.T[close[:, c]]
-                    c0 = int(np.floor(hit.min() * _MS)) - pad * step
-                    c1 = int(np.ceil(hit.max() * _MS)) + pad * step
-                    n += 1
-                    if r1 is None:  # the other arm rests there from r0 on: this stretch before it
-                        m.Add(S[x][k] + c1 <= r0)
-                        continue
-                    before = m.NewBoolVar("")
-                    m.Add(S[x][k] + c1 <= r0).OnlyEnforceIf(before)
-                    m.Add(S[x][k] + c0 >= r1).OnlyEnforceIf(before.Not())
-        ri, rj = rests(i), rests(j)  # rest against rest: the pairs that may meet, tested at once
-        pairs = [(u, v) for u in range(len(ri)) for v in range(len(rj)) if meet(ri[u][3], rj[v][3])]
-        close = np.zeros(0, bool)
-        if pairs:
-            u_, v_ = np.array(pairs).T
-            close = links_too_close(LinkPoints.of(arm_points(arms[i], np.array([ri[u][0] for u in u_]))),
-                                    LinkPoints.of(arm_points(arms[j], np.array([rj[v][0] for v in v_]))), radii, need)
-        for (u, v), c in zip(pairs, close):
-            _, a0, a1, _ = ri[u]
-            _, b0, b1, _ = rj[v]
-            if not c:
-                continue
-            n += 1
-            if a1 is None and b1 is None:
-                return RetimeResult(None, "not retimed: two final rest poses too close", None, n)
-            if a1 is None:
-                m.Add(b1 <= a0)
-            elif b1 is None:
-                m.Add(a1 <= b0)
-            else:
-                first = m.NewBoolVar("")
-                m.Add(a1 <= b0).OnlyEnforceIf(first)
-                m.Add(b1 <= a0).OnlyEnforceIf(first.Not())
+        if not _moves_apart(md, i, j, radii, memo, rate, deadline):
+            return RetimeResult(None, _LATE, None, md.constraints)
+        for x, y in ((i, j), (j, i)):
+            _moves_clear_of_rests(md, x, y, radii)
+        if not _rests_apart(md, i, j, radii):
+            return RetimeResult(None, "not retimed: two final rest poses too close", None, md.constraints)
     m.Minimize(M * (len(ends) * horizon + 1) + sum(ends))
     for i, (mv, _) in enumerate(per):  # the coordinator's own times: a hint
         for k, x in enumerate(mv):
             m.AddHint(S[i][k], int(round(x.step.t0 * _MS)))
+    return md
+
+
+def _moves_apart(md: RetimeModel, i: int, j: int, radii: float, memo: dict, rate: float, deadline: float | None) -> bool:
+    """Move against move: the start offsets at which two moves of arms ``i`` and ``j`` come too
+    close are forbidden. False when the deadline came first."""
+    import time as _time
+
+    from ortools.sat.python import cp_model
+
+    per, busy, S = md.per, md.busy, md.S
+    boxes = [[_box(x.pts) for x in per[a][0]] for a in (i, j)]
+    for ka, xa in enumerate(per[i][0]):
+        if deadline is not None and _time.perf_counter() > deadline:
+            return False
+        for kb, xb in enumerate(per[j][0]):
+            if _apart(boxes[0][ka], boxes[1][kb], md.need + radii) or not md.meet(
+                    (busy[i][0][ka], busy[i][1][ka]), (busy[j][0][kb], busy[j][1][kb])):
+                continue
+            key = (i, j, xa.step.q0, xa.step.q1, xa.step.duration, xb.step.q0, xb.step.q1, xb.step.duration,
+                   rate, md.need)
+            forbid = memo.get(key)
+            if forbid is None:
+                forbid = memo[key] = _meetings(xa, xb, radii, md.need)  # s_b - s_a at which they meet
+            if forbid.size == 0:
+                continue
+            md.m.AddLinearExpressionInDomain(S[j][kb] - S[i][ka],
+                                             cp_model.Domain.FromIntervals(_allowed(forbid, md.pad * md.step, md.horizon)))
+            md.constraints += 1
+    return True
+
+
+def _moves_clear_of_rests(md: RetimeModel, x: int, y: int, radii: float) -> None:
+    """A move of arm ``x`` against arm ``y``'s rests: the stretch of the move that comes too
+    close to a rest pose lies wholly before or after ``y`` rests there."""
+    arms, m, S = md.problem.arms, md.m, md.S
+    ry = md.rests(y)
+    poses = np.array([r[0] for r in ry])  # (R, 2)
+    pp = LinkPoints.of(arm_points(arms[y], poses))
+    pad = md.pad * md.step
+    for k, xm in enumerate(md.per[x][0]):
+        span = (md.busy[x][0][k], md.busy[x][1][k])
+        rs = np.array([r for r in range(len(ry)) if md.meet(span, ry[r][3])], int)
+        if rs.size == 0:
+            continue
+        close = links_too_close_pairs(xm.links, pp[rs], radii, md.need)  # (K samples, R rests)
+        for c in np.flatnonzero(close.any(axis=0)):
+            r = rs[c]
+            _, r0, r1, _ = ry[r]
+            hit = xm.T[close[:, c]]
+            c0 = int(np.floor(hit.min() * _MS)) - pad
+            c1 = int(np.ceil(hit.max() * _MS)) + pad
+            md.constraints += 1
+            if r1 is None:  # the other arm rests there from r0 on: this stretch before it
+                m.Add(S[x][k] + c1 <= r0)
+                continue
+            before = m.NewBoolVar("")
+            m.Add(S[x][k] + c1 <= r0).OnlyEnforceIf(before)
+            m.Add(S[x][k] + c0 >= r1).OnlyEnforceIf(before.Not())
+
+
+def _rests_apart(md: RetimeModel, i: int, j: int, radii: float) -> bool:
+    """Rest against rest: two rest poses too close do not overlap in time (the pairs that may
+    meet, tested at once). False when two final rests are too close (no retiming can part them)."""
+    arms, m = md.problem.arms, md.m
+    ri, rj = md.rests(i), md.rests(j)
+    pairs = [(u, v) for u in range(len(ri)) for v in range(len(rj)) if md.meet(ri[u][3], rj[v][3])]
+    close = np.zeros(0, bool)
+    if pairs:
+        u_, v_ = np.array(pairs).T
+        close = links_too_close(LinkPoints.of(arm_points(arms[i], np.array([ri[u][0] for u in u_]))),
+                                LinkPoints.of(arm_points(arms[j], np.array([rj[v][0] for v in v_]))), radii, md.need)
+    for (u, v), c in zip(pairs, close):
+        _, a0, a1, _ = ri[u]
+        _, b0, b1, _ = rj[v]
+        if not c:
+            continue
+        md.constraints += 1
+        if a1 is None and b1 is None:
+            return False
+        if a1 is None:
+            m.Add(b1 <= a0)
+        elif b1 is None:
+            m.Add(a1 <= b0)
+        else:
+            first = m.NewBoolVar("")
+            m.Add(a1 <= b0).OnlyEnforceIf(first)
+            m.Add(b1 <= a0).OnlyEnforceIf(first.Not())
+    return True
+
+
+def solve_retime_model(md: RetimeModel, work: float, deadline: float | None, linear: bool) -> RetimeResult:
+    """Solve ``md`` (single-threaded, a deterministic limit ``work``; the ``deadline`` and
+    ``linear`` of :func:`retime`) and rebuild each arm's schedule from the starts found."""
+    import time as _time
+
+    from ortools.sat.python import cp_model
+
+    n = md.constraints
     solver = cp_model.CpSolver()
     solver.parameters.num_workers = 1  # single-threaded and a deterministic limit: the same plan anywhere
     solver.parameters.max_deterministic_time = work
@@ -375,17 +451,17 @@ def retime(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, r
     # the solve as if at its limit, swallow the key and leave SIGINT at its default (a second
     # Ctrl-C would then kill the process without saving anything)
     solver.parameters.catch_sigint_signal = False
-    status = solver.Solve(m)
+    status = solver.Solve(md.m)
     name = solver.StatusName(status)
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
         return RetimeResult(None, name, None, n)
     out = {}
-    for i, a in enumerate(arms):
-        mv, _ = per[i]
+    for i, a in enumerate(md.problem.arms):
+        mv, _ = md.per[i]
         steps: list[Step] = []
         t, pose = 0.0, tuple(map(float, a.home))
         for k, x in enumerate(mv):
-            s0 = solver.Value(S[i][k]) / _MS
+            s0 = solver.Value(md.S[i][k]) / _MS
             if s0 > t + 1e-12:
                 steps.append(Step(StepKind.WAIT, t, s0 - t, pose, pose))
             steps.append(replace(x.step, t0=s0))
