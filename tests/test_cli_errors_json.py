@@ -352,3 +352,18 @@ def test_check_and_run_json_documents_carry_their_exit_code(tmp_path, problems_d
             assert (r.returncode, doc["verdict"]) == (code, verdict), cmd
         else:
             assert doc["status"] in ("success", "partial")
+
+
+@pytest.mark.parametrize("args, said", [
+    (["solve", "--time-limit", "abc"], "--time-limit': expected a number, found 'abc'"),
+    (["animate", "p.json", "--fps", "fast"], "--fps': expected a number, found 'fast'"),
+    (["feed", "p.yaml", "--seed", "2.5"], "--seed': expected a whole number, found '2.5'"),
+    (["sweep", "s.yaml", "--workers", "two"], "--workers': expected a whole number, found 'two'"),
+    (["verify", "p.yaml", "p.json", "--tolerance", "100"], "--tolerance': expected a number in [0.1, 50] mm, found 100"),
+])
+def test_a_number_option_that_is_not_one_says_what_it_found(args, said):
+    """Every number option names the value it could not read (typer's own said only "Input should
+    be a valid number, unable to parse string as a number"), before any file is read."""
+    res = CliRunner(env={"COLUMNS": "200"}).invoke(app, args)
+    assert res.exit_code == ExitCode.USAGE
+    assert said in " ".join(res.output.split()), res.output

@@ -13,7 +13,7 @@ import typer
 from . import failures
 from ..kinds import ExitCode, PlannerKind
 
-__all__ = ["in_path", "fail", "strict_json", "between", "check_time_limit", "check_workers", "solver_options", "budget_hint"]
+__all__ = ["in_path", "fail", "strict_json", "between", "real", "whole", "check_time_limit", "check_workers", "solver_options", "budget_hint"]
 
 
 def fail(code: ExitCode, message: str):
@@ -33,6 +33,30 @@ def between(lo: float, hi: float = math.inf, unit: str = "", above: bool = False
             raise typer.BadParameter(f"expected a number {want}{' ' + unit if unit else ''}, found {shown}")
         return value
     return check
+
+
+def real(value) -> float:
+    """``typer.Option(parser=real, metavar="<float>")``: a number option's value, refused as
+    ``expected a number, found 'abc'`` (typer's own said "Input should be a valid number, unable
+    to parse string as a number", without the value). NaN and infinity are numbers here: the
+    option's own check (:func:`between`) says what range it takes."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    try:
+        return float(str(value).strip())
+    except ValueError:
+        raise typer.BadParameter(f"expected a number, found {value!r}") from None
+
+
+def whole(value) -> int:
+    """``typer.Option(parser=whole, metavar="<int>")``: a whole number option's value, refused
+    as ``expected a whole number, found '2.5'``."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return value
+    try:
+        return int(str(value).strip())
+    except ValueError:
+        raise typer.BadParameter(f"expected a whole number, found {value!r}") from None
 
 
 def strict_json(doc) -> str:

@@ -19,7 +19,7 @@ import typer
 
 from . import failures
 from .checks import budget_hint as _budget_hint, check_time_limit as _check_time_limit, check_workers as _check_workers
-from .checks import between, choice, choices, in_path, optimal_only_note, out_path
+from .checks import between, choice, choices, in_path, optimal_only_note, out_path, real
 from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
 from .row import moving_options, refuse_rows_in_compare, refused_on_a_row
@@ -91,7 +91,7 @@ def _resolve_problem(problem: Optional[Path]) -> Path:
 
 
 # a row's screen: the spacing of the carriage positions it tries (solve and check)
-ResolutionOption = Annotated[Optional[float], typer.Option(
+ResolutionOption = Annotated[Optional[float], typer.Option(parser=real, metavar="<float>",
     callback=between(0.01, 0.5, "m"),  # (a 200 m row of 2,000 fruit, 6 arms: a 240 MB screen at 0.01)
     help="A row: spacing of the carriage positions its screen tries as stops, m (default 0.05; finer serves a "
          "fruit an arm reaches only from a narrower window of rail, and takes longer).")]
@@ -108,14 +108,14 @@ def solve(
     gantry: Annotated[Optional[GantryMode], typer.Option(
         parser=choice(GantryMode), metavar=choices(GantryMode), help="A row: stop-and-go (default), continuous (pick on the move, the speed searched) or auto "
              "(both, each verified; the better kept).")] = None,
-    speed: Annotated[Optional[float], typer.Option(
+    speed: Annotated[Optional[float], typer.Option(parser=real, metavar="<float>",
         help="A row on the move: one cruising speed, m/s (default: the speed search, a speed per metre of rail).")] = None,
     resolution: ResolutionOption = None,
     allocation: Annotated[
         Optional[AllocationMethod], typer.Option(help="Allocation method (default: the planner's own).")
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder.")] = Path("coplan-out"),
-    time_limit: Annotated[Optional[float], typer.Option(
+    time_limit: Annotated[Optional[float], typer.Option(parser=real, metavar="<float>",
         help="Wall-clock limit, s: the optimal planner returns its verified incumbent at the limit, the coordinated "
              "planner its best candidate so far (by default they stop on a work budget, so the plan does not depend on "
              "the machine).")] = None,
@@ -347,7 +347,7 @@ def verify_cmd(
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Write verification.json (a folder, or a file name ending .json).")] = None,
     fcl: Annotated[FclMode, typer.Option(parser=choice(FclMode), metavar=choices(FclMode), help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
     as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,
-    tolerance: Annotated[float, typer.Option("--tolerance", min=0.1, max=50.0, metavar="MM", help="How close the tip must come to the fruit (or over the bin) during a pick (a place), mm.")] = 5.0,
+    tolerance: Annotated[float, typer.Option("--tolerance", parser=real, callback=between(0.1, 50.0, "mm"), metavar="MM", help="How close the tip must come to the fruit (or over the bin) during a pick (a place), mm.")] = 5.0,
 ):
     """Independently verify a plan: clearance (certified), limits, picks and places.
 
@@ -441,7 +441,7 @@ def compare_cmd(
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder.")] = Path("coplan-compare"),
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Draw the comparison figures (cells; a row's comparison is its tables).")] = True,
-    time_limit: Annotated[Optional[float], typer.Option(help="Coordinated and optimal planners: wall-clock limit per solve, s.")] = None,
+    time_limit: Annotated[Optional[float], typer.Option(parser=real, metavar="<float>", help="Coordinated and optimal planners: wall-clock limit per solve, s.")] = None,
     options_file: Annotated[Optional[Path], typer.Option(
         "--options", help="Solver options (YAML) for the coordinated and optimal planners.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print compare.json's content instead of the tables.")] = False,

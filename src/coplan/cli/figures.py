@@ -15,7 +15,7 @@ from typing import Annotated, Optional
 import typer
 
 from . import failures
-from .checks import between, choice, choices, fail, in_path, out_path
+from .checks import between, choice, choices, fail, in_path, out_path, real, whole
 from .console import ProgressDisplay, text_console
 from .failures import resolve_problem
 from .summary import safe as _s
@@ -139,7 +139,7 @@ def plot_cmd(
         Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Image file; the suffix sets the format (default: <plan>_<kind>.png).")
     ] = None,
     arm: Annotated[Optional[str], typer.Option(help="joints/workspace: draw only this arm.")] = None,
-    dpi: Annotated[int, typer.Option(callback=between(30, 600), help="Resolution of raster images, 30-600 dpi.")] = 120,
+    dpi: Annotated[int, typer.Option(parser=whole, metavar="<int>", callback=between(30, 600), help="Resolution of raster images, 30-600 dpi.")] = 120,
 ):
     """Draw a figure of a plan: schedule Gantt, clearance, joint motion vs limits, or workspace map."""
     from ..viz import plots
@@ -196,9 +196,9 @@ def animate_cmd(
     out: Annotated[
         Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output .gif (default, next to the plan) or .mp4.")
     ] = None,
-    speed: Annotated[float, typer.Option(callback=between(0.01, 100.0), help="Playback speed: 1 = real time, 2 = twice as fast (0.01-100).")] = 1.0,
-    fps: Annotated[float, typer.Option(callback=between(1.0, 60.0), help="Frames per second of the animation (1-60).")] = 10.0,
-    dpi: Annotated[int, typer.Option(callback=between(30, 300), help="Resolution, 30-300 dpi (80: a 720 px wide GIF).")] = 80,
+    speed: Annotated[float, typer.Option(parser=real, metavar="<float>", callback=between(0.01, 100.0), help="Playback speed: 1 = real time, 2 = twice as fast (0.01-100).")] = 1.0,
+    fps: Annotated[float, typer.Option(parser=real, metavar="<float>", callback=between(1.0, 60.0), help="Frames per second of the animation (1-60).")] = 10.0,
+    dpi: Annotated[int, typer.Option(parser=whole, metavar="<int>", callback=between(30, 300), help="Resolution, 30-300 dpi (80: a 720 px wide GIF).")] = 80,
 ):
     """Render a plan as an animation: arms, fruit, bins, phases, clearance alarms (GIF or MP4)."""
     from ..viz.animate import animate_plan

@@ -12,7 +12,7 @@ from rich.markup import escape
 
 from ..errors import printable
 from ..kinds import ExitCode, ExportFormat, SchemaKind
-from .checks import choice, choices, in_path, out_path
+from .checks import choice, choices, in_path, out_path, real
 from .console import text_console
 from .failures import Failure, check_overwrite
 
@@ -34,7 +34,7 @@ def _export_out(value: str) -> Path:
 
 def export_cmd(
     plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="plan.json to export.")],
-    rate: Annotated[float, typer.Option(help="Points per second, Hz.")] = 100.0,
+    rate: Annotated[float, typer.Option(parser=real, metavar="<float>", help="Points per second, Hz.")] = 100.0,
     fmt: Annotated[ExportFormat, typer.Option("--format", "-f", parser=choice(ExportFormat), metavar=choices(ExportFormat), help="csv: one file, every arm; json, yaml: a ROS 2 "
                                               "trajectory_msgs/JointTrajectory per arm, in a folder.")] = ExportFormat.CSV,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=_export_out, metavar="PATH", help="CSV file, or folder (default: beside the plan; a CSV into a folder that exists, or ends with /, is named <plan>_<rate>hz.csv).")] = None,

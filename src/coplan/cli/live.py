@@ -15,7 +15,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .checks import between, choice, choices, in_path, out_path
+from .checks import between, choice, choices, in_path, out_path, real, whole
 from .console import ProgressDisplay, text_console
 from .failures import check_out_dir, check_out_file, check_overwrite, exit_fields, resolve_problem, usage, work_done
 from .summary import safe as _safe
@@ -31,21 +31,21 @@ _err = text_console(stderr=True)
 def feed_cmd(
     problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem file (YAML) with the true fruit, or a shipped problem's name.")],
     out: Annotated[Path, typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Feed file to write (YAML).")],
-    known: Annotated[float, typer.Option(callback=between(0.0, 1.0), help="Share of the fruit detected at t = 0.")] = 0.5,
-    sigma: Annotated[float, typer.Option(callback=between(1e-6, 1.0, "m"), help="Detection noise: standard deviation per coordinate, m.")] = 0.01,
-    false_rate: Annotated[float, typer.Option("--false-rate", callback=between(0.0, 1.0),
+    known: Annotated[float, typer.Option(parser=real, metavar="<float>", callback=between(0.0, 1.0), help="Share of the fruit detected at t = 0.")] = 0.5,
+    sigma: Annotated[float, typer.Option(parser=real, metavar="<float>", callback=between(1e-6, 1.0, "m"), help="Detection noise: standard deviation per coordinate, m.")] = 0.01,
+    false_rate: Annotated[float, typer.Option("--false-rate", parser=real, metavar="<float>", callback=between(0.0, 1.0),
                                               help="Chance that a detection comes with a false one.")] = 0.0,
-    duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", callback=between(0.0, 1.0),
+    duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", parser=real, metavar="<float>", callback=between(0.0, 1.0),
                                                   help="Chance that a fruit is detected a second time.")] = 0.0,
-    seed: Annotated[int, typer.Option(callback=between(0), help="Random seed (the same seed gives the same feed).")] = 0,
-    reveal_by: Annotated[Optional[float], typer.Option("--reveal-by", callback=between(0.001, unit="s"), help="Late fruit arrive by this time, s "
+    seed: Annotated[int, typer.Option(parser=whole, metavar="<int>", callback=between(0), help="Random seed (the same seed gives the same feed).")] = 0,
+    reveal_by: Annotated[Optional[float], typer.Option("--reveal-by", parser=real, metavar="<float>", callback=between(0.001, unit="s"), help="Late fruit arrive by this time, s "
                                                        "(default: half the makespan lower bound).")] = None,
-    after_pick: Annotated[float, typer.Option("--after-pick", callback=between(0.0, 1.0),
+    after_pick: Annotated[float, typer.Option("--after-pick", parser=real, metavar="<float>", callback=between(0.0, 1.0),
                                               help="Share of the late fruit hidden behind a neighbour until it is picked.")] = 0.25,
     # (the ranges of coplan.live.feed.CLOSE_RANGE_BOUNDS, a feed file's; not imported: --help stays quick)
-    close_sigma: Annotated[float, typer.Option("--close-sigma", callback=between(1e-6, 0.1, "m"),
+    close_sigma: Annotated[float, typer.Option("--close-sigma", parser=real, metavar="<float>", callback=between(1e-6, 0.1, "m"),
                                                help="Close-range (gripper camera) noise, m.")] = 0.001,
-    close_distance: Annotated[float, typer.Option("--close-distance", callback=between(0.005, 1.0, "m"),
+    close_distance: Annotated[float, typer.Option("--close-distance", parser=real, metavar="<float>", callback=between(0.005, 1.0, "m"),
                                                   help="The gripper camera measures when the tip is this close, m.")] = 0.1,
 ):
     """Generate a seeded vision feed for a problem: late fruit, noise, false and duplicate detections."""
@@ -99,25 +99,25 @@ def run_cmd(
     gantry: Annotated[Optional[LiveGantryMode], typer.Option(
         parser=choice(LiveGantryMode), metavar=choices(LiveGantryMode), help="A row: continuous (picks on the move at --speed, a number or auto, which it needs; the default) or stop-and-go (stops "
              "chosen as fruit come into view).")] = None,
-    look_ahead: Annotated[float, typer.Option("--look-ahead", callback=between(0.0, 100.0, "m", above=True),
+    look_ahead: Annotated[float, typer.Option("--look-ahead", parser=real, metavar="<float>", callback=between(0.0, 100.0, "m", above=True),
                                               help="A row: how far ahead of the front arm's base the camera sees, m.")] = 1.5,
-    sigma: Annotated[float, typer.Option(callback=between(0.0, 1.0, "m"), help="A row: detection noise per coordinate, m.")] = 0.01,
-    false_rate: Annotated[float, typer.Option("--false-rate", callback=between(0.0, 1.0),
+    sigma: Annotated[float, typer.Option(parser=real, metavar="<float>", callback=between(0.0, 1.0, "m"), help="A row: detection noise per coordinate, m.")] = 0.01,
+    false_rate: Annotated[float, typer.Option("--false-rate", parser=real, metavar="<float>", callback=between(0.0, 1.0),
                                               help="A row: false reports, as a share of the fruit.")] = 0.05,
-    duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", callback=between(0.0, 1.0),
+    duplicate_rate: Annotated[float, typer.Option("--duplicate-rate", parser=real, metavar="<float>", callback=between(0.0, 1.0),
                                                   help="A row: share of fruit reported twice.")] = 0.02,
     arm_stop: Annotated[bool, typer.Option("--arm-stop", help="A row: one arm (drawn from --seed) reports a controller "
                                            "fault at a drawn time: it finishes its motion and stays, an obstacle.")] = False,
-    camera_dark: Annotated[float, typer.Option("--camera-dark", callback=between(0.0, 3600.0, "s"),
+    camera_dark: Annotated[float, typer.Option("--camera-dark", parser=real, metavar="<float>", callback=between(0.0, 3600.0, "s"),
                                                help="A row: seconds the camera reports nothing, at a drawn time.")] = 0.0,
-    false_burst: Annotated[int, typer.Option("--false-burst", callback=between(0, 1000),  # row.sensing.MAX_FALSE_BURST (numpy: not at import)
+    false_burst: Annotated[int, typer.Option("--false-burst", parser=whole, metavar="<int>", callback=between(0, 1000),  # row.sensing.MAX_FALSE_BURST (numpy: not at import)
                                              help="A row: false reports at one drawn instant, within the camera's view.")] = 0,
-    late_replan: Annotated[float, typer.Option("--late-replan", callback=between(0.0, 3600.0, "s"),
+    late_replan: Annotated[float, typer.Option("--late-replan", parser=real, metavar="<float>", callback=between(0.0, 3600.0, "s"),
                                                help="A row: seconds one decision (at a drawn time) runs late.")] = 0.0,
     animate: Annotated[bool, typer.Option("--animate", help="Also write live.gif: fruit appearing, re-plans, misses.")] = False,
-    seed: Annotated[int, typer.Option(callback=between(0), help="Seed of the simulation: a cell's close-range measurements; a row's "
+    seed: Annotated[int, typer.Option(parser=whole, metavar="<int>", callback=between(0), help="Seed of the simulation: a cell's close-range measurements; a row's "
                                       "camera reports, faults and close-range measurements.")] = 0,
-    horizon: Annotated[float, typer.Option(callback=between(0.0, 10.0, "s", above=True), help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
+    horizon: Annotated[float, typer.Option(parser=real, metavar="<float>", callback=between(0.0, 10.0, "s", above=True), help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
     all_candidates: Annotated[bool, typer.Option("--all-candidates", help="Every re-plan tries every candidate plan, "
                                                  "not only those its 50 ms budget allows: the same run on any machine.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the metrics as JSON.")] = False,

@@ -14,7 +14,7 @@ import typer
 
 from ..errors import plural
 from ..workers import MAX_WORKERS
-from .checks import between, check_time_limit, choice, choices, in_path, out_path
+from .checks import between, check_time_limit, choice, choices, in_path, out_path, real, whole
 from .console import text_console
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
@@ -39,12 +39,12 @@ def sweep_cmd(
                                           "or a folder or glob of problem files.")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder (default: coplan-sweep/<sweep name>). "
                                                 "A re-run into the same folder skips the rows already done.")] = None,
-    workers: Annotated[Optional[int], typer.Option(callback=between(1, MAX_WORKERS), help="Worker processes of the local cluster "
+    workers: Annotated[Optional[int], typer.Option(parser=whole, metavar="<int>", callback=between(1, MAX_WORKERS), help="Worker processes of the local cluster "
                                                    "(default: one per core; one thread each).")] = None,
     scheduler: Annotated[Optional[str], typer.Option(help="Use an existing Dask cluster at this address "
                                                      "(e.g. tcp://host:8786) instead of a local one.")] = None,
     planner: Annotated[Optional[PlannerKind], typer.Option(parser=choice(PlannerKind), metavar=choices(PlannerKind), help="Planner for every problem (replaces the file's).")] = None,
-    time_limit: Annotated[Optional[float], typer.Option(help="Per-problem time limit, s (replaces the file's; "
+    time_limit: Annotated[Optional[float], typer.Option(parser=real, metavar="<float>", help="Per-problem time limit, s (replaces the file's; "
                                                         "default 120).")] = None,
     csv: Annotated[bool, typer.Option("--csv", help="Also write results.csv.")] = False,
     keep_plans: Annotated[bool, typer.Option("--keep-plans", help="Also write every plan as plans/<key>.json "
