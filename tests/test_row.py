@@ -25,6 +25,7 @@ from coplan.plan import EventKind, load_plan
 from coplan.problem import load_problem, parse_problem, shipped_rows
 from coplan.problem.gantry import cell_at
 from coplan.allocate.row_bound import cycle_bounds, row_bounds
+from coplan.allocate.row_cycles import cell_cycles, home_savings
 from coplan.row.plan import RowOptions, plan_row
 from coplan.row.reach import row_reach
 from coplan.row.stops import fewest_stops, round_trips
@@ -275,7 +276,10 @@ def test_a_row_whose_arms_are_locked_says_so_and_bounds_with_the_others(tmp_path
     cost, can, _ = cycle_bounds(row)
     assert not can[:2].any() and can[2].any()
     b = row_bounds(row)
-    assert b.work == pytest.approx(float(cost[2, can[2]].sum()), rel=1e-6)  # one arm: every cycle in turn
+    saving = home_savings(cell_cycles(row, 0.05))
+    assert saving[2] > 0 and not saving[:2].any()  # (locked arms harvest nothing: nothing to save)
+    # one arm: every cycle in turn, the first from home
+    assert b.work == pytest.approx(float(cost[2, can[2]].sum()) - saving[2], rel=1e-6)
     path = tmp_path / "locked.yaml"
     path.write_text(text)
     out = CliRunner().invoke(app, ["check", str(path)])

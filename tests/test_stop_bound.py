@@ -213,3 +213,74 @@ def test_the_settle_floor_leaves_room_for_the_last_stops_place_and_this_stops_wa
     assert a1 + tk.place_dwell + a2 <= hop + g.settle  # (the plan's tail and way out fit in the move and the settle)
     plan = a1 + tk.pick_dwell + hop + g.settle + tk.pick_dwell + a2 + tk.place_dwell
     assert row_bounds(row).stop_and_go <= plan + 1e-9
+
+
+# --------------------------------------------------------------------------- the first cycle, from home
+def _short_rail_row():
+    """A verified plan beat the any-plan bound on it (found by a new-user trial): two arms on a
+    5 cm rail, one of them harvesting five of six fruit, its first cycle from home."""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+
+    doc = gantry_row(length=4.0, n_arms=2, density=2.0, seed=3)
+    doc["gantry"]["end"] = 0.05
+    return parse_problem(to_yaml(doc))
+
+
+def test_no_plan_beats_the_any_plan_bound_where_an_arm_s_first_cycle_from_home_is_shorter():
+    from coplan import solve
+    from coplan.allocate.allocation import min_max_bound
+    from coplan.allocate.row_cycles import cycle_bounds, home_savings
+
+    row = _short_rail_row()
+    b = row_bounds(row)
+    res = solve(row, planner="coordinated")
+    assert res.verification.passed
+    span = res.plan.metrics["makespan"]
+    assert span >= b.any_plan - 1e-9
+    cost, reach, _ = cycle_bounds(row)
+    without = min_max_bound(np.where(reach, cost, 0.0), reach, relax=True)
+    assert without > span  # the bound that left out the start at home was beaten by this plan
+    saving = home_savings(cell_cycles(row, 0.05))
+    assert b.work == pytest.approx(without - saving.max())
+    assert (saving > 0).all()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_ways_from_home_and_from_the_bin_are_below_every_sampled_way(seed):
+    """The enclosed ways (per arm, fruit and rail cell) against the exact per-joint S-curve time
+    from home and from each bin pose to both elbow branches of the fruit, the carriage at
+    seeded random positions of the cell."""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+    from coplan.problem.gantry import cell_at
+
+    row = parse_problem(to_yaml(gantry_row(length=3.0, n_arms=2, density=4.0, seed=seed)))
+    cc = cell_cycles(row, 0.05)
+    rng = np.random.default_rng(seed)
+    checked = 0
+    for x in rng.uniform(row.gantry.start, row.gantry.end, 40):
+        c = min(int(np.searchsorted(cc.hi, x)), cc.lo.size - 1)
+        cell = cell_at(row, float(x))
+        for a, arm in enumerate(cell.arms):
+            if cc.ways[a] is None:
+                continue
+            cells, _ = cc.band(a)
+            qb, vb = arm.ik(np.asarray(arm.bin, float))
+            for f, fruit in enumerate(cell.fruits):
+                col = np.flatnonzero(cells[f] == c)
+                q, valid = arm.ik(np.asarray(fruit.position, float), row.task.reach_margin)
+                if not col.size or not valid.any():
+                    continue
+                lim = [(arm.max_velocity[i], arm.max_acceleration[i], arm.max_jerk[i]) for i in range(2)]
+
+                def t(q0, q1):
+                    return max(float(scurve_times(abs(q1[i] - q0[i]), *lim[i])) for i in range(2))
+
+                poses = [q[b] for b in range(2) if valid[b]]
+                home = min(t(np.asarray(arm.home, float), p) for p in poses)
+                from_bin = min(t(qb[k], p) for k in range(2) if vb[k] for p in poses)
+                assert home >= cc.home_ways[a][f, col].min() - 1e-9
+                assert from_bin >= cc.ways[a][f, col].min() - 1e-9
+                checked += 1
+    assert checked > 50

@@ -9,7 +9,9 @@ Entry point: :func:`row_bounds` -> :class:`RowBounds`.
   fruit to an arm that can reach it from somewhere; an arm that cannot reach its bin -- locked,
   by the cell screen -- harvests nothing), the min-max assignment's LP relaxation
   (HiGHS, :func:`coplan.allocate.allocation.min_max_bound`: fractional assignments allowed, so
-  a bound on the integer one too, and fast on thousands of fruit). No plan -- whatever the carriage does --
+  a bound on the integer one too, and fast on thousands of fruit), less the most any arm's
+  first cycle may save by starting at home rather than over its bin
+  (:func:`coplan.allocate.row_cycles.home_savings`). No plan -- whatever the carriage does --
   can be faster: an arm's cycles never overlap.
 * **Travel bound**: the carriage must get to where the last fruit can be reached from, at its
   speed limit at best, and that fruit must then still be picked and placed.
@@ -39,7 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .allocation import min_max_bound
-from .row_cycles import cycle_bounds
+from .row_cycles import cell_cycles, cycle_bounds, home_savings
 from .stop_bound import stops_bound
 from ..kinematics.timing import Move1D
 from ..problem.model import Problem
@@ -72,21 +74,23 @@ def row_bounds(problem: Problem, step: float = 0.05, priced: bool = True) -> Row
         raise ValueError(f"{problem.name!r} has no gantry: a cell's lower bound is coplan.allocate.lower_bound")
     t0 = _time.perf_counter()
     g = problem.gantry
-    cost, reach, reach_from = cycle_bounds(problem, step)
+    cc = cell_cycles(problem, step)
+    cost, reach, reach_from = cycle_bounds(problem, step, cc)
     ok = reach.any(axis=0)
     n = int(ok.sum())
     if n == 0:
         return RowBounds(0.0, 0.0, 0.0, 0.0, 0.0, g.start, 0, _time.perf_counter() - t0)
-    work = min_max_bound(np.where(reach, cost, 0.0), reach, relax=True)
+    # each arm's first cycle starts at home: the busiest arm's cycles last at least their bounds
+    # less its saving (home_savings), so the min-max less the largest saving
+    work = max(0.0, min_max_bound(np.where(reach, cost, 0.0), reach, relax=True) - float(home_savings(cc).max()))
     far = float(max(reach_from[ok].max(), g.start))
     dist = far - g.start
     travel = dist / g.max_velocity + problem.task.pick_dwell + problem.task.place_dwell
     moves = Move1D.between(g.start, far, g.max_velocity, g.max_acceleration, g.max_jerk).duration
     if dist > 0 and g.settle > 0:  # the stop the move ends at settles before its first pick (stop_bound.settle_floor)
-        from .row_cycles import cell_cycles
         from .stop_bound import settle_floor
 
-        moves += settle_floor(problem, cell_cycles(problem, step))
+        moves += settle_floor(problem, cc)
     any_plan = max(work, travel)
     pv, ps = 0.0, 0
     if priced:

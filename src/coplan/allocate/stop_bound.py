@@ -19,7 +19,9 @@ positions ``p_1, p_2, ...`` (in any order, revisits allowed), starting at rest a
 * *Work.* Each arm's cycles never overlap and each lasts at least its cycle bound with the
   carriage where it picks (:func:`coplan.allocate.row_cycles.cell_cycles`), so the stops last at
   least the busiest arm's cycles, at least their mean over the ``A`` arms that harvest: every
-  fruit costs at least ``w_f(p) = min_a cost_a(f, p) / A`` at the stop that picks it.
+  fruit costs at least ``w_f(p) = min_a cost_a(f, p) / A`` at the stop that picks it. Every
+  arm's first cycle starts at home, which may save it some of its cycle bound
+  (:func:`coplan.allocate.row_cycles.home_savings`): the mean of those savings is taken off.
 
 Positions are taken to rail cells of ``step`` m (stops in one cell merge: no move is added and
 no fruit costs more, as a cell's cost is its least over the cell; fewer moves by
@@ -61,7 +63,7 @@ import numpy as np
 
 from ..kinematics.timing import scurve_times
 from ..problem.model import Problem
-from .row_cycles import CellCycles, cell_cycles
+from .row_cycles import CellCycles, cell_cycles, home_savings
 
 __all__ = ["Programme", "StopsBound", "stops_bound", "fruit_cell_costs", "stops_dp", "settle_floor"]
 
@@ -115,7 +117,9 @@ def stops_bound(problem: Problem, step: float = STEP) -> StopsBound:
         return StopsBound(0.0, 0.0, 0.0, (), arms, step, time.perf_counter() - t0)
     value, stops, work, _ = stops_dp(first[ok], w[ok], cc.lo.size, step, g.max_velocity, g.max_acceleration, g.max_jerk,
                                      settle_floor(problem, cc))
-    return StopsBound(value, value - work, work, tuple(float(g.start + c * step) for c in stops), arms, step,
+    moves = value - work
+    work = max(0.0, work - float(home_savings(cc).sum()) / max(1, arms))  # each arm's first cycle, from home
+    return StopsBound(moves + work, moves, work, tuple(float(g.start + c * step) for c in stops), arms, step,
                       time.perf_counter() - t0)
 
 
