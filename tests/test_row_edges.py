@@ -655,3 +655,32 @@ def test_a_partial_row_whose_harvestable_fruit_are_all_harvested_says_why(tmp_pa
     said = " ".join(r.output.split())
     assert r.exit_code == 5 and "status partial" in said and "(100.0 %)" in said
     assert "why partial 1 screened-out fruit is still reachable" in said and "--resolution 0.022" in said
+
+
+def test_a_partial_row_shows_no_ratio_to_bounds_that_count_fruit_it_left(tmp_path):
+    """Regression (a new-user trial): a row whose bounds count a fruit the plan left out -- only
+    a window of rail narrower than the candidate stops' spacing serves it -- printed "ratio
+    0.774" to the stop-by-stop bound, "below 1, as this plan's arms work 0.55 s while the
+    carriage moves", and on the move at a speed given, 78 of 93 fruit, "ratio 1.099". Now the
+    summary and coplan compare give no ratio for a partial harvest, and say why."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    doc = gantry_row(length=4.0, n_arms=2, density=2.0, seed=3)
+    doc["arms"] = doc["arms"][:1]
+    doc["fruits"][-1]["position"] = [2.725, 1.7899]
+    path = tmp_path / "narrow.yaml"
+    path.write_text(to_yaml(doc))
+    run = CliRunner(env={"COLUMNS": "250"})
+    out = run.invoke(app, ["solve", str(path), "--out", str(tmp_path / "run")])
+    text = " ".join(out.output.split())
+    assert "status partial" in text and "no ratio for a partial harvest" in text, out.output
+    assert "count all 6 fruit an arm reaches from some carriage position" in text
+    assert ", ratio " not in text.split("row time", 1)[1].split("stops", 1)[0]
+    cmp = run.invoke(app, ["compare", str(path), "--out", str(tmp_path / "cmp")])
+    assert cmp.exit_code in (0, 5), cmp.output
+    rows = json.loads((tmp_path / "cmp" / "compare.json").read_text())["rows"]
+    assert rows and all(r["ratio_any_plan_bound"] is None and r["ratio_stop_and_go_bound"] is None for r in rows)

@@ -31,6 +31,15 @@ Entry point: :func:`row_bounds` -> :class:`RowBounds`.
   work bound's mean over the arms plus its stops' moves.
 
 ``any_plan`` = max(work, travel); ``stop_and_go`` = max(any_plan, moves + work, priced).
+
+What the cycle bound assumes (so what "every plan" covers): each move of a cycle is taken rest
+to rest. That holds for every move of a stop-by-stop plan, and on the move for the moves to and
+from the bin's end (the bin rides with the carriage); but a pick on the move begins and ends with
+the joints tracking the fruit, so the moves into and out of it could each be shorter by at most
+the time to brake from the tracking speed (for the lesson's arms at the gantry's 0.5 m/s, about
+0.2 s where the elbow is well bent, more near the edge of reach). No plan coplan makes on the move
+comes near that (1.31-2.09 x ``any_plan`` on the benchmark rows); a cycle bound with the tracking
+speeds in it is not written yet.
 """
 
 from __future__ import annotations

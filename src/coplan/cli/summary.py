@@ -138,6 +138,14 @@ def print_row_summary(console, res) -> None:
         # alone was cut short has its ratios, and its status says it was interrupted)
         p(f"  row time          {fmt(r.get('row_time'), ' s')} for the part planned before the interruption (the "
           f"whole row's lower bound {fmt(lb.get('any_plan'), ' s')} for any plan; no ratio for a part)")
+    elif (r.get("harvested") or 0) < max(r.get("harvestable") or 0, lb.get("fruit") or 0):
+        # (78 of 93 fruit at a speed given read "ratio 1.099" against a bound that counts all 93; a
+        # sweep leaves a partial row's ratio out too. The bounds count every fruit an arm reaches
+        # from some carriage position, those the screen's candidate stops miss included)
+        counted = max(r.get("harvestable") or 0, lb.get("fruit") or 0)
+        p(f"  row time          {fmt(r.get('row_time'), ' s')} for {r.get('harvested')} fruit (the lower bounds, "
+          f"{fmt(lb.get('any_plan'), ' s')} for any plan and {fmt(lb.get('stop_and_go'), ' s')} stop by stop, count all "
+          f"{counted} fruit an arm reaches from some carriage position: no ratio for a partial harvest)")
     else:
         p(f"  row time          {fmt(r.get('row_time'), ' s')}   ({fmt(r.get('time_per_metre'), ' s/m')}; lower bound "
           f"{fmt(lb.get('any_plan'), ' s')} for any plan, ratio {fmt(r.get('ratio_any_plan_bound'), '', 3)}; "

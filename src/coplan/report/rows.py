@@ -63,10 +63,12 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
         res = solve(problem, planner=planner, out_dir=out / rule.value, progress=nested(progress), stops=rule, options=options)
         m = res.plan.metrics.get("row") or {}
         cut = res.plan.status == PlanStatus.INTERRUPTED
+        # (the bounds count every fruit an arm reaches from some carriage position: no ratio for fewer)
+        whole = (m.get("harvested") or 0) >= max(m.get("harvestable") or 0, (m.get("lower_bound") or {}).get("fruit") or 0)
         cmp.rows.append({"rule": rule.value + (" (interrupted)" if cut else ""), "stops": m.get("stops"), "row_time": m.get("row_time"),
                          "fruit_per_hour": m.get("fruit_per_hour"), "share_harvested": m.get("share_harvested"),
-                         "ratio_any_plan_bound": m.get("ratio_any_plan_bound"),
-                         "ratio_stop_and_go_bound": m.get("ratio_stop_and_go_bound"),
+                         "ratio_any_plan_bound": m.get("ratio_any_plan_bound") if whole else None,
+                         "ratio_stop_and_go_bound": m.get("ratio_stop_and_go_bound") if whole else None,
                          "planning_time": m.get("planning_time"), "first_motion_seconds": m.get("first_motion_seconds"),
                          "kept_ahead": m.get("kept_ahead"), "verified": bool(res.verification.passed),
                          "status": res.plan.status.value, "plan": str(res.files.get("json", ""))})
