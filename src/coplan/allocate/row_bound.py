@@ -38,8 +38,12 @@ from the bin's end (the bin rides with the carriage); but a pick on the move beg
 the joints tracking the fruit, so the moves into and out of it could each be shorter by at most
 the time to brake from the tracking speed (for the lesson's arms at the gantry's 0.5 m/s, about
 0.2 s where the elbow is well bent, more near the edge of reach). No plan coplan makes on the move
-comes near that (1.31-2.09 x ``any_plan`` on the benchmark rows); a cycle bound with the tracking
-speeds in it is not written yet.
+comes near that (1.31-2.09 x ``any_plan`` on the benchmark rows). A cycle bound that allows for it
+by braking -- each move extended by a stop from the tracking state (joint speeds from ``J^-1`` at
+the gantry's top speed, accelerations with the centripetal terms), so at least a rest-to-rest
+move over the distance less the braking distance, less the braking time -- was measured and is
+too weak to use: course_row's work bound fell from 241.5 s to 50.2 s (the direction of the
+arrival speed is unknown, and near the edge of reach the joint speeds reach their limits).
 """
 
 from __future__ import annotations
@@ -55,7 +59,7 @@ from .stop_bound import stops_bound
 from ..kinematics.timing import Move1D
 from ..problem.model import Problem
 
-__all__ = ["RowBounds", "row_bounds", "cycle_bounds"]
+__all__ = ["RowBounds", "row_bounds", "cycle_bounds", "busiest_cycles"]
 
 @dataclass(frozen=True)
 class RowBounds:
@@ -107,3 +111,12 @@ def row_bounds(problem: Problem, step: float = 0.05, priced: bool = True) -> Row
         pv, ps = sb.value, len(sb.stops)
     return RowBounds(float(any_plan), float(max(any_plan, moves + work, pv)), float(work), float(travel), float(moves), far, n,
                      _time.perf_counter() - t0, float(pv), ps)
+
+
+def busiest_cycles(problem: Problem, step: float = 0.05) -> float:
+    """The busiest arm's rest-to-rest cycle bounds under the min-max assignment's LP (s): the
+    pace the on-the-move speed search starts its constant speed from (the carriage's way over it)
+    -- an estimate, not a bound (``row_bounds`` takes off what an arm's first cycle may save by
+    starting at home). Kept as it was when that correction came, so the search's plans stay the same."""
+    cost, reach, _ = cycle_bounds(problem, step)
+    return float(min_max_bound(np.where(reach, cost, 0.0), reach, relax=True))

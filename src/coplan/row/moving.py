@@ -62,7 +62,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     top is complete, the top is planned too and the level grows by half while complete. With ``levels`` it plans exactly those
     (the curve) and returns the best. The winner: complete and verified first, then the most
     fruit per hour."""
-    from ..allocate.row_bound import row_bounds
+    from ..allocate.row_bound import busiest_cycles
 
     opts = options or MovingOptions()
     reach = reach if reach is not None else row_reach(problem, opts.resolution)
@@ -103,7 +103,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                 run_many(list(levels))
             else:
                 if profile == SpeedProfile.CONSTANT:
-                    v = max(x1 - g.start, 0.05) / max(row_bounds(problem, priced=False).work, 1e-3)
+                    v = max(x1 - g.start, 0.05) / max(busiest_cycles(problem), 1e-3)
                 else:
                     v = 1.0
                 v = min(v, cap)
