@@ -146,3 +146,24 @@ def test_bin_offset_is_documented_as_the_signed_height_it_is():
     guide = (Path(__file__).resolve().parents[1] / "docs" / "usage.md").read_text()
     line = next(x for x in guide.splitlines() if x.startswith("| `bin_offset`"))
     assert "signed" in line and "below the base, m |" not in line
+
+
+def test_a_row_s_columns_compare_no_planner_with_itself_and_an_empty_file_is_not_a_generator_s(tmp_path):
+    """Regression (a new-user trial): in a row sweep "median coordinated / plan makespan" read
+    1.000 -- each coordinated row against itself, the optimal rows having none -- and a problem
+    file with no fruit was said to have had "its generator" draw none."""
+    from coplan import solve
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.sweep.columns import result_columns, why_not
+
+    doc = gantry_row(length=2.0, n_arms=2, density=2.0, seed=1)
+    row = tmp_path / "row.yaml"
+    row.write_text(to_yaml(doc))
+    res = solve(str(row), planner="coordinated")
+    cols = result_columns(res, {"planner": "coordinated", "row_length": 2.0})
+    assert cols["makespan"] and cols["coordinated_makespan"] is None and cols["heuristic_makespan"] is None
+    doc["fruits"] = []
+    empty = tmp_path / "empty.yaml"
+    empty.write_text(to_yaml(doc))
+    said = why_not(solve(str(empty), planner="coordinated"))
+    assert "its file lists none" in said and "generator" not in said

@@ -56,15 +56,18 @@ def result_columns(res, row: dict[str, Any]) -> dict[str, Any]:
         # report lost the design that asked for auto, merged with continuous)
         out.update({"gantry": row.get("gantry") or r.get("mode"), "gantry_mode": r.get("mode"),
                     "fruit_per_hour": r.get("fruit_per_hour"), "share_harvested": r.get("share_harvested"),
-                    "mean_speed": r.get("mean_speed"), "ratio": r.get("ratio_any_plan_bound")})
+                    "mean_speed": r.get("mean_speed"), "ratio": r.get("ratio_any_plan_bound"),
+                    # (no other planner's row beside it: "coordinated / plan makespan" read 1.000, a
+                    # coordinated row against itself, and the optimal rows had none)
+                    "coordinated_makespan": None, "heuristic_makespan": None})
     if (m.get("reachable") or 0) > harvested:  # (the bound counts fruit this plan left out: 0.73 'below the bound')
         out["ratio"] = None
     if not res.problem.fruits:  # nothing to plan: no makespan, bound or ratio to show (they read 0.0)
         out.update(makespan=None, lower_bound=None, ratio=None, coordinated_makespan=None, heuristic_makespan=None)
         return out
-    if planner == PlannerKind.COORDINATED.value and out["coordinated_makespan"] is None:
+    if planner == PlannerKind.COORDINATED.value and out["coordinated_makespan"] is None and not r:
         out["coordinated_makespan"] = makespan
-    if planner == PlannerKind.HEURISTIC.value:
+    if planner == PlannerKind.HEURISTIC.value and not r:
         out["heuristic_makespan"], out["heuristic_status"] = makespan, res.status.value
     return out
 
@@ -78,7 +81,11 @@ def why_not(res) -> str:
     kinds = ", ".join(ver.get("violation_kinds", []))
     m = res.plan.metrics
     if not res.problem.fruits:  # (a short row at a low density draws no fruit: 0/0 said nothing of why)
-        return f"{res.status.value}: the problem has no fruit (its generator drew none for these parameters)"
+        # (a file's problem said "its generator drew none" too; a generated one's source names the generator)
+        src = str(res.problem.source or "")
+        made = not src.endswith((".yaml", ".yml", ".json"))
+        return (f"{res.status.value}: the problem has no fruit ("
+                + ("its generator drew none for these parameters" if made else "its file lists none") + ")")
     solver = res.plan.solver or {}
     left = solver.get("left_out") or (solver.get("row") or {}).get("left_out") or {}
     if not left:  # the fruit the screen rules out (a locked arm's, say), each with its reason
