@@ -62,6 +62,9 @@ def test_ffmpeg_stopped_by_the_groups_ctrl_c_is_an_interruption_not_a_render_fai
     from matplotlib.animation import Animation
 
     def ffmpeg_interrupted(self, *args, **kwargs):
+        # (a real ffmpeg is stopped after the first frames are drawn: say so, or matplotlib warns
+        # "Animation was deleted without rendering anything" when this one is collected)
+        self._draw_was_started = True
         raise subprocess.CalledProcessError(255, ["ffmpeg", "-f", "rawvideo"])
 
     monkeypatch.setattr(Animation, "save", ffmpeg_interrupted)

@@ -167,3 +167,29 @@ def test_a_row_s_columns_compare_no_planner_with_itself_and_an_empty_file_is_not
     empty.write_text(to_yaml(doc))
     said = why_not(solve(str(empty), planner="coordinated"))
     assert "its file lists none" in said and "generator" not in said
+
+
+def test_a_sweep_names_the_arms_its_screen_locks(tmp_path):
+    """Regression (a new-user trial): two of three arms locked by their spacing was a success
+    with an empty message and no column saying so; only coplan check named them."""
+    from coplan import solve
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.sweep.columns import result_columns
+    from coplan.sweep.report import _text, summarise
+    from coplan.sweep.table import normalise
+
+    doc = gantry_row(length=1.0, n_arms=3, density=1.0, seed=1)
+    for arm, x in zip(doc["arms"], (-0.3, 0.0, 0.3)):
+        arm["base"], arm["bin"] = [x, 0.0], [x, -0.5]
+    path = tmp_path / "locked.yaml"
+    path.write_text(to_yaml(doc))
+    res = solve(str(path), planner="coordinated")
+    cols = result_columns(res, {"planner": "coordinated", "row_length": 1.0})
+    names = [a["name"] for a in doc["arms"]]
+    assert res.success and res.problem.fruits and cols["locked_arms"] == f"{names[0]}, {names[1]}"
+    cell = solve("locked_arms", planner="coordinated")  # a cell: the screen's own list
+    assert result_columns(cell, {"planner": "coordinated"})["locked_arms"] == ", ".join(cell.plan.solver["screen"]["locked"])
+    rows = [normalise({**cols, "key": "k1", "name": "locked", "status": "success", "sweep": "s"}),
+            normalise({**cols, "locked_arms": None, "key": "k2", "name": "free", "status": "success", "sweep": "s"})]
+    text = _text(summarise(rows), "s")
+    assert f"rows whose screen locks arms (they can never reach their bins: they harvest nothing): 1 -- locked (key k1): {names[0]}, {names[1]}" in text

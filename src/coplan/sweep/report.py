@@ -176,6 +176,8 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
                                     sum(r["planner"] == pl for r in with_fruit)]
                                for pl in sorted({r["planner"] for r in with_fruit if r["planner"]})},
         "success_but_not_verified": unverified_success,
+        "with_locked_arms": [{"name": r["name"] or r.get("source") or "-", "key": r["key"], "locked_arms": r["locked_arms"]}
+                             for r in rows if r.get("locked_arms")],
         "medians": med,
         "median_heuristic_over_plan": gain("heuristic_makespan", "makespan"),
         "median_coordinated_over_plan": gain("coordinated_makespan", "makespan"),
@@ -200,6 +202,11 @@ def _text(s: dict[str, Any], title: str) -> str:
                      + ("; by planner: " + ", ".join(f"{pl} {a}/{b}" for pl, (a, b) in s["success_by_planner"].items())
                         if len(s.get("success_by_planner") or {}) > 1 else ""))
     lines.append(f"rows called success whose plan was not verified: {len(s['success_but_not_verified'])}")
+    locked = s.get("with_locked_arms") or []
+    if locked:  # (a design whose arms cannot all work: a success, but not the machine it was meant to be)
+        lines.append(f"rows whose screen locks arms (they can never reach their bins: they harvest nothing): {len(locked)} -- "
+                     + "; ".join(f"{r['name']} (key {r['key']}): {r['locked_arms']}" for r in locked[:5])
+                     + (f"; ... ({len(locked) - 5} more: the locked_arms column)" if len(locked) > 5 else ""))
     lines += ["", "## Medians (successful rows)", "", "| figure | median | what, unit |", "|---|---|---|"]
     lines += [f"| {k} | {_fmt(v)} | {COLUMNS.get(k, ('', ''))[1]} |" for k, v in s["medians"].items()]
     if s["median_coordinated_over_plan"] is not None or s["median_heuristic_over_plan"] is not None:

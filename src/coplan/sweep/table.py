@@ -36,6 +36,7 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "density": ("float64", "fruit per metre of row (parameter, else fruit / row length)"),
     "n_arms": ("int64", "arms in the problem"),
     "n_fruits": ("int64", "fruit in the problem"),
+    "locked_arms": ("string", "arms the screen locks (they can never reach their bins: they harvest nothing), comma-separated"),
     "spacing": ("float64", "mean distance between neighbouring bases, m"),
     "row_length": ("float64", "m of row the cell covers (arms x spacing unless the generator says)"),
     "link_1": ("float64", "first link of the first arm, m"),
