@@ -21,7 +21,8 @@ positions ``p_1, p_2, ...`` (in any order, revisits allowed), starting at rest a
   least the busiest arm's cycles, at least their mean over the ``A`` arms that harvest: every
   fruit costs at least ``w_f(p) = min_a cost_a(f, p) / A`` at the stop that picks it. Every
   arm's first cycle starts at home, which may save it some of its cycle bound
-  (:func:`coplan.allocate.row_cycles.home_savings`): the mean of those savings is taken off.
+  (:func:`coplan.allocate.row_cycles.home_savings`, per cell, as each fruit is charged at its
+  stop's cell): the mean of those savings is taken off.
 
 Positions are taken to rail cells of ``step`` m (stops in one cell merge: no move is added and
 no fruit costs more, as a cell's cost is its least over the cell; fewer moves by
@@ -118,7 +119,8 @@ def stops_bound(problem: Problem, step: float = STEP) -> StopsBound:
     value, stops, work, _ = stops_dp(first[ok], w[ok], cc.lo.size, step, g.max_velocity, g.max_acceleration, g.max_jerk,
                                      settle_floor(problem, cc))
     moves = value - work
-    work = max(0.0, work - float(home_savings(cc).sum()) / max(1, arms))  # each arm's first cycle, from home
+    # each arm's first cycle, from home: charged at its stop's cell, so the most it saves in one cell
+    work = max(0.0, work - float(home_savings(cc, per_cell=True).sum()) / max(1, arms))
     return StopsBound(moves + work, moves, work, tuple(float(g.start + c * step) for c in stops), arms, step,
                       time.perf_counter() - t0)
 
