@@ -95,7 +95,7 @@ def row_bounds(problem: Problem, step: float = 0.05, priced: bool = True) -> Row
         return RowBounds(0.0, 0.0, 0.0, 0.0, 0.0, g.start, 0, _time.perf_counter() - t0)
     # each arm's first cycle starts at home: the busiest arm's cycles last at least their bounds
     # less its saving (home_savings), so the min-max less the largest saving
-    work = max(0.0, min_max_bound(np.where(reach, cost, 0.0), reach, relax=True) - float(home_savings(cc).max()))
+    work = max(0.0, _min_max(cost, reach) - float(home_savings(cc).max()))
     far = float(max(reach_from[ok].max(), g.start))
     dist = far - g.start
     travel = dist / g.max_velocity + problem.task.pick_dwell + problem.task.place_dwell
@@ -118,5 +118,10 @@ def busiest_cycles(problem: Problem, step: float = 0.05) -> float:
     pace the on-the-move speed search starts its constant speed from (the carriage's way over it)
     -- an estimate, not a bound (``row_bounds`` takes off what an arm's first cycle may save by
     starting at home). Kept as it was when that correction came, so the search's plans stay the same."""
-    cost, reach, _ = cycle_bounds(problem, step)
+    return _min_max(*cycle_bounds(problem, step)[:2])
+
+
+def _min_max(cost: np.ndarray, reach: np.ndarray) -> float:
+    """The busiest arm's cycles (``cost`` (A, F) s, each fruit to an arm that ``reach`` es it) under
+    the min-max assignment's LP relaxation (s)."""
     return float(min_max_bound(np.where(reach, cost, 0.0), reach, relax=True))

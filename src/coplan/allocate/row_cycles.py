@@ -181,13 +181,9 @@ def home_savings(cc: CellCycles, per_cell: bool = False) -> np.ndarray:
     for a, (b, h) in enumerate(zip(cc.ways, cc.home_ways)):
         if b is None:
             continue
-        if per_cell:
-            ok = np.isfinite(b) & np.isfinite(h)
-            gap = (np.where(ok, b, 0.0) - np.where(ok, h, 0.0))[ok]
-        else:
-            from_bin, from_home = b.min(axis=1), h.min(axis=1)
-            ok = np.isfinite(from_bin) & np.isfinite(from_home)
-            gap = from_bin[ok] - from_home[ok]
+        from_bin, from_home = (b, h) if per_cell else (b.min(axis=1), h.min(axis=1))
+        ok = np.isfinite(from_bin) & np.isfinite(from_home)
+        gap = from_bin[ok] - from_home[ok]
         if gap.size:
             out[a] = float(max(0.0, gap.max()))
     return out

@@ -76,6 +76,8 @@ def _say_if_no_fruit(p, problem) -> None:
 
 def print_row_summary(console, res) -> None:
     """The summary of a row (:class:`coplan.pipeline.SolveResult` with ``row``)."""
+    from ..row.metrics import fruit_bounds_count
+
     m = res.plan.metrics
     r = m.get("row") or {}
     ver = res.plan.verification or {}
@@ -138,11 +140,9 @@ def print_row_summary(console, res) -> None:
         # alone was cut short has its ratios, and its status says it was interrupted)
         p(f"  row time          {fmt(r.get('row_time'), ' s')} for the part planned before the interruption (the "
           f"whole row's lower bound {fmt(lb.get('any_plan'), ' s')} for any plan; no ratio for a part)")
-    elif (r.get("harvested") or 0) < max(r.get("harvestable") or 0, lb.get("fruit") or 0):
+    elif (r.get("harvested") or 0) < (counted := fruit_bounds_count(r)):
         # (78 of 93 fruit at a speed given read "ratio 1.099" against a bound that counts all 93; a
-        # sweep leaves a partial row's ratio out too. The bounds count every fruit an arm reaches
-        # from some carriage position, those the screen's candidate stops miss included)
-        counted = max(r.get("harvestable") or 0, lb.get("fruit") or 0)
+        # sweep leaves a partial row's ratio out too)
         p(f"  row time          {fmt(r.get('row_time'), ' s')} for {r.get('harvested')} fruit (the lower bounds, "
           f"{fmt(lb.get('any_plan'), ' s')} for any plan and {fmt(lb.get('stop_and_go'), ' s')} stop by stop, count all "
           f"{counted} fruit an arm reaches from some carriage position: no ratio for a partial harvest)")

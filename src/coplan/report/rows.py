@@ -45,6 +45,7 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     """Plan ``problem`` (a row) with each of ``rules``; write each run and the comparison
     (``workers``: each rule's stops' cells in that many processes, :class:`coplan.row.plan.RowOptions`)."""
     from ..pipeline import solve
+    from ..row.metrics import fruit_bounds_count
 
     say, tick = speaker(progress), ticker(progress)
     check_folder(out_dir, "out_dir")  # (before any work)
@@ -63,8 +64,7 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
         res = solve(problem, planner=planner, out_dir=out / rule.value, progress=nested(progress), stops=rule, options=options)
         m = res.plan.metrics.get("row") or {}
         cut = res.plan.status == PlanStatus.INTERRUPTED
-        # (the bounds count every fruit an arm reaches from some carriage position: no ratio for fewer)
-        whole = (m.get("harvested") or 0) >= max(m.get("harvestable") or 0, (m.get("lower_bound") or {}).get("fruit") or 0)
+        whole = (m.get("harvested") or 0) >= fruit_bounds_count(m)  # (no ratio to bounds that count fruit it left)
         cmp.rows.append({"rule": rule.value + (" (interrupted)" if cut else ""), "stops": m.get("stops"), "row_time": m.get("row_time"),
                          "fruit_per_hour": m.get("fruit_per_hour"), "share_harvested": m.get("share_harvested"),
                          "ratio_any_plan_bound": m.get("ratio_any_plan_bound") if whole else None,

@@ -47,7 +47,7 @@ from ..kinds import GantryMode
 from ..plan import EventKind, Plan
 from ..problem.model import Problem
 
-__all__ = ["row_metrics"]
+__all__ = ["row_metrics", "fruit_bounds_count"]
 
 
 def _home(problem: Problem, plan: Plan, tol: float = 1e-6) -> dict[str, np.ndarray]:
@@ -195,3 +195,10 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         out["ratio_any_plan_bound"] = span / bounds.any_plan if bounds.any_plan > 0 and span > 0 else None
         out["ratio_stop_and_go_bound"] = span / bounds.stop_and_go if bounds.stop_and_go > 0 and span > 0 else None
     return out
+
+
+def fruit_bounds_count(row: dict) -> int:
+    """How many fruit the row's lower bounds count, from a plan's ``metrics.row`` (``row``): every
+    fruit an arm reaches from some carriage position, those the screen's candidate stops miss
+    included -- at least the harvestable ones. A plan that harvested fewer has no ratio to them."""
+    return max(row.get("harvestable") or 0, (row.get("lower_bound") or {}).get("fruit") or 0)

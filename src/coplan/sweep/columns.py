@@ -52,10 +52,9 @@ def result_columns(res, row: dict[str, Any]) -> dict[str, Any]:
     }
     # (two of three arms locked by 0.6 m spacing was a success with an empty message: only coplan
     # check said why two arms did nothing and the row took longer than one arm's)
-    solver = res.plan.solver or {}
-    locked = ((m.get("row") or {}).get("locked_arms") or {}) or ((solver.get("screen") or {}).get("locked") or ())
-    out["locked_arms"] = ", ".join(sorted(locked)) or None
     r = m.get("row")
+    locked = ((r or {}).get("locked_arms") or {}) or (((res.plan.solver or {}).get("screen") or {}).get("locked") or ())
+    out["locked_arms"] = ", ".join(sorted(locked)) or None
     if r:  # a row on a gantry: what a grower judges
         # ``gantry``: the mode asked (a design's); ``gantry_mode``: the one the plan used (auto: the one kept; the
         # report lost the design that asked for auto, merged with continuous)

@@ -164,8 +164,10 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
         xs = [r[a] / r[b] for r in ok if r[a] and r[b]]
         return _median(xs)
 
-    # (a problem that could not be made has no name: its generator or file says which it was, not "None")
-    failures = [{"key": r["key"], "name": r["name"] or r.get("source") or "-", "seed": r["seed"], "status": r["status"],
+    def label(r) -> str:  # (a problem that could not be made has no name: its generator or file says which it was, not "None")
+        return r["name"] or r.get("source") or "-"
+
+    failures = [{"key": r["key"], "name": label(r), "seed": r["seed"], "status": r["status"],
                  "exit_class": r["exit_class"], "message": (r["message"] or "")[:300]}
                 for r in rows if r["status"] != RowStatus.SUCCESS.value]
     return {
@@ -176,7 +178,7 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
                                     sum(r["planner"] == pl for r in with_fruit)]
                                for pl in sorted({r["planner"] for r in with_fruit if r["planner"]})},
         "success_but_not_verified": unverified_success,
-        "with_locked_arms": [{"name": r["name"] or r.get("source") or "-", "key": r["key"], "locked_arms": r["locked_arms"]}
+        "with_locked_arms": [{"name": label(r), "key": r["key"], "locked_arms": r["locked_arms"]}
                              for r in rows if r.get("locked_arms")],
         "medians": med,
         "median_heuristic_over_plan": gain("heuristic_makespan", "makespan"),
