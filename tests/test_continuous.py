@@ -17,6 +17,7 @@ import pytest
 from typer.testing import CliRunner
 
 from coplan.cli import app
+from coplan.errors import OptionsError
 from coplan.generate import gantry_row, to_yaml
 from coplan.kinematics import arm as kin
 from coplan.kinematics.timing import Move1D
@@ -247,6 +248,41 @@ def test_the_speed_search_keeps_the_best_complete_verified_plan(row, reach):
                            for p in refined[:1])
     plain = speed_search(row, MovingOptions(search_rounds=5), reach)[1]
     assert not any(p.refined for p in plain) and len(plain) == len(curve) - len(refined)
+    # every candidate's verdict came from a screening verification (margins coarse); the plan
+    # kept is verified in full: its report is the one a fresh verification gives
+    again = verify(row, best.plan)
+    assert best.verification.options.margin_rel == 0.0
+    assert best.plan.verification["certified_clearance"] == again.certified_clearance
+    assert [p.certified for p in best.verification.pairs] == [p.certified for p in again.pairs]
+
+
+def test_a_screened_verification_gives_the_full_verdict_at_a_fraction_of_the_samples():
+    """(A 6 m row of two fruit spent 17 s planning on the move, 16 of them certifying, to half a
+    micrometre, the 1.65 m between two arms whose nearest points were a base and an elbow while
+    the base's arm swept at 4 m/s: some 1.7 million samples a candidate.) The screening
+    verification of every candidate gives the same verdict; its certified distances are bounds
+    (below the least the full one sampled), within half each pair's margin of its own least."""
+    prob = _row(length=6, n_arms=3, density=0.5, seed=0)
+    plan = plan_continuous(prob, 0.3, MovingOptions()).plan
+    full, quick = verify(prob, plan), verify(prob, plan, margin_rel=1.0)
+    assert full.passed and quick.passed and len(full.pairs) == len(quick.pairs) == 2
+    c = prob.task.clearance
+    for f, q in zip(full.pairs, quick.pairs):
+        assert f.min_clearance <= q.min_clearance + 1e-12  # (the full one sampled more)
+        assert q.min_clearance - (q.min_clearance - c) / 2 - 1e-12 <= q.certified <= f.min_clearance
+    assert sum(q.samples for q in quick.pairs) * 20 < sum(f.samples for f in full.pairs)
+    # the same verdict where the clearance asked is just below the least distance (certified only
+    # by refining) and just above it (a violation)
+    least = min(p.min_clearance for p in full.pairs)
+    for clear in (least - 1e-4, least + 1e-4):
+        data = gantry_row(length=6, n_arms=3, density=0.5, seed=0)
+        data["task"]["clearance"] = round(clear, 6)
+        other = parse_problem(to_yaml(data))
+        a, b = verify(other, plan), verify(other, plan, margin_rel=1.0)
+        assert a.passed == b.passed == (clear < least)
+        assert [v.kind for v in a.violations] == [v.kind for v in b.violations]
+    with pytest.raises(OptionsError, match="margin_rel"):
+        verify(prob, plan, margin_rel=1.5)
 
 
 def test_cpsat_order_is_kept_only_when_it_does_better(row, reach):

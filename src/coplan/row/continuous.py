@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -224,9 +224,10 @@ def assemble_moving(problem: Problem, booker: Booker, cruise: Cruise) -> Plan:
 
 def plan_continuous(problem: Problem, level: float, options: MovingOptions | None = None, reach: RowReach | None = None,
                     progress: Callable[[str], None] | None = None, demand=None, hold: float = 0.0,
-                    early: bool = False) -> RowResult:
+                    early: bool = False, screen: bool = False) -> RowResult:
     """Plan ``problem`` (a row) with the carriage at ``level`` (:func:`make_cruise`; first at
-    rest where it starts for ``hold`` s; ``early``: its early rest at the end) and verify it."""
+    rest where it starts for ``hold`` s; ``early``: its early rest at the end) and verify it
+    (``screen``: the verdict, its margins coarse: :func:`certify`)."""
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: plan it as a cell")
     opts = options or MovingOptions()
@@ -258,7 +259,7 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
             if (len(left2), _end(b2)) < (len(left), _end(booker)):
                 booker, left, info["assign"] = b2, left2, AssignRule.CPSAT.value
     timings["schedule"] = _time.perf_counter() - ts
-    res = _verified(problem, booker, cruise, reach, left, info, timings, t0)
+    res = _verified(problem, booker, cruise, reach, left, info, timings, t0, screen)
     say(planned_line(res))
     return res
 
@@ -272,25 +273,39 @@ def planned_line(res: RowResult) -> str:
 
 
 def _verified(problem: Problem, booker: Booker, cruise: Cruise, reach: RowReach, left: dict, info: dict, timings: dict,
-              t0: float) -> RowResult:
+              t0: float, screen: bool = False) -> RowResult:
     """The booked row as a plan, verified (``timings`` gains planning, counted from ``t0``, and
-    verify; ``info`` the fruit left out)."""
-    from ..verify.verifier import verify
-
+    verify; ``info`` the fruit left out; ``screen``: see :func:`certify`)."""
     plan = assemble_moving(problem, booker, cruise)
     timings["planning"] = _time.perf_counter() - t0
-    tv = _time.perf_counter()
-    ver = verify(problem, plan)
-    timings["verify"] = _time.perf_counter() - tv
-    plan = finalize_row(problem, plan, ver, reach)
     info["left_out"] = dict(reach.reasons) | left
     info["first_stop_seconds"] = None
-    plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
-    return RowResult(plan, ver, [], reach, timings, info)
+    return certify(problem, RowResult(plan, None, [], reach, timings, info), screen)
+
+
+#: how a speed search's candidate is verified (:func:`certify`): the verdict exact, each clear
+#: pair's certified least distance refined only to half its margin
+SCREEN_MARGIN = 1.0
+
+
+def certify(problem: Problem, res: RowResult, screen: bool = False) -> RowResult:
+    """``res`` with its plan verified (again) and finalised from that verdict (``timings['verify']``
+    its time). ``screen``: each clear pair's certified least distance only to within half its
+    margin (:data:`SCREEN_MARGIN`; the verdict is the same, at a fraction of the time where a
+    pair's distance stays near its least while an arm moves fast): the speed search verifies
+    its candidates so, and the plan it keeps again in full, whose report is the one written."""
+    from ..verify.verifier import verify
+
+    tv = _time.perf_counter()
+    ver = verify(problem, res.plan, margin_rel=SCREEN_MARGIN if screen else 0.0)
+    res.timings["verify"] = _time.perf_counter() - tv
+    plan = finalize_row(problem, res.plan, ver, res.reach)
+    plan.solver = {"status": plan.status.value, "row": res.info, "timings": dict(res.timings)}
+    return replace(res, plan=plan, verification=ver)
 
 
 def reorder_continuous(problem: Problem, level: float, options: MovingOptions, reach: RowReach, demand,
-                       events, hold: float = 0.0) -> tuple[RowResult | None, dict]:
+                       events, hold: float = 0.0, screen: bool = False) -> tuple[RowResult | None, dict]:
     """CP-SAT's order at ``level``, started from ``events`` (the greedy's booking at this level
     with these options, as :func:`plan_continuous` made it): the plan that order books, verified,
     if it leaves fewer fruit out (then ends sooner) than the greedy, else None (the greedy's plan
@@ -317,7 +332,8 @@ def reorder_continuous(problem: Problem, level: float, options: MovingOptions, r
                   "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.CPSAT.value,
                   "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "cpsat": report,
                   "start_hold": hold, "early_rest": False}
-    return _verified(problem, booker, cruise, reach, left, info, {"reach": 0.0, "schedule": _time.perf_counter() - t0}, t0), report
+    return _verified(problem, booker, cruise, reach, left, info, {"reach": 0.0, "schedule": _time.perf_counter() - t0}, t0,
+                     screen), report
 
 
 def _end(b: Booker) -> float:

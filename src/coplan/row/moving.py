@@ -23,8 +23,8 @@ from ..problem.plausible import cruise_speed_issue
 from ..progress import speaker
 from ..workers import process_pool
 from .branches import branch_table, screen_branches
-from .continuous import (MovingOptions, SpeedPoint, left_at_start, level_cap, make_cruise, plan_continuous, planned_line,
-                         reorder_continuous, start_served)
+from .continuous import (MovingOptions, SpeedPoint, certify, left_at_start, level_cap, make_cruise, plan_continuous,
+                         planned_line, reorder_continuous, start_served)
 from .cruise import STRETCH, cruise_end, demand_stretches, last_place_bound
 from .plan import RowResult
 from .reach import RowReach, row_reach
@@ -48,7 +48,8 @@ def _point(res: RowResult, seconds: float) -> SpeedPoint:
 def speed_search(problem: Problem, options: MovingOptions | None = None, reach: RowReach | None = None,
                  levels=None, progress: Callable[[str], None] | None = None) -> tuple[RowResult, list[SpeedPoint]]:
     """The level (speed, or pace) that maximises fruit per hour while harvesting every
-    harvestable fruit (each candidate a full, verified plan), and the curve of the levels tried.
+    harvestable fruit (each candidate a full plan, verified for its verdict: :func:`certify`,
+    its margins coarse), and the curve of the levels tried; the plan kept is verified in full.
 
     Fruit per hour rises with the level as long as every fruit is still harvested, so the search
     brackets the fastest complete level. Its top is at first the level where the carriage would
@@ -166,6 +167,11 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
             interrupted = True
     pts = [p for _, p in tried.values()]
     best = max(tried, key=lambda v: _rank(tried[v][1]))
+    if not interrupted:  # every candidate was screened (its margins coarse): the plan kept, in full
+        try:
+            tried[best] = (certify(problem, tried[best][0]), tried[best][1])
+        except KeyboardInterrupt:  # (its screened verdict stands)
+            interrupted = True
     if cpsat_report is not None:
         tried[best][0].info.setdefault("cpsat", cpsat_report)  # the search's CP-SAT step, whether kept or not
     if interrupted:
@@ -220,9 +226,9 @@ def _refine(reach: RowReach, demand, level: float, tried: dict, runner: "_Runner
 
 def _plan_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand,
               hold: float = 0.0, early: bool = False) -> tuple[RowResult, float]:
-    """One full plan in a worker process (module-level: it is pickled to the worker)."""
+    """One full plan in a worker process (module-level: it is pickled to the worker), screened."""
     t = _time.perf_counter()
-    res = plan_continuous(problem, level, opts, reach, None, demand, hold, early)
+    res = plan_continuous(problem, level, opts, reach, None, demand, hold, early, screen=True)
     return res, _time.perf_counter() - t
 
 
@@ -235,7 +241,7 @@ def _early_job(problem: Problem, level: float, opts: MovingOptions, reach: RowRe
 def _reorder_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand, events, hold: float = 0.0):
     """:func:`reorder_continuous` in a worker process: ``((result or None, report), seconds)``."""
     t = _time.perf_counter()
-    out = reorder_continuous(problem, level, opts, reach, demand, events, hold)
+    out = reorder_continuous(problem, level, opts, reach, demand, events, hold, screen=True)
     return out, _time.perf_counter() - t
 
 
@@ -267,7 +273,7 @@ class _Runner:
             for v in levels:
                 t = _time.perf_counter()
                 out.append((plan_continuous(self.problem, v, opts, self.reach, self.progress, self._demand(demand), self.hold,
-                                            early), _time.perf_counter() - t))
+                                            early, screen=True), _time.perf_counter() - t))
             return out
         futures = [self.pool.submit(_plan_job, self.problem, v, opts, self.reach, self._demand(demand), self.hold, early)
                    for v in levels]

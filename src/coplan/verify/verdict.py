@@ -140,6 +140,11 @@ class VerifyOptions:
     home_tolerance : an arm's first and last pose may miss its home by this (each joint)
     infer_events : when a plan declares no events, infer them from its motion
         (:mod:`coplan.verify.infer`) and say so; otherwise nothing counts as harvested
+    margin_rel : 0 (the default): a clear pair's certified least distance is refined to within
+        0.5 um of its least sampled distance; > 0: to within that share of the distance where
+        it is more, never more than half the pair's margin -- the same verdict, a coarser
+        margin (:func:`coplan.verify.clearance.certify_pair`; the speed search screens its
+        candidates with 1, then verifies the plan it keeps with 0)
     """
 
     substeps: int = DEFAULT_SUBSTEPS
@@ -159,11 +164,15 @@ class VerifyOptions:
     infer_events: bool = True
     carriage_tolerance: float = 1e-6  # m: a row plan's carriage start and rail ends
     home_tolerance: float = 1e-6  # rad: an arm's first and last pose against its home (plan.csv keeps 1e-7)
+    margin_rel: float = 0.0
 
     def __post_init__(self):
         # built in Python: every value checked (OptionsError: what was expected, found); a
         # refinement that splits an interval into one would never end
         check_fields(self, {"substeps", "refine_factor", "position_tolerance", "still_speed", "q_resolution"})
+        if not 0.0 <= self.margin_rel <= 1.0:
+            raise OptionsError([Issue("margin_rel", f"expected a share of the least distance from 0 to 1, found "
+                                                    f"{self.margin_rel}")], "VerifyOptions")
         if self.refine_factor < 2:
             raise OptionsError([Issue("refine_factor", f"expected an integer >= 2 (each uncertified interval split "
                                                        f"into that many), found {self.refine_factor}")], "VerifyOptions")

@@ -152,7 +152,8 @@ def _check_clearance(problem: Problem, plan: Plan, motions: list[ArmMotion], opt
     rng = np.random.default_rng(opts.seed)
     fcl_samples: list[tuple[int, int, int, float, float]] = []
     for i, j in problem.neighbour_pairs():
-        ps = certify_pair(motions, i, j, plan, clear, opts.substeps, opts.refine_levels, opts.refine_factor)
+        ps = certify_pair(motions, i, j, plan, clear, opts.substeps, opts.refine_levels, opts.refine_factor,
+                          margin_rel=opts.margin_rel)
         arms = (motions[i].name, motions[j].name)
         k = int(np.argmin(ps.d))
         links, pts = _where(motions, i, j, ps.seg[k], ps.frac[k], ps.link[k])
