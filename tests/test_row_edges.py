@@ -684,3 +684,21 @@ def test_a_partial_row_shows_no_ratio_to_bounds_that_count_fruit_it_left(tmp_pat
     assert cmp.exit_code in (0, 5), cmp.output
     rows = json.loads((tmp_path / "cmp" / "compare.json").read_text())["rows"]
     assert rows and all(r["ratio_any_plan_bound"] is None and r["ratio_stop_and_go_bound"] is None for r in rows)
+
+
+def test_check_s_carriage_span_is_never_more_than_the_rail(tmp_path):
+    """(A 0.05 m rail's two serving positions read "carriage span 0.10 m".)"""
+    import json
+
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    path = tmp_path / "short.yaml"
+    d = gantry_row(length=6.0, density=1.0, seed=0, n_arms=2)
+    d["gantry"]["end"] = 0.05
+    d["fruits"] = [{"id": "f1", "position": [0.3, 1.0]}]
+    path.write_text(to_yaml(d))
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["check", str(path), "--json"])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["carriage_span"] == pytest.approx(0.05)

@@ -693,6 +693,34 @@ def test_designs_that_differ_in_links_or_time_limit_are_told_apart_in_the_report
     assert varied(des) == ["pick_dwell"]
 
 
+def test_one_arm_designs_have_a_throughput_panel_and_file_rows_no_seed_none(tmp_path, monkeypatch):
+    """(The arms curve's one-arm rows, which have no base spacing, were left out of throughput.png;
+    the worst cases of rows swept from problem files read "seed None".)"""
+    from matplotlib.figure import Figure
+    from coplan.sweep.report import sweep_report
+    from coplan.sweep.table import RowJournal
+
+    base = {"exit_class": "ok", "verified": True, "status": "success", "reachable": 5, "planner": "coordinated",
+            "time_limit": 20.0, "sweep": "arms", "name": "row", "params": json.dumps({"density": 2.0}), "makespan": 10.0}
+    rows = [dict(base, key="a", n_arms=1, spacing=None, seed=None, throughput=10.0),
+            dict(base, key="b", n_arms=3, spacing=1.4, seed=None, throughput=25.0),
+            dict(base, key="c", n_arms=3, spacing=1.8, seed=None, throughput=28.0)]
+    journal = RowJournal(tmp_path)
+    for r in rows:
+        journal.append(r)
+    saved = {}
+    real = Figure.savefig
+
+    def savefig(fig, path, *a, **kw):
+        saved[Path(path).name] = [(ax.get_title(), len(ax.lines)) for ax in fig.axes]
+        return real(fig, path, *a, **kw)
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    rep = sweep_report(tmp_path)
+    assert saved["throughput.png"] == [("1 arm", 1), ("3 arms", 1)]
+    assert "seed None" not in rep.text and "from its file" in rep.text
+
+
 def test_two_gantry_modes_of_one_row_are_two_designs_in_the_report_not_one_with_twice_the_seeds():
     from coplan.sweep.report import designs, summarise
     from coplan.sweep.table import normalise

@@ -27,7 +27,9 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
     doc = {"problem": prob.name, "file": str(path), "arms": len(prob.arms), "fruit": len(prob.fruits),
            "row": {"start": g.start, "end": g.end, "length": g.length},
            "harvestable": len(reach.cover), "not_harvestable": dict(reach.reasons), "locked": dict(reach.locked),
-           "carriage_span": carriage_span(reach) if reach.cover else None,
+           # (the serving positions, each a resolution's width of rail, counted; at most the rail: a
+           # 0.05 m rail's two positions read 0.10 m)
+           "carriage_span": min(carriage_span(reach), g.length) if reach.cover else None,
            "stops": {"fewest": len(fewest_stops(reach, exact=True)), "fixed": len(fixed_stops(reach))},
            "lower_bound": b.to_dict()}
     # as solve would say: partial only if some fruit an arm reaches from the rail (the verifier's

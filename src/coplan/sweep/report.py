@@ -5,7 +5,7 @@ medians and worst cases, the three planners side by side where computed, and the
 designer looks at (matplotlib figures, imported lazily; no pyplot, so no backend chosen or changed):
 
 * ``throughput.png`` -- throughput (fruit/min) against base spacing, one panel per arm count,
-  one line per fruit density (median over seeds);
+  one line per fruit density (median over seeds; one arm has no spacing: a level per density);
 * ``ratio.png`` -- distribution of makespan / lower bound;
 * ``solve_time.png`` -- distribution of solve times;
 * ``pareto.png`` -- arms (cost) against throughput: every design (median over seeds) and the
@@ -189,6 +189,11 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
+def _seed(r: dict) -> str:
+    """A row's seed as the report names it (a problem file's row has none)."""
+    return "from its file" if r.get("seed") is None else f"seed {r['seed']}"
+
+
 def _fmt(x, nd=3) -> str:
     return "-" if x is None else f"{x:.{nd}f}" if isinstance(x, float) else str(x)
 
@@ -217,7 +222,7 @@ def _text(s: dict[str, Any], title: str) -> str:
     worst = {col: rs for col, rs in s["worst"].items() if rs}
     lines += ["", "## Worst cases", ""] if worst else []  # (none among no successful rows: no empty heading)
     for col, rs in worst.items():
-        lines.append(f"- {col}: " + "; ".join(f"{r['name']} (seed {r['seed']}{', ' + r['gantry'] if r.get('gantry') else ''}"
+        lines.append(f"- {col}: " + "; ".join(f"{r['name']} ({_seed(r)}{', ' + r['gantry'] if r.get('gantry') else ''}"
                                               + "".join(f", {k} {json.dumps(v, default=str)}" for k, v in (r.get("params") or {}).items()
                                                         if not (k == "gantry" and r.get("gantry")))  # (the mode said twice)
                                               + f", key {r['key']}) {_fmt(r[col])}" for r in rs))
@@ -226,7 +231,7 @@ def _text(s: dict[str, Any], title: str) -> str:
                   "|---|---|---|---|---|---|"]
         for f in s["failures"][:200]:
             msg = " ".join((f["message"] or "").split()).replace("|", "/")
-            lines.append(f"| {f['key']} | {f['name']} | {f['seed']} | {f['status']} | {f['exit_class']} | {msg} |")
+            lines.append(f"| {f['key']} | {f['name']} | {'' if f['seed'] is None else f['seed']} | {f['status']} | {f['exit_class']} | {msg} |")
         if len(s["failures"]) > 200:
             lines.append(f"| ... | {len(s['failures']) - 200} more in report.json | | | | |")
     return "\n".join(lines) + "\n"
@@ -239,7 +244,8 @@ def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
     ok = [r for r in rows if r["status"] == RowStatus.SUCCESS.value]
     des = designs(rows)
     fam = varied(des)
-    arms = sorted({d["n_arms"] for d in des if d["spacing"] is not None})
+    # (a single arm has no base spacing: its panel draws each density's throughput as a level)
+    arms = sorted({d["n_arms"] for d in des if d["spacing"] is not None or d["n_arms"] == 1})
     if arms:
         fig = Figure(figsize=(3.6 * len(arms), 3.4))
         axes = fig.subplots(1, len(arms), sharey=True, squeeze=False)
@@ -250,12 +256,15 @@ def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
                     lines.setdefault((d["density"],) + tuple(json.dumps(_value(d, f), default=str) for f in fam), []).append(d)
             for key in sorted(lines, key=lambda k: ((k[0] is None, k[0] or 0),) + k[1:]):
                 ds = lines[key]
-                pts = sorted((d["spacing"], d["throughput"]) for d in ds)
                 dn = key[0]
                 label = (f"{dn:g}/m" if dn is not None else "?") + (f", {_family_words(ds[0], fam)}" if fam else "")
-                ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", ms=3, label=label)
-            ax.set_title(f"{a} arms")
-            ax.set_xlabel("base spacing, m")
+                if a == 1:
+                    ax.axhline(_median([d["throughput"] for d in ds]), ls="--", color=f"C{len(ax.lines)}", label=label)
+                else:
+                    pts = sorted((d["spacing"], d["throughput"]) for d in ds if d["spacing"] is not None)
+                    ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", ms=3, label=label)
+            ax.set_title(f"{a} arm{'' if a == 1 else 's'}")
+            ax.set_xlabel("(one arm: no base spacing)" if a == 1 else "base spacing, m")
             ax.grid(alpha=0.3)
         axes[0][0].set_ylabel("throughput, fruit/min (median over seeds)")
         axes[0][-1].legend(title="fruit density" + (", design" if fam else ""), fontsize=7)
