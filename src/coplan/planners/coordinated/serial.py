@@ -89,7 +89,7 @@ class _Serial(ArmGeometry):
         self.step = max(margin, 0.004) / 2.0  # timed tests: both arms together move at most this between samples
         self.fine = self.step / 4.0  # static tests: an arm moves at most this between samples
         self.speed = [(a.links[0] + a.links[1]) * a.max_velocity[0] + a.links[1] * a.max_velocity[1] for a in problem.arms]
-        self.tables, self._units, self._paths, self._tests = {}, {}, {}, {}
+        self.tables, self._units, self._paths, self._tests, self._hit_memo = {}, {}, {}, {}, {}
         self.pairs, self.max_pairs = 0, None  # work: pose pairs tested (``max_pairs``: the budget)
 
     def spend(self, n: int) -> None:
@@ -102,7 +102,22 @@ class _Serial(ArmGeometry):
     # ---- static tests
     def hits(self, i: int, A: _Sweep, j: int, B: _Sweep, first: bool = False) -> np.ndarray:
         """Per block of A: whether a pose in it comes within ``need`` of a pose of B (plus half
-        of both sample gaps, so the paths between samples keep ``need``); ``first``: any."""
+        of both sample gaps, so the paths between samples keep ``need``); ``first``: any.
+        Remembered by the sweeps (kept with the answer, so their ids stay unique): taking turns
+        asks the same question again and again (a crowded 6 m row of 26 fruit asked 3,878, 2,722
+        of them new: 28 of its 38 s), and a repeat spends the work budget as the first asking did,
+        so the budget runs out where it did."""
+        key = (i, id(A), j, id(B), bool(first))
+        got = self._hit_memo.get(key)
+        if got is None:
+            before = self.pairs
+            out = self._hits(i, A, j, B, first)  # (BudgetSpent: nothing remembered)
+            got = self._hit_memo[key] = (A, B, out, self.pairs - before)
+        else:
+            self.spend(got[3])
+        return got[2].copy()
+
+    def _hits(self, i: int, A: _Sweep, j: int, B: _Sweep, first: bool) -> np.ndarray:
         a, b = self.problem.arms[i], self.problem.arms[j]
         radii, need = a.link_radius + b.link_radius, self.need + (A.gap + B.gap) / 2
         (sa0, qa0, ra0), (sa1, qa1, ra1), (sb0, qb0, rb0), (sb1, qb1, rb1) = A.levels + B.levels
