@@ -704,3 +704,33 @@ def test_a_row_problem_s_reach_is_from_every_carriage_position_on_its_rail():
     here = cell_at(p, 0.0)
     assert allocate(p, "heuristic").assignment == allocate(here, "heuristic").assignment
     assert (screened(p).reach == screened(here).reach).all()
+
+
+def test_a_stop_price_buys_fewer_stops_and_only_applies_to_the_optimised_rule_stop_and_go(tmp_path):
+    """``--stop-price S`` charges each stop S s beyond its estimated time in the optimised rule:
+    on sparse_row 2 s takes 8 stops (the fixed stride's count) where time alone takes 9; each plan
+    verified; the summary and plan.json say the price. It is refused where no optimised rule
+    chooses stops (another rule, on the move, a cell)."""
+    from coplan.row.stops import StopWindow, fixed_stops, optimised_stops
+
+    prob = load_problem(next(p for p in shipped_rows() if p.stem == "sparse_row"))
+    n_fixed = len(fixed_stops(row_reach(prob)))
+    plain = optimised_stops(prob, row_reach(prob, lazy=True))[0]
+    priced = optimised_stops(prob, row_reach(prob, lazy=True), StopWindow(stop_price=2.0))[0]
+    assert len(priced) <= n_fixed < len(plain)
+    assert sorted(f for s in priced for f in s.fruit) == sorted(f for s in plain for f in s.fruit)
+    run = CliRunner(env={"COLUMNS": "200"}).invoke
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=8.0, density=2.0, seed=3)))
+    r = run(app, ["solve", str(path), "--stop-price", "2", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0 and "each priced 2.00 s beyond its time" in r.output, r.output
+    doc = json.loads((tmp_path / "o" / "plan.json").read_text())
+    assert doc["solver"]["row"]["stop_price"] == 2.0 and doc["status"] == "success"
+    for args, words in ((["--stops", "fixed"], "not --stops fixed"), (["--gantry", "continuous"], "not on the move"),
+                        (["--stop-price", "-1"], "expected a number in [0, 600] s")):
+        extra = args if "--stop-price" in args else ["--stop-price", "2", *args]
+        r = run(app, ["solve", str(path), *extra, "--out", str(tmp_path / "x")])
+        assert r.exit_code == 2 and words in r.output, r.output
+    r = run(app, ["solve", "crossing_paths", "--stop-price", "2", "--out", str(tmp_path / "y")])
+    assert r.exit_code == 2 and "stationary cell" in r.output
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()

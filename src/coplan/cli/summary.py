@@ -90,7 +90,9 @@ def print_row_summary(console, res) -> None:
            "on the move (the carriage need not move: every fruit is in reach from where it starts)" if still else
            f"on the move ({safe(r.get('profile'))} speed profile, {fmt(r.get('mean_speed'), ' m/s', 3)} on average while it moves, "
            f"top {fmt(r.get('top_speed'), ' m/s', 3)})" if moving else
-           f"stops {safe(solver.get('rule'))}, cell planner {safe(solver.get('cell_planner'))}"
+           f"stops {safe(solver.get('rule'))}"
+           + (f" (each priced {fmt(solver['stop_price'], ' s', 2)} beyond its time)" if solver.get("stop_price") else "")
+           + f", cell planner {safe(solver.get('cell_planner'))}"
            + (f" ({solver['retimed_cells']} of {r.get('stops')} cells retimed by CP-SAT)" if solver.get("retime") else ""))
     p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, {how}, "
       f"status [bold {colour}]{res.plan.status.value}[/]")

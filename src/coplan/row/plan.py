@@ -263,6 +263,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     interrupted = False
     try:
         if rule == StopRule.OPTIMISED:
+            info["stop_price"] = float(opts.window.stop_price)
             _, info["stops_solver"] = optimised_stops(problem, reach, opts.window, lambda s: (kept.append(s), on_stop(s)))
         else:
             for s in (fixed_stops(reach) if rule == StopRule.FIXED else fewest_stops(reach, exact=True)):
