@@ -702,3 +702,26 @@ def test_check_s_carriage_span_is_never_more_than_the_rail(tmp_path):
     r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["check", str(path), "--json"])
     assert r.exit_code == 0, r.output
     assert json.loads(r.output)["carriage_span"] == pytest.approx(0.05)
+
+
+def test_compare_on_a_row_says_why_a_rule_s_row_is_not_a_success(tmp_path):
+    """(A row without fruit compared as three rows of "0.0 s, verified" and exit 0, where solve
+    says infeasible, nothing to harvest.) Each rule's status is in compare.json, and a rule whose
+    row is not a success gets a note, printed and in compare.md."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    path = tmp_path / "empty.yaml"
+    d = gantry_row(length=6.0, density=1.0, seed=0, n_arms=2)
+    d["fruits"] = []
+    path.write_text(to_yaml(d))
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["compare", str(path), "--out", str(tmp_path / "c")])
+    assert r.exit_code == 0, r.output
+    for rule in ("optimised", "fixed", "fewest"):
+        line = f"stop rule {rule}: status infeasible: no fruit can be harvested from any carriage position (the problem lists no fruit)"
+        assert f"note: {line}" in r.output and line in (tmp_path / "c" / "compare.md").read_text()
+    doc = json.loads((tmp_path / "c" / "compare.json").read_text())
+    assert {row["status"] for row in doc["rows"]} == {"infeasible"} and len(doc["notes"]) == 3

@@ -104,6 +104,8 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
         for row in cells:
             table.add_row(*row)
         print_table(out_console, table)
+        for note in cmp.notes:
+            out_console.print(f"note: {safe(note)}", highlight=False)
         out_console.print(f"wrote {safe(cmp.files['json'])} and {safe(cmp.files['markdown'])}")
     return code
 

@@ -72,6 +72,8 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
                          "planning_time": m.get("planning_time"), "first_motion_seconds": m.get("first_motion_seconds"),
                          "kept_ahead": m.get("kept_ahead"), "verified": bool(res.verification.passed),
                          "status": res.plan.status.value, "plan": str(res.files.get("json", ""))})
+        if res.plan.status not in (PlanStatus.SUCCESS, PlanStatus.INTERRUPTED):  # (an empty row read "0.0 s, verified")
+            cmp.notes.append(_status_note(rule, res.plan, problem))
         if cut:  # Ctrl-C / SIGTERM: what finished is written, said, and the run stops
             cmp.notes.append(f"interrupted while planning stop rule {rule.value}: its row is cut short (status interrupted); "
                              f"this report covers {i} of {len(rules)} rules whole")
@@ -79,6 +81,16 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
             raise KeyboardInterrupt
     _write(cmp, out)
     return cmp
+
+
+def _status_note(rule: StopRule, plan, problem: Problem) -> str:
+    """Why a rule's row is not a success, in one line (its status is in compare.json too)."""
+    m = plan.metrics
+    why = {PlanStatus.INFEASIBLE: "no fruit can be harvested from any carriage position"
+                                  + (" (the problem lists no fruit)" if not problem.fruits else ""),
+           PlanStatus.PARTIAL: f"{m.get('harvested', 0)} of {m.get('reachable', 0)} harvestable fruit harvested",
+           PlanStatus.UNSAFE: "the verifier failed its plan (verification.json says where)"}.get(plan.status, "")
+    return f"stop rule {rule.value}: status {plan.status.value}" + (f": {why}" if why else "")
 
 
 def _write(cmp: RowComparison, out: Path) -> None:
