@@ -668,3 +668,48 @@ def test_export_plan_takes_a_plan_file_s_path(tmp_path):
     assert out == [tmp_path / "e.csv", tmp_path / "e.events.csv"] and (tmp_path / "e.csv").read_text().startswith("t,")
     with pytest.raises(TypeError, match="expected a Plan or a plan file's path, found int"):
         export_plan(5, 100.0, "csv", tmp_path / "f.csv")
+
+
+def test_row_entry_points_refuse_what_they_cannot_use_before_any_work(tmp_path):
+    """(A new user's notebook: plan_row("sparse_row") raised "'str' object has no attribute
+    'gantry'"; row_metrics of another row's problem gave "harvested 34 of 34" for a row of 30;
+    row_metrics(problem, coplan.solve(...)) an AttributeError; coplan.allocate of a row read the
+    carriage as standing at 0 and left fruit "unreachable"; a stop price with the fixed rule was
+    silently ignored; coplan.report.compare of a row ran the cell planners on it.)"""
+    import coplan
+    from coplan.errors import OptionsError
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.planners.coordinated import plan_coordinated
+    from coplan.problem import load_problem, parse_problem
+    from coplan.report.comparison import compare
+    from coplan.row.metrics import row_metrics
+    from coplan.row.moving import plan_moving
+    from coplan.row.plan import RowOptions, plan_row
+    from coplan.row.stops import StopWindow
+
+    p = parse_problem(to_yaml(gantry_row(length=6, density=2, seed=3)))
+    q = parse_problem(to_yaml(gantry_row(length=6, density=3, seed=4)))
+    rr = plan_row(p)
+    cases = [
+        (lambda: plan_row("sparse_row"), TypeError, "plan_row: expected a Problem"),
+        (lambda: plan_row(p, None, 5), TypeError, "progress: expected a callable"),
+        (lambda: plan_moving(gantry_row(length=6, density=2, seed=3)), TypeError, "plan_moving: expected a Problem"),
+        (lambda: row_metrics(q, rr), ValueError, "expected the row the result was planned for"),
+        (lambda: row_metrics(load_problem("crossing_paths"), rr), ValueError, "a Problem with a gantry"),
+        (lambda: row_metrics(p, coplan.solve(p)), TypeError, "result.plan.metrics['row']"),
+        (lambda: row_metrics(p, rr.plan), TypeError, "expected a RowResult"),
+        (lambda: row_metrics(p, rr, bounds=5), TypeError, "bounds: expected RowBounds"),
+        (lambda: coplan.allocate(p, "makespan"), ValueError, "allocate: 'row-6m"),
+        (lambda: plan_coordinated(p), ValueError, "is a row (it has a gantry)"),
+        (lambda: RowOptions(stops="fixed", window=StopWindow(stop_price=2)), OptionsError, "window.stop_price: expected 0"),
+        (lambda: coplan.solve(p, stops="fewest", options=RowOptions(window=StopWindow(stop_price=2))), OptionsError, "stop_price"),
+        (lambda: StopWindow(stop_price=1e6), OptionsError, "at most 600 s"),
+        (lambda: compare(str(tmp_path / "row.yaml"), out_dir=tmp_path / "c"), ValueError, "compare_rows"),
+    ]
+    (tmp_path / "row.yaml").write_text(to_yaml(gantry_row(length=6, density=2, seed=3)))
+    for call, kind, words in cases:
+        with pytest.raises(kind) as e:
+            call()
+        assert words in str(e.value), (words, str(e.value))
+    assert not (tmp_path / "c").exists()
+    assert row_metrics(p, rr)["stops"] == len(rr.stops)  # (the right inputs still work)

@@ -696,13 +696,16 @@ def test_a_row_problem_s_reach_is_from_every_carriage_position_on_its_rail():
     assert p.reachable_ids() == row_reachable_ids(p) and len(p.reachable_ids()) == len(p.fruits)
     for k in (0, 1234, 2500):  # (positions of its 1 cm grid)
         assert not (cell_at(p, p.gantry.start + 0.01 * k).reach_matrix() & ~m).any()
-    # the cell stages given the row itself still take the arms where they stand (the carriage at
-    # 0), as before: the rail's reach with carriage-0 poses raised KeyError in the allocation
+    # the screen given the row itself takes the arms where they stand (the carriage at 0); the
+    # allocation refuses a row (it read the carriage as standing at 0 and left fruit
+    # 'unreachable' without a word) and names the cell at a carriage position instead
     from coplan.allocate import allocate
     from coplan.allocate.screen import screened
 
     here = cell_at(p, 0.0)
-    assert allocate(p, "heuristic").assignment == allocate(here, "heuristic").assignment
+    with pytest.raises(ValueError, match="is a row .*cell_at"):
+        allocate(p, "heuristic")
+    assert allocate(here, "heuristic").assignment
     assert (screened(p).reach == screened(here).reach).all()
 
 

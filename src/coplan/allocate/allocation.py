@@ -38,7 +38,7 @@ import numpy as np
 from ..kinematics import arm as kin
 from ..errors import CoplanError
 from ..kinds import AllocationMethod, SequenceRule
-from ..problem.gantry import standing_reach
+from ..problem.gantry import require_cell, standing_reach
 from ..problem.model import Arm, Problem
 from ..kinematics.timing import move_lower_bound, sync_duration
 from ..ties import TIE, TIME_QUANTUM, first_min, quantised
@@ -463,6 +463,7 @@ def allocate(
     ``bound``: the makespan lower bound, when the caller has already computed it
     (:func:`lower_bound` depends only on the problem); computed here otherwise.
     """
+    require_cell(problem, "allocate")
     t0 = _time.perf_counter()
     method = AllocationMethod(method)
     if sequence is None:

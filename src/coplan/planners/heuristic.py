@@ -74,6 +74,9 @@ def grid(t_end: float, rate: float = DEFAULT_RATE) -> np.ndarray:
 
 def plan_heuristic(problem: Problem, allocation: Allocation | None = None, rate: float = DEFAULT_RATE) -> Plan:
     """Plan every arm with the course's method. The plan is ``UNVERIFIED`` until verified."""
+    from ..problem.gantry import require_cell
+
+    require_cell(problem, "plan_heuristic")
     if not finite_number(rate) or rate < DEFAULT_RATE:  # (a plan file's grid, which the verifier holds every plan to)
         raise ValueError(f"rate: expected a sample rate of at least {DEFAULT_RATE:g} Hz, found {rate!r}")
     if allocation is not None and not isinstance(allocation, Allocation):

@@ -28,7 +28,7 @@ from .yamlsafe import did_you_mean, line_of, path_str
 
 # (``Problem`` in the annotations below is coplan.problem.model.Problem, which imports this module)
 
-__all__ = ["Gantry", "parse_gantry", "cell_at", "carriage_extent", "off_rail", "gantry_range_issues", "GANTRY_KEYS", "rail_reach", "standing_reach", "REACH_STEP"]
+__all__ = ["Gantry", "parse_gantry", "cell_at", "require_cell", "carriage_extent", "off_rail", "gantry_range_issues", "GANTRY_KEYS", "rail_reach", "standing_reach", "REACH_STEP"]
 
 #: The keys of a ``gantry`` section: required ones first.
 GANTRY_KEYS = ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle")
@@ -220,3 +220,13 @@ def cell_at(problem: "Problem", x: float, fruit_ids=None, name: str | None = Non
         fruits = tuple(f for f in problem.fruits if f.id in keep)
     return replace(problem, arms=arms, fruits=fruits, gantry=None, name=name or f"{problem.name}@{x:.3f}",
                    source=None, digest=None)
+
+
+def require_cell(problem, what: str) -> None:
+    """ValueError where ``problem`` is a row (it has a gantry) but ``what`` works on a stationary
+    cell: said before any work (a coordinated plan of a row failed its verification, an
+    allocation of a row read its carriage as standing at 0 and left fruit 'unreachable')."""
+    if getattr(problem, "gantry", None) is not None:
+        raise ValueError(f"{what}: {problem.name!r} is a row (it has a gantry): plan it with coplan.solve, or "
+                         f"coplan.row.plan_row / plan_moving; {what} works on a stationary cell (the cell at carriage "
+                         f"position x: coplan.problem.gantry.cell_at(problem, x))")

@@ -223,7 +223,11 @@ def compare(
     files = _problem_files(source)
     single = isinstance(source, (str, Path)) and not Path(source).is_dir()
     if single:
-        load_problem(files[0])  # a bad or missing file fails here, before the output folder is made
+        first = load_problem(files[0])  # a bad or missing file fails here, before the output folder is made
+        if first.gantry is not None:  # (its heuristic column read "ValueError: ... plans a stationary cell")
+            raise ValueError(f"source: {first.name!r} is a row (it has a gantry): its stop rules side by side are "
+                             f"coplan.report.rows.compare_rows(problem, out_dir) (coplan compare ROW.yaml); "
+                             f"compare() sets the cell planners side by side")
     say = speaker(progress)
     tick = ticker(progress)
     out = Path(out_dir)

@@ -74,8 +74,35 @@ def _not_in_reach_yet(reach, arm: int, events, x: np.ndarray, waiting: np.ndarra
     return out
 
 
+def _check_inputs(problem, result, bounds) -> None:
+    """TypeError / ValueError before any figure: a result that is not a row planner's, a problem
+    that is not its (another row's fruit gave 'harvested 34 of 34' for a row of 30), bounds of
+    another kind."""
+    from ..allocate.row_bound import RowBounds
+    from .plan import RowResult
+
+    if not isinstance(result, RowResult):
+        hint = (" (coplan.solve's result carries them already: result.plan.metrics['row'])"
+                if hasattr(result, "plan") and hasattr(result, "files") else "")
+        raise TypeError(f"result: expected a RowResult (coplan.row.plan_row / plan_moving){hint}, found "
+                        f"{type(result).__name__}")
+    if not isinstance(problem, Problem) or problem.gantry is None:
+        raise ValueError(f"problem: expected the row the result was planned for (a Problem with a gantry), found "
+                         f"{getattr(problem, 'name', type(problem).__name__)!r}" + ("" if isinstance(problem, Problem) else
+                                                                                   f" ({type(problem).__name__})"))
+    mine = result.reach.problem
+    if problem is not mine and (problem.name != mine.name or [f.id for f in problem.fruits] != [f.id for f in mine.fruits]
+                                or problem.digest != mine.digest):
+        raise ValueError(f"problem: expected the row the result was planned for, {mine.name!r}, found {problem.name!r}"
+                         + (" (the same name, other fruit or text)" if problem.name == mine.name else ""))
+    if bounds is not None and not isinstance(bounds, RowBounds):
+        raise TypeError(f"bounds: expected RowBounds (coplan.allocate.row_bound.row_bounds(problem)) or None, found "
+                        f"{type(bounds).__name__}")
+
+
 def row_metrics(problem: Problem, result, bounds=None) -> dict:
     """The row metrics of a :class:`coplan.row.plan.RowResult` (module docstring)."""
+    _check_inputs(problem, result, bounds)
     plan: Plan = result.plan
     g = problem.gantry
     m = plan.metrics

@@ -308,6 +308,9 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
                 progress: Callable[[str], None] | None = None) -> RowResult:
     """A row on the move: at ``options.level``, or at the level :func:`speed_search` chooses
     (its curve in ``plan.solver['row']['speed_curve']``); planning time covers the search."""
+    from .plan import check_row_call
+
+    check_row_call(problem, progress, "plan_moving")
     if options is not None and not isinstance(options, MovingOptions):
         raise TypeError(f"options: a row on the move takes MovingOptions(...), found {type(options).__name__} {options!r}")
     if getattr(problem, "gantry", None) is None:  # (as plan_row says it: it raised from deep in the screen)

@@ -81,6 +81,10 @@ class RowOptions:
         if not isinstance(self.window, StopWindow):
             raise OptionsError([Issue("window", f"expected StopWindow(...), found {type(self.window).__name__} "
                                                 f"{self.window!r}")], "RowOptions")
+        if self.window.stop_price and StopRule(self.stops) != StopRule.OPTIMISED:  # (it was silently ignored)
+            raise OptionsError([Issue("window.stop_price", f"expected 0 with stops {StopRule(self.stops).value!r} (a price per "
+                                                           f"stop is the optimised rule's), found {self.window.stop_price:g}")],
+                               "RowOptions")
         if self.planner == PlannerKind.HEURISTIC:
             raise OptionsError([Issue("planner", "expected 'coordinated' or 'optimal' (the cell planner at each stop; the "
                                                  "course's heuristic plans a stationary cell, not a row's stops), found 'heuristic'")],
@@ -210,11 +214,25 @@ def _cell_job(cell: Problem, opts: RowOptions, drive: float | None = None) -> tu
     return _cell_plan(cell, opts, drive), _time.perf_counter() - t
 
 
+def check_row_call(problem, progress, what: str) -> None:
+    """TypeError where a row planner's ``problem`` is not a :class:`Problem` or ``progress`` not
+    a callable (a name, path or mapping: :func:`coplan.solve` reads those; here a name raised
+    "'str' object has no attribute 'gantry'")."""
+    if not isinstance(problem, Problem):
+        raise TypeError(f"{what}: expected a Problem (coplan.problem.load_problem reads a file or a shipped name; "
+                        f"coplan.solve also takes a name, a path or a mapping), found {type(problem).__name__} "
+                        f"{str(problem)[:60]!r}")
+    if progress is not None and not callable(progress):
+        raise TypeError(f"{what}: progress: expected a callable taking one message (str), or None; found "
+                        f"{type(progress).__name__}")
+
+
 def plan_row(problem: Problem, options: RowOptions | None = None, progress: Callable[[str], None] | None = None) -> RowResult:
     """Plan ``problem`` (a row: it has a gantry) end to end and verify it (module docstring).
     The row's figures: :func:`coplan.row.metrics.row_metrics` (see :class:`RowResult`)."""
     from ..verify.verifier import verify
 
+    check_row_call(problem, progress, "plan_row")
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: plan it as a cell")
     if options is not None and not isinstance(options, RowOptions):

@@ -246,6 +246,11 @@ def arm_overheads(problem: Problem) -> list[float]:
     return out
 
 
+#: the most a stop may be priced beyond its time (s; ``--stop-price``): ten minutes is already
+#: more than any stop takes, so the rule then takes the fewest stops each segment allows
+MAX_STOP_PRICE = 600.0
+
+
 @dataclass(frozen=True)
 class StopWindow:
     """The optimised rule's receding segments: ``spans`` carriage spans of rail per segment;
@@ -267,6 +272,9 @@ class StopWindow:
 
     def __post_init__(self) -> None:
         check_fields(self, {"spans"})  # built in Python: every value checked (OptionsError: what was expected, found)
+        if self.stop_price > MAX_STOP_PRICE:  # (as --stop-price)
+            raise OptionsError([Issue("stop_price", f"expected a price per stop of at most {MAX_STOP_PRICE:g} s, found "
+                                                    f"{self.stop_price:g}")], "StopWindow")
         fr = self.fractions
         if not (isinstance(fr, (tuple, list)) and fr and all(isinstance(x, (int, float)) and not isinstance(x, bool)
                                                              and math.isfinite(x) and x > 0 for x in fr)):

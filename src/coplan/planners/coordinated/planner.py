@@ -338,7 +338,10 @@ def plan_coordinated(
 ) -> CoordinatedResult:
     """Allocate, schedule time-optimal S-curve moves, coordinate conflict-free; verify.
     ``on_feasible``: see :func:`find_coordinated`."""
+    from ...problem.gantry import require_cell
     from ...verify.verifier import verify
+
+    require_cell(problem, "plan_coordinated")
 
     if isinstance(allocation, Allocation):
         raise TypeError("allocation: the coordinated planner allocates itself; it takes the method ('makespan' or "

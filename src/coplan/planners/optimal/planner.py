@@ -87,6 +87,9 @@ def plan_optimal(
 ) -> OptimalResult:
     """Plan all arms, anytime: the stages of :data:`~coplan.planners.optimal.stages.STAGES` in
     turn (coordinated, retime, search, refine, polish, widen); every incumbent verified."""
+    from ...problem.gantry import require_cell
+
+    require_cell(problem, "plan_optimal")
     opts = options or OptimalOptions()
     if opts.ipopt and (bad := ipopt_issues(opts.ipopt)):  # (checked when made, but a dict can change since)
         raise OptionsError(bad, f"{type(opts).__name__}, as changed since it was made")
