@@ -675,7 +675,8 @@ def test_row_entry_points_refuse_what_they_cannot_use_before_any_work(tmp_path):
     'gantry'"; row_metrics of another row's problem gave "harvested 34 of 34" for a row of 30;
     row_metrics(problem, coplan.solve(...)) an AttributeError; coplan.allocate of a row read the
     carriage as standing at 0 and left fruit "unreachable"; a stop price with the fixed rule was
-    silently ignored; coplan.report.compare of a row ran the cell planners on it.)"""
+    silently ignored; coplan.report.compare of a row ran the cell planners on it; a live row's
+    mode auto was refused only once the run started.)"""
     import coplan
     from coplan.errors import OptionsError
     from coplan.generate import gantry_row, to_yaml
@@ -685,6 +686,7 @@ def test_row_entry_points_refuse_what_they_cannot_use_before_any_work(tmp_path):
     from coplan.row.metrics import row_metrics
     from coplan.row.moving import plan_moving
     from coplan.row.plan import RowOptions, plan_row
+    from coplan.row.sensing import LiveRowOptions
     from coplan.row.stops import StopWindow
 
     p = parse_problem(to_yaml(gantry_row(length=6, density=2, seed=3)))
@@ -704,6 +706,8 @@ def test_row_entry_points_refuse_what_they_cannot_use_before_any_work(tmp_path):
         (lambda: RowOptions(stops="fixed", window=StopWindow(stop_price=2)), OptionsError, "window.stop_price: expected 0"),
         (lambda: coplan.solve(p, stops="fewest", options=RowOptions(window=StopWindow(stop_price=2))), OptionsError, "stop_price"),
         (lambda: StopWindow(stop_price=1e6), OptionsError, "at most 600 s"),
+        (lambda: LiveRowOptions(mode="auto"), OptionsError, "mode: expected continuous or stop-and-go"),
+        (lambda: coplan.solve(5), TypeError, "coplan.solve also takes a Problem or a mapping"),
         (lambda: compare(str(tmp_path / "row.yaml"), out_dir=tmp_path / "c"), ValueError, "compare_rows"),
     ]
     (tmp_path / "row.yaml").write_text(to_yaml(gantry_row(length=6, density=2, seed=3)))

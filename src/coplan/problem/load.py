@@ -429,7 +429,8 @@ def load_problem(path: str | Path) -> Problem:
     ``coplan`` commands take it; a
     missing file elsewhere named like one gets an error that gives the shipped file's path."""
     if not isinstance(path, (str, os.PathLike)):
-        raise TypeError(f"problem: expected the path of a YAML problem file (str or Path), found {type(path).__name__}"
+        raise TypeError(f"problem: expected the path of a YAML problem file or a shipped problem's name (str or Path; "
+                        f"coplan.solve also takes a Problem or a mapping), found {type(path).__name__}"
                         + ("; a problem as a mapping (coplan.generate's): coplan.solve(mapping), or "
                            "coplan.parse_problem(coplan.generate.to_yaml(mapping))"
                            if isinstance(path, Mapping) else ""))

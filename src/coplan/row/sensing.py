@@ -106,6 +106,9 @@ class LiveRowOptions:
                    if getattr(self, name) > top]
         if not 0.005 <= self.close_distance <= 1.0:  # (a feed file's close_range.distance range)
             issues.append(Issue("close_distance", f"expected a number in [0.005, 1] m, found {self.close_distance!r}"))
+        if self.mode == GantryMode.AUTO:  # (refused only once the run started, as a ValueError)
+            issues.append(Issue("mode", "expected continuous or stop-and-go for a live row (a live planner runs one mode), "
+                                        "found auto"))
         if not isinstance(self.faults, RowFaults):
             issues.append(Issue("faults", f"expected RowFaults(...), found {type(self.faults).__name__} {self.faults!r}"))
         if issues:
