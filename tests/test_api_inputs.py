@@ -717,3 +717,10 @@ def test_row_entry_points_refuse_what_they_cannot_use_before_any_work(tmp_path):
         assert words in str(e.value), (words, str(e.value))
     assert not (tmp_path / "c").exists()
     assert row_metrics(p, rr)["stops"] == len(rr.stops)  # (the right inputs still work)
+    # verify takes a problem as a mapping, as solve does (coplan.generate's): the same verdict
+    from coplan.verify import verify
+
+    data = gantry_row(length=6, density=2, seed=3)
+    assert verify(data, rr.plan).passed and verify(data, rr.plan).summary() == verify(p, rr.plan).summary()
+    with pytest.raises(coplan.ProblemError, match="found an empty mapping"):
+        verify({}, rr.plan)

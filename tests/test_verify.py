@@ -593,8 +593,8 @@ def test_verify_takes_paths_and_says_what_it_expects(tmp_path):
     by_object = verify(problem, plan, fcl=FclMode.OFF)
     assert by_path.summary()["violation_kinds"] == by_object.summary()["violation_kinds"] == ["collision", "jerk"]
     assert by_path.fcl is None and by_path.certified_clearance == pytest.approx(by_object.certified_clearance, abs=1e-6)
-    with pytest.raises(TypeError, match="problem: expected a Problem or the path of a problem file, found dict"):
-        verify({}, plan)
+    with pytest.raises(TypeError, match="problem: expected a Problem, the path of a problem file or a mapping, found list"):
+        verify([], plan)
     with pytest.raises(TypeError, match="plan: expected a Plan or the path of a plan file"):
         verify(problem, plan.q)
     with pytest.raises(TypeError, match="expected options among .*found 'fcll'"):

@@ -18,7 +18,7 @@ from .output import RunFolder, check_folder, signals_deferred
 from .planners.heuristic import plan_heuristic
 from .plan import EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem.model import Problem
-from .problem.load import file_record, load_problem, parse_problem
+from .problem.load import file_record, load_problem, problem_from_mapping
 
 __all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
 
@@ -165,25 +165,6 @@ def _checked_as_a_file(problem: Problem) -> None:
     found = [Issue(path_str(loc), msg) for loc, msg in problem_issues(problem)] + home_issues(problem) + position_issues(problem)
     if found:  # (home poses too close: a plan 'unsafe' at t = 0 s; a fruit twice: harvested twice -- where a file says why)
         raise ProblemError(found, f"{problem.source}, as changed in Python" if problem.source else "a problem built in Python")
-
-
-def _from_mapping(data: Mapping) -> Problem:
-    """A problem given as a mapping (as :mod:`coplan.generate` makes them), checked as a file is
-    -- its issues named by key path only: the lines are those of a YAML text the caller never saw."""
-    import dataclasses
-
-    from .errors import ProblemError
-    from .problem.generate import to_yaml
-
-    if not data:  # (it said "found an empty file")
-        from .errors import Issue
-
-        raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty mapping")],
-                           "a problem given as a mapping")
-    try:
-        return parse_problem(to_yaml(dict(data)), "a problem given as a mapping")
-    except ProblemError as e:
-        raise ProblemError([dataclasses.replace(i, line=None) for i in e.issues], e.source) from None
 
 
 def _options_for(planner: PlannerKind, options, row: GantryMode | None = None) -> None:
@@ -333,7 +314,7 @@ def solve(
         raise TypeError(f"progress: expected a callable taking one message (str), or None; found {type(progress).__name__}")
     if out_dir is not None:
         check_folder(out_dir, "out_dir")  # (before any work: a solve is not lost to where it goes)
-    prob = problem if isinstance(problem, Problem) else _from_mapping(problem) if isinstance(problem, Mapping) else load_problem(problem)
+    prob = problem if isinstance(problem, Problem) else problem_from_mapping(problem) if isinstance(problem, Mapping) else load_problem(problem)
     if isinstance(problem, Problem):  # (built or changed in Python: the plausible ranges and plan length a file gets)
         _checked_as_a_file(problem)
     if prob.gantry is not None:

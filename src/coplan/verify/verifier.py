@@ -429,8 +429,13 @@ def _arguments(problem, plan, options, overrides: dict) -> tuple[Problem, Plan, 
     what was expected, not an ``AttributeError`` from deep inside."""
     if isinstance(problem, (str, os.PathLike)):
         problem = load_problem(problem)
+    elif isinstance(problem, Mapping):  # (as coplan.solve takes one: coplan.generate's)
+        from ..problem.load import problem_from_mapping
+
+        problem = problem_from_mapping(problem)
     elif not isinstance(problem, Problem):
-        raise TypeError(f"verify(): problem: expected a Problem or the path of a problem file, found {type(problem).__name__}")
+        raise TypeError(f"verify(): problem: expected a Problem, the path of a problem file or a mapping, found "
+                        f"{type(problem).__name__}")
     if isinstance(plan, (str, os.PathLike)):
         plan = load_plan(plan)
     elif not isinstance(plan, Plan):
