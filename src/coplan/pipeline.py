@@ -18,7 +18,8 @@ from .output import RunFolder, check_folder, signals_deferred
 from .planners.heuristic import plan_heuristic
 from .plan import EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem.model import Problem
-from .problem.load import file_record, load_problem, problem_from_mapping
+from .problem.generate import problem_from_mapping
+from .problem.load import file_record, load_problem
 
 __all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
 

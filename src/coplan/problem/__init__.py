@@ -13,7 +13,8 @@
 """
 
 from .model import Arm, Fruit, Problem, Task
-from .load import default_problem_path, load_problem, parse_problem, problem_from_mapping, shipped_problems, shipped_rows
+from .generate import problem_from_mapping
+from .load import default_problem_path, load_problem, parse_problem, shipped_problems, shipped_rows
 
 __all__ = ["Arm", "Fruit", "Problem", "Task", "default_problem_path", "load_problem", "parse_problem", "problem_from_mapping",
            "shipped_problems", "shipped_rows"]

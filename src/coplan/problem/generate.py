@@ -25,14 +25,18 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..kinematics import arm as kin
 
-__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "problem_dict", "LESSON_DEFAULTS",
+if TYPE_CHECKING:  # (annotations only: the model is not imported at run time here)
+    from .model import Problem
+
+__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "problem_dict",
+           "problem_from_mapping", "LESSON_DEFAULTS",
            "LESSON_TASK", "LESSON_GANTRY"]
 
 #: The arm of the course's cell (``greenhouse_row.yaml``): every field of ``defaults``. The lesson
@@ -534,3 +538,21 @@ def to_yaml(d, header: str | None = None) -> str:
         else:
             out.append(f"{_scalar(key)}: {_flow(value)}")
     return "\n".join(out) + "\n"
+
+
+def problem_from_mapping(data: Mapping[str, Any]) -> "Problem":
+    """A problem given as a mapping (as :mod:`coplan.generate` makes them), checked as a file is
+    -- its issues named by key path only: the lines are those of a YAML text the caller never saw
+    (``coplan.solve`` and ``coplan.verify`` take one)."""
+    from dataclasses import replace
+
+    from ..errors import Issue, ProblemError
+    from .load import parse_problem
+
+    if not data:  # (it said "found an empty file")
+        raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty mapping")],
+                           "a problem given as a mapping")
+    try:
+        return parse_problem(to_yaml(dict(data)), "a problem given as a mapping")
+    except ProblemError as e:
+        raise ProblemError([replace(i, line=None) for i in e.issues], e.source) from None

@@ -28,7 +28,7 @@ from .spec import (ARM_REQUIRED, EXPECT, TOP_KEYS, ArmFieldsSpec, ArmSpec, Fruit
                    name_value)
 from .yamlsafe import MAX_FILE_BYTES, did_you_mean, line_of, path_str, read_yaml, read_input_text
 
-__all__ = ["load_problem", "parse_problem", "problem_from_mapping", "file_record", "text_digest", "resolve_name", "default_problem_path",
+__all__ = ["load_problem", "parse_problem", "file_record", "text_digest", "resolve_name", "default_problem_path",
            "shipped_problems", "shipped_rows"]
 
 
@@ -472,17 +472,3 @@ def shipped_rows() -> list[Path]:
     """The shipped rows (problems with a gantry: ``problems/rows/``), sorted by name."""
     return sorted((_problems_dir() / "rows").glob("*.yaml"))
 
-
-def problem_from_mapping(data: Mapping) -> Problem:
-    """A problem given as a mapping (as :mod:`coplan.generate` makes them), checked as a file is
-    -- its issues named by key path only: the lines are those of a YAML text the caller never saw
-    (``coplan.solve`` and ``coplan.verify`` take one)."""
-    from .generate import to_yaml
-
-    if not data:  # (it said "found an empty file")
-        raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty mapping")],
-                           "a problem given as a mapping")
-    try:
-        return parse_problem(to_yaml(dict(data)), "a problem given as a mapping")
-    except ProblemError as e:
-        raise ProblemError([replace(i, line=None) for i in e.issues], e.source) from None

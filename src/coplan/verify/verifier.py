@@ -430,7 +430,7 @@ def _arguments(problem, plan, options, overrides: dict) -> tuple[Problem, Plan, 
     if isinstance(problem, (str, os.PathLike)):
         problem = load_problem(problem)
     elif isinstance(problem, Mapping):  # (as coplan.solve takes one: coplan.generate's)
-        from ..problem.load import problem_from_mapping
+        from ..problem.generate import problem_from_mapping
 
         problem = problem_from_mapping(problem)
     elif not isinstance(problem, Problem):
