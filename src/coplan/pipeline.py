@@ -20,6 +20,7 @@ from .plan import EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem.model import Problem
 from .problem.generate import problem_from_mapping
 from .problem.load import file_record, load_problem
+from .progress import check_progress
 
 __all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
 
@@ -311,8 +312,7 @@ def solve(
     from .verify.verifier import verify
 
     t0 = _time.perf_counter()
-    if progress is not None and not callable(progress):  # (it failed minutes in, at the first message)
-        raise TypeError(f"progress: expected a callable taking one message (str), or None; found {type(progress).__name__}")
+    check_progress(progress)
     if out_dir is not None:
         check_folder(out_dir, "out_dir")  # (before any work: a solve is not lost to where it goes)
     prob = problem if isinstance(problem, Problem) else problem_from_mapping(problem) if isinstance(problem, Mapping) else load_problem(problem)

@@ -17,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Protocol, runtime_checkable
 
-__all__ = ["Tick", "Reporter", "speaker", "ticker", "nested"]
+__all__ = ["Tick", "Reporter", "speaker", "ticker", "nested", "check_progress"]
 
 
 @dataclass(frozen=True)
@@ -76,6 +76,14 @@ class Reporter(Protocol):
     def __call__(self, message: str) -> None: ...
 
     def tick(self, tick: Tick) -> None: ...
+
+
+def check_progress(progress, where: str = "") -> None:
+    """TypeError, before any work, unless ``progress`` is a callable or None (``where``: the entry
+    point, said first): a bad one failed minutes in, at the first message."""
+    if progress is not None and not callable(progress):
+        raise TypeError(f"{where + ': ' if where else ''}progress: expected a callable taking one message (str), or None; "
+                        f"found {type(progress).__name__}")
 
 
 def speaker(progress: Callable[[str], None] | None) -> Callable[[str], None]:

@@ -471,4 +471,3 @@ def shipped_problems() -> list[Path]:
 def shipped_rows() -> list[Path]:
     """The shipped rows (problems with a gantry: ``problems/rows/``), sorted by name."""
     return sorted((_problems_dir() / "rows").glob("*.yaml"))
-

@@ -134,9 +134,7 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
     if options is not None and not isinstance(options, LiveRowOptions):
         raise TypeError(f"options: a live row takes LiveRowOptions(...), found {type(options).__name__} {options!r}")
     opts = options or LiveRowOptions()
-    mode = GantryMode(opts.mode)
-    if mode == GantryMode.AUTO:
-        raise ValueError("mode: expected continuous or stop-and-go for a live row (a live planner runs one mode), found auto")
+    mode = GantryMode(opts.mode)  # (LiveRowOptions refuses auto when built)
     g = problem.gantry
     reports = row_reports(problem, opts)
     if mode == GantryMode.CONTINUOUS:

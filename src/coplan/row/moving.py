@@ -26,7 +26,7 @@ from .branches import branch_table, screen_branches
 from .continuous import (MovingOptions, SpeedPoint, certify, left_at_start, level_cap, make_cruise, plan_continuous,
                          planned_line, reorder_continuous, start_served)
 from .cruise import STRETCH, cruise_end, demand_stretches, last_place_bound
-from .plan import RowResult
+from .plan import RowResult, check_row_call
 from .reach import RowReach, row_reach
 from .starthold import start_hold
 
@@ -308,8 +308,6 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
                 progress: Callable[[str], None] | None = None) -> RowResult:
     """A row on the move: at ``options.level``, or at the level :func:`speed_search` chooses
     (its curve in ``plan.solver['row']['speed_curve']``); planning time covers the search."""
-    from .plan import check_row_call
-
     check_row_call(problem, progress, "plan_moving")
     if options is not None and not isinstance(options, MovingOptions):
         raise TypeError(f"options: a row on the move takes MovingOptions(...), found {type(options).__name__} {options!r}")

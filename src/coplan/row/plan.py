@@ -38,7 +38,7 @@ from ..kinematics.timing import Move1D
 from ..plan import DEFAULT_RATE, Event, EventKind, Plan, compute_metrics, finalize_plan
 from ..problem.gantry import cell_at
 from ..problem.model import Problem
-from ..progress import Tick, speaker, ticker
+from ..progress import Tick, check_progress, speaker, ticker
 from .reach import DEFAULT_RESOLUTION, RowReach, row_reach, screened_out
 from .stops import Stop, StopWindow, arrival_time, fewest_stops, fixed_stops, optimised_stops
 
@@ -222,9 +222,7 @@ def check_row_call(problem, progress, what: str) -> None:
         raise TypeError(f"{what}: expected a Problem (coplan.problem.load_problem reads a file or a shipped name; "
                         f"coplan.solve also takes a name, a path or a mapping), found {type(problem).__name__} "
                         f"{str(problem)[:60]!r}")
-    if progress is not None and not callable(progress):
-        raise TypeError(f"{what}: progress: expected a callable taking one message (str), or None; found "
-                        f"{type(progress).__name__}")
+    check_progress(progress, what)
 
 
 def plan_row(problem: Problem, options: RowOptions | None = None, progress: Callable[[str], None] | None = None) -> RowResult:
