@@ -719,3 +719,24 @@ def test_verify_says_where_a_plan_files_own_figures_are_not_its_motions(tmp_path
     got = json.loads(j.stdout[j.stdout.index("{"):])["stated_figures"]
     assert got == {"makespan": {"stated": 1.0, "measured": pytest.approx(true_span)},
                    "harvested": {"stated": 99.0, "measured": float(true_n)}}
+    # the Python verdict carries the same figures, as a warning too, and names the problem it checked
+    ver = verify(load_problem(shipped("crossing_paths.yaml")), out / "plan.json")
+    assert ver.passed and ver.stated_figures == got and ver.to_dict()["stated_figures"] == got
+    assert [w.kind for w in ver.warnings].count(WarningKind.STATED_FIGURES) == 1
+    assert "harvested 99 stated" in next(w.message for w in ver.warnings if w.kind == WarningKind.STATED_FIGURES)
+    doc["metrics"]["makespan"], doc["metrics"]["harvested"] = true_span, true_n
+    (out / "plan.json").write_text(json.dumps(doc))
+    assert verify(load_problem(shipped("crossing_paths.yaml")), out / "plan.json").stated_figures == {}
+
+
+def test_verification_names_the_problem_it_checked_a_plan_against(tmp_path):
+    """A plan of another problem is verified against the problem given: the verdict names that
+    problem, and a problem_name warning names the plan's."""
+    text = shipped("crossing_paths.yaml").read_text()
+    plan = plan_heuristic(load_problem(shipped("crossing_paths.yaml")))
+    (tmp_path / "other.yaml").write_text(text.replace("name: crossing-paths", "name: elsewhere"))
+    other = load_problem(tmp_path / "other.yaml")
+    ver = verify(other, plan)
+    assert ver.problem == "elsewhere"
+    assert [w.message for w in ver.warnings if w.kind == WarningKind.PROBLEM_NAME] == \
+        ["plan is for 'crossing-paths', problem is 'elsewhere'"]

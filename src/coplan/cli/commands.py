@@ -405,39 +405,19 @@ def verify_cmd(
         else ExitCode.OK if ver.complete else ExitCode.PARTIAL
     from ..plan import EventKind
 
-    events = loaded.events or ver.inferred_events or []
-    places = [e.t_end for e in events if e.kind == EventKind.PLACE]
-    stated = stated_figures(loaded, max(places) if places else 0.0, len(set(prob.reachable_ids())) - len(ver.unharvested))
+    places = [e.t_end for e in (loaded.events or ver.inferred_events or []) if e.kind == EventKind.PLACE]
     if as_json:  # (the verdict as the exit code says it, as `solve --json` carries it: a script reads one document)
-        typer.echo(json.dumps(ver.to_dict() | ({"stated_figures": stated} if stated else {}) | failures.exit_fields(code),
+        typer.echo(json.dumps(ver.to_dict() | failures.exit_fields(code),
                               indent=1, allow_nan=False))
     else:
         print_verification(out_console, prob, ver, makespan=max(places) if places else None,
                            label=getattr(loaded, "label", None))
-        if stated:  # (an edited plan.json stated 90 s and 200 fruit beside a 186 s motion, and passed without a word)
-            out_console.print("  [yellow]stated figures[/]    the plan file's own figures are not its motion's (the verdict is "
-                              "the motion's): " + "; ".join(f"{k} {v['stated']:g} stated, {v['measured']:g} measured"
-                                                            for k, v in stated.items()))
         if code == ExitCode.INFEASIBLE:  # (it said "passed" and exited 4 without a word why)
             out_console.print("  nothing to plan   no fruit of the problem is reachable: exit 4 (infeasible), as "
                               "`coplan solve` and `coplan check` say of it")
         if written is not None:
             out_console.print(f"  wrote             {_s(written)}")
     raise typer.Exit(int(code))
-
-
-def stated_figures(plan, makespan: float, harvested: int) -> dict:
-    """The figures a plan file states (``metrics``: makespan, harvested; a row's row time) that its
-    motion does not bear out: ``{name: {"stated", "measured"}}``, empty where they agree or it
-    states none."""
-    m = plan.metrics or {}
-    out = {}
-    for key, measured, tol in (("makespan", makespan, 1e-6), ("harvested", harvested, 0),
-                               ("row_time", makespan if (m.get("row") or {}).get("row_time") is not None else None, 1e-6)):
-        said = (m.get("row") or {}).get("row_time") if key == "row_time" else m.get(key)
-        if measured is not None and isinstance(said, (int, float)) and not isinstance(said, bool) and abs(said - measured) > tol:
-            out[key] = {"stated": float(said), "measured": float(measured)}
-    return out
 
 
 @app.command("compare")

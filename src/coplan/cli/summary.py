@@ -310,6 +310,7 @@ WARNING_WORDS = {
     "problem_name": "the plan names another problem",
     "events_inferred": "the plan declares no events; they were inferred from its motion",
     "not_home": "an arm ends away from its home pose",
+    "stated_figures": "the plan file's own figures (metrics) are not its motion's",
 }
 
 
@@ -347,6 +348,9 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     for w in ver.warnings:
         if w.kind == WarningKind.EVENTS_INFERRED:  # harvesting judged from events the verifier inferred: say so
             p(f"  [yellow]events inferred[/]   {safe(w.message.removeprefix('the plan declares no events: '))}")
+    for w in ver.warnings:
+        if w.kind == WarningKind.STATED_FIGURES:  # (an edited plan.json stated 90 s and 200 fruit beside a 186 s motion)
+            p(f"  [yellow]stated figures[/]    {safe(w.message)}")
     if not ver.pairs:
         p("  least clearance   - (no two arms can touch)")
     else:

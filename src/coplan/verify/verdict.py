@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from enum import Enum
 from pathlib import Path
@@ -112,6 +113,7 @@ class WarningKind(str, Enum):
     PROBLEM_NAME = "problem_name"  # the plan names another problem
     EVENTS_INFERRED = "events_inferred"  # the plan declares no events: they were inferred from its motion
     NOT_HOME = "not_home"  # an arm that does not end at its home pose (left out; or stopped by a declared fault)
+    STATED_FIGURES = "stated_figures"  # the plan file's own figures (metrics) are not its motion's
 
 
 class IntervalKind(str, Enum):
@@ -283,7 +285,7 @@ class PairClearance:
 class Verification:
     """The verdict on one plan; ``summary()`` goes into ``plan.json``, ``save()`` writes the rest."""
 
-    problem: str
+    problem: str  # the name of the problem checked against (a plan naming another: a problem_name warning)
     planner: str
     duration: float
     required_clearance: float
@@ -302,6 +304,9 @@ class Verification:
     # the problem text checked against and the one the plan records it was planned from:
     # {"sha256": str | None, "planned_from": {"path", "sha256"} | None, "same_text": bool | None}
     problem_file: dict | None = None
+    # the figures the plan file states (its ``metrics``) that its motion does not bear out:
+    # ``{name: {"stated", "measured"}}`` (makespan, harvested, a row's row_time); empty where they agree
+    stated_figures: dict[str, dict[str, float]] = field(default_factory=dict)
 
     def __repr__(self) -> str:  # (short: the pairs' intervals and every finding stay out of a notebook cell)
         kinds = sorted({v.kind.value for v in self.violations})
@@ -391,6 +396,7 @@ class Verification:
             "fcl": None if self.fcl is None else self.fcl.to_dict(),
             "inferred_events": None if self.inferred_events is None else [e.to_dict() for e in self.inferred_events],
             "problem_file": self.problem_file,
+            "stated_figures": self.stated_figures,
             "timings": self.timings,
         }
         return _json(doc)
@@ -402,6 +408,22 @@ class Verification:
         p.parent.mkdir(parents=True, exist_ok=True)
         atomic_text(p, json.dumps(self.to_dict(), indent=1, allow_nan=False))
         return p
+
+
+def stated_figures(metrics: Mapping[str, Any] | None, makespan: float | None, harvested: int) -> dict[str, dict[str, float]]:
+    """The figures a plan file states (``metrics``: makespan, harvested; a row's row time) that its
+    motion does not bear out (``makespan``: its last place's end, s; ``harvested``: fruit picked and
+    placed): ``{name: {"stated", "measured"}}``, empty where they agree or it states none."""
+    m = metrics or {}
+    row = m.get("row") if isinstance(m.get("row"), Mapping) else {}
+    out: dict[str, dict[str, float]] = {}
+    for key, said, measured, tol in (("makespan", m.get("makespan"), makespan, 1e-6),
+                                     ("harvested", m.get("harvested"), harvested, 0),
+                                     ("row_time", row.get("row_time"), makespan, 1e-6)):
+        if measured is not None and isinstance(said, (int, float)) and not isinstance(said, bool) \
+                and abs(said - measured) > tol:
+            out[key] = {"stated": float(said), "measured": float(measured)}
+    return out
 
 
 def report_path(path: str | Path) -> Path:

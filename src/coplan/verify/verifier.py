@@ -453,6 +453,18 @@ def _arguments(problem, plan, options, overrides: dict) -> tuple[Problem, Plan, 
     return problem, plan, replace(opts, fcl=FclMode(opts.fcl))
 
 
+def _check_stated(problem: Problem, plan: Plan, ver: Verification) -> None:
+    """The plan file's own figures (its ``metrics``) against its motion's: a warning per figure
+    that differs (an edited plan.json stated 90 s and 200 fruit beside a 186 s motion)."""
+    places = [e.t_end for e in plan.events or [] if e.kind == EventKind.PLACE]
+    harvested = len(set(problem.reachable_ids())) - len(ver.unharvested)
+    ver.stated_figures = _verdict.stated_figures(plan.metrics, max(places) if places else 0.0, harvested)
+    if ver.stated_figures:
+        ver.warnings.append(Finding(WarningKind.STATED_FIGURES, (), None, message=(
+            "the plan file's own figures are not its motion's (the verdict is the motion's): " + "; ".join(
+                f"{k} {v['stated']:g} stated, {v['measured']:g} measured" for k, v in ver.stated_figures.items()))))
+
+
 def verify(problem: Problem | str | os.PathLike, plan: Plan | str | os.PathLike, options: VerifyOptions | None = None,
            **overrides: Any) -> Verification:
     """Verify ``plan`` against ``problem``; keyword overrides replace :class:`VerifyOptions` fields.
@@ -466,8 +478,8 @@ def verify(problem: Problem | str | os.PathLike, plan: Plan | str | os.PathLike,
     problem, plan, opts = _arguments(problem, plan, options, overrides)
     _check_inputs(problem, plan)
     check_row_inputs(problem, plan)
-    # (a plan.csv names no problem: the one it is checked against)
-    ver = Verification(plan.problem or problem.name, plan.planner_name, plan.duration, problem.task.clearance, opts)
+    # (the problem it is checked against; a plan naming another is a warning below)
+    ver = Verification(problem.name, plan.planner_name, plan.duration, problem.task.clearance, opts)
     record = plan.problem_file
     ver.problem_file = {"sha256": problem.digest, "planned_from": None if record is None else dict(record),
                         "same_text": None if record is None or problem.digest is None else record["sha256"] == problem.digest}
@@ -501,6 +513,7 @@ def verify(problem: Problem | str | os.PathLike, plan: Plan | str | os.PathLike,
     if problem.gantry is not None:
         check_carriage(problem, plan, opts, ver)
     _check_events(problem, plan, motions, opts, ver)
+    _check_stated(problem, plan, ver)
     t3 = _time.perf_counter()
     ver.timings = {"clearance": t1 - t0, "fcl": t2 - t1, "limits_events": t3 - t2, "total": t3 - t0}
     ver.violations.sort(key=lambda v: (v.t, v.kind.value))
