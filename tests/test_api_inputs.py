@@ -85,7 +85,7 @@ def test_a_problem_changed_in_python_no_longer_names_its_file(cell):
     (RowOptions, {"planner": "heuristic"}, "planner: expected 'coordinated' or 'optimal' (the cell planner at each stop"),
     (OptimalOptions, {"margin": -1.0}, "margin: expected a non-negative number"),
     (CoordinatedOptions, {"margin": "a"}, "margin: expected a non-negative number, found string 'a'"),
-    (RowOptions, {"resolution": -1}, "resolution: expected a positive number"),
+    (RowOptions, {"resolution": -1}, "resolution: expected a spacing of the carriage positions from 0.01 to 0.5 m, found -1"),
     (RowOptions, {"stops": "bogus"}, "stops: stop rule: expected one of 'optimised', 'fixed', 'fewest'; found 'bogus'"),
     (MovingOptions, {"level": 0}, "level: expected a positive number or null"),
     (MovingOptions, {"profile": "x"}, "profile: speed profile: expected one of"),
@@ -96,7 +96,10 @@ def test_a_problem_changed_in_python_no_longer_names_its_file(cell):
     (LiveRowOptions, {"faults": "x"}, "faults: expected RowFaults(...), found str 'x'"),
     (RowFaults, {"camera_dark": -3}, "camera_dark: expected a non-negative number, found number -3"),
     (RowOptions, {"window": -1}, "window: expected StopWindow(...), found int -1"),
-    (StopWindow, {"fractions": ()}, "fractions: expected strides as positive fractions of a carriage span"),
+    (StopWindow, {"fractions": ()}, "fractions: expected strides as fractions of a carriage span, each above 0 and at most 1"),
+    (StopWindow, {"fractions": (0.5, 5.0)}, "fractions: expected strides as fractions of a carriage span, each above 0 and at most 1"),
+    (RowOptions, {"resolution": 100}, "resolution: expected a spacing of the carriage positions from 0.01 to 0.5 m, found 100"),
+    (MovingOptions, {"resolution": 0.001}, "resolution: expected a spacing of the carriage positions from 0.01 to 0.5 m, found 0.001"),
     (StopWindow, {"spans": -1.0}, "spans: expected a positive number, found number -1"),
     (VerifyOptions, {"refine_factor": 1}, "refine_factor: expected an integer >= 2"),
     (VerifyOptions, {"position_tolerance": math.nan}, "position_tolerance: expected a positive number, found number nan"),
@@ -111,6 +114,7 @@ def test_options_built_in_python_are_checked_as_an_options_file_is(cls, kw, word
 @pytest.mark.parametrize("cls, kw", [
     (OptimalOptions, {"search_work": "x", "workers": 0, "widen_goal": 0.5}),
     (RowOptions, {"workers": 0, "resolution": -1}),
+    (RowOptions, {"workers": 0, "resolution": 9.0}),
     (MovingOptions, {"workers": "many", "level": 0}),
 ])
 def test_every_bad_option_is_said_at_once_workers_too(cls, kw):
@@ -119,6 +123,17 @@ def test_every_bad_option_is_said_at_once_workers_too(cls, kw):
     with pytest.raises(OptionsError) as e:
         cls(**kw)
     assert sorted(i.path for i in e.value.issues) == sorted(kw)
+
+
+def test_the_row_resolution_range_is_the_command_lines():
+    """RowOptions and MovingOptions take the spacings --resolution takes, no others."""
+    from coplan.row.reach import RESOLUTION_RANGE
+
+    lo, hi = RESOLUTION_RANGE
+    assert RowOptions(resolution=lo).resolution == lo and MovingOptions(resolution=hi).resolution == hi
+    for bad in (hi * 1.01, lo * 0.99):
+        r = runner.invoke(app, ["check", "sparse_row", "--resolution", repr(bad)])
+        assert r.exit_code == 2 and f"{lo:g}" in r.output and f"{hi:g}" in r.output, r.output
 
 
 def test_options_given_as_their_values_become_them():

@@ -41,7 +41,7 @@ from .booking import Booker, run_policy
 from .branches import branch_table
 from .cruise import Cruise, cruise_end, demand_stretches, pick_windows
 from .plan import RowResult, finalize_row
-from .reach import DEFAULT_RESOLUTION, RowReach, row_reach
+from .reach import DEFAULT_RESOLUTION, RowReach, resolution_issues, row_reach
 
 __all__ = ["MovingOptions", "assemble_moving", "plan_continuous", "reorder_continuous", "SpeedPoint", "make_cruise", "least_pace",
            "level_cap", "start_served", "left_at_start", "planned_line", "MIN_SPEED"]
@@ -161,7 +161,7 @@ class MovingOptions:
     rate: float = DEFAULT_RATE
 
     def __post_init__(self) -> None:
-        bad = settle_workers(self, collect=True)  # (auto: this machine's cores, at most 8)
+        bad = settle_workers(self, collect=True) + resolution_issues(self.resolution)  # (auto: this machine's cores, at most 8)
         check_fields(self, {'level', 'rate', 'workers', 'resolution', 'search_rounds'}, found=bad)  # built in Python: every value checked (OptionsError: what was expected, found)
         if not MIN_RATE <= self.rate <= MAX_RATE:  # (a coarser grid is one no verifier passes; a finer one, gigabytes)
             raise OptionsError([Issue("rate", f"expected a plan sample rate from {MIN_RATE:g} to {MAX_RATE:g} Hz, "

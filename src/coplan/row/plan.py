@@ -39,7 +39,7 @@ from ..plan import DEFAULT_RATE, Event, EventKind, Plan, compute_metrics, finali
 from ..problem.gantry import cell_at
 from ..problem.model import Problem
 from ..progress import Tick, check_progress, speaker, ticker
-from .reach import DEFAULT_RESOLUTION, RowReach, row_reach, screened_out
+from .reach import DEFAULT_RESOLUTION, RowReach, resolution_issues, row_reach, screened_out
 from .stops import Stop, StopWindow, arrival_time, fewest_stops, fixed_stops, optimised_stops
 
 __all__ = ["RowOptions", "RowResult", "StopPlan", "plan_row", "assemble", "finalize_row"]
@@ -76,7 +76,7 @@ class RowOptions:
     retime_work: float = 0.5
 
     def __post_init__(self) -> None:
-        bad = settle_workers(self, collect=True)  # (auto: this machine's cores, at most 8)
+        bad = settle_workers(self, collect=True) + resolution_issues(self.resolution)  # (auto: this machine's cores, at most 8)
         check_fields(self, {'resolution', 'workers', 'retime_work'}, found=bad)
         if not isinstance(self.window, StopWindow):
             raise OptionsError([Issue("window", f"expected StopWindow(...), found {type(self.window).__name__} "

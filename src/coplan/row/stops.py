@@ -277,9 +277,10 @@ class StopWindow:
                                                     f"{self.stop_price:g}")], "StopWindow")
         fr = self.fractions
         if not (isinstance(fr, (tuple, list)) and fr and all(isinstance(x, (int, float)) and not isinstance(x, bool)
-                                                             and math.isfinite(x) and x > 0 for x in fr)):
-            raise OptionsError([Issue("fractions", f"expected strides as positive fractions of a carriage span, e.g. "
-                                                   f"(0.5, 0.75, 1.0), found {fr!r}")], "StopWindow")
+                                                             and math.isfinite(x) and 0 < x <= 1 for x in fr)):
+            # (a stride longer than the span a fruit stays in reach skips fruit: each then a stop of its own)
+            raise OptionsError([Issue("fractions", f"expected strides as fractions of a carriage span, each above 0 and "
+                                                   f"at most 1, e.g. (0.5, 0.75, 1.0), found {fr!r}")], "StopWindow")
 
 
 class TripCosts:
