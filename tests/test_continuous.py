@@ -403,6 +403,10 @@ def test_solve_on_the_move_writes_a_plan_that_verify_accepts(tmp_path, row):
     assert doc["status"] == "success"
     plan = load_plan(tmp_path / "out" / "plan.json")
     assert plan.solver["row"]["mode"] == "continuous" and plan.metrics["row"]["mode"] == "continuous"
+    # no stop on the move: no stop's time or planning either (they read 0 s, as if a stop took none)
+    r = plan.metrics["row"]
+    assert r["stops"] == 0 and r["stop_positions"] == []
+    assert r["mean_time_per_stop"] is None and r["slowest_stop_seconds"] is None
     assert verify(row, plan).passed
     res = CliRunner().invoke(app, ["verify", str(path), str(tmp_path / "out" / "plan.json")])
     assert res.exit_code == 0, res.output

@@ -154,7 +154,7 @@ class RowMetrics(BaseModel):  # (open: coplan may add figures)
     stops: int | None = Field(None, description="stops the carriage makes (0 on the move)")
     stop_positions: list[float] | None = Field(None, description="m, the carriage origin's x at each stop")
     mean_time_per_stop: float | None = Field(None, description="s, from the carriage's arrival to the end of the stop's "
-                                                                "last pick, when it may leave")
+                                                                "last pick, when it may leave (null: no stop, on the move)")
     carriage_moving_share: float | None = Field(None, description="share of the row time (0-1) the carriage moves")
     picking_share: float | None = Field(None, description="share of the row time (0-1) some arm holds still on a fruit")
     overlap_seconds: float | None = Field(None, description="s the carriage moves while some arm works (away from home), "
@@ -168,7 +168,7 @@ class RowMetrics(BaseModel):  # (open: coplan may add figures)
     first_stop_seconds: float | None = Field(None, description="s of planning until the first stop was known")
     first_motion_seconds: float | None = Field(None, description="s of planning until the row can start moving (on the "
                                                                   "move: the end of planning)")
-    slowest_stop_seconds: float | None = Field(None, description="s, the longest planning of one stop's cell")
+    slowest_stop_seconds: float | None = Field(None, description="s, the longest planning of one stop's cell (null: no stop)")
     least_slack_seconds: float | None = Field(None, description="s, the least time a stop's cell was planned before the "
                                                                  "carriage needed it (negative: late; null on the move)")
     kept_ahead: bool | None = Field(None, description="every stop's cell planned before the carriage needed it (null: "

@@ -194,7 +194,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         "fruit_per_hour_per_arm": {k: v * per_h for k, v in counts.items()},
         "stops": len(result.stops),
         "stop_positions": [round(sp.stop.x, 4) for sp in result.stops],
-        "mean_time_per_stop": float(np.mean(stands)) if stands else 0.0,
+        "mean_time_per_stop": float(np.mean(stands)) if stands else None,  # (None: no stop, on the move)
         "carriage_moving_share": float((moves & in_row).sum() * dt / span) if span > 0 else 0.0,
         "picking_share": float((picking & in_row).sum() * dt / span) if span > 0 else 0.0,
         # the carriage moving while an arm works (away from home at either end of the interval)
@@ -204,7 +204,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         "planning_over_row_time": planning / span if span > 0 else None,
         "first_stop_seconds": first,
         "first_motion_seconds": motion,
-        "slowest_stop_seconds": max((sp.seconds for sp in result.stops), default=0.0),
+        "slowest_stop_seconds": max((sp.seconds for sp in result.stops), default=None),
         "least_slack_seconds": min(slack) if slack else None,
         "kept_ahead": min(slack) >= 0.0 if slack else None,  # (None: no stop to keep ahead of)
     }
