@@ -150,3 +150,18 @@ def test_coplan_allocate_is_the_stage_function_whatever_was_imported_first():
             "assert coplan.allocate.allocate(p, 'makespan').assignment == a.assignment\n")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr
+
+
+def test_coplan_verify_is_the_stage_function_as_allocate_is():
+    """``coplan.verify(problem, plan)`` verifies (it said "'module' object is not callable": the
+    name is the stage's package); ``coplan.verify.verify`` is the same function."""
+    import subprocess
+    import sys
+
+    code = ("import coplan\np = coplan.load_problem('crossing_paths')\n"
+            "r = coplan.solve(p, planner='heuristic')\n"
+            "v = coplan.verify(p, r.plan)\nassert type(v).__name__ == 'Verification', v\n"
+            "assert v.passed == coplan.verify.verify(p, r.plan).passed == r.verification.passed\n"
+            "assert 'verify' in dir(coplan) and callable(coplan.verify)\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
