@@ -233,3 +233,10 @@ def test_the_summary_shows_a_slow_joints_jerk_not_zero():
     from coplan.cli.summary import _jerk
 
     assert [_jerk(v) for v in (0.05, 0.1234, 41.26, 80.0, 1234.5, 0.0)] == ["0.05", "0.123", "41.3", "80", "1234", "0"]
+
+
+def test_solve_takes_p_for_its_planner_as_compare_does(tmp_path):
+    """(`coplan solve -p coordinated` said "No such option: -p", while `coplan compare -p` takes it.)"""
+    short = CliRunner().invoke(app, ["solve", "crossing_paths", "-p", "heuristic", "-o", str(tmp_path / "a"), "--json"])
+    long = CliRunner().invoke(app, ["solve", "crossing_paths", "--planner", "heuristic", "-o", str(tmp_path / "b"), "--json"])
+    assert short.exit_code == long.exit_code and json.loads(short.stdout)["planner"] == "heuristic"

@@ -102,7 +102,7 @@ ResolutionOption = Annotated[Optional[float], typer.Option(parser=real, metavar=
 def solve(
     problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file, or a shipped problem's name (coplan problems lists them; default: the shipped greenhouse row).")] = None,
     planner: Annotated[Optional[PlannerKind], typer.Option(
-        parser=choice(PlannerKind), metavar=choices(PlannerKind), help="Planner to use (default optimal; for a row, the cell planner at each stop: default coordinated).")] = None,
+        "--planner", "-p", parser=choice(PlannerKind), metavar=choices(PlannerKind), help="Planner to use (default optimal; for a row, the cell planner at each stop: default coordinated).")] = None,
     stops: Annotated[Optional[StopRule], typer.Option(
         parser=choice(StopRule), metavar=choices(StopRule), help="A row (a problem with a gantry): where the carriage stops (default optimised).")] = None,
     gantry: Annotated[Optional[GantryMode], typer.Option(
@@ -403,14 +403,11 @@ def verify_cmd(
     # no reachable fruit: infeasible (4), as `solve` says of the same problem
     code = ExitCode.UNSAFE if not ver.passed else ExitCode.INFEASIBLE if not prob.reachable_ids() \
         else ExitCode.OK if ver.complete else ExitCode.PARTIAL
-    from ..plan import EventKind
-
-    places = [e.t_end for e in (loaded.events or ver.inferred_events or []) if e.kind == EventKind.PLACE]
     if as_json:  # (the verdict as the exit code says it, as `solve --json` carries it: a script reads one document)
         typer.echo(json.dumps(ver.to_dict() | failures.exit_fields(code),
                               indent=1, allow_nan=False))
     else:
-        print_verification(out_console, prob, ver, makespan=max(places) if places else None,
+        print_verification(out_console, prob, ver, makespan=ver.measured["makespan"] or None,
                            label=getattr(loaded, "label", None))
         if code == ExitCode.INFEASIBLE:  # (it said "passed" and exited 4 without a word why)
             out_console.print("  nothing to plan   no fruit of the problem is reachable: exit 4 (infeasible), as "
@@ -444,7 +441,7 @@ def compare_cmd(
         "--clearance-sweep", help="Instead: the makespan against the clearance asked for (the problem's, +10, +25, +50, "
         "+100 mm; --extra to choose), one planner (the first --planner, default optimal; a row's cells: coordinated, as coplan solve), every plan verified.")] = False,
     extra: Annotated[Optional[list[float]], typer.Option(
-        "--extra", metavar="MM", help="With --clearance-sweep: an extra clearance in mm, repeatable (the problem's own is always planned too: the ratios' reference).")] = None,
+        "--extra", parser=real, metavar="MM", help="With --clearance-sweep: an extra clearance in mm, repeatable (the problem's own is always planned too: the ratios' reference).")] = None,
 ):
     """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
 

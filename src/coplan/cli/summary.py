@@ -231,7 +231,10 @@ def print_summary(console, res) -> None:
     p(f"[bold]{safe(res.problem.name)}[/] -- planner [bold]{safe(res.plan.planner_name)}[/], status [bold {colour}]{res.plan.status.value}[/]")
     _say_if_no_fruit(p, res.problem)
     p(f"  fruit             {fruit_line(m)}")
-    p(f"  makespan          {fmt(m.get('makespan'), ' s')}   (lower bound {fmt(m.get('lower_bound'), ' s')}, ratio {fmt(m.get('gap_to_lower_bound'), '', 3)})")
+    partial = m.get("lower_bound") is not None and (m.get("harvested") or 0) < (m.get("harvestable") or 0)
+    p(f"  makespan          {fmt(m.get('makespan'), ' s')}   (lower bound {fmt(m.get('lower_bound'), ' s')}"
+      + (f" for all {m.get('harvestable')} harvestable fruit: no ratio for a plan that harvests fewer)" if partial
+         else f", ratio {fmt(m.get('gap_to_lower_bound'), '', 3)})"))
     if m.get("optimality") == "proven":
         whole = m.get("harvestable", 0) >= m.get("reachable", 0)  # (unreachable fruit need no words here)
         p("  optimality        [bold green]proven[/]: the makespan meets the lower bound" +

@@ -226,6 +226,31 @@ def _plan_from_csv(raw: bytes, source: str | None) -> Plan:
                 allocation={}, unreachable=[], gantry_x=gantry_x)
 
 
+#: the figures of ``metrics`` that coplan reads back (titles, the viewer, the stated-figures
+#: check): ``(key path, whole count)``; each a number or null where present
+_READ_FIGURES = (("makespan", False), ("lower_bound", False), ("gap_to_lower_bound", False), ("harvested", True),
+                 ("reachable", True), ("harvestable", True), ("row.row_time", False), ("row.fruit_per_hour", False))
+
+
+def _figures(metrics: Any, bad) -> None:
+    """The figures of ``metrics`` coplan reads (:data:`_READ_FIGURES`): a finite number (a whole
+    count, not negative, for the counts) or null ("fast" stopped `coplan plot` with an internal
+    error in its title)."""
+    if not isinstance(metrics, dict):
+        return
+    for path, whole in _READ_FIGURES:
+        where: Any = metrics
+        for part in path.split("."):
+            where = where.get(part) if isinstance(where, dict) else None
+        if where is None:
+            continue
+        number = isinstance(where, (int, float)) and not isinstance(where, bool) and math.isfinite(where)
+        if whole and not (number and where >= 0 and float(where).is_integer()):
+            bad(f"metrics.{path}", f"expected a whole number of fruit (0 or more) or null, found {_kind(where)}")
+        elif not whole and not number:
+            bad(f"metrics.{path}", f"expected a finite number or null, found {_kind(where)}")
+
+
 def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     """Check a decoded ``plan.json`` document and build the :class:`Plan` (raises
     :class:`PlanFileError` listing every problem, each with its key path)."""
@@ -410,6 +435,7 @@ def _bookkeeping(data: dict, time: np.ndarray | None, bad) -> tuple[dict, list, 
     for key in ("metrics", "solver", "verification"):
         if data.get(key) is not None and not isinstance(data[key], dict):
             bad(key, f"expected an object, found {_kind(data[key])}")
+    _figures(data.get("metrics"), bad)
     gantry_x = None
     if data.get("gantry") is not None:  # a row plan: the carriage's position on the same grid
         g = data["gantry"]

@@ -454,11 +454,17 @@ def _arguments(problem, plan, options, overrides: dict) -> tuple[Problem, Plan, 
 
 
 def _check_stated(problem: Problem, plan: Plan, ver: Verification) -> None:
-    """The plan file's own figures (its ``metrics``) against its motion's: a warning per figure
-    that differs (an edited plan.json stated 90 s and 200 fruit beside a 186 s motion)."""
-    places = [e.t_end for e in plan.events or [] if e.kind == EventKind.PLACE]
+    """The plan's figures as its motion bears them out (``ver.measured``: the makespan, the last
+    place of a fruit it harvests within its samples -- a truncated plan's events after its end
+    are not; the fruit harvested), and the plan file's own figures (its ``metrics``) against them:
+    a warning per figure that differs (an edited plan.json stated 90 s and 200 fruit beside a
+    186 s motion)."""
+    left = set(ver.unharvested)
+    end = plan.duration + 1e-9
+    places = [e.t_end for e in plan.events or [] if e.kind == EventKind.PLACE and e.fruit not in left and e.t_end <= end]
     harvested = len(set(problem.reachable_ids())) - len(ver.unharvested)
-    ver.stated_figures = _verdict.stated_figures(plan.metrics, max(places) if places else 0.0, harvested)
+    ver.measured = {"makespan": max(places) if places else 0.0, "harvested": harvested}
+    ver.stated_figures = _verdict.stated_figures(plan.metrics, ver.measured["makespan"], harvested)
     if ver.stated_figures:
         ver.warnings.append(Finding(WarningKind.STATED_FIGURES, (), None, message=(
             "the plan file's own figures are not its motion's (the verdict is the motion's): " + "; ".join(
