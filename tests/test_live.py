@@ -651,6 +651,25 @@ def test_observe_checks_detections_as_a_feed_file_does_and_a_refused_call_change
         cell.observe(-1.0, [])
     r = cell.observe(1.0, [Detection(1.0, "f05", f, 0.001, "f05")])
     assert r.ok and "f05" in cell.tracks
+    assert "found a list of 2 [nan, 1.0]" in str(e.value)  # (the value itself: "found a list of 2" hid the NaN)
+
+
+def test_observe_and_refine_name_a_bad_argument_rather_than_raise_from_inside(greenhouse):
+    """(`observe(1.0, 5)` raised "'int' object is not iterable"; `refine` of an unknown track a
+    bare KeyError; a NaN close-range position was taken.) Each is a FeedError naming the argument,
+    the cell untouched."""
+    cell = _cell(greenhouse)
+    f = greenhouse.fruit("f05").position
+    cell.observe(1.0, [Detection(1.0, "f05", f, 0.001, "f05")])
+    before = (dict(cell.tracks), len(cell.replans))
+    with pytest.raises(FeedError, match="detections: expected a list of Detection"):
+        cell.observe(2.0, 5)
+    with pytest.raises(FeedError, match=r"track_id: expected the id of a track \(f04, f05, .*\), found string 'nosuch'"):
+        cell.refine(2.0, "nosuch", f, 0.001)
+    with pytest.raises(FeedError) as e:
+        cell.refine(float("nan"), "f05", (float("nan"), 1.0), -1.0)
+    assert [i.path for i in e.value.issues] == ["now", "position", "sigma"]
+    assert (dict(cell.tracks), len(cell.replans)) == before
 
 
 def test_a_live_run_that_picked_nothing_is_not_given_inferred_picks(greenhouse, tmp_path):

@@ -47,7 +47,7 @@ from ..planners.coordinated.planner import CoordinatedOptions
 from ..planners.coordinated.schedule import ArmSchedule, ConflictError, Step, StepKind, pair_distances
 from ..errors import Issue, finite_number, found
 from .gating import TrackIndex
-from .feed import DEFAULT_CLOSE_DISTANCE, Detection, FeedError, detection_issues
+from .feed import DEFAULT_CLOSE_DISTANCE, Detection, FeedError, detection_issues, refinement_issues
 from .motion import Approach, ApproachError, as_wait, move_step, split_at, truncate_move
 
 __all__ = ["LiveOptions", "Track", "Replan", "CloseRange", "LiveCell"]
@@ -236,7 +236,10 @@ class LiveCell:
         seen = {i for tr in self.tracks.values() for i in tr.detections}
         issues = ([Issue("now", f"expected a time no earlier than the last call's ({last:g} s), found {found(now)}")]
                   if not finite_number(now) or now < last else [])
-        issues += detection_issues(list(detections), seen, now if finite_number(now) else None)
+        if isinstance(detections, (str, bytes, dict)) or not hasattr(detections, "__iter__"):  # (5: "'int' object is not iterable")
+            issues.append(Issue("detections", f"expected a list of Detection(t, id, position, sigma), found {found(detections)}"))
+        else:
+            issues += detection_issues(list(detections), seen, now if finite_number(now) else None)
         if issues:
             raise FeedError(issues, "LiveCell.observe")
         index = TrackIndex(self.tracks.values(), self.options.gate)
@@ -278,6 +281,9 @@ class LiveCell:
     def refine(self, now: float, track_id: str, position, sigma: float) -> Replan:
         """The close-range measurement of a track (``position`` None: nothing there)."""
         t_start = _time.perf_counter()
+        issues = refinement_issues(now, track_id, sorted(self.tracks), position, sigma)
+        if issues:  # (an unknown track raised a bare KeyError)
+            raise FeedError(issues, "LiveCell.refine")
         tr = self.tracks[track_id]
         tr.refined = True
         arm = self.problem.arm(tr.arm) if tr.arm else None

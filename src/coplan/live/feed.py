@@ -34,7 +34,7 @@ from ..problem.model import Problem
 from ..problem.plausible import MAX_PLAN_SECONDS, field_issues
 from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, path_str, read_input_text, read_yaml
 
-__all__ = ["FEED_FORMAT", "Detection", "Feed", "FeedError", "parse_feed", "load_feed", "detection_issues", "make_feed", "feed_yaml",
+__all__ = ["FEED_FORMAT", "Detection", "Feed", "FeedError", "parse_feed", "load_feed", "detection_issues", "refinement_issues", "make_feed", "feed_yaml",
            "DEFAULT_CLOSE_DISTANCE", "DEFAULT_CLOSE_SIGMA"]
 
 FEED_FORMAT = "coplan.feed/1"
@@ -291,12 +291,34 @@ def detection_issues(detections, seen: set[str], now: float | None = None) -> li
             ids.add(d.id)
         pos = list(d.position) if isinstance(d.position, (tuple, list, np.ndarray)) else d.position
         if not isinstance(pos, list) or len(pos) != 2 or not all(finite_number(x) for x in pos):
-            issues.append(Issue(f"{at}.position", f"expected (x, y) (two finite numbers, m), found {found(pos, list_length=True)}"))
+            shown = f" {pos!r}" if isinstance(pos, list) and len(pos) <= 4 else ""  # (a NaN read "found a list of 2")
+            issues.append(Issue(f"{at}.position", f"expected (x, y) (two finite numbers, m), found {found(pos, list_length=True)}{shown}"))
         else:
             issues += [Issue(path_str(where), msg) for where, msg in field_issues("position", pos, loc + ("position",))]
         if not finite_number(d.sigma) or not 0 < d.sigma <= MAX_FEED_SIGMA:
             issues.append(Issue(f"{at}.sigma", f"expected a positive number of at most {MAX_FEED_SIGMA:g} (m), "
                                                f"found {found(d.sigma, list_length=True)}"))
+    return issues
+
+
+def refinement_issues(now, track_id, tracks: list[str], position, sigma) -> list[Issue]:
+    """What is wrong with a close-range measurement given in Python (to
+    :meth:`coplan.live.cell.LiveCell.refine`), as :func:`detection_issues` checks a detection: a
+    finite time of 0 s or more, the id of one of ``tracks``, a position of two finite numbers (or
+    None: nothing there) and, with a position, a positive noise."""
+    issues: list[Issue] = []
+    if not finite_number(now) or now < 0:
+        issues.append(Issue("now", f"expected a time of 0 s or more, found {found(now)}"))
+    if not isinstance(track_id, str) or track_id not in tracks:
+        known = ", ".join(tracks[:8]) + (", ..." if len(tracks) > 8 else "")
+        issues.append(Issue("track_id", f"expected the id of a track ({known or 'none yet'}), found {found(track_id)}"))
+    pos = list(position) if isinstance(position, (tuple, list, np.ndarray)) else position
+    if pos is not None and not (isinstance(pos, list) and len(pos) == 2 and all(finite_number(x) for x in pos)):
+        shown = f" {pos!r}" if isinstance(pos, list) and len(pos) <= 4 else ""
+        issues.append(Issue("position", f"expected (x, y) (two finite numbers, m) or None (nothing there), found "
+                                        f"{found(pos, list_length=True)}{shown}"))
+    if pos is not None and (not finite_number(sigma) or not sigma > 0):
+        issues.append(Issue("sigma", f"expected a positive number (m), found {found(sigma)}"))
     return issues
 
 
