@@ -193,3 +193,13 @@ def test_a_sweep_names_the_arms_its_screen_locks(tmp_path):
             normalise({**cols, "locked_arms": None, "key": "k2", "name": "free", "status": "success", "sweep": "s"})]
     text = _text(summarise(rows), "s")
     assert f"rows whose screen locks arms (they can never reach their bins: they harvest nothing): 1 -- locked (key k1): {names[0]}, {names[1]}" in text
+
+
+def test_a_bad_base_hides_none_of_the_other_mistakes():
+    """(`base: rows` was the only error said: the range, the bad arm counts and the unknown
+    parameter came one at a time once it was mended.)"""
+    text = 'base: rows\nvary:\n  spacing: {from: 1.2, to: 2.0, step: 0.3}\n  n_arms: [2, -1, "x"]\n  colour: [1]\n'
+    with pytest.raises(SweepError) as e:
+        parse_sweep(text, "s.yaml")
+    assert [i.path for i in e.value.issues] == ["base", "vary.spacing", "vary.n_arms[1]", "vary.n_arms[2]", "vary.colour"]
+    assert "did you mean 'row'?" in e.value.issues[0].message

@@ -183,7 +183,7 @@ class SweepSpec:
         return SweepItem(index, key, params, planner, options, limit, source, text, row_length, error)
 
 
-def _param_ok(name: str, base: SweepBase, loc: tuple, lines: dict, issues: list) -> bool:
+def _param_ok(name: str, base: SweepBase | None, loc: tuple, lines: dict, issues: list) -> bool:
     import difflib
 
     if name.startswith("options.") and base == SweepBase.GANTRY:  # (as the key 'options': the same plan solved twice)
@@ -197,7 +197,7 @@ def _param_ok(name: str, base: SweepBase, loc: tuple, lines: dict, issues: list)
         hint = f"; did you mean {near[0]!r}?" if near else f"; known: {', '.join(PARAMETERS)}, options.<name>"
         issues.append(Issue(key_path(loc), f"expected a sweep parameter, found unknown parameter {name!r}{hint}", line_of(lines, loc)))
         return False
-    if base not in PARAMETERS[name][1]:
+    if base is not None and base not in PARAMETERS[name][1]:  # (a bad base: the values are still checked)
         allowed = ", ".join(b.value for b in PARAMETERS[name][1])
         issues.append(Issue(key_path(loc), f"expected a parameter of base {base.value!r}, found {name!r} ({PARAMETERS[name][2]}), "
                                         f"which only applies to base {allowed}", line_of(lines, loc)))
@@ -269,7 +269,9 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
     if "base" in data:
         b = data["base"]
         if not isinstance(b, str) or b not in {x.value for x in SweepBase}:  # (base: [row] was an internal error)
-            issues.append(Issue("base", f"expected one of {', '.join(x.value for x in SweepBase)}, found {found(b)}", line_of(lines, ("base",))))
+            near = difflib.get_close_matches(b, [x.value for x in SweepBase], n=1, cutoff=0.6) if isinstance(b, str) else []
+            issues.append(Issue("base", f"expected one of {', '.join(x.value for x in SweepBase)}, found {found(b)}"
+                                        + (f"; did you mean {near[0]!r}?" if near else ""), line_of(lines, ("base",))))
         else:
             base = SweepBase(b)
     elif base is None:
@@ -376,7 +378,7 @@ def _parameters(data: dict, base: SweepBase | None, mode: SweepMode, options: di
         for k, v in sec.items():
             k = str(k)
             loc = (section, k)
-            if base is None or not _param_ok(k, base, loc, lines, issues):
+            if not _param_ok(k, base, loc, lines, issues):  # (with a bad base too: its errors hid every other)
                 continue
             if k.startswith("options.") and k.removeprefix("options.") in options:  # (one of the two won without a word)
                 issues.append(Issue(key_path(loc), f"expected each option once, found {k.removeprefix('options.')!r} both "
