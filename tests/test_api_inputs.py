@@ -90,6 +90,7 @@ def test_a_problem_changed_in_python_no_longer_names_its_file(cell):
     (MovingOptions, {"level": 0}, "level: expected a positive number or null"),
     (MovingOptions, {"profile": "x"}, "profile: speed profile: expected one of"),
     (LiveRowOptions, {"speed": 0}, "speed: expected a positive number"),
+    (LiveRowOptions, {"speed": 1e9}, "speed: expected a cruising speed of at most 10 m/s"),
     (VerifyOptions, {"substeps": 0}, "substeps: expected a positive integer, found number 0"),
     (MovingOptions, {"rate": 1.0}, "rate: expected a plan sample rate from 100 to 10000 Hz, found 1"),
     (LiveRowOptions, {"false_rate": 2}, "false_rate: expected a share of the fruit from 0 to 1, found 2"),

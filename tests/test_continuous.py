@@ -828,3 +828,24 @@ def test_speed_auto_is_not_run_on_an_interrupted_search(row, monkeypatch):
     monkeypatch.setattr(moving_mod, "plan_moving", cut)
     with pytest.raises(KeyboardInterrupt, match="stopped after 2 plans"):
         moving_mod.live_speed(row)
+
+
+@pytest.mark.parametrize("speed", [5.0, 1e-5])
+def test_the_command_and_plan_moving_quote_one_range_of_speeds(tmp_path, speed):
+    """(`coplan solve ROW --speed 5` said [0.000709, 0.5] m/s, plan_moving [0.000515, 0.5]: the
+    quick estimate in Python, the planner's reckoning on the command line.) Both quote the
+    planner's; a speed above any gantry's is refused when MovingOptions is built."""
+    from coplan.row.moving import plan_moving
+
+    prob = gantry_row(length=8.0, density=2.0, seed=3)
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(prob))
+    said = CliRunner().invoke(app, ["solve", str(path), "--gantry", "continuous", "--speed", repr(speed), "-o",
+                                    str(tmp_path / "o")], env={"COLUMNS": "400"})
+    assert said.exit_code == 2, said.output
+    quoted = said.output[said.output.index("expected a cruising speed in ["):].split("]")[0]
+    with pytest.raises(OptionsError) as e:
+        plan_moving(parse_problem(to_yaml(prob)), MovingOptions(profile="constant", level=speed))
+    assert quoted in str(e.value), (quoted, str(e.value))
+    with pytest.raises(OptionsError, match="level: expected a cruising speed of at most 10 m/s"):
+        MovingOptions(profile="constant", level=1e9)

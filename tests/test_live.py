@@ -688,6 +688,7 @@ def test_a_live_run_that_picked_nothing_is_not_given_inferred_picks(greenhouse, 
                            env={"COLUMNS": "300"})
     assert r.exit_code == int(ExitCode.PARTIAL), r.output
     assert "names its true fruit" in r.output and "no throughput to compare" in r.output and "unsafe" not in r.output
+    assert "never detected" not in r.output and "no report names it" in r.output  # (they were reported, unnamed)
     run = json.loads((tmp_path / "out" / "run.json").read_text())
     assert run["metrics"]["harvested"] == 0 and run["metrics"]["verified"] is True
 

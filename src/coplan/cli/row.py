@@ -171,22 +171,9 @@ def moving_options(problem, gantry, speed, stops, planner):
 
     if speed is None:
         return MovingOptions()
-    from ..problem.plausible import cruise_speed_issue, plan_seconds_limit, slowest_speed
+    from ..row.continuous import cruise_issue
 
-    bad = cruise_speed_issue(problem, speed)
-    ref = speed if bad and 0.0 < speed <= problem.gantry.max_velocity else slowest_speed(problem) if bad else 0.0
-    if ref > 0:
-        # the least speed as the planner reckons it (the carriage's cruise to its rest, by the
-        # row's screen), not the quick estimate's, which may lie a little below it
-        from ..plan import MAX_PLAN_BYTES
-        from ..row.continuous import least_pace, make_cruise
-        from ..row.reach import row_reach
-
-        limit = plan_seconds_limit(problem)
-        need = least_pace(ref, make_cruise(problem, row_reach(problem), SpeedProfile.CONSTANT, ref), limit)
-        bad = (f"expected a cruising speed in [{need:.3g}, {problem.gantry.max_velocity:g}] m/s (gantry.max_velocity at "
-               f"most; at least what keeps the plan within {limit:.0f} s, the longest coplan makes with {plural(len(problem.arms), 'arm')} on a row: "
-               f"its file under {MAX_PLAN_BYTES >> 20} MiB), found {speed:g}")
+    bad = cruise_issue(problem, speed)
     if bad:
         fail(ExitCode.USAGE, f"--speed: {bad} ({problem.name!r})")
     return MovingOptions(profile=SpeedProfile.CONSTANT, level=speed)

@@ -47,8 +47,8 @@ def sweep_cmd(
     time_limit: Annotated[Optional[float], typer.Option(parser=real, metavar="<float>", help="Per-problem time limit, s (replaces the file's; "
                                                         "default 120).")] = None,
     csv: Annotated[bool, typer.Option("--csv", help="Also write results.csv.")] = False,
-    keep_plans: Annotated[bool, typer.Option("--keep-plans", help="Also write every plan as plans/<key>.json "
-                                             "(for coplan verify).")] = False,
+    keep_plans: Annotated[bool, typer.Option("--keep-plans", help="Also write every plan as plans/<key>.json, "
+                                             "with its problem as plans/<key>.yaml (for coplan verify).")] = False,
 ):
     """Solve every problem of a design sweep on Dask; one table row per problem (results.parquet)."""
     from ..sweep.spec import load_sweep

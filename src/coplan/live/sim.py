@@ -230,6 +230,7 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
                 by_truth.setdefault(f, []).append(tr.id)
     detected = {d.fruit for d in feed.detections if d.fruit is not None and (d.after is None or d.after in released)}
     unreach = set(problem.unreachable())
+    named = any(d.fruit is not None for d in feed.detections)  # (a camera's own file names none: not "never detected")
     outcomes = {}
     for f in problem.fruits:
         ok = f.id in picked and f.id in placed and f.id not in missed_picks
@@ -243,7 +244,9 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
             why = "out of every arm's reach (true position)"
         elif f.id not in detected:
             hid = [h for h, ds in hidden.items() if any(d.fruit == f.id for d in ds)]
-            why = f"never revealed (hidden behind {', '.join(hid)}, which was not picked)" if hid else "never detected"
+            why = (f"never revealed (hidden behind {', '.join(hid)}, which was not picked)" if hid else "never detected"
+                   if named else "no report names it (the feed's detections carry no 'fruit': none is matched to a "
+                                 "true fruit, so every one counts as false)")
         else:
             notes = []
             for t in by_truth.get(f.id, []):

@@ -33,6 +33,7 @@ import numpy as np
 from ..errors import Issue, OptionsError, check_fields
 from ..kinds import AssignRule, GantryMode, PlannerKind, PlanStatus, SpeedProfile
 from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES, EventKind, Plan, compute_metrics
+from ..problem.gantry import BOUNDS as GANTRY_BOUNDS
 from ..problem.model import Problem
 from ..problem.plausible import plan_seconds_limit
 from ..progress import speaker
@@ -44,7 +45,7 @@ from .plan import RowResult, finalize_row
 from .reach import DEFAULT_RESOLUTION, RowReach, resolution_issues, row_reach
 
 __all__ = ["MovingOptions", "assemble_moving", "plan_continuous", "reorder_continuous", "SpeedPoint", "make_cruise", "least_pace",
-           "level_cap", "start_served", "left_at_start", "planned_line", "MIN_SPEED"]
+           "level_cap", "start_served", "left_at_start", "planned_line", "MIN_SPEED", "cruise_issue"]
 
 #: The slowest a shaped cruise goes, m/s (a stretch whose fruit ask for more waits a little there).
 MIN_SPEED = 0.01
@@ -75,6 +76,31 @@ def least_pace(level: float, cruise: Cruise, limit: float, hold: float = 0.0) ->
     need = level * cruising / max(limit - hold, 1e-9) * 1.001
     step = 10.0 ** (math.floor(math.log10(need)) - 2)
     return math.ceil(need / step) * step
+
+
+def cruise_issue(problem: Problem, speed: float, reach: RowReach | None = None) -> str | None:
+    """What is wrong with ``speed`` (m/s) as the row's constant cruising speed, or None: above
+    ``gantry.max_velocity``, or below the least speed whose plan fits the longest coplan writes
+    -- that least speed as the planner reckons it (the carriage's cruise to its rest, by the
+    row's screen, ``reach``), not :func:`coplan.problem.plausible.cruise_speed_issue`'s quick
+    estimate, which may lie a little below it (``coplan solve --speed`` and :func:`plan_moving`
+    quoted two ranges for one row)."""
+    from ..problem.plausible import cruise_speed_issue, slowest_speed
+
+    g = problem.gantry
+    bad = cruise_speed_issue(problem, speed)
+    if not bad:
+        return None
+    ref = speed if 0.0 < speed <= g.max_velocity else slowest_speed(problem)
+    if not ref > 0:
+        return bad
+    limit = plan_seconds_limit(problem)
+    reach = reach if reach is not None else row_reach(problem)
+    need = least_pace(ref, make_cruise(problem, reach, SpeedProfile.CONSTANT, ref), limit)
+    arms = f"{len(problem.arms)} arm{'s' if len(problem.arms) != 1 else ''}"
+    return (f"expected a cruising speed in [{need:.3g}, {g.max_velocity:g}] m/s (gantry.max_velocity at most; at least "
+            f"what keeps the plan within {limit:.0f} s, the longest coplan makes with {arms} on a row: its file under "
+            f"{MAX_PLAN_BYTES >> 20} MiB), found {speed:g}")
 
 
 def start_served(problem: Problem, reach: RowReach) -> set[str]:
@@ -166,6 +192,12 @@ class MovingOptions:
         if not MIN_RATE <= self.rate <= MAX_RATE:  # (a coarser grid is one no verifier passes; a finer one, gigabytes)
             raise OptionsError([Issue("rate", f"expected a plan sample rate from {MIN_RATE:g} to {MAX_RATE:g} Hz, "
                                               f"found {self.rate:g}")], "MovingOptions")
+        top = GANTRY_BOUNDS["max_velocity"][1]
+        if self.level is not None and SpeedProfile(self.profile) == SpeedProfile.CONSTANT and self.level > top:
+            # (1e9 was taken until plan_moving; the row's own range, up to its gantry.max_velocity, is checked there)
+            raise OptionsError([Issue("level", f"expected a cruising speed of at most {top:g} m/s (the fastest a gantry "
+                                               f"may be; the row's own gantry.max_velocity is checked when planned), "
+                                               f"found {self.level:g}")], "MovingOptions")
 
 
 @dataclass(frozen=True)

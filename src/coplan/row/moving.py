@@ -19,11 +19,10 @@ from ..errors import Issue, OptionsError
 from ..kinds import AssignRule, PlanStatus, SpeedProfile
 from ..plan import EventKind
 from ..problem.model import Problem
-from ..problem.plausible import cruise_speed_issue
 from ..progress import speaker
 from ..workers import process_pool
 from .branches import branch_table, screen_branches
-from .continuous import (MovingOptions, SpeedPoint, certify, left_at_start, level_cap, make_cruise, plan_continuous,
+from .continuous import (MovingOptions, SpeedPoint, certify, cruise_issue, left_at_start, level_cap, make_cruise, plan_continuous,
                          planned_line, reorder_continuous, start_served)
 from .cruise import STRETCH, cruise_end, demand_stretches, last_place_bound
 from .plan import RowResult, check_row_call
@@ -315,7 +314,7 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
         raise ValueError(f"{getattr(problem, 'name', problem)!r} has no gantry: plan it as a cell")
     opts = options or MovingOptions()
     if opts.level is not None and SpeedProfile(opts.profile) == SpeedProfile.CONSTANT:
-        bad = cruise_speed_issue(problem, opts.level)
+        bad = cruise_issue(problem, opts.level)
         if bad:  # (before any work: a speed of micrometres per second books for hours and writes gigabytes)
             raise OptionsError([Issue("level", bad)], "MovingOptions")
     t0 = _time.perf_counter()
