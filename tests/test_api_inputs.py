@@ -740,3 +740,54 @@ def test_row_entry_points_refuse_what_they_cannot_use_before_any_work(tmp_path):
     assert verify(data, rr.plan).passed and verify(data, rr.plan).summary() == verify(p, rr.plan).summary()
     with pytest.raises(coplan.ProblemError, match="found an empty mapping"):
         verify({}, rr.plan)
+
+
+def test_the_row_planners_hold_a_row_changed_in_python_to_what_a_file_is_held_to():
+    """(A carriage of 1 um/s, refused by coplan.solve, was taken by plan_row -- 21 GB in 20 s --
+    and plan_moving said 'math domain error'.) Both raise the ProblemError solve raises."""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+    from coplan.row import plan_moving, plan_row
+
+    row = parse_problem(to_yaml(gantry_row(length=6.0, density=2.0, seed=1)))
+    slow = dataclasses.replace(row, gantry=dataclasses.replace(row.gantry, max_velocity=1e-6))
+    for call in (lambda: coplan.solve(slow), lambda: plan_row(slow), lambda: plan_moving(slow)):
+        with pytest.raises(ProblemError, match="gantry.max_velocity"):
+            call()
+
+
+def test_cell_and_row_bound_functions_refuse_what_they_cannot_bound(tmp_path):
+    """(From a trial: lower_bound of a row returned its cell's with the carriage at 0, 12 of its
+    32 fruit; a name gave "cannot create weak reference to 'str' object" or "'str' object has no
+    attribute 'gantry'"; row_bounds(step=0) a ZeroDivisionError, priced='no' was true.)"""
+    from coplan.allocate import lower_bound, row_bounds
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+
+    row = parse_problem(to_yaml(gantry_row(length=6.0, density=2.0, seed=1)))
+    with pytest.raises(ValueError, match="lower_bound: .* is a row"):
+        lower_bound(row)
+    for call, words in ((lambda: coplan.allocate("crossing_paths", "makespan"), "allocate: expected a Problem"),
+                        (lambda: lower_bound("crossing_paths"), "lower_bound: expected a Problem"),
+                        (lambda: row_bounds("sparse_row"), "row_bounds: expected a Problem")):
+        with pytest.raises(TypeError, match=words):
+            call()
+    for step in (0, -0.05, "0.05", 7.0):
+        with pytest.raises(ValueError, match="step: expected the spacing of the carriage positions from 0.01 to 0.5 m"):
+            row_bounds(row, step=step)
+    with pytest.raises(TypeError, match="priced: expected True or False"):
+        row_bounds(row, priced="no")
+
+
+def test_compare_rows_takes_a_name_and_one_rule_as_solve_does(tmp_path):
+    """(compare_rows("sparse_row", ...) raised "'str' object has no attribute 'name'";
+    rules="fixed" iterated over its letters: "found 'f'".) A row's result has a short repr."""
+    from coplan.generate import gantry_row
+    from coplan.report.rows import compare_rows
+
+    cmp = compare_rows(gantry_row(length=6.0, density=2.0, seed=1), tmp_path / "c", rules="fewest")
+    assert [r["rule"] for r in cmp.rows] == ["fewest"]
+    with pytest.raises(TypeError, match="compare_rows: expected a Problem, a problem file's path or a shipped name"):
+        compare_rows(3, tmp_path / "d")
+    res = coplan.solve(gantry_row(length=6.0, density=2.0, seed=1)).row
+    assert len(repr(res)) < 300 and repr(res).startswith("RowResult(") and "verified=True" in repr(res), repr(res)

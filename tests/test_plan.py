@@ -377,3 +377,17 @@ def test_two_solves_of_one_problem_are_the_same_motion_though_their_timings_diff
     arm = next(iter(b.q))
     b.q[arm][10, 0] += 1e-9
     assert not a.same_motion(b)
+
+
+def test_a_plans_per_arm_queries_name_an_unknown_arm_or_kind():
+    """(From a trial: events_of('lefft') and events_of('left', 'grab') returned [], busy('lefft')
+    raised a bare KeyError.)"""
+    import coplan
+
+    plan = coplan.solve("crossing_paths", planner="heuristic").plan
+    for call in (lambda: plan.events_of("lefft"), lambda: plan.busy("lefft")):
+        with pytest.raises(KeyError, match=r"no arm named 'lefft' in the plan; arms are \['left', 'right'\]"):
+            call()
+    with pytest.raises(ValueError, match="event kind: expected one of 'pick', 'place'; found 'grab'"):
+        plan.events_of("left", "grab")
+    assert plan.events_of("left", "pick") == plan.events_of("left", EventKind.PICK) != []

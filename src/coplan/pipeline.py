@@ -18,6 +18,7 @@ from .output import RunFolder, check_folder, signals_deferred
 from .planners.heuristic import plan_heuristic
 from .plan import EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem.model import Problem
+from .problem.plausible import check_as_file
 from .problem.generate import problem_from_mapping
 from .problem.load import file_record, load_problem
 from .progress import check_progress
@@ -151,22 +152,6 @@ def _mode_figures(r) -> dict:
             "fruit_per_hour": 3600.0 * (m.get("harvested") or 0) / span if span else 0.0,
             "planning_time": r.timings.get("planning"), "label": r.plan.label,  # (which stop rule: a summary said only "stop-and-go")
             "interrupted": r.plan.status == PlanStatus.INTERRUPTED}
-
-
-def _checked_as_a_file(problem: Problem) -> None:
-    """:class:`ProblemError` where a problem built or changed in Python (``dataclasses.replace``)
-    breaks what a problem file is held to (:func:`coplan.problem.plausible.problem_issues`): a
-    joint velocity limit of 1e-6 rad/s ran out of memory (27 GiB), a dwell of 8 h made a plan
-    file no coplan command reads back. Issues by key path."""
-    from .errors import Issue, ProblemError
-    from .problem.plausible import problem_issues
-    from .problem.yamlsafe import path_str
-
-    from .problem.poses import home_issues, position_issues
-
-    found = [Issue(path_str(loc), msg) for loc, msg in problem_issues(problem)] + home_issues(problem) + position_issues(problem)
-    if found:  # (home poses too close: a plan 'unsafe' at t = 0 s; a fruit twice: harvested twice -- where a file says why)
-        raise ProblemError(found, f"{problem.source}, as changed in Python" if problem.source else "a problem built in Python")
 
 
 def _options_for(planner: PlannerKind, options, row: GantryMode | None = None) -> None:
@@ -317,7 +302,7 @@ def solve(
         check_folder(out_dir, "out_dir")  # (before any work: a solve is not lost to where it goes)
     prob = problem if isinstance(problem, Problem) else problem_from_mapping(problem) if isinstance(problem, Mapping) else load_problem(problem)
     if isinstance(problem, Problem):  # (built or changed in Python: the plausible ranges and plan length a file gets)
-        _checked_as_a_file(problem)
+        check_as_file(problem)
     if prob.gantry is not None:
         if allocation is not None:
             raise ValueError("allocation: a row's cells are allocated by the cell planner at each stop (stop and go) "

@@ -381,6 +381,15 @@ class LowerBound:
     assignment: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
 
+def _check_cell(problem, what: str) -> None:
+    """TypeError where ``problem`` is not a :class:`Problem` (a name raised "cannot create weak
+    reference to 'str' object"), ValueError where it is a row (:func:`require_cell`)."""
+    if not isinstance(problem, Problem):
+        raise TypeError(f"{what}: expected a Problem (coplan.load_problem reads a file or a shipped name), found "
+                        f"{type(problem).__name__} {str(problem)[:60]!r}")
+    require_cell(problem, what)
+
+
 def bound_details(problem: Problem, reach: np.ndarray | None = None, time_limit: float | None = MILP_SECONDS) -> LowerBound:
     """Makespan lower bound valid for every plan, with the MILP's details.
 
@@ -392,6 +401,7 @@ def bound_details(problem: Problem, reach: np.ndarray | None = None, time_limit:
     :data:`MILP_NODES` stays a valid bound. Among its optima, the one with the least total work
     gives :attr:`LowerBound.assignment`.
     """
+    _check_cell(problem, "lower_bound")  # (a row's was the cell's with the carriage at 0: 12 of its 32 fruit)
     t0 = _time.perf_counter()
     reach = screened_reach(problem) if reach is None else reach
     names = [arm.name for arm in problem.arms]
@@ -463,7 +473,7 @@ def allocate(
     ``bound``: the makespan lower bound, when the caller has already computed it
     (:func:`lower_bound` depends only on the problem); computed here otherwise.
     """
-    require_cell(problem, "allocate")
+    _check_cell(problem, "allocate")
     t0 = _time.perf_counter()
     method = AllocationMethod(method)
     if sequence is None:

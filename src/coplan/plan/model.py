@@ -242,12 +242,20 @@ class Plan:
         t = self._clock(t)
         return np.interp(t, self.time, self.gantry_x)
 
-    def events_of(self, arm: str, kind: EventKind | None = None) -> list[Event]:
+    def _arm_named(self, arm: str) -> None:
+        if arm not in self.q:  # (a misspelt arm gave [] or a bare KeyError: 'lefft')
+            raise KeyError(f"no arm named {arm!r} in the plan; arms are {list(self.q)}")
+
+    def events_of(self, arm: str, kind: EventKind | str | None = None) -> list[Event]:
+        """``arm``'s events (of ``kind``: ``pick`` or ``place``), in the plan's order."""
+        self._arm_named(arm)
+        kind = None if kind is None else EventKind(kind)  # ("grab": ValueError naming the kinds, not [])
         return [e for e in self.events if e.arm == arm and (kind is None or e.kind == kind)]
 
     def busy(self, arm: str) -> np.ndarray:
         """(N - 1,) bool: per sampling interval, whether ``arm`` moves (its joints change over it)
         or dwells (the interval's midpoint inside one of its events)."""
+        self._arm_named(arm)
         q = self.q[arm]
         busy = np.any(np.abs(np.diff(q, axis=0)) > 1e-9, axis=1)
         mid = (self.time[:-1] + self.time[1:]) / 2

@@ -32,7 +32,7 @@ from .gantry import gantry_range_issues, off_rail
 
 __all__ = ["Bound", "BOUNDS", "MAX_PLAN_ANGLE", "MAX_PLAN_COORD", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "BYTES_PER_CARRIAGE_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "plan_seconds_limit", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
            "duration_issues", "problem_issues", "row_travel", "slowest_speed", "row_duration_issues",
-           "cruise_speed_issue", "live_speed_issue", "latest_report_time"]
+           "cruise_speed_issue", "live_speed_issue", "latest_report_time", "check_as_file"]
 
 TAU = 2.0 * math.pi
 
@@ -335,3 +335,19 @@ def live_speed_issue(problem, speed) -> str | None:
             f"cruises the whole rail, {rail:g} m, in a plan of at most {_hours(limit)}, the longest coplan makes"
             f"{'' if limit == MAX_PLAN_SECONDS else f' with {len(problem.arms)} arms'}: a live carriage does not know "
             f"where the last fruit is), found {shown}")
+
+
+def check_as_file(problem) -> None:
+    """:class:`~coplan.errors.ProblemError` where a problem built or changed in Python
+    (``dataclasses.replace``) breaks what a problem file is held to (:func:`problem_issues`, home
+    poses the clearance apart, one fruit per position): a joint velocity limit of 1e-6 rad/s ran
+    out of memory (27 GiB), a dwell of 8 h made a plan file no coplan command reads back, a
+    carriage of 1 um/s took 21 GB in plan_row. Issues by key path. Run by :func:`coplan.solve`
+    and the row planners on a problem they are given."""
+    from ..errors import Issue, ProblemError
+    from .poses import home_issues, position_issues
+    from .yamlsafe import path_str
+
+    found = [Issue(path_str(loc), msg) for loc, msg in problem_issues(problem)] + home_issues(problem) + position_issues(problem)
+    if found:  # (home poses too close: a plan 'unsafe' at t = 0 s; a fruit twice: harvested twice -- where a file says why)
+        raise ProblemError(found, f"{problem.source}, as changed in Python" if problem.source else "a problem built in Python")

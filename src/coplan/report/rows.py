@@ -10,12 +10,16 @@ harvestable fruit harvested, the ratios to the row's lower bounds and the planni
 from __future__ import annotations
 
 import json
+import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..kinds import PlannerKind, PlanStatus, StopRule
 from ..output import atomic_text, check_folder
 from ..plan import jsonable
+from ..problem.generate import problem_from_mapping
+from ..problem.load import load_problem
 from ..problem.model import Problem
 from ..progress import Tick, nested, speaker, ticker
 
@@ -47,6 +51,15 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     from ..pipeline import solve
     from ..row.metrics import fruit_bounds_count
 
+    if isinstance(problem, (str, os.PathLike)):  # (a name or a path, as coplan.solve takes: it raised from inside)
+        problem = load_problem(problem)
+    elif isinstance(problem, Mapping):
+        problem = problem_from_mapping(problem)
+    elif not isinstance(problem, Problem):
+        raise TypeError(f"compare_rows: expected a Problem, a problem file's path or a shipped name, found "
+                        f"{type(problem).__name__} {str(problem)[:60]!r}")
+    if isinstance(rules, str):  # one rule, not its letters ("found 'f'")
+        rules = (rules,)
     say, tick = speaker(progress), ticker(progress)
     check_folder(out_dir, "out_dir")  # (before any work)
     out = Path(out_dir)

@@ -38,6 +38,7 @@ from ..kinematics.timing import Move1D
 from ..plan import DEFAULT_RATE, Event, EventKind, Plan, compute_metrics, finalize_plan
 from ..problem.gantry import cell_at
 from ..problem.model import Problem
+from ..problem.plausible import check_as_file
 from ..progress import Tick, check_progress, speaker, ticker
 from .reach import DEFAULT_RESOLUTION, RowReach, resolution_issues, row_reach, screened_out
 from .stops import Stop, StopWindow, arrival_time, fewest_stops, fixed_stops, optimised_stops
@@ -118,6 +119,13 @@ class RowResult:
     reach: RowReach
     timings: dict[str, float]
     info: dict
+
+    def __repr__(self) -> str:  # (short: the screen's cover arrays made it 128,000 characters in a notebook cell)
+        places = [e.t_end for e in self.plan.events if e.kind == EventKind.PLACE]
+        passed = getattr(self.verification, "passed", None)
+        return (f"RowResult({self.plan.label!r}, status={self.plan.status.value}, stops={len(self.stops)}, "
+                f"harvested={len(places)}, row_time={max(places, default=0.0):.2f} s, verified={passed}, "
+                f"planning={self.timings.get('planning', float('nan')):.2f} s)")
 
 
 def _cell_plan(cell: Problem, opts: RowOptions, drive: float | None = None) -> Plan:
@@ -223,6 +231,7 @@ def check_row_call(problem, progress, what: str) -> None:
                         f"coplan.solve also takes a name, a path or a mapping), found {type(problem).__name__} "
                         f"{str(problem)[:60]!r}")
     check_progress(progress, what)
+    check_as_file(problem)  # (as coplan.solve: a carriage of 1 um/s took 21 GB here)
 
 
 def plan_row(problem: Problem, options: RowOptions | None = None, progress: Callable[[str], None] | None = None) -> RowResult:
