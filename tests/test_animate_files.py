@@ -133,3 +133,19 @@ def test_a_folder_that_takes_no_files_is_said_as_the_user_named_it_before_any_fr
         with pytest.raises(OSError) as err:
             animate_plan(single_arm, plan_heuristic(single_arm), target, fps=5, dpi=30, width=4)
     assert err.value.filename == str(target) and ".partial" not in str(err.value) and built == []
+
+
+def test_animate_plan_names_a_bad_argument_before_any_work(tmp_path):
+    """(From a trial: speed="2" and fps="10" raised comparisons between str and int, dpi=0 an
+    overflow, max_frames=0 a ZeroDivisionError, swapped arguments an AttributeError.)"""
+    import coplan
+    from coplan.viz.animate import RenderError, animate_plan
+
+    r = coplan.solve("single_arm", planner="heuristic")
+    for kw, words in (({"speed": "2"}, "speed factor"), ({"fps": "10"}, "frames per second"), ({"dpi": 0}, "dpi from 10"),
+                      ({"width": 0}, "width from 1"), ({"max_frames": 0}, "max_frames")):
+        with pytest.raises(RenderError, match=words):
+            animate_plan(r.problem, r.plan, tmp_path / "a.gif", **kw)
+    with pytest.raises(TypeError, match=r"animate_plan: expected \(problem: Problem, plan: Plan, out_path\)"):
+        animate_plan(r.plan, r.problem, tmp_path / "a.gif")
+    assert not list(tmp_path.iterdir())

@@ -391,3 +391,13 @@ def test_a_plans_per_arm_queries_name_an_unknown_arm_or_kind():
     with pytest.raises(ValueError, match="event kind: expected one of 'pick', 'place'; found 'grab'"):
         plan.events_of("left", "grab")
     assert plan.events_of("left", "pick") == plan.events_of("left", EventKind.PICK) != []
+
+
+def test_save_names_a_bad_destination(tmp_path):
+    """(plan.save(5) raised Python's 'expected str, bytes or os.PathLike object, not int'.)"""
+    import coplan
+
+    plan = coplan.solve("single_arm", planner="heuristic").plan
+    with pytest.raises(TypeError, match="save: expected a folder or a .json file name"):
+        plan.save(5)
+    assert set(plan.save(tmp_path / "p.json")) == {"json", "csv", "npz"}

@@ -639,3 +639,16 @@ def test_a_live_rows_headline_gives_its_row_figures():
     assert rw["fruit_per_hour"] == pytest.approx(res.metrics["fruit_per_hour"]) and rw["stops"] == res.metrics["stops"]
     assert rw["share_harvested"] == pytest.approx(res.metrics["harvested"] / res.plan.metrics["reachable"])
     assert rw["row_time"] == pytest.approx(res.metrics["row_time"])  # (the headline gave the last place as the row time)
+
+
+def test_view_checks_its_arguments_when_called():
+    """(From a trial: height="big" failed only when the page was shown, display_rate="30" and
+    problem=3 raised from inside.)"""
+    res = coplan.solve("crossing_paths", planner="heuristic")
+    for kw, err, words in (({"height": "big"}, ValueError, "height: expected a whole number of pixels"),
+                           ({"height": -5}, ValueError, "height: expected a whole number of pixels"),
+                           ({"display_rate": "30"}, ValueError, "display_rate: expected frames per second"),
+                           ({"problem": 3}, TypeError, "problem: expected a Problem")):
+        with pytest.raises(err, match=words):
+            coplan.view(res, **kw)
+    assert coplan.view(res, height=600, display_rate=25)._repr_html_().startswith("<iframe srcdoc=")

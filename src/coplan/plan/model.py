@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from enum import Enum
@@ -304,6 +305,9 @@ class Plan:
         Each file is written to a temporary name first and renamed, so a crash never
         leaves a half-written one. Returns the paths written.
         """
+        if not isinstance(out_dir, (str, os.PathLike)) or not isinstance(stem, str) or not stem.strip():
+            raise TypeError(f"save: expected a folder or a .json file name (str or Path) and a non-empty stem, found "
+                            f"out_dir {type(out_dir).__name__} {out_dir!r}, stem {stem!r}")
         out = Path(out_dir)
         if out.suffix.lower() == ".json" and not out.is_dir():
             out, stem = out.parent, out.stem

@@ -511,13 +511,24 @@ def animate_plan(
     from matplotlib.animation import FFMpegWriter
 
     say = notify or (lambda msg: warnings.warn(msg, RenderWarning, stacklevel=3))
+    if not isinstance(problem, Problem) or not isinstance(plan, Plan):  # (swapped: "'Problem' object has no attribute 'duration'")
+        raise TypeError(f"animate_plan: expected (problem: Problem, plan: Plan, out_path), found "
+                        f"({type(problem).__name__}, {type(plan).__name__}, ...)")
     out = Path(out_path)
     if out.suffix.lower() not in (".gif", ".mp4"):
         raise RenderError(f"expected an output file ending .gif or .mp4, found {out.name!r}")
-    if not (speed > 0 and math.isfinite(speed)):
+
+    def number(v) -> bool:  # ("2" as a speed: "'>' not supported between 'str' and 'int'")
+        return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+    if not (number(speed) and speed > 0):
         raise RenderError(f"expected a speed factor > 0, found {speed!r}")
-    if not (0 < fps <= 60):
+    if not (number(fps) and 0 < fps <= 60):
         raise RenderError(f"expected frames per second in (0, 60], found {fps!r}")
+    if not (number(dpi) and 10 <= dpi <= 1000) or not (number(width) and 1 <= width <= 100):  # (0: an overflow)
+        raise RenderError(f"expected dpi from 10 to 1000 and a width from 1 to 100 inches, found dpi {dpi!r}, width {width!r}")
+    if isinstance(max_frames, bool) or not isinstance(max_frames, int) or max_frames < 2:  # (0: ZeroDivisionError)
+        raise RenderError(f"expected max_frames a whole number of 2 or more, found {max_frames!r}")
     mp4 = out.suffix.lower() == ".mp4"
     if mp4 and not ffmpeg_available():
         gif = out.with_suffix(".gif")

@@ -532,6 +532,15 @@ def view(plan, problem: Problem | str | Path | None = None, compare=None, *, hei
     """
     from ..problem.load import load_problem
 
+    # (from a trial: height="big" failed only when shown, display_rate="30" and problem=3 from inside)
+    if isinstance(height, bool) or not isinstance(height, int) or not 100 <= height <= 10_000:
+        raise ValueError(f"height: expected a whole number of pixels from 100 to 10000, found {type(height).__name__} {height!r}")
+    if isinstance(display_rate, bool) or not isinstance(display_rate, (int, float)) or not 1 <= display_rate <= 1000:
+        raise ValueError(f"display_rate: expected frames per second from 1 to 1000, found {type(display_rate).__name__} "
+                         f"{display_rate!r}")
+    if problem is not None and not isinstance(problem, (str, Path, Problem)):
+        raise TypeError(f"problem: expected a Problem, a problem file's path or a shipped name, found "
+                        f"{type(problem).__name__} {problem!r}")
     pl, prob, ver = _as_plan(plan, "plan")
     if isinstance(problem, (str, Path)):
         problem = load_problem(problem)
