@@ -791,3 +791,36 @@ def test_compare_rows_takes_a_name_and_one_rule_as_solve_does(tmp_path):
         compare_rows(3, tmp_path / "d")
     res = coplan.solve(gantry_row(length=6.0, density=2.0, seed=1)).row
     assert len(repr(res)) < 300 and repr(res).startswith("RowResult(") and "verified=True" in repr(res), repr(res)
+
+
+def test_row_metrics_export_and_plots_refuse_arguments_that_do_not_fit(tmp_path):
+    """(From the third trial: row_metrics took another row's bounds -- a ratio of 1.959 for
+    1.585 --; export_plan wrote at its trajectory's 50 Hz when 100 was asked; plot_joints(clip="3"),
+    plot_clearance(y_max="1") raised from inside, and negative values were taken; workspace_maps
+    took Arm objects only.)"""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+    from coplan.report import export_plan, trajectory
+    from coplan.row import plan_row, row_bounds, row_metrics
+    from coplan.viz.plots import plot_clearance, plot_joints, workspace_maps
+
+    a = parse_problem(to_yaml(gantry_row(length=6.0, density=2.0, seed=1)))
+    b = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=2, density=2.0, seed=9)))
+    res = plan_row(a)
+    with pytest.raises(ValueError, match="bounds: expected the bounds of .*, found those of"):
+        row_metrics(a, res, row_bounds(b, priced=False))
+    assert row_metrics(a, res, row_bounds(a, priced=False))["ratio_any_plan_bound"] > 1.0
+    c = coplan.solve("crossing_paths", planner="coordinated")
+    with pytest.raises(ValueError, match="traj: expected trajectory\\(plan, 100\\) at the rate asked, found one at 50 Hz"):
+        export_plan(c.plan, 100, "csv", tmp_path / "e.csv", traj=trajectory(c.plan, 50))
+    assert not (tmp_path / "e.csv").exists()
+    for call, words in ((lambda: plot_joints(c.problem, c.plan, clip="3"), "plot_joints: clip: expected a positive number"),
+                        (lambda: plot_joints(c.problem, c.plan, clip=-1), "plot_joints: clip: expected a positive number"),
+                        (lambda: plot_clearance(c.problem, c.plan, y_max=-1), "plot_clearance: y_max: expected a positive"),
+                        (lambda: workspace_maps(c.problem, arms=["lefft"]), "workspace_maps: arms: expected the problem's")):
+        with pytest.raises(ValueError, match=words):
+            call()
+    import numpy as np
+
+    by_name, by_arm = workspace_maps(c.problem, arms=["left"], resolution=40), workspace_maps(c.problem, arms=[c.problem.arms[0]], resolution=40)
+    assert np.array_equal(by_name[3], by_arm[3])

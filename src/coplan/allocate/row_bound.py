@@ -75,9 +75,10 @@ class RowBounds:
     seconds: float
     priced: float = 0.0  # the priced-stops bound (0: not computed)
     priced_stops: int = 0  # stops of its witness (where its cheapest stop-by-stop plan stops)
+    problem: str | None = None  # the name of the row they bound (row_metrics refuses another row's)
 
     def to_dict(self) -> dict:
-        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+        return {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "problem"}
 
 
 #: the carriage-position spacings a row's bounds may be priced on, m (``coplan solve --resolution``'s)
@@ -104,7 +105,7 @@ def row_bounds(problem: Problem, step: float = 0.05, priced: bool = True) -> Row
     ok = reach.any(axis=0)
     n = int(ok.sum())
     if n == 0:
-        return RowBounds(0.0, 0.0, 0.0, 0.0, 0.0, g.start, 0, _time.perf_counter() - t0)
+        return RowBounds(0.0, 0.0, 0.0, 0.0, 0.0, g.start, 0, _time.perf_counter() - t0, problem=problem.name)
     # each arm's first cycle starts at home: the busiest arm's cycles last at least their bounds
     # less its saving (home_savings), so the min-max less the largest saving
     work = max(0.0, _min_max(cost, reach) - float(home_savings(cc).max()))
@@ -122,7 +123,7 @@ def row_bounds(problem: Problem, step: float = 0.05, priced: bool = True) -> Row
         sb = stops_bound(problem)
         pv, ps = sb.value, len(sb.stops)
     return RowBounds(float(any_plan), float(max(any_plan, moves + work, pv)), float(work), float(travel), float(moves), far, n,
-                     _time.perf_counter() - t0, float(pv), ps)
+                     _time.perf_counter() - t0, float(pv), ps, problem.name)
 
 
 def busiest_cycles(problem: Problem, step: float = 0.05) -> float:

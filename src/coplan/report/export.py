@@ -343,6 +343,8 @@ def export_plan(plan: Plan | str | Path, rate: float, fmt: ExportFormat | str, o
     elif not isinstance(plan, Plan):
         raise TypeError(f"plan: expected a Plan or a plan file's path, found {type(plan).__name__}")
     fmt = ExportFormat(fmt)
+    if traj is not None and abs(traj.rate - rate) > 1e-9 * max(1.0, rate):  # (it wrote at the trajectory's 50 Hz, asked 100)
+        raise ValueError(f"traj: expected trajectory(plan, {rate:g}) at the rate asked, found one at {traj.rate:g} Hz")
     traj = trajectory(plan, rate) if traj is None else traj
     out = Path(out)
     events = export_events(plan, traj)

@@ -98,6 +98,9 @@ def _check_inputs(problem, result, bounds) -> None:
     if bounds is not None and not isinstance(bounds, RowBounds):
         raise TypeError(f"bounds: expected RowBounds (coplan.allocate.row_bound.row_bounds(problem)) or None, found "
                         f"{type(bounds).__name__}")
+    if bounds is not None and bounds.problem is not None and bounds.problem != problem.name:  # (the ratios came out wrong)
+        raise ValueError(f"bounds: expected the bounds of {problem.name!r} (row_bounds(problem)), found those of "
+                         f"{bounds.problem!r}")
 
 
 def row_metrics(problem: Problem, result, bounds=None) -> dict:

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..plan import EventKind, Plan
-from ..problem.model import Problem
+from ..problem.model import Arm, Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, LIMIT_COLOR, arm_colors, pair_label
 from .timeline import joint_derivatives, limit_tolerance, pair_clearance, schedule
 
@@ -73,6 +73,14 @@ def _as_plans(problem: Problem, plans, what: str) -> dict[str, Plan]:
             raise ValueError(f"{what}: plan {label!r} does not fit problem {problem.name!r}: expected the problem's arms "
                              f"{names}, found {list(plan.q)}")
     return plans
+
+
+def _positive(what: str, name: str, v, optional: bool = False) -> None:
+    if optional and v is None:
+        return
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
+        raise ValueError(f"{what}: {name}: expected a positive number{' or None' if optional else ''}, found "
+                         f"{type(v).__name__} {v!r}")
 
 
 def plan_title(label: str, plan: Plan) -> str:
@@ -189,6 +197,7 @@ def plot_clearance(problem: Problem, plans: Plan | Mapping[str, Plan], *, title:
     """
     from matplotlib.lines import Line2D
 
+    _positive("plot_clearance", "y_max", y_max, optional=True)  # ("1": a TypeError from inside; -1 was taken)
     plans = _as_plans(problem, plans, "plot_clearance")
     req = problem.task.clearance
     fig = _figure((11, 0.9 + 2.5 * len(plans)))
@@ -280,6 +289,7 @@ def plot_joints(problem: Problem, plan: Plan, *, arms: list[str] | None = None, 
     """
     from matplotlib.lines import Line2D
 
+    _positive("plot_joints", "clip", clip)  # ("3": "can't multiply sequence by non-int"; -1 was taken)
     _as_plans(problem, plan, "plot_joints")
     colors = arm_colors(problem)
     if arms is not None:  # (names were matched with ``in``: a typo was dropped in silence, a string matched by substring)
@@ -374,13 +384,20 @@ MAX_RESOLUTION = 2000
 
 def workspace_maps(problem: Problem, arms=None, resolution: int = 300):
     """Grids for the workspace map: ``(xs, ys, manip (ny, nx) best |det J| over arms, NaN where
-    unreachable, count (ny, nx) how many arms reach each point)``. Reach honours joint limits."""
+    unreachable, count (ny, nx) how many arms reach each point)``. Reach honours joint limits.
+    ``arms``: the arms to map (:class:`Arm` objects or their names; default every arm)."""
     from ..kinematics import arm as kin
 
     if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) or not 2 <= resolution <= MAX_RESOLUTION:
         raise ValueError(f"workspace map: resolution: expected a whole number of grid points per axis from 2 to "
                          f"{MAX_RESOLUTION}, found {resolution!r}")
-    arms = list(problem.arms) if arms is None else list(arms)
+    # (names too, as plot_joints takes them: a name raised "'str' object has no attribute 'base'")
+    asked = list(problem.arms) if arms is None else [arms] if isinstance(arms, (str, Arm)) else list(arms)
+    known = {a.name: a for a in problem.arms}
+    unknown = [a for a in asked if not isinstance(a, Arm) and a not in known]
+    if unknown:
+        raise ValueError(f"workspace_maps: arms: expected the problem's arms or their names {list(known)}, found {unknown}")
+    arms = [a if isinstance(a, Arm) else known[a] for a in asked]
     xs, ys, P = _workspace_grid(problem, arms, resolution)
     best = np.full(P.shape[:2], np.nan)
     count = np.zeros(P.shape[:2], int)
