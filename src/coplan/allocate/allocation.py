@@ -39,7 +39,7 @@ from ..kinematics import arm as kin
 from ..errors import CoplanError
 from ..kinds import AllocationMethod, SequenceRule
 from ..problem.gantry import require_cell, standing_reach
-from ..problem.model import Arm, Problem
+from ..problem.model import Arm, Problem, require_problem
 from ..kinematics.timing import move_lower_bound, sync_duration
 from ..ties import TIE, TIME_QUANTUM, first_min, quantised
 
@@ -384,9 +384,7 @@ class LowerBound:
 def _check_cell(problem, what: str) -> None:
     """TypeError where ``problem`` is not a :class:`Problem` (a name raised "cannot create weak
     reference to 'str' object"), ValueError where it is a row (:func:`require_cell`)."""
-    if not isinstance(problem, Problem):
-        raise TypeError(f"{what}: expected a Problem (coplan.load_problem reads a file or a shipped name), found "
-                        f"{type(problem).__name__} {str(problem)[:60]!r}")
+    require_problem(problem, what)
     require_cell(problem, what)
 
 

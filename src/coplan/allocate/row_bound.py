@@ -57,7 +57,8 @@ from .allocation import min_max_bound
 from .row_cycles import cell_cycles, cycle_bounds, home_savings
 from .stop_bound import stops_bound
 from ..kinematics.timing import Move1D
-from ..problem.model import Problem
+from ..problem.gantry import RESOLUTION_RANGE
+from ..problem.model import Problem, require_problem
 
 __all__ = ["RowBounds", "row_bounds", "cycle_bounds", "busiest_cycles"]
 
@@ -81,20 +82,15 @@ class RowBounds:
         return {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "problem"}
 
 
-#: the carriage-position spacings a row's bounds may be priced on, m (``coplan solve --resolution``'s)
-STEP_RANGE = (0.01, 0.5)
-
-
 def row_bounds(problem: Problem, step: float = 0.05, priced: bool = True) -> RowBounds:
     """The row's lower bounds (module docstring); ``priced=False`` leaves out the priced-stops
     programme (0.1-1.5 s on the shipped and benchmark rows) where only the others are wanted."""
-    if not isinstance(problem, Problem):  # (a name: "'str' object has no attribute 'gantry'")
-        raise TypeError(f"row_bounds: expected a Problem (coplan.load_problem reads a file or a shipped name), found "
-                        f"{type(problem).__name__} {str(problem)[:60]!r}")
+    require_problem(problem, "row_bounds")
     if problem.gantry is None:  # (it raised AttributeError from inside)
         raise ValueError(f"{problem.name!r} has no gantry: a cell's lower bound is coplan.allocate.lower_bound")
-    if isinstance(step, bool) or not isinstance(step, (int, float)) or not STEP_RANGE[0] <= step <= STEP_RANGE[1]:
-        raise ValueError(f"step: expected the spacing of the carriage positions from {STEP_RANGE[0]:g} to {STEP_RANGE[1]:g} m "
+    lo, hi = RESOLUTION_RANGE
+    if isinstance(step, bool) or not isinstance(step, (int, float)) or not lo <= step <= hi:
+        raise ValueError(f"step: expected the spacing of the carriage positions from {lo:g} to {hi:g} m "
                          f"(as --resolution), found {type(step).__name__} {step!r}")  # (0: ZeroDivisionError)
     if not isinstance(priced, bool):  # ("no" was taken as true)
         raise TypeError(f"priced: expected True or False, found {type(priced).__name__} {priced!r}")

@@ -265,6 +265,12 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
     return Feed(tuple(out), float(dist), float(sig), problem, source, hashlib.sha256(text.encode("utf-8")).hexdigest())
 
 
+def _found_pair(pos) -> str:
+    """How a message names a position that is not two finite numbers: a short list with its
+    values ("found a list of 2" hid a NaN)."""
+    return found(pos, list_length=True) + (f" {pos!r}" if isinstance(pos, list) and len(pos) <= 4 else "")
+
+
 def detection_issues(detections, seen: set[str], now: float | None = None) -> list[Issue]:
     """What is wrong with ``detections`` (:class:`Detection` objects, given in Python: to
     :meth:`coplan.live.cell.LiveCell.observe`), as a feed file's rows are checked: a finite arrival
@@ -291,8 +297,7 @@ def detection_issues(detections, seen: set[str], now: float | None = None) -> li
             ids.add(d.id)
         pos = list(d.position) if isinstance(d.position, (tuple, list, np.ndarray)) else d.position
         if not isinstance(pos, list) or len(pos) != 2 or not all(finite_number(x) for x in pos):
-            shown = f" {pos!r}" if isinstance(pos, list) and len(pos) <= 4 else ""  # (a NaN read "found a list of 2")
-            issues.append(Issue(f"{at}.position", f"expected (x, y) (two finite numbers, m), found {found(pos, list_length=True)}{shown}"))
+            issues.append(Issue(f"{at}.position", f"expected (x, y) (two finite numbers, m), found {_found_pair(pos)}"))
         else:
             issues += [Issue(path_str(where), msg) for where, msg in field_issues("position", pos, loc + ("position",))]
         if not finite_number(d.sigma) or not 0 < d.sigma <= MAX_FEED_SIGMA:
@@ -314,9 +319,8 @@ def refinement_issues(now, track_id, tracks: list[str], position, sigma) -> list
         issues.append(Issue("track_id", f"expected the id of a track ({known or 'none yet'}), found {found(track_id)}"))
     pos = list(position) if isinstance(position, (tuple, list, np.ndarray)) else position
     if pos is not None and not (isinstance(pos, list) and len(pos) == 2 and all(finite_number(x) for x in pos)):
-        shown = f" {pos!r}" if isinstance(pos, list) and len(pos) <= 4 else ""
         issues.append(Issue("position", f"expected (x, y) (two finite numbers, m) or None (nothing there), found "
-                                        f"{found(pos, list_length=True)}{shown}"))
+                                        f"{_found_pair(pos)}"))
     if pos is not None and (not finite_number(sigma) or not sigma > 0):
         issues.append(Issue("sigma", f"expected a positive number (m), found {found(sigma)}"))
     return issues

@@ -28,7 +28,7 @@ from .yamlsafe import did_you_mean, line_of, path_str
 
 # (``Problem`` in the annotations below is coplan.problem.model.Problem, which imports this module)
 
-__all__ = ["Gantry", "parse_gantry", "cell_at", "require_cell", "carriage_extent", "off_rail", "gantry_range_issues", "GANTRY_KEYS", "rail_reach", "standing_reach", "REACH_STEP"]
+__all__ = ["Gantry", "parse_gantry", "cell_at", "require_cell", "carriage_extent", "off_rail", "gantry_range_issues", "GANTRY_KEYS", "rail_reach", "standing_reach", "REACH_STEP", "RESOLUTION_RANGE", "top_speed_issues"]
 
 #: The keys of a ``gantry`` section: required ones first.
 GANTRY_KEYS = ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle")
@@ -159,6 +159,10 @@ def gantry_range_issues(g: Gantry) -> list[tuple[tuple, str]]:
 
 
 REACH_STEP = 0.01  # m between the carriage positions :func:`rail_reach` tries
+#: The spacings of candidate carriage positions a row may be screened and bounded on, m (as
+#: ``--resolution``): a 200 m row of 2,000 fruit and 6 arms screens 240 MB at 0.01; beyond 0.5 a
+#: fruit's window of rail (often under a metre) has no position.
+RESOLUTION_RANGE = (0.01, 0.5)
 _RAIL_REACH: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
@@ -230,3 +234,14 @@ def require_cell(problem, what: str) -> None:
         raise ValueError(f"{what}: {problem.name!r} is a row (it has a gantry): plan it with coplan.solve, or "
                          f"coplan.row.plan_row / plan_moving; {what} works on a stationary cell (the cell at carriage "
                          f"position x: coplan.problem.gantry.cell_at(problem, x))")
+
+
+def top_speed_issues(name: str, speed, when: str) -> list:
+    """A cruising speed (m/s) above any gantry's (:data:`BOUNDS` ``max_velocity``) as an issue at
+    ``name``, for an options class built in Python (1e9 was taken until the row was planned or
+    run, ``when``: the row's own ``gantry.max_velocity`` is checked then); empty otherwise."""
+    top = BOUNDS["max_velocity"][1]
+    if isinstance(speed, (int, float)) and not isinstance(speed, bool) and speed > top:
+        return [Issue(name, f"expected a cruising speed of at most {top:g} m/s (the fastest a gantry may be; the row's "
+                            f"own gantry.max_velocity is checked when {when}), found {speed:g}")]
+    return []

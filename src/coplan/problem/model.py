@@ -21,7 +21,7 @@ from .check import built_issues
 from .gantry import Gantry, rail_reach
 from .poses import pose_issues
 
-__all__ = ["Arm", "Fruit", "Task", "Problem", "MAX_ARMS", "MAX_FRUITS"]
+__all__ = ["Arm", "Fruit", "Task", "Problem", "MAX_ARMS", "MAX_FRUITS", "require_problem"]
 
 MAX_ARMS = 64
 MAX_FRUITS = 20_000
@@ -204,3 +204,13 @@ class Problem:
                 if d < a.reach + b.reach + a.link_radius + b.link_radius + self.task.clearance:
                     out.append((i, j))
         return out
+
+
+def require_problem(problem, what: str) -> None:
+    """TypeError where an entry point that takes a :class:`Problem` (``what``) is given anything
+    else: a name, a path or a mapping, which :func:`coplan.solve` reads (here a name raised
+    "'str' object has no attribute 'gantry'", or "cannot create weak reference to 'str' object")."""
+    if not isinstance(problem, Problem):
+        raise TypeError(f"{what}: expected a Problem (coplan.problem.load_problem reads a file or a shipped name; "
+                        f"coplan.solve also takes a name, a path or a mapping), found {type(problem).__name__} "
+                        f"{str(problem)[:60]!r}")

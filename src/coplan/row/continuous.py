@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import Issue, OptionsError, check_fields
 from ..kinds import AssignRule, GantryMode, PlannerKind, PlanStatus, SpeedProfile
 from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES, EventKind, Plan, compute_metrics
-from ..problem.gantry import BOUNDS as GANTRY_BOUNDS
+from ..problem.gantry import top_speed_issues
 from ..problem.model import Problem
 from ..problem.plausible import plan_seconds_limit
 from ..progress import speaker
@@ -192,12 +192,8 @@ class MovingOptions:
         if not MIN_RATE <= self.rate <= MAX_RATE:  # (a coarser grid is one no verifier passes; a finer one, gigabytes)
             raise OptionsError([Issue("rate", f"expected a plan sample rate from {MIN_RATE:g} to {MAX_RATE:g} Hz, "
                                               f"found {self.rate:g}")], "MovingOptions")
-        top = GANTRY_BOUNDS["max_velocity"][1]
-        if self.level is not None and SpeedProfile(self.profile) == SpeedProfile.CONSTANT and self.level > top:
-            # (1e9 was taken until plan_moving; the row's own range, up to its gantry.max_velocity, is checked there)
-            raise OptionsError([Issue("level", f"expected a cruising speed of at most {top:g} m/s (the fastest a gantry "
-                                               f"may be; the row's own gantry.max_velocity is checked when planned), "
-                                               f"found {self.level:g}")], "MovingOptions")
+        if SpeedProfile(self.profile) == SpeedProfile.CONSTANT and (fast := top_speed_issues("level", self.level, "planned")):
+            raise OptionsError(fast, "MovingOptions")
 
 
 @dataclass(frozen=True)

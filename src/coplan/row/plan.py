@@ -37,7 +37,7 @@ from ..kinds import GantryMode, PlannerKind, PlanStatus, StopRule
 from ..kinematics.timing import Move1D
 from ..plan import DEFAULT_RATE, Event, EventKind, Plan, compute_metrics, finalize_plan
 from ..problem.gantry import cell_at
-from ..problem.model import Problem
+from ..problem.model import Problem, require_problem
 from ..problem.plausible import check_as_file
 from ..progress import Tick, check_progress, speaker, ticker
 from .reach import DEFAULT_RESOLUTION, RowReach, resolution_issues, row_reach, screened_out
@@ -226,10 +226,7 @@ def check_row_call(problem, progress, what: str) -> None:
     """TypeError where a row planner's ``problem`` is not a :class:`Problem` or ``progress`` not
     a callable (a name, path or mapping: :func:`coplan.solve` reads those; here a name raised
     "'str' object has no attribute 'gantry'")."""
-    if not isinstance(problem, Problem):
-        raise TypeError(f"{what}: expected a Problem (coplan.problem.load_problem reads a file or a shipped name; "
-                        f"coplan.solve also takes a name, a path or a mapping), found {type(problem).__name__} "
-                        f"{str(problem)[:60]!r}")
+    require_problem(problem, what)
     check_progress(progress, what)
     check_as_file(problem)  # (as coplan.solve: a carriage of 1 um/s took 21 GB here)
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..allocate.screen import screened, usable_picks
 from ..errors import Issue
-from ..problem.gantry import cell_at
+from ..problem.gantry import RESOLUTION_RANGE, cell_at
 from ..problem.model import Problem
 
 __all__ = ["RowReach", "row_reach", "robust_end", "locked_arms", "screened_out", "DEFAULT_RESOLUTION",
@@ -29,9 +29,6 @@ __all__ = ["RowReach", "row_reach", "robust_end", "locked_arms", "screened_out",
 
 #: Spacing of the candidate carriage positions, m.
 DEFAULT_RESOLUTION = 0.05
-#: The spacings a row may ask for, m (as ``--resolution``): a 200 m row of 2,000 fruit and 6 arms
-#: screens 240 MB at 0.01; beyond 0.5 a fruit's window of rail (often under a metre) has no position.
-RESOLUTION_RANGE = (0.01, 0.5)
 
 
 def resolution_issues(value) -> list[Issue]:

@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import Issue, OptionsError, check_fields
 from ..kinds import GantryMode
 from ..plan import MAX_PLAN_BYTES
-from ..problem.gantry import BOUNDS as GANTRY_BOUNDS
+from ..problem.gantry import top_speed_issues
 from ..problem.model import Problem
 from ..problem.plausible import plan_seconds_limit
 from .cruise import Cruise
@@ -105,10 +105,7 @@ class LiveRowOptions:
         issues += [Issue(name, f"expected at most {top:g} m, found {getattr(self, name)!r}")
                    for name, top in (("look_ahead", MAX_LOOK_AHEAD), ("sigma", MAX_SIGMA), ("close_sigma", MAX_SIGMA))
                    if getattr(self, name) > top]
-        if self.speed > GANTRY_BOUNDS["max_velocity"][1]:  # (1e9 was taken until the run; the row's own limit is checked there)
-            issues.append(Issue("speed", f"expected a cruising speed of at most {GANTRY_BOUNDS['max_velocity'][1]:g} m/s (the "
-                                         f"fastest a gantry may be; the row's own gantry.max_velocity is checked when run), "
-                                         f"found {self.speed:g}"))
+        issues += top_speed_issues("speed", self.speed, "run")
         if not 0.005 <= self.close_distance <= 1.0:  # (a feed file's close_range.distance range)
             issues.append(Issue("close_distance", f"expected a number in [0.005, 1] m, found {self.close_distance!r}"))
         if self.mode == GantryMode.AUTO:  # (refused only once the run started, as a ValueError)
