@@ -108,6 +108,8 @@ def test_generated_feed_is_seeded_and_round_trips(greenhouse) -> None:
     c = make_feed(greenhouse, known=0.5, sigma=0.01, false_rate=0.3, duplicate_rate=0.3, seed=8, reveal_by=5.0)
     assert a == b and a != c
     assert parse_feed(feed_yaml(a)).detections == a.detections
+    empty = Feed((), a.close_distance, a.close_sigma, a.problem)  # (its YAML said 'detections:' -- null -- and was refused)
+    assert parse_feed(feed_yaml(empty)).detections == ()
     true = [d for d in a.detections if d.fruit is not None]
     first = {}
     for d in true:
@@ -729,3 +731,21 @@ def test_a_burst_of_false_detections_does_not_crowd_out_the_real_fruit(greenhous
     assert m["false_picks_avoided"] + m["false_unreachable"] == m["false_detections"] >= 55  # (each accounted for)
     with pytest.raises(Exception, match="max_open: expected a whole number of tracks >= 1, found 0"):
         LiveOptions(max_open=0)
+
+
+def test_a_feed_with_no_detections_says_never_detected(greenhouse, tmp_path):
+    """An empty feed (the camera saw nothing): each fruit is 'never detected', not said to be
+    'named by no report' as if the feed's detections had come unnamed."""
+    feed = make_feed(greenhouse, seed=0)
+    path = tmp_path / "empty.yaml"
+    path.write_text(feed_yaml(Feed((), feed.close_distance, feed.close_sigma, feed.problem)))
+    from coplan.problem import default_problem_path
+
+    r = CliRunner().invoke(app, ["run", str(default_problem_path()), "--feed", str(path), "-o", str(tmp_path / "out")],
+                           env={"COLUMNS": "300"})
+    assert r.exit_code == int(ExitCode.PARTIAL), r.output
+    run = json.loads((tmp_path / "out" / "run.json").read_text())
+    whys = {f: v["why"] for f, v in run["fruit"].items()}
+    assert run["metrics"]["harvested"] == 0 and run["metrics"]["verified"] is True
+    out = set(greenhouse.unreachable())
+    assert out and all(w == "never detected" for f, w in whys.items() if f not in out), whys

@@ -415,7 +415,7 @@ def feed_yaml(feed: Feed) -> str:
     head = {"format": FEED_FORMAT, "problem": feed.problem,
             "close_range": {"distance": feed.close_distance, "sigma": feed.close_sigma}}
     text = yaml.safe_dump(head, sort_keys=False, default_flow_style=None)
-    text += "detections:\n"
+    text += "detections:\n" if feed.detections else "detections: []\n"  # (a bare key reads back as null)
     for d in feed.detections:
         text += "  - " + yaml.safe_dump(d.to_dict(), sort_keys=False, default_flow_style=True, width=400).strip() + "\n"
     return text

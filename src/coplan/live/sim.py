@@ -245,8 +245,9 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
         elif f.id not in detected:
             hid = [h for h, ds in hidden.items() if any(d.fruit == f.id for d in ds)]
             why = (f"never revealed (hidden behind {', '.join(hid)}, which was not picked)" if hid else "never detected"
-                   if named else "no report names it (the feed's detections carry no 'fruit': none is matched to a "
-                                 "true fruit, so every one counts as false)")
+                   if named or not feed.detections else
+                   "no report names it (the feed's detections carry no 'fruit': none is matched to a "
+                   "true fruit, so every one counts as false)")
         else:
             notes = []
             for t in by_truth.get(f.id, []):
