@@ -135,6 +135,33 @@ def test_verify_notes_a_problem_file_other_than_the_one_the_plan_was_planned_fro
         assert (doc["sha256"] == record["sha256"]) is same_text
 
 
+def test_verify_takes_the_plan_alone_as_the_other_plan_commands_do(crossing_plan, tmp_path):
+    """``coplan verify plan.json`` (as ``plot``, ``export``: "Missing argument 'PLAN'" before):
+    against the problem file the plan records, the same report as ``verify PROBLEM PLAN``;
+    ``-p`` gives another; the problem twice, a problem without its plan, or a plan that does not
+    say its problem (a plan.csv) is a usage error saying what to give."""
+    problem = PROBLEMS / "crossing_paths.yaml"
+    both = runner.invoke(app, ["verify", str(problem), str(crossing_plan), "--json"])
+    alone = runner.invoke(app, ["verify", str(crossing_plan), "--json"])
+    assert both.exit_code == alone.exit_code == 0, alone.output
+    a, b = json.loads(both.stdout), json.loads(alone.stdout)
+    assert a["summary"] == b["summary"] and a["problem_file"] == b["problem_file"] and b["problem_file"]["same_text"]
+    wider = tmp_path / "crossing_wider.yaml"
+    wider.write_text(problem.read_text().replace("clearance: 0.05", "clearance: 0.06"))
+    r = runner.invoke(app, ["verify", str(crossing_plan), "-p", str(wider)])
+    assert r.exit_code == 0 and "(required 0.060 m)" in r.output and "its sha256 differs" in r.output, r.output
+    r = runner.invoke(app, ["verify", str(problem), str(crossing_plan), "-p", str(wider)])
+    assert r.exit_code == 2 and "given twice" in r.output
+    for name in (str(problem), "crossing_paths"):
+        r = runner.invoke(app, ["verify", name])
+        assert r.exit_code == 2 and "coplan verify PROBLEM PLAN" in r.output and "Traceback" not in r.output, r.output
+    csv = crossing_plan.with_name("plan.csv")
+    r = runner.invoke(app, ["verify", str(csv)])
+    assert r.exit_code == 2 and "does not name its problem" in r.output and "--problem FILE" in r.output, r.output
+    r = runner.invoke(app, ["verify", str(csv), "-p", str(problem)])
+    assert r.exit_code == 0, r.output
+
+
 def test_an_empty_plan_file_is_called_empty(tmp_path):
     p = tmp_path / "plan.json"
     p.write_text("  \n")

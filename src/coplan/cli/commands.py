@@ -354,8 +354,9 @@ def check(
 @app.command("verify")
 @guarded
 def verify_cmd(
-    problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file, or a shipped problem's name (coplan problems lists them).")],
-    plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="Plan to verify: plan.json, the plan.csv replay coplan writes, or a coplan export CSV (no events: they are inferred).")],
+    problem: Annotated[Path, typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file, or a shipped problem's name (coplan problems lists them). Given the plan alone, as the other plan commands take it: its problem is --problem, else the problem file the plan records, else the shipped problem it names.")],
+    plan: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PLAN", help="Plan to verify: plan.json, the plan.csv replay coplan writes, or a coplan export CSV (no events: they are inferred).")] = None,
+    problem_opt: Annotated[Optional[Path], typer.Option("--problem", "-p", parser=in_path, metavar="PATH", help="With the plan given alone: the plan's problem YAML (default: the problem file the plan records, else the shipped problem it names).")] = None,
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Write verification.json (a folder, or a file name ending .json).")] = None,
     fcl: Annotated[FclMode, typer.Option(parser=choice(FclMode), metavar=choices(FclMode), help="FCL cross-check: critical instants, every sample (slow), or off.")] = FclMode.CRITICAL,
     as_json: Annotated[bool, typer.Option("--json", help="Print verification.json's content instead of the report.")] = False,
@@ -363,12 +364,23 @@ def verify_cmd(
 ):
     """Independently verify a plan: clearance (certified), limits, picks and places.
 
+    coplan verify PROBLEM PLAN, or coplan verify PLAN [-p PROBLEM] (the plan alone: against the problem file it records).
+
     Exit codes: 0 passed and every reachable fruit harvested; 5 passed but fruit left; 4 passed but the problem has no reachable fruit (as solve); 6 violations found; 3 bad problem or plan file.
     """  # (one line per paragraph: the help keeps a docstring's line breaks)
     from ..plan import load_plan
     from ..problem.load import load_problem
     from ..verify.verifier import verify as run_verify
 
+    if plan is None:  # `coplan verify plan.json [-p PROBLEM]`, as plot, animate, view and export take a plan
+        plan, problem = problem, problem_opt
+        if plan.suffix.lower() in (".yaml", ".yml") or not (plan.suffix or plan.is_file()):  # (a problem, its plan forgotten)
+            _fail(ExitCode.USAGE, f"{plan}: expected a plan (plan.json, or a plan's CSV) after the problem, or the plan "
+                                  f"alone; found {'a YAML file' if plan.suffix else 'a name'} and no plan: coplan verify "
+                                  "PROBLEM PLAN")
+    elif problem_opt is not None:
+        _fail(ExitCode.USAGE, f"the problem is given twice ({problem} and --problem {problem_opt}): give "
+                              "PROBLEM PLAN, or PLAN --problem FILE")
     if out is not None and (out.resolve() == plan.resolve() or (out.is_dir() and (out / "verification.json").resolve() == plan.resolve())):
         _fail(ExitCode.USAGE, f"--out {out} is the plan being verified; give another file or folder")
     if out is not None and out.is_file() and out.suffix != ".json":  # (the report is a .json file, or goes into a folder)
@@ -387,18 +399,24 @@ def verify_cmd(
         failures.check_overwrite(report_path(out), "a coplan.verification file", "a verification report")
     from ..errors import PlanFileError
 
-    prob = load_problem(_resolve_problem(problem))
-    loaded = load_plan(plan)
+    if problem is None:  # (the plan alone: its problem as the figure commands find it)
+        from .figures import problem_of_plan
+
+        loaded = load_plan(plan)
+        prob = problem_of_plan(loaded, plan, None)
+    else:
+        prob = load_problem(_resolve_problem(problem))
+        loaded = load_plan(plan)
     record = loaded.problem_file
     # (a plan of another problem by name is refused with both names by the verifier's own check)
-    if record is not None and prob.digest is not None and prob.digest != record["sha256"]:
+    if problem is not None and record is not None and prob.digest is not None and prob.digest != record["sha256"]:
         err_console.print(f"[yellow]note[/]: {_s(plan)} was planned from {_s(record['path'])}; {_s(problem)} is not that "
                           "text (another file, or changed since: its sha256 differs): the plan is verified against "
                           f"{_s(problem)} as it is now")
     try:
         ver = run_verify(prob, loaded, fcl=fcl, position_tolerance=tolerance / 1000.0)
     except PlanFileError as e:  # a well-formed plan that does not fit this problem: name both files
-        raise PlanFileError(e.issues, f"{plan} (a {e.source}, checked against {problem})") from None
+        raise PlanFileError(e.issues, f"{plan} (a {e.source}, checked against {problem or prob.source or prob.name})") from None
     written = ver.save(out) if out is not None else None
     # no reachable fruit: infeasible (4), as `solve` says of the same problem
     code = ExitCode.UNSAFE if not ver.passed else ExitCode.INFEASIBLE if not prob.reachable_ids() \

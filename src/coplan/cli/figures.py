@@ -21,7 +21,7 @@ from .failures import resolve_problem
 from .summary import safe as _s
 from ..kinds import ExitCode
 
-__all__ = ["PlotKind", "plot_cmd", "animate_cmd", "view_cmd"]
+__all__ = ["PlotKind", "plot_cmd", "animate_cmd", "view_cmd", "plan_with_problem", "problem_of_plan"]
 
 _out = text_console()
 _err = text_console(stderr=True)
@@ -43,14 +43,13 @@ class PlotKind(str, Enum):
     WORKSPACE = "workspace"
 
 
-def plan_with_problem(plan_path: Path, problem: Optional[Path]):
-    """Load a plan.json and its problem: --problem; else the problem file the plan records
-    (``problem_file``: its path, and its digest, so a file changed since is not taken for it);
-    else the shipped problem of the plan's name."""
-    from ..plan import load_plan
+def problem_of_plan(plan, plan_path: Path, problem: Optional[Path]):
+    """A loaded plan's problem: ``problem`` (--problem; a note where the plan names another or
+    was planned from another text); else the problem file the plan records (``problem_file``:
+    its path, and its digest, so a file changed since is not taken for it); else the shipped
+    problem of the plan's name. A usage error (exit 2) says what to give where none fits."""
     from ..problem.load import load_problem, shipped_problems, shipped_rows
 
-    plan = load_plan(plan_path)
     record = plan.problem_file
     if problem is not None:
         prob = load_problem(_resolve_problem(problem))
@@ -85,6 +84,16 @@ def plan_with_problem(plan_path: Path, problem: Optional[Path]):
             _err.print(f"[yellow]note[/]: {_s(plan_path)} records no problem file: checked against the shipped "
                               f"problem {_s(repr(prob.name))} ({_s(prob.source or '')}); if it was planned on a changed "
                               "problem, give that with --problem FILE", highlight=False, soft_wrap=True)
+    return prob
+
+
+def plan_with_problem(plan_path: Path, problem: Optional[Path]):
+    """Load a plan.json and its problem (:func:`problem_of_plan`); a plan whose arms are not the
+    problem's is refused, and a plan that declares no events (a plan.csv) has them inferred."""
+    from ..plan import load_plan
+
+    plan = load_plan(plan_path)
+    prob = problem_of_plan(plan, plan_path, problem)
     names = [a.name for a in prob.arms]
     missing = [n for n in names if n not in plan.q]
     extra = [n for n in plan.q if n not in names]
