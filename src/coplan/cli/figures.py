@@ -144,7 +144,7 @@ def checked(prob, plan):
 
 # the problem a plan belongs to, for the commands that read a plan.json
 PlanProblemOption = Annotated[
-    Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML (default: the shipped problem it names).")
+    Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML (default: the problem file the plan records, else the shipped problem it names).")
 ]
 
 
