@@ -374,7 +374,7 @@ def verify_cmd(
 
     if plan is None:  # `coplan verify plan.json [-p PROBLEM]`, as plot, animate, view and export take a plan
         plan, problem = problem, problem_opt
-        if plan.suffix.lower() in (".yaml", ".yml") or not (plan.suffix or plan.is_file()):  # (a problem, its plan forgotten)
+        if plan.suffix.lower() in (".yaml", ".yml") or not (plan.suffix or plan.exists()):  # (a problem, its plan forgotten)
             _fail(ExitCode.USAGE, f"{plan}: expected a plan (plan.json, or a plan's CSV) after the problem, or the plan "
                                   f"alone; found {'a YAML file' if plan.suffix else 'a name'} and no plan: coplan verify "
                                   "PROBLEM PLAN")
