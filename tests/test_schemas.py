@@ -116,7 +116,42 @@ def test_the_problem_schema_and_the_loader_agree_on_mutations(seed):
                 parse_problem(yaml.safe_dump(bad))
 
 
-@pytest.mark.parametrize("kind", ["problem", "plan"])
+def test_generated_feeds_validate_and_the_feed_schema_refuses_what_the_loader_refuses():
+    """The vision feed's schema (for a camera pipeline writing feeds): feeds ``coplan feed``
+    makes validate, an empty one too; each edit the schema refuses, the loader refuses."""
+    from coplan.live.feed import FEED_FORMAT, Feed, FeedError, feed_yaml, make_feed, parse_feed
+    from coplan.problem import default_problem_path, load_problem
+
+    assert json_schema(SchemaKind.FEED)["properties"]["format"]["anyOf"][0]["const"] == FEED_FORMAT
+    v = validator(SchemaKind.FEED)
+    problem = load_problem(default_problem_path())
+    feeds = [make_feed(problem, false_rate=0.3, duplicate_rate=0.3, seed=s) for s in range(3)]
+    feeds.append(Feed((), feeds[0].close_distance, feeds[0].close_sigma, feeds[0].problem))
+    for feed in feeds:
+        doc = yaml.safe_load(feed_yaml(feed))
+        assert [e.message for e in v.iter_errors(doc)] == []
+    doc = yaml.safe_load(feed_yaml(feeds[0]))
+    edits = {
+        "a negative time": lambda d: d["detections"][0].__setitem__("t", -1.0),
+        "one coordinate": lambda d: d["detections"][0].__setitem__("position", [0.5]),
+        "no sigma": lambda d: d["detections"][0].pop("sigma"),
+        "a zero sigma": lambda d: d["detections"][0].__setitem__("sigma", 0.0),
+        "an unknown key": lambda d: d["detections"][0].__setitem__("colour", "red"),
+        "a number as id": lambda d: d["detections"][0].__setitem__("id", 7),
+        "another format": lambda d: d.__setitem__("format", "coplan.feed/2"),
+        "a far close range": lambda d: d.__setitem__("close_range", {"distance": 2.0}),
+        "no detections": lambda d: d.pop("detections"),
+        "an unknown top key": lambda d: d.__setitem__("camera", "zed"),
+    }
+    for what, edit in edits.items():
+        bad = copy.deepcopy(doc)
+        edit(bad)
+        assert not v.is_valid(bad), what
+        with pytest.raises(FeedError):
+            parse_feed(yaml.safe_dump(bad))
+
+
+@pytest.mark.parametrize("kind", ["problem", "plan", "feed"])
 def test_cli_schema_prints_the_shipped_file(kind):
     res = CliRunner().invoke(app, ["schema", kind])
     assert res.exit_code == 0 and res.stdout == shipped_path(kind).read_text()

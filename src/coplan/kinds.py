@@ -185,3 +185,4 @@ class SchemaKind(Choice):
 
     PROBLEM = "problem"
     PLAN = "plan"
+    FEED = "feed"

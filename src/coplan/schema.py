@@ -1,9 +1,11 @@
-"""JSON Schemas of coplan's file formats: problem files (YAML) and plan files (``plan.json``).
+"""JSON Schemas of coplan's file formats: problem files (YAML), plan files (``plan.json``) and
+vision feeds (YAML, ``coplan.feed/1``).
 
 The schemas are exported from the pydantic models below (:func:`json_schema`) and shipped as
-package data (``coplan/schemas/problem.schema.json``, ``plan.schema.json``; :func:`shipped_path`);
-a test keeps the shipped files equal to what the models export, and validates every shipped
-problem and a solved ``plan.json`` against them. ``coplan schema problem|plan`` prints one.
+package data (``coplan/schemas/problem.schema.json``, ``plan.schema.json``,
+``feed.schema.json``; :func:`shipped_path`); a test keeps the shipped files equal to what the
+models export, and validates every shipped problem, a solved ``plan.json`` and generated feeds
+against them. ``coplan schema problem|plan|feed`` prints one.
 
 A schema tells editors and other tools the shape of a file: keys, types, units, required
 fields. It is a necessary condition only: coplan's own loaders check more (joint limits
@@ -23,8 +25,9 @@ from pydantic import BaseModel, ConfigDict, Field
 from .kinds import EventKind, SchemaKind
 from .plan import PLAN_FORMAT
 from .problem.model import MAX_ARMS, MAX_FRUITS
+from .problem.plausible import MAX_PLAN_SECONDS
 
-__all__ = ["json_schema", "schema_text", "shipped_path", "SCHEMA_DIR", "ProblemFile", "PlanFile"]
+__all__ = ["json_schema", "schema_text", "shipped_path", "SCHEMA_DIR", "ProblemFile", "PlanFile", "FeedFile"]
 
 SCHEMA_DIR = Path(__file__).with_name("schemas")
 _ID = "https://coplan.invalid/schemas/"  # a stable identifier, not a download location
@@ -250,7 +253,42 @@ class PlanFile(BaseModel):
 
 assert PLAN_FORMAT == "coplan.plan/1", "PlanFile.format must name the format plan.py writes"
 
-_MODELS = {SchemaKind.PROBLEM: ProblemFile, SchemaKind.PLAN: PlanFile}
+
+class CloseRangeSpec(_Closed):
+    """When a gripper's tip comes close to its target, a refined measurement arrives."""
+
+    distance: float = Field(0.10, ge=0.005, le=1.0, description="m: the tip this close to its target gets a refined "
+                                                                  "measurement (coplan feed --close-distance)")
+    sigma: float = Field(0.001, ge=1e-6, le=0.1, description="m: that measurement's standard deviation per coordinate "
+                                                               "(coplan feed --close-sigma)")
+
+
+class DetectionSpec(_Closed):
+    """One detection event: when it arrives, its id, the measured position and its noise."""
+
+    t: float = Field(ge=0, le=MAX_PLAN_SECONDS, description="s: when the detection arrives (with after: s after that "
+                                                            "fruit's pick ends)")
+    id: Name = Field(description="the detection's id, unique within the feed")
+    position: Point = Field(description="[x, y] as measured, m (a row: in row coordinates)")
+    sigma: float = Field(gt=0, le=1.0, description="m: the standard deviation of each coordinate")
+    fruit: Name | None = Field(None, description="the true fruit it is (simulation only); null: a false detection")
+    after: Name | None = Field(None, description="a true fruit this one was hidden behind: t counts from that fruit's "
+                                                  "pick (simulation only)")
+
+
+class FeedFile(_Closed):
+    """A coplan vision feed (YAML): what the camera reports, detection by detection
+    (``coplan feed`` writes one; ``coplan run --feed`` reads one)."""
+
+    model_config = ConfigDict(extra="forbid", title="coplan vision feed")
+
+    format: Literal["coplan.feed/1"] | None = Field(None, description="the file format")
+    problem: str | None = Field(None, description="the name of the problem it was made for (a note if another is run)")
+    close_range: CloseRangeSpec | None = None
+    detections: list[DetectionSpec] = Field(description="the detections, in any order")
+
+
+_MODELS = {SchemaKind.PROBLEM: ProblemFile, SchemaKind.PLAN: PlanFile, SchemaKind.FEED: FeedFile}
 
 
 def json_schema(kind: SchemaKind | str) -> dict[str, Any]:

@@ -49,8 +49,8 @@ def export_cmd(
 
 
 def schema_cmd(kind: Annotated[SchemaKind, typer.Argument(parser=choice(SchemaKind), metavar="KIND",
-                                                           help="Which file format: " + " or ".join(m.value for m in SchemaKind) + ".")]):
-    """Print the JSON Schema of problem files or plan files (shipped as coplan/schemas/*.schema.json)."""
+                                                           help="Which file format: " + ", ".join(m.value for m in SchemaKind) + ".")]):
+    """Print the JSON Schema of problem files, plan files or vision feeds (shipped as coplan/schemas/*.schema.json)."""
     typer.echo((Path(__file__).parents[1] / "schemas" / f"{kind.value}.schema.json").read_text(), nl=False)
 
 
