@@ -146,6 +146,29 @@ def test_a_killed_worker_process_is_replaced_and_its_task_retried(tmp_path):
     assert victim["worker"] is not None and victim["makespan"] > 0
 
 
+def test_a_scheduler_with_no_workers_is_said_and_the_sweep_goes_on_when_one_joins(tmp_path, monkeypatch):
+    """(A sweep on a --scheduler no worker had joined waited, as Dask does, with "no problem
+    finished yet" and not a word why.) A scheduler with no workers: the sweep says so; a worker
+    joins (here: on that note) and the sweep finishes, every row solved."""
+    from distributed import LocalCluster
+
+    import coplan.sweep.run as run
+
+    monkeypatch.setattr(run, "WORKER_CHECK_SECONDS", 0.2)
+    notes: list[str] = []
+    with LocalCluster(n_workers=0, processes=True, threads_per_worker=1, dashboard_address=":0") as cluster:
+        def note(message):
+            notes.append(message)
+            if len(notes) == 1:
+                cluster.scale(1)  # a worker connects once told
+
+        res = run.run_sweep(parse_sweep(TINY, "tiny.yaml"), tmp_path / "out", scheduler=cluster.scheduler_address,
+                            on_note=note)
+    assert notes and "has no workers: the sweep waits for one to connect" in notes[0]
+    assert cluster.scheduler_address in notes[0]
+    assert res.done == 3 and {r["status"] for r in read_rows(tmp_path / "out")} == {RowStatus.SUCCESS.value}
+
+
 def test_bad_problems_are_rows_with_exit_class_bad_input(tmp_path, problems_dir):
     good = tmp_path / "p" / "a_good.yaml"
     good.parent.mkdir()

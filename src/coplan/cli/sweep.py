@@ -98,7 +98,8 @@ def sweep_cmd(
         # signal instead and drop it (the sweep then ran to its end)
         try:
             res = run_sweep(sw, folder, workers=workers, scheduler=scheduler, planner=planner, time_limit=time_limit,
-                            csv=csv, keep_plans=keep_plans, on_row=on_row, on_start=on_start)
+                            csv=csv, keep_plans=keep_plans, on_row=on_row, on_start=on_start,
+                            on_note=lambda m: _err.print(f"[yellow]note[/]: {_safe(m)}", highlight=False))
         finally:
             progress.stop()
     except KeyboardInterrupt:

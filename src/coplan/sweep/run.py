@@ -45,6 +45,7 @@ __all__ = ["SweepOutcome", "run_sweep", "solve_item", "hard_limit", "exit_class"
 
 SNAPSHOT_SECONDS = 5.0  # how often results.parquet is rewritten while the sweep runs
 SCHEDULER_TIMEOUT = "20s"  # how long a sweep waits for a --scheduler that does not answer
+WORKER_CHECK_SECONDS = 5.0  # how often a sweep waiting on a --scheduler asks whether it has workers
 STATE = ".sweep-state"
 LOCK = ".sweep.lock"  # held (flock) by the sweep writing into the folder: a second one is refused
 
@@ -260,19 +261,50 @@ def _lost_row(item: SweepItem, sweep: str, attempts: int, err: BaseException) ->
     return _fail_row(row, RowStatus.LOST, ExitCode.INCOMPLETE, lost_reason(err, attempts))
 
 
-def _completed(ac, stop: _Interrupt, poll: float = 0.2):
+def _completed(ac, stop: _Interrupt, poll: float = 0.2, idle: Callable[[], None] | None = None):
     """The futures of ``ac`` (a ``distributed.as_completed``) as they finish, asking ``stop``
     between short waits: a Ctrl-C swallowed where it landed still stops the sweep within
-    ``poll`` seconds, not after the next solve."""
+    ``poll`` seconds, not after the next solve. ``idle()`` is called at each wait."""
     while not ac.is_empty():
         stop.check()
         batch = ac.next_batch(block=False)
         if not batch:
+            if idle is not None:
+                idle()
             time.sleep(poll)
             continue
         for fut in batch:
             yield fut
             stop.check()
+
+
+class _WorkerWatch:
+    """At most every ``every`` s of waiting, asks the scheduler how many workers it has and
+    says so (``note``) when it has none -- a sweep on a ``--scheduler`` no worker has joined,
+    or whose workers all left, waits for one, as Dask does; it said nothing -- and again when
+    some connect."""
+
+    def __init__(self, client, scheduler: str, note: Callable[[str], None], every: float | None = None):
+        self.client, self.scheduler, self.note = client, scheduler, note
+        self.every = WORKER_CHECK_SECONDS if every is None else every
+        self.last = time.monotonic()
+        self.none = False
+
+    def __call__(self) -> None:
+        now = time.monotonic()
+        if now - self.last < self.every:
+            return
+        self.last = now
+        try:
+            n = len((self.client.scheduler_info() or {}).get("workers") or {})
+        except Exception:  # noqa: BLE001 -- a scheduler that went away: the futures' own errors say so
+            return
+        if n == 0 and not self.none:
+            self.note(f"the scheduler at {self.scheduler} has no workers: the sweep waits for one to connect "
+                      f"(e.g. dask worker {self.scheduler}); Ctrl-C stops it, every finished row kept")
+        elif n and self.none:
+            self.note(f"{n} worker{'s' * (n != 1)} connected to {self.scheduler}: the sweep goes on")
+        self.none = n == 0
 
 
 def _write_json(path: Path, doc: dict) -> None:
@@ -397,6 +429,7 @@ def run_sweep(
     on_row: Callable[[dict, SweepOutcome], None] | None = None,
     on_start: Callable[[SweepOutcome], None] | None = None,
     task: Callable = solve_item,
+    on_note: Callable[[str], None] | None = None,
 ) -> SweepOutcome:
     """Run ``spec`` into the folder ``out`` (``rows.jsonl``, ``results.parquet``, ``sweep.json``;
     ``results.csv`` with ``csv``; with ``keep_plans`` every plan and its problem as
@@ -404,7 +437,8 @@ def run_sweep(
 
     Rows already in ``out`` (same key) are skipped. ``on_start(outcome)`` is called once the
     work is known, ``on_row(row, outcome)`` after each row is journaled. ``task`` is the
-    function run per problem (:func:`solve_item`; tests wrap it). Ctrl-C stops the sweep:
+    function run per problem (:func:`solve_item`; tests wrap it). ``on_note(message)``: what the
+    user should know meanwhile (a ``scheduler`` with no workers). Ctrl-C stops the sweep:
     every finished row is kept, the table written, and ``KeyboardInterrupt`` re-raised.
     """
     t0 = time.perf_counter()
@@ -480,7 +514,8 @@ def run_sweep(
                 by_key[f.key] = it
                 futures.append(f)
             last = time.monotonic()
-            for fut in _completed(as_completed(futures), stop):
+            watch = _WorkerWatch(client, scheduler, on_note) if scheduler is not None and on_note is not None else None
+            for fut in _completed(as_completed(futures), stop, idle=watch):
                 it = by_key[fut.key]
                 plan = None
                 try:
