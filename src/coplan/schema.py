@@ -269,7 +269,7 @@ class DetectionSpec(_Closed):
     t: float = Field(ge=0, le=MAX_PLAN_SECONDS, description="s: when the detection arrives (with after: s after that "
                                                             "fruit's pick ends)")
     id: Name = Field(description="the detection's id, unique within the feed")
-    position: Point = Field(description="[x, y] as measured, m (a row: in row coordinates)")
+    position: Point = Field(description="[x, y] as measured, m, in the problem's frame")
     sigma: float = Field(gt=0, le=1.0, description="m: the standard deviation of each coordinate")
     fruit: Name | None = Field(None, description="the true fruit it is (simulation only); null: a false detection")
     after: Name | None = Field(None, description="a true fruit this one was hidden behind: t counts from that fruit's "
