@@ -541,6 +541,70 @@ def test_sweep_report_refuses_a_folder_that_is_not_a_sweep(tmp_path):
     assert r.exit_code == 2 and "found a sweep that has none yet" in " ".join(r.output.split()), r.output
 
 
+def test_odd_tables_and_records_are_named_not_internal_errors(small_run, tmp_path):
+    """(From a user's trial: each was an internal error, exit 1, or a silent wrong report.)
+    A journal line of valid JSON with a value of the wrong type is a damaged line; a Parquet
+    table trimmed in pandas reports with its missing columns named, another Parquet file is
+    refused; a damaged sweep.json is named; a sweep stopped part-way is reported as unfinished."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from coplan.sweep.table import PARQUET, SweepTableError
+
+    src, _, _ = small_run
+    out = tmp_path / "odd"
+    shutil.copytree(src, out)
+    lines = (out / JOURNAL).read_text().splitlines(keepends=True)
+    bad = json.loads(lines[0])
+    bad["exit_code"] = "three"
+    (out / JOURNAL).write_text(json.dumps(bad) + "\n" + "".join(lines[1:]))
+    (out / PARQUET).unlink()
+    unread: list[int] = []
+    assert len(read_rows(out, unread)) == 5 and unread == [1]
+    table = pq.read_table(src / PARQUET)
+    pq.write_table(table.select(["key", "sweep", "status", "makespan"]), tmp_path / "few.parquet")
+    notes: dict = {}
+    few = read_table(tmp_path / "few.parquet", notes)
+    assert few.num_rows == 6 and "exit_class" in notes["missing_columns"] and few.column("exit_class").null_count == 6
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["sweep-report", str(tmp_path / "few.parquet"), "--out",
+                                                      str(tmp_path / "r1"), "--no-figures"])
+    assert r.exit_code == 0 and "lacks" in r.output and "6 rows" in r.output, r.output
+    pq.write_table(pa.table({"a": [1, 2]}), tmp_path / "other.parquet")
+    with pytest.raises(SweepTableError, match="without key and status"):
+        read_table(tmp_path / "other.parquet")
+    # sweep.json says the last run had 48 problems: the report says it is unfinished
+    meta = json.loads((src / "sweep.json").read_text())
+    part = tmp_path / "part"
+    shutil.copytree(src, part)
+    (part / "sweep.json").write_text(json.dumps(dict(meta, problems=48)))
+    rep = sweep_report(part, tmp_path / "r2", figures=False)
+    assert rep.summary["unfinished"] == {"problems": 48, "done": 6} and "**Unfinished:** 6 of the 48" in rep.text
+    assert sweep_report(src, tmp_path / "r3", figures=False).summary["unfinished"] is None
+    (part / "sweep.json").write_text('{"name": "sm')
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["sweep", str(SMALL), "--out", str(part)])
+    assert r.exit_code == 3 and "damaged file" in r.output and "sweep.json" in r.output, r.output
+
+
+def test_sweep_files_that_ask_for_nothing_or_a_clock_among_the_options_are_refused(tmp_path):
+    """(Accepted before: 'problems: []' ran nothing and exited 0; options.time_limit was shown
+    in the row and replaced by the sweep's own.)"""
+    for text, words in (("name: e\nproblems: []\n", "problems: expected a file, folder or glob"),
+                        (TINY + "options: {time_limit: 3}\n", "options.time_limit: expected the sweep file's own time_limit"),
+                        (TINY.replace("  n_fruits: [2, 3, 4]", "  options.time_limit: [5, 10]"), "options.time_limit")):
+        with pytest.raises(SweepError) as e:
+            parse_sweep(text, "s.yaml", here=tmp_path)
+        assert words in str(e.value), str(e.value)
+
+
+def test_a_random_sweep_that_draws_fewer_problems_than_asked_says_so(tmp_path):
+    spec = tmp_path / "rdup.yaml"
+    spec.write_text("name: rdup\nbase: row\nmode: random\nsamples: 5\nfixed: {n_arms: 2, spacing: 2.0, seed: 0}\n"
+                    "vary:\n  density: {from: 1.0, to: 1.2}\nplanner: coordinated\n")
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["sweep", str(spec), "--out", str(tmp_path / "o"), "--workers", "1"])
+    assert r.exit_code == 0, r.output
+    assert "distinct problems of the 5 samples asked" in r.output, r.output
+
+
 def test_sweep_report_on_damaged_files_says_so(small_run, tmp_path):
     """(A cut-short results.parquet, or a file given in its place, was an internal error; a
     damaged journal line was left out in silence.) The table that does not read is named; a

@@ -87,6 +87,10 @@ def sweep_cmd(
             _err.print(f"note: {sets - o.total} of the {sets} parameter sets make a problem another set makes too (the "
                        f"same problem text: e.g. densities that round to the same number of fruit); each is solved once",
                        highlight=False)
+        asked = n * max(1, len(sw.problems)) if sw.mode == SweepMode.RANDOM and n is not None else None
+        if asked is not None and o.total < asked:  # (samples: 5 made 2 problems, and not a word)
+            _err.print(f"note: {o.total} distinct problems of the {asked} samples asked: the parameters drawn make no more "
+                       "(e.g. densities that round to the same number of fruit); each is solved once", highlight=False)
         state["task"] = progress.add_task(_counts_text(o.counts), total=o.total - o.skipped, name=sw.name)
 
     def on_row(row, o):
@@ -169,6 +173,10 @@ def sweep_report_cmd(
         _out.print(f"wrote {_safe(v)}", highlight=False)
     from ..sweep.table import JOURNAL, PARQUET
 
+    if rep.notes.get("missing_columns"):  # (a table trimmed in pandas: its KeyError was an internal error)
+        cols = rep.notes["missing_columns"]
+        _err.print(f"[yellow]note[/]: {_safe(folder)} lacks {plural(len(cols), 'column')} of a sweep's table "
+                   f"({_safe(', '.join(cols[:6]))}{', ...' if len(cols) > 6 else ''}): counted as empty", highlight=False)
     unread, why = rep.notes.get("unread") or [], rep.notes.get("damaged")
     if why:
         _err.print(f"[yellow]note[/]: {_safe(folder / PARQUET)}: {_safe(why)}; the report is made from "

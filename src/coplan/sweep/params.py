@@ -197,6 +197,9 @@ def check_option(name: str, v: Any) -> str | None:
 
     from ..planners.optimal.options import OptionsError, parse_options
 
+    if name == "time_limit":  # (accepted, shown in the row, and replaced by the sweep's own: the same plan twice)
+        return ("expected the sweep file's own time_limit key (top level: each problem's clock limit, which a sweep "
+                f"gives its solver), found time_limit among the solver options ({found(v)})")
     if name == "workers" and v != 1:  # a sweep's parallelism is its Dask workers, one process per problem
         return f"expected 1 (a sweep runs each problem in one process; its Dask workers are the parallelism), found {found(v)}"
     try:

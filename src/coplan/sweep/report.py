@@ -198,9 +198,29 @@ def _fmt(x, nd=3) -> str:
     return "-" if x is None else f"{x:.{nd}f}" if isinstance(x, float) else str(x)
 
 
+def _unfinished(folder: Path, rows: list[dict]) -> dict | None:
+    """``{"problems", "done"}`` when the folder's ``sweep.json`` says its last run had more
+    problems than the table has rows solved for that sweep (stopped part-way: the report of 6
+    rows of 48 said "6/6 (100.0 %)" and nothing else); None when it had no more, or says nothing."""
+    meta = folder / "sweep.json" if folder.is_dir() else None
+    try:
+        doc = json.loads(meta.read_text(encoding="utf-8")) if meta is not None and meta.is_file() else None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return None
+    if not isinstance(doc, dict) or not isinstance(doc.get("problems"), int) or isinstance(doc.get("problems"), bool):
+        return None
+    done = sum(1 for r in rows if r["sweep"] == doc.get("name") and r["status"] != RowStatus.LOST.value)
+    return {"problems": doc["problems"], "done": done} if done < doc["problems"] else None
+
+
 def _text(s: dict[str, Any], title: str) -> str:
-    lines = [f"# Sweep report: {title}", "", f"{s['rows']} rows; by status: " + ", ".join(f"{k} {v}" for k, v in sorted(s["counts"].items())),
-             "exit classes: " + ", ".join(f"{k} {v}" for k, v in sorted(s["exit_classes"].items()))]
+    lines = [f"# Sweep report: {title}", ""]
+    if s.get("unfinished"):
+        u = s["unfinished"]
+        lines += [f"**Unfinished:** {u['done']} of the {u['problems']} problems of the sweep's last run (sweep.json) have "
+                  "a result; the figures below are of those only. Run the same sweep into this folder to finish it.", ""]
+    lines += [f"{s['rows']} rows; by status: " + ", ".join(f"{k} {v}" for k, v in sorted(s["counts"].items())),
+              "exit classes: " + ", ".join(f"{k} {v}" for k, v in sorted(s["exit_classes"].items()))]
     if s["success_rate"] is not None:
         lines.append(f"success among problems with reachable fruit: {s['success_with_reachable_fruit']}/{s['with_reachable_fruit']}"
                      f" ({100 * s['success_rate']:.1f} %)"
@@ -320,6 +340,7 @@ def sweep_report(folder: str | Path, out: str | Path | None = None, figures: boo
     out = Path(out) if out is not None else base / "report"
     out.mkdir(parents=True, exist_ok=True)
     s = summarise(rows)
+    s["unfinished"] = _unfinished(folder, rows)
     s["designs"] = designs(rows)
     s["pareto_front"] = [d for front in fronts(s["designs"]).values() for d in front]
     title = ", ".join(sorted({r["sweep"] for r in rows if r["sweep"]})) or str(folder)

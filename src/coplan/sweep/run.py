@@ -444,7 +444,7 @@ def run_sweep(
     t0 = time.perf_counter()
     out = Path(out)
     meta = out / "sweep.json"
-    other = json.loads(meta.read_text()).get("name") if meta.exists() else spec.name
+    other = _folder_sweep(meta, spec) if meta.exists() else spec.name
     if other != spec.name:
         raise SweepError([Issue("name", f"expected the output folder of sweep {spec.name!r} or a new folder, found {out} "
                                         f"holding sweep {other!r}; choose another --out")], spec.source)
@@ -547,6 +547,24 @@ def run_sweep(
         outcome.elapsed = time.perf_counter() - t0
         _close(client, cluster, outcome.interrupted, client_log, client_level, lock)
     return outcome
+
+
+def _folder_sweep(meta: Path, spec: SweepSpec) -> str:
+    """The name of the sweep an output folder's ``sweep.json`` says it holds; a file that is no
+    such record (cut short, edited) is a :class:`SweepError` naming it (a JSONDecodeError was an
+    internal error)."""
+    try:
+        doc = json.loads(meta.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        doc, why = None, f"{type(e).__name__}: {e}"
+    else:
+        why = None
+    if not isinstance(doc, dict) or not isinstance(doc.get("name"), str):
+        what = why or f"{type(doc).__name__} without a sweep name"
+        raise SweepError([Issue("", f"expected the record of the sweep in this folder (its name, problems and "
+                                    f"planner), found a damaged file ({what}); remove it to run the sweep here again "
+                                    "(its rows in rows.jsonl are kept and skipped), or choose another --out")], str(meta))
+    return doc["name"]
 
 
 def _write_meta(out: Path, spec: SweepSpec, problems: int, already: int, planner, time_limit, scheduler, n_workers: int) -> None:

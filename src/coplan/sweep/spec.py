@@ -214,6 +214,10 @@ def _one(name: str, v: Any, loc: tuple, lines: dict, issues: list) -> bool:
 
 
 def _resolve_problems(pats: Any, here: Path, lines: dict, issues: list) -> tuple[str, ...]:
+    if isinstance(pats, list) and not pats:  # (a sweep of nothing: "0 problems ... nothing to do", exit 0)
+        issues.append(Issue("problems", "expected a file, folder or glob (or a list of them), found an empty list",
+                            line_of(lines, ("problems",))))
+        return ()
     pats_list = pats if isinstance(pats, list) else [pats]
     files: list[str] = []  # (named 'found', it hid found(): 'problems: 5' was an internal error)
     for i, pat in enumerate(pats_list):

@@ -156,8 +156,12 @@ def read_rows(folder: str | Path, unread: list[int] | None = None) -> list[dict[
             except json.JSONDecodeError:
                 row = None
             if isinstance(row, dict) and isinstance(row.get("key"), str):
-                rows[row["key"]] = normalise(row)
-            elif unread is not None and line.strip():
+                try:
+                    rows[row["key"]] = normalise(row)
+                    continue
+                except (TypeError, ValueError, OverflowError):  # valid JSON, a value of the wrong type ("exit_code": "three")
+                    pass
+            if unread is not None and line.strip():
                 unread.append(n)
     return sorted(rows.values(), key=_table_order)
 
@@ -232,7 +236,7 @@ def read_table(folder_or_file: str | Path, notes: dict | None = None):
 
     p = Path(folder_or_file)
     if p.is_file():
-        return parquet(p)
+        return _checked(parquet(p), p, notes)
     if not (p / PARQUET).exists() and not (p / JOURNAL).exists():
         if (p / "sweep.json").is_file():  # (a sweep stopped before its first problem was done: "a folder with neither")
             raise FileNotFoundError(f"{p}: expected a sweep with finished problems, found a sweep that has none yet "
@@ -252,6 +256,36 @@ def read_table(folder_or_file: str | Path, notes: dict | None = None):
             if notes is not None:
                 notes["damaged"] = e.issues[0].message
         if t is not None and t.num_rows >= len(rows):
-            return t
+            return _checked(t, p / PARQUET, notes)
     return pa.Table.from_pylist(rows, schema=schema())
 
+
+def _checked(t, path: Path, notes: dict | None = None):
+    """``t`` as a sweep table: it must have the ``key`` and ``status`` columns (a table written
+    by coplan, or trimmed in pandas; another Parquet file stopped the report with a KeyError);
+    a column it lacks is added empty, and named in ``notes["missing_columns"]``."""
+    import pyarrow as pa
+
+    want = schema()
+    core = [c for c in ("key", "status") if c not in t.column_names]
+    if core:
+        raise SweepTableError([Issue("", f"expected a sweep's results table (coplan sweep's columns), found a Parquet "
+                                         f"table without {' and '.join(core)} (its columns: "
+                                         f"{', '.join(t.column_names[:6])}{', ...' if t.num_columns > 6 else ''})")],
+                              str(path))
+    missing = [f for f in want if f.name not in t.column_names]
+    for f in missing:
+        t = t.append_column(f, pa.nulls(t.num_rows, f.type))
+    if missing and notes is not None:
+        notes["missing_columns"] = [f.name for f in missing]
+    for f in want:  # (columns of another type: cast where the values allow, else said)
+        i = t.schema.get_field_index(f.name)
+        if not t.schema.field(i).type.equals(f.type):
+            try:
+                t = t.set_column(i, f, t.column(i).cast(f.type))
+            except (pa.ArrowException, ValueError) as e:
+                raise SweepTableError([Issue("", f"expected a sweep's results table, found column {f.name} of type "
+                                                 f"{t.schema.field(i).type}, not {f.type} "
+                                                 f"({str(e).splitlines()[0] if str(e) else type(e).__name__})")],
+                                      str(path)) from None
+    return t
