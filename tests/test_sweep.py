@@ -596,6 +596,28 @@ def test_sweep_files_that_ask_for_nothing_or_a_clock_among_the_options_are_refus
         assert words in str(e.value), str(e.value)
 
 
+def test_a_sweep_of_two_planners_keeps_them_apart(tmp_path):
+    """(From a user's trial.) Options the coordinated planner does not take make no rows of
+    their own; the report's coordinated / plan median counts only rows whose plan is not the
+    coordinated one; a worst case names its planner when planners are varied."""
+    from coplan.sweep.report import summarise
+
+    spec = parse_sweep("name: two\nbase: row\nfixed: {n_arms: 2, spacing: 2.0, seed: 0}\nvary:\n"
+                       "  options.search_work: [2000, 8000]\n  planner: [coordinated, optimal]\nplanner: coordinated\n",
+                       "two.yaml")
+    items = spec.items()
+    assert sorted(it.planner for it in items) == ["coordinated", "optimal", "optimal"]
+    assert next(it for it in items if it.planner == "coordinated").options == {}
+    base = dict.fromkeys(COLUMNS)
+    rows = [dict(base, key="a", name="p", status="success", planner="optimal", makespan=10.0, coordinated_makespan=11.0,
+                 ratio=1.2, params="{}"),
+            dict(base, key="b", name="p", status="success", planner="coordinated", makespan=11.0,
+                 coordinated_makespan=11.0, ratio=1.3, params="{}")]
+    s = summarise(rows)
+    assert s["median_coordinated_over_plan"] == pytest.approx(1.1)
+    assert [w["planner"] for w in s["worst"]["ratio"]] == ["coordinated", "optimal"]
+
+
 def test_a_random_sweep_that_draws_fewer_problems_than_asked_says_so(tmp_path):
     spec = tmp_path / "rdup.yaml"
     spec.write_text("name: rdup\nbase: row\nmode: random\nsamples: 5\nfixed: {n_arms: 2, spacing: 2.0, seed: 0}\n"

@@ -156,6 +156,10 @@ class SweepSpec:
             options[k.removeprefix("options.")] = params.pop(k)
         if planner == PlannerKind.HEURISTIC.value:  # (it takes no options: one row, not one per option value)
             options = {}
+        elif planner == PlannerKind.COORDINATED.value:  # only those it takes (search_work made rows of the same plan)
+            from ..planners.optimal.options import COORDINATED_FIELDS
+
+            options = {k: v for k, v in options.items() if k in COORDINATED_FIELDS}
         shown = dict(params, **{f"options.{k}": v for k, v in options.items() if k not in self.options})
         if self.base == SweepBase.FILES:
             items = []

@@ -70,7 +70,8 @@ COLUMNS: dict[str, tuple[str, str]] = {
     "required_clearance": ("float64", "clearance the task requires (+ margin), m"),
     "verified": ("bool", "the independent verifier passed the plan"),
     "solve_time": ("float64", "wall-clock time of the solve, s"),
-    "stopped_by": ("string", "why the optimal planner stopped (budget, time_limit: the clock, so machine-dependent, ...)"),
+    "stopped_by": ("string", "why the planner stopped (optimal: budget, time_limit: the clock, so machine-dependent, ...; "
+                             "coordinated: time_limit where its clock limit cut its candidates short)"),
     "worker": ("string", "the worker that solved it"),
     "message": ("string", "why it failed (or the solver's message)"),
     "finished": ("float64", "UNIX time the row was written"),

@@ -360,6 +360,8 @@ def plan_coordinated(
     info = {"allocation": AllocationMethod(allocation).value, "candidates": tried, "screen": screened(problem).summary(),
             "lower_bound": {"value": bound.value, "proven": bound.proven, "dual_bound": bound.dual_bound,
                             "milp_seconds": bound.seconds}}
+    if deadline is not None and timings["plan"] > opts.time_limit:  # the clock cut the candidates short (a sweep's
+        info["stopped_by"] = "time_limit"  # rows said nothing, as the optimal planner's say time_limit)
     if best is None:
         alloc = allocate(problem, allocation, bound=bound.value)
         status = PlanStatus.INFEASIBLE if n_reach == 0 else PlanStatus.FAILED
