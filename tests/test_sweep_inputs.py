@@ -48,21 +48,22 @@ def test_solver_options_with_only_the_heuristic_planner_are_refused_at_their_key
 
 
 def test_a_heuristic_row_beside_varied_options_is_solved_once_with_no_options():
-    """Planners varied: the options apply to the coordinated and optimal rows; the heuristic's
-    row is one, and the table does not say it used options it never read."""
+    """Planners varied: the options apply to the optimal rows; the heuristic's row is one, and
+    the table does not say it used options it never read (nor the coordinated planner's:
+    search_work is the optimal planner's, test_sweep.test_a_sweep_of_two_planners_keeps_them_apart)."""
     sw = parse_sweep(_spec("""
         name: h
         base: row
         fixed: {n_fruits: 4}
         vary:
-          planner: [heuristic, coordinated]
+          planner: [heuristic, optimal]
           options.search_work: [10, 20]
         """))
     items = sw.items()
     heur = [it for it in items if it.planner == "heuristic"]
     assert len(items) == 3 and len(heur) == 1
     assert heur[0].options == {} and not any(k.startswith("options.") for k in heur[0].params)
-    assert sorted(it.options["search_work"] for it in items if it.planner == "coordinated") == [10, 20]
+    assert sorted(it.options["search_work"] for it in items if it.planner == "optimal") == [10, 20]
 
 
 @pytest.mark.parametrize("args, words", [
