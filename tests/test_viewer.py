@@ -175,6 +175,26 @@ def test_view_of_a_plan_json_takes_its_recorded_problem_file_only_while_unchange
     assert data["problem"]["task"]["clearance"] == pytest.approx(0.05)
 
 
+def test_view_compare_takes_a_plan_csv_and_refuses_a_plan_of_another_problem_text(tmp_path):
+    """(From a user's trial.) ``--compare`` with a plan.csv (it names no problem) was refused as
+    "a plan of ''"; a plan planned from another text of the same problem (a longer dwell) was
+    checked against the first plan's problem and shown as failed."""
+    from coplan.problem import default_problem_path
+
+    gh = load_problem(default_problem_path())
+    coplan.solve(gh, planner="coordinated", out_dir=tmp_path / "gh")
+    runner = CliRunner(env={"COLUMNS": "300"})
+    r = runner.invoke(app, ["view", str(tmp_path / "gh" / "plan.json"), "-p", str(gh.source), "--compare",
+                            str(tmp_path / "gh" / "plan.csv"), "-o", str(tmp_path / "a.html")])
+    assert r.exit_code == 0 and (tmp_path / "a.html").exists(), r.output
+    slow = tmp_path / "slow.yaml"
+    slow.write_text(Path(gh.source).read_text().replace("pick_dwell: 0.3", "pick_dwell: 0.6"))
+    coplan.solve(load_problem(slow), planner="coordinated", out_dir=tmp_path / "slow")
+    r = runner.invoke(app, ["view", str(tmp_path / "slow" / "plan.json"), "--compare", str(tmp_path / "gh" / "plan.json"),
+                            "-o", str(tmp_path / "b.html")])
+    assert r.exit_code == 2 and "same problem text" in r.output and not (tmp_path / "b.html").exists(), r.output
+
+
 def test_notebook_view_is_an_inline_page(greenhouse):
     prob, coord, heur = greenhouse
     v = coplan.view(coord, compare=heur)

@@ -250,8 +250,16 @@ def view_cmd(
         if out.suffix.lower() not in (".html", ".htm"):  # (a usage error, before any work: as plot's and animate's --out)
             failures.usage(f"--out: expected a file name ending in .html, found {out.name!r}")
     prob, pl = plan_with_problem(plan, problem)
-    other = plan_with_problem(compare, problem)[1] if compare is not None else None
-    if other is not None and other.problem != pl.problem:  # (the message named the option, not the file)
+    other = None
+    if compare is not None:
+        oprob, other = plan_with_problem(compare, problem)
+        if problem is None and prob.digest and oprob.digest and prob.digest != oprob.digest:
+            # (the second plan was checked against the first's problem: a valid plan shown as failed)
+            fail(ExitCode.USAGE, f"--compare {compare}: expected a plan of the same problem text as {plan}, found one "
+                                  f"planned from {oprob.source} (its sha256 differs from {prob.source}'s); give the "
+                                  "problem both are to be checked against with --problem FILE")
+    # (a plan.csv names no problem: only two names that differ are refused)
+    if other is not None and pl.problem and other.problem and other.problem != pl.problem:  # (the message named the option, not the file)
         fail(ExitCode.USAGE, f"--compare {compare}: expected a plan of the same problem {pl.problem!r} as {plan}, "
                               f"found a plan of {other.problem!r}")
     # each plan verified once, here: the page shows the verdict, and a note says where the file's word differs (as plot)

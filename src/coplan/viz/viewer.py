@@ -435,7 +435,7 @@ def render_html(problem: Problem, plan: Plan, compare: Plan | None = None, *, ve
                 compare_verification=None, display_rate: float = DISPLAY_RATE, title: str | None = None) -> str:
     """The viewer page of ``plan`` (and, side by side on one clock, ``compare``) as one
     self-contained HTML document. Verdicts are computed unless given."""
-    if compare is not None and compare.problem != plan.problem:
+    if compare is not None and compare.problem and plan.problem and compare.problem != plan.problem:  # (a plan.csv names none)
         raise PlanFileError([Issue("problem", f"expected a plan of the same problem {plan.problem!r} to compare with, "
                                               f"found a plan of {compare.problem!r}")], "compare")
     plans = [plan] if compare is None else [plan, compare]
