@@ -489,6 +489,12 @@ def test_the_commit_horizon_must_be_positive_and_a_late_run_says_so(tmp_path: Pa
 
     with pytest.raises(OptionsError, match="horizon: expected a commit horizon > 0 s"):
         LiveOptions(horizon=0.0)
+    # (a new user's trial: margin -0.5 or NaN planned a collision, verified unsafe; the others
+    # were accepted, or a ValueError deep in NumPy)
+    for name, bad in (("margin", -0.5), ("margin", float("nan")), ("gate", -1.0), ("close_distance", -1.0),
+                      ("budget", -1.0), ("correction_delay", float("inf")), ("max_correction", 0.0), ("max_checks", 0)):
+        with pytest.raises(OptionsError, match=f"{name}: expected"):
+            LiveOptions(**{name: bad})
     prob = str(problems_dir / "greenhouse_row.yaml")
     r = run("feed", prob, "--out", str(tmp_path / "feed.yaml"), "--known", "0.5", "--seed", "4")
     assert r.exit_code == 0, r.output

@@ -84,16 +84,29 @@ class LiveOptions:
     max_open: int = 40
 
     def __post_init__(self):
+        from ..errors import OptionsError
+
+        issues = []
         if not (isinstance(self.horizon, (int, float)) and 0.0 < self.horizon < float("inf")):
-            from ..errors import Issue, OptionsError
-
-            raise OptionsError([Issue("horizon", f"expected a commit horizon > 0 s (at least the re-planning "
-                                                 f"latency), found {self.horizon!r}")], "LiveOptions")
-        if isinstance(self.max_open, bool) or not isinstance(self.max_open, int) or self.max_open < 1:
-            from ..errors import Issue, OptionsError
-
-            raise OptionsError([Issue("max_open", f"expected a whole number of tracks >= 1, found {self.max_open!r}")],
-                               "LiveOptions")
+            issues.append(Issue("horizon", f"expected a commit horizon > 0 s (at least the re-planning "
+                                           f"latency), found {self.horizon!r}"))
+        for name in ("max_open", "max_checks"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                what = "tracks" if name == "max_open" else "conflict checks"
+                issues.append(Issue(name, f"expected a whole number of {what} >= 1, found {v!r}"))
+        # (only horizon and max_open were checked: margin -0.5 or NaN planned two arms into each other,
+        # a NaN gate merged nothing, an infinite correction delay was a ValueError deep in NumPy)
+        ranges = {"gate": (0.0, 1.0, "m"), "margin": (0.0, 1.0, "m"), "close_distance": (0.005, 1.0, "m"),
+                  "correction_delay": (0.0, 10.0, "s"), "max_correction": (1e-3, 2 * np.pi, "rad")}
+        for name, (lo, hi, unit) in ranges.items():
+            v = getattr(self, name)
+            if not finite_number(v) or not lo <= v <= hi:
+                issues.append(Issue(name, f"expected a number in [{lo:g}, {hi:g}] {unit}, found {found(v)}"))
+        if self.budget is not None and (not finite_number(self.budget) or self.budget < 0):
+            issues.append(Issue("budget", f"expected None (every candidate) or seconds >= 0, found {found(self.budget)}"))
+        if issues:
+            raise OptionsError(issues, "LiveOptions")
 
 
 @dataclass
