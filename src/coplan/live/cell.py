@@ -45,7 +45,7 @@ from ..kinds import ReplanCause, TrackState
 from ..problem.model import Fruit, Problem
 from ..planners.coordinated.planner import CoordinatedOptions
 from ..planners.coordinated.schedule import ArmSchedule, ConflictError, Step, StepKind, pair_distances
-from ..errors import Issue, finite_number, found
+from ..errors import Issue, check_fields, finite_number, found
 from .gating import TrackIndex
 from .feed import DEFAULT_CLOSE_DISTANCE, Detection, FeedError, detection_issues, refinement_issues
 from .motion import Approach, ApproachError, as_wait, move_step, split_at, truncate_move
@@ -84,29 +84,22 @@ class LiveOptions:
     max_open: int = 40
 
     def __post_init__(self):
-        from ..errors import OptionsError
-
         issues = []
         if not (isinstance(self.horizon, (int, float)) and 0.0 < self.horizon < float("inf")):
             issues.append(Issue("horizon", f"expected a commit horizon > 0 s (at least the re-planning "
                                            f"latency), found {self.horizon!r}"))
-        for name in ("max_open", "max_checks"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-                what = "tracks" if name == "max_open" else "conflict checks"
-                issues.append(Issue(name, f"expected a whole number of {what} >= 1, found {v!r}"))
+        if isinstance(self.max_open, bool) or not isinstance(self.max_open, int) or self.max_open < 1:
+            issues.append(Issue("max_open", f"expected a whole number of tracks >= 1, found {self.max_open!r}"))
         # (only horizon and max_open were checked: margin -0.5 or NaN planned two arms into each other,
-        # a NaN gate merged nothing, an infinite correction delay was a ValueError deep in NumPy)
-        ranges = {"gate": (0.0, 1.0, "m"), "margin": (0.0, 1.0, "m"), "close_distance": (0.005, 1.0, "m"),
-                  "correction_delay": (0.0, 10.0, "s"), "max_correction": (1e-3, 2 * np.pi, "rad")}
+        # a NaN gate merged nothing, an infinite correction delay was a ValueError deep in NumPy);
+        # check_fields judges every field's type, finiteness and sign, these their ranges
+        ranges = {"gate": (0.0, 1.0, "m"), "close_distance": (0.005, 1.0, "m"), "correction_delay": (0.0, 10.0, "s"),
+                  "max_correction": (1e-3, 2 * np.pi, "rad")}
         for name, (lo, hi, unit) in ranges.items():
             v = getattr(self, name)
-            if not finite_number(v) or not lo <= v <= hi:
+            if finite_number(v) and not lo <= v <= hi:
                 issues.append(Issue(name, f"expected a number in [{lo:g}, {hi:g}] {unit}, found {found(v)}"))
-        if self.budget is not None and (not finite_number(self.budget) or self.budget < 0):
-            issues.append(Issue("budget", f"expected None (every candidate) or seconds >= 0, found {found(self.budget)}"))
-        if issues:
-            raise OptionsError(issues, "LiveOptions")
+        check_fields(self, {"max_checks", "max_correction"}, "LiveOptions", issues)
 
 
 @dataclass
