@@ -643,6 +643,38 @@ def test_on_the_move_a_false_burst_at_the_chosen_speed_passes_no_fruit_a_working
         assert res.verification.passed, seed
         assert res.metrics["missed_reachable_by_a_working_arm"] == [], seed
         assert res.metrics["holds_for_fruit"] > 0, seed  # (the carriage held for them)
+        _assert_holds_happen_where_and_when_they_say(res)
+
+
+def _assert_holds_happen_where_and_when_they_say(res):
+    """Each hold for fruit is one rest of the carriage: it begins where and when ``holds`` says
+    (from cruising speed, a jerk-limited stop), none begins before the one before it is over, and
+    ``hold_seconds`` is the time they truly held."""
+    p, holds = res.plan, res.plan.solver["row"]["holds"]
+    for h in holds:
+        assert abs(float(np.interp(h["t"], p.time, p.gantry_x)) - h["x"]) < 1e-3, h
+        at = (p.time >= h["t"]) & (p.time <= h["t"] + 1.0 + h["seconds"])
+        assert np.count_nonzero(np.diff(p.gantry_x[at]) == 0) * 0.01 >= h["seconds"] - 0.02, h
+    for a, b in zip(holds, holds[1:]):
+        assert b["t"] >= a["t"] + a["seconds"], (a, b)
+    assert res.metrics["hold_seconds"] == pytest.approx(sum(h["seconds"] for h in holds), abs=1e-3)
+
+
+def test_holds_for_a_false_burst_are_decided_one_at_a_time_not_queued():
+    """Regression (``coplan run six_arm_row --speed 0.164 --seed 4 --false-burst 200``): while a
+    hold decided for fruit at risk had not begun, each check every 0.5 s saw the same fruit at risk
+    and queued one more behind it -- 40 holds decided at one instant, the carriage still stopping
+    (64 times) 300 s after the last fruit was placed, and ``hold_seconds`` summing them as if they
+    were at the instants recorded. A hold is now decided once the one before is over, on the
+    windows it opened, and lasts as long as the fruit at risk need (at most 20 s)."""
+    row = parse_problem(to_yaml(gantry_row(length=12.0, n_arms=3, density=6.0, seed=3)))
+    res = run_live_row(row, LiveRowOptions(speed=0.1, seed=3, faults=RowFaults(false_burst=200)))
+    assert res.verification.passed
+    assert res.metrics["holds_for_fruit"] > 1
+    _assert_holds_happen_where_and_when_they_say(res)
+    assert res.metrics["missed_reachable_by_a_working_arm"] == []
+    # nothing held once the work was over: the executed plan ends with the carriage's way to the rail's end
+    assert max(h["t"] + h["seconds"] for h in res.plan.solver["row"]["holds"]) <= res.metrics["row_time"]
 
 
 def test_a_false_burst_beyond_the_largest_is_refused_before_any_work(tmp_path):
@@ -903,9 +935,14 @@ def test_a_report_farther_from_its_fruit_than_the_close_range_camera_sees_finds_
     assert sum(blurred.metrics["fruit_per_hour_per_arm"].values()) == pytest.approx(blurred.metrics["fruit_per_hour"])
 
 
-def test_coplan_run_says_fruit_passed_a_working_arm_could_reach_also_without_faults(tmp_path):
+def test_coplan_run_says_fruit_passed_a_working_arm_could_reach_also_without_faults(tmp_path, monkeypatch):
     """(A run with no fault passed 33 fruit a working arm could still reach and the summary did
-    not say so -- the count was printed only with a fault; 'missed 3 fruit: missed: ...'.)"""
+    not say so -- the count was printed only with a fault; 'missed 3 fruit: missed: ...'.) Since
+    holds are decided one at a time and last up to 20 s, this row passes none; the carriage
+    holding for no report makes it pass some again."""
+    import coplan.row.live as live
+
+    monkeypatch.setattr(live, "HOLDS_PER_REPORT", 0)
     p = tmp_path / "dense.yaml"
     p.write_text(to_yaml(gantry_row(length=8.0, n_arms=3, density=20.0, seed=5)))
     r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["run", str(p), "--speed", "0.4", "--seed", "0", "--out", str(tmp_path / "o")])

@@ -103,7 +103,12 @@ STOPPED_CAUTION = 2
 #: plan's fruit (99.0-100 % before), row time 0.95-1.01 x the offline plan's (0.95-0.99 x). 30 holds
 #: (was 6): with an arm stopped at 0.25-0.3 m/s (8 m rows, 6-10 fruit/m, seeds 0-7; course_row) the
 #: working arms' backlog outlasted six and passed 5 fruit they could reach; none now but one no clear cycle serves.
-CHECK, LOOK, REACH_TIME, HOLD_PER_FRUIT, HOLD_MIN, HOLD_MAX, HOLDS_PER_REPORT = 0.5, 30.0, 1.5, 3.0, 1.5, 6.0, 30
+#: A hold is decided once the one before it is over (``held_until``), so HOLD_MAX bounds each
+#: rest: 20 s (was 6 s, when every check until a hold began queued another behind it -- 40 at one
+#: instant with a 200-report burst on six_arm_row at 0.164 m/s, seed 4, the carriage stopping 64
+#: more times after the last fruit was placed: 746 s row, 3 fruit a working arm could reach passed;
+#: one at a time with 6 s holds: 418 s, 8 passed; with 20 s: 647 s, none passed; 60 s: 632 s, none).
+CHECK, LOOK, REACH_TIME, HOLD_PER_FRUIT, HOLD_MIN, HOLD_MAX, HOLDS_PER_REPORT = 0.5, 30.0, 1.5, 3.0, 1.5, 20.0, 30
 
 # the camera and the faults live in .sensing; re-exported here, where a live row is run
 __all__ = ["LiveRowOptions", "RowFaults", "RowDetection", "LiveRow", "row_reports", "report_times", "row_detections",
@@ -185,9 +190,14 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
     holds: list[dict] = []
     held_for: dict[str, int] = {}  # report -> holds the carriage made for it
     first = cruise.leaves_start if math.isfinite(cruise.leaves_start) else 0.0  # (a rest where it starts, kept by every change)
+    # the end of the last hold for fruit decided: no other is decided before it (each check until
+    # then saw the same fruit at risk and queued one more hold behind it -- 40 holds decided at
+    # one instant on six_arm_row with a 200-report burst, the carriage still holding 300 s after
+    # the last fruit was placed); after it the check looks again, on the windows the hold opened
+    held_until = -math.inf
 
     def change(kind: str, t_c: float, risk: list[tuple[str, float]] | None = None) -> None:
-        nonlocal cruise, stretches
+        nonlocal cruise, stretches, held_until
         t_s = max([t_c] + run.pick_ends())
         v = stretches[-1][1]
         # a change begins at cruising speed: past any ramp or hold under way (or the carriage is stopping anyway)
@@ -218,6 +228,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
             for f, _ in risk:
                 held_for[f] = held_for.get(f, 0) + 1
             stretches = stretches[:-1] + [(x_s, v, hold), (math.inf, v)]
+            held_until = t_s + stop + hold
             holds.append({"t": round(t_s, 3), "x": round(x_s, 4), "seconds": round(hold, 3), "for": [f for f, _ in risk]})
         new = Cruise.shaped(problem, stretches, g.end, first)
         ts = np.linspace(0.0, t_s, 2001)
@@ -269,7 +280,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         t_c = t_next
         while changes and changes[0][0] <= t_c:
             change(changes.pop(0)[1], t_c)
-        if opts.hold_for_fruit:
+        if opts.hold_for_fruit and t_c >= held_until:
             risk = at_risk(t_c)
             if risk:
                 change("fruit", t_c, risk)
