@@ -680,6 +680,30 @@ def test_observe_and_refine_name_a_bad_argument_rather_than_raise_from_inside(gr
     assert (dict(cell.tracks), len(cell.replans)) == before
 
 
+def test_every_live_cell_call_checks_its_time_as_observe_does(greenhouse):
+    """(From a user's trial: ``retry`` at a time before the last call's re-planned the past and a
+    NaN was a bare ValueError; ``refine`` took a time before the last call's; ``next_close_range``
+    took NaN as no time and 'a' raised a TypeError; ``sample([nan])`` gave NaN poses.) Each is a
+    FeedError naming the argument, the cell untouched; good calls after them go through."""
+    cell = _cell(greenhouse)
+    f = greenhouse.fruit("f05").position
+    cell.observe(1.0, [Detection(1.0, "f05", f, 0.001, "f05")])
+    before = (dict(cell.tracks), len(cell.replans), {n: list(s) for n, s in cell.steps.items()})
+    calls = {"now": [lambda: cell.retry(0.5), lambda: cell.retry(float("nan")), lambda: cell.refine(0.5, "f05", f, 0.001)],
+             "after": [lambda: cell.next_close_range(float("nan")), lambda: cell.next_close_range("a")],
+             "t": [lambda: cell.sample([1.0, float("nan")]), lambda: cell.sample("a"), lambda: cell.sample([[1.0]])]}
+    for path, bad in calls.items():
+        for call in bad:
+            with pytest.raises(FeedError) as e:
+                call()
+            assert [i.path for i in e.value.issues] == [path]
+            assert "expected" in str(e.value) and "found" in str(e.value)
+    assert "no earlier than the last call's (1 s), found number 0.5" in str(pytest.raises(FeedError, cell.retry, 0.5).value)
+    assert (dict(cell.tracks), len(cell.replans), {n: list(s) for n, s in cell.steps.items()}) == before
+    assert cell.retry(1.0).t == 1.0 and cell.next_close_range(1.0) is not None
+    assert cell.sample(2.0)[greenhouse.arms[0].name].shape == (3, 1, 2)
+
+
 def test_a_live_run_that_picked_nothing_is_not_given_inferred_picks(greenhouse, tmp_path):
     """A feed whose detections name no true fruit (a camera's own file): every detection counts as
     false and nothing is harvested -- the executed plan was called unsafe, the verifier inferring a

@@ -47,7 +47,7 @@ from ..planners.coordinated.planner import CoordinatedOptions
 from ..planners.coordinated.schedule import ArmSchedule, ConflictError, Step, StepKind, pair_distances
 from ..errors import Issue, check_fields, finite_number, found
 from .gating import TrackIndex
-from .feed import DEFAULT_CLOSE_DISTANCE, Detection, FeedError, detection_issues, refinement_issues
+from .feed import DEFAULT_CLOSE_DISTANCE, Detection, FeedError, detection_issues, now_issues, refinement_issues
 from .motion import Approach, ApproachError, as_wait, move_step, split_at, truncate_move
 
 __all__ = ["LiveOptions", "Track", "Replan", "CloseRange", "LiveCell"]
@@ -197,8 +197,16 @@ class LiveCell:
         return max((s.t1 for st in self.steps.values() for s in st if s.kind == StepKind.PLACE), default=0.0)
 
     def sample(self, t) -> dict[str, np.ndarray]:
-        """Each arm's (q, qd, qdd) (3, K, 2) at times ``t``: what the controller executes."""
-        return {n: sch.state(np.atleast_1d(np.asarray(t, float))) for n, sch in self.schedules().items()}
+        """Each arm's (q, qd, qdd) (3, K, 2) at times ``t`` (a number or K of them, finite): what
+        the controller executes."""
+        try:
+            ts = np.atleast_1d(np.asarray(t, float))
+        except (TypeError, ValueError):
+            ts = None
+        if ts is None or ts.ndim != 1 or not np.all(np.isfinite(ts)):  # (NaN gave NaN poses; 'a' a bare ValueError)
+            raise FeedError([Issue("t", f"expected a time or a list of finite times (s), found {found(t, list_length=True)}")],
+                            "LiveCell.sample")
+        return {n: sch.state(ts) for n, sch in self.schedules().items()}
 
     def committed_motion(self, now: float = 0.0) -> dict[str, list[Step]]:
         """Each arm's steps from ``now`` up to where its motion is fixed (``commit``): what a
@@ -238,10 +246,8 @@ class LiveCell:
         from 0 to ``now``, a new id, a plausible position, a noise in (0, 1] m; ``now`` no earlier
         than the last re-plan's); any bad one raises :class:`~coplan.live.feed.FeedError` listing them
         all and leaves the cell as it was (a NaN position was kept, and every later call failed)."""
-        last = self.replans[-1].t if self.replans else 0.0
         seen = {i for tr in self.tracks.values() for i in tr.detections}
-        issues = ([Issue("now", f"expected a time no earlier than the last call's ({last:g} s), found {found(now)}")]
-                  if not finite_number(now) or now < last else [])
+        issues = now_issues(now, self._last_call())
         if isinstance(detections, (str, bytes, dict)) or not hasattr(detections, "__iter__"):  # (5: "'int' object is not iterable")
             issues.append(Issue("detections", f"expected a list of Detection(t, id, position, sigma), found {found(detections)}"))
         else:
@@ -254,14 +260,25 @@ class LiveCell:
         return self._replan(now, ReplanCause.DETECTIONS)
 
     def retry(self, now: float) -> Replan:
-        """Re-plan with nothing new (e.g. the plan ended with detected fruit left over)."""
+        """Re-plan with nothing new (e.g. the plan ended with detected fruit left over); ``now``
+        checked as :meth:`observe` checks it (an earlier time was taken, a NaN was a bare ValueError)."""
+        issues = now_issues(now, self._last_call())
+        if issues:
+            raise FeedError(issues, "LiveCell.retry")
         return self._replan(now, ReplanCause.IDLE)
+
+    def _last_call(self) -> float:
+        return self.replans[-1].t if self.replans else 0.0
 
     # ------------------------------------------------------------------ close range
     def next_close_range(self, after: float) -> CloseRange | None:
         """The first time after ``after`` at which a tip comes within ``close_distance`` of the
         estimate of a fruit it approaches (not yet refined)."""
         from ..kinematics.arm import fk
+
+        if not finite_number(after):  # (NaN was taken as 'no time', 'a' a bare TypeError)
+            raise FeedError([Issue("after", f"expected a time (a finite number, s), found {found(after)}")],
+                            "LiveCell.next_close_range")
 
         best = None
         for arm in self.problem.arms:
@@ -287,7 +304,7 @@ class LiveCell:
     def refine(self, now: float, track_id: str, position, sigma: float) -> Replan:
         """The close-range measurement of a track (``position`` None: nothing there)."""
         t_start = _time.perf_counter()
-        issues = refinement_issues(now, track_id, sorted(self.tracks), position, sigma)
+        issues = refinement_issues(now, track_id, sorted(self.tracks), position, sigma, self._last_call())
         if issues:  # (an unknown track raised a bare KeyError)
             raise FeedError(issues, "LiveCell.refine")
         tr = self.tracks[track_id]

@@ -306,14 +306,22 @@ def detection_issues(detections, seen: set[str], now: float | None = None) -> li
     return issues
 
 
-def refinement_issues(now, track_id, tracks: list[str], position, sigma) -> list[Issue]:
+def now_issues(now, last: float, name: str = "now") -> list[Issue]:
+    """What is wrong with the time of a call to a live cell (``observe``, ``retry``, ``refine``):
+    a finite number no earlier than the last call's, ``last`` s (the cell re-plans from its
+    committed motion at that time; an earlier one would re-plan the past)."""
+    if finite_number(now) and now >= last:
+        return []
+    return [Issue(name, f"expected a time no earlier than the last call's ({last:g} s), found {found(now)}")]
+
+
+def refinement_issues(now, track_id, tracks: list[str], position, sigma, last: float = 0.0) -> list[Issue]:
     """What is wrong with a close-range measurement given in Python (to
     :meth:`coplan.live.cell.LiveCell.refine`), as :func:`detection_issues` checks a detection: a
-    finite time of 0 s or more, the id of one of ``tracks``, a position of two finite numbers (or
-    None: nothing there) and, with a position, a positive noise."""
-    issues: list[Issue] = []
-    if not finite_number(now) or now < 0:
-        issues.append(Issue("now", f"expected a time of 0 s or more, found {found(now)}"))
+    finite time no earlier than ``last`` (the last call's, :func:`now_issues`), the id of one of
+    ``tracks``, a position of two finite numbers (or None: nothing there) and, with a position, a
+    positive noise."""
+    issues: list[Issue] = now_issues(now, last)
     if not isinstance(track_id, str) or track_id not in tracks:
         known = ", ".join(tracks[:8]) + (", ..." if len(tracks) > 8 else "")
         issues.append(Issue("track_id", f"expected the id of a track ({known or 'none yet'}), found {found(track_id)}"))
