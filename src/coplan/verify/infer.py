@@ -45,7 +45,7 @@ def _holds(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, min_hold: fl
     out = []
     for a, b in runs(on):
         t0, t1 = float(time[a]), float(time[b + 1])
-        if t1 - t0 >= min_hold:
+        if t1 - t0 >= min_hold - 1e-9:  # (a hold of 29 samples at 10 ms is 0.28999999999999915 s)
             out.append((t0, t1))
     return out
 
