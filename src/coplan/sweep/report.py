@@ -22,7 +22,7 @@ from typing import Any
 
 from ..errors import plural
 from ..kinds import PlannerKind, RowStatus
-from .table import COLUMNS, read_table
+from .table import COLUMNS, read_sweep_record, read_table
 
 __all__ = ["SweepReport", "sweep_report", "summarise", "pareto_front", "designs", "varied", "FAMILY", "fronts",
            "counts_as_with_fruit"]
@@ -211,12 +211,8 @@ def _unfinished(folder: Path, rows: list[dict]) -> dict | None:
     """``{"problems", "done"}`` when the folder's ``sweep.json`` says its last run had more
     problems than the table has rows solved for that sweep (stopped part-way: the report of 6
     rows of 48 said "6/6 (100.0 %)" and nothing else); None when it had no more, or says nothing."""
-    meta = folder / "sweep.json" if folder.is_dir() else None
-    try:
-        doc = json.loads(meta.read_text(encoding="utf-8")) if meta is not None and meta.is_file() else None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-        return None
-    if not isinstance(doc, dict) or not isinstance(doc.get("problems"), int) or isinstance(doc.get("problems"), bool):
+    doc = read_sweep_record(folder)[0] if folder.is_dir() else None
+    if doc is None or not isinstance(doc.get("problems"), int) or isinstance(doc.get("problems"), bool):
         return None
     done = sum(1 for r in rows if r["sweep"] == doc.get("name") and r["status"] != RowStatus.LOST.value)
     return {"problems": doc["problems"], "done": done} if done < doc["problems"] else None

@@ -39,7 +39,7 @@ from ..provenance import software_record
 from ..output import OutputError
 from .columns import exit_class, problem_columns, result_columns
 from .spec import SweepError, SweepItem, SweepSpec
-from .table import RowJournal, import_arrow, read_rows, write_table
+from .table import META, RowJournal, import_arrow, read_rows, read_sweep_record, write_table
 
 __all__ = ["SweepOutcome", "run_sweep", "solve_item", "hard_limit", "exit_class", "Watchdog", "SNAPSHOT_SECONDS", "default_workers", "lost_reason"]
 
@@ -443,8 +443,7 @@ def run_sweep(
     """
     t0 = time.perf_counter()
     out = Path(out)
-    meta = out / "sweep.json"
-    other = _folder_sweep(meta, spec) if meta.exists() else spec.name
+    other = _folder_sweep(out) if (out / META).exists() else spec.name
     if other != spec.name:
         raise SweepError([Issue("name", f"expected the output folder of sweep {spec.name!r} or a new folder, found {out} "
                                         f"holding sweep {other!r}; choose another --out")], spec.source)
@@ -549,27 +548,21 @@ def run_sweep(
     return outcome
 
 
-def _folder_sweep(meta: Path, spec: SweepSpec) -> str:
+def _folder_sweep(out: Path) -> str:
     """The name of the sweep an output folder's ``sweep.json`` says it holds; a file that is no
     such record (cut short, edited) is a :class:`SweepError` naming it (a JSONDecodeError was an
     internal error)."""
-    try:
-        doc = json.loads(meta.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
-        doc, why = None, f"{type(e).__name__}: {e}"
-    else:
-        why = None
-    if not isinstance(doc, dict) or not isinstance(doc.get("name"), str):
-        what = why or f"{type(doc).__name__} without a sweep name"
+    doc, why = read_sweep_record(out)
+    if doc is None:
         raise SweepError([Issue("", f"expected the record of the sweep in this folder (its name, problems and "
-                                    f"planner), found a damaged file ({what}); remove it to run the sweep here again "
-                                    "(its rows in rows.jsonl are kept and skipped), or choose another --out")], str(meta))
+                                    f"planner), found a damaged file ({why}); remove it to run the sweep here again "
+                                    "(its rows in rows.jsonl are kept and skipped), or choose another --out")], str(out / META))
     return doc["name"]
 
 
 def _write_meta(out: Path, spec: SweepSpec, problems: int, already: int, planner, time_limit, scheduler, n_workers: int) -> None:
     """``sweep.json``: what the sweep is and how it runs."""
-    _write_json(out / "sweep.json", {
+    _write_json(out / META, {
         "name": spec.name, "source": spec.source, "base": spec.base.value, "mode": spec.mode.value,
         "problems": problems, "already_done": already, "planner": (PlannerKind(planner).value if planner else spec.planner.value),
         "time_limit": time_limit if time_limit is not None else spec.time_limit, "retries": spec.retries,

@@ -78,6 +78,26 @@ COLUMNS: dict[str, tuple[str, str]] = {
 }
 
 
+
+#: A sweep's output folder's record of what it holds and how it last ran (written by the run).
+META = "sweep.json"
+
+
+def read_sweep_record(folder: Path) -> tuple[dict | None, str | None]:
+    """The folder's ``sweep.json`` as ``(record, None)``; ``(None, None)`` when there is none;
+    ``(None, why)`` when it is no such record (cut short, edited: not an object naming its sweep).
+    One reader for the run (which refuses a damaged one) and the report (which says nothing of it)."""
+    meta = Path(folder) / META
+    if not meta.is_file():
+        return None, None
+    try:
+        doc = json.loads(meta.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        return None, f"{type(e).__name__}: {e}"
+    if not isinstance(doc, dict) or not isinstance(doc.get("name"), str):
+        return None, f"{type(doc).__name__} without a sweep name"
+    return doc, None
+
 def schema():
     import pyarrow as pa
 
@@ -239,7 +259,7 @@ def read_table(folder_or_file: str | Path, notes: dict | None = None):
     if p.is_file():
         return _checked(parquet(p), p, notes)
     if not (p / PARQUET).exists() and not (p / JOURNAL).exists():
-        if (p / "sweep.json").is_file():  # (a sweep stopped before its first problem was done: "a folder with neither")
+        if (p / META).is_file():  # (a sweep stopped before its first problem was done: "a folder with neither")
             raise FileNotFoundError(f"{p}: expected a sweep with finished problems, found a sweep that has none yet "
                                     f"(stopped before its first was done: run it again into this folder to go on)")
         raise FileNotFoundError(f"{p}: expected a sweep's output folder (with {PARQUET} or {JOURNAL}), found a folder with neither")
