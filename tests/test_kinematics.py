@@ -146,6 +146,29 @@ def test_ik_honours_shoulder_limits_wider_than_pi() -> None:
     np.testing.assert_allclose(kin.fk(shifted, links)[1], np.stack([target, target]), atol=1e-12)
 
 
+@pytest.mark.parametrize("elbow", [(-2.5, 3.6), (3.2, 4.0), (-4.0, -3.2), (-2 * math.pi, 2 * math.pi)])
+def test_ik_honours_elbow_limits_past_pi(elbow) -> None:
+    """(From a user's trial: with the elbow's limits [-2.5, 3.6] a fruit at fk([0.3, 3.4]) was
+    called unreachable -- only the shoulder was tried 2 pi on.) Seeded poses inside limits that
+    reach past +-pi: IK finds each one's tip on a branch within the limits, the same tip."""
+    rng = np.random.default_rng(7)
+    links, base = (1.0, 0.8), (0.2, -0.1)
+    lim = np.array([[-math.pi, math.pi], elbow])
+    q = np.c_[rng.uniform(-math.pi, math.pi, 2000), rng.uniform(elbow[0], elbow[1], 2000)]
+    q = q[np.abs(np.sin(q[:, 1])) > 1e-6]  # (a fully stretched or folded elbow is on both branches)
+    tip = kin.fk(q, links, base)[1]
+    sol, valid = kin.ik(tip, links, base, lim)
+    assert valid.any(axis=1).all()
+    for b in (0, 1):
+        ok = valid[:, b]
+        assert ((sol[ok, b, 1] >= elbow[0]) & (sol[ok, b, 1] <= elbow[1])).all()
+        np.testing.assert_allclose(kin.fk(sol[ok, b], links, base)[1], tip[ok], atol=1e-9)
+    # the pose asked for is one of them, 2 pi on or not (the branch of its sin t2)
+    b = np.where(np.sin(q[:, 1]) >= 0, 0, 1)
+    got = sol[np.arange(q.shape[0]), b]
+    np.testing.assert_allclose(kin.wrap_angle(got - q), 0.0, atol=1e-9)
+
+
 def test_ik_outside_the_annulus_is_invalid_but_tolerance_snaps() -> None:
     links = (1.0, 0.8)
     _, v = kin.ik(np.array([[1.81, 0.0], [0.19, 0.0], [0.0, 0.0]]), links)
@@ -430,7 +453,8 @@ def test_scalar_jacobian_entries_are_the_jacobian_and_its_rate_its_derivative() 
 
 
 @pytest.mark.parametrize("limits", [None, [[-math.pi, math.pi], [-math.pi + 0.1, math.pi - 0.1]],
-                                    [[0.0, 2 * math.pi], [-3.0, 3.0]], [[-2 * math.pi, -0.5], [0.0, 3.0]]])
+                                    [[0.0, 2 * math.pi], [-3.0, 3.0]], [[-2 * math.pi, -0.5], [0.0, 3.0]],
+                                    [[-math.pi, math.pi], [-2.5, 3.6]], [[-math.pi, math.pi], [3.2, 4.0]]])
 def test_ik_one_gives_the_bits_of_ik(limits) -> None:
     """The plain-float IK of one point (the moving-carriage booking's) equals the vectorised one
     to the last bit, NaN where it is invalid: 20,000 seeded points over and past the annulus,

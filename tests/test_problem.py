@@ -611,6 +611,22 @@ task: {{pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}}
     assert lo == pytest.approx(np.hypot(1.0 + 0.7 * np.cos(arm.joint_limits[1][1]), 0.7 * np.sin(arm.joint_limits[1][1])))
 
 
+@pytest.mark.parametrize("elbow", [(3.2, 4.0), (-2.5, 3.6), (-4.0, -3.2), (0.5, 6.0), (-6.2, -0.1)])
+def test_the_radii_an_elbow_s_limits_allow_past_pi_are_the_tip_s_distances(elbow):
+    """(From a user's trial: elbow limits [3.2, 4.0] were taken as fully folded, radii [0.2, 0.2]
+    m, and a bin the arm reaches at q2 = 3.4 was refused.) The radii are the least and greatest
+    distance of the tip over the elbow's range, however far past +-pi it goes."""
+    from coplan.problem.model import Arm
+
+    arm = Arm(name="x", base=(0.0, 0.0), bin=(0.0, -0.5), links=(1.0, 0.8), link_radius=0.04,
+              joint_limits=((-3.0, 3.0), elbow), max_velocity=(3, 4), max_acceleration=(8, 12), max_jerk=(80, 120),
+              home=(0.0, float(np.mean(elbow))))
+    q2 = np.linspace(elbow[0], elbow[1], 20001)
+    r = np.hypot(1.0 + 0.8 * np.cos(q2), 0.8 * np.sin(q2))
+    lo, hi = arm.radii()
+    assert lo == pytest.approx(r.min(), abs=1e-6) and hi == pytest.approx(r.max(), abs=1e-6)
+
+
 def test_a_problem_changed_in_python_whose_homes_overlap_is_refused_when_solved(tmp_path, greenhouse):
     """(Found by a new user: two bases moved together with dataclasses.replace gave an 'unsafe'
     plan of 0 s, harvesting nothing, where the same file says why.)"""
@@ -673,3 +689,26 @@ def test_limits_out_of_order_are_said_beside_a_missing_or_implausible_home(home_
     assert "defaults.joint_limits[0]" in paths and "arms[1].home" in paths, paths
     assert paths.count("defaults.joint_limits[0]") == 1  # (once, not once per arm)
     assert ("arms[0].home[0]" in paths) == (home_a == "[10.0, 0.5]")
+
+
+def test_a_fruit_the_elbow_reaches_only_past_pi_is_planned_verified_and_bounded():
+    """(From a user's trial: elbow limits [-2.5, 3.6], a fruit at fk([0.3, 3.4]): 'unreachable';
+    a bin at fk([-0.4, 3.4]) with elbow limits [3.2, 4.0] refused.) Both now solve, verified,
+    no faster than the lower bound."""
+    import coplan
+    from coplan.kinematics import fk
+
+    links = (1.0, 0.8)
+    fruit = fk(np.array([0.3, 3.4]), links)[1]
+    arm = {"name": "a", "base": [0.0, 0.0], "bin": [1.0, -0.5], "links": list(links), "link_radius": 0.04,
+           "joint_limits": [[-0.5, 1.5], [-2.5, 3.6]], "max_velocity": [3.0, 4.0], "max_acceleration": [8.0, 12.0],
+           "max_jerk": [80.0, 120.0], "home": [1.0, 1.0]}
+    doc = {"name": "elbow-past-pi", "arms": [arm], "fruits": [{"id": "f1", "position": [float(fruit[0]), float(fruit[1])]}],
+           "task": {"pick_dwell": 0.3, "place_dwell": 0.2, "clearance": 0.05}}
+    res = coplan.solve(doc, planner="coordinated")
+    assert res.verification.passed and res.plan.metrics["unreachable"] == 0 and res.plan.metrics["harvested"] == 1
+    assert res.plan.metrics["makespan"] >= res.plan.metrics["lower_bound"] - 1e-9
+    b = fk(np.array([-0.4, 3.4]), links)[1]
+    arm.update(joint_limits=[[-3.1416, 3.1416], [3.2, 4.0]], home=[0.3, 3.5], bin=[float(b[0]), float(b[1])])
+    res = coplan.solve(doc, planner="coordinated")  # (refused before: "the reachable radii are [0.200, 0.200] m")
+    assert res.verification.passed

@@ -120,13 +120,16 @@ def cell_cycles(problem: Problem, step: float = 0.05) -> CellCycles:
         best = np.full(p0.shape, np.inf)  # the way from the bin, on the better branch and bin pose
         out = np.full(p0.shape, np.inf)  # the way from home (an arm's first cycle starts there)
         home = np.asarray(arm.home, float)
+        lo2, hi2 = arm.joint_limits[1]
+        shifts2 = [0.0] + ([_TWO_PI] if hi2 > math.pi else []) + ([-_TWO_PI] if lo2 < -math.pi else [])
         for sgn in (1.0, -1.0):  # elbow up: q2 >= 0, q1 = theta - phi; elbow down: mirrored
             q2_lo, q2_hi = (q2a, q2b) if sgn > 0 else (-q2b, -q2a)
             q1_lo, q1_hi = (th_lo - ph_hi, th_hi - ph_lo) if sgn > 0 else (th_lo + ph_lo, th_hi + ph_hi)
 
             def way(q):  # the least time from joint pose q to the branch's range of fruit poses
                 d1 = np.minimum.reduce([_dist_to_range(q[0], q1_lo + s, q1_hi + s) for s in (-_TWO_PI, 0.0, _TWO_PI)])
-                d2 = _dist_to_range(q[1], q2_lo, q2_hi)
+                # (the branch's q2 range 2 pi on where the elbow's limits reach past +-pi)
+                d2 = np.minimum.reduce([_dist_to_range(q[1], q2_lo + s, q2_hi + s) for s in shifts2])
                 return np.maximum(scurve_times(d1, arm.max_velocity[0], arm.max_acceleration[0], arm.max_jerk[0]),
                                   scurve_times(d2, arm.max_velocity[1], arm.max_acceleration[1], arm.max_jerk[1]))
 

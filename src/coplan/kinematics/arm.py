@@ -184,14 +184,14 @@ def ik(target, links, base=(0.0, 0.0), joint_limits=None, tol: float = 1e-9):
     links : (l1, l2)
     base : (2,)
     joint_limits : optional array (2, 2) ``[[t1_min, t1_max], [t2_min, t2_max]]``;
-        solutions outside are marked invalid (theta1 is wrapped into (-pi, pi] first and
-        also tried shifted by +-2 pi so limits wider than pi are honoured).
+        solutions outside are marked invalid (theta1 is wrapped into (-pi, pi] first; each
+        angle outside its limits is also tried shifted by +-2 pi, so limits past +-pi are honoured).
     tol : targets up to ``tol`` outside the annulus are snapped onto it.
 
     Returns
     -------
-    q : array (..., 2, 2) -- ``q[..., b, :]`` is branch ``b`` (0: t2 >= 0, 1: t2 <= 0);
-        NaN where invalid.
+    q : array (..., 2, 2) -- ``q[..., b, :]`` is branch ``b`` (0: sin t2 >= 0, 1: sin t2 <= 0;
+        t2 in [-pi, pi] unless only its 2 pi shift is within the limits); NaN where invalid.
     valid : bool array (..., 2)
     """
     target = _poses(target, "ik", "target")
@@ -213,6 +213,11 @@ def ik(target, links, base=(0.0, 0.0), joint_limits=None, tol: float = 1e-9):
         if joint_limits is not None:
             lim = np.asarray(joint_limits, dtype=float)
             ok2 = (t2 >= lim[1, 0]) & (t2 <= lim[1, 1])
+            for shift in (2.0 * np.pi, -2.0 * np.pi):  # (an elbow's limits past +-pi: the same bend, 2 pi on)
+                ts = t2 + shift
+                use = ~ok2 & (ts >= lim[1, 0]) & (ts <= lim[1, 1])
+                t2 = np.where(use, ts, t2)
+                ok2 = ok2 | use
             in1 = (t1 >= lim[0, 0]) & (t1 <= lim[0, 1])
             for shift in (2.0 * np.pi, -2.0 * np.pi):
                 ts = t1 + shift
@@ -249,7 +254,12 @@ def ik_one(x: float, y: float, links, base, joint_limits, branch: int, tol: floa
     if joint_limits is not None:
         (lo1, hi1), (lo2, hi2) = joint_limits
         if not (lo2 <= t2 <= hi2):
-            return math.nan, math.nan
+            for shift in (2.0 * math.pi, -2.0 * math.pi):
+                if lo2 <= t2 + shift <= hi2:
+                    t2 = t2 + shift
+                    break
+            else:
+                return math.nan, math.nan
         if not (lo1 <= t1 <= hi1):
             for shift in (2.0 * math.pi, -2.0 * math.pi):
                 if lo1 <= t1 + shift <= hi1:

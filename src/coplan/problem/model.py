@@ -80,10 +80,16 @@ class Arm:
         joint limits, m (``[inner_radius, reach]`` when the elbow may fold and stretch fully)."""
         l1, l2 = self.links
         lo, hi = self.joint_limits[1]
-        bend = (0.0, max(-lo, hi)) if lo <= 0.0 <= hi else (lo, hi) if lo > 0.0 else (-hi, -lo)  # |q2|
-        def r(q: float) -> float:
-            return math.sqrt(max(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * math.cos(min(q, math.pi)), 0.0))
-        return r(bend[1]), r(bend[0])
+
+        def has(a: float) -> bool:  # an angle a + 2 pi k within [lo, hi]
+            return math.floor((hi - a) / (2.0 * math.pi)) >= math.ceil((lo - a) / (2.0 * math.pi))
+
+        c = (math.cos(lo), math.cos(hi))  # (limits past +-pi: cos(min(|q2|, pi)) called 3.4 rad fully folded)
+        c_lo, c_hi = (-1.0 if has(math.pi) else min(c)), (1.0 if has(0.0) else max(c))
+
+        def r(cq: float) -> float:
+            return math.sqrt(max(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * cq, 0.0))
+        return r(c_lo), r(c_hi)
 
     def reach_words(self, point) -> str:
         """Why ``point`` is out of this arm's reach, for a message: its distance from the base
