@@ -824,3 +824,40 @@ def test_row_metrics_export_and_plots_refuse_arguments_that_do_not_fit(tmp_path)
 
     by_name, by_arm = workspace_maps(c.problem, arms=["left"], resolution=40), workspace_maps(c.problem, arms=[c.problem.arms[0]], resolution=40)
     assert np.array_equal(by_name[3], by_arm[3])
+
+
+def test_yaml_text_given_for_a_problem_s_path_points_to_parse_problem():
+    """(From a user's trial: a generated problem's text given to coplan.solve or load_problem was
+    OSError 'File name too long' from pathlib, or 'no file at this path' when short.)"""
+    text = to_yaml(coplan.generate.random_problem(seed=1))
+    for call in (coplan.load_problem, coplan.solve):
+        with pytest.raises(ProblemError, match=r"found text of \d+ lines .*coplan.parse_problem\(text\)"):
+            call(text)
+    with pytest.raises(ProblemError, match="found text of 2 lines"):
+        coplan.solve("name: x\narms: []")
+
+
+def test_a_problem_mapping_with_arrays_solves_and_an_unwritable_value_is_named_by_its_key_path():
+    """(From a user's trial: NumPy arrays in a problem mapping -- a notebook's positions -- were
+    'TypeError: cannot write ndarray to a problem file', no key path.)"""
+    import numpy as np
+
+    d = coplan.generate.random_problem(seed=1)
+    plain = coplan.problem.problem_from_mapping(d)
+    d["fruits"] = [{"id": f["id"], "position": np.array(f["position"])} for f in d["fruits"]]
+    d["arms"][0]["base"] = np.array(d["arms"][0]["base"])
+    assert coplan.problem.problem_from_mapping(d) == plain
+    d["fruits"][2]["position"] = [1.0, object()]
+    with pytest.raises(ProblemError) as e:
+        coplan.solve(d, planner="coordinated")
+    assert [i.path for i in e.value.issues] == ["fruits[2].position[1]"] and "found object" in str(e.value)
+
+
+def test_a_mapping_for_an_arm_or_a_fruit_in_a_problem_built_in_python_is_named():
+    """(From a user's trial: Problem(arms=({"name": "a"},), ...) raised AttributeError "'dict'
+    object has no attribute 'link_radius'" from the checks.)"""
+    p = load_problem("crossing_paths")
+    with pytest.raises(ProblemError, match=r"arms\[0\]: expected an Arm .*found mapping"):
+        coplan.Problem(name="x", arms=({"name": "a"},), fruits=p.fruits, task=p.task)
+    with pytest.raises(ProblemError, match=r"fruits\[1\]: expected a Fruit .*found mapping"):
+        coplan.Problem(name="x", arms=p.arms, fruits=(p.fruits[0], {"id": "f", "position": (1, 1)}), task=p.task)

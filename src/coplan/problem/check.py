@@ -68,6 +68,14 @@ def built_issues(problem) -> list[Issue]:
         return out + [Issue("arms", f"expected a non-empty tuple of Arm, found {_kind(arms)}")]
     if not isinstance(fruits, tuple):
         return out + [Issue("fruits", f"expected a tuple of Fruit, found {_kind(fruits)}")]
+    # (a mapping for an Arm or a Fruit: "'dict' object has no attribute 'link_radius'" from below)
+    arm_keys = ("name", "link_radius", "joint_limits") + tuple(f for f, _, _ in _ARM_PAIRS)
+    odd = [Issue(f"arms[{i}]", f"expected an Arm (coplan.problem.model.Arm; coplan.solve takes a whole problem as a "
+                               f"mapping), found {_kind(a)}") for i, a in enumerate(arms) if not all(hasattr(a, k) for k in arm_keys)]
+    odd += [Issue(f"fruits[{i}]", f"expected a Fruit (coplan.problem.model.Fruit), found {_kind(f)}")
+            for i, f in enumerate(fruits) if not (hasattr(f, "id") and hasattr(f, "position"))]
+    if odd:
+        return out + odd
     _names(arms, "name", "arms", out)
     for i, a in enumerate(arms):
         for f, what, sign in _ARM_PAIRS:

@@ -464,7 +464,17 @@ _PLAIN = re.compile(r"[A-Za-z_][A-Za-z0-9_.\-]*")
 _YAML11_WORDS = {"y", "n", "yes", "no", "true", "false", "on", "off", "null"}
 
 
-def _scalar(v: Any) -> str:
+class UnwritableValue(TypeError):
+    """A value :func:`to_yaml` cannot write, at ``path`` (a key path such as ``fruits[0].position``)."""
+
+    def __init__(self, path: str, v: Any):
+        self.path = path
+        self.found = type(v).__name__
+        super().__init__(f"{path or '<top>'}: cannot write {self.found} to a problem file (expected a number, string, "
+                         f"boolean, null, list or mapping)")
+
+
+def _scalar(v: Any, where: str = "") -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if v is None:
@@ -486,15 +496,17 @@ def _scalar(v: Any) -> str:
         if _PLAIN.fullmatch(v) and v.lower() not in _YAML11_WORDS:
             return v
         return json.dumps(v, ensure_ascii=False)  # a JSON string is a YAML double-quoted scalar
-    raise TypeError(f"cannot write {type(v).__name__} to a problem file")
+    raise UnwritableValue(where, v)
 
 
-def _flow(v: Any) -> str:
+def _flow(v: Any, where: str = "") -> str:
+    if isinstance(v, np.ndarray):  # (a notebook's positions: arrays, as Arm and Fruit take them)
+        v = v.tolist()
     if isinstance(v, dict):
-        return "{" + ", ".join(f"{_scalar(k)}: {_flow(x)}" for k, x in v.items()) + "}"
+        return "{" + ", ".join(f"{_scalar(k, where)}: {_flow(x, f'{where}.{k}' if where else str(k))}" for k, x in v.items()) + "}"
     if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_flow(x) for x in v) + "]"
-    return _scalar(v)
+        return "[" + ", ".join(_flow(x, f"{where}[{i}]") for i, x in enumerate(v)) + "]"
+    return _scalar(v, where)
 
 
 def problem_dict(problem) -> dict[str, Any]:
@@ -531,12 +543,12 @@ def to_yaml(d, header: str | None = None) -> str:
     for key, value in d.items():
         if isinstance(value, dict):
             out.append(f"{_scalar(key)}:")
-            out += [f"  {_scalar(k)}: {_flow(v)}" for k, v in value.items()]
+            out += [f"  {_scalar(k, str(key))}: {_flow(v, f'{key}.{k}')}" for k, v in value.items()]
         elif isinstance(value, (list, tuple)) and value and all(isinstance(x, dict) for x in value):
             out.append(f"{_scalar(key)}:")
-            out += [f"  - {_flow(x)}" for x in value]
+            out += [f"  - {_flow(x, f'{key}[{i}]')}" for i, x in enumerate(value)]
         else:
-            out.append(f"{_scalar(key)}: {_flow(value)}")
+            out.append(f"{_scalar(key)}: {_flow(value, str(key))}")
     return "\n".join(out) + "\n"
 
 
@@ -553,6 +565,11 @@ def problem_from_mapping(data: Mapping[str, Any]) -> "Problem":
         raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty mapping")],
                            "a problem given as a mapping")
     try:
-        return parse_problem(to_yaml(dict(data)), "a problem given as a mapping")
+        text = to_yaml(dict(data))
+    except UnwritableValue as e:  # (a TypeError with no key path)
+        raise ProblemError([Issue(e.path, f"expected a number, string, boolean, null, list or mapping, found {e.found}")],
+                           "a problem given as a mapping") from None
+    try:
+        return parse_problem(text, "a problem given as a mapping")
     except ProblemError as e:
         raise ProblemError([replace(i, line=None) for i in e.issues], e.source) from None

@@ -434,6 +434,11 @@ def load_problem(path: str | Path) -> Problem:
                         + ("; a problem as a mapping (coplan.generate's): coplan.solve(mapping), or "
                            "coplan.parse_problem(coplan.generate.to_yaml(mapping))"
                            if isinstance(path, Mapping) else ""))
+    if isinstance(path, str) and ("\n" in path or len(path) > 1024):  # (YAML text: "File name too long", or "no file")
+        lines = path.count("\n") + 1
+        raise ProblemError([Issue("", f"expected the path of a YAML problem file or a shipped problem's name, found "
+                                      f"text of {lines} line{'s' if lines != 1 else ''} ({path.strip()[:40]!r}...): "
+                                      f"a problem's YAML text is read by coplan.parse_problem(text)")], "<argument>")
     p = Path(path)
     named, taken_as = resolve_name(p)
     if taken_as is not None:
