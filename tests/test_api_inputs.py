@@ -861,3 +861,26 @@ def test_a_mapping_for_an_arm_or_a_fruit_in_a_problem_built_in_python_is_named()
         coplan.Problem(name="x", arms=({"name": "a"},), fruits=p.fruits, task=p.task)
     with pytest.raises(ProblemError, match=r"fruits\[1\]: expected a Fruit .*found mapping"):
         coplan.Problem(name="x", arms=p.arms, fruits=(p.fruits[0], {"id": "f", "position": (1, 1)}), task=p.task)
+
+
+@pytest.mark.parametrize("planner", ["coordinated", "optimal"])
+@pytest.mark.parametrize("once", [True, False])
+def test_an_exception_in_the_caller_s_progress_callback_is_the_caller_s(planner, once):
+    """(From a user's trial: a callback raising once inside the optimal planner was swallowed --
+    status success, success False, error 'RuntimeError: bug in my callback' -- while one raising
+    every time propagated.) Either way, whichever planner, it propagates as a
+    ProgressCallbackError whose cause is the callback's own exception."""
+    from coplan.progress import ProgressCallbackError
+
+    calls = []
+    nth = 2 if planner == "optimal" else 1  # (the coordinated planner says one line on this problem)
+
+    def cb(msg):
+        calls.append(msg)
+        if (len(calls) == nth) if once else (len(calls) >= nth):
+            raise RuntimeError("bug in my callback")
+
+    with pytest.raises(ProgressCallbackError, match="the progress callable raised RuntimeError: bug in my callback") as e:
+        coplan.solve("crossing_paths", planner=planner, options=OptimalOptions(search_work=1000, widen=False)
+                     if planner == "optimal" else None, progress=cb)
+    assert isinstance(e.value.__cause__, RuntimeError)

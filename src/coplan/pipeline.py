@@ -21,7 +21,7 @@ from .problem.model import Problem
 from .problem.plausible import check_as_file
 from .problem.generate import problem_from_mapping
 from .problem.load import file_record, load_problem
-from .progress import check_progress
+from .progress import check_progress, guarded
 
 __all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
 
@@ -298,6 +298,7 @@ def solve(
 
     t0 = _time.perf_counter()
     check_progress(progress)
+    progress = guarded(progress)  # (an exception in it is the caller's, whichever planner: ProgressCallbackError)
     if out_dir is not None:
         check_folder(out_dir, "out_dir")  # (before any work: a solve is not lost to where it goes)
     prob = problem if isinstance(problem, Problem) else problem_from_mapping(problem) if isinstance(problem, Mapping) else load_problem(problem)

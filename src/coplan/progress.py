@@ -17,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Protocol, runtime_checkable
 
-__all__ = ["Tick", "Reporter", "speaker", "ticker", "nested", "check_progress"]
+__all__ = ["Tick", "Reporter", "ProgressCallbackError", "speaker", "ticker", "nested", "check_progress", "guarded"]
 
 
 @dataclass(frozen=True)
@@ -84,6 +84,36 @@ def check_progress(progress, where: str = "") -> None:
     if progress is not None and not callable(progress):
         raise TypeError(f"{where + ': ' if where else ''}progress: expected a callable taking one message (str), or None; "
                         f"found {type(progress).__name__}")
+
+
+class ProgressCallbackError(Exception):
+    """The caller's ``progress`` callable raised (the original is ``__cause__``): a planner that
+    keeps what it has when one of its own stages fails lets this through, so that a bug in the
+    caller's callback is the caller's error, never a plan reported as found with an 'error'."""
+
+
+def guarded(progress):
+    """``progress`` (None, a callable or a :class:`Reporter`) with any exception it raises turned
+    into :class:`ProgressCallbackError`; None stays None."""
+    if progress is None:
+        return None
+
+    def call(fn, arg):
+        try:
+            fn(arg)
+        except ProgressCallbackError:
+            raise  # (guarded twice: once is enough)
+        except Exception as e:  # noqa: BLE001 -- re-raised, marked as the caller's
+            raise ProgressCallbackError(f"the progress callable raised {type(e).__name__}: {e}") from e
+
+    class _Guarded:
+        def __call__(self, message: str) -> None:
+            call(progress, message)
+
+    tick = getattr(progress, "tick", None)
+    if callable(tick):
+        _Guarded.tick = lambda self, t: call(tick, t)
+    return _Guarded()
 
 
 def speaker(progress: Callable[[str], None] | None) -> Callable[[str], None]:

@@ -47,7 +47,7 @@ from ..planners.coordinated.planner import CoordinatedOptions
 from ..planners.coordinated.schedule import ArmSchedule, ConflictError, Step, StepKind, pair_distances
 from ..errors import Issue, check_fields, finite_number, found
 from .gating import TrackIndex
-from .feed import DEFAULT_CLOSE_DISTANCE, Detection, FeedError, detection_issues, now_issues, refinement_issues
+from .feed import DEFAULT_CLOSE_DISTANCE, Detection, FeedError, cell_only, detection_issues, now_issues, refinement_issues
 from .motion import Approach, ApproachError, as_wait, move_step, split_at, truncate_move
 
 __all__ = ["LiveOptions", "Track", "Replan", "CloseRange", "LiveCell"]
@@ -164,6 +164,7 @@ class LiveCell:
     fruit are what the camera reports)."""
 
     def __init__(self, problem: Problem, options: LiveOptions | None = None):
+        cell_only(problem, "LiveCell")  # (a row was taken, and its first observe failed inside, a track filed)
         self.problem = replace(problem, fruits=())
         self.options = options or LiveOptions()
         self.steps: dict[str, list[Step]] = {a.name: [] for a in problem.arms}

@@ -339,6 +339,16 @@ def load_feed(path: str | Path) -> Feed:
     return parse_feed(read_input_text(path, FeedError), str(Path(path)))
 
 
+def cell_only(problem, what: str) -> None:
+    """Refuse a row (a problem with a gantry) where only a stationary cell is meant: a feed file
+    and a live cell are a stationary cell's; a row's camera is simulated by the live row."""
+    if not isinstance(problem, Problem):
+        raise TypeError(f"{what}: expected a Problem (coplan.load_problem(...)), found {type(problem).__name__}")
+    if problem.gantry is not None:
+        raise ValueError(f"{what}: {problem.name!r} is a row (it has a gantry); feeds and live cells are a stationary "
+                         f"cell's: a row is run live, its camera simulated, by coplan.row.live.run_live_row (coplan run ROW)")
+
+
 def make_feed(problem: Problem, known: float = 0.5, sigma: float = 0.01, false_rate: float = 0.0,
               duplicate_rate: float = 0.0, seed: int = 0, reveal_by: float | None = None, after_pick: float = 0.25,
               close_distance: float = DEFAULT_CLOSE_DISTANCE, close_sigma: float = DEFAULT_CLOSE_SIGMA) -> Feed:
@@ -353,6 +363,7 @@ def make_feed(problem: Problem, known: float = 0.5, sigma: float = 0.01, false_r
     with probability ``false_rate`` by a false detection at a random reachable point at least
     0.1 m from every fruit.
     """
+    cell_only(problem, "make_feed")
     if not 0.0 <= known <= 1.0 or not 0.0 <= false_rate <= 1.0 or not 0.0 <= duplicate_rate <= 1.0:
         raise ValueError("known, false_rate and duplicate_rate must lie in [0, 1]")
     if not sigma > 0:

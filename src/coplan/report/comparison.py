@@ -33,7 +33,7 @@ from ..plan import Plan, PlannerKind, PlanStatus
 from ..problem.model import Problem
 from ..problem.load import load_problem
 from ..output import atomic_text, check_folder, is_run_folder
-from ..progress import Tick, nested, speaker, ticker
+from ..progress import ProgressCallbackError, Tick, nested, speaker, ticker
 from .aggregate import aggregate
 
 __all__ = ["PlannerSpec", "DEFAULT_PLANNERS", "Comparison", "compare", "run_row", "aggregate", "to_markdown", "rich_tables"]
@@ -364,6 +364,8 @@ def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, s
             rows.append({"problem": problem.name, "planner": spec.label, "status": None, "error": f"{type(e).__name__}: {e}"})
             say(f"{problem.name}: {spec.label} failed: {e}")
             continue
+        except ProgressCallbackError:
+            raise  # (the caller's callback, not the planner)
         except Exception as e:  # noqa: BLE001 -- a planner failing in any way (even a bug) is a row; the run goes on
             rows.append({"problem": problem.name, "planner": spec.label, "status": None, "error": f"{type(e).__name__}: {e}"})
             say(f"{problem.name}: {spec.label} failed: {e}")

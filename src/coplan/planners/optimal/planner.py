@@ -53,7 +53,7 @@ from ...allocate.allocation import Allocation, AllocationMethod
 from ...allocate.screen import screened
 from ...plan import Plan, PlannerKind, PlanStatus, finalize_plan
 from ...problem.model import Problem
-from ...progress import speaker, ticker
+from ...progress import ProgressCallbackError, guarded, speaker, ticker
 from ..coordinated.planner import make_plan
 from .incumbent import Incumbent, stop_message, time_to_ratio
 from .nlp_data import SolverStatus
@@ -93,6 +93,7 @@ def plan_optimal(
     opts = options or OptimalOptions()
     if opts.ipopt and (bad := ipopt_issues(opts.ipopt)):  # (checked when made, but a dict can change since)
         raise OptionsError(bad, f"{type(opts).__name__}, as changed since it was made")
+    progress = guarded(progress)  # (a callback that raised once was swallowed: a plan 'found', with an error)
     say = speaker(progress)
     t_start = _time.perf_counter()
     run = Run(problem, allocation, opts, say, ticker(progress), t_start, Incumbent(problem, t_start, say),
@@ -111,6 +112,8 @@ def plan_optimal(
             run.stop = StopReason.TIME_LIMIT
     except KeyboardInterrupt:
         run.interrupted = True
+    except ProgressCallbackError:
+        raise
     except Exception as e:  # noqa: BLE001 -- a bug in a stage: keep what was computed before it, report it
         import traceback
 
