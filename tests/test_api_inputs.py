@@ -884,3 +884,27 @@ def test_an_exception_in_the_caller_s_progress_callback_is_the_caller_s(planner,
         coplan.solve("crossing_paths", planner=planner, options=OptimalOptions(search_work=1000, widen=False)
                      if planner == "optimal" else None, progress=cb)
     assert isinstance(e.value.__cause__, RuntimeError)
+
+
+def test_the_allocation_stage_s_arguments_are_checked_expected_and_found():
+    """(From a user's trial: lower_bound(time_limit=-1 or NaN) made HiGHS warn and ignore it,
+    time_limit='5' was ignored, allocate(bound=nan) gave a NaN lower bound, territory=nan was
+    taken, and a reach matrix of another shape or marking a fruit out of an arm's reach was a
+    bare KeyError.)"""
+    import numpy as np
+
+    from coplan.allocate import allocate, bound_details, lower_bound
+
+    p = load_problem("five_arm_row")
+    for kw, words in [({"time_limit": -1}, "time_limit: expected a positive number of seconds or None, found -1"),
+                      ({"time_limit": math.nan}, "found nan"), ({"time_limit": "5"}, "found '5'"),
+                      ({"reach": np.ones((2, 2), bool)}, f"reach: expected a boolean array of shape ({len(p.arms)}, "
+                                                         f"{len(p.fruits)}) (arms x fruit), found bool (2, 2)"),
+                      ({"reach": np.ones((len(p.arms), len(p.fruits)), bool)}, "out of its reach")]:
+        for fn in (lower_bound, bound_details):
+            with pytest.raises(ValueError, match=re.escape(words)):
+                fn(p, **kw)
+    with pytest.raises(ValueError, match=r"allocate: territory: expected a number of 0 s or more, found nan; bound: "
+                                         r"|allocate: bound: .*found nan; territory: .*found nan"):
+        allocate(p, "makespan", bound=math.nan, territory=math.nan)
+    assert lower_bound(p, reach=p.reach_matrix()) == pytest.approx(lower_bound(p), abs=1e-9)

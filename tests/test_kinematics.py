@@ -512,3 +512,19 @@ def test_poses_of_the_wrong_shape_are_refused_with_what_was_expected_and_found()
     for bad in (ca.SX.sym("q", 3, 1), ca.SX.sym("q", 2, 3), ca.MX.sym("q", 1, 1)):
         with pytest.raises(ValueError, match=r"fk: q as CasADi symbols: expected one pose as a \(2, 1\) column or T poses as a \(T, 2\) matrix"):
             kin.fk(bad, links)
+
+
+def test_kinematics_arguments_that_are_not_poses_limits_or_branches_are_named() -> None:
+    """(From a user's trial: ik(..., joint_limits=[-1, 1]) a bare IndexError; sweep_box(1.0, 2.0,
+    links) "'float' object is not subscriptable"; ik_one(..., branch=5) taken as elbow-down;
+    ik with zero links valid=True with NaN angles.)"""
+    with pytest.raises(ValueError, match=r"ik: joint_limits: expected \[\[t1_min, t1_max\], \[t2_min, t2_max\]\] "
+                                         r"\(shape \(2, 2\)\), found shape \(2,\)"):
+        kin.ik(np.ones((5, 2)), (1, 0.8), (0, 0), [-1, 1])
+    with pytest.raises(ValueError, match="sweep_box: q_lo: expected"):
+        kin.sweep_box(1.0, 2.0, (1, 0.8))
+    with pytest.raises(ValueError, match="ik_one: branch: expected 0"):
+        kin.ik_one(1.0, 0.5, (1, 0.8), (0, 0), None, 5)
+    with pytest.raises(ValueError, match="ik: links: expected two link lengths > 0"):
+        kin.ik([0.0, 0.0], (0.0, 0.0))
+    assert kin.sweep_box((0.0, 0.0), (0.1, 0.1), (1, 0.8)) == kin.sweep_box([0, 0], np.array([0.1, 0.1]), [1.0, 0.8])

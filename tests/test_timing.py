@@ -282,3 +282,23 @@ def test_trajectory_states_are_ruckigs_own_at_time_bit_for_bit():
             want = np.array([traj.at_time(float(x)) for x in ts]).transpose(1, 0, 2)
             assert np.array_equal(trajectory_states(traj, ts), want)
     assert braked > 20
+
+
+def test_timing_functions_refuse_what_is_not_a_move_expected_and_found():
+    """(From a user's trial: scurve_time(nan, 1, 1, 1) gave 4.0 s and scurve_time(1, nan, 1, 1)
+    3.17 s, move_lower_bound with a NaN pose 4.0 s, a zero limit a ZeroDivisionError, a negative
+    one 'math domain error', SCurve.between of 3 joints against 2 cut them to 2.)"""
+    import math
+
+    from coplan.kinematics import SCurve, move_lower_bound, scurve_time
+
+    for args in ((math.nan, 1, 1, 1), (1.0, math.nan, 1, 1), (1.0, 0, 1, 1), (1.0, -1, 1, 1), (math.inf, 1, 1, 1)):
+        with pytest.raises(ValueError, match="scurve_time: expected a finite distance and finite limits v, a, j > 0"):
+            scurve_time(*args)
+    with pytest.raises(ValueError, match="scurve_time"):
+        move_lower_bound([0, 0], [math.nan, 1], [1, 1], [1, 1], [1, 1])
+    with pytest.raises(ValueError, match="move_lower_bound: expected one value per joint"):
+        move_lower_bound([0, 0], [1, 1], [1, 1, 1], [1, 1], [1, 1])
+    with pytest.raises(ValueError, match="SCurve.between: expected one value per joint .* found 3, 2, 2, 2, 2"):
+        SCurve.between([0, 0, 0], [1, 1], [1, 1], [1, 1], [1, 1])
+    assert scurve_time(-1.0, 1, 1, 1) == scurve_time(1.0, 1, 1, 1) > 0 and scurve_time(0.0, 1, 1, 1) == 0.0

@@ -381,11 +381,37 @@ class LowerBound:
     assignment: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
 
-def _check_cell(problem, what: str) -> None:
+def _check_cell(problem, what: str, **args) -> None:
     """TypeError where ``problem`` is not a :class:`Problem` (a name raised "cannot create weak
-    reference to 'str' object"), ValueError where it is a row (:func:`require_cell`)."""
+    reference to 'str' object"), ValueError where it is a row (:func:`require_cell`); then the
+    stage's arguments ``args`` (time_limit, bound, territory, reach), every bad one in one
+    ValueError, "expected X, found Y" (a negative or NaN time limit was ignored by HiGHS with a
+    warning, a NaN bound became the allocation's, a reach matrix of another shape a KeyError)."""
     require_problem(problem, what)
     require_cell(problem, what)
+    bad = []
+
+    def number(v) -> bool:
+        return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
+
+    for k in ("time_limit", "bound"):
+        if k in args and args[k] is not None and not (number(args[k]) and args[k] > 0 if k == "time_limit" else number(args[k]) and args[k] >= 0):
+            bad.append(f"{k}: expected {'a positive number of seconds' if k == 'time_limit' else 'a number of 0 s or more'} "
+                       f"or None, found {args[k]!r}")
+    if "territory" in args and not (number(args["territory"]) and args["territory"] >= 0):
+        bad.append(f"territory: expected a number of 0 s or more, found {args['territory']!r}")
+    reach = args.get("reach")
+    if reach is not None:
+        shape = (len(problem.arms), len(problem.fruits))
+        r = np.asarray(reach)
+        if r.shape != shape or r.dtype != bool:
+            bad.append(f"reach: expected a boolean array of shape {shape} (arms x fruit), found {r.dtype} {r.shape}")
+        elif np.any(r & ~problem.reach_matrix()):
+            a, j = map(int, np.argwhere(r & ~problem.reach_matrix())[0])
+            bad.append(f"reach: expected True only where the arm reaches the fruit (problem.reach_matrix()), found "
+                       f"{problem.arms[a].name} marked to reach {problem.fruits[j].id}, out of its reach")
+    if bad:
+        raise ValueError(f"{what}: " + "; ".join(bad))
 
 
 def bound_details(problem: Problem, reach: np.ndarray | None = None, time_limit: float | None = MILP_SECONDS) -> LowerBound:
@@ -399,7 +425,7 @@ def bound_details(problem: Problem, reach: np.ndarray | None = None, time_limit:
     :data:`MILP_NODES` stays a valid bound. Among its optima, the one with the least total work
     gives :attr:`LowerBound.assignment`.
     """
-    _check_cell(problem, "lower_bound")  # (a row's was the cell's with the carriage at 0: 12 of its 32 fruit)
+    _check_cell(problem, "lower_bound", reach=reach, time_limit=time_limit)  # (a row's was the cell's with the carriage at 0)
     t0 = _time.perf_counter()
     reach = screened_reach(problem) if reach is None else reach
     names = [arm.name for arm in problem.arms]
@@ -471,7 +497,7 @@ def allocate(
     ``bound``: the makespan lower bound, when the caller has already computed it
     (:func:`lower_bound` depends only on the problem); computed here otherwise.
     """
-    _check_cell(problem, "allocate")
+    _check_cell(problem, "allocate", time_limit=time_limit, territory=territory, bound=bound)
     t0 = _time.perf_counter()
     method = AllocationMethod(method)
     if sequence is None:

@@ -157,10 +157,11 @@ def sweep_box(q_lo, q_hi, links, base=(0.0, 0.0), pad: float = 1e-9) -> tuple[fl
     absolute forearm angle ``t1 + t2`` in ``[lo1 + lo2, hi1 + hi2]``; ``pad`` (m) covers rounding.
     Each link lies in the hull of its end points, so the box of the three points holds it.
     """
-    l1, l2 = float(links[0]), float(links[1])
-    bx, by = float(base[0]), float(base[1])
-    a0, a1 = float(q_lo[0]), float(q_hi[0])
-    f0, f1 = a0 + float(q_lo[1]), a1 + float(q_hi[1])
+    l1, l2 = _pair(links, "sweep_box", "links", "(l1, l2) in m")
+    bx, by = _pair(base, "sweep_box", "base", "(x, y) in m")
+    lo, hi = _pair(q_lo, "sweep_box", "q_lo", "(t1, t2) in rad"), _pair(q_hi, "sweep_box", "q_hi", "(t1, t2) in rad")
+    a0, a1 = lo[0], hi[0]
+    f0, f1 = a0 + lo[1], a1 + hi[1]
     c1, s1 = _cos_range(a0, a1), _cos_range(a0 - math.pi / 2, a1 - math.pi / 2)  # sin x = cos(x - pi / 2)
     c2, s2 = _cos_range(f0, f1), _cos_range(f0 - math.pi / 2, f1 - math.pi / 2)
     ex0, ex1, ey0, ey1 = bx + l1 * c1[0], bx + l1 * c1[1], by + l1 * s1[0], by + l1 * s1[1]
@@ -196,6 +197,13 @@ def ik(target, links, base=(0.0, 0.0), joint_limits=None, tol: float = 1e-9):
     """
     target = _poses(target, "ik", "target")
     l1, l2 = _pair(links, "ik", "links", "(l1, l2) in m")
+    if not (l1 > 0 and l2 > 0 and math.isfinite(l1 + l2)):  # (zero links: valid=True with NaN angles)
+        raise ValueError(f"ik: links: expected two link lengths > 0 in m, found {tuple(links)!r}")
+    if joint_limits is not None:
+        lim_a = np.asarray(joint_limits, dtype=float)
+        if lim_a.shape != (2, 2):  # ([-1, 1]: a bare IndexError)
+            raise ValueError(f"ik: joint_limits: expected [[t1_min, t1_max], [t2_min, t2_max]] (shape (2, 2)), found shape "
+                             f"{lim_a.shape}")
     p = target - np.asarray(_pair(base, "ik", "base", "(x, y) in m"))
     px, py = p[..., 0], p[..., 1]
     r2 = px * px + py * py
@@ -237,6 +245,8 @@ def ik_one(x: float, y: float, links, base, joint_limits, branch: int, tol: floa
     the same order; the angles from ``np.arctan2`` on scalars, which runs the array's kernel:
     ``math.atan2`` may differ in the last bit), at a tenth of its cost on one point.
     ``joint_limits``: ``((t1_min, t1_max), (t2_min, t2_max))`` or None."""
+    if branch not in (0, 1):  # (5 was taken as elbow-down)
+        raise ValueError(f"ik_one: branch: expected 0 (sin t2 >= 0) or 1 (sin t2 <= 0), found {branch!r}")
     l1, l2 = float(links[0]), float(links[1])
     px, py = float(x) - float(base[0]), float(y) - float(base[1])
     r2 = px * px + py * py

@@ -79,13 +79,23 @@ def _phases(D: float, v: float, a: float, j: float):
 
 
 def scurve_time(D: float, v: float, a: float, j: float) -> float:
-    """Time-optimal rest-to-rest duration for distance ``|D|`` under limits v, a, j (> 0)."""
-    return float(sum(_phases(abs(float(D)), float(v), float(a), float(j))[0]))
+    """Time-optimal rest-to-rest duration for distance ``|D|`` under limits v, a, j (> 0); a
+    ValueError, what was expected and found, for a distance that is not a finite number or a limit
+    that is not a positive one (NaN gave 4.0 s, a zero limit a ZeroDivisionError)."""
+    D, v, a, j = float(D), float(v), float(a), float(j)
+    if not (v > 0 and a > 0 and j > 0 and math.isfinite(D + v + a + j)):
+        raise ValueError(f"scurve_time: expected a finite distance and finite limits v, a, j > 0, found "
+                         f"D={D:g}, v={v:g}, a={a:g}, j={j:g}")
+    return float(sum(_phases(abs(D), v, a, j)[0]))
 
 
 def move_lower_bound(q0, q1, vmax, amax, jmax) -> float:
-    """No motion between rest poses q0 and q1 respecting the limits is faster than this."""
+    """No motion between rest poses q0 and q1 respecting the limits is faster than this; every
+    argument one value per joint (a joint count that differs is a ValueError: zip cut it short)."""
     dq = np.abs(np.asarray(q1, float) - np.asarray(q0, float))
+    if not (dq.ndim == 1 and len(vmax) == len(amax) == len(jmax) == dq.size):
+        raise ValueError(f"move_lower_bound: expected one value per joint in q0, q1 and each limit, found "
+                         f"{np.shape(q0)}, {np.shape(q1)}, {len(vmax)}, {len(amax)}, {len(jmax)}")
     return max((scurve_time(d, v, a, j) for d, v, a, j in zip(dq, vmax, amax, jmax)), default=0.0)
 
 
@@ -129,7 +139,11 @@ class SCurve:
     def between(cls, q0, q1, vmax, amax, jmax) -> "SCurve":
         """The time-optimal synchronised move from rest at q0 to rest at q1 (remembered: the
         planners ask for the same moves many times; an SCurve is immutable)."""
-        return _between(*(tuple(float(x) for x in v) for v in (q0, q1, vmax, amax, jmax)))
+        args = [tuple(float(x) for x in v) for v in (q0, q1, vmax, amax, jmax)]
+        if len({len(v) for v in args}) != 1:  # (3 joints against 2 were cut to 2)
+            raise ValueError(f"SCurve.between: expected one value per joint in q0, q1 and each limit, found "
+                             f"{', '.join(str(len(v)) for v in args)}")
+        return _between(*args)
 
     def derivatives(self, t):
         """Joint (pos, vel, acc, jerk), each (K, 2), at times ``t`` (K,) from the move's start."""
