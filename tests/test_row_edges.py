@@ -725,3 +725,37 @@ def test_compare_on_a_row_says_why_a_rule_s_row_is_not_a_success(tmp_path):
         assert f"note: {line}" in r.output and line in (tmp_path / "c" / "compare.md").read_text()
     doc = json.loads((tmp_path / "c" / "compare.json").read_text())
     assert {row["status"] for row in doc["rows"]} == {"infeasible"} and len(doc["notes"]) == 3
+
+
+TINY = """name: tiny-rail
+defaults: {links: [1.0, 0.8], link_radius: 0.04, joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]],
+           max_velocity: [3.0, 4.0], max_acceleration: [8.0, 12.0], max_jerk: [80.0, 120.0], home: [1.0472, 0.7854]}
+arms:
+  - {name: arm1, base: [-2.0, 0.0], bin: [-2.0, -0.5]}
+  - {name: arm2, base: [0.0, 0.0], bin: [0.0, -0.5]}
+  - {name: arm3, base: [2.0, 0.0], bin: [2.0, -0.5]}
+fruits:
+  - {id: f1, position: [0.8, 0.7]}
+  - {id: f2, position: [1.3, 1.2]}
+  - {id: f3, position: [2.5, 0.9]}
+  - {id: f4, position: [3.5, 1.0]}
+task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
+gantry: {start: 0.0, end: END, max_velocity: 0.5, max_acceleration: 0.5, max_jerk: 5.0}
+"""
+
+
+@pytest.mark.parametrize("end", [0.001, 0.03, 0.049, 0.07])
+def test_a_rail_shorter_than_the_screen_s_spacing_keeps_every_position_and_stop_on_it(end):
+    """(From a user's trial: on a rail of 1 mm the screen put a position at 0.05 m, past the
+    rail's end; f4, served only from there, was called harvestable, and the stop-and-go plan
+    stopped there -- unsafe, exit 6 -- while on the move it was 'success' with 3 of 4
+    harvestable harvested.) Every screened position is on the rail, f4 (1.802 m from arm3's
+    base even at the rail's end) is out of reach, and both modes plan a verified row."""
+    row = parse_problem(TINY.replace("END", str(end)))
+    reach = row_reach(row)
+    assert reach.grid[0] == 0.0 and reach.grid[-1] == pytest.approx(end) and np.all(np.diff(reach.grid) > 0)
+    served_from = 1.5 - math.sqrt(1.79**2 - 1.0)  # arm3 reaches f4 (outer reach 1.8 less the 0.01 margin) from here on
+    assert ("f4" in reach.harvestable()) == (end >= served_from)
+    for res in (plan_row(row, RowOptions()), plan_moving(row, MovingOptions())):
+        assert res.verification.passed, res.verification.violations[:3]
+        assert float(np.max(res.plan.gantry_x)) <= end + 1e-9

@@ -97,7 +97,9 @@ def row_reach(problem: Problem, resolution: float = DEFAULT_RESOLUTION, fruit_id
     """Screen every fruit (or ``fruit_ids``) against every carriage position of the grid; with
     ``lazy`` none yet (:meth:`RowReach.ensure` screens them stretch by stretch)."""
     g = problem.gantry
-    n = max(1, int(math.floor(g.length / resolution + 1e-9)))
+    # (max(1, ...) put a position at start + resolution on a rail shorter than that: a stop off the
+    # rail, a plan the verifier refused, and fruit called harvestable from there)
+    n = int(math.floor(g.length / resolution + 1e-9))
     grid = g.start + resolution * np.arange(n + 1)
     if grid[-1] < g.end - 1e-9:
         grid = np.append(grid, g.end)
