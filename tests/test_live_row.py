@@ -1079,3 +1079,39 @@ def test_run_live_row_takes_a_rows_file_as_solve_does(tmp_path):
     assert res.verification.passed and res.metrics["of_offline"] == 1.0
     with pytest.raises(TypeError, match="expected a row Problem or the path of its file, found int"):
         run_live_row(42)
+
+
+LONG_RAIL = """name: long-rail
+defaults: {links: [1.0, 0.8], link_radius: 0.04, joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]],
+           max_velocity: [3.0, 4.0], max_acceleration: [8.0, 12.0], max_jerk: [80.0, 120.0], home: [1.0472, 0.7854]}
+arms:
+  - {name: arm1, base: [-2.0, 0.0], bin: [-2.0, -0.5]}
+  - {name: arm2, base: [0.0, 0.0], bin: [0.0, -0.5]}
+  - {name: arm3, base: [2.0, 0.0], bin: [2.0, -0.5]}
+fruits: [{id: f1, position: [0.8, 0.7]}, {id: f2, position: [5.3, 1.2]}]
+task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
+gantry: {start: 0.0, end: END, max_velocity: 0.5, max_acceleration: 0.5, max_jerk: 5.0}
+"""
+
+
+@pytest.mark.parametrize("args", [["--speed", "0.5"], ["--speed", "auto"], ["--gantry", "stop-and-go"]])
+def test_a_live_row_whose_rail_no_plan_can_cover_is_refused_before_any_work(tmp_path, args):
+    """(From a user's trial: stop and go on a 3500 m rail ran 156 s to a 7700 s plan, past the
+    longest coplan makes, and on 8000 m -- an end in mm -- ran for more than 15 minutes; on the move
+    --speed quoted an empty range, '[0.527, 0.5] m/s', and offered --speed auto, which searched and
+    then refused its own speed.) The rail is refused first, with what each mode would take; a
+    2000 m rail is taken."""
+    p = tmp_path / "long.yaml"
+    p.write_text(LONG_RAIL.replace("END", "3500.0"))
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["run", str(p), *args, "-o", str(tmp_path / "o")])
+    said = " ".join(r.output.split())
+    assert r.exit_code == 2 and "expected a rail a live carriage can cover in a plan of at most 1.8 h" in said, said
+    assert "found a rail of 3500 m" in said and "--speed auto" not in said and not (tmp_path / "o").exists()
+    assert ("hops at most 5.50 m" in said) == ("stop-and-go" in args)
+    row = parse_problem(LONG_RAIL.replace("END", "3500.0"))
+    with pytest.raises(ValueError, match="expected a rail a live carriage can cover"):
+        run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO))
+    from coplan.problem.plausible import live_rail_issue
+
+    ok = parse_problem(LONG_RAIL.replace("END", "2000.0"))
+    assert live_rail_issue(ok, True, 1.5) is None and live_rail_issue(ok, False, 1.5) is None

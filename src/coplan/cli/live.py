@@ -279,6 +279,11 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         usage(f"--feed: {prob.name} is a row: its camera is simulated (--look-ahead, --sigma, --false-rate, "
               "--duplicate-rate, --seed); feed files describe a stationary cell's camera")
     mode = GantryMode((gantry or LiveGantryMode.CONTINUOUS).value)
+    from ..problem.plausible import live_rail_issue
+
+    too_long = live_rail_issue(prob, mode == GantryMode.STOP_AND_GO, look_ahead)
+    if too_long:  # (before --speed auto's search; --speed's range was empty: 'in [0.527, 0.5] m/s ... or --speed auto')
+        usage(f"{prob.name}: {too_long}")
     if mode == GantryMode.STOP_AND_GO:
         if speed is not None:
             usage("--speed: applies on the move (--gantry continuous); stop and go, the carriage hops between stops at "

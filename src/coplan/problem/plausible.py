@@ -317,6 +317,38 @@ def cruise_speed_issue(problem, speed) -> str | None:
     return f"expected a cruising speed in {low}, found {_shown(speed)}"
 
 
+def live_rail_issue(problem, stop_and_go: bool, look_ahead: float) -> str | None:
+    """What makes a live row on ``problem``'s rail longer than the longest plan coplan makes
+    (:func:`plan_seconds_limit`) whatever the cruising speed, or None. A live carriage does not
+    know where the last fruit is: on the move it cruises the whole rail, at most at
+    ``gantry.max_velocity``; stop and go it hops at most the camera's ``look_ahead`` plus the
+    arms' spread (its rear base no farther than the camera has seen) until the camera sees the
+    rail's end, and as a rest-to-rest move's time per metre falls with its length, those hops
+    take at least the distance times the longest hop's time per metre. (A 3500 m rail ran 156 s
+    to a 7700 s plan past that limit, 8000 m -- an end in mm -- ran for more than 15 minutes.)"""
+    from ..kinematics.timing import scurve_time
+
+    g = problem.gantry
+    limit = plan_seconds_limit(problem)
+    rail = g.end - g.start
+    xs = [a.base[0] for a in problem.arms]
+    if stop_and_go:
+        hop = look_ahead + max(xs) - min(xs)
+        far = max(0.0, g.end - max(xs) - look_ahead - g.start)  # (where the camera sees the rail's end)
+        need = far * scurve_time(hop, g.max_velocity, g.max_acceleration, g.max_jerk) / hop if hop > 0 and far > 0 else 0.0
+        how = (f"stop and go it hops at most {hop:.2f} m (the camera's {look_ahead:g} m look-ahead and the arms' spread, "
+               f"{max(xs) - min(xs):g} m), so the {far:.0f} m it travels before the camera sees the rail's end take at least "
+               f"{need:.0f} s")
+    else:
+        need = rail / g.max_velocity
+        how = f"on the move it cruises the whole rail, {rail:g} m, taking {need:.0f} s even at gantry.max_velocity"
+    if need <= limit:
+        return None
+    return (f"expected a rail a live carriage can cover in a plan of at most {_hours(limit)} (the longest coplan makes"
+            f"{'' if limit == MAX_PLAN_SECONDS else f' with {len(problem.arms)} arms'}; it does not know where the last "
+            f"fruit is): {how}; found a rail of {rail:g} m (gantry.start {g.start:g}, gantry.end {g.end:g}: in m?)")
+
+
 def live_speed_issue(problem, speed) -> str | None:
     """What is wrong with ``speed`` (m/s) as a live row's cruising speed on the move, or None.
     The live carriage, not knowing where the last fruit is, cruises to the rail's end: the whole

@@ -66,7 +66,7 @@ from ..kinds import AssignRule, GantryMode, PlanStatus, SpeedProfile
 from ..plan import Event, EventKind, finalize_plan
 from ..errors import Issue, OptionsError
 from ..problem.model import Problem
-from ..problem.plausible import live_speed_issue
+from ..problem.plausible import live_rail_issue, live_speed_issue
 from ..allocate.row_bound import row_bounds
 from .continuous import MovingOptions, assemble_moving
 from .moving import plan_moving
@@ -141,6 +141,9 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
     opts = options or LiveRowOptions()
     mode = GantryMode(opts.mode)  # (LiveRowOptions refuses auto when built)
     g = problem.gantry
+    too_long = live_rail_issue(problem, mode == GantryMode.STOP_AND_GO, opts.look_ahead)
+    if too_long:  # (before any work)
+        raise ValueError(f"{problem.name!r}: {too_long}")
     reports = row_reports(problem, opts)
     if mode == GantryMode.CONTINUOUS:
         bad = live_speed_issue(problem, opts.speed)
