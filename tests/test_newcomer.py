@@ -5,6 +5,8 @@ bare name, the user's usual file permissions, and the small words of the reports
 
 from __future__ import annotations
 
+import math
+
 import json
 import os
 import stat
@@ -287,3 +289,16 @@ def test_an_edited_copy_of_a_shipped_problem_here_is_named_when_the_shipped_one_
     (tmp_path / "problems" / "rows" / row.name).write_text(row.read_text().replace("clearance: 0.05", "clearance: 0.06", 1))
     out = " ".join(run.invoke(app, ["check", "sparse_row"]).output.split())
     assert f"note: problems/rows/{row.name} here differs from the shipped copy this command reads" in out
+
+
+def test_a_fruit_on_an_arm_s_base_is_said_to_be_inside_that_arm_s_inner_reach():
+    """(From a user's trial: a fruit at right's base, which misses left's outer reach by as much,
+    0.21 m, was '2.000 m from left's base, beyond its outer reach'.) A tie goes to the nearer base."""
+    d = yaml.safe_load(_text("crossing_paths"))
+    for arm, x in zip(d["arms"], (-1.0, 1.0)):  # (2 m apart: the base of one is 0.21 m beyond the other's reach)
+        arm["base"], arm["bin"] = [x, 0.0], [x, -0.5]
+    d["fruits"] = [f for f in d["fruits"] if all(math.dist(f["position"], (x, 0.0)) > 0.3 for x in (-1.0, 1.0))]
+    prob = parse_problem(yaml.safe_dump(d))
+    right = max(prob.arms, key=lambda a: a.base[0])
+    why = reach_reason(prob, right.base)
+    assert why.startswith(f"0.000 m from {right.name}'s base, inside its inner reach"), why

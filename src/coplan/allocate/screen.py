@@ -259,7 +259,9 @@ def reach_reason(problem: Problem, point) -> str:
             miss, side, edge = (r + m) - d, "inner", r
         else:
             miss, side, edge = 0.0, "limits", R
-        if best is None or miss < best[0]:
+        # (a tie goes to the nearer base: a fruit on one arm's base missed the other's reach by as
+        # much, 0.21 m, and was called 2.000 m from it, not inside the nearer arm's inner reach)
+        if best is None or miss < best[0] - 1e-9 or (abs(miss - best[0]) <= 1e-9 and d < best[3]):
             best = (miss, side, edge, d, arm.name)
     _, side, edge, d, name = best
     if side == "limits":
