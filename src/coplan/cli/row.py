@@ -62,8 +62,12 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
             p(f"lower bound        {b.any_plan:.2f} s for any plan (the busiest arm's cycles {b.work:.2f} s; the carriage's "
               f"way to {b.reach_to:.2f} m and one fruit's dwells, {b.travel:.2f} s); {b.stop_and_go:.2f} s stop by stop "
               f"with no arm working while the carriage moves (its moves {b.moves:.2f} s, then the cells; with the stops "
-              f"and where each fruit is picked from priced together {b.priced:.2f} s, at {b.priced_stops} stops; coplan's "
-              f"plans let the arms place and come out during the moves, and may beat it)")
+              f"and where each fruit is picked from priced together {b.priced:.2f} s, its cheapest stopping "
+              f"{b.priced_stops} time{'s' if b.priced_stops != 1 else ''}"
+              # (a slow carriage: 'priced together 768.69 s, at 463 stops' read as a bound below the travel bound's 924.50 s)
+              + (f", weaker here than the bounds before it, which set the {b.stop_and_go:.2f} s" if b.priced < b.stop_and_go - 1e-9
+                 else "")
+              + "; coplan's plans let the arms place and come out during the moves, and may beat it)")
         else:  # (as a cell's check says it)
             p("nothing to plan: no fruit can be harvested from any carriage position (solve would exit 4, infeasible)"
               + (" -- the problem lists no fruit" if not prob.fruits else ""))
