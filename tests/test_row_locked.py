@@ -92,3 +92,19 @@ def test_a_rows_solve_says_which_arm_the_screen_locks_and_why(locked_row, tmp_pa
     said = " ".join(res.output.split())
     assert res.exit_code == 0 and "carriage -- waiting for the carriage to bring its next fruit into reach" in said
     assert "at a stop" not in said.split("(share of the row time")[1]
+
+
+def test_a_row_plan_s_metrics_carry_the_cell_s_fruit_vocabulary_at_the_top():
+    """(From a user's trial: plan.metrics['harvestable'] was a KeyError on a row -- fruit,
+    fruit_ids, harvestable, screened_out and gap_to_lower_bound were only a cell plan's.) They
+    agree with the row's own metrics, in both modes."""
+    import coplan
+    from coplan.generate import gantry_row
+
+    for gantry in ("stop-and-go", "continuous"):
+        m = coplan.solve(gantry_row(length=6.0, n_arms=3, density=3.0, seed=2), gantry=gantry).plan.metrics
+        row = m["row"]
+        assert m["fruit"] == row["fruit"] and m["harvestable"] == row["harvestable"], gantry
+        assert m["screened_out"] == len(m["fruit_ids"]["screened_out"]) and set(m["fruit_ids"]["screened_out"]) <= set(row["screened_out"])
+        assert m["fruit"] == m["harvestable"] + m["screened_out"] + m["unreachable"]
+        assert m["fruit_ids"]["left_out"] == [] and m["gap_to_lower_bound"] == pytest.approx(m["makespan"] / m["lower_bound"] - 1.0)

@@ -232,12 +232,32 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
         if a in plan.metrics.get("per_arm", {}):
             plan.metrics["per_arm"][a]["idle_fraction"] = float(sum(causes.values())) if span > 0 else None
     plan.metrics["lower_bound"] = bounds.any_plan
+    plan.metrics.update(_row_fruit_counts(prob, plan))
     plan.problem_file = file_record(prob)
     timings = dict(res.timings) | {"bounds": bounds.seconds}
     plan.solver["timings"] = dict(timings)
     files, previous = _write(out_dir, plan, res.verification) if out_dir is not None else ({}, None)
     timings["total"] = _time.perf_counter() - t0
     return SolveResult(prob, plan, res.verification, None, files, timings, previous, row=res)
+
+
+def _row_fruit_counts(problem: Problem, plan: Plan) -> dict:
+    """A row plan's :func:`fruit_counts`, from its row metrics' screen (``metrics.row``): the same
+    keys at the top of ``metrics`` as a cell plan's (a notebook's ``plan.metrics["harvestable"]``
+    was a KeyError on a row), and ``gap_to_lower_bound`` over the bound for any motion, None
+    where a harvestable fruit is left out."""
+    row = plan.metrics["row"]
+    reach = set(problem.reachable_ids())
+    screened = set(row.get("screened_out") or {})
+    picked = {e.fruit for e in plan.events if e.kind == EventKind.PLACE}
+    ids = {"unreachable": [f.id for f in problem.fruits if f.id not in reach],
+           "screened_out": [f.id for f in problem.fruits if f.id in reach and f.id in screened],
+           "left_out": [f.id for f in problem.fruits if f.id in reach and f.id not in screened and f.id not in picked]}
+    harvestable = len(problem.fruits) - len(ids["unreachable"]) - len(ids["screened_out"])
+    span, bound = plan.metrics.get("makespan"), plan.metrics.get("lower_bound")
+    gap = span / bound - 1.0 if span and bound and not ids["left_out"] else None
+    return {"fruit": len(problem.fruits), "harvestable": harvestable, "screened_out": len(ids["screened_out"]),
+            "fruit_ids": ids, "gap_to_lower_bound": gap}
 
 
 def fruit_counts(problem: Problem, scr, plan: Plan) -> dict:
