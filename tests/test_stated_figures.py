@@ -117,3 +117,27 @@ def test_a_partial_plan_has_no_ratio_to_a_bound_counting_the_fruit_it_left(tmp_p
     assert "no ratio for a plan that harvests fewer" in r.output, r.output
     full = coplan.solve("crossing_paths", planner="coordinated").plan.metrics  # (a whole plan keeps its ratio)
     assert full["gap_to_lower_bound"] == pytest.approx(full["makespan"] / full["lower_bound"])
+
+
+def test_a_row_plan_s_edited_grower_figures_are_said_as_its_makespan_is(tmp_path):
+    """(From a user's trial: a row plan.json edited to 99999 fruit per hour and half its fruit
+    harvested passed coplan verify without a word; only makespan, harvested and row time were
+    compared.) Its row.harvested, row.fruit_per_hour and row.share_harvested are measured too."""
+    import json
+
+    import coplan
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.verify import verify
+
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=6.0, n_arms=3, density=3.0, seed=2)))
+    coplan.solve(path, out_dir=tmp_path / "o")
+    doc = json.loads((tmp_path / "o" / "plan.json").read_text())
+    assert verify(path, tmp_path / "o" / "plan.json").stated_figures == {}  # (as written: they agree)
+    row = doc["metrics"]["row"]
+    fph = row["fruit_per_hour"]
+    row.update(fruit_per_hour=99999.0, share_harvested=0.5, harvested=row["harvested"] + 1)
+    (tmp_path / "edited.json").write_text(json.dumps(doc))
+    ver = verify(path, tmp_path / "edited.json")
+    assert ver.passed and set(ver.stated_figures) == {"row.fruit_per_hour", "row.share_harvested", "row.harvested"}
+    assert ver.stated_figures["row.fruit_per_hour"]["measured"] == pytest.approx(fph)

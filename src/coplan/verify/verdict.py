@@ -420,12 +420,24 @@ def stated_figures(metrics: Mapping[str, Any] | None, makespan: float | None, ha
     placed): ``{name: {"stated", "measured"}}``, empty where they agree or it states none."""
     m = metrics or {}
     row = m.get("row") if isinstance(m.get("row"), Mapping) else {}
+
+    def number(v) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+    # a row's grower figures as its motion bears them out (an edited plan.json said 99999 fruit per
+    # hour and half the fruit harvested, and verify passed it without a word); the share over the
+    # harvestable fruit the file itself states (the verifier does not screen the row)
+    per_h = 3600.0 * harvested / makespan if makespan else None
+    share = harvested / row["harvestable"] if number(row.get("harvestable")) and row["harvestable"] > 0 else None
     out: dict[str, dict[str, float]] = {}
     for key, said, measured, tol in (("makespan", m.get("makespan"), makespan, 1e-6),
                                      ("harvested", m.get("harvested"), harvested, 0),
-                                     ("row_time", row.get("row_time"), makespan, 1e-6)):
-        if measured is not None and isinstance(said, (int, float)) and not isinstance(said, bool) \
-                and abs(said - measured) > tol:
+                                     ("row_time", row.get("row_time"), makespan, 1e-6),
+                                     ("row.harvested", row.get("harvested"), harvested if row else None, 0),
+                                     ("row.fruit_per_hour", row.get("fruit_per_hour"), per_h if row else None, 1e-6),
+                                     ("row.share_harvested", row.get("share_harvested"), share, 1e-9)):
+        rel = tol * max(1.0, abs(measured)) if key == "row.fruit_per_hour" and measured is not None else tol
+        if measured is not None and number(said) and abs(said - measured) > rel:
             out[key] = {"stated": float(said), "measured": float(measured)}
     return out
 
