@@ -162,7 +162,7 @@ def print_row_summary(console, res) -> None:
     if moving:
         rest = r.get("picks_at_rest") or 0
         how = ("stands where it starts" if still else "never stops for a pick" if not rest else
-               f"never stops for a pick, but {rest} of the {m.get('harvested')} picks come with it at rest (where it "
+               f"never stops for a pick, but {rest} of the {m.get('harvested')} picks {'comes' if rest == 1 else 'come'} with it at rest (where it "
                f"starts, or at its rest at the row's end)")
         p(f"  carriage          {how}; {shares}")
     else:

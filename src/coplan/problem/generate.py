@@ -299,11 +299,11 @@ def gantry_row(
     _whole("gantry_row", n_arms=n_arms, seed=seed)
     _finite(length=length, density=density, spacing=spacing, y_range=y_range)
     if length <= 0 or n_arms < 1 or density < 0:
-        raise ValueError(f"expected length > 0, n_arms >= 1 and density >= 0, found {length}, {n_arms}, {density}")
+        raise ValueError(f"gantry_row: expected length > 0, n_arms >= 1 and density >= 0, found {length}, {n_arms}, {density}")
     if spacing <= 0 and n_arms > 1:  # (a negative spacing swapped the arms' order; 0 stacked them)
-        raise ValueError(f"expected spacing > 0 (m between neighbouring bases), found {spacing}")
+        raise ValueError(f"gantry_row: expected spacing > 0 (m between neighbouring bases), found {spacing}")
     if not isinstance(trusses, bool):  # ("no" was taken as true)
-        raise ValueError(f"expected trusses True or False, found {trusses!r}")
+        raise ValueError(f"gantry_row: expected trusses True or False, found {trusses!r}")
     from .model import MAX_ARMS, MAX_FRUITS
 
     if density * length > MAX_FRUITS or n_arms > MAX_ARMS:  # (before drawing: 1e9 per metre asked for 149 GiB)
