@@ -778,3 +778,17 @@ def test_on_a_row_its_first_segment_covers_the_optimised_rule_is_no_slower_than_
         assert res.verification.passed and res.plan.metrics["harvested"] == 2, rule
         times[rule] = res.plan.metrics["makespan"]
     assert times[StopRule.OPTIMISED] <= min(times[StopRule.FEWEST], times[StopRule.FIXED]) + 1e-9, times
+
+
+def test_coplan_check_notes_a_rail_far_longer_than_where_its_fruit_lie(tmp_path):
+    """(From a user's trial: gantry.end written in mm, 8000, was 'a row of 8000 m' without a word,
+    where fruit coordinates and links in mm get a hint.)"""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    for end, noted in (("8000.0", True), ("8.0", False)):
+        p = tmp_path / f"r{end}.yaml"
+        p.write_text(TINY.replace("END", end))
+        r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["check", str(p)])
+        assert r.exit_code in (0, 5) and ("gantry.end in mm?" in r.output) == noted, r.output

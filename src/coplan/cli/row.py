@@ -46,6 +46,10 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
         p(f"[bold]{safe(prob.name)}[/] ({safe(path)}): a row of {g.length:g} m ([{g.start:g}, {g.end:g}]), "
           f"{plural(len(prob.arms), 'arm')} on the carriage, {len(prob.fruits)} fruit: {len(reach.cover)} harvestable "
           f"from some carriage position, {len(reach.reasons)} not")
+        xs = [f.position[0] for f in prob.fruits]
+        if xs and g.length >= 1000.0 and max(xs) - g.start < 0.02 * g.length:  # (an end in mm read as 'a row of 8000 m')
+            p(f"note: the fruit lie within x [{min(xs):g}, {max(xs):g}] m of a {g.length:g} m rail: gantry.end in mm? "
+              f"(the row's figures per metre count the whole rail; a live run covers it all)", highlight=False)
         if reach.locked:  # (as a cell's check says it: the bins ride with the carriage, so all along the rail)
             p(f"screen: {len(reach.locked)} of {plural(len(prob.arms), 'arm')} locked ({', '.join(reach.locked)}): "
               f"they harvest nothing from any carriage position", highlight=False)
