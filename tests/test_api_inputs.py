@@ -908,3 +908,18 @@ def test_the_allocation_stage_s_arguments_are_checked_expected_and_found():
                                          r"|allocate: bound: .*found nan; territory: .*found nan"):
         allocate(p, "makespan", bound=math.nan, territory=math.nan)
     assert lower_bound(p, reach=p.reach_matrix()) == pytest.approx(lower_bound(p), abs=1e-9)
+
+
+@pytest.mark.parametrize("cls, kw, words", [
+    (OptimalOptions, {"serch_work": 5}, "serch_work: expected a field of OptimalOptions, found 'serch_work'; did you mean 'search_work'?"),
+    (RowOptions, {"stop": "fixed"}, "did you mean 'stops'?"),
+    (MovingOptions, {"speed": 0.2}, "expected a field of MovingOptions, found 'speed'"),
+    (LiveRowOptions, {"lookahead": 2.0}, "did you mean 'look_ahead'?"),
+    (StopWindow, {"stop_prize": 2.0}, "did you mean 'stop_price'?"),
+    (VerifyOptions, {"position_tolerence": 0.01}, "did you mean 'position_tolerance'?"),
+])
+def test_an_option_misspelt_in_python_gets_the_did_you_mean_an_options_file_gets(cls, kw, words):
+    """(From a user's trial: OptimalOptions(serch_work=5) was Python's plain TypeError, 'unexpected
+    keyword argument', where an options file's misspelt key gets a did-you-mean.)"""
+    with pytest.raises(OptionsError, match=re.escape(words)):
+        cls(**kw)

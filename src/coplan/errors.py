@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import enum
+import functools
 import math
 import numbers
 import re
 from dataclasses import dataclass
 
 __all__ = ["special_file", "Issue", "InputError", "ProblemError", "PlanFileError", "OptionsError", "CoplanError", "printable", "plural",
-           "found", "finite_number", "field_issue", "check_fields"]
+           "found", "finite_number", "field_issue", "check_fields", "known_fields"]
 
 
 class CoplanError(Exception):
@@ -222,3 +224,26 @@ def special_file(p) -> str | None:
         if test(mode):
             return name
     return None
+
+
+def known_fields(cls):
+    """Class decorator for an options dataclass (put above ``@dataclass``): a keyword that is none
+    of its fields is an :class:`OptionsError` naming it, with the field it most resembles, as an
+    options file's unknown key is (Python's own TypeError said only "unexpected keyword argument
+    'serch_work'")."""
+    init = cls.__init__
+    names = [f.name for f in dataclasses.fields(cls)]
+
+    @functools.wraps(init)
+    def __init__(self, *args, **kw):
+        unknown = [k for k in kw if k not in names]
+        if unknown:
+            def hint(k: str) -> str:
+                near = difflib.get_close_matches(k, names, n=1)
+                return f"did you mean {near[0]!r}?" if near else f"its fields: {', '.join(names)}"
+            raise OptionsError([Issue(k, f"expected a field of {cls.__name__}, found {k!r}; {hint(k)}") for k in unknown],
+                               cls.__name__)
+        init(self, *args, **kw)
+
+    cls.__init__ = __init__
+    return cls

@@ -45,7 +45,7 @@ from ..kinds import ReplanCause, TrackState
 from ..problem.model import Fruit, Problem
 from ..planners.coordinated.planner import CoordinatedOptions
 from ..planners.coordinated.schedule import ArmSchedule, ConflictError, Step, StepKind, pair_distances
-from ..errors import Issue, check_fields, finite_number, found
+from ..errors import Issue, check_fields, finite_number, found, known_fields
 from .gating import TrackIndex
 from .feed import DEFAULT_CLOSE_DISTANCE, Detection, FeedError, cell_only, detection_issues, now_issues, refinement_issues
 from .motion import Approach, ApproachError, as_wait, move_step, split_at, truncate_move
@@ -53,6 +53,7 @@ from .motion import Approach, ApproachError, as_wait, move_step, split_at, trunc
 __all__ = ["LiveOptions", "Track", "Replan", "CloseRange", "LiveCell"]
 
 
+@known_fields
 @dataclass(frozen=True)
 class LiveOptions:
     """horizon : commit horizon (s): motion up to the first rest instant after ``now + horizon``

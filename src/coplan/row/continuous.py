@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import Issue, OptionsError, check_fields
+from ..errors import Issue, OptionsError, check_fields, known_fields
 from ..kinds import AssignRule, GantryMode, PlannerKind, PlanStatus, SpeedProfile
 from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES, EventKind, Plan, compute_metrics
 from ..problem.gantry import top_speed_issues
@@ -155,6 +155,7 @@ def level_cap(problem: Problem, reach: RowReach, profile: SpeedProfile, demand=N
 MIN_RATE, MAX_RATE = 100.0, 10_000.0  # Hz: a plan's samples (the verifier wants 100 Hz or finer)
 
 
+@known_fields
 @dataclass(frozen=True)
 class MovingOptions:
     """How to plan a row on the move (separate from the problem).

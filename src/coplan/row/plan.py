@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import Issue, OptionsError, check_fields
+from ..errors import Issue, OptionsError, check_fields, known_fields
 from ..workers import cores, process_pool, settle_workers
 from ..kinds import GantryMode, PlannerKind, PlanStatus, StopRule
 from ..kinematics.timing import Move1D
@@ -46,6 +46,7 @@ from .stops import Stop, StopWindow, arrival_time, fewest_stops, fixed_stops, op
 __all__ = ["RowOptions", "RowResult", "StopPlan", "plan_row", "assemble", "finalize_row"]
 
 
+@known_fields
 @dataclass(frozen=True)
 class RowOptions:
     """How to plan a row (separate from the problem).

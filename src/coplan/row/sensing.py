@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import Issue, OptionsError, check_fields
+from ..errors import Issue, OptionsError, check_fields, known_fields
 from ..kinds import GantryMode
 from ..plan import MAX_PLAN_BYTES
 from ..problem.gantry import top_speed_issues
@@ -39,6 +39,7 @@ MAX_LOOK_AHEAD = 100.0
 MAX_SIGMA = 1.0
 
 
+@known_fields
 @dataclass(frozen=True)
 class RowFaults:
     """Things that go wrong during a live row, each at a time drawn from the run's seed (between
@@ -78,6 +79,7 @@ class RowFaults:
         return self.arm_stop or self.camera_dark > 0 or self.false_burst > 0 or self.late_replan > 0
 
 
+@known_fields
 @dataclass(frozen=True)
 class LiveRowOptions:
     """The camera and the live planner (separate from the problem)."""

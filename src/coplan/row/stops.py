@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import Issue, OptionsError, check_fields
+from ..errors import Issue, OptionsError, check_fields, known_fields
 from ..kinematics.timing import Move1D, scurve_times
 from ..problem.model import Problem
 from ..ties import quantised
@@ -251,6 +251,7 @@ def arm_overheads(problem: Problem) -> list[float]:
 MAX_STOP_PRICE = 600.0
 
 
+@known_fields
 @dataclass(frozen=True)
 class StopWindow:
     """The optimised rule's receding segments: ``spans`` carriage spans of rail per segment;

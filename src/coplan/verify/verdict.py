@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .clearance import DEFAULT_SUBSTEPS
-from ..errors import Issue, OptionsError, check_fields
+from ..errors import Issue, OptionsError, check_fields, known_fields
 from ..kinds import FclMode
 from ..output import atomic_text
 from ..plan import finer_grid, on_lattice
@@ -121,6 +121,7 @@ class IntervalKind(str, Enum):
     CLEARANCE = "clearance"  # 0 <= distance < task.clearance
 
 
+@known_fields
 @dataclass(frozen=True)
 class VerifyOptions:
     """Settings of :func:`coplan.verify.verify` (units: m, s, rad).

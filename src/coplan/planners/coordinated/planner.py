@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...errors import check_fields
+from ...errors import check_fields, known_fields
 from ...allocate.allocation import Allocation, AllocationMethod, LowerBound, allocate, bound_allocation, bound_details
 from .budget import attempt_checks
 from .coordinate import coordinate
@@ -67,6 +67,7 @@ __all__ = [
 SERIAL_PAIRS = 160_000_000
 
 
+@known_fields
 @dataclass(frozen=True)
 class CoordinatedOptions:
     """Options of the coordinated planner (separate from the problem).

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from ...errors import Issue, OptionsError, ProblemError, check_fields, coplan_file_kind, field_issue, found, is_joint_csv
+from ...errors import Issue, OptionsError, ProblemError, check_fields, coplan_file_kind, field_issue, found, is_joint_csv, known_fields
 from ...problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 from ...workers import default_workers, settle_workers, workers_issue
 
@@ -33,6 +33,7 @@ __all__ = ["OptimalOptions", "OptionsError", "load_options", "parse_options"]
 COORDINATED_FIELDS = {"margin": "margin", "coordination_checks": "budget_checks", "time_limit": "time_limit"}
 
 
+@known_fields
 @dataclass(frozen=True)
 class OptimalOptions:
     """Solver options (separate from the problem).
