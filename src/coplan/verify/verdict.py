@@ -415,10 +415,13 @@ class Verification:
         return p
 
 
-def stated_figures(metrics: Mapping[str, Any] | None, makespan: float | None, harvested: int) -> dict[str, dict[str, float]]:
+def stated_figures(metrics: Mapping[str, Any] | None, makespan: float | None, harvested: int,
+                   slack: float = 0.0) -> dict[str, dict[str, float]]:
     """The figures a plan file states (``metrics``: makespan, harvested; a row's row time) that its
     motion does not bear out (``makespan``: its last place's end, s; ``harvested``: fruit picked and
-    placed): ``{name: {"stated", "measured"}}``, empty where they agree or it states none."""
+    placed): ``{name: {"stated", "measured"}}``, empty where they agree or it states none.
+    ``slack``: how much later than the truth the measured makespan may be (s; one sample where
+    the events were inferred from the motion, which ends them on a sample)."""
     m = metrics or {}
     row = m.get("row") if isinstance(m.get("row"), Mapping) else {}
 
@@ -431,14 +434,16 @@ def stated_figures(metrics: Mapping[str, Any] | None, makespan: float | None, ha
     per_h = 3600.0 * harvested / makespan if makespan else None
     share = harvested / row["harvestable"] if number(row.get("harvestable")) and row["harvestable"] > 0 else None
     out: dict[str, dict[str, float]] = {}
-    for key, said, measured, tol in (("makespan", m.get("makespan"), makespan, 1e-6),
+    late = 1e-6 + max(0.0, slack)
+    for key, said, measured, tol in (("makespan", m.get("makespan"), makespan, late),
                                      ("harvested", m.get("harvested"), harvested, 0),
-                                     ("row_time", row.get("row_time"), makespan, 1e-6),
+                                     ("row_time", row.get("row_time"), makespan, late),
                                      ("row.harvested", row.get("harvested"), harvested if row else None, 0),
                                      ("row.fruit_per_hour", row.get("fruit_per_hour"), per_h if row else None, 1e-6),
                                      ("row.share_harvested", row.get("share_harvested"), share, 1e-9)):
-        rel = tol * max(1.0, abs(measured)) if key == "row.fruit_per_hour" and measured is not None else tol
-        if measured is not None and number(said) and abs(said - measured) > rel:
+        if key == "row.fruit_per_hour" and measured is not None:  # (relative; a makespan later by the slack: less)
+            tol = 1e-6 * max(1.0, abs(measured)) + abs(measured) * late / makespan
+        if measured is not None and number(said) and abs(said - measured) > tol:
             out[key] = {"stated": float(said), "measured": float(measured)}
     return out
 
