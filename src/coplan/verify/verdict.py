@@ -420,8 +420,8 @@ def stated_figures(metrics: Mapping[str, Any] | None, makespan: float | None, ha
     """The figures a plan file states (``metrics``: makespan, harvested; a row's row time) that its
     motion does not bear out (``makespan``: its last place's end, s; ``harvested``: fruit picked and
     placed): ``{name: {"stated", "measured"}}``, empty where they agree or it states none.
-    ``slack``: how much later than the truth the measured makespan may be (s; one sample where
-    the events were inferred from the motion, which ends them on a sample)."""
+    ``slack``: how much later than the truth the measured makespan may be (s; three samples where
+    the events were inferred from the motion, which ends a place on a sample after its hold's)."""
     m = metrics or {}
     row = m.get("row") if isinstance(m.get("row"), Mapping) else {}
 
