@@ -171,8 +171,26 @@ def test_view_of_a_plan_json_takes_its_recorded_problem_file_only_while_unchange
         coplan.view(plan_json)
     assert coplan.view(plan_json, problem=mine).page  # given: taken as it is
     mine.unlink()
-    data = read_viewer_data(coplan.view(plan_json).page)  # gone: the shipped problem of its name
+    with pytest.warns(UserWarning, match="records no problem file that still exists: shown against the shipped problem"):
+        data = read_viewer_data(coplan.view(plan_json).page)  # gone: the shipped problem of its name, said
     assert data["problem"]["task"]["clearance"] == pytest.approx(0.05)
+
+
+def test_view_of_a_plan_of_a_problem_built_in_python_says_it_shows_the_shipped_one():
+    """(From a user's trial: coplan.view(plan) of a problem changed in Python showed the shipped
+    problem of the same name without a word, where coplan view notes it.) A UserWarning says so;
+    the SolveResult, which carries its problem, shows it silently."""
+    import dataclasses
+    import warnings
+
+    q = load_problem("crossing_paths")
+    moved = dataclasses.replace(q, arms=(q.arms[0], dataclasses.replace(q.arms[1], base=(0.85, 0.0), bin=(0.85, -0.5))))
+    res = coplan.solve(moved, planner="coordinated")
+    with pytest.warns(UserWarning, match="records no problem file: shown against the shipped problem 'crossing-paths'"):
+        coplan.view(res.plan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert read_viewer_data(coplan.view(res).page)["problem"]["arms"][1]["base"][0] == pytest.approx(0.85)
 
 
 def test_view_compare_takes_a_plan_csv_and_refuses_a_plan_of_another_problem_text(tmp_path):
@@ -586,8 +604,9 @@ def test_notebook_view_of_a_row_plan_file_finds_its_problem(tmp_path):
     with pytest.raises(coplan.errors.PlanFileError, match="which has changed since"):
         coplan.view(plan)
     sparse = next(p for p in shipped_rows() if p.stem == "sparse_row")
-    plan.problem_file, plan.problem = None, load_problem(sparse).name  # a shipped row, by its name
-    assert read_viewer_data(coplan.view(plan).page)["problem"]["name"] == "sparse-row"
+    plan.problem_file, plan.problem = None, load_problem(sparse).name  # a shipped row, by its name (said)
+    with pytest.warns(UserWarning, match="shown against the shipped problem 'sparse-row'"):
+        assert read_viewer_data(coplan.view(plan).page)["problem"]["name"] == "sparse-row"
 
 
 def test_a_plan_the_verifier_fails_is_never_shown_as_a_success(planted, tmp_path):

@@ -544,7 +544,16 @@ def view(plan, problem: Problem | str | Path | None = None, compare=None, *, hei
     pl, prob, ver = _as_plan(plan, "plan")
     if isinstance(problem, (str, Path)):
         problem = load_problem(problem)
-    prob = problem or prob or problem_of(pl)
+    if problem is None and prob is None:
+        prob = problem_of(pl)
+        record = pl.problem_file
+        if record is None or not Path(record["path"]).is_file():  # (as coplan view notes it; Python said nothing)
+            import warnings
+
+            warnings.warn(f"the plan records no problem file{' that still exists' if record is not None else ''}: shown "
+                          f"against the shipped problem {prob.name!r}; if it was planned on a changed problem, pass "
+                          f"problem= (or view the SolveResult, which carries its own)", UserWarning, stacklevel=2)
+    prob = problem or prob
     other, cver = (None, None) if compare is None else _as_plan(compare, "compare")[::2]
     page = render_html(prob, pl, other, verification=ver if problem is None else None,
                        compare_verification=cver, display_rate=display_rate)
