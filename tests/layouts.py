@@ -45,3 +45,21 @@ fruits:
   - {id: f1, position: [1.0, 0.1]}
 task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
 """
+
+
+def course_arms_row(end: float, fruits: dict[str, tuple[float, float]], name: str = "course-arms-row") -> str:
+    """The course's three arms (bases -2, 0, 2 m on the carriage, bins 0.5 m below) on a rail
+    from 0 to ``end`` m, with ``fruits`` (id -> row position): a row's YAML text."""
+    rows = "\n".join(f"  - {{id: {k}, position: [{x}, {y}]}}" for k, (x, y) in fruits.items())
+    return f"""name: {name}
+defaults: {{links: [1.0, 0.8], link_radius: 0.04, joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]],
+           max_velocity: [3.0, 4.0], max_acceleration: [8.0, 12.0], max_jerk: [80.0, 120.0], home: [1.0472, 0.7854]}}
+arms:
+  - {{name: arm1, base: [-2.0, 0.0], bin: [-2.0, -0.5]}}
+  - {{name: arm2, base: [0.0, 0.0], bin: [0.0, -0.5]}}
+  - {{name: arm3, base: [2.0, 0.0], bin: [2.0, -0.5]}}
+fruits:
+{rows}
+task: {{pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}}
+gantry: {{start: 0.0, end: {end}, max_velocity: 0.5, max_acceleration: 0.5, max_jerk: 5.0}}
+"""

@@ -13,6 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 from coplan.cli import app
+from layouts import course_arms_row
 from coplan.generate import gantry_row, to_yaml
 from coplan.kinds import GantryMode
 from coplan.plan import EventKind, load_plan
@@ -1081,17 +1082,7 @@ def test_run_live_row_takes_a_rows_file_as_solve_does(tmp_path):
         run_live_row(42)
 
 
-LONG_RAIL = """name: long-rail
-defaults: {links: [1.0, 0.8], link_radius: 0.04, joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]],
-           max_velocity: [3.0, 4.0], max_acceleration: [8.0, 12.0], max_jerk: [80.0, 120.0], home: [1.0472, 0.7854]}
-arms:
-  - {name: arm1, base: [-2.0, 0.0], bin: [-2.0, -0.5]}
-  - {name: arm2, base: [0.0, 0.0], bin: [0.0, -0.5]}
-  - {name: arm3, base: [2.0, 0.0], bin: [2.0, -0.5]}
-fruits: [{id: f1, position: [0.8, 0.7]}, {id: f2, position: [5.3, 1.2]}]
-task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
-gantry: {start: 0.0, end: END, max_velocity: 0.5, max_acceleration: 0.5, max_jerk: 5.0}
-"""
+LONG_RAIL_FRUIT = {"f1": (0.8, 0.7), "f2": (5.3, 1.2)}
 
 
 @pytest.mark.parametrize("args", [["--speed", "0.5"], ["--speed", "auto"], ["--gantry", "stop-and-go"]])
@@ -1102,16 +1093,16 @@ def test_a_live_row_whose_rail_no_plan_can_cover_is_refused_before_any_work(tmp_
     then refused its own speed.) The rail is refused first, with what each mode would take; a
     2000 m rail is taken."""
     p = tmp_path / "long.yaml"
-    p.write_text(LONG_RAIL.replace("END", "3500.0"))
+    p.write_text(course_arms_row(3500.0, LONG_RAIL_FRUIT))
     r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["run", str(p), *args, "-o", str(tmp_path / "o")])
     said = " ".join(r.output.split())
     assert r.exit_code == 2 and "expected a rail a live carriage can cover in a plan of at most 1.8 h" in said, said
     assert "found a rail of 3500 m" in said and "--speed auto" not in said and not (tmp_path / "o").exists()
     assert ("hops at most 5.50 m" in said) == ("stop-and-go" in args)
-    row = parse_problem(LONG_RAIL.replace("END", "3500.0"))
+    row = parse_problem(course_arms_row(3500.0, LONG_RAIL_FRUIT))
     with pytest.raises(ValueError, match="expected a rail a live carriage can cover"):
         run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO))
     from coplan.problem.plausible import live_rail_issue
 
-    ok = parse_problem(LONG_RAIL.replace("END", "2000.0"))
+    ok = parse_problem(course_arms_row(2000.0, LONG_RAIL_FRUIT))
     assert live_rail_issue(ok, True, 1.5) is None and live_rail_issue(ok, False, 1.5) is None

@@ -21,6 +21,7 @@ from coplan.row.plan import RowOptions, plan_row
 from coplan.row.reach import row_reach
 from coplan.verify import verify
 from coplan.verify.verdict import ViolationKind
+from layouts import course_arms_row
 
 
 def _row(fruits=None, **gantry):
@@ -727,21 +728,7 @@ def test_compare_on_a_row_says_why_a_rule_s_row_is_not_a_success(tmp_path):
     assert {row["status"] for row in doc["rows"]} == {"infeasible"} and len(doc["notes"]) == 3
 
 
-TINY = """name: tiny-rail
-defaults: {links: [1.0, 0.8], link_radius: 0.04, joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]],
-           max_velocity: [3.0, 4.0], max_acceleration: [8.0, 12.0], max_jerk: [80.0, 120.0], home: [1.0472, 0.7854]}
-arms:
-  - {name: arm1, base: [-2.0, 0.0], bin: [-2.0, -0.5]}
-  - {name: arm2, base: [0.0, 0.0], bin: [0.0, -0.5]}
-  - {name: arm3, base: [2.0, 0.0], bin: [2.0, -0.5]}
-fruits:
-  - {id: f1, position: [0.8, 0.7]}
-  - {id: f2, position: [1.3, 1.2]}
-  - {id: f3, position: [2.5, 0.9]}
-  - {id: f4, position: [3.5, 1.0]}
-task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
-gantry: {start: 0.0, end: END, max_velocity: 0.5, max_acceleration: 0.5, max_jerk: 5.0}
-"""
+TINY_FRUIT = {"f1": (0.8, 0.7), "f2": (1.3, 1.2), "f3": (2.5, 0.9), "f4": (3.5, 1.0)}
 
 
 @pytest.mark.parametrize("end", [0.001, 0.03, 0.049, 0.07])
@@ -751,7 +738,7 @@ def test_a_rail_shorter_than_the_screen_s_spacing_keeps_every_position_and_stop_
     stopped there -- unsafe, exit 6 -- while on the move it was 'success' with 3 of 4
     harvestable harvested.) Every screened position is on the rail, f4 (1.802 m from arm3's
     base even at the rail's end) is out of reach, and both modes plan a verified row."""
-    row = parse_problem(TINY.replace("END", str(end)))
+    row = parse_problem(course_arms_row(end, TINY_FRUIT, "tiny-rail"))
     reach = row_reach(row)
     assert reach.grid[0] == 0.0 and reach.grid[-1] == pytest.approx(end) and np.all(np.diff(reach.grid) > 0)
     served_from = 1.5 - math.sqrt(1.79**2 - 1.0)  # arm3 reaches f4 (outer reach 1.8 less the 0.01 margin) from here on
@@ -767,10 +754,7 @@ def test_on_a_row_its_first_segment_covers_the_optimised_rule_is_no_slower_than_
     last chance where a receding rule starts, 17.80 s; the fewest rule's 2.20 m took 10.51 s.)
     Where the whole row is the first segment the fewest rule's stops are priced beside the
     strides: no slower than either baseline, verified."""
-    text = TINY.replace("END", "8.0").split("fruits:")[0] + (
-        "fruits:\n  - {id: mid, position: [4.0, 1.0]}\n  - {id: rim, position: [4.025, 1.78]}\n"
-        "task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}\n"
-        "gantry: {start: 0.0, end: 8.0, max_velocity: 0.5, max_acceleration: 0.5, max_jerk: 5.0}\n")
+    text = course_arms_row(8.0, {"mid": (4.0, 1.0), "rim": (4.025, 1.78)}, "two-fruit")
     row = parse_problem(text)
     times = {}
     for rule in (StopRule.OPTIMISED, StopRule.FEWEST, StopRule.FIXED):
@@ -789,6 +773,6 @@ def test_coplan_check_notes_a_rail_far_longer_than_where_its_fruit_lie(tmp_path)
 
     for end, noted in (("8000.0", True), ("8.0", False)):
         p = tmp_path / f"r{end}.yaml"
-        p.write_text(TINY.replace("END", end))
+        p.write_text(course_arms_row(float(end), TINY_FRUIT))
         r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["check", str(p)])
         assert r.exit_code in (0, 5) and ("gantry.end in mm?" in r.output) == noted, r.output

@@ -263,21 +263,18 @@ def ik_one(x: float, y: float, links, base, joint_limits, branch: int, tol: floa
         t1 = math.pi
     if joint_limits is not None:
         (lo1, hi1), (lo2, hi2) = joint_limits
-        if not (lo2 <= t2 <= hi2):
-            for shift in (2.0 * math.pi, -2.0 * math.pi):
-                if lo2 <= t2 + shift <= hi2:
-                    t2 = t2 + shift
-                    break
-            else:
-                return math.nan, math.nan
-        if not (lo1 <= t1 <= hi1):
-            for shift in (2.0 * math.pi, -2.0 * math.pi):
-                if lo1 <= t1 + shift <= hi1:
-                    t1 = t1 + shift
-                    break
-            else:
-                return math.nan, math.nan
+        t2, t1 = _within(t2, lo2, hi2), _within(t1, lo1, hi1)
+        if math.isnan(t1) or math.isnan(t2):
+            return math.nan, math.nan
     return t1, t2
+
+
+def _within(t: float, lo: float, hi: float) -> float:
+    """``t``, else ``t`` 2 pi on either way, within ``[lo, hi]``; NaN where none is (as :func:`ik`)."""
+    for x in (t, t + 2.0 * math.pi, t - 2.0 * math.pi):
+        if lo <= x <= hi:
+            return x
+    return math.nan
 
 
 def jacobian(q: Any, links):
