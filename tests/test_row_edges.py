@@ -776,3 +776,18 @@ def test_coplan_check_notes_a_rail_far_longer_than_where_its_fruit_lie(tmp_path)
         p.write_text(course_arms_row(float(end), TINY_FRUIT))
         r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["check", str(p)])
         assert r.exit_code in (0, 5) and ("gantry.end in mm?" in r.output) == noted, r.output
+
+
+@pytest.mark.parametrize("end", [0.001, 8.0])
+def test_on_the_move_the_row_s_top_speed_is_the_one_the_carriage_reaches(end):
+    """(From a user's trial: on a 1 mm rail the summary said 'top 0.181 m/s', the speed profile's,
+    which no carriage reaches in 1 mm.) metrics.row.top_speed is the most the carriage's samples
+    reach, never above the profile's."""
+    row = parse_problem(course_arms_row(end, TINY_FRUIT))
+    res = plan_moving(row, MovingOptions())
+    m = row_metrics(row, res)
+    x, t = np.asarray(res.plan.gantry_x), np.asarray(res.plan.time)
+    reached = float(np.max(np.abs(np.diff(x) / np.diff(t))))
+    assert m["top_speed"] == pytest.approx(reached, abs=1e-12) and m["top_speed"] <= res.info["top_speed"] + 1e-12
+    if end < 0.01:
+        assert m["top_speed"] < 0.05  # (1 mm at the gantry's 0.5 m/s^2 and 5 m/s^3)
