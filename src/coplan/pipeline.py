@@ -246,18 +246,12 @@ def _row_fruit_counts(problem: Problem, plan: Plan) -> dict:
     keys at the top of ``metrics`` as a cell plan's (a notebook's ``plan.metrics["harvestable"]``
     was a KeyError on a row), and ``gap_to_lower_bound`` over the bound for any motion, None
     where a harvestable fruit is left out."""
-    row = plan.metrics["row"]
-    reach = set(problem.reachable_ids())
-    screened = set(row.get("screened_out") or {})
-    picked = {e.fruit for e in plan.events if e.kind == EventKind.PLACE}
-    ids = {"unreachable": [f.id for f in problem.fruits if f.id not in reach],
-           "screened_out": [f.id for f in problem.fruits if f.id in reach and f.id in screened],
-           "left_out": [f.id for f in problem.fruits if f.id in reach and f.id not in screened and f.id not in picked]}
-    harvestable = len(problem.fruits) - len(ids["unreachable"]) - len(ids["screened_out"])
+    screened = set(plan.metrics["row"].get("screened_out") or {})
+    out = _counts(problem, {f.id for f in problem.fruits} - screened, plan)
+    del out["reachable"], out["unreachable"]  # (the row's, over the rail, are the plan's already)
     span, bound = plan.metrics.get("makespan"), plan.metrics.get("lower_bound")
-    gap = span / bound - 1.0 if span and bound and not ids["left_out"] else None
-    return {"fruit": len(problem.fruits), "harvestable": harvestable, "screened_out": len(ids["screened_out"]),
-            "fruit_ids": ids, "gap_to_lower_bound": gap}
+    out["gap_to_lower_bound"] = span / bound - 1.0 if span and bound and not out["fruit_ids"]["left_out"] else None
+    return out
 
 
 def fruit_counts(problem: Problem, scr, plan: Plan) -> dict:
@@ -266,8 +260,14 @@ def fruit_counts(problem: Problem, scr, plan: Plan) -> dict:
     out by the screen), ``harvested``; ``fruit_ids``: the ids of those ``unreachable``,
     ``screened_out`` (reachable, not harvestable) and ``left_out`` (harvestable, not harvested),
     each one's reason in the screen (``coplan check``) or ``plan.solver.left_out``."""
+    return _counts(problem, {f.id for j, f in enumerate(problem.fruits) if scr.reach[:, j].any()}, plan)
+
+
+def _counts(problem: Problem, can: set[str], plan: Plan) -> dict:
+    """:func:`fruit_counts` with the fruit the screen lets some arm harvest, ``can`` (of those
+    some arm reaches, ``problem.reachable_ids()``)."""
     reach = set(problem.reachable_ids())
-    can = {f.id for j, f in enumerate(problem.fruits) if scr.reach[:, j].any()}
+    can = can & reach
     picked = {e.fruit for e in plan.events if e.kind == EventKind.PLACE}
     ids = {"unreachable": [f.id for f in problem.fruits if f.id not in reach],
            "screened_out": [f.id for f in problem.fruits if f.id in reach and f.id not in can],

@@ -394,20 +394,23 @@ def _check_cell(problem, what: str, **args) -> None:
     def number(v) -> bool:
         return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
 
-    for k in ("time_limit", "bound"):
-        if k in args and args[k] is not None and not (number(args[k]) and args[k] > 0 if k == "time_limit" else number(args[k]) and args[k] >= 0):
-            bad.append(f"{k}: expected {'a positive number of seconds' if k == 'time_limit' else 'a number of 0 s or more'} "
-                       f"or None, found {args[k]!r}")
-    if "territory" in args and not (number(args["territory"]) and args["territory"] >= 0):
-        bad.append(f"territory: expected a number of 0 s or more, found {args['territory']!r}")
+    # (name, may be None, least allowed, whether the least is allowed, what is expected)
+    for k, optional, least, closed, words in (("time_limit", True, 0.0, False, "a positive number of seconds or None"),
+                                              ("bound", True, 0.0, True, "a number of 0 s or more or None"),
+                                              ("territory", False, 0.0, True, "a number of 0 s or more")):
+        if k not in args or (optional and args[k] is None):
+            continue
+        v = args[k]
+        if not (number(v) and (v >= least if closed else v > least)):
+            bad.append(f"{k}: expected {words}, found {v!r}")
     reach = args.get("reach")
     if reach is not None:
         shape = (len(problem.arms), len(problem.fruits))
         r = np.asarray(reach)
         if r.shape != shape or r.dtype != bool:
             bad.append(f"reach: expected a boolean array of shape {shape} (arms x fruit), found {r.dtype} {r.shape}")
-        elif np.any(r & ~problem.reach_matrix()):
-            a, j = map(int, np.argwhere(r & ~problem.reach_matrix())[0])
+        elif (out := np.argwhere(r & ~problem.reach_matrix())).size:
+            a, j = map(int, out[0])
             bad.append(f"reach: expected True only where the arm reaches the fruit (problem.reach_matrix()), found "
                        f"{problem.arms[a].name} marked to reach {problem.fruits[j].id}, out of its reach")
     if bad:

@@ -67,7 +67,7 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
               f"way to {b.reach_to:.2f} m and one fruit's dwells, {b.travel:.2f} s); {b.stop_and_go:.2f} s stop by stop "
               f"with no arm working while the carriage moves (its moves {b.moves:.2f} s, then the cells; with the stops "
               f"and where each fruit is picked from priced together {b.priced:.2f} s, its cheapest stopping "
-              f"{b.priced_stops} time{'s' if b.priced_stops != 1 else ''}"
+              f"{plural(b.priced_stops, 'time')}"
               # (a slow carriage: 'priced together 768.69 s, at 463 stops' read as a bound below the travel bound's 924.50 s)
               + (f", weaker here than the bounds before it, which set the {b.stop_and_go:.2f} s" if b.priced < b.stop_and_go - 1e-9
                  else "")

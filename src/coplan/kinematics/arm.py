@@ -199,11 +199,10 @@ def ik(target, links, base=(0.0, 0.0), joint_limits=None, tol: float = 1e-9):
     l1, l2 = _pair(links, "ik", "links", "(l1, l2) in m")
     if not (l1 > 0 and l2 > 0 and math.isfinite(l1 + l2)):  # (zero links: valid=True with NaN angles)
         raise ValueError(f"ik: links: expected two link lengths > 0 in m, found {tuple(links)!r}")
-    if joint_limits is not None:
-        lim_a = np.asarray(joint_limits, dtype=float)
-        if lim_a.shape != (2, 2):  # ([-1, 1]: a bare IndexError)
-            raise ValueError(f"ik: joint_limits: expected [[t1_min, t1_max], [t2_min, t2_max]] (shape (2, 2)), found shape "
-                             f"{lim_a.shape}")
+    lim = None if joint_limits is None else np.asarray(joint_limits, dtype=float)
+    if lim is not None and lim.shape != (2, 2):  # ([-1, 1]: a bare IndexError)
+        raise ValueError(f"ik: joint_limits: expected [[t1_min, t1_max], [t2_min, t2_max]] (shape (2, 2)), found shape "
+                         f"{lim.shape}")
     p = target - np.asarray(_pair(base, "ik", "base", "(x, y) in m"))
     px, py = p[..., 0], p[..., 1]
     r2 = px * px + py * py
@@ -218,25 +217,26 @@ def ik(target, links, base=(0.0, 0.0), joint_limits=None, tol: float = 1e-9):
         t2 = np.arctan2(sgn * s2, c2)
         t1 = wrap_angle(np.arctan2(py, px) - np.arctan2(l2 * sgn * s2, l1 + l2 * c2))
         ok = reach.copy()
-        if joint_limits is not None:
-            lim = np.asarray(joint_limits, dtype=float)
-            ok2 = (t2 >= lim[1, 0]) & (t2 <= lim[1, 1])
-            for shift in (2.0 * np.pi, -2.0 * np.pi):  # (an elbow's limits past +-pi: the same bend, 2 pi on)
-                ts = t2 + shift
-                use = ~ok2 & (ts >= lim[1, 0]) & (ts <= lim[1, 1])
-                t2 = np.where(use, ts, t2)
-                ok2 = ok2 | use
-            in1 = (t1 >= lim[0, 0]) & (t1 <= lim[0, 1])
-            for shift in (2.0 * np.pi, -2.0 * np.pi):
-                ts = t1 + shift
-                use = ~in1 & (ts >= lim[0, 0]) & (ts <= lim[0, 1])
-                t1 = np.where(use, ts, t1)
-                in1 = in1 | use
+        if lim is not None:  # (an elbow's limits past +-pi too: the same bend, 2 pi on)
+            t2, ok2 = _within_all(t2, lim[1, 0], lim[1, 1])
+            t1, in1 = _within_all(t1, lim[0, 0], lim[0, 1])
             ok = ok & ok2 & in1
         out[..., b, 0] = np.where(ok, t1, np.nan)
         out[..., b, 1] = np.where(ok, t2, np.nan)
         valid[..., b] = ok
     return out, valid
+
+
+def _within_all(t: np.ndarray, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each of ``t``, else it 2 pi on either way, within ``[lo, hi]``, and where one is
+    (:func:`_within` over arrays, the same arithmetic)."""
+    ok = (t >= lo) & (t <= hi)
+    for shift in (2.0 * np.pi, -2.0 * np.pi):
+        ts = t + shift
+        use = ~ok & (ts >= lo) & (ts <= hi)
+        t = np.where(use, ts, t)
+        ok = ok | use
+    return t, ok
 
 
 def ik_one(x: float, y: float, links, base, joint_limits, branch: int, tol: float = 1e-9) -> tuple[float, float]:

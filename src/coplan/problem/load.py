@@ -20,7 +20,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from . import plausible
-from ..errors import Issue, ProblemError, coplan_file_kind, is_joint_csv
+from ..errors import Issue, ProblemError, coplan_file_kind, is_joint_csv, plural
 from .gantry import off_rail, parse_gantry
 from .model import MAX_ARMS, MAX_FRUITS, Arm, Fruit, Problem, Task
 from .poses import copy_issues, home_pair_issues
@@ -435,9 +435,9 @@ def load_problem(path: str | Path) -> Problem:
                            "coplan.parse_problem(coplan.generate.to_yaml(mapping))"
                            if isinstance(path, Mapping) else ""))
     if isinstance(path, str) and ("\n" in path or len(path) > 1024):  # (YAML text: "File name too long", or "no file")
-        lines = path.count("\n") + 1
+        lines = plural(path.count("\n") + 1, "line")
         raise ProblemError([Issue("", f"expected the path of a YAML problem file or a shipped problem's name, found "
-                                      f"text of {lines} line{'s' if lines != 1 else ''} ({path.strip()[:40]!r}...): "
+                                      f"text of {lines} ({path.strip()[:40]!r}...): "
                                       f"a problem's YAML text is read by coplan.parse_problem(text)")], "<argument>")
     p = Path(path)
     named, taken_as = resolve_name(p)

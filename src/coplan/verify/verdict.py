@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .clearance import DEFAULT_SUBSTEPS
-from ..errors import Issue, OptionsError, check_fields, known_fields
+from ..errors import Issue, OptionsError, check_fields, finite_number, known_fields
 from ..kinds import FclMode
 from ..output import atomic_text
 from ..plan import finer_grid, on_lattice
@@ -425,14 +425,11 @@ def stated_figures(metrics: Mapping[str, Any] | None, makespan: float | None, ha
     m = metrics or {}
     row = m.get("row") if isinstance(m.get("row"), Mapping) else {}
 
-    def number(v) -> bool:
-        return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-
     # a row's grower figures as its motion bears them out (an edited plan.json said 99999 fruit per
     # hour and half the fruit harvested, and verify passed it without a word); the share over the
     # harvestable fruit the file itself states (the verifier does not screen the row)
     per_h = 3600.0 * harvested / makespan if makespan else None
-    share = harvested / row["harvestable"] if number(row.get("harvestable")) and row["harvestable"] > 0 else None
+    share = harvested / row["harvestable"] if finite_number(row.get("harvestable")) and row["harvestable"] > 0 else None
     out: dict[str, dict[str, float]] = {}
     late = 1e-6 + max(0.0, slack)
     for key, said, measured, tol in (("makespan", m.get("makespan"), makespan, late),
@@ -443,7 +440,7 @@ def stated_figures(metrics: Mapping[str, Any] | None, makespan: float | None, ha
                                      ("row.share_harvested", row.get("share_harvested"), share, 1e-9)):
         if key == "row.fruit_per_hour" and measured is not None:  # (relative; a makespan later by the slack: less)
             tol = 1e-6 * max(1.0, abs(measured)) + abs(measured) * late / makespan
-        if measured is not None and number(said) and abs(said - measured) > tol:
+        if measured is not None and finite_number(said) and abs(said - measured) > tol:
             out[key] = {"stated": float(said), "measured": float(measured)}
     return out
 

@@ -88,8 +88,9 @@ def decode_array(entry: dict) -> np.ndarray:
 def problem_of(plan: Plan) -> Problem:
     """The problem of a plan, as ``coplan view`` finds it: the problem file the plan records
     (unchanged since: its digest), else -- that file gone -- the shipped problem or row the plan
-    names. Raises :class:`PlanFileError` when there is none, or when the recorded file has
-    changed since (not the shipped problem of the same name instead: it may be another)."""
+    names, with a UserWarning that it is the shipped one. Raises :class:`PlanFileError` when there
+    is none, or when the recorded file has changed since (not the shipped problem of the same name
+    instead: it may be another)."""
     from ..problem.load import load_problem, shipped_problems, shipped_rows
 
     record = plan.problem_file
@@ -107,6 +108,11 @@ def problem_of(plan: Plan) -> Problem:
         raise PlanFileError([Issue("problem", f"{where}expected the name of a shipped problem "
                                               f"({', '.join(p.name for p in shipped)}), found {plan.problem!r}: "
                                               "pass the problem itself")])
+    import warnings  # (as coplan view notes it; coplan.view said nothing)
+
+    warnings.warn(f"the plan records no problem file{' that still exists' if record is not None else ''}: shown against "
+                  f"the shipped problem {found.name!r}; if it was planned on a changed problem, pass problem= (or view "
+                  f"the SolveResult, which carries its own)", UserWarning, stacklevel=3)
     return found
 
 
@@ -544,16 +550,7 @@ def view(plan, problem: Problem | str | Path | None = None, compare=None, *, hei
     pl, prob, ver = _as_plan(plan, "plan")
     if isinstance(problem, (str, Path)):
         problem = load_problem(problem)
-    if problem is None and prob is None:
-        prob = problem_of(pl)
-        record = pl.problem_file
-        if record is None or not Path(record["path"]).is_file():  # (as coplan view notes it; Python said nothing)
-            import warnings
-
-            warnings.warn(f"the plan records no problem file{' that still exists' if record is not None else ''}: shown "
-                          f"against the shipped problem {prob.name!r}; if it was planned on a changed problem, pass "
-                          f"problem= (or view the SolveResult, which carries its own)", UserWarning, stacklevel=2)
-    prob = problem or prob
+    prob = problem or prob or problem_of(pl)
     other, cver = (None, None) if compare is None else _as_plan(compare, "compare")[::2]
     page = render_html(prob, pl, other, verification=ver if problem is None else None,
                        compare_verification=cver, display_rate=display_rate)
