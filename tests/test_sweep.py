@@ -152,9 +152,10 @@ def test_a_scheduler_with_no_workers_is_said_and_the_sweep_goes_on_when_one_join
     joins (here: on that note) and the sweep finishes, every row solved."""
     from distributed import LocalCluster
 
+    import coplan.sweep.cluster as cluster_mod
     import coplan.sweep.run as run
 
-    monkeypatch.setattr(run, "WORKER_CHECK_SECONDS", 0.2)
+    monkeypatch.setattr(cluster_mod, "WORKER_CHECK_SECONDS", 0.2)
     notes: list[str] = []
     with LocalCluster(n_workers=0, processes=True, threads_per_worker=1, dashboard_address=":0") as cluster:
         def note(message):
@@ -487,9 +488,9 @@ def test_the_sweep_command_reports_a_bad_file_with_exit_code_3(tmp_path):
 
 def test_a_scheduler_that_cannot_be_reached_leaves_no_sweep_folder_behind(tmp_path, monkeypatch):
     """(It left an empty results.parquet and sweep.json, which sweep-report then called a sweep of 0 rows.)"""
-    import coplan.sweep.run as run_mod
+    import coplan.sweep.cluster as cluster_mod
 
-    monkeypatch.setattr(run_mod, "SCHEDULER_TIMEOUT", "3s")  # (the 20 s a user gets: the test's wait)
+    monkeypatch.setattr(cluster_mod, "SCHEDULER_TIMEOUT", "3s")  # (the 20 s a user gets: the test's wait)
     spec = tmp_path / "tiny.yaml"
     spec.write_text(TINY)
     r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["sweep", str(spec), "--out", str(tmp_path / "o"), "--scheduler",
@@ -978,7 +979,7 @@ def test_a_ctrl_c_swallowed_where_it_landed_still_stops_the_sweep():
     it, and the loop over finished solves asks between its waits.)"""
     import signal
 
-    from coplan.sweep.run import _completed, _Interrupt
+    from coplan.sweep.cluster import Interrupt, completed
 
     class Waiting:  # a distributed.as_completed with nothing finished yet
         def is_empty(self):
@@ -987,13 +988,13 @@ def test_a_ctrl_c_swallowed_where_it_landed_still_stops_the_sweep():
         def next_batch(self, block=True):
             return []
 
-    with _Interrupt() as stop:
+    with Interrupt() as stop:
         if signal.getsignal(signal.SIGINT) == stop._handler:
             with pytest.raises(KeyboardInterrupt):
                 signal.getsignal(signal.SIGINT)(signal.SIGINT, None)  # raised where it lands ...
         stop.seen = True  # ... and, swallowed there, still remembered
         with pytest.raises(KeyboardInterrupt):
-            next(_completed(Waiting(), stop, poll=0.01))
+            next(completed(Waiting(), stop, poll=0.01))
 
 
 def test_a_problem_file_given_as_the_sweep_file_is_said_to_be_one(problems_dir):
@@ -1039,7 +1040,7 @@ def test_the_sweep_s_ctrl_c_handler_is_installed_under_the_coplan_console_too():
     still told; anything else: left alone."""
     import signal
 
-    from coplan.sweep.run import _Interrupt
+    from coplan.sweep.cluster import Interrupt
 
     told = []
 
@@ -1050,7 +1051,7 @@ def test_the_sweep_s_ctrl_c_handler_is_installed_under_the_coplan_console_too():
     console.raises_keyboard_interrupt = True
     old = signal.signal(signal.SIGINT, console)
     try:
-        stop = _Interrupt().__enter__()
+        stop = Interrupt().__enter__()
         assert stop.old is console and signal.getsignal(signal.SIGINT) == stop._handler
         with pytest.raises(KeyboardInterrupt):
             stop._handler(signal.SIGINT, None)
@@ -1058,7 +1059,7 @@ def test_the_sweep_s_ctrl_c_handler_is_installed_under_the_coplan_console_too():
         stop.__exit__()
         assert signal.getsignal(signal.SIGINT) is console
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-        assert _Interrupt().__enter__().old is None  # (ignored: a sweep leaves that as it is)
+        assert Interrupt().__enter__().old is None  # (ignored: a sweep leaves that as it is)
     finally:
         signal.signal(signal.SIGINT, old)
 

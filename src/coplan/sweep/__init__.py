@@ -4,6 +4,7 @@
   expansion into concrete problems (:func:`load_sweep`, :class:`SweepSpec`, :class:`SweepItem`);
 * :mod:`coplan.sweep.run` -- :func:`run_sweep`: a ``LocalCluster`` of worker processes (one
   thread each) or an existing scheduler; retries, time limits, resume by key;
+* :mod:`coplan.sweep.cluster` -- its Dask side: connecting and closing, Ctrl-C, the wait for results;
 * :mod:`coplan.sweep.table` -- the row schema, the row journal and the Parquet/CSV table;
 * :mod:`coplan.sweep.report` -- :func:`sweep_report`: counts, medians, worst cases, figures.
 
