@@ -171,9 +171,25 @@ def test_view_of_a_plan_json_takes_its_recorded_problem_file_only_while_unchange
         coplan.view(plan_json)
     assert coplan.view(plan_json, problem=mine).page  # given: taken as it is
     mine.unlink()
-    with pytest.warns(UserWarning, match="records no problem file that still exists: shown against the shipped problem"):
+    with pytest.warns(UserWarning, match="records no problem file that still exists: taken to be the shipped problem"):
         data = read_viewer_data(coplan.view(plan_json).page)  # gone: the shipped problem of its name, said
     assert data["problem"]["task"]["clearance"] == pytest.approx(0.05)
+
+
+def test_view_of_a_plan_whose_file_is_gone_refuses_a_shipped_problem_of_another_text(tmp_path):
+    """(``coplan view PLAN`` refused it; ``coplan.view(plan)`` showed the shipped problem of the
+    same name with a warning, though its text -- here its clearance -- is not the one planned.)
+    Both follow one rule (``coplan.problem.recorded.recorded_problem``)."""
+    twin = tmp_path / "twin.yaml"
+    twin.write_text(CROSSING.read_text().replace("clearance: 0.05", "clearance: 0.06"))
+    coplan.solve(load_problem(twin), planner="coordinated", out_dir=tmp_path / "run")
+    twin.unlink()
+    plan_json = tmp_path / "run" / "plan.json"
+    with pytest.raises(coplan.PlanFileError, match="which is gone; the shipped problem 'crossing-paths' is another text"):
+        coplan.view(plan_json)
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["view", str(plan_json), "--out", str(tmp_path / "v.html")])
+    assert r.exit_code == 2 and "is another text" in " ".join(r.output.split()), r.output
+    assert not (tmp_path / "v.html").exists()
 
 
 def test_view_of_a_plan_of_a_problem_built_in_python_says_it_shows_the_shipped_one():
@@ -186,7 +202,7 @@ def test_view_of_a_plan_of_a_problem_built_in_python_says_it_shows_the_shipped_o
     q = load_problem("crossing_paths")
     moved = dataclasses.replace(q, arms=(q.arms[0], dataclasses.replace(q.arms[1], base=(0.85, 0.0), bin=(0.85, -0.5))))
     res = coplan.solve(moved, planner="coordinated")
-    with pytest.warns(UserWarning, match="records no problem file: shown against the shipped problem 'crossing-paths'"):
+    with pytest.warns(UserWarning, match="records no problem file: taken to be the shipped problem 'crossing-paths'"):
         coplan.view(res.plan)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -605,7 +621,7 @@ def test_notebook_view_of_a_row_plan_file_finds_its_problem(tmp_path):
         coplan.view(plan)
     sparse = next(p for p in shipped_rows() if p.stem == "sparse_row")
     plan.problem_file, plan.problem = None, load_problem(sparse).name  # a shipped row, by its name (said)
-    with pytest.warns(UserWarning, match="shown against the shipped problem 'sparse-row'"):
+    with pytest.warns(UserWarning, match="taken to be the shipped problem 'sparse-row'"):
         assert read_viewer_data(coplan.view(plan).page)["problem"]["name"] == "sparse-row"
 
 

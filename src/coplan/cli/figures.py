@@ -48,7 +48,7 @@ def problem_of_plan(plan, plan_path: Path, problem: Optional[Path]):
     was planned from another text); else the problem file the plan records (``problem_file``:
     its path, and its digest, so a file changed since is not taken for it); else the shipped
     problem of the plan's name. A usage error (exit 2) says what to give where none fits."""
-    from ..problem.load import load_problem, shipped_problems, shipped_rows
+    from ..problem.load import load_problem
 
     record = plan.problem_file
     if problem is not None:
@@ -59,31 +59,17 @@ def problem_of_plan(plan, plan_path: Path, problem: Optional[Path]):
             _err.print(f"[yellow]note[/]: {_s(plan_path)} was planned from {_s(record['path'])}; {_s(problem)} is not that "
                        "text (another file, or changed since: its sha256 differs): the plan is drawn and verified against "
                        f"{_s(problem)} as it is now", highlight=False, soft_wrap=True)
-    elif record is not None and Path(record["path"]).is_file():
-        prob = load_problem(record["path"])
-        if prob.digest != record["sha256"]:
-            fail(ExitCode.USAGE, f"{plan_path} was planned from {record['path']}, which has changed since (its sha256 "
-                                  f"differs); give the problem with --problem FILE to use it anyway")
-    else:
-        shipped = [load_problem(p) for p in shipped_problems() + shipped_rows()]
-        prob = next((p for p in shipped if p.name == plan.problem), None)
-        if prob is None and not plan.problem:  # (a plan.csv names no problem)
-            fail(ExitCode.USAGE, f"{plan_path} does not name its problem (a plan.csv does not): give its YAML file "
-                                  "with --problem FILE")
-        if prob is None:
-            where = f"it was planned from {record['path']}, which is gone, and " if record is not None else ""
-            fail(
-                ExitCode.USAGE,
-                f"{plan_path} is a plan of problem {plan.problem!r}; {where}that is not a shipped problem "
-                f"({', '.join(p.name for p in shipped)}): give its YAML file with --problem FILE",
-            )
-        if record is not None and prob.digest != record["sha256"]:  # (it was checked against the shipped one silently)
-            fail(ExitCode.USAGE, f"{plan_path} was planned from {record['path']}, which is gone; the shipped problem "
-                                  f"{prob.name!r} is another text (its sha256 differs): give the plan's problem with --problem FILE")
-        if record is None and plan.problem:  # (a problem changed in Python records no file: say what is drawn)
-            _err.print(f"[yellow]note[/]: {_s(plan_path)} records no problem file: checked against the shipped "
-                              f"problem {_s(repr(prob.name))} ({_s(prob.source or '')}); if it was planned on a changed "
-                              "problem, give that with --problem FILE", highlight=False, soft_wrap=True)
+    else:  # (the one rule coplan.view(plan) follows too)
+        from ..errors import PlanFileError
+        from ..problem.recorded import ProblemSource, recorded_problem
+
+        try:
+            found = recorded_problem(plan.problem, record, "give its YAML file with --problem FILE")
+        except PlanFileError as e:
+            fail(ExitCode.USAGE, f"{plan_path}: {e.issues[0].message}")
+        prob = found.problem
+        if found.source is ProblemSource.SHIPPED:  # (a problem changed in Python records no file: say what is used)
+            _note(f"{plan_path}: {found.note}")
     return prob
 
 

@@ -86,34 +86,21 @@ def decode_array(entry: dict) -> np.ndarray:
 
 # --------------------------------------------------------------------------- the problem
 def problem_of(plan: Plan) -> Problem:
-    """The problem of a plan, as ``coplan view`` finds it: the problem file the plan records
-    (unchanged since: its digest), else -- that file gone -- the shipped problem or row the plan
-    names, with a UserWarning that it is the shipped one. Raises :class:`PlanFileError` when there
-    is none, or when the recorded file has changed since (not the shipped problem of the same name
-    instead: it may be another)."""
-    from ..problem.load import load_problem, shipped_problems, shipped_rows
+    """The problem of a plan, as ``coplan view`` finds it
+    (:func:`coplan.problem.recorded.recorded_problem`): the problem file the plan records
+    (unchanged since: its digest), else the shipped problem or row the plan names, with a
+    UserWarning that it is the shipped one. Raises :class:`PlanFileError` when there is none,
+    when the recorded file has changed since, or when it is gone and the shipped problem of that
+    name is another text (not shown in its place: it may be another)."""
+    from ..problem.recorded import ProblemSource, recorded_problem
 
-    record = plan.problem_file
-    if record is not None and Path(record["path"]).is_file():
-        found = load_problem(record["path"])
-        if found.digest == record["sha256"]:
-            return found
-        raise PlanFileError([Issue("problem_file", f"it was planned from {record['path']}, which has changed since (its "
-                                                   "sha256 differs): pass the problem itself")])
-    shipped = [load_problem(p) for p in shipped_problems() + shipped_rows()]
-    found = next((p for p in shipped if p.name == plan.problem), None)
-    if found is None:
-        where = (f"it was planned from {record['path']}, which is gone; "
-                 if record is not None else "")
-        raise PlanFileError([Issue("problem", f"{where}expected the name of a shipped problem "
-                                              f"({', '.join(p.name for p in shipped)}), found {plan.problem!r}: "
-                                              "pass the problem itself")])
-    import warnings  # (as coplan view notes it; coplan.view said nothing)
+    found = recorded_problem(plan.problem, plan.problem_file, "pass the problem itself (problem=, or view the "
+                                                               "SolveResult, which carries its own)")
+    if found.source is ProblemSource.SHIPPED:  # (as coplan view notes it; coplan.view said nothing)
+        import warnings
 
-    warnings.warn(f"the plan records no problem file{' that still exists' if record is not None else ''}: shown against "
-                  f"the shipped problem {found.name!r}; if it was planned on a changed problem, pass problem= (or view "
-                  f"the SolveResult, which carries its own)", UserWarning, stacklevel=3)
-    return found
+        warnings.warn(found.note, UserWarning, stacklevel=3)
+    return found.problem
 
 
 def _check_fits(problem: Problem, plan: Plan, what: str) -> None:
