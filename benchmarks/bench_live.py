@@ -13,11 +13,12 @@ fruit reachable) and seeded feeds (``coplan.live.feed.make_feed``), runs the sim
   duplicate detections: pick success over the reachable true fruit (target: all), false picks
   (target: none) and collisions (the verifier's).
 
-    python benchmarks/bench_live.py [--seeds 5] [--sizes 12 20 30] [--budget S | --budget none]
+    python benchmarks/bench_live.py [--seeds 5] [--sizes 12 20 30] [--work N | --work none] [--budget S]
 
-Latency is wall-clock time on this machine. With a clock budget (``LiveOptions.budget``, default
-50 ms) the better candidates a re-plan tries depend on the machine's speed, so the plans do too;
-``--budget none`` tries every candidate (the same plans on any machine, higher latency).
+Latency is wall-clock time on this machine. A re-plan tries better candidates while its work
+budget lasts (``LiveOptions.work``, default 100 conflict checks: the same plans on any machine);
+``--work none`` tries every candidate (higher latency); ``--budget S`` adds a clock budget
+(``LiveOptions.budget``: the plans then depend on the machine's speed and load).
 """
 
 from __future__ import annotations
@@ -46,10 +47,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, default=5, help="seeded feeds per problem size (default 5)")
     ap.add_argument("--sizes", type=int, nargs="+", default=[12, 20, 30], help="fruit per problem (default 12 20 30)")
-    ap.add_argument("--budget", default="0.05", help="re-plan clock budget in s, or 'none'")
+    ap.add_argument("--work", default=str(LiveOptions.work), help="re-plan work budget in conflict checks, or 'none'")
+    ap.add_argument("--budget", default="none", help="re-plan clock budget in s, or 'none' (the default)")
     args = ap.parse_args()
     print(run_header(), flush=True)
-    opts = LiveOptions(budget=None if args.budget.lower() == "none" else float(args.budget))
+    opts = LiveOptions(work=None if args.work.lower() == "none" else int(args.work),
+                       budget=None if args.budget.lower() == "none" else float(args.budget))
     print(f"{'scenario':8} {'fruit':>5} {'seed':>4} {'replans':>7} {'med ms':>7} {'p95 ms':>7} {'max ms':>7} "
           f"{'live s':>7} {'omni s':>7} {'loss %':>7} {'picked':>7} {'false':>9} {'verified':>8} {'run s':>6}")
     summary = {}

@@ -18,7 +18,7 @@ crossing_paths and dense_overlap, every plan verified (``coplan compare --cleara
 
 Last (``--live``), a proxy for the live cell, which re-plans in 50 ms with the coordinator and so
 cannot run a widening program of 1-5 s: on seeded live runs of the same layouts (10 and 20 mm
-vision noise, every fruit detected late or early, ``coplan.live.sim.simulate`` with no clock budget),
+vision noise, every fruit detected late or early, ``coplan.live.sim.simulate`` trying every candidate),
 the close-range corrections accepted and refused -- refused because the corrected approach is not
 clear of the neighbours -- when the live planner keeps the default 15 mm of planning room, and
 when it keeps 50 mm (the room the widening stage gives offline plans).
@@ -135,7 +135,7 @@ def live_proxy(n: int) -> None:
             acc = clear = other = picked = true = bad = 0
             for k, prob in enumerate(probs):
                 feed = make_feed(prob, known=0.5, sigma=sigma, seed=k)
-                run = simulate(prob, feed, LiveOptions(margin=room, budget=None), seed=k)
+                run = simulate(prob, feed, LiveOptions(margin=room, work=None), seed=k)
                 for r in run.cell.replans:
                     if r.corrected:
                         acc += 1

@@ -119,7 +119,7 @@ def run_cmd(
                                       "camera reports, faults and close-range measurements.")] = 0,
     horizon: Annotated[float, typer.Option(parser=real, metavar="<float>", callback=between(0.0, 10.0, "s", above=True), help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
     all_candidates: Annotated[bool, typer.Option("--all-candidates", help="Every re-plan tries every candidate plan, "
-                                                 "not only those its 50 ms budget allows: the same run on any machine.")] = False,
+                                                 "not only those its work budget allows (100 conflict checks).")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the metrics as JSON.")] = False,
 ):
     """Simulate a cell or a row live: re-plan as detections arrive, verify what was executed, compare with the omniscient plan."""
@@ -166,7 +166,7 @@ def run_cmd(
     if fd.problem is not None and fd.problem != prob.name:
         _err.print(f"[yellow]note[/]: the feed was made for problem {_safe(fd.problem)!r}, this is {_safe(prob.name)!r}",
                    highlight=False)
-    opts = LiveOptions(horizon=horizon, budget=None) if all_candidates else LiveOptions(horizon=horizon)
+    opts = LiveOptions(horizon=horizon, work=None) if all_candidates else LiveOptions(horizon=horizon)
     with ProgressDisplay(_err, quiet=as_json) as bars, _nothing_written(out):
         result = simulate(prob, fd, opts, seed=seed, progress=bars)
     result.plan.problem_file = file_record(prob)
@@ -215,7 +215,7 @@ def run_cmd(
             + (f"[yellow]{m['late_replans']} of {m['replans']} re-plans took longer than the commit horizon "
                f"({horizon:g} s)[/]: the arms would have run past their committed motion before the new plan "
                "was ready, so this run is optimistic; "
-               + ("--all-candidates gives each re-plan all the time it needs (the same run on any machine), not a "
+               + ("--all-candidates gives each re-plan all the work it needs, not a "
                   "real-time run\n" if all_candidates else "give --horizon at least the latency\n")
                if m.get("late_replans") else "")
             + _missed_line(result.run["fruit"])

@@ -349,19 +349,24 @@ class LiveCell:
                 later += [(label, work, base, o) for o in orders[1:2] if label == "keep"]
             yield from later
 
+        used: dict = {"checks": 0}  # (the conflict checks of every candidate coordinated: the work budget)
         for label, work, base, order in attempts():
-            spent = _time.perf_counter() - t_start
-            if best is not None and (opts.budget is not None and spent > opts.budget
+            if best is not None and (opts.work is not None and used["checks"] > opts.work
+                                     or opts.budget is not None and _time.perf_counter() - t_start > opts.budget
                                      or cause != ReplanCause.DETECTIONS and best[4] == "keep" and best[0] <= before + 0.05):
-                break  # a plan at once; better ones only while the budget lasts (a drop or correction: as good as before)
+                break  # a plan at once; better ones while the budgets last (a drop or correction: as good as before)
+            checks = used["checks"]
             try:
                 out, _, _ = coordinate(believed, base, opts.margin, priority=order, max_checks=opts.max_checks,
-                                       committed=committed, cache=cache)
+                                       committed=committed, cache=cache, work=used)
             except ConflictError as e:
                 reasons.append(f"{label}: {e}")
+                rep.tried.append({"candidate": label, "priority": list(order or []), "makespan": None,
+                                  "checks": used["checks"] - checks})
                 continue
             span = max((s.last_place for s in out.values()), default=0.0)
-            rep.tried.append({"candidate": label, "priority": list(order or []), "makespan": span})
+            rep.tried.append({"candidate": label, "priority": list(order or []), "makespan": span,
+                              "checks": used["checks"] - checks})
             if best is None or span < best[0] - 1e-9:
                 best = (span, out, work, order or [], label)
         if best is None:

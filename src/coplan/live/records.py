@@ -29,8 +29,13 @@ class LiveOptions:
     correction_delay : s from the refined measurement to the start of the corrected approach
     max_correction : largest joint change (rad) a corrected approach may make; a refined pose
         further away (across a joint limit, another branch) is planned again instead
-    budget : wall-clock seconds a re-plan may spend on better candidates after its first plan
-        (None: try every candidate, the same plans on any machine)
+    work : conflict checks a re-plan may spend (its first plan's included) before it stops
+        trying better candidates (it always keeps its first plan): a work budget, so that the
+        same feed and seed give the same run on any machine, about the 50 ms a re-plan had
+        on a 2-core machine (a median 0.5 ms a check there); None: no such cap
+    budget : wall-clock seconds a re-plan may spend before it stops trying better candidates
+        (None, the default: no clock; a real cell that must answer in time sets it, and its
+        plans then depend on the machine's speed and load)
     max_open : the most tracks one re-plan coordinates: those the current plan holds, then the
         pending ones first seen (a burst of 500 false detections exhausted every coordination
         attempt's work and left real fruit pending to the end: 9 of 11 harvested; with 40, 11 of
@@ -43,7 +48,8 @@ class LiveOptions:
     max_checks: int = CoordinatedOptions.attempt_checks
     close_distance: float = DEFAULT_CLOSE_DISTANCE
     correction_delay: float = 0.01
-    budget: float | None = 0.05
+    work: int | None = 100
+    budget: float | None = None
     max_correction: float = 0.3
     max_open: int = 40
 
@@ -104,7 +110,8 @@ class Replan:
     makespan_after: float = 0.0
     note: str = ""
     corrected: str | None = None  # the arm whose approach under way a close-range correction changed
-    tried: list[dict] = field(default_factory=list)  # the candidates coordinated: allocation, priority, makespan
+    tried: list[dict] = field(default_factory=list)  # the candidates coordinated: allocation, priority, makespan (None: no
+    # plan within its checks), conflict checks spent
 
     def to_dict(self) -> dict:
         return {"t": self.t, "cause": self.cause.value, "latency": self.latency, "ok": self.ok,
