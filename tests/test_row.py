@@ -412,6 +412,17 @@ def test_cells_planned_in_two_processes_give_the_same_row_plan_as_in_one(row, pl
     assert all(np.array_equal(two.plan.q[a], one.plan.q[a]) for a in one.plan.q)
     assert all(sp.ready >= two.info["first_stop_seconds"] and sp.seconds > 0 for sp in two.stops)
     assert RowOptions(workers="auto").workers >= 1
+    assert two.info["workers"] == 2 == two.plan.solver["row"]["workers"]
+
+
+def test_a_row_plan_records_the_workers_asked_for_on_any_machine(row, monkeypatch):
+    """(From a trial of the any-machine promise: plan.json's solver.row.workers was the processes
+    used, min(asked, cores): 2 on two cores, 1 under taskset -c 0, for the same plan.)"""
+    import coplan.row.plan as row_plan
+
+    monkeypatch.setattr(row_plan, "cores", lambda: 1)
+    one_core = plan_row(row, RowOptions(workers=2))
+    assert one_core.info["workers"] == 2 and one_core.verification.passed
 
 
 def test_workers_on_a_stop_and_go_row_from_the_command_line(tmp_path):

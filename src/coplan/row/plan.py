@@ -254,8 +254,9 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     planned: list[StopPlan] = []
     first_stop_at: list[float] = []
     pending: list[tuple] = []  # (stop, future, when it was ready) with workers
-    workers = min(int(opts.workers), cores())  # (more would only queue: the plan does not depend on it)
-    pool = process_pool(workers)
+    # (more than the cores would only queue: the plan does not depend on it; plan.json records the
+    # workers asked for, which is the same on any machine -- it recorded these, 1 on one core)
+    pool = process_pool(min(int(opts.workers), cores()))
 
     def landed(s: Stop, p: Plan, ready: float, seconds: float) -> None:
         if p.status == PlanStatus.INTERRUPTED:  # (the optimal cell planner turns Ctrl-C into its best plan)
@@ -281,7 +282,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
 
     ts = _time.perf_counter()
     info: dict = {"mode": GantryMode.STOP_AND_GO.value, "rule": rule.value, "cell_planner": PlannerKind(opts.planner).value,
-                  "workers": workers, "retime": bool(opts.retime) and PlannerKind(opts.planner) == PlannerKind.COORDINATED}
+                  "workers": int(opts.workers), "retime": bool(opts.retime) and PlannerKind(opts.planner) == PlannerKind.COORDINATED}
     kept: list[Stop] = []  # every stop the rule kept, in carriage order
     interrupted = False
     try:

@@ -127,11 +127,15 @@ def _packing(cov: dict[str, np.ndarray]) -> int:
     return n
 
 
-def _set_cover(cov: dict[str, np.ndarray], than: int, seconds: float = 10.0) -> list[int] | None:
+def _set_cover(cov: dict[str, np.ndarray], than: int) -> list[int] | None:
     """Grid indices of fewer than ``than`` stops serving every fruit of ``cov`` (a HiGHS MILP
-    over the ends of each fruit's serving stretches), or None when it finds none in ``seconds``."""
+    over the ends of each fruit's serving stretches), or None when it finds none within its work
+    budget (branch-and-bound nodes, the allocation MILPs': the same answer on any machine; their
+    clock limit only as a safety net behind it -- it had only 10 s of clock)."""
     from scipy.optimize import Bounds, LinearConstraint, milp
     from scipy.sparse import csr_matrix
+
+    from ..allocate.allocation import MILP_NODES, MILP_SECONDS
 
     cands = sorted({int(k) for c in cov.values() for k in np.flatnonzero(c & ~np.r_[c[1:], False])})
     at = np.asarray(cands)
@@ -142,7 +146,7 @@ def _set_cover(cov: dict[str, np.ndarray], than: int, seconds: float = 10.0) -> 
         cols += hit.tolist()
     a = csr_matrix((np.ones(len(rows)), (rows, cols)), shape=(len(cov), len(cands)))
     res = milp(np.ones(len(cands)), constraints=LinearConstraint(a, lb=1), integrality=np.ones(len(cands)),
-               bounds=Bounds(0, 1), options={"time_limit": seconds})
+               bounds=Bounds(0, 1), options={"node_limit": MILP_NODES, "time_limit": MILP_SECONDS})
     if res.x is None:
         return None
     chosen = [cands[i] for i in np.flatnonzero(res.x > 0.5)]
