@@ -720,6 +720,45 @@ def test_a_row_problem_s_reach_is_from_every_carriage_position_on_its_rail():
     assert (screened(p).reach == screened(here).reach).all()
 
 
+def test_a_pace_price_keeps_the_optimised_rule_to_the_fixed_strides_count_where_it_runs_ahead(tmp_path):
+    """``--pace-price S``: each stop of a segment that starts with the optimised rule ahead of
+    the fixed stride's pace costs S s more. On dense_row time alone takes 11 stops to the fixed
+    stride's 9; at 3 s it takes no more than the fixed stride, every fruit still taken, and its
+    row is still faster than the fixed stride's (each verified). A row on which the rule never
+    runs ahead keeps exactly its stops. The summary and plan.json say the price."""
+    from coplan.kinds import StopRule
+    from coplan.row.stops import StopWindow, fixed_stops, optimised_stops
+
+    dense = load_problem(next(p for p in shipped_rows() if p.stem == "dense_row"))
+    n_fixed = len(fixed_stops(row_reach(dense)))
+    plain, info = optimised_stops(dense, row_reach(dense, lazy=True))
+    paced, paced_info = optimised_stops(dense, row_reach(dense, lazy=True), StopWindow(pace_price=3.0))
+    assert len(paced) <= n_fixed < len(plain) and "paced" not in info and paced_info["paced"] >= 1
+    assert sorted(f for s in paced for f in s.fruit) == sorted(f for s in plain for f in s.fruit)
+    fixed = plan_row(dense, RowOptions(stops=StopRule.FIXED, workers=2))
+    kept = plan_row(dense, RowOptions(window=StopWindow(pace_price=3.0), workers=2))
+    assert kept.verification.passed and len(kept.stops) <= len(fixed.stops)
+    assert kept.plan.metrics["makespan"] < fixed.plan.metrics["makespan"]
+    assert kept.info["pace_price"] == 3.0
+    run = CliRunner(env={"COLUMNS": "200"}).invoke
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=8.0, density=2.0, seed=3)))
+    prob = load_problem(path)
+    same = optimised_stops(prob, row_reach(prob, lazy=True), StopWindow(pace_price=3.0))[0]
+    assert [s.x for s in same] == [s.x for s in optimised_stops(prob, row_reach(prob, lazy=True))[0]]
+    r = run(app, ["solve", str(path), "--pace-price", "3", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0 and "ahead of the fixed stride's pace priced 3.00 s more" in r.output, r.output
+    assert json.loads((tmp_path / "o" / "plan.json").read_text())["solver"]["row"]["pace_price"] == 3.0
+    for args, words in ((["--stops", "fixed"], "--pace-price: the optimised stop rule's price of a stop applies stop and "
+                                                "go (--stops optimised, the default), not --stops fixed"),
+                        (["--gantry", "continuous"], "not on the move")):
+        r = run(app, ["solve", str(path), "--pace-price", "3", *args, "--out", str(tmp_path / "x")])
+        assert r.exit_code == 2 and words in " ".join(r.output.split()), r.output
+    r = run(app, ["solve", "crossing_paths", "--pace-price", "3", "--out", str(tmp_path / "y")])
+    assert r.exit_code == 2 and "stationary cell" in r.output
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+
+
 def test_a_stop_price_buys_fewer_stops_and_only_applies_to_the_optimised_rule_stop_and_go(tmp_path):
     """``--stop-price S`` charges each stop S s beyond its estimated time in the optimised rule:
     on sparse_row 2 s takes 8 stops (the fixed stride's count) where time alone takes 9; each plan

@@ -115,6 +115,11 @@ def solve(
         "--stop-price", parser=real, metavar="S", callback=between(0.0, 600.0, "s"),
         help="A row, stop and go, the optimised rule: seconds it charges each stop on top of its estimated time "
              "(default 0: time alone; e.g. 2 for fewer stops at a little more row time).")] = None,
+    pace_price: Annotated[Optional[float], typer.Option(
+        "--pace-price", parser=real, metavar="S", callback=between(0.0, 600.0, "s"),
+        help="A row, stop and go, the optimised rule: seconds it charges each stop where it is ahead of the fixed "
+             "stride's pace (more stops so far than a stop every carriage span), to keep to about the fixed stride's "
+             "count (default 0: off; 3 keeps every shipped row within it).")] = None,
     allocation: Annotated[
         Optional[AllocationMethod], typer.Option(help="Allocation method (default: the planner's own).")
     ] = None,
@@ -148,17 +153,18 @@ def solve(
         if refused:
             _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): {'; '.join(refused)}")
         moving = moving_options(path, gantry, speed, stops, planner)
-        if stop_price is not None and (moving is not None or stops not in (None, StopRule.OPTIMISED)):
-            _fail(ExitCode.USAGE, "--stop-price: the optimised stop rule's price of a stop applies stop and go "
-                                  f"(--stops optimised, the default), not {'on the move' if moving is not None else f'--stops {stops.value}'}")
+        for flag, value in (("--stop-price", stop_price), ("--pace-price", pace_price)):
+            if value is not None and (moving is not None or stops not in (None, StopRule.OPTIMISED)):
+                _fail(ExitCode.USAGE, f"{flag}: the optimised stop rule's price of a stop applies stop and go (--stops "
+                                      f"optimised, the default), not {'on the move' if moving is not None else f'--stops {stops.value}'}")
         row_options = moving
         # --workers: on the move the speed search's processes, stop and go the stops' cells';
         # --resolution: the screen's grid, both modes; --stop-price: the optimised rule's window
         given = {k: v for k, v in (("workers", n_workers), ("resolution", resolution)) if v is not None}
-        if stop_price is not None:
+        if stop_price is not None or pace_price is not None:
             from ..row.stops import StopWindow
 
-            given["window"] = StopWindow(stop_price=stop_price)
+            given["window"] = StopWindow(stop_price=stop_price or 0.0, pace_price=pace_price or 0.0)
         if given:
             from dataclasses import replace as _replace
 
@@ -176,8 +182,8 @@ def solve(
                 raise
             _fail(ExitCode.USAGE, f"--speed: {slow[0].message.replace('a pace', 'a cruising speed (m/s)')} ({path.name!r})")
         return _report_solve(res, out, animate, html, as_json)
-    if gantry is not None or speed is not None or resolution is not None or stop_price is not None:
-        _fail(ExitCode.USAGE, f"--gantry/--speed/--resolution/--stop-price: {path.name} is a stationary cell (no gantry section); "
+    if gantry is not None or speed is not None or resolution is not None or stop_price is not None or pace_price is not None:
+        _fail(ExitCode.USAGE, f"--gantry/--speed/--resolution/--stop-price/--pace-price: {path.name} is a stationary cell (no gantry section); "
                               "they apply to a row")
     if stops is not None:
         _fail(ExitCode.USAGE, f"--stops: {path.name} is a stationary cell (no gantry section); a stop rule applies to a row")

@@ -92,6 +92,8 @@ def print_row_summary(console, res) -> None:
            f"top {fmt(r.get('top_speed'), ' m/s', 3)})" if moving else
            f"stops {safe(solver.get('rule'))}"
            + (f" (each priced {fmt(solver['stop_price'], ' s', 2)} beyond its time)" if solver.get("stop_price") else "")
+           + (f" (each ahead of the fixed stride's pace priced {fmt(solver['pace_price'], ' s', 2)} more)"
+              if solver.get("pace_price") else "")
            + f", cell planner {safe(solver.get('cell_planner'))}"
            + (f" ({solver['retimed_cells']} of {r.get('stops')} cells retimed by CP-SAT)" if solver.get("retime") else ""))
     p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, {how}, "

@@ -83,10 +83,11 @@ class RowOptions:
         if not isinstance(self.window, StopWindow):
             raise OptionsError([Issue("window", f"expected StopWindow(...), found {type(self.window).__name__} "
                                                 f"{self.window!r}")], "RowOptions")
-        if self.window.stop_price and StopRule(self.stops) != StopRule.OPTIMISED:  # (it was silently ignored)
-            raise OptionsError([Issue("window.stop_price", f"expected 0 with stops {StopRule(self.stops).value!r} (a price per "
-                                                           f"stop is the optimised rule's), found {self.window.stop_price:g}")],
-                               "RowOptions")
+        for name in ("stop_price", "pace_price"):
+            if getattr(self.window, name) and StopRule(self.stops) != StopRule.OPTIMISED:  # (it was silently ignored)
+                raise OptionsError([Issue(f"window.{name}", f"expected 0 with stops {StopRule(self.stops).value!r} (a price "
+                                                            f"per stop is the optimised rule's), found "
+                                                            f"{getattr(self.window, name):g}")], "RowOptions")
         if self.planner == PlannerKind.HEURISTIC:
             raise OptionsError([Issue("planner", "expected 'coordinated' or 'optimal' (the cell planner at each stop; the "
                                                  "course's heuristic plans a stationary cell, not a row's stops), found 'heuristic'")],
@@ -288,6 +289,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
     try:
         if rule == StopRule.OPTIMISED:
             info["stop_price"] = float(opts.window.stop_price)
+            info["pace_price"] = float(opts.window.pace_price)
             _, info["stops_solver"] = optimised_stops(problem, reach, opts.window, lambda s: (kept.append(s), on_stop(s)))
         else:
             for s in (fixed_stops(reach) if rule == StopRule.FIXED else fewest_stops(reach, exact=True)):

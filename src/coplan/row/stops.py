@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -267,19 +267,27 @@ class StopWindow:
     time (0: time alone), for a grower who counts stops too (each one a settle, the camera's
     look, wear on the drive): on the shipped rows 2 s brings dense_row from 11 stops to 9
     (662.9 -> 674.8 s) and sparse_row from 9 to 8 (180.2 -> 183.6 s), no more than the fixed
-    stride's 9 and 8, but course_row from 10 to 8 (395.1 -> 416.6 s); six_arm_row keeps its 6."""
+    stride's 9 and 8, but course_row from 10 to 8 (395.1 -> 416.6 s); six_arm_row keeps its 6.
+    ``pace_price``: seconds charged to each stop of a segment that starts with the rule ahead of
+    the fixed stride's pace -- more stops kept than a stop every carriage span from the first
+    fruit's last chance would have made by the last stop kept -- so that it falls back to that
+    pace where it can, and is free where it is behind (0: off). On the shipped rows 3 or 4 s
+    keep every row within the fixed stride's count and 10 % faster than the better baseline
+    (docs/benchmarks.md); it prices pace, it does not bound the count."""
 
     spans: float = 4.0
     fractions: tuple = tuple(round(0.3 + 0.05 * i, 2) for i in range(15))
     polish: int = 600
     first_work: int = 40_000
     stop_price: float = 0.0
+    pace_price: float = 0.0
 
     def __post_init__(self) -> None:
         check_fields(self, {"spans"})  # built in Python: every value checked (OptionsError: what was expected, found)
-        if self.stop_price > MAX_STOP_PRICE:  # (as --stop-price)
-            raise OptionsError([Issue("stop_price", f"expected a price per stop of at most {MAX_STOP_PRICE:g} s, found "
-                                                    f"{self.stop_price:g}")], "StopWindow")
+        for name in ("stop_price", "pace_price"):
+            if getattr(self, name) > MAX_STOP_PRICE:  # (as --stop-price, --pace-price)
+                raise OptionsError([Issue(name, f"expected a price per stop of at most {MAX_STOP_PRICE:g} s, found "
+                                                f"{getattr(self, name):g}")], "StopWindow")
         fr = self.fractions
         if not (isinstance(fr, (tuple, list)) and fr and all(isinstance(x, (int, float)) and not isinstance(x, bool)
                                                              and math.isfinite(x) and 0 < x <= 1 for x in fr)):
@@ -415,6 +423,7 @@ def optimised_stops(problem: Problem, reach: RowReach, window: StopWindow | None
     stops: list[Stop] = []
     info: dict = {"segments": 0, "strides": [], "seconds": []}
     x_now, k_last = g.start, None
+    k_first, pace_step = None, max(1, int(round(span_m / res)))  # (the fixed stride's pace: fixed_stops)
     while True:
         first = min(spans[f][1] for f in todo) if todo else None
         lo = k_last if k_last is not None else first  # the segment starts at the last stop kept (else the first fruit's last chance)
@@ -432,7 +441,13 @@ def optimised_stops(problem: Problem, reach: RowReach, window: StopWindow | None
         t0 = time.perf_counter()
         if lo is None:
             lo = min(spans[f][1] for f in todo)
-        fr, st = _best_stride(problem, reach, todo, spans, lo, length, k_last is None, step_of, w, over, x_now, overlap)
+        if k_first is None:  # (the fixed stride's first stop: the first fruit's last chance)
+            k_first = min(spans[f][1] for f in todo)
+        ws = w
+        if w.pace_price and k_last is not None and len(stops) > (k_last - k_first) // pace_step + 1:
+            ws = replace(w, stop_price=w.stop_price + w.pace_price)  # ahead of the stride's pace: stops cost more
+            info["paced"] = info.get("paced", 0) + 1
+        fr, st = _best_stride(problem, reach, todo, spans, lo, length, k_last is None, step_of, ws, over, x_now, overlap)
         keep = st[:-1] if len(st) > 1 and (reach.done_to < math.inf or any(spans[f][1] > st[-1].k for f in todo)) else st
         keep = [s for s in keep if s.fruit] or st[:1] or fewest_stops(reach, todo)[:1]  # (always a stop: the row advances)
         for s in keep:
