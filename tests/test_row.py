@@ -751,7 +751,9 @@ def test_a_pace_price_keeps_the_optimised_rule_to_the_fixed_strides_count_where_
     assert json.loads((tmp_path / "o" / "plan.json").read_text())["solver"]["row"]["pace_price"] == 3.0
     for args, words in ((["--stops", "fixed"], "--pace-price: the optimised stop rule's price of a stop applies stop and "
                                                 "go (--stops optimised, the default), not --stops fixed"),
-                        (["--gantry", "continuous"], "not on the move")):
+                        (["--gantry", "continuous"], "not on the move"),
+                        (["--stop-price", "400", "--pace-price", "400"], "--stop-price + --pace-price: expected at most "
+                                                                         "600 s together")):
         r = run(app, ["solve", str(path), "--pace-price", "3", *args, "--out", str(tmp_path / "x")])
         assert r.exit_code == 2 and words in " ".join(r.output.split()), r.output
     r = run(app, ["solve", "crossing_paths", "--pace-price", "3", "--out", str(tmp_path / "y")])

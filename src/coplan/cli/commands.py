@@ -162,7 +162,11 @@ def solve(
         # --resolution: the screen's grid, both modes; --stop-price: the optimised rule's window
         given = {k: v for k, v in (("workers", n_workers), ("resolution", resolution)) if v is not None}
         if stop_price is not None or pace_price is not None:
-            from ..row.stops import StopWindow
+            from ..row.stops import MAX_STOP_PRICE, StopWindow
+
+            if (stop_price or 0.0) + (pace_price or 0.0) > MAX_STOP_PRICE:  # (a segment ahead of pace charges both)
+                _fail(ExitCode.USAGE, f"--stop-price + --pace-price: expected at most {MAX_STOP_PRICE:g} s together (a stop "
+                                      f"ahead of the pace is charged both), found {stop_price or 0:g} + {pace_price or 0:g}")
 
             given["window"] = StopWindow(stop_price=stop_price or 0.0, pace_price=pace_price or 0.0)
         if given:

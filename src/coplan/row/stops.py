@@ -288,6 +288,9 @@ class StopWindow:
             if getattr(self, name) > MAX_STOP_PRICE:  # (as --stop-price, --pace-price)
                 raise OptionsError([Issue(name, f"expected a price per stop of at most {MAX_STOP_PRICE:g} s, found "
                                                 f"{getattr(self, name):g}")], "StopWindow")
+        if self.stop_price + self.pace_price > MAX_STOP_PRICE:  # (a segment ahead of pace charges both)
+            raise OptionsError([Issue("pace_price", f"expected stop_price + pace_price of at most {MAX_STOP_PRICE:g} s, "
+                                                    f"found {self.stop_price:g} + {self.pace_price:g}")], "StopWindow")
         fr = self.fractions
         if not (isinstance(fr, (tuple, list)) and fr and all(isinstance(x, (int, float)) and not isinstance(x, bool)
                                                              and math.isfinite(x) and 0 < x <= 1 for x in fr)):
