@@ -110,8 +110,8 @@ class Replan:
     makespan_after: float = 0.0
     note: str = ""
     corrected: str | None = None  # the arm whose approach under way a close-range correction changed
-    tried: list[dict] = field(default_factory=list)  # the candidates coordinated: allocation, priority, makespan (None: no
-    # plan within its checks), conflict checks spent
+    # the candidates coordinated: allocation, priority, makespan (None: no plan within its checks), checks spent
+    tried: list[dict] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         return {"t": self.t, "cause": self.cause.value, "latency": self.latency, "ok": self.ok,

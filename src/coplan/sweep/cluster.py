@@ -36,7 +36,6 @@ def completed(ac, stop: Interrupt, poll: float = 0.2, idle: Callable[[], None] |
             stop.check()
 
 
-
 class WorkerWatch:
     """At most every ``every`` s of waiting, asks the scheduler how many workers it has and
     says so (``note``) when it has none -- a sweep on a ``--scheduler`` no worker has joined,
@@ -66,8 +65,9 @@ class WorkerWatch:
         self.none = n == 0
 
 
-
 def connect(workers: int, scheduler: str | None, retries: int):
+    """``(client, cluster)``: a client of the ``scheduler`` given (no cluster of ours), else of a
+    new ``LocalCluster`` of ``workers`` one-thread processes, a task retried ``retries`` times."""
     import dask
     from distributed import Client, LocalCluster
 
@@ -86,7 +86,6 @@ def connect(workers: int, scheduler: str | None, retries: int):
             cluster.close()
             raise KeyboardInterrupt
         return Client(cluster), cluster
-
 
 
 @contextlib.contextmanager
@@ -126,7 +125,6 @@ def sigint_ignored():
             watcher.wait()
 
 
-
 class Interrupt:
     """While a sweep runs: Ctrl-C remembered as well as raised. Raised alone, it could land in a
     callback that swallows it (Dask's garbage-collection diagnosis: "Exception ignored in ...
@@ -162,13 +160,11 @@ class Interrupt:
         return False
 
 
-
 def default_workers() -> int:
     """A sweep's workers by default: every core this process may use."""
     from ..workers import cores
 
     return cores()
-
 
 
 def close_cluster(client, cluster, interrupted: bool, client_log, client_level: int, lock) -> None:
