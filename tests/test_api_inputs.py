@@ -218,14 +218,16 @@ def test_compare_on_a_row_sets_its_stop_rules_side_by_side_on_workers(row_file, 
     assert r1.exit_code == 0 and r2.exit_code == 0, r1.output + r2.output
     one, two = json.loads(r1.stdout), json.loads(r2.stdout)
     assert one["exit_code"] == 0 and one["verdict"] == "ok"  # (as every document of a command that ran)
-    assert one["format"] == "coplan.compare-rows/1" and [r["rule"] for r in one["rows"]] == ["optimised", "fixed", "fewest"]
+    assert one["format"] == "coplan.compare-rows/2" and [r["rule"] for r in one["rows"]] == ["optimised", "fixed", "fewest", None]
+    assert [r["name"] for r in one["rows"]] == ["optimised", "fixed", "fewest", "on the move"]  # (and on the move)
     # which cell planner made the table, in the file (it was recorded nowhere) and its heading
     assert one["cell_planner"] == "coordinated"
     assert (tmp_path / "two" / "compare.md").read_text().startswith(
-        f"# {one['problem']}: stop rules side by side (coordinated cell planner at each stop)")
+        f"# {one['problem']}: stop rules and on the move side by side (coordinated cell planner at each stop)")
     assert all(r["verified"] and r["share_harvested"] == 1.0 for r in one["rows"] + two["rows"])
     assert [(r["stops"], r["row_time"]) for r in one["rows"]] == [(r["stops"], r["row_time"]) for r in two["rows"]]
     assert (tmp_path / "two" / "compare.json").is_file() and (tmp_path / "two" / "fixed" / "plan.json").is_file()
+    assert (tmp_path / "two" / "continuous" / "plan.json").is_file()
     r = runner.invoke(app, ["compare", str(row_file), "--workers", "0", "--out", str(tmp_path / "bad")])
     assert r.exit_code == 2 and "--workers: expected a whole number of processes" in r.output
 
@@ -790,7 +792,7 @@ def test_compare_rows_takes_a_name_and_one_rule_as_solve_does(tmp_path):
     from coplan.report.rows import compare_rows
 
     cmp = compare_rows(gantry_row(length=6.0, density=2.0, seed=1), tmp_path / "c", rules="fewest")
-    assert [r["rule"] for r in cmp.rows] == ["fewest"]
+    assert [r["name"] for r in cmp.rows] == ["fewest", "on the move"]
     with pytest.raises(TypeError, match="compare_rows: expected a Problem, a problem file's path or a shipped name"):
         compare_rows(3, tmp_path / "d")
     res = coplan.solve(gantry_row(length=6.0, density=2.0, seed=1)).row

@@ -724,8 +724,10 @@ def test_compare_on_a_row_says_why_a_rule_s_row_is_not_a_success(tmp_path):
     for rule in ("optimised", "fixed", "fewest"):
         line = f"stop rule {rule}: status infeasible: no fruit can be harvested from any carriage position (the problem lists no fruit)"
         assert f"note: {line}" in r.output and line in (tmp_path / "c" / "compare.md").read_text()
+    line = "on the move: status infeasible: no fruit can be harvested from any carriage position (the problem lists no fruit)"
+    assert f"note: {line}" in r.output
     doc = json.loads((tmp_path / "c" / "compare.json").read_text())
-    assert {row["status"] for row in doc["rows"]} == {"infeasible"} and len(doc["notes"]) == 3
+    assert {row["status"] for row in doc["rows"]} == {"infeasible"} and len(doc["notes"]) == 4 and doc["best"] is None
 
 
 TINY_FRUIT = {"f1": (0.8, 0.7), "f2": (1.3, 1.2), "f3": (2.5, 0.9), "f4": (3.5, 1.0)}

@@ -470,8 +470,13 @@ def compare_cmd(
         "+100 mm; --extra to choose), one planner (the first --planner, default optimal; a row's cells: coordinated, as coplan solve), every plan verified.")] = False,
     extra: Annotated[Optional[list[float]], typer.Option(
         "--extra", parser=real, metavar="MM", help="With --clearance-sweep: an extra clearance in mm, repeatable (the problem's own is always planned too: the ratios' reference).")] = None,
+    gantry: Annotated[Optional[GantryMode], typer.Option(
+        parser=choice(GantryMode), metavar=choices(GantryMode), help="A row: auto (default) compares its stop rules and "
+             "on the move (the speed searched); stop-and-go the stop rules alone; continuous on the move alone.")] = None,
 ):
     """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
+
+    A row: its stop rules (stop and go) and on the move side by side, each plan verified.
 
     With --clearance-sweep: one problem file planned at its clearance plus each extra (clearance.json, clearance.md, clearance_cost.png).
 
@@ -482,6 +487,8 @@ def compare_cmd(
     source = _resolve_problem(problems)
     refuse_rows_in_compare(source, time_limit, options_file)
     n_workers = _check_workers(workers)
+    if clearance_sweep and gantry is not None:
+        _fail(ExitCode.USAGE, "--gantry: a row's comparison of its modes; --clearance-sweep plans one planner at several clearances")
     if clearance_sweep:
         from .clearance import clearance_sweep
 
@@ -493,10 +500,12 @@ def compare_cmd(
         from ..problem.load import load_problem
 
         prob = load_problem(source)
-        if prob.gantry is not None:  # a row: its stop rules side by side
+        if prob.gantry is not None:  # a row: its stop rules and on the move side by side
             from .row import compare_row
 
-            raise typer.Exit(int(compare_row(prob, planner, out, as_json, out_console, err_console, n_workers)))
+            raise typer.Exit(int(compare_row(prob, planner, out, as_json, out_console, err_console, n_workers, gantry)))
+    if gantry is not None:  # (a cell has no carriage)
+        _fail(ExitCode.USAGE, f"--gantry: {source.name} is not a row (no gantry section): the mode applies to a row's file")
     try:
         specs = [PlannerSpec.parse(p) for p in (planner or DEFAULT_PLANNERS)]
     except ValueError as e:

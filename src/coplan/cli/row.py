@@ -78,12 +78,14 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
     return code
 
 
-def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_console, workers: int | None = None) -> ExitCode:
-    """``coplan compare ROW.yaml``: the stop rules side by side (:func:`coplan.report.rows.compare_rows`)."""
+def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_console, workers: int | None = None,
+                gantry=None) -> ExitCode:
+    """``coplan compare ROW.yaml``: the stop rules and on the move side by side
+    (:func:`coplan.report.rows.compare_rows`; ``gantry``: stop-and-go or continuous alone, default both)."""
     from rich.table import Table
 
     from ..kinds import PlannerKind
-    from ..report.rows import ROW_COLUMNS, cell_text, compare_rows
+    from ..report.rows import cell_text, columns, compare_rows
     from .console import ProgressDisplay
     from .summary import print_table
 
@@ -92,8 +94,11 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
         if len(planner) > 1 or planner[0] not in ("coordinated", "optimal"):  # (it printed no error document with --json)
             usage(f"--planner: a row takes one cell planner: coordinated or optimal, found {', '.join(planner)}")
         cell = PlannerKind(planner[0])
+        if gantry == GantryMode.CONTINUOUS and cell != PlannerKind.COORDINATED:
+            usage(f"--planner {cell.value}: on the move the row books its own coordinated moves; the cell planners apply "
+                  "to stop and go (--gantry stop-and-go, or auto: both)")
     with ProgressDisplay(err_console, quiet=as_json) as say:
-        cmp = compare_rows(prob, out, planner=cell, progress=say, workers=workers)
+        cmp = compare_rows(prob, out, planner=cell, progress=say, workers=workers, gantry=gantry or GantryMode.AUTO)
     code = ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
     if as_json:  # (with the exit code, as every document of a command that ran)
         out_console.print(strict_json(cmp.to_dict() | exit_fields(code)), markup=False,
@@ -101,17 +106,20 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
     else:
         from rich import box
 
-        table = Table(title=f"{prob.name}: stop rules side by side ({cmp.cell_planner} cell planner at each stop)",
+        table = Table(title=cmp.title,
                       title_justify="left", box=box.SIMPLE_HEAD,
                       padding=(0, 1), pad_edge=False)
-        cells = [[cell_text(k, r.get(k)) for k, _ in ROW_COLUMNS] for r in cmp.rows]
+        cols = columns(cmp)
+        cells = [[cell_text(k, r.get(k)) for k, _ in cols] for r in cmp.rows]
         # every value and every heading's words whole at 80 columns (the headings wrap between words)
-        heads = [_SHORT.get(k, head) for k, head in ROW_COLUMNS]
+        heads = [_SHORT.get(k, head) for k, head in cols]
         for c, head in enumerate(heads):
             table.add_column(head, min_width=max([len(w) for w in head.split()] + [len(row[c]) for row in cells]))
         for row in cells:
             table.add_row(*row)
         print_table(out_console, table)
+        if cmp.best_text():
+            out_console.print(safe(cmp.best_text()), highlight=False)
         for note in cmp.notes:
             out_console.print(f"note: {safe(note)}", highlight=False)
         out_console.print(f"wrote {safe(cmp.files['json'])} and {safe(cmp.files['markdown'])}")
@@ -161,7 +169,7 @@ def refused_on_a_row(planner, allocation, options_file, time_limit, gantry=None)
         + ([heuristic] if planner == PlannerKind.HEURISTIC else [])
 
 
-_SHORT = {"ratio_stop_and_go_bound": "/ bound (stop by stop, no overlap)", "planning_time": "planning s"}  # (the terminal's table)
+_SHORT = {"ratio_stop_and_go_bound": "/ bound (stop by stop, no overlap)", "planning_time": "planning s", "speed": "speed m/s"}  # (the terminal's table)
 
 
 def moving_options(problem, gantry, speed, stops, planner):

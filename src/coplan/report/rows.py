@@ -1,10 +1,14 @@
-"""A row's stop rules side by side (``coplan compare ROW.yaml``).
+"""A row's stop rules and on the move side by side (``coplan compare ROW.yaml``).
 
-Entry point: :func:`compare_rows` -> :class:`RowComparison`: the row planned with each stop
-rule (fixed stride, fewest stops, optimised; the same cell planner at every stop), each plan
-verified in the row frame and written to ``<out>/<rule>/``; ``compare.json`` and
-``compare.md`` with, per rule, the stops, the row time, fruit per hour, the share of the
-harvestable fruit harvested, the ratios to the row's lower bounds and the planning time.
+Entry point: :func:`compare_rows` -> :class:`RowComparison`: the row planned stop and go with
+each stop rule (fixed stride, fewest stops, optimised; the same cell planner at every stop) and
+on the move (the speed searched, as ``coplan solve ROW --gantry continuous``), each plan
+verified in the row frame and written to ``<out>/<rule>/`` (``<out>/continuous/`` on the
+move); ``compare.json`` and ``compare.md`` with, per plan, the stops, the row time, fruit per
+hour, the share of the harvestable fruit harvested, the ratios to the row's lower bounds (the
+stop-by-stop one for stop-and-go plans only: a plan on the move is not one it bounds), the
+carriage's mean speed on the move, the planning time, and which plan harvests most fruit per
+hour (``best``).
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..kinds import PlannerKind, PlanStatus, StopRule
+from ..kinds import GantryMode, PlannerKind, PlanStatus, StopRule
 from ..output import atomic_text, check_folder
 from ..plan import jsonable
 from ..problem.generate import problem_from_mapping
@@ -23,12 +27,15 @@ from ..problem.load import load_problem
 from ..problem.model import Problem
 from ..progress import Tick, nested, speaker, ticker
 
-__all__ = ["RowComparison", "compare_rows", "ROW_COLUMNS", "cell_text", "to_markdown"]
+__all__ = ["RowComparison", "compare_rows", "ROW_COLUMNS", "ON_THE_MOVE", "columns", "cell_text", "to_markdown"]
+
+#: the name of the plan on the move in the comparison (its ``rule`` is None: it does not stop)
+ON_THE_MOVE = "on the move"
 
 #: (key, heading) of the comparison's table.
-ROW_COLUMNS = (("rule", "stop rule"), ("stops", "stops"), ("row_time", "row time, s"), ("fruit_per_hour", "fruit / h"),
+ROW_COLUMNS = (("name", "plan"), ("stops", "stops"), ("row_time", "row time, s"), ("fruit_per_hour", "fruit / h"),
                ("share_harvested", "harvested"), ("ratio_any_plan_bound", "/ bound (any plan)"),
-               ("ratio_stop_and_go_bound", "/ bound (stop by stop, no overlap)"), ("planning_time", "planning, s"), ("verified", "verified"))
+               ("ratio_stop_and_go_bound", "/ bound (stop by stop, no overlap)"), ("speed", "speed, m/s"), ("planning_time", "planning, s"), ("verified", "verified"))
 
 
 @dataclass
@@ -38,16 +45,52 @@ class RowComparison:
     rows: list[dict] = field(default_factory=list)
     files: dict[str, str] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    gantry: str = GantryMode.AUTO.value  # which modes were compared (auto: both)
+
+    @property
+    def best(self) -> dict | None:
+        """The verified plan with every harvestable fruit and the most fruit per hour, its lead
+        over the best of the other mode where both were compared; None where no plan qualifies."""
+        ok = [r for r in self.rows if r["verified"] and r["status"] == PlanStatus.SUCCESS.value and r["fruit_per_hour"]]
+        if not ok:
+            return None
+        top = max(ok, key=lambda r: r["fruit_per_hour"])
+        out = {"name": top["name"], "mode": top["mode"], "fruit_per_hour": top["fruit_per_hour"]}
+        other = [r for r in ok if r["mode"] != top["mode"]]
+        if other:
+            runner = max(other, key=lambda r: r["fruit_per_hour"])
+            out |= {"over": runner["name"], "gain": top["fruit_per_hour"] / runner["fruit_per_hour"] - 1.0}
+        return out
 
     def to_dict(self) -> dict:
-        return {"format": "coplan.compare-rows/1", "problem": self.problem, "cell_planner": self.cell_planner,
-                "rows": self.rows, "notes": self.notes}
+        return {"format": "coplan.compare-rows/2", "problem": self.problem, "cell_planner": self.cell_planner,
+                "gantry": self.gantry, "rows": self.rows, "best": self.best, "notes": self.notes}
+
+    @property
+    def title(self) -> str:
+        what = {GantryMode.STOP_AND_GO.value: "stop rules", GantryMode.CONTINUOUS.value: "on the move"}.get(
+            self.gantry, "stop rules and on the move")
+        cells = "" if self.gantry == GantryMode.CONTINUOUS.value else f" ({self.cell_planner} cell planner at each stop)"
+        return f"{self.problem}: {what} side by side{cells}"
+
+    def best_text(self) -> str | None:
+        """One line: which plan harvests most fruit per hour, and by how much over the other mode."""
+        b = self.best
+        if b is None:
+            return None
+        other = "" if "over" not in b else b["over"] if b["over"] == ON_THE_MOVE else f"the {b['over']} stops"
+        lead = f", {100 * b['gain']:.1f} % more than {other}" if other else ""
+        return f"most fruit per hour: {b['name']} ({b['fruit_per_hour']:.0f} fruit/h{lead})"
 
 
 def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), planner: PlannerKind | str | None = None,
-                 progress=None, workers: int | None = None) -> RowComparison:
-    """Plan ``problem`` (a row) with each of ``rules``; write each run and the comparison
-    (``workers``: each rule's stops' cells in that many processes, :class:`coplan.row.plan.RowOptions`)."""
+                 progress=None, workers: int | None = None, gantry: GantryMode | str = GantryMode.AUTO) -> RowComparison:
+    """Plan ``problem`` (a row) stop and go with each of ``rules`` and on the move; write each
+    run and the comparison. ``gantry``: ``auto`` (default) both modes, ``stop-and-go`` the
+    rules alone, ``continuous`` on the move alone (``rules`` and ``planner``, the cell planner
+    at each stop, are then refused). ``workers``: each rule's stops' cells, and the speed
+    search's levels on the move, in that many processes (:class:`coplan.row.plan.RowOptions`,
+    :class:`coplan.row.continuous.MovingOptions`; the same plans for any number)."""
     from ..pipeline import solve
     from ..row.metrics import fruit_bounds_count
 
@@ -60,50 +103,79 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
                         f"{type(problem).__name__} {str(problem)[:60]!r}")
     if isinstance(rules, str):  # one rule, not its letters ("found 'f'")
         rules = (rules,)
+    mode = GantryMode(gantry)
+    if mode == GantryMode.CONTINUOUS:
+        if tuple(rules) != tuple(StopRule):
+            raise ValueError("rules: on the move (gantry continuous) the carriage does not stop; a stop rule applies to stop and go")
+        if planner is not None and PlannerKind(planner) != PlannerKind.COORDINATED:
+            raise ValueError("planner: on the move the arms are planned by the row's own booking; the cell planners apply to stop and go")
+        rules = []
     say, tick = speaker(progress), ticker(progress)
     check_folder(out_dir, "out_dir")  # (before any work)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    cmp = RowComparison(problem.name, PlannerKind(planner).value if planner is not None else PlannerKind.COORDINATED.value)
-    rules = [StopRule(r) for r in rules]
-    options = None
+    cmp = RowComparison(problem.name, PlannerKind(planner).value if planner is not None else PlannerKind.COORDINATED.value,
+                        gantry=mode.value)
+    runs: list[StopRule | None] = [StopRule(r) for r in rules] if mode != GantryMode.CONTINUOUS else []
+    if mode != GantryMode.STOP_AND_GO:
+        runs.append(None)  # on the move, after the stop rules
+    row_options = moving_options = None
     if workers is not None:
+        from ..row.continuous import MovingOptions
         from ..row.plan import RowOptions
 
-        options = RowOptions(workers=workers)
-    for i, rule in enumerate(rules):
-        tick(Tick("compare", i, len(rules), "stop rules", note=rule.value))
-        say(f"{problem.name}: stops {rule.value}")
-        res = solve(problem, planner=planner, out_dir=out / rule.value, progress=nested(progress), stops=rule, options=options)
+        row_options, moving_options = RowOptions(workers=workers), MovingOptions(workers=workers)
+    for i, rule in enumerate(runs):
+        name = rule.value if rule is not None else ON_THE_MOVE
+        tick(Tick("compare", i, len(runs), "row plans", note=name))
+        say(f"{problem.name}: " + (f"stops {rule.value}" if rule is not None else ON_THE_MOVE))
+        what = f"stop rule {rule.value}" if rule is not None else ON_THE_MOVE
+        try:
+            if rule is not None:
+                res = solve(problem, planner=planner, out_dir=out / rule.value, progress=nested(progress), stops=rule,
+                            options=row_options, gantry=GantryMode.STOP_AND_GO)
+            else:
+                res = solve(problem, out_dir=out / GantryMode.CONTINUOUS.value, progress=nested(progress),
+                            options=moving_options, gantry=GantryMode.CONTINUOUS)
+        except KeyboardInterrupt:  # (before it had a plan to keep: the plans finished are still reported)
+            cmp.notes.append(f"interrupted while planning {what}, before it had a plan: "
+                             f"this report covers {i} of {len(runs)} plans")
+            _write(cmp, out)
+            raise
         m = res.plan.metrics.get("row") or {}
         cut = res.plan.status == PlanStatus.INTERRUPTED
         whole = (m.get("harvested") or 0) >= fruit_bounds_count(m)  # (no ratio to bounds that count fruit it left)
-        cmp.rows.append({"rule": rule.value + (" (interrupted)" if cut else ""), "stops": m.get("stops"), "row_time": m.get("row_time"),
+        label = name + (" (interrupted)" if cut else "")
+        cmp.rows.append({"name": label, "mode": (GantryMode.STOP_AND_GO if rule is not None else GantryMode.CONTINUOUS).value,
+                         "rule": label if rule is not None else None, "stops": m.get("stops"), "row_time": m.get("row_time"),
                          "fruit_per_hour": m.get("fruit_per_hour"), "share_harvested": m.get("share_harvested"),
                          "ratio_any_plan_bound": m.get("ratio_any_plan_bound") if whole else None,
-                         "ratio_stop_and_go_bound": m.get("ratio_stop_and_go_bound") if whole else None,
+                         # (a plan on the move is no stop-by-stop plan: that bound does not hold for it)
+                         "ratio_stop_and_go_bound": m.get("ratio_stop_and_go_bound") if whole and rule is not None else None,
+                         "speed": m.get("mean_speed") if rule is None else None,
                          "planning_time": m.get("planning_time"), "first_motion_seconds": m.get("first_motion_seconds"),
                          "kept_ahead": m.get("kept_ahead"), "verified": bool(res.verification.passed),
                          "status": res.plan.status.value, "plan": str(res.files.get("json", ""))})
         if res.plan.status not in (PlanStatus.SUCCESS, PlanStatus.INTERRUPTED):  # (an empty row read "0.0 s, verified")
-            cmp.notes.append(_status_note(rule, res.plan, problem))
+            cmp.notes.append(_status_note(name, res.plan, problem))
         if cut:  # Ctrl-C / SIGTERM: what finished is written, said, and the run stops
-            cmp.notes.append(f"interrupted while planning stop rule {rule.value}: its row is cut short (status interrupted); "
-                             f"this report covers {i} of {len(rules)} rules whole")
+            cmp.notes.append(f"interrupted while planning {what}: its row is cut short (status interrupted); "
+                             f"this report covers {i} of {len(runs)} plans whole")
             _write(cmp, out)
             raise KeyboardInterrupt
     _write(cmp, out)
     return cmp
 
 
-def _status_note(rule: StopRule, plan, problem: Problem) -> str:
+def _status_note(name: str, plan, problem: Problem) -> str:
     """Why a rule's row is not a success, in one line (its status is in compare.json too)."""
     m = plan.metrics
     why = {PlanStatus.INFEASIBLE: "no fruit can be harvested from any carriage position"
                                   + (" (the problem lists no fruit)" if not problem.fruits else ""),
            PlanStatus.PARTIAL: f"{m.get('harvested', 0)} of {m.get('reachable', 0)} harvestable fruit harvested",
            PlanStatus.UNSAFE: "the verifier failed its plan (verification.json says where)"}.get(plan.status, "")
-    return f"stop rule {rule.value}: status {plan.status.value}" + (f": {why}" if why else "")
+    what = f"stop rule {name}" if name != ON_THE_MOVE else ON_THE_MOVE
+    return f"{what}: status {plan.status.value}" + (f": {why}" if why else "")
 
 
 def _write(cmp: RowComparison, out: Path) -> None:
@@ -116,6 +188,15 @@ def _write(cmp: RowComparison, out: Path) -> None:
     atomic_text(out / "compare.md", to_markdown(cmp))
 
 
+def columns(cmp: RowComparison) -> tuple[tuple[str, str], ...]:
+    """The table's columns for ``cmp``: the speed only where a plan is on the move, the
+    stop-by-stop bound's ratio only where one stops."""
+    modes = {r["mode"] for r in cmp.rows}
+    drop = ({"speed"} if GantryMode.CONTINUOUS.value not in modes else set()) \
+        | ({"ratio_stop_and_go_bound"} if GantryMode.STOP_AND_GO.value not in modes else set())
+    return tuple(c for c in ROW_COLUMNS if c[0] not in drop)
+
+
 def cell_text(key: str, v) -> str:
     if v is None:
         return "-"
@@ -123,14 +204,18 @@ def cell_text(key: str, v) -> str:
         return f"{100 * v:.1f} %"
     if key == "verified":
         return "yes" if v else "NO"
+    if key == "speed":
+        return f"{v:.3f}"
     if isinstance(v, float):
         return f"{v:.3f}" if key.startswith("ratio") else f"{v:.1f}" if key != "planning_time" else f"{v:.2f}"
     return str(v)
 
 
 def to_markdown(cmp: RowComparison) -> str:
-    lines = [f"# {cmp.problem}: stop rules side by side ({cmp.cell_planner} cell planner at each stop)", "",
-             "| " + " | ".join(h for _, h in ROW_COLUMNS) + " |", "|" + "---|" * len(ROW_COLUMNS)]
-    lines += ["| " + " | ".join(cell_text(k, r.get(k)) for k, _ in ROW_COLUMNS) + " |" for r in cmp.rows]
+    lines = [f"# {cmp.title}", "",
+             "| " + " | ".join(h for _, h in columns(cmp)) + " |", "|" + "---|" * len(columns(cmp))]
+    lines += ["| " + " | ".join(cell_text(k, r.get(k)) for k, _ in columns(cmp)) + " |" for r in cmp.rows]
+    best = cmp.best_text()
+    lines += ["", best[0].upper() + best[1:] + "."] if best else []
     lines += [""] + [f"Note: {n}" for n in cmp.notes] if cmp.notes else []
     return "\n".join(lines) + "\n"

@@ -1,0 +1,84 @@
+"""``coplan compare ROW``: the stop rules and on the move side by side (coplan.report.rows)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+import coplan
+from coplan.cli import app
+from coplan.generate import gantry_row, to_yaml
+from coplan.plan import load_plan
+from coplan.problem import parse_problem
+from coplan.report.rows import ON_THE_MOVE, compare_rows
+from coplan.verify.verifier import verify
+
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def row():
+    return parse_problem(to_yaml(gantry_row(length=8.0, density=2.0, seed=3)), "row.yaml")
+
+
+def test_on_the_move_is_compared_beside_the_stop_rules_as_solve_plans_it(row, tmp_path):
+    """The plan on the move in the comparison is the one ``coplan.solve(gantry="continuous")``
+    makes (a cross-check of the two paths), its file passes the verifier, the stop-by-stop
+    bound is not applied to it, and ``best`` names the plan with the most fruit per hour."""
+    cmp = compare_rows(row, tmp_path / "c", rules=("fixed",))
+    assert [(r["name"], r["mode"], r["rule"]) for r in cmp.rows] == [("fixed", "stop-and-go", "fixed"),
+                                                                      (ON_THE_MOVE, "continuous", None)]
+    fixed, moving = cmp.rows
+    alone = coplan.solve(row, gantry="continuous").plan.metrics["row"]
+    assert moving["row_time"] == alone["row_time"] and moving["speed"] == alone["mean_speed"] > 0
+    assert moving["ratio_stop_and_go_bound"] is None and moving["ratio_any_plan_bound"] > 1.0
+    assert fixed["speed"] is None and 1.0 <= fixed["ratio_stop_and_go_bound"] <= fixed["ratio_any_plan_bound"]
+    for r in cmp.rows:  # every plan written is one the verifier passes, read back from its file
+        assert r["verified"] and r["share_harvested"] == 1.0 and verify(row, load_plan(r["plan"])).passed
+    top, other = sorted(cmp.rows, key=lambda r: -r["fruit_per_hour"])
+    best = json.loads((tmp_path / "c" / "compare.json").read_text())["best"]
+    assert best["name"] == top["name"] and best["gain"] == pytest.approx(top["fruit_per_hour"] / other["fruit_per_hour"] - 1)
+    md = (tmp_path / "c" / "compare.md").read_text()
+    assert "| speed, m/s |" in md and f"Most fruit per hour: {top['name']} (" in md
+
+
+def test_one_mode_alone_and_what_each_refuses(row, tmp_path, problems_dir):
+    cmp = compare_rows(row, tmp_path / "s", rules=("fewest",), gantry="stop-and-go")
+    assert [r["name"] for r in cmp.rows] == ["fewest"] and cmp.best == {"name": "fewest", "mode": "stop-and-go",
+                                                                        "fruit_per_hour": cmp.rows[0]["fruit_per_hour"]}
+    md = (tmp_path / "s" / "compare.md").read_text()
+    assert "speed" not in md and md.startswith(f"# {row.name}: stop rules side by side (coordinated")
+    cmp = compare_rows(row, tmp_path / "m", gantry="continuous")
+    assert [r["name"] for r in cmp.rows] == [ON_THE_MOVE] and not (tmp_path / "m" / "fixed").exists()
+    assert "stop by stop" not in (tmp_path / "m" / "compare.md").read_text()
+    with pytest.raises(ValueError, match="a stop rule applies to stop and go"):
+        compare_rows(row, tmp_path / "x", rules=("fixed",), gantry="continuous")
+    with pytest.raises(ValueError, match="the cell planners apply to stop and go"):
+        compare_rows(row, tmp_path / "x", planner="optimal", gantry="continuous")
+    f = tmp_path / "row.yaml"
+    f.write_text(to_yaml(gantry_row(length=8.0, density=2.0, seed=3)))
+    for args, said in ((["--gantry", "continuous", "--planner", "optimal"], "--planner optimal: on the move"),
+                       (["--gantry", "auto", "--clearance-sweep"], "--gantry: a row's comparison of its modes")):
+        r = runner.invoke(app, ["compare", str(f), *args, "--out", str(tmp_path / "y")])
+        assert r.exit_code == 2 and said in r.output, r.output
+    r = runner.invoke(app, ["compare", str(problems_dir / "crossing_paths.yaml"), "--gantry", "auto", "--out", str(tmp_path / "z")])
+    assert r.exit_code == 2 and "--gantry: crossing_paths.yaml is not a row" in r.output, r.output
+    assert not (tmp_path / "y").exists() and not (tmp_path / "z").exists()
+
+
+def test_an_interrupt_before_the_plan_on_the_move_keeps_the_stop_rules_report(row, tmp_path, monkeypatch):
+    """(A Ctrl-C before the speed search had a plan went up through compare_rows with the
+    finished stop rules' report unwritten.)"""
+    import coplan.row.moving as moving
+
+    def cut(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(moving, "plan_moving", cut)
+    with pytest.raises(KeyboardInterrupt):
+        compare_rows(row, tmp_path / "c", rules=("fixed",))
+    doc = json.loads((tmp_path / "c" / "compare.json").read_text())
+    assert [r["name"] for r in doc["rows"]] == ["fixed"] and doc["rows"][0]["verified"]
+    assert doc["notes"] == ["interrupted while planning on the move, before it had a plan: this report covers 1 of 2 plans"]
