@@ -57,6 +57,12 @@ def test_one_mode_alone_and_what_each_refuses(row, tmp_path, problems_dir):
         compare_rows(row, tmp_path / "x", rules=("fixed",), gantry="continuous")
     with pytest.raises(ValueError, match="the cell planners apply to stop and go"):
         compare_rows(row, tmp_path / "x", planner="optimal", gantry="continuous")
+    for bad, said in (({"problem": "crossing_paths"}, "'crossing-paths' is a stationary cell"),
+                      ({"problem": row, "rules": ("nope",)}, "stop rule: expected one of"),
+                      ({"problem": row, "gantry": "both"}, "gantry mode: expected one of")):
+        with pytest.raises(ValueError, match=said):
+            compare_rows(out_dir=tmp_path / "never", **bad)
+    assert not (tmp_path / "never").exists()  # (refused before the folder is made)
     f = tmp_path / "row.yaml"
     f.write_text(to_yaml(gantry_row(length=8.0, density=2.0, seed=3)))
     for args, said in ((["--gantry", "continuous", "--planner", "optimal"], "--planner optimal: on the move"),

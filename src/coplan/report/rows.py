@@ -101,8 +101,12 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     elif not isinstance(problem, Problem):
         raise TypeError(f"compare_rows: expected a Problem, a problem file's path or a shipped name, found "
                         f"{type(problem).__name__} {str(problem)[:60]!r}")
+    if problem.gantry is None:  # (before any work: it made the folder, then solve said "gantry: ...")
+        raise ValueError(f"compare_rows: {problem.name!r} is a stationary cell (no gantry section): "
+                         "coplan.report.comparison.compare compares a cell's planners")
     if isinstance(rules, str):  # one rule, not its letters ("found 'f'")
         rules = (rules,)
+    rules = [StopRule(r) for r in rules]  # (a bad one refused before the folder is made)
     mode = GantryMode(gantry)
     if mode == GantryMode.CONTINUOUS:
         if tuple(rules) != tuple(StopRule):
@@ -116,7 +120,7 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     out.mkdir(parents=True, exist_ok=True)
     cmp = RowComparison(problem.name, PlannerKind(planner).value if planner is not None else PlannerKind.COORDINATED.value,
                         gantry=mode.value)
-    runs: list[StopRule | None] = [StopRule(r) for r in rules] if mode != GantryMode.CONTINUOUS else []
+    runs: list[StopRule | None] = list(rules)
     if mode != GantryMode.STOP_AND_GO:
         runs.append(None)  # on the move, after the stop rules
     row_options = moving_options = None
