@@ -81,8 +81,10 @@ def test_notebook_runs_top_to_bottom(name, kernel, tmp_path):
             assert load_problem(path).name in tables[0]
         assert "| heuristic |" in tables[0] and "| optimal |" in tables[0]
     elif name == "row_analysis.ipynb":
-        assert len(pngs) >= 3  # stops along the row, idle by cause, fruit per hour per arm
+        assert len(pngs) >= 4  # stops along the row, idle by cause, fruit per hour per arm, fruit per hour against speed
         assert any(t.startswith("| rule | stops |") and "| optimised |" in t and "| fewest |" in t for t in tables)
+        moving = [t for t in tables if t.startswith("| mode |")]  # on the move beside the best stop rule, both verified
+        assert len(moving) == 1 and "| on the move, " in moving[0] and moving[0].count("| True |") == 2, moving
     elif name == "design_sweep.ipynb":
         assert len(pngs) >= 3  # throughput vs spacing, ratio distribution, Pareto front
         assert any(t.startswith("| n_arms |") for t in tables) and any(t.startswith("| arms | density") for t in tables)
