@@ -12,6 +12,11 @@
 2. **Speed curve** of continuous mode on one row: fruit per hour and share harvested against
    the carriage's speed -- one constant speed every 0.05 m/s, and every full plan the density
    profile's speed search tried (each verified).
+2b. **Profiles** (``--parts profiles``, not in the default run): on every head-to-head row, the
+   speed search over one constant speed against the search over a density profile (the
+   default), each a full plan verified (``coplan verify`` on its file too): row time, fruit per
+   hour, mean speed, planning time, and which profile wins by how much -- whether shaping the
+   speed to the fruit pays (issue 29: "constant per row first; per segment by density if it pays").
 3. **Arms curve**: fruit per hour against the number of arms (1 to 12, 2 m apart) on one
    generated 30 m row at 12 fruit per metre, stop and go (optimised stops) and on the move, run
    as a ``coplan sweep`` (``base: gantry``) on a 2-worker Dask LocalCluster; the figure
@@ -38,6 +43,7 @@ Every ratio is measured in this run, on this machine. Every plan is verified.
     python benchmarks/bench_moving.py --live-only   # the live rows only
     python benchmarks/bench_moving.py --faults-only # the fault runs only
     python benchmarks/bench_moving.py --parts head,live  # some of the parts, in one run
+    python benchmarks/bench_moving.py --parts profiles   # constant against density speed search
 """
 
 from __future__ import annotations
@@ -128,6 +134,43 @@ def head_to_head(quick: bool) -> None:
                         f"{pool[best][0]['ratio_any_plan_bound']:.3f} x the bound for any motion{vs}")
     print()
     print("\n".join(wins))
+
+
+def profiles(quick: bool) -> None:
+    """Part 2b (module docstring): the speed search over a constant speed against a density profile."""
+    from coplan.allocate.row_bound import row_bounds
+    from coplan.kinds import SpeedProfile
+    from coplan.row.continuous import MovingOptions
+    from coplan.row.metrics import row_metrics
+    from coplan.row.moving import plan_moving
+
+    print("| row | fruit | profile | row time | fruit / h | harvested | / bound (any motion) | mean speed | planning | "
+          "planning / row time | coplan verify |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    lines = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, prob, text in _rows(quick):
+            b = row_bounds(prob)
+            per = {}
+            for prof in (SpeedProfile.CONSTANT, SpeedProfile.DENSITY):
+                res = plan_moving(prob, MovingOptions(profile=prof, workers=WORKERS))
+                m = row_metrics(prob, res, b)
+                ok = res.verification.passed and _cli_verify(text, res.plan, Path(tmp) / name.replace(" ", "_") / prof.value)
+                per[prof.value] = (m, ok)
+                print(f"| {name} | {len(prob.fruits)} | {prof.value} | {m['row_time']:.1f} s | {m['fruit_per_hour']:.0f} | "
+                      f"{100 * (m['share_harvested'] or 0):.1f} % | {m['ratio_any_plan_bound']:.3f} | {m['mean_speed']:.3f} m/s | "
+                      f"{m['planning_time']:.2f} s | {100 * m['planning_over_row_time']:.2f} % | {'yes' if ok else 'NO'} |", flush=True)
+            c, d = per["constant"][0], per["density"][0]
+            whole = [k for k, (m, ok) in per.items() if ok and (m["share_harvested"] or 0) >= 1.0 - 1e-9]
+            if len(whole) == 2:
+                best, other = (("constant", c), ("density", d)) if c["fruit_per_hour"] > d["fruit_per_hour"] else (("density", d), ("constant", c))
+                lines.append(f"- {name}: {best[0]} wins, {100 * (best[1]['fruit_per_hour'] / other[1]['fruit_per_hour'] - 1):+.1f} % "
+                             f"fruit per hour; both searches {c['planning_time'] + d['planning_time']:.1f} s = "
+                             f"{100 * (c['planning_time'] + d['planning_time']) / best[1]['row_time']:.2f} % of the better row time")
+            else:
+                lines.append(f"- {name}: complete and verified: {', '.join(whole) or 'neither'}")
+    print()
+    print("\n".join(lines))
 
 
 def speed_curve(name: str = "sparse_row") -> None:
@@ -319,7 +362,8 @@ def main() -> None:
     ap.add_argument("--arms-only", action="store_true", help="the arms curve only")
     ap.add_argument("--live-only", action="store_true", help="the live rows only (at 0.1 m/s)")
     ap.add_argument("--faults-only", action="store_true", help="the fault runs only")
-    ap.add_argument("--parts", default=None, help="a comma list of parts to run, of: head, speed, arms, live, faults "
+    ap.add_argument("--parts", default=None, help="a comma list of parts to run, of: head, speed, arms, live, faults, "
+                                                  "profiles (the last only when asked for) "
                                                   "(e.g. head,live: what a change to the stop rules' plans moves)")
     ap.add_argument("--figure", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "arms_curve.png",
                     help="where the arms curve's figure goes (default docs/arms_curve.png)")
@@ -330,11 +374,13 @@ def main() -> None:
     parts = {"head", "speed", "arms", "live", "faults"}
     if args.parts is not None:
         asked = {p.strip() for p in args.parts.split(",") if p.strip()}
-        if not asked or asked - parts:
-            ap.error(f"--parts: expected a comma list of {', '.join(sorted(parts))}, found {args.parts!r}")
+        if not asked or asked - parts - {"profiles"}:
+            ap.error(f"--parts: expected a comma list of {', '.join(sorted(parts | {'profiles'}))}, found {args.parts!r}")
         parts = asked
     if not only and "head" in parts:
         head_to_head(args.quick)
+    if args.parts is not None and "profiles" in parts:  # (its own part: not in the default run)
+        profiles(args.quick)
     if not args.quick and not only and "speed" in parts:
         speed_curve()
     if not args.quick and (not only or args.arms_only) and "arms" in parts:

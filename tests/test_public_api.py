@@ -20,7 +20,7 @@ ROOT = Path(__file__).resolve().parents[1]
 # the README and the user docs it links to (docs/usage.md, docs/benchmarks.md)
 README = "\n".join((ROOT / f).read_text(encoding="utf-8") for f in ("README.md", "docs/usage.md", "docs/benchmarks.md"))
 PY_BLOCKS = re.findall(r"```python\n(.*?)```", README, re.S)
-DOTTED = re.compile(r"\bcoplan(?:\.[A-Za-z_]\w*)+(?![\w/])")
+DOTTED = re.compile(r"\bcoplan(?:\.[A-Za-z_]\w*)+(?![\w/-])")  # (not a file format: coplan.compare-rows/2)
 
 
 def _code_names() -> set[str]:
