@@ -28,7 +28,7 @@ from .summary import print_summary, print_table, print_verification
 from .summary import safe as _s
 from .console import FlagsGroup, ProgressDisplay, run_console, text_console
 from ..errors import InputError, plural, printable
-from ..kinds import AllocationMethod, ExitCode, FclMode, GantryMode, PlannerKind, StopRule
+from ..kinds import AllocationMethod, ExitCode, FclMode, GantryMode, PlannerKind, SpeedProfile, StopRule
 
 app = typer.Typer(
     cls=FlagsGroup,  # flags shown without a <bool> value in --help
@@ -110,6 +110,10 @@ def solve(
              "(both, each verified; the better kept).")] = None,
     speed: Annotated[Optional[float], typer.Option(parser=real, metavar="<float>",
         help="A row on the move: one cruising speed, m/s (default: the speed search, a speed per metre of rail).")] = None,
+    profile: Annotated[Optional[SpeedProfile], typer.Option(
+        parser=choice(SpeedProfile), metavar=choices(SpeedProfile), help="A row on the move: what the speed search "
+             "varies -- density (default: a speed per metre of rail, slower where the fruit need more of the arms' "
+             "time) or constant (one cruising speed for the row; faster on some dense rows with many arms).")] = None,
     resolution: ResolutionOption = None,
     stop_price: Annotated[Optional[float], typer.Option(
         "--stop-price", parser=real, metavar="S", callback=between(0.0, 600.0, "s"),
@@ -152,7 +156,7 @@ def solve(
         refused = refused_on_a_row(planner, allocation, options_file, time_limit, gantry)
         if refused:
             _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): {'; '.join(refused)}")
-        moving = moving_options(path, gantry, speed, stops, planner)
+        moving = moving_options(path, gantry, speed, stops, planner, profile)
         for flag, value in (("--stop-price", stop_price), ("--pace-price", pace_price)):
             if value is not None and (moving is not None or stops not in (None, StopRule.OPTIMISED)):
                 _fail(ExitCode.USAGE, f"{flag}: the optimised stop rule's price of a stop applies stop and go (--stops "
@@ -186,9 +190,9 @@ def solve(
                 raise
             _fail(ExitCode.USAGE, f"--speed: {slow[0].message.replace('a pace', 'a cruising speed (m/s)')} ({path.name!r})")
         return _report_solve(res, out, animate, html, as_json)
-    if gantry is not None or speed is not None or resolution is not None or stop_price is not None or pace_price is not None:
-        _fail(ExitCode.USAGE, f"--gantry/--speed/--resolution/--stop-price/--pace-price: {path.name} is a stationary cell (no gantry section); "
-                              "they apply to a row")
+    if any(v is not None for v in (gantry, speed, profile, resolution, stop_price, pace_price)):
+        _fail(ExitCode.USAGE, f"--gantry/--speed/--profile/--resolution/--stop-price/--pace-price: {path.name} is a stationary "
+                              "cell (no gantry section); they apply to a row")
     if stops is not None:
         _fail(ExitCode.USAGE, f"--stops: {path.name} is a stationary cell (no gantry section); a stop rule applies to a row")
     planner = planner or PlannerKind.OPTIMAL

@@ -172,12 +172,17 @@ def refused_on_a_row(planner, allocation, options_file, time_limit, gantry=None)
 _SHORT = {"ratio_stop_and_go_bound": "/ bound (stop by stop, no overlap)", "planning_time": "planning s", "speed": "speed m/s"}  # (the terminal's table)
 
 
-def moving_options(problem, gantry, speed, stops, planner):
-    """The row-on-the-move options of ``coplan solve``, or None for stop and go (usage checked)."""
+def moving_options(problem, gantry, speed, stops, planner, profile=None):
+    """The row-on-the-move options of ``coplan solve``, or None for stop and go (usage checked);
+    ``profile``: what the speed search varies (default its own, density)."""
     if gantry not in (GantryMode.CONTINUOUS, GantryMode.AUTO):
-        if speed is not None:
-            fail(ExitCode.USAGE, "--speed: a cruising speed applies on the move (--gantry continuous or auto)")
+        for flag, what, given in (("--speed", "a cruising speed", speed), ("--profile", "the speed search's profile", profile)):
+            if given is not None:
+                fail(ExitCode.USAGE, f"{flag}: {what} applies on the move (--gantry continuous or auto)")
         return None
+    if speed is not None and profile == SpeedProfile.DENSITY:
+        fail(ExitCode.USAGE, "--profile density: --speed gives one cruising speed for the whole row (a constant "
+                             "profile); without --speed the search varies the speed per metre of rail")
     if stops is not None and gantry == GantryMode.CONTINUOUS:
         fail(ExitCode.USAGE, "--stops: on the move (--gantry continuous) the carriage does not stop")
     if planner is not None and planner != PlannerKind.COORDINATED and gantry == GantryMode.CONTINUOUS:
@@ -186,7 +191,7 @@ def moving_options(problem, gantry, speed, stops, planner):
     from ..row.continuous import MovingOptions
 
     if speed is None:
-        return MovingOptions()
+        return MovingOptions() if profile is None else MovingOptions(profile=profile)
     from ..row.continuous import cruise_issue
 
     bad = cruise_issue(problem, speed)
