@@ -82,6 +82,7 @@ class SpeedProfile(Choice):
 
     CONSTANT = "constant"  # one cruising speed for the whole row
     DENSITY = "density"  # a speed per metre of rail, slower where the fruit need more of the arms' time
+    AUTO = "auto"  # both searched, each verified: the better plan kept (row.moving; twice the planning)
 
 
 class PlanStatus(Choice):

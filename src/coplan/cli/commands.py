@@ -113,7 +113,8 @@ def solve(
     profile: Annotated[Optional[SpeedProfile], typer.Option(
         parser=choice(SpeedProfile), metavar=choices(SpeedProfile), help="A row on the move: what the speed search "
              "varies -- density (default: a speed per metre of rail, slower where the fruit need more of the arms' "
-             "time) or constant (one cruising speed for the row; faster on some dense rows with many arms).")] = None,
+             "time), constant (one cruising speed for the row; faster on some dense rows with many arms) or auto (both, each "
+             "verified, the better kept; twice the planning).")] = None,
     resolution: ResolutionOption = None,
     stop_price: Annotated[Optional[float], typer.Option(
         "--stop-price", parser=real, metavar="S", callback=between(0.0, 600.0, "s"),

@@ -180,9 +180,10 @@ def moving_options(problem, gantry, speed, stops, planner, profile=None):
             if given is not None:
                 fail(ExitCode.USAGE, f"{flag}: {what} applies on the move (--gantry continuous or auto)")
         return None
-    if speed is not None and profile == SpeedProfile.DENSITY:
-        fail(ExitCode.USAGE, "--profile density: --speed gives one cruising speed for the whole row (a constant "
-                             "profile); without --speed the search varies the speed per metre of rail")
+    if speed is not None and profile not in (None, SpeedProfile.CONSTANT):
+        fail(ExitCode.USAGE, f"--profile {profile.value}: --speed gives one cruising speed for the whole row (a constant "
+                             "profile); without --speed the search varies the speed per metre of rail (density), one speed "
+                             "for the row (constant) or both (auto)")
     if stops is not None and gantry == GantryMode.CONTINUOUS:
         fail(ExitCode.USAGE, "--stops: on the move (--gantry continuous) the carriage does not stop")
     if planner is not None and planner != PlannerKind.COORDINATED and gantry == GantryMode.CONTINUOUS:

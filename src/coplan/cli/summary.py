@@ -115,6 +115,14 @@ def print_row_summary(console, res) -> None:
             p(f"  gantry auto       {safe(auto['chosen'])} kept: {auto[auto['chosen']]['fruit_per_hour']:.0f} fruit/h against "
               f"{auto[other]['fruit_per_hour']:.0f} {safe(auto[other].get('label') or other)} ({auto[other]['harvested']} fruit, "
               f"{'verified' if auto[other]['verified'] else 'NOT verified'}){cut}")
+    profs = solver.get("profiles")
+    if profs:  # --profile auto: both speed searches, the better kept
+        kept = profs["kept"]
+        other = next((k for k in profs if k not in (kept, "kept")), None)
+        p(f"  profile auto      {safe(kept)} kept: {profs[kept]['fruit_per_hour']:.0f} fruit/h against "
+          + (f"{profs[other]['fruit_per_hour']:.0f} {safe(other)} ({profs[other]['harvested']} fruit, "
+             f"{'verified' if profs[other]['verified'] else 'NOT verified'})" if other else
+             f"nothing: {safe(solver.get('interrupted'))}"))
     out = r.get("screened_out") or {}
     p(f"  fruit             {r.get('harvested')} harvested of {r.get('harvestable')} harvestable "
       f"({fmt(None if r.get('share_harvested') is None else 100 * r['share_harvested'], ' %', 1)}); of {r.get('fruit')} fruit {len(out)} screened out"

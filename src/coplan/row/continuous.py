@@ -160,7 +160,9 @@ MIN_RATE, MAX_RATE = 100.0, 10_000.0  # Hz: a plan's samples (the verifier wants
 class MovingOptions:
     """How to plan a row on the move (separate from the problem).
 
-    profile : ``density`` (a speed per metre of rail, slower where fruit are dense) or ``constant``
+    profile : ``density`` (a speed per metre of rail, slower where fruit are dense), ``constant``, or
+        ``auto`` (the speed searched on both, each plan verified, the better kept as the search ranks
+        its plans; twice the planning: :func:`coplan.row.moving.plan_moving`)
     level : the cruising speed (m/s) of a constant profile, the pace of a density profile (the
         arms' share of time the carriage gives each stretch's fruit, :func:`make_cruise`);
         None: chosen by :func:`coplan.row.moving.speed_search`
@@ -195,6 +197,9 @@ class MovingOptions:
                                               f"found {self.rate:g}")], "MovingOptions")
         if SpeedProfile(self.profile) == SpeedProfile.CONSTANT and (fast := top_speed_issues("level", self.level, "planned")):
             raise OptionsError(fast, "MovingOptions")
+        if SpeedProfile(self.profile) == SpeedProfile.AUTO and self.level is not None:  # (a level means a speed or a pace)
+            raise OptionsError([Issue("level", f"expected null with profile auto (both profiles searched: a level is a "
+                                               f"speed on one, a pace on the other), found {self.level!r}")], "MovingOptions")
 
 
 @dataclass(frozen=True)

@@ -313,6 +313,8 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
     if getattr(problem, "gantry", None) is None:  # (as plan_row says it: it raised from deep in the screen)
         raise ValueError(f"{getattr(problem, 'name', problem)!r} has no gantry: plan it as a cell")
     opts = options or MovingOptions()
+    if SpeedProfile(opts.profile) == SpeedProfile.AUTO:
+        return _both_profiles(problem, opts, progress)
     if opts.level is not None and SpeedProfile(opts.profile) == SpeedProfile.CONSTANT:
         bad = cruise_issue(problem, opts.level)
         if bad:  # (before any work: a speed of micrometres per second books for hours and writes gigabytes)
@@ -338,6 +340,47 @@ def plan_moving(problem: Problem, options: MovingOptions | None = None,
     res.info["options"] = {f.name: (v.value if isinstance(v, enum.Enum) else v)
                            for f in dataclasses.fields(opts) for v in [getattr(opts, f.name)]}
     res.timings["planning"] = total  # the whole search, verification of every candidate included
+    res.plan.solver["timings"] = dict(res.timings)
+    res.plan.solver["row"] = res.info
+    return res
+
+
+def _both_profiles(problem: Problem, opts: MovingOptions, progress) -> RowResult:
+    """``profile=auto``: the speed searched over a density profile, then over one constant speed,
+    each plan verified; the better kept as the search ranks its plans (:func:`_rank`: complete and
+    verified, then most fruit, then most fruit per hour; a tie to density, the default).
+    ``info["profiles"]`` has both searches' figures, ``speed_curve`` both curves (each point its
+    ``profile``); the planning time counts both. A Ctrl-C in the second search keeps the first's
+    plan, said interrupted."""
+    t0 = _time.perf_counter()
+    done: dict[SpeedProfile, tuple[RowResult, float]] = {}
+    interrupted = None
+    for prof in (SpeedProfile.DENSITY, SpeedProfile.CONSTANT):
+        t = _time.perf_counter()
+        try:
+            res = plan_moving(problem, replace(opts, profile=prof), progress)
+        except KeyboardInterrupt:  # (before that search had a plan)
+            if not done:
+                raise
+            interrupted = f"interrupted in the {prof.value} profile's search, before it had a plan: the {next(iter(done)).value} profile's kept"
+            break
+        done[prof] = (res, _time.perf_counter() - t)
+        if res.plan.status == PlanStatus.INTERRUPTED:
+            interrupted = f"interrupted in the {prof.value} profile's search"
+            break
+    best = max(done, key=lambda k: (_rank(_point(done[k][0], done[k][1])), k == SpeedProfile.DENSITY))
+    res = done[best][0]
+    res.info["speed_curve"] = [c | {"profile": k.value} for k, (r, _) in done.items() for c in r.info["speed_curve"]]
+    res.info["profiles"] = {k.value: {"fruit_per_hour": _point(r, secs).fruit_per_hour, "harvested": _point(r, secs).harvested,
+                                      "row_time": _point(r, secs).row_time, "mean_speed": r.info.get("mean_speed"),
+                                      "verified": bool(r.verification.passed), "planning": secs}
+                            for k, (r, secs) in done.items()} | {"kept": best.value}
+    res.info["options"]["profile"] = SpeedProfile.AUTO.value  # (what the plan depends on: both were searched)
+    if interrupted:
+        res.plan.status = PlanStatus.INTERRUPTED
+        res.plan.solver["status"] = PlanStatus.INTERRUPTED.value
+        res.info["interrupted"] = interrupted
+    res.timings["planning"] = _time.perf_counter() - t0  # both searches
     res.plan.solver["timings"] = dict(res.timings)
     res.plan.solver["row"] = res.info
     return res
