@@ -52,6 +52,7 @@ def test_one_mode_alone_and_what_each_refuses(row, tmp_path, problems_dir):
     assert "speed" not in md and md.startswith(f"# {row.name}: stop rules side by side (coordinated")
     cmp = compare_rows(row, tmp_path / "m", gantry="continuous")
     assert [r["name"] for r in cmp.rows] == [ON_THE_MOVE] and not (tmp_path / "m" / "fixed").exists()
+    assert (tmp_path / "m" / "compare.md").read_text().startswith(f"# {row.name}: on the move (the speed searched)\n")
     assert "stop by stop" not in (tmp_path / "m" / "compare.md").read_text()
     with pytest.raises(ValueError, match="a stop rule applies to stop and go"):
         compare_rows(row, tmp_path / "x", rules=("fixed",), gantry="continuous")

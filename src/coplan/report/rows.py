@@ -68,10 +68,10 @@ class RowComparison:
 
     @property
     def title(self) -> str:
-        what = {GantryMode.STOP_AND_GO.value: "stop rules", GantryMode.CONTINUOUS.value: "on the move"}.get(
-            self.gantry, "stop rules and on the move")
-        cells = "" if self.gantry == GantryMode.CONTINUOUS.value else f" ({self.cell_planner} cell planner at each stop)"
-        return f"{self.problem}: {what} side by side{cells}"
+        if self.gantry == GantryMode.CONTINUOUS.value:
+            return f"{self.problem}: on the move (the speed searched)"
+        what = "stop rules" if self.gantry == GantryMode.STOP_AND_GO.value else "stop rules and on the move"
+        return f"{self.problem}: {what} side by side ({self.cell_planner} cell planner at each stop)"
 
     def best_text(self) -> str | None:
         """One line: which plan harvests most fruit per hour, and by how much over the other mode."""
