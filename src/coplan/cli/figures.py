@@ -41,6 +41,7 @@ class PlotKind(str, Enum):
     CLEARANCE = "clearance"
     JOINTS = "joints"
     WORKSPACE = "workspace"
+    SPEED = "speed"  # a row on the move: fruit per hour and share harvested against speed (viz.speed)
 
 
 def problem_of_plan(plan, plan_path: Path, problem: Optional[Path]):
@@ -144,12 +145,13 @@ def plot_cmd(
     arm: Annotated[Optional[str], typer.Option(help="joints/workspace: draw only this arm.")] = None,
     dpi: Annotated[int, typer.Option(parser=whole, metavar="<int>", callback=between(30, 600), help="Resolution of raster images, 30-600 dpi.")] = 120,
 ):
-    """Draw a figure of a plan: schedule Gantt, clearance, joint motion vs limits, or workspace map."""
+    """Draw a figure of a plan: schedule Gantt, clearance, joint motion vs limits, workspace map, or (a row on the move) fruit per hour against speed."""
     from ..viz import plots
 
-    if arm is not None and kind in (PlotKind.GANTT, PlotKind.CLEARANCE):  # (it was ignored: every arm drawn)
-        fail(ExitCode.USAGE, f"--arm: expected with --kind joints or workspace (a {kind.value} figure shows every arm or "
-                              f"pair), found --kind {kind.value}")
+    if arm is not None and kind in (PlotKind.GANTT, PlotKind.CLEARANCE, PlotKind.SPEED):  # (it was ignored: every arm drawn)
+        shows = "the whole row's plans" if kind == PlotKind.SPEED else "every arm or pair"
+        fail(ExitCode.USAGE, f"--arm: expected with --kind joints or workspace (a {kind.value} figure shows {shows}), "
+                              f"found --kind {kind.value}")
     target = out if out is not None else plan.with_name(f"{plan.stem}_{kind.value}.png")
     if out is not None and out.is_dir():  # (it wrote FOLDER.png beside the folder)
         target = out / f"{plan.stem}_{kind.value}.png"
@@ -169,6 +171,13 @@ def plot_cmd(
         fail(ExitCode.USAGE, f"--kind workspace: expected a stationary cell, found the row {prob.name!r} (its arms ride on "
                               "the carriage, so what they reach depends on where it stops): `coplan check` screens a row, "
                               "`coplan view` shows its fruit by arm and stop; --kind gantt, clearance and joints draw its plan")
+    if kind == PlotKind.SPEED:  # (before the verifier runs: a plan with no speed search is refused at once)
+        from ..viz.speed import speed_curve
+
+        try:
+            speed_curve(pl)
+        except ValueError as e:
+            fail(ExitCode.USAGE, f"--kind speed: {e}; --kind gantt, clearance and joints draw any plan")
     if pl is not None:  # (the title's status: the verdict's, not the file's word)
         checked(prob, pl)
     if kind == PlotKind.GANTT:
@@ -177,6 +186,10 @@ def plot_cmd(
         fig = plots.plot_clearance(prob, {pl.label: pl})
     elif kind == PlotKind.JOINTS:
         fig = plots.plot_joints(prob, pl, arms=None if arm is None else [arm])
+    elif kind == PlotKind.SPEED:
+        from ..viz.speed import plot_speed_curve
+
+        fig = plot_speed_curve(pl)
     else:
         fig = plots.plot_workspace(prob, arm)
     try:

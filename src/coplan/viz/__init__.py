@@ -6,6 +6,7 @@ functions that draw.
 
 * :mod:`coplan.viz.plots` -- Gantt, clearance, joint and workspace figures; comparison files.
 * :mod:`coplan.viz.animate` -- the plan animation (GIF, or MP4 with ffmpeg).
+* :mod:`coplan.viz.speed` -- a row on the move: fruit per hour and share harvested against speed.
 * :mod:`coplan.viz.timeline` -- the data behind them (phases, clearance, derivatives).
 * :mod:`coplan.viz.style` -- the shared per-arm palette.
 """
