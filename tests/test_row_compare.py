@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
@@ -54,6 +55,12 @@ def test_one_mode_alone_and_what_each_refuses(row, tmp_path, problems_dir):
     assert [r["name"] for r in cmp.rows] == [ON_THE_MOVE] and not (tmp_path / "m" / "fixed").exists()
     assert (tmp_path / "m" / "compare.md").read_text().startswith(f"# {row.name}: on the move (the speed searched)\n")
     assert "stop by stop" not in (tmp_path / "m" / "compare.md").read_text()
+    assert cmp.rows[0]["profile"] == "density"  # (the speed search's default, as solve's)
+    cmp = compare_rows(row, tmp_path / "a", gantry="continuous", profile="auto")
+    kept = json.loads(Path(cmp.rows[0]["plan"]).read_text())["solver"]["row"]["profiles"]["kept"]
+    assert cmp.rows[0]["profile"] == kept and cmp.rows[0]["verified"]
+    with pytest.raises(ValueError, match="profile: the speed search's profile applies on the move"):
+        compare_rows(row, tmp_path / "x", gantry="stop-and-go", profile="constant")
     with pytest.raises(ValueError, match="a stop rule applies to stop and go"):
         compare_rows(row, tmp_path / "x", rules=("fixed",), gantry="continuous")
     with pytest.raises(ValueError, match="the cell planners apply to stop and go"):
@@ -67,11 +74,12 @@ def test_one_mode_alone_and_what_each_refuses(row, tmp_path, problems_dir):
     f = tmp_path / "row.yaml"
     f.write_text(to_yaml(gantry_row(length=8.0, density=2.0, seed=3)))
     for args, said in ((["--gantry", "continuous", "--planner", "optimal"], "--planner optimal: on the move"),
-                       (["--gantry", "auto", "--clearance-sweep"], "--gantry: a row's comparison of its modes")):
+                       (["--gantry", "auto", "--clearance-sweep"], "--gantry/--profile: a row's comparison of its modes"),
+                       (["--gantry", "stop-and-go", "--profile", "constant"], "--profile constant: the speed search's profile applies on the move")):
         r = runner.invoke(app, ["compare", str(f), *args, "--out", str(tmp_path / "y")])
         assert r.exit_code == 2 and said in r.output, r.output
     r = runner.invoke(app, ["compare", str(problems_dir / "crossing_paths.yaml"), "--gantry", "auto", "--out", str(tmp_path / "z")])
-    assert r.exit_code == 2 and "--gantry: crossing_paths.yaml is not a row" in r.output, r.output
+    assert r.exit_code == 2 and "--gantry/--profile: crossing_paths.yaml is not a row" in r.output, r.output
     assert not (tmp_path / "y").exists() and not (tmp_path / "z").exists()
 
 

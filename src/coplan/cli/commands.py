@@ -478,6 +478,9 @@ def compare_cmd(
     gantry: Annotated[Optional[GantryMode], typer.Option(
         parser=choice(GantryMode), metavar=choices(GantryMode), help="A row: auto (default) compares its stop rules and "
              "on the move (the speed searched); stop-and-go the stop rules alone; continuous on the move alone.")] = None,
+    profile: Annotated[Optional[SpeedProfile], typer.Option(
+        parser=choice(SpeedProfile), metavar=choices(SpeedProfile), help="A row on the move: what the speed search "
+             "varies, as for coplan solve (density, the default; constant; auto: both, the better kept).")] = None,
 ):
     """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
 
@@ -492,8 +495,9 @@ def compare_cmd(
     source = _resolve_problem(problems)
     refuse_rows_in_compare(source, time_limit, options_file)
     n_workers = _check_workers(workers)
-    if clearance_sweep and gantry is not None:
-        _fail(ExitCode.USAGE, "--gantry: a row's comparison of its modes; --clearance-sweep plans one planner at several clearances")
+    if clearance_sweep and (gantry is not None or profile is not None):
+        _fail(ExitCode.USAGE, "--gantry/--profile: a row's comparison of its modes; --clearance-sweep plans one planner at "
+                              "several clearances")
     if clearance_sweep:
         from .clearance import clearance_sweep
 
@@ -508,9 +512,10 @@ def compare_cmd(
         if prob.gantry is not None:  # a row: its stop rules and on the move side by side
             from .row import compare_row
 
-            raise typer.Exit(int(compare_row(prob, planner, out, as_json, out_console, err_console, n_workers, gantry)))
-    if gantry is not None:  # (a cell has no carriage)
-        _fail(ExitCode.USAGE, f"--gantry: {source.name} is not a row (no gantry section): the mode applies to a row's file")
+            raise typer.Exit(int(compare_row(prob, planner, out, as_json, out_console, err_console, n_workers, gantry,
+                                             profile)))
+    if gantry is not None or profile is not None:  # (a cell has no carriage)
+        _fail(ExitCode.USAGE, f"--gantry/--profile: {source.name} is not a row (no gantry section): they apply to a row's file")
     try:
         specs = [PlannerSpec.parse(p) for p in (planner or DEFAULT_PLANNERS)]
     except ValueError as e:

@@ -79,7 +79,7 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
 
 
 def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_console, workers: int | None = None,
-                gantry=None) -> ExitCode:
+                gantry=None, profile=None) -> ExitCode:
     """``coplan compare ROW.yaml``: the stop rules and on the move side by side
     (:func:`coplan.report.rows.compare_rows`; ``gantry``: stop-and-go or continuous alone, default both)."""
     from rich.table import Table
@@ -97,8 +97,12 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
         if gantry == GantryMode.CONTINUOUS and cell != PlannerKind.COORDINATED:
             usage(f"--planner {cell.value}: on the move the row books its own coordinated moves; the cell planners apply "
                   "to stop and go (--gantry stop-and-go, or auto: both)")
+    if profile is not None and gantry == GantryMode.STOP_AND_GO:
+        usage(f"--profile {profile.value}: the speed search's profile applies on the move; --gantry stop-and-go "
+              "compares the stop rules alone")
     with ProgressDisplay(err_console, quiet=as_json) as say:
-        cmp = compare_rows(prob, out, planner=cell, progress=say, workers=workers, gantry=gantry or GantryMode.AUTO)
+        cmp = compare_rows(prob, out, planner=cell, progress=say, workers=workers, gantry=gantry or GantryMode.AUTO,
+                           profile=profile)
     code = ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
     if as_json:  # (with the exit code, as every document of a command that ran)
         out_console.print(strict_json(cmp.to_dict() | exit_fields(code)), markup=False,

@@ -19,7 +19,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..kinds import GantryMode, PlannerKind, PlanStatus, StopRule
+from ..kinds import GantryMode, PlannerKind, PlanStatus, SpeedProfile, StopRule
 from ..output import atomic_text, check_folder
 from ..plan import jsonable
 from ..problem.generate import problem_from_mapping
@@ -84,13 +84,16 @@ class RowComparison:
 
 
 def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), planner: PlannerKind | str | None = None,
-                 progress=None, workers: int | None = None, gantry: GantryMode | str = GantryMode.AUTO) -> RowComparison:
+                 progress=None, workers: int | None = None, gantry: GantryMode | str = GantryMode.AUTO,
+                 profile: SpeedProfile | str | None = None) -> RowComparison:
     """Plan ``problem`` (a row) stop and go with each of ``rules`` and on the move; write each
     run and the comparison. ``gantry``: ``auto`` (default) both modes, ``stop-and-go`` the
     rules alone, ``continuous`` on the move alone (``rules`` and ``planner``, the cell planner
     at each stop, are then refused). ``workers``: each rule's stops' cells, and the speed
     search's levels on the move, in that many processes (:class:`coplan.row.plan.RowOptions`,
-    :class:`coplan.row.continuous.MovingOptions`; the same plans for any number)."""
+    :class:`coplan.row.continuous.MovingOptions`; the same plans for any number). ``profile``: what
+    the speed search on the move varies (``density`` by default, ``constant``, or ``auto``: both,
+    the better kept; refused with ``gantry="stop-and-go"``)."""
     from ..pipeline import solve
     from ..row.metrics import fruit_bounds_count
 
@@ -108,6 +111,9 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
         rules = (rules,)
     rules = [StopRule(r) for r in rules]  # (a bad one refused before the folder is made)
     mode = GantryMode(gantry)
+    profile = None if profile is None else SpeedProfile(profile)
+    if profile is not None and mode == GantryMode.STOP_AND_GO:
+        raise ValueError("profile: the speed search's profile applies on the move; gantry stop-and-go compares the stop rules alone")
     if mode == GantryMode.CONTINUOUS:
         if tuple(rules) != tuple(StopRule):
             raise ValueError("rules: on the move (gantry continuous) the carriage does not stop; a stop rule applies to stop and go")
@@ -124,11 +130,13 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     if mode != GantryMode.STOP_AND_GO:
         runs.append(None)  # on the move, after the stop rules
     row_options = moving_options = None
-    if workers is not None:
+    if workers is not None or profile is not None:
         from ..row.continuous import MovingOptions
         from ..row.plan import RowOptions
 
-        row_options, moving_options = RowOptions(workers=workers), MovingOptions(workers=workers)
+        row_options = RowOptions(workers=workers) if workers is not None else None
+        moving_options = MovingOptions(**({"workers": workers} if workers is not None else {}),
+                                       **({"profile": profile} if profile is not None else {}))
     for i, rule in enumerate(runs):
         name = rule.value if rule is not None else ON_THE_MOVE
         tick(Tick("compare", i, len(runs), "row plans", note=name))
@@ -157,6 +165,7 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
                          # (a plan on the move is no stop-by-stop plan: that bound does not hold for it)
                          "ratio_stop_and_go_bound": m.get("ratio_stop_and_go_bound") if whole and rule is not None else None,
                          "speed": m.get("mean_speed") if rule is None else None,
+                         "profile": res.plan.solver.get("row", {}).get("profile") if rule is None else None,
                          "planning_time": m.get("planning_time"), "first_motion_seconds": m.get("first_motion_seconds"),
                          "kept_ahead": m.get("kept_ahead"), "verified": bool(res.verification.passed),
                          "status": res.plan.status.value, "plan": str(res.files.get("json", ""))})
