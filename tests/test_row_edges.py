@@ -681,6 +681,12 @@ def test_a_partial_row_shows_no_ratio_to_bounds_that_count_fruit_it_left(tmp_pat
     assert "status partial" in text and "no ratio for a partial harvest" in text, out.output
     assert "count all 6 fruit an arm reaches from some carriage position" in text
     assert ", ratio " not in text.split("row time", 1)[1].split("stops", 1)[0]
+    # plan.json says the same (its metrics.row had "ratio_any_plan_bound": 0.941 beside the summary's
+    # "no ratio"), and its gap_to_lower_bound is null too
+    metrics = json.loads((tmp_path / "run" / "plan.json").read_text())["metrics"]
+    assert metrics["harvested"] < metrics["row"]["lower_bound"]["fruit"]
+    assert metrics["row"]["ratio_any_plan_bound"] is None and metrics["row"]["ratio_stop_and_go_bound"] is None
+    assert metrics["gap_to_lower_bound"] is None
     cmp = run.invoke(app, ["compare", str(path), "--out", str(tmp_path / "cmp")])
     assert cmp.exit_code in (0, 5), cmp.output
     rows = json.loads((tmp_path / "cmp" / "compare.json").read_text())["rows"]

@@ -244,13 +244,14 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
 def _row_fruit_counts(problem: Problem, plan: Plan) -> dict:
     """A row plan's :func:`fruit_counts`, from its row metrics' screen (``metrics.row``): the same
     keys at the top of ``metrics`` as a cell plan's (a notebook's ``plan.metrics["harvestable"]``
-    was a KeyError on a row), and ``gap_to_lower_bound`` over the bound for any motion, None
-    where a harvestable fruit is left out."""
+    was a KeyError on a row), and ``gap_to_lower_bound``, the ratio to the bound for any motion
+    (as a cell's, 1.0: no gap), None where the bound counts a fruit the plan left out."""
     screened = set(plan.metrics["row"].get("screened_out") or {})
     out = _counts(problem, {f.id for f in problem.fruits} - screened, plan)
     del out["reachable"], out["unreachable"]  # (the row's, over the rail, are the plan's already)
     span, bound = plan.metrics.get("makespan"), plan.metrics.get("lower_bound")
-    out["gap_to_lower_bound"] = span / bound - 1.0 if span and bound and not out["fruit_ids"]["left_out"] else None
+    whole = plan.metrics["row"].get("ratio_any_plan_bound") is not None  # (None for a partial harvest)
+    out["gap_to_lower_bound"] = span / bound if whole and span and bound and not out["fruit_ids"]["left_out"] else None
     return out
 
 
