@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 from typer.testing import CliRunner
 
@@ -67,3 +69,66 @@ def test_a_plan_with_no_speed_search_is_refused(row_text, tmp_path, problems_dir
     assert not (tmp_path / "x.png").exists()
     with pytest.raises(TypeError, match="expected a Plan"):
         speed_curve("plan.json")
+
+
+@pytest.fixture(scope="module")
+def moving_plan(row_text, tmp_path_factory):
+    """A row planned on the move, saved: its plan.json's decoded document."""
+    import json
+
+    d = tmp_path_factory.mktemp("moving")
+    (d / "row.yaml").write_text(row_text)
+    coplan.solve(parse_problem(row_text, str(d / "row.yaml")), gantry="continuous", out_dir=d / "out")
+    return d / "row.yaml", json.loads((d / "out" / "plan.json").read_text())
+
+
+@pytest.mark.parametrize("edit, where, said", [
+    (lambda d: d["solver"].__setitem__("row", [1]), "solver.row", "expected an object (how the row was planned), found array [1]"),
+    (lambda d: d["solver"]["row"].__setitem__("speed_curve", "x"), "solver.row.speed_curve", "expected an array or null, found string 'x'"),
+    (lambda d: d["solver"]["row"]["speed_curve"][0].__setitem__("mean_speed", None), "solver.row.speed_curve[0].mean_speed",
+     "expected a finite number, found null"),
+    (lambda d: d["solver"]["row"]["speed_curve"][1].__setitem__("fruit_per_hour", "a"), "solver.row.speed_curve[1].fruit_per_hour",
+     "expected a finite number, found string 'a'"),
+    (lambda d: d["solver"]["row"]["speed_curve"][0].__setitem__("harvested", 2.5), "solver.row.speed_curve[0].harvested",
+     "expected a whole number of fruit (0 or more) or null, found number 2.5"),
+    (lambda d: d["metrics"].__setitem__("row", "fast"), "metrics.row", "expected an object (the row's figures), found string 'fast'"),
+    (lambda d: d["gantry"].__setitem__("v", [0.0]), "gantry.v", "expected only the key x"),
+])
+def test_a_hand_edited_row_plan_is_bad_input_named_by_its_key(moving_plan, tmp_path, edit, where, said):
+    """(A new-user trial: ``solver.row: [1]`` stopped `coplan view` and `plot --kind speed` with an
+    internal error, a speed point's null mean_speed with a TypeError, "a" with a bare float
+    message, and an extra ``gantry.v`` verified silently.) Each is now bad input, exit 3, naming
+    the file and the key path, in every command that reads the plan."""
+    import copy
+    import json
+
+    from coplan.errors import PlanFileError
+
+    problem, doc = moving_plan
+    doc = copy.deepcopy(doc)
+    edit(doc)
+    f = tmp_path / "plan.json"
+    f.write_text(json.dumps(doc))
+    with pytest.raises(PlanFileError, match=re.escape(where)):
+        load_plan(f)
+    for cmd in (["plot", str(f), "--kind", "speed", "--problem", str(problem), "--out", str(tmp_path / "s.png")],
+                ["view", str(f), "--problem", str(problem), "--out", str(tmp_path / "v.html")],
+                ["verify", str(problem), str(f)]):
+        r = CliRunner(env={"COLUMNS": "300"}).invoke(app, cmd)
+        text = " ".join(r.output.split())
+        assert r.exit_code == 3 and where in text and said in text and "plan.json" in text, (cmd, r.output)
+        assert r.exception is None or isinstance(r.exception, SystemExit)
+
+
+def test_the_speed_figure_of_a_row_with_no_fruit_is_refused(tmp_path):
+    """(A row with no fruit drew a flat chart at 0 fruit/h, exit 0.)"""
+    doc = gantry_row(length=3.0, density=1.0, seed=2)
+    doc["fruits"] = []
+    f = tmp_path / "empty.yaml"
+    f.write_text(to_yaml(doc))
+    coplan.solve(parse_problem(f.read_text(), str(f)), gantry="continuous", out_dir=tmp_path / "out")
+    r = runner.invoke(app, ["plot", str(tmp_path / "out" / "plan.json"), "--kind", "speed", "--out", str(tmp_path / "s.png")])
+    assert r.exit_code == 2 and "no harvestable fruit" in " ".join(r.output.split()), r.output
+    assert not (tmp_path / "s.png").exists()
+    with pytest.raises(ValueError, match="harvested 0 of 0"):
+        speed_curve(load_plan(tmp_path / "out" / "plan.json"))

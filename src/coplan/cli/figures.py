@@ -170,7 +170,8 @@ def plot_cmd(
     if kind == PlotKind.WORKSPACE and prob.gantry is not None:
         fail(ExitCode.USAGE, f"--kind workspace: expected a stationary cell, found the row {prob.name!r} (its arms ride on "
                               "the carriage, so what they reach depends on where it stops): `coplan check` screens a row, "
-                              "`coplan view` shows its fruit by arm and stop; --kind gantt, clearance and joints draw its plan")
+                              "`coplan view` shows its fruit by arm and stop; --kind gantt, clearance and joints draw its plan, "
+                              "and --kind speed the speed search of a plan made on the move")
     if kind == PlotKind.SPEED:  # (before the verifier runs: a plan with no speed search is refused at once)
         from ..viz.speed import speed_curve
 

@@ -251,6 +251,47 @@ def _figures(metrics: Any, bad) -> None:
             bad(f"metrics.{path}", f"expected a finite number or null, found {_kind(where)}")
 
 
+#: what coplan reads of a row plan's ``solver.row`` (the viewer, ``plot --kind speed``):
+#: ``(key, kind)`` where present and not null; and of each ``solver.row.speed_curve`` point (``!``:
+#: required)
+_ROW_SOLVER = (("mode", "string"), ("profile", "string"), ("mean_speed", "number"), ("speed_curve", "array"))
+_SPEED_POINT = (("mean_speed", "number!"), ("fruit_per_hour", "number!"), ("harvested", "count"),
+                ("harvestable", "count"), ("verified", "boolean"), ("profile", "string"))
+
+
+def _solver_row(solver: Any, metrics: Any, bad) -> None:
+    """``metrics.row`` and ``solver.row`` objects where present, and the keys of ``solver.row``
+    coplan reads of the right kind (``solver.row: [1]`` stopped `coplan view` with an internal
+    error; a speed point's ``mean_speed: "a"`` `plot --kind speed` with a bare float message)."""
+    if isinstance(metrics, dict) and metrics.get("row") is not None and not isinstance(metrics["row"], dict):
+        bad("metrics.row", f"expected an object (the row's figures), found {_kind(metrics['row'])}")
+    if not isinstance(solver, dict) or solver.get("row") is None:
+        return
+    row = solver["row"]
+    if not isinstance(row, dict):
+        bad("solver.row", f"expected an object (how the row was planned), found {_kind(row)}")
+        return
+
+    def check(where: dict, path: str, keys) -> None:
+        for key, kind in keys:
+            v, needed = where.get(key), kind.endswith("!")  # ("!": a figure the point is drawn at, never null)
+            kind = kind.rstrip("!")
+            ok = ((v is None and not needed) or (kind == "string" and isinstance(v, str))
+                  or (kind == "array" and isinstance(v, list)) or (kind == "boolean" and isinstance(v, bool))
+                  or (kind == "number" and _is_number(v) and math.isfinite(v))
+                  or (kind == "count" and _is_number(v) and math.isfinite(v) and v >= 0 and float(v).is_integer()))
+            if not ok:
+                said = {"count": "a whole number of fruit (0 or more)", "number": "a finite number"}.get(kind, f"{'an' if kind[0] in 'aeiou' else 'a'} {kind}")
+                bad(f"{path}.{key}", f"expected {said}{'' if needed else ' or null'}, found {_kind(v)}")
+
+    check(row, "solver.row", _ROW_SOLVER)
+    for i, point in enumerate(row.get("speed_curve") if isinstance(row.get("speed_curve"), list) else []):
+        if not isinstance(point, dict):
+            bad(f"solver.row.speed_curve[{i}]", f"expected an object (a plan the speed search tried), found {_kind(point)}")
+        else:
+            check(point, f"solver.row.speed_curve[{i}]", _SPEED_POINT)
+
+
 def plan_from_dict(data: Any, source: str | None = None) -> Plan:
     """Check a decoded ``plan.json`` document and build the :class:`Plan` (raises
     :class:`PlanFileError` listing every problem, each with its key path)."""
@@ -436,12 +477,15 @@ def _bookkeeping(data: dict, time: np.ndarray | None, bad) -> tuple[dict, list, 
         if data.get(key) is not None and not isinstance(data[key], dict):
             bad(key, f"expected an object, found {_kind(data[key])}")
     _figures(data.get("metrics"), bad)
+    _solver_row(data.get("solver"), data.get("metrics"), bad)
     gantry_x = None
     if data.get("gantry") is not None:  # a row plan: the carriage's position on the same grid
         g = data["gantry"]
         if not isinstance(g, dict) or "x" not in g:
             bad("gantry", f"expected an object {{x: [one carriage position per time]}}, found {_kind(g)}")
         else:
+            for key in sorted(set(g) - {"x"}):  # (a typo's "gantry.v" verified silently)
+                bad(f"gantry.{key}", f"expected only the key x (the carriage's positions), found the unknown key {key!r}")
             gantry_x = _number_array(g["x"], "gantry.x", bad, pair=False)
             if gantry_x is not None and time is not None and gantry_x.size != time.size:
                 bad("gantry.x", f"expected {time.size} positions (one per time), found {gantry_x.size}")

@@ -8,6 +8,8 @@ the points it draws (from ``plan.solver["row"]["speed_curve"]``).
 
 from __future__ import annotations
 
+import math
+
 from ..kinds import GantryMode
 from ..plan import Plan
 
@@ -23,18 +25,33 @@ def speed_curve(plan: Plan) -> list[dict]:
     if not isinstance(plan, Plan):
         raise TypeError(f"speed_curve: expected a Plan (coplan.load_plan), found {type(plan).__name__}")
     row = (plan.solver or {}).get("row") or {}
+    if not isinstance(row, dict):
+        raise ValueError(f"speed curve: solver.row: expected an object (how the row was planned), found {type(row).__name__}")
     if plan.gantry_x is None:
         raise ValueError(f"speed curve: expected a row planned on the move, found a stationary cell's plan ({plan.problem!r})")
     if row.get("mode") != GantryMode.CONTINUOUS.value:
         raise ValueError(f"speed curve: expected a row planned on the move (coplan solve ROW --gantry continuous), found a "
                          f"plan made {str(row.get('mode') or 'stop-and-go').replace('-', ' ')}: its carriage has no speed search")
     points = row.get("speed_curve") or []
+    if not isinstance(points, list):
+        raise ValueError(f"speed curve: solver.row.speed_curve: expected an array of points, found {type(points).__name__}")
     if not points:
         raise ValueError("speed curve: the plan records no speed search (solver.row.speed_curve is empty)")
+    if not any((p.get("harvestable") or 0) > 0 for p in points if isinstance(p, dict)):
+        # (a row with no harvestable fruit drew a flat chart at 0 fruit/h with "exit 0")
+        raise ValueError("speed curve: the row has no harvestable fruit, so no speed harvests more than another "
+                         "(every plan the search tried harvested 0 of 0)")
     out = []
-    for p in points:
+    for i, p in enumerate(points):
+        if not isinstance(p, dict):
+            raise ValueError(f"speed curve: solver.row.speed_curve[{i}]: expected an object, found {p!r}")
+        for key in ("mean_speed", "fruit_per_hour"):  # (the two a point is drawn at; a bare TypeError before)
+            v = p.get(key)
+            if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
+                raise ValueError(f"speed curve: solver.row.speed_curve[{i}].{key}: expected a finite number, found {v!r}")
+        got, of = p.get("harvested") or 0, p.get("harvestable") or 0
         out.append({"mean_speed": float(p["mean_speed"]), "fruit_per_hour": float(p["fruit_per_hour"]),
-                    "share_harvested": (p["harvested"] / p["harvestable"]) if p.get("harvestable") else 0.0,
+                    "share_harvested": got / of if of else 0.0,
                     "verified": bool(p.get("verified")), "profile": p.get("profile") or row.get("profile") or "density"})
     return sorted(out, key=lambda p: p["mean_speed"])
 
