@@ -749,9 +749,12 @@ def test_a_pace_price_keeps_the_optimised_rule_to_the_fixed_strides_count_where_
     r = run(app, ["solve", str(path), "--pace-price", "3", "--out", str(tmp_path / "o")])
     assert r.exit_code == 0 and "ahead of the fixed stride's pace priced 3.00 s more" in r.output, r.output
     assert json.loads((tmp_path / "o" / "plan.json").read_text())["solver"]["row"]["pace_price"] == 3.0
-    for args, words in ((["--stops", "fixed"], "--pace-price: the optimised stop rule's price of a stop applies stop and "
-                                                "go (--stops optimised, the default), not --stops fixed"),
+    for args, words in ((["--stops", "fixed"], "--pace-price: the optimised stop rule's price of a stop applies to a row "
+                                                "planned stop and go (--gantry stop-and-go, the default, with --stops "
+                                                "optimised), not --stops fixed"),
                         (["--gantry", "continuous"], "not on the move"),
+                        # (auto plans stop and go too: "not on the move" read as a contradiction)
+                        (["--gantry", "auto"], "not --gantry auto, which compares the two modes each with its default options"),
                         (["--stop-price", "400", "--pace-price", "400"], "--stop-price + --pace-price: expected at most "
                                                                          "600 s together")):
         r = run(app, ["solve", str(path), "--pace-price", "3", *args, "--out", str(tmp_path / "x")])
@@ -789,3 +792,20 @@ def test_a_stop_price_buys_fewer_stops_and_only_applies_to_the_optimised_rule_st
     r = run(app, ["solve", "crossing_paths", "--stop-price", "2", "--out", str(tmp_path / "y")])
     assert r.exit_code == 2 and "stationary cell" in r.output
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+
+
+def test_a_row_flag_on_a_cell_is_refused_by_its_own_name(tmp_path):
+    """(A new-user trial: ``--speed`` alone on a cell was refused as
+    "--gantry/--speed/--profile/--resolution/--stop-price/--pace-price: ...", six flags for one.)"""
+    run = CliRunner(env={"COLUMNS": "250"}).invoke
+    for args, said in ((["solve", "crossing_paths", "--speed", "0.3"], "--speed: crossing-paths is a stationary cell "
+                                                                       "(no gantry section); it applies to a row"),
+                       (["solve", "crossing_paths", "--gantry", "continuous", "--pace-price", "2"],
+                        "--gantry/--pace-price: crossing-paths is a stationary cell (no gantry section); they apply to a row"),
+                       (["compare", "crossing_paths", "--profile", "constant"], "--profile: crossing_paths.yaml is not a row "
+                                                                                "(no gantry section): it applies to a row's file")):
+        r = run(app, [*args, "--out", str(tmp_path / "x")])
+        text = " ".join(r.output.split())
+        assert r.exit_code == 2 and said in text, r.output
+        assert "--resolution" not in text
+    assert not (tmp_path / "x").exists()

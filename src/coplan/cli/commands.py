@@ -160,8 +160,13 @@ def solve(
         moving = moving_options(path, gantry, speed, stops, planner, profile)
         for flag, value in (("--stop-price", stop_price), ("--pace-price", pace_price)):
             if value is not None and (moving is not None or stops not in (None, StopRule.OPTIMISED)):
-                _fail(ExitCode.USAGE, f"{flag}: the optimised stop rule's price of a stop applies stop and go (--stops "
-                                      f"optimised, the default), not {'on the move' if moving is not None else f'--stops {stops.value}'}")
+                # (auto plans stop and go too, but "not on the move" read as a contradiction there:
+                # auto compares the two modes each with its defaults)
+                _fail(ExitCode.USAGE, f"{flag}: the optimised stop rule's price of a stop applies to a row planned stop and go "
+                                      f"(--gantry stop-and-go, the default, with --stops optimised), not "
+                                      + ("--gantry auto, which compares the two modes each with its default options"
+                                         if gantry == GantryMode.AUTO else "on the move" if moving is not None
+                                         else f"--stops {stops.value}"))
         row_options = moving
         # --workers: on the move the speed search's processes, stop and go the stops' cells';
         # --resolution: the screen's grid, both modes; --stop-price: the optimised rule's window
@@ -191,9 +196,11 @@ def solve(
                 raise
             _fail(ExitCode.USAGE, f"--speed: {slow[0].message.replace('a pace', 'a cruising speed (m/s)')} ({path.name!r})")
         return _report_solve(res, out, animate, html, as_json)
-    if any(v is not None for v in (gantry, speed, profile, resolution, stop_price, pace_price)):
-        _fail(ExitCode.USAGE, f"--gantry/--speed/--profile/--resolution/--stop-price/--pace-price: {path.name} is a stationary "
-                              "cell (no gantry section); they apply to a row")
+    row_only = [flag for flag, v in (("--gantry", gantry), ("--speed", speed), ("--profile", profile), ("--resolution", resolution),
+                                     ("--stop-price", stop_price), ("--pace-price", pace_price)) if v is not None]
+    if row_only:  # (the flags given, not the six a row takes: "--gantry/--speed/.../--pace-price" for --speed alone)
+        _fail(ExitCode.USAGE, f"{'/'.join(row_only)}: {path.name} is a stationary cell (no gantry section); "
+                              f"{'it applies' if len(row_only) == 1 else 'they apply'} to a row")
     if stops is not None:
         _fail(ExitCode.USAGE, f"--stops: {path.name} is a stationary cell (no gantry section); a stop rule applies to a row")
     planner = planner or PlannerKind.OPTIMAL
@@ -514,8 +521,10 @@ def compare_cmd(
 
             raise typer.Exit(int(compare_row(prob, planner, out, as_json, out_console, err_console, n_workers, gantry,
                                              profile)))
-    if gantry is not None or profile is not None:  # (a cell has no carriage)
-        _fail(ExitCode.USAGE, f"--gantry/--profile: {source.name} is not a row (no gantry section): they apply to a row's file")
+    if gantry is not None or profile is not None:  # (a cell has no carriage; the flags given named)
+        given = "/".join(f for f, v in (("--gantry", gantry), ("--profile", profile)) if v is not None)
+        _fail(ExitCode.USAGE, f"{given}: {source.name} is not a row (no gantry section): "
+                              f"{'they apply' if '/' in given else 'it applies'} to a row's file")
     try:
         specs = [PlannerSpec.parse(p) for p in (planner or DEFAULT_PLANNERS)]
     except ValueError as e:
