@@ -261,9 +261,12 @@ def test_a_users_plan_md_is_never_taken_for_a_run_file_and_a_stale_export_moves_
     (out / "plan_100hz.events.csv").write_text("arm,fruit,kind,t_start,t_end\n")  # (and its events: they stayed, stale)
     (out / "plan_1e-05hz.csv").write_text("t,arm_q1\n")  # (a rate Python writes with an exponent: it stayed)
     (out / "plan_gantt.png").write_bytes(b"png")
+    (out / "plan_csv_gantt.png").write_bytes(b"png")  # (`coplan plot plan.csv`'s)
+    (out / "plan_speed.png").write_bytes(b"png")  # (`plot --kind speed`'s: it stayed, stale)
     (out / "plan_100hz").mkdir()  # (its JSON/YAML folder)
     solve(prob, planner="coordinated", out_dir=out)
-    ours = {"plan_100hz.csv", "plan_100hz.events.csv", "plan_1e-05hz.csv", "plan_gantt.png", "plan_100hz"}
+    ours = {"plan_100hz.csv", "plan_100hz.events.csv", "plan_1e-05hz.csv", "plan_gantt.png", "plan_csv_gantt.png",
+            "plan_speed.png", "plan_100hz"}
     assert not ours & {p.name for p in out.iterdir()}
     prev = out.with_name("notes.previous")
     assert ours | {"plan.json"} <= {p.name for p in prev.iterdir()}

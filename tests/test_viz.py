@@ -322,6 +322,12 @@ def test_cli_plot_defaults_and_errors(tmp_path, saved, greenhouse):
     r = run("plot", str(saved["single"]))  # default kind gantt, default file next to the plan
     assert r.exit_code == 0, r.output
     assert (saved["single"].parent / "plan_gantt.png").exists()
+    # (plot plan.csv's default name was plan_gantt.png too: it overwrote plan.json's figure)
+    before = (saved["single"].parent / "plan_gantt.png").read_bytes()
+    r = run("plot", str(saved["single"].with_suffix(".csv")), "--problem", "single_arm")
+    assert r.exit_code == 0, r.output
+    assert (saved["single"].parent / "plan_csv_gantt.png").exists()
+    assert (saved["single"].parent / "plan_gantt.png").read_bytes() == before
     r = run("plot", str(greenhouse.source), "--kind", "workspace", "--arm", "left", "--out", str(tmp_path / "w.svg"))
     assert r.exit_code == 0 and (tmp_path / "w.svg").read_text().lstrip().startswith("<?xml")
     r = run("plot", "sparse_row.yaml", "--kind", "workspace", "--out", str(tmp_path / "row.png"))

@@ -33,11 +33,12 @@ MARKER = ".coplan-run"  # written into every run folder
 # the files a run writes (solve, live runs), by their exact names -- a user's plan.md or
 # baseline.xlsx is theirs, never moved or removed -- and what coplan writes beside a plan by
 # default (`coplan export`: plan_<rate>hz.csv and its .events.csv, or that folder of per-arm
-# files, the rate as Python's :g writes it, 1e-05 too; `coplan plot`: plan_<kind>.png), which
+# files, the rate as Python's :g writes it, 1e-05 too; `coplan plot`: plan_<kind>.png, of plan.csv
+# plan_csv_<kind>.png), which
 # would otherwise stay beside the next run's plan, stale
 _OURS = re.compile(r"(plan|baseline)\.(json|csv|npz|html|gif|mp4)|verification\.json|run\.json|live\.gif"
                    r"|\.coplan-run|(plan|baseline)_[0-9.]+(e[+-][0-9]+)?hz(\.csv|\.events\.csv)?"
-                   r"|(plan|baseline)_(gantt|clearance|joints|workspace)\.(png|svg|pdf)")
+                   r"|(plan|baseline)(_csv|_npz)?_(gantt|clearance|joints|workspace|speed)\.(png|svg|pdf)")
 
 
 def _ours(p: Path) -> bool:

@@ -140,7 +140,7 @@ def plot_cmd(
     kind: Annotated[PlotKind, typer.Option("--kind", "-k", parser=choice(PlotKind), metavar=choices(PlotKind), help="Which figure.")] = PlotKind.GANTT,
     problem: PlanProblemOption = None,
     out: Annotated[
-        Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Image file; the suffix sets the format (default: <plan>_<kind>.png).")
+        Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Image file; the suffix sets the format (default: <plan>_<kind>.png; plan.csv's <plan>_csv_<kind>.png).")
     ] = None,
     arm: Annotated[Optional[str], typer.Option(help="joints/workspace: draw only this arm.")] = None,
     dpi: Annotated[int, typer.Option(parser=whole, metavar="<int>", callback=between(30, 600), help="Resolution of raster images, 30-600 dpi.")] = 120,
@@ -152,9 +152,12 @@ def plot_cmd(
         shows = "the whole row's plans" if kind == PlotKind.SPEED else "every arm or pair"
         fail(ExitCode.USAGE, f"--arm: expected with --kind joints or workspace (a {kind.value} figure shows {shows}), "
                               f"found --kind {kind.value}")
-    target = out if out is not None else plan.with_name(f"{plan.stem}_{kind.value}.png")
+    # (plan.csv's and plan.npz's figures keep their format in the name: "plot plan.csv" overwrote
+    # plan_gantt.png, the figure of plan.json beside it)
+    stem = plan.stem if plan.suffix.lower() in (".json", ".yaml", ".yml", "") else f"{plan.stem}_{plan.suffix[1:].lower()}"
+    target = out if out is not None else plan.with_name(f"{stem}_{kind.value}.png")
     if out is not None and out.is_dir():  # (it wrote FOLDER.png beside the folder)
-        target = out / f"{plan.stem}_{kind.value}.png"
+        target = out / f"{stem}_{kind.value}.png"
     if not target.suffix:  # (matplotlib writes NAME.png and it said "wrote NAME", a file of the user's of that name)
         target = target.with_name(target.name + ".png")
     failures.check_out_file(target)  # (before any work)
