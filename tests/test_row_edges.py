@@ -799,3 +799,30 @@ def test_on_the_move_the_row_s_top_speed_is_the_one_the_carriage_reaches(end):
     assert m["top_speed"] == pytest.approx(reached, abs=1e-12) and m["top_speed"] <= res.info["top_speed"] + 1e-12
     if end < 0.01:
         assert m["top_speed"] < 0.05  # (1 mm at the gantry's 0.5 m/s^2 and 5 m/s^3)
+
+
+def test_check_of_a_partial_row_says_why_it_exits_5(tmp_path):
+    """(A new-user trial: `coplan check` of a row with a fruit served only from a window narrower
+    than the screen's positions exited 5 and said nothing of why.) It now names the fruit that
+    make it partial and the way out; --json lists them; a finer --resolution serves the fruit."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    d = gantry_row(length=6.0, n_arms=1, density=1.0, seed=3, trusses=False)
+    arm = parse_problem(to_yaml(d)).arms[0]
+    reach = sum(arm.links) - 0.01  # (the task's reach margin)
+    d["fruits"].append({"id": "narrow", "position": [3.025, round(math.sqrt(reach**2 - 0.012**2), 6)]})  # a 24 mm window
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(d))
+    run = CliRunner(env={"COLUMNS": "200"}).invoke
+    r = run(app, ["check", str(path)])
+    said = " ".join(r.output.split())
+    assert r.exit_code == 5 and "partial solve would exit 5: 1 fruit an arm reaches" in said and "(narrow; why above)" in said, said
+    assert "a finer --resolution" in said
+    doc = json.loads(run(app, ["check", str(path), "--json"]).output)
+    assert doc["reachable_not_harvestable"] == ["narrow"] and doc["exit_code"] == 5
+    fine = run(app, ["check", str(path), "--resolution", "0.01"])
+    assert fine.exit_code == 0 and "would exit 5" not in fine.output, fine.output

@@ -36,8 +36,9 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
     # count) cannot be harvested; a fruit out of every arm's reach is not counted (as in a cell)
     from ..verify.row import row_reachable_ids
 
-    code = (ExitCode.INFEASIBLE if not reach.cover else
-            ExitCode.PARTIAL if set(row_reachable_ids(prob)) - set(reach.cover) else ExitCode.OK)
+    missed = sorted(set(row_reachable_ids(prob)) - set(reach.cover))
+    code = ExitCode.INFEASIBLE if not reach.cover else ExitCode.PARTIAL if missed else ExitCode.OK
+    doc["reachable_not_harvestable"] = missed  # (what makes the exit 5: the verifier counts them)
     doc.update(exit_fields(code))  # (a script read no status from the document)
     if as_json:
         out_console.print_json(strict_json(doc), ensure_ascii=True)  # (valid JSON whatever stdout encodes)
@@ -75,6 +76,12 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
         else:  # (as a cell's check says it)
             p("nothing to plan: no fruit can be harvested from any carriage position (solve would exit 4, infeasible)"
               + (" -- the problem lists no fruit" if not prob.fruits else ""))
+        if code == ExitCode.PARTIAL:  # (it exited 5 and said nothing of why)
+            shown = ", ".join(safe(f) for f in missed[:5]) + (f" and {len(missed) - 5} more" if len(missed) > 5 else "")
+            p(f"partial            solve would exit 5: {plural(len(missed), 'fruit')} an arm reaches from some carriage "
+              f"position on the rail, as the verifier counts, {'is' if len(missed) == 1 else 'are'} not harvestable from "
+              f"the positions the screen tries every {reach.resolution:g} m ({shown}; why above): a finer --resolution "
+              "serves a fruit reached only between them; one only a locked arm reaches stays out", highlight=False)
     return code
 
 
