@@ -179,3 +179,26 @@ def test_the_widest_samples_fit_the_per_sample_size_model(tmp_path: Path) -> Non
         per_sample = BYTES_PER_SAMPLE[0] + BYTES_PER_SAMPLE[1] * len(q) + (BYTES_PER_CARRIAGE_SAMPLE if carriage is not None else 0)
         for kind in ("json", "csv"):
             assert files[kind].stat().st_size <= n * per_sample + 2000, (kind, carriage is not None)  # (+ header, names)
+
+
+def test_a_row_s_fruit_may_lie_as_far_along_as_its_rail_goes() -> None:
+    """(A new-user trial: ``gantry.end: 2000`` was accepted, and a fruit at x 1500 on that rail
+    refused as "a cell of this size is not a harvesting cell".) A row's fruit x has the range of a
+    rail's ends; a cell's fruit, and any y, keep the coordinate range; the line is the fruit's."""
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem.plausible import problem_issues
+
+    doc = gantry_row(length=6.0, n_arms=1, density=1.0, seed=3, trusses=False)
+    doc["gantry"]["end"] = 2000.0
+    doc["fruits"].append({"id": "far", "position": [1500.0, doc["fruits"][0]["position"][1]]})
+    prob = parse_problem(to_yaml(doc), "row.yaml")
+    assert "far" in prob.reachable_ids() and not problem_issues(prob)
+    doc["fruits"][-1]["position"] = [20000.0, 1.0e6]
+    issues = _issues(to_yaml(doc))
+    assert [i.path for i in issues] == [f"fruits[{len(doc['fruits']) - 1}].position[0]", f"fruits[{len(doc['fruits']) - 1}].position[1]"]
+    assert "a position along the rail within [-10000, 10000] m" in issues[0].message and "found 20000" in issues[0].message
+    assert "a coordinate within [-1000, 1000] m" in issues[1].message and "found 1e+06" in issues[1].message
+    assert all(i.line is not None for i in issues)
+    # a cell's fruit at 1500 m stays refused
+    cell = _issues(SINGLE.replace("position: [1.2, 0.8]", "position: [1500.0, 0.8]"))
+    assert [i.path for i in cell] == ["fruits[0].position[0]"] and "a coordinate within [-1000, 1000] m" in cell[0].message

@@ -126,7 +126,8 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         if built is not None:
             arms.append((i, built[0]))
             origins[i] = built[1]
-    fruits = _fruits(fruit_specs, data.get("fruits") if isinstance(data.get("fruits"), list) else [], lines, issues)
+    fruits = _fruits(fruit_specs, data.get("fruits") if isinstance(data.get("fruits"), list) else [], lines, issues,
+                     row="gantry" in data)
     if task is not None:
         issues += home_pair_issues(arms, origins, task, lines)
     gantry = parse_gantry(data["gantry"], lines, issues) if "gantry" in data else None
@@ -310,9 +311,10 @@ def _unvalidated_arm(i: int, raw: Any, defaults: ArmFieldsSpec | None, seen_name
             issues.append(Issue(path_str(("arms", i, f)), missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
 
 
-def _fruits(fruit_specs: list, raw: list, lines: dict, issues: list) -> list[Fruit]:
+def _fruits(fruit_specs: list, raw: list, lines: dict, issues: list, row: bool = False) -> list[Fruit]:
     """The fruit with unique ids and plausible positions (``raw``: the file's entries; an entry
-    that failed validation still takes its id, if that is a valid one, for the uniqueness check)."""
+    that failed validation still takes its id, if that is a valid one, for the uniqueness check;
+    ``row``: the problem has a gantry, its fruit's x along the rail)."""
     fruits: list[Fruit] = []
     seen_ids: dict[str, int] = {}
     where: list[int] = []  # each fruit's index in the file
@@ -324,7 +326,9 @@ def _fruits(fruit_specs: list, raw: list, lines: dict, issues: list) -> list[Fru
             continue
         if not _check_unique(seen_ids, spec.id, ("fruits", j, "id"), "fruit id", lines, issues):
             continue
-        if _implausible("position", spec.position, ("fruits", j, "position"), lines, issues):
+        bad = plausible.fruit_position_issues(spec.position, ("fruits", j, "position"), row=row)
+        issues.extend(Issue(path_str(at), msg, line_of(lines, at)) for at, msg in bad)
+        if bad:
             continue
         fruits.append(Fruit(id=spec.id, position=spec.position))
         where.append(j)

@@ -31,7 +31,7 @@ from ..plan import DEFAULT_RATE, MAX_PLAN_ANGLE, MAX_PLAN_BYTES, MAX_PLAN_COORD
 from .gantry import gantry_range_issues, off_rail
 
 __all__ = ["Bound", "BOUNDS", "MAX_PLAN_ANGLE", "MAX_PLAN_COORD", "MAX_PLAN_SECONDS", "BYTES_PER_SAMPLE", "BYTES_PER_CARRIAGE_SAMPLE", "SAMPLE_RATE", "max_plan_seconds", "plan_seconds_limit", "DurationBound", "move_times", "field_issues", "plan_duration_bound",
-           "duration_issues", "problem_issues", "row_travel", "slowest_speed", "row_duration_issues",
+           "duration_issues", "problem_issues", "fruit_position_issues", "row_travel", "slowest_speed", "row_duration_issues",
            "cruise_speed_issue", "live_speed_issue", "latest_report_time", "check_as_file"]
 
 TAU = 2.0 * math.pi
@@ -131,6 +131,25 @@ def field_issues(field: str, value, loc: tuple) -> list[tuple[tuple, str]]:
             out.append((where, f"expected {b.what} within [{b.low:g}, {b.high:g}] {b.unit} (the plausible range, "
                                f"coplan.plausible.BOUNDS), found {x:g}{_hint(field, b, x)}"))
     return out
+
+
+#: a row's fruit lie along its rail: their x as far as a rail may go (``gantry.start`` and ``end``,
+#: :data:`coplan.problem.gantry.BOUNDS`), y as any coordinate ("gantry.end: 2000" was accepted and
+#: a fruit at x 1500 on it refused as "a cell of this size")
+_ROW_X = Bound(-10_000.0, 10_000.0, "m", "a position along the rail")
+
+
+def fruit_position_issues(position, loc: tuple, row: bool = False) -> list[tuple[tuple, str]]:
+    """:func:`field_issues` of a fruit's ``position`` at key path ``loc``; on a row (``row``)
+    its x within the range of a rail's ends (whether it is on this row's rail is
+    :func:`coplan.problem.gantry.off_rail`'s to say)."""
+    if not row or position is None:
+        return field_issues("position", position, loc)
+    x, y = position
+    out = [] if _ROW_X.holds(float(x)) else [
+        (loc + (0,), f"expected {_ROW_X.what} within [{_ROW_X.low:g}, {_ROW_X.high:g}] {_ROW_X.unit} (the plausible range "
+                     f"of a rail's ends, coplan.problem.gantry.BOUNDS), found {float(x):g}")]
+    return out + [(loc + (1,), msg) for _, msg in field_issues("position", y, ())]
 
 
 def move_times(dq: np.ndarray, v, a, j, cubic: bool = False) -> np.ndarray:
@@ -243,7 +262,7 @@ def problem_issues(problem) -> list[tuple[tuple, str]]:
         for f in ("links", "link_radius", "joint_limits", "home", "max_velocity", "max_acceleration", "max_jerk", "base", "bin"):
             found += field_issues(f, getattr(a, f), ("arms", i, f))
     for i, fr in enumerate(problem.fruits):
-        found += field_issues("position", fr.position, ("fruits", i, "position"))
+        found += fruit_position_issues(fr.position, ("fruits", i, "position"), row=problem.gantry is not None)
     for f in ("pick_dwell", "place_dwell", "clearance", "reach_margin"):
         found += field_issues(f, getattr(problem.task, f), ("task", f))
     if problem.gantry is not None:  # (a file's section and fruit are refused for these in the reader)
