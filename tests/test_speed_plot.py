@@ -132,3 +132,17 @@ def test_the_speed_figure_of_a_row_with_no_fruit_is_refused(tmp_path):
     assert not (tmp_path / "s.png").exists()
     with pytest.raises(ValueError, match="harvested 0 of 0"):
         speed_curve(load_plan(tmp_path / "out" / "plan.json"))
+
+
+def test_the_legend_stands_beside_the_axes_clear_of_every_point(row_text):
+    """(A new-user trial: the legend, placed "best", could cover the kept plan's star.)"""
+    plan = plan_moving(parse_problem(row_text, "row.yaml"), MovingOptions()).plan
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = plot_speed_curve(plan)
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    top = fig.axes[0]
+    legend = top.get_legend().get_window_extent(canvas.get_renderer())
+    axes = top.get_window_extent(canvas.get_renderer())
+    assert legend.x0 >= axes.x1 and legend.x1 <= fig.bbox.x1 + 1  # (beside, and inside the figure)

@@ -360,6 +360,7 @@ def test_cli_animate_and_problem_lookup(tmp_path, saved, greenhouse):
     assert (tmp_path / "odd.gif").exists()
     r = run("animate", str(odd), "--problem", str(Path(greenhouse.source).with_name("single_arm.yaml")))
     assert r.exit_code == 3 and "does not fit problem" in r.output and "missing ['arm']" in r.output
+    assert "single_arm.yaml" in "".join(r.output.split())  # (the problem's file, as the plan's: which --problem)
     # a problem with fewer arms than the plan: refused too (its third arm was left out of the figure)
     for cmd in (["animate"], ["plot", "--kind", "clearance"]):
         r = run(*cmd, str(saved["greenhouse"]), "--problem", str(Path(greenhouse.source).with_name("crossing_paths.yaml")),

@@ -87,7 +87,8 @@ def plan_with_problem(plan_path: Path, problem: Optional[Path]):
     if missing or extra:  # (an arm the problem does not have was silently left out of the figure)
         fail(
             ExitCode.BAD_INPUT,
-            f"{plan_path} does not fit problem {prob.name!r}: expected the problem's arms {names}, found {list(plan.q)}"
+            f"{plan_path} does not fit problem {prob.name!r}" + (f" ({prob.source})" if prob.source else "")
+            + f": expected the problem's arms {names}, found {list(plan.q)}"
             + (f" (missing {missing})" if missing else "") + (f" (unknown {extra})" if extra else ""),
         )
     if not plan.events and plan.q:  # (a plan.csv declares none): as the verifier infers them

@@ -66,7 +66,7 @@ def plot_speed_curve(plan: Plan, *, title: str | None = None):
 
     pts = speed_curve(plan)
     row = plan.solver["row"]
-    fig = Figure(figsize=(7.5, 5.0), layout="constrained")
+    fig = Figure(figsize=(8.5, 5.0), layout="constrained")
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[2, 1])
     for p in pts:
         c = _PROFILE_COLOURS.get(p["profile"], "C2")
@@ -83,7 +83,8 @@ def plot_speed_curve(plan: Plan, *, title: str | None = None):
     handles = [Line2D([], [], marker="o", ls="", color=_PROFILE_COLOURS.get(pr, "C2"), label=f"{pr} profile") for pr in profiles]
     handles += [Line2D([], [], marker="o", ls="", color="0.4", mfc="none", label="fruit missed"),
                 Line2D([], [], marker="*", ls="", color="C3", ms=12, label=f"kept ({row.get('profile')})")]
-    top.legend(handles=handles, loc="best", fontsize=8)
+    # beside the axes, never over a point ("best" could cover the kept plan's star)
+    top.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0.0)
     top.set_ylabel("fruit / h")
     bottom.set_ylabel("harvested (%)")
     bottom.set_xlabel("carriage's mean speed while it moves (m/s)")
