@@ -712,3 +712,12 @@ def test_a_fruit_the_elbow_reaches_only_past_pi_is_planned_verified_and_bounded(
     arm.update(joint_limits=[[-3.1416, 3.1416], [3.2, 4.0]], home=[0.3, 3.5], bin=[float(b[0]), float(b[1])])
     res = coplan.solve(doc, planner="coordinated")  # (refused before: "the reachable radii are [0.200, 0.200] m")
     assert res.verification.passed
+
+
+def test_an_unclosed_bracket_is_said_where_it_opens() -> None:
+    """(A new-user trial: an unclosed flow sequence was reported at the line where the parser gave
+    up, the next key or the file's end, with nothing pointing at the bracket.)"""
+    text = "name: x\nfruits: [ {id: a, position: [1, 2]},\n  {id: b, position: [1, 2]}\narms: []\n"
+    it, _ = only_issue(text)
+    assert it.message.startswith("expected valid YAML, found a syntax error")
+    assert "while parsing a flow sequence that opens at line 2, column 9" in it.message and it.line == 4

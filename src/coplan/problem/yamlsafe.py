@@ -268,6 +268,11 @@ def read_yaml(text: str, source: str | None, keep_text=None,
                                           "(YAML does not allow tabs there)", line)], source) from None
         if isinstance(e, yaml.constructor.ConstructorError) and str(msg).startswith("expected "):  # (ours: _construct_int)
             raise ProblemError([Issue(_path_at(lines, line), str(msg), line)], source) from None
+        opened = getattr(e, "context_mark", None)
+        if context and opened is not None and mark is not None and opened.line != mark.line:
+            # (an unclosed bracket was reported at the line where the parser gave up -- the next key,
+            # or the end of the file -- and never where it opens)
+            context = f"{context} that opens at line {opened.line + 1}, column {opened.column + 1}"
         raise ProblemError([Issue("", f"expected valid YAML, found a syntax error: {msg}" + (f" ({context})" if context else ""), line)], source) from None
     return data, lines
 
