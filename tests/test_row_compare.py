@@ -74,12 +74,12 @@ def test_one_mode_alone_and_what_each_refuses(row, tmp_path, problems_dir):
     f = tmp_path / "row.yaml"
     f.write_text(to_yaml(gantry_row(length=8.0, density=2.0, seed=3)))
     for args, said in ((["--gantry", "continuous", "--planner", "optimal"], "--planner optimal: on the move"),
-                       (["--gantry", "auto", "--clearance-sweep"], "--gantry/--profile: a row's comparison of its modes"),
+                       (["--gantry", "auto", "--clearance-sweep"], "--gantry: a row's comparison of its modes"),
                        (["--gantry", "stop-and-go", "--profile", "constant"], "--profile constant: the speed search's profile applies on the move")):
         r = runner.invoke(app, ["compare", str(f), *args, "--out", str(tmp_path / "y")])
         assert r.exit_code == 2 and said in r.output, r.output
     r = runner.invoke(app, ["compare", str(problems_dir / "crossing_paths.yaml"), "--gantry", "auto", "--out", str(tmp_path / "z")])
-    assert r.exit_code == 2 and "--gantry/--profile: crossing_paths.yaml is not a row" in r.output, r.output
+    assert r.exit_code == 2 and "--gantry: crossing_paths.yaml is not a row" in r.output, r.output
     assert not (tmp_path / "y").exists() and not (tmp_path / "z").exists()
 
 

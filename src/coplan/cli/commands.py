@@ -502,8 +502,9 @@ def compare_cmd(
     source = _resolve_problem(problems)
     refuse_rows_in_compare(source, time_limit, options_file)
     n_workers = _check_workers(workers)
-    if clearance_sweep and (gantry is not None or profile is not None):
-        _fail(ExitCode.USAGE, "--gantry/--profile: a row's comparison of its modes; --clearance-sweep plans one planner at "
+    given = "/".join(f for f, v in (("--gantry", gantry), ("--profile", profile)) if v is not None)  # (the flags given)
+    if clearance_sweep and given:
+        _fail(ExitCode.USAGE, f"{given}: a row's comparison of its modes; --clearance-sweep plans one planner at "
                               "several clearances")
     if clearance_sweep:
         from .clearance import clearance_sweep
@@ -521,8 +522,7 @@ def compare_cmd(
 
             raise typer.Exit(int(compare_row(prob, planner, out, as_json, out_console, err_console, n_workers, gantry,
                                              profile)))
-    if gantry is not None or profile is not None:  # (a cell has no carriage; the flags given named)
-        given = "/".join(f for f, v in (("--gantry", gantry), ("--profile", profile)) if v is not None)
+    if given:  # (a cell has no carriage; the flags given named)
         _fail(ExitCode.USAGE, f"{given}: {source.name} is not a row (no gantry section): "
                               f"{'they apply' if '/' in given else 'it applies'} to a row's file")
     try:
