@@ -1106,3 +1106,26 @@ def test_a_live_row_whose_rail_no_plan_can_cover_is_refused_before_any_work(tmp_
 
     ok = parse_problem(course_arms_row(2000.0, LONG_RAIL_FRUIT))
     assert live_rail_issue(ok, True, 1.5) is None and live_rail_issue(ok, False, 1.5) is None
+
+
+def test_a_live_run_on_the_move_is_drawn_as_on_the_move_and_has_no_speed_curve(tmp_path):
+    """(A new-user trial: ``plot --kind speed`` of a live run's plan said "found a plan made
+    continuous live: its carriage has no speed search", and the viewer drew its holds as stops.)"""
+    from coplan.plan import load_plan
+    from coplan.viz.speed import speed_curve
+    from coplan.viz.viewer import viewer_data
+
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=6.0, density=2.0, seed=7)))
+    res = CliRunner().invoke(app, ["run", str(path), "--speed", "0.2", "--seed", "1", "-o", str(tmp_path / "live")])
+    assert res.exit_code == 0, res.output
+    plan = load_plan(tmp_path / "live" / "plan.json")
+    with pytest.raises(ValueError, match=r"the executed plan of a live run \(coplan run\): its carriage's speed was given "
+                                         r"\(0\.2 m/s\), not searched"):
+        speed_curve(plan)
+    r = CliRunner(env={"COLUMNS": "250"}).invoke(app, ["plot", str(tmp_path / "live" / "plan.json"), "--kind", "speed",
+                                                        "--problem", str(path), "--out", str(tmp_path / "s.png")])
+    assert r.exit_code == 2 and "executed plan of a live run" in r.output and not (tmp_path / "s.png").exists()
+    data = viewer_data(parse_problem(path.read_text()), [plan])
+    row = data.get("row") or data["problem"]["row"]
+    assert row["moving"] == [True]

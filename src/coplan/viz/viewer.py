@@ -199,7 +199,9 @@ def _row_data(problem: Problem, plans: list[Plan]) -> dict:
     stops, moving = [], []
     for p in plans:
         row = (p.solver or {}).get("row") or (p.metrics or {}).get("row") or {}
-        moving.append(row.get("mode") == GantryMode.CONTINUOUS)  # (its picks at rest are rests, not stops: the summary says 0 stops)
+        # (its picks at rest are rests, not stops: the summary says 0 stops; a live run's on the move,
+        # "continuous-live", too: its picks at rest are holds)
+        moving.append(str(row.get("mode") or "").startswith(GantryMode.CONTINUOUS.value))
         x = np.asarray(p.gantry_x, float)
         mine = []
         for e in sorted(p.events, key=lambda e: e.t_start):
