@@ -30,10 +30,11 @@ def speed_curve(plan: Plan) -> list[dict]:
     if plan.gantry_x is None:
         raise ValueError(f"speed curve: expected a row planned on the move, found a stationary cell's plan ({plan.problem!r})")
     if str(row.get("mode") or "").endswith("-live"):  # ("found a plan made continuous live")
-        raise ValueError(f"speed curve: expected a row planned on the move by coplan solve, found the executed plan of a "
-                         f"live run (coplan run): its carriage's speed was given"
-                         + (f" ({row['speed']:g} m/s)" if isinstance(row.get("speed"), (int, float)) else "")
-                         + ", not searched")
+        given = ("its carriage's speed was given" + (f" ({row['speed']:g} m/s)" if isinstance(row.get("speed"), (int, float))
+                                                       and not isinstance(row.get("speed"), bool) else "") + ", not searched"
+                 if str(row["mode"]).startswith(GantryMode.CONTINUOUS.value) else "it stopped for its picks: no speed search")
+        raise ValueError("speed curve: expected a row planned on the move by coplan solve, found the executed plan of a "
+                         f"live run (coplan run): {given}")
     if row.get("mode") != GantryMode.CONTINUOUS.value:
         raise ValueError(f"speed curve: expected a row planned on the move (coplan solve ROW --gantry continuous), found a "
                          f"plan made {str(row.get('mode') or 'stop-and-go').replace('-', ' ')}: its carriage has no speed search")
