@@ -22,7 +22,7 @@ from .checks import budget_hint as _budget_hint, check_time_limit as _check_time
 from .checks import between, choice, choices, in_path, optimal_only_note, out_path, real
 from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
-from .row import moving_options, refuse_rows_in_compare, refused_on_a_row
+from .row import moving_options, refuse_rows_in_compare, refused_on_a_row, stop_window
 from .summary import fmt as _fmt
 from .summary import print_summary, print_table, print_verification
 from .summary import safe as _s
@@ -158,27 +158,13 @@ def solve(
         if refused:
             _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): {'; '.join(refused)}")
         moving = moving_options(path, gantry, speed, stops, planner, profile)
-        for flag, value in (("--stop-price", stop_price), ("--pace-price", pace_price)):
-            if value is not None and (moving is not None or stops not in (None, StopRule.OPTIMISED)):
-                # (auto plans stop and go too, but "not on the move" read as a contradiction there:
-                # auto compares the two modes each with its defaults)
-                _fail(ExitCode.USAGE, f"{flag}: the optimised stop rule's price of a stop applies to a row planned stop and go "
-                                      f"(--gantry stop-and-go, the default, with --stops optimised), not "
-                                      + ("--gantry auto, which compares the two modes each with its default options"
-                                         if gantry == GantryMode.AUTO else "on the move" if moving is not None
-                                         else f"--stops {stops.value}"))
         row_options = moving
         # --workers: on the move the speed search's processes, stop and go the stops' cells';
         # --resolution: the screen's grid, both modes; --stop-price: the optimised rule's window
         given = {k: v for k, v in (("workers", n_workers), ("resolution", resolution)) if v is not None}
-        if stop_price is not None or pace_price is not None:
-            from ..row.stops import MAX_STOP_PRICE, StopWindow
-
-            if (stop_price or 0.0) + (pace_price or 0.0) > MAX_STOP_PRICE:  # (a segment ahead of pace charges both)
-                _fail(ExitCode.USAGE, f"--stop-price + --pace-price: expected at most {MAX_STOP_PRICE:g} s together (a stop "
-                                      f"ahead of the pace is charged both), found {stop_price or 0:g} + {pace_price or 0:g}")
-
-            given["window"] = StopWindow(stop_price=stop_price or 0.0, pace_price=pace_price or 0.0)
+        window = stop_window(stop_price, pace_price, gantry, moving, stops)
+        if window is not None:
+            given["window"] = window
         if given:
             from dataclasses import replace as _replace
 

@@ -11,7 +11,7 @@ from .checks import fail, strict_json
 from .failures import exit_fields, usage
 from .summary import safe
 
-__all__ = ["check_row", "compare_row"]
+__all__ = ["check_row", "compare_row", "stop_window"]
 
 
 def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | None = None) -> ExitCode:
@@ -181,6 +181,31 @@ def refused_on_a_row(planner, allocation, options_file, time_limit, gantry=None)
 
 
 _SHORT = {"ratio_stop_and_go_bound": "/ bound (stop by stop, no overlap)", "planning_time": "planning s", "speed": "speed m/s"}  # (the terminal's table)
+
+
+def stop_window(stop_price, pace_price, gantry, moving, stops):
+    """``coplan solve``'s ``--stop-price``/``--pace-price`` as the optimised rule's
+    :class:`~coplan.row.stops.StopWindow`, None when neither is given; refused (usage) where no
+    optimised rule chooses stops (``moving``: the options on the move, or with auto)."""
+    from ..kinds import StopRule
+
+    for flag, value in (("--stop-price", stop_price), ("--pace-price", pace_price)):
+        if value is not None and (moving is not None or stops not in (None, StopRule.OPTIMISED)):
+            # (auto plans stop and go too, but "not on the move" read as a contradiction there:
+            # auto compares the two modes each with its defaults)
+            fail(ExitCode.USAGE, f"{flag}: the optimised stop rule's price of a stop applies to a row planned stop and go "
+                                 f"(--gantry stop-and-go, the default, with --stops optimised), not "
+                                 + ("--gantry auto, which compares the two modes each with its default options"
+                                    if gantry == GantryMode.AUTO else "on the move" if moving is not None
+                                    else f"--stops {stops.value}"))
+    if stop_price is None and pace_price is None:
+        return None
+    from ..row.stops import MAX_STOP_PRICE, StopWindow
+
+    if (stop_price or 0.0) + (pace_price or 0.0) > MAX_STOP_PRICE:  # (a segment ahead of pace charges both)
+        fail(ExitCode.USAGE, f"--stop-price + --pace-price: expected at most {MAX_STOP_PRICE:g} s together (a stop "
+                             f"ahead of the pace is charged both), found {stop_price or 0:g} + {pace_price or 0:g}")
+    return StopWindow(stop_price=stop_price or 0.0, pace_price=pace_price or 0.0)
 
 
 def moving_options(problem, gantry, speed, stops, planner, profile=None):
