@@ -56,6 +56,13 @@ def test_one_mode_alone_and_what_each_refuses(row, tmp_path, problems_dir):
     assert (tmp_path / "m" / "compare.md").read_text().startswith(f"# {row.name}: on the move (the speed searched)\n")
     assert "stop by stop" not in (tmp_path / "m" / "compare.md").read_text()
     assert cmp.rows[0]["profile"] == "density"  # (the speed search's default, as solve's)
+    # the stop rules into the same folder: the plan on the move left there is named as an earlier
+    # comparison's, in no report (it stayed, unsaid)
+    again = compare_rows(row, tmp_path / "m", rules=("fewest",), gantry="stop-and-go")
+    said = [n for n in again.notes if "earlier comparison" in n]
+    assert len(said) == 1 and said[0].startswith(str(tmp_path / "m" / "continuous"))
+    assert "earlier comparison" in (tmp_path / "m" / "compare.md").read_text()
+    assert (tmp_path / "m" / "continuous" / "plan.json").exists()
     cmp = compare_rows(row, tmp_path / "a", gantry="continuous", profile="auto")
     kept = json.loads(Path(cmp.rows[0]["plan"]).read_text())["solver"]["row"]["profiles"]["kept"]
     assert cmp.rows[0]["profile"] == kept and cmp.rows[0]["verified"]

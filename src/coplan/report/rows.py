@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..kinds import GantryMode, PlannerKind, PlanStatus, SpeedProfile, StopRule
-from ..output import atomic_text, check_folder
+from ..output import atomic_text, check_folder, is_run_folder
 from ..plan import jsonable
 from ..problem.generate import problem_from_mapping
 from ..problem.load import load_problem
@@ -176,8 +176,19 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
                              f"this report covers {i} of {len(runs)} plans whole")
             _write(cmp, out)
             raise KeyboardInterrupt
+    cmp.notes += _earlier_runs(out, runs)
     _write(cmp, out)
     return cmp
+
+
+def _earlier_runs(out: Path, runs: list) -> list[str]:
+    """Notes naming the plan folders an earlier comparison into ``out`` wrote that this one does
+    not (``--gantry stop-and-go`` after both modes left ``continuous/`` there, in no report), as a
+    cell's comparison names them: left as they were."""
+    mine = {r.value if r is not None else GantryMode.CONTINUOUS.value for r in runs}
+    known = {r.value for r in StopRule} | {GantryMode.CONTINUOUS.value}
+    return [f"{out / name}: a plan of an earlier comparison (not in this one; left as it was)"
+            for name in sorted(known - mine) if is_run_folder(out / name)]
 
 
 def _status_note(name: str, plan, problem: Problem) -> str:
