@@ -721,3 +721,14 @@ def test_an_unclosed_bracket_is_said_where_it_opens() -> None:
     it, _ = only_issue(text)
     assert it.message.startswith("expected valid YAML, found a syntax error")
     assert "while parsing a flow sequence that opens at line 2, column 9" in it.message and it.line == 4
+
+
+def test_a_bare_word_that_names_no_shipped_problem_says_so() -> None:
+    """(``coplan.solve("nope_problem")`` said only "found no file at this path": a bare word is a
+    shipped problem's name too, and none is named so.)"""
+    with pytest.raises(ProblemError) as ei:
+        load_problem("nope_problem")
+    msg = ei.value.issues[0].message
+    assert "a shipped problem's name, found neither" in msg and "'coplan problems' lists them" in msg
+    with pytest.raises(ProblemError, match="did you mean the shipped problem 'sparse_row'"):
+        load_problem("sparse_rwo")

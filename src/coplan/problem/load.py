@@ -458,6 +458,10 @@ def load_problem(path: str | Path) -> Problem:
         if near:  # a shipped problem's name, misspelt
             raise ProblemError([Issue("", f"expected an existing YAML file, found no file at this path; did you mean "
                                           f"the shipped problem {near[0]!r}? ('coplan problems' lists them all)")], str(p))
+        if p.parent == Path(".") and not p.suffix:  # (a bare word, far from every shipped name: said as such)
+            raise ProblemError([Issue("", "expected an existing YAML file or a shipped problem's name, found neither (no "
+                                          "file at this path, no shipped problem of this name: 'coplan problems' lists "
+                                          "them)")], str(p))
     return parse_problem(read_input_text(path, ProblemError), str(p))
 
 
