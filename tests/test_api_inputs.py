@@ -746,6 +746,10 @@ def test_row_entry_points_refuse_what_they_cannot_use_before_any_work(tmp_path):
     assert verify(data, rr.plan).passed and verify(data, rr.plan).summary() == verify(p, rr.plan).summary()
     with pytest.raises(coplan.ProblemError, match="found an empty mapping"):
         verify({}, rr.plan)
+    # the plan first and the problem second (`coplan verify PLAN` takes the plan alone first) says so
+    for problem in (p, data):
+        with pytest.raises(TypeError, match=r"the problem comes first, then the plan; found a Plan, then a .*swapped"):
+            verify(rr.plan, problem)
 
 
 def test_the_row_planners_hold_a_row_changed_in_python_to_what_a_file_is_held_to():

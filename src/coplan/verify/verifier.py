@@ -427,6 +427,9 @@ def _arguments(problem, plan, options, overrides: dict) -> tuple[Problem, Plan, 
     """:func:`verify`'s arguments as objects: a path is read (as ``coplan.solve`` and
     ``coplan.view`` take paths); anything else of the wrong kind is a ``TypeError`` saying
     what was expected, not an ``AttributeError`` from deep inside."""
+    if isinstance(problem, Plan) and isinstance(plan, (Problem, Mapping)):
+        raise TypeError("verify(problem, plan): the problem comes first, then the plan; found a Plan, then a "
+                        f"{type(plan).__name__} (swapped?)")
     if isinstance(problem, (str, os.PathLike)):
         problem = load_problem(problem)
     elif isinstance(problem, Mapping):  # (as coplan.solve takes one: coplan.generate's)
