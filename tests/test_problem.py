@@ -721,6 +721,12 @@ def test_an_unclosed_bracket_is_said_where_it_opens() -> None:
     it, _ = only_issue(text)
     assert it.message.startswith("expected valid YAML, found a syntax error")
     assert "while parsing a flow sequence that opens at line 2, column 9" in it.message and it.line == 4
+    # a bracket left open to the end of the file (PyYAML: "while parsing a flow node", at the end);
+    # brackets in a comment or a quoted string do not count, closed ones neither
+    for text, where in [("name: x\narms: [\n", "'[' that opens at line 2, column 7"),
+                        ("# [ no\nname: \"x[\"\narms: [[1], {a: \n", "'{' that opens at line 3, column 13")]:
+        it, _ = only_issue(text)
+        assert f"while parsing a flow node inside the {where}" in it.message, it.message
 
 
 def test_a_bare_word_that_names_no_shipped_problem_says_so() -> None:

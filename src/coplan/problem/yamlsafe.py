@@ -273,8 +273,34 @@ def read_yaml(text: str, source: str | None, keep_text=None,
             # (an unclosed bracket was reported at the line where the parser gave up -- the next key,
             # or the end of the file -- and never where it opens)
             context = f"{context} that opens at line {opened.line + 1}, column {opened.column + 1}"
+        elif context and "flow node" in context and mark is not None:
+            # (a bracket left open to the end of the file: PyYAML names the node it expected, there)
+            unclosed = _unclosed_bracket(text, mark.index)
+            if unclosed is not None:
+                context = f"{context} inside the '{unclosed[0]}' that opens at line {unclosed[1]}, column {unclosed[2]}"
         raise ProblemError([Issue("", f"expected valid YAML, found a syntax error: {msg}" + (f" ({context})" if context else ""), line)], source) from None
     return data, lines
+
+
+def _unclosed_bracket(text: str, index: int) -> tuple[str, int, int] | None:
+    """The innermost ``[`` or ``{`` still open at character ``index`` of ``text`` (by YAML's own
+    tokens, so brackets in strings and comments do not count): ``(bracket, line, column)``,
+    1-based; None if none is open there."""
+    stack = []
+    try:
+        for tok in yaml.scan(text, Loader=yaml.SafeLoader):
+            if tok.start_mark.index >= index:
+                break
+            if isinstance(tok, (yaml.FlowSequenceStartToken, yaml.FlowMappingStartToken)):
+                stack.append(tok)
+            elif isinstance(tok, (yaml.FlowSequenceEndToken, yaml.FlowMappingEndToken)) and stack:
+                stack.pop()
+    except yaml.YAMLError:
+        pass
+    if not stack:
+        return None
+    tok = stack[-1]
+    return ("[" if isinstance(tok, yaml.FlowSequenceStartToken) else "{"), tok.start_mark.line + 1, tok.start_mark.column + 1
 
 
 def line_of(lines: dict, loc) -> int | None:
