@@ -305,3 +305,38 @@ def test_the_priced_bound_takes_off_the_most_the_first_cycle_saves_at_one_stop()
     assert res.verification.passed and res.success
     assert stops_bound(row).value <= res.plan.metrics["makespan"] + 1e-9
     assert row_bounds(row).stop_and_go <= res.plan.metrics["makespan"] + 1e-9
+
+
+def test_the_bound_gap_benchmark_splits_a_row_plan_s_time_and_its_cycle_bounds_hold_on_the_plan(tmp_path, capsys, monkeypatch):
+    """``benchmarks/bench_bound_gap.py`` (docs/benchmarks.md: where a row plan's time goes against
+    the stop-by-stop bound) on a short generated row: one verified table row whose parts add up,
+    and the cycle bounds it charges where the plan picked are below what the plan's arms took
+    (each arm's cycles run one after another, each at least its bound at the carriage's cell,
+    its first from home by at most the home saving)."""
+    import importlib
+
+    import coplan
+    from coplan.allocate.row_cycles import home_savings
+    from coplan.allocate.stop_bound import STEP
+    from coplan.generate import gantry_row, to_yaml
+
+    bench = Path(__file__).resolve().parents[1] / "benchmarks"
+    monkeypatch.syspath_prepend(str(bench))
+    mod = importlib.import_module("bench_bound_gap")
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=6, n_arms=3, density=4, seed=1)))
+    assert mod.main(["--rows", str(path)]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith(f"| {path}")]
+    assert len(lines) == 1 and lines[0].rstrip().endswith("| yes |")
+    cells = [c.strip().removesuffix(" s").lstrip("+") for c in lines[0].strip("|").split("|")]
+    row_time, bound, moves, moving, work, stop_time, at_picks = map(float, [cells[1], cells[2], cells[4], cells[5], cells[6],
+                                                                           cells[7], cells[8]])
+    assert row_time - bound == pytest.approx((moving - moves) + (stop_time - work), abs=0.3)
+    problem = load_problem(path)
+    plan = coplan.solve(problem).plan
+    cc = cell_cycles(problem, STEP)
+    at, _ = mod._charges(problem, plan, [])
+    assert at == pytest.approx(at_picks, abs=0.06)
+    arms = [a for a in range(len(cc.cost)) if cc.cost[a] is not None]
+    took = sum(max(e.t_end for e in plan.events if e.arm == problem.arms[a].name) for a in arms)
+    assert at * len(arms) - float(home_savings(cc, per_cell=True).sum()) <= took
