@@ -299,8 +299,10 @@ def test_the_priced_bound_takes_off_the_most_the_first_cycle_saves_at_one_stop()
     doc = gantry_row(length=2.0, n_arms=1, density=3.0, seed=62)
     doc["fruits"] = [{"id": "f1", "position": [0.0635, 0.8495]}]
     row = parse_problem(to_yaml(doc))
-    cc = cell_cycles(row, 0.1)
+    cc = cell_cycles(row, 0.1, limits=False)  # (the enclosure the reviewer found it with; within the limits 0.85 s against 0.72 s)
     assert home_savings(cc, per_cell=True)[0] > home_savings(cc)[0] + 0.3
+    cc = cell_cycles(row, 0.1)
+    assert home_savings(cc, per_cell=True)[0] > home_savings(cc)[0] + 0.1
     res = solve(row, planner="coordinated")
     assert res.verification.passed and res.success
     assert stops_bound(row).value <= res.plan.metrics["makespan"] + 1e-9
@@ -340,3 +342,42 @@ def test_the_bound_gap_benchmark_splits_a_row_plan_s_time_and_its_cycle_bounds_h
     arms = [a for a in range(len(cc.cost)) if cc.cost[a] is not None]
     took = sum(max(e.t_end for e in plan.events if e.arm == problem.arms[a].name) for a in arms)
     assert at * len(arms) - float(home_savings(cc, per_cell=True).sum()) <= took
+
+
+def test_the_cycle_bound_turns_a_joint_within_its_limits_not_round_past_one():
+    """(The enclosure let the shoulder's way wrap by 2 pi: from a bin at -150 degrees to a fruit at
+    +150, 1.05 rad the short way, through its +-pi limits; the arm must turn 5.2 rad the long
+    way.) One arm, the bin below and behind it, one fruit that the carriage at 3.0 m puts
+    above and behind: the way there is within the exact time-optimal way at that position,
+    the old enclosure (``limits=False``) far below it; a verified plan stays above the row's bounds."""
+    from coplan.allocate.row_cycles import cycle_bounds
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+    from coplan.problem.gantry import cell_at
+
+    d = gantry_row(length=5.0, n_arms=1, density=1.0, seed=0)
+    d["arms"][0]["bin"] = [-1.5155, -0.875]  # 1.75 m from the base at -150 degrees
+    d["fruits"] = [{"id": "f1", "position": [1.4845, 0.875]}]  # the same, at +150 degrees, the carriage at 3.0 m
+    row = parse_problem(to_yaml(d))
+    cell = cell_at(row, 3.0)
+    arm = cell.arms[0]
+    qb, vb = arm.ik(np.asarray(arm.bin, float))
+    q, v = arm.ik(np.asarray(cell.fruits[0].position, float), row.task.reach_margin)
+    lim = [(arm.max_velocity[i], arm.max_acceleration[i], arm.max_jerk[i]) for i in range(2)]
+    exact = min(max(float(scurve_times(abs(q[j][i] - qb[k][i]), *lim[i])) for i in range(2))
+                for k in range(2) if vb[k] for j in range(2) if v[j])
+    ways = {}
+    for limits in (True, False):
+        cc = cell_cycles(row, 0.05, limits=limits)
+        cells, _ = cc.band(0)
+        col = np.flatnonzero(cells[0] == int(np.searchsorted(cc.hi, 3.0)))
+        ways[limits] = float(cc.ways[0][0, col].min())
+    assert ways[True] <= exact + 1e-9 and ways[True] >= 0.9 * exact
+    assert ways[False] < 0.4 * exact
+    assert cycle_bounds(row)[0][0, 0] > cycle_bounds(row, limits=False)[0][0, 0] + 1.0
+    import coplan  # and a verified plan of the row stays above both of its bounds
+
+    res = coplan.solve(row)
+    b = row_bounds(row)
+    assert res.verification.passed and res.plan.metrics["harvested"] == 1
+    assert b.stop_and_go <= res.plan.metrics["makespan"] + 1e-9 and b.any_plan <= b.stop_and_go

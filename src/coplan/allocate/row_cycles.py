@@ -9,7 +9,8 @@ the range of each joint angle is enclosed exactly -- the elbow angle is a monoto
 the distance to the base (whose least value, right above the base, is added when the cell
 holds it), the shoulder angle is the angle of the fruit seen from the base (monotone along the
 rail) less a function of the elbow angle, so its range lies within the difference of the two
-ranges. The joint step from the bin pose is at least the distance to that range (2 pi shifts
+ranges. The joint step from the bin pose is at least the distance to the part of that range within
+the joint's limits (a joint turns within them, never round past one; 2 pi shifts
 included), on the better elbow branch.
 
 :func:`cell_cycles` -> :class:`CellCycles`: per arm, fruit and cell; :func:`cycle_bounds`: the
@@ -44,6 +45,14 @@ def _dist_to_range(b, lo, hi):
     return np.where(b < lo, lo - b, np.where(b > hi, b - hi, 0.0))
 
 
+def _dist_within(b, lo, hi, lim_lo: float, lim_hi: float):
+    """The distance from ``b`` (within the joint's limits) to the part of ``[lo, hi]`` within
+    them, inf where none is: a joint moves within its limits, so it cannot reach an angle past
+    one by the other way round."""
+    a, c = np.maximum(lo, lim_lo), np.minimum(hi, lim_hi)
+    return np.where(a <= c, _dist_to_range(b, a, c), np.inf)
+
+
 @dataclass(frozen=True)
 class CellCycles:
     """Per arm, a lower bound on each fruit's harvest cycle with the carriage anywhere in each
@@ -56,7 +65,7 @@ class CellCycles:
     hi: np.ndarray  # (N,) m
     first: tuple  # per arm: (F,) int cell index, or None
     cost: tuple  # per arm: (F, W) s, or None
-    reach: np.ndarray  # (A, F) bool: the arm reaches the fruit from some cell (annulus less the margin)
+    reach: np.ndarray  # (A, F) bool: the arm reaches the fruit from some cell (annulus less the margin; limits: as :func:`cell_cycles`)
     ways: tuple = ()  # per arm: (F, W) s, the least way between a bin pose and the fruit (as ``cost``), or None
     home_ways: tuple = ()  # per arm: (F, W) s, the least way from home to the fruit, or None
 
@@ -66,9 +75,15 @@ class CellCycles:
         return np.minimum(self.first[a][:, None] + np.arange(W)[None, :], self.lo.size - 1), self.cost[a]
 
 
-def cell_cycles(problem: Problem, step: float = 0.05) -> CellCycles:
+def cell_cycles(problem: Problem, step: float = 0.05, limits: bool = True) -> CellCycles:
     """Per arm, fruit and rail cell of ``step`` m: a lower bound on one harvest cycle (bin ->
-    fruit -> bin and both dwells) with the carriage anywhere in the cell (module docstring)."""
+    fruit -> bin and both dwells) with the carriage anywhere in the cell (module docstring).
+
+    ``limits``: each joint's way is to the part of the fruit's range of angles within the
+    joint's limits, never round past one (a shoulder limited to [-pi, pi] turns from 3.0 rad to
+    -3.0 rad the long way, 6.0 rad, not 0.28); a cell where no angle of a branch is within them
+    is out of that branch's reach. False: the enclosure before the limits were taken (the way
+    may wrap by 2 pi, as the row's speed search estimates its fruit's cycles; a looser bound)."""
     from ..problem.gantry import cell_at
     from .screen import screened
 
@@ -104,7 +119,6 @@ def cell_cycles(problem: Problem, step: float = 0.05) -> CellCycles:
         rmin = np.where((p0 <= 0) & (p1 >= 0), np.abs(dy), np.minimum(np.hypot(p0, dy), np.hypot(p1, dy)))
         rmax = np.maximum(np.hypot(p0, dy), np.hypot(p1, dy))
         inside = (rmin <= r_out) & (rmax >= r_in)
-        reach[a] = inside.any(axis=1)
         r_lo, r_hi = np.clip(rmin, r_in, r_out), np.clip(rmax, r_in, r_out)
         q2a, q2b = _q2_of_r(l1, l2, r_hi), _q2_of_r(l1, l2, r_lo)  # q2 falls as r grows: [q2a, q2b]
         # phi(q2) over [q2a, q2b]: its ends and, if inside, its turning point (cos q2 = -l2 / l1)
@@ -120,22 +134,25 @@ def cell_cycles(problem: Problem, step: float = 0.05) -> CellCycles:
         best = np.full(p0.shape, np.inf)  # the way from the bin, on the better branch and bin pose
         out = np.full(p0.shape, np.inf)  # the way from home (an arm's first cycle starts there)
         home = np.asarray(arm.home, float)
-        lo2, hi2 = arm.joint_limits[1]
+        (lo1, hi1), (lo2, hi2) = arm.joint_limits
+        dist = _dist_within if limits else (lambda b, lo, hi, _l, _h: _dist_to_range(b, lo, hi))
         shifts2 = [0.0] + ([_TWO_PI] if hi2 > math.pi else []) + ([-_TWO_PI] if lo2 < -math.pi else [])
         for sgn in (1.0, -1.0):  # elbow up: q2 >= 0, q1 = theta - phi; elbow down: mirrored
             q2_lo, q2_hi = (q2a, q2b) if sgn > 0 else (-q2b, -q2a)
             q1_lo, q1_hi = (th_lo - ph_hi, th_hi - ph_lo) if sgn > 0 else (th_lo + ph_lo, th_hi + ph_hi)
 
             def way(q):  # the least time from joint pose q to the branch's range of fruit poses
-                d1 = np.minimum.reduce([_dist_to_range(q[0], q1_lo + s, q1_hi + s) for s in (-_TWO_PI, 0.0, _TWO_PI)])
+                d1 = np.minimum.reduce([dist(q[0], q1_lo + s, q1_hi + s, lo1, hi1) for s in (-_TWO_PI, 0.0, _TWO_PI)])
                 # (the branch's q2 range 2 pi on where the elbow's limits reach past +-pi)
-                d2 = np.minimum.reduce([_dist_to_range(q[1], q2_lo + s, q2_hi + s) for s in shifts2])
+                d2 = np.minimum.reduce([dist(q[1], q2_lo + s, q2_hi + s, lo2, hi2) for s in shifts2])
                 return np.maximum(scurve_times(d1, arm.max_velocity[0], arm.max_acceleration[0], arm.max_jerk[0]),
                                   scurve_times(d2, arm.max_velocity[1], arm.max_acceleration[1], arm.max_jerk[1]))
 
             back = np.minimum.reduce([way(qb0) for qb0 in bins])  # (moves are symmetric)
             best = np.minimum(best, back)
             out = np.minimum(out, way(home))
+        inside &= np.isfinite(best)  # (with limits: some branch's angles within them)
+        reach[a] = inside.any(axis=1)
         firsts.append(first)
         costs.append(np.where(inside, 2.0 * best + dw, np.inf))
         ways.append(np.where(inside, best, np.inf))
@@ -143,15 +160,17 @@ def cell_cycles(problem: Problem, step: float = 0.05) -> CellCycles:
     return CellCycles(lo_c, hi_c, tuple(firsts), tuple(costs), reach, tuple(ways), tuple(home_ways))
 
 
-def cycle_bounds(problem: Problem, step: float = 0.05, cc: CellCycles | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def cycle_bounds(problem: Problem, step: float = 0.05, cc: CellCycles | None = None,
+                 limits: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(cost (A, F), reach (A, F) bool, reach_from (F,))``: per arm and fruit, a lower bound on
     one harvest cycle (bin -> fruit -> bin and both dwells) over every carriage position (module
-    docstring); whether the arm can reach the fruit from some position on the rail (annulus
-    less the margin, ignoring joint limits: a superset); and the least carriage position from
+    docstring); whether the arm can reach the fruit from some position on the rail (a superset:
+    the annulus less the margin, with ``limits`` where some branch's angles are within the
+    joints' limits, as :func:`cell_cycles`); and the least carriage position from
     which some arm might reach the fruit. An arm the cell screen locks (it cannot reach its bin,
     which rides with the carriage: the screen of the cell at any carriage position) reaches nothing.
-    ``cc``: :func:`cell_cycles` of ``problem`` on ``step``, when already computed."""
-    cc = cell_cycles(problem, step) if cc is None else cc
+    ``cc``: :func:`cell_cycles` of ``problem`` on ``step`` (and ``limits``), when already computed."""
+    cc = cell_cycles(problem, step, limits) if cc is None else cc
     A, F = cc.reach.shape
     cost = np.full((A, F), np.inf)
     reach_from = np.full(F, np.inf)

@@ -119,7 +119,7 @@ def start_served(problem: Problem, reach: RowReach) -> set[str]:
     ramp = Cruise.of(problem, g.max_velocity, g.end)
     ts = np.arange(0.0, ramp.duration, 0.01)
     xs = ramp.x(ts)
-    cost = cycle_bounds(problem)[0]
+    cost = cycle_bounds(problem, limits=False)[0]  # (limits=False: the estimates the speed search was tuned on; the bounds take the limits)
     dwell = problem.task.pick_dwell + problem.task.place_dwell
     col = {f.id: k for k, f in enumerate(problem.fruits)}
     out = set()

@@ -442,7 +442,7 @@ def demand_stretches(problem: Problem, reach: RowReach, x1: float, stretch: floa
         edges = np.array([g.start, g.start + stretch])
     edges[-1] = max(edges[-1], x1)
     need = np.zeros(edges.size - 1)
-    cost = cycle_bounds(problem)[0]
+    cost = cycle_bounds(problem, limits=False)[0]  # (limits=False: the estimates the speed search was tuned on; the bounds take the limits)
     col = {f.id: k for k, f in enumerate(problem.fruits)}
     for fid in reach.harvestable():
         c = cost[:, col[fid]]

@@ -30,7 +30,7 @@ def start_hold(problem: Problem, reach: RowReach, fruit, cost: np.ndarray | None
     (:func:`coplan.allocate.row_cycles.cycle_bounds`, on an arm that serves it from the start; ``cost``:
     those bounds where the caller has them) plus a second for the arm's way out and the grid,
     each arm's summed; the busiest arm's total."""
-    cost = cycle_bounds(problem)[0] if cost is None else cost
+    cost = cycle_bounds(problem, limits=False)[0] if cost is None else cost
     col = {f.id: k for k, f in enumerate(problem.fruits)}
     load = np.zeros(len(problem.arms))
     for fid in fruit:
@@ -62,7 +62,7 @@ def reports_start_hold(problem: Problem, reports: list[RowReport], cruise: Cruis
     seen = replace(problem, fruits=tuple(Fruit(r.id, r.position) for r in reports if r.id in first),
                    name=f"{problem.name} (as seen)", source=None, digest=None)
     reach = row_reach(seen, fruit_ids=at_start)
-    cost = cycle_bounds(seen)[0]
+    cost = cycle_bounds(seen, limits=False)[0]
     col = {f.id: k for k, f in enumerate(seen.fruits)}
     task = problem.task
 
