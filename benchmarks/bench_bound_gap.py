@@ -46,19 +46,19 @@ def _charges(problem, plan, cells: list[int]) -> tuple[float, float]:
     arms = [a for a in range(len(cc.cost)) if cc.cost[a] is not None]
     index = {f.id: i for i, f in enumerate(problem.fruits)}
     names = [a.name for a in problem.arms]
+    bands = {a: cc.band(a) for a in arms}
     t, x = np.asarray(plan.time), np.asarray(plan.gantry_x)
     at_picks, picked = 0.0, []
     for e in plan.events:
         if e.kind != coplan.EventKind.PICK:
             continue
         a, f = names.index(e.arm), index[e.fruit]
-        band, cost = cc.band(a)
+        band, cost = bands[a]
         cell = int(np.searchsorted(cc.hi, np.interp(e.t_start, t, x)))
         at_picks += float(np.where(band[f] == cell, cost[f], np.inf).min())
         picked.append(f)
     best = np.full(len(picked), np.inf)
-    for a in arms:
-        band, cost = cc.band(a)
+    for band, cost in bands.values():
         for c in cells:
             best = np.minimum(best, np.where(band[picked] == c, cost[picked], np.inf).min(axis=1))
     return at_picks / len(arms), float(best.sum()) / len(arms)
