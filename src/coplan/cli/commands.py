@@ -100,7 +100,7 @@ ResolutionOption = Annotated[Optional[float], typer.Option(parser=real, metavar=
 @app.command()
 @guarded
 def solve(
-    problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file, or a shipped problem's name (coplan problems lists them; default: the shipped greenhouse row).")] = None,
+    problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file, or a shipped problem's name (coplan problems lists them; default: greenhouse_row, the course's cell).")] = None,
     planner: Annotated[Optional[PlannerKind], typer.Option(
         "--planner", "-p", parser=choice(PlannerKind), metavar=choices(PlannerKind), help="Planner to use (default optimal; for a row, the cell planner at each stop: default coordinated).")] = None,
     stops: Annotated[Optional[StopRule], typer.Option(
@@ -281,7 +281,7 @@ def list_problems():
 @app.command()
 @guarded
 def check(
-    problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file, or a shipped problem's name (coplan problems lists them; default: the shipped greenhouse row).")] = None,
+    problem: Annotated[Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEM", help="Problem YAML file, or a shipped problem's name (coplan problems lists them; default: greenhouse_row, the course's cell).")] = None,
     resolution: ResolutionOption = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON document instead of the summary.")] = False,
 ):
@@ -447,7 +447,7 @@ def verify_cmd(
 @guarded
 def compare_cmd(
     problems: Annotated[
-        Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEMS", help="Problem YAML file, a shipped problem's name, or a folder of problem files (default: the shipped greenhouse row).")
+        Optional[Path], typer.Argument(parser=in_path, metavar="PROBLEMS", help="Problem YAML file, a shipped problem's name, or a folder of problem files (default: greenhouse_row, the course's cell).")
     ] = None,
     planner: Annotated[
         Optional[list[str]],
