@@ -50,6 +50,12 @@ def test_the_command_line_sweep_and_its_usage_errors(tmp_path):
     assert [row["extra_mm"] for row in doc["rows"]] == [0.0, 10.0]  # (the problem's own too: the ratios' reference)
     assert doc["rows"][1]["ratio"] is not None
     assert doc["exit_code"] == 0 and doc["verdict"] == "ok"  # (as every document of a command that ran)
+    first = (tmp_path / "out" / "clearance.json").read_text()
+    again = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--clearance-sweep", "-p", "coordinated",
+                                "--extra", "10", "-o", str(tmp_path / "out"), "--no-figures", "--json"])
+    assert again.exit_code == 0, again.output  # a second sweep into the folder keeps the first one's report
+    assert (tmp_path / "out" / "clearance.previous.json").read_text() == first
+    assert any("clearance.previous.json" in n for n in json.loads(again.stdout[again.stdout.index("{"):])["notes"])
     bad = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--extra", "10", "-o", str(tmp_path / "b")])
     assert bad.exit_code == 2 and "--clearance-sweep" in bad.output
     neg = runner.invoke(app, ["compare", str(_path("crossing_paths")), "--clearance-sweep", "--extra", "-5",

@@ -175,3 +175,36 @@ def test_the_aggregate_leaves_a_problem_with_nothing_to_plan_out_of_the_medians(
     agg = aggregate(rows, ["p"])["p"]
     assert agg["median"]["makespan"] == 3.0 and agg["median"]["throughput"] == 0.375
     assert agg["worst"]["collision_count"] is None and agg["runs"] == 3
+
+
+def test_a_second_comparison_into_a_folder_keeps_the_first_report_as_previous(tmp_path):
+    """A comparison into a folder that holds an earlier one's report moves it to
+    ``compare.previous.json`` / ``.md`` (replacing an older one) and says so in its notes, as a
+    solve keeps its previous run; a folder of the user's named like it is never replaced. In a
+    folder of problems, each problem's own report is kept the same way."""
+    out = tmp_path / "out"
+    first = compare(shipped("crossing_paths.yaml"), ["heuristic"], out, figures=False)
+    text = (out / "compare.json").read_text()
+    assert not any("previous report" in n for n in first.notes)
+    second = compare(shipped("crossing_paths.yaml"), ["heuristic"], out, figures=False)
+    assert (out / "compare.previous.json").read_text() == text
+    assert (out / "compare.previous.md").is_file()
+    assert any("previous report" in n and "compare.previous.json" in n for n in second.notes)
+    assert json.loads((out / "compare.json").read_text())["notes"] == second.notes
+    newer = (out / "compare.json").read_text()
+    compare(shipped("crossing_paths.yaml"), ["heuristic"], out, figures=False)
+    assert (out / "compare.previous.json").read_text() == newer  # (the older one replaced)
+    (out / "compare.previous.json").unlink()
+    (out / "compare.previous.json").mkdir()  # the user's folder of that name: left alone, the report rewritten
+    (out / "compare.previous.json" / "mine.txt").write_text("keep me")
+    compare(shipped("crossing_paths.yaml"), ["heuristic"], out, figures=False)
+    assert (out / "compare.previous.json" / "mine.txt").read_text() == "keep me"
+    assert (out / "compare.json").is_file()
+    src = tmp_path / "cells"
+    src.mkdir()
+    shutil.copy(shipped("crossing_paths.yaml"), src / "crossing_paths.yaml")
+    compare(src, ["heuristic"], tmp_path / "agg", figures=False)
+    own = (tmp_path / "agg" / "crossing_paths" / "compare.json").read_text()
+    compare(src, ["heuristic"], tmp_path / "agg", figures=False)
+    assert (tmp_path / "agg" / "crossing_paths" / "compare.previous.json").read_text() == own
+    assert (tmp_path / "agg" / "compare.previous.json").is_file()

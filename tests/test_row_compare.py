@@ -104,3 +104,15 @@ def test_an_interrupt_before_the_plan_on_the_move_keeps_the_stop_rules_report(ro
     doc = json.loads((tmp_path / "c" / "compare.json").read_text())
     assert [r["name"] for r in doc["rows"]] == ["fixed"] and doc["rows"][0]["verified"]
     assert doc["notes"] == ["interrupted while planning on the move, before it had a plan: this report covers 1 of 2 plans"]
+
+
+def test_a_second_row_comparison_into_a_folder_keeps_the_first_report_as_previous(row, tmp_path):
+    """As for cells: the earlier report moves to ``compare.previous.*``, noted, not replaced unseen."""
+    out = tmp_path / "c"
+    compare_rows(row, out, rules=("fewest",), gantry="stop-and-go")
+    text = (out / "compare.json").read_text()
+    cmp = compare_rows(row, out, rules=("fewest",), gantry="stop-and-go")
+    assert (out / "compare.previous.json").read_text() == text
+    assert (out / "compare.previous.md").is_file()
+    assert any("compare.previous.json" in n for n in cmp.notes)
+    assert json.loads((out / "compare.json").read_text())["notes"] == cmp.notes

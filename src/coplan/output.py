@@ -27,7 +27,7 @@ from pathlib import Path
 
 from .errors import CoplanError
 
-__all__ = ["MARKER", "RunFolder", "RunKept", "is_run_folder", "previous_of", "writable_folder", "signals_deferred", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder"]
+__all__ = ["MARKER", "RunFolder", "RunKept", "is_run_folder", "previous_of", "writable_folder", "signals_deferred", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder", "keep_reports"]
 
 MARKER = ".coplan-run"  # written into every run folder
 # the files a run writes (solve, live runs), by their exact names -- a user's plan.md or
@@ -160,6 +160,25 @@ def atomic_text(path: Path, text: str) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def keep_reports(out: Path, names: tuple[str, ...]) -> list[Path]:
+    """Before a report is first written into ``out``: each of ``names`` already there (an earlier
+    report's file) is renamed ``<stem>.previous<suffix>`` beside it, replacing an older one, as a
+    run folder keeps its previous run (a second ``coplan compare`` into a folder had replaced the
+    first one's report). Only files: a folder of the user's of that name is left alone. Returns
+    where the files went."""
+    kept = []
+    for name in names:
+        src = Path(out) / name
+        if src.is_file():
+            dst = src.with_name(f"{src.stem}.previous{src.suffix}")
+            if dst.exists() and not dst.is_file():
+                continue  # (not ours to replace: the report is then rewritten, as before)
+            with named_as(dst):
+                os.replace(src, dst)
+            kept.append(dst)
+    return kept
 
 
 def atomic_file(path: Path, write) -> None:

@@ -32,7 +32,7 @@ from ..errors import Issue, ProblemError, plural, printable
 from ..plan import Plan, PlannerKind, PlanStatus
 from ..problem.model import Problem
 from ..problem.load import load_problem
-from ..output import atomic_text, check_folder, is_run_folder
+from ..output import atomic_text, check_folder, is_run_folder, keep_reports
 from ..progress import ProgressCallbackError, Tick, nested, speaker, ticker
 from .aggregate import aggregate
 
@@ -235,6 +235,7 @@ def compare(
     cmp = Comparison(planners=[s.label for s in specs])
     cmp.notes += [f"planner {label} given more than once: compared once" for label in dict.fromkeys(twice)]
     cmp.notes += _earlier_runs(out, files, specs)
+    cmp.notes += _kept(out)
     _warm_up()
     runs = len(files) * len(specs)
     for k, path in enumerate(files):
@@ -272,7 +273,7 @@ def compare(
         cmp.problems.append(entry)
         cmp.rows += rows
         if not single:
-            mine = Comparison(planners=cmp.planners, problems=[entry], rows=rows, notes=[])
+            mine = Comparison(planners=cmp.planners, problems=[entry], rows=rows, notes=_kept(out / path.stem))
             _write_report(mine, specs, out / path.stem, figures_from=cmp)
             cmp.files[f"{path.stem}/compare.json"] = mine.files["json"]
         _write_report(cmp, specs, out)
@@ -280,6 +281,12 @@ def compare(
         skipped = f" ({bad} skipped: invalid)" if bad else ""
         say(f"{k + 1} of {len(files)} problem files done, {k + 1 - bad} compared{skipped}; report written to {out / 'compare.json'}")
     return cmp
+
+
+def _kept(out: Path) -> list[str]:
+    """An earlier comparison's report in ``out`` moved aside (:func:`coplan.output.keep_reports`), as a note."""
+    kept = keep_reports(out, ("compare.json", "compare.md"))
+    return [f"the previous report in {out}: moved to {', '.join(p.name for p in kept)}"] if kept else []
 
 
 def _earlier_runs(out: Path, files: list[Path], specs: list[PlannerSpec]) -> list[str]:

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..kinds import GantryMode, PlannerKind, PlanStatus, SpeedProfile, StopRule
-from ..output import atomic_text, check_folder, is_run_folder
+from ..output import atomic_text, check_folder, is_run_folder, keep_reports
 from ..plan import jsonable
 from ..problem.generate import problem_from_mapping
 from ..problem.load import load_problem
@@ -126,6 +126,9 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     out.mkdir(parents=True, exist_ok=True)
     cmp = RowComparison(problem.name, PlannerKind(planner).value if planner is not None else PlannerKind.COORDINATED.value,
                         gantry=mode.value)
+    kept = keep_reports(out, ("compare.json", "compare.md"))  # (an earlier comparison's report, moved aside)
+    if kept:
+        cmp.notes.append(f"the previous report in {out}: moved to {', '.join(p.name for p in kept)}")
     runs: list[StopRule | None] = list(rules)
     if mode != GantryMode.STOP_AND_GO:
         runs.append(None)  # on the move, after the stop rules
