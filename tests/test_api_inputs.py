@@ -321,7 +321,8 @@ def test_compare_again_into_a_folder_names_the_earlier_runs_it_does_not_write(tm
     compare(CROSSING, planners=["coordinated", "heuristic"], out_dir=tmp_path, figures=False)
     cmp = compare(CROSSING, planners="coordinated", out_dir=tmp_path, figures=False)
     stale = tmp_path / CROSSING.stem / "heuristic"
-    assert cmp.notes == [f"{stale}: a run of an earlier comparison (not in this one; left as it was)"]
+    assert cmp.notes == [f"{stale}: a run of an earlier comparison (not in this one; left as it was)",
+                         f"the previous report in {tmp_path}: moved to compare.previous.json, compare.previous.md"]
     assert (stale / "plan.json").is_file()  # (nothing of the user's is moved or removed)
     assert f"{stale}: a run of an earlier comparison" in (tmp_path / "compare.md").read_text()
 
