@@ -738,3 +738,31 @@ def test_a_bare_word_that_names_no_shipped_problem_says_so() -> None:
     assert "a shipped problem's name, found neither" in msg and "'coplan problems' lists them" in msg
     with pytest.raises(ProblemError, match="did you mean the shipped problem 'sparse_row'"):
         load_problem("sparse_rwo")
+
+
+@pytest.mark.parametrize("key, choices, meant", [
+    ("speed", ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle"), "max_velocity"),
+    ("velocity", ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle"), "max_velocity"),
+    ("accel", ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle"), "max_acceleration"),
+    ("jerk", ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle"), "max_jerk"),
+    ("stop", ("stops", "stop_price", "planner"), "stops"),  # a slip of spelling stays first
+    ("settel", ("start", "end", "max_velocity", "settle"), "settle"),
+])
+def test_an_unknown_key_suggests_the_key_it_names_not_only_the_nearest_spelling(key, choices, meant):
+    """``gantry.speed`` is the carriage's top speed, ``max_velocity``: the suggestion said
+    ``settle``, the nearest spelling. A key that names a word of coplan's key (or a common
+    synonym of it) suggests that key; a near-miss spelling still wins."""
+    from coplan.problem.yamlsafe import did_you_mean
+
+    assert did_you_mean(key, choices) == f"; did you mean {meant!r}?"
+
+
+def test_a_rows_gantry_speed_is_met_with_max_velocity_in_the_file_s_error(tmp_path):
+    from coplan.problem.load import shipped_rows
+
+    text = next(p for p in shipped_rows() if p.stem == "sparse_row").read_text()
+    i = text.index("\ngantry:")
+    text = text[:i] + text[i:].replace("max_velocity:", "speed:", 1)  # (the carriage's, not the arms')
+    with pytest.raises(ProblemError) as e:
+        parse_problem(text, "row.yaml")
+    assert "gantry.speed" in str(e.value) and "did you mean 'max_velocity'?" in str(e.value)

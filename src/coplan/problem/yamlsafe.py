@@ -352,7 +352,23 @@ def read_input_text(path, error: type[InputError]) -> str:
                     src) from None
 
 
+#: a key's common other names, by the word of coplan's key they stand for (``gantry.speed`` is
+#: ``gantry.max_velocity``: spelling alone suggested ``settle``)
+_SYNONYMS = {"speed": "velocity", "vel": "velocity", "accel": "acceleration", "acc": "acceleration"}
+
+
 def did_you_mean(key: Any, choices) -> str:
-    """``"; did you mean 'x'?"`` for the closest of ``choices`` to an unknown ``key``, or ``""``."""
-    m = difflib.get_close_matches(str(key), [str(c) for c in choices], n=1, cutoff=0.5)
+    """``"; did you mean 'x'?"`` for the closest of ``choices`` to an unknown ``key``, or ``""``:
+    the one choice with the key (or its synonym) as a whole word (``max_velocity`` for ``speed``
+    or ``velocity``) unless a spelling is very close, else the closest spelling."""
+    names = [str(c) for c in choices]
+    near = difflib.get_close_matches(str(key), names, n=1, cutoff=0.8)  # a slip of spelling first ('stop' for 'stops')
+    if near:
+        return f"; did you mean {near[0]!r}?"
+    word = str(key).strip().lower()
+    word = _SYNONYMS.get(word, word)
+    whole = [c for c in names if word in c.lower().split("_")]
+    if len(whole) == 1:
+        return f"; did you mean {whole[0]!r}?"
+    m = difflib.get_close_matches(str(key), names, n=1, cutoff=0.5)
     return f"; did you mean {m[0]!r}?" if m else ""
