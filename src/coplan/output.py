@@ -162,12 +162,12 @@ def atomic_text(path: Path, text: str) -> None:
         raise
 
 
-def keep_reports(out: Path, names: tuple[str, ...]) -> list[Path]:
+def keep_reports(out: Path, names: tuple[str, ...]) -> list[str]:
     """Before a report is first written into ``out``: each of ``names`` already there (an earlier
     report's file) is renamed ``<stem>.previous<suffix>`` beside it, replacing an older one, as a
     run folder keeps its previous run (a second ``coplan compare`` into a folder had replaced the
     first one's report). Only files: a folder of the user's of that name is left alone. Returns
-    where the files went."""
+    the report's note of it (none when nothing was there)."""
     kept = []
     for name in names:
         src = Path(out) / name
@@ -177,8 +177,8 @@ def keep_reports(out: Path, names: tuple[str, ...]) -> list[Path]:
                 continue  # (not ours to replace: the report is then rewritten, as before)
             with named_as(dst):
                 os.replace(src, dst)
-            kept.append(dst)
-    return kept
+            kept.append(dst.name)
+    return [f"the previous report in {out}: moved to {', '.join(kept)}"] if kept else []
 
 
 def atomic_file(path: Path, write) -> None:

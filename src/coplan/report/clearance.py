@@ -83,9 +83,7 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
     locked0: set = set()
     earlier: list[tuple[float, Any]] = []  # (extra, its verified plan): smaller clearances' plans, to try at larger ones
     cost = ClearanceCost(base.name, str(getattr(planner, "value", planner) or "optimal"))
-    kept = keep_reports(out, ("clearance.json", "clearance.md"))  # (an earlier sweep's report, moved aside)
-    if kept:
-        cost.notes.append(f"the previous report in {out}: moved to {', '.join(p.name for p in kept)}")
+    cost.notes += keep_reports(out, ("clearance.json", "clearance.md"))  # (an earlier sweep's report, moved aside)
     for i, extra in enumerate(extras):
         clearance = round(base.task.clearance + extra / 1000.0, 6)
         tick(Tick("clearance", i, len(extras), "clearances", note=f"+{extra:g} mm"))

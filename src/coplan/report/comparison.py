@@ -235,7 +235,7 @@ def compare(
     cmp = Comparison(planners=[s.label for s in specs])
     cmp.notes += [f"planner {label} given more than once: compared once" for label in dict.fromkeys(twice)]
     cmp.notes += _earlier_runs(out, files, specs)
-    cmp.notes += _kept(out)
+    cmp.notes += keep_reports(out, REPORT_FILES)
     _warm_up()
     runs = len(files) * len(specs)
     for k, path in enumerate(files):
@@ -273,7 +273,7 @@ def compare(
         cmp.problems.append(entry)
         cmp.rows += rows
         if not single:
-            mine = Comparison(planners=cmp.planners, problems=[entry], rows=rows, notes=_kept(out / path.stem))
+            mine = Comparison(planners=cmp.planners, problems=[entry], rows=rows, notes=keep_reports(out / path.stem, REPORT_FILES))
             _write_report(mine, specs, out / path.stem, figures_from=cmp)
             cmp.files[f"{path.stem}/compare.json"] = mine.files["json"]
         _write_report(cmp, specs, out)
@@ -283,10 +283,8 @@ def compare(
     return cmp
 
 
-def _kept(out: Path) -> list[str]:
-    """An earlier comparison's report in ``out`` moved aside (:func:`coplan.output.keep_reports`), as a note."""
-    kept = keep_reports(out, ("compare.json", "compare.md"))
-    return [f"the previous report in {out}: moved to {', '.join(p.name for p in kept)}"] if kept else []
+#: the report's files in its folder (an earlier comparison's moved aside first: :func:`coplan.output.keep_reports`)
+REPORT_FILES = ("compare.json", "compare.md")
 
 
 def _earlier_runs(out: Path, files: list[Path], specs: list[PlannerSpec]) -> list[str]:
@@ -410,7 +408,7 @@ def _write_report(cmp: Comparison, specs: list[PlannerSpec], out: Path, figures_
     if figures_from is not None:  # a problem's own report shows its figures too
         cmp.files.update({k: v for k, v in figures_from.files.items() if k.startswith(f"{out.name}/") and k.endswith(".png")})
     out.mkdir(parents=True, exist_ok=True)
-    json_path, md_path = out / "compare.json", out / "compare.md"
+    json_path, md_path = (out / name for name in REPORT_FILES)
     cmp.files.update(json=str(json_path), markdown=str(md_path))
     atomic_text(json_path, json.dumps(cmp.to_dict(), indent=1, allow_nan=False))
     atomic_text(md_path, to_markdown(cmp, out))

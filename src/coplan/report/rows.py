@@ -126,9 +126,7 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     out.mkdir(parents=True, exist_ok=True)
     cmp = RowComparison(problem.name, PlannerKind(planner).value if planner is not None else PlannerKind.COORDINATED.value,
                         gantry=mode.value)
-    kept = keep_reports(out, ("compare.json", "compare.md"))  # (an earlier comparison's report, moved aside)
-    if kept:
-        cmp.notes.append(f"the previous report in {out}: moved to {', '.join(p.name for p in kept)}")
+    cmp.notes += keep_reports(out, ("compare.json", "compare.md"))  # (an earlier comparison's report, moved aside)
     runs: list[StopRule | None] = list(rules)
     if mode != GantryMode.STOP_AND_GO:
         runs.append(None)  # on the move, after the stop rules
