@@ -7,11 +7,12 @@ bound (:func:`coplan.allocate.stop_bound.stops_bound`) split into its two parts:
 
 * ``moves``: the bound's carriage moves; the plan's time with the carriage moving and no arm
   working (its moving time less the moves that overlap work);
-* ``work``: the bound's work, each fruit charged the least cycle bound of the arms that reach it
-  (over their mean) at the cheapest cell on its side of the bound's stops; the plan's stop time
-  (row time less its pure moving), and the same cycle bounds charged where the plan really
-  picked each fruit (:func:`coplan.allocate.row_cycles.cell_cycles` at the carriage's cell at the
-  pick, over the mean of the arms), and at the best of the bound's own stops.
+* ``work``: the bound's work, each fruit charged the least weighted cycle bound of the arms that
+  reach it (the bound's weights per cell and arm, their weighted mean: a stop lasts at least
+  that) at the cheapest cell on its side of the bound's stops; the plan's stop time (row time
+  less its pure moving), and the same weighted cycle bounds charged where the plan really
+  picked each fruit (:func:`coplan.allocate.row_cycles.cell_cycles` at the carriage's cell at
+  the pick, by the arm that picked it), and at the best of the bound's own stops.
 
 ``stops' positions`` (the plan's cycle bounds where it picked less the bound's work) is what
 where the stops are costs: each fruit's cycle bound where it was picked against where the bound
@@ -38,30 +39,32 @@ from run_header import run_header
 ROWS = ("course_row", "dense_row", "six_arm_row", "sparse_row")
 
 
-def _charges(problem, plan, cells: list[int]) -> tuple[float, float]:
+def _charges(problem, plan, cells: list[int], weights: np.ndarray) -> tuple[float, float]:
     """``(at the plan's picks, at the best of ``cells``)``: the sum over the fruit the plan picks
-    of the picking arm's cycle bound at the carriage's cell at the pick, and the sum over the same
-    fruit of the least over arms and ``cells`` -- each over the number of arms that harvest, s."""
+    of the picking arm's cycle bound at the carriage's cell at the pick, weighted by the bound's
+    weight for that arm and cell (``weights`` (cells, arms that harvest): a stop lasts at least
+    its arms' cycles so weighted), and the sum over the same fruit of the least weighted cycle
+    bound over arms and ``cells``, s."""
     cc = cell_cycles(problem, STEP)
     arms = [a for a in range(len(cc.cost)) if cc.cost[a] is not None]
     index = {f.id: i for i, f in enumerate(problem.fruits)}
-    names = [a.name for a in problem.arms]
+    names = {a.name: i for i, a in enumerate(problem.arms)}
     bands = {a: cc.band(a) for a in arms}
     t, x = np.asarray(plan.time), np.asarray(plan.gantry_x)
     at_picks, picked = 0.0, []
     for e in plan.events:
         if e.kind != coplan.EventKind.PICK:
             continue
-        a, f = names.index(e.arm), index[e.fruit]
+        a, f = names[e.arm], index[e.fruit]
         band, cost = bands[a]
         cell = int(np.searchsorted(cc.hi, np.interp(e.t_start, t, x)))
-        at_picks += float(np.where(band[f] == cell, cost[f], np.inf).min())
+        at_picks += weights[cell, arms.index(a)] * float(np.where(band[f] == cell, cost[f], np.inf).min())
         picked.append(f)
     best = np.full(len(picked), np.inf)
-    for band, cost in bands.values():
+    for k, (band, cost) in enumerate(bands.values()):
         for c in cells:
-            best = np.minimum(best, np.where(band[picked] == c, cost[picked], np.inf).min(axis=1))
-    return at_picks / len(arms), float(best.sum()) / len(arms)
+            best = np.minimum(best, weights[c, k] * np.where(band[picked] == c, cost[picked], np.inf).min(axis=1))
+    return at_picks, float(best.sum())
 
 
 def main(argv=None) -> int:
@@ -81,7 +84,7 @@ def main(argv=None) -> int:
         moving = row["carriage_moving_share"] * row["row_time"] - row["overlap_seconds"]
         stop_time = row["row_time"] - moving
         cells = [int(round((s - problem.gantry.start) / STEP)) for s in sb.stops]
-        at_picks, at_bound_stops = _charges(problem, res.plan, cells)
+        at_picks, at_bound_stops = _charges(problem, res.plan, cells, sb.weights)
         idle = row["idle_share"].values()
         others = row["row_time"] * float(np.mean([i["others"] for i in idle]))
         holding = row["row_time"] * float(np.mean([i["coordination"] for i in idle]))

@@ -49,6 +49,23 @@ first cell adds :func:`settle_floor`: no arm picks before the settle is over, an
 arm can only end the last stop's cycle (back to the bin, the place) and make its way to its
 first fruit here.
 
+*Weights.* A stop lasts at least its *busiest* arm's cycles, and the mean over the arms (each
+fruit ``min_a cost_a / A``) forgets which arm a fruit needs: with stops close together each arm
+reaches only the fruit in front of it, and one arm's share sets the stop. For any weights
+``lam_a(c) >= 0`` summing to 1 in each cell, a stop in cell ``c`` lasts at least ``sum_a
+lam_a(c) X_a`` (``X_a`` its arm ``a``'s cycles there) ``>= sum_f min_a lam_a(c) cost_a(f, c)``
+over the fruit it picks: the programme with ``w_f(c) = min_a lam_a(c) cost_a(f, c)`` is a bound
+for *every* choice of weights (two stops in one cell share its weights, so they still merge;
+an arm's home saving is taken off at its heaviest weight). Equal weights give the mean. The
+best weights make the programme's witness pay each cell's busiest arm (the dual of the
+min-max assignment of its fruit); :func:`weighted_bound` climbs towards them by projected
+subgradient steps -- a round's subgradient is each fruit's cycle bound, at the cell and by the
+arm its witness charges -- on cells twice as coarse (a round there costs about an eighth), and
+prices the best weights found on the bound's own cells; the bound is the larger of that and
+the equal weights' value. Raised the shipped rows' bound by 3.3-4.7 % (course_row 343.9 ->
+360.2 s). Tested against brute force over every set of stops and every assignment of fruit to
+stops and arms on seeded random rows, for the weights it finds and for random ones.
+
 Work overlapping the carriage's moves (coplan's plans place and come out while it moves) can
 beat it by at most that overlap, as for the plain bound.
 """
@@ -57,7 +74,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
@@ -66,9 +83,13 @@ from ..kinematics.timing import scurve_times
 from ..problem.model import Problem
 from .row_cycles import CellCycles, cell_cycles, home_savings
 
-__all__ = ["Programme", "StopsBound", "stops_bound", "fruit_cell_costs", "stops_dp", "settle_floor"]
+__all__ = ["Programme", "StopsBound", "Weighted", "stops_bound", "fruit_cell_costs", "weighted_costs", "weighted_bound",
+           "stops_dp", "settle_floor"]
 
 STEP = 0.1  # m: the rail cells of the programme (finer cells price a fruit's position closer, pairs of moves less)
+ROUNDS = 60  # rounds of arm weights after the equal ones (module docstring, *Weights*)
+COARSE = 2  # the weight rounds run on cells this many times the bound's (each about an eighth of its programme)
+ETA = 0.3  # the first round's step on the weights (each round's step: ETA / sqrt(round), the heaviest load 1)
 
 
 @dataclass(frozen=True)
@@ -76,7 +97,9 @@ class StopsBound:
     """:func:`stops_bound`: ``value`` (s) the bound; ``moves`` and ``work`` its two parts at the
     relaxation's optimum (s); ``stops`` that optimum's stops (m, each its cell's lower end: where
     the bound's cheapest stop-by-stop plan would stop -- a witness, not a plan); ``arms`` the
-    arms whose mean it charges; ``step`` the cell size (m); ``seconds`` its computing time."""
+    arms that harvest (whose weighted mean it charges); ``step`` the cell size (m); ``seconds`` its
+    computing time; ``uniform`` its value with equal weights, ``rounds`` the weight rounds run,
+    ``weights`` (cells, arms that harvest) the weights of its value."""
 
     value: float
     moves: float
@@ -85,6 +108,9 @@ class StopsBound:
     arms: int
     step: float
     seconds: float = 0.0
+    uniform: float = 0.0  # the value with equal weights over the arms (each fruit its cheapest arm's cycle over their number)
+    rounds: int = 0  # the weight rounds run after the equal ones
+    weights: np.ndarray | None = field(default=None, compare=False, repr=False)  # (N, K): per cell, over the harvesting arms
 
 
 def fruit_cell_costs(cc: CellCycles) -> tuple[np.ndarray, np.ndarray, int]:
@@ -104,25 +130,137 @@ def fruit_cell_costs(cc: CellCycles) -> tuple[np.ndarray, np.ndarray, int]:
     return first, w / len(arms), len(arms)
 
 
-def stops_bound(problem: Problem, step: float = STEP) -> StopsBound:
+def stops_bound(problem: Problem, step: float = STEP, rounds: int = ROUNDS) -> StopsBound:
     """The bound (module docstring) on ``problem``'s row (which has a gantry), with rail cells of
-    ``step`` m; counts the fruit some arm reaches from some cell. Its value is inf where some
-    fruit an arm reaches could be picked by no stop-by-stop plan (none here: a fruit within
+    ``step`` m and ``rounds`` rounds of arm weights after the equal ones (0: the equal weights
+    alone, ``uniform``); counts the fruit some arm reaches from some cell. Its value is inf where
+    some fruit an arm reaches could be picked by no stop-by-stop plan (none here: a fruit within
     reach of some cell is within reach of a stop there)."""
     t0 = time.perf_counter()
+    if isinstance(rounds, bool) or not isinstance(rounds, (int, np.integer)) or rounds < 0:
+        raise ValueError(f"rounds: expected a whole number of weight rounds >= 0, found {type(rounds).__name__} {rounds!r}")
     g = problem.gantry
+    lim = (g.max_velocity, g.max_acceleration, g.max_jerk)
+    cc, bands, savings, floor = _charges(problem, step)
+    if not bands or bands[0][0].shape[0] == 0:
+        return StopsBound(0.0, 0.0, 0.0, (), len(bands), step, time.perf_counter() - t0)
+    N = cc.lo.size
+    best = weighted_bound(bands, N, step, *lim, floor, savings, 0)  # equal weights
+    uniform, done = best.value, 0
+    if rounds and len(bands) > 1:  # the weights searched on coarser cells, then priced on these
+        cc2, bands2, savings2, floor2 = _charges(problem, step * COARSE)
+        coarse = weighted_bound(bands2, cc2.lo.size, step * COARSE, *lim, floor2, savings2, rounds)
+        lam = coarse.weights[np.minimum(np.arange(N) // COARSE, cc2.lo.size - 1)]
+        found = weighted_bound(bands, N, step, *lim, floor, savings, 0, start=lam)
+        best, done = (found if found.value > best.value else best), coarse.rounds
+    return StopsBound(best.value, best.moves, best.work, tuple(float(g.start + c * step) for c in best.stops), len(bands),
+                      step, time.perf_counter() - t0, uniform, done, best.weights)
+
+
+def _charges(problem: Problem, step: float) -> tuple[CellCycles, list, np.ndarray, float]:
+    """``(cell cycles, bands, savings, settle floor)`` of ``problem`` on cells of ``step`` m: per
+    harvesting arm its band (:meth:`CellCycles.band`) over the fruit some arm reaches, its home
+    saving at one cell, and the floor each stop after a move adds."""
     cc = cell_cycles(problem, step)
-    first, w, arms = fruit_cell_costs(cc)
-    ok = np.isfinite(w).any(axis=1)
-    if not ok.any():
-        return StopsBound(0.0, 0.0, 0.0, (), arms, step, time.perf_counter() - t0)
-    value, stops, work, _ = stops_dp(first[ok], w[ok], cc.lo.size, step, g.max_velocity, g.max_acceleration, g.max_jerk,
-                                     settle_floor(problem, cc))
-    moves = value - work
-    # each arm's first cycle, from home: charged at its stop's cell, so the most it saves in one cell
-    work = max(0.0, work - float(home_savings(cc, per_cell=True).sum()) / max(1, arms))
-    return StopsBound(moves + work, moves, work, tuple(float(g.start + c * step) for c in stops), arms, step,
-                      time.perf_counter() - t0)
+    arms = [a for a in range(len(cc.cost)) if cc.cost[a] is not None]
+    ok = cc.reach[arms].any(axis=0) if arms else np.zeros(cc.reach.shape[1], dtype=bool)
+    bands = [tuple(x[ok] for x in cc.band(a)) for a in arms]
+    return cc, bands, home_savings(cc, per_cell=True)[arms], settle_floor(problem, cc)
+
+
+class Weighted(NamedTuple):
+    """:func:`weighted_bound`'s answer: ``value`` the best bound over its rounds (s), ``moves`` and
+    ``work`` its parts, ``stops`` its witness's cells, ``uniform`` the value with equal weights
+    (round 0), ``rounds`` the rounds run after it, ``weights`` (N, K) the best round's."""
+
+    value: float
+    moves: float
+    work: float
+    stops: list
+    uniform: float
+    rounds: int
+    weights: np.ndarray
+
+
+def weighted_costs(bands: list, N: int, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(first (F,), w (F, W), arm (F, W), raw (F, W))`` for the programme: per fruit,
+    ``w_f(c) = min_k lam[c, k] cost_k(f, c)`` over the harvesting arms' ``bands`` (per arm ``(cells
+    (F, W_k), cost (F, W_k))``, :meth:`CellCycles.band`) in the cells ``first + 0 .. W - 1`` (inf
+    where no arm reaches it from there), the arm (index into ``bands``) that attains it and that
+    arm's cycle bound there. ``lam`` (N, K): each cell's weights, each row summing to 1."""
+    K = len(bands)
+    F = bands[0][0].shape[0]
+    first = np.min([c[:, 0] for c, _ in bands], axis=0)
+    W = int((np.max([c[:, -1] for c, _ in bands], axis=0) - first).max()) + 1
+    wk, rk = np.full((K, F, W), np.inf), np.full((K, F, W), np.inf)
+    for k, (cells, t) in enumerate(bands):
+        at = (np.broadcast_to(np.arange(F)[:, None], t.shape), cells - first[:, None])
+        np.minimum.at(rk[k], at, t)  # (a cell's weight is one: its least weighted cost is its least cost's)
+        np.minimum.at(wk[k], at, np.where(np.isfinite(t), lam[cells, k] * np.where(np.isfinite(t), t, 0.0), np.inf))
+    arm = np.argmin(wk, axis=0)
+    pick = arm[None]
+    return first, np.take_along_axis(wk, pick, 0)[0], arm, np.take_along_axis(rk, pick, 0)[0]
+
+
+def weighted_bound(bands: list, N: int, step: float, v: float, acc: float, jerk: float, per_stop: float = 0.0,
+                   savings: np.ndarray | None = None, rounds: int = ROUNDS, start: np.ndarray | None = None) -> Weighted:
+    """The programme (:func:`stops_dp`) with each fruit charged ``min_k lam_k(c) cost_k(f, c)`` at
+    the cell ``c`` it is picked from, for weights ``lam`` per cell over the harvesting arms (module
+    docstring, *Weights*): first equal (the mean over the arms), then ``rounds`` projected
+    subgradient steps, each towards the arms the last witness loaded most in each cell; the best
+    value over every round, each a valid bound. ``bands``: per harvesting arm, ``(cells (F, W_k),
+    cost (F, W_k))`` over the fruit to charge (each finite somewhere); ``savings`` (K,): each arm's
+    most a first cycle from home saves at one cell (:func:`coplan.allocate.row_cycles.home_savings`
+    ``per_cell``), weighted by its heaviest cell's weight."""
+    K = len(bands)
+    savings = np.zeros(K) if savings is None else np.asarray(savings, float)
+    lam = np.full((N, K), 1.0 / K) if start is None else np.asarray(start, float)
+    best = None
+    rounds = int(rounds) if K > 1 else 0  # (one arm: its weight is 1 everywhere)
+    uniform = np.inf
+    for r in range(rounds + 1):
+        first, w, arm, raw = weighted_costs(bands, N, lam)
+        value, stops, work, _ = stops_dp(first, w, N, step, v, acc, jerk, per_stop)
+        if not np.isfinite(value):
+            return Weighted(float("inf"), float("inf"), float("inf"), [], float("inf"), r, lam)
+        moves = value - work
+        work = max(0.0, work - float((lam.max(axis=0) * savings).sum()))
+        if r == 0:
+            uniform = moves + work
+        if best is None or moves + work > best[0]:
+            best = (moves + work, moves, work, stops, lam)
+        if r == rounds:
+            break
+        # the subgradient: each fruit's cycle bound, by the arm and at the cell the witness charges it
+        F, W = w.shape
+        rows = np.arange(F)
+        ref = first + np.where(np.isfinite(w), w, np.inf).argmin(axis=1)  # each fruit's reference (best) cell
+        cs = np.asarray(stops, dtype=np.int64)
+        i = np.searchsorted(cs, ref, "left") - 1  # cs[i] < ref <= cs[i + 1]
+        left = np.where(i >= 0, cs[np.clip(i, 0, max(cs.size - 1, 0))] - first, -1) if cs.size else np.full(F, -1)
+        right = np.where(i + 1 < cs.size, cs[np.clip(i + 1, 0, max(cs.size - 1, 0))] - first, W) if cs.size else np.full(F, W)
+        cols = np.arange(W)[None, :]
+        masked = np.where((cols <= left[:, None]) | (cols >= right[:, None]), w, np.inf)
+        j = masked.argmin(axis=1)
+        hit = np.isfinite(masked[rows, j])
+        G = np.zeros((N, K))
+        np.add.at(G, (first[hit] + j[hit], arm[rows[hit], j[hit]]), raw[rows[hit], j[hit]])
+        top = G.max()
+        if top <= 0:
+            break
+        lam = _onto_simplex(lam + (ETA / math.sqrt(r + 1)) * G / top)
+    value, moves, work, stops, lam = best
+    return Weighted(float(value), float(moves), float(work), [int(c) for c in stops], float(uniform), rounds, lam)
+
+
+def _onto_simplex(V: np.ndarray) -> np.ndarray:
+    """Each row of ``V`` projected (Euclidean) onto the probability simplex."""
+    n = V.shape[1]
+    U = -np.sort(-V, axis=1)
+    css = np.cumsum(U, axis=1) - 1.0
+    rho = n - 1 - np.argmax((U - css / np.arange(1, n + 1))[:, ::-1] > 0, axis=1)
+    theta = css[np.arange(V.shape[0]), rho] / (rho + 1)
+    return np.maximum(V - theta[:, None], 0.0)
 
 
 def settle_floor(problem: Problem, cc: CellCycles) -> float:
@@ -207,12 +345,21 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
                        for c in cells])
     nxt = np.append(rs, 2 * N + H + 10)[np.searchsorted(rs, cells + Gl, "right")]  # first reference past s + Gl
 
-    def fruit_sum(s_arr, n):  # per s in s_arr: the fruit with s < r_f <= n, each min(L(s), R(n))
-        fs = order[np.searchsorted(rs, s_arr.min(), "right"):np.searchsorted(rs, n, "right")]
-        if fs.size == 0:
-            return np.zeros(s_arr.size)
-        m = np.minimum(L(fs[:, None], s_arr[None, :]), R(fs, n)[:, None])
-        return np.where(r_f[fs][:, None] > s_arr[None, :], m, 0.0).sum(axis=0)
+    # S[n, k - 1]: the fruit with n - k < r_f <= n, each min(L(n - k), R(n)) -- the fruit between a
+    # stop at n and the stop k cells before it, for every n and k at once (a fruit r_f - a, r_f + b)
+    ka, kb = np.meshgrid(np.arange(1, H + 1), np.arange(H), indexing="ij")
+    pair = ka + kb <= H
+    ka, kb = ka[pair], kb[pair]
+    fa = np.arange(F)[:, None]
+    Lm, Rm = L(fa, r_f[:, None] - np.arange(1, H + 1)[None, :]), R(fa, r_f[:, None] + np.arange(H)[None, :])
+    S = np.zeros((N + 1) * H)
+    for lo in range(0, F, 256):  # (in batches: F x H^2 / 2 values)
+        f = np.arange(lo, min(F, lo + 256))[:, None]
+        m = np.minimum(Lm[f, ka[None, :] - 1], Rm[f, kb[None, :]])
+        n_at = r_f[f] + kb[None, :]
+        ins = np.broadcast_to(n_at <= N, m.shape)
+        S += np.bincount((n_at * H + (ka + kb - 1)[None, :])[ins], m[ins], minlength=S.size)
+    S = S.reshape(N + 1, H)
 
     for n in range(1, N + 1):
         k = np.arange(1, min(H, n) + 1)  # the gap to the previous stop, in cells
@@ -222,7 +369,7 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
         via_pair = via[np.arange(k.size), j]
         via_b = Bd[s] + 0.5 * T[k - 1]
         here = per_stop if n >= 2 else 0.0
-        V[n, k - 1] = np.minimum(via_pair, via_b) + fruit_sum(s, n) + here
+        V[n, k - 1] = np.minimum(via_pair, via_b) + S[n, k - 1] + here
         arg_v[n, k - 1] = np.where(via_b <= via_pair, -1, j)
         s_hi = n - H - 1  # a long gap from a stop s <= s_hi with nxt[s] > n - Gr - 1 (nxt rises with s: a range of s)
         if s_hi >= 0:
