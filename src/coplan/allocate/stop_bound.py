@@ -353,8 +353,9 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
     fa = np.arange(F)[:, None]
     Lm, Rm = L(fa, r_f[:, None] - np.arange(1, H + 1)[None, :]), R(fa, r_f[:, None] + np.arange(H)[None, :])
     S = np.zeros((N + 1) * H)
-    for lo in range(0, F, 256):  # (in batches: F x H^2 / 2 values)
-        f = np.arange(lo, min(F, lo + 256))[:, None]
+    batch = max(1, (1 << 19) // max(1, ka.size))  # (fruit at a time: F x H^2 / 2 values in all, a few MB at once)
+    for lo in range(0, F, batch):
+        f = np.arange(lo, min(F, lo + batch))[:, None]
         m = np.minimum(Lm[f, ka[None, :] - 1], Rm[f, kb[None, :]])
         n_at = r_f[f] + kb[None, :]
         ins = np.broadcast_to(n_at <= N, m.shape)
