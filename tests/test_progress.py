@@ -150,3 +150,18 @@ def test_the_cli_prints_no_progress_under_json(tmp_path):
     r = CliRunner().invoke(app, ["solve", str(SHIPPED["crossing_paths"]), "--planner", "coordinated", "--json",
                                  "--out", str(tmp_path / "o")])
     json.loads(r.stdout)  # stdout is the document alone
+
+
+def test_a_row_solve_says_when_it_computes_the_row_s_bounds():
+    """The stop-by-stop bound's weight rounds take seconds on a long row, after the plan: the
+    solve says so rather than sit silent between its last stop and its summary."""
+    from coplan import solve
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+
+    row = parse_problem(to_yaml(gantry_row(length=4.0, n_arms=2, density=2.0, seed=3)))
+    said = []
+    res = solve(row, planner="coordinated", progress=said.append)
+    assert res.verification.passed
+    i = next(k for k, m in enumerate(said) if m.startswith("row: the lower bounds"))
+    assert any(m.startswith("row: ") and "stop" in m for m in said[:i])  # (after the row's own line)

@@ -224,6 +224,8 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
         res = _better_mode(stopping, moving, cut)
     else:
         res = moving if mode == GantryMode.CONTINUOUS else stopping
+    if progress is not None:  # (the stop-by-stop bound's weight rounds: seconds on a long row, after the plan)
+        progress("row: the lower bounds (any plan; stop by stop, its weights over the arms searched)")
     bounds = row_bounds(prob)
     plan = res.plan
     plan.metrics["row"] = row_metrics(prob, res, bounds)
