@@ -478,3 +478,33 @@ def test_a_row_s_bounds_are_computed_once_per_process_and_again_for_a_changed_ro
     b2 = row_bounds(slow)
     assert b2 is not b and b2.stop_and_go > b.stop_and_go and b2.travel > b.travel
     assert row_bounds(prob, priced=False) is not b and row_bounds(prob, priced=False).priced == 0.0
+
+
+def test_the_rail_past_the_last_fruit_any_arm_reaches_changes_nothing():
+    """The programme runs over the cells up to the last that some arm reaches some fruit from (a
+    stop past it serves nothing and only adds a move): on a 40 m rail whose fruit lie in the
+    first 6 m, the bound equals the programme over the whole rail, with equal weights and with
+    the weights it finds (an 8 km rail for 8 m of fruit had `coplan check` take minutes)."""
+    from coplan.allocate.row_cycles import home_savings
+    from coplan.allocate.stop_bound import STEP, settle_floor, weighted_bound
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import parse_problem
+
+    d = gantry_row(length=6.0, n_arms=3, density=4.0, seed=4)
+    d["gantry"]["end"] = 40.0
+    row = parse_problem(to_yaml(d))
+    cc = cell_cycles(row, STEP)
+    arms = [a for a in range(len(cc.cost)) if cc.cost[a] is not None]
+    ok = cc.reach[arms].any(axis=0)
+    bands = [tuple(x[ok] for x in cc.band(a)) for a in arms]
+    g = row.gantry
+    whole = weighted_bound(bands, cc.lo.size, STEP, g.max_velocity, g.max_acceleration, g.max_jerk,
+                           settle_floor(row, cc), home_savings(cc, per_cell=True)[arms], 0)
+    assert cc.lo.size == 400 and stops_bound(row, rounds=0).value == pytest.approx(whole.value, rel=1e-12)
+    assert whole.stops and max(whole.stops) < 80
+    found = stops_bound(row)
+    assert found.value >= whole.value and max(found.stops) < g.start + 8.0
+    lam = np.vstack([found.weights, np.full((cc.lo.size - found.weights.shape[0], len(arms)), 1.0 / len(arms))])
+    again = weighted_bound(bands, cc.lo.size, STEP, g.max_velocity, g.max_acceleration, g.max_jerk,
+                           settle_floor(row, cc), home_savings(cc, per_cell=True)[arms], 0, start=lam)
+    assert again.value == pytest.approx(found.value, rel=1e-12)

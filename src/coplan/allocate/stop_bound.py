@@ -144,17 +144,31 @@ def stops_bound(problem: Problem, step: float = STEP, rounds: int = ROUNDS) -> S
     cc, bands, savings, floor = _charges(problem, step)
     if not bands or bands[0][0].shape[0] == 0:
         return StopsBound(0.0, 0.0, 0.0, (), len(bands), step, time.perf_counter() - t0)
-    N = cc.lo.size
+    N = _rail_used(bands)
     best = weighted_bound(bands, N, step, *lim, floor, savings, 0)  # equal weights
     uniform, done = best.value, 0
     if rounds and len(bands) > 1:  # the weights searched on coarser cells, then priced on these
-        cc2, bands2, savings2, floor2 = _charges(problem, step * COARSE)
-        coarse = weighted_bound(bands2, cc2.lo.size, step * COARSE, *lim, floor2, savings2, rounds)
-        lam = coarse.weights[np.minimum(np.arange(N) // COARSE, cc2.lo.size - 1)]
+        _, bands2, savings2, floor2 = _charges(problem, step * COARSE)
+        N2 = _rail_used(bands2)
+        coarse = weighted_bound(bands2, N2, step * COARSE, *lim, floor2, savings2, rounds)
+        lam = coarse.weights[np.minimum(np.arange(N) // COARSE, N2 - 1)]
         found = weighted_bound(bands, N, step, *lim, floor, savings, 0, start=lam)
         best, done = (found if found.value > best.value else best), coarse.rounds
     return StopsBound(best.value, best.moves, best.work, tuple(float(g.start + c * step) for c in best.stops), len(bands),
                       step, time.perf_counter() - t0, uniform, done, best.weights)
+
+
+def _rail_used(bands: list) -> int:
+    """The cells the programme needs (and ``bands`` clipped to them, in place): up to the last
+    that some arm reaches some fruit from. A stop past it serves no fruit, and leaving it out
+    takes its move off and charges no fruit more (a fruit whose best cell lies before it is
+    charged at the stops before, as it was), so every cheapest set of stops lies within: the
+    same bound, in the time of the rail the fruit use (an 8 km rail for 8 m of fruit took
+    minutes)."""
+    n = max(int(np.max(np.where(np.isfinite(t), c, -1), initial=-1)) for c, t in bands) + 1
+    for k, (c, t) in enumerate(bands):
+        bands[k] = (np.minimum(c, max(n - 1, 0)), t)
+    return max(n, 1)
 
 
 def _charges(problem: Problem, step: float) -> tuple[CellCycles, list, np.ndarray, float]:
