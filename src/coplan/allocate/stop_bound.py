@@ -99,7 +99,8 @@ class StopsBound:
     the bound's cheapest stop-by-stop plan would stop -- a witness, not a plan); ``arms`` the
     arms that harvest (whose weighted mean it charges); ``step`` the cell size (m); ``seconds`` its
     computing time; ``uniform`` its value with equal weights, ``rounds`` the weight rounds run,
-    ``weights`` (cells, arms that harvest) the weights of its value."""
+    ``weights`` (cells, arms that harvest) the weights of its value, over the cells from the
+    rail's start to the last that some arm reaches some fruit from."""
 
     value: float
     moves: float
@@ -141,7 +142,7 @@ def stops_bound(problem: Problem, step: float = STEP, rounds: int = ROUNDS) -> S
         raise ValueError(f"rounds: expected a whole number of weight rounds >= 0, found {type(rounds).__name__} {rounds!r}")
     g = problem.gantry
     lim = (g.max_velocity, g.max_acceleration, g.max_jerk)
-    cc, bands, savings, floor = _charges(problem, step)
+    _, bands, savings, floor = _charges(problem, step)
     if not bands or bands[0][0].shape[0] == 0:
         return StopsBound(0.0, 0.0, 0.0, (), len(bands), step, time.perf_counter() - t0)
     N = _rail_used(bands)
