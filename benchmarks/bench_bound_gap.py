@@ -50,6 +50,7 @@ def _charges(problem, plan, cells: list[int], weights: np.ndarray) -> tuple[floa
     index = {f.id: i for i, f in enumerate(problem.fruits)}
     names = {a.name: i for i, a in enumerate(problem.arms)}
     bands = {a: cc.band(a) for a in arms}
+    col = {a: k for k, a in enumerate(arms)}  # (each arm's column of ``weights``)
     t, x = np.asarray(plan.time), np.asarray(plan.gantry_x)
     at_picks, picked = 0.0, []
     for e in plan.events:
@@ -58,7 +59,7 @@ def _charges(problem, plan, cells: list[int], weights: np.ndarray) -> tuple[floa
         a, f = names[e.arm], index[e.fruit]
         band, cost = bands[a]
         cell = int(np.searchsorted(cc.hi, np.interp(e.t_start, t, x)))
-        at_picks += weights[cell, arms.index(a)] * float(np.where(band[f] == cell, cost[f], np.inf).min())
+        at_picks += weights[cell, col[a]] * float(np.where(band[f] == cell, cost[f], np.inf).min())
         picked.append(f)
     best = np.full(len(picked), np.inf)
     for k, (band, cost) in enumerate(bands.values()):

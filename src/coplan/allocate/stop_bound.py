@@ -119,16 +119,11 @@ def fruit_cell_costs(cc: CellCycles) -> tuple[np.ndarray, np.ndarray, int]:
     ``first[f] + 0 .. W - 1`` (inf where no arm reaches it from there), over the ``A`` arms
     that harvest (the others have no cycles in ``cc``)."""
     arms = [a for a in range(len(cc.cost)) if cc.cost[a] is not None]
-    F, N = cc.reach.shape[1], cc.lo.size
+    F = cc.reach.shape[1]
     if not arms or F == 0:
         return np.zeros(F, dtype=int), np.full((F, 1), np.inf), len(arms)
-    first = np.min([cc.first[a] for a in arms], axis=0)
-    last = np.max([np.minimum(cc.first[a] + cc.cost[a].shape[1] - 1, N - 1) for a in arms], axis=0)
-    w = np.full((F, int((last - first).max()) + 1), np.inf)
-    for a in arms:
-        cells, t = cc.band(a)
-        np.minimum.at(w, (np.broadcast_to(np.arange(F)[:, None], t.shape), cells - first[:, None]), t)
-    return first, w / len(arms), len(arms)
+    first, w, _, _ = weighted_costs([cc.band(a) for a in arms], cc.lo.size, np.full((cc.lo.size, len(arms)), 1.0 / len(arms)))
+    return first, w, len(arms)
 
 
 def stops_bound(problem: Problem, step: float = STEP, rounds: int = ROUNDS) -> StopsBound:
@@ -142,14 +137,14 @@ def stops_bound(problem: Problem, step: float = STEP, rounds: int = ROUNDS) -> S
         raise ValueError(f"rounds: expected a whole number of weight rounds >= 0, found {type(rounds).__name__} {rounds!r}")
     g = problem.gantry
     lim = (g.max_velocity, g.max_acceleration, g.max_jerk)
-    _, bands, savings, floor = _charges(problem, step)
+    bands, savings, floor = _charges(problem, step)
     if not bands or bands[0][0].shape[0] == 0:
         return StopsBound(0.0, 0.0, 0.0, (), len(bands), step, time.perf_counter() - t0)
     N = _rail_used(bands)
     best = weighted_bound(bands, N, step, *lim, floor, savings, 0)  # equal weights
     uniform, done = best.value, 0
     if rounds and len(bands) > 1:  # the weights searched on coarser cells, then priced on these
-        _, bands2, savings2, floor2 = _charges(problem, step * COARSE)
+        bands2, savings2, floor2 = _charges(problem, step * COARSE)
         N2 = _rail_used(bands2)
         coarse = weighted_bound(bands2, N2, step * COARSE, *lim, floor2, savings2, rounds)
         lam = coarse.weights[np.minimum(np.arange(N) // COARSE, N2 - 1)]
@@ -172,15 +167,15 @@ def _rail_used(bands: list) -> int:
     return max(n, 1)
 
 
-def _charges(problem: Problem, step: float) -> tuple[CellCycles, list, np.ndarray, float]:
-    """``(cell cycles, bands, savings, settle floor)`` of ``problem`` on cells of ``step`` m: per
+def _charges(problem: Problem, step: float) -> tuple[list, np.ndarray, float]:
+    """``(bands, savings, settle floor)`` of ``problem`` on cells of ``step`` m: per
     harvesting arm its band (:meth:`CellCycles.band`) over the fruit some arm reaches, its home
     saving at one cell, and the floor each stop after a move adds."""
     cc = cell_cycles(problem, step)
     arms = [a for a in range(len(cc.cost)) if cc.cost[a] is not None]
     ok = cc.reach[arms].any(axis=0) if arms else np.zeros(cc.reach.shape[1], dtype=bool)
     bands = [tuple(x[ok] for x in cc.band(a)) for a in arms]
-    return cc, bands, home_savings(cc, per_cell=True)[arms], settle_floor(problem, cc)
+    return bands, home_savings(cc, per_cell=True)[arms], settle_floor(problem, cc)
 
 
 class Weighted(NamedTuple):
