@@ -59,7 +59,6 @@ arrival speed is unknown, and near the edge of reach the joint speeds reach thei
 from __future__ import annotations
 
 import functools
-import math
 import time as _time
 from dataclasses import dataclass
 
@@ -68,7 +67,7 @@ import numpy as np
 from .allocation import min_max_bound
 from .row_cycles import CellCycles, cell_cycles, cycle_bounds, home_savings
 from .stop_bound import stops_bound
-from ..kinematics.timing import Move1D
+from ..kinematics.timing import Move1D, accel_time
 from ..problem.gantry import RESOLUTION_RANGE
 from ..problem.model import Problem, require_problem
 
@@ -166,11 +165,11 @@ def _min_max(cost: np.ndarray, reach: np.ndarray) -> float:
 def from_rest(d, v: float, a: float, j: float) -> np.ndarray:
     """The least time (s) to cover ``d`` (m, >= 0; array) from rest, the end speed free, under
     the speed, acceleration and jerk limits ``v``, ``a``, ``j``: at full effort the speed reaches
-    ``v`` after ``t1 = v / a + a / j`` (``2 sqrt(v / j)`` where ``a`` is never reached), having
-    covered ``v t1 / 2`` (the acceleration's profile is symmetric); beyond that ``d / v + t1 / 2``.
-    Short of it ``d / v`` (less than the time, so still a lower bound)."""
+    ``v`` after ``t1`` (:func:`coplan.kinematics.timing.accel_time`), having covered ``v t1 / 2``;
+    beyond that ``d / v + t1 / 2``. Short of it ``d / v`` (less than the time, so still a lower
+    bound)."""
     d = np.asarray(d, float)
-    t1 = v / a + a / j if v >= a * a / j else 2.0 * math.sqrt(v / j)
+    t1 = accel_time(v, a, j)
     return np.where(d >= 0.5 * v * t1, d / v + 0.5 * t1, d / v)
 
 

@@ -79,7 +79,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..kinematics.timing import scurve_times
+from ..kinematics.timing import accel_time, scurve_times
 from ..problem.model import Problem
 from .row_cycles import CellCycles, cell_cycles, home_savings
 
@@ -326,7 +326,7 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
         j = c - base[f]
         return np.where(j >= Wb, np.inf, suf[f, np.clip(j, 0, Wb - 1)])
 
-    cruise = v * ((v / acc + acc / jerk) if v >= acc * acc / jerk else 2.0 * math.sqrt(v / jerk))  # top speed reached
+    cruise = v * accel_time(v, acc, jerk)  # a rest-to-rest move that reaches its top speed covers this much
     Gl, Gr = int((r_f - lo_f).max()), int((hi_f - r_f).max())
     H = max(Gl + Gr + 2, int(math.ceil(cruise / step)) + 2)  # gaps of up to H cells: pair states
     K = N + 2 * H + 2

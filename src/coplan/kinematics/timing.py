@@ -13,6 +13,8 @@ All functions are pure and work on plain floats / NumPy arrays.
 * :func:`move_lower_bound` -- ``max_i scurve_time(|dq_i|, v_i, a_i, j_i)``: no motion of any
   shape between the two poses can be faster.
 * :func:`scurve_times` -- :func:`scurve_time` over an array of distances at once.
+* :func:`accel_time` -- the fastest jerk-limited speed-up from rest to a speed (both its ends at
+  zero acceleration): the first third of an S-curve that reaches that speed.
 * :class:`Move1D` -- one axis's time-optimal rest-to-rest move (a gantry's carriage).
 * :func:`ruckig_move` -- the time-optimal jerk-limited move between two full states (position,
   velocity, acceleration per joint), joints synchronised (Ruckig): the moves that start or end
@@ -29,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["trajectory_states", "sync_duration", "cubic_min_time", "cubic_eval", "scurve_time", "scurve_times", "SCurve", "Move1D", "move_lower_bound",
-           "MoveError", "ruckig_move"]
+           "MoveError", "ruckig_move", "accel_time"]
 
 
 def cubic_min_time(dq, vmax, amax) -> float:
@@ -52,15 +54,24 @@ def cubic_eval(q0, q1, T: float, t):
 _NEGLIGIBLE = 1e-12  # s: a phase shorter than this is round-off
 
 
+def accel_time(vp, a: float, j: float):
+    """The fastest speed-up from rest to ``vp`` (>= 0; a float or an array) under the
+    acceleration and jerk limits ``a``, ``j``, starting and ending at zero acceleration, s:
+    ``vp / a + a / j`` where it reaches ``a`` (``vp >= a^2 / j``), else ``2 sqrt(vp / j)``. Its
+    acceleration's profile is symmetric, so it covers ``vp`` times half that time."""
+    if np.ndim(vp) == 0:
+        vp = float(vp)
+        return vp / a + a / j if vp >= a * a / j else 2.0 * math.sqrt(max(vp, 0.0) / j)
+    vp = np.asarray(vp, float)
+    return np.where(vp >= a * a / j, vp / a + a / j, 2.0 * np.sqrt(np.maximum(vp, 0.0) / j))
+
+
 def _phases(D: float, v: float, a: float, j: float):
     """Durations and jerks of the 7 phases of a rest-to-rest S-curve over distance D >= 0."""
     if D <= 0:
         return [], []
     # peak velocity: v if reachable, else the largest with no cruise phase
-    def accel_time(vp):
-        return vp / a + a / j if vp >= a * a / j else 2.0 * math.sqrt(vp / j)
-
-    if D >= v * accel_time(v):
+    if D >= v * accel_time(v, a, j):
         vp = v
     else:
         vp = (-a / j + math.sqrt((a / j) ** 2 + 4.0 * D / a)) * a / 2.0
@@ -69,7 +80,7 @@ def _phases(D: float, v: float, a: float, j: float):
     ap = min(a, math.sqrt(vp * j))
     tj = ap / j
     ta = max(0.0, vp / ap - ap / j)
-    tc = max(0.0, (D - vp * accel_time(vp)) / vp)
+    tc = max(0.0, (D - vp * accel_time(vp, a, j)) / vp)
     # a constant-acceleration or cruise phase left by round-off (~1e-16 s) is no phase: it would
     # be reported as two jerk switches around a jerk that never changes
     ta, tc = (x if x > _NEGLIGIBLE else 0.0 for x in (ta, tc))
@@ -226,17 +237,14 @@ def scurve_times(D, v: float, a: float, j: float) -> np.ndarray:
     D = np.abs(np.asarray(D, float))
     v, a, j = float(v), float(a), float(j)
 
-    def accel_time(vp):
-        return np.where(vp >= a * a / j, vp / a + a / j, 2.0 * np.sqrt(np.maximum(vp, 0.0) / j))
-
-    full = D >= v * float(accel_time(np.array(v)))
+    full = D >= v * accel_time(v, a, j)
     vp_a = (-a / j + np.sqrt((a / j) ** 2 + 4.0 * D / a)) * a / 2.0
     vp_j = np.cbrt((D * math.sqrt(j) / 2.0) ** 2)
     vp = np.where(full, v, np.where(vp_a < a * a / j, vp_j, vp_a))
     ap = np.minimum(a, np.sqrt(vp * j))
     tj = ap / j
     ta = np.maximum(0.0, vp / np.where(ap > 0, ap, 1.0) - ap / j)
-    tc = np.maximum(0.0, (D - vp * accel_time(vp)) / np.where(vp > 0, vp, 1.0))
+    tc = np.maximum(0.0, (D - vp * accel_time(vp, a, j)) / np.where(vp > 0, vp, 1.0))
     ta = np.where(ta > _NEGLIGIBLE, ta, 0.0)
     tc = np.where(tc > _NEGLIGIBLE, tc, 0.0)
     return np.where(D > 0, 4.0 * tj + 2.0 * ta + tc, 0.0)
