@@ -99,7 +99,7 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
 
     cell = None
     if planner:
-        if len(planner) > 1 or planner[0] not in ("coordinated", "optimal"):  # (it printed no error document with --json)
+        if len(planner) > 1 or planner[0] not in (PlannerKind.COORDINATED.value, PlannerKind.OPTIMAL.value):  # (it printed no error document with --json)
             usage(f"--planner: a row takes one cell planner: coordinated or optimal, found {', '.join(planner)}")
         cell = PlannerKind(planner[0])
         if gantry == GantryMode.CONTINUOUS and cell != PlannerKind.COORDINATED:

@@ -55,9 +55,9 @@ from ..coordinated.routing import choose_branches as clear_branches
 from ..coordinated.schedule import ConflictError, decoupled_schedules
 from ..coordinated.trace import Trace
 from ...ties import first_max_index, first_min, quantised
-from .search_setup import BranchRule, SearchOptions, StopReason
+from .search_setup import BranchRule, Move, SearchOptions, StopReason
 
-__all__ = ["BranchRule", "Neighbourhood", "SearchOptions", "SearchStats", "State", "StopReason", "improve"]
+__all__ = ["BranchRule", "Move", "Neighbourhood", "SearchOptions", "SearchStats", "State", "StopReason", "improve"]
 
 
 @dataclass
@@ -100,7 +100,7 @@ class State:
         return tuple(sorted((f, b) for a, f, b in self.forced if a == i))
 
 
-_MOVES = ("first", "relocate", "swap", "exchange", "move", "twoopt", "reverse", "flip", "variant", "priority")
+_MOVES = tuple(Move)  # (in this order: the weights below, and the seeded draws, follow it)
 _WEIGHTS = np.array([3.0, 4.0, 3.0, 1.0, 1.5, 1.0, 0.5, 2.0, 0.5, 0.5])
 
 
@@ -119,13 +119,13 @@ class Neighbourhood:
         self.rng = np.random.default_rng(opts.seed)
         self._dp: dict = {}
         self.traces: dict[State, Trace] = {}  # recent coordinator runs, to resume from (see coordinate)
-        self.stats = SearchStats(moves={m: [0, 0] for m in _MOVES})
+        self.stats = SearchStats(moves={m.value: [0, 0] for m in _MOVES})
         self.deadline: float | None = None  # an explicit clock limit: a coordinator run stops there too
         self.hold(opts.fixed_assignment)
 
     def hold(self, assignment: bool) -> None:
         """Whether moves keep which arm takes which fruit (no relocate, no swap)."""
-        w = _WEIGHTS * [not (assignment and m in ("relocate", "swap")) for m in _MOVES]
+        w = _WEIGHTS * [not (assignment and m in (Move.RELOCATE, Move.SWAP)) for m in _MOVES]
         self.weights = w / w.sum()
 
     def state_of(self, c: Coordinated) -> State:
@@ -262,15 +262,15 @@ class Neighbourhood:
                     best, t_best = trial, t
         return best
 
-    def propose(self, s: State, c: int) -> tuple[str, State] | None:
-        kind = str(self.rng.choice(_MOVES, p=self.weights))
+    def propose(self, s: State, c: int) -> tuple[Move, State] | None:
+        kind = _MOVES[int(self.rng.choice(len(_MOVES), p=self.weights))]  # (the same draw as choosing among the names)
         assign = [list(seq) for seq in s.assign]
         mine = assign[c]
         rng = self.rng
-        if kind == "variant":
+        if kind == Move.VARIANT:
             others = [v for v in BranchRule if v != s.variant]
             return kind, replace(s, variant=others[int(rng.integers(len(others)))])
-        if kind == "priority":
+        if kind == Move.PRIORITY:
             if len(s.order) < 2:
                 return None
             i, j = rng.choice(len(s.order), 2, replace=False)
@@ -281,7 +281,7 @@ class Neighbourhood:
             return None
         f = mine[int(rng.integers(len(mine)))]
         forced = s.forced
-        if kind == "flip":
+        if kind == Move.FLIP:
             branches = self.cfg[c][1][f]
             hit = [x for x in forced if x[0] == c and x[1] == f]
             if hit:
@@ -291,20 +291,20 @@ class Neighbourhood:
             now = self.dp(c, s.assign[c], s.forced_of(c))[0][s.assign[c].index(f)]
             b = 1 if np.allclose(now, branches[0]) else 0
             return kind, replace(s, forced=forced | {(c, f, b)})
-        if kind == "first":
+        if kind == Move.FIRST:
             if mine[0] == f:
                 return None
             assign[c] = [f] + [g for g in mine if g != f]
-        elif kind == "reverse":
+        elif kind == Move.REVERSE:
             if len(mine) < 2:
                 return None
             assign[c] = mine[::-1]
-        elif kind == "exchange":
+        elif kind == Move.EXCHANGE:
             if len(mine) < 2:
                 return None
             i, j = rng.choice(len(mine), 2, replace=False)
             mine[i], mine[j] = mine[j], mine[i]
-        elif kind == "move":  # one fruit to another place in the same arm's order
+        elif kind == Move.MOVE:  # one fruit to another place in the same arm's order
             if len(mine) < 2:
                 return None
             rest = [g for g in mine if g != f]
@@ -312,14 +312,14 @@ class Neighbourhood:
             if rest[:k] + [f] + rest[k:] == mine:
                 return None
             assign[c] = rest[:k] + [f] + rest[k:]
-        elif kind == "twoopt":  # reverse a stretch of the order
+        elif kind == Move.TWOOPT:  # reverse a stretch of the order
             if len(mine) < 3:
                 return None
             i, j = sorted(rng.choice(len(mine) + 1, 2, replace=False))
             if j - i < 2:
                 return None
             assign[c] = mine[:i] + mine[i:j][::-1] + mine[j:]
-        elif kind == "relocate":
+        elif kind == Move.RELOCATE:
             others = [b for b in self.reach[f] if b != c]
             if not others:
                 return None
@@ -460,7 +460,7 @@ def improve(
                 st.pruned += 1
                 continue
             idle = 0
-            st.moves[kind][0] += 1
+            st.moves[kind.value][0] += 1
             cand = srch.evaluate(s_new)
             if tick is not None:
                 tick(max(st.checks / max(1, opts.work), st.evaluations / max(1, opts.evaluations)))
@@ -483,7 +483,7 @@ def improve(
             if cand.makespan < best.makespan - 1e-9:
                 best, st.best_state = cand, s_new
                 st.improvements += 1
-                st.moves[kind][1] += 1
+                st.moves[kind.value][1] += 1
                 if on_improve is not None:
                     on_improve(best)
             elif _better(cand, best):

@@ -1,12 +1,12 @@
 """What :func:`coplan.planners.optimal.search.improve` is given and why it stops: its options
-(work budgets, moves, seed), the elbow-branch rules a state may use, and its stop reasons."""
+(work budgets, moves, seed), its moves, the elbow-branch rules a state may use, and its stop reasons."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum
 
-__all__ = ["BranchRule", "SearchOptions", "StopReason"]
+__all__ = ["BranchRule", "Move", "SearchOptions", "StopReason"]
 
 
 class BranchRule(str, Enum):
@@ -29,6 +29,21 @@ class BranchRule(str, Enum):
 
 _PRICE = {BranchRule.FASTEST: 0.0, BranchRule.AVOID_LIGHT: 0.1, BranchRule.AVOID_SOME: 0.25, BranchRule.BRANCHES: 0.5,
           BranchRule.AVOID_HEAVY: 1.0}
+
+
+class Move(str, Enum):
+    """The search's moves (:mod:`coplan.planners.optimal.search`'s docstring says what each does)."""
+
+    FIRST = "first"
+    RELOCATE = "relocate"
+    SWAP = "swap"
+    EXCHANGE = "exchange"
+    MOVE = "move"
+    TWOOPT = "twoopt"
+    REVERSE = "reverse"
+    FLIP = "flip"
+    VARIANT = "variant"
+    PRIORITY = "priority"
 
 
 class StopReason(str, Enum):
