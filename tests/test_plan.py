@@ -401,3 +401,16 @@ def test_save_names_a_bad_destination(tmp_path):
     with pytest.raises(TypeError, match="save: expected a folder or a .json file name"):
         plan.save(5)
     assert set(plan.save(tmp_path / "p.json")) == {"json", "csv", "npz"}
+
+
+@pytest.mark.parametrize("cut", [0.31, 0.5, 0.97])
+def test_a_plan_file_cut_short_is_called_cut_short(tmp_path: Path, doc: dict, cut: float) -> None:
+    """A plan.json that ends part way (a copy or a write that did not finish) is refused as cut
+    short, wherever the cut falls (in a string, after a comma, in a number); a syntax error
+    inside a whole file is not."""
+    text = json.dumps(doc, indent=1)
+    err = _bad(tmp_path, doc, raw=text[: int(cut * len(text))])
+    (it,) = err.issues
+    assert "expected JSON, found a syntax error" in it.message and "it looks cut short" in it.message
+    whole = _bad(tmp_path, doc, raw=text.replace('"format"', "format", 1))
+    assert "cut short" not in whole.issues[0].message

@@ -747,6 +747,10 @@ def test_a_bare_word_that_names_no_shipped_problem_says_so() -> None:
     ("jerk", ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle"), "max_jerk"),
     ("stop", ("stops", "stop_price", "planner"), "stops"),  # a slip of spelling stays first
     ("settel", ("start", "end", "max_velocity", "settle"), "settle"),
+    # a word of a longer key by its synonym, or its slip of spelling (spelling alone said max_jerk)
+    ("max_speed", ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle"), "max_velocity"),
+    ("max_sped", ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle"), "max_velocity"),
+    ("max_accel", ("start", "end", "max_velocity", "max_acceleration", "max_jerk", "settle"), "max_acceleration"),
 ])
 def test_an_unknown_key_suggests_the_key_it_names_not_only_the_nearest_spelling(key, choices, meant):
     """``gantry.speed`` is the carriage's top speed, ``max_velocity``: the suggestion said

@@ -734,6 +734,10 @@ def test_a_pace_price_keeps_the_optimised_rule_to_the_fixed_strides_count_where_
     plain, info = optimised_stops(dense, row_reach(dense, lazy=True))
     paced, paced_info = optimised_stops(dense, row_reach(dense, lazy=True), StopWindow(pace_price=3.0))
     assert len(paced) <= n_fixed < len(plain) and "paced" not in info and paced_info["paced"] >= 1
+    # prices each within their limit, the sum too: a segment ahead of pace charges both (once;
+    # 100 + 450 was refused there as 550 + 450 > 600 s)
+    steep, steep_info = optimised_stops(dense, row_reach(dense, lazy=True), StopWindow(stop_price=100.0, pace_price=450.0))
+    assert steep_info["paced"] >= 1 and sorted(f for s in steep for f in s.fruit) == sorted(f for s in plain for f in s.fruit)
     assert sorted(f for s in paced for f in s.fruit) == sorted(f for s in plain for f in s.fruit)
     fixed = plan_row(dense, RowOptions(stops=StopRule.FIXED, workers=2))
     kept = plan_row(dense, RowOptions(window=StopWindow(pace_price=3.0), workers=2))
@@ -749,7 +753,8 @@ def test_a_pace_price_keeps_the_optimised_rule_to_the_fixed_strides_count_where_
     r = run(app, ["solve", str(path), "--pace-price", "3", "--out", str(tmp_path / "o")])
     assert r.exit_code == 0 and "ahead of the fixed stride's pace priced 3.00 s more" in r.output, r.output
     assert json.loads((tmp_path / "o" / "plan.json").read_text())["solver"]["row"]["pace_price"] == 3.0
-    for args, words in ((["--stops", "fixed"], "--pace-price: the optimised stop rule's price of a stop applies to a row "
+    for args, words in ((["--stops", "fixed"], "--pace-price: the optimised stop rule's price of a stop ahead of the fixed "
+                                                "stride's pace applies to a row "
                                                 "planned stop and go (--gantry stop-and-go, the default, with --stops "
                                                 "optimised), not --stops fixed"),
                         (["--gantry", "continuous"], "not on the move"),

@@ -190,11 +190,12 @@ def stop_window(stop_price, pace_price, gantry, moving, stops):
     optimised rule chooses stops (``moving``: the options on the move, or with auto)."""
     from ..kinds import StopRule
 
-    for flag, value in (("--stop-price", stop_price), ("--pace-price", pace_price)):
+    for flag, value, what in (("--stop-price", stop_price, "price of a stop"),
+                              ("--pace-price", pace_price, "price of a stop ahead of the fixed stride's pace")):
         if value is not None and (moving is not None or stops not in (None, StopRule.OPTIMISED)):
             # (auto plans stop and go too, but "not on the move" read as a contradiction there:
             # auto compares the two modes each with its defaults)
-            fail(ExitCode.USAGE, f"{flag}: the optimised stop rule's price of a stop applies to a row planned stop and go "
+            fail(ExitCode.USAGE, f"{flag}: the optimised stop rule's {what} applies to a row planned stop and go "
                                  f"(--gantry stop-and-go, the default, with --stops optimised), not "
                                  + ("--gantry auto, which compares the two modes each with its default options"
                                     if gantry == GantryMode.AUTO else "on the move" if moving is not None

@@ -102,6 +102,11 @@ def load_plan(path: str | Path) -> Plan:
                                            f"--format yaml`{')' if 'arm' in export else ''}: verify the plan.json it was "
                                            f"exported from, or its CSV export", 1)], src) from None
         hint = "; it looks like a problem file (YAML): were the problem and the plan swapped?" if looks else ""
+        body = text.rstrip()
+        if not hint and body.startswith("{") and not body.endswith("}") and (
+                e.pos >= len(body) - 200 or e.msg.startswith("Unterminated string")):  # the error where the text ends: cut short
+            hint = (f"; the file ends at character {len(text)} with the JSON unfinished: it looks cut short "
+                    f"(a copy or a write that did not finish); write the plan again")
         raise PlanFileError([Issue("", f"expected JSON, found a syntax error: {e.msg} (column {e.colno}){hint}", e.lineno)], src) from None
     except UnicodeDecodeError as e:
         if p.suffix.lower() == ".npz" or (raw if raw is not None else p.read_bytes())[:2] == b"PK":

@@ -39,7 +39,7 @@ _EXPECT = {
     "max_velocity": "the carriage's speed limit > 0, in m/s",
     "max_acceleration": "the carriage's acceleration limit > 0, in m/s^2",
     "max_jerk": "the carriage's jerk limit > 0, in m/s^3",
-    "settle": "a time >= 0, in s, the carriage stays at rest after stopping before a pick",
+    "settle": "a settling time >= 0, in s (the carriage's rest after a stop before an arm may pick)",
 }
 #: The plausible range of each number (what a greenhouse gantry can be), for clear errors.
 BOUNDS = {

@@ -367,6 +367,12 @@ def did_you_mean(key: Any, choices) -> str:
         return f"; did you mean {near[0]!r}?"
     word = str(key).strip().lower()
     word = _SYNONYMS.get(word, word)
+    # each word of the key by the word coplan uses for it, a slip of spelling in it forgiven
+    # ('max_speed', 'max_sped' -> 'max_velocity'; spelling alone suggested 'max_jerk')
+    said = "_".join(_SYNONYMS[m[0]] if (m := difflib.get_close_matches(w, list(_SYNONYMS), n=1, cutoff=0.75)) else w
+                    for w in word.split("_"))
+    if said != word and said in names:
+        return f"; did you mean {said!r}?"
     whole = [c for c in names if word in c.lower().split("_")]
     if len(whole) == 1:
         return f"; did you mean {whole[0]!r}?"

@@ -448,7 +448,9 @@ def optimised_stops(problem: Problem, reach: RowReach, window: StopWindow | None
             k_first = min(spans[f][1] for f in todo)
         ws = w
         if w.pace_price and k_last is not None and len(stops) > (k_last - k_first) // pace_step + 1:
-            ws = replace(w, stop_price=w.stop_price + w.pace_price)  # ahead of the stride's pace: stops cost more
+            # ahead of the stride's pace: stops cost more (the price moved, not counted twice: each
+            # within its limit, their sum was refused where it passed the one on the sum)
+            ws = replace(w, stop_price=w.stop_price + w.pace_price, pace_price=0.0)
             info["paced"] = info.get("paced", 0) + 1
         fr, st = _best_stride(problem, reach, todo, spans, lo, length, k_last is None, step_of, ws, over, x_now, overlap)
         keep = st[:-1] if len(st) > 1 and (reach.done_to < math.inf or any(spans[f][1] > st[-1].k for f in todo)) else st
