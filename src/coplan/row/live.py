@@ -109,6 +109,12 @@ STOPPED_CAUTION = 2
 #: more times after the last fruit was placed: 746 s row, 3 fruit a working arm could reach passed;
 #: one at a time with 6 s holds: 418 s, 8 passed; with 20 s: 647 s, none passed; 60 s: 632 s, none).
 CHECK, LOOK, REACH_TIME, HOLD_PER_FRUIT, HOLD_MIN, HOLD_MAX, HOLDS_PER_REPORT = 0.5, 30.0, 1.5, 3.0, 1.5, 20.0, 30
+#: ... and a fruit whose estimated pick would start less than SLACK s before its window closes is
+#: at risk too: the estimate is no bound, and by the time it proves wrong the carriage can no
+#: longer brake in time (course_row at 0.114 m/s, seed 2, with moves at 95 % of the joint limits:
+#: f0170 fitted arm1 by 0.12 s from t = 252 s on; arm1, free at 256.1 s, could not make it, and
+#: the carriage, braking, would have come to rest after its window closed -- missed, no hold).
+SLACK = 0.5
 
 # the camera and the faults live in .sensing; re-exported here, where a live row is run
 __all__ = ["LiveRowOptions", "RowFaults", "RowDetection", "LiveRow", "row_reports", "report_times", "row_detections",
@@ -245,7 +251,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         that an earliest-deadline-first schedule of them over those arms, from when each is
         free, with every cycle estimated at ``REACH_TIME`` out and ``REACH_TIME`` plus both
         dwells back (the moves ``STOPPED_CAUTION`` times longer once an arm has stopped), cannot fit
-        before their windows close."""
+        ``SLACK`` s before their windows close."""
         working = {a for a in range(n) if a not in halt or halt[a] > t_c}
         avail = {a: max(t_c, run.booker.free_time(a)) for a in working}
         caution = STOPPED_CAUTION if len(working) < n else 1  # an arm stopped: its neighbours round an obstacle
@@ -266,7 +272,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         # at 0.3 m/s with an arm stopped lost one a working arm could still reach)
         for hi, f, wk in sorted(soon, key=lambda s: (s[0], s[1])):
             starts = [(max(avail[w.arm], w.lo - reach_time) + reach_time, w.arm) for w in wk
-                      if max(avail[w.arm], w.lo - reach_time) + reach_time <= w.hi]
+                      if max(avail[w.arm], w.lo - reach_time) + reach_time <= w.hi - SLACK]
             if starts:
                 t_p, a = min(starts)
                 avail[a] = t_p + back
