@@ -359,6 +359,24 @@ def test_on_the_move_the_carriage_holds_rather_than_pass_fruit_no_arm_can_book()
     assert held.metrics["harvested"] > free.metrics["harvested"]  # the fruit it held for were picked
 
 
+def test_on_the_move_a_fruit_estimated_to_fit_only_just_holds_the_carriage_in_time(monkeypatch):
+    """course_row live on the move at 0.114 m/s, seed 2: arm1's estimated pick of f0170 fitted by
+    0.12 s from t = 252 s; arm1, free at 256.1 s, could not make it, and by then the carriage could
+    not brake before its window closed -- passed, no hold (300 of 301). A fruit that fits by less
+    than ``SLACK`` counts as at risk: held for, every fruit the offline plan harvests is picked."""
+    import coplan.row.live as live
+    from coplan.problem import load_problem, shipped_rows
+
+    course = load_problem(next(p for p in shipped_rows() if p.stem == "course_row"))
+    run = run_live_row(course, LiveRowOptions(speed=0.114, seed=2))
+    m = run.metrics
+    assert run.verification.passed and m["missed_reachable_by_a_working_arm"] == []
+    assert m["harvested"] == m["offline_harvested"] == 301 and m["holds_for_fruit"] >= 1
+    monkeypatch.setattr(live, "SLACK", 0.0)  # (the estimate alone: the fruit passes)
+    bare = run_live_row(course, LiveRowOptions(speed=0.114, seed=2))
+    assert bare.verification.passed and bare.metrics["missed_reachable_by_a_working_arm"] == ["f0170"]
+
+
 @pytest.mark.parametrize("args", [["--gantry", "stop-and-go"], ["--speed", "0.3"]])
 def test_coplan_run_on_a_row_without_fruit_says_so(tmp_path, args):
     path = tmp_path / "empty.yaml"
