@@ -26,7 +26,7 @@ __all__ = ["Leg", "LegError", "track", "track_state", "LIMIT_SHARE", "AT_REST_SH
 
 
 #: Share of each joint limit the moves use (the rest is room for the pick's tracking at the seams).
-#: 0.95 since the session of 2026-12-05 (0.9 before): on the move, rows 0.5-6.4 % faster on 9 of
+#: 0.95 since the session of 2026-12-05 (0.9 before): on the move, rows 0.1-6.4 % faster on 9 of
 #: the head-to-head's 10 rows (course_row 404.2 -> 378.4 s, dense_row 713.9 -> 687.7 s), sparse_row
 #: 0.5 % slower, every plan verified; 0.97 was faster on some and slower on others, and 0.99 (above
 #: the whole cycle's check, ``booking._CYCLE_SHARES``) found almost no cycle it could keep.
