@@ -28,7 +28,7 @@ from coplan.viz import animate as anim_mod
 from coplan.viz.animate import RenderError, animate_plan, frame_times, render_frame
 from coplan.viz.plots import plot_clearance, plot_gantt, plot_joints, plot_workspace, save_comparison_figures
 from coplan.viz.style import ALERT_COLOR, FRUIT_COLOR, arm_colors
-from coplan.viz.timeline import fruit_states, joint_derivatives, pair_clearance, schedule
+from coplan.viz.timeline import ArmPhase, fruit_states, joint_derivatives, pair_clearance, schedule
 
 
 def run(*args: str):
@@ -91,11 +91,13 @@ def test_schedule_covers_the_plan_and_labels_every_event(greenhouse, hplan):
         s = segs[arm.name]
         assert s[0].t0 == pytest.approx(0.0) and s[-1].t1 == pytest.approx(hplan.duration)
         assert all(a.t1 == pytest.approx(b.t0) for a, b in zip(s, s[1:]))
-        assert {x.phase for x in s} <= {"moving", "picking", "placing", "idle"}
-        picked = [x.fruit for x in s if x.phase == "picking"]
+        assert all(isinstance(x.phase, ArmPhase) for x in s)
+        picked = [x.fruit for x in s if x.phase == ArmPhase.PICKING]
         assert picked == [e.fruit for e in hplan.events_of(arm.name, EventKind.PICK)]
     # the centre arm finishes early in the course's allocation and then idles
-    assert segs["center"][-1].phase == "idle"
+    assert segs["center"][-1].phase == ArmPhase.IDLE
+    # the words the viewer's JSON and the animation show are the phases' values, not enum names
+    assert f"{ArmPhase.PICKING} f1" == "picking f1" and json.dumps({"p": ArmPhase.IDLE}) == '{"p": "idle"}'
 
 
 def test_fruit_states_follow_pick_and_place(greenhouse, hplan):

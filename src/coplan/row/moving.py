@@ -36,6 +36,14 @@ REFINE_BUMP = 1.25
 #: ... and pushes the level of a complete plan up by this one.
 REFINE_PUSH = 1.06
 
+class _Variant(enum.Enum):
+    """The plans the speed search makes beside its levels, keyed ``(level, variant)`` among the
+    levels it tried (a refinement round's key is ``(level, round)``)."""
+
+    CPSAT = enum.auto()  # CP-SAT's order at the slowest level where the greedy missed fruit
+    EARLY = enum.auto()  # the carriage's early rest at the end, at the best complete level
+
+
 def _point(res: RowResult, seconds: float) -> SpeedPoint:
     m = res.plan.metrics
     span = float(m.get("makespan") or 0.0)
@@ -143,18 +151,18 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                     # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
                     # started from the greedy's booking there (alongside the refinement when there is
                     # a second worker)
-                    runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, "cpsat"))
+                    runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, _Variant.CPSAT))
                 # at the best complete level (the most fruit per hour: not always the fastest
                 # complete one), the carriage's early rest at the end too (where the last
                 # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`), the faster plan
                 # kept; with a second worker, alongside the refinement (one plan at a time)
                 if ok_v is not None:
                     best_v = max((k for k in tried if tried[k][1].complete), key=lambda k: _rank(tried[k][1]))
-                    runner.early(best_v, greedy, key=(best_v, "early"))
+                    runner.early(best_v, greedy, key=(best_v, _Variant.EARLY))
                 if demand is not None and bad_v is not None:
                     _refine(reach, demand, bad_v, tried, runner, greedy)
                 for key, ((res, report), secs) in runner.collect():
-                    if key[1] == "cpsat":
+                    if key[1] is _Variant.CPSAT:
                         cpsat_report = report
                     if res is not None:  # (made in the background: its line from here; CP-SAT's kept plan was never said)
                         speaker(progress)(planned_line(res))

@@ -34,7 +34,7 @@ from ..kinds import ExitCode
 from ..plan import EventKind, Plan
 from ..problem.model import Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors, pair_label
-from .timeline import arm_points, fruit_states, harvested_count, pair_clearance, phase_at, schedule
+from .timeline import ArmPhase, arm_points, fruit_states, harvested_count, pair_clearance, phase_at, schedule
 from ..progress import Tick, ticker
 from ..output import named_as, usual_mode
 
@@ -375,8 +375,8 @@ class _Scene:
             tips = np.vstack([tips, p[2:3]])
             self.trails[arm.name].set_data(tips[:, 0], tips[:, 1])
             seg = phase_at(self.sched[arm.name], t)
-            phase = seg.phase + (f" {seg.fruit}" if seg.fruit and seg.phase in ("picking", "placing") else "")
-            if seg.phase == "moving" and seg.fruit:
+            phase = seg.phase.value + (f" {seg.fruit}" if seg.fruit and seg.phase in (ArmPhase.PICKING, ArmPhase.PLACING) else "")
+            if seg.phase == ArmPhase.MOVING and seg.fruit:
                 carrying = fruit_states(self.problem, plan, t).get(seg.fruit, ("", None))[0] == "carried"
                 phase = f"moving {'with' if carrying else 'to'} {seg.fruit}"
             self.arm_text[arm.name].set_text(f"{phase} · harvested {harvested_count(plan, arm.name, t)}/{self.n_alloc[arm.name]}")

@@ -25,7 +25,7 @@ import numpy as np
 from ..plan import EventKind, Plan
 from ..problem.model import Arm, Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, LIMIT_COLOR, arm_colors, pair_label
-from .timeline import joint_derivatives, limit_tolerance, pair_clearance, schedule
+from .timeline import ArmPhase, joint_derivatives, limit_tolerance, pair_clearance, schedule
 
 __all__ = [
     "plot_gantt",
@@ -137,18 +137,18 @@ def plot_gantt(problem: Problem, plans: Plan | Mapping[str, Plan], *, title: str
             for s in segs.get(arm, []):
                 if s.duration <= 0:
                     continue
-                if s.phase == "idle":
+                if s.phase == ArmPhase.IDLE:
                     ax.barh(row, s.duration, left=s.t0, height=h * 0.45, color=_IDLE, linewidth=0)
-                elif s.phase == "moving":
+                elif s.phase == ArmPhase.MOVING:
                     ax.barh(row, s.duration, left=s.t0, height=h, color=c, alpha=0.35, linewidth=0)
-                elif s.phase == "picking":
+                elif s.phase == ArmPhase.PICKING:
                     ax.barh(row, s.duration, left=s.t0, height=h, color=c, edgecolor="black", linewidth=0.6)
                     mid, half = s.t0 + s.duration / 2, 0.5 * per_char * (len(s.fruit or "") + 1)
                     if mid - half >= free_from:
                         ax.text(mid, row - h / 2 - 0.04, s.fruit or "", ha="center", va="bottom",
                                 fontsize=7, color="black", clip_on=True)
                         free_from = mid + half
-                elif s.phase == "placing":
+                elif s.phase == ArmPhase.PLACING:
                     ax.barh(row, s.duration, left=s.t0, height=h, facecolor=c, edgecolor="black", hatch="////", linewidth=0.6)
         ms = _makespan(plan)
         ax.axvline(ms, color=LIMIT_COLOR, linestyle="--", linewidth=1)

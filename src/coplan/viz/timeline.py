@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 
@@ -19,6 +20,7 @@ from ..plan import EventKind, Plan
 from ..problem.model import Problem
 
 __all__ = [
+    "ArmPhase",
     "Segment",
     "schedule",
     "arm_schedule",
@@ -34,6 +36,19 @@ __all__ = [
 MOVE_TOL = 1e-7  # rad per sample: below this an arm counts as standing still
 
 
+class ArmPhase(str, Enum):
+    """What an arm is doing over a :class:`Segment` (its value is the word the plots, the
+    animation and the viewer show, and the viewer's JSON carries)."""
+
+    MOVING = "moving"
+    PICKING = "picking"
+    PLACING = "placing"
+    IDLE = "idle"
+
+    def __str__(self) -> str:  # (in f-strings too: "picking f3", not "ArmPhase.PICKING f3")
+        return self.value
+
+
 @dataclass(frozen=True)
 class Segment:
     """One stretch of an arm's timeline in a single phase.
@@ -44,7 +59,7 @@ class Segment:
     """
 
     arm: str
-    phase: str  # moving | picking | placing | idle
+    phase: ArmPhase
     t0: float
     t1: float
     fruit: str | None = None
@@ -58,7 +73,7 @@ def arm_schedule(plan: Plan, arm: str, tol: float = MOVE_TOL) -> list[Segment]:
     """Phases of one arm over ``[0, plan.duration]`` as consecutive segments."""
     t = plan.time
     if t.size < 2:
-        return [Segment(arm, "idle", 0.0, plan.duration)]
+        return [Segment(arm, ArmPhase.IDLE, 0.0, plan.duration)]
     q = plan.q[arm]
     moving = np.any(np.abs(np.diff(q, axis=0)) > tol, axis=1)  # per interval k: [t_k, t_k+1]
     mid = 0.5 * (t[:-1] + t[1:])
@@ -78,7 +93,7 @@ def arm_schedule(plan: Plan, arm: str, tol: float = MOVE_TOL) -> list[Segment]:
         nxt = np.searchsorted(starts, mid[mv] - 1e-9)
         ok = nxt < starts.size
         fruit_of[mv[ok]] = nxt[ok]
-    names = {1: "moving", 2: "picking", 3: "idle", 4: "placing"}
+    names = {1: ArmPhase.MOVING, 2: ArmPhase.PICKING, 3: ArmPhase.IDLE, 4: ArmPhase.PLACING}
     segs: list[Segment] = []
     k0 = 0
     for k in range(1, mid.size + 1):

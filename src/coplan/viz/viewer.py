@@ -45,7 +45,7 @@ from ..plan import Plan, checked_status, jsonable, load_plan
 from ..problem.model import Problem
 from ..verify.verdict import ViolationKind
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors
-from .timeline import Segment, schedule
+from .timeline import ArmPhase, Segment, schedule
 
 __all__ = [
     "DISPLAY_RATE",
@@ -233,17 +233,17 @@ def _waits(plan: Plan, segs: dict[str, list[Segment]], pairs: list[tuple[str, st
     for arm, ss in segs.items():
         notes = []
         for k, s in enumerate(ss):
-            if s.phase != "idle":
+            if s.phase != ArmPhase.IDLE:
                 continue
-            nxt = next((x for x in ss[k + 1:] if x.phase != "idle"), None)
+            nxt = next((x for x in ss[k + 1:] if x.phase != ArmPhase.IDLE), None)
             carrying = next((f for t0, t1, f in held.get(arm, []) if t0 <= s.t0 + 1e-9 and s.t1 <= t1 + 1e-9), None)
             if nxt is None:
                 purpose = "done: every task finished"
             elif carrying is not None:
                 purpose = f"holding {carrying}, before carrying it to the bin"
-            elif nxt.phase == "moving" and nxt.fruit is not None:
+            elif nxt.phase == ArmPhase.MOVING and nxt.fruit is not None:
                 purpose = f"before going to pick {nxt.fruit}"
-            elif nxt.phase == "moving":
+            elif nxt.phase == ArmPhase.MOVING:
                 purpose = "before going home"
             else:
                 purpose = f"before {nxt.phase} {nxt.fruit or ''}".strip()
@@ -252,13 +252,13 @@ def _waits(plan: Plan, segs: dict[str, list[Segment]], pairs: list[tuple[str, st
                 best = None
                 for b in neighbours.get(arm, []):
                     for o in segs[b]:
-                        if abs(o.t1 - s.t1) <= 0.05 + 1e-9 and o.phase != "idle" and o.t0 < s.t1:
+                        if abs(o.t1 - s.t1) <= 0.05 + 1e-9 and o.phase != ArmPhase.IDLE and o.t0 < s.t1:
                             if best is None or abs(o.t1 - s.t1) < abs(best[1].t1 - s.t1):
                                 best = (b, o)
                 if best is not None:
                     b, o = best
                     what = f"{o.phase} {o.fruit}" if o.fruit else o.phase
-                    note["until"] = {"arm": b, "phase": o.phase, "fruit": o.fruit, "t": o.t1,
+                    note["until"] = {"arm": b, "phase": o.phase.value, "fruit": o.fruit, "t": o.t1,
                                      "text": f"ends as {b} finishes {what} (at {o.t1:.2f} s)"}
             notes.append(note)
         out[arm] = notes
@@ -363,7 +363,7 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
         "left_out": {k: str(v) for k, v in ((plan.solver or {}).get("row", {}).get("left_out") or {}).items()},
         # a row's headline figures, as the summary gives them (fruit per hour, share harvested, row time, stops)
         "row": _row_headline(plan, m),
-        "segments": {a: [{"phase": s.phase, "t0": s.t0, "t1": s.t1, "fruit": s.fruit} for s in segs.get(a, [])] for a in names},
+        "segments": {a: [{"phase": s.phase.value, "t0": s.t0, "t1": s.t1, "fruit": s.fruit} for s in segs.get(a, [])] for a in names},
         "waits": _waits(plan, segs, pairs),
         "clearance": _clearance(problem, plan, times, rate),
         "verdict": {
