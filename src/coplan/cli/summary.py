@@ -76,8 +76,6 @@ def _say_if_no_fruit(p, problem) -> None:
 
 def print_row_summary(console, res) -> None:
     """The summary of a row (:class:`coplan.pipeline.SolveResult` with ``row``)."""
-    from ..row.metrics import fruit_bounds_count
-
     m = res.plan.metrics
     r = m.get("row") or {}
     ver = res.plan.verification or {}
@@ -99,6 +97,25 @@ def print_row_summary(console, res) -> None:
     p(f"[bold]{safe(res.problem.name)}[/] -- row of {r.get('row_length', 0):g} m, {how}, "
       f"status [bold {colour}]{res.plan.status.value}[/]")
     _say_if_no_fruit(p, res.problem)
+    _row_screen_and_choices(p, res, solver, r)
+    _row_fruit(p, res, m, r, solver)
+    _row_time(p, res, m, r, solver, moving, still)
+    least = ver.get("min_clearance")
+    if least is not None and math.isfinite(least):
+        p(f"  collisions found  {ver.get('collision_count', '-')}   least clearance {fmt(least, ' m', 4)} "
+          f"(certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})")
+    if not ver.get("passed", False):
+        p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
+    _warnings(p, res.verification)
+    _row_planning(p, r, solver, moving)
+    for k, v in res.files.items():
+        p(f"  wrote             {safe(v)}")
+    if res.previous is not None:
+        p(f"  previous run      kept in {safe(res.previous)}")
+
+
+def _row_screen_and_choices(p, res, solver: dict, r: dict) -> None:
+    """A row summary's arms the screen locks, and what ``--gantry auto`` / ``--profile auto`` kept."""
     locked = r.get("locked_arms") or {}
     if locked:  # (as a cell's summary and `coplan check` say it: the bins ride with the carriage, so all along the rail)
         p(f"  screen            {len(locked)} of {plural(len(res.problem.arms), 'arm')} locked ({', '.join(map(safe, locked))}): "
@@ -123,6 +140,10 @@ def print_row_summary(console, res) -> None:
           + (f"{profs[other]['fruit_per_hour']:.0f} {safe(other)} ({profs[other]['harvested']} fruit, "
              f"{'verified' if profs[other]['verified'] else 'NOT verified'})" if other else
              f"nothing: {safe(solver.get('interrupted'))}"))
+
+
+def _row_fruit(p, res, m: dict, r: dict, solver: dict) -> None:
+    """A row summary's fruit: harvested, screened out, left out (with the reasons)."""
     out = r.get("screened_out") or {}
     p(f"  fruit             {r.get('harvested')} harvested of {r.get('harvestable')} harvestable "
       f"({fmt(None if r.get('share_harvested') is None else 100 * r['share_harvested'], ' %', 1)}); of {r.get('fruit')} fruit {len(out)} screened out"
@@ -144,6 +165,12 @@ def print_row_summary(console, res) -> None:
             p(f"    {safe(why)}")
         if len(left) > 5:
             p(f"    ... and {len(left) - 5} more (plan.json: solver.row.left_out)")
+
+
+def _row_time(p, res, m: dict, r: dict, solver: dict, moving: bool, still: bool) -> None:
+    """A row summary's fruit per hour, row time against the bounds, carriage or stops, each arm's idle shares."""
+    from ..row.metrics import fruit_bounds_count
+
     p(f"  fruit per hour    {r.get('fruit_per_hour', 0):.0f} (per arm: "
       + ", ".join(f"{safe(a)} {v:.0f}" for a, v in (r.get("fruit_per_hour_per_arm") or {}).items()) + ")")
     lb = r.get("lower_bound") or {}
@@ -195,13 +222,10 @@ def print_row_summary(console, res) -> None:
         p("    (share of the row time each arm is idle: carriage -- at rest while the carriage moves or settles; no fruit -- at a stop "
           "with nothing in its reach; others -- done at a stop, waiting for the other arms; coordination -- holding still "
           "within its work for a neighbour; making way -- moving out of a neighbour's way)", highlight=False)
-    least = ver.get("min_clearance")
-    if least is not None and math.isfinite(least):
-        p(f"  collisions found  {ver.get('collision_count', '-')}   least clearance {fmt(least, ' m', 4)} "
-          f"(certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})")
-    if not ver.get("passed", False):
-        p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
-    _warnings(p, res.verification)
+
+
+def _row_planning(p, r: dict, solver: dict, moving: bool) -> None:
+    """A row summary's planning time (and, stop and go, how far ahead of the carriage)."""
     first, known = r.get("first_motion_seconds"), r.get("first_stop_seconds", r.get("first_motion_seconds"))
     ahead = {True: "kept ahead of the carriage", False: "LATE", None: "no stop to plan"}[r.get("kept_ahead")]
     later = "" if first == known else f" (first motion after {fmt(first, ' s')}: the carriage does not move before that stop's cell)"
@@ -215,11 +239,6 @@ def print_row_summary(console, res) -> None:
         p(f"  planning          {fmt(r.get('planning_time'), ' s')} {_of_row(r)}; first stop known after {fmt(known, ' s')}{later}; the slowest stop took {fmt(r.get('slowest_stop_seconds'), ' s')} "
           f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({ahead})"
           + ("; the planning time counts the on-the-move plans --gantry auto compared it with" if solver.get("auto") else ""))
-    for k, v in res.files.items():
-        p(f"  wrote             {safe(v)}")
-    if res.previous is not None:
-        p(f"  previous run      kept in {safe(res.previous)}")
-
 
 def _warnings(p, verification) -> None:
     """The verifier's warnings in one line (counted by kind; verification.json lists each)."""
