@@ -138,38 +138,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
     for i, sp in enumerate(result.stops):
         a0, a1 = int(round(sp.start / dt)), int(round(sp.start / dt)) + sp.plan.time.size
         stop_of[a0:min(a1, n)] = i
-    idle: dict[str, dict[str, float]] = {}
-    for ai, a in enumerate(problem.arms):
-        q = plan.q[a.name]
-        still = np.r_[np.all(np.abs(np.diff(q, axis=0)) <= 1e-9, axis=1), True]
-        dwelling = np.zeros(n, dtype=bool)
-        for e in plan.events:
-            if e.arm == a.name:
-                dwelling[int(round(e.t_start / dt)):int(round(e.t_end / dt)) + 1] = True
-        has = {i for i, sp in enumerate(result.stops) if sp.plan.allocation.get(a.name)}
-        if result.stops:
-            at_stop_without = np.isin(stop_of, [i for i in range(len(result.stops)) if i not in has])
-        else:  # on the move: an arm without a fruit in the whole row
-            at_stop_without = np.full(n, not plan.allocation.get(a.name))
-        # within its work: from its first event to its last (an arm with none: nowhere); holding
-        # still away from home outside it -- done, or parked where it has nothing to do (an arm the
-        # screen locks) -- is resting, as at home, not waiting for a neighbour
-        within = np.zeros(n, dtype=bool)
-        mine = [e for e in plan.events if e.arm == a.name]
-        if mine:
-            within[int(round(min(e.t_start for e in mine) / dt)):int(round(max(e.t_end for e in mine) / dt)) + 1] = True
-        held = ~home[a.name] & still & ~dwelling
-        h = (home[a.name] | (held & (~within | at_stop_without))) & upto
-        waiting = held & within & ~at_stop_without & upto
-        early = _not_in_reach_yet(result.reach, ai, mine, x, waiting, dt) if not result.stops else np.zeros(n, dtype=bool)
-        causes = {
-            "carriage": (h & (moving | settling)) | early,
-            "no_fruit": h & ~moving & ~settling & at_stop_without,
-            "others": h & ~moving & ~settling & ~at_stop_without,
-            "coordination": waiting & ~early,
-            "making_way": ~home[a.name] & ~still & at_stop_without & upto,
-        }
-        idle[a.name] = {k: float(v.sum() / upto.sum()) if span > 0 else 0.0 for k, v in causes.items()}  # (shares of the samples)
+    idle = _idle_by_cause(problem, result, home, moving, settling, stop_of, upto, x)
     away = np.zeros(n, dtype=bool)  # some arm away from home
     for a in problem.arms:
         away |= ~home[a.name]
@@ -213,17 +182,7 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
     }
     out["mode"] = result.info.get("mode", GantryMode.STOP_AND_GO.value)
     if out["mode"] == GantryMode.CONTINUOUS:  # no stops: the carriage's speeds instead, and no stop to keep ahead of
-        # picks whose whole dwell has the carriage at rest (where it starts, held, or at its rest at the end)
-        at_rest = sum(1 for e in plan.events if e.kind == EventKind.PICK
-                      and not moving[int(round(e.t_start / dt)):int(round(e.t_end / dt)) + 1].any())
-        # the top speed the carriage reaches (the profile's may be more than a short rail lets it reach:
-        # "top 0.181 m/s" on a 1 mm rail)
-        reached = float(np.max(np.abs(np.diff(x) / np.diff(t)))) if n > 1 else 0.0
-        top = result.info.get("top_speed")
-        out.update({"picks_at_rest": at_rest, "profile": result.info.get("profile"), "mean_speed": result.info.get("mean_speed"),
-                    "top_speed": min(top, reached) if top is not None else reached,
-                    "plans_tried": len(result.info.get("speed_curve") or []),
-                    "kept_ahead": None, "least_slack_seconds": None, "first_motion_seconds": planning})
+        out.update(_on_the_move(result, moving, x, planning))
     if bounds is not None:
         out["lower_bound"] = bounds.to_dict()
         # (no ratio for a row that harvested nothing: an interrupted row before its first stop)
@@ -234,6 +193,68 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         out["ratio_stop_and_go_bound"] = (span / bounds.stop_and_go if whole and bounds.stop_and_go > 0 and span > 0
                                           else None)
     return out
+
+
+def _idle_by_cause(problem: Problem, result, home: dict, moving: np.ndarray, settling: np.ndarray, stop_of: np.ndarray,
+                   upto: np.ndarray, x: np.ndarray) -> dict[str, dict[str, float]]:
+    """Each arm's idle shares of the row time by cause (:func:`row_metrics`): ``home`` (arm ->
+    (N,) at rest at home), ``moving`` / ``settling`` (N,) the carriage's, ``stop_of`` (N,) the
+    stop each sample belongs to (-1: none), ``upto`` (N,) within the row time, ``x`` (N,) the
+    carriage's position."""
+    plan: Plan = result.plan
+    n, dt = plan.time.size, plan.dt
+    span = float(plan.metrics.get("makespan") or 0.0)
+    idle: dict[str, dict[str, float]] = {}
+    for ai, a in enumerate(problem.arms):
+        q = plan.q[a.name]
+        still = np.r_[np.all(np.abs(np.diff(q, axis=0)) <= 1e-9, axis=1), True]
+        dwelling = np.zeros(n, dtype=bool)
+        for e in plan.events:
+            if e.arm == a.name:
+                dwelling[int(round(e.t_start / dt)):int(round(e.t_end / dt)) + 1] = True
+        has = {i for i, sp in enumerate(result.stops) if sp.plan.allocation.get(a.name)}
+        if result.stops:
+            at_stop_without = np.isin(stop_of, [i for i in range(len(result.stops)) if i not in has])
+        else:  # on the move: an arm without a fruit in the whole row
+            at_stop_without = np.full(n, not plan.allocation.get(a.name))
+        # within its work: from its first event to its last (an arm with none: nowhere); holding
+        # still away from home outside it -- done, or parked where it has nothing to do (an arm the
+        # screen locks) -- is resting, as at home, not waiting for a neighbour
+        within = np.zeros(n, dtype=bool)
+        mine = [e for e in plan.events if e.arm == a.name]
+        if mine:
+            within[int(round(min(e.t_start for e in mine) / dt)):int(round(max(e.t_end for e in mine) / dt)) + 1] = True
+        held = ~home[a.name] & still & ~dwelling
+        h = (home[a.name] | (held & (~within | at_stop_without))) & upto
+        waiting = held & within & ~at_stop_without & upto
+        early = _not_in_reach_yet(result.reach, ai, mine, x, waiting, dt) if not result.stops else np.zeros(n, dtype=bool)
+        causes = {
+            "carriage": (h & (moving | settling)) | early,
+            "no_fruit": h & ~moving & ~settling & at_stop_without,
+            "others": h & ~moving & ~settling & ~at_stop_without,
+            "coordination": waiting & ~early,
+            "making_way": ~home[a.name] & ~still & at_stop_without & upto,
+        }
+        idle[a.name] = {k: float(v.sum() / upto.sum()) if span > 0 else 0.0 for k, v in causes.items()}  # (shares of the samples)
+    return idle
+
+
+def _on_the_move(result, moving: np.ndarray, x: np.ndarray, planning: float) -> dict:
+    """The figures of a row on the move that replace its stops' (:func:`row_metrics`): picks with
+    the carriage at rest, the speed profile and its speeds, the plans the speed search tried."""
+    plan: Plan = result.plan
+    t, dt, n = plan.time, plan.dt, plan.time.size
+    # picks whose whole dwell has the carriage at rest (where it starts, held, or at its rest at the end)
+    at_rest = sum(1 for e in plan.events if e.kind == EventKind.PICK
+                  and not moving[int(round(e.t_start / dt)):int(round(e.t_end / dt)) + 1].any())
+    # the top speed the carriage reaches (the profile's may be more than a short rail lets it reach:
+    # "top 0.181 m/s" on a 1 mm rail)
+    reached = float(np.max(np.abs(np.diff(x) / np.diff(t)))) if n > 1 else 0.0
+    top = result.info.get("top_speed")
+    return {"picks_at_rest": at_rest, "profile": result.info.get("profile"), "mean_speed": result.info.get("mean_speed"),
+            "top_speed": min(top, reached) if top is not None else reached,
+            "plans_tried": len(result.info.get("speed_curve") or []),
+            "kept_ahead": None, "least_slack_seconds": None, "first_motion_seconds": planning}
 
 
 def fruit_bounds_count(row: dict) -> int:
