@@ -59,9 +59,8 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     """``coplan export``: load the plan, check the rate and where to write (usage errors exit 2
     before anything is written), export. Default ``out``: beside the plan,
     ``<plan>_<rate>hz.csv`` or the folder ``<plan>_<rate>hz/``."""
-    from ..plan import MAX_PLAN_BYTES, finer_grid, load_plan, on_lattice
-    from ..report.export import (EVENTS, FOLLOW_TOLERANCE, check_rate, events_path, export_names, export_plan, follow_error,
-                                 limit_excess, safe_names, smoothing_error, trajectory)
+    from ..plan import load_plan
+    from ..report.export import check_rate, export_names, export_plan, trajectory
 
     fmt = ExportFormat(fmt)
     # read once (a plan from a pipe is gone after the first read), with the plan.npz beside it: no
@@ -77,32 +76,9 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         check_rate(rate, plan)
     except ValueError as e:
         raise Failure(ExitCode.USAGE, f"--rate: {e}") from None
-    if out is None:
-        stem = plan_path.with_name(f"{plan_path.stem}_{rate:g}hz")
-        out = stem.with_name(stem.name + ".csv") if fmt == ExportFormat.CSV else stem  # (with_suffix took ".5hz" of 12.5 Hz for one)
-    if fmt == ExportFormat.CSV and (isinstance(out, _FolderOut) or out.is_dir()):  # into the folder
-        out = Path(out) / f"{plan_path.stem}_{rate:g}hz.csv"
-        if out.is_dir():
-            raise Failure(ExitCode.USAGE, f"--out {out}: expected a CSV file name, found a folder")
-    if fmt != ExportFormat.CSV and out.exists() and not out.is_dir():
-        raise Failure(ExitCode.USAGE, f"--out {out}: expected a folder (one {fmt.value} file per arm), found a file")
-    if fmt != ExportFormat.CSV and not out.exists() and out.suffix.lower() in (".json", ".yaml", ".yml", ".csv"):
-        # (a file name: the export would make a folder of that name)
-        raise Failure(ExitCode.USAGE, f"--out {out}: expected a folder (one {fmt.value} file per arm, <arm>.{fmt.value}), "
-                                      f"found a file name ending {out.suffix}; give a folder name")
-    if out.resolve() == plan_path.resolve():
-        raise Failure(ExitCode.USAGE, f"--out {out} is the plan being exported; give another file")
+    out = _export_target(plan_path, rate, fmt, out)
     names = export_names(plan)  # (each arm's file and joint-name stem, the carriage's and the events')
-    if fmt == ExportFormat.CSV:  # an earlier export is replaced; coplan's plan.csv or any other file is not
-        check_overwrite(out, "an export CSV", "an earlier export (a CSV with t, <arm>_q1 ... <arm>_qdd2)")
-        check_overwrite(events_path(out), "an export's events", "an earlier export's events (arm,fruit,kind,t_start,t_end)")
-    else:  # each arm's file likewise: an arm named plan or verification would overwrite those
-        for key, name in names.items():
-            if key is EVENTS:
-                check_overwrite(out / f"{name}.{fmt.value}", "an export's events", "an earlier export's events")
-            else:
-                check_overwrite(out / f"{name}.{fmt.value}", "an export JointTrajectory",
-                                "an earlier export (a JointTrajectory with joint_names and points)")
+    _check_export_overwrites(out, fmt, names)
     if unverified:
         _err.print(f"note: {printable(plan_path)} exported without verifying it (--unverified): nothing here says a "
                    "controller may follow it" + ("; it declares no picks or places, so its events file is empty"
@@ -133,6 +109,56 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     if stale:
         _err.print(f"note: removed the earlier export's {', '.join(p.name for p in stale)} from {printable(out)} (not of "
                    "this plan: the folder is this export whole)", markup=False, highlight=False)
+    _export_notes(plan_path, plan, prob, rate, fmt, out, written, names, traj, unverified)
+    _follow_note(plan, traj, rate)
+    return written
+
+
+def _export_target(plan_path: Path, rate: float, fmt: ExportFormat, out: Path | None) -> Path:
+    """Where ``coplan export`` writes (usage errors exit 2 before anything is written): ``out``,
+    or beside the plan (``<plan>_<rate>hz.csv``, the folder ``<plan>_<rate>hz/``)."""
+    if out is None:
+        stem = plan_path.with_name(f"{plan_path.stem}_{rate:g}hz")
+        out = stem.with_name(stem.name + ".csv") if fmt == ExportFormat.CSV else stem  # (with_suffix took ".5hz" of 12.5 Hz for one)
+    if fmt == ExportFormat.CSV and (isinstance(out, _FolderOut) or out.is_dir()):  # into the folder
+        out = Path(out) / f"{plan_path.stem}_{rate:g}hz.csv"
+        if out.is_dir():
+            raise Failure(ExitCode.USAGE, f"--out {out}: expected a CSV file name, found a folder")
+    if fmt != ExportFormat.CSV and out.exists() and not out.is_dir():
+        raise Failure(ExitCode.USAGE, f"--out {out}: expected a folder (one {fmt.value} file per arm), found a file")
+    if fmt != ExportFormat.CSV and not out.exists() and out.suffix.lower() in (".json", ".yaml", ".yml", ".csv"):
+        # (a file name: the export would make a folder of that name)
+        raise Failure(ExitCode.USAGE, f"--out {out}: expected a folder (one {fmt.value} file per arm, <arm>.{fmt.value}), "
+                                      f"found a file name ending {out.suffix}; give a folder name")
+    if out.resolve() == plan_path.resolve():
+        raise Failure(ExitCode.USAGE, f"--out {out} is the plan being exported; give another file")
+    return out
+
+
+def _check_export_overwrites(out: Path, fmt: ExportFormat, names: dict) -> None:
+    """Refuse to overwrite a file an export did not write (an earlier export is replaced)."""
+    from ..report.export import EVENTS, events_path
+
+    if fmt == ExportFormat.CSV:  # an earlier export is replaced; coplan's plan.csv or any other file is not
+        check_overwrite(out, "an export CSV", "an earlier export (a CSV with t, <arm>_q1 ... <arm>_qdd2)")
+        check_overwrite(events_path(out), "an export's events", "an earlier export's events (arm,fruit,kind,t_start,t_end)")
+    else:  # each arm's file likewise: an arm named plan or verification would overwrite those
+        for key, name in names.items():
+            if key is EVENTS:
+                check_overwrite(out / f"{name}.{fmt.value}", "an export's events", "an earlier export's events")
+            else:
+                check_overwrite(out / f"{name}.{fmt.value}", "an export JointTrajectory",
+                                "an earlier export (a JointTrajectory with joint_names and points)")
+
+
+def _export_notes(plan_path: Path, plan, prob, rate: float, fmt: ExportFormat, out: Path, written: list[Path], names: dict,
+                  traj, unverified: bool) -> None:
+    """What ``coplan export`` says about the files it wrote: a rate coplan verify does not read,
+    a file too large for it, an arm in a file of another name, a plan without its full-precision
+    samples."""
+    from ..plan import MAX_PLAN_BYTES, finer_grid, on_lattice
+    from ..report.export import EVENTS, limit_excess, safe_names
+
     if rate < 100.0:
         _err.print(f"note: at {rate:g} Hz coplan verify does not read this export (it checks a grid of 100 Hz or finer): "
                    "verify the plan it came from", markup=False, highlight=False)
@@ -163,9 +189,16 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         _err.print(f"note: no plan.npz with this plan's full-precision samples beside {escape(printable(plan_path))}: the "
                    f"export is of its 1e-7 rad rounding, which differences at {rate:g} Hz magnify{over}",
                    markup=False, highlight=False)
+
+
+def _follow_note(plan, traj, rate: float) -> None:
+    """How far a controller following the exported points departs from the plan, where more than
+    the tolerance (the smoothing's, or the rate's)."""
+    from ..report.export import FOLLOW_TOLERANCE, follow_error, smoothing_error
+
     err, arm, t = follow_error(plan, traj)
     if err <= FOLLOW_TOLERANCE:
-        return written
+        return
     smooth, sarm, st = smoothing_error(plan)
     if err - smooth <= FOLLOW_TOLERANCE:  # (the smoothing's, at any rate: a higher one is no cure)
         _err.print(f"note: the export's curve passes up to {smooth:.3g} rad from the plan's samples ({escape(printable(sarm))} "
@@ -176,4 +209,3 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         _err.print(f"note: at {rate:g} Hz a controller following these points (cubic between them, with their "
                    f"velocities) departs from the plan by up to {err:.3g} rad ({escape(printable(arm))} at t = {t + traj.delay:.2f} s of the export); "
                    f"the plan is sampled at {1.0 / plan.dt:g} Hz", markup=False, highlight=False)
-    return written
