@@ -123,12 +123,7 @@ def run_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print the metrics as JSON.")] = False,
 ):
     """Simulate a cell or a row live: re-plan as detections arrive, verify what was executed, compare with the omniscient plan."""
-    from ..output import RunFolder, signals_deferred
-    from ..plan import jsonable
-    from ..problem.load import file_record, load_problem
-    from ..live.cell import LiveOptions
-    from ..live.feed import load_feed
-    from ..live.sim import simulate
+    from ..problem.load import load_problem
 
     check_out_dir(out, "--out")
     prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))
@@ -155,6 +150,20 @@ def run_cmd(
     if row_only:
         usage(f"{', '.join(row_only)}: {prob.name} is a stationary cell (no gantry section); these apply to a row "
               "(a cell's camera is its --feed file: coplan feed makes one, with its own noise and false detections)")
+    _run_cell(prob, feed, out, horizon, all_candidates, animate, seed, as_json)
+
+
+def _run_cell(prob, feed: Path, out: Path, horizon: float, all_candidates: bool, animate: bool, seed: int,
+              as_json: bool) -> None:
+    """``coplan run`` on a stationary cell: simulate the feed, write the run's files whole, say what
+    happened (exits with the run's code)."""
+    from ..output import RunFolder, signals_deferred
+    from ..plan import jsonable
+    from ..problem.load import file_record
+    from ..live.cell import LiveOptions
+    from ..live.feed import load_feed
+    from ..live.sim import simulate
+
     if feed is None:
         usage(f"{prob.name} is a stationary cell: give its camera's reports with --feed FEED (coplan feed makes one)")
     fd = load_feed(feed)
@@ -199,31 +208,36 @@ def run_cmd(
         typer.echo(json.dumps(jsonable(dict(m, status=status.value, **exit_fields(code))),
                               allow_nan=False))
     else:
-        lat = m["latency_p95"]
-        _out.print(
-            f"{_safe(prob.name)} live: {m['harvested']} of {m['reachable']} reachable fruit harvested, makespan "
-            f"{m['makespan']:.3f} s (omniscient {m['omniscient_makespan']:.3f} s, "
-            + (f"throughput loss {100 * (m['throughput_loss'] or 0):.1f} %)\n"
-               if m["harvested"] >= (m.get("omniscient_harvested") or 0) else  # (fewer fruit sooner read as a gain: -6.6 %)
-               f"for {m['omniscient_harvested']} fruit: {m['omniscient_harvested'] - m['harvested']} fewer harvested here, "
-               f"no throughput to compare)\n") +
-            f"{m['replans']} re-plans, latency median {1000 * (m['latency_median'] or 0):.1f} ms, p95 "
-            f"{1000 * (lat or 0):.1f} ms, max {1000 * (m['latency_max'] or 0):.1f} ms; false detections "
-            f"{m['false_detections']}: {m['false_picks_avoided']} dropped at close range, {m['false_unreachable']} out of "
-            f"reach, {m['false_picks']} picked; unreachable detections "
-            f"{len(m['unreachable_detections'])}\n"
-            + (f"[yellow]{m['late_replans']} of {m['replans']} re-plans took longer than the commit horizon "
-               f"({horizon:g} s)[/]: the arms would have run past their committed motion before the new plan "
-               "was ready, so this run is optimistic; "
-               + ("--all-candidates gives each re-plan all the work it needs, not a "
-                  "real-time run\n" if all_candidates else "give --horizon at least the latency\n")
-               if m.get("late_replans") else "")
-            + _missed_line(result.run["fruit"])
-            + f"executed plan {result.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}"
-            f"{_room(result.verification)}); "
-            f"wrote {_safe(out)}/: {_written(folder, names)}", highlight=False)
+        _print_cell_run(prob, m, horizon, all_candidates, result, out, folder, names)
     raise typer.Exit(int(code))
 
+
+def _print_cell_run(prob, m: dict, horizon: float, all_candidates: bool, result, out: Path, folder, names) -> None:
+    """A live cell run's summary: harvest against the omniscient plan, re-plans and their latency,
+    false detections, what was missed and why, the executed plan's verdict, the files written."""
+    lat = m["latency_p95"]
+    _out.print(
+        f"{_safe(prob.name)} live: {m['harvested']} of {m['reachable']} reachable fruit harvested, makespan "
+        f"{m['makespan']:.3f} s (omniscient {m['omniscient_makespan']:.3f} s, "
+        + (f"throughput loss {100 * (m['throughput_loss'] or 0):.1f} %)\n"
+           if m["harvested"] >= (m.get("omniscient_harvested") or 0) else  # (fewer fruit sooner read as a gain: -6.6 %)
+           f"for {m['omniscient_harvested']} fruit: {m['omniscient_harvested'] - m['harvested']} fewer harvested here, "
+           f"no throughput to compare)\n") +
+        f"{m['replans']} re-plans, latency median {1000 * (m['latency_median'] or 0):.1f} ms, p95 "
+        f"{1000 * (lat or 0):.1f} ms, max {1000 * (m['latency_max'] or 0):.1f} ms; false detections "
+        f"{m['false_detections']}: {m['false_picks_avoided']} dropped at close range, {m['false_unreachable']} out of "
+        f"reach, {m['false_picks']} picked; unreachable detections "
+        f"{len(m['unreachable_detections'])}\n"
+        + (f"[yellow]{m['late_replans']} of {m['replans']} re-plans took longer than the commit horizon "
+           f"({horizon:g} s)[/]: the arms would have run past their committed motion before the new plan "
+           "was ready, so this run is optimistic; "
+           + ("--all-candidates gives each re-plan all the work it needs, not a "
+              "real-time run\n" if all_candidates else "give --horizon at least the latency\n")
+           if m.get("late_replans") else "")
+        + _missed_line(result.run["fruit"])
+        + f"executed plan {result.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}"
+        f"{_room(result.verification)}); "
+        f"wrote {_safe(out)}/: {_written(folder, names)}", highlight=False)
 
 def _missed_line(fruit: dict) -> str:
     """The reachable fruit a live cell did not harvest, each with why (the first three; run.json has all)."""
