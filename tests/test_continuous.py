@@ -849,3 +849,34 @@ def test_the_command_and_plan_moving_quote_one_range_of_speeds(tmp_path, speed):
     assert quoted in str(e.value), (quoted, str(e.value))
     with pytest.raises(OptionsError, match="level: expected a cruising speed of at most 10 m/s"):
         MovingOptions(profile="constant", level=1e9)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_speed_search_brackets_the_fastest_complete_level_to_5_percent(seed):
+    """next_levels against a row where every level up to L is complete and none above it (seeded
+    L and start): the rounds close on L from both sides to 5 %, the start is planned only when
+    every level below it is complete, and no level above the cap is planned."""
+    from coplan.row.moving import next_levels
+
+    rng = np.random.default_rng(seed)
+    start, cap = rng.uniform(0.2, 2.0), 3.0
+    limit = rng.uniform(0.02, 2.9)  # the fastest complete level
+    ok = bad = None
+    assumed, planned = start, []
+    for _ in range(40):
+        batch, assumed = next_levels(start, cap, ok, bad, assumed, 2)
+        if batch is None:
+            break
+        assert len(batch) == 2 and all(0 < v <= cap for v in batch)
+        planned += batch
+        for v in batch:
+            if v <= limit:
+                ok = v if ok is None else max(ok, v)
+            else:
+                bad = v if bad is None else min(bad, v)
+    else:
+        pytest.fail("the search never closed its bracket")
+    assert ok is not None and ok <= limit
+    assert bad is None and ok >= cap or bad is not None and bad > limit and bad - ok <= 0.05 * ok
+    if limit < start:
+        assert all(abs(v - start) > 1e-12 for v in planned)  # the start: the top, never planned

@@ -29,7 +29,7 @@ from .plan import RowResult, check_row_call
 from .reach import RowReach, row_reach
 from .starthold import start_hold
 
-__all__ = ["plan_moving", "live_speed", "speed_search", "SEARCH_WIDTH"]
+__all__ = ["plan_moving", "live_speed", "speed_search", "next_levels", "SEARCH_WIDTH"]
 
 #: A refinement round raises a missed fruit's stretches' demand by this factor ...
 REFINE_BUMP = 1.25
@@ -122,24 +122,9 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                 assumed: float | None = v
                 w = SEARCH_WIDTH  # (not the workers: the levels tried, and so the plan, are the same for any)
                 for _ in range(int(math.ceil(opts.search_rounds / w))):
-                    # w levels at once: from half the start up to it / down by halves / up by half again
-                    # until bracketed, then w points inside
-                    top = bad_v if bad_v is not None else assumed
-                    if ok_v is None and bad_v is None:
-                        batch = [v / 2.0 * (1.0 + k / w) for k in range(w)]
-                    elif ok_v is None:
-                        batch = [bad_v / 2.0 ** (k + 1) for k in range(w)]
-                    elif top is None:
-                        if ok_v >= cap:
-                            break
-                        batch = [min(cap, ok_v * 1.5 ** (k + 1)) for k in range(w)]
-                    elif top - ok_v <= 0.05 * ok_v:
-                        if bad_v is not None:
-                            break
-                        batch = [min(cap, top * 1.5 ** k) for k in range(w)]  # complete up to the start: it too, and on up
-                        assumed = None
-                    else:
-                        batch = [ok_v + (top - ok_v) * (k + 1) / (w + 1) for k in range(w)]
+                    batch, assumed = next_levels(v, cap, ok_v, bad_v, assumed, w)
+                    if batch is None:
+                        break
                     for p in run_many(batch):
                         if p.complete:
                             ok_v = p.level if ok_v is None else max(ok_v, p.level)
@@ -186,6 +171,32 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
         tried[best][0].plan.solver["status"] = PlanStatus.INTERRUPTED.value
         tried[best][0].info["interrupted"] = f"the speed search stopped after {len(tried)} plan{'' if len(tried) == 1 else 's'}: the best verified so far"
     return tried[best][0], pts
+
+
+def next_levels(start: float, cap: float, ok: float | None, bad: float | None, assumed: float | None,
+                width: int) -> tuple[list[float] | None, float | None]:
+    """The speed search's next round (:func:`speed_search`): ``width`` levels to plan, or None when
+    the bracket is closed; and the assumed top after the round. ``start``: the starting level;
+    ``cap``: the highest level; ``ok`` / ``bad``: the fastest complete and the slowest incomplete
+    level so far (None: none yet); ``assumed``: the bracket's top while no plan is incomplete (the
+    start, never planned unless every plan below it is complete; None once it has been).
+
+    From half the start up to it; down by halves while nothing is complete; up by half again while
+    nothing above is incomplete; then ``width`` points inside the bracket until it is within 5 %."""
+    top = bad if bad is not None else assumed
+    if ok is None and bad is None:
+        return [start / 2.0 * (1.0 + k / width) for k in range(width)], assumed
+    if ok is None:
+        return [bad / 2.0 ** (k + 1) for k in range(width)], assumed
+    if top is None:
+        if ok >= cap:
+            return None, assumed
+        return [min(cap, ok * 1.5 ** (k + 1)) for k in range(width)], assumed
+    if top - ok <= 0.05 * ok:
+        if bad is not None:
+            return None, assumed
+        return [min(cap, top * 1.5 ** k) for k in range(width)], None  # complete up to the start: it too, and on up
+    return [ok + (top - ok) * (k + 1) / (width + 1) for k in range(width)], assumed
 
 
 #: levels the speed search plans a round (side by side with two workers or more): fixed, so
