@@ -484,21 +484,7 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
             else:
                 booker.go_home(i)
             continue
-        first = None
-        while pending[i] and first is None:
-            fid = pending[i][0]
-            hit = [c for c in cands if c[0] == fid]
-            if hit:
-                first = hit
-            else:
-                pending[i].pop(0)
-        if first is not None:
-            tries = first
-        else:
-            ready = [c for c in cands if c[1].lo <= now + 2.0]  # within reach soon
-            pool = ready or cands
-            pool.sort(key=lambda c: (c[1].hi, n_arms_of[c[0]], c[1].lo, c[0]))
-            tries = pool[:4]
+        tries, given = _tries(cands, pending[i], now, n_arms_of)
         booked = stopped = False
         for fid, w in tries:
             if on_book is not None and not on_book(i, fid, now):
@@ -522,24 +508,48 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
             heapq.heappush(queue, (-math.inf, i))
             continue
         if not booked:
-            if now >= booker.cruise.duration:  # the carriage at rest for good: a fruit no branch reaches
-                # from there (its close-range measurement moved it off the run's edge) never will be,
-                # and one that found no clear cycle _GIVE_UP times (each up to _PATIENCE of waiting)
-                # is left to the next stop
-                x1 = booker.cruise.x1
-                for fid, w in tries:
-                    if w.lo <= now + _PATIENCE:  # (a window not open yet -- the carriage settling -- is no failure)
-                        failed[(i, fid)] = failed.get((i, fid), 0) + 1
-                gone = {(fid, w.arm) for fid, w in tries
-                        if failed.get((i, fid), 0) >= _GIVE_UP or not booker.branches(i, fid, x1, x1)}
-                by_arm[i] = [(fid, w) for fid, w in by_arm[i] if (fid, w.arm) not in gone]
-            if first is not None:
+            if now >= booker.cruise.duration:
+                by_arm[i] = _give_up(booker, i, tries, now, failed, by_arm[i])
+            if given:
                 pending[i].pop(0)  # the given order's next fruit does not fit: the greedy may take it
             elif not (make_way and not booker.at_home(i) and (booker.go_bin(i) if booker.rests_out(i) else booker.go_home(i))):  # (home: out of the way, it tries again)
                 soonest = min((c[1].lo for c in cands if c[1].lo > now), default=now + _RETRY)
                 booker.wait(i, max(_RETRY, min(soonest - now - 1.0, 1.0)))
         heapq.heappush(queue, (booker.free_time(i), i))
     return {fid: why_left(booker, fid, halt or {}) for fid in windows if fid not in taken}
+
+
+def _tries(cands: list[tuple[str, Window]], pending: list[str], now: float,
+           n_arms_of: dict[str, int]) -> tuple[list[tuple[str, Window]], bool]:
+    """What an arm free at ``now`` tries to book (:func:`run_policy`), and whether it is the given
+    order's next fruit: that fruit (its windows among ``cands``; fruit of the order no longer
+    among them are dropped from ``pending``), else the greedy's first four -- of the fruit within
+    reach in 2 s (all, if none), the earliest deadline first, then the fewest arms, then the
+    earliest window."""
+    while pending:
+        hit = [c for c in cands if c[0] == pending[0]]
+        if hit:
+            return hit, True
+        pending.pop(0)
+    ready = [c for c in cands if c[1].lo <= now + 2.0]  # within reach soon
+    pool = ready or cands
+    pool.sort(key=lambda c: (c[1].hi, n_arms_of[c[0]], c[1].lo, c[0]))
+    return pool[:4], False
+
+
+def _give_up(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float, failed: dict[tuple[int, str], int],
+             mine: list[tuple[str, Window]]) -> list[tuple[str, Window]]:
+    """Arm ``i``'s fruit (``mine``) less those it gives up, the carriage at rest for good and no
+    cycle booked on ``tries``: a fruit no branch reaches from there (its close-range measurement
+    moved it off the run's edge) never will be, and one that found no clear cycle ``_GIVE_UP``
+    times (each up to ``_PATIENCE`` of waiting) is left to the next stop."""
+    x1 = booker.cruise.x1
+    for fid, w in tries:
+        if w.lo <= now + _PATIENCE:  # (a window not open yet -- the carriage settling -- is no failure)
+            failed[(i, fid)] = failed.get((i, fid), 0) + 1
+    gone = {(fid, w.arm) for fid, w in tries
+            if failed.get((i, fid), 0) >= _GIVE_UP or not booker.branches(i, fid, x1, x1)}
+    return [(fid, w) for fid, w in mine if (fid, w.arm) not in gone]
 
 
 def why_left(booker: Booker, fid: str, halt: dict[int, float]) -> str:
