@@ -316,10 +316,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         except KeyboardInterrupt:  # (the row as planned so far stands: every cell in it is whole)
             late = True
     if interrupted:  # the stops from the first on whose cells are planned (a worker may have finished a later one)
-        have = {id(sp.stop) for sp in planned}
-        prefix = next((i for i, s in enumerate(kept) if id(s) not in have), len(kept))
-        keep = {id(s) for s in kept[:prefix]}
-        planned = [sp for sp in planned if id(sp.stop) in keep]
+        planned = _planned_prefix(planned, kept)
         info["interrupted"] = f"after {len(planned)} of the {len(kept)} stops kept so far: the row as far as they go"
         say(f"row: interrupted; keeping the row as far as its stops planned so far ({len(planned)}), verified")
         reach.ensure(math.inf)  # (the whole row screened: what is harvestable, for the figures)
@@ -343,23 +340,39 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         plan.status = PlanStatus.INTERRUPTED  # (the verdict on what it has is in plan.verification)
     info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
     info["retimed_cells"] = sum(1 for sp in planned if sp.plan.solver.get("retime"))  # (cells whose retiming was kept)
-    info["left_out"] = dict(reach.reasons)
-    picked = _picked(planned)
-    # fruit a stop's cell planner could not fit in (and no second chance took), at every stop tried
-    for x, left in sorted([(sp.stop.x, sp.plan.solver.get("left_out") or {}) for sp in planned] + dropped, key=lambda d: d[0]):
-        for f, why in left.items():
-            if f not in picked:
-                said = info["left_out"].get(f)
-                info["left_out"][f] = (f"{said}; " if said else "") + f"at the stop at {x:.2f} m: {why}"
-    if interrupted:  # the rest of the row: not planned
-        done = {f for sp in planned for f in sp.stop.fruit}
-        for f in reach.harvestable():
-            if f not in done and f not in info["left_out"]:
-                info["left_out"][f] = f"{f}: not planned: the row was interrupted before a stop that serves it"
+    info["left_out"] = _left_out(reach, planned, dropped, interrupted)
     plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
     say(f"row: {len(planned)} stop{'' if len(planned) == 1 else 's'} ({rule.value}), {plan.metrics.get('harvested')} fruit, "
         f"row time {plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
     return RowResult(plan, ver, planned, reach, timings, info)
+
+
+def _planned_prefix(planned: list[StopPlan], kept: list[Stop]) -> list[StopPlan]:
+    """Of an interrupted row's planned stops, those from its first stop kept (``kept``, in
+    carriage order) up to the first whose cell is not planned: the row as far as it goes whole."""
+    have = {id(sp.stop) for sp in planned}
+    prefix = next((i for i, s in enumerate(kept) if id(s) not in have), len(kept))
+    keep = {id(s) for s in kept[:prefix]}
+    return [sp for sp in planned if id(sp.stop) in keep]
+
+
+def _left_out(reach: RowReach, planned: list[StopPlan], dropped: list[tuple[float, dict]], interrupted: bool) -> dict[str, str]:
+    """Fruit id -> why the row left it out: screened out (``reach.reasons``); left by a stop's cell
+    planner (and no second chance took it; ``dropped``: second-chance stops that picked nothing),
+    at every stop tried, in carriage order; not planned, the row interrupted before its stop."""
+    out = dict(reach.reasons)
+    picked = _picked(planned)
+    for x, left in sorted([(sp.stop.x, sp.plan.solver.get("left_out") or {}) for sp in planned] + dropped, key=lambda d: d[0]):
+        for f, why in left.items():
+            if f not in picked:
+                said = out.get(f)
+                out[f] = (f"{said}; " if said else "") + f"at the stop at {x:.2f} m: {why}"
+    if interrupted:  # the rest of the row: not planned
+        done = {f for sp in planned for f in sp.stop.fruit}
+        for f in reach.harvestable():
+            if f not in done and f not in out:
+                out[f] = f"{f}: not planned: the row was interrupted before a stop that serves it"
+    return out
 
 
 #: m: a fruit a stop's cell planner left out is tried again at a stop at least this far from
