@@ -184,21 +184,7 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
     if problem is not None and not isinstance(problem, str):
         bad(("problem",), f"expected the problem's name (a string), found {found(problem, list_length=True)}")
         problem = None
-    dist, sig = DEFAULT_CLOSE_DISTANCE, DEFAULT_CLOSE_SIGMA
-    cr = data.get("close_range")
-    if cr is not None:
-        if not isinstance(cr, dict):
-            bad(("close_range",), f"expected a mapping {{distance, sigma}}, found {found(cr, list_length=True)}")
-        else:
-            for key, v in cr.items():
-                if key not in ("distance", "sigma"):
-                    bad(("close_range", key), f"expected distance or sigma, found unknown key {key!r}")
-                elif not finite_number(v) or not CLOSE_RANGE_BOUNDS[key][0] <= v <= CLOSE_RANGE_BOUNDS[key][1]:
-                    lo, hi = CLOSE_RANGE_BOUNDS[key]
-                    bad(("close_range", key), f"expected a number in [{lo:g}, {hi:g}] m (as coplan feed's --close-{key}), "
-                                              f"found {found(v, list_length=True)}")
-            dist = cr.get("distance", dist) if finite_number(cr.get("distance", dist)) else dist
-            sig = cr.get("sigma", sig) if finite_number(cr.get("sigma", sig)) else sig
+    dist, sig = _close_range(data.get("close_range"), bad)
     rows = data.get("detections")
     out: list[Detection] = []
     if "detections" not in data:
@@ -213,56 +199,85 @@ def parse_feed(text: str, source: str | None = None) -> Feed:
         if not isinstance(row, dict):
             bad(loc, f"expected a mapping {{t, id, position, sigma[, fruit, after]}}, found {found(row, list_length=True)}")
             continue
-        ok = True
-        for key in row:
-            if key not in _ROW_KEYS:
-                bad(loc + (key,), f"expected one of {', '.join(_ROW_KEYS)}, found unknown key {key!r}")
-                ok = False
-        for key in ("t", "id", "position", "sigma"):
-            if key not in row:
-                bad(loc + (key,), "expected a value, found nothing (required field)")
-                ok = False
-        if not ok:
-            continue
-        t, rid, pos, sigma = row["t"], row["id"], row["position"], row["sigma"]
-        if not finite_number(t) or t < 0 or t > MAX_PLAN_SECONDS:
-            bad(loc + ("t",), f"expected a time in [0, {MAX_PLAN_SECONDS:g}] s (within the longest plan coplan makes, "
-                              f"coplan.plausible.MAX_PLAN_SECONDS), found {found(t, list_length=True)}")
-            ok = False
-        if not isinstance(rid, str) or not rid.strip():
-            bad(loc + ("id",), f"expected a non-empty string, found {found(rid, list_length=True)}")
-            ok = False
-        elif rid in seen:
-            bad(loc + ("id",), f"expected a unique id, found {rid!r} again (first in detections[{seen[rid]}])")
-            ok = False
-        else:
-            seen[rid] = i
-        if not isinstance(pos, list) or len(pos) != 2 or not all(finite_number(x) for x in pos):
-            what = (f"[{', '.join(found(x) for x in pos)}]" if isinstance(pos, list) and len(pos) == 2
-                    else found(pos, list_length=True))
-            bad(loc + ("position",), f"expected [x, y] (two finite numbers, m), found {what}")
-            ok = False
-        else:  # (as a problem file's fruit: 1e300 was accepted, and NumPy's overflow warning reached the user)
-            for where, msg in field_issues("position", pos, loc + ("position",)):
-                bad(where, msg)
-                ok = False
-        if not finite_number(sigma) or not 0 < sigma <= MAX_FEED_SIGMA:
-            bad(loc + ("sigma",), f"expected a positive number of at most {MAX_FEED_SIGMA:g} (m), "
-                                  f"found {found(sigma, list_length=True)}")
-            ok = False
-        for key in ("fruit", "after"):
-            v = row.get(key)
-            if v is not None and (not isinstance(v, str) or not v.strip()):
-                bad(loc + (key,), f"expected a fruit id (string) or null, found {found(v, list_length=True)}")
-                ok = False
-        if ok:
-            out.append(Detection(float(t), rid, (float(pos[0]), float(pos[1])), float(sigma), row.get("fruit"),
-                                 row.get("after"), line_of(lines, loc)))
+        det = _detection(row, loc, seen, bad, lines)
+        if det is not None:
+            out.append(det)
     if issues:
         raise FeedError(issues, source)
     import hashlib
 
     return Feed(tuple(out), float(dist), float(sig), problem, source, hashlib.sha256(text.encode("utf-8")).hexdigest())
+
+
+def _close_range(cr, bad) -> tuple[float, float]:
+    """A feed's ``close_range`` (None: the defaults): its distance and sigma, each default where
+    missing or refused (``bad(loc, message)`` collects the issues)."""
+    dist, sig = DEFAULT_CLOSE_DISTANCE, DEFAULT_CLOSE_SIGMA
+    if cr is not None:
+        if not isinstance(cr, dict):
+            bad(("close_range",), f"expected a mapping {{distance, sigma}}, found {found(cr, list_length=True)}")
+        else:
+            for key, v in cr.items():
+                if key not in ("distance", "sigma"):
+                    bad(("close_range", key), f"expected distance or sigma, found unknown key {key!r}")
+                elif not finite_number(v) or not CLOSE_RANGE_BOUNDS[key][0] <= v <= CLOSE_RANGE_BOUNDS[key][1]:
+                    lo, hi = CLOSE_RANGE_BOUNDS[key]
+                    bad(("close_range", key), f"expected a number in [{lo:g}, {hi:g}] m (as coplan feed's --close-{key}), "
+                                              f"found {found(v, list_length=True)}")
+            dist = cr.get("distance", dist) if finite_number(cr.get("distance", dist)) else dist
+            sig = cr.get("sigma", sig) if finite_number(cr.get("sigma", sig)) else sig
+    return dist, sig
+
+
+def _detection(row: dict, loc: tuple, seen: dict[str, int], bad, lines) -> Detection | None:
+    """One of a feed's ``detections`` (a mapping, at ``loc``), or None where refused (each issue
+    to ``bad(loc, message)``); ``seen``: the ids so far -> their index (this one's added)."""
+    ok = True
+    for key in row:
+        if key not in _ROW_KEYS:
+            bad(loc + (key,), f"expected one of {', '.join(_ROW_KEYS)}, found unknown key {key!r}")
+            ok = False
+    for key in ("t", "id", "position", "sigma"):
+        if key not in row:
+            bad(loc + (key,), "expected a value, found nothing (required field)")
+            ok = False
+    if not ok:
+        return None
+    t, rid, pos, sigma = row["t"], row["id"], row["position"], row["sigma"]
+    if not finite_number(t) or t < 0 or t > MAX_PLAN_SECONDS:
+        bad(loc + ("t",), f"expected a time in [0, {MAX_PLAN_SECONDS:g}] s (within the longest plan coplan makes, "
+                          f"coplan.plausible.MAX_PLAN_SECONDS), found {found(t, list_length=True)}")
+        ok = False
+    if not isinstance(rid, str) or not rid.strip():
+        bad(loc + ("id",), f"expected a non-empty string, found {found(rid, list_length=True)}")
+        ok = False
+    elif rid in seen:
+        bad(loc + ("id",), f"expected a unique id, found {rid!r} again (first in detections[{seen[rid]}])")
+        ok = False
+    else:
+        seen[rid] = loc[1]
+    if not isinstance(pos, list) or len(pos) != 2 or not all(finite_number(x) for x in pos):
+        what = (f"[{', '.join(found(x) for x in pos)}]" if isinstance(pos, list) and len(pos) == 2
+                else found(pos, list_length=True))
+        bad(loc + ("position",), f"expected [x, y] (two finite numbers, m), found {what}")
+        ok = False
+    else:  # (as a problem file's fruit: 1e300 was accepted, and NumPy's overflow warning reached the user)
+        for where, msg in field_issues("position", pos, loc + ("position",)):
+            bad(where, msg)
+            ok = False
+    if not finite_number(sigma) or not 0 < sigma <= MAX_FEED_SIGMA:
+        bad(loc + ("sigma",), f"expected a positive number of at most {MAX_FEED_SIGMA:g} (m), "
+                              f"found {found(sigma, list_length=True)}")
+        ok = False
+    for key in ("fruit", "after"):
+        v = row.get(key)
+        if v is not None and (not isinstance(v, str) or not v.strip()):
+            bad(loc + (key,), f"expected a fruit id (string) or null, found {found(v, list_length=True)}")
+            ok = False
+    if not ok:
+        return None
+    return Detection(float(t), rid, (float(pos[0]), float(pos[1])), float(sigma), row.get("fruit"), row.get("after"),
+                     line_of(lines, loc))
 
 
 def _found_pair(pos) -> str:
