@@ -393,13 +393,7 @@ def improve(
             st.stop = StopReason.TIME_LIMIT
             return best, st
         if anchor is not None and not opts.fixed_assignment and best.makespan > bound + opts.tolerance:
-            a_state = srch.anchor(anchor, s_cur.order)
-            a_cand = srch.evaluate(a_state) if a_state is not None and a_state != s_cur else None
-            if a_cand is None:
-                a_state = None
-            else:
-                seen.add(a_state)
-                st.anchor_makespan = a_cand.makespan
+            a_state, a_cand = _anchor_start(srch, anchor, s_cur, seen)
             if a_cand is not None and a_cand.makespan < best.makespan - 1e-9:
                 a_turn = 0
                 st.anchored = 1
@@ -410,14 +404,9 @@ def improve(
                 if on_improve is not None:
                     on_improve(best)
         while True:
-            if best.makespan <= bound + opts.tolerance:
-                st.stop = StopReason.PROVEN_OPTIMAL
-                break
-            if st.evaluations >= opts.evaluations or st.checks >= opts.work or st.proposals >= max_proposals:
-                st.stop = StopReason.BUDGET
-                break
-            if idle >= 500 or (since_best >= opts.patience and st.fresh_starts >= opts.starts):
-                st.stop = StopReason.STALLED  # no progress, or no new state left to try
+            why = _stop_reason(best.makespan, bound, st, opts, idle, since_best, max_proposals)
+            if why is not None:
+                st.stop = why
                 break
             if since_best >= opts.patience:  # a fresh start: from the anchor (held) or the start
                 st.local_bests.append((pbest, s_pbest))
@@ -493,6 +482,34 @@ def improve(
     if space is None:
         st.local_bests.append((pbest, s_pbest))
     return best, st
+
+
+def _stop_reason(makespan: float, bound: float, st: SearchStats, opts: SearchOptions, idle: int, since_best: int,
+                 max_proposals: int) -> StopReason | None:
+    """Why :func:`improve`'s search stops before its next step (None: it goes on): the best
+    ``makespan`` at the lower bound (proven optimal), the budget spent (evaluations, conflict
+    checks or proposals), or no progress (``idle`` proposals gave no new state; ``since_best``
+    evaluations past the patience with every fresh start made)."""
+    if makespan <= bound + opts.tolerance:
+        return StopReason.PROVEN_OPTIMAL
+    if st.evaluations >= opts.evaluations or st.checks >= opts.work or st.proposals >= max_proposals:
+        return StopReason.BUDGET
+    if idle >= 500 or (since_best >= opts.patience and st.fresh_starts >= opts.starts):
+        return StopReason.STALLED  # no progress, or no new state left to try
+    return None
+
+
+def _anchor_start(srch: Neighbourhood, anchor: dict[str, tuple[str, ...]], s_cur, seen: set):
+    """The anchor's state (``anchor``'s assignment, ``s_cur``'s order where it can) and its
+    candidate, evaluated (added to ``seen``; its makespan in the stats); (None, None) when it is
+    the start's own state or has no plan."""
+    a_state = srch.anchor(anchor, s_cur.order)
+    a_cand = srch.evaluate(a_state) if a_state is not None and a_state != s_cur else None
+    if a_cand is None:
+        return None, None
+    seen.add(a_state)
+    srch.stats.anchor_makespan = a_cand.makespan
+    return a_state, a_cand
 
 
 def _exhaust(srch: Neighbourhood, space, best: Coordinated, bound: float, seen: set, on_improve, deadline, tick=None) -> Coordinated:
