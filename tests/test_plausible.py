@@ -98,7 +98,7 @@ def test_the_bounds_hold_every_shipped_problem() -> None:
 def test_a_baseline_too_long_for_its_grid_is_refused_up_front() -> None:
     text = (PROBLEMS / "five_arm_row.yaml").read_text().replace("max_velocity: [3.0, 4.0]", "max_velocity: [0.001, 0.001]")
     issues = _issues(text)  # (this file used to run its 38 h baseline: 2 minutes and gigabytes)
-    assert len(issues) == 1 and issues[0].path == "arms[0]"
+    assert len(issues) == 1 and issues[0].path == "arms[0]"  # (its joints: the arm whose limits the message lists)
     msg = issues[0].message
     assert msg.startswith("expected a problem whose plan fits in 1.4 h (plans are sampled at 100 Hz; with 5 arms, longer "
                           "plans make files over 64 MiB), found one whose baseline")
@@ -107,6 +107,29 @@ def test_a_baseline_too_long_for_its_grid_is_refused_up_front() -> None:
     # slow but sane joints (the issue's 0.01 rad/s single arm: a 455 s baseline) stay accepted
     slow = SINGLE.replace("max_velocity: [3.0, 4.0]", "max_velocity: [0.01, 0.01]")
     assert parse_problem(slow).arms[0].max_velocity == (0.01, 0.01)
+
+
+def test_a_plan_too_long_is_reported_at_its_cause() -> None:
+    """The dwell that makes the plan too long is named at its key and line; so is an arm's own
+    too-slow joints (not defaults)."""
+    base = (PROBLEMS / "greenhouse_row.yaml").read_text()
+    text = base.replace("place_dwell: 0.2", "place_dwell: 3599")
+    assert text != base
+    issues = _issues(text)
+    assert [i.path for i in issues] == ["task.place_dwell"]
+    assert issues[0].line == next(n for n, l in enumerate(text.splitlines(), 1) if "place_dwell: 3599" in l)
+    # the fruit's number (it said arms[0]): 33 fruit of five_arm_row, each 300 times, a little apart
+    five = (PROBLEMS / "five_arm_row.yaml").read_text()
+    head, _, fruit = five.partition("fruits:")
+    rows = [ln for ln in fruit.splitlines() if ln.strip().startswith("- {id:")]
+    tail = fruit[fruit.index(rows[-1]) + len(rows[-1]):]
+    many = []
+    for k in range(300):
+        for ln in rows:
+            m = re.search(r"id: ([^,]+), position: \[([-0-9.e]+), ([-0-9.e]+)\]", ln)
+            many.append(f"  - {{id: {m[1]}_{k}, position: [{float(m[2]) + 2e-4 * k:.6f}, {m[3]}]}}")
+    issues = _issues(head + "fruits:\n" + "\n".join(many) + tail)
+    assert [i.path for i in issues] == ["fruits"]
 
 
 def test_cli_check_exits_3_on_implausible_input(tmp_path: Path) -> None:

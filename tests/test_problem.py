@@ -770,3 +770,17 @@ def test_a_rows_gantry_speed_is_met_with_max_velocity_in_the_file_s_error(tmp_pa
     with pytest.raises(ProblemError) as e:
         parse_problem(text, "row.yaml")
     assert "gantry.speed" in str(e.value) and "did you mean 'max_velocity'?" in str(e.value)
+
+
+@pytest.mark.parametrize("key, shown", [("1", "integer 1"), ("true", "boolean True"), ("1.5", "number 1.5")])
+def test_a_key_yaml_reads_as_a_number_or_a_boolean_is_named_at_its_line(key, shown):
+    """(It said "task[1]: Keys should be strings", at task's line for 1.5, with no expected/found.)"""
+    text = default_problem_path().read_text()
+    lines = text.splitlines()
+    at = next(i for i, ln in enumerate(lines) if ln.strip().startswith("place_dwell:"))
+    lines.insert(at + 1, f"  {key}: 2")
+    with pytest.raises(ProblemError) as e:
+        parse_problem("\n".join(lines))
+    [issue] = e.value.issues
+    assert issue.path == "task" and issue.line == at + 2
+    assert issue.message.startswith(f"expected a known key (a name), found the key {shown}")

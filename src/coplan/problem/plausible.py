@@ -239,7 +239,7 @@ def duration_issues(problem) -> list[tuple[tuple, str]]:
         return []
     arm = problem.arms[b.arm]
     n_reach = int(problem.reach_matrix().any(axis=0).sum())
-    return [(("arms", b.arm), (
+    return [(_duration_cause(problem, b), (
         f"expected a problem whose plan fits in {_hours(limit)} (plans are sampled at {SAMPLE_RATE:g} Hz; "
         f"{'12 h' if limit == MAX_PLAN_SECONDS else f'with {len(problem.arms)} arms, longer plans make files over {MAX_PLAN_BYTES >> 20} MiB'}), "
         f"found one whose baseline plan (the course's planner, which every solve computes) lasts at least "
@@ -249,6 +249,24 @@ def duration_issues(problem) -> list[tuple[tuple, str]]:
         f"{list(arm.max_acceleration)} rad/s^2, max_jerk {list(arm.max_jerk)} rad/s^3; pick_dwell "
         f"{problem.task.pick_dwell:g} s, place_dwell {problem.task.place_dwell:g} s)"
     ))]
+
+
+def _duration_cause(problem, b: DurationBound) -> tuple:
+    """The key path a too-long plan is reported at (:func:`duration_issues`): the longer dwell
+    where the dwells are at least half of the slowest fruit's time; else the slowest fruit's
+    fastest arm where its moves alone take more than :data:`SLOW_MOVES` (its joints' limits, which
+    the message lists); else the fruit list (their number sets the bound)."""
+    task = problem.task
+    dwell = task.pick_dwell + task.place_dwell
+    if dwell >= 0.5 * b.fruit_seconds:
+        return ("task", "pick_dwell" if task.pick_dwell >= task.place_dwell else "place_dwell")
+    if b.fruit_seconds - dwell > SLOW_MOVES or b.seconds <= b.fruit_seconds * (1.0 + 1e-9):
+        return ("arms", b.arm)
+    return ("fruits",)
+
+
+#: s: moves to and from one fruit slower than this are the arm's limits' doing, not the fruit count's
+SLOW_MOVES = 60.0
 
 
 def problem_issues(problem) -> list[tuple[tuple, str]]:
