@@ -102,6 +102,19 @@ def test_cli_run_with_a_bad_feed_exits_3_with_the_key_path(tmp_path: Path, probl
     assert "detections[1].sigma" in r.output and "Traceback" not in r.output
 
 
+def test_cli_run_of_a_cell_with_nothing_reachable_exits_4_as_solve_does(tmp_path: Path, problems_dir: Path) -> None:
+    """(It exited 6, "unsafe", for an executed plan that verified: every status but success and
+    partial read as unsafe.)"""
+    text = (problems_dir / "greenhouse_row.yaml").read_text()
+    far = text[:text.index("fruits:")] + "fruits:\n  - {id: far, position: [10.0, 1.0]}\n" + text[text.index("task:"):]
+    (tmp_path / "far.yaml").write_text(far)
+    assert run("feed", str(tmp_path / "far.yaml"), "-o", str(tmp_path / "feed.yaml")).exit_code == 0
+    r = run("run", str(tmp_path / "far.yaml"), "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "o"), "--json")
+    assert r.exit_code == ExitCode.INFEASIBLE, r.output
+    doc = json.loads(r.output)
+    assert doc["status"] == "infeasible" and doc["exit_code"] == 4 and doc["verified"] is True
+
+
 def test_generated_feed_is_seeded_and_round_trips(greenhouse) -> None:
     a = make_feed(greenhouse, known=0.5, sigma=0.01, false_rate=0.3, duplicate_rate=0.3, seed=7, reveal_by=5.0)
     b = make_feed(greenhouse, known=0.5, sigma=0.01, false_rate=0.3, duplicate_rate=0.3, seed=7, reveal_by=5.0)

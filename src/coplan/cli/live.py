@@ -20,7 +20,7 @@ from .console import ProgressDisplay, text_console
 from .failures import check_out_dir, check_out_file, check_overwrite, exit_fields, resolve_problem, usage, work_done
 from .summary import safe as _safe
 from ..errors import plural
-from ..kinds import ExitCode, GantryMode, LiveGantryMode, PlanStatus
+from ..kinds import GantryMode, LiveGantryMode
 
 __all__ = ["feed_cmd", "run_cmd"]
 
@@ -163,6 +163,7 @@ def _run_cell(prob, feed: Path, out: Path, horizon: float, all_candidates: bool,
     from ..live.cell import LiveOptions
     from ..live.feed import load_feed
     from ..live.sim import simulate
+    from ..pipeline import status_exit_code
 
     if feed is None:
         usage(f"{prob.name} is a stationary cell: give its camera's reports with --feed FEED (coplan feed makes one)")
@@ -203,7 +204,7 @@ def _run_cell(prob, feed: Path, out: Path, horizon: float, all_candidates: bool,
     work_done()
     m = result.run["metrics"]
     status = result.plan.status
-    code = ExitCode.OK if status == PlanStatus.SUCCESS else ExitCode.PARTIAL if status == PlanStatus.PARTIAL else ExitCode.UNSAFE
+    code = status_exit_code(status)  # (as coplan solve and a row's run: nothing reachable is 4, not 6)
     if as_json:  # (with the status and exit code: a script read neither from the document)
         typer.echo(json.dumps(jsonable(dict(m, status=status.value, **exit_fields(code))),
                               allow_nan=False))
