@@ -530,3 +530,26 @@ def test_a_stage_that_will_not_go_once_the_run_is_in_place_is_no_failure(tmp_pat
     monkeypatch.setattr(Path, "rmdir", stuck)
     r = CliRunner().invoke(app, ["solve", str(_single()), "--planner", "coordinated", "--out", str(out)])
     assert r.exit_code == 0 and (out / "plan.json").is_file() and not (tmp_path / "run.unsaved").exists(), r.output
+
+
+@pytest.mark.parametrize("command, name", [("view", "page.html"), ("plot", "fig.png"), ("animate", "film.gif")])
+def test_a_figure_command_never_overwrites_a_file_of_another_kind(tmp_path, command, name):
+    """(view, animate and plot replaced any file given as --out: a user's notes in my.html were
+    lost, where feed, verify and export refuse.) Exit 2, the file kept; an earlier figure of the
+    same kind is replaced."""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    plan = tmp_path / "p" / "plan.json"
+    solve(_single(), planner="heuristic", out_dir=plan.parent)
+    mine = tmp_path / name
+    mine.write_text("my notes")
+    args = [command, str(plan), "--out", str(mine)] + (["--fps", "2", "--dpi", "30"] if command == "animate" else [])
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, args)
+    assert r.exit_code == 2 and "it would be overwritten" in r.output, r.output
+    assert mine.read_text() == "my notes"
+    mine.unlink()
+    for _ in range(2):  # a new file, then the earlier one of its kind replaced
+        r = CliRunner(env={"COLUMNS": "300"}).invoke(app, args)
+        assert r.exit_code == 0, r.output

@@ -120,6 +120,37 @@ def check_overwrite(out, kind: str, what: str, option: str = "--out") -> None:
               "give another file")
 
 
+#: what a figure command may overwrite, by the suffix it writes: a file of that format (its first bytes)
+_FIGURE_KINDS = {
+    ".png": ("a PNG image", lambda h: h.startswith(b"\x89PNG")),
+    ".svg": ("an SVG image", lambda h: b"<svg" in h),
+    ".pdf": ("a PDF", lambda h: h.startswith(b"%PDF")),
+    ".gif": ("a GIF animation", lambda h: h.startswith(b"GIF8")),
+    ".mp4": ("an MP4 video", lambda h: h[4:8] == b"ftyp"),
+    ".html": ("a coplan viewer page", lambda h: b'content="coplan viewer"' in h),
+    ".htm": ("a coplan viewer page", lambda h: b'content="coplan viewer"' in h),
+}
+
+
+def check_figure_overwrite(out: Path, option: str = "--out") -> None:
+    """Before any work: an existing file ``out`` that ``plot``, ``animate`` or ``view`` would
+    write is overwritten only when it is a file of the format its suffix says (an earlier
+    figure, animation or viewer page); anything else (notes, a plan, a problem) is refused,
+    named, with exit 2 -- as ``feed``, ``verify`` and ``export`` refuse it."""
+    kind = _FIGURE_KINDS.get(out.suffix.lower())
+    if kind is None or not out.is_file():
+        return
+    try:
+        with open(out, "rb") as f:
+            head = f.read(4096)
+    except OSError:
+        return  # (the write itself then says why)
+    if not kind[1](head):
+        found = _file_kind(head)
+        usage(f"{option} {out}: expected a new file or {kind[0]} (an earlier one), found {found}: it would be "
+              "overwritten; give another file")
+
+
 def file_kind(path: Path) -> str | None:
     """What an existing file says it is (:func:`_file_kind`'s words), None if it cannot be read."""
     try:

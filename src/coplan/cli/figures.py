@@ -162,6 +162,7 @@ def plot_cmd(
     if not target.suffix:  # (matplotlib writes NAME.png and it said "wrote NAME", a file of the user's of that name)
         target = target.with_name(target.name + ".png")
     failures.check_out_file(target)  # (before any work)
+    failures.check_figure_overwrite(target)
 
     if kind == PlotKind.WORKSPACE and plan.suffix.lower() in (".yaml", ".yml"):
         from ..problem.load import load_problem
@@ -226,9 +227,10 @@ def animate_cmd(
 
     if out is not None and out.suffix.lower() not in (".gif", ".mp4"):
         fail(ExitCode.USAGE, f"--out: expected a .gif or .mp4 file, found {_s(out)!r}")
+    target = out if out is not None else plan.with_suffix(".gif")
+    failures.check_figure_overwrite(target)
     prob, pl = plan_with_problem(plan, problem)
     checked(prob, pl)  # (the title's status: the verdict's, not the file's word)
-    target = out if out is not None else plan.with_suffix(".gif")
     with ProgressDisplay(_err) as bars:
         path = animate_plan(
             prob, pl, target, speed=speed, fps=fps, dpi=dpi,
@@ -253,6 +255,7 @@ def view_cmd(
         failures.check_out_file(out)
         if out.suffix.lower() not in (".html", ".htm"):  # (a usage error, before any work: as plot's and animate's --out)
             failures.usage(f"--out: expected a file name ending in .html, found {out.name!r}")
+    failures.check_figure_overwrite(out if out is not None else plan.with_suffix(".html"))
     prob, pl = plan_with_problem(plan, problem)
     other = None
     if compare is not None:
