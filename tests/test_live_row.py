@@ -1147,3 +1147,22 @@ def test_a_live_run_on_the_move_is_drawn_as_on_the_move_and_has_no_speed_curve(t
     data = viewer_data(parse_problem(path.read_text()), [plan])
     row = data.get("row") or data["problem"]["row"]
     assert row["moving"] == [True]
+
+
+def test_the_arm_that_stops_is_drawn_among_the_working_arms():
+    """(--arm-stop drew arm2 of a row whose screen locks arm1 and arm2 -- an arm that never works
+    -- and the carriage slowed for it.) With none locked, the same draw as before."""
+    from coplan.row.sensing import FaultDraws
+
+    prob = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=3, density=4.0, seed=1)))
+    names = [a.name for a in prob.arms]
+    drawn = set()
+    for seed in range(12):
+        opts = LiveRowOptions(faults=RowFaults(arm_stop=True), seed=seed)
+        only = FaultDraws(prob, opts, 100.0, None, locked=names[:2]).log["arm_stop"]["arm"]
+        assert only == names[2]
+        free = FaultDraws(prob, opts, 100.0, None).log["arm_stop"]["arm"]
+        rng = np.random.default_rng(seed + 7919)  # (the draw as it was: an index among every arm)
+        assert free == names[int(rng.integers(len(names)))]
+        drawn.add(free)
+    assert len(drawn) > 1

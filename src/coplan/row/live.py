@@ -165,7 +165,7 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
         cruise = Cruise.of(problem, opts.speed, g.end)
         cruise = Cruise.of(problem, opts.speed, g.end, reports_start_hold(problem, reports, cruise))
         check_fault_room(problem, opts, max(cruise.duration, float(offline.plan.time[-1])), STOP_SLOWDOWN)
-        faults = FaultDraws(problem, opts, cruise.duration, cruise)
+        faults = FaultDraws(problem, opts, cruise.duration, cruise, offline.reach.locked)
         run = LiveRun(problem, opts, reports + faults.burst, cruise, faults.dark)
         t0 = _time.perf_counter()
         left, cruise, stops = _on_the_move(run, faults, cruise), run.booker.cruise, None
@@ -176,7 +176,7 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
         if offline.plan.status == PlanStatus.INTERRUPTED:  # (Ctrl-C while the reference was planned)
             raise KeyboardInterrupt
         check_fault_room(problem, opts, float(offline.plan.time[-1]), STOP_SLOWDOWN)
-        faults = FaultDraws(problem, opts, float(offline.plan.metrics.get("makespan") or 0.0), None)
+        faults = FaultDraws(problem, opts, float(offline.plan.metrics.get("makespan") or 0.0), None, offline.reach.locked)
         run = LiveRun(problem, opts, reports, Cruise.hops(problem, []), faults.dark)
         t0 = _time.perf_counter()
         left, stops = stop_and_go(run, faults)

@@ -192,7 +192,9 @@ def row_detections(problem: Problem, cruise: Cruise, opts: LiveRowOptions) -> li
 class FaultDraws:
     """The faults' draws (:class:`RowFaults`) and a log of what happened when, and what it cost."""
 
-    def __init__(self, problem: Problem, opts: LiveRowOptions, T: float, cruise: Cruise | None):
+    def __init__(self, problem: Problem, opts: LiveRowOptions, T: float, cruise: Cruise | None, locked=()):
+        """``locked``: names of the arms the screen locks (they never work): the arm that stops
+        is drawn among the others (the same draw as before where none is locked)."""
         f = opts.faults
         self.halt: dict[int, float] = {}
         self.log: dict = {}
@@ -208,7 +210,8 @@ class FaultDraws:
             return round(float(rng.uniform(0.2, 0.8) * T), 2)
 
         if f.arm_stop:
-            a, t = int(rng.integers(len(problem.arms))), when()
+            working = [i for i, arm in enumerate(problem.arms) if arm.name not in set(locked)] or list(range(len(problem.arms)))
+            a, t = working[int(rng.integers(len(working)))], when()
             self.halt[a] = t
             self.log["arm_stop"] = {"arm": problem.arms[a].name, "t": t}
         if f.camera_dark > 0:
