@@ -337,7 +337,7 @@ def test_coplan_run_speed_auto_runs_at_the_constant_speed_the_offline_search_cho
     assert doc["options"]["speed"] == pytest.approx(want) and doc["mode"] == "row on the move" and doc["metrics"]["verified"]
     assert f"--speed auto: {want:g} m/s" in res.output
     for args, words in ((["--speed", "fast"], "--speed: expected a cruising speed in m/s or auto, found 'fast'"),
-                        ([], "(or --speed auto, or --gantry stop-and-go)")):
+                        ([], "or run it stop and go (--gantry stop-and-go)")):
         bad = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["run", str(path), *args, "-o", str(tmp_path / "x")])
         assert bad.exit_code == 2 and words in bad.output and "Traceback" not in bad.output
         assert not (tmp_path / "x").exists()

@@ -507,8 +507,10 @@ def test_a_live_row_on_the_move_without_a_speed_says_what_it_expects(tmp_path):
     from coplan.cli import app
 
     r = CliRunner(env={"COLUMNS": "400"}).invoke(app, ["run", "sparse_row", "--out", str(tmp_path / "o")])
-    assert r.exit_code == 2 and "--speed: expected a cruising speed in [" in r.output
-    assert "found nothing (or --speed auto, or --gantry stop-and-go)" in " ".join(r.output.split()) and "nan" not in r.output
+    said = " ".join(r.output.split())
+    assert r.exit_code == 2 and "--speed: a live row on the move needs its cruising speed: give --speed V (m/s) or --speed auto" in said
+    assert "--gantry stop-and-go" in said and "V: expected a cruising speed in [" in said
+    assert "found nothing" not in said and "nan" not in r.output
 
 
 def _refusing_a_fruit(prob, real, seen: dict, calls: list | None = None, interrupt_again: bool = False,

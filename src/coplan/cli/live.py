@@ -71,7 +71,7 @@ def feed_cmd(
     atomic_text(out, feed_yaml(feed))
     n_false = sum(d.fruit is None for d in feed.detections)
     n_late = sum(d.t > 0 or d.after is not None for d in feed.detections)
-    _out.print(f"wrote {_safe(out)}: {len(feed.detections)} detections of {len(prob.fruits)} fruit "
+    _out.print(f"wrote {_safe(out)}: {plural(len(feed.detections), 'detection')} of {len(prob.fruits)} fruit "
                f"({n_late} after t = 0, {n_false} false), sigma {sigma * 1000:g} mm, seed {seed}", highlight=False)
 
 
@@ -276,8 +276,12 @@ def _auto_speed(prob, quiet: bool) -> float:
                    "is written", markup=False, highlight=False)
         raise
     if not quiet:
-        _err.print(f"--speed auto: {v:g} m/s, the constant speed the offline search chooses "
-                   f"({best.plan.metrics.get('harvested', 0)} fruit; {_time.perf_counter() - t0:.1f} s)",
+        # (it said the search's fruit count, then compared the run with the plan at the rounded speed,
+        # which can harvest another number: "93 fruit" then "92 of the 92 the offline plan harvests")
+        top = float(best.info.get("top_speed") or v)
+        _err.print(f"--speed auto: {v:g} m/s, the constant speed the offline search chooses ({top:.4g} m/s, where its plan "
+                   f"harvests {best.plan.metrics.get('harvested', 0)} fruit, rounded down to the mm/s; the run's offline "
+                   f"reference is planned at {v:g} m/s; {_time.perf_counter() - t0:.1f} s)",
                    markup=False, highlight=False)
     return v
 
@@ -309,7 +313,10 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
 
         auto = speed is not None and speed.strip().lower() == "auto"
         speed = _auto_speed(prob, as_json) if auto else _number(speed)
-        bad = live_speed_issue(prob, speed)  # (the range it quotes is the live one; none given: 'found nothing')
+        bad = live_speed_issue(prob, speed)  # (the range it quotes is the live one)
+        if bad and speed is None:  # (it read "expected a cruising speed in [...], found nothing": a required option unsaid)
+            usage(f"--speed: a live row on the move needs its cruising speed: give --speed V (m/s) or --speed auto (the "
+                  f"constant speed the offline search chooses), or run it stop and go (--gantry stop-and-go); V: {bad.removesuffix(', found nothing')}")
         if bad:
             usage(f"--speed{' auto' if auto else ''}: {bad} (or --speed auto, or --gantry stop-and-go)")
     opts = LiveRowOptions(speed=speed, look_ahead=look_ahead, sigma=sigma, false_rate=false_rate,
@@ -349,7 +356,8 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         typer.echo(json.dumps(jsonable(dict(m, status=res.plan.status.value, **exit_fields(code))),
                               allow_nan=False))
     else:
-        idle = f", {m['stops_without_picks']} of them without a pick" if m.get("stops_without_picks") else ""
+        idle = ("" if not m.get("stops_without_picks") else ", without a pick" if m["stops"] == 1 else
+                f", {m['stops_without_picks']} of them without a pick")
         how = f"on the move at {speed:g} m/s," if mode == GantryMode.CONTINUOUS else f"stop and go, {plural(m['stops'], 'stop')}{idle},"
         share = ("nothing for the offline plan (full knowledge) to harvest" if m["of_offline"] is None else
                  f"{100 * m['of_offline']:.1f} % of the {m['offline_harvested']} the offline plan (full knowledge) harvests"
@@ -389,7 +397,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         _out.print(
             f"{_safe(prob.name)} live {how} camera {look_ahead:g} m ahead, noise {sigma * 1000:g} mm, "
             f"{plural(m['false_reports'], 'false report')}: {m['harvested']} fruit harvested, {share}; row time "
-            f"{m['row_time']:.1f} s{per_hour}{ratio}\n{m['decisions']} decisions, slowest {1000 * m['decision_max_seconds']:.1f} ms "
+            f"{m['row_time']:.1f} s{per_hour}{ratio}\n{plural(m['decisions'], 'decision')}, slowest {1000 * m['decision_max_seconds']:.1f} ms "
             f"against {cycle} ({'kept ahead' if m['kept_ahead'] else 'LATE'}); {plural(m['probes'], 'probe')} of false, repeated "
             f"or far-off reports\n{faults_line}executed plan {res.plan.status.value} "
             f"({'verified' if m['verified'] else 'verification FAILED'}{_room(res.verification)}); wrote {_safe(out)}/: "
