@@ -93,6 +93,8 @@ def moving_plan(row_text, tmp_path_factory):
      "expected a whole number of fruit (0 or more) or null, found number 2.5"),
     (lambda d: d["metrics"].__setitem__("row", "fast"), "metrics.row", "expected an object (the row's figures), found string 'fast'"),
     (lambda d: d["gantry"].__setitem__("v", [0.0]), "gantry.v", "expected only the key x"),
+    (lambda d: d["solver"]["row"].__setitem__("mode", "teleport"), "solver.row.mode",  # (read as stop and go, and passed)
+     "expected one of 'stop-and-go', 'continuous', 'stop-and-go-live', 'continuous-live' (how the carriage moved), found 'teleport'"),
 ])
 def test_a_hand_edited_row_plan_is_bad_input_named_by_its_key(moving_plan, tmp_path, edit, where, said):
     """(A new-user trial: ``solver.row: [1]`` stopped `coplan view` and `plot --kind speed` with an

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import Issue, PlanFileError, coplan_file_kind, special_file
-from ..kinds import EventKind, PlannerKind, PlanStatus
+from ..kinds import EventKind, GantryMode, PlannerKind, PlanStatus
 from ..plancsv import csv_planner, read_csv_samples
 from .model import MAX_PLAN_ANGLE, MAX_PLAN_BYTES, MAX_PLAN_COORD, PLAN_FORMAT, Event, Plan, motion_digest
 
@@ -290,6 +290,10 @@ def _solver_row(solver: Any, metrics: Any, bad) -> None:
                 bad(f"{path}.{key}", f"expected {said}{'' if needed else ' or null'}, found {_kind(v)}")
 
     check(row, "solver.row", _ROW_SOLVER)
+    modes = [m.value for m in (GantryMode.STOP_AND_GO, GantryMode.CONTINUOUS)]
+    modes += [f"{m}-live" for m in modes]  # (a live run's executed plan)
+    if isinstance(row.get("mode"), str) and row["mode"] not in modes:  # ("teleport" was read as stop and go, and passed)
+        bad("solver.row.mode", f"expected one of {', '.join(repr(m) for m in modes)} (how the carriage moved), found {row['mode']!r}")
     for i, point in enumerate(row.get("speed_curve") if isinstance(row.get("speed_curve"), list) else []):
         if not isinstance(point, dict):
             bad(f"solver.row.speed_curve[{i}]", f"expected an object (a plan the speed search tried), found {_kind(point)}")
