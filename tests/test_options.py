@@ -213,3 +213,12 @@ def test_a_work_budget_beyond_any_run_is_refused_a_seed_is_not():
         OptimalOptions(widen_iterations=10**12)
     assert OptimalOptions(search_work=10**9).search_work == 10**9
     assert OptimalOptions(seed=2**40).seed == 2**40
+
+
+def test_an_integer_option_written_with_an_exponent_beyond_2_to_53_is_refused():
+    """(seed: 1e40 was taken, and plan.json recorded 10000000000000000303786028427003666890752.)"""
+    with pytest.raises(OptionsError) as e:
+        parse_options("seed: 1e40\n")
+    assert "seed" in str(e.value) and "not exact beyond 2^53" in str(e.value)
+    assert parse_options("seed: 12345678901234567890\n").seed == 12345678901234567890  # (in full: kept)
+    assert parse_options("seed: 1.0e3\n").seed == 1000

@@ -225,3 +225,11 @@ def test_a_row_s_fruit_may_lie_as_far_along_as_its_rail_goes() -> None:
     # a cell's fruit at 1500 m stays refused
     cell = _issues(SINGLE.replace("position: [1.2, 0.8]", "position: [1500.0, 0.8]"))
     assert [i.path for i in cell] == ["fruits[0].position[0]"] and "a coordinate within [-1000, 1000] m" in cell[0].message
+
+
+def test_a_singularity_threshold_beyond_any_arm_is_refused() -> None:
+    """(1e300 was accepted, and every pose of every plan reported near-singular.)"""
+    text = (PROBLEMS / "greenhouse_row.yaml").read_text().replace("place_dwell: 0.2", "place_dwell: 0.2\n  singularity_threshold: 1.0e300")
+    issues = _issues(text)
+    assert [i.path for i in issues] == ["task.singularity_threshold"]
+    assert "expected a manipulability threshold within [0, 100] m^2" in issues[0].message

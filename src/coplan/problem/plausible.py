@@ -70,6 +70,8 @@ BOUNDS: dict[str, Bound] = {
     "place_dwell": Bound(0.0, 3600.0, "s", "a dwell"),
     "clearance": Bound(0.0, 10.0, "m", "a clearance"),
     "reach_margin": Bound(0.0, 10.0, "m", "a reach margin"),
+    # (manipulability |det J| = l1 l2 |sin q2|: 1e300 was accepted, and every pose reported singular)
+    "singularity_threshold": Bound(0.0, 100.0, "m^2", "a manipulability threshold"),
 }
 
 #: The longest plan coplan makes (s): plans are sampled at ``SAMPLE_RATE``, so 12 h is
@@ -281,7 +283,7 @@ def problem_issues(problem) -> list[tuple[tuple, str]]:
             found += field_issues(f, getattr(a, f), ("arms", i, f))
     for i, fr in enumerate(problem.fruits):
         found += fruit_position_issues(fr.position, ("fruits", i, "position"), row=problem.gantry is not None)
-    for f in ("pick_dwell", "place_dwell", "clearance", "reach_margin"):
+    for f in ("pick_dwell", "place_dwell", "clearance", "reach_margin", "singularity_threshold"):
         found += field_issues(f, getattr(problem.task, f), ("task", f))
     if problem.gantry is not None:  # (a file's section and fruit are refused for these in the reader)
         found += gantry_range_issues(problem.gantry)
