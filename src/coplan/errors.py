@@ -156,15 +156,15 @@ def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
         return f"{want}, found number {x} (not finite: YAML reads a number of magnitude 1e309 or more as {x})"
     if (base == "int" and not x.is_integer()) or not math.isfinite(x) or x < 0 or (positive and x <= 0):
         return f"{want}, found {found(x if base == 'float' else v)}"
-    if base == "int" and isinstance(v, float) and abs(v) > 2.0 ** 53:  # (seed: 1e40 was kept as 1000...0752)
-        return (f"{want}, found number {v!r}: a number with an exponent is not exact beyond 2^53 (about 9e15); "
-                "write the integer out in full")
     if name == "margin" and x > MAX_MARGIN:  # (every planner's margin, from a file or from Python)
         return (f"expected a planning margin of at most {MAX_MARGIN:g} m beyond task.clearance (more leaves neighbouring "
                 f"arms no room to work), found {v!r}")
     if base == "int" and name not in ("seed",) and x > MAX_COUNT:  # (search_work: 1e30 was taken as 10^30 checks)
         return (f"expected an integer of at most {MAX_COUNT:,} (a budget or count that large never ends: "
                 f"a typo in the exponent?), found {found(v)}")
+    if base == "int" and isinstance(v, float) and abs(v) > 2.0 ** 53:  # (seed: 1e40 was kept as 1000...0752)
+        return (f"{want}, found number {v!r}: a number with an exponent is not exact beyond 2^53 (about 9e15); "
+                "write the integer out in full")
     if name in OPTION_RANGES and not OPTION_RANGES[name][0] <= x <= OPTION_RANGES[name][1]:
         lo, hi, what = OPTION_RANGES[name]
         return f"expected {what} within [{lo:g}, {hi:g}], found {v!r}"
