@@ -553,3 +553,17 @@ def test_a_figure_command_never_overwrites_a_file_of_another_kind(tmp_path, comm
     for _ in range(2):  # a new file, then the earlier one of its kind replaced
         r = CliRunner(env={"COLUMNS": "300"}).invoke(app, args)
         assert r.exit_code == 0, r.output
+
+
+def test_view_out_a_folder_writes_the_page_in_it(tmp_path):
+    """(view --out DIR was refused, where verify and export write into a folder.)"""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    plan = tmp_path / "p" / "plan.json"
+    solve(_single(), planner="heuristic", out_dir=plan.parent)
+    (tmp_path / "pages").mkdir()
+    r = CliRunner().invoke(app, ["view", str(plan), "--out", str(tmp_path / "pages")])
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "pages" / "plan.html").read_text().count('content="coplan viewer"') == 1

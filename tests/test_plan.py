@@ -414,3 +414,11 @@ def test_a_plan_file_cut_short_is_called_cut_short(tmp_path: Path, doc: dict, cu
     assert "expected JSON, found a syntax error" in it.message and "it looks cut short" in it.message
     whole = _bad(tmp_path, doc, raw=text.replace('"format"', "format", 1))
     assert "cut short" not in whole.issues[0].message
+
+
+def test_a_plan_json_with_a_byte_order_mark_reads_as_without(tmp_path: Path, saved: dict[str, Path], plan: Plan) -> None:
+    """(An editor's BOM made it a JSON syntax error, while a plan.csv with one read.)"""
+    f = tmp_path / "bom.json"
+    f.write_bytes(b"\xef\xbb\xbf" + saved["json"].read_bytes())
+    got = load_plan(f)
+    assert got.events == load_plan(saved["json"]).events and np.array_equal(got.time, load_plan(saved["json"]).time)

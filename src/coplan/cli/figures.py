@@ -245,12 +245,14 @@ def view_cmd(
     plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="plan.json to view.")],
     problem: PlanProblemOption = None,
     compare: Annotated[Optional[Path], typer.Option("--compare", help="A second plan.json of the same problem, side by side on one clock.")] = None,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="HTML file (default: the plan's name with .html, next to it).")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="HTML file, or a folder to write <plan>.html in (default: the plan's name with .html, next to it).")] = None,
     open_page: Annotated[bool, typer.Option("--open", help="Open the page in the default browser.")] = False,
 ):
     """Write the interactive viewer of a plan: one self-contained HTML page (works offline) to scrub, play, hover, jump to violations."""
     from ..viz.viewer import write_view
 
+    if out is not None and out.is_dir():  # (into the folder, as verify and export take one: it was refused)
+        out = out / f"{plan.stem}.html"
     if out is not None:
         failures.check_out_file(out)
         if out.suffix.lower() not in (".html", ".htm"):  # (a usage error, before any work: as plot's and animate's --out)

@@ -82,6 +82,7 @@ def load_plan(path: str | Path) -> Plan:
             return exact_samples(_plan_from_csv(p.read_bytes(), src), p)
     try:
         text = raw.decode("utf-8") if raw is not None else p.read_text(encoding="utf-8")
+        text = text.removeprefix("\ufeff")  # (a byte-order mark, as an editor on Windows writes: read as a CSV's is)
         if not text.strip():
             raise PlanFileError([Issue("", "expected a JSON plan (an object with keys format, problem, time, arms, events), "
                                            "found an empty file")], src)
