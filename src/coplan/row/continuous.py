@@ -40,7 +40,7 @@ from ..progress import speaker
 from ..workers import settle_workers
 from .booking import Booker, run_policy
 from .branches import branch_table
-from .cruise import Cruise, cruise_end, demand_stretches, pick_windows
+from .cruise import Cruise, EndRest, cruise_end, demand_stretches, pick_windows
 from .plan import RowResult, finalize_row
 from .reach import DEFAULT_RESOLUTION, RowReach, resolution_issues, row_reach
 
@@ -52,13 +52,13 @@ MIN_SPEED = 0.01
 
 
 def make_cruise(problem: Problem, reach: RowReach, profile: SpeedProfile, level: float, demand=None,
-                hold: float = 0.0, early: bool = False) -> Cruise:
+                hold: float = 0.0, rest: EndRest = EndRest.REACH) -> Cruise:
     """The carriage's motion at ``level``: a constant cruise at ``level`` m/s, or a density
     profile whose speed on each metre of rail is ``level * n_arms / demand`` (within
     [MIN_SPEED, the gantry's limit]; ``demand``: :func:`coplan.row.cruise.demand_stretches`);
     first at rest where it starts for ``hold`` s (:func:`start_hold`); at rest at the end
-    where :func:`coplan.row.cruise.cruise_end` says (``early``: its early rest)."""
-    x1 = cruise_end(problem, reach, early)
+    where :func:`coplan.row.cruise.cruise_end` says for ``rest``)."""
+    x1 = cruise_end(problem, reach, rest)
     if SpeedProfile(profile) == SpeedProfile.CONSTANT:
         return Cruise.of(problem, level, x1, hold)
     demand = demand if demand is not None else demand_stretches(problem, reach, x1)
@@ -170,7 +170,7 @@ class MovingOptions:
     margin : kept beyond the problem's clearance when booking cycles, m
     resolution : spacing of the candidate carriage positions of the row's screen, m
     search_rounds : levels the speed search plans (each a full, verified plan), rounded up to whole
-        rounds of :data:`coplan.row.moving.SEARCH_WIDTH`; the plans of its best level with the early rest at the end
+        rounds of :data:`coplan.row.moving.SEARCH_WIDTH`; the plans of its best level with the early rest and the rest at the rail's end
         and, on the density profile, CP-SAT's order and the refinement come on top
     refine_rounds : full plans that then slow the carriage only where fruit were missed (density;
         default none: with the search's bracketing, they won on no benchmark row and cost the search
@@ -218,6 +218,7 @@ class SpeedPoint:
     assign: str = AssignRule.GREEDY.value  # whose order the arms followed
     start_hold: float = 0.0  # s the carriage first rested where it starts (:func:`coplan.row.starthold.start_hold`)
     early_rest: bool = False  # at rest at the end where the last fruit first comes into reach (:func:`coplan.row.cruise.cruise_end`)
+    end_rest: str = EndRest.REACH.value  # where it rests at the end (:class:`coplan.row.cruise.EndRest`)
 
     @property
     def complete(self) -> bool:
@@ -228,7 +229,7 @@ class SpeedPoint:
                 "share_harvested": self.harvested / self.harvestable if self.harvestable else None,
                 "row_time": self.row_time, "fruit_per_hour": self.fruit_per_hour, "verified": self.verified,
                 "seconds": self.seconds, "refined": self.refined,
-                "assign": self.assign, "start_hold": self.start_hold, "early_rest": self.early_rest}
+                "assign": self.assign, "start_hold": self.start_hold, "early_rest": self.early_rest, "end_rest": self.end_rest}
 
 
 def _book(problem: Problem, reach: RowReach, cruise: Cruise, opts: MovingOptions, order=None,
@@ -258,9 +259,9 @@ def assemble_moving(problem: Problem, booker: Booker, cruise: Cruise) -> Plan:
 
 def plan_continuous(problem: Problem, level: float, options: MovingOptions | None = None, reach: RowReach | None = None,
                     progress: Callable[[str], None] | None = None, demand=None, hold: float = 0.0,
-                    early: bool = False, screen: bool = False) -> RowResult:
+                    rest: EndRest = EndRest.REACH, screen: bool = False) -> RowResult:
     """Plan ``problem`` (a row) with the carriage at ``level`` (:func:`make_cruise`; first at
-    rest where it starts for ``hold`` s; ``early``: its early rest at the end) and verify it
+    rest where it starts for ``hold`` s; at rest at the end as ``rest`` says) and verify it
     (``screen``: the verdict, its margins coarse: :func:`certify`)."""
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: plan it as a cell")
@@ -270,7 +271,7 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
     timings: dict[str, float] = {}
     reach = reach if reach is not None else row_reach(problem, opts.resolution)
     timings["reach"] = _time.perf_counter() - t0
-    cruise = make_cruise(problem, reach, opts.profile, level, demand, hold, early)
+    cruise = make_cruise(problem, reach, opts.profile, level, demand, hold, rest)
     limit = plan_seconds_limit(problem)
     if cruise.duration > limit:  # (a pace so slow that the plan would outgrow its grid and file)
         need = least_pace(level, cruise, limit, hold)
@@ -283,7 +284,7 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
     info: dict = {"mode": GantryMode.CONTINUOUS.value, "profile": SpeedProfile(opts.profile).value, "level": level,
                   "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.GREEDY.value,
                   "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "start_hold": hold,
-                  "early_rest": early}
+                  "early_rest": EndRest(rest) == EndRest.EARLY, "end_rest": EndRest(rest).value}
     if AssignRule(opts.assign) == AssignRule.CPSAT and left:
         from .assign import cpsat_order
 
@@ -365,7 +366,7 @@ def reorder_continuous(problem: Problem, level: float, options: MovingOptions, r
     info: dict = {"mode": GantryMode.CONTINUOUS.value, "profile": SpeedProfile(options.profile).value, "level": level,
                   "mean_speed": cruise.mean_speed, "top_speed": cruise.speed, "assign": AssignRule.CPSAT.value,
                   "carriage_rest_at": cruise.x1, "carriage_seconds": cruise.duration, "cpsat": report,
-                  "start_hold": hold, "early_rest": False}
+                  "start_hold": hold, "early_rest": False, "end_rest": EndRest.REACH.value}
     return _verified(problem, booker, cruise, reach, left, info, {"reach": 0.0, "schedule": _time.perf_counter() - t0}, t0,
                      screen), report
 

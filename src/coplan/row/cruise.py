@@ -19,6 +19,7 @@ import bisect
 import functools
 import math
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 
@@ -26,7 +27,7 @@ from ..kinematics.timing import Move1D
 from ..problem.model import Problem
 from .reach import RowReach
 
-__all__ = ["Cruise", "Window", "pick_windows", "cruise_end", "last_place_bound", "demand_stretches", "ramp_time", "stop_from", "STRETCH"]
+__all__ = ["Cruise", "Window", "pick_windows", "EndRest", "cruise_end", "last_place_bound", "demand_stretches", "ramp_time", "stop_from", "STRETCH"]
 
 #: Length of rail with one speed in a shaped cruise, m.
 STRETCH = 1.0
@@ -341,19 +342,36 @@ def _retarget(problem: Problem, out: list, t: float, x_to: float):
     return kept, t, x_to
 
 
-def cruise_end(problem: Problem, reach: RowReach, early: bool = False) -> float:
-    """Where the carriage comes to rest, on the rail: half the front arm's reach past the
-    furthest first serving position of any fruit (``early``: at that position, where the last
-    fruit first comes into some arm's reach; past it every fruit can still be picked with the
-    carriage at rest). Resting where the last fruit only just comes into the front arm's reach
+class EndRest(str, Enum):
+    """Where the carriage on the move comes to rest at the row's end (:func:`cruise_end`)."""
+
+    REACH = "reach"  # half the front arm's reach past the furthest first serving position of any fruit
+    EARLY = "early"  # at that position: where the last fruit first comes into some arm's reach
+    RAIL = "rail"  # at the rail's end: every arm, the rear ones too, passes over the row's tail
+
+    def __str__(self) -> str:
+        return self.value
+
+
+def cruise_end(problem: Problem, reach: RowReach, rest: EndRest = EndRest.REACH) -> float:
+    """Where the carriage comes to rest, on the rail (``rest``, :class:`EndRest`): by default
+    half the front arm's reach past the furthest first serving position of any fruit; early, at
+    that position (past it every fruit can still be picked with the carriage at rest); or at
+    the rail's end. Resting where the last fruit only just comes into the front arm's reach
     left the front arm to pick the row's tail alone from the edge of its reach: on the shipped
     rows the search's plans took 1.7-7.4 % longer (sparse_row 136.5 s against 127.2 s; on 12
-    generated rows of 1-6 arms, 3.6 % longer on average, 3 of them faster) -- the search tries
-    both at the level it chooses (the faster kept)."""
+    generated rows of 1-6 arms, 3.6 % longer on average, 3 of them faster). Resting at the
+    rail's end lets the rear arms share the tail where the front ones would pick it alone while
+    the others idle (six_arm_row 324.59 -> 305.89 s), but costs where the rows end otherwise
+    (course_row +3.0 %): the search tries the early rest and the rail's end at the level it
+    chooses, the fastest kept."""
     g = problem.gantry
+    rest = EndRest(rest)
+    if rest == EndRest.RAIL:
+        return g.end
     firsts = _first_serving(reach)
     x = max(firsts, default=g.start)
-    if firsts and not early:
+    if firsts and rest == EndRest.REACH:
         x += max(problem.arms, key=lambda a: (a.base[0], a.name)).reach / 2.0
     return min(g.end, x)
 

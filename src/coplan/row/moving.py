@@ -24,7 +24,7 @@ from ..workers import process_pool
 from .branches import branch_table, screen_branches
 from .continuous import (MovingOptions, SpeedPoint, certify, cruise_issue, left_at_start, level_cap, make_cruise, plan_continuous,
                          planned_line, reorder_continuous, start_served)
-from .cruise import STRETCH, cruise_end, demand_stretches, last_place_bound
+from .cruise import STRETCH, EndRest, cruise_end, demand_stretches, last_place_bound
 from .plan import RowResult, check_row_call
 from .reach import RowReach, row_reach
 from .starthold import start_hold
@@ -42,6 +42,7 @@ class _Variant(enum.Enum):
 
     CPSAT = enum.auto()  # CP-SAT's order at the slowest level where the greedy missed fruit
     EARLY = enum.auto()  # the carriage's early rest at the end, at the best complete level
+    RAIL = enum.auto()  # ... and its rest at the rail's end there
 
 
 def _point(res: RowResult, seconds: float) -> SpeedPoint:
@@ -49,7 +50,8 @@ def _point(res: RowResult, seconds: float) -> SpeedPoint:
     span = float(m.get("makespan") or 0.0)
     got = int(m.get("harvested") or 0)
     return SpeedPoint(float(res.info["level"]), float(res.info["mean_speed"]), got, len(res.reach.cover), span, got * 3600.0 / span if span > 0 else 0.0,
-                      bool(res.verification.passed), seconds, early_rest=bool(res.info.get("early_rest")))
+                      bool(res.verification.passed), seconds, early_rest=bool(res.info.get("early_rest")),
+                      end_rest=str(res.info.get("end_rest", EndRest.REACH.value)))
 
 
 def speed_search(problem: Problem, options: MovingOptions | None = None, reach: RowReach | None = None,
@@ -139,11 +141,14 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                     runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, _Variant.CPSAT))
                 # at the best complete level (the most fruit per hour: not always the fastest
                 # complete one), the carriage's early rest at the end too (where the last
-                # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`), the faster plan
-                # kept; with a second worker, alongside the refinement (one plan at a time)
+                # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`) and its rest at
+                # the rail's end (the rear arms share the row's tail), the fastest plan kept; with
+                # a second worker, alongside the refinement (one plan at a time)
                 if ok_v is not None:
                     best_v = max((k for k in tried if tried[k][1].complete), key=lambda k: _rank(tried[k][1]))
-                    runner.early(best_v, greedy, key=(best_v, _Variant.EARLY))
+                    runner.rest(best_v, greedy, EndRest.EARLY, key=(best_v, _Variant.EARLY))
+                    if x1 < g.end - 1e-9:  # (else the rail's end is where it rests already)
+                        runner.rest(best_v, greedy, EndRest.RAIL, key=(best_v, _Variant.RAIL))
                 if demand is not None and bad_v is not None:
                     _refine(reach, demand, bad_v, tried, runner, greedy)
                 for key, ((res, report), secs) in runner.collect():
@@ -243,16 +248,18 @@ def _refine(reach: RowReach, demand, level: float, tried: dict, runner: "_Runner
 
 
 def _plan_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand,
-              hold: float = 0.0, early: bool = False) -> tuple[RowResult, float]:
+              hold: float = 0.0, rest: EndRest = EndRest.REACH) -> tuple[RowResult, float]:
     """One full plan in a worker process (module-level: it is pickled to the worker), screened."""
     t = _time.perf_counter()
-    res = plan_continuous(problem, level, opts, reach, None, demand, hold, early, screen=True)
+    res = plan_continuous(problem, level, opts, reach, None, demand, hold, rest, screen=True)
     return res, _time.perf_counter() - t
 
 
-def _early_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand, hold: float = 0.0):
-    """:func:`plan_continuous` with the early rest at the end, in a worker process: ``((result, None), seconds)``."""
-    res, secs = _plan_job(problem, level, opts, reach, demand, hold, True)
+def _rest_job(problem: Problem, level: float, opts: MovingOptions, reach: RowReach, demand, hold: float = 0.0,
+              rest: EndRest = EndRest.EARLY):
+    """:func:`plan_continuous` with the carriage at rest at the end as ``rest`` says, in a worker
+    process: ``((result, None), seconds)``."""
+    res, secs = _plan_job(problem, level, opts, reach, demand, hold, rest)
     return (res, None), secs
 
 
@@ -285,15 +292,15 @@ class _Runner:
     def _demand(self, d):
         return self.demand if d is None else d
 
-    def map(self, levels: list[float], opts: MovingOptions, demand=None, early: bool = False) -> list[tuple[RowResult, float]]:
+    def map(self, levels: list[float], opts: MovingOptions, demand=None) -> list[tuple[RowResult, float]]:
         if self.pool is None:
             out = []
             for v in levels:
                 t = _time.perf_counter()
                 out.append((plan_continuous(self.problem, v, opts, self.reach, self.progress, self._demand(demand), self.hold,
-                                            early, screen=True), _time.perf_counter() - t))
+                                            screen=True), _time.perf_counter() - t))
             return out
-        futures = [self.pool.submit(_plan_job, self.problem, v, opts, self.reach, self._demand(demand), self.hold, early)
+        futures = [self.pool.submit(_plan_job, self.problem, v, opts, self.reach, self._demand(demand), self.hold)
                    for v in levels]
         out = [f.result() for f in futures]
         for res, _ in out:  # (a worker cannot reach the caller's progress: its lines come from here)
@@ -311,10 +318,15 @@ class _Runner:
         (:meth:`collect`): in the background with a second worker."""
         self._later(key, _reorder_job, level, opts, self.reach, self.demand, events, self.hold)
 
-    def early(self, level: float, opts: MovingOptions, key=None) -> None:
-        """The plan at ``level`` with the carriage's early rest at the end, to collect later
-        (:meth:`collect`, as ``((result, None), seconds)``): in the background with a second worker."""
-        self._later(key, _early_job, level, opts, self.reach, self.demand, self.hold)
+    def rest(self, level: float, opts: MovingOptions, rest: EndRest, key=None) -> None:
+        """The plan at ``level`` with the carriage at rest at the end as ``rest`` says, to collect
+        later (:meth:`collect`, as ``((result, None), seconds)``): in the background with a second
+        worker. A density profile's demand then runs to where it rests (at the rail's end: the
+        row's tail at the pace of the rest of the row, as the rear arms share it)."""
+        demand = self.demand
+        if demand is not None and rest == EndRest.RAIL:
+            demand = demand_stretches(self.problem, self.reach, cruise_end(self.problem, self.reach, rest))
+        self._later(key, _rest_job, level, opts, self.reach, demand, self.hold, rest)
 
     def collect(self) -> list:
         out = [(k, f if isinstance(f, tuple) else f.result()) for k, f in self.pending]
