@@ -784,3 +784,23 @@ def test_a_key_yaml_reads_as_a_number_or_a_boolean_is_named_at_its_line(key, sho
     [issue] = e.value.issues
     assert issue.path == "task" and issue.line == at + 2
     assert issue.message.startswith(f"expected a known key (a name), found the key {shown}")
+
+
+@pytest.mark.parametrize("first, second", [("left", "le\u200bft"), ("caf\u00e9", "cafe\u0301"), ("f1", "\uff46\uff11")])
+def test_names_that_print_alike_are_one_name(first, second):
+    """(An NFC and an NFD 'café', or 'left' with a zero-width space, passed as two arms and printed
+    alike everywhere.)"""
+    text = default_problem_path().read_text().replace("name: left", f'name: "{first}"', 1).replace("name: center", f'name: "{second}"', 1)
+    with pytest.raises(ProblemError) as e:
+        parse_problem(text)
+    [issue] = e.value.issues
+    assert issue.path == "arms[1].name" and "the same once Unicode is normalised and invisible characters dropped" in issue.message
+
+
+def test_a_binary_tag_is_refused_not_dropped():
+    """(``name: !!binary aGVsbG8=`` was accepted as the name 'aGVsbG8=', the tag silently dropped.)"""
+    text = default_problem_path().read_text()
+    text = "\n".join("name: !!binary aGVsbG8=" if ln.startswith("name:") else ln for ln in text.splitlines())
+    with pytest.raises(ProblemError) as e:
+        parse_problem(text)
+    assert [i.path for i in e.value.issues] == ["name"] and "tags are not supported" in e.value.issues[0].message

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import difflib
 import os
+import unicodedata
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -90,13 +91,22 @@ def _validate(model, data, prefix: tuple, lines: dict, issues: list):
         return None
 
 
+def _name_key(value: str) -> str:
+    """A name as it reads: Unicode-normalised (NFKC) with invisible format characters (a zero-width
+    space, a joiner) dropped -- two names that print alike are one name."""
+    return "".join(ch for ch in unicodedata.normalize("NFKC", value) if unicodedata.category(ch) != "Cf")
+
+
 def _check_unique(seen: dict[str, int], value: str, loc: tuple, what: str, lines: dict, issues: list) -> bool:
-    """Record ``value`` at list index ``loc[1]``; on a repeat, report it (naming the first) and return False."""
-    if value in seen:
+    """Record ``value`` at list index ``loc[1]``; on a repeat (as it reads: :func:`_name_key`),
+    report it (naming the first) and return False."""
+    key = _name_key(value)
+    if key in seen:
+        alike = "" if key == value else ", the same once Unicode is normalised and invisible characters dropped"
         issues.append(Issue(path_str(loc), f"expected a unique {what}, found {value!r} again "
-                                            f"(also {loc[0]}[{seen[value]}].{loc[2]})", line_of(lines, loc)))
+                                            f"(also {loc[0]}[{seen[key]}].{loc[2]}{alike})", line_of(lines, loc)))
         return False
-    seen[value] = loc[1]
+    seen[key] = loc[1]
     return True
 
 

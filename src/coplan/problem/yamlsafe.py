@@ -153,6 +153,11 @@ _STR_TAG = "tag:yaml.org,2002:str"
 _NULL_TAG = "tag:yaml.org,2002:null"
 
 
+#: tags YAML never resolves by itself: only written out (``!!binary``: a name's text was kept
+#: with the tag dropped, ``aGVsbG8=``; ``!!set``, ``!!omap``, ``!!pairs``: read as their types)
+_WRITTEN_ONLY = frozenset("tag:yaml.org,2002:" + t for t in ("binary", "set", "omap", "pairs"))
+
+
 def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = None, ctor=None, keep_text=None) -> None:
     """Record the line of every key path; refuse duplicate keys, non-scalar keys and tags.
 
@@ -162,6 +167,10 @@ def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = No
     """
     ctor = ctor if ctor is not None else _LineLoader("")
     lines[tuple(path)] = key_line if key_line is not None else node.start_mark.line + 1
+    if node.tag in _WRITTEN_ONLY:  # (before a name's text is kept: the tag was dropped)
+        issues.append(Issue(path_str(path), f"expected a plain YAML value, found the tag {node.tag!r} (tags are not supported)",
+                            node.start_mark.line + 1))
+        return
     # plain style: None from PyYAML's composer, '' from libyaml's (quoted scalars are strings already)
     if keep_text is not None and isinstance(node, yaml.ScalarNode) and not node.style \
             and node.tag not in (_STR_TAG, _NULL_TAG) and node.tag in _LineLoader.yaml_constructors and keep_text(tuple(path)):
