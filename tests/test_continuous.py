@@ -900,3 +900,22 @@ def test_the_search_keeps_the_rest_at_the_rail_s_end_where_the_rear_arms_then_sh
     assert others and all(rail["row_time"] < pt["row_time"] for pt in others)
     assert res.info["end_rest"] == EndRest.RAIL.value and res.info["carriage_rest_at"] == pytest.approx(p.gantry.end)
     assert res.verification.passed and res.plan.metrics["makespan"] == pytest.approx(rail["row_time"])
+
+
+def test_where_the_rail_s_end_leaves_fruit_the_next_complete_level_down_tries_it():
+    """(A 20 m row at 20 fruit per metre: at the rail's end the best level left fruit, while the level
+    below was complete and faster, 448.30 s against 471.23 s.) On an 8 m row at 20 per metre the
+    rail's end leaves fruit at the best level, so the highest complete level below it is planned at
+    the rail's end too; the plan kept is the fastest complete one."""
+    from coplan.row.moving import plan_moving
+
+    p = parse_problem(to_yaml(gantry_row(length=8, n_arms=3, density=20, seed=11)))
+    res = plan_moving(p, MovingOptions(workers=2))
+    curve = res.info["speed_curve"]
+    rails = sorted((pt for pt in curve if pt["end_rest"] == EndRest.RAIL.value), key=lambda pt: -pt["level"])
+    assert len(rails) == 2 and rails[0]["harvested"] < rails[0]["harvestable"]
+    plain = [pt for pt in curve if pt["end_rest"] == EndRest.REACH.value and not pt["refined"] and pt["assign"] == "greedy"]
+    below = [pt["level"] for pt in plain if pt["level"] < rails[0]["level"] and pt["verified"] and pt["harvested"] == pt["harvestable"]]
+    assert rails[1]["level"] == pytest.approx(max(below))
+    complete = [pt["row_time"] for pt in curve if pt["verified"] and pt["harvested"] == pt["harvestable"]]
+    assert res.verification.passed and res.plan.metrics["makespan"] == pytest.approx(min(complete))

@@ -151,13 +151,17 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
                         runner.rest(best_v, greedy, EndRest.RAIL, key=(best_v, _Variant.RAIL))
                 if demand is not None and bad_v is not None:
                     _refine(reach, demand, bad_v, tried, runner, greedy)
-                for key, ((res, report), secs) in runner.collect():
+                for key, report in _collect(runner, tried, progress):
                     if key[1] is _Variant.CPSAT:
                         cpsat_report = report
-                    if res is not None:  # (made in the background: its line from here; CP-SAT's kept plan was never said)
-                        speaker(progress)(planned_line(res))
-                    if res is not None:
-                        tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"], start_hold=runner.hold))
+                rail = tried.get((best_v, _Variant.RAIL)) if ok_v is not None else None
+                if rail is not None and not rail[1].complete:
+                    # (resting at the rail's end, the tail runs at the row's pace: where that leaves
+                    # fruit at the best level, the next complete level down may still be faster)
+                    below = [k for k in tried if not isinstance(k, tuple) and k < best_v and tried[k][1].complete]
+                    if below:
+                        runner.rest(max(below), greedy, EndRest.RAIL, key=(max(below), _Variant.RAIL))
+                        _collect(runner, tried, progress)
         except KeyboardInterrupt:  # Ctrl-C / SIGTERM: the best verified plan so far is kept
             if not tried:
                 raise
@@ -202,6 +206,18 @@ def next_levels(start: float, cap: float, ok: float | None, bad: float | None, a
             return None, assumed
         return [min(cap, top * 1.5 ** k) for k in range(width)], None  # complete up to the start: it too, and on up
     return [ok + (top - ok) * (k + 1) / (width + 1) for k in range(width)], assumed
+
+
+def _collect(runner: "_Runner", tried: dict, progress) -> list[tuple]:
+    """The plans made in the background (:meth:`_Runner.collect`) into ``tried``, each said as it
+    is kept (CP-SAT's kept plan was never said); ``(key, report)`` for each."""
+    out = []
+    for key, ((res, report), secs) in runner.collect():
+        if res is not None:
+            speaker(progress)(planned_line(res))
+            tried[key] = (res, replace(_point(res, secs), assign=res.info["assign"], start_hold=runner.hold))
+        out.append((key, report))
+    return out
 
 
 #: levels the speed search plans a round (side by side with two workers or more): fixed, so
