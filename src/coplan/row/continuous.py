@@ -170,7 +170,7 @@ class MovingOptions:
     margin : kept beyond the problem's clearance when booking cycles, m
     resolution : spacing of the candidate carriage positions of the row's screen, m
     search_rounds : levels the speed search plans (each a full, verified plan), rounded up to whole
-        rounds of :data:`coplan.row.moving.SEARCH_WIDTH`; the plans of its best level with the early rest and the rest at the rail's end
+        rounds of :data:`coplan.row.moving.SEARCH_WIDTH`; the plans of its best level with the early rest and the rest at the rail's end (where that leaves fruit, the next complete level down too)
         and, on the density profile, CP-SAT's order and the refinement come on top
     refine_rounds : full plans that then slow the carriage only where fruit were missed (density;
         default none: with the search's bracketing, they won on no benchmark row and cost the search
