@@ -107,13 +107,9 @@ def check_overwrite(out, kind: str, what: str, option: str = "--out") -> None:
     """Before any work: an existing file ``out`` (a Path) is overwritten only when it is of the
     ``kind`` the command writes (as :func:`_file_kind` names it); any other file (a plan, a
     baseline, somebody's data) is refused, named, with exit 2: nothing is lost to a typo."""
-    if not out.is_file():
-        return
-    try:
-        with open(out, "rb") as f:
-            head = f.read(4096)
-    except OSError:
-        return  # (the write itself then says why)
+    head = _head(out)
+    if head is None:
+        return  # (no such file; or unreadable: the write itself then says why)
     found = _file_kind(head)
     if found != kind:
         usage(f"{option} {out}: expected a new file or {what}, found {found}: it would be overwritten; "
@@ -138,13 +134,9 @@ def check_figure_overwrite(out: Path, option: str = "--out") -> None:
     figure, animation or viewer page); anything else (notes, a plan, a problem) is refused,
     named, with exit 2 -- as ``feed``, ``verify`` and ``export`` refuse it."""
     kind = _FIGURE_KINDS.get(out.suffix.lower())
-    if kind is None or not out.is_file():
-        return
-    try:
-        with open(out, "rb") as f:
-            head = f.read(4096)
-    except OSError:
-        return  # (the write itself then says why)
+    head = None if kind is None else _head(out)
+    if head is None:
+        return  # (no such file; or unreadable: the write itself then says why)
     if not kind[1](head):
         found = _file_kind(head)
         usage(f"{option} {out}: expected a new file or {kind[0]} (an earlier one), found {found}: it would be "
@@ -153,9 +145,17 @@ def check_figure_overwrite(out: Path, option: str = "--out") -> None:
 
 def file_kind(path: Path) -> str | None:
     """What an existing file says it is (:func:`_file_kind`'s words), None if it cannot be read."""
+    head = _head(path)
+    return None if head is None else _file_kind(head)
+
+
+def _head(path: Path) -> bytes | None:
+    """The first 4096 bytes of the file ``path``; None where it is no file or cannot be read."""
+    if not path.is_file():
+        return None
     try:
         with open(path, "rb") as f:
-            return _file_kind(f.read(4096))
+            return f.read(4096)
     except OSError:
         return None
 
