@@ -59,6 +59,8 @@ import numpy as np
 from run_header import run_header
 
 MODES = ("fixed", "fewest", "optimised", "continuous")
+#: the speed curve's words for where the carriage rests at the end (coplan.row.cruise.EndRest's values)
+_REST_WORDS = {"reach": "further on", "early": "early", "rail": "the rail's end"}
 WORKERS = 2  # processes of continuous mode's speed search and of the stop rules' cells (coplan solve ROW --workers 2)
 
 
@@ -194,7 +196,7 @@ def speed_curve(name: str = "sparse_row") -> None:
         pace = "-" if prof == "constant" else f"{p['level']:.3f}"
         print(f"| {prof} | {pace} | {p['mean_speed']:.3f} m/s | {p['fruit_per_hour']:.0f} | {100 * p['share_harvested']:.1f} % | "
               f"{p['row_time']:.1f} s | {'yes' if p['refined'] else 'no'} | {p['assign']} | "
-              f"{'early' if p.get('early_rest') else 'further on'} | {'yes' if p['verified'] else 'NO'} |")
+              f"{_REST_WORDS.get(p.get('end_rest'), 'further on')} | {'yes' if p['verified'] else 'NO'} |")
     best_c = max((p.to_dict() for p in grid if p.complete), key=lambda p: p["fruit_per_hour"], default=None)
     print(f"\nchosen (density): pace {res.info['level']:.3f}, {res.info['mean_speed']:.3f} m/s on average, "
           f"{res.plan.metrics['harvested']} fruit in {res.plan.metrics['makespan']:.1f} s"

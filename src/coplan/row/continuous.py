@@ -217,8 +217,12 @@ class SpeedPoint:
     refined: bool = False  # a density profile slowed where fruit were missed (the speed search's refinement)
     assign: str = AssignRule.GREEDY.value  # whose order the arms followed
     start_hold: float = 0.0  # s the carriage first rested where it starts (:func:`coplan.row.starthold.start_hold`)
-    early_rest: bool = False  # at rest at the end where the last fruit first comes into reach (:func:`coplan.row.cruise.cruise_end`)
     end_rest: str = EndRest.REACH.value  # where it rests at the end (:class:`coplan.row.cruise.EndRest`)
+
+    @property
+    def early_rest(self) -> bool:
+        """At rest at the end where the last fruit first comes into reach (plan files say it too)."""
+        return self.end_rest == EndRest.EARLY.value
 
     @property
     def complete(self) -> bool:

@@ -50,8 +50,7 @@ def _point(res: RowResult, seconds: float) -> SpeedPoint:
     span = float(m.get("makespan") or 0.0)
     got = int(m.get("harvested") or 0)
     return SpeedPoint(float(res.info["level"]), float(res.info["mean_speed"]), got, len(res.reach.cover), span, got * 3600.0 / span if span > 0 else 0.0,
-                      bool(res.verification.passed), seconds, early_rest=bool(res.info.get("early_rest")),
-                      end_rest=str(res.info.get("end_rest", EndRest.REACH.value)))
+                      bool(res.verification.passed), seconds, end_rest=str(res.info.get("end_rest", EndRest.REACH.value)))
 
 
 def speed_search(problem: Problem, options: MovingOptions | None = None, reach: RowReach | None = None,
