@@ -72,7 +72,7 @@ def _validate(model, data, prefix: tuple, lines: dict, issues: list):
                 loc = prefix + _user_loc(data, tuple(err["loc"])[:-1], False)
                 issues.append(Issue(path_str(loc), f"expected a known key (a name), found the key {kind_of(key)}: YAML reads "
                                                    f"an unquoted number or true/false as a value, not a name",
-                                    line_of(lines, loc + (key,)) if (*loc, key) in lines else line_of(lines, loc)))
+                                    line_of(lines, loc + (key,))))  # (the key's line, else its mapping's)
             elif etype == "extra_forbidden":
                 key = loc[-1]
                 issues.append(Issue(path, f"expected a known key, found unknown key {key!r}{_suggest(key, model.model_fields)}", line_of(lines, loc)))
