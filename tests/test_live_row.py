@@ -1166,3 +1166,80 @@ def test_the_arm_that_stops_is_drawn_among_the_working_arms():
         assert free == names[int(rng.integers(len(names)))]
         drawn.add(free)
     assert len(drawn) > 1
+
+
+@pytest.fixture(scope="module")
+def close_row():
+    # three arms 1.2 m apart (the shipped rows' are 2 m): a neighbour, resting or working, stands
+    # in the way of every direct move to some fruit
+    return parse_problem(to_yaml(gantry_row(length=6.0, n_arms=3, density=3.6, spacing=1.2, seed=2)))
+
+
+def test_a_live_stop_plans_what_its_booking_left_as_a_cell_where_arms_stand_close(close_row):
+    # before the stop planned its leftovers as a cell, this run passed 2 of the 18 fruit (the
+    # carriage creeping on in 5 cm hops); the offline planner tucks an arm round its neighbour
+    res = run_live_row(close_row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=2))
+    assert res.verification.passed
+    ref = {e.fruit for e in res.offline.plan.events if e.kind == EventKind.PLACE}
+    got = {e.fruit for e in res.plan.events if e.kind == EventKind.PLACE}
+    assert ref <= got and res.metrics["of_offline"] == 1.0
+    p = res.plan
+    stops = p.solver["row"]["stops"]
+    assert any(s["cell_picks"] for s in stops)  # (the cell planned some of them)
+    assert sum(s["picks"] for s in stops) == sum(e.kind == EventKind.PICK for e in p.events)
+    for e in p.events:  # the cell's picks too: with the carriage at rest
+        if e.kind == EventKind.PICK:
+            on = (p.time >= e.t_start - 1e-9) & (p.time <= e.t_end + 1e-9)
+            assert np.ptp(p.gantry_x[on]) < 1e-9
+    assert _picks_after_reports(res)
+
+
+def _resting_booker(problem, x):
+    from coplan.row.booking import Booker
+
+    cruise = Cruise.hops(problem, [(0.0, x)])
+    return Booker(problem, cruise, {}, 100.0, 0.02), cruise
+
+
+def _in_reach(problem, x, n):
+    lo = x + min(a.base[0] for a in problem.arms)
+    hi = x + max(a.base[0] for a in problem.arms)
+    return [f.id for f in problem.fruits if lo <= f.position[0] <= hi][:n]
+
+
+def test_a_cell_booked_at_a_stop_starts_at_rest_where_the_arms_rest_and_a_report_found_empty_is_a_probe(close_row):
+    from coplan.row.stopcell import book_cell
+
+    x = 2.0
+    booker, cruise = _resting_booker(close_row, x)
+    ids = _in_reach(close_row, x, 4)
+    assert len(ids) >= 3
+    empty = ids[1]
+    done = book_cell(booker, ids, x, cruise.duration, found=lambda f: f != empty)
+    assert done.why_not == "" and set(done.picked) == set(ids) - {empty}
+    assert empty in booker.probes and all(e.fruit != empty for e in booker.events)
+    first = min(e.t_start for e in booker.events)
+    assert first >= cruise.duration - 1e-9  # nothing picked before the carriage is at rest there
+    homes = [np.asarray(a.home, float) for a in close_row.arms]
+    for st, h in zip(booker.arms, homes):  # each arm from where it rested (home) and back there
+        assert np.allclose(st.q[0], h) and np.allclose(st.q[st.k_free], h)
+    # the arms' motion keeps the clearance: the cell's picks and places, checked against the cell
+    from coplan.plan import Plan, PlanStatus
+    from coplan.problem.gantry import cell_at
+
+    n = max(st.k_free for st in booker.arms) + 1
+    plan = Plan(problem="cell", planner="live", status=PlanStatus.UNVERIFIED, time=np.arange(n) / 100.0,
+                q={a.name: booker.arms[i].q[:n] for i, a in enumerate(close_row.arms)},
+                events=sorted(booker.events, key=lambda e: e.t_start), allocation={}, unreachable=[])
+    picked = [f for f in ids if f != empty]
+    assert verify(cell_at(close_row, x, picked), plan).passed
+
+
+def test_a_cell_is_not_booked_at_a_stop_in_a_run_that_draws_an_arm_fault(close_row):
+    from coplan.row.stopcell import book_cell
+
+    booker, cruise = _resting_booker(close_row, 2.0)
+    booker.halted[1] = 30.0
+    done = book_cell(booker, _in_reach(close_row, 2.0, 3), 2.0, cruise.duration)
+    assert done.picked == () and "fault" in done.why_not and not booker.events
+    assert all(st.k_free == 0 for st in booker.arms)  # nothing booked

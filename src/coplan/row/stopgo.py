@@ -18,6 +18,7 @@ from .liverun import LiveRun
 from .livestops import last_stop, next_to_last, stop_share
 from .reach import row_reach
 from .sensing import FaultDraws, front_base
+from .stopcell import book_cell
 from .stranded import StoppedCover, why_left_at_rest
 from .track import AT_REST_CYCLE_SHARE, AT_REST_SHARE
 
@@ -50,6 +51,7 @@ class StopAndGo:
         run.booker.probe_rests = True  # a probe finds nothing with the carriage at rest: the arm goes on from there
         self.stops: list[dict] = []
         self.rested: list[int] = []  # the stops' grid indices
+        self.cell_picks: dict[int, int] = {}  # stop (grid index) -> picks booked as a cell (:meth:`as_cell`)
         self.masked = StoppedCover(run.booker, self.reach)  # once an arm stops: the screen with it an obstacle where it rests
 
     # ------------------------------------------------------------------ what is known at t
@@ -136,7 +138,7 @@ class StopAndGo:
             t_dep = max([t_arr] + [e.t_end for e in picks])
             picks, t_dep = self.burst_during(k, t_arr, t_dep, picks, cruise)
             self.stops.append({"x": round(float(grid[k]), 4), "arrive": round(t_arr, 3), "depart": round(t_dep, 3),
-                               "picks": len(picks)})
+                               "picks": len(picks), "cell_picks": self.cell_picks.get(k, 0)})
             self.rested.append(k)
             nxt, t_dep = self.next_stop(k, t_dep)
             if nxt == k:
@@ -195,7 +197,44 @@ class StopAndGo:
         order, keep = stop_share(run.seen_problem, reach, open_, todo, k, k_plan, stopped, self.inset)
         run.booker.windows = {f: ws for f, ws in run.booker.windows.items() if f in keep}
         run.policy(order=order, halt=faults.halt, delay=faults.delay, make_way=True)
+        self.as_cell(k, t_arr, order)
         return planned
+
+    def as_cell(self, k: int, t_arr: float, order: dict[int, list[str]]) -> None:
+        """The stop's share (``order``) the live booking left -- a neighbour in the way of every
+        direct move, where arms stand close -- planned as the offline planner plans a stop: a cell
+        whose coordinator tucks an arm round its neighbour (:func:`coplan.row.stopcell.book_cell`),
+        once every arm's booked motion is over. A report never tried is looked at now (merged
+        with another: dropped; false: left to a probe); a second report of a fruit the cell picks
+        first is a probe. The decision's wall time is one of the run's decisions."""
+        run = self.live
+        left = []
+        for i, fs in sorted(order.items()):
+            for f in fs:
+                if f in run.taken or f in left or f in run.booker.probes:
+                    continue
+                if f not in run.measured:  # never tried: the close-range camera looks now
+                    if not run.on_book(i, f, t_arr):
+                        run.taken.add(f)  # (merged with another report: dropped for good, as the booking drops it)
+                        continue
+                    if f in run.booker.probes:
+                        continue  # (nothing there: left to a probe, as the booking leaves it)
+                left.append(f)
+        if not left:
+            return
+        claimed = {run.reports[e.fruit].truth for e in run.booker.events}
+
+        def found(f: str) -> bool:  # (the close-range camera, as the arm comes: a second report of a fruit just picked finds nothing)
+            truth = run.reports[f].truth
+            if truth is None or truth in claimed:
+                return False
+            claimed.add(truth)
+            return True
+
+        done = book_cell(run.booker, left, float(self.grid[k]), t_arr, found)
+        run.walls.append(done.seconds)
+        run.taken.update(done.picked)
+        self.cell_picks[k] = len(done.picked)
 
     def next_to_last(self, k: int, t_arr: float, todo: list[str], options: range) -> int | None:
         """The next stop may be one from which the camera sees to the rail's end (the rest of the
