@@ -1243,3 +1243,15 @@ def test_a_cell_is_not_booked_at_a_stop_in_a_run_that_draws_an_arm_fault(close_r
     done = book_cell(booker, _in_reach(close_row, 2.0, 3), 2.0, cruise.duration)
     assert done.picked == () and "fault" in done.why_not and not booker.events
     assert all(st.k_free == 0 for st in booker.arms)  # nothing booked
+
+
+def test_a_live_row_the_camera_sees_whole_from_the_start_stops_once_where_it_serves_it_soonest():
+    # a 3 m row: the camera (1.5 m ahead of the front arm) sees it all at t = 0; the first stop
+    # was as far as the fruit and the camera allowed, the rail's end (3.0 m: 2.16 x the offline
+    # plan's row time on this seed), where the arms beyond the last fruit idle
+    short = parse_problem(to_yaml(gantry_row(length=3.0, density=6, seed=1)))
+    res = run_live_row(short, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=1))
+    assert res.verification.passed and res.metrics["of_offline"] == 1.0
+    stops = res.plan.solver["row"]["stops"]
+    assert len(stops) == 1 and stops[0]["x"] < short.gantry.end - 1.0
+    assert res.metrics["row_time_ratio"] <= 1.10

@@ -123,6 +123,10 @@ class StopAndGo:
         working arm home; why each fruit left was left, and the stops."""
         run, grid = self.live, self.grid
         k, _ = self.next_stop(0, 0.0, here=True)
+        if self.edge_at(0.0) >= self.g.end:  # the camera sees the whole row from the start: one stop may serve it all, nearer
+            best = last_stop(run.seen_problem, self.reach, self.remaining(0, 0.0), range(0, k + 1), self.working_at(0.0),
+                             self.g.start)
+            k = k if best is None else best
         if k > 0:
             self.legs.append((0.0, float(grid[k])))
         cruise = Cruise.hops(self.problem, self.legs)  # at rest at the stop for good, until the next hop is decided
