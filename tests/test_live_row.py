@@ -1217,7 +1217,7 @@ def test_a_cell_booked_at_a_stop_starts_at_rest_where_the_arms_rest_and_a_report
     empty = ids[1]
     done = book_cell(booker, ids, x, cruise.duration, found=lambda f: f != empty)
     assert done.why_not == "" and set(done.picked) == set(ids) - {empty}
-    assert empty in booker.probes and all(e.fruit != empty for e in booker.events)
+    assert empty in booker.probes and all(e.fruit != empty for e in booker.events) and done.probed == (empty,)
     first = min(e.t_start for e in booker.events)
     assert first >= cruise.duration - 1e-9  # nothing picked before the carriage is at rest there
     homes = [np.asarray(a.home, float) for a in close_row.arms]
@@ -1255,3 +1255,26 @@ def test_a_live_row_the_camera_sees_whole_from_the_start_stops_once_where_it_ser
     stops = res.plan.solver["row"]["stops"]
     assert len(stops) == 1 and stops[0]["x"] < short.gantry.end - 1.0
     assert res.metrics["row_time_ratio"] <= 1.10
+
+
+def test_a_live_stop_and_go_row_hops_no_farther_than_its_rear_working_arm_serves():
+    # arms 1 m apart: the screen locks arm1 and arm2 (only arm3 harvests); the hop was capped as
+    # if the locked rear arm served the fruit at the camera's edge, and carried arm3 past 7 of
+    # the 43 fruit the offline plan harvests
+    from coplan.problem.gantry import cell_at
+    from coplan.row.reach import locked_arms
+
+    tight = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=3, density=8.0, spacing=1.0, seed=2)))
+    assert sorted(locked_arms(cell_at(tight, 0.0, ()))) == ["arm1", "arm2"]
+    res = run_live_row(tight, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=0))
+    assert res.verification.passed and res.metrics["of_offline"] == 1.0
+
+
+def test_a_report_a_live_stops_cell_found_empty_is_done_with():
+    # the cell probed a second report of a fruit it picked; left "not taken", it capped every
+    # hop at the next 5 cm, three stops with no pick, until it left reach
+    short = parse_problem(to_yaml(gantry_row(length=3.0, n_arms=3, density=8.0, spacing=1.2, seed=6)))
+    res = run_live_row(short, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=0))
+    assert res.verification.passed and res.metrics["of_offline"] == 1.0
+    stops = res.plan.solver["row"]["stops"]
+    assert len(stops) == 1 and stops[0]["cell_picks"] > 0 and res.metrics["probes"] >= 1

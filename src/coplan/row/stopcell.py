@@ -36,6 +36,7 @@ class CellBooking:
     picked: tuple[str, ...]
     seconds: float  # wall time of the decision (planning, checking)
     why_not: str = ""
+    probed: tuple[str, ...] = ()  # reports the arm came to and found empty (``found`` False): probes
 
 
 def book_cell(booker: Booker, fruit: list[str], x: float, t_from: float,
@@ -51,7 +52,7 @@ def book_cell(booker: Booker, fruit: list[str], x: float, t_from: float,
     finds the fruit there when the arm comes (a second report of a fruit picked a moment before:
     False) -- where it does not, the arm's motion stays as planned, its pick and place are no
     events, and the report is a probe (:attr:`Booker.probes`)."""
-    from ..planners.coordinated import plan_coordinated
+    from ..planners.coordinated import CoordinatedOptions, plan_coordinated
 
     t0 = _time.perf_counter()
     problem = booker.problem
@@ -67,7 +68,7 @@ def book_cell(booker: Booker, fruit: list[str], x: float, t_from: float,
     arms = tuple(replace(a, home=(float(r[0]), float(r[1]))) for a, r in zip(problem.arms, rest))
     cell = cell_at(replace(problem, arms=arms, fruits=tuple(Fruit(f, tuple(booker.fruit_xy[f])) for f in fruit)), x,
                    name=f"{problem.name}: the stop at {x:.3f} m")
-    res = plan_coordinated(cell)
+    res = plan_coordinated(cell, options=CoordinatedOptions(margin=booker.need - problem.task.clearance))
     plan = res.plan
     if plan.status not in (PlanStatus.SUCCESS, PlanStatus.PARTIAL) or not any(
             e.kind == EventKind.PICK for e in plan.events):
@@ -100,5 +101,5 @@ def book_cell(booker: Booker, fruit: list[str], x: float, t_from: float,
         booker.arms[names.index(a)].fruit += [f for f in fs if any(e.fruit == f for e in events)]
     picked = tuple(sorted({e.fruit for e in events if e.kind == EventKind.PICK}))
     booker.work_end = max([booker.work_end] + [e.t_end for e in events])
-    return CellBooking(picked, _time.perf_counter() - t0)
+    return CellBooking(picked, _time.perf_counter() - t0, probed=tuple(sorted(empty)))
 

@@ -12,11 +12,12 @@ from dataclasses import replace
 import numpy as np
 
 from ..plan import EventKind
+from ..problem.gantry import cell_at
 from ..problem.model import Fruit
 from .cruise import Cruise, pick_windows
 from .liverun import LiveRun
 from .livestops import last_stop, next_to_last, stop_share
-from .reach import row_reach
+from .reach import locked_arms, row_reach
 from .sensing import FaultDraws, front_base
 from .stopcell import book_cell
 from .stranded import StoppedCover, why_left_at_rest
@@ -42,7 +43,11 @@ class StopAndGo:
         self.problem, self.opts, self.g = run.problem, run.opts, run.problem.gantry
         self.reach, self.grid = run.reach, run.reach.grid
         problem = self.problem
-        self.front, self.rear = front_base(problem), min(a.base[0] for a in problem.arms)
+        # the rear arm that harvests: an arm the screen locks (it cannot reach its bin) serves no fruit,
+        # and a hop capped by its base carried the working arms past fruit just reported (arms 1 m apart)
+        locked = locked_arms(cell_at(problem, 0.0, ()))
+        self.front = front_base(problem)
+        self.rear = min([a.base[0] for a in problem.arms if a.name not in locked] or [a.base[0] for a in problem.arms])
         self.far = self.g.end + max(a.base[0] + a.reach for a in problem.arms)  # no arm reaches a fruit beyond this
         self.legs: list[tuple] = []
         self.inset = int(math.ceil(2.0 * self.opts.sigma / self.reach.resolution - 1e-9))
@@ -212,6 +217,8 @@ class StopAndGo:
         with another: dropped; false: left to a probe); a second report of a fruit the cell picks
         first is a probe. The decision's wall time is one of the run's decisions."""
         run = self.live
+        if run.booker.halted:
+            return  # (the cell plan does not model an arm that stops: book_cell declines; nothing looked at)
         left = []
         for i, fs in sorted(order.items()):
             for f in fs:
@@ -237,7 +244,7 @@ class StopAndGo:
 
         done = book_cell(run.booker, left, float(self.grid[k]), t_arr, found)
         run.walls.append(done.seconds)
-        run.taken.update(done.picked)
+        run.taken.update(done.picked + done.probed)  # (a report the cell found empty was probed: done with, as a probe's)
         self.cell_picks[k] = len(done.picked)
 
     def next_to_last(self, k: int, t_arr: float, todo: list[str], options: range) -> int | None:
