@@ -9,6 +9,9 @@ optimised-stops row planner, every fruit known):
   fruit per metre, row seeds 0-3. A live stop's arms book direct moves, and a neighbour can be
   in the way of every one to some fruit; what a stop's booking leaves of its share is planned
   there as a cell (:func:`coplan.row.stopcell.book_cell`; *cell picks*);
+* **arms closer still**: 6 m rows, three arms 1 m apart, 8 fruit per metre, row seeds 0-3,
+  where the screen locks the two rear arms (their bins out of reach past a neighbour: *locked*)
+  and the front arm harvests alone; a hop is capped by the rear arm that harvests;
 * **short rows**: 1, 2 and 3 m, three arms 2 m apart, 6 fruit per metre, row seeds 0-2 (live
   seed = row seed): the camera sees the whole row from the start, and the live row stops once,
   where :func:`coplan.row.livestops.last_stop` says.
@@ -33,6 +36,9 @@ def _rows():
     for seed in range(4):
         yield ("arms 1.2 m apart", 12.0, seed, 0,
                parse_problem(to_yaml(gantry_row(length=12.0, n_arms=3, density=3.6, spacing=1.2, seed=seed))))
+    for seed in range(4):
+        yield ("arms 1 m apart", 6.0, seed, 0,
+               parse_problem(to_yaml(gantry_row(length=6.0, n_arms=3, density=8.0, spacing=1.0, seed=seed))))
     for length in (1.0, 2.0, 3.0):
         for seed in range(3):
             yield ("short row", length, seed, seed, parse_problem(to_yaml(gantry_row(length=length, density=6.0, seed=seed))))
@@ -41,22 +47,26 @@ def _rows():
 def main() -> None:
     from coplan.kinds import GantryMode
     from coplan.plan import EventKind
+    from coplan.problem.gantry import cell_at
     from coplan.row.live import LiveRowOptions, run_live_row
+    from coplan.row.reach import locked_arms
 
     print(run_header(), flush=True)
     t0 = time.perf_counter()
-    print("| row | length | row seed | fruit | offline plan harvests | live harvests of those | row time / offline | "
-          "stops live (offline) | cell picks | verified |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| row | length | row seed | fruit | locked | offline plan harvests | live harvests of those | row time / offline | "
+          "stops live (offline) | cell picks | slowest decision | verified |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for kind, length, seed, live_seed, problem in _rows():
         res = run_live_row(problem, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=live_seed))
         ref = {e.fruit for e in res.offline.plan.events if e.kind == EventKind.PLACE}
         got = {e.fruit for e in res.plan.events if e.kind == EventKind.PLACE}
         stops = res.plan.solver["row"]["stops"]
         ok = res.verification.passed and res.offline.plan.verification is not None and res.offline.plan.verification.get("passed")
-        print(f"| {kind} | {length:g} m | {seed} | {len(problem.fruits)} | {len(ref)} | {len(ref & got)} | "
+        locked = ", ".join(sorted(locked_arms(cell_at(problem, 0.0, ())))) or "-"
+        print(f"| {kind} | {length:g} m | {seed} | {len(problem.fruits)} | {locked} | {len(ref)} | {len(ref & got)} | "
               f"{res.metrics['row_time_ratio']:.3f} | {len(stops)} ({len(res.offline.stops)}) | "
-              f"{sum(s['cell_picks'] for s in stops)} | {'yes' if ok else 'NO'} |", flush=True)
+              f"{sum(s['cell_picks'] for s in stops)} | {res.metrics['decision_max_seconds'] * 1000:.0f} ms | {'yes' if ok else 'NO'} |",
+              flush=True)
     print(f"\n(one run, {time.perf_counter() - t0:.0f} s)")
 
 
