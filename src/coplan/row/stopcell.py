@@ -4,9 +4,10 @@ At a stop the live arms book direct moves between bin and fruit, one cycle at a 
 (:mod:`coplan.row.booking`). Where arms stand close (about 1.5 m apart or less), a neighbour,
 resting or working, can stand in the way of every such move, and the stop's share was left --
 passed for good once the carriage hopped on (12 m rows with arms 1.2 m apart, seeds 0-3: 1-6
-of the 32-46 fruit the offline plan harvests, the carriage creeping on in 5 cm hops). The offline stop-and-go planner plans each stop as a cell,
-whose coordinator tucks an arm round its neighbour. :func:`book_cell` does the same for what the
-live booking left: once every arm's booked motion is over, the leftovers are planned by
+of the 32-46 fruit the offline plan harvests, the carriage creeping on in 5 cm hops). The
+offline stop-and-go planner plans each stop as a cell, whose coordinator tucks an arm round its
+neighbour. :func:`book_cell` does the same for what the live booking left: once every arm's
+booked motion is over, the leftovers are planned by
 :func:`coplan.planners.coordinated.plan_coordinated` on the cell the carriage makes there, each
 arm starting and ending where it rests then (the fruit where the close-range camera measured
 them), and the cell plan is booked for every arm from that instant on.
@@ -44,8 +45,8 @@ def book_cell(booker: Booker, fruit: list[str], x: float, t_from: float,
     """Book ``fruit`` (report ids; their positions ``booker.fruit_xy``) as a cell plan at carriage
     position ``x``, where it rests from ``t_from`` on for the whole of it: the coordinated cell
     plan from the instant every arm's booked motion is over (and ``t_from``), each arm starting
-    and ending where it rests then. Booked only where the run draws no arm fault (the cell plan does not model an
-    arm that stops), the cell plan verified and every pair of neighbours kept ``booker.need``
+    and ending where it rests then. Booked only where the run draws no arm fault (the cell plan
+    does not model an arm that stops), the cell plan verified and every pair of neighbours kept ``booker.need``
     apart in it (clearance and the live margin); otherwise nothing is booked and ``why_not``
     says why.
     ``found(fid)``, asked in the order of the cell plan's picks: whether the close-range camera
@@ -96,10 +97,9 @@ def book_cell(booker: Booker, fruit: list[str], x: float, t_from: float,
     events = [Event(e.arm, e.fruit, e.kind, e.t_start + t_shift, e.t_end + t_shift) for e in plan.events
               if e.fruit not in empty]
     booker.events += events
+    picked = {e.fruit for e in events if e.kind == EventKind.PICK}
     names = [a.name for a in problem.arms]
     for a, fs in plan.allocation.items():
-        booker.arms[names.index(a)].fruit += [f for f in fs if any(e.fruit == f for e in events)]
-    picked = tuple(sorted({e.fruit for e in events if e.kind == EventKind.PICK}))
+        booker.arms[names.index(a)].fruit += [f for f in fs if f in picked]
     booker.work_end = max([booker.work_end] + [e.t_end for e in events])
-    return CellBooking(picked, _time.perf_counter() - t0, probed=tuple(sorted(empty)))
-
+    return CellBooking(tuple(sorted(picked)), _time.perf_counter() - t0, probed=tuple(sorted(empty)))

@@ -12,12 +12,11 @@ from dataclasses import replace
 import numpy as np
 
 from ..plan import EventKind
-from ..problem.gantry import cell_at
 from ..problem.model import Fruit
 from .cruise import Cruise, pick_windows
 from .liverun import LiveRun
 from .livestops import last_stop, next_to_last, stop_share
-from .reach import locked_arms, row_reach
+from .reach import row_reach
 from .sensing import FaultDraws, front_base
 from .stopcell import book_cell
 from .stranded import StoppedCover, why_left_at_rest
@@ -45,7 +44,7 @@ class StopAndGo:
         problem = self.problem
         # the rear arm that harvests: an arm the screen locks (it cannot reach its bin) serves no fruit,
         # and a hop capped by its base carried the working arms past fruit just reported (arms 1 m apart)
-        locked = locked_arms(cell_at(problem, 0.0, ()))
+        locked = self.reach.locked  # (the screen's, computed with the row's reach)
         self.front = front_base(problem)
         self.rear = min([a.base[0] for a in problem.arms if a.name not in locked] or [a.base[0] for a in problem.arms])
         self.far = self.g.end + max(a.base[0] + a.reach for a in problem.arms)  # no arm reaches a fruit beyond this
