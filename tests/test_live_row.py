@@ -1277,4 +1277,5 @@ def test_a_report_a_live_stops_cell_found_empty_is_done_with():
     res = run_live_row(short, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=0))
     assert res.verification.passed and res.metrics["of_offline"] == 1.0
     stops = res.plan.solver["row"]["stops"]
-    assert len(stops) == 1 and stops[0]["cell_picks"] > 0 and res.metrics["probes"] >= 1
+    assert any(s["cell_picks"] for s in stops) and res.metrics["probes"] >= 1
+    assert all(s["picks"] > 0 for s in stops)  # (no stop made only because a probed report looked left)
