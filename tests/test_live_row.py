@@ -1268,6 +1268,15 @@ def test_a_live_stop_and_go_row_hops_no_farther_than_its_rear_working_arm_serves
     assert sorted(locked_arms(cell_at(tight, 0.0, ()))) == ["arm1", "arm2"]
     res = run_live_row(tight, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=0))
     assert res.verification.passed and res.metrics["of_offline"] == 1.0
+    # a stop's cell plan is decided at its arrival and its first motion comes once the stop's
+    # booked motion is over: its lead, the time the decision has (measured against it, not
+    # against the shortest cycle: this row's slowest cell took 0.5-3.6 s against 1.5 s cycles)
+    stops = [s for s in res.plan.solver["row"]["stops"] if s["cell_picks"]]
+    assert stops and len(res.metrics["cell_decisions"]) == len(stops)
+    picks = [e.t_start for e in res.plan.events if e.kind == EventKind.PICK]
+    for s, d in zip(stops, res.metrics["cell_decisions"]):
+        assert s["cell_lead"] == pytest.approx(d["lead_seconds"], abs=1e-3) and s["cell_lead"] > 0
+        assert sum(s["arrive"] + s["cell_lead"] - 1e-6 <= t <= s["depart"] for t in picks) >= s["cell_picks"]
 
 
 def test_a_report_a_live_stops_cell_found_empty_is_done_with():

@@ -374,6 +374,9 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
     pick_start = {(e.arm, e.fruit): e.t_start for e in events if e.kind == EventKind.PICK}
     cycles = [e.t_end - pick_start[(e.arm, e.fruit)] for e in events if e.kind == EventKind.PLACE]
     walls = run.walls
+    cycle_walls = list(walls)
+    for w, _ in run.cells:
+        cycle_walls.remove(w)
     dets = sorted((RowDetection(r.id, r.position, max(0.0, seen.get(r.id, math.inf)), r.truth) for r in by_id.values()
                    if math.isfinite(seen.get(r.id, math.inf))), key=lambda d: (d.t, d.id))
     mode = GantryMode(opts.mode)
@@ -394,7 +397,12 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
         "decisions": len(walls), "decision_max_seconds": max(walls, default=0.0),
         "decision_mean_seconds": float(np.mean(walls)) if walls else 0.0,
         "shortest_cycle_seconds": min(cycles, default=None), "planning_seconds": planning,
-        "kept_ahead": not walls or not cycles or max(walls) < min(cycles),
+        # each decision faster than the motion it plans for: a cycle's than the shortest cycle (the
+        # arm's cycle under way while it is made), a stop's cell plan than its lead (the stop's
+        # booked motion, which runs until the cell's first motion)
+        "kept_ahead": (not cycle_walls or not cycles or max(cycle_walls) < min(cycles))
+        and all(w < lead for w, lead in run.cells),
+        "cell_decisions": [{"seconds": w, "lead_seconds": lead} for w, lead in run.cells],
         "faults": faults.log, "missed_reachable_by_a_working_arm": missed_reachable,
         "holds_for_fruit": len(run.holds), "hold_seconds": round(sum(h["seconds"] for h in run.holds), 3),
         "verified": ver.passed, "speed": opts.speed if mode == GantryMode.CONTINUOUS else None,

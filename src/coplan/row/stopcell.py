@@ -38,6 +38,8 @@ class CellBooking:
     seconds: float  # wall time of the decision (planning, checking)
     why_not: str = ""
     probed: tuple[str, ...] = ()  # reports the arm came to and found empty (``found`` False): probes
+    lead: float = 0.0  # s from ``t_from`` (the decision's instant) to the first motion the cell plan books:
+    # the time the decision has -- every arm's booked motion runs until then
 
 
 def book_cell(booker: Booker, fruit: list[str], x: float, t_from: float,
@@ -57,9 +59,11 @@ def book_cell(booker: Booker, fruit: list[str], x: float, t_from: float,
 
     t0 = _time.perf_counter()
     problem = booker.problem
+    k_start = max([booker.up(t_from)] + [st.k_free for st in booker.arms])  # (the cell's first motion)
+    lead = max(0.0, k_start * booker.dt - t_from)
 
     def none(why: str) -> CellBooking:
-        return CellBooking((), _time.perf_counter() - t0, why)
+        return CellBooking((), _time.perf_counter() - t0, why, lead=lead)
 
     if not fruit:
         return none("nothing left")
@@ -84,7 +88,6 @@ def book_cell(booker: Booker, fruit: list[str], x: float, t_from: float,
             return none("the cell plan comes within the live margin of a neighbour")
     if any(not np.allclose(q[[0, -1]], r, atol=1e-9) for q, r in zip(qs, rest)):
         return none("the cell plan does not start and end where the arms rest")
-    k_start = max([booker.up(t_from)] + [st.k_free for st in booker.arms])
     for i, st in enumerate(booker.arms):
         q = np.vstack([np.repeat(st.q[st.k_free:st.k_free + 1], k_start - st.k_free, axis=0), qs[i]])
         booker.commit(Cycle(i, "", st.k_free, q, []))
@@ -102,4 +105,4 @@ def book_cell(booker: Booker, fruit: list[str], x: float, t_from: float,
     for a, fs in plan.allocation.items():
         booker.arms[names.index(a)].fruit += [f for f in fs if f in picked]
     booker.work_end = max([booker.work_end] + [e.t_end for e in events])
-    return CellBooking(tuple(sorted(picked)), _time.perf_counter() - t0, probed=tuple(sorted(empty)))
+    return CellBooking(tuple(sorted(picked)), _time.perf_counter() - t0, probed=tuple(sorted(empty)), lead=lead)

@@ -56,6 +56,7 @@ class StopAndGo:
         self.stops: list[dict] = []
         self.rested: list[int] = []  # the stops' grid indices
         self.cell_picks: dict[int, int] = {}  # stop (grid index) -> picks booked as a cell (:meth:`as_cell`)
+        self.cell_lead: dict[int, float] = {}  # stop (grid index) -> s from its arrival to the cell's first motion
         self.masked = StoppedCover(run.booker, self.reach)  # once an arm stops: the screen with it an obstacle where it rests
 
     # ------------------------------------------------------------------ what is known at t
@@ -146,7 +147,8 @@ class StopAndGo:
             t_dep = max([t_arr] + [e.t_end for e in picks])
             picks, t_dep = self.burst_during(k, t_arr, t_dep, picks, cruise)
             self.stops.append({"x": round(float(grid[k]), 4), "arrive": round(t_arr, 3), "depart": round(t_dep, 3),
-                               "picks": len(picks), "cell_picks": self.cell_picks.get(k, 0)})
+                               "picks": len(picks), "cell_picks": self.cell_picks.get(k, 0),
+                               "cell_lead": self.cell_lead.get(k)})
             self.rested.append(k)
             nxt, t_dep = self.next_stop(k, t_dep)
             if nxt == k:
@@ -243,8 +245,10 @@ class StopAndGo:
 
         done = book_cell(run.booker, left, float(self.grid[k]), t_arr, found)
         run.walls.append(done.seconds)
+        run.cells.append((done.seconds, done.lead))  # (the time it has: until the stop's booked motion ends)
         run.taken.update(done.picked + done.probed)  # (a report the cell found empty was probed: done with, as a probe's)
         self.cell_picks[k] = len(done.picked)
+        self.cell_lead[k] = round(done.lead, 3)
 
     def next_to_last(self, k: int, t_arr: float, todo: list[str], options: range) -> int | None:
         """The next stop may be one from which the camera sees to the rail's end (the rest of the
