@@ -377,6 +377,11 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             ratio += f"; the executed plan lasts {m['plan_seconds']:.1f} s (the carriage's way to the rail's end, the arms' way home)"
         cycle = ("no cycle" if m["shortest_cycle_seconds"] is None else
                  f"a shortest cycle of {m['shortest_cycle_seconds']:.2f} s")
+        cells = m.get("cell_decisions") or []
+        if cells:  # (a stop's cell plan has until the stop's booked motion ends: its lead)
+            slow = max(cells, key=lambda d: d["seconds"])
+            cycle += (f", {plural(len(cells), 'stop cell')} slowest {slow['seconds']:.2f} s against its lead of "
+                      f"{slow['lead_seconds']:.1f} s")
         reachable = len(m["missed_reachable_by_a_working_arm"])
         # (said with faults, and without them where the run passed fruit a working arm could still reach: the planner's loss)
         faults_line = (f"faults: {_safe(_faults_text(m['faults']))}; missed though a working arm could still reach them: "
