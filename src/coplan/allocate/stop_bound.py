@@ -307,6 +307,9 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
     charged for each stop past the first cell (the settle floor, :func:`settle_floor`: a stop in
     the first cell may be where the carriage starts, with no move to settle from). Its value is
     inf if some fruit no set of stops can serve."""
+    # every time on a grid of 2^-30 s, rounded down (the bound stays a bound, lower by at most a
+    # nanosecond a term): its sums are then exact, the same in whatever order they are taken
+    w, per_stop = _on_grid(w), float(_on_grid(per_stop))
     F, Wb = w.shape
     # index 0 is the start (the carriage at rest at the rail's start, the lower end of the first
     # cell), cells 1 .. N: a gap from index s to n is at least (n - s - 1) steps
@@ -330,7 +333,7 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
     Gl, Gr = int((r_f - lo_f).max()), int((hi_f - r_f).max())
     H = max(Gl + Gr + 2, int(math.ceil(cruise / step)) + 2)  # gaps of up to H cells: pair states
     K = N + 2 * H + 2
-    T = scurve_times(np.arange(K) * step, v, acc, jerk)  # T[k]: the rest-to-rest move over k cells
+    T = _on_grid(scurve_times(np.arange(K) * step, v, acc, jerk))  # T[k]: the rest-to-rest move over k cells
     k_all = np.arange(1, H + 1)
     # both halves of a pair's price, P[d - 1, e - 1], gaps of d then e cells: (d-1), (e-1), (d+e-1) steps at least
     P = 0.5 * np.maximum(T[k_all[:, None] - 1] + T[k_all[None, :] - 1], T[k_all[:, None] + k_all[None, :] - 1])
@@ -348,40 +351,49 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
     # a long gap s -> n (n - s > H) costs T((n-s-1) step) = (n-s-1) step / v + C (past the top speed's distance);
     # the fruit just past s their least up to s (no later stop is within their reach) and those just before n
     # their least from n; a fruit between those can be picked by neither: none may have r_f in (s + Gl, n - Gr - 1]
-    step_v = step / v
+    step_v = float(_on_grid(step / v))  # (k cells past H at most k step_v + C: T's slope on the grid, rounded down)
     C = float(T[H] - H * step_v)
-    near_s = np.array([L(order[np.searchsorted(rs, c, "right"):np.searchsorted(rs, c + Gl, "right")], c).sum() for c in cells])
-    near_n = np.array([R(order[np.searchsorted(rs, c - Gr - 1, "right"):np.searchsorted(rs, c, "right")], c).sum()
-                       for c in cells])
     nxt = np.append(rs, 2 * N + H + 10)[np.searchsorted(rs, cells + Gl, "right")]  # first reference past s + Gl
 
     # S[n, k - 1]: the fruit with n - k < r_f <= n, each min(L(n - k), R(n)) -- the fruit between a
     # stop at n and the stop k cells before it, for every n and k at once (a fruit r_f - a, r_f + b)
-    ka, kb = np.meshgrid(np.arange(1, H + 1), np.arange(H), indexing="ij")
-    pair = ka + kb <= H
-    ka, kb = ka[pair], kb[pair]
-    fa = np.arange(F)[:, None]
-    Lm, Rm = L(fa, r_f[:, None] - np.arange(1, H + 1)[None, :]), R(fa, r_f[:, None] + np.arange(H)[None, :])
-    S = np.zeros((N + 1) * H)
-    batch = max(1, (1 << 19) // max(1, ka.size))  # (fruit at a time: F x H^2 / 2 values in all, a few MB at once)
-    for lo in range(0, F, batch):
-        f = np.arange(lo, min(F, lo + batch))[:, None]
-        m = np.minimum(Lm[f, ka[None, :] - 1], Rm[f, kb[None, :]])
-        n_at = r_f[f] + kb[None, :]
-        ins = np.broadcast_to(n_at <= N, m.shape)
-        S += np.bincount((n_at * H + (ka + kb - 1)[None, :])[ins], m[ins], minlength=S.size)
-    S = S.reshape(N + 1, H)
+    # Lm[f, a - 1] = L(f, r_f - a), a = 1 .. H; Rm[f, b] = R(f, r_f + b), b = 0 .. H - 1 (fruit in r_f order)
+    fa = order[:, None]
+    Lm, Rm = L(fa, rs[:, None] - np.arange(1, H + 1)[None, :]), R(fa, rs[:, None] + np.arange(H)[None, :])
+    # the fruit with the same reference cell add to the same cells of S: summed group by group
+    starts = np.flatnonzero(np.r_[True, rs[1:] != rs[:-1]])
+    ref = rs[starts]
+    S = np.zeros((N + 1, H))
+    for b in range(H):  # a fruit b cells before the stop at n = r_f + b, the one before it a cells before r_f:
+        rows = ref + b  # S[n, a + b - 1] for a = 1 .. H - b
+        ins = rows <= N
+        if not ins.any():
+            break
+        S[rows[ins], b:] += np.add.reduceat(np.minimum(Lm[:, :H - b], Rm[:, b:b + 1]), starts, axis=0)[ins]
+    # near_s[c]: the fruit with c < r_f <= c + Gl, each L(c); near_n[c]: those with c - Gr - 1 < r_f <= c, each R(c)
+    near_s, near_n = np.zeros(N + 1), np.zeros(N + 1)
+    for a in range(1, Gl + 1):
+        at = ref - a
+        ok = (at >= 0) & (at <= N)
+        near_s[at[ok]] += np.add.reduceat(Lm[:, a - 1], starts)[ok]
+    for b in range(Gr + 1):
+        at = ref + b
+        ok = at <= N
+        near_n[at[ok]] += np.add.reduceat(Rm[:, b], starts)[ok]
 
+    PT = np.ascontiguousarray(P.T)  # PT[k - 1, d - 1]: a gap of k cells after one of d
+    halfT = 0.5 * T[:H]
+    via, ar = np.empty((H, H)), np.arange(H)
     for n in range(1, N + 1):
-        k = np.arange(1, min(H, n) + 1)  # the gap to the previous stop, in cells
-        s = n - k
-        via = V[s] + P[:, k - 1].T  # (k, H): from the pair state (s - d, s)
-        j = via.argmin(axis=1)
-        via_pair = via[np.arange(k.size), j]
-        via_b = Bd[s] + 0.5 * T[k - 1]
+        m = min(H, n)  # the gap to the previous stop, k = 1 .. m cells: stops s = n - 1 .. n - m
+        vk = via[:m]
+        np.add(V[n - m:n][::-1], PT[:m], out=vk)  # (k, H): from the pair state (s - d, s)
+        j = vk.argmin(axis=1)
+        via_pair = vk[ar[:m], j]
+        via_b = Bd[n - m:n][::-1] + halfT[:m]
         here = per_stop if n >= 2 else 0.0
-        V[n, k - 1] = np.minimum(via_pair, via_b) + S[n, k - 1] + here
-        arg_v[n, k - 1] = np.where(via_b <= via_pair, -1, j)
+        V[n, :m] = np.minimum(via_pair, via_b) + S[n, :m] + here
+        arg_v[n, :m] = np.where(via_b <= via_pair, -1, j)
         s_hi = n - H - 1  # a long gap from a stop s <= s_hi with nxt[s] > n - Gr - 1 (nxt rises with s: a range of s)
         if s_hi >= 0:
             s_lo = int(np.searchsorted(nxt[:s_hi + 1], n - Gr - 1, "right"))
@@ -394,7 +406,14 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
         i = int(np.argmin(owed))
         leave[n], leave_from[n] = (owed[i], i) if owed[i] < Bd[n] else (Bd[n], -1)
     # the end: every fruit past the last stop is picked from it or before
-    total = leave + np.array([L(order[np.searchsorted(rs, n, "right"):], n).sum() for n in cells])
+    # each fruit past the last stop n (r_f > n) at its least up to n: pre[f, n - base_f] (inf before its band)
+    past = np.zeros(N + 1)
+    j = np.arange(Wb)[None, :]
+    at = base[:, None] + j
+    ok = (at < r_f[:, None]) & (at <= N)
+    np.add.at(past, at[ok], pre[np.broadcast_to(np.arange(F)[:, None], at.shape)[ok], np.broadcast_to(j, at.shape)[ok]])
+    past[:min(N + 1, int(base.max()))] = np.inf  # (a fruit whose band starts past n: no stop serves it)
+    total = leave + past
     n_end = int(np.argmin(total))
     value = float(total[n_end])
     if not np.isfinite(value):
@@ -406,6 +425,14 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
     right = np.where(i + 1 < cs.size, R(f, cs[np.minimum(i + 1, cs.size - 1)]), np.inf)
     work = float(np.minimum(L(f, cs[i]), right).sum())
     return Programme(value, [c - 1 for c in stops], work, H)
+
+
+QUANTUM = 2.0 ** -30  # s: the programme's times are multiples of this (exact sums up to 2^23 s)
+
+
+def _on_grid(x):
+    """``x`` (s) rounded down to a multiple of :data:`QUANTUM` (inf stays inf)."""
+    return np.floor(np.asarray(x, float) / QUANTUM) * QUANTUM
 
 
 def _witness(n_end: int, leave_from, arg_v, arg_b) -> list[int]:
