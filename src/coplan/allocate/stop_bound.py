@@ -63,8 +63,14 @@ subgradient steps -- a round's subgradient is each fruit's cycle bound, at the c
 arm its witness charges -- on cells twice as coarse (a round there costs about an eighth), and
 prices the best weights found on the bound's own cells; the bound is the larger of that and
 the equal weights' value. Raised the shipped rows' bound by 3.3-4.7 % (course_row 343.9 ->
-360.2 s). Tested against brute force over every set of stops and every assignment of fruit to
-stops and arms on seeded random rows, for the weights it finds and for random ones.
+360.2 s; 359.8 s since the programme's sums are exact, below). Tested against brute force over
+every set of stops and every assignment of fruit to stops and arms on seeded random rows, for
+the weights it finds and for random ones.
+
+*Exact sums.* The programme's times are rounded down to multiples of 2^-30 s (:data:`QUANTUM`:
+each term less by at most a nanosecond, so still a bound); every sum it takes is then exact,
+and the same value and witness come out whatever the order of the fruit or of the additions
+(tested with the fruit permuted), which lets its sums be taken per reference cell, vectorised.
 
 Work overlapping the carriage's moves (coplan's plans place and come out while it moves) can
 beat it by at most that overlap, as for the plain bound.
