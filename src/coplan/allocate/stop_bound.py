@@ -366,26 +366,7 @@ def stops_dp(first: np.ndarray, w: np.ndarray, N: int, step: float, v: float, ac
     # Lm[f, a - 1] = L(f, r_f - a), a = 1 .. H; Rm[f, b] = R(f, r_f + b), b = 0 .. H - 1 (fruit in r_f order)
     fa = order[:, None]
     Lm, Rm = L(fa, rs[:, None] - np.arange(1, H + 1)[None, :]), R(fa, rs[:, None] + np.arange(H)[None, :])
-    # the fruit with the same reference cell add to the same cells of S: summed group by group
-    starts = np.flatnonzero(np.r_[True, rs[1:] != rs[:-1]])
-    ref = rs[starts]
-    S = np.zeros((N + 1, H))
-    for b in range(H):  # a fruit b cells before the stop at n = r_f + b, the one before it a cells before r_f:
-        rows = ref + b  # S[n, a + b - 1] for a = 1 .. H - b
-        ins = rows <= N
-        if not ins.any():
-            break
-        S[rows[ins], b:] += np.add.reduceat(np.minimum(Lm[:, :H - b], Rm[:, b:b + 1]), starts, axis=0)[ins]
-    # near_s[c]: the fruit with c < r_f <= c + Gl, each L(c); near_n[c]: those with c - Gr - 1 < r_f <= c, each R(c)
-    near_s, near_n = np.zeros(N + 1), np.zeros(N + 1)
-    for a in range(1, Gl + 1):
-        at = ref - a
-        ok = (at >= 0) & (at <= N)
-        near_s[at[ok]] += np.add.reduceat(Lm[:, a - 1], starts)[ok]
-    for b in range(Gr + 1):
-        at = ref + b
-        ok = at <= N
-        near_n[at[ok]] += np.add.reduceat(Rm[:, b], starts)[ok]
+    S, near_s, near_n = _sums(Lm, Rm, rs, N, Gl, Gr)
 
     PT = np.ascontiguousarray(P.T)  # PT[k - 1, d - 1]: a gap of k cells after one of d
     halfT = 0.5 * T[:H]
@@ -439,6 +420,37 @@ QUANTUM = 2.0 ** -30  # s: the programme's times are multiples of this (exact su
 def _on_grid(x):
     """``x`` (s) rounded down to a multiple of :data:`QUANTUM` (inf stays inf)."""
     return np.floor(np.asarray(x, float) / QUANTUM) * QUANTUM
+
+
+def _sums(Lm: np.ndarray, Rm: np.ndarray, rs: np.ndarray, N: int, Gl: int, Gr: int) -> tuple:
+    """:func:`stops_dp`'s sums over the fruit (``rs`` (F,): their reference cells, ascending;
+    ``Lm[f, a - 1]`` their least cost up to ``rs[f] - a``, ``Rm[f, b]`` from ``rs[f] + b`` on,
+    both (F, H)), each fruit with the same reference cell adding to the same cells, summed
+    group by group (exact: the costs are on :data:`QUANTUM`'s grid): ``S`` (N + 1, H), the fruit
+    between a stop at ``n`` and one ``k`` cells before it, each at the cheaper of the two
+    (``S[n, k - 1]``: ``n - k < r_f <= n``); ``near_s`` (N + 1,), the fruit with ``c < r_f <=
+    c + Gl`` each at its least up to ``c``; ``near_n`` (N + 1,), those with ``c - Gr - 1 < r_f
+    <= c`` each at its least from ``c`` on."""
+    H = Lm.shape[1]
+    starts = np.flatnonzero(np.r_[True, rs[1:] != rs[:-1]])
+    ref = rs[starts]
+    S = np.zeros((N + 1, H))
+    for b in range(H):  # a fruit b cells before the stop at n = r_f + b, the one before it a cells before r_f:
+        rows = ref + b  # S[n, a + b - 1] for a = 1 .. H - b
+        ins = rows <= N
+        if not ins.any():
+            break
+        S[rows[ins], b:] += np.add.reduceat(np.minimum(Lm[:, :H - b], Rm[:, b:b + 1]), starts, axis=0)[ins]
+    near_s, near_n = np.zeros(N + 1), np.zeros(N + 1)
+    for a in range(1, Gl + 1):
+        at = ref - a
+        ok = (at >= 0) & (at <= N)
+        near_s[at[ok]] += np.add.reduceat(Lm[:, a - 1], starts)[ok]
+    for b in range(Gr + 1):
+        at = ref + b
+        ok = at <= N
+        near_n[at[ok]] += np.add.reduceat(Rm[:, b], starts)[ok]
+    return S, near_s, near_n
 
 
 def _witness(n_end: int, leave_from, arg_v, arg_b) -> list[int]:
