@@ -464,6 +464,33 @@ def test_a_row_whose_carriage_cannot_reach_its_last_fruit_in_any_plan_is_refused
     assert "found max_velocity 0.001 m/s: the carriage alone takes at least" in res.output
 
 
+@pytest.mark.parametrize("dwell", [600.0, 3600.0])
+def test_a_row_whose_dwells_alone_outlast_the_longest_plan_is_refused_when_read_and_built(tmp_path, dwell):
+    """(A 3600 s pick dwell on a 6 m row of 36 fruit: coplan check passed it, coplan solve planned
+    43242 s for 2 minutes and wrote a 347 MB plan.json that coplan verify refused to read; 600 s:
+    a live run of 7850 s, its file just under the 64 MiB cap.) 36 fruit x the dwells over 3 arms
+    outlast the 1.8 h a 3-arm row's plan file holds; a 100 s dwell (1.0 h) is planned."""
+    from coplan.problem.plausible import check_as_file
+
+    d = gantry_row(length=6, n_arms=3, density=6, seed=1)
+    assert len(d["fruits"]) == 36
+    d["task"]["pick_dwell"] = dwell
+    f = tmp_path / "slow.yaml"
+    f.write_text(to_yaml(d))
+    res = runner.invoke(app, ["check", str(f)])
+    assert res.exit_code == 3, res.output
+    assert "task.pick_dwell: expected a row whose plan fits in 1.8 h" in res.output
+    assert f"36 fruit, each picked and placed (pick_dwell {dwell:g} s" in res.output
+    for cmd in (["solve", str(f), "--out", str(tmp_path / "s")], ["run", str(f), "--out", str(tmp_path / "r")]):
+        res = runner.invoke(app, cmd)
+        assert res.exit_code == 3 and "task.pick_dwell" in res.output and not (tmp_path / cmd[-1]).exists()
+    d["task"]["pick_dwell"] = 100.0
+    ok = parse_problem(to_yaml(d))
+    with pytest.raises(ProblemError) as e:  # (built in Python: held to the same)
+        check_as_file(dataclasses.replace(ok, task=dataclasses.replace(ok.task, pick_dwell=dwell)))
+    assert any(i.path == "task.pick_dwell" for i in e.value.issues)
+
+
 def test_the_row_entry_points_and_options_are_names_of_coplan_row():
     """(``from coplan.row import RowOptions`` raised ImportError; the docs name the options but
     not their modules.) Each is the object its module defines."""

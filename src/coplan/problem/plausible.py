@@ -317,13 +317,39 @@ def row_duration_issues(problem) -> list[tuple[tuple, str]]:
     g = problem.gantry
     dist = row_travel(problem)
     limit = plan_seconds_limit(problem)
-    if g is None or dist / g.max_velocity <= limit:
+    if g is None:
         return []
+    if dist / g.max_velocity <= limit:
+        return row_dwell_issues(problem)
     return [(("gantry", "max_velocity"), (
         f"expected a carriage that covers the row in a plan of at most {_hours(limit)} (plans are sampled at "
         f"{SAMPLE_RATE:g} Hz{'' if limit == MAX_PLAN_SECONDS else f'; with {len(problem.arms)} arms, longer plans make files over {MAX_PLAN_BYTES >> 20} MiB'}), "
         f"found max_velocity {g.max_velocity:g} m/s: the carriage alone takes at least {_hours(dist / g.max_velocity)} "
         f"to bring its farthest fruit within reach ({dist:g} m from gantry.start)"
+    ))]
+
+
+def row_dwell_issues(problem) -> list[tuple[tuple, str]]:
+    """``(key path, message)`` when a row's dwells alone outlast :func:`max_plan_seconds`: every
+    fruit on the rail (each within some arm's reach from it: the others are refused before) is
+    picked and placed, each dwell held in full, and the arms share them at best evenly -- so the
+    plan lasts at least the fruit times both dwells over the arms. Each of a row's cells is
+    checked as it is made, but cells that each fit can add up to a row that does not (a 3600 s
+    pick dwell on a 6 m row of 36 fruit planned 43242 s, a 347 MB plan.json that coplan verify
+    refuses to read)."""
+    task = problem.task
+    n, arms = len(problem.fruits), max(len(problem.arms), 1)
+    need = n * (task.pick_dwell + task.place_dwell) / arms
+    limit = plan_seconds_limit(problem)
+    if need <= limit:
+        return []
+    key = "pick_dwell" if task.pick_dwell >= task.place_dwell else "place_dwell"
+    return [(("task", key), (
+        f"expected a row whose plan fits in {_hours(limit)} (plans are sampled at {SAMPLE_RATE:g} Hz"
+        f"{'' if limit == MAX_PLAN_SECONDS else f'; with {len(problem.arms)} arms, longer plans make files over {MAX_PLAN_BYTES >> 20} MiB'}), "
+        f"found one whose dwells alone take at least {_hours(need)}: {n} fruit, each picked and placed "
+        f"(pick_dwell {task.pick_dwell:g} s + place_dwell {task.place_dwell:g} s), shared by {len(problem.arms)} arms "
+        f"(dwells are in s)"
     ))]
 
 
