@@ -315,7 +315,7 @@ def test_ipopt_opt_in_working_directory_is_ignored(tmp_path, monkeypatch, crossi
 
 
 # ----------------------------------------------------------------------------- layouts not tuned for
-@pytest.mark.parametrize("seed", [3, 8])  # (5: the next test's, which asks success of it)
+@pytest.mark.parametrize("seed", [3])  # (5: the next test's, which asks success of it; 8 took 17 s more)
 def test_random_layouts_success_implies_verified(seed, tmp_path):
     prob = parse_problem(to_yaml(random_problem(seed)), f"random-{seed}")
     # (smaller refinement and widening budgets than the defaults: the property is the same, and

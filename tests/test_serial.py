@@ -143,7 +143,7 @@ def test_shipped_problems(problems_dir, name):
 
 
 # --------------------------------------------------------------------------- random layouts
-@pytest.mark.parametrize("seed", range(10))
+@pytest.mark.parametrize("seed", range(6))  # (10 seeds took 40 s of a suite that must stay under 15 minutes)
 def test_random_problems(seed):
     p = parse_problem(to_yaml(random_problem(seed)))
     alloc = allocate(p)
