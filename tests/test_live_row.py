@@ -777,8 +777,9 @@ def test_stop_and_go_ends_its_row_at_a_stop_that_sees_the_rail_s_end_not_at_the_
     nearer than the rail's end, where the arms beyond the last fruit would idle -- and the
     carriage does not go on to the end to look (no fruit reported past it). Everything the
     offline plan harvests is harvested, verified. (Before: the last stop was the rail's end,
-    1.19-1.38 x the offline plan's row time on seeds 0-3; with it 1.00-1.20.)"""
-    for seed in (0, 3):
+    1.19-1.38 x the offline plan's row time on seeds 0-3; with it 1.00-1.20.) Seed 0 (seed 3 too
+    until the suite had to be trimmed under 15 minutes)."""
+    for seed in (0,):
         row = parse_problem(to_yaml(gantry_row(length=28.0, n_arms=6, density=8.0, seed=seed)))
         res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=seed))
         m, stops = res.metrics, res.plan.solver["row"]["stops"]
