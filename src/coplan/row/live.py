@@ -373,10 +373,8 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
     ref_span = float(offline.plan.metrics.get("makespan") or 0.0)
     pick_start = {(e.arm, e.fruit): e.t_start for e in events if e.kind == EventKind.PICK}
     cycles = [e.t_end - pick_start[(e.arm, e.fruit)] for e in events if e.kind == EventKind.PLACE]
-    walls = run.walls
-    cycle_walls = list(walls)
-    for w, _ in run.cells:
-        cycle_walls.remove(w)
+    cycle_walls = run.walls
+    walls = cycle_walls + [w for w, _ in run.cells]  # (every decision: the cycles' and the stops' cells)
     dets = sorted((RowDetection(r.id, r.position, max(0.0, seen.get(r.id, math.inf)), r.truth) for r in by_id.values()
                    if math.isfinite(seen.get(r.id, math.inf))), key=lambda d: (d.t, d.id))
     mode = GantryMode(opts.mode)

@@ -45,7 +45,7 @@ class LiveRun:
         self.seen: dict[str, float] = {}
         self.known: list[tuple[str, tuple[float, float]]] = []  # reports chosen so far (association)
         self.outcome: dict[str, str] = {}
-        self.walls: list[float] = []  # every decision's wall time, s
+        self.walls: list[float] = []  # every cycle decision's wall time, s
         self.cells: list[tuple[float, float]] = []  # a live stop's cell plan (stop and go): (wall time, lead), s
         self.misses: dict[str, str] = {}  # report -> why the grasp closed on nothing
         self.unseen: dict[str, str] = {}  # report -> why the close-range camera found nothing there (its fruit too far off)

@@ -244,8 +244,7 @@ class StopAndGo:
             return True
 
         done = book_cell(run.booker, left, float(self.grid[k]), t_arr, found)
-        run.walls.append(done.seconds)
-        run.cells.append((done.seconds, done.lead))  # (the time it has: until the stop's booked motion ends)
+        run.cells.append((done.seconds, done.lead))  # (a decision; the time it has: until the stop's booked motion ends)
         run.taken.update(done.picked + done.probed)  # (a report the cell found empty was probed: done with, as a probe's)
         self.cell_picks[k] = len(done.picked)
         self.cell_lead[k] = round(done.lead, 3)
