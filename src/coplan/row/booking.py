@@ -150,19 +150,27 @@ class Booker:
         does the pose it then rests at, against whatever a neighbour has booked beyond it (that
         motion was checked against this arm's *previous* resting pose: a new one, home after the
         bin or the bin after home, must be checked again)."""
-        a = self.problem.arms[i]
         k1 = k0 + q.shape[0]
         reach = max([k1] + [self.arms[j].k_free + 1 for j in self.neighbours[i]])
         if reach > k1:
             q = np.vstack([q, np.repeat(q[-1:], reach - k1, axis=0)])
+        return not self._hits(i, k0, q, first=True).any()
+
+    def _hits(self, i: int, k0: int, q: np.ndarray, first: bool = False) -> np.ndarray:
+        """(len(q),) whether arm ``i`` at sample ``k0 + k`` of ``q`` comes within ``need`` of a
+        neighbour's booked motion (its resting pose past its booking); ``first``: only whether
+        any does (the array is all False if none, and stops at the first neighbour that does)."""
+        a = self.problem.arms[i]
         pa = arm_points(a, q)
+        out = np.zeros(q.shape[0], bool)
         for j in self.neighbours[i]:
             b = self.problem.arms[j]
             self.checks += q.shape[0]
-            if points_too_close(pa, arm_points(b, self.pose_at(j, k0, k0 + q.shape[0])), a.link_radius + b.link_radius,
-                                self.need).any():
-                return False
-        return True
+            out |= points_too_close(pa, arm_points(b, self.pose_at(j, k0, k0 + q.shape[0])), a.link_radius + b.link_radius,
+                                    self.need)
+            if first and out.any():
+                break
+        return out
 
     def _differences_within(self, i: int, q: np.ndarray, shares: tuple[float, float, float], at_rest: bool = False) -> bool:
         """``q``'s finite differences on the grid -- velocity, acceleration, jerk -- within
@@ -366,24 +374,48 @@ class Booker:
 
     def _go(self, i: int, target: np.ndarray, not_before: float) -> bool:
         """Book arm ``i``'s rest-to-rest move to ``target``, the earliest clear start; False if
-        none within a minute of waiting."""
+        none within a minute of waiting.
+
+        Each try is the wait at the arm's pose, the move, and the rest at ``target`` (as
+        :meth:`_clear` checks it). Where the two resting poses come too close to a neighbour is
+        found once, sample by sample up to where every neighbour's booking ends (past it they
+        rest: the last sample's answer holds); each try then checks only its own move."""
         arm = self.problem.arms[i]
         st = self.arms[i]
         q0 = st.q[st.k_free].copy()
         leg = Leg(arm, np.array([q0, np.zeros(2), np.zeros(2)]), np.array([target, np.zeros(2), np.zeros(2)]), self.leg_share)
-        k_s = max(st.k_free, self.up(not_before))
+        k0 = st.k_free
+        k_s = max(k0, self.up(not_before))
+        n = self.up(leg.duration)
+        reach = max([k0 + 1] + [self.arms[j].k_free + 1 for j in self.neighbours[i]])
+        resting = {}  # pose -> (reach - k0 + 1,) its hits from k0 to reach
         for _ in range(int(60.0 / _RETRY)):
-            n = self.up(leg.duration)
-            ts = np.arange(st.k_free, k_s + n + 1) * self.dt
+            ts = np.arange(k0, k_s + n + 1) * self.dt
             q = np.where((ts < k_s * self.dt)[:, None], q0, leg.sample(np.maximum(ts - k_s * self.dt, 0.0)))
             q[-1] = target
-            if self.moves_after_halt(i, st.k_free, q):
+            if self.moves_after_halt(i, k0, q):
                 return False  # (its fault came first: it stays where it rests)
-            if self._clear(i, st.k_free, q):
-                self.commit(Cycle(i, "", st.k_free, q, []))
+            if (not self._rest_hit(i, q0, k0, reach, resting, k0, k_s)
+                    and not self._hits(i, k_s, q[k_s - k0:], first=True).any()
+                    and not self._rest_hit(i, target, k0, reach, resting, k_s + n + 1, reach)):
+                self.commit(Cycle(i, "", k0, q, []))
                 return True
             k_s += self.up(_RETRY)
         return False
+
+    def _rest_hit(self, i: int, pose: np.ndarray, k0: int, reach: int, memo: dict, a: int, b: int) -> bool:
+        """Whether arm ``i`` resting at ``pose`` over samples ``[a, b)`` comes within ``need`` of a
+        neighbour (:meth:`_go`: its hits from ``k0`` to ``reach`` found once, in ``memo``)."""
+        if b <= a:
+            return False
+        key = pose.tobytes()
+        if key not in memo:
+            memo[key] = self._hits(i, k0, np.repeat(pose[None, :], reach - k0 + 1, axis=0))
+        h = memo[key]
+        lo, hi = a - k0, b - k0
+        if lo >= h.size:
+            return bool(h[-1])
+        return bool(h[lo:hi].any()) or (hi > h.size and bool(h[-1]))
 
 
 _PARKED: "weakref.WeakKeyDictionary[Problem, dict[float, dict]]" = weakref.WeakKeyDictionary()
