@@ -33,7 +33,14 @@ from coplan.planners.coordinated import plan_coordinated
 from coplan.planners.optimal import OptimalOptions, plan_optimal
 from coplan.problem import load_problem, shipped_problems
 
-SMALL = dict(search_work=4000, search_evaluations=150, refine_retimes=8)
+SMALL = dict(search_work=4000, search_evaluations=150, refine_retimes=3)  # (the refinement improves on the search)
+
+
+@pytest.fixture(scope="module")
+def dense_here():
+    """dense_overlap and its optimal plan on this CPU as it is (the reference both optimal tests compare with)."""
+    prob = load_problem(next(p for p in shipped_problems() if p.stem == "dense_overlap"))
+    return prob, plan_optimal(prob, options=OptimalOptions(**SMALL)).plan
 
 
 def fingerprint(plan) -> dict:
@@ -97,9 +104,8 @@ def test_coordinated_plans_do_not_depend_on_the_cpu(path):
     same(here, there)
 
 
-def test_the_optimal_plan_and_its_search_do_not_depend_on_the_cpu():
-    prob = load_problem(next(p for p in shipped_problems() if p.stem == "dense_overlap"))
-    a = plan_optimal(prob, options=OptimalOptions(**SMALL)).plan
+def test_the_optimal_plan_and_its_search_do_not_depend_on_the_cpu(dense_here):
+    prob, a = dense_here
     with pytest.MonkeyPatch.context() as mp, another_cpu(mp, salt=5):
         b = plan_optimal(prob, options=OptimalOptions(**SMALL)).plan
     assert search_path(a) == search_path(b)
@@ -127,7 +133,7 @@ def _dispatched() -> list[str]:
     return [f for f in __cpu_dispatch__ if __cpu_features__.get(f)]
 
 
-def test_this_machine_as_an_older_cpu_gives_the_same_plans():
+def test_this_machine_as_an_older_cpu_gives_the_same_plans(dense_here):
     """A subprocess with NumPy's SIMD dispatch off (baseline kernels only) and OpenBLAS's most
     generic kernel: the same coordinated and optimal plans as here."""
     features = _dispatched()
@@ -142,8 +148,7 @@ def test_this_machine_as_an_older_cpu_gives_the_same_plans():
                          timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     there = json.loads(out.stdout.strip().splitlines()[-1])
-    prob = load_problem(path)
-    opt = plan_optimal(prob, options=OptimalOptions(**SMALL)).plan
+    prob, opt = dense_here
     assert search_path(opt) == there["search"]
     same(fingerprint(plan_coordinated(prob).plan), there["coordinated"])
     same(fingerprint(opt), there["optimal"])

@@ -64,8 +64,8 @@ def test_refinement_beats_the_search_and_every_best_is_verified(dense):
         offered.append((c.makespan, v.passed))
         return v.passed
 
-    got, st = refine(prob, hood, state, best, bound, MARGIN, RefineOptions(retimes=40), offer)
-    assert st.retimes == 40 and st.stop == StopReason.BUDGET
+    got, st = refine(prob, hood, state, best, bound, MARGIN, RefineOptions(retimes=20), offer)
+    assert st.retimes == 20 and st.stop == StopReason.BUDGET
     assert offered and all(ok for _, ok in offered)  # the sampled model agrees with the certified check
     ms = [m for m, _ in offered]
     assert all(b < a for a, b in zip(ms, ms[1:]))  # only ever strictly better
@@ -83,7 +83,7 @@ def test_refinement_is_deterministic(dense):
     runs = []
     for _ in range(2):
         hood, state, best = _fresh(dense)
-        got, st = refine(prob, hood, state, best, bound, MARGIN, RefineOptions(retimes=12))
+        got, st = refine(prob, hood, state, best, bound, MARGIN, RefineOptions(retimes=6))
         runs.append((got.makespan, st.summary()))
     assert runs[0] == runs[1]
 
@@ -133,10 +133,10 @@ def test_the_shared_offsets_memo_changes_nothing(dense):
 
 def test_the_planner_reports_the_refinement_and_can_turn_it_off():
     prob = load_problem(default_problem_path().with_name("dense_overlap.yaml"))
-    small = dict(search_work=6000, search_evaluations=200, polish=False, widen=False)  # (refinement only)
-    on = plan_optimal(prob, options=OptimalOptions(**small, refine_retimes=15))
+    small = dict(search_work=1500, search_evaluations=60, polish=False, widen=False)  # (refinement only)
+    on = plan_optimal(prob, options=OptimalOptions(**small, refine_retimes=6))
     info = on.plan.solver["refine"]
-    assert info["retimes"] == 15 and info["stopped_by"] == "budget"
+    assert info["retimes"] == 6 and info["stopped_by"] == "budget"
     assert on.verification.passed
     off = plan_optimal(prob, options=OptimalOptions(**small, refine_retimes=0))
     assert off.plan.solver["refine"] is None
@@ -168,13 +168,13 @@ def test_other_local_bests_are_refined_lowest_estimate_first_and_then_the_best_k
         return orig(s, c)
 
     hood.propose = propose
-    got, st = refine(prob, hood, state, best, bound, MARGIN, RefineOptions(retimes=60, patience=3), more=others)
+    got, st = refine(prob, hood, state, best, bound, MARGIN, RefineOptions(retimes=25, patience=3), more=others)
     assert st.starts == 1 + len({s for _, s in others})
     firsts = [s for s in dict.fromkeys(begun) if s == state or any(s == o for _, o in others)]
     assert firsts[0] == state  # the search's best first ...
     est = [hood.estimate(s) for s in firsts[1:]]
     assert est == sorted(est)  # ... then the other local bests, lowest estimate first
-    assert st.kicks >= 1 and st.retimes == 60
+    assert st.kicks >= 1 and st.retimes == 25
     assert got.makespan <= best.makespan
 
 

@@ -59,7 +59,7 @@ def test_worker_zero_is_the_one_process_search_and_the_best_worker_wins(row24, p
     # the plan is the best worker's, verified; never slower than one process
     best = min(w["makespan"] for w in workers)
     assert two.plan.metrics["makespan"] == pytest.approx(best, abs=1e-9)
-    assert two.plan.metrics["makespan"] <= one.plan.metrics["makespan"] + 1e-9
+    assert two.plan.metrics["makespan"] <= one.plan.metrics["makespan"] + 1e-9  # (here worker 1's: 32.70 s to 33.65 s)
     assert verify(row24, two.plan).passed
     assert two.plan.solver["options"]["workers"] == 2
 
@@ -140,8 +140,8 @@ def test_a_sweep_keeps_one_process_per_problem():
 def alongside_runs():
     """A row longer than refine_fruit: with 2 workers the coordinated planner's candidates run in
     another process while the first candidate is retimed; a short search after it."""
-    prob = parse_problem(to_yaml(row_problem(4, 60, seed=3, reachable_only=True)), "row-4x60")
-    opts = dict(search_work=3000, refine_fruit=40, widen=False)
+    prob = parse_problem(to_yaml(row_problem(4, 32, seed=3, reachable_only=True)), "row-4x32")
+    opts = dict(search_work=3000, refine_fruit=20, widen=False)
     one = plan_optimal(prob, options=OptimalOptions(**opts))
     two = [plan_optimal(prob, options=OptimalOptions(workers=2, **opts)) for _ in range(2)]
     return prob, one, two
@@ -180,7 +180,7 @@ def test_when_the_other_process_gives_nothing_the_planner_goes_on_from_its_first
     monkeypatch.setattr(portfolio, "Alongside", Gone)
     prob, one, (a, _) = alongside_runs
     said: list[str] = []
-    r = plan_optimal(prob, options=OptimalOptions(workers=2, search_work=0, refine_fruit=40, widen=False),
+    r = plan_optimal(prob, options=OptimalOptions(workers=2, search_work=0, refine_fruit=20, widen=False),
                      progress=lambda m: said.append(str(m)))
     assert any("other process gave nothing" in m and "exit code -9" in m for m in said)
     assert r.plan.solver["retime"][0]["of"].endswith("(the others alongside)")
