@@ -1289,3 +1289,45 @@ def test_a_report_a_live_stops_cell_found_empty_is_done_with():
     stops = res.plan.solver["row"]["stops"]
     assert any(s["cell_picks"] for s in stops) and res.metrics["probes"] >= 1
     assert all(s["picks"] > 0 for s in stops)  # (no stop made only because a probed report looked left)
+
+
+def test_the_offline_reference_is_planned_once_per_row_and_options_and_each_caller_gets_its_own_copy(monkeypatch):
+    """Live runs on one row (seeds, faults) share its offline reference: planned once, kept by
+    the whole problem and options, handed out as copies; another row or another speed is
+    planned afresh, and an interrupted reference is not kept."""
+    import dataclasses
+
+    import coplan.row.live as live_mod
+    import coplan.row.plan as plan_mod
+    from coplan.kinds import PlanStatus, SpeedProfile
+    from coplan.row.continuous import MovingOptions
+    from coplan.row.plan import RowOptions
+
+    monkeypatch.setattr(live_mod, "_REFERENCES", type(live_mod._REFERENCES)())
+    small = parse_problem(to_yaml(gantry_row(length=4.0, density=2.0, seed=3)))
+    calls, real = [], plan_mod.plan_row
+    monkeypatch.setattr(plan_mod, "plan_row", lambda *a, **k: calls.append(1) or real(*a, **k))
+    said = []
+    a = live_mod.offline_reference(small, RowOptions())
+    b = live_mod.offline_reference(parse_problem(to_yaml(gantry_row(length=4.0, density=2.0, seed=3))), RowOptions(),
+                                   said.append)
+    assert len(calls) == 1 and any("earlier in this process" in m for m in said)
+    assert b is not a and b.plan is not a.plan and np.array_equal(a.plan.time, b.plan.time)
+    assert [(e.arm, e.fruit, e.t_start) for e in a.plan.events] == [(e.arm, e.fruit, e.t_start) for e in b.plan.events]
+    b.plan.events.clear()  # (a caller's copy is its own)
+    assert live_mod.offline_reference(small, RowOptions()).plan.events == a.plan.events and len(calls) == 1
+    moved = dataclasses.replace(small, task=dataclasses.replace(small.task, pick_dwell=small.task.pick_dwell + 0.5))
+    live_mod.offline_reference(moved, RowOptions())
+    assert len(calls) == 2  # (another row: planned)
+    slow, fast = (live_mod.offline_reference(small, MovingOptions(profile=SpeedProfile.CONSTANT, level=v)) for v in (0.1, 0.2))
+    assert slow.plan.time[-1] > fast.plan.time[-1]  # (another speed: another plan)
+
+    def cut(*a, **k):
+        res = real(*a, **k)
+        res.plan.status = PlanStatus.INTERRUPTED
+        return res
+
+    monkeypatch.setattr(plan_mod, "plan_row", cut)
+    other = parse_problem(to_yaml(gantry_row(length=4.0, density=2.0, seed=4)))
+    assert live_mod.offline_reference(other, RowOptions()).plan.status == PlanStatus.INTERRUPTED
+    assert not any(r.plan.status == PlanStatus.INTERRUPTED for r in live_mod._REFERENCES.values())

@@ -58,6 +58,7 @@ import math
 import os
 import re
 import time as _time
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -156,8 +157,8 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
         if bad:  # (before any work)
             raise OptionsError([Issue("speed", bad)], "LiveRowOptions")
         # (the offline plan at this speed rests where it starts first if fruit only the start serves need it)
-        offline = plan_moving(problem, MovingOptions(profile=SpeedProfile.CONSTANT, level=opts.speed, assign=AssignRule.GREEDY,
-                                                     margin=opts.margin), progress)
+        offline = offline_reference(problem, MovingOptions(profile=SpeedProfile.CONSTANT, level=opts.speed,
+                                                           assign=AssignRule.GREEDY, margin=opts.margin), progress)
         # the carriage does not know where the last fruit is: it cruises to the end of the rail --
         # after a rest where it starts, as long as the reports then in view that only the start serves need
         if offline.plan.status == PlanStatus.INTERRUPTED:
@@ -170,9 +171,9 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
         t0 = _time.perf_counter()
         left, cruise, stops = _on_the_move(run, faults, cruise), run.booker.cruise, None
     else:
-        from .plan import RowOptions, plan_row
+        from .plan import RowOptions
 
-        offline = plan_row(problem, RowOptions(), progress)
+        offline = offline_reference(problem, RowOptions(), progress)
         if offline.plan.status == PlanStatus.INTERRUPTED:  # (Ctrl-C while the reference was planned)
             raise KeyboardInterrupt
         check_fault_room(problem, opts, float(offline.plan.time[-1]), STOP_SLOWDOWN)
@@ -183,6 +184,43 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
         cruise = run.booker.cruise
     planning = _time.perf_counter() - t0
     return _finish(problem, opts, run, faults, left, cruise, offline, planning, stops)
+
+
+#: The offline references planned last in this process (:func:`offline_reference`), newest last.
+_REFERENCES: "OrderedDict[tuple, object]" = OrderedDict()
+REFERENCES_KEPT = 4
+
+
+def offline_reference(problem: Problem, options, progress=None):
+    """The offline plan a live row is measured against: ``plan_row(problem, options)`` for a
+    :class:`~coplan.row.plan.RowOptions`, ``plan_moving(problem, options)`` for a
+    :class:`~coplan.row.continuous.MovingOptions`. It depends on the row and the options alone,
+    not on the live run's seed, noise or faults: runs on one row in one process (seeds, fault
+    draws, a notebook's loop) plan it once. The last ``REFERENCES_KEPT`` are kept, keyed by the
+    whole problem and options (pickled: a problem changed in any field is another row); each
+    caller gets its own copy. An interrupted reference is not kept."""
+    import copy
+    import hashlib
+    import pickle
+    from dataclasses import replace
+
+    from .plan import RowOptions, plan_row
+
+    try:
+        key = (hashlib.sha256(pickle.dumps((replace(problem, digest=None), options))).hexdigest(),)
+    except (pickle.PicklingError, TypeError, AttributeError):  # (something in it that does not pickle: plan it)
+        key = None
+    if key is not None and key in _REFERENCES:
+        _REFERENCES.move_to_end(key)
+        if progress is not None:
+            progress("offline reference: the plan made for this row and options earlier in this process")
+        return copy.deepcopy(_REFERENCES[key])
+    ref = plan_row(problem, options, progress) if isinstance(options, RowOptions) else plan_moving(problem, options, progress)
+    if key is not None and ref.plan.status != PlanStatus.INTERRUPTED:
+        _REFERENCES[key] = copy.deepcopy(ref)
+        while len(_REFERENCES) > REFERENCES_KEPT:
+            _REFERENCES.popitem(last=False)
+    return ref
 
 
 def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, str]:
