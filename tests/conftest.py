@@ -31,16 +31,6 @@ def single_arm() -> Problem:
     return load_problem(default_problem_path().parent / "single_arm.yaml")
 
 
-@pytest.fixture(scope="session")
-def crossing_optimal():
-    """crossing_paths solved by the optimal planner at its defaults (about 20 s): the result that
-    test_retime.py and test_widen.py each read. Their tests that use it are in one xdist group
-    (``crossing_optimal``), so the solve runs once per run of the suite. Read it, never change it."""
-    from coplan.planners.optimal import plan_optimal
-
-    return plan_optimal(load_problem(default_problem_path().with_name("crossing_paths.yaml")))
-
-
 @pytest.fixture
 def fifo(tmp_path):
     """A named pipe fed from a thread: ``path = fifo(body)`` (as ``cat file | coplan ... /dev/stdin``)."""

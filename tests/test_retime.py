@@ -103,19 +103,6 @@ def test_the_optimal_planner_keeps_a_retimed_plan_only_when_it_is_verified_and_f
     assert bad.plan.metrics["makespan"] == pytest.approx(bad.coordinated.metrics["makespan"])
 
 
-@pytest.mark.xdist_group("crossing_optimal")
-def test_retiming_beats_the_plain_search_on_crossing_paths(crossing_optimal):
-    """The arms must pass each other: the coordinator's best (6.469 s, the issue's plain search)
-    has one waiting for the other; retimed together they move at once, 6.22 s, verified. (At the
-    planner's defaults, which polish with no NLP.)"""
-    res, prob = crossing_optimal, load_problem(default_problem_path().with_name("crossing_paths.yaml"))
-    assert res.plan.solver["options"]["polish"] is False
-    assert res.plan.solver["incumbent_from"] == "refine"  # the refinement retimes the search's best first
-    # (the widening stage after it keeps that makespan, held a few microseconds inside it)
-    assert res.plan.solver["refine"]["start_makespan"] == pytest.approx(res.plan.metrics["makespan"], abs=1e-5)
-    assert res.plan.metrics["makespan"] < 6.469 - 0.2 and verify(prob, res.plan).passed
-
-
 @pytest.mark.parametrize("pairs", [1_000_000, 37])
 def test_the_screened_meetings_are_exactly_the_brute_force_ones(dense, pairs, monkeypatch):
     """Every start offset at which two moves meet, with the bounding-box screen, against every
