@@ -119,7 +119,8 @@ def test_the_option_widen_false_skips_the_stage_and_says_so():
 
 
 def test_widening_is_repeatable():
-    prob = _shipped("crossing_paths")
+    # (a two-arm cell the stage widens in about 3 s: crossing_paths took 5 s a call)
+    prob = parse_problem(to_yaml(overlap_problem(n_arms=2, n_fruits=4, spacing=1.5, seed=9)), "overlap-2x4-s9")
     cand = plan_coordinated(prob).candidate
     mk = max(s.last_place for s in cand.schedules.values())
     a = widen(prob, cand.alloc, cand.schedules, mk)
