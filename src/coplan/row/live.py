@@ -187,7 +187,7 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
 
 
 #: The offline references planned last in this process (:func:`offline_reference`), newest last.
-_REFERENCES: "OrderedDict[tuple, object]" = OrderedDict()
+_REFERENCES: "OrderedDict[tuple[Problem, object], object]" = OrderedDict()
 REFERENCES_KEPT = 4
 
 
@@ -197,18 +197,17 @@ def offline_reference(problem: Problem, options, progress=None):
     :class:`~coplan.row.continuous.MovingOptions`. It depends on the row and the options alone,
     not on the live run's seed, noise or faults: runs on one row in one process (seeds, fault
     draws, a notebook's loop) plan it once. The last ``REFERENCES_KEPT`` are kept, keyed by the
-    whole problem and options (pickled: a problem changed in any field is another row); each
+    problem and options themselves, as :func:`coplan.allocate.row_bound.row_bounds` remembers a
+    row's bounds (a problem changed in any field but its file's digest is another row); each
     caller gets its own copy. An interrupted reference is not kept."""
     import copy
-    import hashlib
-    import pickle
-    from dataclasses import replace
 
     from .plan import RowOptions, plan_row
 
+    key = (problem, options)
     try:
-        key = (hashlib.sha256(pickle.dumps((replace(problem, digest=None), options))).hexdigest(),)
-    except (pickle.PicklingError, TypeError, AttributeError):  # (something in it that does not pickle: plan it)
+        hash(key)
+    except TypeError:  # (something in it that cannot be hashed: planned each time)
         key = None
     if key is not None and key in _REFERENCES:
         _REFERENCES.move_to_end(key)
