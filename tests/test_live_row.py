@@ -1089,6 +1089,61 @@ def test_with_an_arm_stopped_a_fast_row_passes_no_fruit_a_working_arm_could_reac
     assert res.metrics["missed_reachable_by_a_working_arm"] == [] and res.metrics["holds_for_fruit"] > 0
 
 
+def test_an_arm_stop_on_the_move_takes_back_the_cycles_not_yet_under_way_and_slows_at_once():
+    """(From a new user's trial: on this 12 m row at 0.186 m/s, arm1 stopped at 18.58 s while
+    arm2 waited at its bin for a cycle it had decided at 17.34 s; the carriage slowed only after
+    that cycle's pick, at 21.25 s, and f0010 and f0012 -- arm1's to pick later, arm2's windows
+    closing at 19.7 and 20.5 s -- passed.) The cycles decided before the fault and not yet under
+    way are decided again on the slower motion, which starts at the fault: nothing a working arm
+    could reach is passed, and the executed plan verifies."""
+    row = parse_problem(to_yaml(gantry_row(length=12.0, density=6.0, seed=3)))
+    res = run_live_row(row, LiveRowOptions(speed=0.186, seed=6, faults=RowFaults(arm_stop=True)))
+    log = res.metrics["faults"]["arm_stop"]
+    assert res.verification.passed and res.metrics["missed_reachable_by_a_working_arm"] == []
+    assert log["decided_again"] and log["carriage_slows_at"] == pytest.approx(log["t"], abs=0.011)
+    assert all(v == "harvested" for v in res.outcome.values()), {k: v for k, v in res.outcome.items() if v != "harvested"}
+
+
+def test_a_cycle_under_way_or_followed_by_more_bookings_is_never_taken_back():
+    """:meth:`Booker.unbook_unstarted` takes back only an arm's last booking, a cycle that waits at
+    rest past the given time; the arm then rests from that time where it waited, and the cycle's
+    events and fruit are gone."""
+    from coplan.row.booking import Booker, run_policy
+    from coplan.row.cruise import pick_windows
+    from coplan.row.reach import row_reach
+
+    row = parse_problem(to_yaml(gantry_row(length=6.0, density=6.0, seed=1)))
+    cruise = Cruise.of(row, 0.1, row.gantry.end)
+
+    def booked(until):
+        b = Booker(row, cruise, pick_windows(row, row_reach(row), cruise, row.task.pick_dwell), 100.0, 0.02)
+        run_policy(b, until=until)
+        return b
+
+    def first_move(c):
+        return c.k0 + int(np.flatnonzero(np.abs(c.q - c.q[0]).max(axis=1) > 1e-12)[0]) - 1
+
+    b = booked(10.0)
+    waiting = [i for i, st in enumerate(b.arms) if st.last is not None and first_move(st.last) > b.up(7.0) + 1
+               and st.last.k0 <= b.up(7.0)]
+    assert waiting  # (arm1 decided f0003 at 5.64 s and waits for it until 9.07 s)
+    i = waiting[0]
+    c = b.arms[i].last
+    rest, n_events = c.q[0].copy(), len(b.events)
+    under_way = b.up(first_move(c) * b.dt + 0.05) * b.dt
+    assert b.unbook_unstarted(i, under_way) is None and b.arms[i].last is c  # moving by then: it is made
+    assert b.unbook_unstarted(i, 7.0) == c.fruit
+    st = b.arms[i]
+    assert st.k_free == b.up(7.0) and np.all(st.q[st.k_free:] == rest) and c.fruit not in st.fruit
+    assert len(b.events) == n_events - len(c.events) and not any(e in b.events for e in c.events)
+    assert b.unbook_unstarted(i, 7.0) is None  # nothing more to take back
+
+    b = booked(30.0)  # arm1 booked a wait after its last cycle: that cycle is no longer the last thing
+    st = b.arms[0]
+    assert st.last is not None and st.k_free > st.last.k0 + st.last.q.shape[0] - 1
+    assert b.unbook_unstarted(0, st.last.k0 * b.dt) is None
+
+
 def test_run_live_row_takes_a_rows_file_as_solve_does(tmp_path):
     """``run_live_row("row.yaml")`` failed inside with "'str' object has no attribute 'gantry'":
     a path (or a shipped row's name) is loaded as coplan.solve loads it; anything else is refused

@@ -441,7 +441,9 @@ def _faults_text(faults: dict) -> str:
     """A run's faults and what each did, one clause each: ``arm stop: arm3, t 85.35, ...`` (the
     arm by its name alone)."""
     def value(k: str, v) -> str:  # (a speed as 0.0667 m/s, not 0.066667; the rest as recorded)
-        return f"{v:.3g} m/s" if k == "to_speed" and isinstance(v, (int, float)) else str(v)
+        if k == "to_speed" and isinstance(v, (int, float)):
+            return f"{v:.3g} m/s"
+        return " ".join(map(str, v)) if isinstance(v, list) else str(v)  # (reports as d0015 d0021)
 
     return "; ".join(f"{kind.replace('_', ' ')}: " + ", ".join(str(v) if k == "arm" else f"{k.replace('_', ' ')} {value(k, v)}"
                                                                for k, v in what.items())

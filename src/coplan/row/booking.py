@@ -64,6 +64,8 @@ class ArmState:
     k_free: int = 0  # booked up to and including this sample; at rest there
     done: bool = False
     fruit: list[str] = field(default_factory=list)
+    last: Cycle | None = None  # the cycle last committed, while nothing is booked after it
+    ends: list[float] = field(default_factory=list)  # s: where each cycle on a fruit or report ends
 
 
 class Booker:
@@ -321,10 +323,41 @@ class Booker:
         st.q[cyc.k0:k1] = cyc.q
         st.q[k1:] = cyc.q[-1]
         st.k_free = k1 - 1
+        st.last = cyc
         if cyc.fruit:
             st.fruit.append(cyc.fruit)
+            st.ends.append((k1 - 1) * self.dt)
             self.work_end = max(self.work_end, (k1 - 1) * self.dt)
         self.events += cyc.events
+
+    def unbook_unstarted(self, i: int, t: float) -> str | None:
+        """Take back arm ``i``'s last cycle if it is the last thing the arm has booked and its
+        motion starts after ``t`` (decided when the arm was last free, it waits at rest for the
+        carriage or a neighbour): the arm rests where it is from ``t`` on and decides again. Not
+        where that rest would come within ``need`` of a neighbour's booked motion (checked
+        against its motion after this cycle began to move, not against this rest). Returns the
+        fruit (or report) taken back, or None."""
+        st = self.arms[i]
+        cyc = st.last
+        if cyc is None or not cyc.fruit or cyc.k0 + cyc.q.shape[0] - 1 != st.k_free:
+            return None
+        moving = np.flatnonzero(np.abs(cyc.q - cyc.q[0]).max(axis=1) > 1e-12)
+        k_cut = max(cyc.k0, self.up(t))
+        if moving.size == 0 or cyc.k0 + moving[0] - 1 <= k_cut:
+            return None  # under way (or about to be): it is made
+        rest = cyc.q[0]
+        reach = max([k_cut + 1] + [self.arms[j].k_free + 1 for j in self.neighbours[i]])
+        if self._hits(i, k_cut, np.repeat(rest[None], reach - k_cut + 1, axis=0), first=True).any():
+            return None
+        st.q[k_cut:] = rest
+        st.k_free = k_cut
+        st.last = None
+        gone = {id(e) for e in cyc.events}
+        self.events = [e for e in self.events if id(e) not in gone]
+        st.fruit.remove(cyc.fruit)
+        st.ends.pop()
+        self.work_end = max((e for a in self.arms for e in a.ends), default=0.0)
+        return cyc.fruit
 
     def wait(self, i: int, seconds: float) -> None:
         """Arm ``i`` rests where it is ``seconds`` longer."""

@@ -244,6 +244,16 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
 
     def change(kind: str, t_c: float, risk: list[tuple[str, float]] | None = None) -> None:
         nonlocal cruise, stretches, held_until
+        if kind == "arm_stop":
+            # the working arms' cycles decided before the fault and not yet under way are taken
+            # back, so that the carriage slows now, not after their picks, and they decide again
+            # on the slower motion (a fruit the stopped arm was to pick, whose window for a
+            # neighbour was closing, passed it: a 12 m row at 0.186 m/s, seed 6, lost two)
+            back = [f for i in range(n) if i not in halt or halt[i] > t_c
+                    for f in [run.booker.unbook_unstarted(i, t_c)] if f is not None]
+            run.taken.difference_update(back)
+            if back:
+                faults.log["arm_stop"]["decided_again"] = sorted(back)
         t_s = max([t_c] + run.pick_ends())
         v = stretches[-1][1]
         # a change begins at cruising speed: past any ramp or hold under way (or the carriage is stopping anyway)
