@@ -26,7 +26,8 @@ from coplan.pipeline import solve
 from coplan.plan import DEFAULT_RATE, EventKind, load_plan
 from coplan.problem import parse_problem
 from coplan.row.assign import build_order_model, cpsat_order
-from coplan.row.booking import Booker, run_policy
+from coplan.row.booking import Booker
+from coplan.row.policy import run_policy
 from coplan.row.branches import branch_table, screen_branches
 from coplan.row.continuous import MovingOptions, make_cruise, plan_continuous, reorder_continuous
 from coplan.row.moving import speed_search

@@ -1108,7 +1108,8 @@ def test_a_cycle_under_way_or_followed_by_more_bookings_is_never_taken_back():
     """:meth:`Booker.unbook_unstarted` takes back only an arm's last booking, a cycle that waits at
     rest past the given time; the arm then rests from that time where it waited, and the cycle's
     events and fruit are gone."""
-    from coplan.row.booking import Booker, run_policy
+    from coplan.row.booking import Booker
+    from coplan.row.policy import run_policy
     from coplan.row.cruise import pick_windows
     from coplan.row.reach import row_reach
 

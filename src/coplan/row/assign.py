@@ -9,7 +9,7 @@ most once. Objective: the most fruit, then the earliest end of the last cycle. T
 bookings are the hint, so CP-SAT starts from the baseline.
 
 The geometry between neighbours is not in the model: its order goes back to
-:func:`coplan.row.booking.run_policy`, which books each arm's fruit in that order, each cycle
+:func:`coplan.row.policy.run_policy`, which books each arm's fruit in that order, each cycle
 clear of the neighbours (later if it must), and leaves to the greedy whatever no longer fits.
 Single-threaded with a deterministic work limit: the same plan on any machine.
 """

@@ -10,15 +10,11 @@ finds the earliest pick time inside the fruit's window at which the whole cycle 
 end, from its resting pose, which is where it stays until it books its next cycle (checked
 then against this one), so every pair of cycles is checked by whichever is booked later.
 
-The **policy** (:func:`run_policy`) decides which arm books what, in time order: the arm free
-first takes, among the fruit it can still reach, the one whose window closes first (earliest
-deadline; interval scheduling's greedy), or follows a given order per arm (the CP-SAT
-assignment of :mod:`coplan.row.assign`).
+The **policy** (:func:`coplan.row.policy.run_policy`) decides which arm books what.
 """
 
 from __future__ import annotations
 
-import heapq
 import math
 import weakref
 from dataclasses import dataclass, field
@@ -34,17 +30,16 @@ from .branches import screen_branches
 from .cruise import Cruise, Window
 from .track import LIMIT_SHARE, Leg, LegError, track, track_state
 
-__all__ = ["Booker", "Cycle", "run_policy", "why_left"]
+__all__ = ["Booker", "Cycle", "PATIENCE", "RETRY"]
 
-_RETRY = 0.1  # s: a cycle that would come too close to a neighbour is tried again this much later ...
-_RETRY_GROWTH = 1.5  # ... and each further try that much later again
+RETRY = 0.1  # s: a cycle that would come too close to a neighbour is tried again this much later ...
+RETRY_GROWTH = 1.5  # ... and each further try that much later again
 #: Shares of the joint limits a pick's tracking may use alone (room for the moves that join it) ...
 _TRACK_SHARES = (0.95, 0.9, 0.5)
 #: ... and a whole cycle, seams included, by finite differences (a little inside the limits).
 _CYCLE_SHARES = (0.98, 0.98, 0.98)
-_PATIENCE = 5.0  # s: the longest an arm waits for a clear cycle on one fruit
+PATIENCE = 5.0  # s: the longest an arm waits for a clear cycle on one fruit
 _TRIES = 6  # fixed-point rounds: arrival time <-> where the fruit is then
-_GIVE_UP = 3  # decisions without a clear cycle on one fruit, the carriage at rest for good, before an arm leaves it
 
 
 @dataclass
@@ -204,9 +199,9 @@ class Booker:
         xy = self.fruit_xy[fid]
         qb = self.bin_q[i]
         t_p = max(w.lo, k_from * self.dt)
-        t_last = min(w.hi, k_from * self.dt + _PATIENCE)
+        t_last = min(w.hi, k_from * self.dt + PATIENCE)
         leg1 = None
-        retry = _RETRY
+        retry = RETRY
         while True:
             k_p = self.up(t_p)
             for _ in range(_TRIES):
@@ -216,7 +211,7 @@ class Booker:
                 c0, c1 = self.cruise.state_one(t_p)[0], self.cruise.state_one(t_p + self._dwells(fid)[0] * self.dt)[0]
                 brs = self.branches(i, fid, c0, c1)
                 if not brs:
-                    k_p += max(1, self.up(_RETRY))
+                    k_p += max(1, self.up(RETRY))
                     continue
                 legs = []
                 for b in brs:
@@ -226,7 +221,7 @@ class Booker:
                     except LegError:
                         continue
                 if not legs:
-                    k_p += max(1, self.up(_RETRY))
+                    k_p += max(1, self.up(RETRY))
                     continue
                 b, leg1 = min(legs, key=lambda bl: bl[1].duration)
                 if t_p - leg1.duration >= k_from * self.dt - 1e-9:
@@ -244,7 +239,7 @@ class Booker:
                         return cyc
             # later, by steps that grow (a neighbour in the way for long is not probed every 0.1 s)
             t_p = k_p * self.dt + retry
-            retry *= _RETRY_GROWTH
+            retry *= RETRY_GROWTH
 
     def _dwells(self, fid: str) -> tuple[int, int]:
         """Samples of the pick and the place dwell of a cycle on ``fid`` (none for a probe)."""
@@ -422,7 +417,7 @@ class Booker:
         n = self.up(leg.duration)
         reach = max([k0 + 1] + [self.arms[j].k_free + 1 for j in self.neighbours[i]])
         resting = {}  # pose -> (reach - k0 + 1,) its hits from k0 to reach
-        for _ in range(int(60.0 / _RETRY)):
+        for _ in range(int(60.0 / RETRY)):
             ts = np.arange(k0, k_s + n + 1) * self.dt
             q = np.where((ts < k_s * self.dt)[:, None], q0, leg.sample(np.maximum(ts - k_s * self.dt, 0.0)))
             q[-1] = target
@@ -433,7 +428,7 @@ class Booker:
                     and not self._rest_hit(i, target, k0, reach, resting, k_s + n + 1, reach)):
                 self.commit(Cycle(i, "", k0, q, []))
                 return True
-            k_s += self.up(_RETRY)
+            k_s += self.up(RETRY)
         return False
 
     def _rest_hit(self, i: int, pose: np.ndarray, k0: int, reach: int, memo: dict, a: int, b: int) -> bool:
@@ -470,173 +465,3 @@ def replace_reach_margin(problem: Problem) -> Problem:
     from dataclasses import replace
 
     return replace(problem, task=replace(problem.task, reach_margin=0.0))
-
-
-def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=None, on_book=None,
-               halt: dict[int, float] | None = None, delay=None, until: float | None = None,
-               taken: set[str] | None = None, make_way: bool = False) -> dict[str, str]:
-    """Book cycles in time order (module docstring); returns fruit left out -> why. ``order``:
-    each arm's fruit in turn (any it cannot fit are left to the greedy afterwards).
-
-    A live row (:mod:`coplan.row.live`): ``seen`` (fruit id -> the time the camera first reports
-    it) keeps every decision to the fruit seen by then -- an arm with nothing seen yet waits for
-    the next report -- and ``on_book(arm, fruit, now)`` may veto a fruit at the moment it is chosen
-    (returns False: dropped, e.g. a detection already harvested under another id).
-
-    Faults: ``halt`` (arm index -> time of a controller fault): the arm finishes the motion in
-    progress and, from its next rest, books nothing more -- an obstacle where it rests; its fruit
-    are left to the neighbours. A cycle or move decided before the fault whose motion would
-    start at or after it (the arm waiting for the carriage or a neighbour) is not made. ``delay(arm, now)`` -> seconds a decision runs late: the arm
-    rests that much longer before the cycle it decides.
-
-    In phases: ``until`` stops deciding at that time (each arm left free at or after it, at rest);
-    ``taken`` (fruit already booked) carries over to the next phase, whose booker may have a new
-    carriage motion from then on; ``make_way=True`` sends an arm that finds no clear cycle home
-    before it tries again (with the carriage at rest, two arms each resting where the other
-    would pick would otherwise wait for each other for good). An arm a probe left where it found
-    nothing (``probe_rests``) decides its next move at once: a cycle from there, else back to its
-    bin (an arm held out over its neighbours' fruit would block them)."""
-    windows = booker.windows
-    taken = taken if taken is not None else set()
-    arms = booker.problem.arms
-    booker.halted.update(halt or {})
-    by_arm: dict[int, list[tuple[str, Window]]] = {i: [] for i in range(len(arms))}
-    for fid, ws in windows.items():
-        for w in ws:
-            by_arm[w.arm].append((fid, w))
-    n_arms_of = {fid: len({w.arm for w in ws}) for fid, ws in windows.items()}
-    # a guard, never reached by a plan that progresses (from the carriage's rest, or from when the
-    # busiest arm is free: one waiting out a late decision made before this phase)
-    start = max([booker.cruise.duration] + [booker.free_time(i) for i in range(len(arms))])
-    horizon = start + _PATIENCE + 10.0 * len(windows)
-    queue = [(0.0, i) for i in range(len(arms))]
-    heapq.heapify(queue)
-    pending = {i: list((order or {}).get(i, [])) for i in range(len(arms))}
-    failed: dict[tuple[int, str], int] = {}
-    while queue:
-        _, i = heapq.heappop(queue)
-        now = booker.free_time(i)
-        if halt is not None and i in halt and now >= halt[i]:
-            booker.arms[i].done = True  # stopped: it stays where it rests
-            continue
-        late = delay(i, now) if delay is not None else 0.0
-        if late > 0:
-            horizon += late  # (the guard waits for a late decision too: its arm's fruit are not given up)
-            booker.wait(i, late)
-            heapq.heappush(queue, (booker.free_time(i), i))
-            continue
-        if until is not None and now >= until:
-            continue  # the next phase decides from here
-        if now > horizon:  # nothing fits any more: the rest is left out
-            booker.go_home(i)
-            continue
-        # (kept for good: this arm's time only grows and a fruit taken stays taken, so what is
-        # dropped here never comes back; the list shrinks as the row is harvested)
-        cands = by_arm[i] = [(fid, w) for fid, w in by_arm[i] if fid not in taken and w.hi >= now]
-        if seen is not None:
-            later = [seen[f] for f, w in cands if seen[f] > now and w.hi >= seen[f]]
-            cands = [(f, w) for f, w in cands if seen[f] <= now]
-            if not cands and later:  # nothing in view yet: wait for the camera's next report
-                if booker.rests_out(i) and booker.go_bin(i):
-                    heapq.heappush(queue, (booker.free_time(i), i))
-                    continue
-                booker.wait(i, max(booker.dt, min(later) - now))
-                heapq.heappush(queue, (booker.free_time(i), i))
-                continue
-        if not cands:
-            if booker.rests_out(i) and booker.go_bin(i):
-                heapq.heappush(queue, (booker.free_time(i), i))  # (at its bin: home next, clear of a probe's pose)
-            else:
-                booker.go_home(i)
-            continue
-        tries, given = _tries(cands, pending[i], now, n_arms_of)
-        booked = stopped = False
-        for fid, w in tries:
-            if on_book is not None and not on_book(i, fid, now):
-                taken.add(fid)  # vetoed for good (not harvested: left out with the veto's reason)
-                continue
-            cyc = booker.plan_cycle(i, fid, w, now)
-            if cyc is not None and booker.moves_after_halt(i, cyc.k0, cyc.q):
-                stopped = True  # decided before the fault, it would start after it: never made
-                break
-            if cyc is not None:
-                booker.commit(cyc)
-                taken.add(fid)
-                if pending[i] and pending[i][0] == fid:
-                    pending[i].pop(0)
-                booked = True
-                break
-        if stopped:
-            booker.arms[i].done = True  # it stays where it rests
-            continue
-        if booked and booker.rests_out(i):  # a probe that found nothing and rests there: its next move is decided now
-            heapq.heappush(queue, (-math.inf, i))
-            continue
-        if not booked:
-            if now >= booker.cruise.duration:
-                by_arm[i] = _give_up(booker, i, tries, now, failed, by_arm[i])
-            if given:
-                pending[i].pop(0)  # the given order's next fruit does not fit: the greedy may take it
-            elif not (make_way and not booker.at_home(i) and (booker.go_bin(i) if booker.rests_out(i) else booker.go_home(i))):  # (home: out of the way, it tries again)
-                soonest = min((c[1].lo for c in cands if c[1].lo > now), default=now + _RETRY)
-                booker.wait(i, max(_RETRY, min(soonest - now - 1.0, 1.0)))
-        heapq.heappush(queue, (booker.free_time(i), i))
-    return {fid: why_left(booker, fid, halt or {}) for fid in windows if fid not in taken}
-
-
-def _tries(cands: list[tuple[str, Window]], pending: list[str], now: float,
-           n_arms_of: dict[str, int]) -> tuple[list[tuple[str, Window]], bool]:
-    """What an arm free at ``now`` tries to book (:func:`run_policy`), and whether it is the given
-    order's next fruit: that fruit (its windows among ``cands``; fruit of the order no longer
-    among them are dropped from ``pending``), else the greedy's first four -- of the fruit within
-    reach in 2 s (all, if none), the earliest deadline first, then the fewest arms, then the
-    earliest window."""
-    while pending:
-        hit = [c for c in cands if c[0] == pending[0]]
-        if hit:
-            return hit, True
-        pending.pop(0)
-    ready = [c for c in cands if c[1].lo <= now + 2.0]  # within reach soon
-    pool = ready or cands
-    pool.sort(key=lambda c: (c[1].hi, n_arms_of[c[0]], c[1].lo, c[0]))
-    return pool[:4], False
-
-
-def _give_up(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float, failed: dict[tuple[int, str], int],
-             mine: list[tuple[str, Window]]) -> list[tuple[str, Window]]:
-    """Arm ``i``'s fruit (``mine``) less those it gives up, the carriage at rest for good and no
-    cycle booked on ``tries``: a fruit no branch reaches from there (its close-range measurement
-    moved it off the run's edge) never will be, and one that found no clear cycle ``_GIVE_UP``
-    times (each up to ``_PATIENCE`` of waiting) is left to the next stop."""
-    x1 = booker.cruise.x1
-    for fid, w in tries:
-        if w.lo <= now + _PATIENCE:  # (a window not open yet -- the carriage settling -- is no failure)
-            failed[(i, fid)] = failed.get((i, fid), 0) + 1
-    gone = {(fid, w.arm) for fid, w in tries
-            if failed.get((i, fid), 0) >= _GIVE_UP or not booker.branches(i, fid, x1, x1)}
-    return [(fid, w) for fid, w in mine if (fid, w.arm) not in gone]
-
-
-def why_left(booker: Booker, fid: str, halt: dict[int, float]) -> str:
-    """Why ``fid`` was not booked, from its windows on the booker's carriage motion."""
-    ws = booker.windows[fid]
-    if not ws:
-        return f"{fid}: at this speed the carriage never stays where an arm can hold its tip on it for the pick's dwell"
-    # the working arm whose window closed last (a stopped arm's only if no working arm had one)
-    w = max(ws, key=lambda w: (w.arm not in halt, min(w.hi, 1e9), w.arm))
-    arm = booker.problem.arms[w.arm].name
-    if w.arm in halt:
-        return f"{fid}: only {arm} could reach it, and {arm} stopped at t = {halt[w.arm]:.1f} s"
-    if not math.isfinite(w.hi):
-        return f"{fid}: {arm} could still reach it, but no clear cycle was found"
-    busy = [e for e in booker.events if e.arm == arm and e.t_start <= w.hi and e.t_end + 1.5 >= w.lo]
-    if not busy:  # free for the whole window: no cycle of its fitted, not a neighbour's turn
-        return (f"{fid}: passed {arm}'s reach at t = {w.hi:.1f} s, {max(w.hi - w.lo, 0.0):.1f} s after it came into "
-                f"reach, {arm} free all that time: no cycle fitted -- its direct moves between its bin and the fruit "
-                f"come within the clearance of a neighbour, or past a limit, at every start tried (on the move an arm "
-                f"does not tuck round a neighbour as the stop-and-go cell planner does: --gantry stop-and-go or auto)")
-    doing = "held: no cycle fitted before the window closed (a neighbour in the way, or a limit)"
-    for e in busy:
-        if e.t_start <= w.hi <= e.t_end + 1.5:
-            doing = f"{'picking' if e.kind == EventKind.PICK else 'placing'} {e.fruit}"
-    return f"{fid}: passed {arm}'s reach at t = {w.hi:.1f} s while {arm} was {doing}"

@@ -38,7 +38,8 @@ from ..problem.model import Problem
 from ..problem.plausible import plan_seconds_limit
 from ..progress import speaker
 from ..workers import settle_workers
-from .booking import Booker, run_policy
+from .booking import Booker
+from .policy import run_policy
 from .branches import branch_table
 from .cruise import Cruise, EndRest, cruise_end, demand_stretches, pick_windows
 from .plan import RowResult, finalize_row

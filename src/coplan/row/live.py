@@ -9,7 +9,7 @@ Entry point: :func:`run_live_row` -> :class:`LiveRow`, in either gantry mode.
   reported twice (a second, independently noisy report half a second later). When each report
   is made follows from the carriage's motion as it is decided (:func:`report_times`).
 * **Planning as fruit come into view** -- each decision (an arm free, at rest, choosing its next
-  fruit: :func:`coplan.row.booking.run_policy`) sees only the reports made by then (reports
+  fruit: :func:`coplan.row.policy.run_policy`) sees only the reports made by then (reports
   within ``merge`` of an earlier one may be taken for the same fruit; off by default: a second
   report of a picked fruit costs a probe instead); as the arm approaches, its close-range sensor
   measures the fruit (``close_sigma``) and the cycle is planned on that measurement. A false

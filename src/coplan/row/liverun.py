@@ -16,7 +16,8 @@ from ..allocate.screen import TIP_TOLERANCE
 from ..kinds import GantryMode
 from ..plan import DEFAULT_RATE, EventKind
 from ..problem.model import Fruit, Problem
-from .booking import Booker, run_policy
+from .booking import Booker
+from .policy import run_policy
 from .cruise import Cruise, pick_windows
 from .reach import robust_end, row_reach
 from .sensing import LiveRowOptions, RowReport, report_times

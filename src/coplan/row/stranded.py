@@ -20,7 +20,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..problem.model import Problem
-from .booking import Booker, why_left
+from .booking import Booker
+from .policy import why_left
 from .cruise import stop_from
 
 if TYPE_CHECKING:
