@@ -222,6 +222,18 @@ def offline_reference(problem: Problem, options, progress=None):
     return ref
 
 
+def _take_back_unstarted(run: LiveRun, halt: dict[int, float], t: float) -> list[str]:
+    """The working arms' cycles decided before ``t`` and not yet under way, taken back
+    (:meth:`~coplan.row.booking.Booker.unbook_unstarted`) to be decided again: at an arm stop the
+    carriage then slows at once, not after their picks, and they decide on the slower motion (a
+    fruit the stopped arm was to pick, whose window for a neighbour was closing, passed it: a
+    12 m row at 0.186 m/s, seed 6, lost two). Returns their fruit (reports), sorted."""
+    back = [f for i in range(len(run.problem.arms)) if i not in halt or halt[i] > t
+            for f in [run.booker.unbook_unstarted(i, t)] if f is not None]
+    run.taken.difference_update(back)
+    return sorted(back)
+
+
 def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, str]:
     """The row on the move: booked in phases of ``CHECK`` s, the carriage's motion changed at each
     fault that changes it (an arm stop: slower; the camera dark: a hold) and, with
@@ -244,16 +256,8 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
 
     def change(kind: str, t_c: float, risk: list[tuple[str, float]] | None = None) -> None:
         nonlocal cruise, stretches, held_until
-        if kind == "arm_stop":
-            # the working arms' cycles decided before the fault and not yet under way are taken
-            # back, so that the carriage slows now, not after their picks, and they decide again
-            # on the slower motion (a fruit the stopped arm was to pick, whose window for a
-            # neighbour was closing, passed it: a 12 m row at 0.186 m/s, seed 6, lost two)
-            back = [f for i in range(n) if i not in halt or halt[i] > t_c
-                    for f in [run.booker.unbook_unstarted(i, t_c)] if f is not None]
-            run.taken.difference_update(back)
-            if back:
-                faults.log["arm_stop"]["decided_again"] = sorted(back)
+        if kind == "arm_stop" and (back := _take_back_unstarted(run, halt, t_c)):
+            faults.log["arm_stop"]["decided_again"] = back
         t_s = max([t_c] + run.pick_ends())
         v = stretches[-1][1]
         # a change begins at cruising speed: past any ramp or hold under way (or the carriage is stopping anyway)
