@@ -1145,6 +1145,23 @@ def test_a_cycle_under_way_or_followed_by_more_bookings_is_never_taken_back():
     assert b.unbook_unstarted(0, st.last.k0 * b.dt) is None
 
 
+@pytest.mark.parametrize("args", [["--speed", "0.1"], ["--gantry", "stop-and-go"]])
+def test_a_live_row_with_no_fruit_says_there_is_nothing_to_harvest(tmp_path, args):
+    """(From a new user's trial: a row with ``fruits: []`` ran to "executed plan infeasible
+    (verified, ...)", exit 4.) Exit 4 as coplan solve and verify give it, and the summary says
+    why: nothing to harvest."""
+    import yaml
+
+    doc = yaml.safe_load(to_yaml(gantry_row(length=3.0, density=4.0, seed=0)))
+    doc["fruits"] = []
+    path = tmp_path / "empty.yaml"
+    path.write_text(yaml.safe_dump(doc))
+    res = CliRunner().invoke(app, ["run", str(path), *args, "-o", str(tmp_path / "live")])
+    said = " ".join(res.output.split())
+    assert res.exit_code == 4, said
+    assert "executed plan infeasible: nothing to harvest, no fruit any arm reaches (verified" in said
+
+
 def test_run_live_row_takes_a_rows_file_as_solve_does(tmp_path):
     """``run_live_row("row.yaml")`` failed inside with "'str' object has no attribute 'gantry'":
     a path (or a shipped row's name) is loaded as coplan.solve loads it; anything else is refused

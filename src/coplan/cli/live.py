@@ -20,7 +20,7 @@ from .console import ProgressDisplay, text_console
 from .failures import check_out_dir, check_out_file, check_overwrite, exit_fields, resolve_problem, usage, work_done
 from .summary import safe as _safe
 from ..errors import plural
-from ..kinds import GantryMode, LiveGantryMode
+from ..kinds import GantryMode, LiveGantryMode, PlanStatus
 
 __all__ = ["feed_cmd", "run_cmd"]
 
@@ -236,7 +236,7 @@ def _print_cell_run(prob, m: dict, horizon: float, all_candidates: bool, result,
               "real-time run\n" if all_candidates else "give --horizon at least the latency\n")
            if m.get("late_replans") else "")
         + _missed_line(result.run["fruit"])
-        + f"executed plan {result.plan.status.value} ({'verified' if m['verified'] else 'verification FAILED'}"
+        + f"executed plan {_status(result.plan)} ({'verified' if m['verified'] else 'verification FAILED'}"
         f"{_room(result.verification)}); "
         f"wrote {_safe(out)}/: {_written(folder, names)}", highlight=False)
 
@@ -404,7 +404,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
             f"{plural(m['false_reports'], 'false report')}: {m['harvested']} fruit harvested, {share}; row time "
             f"{m['row_time']:.1f} s{per_hour}{ratio}\n{plural(m['decisions'], 'decision')}, slowest {1000 * m['decision_max_seconds']:.1f} ms "
             f"against {cycle} ({'kept ahead' if m['kept_ahead'] else 'LATE'}); {plural(m['probes'], 'probe')} of false, repeated "
-            f"or far-off reports\n{faults_line}executed plan {res.plan.status.value} "
+            f"or far-off reports\n{faults_line}executed plan {_status(res.plan)} "
             f"({'verified' if m['verified'] else 'verification FAILED'}{_room(res.verification)}); wrote {_safe(out)}/: "
             + _written(folder, names),
             highlight=False)
@@ -435,6 +435,14 @@ def _room(ver) -> str:
     side = "beyond" if s["margin"] >= 0 else "short of"
     return (f", {s['collision_count']} collision{'' if s['collision_count'] == 1 else 's'}, least clearance {cert:.4f} m "
             f"certified, {1000 * abs(s['margin']):.1f} mm {side} the {s['required_clearance']:g} m required")
+
+
+def _status(plan) -> str:
+    """The executed plan's status for the summary; where it is infeasible for want of fruit (none
+    any arm reaches: exit 4, as coplan solve and verify say it), that said."""
+    if plan.status == PlanStatus.INFEASIBLE and (plan.metrics or {}).get("reachable") == 0:
+        return "infeasible: nothing to harvest, no fruit any arm reaches"
+    return plan.status.value
 
 
 def _faults_text(faults: dict) -> str:
