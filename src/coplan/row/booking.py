@@ -306,8 +306,8 @@ class Booker:
         t_h = self.halted.get(i)
         if t_h is None:
             return False
-        moving = np.flatnonzero(np.abs(q - q[0]).max(axis=1) > 1e-12)
-        return moving.size > 0 and (k0 + moving[0] - 1) * self.dt >= t_h
+        k_m = _leaves_rest(k0, q)
+        return k_m is not None and k_m * self.dt >= t_h
 
     def commit(self, cyc: Cycle) -> None:
         st = self.arms[cyc.arm]
@@ -336,13 +336,12 @@ class Booker:
         cyc = st.last
         if cyc is None or not cyc.fruit or cyc.k0 + cyc.q.shape[0] - 1 != st.k_free:
             return None
-        moving = np.flatnonzero(np.abs(cyc.q - cyc.q[0]).max(axis=1) > 1e-12)
+        k_m = _leaves_rest(cyc.k0, cyc.q)
         k_cut = max(cyc.k0, self.up(t))
-        if moving.size == 0 or cyc.k0 + moving[0] - 1 <= k_cut:
+        if k_m is None or k_m <= k_cut:
             return None  # under way (or about to be): it is made
         rest = cyc.q[0]
-        reach = max([k_cut + 1] + [self.arms[j].k_free + 1 for j in self.neighbours[i]])
-        if self._hits(i, k_cut, np.repeat(rest[None], reach - k_cut + 1, axis=0), first=True).any():
+        if not self._clear(i, k_cut, rest[None]):
             return None
         st.q[k_cut:] = rest
         st.k_free = k_cut
@@ -447,6 +446,13 @@ class Booker:
 
 
 _PARKED: "weakref.WeakKeyDictionary[Problem, dict[float, dict]]" = weakref.WeakKeyDictionary()
+
+
+def _leaves_rest(k0: int, q: np.ndarray) -> int | None:
+    """The grid index of the last sample at rest before motion ``q`` (samples from ``k0``)
+    first moves; None if it never moves."""
+    moving = np.flatnonzero(np.abs(q - q[0]).max(axis=1) > 1e-12)
+    return int(k0 + moving[0] - 1) if moving.size else None
 
 
 def _parked(problem: Problem, need: float) -> dict:
