@@ -18,10 +18,12 @@ def test_every_stage_runs_in_order_and_says_what_it_did():
     res = plan_optimal(_crossing(), options=SMALL)
     log = res.plan.solver["stages"]
     assert [s["stage"] for s in log] == [n for n, _ in STAGES] == \
-        ["coordinated", "retime", "search", "refine", "polish", "widen"]
+        ["coordinated", "retime", "search", "refine", "polish", "widen", "regroup"]
     assert all(isinstance(s["result"], str) and s["wall_seconds"] >= 0 for s in log)
     assert log[0]["result"] == "planned" and log[4]["result"] == "skipped"  # polish is off by default
     assert res.plan.solver["search"] is not None and res.plan.solver["widen"] is not None
+    # the widened plan keeps the widening's goal: nothing to regroup for
+    assert log[6]["result"] == "skipped" and "the widening's goal" in res.plan.solver["regroup"]["reason"]
 
 
 def test_a_stage_is_one_line_to_add_or_take_out(monkeypatch):

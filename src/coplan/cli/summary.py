@@ -301,6 +301,13 @@ def print_summary(console, res) -> None:
                   f"(the stage took {fmt(wid.get('wall_seconds'), ' s', 2)} of planning; option widen)")
             elif wid.get("reason"):
                 p(f"  not widened       {safe(wid['reason'])}")
+            rg = (res.plan.solver or {}).get("regroup") or {}
+            if rg.get("accepted"):
+                p(f"  regrouped         margin {1000 * rg['margin_before']:.1f} -> {1000 * rg['margin']:.1f} mm, "
+                  f"{rg['makespan_before']:.3f} -> {rg['makespan']:.3f} s: other events, planned at a clearance of "
+                  f"{1000 * rg['clearance']:.1f} mm (the stage took {fmt(rg.get('wall_seconds'), ' s', 2)}; option regroup)")
+            elif rg.get("status") == "ran":
+                p(f"  not regrouped     planned again at a clearance of {1000 * rg['clearance']:.1f} mm: {safe(rg.get('reason', ''))}")
         per = m.get("per_arm") or {}
         steps = ver.get("acceleration_steps") or {}  # (their sampled jerk is a grid's figure: 10 x at 10 x the rate)
         if any("rms_jerk" in v for v in per.values()):
@@ -321,7 +328,7 @@ def print_summary(console, res) -> None:
         if len(left) > 5:
             p(f"    ... and {len(left) - 5} more (plan.json: solver.left_out)")
     tm = res.plan.solver.get("timings", {})
-    parts = [k for k in ("allocation", "coordinated", "retime", "search", "refine", "polish", "widen", "plan", "verify") if k in tm]
+    parts = [k for k in ("allocation", "coordinated", "retime", "search", "refine", "polish", "widen", "regroup", "plan", "verify") if k in tm]
     if parts:
         planned = sum(tm[k] for k in parts)
         split = ", ".join(f"{k} {tm[k]:.2f}" for k in parts)

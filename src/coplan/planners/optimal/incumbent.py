@@ -78,6 +78,14 @@ class Incumbent:
         self.plan, self.verification = plan, verification
         self.moved_by = stage  # (not in the history: no makespan came of it, and its readers group by source)
 
+    def regrouped(self, plan: Plan, verification, candidate: Coordinated | None) -> None:
+        """Put ``plan`` (verified, checked by the caller: as fast, as much, more room), planned on
+        other events (:mod:`coplan.planners.optimal.regroup`), and its schedules in place of the
+        incumbent's; its source stays (the stage that found the makespan), moved by ``regroup``."""
+        self.plan, self.verification = plan, verification
+        self.candidate = candidate if candidate is not None else self.candidate
+        self.moved_by = "regroup"
+
 
 def time_to_ratio(history: list[dict], bound: float | None, ratios=(1.05, 1.02, 1.01)) -> dict[str, float | None]:
     """When (s after the planner started) the incumbent first came within each ratio of the

@@ -101,6 +101,11 @@ class OptimalOptions:
     widen_ease : the widening program starts from each arm's rest spread over its moves
         (:mod:`coplan.planners.optimal.ease`; should it give nothing to keep, the program is
         solved again from the plan's own schedules)
+    regroup : after the widening, where the plan still keeps less certified margin than the
+        widening's goal (twice the margin it started from, at most ``widen_goal``), the planner
+        runs again on the problem with its clearance raised by the shortfall (other allocation,
+        order and events: :mod:`coplan.planners.optimal.regroup`); its plan is kept when
+        verified at the problem's clearance, no slower, harvesting as much and with more room
     tolerance : a makespan this close to the lower bound (s) is proven optimal (at most 0.01 s: one sample)
     screen : initial NLP constraint points where the schedule's links are within this (m)
     screen_shift : ... also when one arm of a pair runs up to this much (s) earlier or later
@@ -143,6 +148,7 @@ class OptimalOptions:
     widen_iterations: int = 300
     widen_knots: int = 600
     widen_ease: bool = True
+    regroup: bool = True
     tolerance: float = 1e-3
     screen: float = 0.25
     h_target: float = 0.06

@@ -31,6 +31,10 @@ harvests more may be slower), and whenever it stops -- at its work budget, at an
    incumbent keeps less than ``widen_goal`` beyond the clearance, one CasADi/IPOPT program over
    all arms at its makespan and order of events widens the least room between neighbours and
    smooths the jerk; kept when verified, as fast and with a certified margin no smaller.
+6. **regroup** (:func:`coplan.planners.optimal.regroup.regrouped`, ``regroup: true`` by
+   default): where the widened plan still keeps less room than the widening's goal, stages 1-5
+   again at a clearance raised by the shortfall -- other allocation, order and events -- kept
+   when verified at the problem's clearance, as fast, harvesting as much, with more room.
 
 The stages are named steps (:data:`coplan.planners.optimal.stages.STAGES`) that
 :func:`plan_optimal` runs in turn over one :class:`~coplan.planners.optimal.incumbent.Incumbent`;
@@ -77,6 +81,7 @@ class OptimalResult:
     coordinated: Plan | None = None
     error: str | None = None  # an internal error that stopped the planner (what it had is kept)
     error_trace: str | None = None
+    candidate: object = None  # the incumbent's schedules (a Coordinated), when it has them
 
 
 def plan_optimal(
@@ -86,7 +91,7 @@ def plan_optimal(
     progress: Callable[[str], None] | None = None,
 ) -> OptimalResult:
     """Plan all arms, anytime: the stages of :data:`~coplan.planners.optimal.stages.STAGES` in
-    turn (coordinated, retime, search, refine, polish, widen); every incumbent verified."""
+    turn (coordinated, retime, search, refine, polish, widen, regroup); every incumbent verified."""
     from ...problem.gantry import require_cell
 
     require_cell(problem, "plan_optimal")
@@ -97,7 +102,7 @@ def plan_optimal(
     say = speaker(progress)
     t_start = _time.perf_counter()
     run = Run(problem, allocation, opts, say, ticker(progress), t_start, Incumbent(problem, t_start, say),
-              deadline=None if opts.time_limit is None else t_start + opts.time_limit)
+              deadline=None if opts.time_limit is None else t_start + opts.time_limit, again=plan_optimal)
     error = error_trace = None
     try:
         for name, step in STAGES:
@@ -192,4 +197,4 @@ def _finish(run: Run, error: str | None, error_trace: str | None) -> OptimalResu
     alloc_out = inc.candidate.alloc if inc.candidate is not None else None
     status = SolverStatus.INTERRUPTED if run.interrupted else SolverStatus.OPTIMAL if verified else SolverStatus.NUMERICAL_ERROR
     return OptimalResult(plan, inc.verification, baseline, base_ver, alloc_out, timings, status, coord_plan, error,
-                         error_trace)
+                         error_trace, inc.candidate)

@@ -11,6 +11,8 @@ refine      the search's neighbourhood again, each neighbour retimed (or the sea
 polish      the joint NLP where the incumbent still waits (``polish``); the last resort when
             nothing could be verified
 widen       one joint NLP at the incumbent's makespan: more room between neighbours, less jerk
+regroup     where the room is still short of the widening's goal: the stages above again at a
+            clearance raised by the shortfall (other events), kept when no slower with more room
 ========== ==================================================================================
 
 Adding or reordering a stage is one line of :data:`STAGES`. Each stage's report goes to
@@ -59,7 +61,7 @@ class Run:
     timings: dict = field(default_factory=dict)
     base: list = field(default_factory=list)  # the course's baseline and its verification
     reports: dict = field(default_factory=lambda: {"search": None, "refine": None, "retime": [], "nlp": None,
-                                                   "widen": None})
+                                                   "widen": None, "regroup": None})
     log: list = field(default_factory=list)  # per stage: name, seconds, what it did
     coord: object = None  # the coordinated planner's result
     coord_plan: Plan | None = None
@@ -72,6 +74,9 @@ class Run:
     bound: float = 0.0
     interrupted: bool = False
     stop: StopReason = StopReason.BUDGET
+    # the whole planner (problem, allocation, options, progress) -> OptimalResult, for a stage that
+    # plans again (regroup): given by plan_optimal, which imports this module, not imported here
+    again: Callable | None = None
 
     def __post_init__(self):
         self.n_reach = len(self.problem.reachable_ids())
@@ -385,6 +390,17 @@ def widen(run: Run) -> str:
     return "accepted" if run.reports["widen"]["accepted"] else run.reports["widen"]["status"]
 
 
+def regroup(run: Run) -> str:
+    """Other events where the widened plan keeps less room than the widening's goal (``regroup``)."""
+    from .regroup import regrouped
+
+    tg = _time.perf_counter()
+    run.reports["regroup"] = report = regrouped(run)
+    if report["status"] != "skipped":
+        run.timings["regroup"] = _time.perf_counter() - tg
+    return "accepted" if report["accepted"] else report["status"]
+
+
 #: The optimal planner's flow: (name, stage), run in this order over one incumbent.
 STAGES: tuple[tuple[str, Callable[[Run], str]], ...] = (
     ("coordinated", coordinated),
@@ -393,6 +409,7 @@ STAGES: tuple[tuple[str, Callable[[Run], str]], ...] = (
     ("refine", refine),
     ("polish", polish),
     ("widen", widen),
+    ("regroup", regroup),
 )
 
 

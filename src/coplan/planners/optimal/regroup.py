@@ -1,0 +1,118 @@
+"""Other events for more room: the optimal planner again at a raised clearance (the ``regroup``
+stage, after ``widen``; :func:`regrouped`).
+
+The widening stage moves the arms apart at the incumbent's makespan *on the incumbent's events*
+(who picks what, in which order, and the order of events across arms). Where the least room is
+between two picks whose dwells overlap in time, or where a move passes a neighbour's pick at a
+time the events fix, no program on those events has more room: on overlap-2x6-s28 the least
+room, 20.4 mm, is two arms holding their tips on two fruit at the same instant. Another
+allocation and order may keep the makespan with more room; the planner, asked for more
+clearance, looks for one. So where the widened plan keeps less certified margin than the
+widening's goal (twice the margin it started from, at most ``widen_goal``), the whole flow
+(coordinated, retime, search, refine, widen) runs again on the problem with its clearance raised
+by the shortfall, and its plan replaces the incumbent only if, checked by the verifier against
+the problem's own clearance, it harvests as much, is no slower and keeps more certified margin.
+(It may be faster: the search starts elsewhere at another clearance. Then it is an incumbent
+like any other, from the ``regroup`` source.)
+
+It costs a second solve where it runs (it never runs on a plan with its room already); its
+budgets are work, like the first's, so it gives the same plan on any machine.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import replace
+
+from ...plan import finalize_plan
+from ...progress import Tick
+from .nlp_data import SolverStatus
+
+__all__ = ["regrouped", "ROOM_QUANTUM"]
+
+#: the clearance is raised by the shortfall rounded up to this (m): a plan's room to the
+#: micrometre would make the raised problem differ with the last bits of a CPU's floating point
+ROOM_QUANTUM = 1e-4
+
+_MARGIN_TOL = 1e-6  # (as the widening's judge: certified margins equal to the micrometre are no larger)
+
+
+class _Inner:
+    """The inner run's progress: its messages prefixed, its ticks one level down."""
+
+    def __init__(self, say, tick):
+        self.say, self.outer_tick = say, tick
+
+    def __call__(self, message: str) -> None:
+        self.say(f"regroup: {message}")
+
+    def tick(self, t: Tick) -> None:
+        self.outer_tick(replace(t, level=t.level + 1))
+
+
+def regrouped(run) -> dict:
+    """The ``regroup`` stage on ``run`` (:class:`coplan.planners.optimal.stages.Run`, after its
+    widening stage): its report (plan.json ``solver.regroup``), the incumbent replaced in place
+    when the plan found at the raised clearance is kept (module docstring)."""
+    from ...verify.verifier import verify
+
+    problem, opts, inc = run.problem, run.opts, run.inc
+    w = run.reports.get("widen") or {}
+    margin0 = w.get("margin_before")
+    why = ("the option regroup is false" if not opts.regroup else
+           "the widening stage did not run" if not opts.widen or w.get("status") == "skipped" or margin0 is None else
+           "the run was interrupted first" if run.interrupted else
+           "no planner to run again" if run.again is None else
+           "no verified plan" if inc.plan is None or not inc.verification or not inc.verification.passed else None)
+    if why is not None:
+        return {"status": "skipped", "accepted": False, "reason": why}
+    margin = float(inc.verification.margin)
+    want = min(2.0 * margin0, opts.widen_goal)
+    if margin >= want - _MARGIN_TOL:
+        return {"status": "skipped", "accepted": False, "margin": margin,
+                "reason": f"the plan keeps {1000 * margin:.1f} mm, the widening's goal ({1000 * want:.1f} mm)"}
+    if not run.in_time():
+        return {"status": "skipped", "accepted": False, "reason": "the time limit came before the regroup stage"}
+    raise_by = math.ceil((want - margin) / ROOM_QUANTUM - 1e-9) * ROOM_QUANTUM
+    clearance = round(problem.task.clearance + raise_by, 6)
+    raised = replace(problem, task=replace(problem.task, clearance=clearance))
+    run.say(f"regroup: the widened plan keeps {1000 * margin:.1f} mm (goal {1000 * want:.1f} mm); "
+            f"planning again at a clearance of {1000 * clearance:.1f} mm for other events")
+    run.stage("regroup")
+    left = None if run.deadline is None else max(run.deadline - _time.perf_counter(), 1e-3)
+    t0 = _time.perf_counter()
+    inner = run.again(raised, run.allocation, replace(opts, regroup=False, time_limit=left), _Inner(run.say, run.tick))
+    info = {"status": "ran", "accepted": False, "margin_before": margin, "goal": want, "clearance": clearance,
+            "makespan_before": inc.makespan, "wall_seconds": _time.perf_counter() - t0}
+    if inner.error:
+        info["reason"] = f"the run at the raised clearance stopped: {inner.error}"
+        return info
+    ver = verify(problem, inner.plan)  # at the problem's own clearance
+    plan = finalize_plan(inner.plan, ver, run.n_reach)
+    if "lower_bound" in inc.plan.metrics:  # (the problem's bound, not the raised one's)
+        plan.metrics["lower_bound"] = inc.plan.metrics["lower_bound"]
+    got = ver.margin if ver.passed else None
+    info.update(verified=bool(ver.passed), makespan=plan.metrics["makespan"], margin=got,
+                stages=(inner.plan.solver or {}).get("stages"))
+    if inner.solver_status == SolverStatus.INTERRUPTED:  # (Ctrl-C: the whole run stops, the incumbent kept)
+        run.interrupted = True
+        info.update(status="interrupted", reason="interrupted (Ctrl-C)")
+        return info
+    why = ("refused by the verifier" if not ver.passed else
+           "it harvests less" if plan.metrics["harvested"] < inc.plan.metrics["harvested"] else
+           f"slower ({plan.metrics['makespan']:.4f} s against {inc.makespan:.4f} s)"
+           if plan.metrics["makespan"] > inc.makespan + 1e-9 else
+           f"no more room ({1000 * got:.1f} mm against {1000 * margin:.1f} mm)" if got <= margin + _MARGIN_TOL else None)
+    if why is not None:
+        info["reason"] = why
+        run.say(f"regroup: {why}; kept the incumbent")
+        return info
+    if plan.metrics["makespan"] < inc.makespan - 1e-9:  # faster too: an improvement like any other
+        inc.offer(plan, ver, "regroup", inner.candidate)
+    else:
+        inc.regrouped(plan, ver, inner.candidate)
+    info["accepted"] = True
+    run.say(f"regroup: other events keep {plan.metrics['makespan']:.4f} s with {1000 * got:.1f} mm "
+            f"(was {1000 * margin:.1f} mm)")
+    return info
