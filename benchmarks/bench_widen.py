@@ -85,7 +85,7 @@ def run(problem, folder: Path) -> dict:
         "optimality": m.get("optimality"), "margin_before": margin_before, "margin": margin_after,
         "jerk_before": jerk_before, "jerk": jerk_after, "widen_s": added, "regroup_s": regroup_s,
         "rest_s": timings.get("total", wall) - added - regroup_s,
-        "wall": wall, "verified": bool(ver.passed), "accepted": bool(w.get("accepted")) or bool(rg.get("accepted")),
+        "wall": wall, "verified": bool(ver.passed), "accepted": bool(w.get("accepted")),
         "regrouped": bool(rg.get("accepted")),
         "note": ("widened" if w.get("accepted") else (w.get("reason") or w.get("status") or "no neighbours"))
         + (f" ({w['room_note']})" if w.get("room_note") else "") + _regroup_note(rg),

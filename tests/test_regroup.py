@@ -4,6 +4,8 @@ verifier passes it at the problem's own clearance, no slower, harvesting as much
 
 from __future__ import annotations
 
+import time
+from dataclasses import replace
 from types import SimpleNamespace
 
 import pytest
@@ -11,8 +13,8 @@ import pytest
 from coplan.generate import overlap_problem, to_yaml
 from coplan.plan import EventKind
 from coplan.planners.optimal import OptimalOptions, plan_optimal
-from coplan.planners.optimal.regroup import ROOM_QUANTUM, regrouped
-from coplan.problem import parse_problem
+from coplan.planners.optimal.regroup import ROOM_QUANTUM, home_room, regrouped
+from coplan.problem import load_problem, parse_problem
 from coplan.verify import verify
 
 
@@ -44,6 +46,8 @@ def test_other_events_keep_the_makespan_with_the_room_the_widening_could_not_giv
     assert res.plan.metrics["makespan"] < rg["makespan_before"] - 1e-3
     assert res.plan.solver["incumbent_from"] == "regroup"
     assert res.plan.solver["incumbents"][-1]["source"] == "regroup"
+    assert res.plan.solver["moved_by"] is None  # (its own plan: not the widened one moved)
+    assert "incumbent from the regroup stage" in res.plan.solver["message"] and "moved by" not in res.plan.solver["message"]
     # the allocation returned is the plan's own (its events are the kept run's)
     picked = {e.fruit for e in res.plan.events if e.kind == EventKind.PICK}
     assert picked == {f for seq in res.allocation.assignment.values() for f in seq}
@@ -64,10 +68,12 @@ def test_a_plan_found_at_the_raised_clearance_that_is_slower_is_not_kept(s28):
 def test_the_stage_says_why_it_did_not_run():
     plan = SimpleNamespace(metrics={"makespan": 5.0})
     inc = SimpleNamespace(plan=plan, verification=SimpleNamespace(passed=True, margin=0.01), makespan=5.0)
+    crossing = load_problem("crossing_paths")
+    assert home_room(crossing) > 1.0  # (its arms at home: more than a metre apart beyond the clearance)
 
-    def run(opts, widen):
-        return SimpleNamespace(problem=None, opts=opts, inc=inc, reports={"widen": widen}, interrupted=False,
-                               in_time=lambda: True, again=plan_optimal)
+    def run(opts, widen, problem=crossing):
+        return SimpleNamespace(problem=problem, opts=opts, inc=inc, reports={"widen": widen}, interrupted=False,
+                               in_time=lambda: True, again=plan_optimal, deadline=None, t_start=0.0)
 
     widened = {"status": "solved", "accepted": True, "margin_before": 0.008}
     assert regrouped(run(OptimalOptions(regroup=False), widened))["reason"] == "the option regroup is false"
@@ -80,6 +86,15 @@ def test_the_stage_says_why_it_did_not_run():
     late = run(OptimalOptions(), widened)
     late.in_time = lambda: False
     assert regrouped(late)["reason"] == "the time limit came before the regroup stage"
+    # the arms at home, where every plan starts and ends, keep less room than the goal (16 mm)
+    close = replace(crossing, task=replace(crossing.task, clearance=crossing.task.clearance + home_room(crossing) - 0.012))
+    assert home_room(close) == pytest.approx(0.012)
+    home = regrouped(run(OptimalOptions(), widened, close))
+    assert home["status"] == "skipped" and home["reason"].startswith("the arms at home keep 12.0 mm")
+    # a time limit with less left than the solve so far took
+    short = run(OptimalOptions(), widened)
+    short.t_start, short.deadline = time.perf_counter() - 10.0, time.perf_counter() + 5.0
+    assert regrouped(short)["reason"].startswith("the time limit leaves 5.0 s, less than the solve so far took (10.0 s)")
     # 10 mm kept from 5 mm: doubled, the goal met
     done = regrouped(run(OptimalOptions(), widened | {"margin_before": 0.005}))
     assert done["status"] == "skipped" and "the widening's goal (10.0 mm)" in done["reason"]

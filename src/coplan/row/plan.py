@@ -140,7 +140,10 @@ def _cell_plan(cell: Problem, opts: RowOptions, drive: float | None = None) -> P
     if opts.planner == PlannerKind.OPTIMAL:
         from ..planners.optimal import OptimalOptions, plan_optimal
 
-        best = plan_optimal(cell, options=OptimalOptions(search_work=opts.cell_search_work, refine_retimes=20)).plan
+        # (no regroup: a stop's cell is judged by how long it holds the carriage, and a second solve
+        # per stop is beyond a row's planning time)
+        best = plan_optimal(cell, options=OptimalOptions(search_work=opts.cell_search_work, refine_retimes=20,
+                                                         regroup=False)).plan
         base = plan_coordinated(cell).plan
         if best.status == base.status and _stay(best) > _stay(base) + 1e-9:
             return base

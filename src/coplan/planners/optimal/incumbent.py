@@ -112,6 +112,6 @@ def stop_message(inc: Incumbent, stop: StopReason) -> str:
         StopReason.INTERRUPTED: "interrupted; the verified incumbent is saved",
     }
     source = {"coordinated": "the coordinated plan", "search": "the search", "refine": "the refinement",
-              "joint NLP": "the joint NLP"}.get(inc.source, inc.source)
+              "joint NLP": "the joint NLP", "regroup": "the regroup stage, planned at a raised clearance"}.get(inc.source, inc.source)
     moved = f", then moved by the {inc.moved_by} stage at its makespan" if inc.moved_by else ""
     return f"{words[stop]} (incumbent from {source}{moved})"
