@@ -53,6 +53,11 @@ def test_other_events_keep_the_makespan_with_the_room_the_widening_could_not_giv
     assert picked == {f for seq in res.allocation.assignment.values() for f in seq}
     # the inner run: the whole flow, this stage itself off in it
     assert [(s["stage"], s["result"]) for s in rg["stages"]][-2:] == [("widen", "accepted"), ("regroup", "skipped")]
+    text = _summary(s28, res)  # what `coplan solve` prints
+    assert (f"regrouped         margin {1000 * rg['margin_before']:.1f} -> {1000 * rg['margin']:.1f} mm, "
+            f"{rg['makespan_before']:.3f} -> {rg['makespan']:.3f} s: other events, planned at a clearance of "
+            f"{1000 * rg['clearance']:.1f} mm") in text
+    assert "incumbent from the regroup stage, planned at a raised clearance" in text and ", regroup " in text
 
 
 def test_a_plan_found_at_the_raised_clearance_that_is_slower_is_not_kept(s28):
@@ -63,6 +68,22 @@ def test_a_plan_found_at_the_raised_clearance_that_is_slower_is_not_kept(s28):
     assert res.plan.metrics["makespan"] == pytest.approx(rg["makespan_before"], abs=1e-9)
     assert res.plan.verification["margin"] == pytest.approx(rg["margin_before"], abs=1e-9)
     assert res.plan.solver["incumbent_from"] != "regroup" and res.verification.passed
+    text = _summary(s28, res)
+    assert f"not regrouped     planned again at a clearance of {1000 * rg['clearance']:.1f} mm: slower (" in text
+
+
+def _summary(problem, res) -> str:
+    """The summary `coplan solve` prints of ``res`` (a plan_optimal result)."""
+    import io
+
+    from rich.console import Console
+
+    from coplan.cli.summary import print_summary
+    from coplan.pipeline import SolveResult
+
+    buf = io.StringIO()
+    print_summary(Console(file=buf, width=400), SolveResult(problem=problem, plan=res.plan, verification=res.verification))
+    return buf.getvalue()
 
 
 def test_the_stage_says_why_it_did_not_run():

@@ -52,7 +52,7 @@ class SolveResult:
     ``timings`` (wall seconds) by planner: heuristic ``allocation``, ``plan``, ``verify``;
     coordinated ``plan`` (its one search: allocation candidates, each scheduled and coordinated)
     and ``verify``; optimal its stages (``baseline``: the heuristic's plan beside it,
-    ``coordinated``, ``retime``, ``search``, ``refine``, ``polish``, ``widen``, those that ran);
+    ``coordinated``, ``retime``, ``search``, ``refine``, ``polish``, ``widen``, ``regroup``, those that ran);
     a row ``reach``, ``stops_and_cells``, ``cells`` (summed over the stops: with workers more than
     the wall time), ``assemble``, ``planning``, ``verify``, ``bounds``. Every solve: ``total``,
     and ``write`` when it wrote files.
