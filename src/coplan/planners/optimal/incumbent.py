@@ -59,6 +59,7 @@ class Incumbent:
                 return False
         self.plan, self.verification, self.source = plan, verification, source
         self.candidate = candidate if candidate is not None else self.candidate
+        self.moved_by = None  # (a plan of its own: no stage has moved it yet)
         if equal:
             return True
         now = _time.perf_counter() - self.t_start
@@ -71,20 +72,15 @@ class Incumbent:
         self.say(f"incumbent {self.makespan:.3f} s ({source}){gap}")
         return True
 
-    def replace(self, plan: Plan, verification, stage: str) -> None:
+    def replace(self, plan: Plan, verification, stage: str, candidate: Coordinated | None = None) -> None:
         """Put ``plan`` (verified, checked by the caller: as fast, as much) in place of the
-        incumbent's plan; its source and schedules stay (it is the same plan, moved by
-        ``stage``, which ``moved_by`` and :func:`stop_message` name: the written plan is that one)."""
-        self.plan, self.verification = plan, verification
-        self.moved_by = stage  # (not in the history: no makespan came of it, and its readers group by source)
-
-    def regrouped(self, plan: Plan, verification, candidate: Coordinated | None) -> None:
-        """Put ``plan`` (verified, checked by the caller: as fast, as much, more room), planned on
-        other events (:mod:`coplan.planners.optimal.regroup`), and its schedules in place of the
-        incumbent's; its source stays (the stage that found the makespan), moved by ``regroup``."""
+        incumbent's plan; its source stays (the stage that found the makespan), and its
+        schedules unless ``candidate`` gives the plan's own (the regroup stage's: other events).
+        It is moved by ``stage``, which ``moved_by`` and :func:`stop_message` name: the written
+        plan is that one."""
         self.plan, self.verification = plan, verification
         self.candidate = candidate if candidate is not None else self.candidate
-        self.moved_by = "regroup"
+        self.moved_by = stage  # (not in the history: no makespan came of it, and its readers group by source)
 
 
 def time_to_ratio(history: list[dict], bound: float | None, ratios=(1.05, 1.02, 1.01)) -> dict[str, float | None]:

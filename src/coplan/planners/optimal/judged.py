@@ -18,7 +18,7 @@ from .incumbent import Incumbent
 from .nlp_data import any_interrupted
 from .options import OptimalOptions
 
-__all__ = ["widened"]
+__all__ = ["widened", "room_goal", "MARGIN_TOL"]
 
 _RETRY_ITERATIONS = 30  # fewer widening iterations left than this: no second program
 _LOOSE_TRACK = 1.0  # the last retry's hold on the start's poses (WidenOptions.track: 10)
@@ -76,7 +76,7 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     # (overlap-3x9-s25: free timing 10.7 mm certified, refused; held 84.1 mm)
     # (not when the first call solved that program already -- free timing did not settle -- it
     # would start from the same point and take the same steps, on fewer iterations)
-    want = min(2.0 * margin0, opts.widen_goal)
+    want = room_goal(margin0, opts.widen_goal)
     free = any(r["timing"] == "free" for r in info.get("rounds", ()))
     held = any(r["timing"] == "held" for r in info.get("rounds", ()))
     if (free and not held and not too_long and left() >= _RETRY_ITERATIONS and "room_note" not in info and in_time()
@@ -131,7 +131,13 @@ def _again(problem: Problem, inc: Incumbent, wopts, key: str, info: dict, best, 
 #: certified margins equal to the micrometre are no smaller: a held pose's certified clearance
 #: moves by 1e-8 m with the float noise of the motion around it (overlap-2x6-s28: 20.445996 ->
 #: 20.445976 mm, the same poses at the least room)
-_MARGIN_TOL = 1e-6
+MARGIN_TOL = 1e-6
+
+
+def room_goal(margin0: float, widen_goal: float) -> float:
+    """The room (m) the widening aims for from a certified margin of ``margin0``: twice it, at
+    most ``widen_goal`` (the regroup stage plans again where the widened plan falls short)."""
+    return min(2.0 * margin0, widen_goal)
 
 
 def _judged(problem: Problem, inc: Incumbent, res, info: dict, say):
@@ -158,7 +164,7 @@ def _judged(problem: Problem, inc: Incumbent, res, info: dict, say):
         why = "it harvests less"
     elif plan.metrics["makespan"] > inc.makespan + 1e-9:
         why = f"slower ({plan.metrics['makespan']:.4f} s against {inc.makespan:.4f} s)"
-    elif margin < margin0 - _MARGIN_TOL:
+    elif margin < margin0 - MARGIN_TOL:
         why = f"its certified margin {1000 * margin:.1f} mm is smaller than {1000 * margin0:.1f} mm"
     if why is not None:
         say(f"widen: {why}; kept the incumbent")

@@ -32,6 +32,7 @@ import numpy as np
 from ...plan import PlanStatus, finalize_plan
 from ...problem.model import Problem
 from ...progress import Tick
+from .judged import MARGIN_TOL, room_goal
 from .nlp_data import SolverStatus
 from .windows import min_clearance
 
@@ -40,8 +41,6 @@ __all__ = ["regrouped", "home_room", "ROOM_QUANTUM"]
 #: the clearance is raised by the shortfall rounded up to this (m): a plan's room to the
 #: micrometre would make the raised problem differ with the last bits of a CPU's floating point
 ROOM_QUANTUM = 1e-4
-
-_MARGIN_TOL = 1e-6  # (as the widening's judge: certified margins equal to the micrometre are no larger)
 
 
 def home_room(problem: Problem) -> float:
@@ -80,8 +79,8 @@ def regrouped(run) -> dict:
     if why is not None:
         return {"status": "skipped", "accepted": False, "reason": why}
     margin = float(inc.verification.margin)
-    want = min(2.0 * margin0, opts.widen_goal)
-    if margin >= want - _MARGIN_TOL:
+    want = room_goal(margin0, opts.widen_goal)
+    if margin >= want - MARGIN_TOL:
         return {"status": "skipped", "accepted": False, "margin": margin,
                 "reason": f"the plan keeps {1000 * margin:.1f} mm, the widening's goal ({1000 * want:.1f} mm)"}
     home = home_room(problem)
@@ -130,7 +129,7 @@ def regrouped(run) -> dict:
            "it harvests less" if plan.metrics["harvested"] < inc.plan.metrics["harvested"] else
            f"slower ({plan.metrics['makespan']:.4f} s against {inc.makespan:.4f} s)"
            if plan.metrics["makespan"] > inc.makespan + 1e-9 else
-           f"no more room ({1000 * got:.1f} mm against {1000 * margin:.1f} mm)" if got <= margin + _MARGIN_TOL else None)
+           f"no more room ({1000 * got:.1f} mm against {1000 * margin:.1f} mm)" if got <= margin + MARGIN_TOL else None)
     if why is not None:
         info["reason"] = why
         run.say(f"regroup: {why}; kept the incumbent")
@@ -140,9 +139,8 @@ def regrouped(run) -> dict:
         if not inc.offer(plan, ver, "regroup", inner.candidate):
             info["reason"] = "the incumbent refused it"
             return info
-        inc.moved_by = None
     else:
-        inc.regrouped(plan, ver, inner.candidate)
+        inc.replace(plan, ver, "regroup", inner.candidate)
     info["accepted"] = True
     run.say(f"regroup: other events keep {plan.metrics['makespan']:.4f} s with {1000 * got:.1f} mm "
             f"(was {1000 * margin:.1f} mm)")
