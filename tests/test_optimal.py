@@ -310,8 +310,10 @@ def test_ipopt_opt_in_working_directory_is_ignored(tmp_path, monkeypatch, crossi
     from coplan.planners.optimal.planner import nlp_plan
 
     cand = plan_coordinated(crossing, "makespan", CoordinatedOptions(), lambda m: None).candidate
-    plan, info, status = nlp_plan(crossing, cand.alloc, cand.schedules)
-    assert status.converged and info["iterations"] > 1
+    # (a budget of 40 iterations, checked before each solve: one solve, which converges -- the
+    # file's max_iter 1 would have stopped it after one -- without the rounds after it)
+    plan, info, status = nlp_plan(crossing, cand.alloc, cand.schedules, iterations=40)
+    assert status.converged and info["windows"] == 1 and info["iterations"] > 1
     assert plan.status == PlanStatus.UNVERIFIED
 
 
