@@ -202,8 +202,9 @@ def test_a_spent_budget_leaves_fruit_out_with_the_reason_never_hangs():
 
     p = tight_problem()
 
-    def run(pairs):
-        res = plan_coordinated(p, options=CoordinatedOptions(budget_checks=1, attempt_checks=1, checks_per_fruit=0, serial_pairs=pairs))
+    def run(pairs, time_limit=None):
+        res = plan_coordinated(p, options=CoordinatedOptions(budget_checks=1, attempt_checks=1, checks_per_fruit=0, serial_pairs=pairs,
+                                                             time_limit=time_limit))
         return res, [t for t in res.tried if t.get("fallback") == "serial"]
 
     res, fell = run(8_000_000)  # 2 million per attempt: enough
@@ -228,6 +229,14 @@ def test_a_spent_budget_leaves_fruit_out_with_the_reason_never_hangs():
     moving = [[(s.t0, s.t1) for s in sch.steps if s.kind.value != "wait"] for sch in last.schedules.values()]
     for a, b in itertools.combinations(moving, 2):  # still one arm at a time
         assert all(e1 <= s2 + 1e-9 or e2 <= s1 + 1e-9 for s1, e1 in a for s2, e2 in b)
+
+    # a clock limit stops taking turns inside its attempt too, not only between attempts (on
+    # cell_problem(106), `--time-limit 5` ran an attempt of 35 s): past it, the last resort at once
+    res, fell = run(8_000_000, time_limit=0.0)
+    assert [t["feasible"] for t in fell] == [False] and "before the time limit" in fell[0]["reason"]
+    assert fell[0]["pairs"] < 50_000  # (the budget that let the first run above succeed: 2 million)
+    assert res.plan.solver["fallback"] == "one_at_a_time" and res.candidate.variant == "one_at_a_time"
+    assert res.plan.status.value == "success" and res.verification.passed and res.plan.metrics["harvested"] == 25
 
 
 def test_one_arm_at_a_time_is_the_sum_of_the_arms_alone_and_verified():

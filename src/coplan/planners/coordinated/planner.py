@@ -299,7 +299,8 @@ def _fallback(problem, method, opts, bound, say, tried, deadline: float | None =
     while True:
         try:
             sched = serial_schedules(problem, decoupled_schedules(problem, alloc), opts.margin,
-                                     max_pairs=min(opts.serial_pairs // 4, opts.serial_pairs - work.get("pairs", 0)), work=work)
+                                     max_pairs=min(opts.serial_pairs // 4, opts.serial_pairs - work.get("pairs", 0)), work=work,
+                                     deadline=deadline)
             break
         except ConflictError as e:
             tried.append({"fallback": "serial", "feasible": False, "reason": str(e), "fruit": e.fruit,

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import bisect
 import itertools
+import time as _time
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -91,13 +92,17 @@ class _Serial(ArmGeometry):
         self.speed = [(a.links[0] + a.links[1]) * a.max_velocity[0] + a.links[1] * a.max_velocity[1] for a in problem.arms]
         self.tables, self._units, self._paths, self._tests, self._hit_memo = {}, {}, {}, {}, {}
         self.pairs, self.max_pairs = 0, None  # work: pose pairs tested (``max_pairs``: the budget)
+        self.deadline = None  # a clock limit (perf_counter), only where the caller has one
 
     def spend(self, n: int) -> None:
         """Count ``n`` pose-pair tests; past the budget, taking turns gives up (a work budget,
-        the same on any machine, so one hard layout cannot hold the planner for hours)."""
+        the same on any machine, so one hard layout cannot hold the planner for hours); past
+        the caller's clock limit too, where it has one (then the plan depends on the clock)."""
         self.pairs += int(n)
         if self.max_pairs is not None and self.pairs > self.max_pairs:
             raise BudgetSpent(f"taking turns found no schedule within its work budget ({self.max_pairs:,} pose-pair tests)")
+        if self.deadline is not None and _time.perf_counter() > self.deadline:
+            raise BudgetSpent(f"taking turns found no schedule before the time limit ({self.pairs:,} pose-pair tests)")
 
     # ---- static tests
     def hits(self, i: int, A: _Sweep, j: int, B: _Sweep, first: bool = False) -> np.ndarray:
@@ -436,7 +441,7 @@ class _Serial(ArmGeometry):
 
 def serial_schedules(problem: Problem, schedules: dict[str, ArmSchedule], margin: float, rate: float = 200.0,
                      min_wait: float = 0.05, quantum: float = 0.05, max_pairs: int | None = None,
-                     work: dict | None = None) -> dict[str, ArmSchedule]:
+                     work: dict | None = None, deadline: float | None = None) -> dict[str, ArmSchedule]:
     """Conflict-free schedules doing the work of ``schedules`` (e.g. from
     :func:`coplan.planners.coordinated.schedule.decoupled_schedules`): the same picks and places (fruit, pose, dwell,
     order), each arm's steps contiguous from t = 0 at home, S-curve moves from the previous pose,
@@ -446,10 +451,11 @@ def serial_schedules(problem: Problem, schedules: dict[str, ArmSchedule], margin
     Raises :class:`~coplan.planners.coordinated.schedule.ConflictError`, naming the arms and the reason, when a leg
     cannot run with a neighbour at any candidate rest pose (or the neighbour cannot get there),
     or when more than ``max_pairs`` pose pairs have been tested (the work budget; ``work``, a
-    dict, has its ``"pairs"`` entry increased by the pairs tested).
+    dict, has its ``"pairs"`` entry increased by the pairs tested), or once ``deadline`` (a
+    :func:`time.perf_counter` value: a caller's clock limit) has passed.
     """
     geo, best, err = _Serial(problem, margin, rate, min_wait, quantum), None, None
-    geo.max_pairs = max_pairs  # over all policies
+    geo.max_pairs, geo.deadline = max_pairs, deadline  # over all policies
     try:
         for scopes in _POLICIES:
             try:
