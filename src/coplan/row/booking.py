@@ -417,13 +417,16 @@ class Booker:
         reach = max([k0 + 1] + [self.arms[j].k_free + 1 for j in self.neighbours[i]])
         resting = {}  # pose -> (reach - k0 + 1,) its hits from k0 to reach
         for _ in range(int(60.0 / RETRY)):
-            ts = np.arange(k0, k_s + n + 1) * self.dt
-            q = np.where((ts < k_s * self.dt)[:, None], q0, leg.sample(np.maximum(ts - k_s * self.dt, 0.0)))
+            # at rest at q0 before sample k_s, the move from it (sampled only there: a try
+            # sampled the whole wait again, which grew with every try)
+            move = leg.sample(np.arange(k_s, k_s + n + 1) * self.dt - k_s * self.dt)
+            q = np.concatenate([np.repeat(q0[None, :], k_s - k0, axis=0), move])
             q[-1] = target
             if self.moves_after_halt(i, k0, q):
                 return False  # (its fault came first: it stays where it rests)
-            if (not self._rest_hit(i, q0, k0, reach, resting, k0, k_s)
-                    and not self._hits(i, k_s, q[k_s - k0:], first=True).any()
+            if self._rest_hit(i, q0, k0, reach, resting, k0, k_s):
+                return False  # (resting at q0 comes too close before this start: before any later start too)
+            if (not self._hits(i, k_s, q[k_s - k0:], first=True).any()
                     and not self._rest_hit(i, target, k0, reach, resting, k_s + n + 1, reach)):
                 self.commit(Cycle(i, "", k0, q, []))
                 return True
