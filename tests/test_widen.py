@@ -398,3 +398,29 @@ def test_an_eased_plan_past_the_knot_limit_is_tried_from_the_plan_s_own_schedule
     assert w.get("too_long") and w["knots_uneased"] <= 221 < w["knots"]
     assert "uneased" in w and "retry" not in w and "loose" not in w  # (only the retry that can fit)
     assert w["uneased"]["status"] == "solved" and w["accepted"] and res.verification.passed
+
+
+def test_a_clock_limit_that_stops_the_program_is_reported_as_the_time_limit_not_as_ipopt_failing():
+    """``coplan solve crossing_paths --time-limit 24`` said "not widened: IPOPT did not converge"
+    where the clock had stopped the program before its first iteration (a new user's trial):
+    the report says the time limit, with the iterations IPOPT made; the summary prints it."""
+    import io
+    import time
+
+    from rich.console import Console
+
+    from coplan.cli.summary import print_summary
+    from coplan.pipeline import SolveResult
+
+    prob = _shipped("crossing_paths")
+    c = plan_coordinated(prob)
+    cand = c.candidate
+    mk = max(s.last_place for s in cand.schedules.values())
+    res = widen(prob, cand.alloc, cand.schedules, mk, WidenOptions(), deadline=time.perf_counter())
+    assert res.plan is None and res.info["status"] == "time_limit" and res.info["iterations"] == 0
+    assert res.info["reason"] == "the time limit came during the widening stage (IPOPT stopped after 0 iterations)"
+    plan = c.plan
+    plan.solver["widen"] = dict(res.info, accepted=False)
+    buf = io.StringIO()
+    print_summary(Console(file=buf, width=200), SolveResult(problem=prob, plan=plan, verification=c.verification))
+    assert "not widened       the time limit came during the widening stage" in buf.getvalue()

@@ -378,8 +378,14 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
         if attempt == 0:
             say("widen: IPOPT did not settle with free timing; solving again with every knot time held")
     if sol is None:
-        info.update(status="failed", reason="interrupted (Ctrl-C)" if any_interrupted(info["rounds"]) else "IPOPT did not converge",
-                    iterations=sum(r["iterations"] for r in info["rounds"]), wall_seconds=_time.perf_counter() - t0)
+        its = sum(r["iterations"] for r in info["rounds"])
+        if any_interrupted(info["rounds"]):
+            status, why = "failed", "interrupted (Ctrl-C)"
+        elif deadline is not None and _time.perf_counter() >= deadline:  # (the clock, not IPOPT: say so)
+            status, why = "time_limit", f"the time limit came during the widening stage (IPOPT stopped after {its} iterations)"
+        else:
+            status, why = "failed", "IPOPT did not converge"
+        info.update(status=status, reason=why, iterations=its, wall_seconds=_time.perf_counter() - t0)
         return WidenResult(None, info)
     room = sol.room  # type: ignore[attr-defined]
     sol = exact_dynamics(sol, pinned_knots(schedules, grid, free_idle))
