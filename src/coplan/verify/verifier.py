@@ -474,7 +474,8 @@ def _check_stated(problem: Problem, plan: Plan, ver: Verification) -> None:
                                                  3.0 * plan.dt if ver.inferred_events is not None else 0.0)
     if ver.stated_figures:
         ver.warnings.append(Finding(WarningKind.STATED_FIGURES, (), None, message=(
-            "the plan file's own figures are not its motion's (the verdict is the motion's): " + "; ".join(
+            "the plan file's own figures are not what the verifier finds (its events, each borne out by its motion, "
+            "and the motion's end; the verdict is the verifier's): " + "; ".join(
                 f"{k} {v['stated']:g} stated, {v['measured']:g} measured" for k, v in ver.stated_figures.items()))))
 
 
