@@ -961,3 +961,106 @@ def test_an_option_misspelt_in_python_gets_the_did_you_mean_an_options_file_gets
     keyword argument', where an options file's misspelt key gets a did-you-mean.)"""
     with pytest.raises(OptionsError, match=re.escape(words)):
         cls(**kw)
+
+
+# ---------------------------------------------------------------- a Python user's mistakes (a new user's trial)
+def test_segment_distances_take_planar_points_only_and_radii_of_at_least_zero():
+    """3-D points lost their third coordinate without a word (two segments 1 m apart were 0 m
+    apart); one number gave an IndexError; a negative radius was taken."""
+    from coplan.kinematics.geometry import capsule_distance, segment_distance
+
+    with pytest.raises(ValueError, match=r"segment_distance: p1: expected points of shape \(\.\.\., 2\).*found shape \(3,\)"):
+        segment_distance([0, 0, 0], [1, 0, 0], [0, 0, 1], [1, 0, 1])
+    with pytest.raises(ValueError, match=r"found shape \(1,\)"):
+        segment_distance([0], [1], [0], [1])
+    with pytest.raises(ValueError, match=r"capsule_distance: ra: expected a radius \(m\) of at least 0, found -0.1"):
+        capsule_distance([0, 0], [1, 0], -0.1, [0, 1], [1, 1], 0.1)
+    assert float(capsule_distance([0, 0], [1, 0], 0.1, [0, 1], [1, 1], 0.1)) == pytest.approx(0.8)  # (the analytic answer)
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: __import__("coplan.kinematics", fromlist=["SCurve"]).SCurve.between([0, 0], [1, 1], [-1, 1], [1, 1], [1, 1]),
+     r"SCurve.between: expected finite poses and limits > 0"),
+    (lambda: __import__("coplan.kinematics", fromlist=["SCurve"]).SCurve.between(0, 1, 1, 1, 1),
+     r"SCurve.between: expected q0, q1, vmax, amax and jmax as sequences of numbers"),
+    (lambda: __import__("coplan.kinematics.arm", fromlist=["ik_one"]).ik_one(1.0, 0.5, (1.0,), (0, 0), None, 0),
+     r"ik_one: expected links \(l1, l2\) and base \(x, y\)"),
+    (lambda: __import__("coplan.kinematics.arm", fromlist=["ik_one"]).ik_one(1.0, 0.5, (1.0, 1.0), (0, 0), [-1, 1], 0),
+     r"ik_one: joint_limits: expected \(\(t1_min, t1_max\), \(t2_min, t2_max\)\)"),
+    (lambda: __import__("coplan.kinematics.arm", fromlist=["singularity_proximity"]).singularity_proximity([0.1, 0.2], (1.0,)),
+     r"singularity_proximity: links: expected \(l1, l2\) in m"),
+    (lambda: __import__("coplan.kinematics.timing", fromlist=["cubic_eval"]).cubic_eval(0, 1, 0.0, 0.5),
+     r"cubic_eval: expected q0 and q1 of shape \(2,\)"),
+    (lambda: __import__("coplan.kinematics.timing", fromlist=["cubic_min_time"]).cubic_min_time(1.0, -1, 1),
+     r"cubic_min_time: expected finite steps and limits > 0"),
+])
+def test_kinematics_and_timing_functions_say_what_they_expected(call, match):
+    """Each gave an internal error (math domain error, IndexError, "'int' object is not
+    iterable") or, for a negative speed limit, a duration."""
+    with pytest.raises(ValueError, match=match):
+        call()
+
+
+def test_an_scurve_at_nan_times_is_refused_and_the_cubic_takes_one_time():
+    from coplan.kinematics import SCurve
+    from coplan.kinematics.timing import cubic_eval
+
+    s = SCurve.between([0, 0], [1, 1], [1, 1], [1, 1], [1, 1])
+    with pytest.raises(ValueError, match=r"SCurve.derivatives: t: expected finite times"):
+        s.derivatives([math.nan])  # (gave the start's state)
+    q = cubic_eval([0.0, 0.0], [1.0, 2.0], 1.0, 0.5)  # (one time: the cubic's middle, half way)
+    assert q.shape == (1, 2) and q[0].tolist() == pytest.approx([0.5, 1.0])
+
+
+def test_generators_refuse_a_seed_of_none_and_a_height_range_of_one_number():
+    from coplan.generate import overlap_problem, row_problem
+
+    for fn, kw in ((gantry_row, dict(length=6)), (row_problem, dict(n_arms=2, n_fruits=5)), (overlap_problem, {})):
+        with pytest.raises(ValueError, match=rf"{fn.__name__}: seed: expected a whole number from 0 to 4294967295, found None"):
+            fn(seed=None, **kw)  # (drew another problem at every call, named ...-seedNone)
+        with pytest.raises(ValueError, match=rf"{fn.__name__}: y_range: expected \(low, high\), two finite numbers with low < high, found 1.0"):
+            fn(y_range=1.0, **kw)
+    assert gantry_row(length=6, seed=1) == gantry_row(length=6, seed=1)  # (deterministic in its arguments)
+
+
+def test_an_arm_name_with_spaces_around_it_is_refused_in_python_as_a_file_strips_it(greenhouse):
+    """``' left '`` beside ``left`` was planned as a second arm; a file's names are stripped."""
+    a1 = dataclasses.replace(greenhouse.arms[1], name=f" {greenhouse.arms[0].name} ")
+    with pytest.raises(ProblemError, match=r"arms\[1\]\.name: expected a name with no spaces around it .*found ' left '"):
+        dataclasses.replace(greenhouse, arms=(greenhouse.arms[0], a1, greenhouse.arms[2]))
+
+
+def test_run_sweep_checks_its_arguments_before_any_work(tmp_path):
+    """A path gave "'str' object has no attribute 'name'", workers 0 ran on the default and a
+    time limit of -1 wrote a 'bad input' row per problem; a path is now loaded."""
+    from coplan.sweep.run import run_sweep
+    from coplan.sweep.spec import load_sweep
+
+    f = tmp_path / "sweep.yaml"
+    f.write_text("name: s\nbase: random\nvary:\n  seed: [0]\nplanner: coordinated\n")
+    spec = load_sweep(f)
+    with pytest.raises(TypeError, match=r"run_sweep\(\): spec: expected a SweepSpec .* or a sweep file's path, found int"):
+        run_sweep(3, tmp_path / "o")
+    with pytest.raises(ValueError, match=r"run_sweep\(\): workers: expected a whole number of processes from 1 to 256, or auto; found number 0"):
+        run_sweep(spec, tmp_path / "o", workers=0)
+    with pytest.raises(ValueError, match=r"run_sweep\(\): time_limit: expected a positive, finite number of seconds"):
+        run_sweep(spec, tmp_path / "o", time_limit=-1)
+    assert not (tmp_path / "o").exists()  # (nothing written)
+
+
+def test_plotting_and_export_mistakes_say_what_was_expected(cell, tmp_path):
+    from coplan.planners.coordinated import plan_coordinated
+    from coplan.report.export import export_plan
+    from coplan.viz.animate import render_frame
+    from coplan.viz.plots import plot_joints, plot_workspace
+
+    plan = plan_coordinated(cell).plan
+    with pytest.raises(TypeError, match=r"plot_joints: plan: expected one Plan .* found a mapping of 1 \(opt\)"):
+        plot_joints(cell, {"opt": plan})
+    with pytest.raises(ValueError, match=r"render_frame: t: expected a plan time in s"):
+        render_frame(cell, plan, "1")
+    with pytest.raises(ValueError, match=r"plot_workspace: arm: expected one of the problem's arms"):
+        plot_workspace(cell, "lft")
+    with pytest.raises(ValueError, match=r"out: expected a folder for json .* found the file name"):
+        export_plan(plan, 100, "json", tmp_path / "ex.json")
+    assert not (tmp_path / "ex.json").exists()

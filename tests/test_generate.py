@@ -189,7 +189,7 @@ def test_gantry_row_moves_its_fruit_with_the_rail_and_refuses_what_it_cannot_dra
     assert longer.gantry.end == 35.0 and max(f.position[0] for f in longer.fruits) <= 30.0
     with pytest.raises(ValueError, match=r"gantry end: expected at least start \+ length = 70 \(the fruit lie along length m from start\), found 30"):
         gantry_row(gantry={"start": 20, "end": 30})
-    with pytest.raises(ValueError, match=r"y_range: expected \(low, high\) with low < high, found \(1.5, 0.5\)"):
+    with pytest.raises(ValueError, match=r"gantry_row: y_range: expected \(low, high\), two finite numbers with low < high, found \(1.5, 0.5\)"):
         gantry_row(y_range=(1.5, 0.5))
     narrow = parse_problem(to_yaml(gantry_row(length=5, density=4, seed=2, y_range=(0.9, 1.0))))
     assert all(0.9 <= f.position[1] <= 1.0 for f in narrow.fruits)

@@ -247,8 +247,12 @@ def ik_one(x: float, y: float, links, base, joint_limits, branch: int, tol: floa
     ``joint_limits``: ``((t1_min, t1_max), (t2_min, t2_max))`` or None."""
     if branch not in (0, 1):  # (5 was taken as elbow-down)
         raise ValueError(f"ik_one: branch: expected 0 (sin t2 >= 0) or 1 (sin t2 <= 0), found {branch!r}")
-    l1, l2 = float(links[0]), float(links[1])
-    px, py = float(x) - float(base[0]), float(y) - float(base[1])
+    try:
+        l1, l2, bx, by = float(links[0]), float(links[1]), float(base[0]), float(base[1])
+    except (IndexError, TypeError, ValueError):  # (one link gave "tuple index out of range")
+        raise ValueError(f"ik_one: expected links (l1, l2) and base (x, y), two numbers each, found {links!r:.60} and "
+                         f"{base!r:.60}") from None
+    px, py = float(x) - bx, float(y) - by
     r2 = px * px + py * py
     r = math.sqrt(r2)
     if not (abs(l1 - l2) - tol <= r <= l1 + l2 + tol):
@@ -262,7 +266,11 @@ def ik_one(x: float, y: float, links, base, joint_limits, branch: int, tol: floa
     if t1 == -math.pi:
         t1 = math.pi
     if joint_limits is not None:
-        (lo1, hi1), (lo2, hi2) = joint_limits
+        try:
+            (lo1, hi1), (lo2, hi2) = joint_limits
+        except (TypeError, ValueError):  # ([-1, 1]: "cannot unpack non-iterable int object")
+            raise ValueError(f"ik_one: joint_limits: expected ((t1_min, t1_max), (t2_min, t2_max)) in rad or None, "
+                             f"found {joint_limits!r:.80}") from None
         t2, t1 = _within(t2, lo2, hi2), _within(t1, lo1, hi1)
         if math.isnan(t1) or math.isnan(t2):
             return math.nan, math.nan
@@ -335,7 +343,7 @@ def manipulability(q: Any, links):
 
 def singularity_proximity(q, links) -> np.ndarray:
     """How close to singular, in [0, 1]: 1 at a singular pose (t2 = 0 or pi), 0 at the best one."""
-    l1, l2 = float(links[0]), float(links[1])
+    l1, l2 = _pair(links, "singularity_proximity", "links", "(l1, l2) in m")
     return 1.0 - np.asarray(manipulability(np.asarray(q, dtype=float), links)) / (l1 * l2)
 
 

@@ -64,6 +64,18 @@ def segment_distance_xy(ax, ay, bx, by, cx, cy, dx, dy):
     return np.where(crossing, 0.0, np.sqrt(d2))  # (the root of the least square: the least root)
 
 
+def _points(x, name: str) -> np.ndarray:
+    """``x`` as floats of shape (..., 2), or a ValueError saying what was found (3-D points lost
+    their third coordinate without a word; one number gave an IndexError)."""
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"segment_distance: {name}: expected points of shape (..., 2), found {type(x).__name__} {x!r:.80}") from None
+    if a.ndim == 0 or a.shape[-1] != 2:
+        raise ValueError(f"segment_distance: {name}: expected points of shape (..., 2) (planar: x, y), found shape {a.shape}")
+    return a
+
+
 def segment_distance(p1, p2, q1, q2, return_points: bool = False):
     """Least distance between segments p1-p2 and q1-q2 (all arrays (..., 2), broadcast):
     :func:`segment_distance_xy` on point arrays.
@@ -73,7 +85,7 @@ def segment_distance(p1, p2, q1, q2, return_points: bool = False):
     d : array (...)
     (optionally) pa, pb : closest points (..., 2) on each segment
     """
-    p1, p2, q1, q2 = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (p1, p2, q1, q2)))
+    p1, p2, q1, q2 = np.broadcast_arrays(*(_points(x, n) for x, n in zip((p1, p2, q1, q2), ("p1", "p2", "q1", "q2"))))
     xy = (p1[..., 0], p1[..., 1], p2[..., 0], p2[..., 1], q1[..., 0], q1[..., 1], q2[..., 0], q2[..., 1])
     if not return_points:
         return np.asarray(segment_distance_xy(*xy))
@@ -97,5 +109,15 @@ def segment_distance(p1, p2, q1, q2, return_points: bool = False):
 
 
 def capsule_distance(p1, p2, ra, q1, q2, rb):
-    """Signed distance between capsules (segment p1-p2, radius ra) and (q1-q2, rb)."""
-    return segment_distance(p1, p2, q1, q2) - (ra + rb)
+    """Signed distance between capsules (segment p1-p2, radius ra) and (q1-q2, rb); the radii
+    are numbers (or arrays) at least 0."""
+    radii = []
+    for r, name in ((ra, "ra"), (rb, "rb")):
+        try:
+            v = np.asarray(r, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"capsule_distance: {name}: expected a radius (m) of at least 0, found {r!r:.80}") from None
+        if not np.all(np.isfinite(v)) or np.any(v < 0):
+            raise ValueError(f"capsule_distance: {name}: expected a radius (m) of at least 0, found {r!r:.80}")
+        radii.append(v)
+    return segment_distance(p1, p2, q1, q2) - (radii[0] + radii[1])

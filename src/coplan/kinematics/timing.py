@@ -39,6 +39,9 @@ def cubic_min_time(dq, vmax, amax) -> float:
     d = np.abs(np.asarray(dq, dtype=float))
     v = np.asarray(vmax, dtype=float)
     a = np.asarray(amax, dtype=float)
+    if not (np.all(np.isfinite(d)) and np.all(np.isfinite(v)) and np.all(np.isfinite(a)) and np.all(v > 0) and np.all(a > 0)):
+        raise ValueError(f"cubic_min_time: expected finite steps and limits > 0, found dq {dq!r:.60}, vmax {vmax!r:.60}, "
+                         f"amax {amax!r:.60}")
     t = np.maximum(1.5 * d / v, np.sqrt(6.0 * d / a))
     return float(np.max(t)) if t.size else 0.0
 
@@ -46,6 +49,11 @@ def cubic_min_time(dq, vmax, amax) -> float:
 def cubic_eval(q0, q1, T: float, t):
     """Course cubic from ``q0`` to ``q1`` over ``T`` seconds at times ``t`` (K,) -> (K, 2)."""
     q0, q1 = np.asarray(q0, float), np.asarray(q1, float)
+    if q0.shape != (2,) or q1.shape != (2,):  # (one number gave "invalid index to scalar variable")
+        raise ValueError(f"cubic_eval: expected q0 and q1 of shape (2,), the two joints, found {q0.shape} and {q1.shape}")
+    if not (math.isfinite(float(T)) and float(T) >= 0):
+        raise ValueError(f"cubic_eval: T: expected a duration >= 0 in s, found {T!r}")
+    t = np.atleast_1d(np.asarray(t, float))
     tau = np.clip(np.asarray(t, float) / T, 0.0, 1.0) if T > 0 else np.ones_like(np.asarray(t, float))
     s = 3 * tau**2 - 2 * tau**3
     return q0 + s[:, None] * (q1 - q0)
@@ -150,15 +158,24 @@ class SCurve:
     def between(cls, q0, q1, vmax, amax, jmax) -> "SCurve":
         """The time-optimal synchronised move from rest at q0 to rest at q1 (remembered: the
         planners ask for the same moves many times; an SCurve is immutable)."""
-        args = [tuple(float(x) for x in v) for v in (q0, q1, vmax, amax, jmax)]
+        try:
+            args = [tuple(float(x) for x in v) for v in (q0, q1, vmax, amax, jmax)]
+        except (TypeError, ValueError):  # ("'int' object is not iterable")
+            raise ValueError(f"SCurve.between: expected q0, q1, vmax, amax and jmax as sequences of numbers, one per "
+                             f"joint, found {q0!r:.40}, {q1!r:.40}, {vmax!r:.40}, {amax!r:.40}, {jmax!r:.40}") from None
         if len({len(v) for v in args}) != 1:  # (3 joints against 2 were cut to 2)
             raise ValueError(f"SCurve.between: expected one value per joint in q0, q1 and each limit, found "
                              f"{', '.join(str(len(v)) for v in args)}")
+        if not all(math.isfinite(x) for v in args for x in v) or not all(x > 0 for v in args[2:] for x in v):
+            raise ValueError(f"SCurve.between: expected finite poses and limits > 0, found q0 {args[0]}, q1 {args[1]}, "
+                             f"vmax {args[2]}, amax {args[3]}, jmax {args[4]}")  # (a limit of -1: 'math domain error')
         return _between(*args)
 
     def derivatives(self, t):
         """Joint (pos, vel, acc, jerk), each (K, 2), at times ``t`` (K,) from the move's start."""
         t = np.asarray(t, float)
+        if not np.all(np.isfinite(t)):  # (NaN gave the start's state)
+            raise ValueError(f"SCurve.derivatives: t: expected finite times in s, found {t!r:.80}")
         out = np.zeros((4, t.size, 2))
         for i, (durs, jerks) in enumerate(self.profiles):
             d = self.q1[i] - self.q0[i]

@@ -51,6 +51,9 @@ def _names(items: Iterable, attr: str, where: str, out: list[Issue]) -> None:
         name = getattr(it, attr, None)
         if not isinstance(name, str) or not name.strip():  # (as a file's: blank is empty)
             out.append(Issue(f"{where}[{i}].{attr}", f"expected a non-empty string, found {_kind(name)}"))
+        elif name != name.strip():  # (a file's are stripped: ' left ' beside 'left' was planned as a second arm)
+            out.append(Issue(f"{where}[{i}].{attr}", f"expected {'an' if attr[0] in 'aeiou' else 'a'} {attr} with no spaces around it (a problem file's are "
+                                                     f"stripped: {name.strip()!r}), found {name!r}"))
         elif name in seen:
             out.append(Issue(f"{where}[{i}].{attr}", f"expected a unique {attr}, found {name!r} again ({where}[{seen[name]}])"))
         else:

@@ -77,12 +77,13 @@ def _finite(**values: Any) -> None:
 def _whole(what: str, **values: Any) -> None:
     """ValueError naming the first count or seed that is not a whole number in its range:
     ``seed`` 0 to 2**32 - 1 (NumPy's seeds), ``n_arms`` 1 to MAX_ARMS, ``n_fruits`` 0 to
-    MAX_FRUITS (a problem file's limits), ``max_tries`` >= 1; None passes (drawn)."""
+    MAX_FRUITS (a problem file's limits), ``max_tries`` >= 1; None passes (drawn), but for ``seed``:
+    every problem is drawn from its seed."""
     from .model import MAX_ARMS, MAX_FRUITS
 
     ranges = {"seed": (0, 2**32 - 1), "n_arms": (1, MAX_ARMS), "n_fruits": (0, MAX_FRUITS), "max_tries": (1, 10**6)}
     for k, v in values.items():
-        if v is None:
+        if v is None and k != "seed":  # (a seed of None drew another problem at every call)
             continue
         lo, hi = ranges[k]
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
@@ -96,6 +97,15 @@ def _pair(what: str, **values: Any) -> None:
         if len(xs) != 2 or not all(isinstance(x, (int, float, np.number)) and not isinstance(x, bool)
                                    and math.isfinite(x) and x > 0 for x in xs):
             raise ValueError(f"{what}: {k}: expected two positive finite numbers, found {v!r}")
+
+
+def _low_high(what: str, name: str, v: Any) -> None:
+    """ValueError unless ``v`` is (low, high), two finite numbers with low < high (one number
+    gave "'float' object is not subscriptable" or "has no len()")."""
+    xs = list(np.ravel(np.asarray(v, dtype=object)))
+    if (len(xs) != 2 or not all(isinstance(x, (int, float, np.number)) and not isinstance(x, bool) and math.isfinite(x) for x in xs)
+            or not xs[0] < xs[1]):
+        raise ValueError(f"{what}: {name}: expected (low, high), two finite numbers with low < high, found {v!r}")
 
 
 def _fruit_ids(n: int) -> list[str]:
@@ -167,6 +177,7 @@ def row_problem(
     the row has no holes. Deterministic in ``seed``.
     """
     _whole("row_problem", n_arms=n_arms, n_fruits=n_fruits, seed=seed)
+    _low_high("row_problem", "y_range", y_range)
     if n_arms is None or n_fruits is None:
         raise ValueError(f"row_problem: expected n_arms and n_fruits, found {n_arms!r} and {n_fruits!r}")
     _pair("row_problem", links=links)
@@ -218,6 +229,7 @@ def overlap_problem(
     drawn again. Limits and task are the course cell's (:data:`LESSON_DEFAULTS`, :data:`LESSON_TASK`).
     """
     _whole("overlap_problem", n_arms=n_arms, n_fruits=n_fruits, seed=seed)
+    _low_high("overlap_problem", "y_range", y_range)
     if n_arms is None or n_arms < 2 or n_fruits is None:
         raise ValueError(f"overlap_problem: expected at least 2 arms for overlap zones and a fruit count, found {n_arms!r} and {n_fruits!r}")
     rng = np.random.default_rng(seed)
@@ -297,6 +309,7 @@ def gantry_row(
     Deterministic in its arguments.
     """
     _whole("gantry_row", n_arms=n_arms, seed=seed)
+    _low_high("gantry_row", "y_range", y_range)
     _finite(length=length, density=density, spacing=spacing, y_range=y_range)
     if length <= 0 or n_arms < 1 or density < 0:
         raise ValueError(f"gantry_row: expected length > 0, n_arms >= 1 and density >= 0, found {length}, {n_arms}, {density}")
@@ -310,8 +323,6 @@ def gantry_row(
         raise ValueError(f"expected at most {MAX_FRUITS} fruit (density x length) and {MAX_ARMS} arms, a problem file's "
                          f"limits; found about {density * length:.4g} fruit ({density:g} per metre over {length:g} m) "
                          f"and {n_arms} arms")
-    if not (len(y_range) == 2 and y_range[0] < y_range[1]):
-        raise ValueError(f"y_range: expected (low, high) with low < high, found {tuple(y_range)!r}")
     if gantry is not None and not isinstance(gantry, dict):
         raise TypeError(f"gantry: expected a mapping of gantry keys (e.g. {{'settle': 0.5}}), found {type(gantry).__name__} {gantry!r}")
     x0 = (gantry or {}).get("start", 0.0)

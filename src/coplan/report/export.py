@@ -353,6 +353,10 @@ def export_plan(plan: Plan | str | Path, rate: float, fmt: ExportFormat | str, o
         atomic_text(out, csv_text(traj))
         atomic_text(events_path(out), events_csv(events))
         return [out, events_path(out)]
+    if out.suffix.lower() in (".json", ".yaml", ".yml", ".csv") and not out.is_dir():
+        # (json and yaml write a folder of files: "ex.json" made a folder of that name)
+        raise ValueError(f"out: expected a folder for {fmt.value} (one file per arm and events.{fmt.value}), found the "
+                         f"file name {str(out)!r}; give a folder (e.g. {str(out.with_suffix(''))!r})")
     out.mkdir(parents=True, exist_ok=True)
     names = export_names(plan)
     written = []

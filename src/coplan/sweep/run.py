@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import json
 import logging
+import math
+import numbers
 import os
 import threading
 import time
@@ -34,9 +36,10 @@ from ..kinds import ExitCode, GantryMode, PlannerKind, RowStatus
 from ..errors import Issue
 from ..provenance import software_record
 from ..output import OutputError
+from ..workers import workers_issue
 from .cluster import Interrupt, close_cluster, completed, connect, default_workers, WorkerWatch
 from .columns import exit_class, problem_columns, result_columns
-from .spec import SweepError, SweepItem, SweepSpec
+from .spec import SweepError, SweepItem, SweepSpec, load_sweep
 from .table import META, RowJournal, import_arrow, read_rows, read_sweep_record, write_table
 
 __all__ = ["SweepOutcome", "run_sweep", "solve_item", "hard_limit", "exit_class", "Watchdog", "SNAPSHOT_SECONDS", "default_workers", "lost_reason"]
@@ -267,8 +270,30 @@ def _write_json(path: Path, doc: dict) -> None:
 _NO_PLAN = (RowStatus.BAD_INPUT.value, RowStatus.ERROR.value, RowStatus.TIMEOUT.value)
 
 
+def _checked_call(spec, workers, time_limit) -> tuple[SweepSpec, int | None, float | None]:
+    """:func:`run_sweep`'s arguments as the command line checks them (a sweep file's path is
+    loaded): a bad one raises before any work (a workers of 0 ran on the default, a time limit
+    of -1 wrote a 'bad input' row per problem)."""
+    if isinstance(spec, (str, os.PathLike)):
+        spec = load_sweep(spec)
+    elif not isinstance(spec, SweepSpec):
+        raise TypeError(f"run_sweep(): spec: expected a SweepSpec (coplan.sweep.load_sweep) or a sweep file's path, "
+                        f"found {type(spec).__name__}")
+    if workers is not None:
+        msg = workers_issue(workers)
+        if msg is not None:
+            raise ValueError(f"run_sweep(): workers: {msg}")
+        workers = None if isinstance(workers, str) else int(workers)  # (auto: the default)
+    if time_limit is not None:
+        ok = isinstance(time_limit, numbers.Real) and not isinstance(time_limit, bool) and math.isfinite(time_limit) and time_limit > 0
+        if not ok:
+            raise ValueError(f"run_sweep(): time_limit: expected a positive, finite number of seconds per problem, "
+                             f"or None (the sweep file's), found {time_limit!r}")
+    return spec, workers, time_limit
+
+
 def run_sweep(
-    spec: SweepSpec,
+    spec: SweepSpec | str | Path,
     out: str | Path,
     workers: int | None = None,
     scheduler: str | None = None,
@@ -292,6 +317,7 @@ def run_sweep(
     every finished row is kept, the table written, and ``KeyboardInterrupt`` re-raised.
     """
     t0 = time.perf_counter()
+    spec, workers, time_limit = _checked_call(spec, workers, time_limit)
     out = Path(out)
     other = _folder_sweep(out) if (out / META).exists() else spec.name
     if other != spec.name:

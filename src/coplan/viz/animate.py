@@ -469,6 +469,8 @@ def build_animation(problem: Problem, plan: Plan, *, speed: float = 1.0, fps: fl
 def render_frame(problem: Problem, plan: Plan, t: float, *, dpi: float = 100, width: float = 9.0, trail: float = 2.5, title: str | None = None):
     """One still of the animation at plan time ``t`` as a ``Figure`` (violations shown are
     those of the last 0.1 s)."""
+    if isinstance(t, bool) or not isinstance(t, (int, float, np.number)) or not math.isfinite(t):  # ("1": '>' not supported)
+        raise ValueError(f"render_frame: t: expected a plan time in s (a finite number), found {t!r:.60}")
     scene = _Scene(problem, plan, width=width, dpi=dpi, trail=trail, title=title)
     scene.prev_t = max(0.0, t - 0.1) if t > 0 else -1.0
     scene.update(t)

@@ -290,6 +290,9 @@ def plot_joints(problem: Problem, plan: Plan, *, arms: list[str] | None = None, 
     from matplotlib.lines import Line2D
 
     _positive("plot_joints", "clip", clip)  # ("3": "can't multiply sequence by non-int"; -1 was taken)
+    if isinstance(plan, Mapping):  # (one plan's chart: a mapping, which plot_gantt takes, failed deep inside)
+        raise TypeError(f"plot_joints: plan: expected one Plan (a chart per plan: call it for each), found a mapping of "
+                        f"{len(plan)} ({', '.join(map(str, list(plan)[:4]))})")
     _as_plans(problem, plan, "plot_joints")
     colors = arm_colors(problem)
     if arms is not None:  # (names were matched with ``in``: a typo was dropped in silence, a string matched by substring)
@@ -432,6 +435,8 @@ def plot_workspace(problem: Problem, arm: str | None = None, *, resolution: int 
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch, Rectangle, Wedge
 
+    if arm is not None and arm not in [a.name for a in problem.arms]:  # (as a ValueError, like every other bad value here)
+        raise ValueError(f"plot_workspace: arm: expected one of the problem's arms {[a.name for a in problem.arms]}, found {arm!r}")
     colors = arm_colors(problem)
     arms = list(problem.arms) if arm is None else [problem.arm(arm)]
     xs, ys, manip, count = workspace_maps(problem, arms, resolution)
