@@ -21,7 +21,7 @@ from coplan.pipeline import ExitCode
 from coplan.problem import default_problem_path, load_problem, parse_problem
 from coplan.verify import verify
 
-SEARCH = dict(search_work=4000, retime=False)  # a short search, nothing after it that could mask it
+SEARCH = dict(search_work=4000, retime=False, widen=False)  # a short search, nothing after it that could mask it
 
 
 @pytest.fixture(scope="module")
