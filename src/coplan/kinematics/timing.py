@@ -54,7 +54,7 @@ def cubic_eval(q0, q1, T: float, t):
     if not (math.isfinite(float(T)) and float(T) >= 0):
         raise ValueError(f"cubic_eval: T: expected a duration >= 0 in s, found {T!r}")
     t = np.atleast_1d(np.asarray(t, float))
-    tau = np.clip(np.asarray(t, float) / T, 0.0, 1.0) if T > 0 else np.ones_like(np.asarray(t, float))
+    tau = np.clip(t / T, 0.0, 1.0) if T > 0 else np.ones_like(t)
     s = 3 * tau**2 - 2 * tau**3
     return q0 + s[:, None] * (q1 - q0)
 
