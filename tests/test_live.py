@@ -809,3 +809,17 @@ def test_a_feed_with_no_detections_says_never_detected(greenhouse, tmp_path):
     assert run["metrics"]["harvested"] == 0 and run["metrics"]["verified"] is True
     out = set(greenhouse.unreachable())
     assert out and all(w == "never detected" for f, w in whys.items() if f not in out), whys
+
+
+def test_run_json_names_the_feed_by_a_path_that_holds_from_anywhere(tmp_path: Path, problems_dir: Path, monkeypatch) -> None:
+    """A feed given as '../feed.yaml' was recorded as typed: read from the run's folder it
+    pointed nowhere (a new user's trial)."""
+    prob = str(problems_dir / "greenhouse_row.yaml")
+    assert run("feed", prob, "--out", str(tmp_path / "feed.yaml"), "--seed", "1").exit_code == 0
+    (tmp_path / "sub").mkdir()
+    monkeypatch.chdir(tmp_path / "sub")
+    r = run("run", prob, "--feed", "../feed.yaml", "--out", "../live")
+    assert r.exit_code == ExitCode.OK, r.output
+    doc = json.loads((tmp_path / "live" / "run.json").read_text())
+    assert Path(doc["feed"]).is_absolute() and Path(doc["feed"]).resolve() == (tmp_path / "feed.yaml").resolve()
+    assert json.loads((tmp_path / "live" / "plan.json").read_text())["solver"]["live"]["feed"] == doc["feed"]

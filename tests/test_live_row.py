@@ -1404,3 +1404,12 @@ def test_the_offline_reference_is_planned_once_per_row_and_options_and_each_call
     other = parse_problem(to_yaml(gantry_row(length=4.0, density=2.0, seed=4)))
     assert live_mod.offline_reference(other, RowOptions()).plan.status == PlanStatus.INTERRUPTED
     assert not any(r.plan.status == PlanStatus.INTERRUPTED for r in live_mod._REFERENCES.values())
+
+
+def test_an_outage_too_short_to_stop_for_costs_no_hold_and_says_so(row):
+    """(A new user's trial: the outage's record had no ``hold_seconds`` where the carriage kept
+    moving; stop and go's says 0.)"""
+    res = run_live_row(row, LiveRowOptions(speed=0.15, seed=5, faults=RowFaults(camera_dark=0.3)))
+    dark = res.metrics["faults"]["camera_dark"]
+    assert dark["hold_seconds"] == 0.0 and dark["carriage"].startswith("kept moving") and "carriage_holds_from" not in dark
+    assert res.verification.passed

@@ -14,7 +14,9 @@ every fruit known).
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -290,9 +292,11 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
                     "omniscient_status": ref.plan.status.value, "omniscient_throughput": om_thr,
                     "makespan_loss": makespan / om - 1.0 if om > 0 and makespan > 0 else None,
                     "throughput_loss": 1.0 - metrics["throughput"] / om_thr if om_thr > 0 else None}
-    plan.solver = {"status": plan.status.value, "live": {"replans": len(cell.replans), "feed": feed.source}}
+    # (the feed's path as run.json's reader can follow it: '../feed.yaml' was relative to where the command ran)
+    where = str(Path(feed.source).absolute()) if feed.source and os.path.isfile(feed.source) else feed.source
+    plan.solver = {"status": plan.status.value, "live": {"replans": len(cell.replans), "feed": where}}
     run = {
-        "format": "coplan.run/1", "problem": problem.name, "feed": feed.source,
+        "format": "coplan.run/1", "problem": problem.name, "feed": where,
         "feed_sha256": feed.digest,  # (the path alone: an edited feed could not be told from the one run)
         "options": {k: getattr(cell.options, k) for k in cell.options.__dataclass_fields__},
         "close_range": {"distance": feed.close_distance, "sigma": feed.close_sigma},

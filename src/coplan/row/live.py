@@ -276,7 +276,8 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         elif kind == "camera_dark":
             hold = faults.dark[0] + faults.dark[1] - (t_s + stop)
             if hold <= 0:
-                faults.log["camera_dark"]["carriage"] = "kept moving: the camera was back before it could come to rest"
+                faults.log["camera_dark"].update(carriage="kept moving: the camera was back before it could come to rest",
+                                                 hold_seconds=0.0)  # (the outage's cost, as stop and go says it: none)
                 return
             stretches = stretches[:-1] + [(x_s, v, hold), (math.inf, v)]
             faults.log["camera_dark"].update({"carriage_holds_from": round(t_s, 3), "hold_seconds": round(hold, 3)})
