@@ -17,6 +17,9 @@ import coplan
 from coplan.cli import app
 from coplan.errors import OptionsError, ProblemError
 from coplan.generate import gantry_row, to_yaml
+from coplan.kinematics import SCurve
+from coplan.kinematics.arm import ik_one, singularity_proximity
+from coplan.kinematics.timing import cubic_eval, cubic_min_time
 from coplan.optimal import OptimalOptions
 from coplan.planners.coordinated.planner import CoordinatedOptions
 from coplan.problem import load_problem, parse_problem, shipped_problems
@@ -979,19 +982,19 @@ def test_segment_distances_take_planar_points_only_and_radii_of_at_least_zero():
 
 
 @pytest.mark.parametrize("call, match", [
-    (lambda: __import__("coplan.kinematics", fromlist=["SCurve"]).SCurve.between([0, 0], [1, 1], [-1, 1], [1, 1], [1, 1]),
+    (lambda: SCurve.between([0, 0], [1, 1], [-1, 1], [1, 1], [1, 1]),
      r"SCurve.between: expected finite poses and limits > 0"),
-    (lambda: __import__("coplan.kinematics", fromlist=["SCurve"]).SCurve.between(0, 1, 1, 1, 1),
+    (lambda: SCurve.between(0, 1, 1, 1, 1),
      r"SCurve.between: expected q0, q1, vmax, amax and jmax as sequences of numbers"),
-    (lambda: __import__("coplan.kinematics.arm", fromlist=["ik_one"]).ik_one(1.0, 0.5, (1.0,), (0, 0), None, 0),
+    (lambda: ik_one(1.0, 0.5, (1.0,), (0, 0), None, 0),
      r"ik_one: expected links \(l1, l2\) and base \(x, y\)"),
-    (lambda: __import__("coplan.kinematics.arm", fromlist=["ik_one"]).ik_one(1.0, 0.5, (1.0, 1.0), (0, 0), [-1, 1], 0),
+    (lambda: ik_one(1.0, 0.5, (1.0, 1.0), (0, 0), [-1, 1], 0),
      r"ik_one: joint_limits: expected \(\(t1_min, t1_max\), \(t2_min, t2_max\)\)"),
-    (lambda: __import__("coplan.kinematics.arm", fromlist=["singularity_proximity"]).singularity_proximity([0.1, 0.2], (1.0,)),
+    (lambda: singularity_proximity([0.1, 0.2], (1.0,)),
      r"singularity_proximity: links: expected \(l1, l2\) in m"),
-    (lambda: __import__("coplan.kinematics.timing", fromlist=["cubic_eval"]).cubic_eval(0, 1, 0.0, 0.5),
+    (lambda: cubic_eval(0, 1, 0.0, 0.5),
      r"cubic_eval: expected q0 and q1 of shape \(2,\)"),
-    (lambda: __import__("coplan.kinematics.timing", fromlist=["cubic_min_time"]).cubic_min_time(1.0, -1, 1),
+    (lambda: cubic_min_time(1.0, -1, 1),
      r"cubic_min_time: expected finite steps and limits > 0"),
 ])
 def test_kinematics_and_timing_functions_say_what_they_expected(call, match):
@@ -1002,9 +1005,6 @@ def test_kinematics_and_timing_functions_say_what_they_expected(call, match):
 
 
 def test_an_scurve_at_nan_times_is_refused_and_the_cubic_takes_one_time():
-    from coplan.kinematics import SCurve
-    from coplan.kinematics.timing import cubic_eval
-
     s = SCurve.between([0, 0], [1, 1], [1, 1], [1, 1], [1, 1])
     with pytest.raises(ValueError, match=r"SCurve.derivatives: t: expected finite times"):
         s.derivatives([math.nan])  # (gave the start's state)

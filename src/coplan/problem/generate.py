@@ -66,11 +66,16 @@ def _bases(n_arms: int, spacing: float) -> list[float]:
     return [_r4((i - (n_arms - 1) / 2.0) * spacing) for i in range(n_arms)]
 
 
+def _real(x: Any) -> bool:
+    """Whether ``x`` is a finite number (NumPy's too; not a bool)."""
+    return isinstance(x, (int, float, np.number)) and not isinstance(x, bool) and math.isfinite(x)
+
+
 def _finite(**values: Any) -> None:
     """ValueError naming the first argument that is not a finite number (or pair of them)."""
     for k, v in values.items():
         xs = np.ravel(np.asarray(v, dtype=object))
-        if not all(isinstance(x, (int, float, np.number)) and not isinstance(x, bool) and math.isfinite(x) for x in xs):
+        if not all(_real(x) for x in xs):
             raise ValueError(f"{k}: expected finite numbers, found {v!r}")
 
 
@@ -94,8 +99,7 @@ def _pair(what: str, **values: Any) -> None:
     """ValueError naming the first argument that is not a pair of positive finite numbers."""
     for k, v in values.items():
         xs = list(np.ravel(np.asarray(v, dtype=object)))
-        if len(xs) != 2 or not all(isinstance(x, (int, float, np.number)) and not isinstance(x, bool)
-                                   and math.isfinite(x) and x > 0 for x in xs):
+        if len(xs) != 2 or not all(_real(x) and x > 0 for x in xs):
             raise ValueError(f"{what}: {k}: expected two positive finite numbers, found {v!r}")
 
 
@@ -103,8 +107,7 @@ def _low_high(what: str, name: str, v: Any) -> None:
     """ValueError unless ``v`` is (low, high), two finite numbers with low < high (one number
     gave "'float' object is not subscriptable" or "has no len()")."""
     xs = list(np.ravel(np.asarray(v, dtype=object)))
-    if (len(xs) != 2 or not all(isinstance(x, (int, float, np.number)) and not isinstance(x, bool) and math.isfinite(x) for x in xs)
-            or not xs[0] < xs[1]):
+    if len(xs) != 2 or not all(_real(x) for x in xs) or not xs[0] < xs[1]:
         raise ValueError(f"{what}: {name}: expected (low, high), two finite numbers with low < high, found {v!r}")
 
 
@@ -181,7 +184,7 @@ def row_problem(
     if n_arms is None or n_fruits is None:
         raise ValueError(f"row_problem: expected n_arms and n_fruits, found {n_arms!r} and {n_fruits!r}")
     _pair("row_problem", links=links)
-    _finite(spacing=spacing, links=links, link_radius=link_radius, y_range=y_range, bin_offset=bin_offset, x_pad=x_pad)
+    _finite(spacing=spacing, links=links, link_radius=link_radius, bin_offset=bin_offset, x_pad=x_pad)
     # the lesson's draw: np.random.seed(seed); all x, then all y
     rs = np.random.RandomState(seed)
     bases = _bases(n_arms, spacing)
@@ -310,7 +313,7 @@ def gantry_row(
     """
     _whole("gantry_row", n_arms=n_arms, seed=seed)
     _low_high("gantry_row", "y_range", y_range)
-    _finite(length=length, density=density, spacing=spacing, y_range=y_range)
+    _finite(length=length, density=density, spacing=spacing)
     if length <= 0 or n_arms < 1 or density < 0:
         raise ValueError(f"gantry_row: expected length > 0, n_arms >= 1 and density >= 0, found {length}, {n_arms}, {density}")
     if spacing <= 0 and n_arms > 1:  # (a negative spacing swapped the arms' order; 0 stacked them)

@@ -23,8 +23,6 @@ from __future__ import annotations
 
 import json
 import logging
-import math
-import numbers
 import os
 import threading
 import time
@@ -39,6 +37,7 @@ from ..output import OutputError
 from ..workers import workers_issue
 from .cluster import Interrupt, close_cluster, completed, connect, default_workers, WorkerWatch
 from .columns import exit_class, problem_columns, result_columns
+from .params import check_value
 from .spec import SweepError, SweepItem, SweepSpec, load_sweep
 from .table import META, RowJournal, import_arrow, read_rows, read_sweep_record, write_table
 
@@ -284,11 +283,9 @@ def _checked_call(spec, workers, time_limit) -> tuple[SweepSpec, int | None, flo
         if msg is not None:
             raise ValueError(f"run_sweep(): workers: {msg}")
         workers = None if isinstance(workers, str) else int(workers)  # (auto: the default)
-    if time_limit is not None:
-        ok = isinstance(time_limit, numbers.Real) and not isinstance(time_limit, bool) and math.isfinite(time_limit) and time_limit > 0
-        if not ok:
-            raise ValueError(f"run_sweep(): time_limit: expected a positive, finite number of seconds per problem, "
-                             f"or None (the sweep file's), found {time_limit!r}")
+    if time_limit is not None and check_value("positive", time_limit) is not None:  # (the sweep file's rule)
+        raise ValueError(f"run_sweep(): time_limit: expected a positive, finite number of seconds per problem, "
+                         f"or None (the sweep file's), found {time_limit!r}")
     return spec, workers, time_limit
 
 
