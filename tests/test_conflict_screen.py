@@ -130,6 +130,33 @@ def test_pairs_of_samples_are_the_broadcast_answers(problems_dir):
     assert hits > 0
 
 
+def test_many_samples_one_pair_of_links_at_a_time_are_the_exact_answers(problems_dir):
+    """From ``ONE_LINK_PAIR_AT_A_TIME`` samples (or pairs of samples) on, the pairs of links are
+    tested one at a time and a sample already found too close is not tested again: the answers
+    are the exact test's (``points_clearance < need``) and the all-at-once path's on the same
+    samples in small slices, for sample by sample and for every pair."""
+    from coplan.planners.coordinated.schedule import ONE_LINK_PAIR_AT_A_TIME, LinkPoints, points_clearance
+
+    p = load_problem(problems_dir / "dense_overlap.yaml")
+    rng = np.random.default_rng(3)
+    a, b = p.arms[0], p.arms[1]
+    r = a.link_radius + b.link_radius
+    for need in (0.0, 0.05, 0.3):
+        qa, qb = rng.uniform(-3.2, 3.2, (2 * ONE_LINK_PAIR_AT_A_TIME, 2)), rng.uniform(-3.2, 3.2, (2 * ONE_LINK_PAIR_AT_A_TIME, 2))
+        pa, pb = arm_points(a, qa), arm_points(b, qb)
+        la, lb = LinkPoints.of(pa), LinkPoints.of(pb)
+        close = links_too_close(la, lb, r, need)
+        assert 0 < close.sum() < close.size
+        assert np.array_equal(close, points_clearance(pa, pb, r) < need)
+        step = ONE_LINK_PAIR_AT_A_TIME // 4
+        assert np.array_equal(close, np.concatenate([links_too_close(la[k:k + step], lb[k:k + step], r, need)
+                                                     for k in range(0, close.size, step)]))
+        n, m = 40, ONE_LINK_PAIR_AT_A_TIME // 10  # 40 x 204 pairs: one pair of links at a time
+        pairs = links_too_close_pairs(la[:n], lb[:m], r, need)
+        assert np.array_equal(pairs, points_clearance(tuple(x[:n, None] for x in pa), tuple(x[None, :m] for x in pb), r) < need)
+        assert np.array_equal(pairs, np.vstack([links_too_close_pairs(la[k:k + 1], lb[:m], r, need) for k in range(n)]))
+
+
 @pytest.mark.parametrize("name", ["dense_overlap", "five_arm_row", "crossing_paths"])
 def test_the_box_screen_changes_no_plan(problems_dir, monkeypatch, name):
     """Coordinating with the box screen and without it gives the same steps, to the bit; the

@@ -427,6 +427,27 @@ def test_segment_distance_against_brute_force_sampling() -> None:
     assert all(_on_segment(pa[i], p1[i], p2[i]) and _on_segment(pb[i], q1[i], q2[i]) for i in range(n))
 
 
+def test_segment_distance_in_blocks_of_stacked_rows_is_the_endpoint_by_endpoint_answer_bit_for_bit() -> None:
+    """The planners' path (``segment_distance_rows``: the four endpoint-to-segment problems stacked,
+    in blocks of ``ROWS_BLOCK`` columns) and the closest-points path (endpoint by endpoint) give
+    the same distances to the bit -- crossings, shared endpoints, point-like and collinear segments,
+    more columns than one block -- and the verifier's independent kernel agrees to 1e-12."""
+    from coplan.kinematics.geometry import ROWS_BLOCK
+    from coplan.verify.clearance import segment_distances
+
+    rng = np.random.default_rng(11)
+    n = 2 * ROWS_BLOCK + 37
+    p1, p2, q1, q2 = (rng.uniform(-1, 1, (n, 2)) for _ in range(4))
+    q2[:50] = q1[:50]  # point-like
+    p2[50:100] = p1[50:100]
+    q1[100:150] = p2[100:150]  # a shared endpoint
+    p1[150:400], p2[150:400], q1[150:400], q2[150:400] = (np.round(x[150:400], 1) for x in (p1, p2, q1, q2))  # ties, collinear
+    fast = segment_distance(p1, p2, q1, q2)
+    slow = segment_distance(p1, p2, q1, q2, return_points=True)[0]
+    assert np.array_equal(fast, slow) and (fast == 0).sum() > 100  # (crossings among them)
+    np.testing.assert_allclose(fast, segment_distances(p1, p2, q1, q2), rtol=0, atol=1e-12)
+
+
 def test_segment_distance_broadcasts() -> None:
     p1 = np.zeros((4, 1, 2))
     p2 = np.array([1.0, 0.0])

@@ -34,7 +34,7 @@ import numpy as np
 from ...allocate.allocation import Allocation
 from ...plan import Event, EventKind
 from ...problem.model import Arm, Problem
-from ...kinematics.geometry import segment_distance_xy
+from ...kinematics.geometry import segment_distance_rows, segment_distance_xy
 from ...kinematics.timing import SCurve
 
 __all__ = [
@@ -246,38 +246,65 @@ class LinkPoints:
         return LinkPoints(self.P[:, sl], self.mx[:, sl], self.my[:, sl], self.h[:, sl])
 
 
+#: From this many sample pairs on, the pairs of links are tested one at a time (below, the
+#: four at once cost fewer NumPy calls); the same answers either way.
+ONE_LINK_PAIR_AT_A_TIME = 2048
+
+
 def links_too_close(a: LinkPoints, b: LinkPoints, radii: float, need: float) -> np.ndarray:
     """Whether two arms, sample by sample (N,), are closer than ``need``: two links whose
     midpoints are further apart than their half lengths plus ``radii + need`` cannot be too
     close (a screen); the exact distance (:func:`segment_distance_xy`) decides for the others.
-    Element by element, so a sample's answer depends on nothing else in the arrays."""
-    gap = np.hypot(a.mx[:, None] - b.mx[None], a.my[:, None] - b.my[None]) - a.h[:, None] - b.h[None]
-    s, u, k = np.nonzero(gap < need + radii)  # link s of a and link u of b may be too close at sample k
+    Element by element, so a sample's answer depends on nothing else in the arrays.
+
+    On many samples one pair of links at a time, forearms first (the links that meet most
+    often), and a sample already found too close is not tested again with another pair: the
+    answer is whether any pair is too close, so it is the same (in tight layouts half the exact
+    tests or fewer)."""
     out = np.zeros(a.size, bool)
-    out[k[_exact_hits(a, s, k, b, u, k, radii, need)]] = True
+    if a.size < ONE_LINK_PAIR_AT_A_TIME:
+        gap = np.hypot(a.mx[:, None] - b.mx[None], a.my[:, None] - b.my[None]) - a.h[:, None] - b.h[None]
+        s, u, k = np.nonzero(gap < need + radii)  # link s of a and link u of b may be too close at sample k
+        out[k[_exact_hits(a, s, k, b, u, k, radii, need)]] = True
+        return out
+    for s in reversed(range(a.mx.shape[0])):
+        for u in reversed(range(b.mx.shape[0])):
+            gap = np.hypot(a.mx[s] - b.mx[u], a.my[s] - b.my[u]) - a.h[s] - b.h[u]
+            k = np.flatnonzero((gap < need + radii) & ~out)
+            out[k[_exact_hits(a, s, k, b, u, k, radii, need)]] = True
     return out
 
 
 def _exact_hits(a: LinkPoints, s, k, b: LinkPoints, u, m, radii: float, need: float) -> np.ndarray:
     """For each screened candidate, link ``s`` of ``a`` at its sample ``k`` against link ``u`` of
-    ``b`` at its sample ``m`` (index arrays): whether they are too close, by the exact distance."""
+    ``b`` at its sample ``m`` (index arrays; ``s`` and ``u`` may be one link for all): whether
+    they are too close, by the exact distance."""
     if k.size == 0:
         return np.zeros(0, bool)
-    A, B = a.P, b.P
-    d = segment_distance_xy(A[2 * s, k], A[2 * s + 1, k], A[2 * s + 2, k], A[2 * s + 3, k],
-                            B[2 * u, m], B[2 * u + 1, m], B[2 * u + 2, m], B[2 * u + 3, m])
-    return d - radii < need
+    rows = np.arange(4)[:, None]  # the link's two ends, x and y: rows 2 s .. 2 s + 3 of the points
+    C = np.concatenate([a.P[2 * np.asarray(s) + rows, k], b.P[2 * np.asarray(u) + rows, m]])
+    return segment_distance_rows(C) - radii < need
 
 
 def links_too_close_pairs(a: LinkPoints, b: LinkPoints, radii: float, need: float) -> np.ndarray:
     """:func:`links_too_close` for every sample of ``a`` (N) against every sample of ``b`` (M):
-    (N, M), the same answer pair by pair as comparing the two broadcast against each other."""
-    gap = (np.hypot(a.mx[:, None, :, None] - b.mx[None, :, None, :], a.my[:, None, :, None] - b.my[None, :, None, :])
-           - a.h[:, None, :, None] - b.h[None, :, None, :])
-    s, u, k, m = np.nonzero(gap < need + radii)  # link s of a at its sample k, link u of b at its sample m
+    (N, M), the same answer pair by pair as comparing the two broadcast against each other (on
+    many pairs one pair of links at a time, as there)."""
     out = np.zeros((a.size, b.size), bool)
-    hit = _exact_hits(a, s, k, b, u, m, radii, need)
-    out[k[hit], m[hit]] = True
+    if a.size * b.size < ONE_LINK_PAIR_AT_A_TIME:
+        gap = (np.hypot(a.mx[:, None, :, None] - b.mx[None, :, None, :], a.my[:, None, :, None] - b.my[None, :, None, :])
+               - a.h[:, None, :, None] - b.h[None, :, None, :])
+        s, u, k, m = np.nonzero(gap < need + radii)  # link s of a at its sample k, link u of b at its sample m
+        hit = _exact_hits(a, s, k, b, u, m, radii, need)
+        out[k[hit], m[hit]] = True
+        return out
+    for s in reversed(range(a.mx.shape[0])):
+        for u in reversed(range(b.mx.shape[0])):
+            gap = (np.hypot(a.mx[s, :, None] - b.mx[u, None, :], a.my[s, :, None] - b.my[u, None, :])
+                   - a.h[s, :, None] - b.h[u, None, :])
+            k, m = np.nonzero((gap < need + radii) & ~out)
+            hit = _exact_hits(a, s, k, b, u, m, radii, need)
+            out[k[hit], m[hit]] = True
     return out
 
 
