@@ -119,24 +119,25 @@ def move_lower_bound(q0, q1, vmax, amax, jmax) -> float:
 
 
 def _profile(durs, jerks, t):
-    """Evaluate a 1-D rest-to-rest jerk profile (from 0) at times t: p, v, a, j arrays."""
-    t = np.asarray(t, float)
-    total = float(sum(durs))
-    t = np.clip(t, 0.0, total)
-    out = [np.zeros_like(t) for _ in range(4)]
-    p = v = acc = 0.0
-    t0 = 0.0
-    for k, (d, jk) in enumerate(zip(durs, jerks)):
-        last = k == len(durs) - 1
-        m = (t >= t0) & ((t < t0 + d) | last)
-        tau = t[m] - t0
-        out[0][m] = p + v * tau + acc * tau**2 / 2 + jk * tau**3 / 6
-        out[1][m] = v + acc * tau + jk * tau**2 / 2
-        out[2][m] = acc + jk * tau
-        out[3][m] = jk
+    """Evaluate a 1-D rest-to-rest jerk profile (from 0) at times t: p, v, a, j arrays.
+
+    Each time in the phase that starts last at or before it (the last phase to the end): the
+    state at each phase's start is accumulated once, and the times are sorted into phases by one
+    ``searchsorted`` (a phase of no duration holds no time)."""
+    t = np.clip(np.asarray(t, float), 0.0, float(sum(durs)))
+    if not len(durs):
+        return [np.zeros_like(t) for _ in range(4)]
+    starts, P, V, A = [], [], [], []
+    p = v = acc = t0 = 0.0
+    for d, jk in zip(durs, jerks):
+        starts.append(t0), P.append(p), V.append(v), A.append(acc)
         p, v, acc = p + v * d + acc * d**2 / 2 + jk * d**3 / 6, v + acc * d + jk * d**2 / 2, acc + jk * d
         t0 += d
-    return out
+    starts = np.asarray(starts)
+    k = np.maximum(np.searchsorted(starts, t, side="right") - 1, 0)
+    tau = t - starts[k]
+    pk, vk, ak, jk = np.asarray(P)[k], np.asarray(V)[k], np.asarray(A)[k], np.asarray(jerks, float)[k]
+    return [pk + vk * tau + ak * tau**2 / 2 + jk * tau**3 / 6, vk + ak * tau + jk * tau**2 / 2, ak + jk * tau, jk]
 
 
 @dataclass(frozen=True)
