@@ -35,6 +35,7 @@ what closes the other way round (a joint limit or another neighbour's base).
 
 from __future__ import annotations
 
+import functools
 import math
 import weakref
 from dataclasses import dataclass
@@ -148,11 +149,11 @@ class _Sweep:
     home_by: str | None  # neighbour violated at home
 
 
-def _sweep(problem: Problem, arm: Arm, need: dict[str, float]) -> _Sweep:
+def _sweep(arms: tuple[Arm, ...], arm: Arm, need: dict[str, float]) -> _Sweep:
     lim = arm.limits[0]
     h = arm.home[0]
     s = _Sweep(float(lim[0]), float(lim[1]), None, None, None)
-    for other in problem.arms:
+    for other in arms:
         if other is arm:
             continue
         arc = _blocked_arc(arm, other, need[other.name])
@@ -184,7 +185,7 @@ def _q1_ok(q1: np.ndarray, lim: np.ndarray, sw: _Sweep) -> np.ndarray:
     return ok
 
 
-def _poses(problem: Problem, arm: Arm, targets: np.ndarray, margin: float, sw: _Sweep, need, tol: float):
+def _poses(arms: tuple[Arm, ...], arm: Arm, targets: np.ndarray, margin: float, sw: _Sweep, need, tol: float):
     """For targets (N, 2): valid (N, 2) IK branches at the exact target, usable (N, 2), and
     for each branch the first base link 2 violates at the exact pose ('' if none)."""
     ang = np.linspace(0.0, _TWO_PI, _RING, endpoint=False) if tol > 0 else np.zeros(0)
@@ -195,7 +196,7 @@ def _poses(problem: Problem, arm: Arm, targets: np.ndarray, margin: float, sw: _
     ok = valid & _q1_ok(q[..., 0], arm.limits[0], sw)
     elbow, tip = kin.fk(np.nan_to_num(q), arm.links, arm.base)
     hit = np.full(valid0.shape, "", dtype=object)
-    for other in problem.arms:
+    for other in arms:
         if other is arm or math.dist(arm.base, other.base) > arm.reach + need[other.name] + _EPS:
             continue  # (a base beyond the arm's reach plus the clearance is never within it)
         bad = _point_segment(np.asarray(other.base, float), elbow, tip) < need[other.name] - _EPS
@@ -277,6 +278,18 @@ def reach_reason(problem: Problem, point) -> str:
             + (f" (task.reach_margin {m:g} m)" if m else ""))
 
 
+@functools.lru_cache(maxsize=256)
+def _arm_sweep(arms: tuple[Arm, ...], clearance: float, i: int, tip_tolerance: float) -> tuple[_Sweep, bool]:
+    """Arm ``i``'s shoulder sweep (:func:`_sweep`) and whether it can place into its bin, which
+    depend on the arms and the clearance alone: kept for the next call on the same arms (a row
+    asks :func:`usable_picks` of the same carriage frame thousands of times)."""
+    arm = arms[i]
+    need = {o.name: clearance + arm.link_radius + o.link_radius for o in arms}
+    sw = _sweep(arms, arm, need)
+    _, bin_use, _, _ = _poses(arms, arm, np.asarray([arm.bin], float), 0.0, sw, need, tip_tolerance)
+    return sw, bool(bin_use[0].any())
+
+
 def usable_picks(problem: Problem, points, tip_tolerance: float = TIP_TOLERANCE, arms=None) -> np.ndarray:
     """``(A, N, 2)`` bool: which IK branch of which arm can pick at each of ``points`` (N, 2)
     under the screen's rules -- the annulus less ``task.reach_margin``, joint limits, the
@@ -291,16 +304,15 @@ def usable_picks(problem: Problem, points, tip_tolerance: float = TIP_TOLERANCE,
         if arms is not None and i not in arms:
             continue
         need = {o.name: clear + arm.link_radius + o.link_radius for o in problem.arms}
-        sw = _sweep(problem, arm, need)
-        _, bin_use, _, _ = _poses(problem, arm, np.asarray([arm.bin], float), 0.0, sw, need, tip_tolerance)
-        if not bin_use[0].any() or pts.shape[0] == 0:
+        sw, bin_ok = _arm_sweep(problem.arms, clear, i, float(tip_tolerance))
+        if not bin_ok or pts.shape[0] == 0:
             continue
         # the exact target first (the ring's first point); the ring only where the exact pose is
         # valid but not usable: the same answer as the whole ring everywhere, at a fraction of its cost
-        v0, use, _, _ = _poses(problem, arm, pts, problem.task.reach_margin, sw, need, 0.0)
+        v0, use, _, _ = _poses(problem.arms, arm, pts, problem.task.reach_margin, sw, need, 0.0)
         redo = np.flatnonzero((v0 & ~use).any(axis=1))
         if redo.size and tip_tolerance > 0:
-            use[redo] = _poses(problem, arm, pts[redo], problem.task.reach_margin, sw, need, tip_tolerance)[1]
+            use[redo] = _poses(problem.arms, arm, pts[redo], problem.task.reach_margin, sw, need, tip_tolerance)[1]
         out[i] = use
     return out
 
@@ -329,10 +341,10 @@ def screen(problem: Problem, tip_tolerance: float = TIP_TOLERANCE) -> Screen:
     pick_why: dict[tuple[int, int], str] = {}
     for i, arm in enumerate(arms):
         need = {o.name: clear + arm.link_radius + o.link_radius for o in arms}
-        sw = _sweep(problem, arm, need)
+        sw = _sweep(problem.arms, arm, need)
         lim = arm.limits[0]
         q1_range[arm.name] = None if sw.home_by is not None else (sw.lo, sw.hi)
-        v0, use, hit, q1 = _poses(problem, arm, np.asarray([arm.bin], float), 0.0, sw, need, tip_tolerance)
+        v0, use, hit, q1 = _poses(problem.arms, arm, np.asarray([arm.bin], float), 0.0, sw, need, tip_tolerance)
         bin_branches[arm.name] = [b for b in range(2) if use[0, b]]
         arm_ok[arm.name] = bool(use[0].any())
         if not arm_ok[arm.name]:
@@ -340,7 +352,7 @@ def screen(problem: Problem, tip_tolerance: float = TIP_TOLERANCE) -> Screen:
             arm_reasons[arm.name] = f"{arm.name} cannot reach its bin: {_branch_text(why)}"
         if F == 0:
             continue
-        v0, use, hit, q1 = _poses(problem, arm, pts, problem.task.reach_margin, sw, need, tip_tolerance)
+        v0, use, hit, q1 = _poses(problem.arms, arm, pts, problem.task.reach_margin, sw, need, tip_tolerance)
         for j, f in enumerate(fruits):
             if not base_reach[i, j]:
                 continue

@@ -337,7 +337,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         t_next = min([t_c + CHECK if opts.hold_for_fruit else math.inf] + [t for t, _ in changes[:1]])
         if t_next >= cruise.duration:
             break  # coming to rest for good: nothing more to change
-        run.policy(halt=halt, delay=delay, until=t_next)
+        run.policy(halt=halt, delay=delay, until=t_next, explain=False)
         t_c = t_next
         while changes and changes[0][0] <= t_c:
             change(changes.pop(0)[1], t_c)

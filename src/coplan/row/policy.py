@@ -21,8 +21,10 @@ _GIVE_UP = 3  # decisions without a clear cycle on one fruit, the carriage at re
 
 def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=None, on_book=None,
                halt: dict[int, float] | None = None, delay=None, until: float | None = None,
-               taken: set[str] | None = None, make_way: bool = False) -> dict[str, str]:
-    """Book cycles in time order (module docstring; each cycle by :class:`Booker`); returns fruit left out -> why. ``order``:
+               taken: set[str] | None = None, make_way: bool = False, explain: bool = True) -> dict[str, str]:
+    """Book cycles in time order (module docstring; each cycle by :class:`Booker`); returns fruit left out -> why
+    (``explain=False``: an empty mapping, for a phase whose caller goes on booking -- a live row's
+    phases asked why for every fruit not yet booked, ahead of the carriage too). ``order``:
     each arm's fruit in turn (any it cannot fit are left to the greedy afterwards).
 
     A live row (:mod:`coplan.row.live`): ``seen`` (fruit id -> the time the camera first reports
@@ -128,6 +130,8 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 soonest = min((c[1].lo for c in cands if c[1].lo > now), default=now + RETRY)
                 booker.wait(i, max(RETRY, min(soonest - now - 1.0, 1.0)))
         heapq.heappush(queue, (booker.free_time(i), i))
+    if not explain:
+        return {}
     return {fid: why_left(booker, fid, halt or {}) for fid in windows if fid not in taken}
 
 

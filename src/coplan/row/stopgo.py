@@ -206,7 +206,7 @@ class StopAndGo:
             k_plan = k_plan if planned is None else planned
         order, keep = stop_share(run.seen_problem, reach, open_, todo, k, k_plan, stopped, self.inset)
         run.booker.windows = {f: ws for f, ws in run.booker.windows.items() if f in keep}
-        run.policy(order=order, halt=faults.halt, delay=faults.delay, make_way=True)
+        run.policy(order=order, halt=faults.halt, delay=faults.delay, make_way=True, explain=False)
         self.as_cell(k, t_arr, order)
         return planned
 
@@ -284,7 +284,7 @@ class StopAndGo:
         run.booker.windows = {f: [replace(w, lo=max(w.lo, t_b), hi=min(w.hi, until_b)) for w in ws if w.hi >= t_b]
                               for f, ws in run.booker.windows.items() if f in ids}
         more = len(run.booker.events)
-        run.policy(halt=faults.halt, delay=faults.delay, make_way=True)
+        run.policy(halt=faults.halt, delay=faults.delay, make_way=True, explain=False)
         picks = picks + [e for e in run.booker.events[more:] if e.kind == EventKind.PICK]
         return picks, max([t_dep] + [e.t_end for e in picks])
 
