@@ -144,3 +144,25 @@ def test_arm_level_cross_check_on_random_poses():
     pb = kin.fk_points(qb, (1.0, 0.8), (0.5, 0.0))
     d = arm_link_distances(pa, pb).min(axis=1) - 0.08
     assert (d < 0).sum() > n // 10 and (d > 0).sum() > n // 10
+
+
+def test_link_pair_distances_are_each_pairs_segment_distance_over_several_blocks():
+    """``arm_link_distances`` (all of one arm's points against all of the other's links at once,
+    ``LINK_BLOCK`` instants at a time): column ``2 la + lb`` is ``segment_distances`` of link la of
+    one arm and link lb of the other, to 1e-12 m, over more instants than two blocks -- with arms
+    crossing, touching at a shared point and folded onto themselves among them."""
+    from coplan.verify.clearance import LINK_BLOCK
+
+    rng = np.random.default_rng(17)
+    n = 2 * LINK_BLOCK + 91
+    pa = kin.fk_points(rng.uniform(-3, 3, (n, 2)), (1.0, 0.8), (-0.5, 0.0))
+    pb = kin.fk_points(rng.uniform(-3, 3, (n, 2)), (1.0, 0.8), (0.5, 0.0))
+    pb[:40, 2] = pa[:40, 2]  # tips touching
+    pa[40:80, 2] = pa[40:80, 1]  # a link of no length
+    d = arm_link_distances(pa, pb)
+    assert d.shape == (n, 4)
+    for la in (0, 1):
+        for lb in (0, 1):
+            ref = segment_distances(pa[:, la], pa[:, la + 1], pb[:, lb], pb[:, lb + 1])
+            np.testing.assert_allclose(d[:, 2 * la + lb], ref, rtol=0, atol=1e-12)
+    assert (d[:40].min(axis=1) == 0).all() and (d == 0).sum() > 100  # (touching and crossing among them)

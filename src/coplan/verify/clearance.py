@@ -99,6 +99,10 @@ def segment_distances(a0, a1, b0, b1) -> np.ndarray:
     return np.where(_crossing(ax, ay, ux, uy, bx, by, vx, vy), 0.0, d)
 
 
+#: Instants per block of :func:`arm_link_distances`.
+LINK_BLOCK = 1024
+
+
 def arm_link_distances(pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
     """Core-segment distances of every link pair of two arms.
 
@@ -110,26 +114,24 @@ def arm_link_distances(pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
     -------
     (K, 4) distances; column ``2 * la + lb`` is link ``la`` of arm a against link ``lb`` of
     arm b (link 0: base-elbow, link 1: elbow-tip). Endpoint-to-segment distances are shared
-    between link pairs (12 evaluations instead of 16).
+    between link pairs (12 evaluations instead of 16), all of one arm's points against all of
+    the other's links in one evaluation over (3 points, 2 links, K instants), ``LINK_BLOCK``
+    instants at a time (the temporaries then stay in the cache).
     """
-    seg_a = [(pa[:, k, 0], pa[:, k, 1], pa[:, k + 1, 0] - pa[:, k, 0], pa[:, k + 1, 1] - pa[:, k, 1]) for k in (0, 1)]
-    seg_b = [(pb[:, k, 0], pb[:, k, 1], pb[:, k + 1, 0] - pb[:, k, 0], pb[:, k + 1, 1] - pb[:, k, 1]) for k in (0, 1)]
-    uu_a = [s[2] * s[2] + s[3] * s[3] for s in seg_a]
-    uu_b = [s[2] * s[2] + s[3] * s[3] for s in seg_b]
-    # point p of arm a (0 base, 1 elbow, 2 tip) to link l of arm b, and vice versa
-    pa_to_b = {(p, l): _pt_seg_sq(pa[:, p, 0], pa[:, p, 1], *seg_b[l], uu_b[l]) for p in range(3) for l in range(2)}
-    pb_to_a = {(p, l): _pt_seg_sq(pb[:, p, 0], pb[:, p, 1], *seg_a[l], uu_a[l]) for p in range(3) for l in range(2)}
-    out = np.empty((pa.shape[0], 4))
-    for la in (0, 1):
-        for lb in (0, 1):
-            d2 = np.minimum(
-                np.minimum(pa_to_b[(la, lb)], pa_to_b[(la + 1, lb)]),
-                np.minimum(pb_to_a[(lb, la)], pb_to_a[(lb + 1, la)]),
-            )
-            d = np.sqrt(d2)
-            cross = _crossing(*seg_a[la], *seg_b[lb])
-            out[:, 2 * la + lb] = np.where(cross, 0.0, d)
-    return out
+    if pa.shape[0] > LINK_BLOCK:
+        return np.concatenate([arm_link_distances(pa[i:i + LINK_BLOCK], pb[i:i + LINK_BLOCK])
+                               for i in range(0, pa.shape[0], LINK_BLOCK)])
+    xa, ya = np.ascontiguousarray(np.moveaxis(pa, 0, -1)).transpose(1, 0, 2)  # (3, K) each: base, elbow, tip
+    xb, yb = np.ascontiguousarray(np.moveaxis(pb, 0, -1)).transpose(1, 0, 2)
+    uxa, uya, uxb, uyb = xa[1:] - xa[:2], ya[1:] - ya[:2], xb[1:] - xb[:2], yb[1:] - yb[:2]  # (2, K): each link
+    uua, uub = uxa * uxa + uya * uya, uxb * uxb + uyb * uyb
+    # point p of arm a (0 base, 1 elbow, 2 tip) to link l of arm b, and vice versa: (3, 2, K)
+    a_to_b = _pt_seg_sq(xa[:, None], ya[:, None], xb[None, :2], yb[None, :2], uxb[None], uyb[None], uub[None])
+    b_to_a = _pt_seg_sq(xb[:, None], yb[:, None], xa[None, :2], ya[None, :2], uxa[None], uya[None], uua[None])
+    # link la of a (its points la, la + 1) against link lb of b, and b's points lb, lb + 1 against la: (la, lb, K)
+    d2 = np.minimum(np.minimum(a_to_b[:2], a_to_b[1:]), np.minimum(b_to_a[:2], b_to_a[1:]).transpose(1, 0, 2))
+    cross = _crossing(xa[:2, None], ya[:2, None], uxa[:, None], uya[:, None], xb[None, :2], yb[None, :2], uxb[None], uyb[None])
+    return np.where(cross, 0.0, np.sqrt(d2)).reshape(4, -1).T
 
 
 # --------------------------------------------------------------------------- motion on the grid
