@@ -378,11 +378,14 @@ def test_arms_are_drawn_where_the_plan_puts_them(browser, pages, greenhouse):
 
 
 def test_play_advances_the_time_and_the_address(browser, pages):
+    import time
+
     page, log = _open(browser, pages["coord"], "#t=2")
+    start = time.monotonic()
     page.click("#play")
     page.wait_for_timeout(800)
-    t = page.evaluate("coplanViewer.time()")
-    assert 2.2 < t < 4.0 and page.evaluate("coplanViewer.playing()")
+    t, playing = page.evaluate("[coplanViewer.time(), coplanViewer.playing()]")
+    assert 2.2 < t <= 2 + (time.monotonic() - start) + 0.05 and playing  # at 1x, never ahead of real time
     page.click("#play")
     t = page.evaluate("coplanViewer.time()")
     assert re.search(r"#t=([0-9.]+)$", page.url) and float(page.url.rsplit("=", 1)[1]) == pytest.approx(t, abs=1e-3)
@@ -391,8 +394,10 @@ def test_play_advances_the_time_and_the_address(browser, pages):
     page.select_option("#speed", "8")  # 8x: the clock runs eight times faster than real time
     page.click("#play")
     page.wait_for_timeout(400)
-    page.click("#play")
-    assert page.evaluate("coplanViewer.time()") > 7.5 + 8 * 0.2
+    # (read at once: on a busy machine the 400 ms can outlast the plan, which then stops at its end --
+    # and a click on play there would start it again from 0)
+    t, playing, end = page.evaluate("[coplanViewer.time(), coplanViewer.playing(), coplanViewer.duration]")
+    assert t > 7.5 + 8 * 0.2 and (playing or t == end)
     assert log["errors"] == []
     page.close()
 
