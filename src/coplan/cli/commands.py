@@ -86,6 +86,10 @@ def guarded(fn):
     return wrapper
 
 
+#: ``coplan check`` says its stages as it goes on cells of this many fruit or more (about 20 s).
+CHECK_STAGES_FROM = 500
+
+
 def _resolve_problem(problem: Optional[Path]) -> Path:
     return resolve_problem(problem, lambda m: err_console.print(f"[dim]{_s(m)}[/]", highlight=False))
 
@@ -304,8 +308,8 @@ def check(
     if resolution is not None:
         _fail(ExitCode.USAGE, f"--resolution: {path.name} is a stationary cell (no gantry section); it applies to a row")
     # (a cell of 1500 fruit took a minute, 3000 two and a half, saying nothing: its stages are said
-    # from 500 fruit, about 20 s; a small cell's check stays as quiet as it is quick)
-    with ProgressDisplay(err_console, quiet=as_json or len(prob.fruits) < 500) as say:
+    # from CHECK_STAGES_FROM fruit, about 20 s; a small cell's check stays as quiet as it is quick)
+    with ProgressDisplay(err_console, quiet=as_json or len(prob.fruits) < CHECK_STAGES_FROM) as say:
         say(f"screen: {plural(len(prob.arms), 'arm')}, {len(prob.fruits)} fruit")
         scr = screened(prob)
         say("lower bound (MILP)")
