@@ -157,6 +157,27 @@ def test_many_samples_one_pair_of_links_at_a_time_are_the_exact_answers(problems
         assert np.array_equal(pairs, np.vstack([links_too_close_pairs(la[k:k + 1], lb[:m], r, need) for k in range(n)]))
 
 
+def test_boxed_in_is_counted_from_each_neighbours_stows_as_static_hits_counts_them(problems_dir):
+    """``boxed_in`` (the samples' points computed once, each neighbour's stows' once): a neighbour
+    counts when each of its stows -- home and over the bin first, then the rest -- meets one of
+    the samples, exactly as ``static_hits`` counts them; seeded samples of every arm, some boxing
+    a neighbour in and some not."""
+    p = load_problem(problems_dir / "dense_overlap.yaml")
+    geo = ArmGeometry(p, p.task.clearance + MARGIN)
+    rng = np.random.default_rng(5)
+    counts = []
+    for _ in range(60):
+        i = int(rng.integers(0, len(p.arms)))
+        samples = rng.uniform(-3.2, 3.2, (int(rng.integers(1, 400)), 2))
+        want = sum(1 for j in geo.nbrs[i]
+                   if (geo.static_hits(j, geo.stows(j)[:3], i, samples) > 0).all()
+                   and (geo.static_hits(j, geo.stows(j)[3:], i, samples) > 0).all())
+        assert geo.boxed_in(i, samples) == want
+        counts.append(want)
+    assert 0 in counts and max(counts) > 0
+    assert geo.boxed_in(0, np.zeros((0, 2))) == 0
+
+
 @pytest.mark.parametrize("name", ["dense_overlap", "five_arm_row", "crossing_paths"])
 def test_the_box_screen_changes_no_plan(problems_dir, monkeypatch, name):
     """Coordinating with the box screen and without it gives the same steps, to the bit; the

@@ -70,6 +70,7 @@ class ArmGeometry:
             self.nbrs[i].append(j)
             self.nbrs[j].append(i)
         self._stows: dict[int, np.ndarray] = {}
+        self._stow_links: dict[int, LinkPoints] = {}
         self._routes: dict[tuple, list[tuple[float, float]]] = {}
 
     def radii(self, i: int, j: int) -> float:
@@ -126,13 +127,24 @@ class ArmGeometry:
             self._stows[i] = stow_poses(self.problem.arms[i])
         return self._stows[i]
 
+    def stow_links(self, i: int) -> LinkPoints:
+        """:meth:`links` of arm i's :meth:`stows`, computed once."""
+        if i not in self._stow_links:
+            self._stow_links[i] = self.links(i, self.stows(i))
+        return self._stow_links[i]
+
     def boxed_in(self, i: int, samples: np.ndarray) -> int:
-        """How many neighbours of arm i have no candidate rest pose clear of arm i's ``samples``."""
-        n = 0
+        """How many neighbours of arm i have no candidate rest pose clear of arm i's ``samples``
+        (:meth:`static_hits` of each neighbour's stows, with the samples' points computed once)."""
+        samples = np.atleast_2d(np.asarray(samples, float))
+        if samples.size == 0:
+            return 0
+        mine, n = self.links(i, samples), 0
         for j in self.nbrs[i]:
-            cand = self.stows(j)
+            stow, r = self.stow_links(j), self.radii(j, i)
             # home and over the bin first: usually one of them is clear
-            if (self.static_hits(j, cand[:3], i, samples) > 0).all() and (self.static_hits(j, cand[3:], i, samples) > 0).all():
+            if (links_too_close_pairs(stow[:3], mine, r, self.need).any(axis=1).all()
+                    and links_too_close_pairs(stow[3:], mine, r, self.need).any(axis=1).all()):
                 n += 1
         return n
 
