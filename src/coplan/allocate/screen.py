@@ -149,6 +149,12 @@ class _Sweep:
     home_by: str | None  # neighbour violated at home
 
 
+def _needs(arms: tuple[Arm, ...], arm: Arm, clearance: float) -> dict[str, float]:
+    """How far ``arm``'s link axes must keep from each arm's base (its name -> m): the
+    clearance and both link radii."""
+    return {o.name: clearance + arm.link_radius + o.link_radius for o in arms}
+
+
 def _sweep(arms: tuple[Arm, ...], arm: Arm, need: dict[str, float]) -> _Sweep:
     lim = arm.limits[0]
     h = arm.home[0]
@@ -284,7 +290,7 @@ def _arm_sweep(arms: tuple[Arm, ...], clearance: float, i: int, tip_tolerance: f
     depend on the arms and the clearance alone: kept for the next call on the same arms (a row
     asks :func:`usable_picks` of the same carriage frame thousands of times)."""
     arm = arms[i]
-    need = {o.name: clearance + arm.link_radius + o.link_radius for o in arms}
+    need = _needs(arms, arm, clearance)
     sw = _sweep(arms, arm, need)
     _, bin_use, _, _ = _poses(arms, arm, np.asarray([arm.bin], float), 0.0, sw, need, tip_tolerance)
     return sw, bool(bin_use[0].any())
@@ -303,7 +309,7 @@ def usable_picks(problem: Problem, points, tip_tolerance: float = TIP_TOLERANCE,
     for i, arm in enumerate(problem.arms):
         if arms is not None and i not in arms:
             continue
-        need = {o.name: clear + arm.link_radius + o.link_radius for o in problem.arms}
+        need = _needs(problem.arms, arm, clear)
         sw, bin_ok = _arm_sweep(problem.arms, clear, i, float(tip_tolerance))
         if not bin_ok or pts.shape[0] == 0:
             continue
@@ -340,7 +346,7 @@ def screen(problem: Problem, tip_tolerance: float = TIP_TOLERANCE) -> Screen:
     arm_reasons: dict[str, str] = {}
     pick_why: dict[tuple[int, int], str] = {}
     for i, arm in enumerate(arms):
-        need = {o.name: clear + arm.link_radius + o.link_radius for o in arms}
+        need = _needs(arms, arm, clear)
         sw = _sweep(problem.arms, arm, need)
         lim = arm.limits[0]
         q1_range[arm.name] = None if sw.home_by is not None else (sw.lo, sw.hi)

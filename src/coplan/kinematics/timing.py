@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["trajectory_states", "sync_duration", "cubic_min_time", "cubic_eval", "scurve_time", "scurve_times", "SCurve", "Move1D", "move_lower_bound",
+__all__ = ["trajectory_states", "phase_starts", "sync_duration", "cubic_min_time", "cubic_eval", "scurve_time", "scurve_times", "SCurve", "Move1D", "move_lower_bound",
            "MoveError", "ruckig_move", "accel_time"]
 
 
@@ -118,6 +118,19 @@ def move_lower_bound(q0, q1, vmax, amax, jmax) -> float:
     return max((scurve_time(d, v, a, j) for d, v, a, j in zip(dq, vmax, amax, jmax)), default=0.0)
 
 
+def phase_starts(durs, jerks) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each phase's start time and the position, velocity and acceleration there, of a 1-D
+    rest-to-rest jerk profile from 0 (``durs``, ``jerks``: one per phase): four (P,) arrays,
+    accumulated phase by phase in one order, which every evaluation of a profile shares."""
+    starts, P, V, A = [], [], [], []
+    p = v = acc = t0 = 0.0
+    for d, jk in zip(durs, jerks):
+        starts.append(t0), P.append(p), V.append(v), A.append(acc)
+        p, v, acc = p + v * d + acc * d**2 / 2 + jk * d**3 / 6, v + acc * d + jk * d**2 / 2, acc + jk * d
+        t0 += d
+    return np.asarray(starts), np.asarray(P), np.asarray(V), np.asarray(A)
+
+
 def _profile(durs, jerks, t):
     """Evaluate a 1-D rest-to-rest jerk profile (from 0) at times t: p, v, a, j arrays.
 
@@ -127,16 +140,10 @@ def _profile(durs, jerks, t):
     t = np.clip(np.asarray(t, float), 0.0, float(sum(durs)))
     if not len(durs):
         return [np.zeros_like(t) for _ in range(4)]
-    starts, P, V, A = [], [], [], []
-    p = v = acc = t0 = 0.0
-    for d, jk in zip(durs, jerks):
-        starts.append(t0), P.append(p), V.append(v), A.append(acc)
-        p, v, acc = p + v * d + acc * d**2 / 2 + jk * d**3 / 6, v + acc * d + jk * d**2 / 2, acc + jk * d
-        t0 += d
-    starts = np.asarray(starts)
+    starts, P, V, A = phase_starts(durs, jerks)
     k = np.maximum(np.searchsorted(starts, t, side="right") - 1, 0)
     tau = t - starts[k]
-    pk, vk, ak, jk = np.asarray(P)[k], np.asarray(V)[k], np.asarray(A)[k], np.asarray(jerks, float)[k]
+    pk, vk, ak, jk = P[k], V[k], A[k], np.asarray(jerks, float)[k]
     return [pk + vk * tau + ak * tau**2 / 2 + jk * tau**3 / 6, vk + ak * tau + jk * tau**2 / 2, ak + jk * tau, jk]
 
 

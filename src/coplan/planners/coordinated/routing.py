@@ -96,7 +96,11 @@ class ArmGeometry:
         poses, samples = np.atleast_2d(np.asarray(poses, float)), np.atleast_2d(np.asarray(samples, float))
         if samples.size == 0 or poses.size == 0:
             return np.zeros(len(poses), int)
-        return links_too_close_pairs(self.links(i, poses), self.links(j, samples), self.radii(i, j), self.need).sum(axis=1)
+        return self.link_hits(i, self.links(i, poses), j, self.links(j, samples))
+
+    def link_hits(self, i: int, poses: LinkPoints, j: int, samples: LinkPoints) -> np.ndarray:
+        """:meth:`static_hits` on points from :meth:`links` (computed once, compared many times)."""
+        return links_too_close_pairs(poses, samples, self.radii(i, j), self.need).sum(axis=1)
 
     @staticmethod
     def path(q0, q1, step: float = 0.04) -> np.ndarray:
@@ -141,10 +145,9 @@ class ArmGeometry:
             return 0
         mine, n = self.links(i, samples), 0
         for j in self.nbrs[i]:
-            stow, r = self.stow_links(j), self.radii(j, i)
+            stow = self.stow_links(j)
             # home and over the bin first: usually one of them is clear
-            if (links_too_close_pairs(stow[:3], mine, r, self.need).any(axis=1).all()
-                    and links_too_close_pairs(stow[3:], mine, r, self.need).any(axis=1).all()):
+            if (self.link_hits(j, stow[:3], i, mine) > 0).all() and (self.link_hits(j, stow[3:], i, mine) > 0).all():
                 n += 1
         return n
 

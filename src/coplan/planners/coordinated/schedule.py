@@ -35,7 +35,7 @@ from ...allocate.allocation import Allocation
 from ...plan import Event, EventKind
 from ...problem.model import Arm, Problem
 from ...kinematics.geometry import segment_distance_rows, segment_distance_xy
-from ...kinematics.timing import SCurve
+from ...kinematics.timing import SCurve, phase_starts
 
 __all__ = [
     "StepKind",
@@ -371,18 +371,8 @@ class CurveTable:
             if not durs or curve.duration <= 0:
                 self.joints.append(None)
                 continue
-            starts, P, V, A = [], [], [], []
-            p = v = acc = 0.0
-            t0 = 0.0
-            for d, jk in zip(durs, jerks):
-                starts.append(t0)
-                P.append(p)
-                V.append(v)
-                A.append(acc)
-                p, v, acc = p + v * d + acc * d**2 / 2 + jk * d**3 / 6, v + acc * d + jk * d**2 / 2, acc + jk * d
-                t0 += d
             Ti = float(sum(durs))
-            self.joints.append((np.asarray(starts), np.asarray(P), np.asarray(V), np.asarray(A), np.asarray(jerks, float),
+            self.joints.append((*phase_starts(durs, jerks), np.asarray(jerks, float),
                                 Ti, Ti / curve.duration, float(np.sign(self.q1[i] - self.q0[i]))))
 
     def eval(self, t: np.ndarray) -> np.ndarray:
