@@ -15,6 +15,7 @@ The **policy** (:func:`coplan.row.policy.run_policy`) decides which arm books wh
 
 from __future__ import annotations
 
+import itertools
 import math
 import weakref
 from dataclasses import dataclass, field
@@ -142,29 +143,40 @@ class Booker:
         out[m:] = st.q[st.k_free]
         return out
 
-    def _clear(self, i: int, k0: int, q: np.ndarray) -> bool:
+    def _clear(self, i: int, k0: int, q: np.ndarray, known: tuple[int, int] = (0, 0)) -> bool:
         """Arm ``i``'s motion ``q`` from sample ``k0`` keeps ``need`` from every neighbour -- and so
         does the pose it then rests at, against whatever a neighbour has booked beyond it (that
         motion was checked against this arm's *previous* resting pose: a new one, home after the
-        bin or the bin after home, must be checked again)."""
+        bin or the bin after home, must be checked again). ``known``: samples ``[a, b)`` already
+        found clear, not tested again."""
         k1 = k0 + q.shape[0]
         reach = max([k1] + [self.arms[j].k_free + 1 for j in self.neighbours[i]])
         if reach > k1:
             q = np.vstack([q, np.repeat(q[-1:], reach - k1, axis=0)])
-        return not self._hits(i, k0, q, first=True).any()
+        a, b = known
+        if b <= a:
+            return not self._hits(i, k0, q, first=True).any()
+        idx = np.arange(k0, k0 + q.shape[0])
+        rest = (idx < a) | (idx >= b)
+        return not self._hits_at(i, idx[rest], q[rest], first=True).any()
 
     def _hits(self, i: int, k0: int, q: np.ndarray, first: bool = False) -> np.ndarray:
         """(len(q),) whether arm ``i`` at sample ``k0 + k`` of ``q`` comes within ``need`` of a
         neighbour's booked motion (its resting pose past its booking); ``first``: only whether
         any does (the array is all False if none, and stops at the first neighbour that does)."""
+        return self._hits_at(i, np.arange(k0, k0 + q.shape[0]), q, first)
+
+    def _hits_at(self, i: int, idx: np.ndarray, q: np.ndarray, first: bool = False) -> np.ndarray:
+        """:meth:`_hits` for samples anywhere on the grid: arm ``i`` at pose ``q[m]`` at sample
+        ``idx[m]``, each neighbour where it is booked then (:meth:`pose_at`)."""
         a = self.problem.arms[i]
         pa = arm_points(a, q)
         out = np.zeros(q.shape[0], bool)
         for j in self.neighbours[i]:
-            b = self.problem.arms[j]
+            b, st = self.problem.arms[j], self.arms[j]
             self.checks += q.shape[0]
-            out |= points_too_close(pa, arm_points(b, self.pose_at(j, k0, k0 + q.shape[0])), a.link_radius + b.link_radius,
-                                    self.need)
+            # (past its booking an arm rests: every sample of ``st.q`` from ``k_free`` on is that pose)
+            out |= points_too_close(pa, arm_points(b, st.q[np.minimum(idx, st.k_free)]), a.link_radius + b.link_radius, self.need)
             if first and out.any():
                 break
         return out
@@ -189,25 +201,52 @@ class Booker:
     # ------------------------------------------------------------------ cycles
     def plan_cycle(self, i: int, fid: str, w: Window, t_from: float) -> Cycle | None:
         """The earliest clear cycle of arm ``i`` on ``fid`` in window ``w`` starting at rest at
-        ``t_from`` or later (None when none fits the window)."""
-        arm = self.problem.arms[i]
+        ``t_from`` or later (None when none fits the window).
+
+        The tries come in turn from :meth:`_tries`. Each try's approach (its move to the fruit)
+        is checked against the neighbours before the rest of its cycle is built: where a
+        neighbour is in the way the approach is nearly always where it meets it, and a hit there
+        is a hit of the whole cycle (the same samples of the same motion, each sample's test its
+        own), so the answer is the same as building every cycle whole. The approaches of the
+        next tries are checked together, more at a time as they fail."""
         st = self.arms[i]
         k0 = st.k_free
         q0 = st.q[k0].copy()
+        tries = self._tries(i, fid, w, k0, q0, max(k0, self.up(t_from)))
+        batch = 1
+        while True:
+            todo = list(itertools.islice(tries, batch))
+            if not todo:
+                return None
+            batch *= 4
+            approaches = [self._approach(k0, k_p, leg) for k_p, _, leg in todo]
+            hit = self._approaches_hit(i, approaches)
+            for (k_p, b, leg), (k_a, approach), h in zip(todo, approaches, hit):
+                if h:
+                    continue
+                cyc = self._assemble(i, fid, k0, q0, k_p, b, leg, self.bin_q[i], approach)
+                if cyc is not None and self._clear(i, k0, cyc.q, known=(k_a, k_a + approach.shape[0])):
+                    return cyc
+
+    def _tries(self, i: int, fid: str, w: Window, k0: int, q0: np.ndarray, k_from: int):
+        """Arm ``i``'s tries on ``fid`` from rest at ``q0`` (sample ``k0``), in turn: ``(k_p, b,
+        leg)``, a pick at sample ``k_p`` on elbow branch ``b`` reached by ``leg``. The earliest
+        pick in the window that the arm can reach from ``k_from`` (the arrival time and where the
+        fruit is then found by fixed-point rounds), its quicker branch first, then the other if it
+        arrives in time (it may go round what is in the way); then later, by steps that grow (a
+        neighbour in the way for long is not probed every 0.1 s), up to ``PATIENCE`` of waiting."""
+        arm = self.problem.arms[i]
         rest = np.array([q0, np.zeros(2), np.zeros(2)])
-        k_from = max(k0, self.up(t_from))
         xy = self.fruit_xy[fid]
-        qb = self.bin_q[i]
         t_p = max(w.lo, k_from * self.dt)
         t_last = min(w.hi, k_from * self.dt + PATIENCE)
-        leg1 = None
         retry = RETRY
         while True:
             k_p = self.up(t_p)
             for _ in range(_TRIES):
                 t_p = k_p * self.dt
                 if t_p > t_last + 1e-9:
-                    return None
+                    return
                 c0, c1 = self.cruise.state_one(t_p)[0], self.cruise.state_one(t_p + self._dwells(fid)[0] * self.dt)[0]
                 brs = self.branches(i, fid, c0, c1)
                 if not brs:
@@ -228,24 +267,43 @@ class Booker:
                     break
                 k_p = max(k_p + 1, self.up(k_from * self.dt + leg1.duration))
             else:
-                return None
-            cyc = self._assemble(i, fid, k0, q0, k_p, b, leg1, qb)
-            if cyc is not None and self._clear(i, k0, cyc.q):
-                return cyc
-            for b2, leg2 in legs:  # the other elbow branch, if it arrives in time, may go round what is in the way
+                return
+            yield k_p, b, leg1
+            for b2, leg2 in legs:
                 if b2 != b and k_p * self.dt - leg2.duration >= k_from * self.dt - 1e-9:
-                    cyc = self._assemble(i, fid, k0, q0, k_p, b2, leg2, qb)
-                    if cyc is not None and self._clear(i, k0, cyc.q):
-                        return cyc
-            # later, by steps that grow (a neighbour in the way for long is not probed every 0.1 s)
+                    yield k_p, b2, leg2
             t_p = k_p * self.dt + retry
             retry *= RETRY_GROWTH
+
+    def _approaches_hit(self, i: int, approaches: list[tuple[int, np.ndarray]]) -> list[bool]:
+        """For each ``(first sample, poses)`` of :meth:`_approach`, whether arm ``i`` comes within
+        ``need`` of a neighbour on the way (:meth:`_hits_at`, all in one evaluation)."""
+        sizes = [q.shape[0] for _, q in approaches]
+        if not any(sizes):
+            return [False] * len(approaches)
+        idx = np.concatenate([np.arange(k, k + m) for (k, _), m in zip(approaches, sizes)])
+        hit = self._hits_at(i, idx, np.concatenate([q for _, q in approaches]))
+        ends = np.cumsum(sizes)
+        return [bool(hit[e - m:e].any()) for e, m in zip(ends, sizes)]
+
+    def _approach(self, k0: int, k_p: int, leg1: Leg) -> tuple[int, np.ndarray]:
+        """``(first sample, (m, 2) poses)``: the samples from ``k0`` on at which a cycle that
+        picks at sample ``k_p`` is on its way there by ``leg1`` (as :meth:`_assemble` samples them)."""
+        t_p = k_p * self.dt
+        s1 = t_p - leg1.duration
+        ts = np.arange(k0, k_p + 1) * self.dt  # (the first samples of :meth:`_assemble`'s grid)
+        mv = (ts < t_p - 1e-9) & ~(ts < s1)
+        on = np.flatnonzero(mv)
+        if on.size == 0:
+            return k_p, np.empty((0, 2))
+        return k0 + int(on[0]), leg1.sample(ts[mv] - s1)
 
     def _dwells(self, fid: str) -> tuple[int, int]:
         """Samples of the pick and the place dwell of a cycle on ``fid`` (none for a probe)."""
         return (0, 0) if fid in self.probes else (self.n_pick, self.n_place)
 
-    def _assemble(self, i: int, fid: str, k0: int, q0: np.ndarray, k_p: int, b: int, leg1: Leg, qb: np.ndarray) -> Cycle | None:
+    def _assemble(self, i: int, fid: str, k0: int, q0: np.ndarray, k_p: int, b: int, leg1: Leg, qb: np.ndarray,
+                  approach: np.ndarray | None = None) -> Cycle | None:
         arm = self.problem.arms[i]
         dt = self.dt
         n_pick, n_place = self._dwells(fid)
@@ -269,7 +327,7 @@ class Booker:
         q[wait] = q0
         mv = pre & ~wait
         if mv.any():
-            q[mv] = leg1.sample(ts[mv] - s1)
+            q[mv] = leg1.sample(ts[mv] - s1) if approach is None else approach
         pk = slice(k_p - k0, k_p + n_pick - k0 + 1)
         qt = track(arm, xy, self.cruise, ts[pk], b)
         # IK gives principal angles: a pick that carries a joint across +-pi is continuous in
@@ -416,22 +474,41 @@ class Booker:
         n = self.up(leg.duration)
         reach = max([k0 + 1] + [self.arms[j].k_free + 1 for j in self.neighbours[i]])
         resting = {}  # pose -> (reach - k0 + 1,) its hits from k0 to reach
-        for _ in range(int(60.0 / RETRY)):
-            # at rest at q0 before sample k_s, the move from it (sampled only there: a try
-            # sampled the whole wait again, which grew with every try)
-            move = leg.sample(np.arange(k_s, k_s + n + 1) * self.dt - k_s * self.dt)
-            q = np.concatenate([np.repeat(q0[None, :], k_s - k0, axis=0), move])
-            q[-1] = target
-            if self.moves_after_halt(i, k0, q):
+        step, tries = self.up(RETRY), int(60.0 / RETRY)
+        moves: dict[int, tuple[np.ndarray, bool]] = {}  # start -> (the move, whether it comes too close)
+        batch = 1
+        for m in range(tries):
+            if k_s not in moves:  # the next tries' moves, checked together (more at a time as they fail)
+                starts = [k_s + b * step for b in range(min(batch, tries - m))]
+                moves.update(self._moves_from(i, leg, n, target, starts))
+                batch *= 4
+            move, hit = moves.pop(k_s)
+            if i in self.halted and self.moves_after_halt(i, k0, self._waited(q0, k_s - k0, move)):
                 return False  # (its fault came first: it stays where it rests)
             if self._rest_hit(i, q0, k0, reach, resting, k0, k_s):
                 return False  # (resting at q0 comes too close before this start: before any later start too)
-            if (not self._hits(i, k_s, q[k_s - k0:], first=True).any()
-                    and not self._rest_hit(i, target, k0, reach, resting, k_s + n + 1, reach)):
-                self.commit(Cycle(i, "", k0, q, []))
+            if not hit and not self._rest_hit(i, target, k0, reach, resting, k_s + n + 1, reach):
+                self.commit(Cycle(i, "", k0, self._waited(q0, k_s - k0, move), []))
                 return True
-            k_s += self.up(RETRY)
+            k_s += step
         return False
+
+    def _moves_from(self, i: int, leg: Leg, n: int, target: np.ndarray, starts: list[int]) -> dict[int, tuple[np.ndarray, bool]]:
+        """Arm ``i``'s move ``leg`` sampled from each start sample in ``starts`` (``n + 1`` samples
+        each, the last one ``target``), and whether it comes within ``need`` of a neighbour's
+        booked motion: start -> (move (n + 1, 2), hit). Each move sampled and checked sample by
+        sample as one start at a time would (:meth:`_hits_at`), in one evaluation."""
+        t = np.concatenate([np.arange(k, k + n + 1) * self.dt - k * self.dt for k in starts])
+        q = leg.sample(t).reshape(len(starts), n + 1, 2)
+        q[:, -1] = target
+        idx = np.concatenate([np.arange(k, k + n + 1) for k in starts])
+        hit = self._hits_at(i, idx, q.reshape(-1, 2)).reshape(len(starts), n + 1).any(axis=1)
+        return {k: (q[b], bool(hit[b])) for b, k in enumerate(starts)}
+
+    @staticmethod
+    def _waited(q0: np.ndarray, wait: int, move: np.ndarray) -> np.ndarray:
+        """``wait`` samples at rest at ``q0``, then ``move``."""
+        return np.concatenate([np.repeat(q0[None, :], wait, axis=0), move])
 
     def _rest_hit(self, i: int, pose: np.ndarray, k0: int, reach: int, memo: dict, a: int, b: int) -> bool:
         """Whether arm ``i`` resting at ``pose`` over samples ``[a, b)`` comes within ``need`` of a
