@@ -952,11 +952,17 @@ def test_the_search_keeps_the_rest_at_the_rail_s_end_where_the_rear_arms_then_sh
     """(On six_arm_row the carriage rested at 44.2 m while arm4-arm6 picked the row's tail for 43 s
     and arm1-arm3 stood idle: 324.59 s; resting at the rail's end, 305.89 s.) On a 25 m row with six
     arms the search's best level with the rest at the rail's end is complete and faster than with
-    the default and the early rest there, and is the plan kept: at rest at the rail's end, verified."""
+    the default and the early rest there, and is the plan kept: at rest at the rail's end, verified.
+    Its progress lines say which rest each plan of a level had (they read as one plan three times)."""
     from coplan.row.moving import plan_moving
 
     p = parse_problem(to_yaml(gantry_row(length=25, n_arms=6, density=8, seed=1)))
-    res = plan_moving(p, MovingOptions(workers=2))
+    lines: list[str] = []
+    res = plan_moving(p, MovingOptions(workers=2), progress=lines.append)
+    said = [ln for ln in lines if ln.startswith("row on the move")]
+    assert sum(", resting at the rail's end" in ln for ln in said) == sum(pt["end_rest"] == EndRest.RAIL.value for pt in res.info["speed_curve"])
+    assert any(", resting where the last fruit comes into reach" in ln for ln in said)
+    assert sum("resting" not in ln for ln in said) == sum(pt["end_rest"] == EndRest.REACH.value for pt in res.info["speed_curve"])
     curve = res.info["speed_curve"]
     [rail] = [pt for pt in curve if pt["end_rest"] == EndRest.RAIL.value]
     others = [pt for pt in curve if pt["level"] == rail["level"] and pt["end_rest"] != EndRest.RAIL.value

@@ -195,6 +195,30 @@ def test_gantry_row_moves_its_fruit_with_the_rail_and_refuses_what_it_cannot_dra
     assert all(0.9 <= f.position[1] <= 1.0 for f in narrow.fruits)
 
 
+def test_gantry_row_refuses_a_gantry_key_or_value_a_file_would_refuse_at_the_call() -> None:
+    """(``gantry={'settle': nan, 'bogus': 1, 'max_velocity': -1}`` was returned as given: the
+    error came only when the row was loaded, where every other argument is refused at the call.)"""
+    from coplan.generate import gantry_row
+
+    with pytest.raises(ValueError) as e:
+        gantry_row(length=6, gantry={"settle": float("nan"), "bogus": 1, "max_velocity": -1})
+    for says in ("gantry.bogus: expected one of start, end", "unknown key 'bogus'", "gantry.max_velocity: expected the "
+                 "carriage's speed limit > 0, in m/s, found -1", "gantry.settle: expected a settling time >= 0", "found number nan"):
+        assert says in str(e.value)
+    with pytest.raises(ValueError, match="gantry.max_jerk: expected the carriage's jerk limit > 0, in m/s\\^3, found 0"):
+        gantry_row(length=6, gantry={"max_jerk": 0})
+
+
+@pytest.mark.parametrize("length, density, seed", [(0.1, 20.0, 1), (0.1, 20.0, 2), (0.2, 6.0, 1), (0.1, 6.0, 4)])
+def test_a_row_shorter_than_its_first_truss_draw_has_its_fruit_on_it(length, density, seed):
+    """(The first truss is drawn 0-0.3 m from the row's start: on a shorter row, past its end,
+    none was left to hang the fruit on and NumPy said 'high <= 0'.)"""
+    from coplan.generate import gantry_row
+
+    p = parse_problem(to_yaml(gantry_row(length=length, density=density, seed=seed)))
+    assert p.fruits and all(0.0 <= f.position[0] <= length for f in p.fruits)
+
+
 @pytest.mark.parametrize("kwargs, says", [({"spacing": -2.0}, "spacing > 0"), ({"spacing": 0.0}, "spacing > 0"),
                                           ({"trusses": "no"}, "trusses True or False")])
 def test_gantry_row_refuses_a_spacing_or_trusses_it_cannot_mean(kwargs, says):

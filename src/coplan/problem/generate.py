@@ -344,7 +344,7 @@ def gantry_row(
         while x < length:
             xs.append(x)
             x += float(rng.uniform(0.25, 0.45))
-        xs = np.asarray(xs)
+        xs = np.asarray(xs or [x * length / 0.3])  # (a row shorter than the first draw: that truss on it)
         inset = min(0.12, 0.5 * (y_range[1] - y_range[0]))  # (a truss's fruit within 12 cm of its height)
         heights = rng.uniform(y_range[0] + inset, y_range[1] - inset, xs.size)
         which = rng.integers(0, xs.size, n)
@@ -365,6 +365,11 @@ def gantry_row(
     width = max(4, len(str(len(pts))))
     for i, f in enumerate(d["fruits"], 1):
         f["id"] = f"f{i:0{width}d}"
+    from .gantry import parse_gantry
+
+    issues: list = []
+    if parse_gantry(g, {}, issues) is None:  # (as a file's gantry section: a typo fails here, not when loaded)
+        raise ValueError("gantry_row: " + "; ".join(f"{i.path}: {i.message}" for i in issues))
     d["gantry"] = g
     return d
 

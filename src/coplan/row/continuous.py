@@ -307,6 +307,11 @@ def plan_continuous(problem: Problem, level: float, options: MovingOptions | Non
 def planned_line(res: RowResult) -> str:
     """The progress line of one plan on the move (here, or sent on by the parent of a worker)."""
     how = ", CP-SAT's order" if res.info.get("assign") == AssignRule.CPSAT.value else ""
+    rest = res.info.get("end_rest", EndRest.REACH.value)
+    if rest == EndRest.RAIL.value:  # (the speed search plans a level with each end: say which this is)
+        how += ", resting at the rail's end"
+    elif rest == EndRest.EARLY.value:
+        how += ", resting where the last fruit comes into reach"
     return (f"row on the move ({res.info['profile']}, {res.info['mean_speed']:.3f} m/s on average{how}): "
             f"{res.plan.metrics.get('harvested')} fruit, row time {res.plan.metrics.get('makespan', 0.0):.2f} s, "
             f"planned in {res.timings['planning']:.2f} s")
