@@ -135,13 +135,12 @@ class Booker:
 
     def pose_at(self, i: int, k0: int, k1: int) -> np.ndarray:
         """(k1 - k0, 2) arm ``i``'s booked samples, its resting pose past its booked end."""
+        return self.poses_at(i, np.arange(k0, k1))
+
+    def poses_at(self, i: int, idx: np.ndarray) -> np.ndarray:
+        """(len(idx), 2) arm ``i`` at grid samples ``idx``: as booked, at its resting pose past its booked end."""
         st = self.arms[i]
-        out = np.empty((k1 - k0, 2))
-        m = max(0, min(k1, st.k_free + 1) - k0)
-        if m:
-            out[:m] = st.q[k0:k0 + m]
-        out[m:] = st.q[st.k_free]
-        return out
+        return st.q[np.minimum(idx, st.k_free)]
 
     def _clear(self, i: int, k0: int, q: np.ndarray, known: tuple[int, int] = (0, 0)) -> bool:
         """Arm ``i``'s motion ``q`` from sample ``k0`` keeps ``need`` from every neighbour -- and so
@@ -168,15 +167,14 @@ class Booker:
 
     def _hits_at(self, i: int, idx: np.ndarray, q: np.ndarray, first: bool = False) -> np.ndarray:
         """:meth:`_hits` for samples anywhere on the grid: arm ``i`` at pose ``q[m]`` at sample
-        ``idx[m]``, each neighbour where it is booked then (:meth:`pose_at`)."""
+        ``idx[m]``, each neighbour where it is booked then (:meth:`poses_at`)."""
         a = self.problem.arms[i]
         pa = arm_points(a, q)
         out = np.zeros(q.shape[0], bool)
         for j in self.neighbours[i]:
-            b, st = self.problem.arms[j], self.arms[j]
+            b = self.problem.arms[j]
             self.checks += q.shape[0]
-            # (past its booking an arm rests: every sample of ``st.q`` from ``k_free`` on is that pose)
-            out |= points_too_close(pa, arm_points(b, st.q[np.minimum(idx, st.k_free)]), a.link_radius + b.link_radius, self.need)
+            out |= points_too_close(pa, arm_points(b, self.poses_at(j, idx)), a.link_radius + b.link_radius, self.need)
             if first and out.any():
                 break
         return out
