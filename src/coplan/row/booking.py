@@ -29,7 +29,7 @@ from ..problem.gantry import cell_at
 from ..problem.model import Problem
 from .branches import screen_branches
 from .cruise import Cruise, Window
-from .track import LIMIT_SHARE, Leg, LegError, track, track_state
+from .track import LIMIT_SHARE, Leg, LegError, track, track_state, tucked_route
 
 __all__ = ["Booker", "Cycle", "PATIENCE", "RETRY"]
 
@@ -197,7 +197,7 @@ class Booker:
         return bool(np.all(np.isfinite(q)) and np.all(q >= lim[:, 0] - 1e-9) and np.all(q <= lim[:, 1] + 1e-9))
 
     # ------------------------------------------------------------------ cycles
-    def plan_cycle(self, i: int, fid: str, w: Window, t_from: float) -> Cycle | None:
+    def plan_cycle(self, i: int, fid: str, w: Window, t_from: float, tuck: bool = False) -> Cycle | None:
         """The earliest clear cycle of arm ``i`` on ``fid`` in window ``w`` starting at rest at
         ``t_from`` or later (None when none fits the window).
 
@@ -206,11 +206,24 @@ class Booker:
         neighbour is in the way the approach is nearly always where it meets it, and a hit there
         is a hit of the whole cycle (the same samples of the same motion, each sample's test its
         own), so the answer is the same as building every cycle whole. The approaches of the
-        next tries are checked together, more at a time as they fail."""
+        next tries are checked together, more at a time as they fail.
+
+        ``tuck``: the same tries with the way to the fruit and back tucked instead
+        (:func:`coplan.row.track.tucked_route`: the elbow folded to one side, then to the other)
+        -- slower, but the arm sweeps about a third of its reach: :func:`coplan.row.policy.run_policy`'s
+        last try on a fruit with the carriage at rest for good."""
+        for side in ((1, -1) if tuck else (0,)):
+            cyc = self._first_clear(i, fid, w, t_from, side)
+            if cyc is not None:
+                return cyc
+        return None
+
+    def _first_clear(self, i: int, fid: str, w: Window, t_from: float, tuck: int) -> Cycle | None:
+        """:meth:`plan_cycle`, each try's ways tucked to side ``tuck`` (0: direct)."""
         st = self.arms[i]
         k0 = st.k_free
         q0 = st.q[k0].copy()
-        tries = self._tries(i, fid, w, k0, q0, max(k0, self.up(t_from)))
+        tries = self._tries(i, fid, w, k0, q0, max(k0, self.up(t_from)), tuck)
         batch = 1
         while True:
             todo = list(itertools.islice(tries, batch))
@@ -222,17 +235,18 @@ class Booker:
             for (k_p, b, leg), (k_a, approach), h in zip(todo, approaches, hit):
                 if h:
                     continue
-                cyc = self._assemble(i, fid, k0, q0, k_p, b, leg, self.bin_q[i], approach)
+                cyc = self._assemble(i, fid, k0, q0, k_p, b, leg, self.bin_q[i], approach, tuck)
                 if cyc is not None and self._clear(i, k0, cyc.q, known=(k_a, k_a + approach.shape[0])):
                     return cyc
 
-    def _tries(self, i: int, fid: str, w: Window, k0: int, q0: np.ndarray, k_from: int):
+    def _tries(self, i: int, fid: str, w: Window, k0: int, q0: np.ndarray, k_from: int, tuck: int = 0):
         """Arm ``i``'s tries on ``fid`` from rest at ``q0`` (sample ``k0``), in turn: ``(k_p, b,
         leg)``, a pick at sample ``k_p`` on elbow branch ``b`` reached by ``leg``. The earliest
         pick in the window that the arm can reach from ``k_from`` (the arrival time and where the
         fruit is then found by fixed-point rounds), its quicker branch first, then the other if it
         arrives in time (it may go round what is in the way); then later, by steps that grow (a
-        neighbour in the way for long is not probed every 0.1 s), up to ``PATIENCE`` of waiting."""
+        neighbour in the way for long is not probed every 0.1 s), up to ``PATIENCE`` of waiting.
+        ``tuck`` (+1 or -1): each way to the fruit tucked to that side (:func:`coplan.row.track.tucked_route`)."""
         arm = self.problem.arms[i]
         rest = np.array([q0, np.zeros(2), np.zeros(2)])
         xy = self.fruit_xy[fid]
@@ -254,7 +268,8 @@ class Booker:
                 for b in brs:
                     target = track_state(arm, xy, self.cruise, t_p, b)
                     try:
-                        legs.append((b, Leg(arm, rest, target, self.leg_share)))
+                        legs.append((b, tucked_route(arm, rest, target, tuck, self.leg_share) if tuck
+                                     else Leg(arm, rest, target, self.leg_share)))
                     except LegError:
                         continue
                 if not legs:
@@ -301,7 +316,9 @@ class Booker:
         return (0, 0) if fid in self.probes else (self.n_pick, self.n_place)
 
     def _assemble(self, i: int, fid: str, k0: int, q0: np.ndarray, k_p: int, b: int, leg1: Leg, qb: np.ndarray,
-                  approach: np.ndarray | None = None) -> Cycle | None:
+                  approach: np.ndarray | None = None, tuck: int = 0) -> Cycle | None:
+        """The cycle of a try (:meth:`plan_cycle`), or None where it leaves the limits; ``tuck``
+        (+1 or -1): its way back folds the elbow to that side (:func:`coplan.row.track.tucked_route`)."""
         arm = self.problem.arms[i]
         dt = self.dt
         n_pick, n_place = self._dwells(fid)
@@ -312,7 +329,10 @@ class Booker:
             return self._probe_stays(i, fid, k0, q0, k_p, leg1)
         end_state = track_state(arm, xy, self.cruise, t_pe, b)
         try:
-            leg2 = Leg(arm, end_state, np.array([qb, np.zeros(2), np.zeros(2)]), self.leg_share)
+            if tuck:
+                leg2 = tucked_route(arm, end_state, np.array([qb, np.zeros(2), np.zeros(2)]), tuck, self.leg_share)
+            else:
+                leg2 = Leg(arm, end_state, np.array([qb, np.zeros(2), np.zeros(2)]), self.leg_share)
         except LegError:
             return None
         k_pl = self.up(t_pe + leg2.duration)

@@ -121,6 +121,14 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
         if booked and booker.rests_out(i):  # a probe that found nothing and rests there: its next move is decided now
             heapq.heappush(queue, (-math.inf, i))
             continue
+        if not booked and now >= booker.cruise.duration:
+            cyc = _tucked(booker, i, tries, now, failed)
+            if cyc is not None:
+                booker.commit(cyc)
+                taken.add(cyc.fruit)
+                if pending[i] and pending[i][0] == cyc.fruit:
+                    pending[i].pop(0)
+                booked = True
         if not booked:
             if now >= booker.cruise.duration:
                 by_arm[i] = _give_up(booker, i, tries, now, failed, by_arm[i])
@@ -153,6 +161,24 @@ def _tries(cands: list[tuple[str, Window]], pending: list[str], now: float,
     return pool[:4], False
 
 
+def _tucked(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float, failed: dict[tuple[int, str], int]):
+    """Arm ``i``'s last try, the carriage at rest for good, on each fruit of ``tries`` it would
+    give up now (:func:`_give_up`): a cycle whose way back to the bin is tucked
+    (:meth:`Booker.plan_cycle` with ``tuck``), or None. Where the arms stand close, the direct
+    way back from a fruit high between two bases swings the whole arm over a neighbour's
+    shoulder wherever that neighbour rests (a 12 m row live on the move, arms 1.2 m apart: every
+    try of both arms that reach the fruit met a neighbour, and the fruit was left); folded, it
+    passes. Only a fruit that would be left is tried so, so every plan that harvests without it
+    is the plan it was; a cycle a fault would start after its time is not made."""
+    for fid, w in tries:
+        if w.lo > now + PATIENCE or failed.get((i, fid), 0) + 1 < _GIVE_UP:
+            continue
+        cyc = booker.plan_cycle(i, fid, w, now, tuck=True)
+        if cyc is not None and not booker.moves_after_halt(i, cyc.k0, cyc.q):
+            return cyc
+    return None
+
+
 def _give_up(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float, failed: dict[tuple[int, str], int],
              mine: list[tuple[str, Window]]) -> list[tuple[str, Window]]:
     """Arm ``i``'s fruit (``mine``) less those it gives up, the carriage at rest for good and no
@@ -179,13 +205,14 @@ def why_left(booker: Booker, fid: str, halt: dict[int, float]) -> str:
     if w.arm in halt:
         return f"{fid}: only {arm} could reach it, and {arm} stopped at t = {halt[w.arm]:.1f} s"
     if not math.isfinite(w.hi):
-        return f"{fid}: {arm} could still reach it, but no clear cycle was found"
+        return f"{fid}: {arm} could still reach it, but no clear cycle was found, direct or tucked"
     busy = [e for e in booker.events if e.arm == arm and e.t_start <= w.hi and e.t_end + 1.5 >= w.lo]
     if not busy:  # free for the whole window: no cycle of its fitted, not a neighbour's turn
         return (f"{fid}: passed {arm}'s reach at t = {w.hi:.1f} s, {max(w.hi - w.lo, 0.0):.1f} s after it came into "
                 f"reach, {arm} free all that time: no cycle fitted -- its direct moves between its bin and the fruit "
-                f"come within the clearance of a neighbour, or past a limit, at every start tried (on the move an arm "
-                f"does not tuck round a neighbour as the stop-and-go cell planner does: --gantry stop-and-go or auto)")
+                f"come within the clearance of a neighbour, or past a limit, at every start tried (an arm tucks round a "
+                f"neighbour, as the stop-and-go cell planner does, only once the carriage is at rest at the rail's end: "
+                f"--gantry stop-and-go or auto)")
     doing = "held: no cycle fitted before the window closed (a neighbour in the way, or a limit)"
     for e in busy:
         if e.t_start <= w.hi <= e.t_end + 1.5:

@@ -22,7 +22,8 @@ from ..kinematics.timing import MoveError, ruckig_move, trajectory_states
 from ..problem.model import Arm
 from .cruise import Cruise
 
-__all__ = ["Leg", "LegError", "track", "track_state", "LIMIT_SHARE", "AT_REST_SHARE", "AT_REST_CYCLE_SHARE"]
+__all__ = ["Leg", "LegError", "Route", "tucked_route", "track", "track_state", "LIMIT_SHARE", "AT_REST_SHARE",
+           "AT_REST_CYCLE_SHARE"]
 
 
 #: Share of each joint limit the moves use (the rest is room for the pick's tracking at the seams).
@@ -104,3 +105,46 @@ class Leg:
         if not past.all():
             out[~past] = trajectory_states(self.trajectory, np.maximum(t[~past], 0.0))[0]
         return out
+
+
+class Route:
+    """:class:`Leg` s one after another, each ending at rest where the next begins: ``duration``
+    their sum, :meth:`sample` the poses (as a :class:`Leg`'s), ``end`` the last one's end state."""
+
+    def __init__(self, legs: list[Leg]):
+        self.legs = legs
+        self.end = legs[-1].end
+        self.starts = np.cumsum([0.0] + [leg.duration for leg in legs[:-1]])
+        self.duration = float(self.starts[-1] + legs[-1].duration)
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        t = np.asarray(t, float).ravel()
+        out = np.empty((t.size, 2))
+        k = np.clip(np.searchsorted(self.starts, t, side="right") - 1, 0, len(self.legs) - 1)
+        for n, leg in enumerate(self.legs):
+            on = k == n
+            if on.any():
+                out[on] = leg.sample(t[on] - self.starts[n])
+        return out
+
+
+#: The elbow's bend on a tucked way back (:func:`tucked_route`), as far as its limits allow
+#: (:func:`coplan.planners.coordinated.routing.stow_poses`' folds).
+TUCK = np.pi - 0.25
+
+
+def tucked_route(arm: Arm, start: np.ndarray, end: np.ndarray, side: int, share: float = LIMIT_SHARE) -> Route:
+    """From state ``start`` to state ``end`` (each (3, 2)) with the elbow folded on the way:
+    first the elbow bends to ``side`` (+1 or -1) times :data:`TUCK` (within its limits, 0.05 rad
+    in), then the shoulder turns to ``end``'s angle, then the elbow opens to ``end``'s; each
+    move time-optimal (:class:`Leg`), at rest between. The forearm folded back over the upper arm
+    sweeps about a third of the arm's reach where the direct move sweeps all of it: the way a
+    cell planner tucks round a neighbour (:mod:`coplan.planners.coordinated.routing`)."""
+    lo, hi = arm.limits[1]
+    fold = float(np.clip(side * TUCK, lo + 0.05, hi - 0.05))
+    z = np.zeros(2)
+    w1 = np.array([start[0][0], fold])
+    w2 = np.array([end[0][0], fold])
+    rest = [np.array([w, z, z]) for w in (w1, w2)]
+    return Route([Leg(arm, start, rest[0], share), Leg(arm, rest[0], rest[1], share), Leg(arm, rest[1], end, share)])
+
