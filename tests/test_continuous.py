@@ -370,14 +370,15 @@ class _WholeCycles(Booker):
     refused = 0
     waited = 0
 
-    def plan_cycle(self, i, fid, w, t_from):
+    def plan_cycle(self, i, fid, w, t_from, tuck=False):
         k0 = self.arms[i].k_free
         q0 = self.arms[i].q[k0].copy()
-        for k_p, b, leg in self._tries(i, fid, w, k0, q0, max(k0, self.up(t_from))):
-            cyc = self._assemble(i, fid, k0, q0, k_p, b, leg, self.bin_q[i])
-            if cyc is not None and self._clear(i, k0, cyc.q):
-                return cyc
-            self.refused += 1
+        for side in ((1, -1) if tuck else (0,)):
+            for k_p, b, leg in self._tries(i, fid, w, k0, q0, max(k0, self.up(t_from)), side):
+                cyc = self._assemble(i, fid, k0, q0, k_p, b, leg, self.bin_q[i], None, side)
+                if cyc is not None and self._clear(i, k0, cyc.q):
+                    return cyc
+                self.refused += 1
         return None
 
     def _go(self, i, target, not_before):

@@ -1249,9 +1249,18 @@ def close_row():
     return parse_problem(to_yaml(gantry_row(length=6.0, n_arms=3, density=3.6, spacing=1.2, seed=2)))
 
 
-def test_a_live_stop_plans_what_its_booking_left_as_a_cell_where_arms_stand_close(close_row):
+@pytest.mark.parametrize("tucked", [True, False])
+def test_a_live_stop_books_tucked_or_plans_as_a_cell_what_direct_cycles_leave_where_arms_stand_close(
+        close_row, monkeypatch, tucked):
     # before the stop planned its leftovers as a cell, this run passed 2 of the 18 fruit (the
-    # carriage creeping on in 5 cm hops); the offline planner tucks an arm round its neighbour
+    # carriage creeping on in 5 cm hops); the offline planner tucks an arm round its neighbour.
+    # Since the booking's last try on a fruit it would leave tucks the arm too, this stop books
+    # them all; without that try (the path a stop takes where a tucked cycle fits no better) its
+    # cell plans them
+    import coplan.row.policy as policy
+
+    if not tucked:
+        monkeypatch.setattr(policy, "_tucked", lambda *a, **k: None)
     res = run_live_row(close_row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=2))
     assert res.verification.passed
     ref = {e.fruit for e in res.offline.plan.events if e.kind == EventKind.PLACE}
@@ -1259,7 +1268,7 @@ def test_a_live_stop_plans_what_its_booking_left_as_a_cell_where_arms_stand_clos
     assert ref <= got and res.metrics["of_offline"] == 1.0
     p = res.plan
     stops = p.solver["row"]["stops"]
-    assert any(s["cell_picks"] for s in stops)  # (the cell planned some of them)
+    assert any(s["cell_picks"] for s in stops) == (not tucked)  # (the cell planned some of them)
     assert sum(s["picks"] for s in stops) == sum(e.kind == EventKind.PICK for e in p.events)
     for e in p.events:  # the cell's picks too: with the carriage at rest
         if e.kind == EventKind.PICK:
@@ -1353,9 +1362,13 @@ def test_a_live_stop_and_go_row_hops_no_farther_than_its_rear_working_arm_serves
         assert sum(s["arrive"] + s["cell_lead"] - 1e-6 <= t <= s["depart"] for t in picks) >= s["cell_picks"]
 
 
-def test_a_report_a_live_stops_cell_found_empty_is_done_with():
+def test_a_report_a_live_stops_cell_found_empty_is_done_with(monkeypatch):
     # the cell probed a second report of a fruit it picked; left "not taken", it capped every
-    # hop at the next 5 cm, three stops with no pick, until it left reach
+    # hop at the next 5 cm, three stops with no pick, until it left reach (the booking's last,
+    # tucked tries turned off: with them this row's stops book every fruit, no cell planned)
+    import coplan.row.policy as policy
+
+    monkeypatch.setattr(policy, "_tucked", lambda *a, **k: None)
     short = parse_problem(to_yaml(gantry_row(length=3.0, n_arms=3, density=8.0, spacing=1.2, seed=6)))
     res = run_live_row(short, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=0))
     assert res.verification.passed and res.metrics["of_offline"] == 1.0

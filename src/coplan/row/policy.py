@@ -162,9 +162,10 @@ def _tries(cands: list[tuple[str, Window]], pending: list[str], now: float,
 
 
 def _tucked(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float, failed: dict[tuple[int, str], int]):
-    """Arm ``i``'s last try, the carriage at rest for good, on each fruit of ``tries`` it would
-    give up now (:func:`_give_up`): a cycle whose way back to the bin is tucked
-    (:meth:`Booker.plan_cycle` with ``tuck``), or None. Where the arms stand close, the direct
+    """Arm ``i``'s last try, the carriage at rest for good as far as the booking knows (on the
+    move: at the rail's end; live stop and go: at the stop being booked), on each fruit of
+    ``tries`` it would give up now (:func:`_give_up`): a cycle whose ways to the fruit and back
+    are tucked (:meth:`Booker.plan_cycle` with ``tuck``), or None. Where the arms stand close, the direct
     way back from a fruit high between two bases swings the whole arm over a neighbour's
     shoulder wherever that neighbour rests (a 12 m row live on the move, arms 1.2 m apart: every
     try of both arms that reach the fruit met a neighbour, and the fruit was left); folded, it
