@@ -9,10 +9,11 @@ import numpy as np
 from coplan.generate import gantry_row, to_yaml
 from coplan.kinds import GantryMode
 from coplan.plan import EventKind
+from coplan.planners.coordinated.routing import FOLD
 from coplan.problem import parse_problem
 from coplan.row.booking import Booker
 from coplan.row.live import LiveRowOptions, run_live_row
-from coplan.row.track import TUCK, Leg, tucked_route
+from coplan.row.track import Leg, tucked_route
 
 
 def _rest(q) -> np.ndarray:
@@ -32,7 +33,7 @@ def test_a_tucked_route_folds_turns_and_opens_at_rest_between_within_the_limits(
         assert np.allclose(q[0], q_a, atol=1e-12) and np.allclose(q[-1], q_b, atol=1e-12)
         # folded while the shoulder turns: the middle leg keeps the elbow at the fold
         mid = q[(t > r.starts[1]) & (t < r.starts[2])]
-        assert np.allclose(mid[:, 1], side * TUCK, atol=1e-9) and np.all(np.diff(np.sign(np.diff(mid[:, 0]))) == 0)
+        assert np.allclose(mid[:, 1], side * FOLD, atol=1e-9) and np.all(np.diff(np.sign(np.diff(mid[:, 0]))) == 0)
         # continuous, within the joint limits and the velocity limit (the legs at rest where they meet)
         lim = arm.limits
         assert np.all(q >= lim[:, 0] - 1e-9) and np.all(q <= lim[:, 1] + 1e-9)

@@ -210,8 +210,8 @@ class Booker:
 
         ``tuck``: the same tries with the way to the fruit and back tucked instead
         (:func:`coplan.row.track.tucked_route`: the elbow folded to one side, then to the other)
-        -- slower, but the arm sweeps about a third of its reach: :func:`coplan.row.policy.run_policy`'s
-        last try on a fruit with the carriage at rest for good."""
+        -- slower, but while its shoulder turns the arm reaches no farther than its elbow:
+        :func:`coplan.row.policy.run_policy`'s last try on a fruit with the carriage at rest for good."""
         for side in ((1, -1) if tuck else (0,)):
             cyc = self._first_clear(i, fid, w, t_from, side)
             if cyc is not None:
@@ -318,7 +318,8 @@ class Booker:
     def _assemble(self, i: int, fid: str, k0: int, q0: np.ndarray, k_p: int, b: int, leg1: Leg, qb: np.ndarray,
                   approach: np.ndarray | None = None, tuck: int = 0) -> Cycle | None:
         """The cycle of a try (:meth:`plan_cycle`), or None where it leaves the limits; ``tuck``
-        (+1 or -1): its way back folds the elbow to that side (:func:`coplan.row.track.tucked_route`)."""
+        (+1 or -1): its way back folds the elbow to that side (:func:`coplan.row.track.tucked_route`;
+        its way there, ``leg1``, is :meth:`_tries`')."""
         arm = self.problem.arms[i]
         dt = self.dt
         n_pick, n_place = self._dwells(fid)

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..kinematics.arm import ik_one, jacobian_entries, jacobian_rate_entries
 from ..kinematics.timing import MoveError, ruckig_move, trajectory_states
+from ..planners.coordinated.routing import FOLD
 from ..problem.model import Arm
 from .cruise import Cruise
 
@@ -128,20 +129,16 @@ class Route:
         return out
 
 
-#: The elbow's bend on a tucked way back (:func:`tucked_route`), as far as its limits allow
-#: (:func:`coplan.planners.coordinated.routing.stow_poses`' folds).
-TUCK = np.pi - 0.25
-
-
 def tucked_route(arm: Arm, start: np.ndarray, end: np.ndarray, side: int, share: float = LIMIT_SHARE) -> Route:
     """From state ``start`` to state ``end`` (each (3, 2)) with the elbow folded on the way:
-    first the elbow bends to ``side`` (+1 or -1) times :data:`TUCK` (within its limits, 0.05 rad
-    in), then the shoulder turns to ``end``'s angle, then the elbow opens to ``end``'s; each
-    move time-optimal (:class:`Leg`), at rest between. The forearm folded back over the upper arm
-    sweeps about a third of the arm's reach where the direct move sweeps all of it: the way a
-    cell planner tucks round a neighbour (:mod:`coplan.planners.coordinated.routing`)."""
+    first the elbow bends to ``side`` (+1 or -1) times the stow poses' fold (:data:`FOLD`, within
+    its limits, 0.05 rad in), then the shoulder turns to ``end``'s angle, then the elbow opens to
+    ``end``'s; each move time-optimal (:class:`Leg`), at rest between. While the shoulder turns
+    the arm reaches no farther than its elbow, the forearm folded back over the upper arm, where
+    the direct move sweeps its whole reach: the way a cell planner tucks an arm round a neighbour
+    (:mod:`coplan.planners.coordinated.routing`)."""
     lo, hi = arm.limits[1]
-    fold = float(np.clip(side * TUCK, lo + 0.05, hi - 0.05))
+    fold = float(np.clip(side * FOLD, lo + 0.05, hi - 0.05))
     z = np.zeros(2)
     w1 = np.array([start[0][0], fold])
     w2 = np.array([end[0][0], fold])

@@ -38,6 +38,11 @@ def same_pose(p, q, tol: float = 1e-9) -> bool:
     return abs(p[0] - q[0]) <= tol and abs(p[1] - q[1]) <= tol
 
 
+#: How far a folded elbow bends (rad, either way; within its limits, 0.05 rad in): the stow poses
+#: below, and the tucked ways of a booking on the move (:func:`coplan.row.track.tucked_route`).
+FOLD = np.pi - 0.25
+
+
 def stow_poses(arm: Arm, n_shoulder: int = 12) -> np.ndarray:
     """Candidate rest poses of an arm: home, over its bin (both branches), folded-elbow poses
     around the shoulder (and straight ones)."""
@@ -46,7 +51,7 @@ def stow_poses(arm: Arm, n_shoulder: int = 12) -> np.ndarray:
     q, valid = arm.ik(np.asarray(arm.bin, float))
     cands += [q[b] for b in range(2) if valid[b]]
     # the elbow folded as far as its limits allow (either side), or straight
-    folds = sorted({float(np.clip(f, lim[1, 0] + 0.05, lim[1, 1] - 0.05)) for f in (np.pi - 0.25, -(np.pi - 0.25), 0.0)})
+    folds = sorted({float(np.clip(f, lim[1, 0] + 0.05, lim[1, 1] - 0.05)) for f in (FOLD, -FOLD, 0.0)})
     for s in np.linspace(-np.pi, np.pi, n_shoulder, endpoint=False):
         s = float(np.clip(s, lim[0, 0], lim[0, 1]))
         cands += [np.array([s, f]) for f in folds]
