@@ -4,16 +4,19 @@ rest for good, is booked with its ways to the fruit and back tucked
 
 from __future__ import annotations
 
-import numpy as np
+import json
 
+import numpy as np
+from typer.testing import CliRunner
+
+from coplan.cli import app
 from coplan.generate import gantry_row, to_yaml
-from coplan.kinds import GantryMode
-from coplan.plan import EventKind
+from coplan.plan import EventKind, load_plan
 from coplan.planners.coordinated.routing import FOLD
 from coplan.problem import parse_problem
 from coplan.row.booking import Booker
-from coplan.row.live import LiveRowOptions, run_live_row
 from coplan.row.track import Leg, tucked_route
+from coplan.verify import verify
 
 
 def _rest(q) -> np.ndarray:
@@ -44,13 +47,14 @@ def test_a_tucked_route_folds_turns_and_opens_at_rest_between_within_the_limits(
             assert np.all(v[max(k - 2, 0):k + 2] < 0.05 * np.asarray(arm.max_velocity))
 
 
-def test_a_fruit_between_close_arms_at_the_rail_s_end_is_reached_tucked(monkeypatch):
+def test_a_fruit_between_close_arms_at_the_rail_s_end_is_reached_tucked(monkeypatch, tmp_path):
     # three arms 1.2 m apart, live on the move at 0.15 m/s, no noise: the offline plan's arm3
     # picks f0043 (x = 11.30 m, 1.46 m high) at 62.6 s; live, arm3 is busy while it can, and
     # the fruit is left to arm1 and arm2 with the carriage at rest at the rail's end, where
     # every direct way from a fruit that high between two bases down to the bin swings the arm
     # over its neighbour's shoulder, wherever the neighbour rests (the run harvested 42 of 43)
-    pb = parse_problem(to_yaml(gantry_row(length=12, n_arms=3, density=3.6, spacing=1.2, seed=1)))
+    row = tmp_path / "row.yaml"
+    row.write_text(to_yaml(gantry_row(length=12, n_arms=3, density=3.6, spacing=1.2, seed=1)))
     tucked = []
     plan_cycle = Booker.plan_cycle
 
@@ -62,10 +66,24 @@ def test_a_fruit_between_close_arms_at_the_rail_s_end_is_reached_tucked(monkeypa
         return cyc
 
     monkeypatch.setattr(Booker, "plan_cycle", spy)
-    res = run_live_row(pb, LiveRowOptions(mode=GantryMode.CONTINUOUS, speed=0.15, sigma=0.0, false_rate=0.0,
-                                          duplicate_rate=0.0, seed=0))
-    assert res.verification.passed, [v.kind.value for v in res.verification.violations]
-    ref = {e.fruit for e in res.offline.plan.events if e.kind == EventKind.PLACE}
-    got = {e.fruit for e in res.plan.events if e.kind == EventKind.PLACE}
-    assert "f0043" in ref and ref <= got and res.metrics["of_offline"] == 1.0
+    out = CliRunner(env={"COLUMNS": "250"}).invoke(app, ["run", str(row), "--speed", "0.15", "--sigma", "0", "--false-rate", "0",
+                                                       "--duplicate-rate", "0", "-o", str(tmp_path / "live")])
+    assert out.exit_code == 0, out.output
+    plan = load_plan(tmp_path / "live" / "plan.json")
+    assert verify(parse_problem(row.read_text()), plan).passed
+    doc = json.loads((tmp_path / "live" / "run.json").read_text())
+    assert doc["metrics"]["of_offline"] == 1.0 and doc["metrics"]["harvested"] == 43
     assert ("d0043", True) in tucked  # (its report's id: booked tucked, its direct tries all refused)
+    # the plan and the run's summary say which fruit a tucked cycle picked
+    placed = {e.fruit for e in plan.events if e.kind == EventKind.PLACE}
+    assert plan.solver["row"]["tucked"] == ["f0043"] and "f0043" in placed
+    assert "1 fruit picked with the arm's ways tucked round a neighbour" in " ".join(out.output.split())
+    # the offline plan at that speed takes two fruit so (arm1, the carriage at rest where the last
+    # fruit comes into reach), and its summary says which
+    solved = CliRunner(env={"COLUMNS": "250"}).invoke(app, ["solve", str(row), "--gantry", "continuous", "--speed", "0.15",
+                                                          "-o", str(tmp_path / "offline")])
+    assert solved.exit_code == 0, solved.output
+    off = load_plan(tmp_path / "offline" / "plan.json")
+    got = off.solver["row"]["tucked"]
+    assert got and set(got) <= {e.fruit for e in off.events if e.kind == EventKind.PLACE}
+    assert f"tucked {len(got)} fruit picked with the arm's ways tucked" in " ".join(solved.output.split())

@@ -202,6 +202,11 @@ def _row_time(p, res, m: dict, r: dict, solver: dict, moving: bool, still: bool)
                f"never stops for a pick, but {rest} of the {m.get('harvested')} picks {'comes' if rest == 1 else 'come'} with it at rest (where it "
                f"starts, or at its rest at the row's end)")
         p(f"  carriage          {how}; {shares}")
+        tucked = solver.get("tucked") or []
+        if tucked:  # (the last tries with the carriage at rest: slower cycles, said so)
+            p(f"  tucked            {plural(len(tucked), 'fruit', 'fruit')} picked with the arm's ways tucked round a "
+              f"neighbour (the elbow folded while the shoulder turns; its last try, the carriage at rest): "
+              + ", ".join(map(safe, tucked[:5])) + (f" and {len(tucked) - 5} more" if len(tucked) > 5 else ""))
     else:
         again = solver.get("second_chance") or {}
         extra = (f" ({again['stops']} of them a second chance for {plural(again['fruit'], 'fruit', 'fruit')} a stop's cell "

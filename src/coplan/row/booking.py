@@ -52,6 +52,7 @@ class Cycle:
     k0: int  # first sample of the cycle (the arm free, at rest)
     q: np.ndarray  # (K, 2) samples k0 .. k0 + K - 1
     events: list[Event]
+    tucked: bool = False  # its ways to the fruit and back tucked (:func:`coplan.row.track.tucked_route`)
 
 
 @dataclass
@@ -76,6 +77,7 @@ class Booker:
         self.n_pick = int(math.ceil(problem.task.pick_dwell * rate - 1e-9))
         self.n_place = int(math.ceil(problem.task.place_dwell * rate - 1e-9))
         self.probes: set[str] = set()  # fruit whose cycle is a probe: the arm comes, finds nothing, goes back (no dwells)
+        self.tucked: list[str] = []  # fruit booked by a tucked cycle (:meth:`plan_cycle` with ``tuck``), in booking order
         self.arms = [ArmState(np.tile(np.asarray(a.home, float), (1024, 1))) for a in problem.arms]
         self.events: list[Event] = []
         self.work_end = 0.0  # s: the end of the last cycle committed on a fruit or a report (a probe's too)
@@ -237,6 +239,7 @@ class Booker:
                     continue
                 cyc = self._assemble(i, fid, k0, q0, k_p, b, leg, self.bin_q[i], approach, tuck)
                 if cyc is not None and self._clear(i, k0, cyc.q, known=(k_a, k_a + approach.shape[0])):
+                    cyc.tucked = bool(tuck)
                     return cyc
 
     def _tries(self, i: int, fid: str, w: Window, k0: int, q0: np.ndarray, k_from: int, tuck: int = 0):
@@ -399,6 +402,8 @@ class Booker:
         if cyc.fruit:
             st.fruit.append(cyc.fruit)
             st.ends.append((k1 - 1) * self.dt)
+            if cyc.tucked:
+                self.tucked.append(cyc.fruit)
             self.work_end = max(self.work_end, (k1 - 1) * self.dt)
         self.events += cyc.events
 
@@ -427,6 +432,8 @@ class Booker:
         self.events = [e for e in self.events if id(e) not in gone]
         st.fruit.remove(cyc.fruit)
         st.ends.pop()
+        if cyc.tucked:
+            self.tucked.remove(cyc.fruit)
         self.work_end = max((e for a in self.arms for e in a.ends), default=0.0)
         return cyc.fruit
 

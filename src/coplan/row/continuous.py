@@ -325,6 +325,7 @@ def _verified(problem: Problem, booker: Booker, cruise: Cruise, reach: RowReach,
     timings["planning"] = _time.perf_counter() - t0
     info["left_out"] = dict(reach.reasons) | left
     info["first_stop_seconds"] = None
+    info["tucked"] = list(booker.tucked)  # (fruit whose ways were tucked: the last tries with the carriage at rest)
     return certify(problem, RowResult(plan, None, [], reach, timings, info), screen)
 
 

@@ -461,7 +461,9 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
         "look_ahead": opts.look_ahead, "sigma": opts.sigma,
         "false_rate": opts.false_rate, "seed": opts.seed,
     }
-    row = {"mode": f"{mode.value}-live", "left_out": {k: v for k, v in outcome.items() if v != "harvested"}}
+    row = {"mode": f"{mode.value}-live", "left_out": {k: v for k, v in outcome.items() if v != "harvested"},
+           # the true fruit a tucked cycle harvested (the last tries with the carriage at rest)
+           "tucked": [by_id[d].truth for d in booker.tucked if by_id[d].truth in got and picked_by.get(by_id[d].truth) == d]}
     if mode == GantryMode.CONTINUOUS:
         row["speed"] = opts.speed
         row["holds"] = run.holds
