@@ -18,7 +18,7 @@ import typer
 from .checks import between, choice, choices, in_path, out_path, real, whole
 from .console import ProgressDisplay, text_console
 from .failures import check_out_dir, check_out_file, check_overwrite, exit_fields, resolve_problem, usage, work_done
-from .summary import safe as _safe
+from .summary import safe as _safe, tucked_text
 from ..errors import plural
 from ..kinds import GantryMode, LiveGantryMode, PlanStatus
 
@@ -390,9 +390,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
                        "missed_reachable_by_a_working_arm)\n" if reachable else "")
         tucked = (res.plan.solver.get("row") or {}).get("tucked") or []
         if tucked:  # (the last tries with the carriage at rest: slower cycles, said so)
-            faults_line = (f"{plural(len(tucked), 'fruit', 'fruit')} picked with the arm's ways tucked round a neighbour (the "
-                           f"carriage at rest, its last try): " + ", ".join(map(_safe, tucked[:5]))
-                           + (f" and {len(tucked) - 5} more" if len(tucked) > 5 else "") + "\n") + faults_line
+            faults_line = tucked_text(tucked) + "\n" + faults_line
         if m.get("holds_for_fruit"):
             faults_line = (f"the carriage held {m['holds_for_fruit']} time{'s' if m['holds_for_fruit'] != 1 else ''} rather "
                            f"than pass a fruit no arm could still book ({m['hold_seconds']:.1f} s)\n") + faults_line

@@ -12,6 +12,14 @@ from ..kinds import GantryMode, PlanStatus
 __all__ = ["fmt", "fruit_line", "print_row_summary", "print_summary", "print_verification", "safe"]
 
 
+def tucked_text(tucked: list[str]) -> str:
+    """The fruit a tucked cycle picked (``solver.row.tucked``: the last tries with the carriage at
+    rest), said for a summary: how many, and the first five."""
+    return (f"{plural(len(tucked), 'fruit', 'fruit')} picked with the arm's ways tucked round a neighbour (the elbow "
+            f"folded while the shoulder turns; its last try, the carriage at rest): " + ", ".join(map(safe, tucked[:5]))
+            + (f" and {len(tucked) - 5} more" if len(tucked) > 5 else ""))
+
+
 def safe(x) -> str:
     """An untrusted string (a name, id or message from a file) safe for the terminal: Rich markup
     escaped, control characters (escape sequences) shown as ``\\x..`` codes."""
@@ -202,11 +210,8 @@ def _row_time(p, res, m: dict, r: dict, solver: dict, moving: bool, still: bool)
                f"never stops for a pick, but {rest} of the {m.get('harvested')} picks {'comes' if rest == 1 else 'come'} with it at rest (where it "
                f"starts, or at its rest at the row's end)")
         p(f"  carriage          {how}; {shares}")
-        tucked = solver.get("tucked") or []
-        if tucked:  # (the last tries with the carriage at rest: slower cycles, said so)
-            p(f"  tucked            {plural(len(tucked), 'fruit', 'fruit')} picked with the arm's ways tucked round a "
-              f"neighbour (the elbow folded while the shoulder turns; its last try, the carriage at rest): "
-              + ", ".join(map(safe, tucked[:5])) + (f" and {len(tucked) - 5} more" if len(tucked) > 5 else ""))
+        if solver.get("tucked"):  # (the last tries with the carriage at rest: slower cycles, said so)
+            p(f"  tucked            {tucked_text(solver['tucked'])}")
     else:
         again = solver.get("second_chance") or {}
         extra = (f" ({again['stops']} of them a second chance for {plural(again['fruit'], 'fruit', 'fruit')} a stop's cell "

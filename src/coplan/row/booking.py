@@ -29,7 +29,7 @@ from ..problem.gantry import cell_at
 from ..problem.model import Problem
 from .branches import screen_branches
 from .cruise import Cruise, Window
-from .track import LIMIT_SHARE, Leg, LegError, track, track_state, tucked_route
+from .track import LIMIT_SHARE, Leg, LegError, track, track_state, way
 
 __all__ = ["Booker", "Cycle", "PATIENCE", "RETRY"]
 
@@ -271,8 +271,7 @@ class Booker:
                 for b in brs:
                     target = track_state(arm, xy, self.cruise, t_p, b)
                     try:
-                        legs.append((b, tucked_route(arm, rest, target, tuck, self.leg_share) if tuck
-                                     else Leg(arm, rest, target, self.leg_share)))
+                        legs.append((b, way(arm, rest, target, tuck, self.leg_share)))
                     except LegError:
                         continue
                 if not legs:
@@ -333,10 +332,7 @@ class Booker:
             return self._probe_stays(i, fid, k0, q0, k_p, leg1)
         end_state = track_state(arm, xy, self.cruise, t_pe, b)
         try:
-            if tuck:
-                leg2 = tucked_route(arm, end_state, np.array([qb, np.zeros(2), np.zeros(2)]), tuck, self.leg_share)
-            else:
-                leg2 = Leg(arm, end_state, np.array([qb, np.zeros(2), np.zeros(2)]), self.leg_share)
+            leg2 = way(arm, end_state, np.array([qb, np.zeros(2), np.zeros(2)]), tuck, self.leg_share)
         except LegError:
             return None
         k_pl = self.up(t_pe + leg2.duration)

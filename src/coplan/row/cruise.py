@@ -191,17 +191,22 @@ class Cruise:
         """Position, velocity and acceleration of the carriage at times ``t`` (any shape); at
         rest at ``x0`` before 0 and at ``x1`` after :attr:`duration`."""
         t = np.asarray(t, float)
-        tab = self._table
-        tf = np.clip(t.ravel(), 0.0, self.duration)
-        k = np.clip(np.searchsorted(tab[:, 0], tf, side="right") - 1, 0, len(tab) - 1)
-        t0, x0, v0, a0, j0 = tab[k].T
-        d = tf - t0
+        tf, (_, x0, v0, a0, j0), d = self._phases_at(t)
         x = x0 + v0 * d + a0 * d ** 2 / 2 + j0 * d ** 3 / 6
         v = v0 + a0 * d + j0 * d ** 2 / 2
         acc = a0 + j0 * d
         rest = tf >= self.duration
         x, v, acc = np.where(rest, self.x1, x), np.where(rest, 0.0, v), np.where(rest, 0.0, acc)
         return x.reshape(t.shape), v.reshape(t.shape), acc.reshape(t.shape)
+
+    def _phases_at(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For times ``t`` (flattened, clipped to ``[0, duration]``: ``tf``): each one's phase
+        ``(t0, x, v, a, j)`` as five rows, and the time into it ``d``."""
+        tab = self._table
+        tf = np.clip(t.ravel(), 0.0, self.duration)
+        k = np.clip(np.searchsorted(tab[:, 0], tf, side="right") - 1, 0, len(tab) - 1)
+        phase = tab[k].T
+        return tf, phase, tf - phase[0]
 
     @functools.cached_property
     def _starts(self) -> list[float]:
@@ -220,12 +225,8 @@ class Cruise:
         """:meth:`state`'s positions alone (the same arithmetic: the same bits), at about half its
         cost: :meth:`time_at` bisects on it."""
         t = np.asarray(t, float)
-        tab = self._table
-        tf = np.clip(t.ravel(), 0.0, self.duration)
-        k = np.clip(np.searchsorted(tab[:, 0], tf, side="right") - 1, 0, len(tab) - 1)
-        row = tab[k]
-        d = tf - row[:, 0]
-        x = row[:, 1] + row[:, 2] * d + row[:, 3] * d ** 2 / 2 + row[:, 4] * d ** 3 / 6
+        tf, (_, x0, v0, a0, j0), d = self._phases_at(t)
+        x = x0 + v0 * d + a0 * d ** 2 / 2 + j0 * d ** 3 / 6
         return np.where(tf >= self.duration, self.x1, x).reshape(t.shape)
 
     def time_at(self, x) -> np.ndarray:

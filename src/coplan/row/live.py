@@ -463,7 +463,7 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
     }
     row = {"mode": f"{mode.value}-live", "left_out": {k: v for k, v in outcome.items() if v != "harvested"},
            # the true fruit a tucked cycle harvested (the last tries with the carriage at rest)
-           "tucked": [by_id[d].truth for d in booker.tucked if by_id[d].truth in got and picked_by.get(by_id[d].truth) == d]}
+           "tucked": [by_id[d].truth for d in booker.tucked if picked_by.get(by_id[d].truth) == d]}
     if mode == GantryMode.CONTINUOUS:
         row["speed"] = opts.speed
         row["holds"] = run.holds

@@ -62,6 +62,13 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
     heapq.heapify(queue)
     pending = {i: list((order or {}).get(i, [])) for i in range(len(arms))}
     failed: dict[tuple[int, str], int] = {}
+
+    def take(i: int, cyc) -> None:  # a cycle booked: the arm's fruit taken, its given order moved on
+        booker.commit(cyc)
+        taken.add(cyc.fruit)
+        if pending[i] and pending[i][0] == cyc.fruit:
+            pending[i].pop(0)
+
     while queue:
         _, i = heapq.heappop(queue)
         now = booker.free_time(i)
@@ -109,10 +116,7 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 stopped = True  # decided before the fault, it would start after it: never made
                 break
             if cyc is not None:
-                booker.commit(cyc)
-                taken.add(fid)
-                if pending[i] and pending[i][0] == fid:
-                    pending[i].pop(0)
+                take(i, cyc)
                 booked = True
                 break
         if stopped:
@@ -124,10 +128,7 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
         if not booked and now >= booker.cruise.duration:
             cyc = _tucked(booker, i, tries, now, failed)
             if cyc is not None:
-                booker.commit(cyc)
-                taken.add(cyc.fruit)
-                if pending[i] and pending[i][0] == cyc.fruit:
-                    pending[i].pop(0)
+                take(i, cyc)
                 booked = True
         if not booked:
             if now >= booker.cruise.duration:
@@ -172,12 +173,18 @@ def _tucked(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float,
     passes. Only a fruit that would be left is tried so, so every plan that harvests without it
     is the plan it was; a cycle a fault would start after its time is not made."""
     for fid, w in tries:
-        if w.lo > now + PATIENCE or failed.get((i, fid), 0) + 1 < _GIVE_UP:
+        if not _counts(w, now) or failed.get((i, fid), 0) + 1 < _GIVE_UP:
             continue
         cyc = booker.plan_cycle(i, fid, w, now, tuck=True)
         if cyc is not None and not booker.moves_after_halt(i, cyc.k0, cyc.q):
             return cyc
     return None
+
+
+def _counts(w: Window, now: float) -> bool:
+    """Whether a try at ``now`` that found no clear cycle in window ``w`` counts towards giving
+    its fruit up (:func:`_give_up`): not where the window is not open yet -- the carriage settling."""
+    return w.lo <= now + PATIENCE
 
 
 def _give_up(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float, failed: dict[tuple[int, str], int],
@@ -188,7 +195,7 @@ def _give_up(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float
     times (each up to ``PATIENCE`` of waiting) is left to the next stop."""
     x1 = booker.cruise.x1
     for fid, w in tries:
-        if w.lo <= now + PATIENCE:  # (a window not open yet -- the carriage settling -- is no failure)
+        if _counts(w, now):
             failed[(i, fid)] = failed.get((i, fid), 0) + 1
     gone = {(fid, w.arm) for fid, w in tries
             if failed.get((i, fid), 0) >= _GIVE_UP or not booker.branches(i, fid, x1, x1)}

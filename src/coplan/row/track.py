@@ -19,11 +19,11 @@ import numpy as np
 
 from ..kinematics.arm import ik_one, jacobian_entries, jacobian_rate_entries
 from ..kinematics.timing import MoveError, ruckig_move, trajectory_states
-from ..planners.coordinated.routing import FOLD
+from ..planners.coordinated.routing import elbow_fold
 from ..problem.model import Arm
 from .cruise import Cruise
 
-__all__ = ["Leg", "LegError", "Route", "tucked_route", "track", "track_state", "LIMIT_SHARE", "AT_REST_SHARE",
+__all__ = ["Leg", "LegError", "Route", "tucked_route", "way", "track", "track_state", "LIMIT_SHARE", "AT_REST_SHARE",
            "AT_REST_CYCLE_SHARE"]
 
 
@@ -108,6 +108,12 @@ class Leg:
         return out
 
 
+def way(arm: Arm, start: np.ndarray, end: np.ndarray, tuck: int = 0, share: float = LIMIT_SHARE):
+    """The move from state ``start`` to state ``end``: direct (:class:`Leg`), or tucked to side
+    ``tuck`` (+1 or -1: :func:`tucked_route`)."""
+    return tucked_route(arm, start, end, tuck, share) if tuck else Leg(arm, start, end, share)
+
+
 class Route:
     """:class:`Leg` s one after another, each ending at rest where the next begins: ``duration``
     their sum, :meth:`sample` the poses (as a :class:`Leg`'s), ``end`` the last one's end state."""
@@ -131,14 +137,13 @@ class Route:
 
 def tucked_route(arm: Arm, start: np.ndarray, end: np.ndarray, side: int, share: float = LIMIT_SHARE) -> Route:
     """From state ``start`` to state ``end`` (each (3, 2)) with the elbow folded on the way:
-    first the elbow bends to ``side`` (+1 or -1) times the stow poses' fold (:data:`FOLD`, within
-    its limits, 0.05 rad in), then the shoulder turns to ``end``'s angle, then the elbow opens to
+    first the elbow bends to ``side`` (+1 or -1) as the stow poses fold it
+    (:func:`coplan.planners.coordinated.routing.elbow_fold`), then the shoulder turns to ``end``'s angle, then the elbow opens to
     ``end``'s; each move time-optimal (:class:`Leg`), at rest between. While the shoulder turns
     the arm reaches no farther than its elbow, the forearm folded back over the upper arm, where
     the direct move sweeps its whole reach: the way a cell planner tucks an arm round a neighbour
     (:mod:`coplan.planners.coordinated.routing`)."""
-    lo, hi = arm.limits[1]
-    fold = float(np.clip(side * FOLD, lo + 0.05, hi - 0.05))
+    fold = elbow_fold(arm, side)
     z = np.zeros(2)
     w1 = np.array([start[0][0], fold])
     w2 = np.array([end[0][0], fold])

@@ -38,9 +38,16 @@ def same_pose(p, q, tol: float = 1e-9) -> bool:
     return abs(p[0] - q[0]) <= tol and abs(p[1] - q[1]) <= tol
 
 
-#: How far a folded elbow bends (rad, either way; within its limits, 0.05 rad in): the stow poses
-#: below, and the tucked ways of a booking on the move (:func:`coplan.row.track.tucked_route`).
+#: How far a folded elbow bends (rad, either way; within its limits, 0.05 rad in: :func:`elbow_fold`).
 FOLD = np.pi - 0.25
+
+
+def elbow_fold(arm: Arm, side: int) -> float:
+    """The elbow angle folded to ``side`` (+1 or -1; 0: straight), as far as :data:`FOLD` and the
+    elbow's limits (0.05 rad in) allow: the stow poses below, and the tucked ways of a booking on
+    the move (:func:`coplan.row.track.tucked_route`)."""
+    lim = arm.limits
+    return float(np.clip(side * FOLD, lim[1, 0] + 0.05, lim[1, 1] - 0.05))
 
 
 def stow_poses(arm: Arm, n_shoulder: int = 12) -> np.ndarray:
@@ -51,7 +58,7 @@ def stow_poses(arm: Arm, n_shoulder: int = 12) -> np.ndarray:
     q, valid = arm.ik(np.asarray(arm.bin, float))
     cands += [q[b] for b in range(2) if valid[b]]
     # the elbow folded as far as its limits allow (either side), or straight
-    folds = sorted({float(np.clip(f, lim[1, 0] + 0.05, lim[1, 1] - 0.05)) for f in (FOLD, -FOLD, 0.0)})
+    folds = sorted({elbow_fold(arm, side) for side in (1, -1, 0)})
     for s in np.linspace(-np.pi, np.pi, n_shoulder, endpoint=False):
         s = float(np.clip(s, lim[0, 0], lim[0, 1]))
         cands += [np.array([s, f]) for f in folds]
