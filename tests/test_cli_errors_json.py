@@ -94,6 +94,10 @@ def test_usage_error_inside_a_command_with_json(single_arm, tmp_path, limit):
     doc = one_document(res)
     assert doc["error"] == "usage" and "--time-limit" in doc["errors"][0]["message"]
     assert "--time-limit" in res.stderr  # the human message is still on stderr
+    # the option and what was expected and found, as a problem file's issues give them
+    err = doc["errors"][0]
+    assert err["path"] == "--time-limit" and err["expected"].startswith("a positive, finite number of seconds")
+    assert float(err["found"]) == float(limit)
 
 
 def test_internal_error_with_json_is_a_document_not_a_traceback(single_arm, tmp_path, monkeypatch):
@@ -116,6 +120,21 @@ def test_framework_usage_error_with_json_in_a_real_process(tmp_path):
     doc = json.loads(proc.stdout)
     assert doc["exit_code"] == 2 and doc["command"] == "solve" and "--planner" in doc["message"]
     assert "Traceback" not in proc.stderr and not (tmp_path / "o").exists()
+    (err,) = doc["errors"]  # the option, what it takes and what it was given (were all null)
+    assert (err["path"], err["expected"], err["found"]) == ("--planner", "one of 'heuristic', 'coordinated', 'optimal'", "'fastest'")
+
+
+def test_a_framework_usage_error_names_the_option_or_argument_it_is_about(tmp_path):
+    """The JSON document of a usage error the framework finds (an option's bad value, an unknown
+    option, a missing argument) names the option or argument in ``path``."""
+    for argv, path, expected, found in (
+            (["check", "sparse_row", "--resolution", "0", "--json"], "--resolution", "a number in [0.01, 0.5] m", "0"),
+            (["solve", "single_arm", "--bogus", "3", "--json"], "--bogus", None, None),
+            (["run", "--json"], "problem", None, None)):
+        proc = subprocess.run(coplan_cmd() + argv, capture_output=True, text=True, timeout=120)
+        assert proc.returncode == ExitCode.USAGE, (argv, proc.stderr)
+        (err,) = json.loads(proc.stdout)["errors"]
+        assert (err["path"], err["expected"], err["found"]) == (path, expected, found), (argv, err)
 
 
 # ---- smaller things

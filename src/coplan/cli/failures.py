@@ -11,7 +11,8 @@ The document (``"format": "coplan.error/1"``)::
 
 ``errors`` lists every issue of a bad input file (``path`` is the key path, ``line`` the line
 in the file, ``expected``/``found`` split from the message when it has that form, else null);
-for other failures it holds one entry with the message. Light: imports only coplan's enums and errors.
+for a usage error, one entry whose ``path`` is the option or argument it is about; for other
+failures one entry with the message. Light: imports only coplan's enums and errors.
 """
 
 from __future__ import annotations
@@ -47,6 +48,8 @@ _KIND = {
     ExitCode.TERMINATED: "terminated",
 }
 _EXPECTED_FOUND = re.compile(r"^expected (?P<expected>.+?)[,;] found (?P<found>.+)$", re.DOTALL)
+# a command's own usage message about an option: "--workers: expected ...", "--out x.txt: expected ..."
+_OPTION_SAID = re.compile(r"^(?P<option>--[a-z][\w-]*)(?:[ /][^:]*)?: (?P<rest>.+)$", re.DOTALL)
 
 
 class Failure(CoplanError):
@@ -266,12 +269,34 @@ def error_document(command: str, code: ExitCode, message: str, exc: BaseExceptio
     code = ExitCode(code)
     if isinstance(exc, InputError):
         errors = [issue_dict(i, exc.source) for i in exc.issues]
+    elif exc is not None and code == ExitCode.USAGE:
+        errors = [_usage_entry(exc, message)]
     else:
         filename = getattr(exc, "filename", None) if isinstance(exc, OSError) else None
         errors = [{"file": os.fspath(filename) if filename is not None else None, "path": None, "line": None,
                    "expected": None, "found": None, "message": message}]
     return {"format": "coplan.error/1", "command": command, "exit_code": int(code),
             "error": _KIND.get(code, code.name.lower()), "message": message, "errors": errors}
+
+
+def _usage_entry(exc: BaseException, message: str) -> dict[str, Any]:
+    """The ``errors`` entry of a command-line usage error (the framework's click exception): the
+    option or argument as ``path`` (``--resolution``, ``PROBLEM``), and ``expected``/``found``
+    split from the message where it has that form, as a problem file's issues are."""
+    if not hasattr(exc, "format_message"):  # coplan's own refusal (:func:`usage`): "--option [value]: expected ..., found ..."
+        m = _OPTION_SAID.match(message)
+        said = _EXPECTED_FOUND.match(m["rest"]) if m else None
+        return {"file": None, "path": m["option"] if m else None, "line": None,
+                "expected": said["expected"] if said else None, "found": said["found"] if said else None, "message": message}
+    param = getattr(exc, "param", None)
+    names = [n for n in (getattr(param, "opts", None) or []) if isinstance(n, str)]
+    name = getattr(exc, "option_name", None) or getattr(exc, "param_hint", None)
+    path = (max(names, key=len) if names and names[0].startswith("-") else
+            (getattr(param, "human_readable_name", None) or (names[0] if names else None)) if param is not None else
+            name if isinstance(name, str) else None)
+    m = _EXPECTED_FOUND.match(str(getattr(exc, "message", "") or ""))
+    return {"file": None, "path": path, "line": None, "expected": m["expected"] if m else None,
+            "found": m["found"] if m else None, "message": message}
 
 
 def _finite(x):
@@ -303,7 +328,7 @@ def run_with_json_usage_errors(app) -> int:
         rich_utils.rich_format_error(e)
         ctx = getattr(e, "ctx", None)
         command = ctx.command.name if ctx is not None and ctx.command is not None else None
-        typer.echo(dumps(error_document(command or "coplan", ExitCode.USAGE, e.format_message())))
+        typer.echo(dumps(error_document(command or "coplan", ExitCode.USAGE, e.format_message(), e)))
         return int(getattr(e, "exit_code", ExitCode.USAGE))
     except typer.Abort:
         return int(ExitCode.INTERRUPTED)
