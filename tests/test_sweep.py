@@ -24,7 +24,7 @@ pytest.importorskip("distributed")
 pytest.importorskip("pyarrow")
 
 from coplan.cli import app  # noqa: E402
-from coplan.kinds import ExitCode, RowStatus, SweepBase, SweepMode  # noqa: E402
+from coplan.kinds import ExitCode, PlannerKind, RowStatus, SweepBase, SweepMode  # noqa: E402
 from coplan.sweep.report import pareto_front, sweep_report  # noqa: E402
 from coplan.sweep.run import run_sweep, solve_item  # noqa: E402
 from coplan.sweep.spec import PARAMETERS, TOP_KEYS, SweepError, SweepItem, load_sweep, parse_sweep  # noqa: E402
@@ -393,6 +393,16 @@ def test_the_heuristic_is_refused_on_a_gantry_only_where_it_would_plan():
         parse_sweep("base: gantry\nvary: {n_arms: [2]}\n", "g.yaml").items(planner="heuristic")
     spec_file = ROOT / "sweeps" / "small.yaml"  # (a cell sweep: --planner heuristic is fine there)
     assert parse_sweep(spec_file.read_text(), str(spec_file)).items(planner="heuristic")
+
+
+def test_a_gantry_sweep_plans_its_stops_with_coplan_solve_s_cell_planner_unless_told():
+    """A row's default cell planner in a sweep is `coplan solve ROW`'s (coordinated); a cell
+    sweep's default stays the optimal planner; a planner given is the one used."""
+    rows = parse_sweep("base: gantry\nvary: {n_arms: [2], gantry: [stop-and-go, continuous]}\n", "g.yaml")
+    assert rows.planner == PlannerKind.COORDINATED and {it.planner for it in rows.items()} == {"coordinated"}
+    told = parse_sweep("base: gantry\nvary: {n_arms: [2]}\nplanner: optimal\n", "g.yaml")
+    assert {it.planner for it in told.items()} == {"optimal"}
+    assert parse_sweep("base: row\nvary: {n_arms: [2]}\n", "r.yaml").planner == PlannerKind.OPTIMAL
 
 
 def test_the_sweep_command_refuses_the_heuristic_on_a_gantry_as_a_usage_error(tmp_path):
