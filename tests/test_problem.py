@@ -367,6 +367,11 @@ def test_billion_laughs_is_refused_before_expansion() -> None:
     )
     err = errors_of(lol)
     assert any("alias" in it.message for it in err.issues)
+    # the first five said where they are, the other 76 of its 81 anchors and aliases in one issue
+    # (each said alone buried the message in 81 lines)
+    said = [it for it in err.issues if "anchors and aliases are not supported" in it.message]
+    assert len(said) == 6 and [it.path for it in said[:5]] == ["a", "b", "b[0]", "b[1]", "b[2]"]
+    assert "found 76 more anchors and aliases (lines 2-9)" in said[5].message and (said[5].path, said[5].line) == ("b[3]", 2)
 
 
 def test_python_tags_are_refused_and_never_executed(tmp_path: Path) -> None:

@@ -85,6 +85,19 @@ def test_an_integer_of_hundreds_of_digits_is_refused_with_its_line_not_an_overfl
     assert issue.line == next(i + 1 for i, ln in enumerate(text.splitlines()) if "0" * 400 in ln) and "links" in issue.path
 
 
+@pytest.mark.parametrize("written", ["1e400", "-2.5e999"])
+def test_a_number_beyond_a_float_s_range_is_refused_as_written_not_as_inf(written) -> None:
+    """(``pick_dwell: 1e400`` became inf, and the message said "found number inf" of a value the
+    file never held.) ``.inf`` itself is still infinity, refused by the key's own check."""
+    with pytest.raises(ProblemError) as e:
+        parse_problem(SINGLE.replace("pick_dwell: 0.3", f"pick_dwell: {written}"), "big.yaml")
+    (issue,) = e.value.issues
+    assert issue.path == "task.pick_dwell" and issue.line is not None
+    assert f"expected a number coplan can hold, found {written} (beyond a float's range)" in issue.message
+    with pytest.raises(ProblemError, match="task.pick_dwell: expected a finite number, found inf"):
+        parse_problem(SINGLE.replace("pick_dwell: 0.3", "pick_dwell: .inf"))
+
+
 # --------------------------------------------------------------------------- CSV
 NASTY = ['a,b', 'say "hi"', "two\nlines", "car\rriage", "plain"]
 

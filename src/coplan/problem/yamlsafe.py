@@ -25,6 +25,7 @@ import :mod:`coplan.problem.load` (which imports it).
 from __future__ import annotations
 
 import difflib
+import math
 import re
 from pathlib import Path
 from typing import Any
@@ -98,17 +99,52 @@ def _construct_int(loader, node):
 _LineLoader.add_constructor(_INT, _construct_int)
 
 
+def _construct_float(loader, node):
+    """YAML's floats; a number written beyond a float's range (``1e400``) is refused with its line,
+    as written -- it became ``inf``, and a message then said "found number inf" of a value the file
+    never held (``.inf`` itself stays infinity, for the checks that refuse it by name)."""
+    value = yaml.SafeLoader.construct_yaml_float(loader, node)
+    text = loader.construct_scalar(node)
+    if math.isinf(value) and ".inf" not in text.lower():
+        raise yaml.constructor.ConstructorError(
+            None, None, f"expected a number coplan can hold, found {text} (beyond a float's range)", node.start_mark)
+    return value
+
+
+_LineLoader.add_constructor(_FLOAT, _construct_float)
+
+
+#: aliases and anchors said one by one; the rest of a file's in one issue (a file of a few lines
+#: can hold hundreds: each said at its key path buried the message)
+ALIASES_SAID = 5
+_NO_ALIASES = " (YAML anchors and aliases are not supported)"
+
+
 def _scan_events(text: str, issues: list) -> bool:
     """Walk the YAML event stream (no recursion, nothing built) tracking key paths.
 
     Reports every alias and anchor (a few aliases can expand into gigabytes); stops at once
     at nesting deeper than ``MAX_DEPTH`` (which would overflow the recursive composer) or
     more than ``MAX_NODES`` values (a hostile file), so those cost no more than reading the
-    file. Issues are appended to ``issues``; returns whether it stopped at ``MAX_NODES``.
+    file. Issues are appended to ``issues``; returns whether it stopped at ``MAX_NODES``. The
+    first ``ALIASES_SAID`` aliases and anchors are said one by one, the rest in one issue.
     """
+    more: list = []  # (path, line) of the aliases and anchors past the first ALIASES_SAID
+    try:
+        return _scan(text, issues, more)
+    finally:
+        if more:
+            (path, line), last = more[0], more[-1][1]
+            where = f"line {line}" if last == line else f"lines {line}-{last}"
+            issues.append(Issue(path, f"expected plain values, found {len(more)} more anchors and aliases ({where}){_NO_ALIASES}", line))
+
+
+def _scan(text: str, issues: list, more: list) -> bool:
+    """:func:`_scan_events`' walk; aliases and anchors past the first ``ALIASES_SAID`` go to ``more``."""
     # frame: [kind ("map" | "seq"), path, expect_key, key, index]
     stack: list[list] = []
     nodes = 0
+    said = 0
     for ev in yaml.parse(text, Loader=_FastLoader):
         if isinstance(ev, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
             stack.pop()
@@ -133,14 +169,13 @@ def _scan_events(text: str, issues: list) -> bool:
         if nodes > MAX_NODES:
             issues.append(Issue(path_str(path), f"expected at most {MAX_NODES} YAML values in a file, found more", line))
             return True
-        if isinstance(ev, yaml.AliasEvent):
-            issues.append(
-                Issue(path_str(path), f"expected a plain value, found the alias *{ev.anchor} (YAML anchors and aliases are not supported)", line)
-            )
-        elif ev.anchor is not None:
-            issues.append(
-                Issue(path_str(path), f"expected a plain value, found the anchor &{ev.anchor} (YAML anchors and aliases are not supported)", line)
-            )
+        if isinstance(ev, yaml.AliasEvent) or ev.anchor is not None:
+            if said >= ALIASES_SAID:
+                more.append((path_str(path), line))
+            else:
+                said += 1
+                what = f"the alias *{ev.anchor}" if isinstance(ev, yaml.AliasEvent) else f"the anchor &{ev.anchor}"
+                issues.append(Issue(path_str(path), f"expected a plain value, found {what}{_NO_ALIASES}", line))
         if isinstance(ev, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
             if len(stack) >= MAX_DEPTH:
                 issues.append(Issue(path_str(path), f"expected at most {MAX_DEPTH} levels of nesting, found more", line))
