@@ -43,6 +43,11 @@ def test_on_the_move_is_compared_beside_the_stop_rules_as_solve_plans_it(row, tm
     assert best["name"] == top["name"] and best["gain"] == pytest.approx(top["fruit_per_hour"] / other["fruit_per_hour"] - 1)
     md = (tmp_path / "c" / "compare.md").read_text()
     assert "| speed, m/s |" in md and f"Most fruit per hour: {top['name']} (" in md
+    # the table's cells: fruit per hour in whole fruit (as the summaries give it); the plan on
+    # the move follows no stop rule, so it has no stop count (it read 0 beside picks made at rest)
+    line = {r["name"]: next(ln for ln in md.splitlines() if ln.startswith(f"| {r['name']} |")) for r in cmp.rows}
+    assert f"| {fixed['fruit_per_hour']:.0f} |" in line["fixed"] and f"| {moving['fruit_per_hour']:.0f} |" in line[ON_THE_MOVE]
+    assert moving["stops"] is None and line[ON_THE_MOVE].startswith(f"| {ON_THE_MOVE} | - |") and fixed["stops"] >= 1
 
 
 def test_one_mode_alone_and_what_each_refuses(row, tmp_path, problems_dir):

@@ -160,7 +160,10 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
         whole = (m.get("harvested") or 0) >= fruit_bounds_count(m)  # (no ratio to bounds that count fruit it left)
         label = name + (" (interrupted)" if cut else "")
         cmp.rows.append({"name": label, "mode": (GantryMode.STOP_AND_GO if rule is not None else GantryMode.CONTINUOUS).value,
-                         "rule": label if rule is not None else None, "stops": m.get("stops"), "row_time": m.get("row_time"),
+                         "rule": label if rule is not None else None,
+                         # (on the move the carriage follows no stop rule: a rest at either end, or a
+                         # hold, is no stop -- it read "0" beside picks made with the carriage at rest)
+                         "stops": m.get("stops") if rule is not None else None, "row_time": m.get("row_time"),
                          "fruit_per_hour": m.get("fruit_per_hour"), "share_harvested": m.get("share_harvested"),
                          "ratio_any_plan_bound": m.get("ratio_any_plan_bound") if whole else None,
                          # (a plan on the move is no stop-by-stop plan: that bound does not hold for it)
@@ -231,6 +234,8 @@ def cell_text(key: str, v) -> str:
         return "yes" if v else "NO"
     if key == "speed":
         return f"{v:.3f}"
+    if key == "fruit_per_hour":  # (whole fruit, as the summaries and the README give it)
+        return f"{v:.0f}"
     if isinstance(v, float):
         return f"{v:.3f}" if key.startswith("ratio") else f"{v:.1f}" if key != "planning_time" else f"{v:.2f}"
     return str(v)
