@@ -712,6 +712,18 @@ def test_solving_a_row_without_fruit_on_the_move_says_so(tmp_path, mode):
     assert "status infeasible" in res.output  # nothing to harvest
 
 
+def test_a_row_nothing_can_be_harvested_from_is_planned_once_on_the_move():
+    """Fruit out of every arm's reach: no speed search (it planned three plans, one said to rest at
+    the rail's end at 0.5 m/s while the summary said the carriage stays where it starts)."""
+    d = gantry_row(length=6.0, n_arms=2, density=2.0, seed=2)
+    for f in d["fruits"]:
+        f["position"] = [f["position"][0], 4.0]  # (the arms reach 1.8 m)
+    res = solve(parse_problem(to_yaml(d)), gantry="continuous")
+    curve = res.plan.solver["row"]["speed_curve"]
+    assert len(curve) == 1 and res.plan.metrics["row"]["harvested"] == 0 and res.plan.metrics["row"]["screened_out"]
+    assert float(np.ptp(res.plan.gantry_x)) == 0.0  # (the carriage stays where it starts)
+
+
 def test_the_summary_says_a_given_speed_was_not_searched(tmp_path):
     """(With --speed V the summary said '1 full plan tried by the speed search'.)"""
     path = tmp_path / "row.yaml"

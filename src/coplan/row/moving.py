@@ -110,6 +110,8 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
 
             if levels is not None:
                 run_many(list(levels))
+            elif not reach.harvestable():  # nothing to harvest: one plan (the carriage stays where it starts)
+                run_many([min(1.0, cap)])  # (a search tried three, one resting at the rail's end at 0.495 m/s)
             else:
                 if profile == SpeedProfile.CONSTANT:
                     v = max(x1 - g.start, 0.05) / max(busiest_cycles(problem), 1e-3)
