@@ -152,8 +152,9 @@ def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     if isinstance(v, bool) or not isinstance(v, numbers.Real):
         return f"{want}, found {found(v)}"
     x = float(v)
-    if math.isinf(x):  # (YAML reads 1e309 and beyond as inf, which "found number inf" alone left a puzzle)
-        return f"{want}, found number {x} (not finite: YAML reads a number of magnitude 1e309 or more as {x})"
+    if math.isinf(x):  # (.inf as written, or from Python: a number written beyond a float's range, 1e400, is
+        # refused as written when the file is read -- coplan.problem.yamlsafe -- not read as inf)
+        return f"{want}, found number {x} (not finite)"
     if (base == "int" and not x.is_integer()) or not math.isfinite(x) or x < 0 or (positive and x <= 0):
         return f"{want}, found {found(x if base == 'float' else v)}"
     if name == "margin" and x > MAX_MARGIN:  # (every planner's margin, from a file or from Python)
