@@ -251,17 +251,17 @@ def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
     return ExitCode.INTERNAL, f"internal error ({type(exc).__name__}): {exc}. Set COPLAN_DEBUG=1 for a traceback."
 
 
+def _said(text: str) -> tuple[str | None, str | None]:
+    """``(expected, found)`` split from a message of the form "expected X, found Y" (else Nones)."""
+    m = _EXPECTED_FOUND.match(text)
+    return (m["expected"], m["found"]) if m else (None, None)
+
+
 def issue_dict(issue: Issue, source: str | None) -> dict[str, Any]:
     """One issue of a bad input file as JSON: file, key path, line, expected, found, message."""
-    m = _EXPECTED_FOUND.match(issue.message)
-    return {
-        "file": source,
-        "path": issue.path,
-        "line": issue.line,
-        "expected": m["expected"] if m else None,
-        "found": m["found"] if m else None,
-        "message": issue.message,
-    }
+    expected, found_ = _said(issue.message)
+    return {"file": source, "path": issue.path, "line": issue.line, "expected": expected, "found": found_,
+            "message": issue.message}
 
 
 def error_document(command: str, code: ExitCode, message: str, exc: BaseException | None = None) -> dict[str, Any]:
@@ -280,23 +280,26 @@ def error_document(command: str, code: ExitCode, message: str, exc: BaseExceptio
 
 
 def _usage_entry(exc: BaseException, message: str) -> dict[str, Any]:
-    """The ``errors`` entry of a command-line usage error (the framework's click exception): the
-    option or argument as ``path`` (``--resolution``, ``PROBLEM``), and ``expected``/``found``
-    split from the message where it has that form, as a problem file's issues are."""
-    if not hasattr(exc, "format_message"):  # coplan's own refusal (:func:`usage`): "--option [value]: expected ..., found ..."
+    """The ``errors`` entry of a usage error: the option or argument it is about as ``path``
+    (``--resolution``, ``problem``), and ``expected``/``found`` split from its message where it
+    has that form, as a problem file's issues are. ``exc``: the framework's (click's) exception, or
+    coplan's own refusal (:func:`usage`: "--option [value]: expected ..., found ...")."""
+    if not hasattr(exc, "format_message"):  # coplan's own
         m = _OPTION_SAID.match(message)
-        said = _EXPECTED_FOUND.match(m["rest"]) if m else None
-        return {"file": None, "path": m["option"] if m else None, "line": None,
-                "expected": said["expected"] if said else None, "found": said["found"] if said else None, "message": message}
-    param = getattr(exc, "param", None)
-    names = [n for n in (getattr(param, "opts", None) or []) if isinstance(n, str)]
-    name = getattr(exc, "option_name", None) or getattr(exc, "param_hint", None)
-    path = (max(names, key=len) if names and names[0].startswith("-") else
-            (getattr(param, "human_readable_name", None) or (names[0] if names else None)) if param is not None else
-            name if isinstance(name, str) else None)
-    m = _EXPECTED_FOUND.match(str(getattr(exc, "message", "") or ""))
-    return {"file": None, "path": path, "line": None, "expected": m["expected"] if m else None,
-            "found": m["found"] if m else None, "message": message}
+        path, text = (m["option"], m["rest"]) if m else (None, "")
+    else:
+        param = getattr(exc, "param", None)
+        names = [n for n in (getattr(param, "opts", None) or []) if isinstance(n, str)]
+        if param is None:  # (an unknown option: its name only)
+            name = getattr(exc, "option_name", None)
+            path = name if isinstance(name, str) else None
+        elif names and names[0].startswith("-"):
+            path = max(names, key=len)  # (--planner, not -p)
+        else:
+            path = getattr(param, "human_readable_name", None) or (names[0] if names else None)
+        text = str(getattr(exc, "message", "") or "")
+    expected, found_ = _said(text)
+    return {"file": None, "path": path, "line": None, "expected": expected, "found": found_, "message": message}
 
 
 def _finite(x):
