@@ -80,89 +80,27 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     profile = SpeedProfile(opts.profile)
     demand = demand_stretches(problem, reach, x1) if profile == SpeedProfile.DENSITY else None
     cap = level_cap(problem, reach, profile, demand)
-    tried: dict = {}
-    cpsat_report = None
     # every candidate books the same arms on the same fruit: screen their elbow branches once, here
     # (before the workers fork, so that they inherit it)
     screen_branches(problem, reach.resolution, [(i, f) for f in reach.harvestable() for i in np.flatnonzero(reach.cover[f].any(axis=1)).tolist()],
                     branch_table(problem, reach.resolution))
     greedy = replace(opts, assign=AssignRule.GREEDY)  # the search's plans: CP-SAT only once, at its end
     interrupted = False
-    served: set[str] | None = None  # (start_served: once, when a plan first leaves such a fruit out)
     with _Runner(problem, reach, demand, max(1, int(opts.workers)), progress) as runner:
+        search = _Levels(runner, cap, greedy)
+        tried = search.tried
         try:
-            def run_many(vs) -> list[SpeedPoint]:
-                nonlocal served
-                vs = [round(float(min(cap, max(v, 1e-3))), 4) for v in vs]
-                todo = [v for v in dict.fromkeys(vs) if v not in tried]
-                for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
-                    tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
-                left = set() if runner.hold else {f for v in todo for f in left_at_start(reach, tried[v][0])}
-                if left:  # fruit only the start serves, missed: every plan from here rests there first
-                    if served is None:
-                        served = start_served(problem, reach)
-                    held = sorted(left & served)
-                    if held:
-                        runner.hold = start_hold(problem, reach, held)
-                        for v, (res, secs) in zip(todo, runner.map(todo, greedy)):
-                            tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
-                return [tried[v][1] for v in vs]
-
             if levels is not None:
-                run_many(list(levels))
+                search.run(list(levels))
             elif not reach.harvestable():  # nothing to harvest: one plan (the carriage stays where it starts)
-                run_many([min(1.0, cap)])  # (a search tried three, one resting at the rail's end at 0.495 m/s)
+                search.run([min(1.0, cap)])  # (a search tried three, one resting at the rail's end at 0.495 m/s)
             else:
                 if profile == SpeedProfile.CONSTANT:
                     v = max(x1 - g.start, 0.05) / max(busiest_cycles(problem), 1e-3)
                 else:
                     v = 1.0
-                v = min(v, cap)
-                ok_v, bad_v = None, None
-                # the starting level is the bracket's top until a plan says otherwise: a faster carriage
-                # than the busiest arm's work (pace 1) leaves fruit on every benchmark row, so it is
-                # planned only when the bracket closes below it with no incomplete plan
-                assumed: float | None = v
-                w = SEARCH_WIDTH  # (not the workers: the levels tried, and so the plan, are the same for any)
-                for _ in range(int(math.ceil(opts.search_rounds / w))):
-                    batch, assumed = next_levels(v, cap, ok_v, bad_v, assumed, w)
-                    if batch is None:
-                        break
-                    for p in run_many(batch):
-                        if p.complete:
-                            ok_v = p.level if ok_v is None else max(ok_v, p.level)
-                        else:
-                            bad_v = p.level if bad_v is None else min(bad_v, p.level)
-                    if ok_v is not None and bad_v is not None and bad_v < ok_v:
-                        bad_v = None  # an incomplete plan below a complete one: not a bracket; go on up
-                if AssignRule(opts.assign) == AssignRule.CPSAT and bad_v is not None:
-                    # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
-                    # started from the greedy's booking there (alongside the refinement when there is
-                    # a second worker)
-                    runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, _Variant.CPSAT))
-                # at the best complete level (the most fruit per hour: not always the fastest
-                # complete one), the carriage's early rest at the end too (where the last
-                # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`) and its rest at
-                # the rail's end (the rear arms share the row's tail), the fastest plan kept; with
-                # a second worker, alongside the refinement (one plan at a time)
-                if ok_v is not None:
-                    best_v = max((k for k in tried if tried[k][1].complete), key=lambda k: _rank(tried[k][1]))
-                    runner.rest(best_v, greedy, EndRest.EARLY, key=(best_v, _Variant.EARLY))
-                    if x1 < g.end - 1e-9:  # (else the rail's end is where it rests already)
-                        runner.rest(best_v, greedy, EndRest.RAIL, key=(best_v, _Variant.RAIL))
-                if demand is not None and bad_v is not None:
-                    _refine(reach, demand, bad_v, tried, runner, greedy)
-                for key, report in _collect(runner, tried, progress):
-                    if key[1] is _Variant.CPSAT:
-                        cpsat_report = report
-                rail = tried.get((best_v, _Variant.RAIL)) if ok_v is not None else None
-                if rail is not None and not rail[1].complete:
-                    # (resting at the rail's end, the tail runs at the row's pace: where that leaves
-                    # fruit at the best level, the next complete level down may still be faster)
-                    below = [k for k in tried if not isinstance(k, tuple) and k < best_v and tried[k][1].complete]
-                    if below:
-                        runner.rest(max(below), greedy, EndRest.RAIL, key=(max(below), _Variant.RAIL))
-                        _collect(runner, tried, progress)
+                ok_v, bad_v = _bracket(search, min(v, cap), cap, opts.search_rounds)
+                _last_tries(search, opts, ok_v, bad_v, x1, demand, progress)
         except KeyboardInterrupt:  # Ctrl-C / SIGTERM: the best verified plan so far is kept
             if not tried:
                 raise
@@ -174,13 +112,103 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
             tried[best] = (certify(problem, tried[best][0]), tried[best][1])
         except KeyboardInterrupt:  # (its screened verdict stands)
             interrupted = True
-    if cpsat_report is not None:
-        tried[best][0].info.setdefault("cpsat", cpsat_report)  # the search's CP-SAT step, whether kept or not
+    if search.cpsat_report is not None:
+        tried[best][0].info.setdefault("cpsat", search.cpsat_report)  # the search's CP-SAT step, whether kept or not
     if interrupted:
         tried[best][0].plan.status = PlanStatus.INTERRUPTED  # (its verdict is in plan.verification)
         tried[best][0].plan.solver["status"] = PlanStatus.INTERRUPTED.value
         tried[best][0].info["interrupted"] = f"the speed search stopped after {len(tried)} plan{'' if len(tried) == 1 else 's'}: the best verified so far"
     return tried[best][0], pts
+
+
+class _Levels:
+    """The plans a speed search has made (``tried``: a level, or ``(level, variant)``, -> ``(result,
+    point)``) and its way of making more (:meth:`run`)."""
+
+    def __init__(self, runner: "_Runner", cap: float, greedy: MovingOptions):
+        self.runner, self.cap, self.greedy = runner, cap, greedy
+        self.tried: dict = {}
+        self.served: set[str] | None = None  # (start_served: once, when a plan first leaves such a fruit out)
+        self.cpsat_report: dict | None = None  # (CP-SAT's step, kept where a Ctrl-C comes after it)
+
+    def run(self, vs) -> list[SpeedPoint]:
+        """Full plans at levels ``vs`` (within the cap, to 4 decimals; each level planned once): their
+        points. Where one leaves fruit only a carriage at rest where it starts can give time to, every
+        plan from here rests there first (:func:`start_hold`), these too."""
+        runner, reach = self.runner, self.runner.reach
+        vs = [round(float(min(self.cap, max(v, 1e-3))), 4) for v in vs]
+        todo = [v for v in dict.fromkeys(vs) if v not in self.tried]
+        for v, (res, secs) in zip(todo, runner.map(todo, self.greedy)):
+            self.tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
+        left = set() if runner.hold else {f for v in todo for f in left_at_start(reach, self.tried[v][0])}
+        if left:  # fruit only the start serves, missed: every plan from here rests there first
+            if self.served is None:
+                self.served = start_served(runner.problem, reach)
+            held = sorted(left & self.served)
+            if held:
+                runner.hold = start_hold(runner.problem, reach, held)
+                for v, (res, secs) in zip(todo, runner.map(todo, self.greedy)):
+                    self.tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
+        return [self.tried[v][1] for v in vs]
+
+
+def _bracket(search: _Levels, v: float, cap: float, rounds: int) -> tuple[float | None, float | None]:
+    """:func:`speed_search`'s rounds from the starting level ``v``: ``(the fastest complete level,
+    the slowest incomplete one above it)`` (None: none planned). The starting level is the
+    bracket's top until a plan says otherwise: a faster carriage than the busiest arm's work (pace
+    1) leaves fruit on every benchmark row, so it is planned only when the bracket closes below it
+    with no incomplete plan."""
+    ok_v, bad_v = None, None
+    assumed: float | None = v
+    w = SEARCH_WIDTH  # (not the workers: the levels tried, and so the plan, are the same for any)
+    for _ in range(int(math.ceil(rounds / w))):
+        batch, assumed = next_levels(v, cap, ok_v, bad_v, assumed, w)
+        if batch is None:
+            break
+        for p in search.run(batch):
+            if p.complete:
+                ok_v = p.level if ok_v is None else max(ok_v, p.level)
+            else:
+                bad_v = p.level if bad_v is None else min(bad_v, p.level)
+        if ok_v is not None and bad_v is not None and bad_v < ok_v:
+            bad_v = None  # an incomplete plan below a complete one: not a bracket; go on up
+    return ok_v, bad_v
+
+
+def _last_tries(search: _Levels, opts: MovingOptions, ok_v: float | None, bad_v: float | None, x1: float, demand,
+                progress) -> None:
+    """After the bracket: CP-SAT's order at the slowest incomplete level, the rests at the row's end
+    at the best complete level, and (a density profile) the refinement, all into ``search.tried``
+    (CP-SAT's report into ``search.cpsat_report``)."""
+    runner, tried, greedy = search.runner, search.tried, search.greedy
+    if AssignRule(opts.assign) == AssignRule.CPSAT and bad_v is not None:
+        # the slowest level at which the greedy missed fruit, once more with CP-SAT's order
+        # started from the greedy's booking there (alongside the refinement when there is
+        # a second worker)
+        runner.reorder(bad_v, opts, list(tried[bad_v][0].plan.events), key=(bad_v, _Variant.CPSAT))
+    # at the best complete level (the most fruit per hour: not always the fastest
+    # complete one), the carriage's early rest at the end too (where the last
+    # fruit first comes into reach: :func:`coplan.row.cruise.cruise_end`) and its rest at
+    # the rail's end (the rear arms share the row's tail), the fastest plan kept; with
+    # a second worker, alongside the refinement (one plan at a time)
+    if ok_v is not None:
+        best_v = max((k for k in tried if tried[k][1].complete), key=lambda k: _rank(tried[k][1]))
+        runner.rest(best_v, greedy, EndRest.EARLY, key=(best_v, _Variant.EARLY))
+        if x1 < runner.problem.gantry.end - 1e-9:  # (else the rail's end is where it rests already)
+            runner.rest(best_v, greedy, EndRest.RAIL, key=(best_v, _Variant.RAIL))
+    if demand is not None and bad_v is not None:
+        _refine(runner.reach, demand, bad_v, tried, runner, greedy)
+    for key, report in _collect(runner, tried, progress):
+        if key[1] is _Variant.CPSAT:
+            search.cpsat_report = report
+    rail = tried.get((best_v, _Variant.RAIL)) if ok_v is not None else None
+    if rail is not None and not rail[1].complete:
+        # (resting at the rail's end, the tail runs at the row's pace: where that leaves
+        # fruit at the best level, the next complete level down may still be faster)
+        below = [k for k in tried if not isinstance(k, tuple) and k < best_v and tried[k][1].complete]
+        if below:
+            runner.rest(max(below), greedy, EndRest.RAIL, key=(max(below), _Variant.RAIL))
+            _collect(runner, tried, progress)
 
 
 def next_levels(start: float, cap: float, ok: float | None, bad: float | None, assumed: float | None,
