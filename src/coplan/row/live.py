@@ -355,74 +355,22 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
 def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultDraws, left: dict[str, str], cruise: Cruise,
             offline, planning: float, stops: list[dict] | None) -> LiveRow:
     """The executed plan (events on the true fruit), verified against the truth, and the metrics."""
-    from ..kinds import LIVE_PLANNER
-    from ..verify.row import row_reachable_ids
-    from ..verify.verifier import verify
-
-    booker, by_id, halt = run.booker, run.reports, faults.halt
-    # the events name the true fruit (a probe's cycle has none: the arm found nothing there; nor
-    # has a grasp that closed on nothing)
-    events, picked_by = [], {}
+    booker, by_id = run.booker, run.reports
     # the row is busy until the last cycle's end, a probe's or a grasp on nothing's too (the arms
     # cannot know a report false before they look): the live row time
     work_end = booker.work_end
-    for e in sorted(booker.events, key=lambda e: (e.t_start, e.arm)):
-        if e.fruit in run.misses:
-            continue
-        d = by_id[e.fruit]
-        if picked_by.setdefault(d.truth, e.fruit) != e.fruit:  # never: a taken fruit's report is a probe
-            raise RuntimeError(f"fruit {d.truth} booked twice ({picked_by[d.truth]}, {e.fruit})")
-        events.append(Event(e.arm, d.truth, e.kind, e.t_start, e.t_end))
-    booker.events = events
-    for st in booker.arms:
-        st.fruit = [by_id[f].truth for f in st.fruit if f not in booker.probes and f not in run.misses]
-    booker.home_parked(set(faults.halt))
-    plan = assemble_moving(problem, booker, cruise)
-    plan.planner = LIVE_PLANNER  # (the executed plan of a live run, as a live cell's)
-    plan.metrics["lower_bound"] = row_bounds(problem, priced=False).any_plan  # (the row's, for any motion: as coplan solve's)
-    if stops is not None and faults.dark is not None:  # what the outage cost (on the move: its hold, logged as it came)
-        faults.log["camera_dark"]["hold_seconds"] = dark_hold(plan, faults.dark)
-    stop = faults.log.get("arm_stop") or {}
-    if "arm" in stop:  # an arm's fault, declared where the verifier reads it (solver.live.faults: it ends out)
-        plan.solver = {"live": {"faults": {"arm_stop": dict(stop)}}}
-    ver = verify(problem, plan)
-    plan = finalize_plan(plan, ver, len(row_reachable_ids(problem)))
+    plan, ver, picked_by = _executed(problem, run, faults, cruise, stops)
+    events = booker.events
     got = {e.fruit for e in events if e.kind == EventKind.PLACE}
     ref = {e.fruit for e in offline.plan.events if e.kind == EventKind.PLACE}
-    outcome = run.outcome
-    for f in problem.fruits:
-        outcome[f.id] = "harvested" if f.id in got else "missed"
-    def named(text: str) -> str:  # report ids in a reason, with the fruit each reports
-        def one(mt):
-            r = by_id.get(mt.group(0))
-            return mt.group(0) if r is None else f"{r.truth} (report {r.id})" if r.truth else f"a false report ({r.id})"
-        return re.sub(r"\b[db]\d{4,}\b", one, text)
-
-    for did, why in (left | run.misses | run.unseen).items():  # (a report the camera never made is not a reason: below)
-        if by_id[did].truth is not None and by_id[did].truth not in got and math.isfinite(run.seen.get(did, math.inf)):
-            outcome[by_id[did].truth] = named(why if why.startswith("missed") else f"missed: {why}")
-    reported: dict[str, list[RowReport]] = {}  # true fruit -> its reports the camera made
-    for r in by_id.values():
-        if r.truth is not None and math.isfinite(run.seen.get(r.id, math.inf)):
-            reported.setdefault(r.truth, []).append(r)
-    left_over = [f.id for f in problem.fruits if outcome[f.id] == "missed"]
-    anywhere = row_reach(problem, fruit_ids=left_over).cover if left_over else {}  # (the true positions)
-    for f in problem.fruits:
-        if outcome[f.id] == "missed":  # no report of it was ever booked nor left with a reason
-            rs = reported.get(f.id, [])
-            outcome[f.id] = ("missed: out of every arm's reach from every carriage position (true position)"
-                             if f.id not in anywhere else
-                             "missed: never reported (the camera did not see it before the run ended)" if not rs else
-                             f"missed: reported at ({rs[0].position[0]:.3f}, {rs[0].position[1]:.3f}) (report {rs[0].id}), "
-                             f"where no arm could pick it as the carriage went (the report's error)")
-    windows = booker.windows
+    outcome = _outcomes(problem, run, left, got)
     seen = run.seen
     # missed though a working arm could still reach it (:func:`coplan.row.stranded.still_reachable`):
     # the true fruit, from a carriage position not yet passed when it was reported -- before an
     # arm stopped by any arm, after it by a working arm clear of the stopped one
-    missed_reachable = sorted({by_id[d].truth for d in windows if by_id[d].truth is not None
+    missed_reachable = sorted({by_id[d].truth for d in booker.windows if by_id[d].truth is not None
                                and by_id[d].truth not in got and d not in run.misses and d not in run.unseen
-                               and still_reachable(booker, run.reach.grid, run.truth_xy[by_id[d].truth], seen[d], halt,
+                               and still_reachable(booker, run.reach.grid, run.truth_xy[by_id[d].truth], seen[d], faults.halt,
                                                    GantryMode(opts.mode) == GantryMode.STOP_AND_GO)})
     span = max(float(plan.metrics.get("makespan") or 0.0), work_end)
     ref_span = float(offline.plan.metrics.get("makespan") or 0.0)
@@ -474,3 +422,71 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
         row["stops"] = stops
     plan.solver = {"status": plan.status.value, "row": row, "live": metrics}
     return LiveRow(plan, ver, offline, dets, outcome, metrics)
+
+
+def _executed(problem: Problem, run: LiveRun, faults: FaultDraws, cruise: Cruise, stops: list[dict] | None):
+    """The executed plan, its events renamed to the true fruit (a probe's cycle has none: the arm
+    found nothing there; nor has a grasp that closed on nothing), each arm home or parked at the
+    end, verified against the truth: ``(plan, verification, {true fruit: the report picked})``."""
+    from ..kinds import LIVE_PLANNER
+    from ..verify.row import row_reachable_ids
+    from ..verify.verifier import verify
+
+    booker, by_id = run.booker, run.reports
+    events, picked_by = [], {}
+    for e in sorted(booker.events, key=lambda e: (e.t_start, e.arm)):
+        if e.fruit in run.misses:
+            continue
+        d = by_id[e.fruit]
+        if picked_by.setdefault(d.truth, e.fruit) != e.fruit:  # never: a taken fruit's report is a probe
+            raise RuntimeError(f"fruit {d.truth} booked twice ({picked_by[d.truth]}, {e.fruit})")
+        events.append(Event(e.arm, d.truth, e.kind, e.t_start, e.t_end))
+    booker.events = events
+    for st in booker.arms:
+        st.fruit = [by_id[f].truth for f in st.fruit if f not in booker.probes and f not in run.misses]
+    booker.home_parked(set(faults.halt))
+    plan = assemble_moving(problem, booker, cruise)
+    plan.planner = LIVE_PLANNER  # (the executed plan of a live run, as a live cell's)
+    plan.metrics["lower_bound"] = row_bounds(problem, priced=False).any_plan  # (the row's, for any motion: as coplan solve's)
+    if stops is not None and faults.dark is not None:  # what the outage cost (on the move: its hold, logged as it came)
+        faults.log["camera_dark"]["hold_seconds"] = dark_hold(plan, faults.dark)
+    stop = faults.log.get("arm_stop") or {}
+    if "arm" in stop:  # an arm's fault, declared where the verifier reads it (solver.live.faults: it ends out)
+        plan.solver = {"live": {"faults": {"arm_stop": dict(stop)}}}
+    ver = verify(problem, plan)
+    return finalize_plan(plan, ver, len(row_reachable_ids(problem))), ver, picked_by
+
+
+def _outcomes(problem: Problem, run: LiveRun, left: dict[str, str], got: set[str]) -> dict[str, str]:
+    """Each true fruit's outcome: "harvested", or "missed: <why>" -- the reason its reports were
+    left with (their report ids named with the fruit each reports), else out of every arm's reach,
+    never reported, or reported where no arm could pick it (the report's error). ``run.outcome``
+    (what became of each report) is updated in place and returned."""
+    by_id, outcome = run.reports, run.outcome
+    for f in problem.fruits:
+        outcome[f.id] = "harvested" if f.id in got else "missed"
+
+    def named(text: str) -> str:  # report ids in a reason, with the fruit each reports
+        def one(mt):
+            r = by_id.get(mt.group(0))
+            return mt.group(0) if r is None else f"{r.truth} (report {r.id})" if r.truth else f"a false report ({r.id})"
+        return re.sub(r"\b[db]\d{4,}\b", one, text)
+
+    for did, why in (left | run.misses | run.unseen).items():  # (a report the camera never made is not a reason: below)
+        if by_id[did].truth is not None and by_id[did].truth not in got and math.isfinite(run.seen.get(did, math.inf)):
+            outcome[by_id[did].truth] = named(why if why.startswith("missed") else f"missed: {why}")
+    reported: dict[str, list[RowReport]] = {}  # true fruit -> its reports the camera made
+    for r in by_id.values():
+        if r.truth is not None and math.isfinite(run.seen.get(r.id, math.inf)):
+            reported.setdefault(r.truth, []).append(r)
+    left_over = [f.id for f in problem.fruits if outcome[f.id] == "missed"]
+    anywhere = row_reach(problem, fruit_ids=left_over).cover if left_over else {}  # (the true positions)
+    for f in problem.fruits:
+        if outcome[f.id] == "missed":  # no report of it was ever booked nor left with a reason
+            rs = reported.get(f.id, [])
+            outcome[f.id] = ("missed: out of every arm's reach from every carriage position (true position)"
+                             if f.id not in anywhere else
+                             "missed: never reported (the camera did not see it before the run ended)" if not rs else
+                             f"missed: reported at ({rs[0].position[0]:.3f}, {rs[0].position[1]:.3f}) (report {rs[0].id}), "
+                             f"where no arm could pick it as the carriage went (the report's error)")
+    return outcome
