@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -401,6 +402,21 @@ def test_save_names_a_bad_destination(tmp_path):
     with pytest.raises(TypeError, match="save: expected a folder or a .json file name"):
         plan.save(5)
     assert set(plan.save(tmp_path / "p.json")) == {"json", "csv", "npz"}
+    # a file in the way, or a name ending as one of the other two files: said, nothing written
+    # (FileExistsError from pathlib; "p.csv" made a folder of that name)
+    from coplan.output import OutputError
+    from coplan.viz.plots import save_comparison_figures
+
+    (tmp_path / "notes.txt").write_text("mine")
+    for where, said in ((tmp_path / "notes.txt", "expected a folder or a file name ending .json (the plan is written "
+                                                 "as .json, .csv and .npz together), found a file"),
+                        (tmp_path / "notes.txt" / "sub", "found the file"),
+                        (tmp_path / "p.csv", "found a name ending .csv")):
+        with pytest.raises(OutputError, match=re.escape(said)):
+            plan.save(where)
+    with pytest.raises(OutputError, match="save_comparison_figures: out_dir .*: expected a folder, found a file"):
+        save_comparison_figures(coplan.load_problem("single_arm"), {"heuristic": plan}, tmp_path / "notes.txt")
+    assert (tmp_path / "notes.txt").read_text() == "mine" and not (tmp_path / "p.csv").is_dir()
 
 
 @pytest.mark.parametrize("cut", [0.31, 0.5, 0.97])

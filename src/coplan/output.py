@@ -27,7 +27,7 @@ from pathlib import Path
 
 from .errors import CoplanError
 
-__all__ = ["MARKER", "RunFolder", "RunKept", "is_run_folder", "previous_of", "writable_folder", "signals_deferred", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder", "keep_reports"]
+__all__ = ["MARKER", "RunFolder", "RunKept", "is_run_folder", "previous_of", "writable_folder", "signals_deferred", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder", "folder_path", "keep_reports"]
 
 MARKER = ".coplan-run"  # written into every run folder
 # the files a run writes (solve, live runs), by their exact names -- a user's plan.md or
@@ -56,6 +56,19 @@ class OutputError(CoplanError, ValueError):
     """An output folder coplan cannot write into, found before any work."""
 
 
+def folder_path(out: Path, what: str, expected: str = "a folder") -> Path:
+    """``out`` as a folder to make or write into: :class:`OutputError` where a file is there or
+    in its path (what was ``expected`` and found); returns the nearest part of it that exists."""
+    if out.exists() and not out.is_dir():
+        raise OutputError(f"{what} {out}: expected {expected}, found a file")
+    probe = out
+    while not probe.exists():
+        probe = probe.parent
+    if not probe.is_dir():
+        raise OutputError(f"{what} {out}: expected {expected}, found the file {probe} in its path")
+    return probe
+
+
 def check_folder(out: str | Path, what: str = "out_dir") -> None:
     """Before any work: ``out`` must be a folder coplan can create or write into (a missing
     parent is created later); :class:`OutputError` says what was expected and found, so that
@@ -63,13 +76,7 @@ def check_folder(out: str | Path, what: str = "out_dir") -> None:
     if isinstance(out, bool) or not isinstance(out, (str, os.PathLike)):
         raise TypeError(f"{what}: expected the path of a folder (str or Path), found {type(out).__name__} {out!r}"[:300])
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise OutputError(f"{what} {out}: expected a folder, found a file")
-    probe = out
-    while not probe.exists():
-        probe = probe.parent
-    if not probe.is_dir():
-        raise OutputError(f"{what} {out}: expected a folder, found the file {probe} in its path")
+    probe = folder_path(out, what)
     if not os.access(probe, os.W_OK | os.X_OK):
         raise OutputError(f"{what} {out}: expected a folder coplan may write to, found that {probe} is not writable")
     # permission bits do not tell all (root passes os.access; /proc and read-only mounts refuse

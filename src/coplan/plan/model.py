@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..output import atomic_file, atomic_text
+from ..output import OutputError, atomic_file, atomic_text, folder_path
 from ..kinds import EventKind, PlannerKind, PlanStatus
 from ..plancsv import csv_header
 from ..provenance import software_record
@@ -311,6 +311,10 @@ class Plan:
         out = Path(out_dir)
         if out.suffix.lower() == ".json" and not out.is_dir():
             out, stem = out.parent, out.stem
+        want = "a folder or a file name ending .json (the plan is written as .json, .csv and .npz together)"
+        if out.suffix.lower() in (".csv", ".npz") and not out.is_dir():  # (it made a folder "fresh.csv/")
+            raise OutputError(f"save {out}: expected {want}, found a name ending {out.suffix}")
+        folder_path(out, "save", want)  # (a file in the way: what was expected and found, not FileExistsError)
         out.mkdir(parents=True, exist_ok=True)
         paths = {"json": out / f"{stem}.json", "csv": out / f"{stem}.csv", "npz": out / f"{stem}.npz"}
         atomic_text(paths["json"], json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..output import folder_path
 from ..plan import EventKind, Plan
 from ..problem.model import Arm, Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, LIMIT_COLOR, arm_colors, pair_label
@@ -572,6 +573,7 @@ def save_comparison_figures(problem: Problem, plans: Mapping[str, Plan], out_dir
     """
     plans = _as_plans(problem, plans, "save_comparison_figures")
     out = Path(out_dir)
+    folder_path(out, "save_comparison_figures: out_dir")  # (a file in the way: said, not FileExistsError)
     out.mkdir(parents=True, exist_ok=True)
     figs = [("schedule_gantt.png", plot_gantt(problem, plans)), ("clearance.png", plot_clearance(problem, plans))]
     for label, plan in plans.items():
