@@ -760,6 +760,9 @@ def test_row_entry_points_refuse_what_they_cannot_use_before_any_work(tmp_path):
         (lambda: StopWindow(pace_price=1e6), OptionsError, "pace_price: expected a price per stop of at most 600 s"),
         (lambda: StopWindow(stop_price=400, pace_price=400), OptionsError, "stop_price + pace_price of at most 600 s"),
         (lambda: LiveRowOptions(mode="auto"), OptionsError, "mode: expected continuous or stop-and-go"),
+        # (a bad mode was told the gantry's three choices, auto among them, which a live row then refused)
+        (lambda: LiveRowOptions(mode="stop and go"), OptionsError,
+         "mode: expected one of 'continuous', 'stop-and-go' for a live row, found 'stop and go'"),
         (lambda: coplan.solve(5), TypeError, "coplan.solve also takes a Problem or a mapping"),
         (lambda: compare(str(tmp_path / "row.yaml"), out_dir=tmp_path / "c"), ValueError, "compare_rows"),
     ]

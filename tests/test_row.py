@@ -815,3 +815,18 @@ def test_a_row_flag_on_a_cell_is_refused_by_its_own_name(tmp_path):
         assert r.exit_code == 2 and said in text, r.output
         assert "--resolution" not in text
     assert not (tmp_path / "x").exists()
+
+
+def test_a_row_s_bounds_time_is_what_this_solve_spent_on_them():
+    """A row's bounds are remembered for the row and its settings: the second solve of it spends
+    (next to) nothing on them, and its timings say so -- they said the first solve's seconds, and
+    the parts added up to more than the total."""
+    import coplan
+
+    row = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=2, density=2.0, seed=23)))
+    first, second = (coplan.solve(row) for _ in range(2))
+    assert first.plan.metrics["lower_bound"] == second.plan.metrics["lower_bound"]
+    assert second.timings["bounds"] < first.timings["bounds"]
+    for res in (first, second):
+        t = res.timings
+        assert t["planning"] + t["verify"] + t["bounds"] <= t["total"] + 1e-9

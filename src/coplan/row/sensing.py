@@ -101,7 +101,14 @@ class LiveRowOptions:
     hold_for_fruit: bool = True  # on the move: hold rather than pass a reported fruit no working arm can still book
 
     def __post_init__(self) -> None:
-        check_fields(self, {'look_ahead', 'speed'})  # built in Python: every value checked (OptionsError: what was expected, found)
+        # a live planner runs one mode: its choices, not the gantry's three ("stop and go" was told
+        # "expected one of 'stop-and-go', 'continuous', 'auto'", and auto then refused)
+        live = (GantryMode.CONTINUOUS.value, GantryMode.STOP_AND_GO.value)
+        mode = [] if self.mode in live else [Issue("mode", (
+            "expected continuous or stop-and-go for a live row (a live planner runs one mode), found auto"
+            if self.mode == GantryMode.AUTO.value else
+            f"expected one of {', '.join(repr(m) for m in live)} for a live row, found {self.mode!r}"))]
+        check_fields(self, {'look_ahead', 'speed'}, found=mode)  # built in Python: every value checked (OptionsError: what was expected, found)
         issues = [Issue(name, f"expected a share of the fruit from 0 to 1, found {getattr(self, name):g}")
                   for name in ("false_rate", "duplicate_rate") if getattr(self, name) > 1.0]
         issues += [Issue(name, f"expected at most {top:g} m, found {getattr(self, name)!r}")
@@ -110,9 +117,6 @@ class LiveRowOptions:
         issues += top_speed_issues("speed", self.speed, "run")
         if not 0.005 <= self.close_distance <= 1.0:  # (a feed file's close_range.distance range)
             issues.append(Issue("close_distance", f"expected a number in [0.005, 1] m, found {self.close_distance!r}"))
-        if self.mode == GantryMode.AUTO:  # (refused only once the run started, as a ValueError)
-            issues.append(Issue("mode", "expected continuous or stop-and-go for a live row (a live planner runs one mode), "
-                                        "found auto"))
         if not isinstance(self.faults, RowFaults):
             issues.append(Issue("faults", f"expected RowFaults(...), found {type(self.faults).__name__} {self.faults!r}"))
         if issues:
