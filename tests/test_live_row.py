@@ -1192,7 +1192,10 @@ def test_run_live_row_takes_a_rows_file_as_solve_does(tmp_path):
     path.write_text(to_yaml(gantry_row(length=6.0, density=2.0, seed=4)))
     res = run_live_row(str(path), LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=1))
     assert res.verification.passed and res.metrics["of_offline"] == 1.0
-    with pytest.raises(TypeError, match="expected a row Problem or the path of its file, found int"):
+    # a row as a mapping too, as coplan.solve takes it (it was a TypeError): the same run
+    again = run_live_row(gantry_row(length=6.0, density=2.0, seed=4), LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=1))
+    assert again.metrics["row_time"] == res.metrics["row_time"] and again.outcome == res.outcome
+    with pytest.raises(TypeError, match="expected a row Problem, the path of its file or a row as a mapping, found int"):
         run_live_row(42)
 
 

@@ -59,6 +59,7 @@ import os
 import re
 import time as _time
 from collections import OrderedDict
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -124,6 +125,9 @@ __all__ = ["LiveRowOptions", "RowFaults", "RowDetection", "LiveRow", "row_report
 
 @dataclass
 class LiveRow:
+    """What :func:`run_live_row` returns: the executed plan, its verification against the truth,
+    the offline plan it is measured against, the camera's reports, each fruit's outcome, the metrics."""
+
     plan: object
     verification: object
     offline: object  # the offline plan's RowResult
@@ -133,14 +137,26 @@ class LiveRow:
 
 
 def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, progress=None) -> LiveRow:
-    """Run the row live (module docstring) and verify what was executed against the truth;
-    ``problem`` a row, or its file's path (or a shipped row's name) as :func:`coplan.solve` takes."""
+    """Run the row live and verify what was executed against the truth (the module docstring says
+    how: the camera's reports, the decisions, the faults).
+
+    ``problem``: a row (a :class:`Problem` with a gantry), its file's path or a shipped row's name,
+    or a row as a mapping (``coplan.generate.gantry_row(...)``), as :func:`coplan.solve` takes it.
+    ``options``: :class:`LiveRowOptions` (the mode, the speed on the move, the camera, the faults).
+    Returns a :class:`LiveRow`: ``plan`` (the executed plan on the true fruit), ``verification``
+    (against the truth), ``offline`` (the plan with every fruit known, in the same mode, that the
+    run is measured against), ``detections`` (the camera's reports as made), ``outcome`` (what
+    became of each fruit and report) and ``metrics`` (harvest, row time and its ratio to the
+    offline plan's, decisions, faults; ``plan.solver['live']`` holds the same)."""
+    from ..problem.generate import problem_from_mapping
     from ..problem.load import load_problem
 
     if isinstance(problem, (str, os.PathLike)):  # (a path gave "'str' object has no attribute 'gantry'")
         problem = load_problem(problem)
+    elif isinstance(problem, Mapping):
+        problem = problem_from_mapping(problem)
     elif not isinstance(problem, Problem):
-        raise TypeError(f"problem: expected a row Problem or the path of its file, found {type(problem).__name__}")
+        raise TypeError(f"problem: expected a row Problem, the path of its file or a row as a mapping, found {type(problem).__name__}")
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: a live row needs a row")
     if options is not None and not isinstance(options, LiveRowOptions):
