@@ -95,9 +95,13 @@ class RowBounds:
 
 
 def row_bounds(problem: Problem, step: float = 0.05, priced: bool = True) -> RowBounds:
-    """The row's lower bounds (module docstring); ``priced=False`` leaves out the priced-stops
-    programme (1.2-5.6 s on the shipped rows, 22 s on a 200 m row of 2,040 fruit: its weight
-    rounds) where only the others are wanted."""
+    """The row's lower bounds, a :class:`RowBounds`: ``any_plan`` (valid whatever the carriage
+    does: the busiest arm's work, the carriage's travel, the arrival bound) and ``stop_and_go``
+    (valid for plans that pick only while the carriage stands; with the priced stops), and their
+    parts (the module docstring derives each). ``step``: the rail cells' size (m) of the cycle
+    bounds; ``priced=False`` leaves out the priced-stops programme (1.2-5.6 s on the shipped rows,
+    22 s on a 200 m row of 2,040 fruit: its weight rounds) where only the others are wanted. A row's
+    bounds are remembered for the row and these settings (a second call costs nothing)."""
     require_problem(problem, "row_bounds")
     if problem.gantry is None:  # (it raised AttributeError from inside)
         raise ValueError(f"{problem.name!r} has no gantry: a cell's lower bound is coplan.allocate.lower_bound")

@@ -104,7 +104,13 @@ def _check_inputs(problem, result, bounds) -> None:
 
 
 def row_metrics(problem: Problem, result, bounds=None) -> dict:
-    """The row metrics of a :class:`coplan.row.plan.RowResult` (module docstring)."""
+    """The figures a planned row is judged by, as ``plan.metrics['row']`` holds them: fruit per
+    hour (the row's and each arm's), the share harvested and what was screened out (with reasons),
+    row time and time per metre, stops and mean time per stop, the carriage's moving and picking
+    shares, each arm's idle share by cause, the ratios to ``bounds`` (a
+    :class:`~coplan.allocate.row_bound.RowBounds`; None: no ratios), planning time and its share of
+    the row time, first motion and the least slack ahead of the carriage (the module docstring says
+    how each is counted). ``result``: a :class:`coplan.row.plan.RowResult` (stop and go or on the move)."""
     _check_inputs(problem, result, bounds)
     plan: Plan = result.plan
     g = problem.gantry

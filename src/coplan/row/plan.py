@@ -237,8 +237,15 @@ def check_row_call(problem, progress, what: str) -> None:
 
 
 def plan_row(problem: Problem, options: RowOptions | None = None, progress: Callable[[str], None] | None = None) -> RowResult:
-    """Plan ``problem`` (a row: it has a gantry) end to end and verify it (module docstring).
-    The row's figures: :func:`coplan.row.metrics.row_metrics` (see :class:`RowResult`)."""
+    """Plan ``problem`` (a row: it has a gantry) stop and go, end to end, and verify it: the row
+    screened for where each fruit can be harvested from, the stops chosen by ``options.stops``
+    (optimised, fixed stride or fewest stops), each stop's cell planned by ``options.planner``
+    (coordinated, its moves retimed; or optimal) while the rule goes on, the carriage's moves
+    jerk-limited, the whole plan verified in the row frame (the module docstring has the details).
+    ``options``: :class:`RowOptions` (workers, resolution, the stop window's prices); ``progress``:
+    a callable given one line per step. Returns a :class:`RowResult`; the row's figures (fruit per
+    hour, ratios to the bounds, first motion) are :func:`coplan.row.metrics.row_metrics`.
+    :func:`coplan.solve` (``gantry="stop-and-go"``) calls this and adds them."""
     from ..verify.verifier import verify
 
     check_row_call(problem, progress, "plan_row")
