@@ -125,12 +125,15 @@ def test_framework_usage_error_with_json_in_a_real_process(tmp_path):
 
 
 def test_a_framework_usage_error_names_the_option_or_argument_it_is_about(tmp_path):
-    """The JSON document of a usage error the framework finds (an option's bad value, an unknown
-    option, a missing argument) names the option or argument in ``path``."""
+    """The JSON document of a usage error (the framework's: an option's bad value, an unknown
+    option, a missing argument; or the command's own) names the option or argument in ``path``."""
     for argv, path, expected, found in (
             (["check", "sparse_row", "--resolution", "0", "--json"], "--resolution", "a number in [0.01, 0.5] m", "0"),
             (["solve", "single_arm", "--bogus", "3", "--json"], "--bogus", None, None),
-            (["run", "--json"], "problem", None, None)):
+            (["run", "--json"], "PROBLEM", None, None),
+            # a command's own refusal, its value holding a colon (a file named a:b where the folder goes)
+            (["solve", "single_arm", "--out", str(tmp_path / "a:b"), "--json"], "--out", "a folder", "a file")):
+        (tmp_path / "a:b").write_text("mine")
         proc = subprocess.run(coplan_cmd() + argv, capture_output=True, text=True, timeout=120)
         assert proc.returncode == ExitCode.USAGE, (argv, proc.stderr)
         (err,) = json.loads(proc.stdout)["errors"]

@@ -417,6 +417,8 @@ def test_save_names_a_bad_destination(tmp_path):
     with pytest.raises(OutputError, match="save_comparison_figures: out_dir .*: expected a folder, found a file"):
         save_comparison_figures(coplan.load_problem("single_arm"), {"heuristic": plan}, tmp_path / "notes.txt")
     assert (tmp_path / "notes.txt").read_text() == "mine" and not (tmp_path / "p.csv").is_dir()
+    # a .json name in a new folder whose name ends .csv is a .json name (the folder is made)
+    assert plan.save(tmp_path / "new.csv" / "run.json")["json"] == tmp_path / "new.csv" / "run.json"
 
 
 @pytest.mark.parametrize("cut", [0.31, 0.5, 0.97])

@@ -57,7 +57,8 @@ class SolveResult:
     more than the wall time), ``assemble``, ``planning``, ``verify``, ``bounds``; on the move
     ``reach``, ``schedule`` (the kept plan's booking), ``planning`` (the whole speed search),
     ``verify``, ``bounds`` (this solve's time: a row's bounds are remembered, so a second solve of
-    it spends none). Every solve: ``total``, and ``write`` when it wrote files.
+    it spends none). Every solve: ``total``; a cell's ``write`` when it wrote files (a row's
+    ``total`` includes its writing).
     """
 
     problem: Problem

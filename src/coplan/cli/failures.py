@@ -48,8 +48,9 @@ _KIND = {
     ExitCode.TERMINATED: "terminated",
 }
 _EXPECTED_FOUND = re.compile(r"^expected (?P<expected>.+?)[,;] found (?P<found>.+)$", re.DOTALL)
-# a command's own usage message about an option: "--workers: expected ...", "--out x.txt: expected ..."
-_OPTION_SAID = re.compile(r"^(?P<option>--[a-z][\w-]*)(?:[ /][^:]*)?: (?P<rest>.+)$", re.DOTALL)
+# a command's own usage message about an option: "--workers: expected ...", "--out x.txt: expected ...",
+# "--arm-stop/--camera-dark: ..." (the value may hold colons: "--scheduler 'tcp://10.0.0.5:8786': expected ...")
+_OPTION_SAID = re.compile(r"^(?P<option>--[a-z][\w-]*(?:/--[a-z][\w-]*)*)[ :/]")
 
 
 class Failure(CoplanError):
@@ -281,22 +282,23 @@ def error_document(command: str, code: ExitCode, message: str, exc: BaseExceptio
 
 def _usage_entry(exc: BaseException, message: str) -> dict[str, Any]:
     """The ``errors`` entry of a usage error: the option or argument it is about as ``path``
-    (``--resolution``, ``problem``), and ``expected``/``found`` split from its message where it
+    (``--resolution``, ``PROBLEM``), and ``expected``/``found`` split from its message where it
     has that form, as a problem file's issues are. ``exc``: the framework's (click's) exception, or
     coplan's own refusal (:func:`usage`: "--option [value]: expected ..., found ...")."""
-    if not hasattr(exc, "format_message"):  # coplan's own
+    if not hasattr(exc, "format_message"):  # coplan's own: what it expected follows ": expected "
         m = _OPTION_SAID.match(message)
-        path, text = (m["option"], m["rest"]) if m else (None, "")
+        at = message.find(": expected ")
+        path, text = (m["option"] if m else None), (message[at + 2:] if m and at >= 0 else "")
     else:
         param = getattr(exc, "param", None)
         names = [n for n in (getattr(param, "opts", None) or []) if isinstance(n, str)]
         if param is None:  # (an unknown option: its name only)
-            name = getattr(exc, "option_name", None)
+            name = getattr(exc, "option_name", None) or getattr(exc, "param_hint", None)
             path = name if isinstance(name, str) else None
         elif names and names[0].startswith("-"):
             path = max(names, key=len)  # (--planner, not -p)
-        else:
-            path = getattr(param, "human_readable_name", None) or (names[0] if names else None)
+        else:  # an argument, named as the message and the usage line name it (PROBLEM)
+            path = getattr(param, "metavar", None) or getattr(param, "human_readable_name", None) or (names[0] if names else None)
         text = str(getattr(exc, "message", "") or "")
     expected, found_ = _said(text)
     return {"file": None, "path": path, "line": None, "expected": expected, "found": found_, "message": message}

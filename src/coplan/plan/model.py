@@ -303,16 +303,18 @@ class Plan:
         ``my_plan.json``, ``.csv`` and ``.npz`` beside it (it made a folder of that name).
 
         Each file is written to a temporary name first and renamed, so a crash never
-        leaves a half-written one. Returns the paths written.
+        leaves a half-written one. Returns the paths written. :class:`coplan.output.OutputError`
+        (a ``ValueError``) before anything is written where a file is where the folder goes or in
+        its path, or for a name ending ``.csv`` or ``.npz`` (not a folder already).
         """
         if not isinstance(out_dir, (str, os.PathLike)) or not isinstance(stem, str) or not stem.strip():
             raise TypeError(f"save: expected a folder or a .json file name (str or Path) and a non-empty stem, found "
                             f"out_dir {type(out_dir).__name__} {out_dir!r}, stem {stem!r}")
         out = Path(out_dir)
+        want = "a folder or a file name ending .json (the plan is written as .json, .csv and .npz together)"
         if out.suffix.lower() == ".json" and not out.is_dir():
             out, stem = out.parent, out.stem
-        want = "a folder or a file name ending .json (the plan is written as .json, .csv and .npz together)"
-        if out.suffix.lower() in (".csv", ".npz") and not out.is_dir():  # (it made a folder "fresh.csv/")
+        elif out.suffix.lower() in (".csv", ".npz") and not out.is_dir():  # (it made a folder "fresh.csv/")
             raise OutputError(f"save {out}: expected {want}, found a name ending {out.suffix}")
         folder_path(out, "save", want)  # (a file in the way: what was expected and found, not FileExistsError)
         out.mkdir(parents=True, exist_ok=True)

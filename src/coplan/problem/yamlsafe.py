@@ -136,7 +136,8 @@ def _scan_events(text: str, issues: list) -> bool:
         if more:
             (path, line), last = more[0], more[-1][1]
             where = f"line {line}" if last == line else f"lines {line}-{last}"
-            issues.append(Issue(path, f"expected plain values, found {len(more)} more anchors and aliases ({where}){_NO_ALIASES}", line))
+            what = "more anchor or alias" if len(more) == 1 else "more anchors and aliases"
+            issues.append(Issue(path, f"expected plain values, found {len(more)} {what} ({where}){_NO_ALIASES}", line))
 
 
 def _scan(text: str, issues: list, more: list) -> bool:
@@ -310,7 +311,7 @@ def read_yaml(text: str, source: str | None, keep_text=None,
                 and text.splitlines()[mark.line][mark.column:mark.column + 1] == "\t":
             raise ProblemError([Issue("", f"expected spaces for indentation, found a tab character at column {mark.column + 1} "
                                           "(YAML does not allow tabs there)", line)], source) from None
-        if isinstance(e, yaml.constructor.ConstructorError) and str(msg).startswith("expected "):  # (ours: _construct_int)
+        if isinstance(e, yaml.constructor.ConstructorError) and str(msg).startswith("expected "):  # (ours: _construct_int, _construct_float)
             raise ProblemError([Issue(_path_at(lines, line), str(msg), line)], source) from None
         opened = getattr(e, "context_mark", None)
         if context and opened is not None and mark is not None and opened.line != mark.line:

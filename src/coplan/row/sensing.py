@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import Issue, OptionsError, check_fields, known_fields
-from ..kinds import GantryMode
+from ..kinds import GantryMode, LiveGantryMode
 from ..plan import MAX_PLAN_BYTES
 from ..problem.gantry import top_speed_issues
 from ..problem.model import Problem
@@ -103,7 +103,7 @@ class LiveRowOptions:
     def __post_init__(self) -> None:
         # a live planner runs one mode: its choices, not the gantry's three ("stop and go" was told
         # "expected one of 'stop-and-go', 'continuous', 'auto'", and auto then refused)
-        live = (GantryMode.CONTINUOUS.value, GantryMode.STOP_AND_GO.value)
+        live = tuple(m.value for m in LiveGantryMode)
         mode = [] if self.mode in live else [Issue("mode", (
             "expected continuous or stop-and-go for a live row (a live planner runs one mode), found auto"
             if self.mode == GantryMode.AUTO.value else
