@@ -1062,6 +1062,8 @@ def test_plotting_and_export_mistakes_say_what_was_expected(cell, tmp_path):
         plot_joints(cell, {"opt": plan})
     with pytest.raises(ValueError, match=r"render_frame: t: expected a plan time in s"):
         render_frame(cell, plan, "1")
+    with pytest.raises(ValueError, match=r"render_frame: t: expected a plan time in \[0, .*\] s, found -1"):
+        render_frame(cell, plan, -1.0)  # (it drew the first pose, as if at t = 0)
     with pytest.raises(ValueError, match=r"plot_workspace: arm: expected one of the problem's arms"):
         plot_workspace(cell, "lft")
     with pytest.raises(ValueError, match=r"out: expected a folder for json .* found the file name"):

@@ -471,6 +471,9 @@ def render_frame(problem: Problem, plan: Plan, t: float, *, dpi: float = 100, wi
     those of the last 0.1 s)."""
     if isinstance(t, bool) or not isinstance(t, (int, float, np.number)) or not math.isfinite(t):  # ("1": '>' not supported)
         raise ValueError(f"render_frame: t: expected a plan time in s (a finite number), found {t!r:.60}")
+    end = float(plan.time[-1]) if len(plan.time) else 0.0
+    if not 0.0 <= t <= end + 1e-9:  # (a negative time drew the plan's first pose, as if it were t = 0)
+        raise ValueError(f"render_frame: t: expected a plan time in [0, {end:g}] s, found {t:g}")
     scene = _Scene(problem, plan, width=width, dpi=dpi, trail=trail, title=title)
     scene.prev_t = max(0.0, t - 0.1) if t > 0 else -1.0
     scene.update(t)
