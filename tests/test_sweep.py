@@ -405,6 +405,22 @@ def test_a_gantry_sweep_plans_its_stops_with_coplan_solve_s_cell_planner_unless_
     assert parse_sweep("base: row\nvary: {n_arms: [2]}\n", "r.yaml").planner == PlannerKind.OPTIMAL
 
 
+def test_a_files_sweep_plans_its_row_files_stops_with_coplan_solve_s_cell_planner_unless_told(tmp_path):
+    """A sweep over problem files, its planner not given: each row file's stops are planned as
+    `coplan solve ROW` plans them (coordinated), each cell file with the optimal planner; a planner
+    given (the key, or --planner) is the one used for all."""
+    from coplan.generate import gantry_row, to_yaml
+
+    (tmp_path / "row.yaml").write_text(to_yaml(gantry_row(length=6.0, n_arms=2, density=2.0, seed=3)))
+    shutil.copy(ROOT / "src" / "coplan" / "problems" / "single_arm.yaml", tmp_path / "cell.yaml")
+    text = "base: files\nproblems: ['row.yaml', 'cell.yaml']\n"
+    by_file = lambda items: {Path(it.source).name: it.planner for it in items}  # noqa: E731
+    assert by_file(parse_sweep(text, str(tmp_path / "s.yaml"), tmp_path).items()) == {"row.yaml": "coordinated", "cell.yaml": "optimal"}
+    told = parse_sweep(text + "planner: optimal\n", str(tmp_path / "s.yaml"), tmp_path)
+    assert set(by_file(told.items()).values()) == {"optimal"}
+    assert set(by_file(parse_sweep(text, str(tmp_path / "s.yaml"), tmp_path).items(planner="optimal")).values()) == {"optimal"}
+
+
 def test_the_sweep_command_refuses_the_heuristic_on_a_gantry_as_a_usage_error(tmp_path):
     spec = tmp_path / "g.yaml"
     spec.write_text("name: g\nbase: gantry\nvary: {n_arms: [2]}\n")

@@ -15,7 +15,8 @@ A sweep file (YAML)::
     mode: grid                # grid (every combination) | random (``samples`` distinct problems drawn, seeded;
                               #   the whole grid when it holds no more)
     planner: optimal          # heuristic | coordinated | optimal (can be varied too; default optimal,
-                              #   base gantry: coordinated, each stop's cell planner, as coplan solve ROW)
+                              #   base gantry, or a row file of base files: coordinated, each stop's
+                              #   cell planner, as coplan solve ROW)
     options: {polish: false}  # solver options (coplan.optimal.OptimalOptions fields)
     time_limit: 60            # per problem, s (the planner's clock limit; a hard stop later)
     retries: 2                # extra attempts when a worker process dies
@@ -33,6 +34,7 @@ import hashlib
 import itertools
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -55,6 +57,9 @@ class SweepError(InputError):
 TOP_KEYS = {"name", "description", "base", "problems", "fixed", "vary", "mode", "samples", "seed", "planner",
         "options", "time_limit", "retries"}
 
+
+#: a problem file with a gantry section (a row): its top-level key
+_ROW_FILE = re.compile(r"^gantry\s*:", re.MULTILINE)
 
 @dataclass(frozen=True)
 class SweepItem:
@@ -89,6 +94,7 @@ class SweepSpec:
     source: str | None = None
     description: str = ""
     sizes: dict[str, int] = field(default_factory=dict)
+    planner_given: bool = True  # False: the default (a row file of a files sweep then takes coordinated)
 
     def items(self, planner: PlannerKind | str | None = None, time_limit: float | None = None) -> list[SweepItem]:
         """The concrete problems (duplicates, by key, dropped); ``planner`` / ``time_limit``
@@ -151,6 +157,7 @@ class SweepSpec:
         return n
 
     def _make(self, index: int, params: dict[str, Any], limit: float) -> list[SweepItem]:
+        given = self.planner_given or "planner" in params
         planner = str(params.pop("planner", self.planner.value))
         options = dict(self.options)
         for k in [k for k in params if k.startswith("options.")]:
@@ -169,7 +176,10 @@ class SweepSpec:
                     text, error = read_input_text(path, ProblemError), None
                 except ProblemError as e:
                     text, error = None, str(e)
-                items.append(self._item(index + i, dict(shown, problem=path), planner, options, limit, path, text, None, error))
+                # a row file, the planner not given: each stop's cell planner is coplan solve ROW's (coordinated)
+                mine = (PlannerKind.COORDINATED.value if not given and text is not None and _ROW_FILE.search(text) else planner)
+                items.append(self._item(index + i, dict(shown, problem=path), mine, options if mine == planner else {},
+                                        limit, path, text, None, error))
             return items
         text, row_length, error, source = None, None, None, f"{self.base.value} generator"
         try:
@@ -345,7 +355,7 @@ def parse_sweep(text: str, source: str | None = None, here: Path | None = None) 
         raise SweepError(sorted(issues, key=lambda i: -1 if i.line is None else i.line), source)
     return SweepSpec(name=str(name), base=base, mode=mode, fixed=fixed, vary=vary, planner=planner, options=options,
                      time_limit=time_limit, retries=retries, samples=samples, seed=seed, problems=problems,
-                     source=source, description=str(description or ""), sizes=sizes)
+                     source=source, description=str(description or ""), sizes=sizes, planner_given="planner" in data)
 
 
 def _read(text: str, source: str | None) -> tuple[dict, Any]:
