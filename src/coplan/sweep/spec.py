@@ -61,6 +61,7 @@ TOP_KEYS = {"name", "description", "base", "problems", "fixed", "vary", "mode", 
 #: a problem file with a gantry section (a row): its top-level key
 _ROW_FILE = re.compile(r"^gantry\s*:", re.MULTILINE)
 
+
 @dataclass(frozen=True)
 class SweepItem:
     """One problem of a sweep: the parameters that made it, its YAML text and how to solve it."""
