@@ -36,7 +36,7 @@ if TYPE_CHECKING:  # (annotations only: the model is not imported at run time he
     from .model import Problem
 
 __all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "problem_dict",
-           "problem_from_mapping", "LESSON_DEFAULTS",
+           "problem_from_mapping", "as_problem", "LESSON_DEFAULTS",
            "LESSON_TASK", "LESSON_GANTRY"]
 
 #: The arm of the course's cell (``greenhouse_row.yaml``): every field of ``defaults``. The lesson
@@ -569,6 +569,26 @@ def to_yaml(d, header: str | None = None) -> str:
         else:
             out.append(f"{_scalar(key)}: {_flow(value, str(key))}")
     return "\n".join(out) + "\n"
+
+
+def as_problem(problem, refused) -> "Problem":
+    """``problem`` as a :class:`~coplan.problem.model.Problem`, taken as :func:`coplan.solve` takes
+    it: a Problem as it is, a mapping checked as a file (:func:`problem_from_mapping`), a path or a
+    shipped name read (:func:`coplan.problem.load.load_problem`); anything else
+    ``TypeError(refused(problem))`` -- each entry point that takes a problem says what it takes in
+    its own words."""
+    import os
+
+    from .load import load_problem
+    from .model import Problem
+
+    if isinstance(problem, Problem):
+        return problem
+    if isinstance(problem, Mapping):
+        return problem_from_mapping(problem)
+    if isinstance(problem, (str, os.PathLike)):
+        return load_problem(problem)
+    raise TypeError(refused(problem))
 
 
 def problem_from_mapping(data: Mapping[str, Any]) -> "Problem":

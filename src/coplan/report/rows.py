@@ -14,16 +14,13 @@ hour (``best``).
 from __future__ import annotations
 
 import json
-import os
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..kinds import GantryMode, PlannerKind, PlanStatus, SpeedProfile, StopRule
 from ..output import atomic_text, check_folder, is_run_folder, keep_reports
 from ..plan import jsonable
-from ..problem.generate import problem_from_mapping
-from ..problem.load import load_problem
+from ..problem.generate import as_problem
 from ..problem.model import Problem
 from ..progress import Tick, nested, speaker, ticker
 
@@ -97,13 +94,9 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     from ..pipeline import solve
     from ..row.metrics import fruit_bounds_count
 
-    if isinstance(problem, (str, os.PathLike)):  # (a name or a path, as coplan.solve takes: it raised from inside)
-        problem = load_problem(problem)
-    elif isinstance(problem, Mapping):
-        problem = problem_from_mapping(problem)
-    elif not isinstance(problem, Problem):
-        raise TypeError(f"compare_rows: expected a Problem, a problem file's path or a shipped name, found "
-                        f"{type(problem).__name__} {str(problem)[:60]!r}")
+    # (a name or a path, as coplan.solve takes: it raised from inside)
+    problem = as_problem(problem, lambda p: f"compare_rows: expected a Problem, a problem file's path or a shipped name, "
+                                            f"found {type(p).__name__} {str(p)[:60]!r}")
     if problem.gantry is None:  # (before any work: it made the folder, then solve said "gantry: ...")
         raise ValueError(f"compare_rows: {problem.name!r} is a stationary cell (no gantry section): "
                          "coplan.report.comparison.compare compares a cell's planners")

@@ -55,11 +55,9 @@ Entry point: :func:`run_live_row` -> :class:`LiveRow`, in either gantry mode.
 from __future__ import annotations
 
 import math
-import os
 import re
 import time as _time
 from collections import OrderedDict
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -148,15 +146,11 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
     run is measured against), ``detections`` (the camera's reports as made), ``outcome`` (what
     became of each fruit and report) and ``metrics`` (harvest, row time and its ratio to the
     offline plan's, decisions, faults; ``plan.solver['live']`` holds the same)."""
-    from ..problem.generate import problem_from_mapping
-    from ..problem.load import load_problem
+    from ..problem.generate import as_problem
 
-    if isinstance(problem, (str, os.PathLike)):  # (a path gave "'str' object has no attribute 'gantry'")
-        problem = load_problem(problem)
-    elif isinstance(problem, Mapping):
-        problem = problem_from_mapping(problem)
-    elif not isinstance(problem, Problem):
-        raise TypeError(f"problem: expected a row Problem, the path of its file or a row as a mapping, found {type(problem).__name__}")
+    # (a path gave "'str' object has no attribute 'gantry'"; a mapping, a TypeError)
+    problem = as_problem(problem, lambda p: f"problem: expected a row Problem, the path of its file or a row as a "
+                                            f"mapping, found {type(p).__name__}")
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: a live row needs a row")
     if options is not None and not isinstance(options, LiveRowOptions):

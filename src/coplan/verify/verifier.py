@@ -74,7 +74,7 @@ from ..kinds import LIVE_PLANNER, PlannerKind
 from ..plan import DEFAULT_RATE, EventKind, Plan, load_plan, time_grid_issues
 from . import verdict as _verdict
 from ..problem.model import Problem
-from ..problem.load import load_problem
+from ..problem.generate import as_problem
 from ..problem.plausible import MAX_PLAN_ANGLE, MAX_PLAN_COORD
 from .verdict import (
     ContactInterval,
@@ -430,15 +430,8 @@ def _arguments(problem, plan, options, overrides: dict) -> tuple[Problem, Plan, 
     if isinstance(problem, Plan) and isinstance(plan, (Problem, Mapping)):
         raise TypeError("verify(problem, plan): the problem comes first, then the plan; found a Plan, then a "
                         f"{type(plan).__name__} (swapped?)")
-    if isinstance(problem, (str, os.PathLike)):
-        problem = load_problem(problem)
-    elif isinstance(problem, Mapping):  # (as coplan.solve takes one: coplan.generate's)
-        from ..problem.generate import problem_from_mapping
-
-        problem = problem_from_mapping(problem)
-    elif not isinstance(problem, Problem):
-        raise TypeError(f"verify(): problem: expected a Problem, the path of a problem file or a mapping, found "
-                        f"{type(problem).__name__}")
+    problem = as_problem(problem, lambda p: f"verify(): problem: expected a Problem, the path of a problem file or a "
+                                            f"mapping, found {type(p).__name__}")
     if isinstance(plan, (str, os.PathLike)):
         plan = load_plan(plan)
     elif not isinstance(plan, Plan):
