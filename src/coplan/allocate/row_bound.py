@@ -20,9 +20,11 @@ Entry point: :func:`row_bounds` -> :class:`RowBounds`.
   :func:`from_rest` of ``x - start`` (its top speed's ramp included), and an arm picks no fruit
   before the carriage is where it reaches that fruit from; after the pick come the way back to
   the bin and the place. And the fruit no arm can pick before some time are all picked after
-  it, shared among the arms that reach them. Where travel sets the bound it adds the ramp and
-  the last fruit's way back (sparse_row 92.9 -> 94.4 s; a 20 m row of 2 fruit per metre and 6
-  arms 26.4 -> 27.9 s).
+  it, shared among the arms that reach them, each arm from the first of them it can pick (the
+  arms farther back reach the row's last fruit later). Where travel sets the bound it adds the
+  ramp and the last fruit's way back (sparse_row 92.9 -> 94.4 s; a 20 m row of 2 fruit per
+  metre and 6 arms 26.4 -> 27.9 s), and each arm's own start on the row's tail more (96.05 s
+  and 30.71 s).
 * **Stop-and-go bound**: for plans that work stop by stop -- the carriage moves, stops, the arms
   do that stop's work, the carriage moves on -- with no cell work overlapping a move. Their
   moves, each at rest at both ends, take at least one rest-to-rest move over the same distance
@@ -71,7 +73,7 @@ from ..kinematics.timing import Move1D, accel_time
 from ..problem.gantry import RESOLUTION_RANGE
 from ..problem.model import Problem, require_problem
 
-__all__ = ["RowBounds", "row_bounds", "cycle_bounds", "busiest_cycles", "arrival_bound", "from_rest"]
+__all__ = ["RowBounds", "row_bounds", "cycle_bounds", "busiest_cycles", "arrival_bound", "from_rest", "water_level"]
 
 @dataclass(frozen=True)
 class RowBounds:
@@ -186,10 +188,13 @@ def arrival_bound(problem: Problem, cc: CellCycles) -> float:
     ``r(f)`` is the least over the arms. Of that cycle, the pick, the way back (at least ``w_a(f)``,
     the least way between a bin and the fruit) and the place come after, at least its cycle
     bound ``p_a(f)`` less ``w_a(f)``: so ``T >= min_a (r_a(f) + p_a(f) - w_a(f))`` for every
-    fruit. And for every time ``r``, the fruit with ``r(f) >= r`` are all picked after ``r``, by
-    the ``n`` arms that reach some of them, one cycle after another on each arm, each at least
-    ``min_a p_a(f)``, of each arm's first only the part after its way out: the busiest of those
-    arms ends at least ``r + sum_f min_a p_a(f) / n - max_f max_a w_a(f)`` (every fruit counted)."""
+    fruit. And for every time ``r``, the fruit ``S`` with ``r(f) >= r`` are all picked after
+    ``r``, one cycle after another on each arm that picks some of them, each at least
+    ``p(f) = min_a p_a(f)``: arm ``a`` picks none of them before ``rho_a = min_{f in S} r_a(f)``
+    and of its first such cycle only its way out (at most ``max_{f in S} w_a(f)``) may come
+    before, so it ends at least ``rho_a - max_{f in S} w_a(f)`` plus its share of ``S``'s work.
+    Shared as evenly as those starts allow among the arms that reach some of ``S``, the busiest
+    ends no sooner than :func:`water_level` of ``sum_{f in S} p(f)`` over those starts."""
     g = problem.gantry
     A, F = cc.reach.shape
     lim = (g.max_velocity, g.max_acceleration, g.max_jerk)
@@ -213,6 +218,24 @@ def arrival_bound(problem: Problem, cc: CellCycles) -> float:
     r = np.where(can, R, np.inf).min(axis=0)  # each fruit's earliest pick
     o = np.argsort(-r, kind="stable")  # latest first: the fruit with r(f) >= r[o[k]] are o[:k + 1] (and ties)
     work = np.cumsum(P.min(axis=0)[o])
-    way = np.maximum.accumulate(np.where(can, W, -np.inf).max(axis=0)[o])
-    arms = np.logical_or.accumulate(can[:, o], axis=1).sum(axis=0)
-    return max(single, float((r[o] + work / arms - way).max()))
+    # (A, F): each arm's earliest pick among o[:k + 1] less its longest way out there (inf: it reaches none)
+    rho = np.minimum.accumulate(np.where(can, R, np.inf)[:, o], axis=1)
+    way = np.maximum.accumulate(np.where(can, W, -np.inf)[:, o], axis=1)
+    start = np.where(np.isfinite(rho), rho - way, np.inf)
+    return max(single, float(water_level(work, start).max()))
+
+
+def water_level(work, start) -> np.ndarray:
+    """The least ``T`` with ``sum_a max(0, T - start[a]) >= work``: ``work`` (s) shared among
+    arms free from ``start`` (s, ``(A,)`` or ``(A, K)`` for ``K`` cases; ``inf`` for an arm that
+    takes no part; ``work`` a scalar or ``(K,)``) so that the last ends as early as it can.
+
+    With the starts sorted, the level using the first ``m`` arms is ``(work + sum_{i<=m}
+    start_i) / m``; each is at least the least ``T`` (an arm left out only adds), and the one
+    with the arms that start before ``T`` equals it: the least over ``m``. ``inf`` where no arm
+    takes part."""
+    s = np.sort(np.asarray(start, float), axis=0)
+    fin = np.isfinite(s)
+    m = np.arange(1, s.shape[0] + 1).reshape((-1,) + (1,) * (s.ndim - 1))
+    level = np.where(fin, (np.asarray(work, float) + np.cumsum(np.where(fin, s, 0.0), axis=0)) / m, np.inf)
+    return level.min(axis=0)
