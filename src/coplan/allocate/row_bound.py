@@ -190,11 +190,11 @@ def arrival_bound(problem: Problem, cc: CellCycles) -> float:
     bound ``p_a(f)`` less ``w_a(f)``: so ``T >= min_a (r_a(f) + p_a(f) - w_a(f))`` for every
     fruit. And for every time ``r``, the fruit ``S`` with ``r(f) >= r`` are all picked after
     ``r``, one cycle after another on each arm that picks some of them, each at least
-    ``p(f) = min_a p_a(f)``: arm ``a`` picks none of them before ``rho_a = min_{f in S} r_a(f)``
-    and of its first such cycle only its way out (at most ``max_{f in S} w_a(f)``) may come
-    before, so it ends at least ``rho_a - max_{f in S} w_a(f)`` plus its share of ``S``'s work.
-    Shared as evenly as those starts allow among the arms that reach some of ``S``, the busiest
-    ends no sooner than :func:`water_level` of ``sum_{f in S} p(f)`` over those starts."""
+    ``p(f) = min_a p_a(f)``: arm ``a``'s first of them, ``g``, is picked no sooner than
+    ``r_a(g)``, and only its way out (at least ``w_a(g)``) comes before, so the arm ends at least
+    ``s_a = min_{g in S} (r_a(g) - w_a(g))`` plus its share of ``S``'s work. Shared as evenly as
+    those starts allow among the arms that reach some of ``S``, the busiest ends no sooner than
+    :func:`water_level` of ``sum_{f in S} p(f)`` over the ``s_a``."""
     g = problem.gantry
     A, F = cc.reach.shape
     lim = (g.max_velocity, g.max_acceleration, g.max_jerk)
@@ -218,10 +218,8 @@ def arrival_bound(problem: Problem, cc: CellCycles) -> float:
     r = np.where(can, R, np.inf).min(axis=0)  # each fruit's earliest pick
     o = np.argsort(-r, kind="stable")  # latest first: the fruit with r(f) >= r[o[k]] are o[:k + 1] (and ties)
     work = np.cumsum(P.min(axis=0)[o])
-    # (A, F): each arm's earliest pick among o[:k + 1] less its longest way out there (inf: it reaches none)
-    rho = np.minimum.accumulate(np.where(can, R, np.inf)[:, o], axis=1)
-    way = np.maximum.accumulate(np.where(can, W, -np.inf)[:, o], axis=1)
-    start = np.where(np.isfinite(rho), rho - way, np.inf)
+    # (A, F): s_a over o[:k + 1], each arm's least earliest pick less way out there (inf: it reaches none)
+    start = np.minimum.accumulate(np.where(can, R - np.where(can, W, 0.0), np.inf)[:, o], axis=1)
     return max(single, float(water_level(work, start).max()))
 
 
