@@ -23,8 +23,8 @@ Entry point: :func:`row_bounds` -> :class:`RowBounds`.
   it, shared among the arms that reach them, each arm from the first of them it can pick (the
   arms farther back reach the row's last fruit later). Where travel sets the bound it adds the
   ramp and the last fruit's way back (sparse_row 92.9 -> 94.4 s; a 20 m row of 2 fruit per
-  metre and 6 arms 26.4 -> 27.9 s), and each arm's own start on the row's tail more (96.05 s
-  and 30.71 s).
+  metre and 6 arms 26.4 -> 27.9 s), and each arm's own start on the row's tail more (96.13 s
+  and 30.77 s).
 * **Stop-and-go bound**: for plans that work stop by stop -- the carriage moves, stops, the arms
   do that stop's work, the carriage moves on -- with no cell work overlapping a move. Their
   moves, each at rest at both ends, take at least one rest-to-rest move over the same distance
