@@ -19,7 +19,7 @@ from .planners.heuristic import plan_heuristic
 from .plan import EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem.model import Problem
 from .problem.plausible import check_as_file
-from .problem.generate import problem_from_mapping
+from .problem.given import problem_from_mapping
 from .problem.load import file_record, load_problem
 from .progress import check_progress, guarded
 

@@ -13,7 +13,7 @@
 """
 
 from .model import Arm, Fruit, Problem, Task
-from .generate import problem_from_mapping
+from .given import problem_from_mapping
 from .load import default_problem_path, load_problem, parse_problem, shipped_problems, shipped_rows
 
 __all__ = ["Arm", "Fruit", "Problem", "Task", "default_problem_path", "load_problem", "parse_problem", "problem_from_mapping",

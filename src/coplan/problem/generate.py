@@ -25,18 +25,14 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from ..kinematics import arm as kin
 
-if TYPE_CHECKING:  # (annotations only: the model is not imported at run time here)
-    from .model import Problem
-
-__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "problem_dict",
-           "problem_from_mapping", "as_problem", "LESSON_DEFAULTS",
+__all__ = ["row_problem", "overlap_problem", "random_problem", "cell_problem", "gantry_row", "to_yaml", "problem_dict", "LESSON_DEFAULTS",
            "LESSON_TASK", "LESSON_GANTRY"]
 
 #: The arm of the course's cell (``greenhouse_row.yaml``): every field of ``defaults``. The lesson
@@ -569,46 +565,3 @@ def to_yaml(d, header: str | None = None) -> str:
         else:
             out.append(f"{_scalar(key)}: {_flow(value, str(key))}")
     return "\n".join(out) + "\n"
-
-
-def as_problem(problem, refused) -> "Problem":
-    """``problem`` as a :class:`~coplan.problem.model.Problem`, taken as :func:`coplan.solve` takes
-    it: a Problem as it is, a mapping checked as a file (:func:`problem_from_mapping`), a path or a
-    shipped name read (:func:`coplan.problem.load.load_problem`); anything else
-    ``TypeError(refused(problem))`` -- each entry point that takes a problem says what it takes in
-    its own words."""
-    import os
-
-    from .load import load_problem
-    from .model import Problem
-
-    if isinstance(problem, Problem):
-        return problem
-    if isinstance(problem, Mapping):
-        return problem_from_mapping(problem)
-    if isinstance(problem, (str, os.PathLike)):
-        return load_problem(problem)
-    raise TypeError(refused(problem))
-
-
-def problem_from_mapping(data: Mapping[str, Any]) -> "Problem":
-    """A problem given as a mapping (as :mod:`coplan.generate` makes them), checked as a file is
-    -- its issues named by key path only: the lines are those of a YAML text the caller never saw
-    (``coplan.solve`` and ``coplan.verify`` take one)."""
-    from dataclasses import replace
-
-    from ..errors import Issue, ProblemError
-    from .load import parse_problem
-
-    if not data:  # (it said "found an empty file")
-        raise ProblemError([Issue("", "expected a mapping with keys name, arms, fruits, task; found an empty mapping")],
-                           "a problem given as a mapping")
-    try:
-        text = to_yaml(dict(data))
-    except UnwritableValue as e:  # (a TypeError with no key path)
-        raise ProblemError([Issue(e.path, f"expected a number, string, boolean, null, list or mapping, found {e.found}")],
-                           "a problem given as a mapping") from None
-    try:
-        return parse_problem(text, "a problem given as a mapping")
-    except ProblemError as e:
-        raise ProblemError([replace(i, line=None) for i in e.issues], e.source) from None

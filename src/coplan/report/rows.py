@@ -20,7 +20,7 @@ from pathlib import Path
 from ..kinds import GantryMode, PlannerKind, PlanStatus, SpeedProfile, StopRule
 from ..output import atomic_text, check_folder, is_run_folder, keep_reports
 from ..plan import jsonable
-from ..problem.generate import as_problem
+from ..problem.given import as_problem
 from ..problem.model import Problem
 from ..progress import Tick, nested, speaker, ticker
 

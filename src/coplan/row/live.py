@@ -146,7 +146,7 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
     run is measured against), ``detections`` (the camera's reports as made), ``outcome`` (what
     became of each fruit and report) and ``metrics`` (harvest, row time and its ratio to the
     offline plan's, decisions, faults; ``plan.solver['live']`` holds the same)."""
-    from ..problem.generate import as_problem
+    from ..problem.given import as_problem
 
     # (a path gave "'str' object has no attribute 'gantry'"; a mapping, a TypeError)
     problem = as_problem(problem, lambda p: f"problem: expected a row Problem, the path of its file or a row as a "

@@ -74,7 +74,7 @@ from ..kinds import LIVE_PLANNER, PlannerKind
 from ..plan import DEFAULT_RATE, EventKind, Plan, load_plan, time_grid_issues
 from . import verdict as _verdict
 from ..problem.model import Problem
-from ..problem.generate import as_problem
+from ..problem.given import as_problem
 from ..problem.plausible import MAX_PLAN_ANGLE, MAX_PLAN_COORD
 from .verdict import (
     ContactInterval,
