@@ -128,7 +128,7 @@ def test_the_rows_tail_is_shared_from_each_arms_own_start():
     least over them of its earliest pick less its way out, levelled by bisection. On a 20 m row
     of 2 fruit per metre and 6 arms the rear arms reach the row's last fruit seconds after the
     front ones, so it is well above the same bound with every arm free from the set's first pick
-    less the longest way out (27.6 s -> 30.8 s when this was written; the bound before 08ab870)."""
+    less the longest way out (27.90 s -> 31.13 s when this was written; the bound before 08ab870)."""
     row = _row(20.0, 2.0, 6, 0)
     g = row.gantry
     cc = cell_cycles(row, 0.05)
