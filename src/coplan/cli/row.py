@@ -66,7 +66,8 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
         if reach.cover:
             p(f"lower bound        {b.any_plan:.2f} s for any plan (the busiest arm's cycles {b.work:.2f} s; the carriage's "
               f"way to {b.reach_to:.2f} m and one fruit's dwells, {b.travel:.2f} s; from rest to where each fruit is reached, "
-              f"then the picks, ways back and places after it, each arm from where it first reaches them, {b.arrival:.2f} s); {b.stop_and_go:.2f} s stop by stop "
+              f"then the picks, ways back and places after it, each arm from where it first reaches them, "
+              f"{b.arrival:.2f} s); {b.stop_and_go:.2f} s stop by stop "
               f"with no arm working while the carriage moves (its moves {b.moves:.2f} s, then the cells; with the stops "
               f"and where each fruit is picked from priced together {b.priced:.2f} s, its cheapest stopping "
               f"{plural(b.priced_stops, 'time')}"
