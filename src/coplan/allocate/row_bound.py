@@ -51,7 +51,8 @@ from the bin's end (the bin rides with the carriage); but a pick on the move beg
 the joints tracking the fruit, so the moves into and out of it could each be shorter by at most
 the time to brake from the tracking speed (for the lesson's arms at the gantry's 0.5 m/s, about
 0.2 s where the elbow is well bent, more near the edge of reach). No plan coplan makes on the move
-comes near that (1.24-2.09 x ``any_plan`` on the benchmark rows). A cycle bound that allows for it
+comes near that (1.09-1.99 x ``any_plan`` on the benchmark rows in c1e85ab's run, the closest 2.7 s
+above it; 1.24-2.09 x when this was written). A cycle bound that allows for it
 by braking -- each move extended by a stop from the tracking state (joint speeds from ``J^-1`` at
 the gantry's top speed, accelerations with the centripetal terms), so at least a rest-to-rest
 move over the distance less the braking distance, less the braking time -- was measured and is
