@@ -227,6 +227,26 @@ def test_fruit_missed_by_6mm_is_caught_and_4mm_is_not(two_arms):
     assert verify(two_arms, near).passed
 
 
+def test_a_pick_or_place_the_tip_never_reaches_harvests_nothing(two_arms):
+    """A fruit counts as harvested only where a pick and a place of it are on target: a pick 6 mm
+    off, or a place 1 cm above a lowered bin, leaves its fruit unharvested beside the violation (a
+    plan checked against a fruit moved 2 cm was called complete, every fruit harvested). A second,
+    bogus pick of a fruit another arm harvested does not undo that harvest."""
+    miss = scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]}, offsets={"w1": np.array([0.006, 0.0])})
+    ver = verify(two_arms, miss)
+    assert kinds(ver) == {ViolationKind.PICK_MISSED}
+    assert ver.unharvested == ["w1", "w2"] and not ver.complete and ver.measured["harvested"] == 1
+    assert ver.summary()["unharvested"] == ["w1", "w2"]
+    lowered = parse_problem(TWO_ARMS.replace("bin: [1.0, -0.5]", "bin: [1.0, -0.51]"))
+    ver = verify(lowered, scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]}))
+    assert kinds(ver) == {ViolationKind.PLACE_MISSED} and ver.unharvested == ["w2", "e1"]
+    plan = scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]})
+    pick = next(e for e in plan.events if e.fruit == "w1" and e.kind == EventKind.PICK)
+    plan.events.append(Event("east", "w1", EventKind.PICK, pick.t_start, pick.t_end))
+    ver = verify(two_arms, plan)
+    assert ViolationKind.PICK_MISSED in kinds(ver) and ver.unharvested == ["w2"]
+
+
 def test_dwell_cut_short_is_caught(two_arms):
     plan = scurve_plan(two_arms, {"west": ["w1"], "east": ["e1"]}, pick_hold=0.2)
     ver = verify(two_arms, plan)
