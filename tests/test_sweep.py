@@ -421,6 +421,25 @@ def test_a_files_sweep_plans_its_row_files_stops_with_coplan_solve_s_cell_planne
     assert set(by_file(parse_sweep(text, str(tmp_path / "s.yaml"), tmp_path).items(planner="optimal")).values()) == {"optimal"}
 
 
+def test_a_row_file_takes_no_solver_options_one_row_per_file_not_per_option_value(tmp_path):
+    """A files sweep that varies a solver option: each cell file gets a row per value, a row file
+    one row with no options (its solve takes none, as `coplan solve ROW`; it was solved once per
+    value, the same plan under two keys, the option shown as an axis that did nothing)."""
+    from coplan.generate import gantry_row, to_yaml
+
+    (tmp_path / "row.yaml").write_text(to_yaml(gantry_row(length=6.0, n_arms=2, density=2.0, seed=3)))
+    shutil.copy(ROOT / "src" / "coplan" / "problems" / "single_arm.yaml", tmp_path / "cell.yaml")
+    text = ("base: files\nproblems: ['row.yaml', 'cell.yaml']\nplanner: optimal\n"
+            "options: {polish: false}\nvary: {options.search_work: [100, 200]}\n")
+    items = parse_sweep(text, str(tmp_path / "s.yaml"), tmp_path).items()
+    rows = [it for it in items if Path(it.source).name == "row.yaml"]
+    cells = [it for it in items if Path(it.source).name == "cell.yaml"]
+    assert len({it.key for it in rows}) == 1 and all(it.options == {} for it in rows)
+    assert all(not any(k.startswith("options.") for k in it.params) for it in rows)
+    assert len({it.key for it in cells}) == 2
+    assert sorted(it.options["search_work"] for it in cells) == [100, 200] and all(it.options["polish"] is False for it in cells)
+
+
 def test_the_sweep_command_refuses_the_heuristic_on_a_gantry_as_a_usage_error(tmp_path):
     spec = tmp_path / "g.yaml"
     spec.write_text("name: g\nbase: gantry\nvary: {n_arms: [2]}\n")

@@ -177,9 +177,14 @@ class SweepSpec:
                     text, error = read_input_text(path, ProblemError), None
                 except ProblemError as e:
                     text, error = None, str(e)
-                # a row file, the planner not given: each stop's cell planner is coplan solve ROW's (coordinated)
-                mine = (PlannerKind.COORDINATED.value if not given and text is not None and _ROW_FILE.search(text) else planner)
-                items.append(self._item(index + i, dict(shown, problem=path), mine, options if mine == planner else {},
+                # a row file, the planner not given: each stop's cell planner is coplan solve ROW's (coordinated);
+                # it takes no solver options, as coplan solve ROW takes none: one row per file, not one per
+                # option value (two keys and 110 s for the same plan, the report showing an axis that did nothing)
+                row = text is not None and bool(_ROW_FILE.search(text))
+                mine = PlannerKind.COORDINATED.value if row and not given else planner
+                mine_opts = {} if row else options
+                mine_shown = {k: v for k, v in shown.items() if not (row and k.startswith("options."))}
+                items.append(self._item(index + i, dict(mine_shown, problem=path), mine, mine_opts,
                                         limit, path, text, None, error))
             return items
         text, row_length, error, source = None, None, None, f"{self.base.value} generator"
