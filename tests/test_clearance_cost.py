@@ -181,3 +181,12 @@ def test_a_rows_sweep_plans_its_cells_as_coplan_solve_does(tmp_path):
     assert doc["planner"] == "coordinated" and all(row["verified"] for row in doc["rows"])
     plan = json.loads((tmp_path / "out" / "plus_25mm" / "plan.json").read_text())
     assert plan["solver"]["row"]["cell_planner"] == "coordinated"
+
+
+def test_a_partial_plan_s_row_says_it_is_partial():
+    """(crossing_paths at +300 mm: '2 / 4' harvested beside a makespan below the lower bound, and
+    no status in the table -- clearance.json alone said partial.)"""
+    from coplan.report.clearance import cell
+
+    assert cell({"harvested": 2, "reachable": 4, "status": "partial"}, "harvested") == "2 / 4 (partial)"
+    assert cell({"harvested": 4, "reachable": 4, "status": "success"}, "harvested") == "4 / 4"

@@ -64,17 +64,18 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
             p(f"carriage span      {doc['carriage_span']:.2f} m (a fruit stays within the arms' reach over this much rail, "
               f"median); stops: {doc['stops']['fewest']} at the fewest, {doc['stops']['fixed']} at a fixed stride")
         if reach.cover:
-            p(f"lower bound        {b.any_plan:.2f} s for any plan (the busiest arm's cycles {b.work:.2f} s; the carriage's "
-              f"way to {b.reach_to:.2f} m and one fruit's dwells, {b.travel:.2f} s; from rest to where each fruit is reached, "
-              f"then the picks, ways back and places after it, each arm from where it first reaches them, "
-              f"{b.arrival:.2f} s); {b.stop_and_go:.2f} s stop by stop "
-              f"with no arm working while the carriage moves (its moves {b.moves:.2f} s, then the cells; with the stops "
-              f"and where each fruit is picked from priced together {b.priced:.2f} s, its cheapest stopping "
-              f"{plural(b.priced_stops, 'time')}"
+            p(f"lower bound        {b.any_plan:.2f} s for any plan: the largest of the busiest arm's cycles {b.work:.2f} s, "
+              f"the carriage's way to {b.reach_to:.2f} m and one fruit's dwells {b.travel:.2f} s, and the arrival "
+              f"{b.arrival:.2f} s (from rest to where each fruit is reached, then the picks, ways back and places after "
+              f"it, each arm from where it first reaches them)")
+            p(f"                   {b.stop_and_go:.2f} s stop by stop with no arm working while the carriage moves (its "
+              f"moves {b.moves:.2f} s, then the cells; with the stops and where each fruit is picked from priced together "
+              f"{b.priced:.2f} s, its cheapest stopping {plural(b.priced_stops, 'time')}"
               # (a slow carriage: 'priced together 768.69 s, at 463 stops' read as a bound below the travel bound's 924.50 s)
               + (f", weaker here than the bounds before it, which set the {b.stop_and_go:.2f} s" if b.priced < b.stop_and_go - 1e-9
                  else "")
-              + "; coplan's plans let the arms place and come out during the moves, and may beat it)")
+              + "): a bound for that model only -- coplan's plans let the arms place and come out during the moves, and "
+                "may beat it")
         else:  # (as a cell's check says it)
             p("nothing to plan: no fruit can be harvested from any carriage position (solve would exit 4, infeasible)"
               + (" -- the problem lists no fruit" if not prob.fruits else ""))

@@ -184,8 +184,8 @@ def cell(row: dict, key: str) -> str:
         return "-"
     if isinstance(v, bool):
         return "yes" if v else "no"
-    if key == "harvested":
-        return f"{v} / {row.get('reachable')}"
+    if key == "harvested":  # (a partial plan's row showed '2 / 4' beside a makespan below the bound, and no status)
+        return f"{v} / {row.get('reachable')}" + (f" ({row['status']})" if row.get("status") not in (None, "success") else "")
     if key == "extra_mm":
         return f"+{v:g}"
     if key == "plan_from_mm":
