@@ -121,3 +121,23 @@ def test_a_second_row_comparison_into_a_folder_keeps_the_first_report_as_previou
     assert (out / "compare.previous.md").is_file()
     assert any("compare.previous.json" in n for n in cmp.notes)
     assert json.loads((out / "compare.json").read_text())["notes"] == cmp.notes
+
+
+def test_the_table_has_each_plan_s_first_motion_and_a_late_winner_says_so():
+    """(A new user's optimal-cell-planner row won on fruit per hour with its first motion 35.5 s
+    after planning began -- a wait fruit per hour leaves out, and the table had no column for it.)"""
+    from coplan.report.rows import RowComparison, to_markdown
+
+    def plan(name, fph, row_time, first):
+        return {"name": name, "mode": "stop-and-go", "rule": name, "stops": 2, "row_time": row_time,
+                "fruit_per_hour": fph, "share_harvested": 1.0, "ratio_any_plan_bound": None, "ratio_stop_and_go_bound": None,
+                "speed": None, "planning_time": first, "first_motion_seconds": first, "kept_ahead": True,
+                "verified": True, "status": "success"}
+
+    late = RowComparison("row", rows=[plan("optimised", 2679.0, 47.0, 35.5), plan("fixed", 2620.0, 48.1, 0.04)])
+    assert late.best_text() == ("most fruit per hour: optimised (2679 fruit/h); its first motion 35.5 s after planning "
+                                "starts, which fruit per hour does not count")
+    text = to_markdown(late)
+    assert "| first motion, s |" in text and "| 35.50 |" in text and "| 0.04 |" in text
+    quick = RowComparison("row", rows=[plan("optimised", 2679.0, 47.0, 0.4), plan("fixed", 2620.0, 48.1, 0.04)])
+    assert quick.best_text() == "most fruit per hour: optimised (2679 fruit/h)"
