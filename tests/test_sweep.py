@@ -876,6 +876,33 @@ def test_one_arm_designs_have_a_throughput_panel_and_file_rows_no_seed_none(tmp_
     assert "seed None" not in rep.text and "from its file" in rep.text
 
 
+def test_each_throughput_panel_has_its_own_legend_and_no_density_the_sweep_did_not_set(tmp_path, monkeypatch):
+    """(A cell sweep's throughput.png had one legend, the last panel's, whose colours named other
+    designs in the first panel; and each label began '?', the density a cell's generator draws.)"""
+    from matplotlib.figure import Figure
+    from coplan.sweep.report import sweep_report
+    from coplan.sweep.table import RowJournal
+
+    base = {"exit_class": "ok", "verified": True, "status": "success", "reachable": 5, "planner": "optimal",
+            "time_limit": 20.0, "sweep": "cells", "name": "cell", "params": json.dumps({}), "makespan": 10.0}
+    rows = [dict(base, key="a", n_arms=2, spacing=1.5, seed=0, throughput=10.0, link_1=0.8658),
+            dict(base, key="b", n_arms=3, spacing=1.6, seed=1, throughput=25.0, link_1=0.8193),
+            dict(base, key="c", n_arms=3, spacing=1.8, seed=2, throughput=28.0, link_1=0.9)]
+    journal = RowJournal(tmp_path)
+    for r in rows:
+        journal.append(r)
+    saved = {}
+    real = Figure.savefig
+
+    def savefig(fig, path, *a, **kw):
+        saved[Path(path).name] = [(ax.get_title(), [t.get_text() for t in ax.get_legend().get_texts()]) for ax in fig.axes]
+        return real(fig, path, *a, **kw)
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    sweep_report(tmp_path)
+    assert saved["throughput.png"] == [("2 arms", ["l1 0.8658 m"]), ("3 arms", ["l1 0.8193 m", "l1 0.9 m"])]
+
+
 def test_two_gantry_modes_of_one_row_are_two_designs_in_the_report_not_one_with_twice_the_seeds():
     from coplan.sweep.report import designs, summarise
     from coplan.sweep.table import normalise

@@ -283,7 +283,10 @@ def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
             for key in sorted(lines, key=lambda k: ((k[0] is None, k[0] or 0),) + k[1:]):
                 ds = lines[key]
                 dn = key[0]
-                label = (f"{dn:g}/m" if dn is not None else "?") + (f", {_family_words(ds[0], fam)}" if fam else "")
+                # (a density the sweep did not set -- a cell's generator draws its fruit -- is no part of the
+                # label: it read '?', beside a density column the rows do have)
+                label = ", ".join(([f"{dn:g}/m"] if dn is not None else []) + ([_family_words(ds[0], fam)] if fam else [])) \
+                    or "median over seeds"
                 if a == 1:
                     ax.axhline(_median([d["throughput"] for d in ds]), ls="--", color=f"C{len(ax.lines)}", label=label)
                 else:
@@ -293,7 +296,11 @@ def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
             ax.set_xlabel("(one arm: no base spacing)" if a == 1 else "base spacing, m")
             ax.grid(alpha=0.3)
         axes[0][0].set_ylabel("throughput, fruit/min (median over seeds)")
-        axes[0][-1].legend(title="fruit density" + (", design" if fam else ""), fontsize=7)
+        dense = any(d["density"] is not None for d in des)
+        title = ", ".join((["fruit density"] if dense else []) + (["design"] if fam else [])) or None
+        for ax in axes[0]:  # (each panel its own: the last panel's legend named the others' lines with its labels)
+            if ax.get_legend_handles_labels()[0]:
+                ax.legend(title=title, fontsize=7)
         fig.tight_layout()
         files["throughput"] = out / "throughput.png"
         fig.savefig(files["throughput"], dpi=110)
