@@ -141,3 +141,21 @@ def test_the_table_has_each_plan_s_first_motion_and_a_late_winner_says_so():
     assert "| first motion, s |" in text and "| 35.50 |" in text and "| 0.04 |" in text
     quick = RowComparison("row", rows=[plan("optimised", 2679.0, 47.0, 0.4), plan("fixed", 2620.0, 48.1, 0.04)])
     assert quick.best_text() == "most fruit per hour: optimised (2679 fruit/h)"
+
+
+def test_an_interrupted_comparison_names_the_report_it_wrote(row, tmp_path, monkeypatch):
+    """(coplan compare ROW, interrupted, exited 130 with nothing on its output: the report of the
+    plans finished so far was written, and nothing said where.)"""
+    import coplan.row.moving as moving
+
+    def cut(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=8.0, density=2.0, seed=3)))
+    monkeypatch.setattr(moving, "plan_moving", cut)
+    r = CliRunner().invoke(app, ["compare", str(path), "--gantry", "continuous", "--out", str(tmp_path / "c")])
+    assert r.exit_code == 130
+    said = " ".join(r.output.split())
+    assert f"interrupted: the report of what was planned so far is in {tmp_path / 'c' / 'compare.json'} and compare.md" in said
+    assert json.loads((tmp_path / "c" / "compare.json").read_text())["notes"]

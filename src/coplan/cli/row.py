@@ -110,9 +110,15 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
     if profile is not None and gantry == GantryMode.STOP_AND_GO:
         usage(f"--profile {profile.value}: the speed search's profile applies on the move; --gantry stop-and-go "
               "compares the stop rules alone")
-    with ProgressDisplay(err_console, quiet=as_json) as say:
-        cmp = compare_rows(prob, out, planner=cell, progress=say, workers=workers, gantry=gantry or GantryMode.AUTO,
-                           profile=profile)
+    try:
+        with ProgressDisplay(err_console, quiet=as_json) as say:
+            cmp = compare_rows(prob, out, planner=cell, progress=say, workers=workers, gantry=gantry or GantryMode.AUTO,
+                               profile=profile)
+    except KeyboardInterrupt:  # (it exited 130 saying nothing of the report it had written)
+        if (out / "compare.json").exists():
+            err_console.print(f"interrupted: the report of what was planned so far is in {safe(str(out / 'compare.json'))} "
+                              f"and compare.md (its notes say where it stopped)", highlight=False)
+        raise
     code = ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
     if as_json:  # (with the exit code, as every document of a command that ran)
         out_console.print(strict_json(cmp.to_dict() | exit_fields(code)), markup=False,
