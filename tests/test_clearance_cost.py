@@ -34,6 +34,7 @@ def test_more_clearance_never_plans_with_less_and_an_impossible_one_says_why(tmp
     # the plan names the raised problem written beside it: verified from the files at 0.075 m
     plan = json.loads((tmp_path / "plus_25mm" / "plan.json").read_text())
     assert plan["problem_file"]["path"] == str((tmp_path / "plus_25mm.yaml").resolve()) == str((tmp_path / rows[25.0]["problem_file"]).resolve())
+    assert rows[25.0]["problem_file"] == "plus_25mm.yaml"  # (relative to the report: it was the path as the command had it)
     r = CliRunner().invoke(app, ["verify", str(tmp_path / "plus_25mm.yaml"), str(tmp_path / "plus_25mm" / "plan.json"), "--json"])
     assert r.exit_code == 0, r.output
     ver = json.loads(r.stdout[r.stdout.index("{"):])

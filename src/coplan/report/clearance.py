@@ -103,7 +103,7 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
         source = out / f"plus_{extra:g}mm.yaml"
         atomic_text(source, text)
         prob = load_problem(source)
-        row["problem_file"] = str(source)
+        row["problem_file"] = source.name  # (beside clearance.json: it was the path as the command was given, 'cmp2/plus_0mm.yaml')
         try:
             res = solve(prob, planner=planner, options=options, out_dir=out / f"plus_{extra:g}mm", progress=nested(progress))
             if res.plan.status == PlanStatus.INTERRUPTED:  # (the planner stopped at Ctrl-C and kept its incumbent)
