@@ -375,15 +375,15 @@ def _check_events(problem: Problem, plan: Plan, motions: list[ArmMotion], opts: 
         least, held = _hold(m, tips[e.arm], plan.time, target, e.t_start, e.t_end, opts, frame)
         if e.kind == EventKind.PICK and (ver.worst_pick is None or least > ver.worst_pick["distance"]):
             ver.worst_pick = {"fruit": e.fruit, "arm": e.arm, "distance": float(least), "t": float(e.t_start)}
-        if least <= opts.position_tolerance:
-            reached[e.kind].add(e.fruit)
-        else:
+        if least > opts.position_tolerance:
             ver.violations.append(Violation(missed, (e.arm,), e.t_start, least - opts.position_tolerance, least,
                                             opts.position_tolerance, e.t_start, e.t_end, fruit=e.fruit,
                                             message=f"tip never within {opts.position_tolerance * 1000:g} mm of "
                                                     + ("the fruit" if e.kind == EventKind.PICK else f"{e.arm}'s bin (placing it)")
                                                     + f" (closest {least * 1000:.1f} mm)"))
-        if least <= opts.position_tolerance and held < dwell - dwell_tol - eps:
+            continue
+        reached[e.kind].add(e.fruit)
+        if held < dwell - dwell_tol - eps:
             ver.violations.append(Violation(short, (e.arm,), e.t_start, dwell - held, held, dwell, e.t_start, e.t_end, fruit=e.fruit,
                                             message=f"still on target for {held:.3f} s, dwell is {dwell} s"))
     for fid, when in picks.items():
