@@ -191,3 +191,24 @@ def test_a_partial_plan_s_row_says_it_is_partial():
 
     assert cell({"harvested": 2, "reachable": 4, "status": "partial"}, "harvested") == "2 / 4 (partial)"
     assert cell({"harvested": 4, "reachable": 4, "status": "success"}, "harvested") == "4 / 4"
+
+
+def test_the_figure_s_labels_sit_inside_its_axes():
+    """(A new user's clearance_cost.png had its top point's label run into the title and the last
+    point's past the right edge of the plot.)"""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from coplan.viz.plots import plot_clearance_cost
+
+    rows = [{"extra_mm": 0.0, "clearance": 0.05, "makespan": 6.22, "verified": True, "harvested": 4, "reachable": 4},
+            {"extra_mm": 10.0, "clearance": 0.06, "makespan": 6.22, "verified": True, "harvested": 4, "reachable": 4},
+            {"extra_mm": 100.0, "clearance": 0.15, "makespan": 13.4, "verified": True, "harvested": 4, "reachable": 4},
+            {"extra_mm": 300.0, "clearance": 0.35, "makespan": 6.44, "verified": True, "harvested": 2, "reachable": 4}]
+    fig = plot_clearance_cost(rows)
+    FigureCanvasAgg(fig).draw()
+    ax, renderer = fig.axes[0], fig.canvas.get_renderer()
+    labels = [t for t in ax.texts if t.get_text().startswith("+")]
+    assert len(labels) == 4 and "2/4 fruit" in labels[-1].get_text()
+    for t in labels:
+        b = t.get_window_extent(renderer)
+        assert ax.bbox.x0 <= b.x0 and b.x1 <= ax.bbox.x1 and ax.bbox.y0 <= b.y0 and b.y1 <= ax.bbox.y1, t.get_text()
