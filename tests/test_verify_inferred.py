@@ -360,4 +360,7 @@ def test_an_arm_whose_acceleration_jumps_has_unbounded_jerk_not_a_grids_peak(gre
                                                          "coordinated", "--no-figures", "--out", str(tmp_path / "cmp")])
     md = (tmp_path / "cmp" / "compare.md").read_text()
     assert res.exit_code == 0 and "left unbounded, right unbounded" in md and "| unbounded |" in md.replace("  ", " ")
+    # (the largest acceleration step said once, not per arm: a 3-arm cell ran to about 200 characters)
+    peak = next(line for line in md.splitlines() if line.startswith("| peak jerk per arm") and "unbounded" in line)
+    assert peak.count("acceleration steps up to") == 1 and "left unbounded, right unbounded (acceleration steps up to" in peak
     assert "unbounded (crossing-paths)" in " ".join(res.output.split()), res.output
