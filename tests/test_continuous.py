@@ -533,6 +533,8 @@ def test_a_gantry_sweep_makes_rows_and_solves_them_on_the_move():
 
 @pytest.mark.parametrize("text, words", [
     (GANTRY_SWEEP.replace("gantry: continuous", "gantry: rolling"), "fixed.gantry: expected one of stop-and-go, continuous"),
+    # (a mis-spelt value got no 'did you mean', where a mis-spelt key did)
+    (GANTRY_SWEEP.replace("gantry: continuous", "gantry: continous"), "found string 'continous'; did you mean 'continuous'?"),
     (GANTRY_SWEEP.replace("base: gantry", "base: row"), "fixed.length: expected a parameter of base 'row'"),
     # (stored and not used: two 'designs' alike but in name)
     (GANTRY_SWEEP + "options: {search_work: 500}\n", "options: expected no 'options' with base gantry"),

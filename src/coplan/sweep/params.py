@@ -7,6 +7,7 @@ generated problem a set of values makes (:func:`generate_problem`).
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 from typing import Any
@@ -173,12 +174,13 @@ def check_value(kind: str, v: Any) -> str | None:
         return None if finite_number(v) else f"expected a number, found {found(v)}"
     if kind == "bool":
         return None if isinstance(v, bool) else f"expected true or false, found {found(v)}"
-    if kind == "gantry":
-        ok = isinstance(v, str) and v in {m.value for m in GantryMode}
-        return None if ok else f"expected one of {', '.join(m.value for m in GantryMode)}, found {found(v)}"
-    if kind == "planner":
-        ok = isinstance(v, str) and v in {p.value for p in PlannerKind}
-        return None if ok else f"expected one of {', '.join(p.value for p in PlannerKind)}, found {found(v)}"
+    if kind in ("gantry", "planner"):
+        names = [m.value for m in (GantryMode if kind == "gantry" else PlannerKind)]
+        if isinstance(v, str) and v in names:
+            return None
+        # (a mis-spelt key got a 'did you mean', a mis-spelt value -- gantry: [continous] -- none)
+        near = difflib.get_close_matches(v, names, n=1, cutoff=0.6) if isinstance(v, str) else []
+        return f"expected one of {', '.join(names)}, found {found(v)}" + (f"; did you mean {near[0]!r}?" if near else "")
     if kind == "pair":
         if finite_number(v) and v > 0:
             return None
