@@ -556,12 +556,12 @@ def plot_clearance_cost(rows: list[dict], *, title: str | None = None):
         last = r["clearance"] >= max(x)  # (its label to the left, inside the axes)
         ax.annotate(label, (r["clearance"], r["makespan"]), textcoords="offset points", xytext=(-4 if last else 4, 6),
                     ha="right" if last else "left", fontsize=8)
+    ax.margins(x=0.12, y=0.25)  # (room for each point's label inside the axes: the top one ran into the title)
     for r in rows:
-        if r.get("error"):
+        if r.get("error"):  # (after the margins: its label at the axis's bottom as drawn)
             ax.axvline(r["clearance"], color="#d62728", ls=":", lw=1)
             ax.annotate("impossible", (r["clearance"], ax.get_ylim()[0]), rotation=90, fontsize=8, color="#d62728",
                         xytext=(3, 4), textcoords="offset points")
-    ax.margins(x=0.12, y=0.25)  # (room for each point's label inside the axes: the top one ran into the title)
     ax.set_xlabel("clearance asked for (m)")
     ax.set_ylabel("makespan (s)")
     ax.grid(alpha=0.3)
