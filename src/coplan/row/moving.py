@@ -138,8 +138,7 @@ class _Levels:
         runner, reach = self.runner, self.runner.reach
         vs = [round(float(min(self.cap, max(v, 1e-3))), 4) for v in vs]
         todo = [v for v in dict.fromkeys(vs) if v not in self.tried]
-        for v, (res, secs) in zip(todo, runner.map(todo, self.greedy)):
-            self.tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
+        self._plan(todo)
         left = set() if runner.hold else {f for v in todo for f in left_at_start(reach, self.tried[v][0])}
         if left:  # fruit only the start serves, missed: every plan from here rests there first
             if self.served is None:
@@ -147,9 +146,13 @@ class _Levels:
             held = sorted(left & self.served)
             if held:
                 runner.hold = start_hold(runner.problem, reach, held)
-                for v, (res, secs) in zip(todo, runner.map(todo, self.greedy)):
-                    self.tried[v] = (res, replace(_point(res, secs), start_hold=runner.hold))
+                self._plan(todo)
         return [self.tried[v][1] for v in vs]
+
+    def _plan(self, todo: list[float]) -> None:
+        """Plan levels ``todo`` with the runner's start hold as it is now, into ``tried``."""
+        for v, (res, secs) in zip(todo, self.runner.map(todo, self.greedy)):
+            self.tried[v] = (res, replace(_point(res, secs), start_hold=self.runner.hold))
 
 
 def _bracket(search: _Levels, v: float, cap: float, rounds: int) -> tuple[float | None, float | None]:
