@@ -848,30 +848,36 @@ def test_designs_that_differ_in_links_or_time_limit_are_told_apart_in_the_report
     assert varied(des) == ["pick_dwell"]
 
 
-def test_one_arm_designs_have_a_throughput_panel_and_file_rows_no_seed_none(tmp_path, monkeypatch):
-    """(The arms curve's one-arm rows, which have no base spacing, were left out of throughput.png;
-    the worst cases of rows swept from problem files read "seed None".)"""
+def _report_figures(folder, monkeypatch, rows, seen):
+    """``sweep_report`` on ``rows`` journalled into ``folder``: ``({figure file: [seen(ax) for each
+    of its axes]}, the report)``, each figure looked at as it is saved."""
     from matplotlib.figure import Figure
     from coplan.sweep.report import sweep_report
     from coplan.sweep.table import RowJournal
 
-    base = {"exit_class": "ok", "verified": True, "status": "success", "reachable": 5, "planner": "coordinated",
-            "time_limit": 20.0, "sweep": "arms", "name": "row", "params": json.dumps({"density": 2.0}), "makespan": 10.0}
-    rows = [dict(base, key="a", n_arms=1, spacing=None, seed=None, throughput=10.0),
-            dict(base, key="b", n_arms=3, spacing=1.4, seed=None, throughput=25.0),
-            dict(base, key="c", n_arms=3, spacing=1.8, seed=None, throughput=28.0)]
-    journal = RowJournal(tmp_path)
+    journal = RowJournal(folder)
     for r in rows:
         journal.append(r)
     saved = {}
     real = Figure.savefig
 
     def savefig(fig, path, *a, **kw):
-        saved[Path(path).name] = [(ax.get_title(), len(ax.lines)) for ax in fig.axes]
+        saved[Path(path).name] = [seen(ax) for ax in fig.axes]
         return real(fig, path, *a, **kw)
 
     monkeypatch.setattr(Figure, "savefig", savefig)
-    rep = sweep_report(tmp_path)
+    return saved, sweep_report(folder)
+
+
+def test_one_arm_designs_have_a_throughput_panel_and_file_rows_no_seed_none(tmp_path, monkeypatch):
+    """(The arms curve's one-arm rows, which have no base spacing, were left out of throughput.png;
+    the worst cases of rows swept from problem files read "seed None".)"""
+    base = {"exit_class": "ok", "verified": True, "status": "success", "reachable": 5, "planner": "coordinated",
+            "time_limit": 20.0, "sweep": "arms", "name": "row", "params": json.dumps({"density": 2.0}), "makespan": 10.0}
+    rows = [dict(base, key="a", n_arms=1, spacing=None, seed=None, throughput=10.0),
+            dict(base, key="b", n_arms=3, spacing=1.4, seed=None, throughput=25.0),
+            dict(base, key="c", n_arms=3, spacing=1.8, seed=None, throughput=28.0)]
+    saved, rep = _report_figures(tmp_path, monkeypatch, rows, lambda ax: (ax.get_title(), len(ax.lines)))
     assert saved["throughput.png"] == [("1 arm", 1), ("3 arms", 1)]
     assert "seed None" not in rep.text and "from its file" in rep.text
 
@@ -879,27 +885,13 @@ def test_one_arm_designs_have_a_throughput_panel_and_file_rows_no_seed_none(tmp_
 def test_each_throughput_panel_has_its_own_legend_and_no_density_the_sweep_did_not_set(tmp_path, monkeypatch):
     """(A cell sweep's throughput.png had one legend, the last panel's, whose colours named other
     designs in the first panel; and each label began '?', the density a cell's generator draws.)"""
-    from matplotlib.figure import Figure
-    from coplan.sweep.report import sweep_report
-    from coplan.sweep.table import RowJournal
-
     base = {"exit_class": "ok", "verified": True, "status": "success", "reachable": 5, "planner": "optimal",
             "time_limit": 20.0, "sweep": "cells", "name": "cell", "params": json.dumps({}), "makespan": 10.0}
     rows = [dict(base, key="a", n_arms=2, spacing=1.5, seed=0, throughput=10.0, link_1=0.8658),
             dict(base, key="b", n_arms=3, spacing=1.6, seed=1, throughput=25.0, link_1=0.8193),
             dict(base, key="c", n_arms=3, spacing=1.8, seed=2, throughput=28.0, link_1=0.9)]
-    journal = RowJournal(tmp_path)
-    for r in rows:
-        journal.append(r)
-    saved = {}
-    real = Figure.savefig
-
-    def savefig(fig, path, *a, **kw):
-        saved[Path(path).name] = [(ax.get_title(), [t.get_text() for t in ax.get_legend().get_texts()]) for ax in fig.axes]
-        return real(fig, path, *a, **kw)
-
-    monkeypatch.setattr(Figure, "savefig", savefig)
-    sweep_report(tmp_path)
+    saved, _ = _report_figures(tmp_path, monkeypatch, rows,
+                               lambda ax: (ax.get_title(), [t.get_text() for t in ax.get_legend().get_texts()]))
     assert saved["throughput.png"] == [("2 arms", ["l1 0.8658 m"]), ("3 arms", ["l1 0.8193 m", "l1 0.9 m"])]
 
 
