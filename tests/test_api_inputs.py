@@ -301,7 +301,7 @@ def test_an_output_folder_the_api_cannot_write_is_refused_before_any_work(tmp_pa
     def no_work(*a, **k):
         raise AssertionError("worked before checking out_dir")
 
-    monkeypatch.setattr("coplan.pipeline.load_problem", no_work)
+    monkeypatch.setattr("coplan.pipeline.as_problem", no_work)  # (where the facade reads its problem)
     monkeypatch.setattr("coplan.report.comparison._problem_files", no_work)
     for call in (lambda: coplan.solve(CROSSING, out_dir=out), lambda: compare(CROSSING, out_dir=out)):
         with pytest.raises(OutputError, match=f"out_dir {out}: {words}"):

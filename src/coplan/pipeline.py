@@ -7,7 +7,6 @@ unless the independent verifier passed it and every reachable fruit was harveste
 from __future__ import annotations
 
 import time as _time
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 from dataclasses import fields as dataclass_fields
 from pathlib import Path
@@ -19,8 +18,8 @@ from .planners.heuristic import plan_heuristic
 from .plan import EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
 from .problem.model import Problem
 from .problem.plausible import check_as_file
-from .problem.given import problem_from_mapping
-from .problem.load import file_record, load_problem
+from .problem.given import as_problem
+from .problem.load import file_record
 from .progress import check_progress, guarded
 
 __all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
@@ -329,7 +328,7 @@ def solve(
     progress = guarded(progress)  # (an exception in it is the caller's, whichever planner: ProgressCallbackError)
     if out_dir is not None:
         check_folder(out_dir, "out_dir")  # (before any work: a solve is not lost to where it goes)
-    prob = problem if isinstance(problem, Problem) else problem_from_mapping(problem) if isinstance(problem, Mapping) else load_problem(problem)
+    prob = as_problem(problem)  # (anything but a Problem, a mapping or a path: load_problem's own refusal)
     if isinstance(problem, Problem):  # (built or changed in Python: the plausible ranges and plan length a file gets)
         check_as_file(problem)
     if prob.gantry is not None:

@@ -2,14 +2,15 @@
 (as :mod:`coplan.generate` makes them) or a file's path or a shipped name.
 
 * :func:`as_problem` -- any of those as a Problem, each caller refusing anything else in its
-  own words (``coplan.verify``, ``coplan.report.rows.compare_rows``, ``run_live_row``).
+  own words (``coplan.verify``, ``coplan.report.rows.compare_rows``, ``run_live_row``; ``coplan.solve``
+  with ``load_problem``'s).
 * :func:`problem_from_mapping` -- a mapping checked as a file is, its issues named by key path.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 from typing import Any
 
@@ -21,17 +22,18 @@ from .model import Problem
 __all__ = ["as_problem", "problem_from_mapping"]
 
 
-def as_problem(problem, refused) -> Problem:
+def as_problem(problem, refused: Callable[[Any], str] | None = None) -> Problem:
     """``problem`` as a :class:`~coplan.problem.model.Problem`, taken as :func:`coplan.solve` takes
     it: a Problem as it is, a mapping checked as a file (:func:`problem_from_mapping`), a path or a
     shipped name read (:func:`coplan.problem.load.load_problem`); anything else
     ``TypeError(refused(problem))`` -- each entry point that takes a problem says what it takes in
-    its own words."""
+    its own words -- or, with no ``refused``, :func:`~coplan.problem.load.load_problem`'s own
+    refusal (``coplan.solve``'s)."""
     if isinstance(problem, Problem):
         return problem
     if isinstance(problem, Mapping):
         return problem_from_mapping(problem)
-    if isinstance(problem, (str, os.PathLike)):
+    if refused is None or isinstance(problem, (str, os.PathLike)):
         return load_problem(problem)
     raise TypeError(refused(problem))
 
