@@ -78,6 +78,38 @@ def test_a_problem_changed_in_python_no_longer_names_its_file(cell):
     assert file_record(dataclasses.replace(cell, name=cell.name)) is not None  # the same problem: still that file's
 
 
+@pytest.mark.parametrize("how", ["changed", "generated row", "from its file"])
+def test_a_run_of_a_problem_from_no_file_keeps_the_problem_it_was_planned_on(cell, tmp_path, how):
+    """(``solve`` of a problem made or changed in Python wrote no problem file and recorded none:
+    ``coplan verify`` of its plan took the shipped crossing_paths in its place -- 4 picks missed on
+    a plan verified as a success -- and said "not a shipped problem" of a generated row.) Such a
+    run writes ``planned_problem.yaml`` beside the plan and records it; the plan's command-line
+    checks then read it back and pass. A problem from its file, unchanged, still names that file."""
+    from coplan.pipeline import PROBLEM_FILE
+
+    f0 = cell.fruits[0]
+    problem = {"changed": lambda: dataclasses.replace(cell, fruits=(dataclasses.replace(f0, position=(f0.position[0] + 0.05,
+                                                                                                         f0.position[1])),)
+                                                      + cell.fruits[1:]),
+               "generated row": lambda: parse_problem(to_yaml(gantry_row(length=4.0, n_arms=2, density=3.0, seed=3))),
+               "from its file": lambda: cell}[how]()
+    out = tmp_path / "run"
+    res = coplan.solve(problem, planner="coordinated", out_dir=out)
+    assert res.plan.status.value == "success"
+    record = json.loads((out / "plan.json").read_text())["problem_file"]
+    if how == "from its file":
+        assert record["path"] == str(CROSSING.resolve()) and not (out / PROBLEM_FILE).exists()
+        return
+    assert record["path"] == str((out / PROBLEM_FILE).absolute()) and res.files["problem"] == out / PROBLEM_FILE
+    back = load_problem(out / PROBLEM_FILE)
+    assert back == problem and back.digest == record["sha256"]
+    r = CliRunner().invoke(app, ["verify", str(out / "plan.json")])
+    assert r.exit_code == 0, r.output
+    assert "pick_missed" not in r.output and "not a shipped problem" not in r.output
+    again = coplan.solve(problem, planner="coordinated", out_dir=out)  # the folder is a run's: replaced whole
+    assert again.previous is not None and (again.previous / PROBLEM_FILE).is_file()
+
+
 @pytest.mark.parametrize("cls, kw, words", [
     (OptimalOptions, {"search_work": -5}, "search_work: expected a non-negative integer, found number -5"),
     (OptimalOptions, {"search_work": "lots"}, "search_work: expected a non-negative integer, found string 'lots'"),

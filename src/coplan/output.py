@@ -36,7 +36,7 @@ MARKER = ".coplan-run"  # written into every run folder
 # files, the rate as Python's :g writes it, 1e-05 too; `coplan plot`: plan_<kind>.png, of plan.csv
 # plan_csv_<kind>.png), which
 # would otherwise stay beside the next run's plan, stale
-_OURS = re.compile(r"(plan|baseline)\.(json|csv|npz|html|gif|mp4)|verification\.json|run\.json|live\.gif"
+_OURS = re.compile(r"(plan|baseline)\.(json|csv|npz|html|gif|mp4)|verification\.json|run\.json|live\.gif|planned_problem\.yaml"
                    r"|\.coplan-run|(plan|baseline)_[0-9.]+(e[+-][0-9]+)?hz(\.csv|\.events\.csv)?"
                    r"|(plan|baseline)(_csv|_npz)?_(gantt|clearance|joints|workspace|speed)\.(png|svg|pdf)")
 

@@ -24,6 +24,9 @@ from .progress import check_progress, guarded
 
 __all__ = ["ExitCode", "SolveResult", "solve", "finalize", "status_exit_code"]
 
+#: a problem made or changed in Python, written beside its plan (:func:`_write`)
+PROBLEM_FILE = "planned_problem.yaml"
+
 
 _STATUS_EXIT = {
     PlanStatus.SUCCESS: ExitCode.OK,
@@ -100,11 +103,31 @@ def finalize(problem: Problem, plan: Plan, verification) -> Plan:
     return finalize_plan(plan, verification, len(problem.reachable_ids()))
 
 
-def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None) -> tuple[dict[str, Path], Path | None]:
-    """The run's files, staged and renamed into place (:mod:`coplan.output`)."""
+def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None,
+           problem: Problem | None = None) -> tuple[dict[str, Path], Path | None]:
+    """The run's files, staged and renamed into place (:mod:`coplan.output`). A ``problem`` that
+    came from no file, or was changed in Python since (the plan records no ``problem_file``), is
+    written beside the plan as ``planned_problem.yaml`` and recorded as its file, so that ``coplan verify``,
+    ``view`` and ``plot`` of the plan find the problem it was planned on -- not the shipped
+    problem of the same name (crossing_paths with its fruit moved was verified against the
+    shipped one: 4 picks missed)."""
     files: dict[str, Path] = {}
     folder = RunFolder(Path(out_dir))
+    text = None
+    if problem is not None and plan.problem_file is None:
+        from .problem.generate import to_yaml
+        from .problem.load import text_digest
+
+        text = to_yaml(problem, header=f"The problem {problem.name!r} as planned (made or changed in Python): "
+                                       "written by coplan.solve beside its plan")
+        record = {"path": str(folder.path(Path(PROBLEM_FILE)).absolute()), "sha256": text_digest(text)}
+        for p in (plan, baseline):
+            if p is not None:
+                p.problem_file = dict(record)
     with signals_deferred(folder), folder as stage:  # (whole: a Ctrl-C here threw the verified plan away)
+        if text is not None:
+            (stage / PROBLEM_FILE).write_text(text, encoding="utf-8")
+            files["problem"] = stage / PROBLEM_FILE
         if baseline is not None:
             files.update({f"baseline_{k}": v for k, v in baseline.save(stage, "baseline").items()})
         files.update(plan.save(stage, "plan"))
@@ -242,7 +265,7 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     plan.problem_file = file_record(prob)
     timings = dict(res.timings) | {"bounds": bounds_seconds}  # (this solve's: bounds.seconds is when they were computed)
     plan.solver["timings"] = dict(timings)
-    files, previous = _write(out_dir, plan, res.verification) if out_dir is not None else ({}, None)
+    files, previous = _write(out_dir, plan, res.verification, problem=prob) if out_dir is not None else ({}, None)
     timings["total"] = _time.perf_counter() - t0
     return SolveResult(prob, plan, res.verification, None, files, timings, previous, row=res)
 
@@ -395,6 +418,6 @@ def solve(
     timings["total"] = _time.perf_counter() - t0
     previous = None
     if out_dir is not None:  # the whole set is staged and renamed into place (coplan.output): never a mix of runs
-        files, previous = _write(out_dir, plan, ver, baseline)
+        files, previous = _write(out_dir, plan, ver, baseline, prob)
         timings["write"] = _time.perf_counter() - t0 - timings["total"]
     return SolveResult(prob, plan, ver, baseline, files, timings, previous, error, error_trace)
