@@ -441,6 +441,31 @@ def test_the_plotting_api_names_a_plan_of_another_problem(single_arm, greenhouse
         plot_workspace(plan)
 
 
+def test_the_plotting_api_refuses_a_row_plan_over_a_cell_of_the_same_arm_names():
+    """(plot_clearance(cell, row_plan) drew -0.08 m "collisions" under a title saying success: the
+    arms' names matched.) A row's plan over a cell, a cell's over a row, or a plan picking fruit the
+    problem does not have: each plotting function says the plan does not fit, and why."""
+    import dataclasses
+
+    from coplan.generate import gantry_row
+    from coplan.row.plan import plan_row
+    from coplan.viz import plot_clearance, plot_gantt, plot_joints
+
+    row = parse_problem(to_yaml(gantry_row(length=3.0, n_arms=2, density=2.0, seed=1)))
+    cell = dataclasses.replace(row, gantry=None)  # the same arms and fruit ids, no carriage
+    row_plan = plan_row(row).plan
+    cell_plan = plan_heuristic(cell)
+    renamed = dataclasses.replace(cell, fruits=tuple(dataclasses.replace(f, id=f"g{i}") for i, f in enumerate(cell.fruits)))
+    for fn in (plot_clearance, plot_gantt, plot_joints):
+        with pytest.raises(ValueError, match=rf"{fn.__name__}: plan .* does not fit .*a row's \(its carriage moves\)"):
+            fn(cell, row_plan)
+        with pytest.raises(ValueError, match=rf"{fn.__name__}: plan .* does not fit .*a cell's \(no carriage\)"):
+            fn(row, cell_plan)
+        with pytest.raises(ValueError, match=rf"{fn.__name__}: plan .* does not fit .*picks fruit the problem does not have"):
+            fn(renamed, cell_plan)
+        fn(cell, cell_plan)  # its own problem: drawn
+
+
 def test_coplan_plot_says_matplotlib_s_warnings_as_notes(tmp_path, problems_dir):
     """(A one-sample plan printed matplotlib's UserWarning with its source line, twice.)"""
     r = CliRunner().invoke(app, ["solve", str(problems_dir / "crossing_paths.yaml"), "--planner", "coordinated",
