@@ -83,6 +83,9 @@ class SolveResult:
 
     @property
     def status(self) -> PlanStatus:
+        """The plan's status: success (verified, every reachable fruit harvested), partial
+        (verified, some left: ``plan.unreachable`` and the verification say which), unsafe
+        (the verifier refused it), interrupted, and so on (:class:`~coplan.kinds.PlanStatus`)."""
         return self.plan.status
 
     @property

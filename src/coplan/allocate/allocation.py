@@ -80,9 +80,11 @@ class Allocation:
 
     @property
     def estimated_makespan(self) -> float:
+        """The busiest arm's estimated time (s): the allocation's own estimate, not a plan's."""
         return max(self.estimate.values(), default=0.0)
 
     def arm_of(self, fruit_id: str) -> str:
+        """The arm ``fruit_id`` is allocated to (KeyError if none)."""
         for a, fs in self.assignment.items():
             if fruit_id in fs:
                 return a

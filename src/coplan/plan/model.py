@@ -166,10 +166,13 @@ class Plan:
     # ------------------------------------------------------------------ queries
     @property
     def dt(self) -> float:
+        """The sample spacing (s): 1 / the plan's rate."""
         return float(self.time[1] - self.time[0]) if self.time.size > 1 else 1.0 / DEFAULT_RATE
 
     @property
     def duration(self) -> float:
+        """The time of the last sample (s): the plan's whole length, home included (its makespan,
+        the last place's end, is ``metrics["makespan"]``)."""
         return float(self.time[-1]) if self.time.size else 0.0
 
     @property
@@ -212,6 +215,7 @@ class Plan:
 
     @property
     def arm_names(self) -> list[str]:
+        """The arms' names, in the order of ``q``."""
         return list(self.q)
 
     def _clock(self, t) -> np.ndarray:

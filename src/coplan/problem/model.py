@@ -164,12 +164,14 @@ class Problem:
             raise ProblemError(issues, f"{self.source}, as changed in Python" if self.source else "a problem built in Python")
 
     def arm(self, name: str) -> Arm:
+        """The arm named ``name`` (KeyError naming the arms there are)."""
         for a in self.arms:
             if a.name == name:
                 return a
         raise KeyError(f"no arm named {name!r}; arms are {[a.name for a in self.arms]}")
 
     def fruit(self, fid: str) -> Fruit:
+        """The fruit of id ``fid`` (KeyError if none)."""
         for f in self.fruits:
             if f.id == fid:
                 return f
@@ -197,6 +199,8 @@ class Problem:
         return [f.id for j, f in enumerate(self.fruits) if not m[:, j].any()]
 
     def reachable_ids(self) -> list[str]:
+        """Ids of the fruit some arm can reach (its tip on the fruit within its joint limits), in
+        the problem's order."""
         m = self.reach_matrix()
         return [f.id for j, f in enumerate(self.fruits) if m[:, j].any()]
 

@@ -324,22 +324,34 @@ class Verification:
 
     @property
     def passed(self) -> bool:
+        """Safe as planned: no violation -- no collision or clearance shortfall (certified between
+        samples), no joint or carriage limit exceeded, every pick and place it declares made where
+        and as long as it says, each arm starting at its home (:class:`ViolationKind`). Says nothing of how much it harvests: a plan that picks nothing
+        passes; :attr:`complete` says whether every reachable fruit was harvested."""
         return not self.violations
 
     @property
     def complete(self) -> bool:
+        """Every fruit some arm can reach was picked and placed (``unharvested`` is empty). A plan
+        is a success only when it has :attr:`passed` and is complete; passed and not complete is
+        a verified partial plan."""
         return not self.unharvested
 
     @property
     def collisions(self) -> list[ContactInterval]:
+        """The intervals in which two arms' links touch (less than no clearance at all)."""
         return [c for c in self.intervals if c.kind == IntervalKind.COLLISION]
 
     @property
     def min_clearance(self) -> float:
+        """The least distance between neighbouring arms' links at the plan's samples (m; inf
+        with fewer than two arms that can meet)."""
         return min((p.min_clearance for p in self.pairs), default=math.inf)
 
     @property
     def certified_clearance(self) -> float:
+        """The least distance between neighbouring arms' links certified between samples as well
+        (m; at most :attr:`min_clearance`; inf with fewer than two arms that can meet)."""
         return min((p.certified for p in self.pairs), default=math.inf)
 
     @property
