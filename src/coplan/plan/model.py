@@ -130,7 +130,7 @@ class Plan:
 
     problem: str
     planner: PlannerKind | str  # a plan from elsewhere keeps its planner's own name
-    status: PlanStatus
+    status: PlanStatus  # as judged when verified: an in-place edit of the motion leaves it as it was (changed_since_verified(); saved, the plan is "unverified")
     time: np.ndarray
     q: dict[str, np.ndarray]
     events: list[Event]
@@ -269,8 +269,15 @@ class Plan:
         return busy
 
     def with_status(self, status: PlanStatus | str) -> "Plan":
-        """A copy with ``status`` (a :class:`PlanStatus` or its name)."""
-        return replace(self, status=PlanStatus(status))
+        """A copy with ``status`` (a :class:`PlanStatus` or its name). A verdict's status
+        (success, partial) is refused on a plan whose motion changed after it was verified
+        (:meth:`changed_since_verified`: its arrays edited in place, say): verify it again
+        (:func:`coplan.verify.verify`, then :func:`coplan.plan.finalize_plan`) to judge it."""
+        status = PlanStatus(status)
+        if status in (PlanStatus.SUCCESS, PlanStatus.PARTIAL) and self.changed_since_verified():
+            raise ValueError(f"with_status: expected a plan whose motion is the one its verdict judged, found one changed "
+                             f"since it was verified: it cannot be called {status.value} without being verified again")
+        return replace(self, status=status)
 
     # ------------------------------------------------------------------ I/O
     def changed_since_verified(self) -> bool:
