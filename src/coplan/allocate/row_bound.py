@@ -74,6 +74,7 @@ from .stop_bound import stops_bound
 from ..kinematics.timing import Move1D, accel_time
 from ..problem.gantry import RESOLUTION_RANGE
 from ..problem.model import Problem, require_problem
+from ..problem.plausible import check_as_file
 
 __all__ = ["RowBounds", "row_bounds", "cycle_bounds", "busiest_cycles", "arrival_bound", "from_rest", "water_level"]
 
@@ -127,6 +128,9 @@ def _remembered(problem: Problem, step: float, priced: bool) -> RowBounds:
 
 
 def _bounds(problem: Problem, step: float, priced: bool) -> RowBounds:
+    # (a row changed in Python is held to what its file would be, as coplan.solve holds it: a rail
+    # cut short under its fruit gave bounds over 9 of its 12 fruit, where solve names the other 3)
+    check_as_file(problem)
     t0 = _time.perf_counter()
     g = problem.gantry
     cc = cell_cycles(problem, step)
