@@ -228,3 +228,14 @@ def test_gantry_row_refuses_a_spacing_or_trusses_it_cannot_mean(kwargs, says):
     with pytest.raises(ValueError, match=says):
         gantry_row(length=6.0, n_arms=3, density=2.0, **kwargs)
     assert gantry_row(length=6.0, n_arms=1, density=2.0, spacing=0.0)["arms"]  # one arm: no neighbour to space
+
+
+@pytest.mark.parametrize("spacing", [-1.0, 0.0])
+def test_row_and_overlap_problems_refuse_a_spacing_that_is_no_spacing(spacing):
+    """(``row_problem(2, 4, spacing=-1.0)`` swapped the arms, arm1 at +0.5 and arm2 at -0.5; 0 stacked
+    them and was refused only at solve.) As gantry_row: spacing > 0 between neighbouring bases."""
+    with pytest.raises(ValueError, match=rf"row_problem: expected spacing > 0 .* found {spacing}"):
+        row_problem(2, 4, spacing=spacing)
+    with pytest.raises(ValueError, match=rf"overlap_problem: expected spacing > 0 .* found {spacing}"):
+        overlap_problem(n_arms=2, n_fruits=4, spacing=spacing)
+    assert row_problem(1, 4, spacing=spacing)["arms"]  # one arm: no neighbour to space

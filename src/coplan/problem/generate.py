@@ -181,6 +181,8 @@ def row_problem(
         raise ValueError(f"row_problem: expected n_arms and n_fruits, found {n_arms!r} and {n_fruits!r}")
     _pair("row_problem", links=links)
     _finite(spacing=spacing, links=links, link_radius=link_radius, bin_offset=bin_offset, x_pad=x_pad)
+    if spacing <= 0 and n_arms > 1:  # (a negative spacing swapped the arms' order; 0 stacked them, refused only at solve)
+        raise ValueError(f"row_problem: expected spacing > 0 (m between neighbouring bases), found {spacing}")
     # the lesson's draw: np.random.seed(seed); all x, then all y
     rs = np.random.RandomState(seed)
     bases = _bases(n_arms, spacing)
@@ -231,6 +233,8 @@ def overlap_problem(
     _low_high("overlap_problem", "y_range", y_range)
     if n_arms is None or n_arms < 2 or n_fruits is None:
         raise ValueError(f"overlap_problem: expected at least 2 arms for overlap zones and a fruit count, found {n_arms!r} and {n_fruits!r}")
+    if not isinstance(spacing, (int, float)) or isinstance(spacing, bool) or not spacing > 0:
+        raise ValueError(f"overlap_problem: expected spacing > 0 (m between neighbouring bases), found {spacing!r}")
     rng = np.random.default_rng(seed)
     bases = _bases(n_arms, spacing)
     links = LESSON_DEFAULTS["links"]
