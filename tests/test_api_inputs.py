@@ -720,6 +720,27 @@ def test_public_functions_given_the_wrong_kind_of_thing_say_so(tmp_path):
     assert p.with_status("partial").status == PlanStatus.PARTIAL and "partial" in repr(p.with_status("partial"))
     with pytest.raises(ValueError, match="expected one of"):
         p.with_status("great")
+    # (an edited plan kept its status, and with_status("success") was accepted on it)
+    edited = coplan.solve(cell, planner="coordinated").plan
+    edited.q[edited.arm_names[0]][30:40] += 0.5
+    assert edited.changed_since_verified()
+    with pytest.raises(ValueError, match="changed since it was verified"):
+        edited.with_status("success")
+    assert edited.with_status("unverified").status == PlanStatus.UNVERIFIED
+
+
+
+def test_row_bounds_hold_a_row_changed_in_python_to_its_file_as_solve_does():
+    """(A rail cut short under its fruit: row_bounds gave bounds over the fruit left on it, where
+    coplan.solve refuses the row naming each fruit off the rail.)"""
+    from coplan.allocate.row_bound import row_bounds
+
+    row = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=2, density=2.0, seed=3)))
+    cut = dataclasses.replace(row, gantry=dataclasses.replace(row.gantry, end=1.0))
+    for call in (lambda: row_bounds(cut), lambda: coplan.solve(cut)):
+        with pytest.raises(ProblemError, match=r"fruits\[\d+\]\.position\[0\]: expected a fruit on this row"):
+            call()
+    assert row_bounds(row).any_plan > 0
 
 
 def test_a_problem_made_in_python_saves_as_a_file_that_reads_back_equal(tmp_path):
