@@ -321,6 +321,8 @@ class Plan:
         if not isinstance(out_dir, (str, os.PathLike)) or not isinstance(stem, str) or not stem.strip():
             raise TypeError(f"save: expected a folder or a .json file name (str or Path) and a non-empty stem, found "
                             f"out_dir {type(out_dir).__name__} {out_dir!r}, stem {stem!r}")
+        if Path(stem).name != stem or stem in (".", ".."):  # (save(folder, "../escape") wrote beside the folder)
+            raise OutputError(f"save: expected a file name stem (no folder in it) for the plan's files, found {stem!r}")
         out = Path(out_dir)
         want = "a folder or a file name ending .json (the plan is written as .json, .csv and .npz together)"
         if out.suffix.lower() == ".json" and not out.is_dir():
