@@ -1122,3 +1122,23 @@ def test_plotting_and_export_mistakes_say_what_was_expected(cell, tmp_path):
     with pytest.raises(ValueError, match=r"out: expected a folder for json .* found the file name"):
         export_plan(plan, 100, "json", tmp_path / "ex.json")
     assert not (tmp_path / "ex.json").exists()
+
+
+def test_a_researchers_notebook_sees_short_reprs_takes_lists_and_keeps_files_in_their_folder(cell, tmp_path):
+    """(A new user's trial: a Problem of 26 fruit printed 2.4k characters, a Comparison 10k;
+    ``dataclasses.replace(p, fruits=[...])`` was refused as "expected a tuple of Fruit, found
+    list" where ``Fruit(position=[...])`` is taken; ``plan.save(folder, "../escape")`` wrote
+    beside the folder.)"""
+    row = load_problem("course_row")
+    text = repr(row)
+    assert len(text) < 250 and "fruits=301" in text and "row 0-50 m" in text and "arm1, arm2, arm3" in text
+    listed = dataclasses.replace(cell, fruits=list(cell.fruits), arms=list(cell.arms))
+    assert listed == cell and isinstance(listed.fruits, tuple) and isinstance(listed.arms, tuple)
+    hash(listed)  # (the row bounds remember problems by hash)
+    plan = coplan.solve(cell, planner="coordinated").plan
+    for stem in ("../escape", "sub/plan", ".."):
+        with pytest.raises(OutputError, match="expected a file name stem"):
+            plan.save(tmp_path / "run", stem)
+    assert not (tmp_path / "escape.json").exists()
+    comp = compare(CROSSING, ["heuristic", "coordinated"], tmp_path / "c")
+    assert len(repr(comp)) < 300 and "rows=2" in repr(comp)
