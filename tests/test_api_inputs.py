@@ -1142,3 +1142,18 @@ def test_a_researchers_notebook_sees_short_reprs_takes_lists_and_keeps_files_in_
     assert not (tmp_path / "escape.json").exists()
     comp = compare(CROSSING, ["heuristic", "coordinated"], tmp_path / "c")
     assert len(repr(comp)) < 300 and "rows=2" in repr(comp)
+
+
+def test_a_solve_result_is_taken_wherever_a_plan_is_and_views_arguments_swapped_are_named(cell, tmp_path):
+    """(A trial: view took a SolveResult, verify and plot_gantt raised TypeError on one; view's
+    order is plan then problem, verify's problem then plan.) verify and the plots take a result's
+    plan; view(problem, plan) says the two are swapped, as verify(plan, problem) does."""
+    from coplan.viz import plot_gantt
+
+    res = coplan.solve(cell, planner="coordinated")
+    assert coplan.verify(cell, res).passed
+    plot_gantt(cell, res)
+    with pytest.raises(TypeError, match=r"view\(plan, problem\): the plan comes first.*\(swapped\?\)"):
+        coplan.view(cell, res)
+    with pytest.raises(TypeError, match=r"the problem comes first, then the plan"):
+        coplan.verify(res.plan, cell)

@@ -615,7 +615,7 @@ def test_verify_takes_paths_and_says_what_it_expects(tmp_path):
     assert by_path.fcl is None and by_path.certified_clearance == pytest.approx(by_object.certified_clearance, abs=1e-6)
     with pytest.raises(TypeError, match="problem: expected a Problem, the path of a problem file or a mapping, found list"):
         verify([], plan)
-    with pytest.raises(TypeError, match="plan: expected a Plan or the path of a plan file"):
+    with pytest.raises(TypeError, match="plan: expected a Plan, a SolveResult or the path of a plan file"):
         verify(problem, plan.q)
     with pytest.raises(TypeError, match="expected options among .*found 'fcll'"):
         verify(problem, plan, fcll="off")

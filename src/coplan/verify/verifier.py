@@ -439,8 +439,10 @@ def _arguments(problem, plan, options, overrides: dict) -> tuple[Problem, Plan, 
                                             f"mapping, found {type(p).__name__}")
     if isinstance(plan, (str, os.PathLike)):
         plan = load_plan(plan)
+    elif not isinstance(plan, Plan) and isinstance(getattr(plan, "plan", None), Plan):  # a SolveResult: its plan
+        plan = plan.plan
     elif not isinstance(plan, Plan):
-        raise TypeError(f"verify(): plan: expected a Plan or the path of a plan file (plan.json, plan.csv), "
+        raise TypeError(f"verify(): plan: expected a Plan, a SolveResult or the path of a plan file (plan.json, plan.csv), "
                         f"found {type(plan).__name__}")
     if isinstance(options, Mapping):
         overrides, options = {**options, **overrides}, None

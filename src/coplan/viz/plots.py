@@ -58,6 +58,8 @@ def _as_plans(problem: Problem, plans, what: str) -> dict[str, Plan]:
     """``{label: plan}`` of one plan or a mapping, each checked to be a plan of ``problem``'s
     arms (one of another problem raised a KeyError from inside the drawing)."""
     _check_problem(problem, what)
+    if not isinstance(plans, (Plan, Mapping)) and isinstance(getattr(plans, "plan", None), Plan):  # a SolveResult
+        plans = plans.plan
     if isinstance(plans, Plan):
         plans = {plans.planner_name: plans}
     elif isinstance(plans, Mapping):
@@ -65,7 +67,7 @@ def _as_plans(problem: Problem, plans, what: str) -> dict[str, Plan]:
             raise ValueError(f"{what}: expected at least one plan, found none")
         plans = dict(plans)
     else:
-        raise TypeError(f"{what}: expected a Plan or a mapping label -> Plan, found {type(plans).__name__}")
+        raise TypeError(f"{what}: expected a Plan, a SolveResult or a mapping label -> Plan, found {type(plans).__name__}")
     names = [a.name for a in problem.arms]
     for label, plan in plans.items():
         if not isinstance(plan, Plan):

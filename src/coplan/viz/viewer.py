@@ -533,6 +533,9 @@ def view(plan, problem: Problem | str | Path | None = None, compare=None, *, hei
     if isinstance(display_rate, bool) or not isinstance(display_rate, (int, float)) or not 1 <= display_rate <= 1000:
         raise ValueError(f"display_rate: expected frames per second from 1 to 1000, found {type(display_rate).__name__} "
                          f"{display_rate!r}")
+    if isinstance(plan, Problem) and problem is not None and not isinstance(problem, Problem):  # (as verify says it)
+        raise TypeError(f"view(plan, problem): the plan comes first, then its problem (optional); found a Problem, then "
+                        f"a {type(problem).__name__} (swapped?)")
     if problem is not None and not isinstance(problem, (str, Path, Problem)):
         raise TypeError(f"problem: expected a Problem, a problem file's path or a shipped name, found "
                         f"{type(problem).__name__} {problem!r}")
