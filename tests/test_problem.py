@@ -809,3 +809,28 @@ def test_a_binary_tag_is_refused_not_dropped():
     with pytest.raises(ProblemError) as e:
         parse_problem(text)
     assert [i.path for i in e.value.issues] == ["name"] and "tags are not supported" in e.value.issues[0].message
+
+
+@pytest.mark.parametrize("edits, said", [
+    # a broken default beside another default that does not depend on it
+    ([("max_velocity: [3.0, 4.0]", "max_velocity: [3.0, -4.0]"), ("home: [1.0472, 0.7854]", "home: [9.0, 0.7854]")],
+     ["defaults.max_velocity[1]: expected a number > 0", "defaults.home[0]: expected a joint angle within [-6.28319, 6.28319] rad"]),
+    # an implausible limit, a task value and a home outside sound joint limits
+    ([("max_velocity: [3.0, 4.0]", "max_velocity: [3.0, 4000.0]"), ("clearance: 0.05", "clearance: -1"),
+      ("home: [1.0472, 0.7854]", "home: [4.0, 0.7854]")],
+     ["defaults.max_velocity[1]: expected a joint velocity limit within", "task.clearance: expected a number >= 0",
+      "defaults.home[0]: expected a home angle inside the joint limits"]),
+])
+def test_mistakes_that_do_not_depend_on_each_other_are_all_said_at_once(edits, said):
+    """(A new user's trial of the README's promise: a home in degrees was said only once a negative
+    velocity limit beside it was mended, and a home outside valid joint limits only once an
+    implausible velocity limit and a negative clearance were: fixing two mistakes revealed a
+    third.) Each check runs where the values it needs are sound."""
+    text = BASE
+    for old, new in edits:
+        text = edit(text, old, new)
+    with pytest.raises(ProblemError) as e:
+        parse_problem(text, "cell.yaml")
+    assert len(e.value.issues) == len(said), str(e.value)
+    for words in said:
+        assert words in str(e.value), (words, str(e.value))

@@ -126,19 +126,19 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
     problem must satisfy (:func:`_whole`)."""
     issues: list[Issue] = []
     name, description = _top_level(data, lines, source, issues)
-    defaults, arm_specs, fruit_specs, task = _specs(data, lines, issues)
+    defaults, arm_specs, fruit_specs, task, broken = _specs(data, lines, issues)
     arms: list[tuple[int, Arm]] = []
     origins: dict[int, dict[str, tuple]] = {}
     seen_names: dict[str, int] = {}
     raw_arms = data.get("arms") if isinstance(data.get("arms"), list) else []
     for i, spec in arm_specs:
         if spec is None:  # its own fields failed: what does not depend on them is still said now
-            _unvalidated_arm(i, raw_arms[i], defaults, seen_names, lines, issues)
+            _unvalidated_arm(i, raw_arms[i], defaults, broken, seen_names, lines, issues)
             continue
         _check_unique(seen_names, spec.name, ("arms", i, "name"), "arm name", lines, issues)
         if defaults is None:
             continue  # the defaults are broken: already reported, don't guess
-        built = _arm(i, spec, defaults, lines, issues)
+        built = _arm(i, spec, defaults, broken, lines, issues)
         if built is not None:
             arms.append((i, built[0]))
             origins[i] = built[1]
@@ -198,10 +198,16 @@ def _top_level(data: Any, lines: dict, source: str | None, issues: list) -> tupl
 def _specs(data: dict, lines: dict, issues: list):
     """The ``defaults``, arm, fruit and task sections, each validated on its own (a list too
     long is cut at its cap, the excess reported); returns ``(defaults, arm specs, fruit specs,
-    task)`` with None for what failed."""
+    task, broken)`` with None for what failed. Where some of the defaults' fields fail (reported),
+    the others still serve (``broken``: the names of those that failed), so that what does not
+    depend on them is said now -- a home in degrees beside a negative velocity limit was said only
+    once the limit was mended."""
     defaults: ArmFieldsSpec | None = ArmFieldsSpec()
+    broken: set[str] = set()
     if data.get("defaults") is not None:
         defaults = _validate(ArmFieldsSpec, data["defaults"], ("defaults",), lines, issues)
+        if defaults is None and isinstance(data["defaults"], dict):
+            defaults, broken = _partial_defaults(data["defaults"])
     arms_raw = data.get("arms", [])
     if not isinstance(arms_raw, list):
         issues.append(Issue("arms", f"expected a list of arms, found {kind_of(arms_raw)}", line_of(lines, ("arms",))))
@@ -225,7 +231,24 @@ def _specs(data: dict, lines: dict, issues: list):
         t = _validate(TaskSpec, data["task"], ("task",), lines, issues)
         if t is not None and not any([_implausible(f, v, ("task", f), lines, issues) for f, v in t.model_dump().items()]):
             task = Task(**t.model_dump())
-    return defaults, arm_specs, fruit_specs, task
+    return defaults, arm_specs, fruit_specs, task, broken
+
+
+def _partial_defaults(raw: dict) -> tuple[ArmFieldsSpec | None, set[str]]:
+    """The fields of a ``defaults`` mapping that validate on their own (its failures are
+    reported already), and the names of those that do not; None where no field is known."""
+    good: dict[str, Any] = {}
+    broken: set[str] = set()
+    for key, value in raw.items():
+        if key not in ArmFieldsSpec.model_fields:  # (an unknown key, reported: a field it may be mis-spelt for is not said missing)
+            broken.update(difflib.get_close_matches(str(key), list(ArmFieldsSpec.model_fields), n=1))
+            continue
+        try:
+            ArmFieldsSpec.model_validate({key: value})
+            good[key] = value
+        except ValidationError:
+            broken.add(key)
+    return ArmFieldsSpec.model_validate(good), broken
 
 
 def _limits_in_order(lim, loc0: tuple, lines: dict, issues: list) -> bool:
@@ -239,13 +262,16 @@ def _limits_in_order(lim, loc0: tuple, lines: dict, issues: list) -> bool:
     return ok
 
 
-def _arm(i: int, spec: ArmSpec, defaults: ArmFieldsSpec, lines: dict, issues: list) -> tuple[Arm, dict] | None:
+def _arm(i: int, spec: ArmSpec, defaults: ArmFieldsSpec, broken: set[str], lines: dict, issues: list) -> tuple[Arm, dict] | None:
     """Arm ``i`` merged with ``defaults`` and checked (plausible values, joint limits, home
     inside them, a bin it reaches); ``(arm, where each field came from)`` or None. A value taken
-    from ``defaults`` is reported at its place in ``defaults`` (once, not once per arm)."""
+    from ``defaults`` is reported at its place in ``defaults`` (once, not once per arm); one the
+    defaults had but failed (``broken``, reported there) is not said missing. Each check runs
+    where the values it needs are there and sound, whatever else is wrong: a home outside valid
+    joint limits is said beside an implausible velocity limit, not once that is mended."""
     merged: dict[str, Any] = {}
     origin: dict[str, tuple] = {}
-    ok = True
+    absent = []
     for f in ARM_REQUIRED:
         v = getattr(spec, f)
         origin[f] = ("arms", i, f)
@@ -253,20 +279,18 @@ def _arm(i: int, spec: ArmSpec, defaults: ArmFieldsSpec, lines: dict, issues: li
             v = getattr(defaults, f)
             origin[f] = ("defaults", f)
         if v is None:
-            issues.append(Issue(path_str(("arms", i, f)), missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
-            ok = False
+            if f not in broken:
+                issues.append(Issue(path_str(("arms", i, f)), missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
+            absent.append(f)
+            continue
         merged[f] = v
-    if not ok:  # what does not depend on the missing fields is still said now: the limits' order
-        if merged.get("joint_limits") is not None and not _implausible("joint_limits", merged["joint_limits"],
-                                                                        origin["joint_limits"], lines, []):
-            _limits_in_order(merged["joint_limits"], origin["joint_limits"], lines, issues)
-        return None
     # far outside any real cell (degrees for radians, 1e308, 1e-9): refused before any arithmetic
     fields = [("base", spec.base, ("arms", i, "base")), ("bin", spec.bin, ("arms", i, "bin"))]
     implausible = [f for f, v, loc in fields + [(f, merged[f], origin[f]) for f in merged] if _implausible(f, v, loc, lines, issues)]
-    if "joint_limits" not in implausible:  # (said beside the implausible others, not only once they are mended)
-        ok = _limits_in_order(merged["joint_limits"], origin["joint_limits"], lines, issues)
-    if implausible or not ok:
+    limits_ok = ("joint_limits" in merged and "joint_limits" not in implausible  # (said beside the others, not once they are mended)
+                 and _limits_in_order(merged["joint_limits"], origin["joint_limits"], lines, issues))
+    ok = limits_ok and not absent and not implausible
+    if not limits_ok or "home" not in merged or "home" in implausible:
         return None
     lim = merged["joint_limits"]
     home = merged["home"]
@@ -313,7 +337,8 @@ def _raw_name(raw: Any, key: str) -> str | None:
         return None
 
 
-def _unvalidated_arm(i: int, raw: Any, defaults: ArmFieldsSpec | None, seen_names: dict, lines: dict, issues: list) -> None:
+def _unvalidated_arm(i: int, raw: Any, defaults: ArmFieldsSpec | None, broken: set[str], seen_names: dict, lines: dict,
+                     issues: list) -> None:
     """Arm ``i``, whose own fields failed validation (reported): its name's uniqueness and the
     fields it lacks that ``defaults`` does not give either, reported now, not once its other
     mistakes are fixed."""
@@ -323,7 +348,7 @@ def _unvalidated_arm(i: int, raw: Any, defaults: ArmFieldsSpec | None, seen_name
     if defaults is None or not isinstance(raw, dict):
         return
     for f in ARM_REQUIRED:
-        if f not in raw and getattr(defaults, f) is None:
+        if f not in raw and getattr(defaults, f) is None and f not in broken:
             issues.append(Issue(path_str(("arms", i, f)), missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
 
 
