@@ -483,7 +483,7 @@ def test_solve_on_the_move_writes_a_plan_that_verify_accepts(tmp_path, row):
     (["--gantry", "continuous", "--speed", "3"], ", 0.5] m/s (gantry.max_velocity at most;"),
     (["--gantry", "continuous", "--stops", "fixed"], "--stops: on the move"),
     (["--gantry", "continuous", "--planner", "optimal"], "--planner: on the move"),
-    (["--speed", "0.2"], "--speed: a cruising speed applies on the move"),
+    (["--stops", "fixed", "--speed", "0.2"], "--speed: a cruising speed applies on the move"),
 ])
 def test_solve_on_the_move_refuses_options_that_do_not_apply(tmp_path, args, words):
     path = tmp_path / "row.yaml"
@@ -1005,3 +1005,15 @@ def test_where_the_rail_s_end_leaves_fruit_the_next_complete_level_down_tries_it
     assert rails[1]["level"] == pytest.approx(max(below))
     complete = [pt["row_time"] for pt in curve if pt["verified"] and pt["harvested"] == pt["harvestable"]]
     assert res.verification.passed and res.plan.metrics["makespan"] == pytest.approx(min(complete))
+
+
+def test_solve_with_a_speed_alone_plans_on_the_move_as_run_does(tmp_path):
+    """(``coplan solve ROW --speed 0.2`` was refused -- a speed applies on the move -- where
+    ``coplan run ROW --speed 0.2`` is on the move: a new user's trial found the two disagreeing.)
+    A speed or a profile alone means on the move; beside a stop-and-go flag it is still refused."""
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=6.0, density=2.0, seed=7)))
+    res = CliRunner().invoke(app, ["solve", str(path), "--speed", "0.2", "-o", str(tmp_path / "out")])
+    assert res.exit_code == 0, res.output
+    row = json.loads((tmp_path / "out" / "plan.json").read_text())["solver"]["row"]
+    assert row["mode"] == "continuous" and row["profile"] == "constant" and row["level"] == 0.2

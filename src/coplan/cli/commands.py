@@ -113,9 +113,9 @@ def solve(
         parser=choice(GantryMode), metavar=choices(GantryMode), help="A row: stop-and-go (default), continuous (pick on the move, the speed searched) or auto "
              "(both, each verified; the better kept).")] = None,
     speed: Annotated[Optional[float], typer.Option(parser=real, metavar="<float>",
-        help="A row on the move: one cruising speed, m/s (default: the speed search, a speed per metre of rail).")] = None,
+        help="A row on the move (implies --gantry continuous): one cruising speed, m/s (default: the speed search, a speed per metre of rail).")] = None,
     profile: Annotated[Optional[SpeedProfile], typer.Option(
-        parser=choice(SpeedProfile), metavar=choices(SpeedProfile), help="A row on the move: what the speed search "
+        parser=choice(SpeedProfile), metavar=choices(SpeedProfile), help="A row on the move (implies --gantry continuous): what the speed search "
              "varies -- density (default: a speed per metre of rail, slower where the fruit need more of the arms' "
              "time), constant (one cruising speed for the row; faster on some dense rows with many arms) or auto (both, each "
              "verified, the better kept; twice the planning).")] = None,
@@ -158,6 +158,9 @@ def solve(
     failures.check_out_dir(out)
     path = load_problem(_resolve_problem(problem))
     if path.gantry is not None:  # a row: the stop rule and the cell planner at each stop, or on the move
+        if gantry is None and (speed is not None or profile is not None) and stops is None and stop_price is None \
+                and pace_price is None:  # (on-the-move flags alone mean on the move, as `coplan run --speed` does)
+            gantry = GantryMode.CONTINUOUS
         refused = refused_on_a_row(planner, allocation, options_file, time_limit, gantry)
         if refused:
             _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): {'; '.join(refused)}")
@@ -476,7 +479,7 @@ def compare_cmd(
         parser=choice(GantryMode), metavar=choices(GantryMode), help="A row: auto (default) compares its stop rules and "
              "on the move (the speed searched); stop-and-go the stop rules alone; continuous on the move alone.")] = None,
     profile: Annotated[Optional[SpeedProfile], typer.Option(
-        parser=choice(SpeedProfile), metavar=choices(SpeedProfile), help="A row on the move: what the speed search "
+        parser=choice(SpeedProfile), metavar=choices(SpeedProfile), help="A row on the move (implies --gantry continuous): what the speed search "
              "varies, as for coplan solve (density, the default; constant; auto: both, the better kept).")] = None,
 ):
     """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
