@@ -515,6 +515,9 @@ def test_cli_verify_reads_back_a_saved_heuristic_plan(tmp_path):
     res = CliRunner().invoke(app, ["verify", str(path), plan_file])
     assert res.exit_code == ExitCode.UNSAFE
     assert "collision" in res.output
+    # (its peaks read "jerk 13.14 of the limits" beside violations saying the jerk is unbounded)
+    peaks = [ln for ln in res.output.splitlines() if ln.strip().startswith("peaks")]
+    assert len(peaks) == 2 and all("jerk unbounded (its acceleration steps)" in ln for ln in peaks), peaks
 
 
 def _glide(plan: Plan, arm: str, dq, seconds: float = 3.0, at_start: bool = False) -> Plan:
