@@ -65,6 +65,18 @@ def test_the_optimal_planner_ticks_its_stages_with_the_incumbent_and_the_bound()
     assert rec.lines  # the messages still come as lines
 
 
+def test_the_widening_stage_ticks_the_share_of_its_iterations_spent():
+    """(Its bar stood at 0 % to the stage's end: no share of its work was ever said.) After each
+    IPOPT solve the stage says the share of its iterations spent."""
+    rec = Recorder()
+    res = plan_optimal(load_problem(SHIPPED["crossing_paths"]), options=OptimalOptions(search_work=500, refine_retimes=0),
+                       progress=rec)
+    widen = [t.share for t in rec.ticks if t.stage == "widen"]
+    spent = res.plan.solver["widen"]["iterations"]
+    assert spent > 0 and widen[0] == 0.0 and widen == sorted(widen) and len(widen) >= 2
+    assert widen[-1] == pytest.approx(min(1.0, spent / OptimalOptions().widen_iterations))
+
+
 def test_compare_ticks_its_runs_and_the_solves_inside_one_level_down(tmp_path):
     from coplan.report.comparison import compare
 

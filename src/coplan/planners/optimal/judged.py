@@ -8,6 +8,8 @@ Called by :func:`coplan.planners.optimal.stages.widen`."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from functools import partial
 
 import time as _time
 from dataclasses import replace
@@ -25,7 +27,7 @@ _LOOSE_TRACK = 1.0  # the last retry's hold on the start's poses (WidenOptions.t
 
 
 def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: float | None, say,
-            proven: bool = False) -> dict:
+            proven: bool = False, share: Callable[[float], None] | None = None) -> dict:
     """The widening stage on the incumbent's schedules; the widened plan replaces the incumbent
     when it is verified, harvests as much, is no slower and its certified margin is no smaller.
     Where the program with free timing leaves less certified room than the goal (twice the
@@ -40,8 +42,18 @@ def widened(problem: Problem, inc: Incumbent, opts: OptimalOptions, deadline: fl
     A plan with ``widen_goal`` of margin already is only smoothed (its room held, widened up to
     ``widen_cap``), and left as it is when the search proved it optimal (``proven``): such a
     solve is short (greenhouse_row's 0.07 s), and a program would be most of it.
-    Returns the stage's report (plan.json ``solver.widen``)."""
-    from .widen import WidenOptions, widen as widen_schedules
+    ``share(s)``: told the share of the stage's IPOPT iterations spent as each solve ends (the
+    progress bar's). Returns the stage's report (plan.json ``solver.widen``)."""
+    from .widen import WidenOptions, widen
+
+    used = [0]
+
+    def spent(n: int) -> None:
+        used[0] += n
+        if share is not None:
+            share(min(1.0, used[0] / max(opts.widen_iterations, 1)))
+
+    widen_schedules = partial(widen, spent=spent)
 
     wopts = WidenOptions(cap=opts.widen_cap, iterations=opts.widen_iterations, max_knots=opts.widen_knots,
                          h_target=opts.h_target, ease=opts.widen_ease)

@@ -386,9 +386,9 @@ def widen(run: Run) -> str:
         run.reports["widen"] = {"status": "skipped", "accepted": False,
                                 "reason": "the time limit came before the widening stage"}
         return "skipped"
-    run.stage("widen")
+    share = run.stage("widen", "of its IPOPT iterations")
     tw = _time.perf_counter()
-    run.reports["widen"] = widened(run.problem, inc, run.opts, run.deadline, run.say, proven=run.proven())
+    run.reports["widen"] = widened(run.problem, inc, run.opts, run.deadline, run.say, proven=run.proven(), share=share)
     run.timings["widen"] = _time.perf_counter() - tw
     # Ctrl-C inside IPOPT stops that program only (its own handler): the run stops here too
     run.interrupted = run.interrupted or any_interrupted(run.reports["widen"])

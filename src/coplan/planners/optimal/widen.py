@@ -118,7 +118,8 @@ def _weight(cap: float) -> float:
 
 
 def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], goal: WidenGoal, opts: WidenOptions,
-            budget: list[int], deadline: float | None, say, h_bounds: tuple[float, float], makespan: float):
+            budget: list[int], deadline: float | None, say, h_bounds: tuple[float, float], makespan: float,
+            spent: Callable[[int], None] | None = None):
     """Solve the program, adding points where a dense check of its solution comes closer than
     the room it claims (less ``give``), up to ``rounds`` times; ``(solution or None, points, rounds)``."""
     names = [a.name for a in problem.arms]
@@ -134,6 +135,8 @@ def _rounds(problem: Problem, schedules, grid, points: list[ConstraintPoint], go
         left = None if deadline is None else max(deadline - _time.perf_counter(), 1e-3)
         new = solve_nlp(nlp, names, time_limit=left)
         budget[0] -= new.iterations
+        if spent is not None:
+            spent(new.iterations)
         s_val = float(new.x[nlp.layout["S"][0]])
         rounds.append({"timing": "free" if h_bounds[0] < h_bounds[1] else "held", "round": rnd, "points": len(points), "status": new.status.value,
                        "iterations": new.iterations, "room": s_val,
@@ -299,8 +302,9 @@ def exact_dynamics(sol: NLPSolution, pinned: dict[str, np.ndarray]) -> NLPSoluti
 
 def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule], makespan: float,
           options: WidenOptions | None = None, deadline: float | None = None,
-          say: Callable[[str], None] | None = None) -> WidenResult:
-    """More room and gentler motion for ``schedules`` at their makespan; see the module docstring."""
+          say: Callable[[str], None] | None = None, spent: Callable[[int], None] | None = None) -> WidenResult:
+    """More room and gentler motion for ``schedules`` at their makespan; see the module docstring.
+    ``spent(n)``: told the IPOPT iterations of each solve as it ends (a progress bar's share)."""
     opts = options or WidenOptions()
     say = say or (lambda m: None)
     t0 = _time.perf_counter()
@@ -369,7 +373,8 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
         # held to that, not a microsecond inside, which no point with these times meets)
         this_goal = (goal if h_bounds[0] < h_bounds[1] else
                      replace(goal, makespan=float(makespan) + 1e-9, end=max(goal.end, end + 1e-9)))
-        sol, used, rounds = _rounds(problem, schedules, grid, points, this_goal, opts, budget, deadline, say, h_bounds, makespan)
+        sol, used, rounds = _rounds(problem, schedules, grid, points, this_goal, opts, budget, deadline, say, h_bounds, makespan,
+                                    spent)
         info["rounds"] += rounds
         if sol is not None:
             break
