@@ -153,4 +153,8 @@ def main() -> None:
 
 
 if __name__ == "__main__":
+    import argparse
+
+    # (no options: --help ran the whole benchmark)
+    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
     main()
