@@ -233,15 +233,17 @@ class Plan:
 
     def sample(self, t) -> dict[str, np.ndarray]:
         """Joint angles (rad) of every arm at times ``t`` (s; a number or (K,)), linear between
-        samples: ``{arm: (K, 2)}``, or ``{arm: (2,)}`` for a number. Before the plan's start and
+        samples: ``{arm: (K, 2)}``, or ``{arm: (2,)}`` for a number (any other shape S of ``t``:
+        ``(*S, 2)``). Before the plan's start and
         after its end, the first and last poses (the arm at rest there)."""
         t = self._clock(t)
         return {a: np.stack([np.interp(t, self.time, q[:, 0]), np.interp(t, self.time, q[:, 1])], axis=-1) for a, q in self.q.items()}
 
     def carriage(self, t) -> np.ndarray:
-        """A row plan's carriage position (m, row coordinates) at times ``t`` (K,), linear
-        between samples (the arms' bases are there plus their offsets on the carriage); a
-        stationary cell's plan has none (ValueError)."""
+        """A row plan's carriage position (m, row coordinates) at times ``t`` (s; a number or
+        an array): an array of ``t``'s shape (0-d for a number), linear between samples (the
+        arms' bases are there plus their offsets on the carriage); a stationary cell's plan has
+        none (ValueError)."""
         if self.gantry_x is None:
             raise ValueError(f"plan of {self.problem!r}: a stationary cell's plan has no carriage (no gantry_x)")
         t = self._clock(t)
