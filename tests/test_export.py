@@ -527,3 +527,31 @@ def test_an_arm_named_like_a_windows_device_gets_a_file_windows_can_make():
     assert not any(PureWindowsPath(v + ".json").is_reserved() for v in names.values()), names
     assert names["console"] == "console" and names["left"] == "left" and names["CON"] == "CON_"
     assert names["nul.a"] == "nul_.a"  # (NUL.anything is the device: nul.a_.json was one)
+
+
+def test_exporting_an_unsafe_or_edited_plan_from_python_warns(problems_dir, crossing_plan, tmp_path):
+    """(``coplan export`` refuses a plan the verifier refused; from Python the course's heuristic plan,
+    collisions and all, was written as a controller's trajectory without a word.) It is written --
+    the function writes what it is given -- with a UserWarning saying why it is no trajectory to send."""
+    import warnings
+
+    from coplan.planners.heuristic import plan_heuristic
+    from coplan.plan import PlanStatus, finalize_plan
+    from coplan.problem import load_problem
+    from coplan.verify import verify
+
+    prob = load_problem(problems_dir / "crossing_paths.yaml")
+    bad = plan_heuristic(prob)
+    bad = finalize_plan(bad, verify(prob, bad), len(prob.reachable_ids()))
+    assert bad.status == PlanStatus.UNSAFE
+    with pytest.warns(UserWarning, match=r"though the verifier refused it \(unsafe\): not a trajectory to send"):
+        assert export_plan(bad, 100.0, "csv", tmp_path / "bad.csv")[0].is_file()
+    import dataclasses
+
+    edited = dataclasses.replace(crossing_plan, q={a: v.copy() for a, v in crossing_plan.q.items()})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the verified plan as it is: no warning
+        export_plan(edited, 100.0, "csv", tmp_path / "good.csv")
+    edited.q[edited.arm_names[0]][10:20] += 0.01
+    with pytest.warns(UserWarning, match="its motion changed after it was verified"):
+        export_plan(edited, 100.0, "csv", tmp_path / "edited.csv")

@@ -48,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from ..kinds import ExportFormat
-from ..plan import Plan
+from ..plan import Plan, PlanStatus
 from ..output import atomic_text
 
 __all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "follow_error", "limit_excess", "export_events", "events_path", "smoothing_error", "FOLLOW_TOLERANCE",
@@ -343,6 +343,13 @@ def export_plan(plan: Plan | str | Path, rate: float, fmt: ExportFormat | str, o
     elif not isinstance(plan, Plan):
         raise TypeError(f"plan: expected a Plan or a plan file's path, found {type(plan).__name__}")
     fmt = ExportFormat(fmt)
+    if plan.status == PlanStatus.UNSAFE or plan.changed_since_verified():  # (the CLI refuses it; a script wrote it without a word)
+        import warnings
+
+        why = ("the verifier refused it (unsafe)" if plan.status == PlanStatus.UNSAFE else
+               "its motion changed after it was verified")
+        warnings.warn(f"export_plan: writing the plan of {plan.problem!r} ({plan.planner_name}) though {why}: not a "
+                      f"trajectory to send to a robot (coplan export refuses it)", UserWarning, stacklevel=2)
     if traj is not None and abs(traj.rate - rate) > 1e-9 * max(1.0, rate):  # (it wrote at the trajectory's 50 Hz, asked 100)
         raise ValueError(f"traj: expected trajectory(plan, {rate:g}) at the rate asked, found one at {traj.rate:g} Hz")
     traj = trajectory(plan, rate) if traj is None else traj
