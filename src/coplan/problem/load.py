@@ -234,9 +234,10 @@ def _specs(data: dict, lines: dict, issues: list):
     return defaults, arm_specs, fruit_specs, task, broken
 
 
-def _partial_defaults(raw: dict) -> tuple[ArmFieldsSpec | None, set[str]]:
+def _partial_defaults(raw: dict) -> tuple[ArmFieldsSpec, set[str]]:
     """The fields of a ``defaults`` mapping that validate on their own (its failures are
-    reported already), and the names of those that do not; None where no field is known."""
+    reported already), as defaults, and the names of those that do not -- with the field a
+    mis-spelt key is nearest to (reported as unknown, with its 'did you mean')."""
     good: dict[str, Any] = {}
     broken: set[str] = set()
     for key, value in raw.items():

@@ -326,8 +326,9 @@ class Verification:
     def passed(self) -> bool:
         """Safe as planned: no violation -- no collision or clearance shortfall (certified between
         samples), no joint or carriage limit exceeded, every pick and place it declares made where
-        and as long as it says, each arm starting at its home (:class:`ViolationKind`). Says nothing of how much it harvests: a plan that picks nothing
-        passes; :attr:`complete` says whether every reachable fruit was harvested."""
+        and as long as it says, each arm starting at its home (:class:`ViolationKind`). Says
+        nothing of how much it harvests: a plan that picks nothing passes; :attr:`complete` says
+        whether every reachable fruit was harvested."""
         return not self.violations
 
     @property
