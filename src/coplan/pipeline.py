@@ -255,17 +255,33 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     if progress is not None:  # (the stop-by-stop bound's weight rounds: seconds on a long row, after the plan)
         progress("row: the lower bounds (any plan; stop by stop, its weights over the arms searched)")
     tb = _time.perf_counter()
-    bounds = row_bounds(prob)  # (remembered for a row and its settings: a second solve spends nothing here)
-    bounds_seconds = _time.perf_counter() - tb
     plan = res.plan
-    plan.metrics["row"] = row_metrics(prob, res, bounds)
-    span = plan.metrics.get("makespan") or 0.0
-    for a, causes in plan.metrics["row"]["idle_share"].items():  # (a row's idle fraction: the sum of its causes)
-        if a in plan.metrics.get("per_arm", {}):
-            plan.metrics["per_arm"][a]["idle_fraction"] = float(sum(causes.values())) if span > 0 else None
-    plan.metrics["lower_bound"] = bounds.any_plan
-    plan.metrics.update(_row_fruit_counts(prob, plan))
-    plan.problem_file = file_record(prob)
+
+    def cut_short(why: str) -> None:  # (a Ctrl-C once the row was planned threw the planned, verified row away: nothing written)
+        plan.status = PlanStatus.INTERRUPTED
+        plan.solver["status"] = PlanStatus.INTERRUPTED.value
+        plan.solver.setdefault("interrupted", why)
+
+    try:
+        bounds = row_bounds(prob)  # (remembered for a row and its settings: a second solve spends nothing here)
+    except KeyboardInterrupt:
+        bounds = None
+        cut_short("interrupted (Ctrl-C) while its lower bounds were computed: the row is planned and verified")
+        if progress is not None:
+            progress("row: interrupted while its lower bounds were computed; keeping the row, planned and verified, without them")
+    bounds_seconds = _time.perf_counter() - tb
+    try:
+        with signals_deferred():  # (its figures, in a moment: a Ctrl-C is answered once they are)
+            plan.metrics["row"] = row_metrics(prob, res, bounds)
+            span = plan.metrics.get("makespan") or 0.0
+            for a, causes in plan.metrics["row"]["idle_share"].items():  # (a row's idle fraction: the sum of its causes)
+                if a in plan.metrics.get("per_arm", {}):
+                    plan.metrics["per_arm"][a]["idle_fraction"] = float(sum(causes.values())) if span > 0 else None
+            plan.metrics["lower_bound"] = None if bounds is None else bounds.any_plan
+            plan.metrics.update(_row_fruit_counts(prob, plan))
+            plan.problem_file = file_record(prob)
+    except KeyboardInterrupt:
+        cut_short("interrupted (Ctrl-C) as the row's figures were computed: the row is planned and verified")
     timings = dict(res.timings) | {"bounds": bounds_seconds}  # (this solve's: bounds.seconds is when they were computed)
     plan.solver["timings"] = dict(timings)
     files, previous = _write(out_dir, plan, res.verification, problem=prob) if out_dir is not None else ({}, None)

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import Issue, OptionsError, check_fields, known_fields
+from ..output import signals_deferred
 from ..workers import cores, process_pool, settle_workers
 from ..kinds import GantryMode, PlannerKind, PlanStatus, StopRule
 from ..kinematics.timing import Move1D
@@ -335,23 +336,31 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         info["interrupted"] = (f"while fruit a stop's cell left out were given a second chance: the row's {len(planned)} "
                                f"stops planned by then")
         say("row: interrupted during the second chance; keeping every stop planned so far, verified")
-    planned.sort(key=lambda sp: sp.stop.k)
-    timings["stops_and_cells"] = _time.perf_counter() - ts
-    timings["cells"] = sum(sp.seconds for sp in planned)
-    ta = _time.perf_counter()
-    plan = assemble(problem, planned, PlannerKind(opts.planner))
-    timings["assemble"] = _time.perf_counter() - ta
-    timings["planning"] = _time.perf_counter() - t0
-    tv = _time.perf_counter()
-    ver = verify(problem, plan)
-    timings["verify"] = _time.perf_counter() - tv
-    plan = finalize_row(problem, plan, ver, reach)
-    if interrupted:
-        plan.status = PlanStatus.INTERRUPTED  # (the verdict on what it has is in plan.verification)
-    info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
-    info["retimed_cells"] = sum(1 for sp in planned if sp.plan.solver.get("retime"))  # (cells whose retiming was kept)
-    info["left_out"] = _left_out(reach, planned, dropped, interrupted)
-    plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
+    # (a Ctrl-C while the planned row was assembled and verified threw it all away: it is held
+    # until the row is whole and verified, and the row is kept, said interrupted)
+    try:
+        with signals_deferred():
+            planned.sort(key=lambda sp: sp.stop.k)
+            timings["stops_and_cells"] = _time.perf_counter() - ts
+            timings["cells"] = sum(sp.seconds for sp in planned)
+            ta = _time.perf_counter()
+            plan = assemble(problem, planned, PlannerKind(opts.planner))
+            timings["assemble"] = _time.perf_counter() - ta
+            timings["planning"] = _time.perf_counter() - t0
+            tv = _time.perf_counter()
+            ver = verify(problem, plan)
+            timings["verify"] = _time.perf_counter() - tv
+            plan = finalize_row(problem, plan, ver, reach)
+            if interrupted:
+                plan.status = PlanStatus.INTERRUPTED  # (the verdict on what it has is in plan.verification)
+            info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
+            info["retimed_cells"] = sum(1 for sp in planned if sp.plan.solver.get("retime"))  # (cells whose retiming was kept)
+            info["left_out"] = _left_out(reach, planned, dropped, interrupted)
+            plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
+    except KeyboardInterrupt:
+        info.setdefault("interrupted", "while the planned row was assembled and verified: the row as planned")
+        plan.status = PlanStatus.INTERRUPTED
+        plan.solver["status"] = plan.status.value
     say(f"row: {len(planned)} stop{'' if len(planned) == 1 else 's'} ({rule.value}), {plan.metrics.get('harvested')} fruit, "
         f"row time {plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
     return RowResult(plan, ver, planned, reach, timings, info)
