@@ -70,14 +70,49 @@ def quiet_child() -> None:
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
+_BUSY = [False]  # in a pool's worker: whether it is running a task now (:func:`_pool_child`)
+
+
+def _task(fn, *args, **kwargs):
+    """A pool task, marked busy while it runs (:func:`_pool_child`)."""
+    _BUSY[0] = True
+    try:
+        return fn(*args, **kwargs)
+    finally:
+        _BUSY[0] = False
+
+
+def _pool_child() -> None:
+    """A pool's worker: :func:`quiet_child`, and a Ctrl-C that finds it between tasks ends it
+    (SystemExit) without a word (it raised KeyboardInterrupt inside multiprocessing's wait for the next task,
+    which printed a traceback under the command's own message); inside a task it raises
+    KeyboardInterrupt there as before (the optimal cell planner turns it into its best plan)."""
+    import signal
+
+    quiet_child()
+
+    def on_int(signum, frame):
+        if _BUSY[0]:
+            raise KeyboardInterrupt
+        # (SystemExit: multiprocessing ends the process without a traceback, and the locks the wait
+        # holds are released on the way out -- os._exit there left the other workers waiting on them)
+        raise SystemExit(130)
+
+    signal.signal(signal.SIGINT, on_int)
+
+
 def process_pool(workers: int):
     """A ``ProcessPoolExecutor`` of ``workers`` processes in :func:`mp_context` (each
-    :func:`quiet_child`), or None for one (the work then runs in this process)."""
+    :func:`_pool_child`, its tasks marked busy), or None for one (the work then runs in this process)."""
     if workers <= 1:
         return None
     import sys
     from concurrent.futures import ProcessPoolExecutor
 
+    class Pool(ProcessPoolExecutor):
+        def submit(self, fn, /, *args, **kwargs):
+            return super().submit(_task, fn, *args, **kwargs)
+
     if sys.platform == "win32":  # (ProcessPoolExecutor refuses more than 61 there: --workers 100 was an internal error)
         workers = min(workers, 61)
-    return ProcessPoolExecutor(max_workers=workers, mp_context=mp_context(), initializer=quiet_child)
+    return Pool(max_workers=workers, mp_context=mp_context(), initializer=_pool_child)
