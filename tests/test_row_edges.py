@@ -828,3 +828,75 @@ def test_check_of_a_partial_row_says_why_it_exits_5(tmp_path):
     assert doc["reachable_not_harvestable"] == ["narrow"] and doc["exit_code"] == 5
     fine = run(app, ["check", str(path), "--resolution", "0.01"])
     assert fine.exit_code == 0 and "would exit 5" not in fine.output, fine.output
+
+
+@pytest.mark.parametrize("gantry", ["stop-and-go", "continuous"])
+def test_a_ctrl_c_once_the_row_is_planned_keeps_it_written(tmp_path, monkeypatch, gantry):
+    """(A new user's trial: Ctrl-C while a planned row's lower bounds were computed, or while it
+    was assembled and verified, exited 130 and wrote nothing -- the whole row thrown away.) The
+    row is kept and written whole, said interrupted (exit 130): without its bounds where they
+    were cut short; assembled and verified in full where the Ctrl-C came during that (held)."""
+    import json
+    import os
+    import signal
+
+    import coplan.allocate.row_bound as rb
+    import coplan.row.plan as rp
+    from coplan.cli import app
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.kinds import ExitCode
+    from typer.testing import CliRunner
+
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(gantry_row(length=6.0, density=2.0, seed=4)))
+
+    def no_bounds(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(rb, "row_bounds", no_bounds)
+    res = CliRunner().invoke(app, ["solve", str(path), "--gantry", gantry, "-o", str(tmp_path / "b")])
+    assert res.exit_code == ExitCode.INTERRUPTED, res.output
+    doc = json.loads((tmp_path / "b" / "plan.json").read_text())
+    assert doc["status"] == "interrupted" and doc["metrics"]["lower_bound"] is None
+    assert doc["metrics"]["harvested"] == doc["metrics"]["harvestable"] > 0  # the whole row, planned and verified
+    assert "no lower bounds: interrupted (Ctrl-C) while its lower bounds were computed" in " ".join(res.output.split())
+    monkeypatch.undo()
+    if gantry != "stop-and-go":
+        return
+    real = rp.finalize_row
+
+    def ctrl_c_midway(*a, **k):  # the signal itself, as the terminal sends it, halfway through
+        os.kill(os.getpid(), signal.SIGINT)
+        return real(*a, **k)
+
+    monkeypatch.setattr(rp, "finalize_row", ctrl_c_midway)
+    res = CliRunner().invoke(app, ["solve", str(path), "-o", str(tmp_path / "f")])
+    assert res.exit_code == ExitCode.INTERRUPTED, res.output
+    doc = json.loads((tmp_path / "f" / "plan.json").read_text())
+    assert doc["status"] == "interrupted" and doc["verification"]["passed"]
+    assert doc["solver"]["row"]["interrupted"].startswith("while the planned row was assembled and verified")
+    assert doc["metrics"]["harvested"] == doc["metrics"]["harvestable"] > 0
+
+
+def test_a_ctrl_c_ends_an_idle_pool_worker_without_a_traceback():
+    """(``coplan solve ROW --workers 2`` interrupted: a worker waiting for its next task printed a
+    KeyboardInterrupt traceback under the command's own message.) A pool worker between tasks
+    ends quietly; inside a task the Ctrl-C is a KeyboardInterrupt there, as before."""
+    import subprocess
+    import sys
+
+    code = (
+        "import multiprocessing, os, signal, time\n"
+        "from coplan.workers import process_pool\n"
+        "pool = process_pool(2)\n"
+        "pool.submit(time.sleep, 0.2).result()\n"
+        "procs = multiprocessing.active_children()\n"
+        "assert len(procs) == 2, procs\n"
+        "for p in procs: os.kill(p.pid, signal.SIGINT)\n"
+        "for p in procs: p.join(10)\n"
+        "print('codes', sorted(p.exitcode for p in procs))\n"
+        "pool.shutdown(wait=True)\n"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert "Traceback" not in res.stderr, res.stderr
+    assert "codes [130, 130]" in res.stdout, (res.stdout, res.stderr)
