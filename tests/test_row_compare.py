@@ -159,3 +159,21 @@ def test_an_interrupted_comparison_names_the_report_it_wrote(row, tmp_path, monk
     said = " ".join(r.output.split())
     assert f"interrupted: the report of what was planned so far is in {tmp_path / 'c' / 'compare.json'} and compare.md" in said
     assert json.loads((tmp_path / "c" / "compare.json").read_text())["notes"]
+
+
+@pytest.mark.parametrize("case, code", [("nothing to harvest", 4), ("a fruit no candidate stop serves", 5)])
+def test_compare_row_exits_as_solve_does_where_no_plan_harvests_it_all(tmp_path, case, code):
+    """(A new user's trial: a row with no fruit, every plan infeasible, and a row where every plan
+    left a fruit, each exited 0 "ok"; solve gives 4 and 5.) No best plan: the verdict says why."""
+    if case == "nothing to harvest":
+        d = gantry_row(length=4.0, n_arms=2, density=0.0, seed=1)
+    else:  # one fruit where the arms reach it only from 36 mm of rail, between the 50 mm candidate stops
+        d = gantry_row(length=10.0, n_arms=3, density=4.0, seed=2)
+        d["fruits"][3]["position"] = [5.025, 1.7899]
+    path = tmp_path / "row.yaml"
+    path.write_text(to_yaml(d))
+    res = CliRunner().invoke(app, ["compare", str(path), "--gantry", "stop-and-go", "-o", str(tmp_path / "c"), "--json"])
+    assert res.exit_code == code, res.output
+    doc = json.loads(res.output)
+    assert doc["exit_code"] == code and doc["best"] is None
+    assert CliRunner().invoke(app, ["solve", str(path), "-o", str(tmp_path / "s")]).exit_code == code

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import plural
-from ..kinds import ExitCode, GantryMode, PlannerKind, SpeedProfile
+from ..kinds import ExitCode, GantryMode, PlannerKind, PlanStatus, SpeedProfile
 from .checks import fail, strict_json
 from .failures import exit_fields, usage
 from .summary import safe
@@ -119,7 +119,12 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
             err_console.print(f"interrupted: the report of what was planned so far is in {safe(str(out / 'compare.json'))} "
                               f"and compare.md (its notes say where it stopped)", highlight=False)
         raise
-    code = ExitCode.OK if all(r["verified"] for r in cmp.rows) else ExitCode.UNSAFE
+    # (a row with nothing to harvest, every plan infeasible, said "ok" where solve says 4; and where no
+    # plan harvests every harvestable fruit, there is no best plan: solve's partial, 5)
+    statuses = {r["status"] for r in cmp.rows}
+    code = (ExitCode.UNSAFE if not all(r["verified"] for r in cmp.rows) else
+            ExitCode.INFEASIBLE if statuses == {PlanStatus.INFEASIBLE.value} else
+            ExitCode.PARTIAL if cmp.rows and cmp.best is None and PlanStatus.PARTIAL.value in statuses else ExitCode.OK)
     if as_json:  # (with the exit code, as every document of a command that ran)
         out_console.print(strict_json(cmp.to_dict() | exit_fields(code)), markup=False,
                           highlight=False)
