@@ -479,7 +479,7 @@ def compare_cmd(
         parser=choice(GantryMode), metavar=choices(GantryMode), help="A row: auto (default) compares its stop rules and "
              "on the move (the speed searched); stop-and-go the stop rules alone; continuous on the move alone.")] = None,
     profile: Annotated[Optional[SpeedProfile], typer.Option(
-        parser=choice(SpeedProfile), metavar=choices(SpeedProfile), help="A row on the move (implies --gantry continuous): what the speed search "
+        parser=choice(SpeedProfile), metavar=choices(SpeedProfile), help="A row on the move: what the speed search "
              "varies, as for coplan solve (density, the default; constant; auto: both, the better kept).")] = None,
 ):
     """Solve with several planners, verify each plan, and compare (compare.json, compare.md).
