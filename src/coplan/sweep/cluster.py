@@ -115,10 +115,12 @@ def sigint_ignored():
         try:
             yield held
         finally:
-            watcher.stdin.close()
-            if watcher.wait(timeout=10) != 0:
-                held.append(True)
-            signal.signal(signal.SIGINT, old)
+            try:
+                watcher.stdin.close()
+                if watcher.wait(timeout=10) != 0:
+                    held.append(True)
+            finally:  # (a watcher slow to end -- TimeoutExpired on a loaded machine -- left SIGINT ignored for good)
+                signal.signal(signal.SIGINT, old)
     finally:
         if watcher.poll() is None:
             watcher.kill()
