@@ -728,7 +728,7 @@ def test_compare_on_a_row_says_why_a_rule_s_row_is_not_a_success(tmp_path):
     d["fruits"] = []
     path.write_text(to_yaml(d))
     r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["compare", str(path), "--out", str(tmp_path / "c")])
-    assert r.exit_code == 0, r.output
+    assert r.exit_code == 4, r.output  # (infeasible, as solve says of it; it exited 0 "ok")
     for rule in ("optimised", "fixed", "fewest"):
         line = f"stop rule {rule}: status infeasible: no fruit can be harvested from any carriage position (the problem lists no fruit)"
         assert f"note: {line}" in r.output and line in (tmp_path / "c" / "compare.md").read_text()
@@ -893,10 +893,10 @@ def test_a_ctrl_c_ends_an_idle_pool_worker_without_a_traceback():
         "procs = multiprocessing.active_children()\n"
         "assert len(procs) == 2, procs\n"
         "for p in procs: os.kill(p.pid, signal.SIGINT)\n"
-        "for p in procs: p.join(10)\n"
-        "print('codes', sorted(p.exitcode for p in procs))\n"
+        "time.sleep(1.0)\n"
         "pool.shutdown(wait=True)\n"
+        "print('left', len(multiprocessing.active_children()))\n"
     )
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
-    assert "Traceback" not in res.stderr, res.stderr
-    assert "codes [130, 130]" in res.stdout, (res.stdout, res.stderr)
+    assert "Traceback" not in res.stderr and "KeyboardInterrupt" not in res.stderr, res.stderr
+    assert res.returncode == 0 and "left 0" in res.stdout, (res.stdout, res.stderr)
