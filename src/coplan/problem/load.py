@@ -27,7 +27,7 @@ from .model import MAX_ARMS, MAX_FRUITS, Arm, Fruit, Problem, Task
 from .poses import copy_issues, home_pair_issues
 from .spec import (ARM_REQUIRED, EXPECT, TOP_KEYS, ArmFieldsSpec, ArmSpec, FruitSpec, TaskSpec, kind_of, missing,
                    name_value)
-from .yamlsafe import MAX_FILE_BYTES, did_you_mean, line_of, path_str, read_yaml, read_input_text
+from .yamlsafe import MAX_FILE_BYTES, did_you_mean, line_of, nearest_name, path_str, read_yaml, read_input_text
 
 __all__ = ["load_problem", "parse_problem", "file_record", "text_digest", "resolve_name", "default_problem_path",
            "shipped_problems", "shipped_rows"]
@@ -241,8 +241,10 @@ def _partial_defaults(raw: dict) -> tuple[ArmFieldsSpec, set[str]]:
     good: dict[str, Any] = {}
     broken: set[str] = set()
     for key, value in raw.items():
-        if key not in ArmFieldsSpec.model_fields:  # (an unknown key, reported: a field it may be mis-spelt for is not said missing)
-            broken.update(difflib.get_close_matches(str(key), list(ArmFieldsSpec.model_fields), n=1))
+        if key not in ArmFieldsSpec.model_fields:  # (an unknown key, reported with its 'did you mean': that field is not said missing)
+            near = nearest_name(key, ArmFieldsSpec.model_fields)
+            if near is not None:
+                broken.add(near)
             continue
         try:
             ArmFieldsSpec.model_validate({key: value})

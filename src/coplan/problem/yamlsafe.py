@@ -403,13 +403,19 @@ _SYNONYMS = {"speed": "velocity", "vel": "velocity", "accel": "acceleration", "a
 
 
 def did_you_mean(key: Any, choices) -> str:
-    """``"; did you mean 'x'?"`` for the closest of ``choices`` to an unknown ``key``, or ``""``:
-    the one choice with the key (or its synonym) as a whole word (``max_velocity`` for ``speed``
-    or ``velocity``) unless a spelling is very close, else the closest spelling."""
+    """``"; did you mean 'x'?"`` for :func:`nearest_name` of an unknown ``key``, or ``""``."""
+    near = nearest_name(key, choices)
+    return f"; did you mean {near!r}?" if near is not None else ""
+
+
+def nearest_name(key: Any, choices) -> str | None:
+    """The closest of ``choices`` to an unknown ``key``, or None: the one choice with the key (or
+    its synonym) as a whole word (``max_velocity`` for ``speed`` or ``velocity``) unless a
+    spelling is very close, else the closest spelling."""
     names = [str(c) for c in choices]
     near = difflib.get_close_matches(str(key), names, n=1, cutoff=0.8)  # a slip of spelling first ('stop' for 'stops')
     if near:
-        return f"; did you mean {near[0]!r}?"
+        return near[0]
     word = str(key).strip().lower()
     word = _SYNONYMS.get(word, word)
     # each word of the key by the word coplan uses for it, a slip of spelling in it forgiven
@@ -417,9 +423,9 @@ def did_you_mean(key: Any, choices) -> str:
     said = "_".join(_SYNONYMS[m[0]] if (m := difflib.get_close_matches(w, list(_SYNONYMS), n=1, cutoff=0.75)) else w
                     for w in word.split("_"))
     if said != word and said in names:
-        return f"; did you mean {said!r}?"
+        return said
     whole = [c for c in names if word in c.lower().split("_")]
     if len(whole) == 1:
-        return f"; did you mean {whole[0]!r}?"
+        return whole[0]
     m = difflib.get_close_matches(str(key), names, n=1, cutoff=0.5)
-    return f"; did you mean {m[0]!r}?" if m else ""
+    return m[0] if m else None
