@@ -239,13 +239,14 @@ def _row_time(p, res, m: dict, r: dict, solver: dict, moving: bool, still: bool)
 
 def _row_planning(p, r: dict, solver: dict, moving: bool) -> None:
     """A row summary's planning time (and, stop and go, how far ahead of the carriage)."""
+    from ..row.metrics import late_start
+
     first, known = r.get("first_motion_seconds"), r.get("first_stop_seconds", r.get("first_motion_seconds"))
     ahead = {True: "kept ahead of the carriage", False: "LATE", None: "no stop to plan"}[r.get("kept_ahead")]
-    span = r.get("row_time") or 0.0
-    if r.get("kept_ahead") and first and span > 0 and first > 0.05 * span:
+    if r.get("kept_ahead") and late_start(first, r.get("row_time")):
         # ("kept ahead" read as no wait beside a first motion after 42 s of a 47 s row, --planner optimal)
-        ahead = (f"kept ahead of the carriage once it moved; it stood {fmt(first, ' s')} first, {100 * first / span:.0f} % "
-                 "of the row time, for its first stop's cell")
+        ahead = (f"kept ahead of the carriage once it moved; it stood {fmt(first, ' s')} first, "
+                 f"{100 * first / r['row_time']:.0f} % of the row time, for its first stop's cell")
     later = "" if first == known else f" (first motion after {fmt(first, ' s')}: the carriage does not move before that stop's cell)"
     if moving:
         given = (solver.get("options") or {}).get("level") is not None  # (--speed: one speed, no search)

@@ -78,11 +78,13 @@ class RowComparison:
             return None
         other = "" if "over" not in b else b["over"] if b["over"] == ON_THE_MOVE else f"the {b['over']} stops"
         lead = f", {100 * b['gain']:.1f} % more than {other}" if other else ""
+        from ..row.metrics import late_start
+
         top = next(r for r in self.rows if r["name"] == b["name"])
         # (an optimal cell planner's row started 35.5 s after its planning began, which fruit per hour leaves out)
         wait = top.get("first_motion_seconds")
         late = (f"; its first motion {wait:.1f} s after planning starts, which fruit per hour does not count"
-                if wait is not None and top.get("row_time") and wait > 0.05 * top["row_time"] else "")
+                if late_start(wait, top.get("row_time")) else "")
         return f"most fruit per hour: {b['name']} ({b['fruit_per_hour']:.0f} fruit/h{lead}){late}"
 
 

@@ -263,6 +263,17 @@ def _on_the_move(result, moving: np.ndarray, x: np.ndarray, planning: float) -> 
             "kept_ahead": None, "least_slack_seconds": None, "first_motion_seconds": planning}
 
 
+#: a row's first motion later than this share of its row time is said beside its figures (fruit
+#: per hour leaves that wait out): :func:`late_start`
+LATE_START_SHARE = 0.05
+
+
+def late_start(first_motion: float | None, row_time: float | None) -> bool:
+    """Whether a row's first motion (s after its planning began) comes later than
+    :data:`LATE_START_SHARE` of its row time: a wait its summary and comparison say."""
+    return first_motion is not None and bool(row_time) and row_time > 0 and first_motion > LATE_START_SHARE * row_time
+
+
 def fruit_bounds_count(row: dict) -> int:
     """How many fruit the row's lower bounds count, from a plan's ``metrics.row`` (``row``): every
     fruit an arm reaches from some carriage position, those the screen's candidate stops miss
