@@ -260,7 +260,7 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     def cut_short(why: str) -> None:  # (a Ctrl-C once the row was planned threw the planned, verified row away: nothing written)
         plan.status = PlanStatus.INTERRUPTED
         plan.solver["status"] = PlanStatus.INTERRUPTED.value
-        plan.solver.setdefault("interrupted", why)
+        res.info.setdefault("interrupted", why)  # (plan.json's solver.row, where a row's every interruption is said)
 
     try:
         bounds = row_bounds(prob)  # (remembered for a row and its settings: a second solve spends nothing here)

@@ -189,7 +189,7 @@ def _row_time(p, res, m: dict, r: dict, solver: dict, moving: bool, still: bool)
           f"whole row's lower bound {fmt(lb.get('any_plan'), ' s')} for any plan; no ratio for a part)")
     elif not lb:  # (Ctrl-C while they were computed: the row is kept without them)
         p(f"  row time          {fmt(r.get('row_time'), ' s')}   ({fmt(r.get('time_per_metre'), ' s/m')}; no lower bounds: "
-          f"{safe(res.plan.solver.get('interrupted') or 'interrupted')})")
+          f"{safe(solver.get('interrupted') or 'interrupted')})")
     elif (r.get("harvested") or 0) < (counted := fruit_bounds_count(r)):
         # (78 of 93 fruit at a speed given read "ratio 1.099" against a bound that counts all 93; a
         # sweep leaves a partial row's ratio out too)
