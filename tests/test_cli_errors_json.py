@@ -267,6 +267,18 @@ def test_a_row_says_which_option_it_refuses_and_why(args, words, tmp_path):
     assert res.exit_code == 2 and words in res.output and not (tmp_path / "x").exists(), res.output
 
 
+@pytest.mark.parametrize("args, path", [
+    (["--time-limit", "3"], "--time-limit"),
+    (["--time-limit", "3", "--allocation", "makespan"], "--allocation/--time-limit"),
+    (["--planner", "heuristic"], "--planner"),
+])
+def test_a_row_s_refused_option_is_the_json_error_s_path(args, path, tmp_path):
+    """(The message began with the file's name, and the JSON error's ``path`` was null.)"""
+    res = CliRunner().invoke(app, ["solve", "sparse_row", "--json", "-o", str(tmp_path / "x"), *args])
+    doc = json.loads(res.stdout)
+    assert res.exit_code == 2 and doc["errors"][0]["path"] == path, res.output
+
+
 @pytest.mark.parametrize("args, option, enum", [
     (["solve", "--planner", "fast"], "--planner", "PlannerKind"),
     (["solve", "--stops", "few"], "--stops", "StopRule"),

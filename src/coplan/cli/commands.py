@@ -161,9 +161,9 @@ def solve(
         if gantry is None and (speed is not None or profile is not None) and stops is None and stop_price is None \
                 and pace_price is None:  # (on-the-move flags alone mean on the move, as `coplan run --speed` does)
             gantry = GantryMode.CONTINUOUS
-        refused = refused_on_a_row(planner, allocation, options_file, time_limit, gantry)
-        if refused:
-            _fail(ExitCode.USAGE, f"{path.name} is a row (it has a gantry): {'; '.join(refused)}")
+        named, refused = refused_on_a_row(planner, allocation, options_file, time_limit, gantry)
+        if refused:  # (led by the options' names: the JSON error's path)
+            _fail(ExitCode.USAGE, f"{'/'.join(named)}: {path.name} is a row (it has a gantry): {'; '.join(refused)}")
         moving = moving_options(path, gantry, speed, stops, planner, profile)
         row_options = moving
         # --workers: on the move the speed search's processes, stop and go the stops' cells';

@@ -182,15 +182,17 @@ def refuse_rows_in_compare(source: Path, time_limit, options_file) -> None:
                              f"{', ...' if len(rows) > 5 else ''}): compare a row's stop rules with 'coplan compare ROW.yaml'")
 
 
-def refused_on_a_row(planner, allocation, options_file, time_limit, gantry=None) -> list[str]:
-    """What ``coplan solve`` on a row refuses of its options, each with why (empty: none);
+def refused_on_a_row(planner, allocation, options_file, time_limit, gantry=None) -> tuple[list[str], list[str]]:
+    """What ``coplan solve`` on a row refuses of its options: ``(options, why)``, the options'
+    names (a usage error's JSON ``path``) and each refusal with why (both empty: none);
     ``gantry``: the mode asked for (on the move no cell planner applies)."""
     cell_only = [o for o, given in (("--allocation", allocation is not None), ("--options", options_file is not None),
                                     ("--time-limit", time_limit is not None)) if given]
     heuristic = ("--planner heuristic: on the move the row books its own coordinated moves; the cell planners apply "
                  "to stop and go" if gantry == GantryMode.CONTINUOUS else
                  "--planner heuristic plans a cell, not a row's stops (coordinated or optimal do)")
-    return ([f"{', '.join(cell_only)} {'is' if len(cell_only) == 1 else 'are'} for a stationary cell"] if cell_only else []) \
+    return cell_only + (["--planner"] if planner == PlannerKind.HEURISTIC else []), \
+        ([f"{', '.join(cell_only)} {'is' if len(cell_only) == 1 else 'are'} for a stationary cell"] if cell_only else []) \
         + ([heuristic] if planner == PlannerKind.HEURISTIC else [])
 
 
