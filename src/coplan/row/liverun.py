@@ -16,7 +16,7 @@ from ..allocate.screen import TIP_TOLERANCE
 from ..kinds import GantryMode
 from ..plan import DEFAULT_RATE, EventKind
 from ..problem.model import Fruit, Problem
-from .booking import Booker
+from .booking import PATIENCE, Booker
 from .policy import run_policy
 from .cruise import Cruise, pick_windows
 from .reach import robust_end, row_reach
@@ -55,12 +55,19 @@ class LiveRun:
         self.holds: list[dict] = []  # on the move: where the carriage held for fruit
         self.ends: dict[tuple[str, int], int | None] = {}  # (report, arm) -> robust_end at the rail's end
         self.deadlined: set[tuple[str, int]] = set()  # (report, arm) whose window at rest has a twin with a deadline
+        # (report, arm) -> when a try found no clear cycle in the window (the neighbours' booked
+        # motion in the way until it closed), on the carriage's motion as now decided: a hold
+        # changes the windows, and these are forgotten (:meth:`set_cruise`)
+        self.refused: dict[tuple[str, int], float] = {}
+        self.waited: set[tuple[str, int]] = set()  # (report, arm) an arm waited on for a hold (:func:`coplan.row.live`)
         orig = self.booker.plan_cycle
 
-        def timed(*a, **k):  # every decision's wall time (a decision is one or more cycle attempts)
+        def timed(i, fid, w, t_from, tuck=False):  # every decision's wall time (a decision is one or more cycle attempts)
             t = _time.perf_counter()
-            out = orig(*a, **k)
+            out = orig(i, fid, w, t_from, tuck)
             self.walls.append(_time.perf_counter() - t)
+            if out is None and t_from + PATIENCE >= w.hi:  # (every pick time left in the window tried)
+                self.refused[(fid, i)] = t_from
             return out
 
         self.booker.plan_cycle = timed
@@ -81,6 +88,8 @@ class LiveRun:
     def set_cruise(self, cruise: Cruise, since: float = -math.inf) -> None:
         """The carriage's motion as now decided; the reports' times follow from it (those seen
         before ``since`` keep theirs), and so do the pick windows."""
+        self.refused.clear()
+        self.waited.clear()
         times = report_times(list(self.reports.values()), cruise, self.dark)
         self.seen = {k: (self.seen[k] if self.seen.get(k, math.inf) < since else t) for k, t in times.items()}
         self.booker.cruise = cruise

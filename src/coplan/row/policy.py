@@ -21,7 +21,8 @@ _GIVE_UP = 3  # decisions without a clear cycle on one fruit, the carriage at re
 
 def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=None, on_book=None,
                halt: dict[int, float] | None = None, delay=None, until: float | None = None,
-               taken: set[str] | None = None, make_way: bool = False, explain: bool = True) -> dict[str, str]:
+               taken: set[str] | None = None, make_way: bool = False, explain: bool = True,
+               wait_on=None) -> dict[str, str]:
     """Book cycles in time order (module docstring; each cycle by :class:`Booker`); returns fruit left out -> why
     (``explain=False``: an empty mapping, for a phase whose caller goes on booking -- a live row's
     phases asked why for every fruit not yet booked, ahead of the carriage too). ``order``:
@@ -44,7 +45,12 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
     before it tries again (with the carriage at rest, two arms each resting where the other
     would pick would otherwise wait for each other for good). An arm a probe left where it found
     nothing (``probe_rests``) decides its next move at once: a cycle from there, else back to its
-    bin (an arm held out over its neighbours' fruit would block them)."""
+    bin (an arm held out over its neighbours' fruit would block them). ``wait_on(arm, fruit, now)``
+    -> seconds the arm waits, rather than try its next fruit, where its try on ``fruit`` found no
+    clear cycle (0: it goes on): a live row on the move says so for a fruit no other arm can take
+    any more; the arm then tries it with its ways tucked (as :func:`_tucked` at the rail's end)
+    and, if that finds no clear cycle either, waits for the decision to hold the carriage -- a
+    cycle booked on another fruit would put the hold off past the fruit's window (:mod:`coplan.row.live`)."""
     windows = booker.windows
     taken = taken if taken is not None else set()
     arms = booker.problem.arms
@@ -107,6 +113,7 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
             continue
         tries, given = _tries(cands, pending[i], now, n_arms_of)
         booked = stopped = False
+        waits = 0.0
         for fid, w in tries:
             if on_book is not None and not on_book(i, fid, now):
                 taken.add(fid)  # vetoed for good (not harvested: left out with the veto's reason)
@@ -119,6 +126,17 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
                 take(i, cyc)
                 booked = True
                 break
+            if wait_on is not None and (waits := wait_on(i, fid, now)) > 0:
+                # the fruit's last chance: its ways there and back tucked (:func:`_tucked`), else the wait
+                cyc = booker.plan_cycle(i, fid, w, now, tuck=True)
+                if cyc is not None and not booker.moves_after_halt(i, cyc.k0, cyc.q):
+                    take(i, cyc)
+                    booked, waits = True, 0.0
+                break
+        if waits > 0:
+            booker.wait(i, waits)
+            heapq.heappush(queue, (booker.free_time(i), i))
+            continue
         if stopped:
             booker.arms[i].done = True  # it stays where it rests
             continue
