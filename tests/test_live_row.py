@@ -459,6 +459,30 @@ def test_coplan_run_on_a_row_refuses_the_cell_options_by_name(tmp_path):
                                    "-o", str(tmp_path / "x")])
     assert res.exit_code == 2 and "--animate, --horizon: sparse-row is a row" in res.output
     assert "Traceback" not in res.output and not (tmp_path / "x").exists()
+    # (the hint on the executed plan's animation followed --horizon alone too)
+    res = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["run", "sparse_row", "--speed", "0.3", "--horizon", "5",
+                                                         "-o", str(tmp_path / "x")])
+    assert res.exit_code == 2 and "this applies to a stationary cell's live run" in res.output
+    assert "coplan animate" not in res.output
+
+
+def test_live_row_options_say_where_the_speed_auto_takes_comes_from():
+    """(``LiveRowOptions(speed="auto")`` said only "expected a positive number".)"""
+    from coplan.errors import OptionsError
+
+    with pytest.raises(OptionsError, match=r"found 'auto'.*coplan\.row\.moving\.live_speed\(problem\)"):
+        LiveRowOptions(speed="auto")
+
+
+def test_a_late_decision_that_holds_an_arm_past_the_row_is_said_as_such(tmp_path):
+    """(``--late-replan 3600``: the executed plan lasts an hour, which the summary put down to "the
+    carriage's way to the rail's end, the arms' way home".)"""
+    res = CliRunner(env={"COLUMNS": "400"}).invoke(app, ["run", "sparse_row", "--speed", "0.3", "--late-replan", "3600",
+                                                         "-o", str(tmp_path / "x")])
+    run = json.loads((tmp_path / "x" / "run.json").read_text())
+    late = run["metrics"]["faults"]["late_replan"]
+    assert res.exit_code in (0, 5), res.output
+    assert f"(a late decision held {late['arm']} until {late['waits_until']:.1f} s)" in " ".join(res.output.split())
 
 
 def test_a_missed_fruit_s_reason_names_the_fruit_not_only_the_report(row):
@@ -1144,6 +1168,24 @@ def test_an_arm_stop_on_the_move_takes_back_the_cycles_not_yet_under_way_and_slo
     assert res.verification.passed and res.metrics["missed_reachable_by_a_working_arm"] == []
     assert log["decided_again"] and log["carriage_slows_at"] == pytest.approx(log["t"], abs=0.011)
     assert all(v == "harvested" for v in res.outcome.values()), {k: v for k, v in res.outcome.items() if v != "harvested"}
+
+
+def test_an_arm_stop_while_the_carriage_holds_has_it_leave_the_hold_at_the_slower_speed():
+    """(From a new user's trial: ``coplan run sparse_row --speed 0.3 --arm-stop --camera-dark 3
+    --false-burst 50 --late-replan 2 --seed 4``: arm2 stopped at 113.78 s, 11 s into a 20 s hold
+    for fruit; the carriage left the hold up to 0.3 m/s, then slowed to 0.1 m/s at 123.66 s -- the
+    change waited for cruising speed.) The carriage at rest when an arm stops leaves at the slower
+    speed: never faster than it after the stop, its motion before unchanged, verified."""
+    from coplan.problem import load_problem, shipped_rows
+
+    row = load_problem(next(p for p in shipped_rows() if p.stem == "sparse_row"))
+    res = run_live_row(row, LiveRowOptions(speed=0.3, seed=4, faults=RowFaults(arm_stop=True, camera_dark=3.0,
+                                                                               false_burst=50, late_replan=2.0)))
+    log, p = res.metrics["faults"]["arm_stop"], res.plan
+    assert log["carriage_at_rest_at"] == pytest.approx(log["t"], abs=0.011) and log["to_speed"] == pytest.approx(0.1)
+    speed = np.diff(p.gantry_x) / np.diff(p.time)
+    assert speed[p.time[1:] > log["t"]].max() <= 0.1 + 1e-9 < speed[p.time[1:] <= log["t"]].max()
+    assert res.verification.passed and res.metrics["missed_reachable_by_a_working_arm"] == []
 
 
 def test_a_cycle_under_way_or_followed_by_more_bookings_is_never_taken_back():

@@ -485,7 +485,7 @@ task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
     moving = plan_moving(prob, MovingOptions(profile="constant", level=0.1))
     assert moving.verification.passed
     why = moving.info["left_out"].get("p03")
-    assert why is not None and "big free all that time: no cycle fitted" in why and "--gantry stop-and-go or auto" in why
+    assert why is not None and "big free all that time: no cycle fitted" in why and "--gantry stop-and-go, picks every fruit at rest" in why
     assert "first pick" not in why and "waiting for a neighbour" not in why
     stop = plan_row(prob)
     assert stop.verification.passed and "p03" in {e.fruit for e in stop.plan.events}

@@ -114,11 +114,11 @@ def run_cmd(
                                              help="A row: false reports at one drawn instant, within the camera's view.")] = 0,
     late_replan: Annotated[float, typer.Option("--late-replan", parser=real, metavar="<float>", callback=between(0.0, 3600.0, "s"),
                                                help="A row: seconds one decision (at a drawn time) runs late.")] = 0.0,
-    animate: Annotated[bool, typer.Option("--animate", help="Also write live.gif: fruit appearing, re-plans, misses.")] = False,
+    animate: Annotated[bool, typer.Option("--animate", help="A cell: also write live.gif: fruit appearing, re-plans, misses.")] = False,
     seed: Annotated[int, typer.Option(parser=whole, metavar="<int>", callback=between(0), help="Seed of the simulation: a cell's close-range measurements; a row's "
                                       "camera reports, faults and close-range measurements.")] = 0,
-    horizon: Annotated[float, typer.Option(parser=real, metavar="<float>", callback=between(0.0, 10.0, "s", above=True), help="Commit horizon, s (at least the re-planning latency).")] = 0.1,
-    all_candidates: Annotated[bool, typer.Option("--all-candidates", help="Every re-plan tries every candidate plan, "
+    horizon: Annotated[float, typer.Option(parser=real, metavar="<float>", callback=between(0.0, 10.0, "s", above=True), help="A cell: commit horizon, s (at least the re-planning latency).")] = 0.1,
+    all_candidates: Annotated[bool, typer.Option("--all-candidates", help="A cell: every re-plan tries every candidate plan, "
                                                  "not only those its work budget allows (100 conflict checks).")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the metrics as JSON.")] = False,
 ):
@@ -133,8 +133,10 @@ def run_cmd(
         cell_only = [name for name, given in (("--animate", animate), ("--horizon", horizon != 0.1),
                                               ("--all-candidates", all_candidates)) if given]
         if cell_only:
-            usage(f"{', '.join(cell_only)}: {prob.name} is a row (it has a gantry section); these apply to a stationary "
-                  "cell's live run (a row's executed plan: coplan animate or coplan view on the plan.json it writes)")
+            usage(f"{', '.join(cell_only)}: {prob.name} is a row (it has a gantry section); "
+                  f"{'this applies' if len(cell_only) == 1 else 'these apply'} to a stationary cell's live run"
+                  + (" (a row's executed plan is animated by coplan animate, or seen in coplan view, on the plan.json "
+                     "it writes)" if animate else ""))
 
         faults = RowFaults(arm_stop, camera_dark, false_burst, late_replan)
         return _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, duplicate_rate, seed, as_json, faults)
@@ -226,7 +228,9 @@ def _print_cell_run(prob, m: dict, horizon: float, all_candidates: bool, result,
            f"no throughput to compare)\n") +
         f"{m['replans']} re-plans, latency median {1000 * (m['latency_median'] or 0):.1f} ms, p95 "
         f"{1000 * (lat or 0):.1f} ms, max {1000 * (m['latency_max'] or 0):.1f} ms; false detections "
-        f"{m['false_detections']}: {m['false_picks_avoided']} dropped at close range, {m['false_unreachable']} out of "
+        f"{m.get('false_reports', m['false_detections'])}"
+        + (f" ({m['false_reports_merged']} merged into a real fruit's track)" if m.get("false_reports_merged") else "")
+        + f" in {m['false_detections']} false tracks: {m['false_picks_avoided']} dropped at close range, {m['false_unreachable']} out of "
         f"reach, {m['false_picks']} picked; unreachable detections "
         f"{len(m['unreachable_detections'])}\n"
         + (f"[yellow]{m['late_replans']} of {m['replans']} re-plans took longer than the commit horizon "
@@ -374,7 +378,10 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         if m["last_place"] is not None and m["row_time"] > m["last_place"] + 0.5:  # probes after the last fruit placed
             ratio += f" (the last fruit placed at {m['last_place']:.1f} s, then probes of false or repeated reports)"
         if m["plan_seconds"] > m["row_time"] + 60.0:  # an arm held long after the work (a late decision)
-            ratio += f"; the executed plan lasts {m['plan_seconds']:.1f} s (the carriage's way to the rail's end, the arms' way home)"
+            late = ((m.get("faults") or {}).get("late_replan") or {})
+            why = (f"a late decision held {late['arm']} until {late['waits_until']:.1f} s" if "waits_until" in late
+                   and late["waits_until"] > m["row_time"] else "the carriage's way to the rail's end, the arms' way home")
+            ratio += f"; the executed plan lasts {m['plan_seconds']:.1f} s ({why})"
         cycle = ("no cycle" if m["shortest_cycle_seconds"] is None else
                  f"a shortest cycle of {m['shortest_cycle_seconds']:.2f} s")
         cells = m.get("cell_decisions") or []

@@ -272,7 +272,10 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
         "pick_success_rate": harvested / reachable if reachable else None,
         "makespan": makespan, "throughput": harvested / makespan if makespan > 0 else 0.0,
         "grasps_on_nothing": len(grasped_nothing),
-        "false_detections": len(false_tracks),
+        "false_detections": len(false_tracks),  # (tracks of false detections alone: what the arms could be sent to)
+        "false_reports": sum(1 for f in det_fruit.values() if f is None),  # (the feed's false detections, each report)
+        "false_reports_merged": sum(1 for tr in cell.tracks.values() if tr not in false_tracks
+                                    for d in tr.detections if det_fruit.get(d) is None),  # (into a real fruit's track)
         "false_picks_avoided": sum(tr.state == TrackState.DROPPED for tr in false_tracks),
         "false_picks": sum(1 for tr in false_tracks if tr.id in unknown),
         "false_unreachable": sum(tr.state == TrackState.UNREACHABLE for tr in false_tracks),  # (never tried: out of reach)

@@ -92,8 +92,8 @@ STOP_SLOWDOWN = 0.5
 STOPPED_CAUTION = 2
 #: On the move, holding for fruit: the planner looks every CHECK s at the fruit whose windows close
 #: within LOOK s; one no working arm is free to reach (REACH_TIME s) before its window closes holds the
-#: carriage HOLD_PER_FRUIT s per such fruit, shared by the working arms (at least HOLD_MIN s, at most
-#: HOLD_MAX s); a report holds the carriage HOLDS_PER_REPORT times at most (a burst of false reports
+#: carriage HOLD_PER_FRUIT s per such fruit, shared by the working arms, or as long as the check
+#: found the latest of them late if that is longer (at least HOLD_MIN s, at most HOLD_MAX s); a report holds the carriage HOLDS_PER_REPORT times at most (a burst of false reports
 #: costs some holds, not one per report and per look). Looking 30 s ahead with up to 6 holds a
 #: report (was 8 s and 2): at the speed the offline search chooses, a 50-report false burst on
 #: sparse_row (seeds 0-9) and course_row (0-6) and six_arm_row (0-1) left 62 fruit a working arm
@@ -260,6 +260,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
     n = len(problem.arms)
     holds: list[dict] = []
     held_for: dict[str, int] = {}  # report -> holds the carriage made for it
+    short: dict[str, float] = {}  # report at risk -> how late its estimated pick is for its window, s
     first = cruise.leaves_start if math.isfinite(cruise.leaves_start) else 0.0  # (a rest where it starts, kept by every change)
     # the end of the last hold for fruit decided: no other is decided before it (each check until
     # then saw the same fruit at risk and queued one more hold behind it -- 40 holds decided at
@@ -267,12 +268,36 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
     # the last fruit was placed); after it the check looks again, on the windows the hold opened
     held_until = -math.inf
 
+    def _slow_at_once(t_s: float) -> bool:
+        """After an arm stop, the carriage at rest at ``t_s`` (where it starts, or in a hold) or on
+        its way down to it leaves at the slower speed (it went up to its cruising speed first, then
+        slowed: ``--arm-stop --camera-dark 3``, sparse_row at 0.3 m/s, seed 4, an arm stopped 9 s
+        into a 20 s hold and the carriage reached 0.3 m/s before it slowed to 0.1): the motion up to
+        ``t_s`` is kept exactly, only what follows the rest changes. False where that would change
+        the motion before ``t_s`` (the carriage cruising or on its way up: the change then begins
+        at cruising speed, as any other)."""
+        nonlocal cruise, stretches
+        slow = opts.speed * STOP_SLOWDOWN * (n - len(halt)) / n
+        if slow <= 0 or t_s >= cruise.duration:
+            return False
+        wanted = stretches[:-1] + [(math.inf, slow)]
+        new = Cruise.shaped(problem, wanted, g.end, first)
+        ts = np.append(np.linspace(0.0, t_s, 2001), t_s)
+        if any(float(np.max(np.abs(a - b))) > 1e-9 for a, b in zip(new.state(ts), cruise.state(ts))):
+            return False
+        stretches, cruise = wanted, new
+        faults.log["arm_stop"].update({"carriage_at_rest_at": round(t_s, 3), "to_speed": round(slow, 6)})
+        run.set_cruise(cruise, since=t_s)
+        return True
+
     def change(kind: str, t_c: float, risk: list[tuple[str, float]] | None = None) -> None:
         nonlocal cruise, stretches, held_until
         if kind == "arm_stop" and (back := _take_back_unstarted(run, halt, t_c)):
             faults.log["arm_stop"]["decided_again"] = back
         t_s = max([t_c] + run.pick_ends())
         v = stretches[-1][1]
+        if kind == "arm_stop" and _slow_at_once(t_s):
+            return
         # a change begins at cruising speed: past any ramp or hold under way (or the carriage is stopping anyway)
         while t_s < cruise.duration and abs(float(cruise.state(np.array([t_s]))[1][0]) - v) > 1e-9:
             t_s += run.booker.dt
@@ -298,7 +323,10 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
             if t_s + stop >= max(hi for _, hi in risk):
                 return  # too late to help any of them
             working = n - sum(1 for t in halt.values() if t <= t_c)
-            hold = min(HOLD_MAX, max(HOLD_MIN, HOLD_PER_FRUIT * len(risk) / max(working, 1)))
+            # (at least as long as the check found the latest of them late: with an arm stopped, 1.5-3 s
+            # holds for a backlog of several seconds left the fruit at risk each time until a hold came too late)
+            hold = min(HOLD_MAX, max(HOLD_MIN, HOLD_PER_FRUIT * len(risk) / max(working, 1),
+                                     max(short.get(f, 0.0) for f, _ in risk)))
             for f, _ in risk:
                 held_for[f] = held_for.get(f, 0) + 1
             stretches = stretches[:-1] + [(x_s, v, hold), (math.inf, v)]
@@ -346,6 +374,9 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
                 avail[a] = t_p + back
             elif held_for.get(f, 0) < HOLDS_PER_REPORT * caution:
                 out.append((f, hi))
+                late = [max(avail[w.arm], w.lo - reach_time) + reach_time - (w.hi - SLACK) for w in wk
+                        if (f, w.arm) not in run.refused]
+                short[f] = min(late, default=0.0)
         return out
 
     def wait_on(i: int, f: str, now: float) -> float:

@@ -237,8 +237,8 @@ def why_left(booker: Booker, fid: str, halt: dict[int, float]) -> str:
         return (f"{fid}: passed {arm}'s reach at t = {w.hi:.1f} s, {max(w.hi - w.lo, 0.0):.1f} s after it came into "
                 f"reach, {arm} free all that time: no cycle fitted -- its direct moves between its bin and the fruit "
                 f"come within the clearance of a neighbour, or past a limit, at every start tried (an arm tucks round a "
-                f"neighbour, as the stop-and-go cell planner does, only once the carriage is at rest at the rail's end: "
-                f"--gantry stop-and-go or auto)")
+                f"neighbour, as the stop-and-go cell planner does, only once the carriage is at rest at the rail's end; "
+                f"stop and go, --gantry stop-and-go, picks every fruit at rest)")
     doing = "held: no cycle fitted before the window closed (a neighbour in the way, or a limit)"
     for e in busy:
         if e.t_start <= w.hi <= e.t_end + 1.5:

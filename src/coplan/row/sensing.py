@@ -108,6 +108,10 @@ class LiveRowOptions:
             "expected continuous or stop-and-go for a live row (a live planner runs one mode), found auto"
             if self.mode == GantryMode.AUTO.value else
             f"expected one of {', '.join(repr(m) for m in live)} for a live row, found {self.mode!r}"))]
+        if isinstance(self.speed, str) and self.speed.strip().lower() == "auto":  # (the CLI's word: said where to find it)
+            raise OptionsError(mode + [Issue("speed", "expected a cruising speed in m/s, found 'auto': the speed `coplan "
+                                                       "run --speed auto` takes is coplan.row.moving.live_speed(problem)[0]")],
+                               "LiveRowOptions")
         check_fields(self, {'look_ahead', 'speed'}, found=mode)  # built in Python: every value checked (OptionsError: what was expected, found)
         issues = [Issue(name, f"expected a share of the fruit from 0 to 1, found {getattr(self, name):g}")
                   for name in ("false_rate", "duplicate_rate") if getattr(self, name) > 1.0]
