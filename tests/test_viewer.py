@@ -155,6 +155,42 @@ def test_compare_needs_a_plan_of_the_same_problem(greenhouse):
         render_html(prob, coord.plan, other)
 
 
+def test_a_plan_drawn_over_an_edited_problem_shows_that_problem_s_bound_not_the_file_s(greenhouse, tmp_path):
+    """(From a new user's trial: a plan viewed with ``-p`` an edited problem -- slower shoulders --
+    showed the lower bound its file recorded, 12.883 s, where the problem's is 14.061 s.) A plan
+    planned from this very text keeps its own bound; drawn over another text, the page gives that
+    problem's bound and reachable count."""
+    from coplan.allocate.allocation import bound_details
+    from coplan.viz.viewer import viewer_data
+
+    prob, coord, _ = greenhouse
+    out = tmp_path / "run"
+    res = coplan.solve(GREENHOUSE, planner="coordinated", out_dir=out)
+    own = viewer_data(prob, [res.plan])
+    assert own["plans"][0]["lower_bound"] == pytest.approx(res.plan.metrics["lower_bound"])
+    slow_text = GREENHOUSE.read_text().replace("max_velocity: [3.0, 4.0]", "max_velocity: [2.0, 4.0]")
+    assert slow_text != GREENHOUSE.read_text()
+    (tmp_path / "slow.yaml").write_text(slow_text)
+    slow = load_problem(tmp_path / "slow.yaml")
+    data = viewer_data(slow, [res.plan])
+    assert data["lower_bound"] == data["plans"][0]["lower_bound"] == pytest.approx(bound_details(slow).value)
+    assert data["lower_bound"] > res.plan.metrics["lower_bound"] + 1.0
+
+
+def test_an_acceleration_step_is_unbounded_jerk_on_the_page_and_its_size_in_rad_s2(greenhouse):
+    """(From a new user's trial: beside the heuristic's violations the page said "RMS / peak jerk
+    left 62 / 1051 rad/s^3", where the summary, compare and coplan verify say its jerk is
+    unbounded, and gave an acceleration step's size and limit in rad/s^3.)"""
+    from coplan.viz.viewer import viewer_data
+
+    prob, _, heur = greenhouse
+    pl = viewer_data(prob, [heur.plan])["plans"][0]
+    steps = heur.verification.acceleration_steps()
+    assert steps and {a for a, j in pl["verdict"]["jerk"].items() if j["unbounded"]} == set(steps)
+    stepped = [v for v in pl["violations"] if v["step"]]
+    assert stepped and all("acceleration discontinuity" in v["message"] for v in stepped)
+
+
 def test_view_of_a_plan_json_takes_its_recorded_problem_file_only_while_unchanged(tmp_path):
     """``coplan.view(plan.json)`` finds the problem file the plan records; once that file has
     changed it says so (pass the problem) rather than show the shipped problem of the same name,

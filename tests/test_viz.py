@@ -311,6 +311,19 @@ def test_frame_shows_phases_counts_and_collisions(greenhouse, hplan, crowded):
 
 
 # --------------------------------------------------------------------------- CLI
+@pytest.mark.parametrize("command, suffix", [(["plot", "--kind", "gantt"], ".png"), (["plot", "--kind", "clearance"], ".png"),
+                                             (["view"], ".html"), (["animate"], ".gif")])
+def test_a_plan_of_another_problem_is_refused_as_bad_input_by_every_figure_command(tmp_path, saved, command, suffix):
+    """(From a new user's trial: ``coplan plot greenhouse's plan.json -p dense_overlap`` ended in
+    "internal error (ValueError)", exit 1, while view and animate drew it: the arm names match,
+    the fruit do not.) Each refuses it, exit 3, naming the file and what does not fit."""
+    runner = CliRunner(env={"COLUMNS": "300", "COPLAN_DEBUG": None})
+    out = tmp_path / f"x{suffix}"
+    res = runner.invoke(app, [command[0], str(saved["greenhouse"]), "-p", "dense_overlap", *command[1:], "--out", str(out)])
+    assert res.exit_code == 3 and "does not fit problem 'dense-overlap'" in res.output, res.output
+    assert "fruit the problem does not have" in res.output and "internal error" not in res.output and not out.exists()
+
+
 @pytest.mark.parametrize("kind", ["gantt", "clearance", "joints", "workspace"])
 def test_cli_plot_each_kind(tmp_path, saved, kind):
     out = tmp_path / f"{kind}.png"

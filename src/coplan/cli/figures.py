@@ -75,9 +75,10 @@ def problem_of_plan(plan, plan_path: Path, problem: Optional[Path]):
 
 
 def plan_with_problem(plan_path: Path, problem: Optional[Path]):
-    """Load a plan.json and its problem (:func:`problem_of_plan`); a plan whose arms are not the
-    problem's is refused, and a plan that declares no events (a plan.csv) has them inferred."""
-    from ..plan import load_plan
+    """Load a plan.json and its problem (:func:`problem_of_plan`); a plan that does not fit the
+    problem (:func:`coplan.plan.fit_issue`: its arms, a row's or a cell's, its fruit) is refused,
+    and a plan that declares no events (a plan.csv) has them inferred."""
+    from ..plan import fit_issue, load_plan
 
     plan = load_plan(plan_path)
     prob = problem_of_plan(plan, plan_path, problem)
@@ -100,6 +101,10 @@ def plan_with_problem(plan_path: Path, problem: Optional[Path]):
         plan = replace(plan, events=infer_events(prob, plan, arm_motions(prob, plan)))
         _err.print(f"[yellow]note[/]: {_s(plan_path)} declares no picks or places: {len(plan.events)} inferred "
                           "from its motion, as `coplan verify` does")
+    bad = fit_issue(prob, plan)  # (a row's plan over a cell, or picks of fruit the problem lacks: `coplan plot` ended
+    if bad:                      # in "internal error", view and animate drew it)
+        fail(ExitCode.BAD_INPUT, f"{plan_path} does not fit problem {prob.name!r}" + (f" ({prob.source})" if prob.source else "")
+             + f": {bad}")
     return prob, plan
 
 

@@ -10,7 +10,7 @@ file (checked, every problem named by its key path) in :mod:`coplan.plan.files`.
 
 from .files import exact_samples, load_plan, plan_from_dict, time_grid_issues
 from .model import (DEFAULT_RATE, MAX_PLAN_ANGLE, MAX_PLAN_BYTES, MAX_PLAN_COORD, PLAN_FORMAT, Event, EventKind, Piece,
-                    Plan, PlannerKind, PlanStatus, checked_status, compute_metrics, finalize_plan, finer_grid, jerk_figures,
+                    Plan, PlannerKind, PlanStatus, checked_status, compute_metrics, fit_issue, finalize_plan, finer_grid, jerk_figures,
                     jsonable, motion_digest, on_lattice, sample_pieces)
 
 __all__ = [
@@ -30,6 +30,7 @@ __all__ = [
     "compute_metrics",
     "jerk_figures",
     "checked_status",
+    "fit_issue",
     "motion_digest",
     "finalize_plan",
     "load_plan",

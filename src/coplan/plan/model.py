@@ -420,6 +420,25 @@ def jerk_figures(plan: Plan) -> dict[str, dict[str, float]]:
     return out
 
 
+def fit_issue(problem, plan: Plan) -> str | None:
+    """Why ``plan`` is not a plan of ``problem`` (None: it fits): other arms, a row's plan over a
+    cell or a cell's over a row, or picks of fruit the problem does not have. The figures, the
+    viewer and the CLI's plan commands refuse a plan drawn over another problem so (a row's plan
+    over a cell of the same arm names showed -0.08 m "collisions")."""
+    names = [a.name for a in problem.arms]
+    if sorted(plan.q) != sorted(names):
+        return f"expected the problem's arms {names}, found {list(plan.q)}"
+    row_plan = getattr(plan, "gantry_x", None) is not None
+    if row_plan != (problem.gantry is not None):
+        return ("the plan is a row's (its carriage moves), and problem {0!r} is a cell" if row_plan else
+                "the plan is a cell's (no carriage), and problem {0!r} is a row").format(problem.name)
+    ids = {f.id for f in problem.fruits}
+    other = sorted({e.fruit for e in plan.events if e.fruit not in ids})
+    if other:
+        return f"it picks fruit the problem does not have ({', '.join(other[:5])}{', ...' if len(other) > 5 else ''})"
+    return None
+
+
 def checked_status(status: PlanStatus, verification) -> PlanStatus:
     """The status a plan (its file) claims, held to a verifier's verdict: a solver failure, an
     interruption or nothing to plan stays as it is; otherwise unsafe where the verdict fails,

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ..output import folder_path
-from ..plan import EventKind, Plan
+from ..plan import EventKind, Plan, fit_issue
 from ..problem.model import Arm, Problem
 from .style import ALERT_COLOR, FRUIT_COLOR, LIMIT_COLOR, arm_colors, pair_label
 from .timeline import ArmPhase, joint_derivatives, limit_tolerance, pair_clearance, schedule
@@ -68,24 +68,12 @@ def _as_plans(problem: Problem, plans, what: str) -> dict[str, Plan]:
         plans = dict(plans)
     else:
         raise TypeError(f"{what}: expected a Plan, a SolveResult or a mapping label -> Plan, found {type(plans).__name__}")
-    names = [a.name for a in problem.arms]
     for label, plan in plans.items():
         if not isinstance(plan, Plan):
             raise TypeError(f"{what}: expected a Plan for {label!r}, found {type(plan).__name__}")
-        if sorted(plan.q) != sorted(names):
-            raise ValueError(f"{what}: plan {label!r} does not fit problem {problem.name!r}: expected the problem's arms "
-                             f"{names}, found {list(plan.q)}")
-        # (a row's plan drawn over a cell of the same arm names showed -0.08 m "collisions")
-        row_plan = getattr(plan, "gantry_x", None) is not None
-        if row_plan != (problem.gantry is not None):
-            kind = ("a row's (its carriage moves), and problem {0!r} is a cell" if row_plan else
-                    "a cell's (no carriage), and problem {0!r} is a row").format(problem.name)
-            raise ValueError(f"{what}: plan {label!r} does not fit problem {problem.name!r}: the plan is {kind}")
-        ids = {f.id for f in problem.fruits}
-        other = sorted({e.fruit for e in plan.events if e.fruit not in ids})
-        if other:
-            raise ValueError(f"{what}: plan {label!r} does not fit problem {problem.name!r}: it picks fruit the problem "
-                             f"does not have ({', '.join(other[:5])}{', ...' if len(other) > 5 else ''})")
+        bad = fit_issue(problem, plan)
+        if bad:
+            raise ValueError(f"{what}: plan {label!r} does not fit problem {problem.name!r}: {bad}")
     return plans
 
 

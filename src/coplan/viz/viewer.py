@@ -297,8 +297,11 @@ def _clearance(problem: Problem, plan: Plan, times: np.ndarray, rate: float) -> 
 
 
 def _violations(ver) -> list[dict]:
+    """The verdict's violations for the page's table; ``step``: an acceleration step (its value and
+    limit are accelerations, rad/s^2: the table said rad/s^3 beside them)."""
     keys = ("t", "t_start", "t_end", "value", "limit", "amount", "joint", "fruit", "message")
-    return [{"kind": v.kind.value, "arms": list(v.arms)} | {k: getattr(v, k) for k in keys} for v in ver.violations]
+    return [{"kind": v.kind.value, "arms": list(v.arms), "step": bool(v.step)} | {k: getattr(v, k) for k in keys}
+            for v in ver.violations]
 
 
 def _row_headline(plan: Plan, m: dict) -> dict | None:
@@ -327,7 +330,17 @@ def _harvested(metrics: dict, ver) -> int | None:
     return max(0, min(int(got), int(reach) - len(ver.unharvested)) - len(missed))
 
 
-def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: float | None) -> dict:
+def _own_bound(problem: Problem, plan: Plan) -> float | None:
+    """``plan``'s recorded lower bound where it was planned from ``problem``'s own text (its
+    ``problem_file`` digest is the problem's); else None: the bound is the problem's."""
+    rec = plan.problem_file or {}
+    if problem.digest is None or rec.get("sha256") != problem.digest:
+        return None
+    return (plan.metrics or {}).get("lower_bound")
+
+
+def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: float | None,
+               own_bound: float | None = None) -> dict:
     names = [a.name for a in problem.arms]
     times, rate = _display_times(plan, rate)
     samples = plan.sample(times)
@@ -341,6 +354,7 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
     segs = schedule(plan)
     pairs = [tuple(p) for p in ([problem.arms[i].name, problem.arms[j].name] for i, j in problem.neighbour_pairs())]
     m = plan.metrics or {}
+    steps = ver.acceleration_steps()
     pair_stats = [{"arms": list(p.arms), "min": p.min_clearance, "t": p.t, "certified": p.certified,
                    "margin": p.certified - ver.required_clearance} for p in ver.pairs]
     return {
@@ -350,9 +364,10 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
         "duration": plan.duration,
         # (the motion's, as the verifier measures it: an edited file's "5 s" read x0.388 of the lower bound)
         "makespan": ver.measured.get("makespan", max((e.t_end for e in plan.events if e.kind == EventKind.PLACE), default=0.0)),
-        "lower_bound": m.get("lower_bound") if m.get("lower_bound") is not None else lower_bound,
+        "lower_bound": own_bound if own_bound is not None else lower_bound,
         "harvested": _harvested(m, ver),
-        "reachable": m.get("reachable"),
+        # (the problem's where the plan is drawn over another text of it, a cell's; a row's is its screen's, as recorded)
+        "reachable": m.get("reachable") if own_bound is not None or problem.gantry is not None else len(problem.reachable_ids()),
         "display": {"rate": rate, "n": int(times.size), "q": _encode(track, "<f4")},
         "gantry": None if plan.gantry_x is None else _encode(np.interp(times, plan.time, plan.gantry_x), "<f4"),
         "exact": {"dt": plan.dt, "n": int(plan.time.size)} | exact_entry,
@@ -377,7 +392,10 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
             "required_clearance": ver.required_clearance,
             "margin": ver.margin,
             "pairs": pair_stats,
-            "jerk": {a: {"rms": v.get("rms_jerk"), "peak": v.get("peak_jerk")} for a, v in (m.get("per_arm") or {}).items()},
+            # (an arm whose acceleration steps has no finite jerk: the page said "62 / 1051" where the
+            # summary, compare and coplan verify say unbounded)
+            "jerk": {a: {"rms": v.get("rms_jerk"), "peak": v.get("peak_jerk"), "unbounded": a in steps}
+                     for a, v in (m.get("per_arm") or {}).items()},
             "warnings": len(ver.warnings),
         },
         "violations": _violations(ver),
@@ -398,7 +416,12 @@ def viewer_data(problem: Problem, plans: list[Plan], verifications: list | None 
         _check_fits(problem, p, f"plan {k + 1} ({p.planner_name})")
     vers = list(verifications) if verifications is not None else [None] * len(plans)
     vers = [v if v is not None else verify(problem, p) for p, v in zip(plans, vers)]
-    bound = next((p.metrics.get("lower_bound") for p in plans if (p.metrics or {}).get("lower_bound") is not None), None)
+    # a plan's own bound where it was planned from this very problem text; else the problem's
+    # (a plan drawn over an edited problem showed the bound its file recorded: 12.883 s where the
+    # problem's, slower joints, is 14.061 s)
+    own = [_own_bound(problem, p) for p in plans]
+    plans_bound = [b for b in own if b is not None]
+    bound = plans_bound[0] if plans_bound else None
     if bound is None and problem.gantry is not None:  # a row plan from elsewhere (a live run's): the row's bound
         from ..allocate.row_bound import row_bounds
 
@@ -410,7 +433,7 @@ def viewer_data(problem: Problem, plans: list[Plan], verifications: list | None 
     return {
         "format": VIEWER_FORMAT,
         "problem": _problem_data(problem, plans),
-        "plans": [_plan_data(problem, p, v, display_rate, bound) for p, v in zip(plans, vers)],
+        "plans": [_plan_data(problem, p, v, display_rate, bound, b) for p, v, b in zip(plans, vers, own)],
         "lower_bound": bound,
     }
 

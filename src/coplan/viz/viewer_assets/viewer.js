@@ -464,7 +464,7 @@
     box.appendChild(h);
     box.appendChild(el("div", { class: "facts" }, "fruit harvested " + (pl.harvested === null || pl.harvested === undefined ? "\u2013" : pl.harvested) + "/" +
       (pl.reachable === null || pl.reachable === undefined ? "\u2013" : pl.reachable) + (v.unharvested.length ? " (not harvested: " + v.unharvested.join(", ") + ")" : "") +
-      "; least clearance " + num(v.min_clearance, 4) + " m (certified " + num(v.certified_clearance, 4) + " m, required " + num(v.required_clearance, 3) + " m; margin " + (v.margin == null ? "-" : num(1000 * v.margin, 1) + " mm") + ")" + (v.jerk ? "; RMS / peak jerk " + Object.keys(v.jerk).map(function (a) { return a + " " + num(v.jerk[a].rms, 0) + " / " + num(v.jerk[a].peak, 0); }).join(", ") + " rad/s\u00b3" : "")));
+      "; least clearance " + num(v.min_clearance, 4) + " m (certified " + num(v.certified_clearance, 4) + " m, required " + num(v.required_clearance, 3) + " m; margin " + (v.margin == null ? "-" : num(1000 * v.margin, 1) + " mm") + ")" + (v.jerk ? "; RMS / peak jerk " + Object.keys(v.jerk).map(function (a) { return a + " " + (v.jerk[a].unbounded ? "unbounded (its acceleration steps)" : num(v.jerk[a].rms, 0) + " / " + num(v.jerk[a].peak, 0)); }).join(", ") + " rad/s\u00b3" : "")));
     this.tl = sv("svg", { class: "timeline", "data-plan": String(pl.index) });
     this.cl = sv("svg", { class: "clearance", "data-plan": String(pl.index) });
     box.appendChild(this.tl);
@@ -480,7 +480,7 @@
       pl.violations.slice(0, 500).forEach(function (vi, i) {
         // (focusable: Enter or Space goes to its time, as a click does -- a keyboard could not reach one)
         const tr = el("tr", { class: "violation-row", "data-t": String(clamp(vi.t, 0, T_END)), "data-index": String(i), tabindex: "0", role: "button" });
-        [vi.kind, vi.arms.join(", "), num(vi.t, 3), num(vi.value, 4), num(vi.limit, 4), VIOLATION_UNITS[vi.kind] || "",
+        [vi.kind, vi.arms.join(", "), num(vi.t, 3), num(vi.value, 4), num(vi.limit, 4), (vi.step ? VIOLATION_UNITS.acceleration : VIOLATION_UNITS[vi.kind]) || "",
           (vi.fruit ? "fruit " + vi.fruit + " " : "") + (vi.message || "")].forEach(function (c) { tr.appendChild(el("td", null, c)); });
         tab.appendChild(tr);
       });
