@@ -397,6 +397,10 @@ def test_the_summary_says_how_many_cells_were_retimed(tmp_path):
     doc = json.loads((tmp_path / "o" / "plan.json").read_text())
     n, stops = doc["solver"]["row"]["retimed_cells"], doc["metrics"]["row"]["stops"]
     assert n >= 1 and f"cell planner coordinated ({n} of {stops} cells retimed by CP-SAT)" in r.output
+    # the certified margin and each arm's jerk, as a cell's summary gives them (a row's had neither)
+    ver, per = doc["verification"], doc["metrics"]["per_arm"]
+    assert f"margin            {1000 * ver['margin']:.1f} mm certified beyond the clearance" in r.output
+    assert "jerk RMS / peak   " + ", ".join(f"{a} {v['rms_jerk']:.1f}" for a, v in list(per.items())[:1]) in r.output
 
 
 def test_cells_planned_in_two_processes_give_the_same_row_plan_as_in_one(row, planned):

@@ -112,6 +112,8 @@ def print_row_summary(console, res) -> None:
     if least is not None and math.isfinite(least):
         p(f"  collisions found  {ver.get('collision_count', '-')}   least clearance {fmt(least, ' m', 4)} "
           f"(certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})")
+        _margin_line(p, ver)  # (a row's summary had neither, which plan.json and the viewer give)
+    _jerk_line(p, m, ver)
     if not ver.get("passed", False):
         p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
     _warnings(p, res.verification)
@@ -259,6 +261,25 @@ def _row_planning(p, r: dict, solver: dict, moving: bool) -> None:
           f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({ahead})"
           + ("; the planning time counts the on-the-move plans --gantry auto compared it with" if solver.get("auto") else ""))
 
+def _margin_line(p, ver: dict) -> None:
+    """The certified margin beyond the required clearance, overall and per pair (a cell's and a row's summary)."""
+    pairs = ver.get("pairs") or {}
+    margin = ver.get("margin")
+    if margin is not None and math.isfinite(margin):
+        p(f"  margin            {1000 * margin:.1f} mm certified beyond the clearance (per pair: "
+          + ", ".join(f"{safe(k)} {1000 * v['margin']:.1f} mm" for k, v in pairs.items() if v.get("margin") is not None) + ")")
+
+
+def _jerk_line(p, m: dict, ver: dict) -> None:
+    """Each arm's RMS and peak jerk, unbounded where its acceleration steps (a cell's and a row's summary)."""
+    per = m.get("per_arm") or {}
+    steps = ver.get("acceleration_steps") or {}  # (their sampled jerk is a grid's figure: 10 x at 10 x the rate)
+    if any("rms_jerk" in v for v in per.values()):
+        p("  jerk RMS / peak   " + ", ".join(f"{safe(a)} " + (f"unbounded (acceleration steps up to {steps[a]:.1f} rad/s^2)"
+                                                         if a in steps else f"{_jerk(v['rms_jerk'])} / {_jerk(v['peak_jerk'])}")
+                                     for a, v in per.items() if "rms_jerk" in v) + (" rad/s^3" if set(per) - set(steps) else ""))
+
+
 def _warnings(p, verification) -> None:
     """The verifier's warnings in one line (counted by kind; verification.json lists each)."""
     warnings = getattr(verification, "warnings", None) or []
@@ -309,11 +330,7 @@ def print_summary(console, res) -> None:
         else:
             p(f"  collisions found  {ver.get('collision_count', '-')}   least clearance {fmt(least, ' m', 4)}"
               f" (certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})")
-            pairs = ver.get("pairs") or {}
-            margin = ver.get("margin")
-            if margin is not None and math.isfinite(margin):
-                p(f"  margin            {1000 * margin:.1f} mm certified beyond the clearance (per pair: "
-                  + ", ".join(f"{safe(k)} {1000 * v['margin']:.1f} mm" for k, v in pairs.items() if v.get("margin") is not None) + ")")
+            _margin_line(p, ver)
             wid = (res.plan.solver or {}).get("widen") or {}
             if wid.get("accepted"):
                 p(f"  widened           margin {1000 * wid['margin_before']:.1f} -> {1000 * wid['margin']:.1f} mm at the same makespan "
@@ -327,12 +344,7 @@ def print_summary(console, res) -> None:
                   f"{1000 * rg['clearance']:.1f} mm (the stage took {fmt(rg.get('wall_seconds'), ' s', 2)}; option regroup)")
             elif rg.get("status") == "ran":
                 p(f"  not regrouped     planned again at a clearance of {1000 * rg['clearance']:.1f} mm: {safe(rg.get('reason', ''))}")
-        per = m.get("per_arm") or {}
-        steps = ver.get("acceleration_steps") or {}  # (their sampled jerk is a grid's figure: 10 x at 10 x the rate)
-        if any("rms_jerk" in v for v in per.values()):
-            p("  jerk RMS / peak   " + ", ".join(f"{safe(a)} " + (f"unbounded (acceleration steps up to {steps[a]:.1f} rad/s^2)"
-                                                                 if a in steps else f"{_jerk(v['rms_jerk'])} / {_jerk(v['peak_jerk'])}")
-                                             for a, v in per.items() if "rms_jerk" in v) + (" rad/s^3" if set(per) - set(steps) else ""))
+        _jerk_line(p, m, ver)
         if not ver.get("passed", False):
             p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")
         _warnings(p, res.verification)
