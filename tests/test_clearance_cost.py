@@ -135,7 +135,10 @@ def test_a_smaller_clearance_s_plan_that_keeps_a_larger_one_is_its_row_when_fast
     assert more["plan_from_mm"] == 0.0 and more["makespan"] == zero["makespan"] and more["ratio"] == 1.0
     assert more["planned_makespan"] == pytest.approx(zero["makespan"] + 1.0) and more["verified"]
     assert more["margin_mm"] == pytest.approx(zero["margin_mm"] - 25.0, abs=1e-6)  # the same plan, 25 mm less room to spare
-    assert "| +25 | 0.075 | 6.50 |" in (tmp_path / "clearance.md").read_text() and "+0 mm's" in (tmp_path / "clearance.md").read_text()
+    md = (tmp_path / "clearance.md").read_text()
+    assert "| +25 | 0.075 | 6.50 |" in md and "+0 mm's" in md
+    # (and says whose files those are: plus_25mm/ holds the level's own, slower plan)
+    assert "The rows at +25 mm give a smaller clearance's plan" in md and "this level's own plan" in md
 
 
 def test_an_interruption_while_the_smaller_clearances_plans_are_verified_keeps_the_finished_levels(tmp_path, monkeypatch):

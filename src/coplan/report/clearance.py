@@ -200,5 +200,11 @@ def to_markdown(cost: ClearanceCost) -> str:
              "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in cost.rows:
         lines.append("| " + " | ".join(cell(r, k) for k, _ in COLUMNS) + " |")
+    borrowed = sorted({f"+{r['extra_mm']:g} mm" for r in cost.rows
+                       if r.get("plan_from_mm") is not None and r.get("plan_from_mm") != r.get("extra_mm")})
+    if borrowed:  # (a row's figures read as those of the plan in its own folder, which can be slower)
+        lines += ["", f"The rows at {', '.join(borrowed)} give a smaller clearance's plan, which keeps that room too "
+                      "(verified at the row's clearance; its files are in that level's plus_<mm>mm/ folder); each "
+                      "level's own plan, in its own plus_<mm>mm/ folder, is the column \"this level's own plan\"."]
     lines += [""] + [f"- {n}" for n in cost.notes] if cost.notes else []
     return "\n".join(lines) + "\n"
