@@ -128,14 +128,19 @@ def _redeliver(hook, main: int):
 
     signal.signal(signal.SIGALRM, on_alarm)
 
+    closing: list[bool] = []  # the command is over: nothing is sent again
+
     def redeliver(args) -> None:
         if args.exc_type is not None and issubclass(args.exc_type, KeyboardInterrupt) and os.getpid() == main:
+            if closing:  # (a Ctrl-C swallowed while the interpreter shuts down -- a sweep's cluster closing at exit:
+                return   # a timer armed then fired once Python had reset SIGALRM to its default, exit 142)
             pending.append(signal.SIGTERM if failures.TERMINATED and hasattr(signal, "SIGTERM") else signal.SIGINT)
             signal.setitimer(signal.ITIMER_REAL, 0.02)
             return
         hook(args)
 
     redeliver.pending = pending  # (the console's exit: an interruption not yet sent again is still one)
+    redeliver.closing = closing
     return redeliver
 
 
@@ -193,6 +198,8 @@ def run_console(app, err_console) -> None:
             sys.exit(int(ExitCode.INTERRUPTED))
         raise
     finally:
+        if getattr(hook, "closing", None) is not None:
+            hook.closing.append(True)
         if hasattr(signal, "setitimer"):  # (a redelivery still armed: at exit SIGALRM's default killed the process, 142)
             signal.setitimer(signal.ITIMER_REAL, 0)
 

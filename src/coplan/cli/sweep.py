@@ -107,8 +107,11 @@ def sweep_cmd(
         finally:
             progress.stop()
     except KeyboardInterrupt:
-        _err.print(f"interrupted: every finished row is kept in {_safe(folder)}; run the same command again to resume",
-                   highlight=False)
+        if (folder / "rows.jsonl").is_file():
+            _err.print(f"interrupted: every finished row is kept in {_safe(folder)}; run the same command again to resume",
+                       highlight=False)
+        else:  # (it said rows were kept in a folder that did not exist: interrupted before any problem was solved)
+            _err.print("interrupted before any problem was solved: nothing written", highlight=False)
         raise
     except OSError as e:
         if "connect" in str(e).lower() or isinstance(e, (ConnectionError, TimeoutError)):

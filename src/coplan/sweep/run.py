@@ -33,7 +33,7 @@ from typing import Any, Callable
 from ..kinds import ExitCode, GantryMode, PlannerKind, RowStatus
 from ..errors import Issue
 from ..provenance import software_record
-from ..output import OutputError
+from ..output import OutputError, signals_deferred
 from ..workers import workers_issue
 from .cluster import Interrupt, close_cluster, completed, connect, default_workers, WorkerWatch
 from .columns import exit_class, problem_columns, result_columns
@@ -414,10 +414,16 @@ def run_sweep(
         raise
     finally:
         stop.__exit__()
-        journal.close()
-        outcome.files = write_table(out, csv=csv, positions=positions)
-        outcome.elapsed = time.perf_counter() - t0
-        close_cluster(client, cluster, outcome.interrupted, client_log, client_level, lock)
+        try:
+            with signals_deferred():  # (a second Ctrl-C here left no results.parquet: the rows' table is written whole first)
+                journal.close()
+                outcome.files = write_table(out, csv=csv, positions=positions)
+        except KeyboardInterrupt:  # (held until the table was written, then answered)
+            outcome.interrupted = True
+            raise
+        finally:
+            outcome.elapsed = time.perf_counter() - t0
+            close_cluster(client, cluster, outcome.interrupted, client_log, client_level, lock)
     return outcome
 
 
