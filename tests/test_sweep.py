@@ -720,11 +720,59 @@ def test_every_generated_base_expands_to_valid_problems_or_a_bad_input_item():
     assert [parse_problem(i.problem_text).arms[0].max_velocity for i in limits] == [(2.0, 2.0), (1.0, 1.5)]
 
 
-def test_an_output_folder_of_another_sweep_is_refused(small_run):
+def test_an_output_folder_of_another_sweep_is_refused(small_run, tmp_path):
     out, _, _ = small_run
     with pytest.raises(SweepError, match="holding sweep 'small'"):
         run_sweep(parse_sweep(TINY, "tiny.yaml"), out, workers=1)
     assert len(read_rows(out)) == 6
+    # the command line: a --out mistake, exit 2 (it was the sweep file's, exit 3, "name: expected ...")
+    spec = tmp_path / "tiny.yaml"
+    spec.write_text(TINY)
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["sweep", str(spec), "--out", str(out)])
+    assert r.exit_code == int(ExitCode.USAGE), r.output
+    assert f"--out {out}: expected the output folder of sweep 'tiny' or a new folder, found one holding sweep 'small'" in r.output
+    assert len(read_rows(out)) == 6
+
+
+def test_workers_and_a_scheduler_together_are_refused_by_the_api_as_by_the_command_line(tmp_path):
+    """(``run_sweep(..., workers=2, scheduler=...)`` ran on the scheduler and dropped ``workers``
+    without a word; the command line refuses both.) And ``--workers auto`` is the default, as
+    ``run_sweep(workers="auto")`` and ``coplan solve --workers auto`` take it (it was refused)."""
+    with pytest.raises(ValueError, match="expected either workers .* or scheduler .*, found both"):
+        run_sweep(parse_sweep(TINY, "tiny.yaml"), tmp_path / "o", workers=2, scheduler="tcp://127.0.0.1:8786")
+    assert not (tmp_path / "o").exists()
+    spec = tmp_path / "tiny.yaml"
+    spec.write_text(TINY)
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["sweep", str(spec), "--workers", "auto", "--out", str(tmp_path / "a")])
+    assert r.exit_code == 0 and len(read_rows(tmp_path / "a")) == 3, r.output
+
+
+def test_what_a_run_does_otherwise_than_its_sweep_file_asks_is_said(tmp_path):
+    """(From a new user's trial, both silent: solver options beside a row file, which a row's solve
+    does not take; and --planner in place of the planners the file varies -- said as "densities that
+    round to the same number of fruit".)"""
+    from coplan.generate import gantry_row, to_yaml
+
+    (tmp_path / "row.yaml").write_text(to_yaml(gantry_row(length=4.0, n_arms=2, density=1.0, seed=3)))
+    spec = tmp_path / "rowfile.yaml"
+    spec.write_text("name: rowfile\nproblems: row.yaml\noptions: {search_work: 1000}\n")
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["sweep", str(spec), "--workers", "1", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    assert "note: 1 problem file is a row (row.yaml): solved as coplan solve ROW solves it, without the sweep's solver " \
+           "options" in " ".join(r.output.split())
+    spec = tmp_path / "pv.yaml"
+    spec.write_text("name: pv\nbase: row\nfixed: {n_fruits: 2, n_arms: 2, spacing: 2.0, seed: 1}\n"
+                    "vary:\n  planner: [coordinated, heuristic]\n")
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["sweep", str(spec), "--workers", "1", "--planner", "coordinated",
+                                                       "--out", str(tmp_path / "p")])
+    assert r.exit_code == 0 and "note: --planner coordinated replaces the planners the sweep varies (coordinated, " \
+        "heuristic)" in " ".join(r.output.split()), r.output
+
+
+def test_a_range_past_what_a_parameter_takes_names_the_end_the_file_gives():
+    """(``n_arms: {from: 2, to: 1000}`` said "found number 65", a value the file does not hold.)"""
+    with pytest.raises(SweepError, match=r"vary\.n_arms: range: expected an integer >= 1 and <= 64 .*, found to: 1000"):
+        parse_sweep("name: huge\nbase: row\nvary:\n  n_arms: {from: 2, to: 1000}\n", "huge.yaml")
 
 
 def test_the_command_line_loads_neither_dask_nor_pyarrow():

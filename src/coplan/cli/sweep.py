@@ -14,7 +14,7 @@ import typer
 
 from ..errors import plural
 from ..workers import MAX_WORKERS
-from .checks import between, check_time_limit, choice, choices, in_path, out_path, real, whole
+from .checks import check_time_limit, check_workers, choice, choices, in_path, out_path, real
 from .console import text_console
 from .failures import check_out_dir, usage
 from .summary import safe as _safe
@@ -25,6 +25,25 @@ __all__ = ["sweep_cmd", "sweep_report_cmd"]
 
 _out = text_console()
 _err = text_console(stderr=True)
+
+
+def _notes_before_run(sw, planner) -> None:
+    """Notes on what the sweep file asks that this run does otherwise (each was silent): a
+    ``--planner`` in place of the planners it varies, and solver options that its row files do
+    not take (a row is solved as ``coplan solve ROW``: no solver options)."""
+    if planner is not None and "planner" in sw.vary:  # (two sets then make one problem: "e.g. densities that round ...")
+        _err.print(f"note: --planner {PlannerKind(planner).value} replaces the planners the sweep varies "
+                   f"({', '.join(map(str, sw.vary['planner'])) if isinstance(sw.vary['planner'], (list, tuple)) else sw.vary['planner']}): "
+                   "sets that differ only in it are one problem, solved once", highlight=False)
+    given = bool(sw.options) or any(str(k).startswith("options.") for k in {**sw.fixed, **sw.vary})
+    if given and sw.base == SweepBase.FILES:
+        from ..sweep.spec import is_row_text
+
+        rows = [p for p in sw.problems if is_row_text(p)]
+        if rows:
+            _err.print(f"note: {plural(len(rows), 'problem file is a row', 'problem files are rows')} "
+                       f"({', '.join(_safe(Path(r).name) for r in rows[:3])}{', ...' if len(rows) > 3 else ''}): solved as "
+                       "coplan solve ROW solves it, without the sweep's solver options (they apply to its cells)", highlight=False)
 
 
 def _counts_text(counts: dict[str, int]) -> str:
@@ -39,8 +58,8 @@ def sweep_cmd(
                                           "or a folder or glob of problem files.")],
     out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output folder (default: coplan-sweep/<sweep name>). "
                                                 "A re-run into the same folder skips the rows already done.")] = None,
-    workers: Annotated[Optional[int], typer.Option(parser=whole, metavar="<int>", callback=between(1, MAX_WORKERS), help="Worker processes of the local cluster "
-                                                   "(default: one per core; one thread each).")] = None,
+    workers: Annotated[Optional[str], typer.Option(metavar="N|auto", help="Worker processes of the local cluster, "
+                                                   f"1 to {MAX_WORKERS} (default and auto: one per core; one thread each).")] = None,
     scheduler: Annotated[Optional[str], typer.Option(help="Use an existing Dask cluster at this address "
                                                      "(e.g. tcp://host:8786) instead of a local one.")] = None,
     planner: Annotated[Optional[PlannerKind], typer.Option(parser=choice(PlannerKind), metavar=choices(PlannerKind), help="Planner for every problem (replaces the file's).")] = None,
@@ -56,6 +75,8 @@ def sweep_cmd(
     check_time_limit(time_limit, "the sweep file's, or 120 s")
     if workers is not None and scheduler is not None:
         usage("--workers: expected either --workers (a local cluster) or --scheduler (an existing one), found both")
+    # (auto was refused here, which run_sweep(workers="auto") and coplan solve --workers take)
+    workers = None if workers is None or workers.strip().lower() == "auto" else check_workers(workers)
     if scheduler is not None:
         _check_scheduler(scheduler)
     sw = load_sweep(spec)  # SweepError (an InputError): file:line: key.path messages, exit 3
@@ -64,8 +85,15 @@ def sweep_cmd(
     if planner == PlannerKind.HEURISTIC and sw.base == SweepBase.GANTRY:
         usage(f"--planner: expected coordinated or optimal for {spec} (base gantry: each stop's cell planner; the "
               "course's heuristic plans a stationary cell, not a row), found heuristic")
+    _notes_before_run(sw, planner)
     folder = out if out is not None else Path("coplan-sweep") / (re.sub(r"[^\w.-]+", "_", sw.name).strip("._") or "sweep")
     check_out_dir(folder, "--out")
+    from ..sweep.table import read_sweep_record
+
+    held, _ = read_sweep_record(folder) if folder.is_dir() else (None, None)
+    if isinstance(held, dict) and held.get("name") not in (None, sw.name):  # (an --out mistake: it was the sweep file's, exit 3)
+        usage(f"--out {folder}: expected the output folder of sweep {sw.name!r} or a new folder, found one holding "
+              f"sweep {held['name']!r}; choose another --out")
     n = sw.samples if sw.mode == SweepMode.RANDOM else sw.grid_size()
     if n is not None and n * max(1, len(sw.problems)) >= 1000:  # (a 64,320-problem grid said nothing for minutes while they were made)
         _err.print(f"sweep [bold]{_safe(sw.name)}[/]: making its {n * max(1, len(sw.problems)):,} problems (generating and "

@@ -290,8 +290,11 @@ def range_values(r: dict, kind: str, loc: tuple, lines: dict, issues: list, keep
         return check_option(name.removeprefix("options."), x) if kind == "option" else check_value(kind, x)
 
     bad = [x for x in (values or [lo, hi]) if why(x)]
-    if bad:
-        issues.append(Issue(path, f"range: {why(bad[0])}", where))
+    if bad:  # (the end the user wrote that leaves the allowed values: it said "found number 65" for to: 1000)
+        ends = [(k, v) for k, v in (("from", lo), ("to", hi)) if why(v)]
+        said = f"{why(bad[0]).split(', found')[0]}, found {ends[0][0]}: {ends[0][1]:g}" if ends and ", found" in why(bad[0]) \
+            and isinstance(ends[0][1], (int, float)) else why(bad[0])
+        issues.append(Issue(path, f"range: {said}", where))
         return None
     if keep_range and count is None:  # (random mode draws from it; a range with a count is its values)
         return {"from": lo, "to": hi, **({"step": step} if step is not None else {})}

@@ -99,7 +99,8 @@ def _value(d: dict[str, Any], f: str):
 
 def _family_words(d: dict[str, Any], fields: list[str]) -> str:
     words = {"link_1": lambda v: f"l1 {v:g} m", "link_2": lambda v: f"l2 {v:g} m", "link_radius": lambda v: f"r {v:g} m",
-             "time_limit": lambda v: f"{v:g} s", "planner": str, "gantry": str, "options": lambda v: f"options {v}"}
+             "time_limit": lambda v: f"{v:g} s", "planner": str, "gantry": str, "options": lambda v: f"options {v}",
+             "problem": lambda v: Path(str(v)).stem}  # (a file's name: its whole path ran off the figure)
     return ", ".join((words[f](_value(d, f)) if f in words else f"{f} {_value(d, f)}") if _value(d, f) is not None else f"{f} -"
                      for f in fields)
 
@@ -298,9 +299,13 @@ def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
         axes[0][0].set_ylabel("throughput, fruit/min (median over seeds)")
         dense = any(d["density"] is not None for d in des)
         title = ", ".join((["fruit density"] if dense else []) + (["design"] if fam else [])) or None
+        most = max(len(ax.get_legend_handles_labels()[0]) for ax in axes[0])
+        below = most > 4  # (many lines: each legend under its panel, the figure taller -- they covered the lines and the axis)
+        if below:
+            fig.set_size_inches(3.6 * len(arms), 3.4 + 0.17 * most)
         for ax in axes[0]:  # (each panel its own: the last panel's legend named the others' lines with its labels)
             if ax.get_legend_handles_labels()[0]:
-                ax.legend(title=title, fontsize=7)
+                ax.legend(title=title, fontsize=7, **({"loc": "upper center", "bbox_to_anchor": (0.5, -0.18)} if below else {}))
         fig.tight_layout()
         files["throughput"] = out / "throughput.png"
         fig.savefig(files["throughput"], dpi=110)

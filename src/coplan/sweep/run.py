@@ -269,10 +269,13 @@ def _write_json(path: Path, doc: dict) -> None:
 _NO_PLAN = (RowStatus.BAD_INPUT.value, RowStatus.ERROR.value, RowStatus.TIMEOUT.value)
 
 
-def _checked_call(spec, workers, time_limit) -> tuple[SweepSpec, int | None, float | None]:
+def _checked_call(spec, workers, time_limit, scheduler=None) -> tuple[SweepSpec, int | None, float | None]:
     """:func:`run_sweep`'s arguments as the command line checks them (a sweep file's path is
     loaded): a bad one raises before any work (a workers of 0 ran on the default, a time limit
-    of -1 wrote a 'bad input' row per problem)."""
+    of -1 wrote a 'bad input' row per problem, workers beside a scheduler were ignored)."""
+    if workers is not None and scheduler is not None:
+        raise ValueError("run_sweep(): workers: expected either workers (a local cluster) or scheduler (an existing one), "
+                         "found both")
     if isinstance(spec, (str, os.PathLike)):
         spec = load_sweep(spec)
     elif not isinstance(spec, SweepSpec):
@@ -314,7 +317,7 @@ def run_sweep(
     every finished row is kept, the table written, and ``KeyboardInterrupt`` re-raised.
     """
     t0 = time.perf_counter()
-    spec, workers, time_limit = _checked_call(spec, workers, time_limit)
+    spec, workers, time_limit = _checked_call(spec, workers, time_limit, scheduler)
     out = Path(out)
     other = _folder_sweep(out) if (out / META).exists() else spec.name
     if other != spec.name:

@@ -45,7 +45,7 @@ from ..problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_ya
 from .params import (PARAMETERS, check_option, check_value, count_values, draw, generate_problem, key_path, kind_of,
                      range_values, same_value, values_of)
 
-__all__ = ["SweepError", "SweepItem", "SweepSpec", "load_sweep", "parse_sweep", "PARAMETERS", "TOP_KEYS", "MAX_ITEMS"]
+__all__ = ["SweepError", "SweepItem", "SweepSpec", "load_sweep", "parse_sweep", "is_row_text", "PARAMETERS", "TOP_KEYS", "MAX_ITEMS"]
 
 MAX_ITEMS = 200_000  # problems one sweep may expand to
 
@@ -60,6 +60,15 @@ TOP_KEYS = {"name", "description", "base", "problems", "fixed", "vary", "mode", 
 
 #: a problem file with a gantry section (a row): its top-level key
 _ROW_FILE = re.compile(r"^gantry\s*:", re.MULTILINE)
+
+
+def is_row_text(path) -> bool:
+    """Whether the problem file at ``path`` is a row (a top-level ``gantry`` key), as the sweep
+    tells them apart; False where it cannot be read (its row then says why)."""
+    try:
+        return bool(_ROW_FILE.search(Path(path).read_text(encoding="utf-8", errors="replace")))
+    except OSError:
+        return False
 
 
 @dataclass(frozen=True)
