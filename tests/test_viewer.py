@@ -191,6 +191,21 @@ def test_an_acceleration_step_is_unbounded_jerk_on_the_page_and_its_size_in_rad_
     assert stepped and all("acceleration discontinuity" in v["message"] for v in stepped)
 
 
+def test_a_plan_file_whose_own_figures_are_not_its_motion_s_says_so_on_the_page(greenhouse):
+    """(From a new user's trial: a plan.json edited to claim 9 s and 12 fruit -- the terminal said
+    its figures were not the motion's, the page showed the measured ones without a word.)"""
+    from coplan.plan import plan_from_dict
+    from coplan.viz.viewer import viewer_data
+
+    prob, coord, _ = greenhouse
+    doc = coord.plan.to_dict()
+    doc["metrics"] = dict(doc["metrics"], makespan=9.0)
+    lie = plan_from_dict(json.loads(json.dumps(doc)))
+    notes = viewer_data(prob, [lie])["plans"][0]["verdict"]["notes"]
+    assert len(notes) == 1 and "makespan 9 stated" in notes[0]
+    assert viewer_data(prob, [coord.plan])["plans"][0]["verdict"]["notes"] == []
+
+
 def test_view_of_a_plan_json_takes_its_recorded_problem_file_only_while_unchanged(tmp_path):
     """``coplan.view(plan.json)`` finds the problem file the plan records; once that file has
     changed it says so (pass the problem) rather than show the shipped problem of the same name,

@@ -43,7 +43,7 @@ from ..kinds import EventKind, GantryMode
 from ..output import atomic_text
 from ..plan import Plan, checked_status, jsonable, load_plan
 from ..problem.model import Problem
-from ..verify.verdict import ViolationKind
+from ..verify.verdict import ViolationKind, WarningKind
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors
 from .timeline import ArmPhase, Segment, schedule
 
@@ -397,6 +397,8 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
             "jerk": {a: {"rms": v.get("rms_jerk"), "peak": v.get("peak_jerk"), "unbounded": a in steps}
                      for a, v in (m.get("per_arm") or {}).items()},
             "warnings": len(ver.warnings),
+            # (a file whose stated makespan or harvest is not its motion's: said on the page, as in the terminal)
+            "notes": [w.message for w in ver.warnings if w.kind == WarningKind.STATED_FIGURES],
         },
         "violations": _violations(ver),
     }

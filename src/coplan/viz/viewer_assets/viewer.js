@@ -336,6 +336,12 @@
       const c = self.px(a.bin[0] + sh, a.bin[1]);
       ctx.fillStyle = rgba(a.color, 0.12); ctx.strokeStyle = a.color; ctx.lineWidth = 1.5;
       ctx.fillRect(c[0] - bin / 2, c[1] - bin / 2, bin, bin); ctx.strokeRect(c[0] - bin / 2, c[1] - bin / 2, bin, bin);
+      // how many it holds (its grid draws nine at most: a bin of 17 looked like one of 9)
+      const held = (pl.binOrder[a.name] || []).filter(function (fid) { return pl.fruit[fid].place.t_end <= t; }).length;
+      if (held > 0) {
+        ctx.fillStyle = a.color; ctx.font = "11px system-ui, sans-serif"; ctx.textAlign = "center";
+        ctx.fillText(String(held), c[0], c[1] + bin / 2 + 12);
+      }
     });
     // poses
     const poses = ARMS.map(function (a, i) { return fk(a, qTrack(pl, i, t), sh); });
@@ -465,6 +471,8 @@
     box.appendChild(el("div", { class: "facts" }, "fruit harvested " + (pl.harvested === null || pl.harvested === undefined ? "\u2013" : pl.harvested) + "/" +
       (pl.reachable === null || pl.reachable === undefined ? "\u2013" : pl.reachable) + (v.unharvested.length ? " (not harvested: " + v.unharvested.join(", ") + ")" : "") +
       "; least clearance " + num(v.min_clearance, 4) + " m (certified " + num(v.certified_clearance, 4) + " m, required " + num(v.required_clearance, 3) + " m; margin " + (v.margin == null ? "-" : num(1000 * v.margin, 1) + " mm") + ")" + (v.jerk ? "; RMS / peak jerk " + Object.keys(v.jerk).map(function (a) { return a + " " + (v.jerk[a].unbounded ? "unbounded (its acceleration steps)" : num(v.jerk[a].rms, 0) + " / " + num(v.jerk[a].peak, 0)); }).join(", ") + " rad/s\u00b3" : "")));
+    // the plan file's own figures where they are not its motion's (the terminal said so; the page did not)
+    (v.notes || []).forEach(function (n) { box.appendChild(el("div", { class: "facts file-note" }, "note: " + n + "; the measured figures are shown")); });
     this.tl = sv("svg", { class: "timeline", "data-plan": String(pl.index) });
     this.cl = sv("svg", { class: "clearance", "data-plan": String(pl.index) });
     box.appendChild(this.tl);
