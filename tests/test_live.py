@@ -393,6 +393,9 @@ def test_cli_feed_and_run_write_a_verified_run(tmp_path: Path, problems_dir: Pat
     assert (f"false detections {m['false_reports']}") in " ".join(r.output.split()), r.output
     assert (f"in {m['false_detections']} false tracks: {m['false_picks_avoided']} dropped at close range, "
             f"{m['false_unreachable']} out of reach, {m['false_picks']} picked") in " ".join(r.output.split()), r.output
+    # (and the verifier's warnings, which coplan verify gave and the summary did not)
+    warned = len(json.loads((tmp_path / "live" / "verification.json").read_text()).get("warnings") or [])
+    assert (f"{warned} warning" in " ".join(r.output.split())) == (warned > 0), r.output
 
 
 def test_the_live_animation_renders(live_run, tmp_path: Path) -> None:

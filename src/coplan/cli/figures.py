@@ -188,7 +188,8 @@ def plot_cmd(
         try:
             speed_curve(pl)
         except ValueError as e:
-            fail(ExitCode.USAGE, f"--kind speed: {e}; --kind gantt, clearance and joints draw any plan")
+            fail(ExitCode.USAGE, f"--kind speed: {e}; --kind gantt, clearance and joints draw any plan"
+                                 + ("" if prob.gantry is not None else ", and --kind workspace a cell's arms' reach"))
     if pl is not None:  # (the title's status: the verdict's, not the file's word)
         checked(prob, pl)
     if kind == PlotKind.GANTT:

@@ -440,11 +440,13 @@ def _room(ver) -> str:
     70.6 mm beyond the 0.05 m required``); nothing where no two arms can meet."""
     s = ver.summary()
     cert = s["certified_clearance"]
+    # (its warnings too -- poses near a singularity: coplan verify said "warnings 14", the summary nothing)
+    warned = f", {plural(len(ver.warnings), 'warning')} (verification.json)" if ver.warnings else ""
     if cert is None or not math.isfinite(cert):
-        return ""
+        return warned
     side = "beyond" if s["margin"] >= 0 else "short of"
     return (f", {s['collision_count']} collision{'' if s['collision_count'] == 1 else 's'}, least clearance {cert:.4f} m "
-            f"certified, {1000 * abs(s['margin']):.1f} mm {side} the {s['required_clearance']:g} m required")
+            f"certified, {1000 * abs(s['margin']):.1f} mm {side} the {s['required_clearance']:g} m required{warned}")
 
 
 def _status(plan) -> str:

@@ -213,7 +213,8 @@ def plot_clearance(problem: Problem, plans: Plan | Mapping[str, Plan], *, title:
         ax.axhline(0.0, color="black", linewidth=0.8)
         ax.axhspan(-10, req, color=ALERT_COLOR, alpha=0.06, linewidth=0)
         if not prof:
-            ax.text(0.5, 0.5, "no neighbouring pairs: the arms can never meet", transform=ax.transAxes, ha="center")
+            ax.text(0.5, 0.5, "one arm: no pair to keep apart" if len(problem.arms) == 1 else
+                    "no neighbouring pairs: the arms can never meet", transform=ax.transAxes, ha="center")
         worst = []
         for (a, b), d in prof.items():
             k_style = pair_index.setdefault((a, b), len(pair_index))
@@ -252,7 +253,7 @@ def plot_clearance(problem: Problem, plans: Plan | Mapping[str, Plan], *, title:
         Line2D([], [], color=ALERT_COLOR, linestyle="--", label=f"required clearance {req:g} m"),
         Line2D([], [], color="black", linewidth=0.8, label="contact (capsules touch)"),
         Line2D([], [], color="#222222", marker="v", linestyle="none", markersize=6, label="least clearance of a pair"),
-    ]
+    ][:None if handles else 2]  # (no pair drawn: no pair's least clearance in the legend)
     fig.legend(
         handles=list(handles.values()) + extra, labels=list(handles) + [h.get_label() for h in extra],
         loc="outside lower center", ncol=min(6, len(handles) + 3), fontsize=8, frameon=False,
