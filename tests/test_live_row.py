@@ -1188,6 +1188,20 @@ def test_an_arm_stop_while_the_carriage_holds_has_it_leave_the_hold_at_the_slowe
     assert res.verification.passed and res.metrics["missed_reachable_by_a_working_arm"] == []
 
 
+def test_a_fruit_counted_reachable_by_a_working_arm_says_why_its_reason_names_only_the_stopped_one():
+    """(From a new user's trial: f0012 counted "missed though a working arm could still reach it",
+    its reason "from the carriage's stops only arm1 could reach it, and it stopped": the report,
+    11 mm off, lay just outside arm2's reach, the fruit itself inside.) The reason says both."""
+    row = parse_problem(to_yaml(gantry_row(length=3.0, n_arms=2, density=8.0, seed=2, gantry={"settle": 0.5})))
+    res = run_live_row(row, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=6, faults=RowFaults(
+        arm_stop=True, camera_dark=3.0, false_burst=50, late_replan=2.0)))
+    missed = res.metrics["missed_reachable_by_a_working_arm"]
+    assert res.verification.passed and missed
+    for f in missed:
+        why = res.outcome[f]
+        assert "stopped" not in why or "a working arm could reach the fruit itself" in why, why
+
+
 def test_a_cycle_under_way_or_followed_by_more_bookings_is_never_taken_back():
     """:meth:`Booker.unbook_unstarted` takes back only an arm's last booking, a cycle that waits at
     rest past the given time; the arm then rests from that time where it waited, and the cycle's

@@ -67,8 +67,11 @@ def feed_cmd(
         if reveal_by > last:
             usage(f"--reveal-by: expected a time of at most {math.floor(last * 10) / 10:g} s ({why}), found {reveal_by!r}")
     feed = make_feed(prob, known, sigma, false_rate, duplicate_rate, seed, reveal_by, after_pick, close_distance, close_sigma)
+    made = not out.parent.exists()  # (it made /nonexistent/dir at the root without a word)
     out.parent.mkdir(parents=True, exist_ok=True)
     atomic_text(out, feed_yaml(feed))
+    if made:
+        _err.print(f"note: made the folder {_safe(out.parent)} for it", highlight=False)
     n_false = sum(d.fruit is None for d in feed.detections)
     n_late = sum(d.t > 0 or d.after is not None for d in feed.detections)
     _out.print(f"wrote {_safe(out)}: {plural(len(feed.detections), 'detection')} of {len(prob.fruits)} fruit "

@@ -432,6 +432,11 @@ def _finish(problem: Problem, opts: LiveRowOptions, run: LiveRun, faults: FaultD
                                and by_id[d].truth not in got and d not in run.misses and d not in run.unseen
                                and still_reachable(booker, run.reach.grid, run.truth_xy[by_id[d].truth], seen[d], faults.halt,
                                                    GantryMode(opts.mode) == GantryMode.STOP_AND_GO)})
+    for f in missed_reachable:  # (its reason, the planner's view of the report, said only the stopped arm reached it)
+        if "stopped" in outcome.get(f, "") and "itself" not in outcome[f]:
+            d = min((r for r in by_id.values() if r.truth == f), key=lambda r: math.dist(r.position, run.truth_xy[f]))
+            outcome[f] += (f"; a working arm could reach the fruit itself, {1000 * math.dist(d.position, run.truth_xy[f]):.0f} mm "
+                           f"from where its report put it")
     span = max(float(plan.metrics.get("makespan") or 0.0), work_end)
     ref_span = float(offline.plan.metrics.get("makespan") or 0.0)
     pick_start = {(e.arm, e.fruit): e.t_start for e in events if e.kind == EventKind.PICK}
