@@ -1202,6 +1202,18 @@ def test_a_fruit_counted_reachable_by_a_working_arm_says_why_its_reason_names_on
         assert "stopped" not in why or "a working arm could reach the fruit itself" in why, why
 
 
+def test_at_the_rail_s_end_an_arm_gives_a_fruit_up_only_after_tries_patience_apart():
+    """(From a new user's trial: a 6 m row, arms 1.2 m apart, 0.4 m/s, seed 3, no fault: arm1 left
+    f0011 and f0012 at the rail's end after three tries without a clear cycle 0.1 s apart -- each
+    saw the same neighbour's bookings -- and they were missed, 19 of the 21 the offline plan
+    harvests.) A try counts towards giving a fruit up only ``PATIENCE`` s after the last counted."""
+    close = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=3, density=4.0, seed=1, spacing=1.2)))
+    res = run_live_row(close, LiveRowOptions(speed=0.4, seed=3))
+    m = res.metrics
+    assert res.verification.passed and m["missed_reachable_by_a_working_arm"] == []
+    assert m["harvested"] >= m["offline_harvested"] == 21
+
+
 def test_a_cycle_under_way_or_followed_by_more_bookings_is_never_taken_back():
     """:meth:`Booker.unbook_unstarted` takes back only an arm's last booking, a cycle that waits at
     rest past the given time; the arm then rests from that time where it waited, and the cycle's

@@ -16,7 +16,7 @@ from .cruise import Window
 
 __all__ = ["run_policy", "why_left"]
 
-_GIVE_UP = 3  # decisions without a clear cycle on one fruit, the carriage at rest for good, before an arm leaves it
+_GIVE_UP = 3  # tries without a clear cycle on one fruit, PATIENCE s apart, the carriage at rest for good, before an arm leaves it
 
 
 def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=None, on_book=None,
@@ -67,7 +67,7 @@ def run_policy(booker: Booker, order: dict[int, list[str]] | None = None, seen=N
     queue = [(0.0, i) for i in range(len(arms))]
     heapq.heapify(queue)
     pending = {i: list((order or {}).get(i, [])) for i in range(len(arms))}
-    failed: dict[tuple[int, str], int] = {}
+    failed: dict[tuple[int, str], tuple[int, float]] = {}  # (arm, fruit) -> (tries counted, when the last was)
 
     def take(i: int, cyc) -> None:  # a cycle booked: the arm's fruit taken, its given order moved on
         booker.commit(cyc)
@@ -180,7 +180,8 @@ def _tries(cands: list[tuple[str, Window]], pending: list[str], now: float,
     return pool[:4], False
 
 
-def _tucked(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float, failed: dict[tuple[int, str], int]):
+def _tucked(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float,
+            failed: dict[tuple[int, str], tuple[int, float]]):
     """Arm ``i``'s last try, the carriage at rest for good as far as the booking knows (on the
     move: at the rail's end; live stop and go: at the stop being booked), on each fruit of
     ``tries`` it would give up now (:func:`_give_up`): a cycle whose ways to the fruit and back
@@ -191,7 +192,7 @@ def _tucked(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float,
     passes. Only a fruit that would be left is tried so, so every plan that harvests without it
     is the plan it was; a cycle a fault would start after its time is not made."""
     for fid, w in tries:
-        if not _counts(w, now) or failed.get((i, fid), 0) + 1 < _GIVE_UP:
+        if not _counts(w, now) or _counted(failed, (i, fid), now) < _GIVE_UP:
             continue
         cyc = booker.plan_cycle(i, fid, w, now, tuck=True)
         if cyc is not None and not booker.moves_after_halt(i, cyc.k0, cyc.q):
@@ -205,18 +206,29 @@ def _counts(w: Window, now: float) -> bool:
     return w.lo <= now + PATIENCE
 
 
-def _give_up(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float, failed: dict[tuple[int, str], int],
-             mine: list[tuple[str, Window]]) -> list[tuple[str, Window]]:
+def _counted(failed: dict[tuple[int, str], tuple[int, float]], key: tuple[int, str], now: float) -> int:
+    """The tries without a clear cycle counted for ``key`` once one at ``now`` is: a try counts
+    only ``PATIENCE`` s after the last one counted -- each covers that much waiting, and the tries
+    of decisions 0.1 s apart see the same neighbours' bookings (an arm gave up every fruit left at
+    the rail's end after three refusals in 0.3 s, its neighbour then picking them all alone)."""
+    n, last = failed.get(key, (0, -math.inf))
+    return n + 1 if now >= last + PATIENCE - 1e-9 else n
+
+
+def _give_up(booker: Booker, i: int, tries: list[tuple[str, Window]], now: float,
+             failed: dict[tuple[int, str], tuple[int, float]], mine: list[tuple[str, Window]]) -> list[tuple[str, Window]]:
     """Arm ``i``'s fruit (``mine``) less those it gives up, the carriage at rest for good and no
     cycle booked on ``tries``: a fruit no branch reaches from there (its close-range measurement
     moved it off the run's edge) never will be, and one that found no clear cycle ``_GIVE_UP``
-    times (each up to ``PATIENCE`` of waiting) is left to the next stop."""
+    times, ``PATIENCE`` s apart (:func:`_counted`), is left to the next stop."""
     x1 = booker.cruise.x1
     for fid, w in tries:
         if _counts(w, now):
-            failed[(i, fid)] = failed.get((i, fid), 0) + 1
+            n = _counted(failed, (i, fid), now)
+            if n > failed.get((i, fid), (0, 0.0))[0]:
+                failed[(i, fid)] = (n, now)
     gone = {(fid, w.arm) for fid, w in tries
-            if failed.get((i, fid), 0) >= _GIVE_UP or not booker.branches(i, fid, x1, x1)}
+            if failed.get((i, fid), (0, 0.0))[0] >= _GIVE_UP or not booker.branches(i, fid, x1, x1)}
     return [(fid, w) for fid, w in mine if (fid, w.arm) not in gone]
 
 
