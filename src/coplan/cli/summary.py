@@ -261,6 +261,7 @@ def _row_planning(p, r: dict, solver: dict, moving: bool) -> None:
           f"to plan, least slack {fmt(r.get('least_slack_seconds'), ' s')} ({ahead})"
           + ("; the planning time counts the on-the-move plans --gantry auto compared it with" if solver.get("auto") else ""))
 
+
 def _margin_line(p, ver: dict) -> None:
     """The certified margin beyond the required clearance, overall and per pair (a cell's and a row's summary)."""
     pairs = ver.get("pairs") or {}

@@ -93,7 +93,8 @@ STOPPED_CAUTION = 2
 #: On the move, holding for fruit: the planner looks every CHECK s at the fruit whose windows close
 #: within LOOK s; one no working arm is free to reach (REACH_TIME s) before its window closes holds the
 #: carriage HOLD_PER_FRUIT s per such fruit, shared by the working arms, or as long as the check
-#: found the latest of them late if that is longer (at least HOLD_MIN s, at most HOLD_MAX s); a report holds the carriage HOLDS_PER_REPORT times at most (a burst of false reports
+#: found the latest of them late if that is longer (at least HOLD_MIN s, at most HOLD_MAX s); a
+#: report holds the carriage HOLDS_PER_REPORT times at most (a burst of false reports
 #: costs some holds, not one per report and per look). Looking 30 s ahead with up to 6 holds a
 #: report (was 8 s and 2): at the speed the offline search chooses, a 50-report false burst on
 #: sparse_row (seeds 0-9) and course_row (0-6) and six_arm_row (0-1) left 62 fruit a working arm
@@ -339,6 +340,11 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         cruise = new
         run.set_cruise(cruise, since=t_s)
 
+    def open_windows(f: str, t: float) -> list:
+        """Report ``f``'s pick windows still open at ``t``; a window at rest whose twin has a
+        deadline (:meth:`LiveRun.rail_end`) left out: the deadline counts."""
+        return [w for w in run.booker.windows.get(f, []) if w.hi >= t and not (math.isinf(w.hi) and (f, w.arm) in run.deadlined)]
+
     def at_risk(t_c: float) -> list[tuple[str, float]]:
         """Reported fruit not taken whose working arms' windows all close within ``LOOK`` s and
         that an earliest-deadline-first schedule of them over those arms, from when each is
@@ -351,12 +357,10 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         reach_time = REACH_TIME * caution
         back = reach_time + problem.task.pick_dwell + problem.task.place_dwell
         soon = []
-        for f, ws in run.booker.windows.items():
+        for f in run.booker.windows:
             if f in run.taken or run.seen[f] > t_c:
                 continue
-            # (a window at rest whose twin has a deadline: the deadline counts)
-            wk = [w for w in ws if w.arm in working and w.hi >= t_c
-                  and not (math.isinf(w.hi) and (f, w.arm) in run.deadlined)]
+            wk = [w for w in open_windows(f, t_c) if w.arm in working]
             if wk and max(w.hi for w in wk) <= t_c + LOOK:
                 soon.append((max(w.hi for w in wk), f, wk))
         out = []
@@ -366,17 +370,14 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         # (an arm whose try on the fruit found no clear cycle in its window, on the carriage's
         # motion as now decided, is not counted on for it: its neighbours' booked motion is in the way)
         for hi, f, wk in sorted(soon, key=lambda s: (s[0], s[1])):
-            starts = [(max(avail[w.arm], w.lo - reach_time) + reach_time, w.arm) for w in wk
-                      if max(avail[w.arm], w.lo - reach_time) + reach_time <= w.hi - SLACK
-                      and (f, w.arm) not in run.refused]
+            est = [(max(avail[w.arm], w.lo - reach_time) + reach_time, w) for w in wk if (f, w.arm) not in run.refused]
+            starts = [(t_p, w.arm) for t_p, w in est if t_p <= w.hi - SLACK]
             if starts:
                 t_p, a = min(starts)
                 avail[a] = t_p + back
             elif held_for.get(f, 0) < HOLDS_PER_REPORT * caution:
                 out.append((f, hi))
-                late = [max(avail[w.arm], w.lo - reach_time) + reach_time - (w.hi - SLACK) for w in wk
-                        if (f, w.arm) not in run.refused]
-                short[f] = min(late, default=0.0)
+                short[f] = min((t_p - (w.hi - SLACK) for t_p, w in est), default=0.0)
         return out
 
     def wait_on(i: int, f: str, now: float) -> float:
@@ -388,7 +389,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         caution = STOPPED_CAUTION if any(t <= now for t in halt.values()) else 1
         if (f, i) in run.waited or held_for.get(f, 0) >= HOLDS_PER_REPORT * caution:
             return 0.0
-        ws = [w for w in run.booker.windows.get(f, []) if w.hi >= now and not (math.isinf(w.hi) and (f, w.arm) in run.deadlined)]
+        ws = open_windows(f, now)
         if any(math.isinf(w.hi) for w in ws if w.arm == i) or any(
                 w.arm != i and (w.arm not in halt or halt[w.arm] > now) and (f, w.arm) not in run.refused for w in ws):
             return 0.0  # (open at the rail's end, where the carriage comes to rest; or another arm may take it)
