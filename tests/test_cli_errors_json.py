@@ -245,7 +245,7 @@ def test_verify_and_view_refuse_an_out_file_whose_folder_is_a_file_before_the_wo
     (["feed", "single_arm", "--sigma", "5"], "--sigma': expected a number in [1e-06, 1] m, found 5"),
     (["feed", "single_arm", "--seed", "-3"], "--seed': expected a number >= 0, found -3"),
     (["run", "single_arm", "--false-burst", "-1"], "--false-burst': expected a number in [0, 1000], found -1"),
-    (["sweep", "SWEEP", "--workers", "0"], "--workers': expected a number in [1, 256], found 0"),
+    (["sweep", "SWEEP", "--workers", "0"], "--workers: expected a whole number of processes from 1 to 256, or auto; found '0'"),
     (["solve", "sparse_row", "--workers", "2000"], "--workers: expected a whole number of processes from 1 to 256, or auto; found '2000'"),
 ])
 def test_an_out_of_range_option_says_what_was_expected_and_what_was_found(args, words, tmp_path):
@@ -392,7 +392,7 @@ def test_check_and_run_json_documents_carry_their_exit_code(tmp_path, problems_d
     (["solve", "--time-limit", "abc"], "--time-limit': expected a number, found 'abc'"),
     (["animate", "p.json", "--fps", "fast"], "--fps': expected a number, found 'fast'"),
     (["feed", "p.yaml", "--seed", "2.5"], "--seed': expected a whole number, found '2.5'"),
-    (["sweep", "s.yaml", "--workers", "two"], "--workers': expected a whole number, found 'two'"),
+    (["sweep", "s.yaml", "--workers", "two"], "--workers: expected a whole number of processes from 1 to 256, or auto; found 'two'"),
     (["verify", "p.yaml", "p.json", "--tolerance", "100"], "--tolerance': expected a number in [0.1, 50] mm, found 100"),
 ])
 def test_a_number_option_that_is_not_one_says_what_it_found(args, said):
