@@ -741,6 +741,25 @@ def test_every_live_cell_call_checks_its_time_as_observe_does(greenhouse):
     assert cell.sample(2.0)[greenhouse.arms[0].name].shape == (3, 1, 2)
 
 
+def test_a_feed_detection_far_from_the_fruit_it_names_is_said(greenhouse, tmp_path):
+    """(From a new user's trial: a detection 5.8 m from the fruit it names, hundreds of its sigma,
+    was taken without a word -- the fruit then read "unreachable".) A feed coplan feed makes draws
+    nothing of the kind."""
+    from coplan.problem import default_problem_path
+
+    feed = make_feed(greenhouse, seed=0)
+    d0 = next(d for d in feed.detections if d.fruit is not None and d.after is None)
+    moved = Feed(tuple(Detection(d.t, d.id, (d.position[0] + 3.0, d.position[1]), d.sigma, d.fruit, d.after) if d is d0 else d
+                       for d in feed.detections), feed.close_distance, feed.close_sigma, feed.problem)
+    runner = CliRunner(env={"COLUMNS": "400"})
+    for f, said in ((feed, False), (moved, True)):
+        path = tmp_path / "feed.yaml"
+        path.write_text(feed_yaml(f))
+        r = runner.invoke(app, ["run", str(default_problem_path()), "--feed", str(path), "-o", str(tmp_path / f"out{said}")])
+        assert r.exit_code in (0, 5), r.output
+        assert ("1 detection of" in r.output and f"{d0.id}" in r.output and "from the fruit they name" in r.output) == said, r.output
+
+
 def test_a_live_run_that_picked_nothing_is_not_given_inferred_picks(greenhouse, tmp_path):
     """A feed whose detections name no true fruit (a camera's own file): every detection counts as
     false and nothing is harvested -- the executed plan was called unsafe, the verifier inferring a

@@ -181,6 +181,16 @@ def _run_cell(prob, feed: Path, out: Path, horizon: float, all_candidates: bool,
     if fd.problem is not None and fd.problem != prob.name:
         _err.print(f"[yellow]note[/]: the feed was made for problem {_safe(fd.problem)!r}, this is {_safe(prob.name)!r}",
                    highlight=False)
+    # (a detection 5.8 m from the fruit it names, hundreds of its sigma, was taken without a word: a
+    # mislabelled feed, whose fruit then reads "unreachable")
+    truth = {f.id: f.position for f in prob.fruits}
+    far = [(d, math.dist(d.position, truth[d.fruit])) for d in fd.detections
+           if d.fruit in truth and math.dist(d.position, truth[d.fruit]) > max(0.1, 10 * d.sigma)]
+    if far:
+        d, off = max(far, key=lambda x: x[1])
+        _err.print(f"[yellow]note[/]: {plural(len(far), 'detection')} of {_safe(feed)} lie more than 10 sigma and 0.1 m "
+                   f"from the fruit they name (the farthest, {_safe(d.id)}{f' at line {d.line}' if d.line else ''}, "
+                   f"{off:.2f} m from {_safe(d.fruit)}): is the feed labelled for this problem?", highlight=False)
     opts = LiveOptions(horizon=horizon, work=None) if all_candidates else LiveOptions(horizon=horizon)
     with ProgressDisplay(_err, quiet=as_json) as bars, _nothing_written(out):
         result = simulate(prob, fd, opts, seed=seed, progress=bars)
