@@ -163,8 +163,7 @@ def _better_mode(stopping, moving, cut: str | None = None):
             "chosen": GantryMode.CONTINUOUS.value if best is moving else GantryMode.STOP_AND_GO.value}
     if stopping.plan.status == PlanStatus.INTERRUPTED and best.plan.status != PlanStatus.INTERRUPTED:
         # (a stop-and-go part against a whole row on the move is no comparison: the run was stopped, and says so)
-        best.plan.status = PlanStatus.INTERRUPTED
-        best.plan.solver["status"] = PlanStatus.INTERRUPTED.value
+        best.mark_interrupted()
         both["interrupted"] = "stop and go's planning was interrupted: its part row is no comparison"
     best.info["auto"] = both
     best.plan.solver["row"]["auto"] = both
@@ -246,8 +245,7 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
             if mode != GantryMode.AUTO:
                 raise
             stopping, cut = None, "interrupted before stop and go had a row: nothing compared"
-            moving.plan.status = PlanStatus.INTERRUPTED
-            moving.plan.solver["status"] = PlanStatus.INTERRUPTED.value
+            moving.mark_interrupted()
     if mode == GantryMode.AUTO:
         res = _better_mode(stopping, moving, cut)
     else:
@@ -256,17 +254,11 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
         progress("row: the lower bounds (any plan; stop by stop, its weights over the arms searched)")
     tb = _time.perf_counter()
     plan = res.plan
-
-    def cut_short(why: str) -> None:  # (a Ctrl-C once the row was planned threw the planned, verified row away: nothing written)
-        plan.status = PlanStatus.INTERRUPTED
-        plan.solver["status"] = PlanStatus.INTERRUPTED.value
-        res.info.setdefault("interrupted", why)  # (plan.json's solver.row, where a row's every interruption is said)
-
     try:
         bounds = row_bounds(prob)  # (remembered for a row and its settings: a second solve spends nothing here)
     except KeyboardInterrupt:
         bounds = None
-        cut_short("interrupted (Ctrl-C) while its lower bounds were computed: the row is planned and verified")
+        res.mark_interrupted("interrupted (Ctrl-C) while its lower bounds were computed: the row is planned and verified")
         if progress is not None:
             progress("row: interrupted while its lower bounds were computed; keeping the row, planned and verified, without them")
     bounds_seconds = _time.perf_counter() - tb
@@ -281,7 +273,7 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
             plan.metrics.update(_row_fruit_counts(prob, plan))
             plan.problem_file = file_record(prob)
     except KeyboardInterrupt:
-        cut_short("interrupted (Ctrl-C) as the row's figures were computed: the row is planned and verified")
+        res.mark_interrupted("interrupted (Ctrl-C) as the row's figures were computed: the row is planned and verified")
     timings = dict(res.timings) | {"bounds": bounds_seconds}  # (this solve's: bounds.seconds is when they were computed)
     plan.solver["timings"] = dict(timings)
     files, previous = _write(out_dir, plan, res.verification, problem=prob) if out_dir is not None else ({}, None)

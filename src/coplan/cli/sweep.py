@@ -46,22 +46,12 @@ def _mean_eta_column():
 
 
 def _notes_before_run(sw, planner) -> None:
-    """Notes on what the sweep file asks that this run does otherwise (each was silent): a
-    ``--planner`` in place of the planners it varies, and solver options that its row files do
-    not take (a row is solved as ``coplan solve ROW``: no solver options)."""
+    """A note where ``--planner`` replaces the planners the sweep file varies (it was silent; the
+    solver options its row files do not take are said by :func:`coplan.sweep.run.run_sweep`)."""
     if planner is not None and "planner" in sw.vary:  # (two sets then make one problem: "e.g. densities that round ...")
         _err.print(f"note: --planner {PlannerKind(planner).value} replaces the planners the sweep varies "
                    f"({', '.join(map(str, sw.vary['planner'])) if isinstance(sw.vary['planner'], (list, tuple)) else sw.vary['planner']}): "
                    "sets that differ only in it are one problem, solved once", highlight=False)
-    given = bool(sw.options) or any(str(k).startswith("options.") for k in {**sw.fixed, **sw.vary})
-    if given and sw.base == SweepBase.FILES:
-        from ..sweep.spec import is_row_text
-
-        rows = [p for p in sw.problems if is_row_text(p)]
-        if rows:
-            _err.print(f"note: {plural(len(rows), 'problem file is a row', 'problem files are rows')} "
-                       f"({', '.join(_safe(Path(r).name) for r in rows[:3])}{', ...' if len(rows) > 3 else ''}): solved as "
-                       "coplan solve ROW solves it, without the sweep's solver options (they apply to its cells)", highlight=False)
 
 
 def _counts_text(counts: dict[str, int]) -> str:
@@ -98,7 +88,7 @@ def sweep_cmd(
     if scheduler is not None:
         _check_scheduler(scheduler)
     sw = load_sweep(spec)  # SweepError (an InputError): file:line: key.path messages, exit 3
-    if planner == PlannerKind.HEURISTIC and (sw.options or any(str(k).startswith("options.") for k in {**sw.fixed, **sw.vary})):
+    if planner == PlannerKind.HEURISTIC and sw.gives_options:
         usage(f"--planner: the heuristic planner has no solver options, and {spec} gives some (options); found heuristic")
     if planner == PlannerKind.HEURISTIC and sw.base == SweepBase.GANTRY:
         usage(f"--planner: expected coordinated or optimal for {spec} (base gantry: each stop's cell planner; the "

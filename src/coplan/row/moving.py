@@ -115,8 +115,7 @@ def speed_search(problem: Problem, options: MovingOptions | None = None, reach: 
     if search.cpsat_report is not None:
         tried[best][0].info.setdefault("cpsat", search.cpsat_report)  # the search's CP-SAT step, whether kept or not
     if interrupted:
-        tried[best][0].plan.status = PlanStatus.INTERRUPTED  # (its verdict is in plan.verification)
-        tried[best][0].plan.solver["status"] = PlanStatus.INTERRUPTED.value
+        tried[best][0].mark_interrupted()
         tried[best][0].info["interrupted"] = f"the speed search stopped after {len(tried)} plan{'' if len(tried) == 1 else 's'}: the best verified so far"
     return tried[best][0], pts
 
@@ -456,8 +455,7 @@ def _both_profiles(problem: Problem, opts: MovingOptions, progress) -> RowResult
                             for k, (r, secs) in done.items()} | {"kept": best.value}
     res.info["options"]["profile"] = SpeedProfile.AUTO.value  # (what the plan depends on: both were searched)
     if interrupted:
-        res.plan.status = PlanStatus.INTERRUPTED
-        res.plan.solver["status"] = PlanStatus.INTERRUPTED.value
+        res.mark_interrupted()
         res.info["interrupted"] = interrupted
     res.timings["planning"] = _time.perf_counter() - t0  # both searches
     res.plan.solver["timings"] = dict(res.timings)

@@ -123,6 +123,15 @@ class RowResult:
     timings: dict[str, float]
     info: dict
 
+    def mark_interrupted(self, why: str | None = None) -> None:
+        """Say the row was interrupted (Ctrl-C, SIGTERM): its plan's status and solver status
+        (the verdict on what it has stays in ``plan.verification``) and, given ``why``, the
+        report's ``interrupted`` (``info``, plan.json's ``solver.row``) unless that already says why."""
+        self.plan.status = PlanStatus.INTERRUPTED
+        self.plan.solver["status"] = PlanStatus.INTERRUPTED.value
+        if why is not None:
+            self.info.setdefault("interrupted", why)
+
     def __repr__(self) -> str:  # (short: the screen's cover arrays made it 128,000 characters in a notebook cell)
         places = [e.t_end for e in self.plan.events if e.kind == EventKind.PLACE]
         passed = getattr(self.verification, "passed", None)
@@ -338,6 +347,7 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
         say("row: interrupted during the second chance; keeping every stop planned so far, verified")
     # (a Ctrl-C while the planned row was assembled and verified threw it all away: it is held
     # until the row is whole and verified, and the row is kept, said interrupted)
+    cut = False
     try:
         with signals_deferred():
             planned.sort(key=lambda sp: sp.stop.k)
@@ -358,12 +368,13 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
             info["left_out"] = _left_out(reach, planned, dropped, interrupted)
             plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
     except KeyboardInterrupt:
-        info.setdefault("interrupted", "while the planned row was assembled and verified: the row as planned")
-        plan.status = PlanStatus.INTERRUPTED
-        plan.solver["status"] = plan.status.value
+        cut = True
+    result = RowResult(plan, ver, planned, reach, timings, info)
+    if cut:
+        result.mark_interrupted("while the planned row was assembled and verified: the row as planned")
     say(f"row: {len(planned)} stop{'' if len(planned) == 1 else 's'} ({rule.value}), {plan.metrics.get('harvested')} fruit, "
         f"row time {plan.metrics.get('makespan', 0.0):.2f} s, planned in {timings['planning']:.2f} s")
-    return RowResult(plan, ver, planned, reach, timings, info)
+    return result
 
 
 def _planned_prefix(planned: list[StopPlan], kept: list[Stop]) -> list[StopPlan]:

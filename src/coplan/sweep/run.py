@@ -30,15 +30,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from ..kinds import ExitCode, GantryMode, PlannerKind, RowStatus
-from ..errors import Issue
+from ..kinds import ExitCode, GantryMode, PlannerKind, RowStatus, SweepBase
+from ..errors import Issue, plural
 from ..provenance import software_record
 from ..output import OutputError, signals_deferred
 from ..workers import workers_issue
 from .cluster import Interrupt, close_cluster, completed, connect, default_workers, WorkerWatch
 from .columns import exit_class, problem_columns, result_columns
 from .params import check_value
-from .spec import SweepError, SweepItem, SweepSpec, load_sweep
+from .spec import SweepError, SweepItem, SweepSpec, is_row_text, load_sweep
 from .table import META, RowJournal, import_arrow, read_rows, read_sweep_record, write_table
 
 __all__ = ["SweepOutcome", "run_sweep", "solve_item", "hard_limit", "exit_class", "Watchdog", "SNAPSHOT_SECONDS", "default_workers", "lost_reason"]
@@ -328,6 +328,12 @@ def run_sweep(
         if out.is_dir():  # (before reading what is done: another sweep writing here would change it)
             lock.acquire()
         items = spec.items(planner, time_limit)
+        rows = sorted({Path(it.source).name for it in items if is_row_text(it.problem_text)}) \
+            if spec.base == SweepBase.FILES and spec.gives_options else []
+        if rows and on_note is not None:  # (its solver options were dropped for them without a word)
+            on_note(f"{plural(len(rows), 'problem file is a row', 'problem files are rows')} ({', '.join(rows[:3])}"
+                    f"{', ...' if len(rows) > 3 else ''}): solved as coplan solve ROW solves it, without the sweep's "
+                    "solver options (they apply to its cells)")
         previous = {r["key"]: r for r in read_rows(out)}
         done = {k for k, r in previous.items() if r["status"] != RowStatus.LOST.value}
         todo = [it for it in items if it.key not in done]

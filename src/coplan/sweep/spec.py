@@ -62,13 +62,10 @@ TOP_KEYS = {"name", "description", "base", "problems", "fixed", "vary", "mode", 
 _ROW_FILE = re.compile(r"^gantry\s*:", re.MULTILINE)
 
 
-def is_row_text(path) -> bool:
-    """Whether the problem file at ``path`` is a row (a top-level ``gantry`` key), as the sweep
-    tells them apart; False where it cannot be read (its row then says why)."""
-    try:
-        return bool(_ROW_FILE.search(Path(path).read_text(encoding="utf-8", errors="replace")))
-    except OSError:
-        return False
+def is_row_text(text: str | None) -> bool:
+    """Whether a problem file's text is a row's (a top-level ``gantry`` key), as the sweep tells
+    them apart; False for no text (a file that could not be read: its row says why)."""
+    return text is not None and bool(_ROW_FILE.search(text))
 
 
 @dataclass(frozen=True)
@@ -105,6 +102,11 @@ class SweepSpec:
     description: str = ""
     sizes: dict[str, int] = field(default_factory=dict)
     planner_given: bool = True  # False: the default (a row file of a files sweep then takes coordinated)
+
+    @property
+    def gives_options(self) -> bool:
+        """Whether the file gives solver options (``options``, or ``options.*`` fixed or varied)."""
+        return bool(self.options) or any(str(k).startswith("options.") for k in {**self.fixed, **self.vary})
 
     def items(self, planner: PlannerKind | str | None = None, time_limit: float | None = None) -> list[SweepItem]:
         """The concrete problems (duplicates, by key, dropped); ``planner`` / ``time_limit``
@@ -189,7 +191,7 @@ class SweepSpec:
                 # a row file, the planner not given: each stop's cell planner is coplan solve ROW's (coordinated);
                 # it takes no solver options, as coplan solve ROW takes none: one row per file, not one per
                 # option value (two keys and 110 s for the same plan, the report showing an axis that did nothing)
-                row = text is not None and bool(_ROW_FILE.search(text))
+                row = is_row_text(text)
                 mine = PlannerKind.COORDINATED.value if row and not given else planner
                 mine_opts = {} if row else options
                 mine_shown = {k: v for k, v in shown.items() if not (row and k.startswith("options."))}
