@@ -1027,6 +1027,24 @@ def test_a_malformed_scheduler_address_is_a_usage_error_before_any_work(tmp_path
     assert not (tmp_path / "o").exists()
 
 
+def test_a_scheduler_port_nothing_listens_on_is_said_at_once_not_after_the_clients_timeout(tmp_path):
+    """(Dask's client retried the refused connection for SCHEDULER_TIMEOUT, 20 s, before saying so.)"""
+    import socket
+    import time
+
+    with socket.socket() as s:  # a port that was free a moment ago, and nothing listens on now
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.monotonic()
+    res = CliRunner().invoke(app, ["sweep", str(SMALL), "--scheduler", f"tcp://127.0.0.1:{port}", "--out", str(tmp_path / "o")])
+    took = time.monotonic() - t0
+    assert res.exit_code == ExitCode.USAGE, res.output
+    said = " ".join(res.output.split())
+    assert f"could not connect (connection refused at 127.0.0.1:{port}: no scheduler listens there)" in said, said
+    assert took < 15.0, took  # (three tries 0.5 s apart; the client's own wait was 20 s)
+    assert not (tmp_path / "o").exists()
+
+
 def test_problems_left_without_a_result_make_the_sweep_exit_9_and_the_next_run_solves_them(tmp_path, monkeypatch):
     """(A sweep whose external scheduler died mid-run, or whose worker died on every attempt,
     had rows with status "lost" and exited 0: a script took the sweep for done.)"""

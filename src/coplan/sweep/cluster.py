@@ -13,7 +13,7 @@ import warnings
 from typing import Callable
 
 __all__ = ["SCHEDULER_TIMEOUT", "WORKER_CHECK_SECONDS", "connect", "close_cluster", "sigint_ignored", "Interrupt",
-           "completed", "WorkerWatch", "default_workers"]
+           "completed", "refused", "WorkerWatch", "default_workers"]
 
 SCHEDULER_TIMEOUT = "20s"  # how long a sweep waits for a --scheduler that does not answer
 WORKER_CHECK_SECONDS = 5.0  # how often a sweep waiting on a --scheduler asks whether it has workers
@@ -72,6 +72,7 @@ def connect(workers: int, scheduler: str | None, retries: int):
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
+        refused(scheduler)
         return Client(scheduler, timeout=SCHEDULER_TIMEOUT), None
     with dask.config.set({"distributed.scheduler.allowed-failures": retries}), warnings.catch_warnings():
         # the scheduler's HTTP routes move to a free port when another cluster holds 8787: not news
@@ -86,6 +87,35 @@ def connect(workers: int, scheduler: str | None, retries: int):
             cluster.close()
             raise KeyboardInterrupt
         return Client(cluster), cluster
+
+
+def refused(scheduler: str, tries: int = 3, pause: float = 0.5) -> None:
+    """Raise :class:`ConnectionRefusedError` where nothing listens at a ``tcp://`` scheduler's
+    port (``tries`` times, ``pause`` s apart: a scheduler that is starting has a moment): Dask's
+    client retries a refused connection until its timeout, and a mistyped port cost a sweep
+    :data:`SCHEDULER_TIMEOUT` before it said so. A host that does not answer at all (no refusal)
+    is left to that timeout, and other protocols to Dask."""
+    import socket
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        proto, loc = parse_address(scheduler)
+        host, port = parse_host_port(loc) if proto == "tcp" else (None, None)
+    except ValueError:  # (malformed: Dask's own error says so)
+        return
+    if host is None:
+        return
+    for k in range(tries):
+        try:
+            with socket.create_connection((host, port), timeout=2.0):
+                return
+        except ConnectionRefusedError:
+            if k + 1 == tries:
+                raise ConnectionRefusedError(f"connection refused at {host}:{port}: no scheduler listens there") from None
+            time.sleep(pause)
+        except OSError:  # (unresolved, unroutable, slow: Dask's own connect says so, within its timeout)
+            return
 
 
 @contextlib.contextmanager
