@@ -162,6 +162,29 @@ def test_verify_takes_the_plan_alone_as_the_other_plan_commands_do(crossing_plan
     assert r.exit_code == 0, r.output
 
 
+def test_verify_and_export_of_a_plan_alone_say_which_problem_file_and_when_it_only_bears_a_shipped_name(tmp_path):
+    """A plan solved from a copy of crossing_paths with faster joints, its name kept: `coplan verify
+    PLAN` said "crossing-paths ... passed" and export wrote it, no word that the limits were the
+    copy's, not the shipped problem's (a plan checked against the file it records)."""
+    copy = tmp_path / "crossing_paths.yaml"
+    copy.write_text((PROBLEMS / "crossing_paths.yaml").read_text().replace("max_velocity: [3.0, 4.0]", "max_velocity: [6.0, 8.0]"))
+    r = runner.invoke(app, ["solve", str(copy), "--planner", "coordinated", "--out", str(tmp_path / "fast")])
+    assert r.exit_code == 0, r.output
+    plan = tmp_path / "fast" / "plan.json"
+    r = runner.invoke(app, ["verify", str(plan)])
+    said = " ".join(r.output.split())
+    assert r.exit_code == 0 and f"problem {copy} (the file the plan records)" in said, said
+    assert "bears the name of the shipped problem 'crossing-paths'" in said and "but is another text" in said, said
+    r = runner.invoke(app, ["export", str(plan), "--out", str(tmp_path / "x.csv")])
+    assert r.exit_code == 0 and "bears the name of the shipped problem 'crossing-paths'" in " ".join(r.output.split()), r.output
+    r = runner.invoke(app, ["verify", "crossing_paths", str(plan)])
+    assert r.exit_code != 0 and "(given)" in " ".join(r.output.split()), r.output  # the shipped limits: too fast
+    shipped = runner.invoke(app, ["solve", "crossing_paths", "--planner", "coordinated", "--out", str(tmp_path / "own")])
+    assert shipped.exit_code == 0
+    r = runner.invoke(app, ["verify", str(tmp_path / "own" / "plan.json")])  # the shipped file itself: no note
+    assert r.exit_code == 0 and "bears the name" not in r.output and "(the file the plan records)" in r.output, r.output
+
+
 def test_an_empty_plan_file_is_called_empty(tmp_path):
     p = tmp_path / "plan.json"
     p.write_text("  \n")

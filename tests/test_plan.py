@@ -440,3 +440,37 @@ def test_a_plan_json_with_a_byte_order_mark_reads_as_without(tmp_path: Path, sav
     f.write_bytes(b"\xef\xbb\xbf" + saved["json"].read_bytes())
     got = load_plan(f)
     assert got.events == load_plan(saved["json"]).events and np.array_equal(got.time, load_plan(saved["json"]).time)
+
+
+def test_a_fine_grid_that_runs_fast_or_whose_first_step_is_off_is_not_uniform():
+    """(Each step was allowed 1e-4 h + 1e-6 s off the mean and the checks divided by the first step:
+    a 10 kHz grid whose steps after the first were 1 % short passed the verifier with velocities
+    1.01 x, jerk 1.03 x the limits; one whose first step alone was 0.99 us short got 82 limit
+    violations on a plan that kept its limits.)"""
+    from coplan.plan import grid_step, time_grid_issues
+
+    fast = np.r_[0.0, 1e-4 + 0.99e-4 * np.arange(1000)]
+    (i, msg), = time_grid_issues(fast)
+    assert i == 1 and msg.startswith("expected a uniform grid with spacing 9.9e-05 s, found a step of 0.0001 s"), msg
+    first = np.r_[0.0, 0.99e-4 + 1e-4 * np.arange(1000)]
+    (i, msg), = time_grid_issues(first)
+    assert i == 1 and "found a step of 9.9e-05 s" in msg, msg
+    # a grid rounded to the microseconds plan.json keeps is uniform, at its mean step
+    third = np.round(np.arange(3001) / 3000.0, 6)
+    assert time_grid_issues(third) == [] and grid_step(third) == pytest.approx(1.0 / 3000.0, rel=1e-9)
+    assert np.max(np.abs(np.diff(third) - 1.0 / 3000.0)) > 3e-7  # (its steps differ by the rounding)
+
+
+def test_the_verifier_refuses_a_fine_grid_that_runs_fast():
+    """The samples of a 1 kHz plan on a grid 1 % fast after its first step are refused for their
+    grid, with the step it found (the verifier had passed such a plan at 10 kHz)."""
+    from coplan.problem import load_problem
+    from coplan.verify import verify
+
+    problem = load_problem("crossing_paths")
+    n = 2001
+    q = {a.name: np.tile(np.asarray(a.home, float), (n, 1)) for a in problem.arms}
+    fast = Plan(problem.name, "coordinated", PlanStatus.UNVERIFIED, np.r_[0.0, 1e-3 + 0.99e-3 * np.arange(n - 1)], q, [], {}, [])
+    assert fast.dt == pytest.approx((1e-3 + 0.99e-3 * (n - 2)) / (n - 1))
+    with pytest.raises(PlanFileError, match=r"time\[1\]: expected a uniform grid with spacing 0.00099 s, found a step of 0.001 s"):
+        verify(problem, fast)

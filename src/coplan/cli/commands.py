@@ -440,8 +440,10 @@ def verify_cmd(
         typer.echo(json.dumps(ver.to_dict() | failures.exit_fields(code),
                               indent=1, allow_nan=False))
     else:
+        how = "given" if problem is not None else "the file the plan records" if record is not None and \
+            prob.digest == record["sha256"] else "the shipped problem of the plan's name"
         print_verification(out_console, prob, ver, makespan=ver.measured["makespan"] or None,
-                           label=getattr(loaded, "label", None))
+                           label=getattr(loaded, "label", None), against=f"{prob.source or prob.name} ({how})")
         if code == ExitCode.INFEASIBLE:  # (it said "passed" and exited 4 without a word why)
             out_console.print("  nothing to plan   no fruit of the problem is reachable: exit 4 (infeasible), as "
                               "`coplan solve` and `coplan check` say of it")

@@ -62,14 +62,14 @@ def problem_of_plan(plan, plan_path: Path, problem: Optional[Path]):
                        f"{_s(problem)} as it is now", highlight=False, soft_wrap=True)
     else:  # (the one rule coplan.view(plan) follows too)
         from ..errors import PlanFileError
-        from ..problem.recorded import ProblemSource, recorded_problem
+        from ..problem.recorded import recorded_problem
 
         try:
             found = recorded_problem(plan.problem, record, "give its YAML file with --problem FILE")
         except PlanFileError as e:
             fail(ExitCode.USAGE, f"{plan_path}: {e.issues[0].message}")
         prob = found.problem
-        if found.source is ProblemSource.SHIPPED:  # (a problem changed in Python records no file: say what is used)
+        if found.note:  # (a problem changed in Python records no file: say what is used; a recorded copy of a shipped one)
             _note(f"{plan_path}: {found.note}")
     return prob
 

@@ -389,10 +389,11 @@ _SHOWN = 10  # fruit ids a verdict line lists (the rest counted; verification.js
 
 
 def print_verification(console, problem, ver, max_rows: int = 25, makespan: float | None = None,
-                       label: str | None = None) -> None:
+                       label: str | None = None, against: str | None = None) -> None:
     """Verdict, clearances, peaks and a short table of the violations. ``makespan``: the plan's
     last place (s), told apart from its length (the plan goes on, e.g. with the arms' way home);
-    ``label``: the plan's :attr:`coplan.plan.Plan.label` (a row's says how its carriage moved)."""
+    ``label``: the plan's :attr:`coplan.plan.Plan.label` (a row's says how its carriage moved);
+    ``against``: the problem file the plan was checked against, said on its own line."""
     from rich.table import Table
 
     from ..plancsv import CSV_PLANNER, EXPORT_PLANNER
@@ -411,6 +412,8 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     p(f"[bold]{safe(problem.name)}[/] -- {what} of {ver.duration:.2f} s{span}: {verdict}"
       + (f" [bold red]({plural(len(ver.violations), 'violation')}: {why})[/]" if ver.violations else "")
       + ("" if ver.complete else f" [yellow](not harvested: {plural(len(left), 'fruit', 'fruit')}: {safe(shown)})[/]"))
+    if against:  # (which limits and fruit the verdict holds it to: a plan alone was checked against what it records)
+        p(f"  problem           {safe(against)}")
     from ..verify.verdict import WarningKind  # (here: this module stays light to import)
 
     for w in ver.warnings:

@@ -10,7 +10,7 @@ file (checked, every problem named by its key path) in :mod:`coplan.plan.files`.
 
 from .files import exact_samples, load_plan, plan_from_dict, time_grid_issues
 from .model import (DEFAULT_RATE, MAX_PLAN_ANGLE, MAX_PLAN_BYTES, MAX_PLAN_COORD, PLAN_FORMAT, Event, EventKind, Piece,
-                    Plan, PlannerKind, PlanStatus, checked_status, compute_metrics, fit_issue, finalize_plan, finer_grid, jerk_figures,
+                    Plan, PlannerKind, PlanStatus, checked_status, compute_metrics, fit_issue, finalize_plan, finer_grid, grid_step, jerk_figures,
                     jsonable, motion_digest, on_lattice, sample_pieces)
 
 __all__ = [
@@ -36,6 +36,7 @@ __all__ = [
     "load_plan",
     "plan_from_dict",
     "time_grid_issues",
+    "grid_step",
     "MAX_PLAN_BYTES",
     "MAX_PLAN_ANGLE",
     "MAX_PLAN_COORD",

@@ -27,6 +27,8 @@ __all__ = [
     "PLAN_FORMAT",
     "DEFAULT_RATE",
     "finer_grid",
+    "grid_step",
+    "TIME_RESOLUTION",
     "on_lattice",
     "jsonable",
     "PlannerKind",
@@ -56,6 +58,20 @@ def finer_grid(dt: float) -> bool:
     check can tell from the limit (400 rad/s^3 of jerk at 1 kHz), so plans are written at full
     precision and the verifier takes that rounding only for values that sit on its lattice."""
     return dt < 1.0 / DEFAULT_RATE - 1e-12
+
+
+#: Plan files keep times to 1e-6 s (plan.json; plan.csv to 1e-7 s): a time grid is uniform where
+#: every time lies within half of that of ``t0 + i h`` (:func:`grid_step` ``h``).
+TIME_RESOLUTION = 1e-6
+
+
+def grid_step(time) -> float:
+    """The spacing ``h`` (s) of the uniform grid ``time`` (N,) stands for: its mean step
+    ``(t[-1] - t[0]) / (N - 1)`` (1 / :data:`DEFAULT_RATE` for fewer than two samples). Not the
+    first step: the times are rounded to :data:`TIME_RESOLUTION`, and on a fine grid the first
+    step's rounding would scale every velocity, acceleration and jerk a check divides by it."""
+    t = np.asarray(time, float)
+    return float(t[-1] - t[0]) / (t.size - 1) if t.size > 1 else 1.0 / DEFAULT_RATE
 
 
 def on_lattice(values, resolution: float = 1e-7) -> bool:
@@ -166,8 +182,8 @@ class Plan:
     # ------------------------------------------------------------------ queries
     @property
     def dt(self) -> float:
-        """The sample spacing (s): 1 / the plan's rate."""
-        return float(self.time[1] - self.time[0]) if self.time.size > 1 else 1.0 / DEFAULT_RATE
+        """The sample spacing (s): 1 / the plan's rate (:func:`grid_step`)."""
+        return grid_step(self.time)
 
     @property
     def duration(self) -> float:

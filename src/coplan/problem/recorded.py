@@ -6,7 +6,8 @@ commands that take a plan alone (``coplan plot/view/export/verify PLAN``) and fo
 sha256 of its text), if it is still there and unchanged; else -- the plan records no file, or the
 file is gone -- the shipped problem or row of the plan's name, if its text is the recorded one
 (when there is a record). Anything else is a :class:`~coplan.errors.PlanFileError` saying why and
-what to give instead (``remedy``), never another problem of the same name in silence.
+what to give instead (``remedy``), never another problem of the same name in silence; nor, in
+silence, a recorded file that bears a shipped problem's name but is another text (``note``).
 """
 
 from __future__ import annotations
@@ -31,8 +32,9 @@ class ProblemSource(Choice):
 
 @dataclass(frozen=True)
 class PlanProblem:
-    """A plan's problem, where it was found, and -- when it is the shipped one -- a sentence
-    saying so (``note``: a caller shows it, as a warning or on the console)."""
+    """A plan's problem, where it was found, and a sentence a caller shows (``note``, as a
+    warning or on the console) when it is the shipped one, or a recorded file that bears a shipped
+    problem's name but is another text."""
 
     problem: Problem
     source: ProblemSource
@@ -51,7 +53,7 @@ def recorded_problem(name: str | None, record: dict | None, remedy: str) -> Plan
         if problem.digest != record["sha256"]:
             raise PlanFileError([Issue("problem_file", f"it was planned from {record['path']}, which has changed since "
                                                        f"(its sha256 differs): {remedy} to use it anyway")])
-        return PlanProblem(problem, ProblemSource.RECORDED)
+        return PlanProblem(problem, ProblemSource.RECORDED, _not_shipped(problem, record["path"]))
     if not name:
         raise PlanFileError([Issue("problem", f"it does not name its problem (a plan.csv does not): {remedy}")])
     shipped = [load_problem(p) for p in shipped_problems() + shipped_rows()]
@@ -68,3 +70,18 @@ def recorded_problem(name: str | None, record: dict | None, remedy: str) -> Plan
             f"shipped problem {problem.name!r} ({problem.source or ''}); if it was planned on a changed problem, "
             f"{remedy}")
     return PlanProblem(problem, ProblemSource.SHIPPED, note)
+
+
+def _not_shipped(problem: Problem, path: str) -> str:
+    """A note where the recorded file at ``path`` names a shipped problem but is another text: a
+    plan verified or exported against it is held to that file's limits and fruit, not the shipped
+    problem's (a copy of crossing_paths with its limits raised certified a plan twice as fast as
+    "crossing-paths ... passed", no word of which file); '' otherwise."""
+    shipped = shipped_problems() + shipped_rows()
+    if any(Path(path).resolve() == Path(s).resolve() for s in shipped):
+        return ""
+    twin = next((q for q in (load_problem(s) for s in shipped) if q.name == problem.name), None)
+    if twin is None or twin.digest == problem.digest:
+        return ""
+    return (f"its problem is taken from {path}, the file the plan records, which bears the name of the shipped "
+            f"problem {problem.name!r} ({twin.source}) but is another text (its limits, fruit or arms may differ)")

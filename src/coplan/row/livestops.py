@@ -24,7 +24,7 @@ def dark_hold(plan, dark: tuple[float, float]) -> float:
     t = plan.time
     if t.size < 2:
         return 0.0
-    dt = float(t[1] - t[0])
+    dt = plan.dt
     still = np.abs(np.diff(plan.gantry_x)) < 1e-9
     for arm in plan.q:  # (no arm moving or dwelling: Plan.busy, as each arm's busy time counts it)
         still &= ~plan.busy(arm)

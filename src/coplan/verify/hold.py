@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..plan import grid_step
 from .clearance import ArmMotion
 
 __all__ = ["holds_on", "bin_track"]
@@ -29,7 +30,7 @@ def holds_on(m: ArmMotion, tip: np.ndarray, time: np.ndarray, target, n: np.ndar
     ``tip``: (N, 2) the tip at every sample (in the row frame for a row); ``target``: a point, or
     one per sample (N, 2) (a bin riding on the carriage)."""
     target = np.asarray(target, float)
-    dt = time[1] - time[0]
+    dt = grid_step(time)
     t0, t1 = (target, target) if target.ndim == 1 else (target[n], target[n + 1])
     d0, d1 = np.hypot(*(tip[n] - t0).T), np.hypot(*(tip[n + 1] - t1).T)
     if not row_frame:

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import Issue, PlanFileError
-from ..plan import EventKind, Plan
+from ..plan import EventKind, Plan, grid_step
 from ..problem.model import Problem
 from .clearance import runs
 from .verdict import Verification, Violation, ViolationKind, blurred_by_rounding, rounding_allowance, rounding_words
@@ -76,7 +76,7 @@ def check_carriage(problem: Problem, plan: Plan, opts, ver: Verification) -> Non
                                         message=f"the carriage at x = {x[w]:.4f} m, off the rail [{g.start:g}, {g.end:g}]"))
     if t.size < 2:
         return
-    dt = float(t[1] - t[0])
+    dt = grid_step(t)
     _check_settle(problem, plan, x, t, dt, ver)
     pad = np.concatenate([np.repeat(x[:1], 3), x, np.repeat(x[-1:], 3)])  # at rest before and after the plan
     tp = (np.arange(pad.size) - 3) * dt

@@ -73,7 +73,7 @@ from .home import check_home
 from .infer import infer_events
 from .row import check_carriage, check_row_inputs, plan_source
 from ..kinds import LIVE_PLANNER, PlannerKind
-from ..plan import DEFAULT_RATE, EventKind, Plan, load_plan, time_grid_issues
+from ..plan import EventKind, Plan, grid_step, load_plan, time_grid_issues
 from . import verdict as _verdict
 from ..problem.model import Problem
 from ..problem.given import as_problem
@@ -210,7 +210,7 @@ def _check_clearance(problem: Problem, plan: Plan, motions: list[ArmMotion], opt
 # --------------------------------------------------------------------------- limits
 def _check_limits(problem: Problem, motions: list[ArmMotion], time: np.ndarray, opts: VerifyOptions, ver: Verification):
     """Joint limits, finite-difference velocity/acceleration/jerk (module docstring), singular poses."""
-    dt = float(time[1] - time[0]) if time.size > 1 else 1.0 / DEFAULT_RATE
+    dt = grid_step(time)
     for arm, m in zip(problem.arms, motions):
         q = m.q
         lim = arm.limits

@@ -89,14 +89,15 @@ def problem_of(plan: Plan) -> Problem:
     """The problem of a plan, as ``coplan view`` finds it
     (:func:`coplan.problem.recorded.recorded_problem`): the problem file the plan records
     (unchanged since: its digest), else the shipped problem or row the plan names, with a
-    UserWarning that it is the shipped one. Raises :class:`PlanFileError` when there is none,
+    UserWarning that it is the shipped one (or that the recorded file bears a shipped problem's
+    name but is another text). Raises :class:`PlanFileError` when there is none,
     when the recorded file has changed since, or when it is gone and the shipped problem of that
     name is another text (not shown in its place: it may be another)."""
-    from ..problem.recorded import ProblemSource, recorded_problem
+    from ..problem.recorded import recorded_problem
 
     found = recorded_problem(plan.problem, plan.problem_file, "pass the problem itself (problem=, or view the "
                                                                "SolveResult, which carries its own)")
-    if found.source is ProblemSource.SHIPPED:  # (as coplan view notes it; coplan.view said nothing)
+    if found.note:  # (as coplan view notes it; coplan.view said nothing)
         import warnings
 
         warnings.warn(found.note, UserWarning, stacklevel=3)
