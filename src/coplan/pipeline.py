@@ -278,7 +278,11 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     plan.solver["timings"] = dict(timings)
     files, previous = _write(out_dir, plan, res.verification, problem=prob) if out_dir is not None else ({}, None)
     timings["total"] = _time.perf_counter() - t0
-    return SolveResult(prob, plan, res.verification, None, files, timings, previous, row=res)
+    errors = (getattr(res, "info", None) or {}).get("cell_errors") or {}
+    error = (f"internal error in the cell planner at {len(errors)} stop{'s' * (len(errors) != 1)} (x = "
+             f"{', '.join(errors)} m; the first: {next(iter(errors.values()))}): each kept its plan from before the error"
+             if errors else None)
+    return SolveResult(prob, plan, res.verification, None, files, timings, previous, error=error, row=res)
 
 
 def _row_fruit_counts(problem: Problem, plan: Plan) -> dict:

@@ -251,7 +251,7 @@ def _report_solve(res, out: Path, animate: bool, html: bool, as_json: bool):
         print_summary(out_console, res)
     if res.error:  # a bug stopped the planner: what it had computed is on disk; exit 1 (res.exit_code)
         debug = os.environ.get("COPLAN_DEBUG")
-        err_console.print(f"[bold red]error[/]: {_s(res.plan.solver.get('message'))}; files in {_s(out)}."
+        err_console.print(f"[bold red]error[/]: {_s(res.plan.solver.get('message') or res.error)}; files in {_s(out)}."
                           + ("" if debug else " Set COPLAN_DEBUG=1 for a traceback."), highlight=False, soft_wrap=True)
         if debug:
             err_console.print(res.error_trace, markup=False, highlight=False)

@@ -123,6 +123,7 @@ def compare_row(prob, planner, out: Path, as_json: bool, out_console, err_consol
     # plan harvests every harvestable fruit, there is no best plan: solve's partial, 5)
     statuses = {r["status"] for r in cmp.rows}
     code = (ExitCode.UNSAFE if not all(r["verified"] for r in cmp.rows) else
+            ExitCode.SOLVER_FAILED if any(r.get("error") for r in cmp.rows) else
             ExitCode.INFEASIBLE if statuses == {PlanStatus.INFEASIBLE.value} else
             ExitCode.PARTIAL if cmp.rows and cmp.best is None and PlanStatus.PARTIAL.value in statuses else ExitCode.OK)
     if as_json:  # (with the exit code, as every document of a command that ran)

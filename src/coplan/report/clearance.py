@@ -114,6 +114,9 @@ def clearance_cost(path: str | Path, out_dir: str | Path, extras_mm=EXTRAS_MM, p
             _cut_short(cost, out, extra, len(extras))
             raise
         m, ver = res.plan.metrics, res.verification
+        if res.error:  # (an internal error in a stage: its plan from before it is this level's, and said so)
+            cost.notes.append(f"+{extra:g} mm: the planner stopped on an internal error ({res.error}); its plan from "
+                              "before the error is this row's")
         mk = m.get("makespan")
         locked = ((res.plan.solver or {}).get("screen") or {}).get("locked") or []
         if extra == 0.0:

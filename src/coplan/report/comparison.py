@@ -325,6 +325,9 @@ def _compare_problem(path: Path, specs: list[PlannerSpec], out: Path, options, s
             res = solve(problem, planner=spec.planner, allocation=spec.allocation, out_dir=out / path.stem / spec.folder,
                         progress=inner if inner is not None else say, **kw)
             row = _row_of(problem, spec, res, lb_cache)
+            if res.error:  # (an internal error in a stage: the plan kept from before it is the row's, the run failed)
+                row["error"] = res.error
+                say(f"{problem.name}: {spec.label} failed: {res.error}; keeping its plan from before the error")
         except KeyboardInterrupt:
             raise _Cut(entry, mine()) from None
         except OSError as e:

@@ -158,6 +158,8 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
             raise
         m = res.plan.metrics.get("row") or {}
         cut = res.plan.status == PlanStatus.INTERRUPTED
+        if res.error:  # (a stop's cell planner stopped on an internal error: its row is kept, and said not to be clean)
+            cmp.notes.append(f"{name}: {res.error}")
         whole = (m.get("harvested") or 0) >= fruit_bounds_count(m)  # (no ratio to bounds that count fruit it left)
         label = name + (" (interrupted)" if cut else "")
         cmp.rows.append({"name": label, "mode": (GantryMode.STOP_AND_GO if rule is not None else GantryMode.CONTINUOUS).value,
@@ -173,7 +175,7 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
                          "profile": res.plan.solver.get("row", {}).get("profile") if rule is None else None,
                          "planning_time": m.get("planning_time"), "first_motion_seconds": m.get("first_motion_seconds"),
                          "kept_ahead": m.get("kept_ahead"), "verified": bool(res.verification.passed),
-                         "status": res.plan.status.value, "plan": str(res.files.get("json", ""))})
+                         "status": res.plan.status.value, "error": res.error, "plan": str(res.files.get("json", ""))})
         if res.plan.status not in (PlanStatus.SUCCESS, PlanStatus.INTERRUPTED):  # (an empty row read "0.0 s, verified")
             cmp.notes.append(_status_note(name, res.plan, problem))
         if cut:  # Ctrl-C / SIGTERM: what finished is written, said, and the run stops

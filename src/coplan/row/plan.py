@@ -366,6 +366,9 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
             info["first_stop_seconds"] = first_stop_at[0] if first_stop_at else None
             info["retimed_cells"] = sum(1 for sp in planned if sp.plan.solver.get("retime"))  # (cells whose retiming was kept)
             info["left_out"] = _left_out(reach, planned, dropped, interrupted)
+            errors = {f"{sp.stop.x:.3f}": sp.plan.solver["internal_error"] for sp in planned if sp.plan.solver.get("internal_error")}
+            if errors:  # (a stop's optimal cell planner stopped on an internal error: its plan from before it is the stop's)
+                info["cell_errors"] = errors
             plan.solver = {"status": plan.status.value, "row": info, "timings": dict(timings)}
     except KeyboardInterrupt:
         cut = True
