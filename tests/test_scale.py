@@ -169,10 +169,10 @@ def test_when_the_other_process_gives_nothing_the_planner_goes_on_from_its_first
 
     class Gone:
         def __init__(self, *args):
-            self.error = "the coordinated planner's process ended (exit code -9)"
+            pass
 
         def result(self):
-            return None
+            raise portfolio.AlongsideFailed("the coordinated planner's process ended (exit code -9)")
 
         def close(self):
             pass

@@ -83,13 +83,6 @@ class Allocation:
         """The busiest arm's estimated time (s): the allocation's own estimate, not a plan's."""
         return max(self.estimate.values(), default=0.0)
 
-    def arm_of(self, fruit_id: str) -> str:
-        """The arm ``fruit_id`` is allocated to (KeyError if none)."""
-        for a, fs in self.assignment.items():
-            if fruit_id in fs:
-                return a
-        raise KeyError(fruit_id)
-
 
 def _sync_time(arm: Arm, q0, q1) -> float:
     return sync_duration(q0, q1, arm.max_velocity, arm.max_acceleration, arm.max_jerk)

@@ -309,6 +309,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
     from ..pipeline import status_exit_code
     from ..plan import jsonable
     from ..problem.load import file_record
+    from ..live.sim import RUN_FORMAT
     from ..row.live import LiveRowOptions, run_live_row
 
     if feed is not None:
@@ -353,7 +354,7 @@ def _run_row(prob, out, feed, speed, gantry, look_ahead, sigma, false_rate, dupl
         given = [o for o, on in (("--arm-stop", faults.arm_stop), ("--camera-dark", faults.camera_dark),
                                  ("--late-replan", faults.late_replan)) if on]  # (only those given: it named all three)
         usage(f"{'/'.join(given)}: {e.issues[0].message} ({prob.name!r})")
-    doc = {"format": "coplan.run/1", "problem": prob.name,
+    doc = {"format": RUN_FORMAT, "problem": prob.name,
            "mode": "row on the move" if mode == GantryMode.CONTINUOUS else "row stop and go",
            "options": {k: (v.value if k == "mode" else v) for k, v in opts.__dict__.items() if k != "faults"}
            | {"faults": faults.__dict__} | ({"speed": None} if mode == GantryMode.STOP_AND_GO else {}),  # (no cruising speed)

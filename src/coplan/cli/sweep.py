@@ -55,7 +55,7 @@ def _notes_before_run(sw, planner) -> None:
 
 
 def _counts_text(counts: dict[str, int]) -> str:
-    order = ["success", "partial", "unsafe", "infeasible", "failed", "bad input", "error", "timeout", "lost"]
+    order = [s.value for s in RowStatus]  # (a copy of it left out unverified and interrupted)
     keys = sorted(counts, key=lambda k: order.index(k) if k in order else len(order))
     colour = {"success": "green", "partial": "yellow"}
     return "  ".join(f"[{colour.get(k, 'red')}]{_safe(k)} {counts[k]}[/]" for k in keys) or "[dim]no problem finished yet[/]"

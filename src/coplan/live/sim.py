@@ -299,7 +299,7 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
     where = str(Path(feed.source).absolute()) if feed.source and os.path.isfile(feed.source) else feed.source
     plan.solver = {"status": plan.status.value, "live": {"replans": len(cell.replans), "feed": where}}
     run = {
-        "format": "coplan.run/1", "problem": problem.name, "feed": where,
+        "format": RUN_FORMAT, "problem": problem.name, "feed": where,
         "feed_sha256": feed.digest,  # (the path alone: an edited feed could not be told from the one run)
         "options": {k: getattr(cell.options, k) for k in cell.options.__dataclass_fields__},
         "close_range": {"distance": feed.close_distance, "sigma": feed.close_sigma},

@@ -62,7 +62,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..kinds import GantryMode, PlanStatus, SpeedProfile
+from ..kinds import Choice, GantryMode, PlanStatus, SpeedProfile
 from ..plan import Event, EventKind, finalize_plan
 from ..errors import Issue, OptionsError
 from ..problem.model import Problem
@@ -116,6 +116,15 @@ CHECK, LOOK, REACH_TIME, HOLD_PER_FRUIT, HOLD_MIN, HOLD_MAX, HOLDS_PER_REPORT = 
 #: f0170 fitted arm1 by 0.12 s from t = 252 s on; arm1, free at 256.1 s, could not make it, and
 #: the carriage, braking, would have come to rest after its window closed -- missed, no hold).
 SLACK = 0.5
+
+
+class Change(Choice):
+    """What changes the carriage's motion on the move, live: an arm that stops (the carriage
+    slows), the camera going dark (it holds), a fruit about to pass every working arm (it holds)."""
+
+    ARM_STOP = "arm_stop"
+    CAMERA_DARK = "camera_dark"
+    FRUIT = "fruit"
 
 # the camera and the faults live in .sensing; re-exported here, where a live row is run
 __all__ = ["LiveRowOptions", "RowFaults", "RowDetection", "LiveRow", "row_reports", "report_times", "row_detections",
@@ -256,7 +265,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
     exact."""
     problem, opts, g = run.problem, run.opts, run.problem.gantry
     halt, delay = faults.halt, faults.delay
-    changes = sorted([(t, "arm_stop") for t in halt.values()] + ([(faults.dark[0], "camera_dark")] if faults.dark else []))
+    changes = sorted([(t, Change.ARM_STOP) for t in halt.values()] + ([(faults.dark[0], Change.CAMERA_DARK)] if faults.dark else []))
     stretches: list[tuple] = [(math.inf, opts.speed)]
     n = len(problem.arms)
     holds: list[dict] = []
@@ -291,13 +300,13 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         run.set_cruise(cruise, since=t_s)
         return True
 
-    def change(kind: str, t_c: float, risk: list[tuple[str, float]] | None = None) -> None:
+    def change(kind: Change, t_c: float, risk: list[tuple[str, float]] | None = None) -> None:
         nonlocal cruise, stretches, held_until
-        if kind == "arm_stop" and (back := _take_back_unstarted(run, halt, t_c)):
+        if kind == Change.ARM_STOP and (back := _take_back_unstarted(run, halt, t_c)):
             faults.log["arm_stop"]["decided_again"] = back
         t_s = max([t_c] + run.pick_ends())
         v = stretches[-1][1]
-        if kind == "arm_stop" and _slow_at_once(t_s):
+        if kind == Change.ARM_STOP and _slow_at_once(t_s):
             return
         # a change begins at cruising speed: past any ramp or hold under way (or the carriage is stopping anyway)
         while t_s < cruise.duration and abs(float(cruise.state(np.array([t_s]))[1][0]) - v) > 1e-9:
@@ -306,13 +315,13 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         if x_s >= cruise.x1 - 1e-6 or t_s >= cruise.duration:
             return
         stop = ramp_time(v, 0.0, g.max_acceleration, g.max_jerk)
-        if kind == "arm_stop":
+        if kind == Change.ARM_STOP:
             slow = opts.speed * STOP_SLOWDOWN * (n - len(halt)) / n
             if slow <= 0:
                 return
             stretches = stretches[:-1] + [(x_s, v), (math.inf, slow)]
             faults.log["arm_stop"].update({"carriage_slows_at": round(t_s, 3), "to_speed": round(slow, 6)})
-        elif kind == "camera_dark":
+        elif kind == Change.CAMERA_DARK:
             hold = faults.dark[0] + faults.dark[1] - (t_s + stop)
             if hold <= 0:
                 faults.log["camera_dark"].update(carriage="kept moving: the camera was back before it could come to rest",
@@ -408,7 +417,7 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         if opts.hold_for_fruit and t_c >= held_until:
             risk = at_risk(t_c)
             if risk:
-                change("fruit", t_c, risk)
+                change(Change.FRUIT, t_c, risk)
     run.holds = holds
     return run.policy(halt=halt, delay=delay)
 

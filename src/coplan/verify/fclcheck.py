@@ -33,6 +33,7 @@ from enum import Enum
 import fcl
 import numpy as np
 
+from ..kinds import FclMode
 from .clearance import ArmMotion, arm_link_distances
 
 __all__ = [
@@ -83,7 +84,7 @@ class FclReport:
     over overlapping ones (core distances), in m. ``agree`` is False after any disagreement.
     """
 
-    mode: str
+    mode: FclMode
     samples: int = 0
     queries: int = 0
     max_abs_diff: float = 0.0
@@ -97,7 +98,7 @@ class FclReport:
 
     def to_dict(self) -> dict:
         return {
-            "mode": self.mode,
+            "mode": self.mode.value,
             "agree": self.agree,
             "samples": self.samples,
             "queries": self.queries,
@@ -186,7 +187,7 @@ def _compare(report: FclReport, arms, links, t, d_np: float, ra: float, rb: floa
 def cross_check(
     motions: list[ArmMotion],
     samples: list[tuple[int, int, int, float, float]],
-    mode: str = "critical",
+    mode: FclMode = FclMode.CRITICAL,
     tolerance: float = FCL_TOLERANCE,
 ) -> FclReport:
     """Compare NumPy and FCL link-pair distances at the given instants.
@@ -198,7 +199,7 @@ def cross_check(
 
     Every one of the 4 link pairs is compared at each instant.
     """
-    report = FclReport(mode=mode, tolerance=tolerance)
+    report = FclReport(mode=FclMode(mode), tolerance=tolerance)
     objects: dict[int, list[_Link]] = {}
 
     def links_of(k: int, pts: np.ndarray) -> list[_Link]:

@@ -517,7 +517,7 @@ def verify(problem: Problem | str | os.PathLike, plan: Plan | str | os.PathLike,
     samples = _check_clearance(problem, plan, motions, opts, ver)
     t1 = _time.perf_counter()
     if opts.fcl != FclMode.OFF:
-        ver.fcl = cross_check(motions, samples, opts.fcl.value, opts.fcl_tolerance)
+        ver.fcl = cross_check(motions, samples, opts.fcl, opts.fcl_tolerance)
         for d in ver.fcl.disagreements:
             ver.violations.append(Violation(ViolationKind.CROSS_CHECK, d.arms, d.t, abs(d.fcl - d.numpy), d.fcl, d.numpy,
                                             message=f"FCL and NumPy disagree ({d.kind.value}) on links {d.links}"))

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-__all__ = ["ARM_PALETTE", "arm_colors", "PHASES", "PHASE_LABELS", "FRUIT_COLOR", "ALERT_COLOR", "LIMIT_COLOR", "pair_label"]
+__all__ = ["ARM_PALETTE", "arm_colors", "FRUIT_COLOR", "ALERT_COLOR", "LIMIT_COLOR", "pair_label"]
 
 # tab10 without its red: red is reserved for ripe fruit and for clearance violations.
 ARM_PALETTE = (
@@ -25,13 +25,6 @@ FRUIT_COLOR = "#d62728"  # ripe strawberry red
 ALERT_COLOR = "#e00000"  # clearance violation / collision
 LIMIT_COLOR = "#333333"
 
-PHASES = ("moving", "picking", "placing", "idle")
-PHASE_LABELS = {
-    "moving": "moving",
-    "picking": "picking (fruit id)",
-    "placing": "placing in bin",
-    "idle": "idle",
-}
 
 
 def _names(arms) -> list[str]:

@@ -68,7 +68,7 @@ Q_RESOLUTION = 1e-7  # rad: plan.json stores joint angles rounded to this; the r
 MANIP_RESOLUTION = 160  # columns of the manipulability grid
 _DATA_ID = "coplan-data"
 _MARKER = re.compile(r"/\*@(CSS|JS)@\*/|@@(TITLE|DATA)@@")
-_DATA_RE = re.compile(r'<script type="application/json" id="coplan-data">(.*?)</script>', re.S)
+_DATA_RE = re.compile(rf'<script type="application/json" id="{_DATA_ID}">(.*?)</script>', re.S)
 
 
 # --------------------------------------------------------------------------- arrays

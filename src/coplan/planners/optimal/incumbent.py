@@ -14,12 +14,32 @@ from time import time as _epoch  # the wall clock, for callers outside (not a bu
 
 import numpy as np
 
+from ...kinds import Choice
 from ...plan import Plan, PlanStatus, finalize_plan
 from ...problem.model import Problem
 from ..coordinated.planner import Coordinated
 from .search_setup import StopReason
 
-__all__ = ["Incumbent", "time_to_ratio", "stop_message"]
+__all__ = ["Incumbent", "Source", "time_to_ratio", "stop_message"]
+
+
+class Source(Choice):
+    """The stage an incumbent's makespan came from (plan.json's ``solver.incumbent_from`` and
+    each history entry's ``source``)."""
+
+    COORDINATED = "coordinated"
+    RETIME = "retime"
+    SEARCH = "search"
+    REFINE = "refine"
+    NLP = "joint NLP"
+    NLP_UNVERIFIED = "joint NLP (unverified)"  # the joint NLP's best iterate, kept where nothing was verified
+    REGROUP = "regroup"
+
+    @property
+    def words(self) -> str:
+        return {Source.COORDINATED: "the coordinated plan", Source.RETIME: "the retiming", Source.SEARCH: "the search",
+                Source.REFINE: "the refinement", Source.NLP: "the joint NLP", Source.NLP_UNVERIFIED: "the joint NLP, unverified",
+                Source.REGROUP: "the regroup stage, planned at a raised clearance"}[self]
 
 
 class Incumbent:
@@ -31,7 +51,7 @@ class Incumbent:
         self.plan: Plan | None = None
         self.verification = None
         self.candidate: Coordinated | None = None
-        self.source = None
+        self.source: Source | None = None
         self.first_at = None
         self.first_wall = None  # the wall clock (s since the epoch) at the first verified plan
         self.improved_at = None
@@ -42,7 +62,7 @@ class Incumbent:
     def makespan(self) -> float:
         return self.plan.metrics["makespan"] if self.plan is not None else np.inf
 
-    def offer(self, plan: Plan, verification, source: str, candidate: Coordinated | None = None,
+    def offer(self, plan: Plan, verification, source: Source, candidate: Coordinated | None = None,
               ties: bool = False) -> bool:
         """Keep ``plan`` if verified and it harvests more, or as much and faster (with ``ties``: or
         as fast, so that a parallel search's winner replaces an equal best that happened to arrive
@@ -57,7 +77,7 @@ class Incumbent:
             equal = got == have and mk >= self.makespan - 1e-9
             if got < have or (equal and not (ties and mk <= self.makespan + 1e-9)):
                 return False
-        self.plan, self.verification, self.source = plan, verification, source
+        self.plan, self.verification, self.source = plan, verification, Source(source)
         self.candidate = candidate if candidate is not None else self.candidate
         self.moved_by = None  # (a plan of its own: no stage has moved it yet)
         if equal:
@@ -66,10 +86,10 @@ class Incumbent:
         if self.first_at is None:
             self.first_at, self.first_wall = now, _epoch()
         self.improved_at = now
-        self.history.append({"t": now, "makespan": self.makespan, "source": source})
+        self.history.append({"t": now, "makespan": self.makespan, "source": self.source.value})
         lb = plan.metrics.get("lower_bound") or 0.0
         gap = f", {max(self.makespan / lb - 1, 0.0):.2%} over the lower bound {lb:.3f} s" if lb else ""
-        self.say(f"incumbent {self.makespan:.3f} s ({source}){gap}")
+        self.say(f"incumbent {self.makespan:.3f} s ({self.source.value}){gap}")
         return True
 
     def replace(self, plan: Plan, verification, stage: str, candidate: Coordinated | None = None) -> None:
@@ -97,7 +117,7 @@ def stop_message(inc: Incumbent, stop: StopReason) -> str:
     """Why the planner stopped, and which stage its plan came from."""
     if inc.n_reach == 0:  # (it said no verified plan was found, of a problem with nothing to plan)
         return "nothing to plan: no arm reaches any fruit (every arm stays at home)"
-    if inc.source is None or inc.source.endswith("(unverified)"):
+    if inc.source is None or inc.source == Source.NLP_UNVERIFIED:
         return "no verified plan was found; the best the solver had is kept"
     words = {
         StopReason.PROVEN_OPTIMAL: "the plan meets the lower bound: proven optimal",
@@ -107,7 +127,5 @@ def stop_message(inc: Incumbent, stop: StopReason) -> str:
         StopReason.TIME_LIMIT: "the time limit was reached; the verified incumbent is returned",
         StopReason.INTERRUPTED: "interrupted; the verified incumbent is saved",
     }
-    source = {"coordinated": "the coordinated plan", "search": "the search", "refine": "the refinement",
-              "joint NLP": "the joint NLP", "regroup": "the regroup stage, planned at a raised clearance"}.get(inc.source, inc.source)
     moved = f", then moved by the {inc.moved_by} stage at its makespan" if inc.moved_by else ""
-    return f"{words[stop]} (incumbent from {source}{moved})"
+    return f"{words[stop]} (incumbent from {inc.source.words}{moved})"

@@ -174,7 +174,7 @@ def _finish(run: Run, error: str | None, error_trace: str | None) -> OptimalResu
         "status": plan.status.value,
         "message": stop_message(inc, run.stop),
         "stopped_by": run.stop.value,
-        "incumbent_from": inc.source,
+        "incumbent_from": None if inc.source is None else inc.source.value,
         "moved_by": inc.moved_by,  # (the stage whose plan, at the incumbent's makespan, is the one written)
         "incumbents": inc.history,
         "first_verified_wall_time": inc.first_wall,  # s since the epoch: when a caller outside could have had a plan
@@ -190,7 +190,7 @@ def _finish(run: Run, error: str | None, error_trace: str | None) -> OptimalResu
         "timings": dict(timings),
     }
     if error:
-        kept = f"the verified incumbent from the {inc.source} stage ({mk:.3f} s)" if verified and inc.source \
+        kept = f"the verified incumbent from the {inc.source.value} stage ({mk:.3f} s)" if verified and inc.source \
             else "no verified plan (the arms stay at home)"
         plan.solver.update(internal_error=error, stopped_by="internal_error",
                            message=f"internal error ({error}); kept {kept} and the baseline")

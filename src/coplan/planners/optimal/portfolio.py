@@ -29,7 +29,7 @@ from ...workers import default_workers, mp_context, quiet_child
 from ..coordinated.candidate import Coordinated
 from .search import SearchOptions, SearchStats, StopReason, improve
 
-__all__ = ["PortfolioResult", "search_portfolio", "default_workers", "Alongside"]
+__all__ = ["PortfolioResult", "search_portfolio", "default_workers", "Alongside", "AlongsideFailed"]
 
 _TICK_EVERY = 0.5  # s between a worker's progress messages
 
@@ -158,6 +158,10 @@ def _coordinated_worker(problem: Problem, allocation, options, out) -> None:
         out.put(("error", f"{type(e).__name__}: {e}"))
 
 
+class AlongsideFailed(RuntimeError):
+    """The coordinated planner's other process (:class:`Alongside`) failed or ended without a word."""
+
+
 class Alongside:
     """The coordinated planner (every candidate) in another process, while the caller does
     something else with the first one (the optimal planner retimes it); :meth:`result` waits
@@ -168,23 +172,20 @@ class Alongside:
         self._out = ctx.Queue()
         self._proc = ctx.Process(target=_coordinated_worker, args=(problem, allocation, options, self._out), daemon=True)
         self._proc.start()
-        self.error: str | None = None
 
     def result(self):
-        """The other process's :class:`~coplan.planners.coordinated.planner.CoordinatedResult`,
-        or None (then :attr:`error` says why) when it failed or ended without a word."""
+        """The other process's :class:`~coplan.planners.coordinated.planner.CoordinatedResult`;
+        :class:`AlongsideFailed` saying why when it failed or ended without a word."""
         while True:
             try:
                 kind, payload = self._out.get(timeout=1.0)
             except _queue.Empty:
                 if not self._proc.is_alive():
-                    self.error = f"the coordinated planner's process ended (exit code {self._proc.exitcode})"
-                    return None
+                    raise AlongsideFailed(f"the coordinated planner's process ended (exit code {self._proc.exitcode})") from None
                 continue
             if kind == "done":
                 return payload
-            self.error = payload
-            return None
+            raise AlongsideFailed(payload)
 
     def close(self) -> None:
         if self._proc.is_alive():

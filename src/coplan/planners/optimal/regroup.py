@@ -32,6 +32,7 @@ import numpy as np
 from ...plan import PlanStatus, finalize_plan
 from ...problem.model import Problem
 from ...progress import Tick
+from .incumbent import Source
 from .judged import MARGIN_TOL, room_goal
 from .nlp_data import SolverStatus
 from .windows import min_clearance
@@ -136,7 +137,7 @@ def regrouped(run) -> dict:
         return info
     if plan.metrics["makespan"] < inc.makespan - 1e-9 or plan.metrics["harvested"] > inc.plan.metrics["harvested"]:
         # faster (or more fruit) too: an improvement like any other, its own plan
-        if not inc.offer(plan, ver, "regroup", inner.candidate):
+        if not inc.offer(plan, ver, Source.REGROUP, inner.candidate):
             info["reason"] = "the incumbent refused it"
             return info
     else:

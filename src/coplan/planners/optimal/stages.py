@@ -35,7 +35,7 @@ from ..coordinated.planner import (Coordinated, CoordinatedOptions, find_coordin
                                   schedules_plan)
 from ..coordinated.schedule import ArmSchedule, StepKind, decoupled_schedules
 from ..heuristic import plan_heuristic
-from .incumbent import Incumbent
+from .incumbent import Incumbent, Source
 from .judged import widened
 from .nlp_data import Grid, SolverStatus, any_interrupted, build_grid, knot_events
 from .options import OptimalOptions
@@ -145,7 +145,7 @@ class Run:
                      "makespan_before": c.makespan, "makespan": r.makespan,
                      "constraints": r.constraints, "wall_seconds": seconds, "accepted": False}
             if rc is not None and r.makespan < min(c.makespan, self.inc.makespan) - 1e-9:
-                entry["accepted"] = self.offer(rc, "retime")
+                entry["accepted"] = self.offer(rc, Source.RETIME)
             self.reports["retime"].append(entry)
             self.timings["retime"] = self.timings.get("retime", 0.0) + seconds
             if not (gained and entry["accepted"]) or not self.in_time():
@@ -171,7 +171,7 @@ def coordinated(run: Run) -> str:
     def first_feasible(c: Coordinated, baseline: bool = True) -> None:
         if inc.plan is None and not c.fallback:
             p = schedules_plan(problem, c.alloc, c.schedules, PlannerKind.OPTIMAL, {})
-            inc.offer(p, verify(problem, p), "coordinated", c)
+            inc.offer(p, verify(problem, p), Source.COORDINATED, c)
             if baseline and not run.base:
                 run.make_baseline()
 
@@ -199,7 +199,7 @@ def coordinated(run: Run) -> str:
     run.cand = cand = coord.candidate
     if cand is not None:
         inc.offer(schedules_plan(problem, cand.alloc, cand.schedules, PlannerKind.OPTIMAL, {}), coord.verification,
-                  "coordinated", cand)
+                  Source.COORDINATED, cand)
     run.bound = coord.plan.metrics.get("lower_bound") or 0.0
     run.start = inc.candidate
     if first is not None:  # where one worker would start: the better of the first and the best candidate
@@ -214,7 +214,7 @@ def _alongside(run: Run, copts: CoordinatedOptions, first_feasible: Callable[[Co
     what comes near the bound. Then the flow goes on exactly as with one worker, from the other
     process's result (its best candidate is where the retime stage and the search start), so
     the same input and workers give the same plan."""
-    from .portfolio import Alongside
+    from .portfolio import Alongside, AlongsideFailed
 
     other = Alongside(run.problem, run.allocation, copts)
     try:
@@ -229,11 +229,14 @@ def _alongside(run: Run, copts: CoordinatedOptions, first_feasible: Callable[[Co
             run.retimed_first = first
         if not run.base:  # the baseline while the other process works, not before the retiming
             run.make_baseline()
-        coord = other.result()
+        try:
+            coord = other.result()
+        except AlongsideFailed as e:
+            run.say(f"the coordinated planner's other process gave nothing ({e}); going on from its first candidate")
+            coord = None
     finally:
         other.close()
     if coord is None:
-        run.say(f"the coordinated planner's other process gave nothing ({other.error}); going on from its first candidate")
         return plan_coordinated(run.problem, run.allocation, replace(copts, time_limit=0.0), run.say, run.cache), first
     return coord, first
 
@@ -261,7 +264,7 @@ def search(run: Run) -> str:
     run.hood = Neighbourhood(run.problem, start, opts.margin, sopts, run.cache)
 
     def on_improve(c: Coordinated) -> None:
-        run.offer(c, "search")
+        run.offer(c, Source.SEARCH)
 
     if opts.workers > 1:  # a portfolio of seeded searches in parallel processes
         from .portfolio import search_portfolio
@@ -270,7 +273,7 @@ def search(run: Run) -> str:
                                 anchor, run.stage("search", f"of its work budget (slowest of {opts.workers} workers)"))
         found, stats = port.best, port.stats
         if found is not start:  # the winner, whichever worker's best arrived first at an equal makespan
-            run.inc.offer(*run.checked(found), "search", found, ties=True)
+            run.inc.offer(*run.checked(found), Source.SEARCH, found, ties=True)
     else:
         found, stats = improve(run.problem, start, run.bound, opts.margin, sopts, on_improve, run.deadline, run.cache,
                                anchor, run.hood, run.stage("search", "of its work budget"))
@@ -302,7 +305,7 @@ def refine(run: Run) -> str:
         """Offered like any other; the refinement drops what the verifier refuses (and keeps
         its own best, which may trail the incumbent)."""
         p, ver = run.checked(c)
-        run.inc.offer(p, ver, "refine", c)
+        run.inc.offer(p, ver, Source.REFINE, c)
         return bool(ver.passed)
 
     ropts = RefineOptions(retimes=opts.refine_retimes, work=opts.retime_work, tolerance=opts.tolerance)
@@ -358,7 +361,7 @@ def polish(run: Run) -> str:
         say(f"joint NLP: {plan.solver.get('message', 'no solution')}; kept the incumbent")
     if plan.status == PlanStatus.UNVERIFIED:
         ver = verify(problem, plan)
-        accepted = inc.offer(plan, ver, "joint NLP")
+        accepted = inc.offer(plan, ver, Source.NLP)
         nlp_info["accepted"] = accepted
         nlp_info["verified"] = bool(ver.passed)
         if not accepted and inc.plan is not None:
@@ -368,7 +371,7 @@ def polish(run: Run) -> str:
     if inc.plan is None:  # nothing verified at all: report the NLP's plan honestly
         ver = verify(problem, plan)
         plan = finalize_plan(plan, ver, run.n_reach)
-        inc.plan, inc.verification, inc.source = plan, ver, "joint NLP (unverified)"
+        inc.plan, inc.verification, inc.source = plan, ver, Source.NLP_UNVERIFIED
     return "accepted" if nlp_info.get("accepted") else "ran"
 
 
@@ -378,7 +381,7 @@ def widen(run: Run) -> str:
     why = ("the option widen is false" if not run.opts.widen else
            "the run was interrupted first" if run.interrupted else
            "no verified plan with schedules to widen" if inc.plan is None or inc.candidate is None else
-           "the incumbent is the joint NLP's plan (no schedules to widen)" if inc.source == "joint NLP" else None)
+           "the incumbent is the joint NLP's plan (no schedules to widen)" if inc.source == Source.NLP else None)
     if why is not None:  # (said in plan.json solver.widen and the summary)
         run.reports["widen"] = {"status": "skipped", "accepted": False, "reason": why}
         return "skipped"
