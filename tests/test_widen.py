@@ -147,9 +147,14 @@ def test_a_widening_goal_past_the_cap_is_refused_at_its_line_and_from_python():
     assert it.path == "widen_goal" and it.line == 2
     assert it.message == ("expected at most widen_cap (0.1 m): the widening asks for at most widen_cap of extra room, "
                           "so a larger goal is never met; found 0.2")
-    with pytest.raises(OptionsError) as ei:  # the cap alone lowered under the default goal (0.05): named at the cap's line
-        parse_options("widen_cap: 0.01\n")
-    assert ei.value.issues[0].line == 1 and "found 0.05" in ei.value.issues[0].message
+    with pytest.raises(OptionsError) as ei:  # the cap alone lowered under the default goal (0.05): the cap, at its line
+        parse_options("widen_cap: 0.01\n")  # (it was said of widen_goal, which the file never wrote)
+    (it,) = ei.value.issues
+    assert it.path == "widen_cap" and it.line == 1 and it.message == (
+        "expected at least widen_goal (0.05 m, its default): the widening asks for at most widen_cap of extra room, "
+        "so a goal above it is never met; found 0.01")
+    with pytest.raises(OptionsError, match="widen_cap: expected at least widen_goal"):
+        OptimalOptions(widen_cap=0.0)
     with pytest.raises(OptionsError, match="widen_goal: expected at most widen_cap"):
         OptimalOptions(widen_goal=0.3)
     assert parse_options("widen_goal: 0.1\nwiden_cap: 0.1\n").widen_goal == 0.1  # equal is fine
@@ -424,3 +429,38 @@ def test_a_clock_limit_that_stops_the_program_is_reported_as_the_time_limit_not_
     buf = io.StringIO()
     print_summary(Console(file=buf, width=200), SolveResult(problem=prob, plan=plan, verification=c.verification))
     assert "not widened       the time limit came during the widening stage" in buf.getvalue()
+
+
+def test_a_ctrl_c_inside_the_widening_stage_is_recorded_in_the_plan():
+    """(A Ctrl-C between its rounds left ``solver.widen`` null, no stage entry and no time: "never
+    reached" could not be told from "cut off"; the summary said nothing of it.)"""
+    import os
+    import signal
+
+    import coplan
+    from coplan.optimal import OptimalOptions
+
+    def progress(msg):
+        if str(msg).startswith("widen round 1"):
+            os.kill(os.getpid(), signal.SIGINT)
+
+    res = coplan.solve("crossing_paths", options=OptimalOptions(search_work=0, refine_fruit=0, regroup=False),
+                       progress=progress)
+    s = res.plan.solver
+    assert res.status.value == "interrupted" and res.verification.passed
+    assert s["stages"][-1]["stage"] == "widen" and s["stages"][-1]["result"] == "interrupted"
+    w = s["widen"]
+    assert w["status"] == "interrupted" and not w["accepted"] and w["reason"].startswith("interrupted (Ctrl-C)")
+    assert w["margin_before"] == pytest.approx(res.plan.metrics["margin"]) and s["timings"]["widen"] > 0
+
+
+def test_a_widening_cap_past_a_metre_or_no_iterations_is_refused():
+    """(A cap of 1e6 m was taken: 1,756 separation points, a 55 s solve and less room than the
+    default cap gave; widen_iterations 0 was taken and reported as "IPOPT did not converge".)"""
+    with pytest.raises(OptionsError) as ei:
+        parse_options("# room\nwiden_cap: 1.0e6\n", "o.yaml")
+    (it,) = ei.value.issues
+    assert it.path == "widen_cap" and it.line == 2 and it.message.startswith("expected at most 1 m") and it.message.endswith("found 1e+06")
+    assert parse_options("widen_cap: 1.0\n").widen_cap == 1.0
+    with pytest.raises(OptionsError, match="widen_iterations: expected a positive integer"):
+        parse_options("widen_iterations: 0\n")

@@ -474,7 +474,7 @@ def compare_cmd(
                                "coplan solve.")] = None,
     clearance_sweep: Annotated[bool, typer.Option(
         "--clearance-sweep", help="Instead: the makespan against the clearance asked for (the problem's, +10, +25, +50, "
-        "+100 mm; --extra to choose), one planner (the first --planner, default optimal; a row's cells: coordinated, as coplan solve), every plan verified.")] = False,
+        "+100 mm; --extra to choose), one planner (a single --planner, default optimal; a row's cells: coordinated, as coplan solve), every plan verified.")] = False,
     extra: Annotated[Optional[list[float]], typer.Option(
         "--extra", parser=real, metavar="MM", help="With --clearance-sweep: an extra clearance in mm, repeatable (the problem's own is always planned too: the ratios' reference).")] = None,
     gantry: Annotated[Optional[GantryMode], typer.Option(

@@ -109,7 +109,11 @@ def plan_optimal(
             if run.interrupted:
                 break
             ts = _time.perf_counter()
-            did = step(run)
+            try:
+                did = step(run)
+            except KeyboardInterrupt:  # (said in plan.json: a stage cut short left no entry, its report None)
+                _cut_in(run, name, _time.perf_counter() - ts)
+                raise
             run.log.append({"stage": name, "result": did, "wall_seconds": _time.perf_counter() - ts})
         if run.proven():
             run.stop = StopReason.PROVEN_OPTIMAL
@@ -125,6 +129,21 @@ def plan_optimal(
         error, error_trace = f"{type(e).__name__}: {e}", traceback.format_exc()
         say(f"internal error ({error}); keeping what was computed before it")
     return _finish(run, error, error_trace)
+
+
+def _cut_in(run: Run, name: str, seconds: float) -> None:
+    """A Ctrl-C inside stage ``name``, ``seconds`` into it: its entry in the stages' log
+    (``interrupted``), its time, and -- the widening stage, whose report the summary reads -- a
+    report saying it was cut short and kept nothing of its own (a Ctrl-C between its rounds left
+    ``solver.widen`` null and no stage entry: "never reached" could not be told from "cut off")."""
+    run.log.append({"stage": name, "result": "interrupted", "wall_seconds": seconds})
+    if name == "widen":
+        run.timings["widen"] = run.timings.get("widen", 0.0) + seconds
+        if run.reports.get("widen") is None:
+            run.reports["widen"] = {"status": "interrupted", "accepted": False, "wall_seconds": seconds,
+                                    "margin_before": (run.inc.plan.verification or {}).get("margin") if run.inc.plan is not None else None,
+                                    "reason": f"interrupted (Ctrl-C) {seconds:.1f} s into the widening stage: "
+                                              "the incumbent as it was before it is kept"}
 
 
 def _finish(run: Run, error: str | None, error_trace: str | None) -> OptimalResult:
