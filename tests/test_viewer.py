@@ -206,6 +206,29 @@ def test_a_plan_file_whose_own_figures_are_not_its_motion_s_says_so_on_the_page(
     assert viewer_data(prob, [coord.plan])["plans"][0]["verdict"]["notes"] == []
 
 
+def test_the_page_s_harvest_and_jerk_are_the_motion_s_for_a_plan_csv_and_an_edited_plan_json(greenhouse, tmp_path):
+    """(From a user's trial: a plan.csv's page said "fruit harvested -/4" and "RMS / peak jerk
+    rad/s^3" with no number; an edited plan.json's RMS jerk was shown as the file stated it.)"""
+    from coplan.plan import jerk_figures, load_plan, plan_from_dict
+    from coplan.viz.viewer import viewer_data
+
+    prob, coord, _ = greenhouse
+    coord.plan.save(tmp_path, "p")
+    csv = load_plan(tmp_path / "p.csv")
+    page = viewer_data(prob, [csv])["plans"][0]
+    ver = verify(prob, coord.plan)
+    assert page["harvested"] == ver.measured["harvested"] == len(prob.reachable_ids())
+    motion = jerk_figures(coord.plan)
+    assert set(page["verdict"]["jerk"]) == {a.name for a in prob.arms}
+    for a, v in page["verdict"]["jerk"].items():
+        assert v["rms"] == pytest.approx(motion[a]["rms_jerk"], rel=1e-3) and v["peak"] == pytest.approx(motion[a]["peak_jerk"], rel=1e-3)
+    doc = coord.plan.to_dict()
+    arm = prob.arms[0].name
+    doc["metrics"]["per_arm"][arm]["rms_jerk"] = 1.0
+    page = viewer_data(prob, [plan_from_dict(json.loads(json.dumps(doc)))])["plans"][0]
+    assert page["verdict"]["jerk"][arm]["rms"] == pytest.approx(motion[arm]["rms_jerk"], rel=1e-6)
+
+
 def test_view_of_a_plan_json_takes_its_recorded_problem_file_only_while_unchanged(tmp_path):
     """``coplan.view(plan.json)`` finds the problem file the plan records; once that file has
     changed it says so (pass the problem) rather than show the shipped problem of the same name,

@@ -41,7 +41,7 @@ import numpy as np
 from ..errors import Issue, PlanFileError
 from ..kinds import EventKind, GantryMode
 from ..output import atomic_text
-from ..plan import Plan, checked_status, jsonable, load_plan
+from ..plan import Plan, checked_status, jerk_figures, jsonable, load_plan
 from ..problem.model import Problem
 from ..verify.verdict import ViolationKind, WarningKind
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors
@@ -326,7 +326,7 @@ def _harvested(metrics: dict, ver) -> int | None:
     fruit whose pick missed it (the tip never on it: "4/4" was said beside a missed pick)."""
     got, reach = metrics.get("harvested"), metrics.get("reachable")
     if got is None or reach is None:
-        return got
+        return ver.measured.get("harvested")
     missed = {v.fruit for v in ver.violations if v.kind == ViolationKind.PICK_MISSED and v.fruit} - set(ver.unharvested)
     return max(0, min(int(got), int(reach) - len(ver.unharvested)) - len(missed))
 
@@ -366,7 +366,7 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
         # (the motion's, as the verifier measures it: an edited file's "5 s" read x0.388 of the lower bound)
         "makespan": ver.measured.get("makespan", max((e.t_end for e in plan.events if e.kind == EventKind.PLACE), default=0.0)),
         "lower_bound": own_bound if own_bound is not None else lower_bound,
-        "harvested": _harvested(m, ver),
+        "harvested": _harvested(m, ver),  # (the motion's count where the file states none: a plan.csv said "-/4")
         # (the problem's where the plan is drawn over another text of it, a cell's; a row's is its screen's, as recorded)
         "reachable": m.get("reachable") if own_bound is not None or problem.gantry is not None else len(problem.reachable_ids()),
         "display": {"rate": rate, "n": int(times.size), "q": _encode(track, "<f4")},
@@ -395,8 +395,10 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
             "pairs": pair_stats,
             # (an arm whose acceleration steps has no finite jerk: the page said "62 / 1051" where the
             # summary, compare and coplan verify say unbounded)
-            "jerk": {a: {"rms": v.get("rms_jerk"), "peak": v.get("peak_jerk"), "unbounded": a in steps}
-                     for a, v in (m.get("per_arm") or {}).items()},
+            # (from the motion, as the margin beside it: a plan.csv has no per-arm figures -- the page
+            # said "RMS / peak jerk rad/s^3" and no number -- and an edited plan.json's were shown unchecked)
+            "jerk": {a: {"rms": v["rms_jerk"], "peak": v["peak_jerk"], "unbounded": a in steps}
+                     for a, v in jerk_figures(plan).items()},
             "warnings": len(ver.warnings),
             # (a file whose stated makespan or harvest is not its motion's: said on the page, as in the terminal)
             "notes": [w.message for w in ver.warnings if w.kind == WarningKind.STATED_FIGURES],
