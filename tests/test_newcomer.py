@@ -189,6 +189,10 @@ def test_reach_boundaries_are_told_apart_and_name_reach_margin():
     if r > 0:
         on_inner = reach_reason(prob, (bx + r, by))
         assert "exactly on" in on_inner and "inner reach" in on_inner and "reach_margin" in on_inner
+        # just outside the folded arm's hole, by less than the margin: "outside", not "within", its inner reach
+        near_inner = reach_reason(prob, (bx + r + m / 2, by))
+        assert "outside its inner reach (|l1 - l2|, the arm folded)" in near_inner and "within" not in near_inner, near_inner
+    assert "within its outer reach (l1 + l2)" in just_in
     # the screen's sentence for a fruit out of every arm's reach is this one
     d = yaml.safe_load(_text("single_arm"))
     d["fruits"] = [{"id": "edge", "position": [bx + R, by]}, {"id": "ok", "position": list(prob.fruits[0].position)}]

@@ -97,6 +97,9 @@ def _mutations(doc: dict, rng: random.Random):
     if fruit is not None:
         yield "fruit without position", lambda d: d["fruits"][fruit].pop("position")
         yield "empty fruit id", lambda d: d["fruits"][fruit].__setitem__("id", "")
+        yield "blank fruit id", lambda d: d["fruits"][fruit].__setitem__("id", "   ")
+    yield "blank arm name", lambda d: d["arms"][0].__setitem__("name", "  ")
+    yield "gantry null", lambda d: d.__setitem__("gantry", None)  # (the schema took it; coplan: a gantry is a mapping)
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -163,6 +166,8 @@ def _accepted_edits(doc: dict):
     yield "a number as the name", lambda d: d.__setitem__("name", 5)
     yield "a number as the description", lambda d: d.__setitem__("description", 12)
     yield "a number as an arm name", lambda d: d["arms"][0].__setitem__("name", 12)
+    yield "true as the name and the description", lambda d: d.update(name=True, description=True)  # (kept as written: 'true')
+    yield "false as an arm name", lambda d: d["arms"][0].__setitem__("name", False)
     if doc.get("fruits"):
         yield "a number as a fruit id", lambda d: d["fruits"][0].__setitem__("id", 2.5)
 

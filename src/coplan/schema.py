@@ -34,10 +34,10 @@ _ID = "https://coplan.invalid/schemas/"  # a stable identifier, not a download l
 
 Pos = Annotated[float, Field(gt=0)]
 NonNeg = Annotated[float, Field(ge=0)]
-Name = Annotated[str, Field(min_length=1)]
-# a problem's names and ids are kept as written: ``id: 2`` or ``name: 12`` is the text "2", "12"
-# (the schema said "is not of type 'string'" of files coplan reads)
-Text = Name | int | float
+Name = Annotated[str, Field(min_length=1, pattern=r"\S")]  # (blank: refused by coplan, it passed the schema)
+# a problem's names and ids are kept as written: ``id: 2``, ``name: 12`` or ``name: true`` is the
+# text "2", "12", "true" (the schema said "is not of type 'string'" of files coplan reads)
+Text = Name | int | float | bool
 Point = Annotated[list[float], Field(min_length=2, max_length=2)]
 PosPair = Annotated[list[Pos], Field(min_length=2, max_length=2)]
 Limits = Annotated[list[Point], Field(min_length=2, max_length=2)]
@@ -97,13 +97,14 @@ class ProblemFile(_Closed):
     model_config = ConfigDict(extra="forbid", title="coplan problem")
 
     name: Text = Field(description="the problem's name (a number is kept as written)")
-    description: str | int | float | None = Field("", description="free text")
+    description: str | int | float | bool | None = Field("", description="free text")
     defaults: ArmFields | None = Field(None, description="arm fields used by every arm that does not set them")
     arms: list[ArmSpec] = Field(min_length=1, max_length=MAX_ARMS)
     fruits: list[FruitSpec] | None = Field(default_factory=list, max_length=MAX_FRUITS,
                                            description="none (or null): nothing to harvest")
     task: TaskSpec
-    gantry: GantrySpec | None = Field(None, description="a mobile gantry: the problem is a row (bases and bins on the carriage)")
+    # (optional, but a mapping where given: ``gantry: null`` passed the schema, coplan refuses it)
+    gantry: GantrySpec = Field(None, description="a mobile gantry: the problem is a row (bases and bins on the carriage)")
 
 
 class EventSpec(_Closed):

@@ -278,7 +278,9 @@ def reach_reason(problem: Problem, point) -> str:
         return (f"exactly on {name}'s {where} boundary, {edge:.4g} m from its base; coplan keeps task.reach_margin "
                 f"({m:g} m) inside it, away from the singular stretched/folded pose")
     if (side == "outer" and d < edge) or (side == "inner" and d > edge):
-        return (f"{d:.4f} m from {name}'s base: within its {where} of {edge:.4g} m, but by less than "
+        # (the inner side said "within its inner reach" of a fruit outside the folded arm's hole)
+        return (f"{d:.4f} m from {name}'s base: {'within its outer' if side == 'outer' else 'outside its inner'} reach "
+                f"({'l1 + l2' if side == 'outer' else '|l1 - l2|, the arm folded'}) of {edge:.4g} m, but by less than "
                 f"task.reach_margin ({m:g} m)")
     return (f"{d:.3f} m from {name}'s base, {'beyond' if side == 'outer' else 'inside'} its {where} of {edge:.4g} m"
             + (f" (task.reach_margin {m:g} m)" if m else ""))

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import Issue
-from .yamlsafe import did_you_mean, line_of, path_str
+from .yamlsafe import did_you_mean, line_of, nearest_name, path_str
 
 # (``Problem`` in the annotations below is coplan.problem.model.Problem, which imports this module)
 
@@ -99,10 +99,11 @@ def parse_gantry(data: Any, lines: dict, issues: list[Issue]) -> Gantry | None:
             issues.append(Issue(path_str(("gantry", k)), f"expected one of {', '.join(GANTRY_KEYS)}, found unknown key {k!r}{did_you_mean(k, GANTRY_KEYS)}",
                                 line_of(lines, ("gantry", k))))
             ok = False
+    meant = {nearest_name(k, GANTRY_KEYS) for k in data if k not in GANTRY_KEYS}  # (a mis-spelt key: said once, with its 'did you mean')
     for k in GANTRY_KEYS:
         loc = ("gantry", k)
         if k not in data:
-            if k in _REQUIRED:
+            if k in _REQUIRED and k not in meant:
                 issues.append(Issue(path_str(loc), f"expected {_EXPECT[k]}, found nothing (required field)", line_of(lines, ("gantry",))))
                 ok = False
             continue

@@ -15,6 +15,7 @@ import os
 import unicodedata
 from collections.abc import Mapping
 from dataclasses import replace
+from types import SimpleNamespace
 from pathlib import Path
 from typing import Any
 
@@ -63,8 +64,14 @@ def _validate(model, data, prefix: tuple, lines: dict, issues: list):
     try:
         return model.model_validate(data)
     except ValidationError as e:
+        # a mis-spelt key is said once, as unknown with its 'did you mean', not also as the field it
+        # meant missing (as in defaults: task.pick_dwel, gantry.max_accel were said twice)
+        meant = {(tuple(err["loc"])[:-1], nearest_name(str(err["loc"][-1]), model.model_fields))
+                 for err in e.errors() if err["type"] == "extra_forbidden" and len(err["loc"]) == 1}
         for err in e.errors():
             etype = err["type"]
+            if etype == "missing" and (tuple(err["loc"])[:-1], err["loc"][-1]) in meant:
+                continue
             loc = prefix + _user_loc(data, tuple(err["loc"]), etype == "missing")
             path = path_str(loc)
             if etype == "invalid_key":  # (a key YAML reads as a number or a boolean: 1, 1.5, true)
@@ -142,11 +149,13 @@ def _build(data: Any, lines: dict, source: str | None) -> Problem:
         if built is not None:
             arms.append((i, built[0]))
             origins[i] = built[1]
-    fruits = _fruits(fruit_specs, data.get("fruits") if isinstance(data.get("fruits"), list) else [], lines, issues,
-                     row="gantry" in data)
+    fruits, where = _fruits(fruit_specs, data.get("fruits") if isinstance(data.get("fruits"), list) else [], lines, issues,
+                            row="gantry" in data)
     if task is not None:
         issues += home_pair_issues(arms, origins, task, lines)
     gantry = parse_gantry(data["gantry"], lines, issues) if "gantry" in data else None
+    if gantry is not None and arms and len(arms) == len(arm_specs):  # (said beside the rest: it was said only once all else was mended)
+        issues += _off_rail(SimpleNamespace(gantry=gantry, arms=[a for _, a in arms]), fruits, where, lines)
     if issues:
         raise ProblemError(_tidy(issues), source)
     problem = Problem(name=name, arms=tuple(a for _, a in arms), fruits=tuple(fruits), task=task,
@@ -265,20 +274,22 @@ def _limits_in_order(lim, loc0: tuple, lines: dict, issues: list) -> bool:
     return ok
 
 
-def _arm(i: int, spec: ArmSpec, defaults: ArmFieldsSpec, broken: set[str], lines: dict, issues: list) -> tuple[Arm, dict] | None:
+def _arm(i: int, spec, defaults: ArmFieldsSpec, broken: set[str], lines: dict, issues: list) -> tuple[Arm, dict] | None:
     """Arm ``i`` merged with ``defaults`` and checked (plausible values, joint limits, home
     inside them, a bin it reaches); ``(arm, where each field came from)`` or None. A value taken
     from ``defaults`` is reported at its place in ``defaults`` (once, not once per arm); one the
     defaults had but failed (``broken``, reported there) is not said missing. Each check runs
     where the values it needs are there and sound, whatever else is wrong: a home outside valid
-    joint limits is said beside an implausible velocity limit, not once that is mended."""
+    joint limits is said beside an implausible velocity limit, not once that is mended; a bin out
+    of reach beside a home outside the limits. ``spec``: an :class:`ArmSpec`, or the fields of an
+    arm that failed validation that are sound on their own (the others None, and in ``broken``)."""
     merged: dict[str, Any] = {}
     origin: dict[str, tuple] = {}
     absent = []
     for f in ARM_REQUIRED:
         v = getattr(spec, f)
         origin[f] = ("arms", i, f)
-        if v is None:
+        if v is None and f not in broken:
             v = getattr(defaults, f)
             origin[f] = ("defaults", f)
         if v is None:
@@ -288,46 +299,52 @@ def _arm(i: int, spec: ArmSpec, defaults: ArmFieldsSpec, broken: set[str], lines
             continue
         merged[f] = v
     # far outside any real cell (degrees for radians, 1e308, 1e-9): refused before any arithmetic
-    fields = [("base", spec.base, ("arms", i, "base")), ("bin", spec.bin, ("arms", i, "bin"))]
+    fields = [(f, v, ("arms", i, f)) for f, v in (("base", spec.base), ("bin", spec.bin)) if v is not None]
     implausible = [f for f, v, loc in fields + [(f, merged[f], origin[f]) for f in merged] if _implausible(f, v, loc, lines, issues)]
     limits_ok = ("joint_limits" in merged and "joint_limits" not in implausible  # (said beside the others, not once they are mended)
                  and _limits_in_order(merged["joint_limits"], origin["joint_limits"], lines, issues))
-    ok = limits_ok and not absent and not implausible
-    if not limits_ok or "home" not in merged or "home" in implausible:
+    ok = limits_ok and not absent and not implausible and spec.name is not None and spec.base is not None and spec.bin is not None
+    if limits_ok and "home" in merged and "home" not in implausible:
+        lim, home = merged["joint_limits"], merged["home"]
+        for j in range(2):
+            if not lim[j][0] <= home[j] <= lim[j][1]:
+                home_loc, lim_loc = origin["home"] + (j,), origin["joint_limits"] + (j,)
+                if home_loc[0] == "defaults" and lim_loc[0] == "arms":
+                    # the default home does not fit this arm's own limits: report at the arm
+                    loc = ("arms", i, "home", j)
+                    msg = (
+                        f"expected a home angle inside this arm's joint limits [{lim[j][0]}, {lim[j][1]}] "
+                        f"({path_str(lim_loc)}), found {home[j]} (from {path_str(home_loc)})"
+                    )
+                    line = line_of(lines, lim_loc)
+                else:
+                    loc = home_loc
+                    msg = f"expected a home angle inside the joint limits [{lim[j][0]}, {lim[j][1]}] ({path_str(lim_loc)}), found {home[j]}"
+                    line = line_of(lines, home_loc)
+                issues.append(Issue(path_str(loc), msg, line))
+                ok = False
+    reached = limits_ok and "links" in merged and spec.base is not None and spec.bin is not None and not (
+        {"links", "base", "bin"} & set(implausible)) and _bin_reached(i, spec, merged, lines, issues)
+    if not ok or not reached:
         return None
-    lim = merged["joint_limits"]
-    home = merged["home"]
-    for j in range(2):
-        if not lim[j][0] <= home[j] <= lim[j][1]:
-            home_loc, lim_loc = origin["home"] + (j,), origin["joint_limits"] + (j,)
-            if home_loc[0] == "defaults" and lim_loc[0] == "arms":
-                # the default home does not fit this arm's own limits: report at the arm
-                loc = ("arms", i, "home", j)
-                msg = (
-                    f"expected a home angle inside this arm's joint limits [{lim[j][0]}, {lim[j][1]}] "
-                    f"({path_str(lim_loc)}), found {home[j]} (from {path_str(home_loc)})"
-                )
-                line = line_of(lines, lim_loc)
-            else:
-                loc = home_loc
-                msg = f"expected a home angle inside the joint limits [{lim[j][0]}, {lim[j][1]}] ({path_str(lim_loc)}), found {home[j]}"
-                line = line_of(lines, home_loc)
-            issues.append(Issue(path_str(loc), msg, line))
-            ok = False
-    if not ok:
-        return None
-    arm = Arm(name=spec.name, base=spec.base, bin=spec.bin, **merged)
-    if not arm.can_reach(arm.bin):
-        issues.append(
-            Issue(
-                path_str(("arms", i, "bin")),
-                f"expected a bin its arm {arm.name!r} can reach (IK inside joint limits), found {list(arm.bin)} "
-                f"{arm.reach_words(arm.bin)}",
-                line_of(lines, ("arms", i, "bin")),
-            )
-        )
-        return None
-    return arm, origin
+    return Arm(name=spec.name, base=spec.base, bin=spec.bin, **merged), origin
+
+
+def _bin_reached(i: int, spec, merged: dict, lines: dict, issues: list) -> bool:
+    """Whether arm ``i`` reaches its bin (IK inside its joint limits), the issue appended if not;
+    from its links, joint limits and base alone (``merged``: the arm's fields with its defaults),
+    whatever else of it is wrong: an arm whose velocity limit failed had its bin 5 m away said
+    only once the limit was mended. The fields the reach does not read stand in where missing."""
+    stand_in = {"link_radius": 0.0, "max_velocity": (1.0, 1.0), "max_acceleration": (1.0, 1.0), "max_jerk": (1.0, 1.0),
+                "home": (0.0, 0.0)}
+    arm = Arm(name=spec.name if spec.name is not None else f"arms[{i}]", base=spec.base, bin=spec.bin,
+              **(stand_in | {f: merged[f] for f in ("links", "joint_limits")}))
+    if arm.can_reach(arm.bin):
+        return True
+    issues.append(Issue(path_str(("arms", i, "bin")), f"expected a bin its arm {arm.name!r} can reach (IK inside joint limits), "
+                                                     f"found {list(arm.bin)} {arm.reach_words(arm.bin)}",
+                        line_of(lines, ("arms", i, "bin"))))
+    return False
 
 
 def _raw_name(raw: Any, key: str) -> str | None:
@@ -340,6 +357,9 @@ def _raw_name(raw: Any, key: str) -> str | None:
         return None
 
 
+_STAND_IN = {"name": "arm", "base": [0.0, 0.0], "bin": [0.0, 0.0]}  # (an arm's required fields, for one field's validation)
+
+
 def _unvalidated_arm(i: int, raw: Any, defaults: ArmFieldsSpec | None, broken: set[str], seen_names: dict, lines: dict,
                      issues: list) -> None:
     """Arm ``i``, whose own fields failed validation (reported): its name's uniqueness and the
@@ -350,15 +370,25 @@ def _unvalidated_arm(i: int, raw: Any, defaults: ArmFieldsSpec | None, broken: s
         _check_unique(seen_names, name, ("arms", i, "name"), "arm name", lines, issues)
     if defaults is None or not isinstance(raw, dict):
         return
-    for f in ARM_REQUIRED:
-        if f not in raw and getattr(defaults, f) is None and f not in broken:
-            issues.append(Issue(path_str(("arms", i, f)), missing(f, " on the arm or in defaults"), line_of(lines, ("arms", i))))
+    # the checks of its fields that are sound on their own (those that failed are said already):
+    # a home in degrees, reversed joint limits or a bin 5 m away were said only once a negative
+    # velocity limit beside them was mended
+    sound: dict[str, Any] = {}
+    failed = set(broken) | {nearest_name(str(k), ArmSpec.model_fields) for k in raw if k not in ArmSpec.model_fields} - {None}
+    for f in ArmSpec.model_fields:
+        if f not in raw:
+            continue
+        try:
+            sound[f] = getattr(ArmSpec.model_validate(_STAND_IN | {f: raw[f]}), f)
+        except ValidationError:
+            failed.add(f)
+    _arm(i, SimpleNamespace(**{f: sound.get(f) for f in ArmSpec.model_fields}), defaults, failed, lines, issues)
 
 
-def _fruits(fruit_specs: list, raw: list, lines: dict, issues: list, row: bool = False) -> list[Fruit]:
+def _fruits(fruit_specs: list, raw: list, lines: dict, issues: list, row: bool = False) -> tuple[list[Fruit], list[int]]:
     """The fruit with unique ids and plausible positions (``raw``: the file's entries; an entry
     that failed validation still takes its id, if that is a valid one, for the uniqueness check;
-    ``row``: the problem has a gantry, its fruit's x along the rail)."""
+    ``row``: the problem has a gantry, its fruit's x along the rail); and each one's index in the file."""
     fruits: list[Fruit] = []
     seen_ids: dict[str, int] = {}
     where: list[int] = []  # each fruit's index in the file
@@ -377,7 +407,14 @@ def _fruits(fruit_specs: list, raw: list, lines: dict, issues: list, row: bool =
         fruits.append(Fruit(id=spec.id, position=spec.position))
         where.append(j)
     issues += copy_issues(fruits, where, lines)  # (a copy would be counted, planned and "harvested" twice)
-    return fruits
+    return fruits, where
+
+
+def _off_rail(row, fruits: list[Fruit], where: list[int], lines: dict) -> list[Issue]:
+    """A fruit beyond what any arm of ``row`` reaches from anywhere on its rail is not of this row
+    (``where``: each fruit's index in the file)."""
+    return [Issue(path_str(("fruits", where[j], "position", 0)), msg, line_of(lines, ("fruits", where[j], "position")))
+            for j, msg in off_rail(row, fruits)]
 
 
 def _whole(problem: Problem, fruits: list[Fruit], lines: dict, source: str | None) -> None:
@@ -386,8 +423,7 @@ def _whole(problem: Problem, fruits: list[Fruit], lines: dict, source: str | Non
     length, refused up front)."""
     gantry = problem.gantry
     if gantry is not None:  # a fruit beyond what any arm reaches from anywhere on the rail is not of this row
-        far = [Issue(path_str(("fruits", j, "position", 0)), msg, line_of(lines, ("fruits", j, "position")))
-               for j, msg in off_rail(problem, fruits)]
+        far = _off_rail(problem, fruits, list(range(len(fruits))), lines)
         if far:
             raise ProblemError(far, source)
         # (the row planners bound the rest: each cell is checked as it is made, a speed on the move by the cruise)
