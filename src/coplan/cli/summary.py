@@ -412,13 +412,13 @@ def print_verification(console, problem, ver, max_rows: int = 25, makespan: floa
     p(f"[bold]{safe(problem.name)}[/] -- {what} of {ver.duration:.2f} s{span}: {verdict}"
       + (f" [bold red]({plural(len(ver.violations), 'violation')}: {why})[/]" if ver.violations else "")
       + ("" if ver.complete else f" [yellow](not harvested: {plural(len(left), 'fruit', 'fruit')}: {safe(shown)})[/]"))
-    if against:  # (which limits and fruit the verdict holds it to: a plan alone was checked against what it records)
-        p(f"  problem           {safe(against)}")
     from ..verify.verdict import WarningKind  # (here: this module stays light to import)
 
     for w in ver.warnings:
         if w.kind == WarningKind.PROBLEM_NAME:  # (a plan of another problem fails for that, not for its own faults: said first)
             p(f"  [yellow]another problem[/]   {safe(w.message)}: what it leaves or breaks here may be fine there")
+    if against:  # (which limits and fruit the verdict holds it to: a plan alone was checked against what it records)
+        p(f"  problem           {safe(against)}")
     for w in ver.warnings:
         if w.kind == WarningKind.EVENTS_INFERRED:  # harvesting judged from events the verifier inferred: say so
             p(f"  [yellow]events inferred[/]   {safe(w.message.removeprefix('the plan declares no events: '))}")
