@@ -419,6 +419,23 @@ def test_on_the_move_arms_close_together_pass_no_fruit_a_neighbour_s_motion_bloc
     _assert_holds_happen_where_and_when_they_say(res)
 
 
+@pytest.mark.parametrize("row_seed, speed, seed, fruit", [(0, 0.145, 1, "f0013"), (5, 0.141, 1, "f0046")])
+def test_on_the_move_arms_close_together_a_blocked_fruit_is_held_for_long_enough(row_seed, speed, seed, fruit):
+    """Regression (10 m rows, arms 1.2 m apart, the speeds ``--speed auto`` chose): a fruit every
+    arm's try found blocked by a neighbour was held for three 1.5 s holds, each just long enough,
+    and at risk again each time, the last too late (f0013: "passed arm1's reach at t = 37.6 s
+    while arm1 was placing f0022"); another's estimate fitted its last arm by 0.02 s of the 0.5 s
+    slack for 4 s, until that arm found its way blocked, too late to hold (f0046). Now a hold
+    lasts the slack longer than the fruit was late and twice the last one for it, and a fruit an
+    arm found blocked needs twice the slack: both harvested, verified."""
+    close = parse_problem(to_yaml(gantry_row(length=10.0, n_arms=3, density=6.0, seed=row_seed, spacing=1.2)))
+    res = run_live_row(close, LiveRowOptions(speed=speed, seed=seed))
+    m = res.metrics
+    assert res.verification.passed and m["missed_reachable_by_a_working_arm"] == []
+    assert fruit in {e.fruit for e in res.plan.events} and m["harvested"] >= m["offline_harvested"]
+    _assert_holds_happen_where_and_when_they_say(res)
+
+
 @pytest.mark.parametrize("args", [["--gantry", "stop-and-go"], ["--speed", "0.3"]])
 def test_coplan_run_on_a_row_without_fruit_says_so(tmp_path, args):
     path = tmp_path / "empty.yaml"

@@ -92,8 +92,9 @@ STOP_SLOWDOWN = 0.5
 STOPPED_CAUTION = 2
 #: On the move, holding for fruit: the planner looks every CHECK s at the fruit whose windows close
 #: within LOOK s; one no working arm is free to reach (REACH_TIME s) before its window closes holds the
-#: carriage HOLD_PER_FRUIT s per such fruit, shared by the working arms, or as long as the check
-#: found the latest of them late if that is longer (at least HOLD_MIN s, at most HOLD_MAX s); a
+#: carriage HOLD_PER_FRUIT s per such fruit, shared by the working arms, or SLACK longer than the
+#: check found the latest of them late, or twice its last hold for the same fruit, if that is
+#: longer (at least HOLD_MIN s, at most HOLD_MAX s; see REFUSED_SLACK below); a
 #: report holds the carriage HOLDS_PER_REPORT times at most (a burst of false reports
 #: costs some holds, not one per report and per look). Looking 30 s ahead with up to 6 holds a
 #: report (was 8 s and 2): at the speed the offline search chooses, a 50-report false burst on
@@ -116,6 +117,16 @@ CHECK, LOOK, REACH_TIME, HOLD_PER_FRUIT, HOLD_MIN, HOLD_MAX, HOLDS_PER_REPORT = 
 #: f0170 fitted arm1 by 0.12 s from t = 252 s on; arm1, free at 256.1 s, could not make it, and
 #: the carriage, braking, would have come to rest after its window closed -- missed, no hold).
 SLACK = 0.5
+#: Where the arms stand close, a neighbour's booked motion may leave no clear cycle for a fruit the
+#: estimate fits: a fruit some arm's try has found so (``LiveRun.refused``) counts as at risk unless
+#: it fits SLACK x REFUSED_SLACK s before its window closes; and a hold lasts SLACK longer than the
+#: check found the fruit late, and twice as long as the last one for the same fruit (1.5, 3, 6 s,
+#: ...). Twelve live runs (10 m rows, three arms 1.2 m apart, 6 fruit/m, row seeds 0-5 x camera
+#: seeds 0-1, ``--speed auto``): 4 fruit a working arm could reach passed in 4 runs before, none
+#: now; 716 -> 720 fruit; row time 0.993-1.212 x (median 1.071) -> 1.000-1.177 x (median 1.080) the
+#: offline plan's (a hold just long enough left the fruit at risk again, seconds before its window
+#: closed, when the only arm left to take it found its way blocked: too late to hold).
+REFUSED_SLACK = 2.0
 
 
 class Change(Choice):
@@ -336,7 +347,8 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
             # (at least as long as the check found the latest of them late: with an arm stopped, 1.5-3 s
             # holds for a backlog of several seconds left the fruit at risk each time until a hold came too late)
             hold = min(HOLD_MAX, max(HOLD_MIN, HOLD_PER_FRUIT * len(risk) / max(working, 1),
-                                     max(short.get(f, 0.0) for f, _ in risk)))
+                                     max(short.get(f, 0.0) + SLACK for f, _ in risk),
+                                     max(HOLD_MIN * 2.0 ** held_for.get(f, 0) for f, _ in risk)))
             for f, _ in risk:
                 held_for[f] = held_for.get(f, 0) + 1
             stretches = stretches[:-1] + [(x_s, v, hold), (math.inf, v)]
@@ -378,15 +390,17 @@ def _on_the_move(run: LiveRun, faults: FaultDraws, cruise: Cruise) -> dict[str, 
         # at 0.3 m/s with an arm stopped lost one a working arm could still reach)
         # (an arm whose try on the fruit found no clear cycle in its window, on the carriage's
         # motion as now decided, is not counted on for it: its neighbours' booked motion is in the way)
+        blocked = {ff for ff, _ in run.refused}  # (fruit an arm's try found no clear cycle for: the estimate trusted less)
         for hi, f, wk in sorted(soon, key=lambda s: (s[0], s[1])):
             est = [(max(avail[w.arm], w.lo - reach_time) + reach_time, w) for w in wk if (f, w.arm) not in run.refused]
-            starts = [(t_p, w.arm) for t_p, w in est if t_p <= w.hi - SLACK]
+            slack = SLACK * (REFUSED_SLACK if f in blocked else 1.0)
+            starts = [(t_p, w.arm) for t_p, w in est if t_p <= w.hi - slack]
             if starts:
                 t_p, a = min(starts)
                 avail[a] = t_p + back
             elif held_for.get(f, 0) < HOLDS_PER_REPORT * caution:
                 out.append((f, hi))
-                short[f] = min((t_p - (w.hi - SLACK) for t_p, w in est), default=0.0)
+                short[f] = min((t_p - (w.hi - slack) for t_p, w in est), default=0.0)
         return out
 
     def wait_on(i: int, f: str, now: float) -> float:
