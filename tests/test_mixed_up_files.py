@@ -401,3 +401,15 @@ def test_an_exports_yaml_given_as_the_plan_is_named(tmp_path):
         with pytest.raises(PlanFileError) as e:
             load_plan(tmp_path / name)
         assert words in str(e.value) and "swapped" not in str(e.value), str(e.value)
+
+
+def test_every_shipped_problem_s_name_line_is_the_one_its_twin_is_found_by():
+    """(The note on a recorded file bearing a shipped problem's name finds the shipped twin by its
+    file's name line, not by loading every shipped problem: each must have one, and it must be
+    the name the file loads with.)"""
+    from coplan.problem.load import shipped_rows
+    from coplan.problem.recorded import SHIPPED_NAME_LINE
+
+    for path in list(PROBLEMS.glob("*.yaml")) + list(shipped_rows()):
+        m = SHIPPED_NAME_LINE.search(Path(path).read_text(encoding="utf-8"))
+        assert m is not None and m.group(1) == load_problem(path).name, path

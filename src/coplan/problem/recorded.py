@@ -12,6 +12,7 @@ silence, a recorded file that bears a shipped problem's name but is another text
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -72,6 +73,9 @@ def recorded_problem(name: str | None, record: dict | None, remedy: str) -> Plan
     return PlanProblem(problem, ProblemSource.SHIPPED, note)
 
 
+SHIPPED_NAME_LINE = re.compile(r"^name:\s*(\S+)\s*$", re.MULTILINE)  # (a shipped file's name line: one plain word)
+
+
 def _not_shipped(problem: Problem, path: str) -> str:
     """A note where the recorded file at ``path`` names a shipped problem but is another text: a
     plan verified or exported against it is held to that file's limits and fruit, not the shipped
@@ -80,7 +84,9 @@ def _not_shipped(problem: Problem, path: str) -> str:
     shipped = shipped_problems() + shipped_rows()
     if any(Path(path).resolve() == Path(s).resolve() for s in shipped):
         return ""
-    twin = next((q for q in (load_problem(s) for s in shipped) if q.name == problem.name), None)
+    # (by the name line of coplan's own files first: loading every shipped problem took 0.25-0.6 s)
+    named = [s for s in shipped if (m := SHIPPED_NAME_LINE.search(Path(s).read_text(encoding="utf-8"))) and m.group(1) == problem.name]
+    twin = next((q for q in (load_problem(s) for s in named) if q.name == problem.name), None)
     if twin is None or twin.digest == problem.digest:
         return ""
     return (f"its problem is taken from {path}, the file the plan records, which bears the name of the shipped "
