@@ -292,6 +292,15 @@ def test_a_plan_file_records_the_software_that_made_it_and_keeps_it(tmp_path, pr
     import os
 
     assert sw["coplan"] == coplan.__version__ and sw["openblas_coretype"] == os.environ.get("OPENBLAS_CORETYPE")
+    # the commit where coplan runs from a git checkout (the version alone named a thousand commits), else none
+    import subprocess
+
+    root = Path(coplan.__file__).resolve().parents[2]
+    if (root / ".git").exists() and (root / "src" / "coplan").is_dir():
+        described = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=root, capture_output=True, text=True).stdout.strip()
+        assert sw["source"] == described and described
+    else:  # (an installed copy, as CI's)
+        assert sw["source"] is None
     import numpy, casadi  # noqa: E401
     assert sw["numpy"] == numpy.__version__ and sw["casadi"] == casadi.__version__
     plan = load_plan(tmp_path / "a" / "plan.json")

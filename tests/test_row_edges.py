@@ -460,6 +460,8 @@ def test_resolution_on_the_command_line(tmp_path):
     assert r.exit_code == 0 and "2 harvestable" in r.output, r.output
     r = run(app, ["solve", str(path), "--resolution", "0.01", "--out", str(tmp_path / "out")])
     assert r.exit_code == 0 and "2 harvested of 2 harvestable" in r.output and "0 screened out" in r.output, r.output
+    import json  # recorded in the plan (stop and go recorded none: a plan made with another was not reproducible from its file)
+    assert json.loads((tmp_path / "out" / "plan.json").read_text())["solver"]["row"]["resolution"] == 0.01
     r = run(app, ["solve", str(path), "--resolution", "0.001", "--out", str(tmp_path / "o2")])
     assert r.exit_code == 2 and "expected a number in [0.01, 0.5] m, found 0.001" in r.output
     r = run(app, ["solve", "crossing_paths", "--resolution", "0.01", "--out", str(tmp_path / "o3")])

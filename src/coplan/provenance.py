@@ -13,7 +13,7 @@ import os
 import platform
 from importlib import metadata
 
-__all__ = ["software_record", "DECIDING"]
+__all__ = ["software_record", "source_commit", "DECIDING"]
 
 #: The distributions whose versions can change a plan (or its verdict).
 DECIDING = ("numpy", "scipy", "casadi", "ortools", "ruckig", "python-fcl")
@@ -30,11 +30,32 @@ def _versions() -> tuple[tuple[str, str | None], ...]:
     return tuple(out)
 
 
+@functools.lru_cache(maxsize=1)
+def source_commit() -> str | None:
+    """Where coplan runs from a git checkout (an editable install, or ``src`` on the path): its
+    commit, ``git describe --always --dirty`` (``-dirty``: uncommitted changes); None for an
+    installed copy or without git. The version alone (0.1.0 over a thousand commits) could not
+    say which code made a plan."""
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    if not (root / ".git").exists() or not (root / "src" / "coplan").is_dir():
+        return None
+    try:
+        out = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=root, capture_output=True, text=True,
+                             timeout=10, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return out or None
+
+
 def software_record() -> dict:
-    """``{"coplan": version, "python": ..., "machine": ..., <each of DECIDING>: version,
-    "openblas_coretype": OPENBLAS_CORETYPE in effect, "coplan_openblas_coretype": the override}``."""
+    """``{"coplan": version, "source": its git commit where it runs from a checkout (else None),
+    "python": ..., "machine": ..., <each of DECIDING>: version, "openblas_coretype":
+    OPENBLAS_CORETYPE in effect, "coplan_openblas_coretype": the override}``."""
     from . import __version__
 
-    return {"coplan": __version__, "python": platform.python_version(), "machine": platform.machine(),
-            **dict(_versions()), "openblas_coretype": os.environ.get("OPENBLAS_CORETYPE"),
+    return {"coplan": __version__, "source": source_commit(), "python": platform.python_version(),
+            "machine": platform.machine(), **dict(_versions()), "openblas_coretype": os.environ.get("OPENBLAS_CORETYPE"),
             "coplan_openblas_coretype": os.environ.get("COPLAN_OPENBLAS_CORETYPE")}

@@ -248,7 +248,7 @@ class PlanFile(BaseModel):
     problem_file: ProblemFileRecord | None = Field(
         None, description="the problem file the plan was made from (the plot, animate and view commands find it there)")
     software: dict[str, str | None] | None = Field(
-        None, description="what made the plan: coplan's version, Python's, the machine, the versions of the libraries "
+        None, description="what made the plan: coplan's version (and its git commit where it ran from a checkout), Python's, the machine, the versions of the libraries "
                           "that decide a plan (numpy, scipy, casadi, ortools, ruckig, python-fcl) and OPENBLAS_CORETYPE")
 
 

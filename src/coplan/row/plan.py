@@ -303,7 +303,8 @@ def plan_row(problem: Problem, options: RowOptions | None = None, progress: Call
 
     ts = _time.perf_counter()
     info: dict = {"mode": GantryMode.STOP_AND_GO.value, "rule": rule.value, "cell_planner": PlannerKind(opts.planner).value,
-                  "workers": int(opts.workers), "retime": bool(opts.retime) and PlannerKind(opts.planner) == PlannerKind.COORDINATED}
+                  "workers": int(opts.workers), "retime": bool(opts.retime) and PlannerKind(opts.planner) == PlannerKind.COORDINATED,
+                  "resolution": float(opts.resolution)}  # (it moves the plan: a row made with another was not reproducible from its file)
     kept: list[Stop] = []  # every stop the rule kept, in carriage order
     interrupted = False
     try:
