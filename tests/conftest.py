@@ -15,9 +15,13 @@ from coplan.problem import Problem, default_problem_path, load_problem  # noqa: 
 
 @pytest.fixture(autouse=True)
 def sigint_as_found():
-    """A test that leaves Ctrl-C's handler changed (ignored, or a C library's) is named in the
-    warnings summary and the handler put back: the next test on that worker found a held Ctrl-C
-    dropped, its run ending 0 not 130, once in a loaded CI run (the culprit not traced)."""
+    """Every test begins with Python's own Ctrl-C handler, as a fresh process has, and one that
+    leaves another (ignored, or a C library's) is named in the warnings summary and the handler
+    put back; a test that begins with another names what left it (a fixture's set-up, or a test
+    before it on this worker). A CI run found SIGINT ignored as some tests began, and those that
+    send themselves a Ctrl-C saw it dropped: a row's solve ended 0, not 130 (which test or
+    fixture left it so was not found: the notebook tests, which put Python's handler back, ran
+    before them in every earlier run)."""
     import signal
     import threading
     import time
@@ -26,15 +30,19 @@ def sigint_as_found():
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    before = signal.getsignal(signal.SIGINT)
+    found = signal.getsignal(signal.SIGINT)
+    if found is not signal.default_int_handler:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        warnings.warn(f"SIGINT's handler was {found!r} as this test began (left so by a fixture's set-up or a test "
+                      "before it on this worker): set to Python's own", RuntimeWarning)
     yield
     for _ in range(20):  # (a watcher that restores it may take a moment)
-        if signal.getsignal(signal.SIGINT) is before:
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
             return
         time.sleep(0.1)
     now = signal.getsignal(signal.SIGINT)
-    signal.signal(signal.SIGINT, before if before is not None else signal.default_int_handler)
-    warnings.warn(f"this test left SIGINT's handler {now!r} (was {before!r}): put back", RuntimeWarning)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    warnings.warn(f"this test left SIGINT's handler {now!r}: set back to Python's own", RuntimeWarning)
 
 
 @pytest.fixture(scope="session")
