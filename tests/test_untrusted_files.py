@@ -98,6 +98,23 @@ def test_a_number_beyond_a_float_s_range_is_refused_as_written_not_as_inf(writte
         parse_problem(SINGLE.replace("pick_dwell: 0.3", "pick_dwell: .inf"))
 
 
+def test_numbers_beyond_range_are_said_beside_the_file_s_other_mistakes() -> None:
+    """(A ``1e400`` stopped reading the whole file: the other out-of-range numbers and every other
+    mistake were said only once it was mended.) Each is said at its key path, with the rest."""
+    text = (SINGLE.replace("pick_dwell: 0.3", "pick_dwell: 1e400")
+            .replace("links: [1.0, 0.8]", "links: [1" + "0" * 40 + ", 0.8]", 1)
+            .replace("place_dwell:", "place_dwel:", 1))
+    assert text.count("1e400") == 1 and "0" * 40 in text and "place_dwel:" in text
+    with pytest.raises(ProblemError) as e:
+        parse_problem(text, "big.yaml")
+    said = {i.path: i.message for i in e.value.issues}
+    assert "expected a number coplan can hold, found 1e400 (beyond a float's range)" in said["task.pick_dwell"]
+    links = [p for p in said if p.startswith("arms[0].links")]
+    assert links == ["arms[0].links[0]"] and "an integer of 41 digits" in said[links[0]]
+    assert any("place_dwel" in p for p in said), said  # the typo, said in the same run
+    assert not any("null" in m or "None" in m for m in said.values()), said  # (the placeholder is never shown)
+
+
 # --------------------------------------------------------------------------- CSV
 NASTY = ['a,b', 'say "hi"', "two\nlines", "car\rriage", "plain"]
 

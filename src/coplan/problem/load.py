@@ -458,8 +458,22 @@ def parse_problem(text: str, source: str | None = None) -> Problem:
     n = len(text.encode("utf-8", errors="replace"))
     if n > MAX_FILE_BYTES:
         raise ProblemError([Issue("", f"expected at most {MAX_FILE_BYTES} bytes of YAML, found {n} bytes")], source)
-    data, lines = read_yaml(text, source, keep_text=_is_text_path)
-    return replace(_build(data, lines, source), digest=text_digest(text))
+    far: list[Issue] = []  # numbers no float holds, each read as null: said beside the file's other mistakes
+    data, lines = read_yaml(text, source, keep_text=_is_text_path, out_of_range=far)
+    try:
+        problem = _build(data, lines, source)
+    except ProblemError as e:
+        if not far:
+            raise
+        raise ProblemError(_tidy(far + [i for i in e.issues if not any(_within(i.path, f.path) for f in far)]), source) from None
+    if far:
+        raise ProblemError(_tidy(far), source)
+    return replace(problem, digest=text_digest(text))
+
+
+def _within(path: str, outer: str) -> bool:
+    """Whether key path ``path`` is ``outer`` or inside it (``arms[0].links[1]`` within ``arms[0].links``)."""
+    return path == outer or path.startswith((outer + ".", outer + "["))
 
 
 def text_digest(text: str) -> str:

@@ -83,14 +83,29 @@ _FastLoader.add_implicit_resolver(
 MAX_INT_DIGITS = 30
 
 
+def _int_out_of_range(text: str) -> str | None:
+    """The message for an integer written with more than :data:`MAX_INT_DIGITS` digits, or None."""
+    digits = text.lstrip("+-")
+    return f"expected a number coplan can hold, found an integer of {len(digits)} digits" if len(digits) > MAX_INT_DIGITS else None
+
+
+def _float_out_of_range(loader, node) -> str | None:
+    """The message for a float written beyond a float's range (``1e400``; ``.inf`` is not), or None."""
+    value = yaml.SafeLoader.construct_yaml_float(loader, node)
+    text = loader.construct_scalar(node)
+    if math.isinf(value) and ".inf" not in text.lower():
+        return f"expected a number coplan can hold, found {text} (beyond a float's range)"
+    return None
+
+
 def _construct_int(loader, node):
     """YAML 1.2's integers: decimal (``010`` is ten, not YAML 1.1's octal eight), ``0o`` octal,
     ``0x`` hexadecimal; one of more than :data:`MAX_INT_DIGITS` digits is refused with its line."""
     text = loader.construct_scalar(node)
     digits = text.lstrip("+-")
-    if len(digits) > MAX_INT_DIGITS:
-        raise yaml.constructor.ConstructorError(
-            None, None, f"expected a number coplan can hold, found an integer of {len(digits)} digits", node.start_mark)
+    far = _int_out_of_range(text)
+    if far is not None:
+        raise yaml.constructor.ConstructorError(None, None, far, node.start_mark)
     if digits[:2] in ("0o", "0x"):
         return int(digits[2:], 8 if digits[1] == "o" else 16)
     return int(text, 10)
@@ -103,12 +118,10 @@ def _construct_float(loader, node):
     """YAML's floats; a number written beyond a float's range (``1e400``) is refused with its line,
     as written -- it became ``inf``, and a message then said "found number inf" of a value the file
     never held (``.inf`` itself stays infinity, for the checks that refuse it by name)."""
-    value = yaml.SafeLoader.construct_yaml_float(loader, node)
-    text = loader.construct_scalar(node)
-    if math.isinf(value) and ".inf" not in text.lower():
-        raise yaml.constructor.ConstructorError(
-            None, None, f"expected a number coplan can hold, found {text} (beyond a float's range)", node.start_mark)
-    return value
+    far = _float_out_of_range(loader, node)
+    if far is not None:
+        raise yaml.constructor.ConstructorError(None, None, far, node.start_mark)
+    return yaml.SafeLoader.construct_yaml_float(loader, node)
 
 
 _LineLoader.add_constructor(_FLOAT, _construct_float)
@@ -194,12 +207,15 @@ _NULL_TAG = "tag:yaml.org,2002:null"
 _WRITTEN_ONLY = frozenset("tag:yaml.org,2002:" + t for t in ("binary", "set", "omap", "pairs"))
 
 
-def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = None, ctor=None, keep_text=None) -> None:
+def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = None, ctor=None, keep_text=None,
+                out_of_range: list | None = None) -> None:
     """Record the line of every key path; refuse duplicate keys, non-scalar keys and tags.
 
     Keys are compared as the values they construct to, so ``1`` and ``0x1`` (or ``yes``
     and ``true``) are duplicates too: a dict would silently merge them. A plain scalar at a
     path ``keep_text(path)`` selects is retagged as a string: it constructs to its text as written.
+    Where ``out_of_range`` is a list, a number no float holds is appended to it as an issue and
+    read as null in its place (see :func:`read_yaml`).
     """
     ctor = ctor if ctor is not None else _LineLoader("")
     lines[tuple(path)] = key_line if key_line is not None else node.start_mark.line + 1
@@ -216,6 +232,12 @@ def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = No
             Issue(path_str(path), f"expected a plain YAML value, found the tag {node.tag!r} (tags are not supported)", node.start_mark.line + 1)
         )
         return
+    if out_of_range is not None and isinstance(node, yaml.ScalarNode) and node.tag in (_INT, _FLOAT):
+        far = _int_out_of_range(node.value) if node.tag == _INT else _float_out_of_range(ctor, node)
+        if far is not None:
+            out_of_range.append(Issue(path_str(path), far, node.start_mark.line + 1))
+            node.tag = _NULL_TAG
+            return
     if isinstance(node, yaml.MappingNode):
         seen: dict[Any, int] = {}
         for k, v in node.value:
@@ -242,10 +264,10 @@ def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = No
                 )
                 continue
             seen[key] = kline
-            _walk_nodes(v, path + [key], lines, issues, kline, ctor, keep_text)
+            _walk_nodes(v, path + [key], lines, issues, kline, ctor, keep_text, out_of_range)
     elif isinstance(node, yaml.SequenceNode):
         for i, v in enumerate(node.value):
-            _walk_nodes(v, path + [i], lines, issues, None, ctor, keep_text)
+            _walk_nodes(v, path + [i], lines, issues, None, ctor, keep_text, out_of_range)
 
 
 def _path_at(lines: dict, line: int | None) -> str:
@@ -273,12 +295,15 @@ def _swapped(text: str, expected: str) -> list[Issue]:
 
 
 def read_yaml(text: str, source: str | None, keep_text=None,
-              expected: str = "a mapping with keys name, arms, fruits, task"):
+              expected: str = "a mapping with keys name, arms, fruits, task", out_of_range: list | None = None):
     """Parse YAML text safely; returns ``(data, lines)`` where ``lines`` maps key paths to lines.
 
     ``keep_text``: optional predicate on key paths (tuples) whose plain scalars are kept as
     the text written (strings), see the module docstring. ``expected``: what the file should
-    hold, said when it is empty (default: a problem file)."""
+    hold, said when it is empty (default: a problem file). ``out_of_range``: a list to collect
+    numbers no float holds (``1e400``, an integer of hundreds of digits) as issues, each read as
+    null, so that a caller can say them beside the file's other mistakes; without it the first
+    is refused at once."""
     lines: dict = {}
     issues: list[Issue] = []
     try:
@@ -288,7 +313,7 @@ def read_yaml(text: str, source: str | None, keep_text=None,
         node = yaml.compose(text, Loader=_FastLoader)
         if node is None:
             raise ProblemError([Issue("", f"expected {expected}; found an empty file")], source)
-        _walk_nodes(node, [], lines, issues, keep_text=keep_text)
+        _walk_nodes(node, [], lines, issues, keep_text=keep_text, out_of_range=out_of_range)
         if issues:
             raise ProblemError(issues, source)
         # keys are now known to be unique scalars, with no aliases or unknown tags
