@@ -850,6 +850,9 @@ LEFT_ARM = "  - {name: left,   base: [-2.0, 0.0], bin: [-2.0, -0.5]}"
     # a home outside the joint limits beside a bin 5 m away
     ("  - {name: left, base: [-2.0, 0.0], bin: [-2.0, -5.0], home: [1.0, 3.1]}",
      ["arms[0].home[1]: expected a home angle inside the joint limits", "arms[0].bin: expected a bin its arm 'left' can reach"]),
+    # reversed joint limits beside a bin no joint angles reach (its reach was checked only once the limits were mended)
+    ("  - {name: left, base: [-2.0, 0.0], bin: [-2.0, -5.0], joint_limits: [[3.0, -3.0], [-3.0, 3.0]]}",
+     ["arms[0].joint_limits[0]: expected min < max", "arms[0].bin: expected a bin its arm 'left' can reach"]),
     # a mis-spelt key: said once, as unknown with its 'did you mean', not also as the field missing
     ("  - {name: left, base: [-2.0, 0.0], bin: [-2.0, -0.5], joint_limit: [[-3.0, 3.0], [-3.0, 3.0]], links: [-1.0, 0.8]}",
      ["arms[0].joint_limit: expected a known key, found unknown key 'joint_limit'; did you mean 'joint_limits'?",

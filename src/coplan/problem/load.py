@@ -11,6 +11,7 @@ read from, for a plan to name it. The shipped problems: :func:`default_problem_p
 from __future__ import annotations
 
 import difflib
+import math
 import os
 import unicodedata
 from collections.abc import Mapping
@@ -323,8 +324,12 @@ def _arm(i: int, spec, defaults: ArmFieldsSpec, broken: set[str], lines: dict, i
                     line = line_of(lines, home_loc)
                 issues.append(Issue(path_str(loc), msg, line))
                 ok = False
-    reached = limits_ok and "links" in merged and spec.base is not None and spec.bin is not None and not (
-        {"links", "base", "bin"} & set(implausible)) and _bin_reached(i, spec, merged, lines, issues)
+    reach_sound = "links" in merged and spec.base is not None and spec.bin is not None and not (
+        {"links", "base", "bin"} & set(implausible))
+    reached = limits_ok and reach_sound and _bin_reached(i, spec, merged, lines, issues)
+    if reach_sound and not limits_ok and "joint_limits" not in absent:
+        # (the joint limits are wrong, said: a bin no joint angles reach is said beside them, not once they are mended)
+        _bin_reached(i, spec, merged | {"joint_limits": ((-math.pi, math.pi), (-math.pi, math.pi))}, lines, issues)
     if not ok or not reached:
         return None
     return Arm(name=spec.name, base=spec.base, bin=spec.bin, **merged), origin
