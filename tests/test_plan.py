@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+import math
 import re
 from pathlib import Path
 
@@ -483,3 +484,17 @@ def test_the_verifier_refuses_a_fine_grid_that_runs_fast():
     assert fast.dt == pytest.approx((1e-3 + 0.99e-3 * (n - 2)) / (n - 1))
     with pytest.raises(PlanFileError, match=r"time\[1\]: expected a uniform grid with spacing 0.00099 s, found a step of 0.001 s"):
         verify(problem, fast)
+
+
+def test_a_one_arm_plan_s_margin_is_none_in_python_as_in_its_file(tmp_path) -> None:
+    """(With no pair of neighbours ``plan.metrics["margin"]`` was inf in Python and null in plan.json.)"""
+    import coplan
+
+    plan = coplan.solve("single_arm", planner="coordinated").plan
+    assert plan.metrics["margin"] is None and plan.metrics["margin_per_pair"] == {}
+    plan.save(tmp_path)
+    assert load_plan(tmp_path / "plan.json").metrics["margin"] is None
+    two = coplan.solve("crossing_paths", planner="coordinated").plan  # (with neighbours it is a number, in both)
+    assert math.isfinite(two.metrics["margin"])
+    two.save(tmp_path / "two")
+    assert load_plan(tmp_path / "two" / "plan.json").metrics["margin"] == pytest.approx(two.metrics["margin"])

@@ -486,7 +486,8 @@ def motion_metrics(plan: Plan, n_reachable: int, summary: dict | None) -> dict[s
     margin overall and per neighbouring pair."""
     metrics = compute_metrics(plan, n_reachable) | {k: v for k, v in plan.metrics.items() if k in _KEPT_METRICS}
     if summary and "margin" in summary:  # least certified clearance less the required, overall and per neighbouring pair
-        metrics["margin"] = summary["margin"]
+        # (None without a pair of neighbours, as its file says: it was inf here and null in plan.json)
+        metrics["margin"] = summary["margin"] if summary["margin"] is not None and math.isfinite(summary["margin"]) else None
         metrics["margin_per_pair"] = {k: v.get("margin") for k, v in (summary.get("pairs") or {}).items()}
     lb = metrics.get("lower_bound")
     if lb:
