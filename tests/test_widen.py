@@ -421,8 +421,10 @@ def test_a_clock_limit_that_stops_the_program_is_reported_as_the_time_limit_not_
     c = plan_coordinated(prob)
     cand = c.candidate
     mk = max(s.last_place for s in cand.schedules.values())
-    res = widen(prob, cand.alloc, cand.schedules, mk, WidenOptions(), deadline=time.perf_counter())
+    said: list[str] = []
+    res = widen(prob, cand.alloc, cand.schedules, mk, WidenOptions(), deadline=time.perf_counter(), say=said.append)
     assert res.plan is None and res.info["status"] == "time_limit" and res.info["iterations"] == 0
+    assert not any("solving again" in m for m in said), said  # (a retry was announced, then stopped for the limit)
     assert res.info["reason"] == "the time limit came during the widening stage (IPOPT stopped after 0 iterations)"
     plan = c.plan
     plan.solver["widen"] = dict(res.info, accepted=False)

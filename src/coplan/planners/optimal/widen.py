@@ -380,6 +380,8 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
             break
         if any_interrupted(rounds):  # Ctrl-C: no second program
             break
+        if deadline is not None and _time.perf_counter() >= deadline:  # (it was announced, then stopped for the limit)
+            break
         if attempt == 0:
             say("widen: IPOPT did not settle with free timing; solving again with every knot time held")
     if sol is None:
