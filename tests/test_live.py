@@ -849,3 +849,19 @@ def test_run_json_names_the_feed_by_a_path_that_holds_from_anywhere(tmp_path: Pa
     doc = json.loads((tmp_path / "live" / "run.json").read_text())
     assert Path(doc["feed"]).is_absolute() and Path(doc["feed"]).resolve() == (tmp_path / "feed.yaml").resolve()
     assert json.loads((tmp_path / "live" / "plan.json").read_text())["solver"]["live"]["feed"] == doc["feed"]
+
+
+def test_a_detection_far_from_the_fruit_it_names_is_noted_with_the_farthest(tmp_path: Path, problems_dir: Path) -> None:
+    """A feed labelled for another layout (a detection metres from the fruit it names) is said, the
+    farthest named with its distance; a feed within its noise is not."""
+    prob = str(problems_dir / "greenhouse_row.yaml")
+    assert run("feed", prob, "--out", str(tmp_path / "feed.yaml"), "--seed", "1").exit_code == 0
+    r = run("run", prob, "--feed", str(tmp_path / "feed.yaml"), "--out", str(tmp_path / "ok"))
+    assert r.exit_code == ExitCode.OK and "from the fruit they name" not in r.output, r.output
+    text = (tmp_path / "feed.yaml").read_text()
+    line = next(ln for ln in text.splitlines() if "id: d002," in ln)
+    x = float(line.split("position: [")[1].split(",")[0])
+    moved = text.replace(line, line.replace(f"position: [{line.split('position: [')[1].split(',')[0]},", f"position: [{x + 0.5:.5f},"))
+    (tmp_path / "bad.yaml").write_text(moved)
+    r = run("run", prob, "--feed", str(tmp_path / "bad.yaml"), "--out", str(tmp_path / "bad"))
+    assert "1 detection of" in r.output and "(the farthest, d002" in r.output and "0.50 m from f12)" in r.output, r.output

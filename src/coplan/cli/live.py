@@ -184,8 +184,8 @@ def _run_cell(prob, feed: Path, out: Path, horizon: float, all_candidates: bool,
     # (a detection 5.8 m from the fruit it names, hundreds of its sigma, was taken without a word: a
     # mislabelled feed, whose fruit then reads "unreachable")
     truth = {f.id: f.position for f in prob.fruits}
-    far = [(d, math.dist(d.position, truth[d.fruit])) for d in fd.detections
-           if d.fruit in truth and math.dist(d.position, truth[d.fruit]) > max(0.1, 10 * d.sigma)]
+    off_by = [(d, math.dist(d.position, truth[d.fruit])) for d in fd.detections if d.fruit in truth]
+    far = [(d, off) for d, off in off_by if off > max(0.1, 10 * d.sigma)]
     if far:
         d, off = max(far, key=lambda x: x[1])
         _err.print(f"[yellow]note[/]: {plural(len(far), 'detection')} of {_safe(feed)} lie more than 10 sigma and 0.1 m "
