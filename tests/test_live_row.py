@@ -388,7 +388,7 @@ def test_on_the_move_a_fruit_estimated_to_fit_only_just_holds_the_carriage_in_ti
     than ``SLACK`` counts as at risk: held for, every fruit the offline plan harvests is picked.
     Without the slack the fruit is now saved later, by the rule for a try that found no clear
     cycle in its window (arm1's at 256.1 s counts arm1 out for it, and the check holds then)."""
-    import coplan.row.live as live
+    import coplan.row.livemove as live
     from coplan.problem import load_problem, shipped_rows
 
     course = load_problem(next(p for p in shipped_rows() if p.stem == "course_row"))
@@ -1043,7 +1043,7 @@ def test_coplan_run_says_fruit_passed_a_working_arm_could_reach_also_without_fau
     not say so -- the count was printed only with a fault; 'missed 3 fruit: missed: ...'.) Since
     holds are decided one at a time and last up to 20 s, this row passes none; the carriage
     holding for no report makes it pass some again."""
-    import coplan.row.live as live
+    import coplan.row.livemove as live
 
     monkeypatch.setattr(live, "HOLDS_PER_REPORT", 0)
     p = tmp_path / "dense.yaml"

@@ -10,13 +10,14 @@
   :mod:`~coplan.row.assign` CP-SAT's assignment and order).
 * :mod:`coplan.row.metrics` -- fruit per hour, share harvested, idle by cause, real-time figures.
 * :mod:`coplan.row.live` -- :func:`run_live_row`: a live row from a simulated camera
-  (:mod:`~coplan.row.sensing` its options and faults).
+  (:mod:`~coplan.row.sensing` its options and faults, :mod:`~coplan.row.livemove` the carriage's
+  motion changed on the move).
 
 The entry points and their options are also names of this package (``from coplan.row import
 RowOptions, plan_row``), imported when first used.
 """
 
-_SUBMODULES = ("assign", "booking", "continuous", "cruise", "live", "liverun", "livestops", "metrics", "moving", "plan",
+_SUBMODULES = ("assign", "booking", "continuous", "cruise", "live", "livemove", "liverun", "livestops", "metrics", "moving", "plan",
                "reach", "sensing", "stops", "stranded", "track")
 
 
