@@ -52,6 +52,7 @@ from ..plan import Plan, PlanStatus
 from ..output import atomic_text
 
 __all__ = ["ExportFormat", "Trajectory", "trajectory", "export_plan", "follow_error", "limit_excess", "export_events", "events_path", "smoothing_error", "FOLLOW_TOLERANCE",
+           "restored", "restored_samples", "FILE_RESOLUTION",
            "MAX_POINTS", "MAX_RATE"]
 
 #: rad: an export whose points a controller follows (cubic, with their velocities) within this of
@@ -142,6 +143,107 @@ def trajectory(plan: Plan, rate: float) -> Trajectory:
             p, v, a = _smoothed(x, plan.dt, t)
             carriage = (p, _flushed(v), _flushed(a))
     return Trajectory(t, q, qd, qdd, float(rate), carriage, delay)
+
+
+#: The resolution of a plan file's samples (plan.json and plan.csv keep 1e-7 rad, 1e-7 m).
+FILE_RESOLUTION = 1e-7
+_STENCILS = {1: np.array([-1.0, 1.0]), 2: np.array([1.0, -2.0, 1.0]), 3: np.array([-1.0, 3.0, -3.0, 1.0])}
+
+
+def restored_samples(values: np.ndarray, dt: float, limits: tuple[float, float, float], resolution: float = FILE_RESOLUTION,
+                     room: float = 1e-7) -> np.ndarray | None:
+    """Samples ``values`` (N,) of one joint (or the carriage), rounded to ``resolution``, moved
+    within that rounding (at most half a step each) so that their first, second and third
+    differences / ``dt^k`` keep ``limits`` (velocity, acceleration, jerk) to ``room`` (relative);
+    None where no such samples are found. The full-precision samples the rounding came from are
+    such samples; rounded, a plan that runs at its limits comes out over them in its differences
+    (8 x half a step in a third difference: 0.4 rad/s^3 at 100 Hz, 0.3 % of a 120 rad/s^3 limit),
+    and so would its export. An LP (HiGHS) over the samples near a difference over its limit
+    (within ``k`` samples, then 30, then all), each pose held for three samples or more kept."""
+    from scipy import sparse
+    from scipy.optimize import linprog
+
+    r = np.asarray(values, float)
+    n = r.size
+    caps = {k: limits[k - 1] * dt**k * (1.0 + room) for k in (1, 2, 3)}
+    bad = np.zeros(n, bool)
+    for k in (1, 2, 3):
+        over = np.flatnonzero(np.abs(np.diff(r, n=k)) > caps[k])
+        for m in range(k + 1):
+            bad[over + m] = True
+    if not bad.any():
+        return r
+    held = np.r_[False, r[1:] == r[:-1]] & np.r_[r[:-1] == r[1:], False]  # (a pose held: its inner samples stay)
+    for grow in (10, 30, n):
+        free = bad.copy()
+        for g in range(1, min(grow, n - 1) + 1):
+            free[g:] |= bad[:-g]
+            free[:-g] |= bad[g:]
+        free &= ~held
+        idx = np.flatnonzero(free)
+        col = np.full(n, -1)
+        col[idx] = np.arange(idx.size)
+        rows, cols, vals, ub, lb = [], [], [], [], []
+        count = 0
+        for k in (1, 2, 3):
+            starts = np.unique(np.clip((idx[:, None] - np.arange(k + 1)[None, :]).ravel(), 0, n - 1 - k))
+            if starts.size == 0:
+                continue
+            window = starts[:, None] + np.arange(k + 1)[None, :]  # (S, k + 1) samples of each difference
+            const = r[window] @ _STENCILS[k]
+            c = col[window]
+            at = np.nonzero(c >= 0)
+            rows.append(count + at[0])
+            cols.append(c[at])
+            vals.append(_STENCILS[k][at[1]])
+            ub.append((caps[k] - const) / resolution)  # (in steps of the rounding: HiGHS's tolerances are absolute)
+            lb.append((-caps[k] - const) / resolution)
+            count += starts.size
+        a = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(count, idx.size))
+        res = linprog(np.zeros(idx.size), A_ub=sparse.vstack([a, -a]).tocsr(),
+                      b_ub=np.concatenate(ub + [-b for b in lb]), bounds=(-0.5, 0.5), method="highs")
+        if res.status == 0:
+            x = r.copy()
+            x[idx] += res.x * resolution
+            return x
+        if grow >= n:
+            break
+    return None
+
+
+def restored(plan: Plan, problem) -> tuple[Plan, bool]:
+    """``plan`` with every arm's joints and the carriage restored within their file rounding to
+    keep ``problem``'s limits (:func:`restored_samples`) where they are rounded (a plan.json read
+    without its plan.npz); ``(plan, whether every series is within its limits now)``. Its motion
+    is not the file's to the last digit: export it, do not verify it in place of the file."""
+    from dataclasses import replace
+
+    from ..plan import on_lattice
+
+    if plan.time.size < 4 or not all(on_lattice(q) for q in plan.q.values()):
+        return plan, True
+    ok = True
+    arms = {a.name: a for a in problem.arms}
+    q = {}
+    for name, samples in plan.q.items():
+        samples = np.asarray(samples, float)
+        arm = arms.get(name)
+        if arm is None:
+            q[name] = samples
+            continue
+        cols = []
+        for j in range(2):
+            x = restored_samples(samples[:, j], plan.dt, (arm.max_velocity[j], arm.max_acceleration[j], arm.max_jerk[j]))
+            ok &= x is not None
+            cols.append(samples[:, j] if x is None else x)
+        q[name] = np.column_stack(cols)
+    gx = plan.gantry_x
+    if gx is not None and problem.gantry is not None and on_lattice(gx):
+        g = problem.gantry
+        x = restored_samples(np.asarray(gx, float), plan.dt, (g.max_velocity, g.max_acceleration, g.max_jerk))
+        ok &= x is not None
+        gx = gx if x is None else x
+    return replace(plan, q=q, gantry_x=gx), ok
 
 
 def limit_excess(traj: Trajectory, problem) -> dict[str, tuple[float, str]]:
