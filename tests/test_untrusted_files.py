@@ -144,6 +144,13 @@ def test_plan_csv_with_hostile_arm_names_loads_back(tmp_path: Path, single_arm) 
 @pytest.mark.parametrize("body, line, words", [
     ("x,arm_q1,arm_q2\n0,1,2\n", 1, "expected a header row 't,<arm>_q1,<arm>_q2,...', found first column 'x'"),
     ("t,arm_q1\n0,1\n", 1, "two columns per arm"),
+    # (a column left out: which one, not "found 5 columns after t"; an export's not blamed on its valid columns)
+    ("t,a_q1,a_q2,b_q1\n0,1,2,3\n", 1, "(two columns per arm), found it without 'b_q2'"),
+    ("t,a_q1,a_q2,a_qd2,a_qdd1,a_qdd2\n" + ",".join(["0"] * 6) + "\n", 1,
+     "expected an export's header row (t, per arm <arm>_q1 ... <arm>_qdd2, a row's carriage_x, carriage_v, carriage_a last), "
+     "found it without 'a_qd1'"),
+    ("t,a_q1,a_q2,a_qd1,a_qd2,a_qdd1,a_qdd2,carriage_v,carriage_a\n" + ",".join(["0"] * 9) + "\n", 1,
+     "found it without 'carriage_x'"),
     ("t,arm_q1,other_q2\n0,1,2\n", 1, "expected a pair '<arm>_q1,<arm>_q2', found 'arm_q1', 'other_q2'"),
     ("arm,fruit,kind,t_start,t_end\nleft,f1,pick,0.1,0.6\n", 1, "found an export's events"),
     # (a column named twice: the message blamed the valid columns after it)

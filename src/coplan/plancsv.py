@@ -82,6 +82,28 @@ def _export_layout(header: list[str]) -> tuple[list[str], list[int], int | None]
     return names, [1 + i for i in range(0, len(body), 6)], x
 
 
+def _export_mistake(cols: list[str]) -> str | None:
+    """Why a header with an export's columns (an ``<arm>_qd1`` ... or a ``carriage_*``) is not an
+    export's: the columns it lacks, those it has that none has, or their order; None for a header
+    with none of them (a ``plan.csv``'s, said by its own rules: they blamed valid columns, "expected
+    a pair '<arm>_q1,<arm>_q2', found 'arm1_qd1', 'arm1_qd2'", where an export lacked carriage_x)."""
+    rates = tuple(f"_{c}" for c in _EXPORT[2:])
+    if not any(c.endswith(rates) or c in _EXPORT_CARRIAGE for c in cols):
+        return None
+    stems = list(dict.fromkeys(c.rsplit("_", 1)[0] for c in cols if c.endswith(tuple(f"_{c}" for c in _EXPORT))
+                               and c not in _EXPORT_CARRIAGE))
+    expected = ["t"] + [f"{a}_{c}" for a in stems for c in _EXPORT] + (
+        _EXPORT_CARRIAGE if any(c in _EXPORT_CARRIAGE for c in cols) else [])
+    what = "an export's header row (t, per arm <arm>_q1 ... <arm>_qdd2, a row's carriage_x, carriage_v, carriage_a last)"
+    missing = [c for c in expected if c not in cols]
+    extra = [c for c in cols if c not in expected]
+    if missing:
+        return f"expected {what}, found it without {', '.join(map(repr, missing))}"
+    if extra:
+        return f"expected {what}, found {'columns' if len(extra) > 1 else 'a column'} no export has: {', '.join(map(repr, extra))}"
+    return f"expected {what}, found its columns in another order: {', '.join(cols)}"
+
+
 def _layout(header: list[str]) -> tuple[list[str], list[int], int | None, bool, str | None]:
     """A header row's arm names, the column of each arm's q1 (q2 follows it), the carriage's
     column (None: a cell), whether it is an export's, or the reason it is neither a
@@ -98,6 +120,9 @@ def _layout(header: list[str]) -> tuple[list[str], list[int], int | None, bool, 
         at = [i + 1 for i, c in enumerate(cols) if c == twice]
         return [], [], None, False, (f"expected each column once in the header row, found {twice!r} in columns "
                                      f"{', '.join(map(str, at))}")
+    why = _export_mistake(cols)
+    if why is not None:
+        return [], [], None, False, why
     names, why = _arm_names(header)
     x = 1 if not why and header[1].strip() == "gantry_x" else None
     return names, [1 + (x is not None) + 2 * i for i in range(len(names))], x, False, why
@@ -110,6 +135,10 @@ def _arm_names(header: list[str]) -> tuple[list[str], str | None]:
         return [], f"expected {expect}, found first column {header[0] if header else ''!r}"
     cols = header[2:] if len(header) > 1 and header[1].strip() == "gantry_x" else header[1:]
     if not cols or len(cols) % 2:
+        lone = [f"{c[:-1]}{'2' if c.endswith('_q1') else '1'}" for c in cols if c.endswith(("_q1", "_q2"))
+                and f"{c[:-1]}{'2' if c.endswith('_q1') else '1'}" not in cols]
+        if lone:  # (it said "found 5 columns after t", not which)
+            return [], f"expected {expect} (two columns per arm), found it without {', '.join(map(repr, lone))}"
         return [], f"expected {expect} (two columns per arm), found {len(cols)} column{'s' if len(cols) != 1 else ''} after t"
     names = []
     for a, b in zip(cols[0::2], cols[1::2]):
