@@ -586,3 +586,30 @@ def test_rounded_samples_are_restored_within_their_rounding_to_keep_the_limits(p
     # a plan with full-precision samples is left as it is
     same, ok = restored(plan, prob)
     assert same is plan and ok
+
+
+def test_export_odds_and_ends_from_a_controls_engineer_s_trial(problems_dir, tmp_path):
+    """A folder it cannot write into is refused before the work, exit 2 (it was "No such file or
+    directory", exit 8, afterwards); rates that differ in their fifth digit get files of their own
+    (333.3333 and 333.3334 Hz both wrote plan_333.333hz.csv, the second replacing the first); a
+    rate of True is no rate; verifying an export against another problem calls it an export table
+    and names only the arms that differ (it was "a plan.csv replay", "missing [], unknown [...]")."""
+    from coplan.problem import load_problem
+    from coplan.report.export import trajectory
+
+    plan = plan_coordinated(load_problem(problems_dir / "crossing_paths.yaml")).plan
+    files = plan.save(tmp_path / "run")
+    prob = ["-p", str(problems_dir / "crossing_paths.yaml")]
+    blocked = tmp_path / "file"
+    blocked.write_text("a file, not a folder")
+    res = run("export", str(files["json"]), "--out", str(blocked / "e.csv"), *prob)
+    assert res.exit_code == 2 and "its folder" in res.output and not (blocked / "e.csv").exists(), res.output
+    for rate in ("333.3333", "333.3334"):
+        assert run("export", str(files["json"]), "--rate", rate, *prob).exit_code == 0
+    assert {p.name for p in (tmp_path / "run").glob("plan_333*hz.csv")} == {"plan_333.3333hz.csv", "plan_333.3334hz.csv"}
+    with pytest.raises(ValueError, match="expected a rate"):
+        trajectory(plan, True)
+    res = run("verify", str(problems_dir / "greenhouse_row.yaml"), str(tmp_path / "run" / "plan_333.3333hz.csv"))
+    said = " ".join(res.output.split())
+    assert res.exit_code == 3 and "a coplan export table (it names no problem)" in said and "missing ['center']" in said, said
+    assert "unknown []" not in said and "plan.csv replay" not in said

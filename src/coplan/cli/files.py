@@ -14,7 +14,7 @@ from ..errors import printable
 from ..kinds import ExitCode, ExportFormat, SchemaKind
 from .checks import choice, choices, in_path, out_path, real
 from .console import text_console
-from .failures import Failure, check_overwrite
+from .failures import Failure, check_out_dir, check_out_file, check_overwrite
 
 __all__ = ["export_cmd", "schema_cmd"]
 
@@ -77,6 +77,8 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     except ValueError as e:
         raise Failure(ExitCode.USAGE, f"--rate: {e}") from None
     out = _export_target(plan_path, rate, fmt, out)
+    # (a folder it cannot write into: "error: No such file or directory: /proc/x.csv", exit 8, after the work)
+    check_out_file(out) if fmt == ExportFormat.CSV else check_out_dir(out)
     names = export_names(plan)  # (each arm's file and joint-name stem, the carriage's and the events')
     _check_export_overwrites(out, fmt, names)
     if unverified:
@@ -121,14 +123,20 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     return written
 
 
+def _hz(rate: float) -> str:
+    """A rate as a file name has it: every digit it was given (``{rate:g}`` named 333.3333 and 333.3334 Hz
+    alike, and the second export replaced the first)."""
+    return f"{rate:.12g}"
+
+
 def _export_target(plan_path: Path, rate: float, fmt: ExportFormat, out: Path | None) -> Path:
     """Where ``coplan export`` writes (usage errors exit 2 before anything is written): ``out``,
     or beside the plan (``<plan>_<rate>hz.csv``, the folder ``<plan>_<rate>hz/``)."""
     if out is None:
-        stem = plan_path.with_name(f"{plan_path.stem}_{rate:g}hz")
+        stem = plan_path.with_name(f"{plan_path.stem}_{_hz(rate)}hz")
         out = stem.with_name(stem.name + ".csv") if fmt == ExportFormat.CSV else stem  # (with_suffix took ".5hz" of 12.5 Hz for one)
     if fmt == ExportFormat.CSV and (isinstance(out, _FolderOut) or out.is_dir()):  # into the folder
-        out = Path(out) / f"{plan_path.stem}_{rate:g}hz.csv"
+        out = Path(out) / f"{plan_path.stem}_{_hz(rate)}hz.csv"
         if out.is_dir():
             raise Failure(ExitCode.USAGE, f"--out {out}: expected a CSV file name, found a folder")
     if fmt != ExportFormat.CSV and out.exists() and not out.is_dir():

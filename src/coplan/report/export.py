@@ -111,7 +111,7 @@ def check_rate(rate: float, plan: Plan) -> None:
     """Raise ``ValueError`` (with the reason) for a rate no export of ``plan`` can use: not a
     rate, or more than :data:`MAX_POINTS` points per arm (the export's own count: its grid runs
     two plan steps past the plan's end)."""
-    if not (isinstance(rate, (int, float)) and math.isfinite(rate) and 0 < rate <= MAX_RATE):
+    if not (isinstance(rate, (int, float)) and not isinstance(rate, bool) and math.isfinite(rate) and 0 < rate <= MAX_RATE):
         raise ValueError(f"expected a rate in (0, {MAX_RATE:g}] Hz, found {rate!r}")
     length = _span(plan)[1]
     n = int(math.ceil(length * rate - 1e-9)) + 1  # (the size of _times(length, rate))

@@ -41,7 +41,11 @@ __all__ = ["check_row_inputs", "check_carriage", "row_reachable_ids", "plan_sour
 
 def plan_source(plan: Plan) -> str:
     """How a plan's problems name it: by the problem it says it is of (a plan.csv names none)."""
-    return f"plan for problem {plan.problem!r}" if plan.problem else "plan.csv replay (it names no problem)"
+    from ..plancsv import EXPORT_PLANNER
+
+    if plan.problem:
+        return f"plan for problem {plan.problem!r}"
+    return ("coplan export table" if plan.planner_name == EXPORT_PLANNER else "plan.csv replay") + " (it names no problem)"
 
 
 def check_row_inputs(problem: Problem, plan: Plan) -> None:

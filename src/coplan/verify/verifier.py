@@ -104,7 +104,8 @@ def _check_inputs(problem: Problem, plan: Plan) -> None:
     missing = [n for n in names if n not in plan.q]
     extra = [n for n in plan.q if n not in names]
     if missing or extra:
-        issues.append(Issue("arms", f"expected the problem's arms {names}, found {list(plan.q)} (missing {missing}, unknown {extra})"))
+        which = "; ".join(f"{w} {v}" for w, v in (("missing", missing), ("unknown", extra)) if v)  # (it said "missing []")
+        issues.append(Issue("arms", f"expected the problem's arms {names}, found {list(plan.q)} ({which})"))
     t = np.asarray(plan.time, float)
     if t.ndim != 1 or t.size < 1 or not np.all(np.isfinite(t)):
         issues.append(Issue("time", "expected a non-empty list of finite times"))
