@@ -57,13 +57,12 @@ def recorded_problem(name: str | None, record: dict | None, remedy: str) -> Plan
         return PlanProblem(problem, ProblemSource.RECORDED, _not_shipped(problem, record["path"]))
     if not name:
         raise PlanFileError([Issue("problem", f"it does not name its problem (a plan.csv does not): {remedy}")])
-    shipped = [load_problem(p) for p in shipped_problems() + shipped_rows()]
-    problem = next((p for p in shipped if p.name == name), None)
+    problem = _shipped_named(name)
     gone = f"it was planned from {record['path']}, which is gone" if record is not None else ""
     if problem is None:
+        names = ", ".join(load_problem(p).name for p in shipped_problems() + shipped_rows())  # (an error: once)
         raise PlanFileError([Issue("problem", f"{gone + ', and ' if gone else ''}it is a plan of problem {name!r}, "
-                                              f"which is not a shipped problem ({', '.join(p.name for p in shipped)}): "
-                                              f"{remedy}")])
+                                              f"which is not a shipped problem ({names}): {remedy}")])
     if record is not None and problem.digest != record["sha256"]:
         raise PlanFileError([Issue("problem_file", f"{gone}; the shipped problem {problem.name!r} is another text (its "
                                                    f"sha256 differs): {remedy}")])
@@ -76,6 +75,14 @@ def recorded_problem(name: str | None, record: dict | None, remedy: str) -> Plan
 SHIPPED_NAME_LINE = re.compile(r"^name:\s*(\S+)\s*$", re.MULTILINE)  # (a shipped file's name line: one plain word)
 
 
+def _shipped_named(name: str) -> Problem | None:
+    """The shipped problem or row named ``name``, or None: found by each file's name line first
+    (loading every shipped problem took 0.25-0.6 s on each plot, view, export or verify of a plan)."""
+    named = [s for s in shipped_problems() + shipped_rows()
+             if (m := SHIPPED_NAME_LINE.search(Path(s).read_text(encoding="utf-8"))) and m.group(1) == name]
+    return next((q for q in (load_problem(s) for s in named) if q.name == name), None)
+
+
 def _not_shipped(problem: Problem, path: str) -> str:
     """A note where the recorded file at ``path`` names a shipped problem but is another text: a
     plan verified or exported against it is held to that file's limits and fruit, not the shipped
@@ -84,9 +91,7 @@ def _not_shipped(problem: Problem, path: str) -> str:
     shipped = shipped_problems() + shipped_rows()
     if any(Path(path).resolve() == Path(s).resolve() for s in shipped):
         return ""
-    # (by the name line of coplan's own files first: loading every shipped problem took 0.25-0.6 s)
-    named = [s for s in shipped if (m := SHIPPED_NAME_LINE.search(Path(s).read_text(encoding="utf-8"))) and m.group(1) == problem.name]
-    twin = next((q for q in (load_problem(s) for s in named) if q.name == problem.name), None)
+    twin = _shipped_named(problem.name)
     if twin is None or twin.digest == problem.digest:
         return ""
     return (f"its problem is taken from {path}, the file the plan records, which bears the name of the shipped "
