@@ -13,6 +13,28 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 from coplan.problem import Problem, default_problem_path, load_problem  # noqa: E402
 
 
+def _trace_sigint_ignored():
+    """Keep where SIGINT was last set to be ignored on this worker's main thread (its stack), for
+    the warning below: something between two tests leaves it so, not yet traced."""
+    import signal
+    import threading
+    import traceback
+
+    real = signal.signal
+    where: list[str] = []
+
+    def traced(signum, handler):
+        if signum == signal.SIGINT and handler is signal.SIG_IGN and threading.current_thread() is threading.main_thread():
+            where[:] = ["".join(traceback.format_stack(limit=14)[:-1])]
+        return real(signum, handler)
+
+    signal.signal = traced
+    return where
+
+
+_SIGINT_IGNORED_AT = _trace_sigint_ignored()
+
+
 @pytest.fixture(autouse=True)
 def sigint_as_found():
     """Every test begins with Python's own Ctrl-C handler, as a fresh process has, and one that
@@ -34,7 +56,8 @@ def sigint_as_found():
     if found is not signal.default_int_handler:
         signal.signal(signal.SIGINT, signal.default_int_handler)
         warnings.warn(f"SIGINT's handler was {found!r} as this test began (left so by a fixture's set-up or a test "
-                      "before it on this worker): set to Python's own", RuntimeWarning)
+                      "before it on this worker): set to Python's own"
+                      + (f"; it was last ignored at:\n{_SIGINT_IGNORED_AT[0]}" if _SIGINT_IGNORED_AT else ""), RuntimeWarning)
     yield
     for _ in range(20):  # (a watcher that restores it may take a moment)
         if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
