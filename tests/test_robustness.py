@@ -241,6 +241,32 @@ def test_sigterm_saves_the_incumbent_and_exits_143(tmp_path: Path, problems_dir:
     assert json.loads((tmp_path / "verification.json").read_text())["summary"]["passed"] is True
 
 
+def test_sigterm_with_json_says_143_in_the_document_as_the_command_exits(tmp_path: Path) -> None:
+    """(After a SIGTERM, ``coplan solve --json`` exited 143 and its document said ``"exit_code": 130``:
+    a scheduler's script reading the document read another code than the process's.)"""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    exe = Path(sys.executable).with_name("coplan")
+    cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "coplan.cli"]
+    # (by its shipped name: the command says which file that is, once it runs with its handlers set)
+    proc = subprocess.Popen(cmd + ["solve", "dense_overlap", "--json", "--out", str(tmp_path)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert "the shipped problem" in proc.stderr.readline()
+        time.sleep(3.0)  # (well inside its solve: about 100 s)
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    doc = json.loads(out)
+    assert proc.returncode == int(ExitCode.TERMINATED) == doc["exit_code"], (out, err)
+    assert doc["status"] == "interrupted"
+
+
 @pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="needs fork")
 def test_sigterm_to_the_process_group_is_announced_once(tmp_path: Path) -> None:
     """A service manager's SIGTERM reaches coplan's worker processes too (the process group):

@@ -239,7 +239,7 @@ def _report_solve(res, out: Path, animate: bool, html: bool, as_json: bool):
             "problem": res.problem.name,
             "planner": res.plan.planner_name,
             "status": res.plan.status.value,
-            "exit_code": int(res.exit_code),
+            "exit_code": int(failures.as_exited(res.exit_code)),  # (143 after a SIGTERM, as the command exits: it said 130)
             "metrics": res.plan.metrics,
             "verification": ver,
             "solver": res.plan.solver,

@@ -28,7 +28,7 @@ from ..errors import CoplanError, InputError, Issue
 from ..kinds import ExitCode
 from ..output import OutputError, RunKept, check_folder
 
-__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "INTERRUPTED", "CONSOLE", "work_done",
+__all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TERMINATED", "INTERRUPTED", "CONSOLE", "work_done", "as_exited",
            "usage", "check_out_dir", "check_overwrite", "exit_fields", "file_kind"]
 
 # set by the console entry point when SIGTERM arrived: an interruption then exits 143, not 130
@@ -78,10 +78,17 @@ def work_done() -> None:
             signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
+def as_exited(code: ExitCode) -> ExitCode:
+    """The exit code the ``coplan`` command ends with for a run whose verdict is ``code``: an
+    interrupted run stopped by SIGTERM exits 143, not 130 (its ``--json`` document said 130)."""
+    code = ExitCode(code)
+    return ExitCode.TERMINATED if code == ExitCode.INTERRUPTED and TERMINATED else code
+
+
 def exit_fields(code: ExitCode) -> dict[str, Any]:
     """What a ``--json`` document of a command that ran says of how it ends: ``exit_code`` and
-    ``verdict`` (the exit code's name: ``ok``, ``partial``, ``unsafe`` ...)."""
-    code = ExitCode(code)
+    ``verdict`` (the exit code's name: ``ok``, ``partial``, ``unsafe`` ...), as the command exits."""
+    code = as_exited(code)
     return {"exit_code": int(code), "verdict": code.name.lower()}
 
 
