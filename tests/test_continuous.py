@@ -1017,3 +1017,24 @@ def test_solve_with_a_speed_alone_plans_on_the_move_as_run_does(tmp_path):
     assert res.exit_code == 0, res.output
     row = json.loads((tmp_path / "out" / "plan.json").read_text())["solver"]["row"]
     assert row["mode"] == "continuous" and row["profile"] == "constant" and row["level"] == 0.2
+
+
+def test_an_interrupted_speed_search_verifies_the_plan_it_keeps_in_full(monkeypatch):
+    """(Its candidates are screened -- each pair's certified least distance only to half its
+    margin -- and the plan kept after a Ctrl-C was written with that coarse verdict: margin 13.8 mm
+    where coplan verify of the file certified 20.2 mm.) The kept plan is verified in full."""
+    import coplan.row.moving as moving
+    from coplan.kinds import PlanStatus
+    from coplan.verify.verifier import verify
+
+    row = parse_problem(to_yaml(gantry_row(length=10.0, n_arms=3, density=8.0, seed=1)))
+
+    def cut(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(moving, "_last_tries", cut)  # (the bracket made its plans: cut after it)
+    res = moving.plan_moving(row, MovingOptions())
+    assert res.plan.status == PlanStatus.INTERRUPTED and "margins_screened" not in res.info
+    again = verify(row, res.plan)
+    assert res.verification.certified_clearance == pytest.approx(again.certified_clearance, abs=1e-9)
+    assert res.plan.metrics["margin"] == pytest.approx(again.margin, abs=1e-9)
