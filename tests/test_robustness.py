@@ -431,3 +431,20 @@ def test_worker_processes_end_quietly_on_sigterm(monkeypatch):
             assert all(pool.map(_sigterm_is_default, range(4)))
     finally:
         signal.signal(signal.SIGTERM, old)
+
+
+def test_the_command_draws_whatever_mplbackend_the_shell_sets(tmp_path: Path) -> None:
+    """(``MPLBACKEND=nonsense coplan plot ...`` was an internal error, exit 1: "Key backend:
+    'nonsense' is not a valid value"; the CLI always draws with Agg.)"""
+    import os
+    import subprocess
+    import sys
+
+    import coplan
+
+    coplan.solve("single_arm", planner="coordinated", out_dir=tmp_path / "run")
+    exe = Path(sys.executable).with_name("coplan")
+    cmd = [str(exe)] if exe.exists() else [sys.executable, "-m", "coplan.cli"]
+    proc = subprocess.run(cmd + ["plot", str(tmp_path / "run" / "plan.json"), "--kind", "joints", "--out", str(tmp_path / "j.png")],
+                          capture_output=True, text=True, env=dict(os.environ, MPLBACKEND="nonsense"), timeout=120)
+    assert proc.returncode == 0 and (tmp_path / "j.png").read_bytes().startswith(b"\x89PNG"), proc.stderr

@@ -13,7 +13,10 @@ import os
 from pathlib import Path
 from typing import Annotated, Optional
 
-os.environ.setdefault("MPLBACKEND", "Agg")  # the CLI never needs a display
+# the CLI never needs a display: always Agg (a figure's format comes from its file's suffix); an
+# MPLBACKEND of the shell's, even one matplotlib does not know, stays out of it (MPLBACKEND=nonsense
+# made every figure an internal error, exit 1, and solve --animate exit 1 after writing its plan)
+os.environ["MPLBACKEND"] = "Agg"
 
 import typer
 
