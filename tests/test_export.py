@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -613,3 +614,46 @@ def test_export_odds_and_ends_from_a_controls_engineer_s_trial(problems_dir, tmp
     said = " ".join(res.output.split())
     assert res.exit_code == 3 and "a coplan export table (it names no problem)" in said and "missing ['center']" in said, said
     assert "unknown []" not in said and "plan.csv replay" not in said
+
+
+@pytest.mark.parametrize("fmt", ["csv", "json"])
+@pytest.mark.parametrize("fault", [KeyboardInterrupt, OSError])
+def test_an_export_cut_short_leaves_the_earlier_export_whole(problems_dir, tmp_path, monkeypatch, fmt, fault):
+    """(A SIGTERM or a full disk while the export's files were written left one file of the new
+    plan beside the others of the old one, or three arms' files of four; exit 143 or 8.) The
+    files go into place together or not at all, the earlier export whole, no staging file left,
+    a full disk naming the file it was writing."""
+    import tempfile
+
+    from coplan.problem import load_problem
+
+    prob = load_problem(problems_dir / "greenhouse_row.yaml")
+    first, second = plan_coordinated(prob).plan, plan_heuristic_like(prob)
+    out = tmp_path / ("e.csv" if fmt == "csv" else "e")
+    export_plan(first, 100.0, fmt, out)
+    files = sorted(out.parent.glob("e*")) if fmt == "csv" else sorted(out.iterdir())
+    before = {p: p.read_bytes() for p in files}
+    real, calls = tempfile.mkstemp, []
+
+    def cut(*a, **k):
+        calls.append(1)
+        if len(calls) == 2:
+            raise fault() if fault is KeyboardInterrupt else OSError(28, "No space left on device")
+        return real(*a, **k)
+
+    monkeypatch.setattr(tempfile, "mkstemp", cut)
+    with pytest.raises(fault) as e:
+        export_plan(second, 100.0, fmt, out)
+    monkeypatch.undo()
+    after = sorted(out.parent.glob("e*")) if fmt == "csv" else sorted(out.iterdir())
+    assert after == files and all(p.read_bytes() == before[p] for p in files)
+    assert not [p for p in tmp_path.rglob("*") if p.name.endswith(".partial")]
+    if fault is OSError:
+        assert e.value.errno == 28 and Path(e.value.filename) in before, e.value  # (the file, not its staging name)
+
+
+def plan_heuristic_like(prob):
+    """Another plan of the same problem (the course's heuristic): other times, other files."""
+    from coplan.planners.heuristic import plan_heuristic
+
+    return plan_heuristic(prob)

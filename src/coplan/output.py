@@ -27,7 +27,7 @@ from pathlib import Path
 
 from .errors import CoplanError
 
-__all__ = ["MARKER", "RunFolder", "RunKept", "is_run_folder", "previous_of", "writable_folder", "signals_deferred", "usual_mode", "atomic_text", "named_as", "OutputError", "check_folder", "folder_path", "keep_reports"]
+__all__ = ["MARKER", "RunFolder", "RunKept", "is_run_folder", "previous_of", "writable_folder", "signals_deferred", "usual_mode", "atomic_text", "atomic_texts", "named_as", "OutputError", "check_folder", "folder_path", "keep_reports"]
 
 MARKER = ".coplan-run"  # written into every run folder
 # the files a run writes (solve, live runs), by their exact names -- a user's plan.md or
@@ -166,6 +166,34 @@ def atomic_text(path: Path, text: str) -> None:
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def atomic_texts(items: list[tuple[Path, str]], remove: list[Path] | tuple = ()) -> None:
+    """Write several files as one: each text (UTF-8) to a temporary file beside its path first --
+    interruptible, and any failure (a full disk, Ctrl-C) removes them all and names the file it
+    was writing -- then, with Ctrl-C and SIGTERM held (:func:`signals_deferred`), every one
+    renamed into place and each of ``remove`` deleted. A controller's export was one file from a
+    new plan beside the others from the old one after a SIGTERM, or a folder of three arms' files
+    of four after a full disk."""
+    temps: list[tuple[str, Path]] = []
+    try:
+        for path, text in items:
+            path = Path(path)
+            with named_as(path):
+                fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+                temps.append((tmp, path))
+                with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+                    f.write(text)
+                os.chmod(tmp, usual_mode())
+        with signals_deferred():
+            for tmp, path in temps:
+                os.replace(tmp, path)
+            for p in remove:
+                Path(p).unlink(missing_ok=True)
+    except BaseException:
+        for tmp, _ in temps:
+            Path(tmp).unlink(missing_ok=True)
         raise
 
 

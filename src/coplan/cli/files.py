@@ -112,9 +112,9 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
 
     with warnings.catch_warnings():  # (an unsafe plan reaches here only with --unverified, which says so itself)
         warnings.filterwarnings("ignore", message="export_plan: writing the plan", category=UserWarning)
-        written = export_plan(plan, rate, fmt, out, traj)
-    for p in stale:  # (a controller loading the folder got two plans' trajectories)
-        p.unlink(missing_ok=True)
+        # (the earlier export's files this one does not replace go as its files come: a controller
+        # loading the folder got two plans' trajectories)
+        written = export_plan(plan, rate, fmt, out, traj, replaces=stale)
     if stale:
         _err.print(f"note: removed the earlier export's {', '.join(p.name for p in stale)} from {printable(out)} (not of "
                    "this plan: the folder is this export whole)", markup=False, highlight=False)
