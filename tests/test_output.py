@@ -567,3 +567,22 @@ def test_view_out_a_folder_writes_the_page_in_it(tmp_path):
     r = CliRunner().invoke(app, ["view", str(plan), "--out", str(tmp_path / "pages")])
     assert r.exit_code == 0, r.output
     assert (tmp_path / "pages" / "plan.html").read_text().count('content="coplan viewer"') == 1
+
+
+def test_a_run_into_a_symlinked_folder_goes_where_the_link_points_and_keeps_the_link(tmp_path):
+    """(``--out link``, link -> an empty folder: all the work, then "Not a directory: the run could
+    not be moved into link", exit 8, the run in link.unsaved; link -> a folder with a run: the
+    user's link renamed link.previous and a real folder link/ made beside it.)"""
+    import os
+
+    real = tmp_path / "real"
+    real.mkdir()
+    link = tmp_path / "link"
+    os.symlink(real, link)
+    for run in ("first", "second"):
+        with RunFolder(link) as stage:
+            (stage / "plan.json").write_text(run)
+        assert link.is_symlink() and os.readlink(link) == str(real)
+        assert (real / "plan.json").read_text() == run
+    assert (tmp_path / "real.previous" / "plan.json").read_text() == "first"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["link", "real", "real.previous"]

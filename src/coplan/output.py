@@ -301,6 +301,8 @@ class RunFolder:
 
     def __post_init__(self):
         self.out = Path(self.out)
+        if self.out.is_symlink():  # (the run goes where the link points, which keeps pointing at it: the run was
+            self.out = self.out.resolve()  # kept in <link>.unsaved, exit 8, or the user's link renamed <link>.previous)
 
     def __enter__(self) -> Path:
         with named_as(self.out):
