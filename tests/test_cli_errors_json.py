@@ -401,3 +401,36 @@ def test_a_number_option_that_is_not_one_says_what_it_found(args, said):
     res = CliRunner(env={"COLUMNS": "200"}).invoke(app, args)
     assert res.exit_code == ExitCode.USAGE
     assert said in " ".join(res.output.split()), res.output
+
+
+def test_a_ctrl_c_as_the_command_line_is_read_with_json_prints_the_error_document(monkeypatch, capsys):
+    """(A Ctrl-C or SIGTERM in the first quarter second -- typer answers one that lands before the
+    command runs with exit 130 -- left stdout empty under ``--json``.) The document says it, with
+    the exit code the command ends with; where the command ran, it says its own ending."""
+    import typer
+
+    from coplan.cli import failures
+
+    mini = typer.Typer()
+
+    def cut(value):
+        raise KeyboardInterrupt
+
+    @mini.command()
+    def solve(name: str = typer.Argument("x", callback=cut), as_json: bool = typer.Option(False, "--json")):
+        raise AssertionError("never reached")
+
+    @mini.command()
+    def other():
+        pass
+
+    monkeypatch.setattr(failures, "STARTED", [])
+    monkeypatch.setattr(failures, "TERMINATED", [])
+    monkeypatch.setattr(sys, "argv", ["coplan", "solve", "x", "--json"])
+    assert failures.run_with_json_usage_errors(mini) == int(ExitCode.INTERRUPTED)
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["format"] == "coplan.error/1" and doc["command"] == "solve" and doc["exit_code"] == 130
+    assert doc["error"] == "interrupted" and "nothing was done" in doc["message"]
+    monkeypatch.setattr(failures, "TERMINATED", [15])  # (a SIGTERM: 143, as the command exits)
+    assert failures.run_with_json_usage_errors(mini) == int(ExitCode.TERMINATED)
+    assert json.loads(capsys.readouterr().out)["exit_code"] == 143

@@ -28,8 +28,21 @@ def main() -> None:
         sys.stdout = open(os.devnull, "w", encoding="utf-8")
     if sys.stderr is None:
         sys.stderr = open(os.devnull, "w", encoding="utf-8")
-    if hasattr(signal, "SIGTERM"):
-        signal.signal(signal.SIGTERM, lambda signum, frame: sys.exit(143))  # (until the console's own handler)
+    def stopped(code: int, what: str):
+        """Exit ``code`` while the commands load; with ``--json``, the error document first (stdout was
+        left empty: a script had no document to read)."""
+        if "--json" in sys.argv[1:]:
+            import json
+
+            message = f"{what} as coplan started: nothing was done"
+            command = next((a for a in sys.argv[1:] if not a.startswith("-")), None)
+            print(json.dumps({"format": "coplan.error/1", "command": command, "exit_code": code, "error": what.split(" ")[0],
+                              "message": message, "errors": [{"file": None, "path": None, "line": None, "expected": None,
+                                                              "found": None, "message": message}]}), flush=True)
+        sys.exit(code)
+
+    if hasattr(signal, "SIGTERM"):  # (until the console's own handler)
+        signal.signal(signal.SIGTERM, lambda signum, frame: stopped(143, "terminated (SIGTERM)"))
     # a character the stream cannot encode is escaped, not an error: on Windows a redirected stdout
     # is the ANSI code page, strict, and a problem named in Chinese ended a finished solve with
     # "internal error (UnicodeEncodeError)", exit 1, no summary
@@ -41,7 +54,7 @@ def main() -> None:
     try:
         from .commands import main as run
     except KeyboardInterrupt:
-        sys.exit(130)
+        stopped(130, "interrupted (Ctrl-C)")
     run()
 
 

@@ -70,6 +70,7 @@ def guarded(fn):
 
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
+        failures.STARTED.append(fn.__name__)
         try:
             return fn(*args, **kwargs)
         except typer.Exit:

@@ -21,6 +21,7 @@ import json
 import math
 import os
 import re
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,7 @@ __all__ = ["Failure", "failure_of", "error_document", "issue_dict", "dumps", "TE
 
 # set by the console entry point when SIGTERM arrived: an interruption then exits 143, not 130
 TERMINATED: list[int] = []
+STARTED: list[str] = []  # the command (its body: coplan.cli.commands.guarded) has begun: it says its own ending
 # set by the console entry point when Ctrl-C arrived: an import it broke ("initialization failed") is that interruption
 INTERRUPTED: list[int] = []
 # set by the console entry point: this process is the ``coplan`` command (not a test's CliRunner),
@@ -342,6 +344,14 @@ def run_with_json_usage_errors(app) -> int:
         command = ctx.command.name if ctx is not None and ctx.command is not None else None
         typer.echo(dumps(error_document(command or "coplan", ExitCode.USAGE, e.format_message(), e)))
         return int(getattr(e, "exit_code", ExitCode.USAGE))
-    except typer.Abort:
-        return int(ExitCode.INTERRUPTED)
+    except (typer.Abort, KeyboardInterrupt):
+        rv = int(ExitCode.INTERRUPTED)
+    if rv == int(ExitCode.INTERRUPTED) and not STARTED:
+        # (Ctrl-C or SIGTERM as the command line was read, before the command ran -- typer answers it
+        # with exit 130 -- left stdout empty: a script had no document to read)
+        code = as_exited(ExitCode.INTERRUPTED)
+        command = next((a for a in sys.argv[1:] if not a.startswith("-")), "coplan")
+        typer.echo(dumps(error_document(command, code, f"{_KIND[code]} ({'SIGTERM' if TERMINATED else 'Ctrl-C'}) as the "
+                                                       "command started: nothing was done")))
+        return int(code)
     return rv if isinstance(rv, int) else 0
