@@ -151,7 +151,9 @@ def test_a_folder_that_cannot_take_files_is_named_as_the_user_gave_it_not_the_st
 @pytest.mark.parametrize("args", [["solve", "SINGLE", "--planner", "heuristic", "--out", "OUT"],
                                   ["plot", "PLAN", "--out", "OUT.png"],
                                   ["feed", "SINGLE", "--out", "OUT.yaml"],
-                                  ["verify", "SINGLE", "PLAN", "--out", "OUT.json"]])
+                                  ["verify", "SINGLE", "PLAN", "--out", "OUT.json"],
+                                  # (beside the plan by default: "Read-only file system", exit 8, after the work)
+                                  ["view", "WALLED_PLAN"], ["animate", "PLAN", "--out", "OUT.gif"]])
 def test_a_folder_that_refuses_new_files_despite_its_permissions_is_a_usage_error_before_any_work(tmp_path, monkeypatch, args):
     """Permission bits do not tell all (root passes ``os.access``; ``/proc`` and read-only
     mounts refuse new files): each command makes and removes a hidden file where it will write,
@@ -168,7 +170,8 @@ def test_a_folder_that_refuses_new_files_despite_its_permissions_is_a_usage_erro
     plan.save(tmp_path / "p")
     real = tempfile.mkstemp
     walled = tmp_path / "walled"
-    walled.mkdir()
+    plan.save(walled)  # (a plan in a folder that takes no new files: its page goes beside it by default)
+    there = sorted(walled.iterdir())
 
     def mkstemp(prefix="", suffix="", dir=None, **kw):
         if prefix.startswith(".coplan-probe-") and Path(dir) == walled:
@@ -178,11 +181,12 @@ def test_a_folder_that_refuses_new_files_despite_its_permissions_is_a_usage_erro
     monkeypatch.setattr(tempfile, "mkstemp", mkstemp)
     out = walled / "x"
     sub = {"SINGLE": str(_single()), "PLAN": str(tmp_path / "p" / "plan.json"), "OUT": str(out),
-           "OUT.png": f"{out}.png", "OUT.yaml": f"{out}.yaml", "OUT.json": f"{out}.json"}
+           "OUT.png": f"{out}.png", "OUT.yaml": f"{out}.yaml", "OUT.json": f"{out}.json", "OUT.gif": f"{out}.gif",
+           "WALLED_PLAN": str(walled / "plan.json")}
     r = CliRunner(env={"COLUMNS": "300"}).invoke(app, [sub.get(a, a) for a in args])
     assert r.exit_code == 2, r.output
-    assert "takes no new files (Read-only file system)" in r.output and str(out) in r.output
-    assert list(walled.iterdir()) == []
+    assert "takes no new files (Read-only file system)" in r.output and str(walled) in r.output
+    assert sorted(walled.iterdir()) == there
 
 
 def test_plan_json_verification_json_and_the_viewer_page_are_written_whole_or_not_at_all(tmp_path, monkeypatch):

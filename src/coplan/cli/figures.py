@@ -234,6 +234,7 @@ def animate_cmd(
     if out is not None and out.suffix.lower() not in (".gif", ".mp4"):
         fail(ExitCode.USAGE, f"--out: expected a .gif or .mp4 file, found {_s(out)!r}")
     target = out if out is not None else plan.with_suffix(".gif")
+    failures.check_out_file(target)  # (before any work: as plot's, view's)
     failures.check_figure_overwrite(target)
     prob, pl = plan_with_problem(plan, problem)
     checked(prob, pl)  # (the title's status: the verdict's, not the file's word)
@@ -259,10 +260,10 @@ def view_cmd(
 
     if out is not None and out.is_dir():  # (into the folder, as verify and export take one: it was refused)
         out = out / f"{plan.stem}.html"
-    if out is not None:
-        failures.check_out_file(out)
-        if out.suffix.lower() not in (".html", ".htm"):  # (a usage error, before any work: as plot's and animate's --out)
-            failures.usage(f"--out: expected a file name ending in .html, found {out.name!r}")
+    if out is not None and out.suffix.lower() not in (".html", ".htm"):  # (a usage error, before any work: as plot's and animate's --out)
+        failures.usage(f"--out: expected a file name ending in .html, found {out.name!r}")
+    # (beside the plan by default: a folder it cannot write into was "Read-only file system", exit 8, after the work)
+    failures.check_out_file(out if out is not None else plan.with_suffix(".html"))
     failures.check_figure_overwrite(out if out is not None else plan.with_suffix(".html"))
     prob, pl = plan_with_problem(plan, problem)
     other = None
