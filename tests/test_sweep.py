@@ -1338,3 +1338,21 @@ def test_a_row_that_is_not_a_success_says_why_and_shows_no_ratio_to_a_bound_it_d
     row, _ = solve_item(SweepItem(2, "k3", {}, "coordinated", {}, 30.0, "row", to_yaml(d)))
     assert row["status"] == "infeasible" and "no fruit" in row["message"]
     assert row["makespan"] is None and row["lower_bound"] is None and row["ratio"] is None
+
+
+def test_a_sweep_interrupted_before_its_first_row_says_what_its_folder_holds(tmp_path, monkeypatch):
+    """(A SIGTERM 2 s in said "interrupted before any problem was solved: nothing written" beside the
+    empty results.parquet and sweep.json it had written.)"""
+    import coplan.sweep.run as sweep_run
+
+    def cut(sw, folder, **kw):
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        (Path(folder) / "sweep.json").write_text("{}")
+        (Path(folder) / "results.parquet").write_bytes(b"")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep_run, "run_sweep", cut)
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["sweep", str(SMALL), "--out", str(tmp_path / "o")])
+    said = " ".join(r.output.split())
+    assert r.exit_code == int(ExitCode.INTERRUPTED) and "nothing written" not in said, said
+    assert "no rows;" in said and "results.parquet, sweep.json (no row in any)" in said

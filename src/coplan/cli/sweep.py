@@ -146,6 +146,11 @@ def sweep_cmd(
         if (folder / "rows.jsonl").is_file():
             _err.print(f"interrupted: every finished row is kept in {_safe(folder)}; run the same command again to resume",
                        highlight=False)
+        elif folder.is_dir() and any(folder.iterdir()):  # (it said "nothing written" beside a table and sweep.json)
+            made = sorted(p.name for p in folder.iterdir() if not p.name.startswith("."))
+            _err.print(f"interrupted before any problem was solved: no rows; {_safe(folder)} holds "
+                       f"{', '.join(made) or 'only the sweep state'} (no row in any); run the same command again to "
+                       "start", highlight=False)
         else:  # (it said rows were kept in a folder that did not exist: interrupted before any problem was solved)
             _err.print("interrupted before any problem was solved: nothing written", highlight=False)
         raise
