@@ -483,7 +483,10 @@ def test_solve_on_the_move_writes_a_plan_that_verify_accepts(tmp_path, row):
     (["--gantry", "continuous", "--speed", "3"], ", 0.5] m/s (gantry.max_velocity at most;"),
     (["--gantry", "continuous", "--stops", "fixed"], "--stops: on the move"),
     (["--gantry", "continuous", "--planner", "optimal"], "--planner: on the move"),
-    (["--stops", "fixed", "--speed", "0.2"], "--speed: a cruising speed applies on the move"),
+    # (it said "--speed: a cruising speed applies on the move (--gantry continuous or auto)", --gantry never given)
+    (["--stops", "fixed", "--speed", "0.2"], "--speed and --stops: --speed plans the row on the move"),
+    (["--stop-price", "2", "--profile", "constant"], "--profile and --stop-price: --profile plans the row on the move"),
+    (["--gantry", "stop-and-go", "--speed", "0.2"], "--speed: a cruising speed applies on the move"),
 ])
 def test_solve_on_the_move_refuses_options_that_do_not_apply(tmp_path, args, words):
     path = tmp_path / "row.yaml"

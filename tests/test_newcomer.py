@@ -306,3 +306,19 @@ def test_a_fruit_on_an_arm_s_base_is_said_to_be_inside_that_arm_s_inner_reach():
     right = max(prob.arms, key=lambda a: a.base[0])
     why = reach_reason(prob, right.base)
     assert why.startswith(f"0.000 m from {right.name}'s base, inside its inner reach"), why
+
+
+def test_a_plan_no_shorter_than_the_coordinated_one_is_improved_by_0_not_minus_0_percent():
+    """(A final makespan 5.9e-11 s longer than the coordinated plan's printed "improved by -0.0 %".)"""
+    import io
+
+    from rich.console import Console
+
+    import coplan
+    from coplan.cli.summary import print_summary
+
+    res = coplan.solve("greenhouse_row")
+    res.plan.metrics["improvement_over_coordinated"] = -5.9e-11 / res.plan.metrics["coordinated_makespan"]
+    buf = io.StringIO()
+    print_summary(Console(file=buf, width=250), res)
+    assert "improved by 0.0 %" in buf.getvalue() and "-0.0" not in buf.getvalue(), buf.getvalue()

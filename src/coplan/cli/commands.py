@@ -140,7 +140,7 @@ def solve(
     time_limit: Annotated[Optional[float], typer.Option(parser=real, metavar="<float>",
         help="Wall-clock limit, s: the optimal planner returns its verified incumbent at the limit, the coordinated "
              "planner its best candidate so far (by default they stop on a work budget, so the plan does not depend on "
-             "the machine).")] = None,
+             "the machine). A cell's: a row refuses it (its stops' cells keep ahead of the carriage by their budgets).")] = None,
     options_file: Annotated[Optional[Path], typer.Option(
         "--options", help="Solver options (YAML): any field of coplan.optimal.OptimalOptions, e.g. "
                           "search_work: 60000 (recorded in plan.json).")] = None,
@@ -165,6 +165,13 @@ def solve(
         if gantry is None and (speed is not None or profile is not None) and stops is None and stop_price is None \
                 and pace_price is None:  # (on-the-move flags alone mean on the move, as `coplan run --speed` does)
             gantry = GantryMode.CONTINUOUS
+        elif gantry is None and (speed is not None or profile is not None):  # (it blamed --gantry, never given)
+            stop_flags = [f for f, v in (("--stops", stops), ("--stop-price", stop_price), ("--pace-price", pace_price))
+                          if v is not None]
+            moving_flags = [f for f, v in (("--speed", speed), ("--profile", profile)) if v is not None]
+            _fail(ExitCode.USAGE, f"{'/'.join(moving_flags)} and {'/'.join(stop_flags)}: {'/'.join(moving_flags)} plans the "
+                                  f"row on the move, where the carriage never stops; {'/'.join(stop_flags)} plans it stop "
+                                  "and go: give one or the other")
         named, refused = refused_on_a_row(planner, allocation, options_file, time_limit, gantry)
         if refused:  # (led by the options' names: the JSON error's path)
             _fail(ExitCode.USAGE, f"{'/'.join(named)}: {path.name} is a row (it has a gantry): {'; '.join(refused)}")

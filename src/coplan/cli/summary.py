@@ -315,7 +315,8 @@ def print_summary(console, res) -> None:
     since = "since the planner started" + (f"; its clock also runs through the {base_s:.2f} s the course's baseline "
                                            f"takes, made right after the first plan" if base_s else "")
     if m.get("coordinated_makespan") is not None:
-        p(f"  coordinated plan  {fmt(m.get('coordinated_makespan'), ' s')}   (improved by {fmt(100 * (m.get('improvement_over_coordinated') or 0.0), ' %', 1)};"
+        gain = max(0.0, 100 * (m.get('improvement_over_coordinated') or 0.0))  # (a last digit's rounding said "-0.0 %")
+        p(f"  coordinated plan  {fmt(m.get('coordinated_makespan'), ' s')}   (improved by {fmt(gain, ' %', 1)};"
           f" first verified plan at {fmt(m.get('time_to_first_verified'), ' s')}, last improvement at {fmt(m.get('time_of_last_improvement'), ' s')},"
           f" {since})")
         reached = [f"{r} x at {t:.2f} s" for r, t in (m.get("time_to_ratio") or {}).items() if t is not None]
