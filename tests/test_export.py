@@ -657,3 +657,43 @@ def plan_heuristic_like(prob):
     from coplan.planners.heuristic import plan_heuristic
 
     return plan_heuristic(prob)
+
+
+def test_an_export_or_a_figure_of_a_plan_replaced_meanwhile_is_removed_and_said(problems_dir, tmp_path, monkeypatch):
+    """(A ``coplan solve`` into the folder while ``coplan export``, ``plot`` or ``view`` read its
+    plan left their files of the old plan in the new run's folder, every command exit 0.) What
+    the command wrote is removed, exit 8, saying why; on a plan left alone nothing changes."""
+    import os
+    import shutil
+
+    import coplan.report.export as export_mod
+    import coplan.viz.viewer as viewer_mod
+    from coplan.problem import load_problem
+
+    prob = load_problem(problems_dir / "crossing_paths.yaml")
+    files = plan_coordinated(prob).plan.save(tmp_path / "run")
+    other = tmp_path / "other.json"
+    shutil.copy(files["json"], other)
+    with open(other, "a") as f:
+        f.write("\n")  # (the same plan, another file: what a new run's rename does to the path)
+
+    def replaced(real):
+        def run(*a, **k):
+            out = real(*a, **k)
+            os.replace(other, files["json"]) if other.exists() else None
+            return out
+        return run
+
+    prob_arg = ["-p", str(problems_dir / "crossing_paths.yaml")]
+    monkeypatch.setattr(export_mod, "export_plan", replaced(export_mod.export_plan))
+    res = run("export", str(files["json"]), *prob_arg)
+    assert res.exit_code == 8 and "changed while it was read" in " ".join(res.output.split()), res.output
+    assert not list((tmp_path / "run").glob("plan_100hz*"))
+    monkeypatch.undo()
+    shutil.copy(files["json"], other)
+    monkeypatch.setattr(viewer_mod, "write_view", replaced(viewer_mod.write_view))
+    res = run("view", str(files["json"]), *prob_arg)
+    assert res.exit_code == 8 and not (tmp_path / "run" / "plan.html").exists(), res.output
+    monkeypatch.undo()
+    assert run("export", str(files["json"]), *prob_arg).exit_code == 0  # (left alone: written, exit 0)
+    assert (tmp_path / "run" / "plan_100hz.csv").exists()

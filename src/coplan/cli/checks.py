@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import stat
 from pathlib import Path
 from typing import Optional
 
@@ -13,7 +15,8 @@ import typer
 from . import failures
 from ..kinds import ExitCode, PlannerKind
 
-__all__ = ["in_path", "fail", "strict_json", "between", "real", "whole", "check_time_limit", "check_workers", "solver_options", "budget_hint"]
+__all__ = ["in_path", "fail", "strict_json", "between", "real", "whole", "check_time_limit", "check_workers", "solver_options", "budget_hint",
+           "file_state", "check_still_read"]
 
 
 def fail(code: ExitCode, message: str):
@@ -168,3 +171,27 @@ def budget_hint(planner: PlannerKind, time_limit: Optional[float]) -> Optional[s
         return None
     return ("the optimal planner stops on its work budget (so the plan is the same on any machine); "
             "--time-limit S returns its verified incumbent after S s, and Ctrl-C keeps it too")
+
+
+def file_state(path: Path) -> tuple | None:
+    """A regular file's identity now (device, inode, size, modification time), or None (a pipe,
+    a device, no such file): what :func:`check_still_read` compares."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns) if stat.S_ISREG(st.st_mode) else None
+
+
+def check_still_read(plan: Path, state: tuple | None, written: list[Path]) -> None:
+    """After a command wrote ``written`` from the plan file ``plan`` it read as ``state``
+    (:func:`file_state`): where that file is another now -- a ``coplan solve`` into its folder
+    put a new run there meanwhile -- the files written are removed and the command fails (exit 8),
+    saying so. An export or a figure of the old plan was left in the new run's folder, exit 0."""
+    if state is None or file_state(plan) == state:
+        return
+    for path in written:
+        Path(path).unlink(missing_ok=True)
+    fail(ExitCode.IO_ERROR, f"{plan} changed while it was read and drawn or exported (another run wrote into its "
+                            f"folder?): what this command wrote from the earlier plan is removed "
+                            f"({', '.join(Path(p).name for p in written)}); run it again on the plan there now")

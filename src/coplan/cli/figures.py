@@ -15,7 +15,7 @@ from typing import Annotated, Optional
 import typer
 
 from . import failures
-from .checks import between, choice, choices, fail, in_path, out_path, real, whole
+from .checks import between, check_still_read, choice, choices, fail, file_state, in_path, out_path, real, whole
 from .console import ProgressDisplay, text_console
 from .failures import resolve_problem
 from .summary import safe as _s
@@ -168,6 +168,7 @@ def plot_cmd(
         target = target.with_name(target.name + ".png")
     failures.check_out_file(target)  # (before any work)
     failures.check_figure_overwrite(target)
+    read_as = file_state(plan)
 
     if kind == PlotKind.WORKSPACE and plan.suffix.lower() in (".yaml", ".yml"):
         from ..problem.load import load_problem
@@ -215,6 +216,7 @@ def plot_cmd(
         fail(ExitCode.USAGE, f"--out {target}: {e} (use .png, .svg or .pdf)")
     except OSError as e:
         fail(ExitCode.IO_ERROR, f"cannot write {target}: {e.strerror or e}")
+    check_still_read(plan, read_as, [target])
     _out.print(f"wrote {_s(target)}")
 
 
@@ -236,6 +238,7 @@ def animate_cmd(
     target = out if out is not None else plan.with_suffix(".gif")
     failures.check_out_file(target)  # (before any work: as plot's, view's)
     failures.check_figure_overwrite(target)
+    read_as = file_state(plan)
     prob, pl = plan_with_problem(plan, problem)
     checked(prob, pl)  # (the title's status: the verdict's, not the file's word)
     with ProgressDisplay(_err) as bars:
@@ -244,6 +247,7 @@ def animate_cmd(
             notify=_note,
             progress=bars,
         )
+    check_still_read(plan, read_as, [path])
     failures.work_done()
     _out.print(f"wrote {_s(path)}")
 
@@ -265,6 +269,7 @@ def view_cmd(
     # (beside the plan by default: a folder it cannot write into was "Read-only file system", exit 8, after the work)
     failures.check_out_file(out if out is not None else plan.with_suffix(".html"))
     failures.check_figure_overwrite(out if out is not None else plan.with_suffix(".html"))
+    read_as = file_state(plan)
     prob, pl = plan_with_problem(plan, problem)
     other = None
     if compare is not None:
@@ -281,4 +286,6 @@ def view_cmd(
     # each plan verified once, here: the page shows the verdict, and a note says where the file's word differs (as plot)
     vers = {"verification": checked(prob, pl)} | ({"compare_verification": checked(prob, other)} if other is not None else {})
     target = out if out is not None else plan.with_suffix('.html')
-    _out.print(f"wrote {_s(write_view(prob, pl, other, target, open_page, notify=_note, **vers))}")
+    page = write_view(prob, pl, other, target, open_page, notify=_note, **vers)
+    check_still_read(plan, read_as, [page])
+    _out.print(f"wrote {_s(page)}")

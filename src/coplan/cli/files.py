@@ -12,7 +12,7 @@ from rich.markup import escape
 
 from ..errors import printable
 from ..kinds import ExitCode, ExportFormat, SchemaKind
-from .checks import choice, choices, in_path, out_path, real
+from .checks import check_still_read, choice, choices, file_state, in_path, out_path, real
 from .console import text_console
 from .failures import Failure, check_out_dir, check_out_file, check_overwrite
 
@@ -63,6 +63,7 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
     from ..report.export import check_rate, export_names, export_plan, restored, trajectory
 
     fmt = ExportFormat(fmt)
+    read_as = file_state(plan_path)
     # read once (a plan from a pipe is gone after the first read), with the plan.npz beside it: no
     # 1e-7 rounding for a finer grid to magnify; with its problem unless --unverified (a plan.csv's
     # events then inferred from its motion, for the events file)
@@ -115,6 +116,7 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         # (the earlier export's files this one does not replace go as its files come: a controller
         # loading the folder got two plans' trajectories)
         written = export_plan(plan, rate, fmt, out, traj, replaces=stale)
+    check_still_read(plan_path, read_as, written)
     if stale:
         _err.print(f"note: removed the earlier export's {', '.join(p.name for p in stale)} from {printable(out)} (not of "
                    "this plan: the folder is this export whole)", markup=False, highlight=False)
