@@ -40,7 +40,7 @@ def test_the_search_over_one_constant_speed_is_the_one_python_plans(tmp_path):
 def test_profile_is_refused_where_it_means_nothing(tmp_path, problems_dir):
     f = tmp_path / "row.yaml"
     f.write_text(to_yaml(gantry_row(length=8.0, density=3.0, seed=5)))
-    for args, said in ((["--stops", "optimised", "--profile", "constant"], "--profile: the speed search's profile applies on the move"),
+    for args, said in ((["--stops", "optimised", "--profile", "constant"], "--profile and --stops: --profile plans the row on the move"),
                        (["--gantry", "stop-and-go", "--profile", "density"], "--profile: the speed search's profile applies on the move"),
                        (["--gantry", "continuous", "--speed", "0.2", "--profile", "density"], "--profile density: --speed gives one"),
                        (["--gantry", "continuous", "--speed", "0.2", "--profile", "auto"], "--profile auto: --speed gives one"),
