@@ -150,7 +150,7 @@ def test_an_export_of_a_saved_plan_passes_coplan_verify_at_a_controller_rate(pro
     assert res.exit_code == 0 and "no plan.npz with this plan's full-precision samples" in said
     # (its 1e-7 rad rounding ran over the limits in its differences, and so did the export: 1.0036 x in jerk, and coplan
     # verify refused it; the samples are moved back within their rounding so that their differences keep the limits)
-    assert "each moved back within its rounding (at most 5e-8 rad)" in said and "every limit holds" in said, said
+    assert "each moved back within its rounding (at most 5e-8)" in said and "every limit holds" in said, said
     checked = run("verify", str(problems_dir / "crossing_paths.yaml"), str(tmp_path / "a.csv"))
     assert checked.exit_code == 0, (said, checked.output)
     assert "no plan.npz" not in run("export", str(alone / "plan.json"), "--rate", "50", "--out", str(tmp_path / "a50.csv"), *prob).stderr
@@ -659,10 +659,11 @@ def plan_heuristic_like(prob):
     return plan_heuristic(prob)
 
 
-def test_an_export_or_a_figure_of_a_plan_replaced_meanwhile_is_removed_and_said(problems_dir, tmp_path, monkeypatch):
+def test_an_export_or_a_figure_of_a_plan_replaced_meanwhile_is_refused_and_said(problems_dir, tmp_path, monkeypatch):
     """(A ``coplan solve`` into the folder while ``coplan export``, ``plot`` or ``view`` read its
-    plan left their files of the old plan in the new run's folder, every command exit 0.) What
-    the command wrote is removed, exit 8, saying why; on a plan left alone nothing changes."""
+    plan left their files of the old plan in the new run's folder, every command exit 0.) Exit 8,
+    saying why: an export puts nothing in place (an earlier export stays whole), a page that was
+    not there before is removed; on a plan left alone nothing changes."""
     import os
     import shutil
 
@@ -673,27 +674,47 @@ def test_an_export_or_a_figure_of_a_plan_replaced_meanwhile_is_removed_and_said(
     prob = load_problem(problems_dir / "crossing_paths.yaml")
     files = plan_coordinated(prob).plan.save(tmp_path / "run")
     other = tmp_path / "other.json"
-    shutil.copy(files["json"], other)
-    with open(other, "a") as f:
-        f.write("\n")  # (the same plan, another file: what a new run's rename does to the path)
+    prob_arg = ["-p", str(problems_dir / "crossing_paths.yaml")]
+    assert run("export", str(files["json"]), *prob_arg).exit_code == 0  # (an earlier export, kept whole below)
+    earlier = {p: p.read_bytes() for p in (tmp_path / "run").glob("plan_100hz*")}
+    assert len(earlier) == 2
 
     def replaced(real):
-        def run(*a, **k):
-            out = real(*a, **k)
-            os.replace(other, files["json"]) if other.exists() else None
-            return out
-        return run
+        def call(*a, **k):
+            shutil.copy(files["json"], other)  # (the same plan, another file: what a new run's rename does to the path)
+            os.replace(other, files["json"])
+            return real(*a, **k)
+        return call
 
-    prob_arg = ["-p", str(problems_dir / "crossing_paths.yaml")]
-    monkeypatch.setattr(export_mod, "export_plan", replaced(export_mod.export_plan))
+    monkeypatch.setattr(export_mod, "trajectory", replaced(export_mod.trajectory))
     res = run("export", str(files["json"]), *prob_arg)
     assert res.exit_code == 8 and "changed while it was read" in " ".join(res.output.split()), res.output
-    assert not list((tmp_path / "run").glob("plan_100hz*"))
+    assert {p: p.read_bytes() for p in (tmp_path / "run").glob("plan_100hz*")} == earlier
+    assert not [p for p in (tmp_path / "run").iterdir() if p.name.endswith(".partial")]
     monkeypatch.undo()
-    shutil.copy(files["json"], other)
     monkeypatch.setattr(viewer_mod, "write_view", replaced(viewer_mod.write_view))
     res = run("view", str(files["json"]), *prob_arg)
     assert res.exit_code == 8 and not (tmp_path / "run" / "plan.html").exists(), res.output
     monkeypatch.undo()
-    assert run("export", str(files["json"]), *prob_arg).exit_code == 0  # (left alone: written, exit 0)
-    assert (tmp_path / "run" / "plan_100hz.csv").exists()
+    assert run("view", str(files["json"]), *prob_arg).exit_code == 0  # (left alone: written, exit 0)
+    assert (tmp_path / "run" / "plan.html").exists()
+
+
+def test_files_beside_a_plan_ignore_the_run_folder_rules_and_a_folder_in_the_way_is_refused(problems_dir, tmp_path):
+    """(A user's file in ``<run>.previous`` made export, view and animate refuse the run folder
+    itself, exit 2: the rules of a run's .previous are a run's, not a file's. A folder named as one
+    of an export's files stopped it half-way, exit 8.)"""
+    from coplan.problem import load_problem
+
+    prob = load_problem(problems_dir / "crossing_paths.yaml")
+    files = plan_coordinated(prob).plan.save(tmp_path / "run")
+    (tmp_path / "run.previous").mkdir()
+    (tmp_path / "run.previous" / "mine.txt").write_text("mine")
+    prob_arg = ["-p", str(problems_dir / "crossing_paths.yaml")]
+    for args in (["export", str(files["json"])], ["view", str(files["json"])]):
+        res = run(*args, *prob_arg)
+        assert res.exit_code == 0, res.output
+    (tmp_path / "ej" / "right.json").mkdir(parents=True)
+    res = run("export", str(files["json"]), "--format", "json", "--out", str(tmp_path / "ej"), *prob_arg)
+    assert res.exit_code == 2 and "found a folder of that name" in " ".join(res.output.split()), res.output
+    assert sorted(p.name for p in (tmp_path / "ej").iterdir()) == ["right.json"]

@@ -590,3 +590,50 @@ def test_a_run_into_a_symlinked_folder_goes_where_the_link_points_and_keeps_the_
         assert (real / "plan.json").read_text() == run
     assert (tmp_path / "real.previous" / "plan.json").read_text() == "first"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link", "real", "real.previous"]
+
+
+def test_a_symlinked_out_is_checked_where_it_points_and_a_loop_refused_before_the_work(tmp_path):
+    """(``--out loop`` with a link to itself: "internal error (RuntimeError): Symlink loop" after the
+    work, the plan lost; and the checks before the work looked at the link, not where the run goes.)"""
+    import os
+
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+    from coplan.output import OutputError, check_folder
+
+    loop = tmp_path / "loop"
+    os.symlink(loop, loop)
+    with pytest.raises(OutputError, match="symbolic link that does not resolve"):
+        check_folder(loop)
+    r = CliRunner().invoke(app, ["solve", "single_arm", "--planner", "coordinated", "--out", str(loop)])
+    assert r.exit_code == 2 and "does not resolve" in r.output, r.output
+    real = tmp_path / "real"
+    with RunFolder(real) as stage:
+        (stage / "plan.json").write_text("{}")
+    (tmp_path / "real.previous").mkdir()
+    (tmp_path / "real.previous" / "mine.txt").write_text("mine")
+    link = tmp_path / "link"
+    os.symlink(real, link)
+    for out in (real, link):  # (the same refusal, whichever name the run is given)
+        with pytest.raises(OutputError, match="which would replace what is there"):
+            check_folder(out)
+
+
+def test_atomic_texts_puts_nothing_in_place_when_its_check_refuses_and_names_a_rename_that_fails(tmp_path):
+    from coplan.output import atomic_texts
+
+    a, b = tmp_path / "a.txt", tmp_path / "b.txt"
+    a.write_text("old")
+
+    def refuse():
+        raise RuntimeError("changed")
+
+    with pytest.raises(RuntimeError):
+        atomic_texts([(a, "new"), (b, "new")], before=refuse)
+    assert a.read_text() == "old" and not b.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]
+    b.mkdir()  # (a folder where a file goes: the rename fails, named, with what went in before it)
+    with pytest.raises(OSError) as e:
+        atomic_texts([(a, "new"), (b, "new")])
+    assert e.value.filename == str(b) and "put in place before it: a.txt" in str(e.value)
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".partial")]

@@ -262,9 +262,9 @@ def test_sigterm_with_json_says_143_in_the_document_as_the_command_exits(tmp_pat
     finally:
         if proc.poll() is None:
             proc.kill()
-    doc = json.loads(out)
+    doc = json.loads(out)  # (the solve's document, or the error document where no plan was verified yet: a slow machine)
     assert proc.returncode == int(ExitCode.TERMINATED) == doc["exit_code"], (out, err)
-    assert doc["status"] == "interrupted"
+    assert doc.get("status") == "interrupted" or doc.get("error") == "terminated", doc
 
 
 @pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="needs fork")

@@ -113,6 +113,10 @@ def test_numbers_beyond_range_are_said_beside_the_file_s_other_mistakes() -> Non
     assert links == ["arms[0].links[0]"] and "an integer of 41 digits" in said[links[0]]
     assert any("place_dwel" in p for p in said), said  # the typo, said in the same run
     assert not any("null" in m or "None" in m for m in said.values()), said  # (the placeholder is never shown)
+    twice = SINGLE.replace("pick_dwell: 0.3", "pick_dwell: 1e400").replace("clearance: 0.05", "clearance: 0.05\n  clearance: 0.05")
+    with pytest.raises(ProblemError) as e:  # (a duplicate key, refused before validation, hid it)
+        parse_problem(twice, "big.yaml")
+    assert {i.path for i in e.value.issues} >= {"task.pick_dwell", "task.clearance"}, e.value
 
 
 # --------------------------------------------------------------------------- CSV

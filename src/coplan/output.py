@@ -27,7 +27,7 @@ from pathlib import Path
 
 from .errors import CoplanError
 
-__all__ = ["MARKER", "RunFolder", "RunKept", "is_run_folder", "previous_of", "writable_folder", "signals_deferred", "usual_mode", "atomic_text", "atomic_texts", "named_as", "OutputError", "check_folder", "folder_path", "keep_reports"]
+__all__ = ["MARKER", "RunFolder", "RunKept", "is_run_folder", "previous_of", "writable_folder", "signals_deferred", "usual_mode", "atomic_text", "atomic_texts", "named_as", "OutputError", "check_folder", "folder_path", "keep_reports", "followed"]
 
 MARKER = ".coplan-run"  # written into every run folder
 # the files a run writes (solve, live runs), by their exact names -- a user's plan.md or
@@ -69,13 +69,29 @@ def folder_path(out: Path, what: str, expected: str = "a folder") -> Path:
     return probe
 
 
-def check_folder(out: str | Path, what: str = "out_dir") -> None:
+def followed(out: Path) -> Path:
+    """``out``, or where it points if it is a symbolic link: a run goes there and the link is kept
+    (:class:`RunFolder`, and the checks before the work alike). :class:`OutputError` for a link
+    that loops (Python's RuntimeError, an internal error after the work)."""
+    out = Path(out)
+    if not out.is_symlink():
+        return out
+    try:
+        return out.resolve()
+    except (RuntimeError, OSError) as exc:
+        raise OutputError(f"{out}: expected a folder or a link to one, found a symbolic link that does not resolve ({exc})") from None
+
+
+def check_folder(out: str | Path, what: str = "out_dir", files_only: bool = False) -> None:
     """Before any work: ``out`` must be a folder coplan can create or write into (a missing
     parent is created later); :class:`OutputError` says what was expected and found, so that
-    a solve of minutes is not lost to a typo in where it goes."""
+    a solve of minutes is not lost to a typo in where it goes. ``files_only``: a folder a command
+    writes files into (a figure, an export), not a run folder: the rules of a run's
+    ``.previous`` do not apply (a user's file in ``<run>.previous`` made export and view refuse
+    the run folder itself)."""
     if isinstance(out, bool) or not isinstance(out, (str, os.PathLike)):
         raise TypeError(f"{what}: expected the path of a folder (str or Path), found {type(out).__name__} {out!r}"[:300])
-    out = Path(out)
+    out = followed(Path(out))
     probe = folder_path(out, what)
     if not os.access(probe, os.W_OK | os.X_OK):
         raise OutputError(f"{what} {out}: expected a folder coplan may write to, found that {probe} is not writable")
@@ -85,6 +101,8 @@ def check_folder(out: str | Path, what: str = "out_dir") -> None:
     if refused is not None:
         raise OutputError(f"{what} {out}: expected a folder coplan may write to, found that {probe} takes no new files "
                           f"({refused.strerror or refused})")
+    if files_only:
+        return
     prev = previous_of(out)
     if out.is_dir() and not writable_folder(prev.parent):  # (the run is then staged inside it: RunFolder)
         if any(_ours(p) for p in out.iterdir()):  # (a solve of minutes was lost at its end: "Permission denied")
@@ -169,13 +187,15 @@ def atomic_text(path: Path, text: str) -> None:
         raise
 
 
-def atomic_texts(items: list[tuple[Path, str]], remove: list[Path] | tuple = ()) -> None:
+def atomic_texts(items: list[tuple[Path, str]], remove: list[Path] | tuple = (), before=None) -> None:
     """Write several files as one: each text (UTF-8) to a temporary file beside its path first --
     interruptible, and any failure (a full disk, Ctrl-C) removes them all and names the file it
     was writing -- then, with Ctrl-C and SIGTERM held (:func:`signals_deferred`), every one
     renamed into place and each of ``remove`` deleted. A controller's export was one file from a
     new plan beside the others from the old one after a SIGTERM, or a folder of three arms' files
-    of four after a full disk."""
+    of four after a full disk. ``before()``: called with the signals held before any file is put in
+    place; what it raises leaves every file as it was. A rename that fails (a folder where a file
+    goes) names the file; those put in place before it stay, and the error says which."""
     temps: list[tuple[str, Path]] = []
     try:
         for path, text in items:
@@ -187,8 +207,16 @@ def atomic_texts(items: list[tuple[Path, str]], remove: list[Path] | tuple = ())
                     f.write(text)
                 os.chmod(tmp, usual_mode())
         with signals_deferred():
+            if before is not None:
+                before()
+            placed: list[Path] = []
             for tmp, path in temps:
-                os.replace(tmp, path)
+                try:
+                    os.replace(tmp, path)
+                except OSError as exc:
+                    done = f"; put in place before it: {', '.join(p.name for p in placed)}" if placed else ""
+                    raise OSError(exc.errno, f"{exc.strerror or exc}{done}", str(path)) from exc
+                placed.append(path)
             for p in remove:
                 Path(p).unlink(missing_ok=True)
     except BaseException:
@@ -300,9 +328,9 @@ class RunFolder:
     inside: bool = False  # staged inside ``out`` (nothing may be made beside it)
 
     def __post_init__(self):
-        self.out = Path(self.out)
-        if self.out.is_symlink():  # (the run goes where the link points, which keeps pointing at it: the run was
-            self.out = self.out.resolve()  # kept in <link>.unsaved, exit 8, or the user's link renamed <link>.previous)
+        # (the run goes where a symbolic link points, which keeps pointing at it: the run was kept in
+        # <link>.unsaved, exit 8, or the user's link renamed <link>.previous)
+        self.out = followed(Path(self.out))
 
     def __enter__(self) -> Path:
         with named_as(self.out):

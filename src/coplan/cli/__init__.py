@@ -28,6 +28,7 @@ def main() -> None:
         sys.stdout = open(os.devnull, "w", encoding="utf-8")
     if sys.stderr is None:
         sys.stderr = open(os.devnull, "w", encoding="utf-8")
+
     def stopped(code: int, what: str):
         """Exit ``code`` while the commands load; with ``--json``, the error document first (stdout was
         left empty: a script had no document to read)."""
@@ -36,7 +37,8 @@ def main() -> None:
 
             message = f"{what} as coplan started: nothing was done"
             command = next((a for a in sys.argv[1:] if not a.startswith("-")), None)
-            print(json.dumps({"format": "coplan.error/1", "command": command, "exit_code": code, "error": what.split(" ")[0],
+            # (failures.error_document's fields, built here: that module may itself be loading)
+            print(json.dumps(indent=1, obj={"format": "coplan.error/1", "command": command, "exit_code": code, "error": what.split(" ")[0],
                               "message": message, "errors": [{"file": None, "path": None, "line": None, "expected": None,
                                                               "found": None, "message": message}]}), flush=True)
         sys.exit(code)

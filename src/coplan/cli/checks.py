@@ -183,15 +183,17 @@ def file_state(path: Path) -> tuple | None:
     return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns) if stat.S_ISREG(st.st_mode) else None
 
 
-def check_still_read(plan: Path, state: tuple | None, written: list[Path]) -> None:
-    """After a command wrote ``written`` from the plan file ``plan`` it read as ``state``
+def check_still_read(plan: Path, state: tuple | None, written: tuple | list = ()) -> None:
+    """Before (or after) a command writes from the plan file ``plan`` it read as ``state``
     (:func:`file_state`): where that file is another now -- a ``coplan solve`` into its folder
-    put a new run there meanwhile -- the files written are removed and the command fails (exit 8),
-    saying so. An export or a figure of the old plan was left in the new run's folder, exit 0."""
+    put a new run there meanwhile -- the command fails (exit 8), saying so, and ``written`` (what
+    it wrote from the earlier plan, files that were not there before) is removed. An export or a
+    figure of the old plan was left in the new run's folder, exit 0."""
     if state is None or file_state(plan) == state:
         return
     for path in written:
         Path(path).unlink(missing_ok=True)
+    gone = (f": what this command wrote from the earlier plan is removed ({', '.join(Path(p).name for p in written)})"
+            if written else ": nothing written")
     fail(ExitCode.IO_ERROR, f"{plan} changed while it was read and drawn or exported (another run wrote into its "
-                            f"folder?): what this command wrote from the earlier plan is removed "
-                            f"({', '.join(Path(p).name for p in written)}); run it again on the plan there now")
+                            f"folder?){gone}; run it again on the plan there now")

@@ -13,9 +13,7 @@ import os
 from pathlib import Path
 from typing import Annotated, Optional
 
-# the CLI never needs a display: always Agg (a figure's format comes from its file's suffix); an
-# MPLBACKEND of the shell's, even one matplotlib does not know, stays out of it (MPLBACKEND=nonsense
-# made every figure an internal error, exit 1, and solve --animate exit 1 after writing its plan)
+# the CLI never needs a display: always Agg, whatever the shell says (MPLBACKEND=nonsense was exit 1)
 os.environ["MPLBACKEND"] = "Agg"
 
 import typer
@@ -25,7 +23,7 @@ from .checks import budget_hint as _budget_hint, check_time_limit as _check_time
 from .checks import between, choice, choices, in_path, optimal_only_note, out_path, real
 from .checks import fail as _fail, solver_options as _solver_options, strict_json as _strict_json
 from .failures import resolve_problem
-from .row import moving_options, refuse_rows_in_compare, refused_on_a_row, stop_window
+from .row import moving_options, refuse_mixed_modes, refuse_rows_in_compare, refused_on_a_row, stop_window
 from .summary import fmt as _fmt
 from .summary import print_summary, print_table, print_verification
 from .summary import safe as _s
@@ -165,13 +163,8 @@ def solve(
         if gantry is None and (speed is not None or profile is not None) and stops is None and stop_price is None \
                 and pace_price is None:  # (on-the-move flags alone mean on the move, as `coplan run --speed` does)
             gantry = GantryMode.CONTINUOUS
-        elif gantry is None and (speed is not None or profile is not None):  # (it blamed --gantry, never given)
-            stop_flags = [f for f, v in (("--stops", stops), ("--stop-price", stop_price), ("--pace-price", pace_price))
-                          if v is not None]
-            moving_flags = [f for f, v in (("--speed", speed), ("--profile", profile)) if v is not None]
-            _fail(ExitCode.USAGE, f"{'/'.join(moving_flags)} and {'/'.join(stop_flags)}: {'/'.join(moving_flags)} plans the "
-                                  f"row on the move, where the carriage never stops; {'/'.join(stop_flags)} plans it stop "
-                                  "and go: give one or the other")
+        elif gantry is None:
+            refuse_mixed_modes(speed, profile, stops, stop_price, pace_price)
         named, refused = refused_on_a_row(planner, allocation, options_file, time_limit, gantry)
         if refused:  # (led by the options' names: the JSON error's path)
             _fail(ExitCode.USAGE, f"{'/'.join(named)}: {path.name} is a row (it has a gantry): {'; '.join(refused)}")

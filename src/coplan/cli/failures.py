@@ -99,11 +99,12 @@ def usage(message: str):
     raise Failure(ExitCode.USAGE, message)
 
 
-def check_out_dir(out, what: str = "--out") -> None:
+def check_out_dir(out, what: str = "--out", files_only: bool = False) -> None:
     """Before any work: ``out`` (a Path) must be a folder coplan can create or write into
-    (:func:`coplan.output.check_folder`); else exit 2 with what it found."""
+    (:func:`coplan.output.check_folder`; ``files_only``: files go into it, not a run); else exit
+    2 with what it found."""
     try:
-        check_folder(out, what)
+        check_folder(out, what, files_only=files_only)
     except OutputError as exc:
         usage(str(exc))
 
@@ -113,7 +114,7 @@ def check_out_file(out, what: str = "--out") -> None:
     create or write into, and ``out`` itself no folder."""
     if out.is_dir():
         usage(f"{what} {out}: expected a file name, found a folder")
-    check_out_dir(out.parent, what=f"{what} {out}: its folder")
+    check_out_dir(out.parent, what=f"{what} {out}: its folder", files_only=True)
 
 
 def check_overwrite(out, kind: str, what: str, option: str = "--out") -> None:
@@ -334,6 +335,7 @@ def run_with_json_usage_errors(app) -> int:
     error document on stdout; returns the exit code. Used when ``--json`` is on the command line."""
     import typer
 
+    STARTED.clear()
     try:
         rv = app(standalone_mode=False)
     except typer.TyperException as e:  # the framework's usage errors (its vendored click's UsageError)

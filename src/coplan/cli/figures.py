@@ -205,6 +205,8 @@ def plot_cmd(
         fig = plot_speed_curve(pl)
     else:
         fig = plots.plot_workspace(prob, arm)
+    check_still_read(plan, read_as)  # (the plan replaced while drawn: nothing written)
+    new = not target.exists()
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         with warnings.catch_warnings(record=True) as said:  # (matplotlib's printed its source line: a note instead)
@@ -216,7 +218,7 @@ def plot_cmd(
         fail(ExitCode.USAGE, f"--out {target}: {e} (use .png, .svg or .pdf)")
     except OSError as e:
         fail(ExitCode.IO_ERROR, f"cannot write {target}: {e.strerror or e}")
-    check_still_read(plan, read_as, [target])
+    check_still_read(plan, read_as, [target] if new else [])
     _out.print(f"wrote {_s(target)}")
 
 
@@ -241,13 +243,14 @@ def animate_cmd(
     read_as = file_state(plan)
     prob, pl = plan_with_problem(plan, problem)
     checked(prob, pl)  # (the title's status: the verdict's, not the file's word)
+    new = not target.exists()
     with ProgressDisplay(_err) as bars:
         path = animate_plan(
             prob, pl, target, speed=speed, fps=fps, dpi=dpi,
             notify=_note,
             progress=bars,
         )
-    check_still_read(plan, read_as, [path])
+    check_still_read(plan, read_as, [path] if new else [])
     failures.work_done()
     _out.print(f"wrote {_s(path)}")
 
@@ -286,6 +289,8 @@ def view_cmd(
     # each plan verified once, here: the page shows the verdict, and a note says where the file's word differs (as plot)
     vers = {"verification": checked(prob, pl)} | ({"compare_verification": checked(prob, other)} if other is not None else {})
     target = out if out is not None else plan.with_suffix('.html')
+    check_still_read(plan, read_as)  # (the plan replaced while read: nothing written)
+    new = not target.exists()
     page = write_view(prob, pl, other, target, open_page, notify=_note, **vers)
-    check_still_read(plan, read_as, [page])
+    check_still_read(plan, read_as, [page] if new else [])
     _out.print(f"wrote {_s(page)}")

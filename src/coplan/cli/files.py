@@ -79,7 +79,10 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         raise Failure(ExitCode.USAGE, f"--rate: {e}") from None
     out = _export_target(plan_path, rate, fmt, out)
     # (a folder it cannot write into: "error: No such file or directory: /proc/x.csv", exit 8, after the work)
-    check_out_file(out) if fmt == ExportFormat.CSV else check_out_dir(out)
+    if fmt == ExportFormat.CSV:
+        check_out_file(out)
+    else:
+        check_out_dir(out, files_only=True)
     names = export_names(plan)  # (each arm's file and joint-name stem, the carriage's and the events')
     _check_export_overwrites(out, fmt, names)
     if unverified:
@@ -115,8 +118,10 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
         warnings.filterwarnings("ignore", message="export_plan: writing the plan", category=UserWarning)
         # (the earlier export's files this one does not replace go as its files come: a controller
         # loading the folder got two plans' trajectories)
-        written = export_plan(plan, rate, fmt, out, traj, replaces=stale)
-    check_still_read(plan_path, read_as, written)
+        # (checked as the files go into place: an export of a plan replaced meanwhile -- a solve into its
+        # folder -- was left in the new run's folder; nothing is replaced then, the earlier export kept)
+        written = export_plan(plan, rate, fmt, out, traj, replaces=stale,
+                              before=lambda: check_still_read(plan_path, read_as))
     if stale:
         _err.print(f"note: removed the earlier export's {', '.join(p.name for p in stale)} from {printable(out)} (not of "
                    "this plan: the folder is this export whole)", markup=False, highlight=False)
@@ -126,7 +131,7 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
 
 
 def _hz(rate: float) -> str:
-    """A rate as a file name has it: every digit it was given (``{rate:g}`` named 333.3333 and 333.3334 Hz
+    """A rate as a file name has it: to 12 significant digits (``{rate:g}`` named 333.3333 and 333.3334 Hz
     alike, and the second export replaced the first)."""
     return f"{rate:.12g}"
 
@@ -153,8 +158,14 @@ def _export_target(plan_path: Path, rate: float, fmt: ExportFormat, out: Path | 
 
 
 def _check_export_overwrites(out: Path, fmt: ExportFormat, names: dict) -> None:
-    """Refuse to overwrite a file an export did not write (an earlier export is replaced)."""
+    """Refuse to overwrite a file an export did not write (an earlier export is replaced), or a
+    folder where one of its files goes (the export stopped at it half-way, exit 8)."""
     from ..report.export import EVENTS, events_path
+
+    targets = [out, events_path(out)] if fmt == ExportFormat.CSV else [out / f"{n}.{fmt.value}" for n in names.values()]
+    folder = next((t for t in targets if t.is_dir()), None)
+    if folder is not None:
+        raise Failure(ExitCode.USAGE, f"--out {out}: expected to write the file {folder}, found a folder of that name")
 
     if fmt == ExportFormat.CSV:  # an earlier export is replaced; coplan's plan.csv or any other file is not
         check_overwrite(out, "an export CSV", "an earlier export (a CSV with t, <arm>_q1 ... <arm>_qdd2)")
@@ -203,7 +214,7 @@ def _export_notes(plan_path: Path, plan, prob, rate: float, fmt: ExportFormat, o
                 + ", which coplan verify of the export reports" if excess else
                 ": where the plan runs at a limit, the export's differences can come out over it, which coplan verify of "
                 "the export reports" if unverified else "; measured on the export, every limit holds")
-        what = ("its samples rounded to 1e-7 rad, each moved back within its rounding (at most 5e-8 rad) so that their "
+        what = ("its samples rounded to 1e-7 (rad, the carriage m), each moved back within its rounding (at most 5e-8) so that their "
                 "differences keep the limits, as the full-precision samples' do" if restored and not excess else
                 f"its 1e-7 rad rounding, which differences at {rate:g} Hz magnify")
         _err.print(f"note: no plan.npz with this plan's full-precision samples beside {escape(printable(plan_path))}: the "

@@ -253,3 +253,14 @@ def moving_options(problem, gantry, speed, stops, planner, profile=None):
     if bad:
         fail(ExitCode.USAGE, f"--speed: {bad} ({problem.name!r})")
     return MovingOptions(profile=SpeedProfile.CONSTANT, level=speed)
+
+
+def refuse_mixed_modes(speed, profile, stops, stop_price, pace_price) -> None:
+    """With no ``--gantry``: on-the-move flags (``--speed``, ``--profile``) beside stop-and-go ones
+    (``--stops``, a stop price) are refused naming both (it blamed --gantry, never given)."""
+    moving_flags = [f for f, v in (("--speed", speed), ("--profile", profile)) if v is not None]
+    stop_flags = [f for f, v in (("--stops", stops), ("--stop-price", stop_price), ("--pace-price", pace_price)) if v is not None]
+    if moving_flags and stop_flags:
+        fail(ExitCode.USAGE, f"{'/'.join(moving_flags)} and {'/'.join(stop_flags)}: {'/'.join(moving_flags)} plans the row "
+                             f"on the move, where the carriage never stops; {'/'.join(stop_flags)} plans it stop and go: "
+                             "give one or the other")

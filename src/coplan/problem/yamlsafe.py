@@ -314,8 +314,8 @@ def read_yaml(text: str, source: str | None, keep_text=None,
         if node is None:
             raise ProblemError([Issue("", f"expected {expected}; found an empty file")], source)
         _walk_nodes(node, [], lines, issues, keep_text=keep_text, out_of_range=out_of_range)
-        if issues:
-            raise ProblemError(issues, source)
+        if issues:  # (with the numbers no float holds found on the way: a duplicate key hid them)
+            raise ProblemError(sorted(issues + (out_of_range or []), key=lambda i: -1 if i.line is None else i.line), source)
         # keys are now known to be unique scalars, with no aliases or unknown tags
         data = _LineLoader("").construct_document(node)
     except yaml.YAMLError as e:

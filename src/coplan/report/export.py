@@ -430,14 +430,15 @@ def carriage_trajectory(traj: Trajectory, name: str = "carriage", frame_id: str 
 
 
 def export_plan(plan: Plan | str | Path, rate: float, fmt: ExportFormat | str, out: str | Path, traj: Trajectory | None = None,
-                replaces: list[Path] | tuple = ()) -> list[Path]:
+                replaces: list[Path] | tuple = (), before=None) -> list[Path]:
     """Write the plan at ``rate`` Hz: ``csv`` to the file ``out`` (and its picks and places, on the
     export's clock, to ``<out>.events.csv`` beside it); ``json``/``yaml`` one file per arm
     (``<arm>.json``) and ``events.json`` into the folder ``out``. Each file is written whole or not at all.
     ``traj``: :func:`trajectory` ``(plan, rate)`` when the caller has it already. Returns the
     paths written; the files go into place together (:func:`coplan.output.atomic_texts`: a Ctrl-C
     or a full disk leaves the files there were, not some of each), and each of ``replaces`` (an
-    earlier export's files this one does not overwrite) is removed with them. ``plan`` may be a
+    earlier export's files this one does not overwrite) is removed with them; ``before()`` is called
+    just before they are (what it raises leaves every file as it was). ``plan`` may be a
     plan file's path (read with :func:`coplan.plan.load_plan`).
     It writes what it is given: ``coplan export`` verifies the plan against its problem first
     (:func:`coplan.verify.verify` does it here); a plan without events (a plan.csv) gives an empty
@@ -463,7 +464,7 @@ def export_plan(plan: Plan | str | Path, rate: float, fmt: ExportFormat | str, o
     events = export_events(plan, traj)
     if fmt == ExportFormat.CSV:
         out.parent.mkdir(parents=True, exist_ok=True)
-        atomic_texts([(out, csv_text(traj)), (events_path(out), events_csv(events))], replaces)
+        atomic_texts([(out, csv_text(traj)), (events_path(out), events_csv(events))], replaces, before)
         return [out, events_path(out)]
     if out.suffix.lower() in (".json", ".yaml", ".yml", ".csv") and not out.is_dir():
         # (json and yaml write a folder of files: "ex.json" made a folder of that name)
@@ -482,5 +483,5 @@ def export_plan(plan: Plan | str | Path, rate: float, fmt: ExportFormat | str, o
 
             text = yaml.dump(msg, Dumper=getattr(yaml, "CSafeDumper", yaml.SafeDumper), sort_keys=False, default_flow_style=None)
         written.append((out / f"{names[arm]}.{fmt.value}", text))
-    atomic_texts(written, replaces)  # (whole or not at all: the files of one export, never two plans')
+    atomic_texts(written, replaces, before)  # (whole or not at all: the files of one export, never two plans')
     return [p for p, _ in written]
