@@ -116,10 +116,9 @@ def _export(plan_path: Path, rate: float, fmt: ExportFormat | str, out: Path | N
 
     with warnings.catch_warnings():  # (an unsafe plan reaches here only with --unverified, which says so itself)
         warnings.filterwarnings("ignore", message="export_plan: writing the plan", category=UserWarning)
-        # (the earlier export's files this one does not replace go as its files come: a controller
-        # loading the folder got two plans' trajectories)
-        # (checked as the files go into place: an export of a plan replaced meanwhile -- a solve into its
-        # folder -- was left in the new run's folder; nothing is replaced then, the earlier export kept)
+        # (the earlier export's files this one does not replace go as its files come -- a controller
+        # loading the folder got two plans' trajectories; and the plan is checked as they do -- an
+        # export of a plan replaced meanwhile by a solve into its folder was left in the new run's)
         written = export_plan(plan, rate, fmt, out, traj, replaces=stale,
                               before=lambda: check_still_read(plan_path, read_as))
     if stale:
