@@ -170,17 +170,27 @@ def named_as(target: Path):
         raise OSError(exc.errno, exc.strerror or str(exc), str(target)) from exc
 
 
-def atomic_text(path: Path, text: str) -> None:
-    """Write ``text`` (UTF-8) to ``path`` whole or not at all: a temporary file unique per
-    writer beside it, then a rename (a failure removes it, and names ``path``); the file gets
-    :func:`usual_mode`."""
-    path = Path(path)
+def _staged(path: Path, text: str) -> str:
+    """``text`` (UTF-8) written to a temporary file unique per writer beside ``path``, with
+    :func:`usual_mode`; its name. A failure removes it and names ``path``."""
     with named_as(path):
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
+                f.write(text)
+            os.chmod(tmp, usual_mode())
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    return tmp
+
+
+def atomic_text(path: Path, text: str) -> None:
+    """Write ``text`` (UTF-8) to ``path`` whole or not at all: a temporary file unique per
+    writer beside it (:func:`_staged`), then a rename (a failure removes it, and names ``path``)."""
+    path = Path(path)
+    tmp = _staged(path, text)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
-            f.write(text)
-        os.chmod(tmp, usual_mode())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -199,13 +209,7 @@ def atomic_texts(items: list[tuple[Path, str]], remove: list[Path] | tuple = (),
     temps: list[tuple[str, Path]] = []
     try:
         for path, text in items:
-            path = Path(path)
-            with named_as(path):
-                fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
-                temps.append((tmp, path))
-                with os.fdopen(fd, "w", encoding="utf-8", newline="") as f:
-                    f.write(text)
-                os.chmod(tmp, usual_mode())
+            temps.append((_staged(Path(path), text), Path(path)))
         with signals_deferred():
             if before is not None:
                 before()

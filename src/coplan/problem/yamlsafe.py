@@ -89,10 +89,9 @@ def _int_out_of_range(text: str) -> str | None:
     return f"expected a number coplan can hold, found an integer of {len(digits)} digits" if len(digits) > MAX_INT_DIGITS else None
 
 
-def _float_out_of_range(loader, node) -> str | None:
-    """The message for a float written beyond a float's range (``1e400``; ``.inf`` is not), or None."""
-    value = yaml.SafeLoader.construct_yaml_float(loader, node)
-    text = loader.construct_scalar(node)
+def _float_out_of_range(text: str, value: float) -> str | None:
+    """The message for a float ``text`` that reads as ``value`` beyond a float's range (``1e400``;
+    ``.inf`` is not), or None."""
     if math.isinf(value) and ".inf" not in text.lower():
         return f"expected a number coplan can hold, found {text} (beyond a float's range)"
     return None
@@ -118,10 +117,11 @@ def _construct_float(loader, node):
     """YAML's floats; a number written beyond a float's range (``1e400``) is refused with its line,
     as written -- it became ``inf``, and a message then said "found number inf" of a value the file
     never held (``.inf`` itself stays infinity, for the checks that refuse it by name)."""
-    far = _float_out_of_range(loader, node)
+    value = yaml.SafeLoader.construct_yaml_float(loader, node)
+    far = _float_out_of_range(loader.construct_scalar(node), value)
     if far is not None:
         raise yaml.constructor.ConstructorError(None, None, far, node.start_mark)
-    return yaml.SafeLoader.construct_yaml_float(loader, node)
+    return value
 
 
 _LineLoader.add_constructor(_FLOAT, _construct_float)
@@ -233,7 +233,8 @@ def _walk_nodes(node, path, lines: dict, issues: list, key_line: int | None = No
         )
         return
     if out_of_range is not None and isinstance(node, yaml.ScalarNode) and node.tag in (_INT, _FLOAT):
-        far = _int_out_of_range(node.value) if node.tag == _INT else _float_out_of_range(ctor, node)
+        far = (_int_out_of_range(node.value) if node.tag == _INT else
+               _float_out_of_range(node.value, yaml.SafeLoader.construct_yaml_float(ctor, node)))
         if far is not None:
             out_of_range.append(Issue(path_str(path), far, node.start_mark.line + 1))
             node.tag = _NULL_TAG
