@@ -1041,3 +1041,30 @@ def test_an_interrupted_speed_search_verifies_the_plan_it_keeps_in_full(monkeypa
     again = verify(row, res.plan)
     assert res.verification.certified_clearance == pytest.approx(again.certified_clearance, abs=1e-9)
     assert res.plan.metrics["margin"] == pytest.approx(again.margin, abs=1e-9)
+
+
+def test_a_second_interrupt_keeps_the_screened_margins_and_the_summary_says_so(monkeypatch):
+    """(A second Ctrl-C as the kept plan was verified in full kept the speed search's screened
+    verdict and said so in plan.json alone: the summary printed its margin as certified.)"""
+    import io
+
+    from rich.console import Console
+
+    import coplan.row.moving as moving
+    from coplan.cli.summary import print_row_summary
+    from coplan.kinds import PlanStatus
+    from coplan.pipeline import solve
+
+    def cut(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(moving, "_last_tries", cut)
+    monkeypatch.setattr(moving, "certify", cut)
+    row = parse_problem(to_yaml(gantry_row(length=6.0, n_arms=3, density=4.0, seed=1)))
+    res = solve(row, gantry="continuous")
+    assert res.plan.status == PlanStatus.INTERRUPTED
+    assert "screen" in res.plan.solver["row"]["margins_screened"]
+    out = io.StringIO()
+    print_row_summary(Console(file=out, width=200), res)
+    line = next(ln for ln in out.getvalue().splitlines() if ln.strip().startswith("margins screened"))
+    assert "half its margin" in line

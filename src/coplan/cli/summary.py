@@ -113,6 +113,8 @@ def print_row_summary(console, res) -> None:
         p(f"  collisions found  {ver.get('collision_count', '-')}   least clearance {fmt(least, ' m', 4)} "
           f"(certified {fmt(ver.get('certified_clearance'), ' m', 4)}, required {fmt(res.problem.task.clearance, ' m', 3)})")
         _margin_line(p, ver)  # (a row's summary had neither, which plan.json and the viewer give)
+    if solver.get("margins_screened"):  # (a second Ctrl-C as the kept plan was certified: said in plan.json alone)
+        p(f"  [yellow]margins screened[/]  {safe(solver['margins_screened'])}")
     _jerk_line(p, m, ver)
     if not ver.get("passed", False):
         p(f"  violations        {ver.get('violation_count', '?')} ({', '.join(ver.get('violation_kinds', [])) or 'see verification.json'})")

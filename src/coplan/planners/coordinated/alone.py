@@ -15,7 +15,7 @@ import numpy as np
 
 from ...allocate.allocation import Allocation, arm_configs, choose_branches as fastest_branches
 from ...problem.model import Problem
-from .candidate import Coordinated, makespan_of
+from .candidate import Coordinated, Fallback, makespan_of
 from .routing import ArmGeometry, stow_poses
 from .schedule import ArmSchedule, Step, StepKind, decoupled_schedules, pair_distances, scurve_move
 from ...ties import quantised
@@ -259,8 +259,8 @@ def one_at_a_time(problem: Problem, alloc: Allocation, margin: float, say: Calla
     al = replace(alloc, assignment=assignment, fruit_q=fruit_q, place_q=place_q)
     span = makespan_of(out)
     if tried is not None:
-        tried.append({"fallback": "one_at_a_time", "feasible": True, "makespan": span, "left_out": left_out,
+        tried.append({"fallback": Fallback.ONE_AT_A_TIME.value, "feasible": True, "makespan": span, "left_out": left_out,
                       "moved_out_of_the_way": moved, "not_home": not_home})
     if say is not None:
         say(f"one arm at a time, the others resting: {span:.2f} s, {len(left_out)} fruit left out")
-    return Coordinated(al, out, span, [], "one_at_a_time", 0, fallback=True, left_out=left_out)
+    return Coordinated(al, out, span, [], Fallback.ONE_AT_A_TIME, 0, fallback=True, left_out=left_out)

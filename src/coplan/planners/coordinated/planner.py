@@ -42,7 +42,7 @@ from ...plan import DEFAULT_RATE, Event, Plan, PlannerKind, PlanStatus, compute_
 from ...problem.model import Problem
 from ...ties import quantised
 from .alone import one_at_a_time
-from .candidate import Coordinated, makespan_of
+from .candidate import BranchRule, Coordinated, Fallback, makespan_of
 from .routing import choose_branches
 from .schedule import ArmSchedule, ConflictError, decoupled_schedules, pair_distances
 
@@ -159,7 +159,7 @@ def warm_variants(problem: Problem, alloc: Allocation, need: float):
     (:func:`coplan.planners.coordinated.routing.choose_branches`), then the allocation's own (fastest) branches,
     when they differ."""
     seen = []
-    for label, al in (("branches", None), ("fastest", alloc)):
+    for label, al in ((BranchRule.BRANCHES, None), (BranchRule.FASTEST, alloc)):
         al = choose_branches(problem, alloc, need) if al is None else al
         base = decoupled_schedules(problem, al)
         key = [(n, [(st.kind, st.q1) for st in s.steps]) for n, s in base.items()]
@@ -214,13 +214,13 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
             span = makespan_of(base)
             tried.append({"allocation": "bound" if alloc.info.get("bound_allocation") else "milp", "schedules": "decoupled",
                           "feasible": True, "makespan": span, "waits": 0})
-            best = Coordinated(alloc, base, span, [], "fastest", 0)
+            best = Coordinated(alloc, base, span, [], BranchRule.FASTEST, 0)
             if on_feasible is not None:
                 on_feasible(best)
 
     def attempt(terr, avoid, label, al, base, order):
         nonlocal best, left
-        entry = {"allocation": "bound" if terr is None else "milp", "territory": terr, "avoid_blocked": avoid, "schedules": label, "priority": order,
+        entry = {"allocation": "bound" if terr is None else "milp", "territory": terr, "avoid_blocked": avoid, "schedules": label.value, "priority": order,
                  "estimate": al.estimated_makespan}
         checks = min(per_attempt, left)
         try:
@@ -229,7 +229,7 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
         except ConflictError as e:
             left -= checks
             tried.append(entry | {"feasible": False, "reason": str(e)})
-            say(f"coordination candidate ({entry['allocation']}, territory {terr or 0:g} s, {label}): {e}")
+            say(f"coordination candidate ({entry['allocation']}, territory {terr or 0:g} s, {label.value}): {e}")
             return np.inf
         left -= 1  # every attempt costs at least one unit, so the search always ends
         span = makespan_of(sched)
@@ -303,7 +303,7 @@ def _fallback(problem, method, opts, bound, say, tried, deadline: float | None =
                                      deadline=deadline)
             break
         except ConflictError as e:
-            tried.append({"fallback": "serial", "feasible": False, "reason": str(e), "fruit": e.fruit,
+            tried.append({"fallback": Fallback.SERIAL.value, "feasible": False, "reason": str(e), "fruit": e.fruit,
                           "pairs": work.get("pairs", 0)})
             late = deadline is not None and _time.perf_counter() > deadline  # (a clock limit: no more tries)
             if e.fruit is None or e.fruit in left_out or work.get("pairs", 0) >= opts.serial_pairs or late:
@@ -314,10 +314,10 @@ def _fallback(problem, method, opts, bound, say, tried, deadline: float | None =
             say(f"taking turns: {e.fruit} is left out ({e})")
             alloc = replace(alloc, assignment={a: tuple(f for f in fs if f != e.fruit) for a, fs in alloc.assignment.items()})
     span = makespan_of(sched)
-    tried.append({"fallback": "serial", "feasible": True, "makespan": span, "left_out": left_out,
+    tried.append({"fallback": Fallback.SERIAL.value, "feasible": True, "makespan": span, "left_out": left_out,
                   "pairs": work.get("pairs", 0)})
     say(f"leg-by-leg coordination deadlocked on every candidate: the arms take turns ({span:.2f} s)")
-    turns = Coordinated(alloc, sched, span, [], "serial", 0, fallback=True, left_out=left_out)
+    turns = Coordinated(alloc, sched, span, [], Fallback.SERIAL, 0, fallback=True, left_out=left_out)
     if left_out and (deadline is None or _time.perf_counter() <= deadline):  # the last resort may harvest what taking turns left out
         alone = one_at_a_time(problem, full, opts.margin, say, tried)
         if len(alone.left_out) < len(left_out):
@@ -372,8 +372,8 @@ def plan_coordinated(
                          [], status, info | {"status": status.value, "message": msg}, PlannerKind.COORDINATED)
     else:
         say("coordinated: " + describe(best))
-        info |= {"status": "ok", "priority": best.order, "schedules": best.variant, "waits": best.waits,
-                 "fallback": best.variant if best.fallback else None, "left_out": best.left_out,
+        info |= {"status": "ok", "priority": best.order, "schedules": best.variant.value, "waits": best.waits,
+                 "fallback": best.variant.value if best.fallback else None, "left_out": best.left_out,
                  "territory": best.alloc.info.get("territory"), "sequence": best.alloc.sequence.value}
         plan = schedules_plan(problem, best.alloc, best.schedules, PlannerKind.COORDINATED, info)
     tv = _time.perf_counter()

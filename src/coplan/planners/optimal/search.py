@@ -130,7 +130,7 @@ class Neighbourhood:
 
     def state_of(self, c: Coordinated) -> State:
         order = tuple(c.order) if c.order else tuple(self.names)
-        variant = BranchRule(c.variant) if c.variant in set(BranchRule) else BranchRule.BRANCHES
+        variant = c.variant if isinstance(c.variant, BranchRule) else BranchRule.BRANCHES
         return State(tuple(tuple(c.alloc.assignment[n]) for n in self.names), variant, order)
 
     def anchor(self, assignment: dict[str, tuple[str, ...]], order: tuple[str, ...]) -> State | None:
@@ -205,7 +205,7 @@ class Neighbourhood:
         self.traces[s] = trace
         if len(self.traces) > 8:  # the oldest goes
             del self.traces[next(iter(self.traces))]
-        return Coordinated(al, sched, makespan_of(sched), list(s.order), s.variant.value, waits)
+        return Coordinated(al, sched, makespan_of(sched), list(s.order), s.variant, waits)
 
     def space(self, start: State, cap: int) -> list[tuple[float, State]] | None:
         """Every state (allocation, orders, forced elbow branches, variant, priority), with its

@@ -6,29 +6,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import Enum
 
+from ..coordinated.candidate import BranchRule
+
 __all__ = ["BranchRule", "Move", "SearchOptions", "StopReason"]
-
-
-class BranchRule(str, Enum):
-    """How a state's elbow branches are chosen from its allocation and orders: the fastest
-    (each arm's dynamic programme alone), or keeping out of the neighbours' way with each
-    move charged a price (s) per neighbour pose it would hit
-    (:func:`coplan.planners.coordinated.routing.choose_branches`). ``BRANCHES`` (0.5 s) is the
-    coordinated planner's rule; the search also tries lighter and heavier prices."""
-
-    FASTEST = "fastest"
-    AVOID_LIGHT = "avoid-0.1"
-    AVOID_SOME = "avoid-0.25"
-    BRANCHES = "branches"
-    AVOID_HEAVY = "avoid-1.0"
-
-    @property
-    def price(self) -> float:
-        return _PRICE[self]
-
-
-_PRICE = {BranchRule.FASTEST: 0.0, BranchRule.AVOID_LIGHT: 0.1, BranchRule.AVOID_SOME: 0.25, BranchRule.BRANCHES: 0.5,
-          BranchRule.AVOID_HEAVY: 1.0}
 
 
 class Move(str, Enum):
