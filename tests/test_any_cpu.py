@@ -152,3 +152,35 @@ def test_this_machine_as_an_older_cpu_gives_the_same_plans(dense_here):
     assert search_path(opt) == there["search"]
     same(fingerprint(plan_coordinated(prob).plan), there["coordinated"])
     same(fingerprint(opt), there["optimal"])
+
+
+_SCIPY_FIRST = r"""
+import json, sys
+if sys.argv[1] == "scipy":
+    import scipy.linalg, scipy.optimize  # their OpenBLAS loads now: the CPU's own kernel, before coplan's pin
+from coplan.planners.optimal import OptimalOptions, plan_optimal
+from coplan.problem import load_problem
+from coplan.plan.model import motion_digest
+from coplan.provenance import openblas_kernels
+plan = plan_optimal(load_problem(sys.argv[2]), options=OptimalOptions(search_work=2000)).plan
+print(json.dumps({"digest": motion_digest(plan), "makespan": plan.metrics["makespan"], "kernels": openblas_kernels(),
+                  "eased": (plan.solver.get("widen") or {}).get("ease", {}).get("arms")}))
+"""
+
+
+def test_scipy_imported_before_coplan_gives_the_same_plan():
+    """(A notebook that imported SciPy before coplan got another crossing_paths plan: poses 1.2e-5
+    rad apart, the makespan 3e-10 s -- SciPy's OpenBLAS ran the CPU's kernel, and the easing's
+    SLSQP answered in other last bits.) The same plan bit for bit, whichever is imported first;
+    plan.json's software record names the kernel each loaded OpenBLAS runs."""
+    path = next(p for p in shipped_problems() if p.stem == "crossing_paths")
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "COPLAN_OPENBLAS_CORETYPE")}
+    runs = {}
+    for first in ("scipy", "coplan"):
+        out = subprocess.run([sys.executable, "-c", _SCIPY_FIRST, first, str(path)], env=env, capture_output=True,
+                             text=True, timeout=600)
+        assert out.returncode == 0, out.stderr[-2000:]
+        runs[first] = json.loads(out.stdout.strip().splitlines()[-1])
+    assert runs["scipy"]["eased"], "the easing (SciPy's SLSQP) is what this test exercises"
+    assert runs["scipy"]["digest"] == runs["coplan"]["digest"] and runs["scipy"]["makespan"] == runs["coplan"]["makespan"]
+    assert runs["coplan"]["kernels"] and runs["scipy"]["kernels"]

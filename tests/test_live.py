@@ -865,3 +865,55 @@ def test_a_detection_far_from_the_fruit_it_names_is_noted_with_the_farthest(tmp_
     (tmp_path / "bad.yaml").write_text(moved)
     r = run("run", prob, "--feed", str(tmp_path / "bad.yaml"), "--out", str(tmp_path / "bad"))
     assert "1 detection of" in r.output and "(the farthest, d002" in r.output and "0.50 m from f12)" in r.output, r.output
+
+
+def test_detections_out_of_reach_do_not_take_the_places_of_fruit_seen_after_them(greenhouse):
+    """(40 detections out of reach at t = 0 took every one of a re-plan's ``max_open`` places, re-plan
+    after re-plan, and the 11 fruit reported at 0.5 s were never planned: 0 of 11, said "pending".)
+    Tracks found out of reach come after every pending one; the fruit are harvested, the far
+    detections reported out of reach."""
+    far = [Detection(0.0, f"x{i:03d}", (-3.0 + 0.15 * i, 4.0), 0.01) for i in range(40)]
+    real = [Detection(0.5, f"r{i:02d}", tuple(f.position), 0.01, f.id) for i, f in enumerate(greenhouse.fruits)]
+    res = simulate(greenhouse, Feed(tuple(far + real)), seed=0, omniscient=False)
+    m = res.run["metrics"]
+    assert m["harvested"] == m["reachable"] == 11 and res.verification.passed
+    assert m["false_unreachable"] == 40 and not res.cell.open_tracks()
+
+
+def test_an_id_made_up_for_a_fruit_told_apart_never_takes_a_feed_s_own(greenhouse) -> None:
+    """(Two fruit told apart at close range got the made-up id 'a+twin', and a feed whose own
+    detection had that id stopped the run: 'expected a unique id, found 'a+twin' again', exit 3.)"""
+    from dataclasses import replace
+
+    from coplan.problem import Fruit
+
+    f04 = greenhouse.fruit("f04")
+    twin = Fruit("twin", (f04.position[0] + 0.02, f04.position[1] + 0.01))
+    prob = replace(greenhouse, fruits=(f04, twin, greenhouse.fruit("f09")))
+    feed = parse_feed("detections:\n"
+                      f"  - {{t: 0.0, id: a, position: [{f04.position[0] + 0.005}, {f04.position[1]}], sigma: 0.01, fruit: f04}}\n"
+                      f"  - {{t: 0.0, id: b, position: [{twin.position[0] - 0.005}, {twin.position[1]}], sigma: 0.01, fruit: twin}}\n"
+                      "  - {t: 0.0, id: c, position: [0.7078, 1.2954], sigma: 0.01, fruit: f09}\n"
+                      "  - {t: 0.1, id: a+twin, position: [0.5, 1.0], sigma: 0.01}\n", "twins.yaml")
+    r = simulate(prob, feed, omniscient=False)
+    told = [e for e in r.run["events"] if e["event"] == "told apart"]
+    assert told and "a+twin" not in told[0]["detections"] and told[0]["detections"][0].startswith("a+twin#")
+    assert all(o["harvested"] for o in r.run["fruit"].values()) and r.verification.passed
+
+
+def test_probes_after_the_last_place_are_said_beside_the_makespan(greenhouse, tmp_path):
+    """(False detections probed after the last place made the arms work 7.8 s past the makespan,
+    which the summary did not say.) run.json has the arms' work end and the probes after the last
+    place; the summary says them."""
+    extra = [Detection(5.0, f"z{i:03d}", (-1.5 + 0.05 * i, 1.0 + 0.01 * (i % 7)), 0.01) for i in range(60)]
+    feed = make_feed(greenhouse, seed=0)
+    path = tmp_path / "feed.yaml"
+    path.write_text(feed_yaml(Feed(feed.detections + tuple(extra), feed.close_distance, feed.close_sigma, feed.problem)))
+    res = CliRunner().invoke(app, ["run", "greenhouse_row", "--feed", str(path), "-o", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    m = json.loads((tmp_path / "o" / "run.json").read_text())["metrics"]
+    assert m["work_end"] >= m["makespan"]
+    late = m["probes_after_last_place"]
+    assert late > 0, "the burst is probed after the last place on this feed"
+    said = " ".join(res.output.split())
+    assert f"after the last place the arms probed {late} more false track" in said and f"{m['work_end']:.3f} s" in said

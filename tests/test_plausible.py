@@ -54,6 +54,10 @@ def test_lengths_in_millimetres_are_refused_with_a_hint() -> None:
     by_path = {i.path: i.message for i in _issues(text)}
     assert "found 50 (it looks like millimetres: 50 mm is 0.05 m; lengths are in m)" in by_path["task.clearance"]
     assert "found 1000 (it looks like millimetres: 1000 mm is 1 m; lengths are in m)" in by_path["arms[0].links[0]"]
+    # (a negative coordinate too: -2435 said only "a cell of this size is not a harvesting cell")
+    text2 = SINGLE.replace("position: [1.2, 0.8]", "position: [-2435, 0.8]")
+    assert "found -2435 (it looks like millimetres: -2435 mm is -2.435 m; lengths are in m)" in \
+        {i.path: i.message for i in _issues(text2)}["fruits[0].position[0]"]
     text = SINGLE.replace("clearance: 0.05", "clearance: 20000")  # (20 m: no length in mm either)
     assert "millimetres" not in {i.path: i.message for i in _issues(text)}["task.clearance"]
 

@@ -13,7 +13,7 @@ import os
 import platform
 from importlib import metadata
 
-__all__ = ["software_record", "source_commit", "DECIDING"]
+__all__ = ["software_record", "source_commit", "openblas_kernels", "DECIDING"]
 
 #: The distributions whose versions can change a plan (or its verdict).
 DECIDING = ("numpy", "scipy", "casadi", "ortools", "ruckig", "python-fcl")
@@ -50,12 +50,29 @@ def source_commit() -> str | None:
     return out or None
 
 
+def openblas_kernels() -> str | None:
+    """The kernel each OpenBLAS loaded in this process runs, by library (threadpoolctl), e.g.
+    ``"libscipy_openblas: SkylakeX; libscipy_openblas64_: SkylakeX"``: ``OPENBLAS_CORETYPE`` is
+    read as each library loads, so one loaded before coplan pinned it (SciPy imported first in
+    a notebook) runs the CPU's own kernel whatever the environment says now. None when none is
+    loaded or threadpoolctl cannot tell."""
+    try:
+        from threadpoolctl import threadpool_info
+
+        found = {(os.path.basename(i.get("filepath") or "?").split("-")[0].split(".so")[0], str(i.get("architecture")))
+                 for i in threadpool_info() if i.get("internal_api") == "openblas"}
+    except (ImportError, OSError, RuntimeError):
+        return None
+    return "; ".join(f"{lib}: {arch}" for lib, arch in sorted(found)) or None
+
+
 def software_record() -> dict:
     """``{"coplan": version, "source": its git commit where it runs from a checkout (else None),
     "python": ..., "machine": ..., <each of DECIDING>: version, "openblas_coretype":
-    OPENBLAS_CORETYPE in effect, "coplan_openblas_coretype": the override}``."""
+    OPENBLAS_CORETYPE in effect, "coplan_openblas_coretype": the override, "openblas_kernels":
+    the kernel each loaded OpenBLAS runs (:func:`openblas_kernels`)}``."""
     from . import __version__
 
     return {"coplan": __version__, "source": source_commit(), "python": platform.python_version(),
             "machine": platform.machine(), **dict(_versions()), "openblas_coretype": os.environ.get("OPENBLAS_CORETYPE"),
-            "coplan_openblas_coretype": os.environ.get("COPLAN_OPENBLAS_CORETYPE")}
+            "coplan_openblas_coretype": os.environ.get("COPLAN_OPENBLAS_CORETYPE"), "openblas_kernels": openblas_kernels()}

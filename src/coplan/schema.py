@@ -133,7 +133,8 @@ class ArmMetrics(BaseModel):  # (open: coplan may add figures)
     last_place: float | None = Field(None, description="s, the end of this arm's last place")
     cycle_time: float | None = Field(None, description="s per fruit: last_place / fruit")
     idle_fraction: float | None = Field(None, description="share of the makespan (0-1) the arm is not moving, picking or placing")
-    rms_jerk: float | None = Field(None, description="rad/s^3, RMS over both joints and the whole plan (third differences)")
+    rms_jerk: float | None = Field(None, description="rad/s^3, the RMS over the whole plan of the joint jerk vector's length, "
+                                                    "sqrt(mean(j1^2 + j2^2)) (third differences)")
     peak_jerk: float | None = Field(None, description="rad/s^3, the largest joint jerk")
 
 
@@ -179,7 +180,9 @@ class RowMetrics(BaseModel):  # (open: coplan may add figures)
                                                        "no stop, or on the move)")
     lower_bound: dict[str, Any] | None = Field(None, description="the row's bounds (coplan.allocate.row_bound.RowBounds): "
                                                                   "any_plan, stop_and_go, work, travel, moves, priced "
-                                                                  "(stops and positions priced together), ... in s")
+                                                                  "(stops and positions priced together), arrival: s; "
+                                                                  "reach_to: m; fruit, priced_stops: counts; seconds: "
+                                                                  "the time computing them took, s")
     ratio_any_plan_bound: float | None = Field(None, description="row_time / the bound valid for any carriage motion")
     ratio_stop_and_go_bound: float | None = Field(None, description="row_time / the bound for plans that pick only at rest")
     picks_at_rest: int | None = Field(None, description="on the move: picks whose whole dwell has the carriage at rest")

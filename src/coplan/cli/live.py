@@ -252,6 +252,9 @@ def _print_cell_run(prob, m: dict, horizon: float, all_candidates: bool, result,
            + ("--all-candidates gives each re-plan all the work it needs, not a "
               "real-time run\n" if all_candidates else "give --horizon at least the latency\n")
            if m.get("late_replans") else "")
+        + (f"after the last place the arms probed {m['probes_after_last_place']} more false "
+           f"track{'' if m['probes_after_last_place'] == 1 else 's'} at close range, their motion ending at "
+           f"{m['work_end']:.3f} s (the makespan counts to the last place)\n" if m.get("probes_after_last_place") else "")
         + _missed_line(result.run["fruit"])
         + f"executed plan {_status(result.plan)} ({'verified' if m['verified'] else 'verification FAILED'}"
         f"{_room(result.verification)}); "

@@ -329,9 +329,11 @@ class LiveCell:
         todo = [tr for tr in self.tracks.values() if tr.id not in picks
                 and tr.state in (TrackState.PENDING, TrackState.PLANNED, TrackState.UNREACHABLE, TrackState.COMMITTED)]
         if len(todo) > opts.max_open:  # what the plan holds first, then the tracks seen first; the rest wait
+            # (tracks found out of reach come after every pending one: 40 detections out of reach took
+            # every place, re-plan after re-plan, and no fruit seen after them was ever planned)
             held_now = [tr for tr in todo if tr.state in (TrackState.PLANNED, TrackState.COMMITTED)]
             waiting = sorted((tr for tr in todo if tr.state not in (TrackState.PLANNED, TrackState.COMMITTED)),
-                             key=lambda tr: (tr.first_seen, tr.id))
+                             key=lambda tr: (tr.state == TrackState.UNREACHABLE, tr.first_seen, tr.id))
             todo = held_now + waiting[:max(0, opts.max_open - len(held_now))]
         believed = replace(prob, fruits=tuple(Fruit(tr.id, self._plan_position(tr)) for tr in todo))
         reach = screened_reach(believed)

@@ -123,8 +123,8 @@ def simulate(problem: Problem, feed: Feed, options: LiveOptions | None = None, s
             if pos is None:
                 tr.note = f"{note}: nothing found at close range (t = {now:.2f} s)"
             if extra:
-                found = [Detection(now, f"{tr.id}+{g}", tuple(truth[g] + rng.normal(0.0, feed.close_sigma, 2)), feed.close_sigma, g)
-                         for g in extra]
+                found = [Detection(now, _new_id(f"{tr.id}+{g}", det_fruit), tuple(truth[g] + rng.normal(0.0, feed.close_sigma, 2)),
+                                   feed.close_sigma, g) for g in extra]
                 det_fruit |= {d.id: d.fruit for d in found}
                 cell.observe(now, found)
                 log.append({"t": now, "event": "told apart", "track": tr.id, "detections": [d.id for d in found]})
@@ -212,6 +212,16 @@ def _executed_plan(problem: Problem, cell: LiveCell, track_truth: dict) -> tuple
     return plan, unknown, misses
 
 
+def _new_id(name: str, taken) -> str:
+    """``name``, or ``name#2``, ``#3``, ... where a feed's own detection has it (a feed that named one
+    'a+f09' stopped the run with 'expected a unique id' where the gripper told two fruit apart)."""
+    out, n = name, 1
+    while out in taken:
+        n += 1
+        out = f"{name}#{n}"
+    return out
+
+
 def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, omniscient, verify, warm) -> LiveRun:
     from ..planners.coordinated.planner import plan_coordinated
     from ..verify.verdict import ViolationKind
@@ -286,6 +296,10 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
         "latency_median": _percentile(lat, 50), "latency_p95": _percentile(lat, 95), "latency_max": max(lat, default=None),
         "late_replans": sum(r.latency > cell.options.horizon for r in cell.replans), "warm_up_seconds": warm,
         "verified": ver.passed, "status": plan.status.value,
+        # (the makespan ends at the last place: close-range probes of false tracks after it, and the
+        # ways home, are the arms' work the makespan leaves out -- said beside it, not hidden)
+        "work_end": cell.end,
+        "probes_after_last_place": sum(1 for e in log if e["event"] == "close-range" and not e["found"] and e["t"] > makespan),
     }
     if omniscient:
         ref = plan_coordinated(problem)

@@ -112,7 +112,7 @@ def _hint(field: str, b: Bound, x: float) -> str:
         return f" (it looks like degrees: {x:g} deg is {math.radians(x):.4f} rad; angles are in rad)"
     if b.unit.startswith("rad/s") and x < b.low:
         return " (a joint this slow would take days for one move)"
-    if b.unit == "m" and x > b.high and b.holds(x / 1000.0):  # (clearance: 50, links: [900, 700])
+    if b.unit == "m" and (x > b.high or x < b.low) and b.holds(x / 1000.0):  # (clearance: 50, links: [900, 700]; -2435 too)
         return f" (it looks like millimetres: {x:g} mm is {x / 1000.0:g} m; lengths are in m)"
     if b is _COORD or field == "links":
         return " (a cell of this size is not a harvesting cell; coordinates are in m)"

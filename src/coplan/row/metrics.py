@@ -196,8 +196,10 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         # position, so 78 of 93 fruit read "0.941" against them; the summary and a sweep said no ratio)
         whole = (out.get("harvested") or 0) >= fruit_bounds_count(out)
         out["ratio_any_plan_bound"] = span / bounds.any_plan if whole and bounds.any_plan > 0 and span > 0 else None
+        # (only for a plan that picks at rest: on the move it bounds nothing -- plan.json gave 1.065 where
+        # compare.json and the summary gave none)
         out["ratio_stop_and_go_bound"] = (span / bounds.stop_and_go if whole and bounds.stop_and_go > 0 and span > 0
-                                          else None)
+                                          and out["mode"] != GantryMode.CONTINUOUS else None)
     return out
 
 

@@ -57,6 +57,10 @@ def _order_bounds(t: float, others: np.ndarray, gap: float = 0.03) -> tuple[floa
     return min(lo, t), max(hi, t)
 
 
+#: the grid (s; a power of two, so exact) SLSQP's start times are snapped to (:func:`_eased_arm`)
+SNAP = 2.0**-30
+
+
 def _eased_arm(sch: ArmSchedule, others: np.ndarray, end: float, makespan: float, hold: bool = False) -> list[Step] | None:
     """One arm's steps with its rest spread over its moves so that the sum of their jerk
     integrals is least (a convex programme in the step start times, SciPy's SLSQP): every
@@ -114,7 +118,12 @@ def _eased_arm(sch: ArmSchedule, others: np.ndarray, end: float, makespan: float
     res = minimize(cost, t0, jac=grad, method="SLSQP", bounds=bounds,
                    constraints=[{"type": "ineq", "fun": lambda t: A @ t - lb, "jac": lambda t: A}],
                    options={"maxiter": 200, "ftol": 1e-10})
-    t = np.asarray(res.x, float)
+    # snapped to a grid, within the bounds: SLSQP's linear algebra runs on SciPy's OpenBLAS, whose
+    # kernel is the CPU's own where SciPy was loaded before coplan pinned it; its answer's last bits
+    # then differed (8e-15 s), IPOPT started the widening elsewhere and the plan's poses differed by
+    # 1e-5 rad (crossing_paths, SciPy imported first on an AVX-512 machine)
+    t = np.clip(np.round(np.asarray(res.x, float) / SNAP) * SNAP, [b[0] for b in bounds],
+                [np.inf if b[1] is None else b[1] for b in bounds])
     if not np.all(np.isfinite(t)) or np.any(A @ t - lb < -1e-9) or cost(t) > cost(t0) - 1e-6:
         return None
     t = np.maximum(t, 0.0)
