@@ -1157,3 +1157,65 @@ def test_a_solve_result_is_taken_wherever_a_plan_is_and_views_arguments_swapped_
         coplan.view(cell, res)
     with pytest.raises(TypeError, match=r"the problem comes first, then the plan"):
         coplan.verify(res.plan, cell)
+
+
+def test_input_errors_keep_their_message_when_pickled_or_copied():
+    """(A ProblemError handed back from a worker process -- or copy.copy'd -- was rebuilt from its
+    message alone, each character an issue: "<input>: 200 problems found\\n  c\\n  r ...".) Every
+    input error and the CLI's Failure round-trip whole."""
+    import copy
+    import pickle
+
+    import coplan
+    from coplan.cli.failures import Failure
+    from coplan.errors import Issue, OptionsError, PlanFileError, ProblemError
+    from coplan.live.feed import FeedError
+    from coplan.sweep.spec import SweepError
+    from coplan.sweep.table import SweepTableError
+
+    with pytest.raises(ProblemError) as caught:
+        coplan.load_problem("crosing_paths")
+    errors = [caught.value] + [cls([Issue("a.b", "expected x, found y", 3), Issue("c", "bad")], "f.yaml")
+                               for cls in (PlanFileError, OptionsError, FeedError, SweepError, SweepTableError)]
+    for e in errors:
+        for back in (pickle.loads(pickle.dumps(e)), copy.copy(e), copy.deepcopy(e)):
+            assert type(back) is type(e) and str(back) == str(e) and back.args == e.args
+            assert back.issues == e.issues and back.source == e.source
+    assert "did you mean the shipped problem 'crossing_paths'" in str(pickle.loads(pickle.dumps(caught.value)))
+    f = pickle.loads(pickle.dumps(Failure(2, "no such plan")))
+    assert (int(f.code), f.message, str(f)) == (2, "no such plan", "no such plan")
+
+
+def test_an_empty_out_dir_string_is_refused_before_any_work(tmp_path, monkeypatch):
+    """(``coplan.solve(..., out_dir="")`` -- an unset variable's default -- wrote the run into the
+    folder the program ran in, and a second call renamed that folder ``<cwd>.previous``; ``--out ''``
+    was refused.) An empty string is refused, as the command line does; ``"."`` is the current folder."""
+    import coplan
+    from coplan.output import OutputError
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "notes.txt").write_text("mine")
+    with pytest.raises(OutputError, match="out_dir: expected the path of a folder, found an empty string"):
+        coplan.solve("crossing_paths", planner="coordinated", out_dir="")
+    plan = coplan.solve("crossing_paths", planner="coordinated").plan
+    with pytest.raises(OutputError, match="save: expected a folder or a .json file name, found an empty string"):
+        plan.save("")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_numpy_scalars_in_options_are_taken_as_the_python_values_they_hold():
+    """(``OptimalOptions(widen=np.bool_(False))`` was refused -- "expected true or false, found
+    bool" -- while an ``np.int64`` budget was kept as it was, no JSON value.)"""
+    import numpy as np
+
+    from coplan.optimal import OptimalOptions
+    from coplan.row.plan import RowOptions
+
+    o = OptimalOptions(widen=np.bool_(False), search_work=np.int64(10), margin=np.float64(0.01))
+    assert (o.widen, o.search_work, o.margin) == (False, 10, 0.01)
+    assert type(o.widen) is bool and type(o.search_work) is int and type(o.margin) is float
+    assert RowOptions(retime=np.bool_(True)).retime is True
+    with pytest.raises(OptionsError, match="widen: expected true or false, found ndarray"):
+        OptimalOptions(widen=np.array([True, False]))
+    with pytest.raises(OptionsError, match="search_work"):
+        OptimalOptions(search_work=np.float64(2.5))

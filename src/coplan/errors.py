@@ -54,6 +54,11 @@ class InputError(CoplanError, ValueError):
             shown.append(f"  ... and {n - self.MAX_SHOWN} more")
         super().__init__(head + "\n" + "\n".join(shown))
 
+    def __reduce__(self):
+        # (pickled or copied -- a worker process's error handed back, copy.copy -- it was rebuilt
+        # from its message alone, each character an issue: "<input>: 200 problems found  c  r  o ...")
+        return type(self), (self.issues, self.source), self.__dict__
+
 
 class ProblemError(InputError):
     kind = "problem"
@@ -187,6 +192,11 @@ def check_fields(obj, positive=frozenset(), source: str | None = None, found: li
         if f.name in seen:
             continue
         v = getattr(obj, f.name)
+        if type(v).__module__ == "numpy" and hasattr(v, "item") and getattr(v, "shape", None) == ():
+            # a NumPy scalar as the Python value it holds (numpy.bool_ was refused: "expected true or
+            # false, found bool"; an int64 was kept, and is no JSON value)
+            v = v.item()
+            object.__setattr__(obj, f.name, v)
         if isinstance(f.default, enum.Enum):
             try:
                 object.__setattr__(obj, f.name, type(f.default)(v))

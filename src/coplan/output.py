@@ -91,6 +91,9 @@ def check_folder(out: str | Path, what: str = "out_dir", files_only: bool = Fals
     the run folder itself)."""
     if isinstance(out, bool) or not isinstance(out, (str, os.PathLike)):
         raise TypeError(f"{what}: expected the path of a folder (str or Path), found {type(out).__name__} {out!r}"[:300])
+    if isinstance(out, str) and not out:  # (out_dir=os.environ.get("RUN_DIR", "") wrote the run where the program ran)
+        raise OutputError(f"{what}: expected the path of a folder, found an empty string (an unset variable?); "
+                          "'.' is the current folder")
     out = followed(Path(out))
     probe = folder_path(out, what)
     if not os.access(probe, os.W_OK | os.X_OK):

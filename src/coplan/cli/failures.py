@@ -64,6 +64,9 @@ class Failure(CoplanError):
         self.code = ExitCode(code)
         self.message = message
 
+    def __reduce__(self):
+        return type(self), (self.code, self.message), self.__dict__
+
 
 def work_done() -> None:
     """The command's files are written whole: from here a Ctrl-C or SIGTERM changes nothing, and

@@ -341,6 +341,9 @@ class Plan:
                             f"out_dir {type(out_dir).__name__} {out_dir!r}, stem {stem!r}")
         if Path(stem).name != stem or stem in (".", ".."):  # (save(folder, "../escape") wrote beside the folder)
             raise OutputError(f"save: expected a file name stem (no folder in it) for the plan's files, found {stem!r}")
+        if isinstance(out_dir, str) and not out_dir:  # (as solve's out_dir: an unset variable's default)
+            raise OutputError("save: expected a folder or a .json file name, found an empty string (an unset variable?); "
+                              "'.' is the current folder")
         out = Path(out_dir)
         want = "a folder or a file name ending .json (the plan is written as .json, .csv and .npz together)"
         if out.suffix.lower() == ".json" and not out.is_dir():
