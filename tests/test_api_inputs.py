@@ -110,6 +110,29 @@ def test_a_run_of_a_problem_from_no_file_keeps_the_problem_it_was_planned_on(cel
     assert again.previous is not None and (again.previous / PROBLEM_FILE).is_file()
 
 
+@pytest.mark.parametrize("how", ["changed", "generated row"])
+def test_a_plan_saved_in_python_keeps_the_problem_it_was_planned_on(cell, tmp_path, how):
+    """(A plan of crossing_paths with its fruit moved, solved without ``out_dir`` and written with
+    ``Plan.save``, recorded no problem: ``coplan verify`` took the shipped crossing_paths -- 4 picks
+    missed, exit 6 -- and ``coplan export`` refused it.) ``save`` writes the problem beside the plan
+    and records it, as a run's folder does; a plan of a problem from its file still names that file."""
+    f0 = cell.fruits[0]
+    problem = {"changed": lambda: dataclasses.replace(cell, fruits=(dataclasses.replace(f0, position=(f0.position[0] * 0.9,
+                                                                                                         f0.position[1] + 0.1)),)
+                                                      + cell.fruits[1:]),
+               "generated row": lambda: parse_problem(to_yaml(gantry_row(length=4.0, n_arms=2, density=3.0, seed=3)))}[how]()
+    plan = coplan.solve(problem, planner="coordinated").plan
+    paths = plan.save(tmp_path / "mine.json")
+    assert paths["problem"] == tmp_path / "mine_problem.yaml" and load_problem(paths["problem"]) == problem
+    assert json.loads(paths["json"].read_text())["problem_file"]["path"] == str(paths["problem"].absolute())
+    assert coplan.load_plan(paths["json"]) == plan
+    r = CliRunner().invoke(app, ["verify", str(paths["json"])])
+    assert r.exit_code == 0, r.output
+    assert "taken to be the shipped problem" not in r.output and "not a shipped problem" not in r.output
+    plain = coplan.solve(cell, planner="coordinated").plan
+    assert set(plain.save(tmp_path / "plain")) == {"json", "csv", "npz"} and plain.problem_file["path"] == str(CROSSING.resolve())
+
+
 @pytest.mark.parametrize("cls, kw, words", [
     (OptimalOptions, {"search_work": -5}, "search_work: expected a non-negative integer, found number -5"),
     (OptimalOptions, {"search_work": "lots"}, "search_work: expected a non-negative integer, found string 'lots'"),

@@ -160,6 +160,9 @@ class Plan:
     software: dict[str, Any] | None = field(default=None, compare=False)  # what made it (finalize_plan: this process's; a file's)
     #: the :func:`motion_digest` its verdict judged (set by :func:`finalize_plan`; not written)
     verified_motion: str | None = field(default=None, repr=False, compare=False)
+    #: the problem it was planned on where that came from no file or was changed in Python
+    #: (``coplan.solve`` sets it; not written): :meth:`save` writes it beside the plan and records it
+    planned_on: Any = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         # a plan made in Python with lists, or a status by name ("success"), is the plan it
@@ -353,6 +356,18 @@ class Plan:
         folder_path(out, "save", want)  # (a file in the way: what was expected and found, not FileExistsError)
         out.mkdir(parents=True, exist_ok=True)
         paths = {"json": out / f"{stem}.json", "csv": out / f"{stem}.csv", "npz": out / f"{stem}.npz"}
+        if self.problem_file is None and self.planned_on is not None:
+            # (made or changed in Python: written beside the plan and recorded, as coplan.solve's
+            # out_dir does -- a plan of crossing_paths with its fruit moved, saved so, was verified
+            # by `coplan verify` against the shipped crossing_paths: 4 picks missed, exit 6)
+            from ..problem.generate import to_yaml
+            from ..problem.load import text_digest
+
+            text = to_yaml(self.planned_on, header=f"The problem {self.planned_on.name!r} as planned (made or changed in "
+                                                   "Python): written by Plan.save beside its plan")
+            paths["problem"] = out / ("planned_problem.yaml" if stem == "plan" else f"{stem}_problem.yaml")
+            atomic_text(paths["problem"], text)
+            self.problem_file = {"path": str(paths["problem"].absolute()), "sha256": text_digest(text)}
         atomic_text(paths["json"], json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
 
         cols = [self.time[:, None]] + ([] if self.gantry_x is None else [self.gantry_x[:, None]]) + [self.q[a] for a in self.q]
