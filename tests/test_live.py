@@ -457,7 +457,9 @@ def test_the_same_feed_and_seed_give_the_same_run_on_a_slow_or_busy_machine(gree
     assert c.verification.passed
 
 
-def test_two_fruit_merged_from_afar_are_told_apart_at_close_range(greenhouse) -> None:
+def _twins(greenhouse, more: str = ""):
+    """f04 and a twin 22 mm from it, reported 10 mm apart (one track from afar), and f09: the
+    problem and its feed (``more``: further detection lines)."""
     from dataclasses import replace
 
     from coplan.problem import Fruit
@@ -468,7 +470,12 @@ def test_two_fruit_merged_from_afar_are_told_apart_at_close_range(greenhouse) ->
     feed = parse_feed("detections:\n"
                       f"  - {{t: 0.0, id: a, position: [{f04.position[0] + 0.005}, {f04.position[1]}], sigma: 0.01, fruit: f04}}\n"
                       f"  - {{t: 0.0, id: b, position: [{twin.position[0] - 0.005}, {twin.position[1]}], sigma: 0.01, fruit: twin}}\n"
-                      "  - {t: 0.0, id: c, position: [0.7078, 1.2954], sigma: 0.01, fruit: f09}\n", "twins.yaml")
+                      "  - {t: 0.0, id: c, position: [0.7078, 1.2954], sigma: 0.01, fruit: f09}\n" + more, "twins.yaml")
+    return prob, feed
+
+
+def test_two_fruit_merged_from_afar_are_told_apart_at_close_range(greenhouse) -> None:
+    prob, feed = _twins(greenhouse)
     r = simulate(prob, feed, omniscient=False)
     assert r.cell.tracks["a"].detections == ["a", "b"]  # one track from afar
     assert any(e["event"] == "told apart" for e in r.run["events"])
@@ -883,18 +890,7 @@ def test_detections_out_of_reach_do_not_take_the_places_of_fruit_seen_after_them
 def test_an_id_made_up_for_a_fruit_told_apart_never_takes_a_feed_s_own(greenhouse) -> None:
     """(Two fruit told apart at close range got the made-up id 'a+twin', and a feed whose own
     detection had that id stopped the run: 'expected a unique id, found 'a+twin' again', exit 3.)"""
-    from dataclasses import replace
-
-    from coplan.problem import Fruit
-
-    f04 = greenhouse.fruit("f04")
-    twin = Fruit("twin", (f04.position[0] + 0.02, f04.position[1] + 0.01))
-    prob = replace(greenhouse, fruits=(f04, twin, greenhouse.fruit("f09")))
-    feed = parse_feed("detections:\n"
-                      f"  - {{t: 0.0, id: a, position: [{f04.position[0] + 0.005}, {f04.position[1]}], sigma: 0.01, fruit: f04}}\n"
-                      f"  - {{t: 0.0, id: b, position: [{twin.position[0] - 0.005}, {twin.position[1]}], sigma: 0.01, fruit: twin}}\n"
-                      "  - {t: 0.0, id: c, position: [0.7078, 1.2954], sigma: 0.01, fruit: f09}\n"
-                      "  - {t: 0.1, id: a+twin, position: [0.5, 1.0], sigma: 0.01}\n", "twins.yaml")
+    prob, feed = _twins(greenhouse, "  - {t: 0.1, id: a+twin, position: [0.5, 1.0], sigma: 0.01}\n")
     r = simulate(prob, feed, omniscient=False)
     told = [e for e in r.run["events"] if e["event"] == "told apart"]
     assert told and "a+twin" not in told[0]["detections"] and told[0]["detections"][0].startswith("a+twin#")
@@ -917,3 +913,33 @@ def test_probes_after_the_last_place_are_said_beside_the_makespan(greenhouse, tm
     assert late > 0, "the burst is probed after the last place on this feed"
     said = " ".join(res.output.split())
     assert f"after the last place the arms probed {late} more false track" in said and f"{m['work_end']:.3f} s" in said
+
+
+_TWINS_CHILD = r"""
+import sys
+sys.path.insert(0, sys.argv[1])
+from coplan.live.sim import simulate
+from coplan.problem import default_problem_path, load_problem
+from test_live import _twins
+prob, feed = _twins(load_problem(default_problem_path()))
+r = simulate(prob, feed, omniscient=False)
+print([(e["track"], e["detections"]) for e in r.run["events"] if e["event"] == "told apart"], r.plan.metrics["makespan"])
+"""
+
+
+def test_a_track_as_near_two_fruit_is_found_to_be_the_same_one_in_every_process():
+    """(A track merged from two fruit equally near it was found to be whichever a set of their
+    ids gave first -- an order the process's hash seed sets: the twins' run told 'a+twin' apart in
+    one process and 'a+f04' in another.) The first by id, whatever the hash seed."""
+    import os
+    import subprocess
+    import sys
+
+    here = str(Path(__file__).parent)
+    said = set()
+    for seed in ("0", "1", "2", "3"):
+        out = subprocess.run([sys.executable, "-c", _TWINS_CHILD, here], env=dict(os.environ, PYTHONHASHSEED=seed),
+                             capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr[-2000:]
+        said.add(out.stdout.strip().splitlines()[-1])
+    assert len(said) == 1 and "a+twin" in said.pop()

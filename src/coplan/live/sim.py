@@ -95,7 +95,9 @@ def simulate(problem: Problem, feed: Feed, options: LiveOptions | None = None, s
         if t_cr == t_next:
             now = t_cr
             tr = cell.tracks[cr.track]
-            cands = [f for f in {det_fruit.get(d) for d in tr.detections} if f is not None and f not in claimed]
+            # (sorted: of two fruit as near, the first by id -- a set's order, which the process's hash seed
+            # sets, chose which fruit a track merged from both was found to be)
+            cands = sorted(f for f in {det_fruit.get(d) for d in tr.detections} if f is not None and f not in claimed)
             # the gripper camera sees what lies within close_distance of where the arm goes (a fruit
             # the detections put farther off is not there: it was found however far off they were)
             near = [f for f in cands if float(np.hypot(*(truth[f] - tr.position))) <= feed.close_distance]
