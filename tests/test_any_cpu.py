@@ -181,6 +181,8 @@ def test_scipy_imported_before_coplan_gives_the_same_plan():
                              text=True, timeout=600)
         assert out.returncode == 0, out.stderr[-2000:]
         runs[first] = json.loads(out.stdout.strip().splitlines()[-1])
+    if runs["scipy"]["kernels"] == runs["coplan"]["kernels"]:  # (aarch64: no pin; a CPU whose own kernel is the generic one)
+        pytest.skip(f"SciPy's OpenBLAS runs the same kernel whichever is imported first here ({runs['coplan']['kernels']})")
     assert runs["scipy"]["eased"], "the easing (SciPy's SLSQP) is what this test exercises"
     assert runs["scipy"]["digest"] == runs["coplan"]["digest"] and runs["scipy"]["makespan"] == runs["coplan"]["makespan"]
     assert runs["coplan"]["kernels"] and runs["scipy"]["kernels"]

@@ -112,6 +112,8 @@ def test_a_run_of_a_problem_from_no_file_keeps_the_problem_it_was_planned_on(cel
 
 @pytest.mark.parametrize("how", ["changed", "generated row"])
 def test_a_plan_saved_in_python_keeps_the_problem_it_was_planned_on(cell, tmp_path, how):
+    from coplan.output import OutputError
+
     """(A plan of crossing_paths with its fruit moved, solved without ``out_dir`` and written with
     ``Plan.save``, recorded no problem: ``coplan verify`` took the shipped crossing_paths -- 4 picks
     missed, exit 6 -- and ``coplan export`` refused it.) ``save`` writes the problem beside the plan
@@ -122,13 +124,24 @@ def test_a_plan_saved_in_python_keeps_the_problem_it_was_planned_on(cell, tmp_pa
                                                       + cell.fruits[1:]),
                "generated row": lambda: parse_problem(to_yaml(gantry_row(length=4.0, n_arms=2, density=3.0, seed=3)))}[how]()
     plan = coplan.solve(problem, planner="coordinated").plan
-    paths = plan.save(tmp_path / "mine.json")
-    assert paths["problem"] == tmp_path / "mine_problem.yaml" and load_problem(paths["problem"]) == problem
+    first = plan.save(tmp_path / "a" / "mine.json")
+    paths = plan.save(tmp_path / "mine.json")  # (a second save carries the problem too: the first folder may go)
+    assert first["problem"] == tmp_path / "a" / "mine_problem.yaml" and paths["problem"] == tmp_path / "mine_problem.yaml"
+    assert load_problem(paths["problem"]) == problem
     assert json.loads(paths["json"].read_text())["problem_file"]["path"] == str(paths["problem"].absolute())
     assert coplan.load_plan(paths["json"]) == plan
+    import shutil
+
+    shutil.rmtree(tmp_path / "a")
     r = CliRunner().invoke(app, ["verify", str(paths["json"])])
     assert r.exit_code == 0, r.output
     assert "taken to be the shipped problem" not in r.output and "not a shipped problem" not in r.output
+    # a user's own file where the problem would go is never overwritten: refused before anything is written
+    (tmp_path / "b").mkdir()
+    (tmp_path / "b" / "plan_problem.yaml").write_text("# my hand-written problem\n")
+    with pytest.raises(OutputError, match="expected nothing there or a problem coplan wrote, found another file"):
+        plan.save(tmp_path / "b")
+    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == ["plan_problem.yaml"]
     plain = coplan.solve(cell, planner="coordinated").plan
     assert set(plain.save(tmp_path / "plain")) == {"json", "csv", "npz"} and plain.problem_file["path"] == str(CROSSING.resolve())
 
@@ -1242,3 +1255,9 @@ def test_numpy_scalars_in_options_are_taken_as_the_python_values_they_hold():
         OptimalOptions(widen=np.array([True, False]))
     with pytest.raises(OptionsError, match="search_work"):
         OptimalOptions(search_work=np.float64(2.5))
+    # (a class's own range checks too: max_open=np.int64(40) was refused, a float32 gate of 5 m let by)
+    from coplan.live.cell import LiveOptions
+
+    assert LiveOptions(max_open=np.int64(40), horizon=np.float32(0.25)).max_open == 40
+    with pytest.raises(OptionsError, match=r"gate: expected a number in \[0, 1\] m, found number 5"):
+        LiveOptions(gate=np.float32(5.0))

@@ -913,6 +913,10 @@ def test_probes_after_the_last_place_are_said_beside_the_makespan(greenhouse, tm
     assert late > 0, "the burst is probed after the last place on this feed"
     said = " ".join(res.output.split())
     assert f"after the last place the arms probed {late} more false track" in said and f"{m['work_end']:.3f} s" in said
+    # nothing placed: no last place for the probes to be after
+    none = simulate(greenhouse, Feed(tuple(Detection(0.0, f"n{i}", (-0.3 + 0.3 * i, 1.0), 0.01) for i in range(3))),
+                    omniscient=False)
+    assert none.run["metrics"]["makespan"] == 0.0 and none.run["metrics"]["probes_after_last_place"] == 0
 
 
 _TWINS_CHILD = r"""

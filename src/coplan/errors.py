@@ -12,7 +12,7 @@ import re
 from dataclasses import dataclass
 
 __all__ = ["special_file", "Issue", "InputError", "ProblemError", "PlanFileError", "OptionsError", "CoplanError", "printable", "plural",
-           "found", "finite_number", "field_issue", "check_fields", "known_fields"]
+           "found", "finite_number", "field_issue", "plain_scalars", "check_fields", "known_fields"]
 
 
 class CoplanError(Exception):
@@ -180,23 +180,30 @@ def field_issue(name: str, kind: str, v, positive: bool) -> str | None:
     return None
 
 
+def plain_scalars(obj) -> None:
+    """Each field of the frozen options dataclass ``obj`` that holds a NumPy scalar set to the
+    Python value it holds (``numpy.bool_`` was refused: "expected true or false, found bool"; an
+    ``int64`` was kept, no JSON value). Called first in an options class's checks (its own range
+    checks too: ``LiveOptions(max_open=np.int64(40))`` was refused, a ``float32`` gate skipped)."""
+    for f in dataclasses.fields(obj):
+        v = getattr(obj, f.name)
+        if type(v).__module__ == "numpy" and hasattr(v, "item") and getattr(v, "shape", None) == ():
+            object.__setattr__(obj, f.name, v.item())
+
+
 def check_fields(obj, positive=frozenset(), source: str | None = None, found: list | None = None) -> None:
     """Check every numeric, boolean and choice field of a frozen options dataclass ``obj`` built in
     Python, by its annotation (:func:`field_issue`; ``positive``: the fields that must be > 0);
     a choice (an enumeration default) given as its value is turned into it. Raises
     :class:`OptionsError` listing every bad field, named by ``source`` (default: the class), after
     the issues already ``found`` (their fields are not checked again)."""
+    plain_scalars(obj)
     issues = list(found or ())
     seen = {i.path for i in issues}
     for f in dataclasses.fields(obj):
         if f.name in seen:
             continue
         v = getattr(obj, f.name)
-        if type(v).__module__ == "numpy" and hasattr(v, "item") and getattr(v, "shape", None) == ():
-            # a NumPy scalar as the Python value it holds (numpy.bool_ was refused: "expected true or
-            # false, found bool"; an int64 was kept, and is no JSON value)
-            v = v.item()
-            object.__setattr__(obj, f.name, v)
         if isinstance(f.default, enum.Enum):
             try:
                 object.__setattr__(obj, f.name, type(f.default)(v))

@@ -16,6 +16,7 @@ from .kinds import ExitCode, GantryMode, StopRule
 from .output import RunFolder, check_folder, signals_deferred
 from .planners.heuristic import plan_heuristic
 from .plan import EventKind, Plan, PlannerKind, PlanStatus, finalize_plan
+from .plan.model import PLANNED_HEADER
 from .problem.model import Problem
 from .problem.plausible import check_as_file
 from .problem.given import as_problem
@@ -121,12 +122,13 @@ def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None,
         from .problem.generate import to_yaml
         from .problem.load import text_digest
 
-        text = to_yaml(problem, header=f"The problem {problem.name!r} as planned (made or changed in Python): "
-                                       "written by coplan.solve beside its plan")
+        text = to_yaml(problem, header=f"The problem {problem.name!r} {PLANNED_HEADER}: written by coplan.solve beside "
+                                       "its plan")
         record = {"path": str(folder.path(Path(PROBLEM_FILE)).absolute()), "sha256": text_digest(text)}
         for p in (plan, baseline):
             if p is not None:
                 p.problem_file = dict(record)
+                p.planned_on = None  # (on disk now, where the run is: a later Plan.save records that file)
     with signals_deferred(folder), folder as stage:  # (whole: a Ctrl-C here threw the verified plan away)
         if text is not None:
             (stage / PROBLEM_FILE).write_text(text, encoding="utf-8")

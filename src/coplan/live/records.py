@@ -10,7 +10,7 @@ import numpy as np
 
 from ..kinds import ReplanCause, TrackState
 from ..planners.coordinated.planner import CoordinatedOptions
-from ..errors import Issue, check_fields, finite_number, found, known_fields
+from ..errors import Issue, check_fields, finite_number, found, known_fields, plain_scalars
 from .feed import DEFAULT_CLOSE_DISTANCE
 
 __all__ = ["LiveOptions", "Track", "Replan", "CloseRange"]
@@ -54,6 +54,7 @@ class LiveOptions:
     max_open: int = 40
 
     def __post_init__(self):
+        plain_scalars(self)
         issues = []
         if not (isinstance(self.horizon, (int, float)) and 0.0 < self.horizon < float("inf")):
             issues.append(Issue("horizon", f"expected a commit horizon > 0 s (at least the re-planning "

@@ -301,7 +301,8 @@ def _finish(problem, feed, cell, track_truth, det_fruit, hidden, released, log, 
         # (the makespan ends at the last place: close-range probes of false tracks after it, and the
         # ways home, are the arms' work the makespan leaves out -- said beside it, not hidden)
         "work_end": cell.end,
-        "probes_after_last_place": sum(1 for e in log if e["event"] == "close-range" and not e["found"] and e["t"] > makespan),
+        "probes_after_last_place": sum(1 for e in log if e["event"] == "close-range" and not e["found"] and e["t"] > makespan)
+        if makespan > 0 else 0,  # (with nothing placed there is no last place to be after)
     }
     if omniscient:
         ref = plan_coordinated(problem)

@@ -356,16 +356,20 @@ class Plan:
         folder_path(out, "save", want)  # (a file in the way: what was expected and found, not FileExistsError)
         out.mkdir(parents=True, exist_ok=True)
         paths = {"json": out / f"{stem}.json", "csv": out / f"{stem}.csv", "npz": out / f"{stem}.npz"}
-        if self.problem_file is None and self.planned_on is not None:
-            # (made or changed in Python: written beside the plan and recorded, as coplan.solve's
-            # out_dir does -- a plan of crossing_paths with its fruit moved, saved so, was verified
-            # by `coplan verify` against the shipped crossing_paths: 4 picks missed, exit 6)
+        if self.planned_on is not None:
+            # (made or changed in Python: written beside the plan, at every save, and recorded, as
+            # coplan.solve's out_dir does -- a plan of crossing_paths with its fruit moved, saved so,
+            # was verified by `coplan verify` against the shipped crossing_paths: 4 picks missed, exit 6)
             from ..problem.generate import to_yaml
             from ..problem.load import text_digest
 
-            text = to_yaml(self.planned_on, header=f"The problem {self.planned_on.name!r} as planned (made or changed in "
-                                                   "Python): written by Plan.save beside its plan")
-            paths["problem"] = out / ("planned_problem.yaml" if stem == "plan" else f"{stem}_problem.yaml")
+            paths["problem"] = out / f"{stem}_problem.yaml"
+            if paths["problem"].exists() and not _written_problem(paths["problem"]):
+                raise OutputError(f"save {paths['problem']}: the plan's problem (made or changed in Python) goes there, "
+                                  "beside the plan; expected nothing there or a problem coplan wrote, found another "
+                                  "file: move it, or save under another name")
+            text = to_yaml(self.planned_on, header=f"The problem {self.planned_on.name!r} {PLANNED_HEADER}: written by "
+                                                   "Plan.save beside its plan")
             atomic_text(paths["problem"], text)
             self.problem_file = {"path": str(paths["problem"].absolute()), "sha256": text_digest(text)}
         atomic_text(paths["json"], json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
@@ -378,6 +382,21 @@ class Plan:
         atomic_file(paths["npz"], lambda tmp: np.savez_compressed(tmp, time=self.time, **carriage,
                                                                   **{f"q_{a}": q for a, q in self.q.items()}))
         return paths
+
+
+#: the words of the first line of a problem file coplan writes beside a plan (``# The problem 'x' ...``)
+PLANNED_HEADER = "as planned (made or changed in Python)"
+
+
+def _written_problem(path: Path) -> bool:
+    """Whether the file at ``path`` is a problem coplan wrote beside a plan (its first line), which
+    a save may replace; a user's own file is never overwritten."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            first = fh.readline()
+    except (OSError, UnicodeDecodeError):
+        return False
+    return first.startswith("# The problem ") and PLANNED_HEADER in first
 
 
 def jsonable(x):

@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import Issue, OptionsError, check_fields, known_fields
+from ..errors import Issue, OptionsError, check_fields, known_fields, plain_scalars
 from ..kinds import AssignRule, GantryMode, PlannerKind, PlanStatus, SpeedProfile
 from ..plan import DEFAULT_RATE, MAX_PLAN_BYTES, EventKind, Plan, compute_metrics
 from ..problem.gantry import top_speed_issues
@@ -191,6 +191,7 @@ class MovingOptions:
     rate: float = DEFAULT_RATE
 
     def __post_init__(self) -> None:
+        plain_scalars(self)
         bad = settle_workers(self, collect=True) + resolution_issues(self.resolution)  # (auto: this machine's cores, at most 8)
         check_fields(self, {'level', 'rate', 'workers', 'resolution', 'search_rounds'}, found=bad)  # built in Python: every value checked (OptionsError: what was expected, found)
         if not MIN_RATE <= self.rate <= MAX_RATE:  # (a coarser grid is one no verifier passes; a finer one, gigabytes)

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import Issue, OptionsError, check_fields, known_fields
+from ..errors import Issue, OptionsError, check_fields, known_fields, plain_scalars
 from ..output import signals_deferred
 from ..workers import cores, process_pool, settle_workers
 from ..kinds import GantryMode, PlannerKind, PlanStatus, StopRule
@@ -79,6 +79,7 @@ class RowOptions:
     retime_work: float = 0.5
 
     def __post_init__(self) -> None:
+        plain_scalars(self)
         bad = settle_workers(self, collect=True) + resolution_issues(self.resolution)  # (auto: this machine's cores, at most 8)
         check_fields(self, {'resolution', 'workers', 'retime_work'}, found=bad)
         if not isinstance(self.window, StopWindow):

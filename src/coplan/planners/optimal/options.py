@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from ...errors import Issue, OptionsError, ProblemError, check_fields, coplan_file_kind, field_issue, found, is_joint_csv, known_fields
+from ...errors import Issue, OptionsError, ProblemError, check_fields, coplan_file_kind, field_issue, found, is_joint_csv, known_fields, plain_scalars
 from ...problem.yamlsafe import MAX_FILE_BYTES, line_of, read_input_text, read_yaml
 from ...workers import default_workers, settle_workers, workers_issue
 
@@ -165,6 +165,7 @@ class OptimalOptions:
     def __post_init__(self) -> None:
         # built in Python as in a file: every value checked (``workers="auto"``: this machine's cores, at most 8)
         # every bad field at once (search_work='x' beside workers=0 was said only after workers was mended)
+        plain_scalars(self)
         issues = settle_workers(self, collect=True)
         try:
             check_fields(self, _POSITIVE, found=issues)
