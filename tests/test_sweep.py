@@ -26,7 +26,7 @@ pytest.importorskip("pyarrow")
 from coplan.cli import app  # noqa: E402
 from coplan.kinds import ExitCode, PlannerKind, RowStatus, SweepBase, SweepMode  # noqa: E402
 from coplan.sweep.report import pareto_front, sweep_report  # noqa: E402
-from coplan.sweep.run import run_sweep, solve_item  # noqa: E402
+from coplan.sweep.run import hard_limit, run_sweep, solve_item  # noqa: E402
 from coplan.sweep.spec import PARAMETERS, TOP_KEYS, SweepError, SweepItem, load_sweep, parse_sweep  # noqa: E402
 from coplan.sweep.table import COLUMNS, JOURNAL, normalise, read_rows, read_table  # noqa: E402
 
@@ -817,6 +817,12 @@ def test_a_hung_solve_is_stopped_and_its_row_says_timeout(tmp_path):
     rows = {r["index"]: r for r in read_rows(tmp_path / "out")}
     assert res.done == 3 and rows[0]["status"] == RowStatus.TIMEOUT.value and rows[0]["exit_class"] == "solver failed"
     assert "hard limit" in rows[0]["message"] and {rows[1]["status"], rows[2]["status"]} == {"success"}
+    # (its row had no solve_time nor problem columns: the solve-time figure left the slowest solve out)
+    assert rows[0]["solve_time"] == hard_limit(rows[0]["time_limit"]) and rows[0]["n_arms"] == rows[1]["n_arms"]
+    # with no retry the stopped solve is still a timeout, not "lost" (exit 9)
+    again = run_sweep(parse_sweep(TINY + "retries: 0\n", "tiny.yaml"), tmp_path / "zero", workers=2, task=hangs)
+    zero = {r["index"]: r for r in read_rows(tmp_path / "zero")}
+    assert again.done == 3 and zero[0]["status"] == RowStatus.TIMEOUT.value and "hard limit" in zero[0]["message"]
 
 
 def test_a_folder_or_glob_of_problem_files_is_a_sweep(problems_dir):

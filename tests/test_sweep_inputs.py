@@ -204,3 +204,40 @@ def test_a_bad_base_hides_none_of_the_other_mistakes():
         parse_sweep(text, "s.yaml")
     assert [i.path for i in e.value.issues] == ["base", "vary.spacing", "vary.n_arms[1]", "vary.n_arms[2]", "vary.colour"]
     assert "did you mean 'row'?" in e.value.issues[0].message
+
+
+def test_a_seed_no_generator_takes_and_a_key_that_is_no_string_are_said_where_they_are():
+    """(A seed of 2**32 passed the file's check and failed row by row, exit 3 after solving; a
+    parameter key `1:` was said at the line of `vary:`.)"""
+    with pytest.raises(SweepError) as e:
+        parse_sweep("base: row\nvary:\n  seed: [0, 4294967296]\n  1: [2, 3]\n", "s.yaml")
+    said = {i.path: (i.line, i.message) for i in e.value.issues}
+    assert said["vary.seed[1]"] == (3, "expected an integer >= 0 and <= 4294967295 (what a generator's seed may be), "
+                                       "found number 4294967296")
+    assert said["vary.1"][0] == 4
+    assert parse_sweep("base: row\nvary:\n  seed: [0, 4294967295]\n", "s.yaml").vary["seed"] == [0, 4294967295]
+
+
+def test_copies_of_a_problem_file_are_solved_once_and_said(tmp_path, problems_dir):
+    """(A folder of four files, one a copy of another, made three rows and not a word.)"""
+    import shutil
+
+    for name in ("single_arm", "crossing_paths"):
+        shutil.copy(problems_dir / f"{name}.yaml", tmp_path / f"{name}.yaml")
+    shutil.copy(problems_dir / "single_arm.yaml", tmp_path / "single_arm_copy.yaml")
+    r = _RUN.invoke(app, ["sweep", str(tmp_path), "--planner", "heuristic", "--workers", "1", "--out", str(tmp_path / "o")])
+    assert r.exit_code == 0, r.output
+    said = " ".join(r.output.split())
+    assert "note: 1 of the 3 problem files give a problem another gives too" in said
+    assert len(read_table(tmp_path / "o")) == 2
+
+
+def test_an_optimal_solve_of_a_problem_with_no_fruit_says_so():
+    """(It said "no arm reaches any fruit", which a sweep's row read as a layout fault.)"""
+    import dataclasses
+
+    import coplan
+
+    empty = dataclasses.replace(coplan.load_problem("crossing_paths"), fruits=())
+    res = coplan.solve(empty, planner="optimal")
+    assert res.plan.solver["message"] == "nothing to plan: the problem has no fruit (every arm stays at home)"

@@ -123,6 +123,11 @@ def sweep_cmd(
             _err.print(f"note: {sets - o.total} of the {sets} parameter sets make a problem another set makes too (the "
                        f"same problem text: e.g. densities that round to the same number of fruit); each is solved once",
                        highlight=False)
+        files = len(sw.problems) * n if sw.mode == SweepMode.GRID and sw.base == SweepBase.FILES and n is not None else None
+        if files is not None and files > o.total:  # (a copy of a file in the folder: 4 files, 3 rows, not a word)
+            _err.print(f"note: {files - o.total} of the {plural(files, 'problem file')}{' and parameter sets' if n > 1 else ''} "
+                       "give a problem another gives too (the same problem text: e.g. a copy of a file); each is solved "
+                       "once, under the first file's name", highlight=False)
         asked = n * max(1, len(sw.problems)) if sw.mode == SweepMode.RANDOM and n is not None else None
         if asked is not None and o.total < asked:  # (samples: 5 made 2 problems, and not a word)
             _err.print(f"note: {o.total} distinct problems of the {asked} samples asked: the parameters drawn make no more "

@@ -381,6 +381,11 @@ def line_of(lines: dict, loc) -> int | None:
     while loc:
         if loc in lines:
             return lines[loc]
+        # (a key that is no string -- `1:` in a mapping -- is named by its text: its line, not its parent's)
+        named = None if all(not isinstance(x, str) or x.isidentifier() for x in loc) else next(
+            (n for k, n in lines.items() if len(k) == len(loc) and tuple(map(str, k)) == tuple(map(str, loc))), None)
+        if named is not None:
+            return named
         loc = loc[:-1]
     return lines.get(())
 

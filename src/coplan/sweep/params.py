@@ -36,7 +36,7 @@ PARAMETERS: dict[str, tuple[str, tuple, str]] = {
     "length": ("positive", _GANTRY, "length of the row the gantry travels, m"),
     "trusses": ("bool", _GANTRY, "fruit hang in trusses (default true) or uniformly"),
     "gantry": ("gantry", _GANTRY, "stop-and-go | continuous | auto (both, the better kept)"),
-    "seed": ("count0", _GEN, "seed of the generator"),
+    "seed": ("seed", _GEN, "seed of the generator"),
     "links": ("pair", (SweepBase.ROW,), "link lengths, m (a pair, or one number for both)"),
     "link_radius": ("positive", (SweepBase.ROW,), "capsule radius of the links, m"),
     "max_velocity": ("pair", (SweepBase.ROW,), "joint velocity limits, rad/s"),
@@ -53,7 +53,10 @@ PARAMETERS: dict[str, tuple[str, tuple, str]] = {
     "planner": ("planner", _ALL, "heuristic | coordinated | optimal"),
 }
 TASK_KEYS = ("pick_dwell", "place_dwell", "clearance")
-INTEGER_KINDS = ("count0", "count1", "arms")  # kinds of whole numbers (arms: 1 to MAX_ARMS)
+INTEGER_KINDS = ("count0", "count1", "arms", "seed")  # kinds of whole numbers (arms: 1 to MAX_ARMS; seed: to MAX_SEED)
+
+#: the largest seed a generator takes (NumPy's): a larger one passed the spec's check and failed row by row
+MAX_SEED = 2**32 - 1
 
 
 def kind_of(name: str) -> str:
@@ -162,9 +165,10 @@ def generate_problem(base: SweepBase, p: dict[str, Any]) -> tuple[str, float | N
 def check_value(kind: str, v: Any) -> str | None:
     """Why ``v`` is not a good value of a parameter of ``kind`` (None when it is)."""
     if kind in INTEGER_KINDS:
-        low, high = (0, math.inf) if kind == "count0" else (1, MAX_ARMS if kind == "arms" else math.inf)
+        low, high = {"count0": (0, math.inf), "seed": (0, MAX_SEED), "arms": (1, MAX_ARMS)}.get(kind, (1, math.inf))
         ok = finite_number(v) and float(v).is_integer() and low <= v <= high
-        return None if ok else (f"expected an integer >= {low}" + (f" and <= {high} (what a problem may have)" if high < math.inf else "")
+        why = "what a generator's seed may be" if kind == "seed" else "what a problem may have"
+        return None if ok else (f"expected an integer >= {low}" + (f" and <= {high} ({why})" if high < math.inf else "")
                                 + f", found {found(v)}")
     if kind == "positive":
         return None if finite_number(v) and v > 0 else f"expected a positive number, found {found(v)}"

@@ -204,9 +204,7 @@ def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = 
         return _fail_row(row, RowStatus.BAD_INPUT, ExitCode.BAD_INPUT, item.error), None
     marker = Path(state_dir) / "timeouts" / item.key if state_dir else None
     if marker is not None and marker.exists():
-        return _fail_row(row, RowStatus.TIMEOUT, ExitCode.SOLVER_FAILED,
-                         f"the solve did not return within the hard limit ({hard_limit(item.time_limit):g} s of CPU, "
-                         f"{4 * hard_limit(item.time_limit):g} s of wall-clock time); worker stopped"), None
+        return _timeout_row(row, item), None
     t0 = time.perf_counter()
     plan = None
     try:
@@ -240,12 +238,14 @@ def solve_item(item: SweepItem, state_dir: str | None = None, keep_plan: bool = 
 
 
 # ---------------------------------------------------------------------- the driver
-def lost_reason(err: BaseException, attempts: int) -> str:
+def lost_reason(err: BaseException, attempts: int | None) -> str:
     """Why Dask returned no row: every attempt's worker died (``KilledWorker``), or the task
     was cancelled -- the connection to the scheduler lost, the client closed -- or another error."""
     name, text = type(err).__name__, str(err)
     if name == "KilledWorker":
-        return f"the worker process died on all {attempts} attempts ({name}: {text})"
+        return (f"the worker process died on all {attempts} attempts ({name}: {text})" if attempts is not None else
+                f"the worker process died on every attempt the Dask scheduler allows (its distributed.scheduler."
+                f"allowed-failures: a sweep's retries apply to its own local cluster) ({name}: {text})")
     if "cancel" in name.lower() or "cancel" in text.lower():
         why = ("the connection to the Dask scheduler was lost" if "connection-lost" in text or "connection lost" in text.lower()
                else "Dask cancelled the task")
@@ -253,9 +253,31 @@ def lost_reason(err: BaseException, attempts: int) -> str:
     return f"Dask returned no result ({name}: {text}); run the same command again to solve it"
 
 
-def _lost_row(item: SweepItem, sweep: str, attempts: int, err: BaseException) -> dict[str, Any]:
+def _timeout_row(row: dict[str, Any], item: SweepItem) -> dict[str, Any]:
+    """The row of a solve the watchdog stopped: its problem's columns, and as its ``solve_time``
+    the CPU limit it ran past (it had none, nor its problem's columns: the solve-time figure and
+    the worst cases left the slowest solves out)."""
+    from ..problem.load import parse_problem
+
+    limit = hard_limit(item.time_limit)
+    try:
+        row.update(problem_columns(parse_problem(item.problem_text or "", item.source), item))
+    except Exception:  # noqa: BLE001 -- the columns are a courtesy: the row is the timeout's whatever its problem
+        pass
+    row["solve_time"] = limit
+    return _fail_row(row, RowStatus.TIMEOUT, ExitCode.SOLVER_FAILED,
+                     f"the solve did not return within the hard limit ({limit:g} s of CPU, {4 * limit:g} s of "
+                     f"wall-clock time; its solve_time is that limit, which it ran past); worker stopped")
+
+
+def _lost_row(item: SweepItem, sweep: str, attempts: int | None, err: BaseException, state: Path | None = None) -> dict[str, Any]:
+    """The row of a task Dask returned nothing for: a timeout where the watchdog left its marker
+    (with ``retries: 0`` the stopped solve was said lost), else lost. ``attempts``: None where an
+    external scheduler decides how many (its ``allowed-failures``)."""
     row = _base_row(item)
     row.update(sweep=sweep, worker=None)
+    if state is not None and (state / "timeouts" / item.key).exists():
+        return _timeout_row(row, item)
     return _fail_row(row, RowStatus.LOST, ExitCode.INCOMPLETE, lost_reason(err, attempts))
 
 
@@ -402,7 +424,7 @@ def run_sweep(
                 try:
                     row, plan = fut.result()
                 except Exception as e:  # noqa: BLE001 -- KilledWorker (every attempt died) or a scheduler error: a row
-                    row = _lost_row(it, spec.name, spec.retries + 1, e)
+                    row = _lost_row(it, spec.name, None if scheduler is not None else spec.retries + 1, e, state)
                 row["sweep"] = spec.name
                 journal.append(row)
                 if plan is not None:  # coplan verify plans/<key>.yaml plans/<key>.json checks it again

@@ -116,7 +116,9 @@ def time_to_ratio(history: list[dict], bound: float | None, ratios=(1.05, 1.02, 
 def stop_message(inc: Incumbent, stop: StopReason) -> str:
     """Why the planner stopped, and which stage its plan came from."""
     if inc.n_reach == 0:  # (it said no verified plan was found, of a problem with nothing to plan)
-        return "nothing to plan: no arm reaches any fruit (every arm stays at home)"
+        # (a problem with no fruit at all was said to have none in reach: a sweep's row read as a layout fault)
+        return ("nothing to plan: the problem has no fruit (every arm stays at home)" if not inc.problem.fruits else
+                "nothing to plan: no arm reaches any fruit (every arm stays at home)")
     if inc.source is None or inc.source == Source.NLP_UNVERIFIED:
         return "no verified plan was found; the best the solver had is kept"
     words = {
