@@ -308,7 +308,7 @@ def _figures(rows: list[dict[str, Any]], out: Path) -> dict[str, Path]:
                 ax.legend(title=title, fontsize=7, **({"loc": "upper center", "bbox_to_anchor": (0.5, -0.18)} if below else {}))
         fig.tight_layout()
         files["throughput"] = out / "throughput.png"
-        fig.savefig(files["throughput"], dpi=110)
+        fig.savefig(files["throughput"], dpi=110, bbox_inches="tight")  # (legends under the panels: the y label was cut)
     for col, name, label in (("ratio", "ratio", "makespan / lower bound"), ("solve_time", "solve_time", "solve time, s")):
         xs = [r[col] for r in (ok if col == "ratio" else rows) if r[col] is not None]
         if not xs:
