@@ -107,6 +107,13 @@ def finalize(problem: Problem, plan: Plan, verification) -> Plan:
     return finalize_plan(plan, verification, len(problem.reachable_ids()))
 
 
+def _planned_text(problem: Problem) -> str:
+    """The YAML text of a problem made or changed in Python, as written beside its plan."""
+    from .problem.generate import to_yaml
+
+    return to_yaml(problem, header=f"The problem {problem.name!r} {PLANNED_HEADER}: written by coplan beside its plan")
+
+
 def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None,
            problem: Problem | None = None) -> tuple[dict[str, Path], Path | None]:
     """The run's files, staged and renamed into place (:mod:`coplan.output`). A ``problem`` that
@@ -274,7 +281,7 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
             plan.metrics["lower_bound"] = None if bounds is None else bounds.any_plan
             plan.metrics.update(_row_fruit_counts(prob, plan))
             plan.problem_file = file_record(prob)
-            plan.planned_on = prob if plan.problem_file is None else None  # (Plan.save writes it beside the plan)
+            plan.planned_on = _planned_text(prob) if plan.problem_file is None else None  # (Plan.save writes it beside the plan)
     except KeyboardInterrupt:
         res.mark_interrupted("interrupted (Ctrl-C) as the row's figures were computed: the row is planned and verified")
     timings = dict(res.timings) | {"bounds": bounds_seconds}  # (this solve's: bounds.seconds is when they were computed)
@@ -430,7 +437,7 @@ def solve(
     for p in (plan, baseline):  # the problem file they come from: plot, animate and view find it again
         if p is not None:
             p.problem_file = record
-            p.planned_on = prob if record is None else None  # (Plan.save writes it beside the plan)
+            p.planned_on = _planned_text(prob) if record is None else None  # (Plan.save writes it beside the plan)
             p.metrics.update(fruit_counts(prob, scr, p))
             if p.metrics.get("gap_to_lower_bound") is not None and p.metrics.get("harvested", 0) < p.metrics["harvestable"]:
                 p.metrics["gap_to_lower_bound"] = None  # (the bound counts the fruit it left out: "ratio 0.657")

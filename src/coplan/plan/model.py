@@ -160,9 +160,9 @@ class Plan:
     software: dict[str, Any] | None = field(default=None, compare=False)  # what made it (finalize_plan: this process's; a file's)
     #: the :func:`motion_digest` its verdict judged (set by :func:`finalize_plan`; not written)
     verified_motion: str | None = field(default=None, repr=False, compare=False)
-    #: the problem it was planned on where that came from no file or was changed in Python
-    #: (``coplan.solve`` sets it; not written): :meth:`save` writes it beside the plan and records it
-    planned_on: Any = field(default=None, repr=False, compare=False)
+    #: the YAML text of the problem it was planned on where that came from no file or was changed in
+    #: Python (``coplan.solve`` sets it; not in plan.json): :meth:`save` writes it beside the plan and records it
+    planned_on: str | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         # a plan made in Python with lists, or a status by name ("success"), is the plan it
@@ -360,18 +360,16 @@ class Plan:
             # (made or changed in Python: written beside the plan, at every save, and recorded, as
             # coplan.solve's out_dir does -- a plan of crossing_paths with its fruit moved, saved so,
             # was verified by `coplan verify` against the shipped crossing_paths: 4 picks missed, exit 6)
-            from ..problem.generate import to_yaml
-            from ..problem.load import text_digest
+            import hashlib
 
             paths["problem"] = out / f"{stem}_problem.yaml"
             if paths["problem"].exists() and not _written_problem(paths["problem"]):
                 raise OutputError(f"save {paths['problem']}: the plan's problem (made or changed in Python) goes there, "
                                   "beside the plan; expected nothing there or a problem coplan wrote, found another "
                                   "file: move it, or save under another name")
-            text = to_yaml(self.planned_on, header=f"The problem {self.planned_on.name!r} {PLANNED_HEADER}: written by "
-                                                   "Plan.save beside its plan")
-            atomic_text(paths["problem"], text)
-            self.problem_file = {"path": str(paths["problem"].absolute()), "sha256": text_digest(text)}
+            atomic_text(paths["problem"], self.planned_on)
+            self.problem_file = {"path": str(paths["problem"].absolute()),  # (the digest a problem file's text has)
+                                 "sha256": hashlib.sha256(self.planned_on.encode("utf-8")).hexdigest()}
         atomic_text(paths["json"], json.dumps(self.to_dict(), indent=None, separators=(",", ":"), allow_nan=False))
 
         cols = [self.time[:, None]] + ([] if self.gantry_x is None else [self.gantry_x[:, None]]) + [self.q[a] for a in self.q]
