@@ -126,11 +126,9 @@ def _write(out_dir, plan: Plan, ver, baseline: Plan | None = None,
     folder = RunFolder(Path(out_dir))
     text = None
     if problem is not None and plan.problem_file is None:
-        from .problem.generate import to_yaml
         from .problem.load import text_digest
 
-        text = to_yaml(problem, header=f"The problem {problem.name!r} {PLANNED_HEADER}: written by coplan.solve beside "
-                                       "its plan")
+        text = plan.planned_on or _planned_text(problem)
         record = {"path": str(folder.path(Path(PROBLEM_FILE)).absolute()), "sha256": text_digest(text)}
         for p in (plan, baseline):
             if p is not None:
