@@ -35,8 +35,11 @@ def _trace_sigint_ignored():
 _SIGINT_IGNORED_AT = _trace_sigint_ignored()
 
 
+_PREVIOUS_TEST: list[str] = []  # the last test this worker ran (a warning below names it)
+
+
 @pytest.fixture(autouse=True)
-def sigint_as_found():
+def sigint_as_found(request):
     """Every test begins with Python's own Ctrl-C handler, as a fresh process has, and one that
     leaves another (ignored, or a C library's) is named in the warnings summary and the handler
     put back; a test that begins with another names what left it (a fixture's set-up, or a test
@@ -56,9 +59,12 @@ def sigint_as_found():
     if found is not signal.default_int_handler:
         signal.signal(signal.SIGINT, signal.default_int_handler)
         warnings.warn(f"SIGINT's handler was {found!r} as this test began (left so by a fixture's set-up or a test "
-                      "before it on this worker): set to Python's own"
+                      "before it on this worker"
+                      + (f", which was {_PREVIOUS_TEST[-1]}, its handler Python's own as it ended" if _PREVIOUS_TEST else "")
+                      + "): set to Python's own"
                       + (f"; it was last ignored at:\n{_SIGINT_IGNORED_AT[0]}" if _SIGINT_IGNORED_AT else ""), RuntimeWarning)
     yield
+    _PREVIOUS_TEST[:] = [request.node.nodeid]
     for _ in range(20):  # (a watcher that restores it may take a moment)
         if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
             return
