@@ -44,9 +44,11 @@ def sigint_as_found(request):
     leaves another (ignored, or a C library's) is named in the warnings summary and the handler
     put back; a test that begins with another names what left it (a fixture's set-up, or a test
     before it on this worker). A CI run found SIGINT ignored as some tests began, and those that
-    send themselves a Ctrl-C saw it dropped: a row's solve ended 0, not 130 (which test or
-    fixture left it so was not found: the notebook tests, which put Python's handler back, ran
-    before them in every earlier run)."""
+    send themselves a Ctrl-C saw it dropped: a row's solve ended 0, not 130. Found since: it is
+    each worker's *first* test (no test before it on that worker), so the worker process began
+    with SIGINT ignored -- as every process does that a non-interactive shell starts in the
+    background (``cmd &``, ``nohup``: POSIX has such a job ignore SIGINT), and Python then keeps
+    it ignored; no test or fixture sets it."""
     import signal
     import threading
     import time
