@@ -239,6 +239,58 @@ def test_a_spent_budget_leaves_fruit_out_with_the_reason_never_hangs():
     assert res.plan.status.value == "success" and res.verification.passed and res.plan.metrics["harvested"] == 25
 
 
+# cell_problem(56)'s middle and right arms: the middle arm's elbow passes 157 mm from the right
+# arm's base whenever its shoulder turns past 0, which it must to carry f005 (on its left, which
+# only it reaches) to its bin (down and left: the shoulder's limits keep it from turning past
+# pi). The clearance and both link radii need 153 mm, so the passage is open, but not to the
+# coordinator's planning buffer (15 mm more): every candidate deadlocked, the arms took turns and
+# f005 was left out (on the three-arm cell, two fruit, 80 s of planning for a 24.6 s plan).
+PASSAGE = {
+    "name": "passage", "defaults": {"link_radius": 0.0409, "joint_limits": [[-3.135, 3.135], [-2.9751, 2.9751]],
+                                    "home": [1.1178, 0.146]},
+    "arms": [{"name": "r2", "base": [0.5674, 0.0], "links": [0.8696, 0.7002], "bin": [0.4302, -0.6418],
+              "max_velocity": [2.83, 3.3068], "max_acceleration": [7.7918, 12.8645], "max_jerk": [124.6023, 112.5426]},
+             {"name": "r3", "base": [1.5944, 0.0], "links": [1.0654, 0.892], "bin": [1.9105, -0.6928],
+              "max_velocity": [2.6055, 3.5883], "max_acceleration": [13.776, 8.7451], "max_jerk": [111.6898, 141.9866]}],
+    "fruits": [{"id": "f005", "position": [-0.2485, 1.1273]}, {"id": "f008", "position": [2.3136, 0.7789]}],
+    "task": {"pick_dwell": 0.3304, "place_dwell": 0.2018, "clearance": 0.0716},
+}
+
+
+def test_a_buffer_wider_than_a_passage_is_dropped_before_the_arms_take_turns(monkeypatch):
+    """When no candidate can be coordinated with the planning buffer, the same search runs with
+    the clearance alone, and its plan is kept only where the verifier passes it."""
+    from coplan.planners.coordinated import CoordinatedOptions, plan_coordinated, planner
+    from coplan.planners.coordinated.schedule import pair_distances
+    from coplan.problem import problem_from_mapping
+
+    p = problem_from_mapping(PASSAGE)
+    arm, other = p.arms
+    assert 0 < np.hypot(*np.subtract(other.base, arm.base)) - arm.links[0] - (
+        p.task.clearance + arm.link_radius + other.link_radius) < 0.015  # the passage: open, narrower than the buffer
+    res = plan_coordinated(p, options=CoordinatedOptions(margin=0.015))
+    assert res.plan.status == PlanStatus.SUCCESS and res.verification.passed and res.plan.metrics["harvested"] == 2
+    assert res.plan.solver["planning_margin"] == 0.0 and res.plan.solver["planning_margin_dropped"] == 0.015
+    assert res.plan.solver["fallback"] is None and res.candidate.left_out == {}
+    buffered = [t for t in res.tried if t.get("margin") is None and "feasible" in t]
+    assert buffered and not any(t["feasible"] for t in buffered)  # every candidate with the buffer deadlocked
+    assert {"margin": 0.0, "verified": True, "makespan": res.candidate.makespan} in res.tried
+    least = float(np.min(pair_distances(p, res.plan.q["r2"], res.plan.q["r3"], 0, 1)))
+    assert p.task.clearance - 1e-6 <= least < p.task.clearance + 0.015  # it used the passage
+
+    plain = plan_coordinated(problem_from_mapping({**PASSAGE, "fruits": PASSAGE["fruits"][1:]}),
+                             options=CoordinatedOptions(margin=0.015))
+    assert plain.plan.solver["planning_margin"] == 0.015 and plain.plan.solver["planning_margin_dropped"] is None
+
+    class Refused:  # the verifier refuses the plan made without the buffer: the arms take turns, as before
+        passed = False
+
+    monkeypatch.setattr("coplan.verify.verifier.verify", lambda problem, plan: Refused())
+    turns = planner.find_coordinated(p, planner.AllocationMethod.MAKESPAN, CoordinatedOptions(margin=0.015),
+                                     lambda m: None)[0]
+    assert turns.fallback and turns.margin is None and "f005" in turns.left_out
+
+
 def test_one_arm_at_a_time_is_the_sum_of_the_arms_alone_and_verified():
     """The last resort: each arm's fastest decoupled work in turn while the others rest. On
     greenhouse_row (arms far apart) nothing is left out, the plan passes the verifier, and the

@@ -355,6 +355,9 @@ def print_summary(console, res) -> None:
     solver = res.plan.solver
     if solver.get("message"):
         p(f"  solver            {safe(solver.get('status', ''))}: {safe(solver['message'])}")
+    if solver.get("planning_margin_dropped"):
+        p(f"  planning buffer   none: with {1000 * solver['planning_margin_dropped']:g} mm beyond the clearance no candidate could be "
+          "coordinated, so it was planned with the clearance alone (verified)")
     left = solver.get("left_out") or {}
     if left:  # fruit the planner could not fit in, and why (all of them in plan.json: solver.left_out)
         p(f"  left out          {plural(len(left), 'fruit', 'fruit')}:")

@@ -55,6 +55,7 @@ class Coordinated:
     waits: int = 0
     fallback: bool = False
     left_out: dict = field(default_factory=dict)  # fruit -> why it could not be scheduled
+    margin: float | None = None  # the buffer it was coordinated with, where not the options' (0: the clearance alone)
 
     @property
     def total(self) -> float:

@@ -16,7 +16,9 @@ planner (:mod:`coplan.optimal`), whose incumbent starts as this planner's verifi
    attempts), never seconds, so the same problem gives the same plan on any machine and
    under any load; only an explicit ``time_limit`` depends on the clock.
 4. **Fallback**: when no candidate can be coordinated (leg-by-leg booking deadlocks), the
-   arms take turns (:func:`coplan.planners.coordinated.serial.serial_schedules`): a neighbour
+   same search runs with the clearance alone, without the planning buffer (``margin``), kept
+   if the verifier passes it -- a buffer wider than a passage the clearance leaves open
+   deadlocks every candidate. Failing that, the arms take turns (:func:`coplan.planners.coordinated.serial.serial_schedules`): a neighbour
    parks clear of the zone while an arm works. When taking turns spends its work budget too,
    the last resort (:func:`coplan.planners.coordinated.alone.one_at_a_time`): one arm works at
    a time while the others rest, moving a resting neighbour out of the way where it must, and
@@ -29,7 +31,7 @@ from __future__ import annotations
 import itertools
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -175,7 +177,28 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
     """The fastest conflict-free coordinated candidate of a few allocations (see the module
     docstring). Returns ``(candidate or None, attempts tried, the lower bound's details)``.
     ``on_feasible`` is called with each new best candidate as soon as it is found (an anytime
-    caller verifies the first one and has a plan long before every candidate is tried)."""
+    caller verifies the first one and has a plan long before every candidate is tried).
+
+    When no candidate can be coordinated with the planning buffer (``opts.margin``), the same
+    search runs again with the clearance alone (:func:`_without_margin`) before the arms take
+    turns: a buffer wider than a passage the clearance leaves open (a link passing a
+    neighbour's base with less than the buffer to spare) deadlocks every candidate."""
+    tried: list[dict] = []
+    details = bound_details(problem)  # depends only on the problem: one MILP for every candidate
+    best = _search(problem, method, opts, say, cache, deadline, on_feasible, tried, details)
+    if best is None and opts.margin > 0 and not (deadline is not None and _time.perf_counter() > deadline):
+        best = _without_margin(problem, method, opts, say, cache, deadline, on_feasible, tried, details)
+    if best is None:
+        best = _fallback(problem, method, opts, details.value, say, tried, deadline)
+    return best, tried, details
+
+
+def _search(problem: Problem, method: AllocationMethod, opts: CoordinatedOptions, say: Callable[[str], None],
+            cache: dict | None, deadline: float | None, on_feasible: Callable[[Coordinated], None] | None,
+            tried: list[dict], details: LowerBound, tag: dict | None = None) -> Coordinated | None:
+    """The candidate search of :func:`find_coordinated` (each attempt appended to ``tried``, with
+    ``tag``'s entries): the best conflict-free candidate, or None."""
+    tag = tag or {}
     if method == AllocationMethod.MAKESPAN:  # None: the lower bound's own assignment
         variants = [(None, False)] + [(t, b) for t in (0.0, 1.0, 3.0, 10.0) for b in (False, True)]
     else:
@@ -185,10 +208,8 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
     per_attempt = attempt_checks(problem, opts.attempt_checks, opts.checks_per_fruit)
     left = opts.budget_checks if per_attempt == opts.attempt_checks else max(opts.budget_checks, 5 * per_attempt)
     best: Coordinated | None = None
-    tried: list[dict] = []
     allocs: list[tuple] = []  # (territory, avoid, allocation, its remaining attempts, its first makespan)
     seen = []
-    details = bound_details(problem)  # depends only on the problem: one MILP for every candidate
     bound = details.value
     reference = None  # the plain min-makespan estimate: no candidate can beat it by waiting
 
@@ -213,7 +234,7 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
         if clear(problem, base, need):
             span = makespan_of(base)
             tried.append({"allocation": "bound" if alloc.info.get("bound_allocation") else "milp", "schedules": "decoupled",
-                          "feasible": True, "makespan": span, "waits": 0})
+                          "feasible": True, "makespan": span, "waits": 0} | tag)
             best = Coordinated(alloc, base, span, [], BranchRule.FASTEST, 0)
             if on_feasible is not None:
                 on_feasible(best)
@@ -221,7 +242,7 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
     def attempt(terr, avoid, label, al, base, order):
         nonlocal best, left
         entry = {"allocation": "bound" if terr is None else "milp", "territory": terr, "avoid_blocked": avoid, "schedules": label.value, "priority": order,
-                 "estimate": al.estimated_makespan}
+                 "estimate": al.estimated_makespan} | tag
         checks = min(per_attempt, left)
         try:
             sched, n, extra = coordinate(problem, base, opts.margin, priority=order, max_checks=checks, cache=cache,
@@ -265,9 +286,30 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
             if good_enough() or out_of_work() or (best is not None and alloc.estimated_makespan >= best.makespan - 1e-9):
                 break
             attempt(terr, avoid, label, al, base, order)
+    return best
+
+
+def _without_margin(problem: Problem, method: AllocationMethod, opts: CoordinatedOptions, say: Callable[[str], None],
+                    cache: dict | None, deadline: float | None, on_feasible: Callable[[Coordinated], None] | None,
+                    tried: list[dict], details: LowerBound) -> Coordinated | None:
+    """The candidate search again with the clearance alone (no planning buffer), kept only if
+    the verifier passes its best: the buffer covers the motion between the coordinator's
+    samples, which the verifier certifies. None: the arms take turns, with the buffer."""
+    from ...verify.verifier import verify
+
+    say(f"no candidate keeps the planning buffer ({opts.margin * 1000:g} mm beyond the clearance): "
+        "coordinating with the clearance alone")
+    best = _search(problem, method, replace(opts, margin=0.0), say, cache, deadline, on_feasible, tried, details,
+                   {"margin": 0.0})
     if best is None:
-        best = _fallback(problem, method, opts, bound, say, tried, deadline)
-    return best, tried, details
+        return None
+    verdict = verify(problem, schedules_plan(problem, best.alloc, best.schedules, PlannerKind.COORDINATED, {}))
+    tried.append({"margin": 0.0, "verified": bool(verdict.passed), "makespan": best.makespan})
+    if not verdict.passed:
+        say(f"coordinated with the clearance alone ({best.makespan:.2f} s), but the verifier does not pass it: "
+            "the arms take turns")
+        return None
+    return replace(best, margin=0.0)
 
 
 def clear(problem: Problem, schedules: dict[str, ArmSchedule], need: float, rate: float = 200.0) -> bool:
@@ -289,8 +331,6 @@ def _fallback(problem, method, opts, bound, say, tried, deadline: float | None =
     turn for it is found within one attempt's work budget), that fruit is left out, with the
     reason, and the rest is planned again: a partial plan, never a failure, while any fruit can
     be harvested and the fallback's whole work budget (``opts.serial_pairs``) lasts."""
-    from dataclasses import replace
-
     from .serial import serial_schedules
 
     full = alloc = allocate(problem, method, bound=bound)
@@ -374,6 +414,8 @@ def plan_coordinated(
         say("coordinated: " + describe(best))
         info |= {"status": "ok", "priority": best.order, "schedules": best.variant.value, "waits": best.waits,
                  "fallback": best.variant.value if best.fallback else None, "left_out": best.left_out,
+                 "planning_margin": opts.margin if best.margin is None else best.margin,
+                 "planning_margin_dropped": None if best.margin is None else opts.margin,
                  "territory": best.alloc.info.get("territory"), "sequence": best.alloc.sequence.value}
         plan = schedules_plan(problem, best.alloc, best.schedules, PlannerKind.COORDINATED, info)
     tv = _time.perf_counter()
