@@ -526,6 +526,57 @@ def test_a_planted_violation_is_on_the_timeline_and_a_click_goes_there(browser, 
     page.close()
 
 
+def _contrast(a, b) -> float:
+    def lum(c):
+        v = [x / 255 for x in c]
+        v = [x / 12.92 if x <= 0.03928 else ((x + 0.055) / 1.055) ** 2.4 for x in v]
+        return 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]
+
+    hi, lo = sorted((lum(a), lum(b)), reverse=True)
+    return (hi + 0.05) / (lo + 0.05)
+
+
+def _rgb(css: str) -> tuple[int, int, int]:
+    if css.startswith("#"):
+        h = "".join(c * 2 for c in css[1:]) if len(css) == 4 else css[1:]
+        return tuple(int(h[i:i + 2], 16) for i in (0, 2, 4))
+    return tuple(int(float(x)) for x in re.findall(r"[\d.]+", css)[:3])
+
+
+def test_the_page_speaks_to_a_keyboard_and_a_screen_reader(browser, pages, greenhouse):
+    """(From a user's trial of the page with a screen reader's eyes: the animation was a canvas with
+    no text, the slider read "5.6", the charts read as a list of numbers, each violation row as
+    one long button, a fruit's reason for being out of reach was in a hover tip only, and the
+    fruit ids on the timeline (white on the arm's orange) and the arms' names (their colour on
+    white) were 2.0-2.5:1 against the 4.5:1 text needs.)"""
+    prob, coord, heur = greenhouse
+    page, log = _open(browser, pages["coord"])
+    page.evaluate("coplanViewer.setTime(6)")
+    _wait_until(page, "document.querySelector('canvas.cell').getAttribute('aria-label').includes('t = 6.00 s')")
+    canvas = page.locator("canvas.cell")
+    placed = sum(e.kind == EventKind.PLACE and e.t_end <= 6.0 for e in coord.plan.events)
+    assert canvas.get_attribute("role") == "img" and f"placed {placed}/" in canvas.get_attribute("aria-label")
+    assert page.locator("#time").get_attribute("aria-valuetext") == f"6.00 s of {coord.plan.duration:.2f} s"
+    for kind in ("timeline", "clearance"):
+        svg = page.locator(f"svg.{kind}")
+        assert svg.get_attribute("role") == "img" and len(svg.get_attribute("aria-label")) > 30
+    out = [f for f in prob.fruits if f.id not in prob.reachable_ids()]
+    items = page.locator("details.unreachable-list li")
+    assert out and items.count() == len(out) and all(f.id in items.nth(k).text_content() for k, f in enumerate(out))
+    # every fruit id on a bar and every arm's name reads at 4.5:1 at least
+    pairs = page.evaluate("""Array.from(document.querySelectorAll('svg.timeline text[fill]'))
+        .map(function (t) { return [t.getAttribute('fill'), t.previousElementSibling.getAttribute('fill')]; })""")
+    assert pairs and all(_contrast(_rgb(a), _rgb(b)) >= 4.5 for a, b in pairs), pairs
+    assert log["errors"] == []
+    page.close()
+    page, log = _open(browser, pages["heur"])  # (the heuristic's plan fails: a table of violations)
+    rows = page.locator("tr.violation-row")
+    assert rows.count() == len(heur.verification.violations) and rows.first.get_attribute("role") is None
+    assert "Enter" in page.locator("table.vtable caption").text_content()
+    assert log["errors"] == []
+    page.close()
+
+
 def test_hover_shows_a_fruits_facts(browser, pages, greenhouse):
     prob, coord, _ = greenhouse
     pick = min((e for e in coord.plan.events if e.kind == EventKind.PICK), key=lambda e: e.t_start)
@@ -634,6 +685,30 @@ def test_the_row_view_follows_the_carriage(browser, row_page):
     assert log["errors"] == []
     assert len(log["requests"]) == 1 and log["requests"][0].startswith(path.as_uri())  # the page itself, nothing else
     page.close()
+
+
+def test_a_row_plan_file_s_grower_figures_are_shown_as_measured(row_page):
+    """(From a new user's trial: a plan.json edited to say 9999 fruit/h and a row time of 300 s
+    -- the page's note said "the measured figures are shown" beside the file's 9999 fruit/h, and a
+    plan whose events for some fruit were cut said 100 % harvested; the gantt plot's title too.)"""
+    from coplan.cli.figures import checked
+    from coplan.plan import plan_from_dict
+    from coplan.viz.viewer import viewer_data
+
+    prob, res, _ = row_page
+    doc = res.plan.to_dict()
+    doc["metrics"]["row"] = dict(doc["metrics"]["row"], fruit_per_hour=9999.0, row_time=300.0)
+    cut = sorted({e["fruit"] for e in doc["events"]})[:3]
+    doc["events"] = [e for e in doc["events"] if e["fruit"] not in cut]
+    lie = plan_from_dict(json.loads(json.dumps(doc)))
+    ver = verify(prob, lie)
+    got, span = ver.measured["harvested"], ver.measured["makespan"]
+    assert got == res.plan.metrics["harvested"] - 3
+    row = viewer_data(prob, [lie], [ver])["plans"][0]["row"]
+    assert row["fruit_per_hour"] == pytest.approx(3600 * got / span) and row["row_time"] == pytest.approx(span)
+    assert row["share_harvested"] == pytest.approx(got / res.plan.metrics["row"]["harvestable"]) and row["share_harvested"] < 1
+    checked(prob, lie)  # what the CLI's figures draw (the gantt plot's title said 9999 fruit/h)
+    assert lie.metrics["row"]["fruit_per_hour"] == pytest.approx(3600 * got / span) and lie.metrics["harvested"] == got
 
 
 def test_a_row_plan_s_stops_and_bound_in_the_viewer_data():

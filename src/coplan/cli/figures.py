@@ -125,13 +125,11 @@ def checked(prob, plan):
                              f"{', '.join(sorted({v.kind.value for v in ver.violations}))})" if ver.violations else ""))
         plan.status = status
     if ver.stated_figures:  # (a title said "makespan 5.00 s" beside a 12.88 s motion: its figures are the motion's)
-        from ..verify.verdict import WarningKind
+        from ..verify.verdict import WarningKind, measured_metrics
 
         said = next(w.message for w in ver.warnings if w.kind == WarningKind.STATED_FIGURES)
         _err.print(f"[yellow]note[/]: {said}; the measured ones are shown")
-        plan.metrics = dict(plan.metrics) | {k: ver.measured[k] for k in ("makespan", "harvested") if k in ver.stated_figures}
-        if "row_time" in ver.stated_figures and isinstance(plan.metrics.get("row"), dict):
-            plan.metrics["row"] = dict(plan.metrics["row"]) | {"row_time": ver.measured["makespan"]}
+        plan.metrics = measured_metrics(plan.metrics, ver.stated_figures)  # (a row's fruit per hour and share too)
     return ver
 
 

@@ -458,6 +458,24 @@ def stated_figures(metrics: Mapping[str, Any] | None, makespan: float | None, ha
     return out
 
 
+def measured_metrics(metrics: Mapping[str, Any] | None, stated: Mapping[str, Mapping[str, float]]) -> dict[str, Any]:
+    """``metrics`` with each figure :func:`stated_figures` found not borne out (``stated``) replaced
+    by the measured one -- a row's (``row_time``, ``row.*``) in its ``row`` entry -- for a page or
+    figure that says it shows the measured figures (the viewer's row headline kept a file's
+    9999 fruit/h beside a note saying 2742.65 measured were shown)."""
+    out = dict(metrics or {})
+    row = dict(out["row"]) if isinstance(out.get("row"), Mapping) else None
+    for key, fig in stated.items():
+        if key == "row_time" or key.startswith("row."):
+            if row is not None:
+                row[key.removeprefix("row.")] = fig["measured"]
+        else:
+            out[key] = fig["measured"]
+    if row is not None:
+        out["row"] = row
+    return out
+
+
 def report_path(path: str | Path) -> Path:
     """The file :meth:`Verification.save` writes for ``path``: ``path`` itself when it names a
     ``.json`` file, else ``verification.json`` in the folder ``path``."""

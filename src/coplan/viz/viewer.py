@@ -43,7 +43,7 @@ from ..kinds import EventKind, GantryMode
 from ..output import atomic_text
 from ..plan import Plan, checked_status, jerk_figures, jsonable, load_plan
 from ..problem.model import Problem
-from ..verify.verdict import ViolationKind, WarningKind
+from ..verify.verdict import ViolationKind, WarningKind, measured_metrics
 from .style import ALERT_COLOR, FRUIT_COLOR, arm_colors
 from .timeline import ArmPhase, Segment, schedule
 
@@ -354,7 +354,7 @@ def _plan_data(problem: Problem, plan: Plan, ver, rate: float, lower_bound: floa
         exact_entry = {"scale": 1.0, "q": _encode(exact, "<f8")}
     segs = schedule(plan)
     pairs = [tuple(p) for p in ([problem.arms[i].name, problem.arms[j].name] for i, j in problem.neighbour_pairs())]
-    m = plan.metrics or {}
+    m = measured_metrics(plan.metrics, ver.stated_figures)  # (as the note on the page says: the measured figures)
     steps = ver.acceleration_steps()
     pair_stats = [{"arms": list(p.arms), "min": p.min_clearance, "t": p.t, "certified": p.certified,
                    "margin": p.certified - ver.required_clearance} for p in ver.pairs]

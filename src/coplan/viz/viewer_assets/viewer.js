@@ -46,6 +46,17 @@
   }
   function rgb(hex) { const v = parseInt(hex.slice(1), 16); return [(v >> 16) & 255, (v >> 8) & 255, v & 255]; }
   function rgba(hex, a) { const c = rgb(hex); return "rgba(" + c[0] + "," + c[1] + "," + c[2] + "," + a + ")"; }
+  // WCAG relative luminance; text on an arm's colour takes black or white, whichever contrasts more
+  // (white fruit ids on the orange arm's bars were 2.5:1), and an arm's name on white a shade of its
+  // colour dark enough for 4.5:1 (the palette's orange, cyan and olive were 2.0-2.5:1)
+  function luminance(c) { return c.map(function (v) { v /= 255; return v <= 0.03928 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4); })
+    .reduce(function (acc, v, i) { return acc + v * [0.2126, 0.7152, 0.0722][i]; }, 0); }
+  function ink(hex) { const L = luminance(rgb(hex)); return (1.05 / (L + 0.05)) >= ((L + 0.05) / 0.05) ? "#fff" : "#000"; }
+  function onWhite(hex) {
+    let c = rgb(hex);
+    while (1.05 / (luminance(c) + 0.05) < 4.5) c = c.map(function (v) { return Math.floor(v * 0.9); });
+    return "rgb(" + c.join(",") + ")";
+  }
   function blend(h1, h2) {
     const a = rgb(h1), b = rgb(h2);
     return "#" + [0, 1, 2].map(function (i) { return Math.round((a[i] + b[i]) / 2).toString(16).padStart(2, "0"); }).join("");
@@ -162,6 +173,7 @@
   function setTime(t) {
     T = clamp(Number(t) || 0, 0, T_END);
     slider.value = String(T);
+    slider.setAttribute("aria-valuetext", T.toFixed(2) + " s of " + T_END.toFixed(2) + " s");
     clock.textContent = T.toFixed(2) + " s";
     dirty = true;
     const now = performance.now();
@@ -233,7 +245,7 @@
       this.strip = el("canvas", { class: "rowstrip", "data-plan": String(pl.index) });
       box.appendChild(this.strip);
     }
-    this.canvas = el("canvas", { class: "cell", "data-plan": String(pl.index) });
+    this.canvas = el("canvas", { class: "cell", "data-plan": String(pl.index), role: "img", "aria-label": (pl.label || pl.planner) + ", the arms at t = 0.00 s" });
     box.appendChild(this.canvas);
     this.ctx = this.canvas.getContext("2d");
     this.hits = [];
@@ -339,7 +351,7 @@
       // how many it holds (its grid draws nine at most: a bin of 17 looked like one of 9)
       const held = (pl.binOrder[a.name] || []).filter(function (fid) { return pl.fruit[fid].place.t_end <= t; }).length;
       if (held > 0) {
-        ctx.fillStyle = a.color; ctx.font = "11px system-ui, sans-serif"; ctx.textAlign = "center";
+        ctx.fillStyle = onWhite(a.color); ctx.font = "11px system-ui, sans-serif"; ctx.textAlign = "center";
         ctx.fillText(String(held), c[0], c[1] + bin / 2 + 12);
       }
     });
@@ -399,7 +411,7 @@
       ctx.fillStyle = "#333"; ctx.fillRect(pts[0][0] - 7, pts[0][1] - 4, 14, 12);
       ctx.fillStyle = "#fff"; ctx.strokeStyle = "#333"; ctx.lineWidth = 1;
       [pts[0], pts[1]].forEach(function (p) { ctx.beginPath(); ctx.arc(p[0], p[1], 3, 0, 2 * Math.PI); ctx.fill(); ctx.stroke(); });
-      ctx.fillStyle = a.color; ctx.font = "12px system-ui, sans-serif"; ctx.textAlign = "center";
+      ctx.fillStyle = onWhite(a.color); ctx.font = "12px system-ui, sans-serif"; ctx.textAlign = "center";
       ctx.fillText(a.locked ? a.name + " (locked)" : a.name, pts[0][0], pts[0][1] + 24);
       self.hits.push({ kind: "arm", arm: k, pts: pts, r: w / 2 + 3 });
     });
@@ -410,8 +422,12 @@
     }
     ctx.fillStyle = "#333"; ctx.font = "12px system-ui, sans-serif"; ctx.textAlign = "right";
     const placed = placedBy(pl, t);  // (the bins show nine at most: a row's count was nowhere)
-    ctx.fillText("t = " + t.toFixed(2) + " s" + (pl.gx ? ", carriage at " + sh.toFixed(2) + " m" : "") + "; placed " + placed + "/" + pl.placedAt.length,
-                 this.W - 8, 16);
+    const clockText = "t = " + t.toFixed(2) + " s" + (pl.gx ? ", carriage at " + sh.toFixed(2) + " m" : "") + "; placed " + placed + "/" + pl.placedAt.length;
+    ctx.fillText(clockText, this.W - 8, 16);
+    if (!playing) {
+      const said = (pl.label || pl.planner) + ", the arms at " + clockText + (names.length ? "; " + (Object.values(alarm).indexOf("collision") >= 0 ? "collision" : "clearance breach") + ": " + names.join(", ") : "");
+      if (this.canvas.getAttribute("aria-label") !== said) this.canvas.setAttribute("aria-label", said);
+    }
     if (this.strip) this.drawStrip(t);
   };
   Cell.prototype.hover = function (ev) {
@@ -460,7 +476,10 @@
     const v = pl.verdict;
     // a row: its row time (a live row's runs to its last cycle's end, a probe's too: past the last place)
     const rw = pl.row, span = rw && rw.row_time != null ? rw.row_time : pl.makespan;
-    const ratio = pl.lower_bound ? " (lower bound " + num(pl.lower_bound, 3) + " s, \u00D7" + num(span / pl.lower_bound, 3) + ")" : "";
+    const part = pl.harvested != null && pl.reachable != null && pl.harvested < pl.reachable;
+    // (a partial plan's makespan read x0.814 of a bound for harvesting every fruit, unsaid)
+    const ratio = pl.lower_bound ? " (lower bound " + num(pl.lower_bound, 3) + " s" + (part ? " to harvest all " + pl.reachable + " fruit; this plan harvests " + pl.harvested + ")" :
+      ", \u00D7" + num(span / pl.lower_bound, 3) + ")") : "";
     // a row: what a grower judges it by first, as the summary says it
     const grower = rw ? " \u2014 " + num(rw.fruit_per_hour, 0) + " fruit/h, " + (rw.share_harvested == null ? "\u2013" : num(100 * rw.share_harvested, 1)) + " % of the harvestable fruit harvested, " +
       (rw.mode === "continuous" ? "on the move" : plural(rw.stops || 0, "stop")) : "";
@@ -473,8 +492,10 @@
       "; least clearance " + num(v.min_clearance, 4) + " m (certified " + num(v.certified_clearance, 4) + " m, required " + num(v.required_clearance, 3) + " m; margin " + (v.margin == null ? "-" : num(1000 * v.margin, 1) + " mm") + ")" + (v.jerk ? "; RMS / peak jerk " + Object.keys(v.jerk).map(function (a) { return a + " " + (v.jerk[a].unbounded ? "unbounded (its acceleration steps)" : num(v.jerk[a].rms, 0) + " / " + num(v.jerk[a].peak, 0)); }).join(", ") + " rad/s\u00b3" : "")));
     // the plan file's own figures where they are not its motion's (the terminal said so; the page did not)
     (v.notes || []).forEach(function (n) { box.appendChild(el("div", { class: "facts file-note" }, "note: " + n + "; the measured figures are shown")); });
-    this.tl = sv("svg", { class: "timeline", "data-plan": String(pl.index) });
-    this.cl = sv("svg", { class: "clearance", "data-plan": String(pl.index) });
+    this.tl = sv("svg", { class: "timeline", "data-plan": String(pl.index), role: "img",
+      "aria-label": "Timeline of " + (pl.label || pl.planner) + ": each arm's moves, picks, places and waits against time (click to go to a time)" });
+    this.cl = sv("svg", { class: "clearance", "data-plan": String(pl.index), role: "img",
+      "aria-label": "Clearance between neighbouring arms against time, with the required " + num(v.required_clearance, 3) + " m" });
     box.appendChild(this.tl);
     box.appendChild(this.cl);
     this.legend = el("div", { class: "facts" });
@@ -483,16 +504,20 @@
       const det = el("details", { class: "violations" });
       det.appendChild(el("summary", null, plural(pl.violations.length, "violation") + ": click one to go to its time"));
       const tab = el("table", { class: "vtable" }), head = el("tr");
+      tab.appendChild(el("caption", { class: "sr-only" }, "Violations: Enter on a row goes to its time"));
       ["kind", "arms", "t (s)", "value", "limit", "unit", "detail"].forEach(function (c) { head.appendChild(el("th", null, c)); });
       tab.appendChild(head);
       pl.violations.slice(0, 500).forEach(function (vi, i) {
         // (focusable: Enter or Space goes to its time, as a click does -- a keyboard could not reach one)
-        const tr = el("tr", { class: "violation-row", "data-t": String(clamp(vi.t, 0, T_END)), "data-index": String(i), tabindex: "0", role: "button" });
+        const tr = el("tr", { class: "violation-row", "data-t": String(clamp(vi.t, 0, T_END)), "data-index": String(i), tabindex: "0" });
         [vi.kind, vi.arms.join(", "), num(vi.t, 3), num(vi.value, 4), num(vi.limit, 4), (vi.step ? VIOLATION_UNITS.acceleration : VIOLATION_UNITS[vi.kind]) || "",
           (vi.fruit ? "fruit " + vi.fruit + " " : "") + (vi.message || "")].forEach(function (c) { tr.appendChild(el("td", null, c)); });
         tab.appendChild(tr);
       });
       det.appendChild(tab);
+      if (pl.violations.length > 500) {  // (the table stopped at 500 of 1553 without a word)
+        det.appendChild(el("div", { class: "facts" }, "the first 500 of " + pl.violations.length + " violations are listed (by time); every one is in verification.json (coplan verify)"));
+      }
       box.appendChild(det);
       tab.addEventListener("click", function (ev) {
         const row = ev.target.closest(".violation-row");
@@ -538,7 +563,7 @@
           "data-arm": a.name, "data-index": String(i), "data-phase": s.phase });
         tl.appendChild(r);
         if (s.phase === "placing") tl.appendChild(sv("rect", { x: x0, y: y, width: w, height: rowH, fill: "url(#hatch" + pl.index + ")", "pointer-events": "none" }));
-        if (s.phase === "picking" && w > 18 && s.fruit) tl.appendChild(sv("text", { x: x0 + w / 2, y: y + rowH - 5, "text-anchor": "middle", fill: "#fff", "pointer-events": "none", style: "fill:#fff" }, s.fruit));
+        if (s.phase === "picking" && w > 18 && s.fruit) tl.appendChild(sv("text", { x: x0 + w / 2, y: y + rowH - 5, "text-anchor": "middle", fill: ink(a.color), "pointer-events": "none", style: "fill:" + ink(a.color) }, s.fruit));
       });
     });
     pl.violations.forEach(function (v, i) {
@@ -649,17 +674,27 @@
 
   // ------------------------------------------------------------------ page
   const summary = document.getElementById("summary");
-  summary.appendChild(el("span", null, (P.description ? P.description + " \u2014 " : "") + ARMS.length + " arms, " + P.fruits.length + " fruit, required clearance " + num(P.task.clearance, 3) + " m"));
+  summary.appendChild(el("span", null, (P.description ? P.description + " \u2014 " : "") + plural(ARMS.length, "arm") + ", " + P.fruits.length + " fruit, required clearance " + num(P.task.clearance, 3) + " m"));
   if (PLANS.length > 1 || D.lower_bound !== null) {
     summary.appendChild(el("br"));
     summary.appendChild(el("span", null, PLANS.map(function (p) { return (p.label || p.planner) + " " + num(p.makespan, 3) + " s" + (p.row ? ", " + num(p.row.fruit_per_hour, 0) + " fruit/h" : "") + " (" + p.status + ")"; }).join(" vs ") +
-      (D.lower_bound !== null ? "; lower bound " + num(D.lower_bound, 3) + " s (no plan can be faster)" : "")));
+      (D.lower_bound !== null ? "; lower bound " + num(D.lower_bound, 3) + " s (no plan that harvests every harvestable fruit can be faster)" : "")));
   }
   const legend = document.getElementById("legend");
   [["moving", "rgba(90,90,90,0.35)"], ["picking", "#555"], ["placing (hatched)", "#777"], ["waiting", "#dcdcdc"], ["violation", "#e00000"]].forEach(function (l) {
     legend.appendChild(el("span", { class: "sw", style: "background:" + l[1] })); legend.appendChild(el("span", null, l[0]));
   });
   legend.appendChild(el("span", { style: "margin-left:14px" }, "fruit: red disc ringed in the colour of the arm that takes it; \u00D7 unreachable (hover for the reason); dashed ring: not harvested"));
+  // the reasons in words too (a keyboard or screen reader had them only in the hover tip)
+  const outOfReach = P.fruits.filter(function (f) { return f.unreachable; });
+  if (outOfReach.length) {
+    const det = el("details", { class: "facts unreachable-list" });
+    det.appendChild(el("summary", null, outOfReach.length + " fruit unreachable: why"));
+    const ul = el("ul");
+    outOfReach.forEach(function (f) { ul.appendChild(el("li", null, f.id + ": " + f.unreachable)); });
+    det.appendChild(ul);
+    legend.after(det);
+  }
   const cellsRoot = document.getElementById("cells"), panelsRoot = document.getElementById("panels");
   const cells = PLANS.map(function (pl) {
     const box = el("div", { class: "cellbox" });
