@@ -1556,3 +1556,17 @@ def test_an_outage_too_short_to_stop_for_costs_no_hold_and_says_so(row):
     dark = res.metrics["faults"]["camera_dark"]
     assert dark["hold_seconds"] == 0.0 and dark["carriage"].startswith("kept moving") and "carriage_holds_from" not in dark
     assert res.verification.passed
+
+
+def test_a_live_row_s_plan_counts_the_fruit_out_of_every_arm_s_reach():
+    """(From a grower's trial: a live row's plan.json said 230 reachable and 0 unreachable of a
+    233-fruit row, where its run.json said three were missed, out of every arm's reach.)"""
+    d = gantry_row(length=6.0, density=2.0, seed=7)
+    d["fruits"] = d["fruits"] + [{"id": "high", "position": [3.0, 2.6]}]
+    prob = parse_problem(to_yaml(d))
+    res = run_live_row(prob, LiveRowOptions(mode=GantryMode.STOP_AND_GO, seed=1, sigma=0.0, false_rate=0.0,
+                                            duplicate_rate=0.0))
+    m = res.plan.metrics
+    assert res.plan.unreachable == ["high"] and m["unreachable"] == 1
+    assert m["reachable"] + m["unreachable"] == len(prob.fruits) and res.verification.passed
+    assert res.outcome["high"].startswith("missed: out of every arm's reach")

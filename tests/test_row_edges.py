@@ -433,6 +433,27 @@ def test_a_row_plan_lists_what_its_screen_left_out_in_both_modes(tmp_path):
         assert data["metrics"]["unreachable"] == 1 and set(data["metrics"]["row"]["screened_out"]) == {"edge", "high"}
 
 
+def test_a_row_summary_says_unreachable_and_screened_out_as_the_plan_s_metrics_count_them(tmp_path):
+    """(From a grower's trial: a row's summary said "of 233 fruit 3 screened out" where its
+    plan.json's metrics said unreachable 3, screened_out 0 -- out of every arm's reach, which
+    every other command calls unreachable.)"""
+    import json
+
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    path = tmp_path / "narrow.yaml"
+    path.write_text(to_yaml(gantry_row(length=10.0, density=1.0, seed=0, n_arms=2, spacing=2.5)
+                            | {"fruits": [{"id": "edge", "position": [4.275, 1.7899]}, {"id": "ok", "position": [2.0, 1.0]},
+                                          {"id": "high", "position": [5.0, 2.5]}]}))
+    r = CliRunner(env={"COLUMNS": "200"}).invoke(app, ["solve", str(path), "--out", str(tmp_path / "out")])
+    m = json.loads((tmp_path / "out" / "plan.json").read_text())["metrics"]
+    assert (m["unreachable"], m["screened_out"]) == (1, 1) and m["fruit_ids"]["unreachable"] == ["high"]
+    line = next(ln for ln in r.output.splitlines() if ln.strip().startswith("fruit "))
+    assert "of 3 fruit 1 unreachable (out of every arm's reach from every carriage position) and 1 screened out" in line, line
+
+
 def test_the_mean_speed_on_the_move_is_over_the_time_the_carriage_moves():
     """(It divided by the whole cruise, the rest at the start included: 0.185 m/s for a cruise at 0.2.)"""
     prob = _row()
@@ -459,7 +480,7 @@ def test_resolution_on_the_command_line(tmp_path):
     r = run(app, ["check", str(path), "--resolution", "0.01"])
     assert r.exit_code == 0 and "2 harvestable" in r.output, r.output
     r = run(app, ["solve", str(path), "--resolution", "0.01", "--out", str(tmp_path / "out")])
-    assert r.exit_code == 0 and "2 harvested of 2 harvestable" in r.output and "0 screened out" in r.output, r.output
+    assert r.exit_code == 0 and "2 harvested of 2 harvestable" in r.output and "none unreachable or screened out" in r.output, r.output
     import json  # recorded in the plan (stop and go recorded none: a plan made with another was not reproducible from its file)
     assert json.loads((tmp_path / "out" / "plan.json").read_text())["solver"]["row"]["resolution"] == 0.01
     r = run(app, ["solve", str(path), "--resolution", "0.001", "--out", str(tmp_path / "o2")])
@@ -738,6 +759,20 @@ def test_compare_on_a_row_says_why_a_rule_s_row_is_not_a_success(tmp_path):
     assert f"note: {line}" in r.output
     doc = json.loads((tmp_path / "c" / "compare.json").read_text())
     assert {row["status"] for row in doc["rows"]} == {"infeasible"} and len(doc["notes"]) == 4 and doc["best"] is None
+
+
+def test_compare_on_a_row_says_which_fruit_no_plan_can_harvest(tmp_path):
+    """(From a grower's trial: every line of a row's comparison read "harvested 100.0 %" of a row
+    whose three fruit no arm reaches, and nothing said so.)"""
+    from coplan.report.rows import compare_rows, to_markdown
+
+    cmp = compare_rows(_narrow(), tmp_path / "c", rules=("fewest",), gantry="stop-and-go")
+    note = ("2 of the row's 3 fruit no plan can harvest: 1 out of every arm's reach from every carriage position and "
+            "1 screened out")
+    assert any(n.startswith(note) for n in cmp.notes) and note in to_markdown(cmp)
+    assert "harvested, of harvestable" in to_markdown(cmp)
+    row = cmp.rows[0]
+    assert row["share_harvested"] == 1.0 and row["share_of_all_fruit"] == pytest.approx(1 / 3)
 
 
 TINY_FRUIT = {"f1": (0.8, 0.7), "f2": (1.3, 1.2), "f3": (2.5, 0.9), "f4": (3.5, 1.0)}

@@ -148,7 +148,9 @@ class RowMetrics(BaseModel):  # (open: coplan may add figures)
     harvested: int | None = Field(None, description="fruit placed in a bin")
     share_harvested: float | None = Field(None, description="harvested / harvestable (0-1)")
     share_of_all_fruit: float | None = Field(None, description="harvested / fruit (0-1)")
-    screened_out: dict[str, str] | None = Field(None, description="fruit id -> why no carriage position serves it")
+    screened_out: dict[str, str] | None = Field(None, description="fruit id -> why no carriage position serves it: out "
+                                                                  "of every arm's reach (metrics.fruit_ids.unreachable) or "
+                                                                  "reachable and ruled out (fruit_ids.screened_out)")
     locked_arms: dict[str, str] | None = Field(None, description="arm -> why the screen locks it (it cannot reach its "
                                                                  "bin, which rides with the carriage): it harvests nothing")
     row_time: float | None = Field(None, description="s, the end of the last place")

@@ -156,10 +156,17 @@ def _row_screen_and_choices(p, res, solver: dict, r: dict) -> None:
 
 def _row_fruit(p, res, m: dict, r: dict, solver: dict) -> None:
     """A row summary's fruit: harvested, screened out, left out (with the reasons)."""
-    out = r.get("screened_out") or {}
+    out = r.get("screened_out") or {}  # (every fruit no carriage position serves: out of reach or ruled out)
+    far = set((m.get("fruit_ids") or {}).get("unreachable") or []) & set(out)
+    # in the one vocabulary of every command (fruit_line): unreachable -- out of every arm's reach
+    # from every carriage position -- and screened out, reachable but ruled out (a row said "3
+    # screened out" where its metrics said unreachable 3, screened_out 0)
+    parts = ([f"{len(far)} unreachable (out of every arm's reach from every carriage position)"] if far else []) + (
+        [f"{len(out) - len(far)} screened out (no carriage position the screen tries lets a working arm harvest "
+         f"{'it' if len(out) - len(far) == 1 else 'them'})"] if len(out) > len(far) else [])
     p(f"  fruit             {r.get('harvested')} harvested of {r.get('harvestable')} harvestable "
-      f"({fmt(None if r.get('share_harvested') is None else 100 * r['share_harvested'], ' %', 1)}); of {r.get('fruit')} fruit {len(out)} screened out"
-      + (f" (no carriage position the screen tries lets a working arm harvest {'it' if len(out) == 1 else 'them'})" if out else ""))
+      f"({fmt(None if r.get('share_harvested') is None else 100 * r['share_harvested'], ' %', 1)}); of {r.get('fruit')} fruit "
+      + (" and ".join(parts) if parts else "none unreachable or screened out"))
     for fid, why in list(out.items())[:3]:
         p(f"    {safe(why)}")
     if len(out) > 3:

@@ -31,7 +31,7 @@ ON_THE_MOVE = "on the move"
 
 #: (key, heading) of the comparison's table.
 ROW_COLUMNS = (("name", "plan"), ("stops", "stops"), ("row_time", "row time, s"), ("fruit_per_hour", "fruit / h"),
-               ("share_harvested", "harvested"), ("ratio_any_plan_bound", "/ bound (any plan)"),
+               ("share_harvested", "harvested, of harvestable"), ("ratio_any_plan_bound", "/ bound (any plan)"),
                ("ratio_stop_and_go_bound", "/ bound (stop by stop, no overlap)"), ("speed", "speed, m/s"), ("planning_time", "planning, s"),
                ("first_motion_seconds", "first motion, s"), ("verified", "verified"))
 
@@ -168,6 +168,7 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
                          # hold, is no stop -- it read "0" beside picks made with the carriage at rest)
                          "stops": m.get("stops") if rule is not None else None, "row_time": m.get("row_time"),
                          "fruit_per_hour": m.get("fruit_per_hour"), "share_harvested": m.get("share_harvested"),
+                         "share_of_all_fruit": m.get("share_of_all_fruit"),
                          "ratio_any_plan_bound": m.get("ratio_any_plan_bound") if whole else None,
                          # (a plan on the move is no stop-by-stop plan: that bound does not hold for it)
                          "ratio_stop_and_go_bound": m.get("ratio_stop_and_go_bound") if whole and rule is not None else None,
@@ -176,6 +177,8 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
                          "planning_time": m.get("planning_time"), "first_motion_seconds": m.get("first_motion_seconds"),
                          "kept_ahead": m.get("kept_ahead"), "verified": bool(res.verification.passed),
                          "status": res.plan.status.value, "error": res.error, "plan": str(res.files.get("json", ""))})
+        if i == 0:
+            cmp.notes += _beyond_every_plan(res.plan.metrics)
         if res.plan.status not in (PlanStatus.SUCCESS, PlanStatus.INTERRUPTED):  # (an empty row read "0.0 s, verified")
             cmp.notes.append(_status_note(name, res.plan, problem))
         if cut:  # Ctrl-C / SIGTERM: what finished is written, said, and the run stops
@@ -186,6 +189,20 @@ def compare_rows(problem: Problem, out_dir: str | Path, rules=tuple(StopRule), p
     cmp.notes += _earlier_runs(out, runs)
     _write(cmp, out)
     return cmp
+
+
+def _beyond_every_plan(m: dict) -> list[str]:
+    """A note of the row's fruit no plan can harvest (out of every arm's reach, or screened out),
+    once: every row of the table read "harvested 100.0 %" of a row whose three fruit no arm
+    reaches, and nothing said so -- what changes first between two designs."""
+    ids = m.get("fruit_ids") or {}
+    far, ruled = ids.get("unreachable") or [], ids.get("screened_out") or []
+    if not (far or ruled):
+        return []
+    parts = ([f"{len(far)} out of every arm's reach from every carriage position"] if far else []) + (
+        [f"{len(ruled)} screened out (reachable, but no carriage position lets a working arm harvest them)"] if ruled else [])
+    return [f"{len(far) + len(ruled)} of the row's {m.get('fruit')} fruit no plan can harvest: {' and '.join(parts)} "
+            f"(coplan check says why); 'harvested' is of the {m.get('harvestable')} harvestable"]
 
 
 def _earlier_runs(out: Path, runs: list) -> list[str]:
