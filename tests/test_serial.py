@@ -282,6 +282,10 @@ def test_a_buffer_wider_than_a_passage_is_dropped_before_the_arms_take_turns(mon
                              options=CoordinatedOptions(margin=0.015))
     assert plain.plan.solver["planning_margin"] == 0.015 and plain.plan.solver["planning_margin_dropped"] is None
 
+    kept = plan_coordinated(p, options=CoordinatedOptions(margin=0.015, relax_margin=False))  # (a live stop's cell:
+    assert kept.candidate.fallback and "f005" in kept.candidate.left_out  # its margin is its booking's clearance)
+    assert kept.plan.solver["planning_margin"] == 0.015 and kept.plan.solver["planning_margin_dropped"] is None
+
     class Refused:  # the verifier refuses the plan made without the buffer: the arms take turns, as before
         passed = False
 

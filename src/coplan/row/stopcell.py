@@ -73,7 +73,8 @@ def book_cell(booker: Booker, fruit: list[str], x: float, t_from: float,
     arms = tuple(replace(a, home=(float(r[0]), float(r[1]))) for a, r in zip(problem.arms, rest))
     cell = cell_at(replace(problem, arms=arms, fruits=tuple(Fruit(f, tuple(booker.fruit_xy[f])) for f in fruit)), x,
                    name=f"{problem.name}: the stop at {x:.3f} m")
-    res = plan_coordinated(cell, options=CoordinatedOptions(margin=booker.need - problem.task.clearance))
+    # (the booking's clearance is a requirement here, not a buffer to drop: a plan within it is refused below)
+    res = plan_coordinated(cell, options=CoordinatedOptions(margin=booker.need - problem.task.clearance, relax_margin=False))
     plan = res.plan
     if plan.status not in (PlanStatus.SUCCESS, PlanStatus.PARTIAL) or not any(
             e.kind == EventKind.PICK for e in plan.events):

@@ -85,6 +85,9 @@ class CoordinatedOptions:
         tests over all its attempts), so that no layout holds the planner for hours; one
         attempt may spend a quarter of it
     time_limit : optional wall-clock limit (s); the plan then depends on the machine
+    relax_margin : where no candidate can be coordinated with ``margin``, search again with
+        the clearance alone before the arms take turns (kept if verified); False where the
+        margin is a requirement (a live row's stop cell: its booking's clearance)
     """
 
     margin: float = 0.015
@@ -93,6 +96,7 @@ class CoordinatedOptions:
     budget_checks: int = 3000
     serial_pairs: int = SERIAL_PAIRS
     time_limit: float | None = None
+    relax_margin: bool = True
 
     def __post_init__(self) -> None:
         check_fields(self)  # (time_limit 0: the first candidate only) built in Python: every value checked (OptionsError: what was expected, found)
@@ -186,7 +190,7 @@ def find_coordinated(problem: Problem, method: AllocationMethod, opts: Coordinat
     tried: list[dict] = []
     details = bound_details(problem)  # depends only on the problem: one MILP for every candidate
     best = _search(problem, method, opts, say, cache, deadline, on_feasible, tried, details)
-    if best is None and opts.margin > 0 and not (deadline is not None and _time.perf_counter() > deadline):
+    if best is None and opts.relax_margin and opts.margin > 0 and not (deadline is not None and _time.perf_counter() > deadline):
         best = _without_margin(problem, method, opts, say, cache, deadline, on_feasible, tried, details)
     if best is None:
         best = _fallback(problem, method, opts, details.value, say, tried, deadline)
