@@ -466,3 +466,19 @@ def test_a_widening_cap_past_a_metre_or_no_iterations_is_refused():
     assert parse_options("widen_cap: 1.0\n").widen_cap == 1.0
     with pytest.raises(OptionsError, match="widen_iterations: expected a positive integer"):
         parse_options("widen_iterations: 0\n")
+
+
+def test_a_plan_that_harvests_nothing_is_not_widened_and_raises_nothing():
+    """(From a user's trial: the optimal planner on a cell whose fruit no arm can place stopped
+    with "internal error (ValueError: zero-size array to reduction operation minimum ...)" -- the
+    widening measured the clearance of a plan with no samples -- instead of its reasons.)"""
+    from dataclasses import replace
+
+    from coplan.allocate import allocate
+    from coplan.planners.coordinated.schedule import decoupled_schedules
+
+    p = load_problem("crossing_paths")
+    alloc = allocate(p)
+    idle = replace(alloc, assignment={a: () for a in alloc.assignment})
+    res = widen(p, idle, decoupled_schedules(p, idle), 0.0)
+    assert res.plan is None and res.info["reason"] == "the plan harvests nothing: nothing to widen"

@@ -381,7 +381,8 @@ def widen(run: Run) -> str:
     why = ("the option widen is false" if not run.opts.widen else
            "the run was interrupted first" if run.interrupted else
            "no verified plan with schedules to widen" if inc.plan is None or inc.candidate is None else
-           "the incumbent is the joint NLP's plan (no schedules to widen)" if inc.source == Source.NLP else None)
+           "the incumbent is the joint NLP's plan (no schedules to widen)" if inc.source == Source.NLP else
+           "the incumbent harvests nothing: nothing to widen" if not inc.candidate.makespan > 0 else None)
     if why is not None:  # (said in plan.json solver.widen and the summary)
         run.reports["widen"] = {"status": "skipped", "accepted": False, "reason": why}
         return "skipped"

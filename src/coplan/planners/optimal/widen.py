@@ -312,6 +312,9 @@ def widen(problem: Problem, alloc: Allocation, schedules: dict[str, ArmSchedule]
     if not problem.neighbour_pairs():
         info["reason"] = "no neighbouring arms: nothing to widen"
         return WidenResult(None, info)
+    if not makespan > 0:  # (a plan that places nothing has no makespan to hold: its clearance over no samples raised)
+        info["reason"] = "the plan harvests nothing: nothing to widen"
+        return WidenResult(None, info)
     # a plan far past the knot limit is left at once (easing it first took 8 s of a 60-fruit
     # cell's solve, three times over with the retries, for a grid of 2027 knots refused after it;
     # easing keeps the plan's length, so the knots: within the limit's half more, the eased grid decides)
