@@ -180,8 +180,8 @@ def _row_fruit(p, res, m: dict, r: dict, solver: dict) -> None:
     left = {f: why for f, why in (solver.get("left_out") or {}).items() if f not in out and f not in got}
     if left:  # harvestable but not harvested by this plan, and why (all of them: plan.json solver.row.left_out)
         p(f"  left out          {plural(len(left), 'harvestable fruit', 'harvestable fruit')}:")
-        for fid, why in list(left.items())[:5]:
-            p(f"    {safe(why)}")
+        for fid, why in list(left.items())[:5]:  # (stop and go's reasons begin at the stop, not with the fruit)
+            p(f"    {safe(why) if str(why).startswith(f'{fid}:') else f'{safe(fid)}: {safe(why)}'}")
         if len(left) > 5:
             p(f"    ... and {len(left) - 5} more (plan.json: solver.row.left_out)")
 
