@@ -562,6 +562,65 @@ def test_a_row_whose_dwells_alone_outlast_the_longest_plan_is_refused_when_read_
     assert any(i.path == "task.pick_dwell" for i in e.value.issues)
 
 
+SLOW_ARMS_ROW = """name: slow-arms
+defaults: {links: [1.0, 0.8], link_radius: 0.04, joint_limits: [[-3.1416, 3.1416], [-3.0416, 3.0416]],
+  max_velocity: [0.001, 0.001], max_acceleration: [8.0, 12.0], max_jerk: [80.0, 120.0], home: [1.0472, 0.7854]}
+arms:
+  - {name: a1, base: [-1.5, 0.0], bin: [-1.5, -0.5]}
+  - {name: a2, base: [1.5, 0.0], bin: [1.5, -0.5]}
+fruits:
+  - {id: f1, position: [1.0, 1.0]}
+  - {id: f2, position: [2.0, 1.2]}
+  - {id: f3, position: [3.5, 0.9]}
+  - {id: f4, position: [5.0, 1.1]}
+""" + "".join(f"  - {{id: g{i}, position: [{1.2 + 0.6 * i:.1f}, 1.3]}}\n" for i in range(6)) + """task: {pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}
+gantry: {start: 0.0, end: 6.0, max_velocity: 0.5, max_acceleration: 0.5, max_jerk: 5.0}
+"""
+
+
+def test_a_row_whose_arms_work_alone_outlasts_the_longest_plan_is_refused_when_read(tmp_path):
+    """(From a user's trial: a two-arm row of 10 fruit with arms limited to 0.001 rad/s -- within
+    the documented range -- passed coplan check, coplan solve planned 42205 s in 99 s and 3 GB and
+    called it a success, and its 244 MB plan.json was refused by coplan verify.) The arms' work
+    (both dwells and the elbow's turns from the bin's bend to a fruit's and back) is bounded when
+    the file is read; the same row with the course's limits is planned."""
+    from coplan.generate import gantry_row, to_yaml
+
+    d = gantry_row(length=6, n_arms=2, density=1.5, seed=1)
+    for arm in d["arms"]:
+        arm["max_velocity"] = [0.001, 0.001]
+    f = tmp_path / "slow.yaml"
+    f.write_text(to_yaml(d))
+    wide = CliRunner(env={"COLUMNS": "400"})
+    res = wide.invoke(app, ["check", str(f)])
+    assert res.exit_code == 3, res.output
+    said = " ".join(res.output.split())
+    assert "arms: expected a row whose plan fits in 2.4 h" in said and "its lower bound for any plan" in said, said
+    assert "arm1 max_velocity [0.001, 0.001] rad/s" in said
+    for cmd in (["solve", str(f), "--out", str(tmp_path / "s")],
+                ["run", str(f), "--gantry", "stop-and-go", "--out", str(tmp_path / "r")]):
+        res = wide.invoke(app, cmd)
+        assert res.exit_code == 3 and "its lower bound for any plan" in " ".join(res.output.split()), res.output
+        assert not (tmp_path / cmd[-1]).exists()
+    with pytest.raises(ProblemError):  # (in Python too)
+        coplan.solve(parse_problem(to_yaml(d)))
+    # the plainest cases when the file is read, before any bound (the trial's row: fruit high above the bins)
+    text = SLOW_ARMS_ROW
+    with pytest.raises(ProblemError) as e:
+        parse_problem(text)
+    assert ":5: arms[0]: expected a row whose plan fits in 2.4 h" in str(e.value) and "arms' work alone takes at least" in str(e.value)
+    assert parse_problem(text.replace("max_velocity: [0.001, 0.001]", "max_velocity: [0.05, 0.05]")).gantry is not None
+    from coplan.allocate.row_bound import row_bounds
+    from coplan.problem.plausible import plan_seconds_limit, row_work_bound
+    from coplan.row.plan import check_row_work
+
+    for arm in d["arms"]:
+        arm["max_velocity"] = [0.002, 0.002]  # (slow: the bound is computed, and within the limit)
+    p = parse_problem(to_yaml(d))
+    assert plan_seconds_limit(p) / 4 < row_work_bound(p).seconds < row_bounds(p, priced=False).any_plan < plan_seconds_limit(p)
+    check_row_work(p)
+
+
 def test_the_row_entry_points_and_options_are_names_of_coplan_row():
     """(``from coplan.row import RowOptions`` raised ImportError; the docs name the options but
     not their modules.) Each is the object its module defines."""

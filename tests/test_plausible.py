@@ -172,6 +172,26 @@ def test_duration_bounds_are_lower_bounds_on_the_shipped_problems() -> None:
     assert MAX_PLAN_SECONDS == 12 * 3600 and math.isfinite(plan_duration_bound(slow).seconds)
 
 
+def test_the_row_work_bound_is_below_every_row_plan() -> None:
+    """:func:`row_work_bound` (each fruit's dwells and elbow turns on its cheapest arm, shared
+    evenly) is a lower bound: below each shipped row's bound for any plan, and below the plans of
+    seeded generated rows (stop and go, and on the move)."""
+    import coplan
+    from coplan.allocate.row_bound import row_bounds
+    from coplan.generate import gantry_row, to_yaml
+    from coplan.problem import shipped_rows
+    from coplan.problem.plausible import row_work_bound
+
+    for name in shipped_rows():
+        p = load_problem(name)
+        assert 0 < row_work_bound(p).seconds <= row_bounds(p, priced=False).any_plan, name
+    for seed, n_arms, density in ((0, 2, 4.0), (1, 3, 8.0), (2, 1, 3.0)):
+        p = parse_problem(to_yaml(gantry_row(length=5.0, n_arms=n_arms, density=density, seed=seed)))
+        b = row_work_bound(p).seconds
+        for gantry in ("stop-and-go", "continuous"):
+            assert b <= coplan.solve(p, gantry=gantry).plan.metrics["makespan"] + 1e-9, (seed, gantry)
+
+
 def test_the_longest_plan_allowed_fits_the_plan_file_cap(tmp_path: Path) -> None:
     # coplan must be able to read back every plan it makes: the per-sample size model is an
     # upper estimate of real plan files (JSON and CSV), so the longest plan allowed fits the cap

@@ -18,10 +18,12 @@ def check_row(prob, path: Path, as_json: bool, out_console, resolution: float | 
     """``coplan check`` of a row: which fruit some carriage position serves (and why not), the
     arms the screen locks, the carriage span, the stop rules' stop counts and the row's lower bounds."""
     from ..allocate.row_bound import row_bounds
+    from ..row.plan import check_row_work
     from ..row.reach import DEFAULT_RESOLUTION, row_reach
     from ..row.stops import carriage_span, fewest_stops, fixed_stops
 
     g = prob.gantry
+    check_row_work(prob)  # (a row no plan can hold: refused as coplan solve refuses it, exit 3)
     reach = row_reach(prob, resolution or DEFAULT_RESOLUTION)
     b = row_bounds(prob)
     doc = {"problem": prob.name, "file": str(path), "arms": len(prob.arms), "fruit": len(prob.fruits),

@@ -320,7 +320,7 @@ def row_duration_issues(problem) -> list[tuple[tuple, str]]:
     if g is None:
         return []
     if dist / g.max_velocity <= limit:
-        return row_dwell_issues(problem)
+        return row_dwell_issues(problem) or row_work_issues(problem)
     return [(("gantry", "max_velocity"), (
         f"expected a carriage that covers the row in a plan of at most {_hours(limit)} (plans are sampled at "
         f"{SAMPLE_RATE:g} Hz{'' if limit == MAX_PLAN_SECONDS else f'; with {len(problem.arms)} arms, longer plans make files over {MAX_PLAN_BYTES >> 20} MiB'}), "
@@ -351,6 +351,99 @@ def row_dwell_issues(problem) -> list[tuple[tuple, str]]:
         f"(pick_dwell {task.pick_dwell:g} s + place_dwell {task.place_dwell:g} s), shared by {len(problem.arms)} arms "
         f"(dwells are in s)"
     ))]
+
+
+def row_work_bound(problem) -> DurationBound:
+    """A lower bound on any row plan's length from its arms' work, wherever the carriage stands:
+    each fruit costs its arm both dwells and two turns of the elbow -- from the bend that puts the
+    tip over the bin (which rides with the carriage: the same bend at every carriage position) to
+    a bend that reaches the fruit from some carriage position (the fruit's distance from the
+    base ranges over ``[|dy|, outer reach]`` as the carriage moves: an interval of bends) and
+    back -- on its cheapest arm; the plan is at least as long as the dearest fruit and as the
+    total shared evenly by the arms. Cheap (closed form), so it runs when a file is loaded."""
+    task = problem.task
+    pts = problem.fruit_positions
+    if not len(pts) or not problem.arms:
+        return DurationBound(0.0)
+    cost = np.full((len(problem.arms), len(pts)), np.inf)
+    for i, arm in enumerate(problem.arms):
+        l1, l2 = (float(x) for x in arm.links)
+
+        def bend(r):  # |elbow angle| of a tip at distance r from the base (decreasing in r)
+            return np.arccos(np.clip((np.square(r) - l1 * l1 - l2 * l2) / (2.0 * l1 * l2), -1.0, 1.0))
+
+        def lean(q2):  # how far the elbow's bend turns the tip from the shoulder's direction, rad
+            return np.arctan2(l2 * np.sin(q2), l1 + l2 * np.cos(q2))
+
+        def most_lean(a, b):  # the largest lean over bends in [a, b] (exact: it peaks once, if at all)
+            peak = math.acos(-l2 / l1) if l1 > l2 else math.pi
+            return np.where((a <= peak) & (peak <= b), lean(np.full(np.shape(a), peak)), np.maximum(lean(a), lean(b)))
+
+        rel = pts[:, 1] - arm.base[1]
+        dy = np.abs(rel)
+        r_out, r_in = l1 + l2 - task.reach_margin, abs(l1 - l2) + task.reach_margin
+        ok = dy <= r_out
+        lo, hi = bend(np.full(dy.shape, r_out)), bend(np.maximum(dy, r_in))
+        rb = math.dist(arm.bin, arm.base)
+        b = float(bend(rb))
+        turn = np.maximum(0.0, np.maximum(lo - b, b - hi))
+        # the shoulder: the fruit's direction from the base lies between those of the farthest
+        # points of its line in reach (either side), the tip leaning at most ``most_lean`` from it;
+        # the bin's direction is fixed, its lean the bin's bend's (either elbow branch)
+        w = np.sqrt(np.maximum(r_out * r_out - dy * dy, 0.0))
+        up = np.where(rel >= 0, 1.0, -1.0)
+        d_lo, d_hi = np.where(up > 0, np.arctan2(dy, w), -np.arctan2(dy, -w)), np.where(up > 0, np.arctan2(dy, -w), -np.arctan2(dy, w))
+        spread = most_lean(lo, hi)
+        phi_b = math.atan2(arm.bin[1] - arm.base[1], arm.bin[0] - arm.base[0])
+        sweep = np.full(dy.shape, np.inf)
+        for q1b in (phi_b - float(lean(b)), phi_b + float(lean(b))):
+            # circular distance from q1b to the arc [d_lo - spread, d_hi + spread]
+            a0, a1 = d_lo - spread, d_hi + spread
+            inside = np.mod(q1b - a0, 2 * math.pi) <= (a1 - a0)
+            gap = np.minimum(np.abs(np.angle(np.exp(1j * (q1b - a0)))), np.abs(np.angle(np.exp(1j * (q1b - a1)))))
+            sweep = np.minimum(sweep, np.where(inside | (a1 - a0 >= 2 * math.pi), 0.0, gap))
+        t = move_times(np.stack([sweep, turn], axis=-1), arm.max_velocity, arm.max_acceleration, arm.max_jerk)
+        cost[i] = np.where(ok, 2.0 * t + task.pick_dwell + task.place_dwell, np.inf)
+    best = cost.min(axis=0)
+    ok = np.isfinite(best)
+    if not ok.any():
+        return DurationBound(0.0)
+    f = int(np.argmax(np.where(ok, best, -np.inf)))
+    seconds = max(float(best[f]), float(best[ok].sum()) / len(problem.arms))
+    return DurationBound(seconds, int(np.argmin(cost[:, f])), f, float(best[f]))
+
+
+def row_work_issues(problem) -> list[tuple[tuple, str]]:
+    """``(key path, message)`` when the arms' work alone (:func:`row_work_bound`) outlasts
+    :func:`max_plan_seconds` (arms limited to 0.001 rad/s were accepted on a row: 42205 s planned
+    in 99 s and 3 GB, a 244 MB plan.json that coplan verify refuses to read); else nothing."""
+    b = row_work_bound(problem)
+    limit = plan_seconds_limit(problem)
+    if b.seconds <= limit:
+        return []
+    arm = problem.arms[b.arm]
+    return [(_duration_cause(problem, b), (
+        f"expected a row whose plan fits in {_hours(limit)} (plans are sampled at {SAMPLE_RATE:g} Hz"
+        f"{'' if limit == MAX_PLAN_SECONDS else f'; with {len(problem.arms)} arms, longer plans make files over {MAX_PLAN_BYTES >> 20} MiB'}), "
+        f"found one whose arms' work alone takes at least {_hours(b.seconds)}, estimated from the limits before "
+        f"planning: {len(problem.fruits)} fruit, each picked and placed with the elbow turning from its bin's bend "
+        f"to the fruit's and back; fruit {problem.fruits[b.fruit].id!r} alone takes at least {_hours(b.fruit_seconds)} "
+        f"on its fastest arm {arm.name!r} (max_velocity {list(arm.max_velocity)} rad/s, max_acceleration "
+        f"{list(arm.max_acceleration)} rad/s^2, max_jerk {list(arm.max_jerk)} rad/s^3; pick_dwell "
+        f"{problem.task.pick_dwell:g} s, place_dwell {problem.task.place_dwell:g} s)"
+    ))]
+
+
+def too_long_row(problem, seconds: float, what: str) -> str:
+    """The message of a row refused because ``what`` (its plan's length, bounded below) is
+    ``seconds``, more than :func:`max_plan_seconds`: the arms' limits, which set it."""
+    limit = plan_seconds_limit(problem)
+    limits = "; ".join(f"{a.name} max_velocity {list(a.max_velocity)} rad/s, max_acceleration {list(a.max_acceleration)} "
+                       f"rad/s^2" for a in problem.arms[:4]) + ("; ..." if len(problem.arms) > 4 else "")
+    return (f"expected a row whose plan fits in {_hours(limit)} (plans are sampled at {SAMPLE_RATE:g} Hz"
+            f"{'' if limit == MAX_PLAN_SECONDS else f'; with {len(problem.arms)} arms, longer plans make files over {MAX_PLAN_BYTES >> 20} MiB'}), "
+            f"found one whose {what} {_hours(seconds)}: {len(problem.fruits)} fruit, its arms' limits {limits} "
+            f"(pick_dwell {problem.task.pick_dwell:g} s, place_dwell {problem.task.place_dwell:g} s)")
 
 
 def _speed_within(speed, lo: float, hi: float) -> bool:

@@ -119,6 +119,9 @@ def run_live_row(problem: Problem | str, options: LiveRowOptions | None = None, 
                                             f"mapping, found {type(p).__name__}")
     if problem.gantry is None:
         raise ValueError(f"{problem.name!r} has no gantry: a live row needs a row")
+    from .plan import check_row_work
+
+    check_row_work(problem)  # (a row no plan of coplan's can hold: refused before the feed is drawn)
     if options is not None and not isinstance(options, LiveRowOptions):
         raise TypeError(f"options: a live row takes LiveRowOptions(...), found {type(options).__name__} {options!r}")
     opts = options or LiveRowOptions()

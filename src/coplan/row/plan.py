@@ -247,6 +247,30 @@ def check_row_call(problem, progress, what: str) -> None:
     require_problem(problem, what)
     check_progress(progress, what)
     check_as_file(problem)  # (as coplan.solve: a carriage of 1 um/s took 21 GB here)
+    check_row_work(problem)
+
+
+def check_row_work(problem: Problem) -> None:
+    """:class:`~coplan.errors.ProblemError` where the row's lower bound for any plan
+    (:func:`coplan.allocate.row_bound.row_bounds`) outlasts the longest plan coplan makes
+    (:func:`coplan.problem.plausible.max_plan_seconds`): arms limited to 0.001 rad/s on a two-arm
+    row of 10 fruit passed the file's checks, and coplan solve planned 42205 s in 99 s and 3 GB
+    and called it a success, its 244 MB plan.json refused by coplan verify. The file's own check
+    (:func:`~coplan.problem.plausible.row_work_bound`, closed form) catches the plainest cases;
+    the bound (about a second on a shipped row) is computed only where that comes within a
+    quarter of the limit."""
+    from ..allocate.row_bound import row_bounds
+    from ..errors import Issue, ProblemError
+    from ..problem.plausible import plan_seconds_limit, row_work_bound, too_long_row
+
+    limit = plan_seconds_limit(problem)
+    if row_work_bound(problem).seconds <= limit / 4:
+        return
+    bound = row_bounds(problem, priced=False).any_plan
+    if bound > limit:
+        raise ProblemError([Issue("arms", too_long_row(problem, bound, "its lower bound for any plan (coplan check "
+                                                                       "gives its parts) is"))],
+                           str(problem.source) if problem.source else "a problem built in Python")
 
 
 def plan_row(problem: Problem, options: RowOptions | None = None, progress: Callable[[str], None] | None = None) -> RowResult:
