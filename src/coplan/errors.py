@@ -43,6 +43,9 @@ class InputError(CoplanError, ValueError):
 
     kind = "input"
     MAX_SHOWN = 200
+    #: the file could not be read (permissions, a device error), not its contents: the CLI's exit
+    #: 8 (io_error), as for a plan file (an unreadable problem file exited 3, "fix its contents")
+    unreadable = False
 
     def __init__(self, issues: list[Issue], source: str | None = None):
         self.issues = list(issues)

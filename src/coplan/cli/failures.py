@@ -250,7 +250,7 @@ def failure_of(exc: BaseException) -> tuple[ExitCode, str]:
     if isinstance(exc, Failure):
         return exc.code, exc.message
     if isinstance(exc, InputError):
-        return ExitCode.BAD_INPUT, str(exc)
+        return (ExitCode.IO_ERROR if exc.unreadable else ExitCode.BAD_INPUT), str(exc)
     if isinstance(exc, KeyboardInterrupt) or (  # (a Ctrl-C landing in a C extension's initialisation: its ImportError)
             type(exc) is ImportError and "initialization failed" in str(exc) and (INTERRUPTED or TERMINATED)):
         return ((ExitCode.TERMINATED, "terminated (SIGTERM)" + written_note(exc)) if TERMINATED

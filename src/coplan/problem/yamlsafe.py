@@ -417,7 +417,9 @@ def read_input_text(path, error: type[InputError]) -> str:
         with open(p, "rb") as f:  # (at most the cap, whatever the size said: a pipe says 0)
             raw = f.read(MAX_FILE_BYTES + 1)
     except OSError as e:
-        raise error([Issue("", f"expected a readable file, found an error: {e.strerror}")], src) from None
+        err = error([Issue("", f"expected a readable file, found an error: {e.strerror}")], src)
+        err.unreadable = True
+        raise err from None
     if len(raw) > MAX_FILE_BYTES:
         raise error([Issue("", f"expected a file of at most {MAX_FILE_BYTES} bytes, found more")], src)
     try:
