@@ -95,6 +95,11 @@ def test_options_with_the_heuristic_is_a_usage_error(tmp_path: Path) -> None:
     res = run("solve", "--planner", "heuristic", "--time-limit", "5", "--out", str(tmp_path / "o"))
     assert res.exit_code == int(ExitCode.USAGE) and "--time-limit: the heuristic planner" in res.output
     assert not (tmp_path / "o").exists()
+    # nor --workers where no planner compared has a search (compare ignored it, solve refused it)
+    res = run("compare", "single_arm", "--planner", "heuristic", "--planner", "coordinated", "--workers", "2",
+              "--no-figures", "--out", str(tmp_path / "c"))
+    assert res.exit_code == int(ExitCode.USAGE) and "--workers: no planner compared has a search" in res.output, res.output
+    assert not (tmp_path / "c").exists()
 
 
 def test_ipopt_settings_are_checked_before_any_work(tmp_path: Path) -> None:

@@ -534,7 +534,10 @@ def compare_cmd(
                               "it applies to --planner optimal or coordinated")
     failures.check_out_dir(out)
     options = _solver_options(options_file, time_limit, any(s.planner != PlannerKind.HEURISTIC for s in specs))
-    if n_workers is not None and any(s.planner == PlannerKind.OPTIMAL for s in specs):
+    if n_workers is not None and not any(s.planner == PlannerKind.OPTIMAL for s in specs):  # (as solve: said, not ignored)
+        _fail(ExitCode.USAGE, f"--workers: no planner compared has a search to run in parallel "
+                              f"({', '.join(s.planner.value for s in specs)}); it applies to --planner optimal")
+    if n_workers is not None:
         from dataclasses import replace
 
         from ..planners.optimal.planner import OptimalOptions
