@@ -637,3 +637,48 @@ def test_atomic_texts_puts_nothing_in_place_when_its_check_refuses_and_names_a_r
         atomic_texts([(a, "new"), (b, "new")])
     assert e.value.filename == str(b) and "put in place before it: a.txt" in str(e.value)
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".partial")]
+
+
+def test_an_unreadable_problem_file_exits_with_the_io_code_as_an_unreadable_plan_does(tmp_path, monkeypatch):
+    """(From a user's trial: a problem file the user may not read exited 3, "bad input" -- fix its
+    contents -- where an unreadable plan exits 8, as the exit-code table says of permissions.)"""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+    from coplan.problem import yamlsafe
+
+    path = tmp_path / "p.yaml"
+    path.write_text(_single().read_text())
+
+    def denied(file, mode="r", *args, **kwargs):
+        if Path(file) == path:
+            raise PermissionError(13, "Permission denied", str(file))
+        return open(file, mode, *args, **kwargs)
+
+    monkeypatch.setattr(yamlsafe, "open", denied, raising=False)
+    for cmd in (["check", str(path)], ["solve", str(path), "--out", str(tmp_path / "o")]):
+        r = CliRunner().invoke(app, cmd)
+        assert r.exit_code == 8 and "expected a readable file, found an error: Permission denied" in r.output, r.output
+    r = CliRunner().invoke(app, ["check", str(path), "--json"])
+    assert r.exit_code == 8 and json.loads(r.stdout)["error"] == "io_error"
+
+
+def test_an_out_ending_with_a_separator_is_a_folder_for_every_command(tmp_path):
+    """(From a user's trial: ``plot -o new/`` wrote new.png, ``plot -o a/sub/`` a/sub.png, ``view
+    -o new/`` was refused as no .html name, while export and verify wrote into the folder.)"""
+    from typer.testing import CliRunner
+
+    from coplan.cli import app
+
+    run = CliRunner().invoke
+    assert run(app, ["solve", str(_single()), "--planner", "coordinated", "--out", str(tmp_path / "o")]).exit_code == 0
+    plan = str(tmp_path / "o" / "plan.json")
+    for cmd, made in ((["plot", plan, "-o", f"{tmp_path}/new/"], "new/plan_gantt.png"),
+                      (["plot", plan, "-o", f"{tmp_path}/a/sub/"], "a/sub/plan_gantt.png"),
+                      (["view", plan, "-o", f"{tmp_path}/page/"], "page/plan.html"),
+                      (["export", plan, "-o", f"{tmp_path}/ex/"], "ex/plan_100hz.csv")):
+        r = run(app, cmd)
+        assert r.exit_code == 0 and (tmp_path / made).is_file(), (cmd, r.output)
+    assert not (tmp_path / "new.png").exists() and not (tmp_path / "a" / "sub.png").exists()
+    r = CliRunner(env={"COLUMNS": "300"}).invoke(app, ["export", plan, "-o", "-"])
+    assert r.exit_code == 2 and "a command with --json prints its summary on stdout" in " ".join(r.output.split()), r.output

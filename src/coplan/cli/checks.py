@@ -121,15 +121,27 @@ def in_path(value: str) -> Path:
     return Path(value)
 
 
+class FolderOut(type(Path())):  # type: ignore[misc]
+    """An ``--out`` given with a trailing separator: a folder, whether or not it exists yet
+    (``Path`` drops the separator: ``--out ex/`` wrote a file named ``ex``, ``plot -o new/`` new.png)."""
+
+
 def out_path(value: str) -> Path:
-    """``--out``'s value as a Path. An empty one (``--out "$DIR"`` with ``DIR`` unset, say) is
-    refused (exit 2) rather than read as the current folder, which typer would make of it."""
+    """``--out``'s value as a Path (a :class:`FolderOut` where it ends with a separator). An empty
+    one (``--out "$DIR"`` with ``DIR`` unset, say) is refused (exit 2) rather than read as the
+    current folder, which typer would make of it."""
     if value == "":
         raise typer.BadParameter("expected a file or folder name, found an empty string (an unset variable?)")
-    if value == "-":  # (no command writes its files to stdout: --json prints the summary there)
+    if value == "-":  # (no command writes its files to stdout; it said --json did, which most have not)
         raise typer.BadParameter("expected a file or folder name, found '-': coplan writes files, not to stdout "
-                                 "(--json prints the summary on stdout)")
-    return Path(value)
+                                 "(a command with --json prints its summary on stdout)")
+    return FolderOut(value) if isinstance(value, str) and value.endswith(("/", os.sep)) else Path(value)
+
+
+def into_folder(out: Path | None) -> bool:
+    """Whether ``--out`` names a folder to write into: one that exists, or one given with a
+    trailing separator (made by the command)."""
+    return out is not None and (isinstance(out, FolderOut) or out.is_dir())
 
 
 def solver_options(path: Optional[Path], time_limit: Optional[float], applies: bool):

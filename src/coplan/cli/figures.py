@@ -15,7 +15,7 @@ from typing import Annotated, Optional
 import typer
 
 from . import failures
-from .checks import between, check_still_read, choice, choices, fail, file_state, in_path, out_path, real, whole
+from .checks import between, check_still_read, choice, choices, fail, file_state, in_path, into_folder, out_path, real, whole
 from .console import ProgressDisplay, text_console
 from .failures import resolve_problem
 from .summary import safe as _s
@@ -160,7 +160,7 @@ def plot_cmd(
     # plan_gantt.png, the figure of plan.json beside it)
     stem = plan.stem if plan.suffix.lower() in (".json", ".yaml", ".yml", "") else f"{plan.stem}_{plan.suffix[1:].lower()}"
     target = out if out is not None else plan.with_name(f"{stem}_{kind.value}.png")
-    if out is not None and out.is_dir():  # (it wrote FOLDER.png beside the folder)
+    if into_folder(out):  # (it wrote FOLDER.png beside the folder; given as new/, new.png)
         target = out / f"{stem}_{kind.value}.png"
     if not target.suffix:  # (matplotlib writes NAME.png and it said "wrote NAME", a file of the user's of that name)
         target = target.with_name(target.name + ".png")
@@ -263,7 +263,7 @@ def view_cmd(
     """Write the interactive viewer of a plan: one self-contained HTML page (works offline) to scrub, play, hover, jump to violations."""
     from ..viz.viewer import write_view
 
-    if out is not None and out.is_dir():  # (into the folder, as verify and export take one: it was refused)
+    if into_folder(out):  # (into the folder, as verify and export take one: it was refused; given as new/ too)
         out = out / f"{plan.stem}.html"
     if out is not None and out.suffix.lower() not in (".html", ".htm"):  # (a usage error, before any work: as plot's and animate's --out)
         failures.usage(f"--out: expected a file name ending in .html, found {out.name!r}")

@@ -3,7 +3,6 @@ import: the heavy work is imported inside each command)."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -12,7 +11,7 @@ from rich.markup import escape
 
 from ..errors import printable
 from ..kinds import ExitCode, ExportFormat, SchemaKind
-from .checks import check_still_read, choice, choices, file_state, in_path, out_path, real
+from .checks import check_still_read, choice, choices, file_state, in_path, into_folder, out_path, real
 from .console import text_console
 from .failures import Failure, check_out_dir, check_out_file, check_overwrite
 
@@ -22,14 +21,6 @@ _out = text_console()
 _err = text_console(stderr=True)
 
 
-class _FolderOut(type(Path())):  # type: ignore[misc]
-    """An ``--out`` given with a trailing separator: a folder, whether or not it exists yet
-    (``Path`` drops the separator: ``--out ex/`` wrote a CSV file named ``ex``)."""
-
-
-def _export_out(value: str) -> Path:
-    p = out_path(value)
-    return _FolderOut(p) if value.endswith(("/", os.sep)) else p
 
 
 def export_cmd(
@@ -37,7 +28,7 @@ def export_cmd(
     rate: Annotated[float, typer.Option(parser=real, metavar="<float>", help="Points per second, Hz.")] = 100.0,
     fmt: Annotated[ExportFormat, typer.Option("--format", "-f", parser=choice(ExportFormat), metavar=choices(ExportFormat), help="csv: one file, every arm; json, yaml: a ROS 2 "
                                               "trajectory_msgs/JointTrajectory per arm, in a folder.")] = ExportFormat.CSV,
-    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=_export_out, metavar="PATH", help="CSV file, or folder (default: beside the plan; a CSV into a folder that exists, or ends with /, is named <plan>_<rate>hz.csv).")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="CSV file, or folder (default: beside the plan; a CSV into a folder that exists, or ends with /, is named <plan>_<rate>hz.csv).")] = None,
     problem: Annotated[Optional[Path], typer.Option("--problem", "-p", help="The plan's problem YAML, to verify the plan against (default: the problem file the plan records, else the shipped problem it names).")] = None,
     unverified: Annotated[bool, typer.Option("--unverified", help="Export without verifying the plan first (a plan the verifier fails is refused otherwise).")] = False,
 ):
@@ -141,7 +132,7 @@ def _export_target(plan_path: Path, rate: float, fmt: ExportFormat, out: Path | 
     if out is None:
         stem = plan_path.with_name(f"{plan_path.stem}_{_hz(rate)}hz")
         out = stem.with_name(stem.name + ".csv") if fmt == ExportFormat.CSV else stem  # (with_suffix took ".5hz" of 12.5 Hz for one)
-    if fmt == ExportFormat.CSV and (isinstance(out, _FolderOut) or out.is_dir()):  # into the folder
+    if fmt == ExportFormat.CSV and into_folder(out):  # into the folder
         out = Path(out) / f"{plan_path.stem}_{_hz(rate)}hz.csv"
         if out.is_dir():
             raise Failure(ExitCode.USAGE, f"--out {out}: expected a CSV file name, found a folder")
