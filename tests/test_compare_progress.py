@@ -68,6 +68,8 @@ def test_ctrl_c_in_the_cli_exits_130_with_the_report_of_what_finished(folder, tm
     res = CliRunner().invoke(app, ["compare", str(folder), "-p", "heuristic", "--no-figures", "-o", str(tmp_path / "o")])
     assert res.exit_code == ExitCode.INTERRUPTED, res.output
     assert "interrupted by the user (Ctrl-C)" in res.output  # the message, not the kind again ("interrupted")
+    # where what finished is (it said only "interrupted by the user"; a row's comparison said where)
+    assert f"interrupted: the report of what finished is in {tmp_path / 'o' / 'compare.json'}" in " ".join(res.output.split())
     doc = json.loads((tmp_path / "o" / "compare.json").read_text())
     assert [p["name"] for p in doc["problems"]] == ["problem-a"] and doc["rows"][0]["status"]
 

@@ -544,8 +544,14 @@ def compare_cmd(
 
         options = replace(options or OptimalOptions(), workers=n_workers)
     hint = _budget_hint(PlannerKind.OPTIMAL, time_limit) if any(s.planner == PlannerKind.OPTIMAL for s in specs) else None
-    with ProgressDisplay(err_console, quiet=as_json, hint=hint) as say:
-        cmp = compare(source, specs, out, figures=figures, options=options, progress=say)
+    try:
+        with ProgressDisplay(err_console, quiet=as_json, hint=hint) as say:
+            cmp = compare(source, specs, out, figures=figures, options=options, progress=say)
+    except KeyboardInterrupt:  # (as a row's comparison: it exited 130 saying nothing of what it kept)
+        if (out / "compare.json").exists():
+            err_console.print(f"interrupted: the report of what finished is in {_s(str(out / 'compare.json'))} and "
+                              f"compare.md (its notes say where it stopped); each finished run's folder is kept", highlight=False)
+        raise
     failures.work_done()  # (the report is written: the tables and the verdict follow)
     code = ExitCode.BAD_INPUT if cmp.bad_inputs else ExitCode.SOLVER_FAILED if cmp.failed_runs else ExitCode.OK
     if as_json:  # (with the exit code: a folder with a bad file exited 3 with nothing in the document to say so)
