@@ -180,3 +180,16 @@ def test_compare_row_exits_as_solve_does_where_no_plan_harvests_it_all(tmp_path,
     doc = json.loads(res.output)
     assert doc["exit_code"] == code and doc["best"] is None
     assert CliRunner().invoke(app, ["solve", str(path), "-o", str(tmp_path / "s")]).exit_code == code
+
+
+def test_compare_on_a_row_refuses_a_time_limit_or_options_naming_the_flag_given(tmp_path):
+    """(It said "--time-limit/--options: ..." to a user who gave only --time-limit.)"""
+    opts = tmp_path / "opts.yaml"
+    opts.write_text("seed: 1\n")
+    run = CliRunner(env={"COLUMNS": "300"}).invoke
+    for flags, named in ((["--time-limit", "5"], "--time-limit: "), (["--options", str(opts)], "--options: "),
+                         (["--time-limit", "5", "--options", str(opts)], "--time-limit/--options: ")):
+        r = run(app, ["compare", "course_row", *flags, "--out", str(tmp_path / "c")])
+        said = " ".join(r.output.split())
+        assert r.exit_code == 2 and f"{named}course_row.yaml is a row" in said, said
+        assert not (tmp_path / "c").exists()

@@ -177,7 +177,8 @@ def refuse_rows_in_compare(source: Path, time_limit, options_file) -> None:
     planned without them), and a folder of problems compares cells, so holds no row."""
     rows = rows_in(source)
     if rows and (time_limit is not None or options_file is not None):
-        fail(ExitCode.USAGE, f"--time-limit/--options: {safe(rows[0].name)} is a row: its stops are planned by the cell "
+        given = "/".join(f for f, v in (("--time-limit", time_limit), ("--options", options_file)) if v is not None)
+        fail(ExitCode.USAGE, f"{given}: {safe(rows[0].name)} is a row: its stops are planned by the cell "
                              "planner at each stop, without a wall-clock limit or solver options (they are for a stationary cell)")
     if rows and source.is_dir():
         fail(ExitCode.USAGE, f"{safe(source)}: comparing a folder compares the planners on stationary cells; "
