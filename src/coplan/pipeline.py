@@ -257,12 +257,17 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
         res = _better_mode(stopping, moving, cut)
     else:
         res = moving if mode == GantryMode.CONTINUOUS else stopping
-    if progress is not None:  # (the stop-by-stop bound's weight rounds: seconds on a long row, after the plan)
-        progress("row: the lower bounds (any plan; stop by stop, its weights over the arms searched)")
     tb = _time.perf_counter()
     plan = res.plan
     try:
-        bounds = row_bounds(prob)  # (remembered for a row and its settings: a second solve spends nothing here)
+        if plan.status == PlanStatus.INTERRUPTED:  # (a SIGTERM on a long row: 60 s of bounds after it, past a
+            bounds = None  # scheduler's grace; the row as far as it was planned is written at once, without them)
+            if progress is not None:
+                progress("row: interrupted; its lower bounds are not computed (the row kept as far as it was planned)")
+        else:
+            if progress is not None:  # (the stop-by-stop bound's weight rounds: seconds on a long row, after the plan)
+                progress("row: the lower bounds (any plan; stop by stop, its weights over the arms searched)")
+            bounds = row_bounds(prob)  # (remembered for a row and its settings: a second solve spends nothing here)
     except KeyboardInterrupt:
         bounds = None
         res.mark_interrupted("interrupted (Ctrl-C) while its lower bounds were computed: the row is planned and verified")

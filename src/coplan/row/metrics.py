@@ -200,6 +200,8 @@ def row_metrics(problem: Problem, result, bounds=None) -> dict:
         # compare.json and the summary gave none)
         out["ratio_stop_and_go_bound"] = (span / bounds.stop_and_go if whole and bounds.stop_and_go > 0 and span > 0
                                           and out["mode"] != GantryMode.CONTINUOUS else None)
+    else:  # (no bounds -- an interruption came first: no ratio, the keys there as for a partial row)
+        out.update(lower_bound=None, ratio_any_plan_bound=None, ratio_stop_and_go_bound=None)
     return out
 
 
