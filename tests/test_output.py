@@ -676,7 +676,8 @@ def test_an_out_ending_with_a_separator_is_a_folder_for_every_command(tmp_path):
     for cmd, made in ((["plot", plan, "-o", f"{tmp_path}/new/"], "new/plan_gantt.png"),
                       (["plot", plan, "-o", f"{tmp_path}/a/sub/"], "a/sub/plan_gantt.png"),
                       (["view", plan, "-o", f"{tmp_path}/page/"], "page/plan.html"),
-                      (["export", plan, "-o", f"{tmp_path}/ex/"], "ex/plan_100hz.csv")):
+                      (["export", plan, "-o", f"{tmp_path}/ex/"], "ex/plan_100hz.csv"),
+                      (["animate", plan, "-o", f"{tmp_path}/anim/"], "anim/plan.gif")):
         r = run(app, cmd)
         assert r.exit_code == 0 and (tmp_path / made).is_file(), (cmd, r.output)
     assert not (tmp_path / "new.png").exists() and not (tmp_path / "a" / "sub.png").exists()

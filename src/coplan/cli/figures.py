@@ -224,7 +224,7 @@ def animate_cmd(
     plan: Annotated[Path, typer.Argument(parser=in_path, metavar="PLAN", help="plan.json to animate.")],
     problem: PlanProblemOption = None,
     out: Annotated[
-        Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output .gif (default, next to the plan) or .mp4.")
+        Optional[Path], typer.Option("--out", "-o", parser=out_path, metavar="PATH", help="Output .gif (default, next to the plan) or .mp4, or a folder to write <plan>.gif in.")
     ] = None,
     speed: Annotated[float, typer.Option(parser=real, metavar="<float>", callback=between(0.01, 100.0), help="Playback speed: 1 = real time, 2 = twice as fast (0.01-100).")] = 1.0,
     fps: Annotated[float, typer.Option(parser=real, metavar="<float>", callback=between(1.0, 60.0), help="Frames per second of the animation (1-60).")] = 10.0,
@@ -233,6 +233,8 @@ def animate_cmd(
     """Render a plan as an animation: arms, fruit, bins, phases, clearance alarms (GIF or MP4)."""
     from ..viz.animate import animate_plan
 
+    if into_folder(out):  # (into the folder, as plot, view, verify and export take one: it was refused)
+        out = out / f"{plan.stem}.gif"
     if out is not None and out.suffix.lower() not in (".gif", ".mp4"):
         fail(ExitCode.USAGE, f"--out: expected a .gif or .mp4 file, found {_s(out)!r}")
     target = out if out is not None else plan.with_suffix(".gif")
