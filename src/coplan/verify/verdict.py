@@ -466,7 +466,7 @@ def measured_metrics(metrics: Mapping[str, Any] | None, stated: Mapping[str, Map
     out = dict(metrics or {})
     row = dict(out["row"]) if isinstance(out.get("row"), Mapping) else None
     for key, fig in stated.items():
-        value = int(round(fig["measured"])) if key.endswith("harvested") else fig["measured"]  # (a count: "11.0/11 fruit")
+        value = int(round(fig["measured"])) if key in ("harvested", "row.harvested") else fig["measured"]  # (a count: "11.0/11 fruit")
         if key == "row_time" or key.startswith("row."):
             if row is not None:
                 row[key.removeprefix("row.")] = value
