@@ -260,8 +260,11 @@ def _solve_row(prob: Problem, planner, out_dir, options, progress, stops, t0: fl
     tb = _time.perf_counter()
     plan = res.plan
     try:
-        if plan.status == PlanStatus.INTERRUPTED:  # (a SIGTERM on a long row: 60 s of bounds after it, past a
-            bounds = None  # scheduler's grace; the row as far as it was planned is written at once, without them)
+        placed = {e.fruit for e in plan.events if e.kind == EventKind.PLACE}
+        if plan.status == PlanStatus.INTERRUPTED and len(placed) < len(res.reach.harvestable()):
+            # (a SIGTERM on a long row: 60 s of bounds after it, past a scheduler's grace; the part of the row
+            # planned is written at once, without them -- it has no ratio to them; a whole row keeps them)
+            bounds = None
             if progress is not None:
                 progress("row: interrupted; its lower bounds are not computed (the row kept as far as it was planned)")
         else:
