@@ -192,6 +192,29 @@ def test_the_row_work_bound_is_below_every_row_plan() -> None:
             assert b <= coplan.solve(p, gantry=gantry).plan.metrics["makespan"] + 1e-9, (seed, gantry)
 
 
+def test_the_row_work_bound_counts_only_fruit_an_arm_can_pick() -> None:
+    """(A reviewer's counterexample: a shoulder limited to [0, pi] cannot turn down to 40 fruit below
+    the base; they counted 2269 s each of a 0.001 rad/s shoulder's work, and a row whose one
+    reachable fruit plans in seconds was refused when read.)"""
+    from coplan.allocate.row_bound import row_bounds
+    from coplan.problem.plausible import row_work_bound
+
+    low = "".join(f"  - {{id: d{i}, position: [{0.2 + 0.2 * i:.1f}, -1.5]}}\n" for i in range(40))
+    text = f"""name: low-fruit
+defaults: {{links: [1.0, 0.8], link_radius: 0.04, joint_limits: [[0.0, 3.1416], [-3.0416, 3.0416]],
+  max_velocity: [0.001, 4.0], max_acceleration: [8.0, 12.0], max_jerk: [80.0, 120.0], home: [1.0472, 0.7854]}}
+arms:
+  - {{name: a1, base: [0.0, 0.0], bin: [0.0, 0.5]}}
+fruits:
+  - {{id: ok, position: [5.0, 1.2]}}
+{low}task: {{pick_dwell: 0.3, place_dwell: 0.2, clearance: 0.05}}
+gantry: {{start: 0.0, end: 10.0, max_velocity: 0.5, max_acceleration: 0.5, max_jerk: 5.0}}
+"""
+    p = parse_problem(text)
+    assert p.reachable_ids() == ["ok"]
+    assert row_work_bound(p).seconds <= row_bounds(p, priced=False).any_plan + 1e-9
+
+
 def test_the_longest_plan_allowed_fits_the_plan_file_cap(tmp_path: Path) -> None:
     # coplan must be able to read back every plan it makes: the per-sample size model is an
     # upper estimate of real plan files (JSON and CSV), so the longest plan allowed fits the cap

@@ -366,7 +366,12 @@ def row_work_bound(problem) -> DurationBound:
     if not len(pts) or not problem.arms:
         return DurationBound(0.0)
     cost = np.full((len(problem.arms), len(pts)), np.inf)
+    # (only fruit an arm reaches from some carriage position within its joint limits, and arms that
+    # reach their bin: a fruit no arm can pick counted its arm's work, and a plannable row was refused)
+    reach = problem.reach_matrix()
     for i, arm in enumerate(problem.arms):
+        if not arm.ik(np.asarray(arm.bin, float), 0.0)[1].any():
+            continue
         l1, l2 = (float(x) for x in arm.links)
 
         def bend(r):  # |elbow angle| of a tip at distance r from the base (decreasing in r)
@@ -382,7 +387,7 @@ def row_work_bound(problem) -> DurationBound:
         rel = pts[:, 1] - arm.base[1]
         dy = np.abs(rel)
         r_out, r_in = l1 + l2 - task.reach_margin, abs(l1 - l2) + task.reach_margin
-        ok = dy <= r_out
+        ok = (dy <= r_out) & reach[i]
         lo, hi = bend(np.full(dy.shape, r_out)), bend(np.maximum(dy, r_in))
         rb = math.dist(arm.bin, arm.base)
         b = float(bend(rb))
