@@ -15,7 +15,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from .checks import between, choice, choices, in_path, out_path, real, whole
+from .checks import FolderOut, between, choice, choices, in_path, out_path, real, whole
 from .console import ProgressDisplay, text_console
 from .failures import check_out_dir, check_out_file, check_overwrite, exit_fields, resolve_problem, usage, work_done
 from .summary import safe as _safe, tucked_text
@@ -53,6 +53,8 @@ def feed_cmd(
     from ..live.feed import feed_yaml, make_feed
     from ..output import atomic_text
 
+    if isinstance(out, FolderOut):  # (given as new/: it wrote a file named new)
+        usage(f"--out {_safe(str(out))}/: expected a feed file name (YAML), found a folder name")
     check_out_file(out)
     check_overwrite(out, "a coplan.feed file", "an earlier feed")  # (a problem, a plan: never overwritten by a typo)
     prob = load_problem(resolve_problem(problem, lambda m: _err.print(f"[dim]{_safe(m)}[/]", highlight=False)))

@@ -220,7 +220,7 @@ def _status_note(name: str, plan, problem: Problem) -> str:
     m = plan.metrics
     why = {PlanStatus.INFEASIBLE: "no fruit can be harvested from any carriage position"
                                   + (" (the problem lists no fruit)" if not problem.fruits else ""),
-           PlanStatus.PARTIAL: f"{m.get('harvested', 0)} of {m.get('reachable', 0)} harvestable fruit harvested",
+           PlanStatus.PARTIAL: f"{m.get('harvested', 0)} of {m.get('harvestable', m.get('reachable', 0))} harvestable fruit harvested",
            PlanStatus.UNSAFE: "the verifier failed its plan (verification.json says where)"}.get(plan.status, "")
     what = f"stop rule {name}" if name != ON_THE_MOVE else ON_THE_MOVE
     return f"{what}: status {plan.status.value}" + (f": {why}" if why else "")

@@ -192,7 +192,7 @@
     if (on && T >= T_END - 1e-9) setTime(0);
     playBtn.textContent = on ? "\u23F8 pause" : "\u25B6 play";
     lastNow = null;
-    if (!on) writeHash();
+    if (!on) { writeHash(); dirty = true; }  // (a redraw: the canvas's spoken state is written when paused)
   }
 
   // ------------------------------------------------------------------ tooltip
