@@ -207,12 +207,19 @@ def plan_duration_bound(problem, baseline: bool = False) -> DurationBound:
         t_out = move_times(qf[:, :, None, :] - qb[None, None], *lim, cubic=baseline).min(axis=(1, 2))
         t_home = move_times(qb - home, *lim, cubic=True).min() if baseline else 0.0
         cost[i] = t_in + t_out + t_home + task.pick_dwell + task.place_dwell
+    return _shared_bound(cost)
+
+
+def _shared_bound(cost: np.ndarray) -> DurationBound:
+    """The plan's least length from each fruit's least cost on each arm, ``cost`` (A, F), inf where
+    the arm cannot take it: at least the dearest fruit on its cheapest arm, and the sum of those
+    shared evenly by the arms."""
     best = cost.min(axis=0)
     ok = np.isfinite(best)
     if not ok.any():
         return DurationBound(0.0)
     f = int(np.argmax(np.where(ok, best, -np.inf)))
-    seconds = max(float(best[f]), float(best[ok].sum()) / len(problem.arms))
+    seconds = max(float(best[f]), float(best[ok].sum()) / cost.shape[0])
     return DurationBound(seconds, int(np.argmin(cost[:, f])), f, float(best[f]))
 
 
@@ -396,8 +403,8 @@ def row_work_bound(problem) -> DurationBound:
         # points of its line in reach (either side), the tip leaning at most ``most_lean`` from it;
         # the bin's direction is fixed, its lean the bin's bend's (either elbow branch)
         w = np.sqrt(np.maximum(r_out * r_out - dy * dy, 0.0))
-        up = np.where(rel >= 0, 1.0, -1.0)
-        d_lo, d_hi = np.where(up > 0, np.arctan2(dy, w), -np.arctan2(dy, -w)), np.where(up > 0, np.arctan2(dy, -w), -np.arctan2(dy, w))
+        up = rel >= 0
+        d_lo, d_hi = np.where(up, np.arctan2(dy, w), -np.arctan2(dy, -w)), np.where(up, np.arctan2(dy, -w), -np.arctan2(dy, w))
         spread = most_lean(lo, hi)
         phi_b = math.atan2(arm.bin[1] - arm.base[1], arm.bin[0] - arm.base[0])
         sweep = np.full(dy.shape, np.inf)
@@ -409,13 +416,7 @@ def row_work_bound(problem) -> DurationBound:
             sweep = np.minimum(sweep, np.where(inside | (a1 - a0 >= 2 * math.pi), 0.0, gap))
         t = move_times(np.stack([sweep, turn], axis=-1), arm.max_velocity, arm.max_acceleration, arm.max_jerk)
         cost[i] = np.where(ok, 2.0 * t + task.pick_dwell + task.place_dwell, np.inf)
-    best = cost.min(axis=0)
-    ok = np.isfinite(best)
-    if not ok.any():
-        return DurationBound(0.0)
-    f = int(np.argmax(np.where(ok, best, -np.inf)))
-    seconds = max(float(best[f]), float(best[ok].sum()) / len(problem.arms))
-    return DurationBound(seconds, int(np.argmin(cost[:, f])), f, float(best[f]))
+    return _shared_bound(cost)
 
 
 def row_work_issues(problem) -> list[tuple[tuple, str]]:
